@@ -1,0 +1,24 @@
+#include "commands.h"
+
+#include <cstdio>
+
+namespace mirage::cli {
+
+namespace {
+int g_exit_code = 0;
+}
+
+int exitCode() { return g_exit_code; }
+void setExitCode(int code) { g_exit_code = code; }
+
+void fail(const std::string& message) {
+  std::fprintf(stderr, "mirage: error: %s\n", message.c_str());
+  g_exit_code = 2;
+}
+void fail(const Error& error) { fail(error.message); }
+
+void registerCommands(CLI::App& app) {
+  (void)app; // subcommands register here as they land
+}
+
+} // namespace mirage::cli

@@ -1,0 +1,19 @@
+#pragma once
+// Each subcommand lives in its own cmd_*.cpp and registers itself here.
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "mirage/core/result.h"
+
+namespace mirage::cli {
+
+void registerCommands(CLI::App& app);
+// Exit code set by the subcommand that ran (0 success, 2 bad input or failure).
+int exitCode();
+void setExitCode(int code);
+// Print "mirage: error: <message>" on one line to stderr and set exit code 2.
+void fail(const Error& error);
+void fail(const std::string& message);
+
+} // namespace mirage::cli

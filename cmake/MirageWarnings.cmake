@@ -1,0 +1,15 @@
+# Strict warnings on Mirage's own targets; third-party headers come from /usr/include (system).
+function(mirage_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wshadow -Wno-missing-field-initializers)
+  if(CMAKE_BUILD_TYPE STREQUAL "Debug")
+    target_compile_definitions(${target} PRIVATE _GLIBCXX_ASSERTIONS)
+  endif()
+endfunction()
+
+# mirage_module(name SOURCES...): a static library with public headers in include/mirage/<name>.
+function(mirage_module name)
+  add_library(mirage_${name} STATIC ${ARGN})
+  add_library(mirage::${name} ALIAS mirage_${name})
+  target_include_directories(mirage_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+  mirage_warnings(mirage_${name})
+endfunction()

@@ -1,0 +1,31 @@
+#include "test_support.h"
+
+#include <cstdlib>
+#include <unistd.h>
+#include <system_error>
+
+namespace mirage::test {
+
+std::filesystem::path sharedData() {
+  if (const char* env = std::getenv("MIRAGE_SHARED_DATA")) return env;
+  std::filesystem::path p = MIRAGE_SHARED_DATA;
+  std::error_code ec;
+  return std::filesystem::is_directory(p, ec) ? std::filesystem::canonical(p, ec) : std::filesystem::path{};
+}
+
+std::filesystem::path sharedFile(const std::string& relative) {
+  std::filesystem::path root = sharedData();
+  if (root.empty()) return {};
+  std::filesystem::path p = root / relative;
+  std::error_code ec;
+  return std::filesystem::exists(p, ec) ? p : std::filesystem::path{};
+}
+
+std::filesystem::path tempDir(const std::string& name) {
+  std::filesystem::path p = std::filesystem::temp_directory_path() / ("mirage-test-" + std::to_string(::getpid())) / name;
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p;
+}
+
+} // namespace mirage::test

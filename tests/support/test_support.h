@@ -1,0 +1,20 @@
+#pragma once
+// Shared helpers for Mirage tests.
+#include <filesystem>
+#include <string>
+
+namespace mirage::test {
+
+// ../shared/data beside the checkout (CI has it). Empty path when absent.
+std::filesystem::path sharedData();
+// A file under ../shared/data, or empty when the data set is absent (callers GTEST_SKIP with a message).
+std::filesystem::path sharedFile(const std::string& relative);
+// A fresh, empty temporary directory for this test, removed at process exit.
+std::filesystem::path tempDir(const std::string& name);
+
+} // namespace mirage::test
+
+// Skip the current test with a message when a data file is absent.
+#define MIRAGE_REQUIRE_DATA(var, relative)                                                           \
+  auto var = ::mirage::test::sharedFile(relative);                                                    \
+  if (var.empty()) GTEST_SKIP() << "shared data absent: ../shared/data/" << (relative)
