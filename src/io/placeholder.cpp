@@ -1,0 +1,2 @@
+// The io module's sources land beside this file.
+namespace mirage::io {}
