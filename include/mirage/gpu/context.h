@@ -1,0 +1,101 @@
+#pragma once
+// Vulkan instance + device: device choice, the features Mirage uses, validation-layer capture.
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mirage/core/result.h"
+#include "mirage/gpu/memory.h"
+#include "mirage/gpu/vk.h"
+
+namespace mirage::gpu {
+
+// What Mirage asks of a device, read once when the device is chosen.
+struct DeviceCapabilities {
+  std::string name;
+  std::string driver;       // driver name and info string
+  VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
+  uint32_t apiVersion = 0;
+  bool meshShader = false;        // VK_EXT_mesh_shader mesh + task stages
+  bool rayTracingPipeline = false; // VK_KHR_ray_tracing_pipeline (with acceleration structures)
+  bool rayQuery = false;          // VK_KHR_ray_query
+  bool accelerationStructure = false;
+  bool int64BufferAtomics = false; // shaderBufferInt64Atomics: the 64-bit visibility buffer
+  bool int64ImageAtomics = false;  // VK_EXT_shader_image_atomic_int64
+  bool pipelineStatistics = false;
+  uint32_t maxMultiviewViews = 0;
+  uint32_t subgroupSize = 0;
+  bool timestamps = false;        // timestamps on the graphics/compute queue
+  float timestampPeriodNs = 0.0f; // nanoseconds per timestamp tick
+  uint64_t maxStorageBufferRange = 0;
+  uint64_t deviceLocalBytes = 0;
+};
+
+struct DeviceInfo {
+  uint32_t index = 0;
+  DeviceCapabilities caps;
+};
+
+struct ContextOptions {
+  std::string device;            // name substring or index; empty: MIRAGE_DEVICE, then discrete > integrated > CPU
+  bool validation = false;       // also on when MIRAGE_VALIDATION=1
+  bool synchronizationValidation = true; // with validation: VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION
+};
+
+class Context {
+public:
+  static Result<std::unique_ptr<Context>> create(const ContextOptions& options = {});
+  // Devices visible to the loader, with their capabilities (no device is created).
+  static Result<std::vector<DeviceInfo>> enumerateDevices();
+  ~Context();
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+
+  VkInstance instance() const { return instance_; }
+  VkPhysicalDevice physicalDevice() const { return physical_; }
+  VkDevice device() const { return device_; }
+  VkQueue queue() const { return queue_; }
+  uint32_t queueFamily() const { return queueFamily_; }
+  const DeviceCapabilities& caps() const { return caps_; }
+  const VkPhysicalDeviceProperties& properties() const { return properties_; }
+  Allocator& allocator() { return *allocator_; }
+  bool validationEnabled() const { return messenger_ != VK_NULL_HANDLE; }
+
+  // Validation warnings and errors since creation (tests fail when this is non-zero).
+  uint32_t validationIssues() const { return validationIssues_.load(); }
+  const std::vector<std::string>& validationMessages() const { return validationMessages_; }
+  void recordValidationMessage(std::string message);
+
+  // Run `record` in a one-shot command buffer on the queue and wait for it.
+  template <class F> void submitAndWait(F&& record) {
+    VkCommandBuffer cmd = beginOneShot();
+    record(cmd);
+    endOneShotAndWait(cmd);
+  }
+  VkCommandBuffer beginOneShot();
+  void endOneShotAndWait(VkCommandBuffer cmd);
+
+  void setDebugName(VkObjectType type, uint64_t handle, const char* name) const;
+
+private:
+  Context() = default;
+
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  uint32_t queueFamily_ = 0;
+  VkCommandPool commandPool_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  std::unique_ptr<Allocator> allocator_;
+  VkPhysicalDeviceProperties properties_{};
+  DeviceCapabilities caps_;
+  std::atomic<uint32_t> validationIssues_{0};
+  std::vector<std::string> validationMessages_;
+};
+
+const char* deviceTypeName(VkPhysicalDeviceType type);
+
+} // namespace mirage::gpu

@@ -1,0 +1,398 @@
+#include "mirage/render/forward_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include <fmt/format.h>
+#include <glm/gtc/packing.hpp>
+
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/pipeline.h"
+#include "mirage/shaderio/forward.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+constexpr VkFormat kColorFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // linear HDR, converted on readback
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+struct MeshRange {
+  uint32_t firstIndex = 0;
+  uint32_t indexCount = 0;
+  int32_t vertexOffset = 0;
+  uint32_t material = 0;
+  Bounds bounds;
+};
+
+// Opaque and masked instances of one mesh, drawn with one instanced call.
+struct Batch {
+  uint32_t mesh = 0;
+  bool mirrored = false; // negative-determinant transform: glTF flips the winding
+  uint32_t firstInstance = 0;
+  uint32_t instanceCount = 0;
+};
+
+uint32_t packColor(const glm::vec4& c) {
+  glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
+  return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
+}
+
+sio::GpuInstance makeInstance(const glm::mat4& m) {
+  return {m, glm::transpose(glm::inverse(m))};
+}
+
+bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.0f; }
+
+uint8_t encodeSrgb(float linear) {
+  float v = std::clamp(linear, 0.0f, 1.0f);
+  float s = v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+  return uint8_t(std::lround(s * 255.0f));
+}
+
+} // namespace
+
+struct ForwardRenderer::Impl {
+  Context& ctx;
+  Buffer vertices, indices, materials, frame, instanceBuffer;
+  std::vector<Image> textures;
+  Unique<VkSampler> sampler;
+  Unique<VkDescriptorSetLayout> setLayout;
+  Unique<VkDescriptorPool> pool;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  Unique<VkPipelineLayout> layout;
+  Unique<VkPipeline> opaquePipeline, blendPipeline;
+  std::vector<MeshRange> meshes;
+  std::vector<Material> sceneMaterials;
+  std::vector<Batch> batches;          // opaque + mask
+  std::vector<Instance> blendInstances; // sorted per frame
+  std::vector<sio::GpuInstance> instanceData;
+  Image color, depth;
+  uint32_t width = 0, height = 0;
+  GpuTimer timer;
+  PipelineStatsQuery stats;
+
+  explicit Impl(Context& c) : ctx(c), timer(c), stats(c) {}
+
+  void upload(const Scene& scene);
+  void createPipelines();
+  void ensureTargets(uint32_t w, uint32_t h);
+  void cmdDrawMesh(VkCommandBuffer cmd, uint32_t mesh, bool mirrored, uint32_t firstInstance, uint32_t count, FrameStats& fs);
+};
+
+void ForwardRenderer::Impl::upload(const Scene& scene) {
+  // Geometry: all meshes in one vertex and one index buffer.
+  std::vector<sio::GpuVertex> verts;
+  std::vector<uint32_t> idx;
+  size_t nv = 0, ni = 0;
+  for (const Mesh& m : scene.meshes) nv += m.positions.size(), ni += m.indices.size();
+  verts.reserve(nv);
+  idx.reserve(ni);
+  for (const Mesh& m : scene.meshes) {
+    MeshRange r;
+    r.firstIndex = uint32_t(idx.size());
+    r.indexCount = uint32_t(m.indices.size());
+    r.vertexOffset = int32_t(verts.size());
+    r.material = m.material;
+    r.bounds = m.bounds;
+    meshes.push_back(r);
+    for (size_t i = 0; i < m.positions.size(); ++i) {
+      sio::GpuVertex v{};
+      v.position = m.positions[i];
+      v.normal = i < m.normals.size() ? m.normals[i] : glm::vec3(0, 1, 0);
+      v.uv = i < m.uv0.size() ? m.uv0[i] : glm::vec2(0.0f);
+      v.tangent = i < m.tangents.size() ? m.tangents[i] : glm::vec4(0.0f);
+      v.color = i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu;
+      verts.push_back(v);
+    }
+    idx.insert(idx.end(), m.indices.begin(), m.indices.end());
+  }
+  vertices = createBufferWithData<sio::GpuVertex>(ctx, verts, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "vertices");
+  indices = createBufferWithData<uint32_t>(ctx, idx, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, "indices");
+
+  // Materials, with texture indices into the bindless array. A material referring to a missing
+  // texture falls back to the factor alone.
+  sceneMaterials = scene.materials;
+  if (sceneMaterials.empty()) sceneMaterials.push_back(Material{});
+  std::vector<sio::GpuMaterial> mats;
+  auto tex = [&](int32_t t) { return t >= 0 && size_t(t) < scene.textures.size() ? t : -1; };
+  for (const Material& m : sceneMaterials) {
+    sio::GpuMaterial g{};
+    g.baseColorFactor = m.baseColorFactor;
+    g.emissiveFactor = m.emissiveFactor;
+    g.metallicFactor = m.metallicFactor;
+    g.roughnessFactor = m.roughnessFactor;
+    g.normalScale = m.normalScale;
+    g.occlusionStrength = m.occlusionStrength;
+    g.alphaCutoff = m.alphaCutoff;
+    g.baseColorTexture = tex(m.baseColorTexture);
+    g.metallicRoughnessTexture = tex(m.metallicRoughnessTexture);
+    g.normalTexture = tex(m.normalTexture);
+    g.occlusionTexture = tex(m.occlusionTexture);
+    g.emissiveTexture = tex(m.emissiveTexture);
+    g.alphaMode = m.alphaMode == AlphaMode::Mask ? MIRAGE_ALPHA_MASK : m.alphaMode == AlphaMode::Blend ? MIRAGE_ALPHA_BLEND : MIRAGE_ALPHA_OPAQUE;
+    g.doubleSided = m.doubleSided;
+    mats.push_back(g);
+  }
+  materials = createBufferWithData<sio::GpuMaterial>(ctx, mats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "materials");
+
+  // Textures: sRGB or UNORM as the material use says, full mip chains. One white texel stands in
+  // when the scene has none, since a descriptor array cannot be empty.
+  std::vector<Texture> list = scene.textures;
+  if (list.empty()) list.push_back(Texture{"white", 1, 1, {255, 255, 255, 255}, false});
+  for (const Texture& t : list) {
+    uint32_t mips = mipLevelCount(t.width, t.height);
+    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ci.imageType = VK_IMAGE_TYPE_2D;
+    ci.format = t.srgb ? VK_FORMAT_R8G8B8A8_SRGB : VK_FORMAT_R8G8B8A8_UNORM;
+    ci.extent = {t.width, t.height, 1};
+    ci.mipLevels = mips;
+    ci.arrayLayers = 1;
+    ci.samples = VK_SAMPLE_COUNT_1_BIT;
+    ci.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    Image img = createImage(ctx, ci, VK_IMAGE_ASPECT_COLOR_BIT, t.name.c_str());
+    uploadTextureRGBA8(ctx, img, t.rgba8.data(), t.width, t.height, mips);
+    textures.push_back(std::move(img));
+  }
+
+  VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  si.magFilter = VK_FILTER_LINEAR;
+  si.minFilter = VK_FILTER_LINEAR;
+  si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+  si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  si.maxLod = VK_LOD_CLAMP_NONE;
+  VkSampler s;
+  MIRAGE_VK_CHECK(vkCreateSampler(ctx.device(), &si, nullptr, &s));
+  sampler = Unique<VkSampler>(ctx.device(), s);
+
+  uint32_t n = uint32_t(textures.size());
+  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  li.bindingCount = 1;
+  li.pBindings = &binding;
+  VkDescriptorSetLayout dsl;
+  MIRAGE_VK_CHECK(vkCreateDescriptorSetLayout(ctx.device(), &li, nullptr, &dsl));
+  setLayout = Unique<VkDescriptorSetLayout>(ctx.device(), dsl);
+  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n};
+  VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  pi.maxSets = 1;
+  pi.poolSizeCount = 1;
+  pi.pPoolSizes = &ps;
+  VkDescriptorPool dp;
+  MIRAGE_VK_CHECK(vkCreateDescriptorPool(ctx.device(), &pi, nullptr, &dp));
+  pool = Unique<VkDescriptorPool>(ctx.device(), dp);
+  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  ai.descriptorPool = pool;
+  ai.descriptorSetCount = 1;
+  ai.pSetLayouts = setLayout.ptr();
+  MIRAGE_VK_CHECK(vkAllocateDescriptorSets(ctx.device(), &ai, &set));
+  std::vector<VkDescriptorImageInfo> infos;
+  for (const Image& img : textures) infos.push_back({sampler, img.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
+  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  w.dstSet = set;
+  w.descriptorCount = n;
+  w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  w.pImageInfo = infos.data();
+  vkUpdateDescriptorSets(ctx.device(), 1, &w, 0, nullptr);
+
+  // Instances: opaque/mask ones grouped by mesh (one instanced draw each); blend ones re-sorted per
+  // frame and appended after them.
+  std::vector<std::vector<const Instance*>> byMesh(scene.meshes.size() * 2); // [mesh * 2 + mirrored]
+  for (const Instance& inst : scene.instances) {
+    if (inst.mesh >= scene.meshes.size()) continue;
+    const Material& mat = sceneMaterials[std::min<size_t>(scene.meshes[inst.mesh].material, sceneMaterials.size() - 1)];
+    if (mat.alphaMode == AlphaMode::Blend) blendInstances.push_back(inst);
+    else byMesh[inst.mesh * 2 + isMirrored(inst.transform)].push_back(&inst);
+  }
+  for (uint32_t k = 0; k < byMesh.size(); ++k) {
+    if (byMesh[k].empty()) continue;
+    batches.push_back({k / 2, (k & 1) != 0, uint32_t(instanceData.size()), uint32_t(byMesh[k].size())});
+    for (const Instance* inst : byMesh[k]) instanceData.push_back(makeInstance(inst->transform));
+  }
+  size_t instanceBytes = (instanceData.size() + blendInstances.size()) * sizeof(sio::GpuInstance);
+  instanceBuffer = createBuffer(ctx, instanceBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "instances");
+  if (!instanceData.empty()) std::memcpy(instanceBuffer.mapped(), instanceData.data(), instanceData.size() * sizeof(sio::GpuInstance));
+  frame = createBuffer(ctx, sizeof(sio::FrameData), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "frame");
+}
+
+void ForwardRenderer::Impl::createPipelines() {
+  layout = createPipelineLayout(ctx, {setLayout.get()}, sizeof(sio::ForwardPush),
+                                VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+  GraphicsPipelineDesc d;
+  d.vertexShader = "forward.vert";
+  d.fragmentShader = "forward.frag";
+  d.layout = layout;
+  d.bindings = {{0, sizeof(sio::GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX}};
+  d.attributes = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::GpuVertex, position)},
+                  {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::GpuVertex, normal)},
+                  {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(sio::GpuVertex, uv)},
+                  {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(sio::GpuVertex, tangent)},
+                  {4, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(sio::GpuVertex, color)}};
+  d.colorFormats = {kColorFormat};
+  d.depthFormat = kDepthFormat;
+  opaquePipeline = createGraphicsPipeline(ctx, d);
+  d.alphaBlend = true;
+  d.depthWrite = false; // blended surfaces test against opaque depth but do not occlude each other
+  blendPipeline = createGraphicsPipeline(ctx, d);
+}
+
+void ForwardRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
+  if (w == width && h == height) return;
+  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
+  depth = createImage2D(ctx, w, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth");
+  width = w;
+  height = h;
+}
+
+void ForwardRenderer::Impl::cmdDrawMesh(VkCommandBuffer cmd, uint32_t mesh, bool mirrored, uint32_t firstInstance,
+                                        uint32_t count, FrameStats& fs) {
+  const MeshRange& r = meshes[mesh];
+  uint32_t materialIndex = std::min<uint32_t>(r.material, uint32_t(sceneMaterials.size() - 1));
+  const Material& mat = sceneMaterials[materialIndex];
+  sio::ForwardPush push{};
+  push.frameAddress = frame.address();
+  push.instanceAddress = instanceBuffer.address();
+  push.materialAddress = materials.address();
+  push.materialIndex = materialIndex;
+  vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+  vkCmdSetCullMode(cmd, mat.doubleSided ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+  vkCmdSetFrontFace(cmd, mirrored ? VK_FRONT_FACE_CLOCKWISE : VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  vkCmdDrawIndexed(cmd, r.indexCount, count, r.firstIndex, r.vertexOffset, firstInstance);
+  fs.drawCalls++;
+  fs.trianglesSubmitted += uint64_t(r.indexCount / 3) * count;
+}
+
+ForwardRenderer::ForwardRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ForwardRenderer::~ForwardRenderer() = default;
+
+Result<std::unique_ptr<ForwardRenderer>> ForwardRenderer::create(Context& context, const Scene& scene) {
+  for (const Mesh& m : scene.meshes)
+    if (m.positions.size() > uint64_t(INT32_MAX) || m.indices.size() > uint64_t(UINT32_MAX))
+      return Error{scene.source + ": mesh '" + m.name + "' is too large for 32-bit indices"};
+  auto impl = std::make_unique<Impl>(context);
+  impl->upload(scene);
+  impl->createPipelines();
+  std::unique_ptr<ForwardRenderer> r(new ForwardRenderer(std::move(impl)));
+  r->worldBounds_ = scene.worldBounds();
+  return r;
+}
+
+Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
+  if (s.width == 0 || s.height == 0 || s.width > kMaxRenderDimension || s.height > kMaxRenderDimension)
+    return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
+  Impl& d = *impl_;
+  d.ensureTargets(s.width, s.height);
+  float aspect = float(s.width) / float(s.height);
+  Camera cam = withClipPlanes(s.camera, worldBounds_);
+
+  sio::FrameData fd{};
+  fd.view = cam.view();
+  fd.viewProj = cam.projection(aspect) * fd.view;
+  fd.eye = glm::vec4(cam.eye, 1.0f);
+  fd.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
+  fd.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
+  fd.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
+  std::memcpy(d.frame.mapped(), &fd, sizeof(fd));
+
+  // Blend instances back to front by the view depth of their bounds' centres.
+  std::vector<std::pair<float, const Instance*>> order;
+  for (const Instance& inst : d.blendInstances) {
+    glm::vec3 c = transformBounds(d.meshes[inst.mesh].bounds, inst.transform).center();
+    order.push_back({(fd.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
+  }
+  std::stable_sort(order.begin(), order.end(), [](auto& a, auto& b) { return a.first < b.first; });
+  auto* blendData = reinterpret_cast<sio::GpuInstance*>(d.instanceBuffer.mapped()) + d.instanceData.size();
+  for (size_t i = 0; i < order.size(); ++i) blendData[i] = makeInstance(order[i].second->transform);
+
+  RenderOutput out;
+  FrameStats& fs = out.stats;
+  // barriers: none on entry (previous frames completed: one-shot submits wait); the color target
+  // ends in COLOR_ATTACHMENT_OPTIMAL, which readbackImage expects.
+  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    d.timer.cmdReset(cmd);
+    d.stats.cmdReset(cmd);
+    ImageBarrier toAttachment[] = {
+        {d.color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+         VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+        {d.depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0,
+         VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+         VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+         VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+    cmdImageBarriers(cmd, toAttachment);
+    uint32_t frameSlot = d.timer.cmdBegin(cmd, "frame");
+
+    VkRenderingAttachmentInfo colorAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    colorAtt.imageView = d.color.view();
+    colorAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    colorAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    colorAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    colorAtt.clearValue.color = {{s.background.r, s.background.g, s.background.b, s.background.a}};
+    VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    depthAtt.imageView = d.depth.view();
+    depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    depthAtt.clearValue.depthStencil = {0.0f, 0}; // reverse-Z: far is 0
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {s.width, s.height}};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &colorAtt;
+    ri.pDepthAttachment = &depthAtt;
+    vkCmdBeginRendering(cmd, &ri);
+    d.stats.cmdBegin(cmd);
+
+    VkViewport vp{0.0f, 0.0f, float(s.width), float(s.height), 0.0f, 1.0f};
+    VkRect2D scissor{{0, 0}, {s.width, s.height}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    VkDeviceSize zero = 0;
+    VkBuffer vb = d.vertices.handle();
+    vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
+    vkCmdBindIndexBuffer(cmd, d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.set, 0, nullptr);
+
+    // Opaque and alpha-masked geometry.
+    uint32_t opaqueSlot = d.timer.cmdBegin(cmd, "opaque");
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.opaquePipeline);
+    for (const Batch& b : d.batches) d.cmdDrawMesh(cmd, b.mesh, b.mirrored, b.firstInstance, b.instanceCount, fs);
+    d.timer.cmdEnd(cmd, opaqueSlot);
+
+    // Blended geometry, back to front, depth-tested against the opaque pass.
+    uint32_t blendSlot = d.timer.cmdBegin(cmd, "blend");
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.blendPipeline);
+    for (size_t i = 0; i < order.size(); ++i)
+      d.cmdDrawMesh(cmd, order[i].second->mesh, isMirrored(order[i].second->transform), uint32_t(d.instanceData.size() + i), 1, fs);
+    d.timer.cmdEnd(cmd, blendSlot);
+
+    d.stats.cmdEnd(cmd);
+    vkCmdEndRendering(cmd);
+    d.timer.cmdEnd(cmd, frameSlot);
+  });
+  fs.passTimes = d.timer.read();
+  fs.pipeline = d.stats.read();
+
+  std::vector<uint8_t> raw = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, 8);
+  const uint16_t* half = reinterpret_cast<const uint16_t*>(raw.data());
+  size_t pixels = size_t(s.width) * s.height;
+  out.srgb.width = s.width;
+  out.srgb.height = s.height;
+  out.srgb.pixels.resize(pixels * 4);
+  if (s.readLinear) {
+    out.linear.width = s.width;
+    out.linear.height = s.height;
+    out.linear.pixels.resize(pixels * 4);
+  }
+  for (size_t i = 0; i < pixels * 4; ++i) {
+    float v = glm::unpackHalf1x16(half[i]);
+    out.srgb.pixels[i] = (i & 3) == 3 ? uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)) : encodeSrgb(v);
+    if (s.readLinear) out.linear.pixels[i] = v;
+  }
+  return out;
+}
+
+} // namespace mirage::render
