@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "cmd_list.h"
+
 namespace mirage::cli {
 
 namespace {
@@ -18,7 +20,7 @@ void fail(const std::string& message) {
 void fail(const Error& error) { fail(error.message); }
 
 void registerCommands(CLI::App& app) {
-  (void)app; // subcommands register here as they land
+  addInfoCommand(app);
 }
 
 } // namespace mirage::cli
