@@ -66,11 +66,18 @@ constexpr std::array<int, 4> kExrSource = {3, 2, 1, 0};
 } // namespace
 
 Status writeFileAtomic(const std::filesystem::path& path, const void* data, size_t size) {
+  std::span<const uint8_t> part(static_cast<const uint8_t*>(data), size);
+  return writeFileAtomic(path, std::span<const std::span<const uint8_t>>(&part, 1));
+}
+
+Status writeFileAtomic(const std::filesystem::path& path, std::span<const std::span<const uint8_t>> parts) {
   std::filesystem::path tmp = path;
   tmp += ".tmp-" + std::to_string(::getpid());
   FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) return makeError(name(path), std::string("cannot create: ") + std::strerror(errno));
-  bool written = size == 0 || std::fwrite(data, 1, size, f) == size;
+  bool written = true;
+  for (std::span<const uint8_t> part : parts)
+    if (written && !part.empty()) written = std::fwrite(part.data(), 1, part.size(), f) == part.size();
   int writeErrno = errno;
   bool closed = std::fclose(f) == 0;
   if (!written || !closed) {

@@ -4,6 +4,7 @@
 // see a partial file and a failed write leaves nothing behind. Errors name the file.
 #include <cstdint>
 #include <filesystem>
+#include <span>
 
 #include "mirage/core/image.h"
 #include "mirage/core/result.h"
@@ -25,6 +26,8 @@ Status writePfm(const std::filesystem::path& path, const ImageF32& image);
 
 // Write bytes atomically (temp file + rename); the building block of every writer above.
 Status writeFileAtomic(const std::filesystem::path& path, const void* data, size_t size);
+// Same, for a file assembled from several buffers (avoids concatenating large payloads first).
+Status writeFileAtomic(const std::filesystem::path& path, std::span<const std::span<const uint8_t>> parts);
 
 // sRGB transfer function (IEC 61966-2-1). linearToSrgb8 clamps to [0, 1] and rounds.
 uint8_t linearToSrgb8(float linear);
