@@ -1,18 +1,25 @@
 #pragma once
-// The subcommands, one function each, registered by commands.cpp.
+// Subcommands defined in their own cmd_*.cpp; registerCommands (commands.cpp) calls these.
 #include <string>
 
 #include <CLI/CLI.hpp>
 
 namespace mirage::cli {
 
+// mirage info --devices | FILE [--json]
 void addInfoCommand(CLI::App& app);
+// mirage render INPUT -o out.png [--camera ...] [--size WxH] [--exr out.exr] [--stats] [--json]
 void addRenderCommand(CLI::App& app);
+// mirage demo [--out DIR]: generate scenes, render views, report.
 void addDemoCommand(CLI::App& app);
+// mirage bench render ...: GPU timings.
+void addBenchCommand(CLI::App& app);
+// mirage compare A B [--json]: PSNR / SSIM / MAE between two images.
 void addCompareCommand(CLI::App& app);
+// mirage gen city|terrain|blob -o OUT.glb [--seed N] [--size N]: write a procedural scene.
 void addGenCommand(CLI::App& app);
 
-// mirage info FILE (scene summary); lives beside the importers' users.
+// mirage info FILE (scene summary).
 void infoFile(const std::string& path, bool json);
 
 } // namespace mirage::cli

@@ -21,6 +21,8 @@ void fail(const Error& error) { fail(error.message); }
 
 void registerCommands(CLI::App& app) {
   addInfoCommand(app);
+  addGenCommand(app);
+  addCompareCommand(app);
 }
 
 } // namespace mirage::cli

@@ -1,5 +1,6 @@
 #pragma once
 // CPU images: 8-bit sRGB RGBA for PNG and golden tests, 32-bit float RGBA (linear) for metrics/EXR.
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 

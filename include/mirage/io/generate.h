@@ -1,0 +1,50 @@
+#pragma once
+// Procedural test scenes, deterministic for a seed (same options -> identical bytes on any run and
+// any thread count): a city (instancing, heavy occlusion, alpha-blended glass), a terrain heightfield
+// (one big open mesh) and a displaced icosphere "blob" (one big closed manifold mesh).
+#include <cstdint>
+#include <string_view>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+
+namespace mirage::io {
+
+struct CityOptions {
+  uint32_t blocks = 4;           // city blocks per side of the square street grid (1..256)
+  uint32_t seed = 1;             // drives building variants, placement and rotation
+  uint32_t lotsPerBlockSide = 2; // building lots per side of a block (lots² buildings per block)
+  uint32_t buildingVariants = 4; // distinct building meshes, instanced across all lots
+  uint32_t minFloors = 3;        // storeys of the lowest variant
+  uint32_t maxFloors = 16;       // storeys of the highest variant
+  bool interiors = true;         // floor slabs and interior walls with door openings
+};
+
+struct TerrainOptions {
+  uint32_t resolution = 1024; // vertices per side: N×N grid, 2(N-1)² triangles (2..8192)
+  float size = 1000.0f;       // side length in metres, centred on the origin in XZ
+  float heightScale = 150.0f; // peak-to-valley scale of the heights in metres
+  float featureSize = 300.0f; // wavelength of the lowest noise octave in metres
+  uint32_t octaves = 8;       // fBm octaves (more = finer detail)
+  uint32_t seed = 1;          // noise seed
+  bool vertexColors = true;   // grass/rock/snow colours by slope and height in Mesh::colors
+};
+
+struct BlobOptions {
+  uint32_t subdivisions = 8; // icosphere subdivision levels: 20·4^s triangles, 10·4^s+2 vertices (0..11)
+  float radius = 1.0f;       // radius of the undisplaced sphere
+  float amplitude = 0.25f;   // displacement along the normal, relative to the radius
+  float frequency = 2.0f;    // noise frequency on the unit sphere (lowest octave)
+  uint32_t octaves = 5;      // fBm octaves of the displacement
+  uint32_t seed = 1;         // noise seed
+};
+
+Scene generateCity(const CityOptions& options);
+Scene generateTerrain(const TerrainOptions& options);
+Scene generateBlob(const BlobOptions& options);
+
+// kind is "city", "terrain" or "blob"; sizeParameter is blocks / resolution / subdivisions
+// (0 = the default). Unknown kinds and out-of-range sizes are errors.
+Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeParameter);
+
+} // namespace mirage::io
