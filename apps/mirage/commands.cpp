@@ -23,6 +23,7 @@ void registerCommands(CLI::App& app) {
   addInfoCommand(app);
   addGenCommand(app);
   addCompareCommand(app);
+  addDemoCommand(app);
 }
 
 } // namespace mirage::cli

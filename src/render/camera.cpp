@@ -84,12 +84,25 @@ Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees) {
   Camera c;
   c.fovYDegrees = fovYDegrees;
   glm::vec3 center = bounds.empty() ? glm::vec3(0.0f) : bounds.center();
-  float radius = std::max(bounds.radius(), 1e-6f);
-  float halfY = glm::radians(fovYDegrees) * 0.5f;
-  float halfX = std::atan(std::tan(halfY) * aspect);
-  float half = std::min(halfX, halfY);
-  float distance = radius / std::sin(half) * 1.02f; // a small margin around the sphere
-  glm::vec3 dir = glm::normalize(glm::vec3(1.0f, 0.75f, 1.4f));
+  glm::vec3 dir = glm::normalize(glm::vec3(1.0f, 0.75f, 1.4f)); // from the target towards the eye
+  glm::vec3 right = glm::normalize(glm::cross(-dir, c.up));
+  glm::vec3 up = glm::cross(right, -dir);
+  float tanY = std::tan(glm::radians(fovYDegrees) * 0.5f);
+  float tanX = tanY * aspect;
+  // The nearest eye distance at which all 8 box corners project inside the frustum: a corner at
+  // offset q from the centre has depth d - q.dir, and needs |q.right| <= tanX * depth (same for up).
+  float distance = 0.0f;
+  if (!bounds.empty()) {
+    for (int i = 0; i < 8; ++i) {
+      glm::vec3 p{(i & 1) ? bounds.max.x : bounds.min.x, (i & 2) ? bounds.max.y : bounds.min.y,
+                  (i & 4) ? bounds.max.z : bounds.min.z};
+      glm::vec3 q = p - center;
+      float along = glm::dot(q, dir);
+      distance = std::max(distance, along + std::abs(glm::dot(q, right)) / tanX);
+      distance = std::max(distance, along + std::abs(glm::dot(q, up)) / tanY);
+    }
+  }
+  distance = std::max(distance * 1.05f, 1e-5f); // a small margin around the box
   c.eye = center + dir * distance;
   c.target = center;
   return withClipPlanes(c, bounds);

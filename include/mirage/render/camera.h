@@ -25,8 +25,8 @@ struct Camera {
 // "eye=x,y,z,target=x,y,z,fov=60[,up=x,y,z]" (keys in any order; eye and target required).
 Result<Camera> parseCamera(std::string_view text);
 
-// 3/4 view from above-front-right, far enough that the bounding sphere fits the narrower field of
-// view, with near/far planes bracketing the sphere.
+// 3/4 view from above-front-right at the nearest distance where the whole bounding box projects
+// inside the view (5% margin), with near/far planes bracketing the bounds.
 Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees = 60.0f);
 
 // Fill znear/zfar when zero, from the bounds seen by this camera (near plane never behind the eye).

@@ -1,0 +1,23 @@
+#pragma once
+// Shared pieces of the commands that render: output-path checks and timing summaries.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/gpu/query.h"
+
+namespace mirage::cli {
+
+// The output's folder must exist and the extension must be one of `extensions` (".png", ...).
+Status checkOutputPath(const std::filesystem::path& path, const std::vector<std::string>& extensions);
+// "WxH" with 1 <= W, H <= 16384.
+Status parseSize(const std::string& text, uint32_t& width, uint32_t& height);
+// A scene file, or "gen:KIND[:SIZE[:SEED]]" for a procedural scene made in memory (no file needed,
+// which is how benchmarks run on machines without the data set).
+Result<Scene> loadSceneArgument(const std::string& argument);
+// Median over frames of each pass's GPU time (frames[i] lists the passes of frame i).
+std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::PassTime>>& frames);
+
+} // namespace mirage::cli
