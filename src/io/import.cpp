@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <fstream>
 
 #include <fmt/format.h>
@@ -46,6 +47,12 @@ Status finalizeScene(Scene& scene, const std::string& file, const ImportOptions&
   if (scene.meshes.empty() || triangles == 0) return makeError(file, "no triangles");
   for (Mesh& m : scene.meshes) {
     if (Status s = validateMesh(m, file); !s) return s;
+    // File normals are not always unit (VCG's PLY writer stores area-weighted sums, quantized glTF normals are
+    // approximately unit); renderers and the surfel sampler assume unit length.
+    for (glm::vec3& n : m.normals) {
+      float len2 = glm::dot(n, n);
+      n = (len2 > 0.0f && std::isfinite(len2)) ? n / std::sqrt(len2) : glm::vec3(0.0f, 0.0f, 1.0f);
+    }
     if (options.weld) weldMesh(m);
     if (m.normals.size() != m.positions.size()) computeNormals(m);
     computeBounds(m);

@@ -1,0 +1,302 @@
+// Hand-made files with known answers: exact geometry, welding, normals, hierarchy transforms, and bad input.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "mirage/io/import.h"
+#include "mirage/io/mesh_utils.h"
+#include "support/test_support.h"
+
+using namespace mirage;
+
+namespace {
+
+std::filesystem::path writeFile(const std::filesystem::path& p, const std::string& bytes) {
+  std::ofstream(p, std::ios::binary) << bytes;
+  return p;
+}
+
+template <class T> void put(std::string& s, T v, bool bigEndian = false) {
+  char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  if (bigEndian) std::reverse(b, b + sizeof(T));
+  s.append(b, sizeof(T));
+}
+
+// Error must name the file, mention the problem, and be one line.
+void expectError(const Result<Scene>& r, const std::filesystem::path& file, const std::string& phrase) {
+  ASSERT_FALSE(r.ok()) << "expected an error containing '" << phrase << "'";
+  const std::string& msg = r.error().message;
+  EXPECT_NE(msg.find(file.string()), std::string::npos) << msg;
+  EXPECT_NE(msg.find(phrase), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+}
+
+// A binary PLY: a unit quad as one 4-gon, with an extra per-vertex property and an extra element to skip.
+std::string quadPly(bool bigEndian, bool truncate = false) {
+  std::string h = std::string("ply\nformat ") + (bigEndian ? "binary_big_endian" : "binary_little_endian") +
+                  " 1.0\ncomment test\nelement vertex 4\nproperty double x\nproperty float y\nproperty float z\n"
+                  "property uchar quality\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+                  "element extra 2\nproperty list uchar int stuff\nproperty short s\n"
+                  "element face 1\nproperty uchar flags\nproperty list uchar uint vertex_indices\nend_header\n";
+  const float xy[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  for (auto& v : xy) {
+    put<double>(h, v[0], bigEndian);
+    put<float>(h, v[1], bigEndian);
+    put<float>(h, 0.0f, bigEndian);
+    h += char(7);
+    h += char(255), h += char(0), h += char(0);
+  }
+  for (int e = 0; e < 2; ++e) {
+    h += char(2);
+    put<int32_t>(h, 5, bigEndian);
+    put<int32_t>(h, 6, bigEndian);
+    put<int16_t>(h, 9, bigEndian);
+  }
+  h += char(0);
+  h += char(4);
+  for (uint32_t i : {0u, 1u, 2u, 3u}) put<uint32_t>(h, i, bigEndian);
+  if (truncate) h.resize(h.size() - 6);
+  return h;
+}
+
+} // namespace
+
+TEST(MeshUtils, FlatQuadNormalsAndWeld) {
+  Mesh m;
+  // Two triangles of the z=0 unit quad with the shared edge duplicated: 6 vertices, 4 distinct.
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  m.indices = {0, 1, 2, 3, 4, 5};
+  io::weldMesh(m);
+  EXPECT_EQ(m.vertexCount(), 4u);
+  EXPECT_EQ(m.triangleCount(), 2u);
+  io::computeNormals(m);
+  for (const glm::vec3& n : m.normals) EXPECT_NEAR(glm::distance(n, glm::vec3(0, 0, 1)), 0.0f, 1e-6f);
+  io::computeBounds(m);
+  EXPECT_EQ(m.bounds.min, glm::vec3(0, 0, 0));
+  EXPECT_EQ(m.bounds.max, glm::vec3(1, 1, 0));
+  EXPECT_TRUE(io::validateMesh(m, "x").ok());
+  m.uv0 = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  io::computeTangents(m);
+  ASSERT_EQ(m.tangents.size(), 4u);
+  EXPECT_NEAR(glm::distance(glm::vec3(m.tangents[0]), glm::vec3(1, 0, 0)), 0.0f, 1e-5f);
+}
+
+TEST(MeshUtils, AreaWeightedNormal) {
+  // Vertex 0 is shared by a big triangle facing +Z and a small one facing +X: the normal leans to +Z by area.
+  Mesh m;
+  m.positions = {{0, 0, 0}, {4, 0, 0}, {0, 4, 0}, {0, 1, 0}, {0, 0, 1}};
+  m.indices = {0, 1, 2, 0, 3, 4};
+  io::computeNormals(m);
+  glm::vec3 expect = glm::normalize(glm::vec3(0, 0, 16) + glm::vec3(1, 0, 0));
+  EXPECT_NEAR(glm::distance(m.normals[0], expect), 0.0f, 1e-6f);
+}
+
+TEST(MeshUtils, WeldKeepsDistinctAttributes) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.uv0 = {{0, 0}, {1, 0}, {0, 1}, {0.5f, 0}, {1, 0}, {0, 1}}; // a UV seam at vertex 0
+  m.indices = {0, 1, 2, 3, 4, 5};
+  io::weldMesh(m);
+  EXPECT_EQ(m.vertexCount(), 4u);
+}
+
+TEST(MeshUtils, ValidateRejects) {
+  Mesh m;
+  m.name = "t";
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.indices = {0, 1, 3};
+  EXPECT_NE(io::validateMesh(m, "f").error().message.find("out of range"), std::string::npos);
+  m.indices = {0, 1};
+  EXPECT_NE(io::validateMesh(m, "f").error().message.find("multiple of 3"), std::string::npos);
+  m.indices = {0, 1, 2};
+  m.positions[1].y = std::nanf("");
+  EXPECT_NE(io::validateMesh(m, "f").error().message.find("non-finite"), std::string::npos);
+  m.indices.clear();
+  EXPECT_NE(io::validateMesh(m, "f").error().message.find("empty"), std::string::npos);
+}
+
+TEST(ImportObj, QuadWeldNormalsAndMaterials) {
+  auto dir = test::tempDir("obj-quad");
+  writeFile(dir / "q.mtl", "newmtl red\nKd 1 0 0\nd 0.5\nNs 98\nnewmtl blue\nKd 0 0 1\n");
+  auto obj = writeFile(dir / "q.obj", "# quad twice\nmtllib q.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                                      "v 0 0 0\nv 1 1 0\nusemtl red\nf 1 2 3\nf 5 6 4\n"
+                                      "usemtl blue\nf -6/ -5 -4 -3\n");
+  auto r = io::importScene(obj);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->meshes.size(), 2u);
+  const Mesh& red = r->meshes[0];
+  EXPECT_EQ(red.triangleCount(), 2u);
+  EXPECT_EQ(red.vertexCount(), 4u); // v5/v6 duplicate v1/v3 and are welded
+  for (const glm::vec3& n : red.normals) EXPECT_NEAR(glm::distance(n, glm::vec3(0, 0, 1)), 0.0f, 1e-6f);
+  EXPECT_EQ(r->meshes[1].triangleCount(), 2u); // the quad face is fan-triangulated
+  const Material& mr = r->materials[red.material];
+  EXPECT_EQ(mr.name, "red");
+  EXPECT_EQ(mr.baseColorFactor, glm::vec4(1, 0, 0, 0.5f));
+  EXPECT_EQ(mr.alphaMode, AlphaMode::Blend);
+  EXPECT_NEAR(mr.roughnessFactor, std::sqrt(2.0f / 100.0f), 1e-6f);
+  EXPECT_EQ(r->materials[r->meshes[1].material].baseColorFactor, glm::vec4(0, 0, 1, 1));
+  EXPECT_EQ(r->instances.size(), 2u);
+
+  io::ImportOptions noWeld;
+  noWeld.weld = false;
+  auto raw = io::importObj(obj, noWeld);
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ(raw->meshes[0].vertexCount(), 6u);
+}
+
+TEST(ImportObj, TexcoordsAndNormalsFromFile) {
+  auto dir = test::tempDir("obj-attrs");
+  auto obj = writeFile(dir / "t.OBJ", "v 0 0 0\nv 2 0 0\nv 0 2 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 -1\n"
+                                      "f 1/1/1 2/2/1 3/3/1\n");
+  auto r = io::importScene(obj); // upper-case extension dispatches too
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const Mesh& m = r->meshes[0];
+  ASSERT_EQ(m.uv0.size(), 3u);
+  EXPECT_EQ(m.uv0[2], glm::vec2(0, 0)); // v flipped to top-left origin
+  EXPECT_EQ(m.normals[0], glm::vec3(0, 0, -1)); // file normals are kept, not recomputed
+  EXPECT_EQ(m.positions[1], glm::vec3(2, 0, 0));
+}
+
+TEST(ImportPly, AsciiExactValues) {
+  auto dir = test::tempDir("ply-ascii");
+  auto ply = writeFile(dir / "a.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                      "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                                      "element face 1\nproperty list uchar int vertex_index\nend_header\n"
+                                      "0 0 0 0 0 1\n2 0 0 0 0 1\n2 3 0 0 0 1\n0 3 0 0 0 1\n4 0 1 2 3\n");
+  auto r = io::importPly(ply);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const Mesh& m = r->meshes[0];
+  EXPECT_EQ(m.triangleCount(), 2u);
+  EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3}));
+  EXPECT_EQ(m.positions[2], glm::vec3(2, 3, 0));
+  EXPECT_EQ(m.bounds.max, glm::vec3(2, 3, 0));
+}
+
+TEST(ImportPly, BinaryBothEndiansSkipExtras) {
+  auto dir = test::tempDir("ply-bin");
+  for (bool big : {false, true}) {
+    SCOPED_TRACE(big ? "big endian" : "little endian");
+    auto ply = writeFile(dir / (big ? "be.ply" : "le.ply"), quadPly(big));
+    auto r = io::importPly(ply);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const Mesh& m = r->meshes[0];
+    ASSERT_EQ(m.vertexCount(), 4u);
+    EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3}));
+    EXPECT_EQ(m.positions[2], glm::vec3(1, 1, 0));
+    ASSERT_EQ(m.colors.size(), 4u);
+    EXPECT_EQ(m.colors[0], glm::vec4(1, 0, 0, 1)); // 255,0,0 sRGB is linear 1,0,0
+    for (const glm::vec3& n : m.normals) EXPECT_NEAR(glm::distance(n, glm::vec3(0, 0, 1)), 0.0f, 1e-6f);
+  }
+}
+
+// A glTF with a parent/child hierarchy and a mesh shared by two nodes.
+TEST(ImportGltf, HierarchyTransformsAndSharing) {
+  auto dir = test::tempDir("gltf-tree");
+  std::string bin;
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(bin, f);
+  for (uint16_t i : {0, 1, 2}) put(bin, i);
+  bin += std::string(2, '\0');
+  writeFile(dir / "tri.bin", bin);
+  auto gltf = writeFile(dir / "tree.gltf", R"({
+  "asset": {"version": "2.0"}, "scene": 0,
+  "scenes": [{"nodes": [0, 2]}],
+  "nodes": [
+    {"translation": [10, 0, 0], "scale": [2, 2, 2], "children": [1]},
+    {"rotation": [0, 0, 0.7071067811865476, 0.7071067811865476], "mesh": 0},
+    {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,-5,1], "mesh": 0},
+    {"mesh": 0}
+  ],
+  "meshes": [{"name": "tri", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+  "accessors": [
+    {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
+    {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}
+  ],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+  "buffers": [{"uri": "tri.bin", "byteLength": 44}]
+})");
+  auto r = io::importGltf(gltf);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->meshes.size(), 1u);      // shared by both nodes
+  ASSERT_EQ(r->instances.size(), 2u);   // node 3 is not in the scene
+  EXPECT_EQ(r->materials.size(), 1u);  // default material
+  auto apply = [](const glm::mat4& m, glm::vec3 p) { return glm::vec3(m * glm::vec4(p, 1)); };
+  // Child: translate(10) * scale(2) * rotZ(90): (1,0,0) -> (0,1,0) -> (0,2,0) -> (10,2,0).
+  EXPECT_NEAR(glm::distance(apply(r->instances[0].transform, {1, 0, 0}), glm::vec3(10, 2, 0)), 0.0f, 1e-5f);
+  EXPECT_NEAR(glm::distance(apply(r->instances[1].transform, {0, 1, 0}), glm::vec3(0, 1, -5)), 0.0f, 1e-6f);
+  EXPECT_EQ(r->instancedTriangleCount(), 2u);
+  EXPECT_EQ(r->meshTriangleCount(), 1u);
+
+  // The same file without its .bin must fail cleanly.
+  std::filesystem::remove(dir / "tri.bin");
+  auto missing = io::importGltf(gltf);
+  expectError(missing, gltf, "tri.bin");
+}
+
+TEST(ImportErrors, MissingFileAndUnknownExtension) {
+  auto dir = test::tempDir("err-basic");
+  for (const char* name : {"none.ply", "none.obj", "none.gltf", "none.glb"})
+    expectError(io::importScene(dir / name), dir / name, "not found");
+  auto stl = writeFile(dir / "x.stl", "solid x\n");
+  expectError(io::importScene(stl), stl, "unknown scene file extension");
+}
+
+TEST(ImportErrors, Ply) {
+  auto dir = test::tempDir("err-ply");
+  auto trunc = writeFile(dir / "trunc.ply", quadPly(false, true));
+  expectError(io::importPly(trunc), trunc, "truncated");
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  auto range = writeFile(dir / "range.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
+  expectError(io::importPly(range), range, "out of range");
+  auto nan = writeFile(dir / "nan.ply", head + "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n");
+  expectError(io::importPly(nan), nan, "non-finite");
+  auto two = writeFile(dir / "two.ply", head + "0 0 0\n1 0 0\n0 1 0\n2 0 1\n");
+  expectError(io::importPly(two), two, "2 vertices");
+  auto shortAscii = writeFile(dir / "short.ply", head + "0 0 0\n1 0 0\n");
+  expectError(io::importPly(shortAscii), shortAscii, "truncated");
+  auto noFaces = writeFile(dir / "nofaces.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                                                "property float y\nproperty float z\nend_header\n0 0 0\n");
+  expectError(io::importPly(noFaces), noFaces, "no triangles");
+  auto garbage = writeFile(dir / "garbage.ply", "\x01\x02garbage");
+  expectError(io::importPly(garbage), garbage, "not a PLY");
+  // Binary with a negative index (int) must be out of range, not a crash.
+  std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(b, f);
+  b += char(3);
+  for (int32_t i : {0, 1, -1}) put(b, i);
+  auto neg = writeFile(dir / "neg.ply", b);
+  expectError(io::importPly(neg), neg, "out of range");
+}
+
+TEST(ImportErrors, Obj) {
+  auto dir = test::tempDir("err-obj");
+  auto range = writeFile(dir / "range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+  expectError(io::importObj(range), range, "line 4");
+  auto nan = writeFile(dir / "nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+  expectError(io::importObj(nan), nan, "non-finite");
+  auto two = writeFile(dir / "two.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n");
+  expectError(io::importObj(two), two, "need at least 3");
+  auto empty = writeFile(dir / "empty.obj", "# nothing\nv 0 0 0\n");
+  expectError(io::importObj(empty), empty, "no triangles");
+  auto bad = writeFile(dir / "bad.obj", "v 0 zero 0\n");
+  expectError(io::importObj(bad), bad, "bad vertex");
+}
+
+TEST(ImportErrors, Gltf) {
+  auto dir = test::tempDir("err-gltf");
+  auto glb = writeFile(dir / "garbage.glb", std::string("glTF\x02\0\0\0garbage-garbage-garbage", 31));
+  expectError(io::importGltf(glb), glb, "");
+  auto json = writeFile(dir / "bad.gltf", "{ \"asset\": {\"version\": \"2.0\"}, \"nodes\": [ ");
+  expectError(io::importGltf(json), json, "");
+  auto noTris = writeFile(dir / "empty.gltf", R"({"asset": {"version": "2.0"}, "scenes": [{"nodes": []}]})");
+  expectError(io::importGltf(noTris), noTris, "no triangles");
+  auto random = writeFile(dir / "random.glb", std::string(64, '\x7f'));
+  expectError(io::importScene(random), random, "");
+}
