@@ -63,9 +63,8 @@ void align(std::vector<uint8_t>& v, size_t a) { v.resize((v.size() + a - 1) / a 
 
 } // namespace
 
-Result<std::optional<std::vector<uint8_t>>> decodeMeshoptGltf(const std::vector<char>& bytes,
-                                                              const std::filesystem::path& baseDir,
-                                                              const std::string& file) {
+Result<std::optional<std::vector<uint8_t>>>
+decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& baseDir, const std::string& file) {
   std::string_view jsonText(bytes.data(), bytes.size());
   std::string_view bin;
   const bool glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
@@ -148,15 +147,23 @@ Result<std::optional<std::vector<uint8_t>>> decodeMeshoptGltf(const std::vector<
         out.resize(at + count * stride);
         const unsigned char* in = data[src].data() + off;
         int rc;
-        if (mode == "ATTRIBUTES") rc = meshopt_decodeVertexBuffer(out.data() + at, count, stride, in, len);
-        else if (mode == "TRIANGLES") rc = meshopt_decodeIndexBuffer(out.data() + at, count, stride, in, len);
-        else if (mode == "INDICES") rc = meshopt_decodeIndexSequence(out.data() + at, count, stride, in, len);
-        else return makeError(file, fmt::format("bufferView {}: unknown meshopt mode '{}'", v, mode));
+        if (mode == "ATTRIBUTES")
+          rc = meshopt_decodeVertexBuffer(out.data() + at, count, stride, in, len);
+        else if (mode == "TRIANGLES")
+          rc = meshopt_decodeIndexBuffer(out.data() + at, count, stride, in, len);
+        else if (mode == "INDICES")
+          rc = meshopt_decodeIndexSequence(out.data() + at, count, stride, in, len);
+        else
+          return makeError(file, fmt::format("bufferView {}: unknown meshopt mode '{}'", v, mode));
         if (rc != 0) return makeError(file, fmt::format("bufferView {}: meshopt decoding failed ({})", v, rc));
-        if (filter == "OCTAHEDRAL") meshopt_decodeFilterOct(out.data() + at, count, stride);
-        else if (filter == "QUATERNION") meshopt_decodeFilterQuat(out.data() + at, count, stride);
-        else if (filter == "EXPONENTIAL") meshopt_decodeFilterExp(out.data() + at, count, stride);
-        else if (filter != "NONE") return makeError(file, fmt::format("bufferView {}: unknown filter '{}'", v, filter));
+        if (filter == "OCTAHEDRAL")
+          meshopt_decodeFilterOct(out.data() + at, count, stride);
+        else if (filter == "QUATERNION")
+          meshopt_decodeFilterQuat(out.data() + at, count, stride);
+        else if (filter == "EXPONENTIAL")
+          meshopt_decodeFilterExp(out.data() + at, count, stride);
+        else if (filter != "NONE")
+          return makeError(file, fmt::format("bufferView {}: unknown filter '{}'", v, filter));
         view["buffer"] = 0;
         view["byteOffset"] = at;
         view["byteLength"] = count * stride;

@@ -15,8 +15,7 @@ namespace mirage::io::detail {
 // buffers plus the decoded views, bufferViews rewritten to point into it, the extension removed. This runs before
 // tinygltf sees the file because tinygltf rejects the data-less fallback buffer the extension relies on.
 // Returns nullopt when the file does not use the extension (or is not parseable: tinygltf then reports why).
-Result<std::optional<std::vector<uint8_t>>> decodeMeshoptGltf(const std::vector<char>& bytes,
-                                                              const std::filesystem::path& baseDir,
-                                                              const std::string& file);
+Result<std::optional<std::vector<uint8_t>>>
+decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& baseDir, const std::string& file);
 
 } // namespace mirage::io::detail

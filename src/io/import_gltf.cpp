@@ -40,8 +40,10 @@ public:
   Result<Scene> run() {
     for (size_t i = 0; i < m_.materials.size(); ++i) scene_.materials.push_back(material(m_.materials[i]));
     std::vector<int> roots;
-    if (m_.defaultScene >= 0 && size_t(m_.defaultScene) < m_.scenes.size()) roots = m_.scenes[m_.defaultScene].nodes;
-    else if (!m_.scenes.empty()) roots = m_.scenes[0].nodes;
+    if (m_.defaultScene >= 0 && size_t(m_.defaultScene) < m_.scenes.size())
+      roots = m_.scenes[m_.defaultScene].nodes;
+    else if (!m_.scenes.empty())
+      roots = m_.scenes[0].nodes;
     else { // no scenes: every node that is nobody's child
       std::vector<bool> child(m_.nodes.size(), false);
       for (const tg::Node& n : m_.nodes)
@@ -70,8 +72,8 @@ private:
     if (n.translation.size() == 3)
       t = glm::translate(glm::mat4(1.0f), glm::vec3(n.translation[0], n.translation[1], n.translation[2]));
     if (n.rotation.size() == 4) // glTF stores x, y, z, w; glm::quat's constructor takes w first
-      r = glm::mat4_cast(glm::quat(float(n.rotation[3]), float(n.rotation[0]), float(n.rotation[1]),
-                                   float(n.rotation[2])));
+      r = glm::mat4_cast(
+          glm::quat(float(n.rotation[3]), float(n.rotation[0]), float(n.rotation[1]), float(n.rotation[2])));
     if (n.scale.size() == 3) s = glm::scale(glm::mat4(1.0f), glm::vec3(n.scale[0], n.scale[1], n.scale[2]));
     return t * r * s;
   }
@@ -121,9 +123,15 @@ private:
       for (int c = 0; c < comps; ++c, src += csize) {
         float v;
         switch (a.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_FLOAT: std::memcpy(&v, src, 4); break;
-        case TINYGLTF_COMPONENT_TYPE_BYTE: v = a.normalized ? std::max(int8_t(*src) / 127.0f, -1.0f) : int8_t(*src); break;
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: v = a.normalized ? *src / 255.0f : *src; break;
+        case TINYGLTF_COMPONENT_TYPE_FLOAT:
+          std::memcpy(&v, src, 4);
+          break;
+        case TINYGLTF_COMPONENT_TYPE_BYTE:
+          v = a.normalized ? std::max(int8_t(*src) / 127.0f, -1.0f) : int8_t(*src);
+          break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+          v = a.normalized ? *src / 255.0f : *src;
+          break;
         case TINYGLTF_COMPONENT_TYPE_SHORT: {
           int16_t s;
           std::memcpy(&s, src, 2);
@@ -142,7 +150,8 @@ private:
           v = float(s);
           break;
         }
-        default: v = 0.0f;
+        default:
+          v = 0.0f;
         }
         dst[c] = v;
       }
@@ -197,15 +206,20 @@ private:
     out.resize(count);
     for (size_t i = 0; i < count; ++i) {
       const uint8_t* p = base + i * stride;
-      if (csize == 1) out[i] = *p;
-      else if (csize == 2) { uint16_t v; std::memcpy(&v, p, 2); out[i] = v; }
-      else std::memcpy(&out[i], p, 4);
+      if (csize == 1)
+        out[i] = *p;
+      else if (csize == 2) {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        out[i] = v;
+      } else
+        std::memcpy(&out[i], p, 4);
     }
     return Ok{};
   }
 
-  template <class V> Status attribute(const tg::Primitive& prim, const char* name, size_t count, int minComps,
-                                      std::vector<V>& dst) const {
+  template <class V>
+  Status attribute(const tg::Primitive& prim, const char* name, size_t count, int minComps, std::vector<V>& dst) const {
     auto it = prim.attributes.find(name);
     if (it == prim.attributes.end()) return Ok{};
     std::vector<float> f;
@@ -251,9 +265,12 @@ private:
       mesh.indices = std::move(idx);
     } else {
       for (size_t i = 0; i + 2 < idx.size(); ++i) {
-        if (mode == TINYGLTF_MODE_TRIANGLE_FAN) mesh.indices.insert(mesh.indices.end(), {idx[0], idx[i + 1], idx[i + 2]});
-        else if (i % 2 == 0) mesh.indices.insert(mesh.indices.end(), {idx[i], idx[i + 1], idx[i + 2]});
-        else mesh.indices.insert(mesh.indices.end(), {idx[i + 1], idx[i], idx[i + 2]}); // keep winding
+        if (mode == TINYGLTF_MODE_TRIANGLE_FAN)
+          mesh.indices.insert(mesh.indices.end(), {idx[0], idx[i + 1], idx[i + 2]});
+        else if (i % 2 == 0)
+          mesh.indices.insert(mesh.indices.end(), {idx[i], idx[i + 1], idx[i + 2]});
+        else
+          mesh.indices.insert(mesh.indices.end(), {idx[i + 1], idx[i], idx[i + 2]}); // keep winding
       }
     }
     if (prim.material >= 0 && size_t(prim.material) < scene_.materials.size()) {
@@ -312,15 +329,18 @@ private:
     m.name = g.name;
     const auto& pbr = g.pbrMetallicRoughness;
     if (pbr.baseColorFactor.size() == 4)
-      m.baseColorFactor = glm::vec4(pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2],
-                                    pbr.baseColorFactor[3]);
+      m.baseColorFactor =
+          glm::vec4(pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2], pbr.baseColorFactor[3]);
     m.metallicFactor = float(pbr.metallicFactor);
     m.roughnessFactor = float(pbr.roughnessFactor);
-    if (g.emissiveFactor.size() == 3) m.emissiveFactor = glm::vec3(g.emissiveFactor[0], g.emissiveFactor[1], g.emissiveFactor[2]);
+    if (g.emissiveFactor.size() == 3)
+      m.emissiveFactor = glm::vec3(g.emissiveFactor[0], g.emissiveFactor[1], g.emissiveFactor[2]);
     m.normalScale = float(g.normalTexture.scale);
     m.occlusionStrength = float(g.occlusionTexture.strength);
     m.alphaCutoff = float(g.alphaCutoff);
-    m.alphaMode = g.alphaMode == "BLEND" ? AlphaMode::Blend : g.alphaMode == "MASK" ? AlphaMode::Mask : AlphaMode::Opaque;
+    m.alphaMode = g.alphaMode == "BLEND"  ? AlphaMode::Blend
+                  : g.alphaMode == "MASK" ? AlphaMode::Mask
+                                          : AlphaMode::Opaque;
     m.doubleSided = g.doubleSided;
     m.baseColorTexture = texture(pbr.baseColorTexture.index, true);
     m.metallicRoughnessTexture = texture(pbr.metallicRoughnessTexture.index, false);

@@ -90,12 +90,18 @@ public:
       c.skipSpace();
       std::string_view kw = c.word();
       Status s = Ok{};
-      if (kw == "v") s = vertex(c, line);
-      else if (kw == "vt") s = texcoord(c, line);
-      else if (kw == "vn") s = normal(c, line);
-      else if (kw == "f") s = face(c, line);
-      else if (kw == "usemtl") current_ = groupFor(std::string(c.restOfLine()));
-      else if (kw == "mtllib") s = loadMtl(std::string(c.restOfLine()));
+      if (kw == "v")
+        s = vertex(c, line);
+      else if (kw == "vt")
+        s = texcoord(c, line);
+      else if (kw == "vn")
+        s = normal(c, line);
+      else if (kw == "f")
+        s = face(c, line);
+      else if (kw == "usemtl")
+        current_ = groupFor(std::string(c.restOfLine()));
+      else if (kw == "mtllib")
+        s = loadMtl(std::string(c.restOfLine()));
       if (!s) return s.error();
       c.skipLine();
     }
@@ -141,9 +147,12 @@ private:
 
   // Resolve a 1-based (or negative, relative) OBJ index against the count defined so far.
   bool resolve(long long i, size_t count, uint32_t& out) const {
-    if (i > 0 && size_t(i) <= count) out = uint32_t(i - 1);
-    else if (i < 0 && size_t(-i) <= count) out = uint32_t(static_cast<long long>(count) + i);
-    else return false;
+    if (i > 0 && size_t(i) <= count)
+      out = uint32_t(i - 1);
+    else if (i < 0 && size_t(-i) <= count)
+      out = uint32_t(static_cast<long long>(count) + i);
+    else
+      return false;
     return true;
   }
 

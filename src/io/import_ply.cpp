@@ -73,15 +73,42 @@ double loadScalar(const char* p, Type t, bool swap) {
   if (swap)
     for (size_t i = 0; i < n / 2; ++i) std::swap(b[i], b[n - 1 - i]);
   switch (t) {
-  case Type::I8: return double(int8_t(b[0]));
-  case Type::U8: return double(b[0]);
-  case Type::I16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-  case Type::U16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-  case Type::I32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-  case Type::U32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-  case Type::F32: { float v; std::memcpy(&v, b, 4); return v; }
-  case Type::F64: { double v; std::memcpy(&v, b, 8); return v; }
-  default: return 0.0;
+  case Type::I8:
+    return double(int8_t(b[0]));
+  case Type::U8:
+    return double(b[0]);
+  case Type::I16: {
+    int16_t v;
+    std::memcpy(&v, b, 2);
+    return v;
+  }
+  case Type::U16: {
+    uint16_t v;
+    std::memcpy(&v, b, 2);
+    return v;
+  }
+  case Type::I32: {
+    int32_t v;
+    std::memcpy(&v, b, 4);
+    return v;
+  }
+  case Type::U32: {
+    uint32_t v;
+    std::memcpy(&v, b, 4);
+    return v;
+  }
+  case Type::F32: {
+    float v;
+    std::memcpy(&v, b, 4);
+    return v;
+  }
+  case Type::F64: {
+    double v;
+    std::memcpy(&v, b, 8);
+    return v;
+  }
+  default:
+    return 0.0;
   }
 }
 
@@ -135,10 +162,14 @@ private:
       if (kw == "format") {
         std::string fmtName;
         ls >> fmtName;
-        if (fmtName == "ascii") ascii_ = true;
-        else if (fmtName == "binary_little_endian") swap_ = std::endian::native != std::endian::little;
-        else if (fmtName == "binary_big_endian") swap_ = std::endian::native != std::endian::big;
-        else return fail(fmt::format("unknown PLY format '{}'", fmtName));
+        if (fmtName == "ascii")
+          ascii_ = true;
+        else if (fmtName == "binary_little_endian")
+          swap_ = std::endian::native != std::endian::little;
+        else if (fmtName == "binary_big_endian")
+          swap_ = std::endian::native != std::endian::big;
+        else
+          return fail(fmt::format("unknown PLY format '{}'", fmtName));
         haveFormat = true;
       } else if (kw == "element") {
         Element e;
@@ -174,10 +205,18 @@ private:
     int x, y, z, nx, ny, nz, r, g, b, a, u, v;
   };
   VertexLayout vertexLayout(const Element& e) const {
-    return {e.find({"x"}), e.find({"y"}), e.find({"z"}), e.find({"nx"}), e.find({"ny"}), e.find({"nz"}),
-            e.find({"red", "diffuse_red", "r"}), e.find({"green", "diffuse_green", "g"}),
-            e.find({"blue", "diffuse_blue", "b"}), e.find({"alpha", "diffuse_alpha"}),
-            e.find({"u", "s", "texture_u", "texture_s"}), e.find({"v", "t", "texture_v", "texture_t"})};
+    return {e.find({"x"}),
+            e.find({"y"}),
+            e.find({"z"}),
+            e.find({"nx"}),
+            e.find({"ny"}),
+            e.find({"nz"}),
+            e.find({"red", "diffuse_red", "r"}),
+            e.find({"green", "diffuse_green", "g"}),
+            e.find({"blue", "diffuse_blue", "b"}),
+            e.find({"alpha", "diffuse_alpha"}),
+            e.find({"u", "s", "texture_u", "texture_s"}),
+            e.find({"v", "t", "texture_v", "texture_t"})};
   }
 
   void beginVertices(const Element& e, const VertexLayout& L) {

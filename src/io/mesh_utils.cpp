@@ -106,7 +106,8 @@ Status validateMesh(const Mesh& mesh, const std::string& file) {
   };
   const size_t n = mesh.positions.size();
   if (mesh.indices.empty() || n == 0) return fail("empty mesh (no triangles)");
-  if (mesh.indices.size() % 3 != 0) return fail(fmt::format("index count {} is not a multiple of 3", mesh.indices.size()));
+  if (mesh.indices.size() % 3 != 0)
+    return fail(fmt::format("index count {} is not a multiple of 3", mesh.indices.size()));
   for (size_t i = 0; i < mesh.indices.size(); ++i)
     if (mesh.indices[i] >= n)
       return fail(fmt::format("index {} at position {} is out of range ({} vertices)", mesh.indices[i], i, n));

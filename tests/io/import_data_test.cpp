@@ -125,7 +125,8 @@ TEST(ImportData, DamagedHelmetHasAllTextures) {
   Scene s = load(path);
   ASSERT_EQ(s.materials.size(), 1u);
   const Material& m = s.materials[0];
-  for (int t : {m.baseColorTexture, m.metallicRoughnessTexture, m.normalTexture, m.occlusionTexture, m.emissiveTexture}) {
+  for (int t :
+       {m.baseColorTexture, m.metallicRoughnessTexture, m.normalTexture, m.occlusionTexture, m.emissiveTexture}) {
     ASSERT_GE(t, 0);
     ASSERT_LT(size_t(t), s.textures.size());
     EXPECT_GT(s.textures[t].width, 0u);

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <stb/stb_image_write.h>
 
 #include "mirage/io/import.h"
 #include "mirage/io/mesh_utils.h"
@@ -158,7 +159,7 @@ TEST(ImportObj, TexcoordsAndNormalsFromFile) {
   ASSERT_TRUE(r.ok()) << r.error().message;
   const Mesh& m = r->meshes[0];
   ASSERT_EQ(m.uv0.size(), 3u);
-  EXPECT_EQ(m.uv0[2], glm::vec2(0, 0)); // v flipped to top-left origin
+  EXPECT_EQ(m.uv0[2], glm::vec2(0, 0));         // v flipped to top-left origin
   EXPECT_EQ(m.normals[0], glm::vec3(0, 0, -1)); // file normals are kept, not recomputed
   EXPECT_EQ(m.positions[1], glm::vec3(2, 0, 0));
 }
@@ -222,9 +223,9 @@ TEST(ImportGltf, HierarchyTransformsAndSharing) {
 })");
   auto r = io::importGltf(gltf);
   ASSERT_TRUE(r.ok()) << r.error().message;
-  ASSERT_EQ(r->meshes.size(), 1u);      // shared by both nodes
-  ASSERT_EQ(r->instances.size(), 2u);   // node 3 is not in the scene
-  EXPECT_EQ(r->materials.size(), 1u);  // default material
+  ASSERT_EQ(r->meshes.size(), 1u);    // shared by both nodes
+  ASSERT_EQ(r->instances.size(), 2u); // node 3 is not in the scene
+  EXPECT_EQ(r->materials.size(), 1u); // default material
   auto apply = [](const glm::mat4& m, glm::vec3 p) { return glm::vec3(m * glm::vec4(p, 1)); };
   // Child: translate(10) * scale(2) * rotZ(90): (1,0,0) -> (0,1,0) -> (0,2,0) -> (10,2,0).
   EXPECT_NEAR(glm::distance(apply(r->instances[0].transform, {1, 0, 0}), glm::vec3(10, 2, 0)), 0.0f, 1e-5f);
@@ -236,6 +237,117 @@ TEST(ImportGltf, HierarchyTransformsAndSharing) {
   std::filesystem::remove(dir / "tri.bin");
   auto missing = io::importGltf(gltf);
   expectError(missing, gltf, "tri.bin");
+}
+
+// KHR_mesh_quantization-style accessors (u16 positions, normalized i8 normals, u16 UVs, u8 colours), a sparse
+// accessor and a triangle strip without indices.
+TEST(ImportGltf, QuantizedSparseStrip) {
+  auto dir = test::tempDir("gltf-quant");
+  std::string bin;
+  const uint16_t pos[4][3] = {{0, 0, 0}, {100, 0, 0}, {0, 100, 0}, {100, 100, 0}};
+  for (auto& v : pos) {
+    for (uint16_t c : v) put(bin, c);
+    put<uint16_t>(bin, 0); // stride 8: components padded to 4-byte alignment
+  }
+  for (int i = 0; i < 4; ++i) bin += std::string{char(0), char(0), char(127), char(0)};
+  const uint16_t uv[4][2] = {{0, 0}, {65535, 0}, {0, 65535}, {65535, 65535}};
+  for (auto& t : uv) put(bin, t[0]), put(bin, t[1]);
+  for (int i = 0; i < 4; ++i) bin += std::string{char(255), char(0), char(i == 3 ? 255 : 0), char(255)};
+  bin += std::string{char(3), 0, 0, 0};          // sparse index: vertex 3
+  for (uint16_t c : {100, 100, 50}) put(bin, c); // sparse value
+  bin += std::string(2, '\0');
+  ASSERT_EQ(bin.size(), 92u);
+  writeFile(dir / "q.bin", bin);
+  auto gltf = writeFile(dir / "q.gltf", R"({
+  "asset": {"version": "2.0"}, "extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"],
+  "nodes": [{"scale": [0.01, 0.01, 0.01], "mesh": 0}],
+  "meshes": [{"primitives": [{"mode": 5, "material": 0,
+    "attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2, "COLOR_0": 3}}]}],
+  "materials": [{"name": "m", "alphaMode": "MASK", "alphaCutoff": 0.25, "doubleSided": true,
+                 "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}],
+  "accessors": [
+    {"bufferView": 0, "componentType": 5123, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [100,100,50],
+     "sparse": {"count": 1, "indices": {"bufferView": 4, "componentType": 5121}, "values": {"bufferView": 5}}},
+    {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"},
+    {"bufferView": 2, "componentType": 5123, "normalized": true, "count": 4, "type": "VEC2"},
+    {"bufferView": 3, "componentType": 5121, "normalized": true, "count": 4, "type": "VEC4"}
+  ],
+  "bufferViews": [
+    {"buffer": 0, "byteOffset": 0, "byteLength": 32, "byteStride": 8},
+    {"buffer": 0, "byteOffset": 32, "byteLength": 16, "byteStride": 4},
+    {"buffer": 0, "byteOffset": 48, "byteLength": 16},
+    {"buffer": 0, "byteOffset": 64, "byteLength": 16},
+    {"buffer": 0, "byteOffset": 80, "byteLength": 1},
+    {"buffer": 0, "byteOffset": 84, "byteLength": 6}
+  ],
+  "buffers": [{"uri": "q.bin", "byteLength": 92}]
+})");
+  io::ImportOptions opt;
+  opt.weld = false;
+  auto r = io::importGltf(gltf, opt);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->meshes.size(), 1u);
+  const Mesh& m = r->meshes[0];
+  EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3})); // strip order keeps the winding
+  EXPECT_EQ(m.positions[1], glm::vec3(100, 0, 0));
+  EXPECT_EQ(m.positions[3], glm::vec3(100, 100, 50)); // from the sparse substitution
+  EXPECT_NEAR(glm::distance(m.normals[0], glm::vec3(0, 0, 1)), 0.0f, 1e-6f);
+  EXPECT_EQ(m.uv0[3], glm::vec2(1, 1));
+  EXPECT_EQ(m.colors[3], glm::vec4(1, 0, 1, 1));
+  const Material& mat = r->materials[m.material];
+  EXPECT_EQ(mat.alphaMode, AlphaMode::Mask);
+  EXPECT_FLOAT_EQ(mat.alphaCutoff, 0.25f);
+  EXPECT_TRUE(mat.doubleSided);
+  EXPECT_FLOAT_EQ(mat.metallicFactor, 0.0f);
+  Bounds wb = r->worldBounds();
+  EXPECT_NEAR(wb.max.x, 1.0f, 1e-6f);
+  EXPECT_NEAR(wb.max.z, 0.5f, 1e-6f);
+}
+
+// One image used as base colour (sRGB) and as normal map (linear) becomes two Textures; OBJ map_Kd loads too.
+TEST(ImportTextures, SrgbAndLinearCopiesAndObjMaps) {
+  auto dir = test::tempDir("tex");
+  const uint8_t px[2 * 2 * 3] = {255, 0, 0, 0, 255, 0, 0, 0, 255, 10, 20, 30};
+  ASSERT_NE(stbi_write_png((dir / "t.png").c_str(), 2, 2, 3, px, 6), 0);
+  std::string bin;
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(bin, f);
+  writeFile(dir / "t.bin", bin);
+  auto gltf = writeFile(dir / "t.gltf", R"({"asset": {"version": "2.0"}, "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+  "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "normalTexture": {"index": 0, "scale": 0.5},
+                 "occlusionTexture": {"index": 0, "strength": 0.25}}],
+  "textures": [{"source": 0}], "images": [{"uri": "t.png"}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"uri": "t.bin", "byteLength": 36}]})");
+  auto r = io::importGltf(gltf);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->textures.size(), 2u);
+  const Material& m = r->materials[0];
+  EXPECT_TRUE(r->textures[m.baseColorTexture].srgb);
+  EXPECT_FALSE(r->textures[m.normalTexture].srgb);
+  EXPECT_EQ(m.normalTexture, m.occlusionTexture); // linear uses share one copy
+  EXPECT_FLOAT_EQ(m.normalScale, 0.5f);
+  EXPECT_FLOAT_EQ(m.occlusionStrength, 0.25f);
+  const Texture& t = r->textures[m.baseColorTexture];
+  ASSERT_EQ(t.rgba8.size(), 16u);
+  EXPECT_EQ(std::vector<uint8_t>(t.rgba8.begin() + 12, t.rgba8.end()), (std::vector<uint8_t>{10, 20, 30, 255}));
+
+  io::ImportOptions noTex;
+  noTex.loadTextures = false;
+  auto bare = io::importGltf(gltf, noTex);
+  ASSERT_TRUE(bare.ok()) << bare.error().message;
+  EXPECT_TRUE(bare->textures.empty());
+  EXPECT_EQ(bare->materials[0].baseColorTexture, -1);
+
+  writeFile(dir / "t.mtl", "newmtl a\nmap_Kd -s 1 1 1 t.png\nmap_bump t.png\nnewmtl b\nmap_Kd missing.png\n");
+  auto obj =
+      writeFile(dir / "t.obj", "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\nusemtl b\nf 3 2 1\n");
+  auto o = io::importObj(obj);
+  ASSERT_TRUE(o.ok()) << o.error().message;
+  ASSERT_EQ(o->textures.size(), 2u);
+  EXPECT_TRUE(o->textures[o->materials[0].baseColorTexture].srgb);
+  EXPECT_FALSE(o->textures[o->materials[0].normalTexture].srgb);
+  EXPECT_EQ(o->materials[1].baseColorTexture, -1); // a missing image leaves the material untextured
 }
 
 TEST(ImportErrors, MissingFileAndUnknownExtension) {
