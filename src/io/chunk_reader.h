@@ -70,8 +70,9 @@ public:
     for (;;) {
       if (i == end_) {
         size_t have = i - pos_;
-        if (!ensure(have + 1)) break; // token ends at end of file
+        bool more = ensure(have + 1); // may compact the buffer: recompute i either way
         i = pos_ + have;
+        if (!more) break; // token ends at end of file
         continue;
       }
       char c = buf_[i];

@@ -140,7 +140,8 @@ decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& b
         std::string mode = ext.at("mode").get<std::string>(), filter = ext.value("filter", std::string("NONE"));
         if (src >= data.size() || !present[src] || off + len > data[src].size())
           return makeError(file, fmt::format("bufferView {}: compressed data out of range", v));
-        if (stride == 0 || stride > 256 || count > (size_t(1) << 32))
+        // The codecs expand at most ~64x (an all-zero vertex stream); larger claims are hostile or corrupt.
+        if (stride == 0 || stride > 256 || count > (64 * len + (size_t(1) << 20)) / stride)
           return makeError(file, fmt::format("bufferView {}: bad meshopt stride/count", v));
         align(out, 16);
         size_t at = out.size();

@@ -81,6 +81,8 @@ private:
   Status visit(int index, const glm::mat4& parent, std::vector<bool>& onPath, int depth) {
     if (index < 0 || size_t(index) >= m_.nodes.size()) return fail(fmt::format("node index {} out of range", index));
     if (onPath[index] || depth > 1024) return fail(fmt::format("node {} is part of a cycle", index));
+    // glTF nodes have one parent; a file that shares subtrees could otherwise expand exponentially.
+    if (++visits_ > 4 * m_.nodes.size() + 1000000) return fail("node graph too large (nodes with several parents)");
     const tg::Node& node = m_.nodes[index];
     glm::mat4 world = parent * localMatrix(node);
     if (node.mesh >= 0) {
@@ -118,7 +120,9 @@ private:
     comps = tg::GetNumComponentsInType(uint32_t(a.type));
     int csize = tg::GetComponentSizeInBytes(uint32_t(a.componentType));
     if (comps <= 0 || csize <= 0) return fail(fmt::format("accessor {}: bad type", index));
-    out.assign(a.count * size_t(comps), 0.0f);
+    // Without a bufferView only sparse values fill the array; cap its size so a hostile count cannot exhaust memory.
+    if (a.bufferView < 0 && a.count > (size_t(1) << 26))
+      return fail(fmt::format("accessor {}: implausible count without a bufferView", index));
     auto decode = [&](const uint8_t* src, float* dst) {
       for (int c = 0; c < comps; ++c, src += csize) {
         float v;
@@ -157,10 +161,12 @@ private:
       }
     };
     const size_t elem = size_t(comps) * size_t(csize);
+    if (a.bufferView < 0) out.assign(a.count * size_t(comps), 0.0f);
     if (a.bufferView >= 0) { // no bufferView means all zeros (plus sparse values)
       const uint8_t* base;
       size_t stride;
       if (Status s = viewData(a.bufferView, a.byteOffset, a.count, elem, base, stride); !s) return s;
+      out.resize(a.count * size_t(comps)); // sized only once the view is known to hold the data
       for (size_t i = 0; i < a.count; ++i) decode(base + i * stride, &out[i * comps]);
     }
     if (a.sparse.isSparse) {
@@ -190,6 +196,8 @@ private:
     if (v.buffer < 0 || size_t(v.buffer) >= m_.buffers.size()) return fail("bufferView refers to a missing buffer");
     const std::vector<unsigned char>& buf = m_.buffers[v.buffer].data;
     stride = v.byteStride ? v.byteStride : elem;
+    if (count > 0 && count - 1 > v.byteLength / stride) // checked first so the product below cannot overflow
+      return fail(fmt::format("bufferView {}: accessor data runs past the buffer", viewIndex));
     size_t need = count ? offset + (count - 1) * stride + elem : 0;
     if (need > v.byteLength || v.byteOffset + v.byteLength > buf.size())
       return fail(fmt::format("bufferView {}: accessor data runs past the buffer", viewIndex));
@@ -355,6 +363,7 @@ private:
   ImportOptions options_;
   Scene scene_;
   int defaultMaterial_ = -1;
+  size_t visits_ = 0;
   std::map<std::pair<int, int>, int> meshOf_;
   std::map<std::pair<int, bool>, int> textureOf_;
 };
@@ -390,8 +399,12 @@ Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions&
   if (!ok) return makeError(file, oneLine(err.empty() ? "cannot parse glTF" : err));
   bytes->clear();
   bytes->shrink_to_fit();
-  GltfConverter converter(model, file, options);
-  return converter.run();
+  try {
+    GltfConverter converter(model, file, options);
+    return converter.run();
+  } catch (const std::exception& e) { // e.g. bad_alloc on absurd sizes: still one Error line, never a throw
+    return makeError(file, fmt::format("import failed: {}", e.what()));
+  }
 }
 
 } // namespace mirage::io

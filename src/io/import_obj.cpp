@@ -328,8 +328,12 @@ Status ObjParser::loadMtl(const std::string& name) {
 } // namespace
 
 Result<Scene> importObj(const std::filesystem::path& path, const ImportOptions& options) {
-  ObjParser parser(path, options);
-  return parser.run();
+  try {
+    ObjParser parser(path, options);
+    return parser.run();
+  } catch (const std::exception& e) { // bad_alloc on absurd inputs: an Error, never a throw
+    return makeError(detail::displayName(path), fmt::format("import failed: {}", e.what()));
+  }
 }
 
 } // namespace mirage::io

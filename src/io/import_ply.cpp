@@ -124,6 +124,8 @@ public:
   Result<Scene> run(const std::filesystem::path& path) {
     if (std::error_code ec; !std::filesystem::is_regular_file(path, ec)) return makeError(file_, "file not found");
     if (!in_.open(path)) return makeError(file_, "cannot open file");
+    std::error_code ec;
+    fileSize_ = std::filesystem::file_size(path, ec);
     if (Status s = parseHeader(); !s) return s.error();
     for (size_t i = 0; i < 256; ++i) colorLut_[i] = srgbToLinear(float(i) / 255.0f);
     for (const Element& e : elements_) {
@@ -197,6 +199,17 @@ private:
       // comment, obj_info and unknown keywords carry nothing we need.
     }
     if (!haveFormat) return fail("PLY header has no format line");
+    // Counts come from an untrusted header: reject ones the file cannot hold before sizing arrays by them
+    // (every binary record takes its fixed bytes or at least a list count; every ascii value at least 2 chars).
+    uint64_t minBytes = 0;
+    for (const Element& e : elements_) {
+      uint64_t per = 0;
+      for (const Property& p : e.props) per += p.isList() ? typeSize(p.countType) : typeSize(p.type);
+      if (ascii_) per = 2 * e.props.size();
+      if (per > 0 && e.count > fileSize_ / per) return truncated(e, 0);
+      minBytes += e.count * per;
+    }
+    if (minBytes > fileSize_) return fail("file truncated: shorter than its header declares");
     return Ok{};
   }
 
@@ -281,6 +294,7 @@ private:
   bool ascii_ = false;
   bool swap_ = false;
   bool faceSeen_ = false;
+  uint64_t fileSize_ = 0;
   Mesh mesh_;
   float colorLut_[256];
 };
@@ -333,6 +347,7 @@ Status PlyParser::readBinary(const Element& e) {
       in_.consume(cs);
       if (cnt < 0) return fail(fmt::format("element '{}' record {} has a negative list length", e.name, r));
       size_t n = size_t(cnt), s = typeSize(p.type);
+      if (n * s > fileSize_) return truncated(e, r); // a list longer than the whole file
       if (!in_.ensure(n * s)) return truncated(e, r);
       if (int(pi) == listProp) {
         poly.resize(n);
@@ -494,8 +509,12 @@ Status PlyParser::readAscii(const Element& e) {
 } // namespace
 
 Result<Scene> importPly(const std::filesystem::path& path, const ImportOptions& options) {
-  PlyParser parser(detail::displayName(path), options);
-  return parser.run(path);
+  try {
+    PlyParser parser(detail::displayName(path), options);
+    return parser.run(path);
+  } catch (const std::exception& e) { // bad_alloc on absurd inputs: an Error, never a throw
+    return makeError(detail::displayName(path), fmt::format("import failed: {}", e.what()));
+  }
 }
 
 } // namespace mirage::io

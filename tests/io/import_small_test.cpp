@@ -375,6 +375,13 @@ TEST(ImportErrors, Ply) {
   auto noFaces = writeFile(dir / "nofaces.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
                                                 "property float y\nproperty float z\nend_header\n0 0 0\n");
   expectError(io::importPly(noFaces), noFaces, "no triangles");
+  // Header counts the file cannot hold are rejected before any array is sized by them.
+  auto huge = writeFile(dir / "huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n"
+                                          "property float x\nproperty float y\nproperty float z\nend_header\n0000");
+  expectError(io::importPly(huge), huge, "truncated");
+  // The last token may end at end of file without a newline.
+  auto noNewline = writeFile(dir / "nonl.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2");
+  EXPECT_TRUE(io::importPly(noNewline).ok());
   auto garbage = writeFile(dir / "garbage.ply", "\x01\x02garbage");
   expectError(io::importPly(garbage), garbage, "not a PLY");
   // Binary with a negative index (int) must be out of range, not a crash.
@@ -409,6 +416,14 @@ TEST(ImportErrors, Gltf) {
   expectError(io::importGltf(json), json, "");
   auto noTris = writeFile(dir / "empty.gltf", R"({"asset": {"version": "2.0"}, "scenes": [{"nodes": []}]})");
   expectError(io::importGltf(noTris), noTris, "no triangles");
+  // An accessor claiming far more elements than its bufferView holds.
+  std::string bin(36, '\0');
+  writeFile(dir / "h.bin", bin);
+  auto hugeCount = writeFile(dir / "huge.gltf", R"({"asset": {"version": "2.0"}, "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4000000000000, "type": "VEC3"}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"uri": "h.bin", "byteLength": 36}]})");
+  expectError(io::importGltf(hugeCount), hugeCount, "runs past");
   auto random = writeFile(dir / "random.glb", std::string(64, '\x7f'));
   expectError(io::importScene(random), random, "");
 }
