@@ -1,9 +1,9 @@
 #include "mirage/io/mesh_utils.h"
 
 #include <cmath>
+#include <cstring>
 
 #include <fmt/format.h>
-#include <meshoptimizer.h>
 
 namespace mirage::io {
 
@@ -33,32 +33,117 @@ void computeBounds(Mesh& mesh) {
   mesh.bounds = b;
 }
 
+namespace {
+
+// The bytes of vertex i across all present attribute streams.
+struct VertexBytes {
+  std::vector<std::pair<const uint8_t*, size_t>> streams; // base, stride (= element size)
+  template <class V> void add(const std::vector<V>& v, size_t n) {
+    if (v.size() == n) streams.push_back({reinterpret_cast<const uint8_t*>(v.data()), sizeof(V)});
+  }
+  uint32_t hash(size_t i) const {
+    uint32_t h = 2166136261u; // FNV-1a over 32-bit words, then a final avalanche
+    for (const auto& [base, size] : streams) {
+      const uint8_t* p = base + i * size;
+      for (size_t k = 0; k < size; k += 4) {
+        uint32_t w;
+        std::memcpy(&w, p + k, 4);
+        h = (h ^ w) * 16777619u;
+      }
+    }
+    h ^= h >> 16;
+    h *= 0x85ebca6bu;
+    h ^= h >> 13;
+    return h;
+  }
+  bool equal(size_t a, size_t b) const {
+    for (const auto& [base, size] : streams)
+      if (std::memcmp(base + a * size, base + b * size, size) != 0) return false;
+    return true;
+  }
+};
+
+// Stable LSD radix sort of (hash << 32 | index) keys by their hash (upper 32 bits), 11-bit digits.
+void radixSortByHash(std::vector<uint64_t>& keys) {
+  std::vector<uint64_t> tmp(keys.size());
+  for (int shift = 32; shift < 64; shift += 11) {
+    size_t count[2048] = {};
+    for (uint64_t k : keys) ++count[(k >> shift) & 2047];
+    size_t sum = 0;
+    for (size_t& c : count) {
+      size_t t = c;
+      c = sum;
+      sum += t;
+    }
+    for (uint64_t k : keys) tmp[count[(k >> shift) & 2047]++] = k;
+    keys.swap(tmp);
+  }
+}
+
+} // namespace
+
+// Duplicates are found by sorting vertex hashes (sequential memory traffic) rather than with a hash table: on
+// scan-sized meshes (millions of vertices) this is several times faster than meshopt_generateVertexRemapMulti,
+// whose random probes dominated binary PLY import time. Result is the same set of unique vertices; survivors keep
+// their original relative order, and vertices no triangle uses are dropped.
 void weldMesh(Mesh& mesh) {
   const size_t n = mesh.positions.size();
-  if (n == 0 || mesh.indices.empty()) return;
-  std::vector<meshopt_Stream> streams;
-  streams.push_back({mesh.positions.data(), sizeof(glm::vec3), sizeof(glm::vec3)});
-  if (mesh.normals.size() == n) streams.push_back({mesh.normals.data(), sizeof(glm::vec3), sizeof(glm::vec3)});
-  if (mesh.tangents.size() == n) streams.push_back({mesh.tangents.data(), sizeof(glm::vec4), sizeof(glm::vec4)});
-  if (mesh.uv0.size() == n) streams.push_back({mesh.uv0.data(), sizeof(glm::vec2), sizeof(glm::vec2)});
-  if (mesh.colors.size() == n) streams.push_back({mesh.colors.data(), sizeof(glm::vec4), sizeof(glm::vec4)});
+  if (n == 0 || mesh.indices.empty() || n >= (size_t(1) << 32)) return;
+  VertexBytes vb;
+  vb.add(mesh.positions, n);
+  vb.add(mesh.normals, n);
+  vb.add(mesh.tangents, n);
+  vb.add(mesh.uv0, n);
+  vb.add(mesh.colors, n);
 
-  std::vector<unsigned int> remap(n);
-  size_t unique = meshopt_generateVertexRemapMulti(remap.data(), mesh.indices.data(), mesh.indices.size(), n,
-                                                   streams.data(), streams.size());
-  if (unique == n) return; // nothing to merge and no unused vertices: skip the copies
-  meshopt_remapIndexBuffer(mesh.indices.data(), mesh.indices.data(), mesh.indices.size(), remap.data());
-  auto remapStream = [&](auto& v) {
+  std::vector<uint64_t> keys(n);
+  for (size_t i = 0; i < n; ++i) keys[i] = (uint64_t(vb.hash(i)) << 32) | i;
+  radixSortByHash(keys);
+
+  // canon[i]: the lowest-index vertex equal to i (runs of equal hash are tiny: compare within them).
+  std::vector<uint32_t> canon(n);
+  for (size_t i = 0; i < n; ++i) canon[i] = uint32_t(i);
+  bool merged = false;
+  for (size_t a = 0; a < n;) {
+    size_t b = a + 1;
+    while (b < n && (keys[b] >> 32) == (keys[a] >> 32)) ++b;
+    for (size_t j = a + 1; j < b; ++j) {
+      uint32_t vj = uint32_t(keys[j]);
+      for (size_t k = a; k < j; ++k) {
+        uint32_t vk = uint32_t(keys[k]);
+        if (canon[vk] == vk && vb.equal(vk, vj)) { // stable sort: vk < vj
+          canon[vj] = vk;
+          merged = true;
+          break;
+        }
+      }
+    }
+    a = b;
+  }
+  keys = {};
+
+  std::vector<uint8_t> used(n, 0);
+  for (uint32_t idx : mesh.indices) used[canon[idx]] = 1;
+  size_t unique = 0;
+  for (uint8_t u : used) unique += u;
+  if (!merged && unique == n) return; // nothing to merge, nothing unused: leave the mesh untouched
+
+  std::vector<uint32_t> newId(n, ~0u);
+  for (size_t i = 0, next = 0; i < n; ++i)
+    if (used[i]) newId[i] = uint32_t(next++);
+  for (uint32_t& idx : mesh.indices) idx = newId[canon[idx]];
+  auto compact = [&](auto& v) {
     if (v.size() != n) return;
-    std::remove_reference_t<decltype(v)> out(unique);
-    meshopt_remapVertexBuffer(out.data(), v.data(), n, sizeof(v[0]), remap.data());
-    v.swap(out);
+    for (size_t i = 0; i < n; ++i)
+      if (used[i]) v[newId[i]] = v[i]; // newId[i] <= i: in-place forward compaction is safe
+    v.resize(unique);
+    v.shrink_to_fit();
   };
-  remapStream(mesh.positions);
-  remapStream(mesh.normals);
-  remapStream(mesh.tangents);
-  remapStream(mesh.uv0);
-  remapStream(mesh.colors);
+  compact(mesh.positions);
+  compact(mesh.normals);
+  compact(mesh.tangents);
+  compact(mesh.uv0);
+  compact(mesh.colors);
 }
 
 void computeTangents(Mesh& mesh) {

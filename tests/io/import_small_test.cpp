@@ -7,6 +7,8 @@
 #include <fstream>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <meshoptimizer.h>
+#include <random>
 #include <stb/stb_image_write.h>
 
 #include "mirage/io/import.h"
@@ -105,6 +107,34 @@ TEST(MeshUtils, WeldKeepsDistinctAttributes) {
   m.indices = {0, 1, 2, 3, 4, 5};
   io::weldMesh(m);
   EXPECT_EQ(m.vertexCount(), 4u);
+}
+
+// weldMesh must find exactly the unique vertices meshopt's remap finds, and map every corner to an equal vertex.
+TEST(MeshUtils, WeldAgreesWithMeshopt) {
+  std::mt19937 rng(7);
+  Mesh m;
+  const int distinct = 500;
+  for (int i = 0; i < 30000; ++i) { // 30000 corners drawn from 500 positions x 2 uv values
+    int k = int(rng() % distinct);
+    m.positions.push_back(glm::vec3(float(k % 10), float(k / 10 % 10), float(k / 100)));
+    m.uv0.push_back(glm::vec2(float(rng() % 2), 0.0f));
+    m.indices.push_back(uint32_t(i));
+  }
+  m.positions.push_back(glm::vec3(99.0f)); // one vertex no triangle uses
+  m.uv0.push_back(glm::vec2(0.0f));
+  Mesh before = m;
+  std::vector<unsigned> remap(before.positions.size());
+  meshopt_Stream streams[] = {{before.positions.data(), 12, 12}, {before.uv0.data(), 8, 8}};
+  size_t expected = meshopt_generateVertexRemapMulti(remap.data(), before.indices.data(), before.indices.size(),
+                                                     before.positions.size(), streams, 2);
+  io::weldMesh(m);
+  EXPECT_EQ(m.vertexCount(), expected);
+  EXPECT_EQ(m.vertexCount(), 1000u);
+  ASSERT_EQ(m.indices.size(), before.indices.size());
+  for (size_t i = 0; i < m.indices.size(); ++i) {
+    ASSERT_EQ(m.positions[m.indices[i]], before.positions[before.indices[i]]);
+    ASSERT_EQ(m.uv0[m.indices[i]], before.uv0[before.indices[i]]);
+  }
 }
 
 TEST(MeshUtils, ValidateRejects) {

@@ -14,8 +14,10 @@ void computeNormals(Mesh& mesh);
 // Object-space bounds of the positions.
 void computeBounds(Mesh& mesh);
 
-// Merge vertices equal in position and every present attribute (meshopt_generateVertexRemapMulti), then drop
-// the unused ones. Triangles are kept as they are (degenerate ones included) so triangle counts never change.
+// Merge vertices bit-equal in position and every present attribute (the same result as meshopt's
+// generateVertexRemapMulti, computed by sorting hashes, which is faster on huge meshes), then drop vertices no
+// triangle uses. Survivors keep their relative order. Triangles are kept as they are (degenerate ones included)
+// so triangle counts never change.
 void weldMesh(Mesh& mesh);
 
 // Tangents (xyz + handedness w) from positions, normals and uv0 (per-triangle UV derivatives, accumulated and
