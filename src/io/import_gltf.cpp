@@ -397,6 +397,13 @@ Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions&
     return makeError(file, fmt::format("glTF parse error: {}", e.what()));
   }
   if (!ok) return makeError(file, oneLine(err.empty() ? "cannot parse glTF" : err));
+  // Geometry in an extension we do not decode (Draco, ...) would import as garbage: refuse it up front. Material
+  // and texture extensions degrade gracefully (the core material stays valid), so they are accepted.
+  for (const std::string& ext : model.extensionsRequired) {
+    bool ignorable = ext == "KHR_mesh_quantization" || ext == "KHR_texture_transform" || ext == "KHR_lights_punctual" ||
+                     ext.rfind("KHR_materials_", 0) == 0 || ext == "KHR_texture_basisu" || ext == "EXT_texture_webp";
+    if (!ignorable) return makeError(file, fmt::format("requires unsupported glTF extension {}", ext));
+  }
   bytes->clear();
   bytes->shrink_to_fit();
   try {

@@ -380,6 +380,87 @@ TEST(ImportTextures, SrgbAndLinearCopiesAndObjMaps) {
   EXPECT_EQ(o->materials[1].baseColorTexture, -1); // a missing image leaves the material untextured
 }
 
+// EXT_meshopt_compression with the octahedral filter (not used by the dream-apartment file): encode with
+// meshoptimizer, pack a GLB with a data-less fallback buffer, and check the import reproduces the input.
+TEST(ImportGltf, MeshoptOctahedralFilterGlb) {
+  auto dir = test::tempDir("gltf-meshopt");
+  const float pos[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  const float nrm[4][4] = {{0, 0, 1, 0}, {0, 0, 1, 0}, {0.6f, 0, 0.8f, 0}, {0, -0.6f, 0.8f, 0}};
+  const uint16_t idx[6] = {0, 1, 2, 0, 2, 3};
+  int8_t oct[4][4];
+  meshopt_encodeFilterOct(oct, 4, 4, 8, &nrm[0][0]);
+  std::string bin;
+  auto append = [&](auto encode, size_t bound) {
+    size_t at = bin.size();
+    bin.resize(at + bound);
+    size_t len = encode(reinterpret_cast<unsigned char*>(&bin[at]), bound);
+    bin.resize((at + len + 3) / 4 * 4);
+    return std::make_pair(at, len);
+  };
+  auto p = append([&](unsigned char* d, size_t b) { return meshopt_encodeVertexBuffer(d, b, pos, 4, 12); },
+                  meshopt_encodeVertexBufferBound(4, 12));
+  auto n = append([&](unsigned char* d, size_t b) { return meshopt_encodeVertexBuffer(d, b, oct, 4, 4); },
+                  meshopt_encodeVertexBufferBound(4, 4));
+  auto ix = append(
+      [&](unsigned char* d, size_t b) {
+        unsigned int i32[6];
+        std::copy(idx, idx + 6, i32);
+        return meshopt_encodeIndexBuffer(d, b, i32, 6);
+      },
+      meshopt_encodeIndexBufferBound(6, 4));
+  std::string json = std::string(R"({"asset": {"version": "2.0"},
+  "extensionsUsed": ["EXT_meshopt_compression"], "extensionsRequired": ["EXT_meshopt_compression"],
+  "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+  "accessors": [
+    {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
+    {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"},
+    {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+  "buffers": [{"byteLength": )") +
+                     std::to_string(bin.size()) +
+                     R"(}, {"byteLength": 76, "extensions": {"EXT_meshopt_compression": {"fallback": true}}}],
+  "bufferViews": [)";
+  auto view = [](size_t off, size_t len, int stride, int count, const char* mode, const char* filter, size_t fbOff,
+                 size_t fbLen, bool vertexStride) {
+    std::string v =
+        "{\"buffer\": 1, \"byteOffset\": " + std::to_string(fbOff) + ", \"byteLength\": " + std::to_string(fbLen);
+    if (vertexStride) v += ", \"byteStride\": " + std::to_string(stride);
+    v += ", \"extensions\": {\"EXT_meshopt_compression\": {\"buffer\": 0, \"byteOffset\": " + std::to_string(off) +
+         ", \"byteLength\": " + std::to_string(len) + ", \"byteStride\": " + std::to_string(stride) +
+         ", \"count\": " + std::to_string(count) + ", \"mode\": \"" + mode + "\", \"filter\": \"" + filter + "\"}}}";
+    return v;
+  };
+  json += view(p.first, p.second, 12, 4, "ATTRIBUTES", "NONE", 0, 48, true) + ",\n";
+  json += view(n.first, n.second, 4, 4, "ATTRIBUTES", "OCTAHEDRAL", 48, 16, true) + ",\n";
+  json += view(ix.first, ix.second, 2, 6, "TRIANGLES", "NONE", 64, 12, false) + "]}";
+  json.resize((json.size() + 3) / 4 * 4, ' ');
+  std::string glb = "glTF";
+  put<uint32_t>(glb, 2);
+  put<uint32_t>(glb, uint32_t(12 + 8 + json.size() + 8 + bin.size()));
+  put<uint32_t>(glb, uint32_t(json.size()));
+  put<uint32_t>(glb, 0x4E4F534Au);
+  glb += json;
+  put<uint32_t>(glb, uint32_t(bin.size()));
+  put<uint32_t>(glb, 0x004E4942u);
+  glb += bin;
+  auto file = writeFile(dir / "m.glb", glb);
+  io::ImportOptions opt;
+  opt.weld = false;
+  auto r = io::importGltf(file, opt);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const Mesh& m = r->meshes[0];
+  EXPECT_EQ(m.indices, (std::vector<uint32_t>(idx, idx + 6)));
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(m.positions[i], glm::vec3(pos[i][0], pos[i][1], pos[i][2]));
+    EXPECT_NEAR(glm::distance(m.normals[i], glm::vec3(nrm[i][0], nrm[i][1], nrm[i][2])), 0.0f, 0.02f) << i;
+  }
+  // Corrupt the compressed bytes: an Error, not garbage or a crash.
+  std::string broken = glb;
+  std::fill(broken.end() - long(bin.size()), broken.end(), '\xff');
+  auto bad = writeFile(dir / "bad.glb", broken);
+  expectError(io::importGltf(bad), bad, "meshopt");
+}
+
 TEST(ImportErrors, MissingFileAndUnknownExtension) {
   auto dir = test::tempDir("err-basic");
   for (const char* name : {"none.ply", "none.obj", "none.gltf", "none.glb"})
@@ -454,6 +535,9 @@ TEST(ImportErrors, Gltf) {
   "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4000000000000, "type": "VEC3"}],
   "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"uri": "h.bin", "byteLength": 36}]})");
   expectError(io::importGltf(hugeCount), hugeCount, "runs past");
+  auto draco = writeFile(dir / "draco.gltf", R"({"asset": {"version": "2.0"},
+  "extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]})");
+  expectError(io::importGltf(draco), draco, "unsupported glTF extension KHR_draco_mesh_compression");
   auto random = writeFile(dir / "random.glb", std::string(64, '\x7f'));
   expectError(io::importScene(random), random, "");
 }
