@@ -11,7 +11,7 @@
 namespace mirage::io {
 
 struct ImportOptions {
-  bool weld = true;         // weld vertices that are equal in position and all attributes (meshopt remap)
+  bool weld = true;         // weld vertices bit-equal in position and all attributes (see weldMesh)
   bool loadTextures = true; // decode images to RGBA8; when false materials keep no texture references
 };
 

@@ -15,7 +15,7 @@ void computeNormals(Mesh& mesh);
 void computeBounds(Mesh& mesh);
 
 // Merge vertices bit-equal in position and every present attribute (the same result as meshopt's
-// generateVertexRemapMulti, computed by sorting hashes, which is faster on huge meshes), then drop vertices no
+// generateVertexRemapMulti, found via hash buckets, which is faster on huge meshes), then drop vertices no
 // triangle uses. Survivors keep their relative order. Triangles are kept as they are (degenerate ones included)
 // so triangle counts never change.
 void weldMesh(Mesh& mesh);
