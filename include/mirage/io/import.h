@@ -1,0 +1,25 @@
+#pragma once
+// Scene import: glTF 2.0 (.gltf/.glb, incl. EXT_meshopt_compression and KHR_mesh_quantization), Wavefront OBJ+MTL
+// and PLY (ascii, binary little/big endian). Every importer returns a Scene whose meshes are validated and have
+// normals and bounds, whose materials list is never empty and whose instances place every mesh; or a one-line Error
+// "<file>: <problem>". Nothing here throws.
+#include <filesystem>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+
+namespace mirage::io {
+
+struct ImportOptions {
+  bool weld = true;         // weld vertices bit-equal in position and all attributes (see weldMesh)
+  bool loadTextures = true; // decode images to RGBA8; when false materials keep no texture references
+};
+
+// Dispatch by extension (case-insensitive): .gltf .glb .obj .ply.
+Result<Scene> importScene(const std::filesystem::path& path, const ImportOptions& options = {});
+
+Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions& options = {});
+Result<Scene> importObj(const std::filesystem::path& path, const ImportOptions& options = {});
+Result<Scene> importPly(const std::filesystem::path& path, const ImportOptions& options = {});
+
+} // namespace mirage::io

@@ -1,2 +1,0 @@
-// The io module's sources land beside this file.
-namespace mirage::io {}
