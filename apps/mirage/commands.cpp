@@ -24,6 +24,8 @@ void registerCommands(CLI::App& app) {
   addGenCommand(app);
   addCompareCommand(app);
   addDemoCommand(app);
+  addRenderCommand(app);
+  addBenchCommand(app);
 }
 
 } // namespace mirage::cli

@@ -1,0 +1,93 @@
+// mirage bench ...: performance measurements (GPU times from Vulkan timestamp queries).
+// bench render: the forward baseline on a scene, median per-pass GPU times over N frames.
+#include <chrono>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cmd_list.h"
+#include "commands.h"
+#include "mirage/render/forward_renderer.h"
+#include "render_common.h"
+
+namespace mirage::cli {
+
+namespace {
+
+struct BenchRenderOptions {
+  std::string input;
+  std::string size = "1920x1080";
+  std::string device;
+  int frames = 20;
+  bool json = false;
+};
+
+void runBenchRender(const BenchRenderOptions& o) {
+  uint32_t width = 0, height = 0;
+  if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
+  if (o.frames < 2 || o.frames > 100000) return fail("--frames must be in 2..100000");
+  auto scene = loadSceneArgument(o.input);
+  if (!scene) return fail(scene.error());
+  gpu::ContextOptions co;
+  co.device = o.device;
+  auto ctx = gpu::Context::create(co);
+  if (!ctx) return fail(ctx.error());
+  auto renderer = render::ForwardRenderer::create(**ctx, *scene);
+  if (!renderer) return fail(renderer.error());
+  render::RenderSettings rs;
+  rs.width = width;
+  rs.height = height;
+  rs.camera = render::autoCamera(scene->worldBounds(), float(width) / float(height));
+
+  std::vector<std::vector<gpu::PassTime>> frames;
+  std::vector<double> wall;
+  render::FrameStats lastStats;
+  for (int i = 0; i < o.frames; ++i) {
+    auto t0 = std::chrono::steady_clock::now();
+    auto out = (*renderer)->render(rs);
+    if (!out) return fail(out.error());
+    wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    if (i == 0) continue; // warm-up: pipeline compilation and first-touch of memory
+    frames.push_back(out->stats.passTimes);
+    lastStats = out->stats;
+  }
+  std::vector<gpu::PassTime> times = medianPassTimes(frames);
+  wall.erase(wall.begin());
+  std::sort(wall.begin(), wall.end());
+  double frameMs = times.empty() ? 0.0 : times[0].milliseconds;
+  size_t triangles = scene->instancedTriangleCount();
+  const auto& caps = (*ctx)->caps();
+  if (o.json) {
+    nlohmann::json j = {{"bench", "render"},       {"input", o.input},
+                        {"device", caps.name},     {"width", width},
+                        {"height", height},        {"triangles", triangles},
+                        {"frames", frames.size()}, {"wall_ms_median_incl_readback", wall[wall.size() / 2]}};
+    for (const auto& t : times) j["gpu_ms"][t.name] = t.milliseconds;
+    if (frameMs > 0) j["triangles_per_second"] = double(triangles) / (frameMs * 1e-3);
+    j["fragment_invocations"] = lastStats.pipeline.fragmentInvocations;
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("bench render {} on {}: {} triangles at {}x{}, {} timed frames (after 1 warm-up)\n", o.input, caps.name,
+             triangles, width, height, frames.size());
+  for (const auto& t : times) fmt::print("  gpu {:<8} {:9.3f} ms (median)\n", t.name, t.milliseconds);
+  if (frameMs > 0) fmt::print("  {:.1f} M triangles/s (GPU frame time)\n", double(triangles) / (frameMs * 1e-3) * 1e-6);
+  fmt::print("  wall per frame incl. readback {:.2f} ms (median)\n", wall[wall.size() / 2]);
+}
+
+} // namespace
+
+void addBenchCommand(CLI::App& app) {
+  auto* bench = app.add_subcommand("bench", "Performance measurements (GPU times from timestamp queries)");
+  bench->require_subcommand(1);
+  auto* r = bench->add_subcommand("render", "Forward baseline: median per-pass GPU time over N frames");
+  auto o = std::make_shared<BenchRenderOptions>();
+  r->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
+  r->add_option("--size", o->size, "WxH")->capture_default_str();
+  r->add_option("--frames", o->frames, "Frames to render (the first is a warm-up)")->capture_default_str();
+  r->add_option("--device", o->device, "Vulkan device name substring or index");
+  r->add_flag("--json", o->json, "Print results as JSON");
+  r->callback([o] { runBenchRender(*o); });
+}
+
+} // namespace mirage::cli

@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# CLI behaviour: bad input gets one clear line naming the file, exit 2 and no output file;
+# good input renders. Usage: cli_test.sh MIRAGE_BINARY SOURCE_DIR
+set -u
+mirage=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+pass=0
+
+# expect_fail NAME WANTED_TEXT OUTPUT_FILE -- ARGS...: exit 2, one stderr line mentioning WANTED_TEXT, no OUTPUT_FILE
+expect_fail() {
+  local name=$1 wanted=$2 output=$3
+  shift 4
+  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local rc=$?
+  local lines
+  lines=$(grep -c . "$tmp/stderr")
+  if [ $rc -ne 2 ]; then
+    echo "FAIL $name: exit $rc, expected 2"; failures=$((failures + 1)); return
+  fi
+  if [ "$lines" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
+    echo "FAIL $name: stderr should be one line naming '$wanted', got:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
+  fi
+  if [ -n "$output" ] && ls "$output"* >/dev/null 2>&1; then
+    echo "FAIL $name: left output behind: $(ls "$output"*)"; failures=$((failures + 1)); return
+  fi
+  pass=$((pass + 1))
+}
+
+expect_ok() {
+  local name=$1
+  shift
+  if ! "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"; then
+    echo "FAIL $name: exit non-zero"; cat "$tmp/stderr"; failures=$((failures + 1)); return 1
+  fi
+  pass=$((pass + 1))
+}
+
+printf 'not a glb at all' >"$tmp/garbage.glb"
+printf 'ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nelement face 10\nproperty list uchar int vertex_indices\nend_header\n\x00\x00' >"$tmp/truncated.ply"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n' >"$tmp/range.obj"
+printf 'v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/nan.obj"
+printf 'solid x\n' >"$tmp/scene.xyz"
+
+expect_fail render-missing "missing.glb" "$tmp/out.png" -- render "$tmp/missing.glb" -o "$tmp/out.png"
+expect_fail render-unknown-ext "scene.xyz" "$tmp/out.png" -- render "$tmp/scene.xyz" -o "$tmp/out.png"
+expect_fail render-garbage-glb "garbage.glb" "$tmp/out.png" -- render "$tmp/garbage.glb" -o "$tmp/out.png"
+expect_fail render-truncated-ply "truncated.ply" "$tmp/out.png" -- render "$tmp/truncated.ply" -o "$tmp/out.png"
+expect_fail render-index-range "range.obj" "$tmp/out.png" -- render "$tmp/range.obj" -o "$tmp/out.png"
+expect_fail render-nan "nan.obj" "$tmp/out.png" -- render "$tmp/nan.obj" -o "$tmp/out.png"
+expect_fail render-bad-size "--size" "$tmp/out.png" -- render "$tmp/range.obj" -o "$tmp/out.png" --size 0x10
+expect_fail render-bad-camera "--camera" "$tmp/out.png" -- render "$tmp/range.obj" -o "$tmp/out.png" --camera eye=1,2
+expect_fail render-no-folder "nofolder" "$tmp/nofolder/out.png" -- render "$tmp/range.obj" -o "$tmp/nofolder/out.png"
+expect_fail render-bad-ext "out.jpg" "$tmp/out.jpg" -- render "$tmp/range.obj" -o "$tmp/out.jpg"
+expect_fail info-missing "missing.obj" "" -- info "$tmp/missing.obj"
+expect_fail compare-missing "missing.png" "" -- compare "$tmp/missing.png" "$tmp/missing.png"
+expect_fail gen-unknown "volcano" "$tmp/v.glb" -- gen volcano -o "$tmp/v.glb"
+expect_fail gen-no-folder "nofolder" "$tmp/nofolder/b.glb" -- gen blob -o "$tmp/nofolder/b.glb"
+expect_fail no-subcommand "" "" -- 
+
+# The good path: generate, inspect, render, compare with itself.
+if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb"; then
+  expect_ok info-blob info "$tmp/blob.glb" --json
+  grep -q '"triangles"' "$tmp/stdout" || { echo "FAIL info-blob: no triangle count"; failures=$((failures + 1)); }
+  if expect_ok render-blob render "$tmp/blob.glb" -o "$tmp/blob.png" --size 96x64 --stats; then
+    [ -s "$tmp/blob.png" ] || { echo "FAIL render-blob: no PNG"; failures=$((failures + 1)); }
+    ls "$tmp" | grep -q tmp- && { echo "FAIL render-blob: temp file left"; failures=$((failures + 1)); }
+    expect_ok compare-same compare "$tmp/blob.png" "$tmp/blob.png" --json
+    grep -q '"ssim": *1' "$tmp/stdout" || { echo "FAIL compare-same: ssim not 1: $(cat "$tmp/stdout")"; failures=$((failures + 1)); }
+  fi
+fi
+expect_ok help --help
+
+echo "cli: $pass passed, $failures failed"
+[ $failures -eq 0 ]
