@@ -86,6 +86,9 @@ public:
       if (!readRaw(&b, 1, "varint")) return false;
       // The 10th byte holds only bit 63: anything more would overflow (and shifting past 63 is UB).
       if (i == 9 && b > 1) return fail("varint overflows 64 bits");
+      // Overlong forms (a trailing zero byte) are rejected so each value has exactly one encoding:
+      // whatever decodes re-encodes to the same bytes.
+      if (i > 0 && b == 0) return fail("non-canonical varint");
       v |= static_cast<uint64_t>(b & 0x7f) << (7 * i);
       if (!(b & 0x80)) {
         out = v;
