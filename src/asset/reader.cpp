@@ -80,7 +80,9 @@ AssetReader::~AssetReader() {
 Result<AssetReader> AssetReader::open(const std::string& path) {
   AssetReader r;
   r.path_ = path;
-  r.fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer forever. It has no
+  // effect on regular files, and anything else is rejected right below.
+  r.fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (r.fd_ < 0) return r.error(std::strerror(errno));
   struct stat st {};
   if (::fstat(r.fd_, &st) != 0) return r.error(std::strerror(errno));

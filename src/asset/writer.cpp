@@ -48,6 +48,7 @@ bool writeAll(int fd, const void* p, size_t n) {
   while (n > 0) {
     ssize_t w = ::write(fd, bytes, n);
     if (w < 0 && errno == EINTR) continue;
+    if (w == 0) errno = EIO; // no progress and no errno: report an I/O error, not a stale errno
     if (w <= 0) return false;
     bytes += w;
     n -= size_t(w);

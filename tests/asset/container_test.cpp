@@ -4,6 +4,10 @@
 #include <random>
 #include <thread>
 
+#include <csignal>
+#include <sys/resource.h>
+#include <sys/stat.h>
+
 #include "asset_test_util.h"
 #include "mirage/asset/container.h"
 
@@ -152,4 +156,35 @@ TEST(AtomicWrite, OpenRejectsNonFilesAndMissingFiles) {
   Result<AssetReader> b = AssetReader::open(dir.path().string());
   ASSERT_FALSE(b.ok());
   EXPECT_NE(b.error().message.find("not a regular file"), std::string::npos);
+}
+
+TEST(AtomicWrite, FailureMidWriteRemovesTempFile) {
+  TempDir dir;
+  std::string path = dir.file("big.mrg");
+  AssetWriter w;
+  w.addChunk(chunk::Mesh, randomBytes(64 * 1024, 3), 0);
+  // A file size limit makes write(2) fail with EFBIG part way through (SIGXFSZ ignored so it is
+  // an error, not a kill); the limit is restored before anything else writes files.
+  rlimit old{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+  auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = old;
+  small.rlim_cur = 4096;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  Status st = w.write(path);
+  setrlimit(RLIMIT_FSIZE, &old);
+  std::signal(SIGXFSZ, oldHandler);
+  ASSERT_FALSE(st.ok());
+  expectOneLineError(st.error().message, path);
+  EXPECT_NE(st.error().message.find("write failed"), std::string::npos) << st.error().message;
+  EXPECT_TRUE(dir.list().empty());
+}
+
+TEST(AtomicWrite, OpenOfFifoFailsWithoutBlocking) {
+  TempDir dir;
+  std::string path = dir.file("pipe.mrg");
+  ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+  Result<AssetReader> r = AssetReader::open(path); // must not wait for a writer
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("not a regular file"), std::string::npos);
 }
