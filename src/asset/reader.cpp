@@ -168,12 +168,17 @@ Result<AssetReader> AssetReader::open(const std::string& path) {
   // Overlapping payloads would let one corrupt write damage two chunks; a valid writer never makes them.
   std::vector<size_t> order(r.chunks_.size());
   std::iota(order.begin(), order.end(), size_t(0));
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return r.chunks_[a].offset < r.chunks_[b].offset; });
+  // Ties broken by size: an empty chunk shares its offset with the next payload, and must sort first.
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const ChunkInfo &x = r.chunks_[a], &y = r.chunks_[b];
+    return x.offset != y.offset ? x.offset < y.offset : x.storedBytes < y.storedBytes;
+  });
   for (size_t k = 1; k < order.size(); ++k) {
     const ChunkInfo& prev = r.chunks_[order[k - 1]];
     const ChunkInfo& cur = r.chunks_[order[k]];
     if (cur.offset < prev.offset + prev.storedBytes) // no overflow: both inside the file
-      return r.error("chunks " + std::to_string(order[k - 1]) + " and " + std::to_string(order[k]) + " overlap");
+      return r.error("chunks " + std::to_string(std::min(order[k - 1], order[k])) + " and " +
+                     std::to_string(std::max(order[k - 1], order[k])) + " overlap");
   }
   return r;
 }

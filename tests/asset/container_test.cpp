@@ -188,3 +188,21 @@ TEST(AtomicWrite, OpenOfFifoFailsWithoutBlocking) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("not a regular file"), std::string::npos);
 }
+
+TEST(Container, EmptyChunksAnywhere) {
+  TempDir dir;
+  std::string path = dir.file("e.mrg");
+  // Empty chunks share their offset with the next payload (or sit at the end of the file).
+  for (int layout = 0; layout < 4; ++layout) {
+    AssetWriter w;
+    std::vector<uint8_t> data = randomBytes(33, 4);
+    for (int i = 0; i < 6; ++i) {
+      bool empty = (layout >> (i % 2)) & 1 || i == 5;
+      w.addChunk(chunk::Surfels, empty ? std::vector<uint8_t>{} : data, i % 3);
+    }
+    ASSERT_TRUE(w.write(path).ok());
+    Result<AssetReader> r = AssetReader::open(path);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    for (size_t i = 0; i < r->chunks().size(); ++i) EXPECT_TRUE(r->readChunk(i).ok()) << i;
+  }
+}
