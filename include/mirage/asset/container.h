@@ -1,0 +1,122 @@
+#pragma once
+// The .mrg asset container: a header, a chunk table and 16-byte-aligned chunk payloads, each
+// payload zstd-compressed (or stored raw when that is not smaller) and checked with XXH3-64 before
+// and after decompression. Byte layout, versioning policy and the reason for every check:
+// docs/asset.md; on-disk structs: format.h.
+//
+// Reserved chunk types (a file may hold several chunks of one type; readers skip unknown types):
+//   'SCEN' scene: meshes, materials, embedded RGBA8 textures, instances (scene_chunk.h)
+//   'MESH' mesh geometry
+//   'CDAG' cluster DAG (opaque bytes written by the LOD module)
+//   'SURF' surfels
+//   'PVS ' potentially visible sets
+//   'META' JSON metadata (format version, counts; for tools and humans)
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mirage/asset/format.h"
+#include "mirage/core/result.h"
+
+namespace mirage::asset {
+
+struct FourCC {
+  uint32_t code = 0;
+  constexpr FourCC() = default;
+  constexpr explicit FourCC(uint32_t c) : code(c) {}
+  // FourCC("SCEN"): four characters, stored first character in the low byte.
+  constexpr FourCC(const char (&s)[5])
+      : code(uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 | uint32_t(uint8_t(s[2])) << 16 |
+             uint32_t(uint8_t(s[3])) << 24) {}
+  // Printable form for messages; non-printable bytes appear as \xNN.
+  std::string str() const;
+  friend constexpr bool operator==(FourCC, FourCC) = default;
+};
+
+namespace chunk {
+inline constexpr FourCC Scene{"SCEN"};
+inline constexpr FourCC Mesh{"MESH"};
+inline constexpr FourCC ClusterDag{"CDAG"};
+inline constexpr FourCC Surfels{"SURF"};
+inline constexpr FourCC Visibility{"PVS "};
+inline constexpr FourCC Meta{"META"};
+} // namespace chunk
+
+// zstd level 3 compresses scene data at a few hundred MB/s; bakers that write once and load often
+// can pass up to 19 (22 needs more decoder memory). 0 stores the chunk raw.
+inline constexpr int kDefaultZstdLevel = 3;
+
+// One chunk-table entry, as validated by AssetReader::open.
+struct ChunkInfo {
+  FourCC type;
+  bool compressed = false; // zstd frame on disk
+  uint64_t offset = 0;
+  uint64_t storedBytes = 0;
+  uint64_t rawBytes = 0;
+  uint64_t storedHash = 0;
+  uint64_t rawHash = 0;
+  int32_t zstdLevel = 0;
+};
+
+// Collects chunks, then writes them in one atomic step. Chunks are compressed when added, so the
+// writer holds only the compressed bytes.
+class AssetWriter {
+public:
+  // zstdLevel: 0 stores raw, otherwise a zstd level (clamped to zstd's range). Compressed output
+  // that is not smaller than the input is stored raw instead. Compression errors surface in write().
+  void addChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel = kDefaultZstdLevel);
+  size_t chunkCount() const { return chunks_.size(); }
+
+  // Writes "<path>.tmp-<pid>", fsyncs it and renames it over `path`, so readers see either the
+  // old file or the complete new one. On any failure the temp file is removed and `path` is
+  // untouched. Writes nothing but these two names (a symlink at `path` is replaced, not followed).
+  Status write(const std::string& path) const;
+
+private:
+  struct Pending {
+    ChunkInfo info;
+    std::vector<uint8_t> stored;
+  };
+  std::vector<Pending> chunks_;
+  std::optional<Error> error_; // first addChunk failure, reported by write()
+};
+
+// Reads a validated .mrg file. open() checks the whole structure (magic, version, header and table
+// checksums, bounds, overlaps, sizes) so that readChunk only has payload checks left. Reads use
+// pread on an open descriptor: readChunk is const and safe to call from several threads.
+class AssetReader {
+public:
+  static Result<AssetReader> open(const std::string& path);
+
+  AssetReader(AssetReader&& other) noexcept;
+  AssetReader& operator=(AssetReader&& other) noexcept;
+  AssetReader(const AssetReader&) = delete;
+  AssetReader& operator=(const AssetReader&) = delete;
+  ~AssetReader();
+
+  const std::string& path() const { return path_; }
+  uint64_t fileBytes() const { return fileBytes_; }
+  uint32_t version() const { return kFormatVersion; }
+  const std::vector<ChunkInfo>& chunks() const { return chunks_; }
+  // Index of the first chunk of `type`, if any.
+  std::optional<size_t> find(FourCC type) const;
+
+  // The decompressed payload, after checking the stored hash, the zstd frame's declared size, the
+  // decompressed size and the raw hash.
+  Result<std::vector<uint8_t>> readChunk(size_t index) const;
+  // The first chunk of `type`; an error naming the type when there is none.
+  Result<std::vector<uint8_t>> readChunk(FourCC type) const;
+
+private:
+  AssetReader() = default;
+  Error error(const std::string& problem) const { return makeError(path_, problem); }
+
+  std::string path_;
+  int fd_ = -1;
+  uint64_t fileBytes_ = 0;
+  std::vector<ChunkInfo> chunks_;
+};
+
+} // namespace mirage::asset

@@ -1,0 +1,240 @@
+// AssetReader: validate the whole structure at open, payloads at readChunk. Every size read from
+// the file is checked against the file size (or kMaxChunkBytes) before it is used to allocate,
+// and all offset arithmetic is done in uint64_t after overflow checks.
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <new>
+#include <cstdio>
+#include <numeric>
+#include <utility>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <xxhash.h>
+#include <zstd.h>
+
+#include "mirage/asset/container.h"
+
+namespace mirage::asset {
+namespace {
+
+std::string hex(uint64_t v) {
+  char buf[24];
+  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+// pread until done; false on error or end of file (the file shrank after open).
+bool readAt(int fd, uint64_t offset, void* out, size_t n) {
+  auto* bytes = static_cast<uint8_t*>(out);
+  while (n > 0) {
+    ssize_t r = ::pread(fd, bytes, n, off_t(offset));
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) return false;
+    bytes += r;
+    n -= size_t(r);
+    offset += uint64_t(r);
+  }
+  return true;
+}
+
+} // namespace
+
+std::string FourCC::str() const {
+  std::string s;
+  for (int i = 0; i < 4; ++i) {
+    auto c = static_cast<unsigned char>(code >> (8 * i));
+    if (c >= 0x20 && c < 0x7f) {
+      s += char(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\x%02x", c);
+      s += buf;
+    }
+  }
+  return "'" + s + "'";
+}
+
+AssetReader::AssetReader(AssetReader&& other) noexcept
+    : path_(std::move(other.path_)), fd_(std::exchange(other.fd_, -1)), fileBytes_(other.fileBytes_),
+      chunks_(std::move(other.chunks_)) {}
+
+AssetReader& AssetReader::operator=(AssetReader&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    path_ = std::move(other.path_);
+    fd_ = std::exchange(other.fd_, -1);
+    fileBytes_ = other.fileBytes_;
+    chunks_ = std::move(other.chunks_);
+  }
+  return *this;
+}
+
+AssetReader::~AssetReader() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+Result<AssetReader> AssetReader::open(const std::string& path) {
+  AssetReader r;
+  r.path_ = path;
+  // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer forever. It has no
+  // effect on regular files, and anything else is rejected right below.
+  r.fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (r.fd_ < 0) return r.error(std::strerror(errno));
+  struct stat st {};
+  if (::fstat(r.fd_, &st) != 0) return r.error(std::strerror(errno));
+  // Directories and devices have no meaningful size; reading them would fail later or block.
+  if (!S_ISREG(st.st_mode)) return r.error("not a regular file");
+  r.fileBytes_ = uint64_t(st.st_size);
+
+  // Magic first, so any non-Mirage file gets the plainest possible message.
+  FileHeader h{};
+  if (r.fileBytes_ < sizeof(kMagic) || !readAt(r.fd_, 0, h.magic, sizeof(kMagic)) ||
+      std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0)
+    return r.error("not a Mirage asset (bad magic)");
+  // Version before the checksum: another version may lay the header out differently, and
+  // "version 2, this build reads 1" is the useful message for a newer file.
+  if (r.fileBytes_ < offsetof(FileHeader, headerBytes) || !readAt(r.fd_, 8, &h.version, sizeof(h.version)))
+    return r.error("truncated header (" + std::to_string(r.fileBytes_) + " bytes)");
+  if (h.version != kFormatVersion)
+    return r.error("unsupported .mrg format version " + std::to_string(h.version) + " (this build reads version " +
+                   std::to_string(kFormatVersion) + ")");
+  if (r.fileBytes_ < sizeof(FileHeader) || !readAt(r.fd_, 0, &h, sizeof(h)))
+    return r.error("truncated header (" + std::to_string(r.fileBytes_) + " bytes, need " +
+                   std::to_string(sizeof(FileHeader)) + ")");
+  uint64_t headerHash = XXH3_64bits(&h, offsetof(FileHeader, headerHash));
+  if (headerHash != h.headerHash)
+    return r.error("header checksum mismatch (stored " + hex(h.headerHash) + ", computed " + hex(headerHash) + ")");
+  // The checksum only proves the header is what some writer wrote; the fields must still make sense.
+  if (h.headerBytes != sizeof(FileHeader))
+    return r.error("header size " + std::to_string(h.headerBytes) + " is not " + std::to_string(sizeof(FileHeader)));
+  if (h.flags != 0 || h.reserved != 0) return r.error("reserved header fields are not zero");
+  if (h.fileBytes != r.fileBytes_)
+    return r.error("file is " + std::to_string(r.fileBytes_) + " bytes but the header says " +
+                   std::to_string(h.fileBytes) + (r.fileBytes_ < h.fileBytes ? " (truncated)" : " (trailing bytes)"));
+  if (h.chunkCount > kMaxChunks)
+    return r.error("chunk count " + std::to_string(h.chunkCount) + " exceeds " + std::to_string(kMaxChunks));
+  if (h.tableOffset < sizeof(FileHeader) || h.tableOffset % kPayloadAlignment != 0 || h.tableOffset > r.fileBytes_)
+    return r.error("chunk table offset " + std::to_string(h.tableOffset) + " is invalid");
+  // chunkCount <= 2^16, so the table size cannot overflow; its end is compared without adding.
+  uint64_t tableBytes = uint64_t(h.chunkCount) * sizeof(ChunkEntry);
+  if (tableBytes > r.fileBytes_ - h.tableOffset)
+    return r.error("chunk table (" + std::to_string(h.chunkCount) + " entries) runs past the end of the file");
+  uint64_t tableEnd = h.tableOffset + tableBytes;
+
+  std::vector<ChunkEntry> table(h.chunkCount);
+  if (!readAt(r.fd_, h.tableOffset, table.data(), tableBytes)) return r.error("cannot read the chunk table");
+  uint64_t tableHash = XXH3_64bits(table.data(), tableBytes);
+  if (tableHash != h.tableHash)
+    return r.error("chunk table checksum mismatch (stored " + hex(h.tableHash) + ", computed " + hex(tableHash) + ")");
+
+  r.chunks_.reserve(table.size());
+  for (size_t i = 0; i < table.size(); ++i) {
+    const ChunkEntry& e = table[i];
+    std::string name = "chunk " + std::to_string(i) + " " + FourCC(e.type).str();
+    if (e.flags & ~kChunkZstd) return r.error(name + " has unknown flags " + hex(e.flags));
+    if (e.reserved0 != 0 || e.reserved1 != 0) return r.error(name + " has non-zero reserved fields");
+    if (e.offset % kPayloadAlignment != 0)
+      return r.error(name + " offset " + std::to_string(e.offset) + " is unaligned");
+    if (e.offset < tableEnd)
+      return r.error(name + " offset " + std::to_string(e.offset) + " overlaps the header/table");
+    // Written as a subtraction so a huge storedBytes cannot wrap offset + storedBytes around.
+    if (e.offset > r.fileBytes_ || e.storedBytes > r.fileBytes_ - e.offset)
+      return r.error(name + " (offset " + std::to_string(e.offset) + ", " + std::to_string(e.storedBytes) +
+                     " bytes) runs past the end of the file (" + std::to_string(r.fileBytes_) + " bytes)");
+    if (e.rawBytes > kMaxChunkBytes)
+      return r.error(name + " claims " + std::to_string(e.rawBytes) + " uncompressed bytes, over the limit of " +
+                     std::to_string(kMaxChunkBytes));
+    bool compressed = e.flags & kChunkZstd;
+    if (!compressed && (e.rawBytes != e.storedBytes || e.zstdLevel != 0))
+      return r.error(name + " is stored raw but its sizes differ or it names a zstd level");
+    // A zstd frame has a header of at least a few bytes, and the writer only keeps it if smaller.
+    if (compressed && (e.storedBytes == 0 || e.storedBytes >= e.rawBytes))
+      return r.error(name + " is marked compressed but its sizes are inconsistent");
+    ChunkInfo c;
+    c.type = FourCC(e.type);
+    c.compressed = compressed;
+    c.offset = e.offset;
+    c.storedBytes = e.storedBytes;
+    c.rawBytes = e.rawBytes;
+    c.storedHash = e.storedHash;
+    c.rawHash = e.rawHash;
+    c.zstdLevel = e.zstdLevel;
+    r.chunks_.push_back(c);
+  }
+  // Overlapping payloads would let one corrupt write damage two chunks; a valid writer never makes them.
+  std::vector<size_t> order(r.chunks_.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  // Ties broken by size: an empty chunk shares its offset with the next payload, and must sort first.
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const ChunkInfo &x = r.chunks_[a], &y = r.chunks_[b];
+    return x.offset != y.offset ? x.offset < y.offset : x.storedBytes < y.storedBytes;
+  });
+  for (size_t k = 1; k < order.size(); ++k) {
+    const ChunkInfo& prev = r.chunks_[order[k - 1]];
+    const ChunkInfo& cur = r.chunks_[order[k]];
+    if (cur.offset < prev.offset + prev.storedBytes) // no overflow: both inside the file
+      return r.error("chunks " + std::to_string(std::min(order[k - 1], order[k])) + " and " +
+                     std::to_string(std::max(order[k - 1], order[k])) + " overlap");
+  }
+  return r;
+}
+
+std::optional<size_t> AssetReader::find(FourCC type) const {
+  for (size_t i = 0; i < chunks_.size(); ++i)
+    if (chunks_[i].type == type) return i;
+  return std::nullopt;
+}
+
+Result<std::vector<uint8_t>> AssetReader::readChunk(FourCC type) const {
+  std::optional<size_t> i = find(type);
+  if (!i) return error("no " + type.str() + " chunk");
+  return readChunk(*i);
+}
+
+Result<std::vector<uint8_t>> AssetReader::readChunk(size_t index) const {
+  if (index >= chunks_.size())
+    return error("chunk index " + std::to_string(index) + " out of range (" + std::to_string(chunks_.size()) +
+                 " chunks)");
+  const ChunkInfo& c = chunks_[index];
+  std::string name = "chunk " + std::to_string(index) + " " + c.type.str();
+  try {
+    // storedBytes was checked against the file size in open(), so this allocation is bounded.
+    std::vector<uint8_t> stored(c.storedBytes);
+    if (!readAt(fd_, c.offset, stored.data(), stored.size()))
+      return error(name + ": read failed (file changed since it was opened?)");
+    uint64_t storedHash = XXH3_64bits(stored.data(), stored.size());
+    if (storedHash != c.storedHash)
+      return error(name + " checksum mismatch (stored " + hex(c.storedHash) + ", computed " + hex(storedHash) + ")");
+    std::vector<uint8_t> raw;
+    if (!c.compressed) {
+      raw = std::move(stored);
+    } else {
+      // Ask the frame before allocating: its declared size must be exactly the table's.
+      unsigned long long frameSize = ZSTD_getFrameContentSize(stored.data(), stored.size());
+      if (frameSize == ZSTD_CONTENTSIZE_ERROR || frameSize == ZSTD_CONTENTSIZE_UNKNOWN || frameSize != c.rawBytes)
+        return error(name + ": zstd frame size does not match the table (" + std::to_string(c.rawBytes) + " bytes)");
+      size_t frameBytes = ZSTD_findFrameCompressedSize(stored.data(), stored.size());
+      if (ZSTD_isError(frameBytes) || frameBytes != stored.size())
+        return error(name + ": payload is not exactly one zstd frame");
+      raw.resize(c.rawBytes);
+      size_t n = ZSTD_decompress(raw.data(), raw.size(), stored.data(), stored.size());
+      if (ZSTD_isError(n)) return error(name + ": zstd: " + ZSTD_getErrorName(n));
+      if (n != c.rawBytes)
+        return error(name + ": decompressed to " + std::to_string(n) + " bytes, expected " +
+                     std::to_string(c.rawBytes));
+    }
+    uint64_t rawHash = XXH3_64bits(raw.data(), raw.size());
+    if (rawHash != c.rawHash)
+      return error(name + " uncompressed checksum mismatch (stored " + hex(c.rawHash) + ", computed " + hex(rawHash) +
+                   ")");
+    return raw;
+  } catch (const std::bad_alloc&) {
+    return error(name + ": out of memory for " + std::to_string(c.rawBytes) + " bytes");
+  }
+}
+
+} // namespace mirage::asset

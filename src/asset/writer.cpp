@@ -1,0 +1,174 @@
+// AssetWriter: compress chunks as they are added, then lay out header, table and aligned payloads
+// and write them through a temp file that is fsynced and renamed into place.
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <new>
+#include <thread>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <xxhash.h>
+#include <zstd.h>
+
+#include "mirage/asset/container.h"
+
+namespace mirage::asset {
+namespace {
+
+uint64_t alignUp(uint64_t v) { return (v + kPayloadAlignment - 1) / kPayloadAlignment * kPayloadAlignment; }
+
+std::string errnoText(int err) { return std::strerror(err); }
+
+// Compress with zstd; large chunks (cluster DAGs reach gigabytes) use zstd's worker threads,
+// since on one thread compression would dominate the bake's write time.
+Result<std::vector<uint8_t>> compress(std::span<const uint8_t> data, int level) {
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  if (!cctx) return Error{"zstd: cannot create a compression context"};
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
+  // The frame must declare its content size: the reader checks it against the table.
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 1);
+  if (data.size() >= (8u << 20)) {
+    int workers = int(std::min(8u, std::max(1u, std::thread::hardware_concurrency())));
+    ZSTD_CCtx_setParameter(cctx, ZSTD_c_nbWorkers, workers); // ignored error: library built without threads
+  }
+  std::vector<uint8_t> out(ZSTD_compressBound(data.size()));
+  size_t n = ZSTD_compress2(cctx, out.data(), out.size(), data.data(), data.size());
+  ZSTD_freeCCtx(cctx);
+  if (ZSTD_isError(n)) return Error{std::string("zstd: ") + ZSTD_getErrorName(n)};
+  out.resize(n);
+  return out;
+}
+
+// write(2) until done: it may write less than asked (signals, pipes, some file systems).
+bool writeAll(int fd, const void* p, size_t n) {
+  const auto* bytes = static_cast<const uint8_t*>(p);
+  while (n > 0) {
+    ssize_t w = ::write(fd, bytes, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w == 0) errno = EIO; // no progress and no errno: report an I/O error, not a stale errno
+    if (w <= 0) return false;
+    bytes += w;
+    n -= size_t(w);
+  }
+  return true;
+}
+
+std::string parentDir(const std::string& path) {
+  size_t slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  return slash == 0 ? "/" : path.substr(0, slash);
+}
+
+} // namespace
+
+void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel) {
+  if (error_) return;
+  try {
+    Pending p;
+    p.info.type = type;
+    p.info.rawBytes = data.size();
+    p.info.rawHash = XXH3_64bits(data.data(), data.size());
+    if (zstdLevel != 0 && !data.empty()) {
+      int level = std::clamp(zstdLevel, ZSTD_minCLevel(), ZSTD_maxCLevel());
+      Result<std::vector<uint8_t>> packed = compress(data, level);
+      if (!packed) {
+        error_ = Error{"chunk " + type.str() + ": " + packed.error().message};
+        return;
+      }
+      // Stored raw when compression does not help: the reader then skips decompression entirely.
+      if (packed->size() < data.size()) {
+        p.stored = std::move(*packed);
+        p.info.compressed = true;
+        p.info.zstdLevel = level;
+      }
+    }
+    if (!p.info.compressed) p.stored.assign(data.begin(), data.end());
+    p.info.storedBytes = p.stored.size();
+    p.info.storedHash = XXH3_64bits(p.stored.data(), p.stored.size());
+    chunks_.push_back(std::move(p));
+  } catch (const std::bad_alloc&) {
+    error_ = Error{"chunk " + type.str() + ": out of memory (" + std::to_string(data.size()) + " bytes)"};
+  }
+}
+
+Status AssetWriter::write(const std::string& path) const {
+  if (error_) return makeError(path, error_->message);
+  if (chunks_.size() > kMaxChunks) return makeError(path, "too many chunks (" + std::to_string(chunks_.size()) + ")");
+
+  // Layout: header, table, then each payload at the next aligned offset (zero padding between).
+  FileHeader header{};
+  std::memcpy(header.magic, kMagic, sizeof(kMagic));
+  header.version = kFormatVersion;
+  header.headerBytes = sizeof(FileHeader);
+  header.chunkCount = uint32_t(chunks_.size());
+  header.tableOffset = alignUp(sizeof(FileHeader));
+  std::vector<ChunkEntry> table(chunks_.size());
+  uint64_t end = header.tableOffset + table.size() * sizeof(ChunkEntry);
+  for (size_t i = 0; i < chunks_.size(); ++i) {
+    const ChunkInfo& c = chunks_[i].info;
+    ChunkEntry& e = table[i];
+    e = ChunkEntry{};
+    e.type = c.type.code;
+    e.flags = c.compressed ? kChunkZstd : 0;
+    e.offset = alignUp(end);
+    e.storedBytes = c.storedBytes;
+    e.rawBytes = c.rawBytes;
+    e.storedHash = c.storedHash;
+    e.rawHash = c.rawHash;
+    e.zstdLevel = c.zstdLevel;
+    end = e.offset + e.storedBytes;
+  }
+  header.fileBytes = end;
+  header.tableHash = XXH3_64bits(table.data(), table.size() * sizeof(ChunkEntry));
+  header.headerHash = XXH3_64bits(&header, offsetof(FileHeader, headerHash));
+
+  // O_EXCL | O_NOFOLLOW: never write through a symlink or into a file someone else created under
+  // the temp name. A stale temp of ours (same pid, earlier crash) is removed first.
+  std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  ::unlink(tmp.c_str());
+  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) return makeError(path, "cannot create " + tmp + ": " + errnoText(errno));
+
+  auto fail = [&](const std::string& problem) -> Status {
+    int err = errno;
+    if (fd >= 0) ::close(fd);
+    ::unlink(tmp.c_str());
+    return makeError(path, problem + ": " + errnoText(err));
+  };
+
+  static const uint8_t zeros[kPayloadAlignment] = {};
+  uint64_t at = 0;
+  auto pad = [&](uint64_t to) { // zero padding up to an aligned offset
+    bool ok = writeAll(fd, zeros, size_t(to - at));
+    at = to;
+    return ok;
+  };
+  if (!writeAll(fd, &header, sizeof(header))) return fail("write failed");
+  at = sizeof(header);
+  if (!pad(header.tableOffset) || !writeAll(fd, table.data(), table.size() * sizeof(ChunkEntry)))
+    return fail("write failed");
+  at += table.size() * sizeof(ChunkEntry);
+  for (size_t i = 0; i < chunks_.size(); ++i) {
+    if (!pad(table[i].offset) || !writeAll(fd, chunks_[i].stored.data(), chunks_[i].stored.size()))
+      return fail("write failed");
+    at += chunks_[i].stored.size();
+  }
+  // fsync before rename: otherwise a crash can leave the new name pointing at an empty file.
+  if (::fsync(fd) != 0) return fail("fsync failed");
+  int closeResult = ::close(fd);
+  fd = -1;
+  if (closeResult != 0) return fail("close failed");
+  if (::rename(tmp.c_str(), path.c_str()) != 0) return fail("cannot rename " + tmp + " to the output");
+  // Persist the rename itself; best effort (some file systems refuse fsync on directories).
+  int dir = ::open(parentDir(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
+  return Ok{};
+}
+
+} // namespace mirage::asset
