@@ -1,5 +1,6 @@
 // mirage bench ...: performance measurements (GPU times from Vulkan timestamp queries).
 // bench render: the forward baseline on a scene, median per-pass GPU times over N frames.
+// bench import: importer throughput in MB/s.
 #include <chrono>
 
 #include <fmt/format.h>
@@ -7,6 +8,10 @@
 
 #include "cmd_list.h"
 #include "commands.h"
+#include <algorithm>
+#include <filesystem>
+
+#include "mirage/io/import.h"
 #include "mirage/render/forward_renderer.h"
 #include "render_common.h"
 
@@ -75,6 +80,40 @@ void runBenchRender(const BenchRenderOptions& o) {
   fmt::print("  wall per frame incl. readback {:.2f} ms (median)\n", wall[wall.size() / 2]);
 }
 
+struct BenchImportOptions {
+  std::string input;
+  int repeat = 5;
+  bool json = false;
+};
+
+void runBenchImport(const BenchImportOptions& o) {
+  if (o.repeat < 1 || o.repeat > 1000) return fail("--repeat must be in 1..1000");
+  std::error_code ec;
+  uint64_t bytes = std::filesystem::file_size(o.input, ec);
+  if (ec) return fail(makeError(o.input, "cannot read the file size"));
+  std::vector<double> seconds;
+  size_t triangles = 0;
+  for (int i = 0; i < o.repeat; ++i) {
+    auto t0 = std::chrono::steady_clock::now();
+    auto scene = io::importScene(o.input);
+    if (!scene) return fail(scene.error());
+    seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    triangles = scene->meshTriangleCount();
+  }
+  std::sort(seconds.begin(), seconds.end());
+  double median = seconds[seconds.size() / 2];
+  double mbps = double(bytes) / 1e6 / median;
+  if (o.json) {
+    nlohmann::json j = {{"bench", "import"}, {"input", o.input}, {"bytes", bytes}, {"triangles", triangles},
+                        {"runs", o.repeat},  {"median_seconds", median}, {"min_seconds", seconds.front()},
+                        {"mb_per_second", mbps}};
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("bench import {}: {:.1f} MB, {} triangles, median {:.3f} s (min {:.3f}) over {} runs = {:.0f} MB/s\n",
+             o.input, double(bytes) / 1e6, triangles, median, seconds.front(), o.repeat, mbps);
+}
+
 } // namespace
 
 void addBenchCommand(CLI::App& app) {
@@ -88,6 +127,13 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--device", o->device, "Vulkan device name substring or index");
   r->add_flag("--json", o->json, "Print results as JSON");
   r->callback([o] { runBenchRender(*o); });
+
+  auto* im = bench->add_subcommand("import", "Scene import speed: median wall time and MB/s (welding included)");
+  auto io = std::make_shared<BenchImportOptions>();
+  im->add_option("input", io->input, "Scene file (.gltf .glb .obj .ply)")->required();
+  im->add_option("--repeat", io->repeat, "Runs; the median is reported")->capture_default_str();
+  im->add_flag("--json", io->json, "Print results as JSON");
+  im->callback([io] { runBenchImport(*io); });
 }
 
 } // namespace mirage::cli

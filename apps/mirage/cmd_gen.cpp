@@ -1,4 +1,4 @@
-// mirage gen: procedural test scenes written as GLB.
+// mirage gen: procedural test scenes written as GLB (or binary PLY, like a scanner's output).
 #include <chrono>
 #include <filesystem>
 #include <memory>
@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "mirage/io/generate.h"
 #include "mirage/io/gltf_write.h"
+#include "mirage/io/ply_write.h"
 
 namespace mirage::cli {
 
@@ -28,12 +29,15 @@ void runGen(const GenArgs& args) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return fail(makeError(args.output, "output directory does not exist"));
   if (fs::is_directory(out, ec)) return fail(makeError(args.output, "is a directory"));
+  if (out.extension() != ".glb" && out.extension() != ".ply")
+    return fail(makeError(args.output, "unsupported output extension (expected .glb or .ply)"));
 
   auto start = std::chrono::steady_clock::now();
   Result<Scene> scene = io::generateScene(args.kind, args.seed, args.size);
   if (!scene) return fail(scene.error());
   double genSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (Status s = io::writeGlb(*scene, out); !s) return fail(s.error());
+  Status written = out.extension() == ".ply" ? io::writePly(*scene, out) : io::writeGlb(*scene, out);
+  if (!written) return fail(written.error());
   double totalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   fmt::print("wrote {}: {} seed {}, {} triangles ({} unique), {} instances, {} meshes, {} bytes ({:.2f}s, "
              "generate {:.2f}s)\n",
@@ -47,7 +51,7 @@ void addGenCommand(CLI::App& app) {
   auto args = std::make_shared<GenArgs>();
   CLI::App* cmd = app.add_subcommand("gen", "Generate a procedural scene (deterministic per seed) as GLB");
   cmd->add_option("kind", args->kind, "city | terrain | blob")->required();
-  cmd->add_option("-o,--output", args->output, "Output .glb file")->required();
+  cmd->add_option("-o,--output", args->output, "Output .glb (scene with instances) or .ply (binary, instances baked)")->required();
   cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
   cmd->add_option("--size", args->size,
                   "city: blocks per side (default 4); terrain: vertices per side (default 1024); "

@@ -12,7 +12,9 @@
 #include <stb/stb_image_write.h>
 
 #include "mirage/io/import.h"
+#include "mirage/io/generate.h"
 #include "mirage/io/mesh_utils.h"
+#include "mirage/io/ply_write.h"
 #include "support/test_support.h"
 
 using namespace mirage;
@@ -540,4 +542,20 @@ TEST(ImportErrors, Gltf) {
   expectError(io::importGltf(draco), draco, "unsupported glTF extension KHR_draco_mesh_compression");
   auto random = writeFile(dir / "random.glb", std::string(64, '\x7f'));
   expectError(io::importScene(random), random, "");
+}
+
+TEST(PlyWrite, RoundTripsThroughTheImporter) {
+  mirage::Scene scene = mirage::io::generateScene("blob", 3, 2).value();
+  auto dir = mirage::test::tempDir("plywrite");
+  auto path = dir / "blob.ply";
+  mirage::io::PlyWriteOptions options;
+  options.normals = true;
+  ASSERT_TRUE(mirage::io::writePly(scene, path, options).ok());
+  auto back = mirage::io::importPly(path);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_EQ(back->meshTriangleCount(), scene.meshTriangleCount());
+  // Positions survive exactly (float32 both ways); welding keeps them in order.
+  ASSERT_EQ(back->meshes[0].positions.size(), scene.meshes[0].positions.size());
+  for (size_t i = 0; i < scene.meshes[0].positions.size(); i += 97)
+    EXPECT_EQ(back->meshes[0].positions[i], scene.meshes[0].positions[i]);
 }
