@@ -185,3 +185,65 @@ TEST(ClusterDag, ThreadCountDoesNotChangeTheResult) {
 
 } // namespace
 } // namespace mirage::lod
+
+namespace mirage::lod {
+namespace {
+
+// The verifiers must catch broken DAGs and cuts, or the tests above prove nothing.
+class BrokenDag : public ::testing::Test {
+protected:
+  void SetUp() override {
+    mesh = lodtest::makeBlob(4, 11);
+    Result<ClusterDag> r = buildClusterDag(mesh, {});
+    ASSERT_TRUE(r.ok());
+    dag = std::move(r).value();
+    ASSERT_TRUE(verifyDag(dag).ok());
+    ASSERT_GE(dag.groups.size(), 3u);
+  }
+  Mesh mesh;
+  ClusterDag dag;
+};
+
+TEST_F(BrokenDag, MissingClusterIsACrack) {
+  std::vector<uint32_t> cut = selectCut(dag, 0.0f);
+  cut.erase(cut.begin() + cut.size() / 2);
+  Status s = verifyCut(dag, cut, mesh);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("crack"), std::string::npos) << s.error().message;
+}
+
+TEST_F(BrokenDag, ClusterWithItsAncestorIsAnOverlap) {
+  std::vector<uint32_t> cut = selectCut(dag, 0.0f);
+  cut.push_back(dag.groupParents[dag.groups[0].parentOffset]);
+  EXPECT_FALSE(verifyCut(dag, cut, mesh).ok());
+}
+
+TEST_F(BrokenDag, NonMonotonicErrorIsCaught) {
+  Group& g = dag.groups[dag.groups.size() - 1];
+  uint32_t child = dag.groupChildren[g.childOffset];
+  dag.clusters[child].self.error = g.bounds.error * 2.0f + 1.0f;
+  EXPECT_FALSE(verifyDag(dag).ok());
+}
+
+TEST_F(BrokenDag, SphereThatDoesNotNestIsCaught) {
+  Group& g = dag.groups[0];
+  g.bounds.radius *= 0.5f;
+  for (uint32_t i = 0; i < g.childCount; ++i) dag.clusters[dag.groupChildren[g.childOffset + i]].parent = g.bounds;
+  Status s = verifyDag(dag);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("sphere"), std::string::npos) << s.error().message;
+}
+
+TEST_F(BrokenDag, CollapsedParentClusterIsCaught) {
+  // Point every vertex of a parent cluster at one new position: its triangles and the border break.
+  const Group& g = dag.groups[0];
+  const Cluster& p = dag.clusters[dag.groupParents[g.parentOffset]];
+  dag.vertexPosition.push_back(dag.vertexPosition[dag.clusterVertices[p.vertexOffset]]);
+  dag.positions.push_back(dag.positions[dag.vertexPosition.back()] + glm::vec3(1e-3f));
+  dag.vertexPosition.back() = uint32_t(dag.positions.size() - 1);
+  for (uint32_t v = 0; v < p.vertexCount; ++v) dag.clusterVertices[p.vertexOffset + v] = uint32_t(dag.vertexPosition.size() - 1);
+  EXPECT_FALSE(verifyDag(dag).ok());
+}
+
+} // namespace
+} // namespace mirage::lod
