@@ -68,6 +68,8 @@ public:
     alive_.assign(nt, 1);
     live_ = nt;
     version_.assign(nv, 0);
+    dirty_.assign(nv, 0);
+    queued_.assign(nv, 0);
     q_.assign(nv, Quadric{});
     initQuadrics();
   }
@@ -78,6 +80,12 @@ public:
       Entry e = heap_.top();
       heap_.pop();
       if (e.version != version_[e.u] || head_[e.u] == kNil) continue;
+      if (dirty_[e.u]) {
+        // Lazy re-evaluation: collapses only raise costs (quadrics accumulate), so the stale cost
+        // is a good lower bound and most dirty vertices are never evaluated again before the target.
+        push(e.u);
+        continue;
+      }
       // Neighbourhoods two rings away may have changed since this entry was pushed: recheck.
       gatherRing(e.u, ringU_);
       if (!legal(e.u, e.w)) {
@@ -85,7 +93,7 @@ public:
         continue;
       }
       maxCost_ = std::max(maxCost_, double(std::max(e.cost, 0.0f)));
-      collapse(e.u, e.w);
+      collapse(e);
     }
     compact();
     return float(std::sqrt(maxCost_));
@@ -240,6 +248,8 @@ private:
   // Re-evaluates v's cheapest legal collapse and queues it (older entries of v go stale).
   void push(uint32_t v) {
     ++version_[v];
+    dirty_[v] = 0;
+    queued_[v] = 0;
     if (head_[v] == kNil || m_.locked[v]) return;
     gatherRing(v, ringU_);
     candidates(v, cand_);
@@ -250,11 +260,24 @@ private:
     for (auto [c, w] : scored_)
       if (legal(v, w)) {
         heap_.push({float(c), v, w, version_[v]});
+        queued_[v] = 1;
         return;
       }
   }
 
-  void collapse(uint32_t u, uint32_t w) {
+  // v's neighbourhood changed: re-evaluate it when its (stale) entry comes up; a vertex without
+  // an entry gets one at the current cost level so it is looked at again soon.
+  void markDirty(uint32_t v, float cost) {
+    if (m_.locked[v] || head_[v] == kNil) return;
+    dirty_[v] = 1;
+    if (!queued_[v]) {
+      heap_.push({cost, v, kNil, version_[v]});
+      queued_[v] = 1;
+    }
+  }
+
+  void collapse(const Entry& e) {
+    uint32_t u = e.u, w = e.w;
     // Attribute wedges: a corner of u takes the attribute w has in a dying triangle on the same
     // side of any attribute seam (same attribute at u), so UV charts stay consistent.
     pairs_.clear();
@@ -277,18 +300,24 @@ private:
       a = mapped;
     });
     q_[w].add(q_[u]);
-    // Splice u's corner list in front of w's; dead triangles are skipped lazily.
-    if (head_[u] != kNil) {
-      next_[tail_[u]] = head_[w];
-      if (tail_[w] == kNil) tail_[w] = tail_[u];
-      head_[w] = head_[u];
-    }
+    // w's corner list becomes its live corners plus u's: dropping dead ones keeps lists short.
+    uint32_t first = kNil, last = kNil;
+    for (uint32_t v : {w, u})
+      for (uint32_t c = head_[v], n; c != kNil; c = n) {
+        n = next_[c];
+        if (!alive_[c / 3]) continue;
+        (last == kNil ? first : next_[last]) = c;
+        last = c;
+      }
+    if (last != kNil) next_[last] = kNil;
+    head_[w] = first;
+    tail_[w] = last;
     head_[u] = tail_[u] = kNil;
     ++version_[u];
     gatherRing(w, ringTouched_);
     ringTouched_.erase(std::unique(ringTouched_.begin(), ringTouched_.end()), ringTouched_.end());
-    push(w);
-    for (uint32_t x : ringTouched_) push(x);
+    markDirty(w, e.cost);
+    for (uint32_t x : ringTouched_) markDirty(x, e.cost);
   }
 
   void compact() {
@@ -309,7 +338,7 @@ private:
   glm::dvec3 center_;
   std::vector<glm::dvec3> p_;
   std::vector<uint32_t> head_, tail_, next_, version_;
-  std::vector<uint8_t> alive_;
+  std::vector<uint8_t> alive_, dirty_, queued_;
   std::vector<Quadric> q_;
   size_t live_ = 0;
   double maxCost_ = 0.0;

@@ -241,7 +241,8 @@ TEST_F(BrokenDag, CollapsedParentClusterIsCaught) {
   dag.vertexPosition.push_back(dag.vertexPosition[dag.clusterVertices[p.vertexOffset]]);
   dag.positions.push_back(dag.positions[dag.vertexPosition.back()] + glm::vec3(1e-3f));
   dag.vertexPosition.back() = uint32_t(dag.positions.size() - 1);
-  for (uint32_t v = 0; v < p.vertexCount; ++v) dag.clusterVertices[p.vertexOffset + v] = uint32_t(dag.vertexPosition.size() - 1);
+  for (uint32_t v = 0; v < p.vertexCount; ++v)
+    dag.clusterVertices[p.vertexOffset + v] = uint32_t(dag.vertexPosition.size() - 1);
   EXPECT_FALSE(verifyDag(dag).ok());
 }
 
