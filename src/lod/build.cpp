@@ -1,5 +1,6 @@
 // buildClusterDag: level loop (group -> lock -> simplify -> split), see docs/lod.md.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -31,15 +32,20 @@ struct GroupWork {
 
 class Builder {
 public:
-  Builder(ClusterDag& dag, const BuildConfig& cfg) : dag_(dag), cfg_(cfg) {}
+  Builder(ClusterDag& dag, const BuildConfig& cfg, std::chrono::steady_clock::time_point start)
+      : dag_(dag), cfg_(cfg), start_(start) {}
 
   void run(const std::vector<uint32_t>& triangles) {
     if (triangles.empty()) return;
     posOwner_.assign(dag_.positions.size(), kNone);
-    ClusterSet base =
-        splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
-    std::vector<uint32_t> active = appendClusters(base, 0, kNone, nullptr);
+    std::vector<uint32_t> active;
+    for (const ClusterSet& set : splitLevel0(triangles)) {
+      std::vector<uint32_t> ids = appendClusters(set, 0, kNone, nullptr);
+      active.insert(active.end(), ids.begin(), ids.end());
+    }
     std::vector<LevelStats> stats(1);
+    stats[0].seconds = float(secondsSince(start_));
+    auto levelStart = std::chrono::steady_clock::now();
     uint32_t level = 0;
     uint32_t groupSize = cfg_.groupClusters;
     while (active.size() > cfg_.rootClusters && level + 1 < cfg_.maxLevels) {
@@ -71,7 +77,8 @@ public:
       stats[level].groups = uint32_t(work.size());
       stats[level].stuckGroups = stuck;
       stats[level].meanEdgeAge = meanAge;
-      stats.emplace_back();
+      stats.emplace_back().seconds = float(secondsSince(levelStart));
+      levelStart = std::chrono::steady_clock::now();
       active = std::move(next);
       groupSize = cfg_.groupClusters;
       ++level;
@@ -88,6 +95,40 @@ public:
   }
 
 private:
+  // Level-0 clusters. Large inputs are sorted along a Morton curve and cut into chunks that are
+  // split in parallel: buildMeshlets is serial and was ~1/4 of the build on one big call; a chunk
+  // border costs at most one partly filled cluster per chunk.
+  std::vector<ClusterSet> splitLevel0(const std::vector<uint32_t>& triangles) const {
+    size_t triCount = triangles.size() / 3;
+    const size_t chunk = size_t(cfg_.clusterTriangles) * 256;
+    if (triCount <= chunk * 2)
+      return {
+          splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles)};
+    Bounds box;
+    for (const glm::vec3& p : dag_.positions) box.add(p);
+    glm::vec3 scale = 1023.0f / glm::max(box.extent(), glm::vec3(1e-30f));
+    std::vector<std::pair<uint32_t, uint32_t>> order(triCount);
+    tbb::parallel_for(size_t(0), triCount, [&](size_t t) {
+      glm::vec3 c(0.0f);
+      for (int k = 0; k < 3; ++k) c += dag_.positions[dag_.vertexPosition[triangles[t * 3 + k]]];
+      glm::uvec3 q = glm::uvec3(glm::clamp((c / 3.0f - box.min) * scale, glm::vec3(0.0f), glm::vec3(1023.0f)));
+      uint32_t code = 0;
+      for (uint32_t b = 0; b < 10; ++b)
+        code |= ((q.x >> b) & 1u) << (3 * b) | ((q.y >> b) & 1u) << (3 * b + 1) | ((q.z >> b) & 1u) << (3 * b + 2);
+      order[t] = {code, uint32_t(t)};
+    });
+    tbb::parallel_sort(order.begin(), order.end());
+    size_t chunks = (triCount + chunk - 1) / chunk;
+    std::vector<ClusterSet> sets(chunks);
+    tbb::parallel_for(size_t(0), chunks, [&](size_t i) {
+      std::vector<uint32_t> part;
+      for (size_t j = i * chunk; j < std::min(triCount, (i + 1) * chunk); ++j)
+        part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
+      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
+    });
+    return sets;
+  }
+
   // Appends clusters of one set; `self` null means level 0 (own sphere, zero error).
   std::vector<uint32_t> appendClusters(const ClusterSet& set, uint32_t level, uint32_t generatingGroup,
                                        const LodBounds* self) {
@@ -306,8 +347,13 @@ private:
     dag_.levels = std::move(stats);
   }
 
+  static double secondsSince(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  }
+
   ClusterDag& dag_;
   const BuildConfig& cfg_;
+  std::chrono::steady_clock::time_point start_;
   std::vector<uint32_t> posOwner_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far
 };
@@ -335,6 +381,7 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
   std::string problem = checkConfig(mesh, cfg);
   if (!problem.empty()) return makeError(mesh.name.empty() ? "mesh" : mesh.name, problem);
   try {
+    auto start = std::chrono::steady_clock::now();
     ClusterDag dag;
     Welded welded = weldPositions(mesh.positions);
     std::vector<uint32_t> triangles = cleanTriangles(mesh.indices, welded.vertexPosition);
@@ -344,7 +391,7 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
     dag.uv0 = mesh.uv0;
     dag.inputTriangles = triangles.size() / 3;
     tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
-    arena.execute([&] { Builder(dag, cfg).run(triangles); });
+    arena.execute([&] { Builder(dag, cfg, start).run(triangles); });
     return dag;
   } catch (const std::exception& e) {
     // Only allocation failures are expected here; never let them cross the library boundary.

@@ -62,8 +62,9 @@ void report(const Mesh& mesh, const BuildConfig& cfg, bool perLevel) {
   if (!perLevel) return;
   for (size_t i = 0; i < dag->levels.size(); ++i) {
     const LevelStats& l = dag->levels[i];
-    std::printf("  level %2zu: %6u clusters %8llu tris fill %.2f groups %5u stuck %3u edge age %.2f\n", i, l.clusters,
-                (unsigned long long)l.triangles, l.meanFill, l.groups, l.stuckGroups, l.meanEdgeAge);
+    std::printf("  level %2zu: %6u clusters %8llu tris fill %.2f groups %5u stuck %3u edge age %.2f %.3f s\n", i,
+                l.clusters, (unsigned long long)l.triangles, l.meanFill, l.groups, l.stuckGroups, l.meanEdgeAge,
+                l.seconds);
   }
 }
 
