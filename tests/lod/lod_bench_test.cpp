@@ -77,8 +77,7 @@ TEST(LodBench, DISABLED_Throughput) {
 }
 
 TEST(LodBench, DISABLED_ConfigSweep) {
-  MIRAGE_REQUIRE_DATA(path, "stanford-bunny/bun_zipper.ply");
-  Mesh mesh = *lodtest::readAsciiPly(path);
+  Mesh mesh = benchMesh();
   for (uint32_t gc : {4u, 8u, 16u, 32u}) {
     BuildConfig cfg;
     cfg.groupClusters = gc;
