@@ -43,6 +43,7 @@ struct Quadric {
 struct Entry {
   float cost;
   uint32_t u, w, version;
+  uint32_t time; // collapse clock when queued: w unchanged since then means the check still holds
   bool operator<(const Entry& o) const { return cost > o.cost; } // min-heap
 };
 
@@ -69,6 +70,7 @@ public:
     live_ = nt;
     version_.assign(nv, 0);
     dirty_.assign(nv, 0);
+    changed_.assign(nv, 0);
     queued_.assign(nv, 0);
     q_.assign(nv, Quadric{});
     initQuadrics();
@@ -86,9 +88,8 @@ public:
         push(e.u);
         continue;
       }
-      // Neighbourhoods two rings away may have changed since this entry was pushed: recheck.
-      gatherRing(e.u, ringU_);
-      if (!legal(e.u, e.w)) {
+      // u is clean, but w's triangles may have changed since this entry was queued: recheck then.
+      if (changed_[e.w] > e.time && (gatherRing(e.u, ringU_), !legal(e.u, e.w))) {
         push(e.u);
         continue;
       }
@@ -259,7 +260,7 @@ private:
     std::sort(scored_.begin(), scored_.end());
     for (auto [c, w] : scored_)
       if (legal(v, w)) {
-        heap_.push({float(c), v, w, version_[v]});
+        heap_.push({float(c), v, w, version_[v], clock_});
         queued_[v] = 1;
         return;
       }
@@ -271,7 +272,7 @@ private:
     if (m_.locked[v] || head_[v] == kNil) return;
     dirty_[v] = 1;
     if (!queued_[v]) {
-      heap_.push({cost, v, kNil, version_[v]});
+      heap_.push({cost, v, kNil, version_[v], clock_});
       queued_[v] = 1;
     }
   }
@@ -316,6 +317,9 @@ private:
     ++version_[u];
     gatherRing(w, ringTouched_);
     ringTouched_.erase(std::unique(ringTouched_.begin(), ringTouched_.end()), ringTouched_.end());
+    ++clock_;
+    changed_[w] = clock_;
+    for (uint32_t x : ringTouched_) changed_[x] = clock_;
     markDirty(w, e.cost);
     for (uint32_t x : ringTouched_) markDirty(x, e.cost);
   }
@@ -337,7 +341,8 @@ private:
   SimplifyMesh& m_;
   glm::dvec3 center_;
   std::vector<glm::dvec3> p_;
-  std::vector<uint32_t> head_, tail_, next_, version_;
+  std::vector<uint32_t> head_, tail_, next_, version_, changed_;
+  uint32_t clock_ = 0;
   std::vector<uint8_t> alive_, dirty_, queued_;
   std::vector<Quadric> q_;
   size_t live_ = 0;
