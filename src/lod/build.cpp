@@ -1,0 +1,402 @@
+// buildClusterDag: level loop (group -> lock -> simplify -> split), see docs/lod.md.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <limits>
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
+
+#include "mesh_prep.h"
+#include "mirage/lod/cluster_dag.h"
+#include "partition.h"
+#include "simplify.h"
+
+namespace mirage::lod {
+
+namespace {
+
+using namespace detail;
+
+constexpr uint32_t kMulti = ~0u - 1; // position touched by two or more groups: locked
+
+struct GroupWork {
+  std::vector<uint32_t> children;
+  bool stuck = false;
+  float simplifyError = 0.0f;
+  LodBounds bounds;
+  ClusterSet parents;
+};
+
+class Builder {
+public:
+  Builder(ClusterDag& dag, const BuildConfig& cfg, std::chrono::steady_clock::time_point start)
+      : dag_(dag), cfg_(cfg), start_(start) {}
+
+  void run(const std::vector<uint32_t>& triangles) {
+    if (triangles.empty()) return;
+    posOwner_.assign(dag_.positions.size(), kNone);
+    std::vector<uint32_t> active;
+    for (const ClusterSet& set : splitLevel0(triangles)) {
+      std::vector<uint32_t> ids = appendClusters(set, 0, kNone, nullptr);
+      active.insert(active.end(), ids.begin(), ids.end());
+    }
+    std::vector<LevelStats> stats(1);
+    stats[0].seconds = float(secondsSince(start_));
+    auto levelStart = std::chrono::steady_clock::now();
+    uint32_t level = 0;
+    uint32_t groupSize = cfg_.groupClusters;
+    while (active.size() > cfg_.rootClusters && level + 1 < cfg_.maxLevels) {
+      float meanAge = 0.0f;
+      std::vector<std::vector<uint32_t>> groups = partition(active, groupSize, meanAge);
+      std::vector<GroupWork> work(groups.size());
+      for (size_t g = 0; g < groups.size(); ++g) work[g].children = std::move(groups[g]);
+      markOwners(work, true);
+      tbb::parallel_for(size_t(0), work.size(), [&](size_t g) { simplifyGroup(work[g]); });
+      markOwners(work, false);
+
+      std::vector<uint32_t> next;
+      uint32_t stuck = 0, made = 0;
+      for (GroupWork& w : work) {
+        if (w.stuck) {
+          ++stuck;
+          next.insert(next.end(), w.children.begin(), w.children.end());
+          continue;
+        }
+        ++made;
+        commitGroup(w, level, next);
+      }
+      if (made == 0) {
+        // Nothing simplified: regroup into larger groups (fewer locked borders) before giving up.
+        if (groupSize >= active.size()) break;
+        groupSize = std::min<uint32_t>(groupSize * 2, uint32_t(active.size()));
+        continue;
+      }
+      stats[level].groups = uint32_t(work.size());
+      stats[level].stuckGroups = stuck;
+      stats[level].meanEdgeAge = meanAge;
+      stats.emplace_back().seconds = float(secondsSince(levelStart));
+      levelStart = std::chrono::steady_clock::now();
+      active = std::move(next);
+      groupSize = cfg_.groupClusters;
+      ++level;
+    }
+    for (uint32_t c : active) {
+      Cluster& cl = dag_.clusters[c];
+      cl.group = kNone;
+      cl.parent = cl.self;
+      cl.parent.error = std::numeric_limits<float>::infinity();
+    }
+    dag_.roots = active;
+    std::sort(dag_.roots.begin(), dag_.roots.end());
+    finishStats(stats);
+  }
+
+private:
+  // Level-0 clusters. Large inputs are sorted along a Morton curve and cut into chunks that are
+  // split in parallel: buildMeshlets is serial and was ~1/4 of the build on one big call; a chunk
+  // border costs at most one partly filled cluster per chunk.
+  std::vector<ClusterSet> splitLevel0(const std::vector<uint32_t>& triangles) const {
+    size_t triCount = triangles.size() / 3;
+    const size_t chunk = size_t(cfg_.clusterTriangles) * 256;
+    if (triCount <= chunk * 2)
+      return {
+          splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles)};
+    Bounds box;
+    for (const glm::vec3& p : dag_.positions) box.add(p);
+    glm::vec3 scale = 1023.0f / glm::max(box.extent(), glm::vec3(1e-30f));
+    std::vector<std::pair<uint32_t, uint32_t>> order(triCount);
+    tbb::parallel_for(size_t(0), triCount, [&](size_t t) {
+      glm::vec3 c(0.0f);
+      for (int k = 0; k < 3; ++k) c += dag_.positions[dag_.vertexPosition[triangles[t * 3 + k]]];
+      glm::uvec3 q = glm::uvec3(glm::clamp((c / 3.0f - box.min) * scale, glm::vec3(0.0f), glm::vec3(1023.0f)));
+      uint32_t code = 0;
+      for (uint32_t b = 0; b < 10; ++b)
+        code |= ((q.x >> b) & 1u) << (3 * b) | ((q.y >> b) & 1u) << (3 * b + 1) | ((q.z >> b) & 1u) << (3 * b + 2);
+      order[t] = {code, uint32_t(t)};
+    });
+    tbb::parallel_sort(order.begin(), order.end());
+    size_t chunks = (triCount + chunk - 1) / chunk;
+    std::vector<ClusterSet> sets(chunks);
+    tbb::parallel_for(size_t(0), chunks, [&](size_t i) {
+      std::vector<uint32_t> part;
+      for (size_t j = i * chunk; j < std::min(triCount, (i + 1) * chunk); ++j)
+        part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
+      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
+    });
+    return sets;
+  }
+
+  // Appends clusters of one set; `self` null means level 0 (own sphere, zero error).
+  std::vector<uint32_t> appendClusters(const ClusterSet& set, uint32_t level, uint32_t generatingGroup,
+                                       const LodBounds* self) {
+    std::vector<uint32_t> ids;
+    std::vector<glm::vec3> points;
+    for (const ClusterPiece& p : set.pieces) {
+      Cluster c;
+      c.vertexOffset = uint32_t(dag_.clusterVertices.size());
+      c.triangleOffset = uint32_t(dag_.clusterIndices.size() / 3);
+      c.vertexCount = uint16_t(p.vertexCount);
+      c.triangleCount = uint16_t(p.triangleCount);
+      c.level = level;
+      c.generatingGroup = generatingGroup;
+      points.clear();
+      for (uint32_t v = 0; v < p.vertexCount; ++v) {
+        uint32_t a = set.vertices[p.vertexOffset + v];
+        dag_.clusterVertices.push_back(a);
+        points.push_back(dag_.positions[dag_.vertexPosition[a]]);
+      }
+      dag_.clusterIndices.insert(dag_.clusterIndices.end(), set.indices.begin() + p.indexOffset,
+                                 set.indices.begin() + p.indexOffset + p.triangleCount * 3);
+      c.bounds = boundingSphere(points.data(), points.size());
+      c.self = self ? *self : c.bounds;
+      if (!self) c.self.error = 0.0f;
+      ids.push_back(uint32_t(dag_.clusters.size()));
+      dag_.clusters.push_back(c);
+    }
+    return ids;
+  }
+
+  template <class F> void forTriangles(uint32_t cluster, F&& f) const {
+    const Cluster& c = dag_.clusters[cluster];
+    const uint32_t* verts = &dag_.clusterVertices[c.vertexOffset];
+    const uint8_t* idx = &dag_.clusterIndices[size_t(c.triangleOffset) * 3];
+    for (uint32_t t = 0; t < c.triangleCount; ++t) f(verts[idx[t * 3]], verts[idx[t * 3 + 1]], verts[idx[t * 3 + 2]]);
+  }
+
+  // Groups active clusters with METIS over the cluster adjacency graph. An edge between two clusters
+  // weighs their shared border length times (1 + its age, the levels it has already stayed locked),
+  // so long and old borders end up inside groups and get simplified away.
+  std::vector<std::vector<uint32_t>> partition(const std::vector<uint32_t>& active, uint32_t groupSize,
+                                               float& meanAge) {
+    size_t n = active.size();
+    uint32_t parts = uint32_t((n + groupSize - 1) / groupSize);
+    std::vector<std::vector<uint64_t>> borders(n);
+    tbb::parallel_for(size_t(0), n, [&](size_t i) {
+      std::vector<uint64_t> edges;
+      forTriangles(active[i], [&](uint32_t a, uint32_t b, uint32_t c) {
+        uint32_t p[3] = {dag_.vertexPosition[a], dag_.vertexPosition[b], dag_.vertexPosition[c]};
+        for (int k = 0; k < 3; ++k) edges.push_back(edgeKey(p[k], p[(k + 1) % 3]));
+      });
+      std::sort(edges.begin(), edges.end());
+      for (size_t j = 0; j < edges.size();) {
+        size_t e = j;
+        while (e < edges.size() && edges[e] == edges[j]) ++e;
+        if (e - j == 1) borders[i].push_back(edges[j]);
+        j = e;
+      }
+    });
+    std::vector<std::pair<uint64_t, uint32_t>> entries;
+    for (size_t i = 0; i < n; ++i)
+      for (uint64_t k : borders[i]) entries.push_back({k, uint32_t(i)});
+    tbb::parallel_sort(entries.begin(), entries.end());
+
+    struct Link {
+      uint32_t a, b;
+      float weight;
+      uint64_t key;
+    };
+    std::vector<Link> links;
+    size_t agePos = 0;
+    double lengthSum = 0.0;
+    for (size_t j = 0; j < entries.size();) {
+      size_t e = j;
+      while (e < entries.size() && entries[e].first == entries[j].first) ++e;
+      if (e - j >= 2) {
+        uint64_t key = entries[j].first;
+        while (agePos < ages_.size() && ages_[agePos].first < key) ++agePos;
+        uint32_t age = agePos < ages_.size() && ages_[agePos].first == key ? ages_[agePos].second : 0;
+        float len = glm::distance(dag_.positions[uint32_t(key >> 32)], dag_.positions[uint32_t(key)]);
+        lengthSum += len;
+        for (size_t x = j; x < e; ++x)
+          for (size_t y = x + 1; y < e; ++y)
+            links.push_back({entries[x].second, entries[y].second, len * float(1 + age), key});
+      }
+      j = e;
+    }
+    std::vector<uint32_t> part(n, 0);
+    if (parts > 1) {
+      float unit = links.empty() ? 1.0f : float(lengthSum / double(links.size())) * 0.25f;
+      std::vector<std::pair<uint64_t, float>> pairs;
+      for (const Link& l : links) {
+        uint32_t a = std::min(l.a, l.b), b = std::max(l.a, l.b);
+        if (a != b) pairs.push_back({uint64_t(a) << 32 | b, l.weight});
+      }
+      std::sort(pairs.begin(), pairs.end());
+      std::vector<std::vector<std::pair<uint32_t, int32_t>>> adj(n);
+      for (size_t j = 0; j < pairs.size();) {
+        float w = 0.0f;
+        size_t e = j;
+        for (; e < pairs.size() && pairs[e].first == pairs[j].first; ++e) w += pairs[e].second;
+        int32_t iw = std::max<int32_t>(1, int32_t(std::lround(std::min(w / unit, 1e6f))));
+        uint32_t a = uint32_t(pairs[j].first >> 32), b = uint32_t(pairs[j].first);
+        adj[a].push_back({b, iw});
+        adj[b].push_back({a, iw});
+        j = e;
+      }
+      std::vector<int32_t> xadj(n + 1, 0), adjncy, weights;
+      for (size_t i = 0; i < n; ++i) {
+        for (auto [b, w] : adj[i]) adjncy.push_back(int32_t(b)), weights.push_back(w);
+        xadj[i + 1] = int32_t(adjncy.size());
+      }
+      part = partitionGraph(xadj, adjncy, weights, parts);
+    }
+    // Edge ages for the next level: borders between different groups stay locked one more level.
+    std::vector<std::pair<uint64_t, uint32_t>> ages;
+    double ageSum = 0.0;
+    agePos = 0;
+    for (const Link& l : links) {
+      if (part[l.a] == part[l.b]) continue;
+      while (agePos < ages_.size() && ages_[agePos].first < l.key) ++agePos;
+      uint32_t age = (agePos < ages_.size() && ages_[agePos].first == l.key ? ages_[agePos].second : 0) + 1;
+      if (ages.empty() || ages.back().first != l.key) ages.push_back({l.key, age}), ageSum += age;
+    }
+    meanAge = ages.empty() ? 0.0f : float(ageSum / double(ages.size()));
+    ages_ = std::move(ages);
+
+    std::vector<std::vector<uint32_t>> groups(parts);
+    for (size_t i = 0; i < n; ++i) groups[part[i]].push_back(active[i]);
+    groups.erase(std::remove_if(groups.begin(), groups.end(), [](const auto& g) { return g.empty(); }), groups.end());
+    return groups;
+  }
+
+  // Marks (or clears) which group touches each position; kMulti = on a group border.
+  void markOwners(const std::vector<GroupWork>& work, bool mark) {
+    for (uint32_t g = 0; g < work.size(); ++g)
+      for (uint32_t c : work[g].children) {
+        const Cluster& cl = dag_.clusters[c];
+        for (uint32_t v = 0; v < cl.vertexCount; ++v) {
+          uint32_t& owner = posOwner_[dag_.vertexPosition[dag_.clusterVertices[cl.vertexOffset + v]]];
+          owner = !mark ? kNone : (owner == kNone || owner == g) ? g : kMulti;
+        }
+      }
+  }
+
+  void simplifyGroup(GroupWork& w) const {
+    std::vector<uint32_t> attrs;
+    for (uint32_t c : w.children) {
+      forTriangles(c, [&](uint32_t a, uint32_t b, uint32_t d) { attrs.insert(attrs.end(), {a, b, d}); });
+      // Nested spheres: the group's sphere encloses every child's LOD sphere.
+      const LodBounds& self = dag_.clusters[c].self;
+      w.bounds = c == w.children[0] ? self : mergeSpheres(w.bounds, self);
+    }
+    SimplifyMesh sm;
+    std::vector<uint32_t> pos(attrs.size());
+    for (size_t i = 0; i < attrs.size(); ++i) pos[i] = dag_.vertexPosition[attrs[i]];
+    std::vector<uint32_t> unique(pos);
+    std::sort(unique.begin(), unique.end());
+    unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
+    sm.positions.resize(unique.size());
+    sm.locked.resize(unique.size());
+    for (size_t i = 0; i < unique.size(); ++i) {
+      sm.positions[i] = dag_.positions[unique[i]];
+      sm.locked[i] = posOwner_[unique[i]] == kMulti;
+    }
+    sm.corners.resize(pos.size());
+    for (size_t i = 0; i < pos.size(); ++i)
+      sm.corners[i] = uint32_t(std::lower_bound(unique.begin(), unique.end(), pos[i]) - unique.begin());
+    sm.attributes = std::move(attrs);
+    size_t before = sm.corners.size() / 3;
+    w.simplifyError = simplifyLocked(sm, before / 2);
+    size_t after = sm.corners.size() / 3;
+    if (after == 0 || double(after) > double(cfg_.stuckRatio) * double(before)) {
+      w.stuck = true;
+      return;
+    }
+    w.parents =
+        splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
+    // Monotonic error: a parent is never more accurate than the children it replaces.
+    float childError = 0.0f;
+    for (uint32_t c : w.children) childError = std::max(childError, dag_.clusters[c].self.error);
+    w.bounds.error = std::max(w.simplifyError, childError);
+  }
+
+  void commitGroup(const GroupWork& w, uint32_t level, std::vector<uint32_t>& next) {
+    uint32_t gid = uint32_t(dag_.groups.size());
+    Group g;
+    g.level = level;
+    g.childOffset = uint32_t(dag_.groupChildren.size());
+    g.childCount = uint32_t(w.children.size());
+    g.bounds = w.bounds;
+    g.simplifyError = w.simplifyError;
+    for (uint32_t c : w.children) {
+      dag_.clusters[c].group = gid;
+      dag_.clusters[c].parent = w.bounds;
+      dag_.groupChildren.push_back(c);
+    }
+    std::vector<uint32_t> ids = appendClusters(w.parents, level + 1, gid, &w.bounds);
+    g.parentOffset = uint32_t(dag_.groupParents.size());
+    g.parentCount = uint32_t(ids.size());
+    dag_.groupParents.insert(dag_.groupParents.end(), ids.begin(), ids.end());
+    next.insert(next.end(), ids.begin(), ids.end());
+    dag_.groups.push_back(g);
+  }
+
+  void finishStats(std::vector<LevelStats>& stats) {
+    for (const Cluster& c : dag_.clusters) {
+      if (c.level >= stats.size()) stats.resize(c.level + 1);
+      LevelStats& s = stats[c.level];
+      ++s.clusters;
+      s.triangles += c.triangleCount;
+    }
+    for (LevelStats& s : stats)
+      s.meanFill = s.clusters ? float(double(s.triangles) / (double(s.clusters) * cfg_.clusterTriangles)) : 0.0f;
+    while (!stats.empty() && stats.back().clusters == 0) stats.pop_back();
+    dag_.levels = std::move(stats);
+  }
+
+  static double secondsSince(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  }
+
+  ClusterDag& dag_;
+  const BuildConfig& cfg_;
+  std::chrono::steady_clock::time_point start_;
+  std::vector<uint32_t> posOwner_;
+  std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far
+};
+
+std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
+  if (cfg.clusterTriangles < 4 || cfg.clusterTriangles > 512 || cfg.clusterTriangles % 4 != 0)
+    return "clusterTriangles must be a multiple of 4 in [4, 512]";
+  if (cfg.clusterVertices < 3 || cfg.clusterVertices > 255) return "clusterVertices must be in [3, 255]";
+  if (cfg.groupClusters < 2) return "groupClusters must be at least 2";
+  if (!(cfg.stuckRatio > 0.0f && cfg.stuckRatio < 1.0f)) return "stuckRatio must be in (0, 1)";
+  if (cfg.rootClusters < 1) return "rootClusters must be at least 1";
+  if (mesh.indices.size() % 3 != 0) return "index count is not a multiple of 3";
+  for (uint32_t i : mesh.indices)
+    if (i >= mesh.positions.size()) return "index out of range";
+  if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) return "normals size mismatch";
+  if (!mesh.uv0.empty() && mesh.uv0.size() != mesh.positions.size()) return "uv0 size mismatch";
+  for (const glm::vec3& p : mesh.positions)
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return "non-finite position";
+  return {};
+}
+
+} // namespace
+
+Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
+  std::string problem = checkConfig(mesh, cfg);
+  if (!problem.empty()) return makeError(mesh.name.empty() ? "mesh" : mesh.name, problem);
+  try {
+    auto start = std::chrono::steady_clock::now();
+    ClusterDag dag;
+    Welded welded = weldPositions(mesh.positions);
+    std::vector<uint32_t> triangles = cleanTriangles(mesh.indices, welded.vertexPosition);
+    dag.positions = std::move(welded.positions);
+    dag.vertexPosition = std::move(welded.vertexPosition);
+    dag.normals = mesh.normals;
+    dag.uv0 = mesh.uv0;
+    dag.inputTriangles = triangles.size() / 3;
+    tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
+    arena.execute([&] { Builder(dag, cfg, start).run(triangles); });
+    return dag;
+  } catch (const std::exception& e) {
+    // Only allocation failures are expected here; never let them cross the library boundary.
+    return makeError(mesh.name.empty() ? "mesh" : mesh.name, std::string("build failed: ") + e.what());
+  }
+}
+
+} // namespace mirage::lod

@@ -1,0 +1,38 @@
+#pragma once
+// Cluster splitting (meshoptimizer) and cluster grouping (METIS), plus sphere helpers.
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "mirage/lod/cluster_dag.h"
+
+namespace mirage::lod::detail {
+
+struct ClusterPiece {
+  uint32_t vertexOffset, vertexCount, indexOffset, triangleCount;
+};
+
+// Clusters over attribute vertices: vertices are attribute-vertex ids, indices local (8-bit).
+struct ClusterSet {
+  std::vector<ClusterPiece> pieces;
+  std::vector<uint32_t> vertices;
+  std::vector<uint8_t> indices;
+};
+
+// Splits a triangle list (attribute-vertex ids) into clusters of at most maxVertices/maxTriangles.
+// position(a) gives the position of attribute vertex a (used for spatial locality only).
+ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
+                         const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles);
+
+// Partitions a weighted undirected graph (CSR, symmetric) into `parts` parts with METIS
+// PartGraphRecursive. Returns the part of each node; falls back to consecutive chunks if METIS fails.
+std::vector<uint32_t> partitionGraph(const std::vector<int32_t>& xadj, const std::vector<int32_t>& adjncy,
+                                     const std::vector<int32_t>& weights, uint32_t parts);
+
+// Smallest sphere of the two that contains both (exact for two spheres).
+LodBounds mergeSpheres(const LodBounds& a, const LodBounds& b);
+// Sphere around points: bounding-box centre, radius to the farthest point.
+LodBounds boundingSphere(const glm::vec3* points, size_t count);
+
+} // namespace mirage::lod::detail
