@@ -9,10 +9,12 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <meshoptimizer.h>
 #include <random>
+#include <set>
 #include <stb/stb_image_write.h>
 
 #include "mirage/io/import.h"
 #include "mirage/io/generate.h"
+#include "mirage/io/gltf_write.h"
 #include "mirage/io/mesh_utils.h"
 #include "mirage/io/ply_write.h"
 #include "support/test_support.h"
@@ -558,4 +560,30 @@ TEST(PlyWrite, RoundTripsThroughTheImporter) {
   ASSERT_EQ(back->meshes[0].positions.size(), scene.meshes[0].positions.size());
   for (size_t i = 0; i < scene.meshes[0].positions.size(); i += 97)
     EXPECT_EQ(back->meshes[0].positions[i], scene.meshes[0].positions[i]);
+}
+
+TEST(GlbWrite, GeneratedCityRoundTripsThroughTheImporter) {
+  mirage::Scene scene = mirage::io::generateScene("city", 7, 1).value();
+  auto path = mirage::test::tempDir("glbroundtrip") / "city.glb";
+  ASSERT_TRUE(mirage::io::writeGlb(scene, path).ok());
+  auto back = mirage::io::importScene(path);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->instances.size(), scene.instances.size());
+  EXPECT_EQ(back->instancedTriangleCount(), scene.instancedTriangleCount());
+  // The importer keeps only meshes that some node places; count the generator's placed meshes.
+  std::set<uint32_t> placed;
+  size_t placedTriangles = 0;
+  for (const auto& inst : scene.instances)
+    if (placed.insert(inst.mesh).second) placedTriangles += scene.meshes[inst.mesh].triangleCount();
+  EXPECT_EQ(back->meshTriangleCount(), placedTriangles);
+  ASSERT_EQ(back->materials.size(), scene.materials.size());
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    EXPECT_EQ(back->materials[i].alphaMode, scene.materials[i].alphaMode);
+    EXPECT_EQ(back->materials[i].doubleSided, scene.materials[i].doubleSided);
+    EXPECT_NEAR(back->materials[i].baseColorFactor.r, scene.materials[i].baseColorFactor.r, 1e-6f);
+  }
+  EXPECT_EQ(back->textures.size(), scene.textures.size());
+  mirage::Bounds a = scene.worldBounds(), b = back->worldBounds();
+  EXPECT_NEAR(glm::length(a.min - b.min), 0.0f, 1e-3f);
+  EXPECT_NEAR(glm::length(a.max - b.max), 0.0f, 1e-3f);
 }
