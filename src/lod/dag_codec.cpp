@@ -1,0 +1,321 @@
+#include "mirage/lod/dag_codec.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <meshoptimizer.h>
+
+#include "mirage/asset/bytes.h"
+
+namespace mirage::lod {
+
+using asset::ByteReader;
+using asset::ByteWriter;
+
+namespace {
+
+uint64_t zigzag(int64_t v) { return (uint64_t(v) << 1) ^ uint64_t(v >> 63); }
+int64_t unzigzag(uint64_t v) { return int64_t(v >> 1) ^ -int64_t(v & 1); }
+
+// Ids in order, each as the zigzag delta from the previous one: ids of neighbouring clusters and
+// vertices are close, so most take one byte.
+void writeIds(ByteWriter& w, std::span<const uint32_t> ids) {
+  w.writeVarint(ids.size());
+  int64_t prev = 0;
+  for (uint32_t id : ids) {
+    w.writeVarint(zigzag(int64_t(id) - prev));
+    prev = id;
+  }
+}
+
+bool readIds(ByteReader& r, std::vector<uint32_t>& out, uint64_t limit, const char* what) {
+  uint64_t n = 0;
+  if (!r.readCount(n, std::min<uint64_t>(limit, r.remaining()), what)) return false;
+  out.resize(n);
+  int64_t prev = 0;
+  for (uint64_t i = 0; i < n; ++i) {
+    uint64_t z = 0;
+    if (!r.readVarint(z)) return false;
+    int64_t v = prev + unzigzag(z);
+    if (v < 0 || v > int64_t(UINT32_MAX)) return r.fail(std::string(what) + " id out of range");
+    out[i] = uint32_t(v);
+    prev = v;
+  }
+  return true;
+}
+
+// meshopt's vertex codec over fixed-size records; the encoded size goes first.
+void writeVertexStream(ByteWriter& w, const void* vertices, size_t count, size_t stride) {
+  std::vector<uint8_t> buffer(meshopt_encodeVertexBufferBound(count, stride));
+  buffer.resize(meshopt_encodeVertexBuffer(buffer.data(), buffer.size(), vertices, count, stride));
+  w.writeVarint(buffer.size());
+  w.writeBytes(buffer);
+}
+
+bool readVertexStream(ByteReader& r, std::span<const uint8_t> all, void* out, size_t count, size_t stride) {
+  uint64_t size = 0;
+  if (!r.readCount(size, r.remaining(), "vertex stream size")) return false;
+  const uint8_t* data = all.data() + r.position();
+  if (!r.skip(size)) return false;
+  if (meshopt_decodeVertexBuffer(out, count, stride, data, size) != 0) return r.fail("corrupt vertex stream");
+  return true;
+}
+
+glm::vec2 octEncode(glm::vec3 n) {
+  n /= std::abs(n.x) + std::abs(n.y) + std::abs(n.z) + 1e-30f;
+  glm::vec2 p(n.x, n.y);
+  if (n.z < 0.0f) p = (1.0f - glm::abs(glm::vec2(p.y, p.x))) * glm::vec2(p.x >= 0 ? 1.0f : -1.0f, p.y >= 0 ? 1.0f : -1.0f);
+  return p;
+}
+
+glm::vec3 octDecode(glm::vec2 p) {
+  glm::vec3 n(p.x, p.y, 1.0f - std::abs(p.x) - std::abs(p.y));
+  float t = std::max(-n.z, 0.0f);
+  n.x += n.x >= 0 ? -t : t;
+  n.y += n.y >= 0 ? -t : t;
+  return glm::normalize(n);
+}
+
+int16_t snorm16(float v) { return int16_t(std::lround(std::clamp(v, -1.0f, 1.0f) * 32767.0f)); }
+
+struct Quantizer {
+  glm::vec3 origin{0.0f};
+  float step = 1.0f;
+};
+
+struct PackedPosition {
+  uint32_t x, y, z; // grid coordinates (up to 24 bits used)
+};
+static_assert(sizeof(PackedPosition) == 12);
+
+struct PackedAttributes {
+  int16_t octX, octY; // octahedral normal, snorm16
+  float u, v;
+};
+static_assert(sizeof(PackedAttributes) == 12);
+
+void writeSphere(ByteWriter& w, const LodBounds& b) {
+  w.write(b.center.x), w.write(b.center.y), w.write(b.center.z), w.write(b.radius);
+}
+bool readSphere(ByteReader& r, LodBounds& b) {
+  return r.read(b.center.x) && r.read(b.center.y) && r.read(b.center.z) && r.read(b.radius);
+}
+
+} // namespace
+
+std::vector<uint8_t> encodeDag(const ClusterDag& dag, const DagEncodeOptions& options) {
+  ByteWriter w;
+  w.reserve(dag.clusterIndices.size() * 2 + dag.positions.size() * 8);
+  w.write(kDagCodecVersion);
+  w.write(uint64_t(dag.inputTriangles));
+
+  // Positions on a grid over the bounds.
+  uint32_t bits = std::clamp(options.positionBits, 8u, 24u);
+  Bounds box;
+  for (const glm::vec3& p : dag.positions) box.add(p);
+  Quantizer q;
+  if (!box.empty()) {
+    q.origin = box.min;
+    float extent = std::max({box.extent().x, box.extent().y, box.extent().z, 1e-30f});
+    q.step = extent / float((1u << bits) - 1);
+  }
+  w.write(bits);
+  w.write(q.origin.x), w.write(q.origin.y), w.write(q.origin.z), w.write(q.step);
+  std::vector<PackedPosition> packed(dag.positions.size());
+  for (size_t i = 0; i < packed.size(); ++i) {
+    glm::vec3 g = (dag.positions[i] - q.origin) / q.step;
+    packed[i] = {uint32_t(std::lround(g.x)), uint32_t(std::lround(g.y)), uint32_t(std::lround(g.z))};
+  }
+  w.writeVarint(packed.size());
+  writeVertexStream(w, packed.data(), packed.size(), sizeof(PackedPosition));
+
+  // Attribute vertices: their welded position, normal and uv.
+  w.writeVarint(dag.vertexPosition.size());
+  writeIds(w, dag.vertexPosition);
+  uint8_t flags = uint8_t((dag.normals.empty() ? 0 : 1) | (dag.uv0.empty() ? 0 : 2));
+  w.write(flags);
+  if (flags) {
+    std::vector<PackedAttributes> attrs(dag.vertexPosition.size());
+    for (size_t i = 0; i < attrs.size(); ++i) {
+      glm::vec2 o = dag.normals.empty() ? glm::vec2(0.0f) : octEncode(dag.normals[i]);
+      attrs[i] = {snorm16(o.x), snorm16(o.y), dag.uv0.empty() ? 0.0f : dag.uv0[i].x, dag.uv0.empty() ? 0.0f : dag.uv0[i].y};
+    }
+    writeVertexStream(w, attrs.data(), attrs.size(), sizeof(PackedAttributes));
+  }
+
+  // Clusters: sizes, level and group links; offsets are implied by the order.
+  w.writeVarint(dag.clusters.size());
+  for (const Cluster& c : dag.clusters) {
+    w.writeVarint(c.vertexCount);
+    w.writeVarint(c.triangleCount);
+    w.writeVarint(c.level);
+    w.writeVarint(uint32_t(c.generatingGroup + 1)); // kNone + 1 wraps to 0 in 32 bits
+    w.writeVarint(uint32_t(c.group + 1));
+    writeSphere(w, c.bounds);
+  }
+  writeIds(w, dag.clusterVertices);
+  w.writeArray(std::span<const uint8_t>(dag.clusterIndices));
+
+  w.writeVarint(dag.groups.size());
+  for (const Group& g : dag.groups) {
+    w.writeVarint(g.level);
+    w.writeVarint(g.childCount);
+    w.writeVarint(g.parentCount);
+    writeSphere(w, g.bounds);
+    w.write(g.bounds.error);
+    w.write(g.simplifyError);
+  }
+  writeIds(w, dag.groupChildren);
+  writeIds(w, dag.groupParents);
+  writeIds(w, dag.roots);
+
+  w.writeVarint(dag.levels.size());
+  for (const LevelStats& l : dag.levels) {
+    w.write(l.clusters), w.write(l.triangles), w.write(l.meanFill), w.write(l.groups), w.write(l.stuckGroups);
+    w.write(l.meanEdgeAge), w.write(l.seconds);
+  }
+  return w.take();
+}
+
+Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& file) {
+  ByteReader r(bytes, file);
+  ClusterDag dag;
+  uint32_t version = 0;
+  if (!r.read(version)) return r.error();
+  if (version != kDagCodecVersion)
+    return makeError(file, "cluster DAG encoding version " + std::to_string(version) + " (this build reads " +
+                               std::to_string(kDagCodecVersion) + ")");
+  uint64_t inputTriangles = 0;
+  uint32_t bits = 0;
+  Quantizer q;
+  r.read(inputTriangles), r.read(bits), r.read(q.origin.x), r.read(q.origin.y), r.read(q.origin.z), r.read(q.step);
+  if (!r.ok()) return r.error();
+  if (bits < 8 || bits > 24 || !(q.step > 0.0f) || !std::isfinite(q.step)) return makeError(file, "bad position quantization");
+  dag.inputTriangles = inputTriangles;
+
+  // Every count is bounded by the bytes that remain, so corrupt counts cannot allocate much: an
+  // encoded element takes at least one byte (vertex codec streams at least 1/16 byte per byte of
+  // output, hence the factor for streams).
+  uint64_t positionCount = 0;
+  if (!r.readCount(positionCount, r.remaining() * 16, "position count")) return r.error();
+  std::vector<PackedPosition> packed(positionCount);
+  if (!readVertexStream(r, bytes, packed.data(), packed.size(), sizeof(PackedPosition))) return r.error();
+  dag.positions.resize(positionCount);
+  uint32_t maxGrid = (1u << bits) - 1;
+  for (size_t i = 0; i < packed.size(); ++i) {
+    if (packed[i].x > maxGrid || packed[i].y > maxGrid || packed[i].z > maxGrid) return makeError(file, "position off the grid");
+    dag.positions[i] = q.origin + glm::vec3(float(packed[i].x), float(packed[i].y), float(packed[i].z)) * q.step;
+  }
+
+  uint64_t vertexCount = 0;
+  if (!r.readCount(vertexCount, r.remaining(), "vertex count")) return r.error();
+  if (!readIds(r, dag.vertexPosition, vertexCount, "vertex position")) return r.error();
+  if (dag.vertexPosition.size() != vertexCount) return makeError(file, "vertex count mismatch");
+  for (uint32_t p : dag.vertexPosition)
+    if (p >= positionCount) return makeError(file, "vertex refers to a missing position");
+  uint8_t flags = 0;
+  if (!r.read(flags)) return r.error();
+  if (flags > 3) return makeError(file, "unknown attribute flags");
+  if (flags) {
+    std::vector<PackedAttributes> attrs(vertexCount);
+    if (!readVertexStream(r, bytes, attrs.data(), attrs.size(), sizeof(PackedAttributes))) return r.error();
+    if (flags & 1) dag.normals.resize(vertexCount);
+    if (flags & 2) dag.uv0.resize(vertexCount);
+    for (size_t i = 0; i < attrs.size(); ++i) {
+      if (flags & 1) dag.normals[i] = octDecode(glm::vec2(attrs[i].octX, attrs[i].octY) / 32767.0f);
+      if (flags & 2) dag.uv0[i] = {attrs[i].u, attrs[i].v};
+    }
+  }
+
+  uint64_t clusterCount = 0;
+  if (!r.readCount(clusterCount, r.remaining() / 21, "cluster count")) return r.error();
+  dag.clusters.resize(clusterCount);
+  uint64_t vertexTotal = 0, triangleTotal = 0;
+  for (Cluster& c : dag.clusters) {
+    uint64_t vc = 0, tc = 0, level = 0, gg = 0, g = 0;
+    if (!r.readCount(vc, 255, "cluster vertex count") || !r.readCount(tc, 512, "cluster triangle count") ||
+        !r.readCount(level, 64, "cluster level") || !r.readCount(gg, UINT32_MAX, "generating group") ||
+        !r.readCount(g, UINT32_MAX, "group") || !readSphere(r, c.bounds))
+      return r.error();
+    c.vertexOffset = uint32_t(vertexTotal);
+    c.triangleOffset = uint32_t(triangleTotal);
+    c.vertexCount = uint16_t(vc);
+    c.triangleCount = uint16_t(tc);
+    c.level = uint32_t(level);
+    c.generatingGroup = uint32_t(gg - 1); // 0 -> kNone
+    c.group = uint32_t(g - 1);
+    vertexTotal += vc;
+    triangleTotal += tc;
+    if (vertexTotal > UINT32_MAX || triangleTotal > UINT32_MAX / 3) return makeError(file, "cluster ranges overflow");
+  }
+  if (!readIds(r, dag.clusterVertices, vertexTotal, "cluster vertex")) return r.error();
+  if (dag.clusterVertices.size() != vertexTotal) return makeError(file, "cluster vertex list size mismatch");
+  for (uint32_t v : dag.clusterVertices)
+    if (v >= vertexCount) return makeError(file, "cluster refers to a missing vertex");
+  if (!r.readArray(dag.clusterIndices)) return r.error();
+  if (dag.clusterIndices.size() != triangleTotal * 3) return makeError(file, "cluster index list size mismatch");
+
+  uint64_t groupCount = 0;
+  if (!r.readCount(groupCount, r.remaining() / 27, "group count")) return r.error();
+  dag.groups.resize(groupCount);
+  uint64_t childTotal = 0, parentTotal = 0;
+  for (Group& g : dag.groups) {
+    uint64_t level = 0, cc = 0, pc = 0;
+    if (!r.readCount(level, 64, "group level") || !r.readCount(cc, clusterCount, "group child count") ||
+        !r.readCount(pc, clusterCount, "group parent count") || !readSphere(r, g.bounds) || !r.read(g.bounds.error) ||
+        !r.read(g.simplifyError))
+      return r.error();
+    g.level = uint32_t(level);
+    g.childOffset = uint32_t(childTotal);
+    g.childCount = uint32_t(cc);
+    g.parentOffset = uint32_t(parentTotal);
+    g.parentCount = uint32_t(pc);
+    childTotal += cc;
+    parentTotal += pc;
+    if (childTotal > clusterCount || parentTotal > clusterCount) return makeError(file, "group ranges overflow");
+  }
+  if (!readIds(r, dag.groupChildren, childTotal, "group child") || !readIds(r, dag.groupParents, parentTotal, "group parent") ||
+      !readIds(r, dag.roots, clusterCount, "root"))
+    return r.error();
+  if (dag.groupChildren.size() != childTotal || dag.groupParents.size() != parentTotal)
+    return makeError(file, "group list size mismatch");
+  uint64_t levelCount = 0;
+  if (!r.readCount(levelCount, 64, "level count")) return r.error();
+  dag.levels.resize(levelCount);
+  for (LevelStats& l : dag.levels) {
+    r.read(l.clusters), r.read(l.triangles), r.read(l.meanFill), r.read(l.groups), r.read(l.stuckGroups);
+    r.read(l.meanEdgeAge), r.read(l.seconds);
+  }
+  if (Status s = r.finish(); !s) return s.error();
+
+  // Derived LOD bounds: self = generating group's (level 0: own sphere, error 0), parent = member
+  // group's (roots: +inf). Quantization moved vertices by up to half a grid step per axis, so
+  // spheres grow by that much and errors by the same distance, which keeps both conservative.
+  float slack = q.step; // >= sqrt(3)/2 step, with room for float rounding of the dequantization
+  for (Group& g : dag.groups) {
+    g.bounds.radius += slack * float(g.level + 2); // nested spheres stay nested level over level
+    g.bounds.error += slack;
+  }
+  for (size_t i = 0; i < dag.clusters.size(); ++i) {
+    Cluster& c = dag.clusters[i];
+    if (c.generatingGroup != kNone && c.generatingGroup >= groupCount) return makeError(file, "cluster has a bad generating group");
+    if (c.group != kNone && c.group >= groupCount) return makeError(file, "cluster has a bad group");
+    c.bounds.radius += slack;
+    if (c.generatingGroup == kNone) {
+      c.self = c.bounds;
+      c.self.error = 0.0f;
+    } else {
+      c.self = dag.groups[c.generatingGroup].bounds;
+    }
+    if (c.group == kNone) {
+      c.parent = c.self;
+      c.parent.error = std::numeric_limits<float>::infinity();
+    } else {
+      c.parent = dag.groups[c.group].bounds;
+    }
+  }
+  return dag;
+}
+
+} // namespace mirage::lod
