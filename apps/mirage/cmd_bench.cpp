@@ -1,6 +1,7 @@
 // mirage bench ...: performance measurements (GPU times from Vulkan timestamp queries).
 // bench render: the forward baseline on a scene, median per-pass GPU times over N frames.
 // bench import: importer throughput in MB/s.
+// bench build: cluster-LOD bake throughput, memory and size.
 #include <chrono>
 
 #include <fmt/format.h>
@@ -11,7 +12,13 @@
 #include <algorithm>
 #include <filesystem>
 
+#include <unistd.h>
+
+#include <cstring>
+
+#include "lod_common.h"
 #include "mirage/io/import.h"
+#include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
 #include "render_common.h"
 
@@ -114,6 +121,62 @@ void runBenchImport(const BenchImportOptions& o) {
              o.input, double(bytes) / 1e6, triangles, median, seconds.front(), o.repeat, mbps);
 }
 
+// Resident memory from /proc/self/status (kB fields): current and peak ("high water mark").
+uint64_t procStatusBytes(const char* field) {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f) return 0;
+  char line[256];
+  uint64_t kb = 0;
+  size_t n = std::strlen(field);
+  while (std::fgets(line, sizeof line, f))
+    if (std::strncmp(line, field, n) == 0) kb = std::strtoull(line + n + 1, nullptr, 10);
+  std::fclose(f);
+  return kb * 1024;
+}
+
+struct BenchBuildOptions {
+  std::vector<std::string> inputs;
+  uint32_t threads = 0;
+  bool json = false;
+};
+
+void runBenchBuild(const BenchBuildOptions& o) {
+  auto scene = loadScenes(o.inputs);
+  if (!scene) return fail(scene.error());
+  lod::BuildConfig config;
+  config.threads = o.threads;
+  // Reset the peak-RSS mark so it measures the build alone (Linux: writing 5 to clear_refs).
+  if (std::FILE* f = std::fopen("/proc/self/clear_refs", "w")) std::fputs("5", f), std::fclose(f);
+  uint64_t rssBefore = procStatusBytes("VmRSS:");
+  auto t0 = std::chrono::steady_clock::now();
+  auto baked = lod::bakeLodAsset(*scene, config);
+  if (!baked) return fail(baked.error());
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  uint64_t peak = procStatusBytes("VmHWM:");
+  std::string tmp = (std::filesystem::temp_directory_path() / fmt::format("mirage-bench-{}.mrg", ::getpid())).string();
+  if (auto s = lod::saveLodAsset(tmp, *baked); !s) return fail(s.error());
+  BuildSummary summary = summarize(*baked, tmp);
+  std::filesystem::remove(tmp);
+  double tris = double(std::max<uint64_t>(summary.inputTriangles, 1));
+  double buildPeak = double(peak > rssBefore ? peak - rssBefore : 0);
+  if (o.json) {
+    nlohmann::json j = summaryJson(summary);
+    j["bench"] = "build";
+    j["seconds"] = seconds;
+    j["input_triangles_per_second"] = tris / seconds;
+    j["peak_rss_bytes"] = peak;
+    j["peak_rss_bytes_per_input_triangle"] = double(peak) / tris;
+    j["build_peak_bytes_per_input_triangle"] = buildPeak / tris;
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("bench build {}: {} input triangles in {:.2f} s = {:.3f} M triangles/s\n", scene->source,
+             summary.inputTriangles, seconds, tris / seconds * 1e-6);
+  fmt::print("  peak RSS {:.1f} MB = {:.0f} B per input triangle (build working set above the loaded scene: {:.0f} B)\n",
+             double(peak) / 1e6, double(peak) / tris, buildPeak / tris);
+  printSummary(summary);
+}
+
 } // namespace
 
 void addBenchCommand(CLI::App& app) {
@@ -134,6 +197,13 @@ void addBenchCommand(CLI::App& app) {
   im->add_option("--repeat", io->repeat, "Runs; the median is reported")->capture_default_str();
   im->add_flag("--json", io->json, "Print results as JSON");
   im->callback([io] { runBenchImport(*io); });
+
+  auto* bb = bench->add_subcommand("build", "Cluster-LOD bake: triangles/s, peak memory, bytes on disk, levels");
+  auto bo = std::make_shared<BenchBuildOptions>();
+  bb->add_option("inputs", bo->inputs, "Scene files or gen:KIND[:SIZE[:SEED]]")->required();
+  bb->add_option("--threads", bo->threads, "Worker threads (0 = all cores)")->capture_default_str();
+  bb->add_flag("--json", bo->json, "Print results as JSON");
+  bb->callback([bo] { runBenchBuild(*bo); });
 }
 
 } // namespace mirage::cli

@@ -1,14 +1,42 @@
 // mirage info FILE: what a scene file holds.
+#include <filesystem>
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "cmd_list.h"
 #include "commands.h"
+#include "lod_common.h"
 #include "mirage/io/import.h"
+#include "mirage/lod/lod_asset.h"
 
 namespace mirage::cli {
 
+namespace {
+
+// A baked .mrg: levels, clusters and triangles per level, fill, root size, bytes per input triangle.
+void infoAsset(const std::string& path, bool json) {
+  auto a = lod::loadLodAsset(path);
+  if (!a) return fail(a.error());
+  BuildSummary s = summarize(*a, path);
+  if (json) {
+    nlohmann::json j = summaryJson(s);
+    j["file"] = path;
+    j["instances"] = a->scene.instances.size();
+    j["materials"] = a->scene.materials.size();
+    j["textures"] = a->scene.textures.size();
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("{}: cluster-LOD asset, {} meshes, {} instances, {} materials, {} textures, {} input triangles\n", path,
+             s.meshes, a->scene.instances.size(), a->scene.materials.size(), a->scene.textures.size(), s.inputTriangles);
+  printSummary(s);
+}
+
+} // namespace
+
 void infoFile(const std::string& path, bool json) {
+  if (path.ends_with(".mrg")) return infoAsset(path, json);
   auto scene = io::importScene(path);
   if (!scene) return fail(scene.error());
   const Scene& s = *scene;

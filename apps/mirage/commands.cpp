@@ -25,6 +25,7 @@ void registerCommands(CLI::App& app) {
   addCompareCommand(app);
   addDemoCommand(app);
   addRenderCommand(app);
+  addBuildCommand(app);
   addBenchCommand(app);
 }
 

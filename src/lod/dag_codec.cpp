@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <tuple>
 
 #include <meshoptimizer.h>
 
@@ -95,6 +97,20 @@ struct PackedAttributes {
 };
 static_assert(sizeof(PackedAttributes) == 12);
 
+bool positionsDistinct(const std::vector<PackedPosition>& packed) {
+  std::vector<uint32_t> order(packed.size());
+  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    const PackedPosition &pa = packed[a], &pb = packed[b];
+    return std::tie(pa.x, pa.y, pa.z) < std::tie(pb.x, pb.y, pb.z);
+  });
+  for (size_t i = 1; i < order.size(); ++i) {
+    const PackedPosition &pa = packed[order[i - 1]], &pb = packed[order[i]];
+    if (pa.x == pb.x && pa.y == pb.y && pa.z == pb.z) return false;
+  }
+  return true;
+}
+
 void writeSphere(ByteWriter& w, const LodBounds& b) {
   w.write(b.center.x), w.write(b.center.y), w.write(b.center.z), w.write(b.radius);
 }
@@ -110,23 +126,38 @@ std::vector<uint8_t> encodeDag(const ClusterDag& dag, const DagEncodeOptions& op
   w.write(kDagCodecVersion);
   w.write(uint64_t(dag.inputTriangles));
 
-  // Positions on a grid over the bounds.
-  uint32_t bits = std::clamp(options.positionBits, 8u, 24u);
+  // Positions on a grid over the bounds. Distinct welded positions must stay distinct, or the
+  // decoded mesh would change topology (two vertices fused into one): take more bits until none
+  // collide.
   Bounds box;
   for (const glm::vec3& p : dag.positions) box.add(p);
+  uint32_t bits = std::clamp(options.positionBits, 8u, 24u);
   Quantizer q;
-  if (!box.empty()) {
-    q.origin = box.min;
-    float extent = std::max({box.extent().x, box.extent().y, box.extent().z, 1e-30f});
-    q.step = extent / float((1u << bits) - 1);
+  std::vector<PackedPosition> packed(dag.positions.size());
+  for (;; ++bits) {
+    q = Quantizer{};
+    if (!box.empty()) {
+      q.origin = box.min;
+      float extent = std::max({box.extent().x, box.extent().y, box.extent().z, 1e-30f});
+      q.step = extent / float((1u << bits) - 1);
+    }
+    for (size_t i = 0; i < packed.size(); ++i) {
+      glm::vec3 g = (dag.positions[i] - q.origin) / q.step;
+      packed[i] = {uint32_t(std::lround(g.x)), uint32_t(std::lround(g.y)), uint32_t(std::lround(g.z))};
+    }
+    if (positionsDistinct(packed)) break;
+    if (bits == 24) {
+      // Vertices closer than 1/2^24 of the extent but not equal (float noise in the source): only
+      // the exact floats keep them apart. bits = 32 marks raw float positions.
+      bits = 32;
+      q = Quantizer{};
+      static_assert(sizeof(PackedPosition) == sizeof(glm::vec3));
+      std::memcpy(packed.data(), dag.positions.data(), packed.size() * sizeof(glm::vec3));
+      break;
+    }
   }
   w.write(bits);
   w.write(q.origin.x), w.write(q.origin.y), w.write(q.origin.z), w.write(q.step);
-  std::vector<PackedPosition> packed(dag.positions.size());
-  for (size_t i = 0; i < packed.size(); ++i) {
-    glm::vec3 g = (dag.positions[i] - q.origin) / q.step;
-    packed[i] = {uint32_t(std::lround(g.x)), uint32_t(std::lround(g.y)), uint32_t(std::lround(g.z))};
-  }
   w.writeVarint(packed.size());
   writeVertexStream(w, packed.data(), packed.size(), sizeof(PackedPosition));
 
@@ -191,7 +222,9 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   Quantizer q;
   r.read(inputTriangles), r.read(bits), r.read(q.origin.x), r.read(q.origin.y), r.read(q.origin.z), r.read(q.step);
   if (!r.ok()) return r.error();
-  if (bits < 8 || bits > 24 || !(q.step > 0.0f) || !std::isfinite(q.step)) return makeError(file, "bad position quantization");
+  bool rawFloats = bits == 32;
+  if (!rawFloats && (bits < 8 || bits > 24 || !(q.step > 0.0f) || !std::isfinite(q.step)))
+    return makeError(file, "bad position quantization");
   dag.inputTriangles = inputTriangles;
 
   // Every count is bounded by the bytes that remain, so corrupt counts cannot allocate much: an
@@ -202,8 +235,13 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   std::vector<PackedPosition> packed(positionCount);
   if (!readVertexStream(r, bytes, packed.data(), packed.size(), sizeof(PackedPosition))) return r.error();
   dag.positions.resize(positionCount);
-  uint32_t maxGrid = (1u << bits) - 1;
-  for (size_t i = 0; i < packed.size(); ++i) {
+  uint32_t maxGrid = rawFloats ? 0 : (1u << bits) - 1;
+  if (rawFloats) {
+    std::memcpy(dag.positions.data(), packed.data(), packed.size() * sizeof(glm::vec3));
+    for (const glm::vec3& p : dag.positions)
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return makeError(file, "non-finite position");
+  }
+  for (size_t i = 0; i < packed.size() && !rawFloats; ++i) {
     if (packed[i].x > maxGrid || packed[i].y > maxGrid || packed[i].z > maxGrid) return makeError(file, "position off the grid");
     dag.positions[i] = q.origin + glm::vec3(float(packed[i].x), float(packed[i].y), float(packed[i].z)) * q.step;
   }
@@ -292,7 +330,7 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   // Derived LOD bounds: self = generating group's (level 0: own sphere, error 0), parent = member
   // group's (roots: +inf). Quantization moved vertices by up to half a grid step per axis, so
   // spheres grow by that much and errors by the same distance, which keeps both conservative.
-  float slack = q.step; // >= sqrt(3)/2 step, with room for float rounding of the dequantization
+  float slack = rawFloats ? 0.0f : q.step; // >= sqrt(3)/2 step, with room for float rounding
   for (Group& g : dag.groups) {
     g.bounds.radius += slack * float(g.level + 2); // nested spheres stay nested level over level
     g.bounds.error += slack;

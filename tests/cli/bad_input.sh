@@ -70,6 +70,22 @@ if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb"; then
     grep -q '"ssim": *1' "$tmp/stdout" || { echo "FAIL compare-same: ssim not 1: $(cat "$tmp/stdout")"; failures=$((failures + 1)); }
   fi
 fi
+# Cluster LOD: build, inspect, verify; corrupt assets are rejected with one line.
+if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
+  expect_ok info-mrg info "$tmp/blob.mrg" --json
+  grep -q '"bytes_per_input_triangle"' "$tmp/stdout" || { echo "FAIL info-mrg: no size figure"; failures=$((failures + 1)); }
+  expect_ok verify-mrg verify "$tmp/blob.mrg" --cuts 20
+  head -c 200 "$tmp/blob.mrg" >"$tmp/short.mrg"
+  expect_fail verify-truncated "short.mrg" "" -- verify "$tmp/short.mrg"
+  cp "$tmp/blob.mrg" "$tmp/flipped.mrg"
+  printf '\xff' | dd of="$tmp/flipped.mrg" bs=1 seek=300 conv=notrunc 2>/dev/null
+  expect_fail verify-flipped "flipped.mrg" "" -- verify "$tmp/flipped.mrg"
+  expect_fail verify-not-mrg "blob.glb" "" -- verify "$tmp/blob.glb"
+fi
+expect_fail build-missing "missing.ply" "$tmp/m.mrg" -- build "$tmp/missing.ply" -o "$tmp/m.mrg"
+expect_fail build-bad-ext "out.glb" "$tmp/out.glb" -- build "$tmp/range.obj" -o "$tmp/out.glb"
+expect_fail build-no-folder "nofolder" "$tmp/nofolder/x.mrg" -- build "$tmp/range.obj" -o "$tmp/nofolder/x.mrg"
+expect_fail build-bad-group "--group-clusters" "$tmp/g.mrg" -- build "$tmp/range.obj" -o "$tmp/g.mrg" --group-clusters 1
 expect_ok help --help
 
 echo "cli: $pass passed, $failures failed"

@@ -18,7 +18,8 @@ inline constexpr uint32_t kDagCodecVersion = 1;
 struct DagEncodeOptions {
   // Bits per position axis on a grid spanning the mesh bounds (8..24). 16 bits put the grid step at
   // 1/65535 of the largest extent: far below a pixel for any view that shows the whole mesh. The
-  // decoder widens every sphere and error by the step so culling and LOD stay conservative.
+  // decoder widens every sphere and error by the step so culling and LOD stay conservative. The
+  // encoder takes more bits (up to 24) when two distinct positions would share a grid point.
   uint32_t positionBits = 16;
 };
 

@@ -1,0 +1,37 @@
+#pragma once
+// A baked cluster-LOD scene in a .mrg file: the scene (instances, materials, textures; mesh
+// geometry stripped, since each mesh's DAG holds it) in a 'SCEN' chunk, one 'CDAG' chunk per mesh
+// in mesh order, and a 'META' JSON chunk with the build settings and statistics.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/lod/cluster_dag.h"
+#include "mirage/lod/dag_codec.h"
+
+namespace mirage::lod {
+
+struct LodAsset {
+  Scene scene;                  // meshes keep name, material and bounds; geometry lives in dags
+  std::vector<ClusterDag> dags; // one per scene mesh
+  std::string metaJson;         // build settings and statistics as written
+};
+
+// Progress callback: (meshes done, mesh count, input triangles done, total input triangles).
+using BuildProgress = std::function<void(size_t, size_t, uint64_t, uint64_t)>;
+
+// Builds a DAG for every mesh of `scene` (instances are kept as instances: each unique mesh is
+// baked once). Errors name the mesh.
+Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, const BuildProgress& progress = {});
+
+Status saveLodAsset(const std::string& path, const LodAsset& asset, const DagEncodeOptions& options = {});
+// Validates the container, every chunk, and that there is one DAG per mesh.
+Result<LodAsset> loadLodAsset(const std::string& path);
+
+// The mesh the DAG's level-0 clusters cover (cleaned input, positions as stored): the reference
+// for cut checks on a loaded asset.
+Mesh levelZeroMesh(const ClusterDag& dag);
+
+} // namespace mirage::lod
