@@ -10,6 +10,7 @@
 #include <optional>
 
 #include <tbb/parallel_for.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
@@ -154,8 +155,8 @@ private:
     size_t triCount = triangles.size() / 3;
     const size_t chunk = size_t(cfg_.clusterTriangles) * 256;
     if (triCount <= chunk * 2)
-      return {
-          splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles)};
+      return {splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
+                            splitScratch_.local())};
     Bounds box;
     for (const glm::vec3& p : dag_.positions) box.add(p);
     glm::vec3 scale = 1023.0f / glm::max(box.extent(), glm::vec3(1e-30f));
@@ -176,7 +177,8 @@ private:
       std::vector<uint32_t> part;
       for (size_t j = i * chunk; j < std::min(triCount, (i + 1) * chunk); ++j)
         part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
-      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
+      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
+                              splitScratch_.local());
     });
     return sets;
   }
@@ -360,8 +362,8 @@ private:
       return;
     }
     timer.emplace(kSplit);
-    w.parents =
-        splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
+    w.parents = splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                              cfg_.clusterTriangles, splitScratch_.local());
     // Monotonic error: a parent is never more accurate than the children it replaces.
     float childError = 0.0f;
     for (uint32_t c : w.children) childError = std::max(childError, dag_.clusters[c].self.error);
@@ -410,6 +412,7 @@ private:
   const BuildConfig& cfg_;
   std::chrono::steady_clock::time_point start_;
   std::vector<uint32_t> posOwner_;
+  mutable tbb::enumerable_thread_specific<SplitScratch> splitScratch_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far
 };
 
