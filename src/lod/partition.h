@@ -22,7 +22,8 @@ struct ClusterSet {
 
 // Per-thread buffers of splitClusters, reused from call to call (no per-group allocations).
 struct SplitScratch {
-  std::vector<uint32_t> localOf; // global vertex id -> local id; all kNone between calls
+  std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
+  std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
   std::vector<uint32_t> global, corners, offsets, fill, adjacency, triStamp, vertStamp, vertLocal, live, candidates;
   std::vector<uint8_t> emitted;
   std::vector<glm::vec3> centroids; // 3x the centroid: only compared
