@@ -47,6 +47,8 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     s.centroids[t] = positions[vertexPosition[triangles[t * 3]]] + positions[vertexPosition[triangles[t * 3 + 1]]] +
                      positions[vertexPosition[triangles[t * 3 + 2]]];
   s.emitted.assign(nt, 0);
+  s.score.resize(nt);
+  s.extra.resize(nt);
   s.triStamp.assign(nt, kNil);
   s.vertStamp.assign(nv, kNil);
   s.live.resize(nv);
@@ -57,10 +59,30 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
 
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
   size_t scan = 0; // every triangle before it is emitted
+  // Lower is better: triangles adding no vertex, then dangling ones (the last unused triangle at
+  // a vertex: left behind they become islands of a few triangles, as in meshoptimizer), then by
+  // vertices added; ties go to the most enclosed triangle (fewest unused triangles around its
+  // vertices), so clusters fill the pockets that earlier clusters left instead of growing as
+  // discs that leave gaps between them. Sets extra[t], the vertices t would add.
+  auto rescore = [&](uint32_t t) {
+    const uint32_t* v = &s.corners[size_t(t) * 3];
+    uint32_t e = 0, liveSum = 0;
+    bool dangling = false;
+    for (int k = 0; k < 3; ++k) {
+      bool repeat = (k > 0 && v[k] == v[0]) || (k > 1 && v[k] == v[1]);
+      e += !repeat && s.vertStamp[v[k]] != cluster;
+      liveSum += s.live[v[k]];
+      dangling |= s.live[v[k]] == 1;
+    }
+    uint32_t rank = e == 0 ? 0 : dangling ? 1 : e + 1;
+    s.extra[t] = uint8_t(e);
+    s.score[t] = rank << 16 | std::min<uint32_t>(liveSum, 0xffff);
+  };
   auto addTriangle = [&](uint32_t t) {
     s.emitted[t] = 1;
+    const uint32_t* tv = &s.corners[size_t(t) * 3];
     for (int k = 0; k < 3; ++k) {
-      uint32_t v = s.corners[size_t(t) * 3 + k];
+      uint32_t v = tv[k];
       if (s.vertStamp[v] != cluster) {
         s.vertStamp[v] = cluster;
         s.vertLocal[v] = vertexCount++;
@@ -72,28 +94,14 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       }
       out.indices.push_back(uint8_t(s.vertLocal[v]));
     }
-    for (int k = 0; k < 3; ++k) --s.live[s.corners[size_t(t) * 3 + k]];
+    for (int k = 0; k < 3; ++k) --s.live[tv[k]];
+    // Scores change only through t's vertices (joined the cluster, fewer live triangles), so only
+    // the triangles around them are rescored; picking is then a scan over cached scores.
+    for (int k = 0; k < 3; ++k)
+      for (uint32_t a = s.offsets[tv[k]]; a < s.offsets[tv[k] + 1]; ++a)
+        if (!s.emitted[s.adjacency[a]]) rescore(s.adjacency[a]);
     ++triangleCount;
     while (scan < nt && s.emitted[scan]) ++scan;
-  };
-  // Lower is better: triangles adding no vertex, then dangling ones (the last unused triangle at
-  // a vertex: left behind they become islands of a few triangles, as in meshoptimizer), then by
-  // vertices added; ties go to the most enclosed triangle (fewest unused triangles around its
-  // vertices), so clusters fill the pockets that earlier clusters left instead of growing as
-  // discs that leave gaps between them. kNil: does not fit.
-  auto score = [&](uint32_t t) {
-    const uint32_t* v = &s.corners[size_t(t) * 3];
-    uint32_t e = 0, liveSum = 0;
-    bool dangling = false;
-    for (int k = 0; k < 3; ++k) {
-      bool repeat = (k > 0 && v[k] == v[0]) || (k > 1 && v[k] == v[1]);
-      e += !repeat && s.vertStamp[v[k]] != cluster;
-      liveSum += s.live[v[k]];
-      dangling |= s.live[v[k]] == 1;
-    }
-    if (vertexCount + e > maxVertices) return kNil;
-    uint32_t rank = e == 0 ? 0 : dangling ? 1 : e + 1;
-    return rank << 16 | std::min<uint32_t>(liveSum, 0xffff);
   };
 
   uint32_t seed = 0;
@@ -113,8 +121,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
           cand[i] = cand.back(), cand.pop_back();
           continue;
         }
-        uint32_t sc = score(t);
-        if (sc < best) best = sc, pick = t, pickAt = i;
+        if (s.score[t] < best && vertexCount + s.extra[t] <= maxVertices) best = s.score[t], pick = t, pickAt = i;
         ++i;
       }
       if (pick != kNil) {
@@ -128,7 +135,9 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
           if (s.emitted[t]) continue;
           glm::vec3 d = s.centroids[t] - seedCenter;
           float d2 = glm::dot(d, d);
-          if (d2 < bestD && score(uint32_t(t)) != kNil) bestD = d2, pick = uint32_t(t);
+          if (d2 >= bestD) continue;
+          rescore(uint32_t(t));
+          if (vertexCount + s.extra[t] <= maxVertices) bestD = d2, pick = uint32_t(t);
         }
         if (pick == kNil) break;
       }
