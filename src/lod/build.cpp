@@ -1,11 +1,16 @@
 // buildClusterDag: level loop (group -> lock -> simplify -> split), see docs/lod.md.
 #include <algorithm>
 #include <chrono>
+#include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <limits>
+#include <optional>
 
 #include <tbb/parallel_for.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
@@ -21,6 +26,40 @@ namespace {
 using namespace detail;
 
 constexpr uint32_t kMulti = ~0u - 1; // position touched by two or more groups: locked
+
+// Per-stage time summed over threads, printed to stderr when MIRAGE_LOD_PROFILE is set: the
+// numbers in docs/lod.md's "where the time goes" come from here (no public API for it).
+enum Stage { kPrep, kLevel0, kPartition, kOwners, kGather, kSimplify, kSplit, kCommit, kStageCount };
+constexpr const char* kStageNames[kStageCount] = {"weld+clean",   "level-0 split", "partition",   "lock marking",
+                                                  "group gather", "simplify",      "group split", "commit"};
+std::atomic<int64_t> gStageNs[kStageCount];
+
+class StageTimer {
+public:
+  explicit StageTimer(Stage s) : stage_(s), start_(std::chrono::steady_clock::now()) {}
+  ~StageTimer() {
+    gStageNs[stage_] +=
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
+  }
+  StageTimer(const StageTimer&) = delete;
+  StageTimer& operator=(const StageTimer&) = delete;
+
+private:
+  Stage stage_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+void printStages(uint64_t triangles) {
+  if (!std::getenv("MIRAGE_LOD_PROFILE")) return;
+  double total = 0.0;
+  for (auto& ns : gStageNs) total += double(ns.load()) * 1e-9;
+  std::fprintf(stderr, "lod stages (thread-seconds, %llu tris):", (unsigned long long)triangles);
+  for (int i = 0; i < kStageCount; ++i) {
+    double sec = double(gStageNs[i].exchange(0)) * 1e-9;
+    std::fprintf(stderr, " %s %.3f (%.0f%%)%s", kStageNames[i], sec, 100.0 * sec / std::max(total, 1e-9),
+                 i + 1 < kStageCount ? "," : "\n");
+  }
+}
 
 struct GroupWork {
   std::vector<uint32_t> children;
@@ -39,9 +78,12 @@ public:
     if (triangles.empty()) return;
     posOwner_.assign(dag_.positions.size(), kNone);
     std::vector<uint32_t> active;
-    for (const ClusterSet& set : splitLevel0(triangles)) {
-      std::vector<uint32_t> ids = appendClusters(set, 0, kNone, nullptr);
-      active.insert(active.end(), ids.begin(), ids.end());
+    {
+      StageTimer timer(kLevel0);
+      for (const ClusterSet& set : splitLevel0(triangles)) {
+        std::vector<uint32_t> ids = appendClusters(set, 0, kNone, nullptr);
+        active.insert(active.end(), ids.begin(), ids.end());
+      }
     }
     std::vector<LevelStats> stats(1);
     stats[0].seconds = float(secondsSince(start_));
@@ -50,12 +92,23 @@ public:
     uint32_t groupSize = cfg_.groupClusters;
     while (active.size() > cfg_.rootClusters && level + 1 < cfg_.maxLevels) {
       float meanAge = 0.0f;
-      std::vector<std::vector<uint32_t>> groups = partition(active, groupSize, meanAge);
-      std::vector<GroupWork> work(groups.size());
-      for (size_t g = 0; g < groups.size(); ++g) work[g].children = std::move(groups[g]);
-      markOwners(work, true);
+      std::vector<GroupWork> work;
+      {
+        StageTimer timer(kPartition);
+        std::vector<std::vector<uint32_t>> groups = partition(active, groupSize, meanAge);
+        work.resize(groups.size());
+        for (size_t g = 0; g < groups.size(); ++g) work[g].children = std::move(groups[g]);
+      }
+      {
+        StageTimer timer(kOwners);
+        markOwners(work, true);
+      }
       tbb::parallel_for(size_t(0), work.size(), [&](size_t g) { simplifyGroup(work[g]); });
-      markOwners(work, false);
+      {
+        StageTimer timer(kOwners);
+        markOwners(work, false);
+      }
+      StageTimer commitTimer(kCommit);
 
       std::vector<uint32_t> next;
       uint32_t stuck = 0, made = 0;
@@ -102,8 +155,8 @@ private:
     size_t triCount = triangles.size() / 3;
     const size_t chunk = size_t(cfg_.clusterTriangles) * 256;
     if (triCount <= chunk * 2)
-      return {
-          splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles)};
+      return {splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
+                            splitScratch_.local())};
     Bounds box;
     for (const glm::vec3& p : dag_.positions) box.add(p);
     glm::vec3 scale = 1023.0f / glm::max(box.extent(), glm::vec3(1e-30f));
@@ -124,7 +177,8 @@ private:
       std::vector<uint32_t> part;
       for (size_t j = i * chunk; j < std::min(triCount, (i + 1) * chunk); ++j)
         part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
-      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
+      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
+                              splitScratch_.local());
     });
     return sets;
   }
@@ -275,6 +329,7 @@ private:
   }
 
   void simplifyGroup(GroupWork& w) const {
+    std::optional<StageTimer> timer(kGather);
     std::vector<uint32_t> attrs;
     for (uint32_t c : w.children) {
       forTriangles(c, [&](uint32_t a, uint32_t b, uint32_t d) { attrs.insert(attrs.end(), {a, b, d}); });
@@ -282,31 +337,40 @@ private:
       const LodBounds& self = dag_.clusters[c].self;
       w.bounds = c == w.children[0] ? self : mergeSpheres(w.bounds, self);
     }
+    // Compact local positions through a flat per-thread map (reset afterwards) instead of sorting:
+    // sort + binary search was 10 % of the build.
+    SplitScratch& scratch = splitScratch_.local();
+    std::vector<uint32_t>& localOf = scratch.localOfPosition;
+    if (localOf.size() < dag_.positions.size()) localOf.resize(dag_.positions.size(), kNone);
     SimplifyMesh sm;
-    std::vector<uint32_t> pos(attrs.size());
-    for (size_t i = 0; i < attrs.size(); ++i) pos[i] = dag_.vertexPosition[attrs[i]];
-    std::vector<uint32_t> unique(pos);
-    std::sort(unique.begin(), unique.end());
-    unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
+    sm.corners.resize(attrs.size());
+    std::vector<uint32_t>& unique = scratch.global;
+    unique.clear();
+    for (size_t i = 0; i < attrs.size(); ++i) {
+      uint32_t p = dag_.vertexPosition[attrs[i]];
+      uint32_t& l = localOf[p];
+      if (l == kNone) l = uint32_t(unique.size()), unique.push_back(p);
+      sm.corners[i] = l;
+    }
     sm.positions.resize(unique.size());
     sm.locked.resize(unique.size());
     for (size_t i = 0; i < unique.size(); ++i) {
       sm.positions[i] = dag_.positions[unique[i]];
       sm.locked[i] = posOwner_[unique[i]] == kMulti;
+      localOf[unique[i]] = kNone;
     }
-    sm.corners.resize(pos.size());
-    for (size_t i = 0; i < pos.size(); ++i)
-      sm.corners[i] = uint32_t(std::lower_bound(unique.begin(), unique.end(), pos[i]) - unique.begin());
     sm.attributes = std::move(attrs);
     size_t before = sm.corners.size() / 3;
+    timer.emplace(kSimplify);
     w.simplifyError = simplifyLocked(sm, before / 2);
     size_t after = sm.corners.size() / 3;
     if (after == 0 || double(after) > double(cfg_.stuckRatio) * double(before)) {
       w.stuck = true;
       return;
     }
-    w.parents =
-        splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles);
+    timer.emplace(kSplit);
+    w.parents = splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                              cfg_.clusterTriangles, splitScratch_.local());
     // Monotonic error: a parent is never more accurate than the children it replaces.
     float childError = 0.0f;
     for (uint32_t c : w.children) childError = std::max(childError, dag_.clusters[c].self.error);
@@ -355,6 +419,7 @@ private:
   const BuildConfig& cfg_;
   std::chrono::steady_clock::time_point start_;
   std::vector<uint32_t> posOwner_;
+  mutable tbb::enumerable_thread_specific<SplitScratch> splitScratch_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far
 };
 
@@ -383,8 +448,10 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
   try {
     auto start = std::chrono::steady_clock::now();
     ClusterDag dag;
+    std::optional<StageTimer> timer(kPrep);
     Welded welded = weldPositions(mesh.positions);
     std::vector<uint32_t> triangles = cleanTriangles(mesh.indices, welded.vertexPosition);
+    timer.reset();
     dag.positions = std::move(welded.positions);
     dag.vertexPosition = std::move(welded.vertexPosition);
     dag.normals = mesh.normals;
@@ -392,6 +459,7 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
     dag.inputTriangles = triangles.size() / 3;
     tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
     arena.execute([&] { Builder(dag, cfg, start).run(triangles); });
+    printStages(dag.inputTriangles);
     return dag;
   } catch (const std::exception& e) {
     // Only allocation failures are expected here; never let them cross the library boundary.

@@ -3,43 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include <meshoptimizer.h>
 #include <metis.h>
 
 namespace mirage::lod::detail {
-
-ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
-                         const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles) {
-  ClusterSet out;
-  if (triangles.empty()) return out;
-  // Compact local vertex buffer: meshoptimizer allocates and scans per vertex it is given.
-  std::vector<uint32_t> unique(triangles);
-  std::sort(unique.begin(), unique.end());
-  unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
-  std::vector<uint32_t> local(triangles.size());
-  for (size_t i = 0; i < triangles.size(); ++i)
-    local[i] = uint32_t(std::lower_bound(unique.begin(), unique.end(), triangles[i]) - unique.begin());
-  std::vector<glm::vec3> localPositions(unique.size());
-  for (size_t i = 0; i < unique.size(); ++i) localPositions[i] = positions[vertexPosition[unique[i]]];
-
-  size_t bound = meshopt_buildMeshletsBound(local.size(), maxVertices, maxTriangles);
-  std::vector<meshopt_Meshlet> meshlets(bound);
-  std::vector<unsigned int> meshletVertices(bound * maxVertices);
-  std::vector<unsigned char> meshletTriangles(bound * maxTriangles * 3);
-  size_t count = meshopt_buildMeshlets(meshlets.data(), meshletVertices.data(), meshletTriangles.data(), local.data(),
-                                       local.size(), &localPositions[0].x, localPositions.size(), sizeof(glm::vec3),
-                                       maxVertices, maxTriangles, 0.0f);
-  out.pieces.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    const meshopt_Meshlet& m = meshlets[i];
-    ClusterPiece p{uint32_t(out.vertices.size()), m.vertex_count, uint32_t(out.indices.size()), m.triangle_count};
-    for (uint32_t v = 0; v < m.vertex_count; ++v) out.vertices.push_back(unique[meshletVertices[m.vertex_offset + v]]);
-    out.indices.insert(out.indices.end(), meshletTriangles.begin() + m.triangle_offset,
-                       meshletTriangles.begin() + m.triangle_offset + m.triangle_count * 3);
-    out.pieces.push_back(p);
-  }
-  return out;
-}
 
 std::vector<uint32_t> partitionGraph(const std::vector<int32_t>& xadj, const std::vector<int32_t>& adjncy,
                                      const std::vector<int32_t>& weights, uint32_t parts) {

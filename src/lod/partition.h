@@ -1,5 +1,5 @@
 #pragma once
-// Cluster splitting (meshoptimizer) and cluster grouping (METIS), plus sphere helpers.
+// Cluster splitting (split.cpp) and cluster grouping (METIS), plus sphere helpers.
 #include <cstdint>
 #include <vector>
 
@@ -20,10 +20,24 @@ struct ClusterSet {
   std::vector<uint8_t> indices;
 };
 
-// Splits a triangle list (attribute-vertex ids) into clusters of at most maxVertices/maxTriangles.
-// position(a) gives the position of attribute vertex a (used for spatial locality only).
+// Per-thread buffers of splitClusters, reused from call to call (no per-group allocations).
+struct SplitScratch {
+  std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
+  std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
+  std::vector<uint32_t> global, corners, offsets, fill, adjacency, triStamp, vertStamp, vertLocal, live, candidates,
+      score;
+  std::vector<uint8_t> emitted, extra;
+  std::vector<glm::vec3> centroids; // 3x the centroid: only compared
+};
+
+// Splits a triangle list (attribute-vertex ids) into clusters of at most maxVertices/maxTriangles
+// by greedy growth: each cluster takes the triangle that adds the fewest new vertices, breadth
+// first, and the next cluster starts next to the previous one.
+// Positions (through vertexPosition) only pick the nearest triangle when a cluster has no fitting
+// neighbour left.
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
-                         const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles);
+                         const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
+                         SplitScratch& scratch);
 
 // Partitions a weighted undirected graph (CSR, symmetric) into `parts` parts with METIS
 // PartGraphRecursive. Returns the part of each node; falls back to consecutive chunks if METIS fails.

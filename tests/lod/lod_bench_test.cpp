@@ -1,7 +1,7 @@
 // Build throughput and DAG statistics. Prints, never asserts on time. Disabled by default:
 //   build/tests/test_lod --gtest_also_run_disabled_tests --gtest_filter='LodBench.*'
 // MIRAGE_LOD_BENCH_MESH=path.ply or MIRAGE_LOD_BENCH_BLOB=subdivisions picks the mesh (default: the
-// dragon, else a 1.3M-triangle blob).
+// dragon, else a 1.3M-triangle blob). MIRAGE_LOD_BENCH_THREADS=n runs one build with n threads only.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -73,6 +73,12 @@ void report(const Mesh& mesh, const BuildConfig& cfg, bool perLevel) {
 
 TEST(LodBench, DISABLED_Throughput) {
   Mesh mesh = benchMesh();
+  if (const char* env = std::getenv("MIRAGE_LOD_BENCH_THREADS")) { // one run only (profilers, callgrind)
+    BuildConfig cfg;
+    cfg.threads = uint32_t(std::atoi(env));
+    report(mesh, cfg, true);
+    return;
+  }
   report(mesh, BuildConfig{}, true);
   if (mesh.triangleCount() > 2'000'000) return; // keep huge runs to a couple of minutes
   BuildConfig one;

@@ -1,0 +1,167 @@
+// Cluster splitter: greedy growth over shared vertices. Replaces meshopt_buildMeshlets, which was
+// a third of the build (it allocates per call, builds its own adjacency and a kd-tree, and scores
+// every triangle around the meshlet at every step). Our inputs are small compact patches (a
+// simplified group, or a Morton-sorted level-0 chunk), so topology alone gives full clusters.
+#include <algorithm>
+#include <limits>
+
+#include "partition.h"
+
+namespace mirage::lod::detail {
+
+namespace {
+
+constexpr uint32_t kNil = ~0u;
+
+} // namespace
+
+ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
+                         const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
+                         SplitScratch& s) {
+  ClusterSet out;
+  size_t nt = triangles.size() / 3;
+  if (nt == 0) return out;
+  // Compact local vertex ids through a flat map (reset afterwards), not a sort or a hash map.
+  uint32_t maxId = *std::max_element(triangles.begin(), triangles.end());
+  if (s.localOf.size() <= maxId) s.localOf.resize(size_t(maxId) + 1, kNil);
+  s.global.clear();
+  s.corners.resize(triangles.size());
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    uint32_t& l = s.localOf[triangles[i]];
+    if (l == kNil) l = uint32_t(s.global.size()), s.global.push_back(triangles[i]);
+    s.corners[i] = l;
+  }
+  for (uint32_t g : s.global) s.localOf[g] = kNil;
+  size_t nv = s.global.size();
+
+  // Vertex -> triangle adjacency (CSR).
+  s.offsets.assign(nv + 1, 0);
+  for (uint32_t v : s.corners) ++s.offsets[v + 1];
+  for (size_t v = 0; v < nv; ++v) s.offsets[v + 1] += s.offsets[v];
+  s.adjacency.resize(s.corners.size());
+  s.fill.assign(s.offsets.begin(), s.offsets.end() - 1);
+  for (size_t c = 0; c < s.corners.size(); ++c) s.adjacency[s.fill[s.corners[c]]++] = uint32_t(c / 3);
+
+  s.centroids.resize(nt);
+  for (size_t t = 0; t < nt; ++t)
+    s.centroids[t] = positions[vertexPosition[triangles[t * 3]]] + positions[vertexPosition[triangles[t * 3 + 1]]] +
+                     positions[vertexPosition[triangles[t * 3 + 2]]];
+  s.emitted.assign(nt, 0);
+  s.score.resize(nt);
+  s.extra.resize(nt);
+  s.triStamp.assign(nt, kNil);
+  s.vertStamp.assign(nv, kNil);
+  s.live.resize(nv);
+  for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
+  s.vertLocal.resize(nv);
+  // Candidates: unemitted triangles touching the cluster (deduplicated per cluster by triStamp).
+  std::vector<uint32_t>& cand = s.candidates;
+
+  uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
+  size_t scan = 0; // every triangle before it is emitted
+  // Lower is better: triangles adding no vertex, then dangling ones (the last unused triangle at
+  // a vertex: left behind they become islands of a few triangles, as in meshoptimizer), then by
+  // vertices added; ties go to the most enclosed triangle (fewest unused triangles around its
+  // vertices), so clusters fill the pockets that earlier clusters left instead of growing as
+  // discs that leave gaps between them. Sets extra[t], the vertices t would add.
+  auto rescore = [&](uint32_t t) {
+    const uint32_t* v = &s.corners[size_t(t) * 3];
+    uint32_t e = 0, liveSum = 0;
+    bool dangling = false;
+    for (int k = 0; k < 3; ++k) {
+      bool repeat = (k > 0 && v[k] == v[0]) || (k > 1 && v[k] == v[1]);
+      e += !repeat && s.vertStamp[v[k]] != cluster;
+      liveSum += s.live[v[k]];
+      dangling |= s.live[v[k]] == 1;
+    }
+    uint32_t rank = e == 0 ? 0 : dangling ? 1 : e + 1;
+    s.extra[t] = uint8_t(e);
+    s.score[t] = rank << 16 | std::min<uint32_t>(liveSum, 0xffff);
+  };
+  auto addTriangle = [&](uint32_t t) {
+    s.emitted[t] = 1;
+    const uint32_t* tv = &s.corners[size_t(t) * 3];
+    for (int k = 0; k < 3; ++k) {
+      uint32_t v = tv[k];
+      if (s.vertStamp[v] != cluster) {
+        s.vertStamp[v] = cluster;
+        s.vertLocal[v] = vertexCount++;
+        out.vertices.push_back(s.global[v]);
+        for (uint32_t a = s.offsets[v]; a < s.offsets[v + 1]; ++a) {
+          uint32_t n = s.adjacency[a];
+          if (!s.emitted[n] && s.triStamp[n] != cluster) s.triStamp[n] = cluster, cand.push_back(n);
+        }
+      }
+      out.indices.push_back(uint8_t(s.vertLocal[v]));
+    }
+    for (int k = 0; k < 3; ++k) --s.live[tv[k]];
+    // Scores change only through t's vertices (joined the cluster, fewer live triangles), so only
+    // the triangles around them are rescored; picking is then a scan over cached scores.
+    for (int k = 0; k < 3; ++k)
+      for (uint32_t a = s.offsets[tv[k]]; a < s.offsets[tv[k] + 1]; ++a)
+        if (!s.emitted[s.adjacency[a]]) rescore(s.adjacency[a]);
+    ++triangleCount;
+    while (scan < nt && s.emitted[scan]) ++scan;
+  };
+
+  uint32_t seed = 0;
+  size_t done = 0;
+  while (done < nt) {
+    ClusterPiece piece{uint32_t(out.vertices.size()), 0, uint32_t(out.indices.size()), 0};
+    vertexCount = triangleCount = 0;
+    cand.clear();
+    glm::vec3 seedCenter = s.centroids[seed];
+    addTriangle(seed);
+    while (triangleCount < maxTriangles) {
+      uint32_t pick = kNil, best = kNil;
+      size_t pickAt = 0;
+      for (size_t i = 0; i < cand.size();) {
+        uint32_t t = cand[i];
+        if (s.emitted[t]) {
+          cand[i] = cand.back(), cand.pop_back();
+          continue;
+        }
+        if (s.score[t] < best && vertexCount + s.extra[t] <= maxVertices) best = s.score[t], pick = t, pickAt = i;
+        ++i;
+      }
+      if (pick != kNil) {
+        cand[pickAt] = cand.back(), cand.pop_back();
+      } else {
+        // Nothing adjacent fits: continue with the nearest unused triangle that fits, as
+        // meshoptimizer does; otherwise the pockets between clusters become clusters of a few
+        // triangles (fill fell to 65 %). Linear scan: rare, and sets are small.
+        float bestD = std::numeric_limits<float>::max();
+        for (size_t t = scan; t < nt; ++t) {
+          if (s.emitted[t]) continue;
+          glm::vec3 d = s.centroids[t] - seedCenter;
+          float d2 = glm::dot(d, d);
+          if (d2 >= bestD) continue;
+          rescore(uint32_t(t));
+          if (vertexCount + s.extra[t] <= maxVertices) bestD = d2, pick = uint32_t(t);
+        }
+        if (pick == kNil) break;
+      }
+      addTriangle(pick);
+    }
+    piece.vertexCount = vertexCount;
+    piece.triangleCount = triangleCount;
+    out.pieces.push_back(piece);
+    done += triangleCount;
+    ++cluster;
+    if (done == nt) break;
+    // Next seed: the most enclosed unemitted triangle next to the cluster just made (the sweep
+    // stays contiguous and closes pockets first), else the first unemitted one in input order.
+    seed = kNil;
+    uint32_t bestLive = kNil;
+    for (uint32_t t : cand) {
+      if (s.emitted[t]) continue;
+      const uint32_t* v = &s.corners[size_t(t) * 3];
+      uint32_t l = s.live[v[0]] + s.live[v[1]] + s.live[v[2]];
+      if (l < bestLive) bestLive = l, seed = t;
+    }
+    if (seed == kNil) seed = uint32_t(scan);
+  }
+  return out;
+}
+
+} // namespace mirage::lod::detail
