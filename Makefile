@@ -26,7 +26,7 @@ test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 900
 
 bench: build
-	$(BUILD)/mirage bench --help
+	$(BUILD)/bench/mirage_microbench
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h' '*.glsl' | grep -v '^shaders/.*\.glsl$$')
