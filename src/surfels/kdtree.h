@@ -22,8 +22,8 @@ public:
 
 private:
   struct Node {
-    uint32_t begin = 0, end = 0;   // range of order_ (leaves)
-    uint32_t left = 0, right = 0;  // children (inner nodes); left == 0 marks a leaf
+    uint32_t begin = 0, end = 0;  // range of order_ (leaves)
+    uint32_t left = 0, right = 0; // children (inner nodes); left == 0 marks a leaf
     float split = 0.0f;
     uint32_t axis = 0;
   };

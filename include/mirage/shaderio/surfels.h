@@ -98,6 +98,21 @@ struct SurfelSamplerPush {
   uint pad0;
 };
 
+
+#ifndef __cplusplus
+// GLSL views of the buffers above, reached through device addresses. Shaders enable
+// GL_EXT_buffer_reference, GL_EXT_scalar_block_layout and GL_EXT_shader_explicit_arithmetic_types_int64
+// before including this header.
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelViewRef { SurfelView v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelInstanceRef { SurfelInstance v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 8) buffer SurfelGlobalsRef { SurfelSamplerGlobals g; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelCountersRef { SurfelSamplerCounters c; };
+layout(buffer_reference, scalar, buffer_reference_align = 16) buffer SurfelVec4Ref { vec4 v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 8) buffer SurfelU64Ref { uint64_t v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelU32Ref { uint v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelF32Ref { float v[]; };
+#endif
+
 #ifdef __cplusplus
 static_assert(sizeof(Surfel) == 16, "Surfel layout");
 static_assert(sizeof(SurfelCaptureVertex) == 28, "SurfelCaptureVertex layout");

@@ -17,18 +17,18 @@ using shaderio::Surfel;
 
 // The valid texels of a V-view G-buffer, in increasing global texel index (view, row, column).
 struct GBufferTexels {
-  uint32_t resolution = 0;              // G-buffer width = height
-  uint32_t viewCount = 0;               // capture directions
-  float texelSize = 0.0f;               // world size of a texel side (orthographic: the same everywhere)
-  glm::vec3 center{0.0f};               // centre of the capture sphere
-  float sphereRadius = 0.0f;            // radius of the capture sphere
-  std::vector<glm::vec3> directions;    // per view: unit direction from the scene towards the camera
-  std::vector<uint32_t> ids;            // global texel index: view * resolution² + y * resolution + x
-  std::vector<glm::vec3> positions;     // world position
-  std::vector<glm::vec3> normals;       // unit normal, facing the view that saw it
-  std::vector<uint32_t> colors;         // linear RGBA8 base colour
-  std::vector<float> areas;             // surface area this texel stands for, deduplicated across views
-  double totalArea = 0.0;               // sum of areas: the sampled area A of the quality metrics
+  uint32_t resolution = 0;           // G-buffer width = height
+  uint32_t viewCount = 0;            // capture directions
+  float texelSize = 0.0f;            // world size of a texel side (orthographic: the same everywhere)
+  glm::vec3 center{0.0f};            // centre of the capture sphere
+  float sphereRadius = 0.0f;         // radius of the capture sphere
+  std::vector<glm::vec3> directions; // per view: unit direction from the scene towards the camera
+  std::vector<uint32_t> ids;         // global texel index: view * resolution² + y * resolution + x
+  std::vector<glm::vec3> positions;  // world position
+  std::vector<glm::vec3> normals;    // unit normal, facing the view that saw it
+  std::vector<uint32_t> colors;      // linear RGBA8 base colour
+  std::vector<float> areas;          // surface area this texel stands for, deduplicated across views
+  double totalArea = 0.0;            // sum of areas: the sampled area A of the quality metrics
 
   size_t size() const { return positions.size(); }
   // Compact index of a global texel index, or UINT32_MAX when that texel saw nothing.
@@ -43,10 +43,10 @@ struct SampleOrder {
 
 // The output: quantized surfels in progressive order plus what a renderer needs beside them.
 struct SurfelCloud {
-  Bounds box;                   // quantization box of the positions
-  std::vector<Surfel> surfels;  // progressive order
-  std::vector<float> radii;     // per prefix length k: radii[k-1] is the Poisson radius of the prefix
-  uint32_t referenceCount = 0;  // N_ref = min(1000, N)
+  Bounds box;                          // quantization box of the positions
+  std::vector<Surfel> surfels;         // progressive order
+  std::vector<float> radii;            // per prefix length k: radii[k-1] is the Poisson radius of the prefix
+  uint32_t referenceCount = 0;         // N_ref = min(1000, N)
   float referenceMeanSpacing = 0.0f;   // mean nearest-neighbour distance among the first N_ref surfels
   float referenceMedianSpacing = 0.0f; // median of the same distances
 
