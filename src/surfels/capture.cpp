@@ -289,6 +289,9 @@ Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const Captur
   // Multiview is core since Vulkan 1.1; devices with fewer views than directions get several passes.
   uint32_t perPass = std::max(1u, std::min(ctx.caps().maxMultiviewViews, layers));
   if (config.maxViewsPerPass) perPass = std::min(perPass, config.maxViewsPerPass);
+  // lavapipe (Mesa 25) crashes when the last pass of a capture uses its maximum view count (6, 12 or
+  // 18 views at 6 per pass; 16 = 6 + 6 + 4 is fine), so such splits take one view less per pass.
+  if (perPass > 1 && perPass == ctx.caps().maxMultiviewViews && layers % perPass == 0) perPass -= 1;
   Unique<VkPipelineLayout> layout =
       createPipelineLayout(ctx, {}, sizeof(sio::SurfelCapturePush), VK_SHADER_STAGE_VERTEX_BIT);
   std::map<uint32_t, Unique<VkPipeline>> pipelines; // by views in the pass (the last pass may have fewer)
