@@ -20,6 +20,8 @@ void addBuildCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);
 // mirage gen city|terrain|blob -o OUT.glb [--seed N] [--size N]: write a procedural scene.
 void addGenCommand(CLI::App& app);
+// mirage surfels INPUT -o out.ply|out.mrg [--count N] [--resolution R] [--views V] [--reference]
+void addSurfelsCommand(CLI::App& app);
 
 // mirage info FILE (scene summary).
 void infoFile(const std::string& path, bool json);

@@ -27,6 +27,7 @@ void registerCommands(CLI::App& app) {
   addRenderCommand(app);
   addBuildCommand(app);
   addBenchCommand(app);
+  addSurfelsCommand(app);
 }
 
 } // namespace mirage::cli

@@ -1,0 +1,37 @@
+#pragma once
+// G-buffer capture for Blue Surfels: the scene rendered from V orthographic directions on a
+// Fibonacci sphere into layered position/normal/colour targets (multiview where the device allows,
+// several passes otherwise). The positions stay on the GPU for the progressive sampler; the valid
+// texels come back to the CPU for the reference sampler and the metrics.
+#include <vector>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/gpu/context.h"
+#include "mirage/gpu/memory.h"
+#include "mirage/gpu/query.h"
+#include "mirage/surfels/surfel.h"
+
+namespace mirage::surfels {
+
+struct CaptureConfig {
+  uint32_t resolution = 1024;   // G-buffer width = height (texels); limited by the device's 2D image size
+  uint32_t views = 16;          // orthographic directions on a Fibonacci sphere (PADrend's default)
+  uint32_t maxViewsPerPass = 0; // 0: the device's multiview limit; 1 forces one pass per view (tests)
+};
+
+struct GpuGBuffer {
+  gpu::Buffer positions;                   // vec4 per global texel on the GPU (w = 1 where valid)
+  std::vector<shaderio::SurfelView> views; // the matrices the capture used (the sampler projects with them)
+  GBufferTexels texels;                    // valid texels on the CPU
+  uint32_t passes = 0;                     // render passes used (1 with enough multiview views)
+  std::vector<gpu::PassTime> times;        // GPU times: "capture" (rasterization), "copy"
+};
+
+// Unit directions towards the camera, evenly spread (golden-angle spiral); deterministic.
+std::vector<glm::vec3> fibonacciDirections(uint32_t count);
+
+// Errors: a scene without triangles, resolution or view count outside what the device supports.
+Result<GpuGBuffer> captureGBuffer(gpu::Context& context, const Scene& scene, const CaptureConfig& config);
+
+} // namespace mirage::surfels

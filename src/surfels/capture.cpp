@@ -1,0 +1,416 @@
+#include "mirage/surfels/capture.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+
+#include <fmt/format.h>
+#include <glm/gtc/packing.hpp>
+#include <tbb/parallel_for.h>
+
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/pipeline.h"
+
+namespace mirage::surfels {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+constexpr VkFormat kPositionFormat = VK_FORMAT_R32G32B32A32_SFLOAT; // world positions need full floats
+constexpr VkFormat kNormalFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+uint32_t packColor(const glm::vec4& c) {
+  glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
+  return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
+}
+
+// Orthographic world -> clip for a camera on direction d around the sphere (c, r): x right, y up
+// (negated: Vulkan's clip y points down), depth 0 on the camera side and 1 on the far side.
+sio::SurfelView makeView(glm::vec3 d, glm::vec3 c, float r) {
+  glm::vec3 upRef = std::abs(d.y) < 0.99f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+  glm::vec3 right = glm::normalize(glm::cross(upRef, d));
+  glm::vec3 up = glm::cross(d, right);
+  glm::mat4 m(0.0f); // glm is column-major: m[column][row]
+  for (int i = 0; i < 3; ++i) {
+    m[i][0] = right[i] / r;
+    m[i][1] = -up[i] / r;
+    m[i][2] = -d[i] / (2.0f * r);
+  }
+  m[3][0] = -glm::dot(c, right) / r;
+  m[3][1] = glm::dot(c, up) / r;
+  m[3][2] = (r + glm::dot(c, d)) / (2.0f * r);
+  m[3][3] = 1.0f;
+  return {m, glm::vec4(d, 0.0f)};
+}
+
+struct Draw {
+  uint32_t firstIndex, indexCount;
+  int32_t vertexOffset;
+  uint32_t firstInstance, instanceCount;
+  bool mirrored;
+  glm::vec4 baseColor;
+};
+
+Unique<VkPipeline> createCapturePipeline(Context& ctx, VkPipelineLayout layout, uint32_t viewMask) {
+  Unique<VkShaderModule> vs = createShaderModule(ctx, "surfel_capture.vert");
+  Unique<VkShaderModule> fs = createShaderModule(ctx, "surfel_capture.frag");
+  VkPipelineShaderStageCreateInfo stages[] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
+                                               VK_SHADER_STAGE_VERTEX_BIT, vs, "main", nullptr},
+                                              {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
+                                               VK_SHADER_STAGE_FRAGMENT_BIT, fs, "main", nullptr}};
+  VkVertexInputBindingDescription binding{0, sizeof(sio::SurfelCaptureVertex), VK_VERTEX_INPUT_RATE_VERTEX};
+  VkVertexInputAttributeDescription attributes[] = {
+      {0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::SurfelCaptureVertex, position)},
+      {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::SurfelCaptureVertex, normal)},
+      {2, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(sio::SurfelCaptureVertex, color)}};
+  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  vi.vertexBindingDescriptionCount = 1;
+  vi.pVertexBindingDescriptions = &binding;
+  vi.vertexAttributeDescriptionCount = 3;
+  vi.pVertexAttributeDescriptions = attributes;
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  rs.polygonMode = VK_POLYGON_MODE_FILL;
+  rs.cullMode = VK_CULL_MODE_NONE; // open surfaces are sampled from both sides
+  rs.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  ds.depthTestEnable = VK_TRUE;
+  ds.depthWriteEnable = VK_TRUE;
+  ds.depthCompareOp = VK_COMPARE_OP_LESS;
+  VkPipelineColorBlendAttachmentState blend[3]{};
+  for (auto& b : blend) b.colorWriteMask = 0xf;
+  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  cb.attachmentCount = 3;
+  cb.pAttachments = blend;
+  VkDynamicState dynamic[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR, VK_DYNAMIC_STATE_FRONT_FACE};
+  VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dyn.dynamicStateCount = 3;
+  dyn.pDynamicStates = dynamic;
+  VkFormat colorFormats[] = {kPositionFormat, kNormalFormat, kColorFormat};
+  VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
+  ri.viewMask = viewMask; // the reason this pipeline is not built by gpu::createGraphicsPipeline
+  ri.colorAttachmentCount = 3;
+  ri.pColorAttachmentFormats = colorFormats;
+  ri.depthAttachmentFormat = kDepthFormat;
+  VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO, &ri};
+  ci.stageCount = 2;
+  ci.pStages = stages;
+  ci.pVertexInputState = &vi;
+  ci.pInputAssemblyState = &ia;
+  ci.pViewportState = &vp;
+  ci.pRasterizationState = &rs;
+  ci.pMultisampleState = &ms;
+  ci.pDepthStencilState = &ds;
+  ci.pColorBlendState = &cb;
+  ci.pDynamicState = &dyn;
+  ci.layout = layout;
+  VkPipeline pipeline;
+  MIRAGE_VK_CHECK(vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
+  return Unique<VkPipeline>(ctx.device(), pipeline);
+}
+
+Unique<VkImageView> layerView(Context& ctx, const Image& image, VkImageAspectFlags aspect, uint32_t base,
+                              uint32_t count) {
+  VkImageViewCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  ci.image = image.handle();
+  ci.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
+  ci.format = image.format();
+  ci.subresourceRange = {aspect, 0, 1, base, count};
+  VkImageView view;
+  MIRAGE_VK_CHECK(vkCreateImageView(ctx.device(), &ci, nullptr, &view));
+  return Unique<VkImageView>(ctx.device(), view);
+}
+
+Image layeredImage(Context& ctx, uint32_t res, uint32_t layers, VkFormat format, VkImageUsageFlags usage,
+                   VkImageAspectFlags aspect, const char* name) {
+  VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ci.imageType = VK_IMAGE_TYPE_2D;
+  ci.format = format;
+  ci.extent = {res, res, 1};
+  ci.mipLevels = 1;
+  ci.arrayLayers = layers;
+  ci.samples = VK_SAMPLE_COUNT_1_BIT;
+  ci.usage = usage;
+  return createImage(ctx, ci, aspect, name);
+}
+
+// Area of each texel's surface patch, deduplicated across views: a patch dA shows up as
+// dA·|cos θ_w| / texelSize² texels in every view w that sees it, so giving each texel
+// texelSize² / Σ_w |cos θ_w| (over the views where the patch passes a depth check) makes the sum
+// over all texels equal the visible area. Grazing sums are clamped to avoid division blow-ups.
+void computeAreas(GBufferTexels& t, const std::vector<sio::SurfelView>& views, const float* pos4) {
+  uint32_t res = t.resolution;
+  size_t perView = size_t(res) * res;
+  t.areas.resize(t.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, t.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i < range.end(); ++i) {
+      glm::vec3 p = t.positions[i], n = t.normals[i];
+      uint32_t own = uint32_t(t.ids[i] / perView);
+      float sum = 0.0f;
+      for (uint32_t w = 0; w < t.viewCount; ++w) {
+        float c = std::abs(glm::dot(n, t.directions[w]));
+        if (w != own) {
+          glm::vec4 clip = views[w].viewProj * glm::vec4(p, 1.0f);
+          int x = int(std::floor((clip.x * 0.5f + 0.5f) * float(res)));
+          int y = int(std::floor((clip.y * 0.5f + 0.5f) * float(res)));
+          if (x < 0 || y < 0 || x >= int(res) || y >= int(res)) continue;
+          const float* q = pos4 + 4 * (w * perView + size_t(y) * res + size_t(x));
+          if (q[3] < 0.5f) continue;
+          // Depth agreement within a texel's slope: the patch, not something in front of it.
+          float depthGap = std::abs(glm::dot(glm::vec3(q[0], q[1], q[2]) - p, t.directions[w]));
+          if (depthGap > t.texelSize * (1.5f + 1.0f / std::max(c, 0.1f))) continue;
+        }
+        sum += c;
+      }
+      t.areas[i] = t.texelSize * t.texelSize / std::max(sum, 0.05f);
+    }
+  });
+  t.totalArea = 0.0;
+  for (float a : t.areas) t.totalArea += a;
+}
+
+} // namespace
+
+std::vector<glm::vec3> fibonacciDirections(uint32_t count) {
+  std::vector<glm::vec3> dirs;
+  const float golden = 3.14159265358979f * (3.0f - std::sqrt(5.0f));
+  for (uint32_t i = 0; i < count; ++i) {
+    float z = 1.0f - (2.0f * float(i) + 1.0f) / float(count);
+    float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+    float phi = golden * float(i);
+    // y is "up" in glTF scenes: the spiral runs from top to bottom.
+    dirs.push_back(glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi))));
+  }
+  return dirs;
+}
+
+Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const CaptureConfig& config) {
+  const VkPhysicalDeviceLimits& limits = ctx.properties().limits;
+  std::string source = scene.source.empty() ? "scene" : scene.source;
+  if (config.resolution == 0 || config.resolution > limits.maxImageDimension2D)
+    return makeError(source, fmt::format("G-buffer resolution {} is outside 1..{} (the device's largest 2D image)",
+                                         config.resolution, limits.maxImageDimension2D));
+  if (config.views == 0 || config.views > limits.maxImageArrayLayers)
+    return makeError(source, fmt::format("view count {} is outside 1..{}", config.views, limits.maxImageArrayLayers));
+  uint64_t texelCount = uint64_t(config.views) * config.resolution * config.resolution;
+  // Shaders reach the texels through device addresses (no descriptor range limit), but texel
+  // indices are 32-bit.
+  if (texelCount >= (1ull << 32))
+    return makeError(source, fmt::format("{} views of {}² texels exceed 2^32 texels", config.views, config.resolution));
+  Bounds world = scene.worldBounds();
+  if (scene.instancedTriangleCount() == 0 || world.empty())
+    return makeError(source, "scene has no triangles to sample");
+
+  // Geometry: all meshes in one vertex and one index buffer; one instanced draw per (mesh, mirrored).
+  std::vector<sio::SurfelCaptureVertex> verts;
+  std::vector<uint32_t> indices;
+  std::vector<Draw> draws;
+  std::vector<sio::SurfelInstance> instances;
+  std::map<std::pair<uint32_t, bool>, std::vector<const Instance*>> groups;
+  for (const Instance& inst : scene.instances)
+    if (inst.mesh < scene.meshes.size())
+      groups[{inst.mesh, glm::determinant(glm::mat3(inst.transform)) < 0.0f}].push_back(&inst);
+  std::vector<std::pair<uint32_t, int32_t>> meshOffsets(scene.meshes.size(), {0, -1});
+  for (auto& [key, list] : groups) {
+    const Mesh& m = scene.meshes[key.first];
+    if (m.indices.empty()) continue;
+    if (meshOffsets[key.first].second < 0) {
+      meshOffsets[key.first] = {uint32_t(indices.size()), int32_t(verts.size())};
+      for (size_t i = 0; i < m.positions.size(); ++i)
+        verts.push_back({m.positions[i], i < m.normals.size() ? m.normals[i] : glm::vec3(0, 1, 0),
+                         i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu});
+      indices.insert(indices.end(), m.indices.begin(), m.indices.end());
+    }
+    glm::vec4 base =
+        m.material < scene.materials.size() ? scene.materials[m.material].baseColorFactor : glm::vec4(1.0f);
+    draws.push_back({meshOffsets[key.first].first, uint32_t(m.indices.size()), meshOffsets[key.first].second,
+                     uint32_t(instances.size()), uint32_t(list.size()), key.second, base});
+    for (const Instance* inst : list)
+      instances.push_back({inst->transform, glm::transpose(glm::inverse(inst->transform))});
+  }
+
+  GpuGBuffer out;
+  GBufferTexels& t = out.texels;
+  t.resolution = config.resolution;
+  t.viewCount = config.views;
+  t.center = world.center();
+  // The tightest sphere around the box centre (not the box's own sphere, which wastes up to 3× the
+  // texels on a round model); a margin keeps every vertex off the clip planes.
+  float maxDistance2 = 0.0f;
+  for (const Instance& inst : scene.instances)
+    if (inst.mesh < scene.meshes.size())
+      for (glm::vec3 p : scene.meshes[inst.mesh].positions) {
+        glm::vec3 d = glm::vec3(inst.transform * glm::vec4(p, 1.0f)) - t.center;
+        maxDistance2 = std::max(maxDistance2, glm::dot(d, d));
+      }
+  t.sphereRadius = std::sqrt(maxDistance2) * 1.01f + 1e-6f;
+  t.texelSize = 2.0f * t.sphereRadius / float(config.resolution);
+  t.directions = fibonacciDirections(config.views);
+  for (glm::vec3 d : t.directions) out.views.push_back(makeView(d, t.center, t.sphereRadius));
+
+  Buffer vertexBuffer =
+      createBufferWithData<sio::SurfelCaptureVertex>(ctx, verts, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "surfel vertices");
+  Buffer indexBuffer = createBufferWithData<uint32_t>(ctx, indices, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, "surfel indices");
+  Buffer instanceBuffer =
+      createBufferWithData<sio::SurfelInstance>(ctx, instances, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel instances");
+  Buffer viewBuffer =
+      createBufferWithData<sio::SurfelView>(ctx, out.views, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel views");
+
+  uint32_t res = config.resolution, layers = config.views;
+  VkImageUsageFlags colorUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  Image images[3] = {
+      layeredImage(ctx, res, layers, kPositionFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT, "surfel position"),
+      layeredImage(ctx, res, layers, kNormalFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT, "surfel normal"),
+      layeredImage(ctx, res, layers, kColorFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT, "surfel colour")};
+  Image depth = layeredImage(ctx, res, layers, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                             VK_IMAGE_ASPECT_DEPTH_BIT, "surfel depth");
+  const uint32_t bytesPerTexel[3] = {16, 8, 4};
+  size_t perLayer = size_t(res) * res;
+  out.positions = createBuffer(ctx, perLayer * layers * 16,
+                               VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                   VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                               MemoryUsage::GpuOnly, "surfel texel positions");
+  Buffer readback[3];
+  for (int i = 0; i < 3; ++i)
+    readback[i] = createBuffer(ctx, perLayer * layers * bytesPerTexel[i], VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                               MemoryUsage::Readback, "surfel readback");
+
+  // Multiview is core since Vulkan 1.1; devices with fewer views than directions get several passes.
+  uint32_t perPass = std::max(1u, std::min(ctx.caps().maxMultiviewViews, layers));
+  if (config.maxViewsPerPass) perPass = std::min(perPass, config.maxViewsPerPass);
+  // lavapipe (Mesa 25) crashes when the last pass of a capture uses its maximum view count (6, 12 or
+  // 18 views at 6 per pass; 16 = 6 + 6 + 4 is fine), so such splits take one view less per pass.
+  if (perPass > 1 && perPass == ctx.caps().maxMultiviewViews && layers % perPass == 0) perPass -= 1;
+  Unique<VkPipelineLayout> layout =
+      createPipelineLayout(ctx, {}, sizeof(sio::SurfelCapturePush), VK_SHADER_STAGE_VERTEX_BIT);
+  std::map<uint32_t, Unique<VkPipeline>> pipelines; // by views in the pass (the last pass may have fewer)
+  struct Pass {
+    uint32_t base, count;
+    Unique<VkImageView> views[4];
+  };
+  std::vector<Pass> passes;
+  for (uint32_t base = 0; base < layers; base += perPass) {
+    Pass p{base, std::min(perPass, layers - base), {}};
+    for (int i = 0; i < 3; ++i) p.views[i] = layerView(ctx, images[i], VK_IMAGE_ASPECT_COLOR_BIT, base, p.count);
+    p.views[3] = layerView(ctx, depth, VK_IMAGE_ASPECT_DEPTH_BIT, base, p.count);
+    if (!pipelines.count(p.count)) pipelines[p.count] = createCapturePipeline(ctx, layout, (1u << p.count) - 1u);
+    passes.push_back(std::move(p));
+  }
+  out.passes = uint32_t(passes.size());
+
+  GpuTimer timer(ctx, 4);
+  // barriers: none on entry (uploads waited); on exit the copies into out.positions and the
+  // readback buffers are complete (submitAndWait).
+  ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    timer.cmdReset(cmd);
+    std::vector<ImageBarrier> toAttachment;
+    for (auto& img : images)
+      toAttachment.push_back({img.handle(), VK_PIPELINE_STAGE_2_NONE, 0,
+                              VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                              VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+    toAttachment.push_back(
+        {depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0,
+         VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+         VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+         VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT});
+    cmdImageBarriers(cmd, toAttachment);
+
+    uint32_t captureSlot = timer.cmdBegin(cmd, "capture");
+    for (const Pass& p : passes) {
+      VkRenderingAttachmentInfo color[3];
+      for (int i = 0; i < 3; ++i) {
+        color[i] = {VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+        color[i].imageView = p.views[i];
+        color[i].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+        color[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+        color[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+        color[i].clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}}; // w = 0: no surface
+      }
+      VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      depthAtt.imageView = p.views[3];
+      depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+      depthAtt.clearValue.depthStencil = {1.0f, 0};
+      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+      ri.renderArea = {{0, 0}, {res, res}};
+      ri.viewMask = (1u << p.count) - 1u;
+      ri.colorAttachmentCount = 3;
+      ri.pColorAttachments = color;
+      ri.pDepthAttachment = &depthAtt;
+      vkCmdBeginRendering(cmd, &ri);
+      VkViewport vp{0.0f, 0.0f, float(res), float(res), 0.0f, 1.0f};
+      VkRect2D scissor{{0, 0}, {res, res}};
+      vkCmdSetViewport(cmd, 0, 1, &vp);
+      vkCmdSetScissor(cmd, 0, 1, &scissor);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines[p.count]);
+      VkDeviceSize zero = 0;
+      VkBuffer vb = vertexBuffer.handle();
+      vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
+      vkCmdBindIndexBuffer(cmd, indexBuffer.handle(), 0, VK_INDEX_TYPE_UINT32);
+      for (const Draw& d : draws) {
+        sio::SurfelCapturePush push{viewBuffer.address(), instanceBuffer.address(), d.baseColor, p.base, 0, 0, 0};
+        vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
+        vkCmdSetFrontFace(cmd, d.mirrored ? VK_FRONT_FACE_CLOCKWISE : VK_FRONT_FACE_COUNTER_CLOCKWISE);
+        vkCmdDrawIndexed(cmd, d.indexCount, d.instanceCount, d.firstIndex, d.vertexOffset, d.firstInstance);
+      }
+      vkCmdEndRendering(cmd);
+    }
+    timer.cmdEnd(cmd, captureSlot);
+
+    uint32_t copySlot = timer.cmdBegin(cmd, "copy");
+    std::vector<ImageBarrier> toTransfer;
+    for (auto& img : images)
+      toTransfer.push_back({img.handle(), VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                            VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+                            VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL});
+    cmdImageBarriers(cmd, toTransfer);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers}; // layers land one after another
+    region.imageExtent = {res, res, 1};
+    vkCmdCopyImageToBuffer(cmd, images[0].handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.positions.handle(), 1,
+                           &region);
+    for (int i = 1; i < 3; ++i)
+      vkCmdCopyImageToBuffer(cmd, images[i].handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback[i].handle(), 1,
+                             &region);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+                     VK_ACCESS_2_TRANSFER_READ_BIT);
+    VkBufferCopy whole{0, 0, perLayer * layers * 16};
+    vkCmdCopyBuffer(cmd, out.positions.handle(), readback[0].handle(), 1, &whole);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                     VK_ACCESS_2_HOST_READ_BIT);
+    timer.cmdEnd(cmd, copySlot);
+  });
+  out.times = timer.read();
+
+  // Valid texels, in global index order (what GBufferTexels::compactIndex relies on).
+  const float* pos4 = reinterpret_cast<const float*>(readback[0].mapped());
+  const uint16_t* nrm = reinterpret_cast<const uint16_t*>(readback[1].mapped());
+  const uint32_t* col = reinterpret_cast<const uint32_t*>(readback[2].mapped());
+  for (size_t i = 0; i < perLayer * layers; ++i) {
+    if (pos4[4 * i + 3] < 0.5f) continue;
+    t.ids.push_back(uint32_t(i));
+    t.positions.push_back({pos4[4 * i], pos4[4 * i + 1], pos4[4 * i + 2]});
+    glm::vec3 n(glm::unpackHalf1x16(nrm[4 * i]), glm::unpackHalf1x16(nrm[4 * i + 1]),
+                glm::unpackHalf1x16(nrm[4 * i + 2]));
+    float len = glm::length(n);
+    t.normals.push_back(len > 0.0f ? n / len : glm::vec3(0, 0, 1));
+    t.colors.push_back(col[i]);
+  }
+  computeAreas(t, out.views, pos4);
+  return out;
+}
+
+} // namespace mirage::surfels

@@ -1,0 +1,68 @@
+#include "kdtree.h"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+
+namespace mirage::surfels {
+
+namespace {
+constexpr uint32_t kLeafSize = 16; // small buckets: queries in the sampler are tiny spheres
+}
+
+KdTree::KdTree(std::span<const glm::vec3> points) : points_(points), order_(points.size()) {
+  std::iota(order_.begin(), order_.end(), 0u);
+  if (!points.empty()) {
+    nodes_.reserve(2 * points.size() / kLeafSize + 2);
+    build(0, uint32_t(points.size()));
+  }
+}
+
+uint32_t KdTree::build(uint32_t begin, uint32_t end) {
+  uint32_t index = uint32_t(nodes_.size());
+  nodes_.push_back({begin, end});
+  if (end - begin <= kLeafSize) return index;
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (uint32_t i = begin; i < end; ++i) lo = glm::min(lo, points_[order_[i]]), hi = glm::max(hi, points_[order_[i]]);
+  glm::vec3 e = hi - lo;
+  uint32_t axis = e.x >= e.y && e.x >= e.z ? 0 : e.y >= e.z ? 1 : 2;
+  uint32_t mid = begin + (end - begin) / 2;
+  // Ties on the axis are broken by index, so the tree (and every query order) is deterministic.
+  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end, [&](uint32_t a, uint32_t b) {
+    float pa = points_[a][axis], pb = points_[b][axis];
+    return pa < pb || (pa == pb && a < b);
+  });
+  float split = points_[order_[mid]][axis];
+  uint32_t left = build(begin, mid);
+  uint32_t right = build(mid, end);
+  Node& n = nodes_[index];
+  n.left = left;
+  n.right = right;
+  n.split = split;
+  n.axis = axis;
+  return index;
+}
+
+void KdTree::nearest(uint32_t n, glm::vec3 q, uint32_t exclude, float& best) const {
+  const Node& node = nodes_[n];
+  if (node.left == 0) {
+    for (uint32_t i = node.begin; i < node.end; ++i) {
+      if (order_[i] == exclude) continue;
+      glm::vec3 d = points_[order_[i]] - q;
+      best = std::min(best, glm::dot(d, d));
+    }
+    return;
+  }
+  // Points equal to the split value sit on both sides of `mid`, hence <= on the far-side test.
+  float diff = q[node.axis] - node.split;
+  nearest(diff < 0.0f ? node.left : node.right, q, exclude, best);
+  if (diff * diff <= best) nearest(diff < 0.0f ? node.right : node.left, q, exclude, best);
+}
+
+float KdTree::nearestSquared(glm::vec3 q, uint32_t exclude) const {
+  float best = std::numeric_limits<float>::infinity();
+  if (!nodes_.empty()) nearest(0, q, exclude, best);
+  return best;
+}
+
+} // namespace mirage::surfels
