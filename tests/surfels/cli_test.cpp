@@ -20,15 +20,10 @@ struct CliRun {
   std::string err;
 };
 
-// MIRAGE_BIN, else the binary beside tests/ in the build folder. (tests/CMakeLists.txt passes
-// "MIRAGE_VALIDATION=1;MIRAGE_BIN=..." to gtest_discover_tests, which splits the list and drops
-// MIRAGE_BIN, so the fallback is what ctest runs use today.)
+// The CLI built beside the tests (tests/CMakeLists.txt defines its path; MIRAGE_BIN overrides).
 std::string mirageBinary() {
   if (const char* bin = std::getenv("MIRAGE_BIN")) return bin;
-  std::error_code ec;
-  auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  auto candidate = exe.parent_path().parent_path() / "mirage";
-  return !ec && std::filesystem::exists(candidate) ? candidate.string() : std::string();
+  return MIRAGE_BINARY_PATH;
 }
 
 CliRun runMirage(const std::string& args, const std::filesystem::path& dir) {
@@ -48,7 +43,7 @@ CliRun runMirage(const std::string& args, const std::filesystem::path& dir) {
 } // namespace
 
 TEST(SurfelCli, WritesPlyAndMrg) {
-  if (mirageBinary().empty()) GTEST_SKIP() << "the mirage binary was not found (set MIRAGE_BIN)";
+  ASSERT_TRUE(std::filesystem::exists(mirageBinary())) << mirageBinary();
   auto dir = mirage::test::tempDir("surfels_cli");
   std::string ply = (dir / "blob.ply").string(), mrg = (dir / "blob.mrg").string();
   CliRun a = runMirage("surfels gen:blob:4 -o " + ply + " --count 300 --resolution 32 --views 6", dir);
@@ -64,7 +59,7 @@ TEST(SurfelCli, WritesPlyAndMrg) {
 }
 
 TEST(SurfelCli, BadInputsExit2WithOneLineAndWriteNothing) {
-  if (mirageBinary().empty()) GTEST_SKIP() << "the mirage binary was not found (set MIRAGE_BIN)";
+  ASSERT_TRUE(std::filesystem::exists(mirageBinary())) << mirageBinary();
   auto dir = mirage::test::tempDir("surfels_cli_bad");
   std::string empty = (dir / "empty.obj").string();
   std::ofstream(empty) << "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
