@@ -84,35 +84,62 @@ void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
 
 class ClusterRender : public test::GpuTest {};
 
-TEST_F(ClusterRender, SelectionMatchesCpuLocalCut) {
-  const lod::LodAsset& asset = blobAsset();
-  auto r = ClusterRenderer::create(context(), asset);
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 2.0f, RasterBackend::Indirect);
-  s.frustumCulling = false;
-  auto out = (*r)->render(s);
-  ASSERT_TRUE(out.ok()) << out.error().message;
-  // The same projection on the CPU (identity instance transform).
-  Camera cam = s.base.camera;
+// LOCALCUT on the CPU with the renderer's projection (identity instance transform): clusters and
+// triangles on the cut, and how many group spheres hold the eye (projected as +infinity).
+struct CpuCut {
+  uint32_t clusters = 0;
+  uint64_t triangles = 0;
+  uint32_t eyeInside = 0;
+};
+CpuCut cpuCut(const lod::ClusterDag& dag, const Camera& cam, float tau) {
   float errorScale = std::abs(cam.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+  CpuCut cut;
   auto projected = [&](const lod::LodBounds& b, bool root) {
     if (root) return std::numeric_limits<float>::infinity();
     if (b.error <= 0.0f) return 0.0f;
     float d = glm::length(b.center - cam.eye) - b.radius;
-    return d <= 0.0f ? std::numeric_limits<float>::infinity() : b.error / std::max(d, cam.znear) * errorScale;
+    if (d <= 0.0f) return ++cut.eyeInside, std::numeric_limits<float>::infinity();
+    return b.error / std::max(d, cam.znear) * errorScale;
   };
-  const lod::ClusterDag& dag = asset.dags[0];
-  uint32_t selected = 0;
-  uint64_t triangles = 0;
   for (const lod::Cluster& c : dag.clusters)
-    if (projected(c.self, false) <= s.tauPixels && projected(c.parent, c.group == lod::kNone) > s.tauPixels)
-      ++selected, triangles += c.triangleCount;
+    if (projected(c.self, false) <= tau && projected(c.parent, c.group == lod::kNone) > tau)
+      ++cut.clusters, cut.triangles += c.triangleCount;
+  return cut;
+}
+
+void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float tau, bool expectEyeInside) {
+  const lod::LodAsset& asset = blobAsset();
+  auto r = ClusterRenderer::create(ctx, asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = settingsFor((*r)->worldBounds(), tau, RasterBackend::Indirect);
+  s.base.camera = camera;
+  s.frustumCulling = false;
+  auto out = (*r)->render(s);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  const lod::ClusterDag& dag = asset.dags[0];
+  CpuCut cut = cpuCut(dag, withClipPlanes(camera, (*r)->worldBounds()), tau);
   EXPECT_EQ(out->stats.clustersTested, dag.clusters.size());
   EXPECT_EQ(out->stats.instancesVisible, 1u);
-  EXPECT_EQ(out->stats.clustersSelected, selected);
-  EXPECT_EQ(out->stats.trianglesRasterized, triangles);
+  EXPECT_EQ(out->stats.clustersSelected, cut.clusters);
+  EXPECT_EQ(out->stats.trianglesRasterized, cut.triangles);
   EXPECT_EQ(out->stats.clustersOverflow, 0u);
-  EXPECT_LT(triangles, dag.inputTriangles); // tau = 2 px at this size is coarser than level 0
+  EXPECT_EQ(cut.eyeInside > 0, expectEyeInside);
+}
+
+TEST_F(ClusterRender, SelectionMatchesCpuLocalCut) {
+  Camera cam = autoCamera(blobAsset().scene.worldBounds(), 1.0f);
+  expectSelectionMatchesCpu(context(), cam, 2.0f, /*expectEyeInside=*/false);
+  EXPECT_LT(cpuCut(blobAsset().dags[0], cam, 2.0f).triangles, blobAsset().dags[0].inputTriangles);
+}
+
+// A camera inside group spheres (just above the surface): those project to +infinity and refine.
+TEST_F(ClusterRender, SelectionMatchesCpuWithEyeInsideSpheres) {
+  Camera cam;
+  cam.eye = {0.0f, 0.0f, 1.3f};
+  cam.target = {1.0f, 0.0f, 1.3f};
+  cam.znear = 0.01f;
+  cam.zfar = 10.0f;
+  expectSelectionMatchesCpu(context(), cam, 1.0f, /*expectEyeInside=*/true);
 }
 
 TEST_F(ClusterRender, BackendsGiveTheSameImage) {
