@@ -17,6 +17,7 @@
 #include <cstring>
 
 #include "lod_common.h"
+#include "lod_render.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
@@ -32,9 +33,15 @@ struct BenchRenderOptions {
   std::string device;
   int frames = 20;
   bool json = false;
+  float tau = 1.0f;           // .mrg only
+  std::string raster = "all"; // .mrg only: every backend the device has
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
+  if (isLodAssetPath(o.input)) {
+    LodRenderRequest r{o.input, "", "", "", o.size, o.device, o.raster, o.tau, o.frames, true, o.json};
+    return runLodBench(r);
+  }
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
   if (o.frames < 2 || o.frames > 100000) return fail("--frames must be in 2..100000");
@@ -182,13 +189,15 @@ void runBenchBuild(const BenchBuildOptions& o) {
 void addBenchCommand(CLI::App& app) {
   auto* bench = app.add_subcommand("bench", "Performance measurements (GPU times from timestamp queries)");
   bench->require_subcommand(1);
-  auto* r = bench->add_subcommand("render", "Forward baseline: median per-pass GPU time over N frames");
+  auto* r = bench->add_subcommand("render", "Median per-pass GPU time over N frames (forward; .mrg: cluster LOD per backend)");
   auto o = std::make_shared<BenchRenderOptions>();
   r->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
   r->add_option("--size", o->size, "WxH")->capture_default_str();
   r->add_option("--frames", o->frames, "Frames to render (the first is a warm-up)")->capture_default_str();
   r->add_option("--device", o->device, "Vulkan device name substring or index");
   r->add_flag("--json", o->json, "Print results as JSON");
+  r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
+  r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute")->capture_default_str();
   r->callback([o] { runBenchRender(*o); });
 
   auto* im = bench->add_subcommand("import", "Scene import speed: median wall time and MB/s (welding included)");

@@ -1,4 +1,5 @@
-// mirage render INPUT -o out.png: headless forward rendering of a scene file.
+// mirage render INPUT -o out.png: headless forward rendering of a scene file; .mrg assets go to the
+// cluster-LOD renderer (cmd_render_lod.cpp).
 #include <chrono>
 
 #include <fmt/format.h>
@@ -6,6 +7,7 @@
 
 #include "cmd_list.h"
 #include "commands.h"
+#include "lod_render.h"
 #include "mirage/io/image_io.h"
 #include "mirage/render/forward_renderer.h"
 #include "render_common.h"
@@ -24,9 +26,17 @@ struct RenderOptions {
   int repeat = 1;
   bool stats = false;
   bool json = false;
+  float tau = 1.0f;            // .mrg only
+  std::string raster = "auto"; // .mrg only
 };
 
 void runRender(const RenderOptions& o) {
+  if (isLodAssetPath(o.input)) {
+    LodRenderRequest r{o.input,  o.output, o.exr,    o.camera, o.size, o.device,
+                       o.raster, o.tau,    o.repeat, o.stats,  o.json};
+    return runLodRender(r);
+  }
+  if (o.raster != "auto" || o.tau != 1.0f) return fail("--tau and --raster apply to .mrg cluster-LOD assets only");
   // Check everything cheap before the import and the GPU start.
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
@@ -115,7 +125,8 @@ void runRender(const RenderOptions& o) {
 void addRenderCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("render", "Render a scene file to PNG (headless)");
   auto o = std::make_shared<RenderOptions>();
-  cmd->add_option("input", o->input, "Scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]")->required();
+  cmd->add_option("input", o->input, "Scene file (.gltf .glb .obj .ply), baked .mrg, or gen:KIND[:SIZE[:SEED]]")
+      ->required();
   cmd->add_option("-o,--output", o->output, "Output PNG (8-bit sRGB)")->required();
   cmd->add_option("--exr", o->exr, "Also write the linear float image (.exr, or .pfm)");
   cmd->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
@@ -124,6 +135,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--repeat", o->repeat, "Render N frames; timings are medians over frames 2..N")->capture_default_str();
   cmd->add_flag("--stats", o->stats, "Print GPU pass times and pipeline statistics");
   cmd->add_flag("--json", o->json, "Print results as JSON");
+  cmd->add_option("--tau", o->tau, ".mrg: LOD threshold, projected error in pixels")->capture_default_str();
+  cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute")->capture_default_str();
   cmd->callback([o] { runRender(*o); });
 }
 

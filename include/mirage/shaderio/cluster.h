@@ -1,0 +1,146 @@
+// Structs shared by C++ and GLSL for the cluster-LOD renderer (written once, vk_lod_clusters'
+// shaderio habit). GLSL reads them with scalar block layout through buffer device addresses, so the
+// C++ sizes must match exactly: see the static_asserts. Data flow: docs/render.md.
+#ifndef MIRAGE_SHADERIO_CLUSTER_H
+#define MIRAGE_SHADERIO_CLUSTER_H
+
+#include "mirage/shaderio/forward.h" // GpuMaterial, shared with the forward renderer
+
+#ifdef __cplusplus
+#include <cstddef>
+namespace mirage::shaderio {
+#endif
+
+// Mesh-shader outputs and the triangle bits of a visibility id: a cluster has at most this many
+// triangles and vertices (the DAG's default build is 128/128; larger clusters are refused at load).
+#define MIRAGE_CLUSTER_MAX_TRIANGLES 128
+#define MIRAGE_CLUSTER_MAX_VERTICES 256
+// Triangle id bits in a packed 32-bit visibility id: ((visibleIndex + 1) << 7) | triangle.
+#define MIRAGE_CLUSTER_TRIANGLE_BITS 7
+// Workgroup size of the per-cluster passes (selection, compute raster): a multiple of both subgroup
+// sizes we meet (lavapipe 8, NVIDIA 32).
+#define MIRAGE_CLUSTER_WORKGROUP 64
+// Mesh/compute-raster dispatches split the visible clusters over x and y: x stays under the
+// guaranteed maxMeshWorkGroupCount / maxComputeWorkGroupCount of 65535.
+#define MIRAGE_CLUSTER_DISPATCH_X 65535
+
+// GpuClusterInstance::flags
+#define MIRAGE_INSTANCE_DOUBLE_SIDED 1u // material draws back faces
+#define MIRAGE_INSTANCE_MIRRORED 2u     // negative determinant: front faces are clockwise
+
+// ClusterFrame::flags
+#define MIRAGE_FRAME_FLAG_BACKFACES 1u // debug: keep back faces and shade them in a flag colour
+#define MIRAGE_FRAME_FRUSTUM_CULL 2u   // cull instances and clusters against the view frustum
+#define MIRAGE_FRAME_SOURCE_BUFFER 4u  // resolve reads the 64-bit buffer (compute raster), else the image
+
+// One cluster of some mesh's DAG (LOCALCUT needs self and parent bounds; culling needs `bounds`).
+struct GpuCluster {
+  vec4 selfSphere;     // xyz centre, w radius of the generating group (object space)
+  vec4 parentSphere;   // member group's sphere
+  vec4 boundsSphere;   // the cluster's own triangles
+  float selfError;     // object-space error of the generating group (0 at level 0)
+  float parentError;   // member group's error; +inf for roots
+  uint vertexOffset;   // first entry in clusterVertices (global attribute-vertex ids)
+  uint triangleOffset; // first triangle in the global local-index byte array (3 bytes each)
+  uint vertexCount;
+  uint triangleCount;
+  uint mesh;
+  uint level;
+};
+
+// One attribute vertex (every DAG level reuses the input's vertices).
+struct GpuClusterVertex {
+  vec3 position;
+  vec3 normal;
+  vec2 uv;
+};
+
+struct GpuClusterMesh {
+  vec4 sphere;        // object-space bounding sphere of the mesh
+  uint clusterOffset; // first cluster in the global cluster table
+  uint clusterCount;
+  uint material;
+  uint pad0;
+};
+
+struct GpuClusterInstance {
+  mat4 model;
+  mat4 normalMatrix;
+  vec4 sphere; // world-space bounding sphere (per-instance culling)
+  uint mesh;
+  uint flags;     // MIRAGE_INSTANCE_*
+  float maxScale; // largest axis scale of `model`: object errors and radii become world ones
+  uint pad0;
+};
+
+// Appended by the selection pass, read by every rasterizer and by the resolve.
+struct VisibleCluster {
+  uint instance;
+  uint cluster; // global cluster id
+};
+
+// Per frame: camera, LOD threshold, culling planes, lighting (the forward renderer's FrameData
+// fields plus what the cluster passes need).
+struct ClusterFrame {
+  mat4 viewProj;
+  mat4 invViewProj;
+  vec4 eye;       // xyz camera position
+  vec4 planes[5]; // world-space frustum planes (left, right, bottom, top, near), xyz.p + w >= 0 inside
+  vec4 lightDir;  // xyz towards the light, w intensity
+  vec4 skyAmbient;
+  vec4 groundAmbient;
+  vec2 viewport; // width, height in pixels
+  float znear;
+  float errorScale;     // |proj[1][1]| * 0.5 * height: object error / distance -> pixels
+  float tau;            // LOD threshold in pixels
+  uint flags;           // MIRAGE_FRAME_*
+  uint visibleCapacity; // entries in the visible-cluster buffer
+  uint instanceCount;
+};
+
+// GPU counters and indirect arguments, zeroed at the start of every frame and read back for --stats.
+struct ClusterCounters {
+  uint selectArgs[3]; // dispatch of the selection pass: (cluster groups, visible instances, 1)
+  uint visibleInstances;
+  uint rasterArgs[3];   // mesh tasks / compute raster: one workgroup per visible cluster
+  uint visibleClusters; // appended (may exceed the capacity: the excess is dropped and counted)
+  uint drawArgs[4];     // vkCmdDrawIndirect: (3 * max triangles, visible clusters, 0, 0)
+  uint clustersTested;
+  uint trianglesSelected;
+  uint clustersFrustumCulled;
+  uint clustersOverflow;
+};
+
+// Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
+struct ClusterPush {
+  uint64_t frameAddress;           // ClusterFrame
+  uint64_t clusterAddress;         // GpuCluster[]
+  uint64_t vertexAddress;          // GpuClusterVertex[]
+  uint64_t clusterVertexAddress;   // uint[]: attribute-vertex ids per cluster
+  uint64_t indexAddress;           // uint[]: local 8-bit indices packed 4 per word
+  uint64_t meshAddress;            // GpuClusterMesh[]
+  uint64_t instanceAddress;        // GpuClusterInstance[]
+  uint64_t materialAddress;        // GpuMaterial[]
+  uint64_t visibleInstanceAddress; // uint[]
+  uint64_t visibleAddress;         // VisibleCluster[]
+  uint64_t counterAddress;         // ClusterCounters
+  uint64_t visBufferAddress;       // uint64_t per pixel: depth << 32 | packed id (compute raster)
+  uint maxMeshClusters;            // largest clusterCount over meshes (selection dispatch width)
+  uint pad0;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(GpuCluster) == 80, "GpuCluster layout");
+static_assert(sizeof(GpuClusterVertex) == 32, "GpuClusterVertex layout");
+static_assert(sizeof(GpuClusterMesh) == 32, "GpuClusterMesh layout");
+static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
+static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
+static_assert(sizeof(ClusterFrame) == 304, "ClusterFrame layout");
+static_assert(sizeof(ClusterCounters) == 64, "ClusterCounters layout");
+static_assert(offsetof(ClusterCounters, rasterArgs) == 16 && offsetof(ClusterCounters, drawArgs) == 32,
+              "indirect argument offsets");
+static_assert(sizeof(ClusterPush) == 104, "ClusterPush layout");
+} // namespace mirage::shaderio
+#endif
+
+#endif

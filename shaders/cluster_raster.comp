@@ -1,0 +1,77 @@
+#version 460
+// Compute software rasterizer: one workgroup per visible cluster; each thread walks the pixel
+// bounding box of its triangles and keeps the nearest sample with a 64-bit atomicMax of
+// (reverse-Z depth bits << 32 | ((visible index + 1) << 7 | triangle)): larger depth is nearer and
+// positive float bits order like the floats. Vertices snap to 1/256 pixel and ties follow the
+// top-left rule, as fixed-function hardware does, so the ids match the other backends.
+// Triangles crossing the near plane are skipped (no clipping yet: docs/render.md).
+#extension GL_EXT_shader_atomic_int64 : require
+#include "cluster_common.glsl"
+
+layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
+
+shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES]; // pixels x, y; depth z/w
+shared bool behind[MIRAGE_CLUSTER_MAX_VERTICES];  // in front of the near plane or behind the eye
+
+float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
+bool topLeft(vec2 a, vec2 b) {
+  vec2 d = b - a;
+  return (d.y == 0.0 && d.x > 0.0) || d.y < 0.0;
+}
+
+void main() {
+  uint v = gl_WorkGroupID.y * MIRAGE_CLUSTER_DISPATCH_X + gl_WorkGroupID.x;
+  if (v >= visibleCount()) return; // uniform over the workgroup
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v];
+  GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
+  GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
+  mat4 mvp = f.viewProj * inst.model;
+  for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
+    uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
+    vec4 clip = mvp * vec4(VertexRef(push.vertexAddress).vertices[id].position, 1.0);
+    behind[i] = clip.w <= 0.0 || clip.z > clip.w;
+    vec3 ndc = clip.xyz / clip.w;
+    vec2 px = (ndc.xy * 0.5 + 0.5) * f.viewport;
+    screen[i] = vec3(round(px * 256.0) / 256.0, ndc.z);
+  }
+  barrier();
+
+  bool keepAll = (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 || (inst.flags & MIRAGE_INSTANCE_DOUBLE_SIDED) != 0;
+  bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
+  VisBufferRef vis = VisBufferRef(push.visBufferAddress);
+  uint width = uint(f.viewport.x);
+  for (uint t = gl_LocalInvocationIndex; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
+    uint b = (c.triangleOffset + t) * 3u;
+    uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
+    if (behind[i0] || behind[i1] || behind[i2]) continue;
+    vec3 a = screen[i0], p1 = screen[i1], p2 = screen[i2];
+    float area = edge(a.xy, p1.xy, p2.xy);
+    if (area == 0.0) continue;
+    // Vulkan: with y down, a counter-clockwise (front) triangle has a negative edge area here.
+    bool front = area < 0.0;
+    if (!keepAll && front == mirrored) continue;
+    if (area < 0.0) { // orient so inside is positive for all three edges
+      vec3 tmp = p1;
+      p1 = p2;
+      p2 = tmp;
+      area = -area;
+    }
+    vec2 lo = max(floor(min(a.xy, min(p1.xy, p2.xy)) - 0.5), vec2(0.0));
+    vec2 hi = min(ceil(max(a.xy, max(p1.xy, p2.xy)) - 0.5), f.viewport - 1.0);
+    bool tl0 = topLeft(p1.xy, p2.xy), tl1 = topLeft(p2.xy, a.xy), tl2 = topLeft(a.xy, p1.xy);
+    uint id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
+    for (float y = lo.y; y <= hi.y; y += 1.0) {
+      for (float x = lo.x; x <= hi.x; x += 1.0) {
+        vec2 s = vec2(x + 0.5, y + 0.5);
+        float w0 = edge(p1.xy, p2.xy, s), w1 = edge(p2.xy, a.xy, s), w2 = edge(a.xy, p1.xy, s);
+        if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
+        if ((w0 == 0.0 && !tl0) || (w1 == 0.0 && !tl1) || (w2 == 0.0 && !tl2)) continue;
+        float z = (w0 * a.z + w1 * p1.z + w2 * p2.z) / area;
+        if (z < 0.0) continue; // beyond the far plane
+        uint64_t value = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
+        atomicMax(vis.pixels[uint(y) * width + uint(x)], value);
+      }
+    }
+  }
+}

@@ -1,0 +1,84 @@
+#version 460
+// Resolve: per pixel, the visibility id names a visible cluster and triangle; the triangle is
+// fetched, intersected with the pixel's ray (perspective-correct barycentrics, plus the rays one
+// pixel right and down for texture and tangent-frame derivatives) and shaded with the forward
+// renderer's material model. Every backend feeds this same pass, so they give the same image.
+#extension GL_EXT_nonuniform_qualifier : require
+#include "cluster_common.glsl"
+
+layout(set = 0, binding = 0) uniform sampler2D textures[];
+layout(set = 0, binding = 1) uniform usampler2D visImage;
+
+#include "cluster_shading.glsl"
+
+layout(location = 0) out vec4 outColor;
+
+// Distance t and barycentrics (b1, b2) of the ray o + t*dir on the triangle's plane (Möller-Trumbore
+// without the inside test: neighbouring pixels' rays may leave the triangle).
+vec3 rayTriangle(vec3 o, vec3 dir, vec3 p0, vec3 e1, vec3 e2) {
+  vec3 pv = cross(dir, e2);
+  float inv = 1.0 / dot(e1, pv);
+  vec3 tv = o - p0;
+  vec3 qv = cross(tv, e1);
+  return vec3(dot(e2, qv), dot(tv, pv), dot(dir, qv)) * inv; // (t, b1, b2)
+}
+
+vec3 pixelRay(ClusterFrame f, vec2 pixel) {
+  vec2 ndc = pixel / f.viewport * 2.0 - 1.0;
+  vec4 q = f.invViewProj * vec4(ndc, 0.5, 1.0);
+  return q.xyz / q.w - f.eye.xyz;
+}
+
+void main() {
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  ivec2 px = ivec2(gl_FragCoord.xy);
+  uint v1, t;
+  if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
+    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[px.y * int(f.viewport.x) + px.x] & 0xffffffffUL);
+    v1 = id >> MIRAGE_CLUSTER_TRIANGLE_BITS;
+    t = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
+  } else {
+    uvec2 id = texelFetch(visImage, px, 0).xy;
+    v1 = id.x;
+    t = id.y;
+  }
+  // Background pixels keep the clear colour, but are discarded only at the end: lavapipe runs the
+  // loads below for every lane of a SIMD group, discarded or not, so every lane reads valid ids
+  // (the visible list's entry 0 always holds a valid pair: zeroed at creation).
+  bool background = v1 == 0;
+  if (background) t = 0;
+  VisibleCluster vc = VisibleRef(push.visibleAddress).visible[background ? 0 : v1 - 1];
+  GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
+  GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
+  GpuClusterVertex a = VertexRef(push.vertexAddress).vertices[triangleVertex(c, t, 0)];
+  GpuClusterVertex b = VertexRef(push.vertexAddress).vertices[triangleVertex(c, t, 1)];
+  GpuClusterVertex cc = VertexRef(push.vertexAddress).vertices[triangleVertex(c, t, 2)];
+  vec3 p0 = (inst.model * vec4(a.position, 1.0)).xyz;
+  vec3 e1 = (inst.model * vec4(b.position, 1.0)).xyz - p0;
+  vec3 e2 = (inst.model * vec4(cc.position, 1.0)).xyz - p0;
+
+  vec2 centre = vec2(px) + 0.5;
+  vec3 h = rayTriangle(f.eye.xyz, pixelRay(f, centre), p0, e1, e2);
+  vec3 hx = rayTriangle(f.eye.xyz, pixelRay(f, centre + vec2(1, 0)), p0, e1, e2);
+  vec3 hy = rayTriangle(f.eye.xyz, pixelRay(f, centre + vec2(0, 1)), p0, e1, e2);
+  vec3 bary = vec3(1.0 - h.y - h.z, h.y, h.z);
+  vec3 pos = p0 + e1 * h.y + e2 * h.z;
+  vec2 uv = a.uv * bary.x + b.uv * bary.y + cc.uv * bary.z;
+  SurfaceDerivatives d;
+  d.dpdx = e1 * (hx.y - h.y) + e2 * (hx.z - h.z);
+  d.dpdy = e1 * (hy.y - h.y) + e2 * (hy.z - h.z);
+  d.duvdx = (b.uv - a.uv) * (hx.y - h.y) + (cc.uv - a.uv) * (hx.z - h.z);
+  d.duvdy = (b.uv - a.uv) * (hy.y - h.y) + (cc.uv - a.uv) * (hy.z - h.z);
+
+  bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
+  bool front = (dot(cross(e1, e2), f.eye.xyz - pos) > 0.0) != mirrored;
+  if ((f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 && !front && !background) {
+    outColor = vec4(1.0, 0.0, 1.0, 1.0); // crack-test flag colour
+    return;
+  }
+  vec3 normal = mat3(inst.normalMatrix) * (a.normal * bary.x + b.normal * bary.y + cc.normal * bary.z);
+  GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
+  if (background) discard;
+  vec3 rgb = shadeSurface(m, pos, normal, front, uv, d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb, f.groundAmbient.rgb);
+  outColor = vec4(rgb, 1.0);
+}

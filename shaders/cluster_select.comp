@@ -1,0 +1,50 @@
+#version 460
+// Cluster selection: LOCALCUT (draw iff self error <= tau < parent error, both projected to pixels)
+// and frustum culling, one thread per (visible instance, cluster). A flat pass for now; a BVH over
+// groups (vk_lod_clusters) or DAG traversal makes it sublinear (docs/render.md).
+#include "cluster_common.glsl"
+
+layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
+
+// Object-space error of a sphere projected to pixels at the sphere's nearest point:
+// err / max(dist - r, znear) * |proj[1][1]| * 0.5 * height. A camera inside the sphere sees an
+// unbounded error: refine. Zero errors stay zero (level 0 cannot refine). Parent
+// spheres contain their children's and parent errors are larger, so the projection stays monotonic
+// from child to parent and the cut stays crack-free.
+float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterFrame f) {
+  if (error <= 0.0 || isinf(error)) return error;
+  vec3 c = (inst.model * vec4(sphere.xyz, 1.0)).xyz;
+  float d = length(c - f.eye.xyz) - sphere.w * inst.maxScale;
+  if (d <= 0.0) return uintBitsToFloat(0x7f800000u);
+  return error * inst.maxScale / max(d, f.znear) * f.errorScale;
+}
+
+void main() {
+  CounterRef counters = CounterRef(push.counterAddress);
+  uint instanceIndex = UintRef(push.visibleInstanceAddress).data[gl_WorkGroupID.y];
+  GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[instanceIndex];
+  GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
+  uint local = gl_GlobalInvocationID.x;
+  if (local >= mesh.clusterCount) return;
+  atomicAdd(counters.counters.clustersTested, 1);
+  uint ci = mesh.clusterOffset + local;
+  GpuCluster c = ClusterRef(push.clusterAddress).clusters[ci];
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= f.tau &&
+               projectedError(c.parentSphere, c.parentError, inst, f) > f.tau;
+  if (!onCut) return;
+  if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0) {
+    vec4 s = vec4((inst.model * vec4(c.boundsSphere.xyz, 1.0)).xyz, c.boundsSphere.w * inst.maxScale);
+    if (!sphereVisible(s)) {
+      atomicAdd(counters.counters.clustersFrustumCulled, 1);
+      return;
+    }
+  }
+  uint slot = atomicAdd(counters.counters.visibleClusters, 1);
+  if (slot >= f.visibleCapacity) {
+    atomicAdd(counters.counters.clustersOverflow, 1);
+    return;
+  }
+  VisibleRef(push.visibleAddress).visible[slot] = VisibleCluster(instanceIndex, ci);
+  atomicAdd(counters.counters.trianglesSelected, c.triangleCount);
+}

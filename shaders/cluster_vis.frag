@@ -1,0 +1,11 @@
+#version 460
+// Visibility output of the indirect-draw backend.
+#include "cluster_common.glsl"
+
+layout(location = 0) flat in uvec2 inId;
+layout(location = 0) out uvec2 outVis;
+
+void main() {
+  if (!keepFacing(inId.x - 1, gl_FrontFacing)) discard;
+  outVis = inId;
+}

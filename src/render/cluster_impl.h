@@ -1,0 +1,35 @@
+#pragma once
+// Private state of ClusterRenderer, shared by cluster_upload.cpp (scene data, set-up time) and
+// cluster_renderer.cpp (pipelines and the per-frame command sequence).
+#include <vector>
+
+#include "mirage/gpu/memory.h"
+#include "mirage/gpu/query.h"
+#include "mirage/render/cluster_renderer.h"
+#include "mirage/shaderio/cluster.h"
+
+namespace mirage::render {
+
+// Everything uploaded once per asset (docs/render.md, "Data layout").
+struct ClusterSceneData {
+  gpu::Buffer clusters;        // GpuCluster[], all meshes' DAGs concatenated
+  gpu::Buffer vertices;        // GpuClusterVertex[], all attribute vertices
+  gpu::Buffer clusterVertices; // uint[], attribute-vertex ids rebased to `vertices`
+  gpu::Buffer indices;         // uint[], local 8-bit indices packed 4 per word
+  gpu::Buffer meshes;          // GpuClusterMesh[]
+  gpu::Buffer instances;       // GpuClusterInstance[]
+  gpu::Buffer materials;       // GpuMaterial[] (the forward renderer's layout)
+  std::vector<gpu::Image> textures;
+  gpu::Unique<VkSampler> sampler;        // trilinear, repeat: material textures
+  gpu::Unique<VkSampler> nearestSampler; // the integer visibility image
+  uint32_t clusterCount = 0;
+  uint32_t instanceCount = 0;
+  uint32_t maxMeshClusters = 0;
+  uint64_t instancedClusters = 0; // sum over instances of their mesh's clusters
+  Bounds worldBounds;
+};
+
+// Uploads `asset`; errors for clusters beyond the mesh-shader limits or an empty scene.
+Result<ClusterSceneData> uploadClusterScene(gpu::Context& ctx, const lod::LodAsset& asset);
+
+} // namespace mirage::render

@@ -1,0 +1,191 @@
+// Set-up time upload of a LodAsset for the cluster renderer: every DAG concatenated into global
+// arrays (cluster table, attribute vertices, per-cluster vertex ids, packed local indices), meshes,
+// instances, and materials/textures in the forward renderer's layout.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "cluster_impl.h"
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/context.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+sio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount) {
+  auto tex = [&](int32_t t) { return t >= 0 && size_t(t) < textureCount ? t : -1; };
+  sio::GpuMaterial g{};
+  g.baseColorFactor = m.baseColorFactor;
+  g.emissiveFactor = m.emissiveFactor;
+  g.metallicFactor = m.metallicFactor;
+  g.roughnessFactor = m.roughnessFactor;
+  g.normalScale = m.normalScale;
+  g.occlusionStrength = m.occlusionStrength;
+  g.alphaCutoff = m.alphaCutoff;
+  g.baseColorTexture = tex(m.baseColorTexture);
+  g.metallicRoughnessTexture = tex(m.metallicRoughnessTexture);
+  g.normalTexture = tex(m.normalTexture);
+  g.occlusionTexture = tex(m.occlusionTexture);
+  g.emissiveTexture = tex(m.emissiveTexture);
+  // The visibility pass has no alpha test yet: MASK and BLEND render as opaque (docs/render.md).
+  g.alphaMode = MIRAGE_ALPHA_OPAQUE;
+  g.doubleSided = m.doubleSided;
+  return g;
+}
+
+Unique<VkSampler> makeSampler(Context& ctx, VkFilter filter) {
+  VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  si.magFilter = si.minFilter = filter;
+  si.mipmapMode = filter == VK_FILTER_LINEAR ? VK_SAMPLER_MIPMAP_MODE_LINEAR : VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  si.addressModeU = si.addressModeV = si.addressModeW =
+      filter == VK_FILTER_LINEAR ? VK_SAMPLER_ADDRESS_MODE_REPEAT : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  si.maxLod = VK_LOD_CLAMP_NONE;
+  VkSampler s;
+  MIRAGE_VK_CHECK(vkCreateSampler(ctx.device(), &si, nullptr, &s));
+  return Unique<VkSampler>(ctx.device(), s);
+}
+
+// Same textures as the forward renderer: sRGB or UNORM by use, full mip chains, one white texel
+// when the scene has none (a descriptor array cannot be empty).
+std::vector<Image> uploadTextures(Context& ctx, const Scene& scene) {
+  std::vector<Texture> list = scene.textures;
+  if (list.empty()) list.push_back(Texture{"white", 1, 1, {255, 255, 255, 255}, false});
+  std::vector<Image> out;
+  for (const Texture& t : list) {
+    uint32_t mips = mipLevelCount(t.width, t.height);
+    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ci.imageType = VK_IMAGE_TYPE_2D;
+    ci.format = t.srgb ? VK_FORMAT_R8G8B8A8_SRGB : VK_FORMAT_R8G8B8A8_UNORM;
+    ci.extent = {t.width, t.height, 1};
+    ci.mipLevels = mips;
+    ci.arrayLayers = 1;
+    ci.samples = VK_SAMPLE_COUNT_1_BIT;
+    ci.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    Image img = createImage(ctx, ci, VK_IMAGE_ASPECT_COLOR_BIT, t.name.c_str());
+    uploadTextureRGBA8(ctx, img, t.rgba8.data(), t.width, t.height, mips);
+    out.push_back(std::move(img));
+  }
+  return out;
+}
+
+float maxAxisScale(const glm::mat4& m) {
+  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
+}
+
+glm::vec4 sphere(const lod::LodBounds& b) { return {b.center, b.radius}; }
+
+} // namespace
+
+Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& asset) {
+  const Scene& scene = asset.scene;
+  if (asset.dags.size() != scene.meshes.size())
+    return Error{fmt::format("{}: {} DAGs for {} meshes", scene.source, asset.dags.size(), scene.meshes.size())};
+  ClusterSceneData d;
+  std::vector<sio::GpuCluster> clusters;
+  std::vector<sio::GpuClusterVertex> vertices;
+  std::vector<uint32_t> clusterVertices;
+  std::vector<uint8_t> indexBytes;
+  std::vector<sio::GpuClusterMesh> meshes;
+  std::vector<Bounds> meshBounds;
+  for (size_t m = 0; m < asset.dags.size(); ++m) {
+    const lod::ClusterDag& dag = asset.dags[m];
+    uint32_t vertexBase = uint32_t(vertices.size());
+    uint32_t clusterVertexBase = uint32_t(clusterVertices.size());
+    uint32_t triangleBase = uint32_t(indexBytes.size() / 3);
+    Bounds bounds;
+    for (size_t v = 0; v < dag.vertexPosition.size(); ++v) {
+      sio::GpuClusterVertex g{};
+      g.position = dag.positions[dag.vertexPosition[v]];
+      g.normal = v < dag.normals.size() ? dag.normals[v] : glm::vec3(0, 1, 0);
+      g.uv = v < dag.uv0.size() ? dag.uv0[v] : glm::vec2(0.0f);
+      bounds.add(g.position);
+      vertices.push_back(g);
+    }
+    for (uint32_t id : dag.clusterVertices) clusterVertices.push_back(vertexBase + id);
+    indexBytes.insert(indexBytes.end(), dag.clusterIndices.begin(), dag.clusterIndices.end());
+    sio::GpuClusterMesh gm{};
+    gm.sphere = glm::vec4(bounds.empty() ? glm::vec3(0.0f) : bounds.center(), bounds.radius());
+    gm.clusterOffset = uint32_t(clusters.size());
+    gm.clusterCount = uint32_t(dag.clusters.size());
+    gm.material = scene.meshes[m].material;
+    for (const lod::Cluster& c : dag.clusters) {
+      if (c.triangleCount > MIRAGE_CLUSTER_MAX_TRIANGLES || c.vertexCount > MIRAGE_CLUSTER_MAX_VERTICES)
+        return Error{fmt::format("{}: mesh '{}' has a cluster of {} triangles / {} vertices; the renderer takes "
+                                 "at most {} / {} (rebuild with --cluster-triangles {})",
+                                 scene.source, scene.meshes[m].name, c.triangleCount, c.vertexCount,
+                                 MIRAGE_CLUSTER_MAX_TRIANGLES, MIRAGE_CLUSTER_MAX_VERTICES,
+                                 MIRAGE_CLUSTER_MAX_TRIANGLES)};
+      sio::GpuCluster g{};
+      g.selfSphere = sphere(c.self);
+      g.parentSphere = sphere(c.parent);
+      g.boundsSphere = sphere(c.bounds);
+      g.selfError = c.self.error;
+      g.parentError = c.group == lod::kNone ? std::numeric_limits<float>::infinity() : c.parent.error;
+      g.vertexOffset = clusterVertexBase + c.vertexOffset;
+      g.triangleOffset = triangleBase + c.triangleOffset;
+      g.vertexCount = c.vertexCount;
+      g.triangleCount = c.triangleCount;
+      g.mesh = uint32_t(m);
+      g.level = c.level;
+      clusters.push_back(g);
+    }
+    d.maxMeshClusters = std::max(d.maxMeshClusters, gm.clusterCount);
+    meshes.push_back(gm);
+    meshBounds.push_back(bounds);
+  }
+  if (clusters.empty()) return Error{scene.source + ": the asset has no clusters"};
+  // Padding of one full cluster: the indirect backend's vertex shader and lavapipe's unmasked SIMD
+  // lanes may read up to MAX_TRIANGLES triangles past the last cluster's start.
+  indexBytes.resize(indexBytes.size() + 3 * MIRAGE_CLUSTER_MAX_TRIANGLES, 0);
+  // Four local indices per word: shaders need no 8-bit storage feature to read them.
+  std::vector<uint32_t> packed((indexBytes.size() + 3) / 4, 0u);
+  for (size_t i = 0; i < indexBytes.size(); ++i) packed[i / 4] |= uint32_t(indexBytes[i]) << (8 * (i % 4));
+
+  std::vector<Material> mats = scene.materials;
+  if (mats.empty()) mats.push_back(Material{});
+  std::vector<sio::GpuMaterial> gpuMats;
+  for (const Material& m : mats) gpuMats.push_back(toGpuMaterial(m, scene.textures.size()));
+
+  std::vector<sio::GpuClusterInstance> instances;
+  for (const Instance& inst : scene.instances) {
+    if (inst.mesh >= meshes.size()) continue;
+    const Material& mat = mats[std::min<size_t>(meshes[inst.mesh].material, mats.size() - 1)];
+    sio::GpuClusterInstance g{};
+    g.model = inst.transform;
+    g.normalMatrix = glm::transpose(glm::inverse(inst.transform));
+    g.maxScale = maxAxisScale(inst.transform);
+    glm::vec4 s = meshes[inst.mesh].sphere;
+    g.sphere = glm::vec4(glm::vec3(inst.transform * glm::vec4(glm::vec3(s), 1.0f)), s.w * g.maxScale);
+    g.mesh = inst.mesh;
+    g.flags = (mat.doubleSided ? MIRAGE_INSTANCE_DOUBLE_SIDED : 0u) |
+              (glm::determinant(glm::mat3(inst.transform)) < 0.0f ? MIRAGE_INSTANCE_MIRRORED : 0u);
+    instances.push_back(g);
+    d.instancedClusters += meshes[inst.mesh].clusterCount;
+    d.worldBounds.add(transformBounds(meshBounds[inst.mesh], inst.transform));
+  }
+  if (instances.empty()) return Error{scene.source + ": the scene has no instances"};
+  for (auto& m : meshes) m.material = std::min<uint32_t>(m.material, uint32_t(mats.size() - 1));
+
+  constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kStorage, "cluster table");
+  d.vertices = createBufferWithData<sio::GpuClusterVertex>(ctx, vertices, kStorage, "cluster vertices");
+  d.clusterVertices = createBufferWithData<uint32_t>(ctx, clusterVertices, kStorage, "cluster vertex ids");
+  d.indices = createBufferWithData<uint32_t>(ctx, packed, kStorage, "cluster local indices");
+  d.meshes = createBufferWithData<sio::GpuClusterMesh>(ctx, meshes, kStorage, "cluster meshes");
+  d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");
+  d.materials = createBufferWithData<sio::GpuMaterial>(ctx, gpuMats, kStorage, "cluster materials");
+  d.textures = uploadTextures(ctx, scene);
+  d.sampler = makeSampler(ctx, VK_FILTER_LINEAR);
+  d.nearestSampler = makeSampler(ctx, VK_FILTER_NEAREST);
+  d.clusterCount = uint32_t(clusters.size());
+  d.instanceCount = uint32_t(instances.size());
+  return d;
+}
+
+} // namespace mirage::render
