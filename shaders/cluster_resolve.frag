@@ -9,7 +9,7 @@
 layout(set = 0, binding = 0) uniform sampler2D textures[];
 layout(set = 0, binding = 1) uniform usampler2D visImage;
 
-#include "cluster_shading.glsl"
+#include "shading.glsl"
 
 layout(location = 0) out vec4 outColor;
 
@@ -79,6 +79,8 @@ void main() {
   vec3 normal = mat3(inst.normalMatrix) * (a.normal * bary.x + b.normal * bary.y + cc.normal * bary.z);
   GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
   if (background) discard;
-  vec3 rgb = shadeSurface(m, pos, normal, front, uv, d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb, f.groundAmbient.rgb);
+  vec4 base = baseColor(m, uv, vec4(1.0), d); // DAG vertices carry no colours or tangents
+  vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), front, uv, d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,
+                          f.groundAmbient.rgb);
   outColor = vec4(rgb, 1.0);
 }

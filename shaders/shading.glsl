@@ -1,8 +1,8 @@
-// The forward renderer's material and lighting model (forward.frag: glTF metallic-roughness, GGX,
-// one directional light, hemisphere ambient), taking explicit derivatives because the resolve
-// reconstructs attributes per pixel instead of interpolating them. Keep the two in step: the
-// LOD-vs-forward PSNR test (tests/render/cluster_image_test.cpp) fails when they drift.
-// Needs `textures[]` declared by the including shader.
+// Mirage's one material and lighting model, shared by every renderer (forward.frag and the
+// cluster-LOD resolve): glTF metallic-roughness, GGX, one directional light, hemisphere ambient.
+// Derivatives are explicit because the visibility-buffer resolve reconstructs attributes per pixel
+// instead of interpolating them; forward.frag passes dFdx/dFdy. Needs `textures[]` declared by the
+// including shader.
 
 const float PI = 3.14159265359;
 
@@ -35,15 +35,27 @@ float visibilitySmithGGX(float nv, float nl, float a) {
   return 0.25 / (max(nv * (1.0 - k) + k, 1e-4) * max(nl * (1.0 - k) + k, 1e-4));
 }
 
-vec3 shadeSurface(GpuMaterial m, vec3 worldPos, vec3 normal, bool frontFacing, vec2 uv, SurfaceDerivatives d,
-                  vec3 eye, vec4 lightDir, vec3 skyAmbient, vec3 groundAmbient) {
-  vec4 base = m.baseColorFactor * sampleGradOr(m.baseColorTexture, uv, d, vec4(1.0));
+// Base colour and alpha: factor x texture x vertex colour (alpha MASK/BLEND read .a).
+vec4 baseColor(GpuMaterial m, vec2 uv, vec4 vertexColor, SurfaceDerivatives d) {
+  return m.baseColorFactor * vertexColor * sampleGradOr(m.baseColorTexture, uv, d, vec4(1.0));
+}
+
+// `tangent.w == 0`: no vertex tangents, the normal map uses a frame from derivatives.
+vec3 shadeSurface(GpuMaterial m, vec4 base, vec3 worldPos, vec3 normal, vec4 tangent, bool frontFacing, vec2 uv,
+                  SurfaceDerivatives d, vec3 eye, vec4 lightDir, vec3 skyAmbient, vec3 groundAmbient) {
   vec3 n = normalize(normal);
   if (!frontFacing) n = -n; // double-sided materials light their back faces
   if (m.normalTexture >= 0) {
     vec3 tn = textureGrad(textures[nonuniformEXT(m.normalTexture)], uv, d.duvdx, d.duvdy).xyz * 2.0 - 1.0;
     tn.xy *= m.normalScale;
-    n = normalize(derivativeFrame(n, d) * tn); // DAG vertices carry no tangents
+    mat3 tbn;
+    if (tangent.w != 0.0) {
+      vec3 t = normalize(tangent.xyz - n * dot(n, tangent.xyz));
+      tbn = mat3(t, cross(n, t) * tangent.w, n);
+    } else {
+      tbn = derivativeFrame(n, d);
+    }
+    n = normalize(tbn * tn);
   }
   vec4 mr = sampleGradOr(m.metallicRoughnessTexture, uv, d, vec4(1.0));
   float metallic = clamp(m.metallicFactor * mr.b, 0.0, 1.0);
