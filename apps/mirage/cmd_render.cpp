@@ -33,7 +33,7 @@ struct RenderOptions {
 void runRender(const RenderOptions& o) {
   if (isLodAssetPath(o.input)) {
     LodRenderRequest r{o.input,  o.output, o.exr,    o.camera, o.size, o.device,
-                       o.raster, o.tau,    o.repeat, o.stats,  o.json};
+                       o.raster, o.tau,    1,        o.repeat, o.stats,  o.json};
     return runLodRender(r);
   }
   if (o.raster != "auto" || o.tau != 1.0f) return fail("--tau and --raster apply to .mrg cluster-LOD assets only");

@@ -14,6 +14,7 @@ struct LodRenderRequest {
   std::string device;
   std::string raster = "auto"; // auto | mesh | indirect | compute; bench: "all" = every supported one
   float tau = 1.0f;            // LOD threshold in pixels
+  uint32_t grid = 1;           // >1: the scene's instances repeated on a grid x grid layout (benchmark scenes)
   int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
   bool stats = false;
   bool json = false;
