@@ -129,25 +129,27 @@ struct ClusterRenderer::Impl {
   sio::ClusterPush push() const;
   void cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p);
   void cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend);
-  void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p, const glm::vec4& background);
+  void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p);
 };
 
 void ClusterRenderer::Impl::createDescriptors() {
   uint32_t n = uint32_t(scene.textures.size());
+  // Textures and the visibility image are read by the resolve (compute); binding 2 is its output.
   VkDescriptorSetLayoutBinding bindings[] = {
-      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
-      {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr}};
+      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
   VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  li.bindingCount = 2;
+  li.bindingCount = 3;
   li.pBindings = bindings;
   VkDescriptorSetLayout dsl;
   MIRAGE_VK_CHECK(vkCreateDescriptorSetLayout(ctx.device(), &li, nullptr, &dsl));
   setLayout = Unique<VkDescriptorSetLayout>(ctx.device(), dsl);
-  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n + 1};
+  VkDescriptorPoolSize ps[] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n + 1}, {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1}};
   VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pi.maxSets = 1;
-  pi.poolSizeCount = 1;
-  pi.pPoolSizes = &ps;
+  pi.poolSizeCount = 2;
+  pi.pPoolSizes = ps;
   VkDescriptorPool dp;
   MIRAGE_VK_CHECK(vkCreateDescriptorPool(ctx.device(), &pi, nullptr, &dp));
   pool = Unique<VkDescriptorPool>(ctx.device(), dp);
@@ -183,19 +185,14 @@ void ClusterRenderer::Impl::createPipelines() {
   d.colorFormats = {kVisFormat};
   d.depthFormat = kDepthFormat;
   indirectPipeline = createGraphicsPipeline(ctx, d);
-  GraphicsPipelineDesc r;
-  r.vertexShader = "cluster_resolve.vert";
-  r.fragmentShader = "cluster_resolve.frag";
-  r.layout = layout;
-  r.colorFormats = {kColorFormat};
-  resolvePipeline = createGraphicsPipeline(ctx, r);
+  resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
 
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   visibleCapacity = uint32_t(std::clamp<uint64_t>(scene.instancedClusters, 1, kMaxVisibleClusters));
   frame = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
   visibleInstances = createBuffer(ctx, scene.instanceCount * 4ull, kStorage, MemoryUsage::GpuOnly, "visible instances");
   // Zeroed once: entry 0 is then always a valid (instance, cluster) pair, which the resolve reads
-  // for background pixels too (see cluster_resolve.frag).
+  // for background pixels too (see cluster_resolve.comp).
   std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
   visible = createBufferWithData<sio::VisibleCluster>(ctx, zeros, kStorage, "visible clusters");
   counters = createBuffer(ctx, sizeof(sio::ClusterCounters),
@@ -206,22 +203,26 @@ void ClusterRenderer::Impl::createPipelines() {
 
 void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
   if (w == width && h == height) return;
-  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                        "color");
+  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
   vis = createImage2D(ctx, w, h, kVisFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                       "visibility");
   depth = createImage2D(ctx, w, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "visibility depth");
   visBuffer =
       createBuffer(ctx, uint64_t(w) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                    MemoryUsage::GpuOnly, "visibility64");
-  VkDescriptorImageInfo info{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkWriteDescriptorSet wr{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-  wr.dstSet = set;
-  wr.dstBinding = 1;
-  wr.descriptorCount = 1;
-  wr.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  wr.pImageInfo = &info;
-  vkUpdateDescriptorSets(ctx.device(), 1, &wr, 0, nullptr);
+  VkDescriptorImageInfo visInfo{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
+  VkWriteDescriptorSet wr[2] = {{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET}, {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET}};
+  wr[0].dstSet = wr[1].dstSet = set;
+  wr[0].dstBinding = 1;
+  wr[0].descriptorCount = 1;
+  wr[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  wr[0].pImageInfo = &visInfo;
+  wr[1].dstBinding = 2;
+  wr[1].descriptorCount = 1;
+  wr[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+  wr[1].pImageInfo = &colorInfo;
+  vkUpdateDescriptorSets(ctx.device(), 2, wr, 0, nullptr);
   width = w;
   height = h;
 }
@@ -277,14 +278,14 @@ void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPus
 
 // barriers: cmdSelect's outputs visible; the 64-bit visibility buffer zeroed and visible to compute
 // (compute backend). On exit the visibility image is in SHADER_READ_ONLY_OPTIMAL and whatever the
-// backend wrote is visible to the resolve's fragment shader.
+// backend wrote is visible to the resolve (a compute shader).
 void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend) {
   uint32_t slot = timer.cmdBegin(cmd, "raster");
   vkCmdPushConstants(cmd, layout, pushStages, 0, sizeof(p), &p);
   ImageBarrier toRead{vis.handle(),
                       VK_PIPELINE_STAGE_2_NONE,
                       0,
-                      VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
                       VK_IMAGE_LAYOUT_UNDEFINED,
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
@@ -292,13 +293,13 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, rasterArgs));
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     cmdImageBarrier(cmd, toRead); // unused by the resolve here, but the descriptor must be valid
     timer.cmdEnd(cmd, slot);
     return;
   }
   ImageBarrier toAttachment[] = {
-      {vis.handle(), VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+      {vis.handle(), VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
        VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
       {depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0,
        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
@@ -348,36 +349,16 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
   timer.cmdEnd(cmd, slot);
 }
 
-// barriers: cmdRasterize's output visible to fragment shaders. The color target ends in
-// COLOR_ATTACHMENT_OPTIMAL, which readbackImage expects.
-void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p, const glm::vec4& bg) {
+// barriers: cmdRasterize's output visible to compute shaders. The color target ends in GENERAL with
+// the resolve's writes available, which the readback expects.
+void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p) {
   uint32_t slot = timer.cmdBegin(cmd, "resolve");
-  cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                        VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                        VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
-  VkRenderingAttachmentInfo colorAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  colorAtt.imageView = color.view();
-  colorAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  colorAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  colorAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  colorAtt.clearValue.color = {{bg.r, bg.g, bg.b, bg.a}};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {width, height}};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &colorAtt;
-  vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-  VkRect2D scissor{{0, 0}, {width, height}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
-  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
-  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, resolvePipeline);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &set, 0, nullptr);
+  cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                        VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolvePipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &set, 0, nullptr);
   vkCmdPushConstants(cmd, layout, pushStages, 0, sizeof(p), &p);
-  vkCmdDraw(cmd, 3, 1, 0, 0); // one full-screen triangle
-  vkCmdEndRendering(cmd);
+  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
   timer.cmdEnd(cmd, slot);
 }
 
@@ -429,6 +410,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
             (backend == RasterBackend::Compute ? MIRAGE_FRAME_SOURCE_BUFFER : 0u);
   f.visibleCapacity = d.visibleCapacity;
   f.instanceCount = d.scene.instanceCount;
+  f.background = s.background;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::ClusterPush p = d.push();
 
@@ -451,7 +433,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                          VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
     d.cmdSelect(cmd, p);                // instance cull, LOCALCUT + frustum, raster args
     d.cmdRasterize(cmd, p, backend);    // visibility: (cluster, triangle) per pixel
-    d.cmdResolve(cmd, p, s.background); // fetch, interpolate, shade
+    d.cmdResolve(cmd, p);               // fetch, interpolate, shade
     d.timer.cmdEnd(cmd, frameSlot);
   });
 
@@ -470,7 +452,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = c.trianglesSelected;
 
-  std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, 8);
+  std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
   const uint16_t* half = reinterpret_cast<const uint16_t*>(img.data());
   size_t pixels = size_t(s.width) * s.height;
   ImageRGBA8& srgb = out.image.srgb;

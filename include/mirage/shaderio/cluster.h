@@ -96,6 +96,7 @@ struct ClusterFrame {
   uint flags;           // MIRAGE_FRAME_*
   uint visibleCapacity; // entries in the visible-cluster buffer
   uint instanceCount;
+  vec4 background; // linear RGBA written where no cluster covers the pixel
 };
 
 // GPU counters and indirect arguments, zeroed at the start of every frame and read back for --stats.
@@ -135,7 +136,7 @@ static_assert(sizeof(GpuClusterVertex) == 32, "GpuClusterVertex layout");
 static_assert(sizeof(GpuClusterMesh) == 32, "GpuClusterMesh layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
-static_assert(sizeof(ClusterFrame) == 304, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 320, "ClusterFrame layout");
 static_assert(sizeof(ClusterCounters) == 64, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, rasterArgs) == 16 && offsetof(ClusterCounters, drawArgs) == 32,
               "indirect argument offsets");

@@ -1,8 +1,11 @@
 #version 460
-// Resolve: per pixel, the visibility id names a visible cluster and triangle; the triangle is
-// fetched, intersected with the pixel's ray (perspective-correct barycentrics, plus the rays one
-// pixel right and down for texture and tangent-frame derivatives) and shaded with the forward
-// renderer's material model. Every backend feeds this same pass, so they give the same image.
+// Resolve, one compute thread per pixel: the visibility id names a visible cluster and triangle;
+// the triangle is fetched, intersected with the pixel's ray (perspective-correct barycentrics, plus
+// the rays one pixel right and down for texture and tangent-frame derivatives) and shaded with the
+// shared material model (shading.glsl). Every backend feeds this same pass, so they give the same
+// image. A compute pass rather than a full-screen fragment pass: on the H200, arithmetic measured
+// far slower in fragment than in compute shaders (device notes), and this pass is all arithmetic
+// and dependent loads.
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
 
@@ -11,7 +14,8 @@ layout(set = 0, binding = 1) uniform usampler2D visImage;
 
 #include "shading.glsl"
 
-layout(location = 0) out vec4 outColor;
+layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D outImage;
+layout(local_size_x = 8, local_size_y = 8) in;
 
 // Distance t and barycentrics (b1, b2) of the ray o + t*dir on the triangle's plane (Möller-Trumbore
 // without the inside test: neighbouring pixels' rays may leave the triangle).
@@ -31,7 +35,8 @@ vec3 pixelRay(ClusterFrame f, vec2 pixel) {
 
 void main() {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
-  ivec2 px = ivec2(gl_FragCoord.xy);
+  ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+  if (px.x >= int(f.viewport.x) || px.y >= int(f.viewport.y)) return;
   uint v1, t;
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
     uint id = uint(VisBufferRef(push.visBufferAddress).pixels[px.y * int(f.viewport.x) + px.x] & 0xffffffffUL);
@@ -42,9 +47,9 @@ void main() {
     v1 = id.x;
     t = id.y;
   }
-  // Background pixels keep the clear colour, but are discarded only at the end: lavapipe runs the
-  // loads below for every lane of a SIMD group, discarded or not, so every lane reads valid ids
-  // (the visible list's entry 0 always holds a valid pair: zeroed at creation).
+  // Background pixels take the background colour, decided only at the end: lavapipe runs the loads
+  // below for every lane of a SIMD group, inactive or not, so every lane reads valid ids (the
+  // visible list's entry 0 always holds a valid pair: zeroed at creation).
   bool background = v1 == 0;
   if (background) t = 0;
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[background ? 0 : v1 - 1];
@@ -73,14 +78,17 @@ void main() {
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   bool front = (dot(cross(e1, e2), f.eye.xyz - pos) > 0.0) != mirrored;
   if ((f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 && !front && !background) {
-    outColor = vec4(1.0, 0.0, 1.0, 1.0); // crack-test flag colour
+    imageStore(outImage, px, vec4(1.0, 0.0, 1.0, 1.0)); // crack-test flag colour
     return;
   }
   vec3 normal = mat3(inst.normalMatrix) * (a.normal * bary.x + b.normal * bary.y + cc.normal * bary.z);
   GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
-  if (background) discard;
+  if (background) {
+    imageStore(outImage, px, f.background);
+    return;
+  }
   vec4 base = baseColor(m, uv, vec4(1.0), d); // DAG vertices carry no colours or tangents
   vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), front, uv, d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);
-  outColor = vec4(rgb, 1.0);
+  imageStore(outImage, px, vec4(rgb, 1.0));
 }
