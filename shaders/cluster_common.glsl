@@ -14,6 +14,8 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer Ins
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer MaterialRef { GpuMaterial materials[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer UintRef { uint data[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer VisibleRef { VisibleCluster visible[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer VisibleInstanceRef { VisibleInstance entries[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer LevelRef { GpuClusterLevel levels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CounterRef { ClusterCounters counters; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer VisBufferRef { uint64_t pixels[]; };
 

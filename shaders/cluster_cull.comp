@@ -1,6 +1,8 @@
 #version 460
-// Per-instance culling: visible instances are appended and counted into the selection dispatch's
-// y dimension, so the cluster pass never visits an off-screen instance's clusters.
+// Per-instance culling, then the instance's level range: visible instances are appended with the
+// range of their mesh's clusters that can be on the LOD cut, and counted into the selection
+// dispatch (y: instances, x: the widest range), so the cluster pass skips off-screen instances and
+// levels far from the cut.
 #include "cluster_common.glsl"
 
 layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
@@ -8,15 +10,44 @@ layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
 void main() {
   uint i = gl_GlobalInvocationID.x;
   CounterRef counters = CounterRef(push.counterAddress);
-  if (i == 0) {
-    counters.counters.selectArgs[0] = (push.maxMeshClusters + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP;
-    counters.counters.selectArgs[2] = 1;
-  }
+  if (i == 0) counters.counters.selectArgs[2] = 1;
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   if (i >= f.instanceCount) return;
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[i];
   if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0 && !sphereVisible(inst.sphere)) return;
+  GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
+
+  // Every LOD sphere of the mesh lies within `reach` of its centre, so its distance term
+  // d = |c - eye| - r is within [dist - reach, dist + reach]. A level whose largest parent error,
+  // projected at the nearest distance, is <= tau has every parent good enough (too fine); one whose
+  // smallest self error, projected at the farthest, is > tau has no cluster good enough (too
+  // coarse). Either way none of its clusters passes LOCALCUT. The 0.1% margins keep float rounding
+  // in the per-cluster test from deciding otherwise.
+  vec3 centre = (inst.model * vec4(mesh.sphere.xyz, 1.0)).xyz;
+  float dist = length(centre - f.eye.xyz);
+  float reach = mesh.reach * inst.maxScale;
+  float dmin = dist - reach, dmax = dist + reach;
+  uint first = 0, last = mesh.levelCount - 1;
+  if (dmin > 0.0) {
+    float nearScale = inst.maxScale / max(dmin, f.znear) * f.errorScale;
+    float farScale = inst.maxScale / max(dmax, f.znear) * f.errorScale;
+    bool found = false;
+    for (uint l = 0; l < mesh.levelCount; ++l) {
+      GpuClusterLevel level = LevelRef(push.levelAddress).levels[mesh.levelOffset + l];
+      bool tooFine = !isinf(level.maxParentError) && level.maxParentError * nearScale * 1.001 <= f.tau;
+      bool tooCoarse = level.minSelfError > 0.0 && level.minSelfError * farScale * 0.999 > f.tau;
+      if (tooFine || tooCoarse) continue;
+      if (!found) first = l;
+      last = l;
+      found = true;
+    }
+    if (!found) return; // nothing of this instance can be on the cut
+  }
+  GpuClusterLevel a = LevelRef(push.levelAddress).levels[mesh.levelOffset + first];
+  GpuClusterLevel b = LevelRef(push.levelAddress).levels[mesh.levelOffset + last];
+  uint count = b.firstCluster + b.clusterCount - a.firstCluster;
   uint slot = atomicAdd(counters.counters.visibleInstances, 1);
   atomicAdd(counters.counters.selectArgs[1], 1);
-  UintRef(push.visibleInstanceAddress).data[slot] = i;
+  atomicMax(counters.counters.selectArgs[0], (count + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP);
+  VisibleInstanceRef(push.visibleInstanceAddress).entries[slot] = VisibleInstance(i, a.firstCluster, count, 0);
 }

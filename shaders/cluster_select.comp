@@ -1,7 +1,8 @@
 #version 460
 // Cluster selection: LOCALCUT (draw iff self error <= tau < parent error, both projected to pixels)
-// and frustum culling, one thread per (visible instance, cluster). A flat pass for now; a BVH over
-// groups (vk_lod_clusters) or DAG traversal makes it sublinear (docs/render.md).
+// and frustum culling, one thread per (visible instance, cluster of the instance's level range from
+// the cull pass). Still linear in the clusters of the kept levels; a BVH over groups
+// (vk_lod_clusters) or DAG traversal makes it sublinear (docs/render.md).
 #include "cluster_common.glsl"
 
 layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
@@ -21,13 +22,14 @@ float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterF
 
 void main() {
   CounterRef counters = CounterRef(push.counterAddress);
-  uint instanceIndex = UintRef(push.visibleInstanceAddress).data[gl_WorkGroupID.y];
+  VisibleInstance vi = VisibleInstanceRef(push.visibleInstanceAddress).entries[gl_WorkGroupID.y];
+  uint instanceIndex = vi.instance;
+  uint local = gl_GlobalInvocationID.x;
+  if (local >= vi.clusterCount) return;
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[instanceIndex];
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
-  uint local = gl_GlobalInvocationID.x;
-  if (local >= mesh.clusterCount) return;
   atomicAdd(counters.counters.clustersTested, 1);
-  uint ci = mesh.clusterOffset + local;
+  uint ci = mesh.clusterOffset + vi.firstCluster + local;
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[ci];
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= f.tau &&

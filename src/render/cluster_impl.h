@@ -17,6 +17,7 @@ struct ClusterSceneData {
   gpu::Buffer clusterVertices; // uint[], attribute-vertex ids rebased to `vertices`
   gpu::Buffer indices;         // uint[], local 8-bit indices packed 4 per word
   gpu::Buffer meshes;          // GpuClusterMesh[]
+  gpu::Buffer levels;          // GpuClusterLevel[], per mesh (GpuClusterMesh::levelOffset)
   gpu::Buffer instances;       // GpuClusterInstance[]
   gpu::Buffer materials;       // GpuMaterial[] (the forward renderer's layout)
   std::vector<gpu::Image> textures;

@@ -190,7 +190,8 @@ void ClusterRenderer::Impl::createPipelines() {
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   visibleCapacity = uint32_t(std::clamp<uint64_t>(scene.instancedClusters, 1, kMaxVisibleClusters));
   frame = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
-  visibleInstances = createBuffer(ctx, scene.instanceCount * 4ull, kStorage, MemoryUsage::GpuOnly, "visible instances");
+  visibleInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
+                                  MemoryUsage::GpuOnly, "visible instances");
   // Zeroed once: entry 0 is then always a valid (instance, cluster) pair, which the resolve reads
   // for background pixels too (see cluster_resolve.comp).
   std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
@@ -238,6 +239,7 @@ sio::ClusterPush ClusterRenderer::Impl::push() const {
   p.instanceAddress = scene.instances.address();
   p.materialAddress = scene.materials.address();
   p.visibleInstanceAddress = visibleInstances.address();
+  p.levelAddress = scene.levels.address();
   p.visibleAddress = visible.address();
   p.counterAddress = counters.address();
   p.visBufferAddress = visBuffer.address();

@@ -92,6 +92,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   std::vector<uint32_t> clusterVertices;
   std::vector<uint8_t> indexBytes;
   std::vector<sio::GpuClusterMesh> meshes;
+  std::vector<sio::GpuClusterLevel> levels;
   std::vector<Bounds> meshBounds;
   for (size_t m = 0; m < asset.dags.size(); ++m) {
     const lod::ClusterDag& dag = asset.dags[m];
@@ -135,6 +136,23 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
       g.level = c.level;
       clusters.push_back(g);
     }
+    // Level table and reach (see GpuClusterMesh): clusters come ordered by level from the builder.
+    gm.levelOffset = uint32_t(levels.size());
+    glm::vec3 centre(gm.sphere);
+    for (uint32_t i = 0; i < gm.clusterCount; ++i) {
+      const lod::Cluster& c = dag.clusters[i];
+      if (i > 0 && c.level < dag.clusters[i - 1].level)
+        return Error{fmt::format("{}: mesh '{}': clusters are not ordered by level", scene.source, scene.meshes[m].name)};
+      if (i == 0 || c.level != dag.clusters[i - 1].level)
+        levels.push_back({i, 0, std::numeric_limits<float>::infinity(), 0.0f});
+      sio::GpuClusterLevel& l = levels.back();
+      l.clusterCount++;
+      l.minSelfError = std::min(l.minSelfError, c.self.error);
+      l.maxParentError = std::max(l.maxParentError, clusters[gm.clusterOffset + i].parentError);
+      for (const lod::LodBounds* b : {&c.self, &c.parent})
+        gm.reach = std::max(gm.reach, glm::length(b->center - centre) + b->radius);
+    }
+    gm.levelCount = uint32_t(levels.size()) - gm.levelOffset;
     d.maxMeshClusters = std::max(d.maxMeshClusters, gm.clusterCount);
     meshes.push_back(gm);
     meshBounds.push_back(bounds);
@@ -178,6 +196,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   d.clusterVertices = createBufferWithData<uint32_t>(ctx, clusterVertices, kStorage, "cluster vertex ids");
   d.indices = createBufferWithData<uint32_t>(ctx, packed, kStorage, "cluster local indices");
   d.meshes = createBufferWithData<sio::GpuClusterMesh>(ctx, meshes, kStorage, "cluster meshes");
+  d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
   d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");
   d.materials = createBufferWithData<sio::GpuMaterial>(ctx, gpuMats, kStorage, "cluster materials");
   d.textures = uploadTextures(ctx, scene);

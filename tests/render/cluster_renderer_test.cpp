@@ -3,6 +3,8 @@
 // no cracks at any threshold, fewer triangles at larger thresholds. Validation must stay silent.
 #include <gtest/gtest.h>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -118,12 +120,52 @@ void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float ta
   ASSERT_TRUE(out.ok()) << out.error().message;
   const lod::ClusterDag& dag = asset.dags[0];
   CpuCut cut = cpuCut(dag, withClipPlanes(camera, (*r)->worldBounds()), tau);
-  EXPECT_EQ(out->stats.clustersTested, dag.clusters.size());
+  // The cull pass skips levels that cannot be on this instance's cut: from outside every LOD sphere
+  // fewer clusters are tested; with the eye inside one, every cluster is.
+  if (expectEyeInside) EXPECT_EQ(out->stats.clustersTested, dag.clusters.size());
+  else EXPECT_LT(out->stats.clustersTested, dag.clusters.size());
   EXPECT_EQ(out->stats.instancesVisible, 1u);
   EXPECT_EQ(out->stats.clustersSelected, cut.clusters);
   EXPECT_EQ(out->stats.trianglesRasterized, cut.triangles);
   EXPECT_EQ(out->stats.clustersOverflow, 0u);
   EXPECT_EQ(cut.eyeInside > 0, expectEyeInside);
+}
+
+// Instances translated along the view axis, near to far: the per-instance level ranges of the cull
+// pass must not change what LOCALCUT selects (a translated instance's cut is the identity cut seen
+// from the eye minus the offset).
+TEST_F(ClusterRender, LevelPruningKeepsTheCutForManyInstances) {
+  lod::LodAsset asset = blobAsset();
+  Bounds b = asset.scene.worldBounds();
+  Camera cam = autoCamera(b, 1.0f);
+  glm::vec3 away = glm::normalize(cam.target - cam.eye);
+  std::vector<glm::vec3> offsets;
+  for (float k : {0.0f, 1.5f, 4.0f, 10.0f, 30.0f, 100.0f}) offsets.push_back(away * (k * b.radius()));
+  asset.scene.instances.clear();
+  for (const glm::vec3& o : offsets) asset.scene.instances.push_back({0, glm::translate(glm::mat4(1.0f), o)});
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = settingsFor(b, 1.0f, RasterBackend::Indirect);
+  cam.zfar = glm::length(cam.eye - cam.target) + 120.0f * b.radius();
+  cam.znear = 0.01f * b.radius();
+  s.base.camera = cam;
+  s.frustumCulling = false;
+  auto out = (*r)->render(s);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  uint32_t clusters = 0;
+  uint64_t triangles = 0;
+  for (const glm::vec3& o : offsets) {
+    Camera shifted = cam;
+    shifted.eye -= o;
+    shifted.target -= o;
+    CpuCut cut = cpuCut(asset.dags[0], shifted, 1.0f);
+    clusters += cut.clusters;
+    triangles += cut.triangles;
+  }
+  EXPECT_EQ(out->stats.instancesVisible, offsets.size());
+  EXPECT_EQ(out->stats.clustersSelected, clusters);
+  EXPECT_EQ(out->stats.trianglesRasterized, triangles);
+  EXPECT_LT(out->stats.clustersTested, uint64_t(asset.dags[0].clusters.size()) * offsets.size() / 2);
 }
 
 TEST_F(ClusterRender, SelectionMatchesCpuLocalCut) {

@@ -60,6 +60,29 @@ struct GpuClusterMesh {
   uint clusterOffset; // first cluster in the global cluster table
   uint clusterCount;
   uint material;
+  uint levelOffset; // first entry of this mesh's levels in the level table
+  uint levelCount;
+  // Largest |c - sphere.xyz| + r over the mesh's LOD spheres (self and parent): every sphere the
+  // selection projects lies within this distance of the mesh centre, which bounds its distance to
+  // the eye per instance.
+  float reach;
+  uint pad0, pad1;
+};
+
+// One DAG level of a mesh: clusters are stored by level, so a level is a contiguous range. Its
+// error extremes let the cull pass skip levels that cannot be on an instance's cut.
+struct GpuClusterLevel {
+  uint firstCluster;    // mesh-local
+  uint clusterCount;
+  float minSelfError;   // smallest self error of the level's clusters
+  float maxParentError; // largest parent error (+inf when a root is in the level)
+};
+
+// A visible instance and the range of its mesh's clusters the selection must test.
+struct VisibleInstance {
+  uint instance;
+  uint firstCluster; // mesh-local
+  uint clusterCount;
   uint pad0;
 };
 
@@ -122,7 +145,8 @@ struct ClusterPush {
   uint64_t meshAddress;            // GpuClusterMesh[]
   uint64_t instanceAddress;        // GpuClusterInstance[]
   uint64_t materialAddress;        // GpuMaterial[]
-  uint64_t visibleInstanceAddress; // uint[]
+  uint64_t visibleInstanceAddress; // VisibleInstance[]
+  uint64_t levelAddress;           // GpuClusterLevel[]
   uint64_t visibleAddress;         // VisibleCluster[]
   uint64_t counterAddress;         // ClusterCounters
   uint64_t visBufferAddress;       // uint64_t per pixel: depth << 32 | packed id (compute raster)
@@ -133,14 +157,16 @@ struct ClusterPush {
 #ifdef __cplusplus
 static_assert(sizeof(GpuCluster) == 80, "GpuCluster layout");
 static_assert(sizeof(GpuClusterVertex) == 32, "GpuClusterVertex layout");
-static_assert(sizeof(GpuClusterMesh) == 32, "GpuClusterMesh layout");
+static_assert(sizeof(GpuClusterMesh) == 48, "GpuClusterMesh layout");
+static_assert(sizeof(GpuClusterLevel) == 16, "GpuClusterLevel layout");
+static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(ClusterFrame) == 320, "ClusterFrame layout");
 static_assert(sizeof(ClusterCounters) == 64, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, rasterArgs) == 16 && offsetof(ClusterCounters, drawArgs) == 32,
               "indirect argument offsets");
-static_assert(sizeof(ClusterPush) == 104, "ClusterPush layout");
+static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");
 } // namespace mirage::shaderio
 #endif
 
