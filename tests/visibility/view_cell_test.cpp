@@ -1,0 +1,110 @@
+// View cells: JSON parsing and its errors, degenerate cells, grids, face sampling geometry.
+#include <gtest/gtest.h>
+
+#include "mirage/visibility/view_cell.h"
+
+using namespace mirage;
+using namespace mirage::vis;
+
+namespace {
+
+std::string parseError(const std::string& json) {
+  auto r = parseViewCells(json, "cells.json");
+  return r.ok() ? std::string("(ok)") : r.error().message;
+}
+
+} // namespace
+
+TEST(ViewCells, ParsesBoxesAndRects) {
+  auto r = parseViewCells(R"({"cells": [
+      {"type": "box", "position": [1, 2, 3], "size": [2, 3, 4], "rotation": [0, 90, 0]},
+      {"type": "rect", "position": [0, 1.7, 0], "size": [5, 6]}]})",
+                          "cells.json");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->size(), 2u);
+  EXPECT_EQ((*r)[0].shape, CellShape::Box);
+  EXPECT_EQ((*r)[0].size, glm::vec3(2, 3, 4));
+  EXPECT_EQ((*r)[1].shape, CellShape::Rect);
+  EXPECT_EQ((*r)[1].size, glm::vec3(5, 0, 6));
+  // Round trip through the writer.
+  auto again = parseViewCells(viewCellsToJson(*r), "again.json");
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ((*again)[0].rotation, (*r)[0].rotation);
+}
+
+TEST(ViewCells, RejectsBadInputWithOneLineErrors) {
+  EXPECT_EQ(parseError("{"), "cells.json: not valid JSON");
+  EXPECT_EQ(parseError("{}"), "cells.json: expected a \"cells\" array");
+  EXPECT_EQ(parseError("[]"), "cells.json: no view cells");
+  EXPECT_EQ(parseError(R"([{"size": [1,1,1]}])"), "cells.json: cell 0: missing \"position\"");
+  EXPECT_EQ(parseError(R"([{"position": [0,0], "size": [1,1,1]}])"),
+            "cells.json: cell 0: \"position\" must be an array of 3 numbers");
+  EXPECT_EQ(parseError(R"([{"type": "sphere", "position": [0,0,0], "size": [1,1,1]}])"),
+            "cells.json: cell 0: unknown type \"sphere\" (expected \"box\" or \"rect\")");
+  EXPECT_EQ(parseError(R"([{"position": [0,0,0], "size": [1,1,1], "colour": 1}])"),
+            "cells.json: cell 0: unknown key \"colour\"");
+  EXPECT_EQ(parseError(R"([{"position": [0,0,0], "size": [1,"a",1]}])"),
+            "cells.json: cell 0: \"size\" must hold numbers");
+  for (const std::string& e :
+       {parseError(R"([{"position": [0,0,0], "size": [1,1,1]}, {"position": [0,0,0], "size": [1,0,1]}])"),
+        parseError(R"([{"position": [0,0,0], "size": [1,1e-9,1]}])"),
+        parseError(R"([{"type": "rect", "position": [0,0,0], "size": [0,1]}])"),
+        parseError(R"([{"position": [0,0,0], "size": [1,-1,1]}])")}) {
+    EXPECT_NE(e.find("degenerate"), std::string::npos) << e;
+    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+  }
+  EXPECT_NE(
+      parseError(R"([{"position": [0,0,0], "size": [1,1,1]}, {"position": [0,0,0], "size": [1,0,1]}])").find("cell 1"),
+      std::string::npos);
+}
+
+TEST(ViewCells, FacesCoverTheSurfaceWithOutwardNormals) {
+  ViewCell c;
+  c.position = {1, 2, 3};
+  c.size = {2, 4, 6};
+  c.rotation = {10, 20, 30};
+  auto faces = cellFaces(c);
+  ASSERT_EQ(faces.size(), 6u);
+  float area = 0;
+  for (const CellFace& f : faces) {
+    area += f.area;
+    glm::vec3 centre = f.corner + 0.5f * (f.edgeU + f.edgeV);
+    // Outward: the face centre lies away from the cell centre along the normal.
+    EXPECT_GT(glm::dot(centre - c.position, f.normal), 0.0f);
+    EXPECT_NEAR(glm::length(glm::cross(f.edgeU, f.edgeV)), f.area, 1e-3f);
+    EXPECT_TRUE(c.contains(centre));
+  }
+  EXPECT_NEAR(area, c.surfaceArea(), 1e-3f);
+  EXPECT_EQ(c.corners().size(), 8u);
+  EXPECT_EQ(c.edges().size(), 12u);
+  ViewCell r;
+  r.shape = CellShape::Rect;
+  r.size = {3, 0, 2};
+  EXPECT_EQ(cellFaces(r).size(), 1u);
+  EXPECT_EQ(r.corners().size(), 4u);
+  EXPECT_EQ(r.edges().size(), 4u);
+}
+
+TEST(ViewCells, GridTilesTheRegion) {
+  Bounds b;
+  b.add({0, 0, 0});
+  b.add({10, 3, 20});
+  auto cells = gridCells(b, {2, 1, 4});
+  ASSERT_TRUE(cells.ok());
+  ASSERT_EQ(cells->size(), 8u);
+  EXPECT_EQ((*cells)[0].size, glm::vec3(5, 3, 5));
+  EXPECT_EQ((*cells)[0].position, glm::vec3(2.5f, 1.5f, 2.5f));
+  Bounds flat;
+  flat.add({0, 1.7f, 0});
+  flat.add({10, 1.7f, 10});
+  auto rects = gridCells(flat, {2, 1, 2});
+  ASSERT_TRUE(rects.ok());
+  EXPECT_EQ((*rects)[0].shape, CellShape::Rect);
+  EXPECT_FALSE(gridCells(flat, {2, 2, 2}).ok());
+  auto counts = parseGridCounts("4x1x3");
+  ASSERT_TRUE(counts.ok());
+  EXPECT_EQ(*counts, glm::uvec3(4, 1, 3));
+  EXPECT_FALSE(parseGridCounts("4x1").ok());
+  EXPECT_FALSE(parseGridCounts("0x1x1").ok());
+  EXPECT_FALSE(parseGridCounts("4x1x3x").ok());
+}
