@@ -18,6 +18,7 @@ void addBenchCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);
 // mirage gen city|terrain|blob -o OUT.glb [--seed N] [--size N]: write a procedural scene.
 void addGenCommand(CLI::App& app);
+void addPvsCommands(CLI::App& app); // mirage pvs / pvs-eval (cmd_pvs.cpp)
 
 // mirage info FILE (scene summary).
 void infoFile(const std::string& path, bool json);

@@ -26,6 +26,7 @@ void registerCommands(CLI::App& app) {
   addDemoCommand(app);
   addRenderCommand(app);
   addBenchCommand(app);
+  addPvsCommands(app);
 }
 
 } // namespace mirage::cli
