@@ -158,32 +158,47 @@ private:
     }
   }
 
+  // Rays are generated in parallel into fixed slots (one block per discovery or seed); unused
+  // slots get tfar < 0 and are squeezed out before tracing, so every traced ray is a real sample.
+  void compact(std::vector<glm::vec3>* targets) {
+    size_t out = 0;
+    for (size_t i = 0; i < rays_.size(); ++i) {
+      if (rays_[i].tfar < 0.0f) continue;
+      rays_[out] = rays_[i];
+      if (targets) (*targets)[out] = (*targets)[i];
+      ++out;
+    }
+    rays_.resize(out);
+    if (targets) targets->resize(out);
+  }
+
   void absPhase(const std::vector<Discovery>& queue, std::vector<Discovery>& next, std::vector<RsSeed>& seeds) {
-    size_t perTriangle = 9 + 3 * size_t(cfg_.absEdgeSamples);
-    size_t chunk = std::max<size_t>(1, kBatch / perTriangle);
+    const size_t perTriangle = 9 + 3 * size_t(cfg_.absEdgeSamples);
+    const size_t chunk = std::max<size_t>(1, kBatch / perTriangle);
     std::vector<glm::vec3> targets;
     for (size_t begin = 0; begin < queue.size() && budgetLeft(); begin += chunk) {
       size_t end = std::min(queue.size(), begin + chunk);
-      rays_.clear();
-      targets.clear();
-      std::vector<glm::vec3> pts;
-      for (size_t q = begin; q < end; ++q) {
-        auto tri = worldTriangle(scene_, offsets_, queue[q].triangle);
-        float longest =
-            std::max({glm::length(tri[1] - tri[0]), glm::length(tri[2] - tri[1]), glm::length(tri[0] - tri[2])});
-        float delta = cfg_.absDeltaTriangle * longest + cfg_.absDeltaScene * sceneDiagonal_;
-        pts.clear();
-        borderPoints(tri, delta, cfg_.absEdgeSamples, pts);
-        for (glm::vec3 p : pts) {
-          glm::vec3 d = p - queue[q].origin;
-          if (glm::dot(d, d) < 1e-30f) continue;
-          Ray r;
-          r.origin = queue[q].origin;
-          r.dir = glm::normalize(d);
-          rays_.push_back(r);
-          targets.push_back(p);
+      rays_.assign((end - begin) * perTriangle, Ray{.tfar = -1.0f});
+      targets.resize(rays_.size());
+      tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 64), [&](const tbb::blocked_range<size_t>& r) {
+        std::vector<glm::vec3> pts;
+        for (size_t q = r.begin(); q < r.end(); ++q) {
+          auto tri = worldTriangle(scene_, offsets_, queue[q].triangle);
+          float longest =
+              std::max({glm::length(tri[1] - tri[0]), glm::length(tri[2] - tri[1]), glm::length(tri[0] - tri[2])});
+          float delta = cfg_.absDeltaTriangle * longest + cfg_.absDeltaScene * sceneDiagonal_;
+          pts.clear();
+          borderPoints(tri, delta, cfg_.absEdgeSamples, pts);
+          size_t slot = (q - begin) * perTriangle;
+          for (glm::vec3 p : pts) {
+            glm::vec3 d = p - queue[q].origin;
+            if (glm::dot(d, d) < 1e-30f) continue;
+            rays_[slot] = Ray{.origin = queue[q].origin, .dir = glm::normalize(d)};
+            targets[slot++] = p;
+          }
         }
-      }
+      });
+      compact(&targets);
       size_t n = size_t(budgetClamp(rays_.size()));
       hits_.resize(rays_.size());
       traceAndCollect(n, next);
@@ -208,40 +223,39 @@ private:
   }
 
   void rsPhase(const std::vector<RsSeed>& seeds, std::vector<Discovery>& next) {
-    size_t perSeed = size_t(cfg_.rsEdgeSamples) + cfg_.rsAreaSamples;
+    const size_t perSeed = size_t(cfg_.rsEdgeSamples) + cfg_.rsAreaSamples;
     if (perSeed == 0) return;
-    size_t chunk = std::max<size_t>(1, kBatch / perSeed);
+    const size_t chunk = std::max<size_t>(1, kBatch / perSeed);
     for (size_t begin = 0; begin < seeds.size() && budgetLeft(); begin += chunk) {
       size_t end = std::min(seeds.size(), begin + chunk);
-      rays_.clear();
-      std::vector<glm::vec3> origins;
-      for (size_t s = begin; s < end; ++s) {
-        origins.clear();
-        // Edge origins evenly spread along the cell's edges, rotated per seed so seeds differ.
-        float shift = detail::radicalInverse(rsIndex_, 2);
-        for (uint32_t j = 0; j < cfg_.rsEdgeSamples; ++j) {
-          float u = (float(j) + shift) / float(cfg_.rsEdgeSamples);
-          origins.push_back(edgePoint(u));
+      rays_.assign((end - begin) * perSeed, Ray{.tfar = -1.0f});
+      const uint64_t base = rsIndex_;
+      tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 64), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t s = r.begin(); s < r.end(); ++s) {
+          const RsSeed& seed = seeds[s];
+          const uint64_t index = base + (s - begin);
+          std::array<glm::vec3, 3> occ{};
+          if (seed.occluder != kNoHit) occ = worldTriangle(scene_, offsets_, seed.occluder);
+          size_t slot = (s - begin) * perSeed;
+          auto emit = [&](glm::vec3 o) {
+            glm::vec3 d = seed.target - o;
+            if (glm::dot(d, d) < 1e-30f) return;
+            // Inside the occluder's shadow on the cell: the occluder blocks this origin too.
+            if (seed.occluder != kNoHit && segmentHitsTriangle(seed.target, o - seed.target, occ)) return;
+            rays_[slot++] = Ray{.origin = o, .dir = glm::normalize(d)};
+          };
+          // Edge origins evenly spread along the cell's edges, shifted per seed so seeds differ.
+          float shift = detail::radicalInverse(index, 2);
+          for (uint32_t j = 0; j < cfg_.rsEdgeSamples; ++j)
+            emit(edgePoint((float(j) + shift) / float(cfg_.rsEdgeSamples)));
+          for (uint32_t j = 0; j < cfg_.rsAreaSamples; ++j) {
+            auto h = rsHalton_(index * cfg_.rsAreaSamples + j);
+            emit(surface_.point(h[0], h[1], h[2]));
+          }
         }
-        for (uint32_t j = 0; j < cfg_.rsAreaSamples; ++j) {
-          auto h = rsHalton_(rsIndex_ * cfg_.rsAreaSamples + j);
-          origins.push_back(surface_.point(h[0], h[1], h[2]));
-        }
-        ++rsIndex_;
-        const RsSeed& seed = seeds[s];
-        std::array<glm::vec3, 3> occ{};
-        if (seed.occluder != kNoHit) occ = worldTriangle(scene_, offsets_, seed.occluder);
-        for (glm::vec3 o : origins) {
-          glm::vec3 d = seed.target - o;
-          if (glm::dot(d, d) < 1e-30f) continue;
-          // Inside the occluder's shadow on the cell: the occluder blocks this origin too.
-          if (seed.occluder != kNoHit && segmentHitsTriangle(seed.target, o - seed.target, occ)) continue;
-          Ray r;
-          r.origin = o;
-          r.dir = glm::normalize(d);
-          rays_.push_back(r);
-        }
-      }
+      });
+      rsIndex_ += end - begin;
+      compact(nullptr);
       size_t n = size_t(budgetClamp(rays_.size()));
       hits_.resize(rays_.size());
       traceAndCollect(n, next);
