@@ -20,10 +20,10 @@ namespace mirage::cli {
 namespace {
 
 struct PvsOptions {
-  std::string input, cells, grid, region, output, geometry = "auto";
+  std::string input, cells, grid, region, output, geometry = "auto", method = "gvs";
   vis::GvsConfig gvs;
   int threads = 0;
-  bool json = false;
+  bool json = false, noPackets = false;
   // pvs-eval only
   vis::EvalConfig eval{.resolution = 1000, .haltonViewpoints = 4};
   uint64_t bruteRays = 0;
@@ -78,6 +78,7 @@ Status checkOptions(const PvsOptions& o) {
   if (o.geometry != "auto" && o.geometry != "flatten" && o.geometry != "instance")
     return Error{"--geometry must be auto, flatten or instance"};
   if (o.gvs.randomRays == 0) return Error{"--rays must be at least 1"};
+  if (o.method != "gvs" && o.method != "rand") return Error{"--method must be gvs or rand"};
   if (o.eval.resolution < 1 || o.eval.resolution > 8192) return Error{"--size must be in 1..8192"};
   return Ok{};
 }
@@ -103,6 +104,7 @@ Result<Prepared> prepare(const PvsOptions& o) {
   if (!cells) return cells.error();
   p.cells = std::move(*cells);
   vis::EmbreeOptions eo;
+  eo.packets = !o.noPackets;
   eo.geometry = o.geometry == "flatten"    ? vis::EmbreeOptions::Geometry::Flatten
                 : o.geometry == "instance" ? vis::EmbreeOptions::Geometry::Instance
                                            : vis::EmbreeOptions::Geometry::Auto;
@@ -129,11 +131,16 @@ void runPvs(const PvsOptions& o) {
   data.cells = p->cells;
   nlohmann::json cellsJson = nlohmann::json::array();
   uint64_t rays = 0;
-  double traceSeconds = 0;
+  double traceSeconds = 0, totalSeconds = 0;
   for (size_t i = 0; i < p->cells.size(); ++i) {
-    vis::CellPvs pvs = vis::computeCellPvs(*p->backend, p->scene, p->cells[i], o.gvs);
+    // RAND spends --budget rays (or --rays when no budget is given) on random sampling alone.
+    vis::GvsConfig cfg = o.method == "gvs"
+                             ? o.gvs
+                             : vis::randomOnlyConfig(o.gvs.rayBudget ? o.gvs.rayBudget : o.gvs.randomRays, o.gvs.seed);
+    vis::CellPvs pvs = vis::computeCellPvs(*p->backend, p->scene, p->cells[i], cfg);
     rays += pvs.stats.rays;
-    traceSeconds += pvs.stats.seconds;
+    totalSeconds += pvs.stats.seconds;
+    traceSeconds += pvs.stats.traceSeconds;
     cellsJson.push_back({{"cell", i},
                          {"triangles", pvs.triangles.size()},
                          {"rays", pvs.stats.rays},
@@ -142,6 +149,7 @@ void runPvs(const PvsOptions& o) {
                          {"rs_rays", pvs.stats.rsRays},
                          {"iterations", pvs.stats.iterations},
                          {"seconds", pvs.stats.seconds},
+                         {"trace_seconds", pvs.stats.traceSeconds},
                          {"mrays_per_s", double(pvs.stats.rays) / pvs.stats.seconds * 1e-6}});
     data.triangles.push_back(std::move(pvs.triangles));
   }
@@ -168,15 +176,17 @@ void runPvs(const PvsOptions& o) {
       {"difference_cells", es.differenceCells},
       {"load_seconds", loadSeconds}};
   if (o.json) return fmt::print("{}\n", j.dump(2));
-  fmt::print("{}: {} triangles, {} cells, backend {} (BVH {:.2f} s)\n", o.input, data.sceneTriangles, data.cells.size(),
-             p->backend->name(), p->buildSeconds);
+  fmt::print("{}: {} triangles, {} cells, {} on {} (BVH {:.2f} s)\n", o.input, data.sceneTriangles, data.cells.size(),
+             o.method, p->backend->name(), p->buildSeconds);
   for (const auto& c : cellsJson)
     fmt::print("cell {:4}: {:9} triangles  {:11} rays  {:3} iterations  {:6.2f} s  {:5.2f} Mrays/s  {:8} bytes\n",
                c["cell"].get<size_t>(), c["triangles"].get<size_t>(), c["rays"].get<uint64_t>(),
                c["iterations"].get<uint32_t>(), c["seconds"].get<double>(), c["mrays_per_s"].get<double>(),
                c["bytes"].get<uint64_t>());
-  fmt::print("total {} rays in {:.2f} s ({:.2f} Mrays/s); {} -> {} bytes ({} difference cells), load {:.2f} ms\n", rays,
-             traceSeconds, double(rays) / traceSeconds * 1e-6, o.output, es.totalBytes, es.differenceCells,
+  fmt::print("total {} rays in {:.2f} s: {:.2f} Mrays/s overall, {:.2f} Mrays/s in trace ({} threads)\n", rays,
+             totalSeconds, double(rays) / totalSeconds * 1e-6, double(rays) / traceSeconds * 1e-6,
+             j["threads"].get<int>());
+  fmt::print("{} -> {} bytes ({} difference cells), load {:.2f} ms\n", o.output, es.totalBytes, es.differenceCells,
              loadSeconds * 1e3);
 }
 
@@ -267,6 +277,7 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   cmd->add_option("--seed", o.gvs.seed, "Sampling seed")->capture_default_str();
   cmd->add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str();
   cmd->add_option("--geometry", o.geometry, "Embree geometry: auto, flatten or instance")->capture_default_str();
+  cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");
   cmd->add_flag("--json", o.json, "Print results as JSON");
 }
 
@@ -277,6 +288,7 @@ void addPvsCommands(CLI::App& app) {
   auto* pvs = app.add_subcommand("pvs", "Bake GVS++ potentially visible sets for view cells into a .mrg");
   addCommon(pvs, *o);
   pvs->add_option("-o,--output", o->output, "Output .mrg ('PVS ' and 'META' chunks)")->required();
+  pvs->add_option("--method", o->method, "gvs (GVS++) or rand (random rays only: the baseline)")->capture_default_str();
   pvs->callback([o] { runPvs(*o); });
 
   auto e = std::make_shared<PvsOptions>();

@@ -140,7 +140,7 @@ Status EmbreeBackend::build(const Scene& scene, const EmbreeOptions& options) {
   if (!device_) return makeError(scene.source, "Embree device creation failed");
   packets_ = options.packets;
   instanced_ = options.geometry == EmbreeOptions::Geometry::Instance ||
-               (options.geometry == EmbreeOptions::Geometry::Auto && triangles_ > (uint64_t(64) << 20));
+               (options.geometry == EmbreeOptions::Geometry::Auto && triangles_ >= 4 * scene.meshTriangleCount());
   scene_ = rtcNewScene(device_);
   if (instanced_) {
     for (const Mesh& mesh : scene.meshes) {
@@ -287,7 +287,7 @@ void EmbreeBackend::trace16(const Ray* rays, Hit* hits, uint32_t n, const TraceS
 
 void EmbreeBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) {
   size_t n = std::min(rays.size(), hits.size());
-  if (packets_) {
+  if (packets_ && sets.coherent) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, (n + 15) / 16, 64), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t p = r.begin(); p < r.end(); ++p)
         trace16(&rays[p * 16], &hits[p * 16], uint32_t(std::min<size_t>(16, n - p * 16)), sets);

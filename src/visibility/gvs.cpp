@@ -101,7 +101,9 @@ private:
 
   // Trace rays_[0, n) into hits_, recording into found_; append each new discovery to `out`.
   void traceAndCollect(size_t n, std::vector<Discovery>& out) {
+    auto t0 = std::chrono::steady_clock::now();
     backend_.trace(std::span(rays_.data(), n), std::span(hits_.data(), n), {.record = &found_});
+    result_.stats.traceSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     result_.stats.rays += n;
     for (size_t i = 0; i < n; ++i) {
       if (!(hits_[i].flags & kHitNew)) continue;
@@ -119,8 +121,9 @@ private:
       hits_.resize(n);
       uint64_t base = haltonIndex_;
       tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i < r.end(); ++i) {
-          auto h = halton_(base + i);
+        auto cursor = halton_.cursor(base + r.begin());
+        for (size_t i = r.begin(); i < r.end(); ++i, cursor.next()) {
+          auto h = cursor();
           Ray& ray = rays_[i];
           ray = Ray{};
           ray.origin = surface_.point(h[0], h[1], h[2]);

@@ -80,7 +80,7 @@ PixelError evaluatePvs(RayBackend& backend, const ViewCell& cell, const Triangle
           r.origin = eye;
           r.dir = forward + sx * right + sy * up;
         }
-      backend.trace(rays, hits, {.require = &pvs});
+      backend.trace(rays, hits, {.require = &pvs, .coherent = true});
       uint64_t count = 0;
       for (size_t i = 0; i < hits.size(); ++i) {
         wrong[i] = (hits[i].flags & kHitMissing) ? 1 : 0;

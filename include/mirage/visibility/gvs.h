@@ -59,7 +59,8 @@ struct PvsStats {
   uint64_t rsRays = 0;
   uint64_t discontinuities = 0;
   uint32_t iterations = 0;
-  double seconds = 0.0;
+  double seconds = 0.0;      // whole bake of the cell
+  double traceSeconds = 0.0; // inside RayBackend::trace (the rest generates rays and bookkeeps)
 };
 
 // The ray that first found a triangle (for the "every PVS triangle was hit" invariant).
