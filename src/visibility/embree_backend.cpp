@@ -2,6 +2,7 @@
 // BVH per mesh under an instance level; closest-hit queries on all cores through TBB.
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
 
 #include <embree3/rtcore.h>
@@ -223,7 +224,19 @@ void EmbreeBackend::finish(Hit& hit, const FilterContext& ctx, uint32_t lane, co
   }
 }
 
+// Debian's Embree is built with assertions: a NaN or inverted ray aborts the process. Such rays
+// are reported as misses instead (they can come from degenerate input geometry).
+bool validRay(const Ray& r) {
+  return std::isfinite(r.origin.x) && std::isfinite(r.origin.y) && std::isfinite(r.origin.z) &&
+         std::isfinite(r.dir.x) && std::isfinite(r.dir.y) && std::isfinite(r.dir.z) && r.tnear >= 0.0f &&
+         r.tnear <= r.tfar;
+}
+
 void EmbreeBackend::traceOne(const Ray& ray, Hit& hit, const TraceSets& sets) const {
+  if (!validRay(ray)) {
+    hit = Hit{.t = ray.tfar};
+    return;
+  }
   FilterContext ctx;
   rtcInitIntersectContext(&ctx.base);
   ctx.self = this;
@@ -260,7 +273,7 @@ void EmbreeBackend::trace16(const Ray* rays, Hit* hits, uint32_t n, const TraceS
   alignas(64) RTCRayHit16 rh;
   for (uint32_t i = 0; i < 16; ++i) {
     const Ray& r = rays[std::min(i, n - 1)];
-    valid[i] = i < n ? -1 : 0;
+    valid[i] = i < n && validRay(r) ? -1 : 0;
     rh.ray.org_x[i] = r.origin.x;
     rh.ray.org_y[i] = r.origin.y;
     rh.ray.org_z[i] = r.origin.z;
@@ -278,7 +291,7 @@ void EmbreeBackend::trace16(const Ray* rays, Hit* hits, uint32_t n, const TraceS
   }
   rtcIntersect16(valid, scene_, &ctx.base, &rh);
   for (uint32_t i = 0; i < n; ++i) {
-    bool found = rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
+    bool found = valid[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
     hits[i].triangle = found ? globalId(rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i]) : kNoHit;
     hits[i].t = found ? rh.ray.tfar[i] : rays[i].tfar;
     finish(hits[i], ctx, i, sets);

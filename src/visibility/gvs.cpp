@@ -1,6 +1,7 @@
 // GVS++ sampler (gvs.h): random sampling, adaptive border sampling, reverse sampling.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -63,7 +64,10 @@ public:
       : backend_(backend), scene_(scene), cell_(cell), cfg_(config), offsets_(triangleOffsets(scene)),
         found_(backend.triangleCount()), surface_(cell), halton_(config.seed), rsHalton_(config.seed ^ 0x9e3779b9u),
         keepWitnesses_(keepWitnesses) {
-    sceneDiagonal_ = glm::length(scene.worldBounds().extent());
+    // Meshes without bounds (hand-made scenes) leave the world bounds empty: drop the scene term.
+    Bounds b = scene.worldBounds();
+    sceneDiagonal_ = b.empty() ? 0.0f : glm::length(b.extent());
+    if (!std::isfinite(sceneDiagonal_)) sceneDiagonal_ = 0.0f;
     for (const auto& e : cell.edges()) {
       edges_.push_back(e);
       edgeLength_ += glm::length(e[1] - e[0]);

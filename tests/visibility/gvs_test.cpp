@@ -91,6 +91,34 @@ TEST(Gvs, RoomWithWindowSeesOutOnlyThroughTheWindow) {
   expectWitnessed(*backend, pvs, v.cell);
 }
 
+// Rays that cross the cell find geometry inside it: sampling only outward hemispheres would not.
+TEST(Gvs, FindsGeometryInsideTheCell) {
+  Mesh inner;
+  inner.name = "inner";
+  inner.positions = {{-0.2f, -0.2f, 0.0f}, {0.2f, -0.2f, 0.0f}, {0.2f, 0.2f, 0.0f}};
+  inner.indices = {0, 1, 2};
+  Mesh outer = inner;
+  outer.name = "outer";
+  for (glm::vec3& p : outer.positions) p.z = 10.0f;
+  Scene scene;
+  scene.materials.push_back(Material{});
+  scene.meshes = {inner, outer};
+  scene.instances = {{0, glm::mat4(1.0f)}, {1, glm::mat4(1.0f)}};
+  auto backend = backendFor(scene);
+  ViewCell cell;
+  cell.size = {4, 4, 4};
+  CellPvs pvs = computeCellPvs(*backend, scene, cell, testConfig());
+  EXPECT_EQ(pvs.triangles, (std::vector<uint32_t>{0, 1}));
+  // A flat cell sees both sides: the triangle above and the one below.
+  ViewCell rect;
+  rect.shape = CellShape::Rect;
+  rect.size = {1, 0, 1};
+  rect.rotation = {90, 0, 0}; // its plane is now XY, between z = 0 and z = 10
+  rect.position = {0, 0, 5};
+  pvs = computeCellPvs(*backend, scene, rect, testConfig());
+  EXPECT_EQ(pvs.triangles, (std::vector<uint32_t>{0, 1}));
+}
+
 TEST(Gvs, InstancedAndFlattenedBackendsAgree) {
   auto scene = io::generateScene("city", 2, 1);
   ASSERT_TRUE(scene.ok());
@@ -148,4 +176,24 @@ TEST(Gvs, CityStreetBeatsRandomAtEqualBudget) {
       gvs.triangles.size(), (unsigned long long)gvs.stats.rays, ge.averageWrong, (unsigned long long)ge.maxWrong,
       rnd.triangles.size(), re.averageWrong);
   EXPECT_LT(ge.averageWrong * 5.0, re.averageWrong + 1e-9);
+}
+
+// Debian's Embree asserts on invalid rays; the backend must turn them into misses, not aborts.
+TEST(EmbreeBackend, InvalidRaysAreMisses) {
+  auto v = test::wallWithHole();
+  auto backend = backendFor(v.scene);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<Ray> rays(40);
+  rays[0].dir = {nan, 0, 1};
+  rays[1].origin = {0, 0, nan};
+  rays[2].tnear = 5.0f;
+  rays[2].tfar = 1.0f;
+  rays[3].origin = {0, 3, -3}; // valid: hits the wall
+  std::vector<Hit> hits(rays.size());
+  for (bool coherent : {false, true}) {
+    backend->trace(rays, hits, {.coherent = coherent});
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(hits[size_t(i)].triangle, kNoHit);
+    EXPECT_NE(hits[3].triangle, kNoHit);
+    EXPECT_NEAR(hits[3].t, 3.0f, 1e-4f);
+  }
 }
