@@ -70,6 +70,7 @@ class EmbreeBackend;
 struct FilterContext {
   RTCIntersectContext base;
   const EmbreeBackend* self;
+  const TriangleSet* only; // TraceSets::onlyRequired: hits outside this set do not exist
   uint32_t count;
   Candidate candidates[kMaxCandidates];
 };
@@ -96,6 +97,7 @@ private:
   void traceOne(const Ray& ray, Hit& hit, const TraceSets& sets) const;
   void trace16(const Ray* rays, Hit* hits, uint32_t n, const TraceSets& sets) const;
   void finish(Hit& hit, const FilterContext& ctx, uint32_t lane, const TraceSets& sets) const;
+  void initContext(FilterContext& ctx, const TraceSets& sets) const;
 
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
@@ -116,6 +118,17 @@ void seeThroughFilter(const RTCFilterFunctionNArguments* args) {
     if (ctx->count < kMaxCandidates)
       ctx->candidates[ctx->count++] = {ctx->self->globalId(h.geomID, h.primID, h.instID[0]), r.tfar, i};
     args->valid[i] = 0; // reject the hit: the ray goes on to what lies behind
+  }
+}
+
+// The context filter, installed only for onlyRequired traces: hits on triangles outside the set are
+// rejected, so the ray sees the scene reduced to that set (the PVS-only render).
+void onlyRequiredFilter(const RTCFilterFunctionNArguments* args) {
+  auto* ctx = reinterpret_cast<FilterContext*>(args->context);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    RTCHit h = rtcGetHitFromHitN(args->hit, args->N, i);
+    if (!ctx->only->contains(ctx->self->globalId(h.geomID, h.primID, h.instID[0]))) args->valid[i] = 0;
   }
 }
 
@@ -205,9 +218,19 @@ Status EmbreeBackend::build(const Scene& scene, const EmbreeOptions& options) {
   }
   // High-quality builds cost ~2x build time but trace faster: worth it for the many rays of a bake.
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  // Context filters (onlyRequired traces); a null-pointer test per hit for every other trace.
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
   rtcCommitScene(scene_);
   if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) return makeError(scene.source, "Embree scene build failed");
   return Ok{};
+}
+
+void EmbreeBackend::initContext(FilterContext& ctx, const TraceSets& sets) const {
+  rtcInitIntersectContext(&ctx.base);
+  ctx.self = this;
+  ctx.only = sets.onlyRequired ? sets.require : nullptr;
+  if (ctx.only) ctx.base.filter = onlyRequiredFilter;
+  ctx.count = 0;
 }
 
 void EmbreeBackend::finish(Hit& hit, const FilterContext& ctx, uint32_t lane, const TraceSets& sets) const {
@@ -219,6 +242,7 @@ void EmbreeBackend::finish(Hit& hit, const FilterContext& ctx, uint32_t lane, co
   for (uint32_t c = 0; c < ctx.count; ++c) {
     const Candidate& cand = ctx.candidates[c];
     if (cand.lane != lane || (hit.triangle != kNoHit && cand.t >= hit.t)) continue;
+    if (ctx.only && !ctx.only->contains(cand.id)) continue;
     if (sets.record) sets.record->insert(cand.id);
     if (sets.require && !sets.require->contains(cand.id)) hit.flags |= kHitMissing;
   }
@@ -238,9 +262,7 @@ void EmbreeBackend::traceOne(const Ray& ray, Hit& hit, const TraceSets& sets) co
     return;
   }
   FilterContext ctx;
-  rtcInitIntersectContext(&ctx.base);
-  ctx.self = this;
-  ctx.count = 0;
+  initContext(ctx, sets);
   RTCRayHit rh;
   rh.ray.org_x = ray.origin.x;
   rh.ray.org_y = ray.origin.y;
@@ -265,10 +287,8 @@ void EmbreeBackend::traceOne(const Ray& ray, Hit& hit, const TraceSets& sets) co
 
 void EmbreeBackend::trace16(const Ray* rays, Hit* hits, uint32_t n, const TraceSets& sets) const {
   FilterContext ctx;
-  rtcInitIntersectContext(&ctx.base);
+  initContext(ctx, sets);
   ctx.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  ctx.self = this;
-  ctx.count = 0;
   alignas(64) int valid[16];
   alignas(64) RTCRayHit16 rh;
   for (uint32_t i = 0; i < 16; ++i) {

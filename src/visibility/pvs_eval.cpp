@@ -1,4 +1,5 @@
 // Pixel-error evaluation of a PVS (pvs_eval.h).
+#include <cmath>
 #include <random>
 
 #include <glm/gtc/quaternion.hpp>
@@ -20,6 +21,10 @@ std::vector<glm::vec3> evaluationViewpoints(const ViewCell& cell, const EvalConf
 }
 
 namespace {
+
+// Relative depth difference below which two hits are the same surface (float noise of Embree's
+// watertight intersection is far smaller; real layers such as a picture on a wall are farther).
+constexpr float kSameDepth = 1e-5f;
 
 // Counts 4-connected regions of set pixels and the largest one's size.
 void regions(std::vector<uint8_t>& wrong, uint32_t size, uint64_t& count, uint64_t& largest) {
@@ -59,6 +64,9 @@ PixelError evaluatePvs(RayBackend& backend, const ViewCell& cell, const Triangle
   std::vector<Ray> rays(err.pixelsPerView);
   std::vector<Hit> hits(err.pixelsPerView);
   std::vector<uint8_t> wrong(err.pixelsPerView);
+  std::vector<uint32_t> retrace;
+  std::vector<Ray> retraceRays;
+  std::vector<Hit> retraceHits;
   std::mt19937_64 rng(config.seed);
   std::normal_distribution<float> normal;
   double sumWrong = 0.0;
@@ -81,11 +89,25 @@ PixelError evaluatePvs(RayBackend& backend, const ViewCell& cell, const Triangle
           r.dir = forward + sx * right + sy * up;
         }
       backend.trace(rays, hits, {.require = &pvs, .coherent = true});
-      uint64_t count = 0;
+      // A missing opaque triangle tied in depth with a PVS triangle (coplanar duplicates, shared
+      // edges) is a z-fight the PVS-only render shows at the same depth: re-trace those pixels in
+      // the scene reduced to the PVS and count them only if the depth changes. A missing
+      // see-through triangle always counts (the glass itself is absent).
+      retrace.clear();
       for (size_t i = 0; i < hits.size(); ++i) {
         wrong[i] = (hits[i].flags & kHitMissing) ? 1 : 0;
-        count += wrong[i];
+        if (wrong[i] && hits[i].triangle != kNoHit && !pvs.contains(hits[i].triangle)) retrace.push_back(uint32_t(i));
       }
+      retraceRays.resize(retrace.size());
+      retraceHits.resize(retrace.size());
+      for (size_t k = 0; k < retrace.size(); ++k) retraceRays[k] = rays[retrace[k]];
+      backend.trace(retraceRays, retraceHits, {.require = &pvs, .onlyRequired = true});
+      for (size_t k = 0; k < retrace.size(); ++k) {
+        float t = hits[retrace[k]].t, t2 = retraceHits[k].t;
+        if (retraceHits[k].triangle != kNoHit && std::abs(t2 - t) <= kSameDepth * t) wrong[retrace[k]] = 0;
+      }
+      uint64_t count = 0;
+      for (uint8_t w : wrong) count += w;
       regions(wrong, res, err.regions, err.largestRegion);
       sumWrong += double(count);
       err.maxWrong = std::max(err.maxWrong, count);

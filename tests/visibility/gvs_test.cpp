@@ -197,3 +197,33 @@ TEST(EmbreeBackend, InvalidRaysAreMisses) {
     EXPECT_NEAR(hits[3].t, 3.0f, 1e-4f);
   }
 }
+
+// An exactly duplicated wall: sampling may keep either copy, and the pixel error must not count
+// the tie, since a PVS-only render shows the kept copy at the same depth.
+TEST(PvsEval, CoplanarDuplicatesAreNotErrors) {
+  auto v = test::wallWithHole();
+  Mesh copy = v.scene.meshes[0];
+  copy.name = "wall-copy";
+  v.scene.meshes.push_back(copy);
+  v.scene.instances.push_back({uint32_t(v.scene.meshes.size() - 1), glm::mat4(1.0f)});
+  auto backend = backendFor(v.scene);
+  // A PVS holding everything but the copy.
+  std::vector<uint32_t> ids;
+  for (uint32_t i = 0; i < backend->triangleCount(); ++i) ids.push_back(i);
+  for (uint32_t id : test::meshTriangles(v.scene, "wall-copy")) ids.erase(std::find(ids.begin(), ids.end(), id));
+  TriangleSet set(backend->triangleCount());
+  set.assign(ids);
+  EvalConfig ec;
+  ec.resolution = 64;
+  ec.haltonViewpoints = 1;
+  EXPECT_EQ(evaluatePvs(*backend, v.cell, set, ec).maxWrong, 0u);
+  // Dropping both copies is an error again, and the PVS-only trace sees through the wall.
+  for (uint32_t id : test::meshTriangles(v.scene, "wall")) ids.erase(std::find(ids.begin(), ids.end(), id));
+  set.assign(ids);
+  EXPECT_GT(evaluatePvs(*backend, v.cell, set, ec).maxWrong, 0u);
+  std::vector<Ray> ray(1);
+  ray[0].origin = {5, 5, -3};
+  std::vector<Hit> hit(1);
+  backend->trace(ray, hit, {.require = &set, .onlyRequired = true});
+  EXPECT_NEAR(hit[0].t, 13.0f, 1e-4f); // the backdrop at z = 10
+}

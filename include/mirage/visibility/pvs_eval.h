@@ -6,7 +6,10 @@
 // PVS-only scene shows the same triangle there (removing other triangles cannot bring anything
 // nearer); if it is not, the PVS-only scene shows something else. So a pixel differs exactly when
 // a triangle the full render sees there (including see-through ones in front) is missing from the
-// PVS (kHitMissing), which the backend reports during the full-scene trace.
+// PVS (kHitMissing), which the backend reports during the full-scene trace. Those pixels are then
+// traced once more in the scene reduced to the PVS: where that shows a surface at the same depth
+// (an exactly coplanar duplicate or a shared edge, whose tie the two traversals may break
+// differently) the rendered images agree, and the pixel is not counted.
 #include <cstdint>
 #include <vector>
 

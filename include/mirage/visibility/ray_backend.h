@@ -70,6 +70,7 @@ struct TraceSets {
   TriangleSet* record = nullptr;        // every triangle a ray sees is inserted (kHitNew reports the closest)
   const TriangleSet* require = nullptr; // kHitMissing when a seen triangle is not in here
   bool coherent = false;                // a hint: neighbouring rays share origin and direction (views)
+  bool onlyRequired = false;            // trace the scene reduced to `require` (a PVS-only render)
 };
 
 class RayBackend {
