@@ -159,6 +159,8 @@ Status EmbreeBackend::build(const Scene& scene, const EmbreeOptions& options) {
   if (instanced_) {
     for (const Mesh& mesh : scene.meshes) {
       RTCScene ms = rtcNewScene(device_);
+      // Instanced scenes run the context filter of the top-level trace too.
+      rtcSetSceneFlags(ms, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
       glm::vec3* v = nullptr;
       uint32_t* idx = nullptr;
       RTCGeometry g = newTriangles(device_, mesh.positions.size(), mesh.triangleCount(), &v, &idx);

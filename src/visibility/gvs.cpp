@@ -61,7 +61,7 @@ bool segmentHitsTriangle(glm::vec3 o, glm::vec3 d, const std::array<glm::vec3, 3
 class Baker {
 public:
   Baker(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config, bool keepWitnesses)
-      : backend_(backend), scene_(scene), cell_(cell), cfg_(config), offsets_(triangleOffsets(scene)),
+      : backend_(backend), scene_(scene), cfg_(config), offsets_(triangleOffsets(scene)),
         found_(backend.triangleCount()), surface_(cell), halton_(config.seed), rsHalton_(config.seed ^ 0x9e3779b9u),
         keepWitnesses_(keepWitnesses) {
     // Meshes without bounds (hand-made scenes) leave the world bounds empty: drop the scene term.
@@ -272,7 +272,6 @@ private:
 
   RayBackend& backend_;
   const Scene& scene_;
-  const ViewCell& cell_;
   const GvsConfig& cfg_;
   std::vector<uint64_t> offsets_;
   TriangleSet found_;

@@ -138,6 +138,12 @@ TEST(Gvs, InstancedAndFlattenedBackendsAgree) {
   for (size_t i = 0; i < rays.size(); ++i) same += a[i].triangle == c[i].triangle;
   // Ties between coplanar or edge-sharing triangles may resolve differently; nothing else.
   EXPECT_GT(same, rays.size() * 99 / 100);
+  // PVS-only traces (context filters) work through the instance level too.
+  TriangleSet none(flat->triangleCount());
+  for (auto* backend : {flat.get(), inst.get()}) {
+    backend->trace(rays, a, {.require = &none, .onlyRequired = true});
+    for (const Hit& h : a) ASSERT_EQ(h.triangle, kNoHit);
+  }
 }
 
 TEST(Gvs, CityStreetBeatsRandomAtEqualBudget) {
