@@ -23,7 +23,7 @@ struct PvsOptions {
   std::string input, cells, grid, region, output, geometry = "auto", method = "gvs";
   vis::GvsConfig gvs;
   int threads = 0;
-  bool json = false, noPackets = false;
+  bool json = false, noPackets = false, noDiff = false;
   // pvs-eval only
   vis::EvalConfig eval{.resolution = 1000, .haltonViewpoints = 4};
   uint64_t bruteRays = 0;
@@ -154,7 +154,7 @@ void runPvs(const PvsOptions& o) {
     data.triangles.push_back(std::move(pvs.triangles));
   }
   vis::PvsEncodeStats es;
-  if (auto s = vis::savePvs(o.output, data, o.input, {}, &es); !s) return fail(s.error());
+  if (auto s = vis::savePvs(o.output, data, o.input, {.differences = !o.noDiff}, &es); !s) return fail(s.error());
   // Load time: decode every cell back from the file, as a renderer would at start-up.
   auto t0 = std::chrono::steady_clock::now();
   auto back = vis::loadPvs(o.output);
@@ -288,6 +288,7 @@ void addPvsCommands(CLI::App& app) {
   auto* pvs = app.add_subcommand("pvs", "Bake GVS++ potentially visible sets for view cells into a .mrg");
   addCommon(pvs, *o);
   pvs->add_option("-o,--output", o->output, "Output .mrg ('PVS ' and 'META' chunks)")->required();
+  pvs->add_flag("--no-diff", o->noDiff, "Store every cell in full (no differences against neighbours)");
   pvs->add_option("--method", o->method, "gvs (GVS++) or rand (random rays only: the baseline)")->capture_default_str();
   pvs->callback([o] { runPvs(*o); });
 
