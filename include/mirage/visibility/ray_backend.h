@@ -91,7 +91,7 @@ std::array<glm::vec3, 3> worldTriangle(const Scene& scene, std::span<const uint6
 struct EmbreeOptions {
   // Flatten copies every instance's triangles into one world-space BVH; Instance builds one BVH per
   // mesh under a top level. Measured on one core (docs/visibility.md): on the instanced city
-  // (gen:city:8) both trace within 3-8% while Instance builds in 0.01 s instead of 1.4 s and stores
+  // (gen:city:8) both trace at the same speed while Instance builds in 0.01 s instead of 1.4 s and stores
   // unique meshes only; on sponza and dream-apartment (every mesh used once, large overlapping
   // meshes) Instance traces 1.9-3.7x slower. Auto instances when instancing saves at least 4x the
   // triangles, and flattens otherwise.
