@@ -1,6 +1,7 @@
 // mirage pvs / pvs-eval: bake GVS++ potentially visible sets into a .mrg, and measure their pixel
 // error against the RAND baseline (and a brute-force reference) at an equal ray budget.
 #include <chrono>
+#include <fstream>
 #include <memory>
 #include <sstream>
 
@@ -27,7 +28,24 @@ struct PvsOptions {
   // pvs-eval only
   vis::EvalConfig eval{.resolution = 1000, .haltonViewpoints = 4};
   uint64_t bruteRays = 0;
+  std::string config;
+  std::vector<std::pair<CLI::Option*, void (*)(vis::GvsConfig&, const vis::GvsConfig&)>> overrides;
 };
+
+// --config first, then every sampling flag given on the command line on top of it.
+Status resolveConfig(PvsOptions& o) {
+  if (o.config.empty()) return Ok{};
+  std::ifstream in(o.config, std::ios::binary);
+  if (!in) return makeError(o.config, "cannot open");
+  std::stringstream text;
+  text << in.rdbuf();
+  auto cfg = vis::parseGvsConfig(text.str(), o.config);
+  if (!cfg) return cfg.error();
+  for (const auto& [option, copy] : o.overrides)
+    if (option->count() > 0) copy(*cfg, o.gvs);
+  o.gvs = *cfg;
+  return Ok{};
+}
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -121,7 +139,8 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads) {
   return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(threads));
 }
 
-void runPvs(const PvsOptions& o) {
+void runPvs(PvsOptions o) {
+  if (auto s = resolveConfig(o); !s) return fail(s.error());
   if (auto s = checkOutputPath(o.output, {".mrg"}); !s) return fail(s.error());
   auto threads = limitThreads(o.threads);
   auto p = prepare(o);
@@ -200,7 +219,8 @@ nlohmann::json errorJson(const vis::PixelError& e) {
           {"largest_region", e.largestRegion}};
 }
 
-void runEval(const PvsOptions& o) {
+void runEval(PvsOptions o) {
+  if (auto s = resolveConfig(o); !s) return fail(s.error());
   auto threads = limitThreads(o.threads);
   auto p = prepare(o);
   if (!p) return fail(p.error());
@@ -267,14 +287,20 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   cmd->add_option("--cells", o.cells, "View cells as JSON (docs/visibility.md)");
   cmd->add_option("--cell-grid", o.grid, "NXxNYxNZ cells tiling --cell-region (default: the scene bounds)");
   cmd->add_option("--cell-region", o.region, "x0,y0,z0,x1,y1,z1 for --cell-grid (flat in y: rectangles)");
-  cmd->add_option("--rays", o.gvs.randomRays, "n_rand: random rays per iteration")->capture_default_str();
-  cmd->add_option("--abs-edge", o.gvs.absEdgeSamples, "n_ABSEdge")->capture_default_str();
-  cmd->add_option("--rs-edge", o.gvs.rsEdgeSamples, "n_RSEdge")->capture_default_str();
-  cmd->add_option("--rs-area", o.gvs.rsAreaSamples, "n_RSArea")->capture_default_str();
-  cmd->add_option("--min-new", o.gvs.minNewTriangles, "T: termination threshold")->capture_default_str();
-  cmd->add_option("--stable", o.gvs.stableIterations, "k: iterations below T before stopping")->capture_default_str();
-  cmd->add_option("--budget", o.gvs.rayBudget, "Stop after this many rays per cell (0: none)")->capture_default_str();
-  cmd->add_option("--seed", o.gvs.seed, "Sampling seed")->capture_default_str();
+  cmd->add_option("--config", o.config, "GVS++ parameters as JSON (docs/visibility.md); flags override it");
+  // Each sampling flag remembers how to copy itself over a --config file's value.
+#define MIRAGE_GVS_FLAG(flag, field, help)                                                                             \
+  o.overrides.push_back({cmd->add_option(flag, o.gvs.field, help)->capture_default_str(),                              \
+                         [](vis::GvsConfig& to, const vis::GvsConfig& from) { to.field = from.field; }})
+  MIRAGE_GVS_FLAG("--rays", randomRays, "n_rand: random rays per iteration");
+  MIRAGE_GVS_FLAG("--abs-edge", absEdgeSamples, "n_ABSEdge");
+  MIRAGE_GVS_FLAG("--rs-edge", rsEdgeSamples, "n_RSEdge");
+  MIRAGE_GVS_FLAG("--rs-area", rsAreaSamples, "n_RSArea");
+  MIRAGE_GVS_FLAG("--min-new", minNewTriangles, "T: termination threshold");
+  MIRAGE_GVS_FLAG("--stable", stableIterations, "k: iterations below T before stopping");
+  MIRAGE_GVS_FLAG("--budget", rayBudget, "Stop after this many rays per cell (0: none)");
+  MIRAGE_GVS_FLAG("--seed", seed, "Sampling seed");
+#undef MIRAGE_GVS_FLAG
   cmd->add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str();
   cmd->add_option("--geometry", o.geometry, "Embree geometry: auto, flatten or instance")->capture_default_str();
   cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");

@@ -48,6 +48,7 @@ TEST(PvsCli, BadInputsFailCleanly) {
   write(dir / "broken.json", "{\"cells\": [");
   write(dir / "flat.json", R"({"cells": [{"type": "box", "position": [0,0,0], "size": [2,0,2]}]})");
   write(dir / "ok.json", R"({"cells": [{"type": "box", "position": [0,1.7,-38], "size": [4,2,4]}]})");
+  write(dir / "gvs.json", R"({"random_rays": -4})");
   fs::path out = dir / "out.mrg";
   const std::string cases[] = {
       "pvs gen:city:1 --cells " + (dir / "broken.json").string() + " -o " + out.string(),
@@ -57,6 +58,8 @@ TEST(PvsCli, BadInputsFailCleanly) {
       "pvs gen:city:1 -o " + out.string(),
       "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " -o " + (dir / "out.png").string(),
       "pvs gen:nothing --cells " + (dir / "ok.json").string() + " -o " + out.string(),
+      "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --config " + (dir / "gvs.json").string() + " -o " +
+          out.string(),
   };
   for (const std::string& args : cases) {
     CliRun r = runMirage(args, dir);

@@ -1,6 +1,7 @@
 // View cells: JSON parsing and its errors, degenerate cells, grids, face sampling geometry.
 #include <gtest/gtest.h>
 
+#include "mirage/visibility/gvs.h"
 #include "mirage/visibility/view_cell.h"
 
 using namespace mirage;
@@ -107,4 +108,30 @@ TEST(ViewCells, GridTilesTheRegion) {
   EXPECT_FALSE(parseGridCounts("4x1").ok());
   EXPECT_FALSE(parseGridCounts("0x1x1").ok());
   EXPECT_FALSE(parseGridCounts("4x1x3x").ok());
+}
+
+TEST(GvsConfigJson, ParsesOverridesAndRejectsBadValues) {
+  auto c = parseGvsConfig(R"({"random_rays": 5000, "abs_edge_samples": 12, "abs_delta_triangle": 0.01,
+                              "reverse_sampling": false})",
+                          "gvs.json");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(c->randomRays, 5000u);
+  EXPECT_EQ(c->absEdgeSamples, 12u);
+  EXPECT_FLOAT_EQ(c->absDeltaTriangle, 0.01f);
+  EXPECT_FALSE(c->reverseSampling);
+  EXPECT_EQ(c->rsEdgeSamples, GvsConfig{}.rsEdgeSamples); // untouched keys keep the defaults
+  auto again = parseGvsConfig(gvsConfigToJson(*c), "again.json");
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->absEdgeSamples, 12u);
+  auto err = [](const std::string& text) {
+    auto r = parseGvsConfig(text, "gvs.json");
+    return r.ok() ? std::string("(ok)") : r.error().message;
+  };
+  EXPECT_EQ(err("[1]"), "gvs.json: expected an object of GVS++ parameters");
+  EXPECT_EQ(err("{"), "gvs.json: not valid JSON");
+  EXPECT_EQ(err(R"({"n_rand": 5})"), "gvs.json: unknown parameter \"n_rand\"");
+  EXPECT_NE(err(R"({"random_rays": 0})").find("\"random_rays\" must be an integer"), std::string::npos);
+  EXPECT_NE(err(R"({"abs_edge_samples": 2.5})").find("must be an integer"), std::string::npos);
+  EXPECT_NE(err(R"({"rs_delta_relative": -1})").find("must be a number"), std::string::npos);
+  EXPECT_NE(err(R"({"adaptive_border": 1})").find("true or false"), std::string::npos);
 }

@@ -7,7 +7,10 @@
 // found triangle and reverse sampling (RS) wherever an ABS ray met a discontinuity. The bake stops
 // when fewer than T new triangles were found in each of k consecutive iterations.
 #include <cstdint>
+#include <string>
 #include <vector>
+
+#include "mirage/core/result.h"
 
 #include "mirage/core/scene.h"
 #include "mirage/visibility/ray_backend.h"
@@ -48,6 +51,15 @@ struct GvsConfig {
   bool reverseSampling = true;
   uint64_t seed = 1;
 };
+
+// A GvsConfig from JSON (`mirage pvs --config`): an object whose keys are the snake_case field
+// names (random_rays, abs_edge_samples, abs_delta_triangle, abs_delta_scene, rs_delta_relative,
+// rs_edge_samples, rs_area_samples, min_new_triangles, stable_iterations, max_iterations,
+// ray_budget, adaptive_border, reverse_sampling, seed); missing keys keep `base`. Unknown keys,
+// wrong types and out-of-range values are errors "<file>: <problem>".
+Result<GvsConfig> parseGvsConfig(const std::string& jsonText, const std::string& fileForErrors,
+                                 const GvsConfig& base = {});
+std::string gvsConfigToJson(const GvsConfig& config);
 
 // The RAND baseline with exactly `rays` random rays (no termination test).
 GvsConfig randomOnlyConfig(uint64_t rays, uint64_t seed = 1);
