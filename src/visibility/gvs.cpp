@@ -85,9 +85,7 @@ public:
       std::vector<Discovery> queue = randomPhase();
       while (!queue.empty() && cfg_.adaptiveBorder && budgetLeft()) {
         std::vector<Discovery> next;
-        std::vector<RsSeed> seeds;
-        absPhase(queue, next, seeds);
-        if (cfg_.reverseSampling) rsPhase(seeds, next);
+        absPhase(queue, next);
         queue = std::move(next);
       }
       ++result_.stats.iterations;
@@ -201,7 +199,10 @@ private:
     if (targets) targets->resize(out);
   }
 
-  void absPhase(const std::vector<Discovery>& queue, std::vector<Discovery>& next, std::vector<RsSeed>& seeds) {
+  // ABS in chunks of about one batch of rays; each chunk's discontinuities are reverse-sampled
+  // right away, so the seed list stays batch-sized however many triangles an iteration finds.
+  void absPhase(const std::vector<Discovery>& queue, std::vector<Discovery>& next) {
+    std::vector<RsSeed> seeds;
     const size_t perTriangle = 9 + 3 * size_t(cfg_.absEdgeSamples);
     const size_t chunk = std::max<size_t>(1, kBatch / perTriangle);
     std::vector<glm::vec3> targets;
@@ -232,13 +233,15 @@ private:
       hits_.resize(rays_.size());
       traceAndCollect(n, next);
       result_.stats.absRays += n;
+      seeds.clear();
       for (size_t i = 0; i < n; ++i) {
         float dist = glm::length(targets[i] - rays_[i].origin);
         if (hits_[i].triangle == kNoHit || hits_[i].t < dist * (1.0f - cfg_.rsDeltaRelative))
           seeds.push_back({targets[i], hits_[i].triangle});
       }
+      result_.stats.discontinuities += seeds.size();
+      if (cfg_.reverseSampling) rsPhase(seeds, next); // reuses rays_/hits_: the seeds hold what RS needs
     }
-    result_.stats.discontinuities += seeds.size();
   }
 
   glm::vec3 edgePoint(float s) const {
