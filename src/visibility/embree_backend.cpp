@@ -30,6 +30,11 @@ std::vector<uint32_t> TriangleSet::sorted() const {
   return out;
 }
 
+void TriangleSet::snapshot(std::vector<uint64_t>& words) const {
+  words.resize((capacity_ + 63) / 64);
+  for (size_t w = 0; w < words.size(); ++w) words[w] = words_[w].load(std::memory_order_relaxed);
+}
+
 void TriangleSet::assign(std::span<const uint32_t> ids) {
   for (size_t w = 0; w < (capacity_ + 63) / 64; ++w) words_[w].store(0);
   for (uint32_t id : ids) insert(id);
@@ -241,13 +246,25 @@ void EmbreeBackend::finish(Hit& hit, const FilterContext& ctx, uint32_t lane, co
   if (sets.require && hit.triangle != kNoHit && !sets.require->contains(hit.triangle)) hit.flags |= kHitMissing;
   // See-through candidates count only in front of the closest opaque hit: the filter also saw
   // ones the traversal later found to lie behind it.
+  hit.seeThrough = kNoHit;
+  float nearest = hit.t;
+  bool nearestNew = false;
   for (uint32_t c = 0; c < ctx.count; ++c) {
     const Candidate& cand = ctx.candidates[c];
     if (cand.lane != lane || (hit.triangle != kNoHit && cand.t >= hit.t)) continue;
     if (ctx.only && !ctx.only->contains(cand.id)) continue;
-    if (sets.record) sets.record->insert(cand.id);
+    bool fresh = sets.record && sets.record->insert(cand.id);
     if (sets.require && !sets.require->contains(cand.id)) hit.flags |= kHitMissing;
+    // Candidates arrive in traversal order: keep the nearest, whose discovery then seeds ABS.
+    if (hit.seeThrough == kNoHit || cand.t < nearest) {
+      hit.seeThrough = cand.id;
+      nearest = cand.t;
+      nearestNew = fresh;
+    } else if (cand.id == hit.seeThrough) {
+      nearestNew |= fresh; // the filter may report one triangle twice
+    }
   }
+  if (nearestNew) hit.flags |= kHitSeeThroughNew;
 }
 
 // Debian's Embree is built with assertions: a NaN or inverted ray aborts the process. Such rays

@@ -64,8 +64,6 @@ public:
       : backend_(backend), scene_(scene), cfg_(config), offsets_(triangleOffsets(scene)),
         found_(backend.triangleCount()), surface_(cell), halton_(config.seed), rsHalton_(config.seed ^ 0x9e3779b9u),
         keepWitnesses_(keepWitnesses) {
-    firstRay_.assign(backend.triangleCount(), kNoHit);
-    batchNew_.assign((backend.triangleCount() + 63) / 64, 0);
     // Meshes without bounds (hand-made scenes) leave the world bounds empty: drop the scene term.
     Bounds b = scene.worldBounds();
     sceneDiagonal_ = b.empty() ? 0.0f : glm::length(b.extent());
@@ -105,34 +103,26 @@ private:
 
   // Trace rays_[0, n) into hits_, recording into found_; append each new discovery to `out`.
   void traceAndCollect(size_t n, std::vector<Discovery>& out) {
+    // Which of several rays hitting a new triangle wins the atomic insert depends on thread
+    // timing. Against a snapshot of the set taken before the batch, the lowest-indexed ray that
+    // hit a triangle absent from it is credited instead, so discoveries (and with them the ABS
+    // origins and every later ray) are the same on any number of threads.
+    found_.snapshot(before_);
     auto t0 = std::chrono::steady_clock::now();
     backend_.trace(std::span(rays_.data(), n), std::span(hits_.data(), n), {.record = &found_});
     result_.stats.traceSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     result_.stats.rays += n;
-    // Which of several rays hitting a new triangle in one batch wins the atomic insert depends on
-    // thread timing. Credit the lowest-indexed one instead, so discoveries (and with them the ABS
-    // origins and every later ray) are the same on any number of threads.
-    winners_.clear();
-    for (size_t i = 0; i < n; ++i)
-      if (hits_[i].flags & kHitNew) {
-        uint32_t t = hits_[i].triangle;
-        firstRay_[t] = uint32_t(i);
-        batchNew_[t >> 6] |= uint64_t(1) << (t & 63);
-        winners_.push_back(t);
-      }
-    if (winners_.empty()) return;
-    // The bit mask (1/32 of firstRay_'s size) keeps this serial pass in cache.
+    auto claim = [&](uint32_t t, size_t i) {
+      if (t == kNoHit || (before_[t >> 6] >> (t & 63) & 1)) return;
+      before_[t >> 6] |= uint64_t(1) << (t & 63); // later rays of the batch find it taken
+      out.push_back({t, rays_[i].origin});
+      if (keepWitnesses_) result_.witnesses.push_back({t, rays_[i]});
+    };
     for (size_t i = 0; i < n; ++i) {
-      uint32_t t = hits_[i].triangle;
-      if (t != kNoHit && (batchNew_[t >> 6] >> (t & 63) & 1) && i < firstRay_[t]) firstRay_[t] = uint32_t(i);
-    }
-    std::sort(winners_.begin(), winners_.end(), [&](uint32_t a, uint32_t b) { return firstRay_[a] < firstRay_[b]; });
-    for (uint32_t t : winners_) {
-      const Ray& ray = rays_[firstRay_[t]];
-      out.push_back({t, ray.origin});
-      if (keepWitnesses_) result_.witnesses.push_back({t, ray});
-      firstRay_[t] = kNoHit;
-      batchNew_[t >> 6] = 0;
+      claim(hits_[i].triangle, i);
+      // Glass and cut-outs are discoveries too: ABS around them finds their frames, and its rays
+      // pass through them to what lies behind.
+      claim(hits_[i].seeThrough, i);
     }
   }
 
@@ -311,9 +301,7 @@ private:
   float edgeLength_ = 0.0f;
   std::vector<Ray> rays_;
   std::vector<Hit> hits_;
-  std::vector<uint32_t> firstRay_; // per triangle: lowest ray index of the batch that found it, or kNoHit
-  std::vector<uint32_t> winners_;
-  std::vector<uint64_t> batchNew_; // triangles found in the current batch
+  std::vector<uint64_t> before_; // found_ before the current batch, plus the batch's claims
   CellPvs result_;
 };
 

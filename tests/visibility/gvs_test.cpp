@@ -159,12 +159,13 @@ TEST(Gvs, CityStreetBeatsRandomAtEqualBudget) {
   cfg.absEdgeSamples = 10; // fewer border rays keep the test fast; the defaults run in the CLI
   CellPvs gvs = computeCellPvs(*backend, *scene, cell, cfg, true);
   {
-    // See-through glass is recorded without a witness: check the opaque ones only.
+    // A witness ray hits its triangle, or passes through it when it is glass.
     std::vector<Ray> rays;
     for (const Witness& w : gvs.witnesses) rays.push_back(w.ray);
     std::vector<Hit> hits(rays.size());
     backend->trace(rays, hits);
-    for (size_t i = 0; i < rays.size(); ++i) ASSERT_EQ(hits[i].triangle, gvs.witnesses[i].triangle);
+    for (size_t i = 0; i < rays.size(); ++i)
+      ASSERT_TRUE(hits[i].triangle == gvs.witnesses[i].triangle || hits[i].seeThrough == gvs.witnesses[i].triangle);
   }
   CellPvs rnd = computeCellPvs(*backend, *scene, cell, randomOnlyConfig(gvs.stats.rays, 5));
   EXPECT_GE(rnd.stats.rays, gvs.stats.rays);

@@ -31,14 +31,16 @@ struct Ray {
 static_assert(sizeof(Ray) == 32);
 
 enum HitFlags : uint32_t {
-  kHitNew = 1,     // this ray's closest (opaque) hit was the first insertion of its triangle into `record`
-  kHitMissing = 2, // a triangle this ray sees (see-through ones in front, or the closest) is not in `require`
+  kHitNew = 1,           // this ray's closest (opaque) hit was the first insertion of its triangle into `record`
+  kHitMissing = 2,       // a triangle this ray sees (see-through ones in front, or the closest) is not in `require`
+  kHitSeeThroughNew = 4, // this ray's insert of `seeThrough` into `record` was the first
 };
 
 struct Hit {
   uint32_t triangle = kNoHit; // closest opaque hit, global ID, or kNoHit
   float t = 0.0f;
   uint32_t flags = 0;
+  uint32_t seeThrough = kNoHit; // nearest see-through triangle in front of `triangle`, or kNoHit
 };
 
 // A set of triangle IDs as an atomic bit array: insert() from any thread, so rays deduplicate
@@ -59,6 +61,8 @@ public:
   size_t count() const;
   std::vector<uint32_t> sorted() const;
   void assign(std::span<const uint32_t> ids);
+  // The bits as plain words (64 IDs each), e.g. to tell later which IDs a batch of rays added.
+  void snapshot(std::vector<uint64_t>& words) const;
 
 private:
   size_t capacity_ = 0;
