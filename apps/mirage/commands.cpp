@@ -28,6 +28,7 @@ void registerCommands(CLI::App& app) {
   addBuildCommand(app);
   addBenchCommand(app);
   addSurfelsCommand(app);
+  addPvsCommands(app);
 }
 
 } // namespace mirage::cli

@@ -21,6 +21,11 @@ std::filesystem::path sharedFile(const std::string& relative) {
   return std::filesystem::exists(p, ec) ? p : std::filesystem::path{};
 }
 
+std::string mirageBinary() {
+  if (const char* bin = std::getenv("MIRAGE_BIN")) return bin;
+  return MIRAGE_BINARY_PATH;
+}
+
 std::filesystem::path tempDir(const std::string& name) {
   std::filesystem::path p = std::filesystem::temp_directory_path() / ("mirage-test-" + std::to_string(::getpid())) / name;
   std::filesystem::remove_all(p);

@@ -9,6 +9,8 @@ namespace mirage::test {
 std::filesystem::path sharedData();
 // A file under ../shared/data, or empty when the data set is absent (callers GTEST_SKIP with a message).
 std::filesystem::path sharedFile(const std::string& relative);
+// The mirage CLI built beside the tests (MIRAGE_BIN overrides the compiled-in path).
+std::string mirageBinary();
 // A fresh, empty temporary directory for this test, removed at process exit.
 std::filesystem::path tempDir(const std::string& name);
 

@@ -20,14 +20,8 @@ struct CliRun {
   std::string err;
 };
 
-// The CLI built beside the tests (tests/CMakeLists.txt defines its path; MIRAGE_BIN overrides).
-std::string mirageBinary() {
-  if (const char* bin = std::getenv("MIRAGE_BIN")) return bin;
-  return MIRAGE_BINARY_PATH;
-}
-
 CliRun runMirage(const std::string& args, const std::filesystem::path& dir) {
-  std::string bin = mirageBinary();
+  std::string bin = mirage::test::mirageBinary();
   std::string errFile = (dir / "stderr.txt").string();
   std::string cmd = bin + " " + args + " > /dev/null 2> " + errFile;
   int status = std::system(cmd.c_str());
@@ -43,7 +37,7 @@ CliRun runMirage(const std::string& args, const std::filesystem::path& dir) {
 } // namespace
 
 TEST(SurfelCli, WritesPlyAndMrg) {
-  ASSERT_TRUE(std::filesystem::exists(mirageBinary())) << mirageBinary();
+  ASSERT_TRUE(std::filesystem::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
   auto dir = mirage::test::tempDir("surfels_cli");
   std::string ply = (dir / "blob.ply").string(), mrg = (dir / "blob.mrg").string();
   CliRun a = runMirage("surfels gen:blob:4 -o " + ply + " --count 300 --resolution 32 --views 6", dir);
@@ -59,7 +53,7 @@ TEST(SurfelCli, WritesPlyAndMrg) {
 }
 
 TEST(SurfelCli, BadInputsExit2WithOneLineAndWriteNothing) {
-  ASSERT_TRUE(std::filesystem::exists(mirageBinary())) << mirageBinary();
+  ASSERT_TRUE(std::filesystem::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
   auto dir = mirage::test::tempDir("surfels_cli_bad");
   std::string empty = (dir / "empty.obj").string();
   std::ofstream(empty) << "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
