@@ -9,6 +9,7 @@
 #include "lod_common.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
+#include "render_common.h"
 
 namespace mirage::cli {
 
@@ -37,7 +38,7 @@ void infoAsset(const std::string& path, bool json) {
 
 void infoFile(const std::string& path, bool json) {
   if (path.ends_with(".mrg")) return infoAsset(path, json);
-  auto scene = io::importScene(path);
+  auto scene = loadSceneArgument(path);
   if (!scene) return fail(scene.error());
   const Scene& s = *scene;
   Bounds b = s.worldBounds();
