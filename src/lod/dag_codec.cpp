@@ -9,6 +9,7 @@
 #include <meshoptimizer.h>
 
 #include "mirage/asset/bytes.h"
+#include "mirage/core/octahedral.h"
 
 namespace mirage::lod {
 
@@ -64,23 +65,6 @@ bool readVertexStream(ByteReader& r, std::span<const uint8_t> all, void* out, si
   return true;
 }
 
-glm::vec2 octEncode(glm::vec3 n) {
-  n /= std::abs(n.x) + std::abs(n.y) + std::abs(n.z) + 1e-30f;
-  glm::vec2 p(n.x, n.y);
-  if (n.z < 0.0f) p = (1.0f - glm::abs(glm::vec2(p.y, p.x))) * glm::vec2(p.x >= 0 ? 1.0f : -1.0f, p.y >= 0 ? 1.0f : -1.0f);
-  return p;
-}
-
-glm::vec3 octDecode(glm::vec2 p) {
-  glm::vec3 n(p.x, p.y, 1.0f - std::abs(p.x) - std::abs(p.y));
-  float t = std::max(-n.z, 0.0f);
-  n.x += n.x >= 0 ? -t : t;
-  n.y += n.y >= 0 ? -t : t;
-  return glm::normalize(n);
-}
-
-int16_t snorm16(float v) { return int16_t(std::lround(std::clamp(v, -1.0f, 1.0f) * 32767.0f)); }
-
 struct Quantizer {
   glm::vec3 origin{0.0f};
   float step = 1.0f;
@@ -92,7 +76,7 @@ struct PackedPosition {
 static_assert(sizeof(PackedPosition) == 12);
 
 struct PackedAttributes {
-  int16_t octX, octY; // octahedral normal, snorm16
+  uint32_t normal; // octahedral, snorm16 x (low half) and y
   float u, v;
 };
 static_assert(sizeof(PackedAttributes) == 12);
@@ -169,8 +153,8 @@ std::vector<uint8_t> encodeDag(const ClusterDag& dag, const DagEncodeOptions& op
   if (flags) {
     std::vector<PackedAttributes> attrs(dag.vertexPosition.size());
     for (size_t i = 0; i < attrs.size(); ++i) {
-      glm::vec2 o = dag.normals.empty() ? glm::vec2(0.0f) : octEncode(dag.normals[i]);
-      attrs[i] = {snorm16(o.x), snorm16(o.y), dag.uv0.empty() ? 0.0f : dag.uv0[i].x, dag.uv0.empty() ? 0.0f : dag.uv0[i].y};
+      uint32_t n = dag.normals.empty() ? 0u : encodeOctahedral(dag.normals[i]);
+      attrs[i] = {n, dag.uv0.empty() ? 0.0f : dag.uv0[i].x, dag.uv0.empty() ? 0.0f : dag.uv0[i].y};
     }
     writeVertexStream(w, attrs.data(), attrs.size(), sizeof(PackedAttributes));
   }
@@ -261,7 +245,7 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
     if (flags & 1) dag.normals.resize(vertexCount);
     if (flags & 2) dag.uv0.resize(vertexCount);
     for (size_t i = 0; i < attrs.size(); ++i) {
-      if (flags & 1) dag.normals[i] = octDecode(glm::vec2(attrs[i].octX, attrs[i].octY) / 32767.0f);
+      if (flags & 1) dag.normals[i] = decodeOctahedral(attrs[i].normal);
       if (flags & 2) dag.uv0[i] = {attrs[i].u, attrs[i].v};
     }
   }

@@ -4,9 +4,9 @@
 #include <cstring>
 
 #include <fmt/format.h>
-#include <glm/gtc/packing.hpp>
 
 #include "cluster_impl.h"
+#include "render_util.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/shaders.h"
@@ -23,12 +23,6 @@ constexpr VkFormat kVisFormat = VK_FORMAT_R32G32_UINT;           // (visible ind
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Visible-cluster entries: the instanced cluster count, capped so the buffer stays 32 MiB.
 constexpr uint64_t kMaxVisibleClusters = 4u << 20;
-
-uint8_t encodeSrgb(float linear) {
-  float v = std::clamp(linear, 0.0f, 1.0f);
-  float s = v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-  return uint8_t(std::lround(s * 255.0f));
-}
 
 // gpu::createGraphicsPipeline has no mesh stage: this is its mesh-shader twin (no vertex input).
 Unique<VkPipeline> createMeshPipeline(Context& ctx, VkPipelineLayout layout) {
@@ -455,22 +449,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   out.image.stats.trianglesSubmitted = c.trianglesSelected;
 
   std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
-  const uint16_t* half = reinterpret_cast<const uint16_t*>(img.data());
-  size_t pixels = size_t(s.width) * s.height;
-  ImageRGBA8& srgb = out.image.srgb;
-  srgb.width = s.width;
-  srgb.height = s.height;
-  srgb.pixels.resize(pixels * 4);
-  if (s.readLinear) {
-    out.image.linear.width = s.width;
-    out.image.linear.height = s.height;
-    out.image.linear.pixels.resize(pixels * 4);
-  }
-  for (size_t i = 0; i < pixels * 4; ++i) {
-    float v = glm::unpackHalf1x16(half[i]);
-    srgb.pixels[i] = (i & 3) == 3 ? uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)) : encodeSrgb(v);
-    if (s.readLinear) out.image.linear.pixels[i] = v;
-  }
+  convertHalfImage(img, s.width, s.height, s.readLinear, out.image);
   return out;
 }
 

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "cluster_impl.h"
+#include "render_util.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/context.h"
 
@@ -18,26 +19,6 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-sio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount) {
-  auto tex = [&](int32_t t) { return t >= 0 && size_t(t) < textureCount ? t : -1; };
-  sio::GpuMaterial g{};
-  g.baseColorFactor = m.baseColorFactor;
-  g.emissiveFactor = m.emissiveFactor;
-  g.metallicFactor = m.metallicFactor;
-  g.roughnessFactor = m.roughnessFactor;
-  g.normalScale = m.normalScale;
-  g.occlusionStrength = m.occlusionStrength;
-  g.alphaCutoff = m.alphaCutoff;
-  g.baseColorTexture = tex(m.baseColorTexture);
-  g.metallicRoughnessTexture = tex(m.metallicRoughnessTexture);
-  g.normalTexture = tex(m.normalTexture);
-  g.occlusionTexture = tex(m.occlusionTexture);
-  g.emissiveTexture = tex(m.emissiveTexture);
-  // The visibility pass has no alpha test yet: MASK and BLEND render as opaque (docs/render.md).
-  g.alphaMode = MIRAGE_ALPHA_OPAQUE;
-  g.doubleSided = m.doubleSided;
-  return g;
-}
 
 Unique<VkSampler> makeSampler(Context& ctx, VkFilter filter) {
   VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
@@ -168,7 +149,11 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   std::vector<Material> mats = scene.materials;
   if (mats.empty()) mats.push_back(Material{});
   std::vector<sio::GpuMaterial> gpuMats;
-  for (const Material& m : mats) gpuMats.push_back(toGpuMaterial(m, scene.textures.size()));
+  for (const Material& m : mats) {
+    gpuMats.push_back(toGpuMaterial(m, scene.textures.size()));
+    // The visibility pass has no alpha test yet: MASK and BLEND render as opaque (docs/render.md).
+    gpuMats.back().alphaMode = MIRAGE_ALPHA_OPAQUE;
+  }
 
   std::vector<sio::GpuClusterInstance> instances;
   for (const Instance& inst : scene.instances) {

@@ -5,11 +5,11 @@
 #include <cstring>
 
 #include <fmt/format.h>
-#include <glm/gtc/packing.hpp>
 
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/shaderio/forward.h"
+#include "render_util.h"
 
 namespace mirage::render {
 
@@ -47,12 +47,6 @@ sio::GpuInstance makeInstance(const glm::mat4& m) {
 }
 
 bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.0f; }
-
-uint8_t encodeSrgb(float linear) {
-  float v = std::clamp(linear, 0.0f, 1.0f);
-  float s = v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-  return uint8_t(std::lround(s * 255.0f));
-}
 
 } // namespace
 
@@ -119,25 +113,7 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   sceneMaterials = scene.materials;
   if (sceneMaterials.empty()) sceneMaterials.push_back(Material{});
   std::vector<sio::GpuMaterial> mats;
-  auto tex = [&](int32_t t) { return t >= 0 && size_t(t) < scene.textures.size() ? t : -1; };
-  for (const Material& m : sceneMaterials) {
-    sio::GpuMaterial g{};
-    g.baseColorFactor = m.baseColorFactor;
-    g.emissiveFactor = m.emissiveFactor;
-    g.metallicFactor = m.metallicFactor;
-    g.roughnessFactor = m.roughnessFactor;
-    g.normalScale = m.normalScale;
-    g.occlusionStrength = m.occlusionStrength;
-    g.alphaCutoff = m.alphaCutoff;
-    g.baseColorTexture = tex(m.baseColorTexture);
-    g.metallicRoughnessTexture = tex(m.metallicRoughnessTexture);
-    g.normalTexture = tex(m.normalTexture);
-    g.occlusionTexture = tex(m.occlusionTexture);
-    g.emissiveTexture = tex(m.emissiveTexture);
-    g.alphaMode = m.alphaMode == AlphaMode::Mask ? MIRAGE_ALPHA_MASK : m.alphaMode == AlphaMode::Blend ? MIRAGE_ALPHA_BLEND : MIRAGE_ALPHA_OPAQUE;
-    g.doubleSided = m.doubleSided;
-    mats.push_back(g);
-  }
+  for (const Material& m : sceneMaterials) mats.push_back(toGpuMaterial(m, scene.textures.size()));
   materials = createBufferWithData<sio::GpuMaterial>(ctx, mats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "materials");
 
   // Textures: sRGB or UNORM as the material use says, full mip chains. One white texel stands in
@@ -377,21 +353,7 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
   fs.pipeline = d.stats.read();
 
   std::vector<uint8_t> raw = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, 8);
-  const uint16_t* half = reinterpret_cast<const uint16_t*>(raw.data());
-  size_t pixels = size_t(s.width) * s.height;
-  out.srgb.width = s.width;
-  out.srgb.height = s.height;
-  out.srgb.pixels.resize(pixels * 4);
-  if (s.readLinear) {
-    out.linear.width = s.width;
-    out.linear.height = s.height;
-    out.linear.pixels.resize(pixels * 4);
-  }
-  for (size_t i = 0; i < pixels * 4; ++i) {
-    float v = glm::unpackHalf1x16(half[i]);
-    out.srgb.pixels[i] = (i & 3) == 3 ? uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)) : encodeSrgb(v);
-    if (s.readLinear) out.linear.pixels[i] = v;
-  }
+  convertHalfImage(raw, s.width, s.height, s.readLinear, out);
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <span>
 
+#include "mirage/core/color.h"
 #include "mirage/core/image.h"
 #include "mirage/core/result.h"
 
@@ -29,8 +30,8 @@ Status writeFileAtomic(const std::filesystem::path& path, const void* data, size
 // Same, for a file assembled from several buffers (avoids concatenating large payloads first).
 Status writeFileAtomic(const std::filesystem::path& path, std::span<const std::span<const uint8_t>> parts);
 
-// sRGB transfer function (IEC 61966-2-1). linearToSrgb8 clamps to [0, 1] and rounds.
-uint8_t linearToSrgb8(float linear);
-float srgb8ToLinear(uint8_t encoded);
+// sRGB helpers live in mirage/core/color.h (renderers need them too).
+using mirage::linearToSrgb8;
+using mirage::srgb8ToLinear;
 
 } // namespace mirage::io

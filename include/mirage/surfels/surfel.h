@@ -8,6 +8,7 @@
 
 #include <glm/glm.hpp>
 
+#include "mirage/core/octahedral.h"
 #include "mirage/core/scene.h"
 #include "mirage/shaderio/surfels.h"
 
@@ -57,8 +58,8 @@ struct SurfelCloud {
 Surfel packSurfel(const Bounds& box, glm::vec3 position, glm::vec3 normal, uint32_t color);
 glm::vec3 surfelPosition(const Bounds& box, const Surfel& s);
 glm::vec3 surfelNormal(const Surfel& s);
-uint32_t encodeOctahedral(glm::vec3 n);
-glm::vec3 decodeOctahedral(uint32_t packed);
+using mirage::decodeOctahedral; // mirage/core/octahedral.h
+using mirage::encodeOctahedral;
 
 // Surfels for `order` over `texels`, with the N_ref spacing statistics.
 SurfelCloud buildSurfelCloud(const GBufferTexels& texels, const SampleOrder& order);
