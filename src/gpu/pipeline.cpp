@@ -22,10 +22,12 @@ Unique<VkShaderModule> createShaderModule(Context& context, std::string_view nam
 }
 
 Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipelineDesc& d) {
-  Unique<VkShaderModule> vs = createShaderModule(context, d.vertexShader);
+  bool mesh = !d.meshShader.empty();
+  Unique<VkShaderModule> vs = createShaderModule(context, mesh ? d.meshShader : d.vertexShader);
   Unique<VkShaderModule> fs;
   std::vector<VkPipelineShaderStageCreateInfo> stages;
-  stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT, vs, "main", nullptr});
+  stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
+                    mesh ? VK_SHADER_STAGE_MESH_BIT_EXT : VK_SHADER_STAGE_VERTEX_BIT, vs, "main", nullptr});
   if (!d.fragmentShader.empty()) {
     fs = createShaderModule(context, d.fragmentShader);
     stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, fs, "main", nullptr});
@@ -75,12 +77,13 @@ Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipeli
   ri.colorAttachmentCount = uint32_t(d.colorFormats.size());
   ri.pColorAttachmentFormats = d.colorFormats.data();
   ri.depthAttachmentFormat = d.depthFormat;
+  ri.viewMask = d.viewMask;
 
   VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO, &ri};
   ci.stageCount = uint32_t(stages.size());
   ci.pStages = stages.data();
-  ci.pVertexInputState = &vi;
-  ci.pInputAssemblyState = &ia;
+  ci.pVertexInputState = mesh ? nullptr : &vi; // mesh pipelines have no vertex input stage
+  ci.pInputAssemblyState = mesh ? nullptr : &ia;
   ci.pViewportState = &vp;
   ci.pRasterizationState = &rs;
   ci.pMultisampleState = &ms;

@@ -24,53 +24,6 @@ constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Visible-cluster entries: the instanced cluster count, capped so the buffer stays 32 MiB.
 constexpr uint64_t kMaxVisibleClusters = 4u << 20;
 
-// gpu::createGraphicsPipeline has no mesh stage: this is its mesh-shader twin (no vertex input).
-Unique<VkPipeline> createMeshPipeline(Context& ctx, VkPipelineLayout layout) {
-  Unique<VkShaderModule> ms = createShaderModule(ctx, "cluster_vis.mesh");
-  Unique<VkShaderModule> fs = createShaderModule(ctx, "cluster_vis_mesh.frag");
-  VkPipelineShaderStageCreateInfo stages[] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
-                                               VK_SHADER_STAGE_MESH_BIT_EXT, ms, "main", nullptr},
-                                              {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
-                                               VK_SHADER_STAGE_FRAGMENT_BIT, fs, "main", nullptr}};
-  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-  vp.viewportCount = vp.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-  rs.polygonMode = VK_POLYGON_MODE_FILL;
-  rs.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo msaa{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  msaa.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-  ds.depthTestEnable = ds.depthWriteEnable = VK_TRUE;
-  ds.depthCompareOp = VK_COMPARE_OP_GREATER; // reverse-Z
-  VkPipelineColorBlendAttachmentState blend{};
-  blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT;
-  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-  cb.attachmentCount = 1;
-  cb.pAttachments = &blend;
-  VkDynamicState dynamic[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR, VK_DYNAMIC_STATE_CULL_MODE,
-                              VK_DYNAMIC_STATE_FRONT_FACE};
-  VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-  dyn.dynamicStateCount = 4;
-  dyn.pDynamicStates = dynamic;
-  VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachmentFormats = &kVisFormat;
-  ri.depthAttachmentFormat = kDepthFormat;
-  VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO, &ri};
-  ci.stageCount = 2;
-  ci.pStages = stages;
-  ci.pViewportState = &vp;
-  ci.pRasterizationState = &rs;
-  ci.pMultisampleState = &msaa;
-  ci.pDepthStencilState = &ds;
-  ci.pColorBlendState = &cb;
-  ci.pDynamicState = &dyn;
-  ci.layout = layout;
-  VkPipeline p;
-  MIRAGE_VK_CHECK(vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
-  return Unique<VkPipeline>(ctx.device(), p);
-}
-
 // World-space frustum planes (Gribb-Hartmann) of a reverse-Z projection: clip-space inside is
 // -w <= x, y <= w and z <= w (near); the far plane is left out (the camera's far bound is loose).
 void frustumPlanes(const glm::mat4& m, glm::vec4* planes) {
@@ -171,8 +124,16 @@ void ClusterRenderer::Impl::createPipelines() {
   selectPipeline = createComputePipeline(ctx, "cluster_select.comp", layout);
   argsPipeline = createComputePipeline(ctx, "cluster_args.comp", layout);
   if (ctx.caps().int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
-  if (ctx.caps().meshShader) meshPipeline = createMeshPipeline(ctx, layout);
   GraphicsPipelineDesc d;
+  if (ctx.caps().meshShader) {
+    GraphicsPipelineDesc m;
+    m.meshShader = "cluster_vis.mesh";
+    m.fragmentShader = "cluster_vis_mesh.frag";
+    m.layout = layout;
+    m.colorFormats = {kVisFormat};
+    m.depthFormat = kDepthFormat;
+    meshPipeline = createGraphicsPipeline(ctx, m);
+  }
   d.vertexShader = "cluster_vis.vert";
   d.fragmentShader = "cluster_vis.frag";
   d.layout = layout;

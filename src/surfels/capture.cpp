@@ -57,67 +57,19 @@ struct Draw {
 };
 
 Unique<VkPipeline> createCapturePipeline(Context& ctx, VkPipelineLayout layout, uint32_t viewMask) {
-  Unique<VkShaderModule> vs = createShaderModule(ctx, "surfel_capture.vert");
-  Unique<VkShaderModule> fs = createShaderModule(ctx, "surfel_capture.frag");
-  VkPipelineShaderStageCreateInfo stages[] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
-                                               VK_SHADER_STAGE_VERTEX_BIT, vs, "main", nullptr},
-                                              {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
-                                               VK_SHADER_STAGE_FRAGMENT_BIT, fs, "main", nullptr}};
-  VkVertexInputBindingDescription binding{0, sizeof(sio::SurfelCaptureVertex), VK_VERTEX_INPUT_RATE_VERTEX};
-  VkVertexInputAttributeDescription attributes[] = {
-      {0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::SurfelCaptureVertex, position)},
-      {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::SurfelCaptureVertex, normal)},
-      {2, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(sio::SurfelCaptureVertex, color)}};
-  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-  vi.vertexBindingDescriptionCount = 1;
-  vi.pVertexBindingDescriptions = &binding;
-  vi.vertexAttributeDescriptionCount = 3;
-  vi.pVertexAttributeDescriptions = attributes;
-  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-  vp.viewportCount = 1;
-  vp.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-  rs.polygonMode = VK_POLYGON_MODE_FILL;
-  rs.cullMode = VK_CULL_MODE_NONE; // open surfaces are sampled from both sides
-  rs.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-  ds.depthTestEnable = VK_TRUE;
-  ds.depthWriteEnable = VK_TRUE;
-  ds.depthCompareOp = VK_COMPARE_OP_LESS;
-  VkPipelineColorBlendAttachmentState blend[3]{};
-  for (auto& b : blend) b.colorWriteMask = 0xf;
-  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-  cb.attachmentCount = 3;
-  cb.pAttachments = blend;
-  VkDynamicState dynamic[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR, VK_DYNAMIC_STATE_FRONT_FACE};
-  VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-  dyn.dynamicStateCount = 3;
-  dyn.pDynamicStates = dynamic;
-  VkFormat colorFormats[] = {kPositionFormat, kNormalFormat, kColorFormat};
-  VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-  ri.viewMask = viewMask; // the reason this pipeline is not built by gpu::createGraphicsPipeline
-  ri.colorAttachmentCount = 3;
-  ri.pColorAttachmentFormats = colorFormats;
-  ri.depthAttachmentFormat = kDepthFormat;
-  VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO, &ri};
-  ci.stageCount = 2;
-  ci.pStages = stages;
-  ci.pVertexInputState = &vi;
-  ci.pInputAssemblyState = &ia;
-  ci.pViewportState = &vp;
-  ci.pRasterizationState = &rs;
-  ci.pMultisampleState = &ms;
-  ci.pDepthStencilState = &ds;
-  ci.pColorBlendState = &cb;
-  ci.pDynamicState = &dyn;
-  ci.layout = layout;
-  VkPipeline pipeline;
-  MIRAGE_VK_CHECK(vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
-  return Unique<VkPipeline>(ctx.device(), pipeline);
+  GraphicsPipelineDesc d;
+  d.vertexShader = "surfel_capture.vert";
+  d.fragmentShader = "surfel_capture.frag";
+  d.layout = layout;
+  d.bindings = {{0, sizeof(sio::SurfelCaptureVertex), VK_VERTEX_INPUT_RATE_VERTEX}};
+  d.attributes = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::SurfelCaptureVertex, position)},
+                  {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::SurfelCaptureVertex, normal)},
+                  {2, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(sio::SurfelCaptureVertex, color)}};
+  d.colorFormats = {kPositionFormat, kNormalFormat, kColorFormat};
+  d.depthFormat = kDepthFormat;
+  d.depthCompare = VK_COMPARE_OP_LESS; // orthographic views with forward depth
+  d.viewMask = viewMask;               // one pass renders up to maxMultiviewViews directions
+  return createGraphicsPipeline(ctx, d);
 }
 
 Unique<VkImageView> layerView(Context& ctx, const Image& image, VkImageAspectFlags aspect, uint32_t base,
@@ -363,6 +315,7 @@ Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const Captur
         sio::SurfelCapturePush push{viewBuffer.address(), instanceBuffer.address(), d.baseColor, p.base, 0, 0, 0};
         vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
         vkCmdSetFrontFace(cmd, d.mirrored ? VK_FRONT_FACE_CLOCKWISE : VK_FRONT_FACE_COUNTER_CLOCKWISE);
+        vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE); // open surfaces are sampled from both sides
         vkCmdDrawIndexed(cmd, d.indexCount, d.instanceCount, d.firstIndex, d.vertexOffset, d.firstInstance);
       }
       vkCmdEndRendering(cmd);

@@ -15,6 +15,7 @@ Unique<VkShaderModule> createShaderModule(Context& context, std::string_view nam
 
 struct GraphicsPipelineDesc {
   std::string_view vertexShader;   // embedded names, e.g. "forward.vert"
+  std::string_view meshShader;     // instead of vertexShader: a VK_EXT_mesh_shader pipeline (no vertex input)
   std::string_view fragmentShader; // empty: depth-only
   VkPipelineLayout layout = VK_NULL_HANDLE;
   std::vector<VkVertexInputBindingDescription> bindings;
@@ -25,6 +26,7 @@ struct GraphicsPipelineDesc {
   bool depthWrite = true;
   bool alphaBlend = false;                 // premultiplied-free "over": src*a + dst*(1-a)
   VkPrimitiveTopology topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  uint32_t viewMask = 0; // multiview: one bit per view rendered in one pass (0: no multiview)
   // Cull mode and front face are dynamic state: one pipeline serves single- and double-sided materials.
 };
 
