@@ -68,9 +68,11 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeO
   std::vector<std::vector<uint8_t>> dagBytes(a.dags.size());
   for (size_t i = 0; i < a.dags.size(); ++i) {
     dagBytes[i] = encodeDag(a.dags[i], options);
-    // Level 19 squeezes ~10% more out of index and id streams than 3 and decodes as fast; bakes are
-    // offline, so the slower compression is worth it.
-    w.addChunk(asset::chunk::ClusterDag, dagBytes[i], 19);
+    // Measured on the dragon's chunk (13 MB raw): level 3 -> 12.82 B/triangle in 0.06 s, 9 -> 12.19
+    // in 0.29 s, 19 -> 11.82 in 4.8 s (2.8 MB/s: ~2 minutes for a 21 M-triangle mesh). Level 19 only
+    // where it costs at most about a second; decoding speed is the same.
+    int level = dagBytes[i].size() <= (4u << 20) ? 19 : 9;
+    w.addChunk(asset::chunk::ClusterDag, dagBytes[i], level);
   }
   std::string meta = a.metaJson.empty() ? "{}" : a.metaJson;
   w.addChunk(asset::chunk::Meta, std::span(reinterpret_cast<const uint8_t*>(meta.data()), meta.size()));
