@@ -2,6 +2,7 @@
 // bench render: the forward baseline on a scene, median per-pass GPU times over N frames.
 // bench import: importer throughput in MB/s.
 // bench build: cluster-LOD bake throughput, memory and size.
+// bench pvs: speed-up of drawing only the camera cell's PVS.
 #include <chrono>
 
 #include <fmt/format.h>
@@ -18,7 +19,9 @@
 
 #include "lod_common.h"
 #include "lod_render.h"
+#include "mirage/core/image_metrics.h"
 #include "mirage/io/import.h"
+#include "mirage/visibility/pvs_storage.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
 #include "render_common.h"
@@ -185,6 +188,100 @@ void runBenchBuild(const BenchBuildOptions& o) {
   printSummary(summary);
 }
 
+struct BenchPvsOptions {
+  std::string input;
+  std::string pvs;
+  std::string size = "1920x1080";
+  std::string device;
+  int frames = 10;
+  bool json = false;
+};
+
+double medianFrameMs(render::ForwardRenderer& r, const render::RenderSettings& rs, int frames, ImageRGBA8* image,
+                     Status& status) {
+  std::vector<double> ms;
+  for (int i = 0; i < frames; ++i) {
+    auto out = r.render(rs);
+    if (!out) return status = out.error(), 0.0;
+    if (i > 0 && !out->stats.passTimes.empty()) ms.push_back(out->stats.passTimes[0].milliseconds);
+    if (image && i + 1 == frames) *image = std::move(out->srgb);
+  }
+  std::sort(ms.begin(), ms.end());
+  return ms.empty() ? 0.0 : ms[ms.size() / 2];
+}
+
+// The seed's Table 7.5: for every view cell, cameras at its centre looking four ways; the full
+// scene vs the cell's PVS, GPU frame time (median) and the image difference.
+void runBenchPvs(const BenchPvsOptions& o) {
+  uint32_t width = 0, height = 0;
+  if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
+  if (o.frames < 2 || o.frames > 10000) return fail("--frames must be in 2..10000");
+  auto scene = loadSceneArgument(o.input);
+  if (!scene) return fail(scene.error());
+  auto pvs = vis::loadPvs(o.pvs);
+  if (!pvs) return fail(pvs.error());
+  gpu::ContextOptions co;
+  co.device = o.device;
+  auto ctx = gpu::Context::create(co);
+  if (!ctx) return fail(ctx.error());
+  auto full = render::ForwardRenderer::create(**ctx, *scene);
+  if (!full) return fail(full.error());
+  Bounds bounds = scene->worldBounds();
+  nlohmann::json cells = nlohmann::json::array();
+  double fullSum = 0.0, pvsSum = 0.0, worstPsnr = 1e30;
+  size_t views = 0;
+  if (!o.json)
+    fmt::print("bench pvs {} with {} on {}: {} cells, {}x{}, 4 views per cell, median of {} frames\n", o.input, o.pvs,
+               (*ctx)->caps().name, pvs->cells.size(), width, height, o.frames - 1);
+  for (size_t c = 0; c < pvs->cells.size(); ++c) {
+    glm::vec3 eye = pvs->cells[c].position;
+    int cell = -1;
+    auto restricted = restrictSceneToPvs(*scene, o.pvs, eye, cell);
+    if (!restricted) return fail(restricted.error());
+    auto part = render::ForwardRenderer::create(**ctx, *restricted);
+    if (!part) return fail(part.error());
+    double cellFull = 0.0, cellPvs = 0.0, cellPsnr = 1e30;
+    for (int v = 0; v < 4; ++v) {
+      float a = float(v) * 1.5707963f;
+      render::RenderSettings rs;
+      rs.width = width;
+      rs.height = height;
+      rs.camera.eye = eye;
+      rs.camera.target = eye + glm::vec3(std::cos(a), 0.0f, std::sin(a));
+      rs.camera.fovYDegrees = 70.0f;
+      rs.camera = render::withClipPlanes(rs.camera, bounds);
+      ImageRGBA8 a1, a2;
+      Status st = Ok{};
+      cellFull += medianFrameMs(**full, rs, o.frames, &a1, st);
+      cellPvs += medianFrameMs(**part, rs, o.frames, &a2, st);
+      if (!st) return fail(st.error());
+      cellPsnr = std::min(cellPsnr, psnr(a1, a2));
+      ++views;
+    }
+    fullSum += cellFull;
+    pvsSum += cellPvs;
+    worstPsnr = std::min(worstPsnr, cellPsnr);
+    double share = double(restricted->instancedTriangleCount()) / double(std::max<size_t>(1, scene->instancedTriangleCount()));
+    cells.push_back({{"cell", c}, {"pvs_triangles", restricted->instancedTriangleCount()}, {"share", share},
+                     {"full_ms", cellFull / 4}, {"pvs_ms", cellPvs / 4}, {"speedup", cellFull / std::max(cellPvs, 1e-9)},
+                     {"min_psnr", cellPsnr}});
+    if (!o.json)
+      fmt::print("  cell {:>3}: PVS {:>9} triangles ({:5.1f}%)  full {:8.3f} ms  PVS {:8.3f} ms  speed-up {:5.2f}x  "
+                 "min PSNR {:.1f} dB\n",
+                 c, restricted->instancedTriangleCount(), share * 100.0, cellFull / 4, cellPvs / 4,
+                 cellFull / std::max(cellPvs, 1e-9), cellPsnr);
+  }
+  double speedup = fullSum / std::max(pvsSum, 1e-9);
+  if (o.json) {
+    nlohmann::json j = {{"bench", "pvs"}, {"input", o.input}, {"pvs", o.pvs}, {"device", (*ctx)->caps().name},
+                        {"views", views}, {"speedup", speedup}, {"min_psnr", worstPsnr}, {"cells", cells}};
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("  overall: full {:.3f} ms, PVS {:.3f} ms per view: {:.2f}x; worst view PSNR {:.1f} dB (inf = identical)\n",
+             fullSum / double(views), pvsSum / double(views), speedup, worstPsnr);
+}
+
 } // namespace
 
 void addBenchCommand(CLI::App& app) {
@@ -215,6 +312,16 @@ void addBenchCommand(CLI::App& app) {
   bb->add_option("--threads", bo->threads, "Worker threads (0 = all cores)")->capture_default_str();
   bb->add_flag("--json", bo->json, "Print results as JSON");
   bb->callback([bo] { runBenchBuild(*bo); });
+
+  auto* bp = bench->add_subcommand("pvs", "PVS culling speed-up: full scene vs the cell's PVS, cameras in every cell");
+  auto po = std::make_shared<BenchPvsOptions>();
+  bp->add_option("input", po->input, "Scene file or gen:KIND[:SIZE[:SEED]] (the one the PVS was baked for)")->required();
+  bp->add_option("--pvs", po->pvs, "PVS .mrg from mirage pvs")->required();
+  bp->add_option("--size", po->size, "WxH")->capture_default_str();
+  bp->add_option("--frames", po->frames, "Frames per view (the first is a warm-up)")->capture_default_str();
+  bp->add_option("--device", po->device, "Vulkan device name substring or index");
+  bp->add_flag("--json", po->json, "Print results as JSON");
+  bp->callback([po] { runBenchPvs(*po); });
 }
 
 } // namespace mirage::cli

@@ -28,9 +28,11 @@ struct RenderOptions {
   bool json = false;
   float tau = 1.0f;            // .mrg only
   std::string raster = "auto"; // .mrg only
+  std::string pvs;             // forward path: draw only the PVS of the camera's view cell
 };
 
 void runRender(const RenderOptions& o) {
+  if (isLodAssetPath(o.input) && !o.pvs.empty()) return fail("--pvs applies to scene files (forward renderer) for now");
   if (isLodAssetPath(o.input)) {
     LodRenderRequest r{o.input,  o.output, o.exr,    o.camera, o.size, o.device,
                        o.raster, o.tau,    1,        o.repeat, o.stats,  o.json};
@@ -56,6 +58,16 @@ void runRender(const RenderOptions& o) {
   auto scene = loadSceneArgument(o.input);
   if (!scene) return fail(scene.error());
   double importSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (autoCam) camera = render::autoCamera(scene->worldBounds(), float(width) / float(height));
+  int cell = -1;
+  if (!o.pvs.empty()) {
+    // Clip planes stay those of the whole scene, so the PVS image differs from the full one only
+    // where the PVS misses something.
+    camera = render::withClipPlanes(camera, scene->worldBounds());
+    auto restricted = restrictSceneToPvs(*scene, o.pvs, camera.eye, cell);
+    if (!restricted) return fail(restricted.error());
+    scene = std::move(restricted);
+  }
 
   gpu::ContextOptions co;
   co.device = o.device;
@@ -67,7 +79,7 @@ void runRender(const RenderOptions& o) {
   render::RenderSettings rs;
   rs.width = width;
   rs.height = height;
-  rs.camera = autoCam ? render::autoCamera(scene->worldBounds(), float(width) / float(height)) : camera;
+  rs.camera = camera;
   rs.readLinear = !o.exr.empty();
   std::vector<std::vector<gpu::PassTime>> frames;
   render::RenderOutput last;
@@ -109,8 +121,9 @@ void runRender(const RenderOptions& o) {
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("rendered {} ({} triangles, {} instances) at {}x{} on {} -> {}\n", o.input, triangles,
-             scene->instances.size(), width, height, caps.name, o.output);
+  fmt::print("rendered {} ({} triangles, {} instances{}) at {}x{} on {} -> {}\n", o.input, triangles,
+             scene->instances.size(), cell >= 0 ? fmt::format(", PVS of cell {}", cell) : "", width, height, caps.name,
+             o.output);
   if (o.stats) {
     fmt::print("import {:.3f} s\n", importSeconds);
     for (const auto& t : times)
@@ -137,6 +150,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->add_option("--tau", o->tau, ".mrg: LOD threshold, projected error in pixels")->capture_default_str();
   cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute")->capture_default_str();
+  cmd->add_option("--pvs", o->pvs, "Draw only the PVS (from mirage pvs) of the view cell holding the camera");
   cmd->callback([o] { runRender(*o); });
 }
 

@@ -6,6 +6,8 @@
 
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
+
+#include <glm/glm.hpp>
 #include "mirage/gpu/query.h"
 
 namespace mirage::cli {
@@ -17,6 +19,10 @@ Status parseSize(const std::string& text, uint32_t& width, uint32_t& height);
 // A scene file, or "gen:KIND[:SIZE[:SEED]]" for a procedural scene made in memory (no file needed,
 // which is how benchmarks run on machines without the data set).
 Result<Scene> loadSceneArgument(const std::string& argument);
+// The scene restricted to the PVS (a .mrg from `mirage pvs`) of the view cell holding `eye`.
+// Errors: unreadable PVS, a PVS of another scene, an eye in none of its cells. `cell` receives
+// the cell index.
+Result<Scene> restrictSceneToPvs(const Scene& scene, const std::string& pvsPath, glm::vec3 eye, int& cell);
 // Median over frames of each pass's GPU time (frames[i] lists the passes of frame i).
 std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::PassTime>>& frames);
 

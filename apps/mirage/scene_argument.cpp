@@ -5,6 +5,8 @@
 
 #include "mirage/io/generate.h"
 #include "mirage/io/import.h"
+#include "mirage/visibility/pvs_cull.h"
+#include "mirage/visibility/pvs_storage.h"
 #include "render_common.h"
 
 namespace mirage::cli {
@@ -29,6 +31,19 @@ Result<Scene> loadSceneArgument(const std::string& argument) {
   if (parts.size() > 3 || (parts.size() > 1 && !number(parts[1], size)) || (parts.size() > 2 && !number(parts[2], seed)))
     return Error{fmt::format("{}: expected gen:KIND[:SIZE[:SEED]]", argument)};
   return io::generateScene(parts[0], seed, size);
+}
+
+Result<Scene> restrictSceneToPvs(const Scene& scene, const std::string& pvsPath, glm::vec3 eye, int& cell) {
+  auto pvs = vis::loadPvs(pvsPath);
+  if (!pvs) return pvs.error();
+  if (pvs->sceneTriangles != scene.instancedTriangleCount())
+    return makeError(pvsPath, fmt::format("baked for a scene of {} triangles, this one has {}", pvs->sceneTriangles,
+                                          scene.instancedTriangleCount()));
+  cell = vis::findCell(pvs->cells, eye);
+  if (cell < 0)
+    return makeError(pvsPath, fmt::format("the camera at ({:.4g}, {:.4g}, {:.4g}) is in none of its {} view cells", eye.x,
+                                          eye.y, eye.z, pvs->cells.size()));
+  return vis::restrictToPvs(scene, pvs->triangles[size_t(cell)]);
 }
 
 } // namespace mirage::cli

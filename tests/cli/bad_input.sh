@@ -86,6 +86,11 @@ expect_fail build-missing "missing.ply" "$tmp/m.mrg" -- build "$tmp/missing.ply"
 expect_fail build-bad-ext "out.glb" "$tmp/out.glb" -- build "$tmp/range.obj" -o "$tmp/out.glb"
 expect_fail build-no-folder "nofolder" "$tmp/nofolder/x.mrg" -- build "$tmp/range.obj" -o "$tmp/nofolder/x.mrg"
 expect_fail build-bad-group "--group-clusters" "$tmp/g.mrg" -- build "$tmp/range.obj" -o "$tmp/g.mrg" --group-clusters 1
+# PVS culling at render time: a camera outside every cell is a clear error.
+if expect_ok pvs-bake pvs gen:city:1 --cell-grid 1x1x1 --cell-region -10,1,-10,10,3,10 -o "$tmp/c.mrg" --rays 20000 --budget 100000; then
+  expect_fail render-pvs-outside "none of its" "$tmp/p.png" -- render gen:city:1 -o "$tmp/p.png" --size 64x48 --pvs "$tmp/c.mrg" --camera eye=500,500,500,target=0,0,0
+  expect_ok render-pvs-inside render gen:city:1 -o "$tmp/p.png" --size 64x48 --pvs "$tmp/c.mrg" --camera eye=0,2,0,target=5,2,0
+fi
 expect_ok help --help
 
 echo "cli: $pass passed, $failures failed"
