@@ -122,8 +122,13 @@ void runBenchImport(const BenchImportOptions& o) {
   double median = seconds[seconds.size() / 2];
   double mbps = double(bytes) / 1e6 / median;
   if (o.json) {
-    nlohmann::json j = {{"bench", "import"}, {"input", o.input}, {"bytes", bytes}, {"triangles", triangles},
-                        {"runs", o.repeat},  {"median_seconds", median}, {"min_seconds", seconds.front()},
+    nlohmann::json j = {{"bench", "import"},
+                        {"input", o.input},
+                        {"bytes", bytes},
+                        {"triangles", triangles},
+                        {"runs", o.repeat},
+                        {"median_seconds", median},
+                        {"min_seconds", seconds.front()},
                         {"mb_per_second", mbps}};
     fmt::print("{}\n", j.dump(2));
     return;
@@ -183,8 +188,9 @@ void runBenchBuild(const BenchBuildOptions& o) {
   }
   fmt::print("bench build {}: {} input triangles in {:.2f} s = {:.3f} M triangles/s\n", scene->source,
              summary.inputTriangles, seconds, tris / seconds * 1e-6);
-  fmt::print("  peak RSS {:.1f} MB = {:.0f} B per input triangle (build working set above the loaded scene: {:.0f} B)\n",
-             double(peak) / 1e6, double(peak) / tris, buildPeak / tris);
+  fmt::print(
+      "  peak RSS {:.1f} MB = {:.0f} B per input triangle (build working set above the loaded scene: {:.0f} B)\n",
+      double(peak) / 1e6, double(peak) / tris, buildPeak / tris);
   printSummary(summary);
 }
 
@@ -261,9 +267,14 @@ void runBenchPvs(const BenchPvsOptions& o) {
     fullSum += cellFull;
     pvsSum += cellPvs;
     worstPsnr = std::min(worstPsnr, cellPsnr);
-    double share = double(restricted->instancedTriangleCount()) / double(std::max<size_t>(1, scene->instancedTriangleCount()));
-    cells.push_back({{"cell", c}, {"pvs_triangles", restricted->instancedTriangleCount()}, {"share", share},
-                     {"full_ms", cellFull / 4}, {"pvs_ms", cellPvs / 4}, {"speedup", cellFull / std::max(cellPvs, 1e-9)},
+    double share =
+        double(restricted->instancedTriangleCount()) / double(std::max<size_t>(1, scene->instancedTriangleCount()));
+    cells.push_back({{"cell", c},
+                     {"pvs_triangles", restricted->instancedTriangleCount()},
+                     {"share", share},
+                     {"full_ms", cellFull / 4},
+                     {"pvs_ms", cellPvs / 4},
+                     {"speedup", cellFull / std::max(cellPvs, 1e-9)},
                      {"min_psnr", cellPsnr}});
     if (!o.json)
       fmt::print("  cell {:>3}: PVS {:>9} triangles ({:5.1f}%)  full {:8.3f} ms  PVS {:8.3f} ms  speed-up {:5.2f}x  "
@@ -273,13 +284,15 @@ void runBenchPvs(const BenchPvsOptions& o) {
   }
   double speedup = fullSum / std::max(pvsSum, 1e-9);
   if (o.json) {
-    nlohmann::json j = {{"bench", "pvs"}, {"input", o.input}, {"pvs", o.pvs}, {"device", (*ctx)->caps().name},
-                        {"views", views}, {"speedup", speedup}, {"min_psnr", worstPsnr}, {"cells", cells}};
+    nlohmann::json j = {
+        {"bench", "pvs"}, {"input", o.input},   {"pvs", o.pvs},          {"device", (*ctx)->caps().name},
+        {"views", views}, {"speedup", speedup}, {"min_psnr", worstPsnr}, {"cells", cells}};
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("  overall: full {:.3f} ms, PVS {:.3f} ms per view: {:.2f}x; worst view PSNR {:.1f} dB (inf = identical)\n",
-             fullSum / double(views), pvsSum / double(views), speedup, worstPsnr);
+  fmt::print(
+      "  overall: full {:.3f} ms, PVS {:.3f} ms per view: {:.2f}x; worst view PSNR {:.1f} dB (inf = identical)\n",
+      fullSum / double(views), pvsSum / double(views), speedup, worstPsnr);
 }
 
 } // namespace
@@ -287,7 +300,8 @@ void runBenchPvs(const BenchPvsOptions& o) {
 void addBenchCommand(CLI::App& app) {
   auto* bench = app.add_subcommand("bench", "Performance measurements (GPU times from timestamp queries)");
   bench->require_subcommand(1);
-  auto* r = bench->add_subcommand("render", "Median per-pass GPU time over N frames (forward; .mrg: cluster LOD per backend)");
+  auto* r = bench->add_subcommand("render",
+                                  "Median per-pass GPU time over N frames (forward; .mrg: cluster LOD per backend)");
   auto o = std::make_shared<BenchRenderOptions>();
   r->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
   r->add_option("--size", o->size, "WxH")->capture_default_str();
@@ -296,7 +310,8 @@ void addBenchCommand(CLI::App& app) {
   r->add_flag("--json", o->json, "Print results as JSON");
   r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
   r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute")->capture_default_str();
-  r->add_option("--grid", o->grid, ".mrg: repeat the scene on an N x N grid (e.g. 50 -> 2500 instances)")->capture_default_str();
+  r->add_option("--grid", o->grid, ".mrg: repeat the scene on an N x N grid (e.g. 50 -> 2500 instances)")
+      ->capture_default_str();
   r->callback([o] { runBenchRender(*o); });
 
   auto* im = bench->add_subcommand("import", "Scene import speed: median wall time and MB/s (welding included)");
@@ -315,7 +330,8 @@ void addBenchCommand(CLI::App& app) {
 
   auto* bp = bench->add_subcommand("pvs", "PVS culling speed-up: full scene vs the cell's PVS, cameras in every cell");
   auto po = std::make_shared<BenchPvsOptions>();
-  bp->add_option("input", po->input, "Scene file or gen:KIND[:SIZE[:SEED]] (the one the PVS was baked for)")->required();
+  bp->add_option("input", po->input, "Scene file or gen:KIND[:SIZE[:SEED]] (the one the PVS was baked for)")
+      ->required();
   bp->add_option("--pvs", po->pvs, "PVS .mrg from mirage pvs")->required();
   bp->add_option("--size", po->size, "WxH")->capture_default_str();
   bp->add_option("--frames", po->frames, "Frames per view (the first is a warm-up)")->capture_default_str();

@@ -64,7 +64,8 @@ void runBuild(const BuildOptions& o) {
     return;
   }
   fmt::print("built {}: {} meshes, {} input triangles in {:.2f} s ({:.2f} M triangles/s), {} instances\n", o.output,
-             scene->meshes.size(), triangles, buildSeconds, double(triangles) / buildSeconds * 1e-6, scene->instances.size());
+             scene->meshes.size(), triangles, buildSeconds, double(triangles) / buildSeconds * 1e-6,
+             scene->instances.size());
   printSummary(summary);
 }
 
@@ -99,11 +100,14 @@ void runVerify(const VerifyOptions& o) {
     }
   }
   if (o.json) {
-    fmt::print("{}\n", nlohmann::json{{"file", o.input}, {"meshes", a->dags.size()}, {"cuts_checked", cutsChecked}, {"ok", true}}.dump(2));
+    fmt::print(
+        "{}\n",
+        nlohmann::json{{"file", o.input}, {"meshes", a->dags.size()}, {"cuts_checked", cutsChecked}, {"ok", true}}.dump(
+            2));
     return;
   }
-  fmt::print("{}: ok: {} DAGs structurally valid; {} random cuts watertight and overlap-free\n", o.input, a->dags.size(),
-             cutsChecked);
+  fmt::print("{}: ok: {} DAGs structurally valid; {} random cuts watertight and overlap-free\n", o.input,
+             a->dags.size(), cutsChecked);
 }
 
 } // namespace
@@ -113,9 +117,12 @@ void addBuildCommand(CLI::App& app) {
   auto o = std::make_shared<BuildOptions>();
   cmd->add_option("inputs", o->inputs, "Scene files (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]")->required();
   cmd->add_option("-o,--output", o->output, "Output .mrg")->required();
-  cmd->add_option("--cluster-triangles", o->config.clusterTriangles, "Triangles per cluster (multiple of 4)")->capture_default_str();
-  cmd->add_option("--cluster-vertices", o->config.clusterVertices, "Vertices per cluster (<= 255)")->capture_default_str();
-  cmd->add_option("--group-clusters", o->config.groupClusters, "Clusters per simplification group")->capture_default_str();
+  cmd->add_option("--cluster-triangles", o->config.clusterTriangles, "Triangles per cluster (multiple of 4)")
+      ->capture_default_str();
+  cmd->add_option("--cluster-vertices", o->config.clusterVertices, "Vertices per cluster (<= 255)")
+      ->capture_default_str();
+  cmd->add_option("--group-clusters", o->config.groupClusters, "Clusters per simplification group")
+      ->capture_default_str();
   cmd->add_option("--threads", o->config.threads, "Worker threads (0 = all cores)")->capture_default_str();
   cmd->add_flag("--quiet", o->quiet, "No progress bar");
   cmd->add_flag("--json", o->json, "Print results as JSON");

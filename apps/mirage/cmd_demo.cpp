@@ -103,8 +103,9 @@ bool runPipelineDemo(gpu::Context& ctx, const DemoOptions& o, uint32_t width, ui
   fs::path ply = fs::path(o.out) / "blob-surfels.ply";
   if (auto s = surfels::writeSurfelPly(ply.string(), cloud); !s) return fail(s.error()), false;
   surfels::PrefixQuality q = surfels::measurePrefix(gb->texels, sampled->order, uint32_t(cloud.size()));
-  fmt::print("  surfels  {:>10} blue-noise surfels in {:.2f} s, normalized Poisson radius {:.3f}, coverage {:.4f} -> {}\n",
-             cloud.size(), secondsSince(t0), q.rho, q.coverage, ply.string());
+  fmt::print(
+      "  surfels  {:>10} blue-noise surfels in {:.2f} s, normalized Poisson radius {:.3f}, coverage {:.4f} -> {}\n",
+      cloud.size(), secondsSince(t0), q.rho, q.coverage, ply.string());
   return true;
 }
 
@@ -141,7 +142,8 @@ bool runVisibilityDemo(const DemoOptions& o) {
   for (const auto& t : pvs.triangles) smallest = std::min(smallest, t.size()), largest = std::max(largest, t.size());
   fmt::print("  pvs      {:>10} triangles, {} cells: {}..{} potentially visible ({:.0f}%..{:.0f}%), {:.1f} M rays in "
              "{:.2f} s -> {}\n",
-             pvs.sceneTriangles, pvs.cells.size(), smallest, largest, 100.0 * double(smallest) / double(pvs.sceneTriangles),
+             pvs.sceneTriangles, pvs.cells.size(), smallest, largest,
+             100.0 * double(smallest) / double(pvs.sceneTriangles),
              100.0 * double(largest) / double(pvs.sceneTriangles), double(rays) * 1e-6, seconds, out.string());
   return true;
 }

@@ -51,7 +51,8 @@ void addGenCommand(CLI::App& app) {
   auto args = std::make_shared<GenArgs>();
   CLI::App* cmd = app.add_subcommand("gen", "Generate a procedural scene (deterministic per seed) as GLB");
   cmd->add_option("kind", args->kind, "city | terrain | blob")->required();
-  cmd->add_option("-o,--output", args->output, "Output .glb (scene with instances) or .ply (binary, instances baked)")->required();
+  cmd->add_option("-o,--output", args->output, "Output .glb (scene with instances) or .ply (binary, instances baked)")
+      ->required();
   cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
   cmd->add_option("--size", args->size,
                   "city: blocks per side (default 4); terrain: vertices per side (default 1024); "

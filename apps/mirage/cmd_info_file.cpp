@@ -30,7 +30,8 @@ void infoAsset(const std::string& path, bool json) {
     return;
   }
   fmt::print("{}: cluster-LOD asset, {} meshes, {} instances, {} materials, {} textures, {} input triangles\n", path,
-             s.meshes, a->scene.instances.size(), a->scene.materials.size(), a->scene.textures.size(), s.inputTriangles);
+             s.meshes, a->scene.instances.size(), a->scene.materials.size(), a->scene.textures.size(),
+             s.inputTriangles);
   printSummary(s);
 }
 
@@ -45,7 +46,8 @@ void infoFile(const std::string& path, bool json) {
   size_t vertices = 0;
   for (const Mesh& m : s.meshes) vertices += m.vertexCount();
   size_t blend = 0, mask = 0;
-  for (const Material& m : s.materials) blend += m.alphaMode == AlphaMode::Blend, mask += m.alphaMode == AlphaMode::Mask;
+  for (const Material& m : s.materials)
+    blend += m.alphaMode == AlphaMode::Blend, mask += m.alphaMode == AlphaMode::Mask;
   if (json) {
     nlohmann::json j = {{"file", path},
                         {"meshes", s.meshes.size()},
@@ -63,11 +65,11 @@ void infoFile(const std::string& path, bool json) {
     return;
   }
   fmt::print("{}\n", path);
-  fmt::print("  meshes {}  instances {}  triangles {} ({} instanced)  vertices {}\n", s.meshes.size(), s.instances.size(),
-             s.meshTriangleCount(), s.instancedTriangleCount(), vertices);
+  fmt::print("  meshes {}  instances {}  triangles {} ({} instanced)  vertices {}\n", s.meshes.size(),
+             s.instances.size(), s.meshTriangleCount(), s.instancedTriangleCount(), vertices);
   fmt::print("  materials {} ({} mask, {} blend)  textures {}\n", s.materials.size(), mask, blend, s.textures.size());
-  fmt::print("  bounds ({:.4g}, {:.4g}, {:.4g}) .. ({:.4g}, {:.4g}, {:.4g})\n", b.min.x, b.min.y, b.min.z, b.max.x, b.max.y,
-             b.max.z);
+  fmt::print("  bounds ({:.4g}, {:.4g}, {:.4g}) .. ({:.4g}, {:.4g}, {:.4g})\n", b.min.x, b.min.y, b.min.z, b.max.x,
+             b.max.y, b.max.z);
 }
 
 } // namespace mirage::cli

@@ -34,8 +34,8 @@ struct RenderOptions {
 void runRender(const RenderOptions& o) {
   if (isLodAssetPath(o.input) && !o.pvs.empty()) return fail("--pvs applies to scene files (forward renderer) for now");
   if (isLodAssetPath(o.input)) {
-    LodRenderRequest r{o.input,  o.output, o.exr,    o.camera, o.size, o.device,
-                       o.raster, o.tau,    1,        o.repeat, o.stats,  o.json};
+    LodRenderRequest r{o.input,  o.output, o.exr, o.camera, o.size,  o.device,
+                       o.raster, o.tau,    1,     o.repeat, o.stats, o.json};
     return runLodRender(r);
   }
   if (o.raster != "auto" || o.tau != 1.0f) return fail("--tau and --raster apply to .mrg cluster-LOD assets only");
@@ -145,7 +145,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   cmd->add_option("--size", o->size, "WxH")->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
-  cmd->add_option("--repeat", o->repeat, "Render N frames; timings are medians over frames 2..N")->capture_default_str();
+  cmd->add_option("--repeat", o->repeat, "Render N frames; timings are medians over frames 2..N")
+      ->capture_default_str();
   cmd->add_flag("--stats", o->stats, "Print GPU pass times and pipeline statistics");
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->add_option("--tau", o->tau, ".mrg: LOD threshold, projected error in pixels")->capture_default_str();

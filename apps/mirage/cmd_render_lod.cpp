@@ -55,7 +55,8 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
     for (uint32_t gz = 0; gz < r.grid; ++gz)
       for (uint32_t gx = 0; gx < r.grid; ++gx)
         for (Instance inst : original) {
-          glm::vec3 offset{(float(gx) - 0.5f * float(r.grid - 1)) * spacing, 0.0f, (float(gz) - 0.5f * float(r.grid - 1)) * spacing};
+          glm::vec3 offset{(float(gx) - 0.5f * float(r.grid - 1)) * spacing, 0.0f,
+                           (float(gz) - 0.5f * float(r.grid - 1)) * spacing};
           inst.transform[3] += glm::vec4(offset, 0.0f);
           grid.push_back(inst);
         }

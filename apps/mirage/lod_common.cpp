@@ -59,7 +59,8 @@ BuildSummary summarize(const lod::LodAsset& a, const std::string& path) {
       out.clusters += ls.clusters;
       out.triangles += ls.triangles;
       out.meanFill = out.clusters ? (out.meanFill * before + ls.meanFill * ls.clusters) / double(out.clusters) : 0.0;
-      out.meanEdgeAge = out.clusters ? (out.meanEdgeAge * before + ls.meanEdgeAge * ls.clusters) / double(out.clusters) : 0.0;
+      out.meanEdgeAge =
+          out.clusters ? (out.meanEdgeAge * before + ls.meanEdgeAge * ls.clusters) / double(out.clusters) : 0.0;
       out.stuckGroups += ls.stuckGroups;
       out.seconds += ls.seconds;
     }
@@ -70,8 +71,12 @@ BuildSummary summarize(const lod::LodAsset& a, const std::string& path) {
 nlohmann::json summaryJson(const BuildSummary& s) {
   nlohmann::json levels = nlohmann::json::array();
   for (const LevelSummary& l : s.levels)
-    levels.push_back({{"clusters", l.clusters}, {"triangles", l.triangles}, {"mean_fill", l.meanFill},
-                      {"mean_edge_age", l.meanEdgeAge}, {"stuck_groups", l.stuckGroups}, {"seconds", l.seconds}});
+    levels.push_back({{"clusters", l.clusters},
+                      {"triangles", l.triangles},
+                      {"mean_fill", l.meanFill},
+                      {"mean_edge_age", l.meanEdgeAge},
+                      {"stuck_groups", l.stuckGroups},
+                      {"seconds", l.seconds}});
   return {{"meshes", s.meshes},
           {"input_triangles", s.inputTriangles},
           {"clusters", s.clusters},
@@ -88,8 +93,8 @@ void printSummary(const BuildSummary& s) {
   fmt::print("  level  clusters   triangles  fill   edge age  stuck  seconds\n");
   for (size_t l = 0; l < s.levels.size(); ++l) {
     const LevelSummary& v = s.levels[l];
-    fmt::print("  {:>5}  {:>8}  {:>10}  {:4.0f}%  {:8.2f}  {:>5}  {:7.3f}\n", l, v.clusters, v.triangles, v.meanFill * 100.0,
-               v.meanEdgeAge, v.stuckGroups, v.seconds);
+    fmt::print("  {:>5}  {:>8}  {:>10}  {:4.0f}%  {:8.2f}  {:>5}  {:7.3f}\n", l, v.clusters, v.triangles,
+               v.meanFill * 100.0, v.meanEdgeAge, v.stuckGroups, v.seconds);
   }
   fmt::print("  root: {} clusters, {} triangles ({:.3f}% of input)\n", s.rootClusters, s.rootTriangles,
              s.inputTriangles ? 100.0 * double(s.rootTriangles) / double(s.inputTriangles) : 0.0);

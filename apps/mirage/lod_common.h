@@ -30,7 +30,7 @@ struct BuildSummary {
   uint64_t rootClusters = 0;
   uint64_t rootTriangles = 0;
   uint64_t fileBytes = 0;
-  uint64_t dagBytes = 0; // stored (compressed) bytes of the CDAG chunks: the geometry
+  uint64_t dagBytes = 0;            // stored (compressed) bytes of the CDAG chunks: the geometry
   std::vector<LevelSummary> levels; // over all meshes
 };
 

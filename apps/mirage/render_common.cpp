@@ -34,7 +34,8 @@ Status parseSize(const std::string& text, uint32_t& width, uint32_t& height) {
   auto r1 = std::from_chars(s, s + x, width);
   auto r2 = std::from_chars(s + x + 1, s + text.size(), height);
   if (r1.ec != std::errc() || r1.ptr != s + x || r2.ec != std::errc() || r2.ptr != s + text.size()) return bad;
-  if (width == 0 || height == 0 || width > render::kMaxRenderDimension || height > render::kMaxRenderDimension) return bad;
+  if (width == 0 || height == 0 || width > render::kMaxRenderDimension || height > render::kMaxRenderDimension)
+    return bad;
   return Ok{};
 }
 

@@ -28,7 +28,8 @@ Result<Scene> loadSceneArgument(const std::string& argument) {
     auto r = std::from_chars(s.data(), s.data() + s.size(), out);
     return r.ec == std::errc() && r.ptr == s.data() + s.size();
   };
-  if (parts.size() > 3 || (parts.size() > 1 && !number(parts[1], size)) || (parts.size() > 2 && !number(parts[2], seed)))
+  if (parts.size() > 3 || (parts.size() > 1 && !number(parts[1], size)) ||
+      (parts.size() > 2 && !number(parts[2], seed)))
     return Error{fmt::format("{}: expected gen:KIND[:SIZE[:SEED]]", argument)};
   return io::generateScene(parts[0], seed, size);
 }
@@ -41,8 +42,8 @@ Result<Scene> restrictSceneToPvs(const Scene& scene, const std::string& pvsPath,
                                           scene.instancedTriangleCount()));
   cell = vis::findCell(pvs->cells, eye);
   if (cell < 0)
-    return makeError(pvsPath, fmt::format("the camera at ({:.4g}, {:.4g}, {:.4g}) is in none of its {} view cells", eye.x,
-                                          eye.y, eye.z, pvs->cells.size()));
+    return makeError(pvsPath, fmt::format("the camera at ({:.4g}, {:.4g}, {:.4g}) is in none of its {} view cells",
+                                          eye.x, eye.y, eye.z, pvs->cells.size()));
   return vis::restrictToPvs(scene, pvs->triangles[size_t(cell)]);
 }
 

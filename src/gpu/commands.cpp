@@ -51,7 +51,8 @@ uint32_t mipLevelCount(uint32_t width, uint32_t height) {
 void uploadBuffer(Context& context, const Buffer& dst, const void* data, size_t size, size_t dstOffset) {
   // Chunked so a huge mesh never needs a staging buffer as large as itself.
   constexpr size_t kChunk = 64ull << 20;
-  Buffer staging = createBuffer(context, std::min(size, kChunk), VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "staging");
+  Buffer staging =
+      createBuffer(context, std::min(size, kChunk), VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "staging");
   for (size_t done = 0; done < size; done += kChunk) {
     size_t n = std::min(kChunk, size - done);
     std::memcpy(staging.mapped(), static_cast<const uint8_t*>(data) + done, n);
@@ -76,11 +77,13 @@ std::vector<uint8_t> readbackBuffer(Context& context, const Buffer& src, size_t 
 void uploadTextureRGBA8(Context& context, const Image& dst, const uint8_t* rgba, uint32_t width, uint32_t height,
                         uint32_t mipLevels) {
   size_t size = size_t(width) * height * 4;
-  Buffer staging = createBuffer(context, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "texture staging");
+  Buffer staging =
+      createBuffer(context, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "texture staging");
   std::memcpy(staging.mapped(), rgba, size);
   context.submitAndWait([&](VkCommandBuffer cmd) {
-    cmdImageBarrier(cmd, {dst.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                          VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL});
+    cmdImageBarrier(cmd,
+                    {dst.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL});
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {width, height, 1};
@@ -99,18 +102,19 @@ void uploadTextureRGBA8(Context& context, const Image& dst, const uint8_t* rgba,
       h = std::max(1, h / 2);
       blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, mip, 0, 1};
       blit.dstOffsets[1] = {w, h, 1};
-      vkCmdBlitImage(cmd, dst.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
-                     &blit, VK_FILTER_LINEAR);
+      vkCmdBlitImage(cmd, dst.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.handle(),
+                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
     }
     // Mips 0..n-2 are TRANSFER_SRC, the last is TRANSFER_DST: move each to shader-read.
     std::vector<ImageBarrier> finals;
     for (uint32_t mip = 0; mip < mipLevels; ++mip)
-      finals.push_back({dst.handle(), VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                        VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
-                        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                        VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-                        mip + 1 < mipLevels ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                        VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_ASPECT_COLOR_BIT, mip, 1});
+      finals.push_back(
+          {dst.handle(), VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+           VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
+           VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+           VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+           mip + 1 < mipLevels ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_ASPECT_COLOR_BIT, mip, 1});
     cmdImageBarriers(cmd, finals);
   });
 }
@@ -118,7 +122,8 @@ void uploadTextureRGBA8(Context& context, const Image& dst, const uint8_t* rgba,
 std::vector<uint8_t> readbackImage(Context& context, const Image& src, VkImageLayout layout, uint32_t bytesPerPixel) {
   VkExtent3D e = src.extent();
   size_t size = size_t(e.width) * e.height * bytesPerPixel;
-  Buffer staging = createBuffer(context, size, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "image readback");
+  Buffer staging =
+      createBuffer(context, size, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "image readback");
   // barriers: the image was last written as a color attachment or by compute, then read back here.
   context.submitAndWait([&](VkCommandBuffer cmd) {
     cmdImageBarrier(cmd, {src.handle(), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
@@ -128,9 +133,10 @@ std::vector<uint8_t> readbackImage(Context& context, const Image& src, VkImageLa
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = e;
     vkCmdCopyImageToBuffer(cmd, src.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, staging.handle(), 1, &region);
-    cmdImageBarrier(cmd, {src.handle(), VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
-                          VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
-                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout});
+    cmdImageBarrier(cmd,
+                    {src.handle(), VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout});
   });
   return std::vector<uint8_t>(staging.mapped(), staging.mapped() + size);
 }

@@ -22,15 +22,17 @@ VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBits
                                              const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
   if (severity < VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) return VK_FALSE;
   auto* context = static_cast<Context*>(user);
-  std::string message = fmt::format("{}: {}", severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT ? "error" : "warning",
-                                    data->pMessage ? data->pMessage : "");
+  std::string message =
+      fmt::format("{}: {}", severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT ? "error" : "warning",
+                  data->pMessage ? data->pMessage : "");
   std::fprintf(stderr, "mirage: validation %s\n", message.c_str());
   context->recordValidationMessage(std::move(message));
   return VK_FALSE;
 }
 
 bool hasExtension(const std::vector<VkExtensionProperties>& list, const char* name) {
-  return std::any_of(list.begin(), list.end(), [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
+  return std::any_of(list.begin(), list.end(),
+                     [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
 }
 
 std::vector<VkExtensionProperties> deviceExtensions(VkPhysicalDevice pd) {
@@ -48,10 +50,13 @@ struct FeatureChain {
   VkPhysicalDeviceVulkan12Features v12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
   VkPhysicalDeviceVulkan13Features v13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   VkPhysicalDeviceMeshShaderFeaturesEXT mesh{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MESH_SHADER_FEATURES_EXT};
-  VkPhysicalDeviceAccelerationStructureFeaturesKHR accel{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR};
-  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rtPipeline{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR};
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR accel{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR};
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rtPipeline{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR};
   VkPhysicalDeviceRayQueryFeaturesKHR rayQuery{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR};
-  VkPhysicalDeviceShaderImageAtomicInt64FeaturesEXT imageInt64{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_IMAGE_ATOMIC_INT64_FEATURES_EXT};
+  VkPhysicalDeviceShaderImageAtomicInt64FeaturesEXT imageInt64{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_IMAGE_ATOMIC_INT64_FEATURES_EXT};
 
   // Link only the structs whose extension the device has; the Vulkan 1.1-1.3 ones always.
   void link(bool hasMesh, bool hasAccel, bool hasRtPipeline, bool hasRayQuery, bool hasImageInt64) {
@@ -106,14 +111,16 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   VkPhysicalDeviceMemoryProperties mem;
   vkGetPhysicalDeviceMemoryProperties(pd, &mem);
   for (uint32_t i = 0; i < mem.memoryHeapCount; ++i)
-    if (mem.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) c.deviceLocalBytes = std::max<uint64_t>(c.deviceLocalBytes, mem.memoryHeaps[i].size);
+    if (mem.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
+      c.deviceLocalBytes = std::max<uint64_t>(c.deviceLocalBytes, mem.memoryHeaps[i].size);
 
   uint32_t nq = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(pd, &nq, nullptr);
   std::vector<VkQueueFamilyProperties> families(nq);
   vkGetPhysicalDeviceQueueFamilyProperties(pd, &nq, families.data());
   for (uint32_t i = 0; i < nq; ++i) {
-    if ((families[i].queueFlags & (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT)) == (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT)) {
+    if ((families[i].queueFlags & (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT)) ==
+        (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT)) {
       p.queueFamily = i;
       c.timestamps = families[i].timestampValidBits > 0 && props.limits.timestampPeriod > 0.0f;
       break;
@@ -162,7 +169,8 @@ Result<VkInstance> createInstance(bool validation, bool syncValidation, bool& va
   static std::once_flag volk_once;
   static VkResult volk_result = VK_SUCCESS;
   std::call_once(volk_once, [] { volk_result = volkInitialize(); });
-  if (volk_result != VK_SUCCESS) return Error{"vulkan: no Vulkan loader found (install libvulkan1 and a driver, e.g. mesa-vulkan-drivers)"};
+  if (volk_result != VK_SUCCESS)
+    return Error{"vulkan: no Vulkan loader found (install libvulkan1 and a driver, e.g. mesa-vulkan-drivers)"};
 
   std::vector<const char*> layers, extensions;
   validationActive = false;
@@ -171,9 +179,12 @@ Result<VkInstance> createInstance(bool validation, bool syncValidation, bool& va
     vkEnumerateInstanceLayerProperties(&n, nullptr);
     std::vector<VkLayerProperties> available(n);
     vkEnumerateInstanceLayerProperties(&n, available.data());
-    bool found = std::any_of(available.begin(), available.end(),
-                             [](const VkLayerProperties& l) { return std::strcmp(l.layerName, "VK_LAYER_KHRONOS_validation") == 0; });
-    if (!found) return Error{"vulkan: validation requested but VK_LAYER_KHRONOS_validation is not installed (apt-get install vulkan-validationlayers)"};
+    bool found = std::any_of(available.begin(), available.end(), [](const VkLayerProperties& l) {
+      return std::strcmp(l.layerName, "VK_LAYER_KHRONOS_validation") == 0;
+    });
+    if (!found)
+      return Error{"vulkan: validation requested but VK_LAYER_KHRONOS_validation is not installed (apt-get install "
+                   "vulkan-validationlayers)"};
     layers.push_back("VK_LAYER_KHRONOS_validation");
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
     validationActive = true;
@@ -183,7 +194,8 @@ Result<VkInstance> createInstance(bool validation, bool syncValidation, bool& va
     vkEnumerateInstanceExtensionProperties(nullptr, &n, nullptr);
     std::vector<VkExtensionProperties> available(n);
     vkEnumerateInstanceExtensionProperties(nullptr, &n, available.data());
-    if (hasExtension(available, VK_EXT_DEBUG_UTILS_EXTENSION_NAME)) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+    if (hasExtension(available, VK_EXT_DEBUG_UTILS_EXTENSION_NAME))
+      extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   }
 
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
@@ -219,11 +231,16 @@ std::vector<VkPhysicalDevice> physicalDevices(VkInstance instance) {
 
 int typeRank(VkPhysicalDeviceType t) {
   switch (t) {
-  case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
-  case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
-  case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
-  case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
-  default: return 0;
+  case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+    return 4;
+  case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+    return 3;
+  case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+    return 2;
+  case VK_PHYSICAL_DEVICE_TYPE_CPU:
+    return 1;
+  default:
+    return 0;
   }
 }
 
@@ -231,11 +248,16 @@ int typeRank(VkPhysicalDeviceType t) {
 
 const char* deviceTypeName(VkPhysicalDeviceType type) {
   switch (type) {
-  case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete";
-  case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated";
-  case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual";
-  case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
-  default: return "other";
+  case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+    return "discrete";
+  case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+    return "integrated";
+  case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+    return "virtual";
+  case VK_PHYSICAL_DEVICE_TYPE_CPU:
+    return "cpu";
+  default:
+    return "other";
   }
 }
 
@@ -266,7 +288,8 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
 
   if (active) {
     VkDebugUtilsMessengerCreateInfoEXT mi{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
-    mi.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+    mi.messageSeverity =
+        VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
     mi.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                      VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
     mi.pfnUserCallback = debugCallback;
@@ -295,10 +318,12 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
     }
     if (chosen < 0) return Error{fmt::format("vulkan: no device matches '{}' (see mirage info --devices)", wanted)};
     if (!probes[chosen].usable)
-      return Error{fmt::format("vulkan: device '{}' is unusable: {}", probes[chosen].caps.name, probes[chosen].whyUnusable)};
+      return Error{
+          fmt::format("vulkan: device '{}' is unusable: {}", probes[chosen].caps.name, probes[chosen].whyUnusable)};
   } else {
     for (size_t i = 0; i < probes.size(); ++i)
-      if (probes[i].usable && (chosen < 0 || typeRank(probes[i].caps.type) > typeRank(probes[chosen].caps.type))) chosen = int(i);
+      if (probes[i].usable && (chosen < 0 || typeRank(probes[i].caps.type) > typeRank(probes[chosen].caps.type)))
+        chosen = int(i);
     if (chosen < 0) return Error{fmt::format("vulkan: no usable device: {}", probes[0].whyUnusable)};
   }
   DeviceProbe& p = probes[chosen];
@@ -309,9 +334,11 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
 
   // Enable exactly what Mirage uses and the device has.
   FeatureChain want;
-  want.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery, p.caps.int64ImageAtomics);
+  want.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery,
+            p.caps.int64ImageAtomics);
   FeatureChain have;
-  have.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery, p.caps.int64ImageAtomics);
+  have.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery,
+            p.caps.int64ImageAtomics);
   vkGetPhysicalDeviceFeatures2(p.device, &have.core);
   auto& wf = want.core.features;
   auto& hf = have.core.features;
@@ -436,17 +463,20 @@ void Context::setDebugName(VkObjectType type, uint64_t handle, const char* name)
 
 const char* toString(VkResult r) {
   switch (r) {
-#define MIRAGE_CASE(x) case x: return #x;
-    MIRAGE_CASE(VK_SUCCESS) MIRAGE_CASE(VK_NOT_READY) MIRAGE_CASE(VK_TIMEOUT) MIRAGE_CASE(VK_INCOMPLETE)
-    MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
-    MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
-    MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
-    MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
-    MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
-    MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
-    MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
+#define MIRAGE_CASE(x)                                                                                                 \
+  case x:                                                                                                              \
+    return #x;
+    MIRAGE_CASE(VK_SUCCESS)
+    MIRAGE_CASE(VK_NOT_READY) MIRAGE_CASE(VK_TIMEOUT) MIRAGE_CASE(VK_INCOMPLETE)
+        MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+            MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
+                MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
+                    MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
+                        MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
+                            MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
+                                MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
 #undef MIRAGE_CASE
-  default: return "VkResult(?)";
+                                    default : return "VkResult(?)";
   }
 }
 

@@ -22,8 +22,12 @@ Allocator::~Allocator() {
 uint32_t Allocator::findMemoryType(uint32_t typeBits, MemoryUsage usage) const {
   VkMemoryPropertyFlags required = 0, preferred = 0;
   switch (usage) {
-  case MemoryUsage::GpuOnly: preferred = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT; break;
-  case MemoryUsage::Upload: required = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT; break;
+  case MemoryUsage::GpuOnly:
+    preferred = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    break;
+  case MemoryUsage::Upload:
+    required = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    break;
   case MemoryUsage::Readback:
     required = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
     preferred = VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
@@ -157,7 +161,8 @@ void Buffer::release() {
   allocation_ = {};
 }
 
-Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory, const char* name) {
+Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory,
+                    const char* name) {
   Buffer b;
   VkBufferCreateInfo ci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
   ci.size = std::max<VkDeviceSize>(size, 4);
@@ -230,7 +235,8 @@ Image createImage(Context& context, const VkImageCreateInfo& info, VkImageAspect
   return img;
 }
 
-Image createImage2D(Context& context, uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage, const char* name) {
+Image createImage2D(Context& context, uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage,
+                    const char* name) {
   VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ci.imageType = VK_IMAGE_TYPE_2D;
   ci.format = format;

@@ -30,7 +30,8 @@ Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipeli
                     mesh ? VK_SHADER_STAGE_MESH_BIT_EXT : VK_SHADER_STAGE_VERTEX_BIT, vs, "main", nullptr});
   if (!d.fragmentShader.empty()) {
     fs = createShaderModule(context, d.fragmentShader);
-    stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, fs, "main", nullptr});
+    stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, fs,
+                      "main", nullptr});
   }
 
   VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
@@ -54,7 +55,8 @@ Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipeli
   ds.depthCompareOp = d.depthCompare;
   std::vector<VkPipelineColorBlendAttachmentState> blends(d.colorFormats.size());
   for (auto& b : blends) {
-    b.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    b.colorWriteMask =
+        VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
     if (d.alphaBlend) {
       b.blendEnable = VK_TRUE;
       b.srcColorBlendFactor = VK_BLEND_FACTOR_SRC_ALPHA;
@@ -99,7 +101,13 @@ Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipeli
 Unique<VkPipeline> createComputePipeline(Context& context, std::string_view shader, VkPipelineLayout layout) {
   Unique<VkShaderModule> cs = createShaderModule(context, shader);
   VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-  ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_COMPUTE_BIT, cs, "main", nullptr};
+  ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+              nullptr,
+              0,
+              VK_SHADER_STAGE_COMPUTE_BIT,
+              cs,
+              "main",
+              nullptr};
   ci.layout = layout;
   VkPipeline pipeline;
   MIRAGE_VK_CHECK(vkCreateComputePipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));

@@ -37,8 +37,8 @@ std::vector<PassTime> GpuTimer::read() const {
   std::vector<PassTime> out;
   if (!supported_ || names_.empty()) return out;
   std::vector<uint64_t> ticks(names_.size() * 2);
-  MIRAGE_VK_CHECK(vkGetQueryPoolResults(context_.device(), pool_, 0, uint32_t(ticks.size()), ticks.size() * 8, ticks.data(), 8,
-                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+  MIRAGE_VK_CHECK(vkGetQueryPoolResults(context_.device(), pool_, 0, uint32_t(ticks.size()), ticks.size() * 8,
+                                        ticks.data(), 8, VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
   double period = context_.caps().timestampPeriodNs;
   for (size_t i = 0; i < names_.size(); ++i)
     out.push_back({names_[i], double(ticks[2 * i + 1] - ticks[2 * i]) * period * 1e-6});

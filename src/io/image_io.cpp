@@ -284,5 +284,4 @@ Status writePfm(const std::filesystem::path& path, const ImageF32& image) {
   return writeFileAtomic(path, out.data(), out.size());
 }
 
-
 } // namespace mirage::io

@@ -16,11 +16,11 @@ Status writePly(const Scene& scene, const std::filesystem::path& path, const Ply
     faceCount += scene.meshes[inst.mesh].triangleCount();
   }
   if (vertexCount > UINT32_MAX) return makeError(path.string(), "too many vertices for 32-bit PLY indices");
-  std::string header = fmt::format("ply\nformat binary_little_endian 1.0\ncomment written by mirage\nelement vertex {}\n"
-                                   "property float x\nproperty float y\nproperty float z\n{}element face {}\n"
-                                   "property list uchar int vertex_indices\nend_header\n",
-                                   vertexCount, options.normals ? "property float nx\nproperty float ny\nproperty float nz\n" : "",
-                                   faceCount);
+  std::string header = fmt::format(
+      "ply\nformat binary_little_endian 1.0\ncomment written by mirage\nelement vertex {}\n"
+      "property float x\nproperty float y\nproperty float z\n{}element face {}\n"
+      "property list uchar int vertex_indices\nend_header\n",
+      vertexCount, options.normals ? "property float nx\nproperty float ny\nproperty float nz\n" : "", faceCount);
   size_t vertexBytes = options.normals ? 24 : 12;
   std::vector<uint8_t> vertices(vertexCount * vertexBytes);
   std::vector<uint8_t> faces(faceCount * 13);
@@ -49,7 +49,8 @@ Status writePly(const Scene& scene, const std::filesystem::path& path, const Ply
     }
     base += uint32_t(m.positions.size());
   }
-  std::span<const uint8_t> parts[] = {{reinterpret_cast<const uint8_t*>(header.data()), header.size()}, vertices, faces};
+  std::span<const uint8_t> parts[] = {
+      {reinterpret_cast<const uint8_t*>(header.data()), header.size()}, vertices, faces};
   return writeFileAtomic(path, parts);
 }
 

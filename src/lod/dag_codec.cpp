@@ -223,10 +223,12 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   if (rawFloats) {
     std::memcpy(dag.positions.data(), packed.data(), packed.size() * sizeof(glm::vec3));
     for (const glm::vec3& p : dag.positions)
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return makeError(file, "non-finite position");
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        return makeError(file, "non-finite position");
   }
   for (size_t i = 0; i < packed.size() && !rawFloats; ++i) {
-    if (packed[i].x > maxGrid || packed[i].y > maxGrid || packed[i].z > maxGrid) return makeError(file, "position off the grid");
+    if (packed[i].x > maxGrid || packed[i].y > maxGrid || packed[i].z > maxGrid)
+      return makeError(file, "position off the grid");
     dag.positions[i] = q.origin + glm::vec3(float(packed[i].x), float(packed[i].y), float(packed[i].z)) * q.step;
   }
 
@@ -297,8 +299,8 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
     parentTotal += pc;
     if (childTotal > clusterCount || parentTotal > clusterCount) return makeError(file, "group ranges overflow");
   }
-  if (!readIds(r, dag.groupChildren, childTotal, "group child") || !readIds(r, dag.groupParents, parentTotal, "group parent") ||
-      !readIds(r, dag.roots, clusterCount, "root"))
+  if (!readIds(r, dag.groupChildren, childTotal, "group child") ||
+      !readIds(r, dag.groupParents, parentTotal, "group parent") || !readIds(r, dag.roots, clusterCount, "root"))
     return r.error();
   if (dag.groupChildren.size() != childTotal || dag.groupParents.size() != parentTotal)
     return makeError(file, "group list size mismatch");
@@ -321,7 +323,8 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   }
   for (size_t i = 0; i < dag.clusters.size(); ++i) {
     Cluster& c = dag.clusters[i];
-    if (c.generatingGroup != kNone && c.generatingGroup >= groupCount) return makeError(file, "cluster has a bad generating group");
+    if (c.generatingGroup != kNone && c.generatingGroup >= groupCount)
+      return makeError(file, "cluster has a bad generating group");
     if (c.group != kNone && c.group >= groupCount) return makeError(file, "cluster has a bad group");
     c.bounds.radius += slack;
     if (c.generatingGroup == kNone) {

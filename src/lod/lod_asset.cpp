@@ -17,12 +17,20 @@ nlohmann::json statsJson(const LodAsset& a) {
     const ClusterDag& d = a.dags[i];
     nlohmann::json levels = nlohmann::json::array();
     for (const LevelStats& l : d.levels)
-      levels.push_back({{"clusters", l.clusters}, {"triangles", l.triangles}, {"mean_fill", l.meanFill},
-                        {"groups", l.groups}, {"stuck_groups", l.stuckGroups}, {"mean_edge_age", l.meanEdgeAge},
+      levels.push_back({{"clusters", l.clusters},
+                        {"triangles", l.triangles},
+                        {"mean_fill", l.meanFill},
+                        {"groups", l.groups},
+                        {"stuck_groups", l.stuckGroups},
+                        {"mean_edge_age", l.meanEdgeAge},
                         {"seconds", l.seconds}});
-    meshes.push_back({{"name", a.scene.meshes[i].name}, {"input_triangles", d.inputTriangles},
-                      {"clusters", d.clusters.size()}, {"groups", d.groups.size()}, {"root_clusters", d.roots.size()},
-                      {"root_triangles", d.rootTriangles()}, {"levels", levels}});
+    meshes.push_back({{"name", a.scene.meshes[i].name},
+                      {"input_triangles", d.inputTriangles},
+                      {"clusters", d.clusters.size()},
+                      {"groups", d.groups.size()},
+                      {"root_clusters", d.roots.size()},
+                      {"root_triangles", d.rootTriangles()},
+                      {"levels", levels}});
   }
   return meshes;
 }
@@ -36,7 +44,8 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& mesh = scene.meshes[i];
     auto dag = buildClusterDag(mesh, config);
-    if (!dag) return Error{scene.source + ": mesh " + std::to_string(i) + " '" + mesh.name + "': " + dag.error().message};
+    if (!dag)
+      return Error{scene.source + ": mesh " + std::to_string(i) + " '" + mesh.name + "': " + dag.error().message};
     out.dags.push_back(std::move(dag).value());
     done += mesh.triangleCount();
     if (progress) progress(i + 1, scene.meshes.size(), done, total);
@@ -104,7 +113,8 @@ Result<LodAsset> loadLodAsset(const std::string& path) {
   }
   if (a.dags.empty()) return makeError(path, "no cluster DAG chunk (not built with mirage build?)");
   if (a.dags.size() != a.scene.meshes.size())
-    return makeError(path, std::to_string(a.dags.size()) + " cluster DAGs for " + std::to_string(a.scene.meshes.size()) + " meshes");
+    return makeError(path, std::to_string(a.dags.size()) + " cluster DAGs for " +
+                               std::to_string(a.scene.meshes.size()) + " meshes");
   return a;
 }
 

@@ -62,11 +62,15 @@ Result<Camera> parseCamera(std::string_view text) {
     if (key == "eye" || key == "target" || key == "up") {
       if (!parseFloats(value, v, 3)) return bad(fmt::format("'{}' needs three numbers x,y,z", key));
       glm::vec3 vec{v[0], v[1], v[2]};
-      if (key == "eye") c.eye = vec, haveEye = true;
-      else if (key == "target") c.target = vec, haveTarget = true;
-      else c.up = vec;
+      if (key == "eye")
+        c.eye = vec, haveEye = true;
+      else if (key == "target")
+        c.target = vec, haveTarget = true;
+      else
+        c.up = vec;
     } else if (key == "fov") {
-      if (!parseFloats(value, v, 1) || v[0] <= 1.0f || v[0] >= 179.0f) return bad("fov must be a number of degrees in (1, 179)");
+      if (!parseFloats(value, v, 1) || v[0] <= 1.0f || v[0] >= 179.0f)
+        return bad("fov must be a number of degrees in (1, 179)");
       c.fovYDegrees = v[0];
     } else {
       return bad(fmt::format("unknown key '{}' (eye, target, up, fov)", key));

@@ -92,7 +92,8 @@ void ClusterRenderer::Impl::createDescriptors() {
   VkDescriptorSetLayout dsl;
   MIRAGE_VK_CHECK(vkCreateDescriptorSetLayout(ctx.device(), &li, nullptr, &dsl));
   setLayout = Unique<VkDescriptorSetLayout>(ctx.device(), dsl);
-  VkDescriptorPoolSize ps[] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n + 1}, {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1}};
+  VkDescriptorPoolSize ps[] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n + 1},
+                               {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1}};
   VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pi.maxSets = 1;
   pi.poolSizeCount = 2;
@@ -388,9 +389,9 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
                          VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-    d.cmdSelect(cmd, p);                // instance cull, LOCALCUT + frustum, raster args
-    d.cmdRasterize(cmd, p, backend);    // visibility: (cluster, triangle) per pixel
-    d.cmdResolve(cmd, p);               // fetch, interpolate, shade
+    d.cmdSelect(cmd, p);             // instance cull, LOCALCUT + frustum, raster args
+    d.cmdRasterize(cmd, p, backend); // visibility: (cluster, triangle) per pixel
+    d.cmdResolve(cmd, p);            // fetch, interpolate, shade
     d.timer.cmdEnd(cmd, frameSlot);
   });
 

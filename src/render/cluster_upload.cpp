@@ -19,7 +19,6 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-
 Unique<VkSampler> makeSampler(Context& ctx, VkFilter filter) {
   VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
   si.magFilter = si.minFilter = filter;
@@ -123,7 +122,8 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
     for (uint32_t i = 0; i < gm.clusterCount; ++i) {
       const lod::Cluster& c = dag.clusters[i];
       if (i > 0 && c.level < dag.clusters[i - 1].level)
-        return Error{fmt::format("{}: mesh '{}': clusters are not ordered by level", scene.source, scene.meshes[m].name)};
+        return Error{
+            fmt::format("{}: mesh '{}': clusters are not ordered by level", scene.source, scene.meshes[m].name)};
       if (i == 0 || c.level != dag.clusters[i - 1].level)
         levels.push_back({i, 0, std::numeric_limits<float>::infinity(), 0.0f});
       sio::GpuClusterLevel& l = levels.back();

@@ -42,9 +42,7 @@ uint32_t packColor(const glm::vec4& c) {
   return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
 }
 
-sio::GpuInstance makeInstance(const glm::mat4& m) {
-  return {m, glm::transpose(glm::inverse(m))};
-}
+sio::GpuInstance makeInstance(const glm::mat4& m) { return {m, glm::transpose(glm::inverse(m))}; }
 
 bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.0f; }
 
@@ -62,7 +60,7 @@ struct ForwardRenderer::Impl {
   Unique<VkPipeline> opaquePipeline, blendPipeline;
   std::vector<MeshRange> meshes;
   std::vector<Material> sceneMaterials;
-  std::vector<Batch> batches;          // opaque + mask
+  std::vector<Batch> batches;           // opaque + mask
   std::vector<Instance> blendInstances; // sorted per frame
   std::vector<sio::GpuInstance> instanceData;
   Image color, depth;
@@ -75,7 +73,8 @@ struct ForwardRenderer::Impl {
   void upload(const Scene& scene);
   void createPipelines();
   void ensureTargets(uint32_t w, uint32_t h);
-  void cmdDrawMesh(VkCommandBuffer cmd, uint32_t mesh, bool mirrored, uint32_t firstInstance, uint32_t count, FrameStats& fs);
+  void cmdDrawMesh(VkCommandBuffer cmd, uint32_t mesh, bool mirrored, uint32_t firstInstance, uint32_t count,
+                   FrameStats& fs);
 };
 
 void ForwardRenderer::Impl::upload(const Scene& scene) {
@@ -146,7 +145,8 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   sampler = Unique<VkSampler>(ctx.device(), s);
 
   uint32_t n = uint32_t(textures.size());
-  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_FRAGMENT_BIT,
+                                       nullptr};
   VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   li.bindingCount = 1;
   li.pBindings = &binding;
@@ -181,8 +181,10 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   for (const Instance& inst : scene.instances) {
     if (inst.mesh >= scene.meshes.size()) continue;
     const Material& mat = sceneMaterials[std::min<size_t>(scene.meshes[inst.mesh].material, sceneMaterials.size() - 1)];
-    if (mat.alphaMode == AlphaMode::Blend) blendInstances.push_back(inst);
-    else byMesh[inst.mesh * 2 + isMirrored(inst.transform)].push_back(&inst);
+    if (mat.alphaMode == AlphaMode::Blend)
+      blendInstances.push_back(inst);
+    else
+      byMesh[inst.mesh * 2 + isMirrored(inst.transform)].push_back(&inst);
   }
   for (uint32_t k = 0; k < byMesh.size(); ++k) {
     if (byMesh[k].empty()) continue;
@@ -190,8 +192,10 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
     for (const Instance* inst : byMesh[k]) instanceData.push_back(makeInstance(inst->transform));
   }
   size_t instanceBytes = (instanceData.size() + blendInstances.size()) * sizeof(sio::GpuInstance);
-  instanceBuffer = createBuffer(ctx, instanceBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "instances");
-  if (!instanceData.empty()) std::memcpy(instanceBuffer.mapped(), instanceData.data(), instanceData.size() * sizeof(sio::GpuInstance));
+  instanceBuffer =
+      createBuffer(ctx, instanceBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "instances");
+  if (!instanceData.empty())
+    std::memcpy(instanceBuffer.mapped(), instanceData.data(), instanceData.size() * sizeof(sio::GpuInstance));
   frame = createBuffer(ctx, sizeof(sio::FrameData), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "frame");
 }
 
@@ -218,7 +222,8 @@ void ForwardRenderer::Impl::createPipelines() {
 
 void ForwardRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
   if (w == width && h == height) return;
-  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
+  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                        "color");
   depth = createImage2D(ctx, w, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth");
   width = w;
   height = h;
@@ -342,7 +347,8 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
     uint32_t blendSlot = d.timer.cmdBegin(cmd, "blend");
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.blendPipeline);
     for (size_t i = 0; i < order.size(); ++i)
-      d.cmdDrawMesh(cmd, order[i].second->mesh, isMirrored(order[i].second->transform), uint32_t(d.instanceData.size() + i), 1, fs);
+      d.cmdDrawMesh(cmd, order[i].second->mesh, isMirrored(order[i].second->transform),
+                    uint32_t(d.instanceData.size() + i), 1, fs);
     d.timer.cmdEnd(cmd, blendSlot);
 
     d.stats.cmdEnd(cmd);

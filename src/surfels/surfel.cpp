@@ -18,7 +18,6 @@ uint32_t quantize(float v, float lo, float hi) {
 
 float dequantize(uint32_t q, float lo, float hi) { return lo + (hi - lo) * (float(q) / float(kAxisSteps)); }
 
-
 } // namespace
 
 uint32_t GBufferTexels::compactIndex(uint32_t globalId) const {

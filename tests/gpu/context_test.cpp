@@ -33,7 +33,8 @@ TEST_F(Gpu, EnumerateListsTheChosenDevice) {
 TEST_F(Gpu, BufferRoundTripThroughStaging) {
   std::vector<uint32_t> data(300000);
   std::iota(data.begin(), data.end(), 7u);
-  Buffer b = createBufferWithData<uint32_t>(context(), data, VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "t");
+  Buffer b = createBufferWithData<uint32_t>(context(), data,
+                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "t");
   EXPECT_NE(b.address(), 0u);
   std::vector<uint8_t> back = readbackBuffer(context(), b, data.size() * 4);
   ASSERT_EQ(back.size(), data.size() * 4);
@@ -46,7 +47,8 @@ TEST_F(Gpu, SuballocatorReusesFreedSpace) {
   for (int round = 0; round < 3; ++round) {
     std::vector<Buffer> buffers;
     for (int i = 0; i < 64; ++i)
-      buffers.push_back(createBuffer(context(), 256 * 1024, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "s"));
+      buffers.push_back(
+          createBuffer(context(), 256 * 1024, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "s"));
     // Distinct buffers never share device addresses ranges.
     for (size_t i = 1; i < buffers.size(); ++i) EXPECT_NE(buffers[i].address(), buffers[i - 1].address());
   }

@@ -166,8 +166,8 @@ TEST(LodQuality, DISABLED_CutVersusSimplifyChain) {
     double dCut = symmetricDistance(original, cutTriangles(*dag, cut));
     double dChain = symmetricDistance(original, meshTriangles(mesh, simplified));
     std::printf("%s at %zu triangles (%.1f %%): DAG cut %.3g, meshopt_simplify %zu tris %.3g (x bbox diag %.3g)\n",
-                path.filename().c_str(), count, 100.0 * double(count) / double(mesh.triangleCount()), dCut, simplified.size() / 3, dChain,
-                double(mesh.bounds.radius() * 2.0f));
+                path.filename().c_str(), count, 100.0 * double(count) / double(mesh.triangleCount()), dCut,
+                simplified.size() / 3, dChain, double(mesh.bounds.radius() * 2.0f));
     EXPECT_GT(dCut, 0.0);
   }
 }

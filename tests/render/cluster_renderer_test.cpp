@@ -122,8 +122,10 @@ void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float ta
   CpuCut cut = cpuCut(dag, withClipPlanes(camera, (*r)->worldBounds()), tau);
   // The cull pass skips levels that cannot be on this instance's cut: from outside every LOD sphere
   // fewer clusters are tested; with the eye inside one, every cluster is.
-  if (expectEyeInside) EXPECT_EQ(out->stats.clustersTested, dag.clusters.size());
-  else EXPECT_LT(out->stats.clustersTested, dag.clusters.size());
+  if (expectEyeInside)
+    EXPECT_EQ(out->stats.clustersTested, dag.clusters.size());
+  else
+    EXPECT_LT(out->stats.clustersTested, dag.clusters.size());
   EXPECT_EQ(out->stats.instancesVisible, 1u);
   EXPECT_EQ(out->stats.clustersSelected, cut.clusters);
   EXPECT_EQ(out->stats.trianglesRasterized, cut.triangles);

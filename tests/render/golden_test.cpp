@@ -40,7 +40,8 @@ void expectMatchesGolden(const std::string& name, const ImageRGBA8& actual) {
     std::filesystem::create_directories(dir);
     ImageRGBA8 diff = actual;
     for (size_t i = 0; i < diff.pixels.size(); ++i)
-      diff.pixels[i] = (i & 3) == 3 ? 255 : uint8_t(std::min(255, 4 * std::abs(int(actual.pixels[i]) - int(expected->pixels[i]))));
+      diff.pixels[i] =
+          (i & 3) == 3 ? 255 : uint8_t(std::min(255, 4 * std::abs(int(actual.pixels[i]) - int(expected->pixels[i]))));
     (void)io::writePng(dir / (name + "-actual.png"), actual);
     (void)io::writePng(dir / (name + "-diff.png"), diff);
     ADD_FAILURE() << name << ": SSIM " << m->ssim << " < 0.99 (PSNR " << m->psnr << " dB); see " << dir;
@@ -62,10 +63,12 @@ Texture bumps(uint32_t n) {
   Texture t{"bumps", n, n, std::vector<uint8_t>(n * n * 4), false};
   for (uint32_t y = 0; y < n; ++y)
     for (uint32_t x = 0; x < n; ++x) {
-      float fx = std::sin(float(x) / float(n) * 6.2831853f * 4.0f), fy = std::sin(float(y) / float(n) * 6.2831853f * 4.0f);
+      float fx = std::sin(float(x) / float(n) * 6.2831853f * 4.0f),
+            fy = std::sin(float(y) / float(n) * 6.2831853f * 4.0f);
       glm::vec3 nn = glm::normalize(glm::vec3(0.6f * fx, 0.6f * fy, 1.0f));
       uint8_t* p = &t.rgba8[(y * n + x) * 4];
-      p[0] = uint8_t((nn.x * 0.5f + 0.5f) * 255), p[1] = uint8_t((nn.y * 0.5f + 0.5f) * 255), p[2] = uint8_t((nn.z * 0.5f + 0.5f) * 255), p[3] = 255;
+      p[0] = uint8_t((nn.x * 0.5f + 0.5f) * 255), p[1] = uint8_t((nn.y * 0.5f + 0.5f) * 255),
+      p[2] = uint8_t((nn.z * 0.5f + 0.5f) * 255), p[3] = 255;
     }
   return t;
 }
@@ -105,8 +108,10 @@ Scene materialScene() {
   meshes.push_back(test::makeQuad(0.7f, 0.0f, 7));
   Scene s = test::makeScene(meshes, mats);
   s.textures = {checker(64), bumps(64), stripes(64)};
-  for (int i = 0; i < 5; ++i) s.instances[i].transform = glm::translate(glm::mat4(1), glm::vec3(-2.0f + float(i), 0.5f, 0));
-  s.instances[5].transform = glm::rotate(glm::translate(glm::mat4(1), glm::vec3(-1.2f, -0.8f, 0)), 0.6f, glm::vec3(0.3f, 1, 0));
+  for (int i = 0; i < 5; ++i)
+    s.instances[i].transform = glm::translate(glm::mat4(1), glm::vec3(-2.0f + float(i), 0.5f, 0));
+  s.instances[5].transform =
+      glm::rotate(glm::translate(glm::mat4(1), glm::vec3(-1.2f, -0.8f, 0)), 0.6f, glm::vec3(0.3f, 1, 0));
   s.instances[6].transform = glm::translate(glm::mat4(1), glm::vec3(0.4f, -0.8f, 0));
   s.instances[7].transform = glm::translate(glm::mat4(1), glm::vec3(1.6f, -0.8f, 0.3f));
   return s;
@@ -146,7 +151,8 @@ TEST_F(Golden, GeneratedCityAutoCamera) {
 TEST_F(Golden, GeneratedTerrainAndBlob) {
   auto terrain = io::generateScene("terrain", 3, 129);
   ASSERT_TRUE(terrain.ok());
-  expectMatchesGolden("terrain", renderWith(context(), *terrain, autoCamera(terrain->worldBounds(), 1.6f), 320, 200).srgb);
+  expectMatchesGolden("terrain",
+                      renderWith(context(), *terrain, autoCamera(terrain->worldBounds(), 1.6f), 320, 200).srgb);
   auto blob = io::generateScene("blob", 5, 4);
   ASSERT_TRUE(blob.ok());
   expectMatchesGolden("blob", renderWith(context(), *blob, autoCamera(blob->worldBounds(), 1.6f), 320, 200).srgb);

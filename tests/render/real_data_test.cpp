@@ -42,17 +42,16 @@ TEST_P(RealData, RendersWithAutoCamera) {
   EXPECT_LE(out->stats.trianglesSubmitted, scene->instancedTriangleCount());
 }
 
-INSTANTIATE_TEST_SUITE_P(SharedData, RealData,
-                         ::testing::Values("khronos-damaged-helmet/DamagedHelmet.glb",
-                                           "khronos-flight-helmet/glTF/FlightHelmet.gltf",
-                                           "khronos-alpha-blend-mode-test/glTF/AlphaBlendModeTest.gltf",
-                                           "khronos-suzanne/glTF/Suzanne.gltf", "dabrovic-sponza/gltf/sponza.gltf",
-                                           "dream-apartment/dream-apartment.meshopt.glb", "stanford-bunny/bun_zipper.ply",
-                                           "cyberware-horse/horse.ply", "openarena-maps/obj/oasago2.obj"),
-                         [](const auto& param) {
-                           std::string n = param.param;
-                           n = n.substr(0, n.find('/'));
-                           for (char& ch : n)
-                             if (!isalnum(static_cast<unsigned char>(ch))) ch = '_';
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    SharedData, RealData,
+    ::testing::Values("khronos-damaged-helmet/DamagedHelmet.glb", "khronos-flight-helmet/glTF/FlightHelmet.gltf",
+                      "khronos-alpha-blend-mode-test/glTF/AlphaBlendModeTest.gltf", "khronos-suzanne/glTF/Suzanne.gltf",
+                      "dabrovic-sponza/gltf/sponza.gltf", "dream-apartment/dream-apartment.meshopt.glb",
+                      "stanford-bunny/bun_zipper.ply", "cyberware-horse/horse.ply", "openarena-maps/obj/oasago2.obj"),
+    [](const auto& param) {
+      std::string n = param.param;
+      n = n.substr(0, n.find('/'));
+      for (char& ch : n)
+        if (!isalnum(static_cast<unsigned char>(ch))) ch = '_';
+      return n;
+    });

@@ -30,8 +30,10 @@ protected:
     const auto& ctx = gpuContext();
     if (ctx.validationIssues() != issuesBefore_) {
       std::string all;
-      for (size_t i = issuesBefore_; i < ctx.validationMessages().size(); ++i) all += ctx.validationMessages()[i] + "\n";
-      ADD_FAILURE() << "validation layer reported " << (ctx.validationIssues() - issuesBefore_) << " issue(s):\n" << all;
+      for (size_t i = issuesBefore_; i < ctx.validationMessages().size(); ++i)
+        all += ctx.validationMessages()[i] + "\n";
+      ADD_FAILURE() << "validation layer reported " << (ctx.validationIssues() - issuesBefore_) << " issue(s):\n"
+                    << all;
     }
   }
   gpu::Context& context() { return gpuContext(); }

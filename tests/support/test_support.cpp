@@ -27,7 +27,8 @@ std::string mirageBinary() {
 }
 
 std::filesystem::path tempDir(const std::string& name) {
-  std::filesystem::path p = std::filesystem::temp_directory_path() / ("mirage-test-" + std::to_string(::getpid())) / name;
+  std::filesystem::path p =
+      std::filesystem::temp_directory_path() / ("mirage-test-" + std::to_string(::getpid())) / name;
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p;

@@ -17,6 +17,6 @@ std::filesystem::path tempDir(const std::string& name);
 } // namespace mirage::test
 
 // Skip the current test with a message when a data file is absent.
-#define MIRAGE_REQUIRE_DATA(var, relative)                                                           \
-  auto var = ::mirage::test::sharedFile(relative);                                                    \
+#define MIRAGE_REQUIRE_DATA(var, relative)                                                                             \
+  auto var = ::mirage::test::sharedFile(relative);                                                                     \
   if (var.empty()) GTEST_SKIP() << "shared data absent: ../shared/data/" << (relative)

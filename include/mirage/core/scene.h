@@ -17,17 +17,25 @@ struct Bounds {
   glm::vec3 center() const { return (min + max) * 0.5f; }
   glm::vec3 extent() const { return max - min; }
   float radius() const { return empty() ? 0.0f : glm::length(max - min) * 0.5f; }
-  void add(glm::vec3 p) { min = glm::min(min, p); max = glm::max(max, p); }
-  void add(const Bounds& b) { if (!b.empty()) { add(b.min); add(b.max); } }
+  void add(glm::vec3 p) {
+    min = glm::min(min, p);
+    max = glm::max(max, p);
+  }
+  void add(const Bounds& b) {
+    if (!b.empty()) {
+      add(b.min);
+      add(b.max);
+    }
+  }
 };
 
 // A decoded texture image, RGBA 8 bit. Colour textures are sRGB-encoded (the sampler decodes them).
 struct Texture {
-  std::string name;     // file name or "embedded #N"
+  std::string name; // file name or "embedded #N"
   uint32_t width = 0;
   uint32_t height = 0;
   std::vector<uint8_t> rgba8; // width * height * 4 bytes
-  bool srgb = true;      // true for baseColor/emissive, false for data maps (normal, ORM)
+  bool srgb = true;           // true for baseColor/emissive, false for data maps (normal, ORM)
 };
 
 enum class AlphaMode : uint8_t { Opaque, Mask, Blend };
@@ -41,7 +49,7 @@ struct Material {
   float roughnessFactor = 1.0f;
   float normalScale = 1.0f;
   float occlusionStrength = 1.0f;
-  float alphaCutoff = 0.5f;         // used when alphaMode == Mask
+  float alphaCutoff = 0.5f; // used when alphaMode == Mask
   AlphaMode alphaMode = AlphaMode::Opaque;
   bool doubleSided = false;
   int32_t baseColorTexture = -1;
@@ -55,13 +63,13 @@ struct Material {
 struct Mesh {
   std::string name;
   std::vector<glm::vec3> positions;
-  std::vector<glm::vec3> normals;   // always filled after import (computed when missing)
-  std::vector<glm::vec4> tangents;  // optional; w = handedness
-  std::vector<glm::vec2> uv0;       // optional
-  std::vector<glm::vec4> colors;    // optional, linear RGBA
-  std::vector<uint32_t> indices;    // 3 per triangle
-  uint32_t material = 0;            // index into Scene::materials
-  Bounds bounds;                    // object space
+  std::vector<glm::vec3> normals;  // always filled after import (computed when missing)
+  std::vector<glm::vec4> tangents; // optional; w = handedness
+  std::vector<glm::vec2> uv0;      // optional
+  std::vector<glm::vec4> colors;   // optional, linear RGBA
+  std::vector<uint32_t> indices;   // 3 per triangle
+  uint32_t material = 0;           // index into Scene::materials
+  Bounds bounds;                   // object space
 
   size_t vertexCount() const { return positions.size(); }
   size_t triangleCount() const { return indices.size() / 3; }

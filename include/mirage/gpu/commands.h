@@ -31,7 +31,8 @@ void cmdMemoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAcc
 
 // Blocking transfers through a temporary staging buffer (set-up time, not the frame loop).
 void uploadBuffer(Context& context, const Buffer& dst, const void* data, size_t size, size_t dstOffset = 0);
-template <class T> Buffer createBufferWithData(Context& context, std::span<const T> data, VkBufferUsageFlags usage, const char* name) {
+template <class T>
+Buffer createBufferWithData(Context& context, std::span<const T> data, VkBufferUsageFlags usage, const char* name) {
   Buffer b = createBuffer(context, std::max<size_t>(data.size_bytes(), 4), usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                           MemoryUsage::GpuOnly, name);
   if (!data.empty()) uploadBuffer(context, b, data.data(), data.size_bytes());

@@ -14,12 +14,12 @@ namespace mirage::gpu {
 // What Mirage asks of a device, read once when the device is chosen.
 struct DeviceCapabilities {
   std::string name;
-  std::string driver;       // driver name and info string
+  std::string driver; // driver name and info string
   VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
   uint32_t apiVersion = 0;
-  bool meshShader = false;        // VK_EXT_mesh_shader mesh + task stages
+  bool meshShader = false;         // VK_EXT_mesh_shader mesh + task stages
   bool rayTracingPipeline = false; // VK_KHR_ray_tracing_pipeline (with acceleration structures)
-  bool rayQuery = false;          // VK_KHR_ray_query
+  bool rayQuery = false;           // VK_KHR_ray_query
   bool accelerationStructure = false;
   bool int64BufferAtomics = false; // shaderBufferInt64Atomics: the 64-bit visibility buffer
   bool int64ImageAtomics = false;  // VK_EXT_shader_image_atomic_int64
@@ -38,8 +38,8 @@ struct DeviceInfo {
 };
 
 struct ContextOptions {
-  std::string device;            // name substring or index; empty: MIRAGE_DEVICE, then discrete > integrated > CPU
-  bool validation = false;       // also on when MIRAGE_VALIDATION=1
+  std::string device;      // name substring or index; empty: MIRAGE_DEVICE, then discrete > integrated > CPU
+  bool validation = false; // also on when MIRAGE_VALIDATION=1
   bool synchronizationValidation = true; // with validation: VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION
 };
 

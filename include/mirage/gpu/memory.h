@@ -24,7 +24,7 @@ struct Allocation {
   VkDeviceMemory memory = VK_NULL_HANDLE;
   VkDeviceSize offset = 0;
   VkDeviceSize size = 0;
-  uint8_t* mapped = nullptr; // host pointer when host-visible
+  uint8_t* mapped = nullptr;   // host pointer when host-visible
   uint32_t block = UINT32_MAX; // UINT32_MAX: dedicated allocation
 };
 
@@ -109,10 +109,12 @@ private:
 };
 
 // Every buffer gets SHADER_DEVICE_ADDRESS usage so shaders can reach it through a pointer.
-Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
+Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory,
+                    const char* name);
 // A 2D image (array layers allowed) with a view of all its mips and layers.
 Image createImage(Context& context, const VkImageCreateInfo& info, VkImageAspectFlags aspect, const char* name);
 // Convenience: a 2D image of one mip and layer.
-Image createImage2D(Context& context, uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage, const char* name);
+Image createImage2D(Context& context, uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage,
+                    const char* name);
 
 } // namespace mirage::gpu

@@ -21,7 +21,8 @@ public:
   GpuTimer(Context& context, uint32_t maxPasses = 32);
   void cmdReset(VkCommandBuffer cmd);
   // Returns a pass slot; passes may nest (a "frame" around the others).
-  uint32_t cmdBegin(VkCommandBuffer cmd, const std::string& name, VkPipelineStageFlags2 stage = VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT);
+  uint32_t cmdBegin(VkCommandBuffer cmd, const std::string& name,
+                    VkPipelineStageFlags2 stage = VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT);
   void cmdEnd(VkCommandBuffer cmd, uint32_t slot, VkPipelineStageFlags2 stage = VK_PIPELINE_STAGE_2_BOTTOM_OF_PIPE_BIT);
   std::vector<PassTime> read() const;
   bool supported() const { return supported_; }
@@ -35,9 +36,9 @@ private:
 };
 
 struct PipelineStatistics {
-  uint64_t inputPrimitives = 0;       // input assembly primitives
+  uint64_t inputPrimitives = 0; // input assembly primitives
   uint64_t vertexInvocations = 0;
-  uint64_t clippingPrimitives = 0;    // primitives that reached the clipper
+  uint64_t clippingPrimitives = 0; // primitives that reached the clipper
   uint64_t fragmentInvocations = 0;
   uint64_t computeInvocations = 0;
 };

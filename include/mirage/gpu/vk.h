@@ -12,14 +12,14 @@ namespace mirage::gpu {
 const char* toString(VkResult result);
 
 // An unexpected VkResult is a bug or a lost device: abort with file:line (niagara's VK_CHECK).
-#define MIRAGE_VK_CHECK(call)                                                                                   \
-  do {                                                                                                           \
-    VkResult mirage_vk_result_ = (call);                                                                         \
-    if (mirage_vk_result_ < 0) {                                                                                 \
-      std::fprintf(stderr, "mirage: fatal: %s:%d: %s returned %s\n", __FILE__, __LINE__, #call,                  \
-                   ::mirage::gpu::toString(mirage_vk_result_));                                                  \
-      std::abort();                                                                                              \
-    }                                                                                                            \
+#define MIRAGE_VK_CHECK(call)                                                                                          \
+  do {                                                                                                                 \
+    VkResult mirage_vk_result_ = (call);                                                                               \
+    if (mirage_vk_result_ < 0) {                                                                                       \
+      std::fprintf(stderr, "mirage: fatal: %s:%d: %s returned %s\n", __FILE__, __LINE__, #call,                        \
+                   ::mirage::gpu::toString(mirage_vk_result_));                                                        \
+      std::abort();                                                                                                    \
+    }                                                                                                                  \
   } while (0)
 
 // Destroy functions found by overload on the (distinct, 64-bit) handle types.

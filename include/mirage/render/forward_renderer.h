@@ -18,13 +18,13 @@ namespace mirage::render {
 struct RenderSettings {
   uint32_t width = 1920;
   uint32_t height = 1080;
-  Camera camera;                                        // clip planes derived from the scene when zero
-  glm::vec3 lightDirection{0.35f, 1.0f, 0.45f};         // towards the light, world space (normalized on use)
+  Camera camera;                                // clip planes derived from the scene when zero
+  glm::vec3 lightDirection{0.35f, 1.0f, 0.45f}; // towards the light, world space (normalized on use)
   float lightIntensity = 2.6f;
   glm::vec3 skyAmbient{0.32f, 0.34f, 0.38f};
   glm::vec3 groundAmbient{0.12f, 0.11f, 0.10f};
-  glm::vec4 background{0.02f, 0.022f, 0.026f, 1.0f};    // linear RGB
-  bool readLinear = false;                              // also return the linear float image (EXR, metrics)
+  glm::vec4 background{0.02f, 0.022f, 0.026f, 1.0f}; // linear RGB
+  bool readLinear = false;                           // also return the linear float image (EXR, metrics)
 };
 
 struct FrameStats {
@@ -35,8 +35,8 @@ struct FrameStats {
 };
 
 struct RenderOutput {
-  ImageRGBA8 srgb;   // 8-bit sRGB, what PNG files hold
-  ImageF32 linear;   // linear RGBA, filled when RenderSettings::readLinear
+  ImageRGBA8 srgb; // 8-bit sRGB, what PNG files hold
+  ImageF32 linear; // linear RGBA, filled when RenderSettings::readLinear
   FrameStats stats;
 };
 

@@ -72,7 +72,7 @@ struct GpuClusterMesh {
 // One DAG level of a mesh: clusters are stored by level, so a level is a contiguous range. Its
 // error extremes let the cull pass skip levels that cannot be on an instance's cut.
 struct GpuClusterLevel {
-  uint firstCluster;    // mesh-local
+  uint firstCluster; // mesh-local
   uint clusterCount;
   float minSelfError;   // smallest self error of the level's clusters
   float maxParentError; // largest parent error (+inf when a root is in the level)

@@ -33,9 +33,9 @@ struct GpuVertex {
 struct FrameData {
   mat4 viewProj;
   mat4 view;
-  vec4 eye;          // xyz camera position
-  vec4 lightDir;     // xyz direction towards the light (normalized), w intensity
-  vec4 skyAmbient;   // rgb ambient from above
+  vec4 eye;           // xyz camera position
+  vec4 lightDir;      // xyz direction towards the light (normalized), w intensity
+  vec4 skyAmbient;    // rgb ambient from above
   vec4 groundAmbient; // rgb ambient from below
 };
 
@@ -66,9 +66,9 @@ struct GpuMaterial {
 
 // Push constants of the forward pipelines (<= 128 bytes, the guaranteed minimum).
 struct ForwardPush {
-  uint64_t frameAddress;     // FrameData
-  uint64_t instanceAddress;  // GpuInstance[]
-  uint64_t materialAddress;  // GpuMaterial[]
+  uint64_t frameAddress;    // FrameData
+  uint64_t instanceAddress; // GpuInstance[]
+  uint64_t materialAddress; // GpuMaterial[]
   uint materialIndex;
   uint pad0;
 };

@@ -71,8 +71,8 @@ struct SurfelSamplerGlobals {
   vec4 center;         // xyz centre of the capture sphere (first sample's reference point)
   uint resolution;     // G-buffer width = height
   uint viewCount;
-  uint texelCount;     // viewCount * resolution²
-  float texelSize;     // world size of one texel
+  uint texelCount; // viewCount * resolution²
+  float texelSize; // world size of one texel
 };
 
 // Counters the sampler reads back after each half-round.
@@ -85,11 +85,11 @@ struct SurfelSamplerCounters {
 
 // Push constants of the sampler's compute passes; fields are per pass (see the shaders).
 struct SurfelSamplerPush {
-  uint64_t globals; // SurfelSamplerGlobals
-  uint first;       // first sample / candidate / element of this dispatch
-  uint count;       // number of samples / candidates / elements
-  float radius;     // splat radius (world units); <= 0: whole view
-  float threshold;  // candidate filter: keep radius >= threshold * round maximum
+  uint64_t globals;  // SurfelSamplerGlobals
+  uint first;        // first sample / candidate / element of this dispatch
+  uint count;        // number of samples / candidates / elements
+  float radius;      // splat radius (world units); <= 0: whole view
+  float threshold;   // candidate filter: keep radius >= threshold * round maximum
   uint tilesPerSide; // splat tiles per side of the disc's bounding square
   uint tileSpan;     // texels per side of one tile
   uint sortJ;        // bitonic sort: compare distance
@@ -97,7 +97,6 @@ struct SurfelSamplerPush {
   uint mode;         // surfel_farthest.comp: 1 = first round (distance to the centre)
   uint pad0;
 };
-
 
 #ifndef __cplusplus
 // GLSL views of the buffers above, reached through device addresses. Shaders enable
