@@ -19,41 +19,6 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-Unique<VkSampler> makeSampler(Context& ctx, VkFilter filter) {
-  VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
-  si.magFilter = si.minFilter = filter;
-  si.mipmapMode = filter == VK_FILTER_LINEAR ? VK_SAMPLER_MIPMAP_MODE_LINEAR : VK_SAMPLER_MIPMAP_MODE_NEAREST;
-  si.addressModeU = si.addressModeV = si.addressModeW =
-      filter == VK_FILTER_LINEAR ? VK_SAMPLER_ADDRESS_MODE_REPEAT : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  si.maxLod = VK_LOD_CLAMP_NONE;
-  VkSampler s;
-  MIRAGE_VK_CHECK(vkCreateSampler(ctx.device(), &si, nullptr, &s));
-  return Unique<VkSampler>(ctx.device(), s);
-}
-
-// Same textures as the forward renderer: sRGB or UNORM by use, full mip chains, one white texel
-// when the scene has none (a descriptor array cannot be empty).
-std::vector<Image> uploadTextures(Context& ctx, const Scene& scene) {
-  std::vector<Texture> list = scene.textures;
-  if (list.empty()) list.push_back(Texture{"white", 1, 1, {255, 255, 255, 255}, false});
-  std::vector<Image> out;
-  for (const Texture& t : list) {
-    uint32_t mips = mipLevelCount(t.width, t.height);
-    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ci.imageType = VK_IMAGE_TYPE_2D;
-    ci.format = t.srgb ? VK_FORMAT_R8G8B8A8_SRGB : VK_FORMAT_R8G8B8A8_UNORM;
-    ci.extent = {t.width, t.height, 1};
-    ci.mipLevels = mips;
-    ci.arrayLayers = 1;
-    ci.samples = VK_SAMPLE_COUNT_1_BIT;
-    ci.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-    Image img = createImage(ctx, ci, VK_IMAGE_ASPECT_COLOR_BIT, t.name.c_str());
-    uploadTextureRGBA8(ctx, img, t.rgba8.data(), t.width, t.height, mips);
-    out.push_back(std::move(img));
-  }
-  return out;
-}
-
 float maxAxisScale(const glm::mat4& m) {
   return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
 }

@@ -115,34 +115,8 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   for (const Material& m : sceneMaterials) mats.push_back(toGpuMaterial(m, scene.textures.size()));
   materials = createBufferWithData<sio::GpuMaterial>(ctx, mats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "materials");
 
-  // Textures: sRGB or UNORM as the material use says, full mip chains. One white texel stands in
-  // when the scene has none, since a descriptor array cannot be empty.
-  std::vector<Texture> list = scene.textures;
-  if (list.empty()) list.push_back(Texture{"white", 1, 1, {255, 255, 255, 255}, false});
-  for (const Texture& t : list) {
-    uint32_t mips = mipLevelCount(t.width, t.height);
-    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ci.imageType = VK_IMAGE_TYPE_2D;
-    ci.format = t.srgb ? VK_FORMAT_R8G8B8A8_SRGB : VK_FORMAT_R8G8B8A8_UNORM;
-    ci.extent = {t.width, t.height, 1};
-    ci.mipLevels = mips;
-    ci.arrayLayers = 1;
-    ci.samples = VK_SAMPLE_COUNT_1_BIT;
-    ci.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-    Image img = createImage(ctx, ci, VK_IMAGE_ASPECT_COLOR_BIT, t.name.c_str());
-    uploadTextureRGBA8(ctx, img, t.rgba8.data(), t.width, t.height, mips);
-    textures.push_back(std::move(img));
-  }
-
-  VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
-  si.magFilter = VK_FILTER_LINEAR;
-  si.minFilter = VK_FILTER_LINEAR;
-  si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
-  si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
-  si.maxLod = VK_LOD_CLAMP_NONE;
-  VkSampler s;
-  MIRAGE_VK_CHECK(vkCreateSampler(ctx.device(), &si, nullptr, &s));
-  sampler = Unique<VkSampler>(ctx.device(), s);
+  textures = uploadTextures(ctx, scene);
+  sampler = makeSampler(ctx, VK_FILTER_LINEAR);
 
   uint32_t n = uint32_t(textures.size());
   VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_FRAGMENT_BIT,

@@ -6,8 +6,44 @@
 #include <glm/gtc/packing.hpp>
 
 #include "mirage/core/color.h"
+#include "mirage/gpu/commands.h"
 
 namespace mirage::render {
+
+gpu::Unique<VkSampler> makeSampler(gpu::Context& ctx, VkFilter filter) {
+  VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  si.magFilter = si.minFilter = filter;
+  si.mipmapMode = filter == VK_FILTER_LINEAR ? VK_SAMPLER_MIPMAP_MODE_LINEAR : VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  si.addressModeU = si.addressModeV = si.addressModeW =
+      filter == VK_FILTER_LINEAR ? VK_SAMPLER_ADDRESS_MODE_REPEAT : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  si.maxLod = VK_LOD_CLAMP_NONE;
+  VkSampler s;
+  MIRAGE_VK_CHECK(vkCreateSampler(ctx.device(), &si, nullptr, &s));
+  return gpu::Unique<VkSampler>(ctx.device(), s);
+}
+
+// sRGB or UNORM by use, full mip chains, one white texel
+// when the scene has none (a descriptor array cannot be empty).
+std::vector<gpu::Image> uploadTextures(gpu::Context& ctx, const Scene& scene) {
+  std::vector<Texture> list = scene.textures;
+  if (list.empty()) list.push_back(Texture{"white", 1, 1, {255, 255, 255, 255}, false});
+  std::vector<gpu::Image> out;
+  for (const Texture& t : list) {
+    uint32_t mips = gpu::mipLevelCount(t.width, t.height);
+    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ci.imageType = VK_IMAGE_TYPE_2D;
+    ci.format = t.srgb ? VK_FORMAT_R8G8B8A8_SRGB : VK_FORMAT_R8G8B8A8_UNORM;
+    ci.extent = {t.width, t.height, 1};
+    ci.mipLevels = mips;
+    ci.arrayLayers = 1;
+    ci.samples = VK_SAMPLE_COUNT_1_BIT;
+    ci.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    gpu::Image img = gpu::createImage(ctx, ci, VK_IMAGE_ASPECT_COLOR_BIT, t.name.c_str());
+    gpu::uploadTextureRGBA8(ctx, img, t.rgba8.data(), t.width, t.height, mips);
+    out.push_back(std::move(img));
+  }
+  return out;
+}
 
 shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount) {
   auto tex = [&](int32_t t) { return t >= 0 && size_t(t) < textureCount ? t : -1; };

@@ -4,10 +4,19 @@
 #include <vector>
 
 #include "mirage/core/scene.h"
+#include "mirage/gpu/context.h"
+#include "mirage/gpu/memory.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/shaderio/forward.h"
 
 namespace mirage::render {
+
+// Linear filtering with repeat and trilinear mips (material textures), or nearest with clamp
+// (integer targets such as the visibility image).
+gpu::Unique<VkSampler> makeSampler(gpu::Context& ctx, VkFilter filter);
+// The scene's textures as sampled images: sRGB or UNORM by use, full mip chains; one white texel
+// when the scene has none (a descriptor array cannot be empty).
+std::vector<gpu::Image> uploadTextures(gpu::Context& ctx, const Scene& scene);
 
 // The glTF material as shaders read it; texture indices outside [0, textureCount) become -1.
 shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount);
