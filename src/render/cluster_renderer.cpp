@@ -8,6 +8,7 @@
 #include "cluster_impl.h"
 #include "render_util.h"
 #include "mirage/gpu/commands.h"
+#include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/shaders.h"
 
@@ -58,9 +59,7 @@ struct ClusterRenderer::Impl {
   Context& ctx;
   ClusterSceneData scene;
   Buffer frame, visibleInstances, visible, counters, visBuffer;
-  Unique<VkDescriptorSetLayout> setLayout;
-  Unique<VkDescriptorPool> pool;
-  VkDescriptorSet set = VK_NULL_HANDLE;
+  DescriptorSet descriptors; // material textures, the visibility image, the colour target
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> cullPipeline, selectPipeline, argsPipeline, rasterPipeline, meshPipeline, indirectPipeline,
       resolvePipeline;
@@ -80,47 +79,23 @@ struct ClusterRenderer::Impl {
 };
 
 void ClusterRenderer::Impl::createDescriptors() {
-  uint32_t n = uint32_t(scene.textures.size());
   // Textures and the visibility image are read by the resolve (compute); binding 2 is its output.
   VkDescriptorSetLayoutBinding bindings[] = {
-      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(scene.textures.size()), VK_SHADER_STAGE_COMPUTE_BIT,
+       nullptr},
       {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
-  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  li.bindingCount = 3;
-  li.pBindings = bindings;
-  VkDescriptorSetLayout dsl;
-  MIRAGE_VK_CHECK(vkCreateDescriptorSetLayout(ctx.device(), &li, nullptr, &dsl));
-  setLayout = Unique<VkDescriptorSetLayout>(ctx.device(), dsl);
-  VkDescriptorPoolSize ps[] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n + 1},
-                               {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1}};
-  VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  pi.maxSets = 1;
-  pi.poolSizeCount = 2;
-  pi.pPoolSizes = ps;
-  VkDescriptorPool dp;
-  MIRAGE_VK_CHECK(vkCreateDescriptorPool(ctx.device(), &pi, nullptr, &dp));
-  pool = Unique<VkDescriptorPool>(ctx.device(), dp);
-  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  ai.descriptorPool = pool;
-  ai.descriptorSetCount = 1;
-  ai.pSetLayouts = setLayout.ptr();
-  MIRAGE_VK_CHECK(vkAllocateDescriptorSets(ctx.device(), &ai, &set));
+  descriptors = createDescriptorSet(ctx, bindings);
   std::vector<VkDescriptorImageInfo> infos;
   for (const Image& img : scene.textures)
     infos.push_back({scene.sampler, img.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
-  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-  w.dstSet = set;
-  w.descriptorCount = n;
-  w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  w.pImageInfo = infos.data();
-  vkUpdateDescriptorSets(ctx.device(), 1, &w, 0, nullptr);
+  writeImageDescriptors(ctx, descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
 }
 
 void ClusterRenderer::Impl::createPipelines() {
   pushStages = VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
   if (ctx.caps().meshShader) pushStages |= VK_SHADER_STAGE_MESH_BIT_EXT;
-  layout = createPipelineLayout(ctx, {setLayout.get()}, sizeof(sio::ClusterPush), pushStages);
+  layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::ClusterPush), pushStages);
   cullPipeline = createComputePipeline(ctx, "cluster_cull.comp", layout);
   selectPipeline = createComputePipeline(ctx, "cluster_select.comp", layout);
   argsPipeline = createComputePipeline(ctx, "cluster_args.comp", layout);
@@ -169,17 +144,8 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
                    MemoryUsage::GpuOnly, "visibility64");
   VkDescriptorImageInfo visInfo{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
-  VkWriteDescriptorSet wr[2] = {{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET}, {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET}};
-  wr[0].dstSet = wr[1].dstSet = set;
-  wr[0].dstBinding = 1;
-  wr[0].descriptorCount = 1;
-  wr[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  wr[0].pImageInfo = &visInfo;
-  wr[1].dstBinding = 2;
-  wr[1].descriptorCount = 1;
-  wr[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
-  wr[1].pImageInfo = &colorInfo;
-  vkUpdateDescriptorSets(ctx.device(), 2, wr, 0, nullptr);
+  writeImageDescriptors(ctx, descriptors.set, 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&visInfo, 1});
+  writeImageDescriptors(ctx, descriptors.set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
   width = w;
   height = h;
 }
@@ -314,7 +280,7 @@ void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPu
   cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                         VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolvePipeline);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &set, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
   vkCmdPushConstants(cmd, layout, pushStages, 0, sizeof(p), &p);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
   timer.cmdEnd(cmd, slot);

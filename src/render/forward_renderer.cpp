@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "mirage/gpu/commands.h"
+#include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/shaderio/forward.h"
 #include "render_util.h"
@@ -53,9 +54,7 @@ struct ForwardRenderer::Impl {
   Buffer vertices, indices, materials, frame, instanceBuffer;
   std::vector<Image> textures;
   Unique<VkSampler> sampler;
-  Unique<VkDescriptorSetLayout> setLayout;
-  Unique<VkDescriptorPool> pool;
-  VkDescriptorSet set = VK_NULL_HANDLE;
+  DescriptorSet descriptors; // bindless material textures
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> opaquePipeline, blendPipeline;
   std::vector<MeshRange> meshes;
@@ -118,36 +117,12 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   textures = uploadTextures(ctx, scene);
   sampler = makeSampler(ctx, VK_FILTER_LINEAR);
 
-  uint32_t n = uint32_t(textures.size());
-  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n, VK_SHADER_STAGE_FRAGMENT_BIT,
-                                       nullptr};
-  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  li.bindingCount = 1;
-  li.pBindings = &binding;
-  VkDescriptorSetLayout dsl;
-  MIRAGE_VK_CHECK(vkCreateDescriptorSetLayout(ctx.device(), &li, nullptr, &dsl));
-  setLayout = Unique<VkDescriptorSetLayout>(ctx.device(), dsl);
-  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n};
-  VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  pi.maxSets = 1;
-  pi.poolSizeCount = 1;
-  pi.pPoolSizes = &ps;
-  VkDescriptorPool dp;
-  MIRAGE_VK_CHECK(vkCreateDescriptorPool(ctx.device(), &pi, nullptr, &dp));
-  pool = Unique<VkDescriptorPool>(ctx.device(), dp);
-  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  ai.descriptorPool = pool;
-  ai.descriptorSetCount = 1;
-  ai.pSetLayouts = setLayout.ptr();
-  MIRAGE_VK_CHECK(vkAllocateDescriptorSets(ctx.device(), &ai, &set));
+  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(textures.size()),
+                                       VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  descriptors = createDescriptorSet(ctx, {&binding, 1});
   std::vector<VkDescriptorImageInfo> infos;
   for (const Image& img : textures) infos.push_back({sampler, img.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
-  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-  w.dstSet = set;
-  w.descriptorCount = n;
-  w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  w.pImageInfo = infos.data();
-  vkUpdateDescriptorSets(ctx.device(), 1, &w, 0, nullptr);
+  writeImageDescriptors(ctx, descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
 
   // Instances: opaque/mask ones grouped by mesh (one instanced draw each); blend ones re-sorted per
   // frame and appended after them.
@@ -174,7 +149,7 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
 }
 
 void ForwardRenderer::Impl::createPipelines() {
-  layout = createPipelineLayout(ctx, {setLayout.get()}, sizeof(sio::ForwardPush),
+  layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::ForwardPush),
                                 VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
   GraphicsPipelineDesc d;
   d.vertexShader = "forward.vert";
@@ -309,7 +284,7 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
     VkBuffer vb = d.vertices.handle();
     vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
     vkCmdBindIndexBuffer(cmd, d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.set, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
 
     // Opaque and alpha-masked geometry.
     uint32_t opaqueSlot = d.timer.cmdBegin(cmd, "opaque");
