@@ -65,6 +65,12 @@ struct Element {
   }
 };
 
+template <class T> T load(const unsigned char* b) {
+  T v;
+  std::memcpy(&v, b, sizeof v);
+  return v;
+}
+
 // Read one binary scalar, byte-swapping for the other endianness.
 double loadScalar(const char* p, Type t, bool swap) {
   unsigned char b[8];
@@ -77,36 +83,18 @@ double loadScalar(const char* p, Type t, bool swap) {
     return double(int8_t(b[0]));
   case Type::U8:
     return double(b[0]);
-  case Type::I16: {
-    int16_t v;
-    std::memcpy(&v, b, 2);
-    return v;
-  }
-  case Type::U16: {
-    uint16_t v;
-    std::memcpy(&v, b, 2);
-    return v;
-  }
-  case Type::I32: {
-    int32_t v;
-    std::memcpy(&v, b, 4);
-    return v;
-  }
-  case Type::U32: {
-    uint32_t v;
-    std::memcpy(&v, b, 4);
-    return v;
-  }
-  case Type::F32: {
-    float v;
-    std::memcpy(&v, b, 4);
-    return v;
-  }
-  case Type::F64: {
-    double v;
-    std::memcpy(&v, b, 8);
-    return v;
-  }
+  case Type::I16:
+    return load<int16_t>(b);
+  case Type::U16:
+    return load<uint16_t>(b);
+  case Type::I32:
+    return load<int32_t>(b);
+  case Type::U32:
+    return load<uint32_t>(b);
+  case Type::F32:
+    return load<float>(b);
+  case Type::F64:
+    return load<double>(b);
   default:
     return 0.0;
   }
