@@ -51,9 +51,7 @@ void runBenchRender(const BenchRenderOptions& o) {
   if (o.frames < 2 || o.frames > 100000) return fail("--frames must be in 2..100000");
   auto scene = loadSceneArgument(o.input);
   if (!scene) return fail(scene.error());
-  gpu::ContextOptions co;
-  co.device = o.device;
-  auto ctx = gpu::Context::create(co);
+  auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
   auto renderer = render::ForwardRenderer::create(**ctx, *scene);
   if (!renderer) return fail(renderer.error());
@@ -226,9 +224,7 @@ void runBenchPvs(const BenchPvsOptions& o) {
   if (!scene) return fail(scene.error());
   auto pvs = vis::loadPvs(o.pvs);
   if (!pvs) return fail(pvs.error());
-  gpu::ContextOptions co;
-  co.device = o.device;
-  auto ctx = gpu::Context::create(co);
+  auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
   auto full = render::ForwardRenderer::create(**ctx, *scene);
   if (!full) return fail(full.error());

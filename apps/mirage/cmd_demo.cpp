@@ -155,9 +155,7 @@ void runDemo(const DemoOptions& o) {
   std::filesystem::create_directories(o.out, ec);
   if (ec || !std::filesystem::is_directory(o.out)) return fail(makeError(o.out, "cannot create the output folder"));
 
-  gpu::ContextOptions co;
-  co.device = o.device;
-  auto ctx = gpu::Context::create(co);
+  auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
   fmt::print("mirage demo on {} ({}x{}), output in {}/\n", (*ctx)->caps().name, width, height, o.out);
 

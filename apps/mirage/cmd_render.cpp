@@ -69,9 +69,7 @@ void runRender(const RenderOptions& o) {
     scene = std::move(restricted);
   }
 
-  gpu::ContextOptions co;
-  co.device = o.device;
-  auto ctx = gpu::Context::create(co);
+  auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
   auto renderer = render::ForwardRenderer::create(**ctx, *scene);
   if (!renderer) return fail(renderer.error());

@@ -63,9 +63,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
     s.asset.scene.instances = std::move(grid);
   }
   s.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  gpu::ContextOptions co;
-  co.device = r.device;
-  auto ctx = gpu::Context::create(co);
+  auto ctx = openDevice(r.device);
   if (!ctx) return fail(ctx.error()), false;
   s.ctx = std::move(*ctx);
   auto renderer = render::ClusterRenderer::create(*s.ctx, s.asset);

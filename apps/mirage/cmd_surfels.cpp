@@ -42,9 +42,7 @@ void runSurfels(const SurfelsOptions& o) {
   auto scene = loadSceneArgument(o.input);
   if (!scene) return fail(scene.error());
   double importSeconds = secondsSince(t0);
-  gpu::ContextOptions co;
-  co.device = o.device;
-  auto ctx = gpu::Context::create(co);
+  auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
 
   surfels::CaptureConfig cc;

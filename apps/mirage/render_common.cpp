@@ -39,6 +39,12 @@ Status parseSize(const std::string& text, uint32_t& width, uint32_t& height) {
   return Ok{};
 }
 
+Result<std::unique_ptr<gpu::Context>> openDevice(const std::string& device) {
+  gpu::ContextOptions options;
+  options.device = device;
+  return gpu::Context::create(options);
+}
+
 std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::PassTime>>& frames) {
   std::vector<gpu::PassTime> out;
   if (frames.empty()) return out;

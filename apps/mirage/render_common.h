@@ -1,6 +1,7 @@
 #pragma once
 // Shared pieces of the commands that render: output-path checks and timing summaries.
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -8,6 +9,7 @@
 #include "mirage/core/scene.h"
 
 #include <glm/glm.hpp>
+#include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
 
 namespace mirage::cli {
@@ -16,6 +18,9 @@ namespace mirage::cli {
 Status checkOutputPath(const std::filesystem::path& path, const std::vector<std::string>& extensions);
 // "WxH" with 1 <= W, H <= 16384.
 Status parseSize(const std::string& text, uint32_t& width, uint32_t& height);
+// The Vulkan context every command runs on: `device` (name substring or index; empty: MIRAGE_DEVICE,
+// then the best device).
+Result<std::unique_ptr<gpu::Context>> openDevice(const std::string& device);
 // A scene file, or "gen:KIND[:SIZE[:SEED]]" for a procedural scene made in memory (no file needed,
 // which is how benchmarks run on machines without the data set).
 Result<Scene> loadSceneArgument(const std::string& argument);
