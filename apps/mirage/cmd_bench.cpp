@@ -238,7 +238,7 @@ void runBenchPvs(const BenchPvsOptions& o) {
   for (size_t c = 0; c < pvs->cells.size(); ++c) {
     glm::vec3 eye = pvs->cells[c].position;
     int cell = -1;
-    auto restricted = restrictSceneToPvs(*scene, o.pvs, eye, cell);
+    auto restricted = restrictSceneToPvs(*scene, *pvs, o.pvs, eye, cell);
     if (!restricted) return fail(restricted.error());
     auto part = render::ForwardRenderer::create(**ctx, *restricted);
     if (!part) return fail(part.error());

@@ -64,7 +64,9 @@ void runRender(const RenderOptions& o) {
     // Clip planes stay those of the whole scene, so the PVS image differs from the full one only
     // where the PVS misses something.
     camera = render::withClipPlanes(camera, scene->worldBounds());
-    auto restricted = restrictSceneToPvs(*scene, o.pvs, camera.eye, cell);
+    auto pvs = vis::loadPvs(o.pvs);
+    if (!pvs) return fail(pvs.error());
+    auto restricted = restrictSceneToPvs(*scene, *pvs, o.pvs, camera.eye, cell);
     if (!restricted) return fail(restricted.error());
     scene = std::move(restricted);
   }

@@ -11,6 +11,7 @@
 #include <glm/glm.hpp>
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
+#include "mirage/visibility/pvs_storage.h"
 
 namespace mirage::cli {
 
@@ -24,10 +25,11 @@ Result<std::unique_ptr<gpu::Context>> openDevice(const std::string& device);
 // A scene file, or "gen:KIND[:SIZE[:SEED]]" for a procedural scene made in memory (no file needed,
 // which is how benchmarks run on machines without the data set).
 Result<Scene> loadSceneArgument(const std::string& argument);
-// The scene restricted to the PVS (a .mrg from `mirage pvs`) of the view cell holding `eye`.
-// Errors: unreadable PVS, a PVS of another scene, an eye in none of its cells. `cell` receives
-// the cell index.
-Result<Scene> restrictSceneToPvs(const Scene& scene, const std::string& pvsPath, glm::vec3 eye, int& cell);
+// The scene restricted to the PVS of the view cell holding `eye` (`pvs` loaded from `pvsPath`, a
+// .mrg from `mirage pvs`, which errors name). Errors: a PVS of another scene, an eye in none of its
+// cells. `cell` receives the cell index.
+Result<Scene> restrictSceneToPvs(const Scene& scene, const vis::PvsData& pvs, const std::string& pvsPath, glm::vec3 eye,
+                                 int& cell);
 // Median over frames of each pass's GPU time (frames[i] lists the passes of frame i).
 std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::PassTime>>& frames);
 

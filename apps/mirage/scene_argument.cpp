@@ -34,17 +34,16 @@ Result<Scene> loadSceneArgument(const std::string& argument) {
   return io::generateScene(parts[0], seed, size);
 }
 
-Result<Scene> restrictSceneToPvs(const Scene& scene, const std::string& pvsPath, glm::vec3 eye, int& cell) {
-  auto pvs = vis::loadPvs(pvsPath);
-  if (!pvs) return pvs.error();
-  if (pvs->sceneTriangles != scene.instancedTriangleCount())
-    return makeError(pvsPath, fmt::format("baked for a scene of {} triangles, this one has {}", pvs->sceneTriangles,
+Result<Scene> restrictSceneToPvs(const Scene& scene, const vis::PvsData& pvs, const std::string& pvsPath, glm::vec3 eye,
+                                 int& cell) {
+  if (pvs.sceneTriangles != scene.instancedTriangleCount())
+    return makeError(pvsPath, fmt::format("baked for a scene of {} triangles, this one has {}", pvs.sceneTriangles,
                                           scene.instancedTriangleCount()));
-  cell = vis::findCell(pvs->cells, eye);
+  cell = vis::findCell(pvs.cells, eye);
   if (cell < 0)
     return makeError(pvsPath, fmt::format("the camera at ({:.4g}, {:.4g}, {:.4g}) is in none of its {} view cells",
-                                          eye.x, eye.y, eye.z, pvs->cells.size()));
-  return vis::restrictToPvs(scene, pvs->triangles[size_t(cell)]);
+                                          eye.x, eye.y, eye.z, pvs.cells.size()));
+  return vis::restrictToPvs(scene, pvs.triangles[size_t(cell)]);
 }
 
 } // namespace mirage::cli
