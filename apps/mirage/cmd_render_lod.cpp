@@ -46,22 +46,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   if (!asset) return fail(asset.error()), false;
   s.asset = std::move(*asset);
   if (r.grid < 1 || r.grid > 256) return fail("--grid must be in 1..256"), false;
-  if (r.grid > 1) {
-    // The seed's benchmark scenes: copies of the scene on a square grid on the ground plane,
-    // spaced by 1.25x the scene's largest horizontal extent.
-    Bounds b = s.asset.scene.worldBounds();
-    float spacing = 1.25f * std::max(b.extent().x, b.extent().z);
-    std::vector<Instance> original = s.asset.scene.instances, grid;
-    for (uint32_t gz = 0; gz < r.grid; ++gz)
-      for (uint32_t gx = 0; gx < r.grid; ++gx)
-        for (Instance inst : original) {
-          glm::vec3 offset{(float(gx) - 0.5f * float(r.grid - 1)) * spacing, 0.0f,
-                           (float(gz) - 0.5f * float(r.grid - 1)) * spacing};
-          inst.transform[3] += glm::vec4(offset, 0.0f);
-          grid.push_back(inst);
-        }
-    s.asset.scene.instances = std::move(grid);
-  }
+  repeatOnGrid(s.asset.scene, r.grid * r.grid); // the seed's benchmark scenes
   s.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   auto ctx = openDevice(r.device);
   if (!ctx) return fail(ctx.error()), false;

@@ -1,5 +1,8 @@
 #include "mirage/core/scene.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace mirage {
 
 size_t Scene::instancedTriangleCount() const {
@@ -28,6 +31,27 @@ Bounds Scene::worldBounds() const {
   Bounds out;
   for (const Instance& i : instances) out.add(transformBounds(meshes[i.mesh].bounds, i.transform));
   return out;
+}
+
+void repeatOnGrid(Scene& scene, uint32_t copies) {
+  if (copies <= 1) return;
+  Bounds b = scene.worldBounds();
+  float spacing = 1.25f * std::max(b.extent().x, b.extent().z);
+  if (!(spacing > 0.0f)) spacing = 1.0f; // flat or empty scenes still get distinct positions
+  uint32_t perRow = uint32_t(std::ceil(std::sqrt(double(copies))));
+  uint32_t rows = (copies + perRow - 1) / perRow;
+  std::vector<Instance> grid;
+  grid.reserve(size_t(copies) * scene.instances.size());
+  for (uint32_t i = 0; i < copies; ++i) {
+    uint32_t gx = i % perRow, gz = i / perRow;
+    glm::vec3 offset{(float(gx) - 0.5f * float(perRow - 1)) * spacing, 0.0f,
+                     (float(gz) - 0.5f * float(rows - 1)) * spacing};
+    for (Instance inst : scene.instances) {
+      inst.transform[3] += glm::vec4(offset, 0.0f);
+      grid.push_back(inst);
+    }
+  }
+  scene.instances = std::move(grid);
 }
 
 } // namespace mirage

@@ -30,6 +30,15 @@ expect_error "missing output directory" "$mirage" gen blob -o "$work/missing/x.g
 expect_error "size out of range" "$mirage" gen blob --size 99 -o "$work/x.glb"
 check "nothing written on error" test ! -e "$work/x.glb"
 
+# gen grid: copies of a scene as instances (the seed's benchmark scenes), the mesh stored once.
+check "gen grid" "$mirage" gen grid --mesh "$work/blob.glb" --instances 7 -o "$work/grid.glb"
+info=$("$mirage" info "$work/grid.glb")
+check "grid has 7 instances of one mesh" grep -q "meshes 1  instances 7 " <<<"$info"
+expect_error "grid without --mesh" "$mirage" gen grid --instances 7 -o "$work/y.glb"
+expect_error "grid with a missing mesh" "$mirage" gen grid --mesh "$work/none.glb" --instances 7 -o "$work/y.glb"
+expect_error "--instances on another kind" "$mirage" gen blob --instances 7 -o "$work/y.glb"
+check "nothing written on grid errors" test ! -e "$work/y.glb"
+
 # Two tiny PNGs made with Python's zlib (no image tools needed).
 python3 - "$work" <<'PY'
 import struct, sys, zlib
