@@ -29,16 +29,28 @@ struct RenderOptions {
   float tau = 1.0f;            // .mrg only
   std::string raster = "auto"; // .mrg only
   std::string pvs;             // forward path: draw only the PVS of the camera's view cell
+  std::string path;            // .mrg only: camera path (cameras.json or orbit:N), one image per camera
 };
 
 void runRender(const RenderOptions& o) {
   if (isLodAssetPath(o.input) && !o.pvs.empty()) return fail("--pvs applies to scene files (forward renderer) for now");
   if (isLodAssetPath(o.input)) {
-    LodRenderRequest r{o.input,  o.output, o.exr, o.camera, o.size,  o.device,
-                       o.raster, o.tau,    1,     o.repeat, o.stats, o.json};
+    LodRenderRequest r{.input = o.input,
+                       .output = o.output,
+                       .exr = o.exr,
+                       .camera = o.camera,
+                       .path = o.path,
+                       .size = o.size,
+                       .device = o.device,
+                       .raster = o.raster,
+                       .tau = o.tau,
+                       .frames = o.repeat,
+                       .stats = o.stats,
+                       .json = o.json};
     return runLodRender(r);
   }
-  if (o.raster != "auto" || o.tau != 1.0f) return fail("--tau and --raster apply to .mrg cluster-LOD assets only");
+  if (o.raster != "auto" || o.tau != 1.0f || !o.path.empty())
+    return fail("--tau, --raster and --path apply to .mrg cluster-LOD assets only");
   // Check everything cheap before the import and the GPU start.
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
@@ -151,6 +163,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->add_option("--tau", o->tau, ".mrg: LOD threshold, projected error in pixels")->capture_default_str();
   cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute")->capture_default_str();
+  cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
   cmd->add_option("--pvs", o->pvs, "Draw only the PVS (from mirage pvs) of the view cell holding the camera");
   cmd->callback([o] { runRender(*o); });
 }

@@ -1,6 +1,7 @@
 // mirage render / bench render on .mrg assets through the cluster-LOD renderer.
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <vector>
 
 #include <fmt/format.h>
@@ -22,6 +23,7 @@ struct Session {
   lod::LodAsset asset;
   std::unique_ptr<render::ClusterRenderer> renderer;
   render::ClusterRenderSettings settings;
+  std::vector<render::Camera> path; // --path: frame i uses path[i % size]
   double loadSeconds = 0.0;
 };
 
@@ -58,6 +60,13 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   s.settings.base.height = height;
   s.settings.base.camera =
       r.camera.empty() ? render::autoCamera(s.renderer->worldBounds(), float(width) / float(height)) : camera;
+  if (!r.path.empty()) {
+    if (!r.camera.empty()) return fail("give --camera or --path, not both"), false;
+    auto path = render::cameraPathArgument(r.path, s.renderer->worldBounds(), float(width) / float(height));
+    if (!path) return fail(path.error()), false;
+    s.path = std::move(*path);
+    s.settings.base.camera = s.path[0];
+  }
   s.settings.base.readLinear = !r.exr.empty();
   s.settings.tauPixels = r.tau;
   return true;
@@ -67,21 +76,43 @@ struct Timed {
   std::vector<gpu::PassTime> times; // medians over the timed frames
   render::ClusterRenderOutput last;
   size_t frames = 0;
+  double maxFrameMs = 0.0; // slowest timed frame (on a camera path the median hides the worst view)
 };
 
-// Renders `frames` frames; with more than one, the first (pipeline warm-up) is not timed.
-bool renderFrames(Session& s, int frames, Timed& out) {
+double frameMilliseconds(const std::vector<gpu::PassTime>& times) {
+  for (const auto& t : times)
+    if (t.name == "frame") return t.milliseconds;
+  return 0.0;
+}
+
+// Renders `frames` frames; with more than one, the first (pipeline warm-up) is not timed. On a
+// camera path, frame i uses camera i - 1 (the warm-up repeats camera 0); `onFrame` sees each
+// timed frame's output with its camera index.
+template <class OnFrame> bool renderFrames(Session& s, int frames, Timed& out, OnFrame&& onFrame) {
   std::vector<std::vector<gpu::PassTime>> all;
   for (int i = 0; i < frames; ++i) {
+    size_t cameraIndex = frames > 1 ? size_t(std::max(i - 1, 0)) : 0;
+    if (!s.path.empty()) s.settings.base.camera = s.path[cameraIndex % s.path.size()];
     auto o = s.renderer->render(s.settings);
     if (!o) return fail(o.error()), false;
     all.push_back(o->image.stats.passTimes);
+    if ((i > 0 || frames == 1) && !onFrame(*o, cameraIndex)) return false;
     out.last = std::move(*o);
   }
   if (all.size() > 1) all.erase(all.begin());
   out.frames = all.size();
   out.times = medianPassTimes(all);
+  for (const auto& f : all) out.maxFrameMs = std::max(out.maxFrameMs, frameMilliseconds(f));
   return true;
+}
+bool renderFrames(Session& s, int frames, Timed& out) {
+  return renderFrames(s, frames, out, [](const render::ClusterRenderOutput&, size_t) { return true; });
+}
+
+// out.png -> out_0007.png: one image per camera of a path.
+std::string pathFrameName(const std::string& output, size_t index) {
+  std::filesystem::path p = output;
+  return (p.parent_path() / fmt::format("{}_{:04}{}", p.stem().string(), index, p.extension().string())).string();
 }
 
 nlohmann::json statsJson(const render::ClusterStats& st) {
@@ -121,6 +152,26 @@ void runLodRender(const LodRenderRequest& r) {
   if (!open(r, /*needOutput=*/true, s)) return;
   s.settings.raster = *backend;
   Timed t;
+  if (!s.path.empty()) {
+    // One image per camera (plus a warm-up); on any error the images already written are removed.
+    if (!r.exr.empty()) return fail("--exr is not supported with --path");
+    std::vector<std::string> written;
+    auto removeWritten = [&] {
+      std::error_code ec;
+      for (const auto& f : written) std::filesystem::remove(f, ec);
+    };
+    bool ok = renderFrames(s, int(s.path.size()) + 1, t, [&](const render::ClusterRenderOutput& o, size_t i) {
+      std::string name = pathFrameName(r.output, i);
+      if (auto st = io::writePng(name, o.image.srgb); !st) return fail(st.error()), false;
+      written.push_back(name);
+      return true;
+    });
+    if (!ok) return removeWritten();
+    fmt::print("rendered {} cameras of {} -> {} .. {}; GPU frame median {:.3f} ms, max {:.3f} ms\n", s.path.size(),
+               r.path, written.front(), written.back(), frameMilliseconds(t.times), t.maxFrameMs);
+    if (r.stats) printStats(t.last.stats, t.times, true);
+    return;
+  }
   if (!renderFrames(s, r.frames, t)) return;
   if (auto st = io::writePng(r.output, t.last.image.srgb); !st) return fail(st.error());
   if (!r.exr.empty()) {
@@ -163,6 +214,8 @@ void runLodBench(const LodRenderRequest& r) {
   }
   Session s;
   if (!open(r, /*needOutput=*/false, s)) return;
+  // On a path every camera is timed once (after a warm-up), whatever --frames says.
+  int frames = s.path.empty() ? r.frames : int(s.path.size()) + 1;
   const auto& caps = s.ctx->caps();
   if (backends.empty()) {
     backends.push_back(render::RasterBackend::Indirect);
@@ -177,15 +230,17 @@ void runLodBench(const LodRenderRequest& r) {
   for (render::RasterBackend b : backends) {
     s.settings.raster = b;
     Timed t;
-    if (!renderFrames(s, r.frames, t)) return;
+    if (!renderFrames(s, frames, t)) return;
     if (r.json) {
       nlohmann::json j = statsJson(t.last.stats);
       for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+      j["gpu_ms_max_frame"] = t.maxFrameMs;
       all.push_back(j);
       continue;
     }
     fmt::print("-- {}\n", render::toString(b));
     printStats(t.last.stats, t.times, true);
+    if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
   }
   if (r.json) {
     nlohmann::json j = {{"bench", "render_lod"},

@@ -10,6 +10,7 @@ struct LodRenderRequest {
   std::string output; // .png (render only)
   std::string exr;    // optional linear image (render only)
   std::string camera; // empty: auto 3/4 view
+  std::string path;   // camera path: cameras.json or orbit:N (render: one image per camera)
   std::string size = "1920x1080";
   std::string device;
   std::string raster = "auto"; // auto | mesh | indirect | compute; bench: "all" = every supported one

@@ -5,8 +5,11 @@
 #include <cmath>
 #include <string>
 
+#include <fstream>
+
 #include <fmt/format.h>
 #include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
 
 namespace mirage::render {
 
@@ -123,6 +126,100 @@ Camera withClipPlanes(Camera c, const Bounds& bounds) {
   if (c.znear <= 0.0f) c.znear = znear;
   if (c.zfar <= c.znear) c.zfar = std::max(zfar, c.znear * 2.0f);
   return c;
+}
+
+namespace {
+
+Result<glm::vec3> jsonVec3(const nlohmann::json& j, const char* key) {
+  const auto& v = j.at(key);
+  if (!v.is_array() || v.size() != 3) return Error{fmt::format("'{}' must be an array of three numbers", key)};
+  glm::vec3 out{0.0f};
+  for (int i = 0; i < 3; ++i) {
+    if (!v[i].is_number()) return Error{fmt::format("'{}' must be an array of three numbers", key)};
+    out[i] = v[i].get<float>();
+    if (!std::isfinite(out[i])) return Error{fmt::format("'{}' is not finite", key)};
+  }
+  return out;
+}
+
+// One path entry: the same checks as --camera, so both spellings reject the same mistakes.
+Result<Camera> cameraFromJson(const nlohmann::json& j) {
+  if (j.is_string()) return parseCamera(j.get<std::string>());
+  if (!j.is_object()) return Error{"expected a camera string or object"};
+  for (const char* key : {"eye", "target"})
+    if (!j.contains(key)) return Error{fmt::format("'{}' is required", key)};
+  std::string text;
+  for (const char* key : {"eye", "target", "up"}) {
+    if (!j.contains(key)) continue;
+    auto v = jsonVec3(j, key);
+    if (!v) return v.error();
+    text += fmt::format("{}{}={},{},{}", text.empty() ? "" : ",", key, v->x, v->y, v->z);
+  }
+  if (j.contains("fov")) {
+    if (!j["fov"].is_number()) return Error{"'fov' must be a number of degrees"};
+    text += fmt::format(",fov={}", j["fov"].get<float>());
+  }
+  auto c = parseCamera(text);
+  if (!c) return c;
+  for (const char* key : {"znear", "zfar"}) {
+    if (!j.contains(key)) continue;
+    if (!j[key].is_number() || !(j[key].get<float>() > 0.0f)) return Error{fmt::format("'{}' must be positive", key)};
+  }
+  c->znear = j.value("znear", 0.0f);
+  c->zfar = j.value("zfar", 0.0f);
+  if (c->znear > 0.0f && c->zfar > 0.0f && c->zfar <= c->znear) return Error{"'zfar' must exceed 'znear'"};
+  return c;
+}
+
+} // namespace
+
+Result<std::vector<Camera>> loadCameraPath(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) return Error{fmt::format("{}: cannot open camera path", path.string())};
+  nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) return Error{fmt::format("{}: not valid JSON", path.string())};
+  if (j.is_object() && j.contains("cameras")) j = j["cameras"];
+  if (!j.is_array() || j.empty())
+    return Error{fmt::format("{}: expected a non-empty array of cameras (or {{\"cameras\": [...]}})", path.string())};
+  std::vector<Camera> cameras;
+  for (size_t i = 0; i < j.size(); ++i) {
+    Result<Camera> c = Error{""};
+    try {
+      c = cameraFromJson(j[i]);
+    } catch (const nlohmann::json::exception&) {
+      c = Error{"malformed camera"};
+    }
+    if (!c) return Error{fmt::format("{}: camera {}: {}", path.string(), i, c.error().message)};
+    cameras.push_back(*c);
+  }
+  return cameras;
+}
+
+std::vector<Camera> orbitPath(const Bounds& bounds, float aspect, uint32_t count) {
+  Camera start = autoCamera(bounds, aspect);
+  glm::vec3 offset = start.eye - start.target;
+  float radius = glm::length(glm::vec2(offset.x, offset.z));
+  float angle0 = std::atan2(offset.z, offset.x);
+  std::vector<Camera> out;
+  for (uint32_t i = 0; i < count; ++i) {
+    Camera c = start;
+    float a = angle0 + 2.0f * 3.14159265f * float(i) / float(std::max(count, 1u));
+    c.eye = start.target + glm::vec3(radius * std::cos(a), offset.y, radius * std::sin(a));
+    out.push_back(c);
+  }
+  return out;
+}
+
+Result<std::vector<Camera>> cameraPathArgument(const std::string& argument, const Bounds& bounds, float aspect) {
+  if (argument.starts_with("orbit:")) {
+    uint32_t n = 0;
+    std::string_view digits = std::string_view(argument).substr(6);
+    auto r = std::from_chars(digits.data(), digits.data() + digits.size(), n);
+    if (r.ec != std::errc() || r.ptr != digits.data() + digits.size() || n < 1 || n > 100000)
+      return Error{fmt::format("--path '{}': orbit:N needs N in 1..100000", argument)};
+    return orbitPath(bounds, aspect, n);
+  }
+  return loadCameraPath(argument);
 }
 
 } // namespace mirage::render

@@ -81,6 +81,13 @@ if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   printf '\xff' | dd of="$tmp/flipped.mrg" bs=1 seek=300 conv=notrunc 2>/dev/null
   expect_fail verify-flipped "flipped.mrg" "" -- verify "$tmp/flipped.mrg"
   expect_fail verify-not-mrg "blob.glb" "" -- verify "$tmp/blob.glb"
+  # Camera paths: one image per camera; a bad path file is one line naming it, nothing written.
+  if expect_ok render-path render "$tmp/blob.mrg" -o "$tmp/frame.png" --size 48x32 --path orbit:3; then
+    [ "$(ls "$tmp" | grep -c '^frame_000[0-2].png$')" -eq 3 ] || { echo "FAIL render-path: expected 3 frames"; failures=$((failures + 1)); }
+  fi
+  printf '[{"eye": [1, 2], "target": [0, 0, 0]}]' >"$tmp/cams.json"
+  expect_fail render-bad-path "cams.json: camera 0" "$tmp/bad_0000.png" -- render "$tmp/blob.mrg" -o "$tmp/bad.png" --size 48x32 --path "$tmp/cams.json"
+  expect_fail render-path-not-json "blob.glb: not valid JSON" "$tmp/bad_0000.png" -- render "$tmp/blob.mrg" -o "$tmp/bad.png" --size 48x32 --path "$tmp/blob.glb"
 fi
 expect_fail build-missing "missing.ply" "$tmp/m.mrg" -- build "$tmp/missing.ply" -o "$tmp/m.mrg"
 expect_fail build-bad-ext "out.glb" "$tmp/out.glb" -- build "$tmp/range.obj" -o "$tmp/out.glb"

@@ -1,5 +1,8 @@
 // Forward renderer properties on hand-made scenes: what is drawn where, culling and winding,
 // reverse-Z depth, alpha MASK/BLEND, auto-framing, timings. Validation must stay silent.
+#include <filesystem>
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -228,4 +231,47 @@ TEST(Camera, ParsesAndRejects) {
   EXPECT_FALSE(parseCamera("eye=1,2,3,target=0,0,0,fov=500").ok());
   EXPECT_FALSE(parseCamera("eye=1,2,3,target=0,0,0,zoom=2").ok());
   EXPECT_FALSE(parseCamera("eye=nan,2,3,target=0,0,0").ok());
+}
+
+TEST(Camera, PathFromJsonAndOrbit) {
+  auto dir = std::filesystem::temp_directory_path() / "mirage_camera_path_test";
+  std::filesystem::create_directories(dir);
+  auto write = [&](const char* name, const char* text) {
+    std::ofstream(dir / name) << text;
+    return dir / name;
+  };
+  auto good = loadCameraPath(write("good.json", R"({"cameras": ["eye=0,0,5,target=0,0,0",
+      {"eye": [1, 2, 3], "target": [0, 0.5, 0], "fov": 45, "znear": 0.1, "zfar": 50}]})"));
+  ASSERT_TRUE(good.ok()) << good.error().message;
+  ASSERT_EQ(good->size(), 2u);
+  EXPECT_FLOAT_EQ((*good)[1].eye.z, 3.0f);
+  EXPECT_FLOAT_EQ((*good)[1].fovYDegrees, 45.0f);
+  EXPECT_FLOAT_EQ((*good)[1].zfar, 50.0f);
+  for (const char* bad : {"[]", "{}", "[{\"eye\": [1, 2, 3]}]", "[{\"eye\": [1, 2, 3], \"target\": [1, 2, 3]}]",
+                          "[{\"eye\": [1, 2, 3], \"target\": [0, 0, 0], \"fov\": \"wide\"}]",
+                          "[{\"eye\": [1, 2, 3], \"target\": [0, 0, 0], \"znear\": 2, \"zfar\": 1}]", "[3]", "[1,"}) {
+    auto r = loadCameraPath(write("bad.json", bad));
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.error().message.find("bad.json"), std::string::npos) << r.error().message;
+  }
+  EXPECT_FALSE(loadCameraPath(dir / "missing.json").ok());
+
+  Bounds b;
+  b.add({-1, 0, -2});
+  b.add({1, 1, 2});
+  auto orbit = orbitPath(b, 1.5f, 8);
+  ASSERT_EQ(orbit.size(), 8u);
+  Camera first = autoCamera(b, 1.5f);
+  EXPECT_NEAR(glm::length(orbit[0].eye - first.eye), 0.0f, 1e-4f);
+  glm::vec3 sum{0.0f};
+  for (const Camera& c : orbit) {
+    EXPECT_NEAR(glm::length(c.eye - c.target), glm::length(first.eye - first.target), 1e-3f);
+    sum += c.eye - c.target;
+  }
+  EXPECT_NEAR(sum.x, 0.0f, 1e-3f); // a full turn: horizontal offsets cancel
+  EXPECT_NEAR(sum.z, 0.0f, 1e-3f);
+  EXPECT_FALSE(cameraPathArgument("orbit:0", b, 1.5f).ok());
+  EXPECT_FALSE(cameraPathArgument("orbit:x", b, 1.5f).ok());
+  EXPECT_EQ(cameraPathArgument("orbit:3", b, 1.5f)->size(), 3u);
+  std::filesystem::remove_all(dir);
 }

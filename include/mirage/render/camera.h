@@ -1,6 +1,8 @@
 #pragma once
 // Cameras: explicit eye/target/fov, or an automatic 3/4 view that frames the scene bounds.
+#include <filesystem>
 #include <string_view>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -31,5 +33,17 @@ Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees = 60.0f)
 
 // Fill znear/zfar when zero, from the bounds seen by this camera (near plane never behind the eye).
 Camera withClipPlanes(Camera camera, const Bounds& bounds);
+
+// A camera path for `--path`: a JSON file holding an array of cameras (or {"cameras": [...]}), each
+// either a --camera string or an object {"eye": [x,y,z], "target": [x,y,z], "up": [...], "fov": deg,
+// "znear": n, "zfar": f}. Errors name the file and the camera's index.
+Result<std::vector<Camera>> loadCameraPath(const std::filesystem::path& path);
+
+// `count` cameras on a horizontal circle around the bounds' centre at autoCamera's distance and
+// elevation, one full turn: a deterministic path for benchmarks and temporal tests.
+std::vector<Camera> orbitPath(const Bounds& bounds, float aspect, uint32_t count);
+
+// "orbit:N" -> orbitPath, anything else a JSON file (loadCameraPath).
+Result<std::vector<Camera>> cameraPathArgument(const std::string& argument, const Bounds& bounds, float aspect);
 
 } // namespace mirage::render
