@@ -40,6 +40,7 @@ struct BenchRenderOptions {
   uint32_t grid = 1;          // .mrg only: the scene repeated on a grid x grid layout
   std::string raster = "all"; // .mrg only: every backend the device has
   std::string path;           // .mrg only: camera path, each camera timed once
+  bool baselines = false;     // .mrg only: brute force + discrete LOD chain in the same run
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
@@ -53,7 +54,8 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .grid = o.grid,
                        .frames = o.frames,
                        .stats = true,
-                       .json = o.json};
+                       .json = o.json,
+                       .baselines = o.baselines};
     return runLodBench(r);
   }
   uint32_t width = 0, height = 0;
@@ -317,6 +319,8 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
   r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute")->capture_default_str();
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
+  r->add_flag("--baselines", o->baselines,
+              ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");
   r->add_option("--grid", o->grid, ".mrg: repeat the scene on an N x N grid (e.g. 50 -> 2500 instances)")
       ->capture_default_str();
   r->callback([o] { runBenchRender(*o); });

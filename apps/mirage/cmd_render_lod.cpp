@@ -1,13 +1,16 @@
 // mirage render / bench render on .mrg assets through the cluster-LOD renderer.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "lod_baselines.h"
 #include "lod_render.h"
 #include "mirage/io/image_io.h"
 #include "mirage/lod/lod_asset.h"
@@ -223,6 +226,7 @@ void runLodBench(const LodRenderRequest& r) {
     if (caps.int64BufferAtomics) backends.push_back(render::RasterBackend::Compute);
   }
   nlohmann::json all = nlohmann::json::array();
+  double bestLodMs = INFINITY;
   if (!r.json)
     fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, tau {} px, {} timed frames\n",
                r.input, caps.name, sourceTriangles(s.asset), s.asset.scene.instances.size(), s.settings.base.width,
@@ -231,6 +235,7 @@ void runLodBench(const LodRenderRequest& r) {
     s.settings.raster = b;
     Timed t;
     if (!renderFrames(s, frames, t)) return;
+    bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
     if (r.json) {
       nlohmann::json j = statsJson(t.last.stats);
       for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
@@ -242,8 +247,31 @@ void runLodBench(const LodRenderRequest& r) {
     printStats(t.last.stats, t.times, true);
     if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
   }
+  nlohmann::json baselines = nlohmann::json::array();
+  if (r.baselines) {
+    // Brute force at full resolution can take seconds per frame on big grids: few frames.
+    auto b = renderLodBaselines(*s.ctx, s.asset, s.settings.base, r.tau, std::min(frames, 3));
+    if (!b) return fail(b.error());
+    for (const BaselineResult& x : *b) {
+      if (r.json) {
+        baselines.push_back({{"name", x.name},
+                             {"gpu_ms_frame", x.frameMs},
+                             {"triangles", x.triangles},
+                             {"chain_levels", x.chainLevels},
+                             {"instances_per_level", x.usage},
+                             {"slower_than_cluster_lod", x.frameMs / bestLodMs}});
+        continue;
+      }
+      fmt::print("-- {} (forward renderer{})\n", x.name, s.path.empty() ? "" : ", first camera of the path");
+      fmt::print("gpu frame {:9.3f} ms  triangles {}  = {:.1f}x the best cluster-LOD frame\n", x.frameMs, x.triangles,
+                 x.frameMs / bestLodMs);
+      if (x.chainLevels)
+        fmt::print("chain {} levels, instances per level {}\n", x.chainLevels, fmt::join(x.usage, " "));
+    }
+  }
   if (r.json) {
     nlohmann::json j = {{"bench", "render_lod"},
+                        {"baselines", baselines},
                         {"input", r.input},
                         {"device", caps.name},
                         {"tau_pixels", r.tau},

@@ -19,6 +19,7 @@ struct LodRenderRequest {
   int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
   bool stats = false;
   bool json = false;
+  bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
 };
 
 bool isLodAssetPath(const std::string& input);

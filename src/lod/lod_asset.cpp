@@ -132,4 +132,25 @@ Mesh levelZeroMesh(const ClusterDag& dag) {
   return m;
 }
 
+Mesh cutMesh(const ClusterDag& dag, const std::vector<uint32_t>& clusters) {
+  Mesh m;
+  m.name = "cut";
+  std::vector<uint32_t> remap(dag.vertexPosition.size(), UINT32_MAX);
+  for (uint32_t id : clusters) {
+    const Cluster& c = dag.clusters[id];
+    for (uint32_t t = 0; t < uint32_t(c.triangleCount) * 3; ++t) {
+      uint32_t v = dag.clusterVertices[c.vertexOffset + dag.clusterIndices[size_t(c.triangleOffset) * 3 + t]];
+      if (remap[v] == UINT32_MAX) {
+        remap[v] = uint32_t(m.positions.size());
+        m.positions.push_back(dag.positions[dag.vertexPosition[v]]);
+        if (!dag.normals.empty()) m.normals.push_back(dag.normals[v]);
+        if (!dag.uv0.empty()) m.uv0.push_back(dag.uv0[v]);
+      }
+      m.indices.push_back(remap[v]);
+    }
+  }
+  for (const glm::vec3& p : m.positions) m.bounds.add(p);
+  return m;
+}
+
 } // namespace mirage::lod

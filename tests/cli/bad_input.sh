@@ -81,6 +81,10 @@ if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   printf '\xff' | dd of="$tmp/flipped.mrg" bs=1 seek=300 conv=notrunc 2>/dev/null
   expect_fail verify-flipped "flipped.mrg" "" -- verify "$tmp/flipped.mrg"
   expect_fail verify-not-mrg "blob.glb" "" -- verify "$tmp/blob.glb"
+  # The seed's baselines beside the cluster-LOD renderer, in one run.
+  if expect_ok bench-baselines bench render "$tmp/blob.mrg" --size 48x32 --frames 2 --raster indirect --baselines --grid 2; then
+    grep -q "discrete-lod" "$tmp/stdout" && grep -q "brute-force" "$tmp/stdout" || { echo "FAIL bench-baselines: missing rows"; failures=$((failures + 1)); }
+  fi
   # Camera paths: one image per camera; a bad path file is one line naming it, nothing written.
   if expect_ok render-path render "$tmp/blob.mrg" -o "$tmp/frame.png" --size 48x32 --path orbit:3; then
     [ "$(ls "$tmp" | grep -c '^frame_000[0-2].png$')" -eq 3 ] || { echo "FAIL render-path: expected 3 frames"; failures=$((failures + 1)); }

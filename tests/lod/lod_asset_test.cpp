@@ -2,6 +2,7 @@
 // 100 random cuts per mesh watertight and overlap-free on the stored (quantized) geometry.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "mirage/io/import.h"
@@ -33,8 +34,20 @@ void bakeSaveLoadAndCut(const std::filesystem::path& input, int cutsPerMesh) {
     for (const lod::Group& g : dag.groups) maxError = std::max(maxError, g.bounds.error);
     for (int c = 0; c < cutsPerMesh; ++c) {
       float tau = maxError * 1.05f * std::pow(1e-4f, std::uniform_real_distribution<float>(0.0f, 1.0f)(rng));
-      Status s = lod::verifyCut(dag, lod::selectCut(dag, tau), reference);
+      std::vector<uint32_t> cut = lod::selectCut(dag, tau);
+      Status s = lod::verifyCut(dag, cut, reference);
       ASSERT_TRUE(s.ok()) << input << " mesh " << i << " tau " << tau << ": " << s.error().message;
+      if (c % 25 == 0) {
+        // The cut as a plain mesh (the discrete-LOD baseline): the same triangles, compact vertices.
+        Mesh m = lod::cutMesh(dag, cut);
+        size_t triangles = 0;
+        for (uint32_t id : cut) triangles += dag.clusters[id].triangleCount;
+        EXPECT_EQ(m.triangleCount(), triangles);
+        EXPECT_LE(m.vertexCount(), dag.vertexPosition.size());
+        EXPECT_EQ(m.normals.size(), dag.normals.empty() ? 0 : m.vertexCount());
+        EXPECT_EQ(m.uv0.size(), dag.uv0.empty() ? 0 : m.vertexCount());
+        EXPECT_TRUE(std::all_of(m.indices.begin(), m.indices.end(), [&](uint32_t v) { return v < m.vertexCount(); }));
+      }
     }
     // Root is small: a few clusters or under 1% of the input.
     EXPECT_TRUE(dag.roots.size() <= 8 || dag.rootTriangles() * 100 < dag.inputTriangles) << "mesh " << i;

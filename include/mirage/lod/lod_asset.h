@@ -34,4 +34,9 @@ Result<LodAsset> loadLodAsset(const std::string& path);
 // for cut checks on a loaded asset.
 Mesh levelZeroMesh(const ClusterDag& dag);
 
+// The clusters' triangles as an ordinary indexed mesh with normals and UVs, holding only the
+// vertices they use: a fixed LOD (e.g. the cut selectCut gives for one object-space error), for
+// renderers without cluster LOD such as the discrete-LOD baseline of `mirage bench render`.
+Mesh cutMesh(const ClusterDag& dag, const std::vector<uint32_t>& clusters);
+
 } // namespace mirage::lod

@@ -1,0 +1,119 @@
+#include "lod_baselines.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "mirage/lod/verify.h"
+#include "render_common.h"
+
+namespace mirage::cli {
+
+namespace {
+
+// A discrete LOD chain of one DAG: the cuts at object-space errors 0, e, 2e, 4e, ... (e the
+// smallest non-zero error) up to the root, so level k's error is at most threshold[k]. Cuts with
+// the triangle count of the previous level are skipped.
+struct Chain {
+  std::vector<float> thresholds;
+  std::vector<Mesh> meshes;
+};
+
+Chain buildChain(const lod::ClusterDag& dag) {
+  float smallest = INFINITY, largest = 0.0f;
+  for (const lod::Cluster& c : dag.clusters)
+    if (c.self.error > 0.0f && std::isfinite(c.self.error)) {
+      smallest = std::min(smallest, c.self.error);
+      largest = std::max(largest, c.self.error);
+    }
+  Chain chain;
+  size_t previousTriangles = SIZE_MAX;
+  auto add = [&](float threshold) {
+    Mesh m = lod::cutMesh(dag, lod::selectCut(dag, threshold));
+    if (m.triangleCount() == previousTriangles) {
+      chain.thresholds.back() = threshold; // same mesh, valid up to the larger error
+      return;
+    }
+    previousTriangles = m.triangleCount();
+    chain.thresholds.push_back(threshold);
+    chain.meshes.push_back(std::move(m));
+  };
+  add(0.0f);
+  if (std::isfinite(smallest))
+    for (float t = smallest; t < largest * 2.0f; t *= 2.0f) add(std::min(t, largest));
+  return chain;
+}
+
+float maxAxisScale(const glm::mat4& m) {
+  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
+}
+
+Result<BaselineResult> timeScene(gpu::Context& context, const Scene& scene, const render::RenderSettings& settings,
+                                 int frames, const char* name) {
+  auto renderer = render::ForwardRenderer::create(context, scene);
+  if (!renderer) return renderer.error();
+  std::vector<std::vector<gpu::PassTime>> times;
+  BaselineResult r;
+  r.name = name;
+  for (int i = 0; i < frames; ++i) {
+    auto out = (*renderer)->render(settings);
+    if (!out) return out.error();
+    if (i > 0 || frames == 1) times.push_back(out->stats.passTimes);
+    r.triangles = out->stats.trianglesSubmitted;
+  }
+  for (const auto& t : medianPassTimes(times))
+    if (t.name == "frame") r.frameMs = t.milliseconds;
+  return r;
+}
+
+} // namespace
+
+Result<std::vector<BaselineResult>> renderLodBaselines(gpu::Context& context, const lod::LodAsset& asset,
+                                                       const render::RenderSettings& settings, float tau, int frames) {
+  std::vector<Chain> chains;
+  for (const lod::ClusterDag& dag : asset.dags) chains.push_back(buildChain(dag));
+
+  // Both scenes share the chain meshes: brute force uses level 0 of each, the discrete LOD scene
+  // picks a level per instance.
+  Scene scene = asset.scene;
+  scene.meshes.clear();
+  std::vector<uint32_t> firstMesh;
+  for (size_t m = 0; m < chains.size(); ++m) {
+    firstMesh.push_back(uint32_t(scene.meshes.size()));
+    for (Mesh mesh : chains[m].meshes) {
+      mesh.material = asset.scene.meshes[m].material;
+      mesh.name = asset.scene.meshes[m].name;
+      scene.meshes.push_back(std::move(mesh));
+    }
+  }
+  render::Camera camera = render::withClipPlanes(settings.camera, asset.scene.worldBounds());
+  float pixelsPerSlope = 0.5f * float(settings.height) / std::tan(glm::radians(camera.fovYDegrees) * 0.5f);
+
+  Scene brute = scene, discrete = scene;
+  BaselineResult usage;
+  usage.chainLevels = chains.empty() ? 0 : uint32_t(chains[0].meshes.size());
+  usage.usage.assign(usage.chainLevels, 0);
+  for (size_t i = 0; i < asset.scene.instances.size(); ++i) {
+    const Instance& inst = asset.scene.instances[i];
+    brute.instances[i].mesh = firstMesh[inst.mesh];
+    const Chain& chain = chains[inst.mesh];
+    const Bounds& b = asset.scene.meshes[inst.mesh].bounds;
+    float s = maxAxisScale(inst.transform);
+    glm::vec3 centre = glm::vec3(inst.transform * glm::vec4(b.center(), 1.0f));
+    float nearest = std::max(glm::length(camera.eye - centre) - b.radius() * s, camera.znear);
+    uint32_t level = 0;
+    for (uint32_t k = 1; k < chain.meshes.size(); ++k)
+      if (chain.thresholds[k] * s / nearest * pixelsPerSlope <= tau) level = k;
+    discrete.instances[i].mesh = firstMesh[inst.mesh] + level;
+    if (inst.mesh == 0) ++usage.usage[level];
+  }
+  std::vector<BaselineResult> out;
+  for (auto [s, name] : {std::pair{&brute, "brute-force"}, std::pair{&discrete, "discrete-lod"}}) {
+    auto r = timeScene(context, *s, settings, frames, name);
+    if (!r) return r.error();
+    if (s == &discrete) r->chainLevels = usage.chainLevels, r->usage = usage.usage;
+    out.push_back(std::move(*r));
+  }
+  return out;
+}
+
+} // namespace mirage::cli
