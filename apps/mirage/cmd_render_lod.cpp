@@ -230,7 +230,7 @@ void runLodBench(const LodRenderRequest& r) {
   if (!r.json)
     fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, tau {} px, {} timed frames\n",
                r.input, caps.name, sourceTriangles(s.asset), s.asset.scene.instances.size(), s.settings.base.width,
-               s.settings.base.height, r.tau, r.frames - 1);
+               s.settings.base.height, r.tau, frames - 1);
   for (render::RasterBackend b : backends) {
     s.settings.raster = b;
     Timed t;
