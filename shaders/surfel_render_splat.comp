@@ -34,10 +34,17 @@ void main() {
   uint height = uint(f.viewport.y);
   uint start = (batch - s.firstBatch) * MIRAGE_SURFEL_BATCH + gl_LocalInvocationIndex;
 
+  // All loads first, so each thread has MIRAGE_SURFEL_PER_THREAD requests in flight before the
+  // first atomic (bandwidth needs memory-level parallelism; atomics would otherwise serialize them).
+  uvec2 q[MIRAGE_SURFEL_PER_THREAD];
+  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
+    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
+    q[j] = i < s.count ? positions.v[firstSurfel + i] : uvec2(0u);
+  }
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     if (i >= s.count) break;
-    vec4 clip = s.clipFromQuantized * vec4(surfelQuantized(positions.v[firstSurfel + i]), 1.0);
+    vec4 clip = s.clipFromQuantized * vec4(surfelQuantized(q[j]), 1.0);
     // Behind the eye, nearer than the near plane (reverse-Z: z > w) or beyond the far plane (z < 0).
     if (clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) continue;
     vec2 p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;

@@ -197,7 +197,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
     fmt::print("-- {}: instances visible {}, surfels splatted {}\n", render::toString(raster), t.last.visibleInstances,
                t.last.surfelsSplatted);
     for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
-    fmt::print("splat {:.3f} G surfels/s, {:.3f} GB/s of surfel positions read = {:.1f}% of {:.3g} B/s\n",
+    fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
                perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
   }
   if (r.json) {
