@@ -19,6 +19,7 @@
 #include "mirage/io/image_io.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/render/surfel_renderer.h"
+#include "mirage/shaderio/surfel_render.h"
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/reference.h"
 #include "test_support.h"
@@ -283,6 +284,44 @@ TEST_F(SurfelRender, MeshFadeSwitchesAtTheDocumentedDistance) {
       EXPECT_GT(covered, 0u);
     }
   }
+}
+
+TEST_F(SurfelRender, InstancesResolveToTheirOwnSurfels) {
+  // Three copies side by side (each several 1024-surfel batches): every covered pixel of the joint
+  // render must equal the render of its copy alone, so batches, ids and the resolve's instance
+  // search map every surfel back to the right instance.
+  std::vector<glm::mat4> transforms;
+  for (int i = -1; i <= 1; ++i)
+    transforms.push_back(glm::translate(glm::mat4(1.0f), glm::vec3(2.6f * float(i), 0.0f, 0.0f)));
+  Camera cam;
+  cam.eye = {0.0f, 1.0f, 9.0f};
+  cam.target = {0.0f, 0.0f, 0.0f};
+  cam.znear = 0.1f;
+  cam.zfar = 100.0f;
+  SurfelRenderSettings s;
+  s.base = baseSettings(cam);
+  s.raster = computeOrRaster();
+  s.readInstanceStates = true;
+  auto all = SurfelRenderer::create(context(), surfelScene(transforms));
+  ASSERT_TRUE(all.ok());
+  SurfelRenderOutput joint = (*all)->render(s).value();
+  size_t compared = 0, differing = 0;
+  for (size_t i = 0; i < transforms.size(); ++i) {
+    EXPECT_GT(joint.prefix[i], 2u * MIRAGE_SURFEL_BATCH);
+    auto one = SurfelRenderer::create(context(), surfelScene({transforms[i]}));
+    ASSERT_TRUE(one.ok());
+    SurfelRenderOutput alone = (*one)->render(s).value();
+    EXPECT_EQ(alone.prefix[0], joint.prefix[i]);
+    for (size_t p = 0; p < size_t(kSize) * kSize; ++p) {
+      if (isBackground(alone.image.srgb, p)) continue;
+      ++compared;
+      differing += !std::equal(&alone.image.srgb.pixels[p * 4], &alone.image.srgb.pixels[p * 4 + 4],
+                               &joint.image.srgb.pixels[p * 4]);
+    }
+  }
+  std::printf("compared %zu pixels, %zu differ\n", compared, differing);
+  EXPECT_GT(compared, 3000u);
+  EXPECT_EQ(differing, 0u);
 }
 
 TEST_F(SurfelRender, RejectsBadSettings) {
