@@ -56,10 +56,12 @@ Result<surfels::SurfelCloud> loadCloud(const std::string& path, Material& materi
 }
 
 // `copies` of the cloud on a square grid on the ground plane, spaced by 1.25x its largest
-// horizontal extent (how the benchmark reaches 100M+ surfels from one sampled cloud).
-render::SurfelScene gridScene(const SurfelSession& s, uint32_t copies) {
+// horizontal extent (how the benchmark reaches 100M+ surfels from one sampled cloud). Each copy gets
+// its own copy of the data unless `shared`: one small cloud read by every instance stays in the L2
+// cache, which would measure cache, not memory, bandwidth.
+render::SurfelScene gridScene(const SurfelSession& s, uint32_t copies, bool shared) {
   render::SurfelScene scene;
-  scene.clouds.push_back({&s.cloud, s.material});
+  for (uint32_t i = 0; i < (shared ? 1u : copies); ++i) scene.clouds.push_back({&s.cloud, s.material});
   uint32_t side = uint32_t(std::ceil(std::sqrt(double(copies))));
   glm::vec3 e = s.cloud.box.extent();
   float spacing = 1.25f * std::max(e.x, e.z);
@@ -68,7 +70,7 @@ render::SurfelScene gridScene(const SurfelSession& s, uint32_t copies) {
                      (float(i / side) - 0.5f * float(side - 1)) * spacing};
     glm::mat4 t(1.0f);
     t[3] = glm::vec4(offset, 1.0f);
-    scene.instances.push_back({0, t});
+    scene.instances.push_back({shared ? 0u : i, t});
   }
   return scene;
 }
@@ -90,10 +92,14 @@ bool open(const SurfelRenderRequest& r, bool needOutput, SurfelSession& s) {
   auto cloud = loadCloud(r.input, s.material);
   if (!cloud) return fail(cloud.error()), false;
   s.cloud = std::move(*cloud);
+  if (!r.sharedCopies && uint64_t(r.copies) * s.cloud.size() > 0xfffffffeull)
+    return fail(fmt::format("--copies {} x {} surfels exceeds 2^32 - 2 stored surfels (use --shared-copies)", r.copies,
+                            s.cloud.size())),
+           false;
   auto ctx = openDevice(r.device);
   if (!ctx) return fail(ctx.error()), false;
   s.ctx = std::move(*ctx);
-  auto renderer = render::SurfelRenderer::create(*s.ctx, gridScene(s, r.copies));
+  auto renderer = render::SurfelRenderer::create(*s.ctx, gridScene(s, r.copies, r.sharedCopies));
   if (!renderer) return fail(renderer.error()), false;
   s.renderer = std::move(*renderer);
   s.settings.base.width = width;
@@ -169,7 +175,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
     rasters.push_back(render::SurfelRaster::Raster);
   }
   if (!r.json)
-    fmt::print("bench surfels {} on {}: {} surfels x {} copies ({} instanced) at {}x{}, surfel size {} px, {}; "
+    fmt::print("bench surfels {} on {}: {} surfels stored, {} copies ({} instanced) at {}x{}, surfel size {} px, {}; "
                "{} timed frames; bandwidth {:.3g} B/s\n",
                r.input, caps.name, s.renderer->surfelCount(), r.copies, s.renderer->instancedCount(),
                s.settings.base.width, s.settings.base.height, r.surfelSize,
@@ -206,6 +212,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
                         {"device", caps.name},
                         {"surfels", s.renderer->surfelCount()},
                         {"copies", r.copies},
+                        {"shared_copies", r.sharedCopies},
                         {"instanced_surfels", s.renderer->instancedCount()},
                         {"surfel_size", r.surfelSize},
                         {"all_surfels", r.allSurfels},
@@ -229,6 +236,8 @@ void addBenchSurfelsCommand(CLI::App& bench) {
   b->add_option("--copies", o->copies, "Instances of the cloud on a square grid")->capture_default_str();
   b->add_option("--surfel-size", o->surfelSize, "Surfel diameter in pixels")->capture_default_str();
   b->add_option("--surfel-raster", o->raster, "all|compute|raster")->capture_default_str();
+  b->add_flag("--shared-copies", o->sharedCopies,
+              "All copies read one stored cloud (cache-resident; default: one each)");
   b->add_flag("--all", o->allSurfels, "Splat every surfel of every instance (no prefix): raw throughput");
   b->add_option("--bandwidth", o->bandwidth, "Device memory bandwidth in B/s (H200 HBM3e: 4.8e12)")
       ->capture_default_str();

@@ -14,6 +14,7 @@ struct SurfelRenderRequest {
   std::string raster = "auto"; // auto | compute | raster; bench: "all"
   float surfelSize = 2.0f;     // s, pixels
   uint32_t copies = 1;         // instances of the cloud on a grid
+  bool sharedCopies = false;   // bench: copies read one stored cloud (else each its own copy of the data)
   bool allSurfels = false;     // bench: splat all N per instance
   double bandwidth = 4.8e12;   // bench: device bandwidth in B/s for the reported fraction
   int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
