@@ -308,6 +308,7 @@ void runBenchPvs(const BenchPvsOptions& o) {
 void addBenchCommand(CLI::App& app) {
   auto* bench = app.add_subcommand("bench", "Performance measurements (GPU times from timestamp queries)");
   bench->require_subcommand(1);
+  addBenchSurfelsCommand(*bench);
   auto* r = bench->add_subcommand("render",
                                   "Median per-pass GPU time over N frames (forward; .mrg: cluster LOD per backend)");
   auto o = std::make_shared<BenchRenderOptions>();

@@ -11,6 +11,7 @@
 #include "mirage/io/image_io.h"
 #include "mirage/render/forward_renderer.h"
 #include "render_common.h"
+#include "surfel_render.h"
 
 namespace mirage::cli {
 
@@ -30,9 +31,29 @@ struct RenderOptions {
   std::string raster = "auto"; // .mrg only
   std::string pvs;             // forward path: draw only the PVS of the camera's view cell
   std::string path;            // .mrg only: camera path (cameras.json or orbit:N), one image per camera
+  bool surfels = false;        // draw the file's SURF chunk (or surfel PLY) with the surfel renderer
+  float surfelSize = 2.0f;
+  std::string surfelRaster = "auto";
 };
 
 void runRender(const RenderOptions& o) {
+  if (o.surfels) {
+    if (!o.pvs.empty() || !o.exr.empty() || !o.path.empty())
+      return fail("--pvs, --exr and --path do not apply to --surfels");
+    SurfelRenderRequest r;
+    r.input = o.input;
+    r.output = o.output;
+    r.camera = o.camera;
+    r.size = o.size;
+    r.device = o.device;
+    r.raster = o.surfelRaster;
+    r.surfelSize = o.surfelSize;
+    r.frames = o.repeat;
+    r.stats = o.stats;
+    if (o.repeat < 1 || o.repeat > 10000) return fail("--repeat must be in 1..10000");
+    return runSurfelRender(r);
+  }
+  if (o.surfelSize != 2.0f || o.surfelRaster != "auto") return fail("--surfel-size and --surfel-raster need --surfels");
   if (isLodAssetPath(o.input) && !o.pvs.empty()) return fail("--pvs applies to scene files (forward renderer) for now");
   if (isLodAssetPath(o.input)) {
     LodRenderRequest r{.input = o.input,
@@ -165,6 +186,9 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute")->capture_default_str();
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
   cmd->add_option("--pvs", o->pvs, "Draw only the PVS (from mirage pvs) of the view cell holding the camera");
+  cmd->add_flag("--surfels", o->surfels, "Render the file's SURF chunk (.mrg from mirage surfels) or surfel .ply");
+  cmd->add_option("--surfel-size", o->surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str();
+  cmd->add_option("--surfel-raster", o->surfelRaster, "--surfels: auto|compute|raster")->capture_default_str();
   cmd->callback([o] { runRender(*o); });
 }
 

@@ -1,0 +1,250 @@
+// mirage render FILE --surfels and mirage bench surfels: the surfel renderer on a .mrg 'SURF' chunk
+// (from `mirage surfels INPUT -o FILE.mrg`) or a surfel PLY.
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cmd_list.h"
+#include "commands.h"
+#include "mirage/asset/container.h"
+#include "mirage/asset/scene_chunk.h"
+#include "mirage/io/image_io.h"
+#include "mirage/render/surfel_renderer.h"
+#include "mirage/surfels/surfel_io.h"
+#include "render_common.h"
+#include "surfel_render.h"
+
+namespace mirage::cli {
+
+namespace {
+
+struct SurfelSession {
+  surfels::SurfelCloud cloud;
+  Material material;
+  std::unique_ptr<gpu::Context> ctx;
+  std::unique_ptr<render::SurfelRenderer> renderer;
+  render::SurfelRenderSettings settings;
+};
+
+// The cloud of a .mrg (its 'SURF' chunk; the material of the scene's first mesh when the file also
+// holds a scene) or of a surfel PLY. Surfel-only files get a dielectric, moderately rough material.
+Result<surfels::SurfelCloud> loadCloud(const std::string& path, Material& material) {
+  material.metallicFactor = 0.0f;
+  material.roughnessFactor = 0.6f;
+  if (path.ends_with(".ply")) return surfels::readSurfelPly(path);
+  if (!path.ends_with(".mrg")) return makeError(path, "surfel input must be a .mrg with a SURF chunk or a surfel .ply");
+  auto reader = asset::AssetReader::open(path);
+  if (!reader) return reader.error();
+  if (!reader->find(asset::chunk::Surfels))
+    return makeError(path, "has no SURF chunk (write one with: mirage surfels INPUT -o FILE.mrg)");
+  auto bytes = reader->readChunk(asset::chunk::Surfels);
+  if (!bytes) return bytes.error();
+  auto cloud = surfels::decodeSurfelChunk(*bytes, path);
+  if (!cloud) return cloud.error();
+  if (cloud->size() == 0) return makeError(path, "SURF chunk holds no surfels");
+  if (reader->find(asset::chunk::Scene)) {
+    auto sceneBytes = reader->readChunk(asset::chunk::Scene);
+    if (!sceneBytes) return sceneBytes.error();
+    auto scene = asset::decodeScene(*sceneBytes, path);
+    if (!scene) return scene.error();
+    if (!scene->meshes.empty() && scene->meshes[0].material < scene->materials.size())
+      material = scene->materials[scene->meshes[0].material];
+  }
+  return cloud;
+}
+
+// `copies` of the cloud on a square grid on the ground plane, spaced by 1.25x its largest
+// horizontal extent (how the benchmark reaches 100M+ surfels from one sampled cloud). Each copy gets
+// its own copy of the data unless `shared`: one small cloud read by every instance stays in the L2
+// cache, which would measure cache, not memory, bandwidth.
+render::SurfelScene gridScene(const SurfelSession& s, uint32_t copies, bool shared) {
+  render::SurfelScene scene;
+  for (uint32_t i = 0; i < (shared ? 1u : copies); ++i) scene.clouds.push_back({&s.cloud, s.material});
+  uint32_t side = uint32_t(std::ceil(std::sqrt(double(copies))));
+  glm::vec3 e = s.cloud.box.extent();
+  float spacing = 1.25f * std::max(e.x, e.z);
+  for (uint32_t i = 0; i < copies; ++i) {
+    glm::vec3 offset{(float(i % side) - 0.5f * float(side - 1)) * spacing, 0.0f,
+                     (float(i / side) - 0.5f * float(side - 1)) * spacing};
+    glm::mat4 t(1.0f);
+    t[3] = glm::vec4(offset, 1.0f);
+    scene.instances.push_back({shared ? 0u : i, t});
+  }
+  return scene;
+}
+
+// Checks the arguments, loads the cloud, starts the GPU. Returns false after fail().
+bool open(const SurfelRenderRequest& r, bool needOutput, SurfelSession& s) {
+  uint32_t width = 0, height = 0;
+  if (auto st = parseSize(r.size, width, height); !st) return fail(st.error()), false;
+  if (needOutput)
+    if (auto st = checkOutputPath(r.output, {".png"}); !st) return fail(st.error()), false;
+  if (!(r.surfelSize >= 0.5f && r.surfelSize <= 16.0f)) return fail("--surfel-size must be in 0.5..16 pixels"), false;
+  if (r.copies < 1 || r.copies > 65536) return fail("--copies must be in 1..65536"), false;
+  render::Camera camera;
+  if (!r.camera.empty()) {
+    auto c = render::parseCamera(r.camera);
+    if (!c) return fail(c.error()), false;
+    camera = *c;
+  }
+  auto cloud = loadCloud(r.input, s.material);
+  if (!cloud) return fail(cloud.error()), false;
+  s.cloud = std::move(*cloud);
+  if (!r.sharedCopies && uint64_t(r.copies) * s.cloud.size() > 0xfffffffeull)
+    return fail(fmt::format("--copies {} x {} surfels exceeds 2^32 - 2 stored surfels (use --shared-copies)", r.copies,
+                            s.cloud.size())),
+           false;
+  auto ctx = openDevice(r.device);
+  if (!ctx) return fail(ctx.error()), false;
+  s.ctx = std::move(*ctx);
+  auto renderer = render::SurfelRenderer::create(*s.ctx, gridScene(s, r.copies, r.sharedCopies));
+  if (!renderer) return fail(renderer.error()), false;
+  s.renderer = std::move(*renderer);
+  s.settings.base.width = width;
+  s.settings.base.height = height;
+  s.settings.base.camera =
+      r.camera.empty() ? render::autoCamera(s.renderer->worldBounds(), float(width) / float(height)) : camera;
+  s.settings.surfelSize = r.surfelSize;
+  s.settings.allSurfels = r.allSurfels;
+  return true;
+}
+
+struct Timed {
+  std::vector<gpu::PassTime> times; // medians over the timed frames
+  render::SurfelRenderOutput last;
+  size_t frames = 0;
+};
+
+bool renderFrames(SurfelSession& s, int frames, Timed& out) {
+  std::vector<std::vector<gpu::PassTime>> all;
+  for (int i = 0; i < frames; ++i) {
+    auto o = s.renderer->render(s.settings);
+    if (!o) return fail(o.error()), false;
+    all.push_back(o->image.stats.passTimes);
+    out.last = std::move(*o);
+  }
+  if (all.size() > 1) all.erase(all.begin()); // pipeline warm-up
+  out.frames = all.size();
+  out.times = medianPassTimes(all);
+  return true;
+}
+
+double passMs(const std::vector<gpu::PassTime>& times, const std::string& name) {
+  for (const auto& t : times)
+    if (t.name == name) return t.milliseconds;
+  return 0.0;
+}
+
+} // namespace
+
+void runSurfelRender(const SurfelRenderRequest& r) {
+  auto raster = render::parseSurfelRaster(r.raster);
+  if (!raster) return fail(raster.error());
+  SurfelSession s;
+  if (!open(r, /*needOutput=*/true, s)) return;
+  s.settings.raster = *raster;
+  Timed t;
+  if (!renderFrames(s, r.frames, t)) return;
+  if (auto st = io::writePng(r.output, t.last.image.srgb); !st) return fail(st.error());
+  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}) at {}x{} on {} -> {}\n", r.input,
+             s.renderer->surfelCount(), r.copies, r.surfelSize, render::toString(t.last.raster), s.settings.base.width,
+             s.settings.base.height, s.ctx->caps().name, r.output);
+  if (r.stats) {
+    fmt::print("instances visible {}  surfels splatted {}\n", t.last.visibleInstances, t.last.surfelsSplatted);
+    for (const auto& p : t.times)
+      fmt::print("gpu {:<8} {:9.3f} ms{}\n", p.name, p.milliseconds, t.frames > 1 ? " (median)" : "");
+  }
+}
+
+void runSurfelBench(const SurfelRenderRequest& r) {
+  if (r.frames < 2 || r.frames > 100000) return fail("--frames must be in 2..100000");
+  if (!(r.bandwidth > 0.0)) return fail("--bandwidth must be positive (bytes per second)");
+  std::vector<render::SurfelRaster> rasters;
+  if (r.raster != "all") {
+    auto b = render::parseSurfelRaster(r.raster);
+    if (!b) return fail(b.error());
+    rasters.push_back(*b);
+  }
+  SurfelSession s;
+  if (!open(r, /*needOutput=*/false, s)) return;
+  const auto& caps = s.ctx->caps();
+  if (rasters.empty()) {
+    if (caps.int64BufferAtomics) rasters.push_back(render::SurfelRaster::Compute);
+    rasters.push_back(render::SurfelRaster::Raster);
+  }
+  if (!r.json)
+    fmt::print("bench surfels {} on {}: {} surfels stored, {} copies ({} instanced) at {}x{}, surfel size {} px, {}; "
+               "{} timed frames; bandwidth {:.3g} B/s\n",
+               r.input, caps.name, s.renderer->surfelCount(), r.copies, s.renderer->instancedCount(),
+               s.settings.base.width, s.settings.base.height, r.surfelSize,
+               r.allSurfels ? "all surfels (no prefix)" : "adaptive prefix", r.frames - 1, r.bandwidth);
+  nlohmann::json all = nlohmann::json::array();
+  for (render::SurfelRaster raster : rasters) {
+    s.settings.raster = raster;
+    Timed t;
+    if (!renderFrames(s, r.frames, t)) return;
+    double splatMs = passMs(t.times, "splat");
+    double surfels = double(t.last.surfelsSplatted);
+    double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
+    // The splat streams the 8-byte quantized positions; normals and colours are read by the resolve
+    // only for visible pixels.
+    double bytesPerSecond = perSecond * 8.0;
+    if (r.json) {
+      nlohmann::json j = {
+          {"raster", render::toString(raster)},           {"surfels_splatted", t.last.surfelsSplatted},
+          {"instances_visible", t.last.visibleInstances}, {"surfels_per_second", perSecond},
+          {"bytes_per_second", bytesPerSecond},           {"bandwidth_fraction", bytesPerSecond / r.bandwidth}};
+      for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+      all.push_back(j);
+      continue;
+    }
+    fmt::print("-- {}: instances visible {}, surfels splatted {}\n", render::toString(raster), t.last.visibleInstances,
+               t.last.surfelsSplatted);
+    for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
+    fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
+               perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
+  }
+  if (r.json) {
+    nlohmann::json j = {{"bench", "surfels"},
+                        {"input", r.input},
+                        {"device", caps.name},
+                        {"surfels", s.renderer->surfelCount()},
+                        {"copies", r.copies},
+                        {"shared_copies", r.sharedCopies},
+                        {"instanced_surfels", s.renderer->instancedCount()},
+                        {"surfel_size", r.surfelSize},
+                        {"all_surfels", r.allSurfels},
+                        {"bandwidth", r.bandwidth},
+                        {"width", s.settings.base.width},
+                        {"height", s.settings.base.height},
+                        {"rasters", all}};
+    fmt::print("{}\n", j.dump(2));
+  }
+}
+
+void addBenchSurfelsCommand(CLI::App& bench) {
+  auto* b =
+      bench.add_subcommand("surfels", "Surfel splatting: per-stage GPU times, surfels/s, bytes/s, bandwidth share");
+  auto o = std::make_shared<SurfelRenderRequest>();
+  o->frames = 20;
+  o->raster = "all";
+  b->add_option("input", o->input, ".mrg with a SURF chunk, or a surfel .ply")->required();
+  b->add_option("--size", o->size, "WxH")->capture_default_str();
+  b->add_option("--frames", o->frames, "Frames (the first is a warm-up)")->capture_default_str();
+  b->add_option("--copies", o->copies, "Instances of the cloud on a square grid")->capture_default_str();
+  b->add_option("--surfel-size", o->surfelSize, "Surfel diameter in pixels")->capture_default_str();
+  b->add_option("--surfel-raster", o->raster, "all|compute|raster")->capture_default_str();
+  b->add_flag("--shared-copies", o->sharedCopies,
+              "All copies read one stored cloud (cache-resident; default: one each)");
+  b->add_flag("--all", o->allSurfels, "Splat every surfel of every instance (no prefix): raw throughput");
+  b->add_option("--bandwidth", o->bandwidth, "Device memory bandwidth in B/s (H200 HBM3e: 4.8e12)")
+      ->capture_default_str();
+  b->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60]; default: auto 3/4 view of all copies");
+  b->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
+  b->add_flag("--json", o->json, "Print results as JSON");
+  b->callback([o] { runSurfelBench(*o); });
+}
+
+} // namespace mirage::cli

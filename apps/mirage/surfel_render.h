@@ -1,0 +1,28 @@
+#pragma once
+// `mirage render FILE --surfels` and `mirage bench surfels FILE`: the surfel renderer on a .mrg
+// 'SURF' chunk or a surfel PLY (cmd_render_surfels.cpp).
+#include <string>
+
+namespace mirage::cli {
+
+struct SurfelRenderRequest {
+  std::string input;  // .mrg with a SURF chunk, or .ply
+  std::string output; // .png (render only)
+  std::string camera; // empty: auto 3/4 view
+  std::string size = "1920x1080";
+  std::string device;
+  std::string raster = "auto"; // auto | compute | raster; bench: "all"
+  float surfelSize = 2.0f;     // s, pixels
+  uint32_t copies = 1;         // instances of the cloud on a grid
+  bool sharedCopies = false;   // bench: copies read one stored cloud (else each its own copy of the data)
+  bool allSurfels = false;     // bench: splat all N per instance
+  double bandwidth = 4.8e12;   // bench: device bandwidth in B/s for the reported fraction
+  int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
+  bool stats = false;
+  bool json = false;
+};
+
+void runSurfelRender(const SurfelRenderRequest& request);
+void runSurfelBench(const SurfelRenderRequest& request);
+
+} // namespace mirage::cli

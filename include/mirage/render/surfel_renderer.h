@@ -1,0 +1,108 @@
+#pragma once
+// Blue-surfel renderer (issue 5, rendering): draws progressive surfel clouds (the .mrg 'SURF'
+// chunk) with a per-instance prefix length chosen on the GPU every frame. One frame:
+//   prefix (cull + k = P / r^2 per instance) -> scan (ids, batches, dispatch) ->
+//   splat (compute: 64-bit atomicMax of depth | id; or raster fallback: quads into R32G32_UINT +
+//   depth) -> resolve (shading.glsl, the meshes' material model).
+// Passes, formulas and the mesh cross-fade: docs/surfels.md, "Rendering".
+#include <cmath>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/gpu/context.h"
+#include "mirage/render/forward_renderer.h"
+#include "mirage/surfels/surfel.h"
+
+namespace mirage::render {
+
+enum class SurfelRaster {
+  Auto,    // compute when the device has 64-bit buffer atomics, else raster
+  Compute, // splat with 64-bit atomics into a buffer (one atomic per pixel-sized surfel)
+  Raster,  // fallback: indirect draws of screen-aligned quads, depth-tested
+};
+const char* toString(SurfelRaster raster);
+// "auto", "compute" or "raster"; anything else is an error naming the choices.
+Result<SurfelRaster> parseSurfelRaster(std::string_view text);
+
+// What the renderer draws: clouds (each with the material its metallic / roughness come from) and
+// placed copies of them.
+struct SurfelScene {
+  struct Cloud {
+    const surfels::SurfelCloud* cloud = nullptr; // must outlive SurfelRenderer::create only
+    Material material;                           // base colour is already in the surfels' colours
+  };
+  struct Placement {
+    uint32_t cloud = 0;
+    glm::mat4 transform{1.0f};
+  };
+  std::vector<Cloud> clouds;
+  std::vector<Placement> instances;
+};
+
+struct SurfelRenderSettings {
+  RenderSettings base;                      // size, camera, lighting, background
+  float surfelSize = 2.0f;                  // s: surfel diameter in pixels at the reference depth
+  SurfelRaster raster = SurfelRaster::Auto; // resolved against the device at render time
+  bool frustumCulling = true;               // instances outside the view draw nothing
+  bool allSurfels = false;                  // benchmark: every instance splats all N (no prefix)
+  // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
+  // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
+  // beyond it (0: hard switch). Off: surfels everywhere.
+  bool meshFade = false;
+  float fadeBand = 0.5f;
+  bool readInstanceStates = false; // fill SurfelRenderOutput::prefix / fade (tests, --stats)
+};
+
+struct SurfelRenderOutput {
+  RenderOutput image; // srgb (+ linear), pass times in image.stats.passTimes
+  SurfelRaster raster = SurfelRaster::Auto;
+  uint32_t visibleInstances = 0;
+  uint32_t fadingInstances = 0;
+  uint64_t surfelsSplatted = 0;   // sum of k over instances
+  std::vector<uint32_t> prefix;   // per instance: k (readInstanceStates)
+  std::vector<float> fade;        // per instance: share of pixels the surfels may cover
+  std::vector<float> distance;    // per instance: reference depth used for k
+  std::vector<uint32_t> idBuffer; // per pixel: visibility id (0 = background), when readInstanceStates
+};
+
+// The CPU mirror of the GPU prefix length (shaders/surfel_render_prefix.comp): P = N_ref * d^2 in
+// world units², `distance` the reference depth, `pixelScale` = |proj[1][1]| * height / 2.
+// r = s * (distance / pixelScale) / 2 and k = clamp(ceil(P / r²), 1, N).
+inline uint32_t surfelPrefix(float P, uint32_t N, float distance, float pixelScale, float surfelSize) {
+  if (N == 0) return 0;
+  if (!(P > 0.0f)) return N;
+  float r = surfelSize * distance / (2.0f * pixelScale);
+  float k = std::min(std::ceil(P / (r * r)), float(N));
+  return uint32_t(std::max(k, 1.0f));
+}
+
+// Distance at which the prefix reaches N (the cloud is exhausted): the mesh/surfel switch distance.
+inline float surfelSwitchDistance(float P, uint32_t N, float pixelScale, float surfelSize) {
+  return N == 0 || !(P > 0.0f) ? 0.0f : 2.0f * pixelScale * std::sqrt(P / float(N)) / surfelSize;
+}
+
+class SurfelRenderer {
+public:
+  // Uploads every cloud (positions and attributes as two arrays) and the instances. Errors: no
+  // clouds or instances, an instance naming a missing cloud, more than 2^32 - 2 surfels in all.
+  static Result<std::unique_ptr<SurfelRenderer>> create(gpu::Context& context, const SurfelScene& scene);
+  ~SurfelRenderer();
+
+  Result<SurfelRenderOutput> render(const SurfelRenderSettings& settings);
+  const Bounds& worldBounds() const;
+  uint64_t surfelCount() const;    // stored surfels (all clouds, once each)
+  uint64_t instancedCount() const; // sum over instances of their cloud's N
+
+  struct Impl;
+
+private:
+  explicit SurfelRenderer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+} // namespace mirage::render

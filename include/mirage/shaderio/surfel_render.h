@@ -1,0 +1,125 @@
+// Structs shared by C++ and GLSL for the surfel renderer (docs/surfels.md, "Rendering"): written
+// once, compiled by both. GLSL reads them with scalar block layout through buffer device addresses;
+// the static_asserts keep the C++ sizes equal to what the shaders read.
+#ifndef MIRAGE_SHADERIO_SURFEL_RENDER_H
+#define MIRAGE_SHADERIO_SURFEL_RENDER_H
+
+#include "mirage/shaderio/forward.h" // GpuMaterial, shared with the mesh renderers
+#include "mirage/shaderio/surfels.h" // Surfel and its quantization (MIRAGE_SURFEL_POSITION_BITS)
+
+#ifdef __cplusplus
+namespace mirage::shaderio {
+#endif
+
+// Splat workgroup: a multiple of both subgroup sizes we meet (lavapipe 8, NVIDIA 32).
+#define MIRAGE_SURFEL_SPLAT_WORKGROUP 256
+// Surfels per splat thread (strided by the workgroup size, so every load instruction is coalesced):
+// a batch of 1024 surfels per workgroup amortizes the per-workgroup instance lookup.
+#define MIRAGE_SURFEL_PER_THREAD 4
+#define MIRAGE_SURFEL_BATCH (MIRAGE_SURFEL_SPLAT_WORKGROUP * MIRAGE_SURFEL_PER_THREAD)
+// Splat dispatches split the batches over x and y: x stays under the guaranteed 65535.
+#define MIRAGE_SURFEL_DISPATCH_X 65535
+// Workgroup of the per-instance prefix pass and of the one-workgroup scan.
+#define MIRAGE_SURFEL_INSTANCE_WORKGROUP 256
+// Largest splat radius in pixels: a surfel closer than the cloud's density supports (k clamped to
+// N) would otherwise cover a large square per thread; the mesh takes over there (cross-fade).
+#define MIRAGE_SURFEL_MAX_RADIUS_PX 8.0
+// A surfel writes the pixel centres inside its disc plus the pixel holding its projection (the
+// nearest centre, so a disc that holds any centre holds that one): under half a pixel that is the
+// one pixel (the 1-pixel fast path, one atomic per surfel).
+#define MIRAGE_SURFEL_FAST_RADIUS_PX 0.5
+
+// SurfelRenderFrame::flags
+#define MIRAGE_SURFEL_FRUSTUM_CULL 1u  // instances outside the view frustum get k = 0
+#define MIRAGE_SURFEL_ALL 2u           // benchmark: every instance splats all N surfels (no prefix)
+#define MIRAGE_SURFEL_SOURCE_BUFFER 4u // the resolve reads the 64-bit buffer (compute splat), else the image
+#define MIRAGE_SURFEL_MESH_FADE 8u     // a mesh pass draws near instances: fade surfels in over a band
+
+// One surfel cloud as the shaders see it: positions and attributes live in two arrays (SoA), so the
+// splat streams 8 bytes per surfel and only the resolve touches normals and colours.
+struct SurfelRenderCloud {
+  vec4 boxMin;      // xyz quantization box minimum; w: P = N_ref * d^2 (object units squared)
+  vec4 boxStep;     // xyz box extent / (2^21 - 1): object units per quantization step
+  uint firstSurfel; // offset into the position and attribute arrays
+  uint count;       // N
+  uint material;    // index into the material array
+  uint pad0;
+};
+
+// One placed copy of a cloud.
+struct SurfelRenderInstance {
+  mat4 model;
+  mat4 normalMatrix;
+  vec4 sphere; // world-space bounding sphere of the cloud's box
+  uint cloud;
+  float maxScale; // largest axis scale of `model`: object lengths become world lengths
+  uint pad0, pad1;
+};
+
+// Written per instance by the prefix pass every frame (read by the scan, splat and resolve).
+struct SurfelInstanceState {
+  mat4 clipFromQuantized; // viewProj * model * dequantization: a quantized position straight to clip space
+  uint count;             // k: the prefix length drawn this frame (0: culled)
+  uint batchCount;        // ceil(k / MIRAGE_SURFEL_BATCH)
+  uint firstBatch;        // exclusive prefix sum of batchCount over instances (scan pass)
+  uint firstId;           // 1 + exclusive prefix sum of count: visibility id of surfel 0 (0 = background)
+  float radiusPixels;     // splat radius in pixels at clip w = 1: the prefix's Poisson radius (world) * pixel scale
+  float fade;             // fraction of pixels the surfels may cover (1 = all; < 1 in the mesh blend band)
+  float distance;         // reference depth: eye to the nearest point of the world sphere (>= znear)
+  uint pad0;
+};
+
+struct SurfelRenderFrame {
+  mat4 viewProj;
+  mat4 invViewProj;
+  vec4 eye;       // xyz camera position
+  vec4 planes[5]; // world-space frustum planes (left, right, bottom, top, near), xyz.p + w >= 0 inside
+  vec4 lightDir;  // xyz towards the light, w intensity
+  vec4 skyAmbient;
+  vec4 groundAmbient;
+  vec4 background;  // linear RGBA where no surfel covers the pixel
+  vec2 viewport;    // width, height in pixels
+  float pixelScale; // |proj[1][1]| * 0.5 * height: pixels per world unit at distance 1
+  float surfelSize; // s: surfel diameter in pixels at the reference depth
+  float znear;
+  float fadeBand; // blend band width relative to the switch distance (MIRAGE_SURFEL_MESH_FADE)
+  uint flags;     // MIRAGE_SURFEL_*
+  uint instanceCount;
+};
+
+// Zeroed each frame; indirect arguments and statistics.
+struct SurfelRenderCounters {
+  uint splatArgs[3]; // compute splat dispatch: batches over (x, y)
+  uint totalBatches;
+  uint totalSurfels; // sum of k over instances
+  uint visibleInstances;
+  uint fadingInstances; // instances inside the blend band (0 < fade < 1)
+  uint pad0;
+};
+
+// Push constants of every surfel-render pipeline: addresses of all the arrays.
+struct SurfelRenderPush {
+  uint64_t frameAddress;     // SurfelRenderFrame
+  uint64_t cloudAddress;     // SurfelRenderCloud[]
+  uint64_t instanceAddress;  // SurfelRenderInstance[]
+  uint64_t stateAddress;     // SurfelInstanceState[]
+  uint64_t positionAddress;  // uvec2[]: Surfel::posLo, posHi
+  uint64_t attributeAddress; // uvec2[]: Surfel::normal, color
+  uint64_t materialAddress;  // GpuMaterial[]
+  uint64_t counterAddress;   // SurfelRenderCounters
+  uint64_t drawAddress;      // VkDrawIndirectCommand[instanceCount] (raster fallback)
+  uint64_t visBufferAddress; // uint64[width * height]: (reverse-Z depth bits << 32) | id
+  uint64_t radiusAddress;    // float[]: SurfelCloud::radii, the Poisson radius of each prefix
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(SurfelRenderCloud) == 48, "SurfelRenderCloud layout");
+static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout");
+static_assert(sizeof(SurfelInstanceState) == 96, "SurfelInstanceState layout");
+static_assert(sizeof(SurfelRenderFrame) == 320, "SurfelRenderFrame layout");
+static_assert(sizeof(SurfelRenderCounters) == 32, "SurfelRenderCounters layout");
+static_assert(sizeof(SurfelRenderPush) == 88, "SurfelRenderPush layout");
+} // namespace mirage::shaderio
+#endif
+
+#endif

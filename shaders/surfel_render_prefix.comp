@@ -1,0 +1,70 @@
+#version 460
+// Per instance, every frame: frustum cull, then the prefix length k = P / r^2 (PADrend's formula;
+// P = N_ref * d^2 scaled to world units, r = s * p / 2 with p the world size of a pixel at the
+// reference depth, the nearest point of the instance's sphere), clamped to [1, N]. Writes the
+// instance state the splat and resolve read, and the raster fallback's draw (6 vertices per surfel).
+// The CPU mirror is surfelPrefix() in mirage/render/surfel_renderer.h (tested equal).
+#include "surfel_render_common.glsl"
+
+layout(local_size_x = MIRAGE_SURFEL_INSTANCE_WORKGROUP) in;
+
+bool sphereVisible(SurfelRenderFrame f, vec4 s) {
+  for (int i = 0; i < 5; ++i)
+    if (dot(f.planes[i].xyz, s.xyz) + f.planes[i].w < -s.w) return false;
+  return true;
+}
+
+void main() {
+  SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
+  uint i = gl_GlobalInvocationID.x;
+  if (i >= f.instanceCount) return;
+  SurfelRenderInstance inst = SrInstanceRef(push.instanceAddress).instances[i];
+  SurfelRenderCloud cloud = SrCloudRef(push.cloudAddress).clouds[inst.cloud];
+
+  float distance = max(length(inst.sphere.xyz - f.eye.xyz) - inst.sphere.w, f.znear);
+  float P = cloud.boxMin.w * inst.maxScale * inst.maxScale; // world units squared
+  float N = float(cloud.count);
+  // k = P / r^2 with r = s * (distance / pixelScale) / 2; ceil so the spacing never exceeds r.
+  float r = f.surfelSize * distance / (2.0 * f.pixelScale);
+  float k = P > 0.0 ? min(ceil(P / (r * r)), N) : N;
+  k = max(k, min(N, 1.0));
+  if ((f.flags & MIRAGE_SURFEL_ALL) != 0) k = N;
+  // Cross-fade: below the distance where k reaches N the cloud is too sparse for s-pixel surfels, so
+  // the mesh draws the instance; surfels fade in over the band above it.
+  float fade = 1.0;
+  if ((f.flags & MIRAGE_SURFEL_MESH_FADE) != 0 && P > 0.0 && N > 0.0) {
+    float switchDistance = 2.0 * f.pixelScale * sqrt(P / N) / f.surfelSize;
+    fade = f.fadeBand > 0.0 ? clamp((distance - switchDistance) / (f.fadeBand * switchDistance), 0.0, 1.0)
+                            : (distance >= switchDistance ? 1.0 : 0.0);
+  }
+  bool visible = ((f.flags & MIRAGE_SURFEL_FRUSTUM_CULL) == 0 || sphereVisible(f, inst.sphere)) && fade > 0.0;
+  uint count = visible ? uint(k) : 0u;
+  // Disc radius: the prefix's Poisson radius radii[k-1], which bounds its covering radius (every
+  // sampled point lies within it of a prefix surfel), so discs of that radius leave no hole. Clouds
+  // without radii (a PLY without them) fall back to the mean spacing sqrt(P / k).
+  float radius = 0.0;
+  if (count > 0u) {
+    radius = SrFloatRef(push.radiusAddress).v[cloud.firstSurfel + count - 1u] * inst.maxScale;
+    if (!(radius > 0.0)) radius = sqrt(P / float(count));
+  }
+
+  mat4 dequantize = mat4(vec4(cloud.boxStep.x, 0, 0, 0), vec4(0, cloud.boxStep.y, 0, 0), vec4(0, 0, cloud.boxStep.z, 0),
+                         vec4(cloud.boxMin.xyz, 1.0));
+  SurfelInstanceState s;
+  s.clipFromQuantized = f.viewProj * inst.model * dequantize;
+  s.count = count;
+  s.batchCount = (count + MIRAGE_SURFEL_BATCH - 1) / MIRAGE_SURFEL_BATCH;
+  s.firstBatch = 0; // the scan pass fills these two
+  s.firstId = 0;
+  s.radiusPixels = radius * f.pixelScale;
+  s.fade = fade;
+  s.distance = distance;
+  s.pad0 = 0;
+  SrStateRef(push.stateAddress).states[i] = s;
+  // vkCmdDrawIndirect: 6 vertices (two triangles) per surfel, firstInstance = instance index.
+  SrDrawRef(push.drawAddress).draws[i] = uvec4(count * 6u, 1u, 0u, i);
+  if (count > 0u) {
+    atomicAdd(SrCounterRef(push.counterAddress).c.visibleInstances, 1u);
+    if (fade < 1.0) atomicAdd(SrCounterRef(push.counterAddress).c.fadingInstances, 1u);
+  }
+}

@@ -1,0 +1,73 @@
+#version 460
+// Compute splat (Schütz et al. 2021): one workgroup per batch of MIRAGE_SURFEL_BATCH surfels of one
+// instance, each thread MIRAGE_SURFEL_PER_THREAD surfels strided by the workgroup size so every
+// position load (8 bytes: the quantized position only) is coalesced. A surfel is a disc of
+// `radiusPixels / w` pixels around its projection: pixels whose centre lies inside it take
+// atomicMax(reverse-Z depth bits << 32 | id) on the 64-bit visibility buffer (larger is nearer),
+// and so does the pixel holding the projection (the nearest centre). Discs under half a pixel take
+// the fast path: that one pixel, one atomic (a sample within the disc's radius of a pixel centre
+// then lies inside that pixel, so the covering argument still holds). A plain
+// load first skips the atomic when a nearer surfel is already there (most are, at high density).
+#extension GL_EXT_shader_atomic_int64 : require
+#include "surfel_render_common.glsl"
+
+layout(local_size_x = MIRAGE_SURFEL_SPLAT_WORKGROUP) in;
+
+void splatPixel(SrVisRef vis, uvec2 px, uint width, uint64_t value, float fade) {
+  if (fade < 1.0 && fadeDither(px) >= fade) return; // the mesh's pixel in the blend band
+  uint at = px.y * width + px.x;
+  if (vis.pixels[at] >= value) return;
+  atomicMax(vis.pixels[at], value);
+}
+
+void main() {
+  uint batch = gl_WorkGroupID.y * MIRAGE_SURFEL_DISPATCH_X + gl_WorkGroupID.x;
+  SrCounterRef counters = SrCounterRef(push.counterAddress);
+  if (batch >= counters.c.totalBatches) return; // uniform over the workgroup
+  uint slot = findInstance(batch, /*batches=*/true);
+  SurfelInstanceState s = SrStateRef(push.stateAddress).states[slot];
+  SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
+  uint firstSurfel = SrCloudRef(push.cloudAddress).clouds[SrInstanceRef(push.instanceAddress).instances[slot].cloud].firstSurfel;
+  SrUvec2Ref positions = SrUvec2Ref(push.positionAddress);
+  SrVisRef vis = SrVisRef(push.visBufferAddress);
+  uint width = uint(f.viewport.x);
+  uint height = uint(f.viewport.y);
+  uint start = (batch - s.firstBatch) * MIRAGE_SURFEL_BATCH + gl_LocalInvocationIndex;
+
+  // All loads first, so each thread has MIRAGE_SURFEL_PER_THREAD requests in flight before the
+  // first atomic (bandwidth needs memory-level parallelism; atomics would otherwise serialize them).
+  uvec2 q[MIRAGE_SURFEL_PER_THREAD];
+  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
+    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
+    q[j] = i < s.count ? positions.v[firstSurfel + i] : uvec2(0u);
+  }
+  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
+    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
+    if (i >= s.count) break;
+    vec4 clip = s.clipFromQuantized * vec4(surfelQuantized(q[j]), 1.0);
+    // Behind the eye, nearer than the near plane (reverse-Z: z > w) or beyond the far plane (z < 0).
+    if (clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) continue;
+    vec2 p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+    uint64_t value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t(s.firstId + i);
+    float radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
+    if (p.x < 0.0 || p.y < 0.0 || p.x >= f.viewport.x || p.y >= f.viewport.y) {
+      if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
+    } else {
+      // The pixel holding the projection: the whole footprint on the fast path.
+      splatPixel(vis, uvec2(p), width, value, s.fade);
+      if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
+    }
+    // The other pixel centres c (integer + 0.5) with |c - p| <= radius.
+    ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
+    ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
+    ivec2 own = ivec2(floor(p));
+    float r2 = radius * radius;
+    for (int y = lo.y; y <= hi.y; ++y) {
+      float dy = float(y) + 0.5 - p.y;
+      for (int x = lo.x; x <= hi.x; ++x) {
+        float dx = float(x) + 0.5 - p.x;
+        if (dx * dx + dy * dy <= r2 && ivec2(x, y) != own) splatPixel(vis, uvec2(x, y), width, value, s.fade);
+      }
+    }
+  }
+}

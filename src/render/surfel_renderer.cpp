@@ -1,0 +1,416 @@
+// SurfelRenderer: upload, pipelines and the per-frame command sequence (docs/surfels.md, "Rendering").
+#include "mirage/render/surfel_renderer.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "render_util.h"
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/descriptors.h"
+#include "mirage/gpu/pipeline.h"
+#include "mirage/gpu/query.h"
+#include "mirage/shaderio/surfel_render.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+constexpr VkFormat kColorFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // as the mesh renderers
+constexpr VkFormat kVisFormat = VK_FORMAT_R32G32_UINT;           // (id, 0), as the cluster renderer
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+constexpr VkAccessFlags2 kShaderRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+constexpr VkShaderStageFlags kPushStages =
+    VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+
+// World-space frustum planes of a reverse-Z projection (left, right, bottom, top, near).
+void frustumPlanes(const glm::mat4& m, glm::vec4* planes) {
+  auto row = [&](int r) { return glm::vec4(m[0][r], m[1][r], m[2][r], m[3][r]); };
+  glm::vec4 p[5] = {row(3) + row(0), row(3) - row(0), row(3) + row(1), row(3) - row(1), row(3) - row(2)};
+  for (int i = 0; i < 5; ++i) planes[i] = p[i] / glm::length(glm::vec3(p[i]));
+}
+
+float maxAxisScale(const glm::mat4& m) {
+  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
+}
+
+} // namespace
+
+const char* toString(SurfelRaster r) {
+  switch (r) {
+  case SurfelRaster::Auto:
+    return "auto";
+  case SurfelRaster::Compute:
+    return "compute";
+  case SurfelRaster::Raster:
+    return "raster";
+  }
+  return "?";
+}
+
+Result<SurfelRaster> parseSurfelRaster(std::string_view text) {
+  for (SurfelRaster r : {SurfelRaster::Auto, SurfelRaster::Compute, SurfelRaster::Raster})
+    if (text == toString(r)) return r;
+  return Error{fmt::format("--surfel-raster '{}': expected auto, compute or raster", text)};
+}
+
+struct SurfelRenderer::Impl {
+  Context& ctx;
+  Buffer positions, attributes, radii, clouds, instances, materials; // set-up time
+  Buffer frame, states, counters, draws, visBuffer;                  // per frame
+  std::vector<Image> textures;                                       // one white texel: shading.glsl's array
+  Unique<VkSampler> sampler, nearestSampler;
+  DescriptorSet descriptors;
+  Unique<VkPipelineLayout> layout;
+  Unique<VkPipeline> prefixPipeline, scanPipeline, splatPipeline, rasterPipeline, resolvePipeline;
+  Image color, vis, depth;
+  uint32_t width = 0, height = 0, instanceCount = 0;
+  uint64_t surfelCount = 0, instancedCount = 0;
+  Bounds worldBounds;
+  GpuTimer timer;
+
+  explicit Impl(Context& c) : ctx(c), timer(c) {}
+  Status upload(const SurfelScene& scene);
+  void createPipelines();
+  void ensureTargets(uint32_t w, uint32_t h);
+  sio::SurfelRenderPush push() const;
+  void cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRenderPush& p);
+  void cmdSplat(VkCommandBuffer cmd, SurfelRaster raster); // push constants from cmdPrefix
+  void cmdResolve(VkCommandBuffer cmd, const sio::SurfelRenderPush& p);
+};
+
+Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
+  if (scene.clouds.empty() || scene.instances.empty()) return Error{"surfel scene has no clouds or no instances"};
+  std::vector<glm::uvec2> pos, attr;
+  std::vector<float> prefixRadii;
+  std::vector<sio::SurfelRenderCloud> gpuClouds;
+  std::vector<sio::GpuMaterial> gpuMaterials;
+  for (const SurfelScene::Cloud& c : scene.clouds) {
+    const surfels::SurfelCloud& cloud = *c.cloud;
+    sio::SurfelRenderCloud g{};
+    float P = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
+    g.boxMin = glm::vec4(cloud.box.min, P);
+    constexpr float kSteps = float((1u << MIRAGE_SURFEL_POSITION_BITS) - 1u);
+    g.boxStep = glm::vec4((cloud.box.max - cloud.box.min) / kSteps, 0.0f);
+    g.firstSurfel = uint32_t(pos.size());
+    g.count = uint32_t(cloud.size());
+    g.material = uint32_t(gpuMaterials.size());
+    gpuClouds.push_back(g);
+    Material m = c.material;
+    m.baseColorTexture = m.metallicRoughnessTexture = m.normalTexture = m.occlusionTexture = m.emissiveTexture = -1;
+    gpuMaterials.push_back(toGpuMaterial(m, 0));
+    if (pos.size() + cloud.size() > 0xfffffffeull) return Error{"surfel scene holds more than 2^32 - 2 surfels"};
+    for (size_t i = 0; i < cloud.size(); ++i) prefixRadii.push_back(i < cloud.radii.size() ? cloud.radii[i] : 0.0f);
+    for (const shaderio::Surfel& s : cloud.surfels) {
+      pos.push_back({s.posLo, s.posHi});
+      attr.push_back({s.normal, s.color});
+    }
+  }
+  std::vector<sio::SurfelRenderInstance> gpuInstances;
+  for (const SurfelScene::Placement& p : scene.instances) {
+    if (p.cloud >= scene.clouds.size())
+      return Error{fmt::format("surfel instance names cloud {} of {}", p.cloud, scene.clouds.size())};
+    const surfels::SurfelCloud& cloud = *scene.clouds[p.cloud].cloud;
+    sio::SurfelRenderInstance g{};
+    g.model = p.transform;
+    g.normalMatrix = glm::transpose(glm::inverse(p.transform));
+    g.maxScale = maxAxisScale(p.transform);
+    Bounds world = transformBounds(cloud.box, p.transform);
+    g.sphere = glm::vec4(world.center(), 0.5f * glm::length(world.extent()));
+    g.cloud = p.cloud;
+    gpuInstances.push_back(g);
+    worldBounds.add(world.min);
+    worldBounds.add(world.max);
+    instancedCount += cloud.size();
+  }
+  surfelCount = pos.size();
+  instanceCount = uint32_t(gpuInstances.size());
+  positions = createBufferWithData<glm::uvec2>(ctx, pos, kStorage, "surfel positions");
+  attributes = createBufferWithData<glm::uvec2>(ctx, attr, kStorage, "surfel attributes");
+  radii = createBufferWithData<float>(ctx, prefixRadii, kStorage, "surfel prefix radii");
+  clouds = createBufferWithData<sio::SurfelRenderCloud>(ctx, gpuClouds, kStorage, "surfel clouds");
+  instances = createBufferWithData<sio::SurfelRenderInstance>(ctx, gpuInstances, kStorage, "surfel instances");
+  materials = createBufferWithData<sio::GpuMaterial>(ctx, gpuMaterials, kStorage, "surfel materials");
+  return Ok{};
+}
+
+void SurfelRenderer::Impl::createPipelines() {
+  textures = uploadTextures(ctx, Scene{}); // one white texel: the resolve samples no texture
+  sampler = makeSampler(ctx, VK_FILTER_LINEAR);
+  nearestSampler = makeSampler(ctx, VK_FILTER_NEAREST);
+  VkDescriptorSetLayoutBinding bindings[] = {
+      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
+  descriptors = createDescriptorSet(ctx, bindings);
+  VkDescriptorImageInfo white{sampler, textures[0].view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  writeImageDescriptors(ctx, descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&white, 1});
+
+  layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::SurfelRenderPush), kPushStages);
+  prefixPipeline = createComputePipeline(ctx, "surfel_render_prefix.comp", layout);
+  scanPipeline = createComputePipeline(ctx, "surfel_render_scan.comp", layout);
+  if (ctx.caps().int64BufferAtomics) splatPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout);
+  resolvePipeline = createComputePipeline(ctx, "surfel_render_resolve.comp", layout);
+  GraphicsPipelineDesc d;
+  d.vertexShader = "surfel_render_raster.vert";
+  d.fragmentShader = "surfel_render_raster.frag";
+  d.layout = layout;
+  d.colorFormats = {kVisFormat};
+  d.depthFormat = kDepthFormat;
+  rasterPipeline = createGraphicsPipeline(ctx, d);
+
+  frame = createBuffer(ctx, sizeof(sio::SurfelRenderFrame), kStorage, MemoryUsage::Upload, "surfel frame");
+  states = createBuffer(ctx, uint64_t(instanceCount) * sizeof(sio::SurfelInstanceState),
+                        kStorage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::GpuOnly, "surfel states");
+  draws = createBuffer(ctx, uint64_t(instanceCount) * sizeof(VkDrawIndirectCommand),
+                       kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUsage::GpuOnly, "surfel draws");
+  counters = createBuffer(ctx, sizeof(sio::SurfelRenderCounters),
+                          kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                              VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                          MemoryUsage::GpuOnly, "surfel counters");
+}
+
+void SurfelRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
+  if (w == width && h == height) return;
+  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                        "surfel color");
+  vis =
+      createImage2D(ctx, w, h, kVisFormat,
+                    VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                    "surfel visibility");
+  depth = createImage2D(ctx, w, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "surfel depth");
+  visBuffer = createBuffer(ctx, uint64_t(w) * h * 8,
+                           kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "surfel visibility64");
+  VkDescriptorImageInfo visInfo{nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
+  writeImageDescriptors(ctx, descriptors.set, 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&visInfo, 1});
+  writeImageDescriptors(ctx, descriptors.set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
+  width = w;
+  height = h;
+}
+
+sio::SurfelRenderPush SurfelRenderer::Impl::push() const {
+  sio::SurfelRenderPush p{};
+  p.frameAddress = frame.address();
+  p.cloudAddress = clouds.address();
+  p.instanceAddress = instances.address();
+  p.stateAddress = states.address();
+  p.positionAddress = positions.address();
+  p.attributeAddress = attributes.address();
+  p.materialAddress = materials.address();
+  p.counterAddress = counters.address();
+  p.drawAddress = draws.address();
+  p.visBufferAddress = visBuffer.address();
+  p.radiusAddress = radii.address();
+  return p;
+}
+
+// barriers: on entry the counters were zeroed by a transfer and made visible to compute. On exit
+// the instance states, draws and dispatch arguments are written and visible to the indirect,
+// vertex, fragment and compute stages.
+void SurfelRenderer::Impl::cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRenderPush& p) {
+  uint32_t slot = timer.cmdBegin(cmd, "prefix", kCS);
+  vkCmdPushConstants(cmd, layout, kPushStages, 0, sizeof(p), &p);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, prefixPipeline);
+  vkCmdDispatch(cmd, (instanceCount + MIRAGE_SURFEL_INSTANCE_WORKGROUP - 1) / MIRAGE_SURFEL_INSTANCE_WORKGROUP, 1, 1);
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kShaderRW);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scanPipeline);
+  vkCmdDispatch(cmd, 1, 1, 1);
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
+                   VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                       VK_ACCESS_2_TRANSFER_READ_BIT);
+  timer.cmdEnd(cmd, slot, kCS);
+}
+
+// barriers: cmdPrefix's outputs visible; for compute, the 64-bit visibility buffer zeroed and
+// visible to compute. On exit the visibility image is in SHADER_READ_ONLY_OPTIMAL and whatever the
+// splat wrote is visible to the resolve (compute) and to copies (tests read the ids back).
+void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster) {
+  uint32_t slot = timer.cmdBegin(cmd, "splat");
+  ImageBarrier toRead{vis.handle(),
+                      VK_PIPELINE_STAGE_2_NONE,
+                      0,
+                      kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
+                      VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
+                      VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  if (raster == SurfelRaster::Compute) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, splatPipeline);
+    vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::SurfelRenderCounters, splatArgs));
+    cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
+    cmdImageBarrier(cmd, toRead); // unused by the resolve here, but the descriptor must be valid
+    timer.cmdEnd(cmd, slot);
+    return;
+  }
+  ImageBarrier toAttachment[] = {
+      {vis.handle(), kCS | VK_PIPELINE_STAGE_2_COPY_BIT, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+       VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+      {depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0,
+       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+  cmdImageBarriers(cmd, toAttachment);
+  VkRenderingAttachmentInfo visAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  visAtt.imageView = vis.view();
+  visAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  visAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR; // id 0 = background
+  visAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAtt.imageView = depth.view();
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depthAtt.clearValue.depthStencil = {0.0f, 0}; // reverse-Z: far is 0
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {width, height}};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = 1;
+  ri.pColorAttachments = &visAtt;
+  ri.pDepthAttachment = &depthAtt;
+  vkCmdBeginRendering(cmd, &ri);
+  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {width, height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
+  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, rasterPipeline);
+  // One draw per instance (culled ones draw 0 vertices); firstInstance carries the instance index.
+  vkCmdDrawIndirect(cmd, draws.handle(), 0, instanceCount, sizeof(VkDrawIndirectCommand));
+  vkCmdEndRendering(cmd);
+  toRead.srcStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+  toRead.srcAccess = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+  toRead.oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  cmdImageBarrier(cmd, toRead);
+  timer.cmdEnd(cmd, slot);
+}
+
+// barriers: cmdSplat's output visible to compute. The colour target ends in GENERAL with the
+// resolve's writes available, which the readback expects.
+void SurfelRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::SurfelRenderPush& p) {
+  uint32_t slot = timer.cmdBegin(cmd, "resolve");
+  cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolvePipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdPushConstants(cmd, layout, kPushStages, 0, sizeof(p), &p);
+  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  timer.cmdEnd(cmd, slot);
+}
+
+SurfelRenderer::SurfelRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SurfelRenderer::~SurfelRenderer() = default;
+const Bounds& SurfelRenderer::worldBounds() const { return impl_->worldBounds; }
+uint64_t SurfelRenderer::surfelCount() const { return impl_->surfelCount; }
+uint64_t SurfelRenderer::instancedCount() const { return impl_->instancedCount; }
+
+Result<std::unique_ptr<SurfelRenderer>> SurfelRenderer::create(Context& context, const SurfelScene& scene) {
+  auto impl = std::make_unique<Impl>(context);
+  if (auto s = impl->upload(scene); !s) return s.error();
+  impl->createPipelines();
+  return std::unique_ptr<SurfelRenderer>(new SurfelRenderer(std::move(impl)));
+}
+
+Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss) {
+  const RenderSettings& s = ss.base;
+  if (s.width == 0 || s.height == 0 || s.width > kMaxRenderDimension || s.height > kMaxRenderDimension)
+    return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
+  if (!(ss.surfelSize >= 0.5f && ss.surfelSize <= 16.0f))
+    return Error{fmt::format("--surfel-size {} must be in 0.5..16 pixels", ss.surfelSize)};
+  Impl& d = *impl_;
+  SurfelRaster raster = ss.raster == SurfelRaster::Auto
+                            ? (d.ctx.caps().int64BufferAtomics ? SurfelRaster::Compute : SurfelRaster::Raster)
+                            : ss.raster;
+  if (raster == SurfelRaster::Compute && !d.ctx.caps().int64BufferAtomics)
+    return Error{"--surfel-raster compute: the device has no 64-bit buffer atomics"};
+  d.ensureTargets(s.width, s.height);
+
+  Camera cam = withClipPlanes(s.camera, d.worldBounds);
+  glm::mat4 proj = cam.projection(float(s.width) / float(s.height));
+  sio::SurfelRenderFrame f{};
+  f.viewProj = proj * cam.view();
+  f.invViewProj = glm::inverse(f.viewProj);
+  f.eye = glm::vec4(cam.eye, 1.0f);
+  frustumPlanes(f.viewProj, f.planes);
+  f.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
+  f.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
+  f.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
+  f.background = s.background;
+  f.viewport = {float(s.width), float(s.height)};
+  f.pixelScale = std::abs(proj[1][1]) * 0.5f * float(s.height);
+  f.surfelSize = ss.surfelSize;
+  f.znear = cam.znear;
+  f.fadeBand = std::max(ss.fadeBand, 0.0f);
+  f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | (ss.allSurfels ? MIRAGE_SURFEL_ALL : 0u) |
+            (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
+            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u);
+  f.instanceCount = d.instanceCount;
+  std::memcpy(d.frame.mapped(), &f, sizeof(f));
+  sio::SurfelRenderPush p = d.push();
+
+  // barriers: none on entry (one-shot submits wait) beyond ordering this frame's clears after any
+  // earlier use of the same buffers.
+  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    d.timer.cmdReset(cmd);
+    uint32_t frameSlot = d.timer.cmdBegin(cmd, "frame");
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    uint32_t clearSlot = d.timer.cmdBegin(cmd, "clear", VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT);
+    vkCmdFillBuffer(cmd, d.counters.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (raster == SurfelRaster::Compute) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
+    d.timer.cmdEnd(cmd, clearSlot, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT);
+    // Shaders reach these buffers through addresses, which synchronization validation does not
+    // track: make the clears visible to every later reader directly.
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     kCS | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, kShaderRW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+    d.cmdPrefix(cmd, p);     // cull, k per instance, ids and batches, dispatch arguments
+    d.cmdSplat(cmd, raster); // visibility: (depth, surfel id) per pixel
+    d.cmdResolve(cmd, p);    // fetch and shade
+    d.timer.cmdEnd(cmd, frameSlot);
+  });
+
+  SurfelRenderOutput out;
+  out.image.stats.passTimes = d.timer.read();
+  out.raster = raster;
+  sio::SurfelRenderCounters c{};
+  std::vector<uint8_t> raw = readbackBuffer(d.ctx, d.counters, sizeof(c));
+  std::memcpy(&c, raw.data(), sizeof(c));
+  out.visibleInstances = c.visibleInstances;
+  out.fadingInstances = c.fadingInstances;
+  out.surfelsSplatted = c.totalSurfels;
+  out.image.stats.drawCalls = raster == SurfelRaster::Raster ? 1 : 0;
+  if (ss.readInstanceStates) {
+    std::vector<sio::SurfelInstanceState> st(d.instanceCount);
+    raw = readbackBuffer(d.ctx, d.states, st.size() * sizeof(st[0]));
+    std::memcpy(st.data(), raw.data(), raw.size());
+    for (const auto& e : st) {
+      out.prefix.push_back(e.count);
+      out.fade.push_back(e.fade);
+      out.distance.push_back(e.distance);
+    }
+    out.idBuffer.resize(size_t(s.width) * s.height);
+    if (raster == SurfelRaster::Compute) {
+      raw = readbackBuffer(d.ctx, d.visBuffer, size_t(s.width) * s.height * 8);
+      for (size_t i = 0; i < out.idBuffer.size(); ++i) std::memcpy(&out.idBuffer[i], raw.data() + i * 8, 4);
+    } else {
+      raw = readbackImage(d.ctx, d.vis, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, 8);
+      for (size_t i = 0; i < out.idBuffer.size(); ++i) std::memcpy(&out.idBuffer[i], raw.data() + i * 8, 4);
+    }
+  }
+  std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
+  convertHalfImage(img, s.width, s.height, s.readLinear, out.image);
+  return out;
+}
+
+} // namespace mirage::render

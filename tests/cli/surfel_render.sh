@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# mirage render --surfels / mirage bench surfels: a small cloud renders and benches; a .mrg without
+# a SURF chunk (a cluster-LOD asset) and bad flags exit 2 with one line and write nothing.
+# Usage: surfel_render.sh MIRAGE_BINARY SOURCE_DIR
+set -u
+mirage=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+pass=0
+
+expect_fail() { # NAME WANTED_TEXT OUTPUT_FILE -- ARGS...
+  local name=$1 wanted=$2 output=$3
+  shift 4
+  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local rc=$? lines
+  lines=$(grep -c . "$tmp/stderr")
+  if [ $rc -ne 2 ] || [ "$lines" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
+    echo "FAIL $name: exit $rc, stderr:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
+  fi
+  if [ -n "$output" ] && [ -e "$output" ]; then echo "FAIL $name: wrote $output"; failures=$((failures + 1)); return; fi
+  pass=$((pass + 1))
+}
+expect_ok() { # NAME ARGS...
+  local name=$1
+  shift
+  if ! "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"; then
+    echo "FAIL $name:"; cat "$tmp/stderr"; failures=$((failures + 1)); return 1
+  fi
+  pass=$((pass + 1))
+}
+
+if expect_ok build-lod build gen:blob:2 -o "$tmp/lod.mrg" --quiet; then
+  expect_fail surfels-no-surf "no SURF chunk" "$tmp/a.png" -- render "$tmp/lod.mrg" -o "$tmp/a.png" --surfels
+  expect_fail bench-no-surf "no SURF chunk" "" -- bench surfels "$tmp/lod.mrg" --size 32x32 --frames 2
+fi
+if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 48 --views 6; then
+  expect_ok render-surfels render "$tmp/s.mrg" -o "$tmp/s.png" --surfels --size 64x64 --stats
+  [ -s "$tmp/s.png" ] || { echo "FAIL render-surfels: no PNG"; failures=$((failures + 1)); }
+  expect_ok render-surfels-raster render "$tmp/s.mrg" -o "$tmp/r.png" --surfels --surfel-raster raster --size 64x64
+  expect_ok bench-surfels bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --copies 4
+  grep -q "G surfels/s" "$tmp/stdout" || { echo "FAIL bench-surfels: no throughput line"; failures=$((failures + 1)); }
+  expect_fail surfels-bad-size "--surfel-size" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfels --surfel-size 0
+  expect_fail surfels-bad-raster "--surfel-raster" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfels --surfel-raster mesh
+  expect_fail surfel-size-without-surfels "--surfels" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfel-size 3
+fi
+expect_fail surfels-missing "missing.mrg" "$tmp/m.png" -- render "$tmp/missing.mrg" -o "$tmp/m.png" --surfels
+
+echo "cli surfel render: $pass passed, $failures failed"
+[ $failures -eq 0 ]

@@ -1,0 +1,338 @@
+// Surfel renderer: the GPU prefix length equals the CPU formula; surfels at the default size are
+// hole-free over the mesh's own silhouette and close to the mesh image at distance (SSIM); the
+// compute splat and the raster fallback agree; the mesh cross-fade switches where documented.
+// The cloud: the blob (subdivision 5) captured at 128² × 16 views, 20k surfels ordered by the exact
+// CPU farthest-point reference (the same order the GPU sampler approximates; ~1 s on lavapipe).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+
+#include <fmt/format.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "gpu_test.h"
+#include "mirage/core/image_metrics.h"
+#include "mirage/io/generate.h"
+#include "mirage/io/image_io.h"
+#include "mirage/render/forward_renderer.h"
+#include "mirage/render/surfel_renderer.h"
+#include "mirage/shaderio/surfel_render.h"
+#include "mirage/surfels/capture.h"
+#include "mirage/surfels/reference.h"
+#include "test_support.h"
+
+using namespace mirage;
+using namespace mirage::render;
+using mirage::test::GpuTest;
+
+namespace {
+
+constexpr uint32_t kSurfels = 20000;
+constexpr uint32_t kSize = 256;
+const glm::vec4 kMagenta{1.0f, 0.0f, 1.0f, 1.0f}; // background no shading can produce on the blob
+
+struct Blob {
+  Scene scene;
+  surfels::SurfelCloud cloud;
+};
+
+const Blob& blob() {
+  static Blob b = [] {
+    Blob out;
+    out.scene = io::generateScene("blob", 1, 5).value();
+    surfels::CaptureConfig config;
+    config.resolution = 128;
+    surfels::GBufferTexels texels = surfels::captureGBuffer(test::gpuContext(), out.scene, config).value().texels;
+    out.cloud = surfels::buildSurfelCloud(texels, surfels::farthestPointReference(texels, kSurfels));
+    return out;
+  }();
+  return b;
+}
+
+SurfelScene surfelScene(const std::vector<glm::mat4>& transforms) {
+  SurfelScene s;
+  const Blob& b = blob();
+  s.clouds.push_back({&b.cloud, b.scene.materials[b.scene.meshes[0].material]});
+  for (const glm::mat4& t : transforms) s.instances.push_back({0, t});
+  return s;
+}
+
+// The auto view of the blob, moved back along its view direction by `factor`.
+Camera blobCamera(float factor) {
+  Camera c = autoCamera(blob().scene.worldBounds(), 1.0f);
+  c.eye = c.target + (c.eye - c.target) * factor;
+  c.znear = c.zfar = 0.0f; // derived again for the new eye
+  return c;
+}
+
+RenderSettings baseSettings(const Camera& camera) {
+  RenderSettings s;
+  s.width = s.height = kSize;
+  s.camera = camera;
+  s.background = kMagenta;
+  return s;
+}
+
+bool isBackground(const ImageRGBA8& img, size_t pixel) {
+  const uint8_t* p = &img.pixels[pixel * 4];
+  return p[0] == 255 && p[1] == 0 && p[2] == 255;
+}
+
+ImageRGBA8 renderMesh(GpuTest&, const Camera& camera) {
+  auto fwd = ForwardRenderer::create(test::gpuContext(), blob().scene);
+  EXPECT_TRUE(fwd.ok());
+  return (*fwd)->render(baseSettings(camera)).value().srgb;
+}
+
+SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, float size = 2.0f) {
+  auto r = SurfelRenderer::create(test::gpuContext(), surfelScene({glm::mat4(1.0f)}));
+  EXPECT_TRUE(r.ok()) << r.error().message;
+  SurfelRenderSettings s;
+  s.base = baseSettings(camera);
+  s.raster = raster;
+  s.surfelSize = size;
+  s.readInstanceStates = true;
+  auto out = (*r)->render(s);
+  EXPECT_TRUE(out.ok()) << out.error().message;
+  return std::move(*out);
+}
+
+// The part of `img` inside the bounding box of the mesh mask (SSIM over the object, not the
+// background that dominates a distant view).
+ImageRGBA8 crop(const ImageRGBA8& img, const ImageRGBA8& mask) {
+  uint32_t x0 = img.width, y0 = img.height, x1 = 0, y1 = 0;
+  for (uint32_t y = 0; y < img.height; ++y)
+    for (uint32_t x = 0; x < img.width; ++x)
+      if (!isBackground(mask, size_t(y) * img.width + x))
+        x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+  x0 = x0 >= 2 ? x0 - 2 : 0, y0 = y0 >= 2 ? y0 - 2 : 0;
+  x1 = std::min(x1 + 3, img.width), y1 = std::min(y1 + 3, img.height);
+  ImageRGBA8 out{x1 - x0, y1 - y0, std::vector<uint8_t>(size_t(x1 - x0) * (y1 - y0) * 4)};
+  for (uint32_t y = y0; y < y1; ++y)
+    std::copy_n(&img.pixels[(size_t(y) * img.width + x0) * 4], size_t(x1 - x0) * 4,
+                &out.pixels[size_t(y - y0) * out.width * 4]);
+  return out;
+}
+
+// Fraction of the mesh's covered pixels the surfels leave as background.
+double holeFraction(const ImageRGBA8& mesh, const ImageRGBA8& surfels) {
+  size_t inside = 0, holes = 0;
+  for (size_t i = 0; i < size_t(mesh.width) * mesh.height; ++i)
+    if (!isBackground(mesh, i)) {
+      ++inside;
+      holes += isBackground(surfels, i);
+    }
+  return inside ? double(holes) / double(inside) : 1.0;
+}
+
+SurfelRaster computeOrRaster() {
+  return test::gpuContext().caps().int64BufferAtomics ? SurfelRaster::Compute : SurfelRaster::Raster;
+}
+
+} // namespace
+
+class SurfelRender : public GpuTest {};
+
+TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
+  const surfels::SurfelCloud& cloud = blob().cloud;
+  // Copies along -z at growing distances (scaled 1 and 2: P scales with the square), and one far
+  // off to the side, outside the frustum.
+  std::vector<glm::mat4> transforms;
+  for (int i = 0; i < 6; ++i) {
+    glm::mat4 t = glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, -4.0f * float(i * i)));
+    if (i % 2) t = glm::scale(t, glm::vec3(2.0f));
+    transforms.push_back(t);
+  }
+  transforms.push_back(glm::translate(glm::mat4(1.0f), glm::vec3(500.0f, 0.0f, 0.0f)));
+  auto r = SurfelRenderer::create(context(), surfelScene(transforms));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  Camera cam;
+  cam.eye = {0.0f, 0.5f, 6.0f};
+  cam.target = {0.0f, 0.0f, -20.0f};
+  SurfelRenderSettings s;
+  s.base = baseSettings(cam);
+  s.readInstanceStates = true;
+  for (float size : {1.0f, 2.0f, 4.0f}) {
+    s.surfelSize = size;
+    auto out = (*r)->render(s);
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    Camera clipped = withClipPlanes(cam, (*r)->worldBounds());
+    float pixelScale = std::abs(clipped.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+    float P0 = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
+    uint32_t below = 0;
+    uint64_t sum = 0;
+    for (size_t i = 0; i + 1 < transforms.size(); ++i) {
+      float scale = i % 2 ? 2.0f : 1.0f;
+      Bounds w = transformBounds(cloud.box, transforms[i]);
+      float distance = std::max(glm::length(w.center() - cam.eye) - 0.5f * glm::length(w.extent()), clipped.znear);
+      EXPECT_NEAR(out->distance[i], distance, 1e-4f * distance);
+      uint32_t expected = surfelPrefix(P0 * scale * scale, uint32_t(cloud.size()), distance, pixelScale, size);
+      // ceil() of a float quotient: one either way at an exact integer boundary.
+      EXPECT_NEAR(double(out->prefix[i]), double(expected), 1.0) << "instance " << i << " size " << size;
+      below += expected < cloud.size();
+      sum += out->prefix[i];
+      std::printf("s %.0f instance %zu distance %.2f k %u (cpu %u)\n", size, i, distance, out->prefix[i], expected);
+    }
+    EXPECT_EQ(out->prefix.back(), 0u) << "the instance outside the frustum is culled";
+    EXPECT_GE(below, 2u) << "some instances must be far enough for k < N";
+    EXPECT_EQ(out->surfelsSplatted, sum);
+    EXPECT_EQ(out->visibleInstances, transforms.size() - 1);
+  }
+}
+
+TEST_F(SurfelRender, HoleFreeOverTheMeshSilhouette) {
+  // Near (k clamped to N: surfels grow to the cloud's own spacing) and far (k < N: s-pixel surfels).
+  for (float factor : {1.0f, 3.0f}) {
+    Camera cam = blobCamera(factor);
+    ImageRGBA8 mesh = renderMesh(*this, cam);
+    SurfelRenderOutput out = renderSurfels(cam, computeOrRaster());
+    double holes = holeFraction(mesh, out.image.srgb);
+    std::printf("distance x%.0f: k %u of %zu, holes %.4f%%\n", factor, out.prefix[0], blob().cloud.size(),
+                100.0 * holes);
+    EXPECT_LE(holes, 0.01) << "factor " << factor;
+    if (factor > 1.0f) {
+      EXPECT_LT(out.prefix[0], blob().cloud.size());
+    }
+  }
+}
+
+TEST_F(SurfelRender, CloseToTheMeshAtDistance) {
+  // SSIM over the object's box against the mesh. Surfels of s = 2 px carry about one sample per
+  // (s/2)² px with one normal and one G-buffer colour each, and their discs overhang the silhouette
+  // by up to a disc radius; the yardstick is therefore the mesh's own image at 1/s resolution
+  // (rendered at half size, upsampled by pixel replication), compared the same way. The surfels must
+  // reach it (measured 0.866 vs 0.829 at x2, 0.741 vs 0.712 at x4 where the object is ~36 px wide;
+  // 0.02 slack for driver rounding).
+  for (float factor : {2.0f, 4.0f}) {
+    Camera cam = blobCamera(factor);
+    ImageRGBA8 mesh = renderMesh(*this, cam);
+    SurfelRenderOutput out = renderSurfels(cam, computeOrRaster());
+    auto fwd = ForwardRenderer::create(context(), blob().scene);
+    ASSERT_TRUE(fwd.ok());
+    RenderSettings half = baseSettings(cam);
+    half.width = half.height = kSize / 2;
+    ImageRGBA8 low = (*fwd)->render(half).value().srgb,
+               up{kSize, kSize, std::vector<uint8_t>(size_t(kSize) * kSize * 4)};
+    for (uint32_t y = 0; y < kSize; ++y)
+      for (uint32_t x = 0; x < kSize; ++x)
+        std::copy_n(&low.pixels[(size_t(y / 2) * low.width + x / 2) * 4], 4, &up.pixels[(size_t(y) * kSize + x) * 4]);
+    double ssim = mirage::ssim(crop(out.image.srgb, mesh), crop(mesh, mesh));
+    double psnr = mirage::psnr(crop(out.image.srgb, mesh), crop(mesh, mesh));
+    double yardstick = mirage::ssim(crop(up, mesh), crop(mesh, mesh));
+    std::printf("distance x%.0f: k %u, SSIM %.4f (half-resolution mesh %.4f), PSNR %.2f dB\n", factor, out.prefix[0],
+                ssim, yardstick, psnr);
+    if (std::getenv("MIRAGE_SURFEL_TEST_IMAGES")) {
+      (void)io::writePng(fmt::format("/tmp/surfel_mesh_x{}.png", factor), crop(mesh, mesh));
+      (void)io::writePng(fmt::format("/tmp/surfel_surfels_x{}.png", factor), crop(out.image.srgb, mesh));
+    }
+    EXPECT_GE(ssim, yardstick - 0.02) << "factor " << factor;
+  }
+}
+
+TEST_F(SurfelRender, ComputeSplatAndRasterFallbackAgree) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  for (float factor : {1.0f, 3.0f}) {
+    Camera cam = blobCamera(factor);
+    SurfelRenderOutput a = renderSurfels(cam, SurfelRaster::Compute);
+    SurfelRenderOutput b = renderSurfels(cam, SurfelRaster::Raster);
+    EXPECT_EQ(a.prefix, b.prefix);
+    size_t same = 0, covered = 0;
+    for (size_t i = 0; i < a.idBuffer.size(); ++i) {
+      covered += a.idBuffer[i] != 0 || b.idBuffer[i] != 0;
+      same += (a.idBuffer[i] != 0 || b.idBuffer[i] != 0) && a.idBuffer[i] == b.idBuffer[i];
+    }
+    double ssim = mirage::ssim(a.image.srgb, b.image.srgb);
+    std::printf("distance x%.0f: same id on %.2f%% of %zu covered pixels, SSIM %.4f\n", factor,
+                100.0 * double(same) / double(covered), covered, ssim);
+    EXPECT_GE(double(same), 0.97 * double(covered)); // depth ties and rounding differ, nothing else
+    EXPECT_GE(ssim, 0.98);
+  }
+}
+
+TEST_F(SurfelRender, MeshFadeSwitchesAtTheDocumentedDistance) {
+  const surfels::SurfelCloud& cloud = blob().cloud;
+  auto r = SurfelRenderer::create(context(), surfelScene({glm::mat4(1.0f)}));
+  ASSERT_TRUE(r.ok());
+  float P = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
+  Camera probe = withClipPlanes(blobCamera(1.0f), (*r)->worldBounds());
+  float pixelScale = std::abs(probe.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+  float switchDistance = surfelSwitchDistance(P, uint32_t(cloud.size()), pixelScale, 2.0f);
+  SurfelRenderSettings s;
+  s.readInstanceStates = true;
+  s.meshFade = true;
+  s.fadeBand = 0.5f;
+  float radius = 0.5f * glm::length(cloud.box.extent());
+  // Reference depths 0.8x, 1.25x and 2x the switch distance: mesh only, blend band, surfels only.
+  for (float at : {0.8f, 1.25f, 2.0f}) {
+    Camera cam;
+    cam.target = cloud.box.center();
+    cam.eye = cam.target + glm::vec3(0.0f, 0.0f, at * switchDistance + radius);
+    s.base = baseSettings(cam);
+    auto out = (*r)->render(s);
+    ASSERT_TRUE(out.ok());
+    float expected = std::clamp((out->distance[0] - switchDistance) / (0.5f * switchDistance), 0.0f, 1.0f);
+    EXPECT_NEAR(out->fade[0], expected, 1e-4f);
+    size_t covered = std::count_if(out->idBuffer.begin(), out->idBuffer.end(), [](uint32_t id) { return id != 0; });
+    std::printf("at %.2fx switch distance: fade %.3f, k %u, covered %zu px\n", at, out->fade[0], out->prefix[0],
+                covered);
+    if (at < 1.0f) {
+      EXPECT_EQ(covered, 0u);
+    } else {
+      EXPECT_GT(covered, 0u);
+    }
+  }
+}
+
+TEST_F(SurfelRender, InstancesResolveToTheirOwnSurfels) {
+  // Three copies side by side (each several 1024-surfel batches): every covered pixel of the joint
+  // render must equal the render of its copy alone, so batches, ids and the resolve's instance
+  // search map every surfel back to the right instance.
+  std::vector<glm::mat4> transforms;
+  for (int i = -1; i <= 1; ++i)
+    transforms.push_back(glm::translate(glm::mat4(1.0f), glm::vec3(2.6f * float(i), 0.0f, 0.0f)));
+  Camera cam;
+  cam.eye = {0.0f, 1.0f, 9.0f};
+  cam.target = {0.0f, 0.0f, 0.0f};
+  cam.znear = 0.1f;
+  cam.zfar = 100.0f;
+  SurfelRenderSettings s;
+  s.base = baseSettings(cam);
+  s.raster = computeOrRaster();
+  s.readInstanceStates = true;
+  auto all = SurfelRenderer::create(context(), surfelScene(transforms));
+  ASSERT_TRUE(all.ok());
+  SurfelRenderOutput joint = (*all)->render(s).value();
+  size_t compared = 0, differing = 0;
+  for (size_t i = 0; i < transforms.size(); ++i) {
+    EXPECT_GT(joint.prefix[i], 2u * MIRAGE_SURFEL_BATCH);
+    auto one = SurfelRenderer::create(context(), surfelScene({transforms[i]}));
+    ASSERT_TRUE(one.ok());
+    SurfelRenderOutput alone = (*one)->render(s).value();
+    EXPECT_EQ(alone.prefix[0], joint.prefix[i]);
+    for (size_t p = 0; p < size_t(kSize) * kSize; ++p) {
+      if (isBackground(alone.image.srgb, p)) continue;
+      ++compared;
+      differing += !std::equal(&alone.image.srgb.pixels[p * 4], &alone.image.srgb.pixels[p * 4 + 4],
+                               &joint.image.srgb.pixels[p * 4]);
+    }
+  }
+  std::printf("compared %zu pixels, %zu differ\n", compared, differing);
+  EXPECT_GT(compared, 3000u);
+  EXPECT_EQ(differing, 0u);
+}
+
+TEST_F(SurfelRender, RejectsBadSettings) {
+  auto r = SurfelRenderer::create(context(), surfelScene({glm::mat4(1.0f)}));
+  ASSERT_TRUE(r.ok());
+  SurfelRenderSettings s;
+  s.base = baseSettings(blobCamera(1.0f));
+  s.surfelSize = 0.0f;
+  EXPECT_FALSE((*r)->render(s).ok());
+  SurfelScene bad = surfelScene({glm::mat4(1.0f)});
+  bad.instances[0].cloud = 3;
+  EXPECT_FALSE(SurfelRenderer::create(context(), bad).ok());
+  EXPECT_FALSE(SurfelRenderer::create(context(), SurfelScene{}).ok());
+}
