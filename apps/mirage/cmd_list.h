@@ -16,6 +16,8 @@ void addDemoCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 // mirage bench surfels FILE: surfel splatting throughput (cmd_render_surfels.cpp); a bench subcommand.
 void addBenchSurfelsCommand(CLI::App& bench);
+// mirage bench rays SCENE [--backend embree|vulkan|all] [--rays N] (cmd_bench_rays.cpp).
+void addBenchRaysCommand(CLI::App* bench);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.

@@ -11,6 +11,7 @@
 
 #include "cmd_list.h"
 #include "commands.h"
+#include "ray_backend_choice.h"
 #include "mirage/visibility/gvs.h"
 #include "mirage/visibility/pvs_eval.h"
 #include "mirage/visibility/pvs_storage.h"
@@ -21,7 +22,8 @@ namespace mirage::cli {
 namespace {
 
 struct PvsOptions {
-  std::string input, cells, grid, region, output, geometry = "auto", method = "gvs";
+  std::string input, cells, grid, region, output, method = "gvs";
+  RayBackendChoice rays;
   vis::GvsConfig gvs;
   int threads = 0;
   bool json = false, noPackets = false, noDiff = false;
@@ -93,8 +95,7 @@ Result<std::vector<vis::ViewCell>> cellsFromOptions(const PvsOptions& o, const S
 
 Status checkOptions(const PvsOptions& o) {
   if (o.threads < 0 || o.threads > 4096) return Error{"--threads must be in 0..4096"};
-  if (o.geometry != "auto" && o.geometry != "flatten" && o.geometry != "instance")
-    return Error{"--geometry must be auto, flatten or instance"};
+  if (auto s = checkRayBackendChoice(o.rays); !s) return s;
   if (o.gvs.randomRays == 0) return Error{"--rays must be at least 1"};
   if (o.method != "gvs" && o.method != "rand") return Error{"--method must be gvs or rand"};
   if (o.eval.resolution < 1 || o.eval.resolution > 8192) return Error{"--size must be in 1..8192"};
@@ -104,7 +105,8 @@ Status checkOptions(const PvsOptions& o) {
 struct Prepared {
   Scene scene;
   std::vector<vis::ViewCell> cells;
-  std::unique_ptr<vis::RayBackend> backend;
+  OpenedRayBackend opened; // the device (if any) and the backend
+  vis::RayBackend* backend = nullptr;
   double loadSeconds = 0, buildSeconds = 0;
 };
 
@@ -121,16 +123,13 @@ Result<Prepared> prepare(const PvsOptions& o) {
   auto cells = early->empty() ? cellsFromOptions(o, &p.scene) : std::move(early);
   if (!cells) return cells.error();
   p.cells = std::move(*cells);
-  vis::EmbreeOptions eo;
-  eo.packets = !o.noPackets;
-  eo.geometry = o.geometry == "flatten"    ? vis::EmbreeOptions::Geometry::Flatten
-                : o.geometry == "instance" ? vis::EmbreeOptions::Geometry::Instance
-                                           : vis::EmbreeOptions::Geometry::Auto;
-  t0 = std::chrono::steady_clock::now();
-  auto backend = vis::createEmbreeBackend(p.scene, eo);
-  if (!backend) return backend.error();
-  p.backend = std::move(*backend);
-  p.buildSeconds = secondsSince(t0);
+  RayBackendChoice choice = o.rays;
+  choice.packets = !o.noPackets;
+  auto opened = openRayBackend(choice, p.scene);
+  if (!opened) return opened.error();
+  p.opened = std::move(*opened);
+  p.backend = p.opened.backend.get();
+  p.buildSeconds = p.opened.buildSeconds;
   return p;
 }
 
@@ -190,6 +189,7 @@ void runPvs(PvsOptions o) {
       {"mrays_per_s", double(rays) / traceSeconds * 1e-6},
       {"threads", o.threads > 0 ? o.threads
                                 : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))},
+      {"backend", std::string(p->backend->name())},
       {"bvh_build_seconds", p->buildSeconds},
       {"pvs_bytes", es.totalBytes},
       {"difference_cells", es.differenceCells},
@@ -302,7 +302,12 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   MIRAGE_GVS_FLAG("--seed", seed, "Sampling seed");
 #undef MIRAGE_GVS_FLAG
   cmd->add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str();
-  cmd->add_option("--geometry", o.geometry, "Embree geometry: auto, flatten or instance")->capture_default_str();
+  cmd->add_option("--geometry", o.rays.geometry, "Ray-tracing geometry: auto, flatten or instance")
+      ->capture_default_str();
+  cmd->add_option("--backend", o.rays.backend,
+                  "Ray backend: auto (Vulkan on a GPU with ray-tracing pipelines, else Embree), embree or vulkan")
+      ->capture_default_str();
+  cmd->add_option("--device", o.rays.device, "Vulkan device name substring or index (--backend vulkan)");
   cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");
   cmd->add_flag("--json", o.json, "Print results as JSON");
 }

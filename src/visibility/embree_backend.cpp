@@ -13,8 +13,13 @@
 
 namespace mirage::vis {
 
+namespace {
+std::atomic<uint64_t> g_nextGeneration{1};
+}
+
 TriangleSet::TriangleSet(size_t triangleCount)
-    : capacity_(triangleCount), words_(new std::atomic<uint64_t>[(triangleCount + 63) / 64]()) {}
+    : capacity_(triangleCount), generation_(g_nextGeneration++),
+      words_(new std::atomic<uint64_t>[(triangleCount + 63) / 64]()) {}
 
 size_t TriangleSet::count() const {
   size_t n = 0;
@@ -36,6 +41,7 @@ void TriangleSet::snapshot(std::vector<uint64_t>& words) const {
 }
 
 void TriangleSet::assign(std::span<const uint32_t> ids) {
+  generation_ = g_nextGeneration++;
   for (size_t w = 0; w < (capacity_ + 63) / 64; ++w) words_[w].store(0);
   for (uint32_t id : ids) insert(id);
 }

@@ -27,8 +27,6 @@ namespace {
 
 using detail::RandomizedHalton;
 
-constexpr size_t kBatch = size_t(1) << 18; // rays per trace call: 8 MiB of rays, enough to fill all cores
-
 // A newly found triangle and the origin of the ray that found it (ABS shoots from there).
 struct Discovery {
   uint32_t triangle;
@@ -63,7 +61,7 @@ public:
   Baker(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config, bool keepWitnesses)
       : backend_(backend), scene_(scene), cfg_(config), offsets_(triangleOffsets(scene)),
         found_(backend.triangleCount()), surface_(cell), halton_(config.seed), rsHalton_(config.seed ^ 0x9e3779b9u),
-        keepWitnesses_(keepWitnesses) {
+        keepWitnesses_(keepWitnesses), batch_(backend.preferredBatchRays()) {
     // Meshes without bounds (hand-made scenes) leave the world bounds empty: drop the scene term.
     Bounds b = scene.worldBounds();
     sceneDiagonal_ = b.empty() ? 0.0f : glm::length(b.extent());
@@ -130,7 +128,7 @@ private:
     std::vector<Discovery> out;
     uint64_t total = budgetClamp(cfg_.randomRays);
     for (uint64_t done = 0; done < total;) {
-      size_t n = size_t(std::min<uint64_t>(kBatch, total - done));
+      size_t n = size_t(std::min<uint64_t>(batch_, total - done));
       rays_.resize(n);
       hits_.resize(n);
       uint64_t base = haltonIndex_;
@@ -194,7 +192,7 @@ private:
   void absPhase(const std::vector<Discovery>& queue, std::vector<Discovery>& next) {
     std::vector<RsSeed> seeds;
     const size_t perTriangle = 9 + 3 * size_t(cfg_.absEdgeSamples);
-    const size_t chunk = std::max<size_t>(1, kBatch / perTriangle);
+    const size_t chunk = std::max<size_t>(1, batch_ / perTriangle);
     std::vector<glm::vec3> targets;
     for (size_t begin = 0; begin < queue.size() && budgetLeft(); begin += chunk) {
       size_t end = std::min(queue.size(), begin + chunk);
@@ -247,7 +245,7 @@ private:
   void rsPhase(const std::vector<RsSeed>& seeds, std::vector<Discovery>& next) {
     const size_t perSeed = size_t(cfg_.rsEdgeSamples) + cfg_.rsAreaSamples;
     if (perSeed == 0) return;
-    const size_t chunk = std::max<size_t>(1, kBatch / perSeed);
+    const size_t chunk = std::max<size_t>(1, batch_ / perSeed);
     for (size_t begin = 0; begin < seeds.size() && budgetLeft(); begin += chunk) {
       size_t end = std::min(seeds.size(), begin + chunk);
       rays_.assign((end - begin) * perSeed, Ray{.tfar = -1.0f});
@@ -296,6 +294,7 @@ private:
   uint64_t haltonIndex_ = 0;
   uint64_t rsIndex_ = 0;
   bool keepWitnesses_;
+  const size_t batch_; // rays per trace call (the backend's choice: 256 k fill all CPU cores)
   float sceneDiagonal_ = 1.0f;
   std::vector<std::array<glm::vec3, 2>> edges_;
   float edgeLength_ = 0.0f;

@@ -51,6 +51,10 @@ TEST(PvsCli, BadInputsFailCleanly) {
       "pvs gen:nothing --cells " + (dir / "ok.json").string() + " -o " + out.string(),
       "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --config " + (dir / "gvs.json").string() + " -o " +
           out.string(),
+      "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend optix -o " + out.string(),
+      "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend vulkan --device nosuchgpu -o " +
+          out.string(),
+      "bench rays gen:city:1 --backend optix",
   };
   for (const std::string& args : cases) {
     CliRun r = runMirage(args, dir);

@@ -37,6 +37,9 @@ inline void destroyHandle(VkDevice d, VkCommandPool h) { vkDestroyCommandPool(d,
 inline void destroyHandle(VkDevice d, VkFence h) { vkDestroyFence(d, h, nullptr); }
 inline void destroyHandle(VkDevice d, VkSemaphore h) { vkDestroySemaphore(d, h, nullptr); }
 inline void destroyHandle(VkDevice d, VkQueryPool h) { vkDestroyQueryPool(d, h, nullptr); }
+inline void destroyHandle(VkDevice d, VkAccelerationStructureKHR h) {
+  vkDestroyAccelerationStructureKHR(d, h, nullptr);
+}
 
 // Move-only owner of one device-level handle. Destruction is immediate: Mirage's renderers wait for
 // their submissions before they release resources (a frame-deferred delete queue comes with

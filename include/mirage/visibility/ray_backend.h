@@ -61,11 +61,17 @@ public:
   size_t count() const;
   std::vector<uint32_t> sorted() const;
   void assign(std::span<const uint32_t> ids);
+  // Unique per set and per assign(): a GPU copy of the set (vulkan_backend.cpp) knows when to upload
+  // it again (insertions it sees through count()).
+  uint64_t generation() const { return generation_; }
+  // The words themselves, read-only (64 IDs each, little endian), for uploads.
+  const std::atomic<uint64_t>* words() const { return words_.get(); }
   // The bits as plain words (64 IDs each), e.g. to tell later which IDs a batch of rays added.
   void snapshot(std::vector<uint64_t>& words) const;
 
 private:
   size_t capacity_ = 0;
+  uint64_t generation_ = 0;
   std::unique_ptr<std::atomic<uint64_t>[]> words_;
 };
 
@@ -85,6 +91,9 @@ public:
   virtual size_t triangleCount() const = 0;
   // Closest hits for every ray (hits.size() == rays.size()), on all cores.
   virtual void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets = {}) = 0;
+  // Rays per trace() call the sampler should batch: enough to fill the device (all CPU cores, or
+  // a GPU, where each call also pays for a submission and the transfers).
+  virtual size_t preferredBatchRays() const { return size_t(1) << 18; }
 };
 
 // First global triangle ID of each instance (size instances + 1; the last entry is the total).

@@ -1,0 +1,171 @@
+// mirage bench rays: ray throughput of the ray backends on one set of random rays (origins in the
+// view cells or the scene box, uniform directions), with every hit recorded into a triangle set as
+// GVS++ does. Vulkan reports the trace dispatch alone (timestamp queries) and the wall time with
+// upload and readback; its "generated" mode makes the rays in the ray-generation shader.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cmd_list.h"
+#include "commands.h"
+#include "mirage/visibility/view_cell.h"
+#include "mirage/visibility/vulkan_backend.h"
+#include "ray_backend_choice.h"
+#include "render_common.h"
+
+namespace mirage::cli {
+
+namespace {
+
+struct BenchRaysOptions {
+  std::string input, cells, backend = "all", geometry = "auto", device;
+  uint64_t rays = 4'000'000;
+  int repeat = 3;
+  bool json = false;
+};
+
+// Random numbers from the ray index alone (PCG hash), so any slice of rays can be made anywhere.
+uint32_t pcg(uint32_t v) {
+  uint32_t state = v * 747796405u + 2891336453u;
+  uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+  return (word >> 22u) ^ word;
+}
+float unit(uint32_t v) { return float(v >> 8) * (1.0f / 16777216.0f); }
+
+std::vector<vis::Ray> randomRays(const Bounds& box, uint64_t count) {
+  std::vector<vis::Ray> rays(count);
+  for (uint64_t i = 0; i < count; ++i) {
+    uint32_t h = pcg(uint32_t(i) ^ 0x2545f491u), h1 = pcg(h), h2 = pcg(h1), h3 = pcg(h2), h4 = pcg(h3);
+    vis::Ray& r = rays[i];
+    r.origin = glm::mix(box.min, box.max, glm::vec3(unit(h), unit(h1), unit(h2)));
+    float z = 1.0f - 2.0f * unit(h3), s = std::sqrt(std::max(0.0f, 1.0f - z * z));
+    float phi = 6.2831853f * unit(h4);
+    r.dir = {s * std::cos(phi), s * std::sin(phi), z};
+  }
+  return rays;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+void runBenchRays(const BenchRaysOptions& o) {
+  if (o.backend != "all" && o.backend != "embree" && o.backend != "vulkan")
+    return fail("--backend must be embree, vulkan or all");
+  if (o.rays == 0 || o.rays > (uint64_t(1) << 31)) return fail("--rays must be in 1..2^31");
+  if (o.repeat < 1) return fail("--repeat must be at least 1");
+  if (auto s = checkRayBackendChoice({.backend = "auto", .geometry = o.geometry}); !s) return fail(s.error());
+  std::vector<vis::ViewCell> cells;
+  if (!o.cells.empty()) {
+    auto c = vis::loadViewCells(o.cells);
+    if (!c) return fail(c.error());
+    cells = std::move(*c);
+  }
+  auto scene = loadSceneArgument(o.input);
+  if (!scene) return fail(scene.error());
+  Bounds box;
+  if (cells.empty()) box = scene->worldBounds();
+  for (const vis::ViewCell& cell : cells)
+    for (glm::vec3 p : cell.corners()) box.add(p);
+  if (box.empty()) return fail(o.input + ": empty scene");
+  std::vector<vis::Ray> rays = randomRays(box, o.rays);
+  std::vector<vis::Hit> reference, hits(rays.size());
+  nlohmann::json results = nlohmann::json::array();
+  auto report = [&](const std::string& name, double wallMs, double gpuMs, size_t found, double agree) {
+    nlohmann::json j{{"backend", name},
+                     {"rays", o.rays},
+                     {"wall_ms", wallMs},
+                     {"wall_mrays_per_s", double(o.rays) / wallMs * 1e-3},
+                     {"triangles_found", found}};
+    if (gpuMs > 0) {
+      j["gpu_ms"] = gpuMs;
+      j["gpu_mrays_per_s"] = double(o.rays) / gpuMs * 1e-3;
+    }
+    if (agree >= 0) j["same_hit_as_embree"] = agree;
+    results.push_back(j);
+    if (o.json) return;
+    fmt::print("{:18} wall {:9.2f} ms {:9.2f} Mrays/s", name, wallMs, double(o.rays) / wallMs * 1e-3);
+    if (gpuMs > 0) fmt::print(" | GPU trace {:9.3f} ms {:10.2f} Mrays/s", gpuMs, double(o.rays) / gpuMs * 1e-3);
+    fmt::print(" | {} triangles hit", found);
+    if (agree >= 0) fmt::print(" | same hit as Embree {:.4f}%", agree * 100.0);
+    fmt::print("\n");
+  };
+
+  std::string geometry = o.geometry;
+  if (o.backend != "vulkan") {
+    auto b = openNamedRayBackend("embree", geometry, true, *scene, nullptr);
+    if (!b) return fail(b.error());
+    std::vector<double> wall;
+    size_t found = 0;
+    for (int r = 0; r < o.repeat; ++r) {
+      vis::TriangleSet record((*b)->triangleCount());
+      auto t0 = std::chrono::steady_clock::now();
+      (*b)->trace(rays, hits, {.record = &record});
+      wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      found = record.count();
+    }
+    reference = hits;
+    report(std::string((*b)->name()), median(wall), 0.0, found, -1.0);
+  }
+  if (o.backend != "embree") {
+    auto ctx = openDevice(o.device);
+    if (!ctx) return fail(ctx.error());
+    vis::VulkanRayOptions vo;
+    vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
+                  : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance
+                                           : vis::VulkanRayOptions::Geometry::Auto;
+    vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do
+    auto b = vis::createVulkanBackend(**ctx, *scene, vo);
+    if (!b) return fail(b.error());
+    if (!o.json)
+      fmt::print("{} on {}: {} triangles, build {:.2f} s\n", o.input, (*ctx)->caps().name, (*b)->triangleCount(),
+                 (*b)->buildSeconds());
+    std::vector<double> wall, gpu, genWall, genGpu;
+    size_t found = 0, genFound = 0;
+    for (int r = 0; r < o.repeat; ++r) {
+      vis::TriangleSet record((*b)->triangleCount());
+      auto t0 = std::chrono::steady_clock::now();
+      (*b)->trace(rays, hits, {.record = &record});
+      wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      gpu.push_back((*b)->lastTiming().gpuMilliseconds);
+      found = record.count();
+      vis::TriangleSet generated((*b)->triangleCount());
+      t0 = std::chrono::steady_clock::now();
+      (*b)->traceGenerated(box.min, box.max, o.rays, 1, &generated);
+      genWall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      genGpu.push_back((*b)->lastTiming().gpuMilliseconds);
+      genFound = generated.count();
+    }
+    double agree = -1.0;
+    if (!reference.empty()) {
+      size_t same = 0;
+      for (size_t i = 0; i < hits.size(); ++i) same += hits[i].triangle == reference[i].triangle;
+      agree = double(same) / double(hits.size());
+    }
+    report(std::string((*b)->name()), median(wall), median(gpu), found, agree);
+    report(std::string((*b)->name()) + " generated", median(genWall), median(genGpu), genFound, -1.0);
+  }
+  if (o.json) fmt::print("{}\n", nlohmann::json{{"input", o.input}, {"rays", o.rays}, {"results", results}}.dump(2));
+}
+
+} // namespace
+
+void addBenchRaysCommand(CLI::App* bench) {
+  auto* br = bench->add_subcommand("rays", "Ray throughput per backend: random rays, hits recorded as GVS++ does");
+  auto o = std::make_shared<BenchRaysOptions>();
+  br->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
+  br->add_option("--backend", o->backend, "embree, vulkan or all")->capture_default_str();
+  br->add_option("--rays", o->rays, "Rays per run")->capture_default_str();
+  br->add_option("--cells", o->cells, "Ray origins in these view cells' box (default: the scene box)");
+  br->add_option("--geometry", o->geometry, "auto, flatten or instance")->capture_default_str();
+  br->add_option("--repeat", o->repeat, "Runs; the median is reported")->capture_default_str();
+  br->add_option("--device", o->device, "Vulkan device name substring or index");
+  br->add_flag("--json", o->json, "Print results as JSON");
+  br->callback([o] { runBenchRays(*o); });
+}
+
+} // namespace mirage::cli

@@ -1,0 +1,33 @@
+#pragma once
+// Which ray backend a visibility command runs on (--backend auto|embree|vulkan, --device).
+#include <memory>
+#include <string>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/gpu/context.h"
+#include "mirage/visibility/ray_backend.h"
+
+namespace mirage::cli {
+
+struct RayBackendChoice {
+  std::string backend = "auto"; // auto: Vulkan on a GPU with a ray-tracing pipeline, else Embree
+  std::string geometry = "auto";
+  std::string device;
+  bool packets = true; // Embree: packets of 16 for coherent traces
+};
+
+struct OpenedRayBackend {
+  std::unique_ptr<gpu::Context> context; // declared first: outlives the backend
+  std::unique_ptr<vis::RayBackend> backend;
+  double buildSeconds = 0.0;
+};
+
+// The option values are checked here too (one-line errors).
+Status checkRayBackendChoice(const RayBackendChoice& choice);
+Result<OpenedRayBackend> openRayBackend(const RayBackendChoice& choice, const Scene& scene);
+// Opens the backend named `backend` ("embree" or "vulkan"); `context` is reused when set.
+Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& backend, const std::string& geometry,
+                                                             bool packets, const Scene& scene, gpu::Context* context);
+
+} // namespace mirage::cli

@@ -1,0 +1,95 @@
+// Structs shared by C++ and GLSL for the Vulkan ray backend (src/visibility/vulkan_backend.cpp,
+// shaders/vis_trace.*): written once, compiled by both. GLSL reads them with scalar block layout
+// through buffer device addresses; the static_asserts keep the C++ sizes equal to what shaders read.
+#ifndef MIRAGE_SHADERIO_RAYS_H
+#define MIRAGE_SHADERIO_RAYS_H
+
+#ifdef __cplusplus
+#include <cstdint>
+#include <glm/glm.hpp>
+namespace mirage::shaderio {
+using vec3 = glm::vec3;
+using uint = uint32_t;
+#endif
+
+#define MIRAGE_RT_NO_HIT 0xffffffffu
+// kHitNew, kHitMissing, kHitSeeThroughNew of ray_backend.h
+#define MIRAGE_RT_HIT_NEW 1u
+#define MIRAGE_RT_HIT_MISSING 2u
+#define MIRAGE_RT_HIT_SEE_THROUGH_NEW 4u
+// See-through hits a ray remembers in its payload (Embree keeps 64 per ray; ones behind the
+// closest hit so far are dropped when the list is full, so 8 only overflow behind 8 panes).
+#define MIRAGE_RT_MAX_CANDIDATES 8
+// Ray sources: rays read from a buffer, or generated in the ray-generation shader (uniform
+// origins in a box, uniform directions; nothing uploaded).
+#define MIRAGE_RT_MODE_BUFFER 0u
+#define MIRAGE_RT_MODE_GENERATED 1u
+// Rays per row of a launch: launches are 2D because one launch dimension is limited (65535 × 1024
+// on common devices, less than the millions of rays a batch holds).
+#define MIRAGE_RT_LAUNCH_WIDTH 32768u
+
+// Same layout as vis::Ray and vis::Hit (static_asserts in vulkan_backend.cpp).
+struct RtRay {
+  vec3 origin;
+  float tnear;
+  vec3 dir;
+  float tfar;
+};
+
+struct RtHit {
+  uint triangle;
+  float t;
+  uint flags;
+  uint seeThrough;
+};
+
+// Per TLAS instance (instanced scenes) or per BLAS geometry (flattened scenes): the first global
+// triangle ID and whether the triangles are see-through.
+struct RtSlot {
+  uint firstTriangle;
+  uint seeThrough;
+};
+
+struct RtCounters {
+  uint newCount; // IDs appended to newIds (first insertions into the record set)
+  uint pad0;
+  uint pad1;
+  uint pad2;
+};
+
+struct RtTracePush {
+  uint64_t rays;     // RtRay[count] (MODE_BUFFER)
+  uint64_t hits;     // RtHit[count]; 0: not written
+  uint64_t record;   // uint bit set of global IDs; 0: none
+  uint64_t require;  // uint bit set; 0: none
+  uint64_t newIds;   // uint[newCapacity]: IDs whose insertion into `record` was the first
+  uint64_t counters; // RtCounters
+  uint64_t slots;    // RtSlot[instances or geometries]
+  vec3 boxMin;       // MODE_GENERATED: origins uniform in [boxMin, boxMax]
+  uint count;        // rays in this launch
+  vec3 boxMax;
+  uint mode; // MIRAGE_RT_MODE_*
+  uint newCapacity;
+  uint seed;         // MODE_GENERATED: random stream
+  uint onlyRequired; // 1: triangles outside `require` do not exist (the PVS-only render)
+  uint pad0;
+};
+
+#ifndef __cplusplus
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtRayRef { RtRay v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtHitRef { RtHit v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtSlotRef { RtSlot v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtCountersRef { RtCounters c; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtU32Ref { uint v[]; };
+#endif
+
+#ifdef __cplusplus
+static_assert(sizeof(RtRay) == 32, "RtRay layout");
+static_assert(sizeof(RtHit) == 16, "RtHit layout");
+static_assert(sizeof(RtSlot) == 8, "RtSlot layout");
+static_assert(sizeof(RtCounters) == 16, "RtCounters layout");
+static_assert(sizeof(RtTracePush) == 104, "RtTracePush layout");
+} // namespace mirage::shaderio
+#endif
+
+#endif

@@ -1,0 +1,50 @@
+#pragma once
+// The Vulkan ray backend: RayBackend on a ray-tracing pipeline (raygen + closest-hit + any-hit +
+// miss; no VK_KHR_ray_query, which the H200 lacks). One BLAS per mesh under a TLAS of instances,
+// or one BLAS with one geometry per instance (flattened, transformed at build time). Record sets
+// live on the device as bit arrays updated with atomicOr; only first insertions come back.
+#include <memory>
+
+#include <glm/glm.hpp>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/visibility/ray_backend.h"
+
+namespace mirage::gpu {
+class Context;
+}
+
+namespace mirage::vis {
+
+struct VulkanRayOptions {
+  // As EmbreeOptions::Geometry: Auto instances when that saves at least 4x the triangles.
+  enum class Geometry { Auto, Flatten, Instance } geometry = Geometry::Auto;
+  // Rays per launch: 2 M rays are 64 MiB of rays and 32 MiB of hits, few enough submissions that
+  // their fixed cost stays small beside the trace on a large GPU.
+  size_t batchRays = size_t(1) << 21;
+};
+
+// Timing of the latest launch (trace() or traceGenerated()).
+struct RayTiming {
+  double gpuMilliseconds = 0.0;  // the trace dispatch alone (timestamp queries)
+  double wallMilliseconds = 0.0; // host copy in, submission, wait, copy out
+};
+
+class VulkanRayBackend : public RayBackend {
+public:
+  // `count` rays generated in the ray-generation shader (uniform origins in [boxMin, boxMax],
+  // uniform directions, random stream `seed`): nothing is uploaded and no hits come back; every
+  // triangle hit goes into `record` (which may be null). For throughput measurements.
+  virtual void traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed,
+                              TriangleSet* record) = 0;
+  virtual RayTiming lastTiming() const = 0;
+  virtual double buildSeconds() const = 0;
+};
+
+// Fails when the device has no ray-tracing pipeline. The scene may be freed after; the context
+// must outlive the backend.
+Result<std::unique_ptr<VulkanRayBackend>> createVulkanBackend(gpu::Context& context, const Scene& scene,
+                                                              const VulkanRayOptions& options = {});
+
+} // namespace mirage::vis

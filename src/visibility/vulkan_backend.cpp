@@ -1,0 +1,488 @@
+// Vulkan ray backend (vulkan_backend.h): acceleration structures, the ray-tracing pipeline and its
+// shader binding table, and launches over host-visible ray and hit buffers.
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/context.h"
+#include "mirage/gpu/descriptors.h"
+#include "mirage/gpu/pipeline.h"
+#include "mirage/gpu/query.h"
+#include "mirage/shaderio/rays.h"
+#include "mirage/visibility/vulkan_backend.h"
+
+namespace mirage::vis {
+
+namespace {
+
+using namespace gpu;
+static_assert(sizeof(shaderio::RtRay) == sizeof(Ray) && sizeof(shaderio::RtHit) == sizeof(Hit));
+static_assert(offsetof(Ray, tfar) == offsetof(shaderio::RtRay, tfar) && offsetof(Hit, flags) == 8);
+static_assert(kHitNew == MIRAGE_RT_HIT_NEW && kHitMissing == MIRAGE_RT_HIT_MISSING &&
+              kHitSeeThroughNew == MIRAGE_RT_HIT_SEE_THROUGH_NEW && kNoHit == MIRAGE_RT_NO_HIT);
+
+constexpr VkShaderStageFlags kRtStages = VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR |
+                                         VK_SHADER_STAGE_ANY_HIT_BIT_KHR | VK_SHADER_STAGE_MISS_BIT_KHR;
+
+VkDeviceAddress alignUp(VkDeviceAddress v, VkDeviceAddress a) { return (v + a - 1) / a * a; }
+
+// Work of earlier submissions (uploads, builds, traces) is visible to this command buffer: one
+// full barrier per submission, whose cost is nothing beside a build or a launch of millions of rays.
+void cmdAfterEarlierSubmissions(VkCommandBuffer cmd) {
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+}
+
+struct Accel {
+  Buffer storage;
+  Unique<VkAccelerationStructureKHR> handle;
+  VkDeviceAddress address = 0;
+};
+
+// A device copy of a host TriangleSet, uploaded again only when the host set changed other than
+// through this backend's own insertions (which are mirrored on both sides).
+struct DeviceSet {
+  const TriangleSet* host = nullptr;
+  uint64_t generation = 0;
+  size_t count = 0;
+  Buffer bits;    // GpuOnly: atomicOr target
+  Buffer staging; // Upload
+};
+
+bool seeThroughMesh(const Scene& scene, const Mesh& mesh) {
+  return mesh.material < scene.materials.size() && scene.materials[mesh.material].alphaMode != AlphaMode::Opaque;
+}
+
+VkTransformMatrixKHR toVk(const glm::mat4& m) {
+  VkTransformMatrixKHR t;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) t.matrix[r][c] = m[c][r]; // glm is column-major, Vulkan rows of 4
+  return t;
+}
+
+class VulkanBackend final : public VulkanRayBackend {
+public:
+  VulkanBackend(Context& context, const VulkanRayOptions& options)
+      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), timer_(context, 1) {}
+  ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
+
+  std::string_view name() const override { return instanced_ ? "vulkan-instanced" : "vulkan"; }
+  size_t triangleCount() const override { return triangles_; }
+  size_t preferredBatchRays() const override { return batch_; }
+  RayTiming lastTiming() const override { return timing_; }
+  double buildSeconds() const override { return buildSeconds_; }
+
+  Status build(const Scene& scene, const VulkanRayOptions& options);
+  void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
+  void traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed, TriangleSet* record) override;
+
+private:
+  Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
+                   std::span<const uint32_t> primitives, const char* name);
+  void createPipeline();
+  void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
+  bool prepareSet(DeviceSet& set, const TriangleSet* host);
+  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire);
+  void collectNew(TriangleSet* record);
+
+  Context& ctx_;
+  size_t batch_;
+  bool instanced_ = false;
+  size_t triangles_ = 0;
+  double buildSeconds_ = 0.0;
+  Buffer vertices_, indices_, transforms_, instances_, slots_;
+  std::vector<Accel> blas_;
+  Accel tlas_;
+  DescriptorSet descriptors_;
+  Unique<VkPipelineLayout> layout_;
+  Unique<VkPipeline> pipeline_;
+  Buffer sbt_;
+  VkStridedDeviceAddressRegionKHR raygenRegion_{}, missRegion_{}, hitRegion_{}, callableRegion_{};
+  Buffer rays_, hits_, newIds_, counters_, countersReadback_;
+  DeviceSet record_, require_;
+  GpuTimer timer_;
+  RayTiming timing_;
+};
+
+Accel VulkanBackend::buildAccel(VkAccelerationStructureTypeKHR type,
+                                std::span<const VkAccelerationStructureGeometryKHR> geometries,
+                                std::span<const uint32_t> primitives, const char* name) {
+  VkAccelerationStructureBuildGeometryInfoKHR info{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_GEOMETRY_INFO_KHR};
+  info.type = type;
+  info.flags = VK_BUILD_ACCELERATION_STRUCTURE_PREFER_FAST_TRACE_BIT_KHR; // many rays per build
+  info.mode = VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR;
+  info.geometryCount = uint32_t(geometries.size());
+  info.pGeometries = geometries.data();
+  VkAccelerationStructureBuildSizesInfoKHR sizes{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
+  vkGetAccelerationStructureBuildSizesKHR(ctx_.device(), VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &info,
+                                          primitives.data(), &sizes);
+  Accel a;
+  a.storage = createBuffer(ctx_, sizes.accelerationStructureSize,
+                           VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR, MemoryUsage::GpuOnly, name);
+  VkAccelerationStructureCreateInfoKHR ci{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR};
+  ci.buffer = a.storage.handle();
+  ci.size = sizes.accelerationStructureSize;
+  ci.type = type;
+  VkAccelerationStructureKHR handle;
+  MIRAGE_VK_CHECK(vkCreateAccelerationStructureKHR(ctx_.device(), &ci, nullptr, &handle));
+  a.handle = Unique<VkAccelerationStructureKHR>(ctx_.device(), handle);
+
+  VkPhysicalDeviceAccelerationStructurePropertiesKHR props{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR};
+  VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &props};
+  vkGetPhysicalDeviceProperties2(ctx_.physicalDevice(), &p2);
+  VkDeviceSize align = std::max<VkDeviceSize>(1, props.minAccelerationStructureScratchOffsetAlignment);
+  Buffer scratch = createBuffer(ctx_, sizes.buildScratchSize + align, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                MemoryUsage::GpuOnly, "accel scratch");
+  info.dstAccelerationStructure = handle;
+  info.scratchData.deviceAddress = alignUp(scratch.address(), align);
+  std::vector<VkAccelerationStructureBuildRangeInfoKHR> ranges;
+  for (uint32_t n : primitives) ranges.push_back({n, 0, 0, 0});
+  const VkAccelerationStructureBuildRangeInfoKHR* rangePtr = ranges.data();
+  // barriers: the geometry uploads and any BLAS this build instances have completed.
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    cmdAfterEarlierSubmissions(cmd);
+    vkCmdBuildAccelerationStructuresKHR(cmd, 1, &info, &rangePtr);
+  });
+  VkAccelerationStructureDeviceAddressInfoKHR ai{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_DEVICE_ADDRESS_INFO_KHR};
+  ai.accelerationStructure = handle;
+  a.address = vkGetAccelerationStructureDeviceAddressKHR(ctx_.device(), &ai);
+  return a;
+}
+
+VkAccelerationStructureGeometryKHR triangles(VkDeviceAddress vertices, uint32_t maxVertex, VkDeviceAddress indices,
+                                             VkDeviceAddress transform, bool seeThrough) {
+  VkAccelerationStructureGeometryKHR g{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
+  g.geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR;
+  // Opaque geometry skips the any-hit shader; see-through geometry runs it once per triangle.
+  g.flags = seeThrough ? VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR : VK_GEOMETRY_OPAQUE_BIT_KHR;
+  auto& t = g.geometry.triangles;
+  t.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR;
+  t.vertexFormat = VK_FORMAT_R32G32B32_SFLOAT;
+  t.vertexData.deviceAddress = vertices;
+  t.vertexStride = sizeof(glm::vec3);
+  t.maxVertex = maxVertex;
+  t.indexType = VK_INDEX_TYPE_UINT32;
+  t.indexData.deviceAddress = indices;
+  t.transformData.deviceAddress = transform;
+  return g;
+}
+
+Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options) {
+  const DeviceCapabilities& caps = ctx_.caps();
+  if (!caps.rayTracingPipeline)
+    return Error{fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", caps.name)};
+  auto t0 = std::chrono::steady_clock::now();
+  std::vector<uint64_t> offsets = triangleOffsets(scene);
+  triangles_ = offsets.back();
+  if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
+  instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
+               (options.geometry == VulkanRayOptions::Geometry::Auto && triangles_ >= 4 * scene.meshTriangleCount());
+
+  // Every mesh's vertices and indices once, in two buffers; flattened scenes transform them at
+  // build time (transformData), so instances never copy vertices.
+  std::vector<glm::vec3> positions;
+  std::vector<uint32_t> indices;
+  std::vector<size_t> vertexBase, indexBase;
+  for (const Mesh& m : scene.meshes) {
+    vertexBase.push_back(positions.size());
+    indexBase.push_back(indices.size());
+    positions.insert(positions.end(), m.positions.begin(), m.positions.end());
+    indices.insert(indices.end(), m.indices.begin(), m.indices.end());
+  }
+  const VkBufferUsageFlags input =
+      VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  vertices_ = createBufferWithData(ctx_, std::span<const glm::vec3>(positions), input, "rt vertices");
+  indices_ = createBufferWithData(ctx_, std::span<const uint32_t>(indices), input, "rt indices");
+  auto meshGeometry = [&](uint32_t mesh, VkDeviceAddress transform) {
+    const Mesh& m = scene.meshes[mesh];
+    return triangles(vertices_.address() + vertexBase[mesh] * sizeof(glm::vec3),
+                     uint32_t(std::max<size_t>(m.positions.size(), 1) - 1),
+                     indices_.address() + indexBase[mesh] * sizeof(uint32_t), transform, seeThroughMesh(scene, m));
+  };
+
+  std::vector<shaderio::RtSlot> slots;
+  std::vector<VkAccelerationStructureInstanceKHR> instances;
+  if (instanced_) {
+    std::vector<uint32_t> blasOf(scene.meshes.size(), UINT32_MAX);
+    for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
+      uint32_t n = uint32_t(scene.meshes[m].triangleCount());
+      if (n == 0) continue;
+      VkAccelerationStructureGeometryKHR g = meshGeometry(m, 0);
+      blasOf[m] = uint32_t(blas_.size());
+      blas_.push_back(buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, {&g, 1}, {&n, 1}, "rt blas"));
+    }
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      const Instance& inst = scene.instances[i];
+      if (blasOf[inst.mesh] == UINT32_MAX) continue;
+      VkAccelerationStructureInstanceKHR vi{};
+      vi.transform = toVk(inst.transform);
+      vi.mask = 0xff;
+      vi.flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR;
+      vi.accelerationStructureReference = blas_[blasOf[inst.mesh]].address;
+      instances.push_back(vi);
+      slots.push_back({uint32_t(offsets[i]), seeThroughMesh(scene, scene.meshes[inst.mesh]) ? 1u : 0u});
+    }
+  } else {
+    std::vector<VkTransformMatrixKHR> transforms;
+    std::vector<size_t> used;
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      if (scene.meshes[scene.instances[i].mesh].triangleCount() == 0) continue;
+      transforms.push_back(toVk(scene.instances[i].transform));
+      used.push_back(i);
+    }
+    transforms_ = createBufferWithData(ctx_, std::span<const VkTransformMatrixKHR>(transforms), input, "rt transforms");
+    std::vector<VkAccelerationStructureGeometryKHR> geometries;
+    std::vector<uint32_t> counts;
+    for (size_t k = 0; k < used.size(); ++k) {
+      const Instance& inst = scene.instances[used[k]];
+      geometries.push_back(meshGeometry(inst.mesh, transforms_.address() + k * sizeof(VkTransformMatrixKHR)));
+      counts.push_back(uint32_t(scene.meshes[inst.mesh].triangleCount()));
+      slots.push_back({uint32_t(offsets[used[k]]), seeThroughMesh(scene, scene.meshes[inst.mesh]) ? 1u : 0u});
+    }
+    if (!geometries.empty()) {
+      blas_.push_back(buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, geometries, counts, "rt blas"));
+      VkAccelerationStructureInstanceKHR vi{};
+      vi.transform = toVk(glm::mat4(1.0f));
+      vi.mask = 0xff;
+      vi.flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR;
+      vi.accelerationStructureReference = blas_[0].address;
+      instances.push_back(vi);
+    }
+  }
+  instances_ =
+      createBufferWithData(ctx_, std::span<const VkAccelerationStructureInstanceKHR>(instances), input, "rt instances");
+  slots_ = createBufferWithData(ctx_, std::span<const shaderio::RtSlot>(slots), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                "rt slots");
+  VkAccelerationStructureGeometryKHR top{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
+  top.geometryType = VK_GEOMETRY_TYPE_INSTANCES_KHR;
+  top.geometry.instances.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR;
+  top.geometry.instances.data.deviceAddress = instances_.address();
+  uint32_t instanceCount = uint32_t(instances.size());
+  tlas_ = buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, {&top, 1}, {&instanceCount, 1}, "rt tlas");
+  createPipeline();
+
+  // Bit sets, the list of first insertions and the counters exist once for the whole backend.
+  const size_t setBytes = (triangles_ + 63) / 64 * 8;
+  for (DeviceSet* s : {&record_, &require_}) {
+    s->bits = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                           MemoryUsage::GpuOnly, "rt set");
+    s->staging = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "rt set staging");
+  }
+  newIds_ =
+      createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt new ids");
+  counters_ = createBuffer(ctx_, sizeof(shaderio::RtCounters),
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "rt counters");
+  countersReadback_ = createBuffer(ctx_, sizeof(shaderio::RtCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                   MemoryUsage::Readback, "rt counters readback");
+  buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return Ok{};
+}
+
+void VulkanBackend::createPipeline() {
+  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1,
+                                       VK_SHADER_STAGE_RAYGEN_BIT_KHR, nullptr};
+  descriptors_ = createDescriptorSet(ctx_, {&binding, 1});
+  VkAccelerationStructureKHR tlas = tlas_.handle.get();
+  VkWriteDescriptorSetAccelerationStructureKHR asWrite{
+      VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR};
+  asWrite.accelerationStructureCount = 1;
+  asWrite.pAccelerationStructures = &tlas;
+  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, &asWrite};
+  w.dstSet = descriptors_.set;
+  w.dstBinding = 0;
+  w.descriptorCount = 1;
+  w.descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
+  vkUpdateDescriptorSets(ctx_.device(), 1, &w, 0, nullptr);
+  layout_ = createPipelineLayout(ctx_, {descriptors_.layout.get()}, sizeof(shaderio::RtTracePush), kRtStages);
+
+  Unique<VkShaderModule> modules[4] = {
+      createShaderModule(ctx_, "vis_trace.rgen"), createShaderModule(ctx_, "vis_trace.rmiss"),
+      createShaderModule(ctx_, "vis_trace.rchit"), createShaderModule(ctx_, "vis_trace.rahit")};
+  const VkShaderStageFlagBits stageBits[4] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
+                                              VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR, VK_SHADER_STAGE_ANY_HIT_BIT_KHR};
+  VkPipelineShaderStageCreateInfo stages[4];
+  for (int i = 0; i < 4; ++i) {
+    stages[i] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    stages[i].stage = stageBits[i];
+    stages[i].module = modules[i];
+    stages[i].pName = "main";
+  }
+  // Groups: 0 raygen, 1 miss, 2 the one hit group (every instance and geometry uses record 0).
+  VkRayTracingShaderGroupCreateInfoKHR groups[3];
+  for (uint32_t g = 0; g < 3; ++g) {
+    groups[g] = {VK_STRUCTURE_TYPE_RAY_TRACING_SHADER_GROUP_CREATE_INFO_KHR};
+    groups[g].type =
+        g < 2 ? VK_RAY_TRACING_SHADER_GROUP_TYPE_GENERAL_KHR : VK_RAY_TRACING_SHADER_GROUP_TYPE_TRIANGLES_HIT_GROUP_KHR;
+    groups[g].generalShader = g < 2 ? g : VK_SHADER_UNUSED_KHR;
+    groups[g].closestHitShader = g == 2 ? 2 : VK_SHADER_UNUSED_KHR;
+    groups[g].anyHitShader = g == 2 ? 3 : VK_SHADER_UNUSED_KHR;
+    groups[g].intersectionShader = VK_SHADER_UNUSED_KHR;
+  }
+  VkRayTracingPipelineCreateInfoKHR ci{VK_STRUCTURE_TYPE_RAY_TRACING_PIPELINE_CREATE_INFO_KHR};
+  ci.stageCount = 4;
+  ci.pStages = stages;
+  ci.groupCount = 3;
+  ci.pGroups = groups;
+  ci.maxPipelineRayRecursionDepth = 1;
+  ci.layout = layout_;
+  VkPipeline pipeline;
+  MIRAGE_VK_CHECK(
+      vkCreateRayTracingPipelinesKHR(ctx_.device(), VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
+  pipeline_ = Unique<VkPipeline>(ctx_.device(), pipeline);
+
+  // Shader binding table: each region starts at the base alignment and holds one record.
+  VkPhysicalDeviceRayTracingPipelinePropertiesKHR rt{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR};
+  VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &rt};
+  vkGetPhysicalDeviceProperties2(ctx_.physicalDevice(), &p2);
+  const VkDeviceSize handleSize = rt.shaderGroupHandleSize;
+  const VkDeviceSize stride = alignUp(handleSize, rt.shaderGroupHandleAlignment);
+  const VkDeviceSize region = alignUp(stride, rt.shaderGroupBaseAlignment);
+  std::vector<uint8_t> handles(3 * handleSize);
+  MIRAGE_VK_CHECK(vkGetRayTracingShaderGroupHandlesKHR(ctx_.device(), pipeline_, 0, 3, handles.size(), handles.data()));
+  sbt_ = createBuffer(ctx_, 3 * region + rt.shaderGroupBaseAlignment, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR,
+                      MemoryUsage::Upload, "rt sbt");
+  const VkDeviceAddress base = alignUp(sbt_.address(), rt.shaderGroupBaseAlignment);
+  for (int g = 0; g < 3; ++g)
+    std::memcpy(sbt_.mapped() + (base - sbt_.address()) + g * region, handles.data() + g * handleSize, handleSize);
+  raygenRegion_ = {base, region, region};
+  missRegion_ = {base + region, stride, stride};
+  hitRegion_ = {base + 2 * region, stride, stride};
+}
+
+void VulkanBackend::ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory,
+                                   const char* name) {
+  if (buffer && buffer.size() >= bytes) return;
+  buffer = createBuffer(ctx_, std::max<size_t>(bytes, buffer ? buffer.size() * 2 : 0), usage, memory, name);
+}
+
+// True when the device copy must be uploaded (then the staging buffer already holds the words).
+bool VulkanBackend::prepareSet(DeviceSet& set, const TriangleSet* host) {
+  if (!host) return false;
+  size_t count = host->count();
+  if (set.host == host && set.generation == host->generation() && set.count == count) return false;
+  set.host = host;
+  set.generation = host->generation();
+  set.count = count;
+  const size_t words = std::min((host->capacity() + 63) / 64, size_t(set.staging.size() / 8));
+  auto* dst = reinterpret_cast<uint64_t*>(set.staging.mapped());
+  for (size_t w = 0; w < words; ++w) dst[w] = host->words()[w].load(std::memory_order_relaxed);
+  return true;
+}
+
+void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire) {
+  auto t0 = std::chrono::steady_clock::now();
+  push.slots = slots_.address();
+  push.counters = counters_.address();
+  push.newIds = newIds_.address();
+  push.newCapacity = uint32_t(triangles_ + 1);
+  const uint32_t width = std::min(push.count, MIRAGE_RT_LAUNCH_WIDTH);
+  const uint32_t height = (push.count + width - 1) / std::max(width, 1u);
+  // barriers: earlier launches' writes to the sets and counters are complete before the copies.
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    timer_.cmdReset(cmd);
+    cmdAfterEarlierSubmissions(cmd);
+    VkBufferCopy whole{0, 0, record_.bits.size()};
+    if (uploadRecord) vkCmdCopyBuffer(cmd, record_.staging.handle(), record_.bits.handle(), 1, &whole);
+    if (uploadRequire) vkCmdCopyBuffer(cmd, require_.staging.handle(), require_.bits.handle(), 1, &whole);
+    vkCmdFillBuffer(cmd, counters_.handle(), 0, VK_WHOLE_SIZE, 0);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, pipeline_);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, layout_, 0, 1, &descriptors_.set, 0, nullptr);
+    vkCmdPushConstants(cmd, layout_, kRtStages, 0, sizeof(push), &push);
+    uint32_t slot = timer_.cmdBegin(cmd, "trace", VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR);
+    if (push.count > 0)
+      vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
+    timer_.cmdEnd(cmd, slot, VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
+    vkCmdCopyBuffer(cmd, counters_.handle(), countersReadback_.handle(), 1, &counters);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+  });
+  auto times = timer_.read();
+  timing_.gpuMilliseconds = times.empty() ? 0.0 : times[0].milliseconds;
+  timing_.wallMilliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// First insertions made on the device go into the host set too, so both stay equal.
+void VulkanBackend::collectNew(TriangleSet* record) {
+  if (!record) return;
+  shaderio::RtCounters c;
+  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
+  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
+  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) record->insert(ids[k]);
+  record_.count = record->count();
+}
+
+void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) {
+  const size_t n = std::min(rays.size(), hits.size());
+  RayTiming total;
+  for (size_t begin = 0; begin < n; begin += batch_) {
+    const size_t count = std::min(batch_, n - begin);
+    auto t0 = std::chrono::steady_clock::now();
+    ensureCapacity(rays_, count * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt rays");
+    ensureCapacity(hits_, count * sizeof(Hit), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt hits");
+    std::memcpy(rays_.mapped(), rays.data() + begin, count * sizeof(Ray));
+    shaderio::RtTracePush push{};
+    push.rays = rays_.address();
+    push.hits = hits_.address();
+    push.record = sets.record ? record_.bits.address() : 0;
+    push.require = sets.require ? require_.bits.address() : 0;
+    push.count = uint32_t(count);
+    push.mode = MIRAGE_RT_MODE_BUFFER;
+    push.onlyRequired = sets.onlyRequired && sets.require ? 1u : 0u;
+    bool uploadRecord = prepareSet(record_, sets.record);
+    bool uploadRequire = prepareSet(require_, sets.require);
+    launch(push, uploadRecord, uploadRequire);
+    std::memcpy(hits.data() + begin, hits_.mapped(), count * sizeof(Hit));
+    collectNew(sets.record);
+    total.gpuMilliseconds += timing_.gpuMilliseconds;
+    total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  timing_ = total;
+}
+
+void VulkanBackend::traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed,
+                                   TriangleSet* record) {
+  RayTiming total;
+  for (uint64_t done = 0; done < count;) {
+    // Launches of up to 2^30 rays (the smallest maxRayDispatchInvocationCount the spec allows).
+    uint32_t n = uint32_t(std::min<uint64_t>(count - done, uint64_t(1) << 30));
+    auto t0 = std::chrono::steady_clock::now();
+    shaderio::RtTracePush push{};
+    push.record = record ? record_.bits.address() : 0;
+    push.boxMin = boxMin;
+    push.boxMax = boxMax;
+    push.count = n;
+    push.mode = MIRAGE_RT_MODE_GENERATED;
+    push.seed = seed + uint32_t(done >> 30) * 0x9e3779b9u;
+    launch(push, prepareSet(record_, record), false);
+    collectNew(record);
+    total.gpuMilliseconds += timing_.gpuMilliseconds;
+    total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    done += n;
+  }
+  timing_ = total;
+}
+
+} // namespace
+
+Result<std::unique_ptr<VulkanRayBackend>> createVulkanBackend(gpu::Context& context, const Scene& scene,
+                                                              const VulkanRayOptions& options) {
+  auto backend = std::make_unique<VulkanBackend>(context, options);
+  if (auto ok = backend->build(scene, options); !ok) return ok.error();
+  return std::unique_ptr<VulkanRayBackend>(std::move(backend));
+}
+
+} // namespace mirage::vis
