@@ -20,6 +20,15 @@ float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterF
   return error * inst.maxScale / max(d, f.znear) * f.errorScale;
 }
 
+// Normal-cone test in object space (exact for any transform with a positive determinant: facing
+// is affine-invariant there): the whole cluster faces away from the eye.
+bool coneBackfacing(GpuClusterInstance inst, uint cluster, ClusterFrame f) {
+  GpuClusterCone cone = ConeRef(f.coneAddress).cones[cluster];
+  if (cone.axisCutoff.w >= 1.0) return false;
+  vec3 eye = (transpose(inst.normalMatrix) * vec4(f.eye.xyz, 1.0)).xyz; // inverse(model) * eye
+  return dot(normalize(cone.apex.xyz - eye), cone.axisCutoff.xyz) >= cone.axisCutoff.w;
+}
+
 void main() {
   CounterRef counters = CounterRef(push.counterAddress);
   VisibleInstance vi = VisibleInstanceRef(push.visibleInstanceAddress).entries[gl_WorkGroupID.y];
@@ -29,24 +38,35 @@ void main() {
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[instanceIndex];
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
   atomicAdd(counters.counters.clustersTested, 1);
-  uint ci = mesh.clusterOffset + vi.firstCluster + local;
+  uint meshLocal = vi.firstCluster + local;
+  uint ci = mesh.clusterOffset + meshLocal;
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[ci];
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= f.tau &&
                projectedError(c.parentSphere, c.parentError, inst, f) > f.tau;
   if (!onCut) return;
-  if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0) {
-    vec4 s = vec4((inst.model * vec4(c.boundsSphere.xyz, 1.0)).xyz, c.boundsSphere.w * inst.maxScale);
-    if (!sphereVisible(s)) {
-      atomicAdd(counters.counters.clustersFrustumCulled, 1);
-      return;
-    }
-  }
-  uint slot = atomicAdd(counters.counters.visibleClusters, 1);
-  if (slot >= f.visibleCapacity) {
-    atomicAdd(counters.counters.clustersOverflow, 1);
+  vec4 s = vec4((inst.model * vec4(c.boundsSphere.xyz, 1.0)).xyz, c.boundsSphere.w * inst.maxScale);
+  if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0 && !sphereVisible(s)) {
+    atomicAdd(counters.counters.clustersFrustumCulled, 1);
     return;
   }
-  VisibleRef(push.visibleAddress).visible[slot] = VisibleCluster(instanceIndex, ci);
-  atomicAdd(counters.counters.trianglesSelected, c.triangleCount);
+  atomicAdd(counters.counters.clustersSelected, 1);
+  // Back-face cones: single-sided, non-mirrored instances only (mirrored ones swap which side is
+  // kept; the crack-test mode keeps back faces).
+  bool singleSided = (inst.flags & (MIRAGE_INSTANCE_DOUBLE_SIDED | MIRAGE_INSTANCE_MIRRORED)) == 0 &&
+                     (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) == 0;
+  if ((f.flags & MIRAGE_FRAME_CONE_CULL) != 0 && singleSided && coneBackfacing(inst, ci, f)) {
+    atomicAdd(counters.counters.clustersBackfaceCulled, 1);
+    return;
+  }
+  VisibleCluster vc = VisibleCluster(instanceIndex, ci);
+  // Two-pass occlusion: clusters drawn and unoccluded last frame are drawn now (pass 1); the rest
+  // wait for the HZB built from pass 1 (cluster_occlusion.comp).
+  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && !historyBit(inst, meshLocal)) {
+    uint slot = atomicAdd(counters.counters.candidates, 1);
+    if (slot < f.visibleCapacity) VisibleRef(f.candidateAddress).visible[slot] = vc;
+    return;
+  }
+  if (emitCluster(vc, s, c.triangleCount, f) && (f.flags & MIRAGE_FRAME_OCCLUSION) != 0)
+    atomicAdd(counters.counters.clustersPass1, 1);
 }
