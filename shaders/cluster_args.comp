@@ -1,7 +1,7 @@
 #version 460
 // Indirect arguments of one raster pass (push.rasterList = pass) from the list ends (one thread):
 // the pass draws what was appended since the previous pass. Pass 0 also sizes the occlusion pass
-// over the candidates; pass 1 the history update over everything drawn.
+// over the candidates.
 #include "cluster_common.glsl"
 
 layout(local_size_x = 1) in;
@@ -30,17 +30,11 @@ void main() {
     c.counters.lists[pass][list].draw[2] = 0;
     c.counters.lists[pass][list].draw[3] = 0;
   }
-  uint capacity = FrameRef(push.frameAddress).frame.visibleCapacity;
-  uvec3 o = splitDispatch(pass == 0 ? min(c.counters.candidates, capacity)
-                                    : c.counters.listEnd[0] + c.counters.listEnd[1],
-                          MIRAGE_CLUSTER_WORKGROUP);
   if (pass == 0) {
+    uint n = min(c.counters.candidates, FrameRef(push.frameAddress).frame.visibleCapacity);
+    uvec3 o = splitDispatch(n, MIRAGE_CLUSTER_WORKGROUP);
     c.counters.occlusionArgs[0] = o.x;
     c.counters.occlusionArgs[1] = o.y;
     c.counters.occlusionArgs[2] = 1;
-  } else {
-    c.counters.historyArgs[0] = o.x;
-    c.counters.historyArgs[1] = o.y;
-    c.counters.historyArgs[2] = 1;
   }
 }

@@ -110,8 +110,8 @@ vec4 worldSphere(GpuCluster c, GpuClusterInstance inst) {
 }
 
 // Hierarchical depth test of a world-space sphere (conservative: true = may be visible). The
-// sphere's bounding cube is projected to a pixel rectangle; the HZB level where the rectangle spans
-// at most three texels per axis gives the farthest depth drawn over it; the sphere is hidden when
+// sphere's bounding cube is projected to a pixel rectangle; the HZB level (>= 1) where the
+// rectangle spans at most three texels per axis gives the farthest depth drawn over it; the sphere is hidden when
 // its nearest point is farther still (reverse-Z: smaller). Spheres reaching the near plane are
 // visible.
 bool hzbVisible(vec4 s) {
@@ -132,8 +132,8 @@ bool hzbVisible(vec4 s) {
   ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(f.viewport) - 1);
   ivec2 p1 = clamp(ivec2(floor(hi)), ivec2(0), ivec2(f.viewport) - 1);
   int extent = max(p1.x - p0.x, p1.y - p0.y) + 1;
-  int level = clamp(findMSB(max(extent - 1, 1)), 0, int(f.hzbLevels) - 1); // 2^level >= extent / 2
-  if (extent <= 2) level = 0;
+  // 2^level >= extent / 2; level 0 (full resolution) is not stored.
+  int level = clamp(findMSB(max(extent - 1, 1)), 1, int(f.hzbLevels) - 1);
   ivec2 t0 = p0 >> level, t1 = p1 >> level;
   int levelWidth = (int(f.viewport.x) + (1 << level) - 1) >> level;
   FloatRef hzb = FloatRef(f.hzbAddress);
@@ -148,7 +148,10 @@ bool historyBit(GpuClusterInstance inst, uint local) {
   uint bit = inst.historyOffset + local;
   return (UintRef(FrameRef(push.frameAddress).frame.historyAddress).data[bit >> 5] & (1u << (bit & 31u))) != 0;
 }
-void setHistoryBit(GpuClusterInstance inst, uint local) {
+// Sets the bit; true when this call set it (it was clear).
+bool setHistoryBit(GpuClusterInstance inst, uint local) {
   uint bit = inst.historyOffset + local;
-  atomicOr(UintRef(FrameRef(push.frameAddress).frame.historyAddress).data[bit >> 5], 1u << (bit & 31u));
+  UintRef history = UintRef(FrameRef(push.frameAddress).frame.historyAddress);
+  if ((history.data[bit >> 5] & (1u << (bit & 31u))) != 0) return false; // most pixels: no atomic
+  return (atomicOr(history.data[bit >> 5], 1u << (bit & 31u)) & (1u << (bit & 31u))) == 0;
 }

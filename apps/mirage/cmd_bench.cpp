@@ -39,11 +39,12 @@ struct BenchRenderOptions {
   float tau = 1.0f;           // .mrg only
   uint32_t grid = 1;          // .mrg only: the scene repeated on a grid x grid layout
   std::string raster = "all"; // .mrg only: every backend the device has
+  LodCullOptions cull;        // .mrg only
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
   if (isLodAssetPath(o.input)) {
-    LodRenderRequest r{o.input, "", "", "", o.size, o.device, o.raster, o.tau, o.grid, o.frames, true, o.json};
+    LodRenderRequest r{o.input, "", "", "", o.size, o.device, o.raster, o.tau, o.grid, o.frames, true, o.json, o.cull};
     return runLodBench(r);
   }
   uint32_t width = 0, height = 0;
@@ -305,7 +306,8 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--device", o->device, "Vulkan device name substring or index");
   r->add_flag("--json", o->json, "Print results as JSON");
   r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
-  r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute")->capture_default_str();
+  r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute|hybrid")->capture_default_str();
+  addLodCullOptions(*r, o->cull, /*bench=*/true);
   r->add_option("--grid", o->grid, ".mrg: repeat the scene on an N x N grid (e.g. 50 -> 2500 instances)")
       ->capture_default_str();
   r->callback([o] { runBenchRender(*o); });

@@ -29,16 +29,18 @@ struct RenderOptions {
   float tau = 1.0f;            // .mrg only
   std::string raster = "auto"; // .mrg only
   std::string pvs;             // forward path: draw only the PVS of the camera's view cell
+  LodCullOptions cull;         // .mrg only
 };
 
 void runRender(const RenderOptions& o) {
   if (isLodAssetPath(o.input) && !o.pvs.empty()) return fail("--pvs applies to scene files (forward renderer) for now");
   if (isLodAssetPath(o.input)) {
-    LodRenderRequest r{o.input,  o.output, o.exr, o.camera, o.size,  o.device,
-                       o.raster, o.tau,    1,     o.repeat, o.stats, o.json};
+    LodRenderRequest r{o.input, o.output, o.exr,    o.camera, o.size, o.device, o.raster,
+                       o.tau,   1,        o.repeat, o.stats,  o.json, o.cull};
     return runLodRender(r);
   }
-  if (o.raster != "auto" || o.tau != 1.0f) return fail("--tau and --raster apply to .mrg cluster-LOD assets only");
+  if (o.raster != "auto" || o.tau != 1.0f || !o.cull.isDefault())
+    return fail("--tau, --raster, --hybrid-threshold, --occlusion and --cones apply to .mrg cluster-LOD assets only");
   // Check everything cheap before the import and the GPU start.
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
@@ -150,7 +152,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--stats", o->stats, "Print GPU pass times and pipeline statistics");
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->add_option("--tau", o->tau, ".mrg: LOD threshold, projected error in pixels")->capture_default_str();
-  cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute")->capture_default_str();
+  cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute|hybrid")->capture_default_str();
+  addLodCullOptions(*cmd, o->cull, /*bench=*/false);
   cmd->add_option("--pvs", o->pvs, "Draw only the PVS (from mirage pvs) of the view cell holding the camera");
   cmd->callback([o] { runRender(*o); });
 }

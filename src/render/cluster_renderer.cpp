@@ -92,7 +92,7 @@ struct ClusterRenderer::Impl {
   DescriptorSet descriptors; // material textures, the visibility image, the colour target, depth
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> cullPipeline, selectPipeline, argsPipeline, rasterPipeline, meshPipeline, indirectPipeline,
-      meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, hzbPipeline, historyPipeline, resolvePipeline;
+      meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, hzbPipeline, resolvePipeline;
   VkShaderStageFlags pushStages = 0;
   Image color, vis, depth;
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0;
@@ -111,9 +111,8 @@ struct ClusterRenderer::Impl {
   void cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass);
   void cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass,
                        bool atomic);
-  void cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p, const char* name);
+  void cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p);
-  void cmdHistory(VkCommandBuffer cmd, const sio::ClusterPush& p);
   void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p);
 };
 
@@ -143,7 +142,6 @@ void ClusterRenderer::Impl::createPipelines() {
   argsPipeline = createComputePipeline(ctx, "cluster_args.comp", layout);
   occlusionPipeline = createComputePipeline(ctx, "cluster_occlusion.comp", layout);
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
-  historyPipeline = createComputePipeline(ctx, "cluster_history.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
   if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
   // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
@@ -200,10 +198,12 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
   visBuffer =
       createBuffer(ctx, uint64_t(w) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                    MemoryUsage::GpuOnly, "visibility64");
-  // HZB levels down to 1x1, level 0 at full resolution, all in one float buffer.
+  // HZB levels 1.. down to 1x1 (at least level 1) in one float buffer; level 0 would be the depth
+  // itself, which the level-1 build reads directly.
   uint64_t floats = 0;
-  hzbLevels = 0;
-  for (uint32_t lw = w, lh = h; hzbLevels < MIRAGE_HZB_MAX_LEVELS; lw = (lw + 1) / 2, lh = (lh + 1) / 2) {
+  hzbLevels = 1;
+  for (uint32_t lw = (w + 1) / 2, lh = (h + 1) / 2; hzbLevels < MIRAGE_HZB_MAX_LEVELS;
+       lw = (lw + 1) / 2, lh = (lh + 1) / 2) {
     hzbOffset[hzbLevels++] = uint32_t(floats);
     floats += uint64_t(lw) * lh;
     if (lw == 1 && lh == 1) break;
@@ -366,11 +366,11 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
 
 // barriers: the raster pass's depth visible to compute (cmdRasterize). On exit every HZB level is
 // written and visible.
-void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p, const char* name) {
-  uint32_t slot = timer.cmdBegin(cmd, name, kCS);
+void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p) {
+  uint32_t slot = timer.cmdBegin(cmd, "hzb", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, hzbPipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
-  for (uint32_t level = 0; level < hzbLevels; ++level) {
+  for (uint32_t level = 1; level < hzbLevels; ++level) { // level 0 (full resolution) is not stored
     uint32_t lw = (width + (1u << level) - 1) >> level, lh = (height + (1u << level) - 1) >> level;
     cmdPush(cmd, p, level);
     vkCmdDispatch(cmd, (lw + 7) / 8, (lh + 7) / 8, 1);
@@ -386,19 +386,6 @@ void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::Cluster
   cmdPush(cmd, p, 0);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, occlusionPipeline);
   vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, occlusionArgs));
-  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  timer.cmdEnd(cmd, slot, kCS);
-}
-
-// barriers: the final HZB and the history arguments visible; the select pass (the history's only
-// reader) done. On exit the new history is written (read by the next frame's submission).
-void ClusterRenderer::Impl::cmdHistory(VkCommandBuffer cmd, const sio::ClusterPush& p) {
-  uint32_t slot = timer.cmdBegin(cmd, "history", kCS);
-  vkCmdFillBuffer(cmd, history.handle(), 0, VK_WHOLE_SIZE, 0);
-  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  cmdPush(cmd, p, 0);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, historyPipeline);
-  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, historyArgs));
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   timer.cmdEnd(cmd, slot, kCS);
 }
@@ -509,18 +496,20 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     vkCmdFillBuffer(cmd, d.counters.handle(), 0, VK_WHOLE_SIZE, 0);
     if (bufferTarget) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
     cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
-    d.cmdSelect(cmd, p);                // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
+    d.cmdSelect(cmd, p); // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
+    if (occlusion) {     // the select pass read last frame's history; the resolve writes this frame's
+      vkCmdFillBuffer(cmd, d.history.handle(), 0, VK_WHOLE_SIZE, 0);
+      cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
+    }
     d.cmdArgs(cmd, p, /*pass=*/0);      // pass-1 raster arguments (everything without occlusion)
     d.cmdRasterize(cmd, p, backend, 0); // visibility: (cluster, triangle) per pixel
     if (occlusion) {
-      d.cmdBuildHzb(cmd, p, "hzb"); // farthest depth pyramid of pass 1
-      d.cmdOcclusion(cmd, p);       // pass-2 cull: candidates against the HZB
+      d.cmdBuildHzb(cmd, p);  // farthest-depth pyramid of pass 1
+      d.cmdOcclusion(cmd, p); // pass-2 cull: candidates against the HZB
       d.cmdArgs(cmd, p, /*pass=*/1);
       d.cmdRasterize(cmd, p, backend, 1); // the newly visible clusters
-      d.cmdBuildHzb(cmd, p, "hzb2");      // final depth pyramid
-      d.cmdHistory(cmd, p);               // what next frame's pass 1 draws
     }
-    d.cmdResolve(cmd, p); // fetch, interpolate, shade
+    d.cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
     d.timer.cmdEnd(cmd, frameSlot);
   });
 

@@ -3,7 +3,7 @@
 // records a fixed command sequence whatever the scene size:
 //   instance cull -> cluster selection (LOCALCUT + frustum + normal cones) -> raster args ->
 //   pass 1 visibility raster (clusters visible last frame) -> HZB -> pass 2 occlusion cull + raster
-//   (the rest) -> HZB -> visibility history -> resolve.
+//   (the rest) -> resolve (which also records the clusters owning pixels: next frame's pass 1).
 // Rasterizers: mesh shaders | one indirect draw | compute 64-bit atomics | hybrid (compute for
 // small triangles, mesh/indirect for large ones, into the same 64-bit buffer).
 // Every backend writes the same visibility semantics (visible-cluster index + triangle id, nearest
@@ -56,7 +56,7 @@ struct ClusterStats {
   uint32_t clustersPass1 = 0;                 // occlusion: drawn in pass 1 (visible last frame)
   uint32_t clustersOcclusionTested = 0;       // occlusion: pass-2 candidates tested against the HZB
   uint32_t clustersOcclusionCulled = 0;       // occlusion: candidates behind the HZB (not drawn)
-  uint32_t historyKept = 0;                   // occlusion: drawn clusters unoccluded in the final HZB
+  uint32_t historyKept = 0;                   // occlusion: clusters owning a pixel (next frame's pass 1)
   uint32_t clustersDrawn = 0;                 // rasterized (both passes, both lists)
   uint32_t clustersHardware = 0;              // hybrid: drawn by the mesh/indirect path
   uint32_t trianglesNearClipped = 0;          // compute raster: triangles clipped at the near plane

@@ -142,7 +142,7 @@ struct ClusterFrame {
   float hybridThreshold;
   uint hzbLevels;                        // levels in the HZB (level 0: viewport size)
   uint64_t coneAddress;                  // GpuClusterCone[] per cluster
-  uint64_t historyAddress;               // uint[] bitmask: (instance, cluster) drawn and unoccluded last frame
+  uint64_t historyAddress;               // uint[] bitmask: (instance, cluster) owned a pixel last frame
   uint64_t candidateAddress;             // VisibleCluster[]: selected clusters left for the occlusion pass
   uint64_t hzbAddress;                   // float[]: every HZB level, farthest (smallest) reverse-Z depth per texel
   uint hzbOffset[MIRAGE_HZB_MAX_LEVELS]; // first float of each level
@@ -166,7 +166,6 @@ struct ClusterCounters {
   ClusterListArgs lists[2][2]; // [pass][MIRAGE_LIST_*]: what each raster pass draws
   uint occlusionArgs[3];       // pass-2 cull dispatch over the candidates
   uint candidates;             // selected clusters not drawn in pass 1 (tested against the HZB)
-  uint historyArgs[3];         // history update dispatch over every drawn cluster
   uint allocated;              // list entries handed out (up + down), may exceed the capacity
   uint listEnd[2];             // entries appended so far per list (all passes)
   uint clustersTested;
@@ -179,7 +178,7 @@ struct ClusterCounters {
   uint clustersPass1;           // drawn in pass 1 (visible last frame)
   uint clustersOcclusionCulled; // pass 2: candidates behind the HZB
   uint clustersBackfaceCulled;  // normal cone entirely facing away
-  uint historyKept;             // drawn clusters still unoccluded against the final HZB
+  uint historyKept;             // clusters owning a pixel (next frame's pass 1)
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -212,7 +211,7 @@ static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
 static_assert(sizeof(ClusterFrame) == 424, "ClusterFrame layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 4 * 48 + 84, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 4 * 48 + 72, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");
