@@ -1,8 +1,8 @@
 #version 460
 // Per-instance culling, then the instance's level range: visible instances are appended with the
 // range of their mesh's clusters that can be on the LOD cut, and counted into the selection
-// dispatch (y: instances, x: the widest range), so the cluster pass skips off-screen instances and
-// levels far from the cut.
+// dispatch (y: instances up to 65535, x: the widest range), so the cluster pass skips off-screen
+// instances and levels far from the cut.
 #include "cluster_common.glsl"
 
 layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
@@ -47,7 +47,9 @@ void main() {
   GpuClusterLevel b = LevelRef(push.levelAddress).levels[mesh.levelOffset + last];
   uint count = b.firstCluster + b.clusterCount - a.firstCluster;
   uint slot = atomicAdd(counters.counters.visibleInstances, 1);
-  atomicAdd(counters.counters.selectArgs[1], 1);
+  // Selection workgroup rows: one per visible instance up to the dispatch limit; past it, each row
+  // loops over several instances (cluster_select.comp).
+  if (slot < MIRAGE_CLUSTER_DISPATCH_X) atomicAdd(counters.counters.selectArgs[1], 1);
   atomicMax(counters.counters.selectArgs[0], (count + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP);
   VisibleInstanceRef(push.visibleInstanceAddress).entries[slot] = VisibleInstance(i, a.firstCluster, count, 0);
 }

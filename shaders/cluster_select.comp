@@ -29,11 +29,11 @@ bool coneBackfacing(GpuClusterInstance inst, uint cluster, ClusterFrame f) {
   return dot(normalize(cone.apex.xyz - eye), cone.axisCutoff.xyz) >= cone.axisCutoff.w;
 }
 
-void main() {
+// Cluster `local` of the range of visible instance `row`.
+void selectCluster(uint row, uint local) {
   CounterRef counters = CounterRef(push.counterAddress);
-  VisibleInstance vi = VisibleInstanceRef(push.visibleInstanceAddress).entries[gl_WorkGroupID.y];
+  VisibleInstance vi = VisibleInstanceRef(push.visibleInstanceAddress).entries[row];
   uint instanceIndex = vi.instance;
-  uint local = gl_GlobalInvocationID.x;
   if (local >= vi.clusterCount) return;
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[instanceIndex];
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
@@ -69,4 +69,10 @@ void main() {
   }
   if (emitCluster(vc, s, c.triangleCount, f) && (f.flags & MIRAGE_FRAME_OCCLUSION) != 0)
     atomicAdd(counters.counters.clustersPass1, 1);
+}
+
+void main() {
+  // Rows are visible instances; with more than the 65535 rows a dispatch may have, rows loop.
+  uint rows = CounterRef(push.counterAddress).counters.visibleInstances;
+  for (uint row = gl_WorkGroupID.y; row < rows; row += gl_NumWorkGroups.y) selectCluster(row, gl_GlobalInvocationID.x);
 }

@@ -521,6 +521,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   ClusterStats& st = out.stats;
   st.instancesVisible = c.visibleInstances;
   st.clustersTested = c.clustersTested;
+  st.selectRows = c.selectArgs[1];
   st.clustersSelected = c.clustersSelected;
   st.clustersFrustumCulled = c.clustersFrustumCulled;
   st.clustersBackfaceCulled = c.clustersBackfaceCulled;

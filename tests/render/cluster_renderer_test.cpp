@@ -547,3 +547,33 @@ TEST_F(ClusterRender, ConeCullingKeepsTheImage) {
   writeOnFailure(on->image.srgb, "cones_on.png");
   writeOnFailure(off->image.srgb, "cones_off.png");
 }
+
+// More visible instances than a dispatch may have rows (65535): the selection loops rows, so every
+// instance's cluster is still selected. An icosahedron (20 triangles, one cluster) keeps it fast.
+TEST_F(ClusterRender, SelectsMoreInstancesThanDispatchRows) {
+  io::BlobOptions o;
+  o.subdivisions = 0;
+  auto baked = lod::bakeLodAsset(io::generateBlob(o), lod::BuildConfig{});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  lod::LodAsset asset = std::move(*baked);
+  ASSERT_EQ(asset.dags[0].clusters.size(), 1u);
+  constexpr int kSide = 260; // 67600 instances
+  asset.scene.instances.clear();
+  for (int z = 0; z < kSide; ++z)
+    for (int x = 0; x < kSide; ++x)
+      asset.scene.instances.push_back({0, glm::translate(glm::mat4(1.0f), {x * 3.0f, 0.0f, z * 3.0f})});
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 1.0f, RasterBackend::Auto);
+  s.base.width = s.base.height = 64;
+  s.base.camera.eye = {390.0f, 1500.0f, 391.0f}; // straight down over the grid's centre
+  s.base.camera.target = {390.0f, 0.0f, 390.0f};
+  s.occlusionCulling = false;
+  auto out = (*r)->render(s);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  EXPECT_EQ(out->stats.instancesVisible, uint32_t(kSide * kSide));
+  EXPECT_EQ(out->stats.selectRows, 65535u); // the limit a device may enforce (lavapipe does not)
+  EXPECT_EQ(out->stats.clustersSelected, uint32_t(kSide * kSide));
+  EXPECT_EQ(out->stats.clustersFrustumCulled, 0u);
+  EXPECT_EQ(out->stats.clustersOverflow, 0u);
+}

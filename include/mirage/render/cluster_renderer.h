@@ -50,6 +50,7 @@ struct ClusterRenderSettings {
 struct ClusterStats {
   uint32_t instancesVisible = 0;
   uint32_t clustersTested = 0;                // (instance, cluster) pairs the selection pass looked at
+  uint32_t selectRows = 0;                    // workgroup rows of the selection dispatch (<= 65535)
   uint32_t clustersSelected = 0;              // on the LOCALCUT cut and inside the frustum
   uint32_t clustersFrustumCulled = 0;         // on the cut but outside the frustum
   uint32_t clustersBackfaceCulled = 0;        // selected, but the normal cone faces away
