@@ -36,5 +36,9 @@ void main() {
     c.counters.occlusionArgs[0] = o.x;
     c.counters.occlusionArgs[1] = o.y;
     c.counters.occlusionArgs[2] = 1;
+    // One thread per late instance (at most the instance count: one row of groups suffices).
+    c.counters.instanceOcclusionArgs[0] = (c.counters.lateInstances + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP;
+    c.counters.instanceOcclusionArgs[1] = 1;
+    c.counters.instanceOcclusionArgs[2] = 1;
   }
 }

@@ -143,14 +143,14 @@ bool hzbVisible(vec4 s) {
   return nearestDepth >= farthest;
 }
 
-// Visibility-history bit of cluster `local` (mesh-local) of an instance.
-bool historyBit(GpuClusterInstance inst, uint local) {
-  uint bit = inst.historyOffset + local;
+// Visibility-history bits: (instance, cluster) pairs at inst.historyOffset + mesh-local cluster,
+// then one bit per instance at frame.instanceHistoryBase + instance.
+bool historyBitAt(uint bit) {
   return (UintRef(FrameRef(push.frameAddress).frame.historyAddress).data[bit >> 5] & (1u << (bit & 31u))) != 0;
 }
+bool historyBit(GpuClusterInstance inst, uint local) { return historyBitAt(inst.historyOffset + local); }
 // Sets the bit; true when this call set it (it was clear).
-bool setHistoryBit(GpuClusterInstance inst, uint local) {
-  uint bit = inst.historyOffset + local;
+bool setHistoryBitAt(uint bit) {
   UintRef history = UintRef(FrameRef(push.frameAddress).frame.historyAddress);
   if ((history.data[bit >> 5] & (1u << (bit & 31u))) != 0) return false; // most pixels: no atomic
   return (atomicOr(history.data[bit >> 5], 1u << (bit & 31u)) & (1u << (bit & 31u))) == 0;

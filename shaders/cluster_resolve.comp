@@ -91,8 +91,10 @@ void main() {
   }
   // Occlusion history for the next frame: exactly the clusters that own a pixel. A visible cluster
   // that owns none is only deferred to the next frame's pass 2, which tests it against the HZB.
-  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBit(inst, vc.cluster - mesh.clusterOffset))
+  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBitAt(inst.historyOffset + vc.cluster - mesh.clusterOffset)) {
     atomicAdd(CounterRef(push.counterAddress).counters.historyKept, 1);
+    setHistoryBitAt(f.instanceHistoryBase + vc.instance);
+  }
   vec4 base = baseColor(m, uv, vec4(1.0), d); // DAG vertices carry no colours or tangents
   vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), front, uv, d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);

@@ -1,6 +1,6 @@
 #version 460
-// Cluster selection: LOCALCUT (draw iff self error <= tau < parent error, both projected to pixels)
-// and frustum culling, one thread per (visible instance, cluster of the instance's level range from
+// Cluster selection: LOCALCUT (draw iff self error <= tau < parent error, both projected to pixels),
+// frustum, normal-cone and (phase 2) HZB culling, one thread per (visible instance, cluster of the instance's level range from
 // the cull pass). Still linear in the clusters of the kept levels; a BVH over groups
 // (vk_lod_clusters) or DAG traversal makes it sublinear (docs/render.md).
 #include "cluster_common.glsl"
@@ -60,6 +60,16 @@ void selectCluster(uint row, uint local) {
     return;
   }
   VisibleCluster vc = VisibleCluster(instanceIndex, ci);
+  // Phase 2 (instances that drew nothing last frame, past their own HZB test): each cluster is
+  // tested against the HZB of pass 1 and drawn in pass 2.
+  if (push.rasterList == 1) {
+    if (!hzbVisible(s)) {
+      atomicAdd(counters.counters.clustersOcclusionCulled, 1);
+      return;
+    }
+    emitCluster(vc, s, c.triangleCount, f);
+    return;
+  }
   // Two-pass occlusion: clusters drawn and unoccluded last frame are drawn now (pass 1); the rest
   // wait for the HZB built from pass 1 (cluster_occlusion.comp).
   if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && !historyBit(inst, meshLocal)) {
@@ -72,7 +82,11 @@ void selectCluster(uint row, uint local) {
 }
 
 void main() {
-  // Rows are visible instances; with more than the 65535 rows a dispatch may have, rows loop.
-  uint rows = CounterRef(push.counterAddress).counters.visibleInstances;
-  for (uint row = gl_WorkGroupID.y; row < rows; row += gl_NumWorkGroups.y) selectCluster(row, gl_GlobalInvocationID.x);
+  // Rows are visible instances: phase 1 (push.rasterList 0) the early ones, phase 2 those appended
+  // by the late-instance HZB test. With more than the 65535 rows a dispatch may have, rows loop.
+  CounterRef counters = CounterRef(push.counterAddress);
+  uint first = push.rasterList == 0 ? 0 : counters.counters.earlyInstances;
+  uint rows = push.rasterList == 0 ? counters.counters.earlyInstances : counters.counters.visibleInstances;
+  for (uint row = first + gl_WorkGroupID.y; row < rows; row += gl_NumWorkGroups.y)
+    selectCluster(row, gl_GlobalInvocationID.x);
 }

@@ -125,6 +125,8 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"clusters_pass1", st.clustersPass1},
           {"clusters_occlusion_tested", st.clustersOcclusionTested},
           {"clusters_occlusion_culled", st.clustersOcclusionCulled},
+          {"instances_late", st.instancesLate},
+          {"instances_occlusion_culled", st.instancesOcclusionCulled},
           {"history_kept", st.historyKept},
           {"clusters_drawn", st.clustersDrawn},
           {"clusters_hardware", st.clustersHardware},
@@ -139,8 +141,10 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
              st.clustersFrustumCulled, st.clustersBackfaceCulled,
              st.clustersOverflow ? fmt::format("  OVERFLOW {}", st.clustersOverflow) : "");
   if (st.occlusion)
-    fmt::print("occlusion: pass 1 drew {} (visible last frame), pass 2 tested {}, culled {}; {} own pixels\n",
-               st.clustersPass1, st.clustersOcclusionTested, st.clustersOcclusionCulled, st.historyKept);
+    fmt::print("occlusion: pass 1 drew {} clusters (visible last frame); pass 2 tested {} instances, culled {}, "
+               "tested {} clusters, culled {}; {} clusters own pixels\n",
+               st.clustersPass1, st.instancesLate, st.instancesOcclusionCulled, st.clustersOcclusionTested,
+               st.clustersOcclusionCulled, st.historyKept);
   fmt::print("clusters drawn {} ({} by hardware)  triangles rasterized {}  near-clipped {}\n", st.clustersDrawn,
              st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
   for (const auto& t : times) fmt::print("gpu {:<8} {:9.3f} ms{}\n", t.name, t.milliseconds, median ? " (median)" : "");

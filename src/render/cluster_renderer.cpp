@@ -88,11 +88,12 @@ Result<RasterBackend> parseRasterBackend(std::string_view text) {
 struct ClusterRenderer::Impl {
   Context& ctx;
   ClusterSceneData scene;
-  Buffer frame, visibleInstances, visible, counters, visBuffer, candidates, history, hzb;
+  Buffer frame, visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
   DescriptorSet descriptors; // material textures, the visibility image, the colour target, depth
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> cullPipeline, selectPipeline, argsPipeline, rasterPipeline, meshPipeline, indirectPipeline,
-      meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, hzbPipeline, resolvePipeline;
+      meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, instanceOcclusionPipeline, hzbPipeline,
+      resolvePipeline;
   VkShaderStageFlags pushStages = 0;
   Image color, vis, depth;
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0;
@@ -141,6 +142,7 @@ void ClusterRenderer::Impl::createPipelines() {
   selectPipeline = createComputePipeline(ctx, "cluster_select.comp", layout);
   argsPipeline = createComputePipeline(ctx, "cluster_args.comp", layout);
   occlusionPipeline = createComputePipeline(ctx, "cluster_occlusion.comp", layout);
+  instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
   if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
@@ -170,6 +172,8 @@ void ClusterRenderer::Impl::createPipelines() {
   frame = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
   visibleInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
                                   MemoryUsage::GpuOnly, "visible instances");
+  lateInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
+                               MemoryUsage::GpuOnly, "late instances");
   // Zeroed once: entry 0 is then always a valid (instance, cluster) pair, which the resolve reads
   // for background pixels too (see cluster_resolve.comp).
   std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
@@ -180,9 +184,11 @@ void ClusterRenderer::Impl::createPipelines() {
                           kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                           MemoryUsage::GpuOnly, "cluster counters");
-  // One bit per (instance, cluster), zeroed: the first frame draws everything in pass 2.
-  uint64_t historyBytes = (scene.instancedClusters + 31) / 32 * 4;
-  historyUsable = scene.instancedClusters < (uint64_t(1) << 32) && historyBytes <= caps.maxStorageBufferRange;
+  // One bit per (instance, cluster), then one per instance, zeroed: the first frame draws
+  // everything in pass 2.
+  uint64_t historyBits = scene.instancedClusters + scene.instanceCount;
+  uint64_t historyBytes = (historyBits + 31) / 32 * 4;
+  historyUsable = historyBits < (uint64_t(1) << 32) && historyBytes <= caps.maxStorageBufferRange;
   std::vector<uint32_t> noHistory(historyUsable ? historyBytes / 4 : 1, 0u);
   history =
       createBufferWithData<uint32_t>(ctx, noHistory, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, "visibility history");
@@ -380,12 +386,20 @@ void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterP
   timer.cmdEnd(cmd, slot, kCS);
 }
 
-// barriers: the HZB of pass 1 and the candidates visible; on exit pass 2's appends are.
+// Pass-2 culling against the HZB of pass 1: late instances (then the phase-2 selection of the ones
+// that pass) and the clusters left over from phase 1.
+// barriers: the HZB, the late instances and the candidates visible; on exit pass 2's appends are.
 void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p) {
   uint32_t slot = timer.cmdBegin(cmd, "occlusion", kCS);
   cmdPush(cmd, p, 0);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, occlusionPipeline);
   vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, occlusionArgs));
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, instanceOcclusionPipeline);
+  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, instanceOcclusionArgs));
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  cmdPush(cmd, p, /*phase=*/1);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
+  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, lateSelectArgs));
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   timer.cmdEnd(cmd, slot, kCS);
 }
@@ -481,6 +495,8 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   f.historyAddress = d.history.address();
   f.candidateAddress = d.candidates.address();
   f.hzbAddress = d.hzb.address();
+  f.lateInstanceAddress = d.lateInstances.address();
+  f.instanceHistoryBase = uint32_t(d.scene.instancedClusters);
   std::copy(std::begin(d.hzbOffset), std::end(d.hzbOffset), std::begin(f.hzbOffset));
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::ClusterPush p = d.push();
@@ -528,6 +544,8 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   st.clustersPass1 = c.clustersPass1;
   st.clustersOcclusionTested = std::min(c.candidates, d.visibleCapacity);
   st.clustersOcclusionCulled = c.clustersOcclusionCulled;
+  st.instancesLate = c.lateInstances;
+  st.instancesOcclusionCulled = c.instancesOcclusionCulled;
   st.historyKept = c.historyKept;
   st.clustersDrawn = c.listEnd[0] + c.listEnd[1];
   st.clustersHardware = c.clustersHardware;

@@ -48,22 +48,24 @@ struct ClusterRenderSettings {
 };
 
 struct ClusterStats {
-  uint32_t instancesVisible = 0;
-  uint32_t clustersTested = 0;                // (instance, cluster) pairs the selection pass looked at
-  uint32_t selectRows = 0;                    // workgroup rows of the selection dispatch (<= 65535)
-  uint32_t clustersSelected = 0;              // on the LOCALCUT cut and inside the frustum
-  uint32_t clustersFrustumCulled = 0;         // on the cut but outside the frustum
-  uint32_t clustersBackfaceCulled = 0;        // selected, but the normal cone faces away
-  uint32_t clustersPass1 = 0;                 // occlusion: drawn in pass 1 (visible last frame)
-  uint32_t clustersOcclusionTested = 0;       // occlusion: pass-2 candidates tested against the HZB
-  uint32_t clustersOcclusionCulled = 0;       // occlusion: candidates behind the HZB (not drawn)
-  uint32_t historyKept = 0;                   // occlusion: clusters owning a pixel (next frame's pass 1)
-  uint32_t clustersDrawn = 0;                 // rasterized (both passes, both lists)
-  uint32_t clustersHardware = 0;              // hybrid: drawn by the mesh/indirect path
-  uint32_t trianglesNearClipped = 0;          // compute raster: triangles clipped at the near plane
-  uint32_t clustersOverflow = 0;              // selected beyond the visible-buffer capacity (dropped)
-  uint64_t trianglesRasterized = 0;           // triangles of the drawn clusters
-  bool occlusion = false;                     // occlusion culling ran
+  uint32_t instancesVisible = 0;         // inside the frustum with a level range (minus occlusion-culled late ones)
+  uint32_t clustersTested = 0;           // (instance, cluster) pairs the selection pass looked at
+  uint32_t selectRows = 0;               // workgroup rows of the selection dispatch (<= 65535)
+  uint32_t clustersSelected = 0;         // on the LOCALCUT cut and inside the frustum
+  uint32_t clustersFrustumCulled = 0;    // on the cut but outside the frustum
+  uint32_t clustersBackfaceCulled = 0;   // selected, but the normal cone faces away
+  uint32_t clustersPass1 = 0;            // occlusion: drawn in pass 1 (visible last frame)
+  uint32_t clustersOcclusionTested = 0;  // occlusion: pass-2 candidates tested against the HZB
+  uint32_t clustersOcclusionCulled = 0;  // occlusion: candidates behind the HZB (not drawn)
+  uint32_t instancesLate = 0;            // occlusion: visible instances with no pixel last frame
+  uint32_t instancesOcclusionCulled = 0; // occlusion: late instances behind the HZB (not selected)
+  uint32_t historyKept = 0;              // occlusion: clusters owning a pixel (next frame's pass 1)
+  uint32_t clustersDrawn = 0;            // rasterized (both passes, both lists)
+  uint32_t clustersHardware = 0;         // hybrid: drawn by the mesh/indirect path
+  uint32_t trianglesNearClipped = 0;     // compute raster: triangles clipped at the near plane
+  uint32_t clustersOverflow = 0;         // selected beyond the visible-buffer capacity (dropped)
+  uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
+  bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto; // the backend that ran
 };
 

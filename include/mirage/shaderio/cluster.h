@@ -145,8 +145,9 @@ struct ClusterFrame {
   uint64_t historyAddress;               // uint[] bitmask: (instance, cluster) owned a pixel last frame
   uint64_t candidateAddress;             // VisibleCluster[]: selected clusters left for the occlusion pass
   uint64_t hzbAddress;                   // float[]: every HZB level, farthest (smallest) reverse-Z depth per texel
+  uint64_t lateInstanceAddress;          // VisibleInstance[]: visible instances that drew nothing last frame
   uint hzbOffset[MIRAGE_HZB_MAX_LEVELS]; // first float of each level
-  uint pad0;
+  uint instanceHistoryBase;              // history bit of instance i: instanceHistoryBase + i
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -161,13 +162,18 @@ struct ClusterListArgs {
 
 // GPU counters and indirect arguments, zeroed at the start of every frame and read back for --stats.
 struct ClusterCounters {
-  uint selectArgs[3]; // dispatch of the selection pass: (cluster groups, visible instances, 1)
-  uint visibleInstances;
-  ClusterListArgs lists[2][2]; // [pass][MIRAGE_LIST_*]: what each raster pass draws
-  uint occlusionArgs[3];       // pass-2 cull dispatch over the candidates
-  uint candidates;             // selected clusters not drawn in pass 1 (tested against the HZB)
-  uint allocated;              // list entries handed out (up + down), may exceed the capacity
-  uint listEnd[2];             // entries appended so far per list (all passes)
+  uint selectArgs[3];            // dispatch of the selection pass: (cluster groups, visible instances, 1)
+  uint visibleInstances;         // rows of the selection passes: [0, earlyInstances) phase 1, the rest phase 2
+  uint lateSelectArgs[3];        // phase-2 selection dispatch (over-estimate: every late instance)
+  uint earlyInstances;           // selected in phase 1 (drew last frame, or occlusion off)
+  uint instanceOcclusionArgs[3]; // late-instance HZB test dispatch
+  uint lateInstances;            // visible instances that drew nothing last frame
+  uint instancesOcclusionCulled; // late instances behind the HZB
+  ClusterListArgs lists[2][2];   // [pass][MIRAGE_LIST_*]: what each raster pass draws
+  uint occlusionArgs[3];         // pass-2 cull dispatch over the candidates
+  uint candidates;               // selected clusters not drawn in pass 1 (tested against the HZB)
+  uint allocated;                // list entries handed out (up + down), may exceed the capacity
+  uint listEnd[2];               // entries appended so far per list (all passes)
   uint clustersTested;
   uint clustersSelected;  // on the cut and inside the frustum
   uint trianglesSelected; // triangles of the clusters drawn (both passes)
@@ -209,9 +215,9 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 424, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 432, "ClusterFrame layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 4 * 48 + 72, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 4 * 48 + 72, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");
