@@ -81,6 +81,9 @@ if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   printf '\xff' | dd of="$tmp/flipped.mrg" bs=1 seek=300 conv=notrunc 2>/dev/null
   expect_fail verify-flipped "flipped.mrg" "" -- verify "$tmp/flipped.mrg"
   expect_fail verify-not-mrg "blob.glb" "" -- verify "$tmp/blob.glb"
+  expect_fail render-bad-occlusion "--occlusion" "$tmp/o.png" -- render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --occlusion maybe
+  expect_fail render-bad-hybrid "--hybrid-threshold" "$tmp/o.png" -- render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --hybrid-threshold -1
+  expect_ok render-hybrid-stats render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --raster hybrid --cones off --stats
 fi
 expect_fail build-missing "missing.ply" "$tmp/m.mrg" -- build "$tmp/missing.ply" -o "$tmp/m.mrg"
 expect_fail build-bad-ext "out.glb" "$tmp/out.glb" -- build "$tmp/range.obj" -o "$tmp/out.glb"
