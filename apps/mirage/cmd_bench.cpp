@@ -40,13 +40,16 @@ struct BenchRenderOptions {
   uint32_t grid = 1;          // .mrg only: the scene repeated on a grid x grid layout
   std::string raster = "all"; // .mrg only: every backend the device has
   LodCullOptions cull;        // .mrg only
+  std::string camera;         // .mrg only: empty = auto 3/4 view
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
   if (isLodAssetPath(o.input)) {
-    LodRenderRequest r{o.input, "", "", "", o.size, o.device, o.raster, o.tau, o.grid, o.frames, true, o.json, o.cull};
+    LodRenderRequest r{o.input, "",     "",       o.camera, o.size, o.device, o.raster,
+                       o.tau,   o.grid, o.frames, true,     o.json, o.cull};
     return runLodBench(r);
   }
+  if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
   if (o.frames < 2 || o.frames > 100000) return fail("--frames must be in 2..100000");
@@ -308,6 +311,7 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
   r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute|hybrid")->capture_default_str();
   addLodCullOptions(*r, o->cull, /*bench=*/true);
+  r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--grid", o->grid, ".mrg: repeat the scene on an N x N grid (e.g. 50 -> 2500 instances)")
       ->capture_default_str();
   r->callback([o] { runBenchRender(*o); });
