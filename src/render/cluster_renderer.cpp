@@ -376,13 +376,18 @@ void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterP
   uint32_t slot = timer.cmdBegin(cmd, "hzb", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, hzbPipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
-  for (uint32_t level = 1; level < hzbLevels; ++level) { // level 0 (full resolution) is not stored
-    uint32_t lw = (width + (1u << level) - 1) >> level, lh = (height + (1u << level) - 1) >> level;
-    cmdPush(cmd, p, level);
-    vkCmdDispatch(cmd, (lw + 7) / 8, (lh + 7) / 8, 1);
+  // Levels 1..5 per 16x16 tile of level 1, then one workgroup for the rest (cluster_hzb.comp).
+  uint32_t w1 = (width + 1) / 2, h1 = (height + 1) / 2;
+  cmdPush(cmd, p, 0);
+  vkCmdDispatch(cmd, (w1 + 15) / 16, (h1 + 15) / 16, 1);
+  if (hzbLevels > 6) {
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    cmdPush(cmd, p, 1);
+    vkCmdDispatch(cmd, 1, 1, 1);
   }
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS,
+                   VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   timer.cmdEnd(cmd, slot, kCS);
 }
 

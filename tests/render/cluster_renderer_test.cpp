@@ -479,6 +479,8 @@ TEST_F(ClusterRender, OcclusionCullingKeepsTheImageOverACameraPath) {
     path.push_back(front); // and from here on the grid is culled again
     for (size_t i = 0; i < path.size(); ++i) {
       ClusterRenderSettings s = settingsFor(Bounds{}, 0.5f, b);
+      s.base.width = 251; // odd sizes: the HZB's edge texels cover partial blocks
+      s.base.height = 189;
       s.base.camera = path[i];
       s.hybridThreshold = 3.0f;
       auto on = (*withOcclusion)->render(s);
