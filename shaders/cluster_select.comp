@@ -74,7 +74,10 @@ void selectCluster(uint row, uint local) {
   // wait for the HZB built from pass 1 (cluster_occlusion.comp).
   if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && !historyBit(inst, meshLocal)) {
     uint slot = atomicAdd(counters.counters.candidates, 1);
-    if (slot < f.visibleCapacity) VisibleRef(f.candidateAddress).visible[slot] = vc;
+    if (slot < f.visibleCapacity)
+      VisibleRef(f.candidateAddress).visible[slot] = vc;
+    else
+      atomicAdd(counters.counters.clustersOverflow, 1); // dropped, like visible-list overflow
     return;
   }
   if (emitCluster(vc, s, c.triangleCount, f) && (f.flags & MIRAGE_FRAME_OCCLUSION) != 0)
