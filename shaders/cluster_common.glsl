@@ -18,6 +18,8 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer VisibleInsta
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer LevelRef { GpuClusterLevel levels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CounterRef { ClusterCounters counters; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer VisBufferRef { uint64_t pixels[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ConeRef { GpuClusterCone cones[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer FloatRef { float data[]; };
 
 layout(push_constant, scalar) uniform Push { ClusterPush push; };
 
@@ -33,9 +35,35 @@ uint triangleVertex(GpuCluster c, uint t, uint k) {
   return UintRef(push.clusterVertexAddress).data[c.vertexOffset + local];
 }
 
-// Number of visible clusters the rasterizers and the resolve may read.
-uint visibleCount() {
-  return min(CounterRef(push.counterAddress).counters.visibleClusters, FrameRef(push.frameAddress).frame.visibleCapacity);
+// Entry `i` of a visible-cluster list: the up list from the front, the down list from the back.
+uint listEntry(uint list, uint i) {
+  return list == MIRAGE_LIST_UP ? i : FrameRef(push.frameAddress).frame.visibleCapacity - 1u - i;
+}
+
+// The raster pass's share of its list (push.rasterList = pass * 2 + list): entries
+// [first, first + count).
+uvec2 rasterRange() {
+  ClusterListArgs a = CounterRef(push.counterAddress).counters.lists[push.rasterList >> 1][push.rasterList & 1u];
+  return uvec2(a.first, a.count);
+}
+
+// Visible-list entry of the raster pass's cluster number `v`, or ~0u past its end.
+uint rasterEntry(uint v) {
+  uvec2 range = rasterRange();
+  return v < range.y ? listEntry(push.rasterList & 1u, range.x + v) : ~0u;
+}
+
+// Appends to a list; false (and counted) past the shared capacity: one ticket counter covers both
+// lists, so the up and down lists never meet.
+bool appendVisible(uint list, VisibleCluster vc) {
+  CounterRef counters = CounterRef(push.counterAddress);
+  if (atomicAdd(counters.counters.allocated, 1) >= FrameRef(push.frameAddress).frame.visibleCapacity) {
+    atomicAdd(counters.counters.clustersOverflow, 1);
+    return false;
+  }
+  uint slot = atomicAdd(counters.counters.listEnd[list], 1);
+  VisibleRef(push.visibleAddress).visible[listEntry(list, slot)] = vc;
+  return true;
 }
 
 // Whether a fragment of visible cluster `v` survives facing rules: single-sided materials drop back
@@ -53,4 +81,77 @@ bool sphereVisible(vec4 s) {
   for (int i = 0; i < 5; ++i)
     if (dot(f.planes[i].xyz, s.xyz) + f.planes[i].w < -s.w) return false;
   return true;
+}
+
+// Hybrid raster: true when the cluster goes to the hardware list: its estimated triangle edge
+// (projected sphere diameter / sqrt(triangles)) reaches the threshold, or its sphere reaches the
+// near plane (big on screen and clipped: fixed-function clipping is cheaper).
+bool hardwareCluster(vec4 worldSphere, uint triangles, ClusterFrame f) {
+  float d = length(worldSphere.xyz - f.eye.xyz) - worldSphere.w;
+  if (d <= f.znear) return true;
+  float diameter = 2.0 * worldSphere.w / d * f.errorScale;
+  return diameter >= f.hybridThreshold * sqrt(float(max(triangles, 1u)));
+}
+
+// A cluster to draw in the current pass: into the hardware list (hybrid, large triangles) or the
+// up list, counted. False when the lists are full.
+bool emitCluster(VisibleCluster vc, vec4 worldSphere, uint triangles, ClusterFrame f) {
+  bool hardware = (f.flags & MIRAGE_FRAME_HYBRID) != 0 && hardwareCluster(worldSphere, triangles, f);
+  if (!appendVisible(hardware ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP, vc)) return false;
+  CounterRef counters = CounterRef(push.counterAddress);
+  atomicAdd(counters.counters.trianglesSelected, triangles);
+  if (hardware) atomicAdd(counters.counters.clustersHardware, 1);
+  return true;
+}
+
+// World-space culling sphere of cluster `c` drawn by instance `inst`.
+vec4 worldSphere(GpuCluster c, GpuClusterInstance inst) {
+  return vec4((inst.model * vec4(c.boundsSphere.xyz, 1.0)).xyz, c.boundsSphere.w * inst.maxScale);
+}
+
+// Hierarchical depth test of a world-space sphere (conservative: true = may be visible). The
+// sphere's bounding cube is projected to a pixel rectangle; the HZB level (>= 1) where the
+// rectangle spans at most three texels per axis gives the farthest depth drawn over it; the sphere is hidden when
+// its nearest point is farther still (reverse-Z: smaller). Spheres reaching the near plane are
+// visible.
+bool hzbVisible(vec4 s) {
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  vec4 row3 = vec4(f.viewProj[0][3], f.viewProj[1][3], f.viewProj[2][3], f.viewProj[3][3]);
+  float w = dot(row3.xyz, s.xyz) + row3.w; // view depth of the centre (row 3 has a unit forward axis)
+  if (w - s.w * 1.7321 <= f.znear) return true;
+  vec2 lo = vec2(1e30), hi = vec2(-1e30);
+  for (int k = 0; k < 8; ++k) {
+    vec3 corner = s.xyz + s.w * vec3((k & 1) != 0 ? 1.0 : -1.0, (k & 2) != 0 ? 1.0 : -1.0, (k & 4) != 0 ? 1.0 : -1.0);
+    vec4 clip = f.viewProj * vec4(corner, 1.0);
+    vec2 px = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+    lo = min(lo, px);
+    hi = max(hi, px);
+  }
+  vec4 nearest = f.viewProj * vec4(s.xyz - s.w * row3.xyz, 1.0);
+  float nearestDepth = nearest.z / nearest.w;
+  ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(f.viewport) - 1);
+  ivec2 p1 = clamp(ivec2(floor(hi)), ivec2(0), ivec2(f.viewport) - 1);
+  int extent = max(p1.x - p0.x, p1.y - p0.y) + 1;
+  // 2^level >= extent / 2; level 0 (full resolution) is not stored.
+  int level = clamp(findMSB(max(extent - 1, 1)), 1, int(f.hzbLevels) - 1);
+  ivec2 t0 = p0 >> level, t1 = p1 >> level;
+  int levelWidth = (int(f.viewport.x) + (1 << level) - 1) >> level;
+  FloatRef hzb = FloatRef(f.hzbAddress);
+  float farthest = 1.0;
+  for (int y = t0.y; y <= t1.y; ++y)
+    for (int x = t0.x; x <= t1.x; ++x) farthest = min(farthest, hzb.data[f.hzbOffset[level] + y * levelWidth + x]);
+  return nearestDepth >= farthest;
+}
+
+// Visibility-history bits: (instance, cluster) pairs at inst.historyOffset + mesh-local cluster,
+// then one bit per instance at frame.instanceHistoryBase + instance.
+bool historyBitAt(uint bit) {
+  return (UintRef(FrameRef(push.frameAddress).frame.historyAddress).data[bit >> 5] & (1u << (bit & 31u))) != 0;
+}
+bool historyBit(GpuClusterInstance inst, uint local) { return historyBitAt(inst.historyOffset + local); }
+// Sets the bit; true when this call set it (it was clear).
+bool setHistoryBitAt(uint bit) {
+  UintRef history = UintRef(FrameRef(push.frameAddress).frame.historyAddress);
+  if ((history.data[bit >> 5] & (1u << (bit & 31u))) != 0) return false; // most pixels: no atomic
+  return (atomicOr(history.data[bit >> 5], 1u << (bit & 31u)) & (1u << (bit & 31u))) == 0;
 }

@@ -1,8 +1,8 @@
 #version 460
 // Per-instance culling, then the instance's level range: visible instances are appended with the
 // range of their mesh's clusters that can be on the LOD cut, and counted into the selection
-// dispatch (y: instances, x: the widest range), so the cluster pass skips off-screen instances and
-// levels far from the cut.
+// dispatch (y: instances up to 65535, x: the widest range), so the cluster pass skips off-screen
+// instances and levels far from the cut.
 #include "cluster_common.glsl"
 
 layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
@@ -10,7 +10,10 @@ layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
 void main() {
   uint i = gl_GlobalInvocationID.x;
   CounterRef counters = CounterRef(push.counterAddress);
-  if (i == 0) counters.counters.selectArgs[2] = 1;
+  if (i == 0) {
+    counters.counters.selectArgs[2] = 1;
+    counters.counters.lateSelectArgs[2] = 1;
+  }
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   if (i >= f.instanceCount) return;
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[i];
@@ -46,8 +49,22 @@ void main() {
   GpuClusterLevel a = LevelRef(push.levelAddress).levels[mesh.levelOffset + first];
   GpuClusterLevel b = LevelRef(push.levelAddress).levels[mesh.levelOffset + last];
   uint count = b.firstCluster + b.clusterCount - a.firstCluster;
+  VisibleInstance entry = VisibleInstance(i, a.firstCluster, count, 0);
+  uint groups = (count + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP;
+  // Occlusion: an instance that drew no pixel last frame waits for the HZB of pass 1
+  // (cluster_instance_occlusion.comp) and, if it passes, the phase-2 selection.
+  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && !historyBitAt(f.instanceHistoryBase + i)) {
+    uint late = atomicAdd(counters.counters.lateInstances, 1);
+    if (late < MIRAGE_CLUSTER_DISPATCH_X) atomicAdd(counters.counters.lateSelectArgs[1], 1);
+    atomicMax(counters.counters.lateSelectArgs[0], groups);
+    VisibleInstanceRef(f.lateInstanceAddress).entries[late] = entry;
+    return;
+  }
   uint slot = atomicAdd(counters.counters.visibleInstances, 1);
-  atomicAdd(counters.counters.selectArgs[1], 1);
-  atomicMax(counters.counters.selectArgs[0], (count + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP);
-  VisibleInstanceRef(push.visibleInstanceAddress).entries[slot] = VisibleInstance(i, a.firstCluster, count, 0);
+  atomicAdd(counters.counters.earlyInstances, 1);
+  // Selection workgroup rows: one per visible instance up to the dispatch limit; past it, each row
+  // loops over several instances (cluster_select.comp).
+  if (slot < MIRAGE_CLUSTER_DISPATCH_X) atomicAdd(counters.counters.selectArgs[1], 1);
+  atomicMax(counters.counters.selectArgs[0], groups);
+  VisibleInstanceRef(push.visibleInstanceAddress).entries[slot] = entry;
 }

@@ -5,7 +5,8 @@
 // shared material model (shading.glsl). Every backend feeds this same pass, so they give the same
 // image. A compute pass rather than a full-screen fragment pass: on the H200, arithmetic measured
 // far slower in fragment than in compute shaders (device notes), and this pass is all arithmetic
-// and dependent loads.
+// and dependent loads. With occlusion culling it also records which clusters own pixels (the next
+// frame's pass 1).
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
 
@@ -82,10 +83,17 @@ void main() {
     return;
   }
   vec3 normal = mat3(inst.normalMatrix) * (a.normal * bary.x + b.normal * bary.y + cc.normal * bary.z);
-  GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
+  GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
+  GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
   if (background) {
     imageStore(outImage, px, f.background);
     return;
+  }
+  // Occlusion history for the next frame: exactly the clusters that own a pixel. A visible cluster
+  // that owns none is only deferred to the next frame's pass 2, which tests it against the HZB.
+  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBitAt(inst.historyOffset + vc.cluster - mesh.clusterOffset)) {
+    atomicAdd(CounterRef(push.counterAddress).counters.historyKept, 1);
+    setHistoryBitAt(f.instanceHistoryBase + vc.instance);
   }
   vec4 base = baseColor(m, uv, vec4(1.0), d); // DAG vertices carry no colours or tangents
   vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), front, uv, d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,

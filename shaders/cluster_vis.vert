@@ -6,7 +6,7 @@
 layout(location = 0) flat out uvec2 outId;
 
 void main() {
-  uint v = gl_InstanceIndex;
+  uint v = listEntry(push.rasterList & 1u, rasterRange().x + gl_InstanceIndex);
   uint t = gl_VertexIndex / 3;
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v];
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];

@@ -41,11 +41,14 @@ struct BenchRenderOptions {
   std::string raster = "all"; // .mrg only: every backend the device has
   std::string path;           // .mrg only: camera path, each camera timed once
   bool baselines = false;     // .mrg only: brute force + discrete LOD chain in the same run
+  LodCullOptions cull;        // .mrg only
+  std::string camera;         // .mrg only: empty = auto 3/4 view
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
   if (isLodAssetPath(o.input)) {
     LodRenderRequest r{.input = o.input,
+                       .camera = o.camera,
                        .path = o.path,
                        .size = o.size,
                        .device = o.device,
@@ -55,9 +58,11 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .frames = o.frames,
                        .stats = true,
                        .json = o.json,
-                       .baselines = o.baselines};
+                       .baselines = o.baselines,
+                       .cull = o.cull};
     return runLodBench(r);
   }
+  if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
   if (o.frames < 2 || o.frames > 100000) return fail("--frames must be in 2..100000");
@@ -318,7 +323,9 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--device", o->device, "Vulkan device name substring or index");
   r->add_flag("--json", o->json, "Print results as JSON");
   r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
-  r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute")->capture_default_str();
+  r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute|hybrid")->capture_default_str();
+  addLodCullOptions(*r, o->cull, /*bench=*/true);
+  r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,
               ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");

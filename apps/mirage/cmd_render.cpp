@@ -34,6 +34,7 @@ struct RenderOptions {
   bool surfels = false;        // draw the file's SURF chunk (or surfel PLY) with the surfel renderer
   float surfelSize = 2.0f;
   std::string surfelRaster = "auto";
+  LodCullOptions cull; // .mrg only
 };
 
 void runRender(const RenderOptions& o) {
@@ -67,11 +68,13 @@ void runRender(const RenderOptions& o) {
                        .tau = o.tau,
                        .frames = o.repeat,
                        .stats = o.stats,
-                       .json = o.json};
+                       .json = o.json,
+                       .cull = o.cull};
     return runLodRender(r);
   }
-  if (o.raster != "auto" || o.tau != 1.0f || !o.path.empty())
-    return fail("--tau, --raster and --path apply to .mrg cluster-LOD assets only");
+  if (o.raster != "auto" || o.tau != 1.0f || !o.path.empty() || !o.cull.isDefault())
+    return fail("--tau, --raster, --path, --hybrid-threshold, --occlusion and --cones apply to .mrg cluster-LOD assets "
+                "only");
   // Check everything cheap before the import and the GPU start.
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
@@ -183,7 +186,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--stats", o->stats, "Print GPU pass times and pipeline statistics");
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->add_option("--tau", o->tau, ".mrg: LOD threshold, projected error in pixels")->capture_default_str();
-  cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute")->capture_default_str();
+  cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute|hybrid")->capture_default_str();
+  addLodCullOptions(*cmd, o->cull, /*bench=*/false);
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
   cmd->add_option("--pvs", o->pvs, "Draw only the PVS (from mirage pvs) of the view cell holding the camera");
   cmd->add_flag("--surfels", o->surfels, "Render the file's SURF chunk (.mrg from mirage surfels) or surfel .ply");

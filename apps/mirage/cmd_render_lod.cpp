@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
@@ -30,6 +31,13 @@ struct Session {
   double loadSeconds = 0.0;
 };
 
+// "on" / "off" (and "both" where allowed) of a culling option; false after fail().
+bool parseSwitch(const std::string& value, const char* option, bool allowBoth) {
+  if (value == "on" || value == "off" || (allowBoth && value == "both")) return true;
+  fail(fmt::format("{} '{}': expected on, off{}", option, value, allowBoth ? " or both" : ""));
+  return false;
+}
+
 // Checks the arguments, loads the asset, starts the GPU. Returns false after fail().
 bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   uint32_t width = 0, height = 0;
@@ -40,6 +48,10 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
       if (auto st = checkOutputPath(r.exr, {".exr", ".pfm"}); !st) return fail(st.error()), false;
   }
   if (!(r.tau > 0.0f) || r.tau > 1e6f) return fail("--tau must be a positive number of pixels"), false;
+  if (!(r.cull.hybridThreshold >= 0.0f) || r.cull.hybridThreshold > 1e6f)
+    return fail("--hybrid-threshold must be a number of pixels in 0..1e6"), false;
+  if (!parseSwitch(r.cull.occlusion, "--occlusion", /*allowBoth=*/!needOutput)) return false;
+  if (!parseSwitch(r.cull.cones, "--cones", /*allowBoth=*/false)) return false;
   render::Camera camera;
   if (!r.camera.empty()) {
     auto c = render::parseCamera(r.camera);
@@ -72,6 +84,9 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   }
   s.settings.base.readLinear = !r.exr.empty();
   s.settings.tauPixels = r.tau;
+  s.settings.hybridThreshold = r.cull.hybridThreshold;
+  s.settings.occlusionCulling = r.cull.occlusion != "off";
+  s.settings.coneCulling = r.cull.cones == "on";
   return true;
 }
 
@@ -120,19 +135,37 @@ std::string pathFrameName(const std::string& output, size_t index) {
 
 nlohmann::json statsJson(const render::ClusterStats& st) {
   return {{"raster", render::toString(st.raster)},
+          {"occlusion", st.occlusion},
           {"instances_visible", st.instancesVisible},
           {"clusters_tested", st.clustersTested},
           {"clusters_selected", st.clustersSelected},
           {"clusters_frustum_culled", st.clustersFrustumCulled},
+          {"clusters_backface_culled", st.clustersBackfaceCulled},
+          {"clusters_pass1", st.clustersPass1},
+          {"clusters_occlusion_tested", st.clustersOcclusionTested},
+          {"clusters_occlusion_culled", st.clustersOcclusionCulled},
+          {"instances_late", st.instancesLate},
+          {"instances_occlusion_culled", st.instancesOcclusionCulled},
+          {"history_kept", st.historyKept},
+          {"clusters_drawn", st.clustersDrawn},
+          {"clusters_hardware", st.clustersHardware},
+          {"triangles_near_clipped", st.trianglesNearClipped},
           {"clusters_overflow", st.clustersOverflow},
           {"triangles_rasterized", st.trianglesRasterized}};
 }
 
 void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>& times, bool median) {
-  fmt::print("raster {}  instances visible {}  clusters tested {}  selected {}  frustum-culled {}{}\n",
+  fmt::print("raster {}  instances visible {}  clusters tested {}  selected {}  frustum-culled {}  cone-culled {}{}\n",
              render::toString(st.raster), st.instancesVisible, st.clustersTested, st.clustersSelected,
-             st.clustersFrustumCulled, st.clustersOverflow ? fmt::format("  OVERFLOW {}", st.clustersOverflow) : "");
-  fmt::print("triangles rasterized {}\n", st.trianglesRasterized);
+             st.clustersFrustumCulled, st.clustersBackfaceCulled,
+             st.clustersOverflow ? fmt::format("  OVERFLOW {}", st.clustersOverflow) : "");
+  if (st.occlusion)
+    fmt::print("occlusion: pass 1 drew {} clusters (visible last frame); pass 2 tested {} instances, culled {}, "
+               "tested {} clusters, culled {}; {} clusters own pixels\n",
+               st.clustersPass1, st.instancesLate, st.instancesOcclusionCulled, st.clustersOcclusionTested,
+               st.clustersOcclusionCulled, st.historyKept);
+  fmt::print("clusters drawn {} ({} by hardware)  triangles rasterized {}  near-clipped {}\n", st.clustersDrawn,
+             st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
   for (const auto& t : times) fmt::print("gpu {:<8} {:9.3f} ms{}\n", t.name, t.milliseconds, median ? " (median)" : "");
 }
 
@@ -144,6 +177,20 @@ uint64_t sourceTriangles(const lod::LodAsset& a) {
 }
 
 } // namespace
+
+void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
+  command
+      .add_option("--hybrid-threshold", o.hybridThreshold,
+                  ".mrg, hybrid raster: clusters whose estimated triangle edge reaches this many pixels go to the "
+                  "hardware path")
+      ->capture_default_str();
+  command
+      .add_option("--occlusion", o.occlusion,
+                  bench ? ".mrg: two-pass HZB occlusion culling on|off|both"
+                        : ".mrg: two-pass HZB occlusion culling on|off")
+      ->capture_default_str();
+  command.add_option("--cones", o.cones, ".mrg: normal-cone back-face culling on|off")->capture_default_str();
+}
 
 bool isLodAssetPath(const std::string& input) { return input.size() > 4 && input.ends_with(".mrg"); }
 
@@ -189,6 +236,7 @@ void runLodRender(const LodRenderRequest& r) {
     j["output"] = r.output;
     j["device"] = caps.name;
     j["tau_pixels"] = r.tau;
+    j["hybrid_threshold"] = r.cull.hybridThreshold;
     j["width"] = s.settings.base.width;
     j["height"] = s.settings.base.height;
     j["source_triangles"] = sourceTriangles(s.asset);
@@ -224,29 +272,37 @@ void runLodBench(const LodRenderRequest& r) {
     backends.push_back(render::RasterBackend::Indirect);
     if (caps.meshShader) backends.push_back(render::RasterBackend::Mesh);
     if (caps.int64BufferAtomics) backends.push_back(render::RasterBackend::Compute);
+    if (caps.int64BufferAtomics && caps.fragmentStoresAndAtomics && caps.meshShader)
+      backends.push_back(render::RasterBackend::Hybrid);
   }
+  std::vector<bool> occlusionModes;
+  if (r.cull.occlusion != "off") occlusionModes.push_back(true);
+  if (r.cull.occlusion != "on") occlusionModes.push_back(false);
   nlohmann::json all = nlohmann::json::array();
   double bestLodMs = INFINITY;
   if (!r.json)
-    fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, tau {} px, {} timed frames\n",
+    fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, tau {} px, hybrid threshold {} "
+               "px, cones {}, {} timed frames\n",
                r.input, caps.name, sourceTriangles(s.asset), s.asset.scene.instances.size(), s.settings.base.width,
-               s.settings.base.height, r.tau, frames - 1);
-  for (render::RasterBackend b : backends) {
-    s.settings.raster = b;
-    Timed t;
-    if (!renderFrames(s, frames, t)) return;
-    bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
-    if (r.json) {
-      nlohmann::json j = statsJson(t.last.stats);
-      for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-      j["gpu_ms_max_frame"] = t.maxFrameMs;
-      all.push_back(j);
-      continue;
+               s.settings.base.height, r.tau, r.cull.hybridThreshold, r.cull.cones, frames - 1);
+  for (render::RasterBackend b : backends)
+    for (bool occlusion : occlusionModes) {
+      s.settings.raster = b;
+      s.settings.occlusionCulling = occlusion;
+      Timed t; // the untimed warm-up frame fills the occlusion history for this view
+      if (!renderFrames(s, frames, t)) return;
+      bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
+      if (r.json) {
+        nlohmann::json j = statsJson(t.last.stats);
+        for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+        j["gpu_ms_max_frame"] = t.maxFrameMs;
+        all.push_back(j);
+        continue;
+      }
+      fmt::print("-- {}, occlusion {}\n", render::toString(b), occlusion ? "on" : "off");
+      printStats(t.last.stats, t.times, true);
+      if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
     }
-    fmt::print("-- {}\n", render::toString(b));
-    printStats(t.last.stats, t.times, true);
-    if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
-  }
   nlohmann::json baselines = nlohmann::json::array();
   if (r.baselines) {
     // Brute force at full resolution can take seconds per frame on big grids: few frames.
@@ -275,6 +331,7 @@ void runLodBench(const LodRenderRequest& r) {
                         {"input", r.input},
                         {"device", caps.name},
                         {"tau_pixels", r.tau},
+                        {"hybrid_threshold", r.cull.hybridThreshold},
                         {"backends", all},
                         {"width", s.settings.base.width},
                         {"height", s.settings.base.height},

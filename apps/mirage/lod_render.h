@@ -3,7 +3,20 @@
 // renderer on baked assets (the forward path keeps every other input).
 #include <string>
 
+namespace CLI {
+class App;
+}
+
 namespace mirage::cli {
+
+// Culling and raster-split options of the cluster renderer, shared by render and bench render.
+struct LodCullOptions {
+  float hybridThreshold = 16.0f; // --hybrid-threshold: estimated triangle edge (px) from which clusters go to hardware
+  std::string occlusion = "on";  // --occlusion on|off (bench: also "both": each backend with and without)
+  std::string cones = "on";      // --cones on|off: normal-cone back-face culling
+  bool isDefault() const { return hybridThreshold == 16.0f && occlusion == "on" && cones == "on"; }
+};
+void addLodCullOptions(CLI::App& command, LodCullOptions& options, bool bench);
 
 struct LodRenderRequest {
   std::string input;  // .mrg
@@ -13,13 +26,14 @@ struct LodRenderRequest {
   std::string path;   // camera path: cameras.json or orbit:N (render: one image per camera)
   std::string size = "1920x1080";
   std::string device;
-  std::string raster = "auto"; // auto | mesh | indirect | compute; bench: "all" = every supported one
+  std::string raster = "auto"; // auto | mesh | indirect | compute | hybrid; bench: "all" = every supported one
   float tau = 1.0f;            // LOD threshold in pixels
   uint32_t grid = 1;           // >1: the scene's instances repeated on a grid x grid layout (benchmark scenes)
   int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
   bool stats = false;
   bool json = false;
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
+  LodCullOptions cull;
 };
 
 bool isLodAssetPath(const std::string& input);

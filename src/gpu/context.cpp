@@ -145,6 +145,7 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   c.int64BufferAtomics = f.v12.shaderBufferInt64Atomics;
   c.int64ImageAtomics = p.hasImageInt64 && f.imageInt64.shaderImageInt64Atomics;
   c.pipelineStatistics = f.core.features.pipelineStatisticsQuery;
+  c.fragmentStoresAndAtomics = f.core.features.fragmentStoresAndAtomics;
 
   if (VK_API_VERSION_MINOR(props.apiVersion) < 3 && VK_API_VERSION_MAJOR(props.apiVersion) == 1)
     p.whyUnusable = "Vulkan 1.3 required";

@@ -20,13 +20,14 @@ struct ClusterSceneData {
   gpu::Buffer levels;          // GpuClusterLevel[], per mesh (GpuClusterMesh::levelOffset)
   gpu::Buffer instances;       // GpuClusterInstance[]
   gpu::Buffer materials;       // GpuMaterial[] (the forward renderer's layout)
+  gpu::Buffer cones;           // GpuClusterCone[], parallel to `clusters`
   std::vector<gpu::Image> textures;
   gpu::Unique<VkSampler> sampler;        // trilinear, repeat: material textures
   gpu::Unique<VkSampler> nearestSampler; // the integer visibility image
   uint32_t clusterCount = 0;
   uint32_t instanceCount = 0;
   uint32_t maxMeshClusters = 0;
-  uint64_t instancedClusters = 0; // sum over instances of their mesh's clusters
+  uint64_t instancedClusters = 0; // sum over instances of their mesh's clusters (history bits)
   Bounds worldBounds;
 };
 

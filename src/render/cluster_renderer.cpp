@@ -33,6 +33,33 @@ void frustumPlanes(const glm::mat4& m, glm::vec4* planes) {
   for (int i = 0; i < 5; ++i) planes[i] = p[i] / glm::length(glm::vec3(p[i]));
 }
 
+constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+
+// Every pass reaches its buffers through device addresses, which synchronization validation does
+// not track, so each phase boundary is one conservative global barrier: whatever compute, fragment
+// or transfer work wrote is visible to every later indirect read, shader access and transfer.
+void cmdPhaseBarrier(VkCommandBuffer cmd, bool meshShaders) {
+  VkPipelineStageFlags2 mesh = meshShaders ? VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT : 0;
+  cmdMemoryBarrier(cmd, kCS | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                   VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | kCS | mesh | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                   VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                       VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT);
+}
+
+// Byte offsets of one raster pass's indirect arguments in ClusterCounters.
+VkDeviceSize listArgsOffset(uint32_t pass, uint32_t list) {
+  return offsetof(sio::ClusterCounters, lists) + (pass * 2 + list) * sizeof(sio::ClusterListArgs);
+}
+VkDeviceSize dispatchArgsOffset(uint32_t pass, uint32_t list) {
+  return listArgsOffset(pass, list) + offsetof(sio::ClusterListArgs, dispatch);
+}
+VkDeviceSize drawArgsOffset(uint32_t pass, uint32_t list) {
+  return listArgsOffset(pass, list) + offsetof(sio::ClusterListArgs, draw);
+}
+
 } // namespace
 
 const char* toString(RasterBackend b) {
@@ -45,46 +72,60 @@ const char* toString(RasterBackend b) {
     return "indirect";
   case RasterBackend::Compute:
     return "compute";
+  case RasterBackend::Hybrid:
+    return "hybrid";
   }
   return "?";
 }
 
 Result<RasterBackend> parseRasterBackend(std::string_view text) {
-  for (RasterBackend b : {RasterBackend::Auto, RasterBackend::Mesh, RasterBackend::Indirect, RasterBackend::Compute})
+  for (RasterBackend b : {RasterBackend::Auto, RasterBackend::Mesh, RasterBackend::Indirect, RasterBackend::Compute,
+                          RasterBackend::Hybrid})
     if (text == toString(b)) return b;
-  return Error{fmt::format("--raster '{}': expected auto, mesh, indirect or compute", text)};
+  return Error{fmt::format("--raster '{}': expected auto, mesh, indirect, compute or hybrid", text)};
 }
 
 struct ClusterRenderer::Impl {
   Context& ctx;
   ClusterSceneData scene;
-  Buffer frame, visibleInstances, visible, counters, visBuffer;
-  DescriptorSet descriptors; // material textures, the visibility image, the colour target
+  Buffer frame, visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
+  DescriptorSet descriptors; // material textures, the visibility image, the colour target, depth
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> cullPipeline, selectPipeline, argsPipeline, rasterPipeline, meshPipeline, indirectPipeline,
+      meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, instanceOcclusionPipeline, hzbPipeline,
       resolvePipeline;
   VkShaderStageFlags pushStages = 0;
   Image color, vis, depth;
-  uint32_t width = 0, height = 0, visibleCapacity = 0;
+  uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0;
+  uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
+  bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
   GpuTimer timer;
 
-  Impl(Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)), timer(c) {}
+  Impl(Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)), timer(c, 48) {}
   void createDescriptors();
   void createPipelines();
   void ensureTargets(uint32_t w, uint32_t h);
   sio::ClusterPush push() const;
+  void cmdPush(VkCommandBuffer cmd, sio::ClusterPush p, uint32_t rasterList);
   void cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p);
-  void cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend);
+  void cmdArgs(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t pass);
+  void cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass);
+  void cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass,
+                       bool atomic);
+  void cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p);
+  void cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p);
   void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p);
 };
 
 void ClusterRenderer::Impl::createDescriptors() {
-  // Textures and the visibility image are read by the resolve (compute); binding 2 is its output.
+  // Textures and the visibility image are read by the resolve (compute); binding 2 is its output;
+  // binding 3 the hardware backends' depth, read by the HZB build.
   VkDescriptorSetLayoutBinding bindings[] = {
       {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(scene.textures.size()), VK_SHADER_STAGE_COMPUTE_BIT,
        nullptr},
       {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
+      {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
   descriptors = createDescriptorSet(ctx, bindings);
   std::vector<VkDescriptorImageInfo> infos;
   for (const Image& img : scene.textures)
@@ -93,44 +134,64 @@ void ClusterRenderer::Impl::createDescriptors() {
 }
 
 void ClusterRenderer::Impl::createPipelines() {
+  const DeviceCapabilities& caps = ctx.caps();
   pushStages = VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
-  if (ctx.caps().meshShader) pushStages |= VK_SHADER_STAGE_MESH_BIT_EXT;
+  if (caps.meshShader) pushStages |= VK_SHADER_STAGE_MESH_BIT_EXT;
   layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::ClusterPush), pushStages);
   cullPipeline = createComputePipeline(ctx, "cluster_cull.comp", layout);
   selectPipeline = createComputePipeline(ctx, "cluster_select.comp", layout);
   argsPipeline = createComputePipeline(ctx, "cluster_args.comp", layout);
-  if (ctx.caps().int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
-  GraphicsPipelineDesc d;
-  if (ctx.caps().meshShader) {
-    GraphicsPipelineDesc m;
-    m.meshShader = "cluster_vis.mesh";
-    m.fragmentShader = "cluster_vis_mesh.frag";
-    m.layout = layout;
-    m.colorFormats = {kVisFormat};
-    m.depthFormat = kDepthFormat;
-    meshPipeline = createGraphicsPipeline(ctx, m);
-  }
-  d.vertexShader = "cluster_vis.vert";
-  d.fragmentShader = "cluster_vis.frag";
-  d.layout = layout;
-  d.colorFormats = {kVisFormat};
-  d.depthFormat = kDepthFormat;
-  indirectPipeline = createGraphicsPipeline(ctx, d);
+  occlusionPipeline = createComputePipeline(ctx, "cluster_occlusion.comp", layout);
+  instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
+  hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
+  if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
+  // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
+  // hardware list: no attachments, the fragment shader does the compute rasterizer's atomicMax.
+  auto graphics = [&](bool mesh, bool atomic) {
+    GraphicsPipelineDesc d;
+    (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_vis.mesh" : "cluster_vis.vert";
+    d.fragmentShader = mesh ? (atomic ? "cluster_vis_mesh_atomic.frag" : "cluster_vis_mesh.frag")
+                            : (atomic ? "cluster_vis_atomic.frag" : "cluster_vis.frag");
+    d.layout = layout;
+    if (!atomic) {
+      d.colorFormats = {kVisFormat};
+      d.depthFormat = kDepthFormat;
+    }
+    return createGraphicsPipeline(ctx, d);
+  };
+  indirectPipeline = graphics(/*mesh=*/false, /*atomic=*/false);
+  if (caps.meshShader) meshPipeline = graphics(/*mesh=*/true, /*atomic=*/false);
+  if (caps.int64BufferAtomics && caps.fragmentStoresAndAtomics) {
+    indirectAtomicPipeline = graphics(/*mesh=*/false, /*atomic=*/true);
+    if (caps.meshShader) meshAtomicPipeline = graphics(/*mesh=*/true, /*atomic=*/true);
+  }
 
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   visibleCapacity = uint32_t(std::clamp<uint64_t>(scene.instancedClusters, 1, kMaxVisibleClusters));
   frame = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
   visibleInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
                                   MemoryUsage::GpuOnly, "visible instances");
+  lateInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
+                               MemoryUsage::GpuOnly, "late instances");
   // Zeroed once: entry 0 is then always a valid (instance, cluster) pair, which the resolve reads
   // for background pixels too (see cluster_resolve.comp).
   std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
   visible = createBufferWithData<sio::VisibleCluster>(ctx, zeros, kStorage, "visible clusters");
+  candidates = createBuffer(ctx, visibleCapacity * uint64_t(sizeof(sio::VisibleCluster)), kStorage,
+                            MemoryUsage::GpuOnly, "occlusion candidates");
   counters = createBuffer(ctx, sizeof(sio::ClusterCounters),
                           kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                           MemoryUsage::GpuOnly, "cluster counters");
+  // One bit per (instance, cluster), then one per instance, zeroed: the first frame draws
+  // everything in pass 2.
+  uint64_t historyBits = scene.instancedClusters + scene.instanceCount;
+  uint64_t historyBytes = (historyBits + 31) / 32 * 4;
+  historyUsable = historyBits < (uint64_t(1) << 32) && historyBytes <= caps.maxStorageBufferRange;
+  std::vector<uint32_t> noHistory(historyUsable ? historyBytes / 4 : 1, 0u);
+  history =
+      createBufferWithData<uint32_t>(ctx, noHistory, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, "visibility history");
 }
 
 void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
@@ -138,14 +199,28 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
   color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
   vis = createImage2D(ctx, w, h, kVisFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                       "visibility");
-  depth = createImage2D(ctx, w, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "visibility depth");
+  depth = createImage2D(ctx, w, h, kDepthFormat,
+                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, "visibility depth");
   visBuffer =
       createBuffer(ctx, uint64_t(w) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                    MemoryUsage::GpuOnly, "visibility64");
+  // HZB levels 1.. down to 1x1 (at least level 1) in one float buffer; level 0 would be the depth
+  // itself, which the level-1 build reads directly.
+  uint64_t floats = 0;
+  hzbLevels = 1;
+  for (uint32_t lw = (w + 1) / 2, lh = (h + 1) / 2; hzbLevels < MIRAGE_HZB_MAX_LEVELS;
+       lw = (lw + 1) / 2, lh = (lh + 1) / 2) {
+    hzbOffset[hzbLevels++] = uint32_t(floats);
+    floats += uint64_t(lw) * lh;
+    if (lw == 1 && lh == 1) break;
+  }
+  hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
   VkDescriptorImageInfo visInfo{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
+  VkDescriptorImageInfo depthInfo{scene.nearestSampler, depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL};
   writeImageDescriptors(ctx, descriptors.set, 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&visInfo, 1});
   writeImageDescriptors(ctx, descriptors.set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
+  writeImageDescriptors(ctx, descriptors.set, 3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
   width = w;
   height = h;
 }
@@ -169,84 +244,62 @@ sio::ClusterPush ClusterRenderer::Impl::push() const {
   return p;
 }
 
-// barriers: on entry the counters were zeroed by a transfer and made visible to compute; on exit
-// the visible-cluster list and every indirect argument are written and visible to the indirect,
-// mesh, vertex, fragment and compute stages.
-void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p) {
-  constexpr VkAccessFlags2 kRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-  constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+void ClusterRenderer::Impl::cmdPush(VkCommandBuffer cmd, sio::ClusterPush p, uint32_t rasterList) {
+  p.rasterList = rasterList;
   vkCmdPushConstants(cmd, layout, pushStages, 0, sizeof(p), &p);
+}
+
+// barriers: on entry the counters were zeroed and the clears made visible (cmdPhaseBarrier); on
+// exit the visible instances, pass-1 lists and occlusion candidates are written and visible.
+void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p) {
+  cmdPush(cmd, p, 0);
   // Per-instance culling first: the cluster pass only visits clusters of visible instances.
   uint32_t slot = timer.cmdBegin(cmd, "cull", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cullPipeline);
   vkCmdDispatch(cmd, (scene.instanceCount + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP, 1, 1);
   timer.cmdEnd(cmd, slot, kCS);
-  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | kCS,
-                   VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | kRW);
-  // LOCALCUT + frustum over every (visible instance, cluster): a flat pass, one thread each.
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  // LOCALCUT + frustum + cones over every (visible instance, cluster): a flat pass, one thread each.
   slot = timer.cmdBegin(cmd, "select", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
   vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, selectArgs));
   timer.cmdEnd(cmd, slot, kCS);
-  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kRW);
-  // Raster arguments from the visible count (one thread).
-  VkPipelineStageFlags2 meshStage = ctx.caps().meshShader ? VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT : 0;
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, argsPipeline);
-  vkCmdDispatch(cmd, 1, 1, 1);
-  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                   VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | meshStage | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
-                       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
-                   VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
-                       VK_ACCESS_2_TRANSFER_READ_BIT);
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
 }
 
-// barriers: cmdSelect's outputs visible; the 64-bit visibility buffer zeroed and visible to compute
-// (compute backend). On exit the visibility image is in SHADER_READ_ONLY_OPTIMAL and whatever the
-// backend wrote is visible to the resolve (a compute shader).
-void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend) {
-  uint32_t slot = timer.cmdBegin(cmd, "raster");
-  vkCmdPushConstants(cmd, layout, pushStages, 0, sizeof(p), &p);
-  ImageBarrier toRead{vis.handle(),
-                      VK_PIPELINE_STAGE_2_NONE,
-                      0,
-                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-                      VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  if (backend == RasterBackend::Compute) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
-    vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, rasterArgs));
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    cmdImageBarrier(cmd, toRead); // unused by the resolve here, but the descriptor must be valid
-    timer.cmdEnd(cmd, slot);
-    return;
-  }
-  ImageBarrier toAttachment[] = {
-      {vis.handle(), VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-       VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
-      {depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0,
-       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
-  cmdImageBarriers(cmd, toAttachment);
+// barriers: the lists' appends visible (cmdPhaseBarrier); on exit the pass's arguments are.
+void ClusterRenderer::Impl::cmdArgs(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t pass) {
+  cmdPush(cmd, p, pass);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, argsPipeline);
+  vkCmdDispatch(cmd, 1, 1, 1);
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+}
+
+// One hardware list into the visibility image + depth (image backends; pass 1 loads pass 0's) or,
+// `atomic`, into the 64-bit buffer through fragment atomics with no attachments (hybrid).
+// barriers: the pass's arguments visible; the images in the layouts cmdRasterize leaves them in.
+void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
+                                            uint32_t pass, bool atomic) {
   VkRenderingAttachmentInfo visAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   visAtt.imageView = vis.view();
   visAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  visAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR; // 0 = no cluster
+  visAtt.loadOp = pass == 0 ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD; // 0 = no cluster
   visAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depthAtt.imageView = depth.view();
   depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depthAtt.clearValue.depthStencil = {0.0f, 0}; // reverse-Z: far is 0
+  depthAtt.loadOp = pass == 0 ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE; // the HZB reads it
+  depthAtt.clearValue.depthStencil = {0.0f, 0};    // reverse-Z: far is 0
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.renderArea = {{0, 0}, {width, height}};
   ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &visAtt;
-  ri.pDepthAttachment = &depthAtt;
+  if (!atomic) {
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &visAtt;
+    ri.pDepthAttachment = &depthAtt;
+  }
+  uint32_t list = atomic ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP;
   vkCmdBeginRendering(cmd, &ri);
   VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
   VkRect2D scissor{{0, 0}, {width, height}};
@@ -256,32 +309,115 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
   // draw serves every material.
   vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
   vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  cmdPush(cmd, p, pass * 2 + list);
   if (backend == RasterBackend::Mesh) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, meshPipeline);
-    vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), offsetof(sio::ClusterCounters, rasterArgs), 1,
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, atomic ? meshAtomicPipeline : meshPipeline);
+    vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), dispatchArgsOffset(pass, list), 1,
                                   sizeof(VkDrawMeshTasksIndirectCommandEXT));
   } else {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, indirectPipeline);
-    vkCmdDrawIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, drawArgs), 1,
-                      sizeof(VkDrawIndirectCommand));
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, atomic ? indirectAtomicPipeline : indirectPipeline);
+    vkCmdDrawIndirect(cmd, counters.handle(), drawArgsOffset(pass, list), 1, sizeof(VkDrawIndirectCommand));
   }
   vkCmdEndRendering(cmd);
-  toRead.srcStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
-  toRead.srcAccess = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
-  toRead.oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  cmdImageBarrier(cmd, toRead);
+}
+
+// barriers: cmdArgs(pass) visible; the 64-bit buffer zeroed and visible (buffer backends). On exit
+// the visibility image and depth are readable by compute shaders (SHADER_READ_ONLY /
+// DEPTH_READ_ONLY; the buffer backends transition them unwritten so the descriptors stay valid)
+// and every write of the pass is visible to the HZB build, the next pass and the resolve.
+void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
+                                         uint32_t pass) {
+  uint32_t slot = timer.cmdBegin(cmd, pass == 0 ? "raster" : "raster2");
+  bool imageTarget = backend == RasterBackend::Mesh || backend == RasterBackend::Indirect;
+  const VkPipelineStageFlags2 kDepthStages =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  const VkAccessFlags2 kDepthAccess =
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  ImageBarrier toRead[] = {{vis.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                            VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+                           {depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                            VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+                            VK_IMAGE_ASPECT_DEPTH_BIT}};
+  if (imageTarget) {
+    // Pass 0 starts from nothing; pass 1 keeps pass 0's ids and depth (read by the HZB since).
+    ImageBarrier toAttachment[] = {
+        {vis.handle(), pass == 0 ? VK_PIPELINE_STAGE_2_NONE : kCS, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+         VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+         pass == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+         VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+        {depth.handle(), pass == 0 ? VK_PIPELINE_STAGE_2_NONE : kCS, 0, kDepthStages, kDepthAccess,
+         pass == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+         VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+    cmdImageBarriers(cmd, toAttachment);
+    cmdHardwareList(cmd, p, backend, pass, /*atomic=*/false);
+    toRead[0].srcStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+    toRead[0].srcAccess = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    toRead[0].oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    toRead[1].srcStage = kDepthStages;
+    toRead[1].srcAccess = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    toRead[1].oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    cmdImageBarriers(cmd, toRead);
+  } else {
+    cmdPush(cmd, p, pass * 2 + MIRAGE_LIST_UP);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
+    vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
+    if (backend == RasterBackend::Hybrid)
+      cmdHardwareList(cmd, p, meshAtomicPipeline ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
+                      /*atomic=*/true);
+    if (pass == 0) cmdImageBarriers(cmd, toRead); // unwritten, but the descriptors must be valid
+  }
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   timer.cmdEnd(cmd, slot);
+}
+
+// barriers: the raster pass's depth visible to compute (cmdRasterize). On exit every HZB level is
+// written and visible.
+void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p) {
+  uint32_t slot = timer.cmdBegin(cmd, "hzb", kCS);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, hzbPipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+  // Levels 1..5 per 16x16 tile of level 1, then one workgroup for the rest (cluster_hzb.comp).
+  uint32_t w1 = (width + 1) / 2, h1 = (height + 1) / 2;
+  cmdPush(cmd, p, 0);
+  vkCmdDispatch(cmd, (w1 + 15) / 16, (h1 + 15) / 16, 1);
+  if (hzbLevels > 6) {
+    cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    cmdPush(cmd, p, 1);
+    vkCmdDispatch(cmd, 1, 1, 1);
+  }
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS,
+                   VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  timer.cmdEnd(cmd, slot, kCS);
+}
+
+// Pass-2 culling against the HZB of pass 1: late instances (then the phase-2 selection of the ones
+// that pass) and the clusters left over from phase 1.
+// barriers: the HZB, the late instances and the candidates visible; on exit pass 2's appends are.
+void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p) {
+  uint32_t slot = timer.cmdBegin(cmd, "occlusion", kCS);
+  cmdPush(cmd, p, 0);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, occlusionPipeline);
+  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, occlusionArgs));
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, instanceOcclusionPipeline);
+  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, instanceOcclusionArgs));
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  cmdPush(cmd, p, /*phase=*/1);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
+  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, lateSelectArgs));
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  timer.cmdEnd(cmd, slot, kCS);
 }
 
 // barriers: cmdRasterize's output visible to compute shaders. The color target ends in GENERAL with
 // the resolve's writes available, which the readback expects.
 void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p) {
   uint32_t slot = timer.cmdBegin(cmd, "resolve");
-  cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                        VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
+  cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolvePipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
-  vkCmdPushConstants(cmd, layout, pushStages, 0, sizeof(p), &p);
+  cmdPush(cmd, p, 0);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
   timer.cmdEnd(cmd, slot);
 }
@@ -300,19 +436,41 @@ Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& contex
   return std::unique_ptr<ClusterRenderer>(new ClusterRenderer(std::move(impl)));
 }
 
+namespace {
+
+// The backend that runs: auto prefers hybrid (compute for small triangles, mesh shaders for large),
+// then compute alone, then mesh shaders, then indirect draws.
+Result<RasterBackend> resolveBackend(RasterBackend requested, const DeviceCapabilities& caps) {
+  bool atomics = caps.int64BufferAtomics, fragmentAtomics = atomics && caps.fragmentStoresAndAtomics;
+  if (requested == RasterBackend::Auto)
+    return fragmentAtomics && caps.meshShader ? RasterBackend::Hybrid
+           : atomics                          ? RasterBackend::Compute
+           : caps.meshShader                  ? RasterBackend::Mesh
+                                              : RasterBackend::Indirect;
+  if (requested == RasterBackend::Mesh && !caps.meshShader)
+    return Error{"--raster mesh: the device has no VK_EXT_mesh_shader"};
+  if (requested == RasterBackend::Compute && !atomics)
+    return Error{"--raster compute: the device has no 64-bit buffer atomics"};
+  if (requested == RasterBackend::Hybrid && !fragmentAtomics)
+    return Error{"--raster hybrid: the device has no 64-bit buffer atomics in fragment shaders"};
+  return requested;
+}
+
+} // namespace
+
 Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings& cs) {
   const RenderSettings& s = cs.base;
   if (s.width == 0 || s.height == 0 || s.width > kMaxRenderDimension || s.height > kMaxRenderDimension)
     return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
   if (!(cs.tauPixels > 0.0f)) return Error{fmt::format("--tau {} must be a positive number of pixels", cs.tauPixels)};
+  if (!(cs.hybridThreshold >= 0.0f))
+    return Error{fmt::format("--hybrid-threshold {} must be a non-negative number of pixels", cs.hybridThreshold)};
   Impl& d = *impl_;
-  const DeviceCapabilities& caps = d.ctx.caps();
-  RasterBackend backend =
-      cs.raster == RasterBackend::Auto ? (caps.meshShader ? RasterBackend::Mesh : RasterBackend::Indirect) : cs.raster;
-  if (backend == RasterBackend::Mesh && !caps.meshShader)
-    return Error{"--raster mesh: the device has no VK_EXT_mesh_shader"};
-  if (backend == RasterBackend::Compute && !caps.int64BufferAtomics)
-    return Error{"--raster compute: the device has no 64-bit buffer atomics"};
+  auto resolved = resolveBackend(cs.raster, d.ctx.caps());
+  if (!resolved) return resolved.error();
+  RasterBackend backend = *resolved;
+  bool bufferTarget = backend == RasterBackend::Compute || backend == RasterBackend::Hybrid;
+  bool occlusion = cs.occlusionCulling && d.historyUsable;
   d.ensureTargets(s.width, s.height);
 
   Camera cam = withClipPlanes(s.camera, d.scene.worldBounds);
@@ -330,11 +488,21 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   f.errorScale = std::abs(proj[1][1]) * 0.5f * float(s.height);
   f.tau = cs.tauPixels;
   f.flags = (cs.flagBackFaces ? MIRAGE_FRAME_FLAG_BACKFACES : 0u) |
-            (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) |
-            (backend == RasterBackend::Compute ? MIRAGE_FRAME_SOURCE_BUFFER : 0u);
+            (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) | (bufferTarget ? MIRAGE_FRAME_SOURCE_BUFFER : 0u) |
+            (backend == RasterBackend::Hybrid ? MIRAGE_FRAME_HYBRID : 0u) | (occlusion ? MIRAGE_FRAME_OCCLUSION : 0u) |
+            (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u);
   f.visibleCapacity = d.visibleCapacity;
   f.instanceCount = d.scene.instanceCount;
   f.background = s.background;
+  f.hybridThreshold = cs.hybridThreshold;
+  f.hzbLevels = d.hzbLevels;
+  f.coneAddress = d.scene.cones.address();
+  f.historyAddress = d.history.address();
+  f.candidateAddress = d.candidates.address();
+  f.hzbAddress = d.hzb.address();
+  f.lateInstanceAddress = d.lateInstances.address();
+  f.instanceHistoryBase = uint32_t(d.scene.instancedClusters);
+  std::copy(std::begin(d.hzbOffset), std::end(d.hzbOffset), std::begin(f.hzbOffset));
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::ClusterPush p = d.push();
 
@@ -347,17 +515,22 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                      VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
                      VK_ACCESS_2_TRANSFER_WRITE_BIT);
     vkCmdFillBuffer(cmd, d.counters.handle(), 0, VK_WHOLE_SIZE, 0);
-    if (backend == RasterBackend::Compute) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
-    // Shaders reach the counters through buffer addresses, which synchronization validation does
-    // not track: make the clears visible to the indirect reads directly, not only through the
-    // compute passes' chained barriers.
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
-                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-    d.cmdSelect(cmd, p);             // instance cull, LOCALCUT + frustum, raster args
-    d.cmdRasterize(cmd, p, backend); // visibility: (cluster, triangle) per pixel
-    d.cmdResolve(cmd, p);            // fetch, interpolate, shade
+    if (bufferTarget) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
+    cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
+    d.cmdSelect(cmd, p); // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
+    if (occlusion) {     // the select pass read last frame's history; the resolve writes this frame's
+      vkCmdFillBuffer(cmd, d.history.handle(), 0, VK_WHOLE_SIZE, 0);
+      cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
+    }
+    d.cmdArgs(cmd, p, /*pass=*/0);      // pass-1 raster arguments (everything without occlusion)
+    d.cmdRasterize(cmd, p, backend, 0); // visibility: (cluster, triangle) per pixel
+    if (occlusion) {
+      d.cmdBuildHzb(cmd, p);  // farthest-depth pyramid of pass 1
+      d.cmdOcclusion(cmd, p); // pass-2 cull: candidates against the HZB
+      d.cmdArgs(cmd, p, /*pass=*/1);
+      d.cmdRasterize(cmd, p, backend, 1); // the newly visible clusters
+    }
+    d.cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
     d.timer.cmdEnd(cmd, frameSlot);
   });
 
@@ -366,13 +539,26 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   sio::ClusterCounters c{};
   std::vector<uint8_t> raw = readbackBuffer(d.ctx, d.counters, sizeof(c));
   std::memcpy(&c, raw.data(), sizeof(c));
-  out.stats.instancesVisible = c.visibleInstances;
-  out.stats.clustersTested = c.clustersTested;
-  out.stats.clustersSelected = std::min(c.visibleClusters, d.visibleCapacity);
-  out.stats.clustersFrustumCulled = c.clustersFrustumCulled;
-  out.stats.clustersOverflow = c.clustersOverflow;
-  out.stats.trianglesRasterized = c.trianglesSelected;
-  out.stats.raster = backend;
+  ClusterStats& st = out.stats;
+  st.instancesVisible = c.visibleInstances;
+  st.clustersTested = c.clustersTested;
+  st.selectRows = c.selectArgs[1];
+  st.clustersSelected = c.clustersSelected;
+  st.clustersFrustumCulled = c.clustersFrustumCulled;
+  st.clustersBackfaceCulled = c.clustersBackfaceCulled;
+  st.clustersPass1 = c.clustersPass1;
+  st.clustersOcclusionTested = std::min(c.candidates, d.visibleCapacity);
+  st.clustersOcclusionCulled = c.clustersOcclusionCulled;
+  st.instancesLate = c.lateInstances;
+  st.instancesOcclusionCulled = c.instancesOcclusionCulled;
+  st.historyKept = c.historyKept;
+  st.clustersDrawn = c.listEnd[0] + c.listEnd[1];
+  st.clustersHardware = c.clustersHardware;
+  st.trianglesNearClipped = c.trianglesNearClipped;
+  st.clustersOverflow = c.clustersOverflow;
+  st.trianglesRasterized = c.trianglesSelected;
+  st.raster = backend;
+  st.occlusion = occlusion;
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = c.trianglesSelected;
 

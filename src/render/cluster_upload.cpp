@@ -6,6 +6,7 @@
 #include <limits>
 
 #include <fmt/format.h>
+#include <meshoptimizer.h>
 
 #include "cluster_impl.h"
 #include "render_util.h"
@@ -25,6 +26,23 @@ float maxAxisScale(const glm::mat4& m) {
 
 glm::vec4 sphere(const lod::LodBounds& b) { return {b.center, b.radius}; }
 
+// Normal cone of one cluster's triangles (object space) from meshoptimizer; degenerate clusters
+// get a cutoff of 1 (never culled).
+sio::GpuClusterCone clusterCone(const lod::ClusterDag& dag, const lod::Cluster& c) {
+  std::vector<glm::vec3> positions(c.vertexCount);
+  for (uint32_t v = 0; v < c.vertexCount; ++v)
+    positions[v] = dag.positions[dag.vertexPosition[dag.clusterVertices[c.vertexOffset + v]]];
+  std::vector<uint32_t> indices(size_t(c.triangleCount) * 3);
+  for (size_t i = 0; i < indices.size(); ++i) indices[i] = dag.clusterIndices[size_t(c.triangleOffset) * 3 + i];
+  meshopt_Bounds b = meshopt_computeClusterBounds(indices.data(), indices.size(), &positions[0].x, positions.size(),
+                                                  sizeof(glm::vec3));
+  sio::GpuClusterCone cone{};
+  cone.axisCutoff = {b.cone_axis[0], b.cone_axis[1], b.cone_axis[2], b.cone_cutoff};
+  cone.apex = {b.cone_apex[0], b.cone_apex[1], b.cone_apex[2], 0.0f};
+  if (!(glm::length(glm::vec3(cone.axisCutoff)) > 0.5f)) cone.axisCutoff.w = 1.0f;
+  return cone;
+}
+
 } // namespace
 
 Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& asset) {
@@ -33,6 +51,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
     return Error{fmt::format("{}: {} DAGs for {} meshes", scene.source, asset.dags.size(), scene.meshes.size())};
   ClusterSceneData d;
   std::vector<sio::GpuCluster> clusters;
+  std::vector<sio::GpuClusterCone> cones;
   std::vector<sio::GpuClusterVertex> vertices;
   std::vector<uint32_t> clusterVertices;
   std::vector<uint8_t> indexBytes;
@@ -80,6 +99,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
       g.mesh = uint32_t(m);
       g.level = c.level;
       clusters.push_back(g);
+      cones.push_back(clusterCone(dag, c));
     }
     // Level table and reach (see GpuClusterMesh): clusters come ordered by level from the builder.
     gm.levelOffset = uint32_t(levels.size());
@@ -131,6 +151,8 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
     glm::vec4 s = meshes[inst.mesh].sphere;
     g.sphere = glm::vec4(glm::vec3(inst.transform * glm::vec4(glm::vec3(s), 1.0f)), s.w * g.maxScale);
     g.mesh = inst.mesh;
+    // Bits past 2^32 wrap: the renderer turns occlusion culling off for such scenes.
+    g.historyOffset = uint32_t(d.instancedClusters);
     g.flags = (mat.doubleSided ? MIRAGE_INSTANCE_DOUBLE_SIDED : 0u) |
               (glm::determinant(glm::mat3(inst.transform)) < 0.0f ? MIRAGE_INSTANCE_MIRRORED : 0u);
     instances.push_back(g);
@@ -149,6 +171,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
   d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");
   d.materials = createBufferWithData<sio::GpuMaterial>(ctx, gpuMats, kStorage, "cluster materials");
+  d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
   d.textures = uploadTextures(ctx, scene);
   d.sampler = makeSampler(ctx, VK_FILTER_LINEAR);
   d.nearestSampler = makeSampler(ctx, VK_FILTER_NEAREST);

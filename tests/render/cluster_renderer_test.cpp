@@ -72,6 +72,7 @@ std::vector<RasterBackend> backends(const gpu::Context& ctx) {
   std::vector<RasterBackend> list{RasterBackend::Indirect};
   if (ctx.caps().meshShader) list.push_back(RasterBackend::Mesh);
   if (ctx.caps().int64BufferAtomics) list.push_back(RasterBackend::Compute);
+  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics) list.push_back(RasterBackend::Hybrid);
   return list;
 }
 
@@ -116,6 +117,8 @@ void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float ta
   ClusterRenderSettings s = settingsFor((*r)->worldBounds(), tau, RasterBackend::Indirect);
   s.base.camera = camera;
   s.frustumCulling = false;
+  s.occlusionCulling = false; // the whole cut is drawn: compare it with the CPU's
+  s.coneCulling = false;
   auto out = (*r)->render(s);
   ASSERT_TRUE(out.ok()) << out.error().message;
   const lod::ClusterDag& dag = asset.dags[0];
@@ -152,6 +155,8 @@ TEST_F(ClusterRender, LevelPruningKeepsTheCutForManyInstances) {
   cam.znear = 0.01f * b.radius();
   s.base.camera = cam;
   s.frustumCulling = false;
+  s.occlusionCulling = false;
+  s.coneCulling = false;
   auto out = (*r)->render(s);
   ASSERT_TRUE(out.ok()) << out.error().message;
   uint32_t clusters = 0;
@@ -192,7 +197,9 @@ TEST_F(ClusterRender, BackendsGiveTheSameImage) {
   ASSERT_TRUE(r.ok()) << r.error().message;
   std::vector<ClusterRenderOutput> outs;
   for (RasterBackend b : backends(context())) {
-    auto out = (*r)->render(settingsFor((*r)->worldBounds(), 1.0f, b));
+    ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 1.0f, b);
+    s.occlusionCulling = false; // same cut every frame: the triangle counts compare
+    auto out = (*r)->render(s);
     ASSERT_TRUE(out.ok()) << out.error().message;
     EXPECT_EQ(out->stats.raster, b);
     outs.push_back(std::move(*out));
@@ -294,7 +301,10 @@ TEST_F(ClusterRender, LargerTauDrawsFewerTriangles) {
   ASSERT_TRUE(r.ok()) << r.error().message;
   uint64_t previous = std::numeric_limits<uint64_t>::max(), first = 0, last = 0;
   for (float tau : {0.125f, 0.5f, 1.0f, 4.0f, 16.0f, 64.0f}) {
-    auto out = (*r)->render(settingsFor((*r)->worldBounds(), tau, RasterBackend::Indirect));
+    ClusterRenderSettings s = settingsFor((*r)->worldBounds(), tau, RasterBackend::Indirect);
+    s.occlusionCulling = false; // count the whole cut
+    s.coneCulling = false;
+    auto out = (*r)->render(s);
     ASSERT_TRUE(out.ok()) << out.error().message;
     uint64_t t = out->stats.trianglesRasterized;
     EXPECT_LE(t, previous) << "tau " << tau;
@@ -326,5 +336,248 @@ TEST_F(ClusterRender, CameraInsideBoundsRefines) {
 TEST(ClusterRenderOptions, ParsesBackends) {
   EXPECT_EQ(*parseRasterBackend("mesh"), RasterBackend::Mesh);
   EXPECT_EQ(*parseRasterBackend("compute"), RasterBackend::Compute);
-  EXPECT_FALSE(parseRasterBackend("hybrid").ok());
+  EXPECT_EQ(*parseRasterBackend("hybrid"), RasterBackend::Hybrid);
+  EXPECT_FALSE(parseRasterBackend("software").ok());
+}
+
+namespace {
+
+// Pixels covered in one image and background (`bg`) in the other.
+size_t coverageMismatch(const ImageRGBA8& a, const ImageRGBA8& b, glm::vec3 bg) {
+  auto isBackground = [&](const uint8_t* p) {
+    return p[0] == uint8_t(bg.x * 255) && p[1] == uint8_t(bg.y * 255) && p[2] == uint8_t(bg.z * 255);
+  };
+  size_t n = 0;
+  for (uint32_t y = 0; y < a.height; ++y)
+    for (uint32_t x = 0; x < a.width; ++x) n += isBackground(a.at(x, y)) != isBackground(b.at(x, y));
+  return n;
+}
+
+} // namespace
+
+// A camera skimming the surface with a near plane that cuts into it: triangles cross the near
+// plane (and reach behind the eye). The compute rasterizer clips them as the hardware does, so it
+// covers the same pixels as the mesh/indirect backends instead of leaving holes.
+TEST_F(ClusterRender, ComputeClipsTrianglesAtTheNearPlane) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  const lod::LodAsset& asset = blobAsset();
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 1.0f, RasterBackend::Compute);
+  s.base.camera.eye = {0.0f, 0.3f, 1.25f}; // at the surface, looking across and into it
+  s.base.camera.target = {0.6f, 0.0f, 0.6f};
+  s.base.camera.znear = 0.15f;
+  s.base.camera.zfar = 10.0f;
+  s.base.background = {0.0f, 1.0f, 0.0f, 1.0f};
+  s.occlusionCulling = false;
+  auto compute = (*r)->render(s);
+  ASSERT_TRUE(compute.ok()) << compute.error().message;
+  s.raster = context().caps().meshShader ? RasterBackend::Mesh : RasterBackend::Indirect;
+  auto hardware = (*r)->render(s);
+  ASSERT_TRUE(hardware.ok()) << hardware.error().message;
+  EXPECT_GT(compute->stats.trianglesNearClipped, 0u); // the view really cuts triangles
+  const ImageRGBA8& a = compute->image.srgb;
+  size_t mismatch = coverageMismatch(a, hardware->image.srgb, {0, 1, 0});
+  std::printf("near clip: %u triangles clipped, %zu coverage mismatches, SSIM %.4f\n",
+              compute->stats.trianglesNearClipped, mismatch, ssim(a, hardware->image.srgb));
+  EXPECT_LE(mismatch, a.width / 4) << "pixels covered by one backend only";
+  EXPECT_GE(ssim(a, hardware->image.srgb), 0.99);
+  writeOnFailure(a, "nearclip_compute.png");
+  writeOnFailure(hardware->image.srgb, "nearclip_hardware.png");
+}
+
+// Hybrid: the selection splits clusters between compute and hardware by projected triangle size;
+// with a threshold in the middle of this view's range both lists are used, and the image equals
+// compute's and the mesh backend's. Thresholds 0 and "huge" send everything to one side.
+TEST_F(ClusterRender, HybridMatchesComputeAndHardware) {
+  const auto& caps = context().caps();
+  if (!caps.int64BufferAtomics || !caps.fragmentStoresAndAtomics) GTEST_SKIP() << "no fragment 64-bit atomics";
+  const lod::LodAsset& asset = blobAsset();
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  // Close enough that the clusters' estimated triangle edges spread over ~3-20 px (measured).
+  ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 0.5f, RasterBackend::Compute);
+  s.base.camera.eye = {0.0f, 0.4f, 2.2f};
+  s.base.camera.target = {0.0f, 0.0f, 0.0f};
+  s.base.camera.znear = 0.05f; // no cluster sphere reaches the near plane
+  s.base.camera.zfar = 10.0f;
+  s.occlusionCulling = false;
+  auto compute = (*r)->render(s);
+  ASSERT_TRUE(compute.ok()) << compute.error().message;
+  s.raster = caps.meshShader ? RasterBackend::Mesh : RasterBackend::Indirect;
+  auto hardware = (*r)->render(s);
+  ASSERT_TRUE(hardware.ok()) << hardware.error().message;
+  s.raster = RasterBackend::Hybrid;
+  for (float threshold : {0.0f, 6.0f, 1e6f}) {
+    s.hybridThreshold = threshold;
+    auto hybrid = (*r)->render(s);
+    ASSERT_TRUE(hybrid.ok()) << hybrid.error().message;
+    const ClusterStats& st = hybrid->stats;
+    std::printf("hybrid threshold %g: %u of %u clusters to hardware\n", threshold, st.clustersHardware,
+                st.clustersDrawn);
+    EXPECT_EQ(st.clustersDrawn, compute->stats.clustersDrawn);
+    EXPECT_EQ(st.trianglesRasterized, compute->stats.trianglesRasterized);
+    uint32_t expectedMin = threshold == 0.0f ? st.clustersDrawn : threshold == 6.0f ? 1u : 0u;
+    uint32_t expectedMax = threshold == 0.0f ? st.clustersDrawn : threshold == 6.0f ? st.clustersDrawn - 1 : 0u;
+    EXPECT_GE(st.clustersHardware, expectedMin) << "threshold " << threshold;
+    EXPECT_LE(st.clustersHardware, expectedMax) << "threshold " << threshold;
+    EXPECT_GE(ssim(hybrid->image.srgb, compute->image.srgb), 0.99) << "threshold " << threshold;
+    EXPECT_GE(ssim(hybrid->image.srgb, hardware->image.srgb), 0.99) << "threshold " << threshold;
+    writeOnFailure(hybrid->image.srgb, "hybrid_" + std::to_string(int(threshold)) + ".png");
+  }
+  writeOnFailure(compute->image.srgb, "hybrid_compute.png");
+  writeOnFailure(hardware->image.srgb, "hybrid_hardware.png");
+}
+
+namespace {
+
+// A wall of blob instances (scaled into a big occluder) in front of a grid of small blobs that it
+// hides from the front view: occlusion culling must draw far fewer triangles there.
+lod::LodAsset occluderScene() {
+  lod::LodAsset asset = blobAsset();
+  asset.scene.instances.clear();
+  asset.scene.instances.push_back({0, glm::scale(glm::translate(glm::mat4(1.0f), {0, 0, 0}), glm::vec3(5.0f))});
+  for (int gy = 0; gy < 12; ++gy)
+    for (int gx = 0; gx < 12; ++gx) {
+      glm::mat4 m = glm::translate(glm::mat4(1.0f), {(gx - 5.5f) * 0.45f, (gy - 5.5f) * 0.45f, -8.0f});
+      asset.scene.instances.push_back({0, glm::scale(m, glm::vec3(0.4f))});
+    }
+  return asset;
+}
+
+} // namespace
+
+// Two-pass occlusion over a camera path with a cut: every frame's image equals the image without
+// occlusion culling; the first frame (no history) draws everything; frames that keep the view draw
+// fewer triangles; after the cut the history is wrong and the image is still right.
+TEST_F(ClusterRender, OcclusionCullingKeepsTheImageOverACameraPath) {
+  lod::LodAsset asset = occluderScene();
+  for (RasterBackend b : backends(context())) {
+    auto withOcclusion = ClusterRenderer::create(context(), asset);
+    auto without = ClusterRenderer::create(context(), asset);
+    ASSERT_TRUE(withOcclusion.ok() && without.ok());
+    Camera front;
+    front.eye = {0.0f, 0.5f, 14.0f};
+    front.target = {0.0f, 0.0f, 0.0f};
+    front.znear = 0.5f;
+    front.zfar = 40.0f;
+    Camera side = front; // the cut: from the side, where the grid shows
+    side.eye = {16.0f, 2.0f, -6.0f};
+    side.target = {0.0f, 0.0f, -6.0f};
+    std::vector<Camera> path;
+    for (int i = 0; i < 3; ++i) { // a slow pan, then the cut, then a pan again
+      Camera c = front;
+      c.eye.x += 0.3f * float(i);
+      path.push_back(c);
+    }
+    for (int i = 0; i < 2; ++i) {
+      Camera c = side;
+      c.eye.z += 0.3f * float(i);
+      path.push_back(c);
+    }
+    path.push_back(front); // back: this frame's pass 1 draws the side view's history
+    path.push_back(front); // and from here on the grid is culled again
+    for (size_t i = 0; i < path.size(); ++i) {
+      ClusterRenderSettings s = settingsFor(Bounds{}, 0.5f, b);
+      s.base.width = 251; // odd sizes: the HZB's edge texels cover partial blocks
+      s.base.height = 189;
+      s.base.camera = path[i];
+      s.hybridThreshold = 3.0f;
+      auto on = (*withOcclusion)->render(s);
+      s.occlusionCulling = false;
+      auto off = (*without)->render(s);
+      ASSERT_TRUE(on.ok() && off.ok());
+      const ClusterStats &a = on->stats, &o = off->stats;
+      double p = psnr(on->image.srgb, off->image.srgb);
+      std::printf("%s frame %zu: pass1 %u, late instances %u culled %u, clusters tested %u culled %u, kept %u, "
+                  "triangles %llu vs %llu, PSNR %.1f\n",
+                  toString(b), i, a.clustersPass1, a.instancesLate, a.instancesOcclusionCulled,
+                  a.clustersOcclusionTested, a.clustersOcclusionCulled, a.historyKept,
+                  (unsigned long long)a.trianglesRasterized, (unsigned long long)o.trianglesRasterized, p);
+      EXPECT_TRUE(a.occlusion);
+      EXPECT_GE(p, 60.0) << toString(b) << " frame " << i;
+      EXPECT_LE(a.clustersSelected, o.clustersSelected); // occluded instances skip selection
+      EXPECT_LE(a.trianglesRasterized, o.trianglesRasterized);
+      if (i == 0) { // no history: everything is a candidate and passes the empty HZB
+        EXPECT_EQ(a.clustersPass1, 0u);
+        EXPECT_EQ(a.trianglesRasterized, o.trianglesRasterized);
+      }
+      if (i == 1 || i == 2 || i == 6) { // the view of the previous frame (nearly): the grid stays hidden
+        EXPECT_GT(a.clustersPass1, 0u);
+        EXPECT_GT(a.clustersOcclusionCulled, 0u);
+        EXPECT_EQ(a.instancesOcclusionCulled, 144u); // every grid instance is hidden, none selected
+        EXPECT_LT(a.trianglesRasterized * 3, o.trianglesRasterized * 2) << toString(b) << " frame " << i;
+      }
+      writeOnFailure(on->image.srgb, std::string("occlusion_") + toString(b) + std::to_string(i) + ".png");
+    }
+  }
+}
+
+// Normal cones drop clusters facing away from the eye (the far side of a closed mesh) without
+// changing the image; mirrored instances keep theirs (their kept side is swapped). A gently bumped
+// sphere: its clusters' cones are narrow enough to cull (the test blob's fBm bumps widen them).
+TEST_F(ClusterRender, ConeCullingKeepsTheImage) {
+  io::BlobOptions o;
+  o.subdivisions = 5;
+  o.amplitude = 0.03f;
+  auto baked = lod::bakeLodAsset(io::generateBlob(o), lod::BuildConfig{});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  lod::LodAsset asset = *baked;
+  asset.scene.instances.push_back({0, glm::scale(glm::translate(glm::mat4(1.0f), {3.0f, 0, 0}), {-1.0f, 1, 1})});
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 0.01f, RasterBackend::Auto); // level 0
+  s.occlusionCulling = false;
+  auto on = (*r)->render(s);
+  s.coneCulling = false;
+  auto off = (*r)->render(s);
+  ASSERT_TRUE(on.ok() && off.ok());
+  std::printf("cones: %u of %u selected clusters culled\n", on->stats.clustersBackfaceCulled,
+              on->stats.clustersSelected);
+  // Half the selected clusters are the mirrored copy's: a quarter of the other half is culled.
+  EXPECT_GT(on->stats.clustersBackfaceCulled * 8, on->stats.clustersSelected);
+  EXPECT_EQ(on->stats.clustersDrawn + on->stats.clustersBackfaceCulled, off->stats.clustersDrawn);
+  EXPECT_EQ(off->stats.clustersBackfaceCulled, 0u);
+  EXPECT_GE(psnr(on->image.srgb, off->image.srgb), 60.0);
+  // The mirrored copy alone: nothing culled.
+  lod::LodAsset mirrored = *baked;
+  mirrored.scene.instances[0].transform = glm::scale(glm::mat4(1.0f), {-1.0f, 1, 1});
+  auto rm = ClusterRenderer::create(context(), mirrored);
+  ASSERT_TRUE(rm.ok());
+  s.coneCulling = true;
+  auto m = (*rm)->render(s);
+  ASSERT_TRUE(m.ok());
+  EXPECT_EQ(m->stats.clustersBackfaceCulled, 0u);
+  writeOnFailure(on->image.srgb, "cones_on.png");
+  writeOnFailure(off->image.srgb, "cones_off.png");
+}
+
+// More visible instances than a dispatch may have rows (65535): the selection loops rows, so every
+// instance's cluster is still selected. An icosahedron (20 triangles, one cluster) keeps it fast.
+TEST_F(ClusterRender, SelectsMoreInstancesThanDispatchRows) {
+  io::BlobOptions o;
+  o.subdivisions = 0;
+  auto baked = lod::bakeLodAsset(io::generateBlob(o), lod::BuildConfig{});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  lod::LodAsset asset = std::move(*baked);
+  ASSERT_EQ(asset.dags[0].clusters.size(), 1u);
+  constexpr int kSide = 260; // 67600 instances
+  asset.scene.instances.clear();
+  for (int z = 0; z < kSide; ++z)
+    for (int x = 0; x < kSide; ++x)
+      asset.scene.instances.push_back({0, glm::translate(glm::mat4(1.0f), {x * 3.0f, 0.0f, z * 3.0f})});
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 1.0f, RasterBackend::Auto);
+  s.base.width = s.base.height = 64;
+  s.base.camera.eye = {390.0f, 1500.0f, 391.0f}; // straight down over the grid's centre
+  s.base.camera.target = {390.0f, 0.0f, 390.0f};
+  s.occlusionCulling = false;
+  auto out = (*r)->render(s);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  EXPECT_EQ(out->stats.instancesVisible, uint32_t(kSide * kSide));
+  EXPECT_EQ(out->stats.selectRows, 65535u); // the limit a device may enforce (lavapipe does not)
+  EXPECT_EQ(out->stats.clustersSelected, uint32_t(kSide * kSide));
+  EXPECT_EQ(out->stats.clustersFrustumCulled, 0u);
+  EXPECT_EQ(out->stats.clustersOverflow, 0u);
 }

@@ -21,8 +21,9 @@ struct DeviceCapabilities {
   bool rayTracingPipeline = false; // VK_KHR_ray_tracing_pipeline (with acceleration structures)
   bool rayQuery = false;           // VK_KHR_ray_query
   bool accelerationStructure = false;
-  bool int64BufferAtomics = false; // shaderBufferInt64Atomics: the 64-bit visibility buffer
-  bool int64ImageAtomics = false;  // VK_EXT_shader_image_atomic_int64
+  bool int64BufferAtomics = false;       // shaderBufferInt64Atomics: the 64-bit visibility buffer
+  bool int64ImageAtomics = false;        // VK_EXT_shader_image_atomic_int64
+  bool fragmentStoresAndAtomics = false; // storage writes from fragment shaders (hybrid raster)
   bool pipelineStatistics = false;
   uint32_t maxMultiviewViews = 0;
   uint32_t subgroupSize = 0;

@@ -1,8 +1,11 @@
 #pragma once
 // GPU-driven cluster-LOD renderer for baked .mrg assets (issue 4, first slice). Per frame the CPU
 // records a fixed command sequence whatever the scene size:
-//   instance cull -> cluster selection (LOCALCUT + frustum) -> raster args ->
-//   visibility raster (mesh shaders | one indirect draw | compute 64-bit atomics) -> resolve.
+//   instance cull -> cluster selection (LOCALCUT + frustum + normal cones) -> raster args ->
+//   pass 1 visibility raster (clusters visible last frame) -> HZB -> pass 2 occlusion cull + raster
+//   (the rest) -> resolve (which also records the clusters owning pixels: next frame's pass 1).
+// Rasterizers: mesh shaders | one indirect draw | compute 64-bit atomics | hybrid (compute for
+// small triangles, mesh/indirect for large ones, into the same 64-bit buffer).
 // Every backend writes the same visibility semantics (visible-cluster index + triangle id, nearest
 // depth wins) and one resolve pass shades it with the forward renderer's material model, so all
 // backends give the same image. Passes and data layout: docs/render.md.
@@ -18,13 +21,14 @@
 namespace mirage::render {
 
 enum class RasterBackend {
-  Auto,     // mesh shaders when the device has them, else indirect draws
+  Auto,     // hybrid with 64-bit atomics and mesh shaders; else compute, mesh, indirect (first available)
   Mesh,     // VK_EXT_mesh_shader: one mesh workgroup per visible cluster
   Indirect, // one vkCmdDrawIndirect: an instance per visible cluster, 3 x 128 vertices each
   Compute,  // software rasterizer: atomicMax of (depth << 32 | id) into a 64-bit buffer
+  Hybrid,   // per cluster: compute for small triangles, mesh (or indirect) for large / near-plane ones
 };
 const char* toString(RasterBackend backend);
-// "auto", "mesh", "indirect" or "compute"; anything else is an error naming the choices.
+// "auto", "mesh", "indirect", "compute" or "hybrid"; anything else is an error naming the choices.
 Result<RasterBackend> parseRasterBackend(std::string_view text);
 
 struct ClusterRenderSettings {
@@ -33,15 +37,35 @@ struct ClusterRenderSettings {
   RasterBackend raster = RasterBackend::Auto; // resolved against the device at render time
   bool frustumCulling = true;                 // instances and clusters outside the view are skipped
   bool flagBackFaces = false;                 // debug: draw back faces in magenta (crack tests)
+  // Hybrid: clusters whose estimated triangle edge (projected bounding-sphere diameter /
+  // sqrt(triangles)) is below this many pixels go to the compute rasterizer, the rest (and those
+  // reaching the near plane) to the hardware path. To be tuned on the H200 (docs/render.md).
+  float hybridThreshold = 16.0f;
+  // Two-pass HZB occlusion culling against this renderer's previous frame (correct on any frame,
+  // faster when consecutive frames are alike).
+  bool occlusionCulling = true;
+  bool coneCulling = true; // per-cluster normal cones drop back-facing clusters of single-sided instances
 };
 
 struct ClusterStats {
-  uint32_t instancesVisible = 0;
-  uint32_t clustersTested = 0;                // (instance, cluster) pairs the selection pass looked at
-  uint32_t clustersSelected = 0;              // on the LOCALCUT cut and inside the frustum
-  uint32_t clustersFrustumCulled = 0;         // on the cut but outside the frustum
-  uint32_t clustersOverflow = 0;              // selected beyond the visible-buffer capacity (dropped)
-  uint64_t trianglesRasterized = 0;           // triangles of the selected clusters
+  uint32_t instancesVisible = 0;         // inside the frustum with a level range (minus occlusion-culled late ones)
+  uint32_t clustersTested = 0;           // (instance, cluster) pairs the selection pass looked at
+  uint32_t selectRows = 0;               // workgroup rows of the selection dispatch (<= 65535)
+  uint32_t clustersSelected = 0;         // on the LOCALCUT cut and inside the frustum
+  uint32_t clustersFrustumCulled = 0;    // on the cut but outside the frustum
+  uint32_t clustersBackfaceCulled = 0;   // selected, but the normal cone faces away
+  uint32_t clustersPass1 = 0;            // occlusion: drawn in pass 1 (visible last frame)
+  uint32_t clustersOcclusionTested = 0;  // occlusion: pass-2 candidates tested against the HZB
+  uint32_t clustersOcclusionCulled = 0;  // occlusion: candidates behind the HZB (not drawn)
+  uint32_t instancesLate = 0;            // occlusion: visible instances with no pixel last frame
+  uint32_t instancesOcclusionCulled = 0; // occlusion: late instances behind the HZB (not selected)
+  uint32_t historyKept = 0;              // occlusion: clusters owning a pixel (next frame's pass 1)
+  uint32_t clustersDrawn = 0;            // rasterized (both passes, both lists)
+  uint32_t clustersHardware = 0;         // hybrid: drawn by the mesh/indirect path
+  uint32_t trianglesNearClipped = 0;     // compute raster: triangles clipped at the near plane
+  uint32_t clustersOverflow = 0;         // selected beyond the visible-buffer capacity (dropped)
+  uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
+  bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto; // the backend that ran
 };
 

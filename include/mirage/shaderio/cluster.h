@@ -32,6 +32,16 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_FLAG_BACKFACES 1u // debug: keep back faces and shade them in a flag colour
 #define MIRAGE_FRAME_FRUSTUM_CULL 2u   // cull instances and clusters against the view frustum
 #define MIRAGE_FRAME_SOURCE_BUFFER 4u  // resolve reads the 64-bit buffer (compute raster), else the image
+#define MIRAGE_FRAME_HYBRID 8u         // selection splits clusters: small triangles to compute, large to hardware
+#define MIRAGE_FRAME_OCCLUSION 16u     // two-pass HZB occlusion culling with last frame's visibility
+#define MIRAGE_FRAME_CONE_CULL 32u     // per-cluster normal-cone back-face culling
+
+// Visible-cluster lists: the compute (or only) list grows up from entry 0, the hardware list of the
+// hybrid backend grows down from the last entry, so one buffer and one id space serve both.
+#define MIRAGE_LIST_UP 0u
+#define MIRAGE_LIST_DOWN 1u
+// Hierarchical depth levels kept (level 0 is full resolution): enough for 16384 pixels.
+#define MIRAGE_HZB_MAX_LEVELS 15
 
 // One cluster of some mesh's DAG (LOCALCUT needs self and parent bounds; culling needs `bounds`).
 struct GpuCluster {
@@ -88,12 +98,19 @@ struct VisibleInstance {
 
 struct GpuClusterInstance {
   mat4 model;
-  mat4 normalMatrix;
-  vec4 sphere; // world-space bounding sphere (per-instance culling)
+  mat4 normalMatrix; // transpose(inverse(model)); its transpose brings the eye into object space
+  vec4 sphere;       // world-space bounding sphere (per-instance culling)
   uint mesh;
-  uint flags;     // MIRAGE_INSTANCE_*
-  float maxScale; // largest axis scale of `model`: object errors and radii become world ones
-  uint pad0;
+  uint flags;         // MIRAGE_INSTANCE_*
+  float maxScale;     // largest axis scale of `model`: object errors and radii become world ones
+  uint historyOffset; // first bit of this instance's clusters in the visibility-history bitmask
+};
+
+// Normal cone of a cluster's triangles (meshopt_computeClusterBounds), for back-face culling: the
+// whole cluster faces away from an eye e when dot(normalize(apex - e), axis) >= cutoff.
+struct GpuClusterCone {
+  vec4 axisCutoff; // xyz axis, w cutoff (1 or more: never culled)
+  vec4 apex;       // xyz apex, w unused
 };
 
 // Appended by the selection pass, read by every rasterizer and by the resolve.
@@ -120,19 +137,54 @@ struct ClusterFrame {
   uint visibleCapacity; // entries in the visible-cluster buffer
   uint instanceCount;
   vec4 background; // linear RGBA written where no cluster covers the pixel
+  // Hybrid raster: clusters whose estimated triangle edge (2 * projected sphere radius /
+  // sqrt(triangles)) is below this many pixels go to the compute rasterizer.
+  float hybridThreshold;
+  uint hzbLevels;                        // levels in the HZB (level 0: viewport size)
+  uint64_t coneAddress;                  // GpuClusterCone[] per cluster
+  uint64_t historyAddress;               // uint[] bitmask: (instance, cluster) owned a pixel last frame
+  uint64_t candidateAddress;             // VisibleCluster[]: selected clusters left for the occlusion pass
+  uint64_t hzbAddress;                   // float[]: every HZB level, farthest (smallest) reverse-Z depth per texel
+  uint64_t lateInstanceAddress;          // VisibleInstance[]: visible instances that drew nothing last frame
+  uint hzbOffset[MIRAGE_HZB_MAX_LEVELS]; // first float of each level
+  uint instanceHistoryBase;              // history bit of instance i: instanceHistoryBase + i
+};
+
+// One raster pass's share of a list: entries [first, first + count) counted from the list's end
+// (up: entry first + i; down: entry capacity - 1 - first - i), and its indirect arguments.
+struct ClusterListArgs {
+  uint dispatch[3]; // mesh tasks / compute raster: one workgroup per cluster, (x, y, 1)
+  uint first;
+  uint draw[4]; // vkCmdDrawIndirect: (3 * max triangles, count, 0, 0)
+  uint count;
+  uint pad0, pad1, pad2;
 };
 
 // GPU counters and indirect arguments, zeroed at the start of every frame and read back for --stats.
 struct ClusterCounters {
-  uint selectArgs[3]; // dispatch of the selection pass: (cluster groups, visible instances, 1)
-  uint visibleInstances;
-  uint rasterArgs[3];   // mesh tasks / compute raster: one workgroup per visible cluster
-  uint visibleClusters; // appended (may exceed the capacity: the excess is dropped and counted)
-  uint drawArgs[4];     // vkCmdDrawIndirect: (3 * max triangles, visible clusters, 0, 0)
+  uint selectArgs[3];            // dispatch of the selection pass: (cluster groups, visible instances, 1)
+  uint visibleInstances;         // rows of the selection passes: [0, earlyInstances) phase 1, the rest phase 2
+  uint lateSelectArgs[3];        // phase-2 selection dispatch (over-estimate: every late instance)
+  uint earlyInstances;           // selected in phase 1 (drew last frame, or occlusion off)
+  uint instanceOcclusionArgs[3]; // late-instance HZB test dispatch
+  uint lateInstances;            // visible instances that drew nothing last frame
+  uint instancesOcclusionCulled; // late instances behind the HZB
+  ClusterListArgs lists[2][2];   // [pass][MIRAGE_LIST_*]: what each raster pass draws
+  uint occlusionArgs[3];         // pass-2 cull dispatch over the candidates
+  uint candidates;               // selected clusters not drawn in pass 1 (tested against the HZB)
+  uint allocated;                // list entries handed out (up + down), may exceed the capacity
+  uint listEnd[2];               // entries appended so far per list (all passes)
   uint clustersTested;
-  uint trianglesSelected;
+  uint clustersSelected;  // on the cut and inside the frustum
+  uint trianglesSelected; // triangles of the clusters drawn (both passes)
   uint clustersFrustumCulled;
   uint clustersOverflow;
+  uint clustersHardware;        // hybrid: clusters sent to the hardware list
+  uint trianglesNearClipped;    // compute raster: triangles clipped against the near plane
+  uint clustersPass1;           // drawn in pass 1 (visible last frame)
+  uint clustersOcclusionCulled; // pass 2: candidates behind the HZB
+  uint clustersBackfaceCulled;  // normal cone entirely facing away
+  uint historyKept;             // clusters owning a pixel (next frame's pass 1)
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -151,7 +203,7 @@ struct ClusterPush {
   uint64_t counterAddress;         // ClusterCounters
   uint64_t visBufferAddress;       // uint64_t per pixel: depth << 32 | packed id (compute raster)
   uint maxMeshClusters;            // largest clusterCount over meshes (selection dispatch width)
-  uint pad0;
+  uint rasterList;                 // raster passes: pass * 2 + MIRAGE_LIST_*; HZB build: level
 };
 
 #ifdef __cplusplus
@@ -162,9 +214,11 @@ static_assert(sizeof(GpuClusterLevel) == 16, "GpuClusterLevel layout");
 static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
-static_assert(sizeof(ClusterFrame) == 320, "ClusterFrame layout");
-static_assert(sizeof(ClusterCounters) == 64, "ClusterCounters layout");
-static_assert(offsetof(ClusterCounters, rasterArgs) == 16 && offsetof(ClusterCounters, drawArgs) == 32,
+static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
+static_assert(sizeof(ClusterFrame) == 432, "ClusterFrame layout");
+static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 4 * 48 + 72, "ClusterCounters layout");
+static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");
 } // namespace mirage::shaderio

@@ -1,0 +1,9 @@
+// Body of the hybrid backend's fragment shaders (inId: visible entry + 1, triangle).
+void main() {
+  if (!keepFacing(inId.x - 1, gl_FrontFacing)) return;
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  uint id = (inId.x << MIRAGE_CLUSTER_TRIANGLE_BITS) | inId.y;
+  uint64_t value = (uint64_t(floatBitsToUint(gl_FragCoord.z)) << 32) | uint64_t(id);
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(f.viewport.x) + p.x], value);
+}
