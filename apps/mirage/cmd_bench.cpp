@@ -334,6 +334,8 @@ void addBenchCommand(CLI::App& app) {
   bp->add_option("--device", po->device, "Vulkan device name substring or index");
   bp->add_flag("--json", po->json, "Print results as JSON");
   bp->callback([po] { runBenchPvs(*po); });
+
+  addBenchSurfelsSortCommand(*bench);
 }
 
 } // namespace mirage::cli

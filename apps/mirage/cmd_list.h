@@ -14,6 +14,8 @@ void addRenderCommand(CLI::App& app);
 void addDemoCommand(CLI::App& app);
 // mirage bench render ...: GPU timings.
 void addBenchCommand(CLI::App& app);
+// mirage bench surfels-sort (cmd_bench_surfels.cpp), added under `bench`.
+void addBenchSurfelsSortCommand(CLI::App& bench);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.
