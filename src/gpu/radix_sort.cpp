@@ -44,7 +44,6 @@ RadixSort::RadixSort(Context& context, uint32_t maxCount) : maxCount_(maxCount) 
       createBuffer(context, std::max<size_t>(size_t(maxCount) * 8, 8), usage, MemoryUsage::GpuOnly, "radix sort keys");
   histograms_ = createBuffer(context, size_t(std::max(blocksFor(maxCount), 1u)) * MIRAGE_RADIX_BINS * 4, usage,
                              MemoryUsage::GpuOnly, "radix sort histograms");
-  totals_ = createBuffer(context, MIRAGE_RADIX_BINS * 4, usage, MemoryUsage::GpuOnly, "radix sort totals");
 }
 
 void RadixSort::cmdSort(VkCommandBuffer cmd, const Buffer& keys, uint32_t count, const RadixSortOptions& options) {
@@ -53,7 +52,6 @@ void RadixSort::cmdSort(VkCommandBuffer cmd, const Buffer& keys, uint32_t count,
   count = std::min(count, maxCount_);
   sio::RadixSortPush p{};
   p.histograms = histograms_.address();
-  p.totals = totals_.address();
   p.count = count;
   p.descending = options.descending ? 1u : 0u;
   p.blockCount = blocksFor(count);
@@ -72,7 +70,7 @@ void RadixSort::cmdSort(VkCommandBuffer cmd, const Buffer& keys, uint32_t count,
     p.keysOut = to->address();
     p.shift = 8 * digit;
     dispatch(histogram_, p.blockCount);
-    dispatch(scan_, MIRAGE_RADIX_BINS);
+    dispatch(scan_, 1);
     dispatch(scatter_, p.blockCount);
     std::swap(from, to);
   }

@@ -1,7 +1,8 @@
 #pragma once
 // A portable GPU LSD radix sort of 64-bit keys: 8-bit digits, per-block histograms, a scan per
 // digit and a stable scatter (ballots emulated in shared memory, so any subgroup size works;
-// 9 KiB of shared memory). Stable, so a 32-bit key with a 32-bit payload sorts as
+// 17 KiB of shared memory). Suited to up to a few million keys: the scan walks each digit's
+// blocks serially. Stable, so a 32-bit key with a 32-bit payload sorts as
 // (key << 32 | payload) with digitMask 0xF0. A bitonic sort is kept as the measured baseline.
 #include <cstdint>
 
@@ -44,7 +45,7 @@ private:
   uint32_t maxCount_;
   Unique<VkPipelineLayout> layout_;
   Unique<VkPipeline> histogram_, scan_, scatter_, bitonic_;
-  Buffer scratch_, histograms_, totals_;
+  Buffer scratch_, histograms_;
   uint32_t lastDispatches_ = 0;
 };
 

@@ -19,7 +19,6 @@ struct RadixSortPush {
   uint64_t keysIn;     // uint64[count]: this pass's input keys
   uint64_t keysOut;    // uint64[count]: this pass's output (ping-pong with keysIn)
   uint64_t histograms; // uint[256 * blockCount], digit-major: histograms[digit * blockCount + block]
-  uint64_t totals;     // uint[256]: keys per digit over all blocks
   uint count;          // keys to sort
   uint shift;          // bit position of this pass's 8-bit digit in the 64-bit key
   uint descending;     // 1: largest key first (the digit is inverted)
@@ -29,7 +28,7 @@ struct RadixSortPush {
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(RadixSortPush) == 56, "RadixSortPush layout");
+static_assert(sizeof(RadixSortPush) == 48, "RadixSortPush layout");
 } // namespace mirage::shaderio
 #else
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer RadixU64Ref { uint64_t v[]; };
