@@ -78,7 +78,7 @@ void runBenchSort(const BenchSortOptions& o) {
     std::vector<double> times[3];
     uint32_t dispatches[3] = {};
     std::vector<uint64_t> results[3];
-    for (int run = 0; run < o.repeat; ++run)
+    for (int run = -1; run < o.repeat; ++run) // run -1: untimed warm-up
       for (int method = 0; method < 3; ++method) {
         // barriers: the copy completes before the sort reads (cmdSort/cmdBitonicSort wait for
         // transfer writes); the submit waits before the readback.
@@ -93,7 +93,7 @@ void runBenchSort(const BenchSortOptions& o) {
           timer.cmdEnd(cmd, slot);
           dispatches[method] = sorter.lastDispatches();
         });
-        times[method].push_back(timer.read().at(0).milliseconds);
+        if (run >= 0) times[method].push_back(timer.read().at(0).milliseconds);
         if (run == 0) {
           std::vector<uint8_t> bytes = gpu::readbackBuffer(c, work, size_t(n) * 8);
           results[method].resize(n);

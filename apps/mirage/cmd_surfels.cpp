@@ -195,7 +195,7 @@ void runSurfels(const SurfelsOptions& o) {
     fmt::print("surfels {} -> {}: {} surfels from {} points on {}\n", o.input, o.output, cloud.size(),
                sampled->texels.size(), device);
   else
-    fmt::print("surfels {} -> {}: {} surfels from {} texels ({} views x {} layer(s) x {}^2, {} capture pass(es)) on "
+    fmt::print("surfels {} -> {}: {} surfels from {} texels ({} views x {} layer(s) x {}^2, {} render pass(es)) on "
                "{}\n",
                o.input, o.output, cloud.size(), sampled->texels.size(), o.views, o.layers, o.resolution,
                sampled->passes, device);

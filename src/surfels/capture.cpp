@@ -329,7 +329,7 @@ Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const Captur
     if (!pipelines.count(p.count)) pipelines[p.count] = createCapturePipeline(ctx, layout, (1u << p.count) - 1u);
     passes.push_back(std::move(p));
   }
-  out.passes = uint32_t(passes.size());
+  out.passes = uint32_t(passes.size()) * config.layers;
 
   GpuTimer timer(ctx, 4);
   // barriers: none on entry (uploads waited); on exit the copies into out.positions and the

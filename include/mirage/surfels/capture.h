@@ -25,7 +25,7 @@ struct GpuGBuffer {
   gpu::Buffer positions;                   // vec4 per global texel on the GPU (w = 1 where valid)
   std::vector<shaderio::SurfelView> views; // per G-buffer view (layer-major: layer * directions + direction)
   GBufferTexels texels;                    // valid texels on the CPU
-  uint32_t passes = 0;                     // render passes used (1 with enough multiview views)
+  uint32_t passes = 0;                     // render passes used (1 per layer with enough multiview views)
   std::vector<gpu::PassTime> times;        // GPU times: "capture" (rasterization), "copy"
 };
 
