@@ -12,10 +12,12 @@ layout(push_constant, scalar) uniform Push { SurfelCapturePush push; };
 layout(location = 0) in vec3 inPosition;
 layout(location = 1) in vec3 inNormal;
 layout(location = 2) in vec4 inColor;
+layout(location = 3) in vec2 inUv;
 
 layout(location = 0) out vec3 outWorldPos;
 layout(location = 1) out vec3 outNormal;
 layout(location = 2) out vec4 outColor;
+layout(location = 3) out vec2 outUv;
 
 void main() {
   SurfelInstance inst = SurfelInstanceRef(push.instanceAddress).v[gl_InstanceIndex];
@@ -23,5 +25,6 @@ void main() {
   outWorldPos = world.xyz;
   outNormal = mat3(inst.normalMatrix) * inNormal;
   outColor = inColor * push.baseColor;
+  outUv = inUv;
   gl_Position = SurfelViewRef(push.viewAddress).v[push.baseView + gl_ViewIndex].viewProj * world;
 }

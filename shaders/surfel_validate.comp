@@ -5,7 +5,7 @@
 #extension GL_EXT_shader_atomic_int64 : require
 // Conflict resolution: a candidate survives when it still owns its own texel after every
 // candidate's Poisson disc was splatted (no larger disc covers it). Losers and the padding up to
-// the sort's power of two (push.sortK) become 0, which sorts last.
+// push.padTo (the bitonic sort's power of two) become 0, which sorts last.
 #include "mirage/shaderio/surfels.h"
 
 layout(local_size_x = 256) in;
@@ -13,7 +13,7 @@ layout(push_constant, scalar) uniform Push { SurfelSamplerPush push; };
 
 void main() {
   SurfelSamplerGlobals g = SurfelGlobalsRef(push.globals).g;
-  for (uint i = gl_GlobalInvocationID.x; i < push.sortK; i += gl_NumWorkGroups.x * 256) {
+  for (uint i = gl_GlobalInvocationID.x; i < push.padTo; i += gl_NumWorkGroups.x * 256) {
     uint64_t k = i < push.count ? SurfelU64Ref(g.candidates).v[i] : uint64_t(0);
     if (k != 0 && SurfelU64Ref(g.owners).v[uint(k)] == k) {
       atomicAdd(SurfelCountersRef(g.counters).c.validCount, 1);

@@ -359,6 +359,7 @@ void addBenchCommand(CLI::App& app) {
   bp->callback([po] { runBenchPvs(*po); });
 
   addBenchRaysCommand(bench);
+  addBenchSurfelsSortCommand(*bench);
 }
 
 } // namespace mirage::cli

@@ -18,6 +18,8 @@ void addBenchCommand(CLI::App& app);
 void addBenchSurfelsCommand(CLI::App& bench);
 // mirage bench rays SCENE [--backend embree|vulkan|all] [--rays N] (cmd_bench_rays.cpp).
 void addBenchRaysCommand(CLI::App* bench);
+// mirage bench surfels-sort (cmd_bench_surfels.cpp), added under `bench`.
+void addBenchSurfelsSortCommand(CLI::App& bench);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.

@@ -1,4 +1,5 @@
-// mirage surfels INPUT -o out.ply|out.mrg: progressive blue-noise surfels of a scene (issue 5).
+// mirage surfels INPUT -o out.ply|out.mrg: progressive blue-noise surfels of a scene or a point cloud
+// (issue 5); --per-mesh: one cloud per mesh.
 #include <chrono>
 
 #include <fmt/format.h>
@@ -7,6 +8,7 @@
 #include "commands.h"
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/gpu_sampler.h"
+#include "mirage/surfels/point_cloud.h"
 #include "mirage/surfels/reference.h"
 #include "mirage/surfels/surfel_io.h"
 #include "render_common.h"
@@ -22,12 +24,117 @@ struct SurfelsOptions {
   uint32_t count = 100000;
   uint32_t resolution = 1024;
   uint32_t views = 16;
+  uint32_t layers = 1;
   float threshold = 0.75f;
   bool reference = false;
+  bool perMesh = false;
+  bool bitonicSort = false;
 };
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// One sampled cloud with what the report prints about it.
+struct Sampled {
+  surfels::GBufferTexels texels;
+  surfels::SampleOrder order;
+  surfels::SampleOrder reference; // empty without --reference
+  uint32_t passes = 0, rounds = 0;
+  double captureSeconds = 0.0, samplerSeconds = 0.0, referenceSeconds = 0.0;
+  std::vector<gpu::PassTime> gpuTimes, samplerTimes;
+};
+
+// Point clouds: the exact farthest-point order over the points (no capture, no GPU). Meshes: G-buffer
+// capture and the GPU sampler.
+Result<Sampled> sampleScene(gpu::Context* ctx, const Scene& scene, const SurfelsOptions& o) {
+  Sampled s;
+  auto t0 = std::chrono::steady_clock::now();
+  if (surfels::isPointCloud(scene)) {
+    auto texels = surfels::pointCloudTexels(scene);
+    if (!texels) return texels.error();
+    s.texels = std::move(*texels);
+    s.captureSeconds = secondsSince(t0);
+    t0 = std::chrono::steady_clock::now();
+    s.order = surfels::farthestPointReference(s.texels, o.count);
+    s.samplerSeconds = secondsSince(t0);
+    return s;
+  }
+  surfels::CaptureConfig cc;
+  cc.resolution = o.resolution;
+  cc.views = o.views;
+  cc.layers = o.layers;
+  auto gb = surfels::captureGBuffer(*ctx, scene, cc);
+  if (!gb) return gb.error();
+  s.captureSeconds = secondsSince(t0);
+  s.passes = gb->passes;
+  s.gpuTimes = gb->times;
+  surfels::GpuSamplerConfig sc;
+  sc.count = o.count;
+  sc.threshold = o.threshold;
+  sc.bitonicSort = o.bitonicSort;
+  auto sampled = surfels::sampleOnGpu(*ctx, *gb, sc);
+  if (!sampled) return sampled.error();
+  s.order = std::move(sampled->order);
+  s.rounds = sampled->rounds;
+  s.samplerSeconds = sampled->seconds;
+  s.samplerTimes = sampled->times;
+  s.texels = std::move(gb->texels);
+  if (o.reference) {
+    t0 = std::chrono::steady_clock::now();
+    s.reference = surfels::farthestPointReference(s.texels, o.count);
+    s.referenceSeconds = secondsSince(t0);
+  }
+  return s;
+}
+
+void printReport(const Sampled& s, const surfels::SurfelCloud& cloud, bool reference) {
+  const surfels::GBufferTexels& texels = s.texels;
+  fmt::print("sampled area A = {:.6g} (texel size {:.4g}); N_ref {} mean spacing {:.4g} median {:.4g}\n",
+             texels.totalArea, texels.texelSize, cloud.referenceCount, cloud.referenceMeanSpacing,
+             cloud.referenceMedianSpacing);
+  fmt::print("capture {:.3f} s (with readback and areas), sampler {:.3f} s in {} rounds", s.captureSeconds,
+             s.samplerSeconds, s.rounds);
+  if (reference) fmt::print(", CPU reference {:.3f} s", s.referenceSeconds);
+  fmt::print("\n");
+  for (const auto& t : s.gpuTimes) fmt::print("gpu {:<10} {:10.3f} ms\n", t.name, t.milliseconds);
+  for (const auto& t : s.samplerTimes) fmt::print("gpu {:<10} {:10.3f} ms (sum over rounds)\n", t.name, t.milliseconds);
+  fmt::print("{:>8} {:>10} {:>7} {:>9}{}\n", "prefix", "radius", "rho", "coverage",
+             reference ? "   ref rho ref coverage" : "");
+  std::vector<uint32_t> prefixes;
+  for (uint32_t n : {1000u, 10000u, 100000u, 1000000u})
+    if (n < cloud.size()) prefixes.push_back(n);
+  prefixes.push_back(uint32_t(cloud.size()));
+  for (uint32_t n : prefixes) {
+    if (n == 0) continue;
+    surfels::PrefixQuality q = surfels::measurePrefix(texels, s.order, n);
+    fmt::print("{:>8} {:>10.4g} {:>7.3f} {:>9.4f}", n, q.radius, q.rho, q.coverage);
+    if (reference) {
+      surfels::PrefixQuality r = surfels::measurePrefix(texels, s.reference, n);
+      fmt::print(" {:>9.3f} {:>12.4f}", r.rho, r.coverage);
+    }
+    fmt::print("\n");
+  }
+}
+
+// The scene reduced to mesh `index` alone, in its object space (identity instance), with only the
+// material and base colour texture it uses.
+Scene meshScene(const Scene& scene, uint32_t index) {
+  Scene sub;
+  sub.source = fmt::format("{} mesh {}", scene.source, index);
+  sub.meshes.push_back(scene.meshes[index]);
+  sub.meshes[0].material = 0;
+  const Mesh& m = scene.meshes[index];
+  Material material = m.material < scene.materials.size() ? scene.materials[m.material] : Material{};
+  int32_t texture = material.baseColorTexture;
+  material.baseColorTexture = -1;
+  if (texture >= 0 && size_t(texture) < scene.textures.size()) {
+    sub.textures.push_back(scene.textures[texture]);
+    material.baseColorTexture = 0;
+  }
+  sub.materials.push_back(material);
+  sub.instances.push_back({0, glm::mat4(1.0f)});
+  return sub;
 }
 
 void runSurfels(const SurfelsOptions& o) {
@@ -35,71 +142,64 @@ void runSurfels(const SurfelsOptions& o) {
   if (auto s = checkOutputPath(o.output, {".ply", ".mrg"}); !s) return fail(s.error());
   if (o.count == 0) return fail("--count must be at least 1");
   if (o.views == 0 || o.views > 256) return fail("--views must be in 1..256");
+  if (o.layers == 0 || o.layers > 16) return fail("--layers must be in 1..16");
   if (o.resolution == 0) return fail("--resolution must be at least 1");
   if (!(o.threshold > 0.0f && o.threshold <= 1.0f)) return fail("--threshold must be in (0, 1]");
+  if (o.perMesh && !o.output.ends_with(".mrg"))
+    return fail("--per-mesh writes one SURF chunk per mesh: use a .mrg output");
 
   auto t0 = std::chrono::steady_clock::now();
-  auto scene = loadSceneArgument(o.input);
+  io::ImportOptions importOptions;
+  importOptions.allowPointClouds = true; // a PLY without faces is a scan to sample directly
+  auto scene = loadSceneArgument(o.input, importOptions);
   if (!scene) return fail(scene.error());
   double importSeconds = secondsSince(t0);
-  auto ctx = openDevice(o.device);
-  if (!ctx) return fail(ctx.error());
+  bool pointCloud = surfels::isPointCloud(*scene);
+  if (pointCloud && o.perMesh) return fail(o.input + ": --per-mesh needs a mesh scene, not a point cloud");
+  std::unique_ptr<gpu::Context> ctx;
+  if (!pointCloud) {
+    auto opened = openDevice(o.device);
+    if (!opened) return fail(opened.error());
+    ctx = std::move(*opened);
+  }
+  std::string device = ctx ? ctx->caps().name : "the CPU (point cloud: exact farthest-point order)";
+  fmt::print("import {:.3f} s\n", importSeconds);
 
-  surfels::CaptureConfig cc;
-  cc.resolution = o.resolution;
-  cc.views = o.views;
-  t0 = std::chrono::steady_clock::now();
-  auto gb = surfels::captureGBuffer(**ctx, *scene, cc);
-  if (!gb) return fail(gb.error());
-  double captureSeconds = secondsSince(t0);
-  const surfels::GBufferTexels& texels = gb->texels;
-
-  surfels::GpuSamplerConfig sc;
-  sc.count = o.count;
-  sc.threshold = o.threshold;
-  auto sampled = surfels::sampleOnGpu(**ctx, *gb, sc);
-  if (!sampled) return fail(sampled.error());
-  const surfels::SampleOrder& order = sampled->order;
-
-  surfels::SampleOrder reference;
-  double referenceSeconds = 0.0;
-  if (o.reference) {
-    t0 = std::chrono::steady_clock::now();
-    reference = surfels::farthestPointReference(texels, o.count);
-    referenceSeconds = secondsSince(t0);
+  if (o.perMesh) {
+    std::vector<surfels::MeshSurfels> clouds;
+    for (uint32_t i = 0; i < scene->meshes.size(); ++i) {
+      if (scene->meshes[i].indices.empty()) continue;
+      auto sampled = sampleScene(ctx.get(), meshScene(*scene, i), o);
+      if (!sampled) return fail(sampled.error());
+      clouds.push_back({i, surfels::buildSurfelCloud(sampled->texels, sampled->order)});
+      const surfels::SurfelCloud& c = clouds.back().cloud;
+      surfels::PrefixQuality q = surfels::measurePrefix(sampled->texels, sampled->order, uint32_t(c.size()));
+      fmt::print("mesh {:>4} {:<24} {:>8} surfels from {:>9} texels, rho {:.3f}, coverage {:.4f}, {:.3f} s\n", i,
+                 scene->meshes[i].name.substr(0, 24), c.size(), sampled->texels.size(), q.rho, q.coverage,
+                 sampled->captureSeconds + sampled->samplerSeconds);
+    }
+    if (clouds.empty()) return fail(o.input + ": scene has no triangles to sample");
+    if (Status w = surfels::writeSurfelMrg(o.output, clouds); !w) return fail(w.error());
+    fmt::print("surfels {} -> {}: {} SURF chunks (one per mesh, object space) on {}\n", o.input, o.output,
+               clouds.size(), device);
+    return;
   }
 
-  surfels::SurfelCloud cloud = surfels::buildSurfelCloud(texels, order);
+  auto sampled = sampleScene(ctx.get(), *scene, o);
+  if (!sampled) return fail(sampled.error());
+  surfels::SurfelCloud cloud = surfels::buildSurfelCloud(sampled->texels, sampled->order);
   Status written =
       o.output.ends_with(".mrg") ? surfels::writeSurfelMrg(o.output, cloud) : surfels::writeSurfelPly(o.output, cloud);
   if (!written) return fail(written.error());
-
-  fmt::print("surfels {} -> {}: {} surfels from {} texels ({} views x {}^2, {} capture pass(es)) on {}\n", o.input,
-             o.output, cloud.size(), texels.size(), o.views, o.resolution, gb->passes, (*ctx)->caps().name);
-  fmt::print("sampled area A = {:.6g} (texel size {:.4g}); N_ref {} mean spacing {:.4g} median {:.4g}\n",
-             texels.totalArea, texels.texelSize, cloud.referenceCount, cloud.referenceMeanSpacing,
-             cloud.referenceMedianSpacing);
-  fmt::print("import {:.3f} s, capture {:.3f} s (with readback and areas), sampler {:.3f} s in {} rounds",
-             importSeconds, captureSeconds, sampled->seconds, sampled->rounds);
-  if (o.reference) fmt::print(", CPU reference {:.3f} s", referenceSeconds);
-  fmt::print("\n");
-  for (const auto& t : gb->times) fmt::print("gpu {:<10} {:10.3f} ms\n", t.name, t.milliseconds);
-  for (const auto& t : sampled->times) fmt::print("gpu {:<10} {:10.3f} ms (sum over rounds)\n", t.name, t.milliseconds);
-  fmt::print("{:>8} {:>10} {:>7} {:>9}{}\n", "prefix", "radius", "rho", "coverage",
-             o.reference ? "   ref rho ref coverage" : "");
-  std::vector<uint32_t> prefixes;
-  for (uint32_t n : {1000u, 10000u, 100000u, 1000000u})
-    if (n < cloud.size()) prefixes.push_back(n);
-  prefixes.push_back(uint32_t(cloud.size()));
-  for (uint32_t n : prefixes) {
-    surfels::PrefixQuality q = surfels::measurePrefix(texels, order, n);
-    fmt::print("{:>8} {:>10.4g} {:>7.3f} {:>9.4f}", n, q.radius, q.rho, q.coverage);
-    if (o.reference) {
-      surfels::PrefixQuality r = surfels::measurePrefix(texels, reference, n);
-      fmt::print(" {:>9.3f} {:>12.4f}", r.rho, r.coverage);
-    }
-    fmt::print("\n");
-  }
+  if (pointCloud)
+    fmt::print("surfels {} -> {}: {} surfels from {} points on {}\n", o.input, o.output, cloud.size(),
+               sampled->texels.size(), device);
+  else
+    fmt::print("surfels {} -> {}: {} surfels from {} texels ({} views x {} layer(s) x {}^2, {} render pass(es)) on "
+               "{}\n",
+               o.input, o.output, cloud.size(), sampled->texels.size(), o.views, o.layers, o.resolution,
+               sampled->passes, device);
+  printReport(*sampled, cloud, o.reference && !pointCloud);
 }
 
 } // namespace
@@ -107,7 +207,9 @@ void runSurfels(const SurfelsOptions& o) {
 void addSurfelsCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("surfels", "Sample progressive blue-noise surfels of a scene (PLY or .mrg)");
   auto o = std::make_shared<SurfelsOptions>();
-  cmd->add_option("input", o->input, "Scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]")->required();
+  cmd->add_option("input", o->input,
+                  "Scene file (.gltf .glb .obj .ply; a PLY without faces is a point cloud) or gen:KIND[:SIZE[:SEED]]")
+      ->required();
   cmd->add_option("-o,--output", o->output, "Output .ply (x y z nx ny nz red green blue alpha radius) or .mrg")
       ->required();
   cmd->add_option("--count", o->count, "Surfels to sample")->capture_default_str();
@@ -115,7 +217,11 @@ void addSurfelsCommand(CLI::App& app) {
   cmd->add_option("--views", o->views, "Orthographic capture directions (Fibonacci sphere)")->capture_default_str();
   cmd->add_option("--threshold", o->threshold, "Candidate threshold relative to the round's largest radius")
       ->capture_default_str();
+  cmd->add_option("--layers", o->layers, "Depth-peeling layers per view (occluded interior surfaces)")
+      ->capture_default_str();
   cmd->add_flag("--reference", o->reference, "Also run the exact CPU farthest-point reference and compare");
+  cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
+  cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
   cmd->callback([o] { runSurfels(*o); });
 }

@@ -11,6 +11,7 @@
 #include <glm/glm.hpp>
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
+#include "mirage/io/import.h"
 #include "mirage/visibility/pvs_storage.h"
 
 namespace mirage::cli {
@@ -24,7 +25,7 @@ Status parseSize(const std::string& text, uint32_t& width, uint32_t& height);
 Result<std::unique_ptr<gpu::Context>> openDevice(const std::string& device);
 // A scene file, or "gen:KIND[:SIZE[:SEED]]" for a procedural scene made in memory (no file needed,
 // which is how benchmarks run on machines without the data set).
-Result<Scene> loadSceneArgument(const std::string& argument);
+Result<Scene> loadSceneArgument(const std::string& argument, const io::ImportOptions& options = {});
 // The scene restricted to the PVS of the view cell holding `eye` (`pvs` loaded from `pvsPath`, a
 // .mrg from `mirage pvs`, which errors name). Errors: a PVS of another scene, an eye in none of its
 // cells. `cell` receives the cell index.

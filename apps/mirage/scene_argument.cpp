@@ -11,8 +11,8 @@
 
 namespace mirage::cli {
 
-Result<Scene> loadSceneArgument(const std::string& argument) {
-  if (!argument.starts_with("gen:")) return io::importScene(argument);
+Result<Scene> loadSceneArgument(const std::string& argument, const io::ImportOptions& options) {
+  if (!argument.starts_with("gen:")) return io::importScene(argument, options);
   // gen:KIND[:SIZE[:SEED]]
   std::vector<std::string> parts;
   size_t start = 4;

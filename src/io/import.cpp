@@ -44,8 +44,25 @@ bool loadImageFile(const std::filesystem::path& path, Texture& out) {
 Status finalizeScene(Scene& scene, const std::string& file, const ImportOptions& options) {
   size_t triangles = 0;
   for (const Mesh& m : scene.meshes) triangles += m.triangleCount();
-  if (scene.meshes.empty() || triangles == 0) return makeError(file, "no triangles");
+  if (scene.meshes.empty()) return makeError(file, "no triangles");
+  if (triangles == 0 && !options.allowPointClouds) return makeError(file, "no triangles");
+  if (triangles == 0) { // a point cloud: unit normals where the file has them, nothing to weld or compute
+    for (Mesh& m : scene.meshes) {
+      if (m.positions.empty()) return makeError(file, "no points");
+      if (!m.indices.empty()) return makeError(file, "a point cloud with a face list");
+      if (!m.normals.empty() && m.normals.size() != m.positions.size()) return makeError(file, "normal count mismatch");
+      if (!m.colors.empty() && m.colors.size() != m.positions.size()) return makeError(file, "colour count mismatch");
+    }
+  }
   for (Mesh& m : scene.meshes) {
+    if (triangles == 0) {
+      for (glm::vec3& n : m.normals) {
+        float len2 = glm::dot(n, n);
+        n = (len2 > 0.0f && std::isfinite(len2)) ? n / std::sqrt(len2) : glm::vec3(0.0f, 0.0f, 1.0f);
+      }
+      computeBounds(m);
+      continue;
+    }
     if (Status s = validateMesh(m, file); !s) return s;
     // File normals are not always unit (VCG's PLY writer stores area-weighted sums, quantized glTF normals are
     // approximately unit); renderers and the surfel sampler assume unit length.

@@ -10,6 +10,7 @@
 
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/pipeline.h"
+#include "mirage/gpu/radix_sort.h"
 
 namespace mirage::surfels {
 
@@ -33,7 +34,7 @@ struct Sampler {
   Context& ctx;
   const GpuGBuffer& gb;
   Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> splat, farthest, candidates, validate, sort, append;
+  Unique<VkPipeline> splat, farthest, candidates, validate, append;
   Buffer globals, cells, owners, samples, radii, cellMax, candidateKeys, counters, hostCounters, views;
   GpuTimer timer;
   std::map<std::string, double> stageMs;
@@ -151,8 +152,10 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
   s.farthest = createComputePipeline(ctx, "surfel_farthest.comp", s.layout);
   s.candidates = createComputePipeline(ctx, "surfel_candidates.comp", s.layout);
   s.validate = createComputePipeline(ctx, "surfel_validate.comp", s.layout);
-  s.sort = createComputePipeline(ctx, "surfel_sort.comp", s.layout);
   s.append = createComputePipeline(ctx, "surfel_append.comp", s.layout);
+  RadixSort sorter(ctx, keyCapacity);
+  // Keys (radius bits << 32 | texel): texel indices below texelCount need only their low digits.
+  RadixSortOptions sortOptions{true, digitMaskForIndexBelow(uint32_t(texelCount))};
 
   // Every texel starts in no cell (all ones: larger than any real key).
   ctx.submitAndWait([&](VkCommandBuffer cmd) { vkCmdFillBuffer(cmd, s.cells.handle(), 0, VK_WHOLE_SIZE, ~0u); });
@@ -206,16 +209,13 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
       slot = s.cmdBegin(cmd, "sort");
       sio::SurfelSamplerPush p = s.basePush();
       p.count = candidates;
-      p.sortK = padded;
-      s.cmdDispatch(cmd, s.validate, p, groups1D(padded));
-      for (uint32_t k = 2; k <= padded; k <<= 1)
-        for (uint32_t j = k >> 1; j > 0; j >>= 1) {
-          s.cmdBarrier(cmd);
-          p.count = padded;
-          p.sortK = k;
-          p.sortJ = j;
-          s.cmdDispatch(cmd, s.sort, p, groups1D(padded / 2 + 1));
-        }
+      p.padTo = config.bitonicSort ? padded : candidates;
+      s.cmdDispatch(cmd, s.validate, p, groups1D(p.padTo));
+      // Descending on the whole key: by radius, ties by texel, whatever order the atomics appended.
+      if (config.bitonicSort)
+        sorter.cmdBitonicSort(cmd, s.candidateKeys, padded, true);
+      else
+        sorter.cmdSort(cmd, s.candidateKeys, candidates, sortOptions);
       s.timer.cmdEnd(cmd, slot);
       s.cmdBarrier(cmd);
       slot = s.cmdBegin(cmd, "append");

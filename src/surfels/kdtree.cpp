@@ -59,6 +59,38 @@ void KdTree::nearest(uint32_t n, glm::vec3 q, uint32_t exclude, float& best) con
   if (diff * diff <= best) nearest(diff < 0.0f ? node.right : node.left, q, exclude, best);
 }
 
+// `heap` is a max-heap of the k smallest squared distances so far; its top bounds the search.
+void KdTree::kNearest(uint32_t n, glm::vec3 q, uint32_t k, uint32_t exclude, std::vector<float>& heap) const {
+  const Node& node = nodes_[n];
+  if (node.left == 0) {
+    for (uint32_t i = node.begin; i < node.end; ++i) {
+      if (order_[i] == exclude) continue;
+      glm::vec3 d = points_[order_[i]] - q;
+      float d2 = glm::dot(d, d);
+      if (heap.size() < k) {
+        heap.push_back(d2);
+        std::push_heap(heap.begin(), heap.end());
+      } else if (d2 < heap.front()) {
+        std::pop_heap(heap.begin(), heap.end());
+        heap.back() = d2;
+        std::push_heap(heap.begin(), heap.end());
+      }
+    }
+    return;
+  }
+  float diff = q[node.axis] - node.split;
+  kNearest(diff < 0.0f ? node.left : node.right, q, k, exclude, heap);
+  if (heap.size() < k || diff * diff <= heap.front())
+    kNearest(diff < 0.0f ? node.right : node.left, q, k, exclude, heap);
+}
+
+float KdTree::kthNearestSquared(glm::vec3 q, uint32_t k, uint32_t exclude) const {
+  std::vector<float> heap;
+  heap.reserve(k);
+  if (!nodes_.empty() && k > 0) kNearest(0, q, k, exclude, heap);
+  return heap.size() == k && k > 0 ? heap.front() : std::numeric_limits<float>::infinity();
+}
+
 float KdTree::nearestSquared(glm::vec3 q, uint32_t exclude) const {
   float best = std::numeric_limits<float>::infinity();
   if (!nodes_.empty()) nearest(0, q, exclude, best);

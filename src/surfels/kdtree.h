@@ -19,6 +19,8 @@ public:
   }
   // Squared distance from q to the nearest point other than `exclude` (infinity when none).
   float nearestSquared(glm::vec3 q, uint32_t exclude = UINT32_MAX) const;
+  // Squared distance from q to its k-th nearest point other than `exclude` (infinity when fewer).
+  float kthNearestSquared(glm::vec3 q, uint32_t k, uint32_t exclude = UINT32_MAX) const;
 
 private:
   struct Node {
@@ -29,6 +31,7 @@ private:
   };
   uint32_t build(uint32_t begin, uint32_t end);
   void nearest(uint32_t node, glm::vec3 q, uint32_t exclude, float& best) const;
+  void kNearest(uint32_t node, glm::vec3 q, uint32_t k, uint32_t exclude, std::vector<float>& heap) const;
   template <class F> void within(uint32_t n, glm::vec3 q, float r2, F& visit) const {
     const Node& node = nodes_[n];
     if (node.left == 0) {

@@ -14,7 +14,7 @@ namespace mirage::surfels {
 
 namespace {
 
-constexpr uint32_t kChunkVersion = 1;
+constexpr uint32_t kChunkVersion = 2; // 2 added the mesh index; 1 is still read
 
 struct SurfelChunkHeader {
   uint32_t version = kChunkVersion;
@@ -172,7 +172,7 @@ Result<SurfelCloud> readSurfelPly(const std::string& path) {
   return c;
 }
 
-std::vector<uint8_t> encodeSurfelChunk(const SurfelCloud& c) {
+std::vector<uint8_t> encodeSurfelChunk(const SurfelCloud& c, uint32_t mesh) {
   SurfelChunkHeader h;
   h.count = uint32_t(c.size());
   h.referenceCount = c.referenceCount;
@@ -181,6 +181,8 @@ std::vector<uint8_t> encodeSurfelChunk(const SurfelCloud& c) {
   h.referenceMedianSpacing = c.referenceMedianSpacing;
   std::vector<uint8_t> out;
   append(out, &h, 1);
+  const uint32_t meshWords[2] = {mesh, 0};
+  append(out, meshWords, 2);
   append(out, c.surfels.data(), c.size());
   std::vector<float> radii = c.radii;
   radii.resize(c.size(), 0.0f);
@@ -188,16 +190,19 @@ std::vector<uint8_t> encodeSurfelChunk(const SurfelCloud& c) {
   return out;
 }
 
-Result<SurfelCloud> decodeSurfelChunk(std::span<const uint8_t> bytes, const std::string& file) {
+Result<MeshSurfels> decodeSurfelChunkWithMesh(std::span<const uint8_t> bytes, const std::string& file) {
   SurfelChunkHeader h;
   if (bytes.size() < sizeof(h)) return makeError(file, "SURF chunk is shorter than its header");
   std::memcpy(&h, bytes.data(), sizeof(h));
-  if (h.version != kChunkVersion)
+  if (h.version != 1 && h.version != kChunkVersion)
     return makeError(file, fmt::format("SURF chunk version {} is not supported", h.version));
-  size_t expected = sizeof(h) + size_t(h.count) * (sizeof(Surfel) + sizeof(float));
+  size_t headerBytes = sizeof(h) + (h.version >= 2 ? 8 : 0);
+  size_t expected = headerBytes + size_t(h.count) * (sizeof(Surfel) + sizeof(float));
   if (bytes.size() != expected)
     return makeError(file, fmt::format("SURF chunk has {} bytes, {} surfels need {}", bytes.size(), h.count, expected));
-  SurfelCloud c;
+  MeshSurfels out;
+  if (h.version >= 2) std::memcpy(&out.mesh, bytes.data() + sizeof(h), 4);
+  SurfelCloud& c = out.cloud;
   c.box.min = {h.boxMin[0], h.boxMin[1], h.boxMin[2]};
   c.box.max = {h.boxMax[0], h.boxMax[1], h.boxMax[2]};
   c.referenceCount = h.referenceCount;
@@ -205,9 +210,15 @@ Result<SurfelCloud> decodeSurfelChunk(std::span<const uint8_t> bytes, const std:
   c.referenceMedianSpacing = h.referenceMedianSpacing;
   c.surfels.resize(h.count);
   c.radii.resize(h.count);
-  std::memcpy(c.surfels.data(), bytes.data() + sizeof(h), h.count * sizeof(Surfel));
-  std::memcpy(c.radii.data(), bytes.data() + sizeof(h) + h.count * sizeof(Surfel), h.count * sizeof(float));
-  return c;
+  std::memcpy(c.surfels.data(), bytes.data() + headerBytes, h.count * sizeof(Surfel));
+  std::memcpy(c.radii.data(), bytes.data() + headerBytes + h.count * sizeof(Surfel), h.count * sizeof(float));
+  return out;
+}
+
+Result<SurfelCloud> decodeSurfelChunk(std::span<const uint8_t> bytes, const std::string& file) {
+  auto r = decodeSurfelChunkWithMesh(bytes, file);
+  if (!r) return r.error();
+  return std::move(r->cloud);
 }
 
 Status writeSurfelMrg(const std::string& path, const SurfelCloud& cloud) {
@@ -216,12 +227,35 @@ Status writeSurfelMrg(const std::string& path, const SurfelCloud& cloud) {
   return writer.write(path);
 }
 
-Result<SurfelCloud> readSurfelMrg(const std::string& path) {
+Status writeSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds) {
+  asset::AssetWriter writer;
+  for (const MeshSurfels& m : clouds) writer.addChunk(asset::chunk::Surfels, encodeSurfelChunk(m.cloud, m.mesh));
+  return writer.write(path);
+}
+
+Result<std::vector<MeshSurfels>> readSurfelMrgAll(const std::string& path) {
   auto reader = asset::AssetReader::open(path);
   if (!reader) return reader.error();
-  auto bytes = reader->readChunk(asset::chunk::Surfels);
-  if (!bytes) return bytes.error();
-  return decodeSurfelChunk(*bytes, path);
+  std::vector<MeshSurfels> out;
+  for (size_t i = 0; i < reader->chunks().size(); ++i) {
+    if (reader->chunks()[i].type != asset::chunk::Surfels) continue;
+    auto bytes = reader->readChunk(i);
+    if (!bytes) return bytes.error();
+    auto m = decodeSurfelChunkWithMesh(*bytes, path);
+    if (!m) return m.error();
+    out.push_back(std::move(*m));
+  }
+  if (out.empty()) return makeError(path, "no SURF chunk");
+  return out;
+}
+
+Result<SurfelCloud> readSurfelMrg(const std::string& path) {
+  auto all = readSurfelMrgAll(path);
+  if (!all) return all.error();
+  if (all->size() != 1)
+    return makeError(
+        path, fmt::format("holds {} surfel clouds (one per mesh); read them with readSurfelMrgAll", all->size()));
+  return std::move(all->front().cloud);
 }
 
 } // namespace mirage::surfels

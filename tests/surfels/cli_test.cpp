@@ -52,6 +52,42 @@ TEST(SurfelCli, WritesPlyAndMrg) {
   EXPECT_EQ(fromMrg->radii, cloud->radii); // same settings, same result
 }
 
+TEST(SurfelCli, PerMeshChunksAndPointClouds) {
+  auto dir = mirage::test::tempDir("surfels_cli_more");
+  // gen:city has several meshes: one SURF chunk each, in mesh order, each with its own surfels.
+  std::string mrg = (dir / "city.mrg").string();
+  CliRun a = runMirage("surfels gen:city:2 -o " + mrg + " --count 20 --resolution 16 --views 3 --per-mesh", dir);
+  ASSERT_EQ(a.code, 0) << a.err;
+  auto all = mirage::surfels::readSurfelMrgAll(mrg);
+  ASSERT_TRUE(all.ok()) << all.error().message;
+  ASSERT_GT(all->size(), 1u);
+  for (size_t i = 0; i < all->size(); ++i) {
+    EXPECT_GT((*all)[i].cloud.size(), 0u);
+    if (i > 0) {
+      EXPECT_GT((*all)[i].mesh, (*all)[i - 1].mesh);
+    }
+  }
+  EXPECT_EQ(runMirage("surfels gen:city:2 -o " + (dir / "city.ply").string() + " --per-mesh", dir).code, 2);
+
+  // A point cloud PLY (vertices with normals, no faces) in, surfels out.
+  std::string cloud = (dir / "cloud.ply").string();
+  {
+    std::ofstream f(cloud, std::ios::binary);
+    f << "ply\nformat binary_little_endian 1.0\nelement vertex 2000\nproperty float x\nproperty float y\n"
+         "property float z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n";
+    for (int i = 0; i < 2000; ++i) { // a 40 x 50 grid on the plane z = 0
+      float v[6] = {float(i % 40) * 0.1f, float(i / 40) * 0.1f, 0.0f, 0.0f, 0.0f, 1.0f};
+      f.write(reinterpret_cast<const char*>(v), sizeof(v));
+    }
+  }
+  std::string out = (dir / "cloud_surfels.ply").string();
+  CliRun b = runMirage("surfels " + cloud + " -o " + out + " --count 200", dir);
+  ASSERT_EQ(b.code, 0) << b.err;
+  auto surfels = mirage::surfels::readSurfelPly(out);
+  ASSERT_TRUE(surfels.ok()) << surfels.error().message;
+  EXPECT_EQ(surfels->size(), 200u);
+}
+
 TEST(SurfelCli, BadInputsExit2WithOneLineAndWriteNothing) {
   ASSERT_TRUE(std::filesystem::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
   auto dir = mirage::test::tempDir("surfels_cli_bad");

@@ -11,8 +11,9 @@
 namespace mirage::io {
 
 struct ImportOptions {
-  bool weld = true;         // weld vertices bit-equal in position and all attributes (see weldMesh)
-  bool loadTextures = true; // decode images to RGBA8; when false materials keep no texture references
+  bool weld = true;              // weld vertices bit-equal in position and all attributes (see weldMesh)
+  bool loadTextures = true;      // decode images to RGBA8; when false materials keep no texture references
+  bool allowPointClouds = false; // accept meshes with points and no triangles (a scanner's PLY) instead of failing
 };
 
 // Dispatch by extension (case-insensitive): .gltf .glb .obj .ply.

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <glm/glm.hpp>
 namespace mirage::shaderio {
+using vec2 = glm::vec2;
 using vec3 = glm::vec3;
 using vec4 = glm::vec4;
 using mat4 = glm::mat4;
@@ -27,11 +28,12 @@ struct Surfel {
   uint color;  // linear RGBA8 base colour (R low)
 };
 
-// Vertex input of the G-buffer capture (28 bytes).
+// Vertex input of the G-buffer capture (36 bytes).
 struct SurfelCaptureVertex {
   vec3 position;
   vec3 normal;
   uint color; // linear RGBA8 vertex colour, white when the mesh has none
+  vec2 uv;    // base colour texture coordinate (0 when the mesh has none)
 };
 
 // One orthographic capture direction.
@@ -46,15 +48,16 @@ struct SurfelInstance {
   mat4 normalMatrix;
 };
 
-// Push constants of the capture pipeline.
+// Push constants of the capture pipeline (vertex and fragment stages).
 struct SurfelCapturePush {
-  uint64_t viewAddress;     // SurfelView[]
+  uint64_t viewAddress;     // SurfelView[] (one per direction)
   uint64_t instanceAddress; // SurfelInstance[]
+  uint64_t previousLayer;   // depth peeling: vec4 positions of the previous layer's V views; 0 on layer 0
   vec4 baseColor;           // material base colour factor (linear)
   uint baseView;            // first view of this multiview pass
-  uint pad0;
-  uint pad1;
-  uint pad2;
+  uint resolution;          // G-buffer width = height
+  float peelEpsilon;        // a peeled surface lies at least this far behind the previous layer
+  uint baseColorTexture;    // index into the capture's texture array; 0 is a white texel
 };
 
 // Everything the sampler's compute passes share, in one small buffer (push constants stay small).
@@ -92,9 +95,9 @@ struct SurfelSamplerPush {
   float threshold;   // candidate filter: keep radius >= threshold * round maximum
   uint tilesPerSide; // splat tiles per side of the disc's bounding square
   uint tileSpan;     // texels per side of one tile
-  uint sortJ;        // bitonic sort: compare distance
-  uint sortK;        // bitonic sort: sequence size
-  uint mode;         // surfel_farthest.comp: 1 = first round (distance to the centre)
+  uint padTo;        // surfel_validate.comp: zero the keys in [count, padTo) (the bitonic sort's padding)
+  uint pad1;
+  uint mode; // surfel_farthest.comp: 1 = first round (distance to the centre)
   uint pad0;
 };
 
@@ -114,10 +117,10 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelF32Ref
 
 #ifdef __cplusplus
 static_assert(sizeof(Surfel) == 16, "Surfel layout");
-static_assert(sizeof(SurfelCaptureVertex) == 28, "SurfelCaptureVertex layout");
+static_assert(sizeof(SurfelCaptureVertex) == 36, "SurfelCaptureVertex layout");
 static_assert(sizeof(SurfelView) == 80, "SurfelView layout");
 static_assert(sizeof(SurfelInstance) == 128, "SurfelInstance layout");
-static_assert(sizeof(SurfelCapturePush) == 48, "SurfelCapturePush layout");
+static_assert(sizeof(SurfelCapturePush) == 56, "SurfelCapturePush layout");
 static_assert(sizeof(SurfelSamplerGlobals) == 104, "SurfelSamplerGlobals layout");
 static_assert(sizeof(SurfelSamplerCounters) == 16, "SurfelSamplerCounters layout");
 static_assert(sizeof(SurfelSamplerPush) == 48, "SurfelSamplerPush layout");

@@ -18,13 +18,14 @@ struct CaptureConfig {
   uint32_t resolution = 1024;   // G-buffer width = height (texels); limited by the device's 2D image size
   uint32_t views = 16;          // orthographic directions on a Fibonacci sphere (PADrend's default)
   uint32_t maxViewsPerPass = 0; // 0: the device's multiview limit; 1 forces one pass per view (tests)
+  uint32_t layers = 1;          // depth-peeling layers per direction: layer i sees what lies behind layer i-1
 };
 
 struct GpuGBuffer {
   gpu::Buffer positions;                   // vec4 per global texel on the GPU (w = 1 where valid)
-  std::vector<shaderio::SurfelView> views; // the matrices the capture used (the sampler projects with them)
+  std::vector<shaderio::SurfelView> views; // per G-buffer view (layer-major: layer * directions + direction)
   GBufferTexels texels;                    // valid texels on the CPU
-  uint32_t passes = 0;                     // render passes used (1 with enough multiview views)
+  uint32_t passes = 0;                     // render passes used (1 per layer with enough multiview views)
   std::vector<gpu::PassTime> times;        // GPU times: "capture" (rasterization), "copy"
 };
 

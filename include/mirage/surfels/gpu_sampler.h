@@ -1,7 +1,7 @@
 #pragma once
 // The GPU progressive sampler (Brandt et al. 2019, as in PADrend): rounds of incremental Voronoi
 // splatting, farthest texel per cell by 64-bit atomicMax, candidate filtering, Poisson-disc
-// conflict resolution, bitonic sort by decreasing radius and append, until the requested count.
+// conflict resolution, GPU radix sort by decreasing radius and append, until the requested count.
 #include <vector>
 
 #include "mirage/core/result.h"
@@ -12,9 +12,10 @@
 namespace mirage::surfels {
 
 struct GpuSamplerConfig {
-  uint32_t count = 100000; // surfels wanted (fewer when the G-buffer runs out of texels)
-  float threshold = 0.75f; // keep a cell's farthest texel when >= threshold × the round's maximum
-                           // (PADrend's 0.75: lower = fewer rounds, looser blue noise)
+  uint32_t count = 100000;  // surfels wanted (fewer when the G-buffer runs out of texels)
+  float threshold = 0.75f;  // keep a cell's farthest texel when >= threshold × the round's maximum
+                            // (PADrend's 0.75: lower = fewer rounds, looser blue noise)
+  bool bitonicSort = false; // the old bitonic candidate sort instead of the radix sort (same order; for timing)
 };
 
 struct GpuSamplerResult {

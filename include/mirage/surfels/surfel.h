@@ -19,7 +19,8 @@ using shaderio::Surfel;
 // The valid texels of a V-view G-buffer, in increasing global texel index (view, row, column).
 struct GBufferTexels {
   uint32_t resolution = 0;           // G-buffer width = height
-  uint32_t viewCount = 0;            // capture directions
+  uint32_t viewCount = 0;            // G-buffer views: capture directions × depth-peeling layers
+  uint32_t layers = 1;               // depth-peeling layers; view w has direction w % (viewCount / layers)
   float texelSize = 0.0f;            // world size of a texel side (orthographic: the same everywhere)
   glm::vec3 center{0.0f};            // centre of the capture sphere
   float sphereRadius = 0.0f;         // radius of the capture sphere
