@@ -169,6 +169,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   }
   SurfelSession s;
   if (!open(r, /*needOutput=*/false, s)) return;
+  s.settings.base.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   const auto& caps = s.ctx->caps();
   if (rasters.empty()) {
     if (caps.int64BufferAtomics) rasters.push_back(render::SurfelRaster::Compute);

@@ -562,6 +562,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = c.trianglesSelected;
 
+  if (!s.readImage) return out;
   std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
   convertHalfImage(img, s.width, s.height, s.readLinear, out.image);
   return out;

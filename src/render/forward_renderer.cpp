@@ -307,6 +307,7 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
   fs.passTimes = d.timer.read();
   fs.pipeline = d.stats.read();
 
+  if (!s.readImage) return out;
   std::vector<uint8_t> raw = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, 8);
   convertHalfImage(raw, s.width, s.height, s.readLinear, out);
   return out;

@@ -408,6 +408,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
       for (size_t i = 0; i < out.idBuffer.size(); ++i) std::memcpy(&out.idBuffer[i], raw.data() + i * 8, 4);
     }
   }
+  if (!s.readImage) return out;
   std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
   convertHalfImage(img, s.width, s.height, s.readLinear, out.image);
   return out;

@@ -25,6 +25,10 @@ struct RenderSettings {
   glm::vec3 groundAmbient{0.12f, 0.11f, 0.10f};
   glm::vec4 background{0.02f, 0.022f, 0.026f, 1.0f}; // linear RGB
   bool readLinear = false;                           // also return the linear float image (EXR, metrics)
+  // false: no image readback (empty images). Benchmarks: converting a 1080p image on the CPU leaves the
+  // GPU idle for tens of ms per frame, the driver lowers its clocks, and later frames time several
+  // times slower (measured on the H200).
+  bool readImage = true;
 };
 
 struct FrameStats {
