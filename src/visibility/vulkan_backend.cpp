@@ -274,7 +274,10 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   // Bit sets, the list of first insertions and the counters exist once for the whole backend.
   const size_t setBytes = (triangles_ + 63) / 64 * 8;
   for (DeviceSet* s : {&record_, &require_}) {
-    s->bits = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+    // TRANSFER_SRC: the record set is copied to `before_` at the start of cell-ray launches.
+    s->bits = createBuffer(ctx_, setBytes,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt set");
     s->staging = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "rt set staging");
   }
