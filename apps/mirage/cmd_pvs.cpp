@@ -14,6 +14,7 @@
 #include "ray_backend_choice.h"
 #include "mirage/visibility/gvs.h"
 #include "mirage/visibility/pvs_eval.h"
+#include "mirage/visibility/pvs_plot.h"
 #include "mirage/visibility/pvs_storage.h"
 #include "render_common.h"
 
@@ -30,7 +31,8 @@ struct PvsOptions {
   // pvs-eval only
   vis::EvalConfig eval{.resolution = 1000, .haltonViewpoints = 4};
   uint64_t bruteRays = 0;
-  std::string config;
+  uint32_t rasterSize = 64; // RASTER cube-map resolution (pvs --method raster, pvs-eval)
+  std::string config, plot;
   std::vector<std::pair<CLI::Option*, void (*)(vis::GvsConfig&, const vis::GvsConfig&)>> overrides;
 };
 
@@ -97,7 +99,9 @@ Status checkOptions(const PvsOptions& o) {
   if (o.threads < 0 || o.threads > 4096) return Error{"--threads must be in 0..4096"};
   if (auto s = checkRayBackendChoice(o.rays); !s) return s;
   if (o.gvs.randomRays == 0) return Error{"--rays must be at least 1"};
-  if (o.method != "gvs" && o.method != "rand") return Error{"--method must be gvs or rand"};
+  if (o.method != "gvs" && o.method != "rand" && o.method != "raster")
+    return Error{"--method must be gvs, rand or raster"};
+  if (o.rasterSize < 1 || o.rasterSize > 8192) return Error{"--raster-size must be in 1..8192"};
   if (o.eval.resolution < 1 || o.eval.resolution > 8192) return Error{"--size must be in 1..8192"};
   return Ok{};
 }
@@ -150,12 +154,31 @@ void runPvs(PvsOptions o) {
   nlohmann::json cellsJson = nlohmann::json::array();
   uint64_t rays = 0;
   double traceSeconds = 0, totalSeconds = 0;
+  vis::PvsStats phases; // summed over cells: where the time goes
+  bool generated = false;
   for (size_t i = 0; i < p->cells.size(); ++i) {
     // RAND spends --budget rays (or --rays when no budget is given) on random sampling alone.
     vis::GvsConfig cfg = o.method == "gvs"
                              ? o.gvs
                              : vis::randomOnlyConfig(o.gvs.rayBudget ? o.gvs.rayBudget : o.gvs.randomRays, o.gvs.seed);
-    vis::CellPvs pvs = vis::computeCellPvs(*p->backend, p->scene, p->cells[i], cfg);
+    // RASTER spends --budget pixels (or --rays) on cube maps of --raster-size².
+    vis::CellPvs pvs = o.method == "raster"
+                           ? vis::rasterPvs(*p->backend, p->cells[i],
+                                            {.resolution = o.rasterSize,
+                                             .pixelBudget = o.gvs.rayBudget ? o.gvs.rayBudget : o.gvs.randomRays,
+                                             .seed = o.gvs.seed},
+                                            {})
+                           : vis::computeCellPvs(*p->backend, p->scene, p->cells[i], cfg);
+    phases.randomSeconds += pvs.stats.randomSeconds;
+    phases.randomTraceSeconds += pvs.stats.randomTraceSeconds;
+    phases.absSeconds += pvs.stats.absSeconds;
+    phases.absTraceSeconds += pvs.stats.absTraceSeconds;
+    phases.rsSeconds += pvs.stats.rsSeconds;
+    phases.rsTraceSeconds += pvs.stats.rsTraceSeconds;
+    phases.randomRays += pvs.stats.randomRays;
+    phases.absRays += pvs.stats.absRays;
+    phases.rsRays += pvs.stats.rsRays;
+    generated = generated || pvs.stats.generatedRandomRays;
     rays += pvs.stats.rays;
     totalSeconds += pvs.stats.seconds;
     traceSeconds += pvs.stats.traceSeconds;
@@ -168,6 +191,12 @@ void runPvs(PvsOptions o) {
                          {"iterations", pvs.stats.iterations},
                          {"seconds", pvs.stats.seconds},
                          {"trace_seconds", pvs.stats.traceSeconds},
+                         {"random_seconds", pvs.stats.randomSeconds},
+                         {"random_trace_seconds", pvs.stats.randomTraceSeconds},
+                         {"abs_seconds", pvs.stats.absSeconds},
+                         {"abs_trace_seconds", pvs.stats.absTraceSeconds},
+                         {"rs_seconds", pvs.stats.rsSeconds},
+                         {"rs_trace_seconds", pvs.stats.rsTraceSeconds},
                          {"mrays_per_s", double(pvs.stats.rays) / pvs.stats.seconds * 1e-6}});
     data.triangles.push_back(std::move(pvs.triangles));
   }
@@ -191,6 +220,7 @@ void runPvs(PvsOptions o) {
                                 : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))},
       {"backend", std::string(p->backend->name())},
       {"bvh_build_seconds", p->buildSeconds},
+      {"random_rays_generated_on_device", generated},
       {"pvs_bytes", es.totalBytes},
       {"difference_cells", es.differenceCells},
       {"load_seconds", loadSeconds}};
@@ -205,6 +235,16 @@ void runPvs(PvsOptions o) {
   fmt::print("total {} rays in {:.2f} s: {:.2f} Mrays/s overall, {:.2f} Mrays/s in trace ({} threads)\n", rays,
              totalSeconds, double(rays) / totalSeconds * 1e-6, double(rays) / traceSeconds * 1e-6,
              j["threads"].get<int>());
+  // Per phase: all of it and the share inside the backend; the rest is ray making and bookkeeping
+  // on the host (for generated random rays, rebuilding the discovering rays).
+  auto phase = [](const char* name, uint64_t n, double all, double trace) {
+    fmt::print("  {:7} {:12} rays  {:7.2f} s  (trace {:7.2f} s, host {:7.2f} s)  {:8.2f} Mrays/s in trace\n", name, n,
+               all, trace, all - trace, trace > 0 ? double(n) / trace * 1e-6 : 0.0);
+  };
+  fmt::print("phases ({}):\n", generated ? "random rays made on the device" : "random rays made on the host");
+  phase("random", phases.randomRays, phases.randomSeconds, phases.randomTraceSeconds);
+  phase("border", phases.absRays, phases.absSeconds, phases.absTraceSeconds);
+  phase("reverse", phases.rsRays, phases.rsSeconds, phases.rsTraceSeconds);
   fmt::print("{} -> {} bytes ({} difference cells), load {:.2f} ms\n", o.output, es.totalBytes, es.differenceCells,
              loadSeconds * 1e3);
 }
@@ -224,17 +264,46 @@ void runEval(PvsOptions o) {
   auto threads = limitThreads(o.threads);
   auto p = prepare(o);
   if (!p) return fail(p.error());
+  if (!o.plot.empty())
+    if (auto s = checkOutputPath(o.plot, {".svg"}); !s) return fail(s.error());
   nlohmann::json cells = nlohmann::json::array();
-  double gvsSum = 0, randSum = 0;
+  double gvsSum = 0, randSum = 0, rasterSum = 0;
+  // --plot: PVS snapshots of every method at (about) the same ray counts, evaluated like the final
+  // sets. Per method and checkpoint index: (rays, PVS size, error) summed over cells.
+  std::vector<uint64_t> requested;
+  if (!o.plot.empty())
+    for (uint64_t r = std::max<uint64_t>(1000, o.gvs.randomRays / 4); requested.size() < 24; r *= 2)
+      requested.push_back(r);
+  std::vector<vis::PlotSeries> series{{"GVS++", {}}, {"RAND", {}}, {"RASTER", {}}};
+  size_t plotPoints = SIZE_MAX;
+  std::vector<std::vector<std::vector<vis::PlotPoint>>> perCell(3);
   for (size_t i = 0; i < p->cells.size(); ++i) {
     const vis::ViewCell& cell = p->cells[i];
-    vis::CellPvs gvs = vis::computeCellPvs(*p->backend, p->scene, cell, o.gvs);
+    vis::CellPvs gvs = vis::computeCellPvs(*p->backend, p->scene, cell, o.gvs, {.checkpointRays = requested});
+    // RAND and RASTER snapshot where GVS++ did, so the series share their x positions.
+    vis::BakeOptions same;
+    for (const auto& c : gvs.checkpoints) same.checkpointRays.push_back(c.rays);
     vis::CellPvs rnd =
-        vis::computeCellPvs(*p->backend, p->scene, cell, vis::randomOnlyConfig(gvs.stats.rays, o.gvs.seed + 1));
+        vis::computeCellPvs(*p->backend, p->scene, cell, vis::randomOnlyConfig(gvs.stats.rays, o.gvs.seed + 1), same);
+    // RASTER at the same cost: as many ID pixels as GVS++ traced rays.
+    vis::CellPvs ras = vis::rasterPvs(
+        *p->backend, cell, {.resolution = o.rasterSize, .pixelBudget = gvs.stats.rays, .seed = o.gvs.seed}, same);
     vis::TriangleSet set(p->backend->triangleCount());
+    auto errorOf = [&](const std::vector<uint32_t>& triangles) {
+      set.assign(triangles);
+      return vis::evaluatePvs(*p->backend, cell, set, o.eval);
+    };
+    if (!o.plot.empty()) {
+      const vis::CellPvs* methods[3] = {&gvs, &rnd, &ras};
+      for (int m = 0; m < 3; ++m) {
+        std::vector<vis::PlotPoint> pts;
+        for (const auto& c : methods[m]->checkpoints)
+          pts.push_back({double(c.rays), double(c.triangles.size()), errorOf(c.triangles).averageWrong});
+        perCell[size_t(m)].push_back(std::move(pts));
+      }
+    }
     auto measure = [&](const vis::CellPvs& pvs, const char* name) {
-      set.assign(pvs.triangles);
-      vis::PixelError e = vis::evaluatePvs(*p->backend, cell, set, o.eval);
+      vis::PixelError e = errorOf(pvs.triangles);
       nlohmann::json j = errorJson(e);
       j["triangles"] = pvs.triangles.size();
       j["rays"] = pvs.stats.rays;
@@ -245,9 +314,24 @@ void runEval(PvsOptions o) {
     };
     auto [gj, ge] = measure(gvs, "gvs++");
     auto [rj, re] = measure(rnd, "rand");
+    auto [aj, ae] = measure(ras, "raster");
+    aj["cube_maps"] = ras.stats.iterations;
+    aj["resolution"] = o.rasterSize;
     gvsSum += ge;
     randSum += re;
-    nlohmann::json c{{"cell", i}, {"gvs", gj}, {"rand", rj}};
+    rasterSum += ae;
+    if (!o.plot.empty()) {
+      const vis::CellPvs* methods[3] = {&gvs, &rnd, &ras};
+      const double errors[3] = {ge, re, ae};
+      for (int m = 0; m < 3; ++m) {
+        auto& pts = perCell[size_t(m)].back();
+        // The final set, unless the last checkpoint was taken at the very end.
+        if (!pts.empty() && pts.back().rays >= double(methods[m]->stats.rays)) pts.pop_back();
+        pts.push_back({double(methods[m]->stats.rays), double(methods[m]->triangles.size()), errors[m]});
+        plotPoints = std::min(plotPoints, pts.size());
+      }
+    }
+    nlohmann::json c{{"cell", i}, {"gvs", gj}, {"rand", rj}, {"raster", aj}};
     if (o.bruteRays > 0) {
       vis::CellPvs ref = vis::bruteForcePvs(*p->backend, p->scene, cell, o.bruteRays);
       size_t found = 0;
@@ -260,10 +344,12 @@ void runEval(PvsOptions o) {
     cells.push_back(c);
     if (!o.json)
       fmt::print("cell {:3}: GVS++ {:8} tris {:10} rays {:5.2f} Mrays/s err {:9.2f} px/view (max {}, {} regions, "
-                 "largest {}) | RAND {:8} tris err {:9.2f} px/view (max {}){}\n",
+                 "largest {}) | RAND {:8} tris err {:9.2f} px/view (max {}) | RASTER {:8} tris ({} cube maps "
+                 "of {}²) err {:9.2f} px/view (max {}){}\n",
                  i, gvs.triangles.size(), gvs.stats.rays, gj["mrays_per_s"].get<double>(), ge,
                  gj["max_wrong"].get<uint64_t>(), gj["regions"].get<uint64_t>(), gj["largest_region"].get<uint64_t>(),
-                 rnd.triangles.size(), re, rj["max_wrong"].get<uint64_t>(),
+                 rnd.triangles.size(), re, rj["max_wrong"].get<uint64_t>(), ras.triangles.size(), ras.stats.iterations,
+                 o.rasterSize, ae, aj["max_wrong"].get<uint64_t>(),
                  o.bruteRays ? fmt::format(" | brute {} tris, GVS++ misses {}", c["brute"]["triangles"].get<size_t>(),
                                            c["brute"]["gvs_missing"].get<size_t>())
                              : std::string());
@@ -275,11 +361,45 @@ void runEval(PvsOptions o) {
                    {"cells", cells},
                    {"gvs_average_wrong", gvsSum / n},
                    {"rand_average_wrong", randSum / n},
-                   {"rand_over_gvs", gvsSum > 0 ? randSum / gvsSum : 0.0}};
+                   {"raster_average_wrong", rasterSum / n},
+                   {"rand_over_gvs", gvsSum > 0 ? randSum / gvsSum : 0.0},
+                   {"raster_over_gvs", gvsSum > 0 ? rasterSum / gvsSum : 0.0}};
+  if (!o.plot.empty()) {
+    // Checkpoint k of every cell (the first plotPoints reached everywhere), then the final sets:
+    // averaged over cells. The last entry of each cell's list is its final set.
+    for (int m = 0; m < 3; ++m) {
+      const size_t count = plotPoints; // includes the final point
+      for (size_t k = 0; k < count; ++k) {
+        vis::PlotPoint avg;
+        for (const auto& cellPoints : perCell[size_t(m)]) {
+          const vis::PlotPoint& pt = k + 1 == count ? cellPoints.back() : cellPoints[k];
+          avg.rays += pt.rays / n;
+          avg.pvsTriangles += pt.pvsTriangles / n;
+          avg.averageWrong += pt.averageWrong / n;
+        }
+        series[size_t(m)].points.push_back(avg);
+      }
+    }
+    std::string svg = vis::pvsPlotSvg(series, fmt::format("{}: PVS size and pixel error against rays", o.input));
+    std::ofstream out(o.plot, std::ios::binary);
+    out << svg;
+    if (!out) return fail(makeError(o.plot, "cannot write"));
+    nlohmann::json plot = nlohmann::json::array();
+    for (const auto& s : series)
+      for (const auto& pt : s.points)
+        plot.push_back({{"method", s.name},
+                        {"rays", pt.rays},
+                        {"triangles", pt.pvsTriangles},
+                        {"average_wrong", pt.averageWrong}});
+    j["plot"] = plot;
+  }
   if (o.json) return fmt::print("{}\n", j.dump(2));
-  fmt::print("average wrong pixels per {}x{} view: GVS++ {:.3f}, RAND {:.3f} (RAND/GVS++ = {})\n", o.eval.resolution,
-             o.eval.resolution, gvsSum / n, randSum / n,
-             gvsSum > 0 ? fmt::format("{:.1f}", randSum / gvsSum) : std::string("inf: GVS++ error is 0"));
+  fmt::print("average wrong pixels per {}x{} view: GVS++ {:.3f}, RAND {:.3f}, RASTER {:.3f} (RAND/GVS++ = {}, "
+             "RASTER/GVS++ = {})\n",
+             o.eval.resolution, o.eval.resolution, gvsSum / n, randSum / n, rasterSum / n,
+             gvsSum > 0 ? fmt::format("{:.1f}", randSum / gvsSum) : std::string("inf"),
+             gvsSum > 0 ? fmt::format("{:.1f}", rasterSum / gvsSum) : std::string("inf"));
+  if (!o.plot.empty()) fmt::print("plot: {}\n", o.plot);
 }
 
 void addCommon(CLI::App* cmd, PvsOptions& o) {
@@ -310,6 +430,7 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   cmd->add_option("--device", o.rays.device, "Vulkan device name substring or index (--backend vulkan)");
   cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");
   cmd->add_flag("--json", o.json, "Print results as JSON");
+  cmd->add_option("--raster-size", o.rasterSize, "RASTER cube-map face resolution")->capture_default_str();
 }
 
 } // namespace
@@ -320,7 +441,9 @@ void addPvsCommands(CLI::App& app) {
   addCommon(pvs, *o);
   pvs->add_option("-o,--output", o->output, "Output .mrg ('PVS ' and 'META' chunks)")->required();
   pvs->add_flag("--no-diff", o->noDiff, "Store every cell in full (no differences against neighbours)");
-  pvs->add_option("--method", o->method, "gvs (GVS++) or rand (random rays only: the baseline)")->capture_default_str();
+  pvs->add_option("--method", o->method,
+                  "gvs (GVS++), rand (random rays only) or raster (ID cube maps at Halton points in the cell)")
+      ->capture_default_str();
   pvs->callback([o] { runPvs(*o); });
 
   auto e = std::make_shared<PvsOptions>();
@@ -331,6 +454,7 @@ void addPvsCommands(CLI::App& app) {
       ->capture_default_str();
   eval->add_option("--brute", e->bruteRays, "Also a brute-force reference with this many rays per round (0: off)")
       ->capture_default_str();
+  eval->add_option("--plot", e->plot, "Write an SVG of PVS size and pixel error against rays (GVS++, RAND, RASTER)");
   eval->callback([e] { runEval(*e); });
 }
 

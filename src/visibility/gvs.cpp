@@ -58,10 +58,12 @@ bool segmentHitsTriangle(glm::vec3 o, glm::vec3 d, const std::array<glm::vec3, 3
 
 class Baker {
 public:
-  Baker(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config, bool keepWitnesses)
+  Baker(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config,
+        const BakeOptions& options)
       : backend_(backend), scene_(scene), cfg_(config), offsets_(triangleOffsets(scene)),
         found_(backend.triangleCount()), surface_(cell), halton_(config.seed), rsHalton_(config.seed ^ 0x9e3779b9u),
-        keepWitnesses_(keepWitnesses), batch_(backend.preferredBatchRays()) {
+        keepWitnesses_(options.keepWitnesses), checkpointRays_(options.checkpointRays),
+        batch_(backend.preferredBatchRays()) {
     // Meshes without bounds (hand-made scenes) leave the world bounds empty: drop the scene term.
     Bounds b = scene.worldBounds();
     sceneDiagonal_ = b.empty() ? 0.0f : glm::length(b.extent());
@@ -78,10 +80,16 @@ public:
     for (uint32_t iter = 0; iter < cfg_.maxIterations && budgetLeft(); ++iter) {
       size_t before = found_.count();
       halton_.reshuffle();
+      auto tr = std::chrono::steady_clock::now();
+      phaseTrace_ = &result_.stats.randomTraceSeconds;
       std::vector<Discovery> queue = randomPhase();
+      result_.stats.randomSeconds += secondsSince(tr);
       while (!queue.empty() && cfg_.adaptiveBorder && budgetLeft()) {
         std::vector<Discovery> next;
+        auto ta = std::chrono::steady_clock::now();
+        const double rsBefore = result_.stats.rsSeconds;
         absPhase(queue, next);
+        result_.stats.absSeconds += secondsSince(ta) - (result_.stats.rsSeconds - rsBefore);
         queue = std::move(next);
       }
       ++result_.stats.iterations;
@@ -94,6 +102,19 @@ public:
   }
 
 private:
+  static double secondsSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  void checkpoint() {
+    // One snapshot however many requested counts this batch passed: rays strictly increase.
+    bool reached = false;
+    while (nextCheckpoint_ < checkpointRays_.size() && result_.stats.rays >= checkpointRays_[nextCheckpoint_]) {
+      reached = true;
+      ++nextCheckpoint_;
+    }
+    if (reached) result_.checkpoints.push_back({result_.stats.rays, found_.sorted()});
+  }
+
   bool budgetLeft() const { return cfg_.rayBudget == 0 || result_.stats.rays < cfg_.rayBudget; }
   uint64_t budgetClamp(uint64_t n) const {
     return cfg_.rayBudget == 0 ? n : std::min<uint64_t>(n, cfg_.rayBudget - result_.stats.rays);
@@ -108,7 +129,9 @@ private:
     found_.snapshot(before_);
     auto t0 = std::chrono::steady_clock::now();
     backend_.trace(std::span(rays_.data(), n), std::span(hits_.data(), n), {.record = &found_});
-    result_.stats.traceSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double traced = secondsSince(t0);
+    result_.stats.traceSeconds += traced;
+    *phaseTrace_ += traced;
     result_.stats.rays += n;
     auto claim = [&](uint32_t t, size_t i) {
       if (t == kNoHit || (before_[t >> 6] >> (t & 63) & 1)) return;
@@ -122,12 +145,54 @@ private:
       // pass through them to what lies behind.
       claim(hits_[i].seeThrough, i);
     }
+    checkpoint();
+  }
+
+  // Random rays made by the backend where they are traced: only first discoveries come back, and
+  // the host rebuilds the discovering ray from its Halton index (the same map, in float on both
+  // sides: the origin agrees to rounding, which ABS does not notice).
+  bool generatedRandomBatch(uint64_t base, size_t n, std::vector<Discovery>& out) {
+    CellRaySource source{surface_.faces, surface_.cdf, halton_.offsets(), base};
+    firstHits_.clear();
+    auto t0 = std::chrono::steady_clock::now();
+    if (!backend_.traceCellRays(source, n, found_, firstHits_)) return false;
+    const double traced = secondsSince(t0);
+    result_.stats.traceSeconds += traced;
+    *phaseTrace_ += traced;
+    result_.stats.rays += n;
+    result_.stats.generatedRandomRays = true;
+    // Atomics append in scheduling order: sort to the order the host path credits them in.
+    std::sort(firstHits_.begin(), firstHits_.end(), [](const FirstHit& a, const FirstHit& b) {
+      return a.ray != b.ray ? a.ray < b.ray : a.triangle < b.triangle;
+    });
+    for (const FirstHit& f : firstHits_) {
+      auto h = halton_(base + f.ray);
+      Ray ray{};
+      ray.origin = surface_.point(h[0], h[1], h[2]);
+      ray.dir = detail::sphereDirection(h[3], h[4]);
+      out.push_back({f.triangle, ray.origin});
+      if (keepWitnesses_) result_.witnesses.push_back({f.triangle, ray});
+    }
+    checkpoint();
+    return true;
   }
 
   std::vector<Discovery> randomPhase() {
     std::vector<Discovery> out;
     uint64_t total = budgetClamp(cfg_.randomRays);
     for (uint64_t done = 0; done < total;) {
+      // Generated rays cost no per-ray traffic, so their batches are larger (fewer submissions,
+      // fewer read-backs of the discoveries); they still end at checkpoints for the budget.
+      if (generate_) {
+        size_t n = size_t(std::min<uint64_t>(std::min<uint64_t>(batch_ * 8, uint64_t(1) << 31), total - done));
+        if (generatedRandomBatch(haltonIndex_, n, out)) {
+          haltonIndex_ += n;
+          result_.stats.randomRays += n;
+          done += n;
+          continue;
+        }
+        generate_ = false; // the backend cannot: make the rays here from now on
+      }
       size_t n = size_t(std::min<uint64_t>(batch_, total - done));
       rays_.resize(n);
       hits_.resize(n);
@@ -194,6 +259,7 @@ private:
     const size_t perTriangle = 9 + 3 * size_t(cfg_.absEdgeSamples);
     const size_t chunk = std::max<size_t>(1, batch_ / perTriangle);
     std::vector<glm::vec3> targets;
+    phaseTrace_ = &result_.stats.absTraceSeconds;
     for (size_t begin = 0; begin < queue.size() && budgetLeft(); begin += chunk) {
       size_t end = std::min(queue.size(), begin + chunk);
       rays_.assign((end - begin) * perTriangle, Ray{.tfar = -1.0f});
@@ -228,7 +294,13 @@ private:
           seeds.push_back({targets[i], hits_[i].triangle});
       }
       result_.stats.discontinuities += seeds.size();
-      if (cfg_.reverseSampling) rsPhase(seeds, next); // reuses rays_/hits_: the seeds hold what RS needs
+      if (cfg_.reverseSampling) {
+        auto tr = std::chrono::steady_clock::now();
+        phaseTrace_ = &result_.stats.rsTraceSeconds;
+        rsPhase(seeds, next);
+        phaseTrace_ = &result_.stats.absTraceSeconds;
+        result_.stats.rsSeconds += secondsSince(tr);
+      } // reuses rays_/hits_: the seeds hold what RS needs
     }
   }
 
@@ -294,7 +366,12 @@ private:
   uint64_t haltonIndex_ = 0;
   uint64_t rsIndex_ = 0;
   bool keepWitnesses_;
-  const size_t batch_; // rays per trace call (the backend's choice: 256 k fill all CPU cores)
+  std::vector<uint64_t> checkpointRays_;
+  size_t nextCheckpoint_ = 0;
+  bool generate_ = true; // try the backend's own random rays (traceCellRays) first
+  std::vector<FirstHit> firstHits_;
+  double* phaseTrace_ = nullptr; // the current phase's share of the trace time
+  const size_t batch_;           // rays per trace call (the backend's choice: 256 k fill all CPU cores)
   float sceneDiagonal_ = 1.0f;
   std::vector<std::array<glm::vec3, 2>> edges_;
   float edgeLength_ = 0.0f;
@@ -308,7 +385,12 @@ private:
 
 CellPvs computeCellPvs(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config,
                        bool keepWitnesses) {
-  return Baker(backend, scene, cell, config, keepWitnesses).run();
+  return computeCellPvs(backend, scene, cell, config, BakeOptions{.keepWitnesses = keepWitnesses});
+}
+
+CellPvs computeCellPvs(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config,
+                       const BakeOptions& options) {
+  return Baker(backend, scene, cell, config, options).run();
 }
 
 CellPvs bruteForcePvs(RayBackend& backend, const Scene& scene, const ViewCell& cell, uint64_t raysPerRound,

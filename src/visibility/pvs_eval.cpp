@@ -1,4 +1,6 @@
 // Pixel-error evaluation of a PVS (pvs_eval.h).
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <random>
 
@@ -116,6 +118,55 @@ PixelError evaluatePvs(RayBackend& backend, const ViewCell& cell, const Triangle
   }
   err.averageWrong = err.views ? sumWrong / err.views : 0.0;
   return err;
+}
+
+uint32_t rasterPoints(const RasterConfig& config) {
+  if (config.pixelBudget == 0) return std::max(1u, config.points);
+  const uint64_t perPoint = 6ull * config.resolution * config.resolution;
+  return uint32_t(std::clamp<uint64_t>((config.pixelBudget + perPoint / 2) / perPoint, 1, 1u << 24));
+}
+
+CellPvs rasterPvs(RayBackend& backend, const ViewCell& cell, const RasterConfig& config, const BakeOptions& options) {
+  auto t0 = std::chrono::steady_clock::now();
+  CellPvs out;
+  TriangleSet seen(backend.triangleCount());
+  const uint32_t res = std::max(1u, config.resolution);
+  std::vector<Ray> rays(size_t(res) * res);
+  std::vector<Hit> hits(rays.size());
+  detail::RandomizedHalton<3> halton(config.seed);
+  const uint32_t points = rasterPoints(config);
+  size_t nextCheckpoint = 0;
+  for (uint32_t i = 0; i < points; ++i) {
+    auto u = halton(i);
+    glm::vec3 eye = cell.toWorld({u[0] - 0.5f, cell.shape == CellShape::Rect ? 0.0f : u[1] - 0.5f, u[2] - 0.5f});
+    for (int face = 0; face < 6; ++face) {
+      glm::vec3 forward(0.0f), up(0.0f);
+      forward[face / 2] = face % 2 ? -1.0f : 1.0f;
+      up[(face / 2 + 1) % 3] = 1.0f;
+      glm::vec3 right = glm::cross(forward, up);
+      for (uint32_t y = 0; y < res; ++y)
+        for (uint32_t x = 0; x < res; ++x) {
+          float sx = (2.0f * (float(x) + 0.5f) / float(res)) - 1.0f;
+          float sy = 1.0f - (2.0f * (float(y) + 0.5f) / float(res));
+          rays[size_t(y) * res + x] = Ray{.origin = eye, .dir = forward + sx * right + sy * up};
+        }
+      auto tt = std::chrono::steady_clock::now();
+      backend.trace(rays, hits, {.record = &seen, .coherent = true});
+      out.stats.traceSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
+      out.stats.rays += rays.size();
+      out.stats.randomRays += rays.size();
+    }
+    ++out.stats.iterations;
+    bool reached = false;
+    while (nextCheckpoint < options.checkpointRays.size() && out.stats.rays >= options.checkpointRays[nextCheckpoint]) {
+      reached = true;
+      ++nextCheckpoint;
+    }
+    if (reached) out.checkpoints.push_back({out.stats.rays, seen.sorted()});
+  }
+  out.triangles = seen.sorted();
+  out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
 }
 
 } // namespace mirage::vis

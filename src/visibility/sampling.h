@@ -79,6 +79,8 @@ public:
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
     for (float& o : offset_) o = u(rng_);
   }
+  // The current Cranley-Patterson offsets (for generators elsewhere, e.g. a GPU ray source).
+  const std::array<float, Dims>& offsets() const { return offset_; }
   std::array<float, Dims> operator()(uint64_t index) const {
     std::array<float, Dims> out;
     [&]<size_t... D>(std::index_sequence<D...>) {

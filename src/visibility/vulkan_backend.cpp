@@ -78,6 +78,8 @@ public:
   Status build(const Scene& scene, const VulkanRayOptions& options);
   void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
   void traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed, TriangleSet* record) override;
+  bool traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
+                     std::vector<FirstHit>& out) override;
 
 private:
   Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
@@ -85,7 +87,7 @@ private:
   void createPipeline();
   void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
   bool prepareSet(DeviceSet& set, const TriangleSet* host);
-  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire);
+  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false);
   void collectNew(TriangleSet* record);
 
   Context& ctx_;
@@ -102,7 +104,11 @@ private:
   Buffer sbt_;
   VkStridedDeviceAddressRegionKHR raygenRegion_{}, missRegion_{}, hitRegion_{}, callableRegion_{};
   Buffer rays_, hits_, newIds_, counters_, countersReadback_;
+  // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
+  // and the cell description (RtCellSource).
+  Buffer before_, firstRay_, firstRayReadback_, cellSource_;
   DeviceSet record_, require_;
+  bool firstRayValid_ = false; // firstRay_ holds ~0u for every triangle outside the record set
   GpuTimer timer_;
   RayTiming timing_;
 };
@@ -268,7 +274,10 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   // Bit sets, the list of first insertions and the counters exist once for the whole backend.
   const size_t setBytes = (triangles_ + 63) / 64 * 8;
   for (DeviceSet* s : {&record_, &require_}) {
-    s->bits = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+    // TRANSFER_SRC: the record set is copied to `before_` at the start of cell-ray launches.
+    s->bits = createBuffer(ctx_, setBytes,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt set");
     s->staging = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "rt set staging");
   }
@@ -280,6 +289,18 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
                            MemoryUsage::GpuOnly, "rt counters");
   countersReadback_ = createBuffer(ctx_, sizeof(shaderio::RtCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                    MemoryUsage::Readback, "rt counters readback");
+  before_ = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                         MemoryUsage::GpuOnly, "rt set before launch");
+  const size_t rayBytes = std::max<size_t>(triangles_, 1) * 4;
+  firstRay_ = createBuffer(ctx_, rayBytes,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "rt first ray");
+  firstRayReadback_ =
+      createBuffer(ctx_, rayBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "rt first ray readback");
+  cellSource_ = createBuffer(ctx_, sizeof(shaderio::RtCellSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                             MemoryUsage::Upload, "rt cell source");
+  firstRayValid_ = false;
   buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Ok{};
 }
@@ -376,7 +397,7 @@ bool VulkanBackend::prepareSet(DeviceSet& set, const TriangleSet* host) {
   return true;
 }
 
-void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire) {
+void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode) {
   auto t0 = std::chrono::steady_clock::now();
   push.slots = slots_.address();
   push.counters = counters_.address();
@@ -392,6 +413,13 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
     if (uploadRecord) vkCmdCopyBuffer(cmd, record_.staging.handle(), record_.bits.handle(), 1, &whole);
     if (uploadRequire) vkCmdCopyBuffer(cmd, require_.staging.handle(), require_.bits.handle(), 1, &whole);
     vkCmdFillBuffer(cmd, counters_.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (cellMode) {
+      // A replaced record set may have cleared triangles whose firstRay entries are still set.
+      if (uploadRecord || !firstRayValid_) vkCmdFillBuffer(cmd, firstRay_.handle(), 0, VK_WHOLE_SIZE, ~0u);
+      cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+      vkCmdCopyBuffer(cmd, record_.bits.handle(), before_.handle(), 1, &whole);
+    }
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
@@ -406,6 +434,10 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
                      VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
     vkCmdCopyBuffer(cmd, counters_.handle(), countersReadback_.handle(), 1, &counters);
+    if (cellMode) {
+      VkBufferCopy all{0, 0, firstRay_.size()};
+      vkCmdCopyBuffer(cmd, firstRay_.handle(), firstRayReadback_.handle(), 1, &all);
+    }
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
@@ -474,6 +506,55 @@ void VulkanBackend::traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t 
     done += n;
   }
   timing_ = total;
+}
+
+bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
+                                  std::vector<FirstHit>& out) {
+  if (source.faces.empty() || source.faces.size() > MIRAGE_RT_MAX_CELL_FACES ||
+      source.cdf.size() != source.faces.size())
+    return false;
+  shaderio::RtCellSource src{};
+  src.before = before_.address();
+  src.firstRay = firstRay_.address();
+  src.faceCount = uint32_t(source.faces.size());
+  src.offset0 = source.offset[0];
+  src.offset1 = source.offset[1];
+  src.offset2 = source.offset[2];
+  src.offset3 = source.offset[3];
+  src.offset4 = source.offset[4];
+  for (size_t f = 0; f < source.faces.size(); ++f)
+    src.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f, source.faces[f].edgeV, 0.0f};
+  RayTiming total;
+  const auto* firstRay = reinterpret_cast<const uint32_t*>(firstRayReadback_.mapped());
+  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
+  for (size_t done = 0; done < count;) {
+    // Launches of up to 2^30 rays (the smallest maxRayDispatchInvocationCount the spec allows).
+    const uint32_t n = uint32_t(std::min<size_t>(count - done, size_t(1) << 30));
+    auto t0 = std::chrono::steady_clock::now();
+    src.firstIndex = source.firstIndex + done;
+    std::memcpy(cellSource_.mapped(), &src, sizeof(src)); // the previous launch has completed
+    shaderio::RtTracePush push{};
+    push.record = record_.bits.address();
+    push.count = n;
+    push.mode = MIRAGE_RT_MODE_CELL;
+    push.cell = cellSource_.address();
+    launch(push, prepareSet(record_, &record), false, true);
+    firstRayValid_ = true;
+    shaderio::RtCounters c;
+    std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
+    for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) {
+      const uint32_t id = ids[k];
+      record.insert(id);
+      // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
+      if (firstRay[id] != ~0u) out.push_back({id, uint32_t(done) + firstRay[id]});
+    }
+    record_.count = record.count();
+    total.gpuMilliseconds += timing_.gpuMilliseconds;
+    total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    done += n;
+  }
+  timing_ = total;
+  return true;
 }
 
 } // namespace

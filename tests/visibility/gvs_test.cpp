@@ -53,6 +53,44 @@ void expectWitnessed(RayBackend& backend, const CellPvs& pvs, const ViewCell& ce
 
 } // namespace
 
+// RASTER: ID cube maps at points in the cell see only what the cell sees; checkpoints grow.
+TEST(PvsRaster, SeesThroughTheHoleOnlyAndGrows) {
+  auto v = test::wallWithHole();
+  auto backend = backendFor(v.scene);
+  RasterConfig rc{.resolution = 32, .points = 6};
+  CellPvs pvs = rasterPvs(*backend, v.cell, rc, {.checkpointRays = {1, 6 * 32 * 32 * 3, 6 * 32 * 32 * 5}});
+  EXPECT_EQ(pvs.stats.rays, 6u * 32 * 32 * 6);
+  EXPECT_EQ(pvs.stats.iterations, 6u);
+  EXPECT_EQ(countIn(pvs.triangles, test::meshTriangles(v.scene, "hidden")), 0u);
+  EXPECT_GT(countIn(pvs.triangles, test::meshTriangles(v.scene, "target")), 0u);
+  EXPECT_GT(countIn(pvs.triangles, test::meshTriangles(v.scene, "wall")), 0u);
+  ASSERT_EQ(pvs.checkpoints.size(), 3u);
+  for (size_t i = 1; i < pvs.checkpoints.size(); ++i) {
+    EXPECT_GT(pvs.checkpoints[i].rays, pvs.checkpoints[i - 1].rays);
+    EXPECT_TRUE(std::includes(pvs.checkpoints[i].triangles.begin(), pvs.checkpoints[i].triangles.end(),
+                              pvs.checkpoints[i - 1].triangles.begin(), pvs.checkpoints[i - 1].triangles.end()));
+  }
+  EXPECT_TRUE(std::includes(pvs.triangles.begin(), pvs.triangles.end(), pvs.checkpoints.back().triangles.begin(),
+                            pvs.checkpoints.back().triangles.end()));
+  EXPECT_EQ(rasterPoints({.resolution = 10, .pixelBudget = 6 * 100 * 7}), 7u);
+}
+
+TEST(Gvs, CheckpointsAreMonotoneInRays) {
+  auto v = test::wallWithHole();
+  auto backend = backendFor(v.scene);
+  CellPvs pvs = computeCellPvs(*backend, v.scene, v.cell, testConfig(), {.checkpointRays = {1, 1000, 30'000, 90'000}});
+  ASSERT_GE(pvs.checkpoints.size(), 2u);
+  for (size_t i = 1; i < pvs.checkpoints.size(); ++i) {
+    EXPECT_GT(pvs.checkpoints[i].rays, pvs.checkpoints[i - 1].rays);
+    EXPECT_GE(pvs.checkpoints[i].triangles.size(), pvs.checkpoints[i - 1].triangles.size());
+  }
+  EXPECT_LE(pvs.checkpoints.back().rays, pvs.stats.rays);
+  EXPECT_GT(pvs.stats.randomSeconds, 0.0);
+  EXPECT_LE(pvs.stats.randomTraceSeconds, pvs.stats.randomSeconds);
+  EXPECT_NEAR(pvs.stats.randomTraceSeconds + pvs.stats.absTraceSeconds + pvs.stats.rsTraceSeconds,
+              pvs.stats.traceSeconds, 1e-6);
+}
+
 TEST(Gvs, WallWithHole) {
   auto v = test::wallWithHole();
   auto backend = backendFor(v.scene);

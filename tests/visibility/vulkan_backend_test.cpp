@@ -3,6 +3,7 @@
 // on either backend agree within sampling noise. Runs on lavapipe with small ray counts.
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include "mirage/visibility/gvs.h"
 #include "mirage/visibility/vulkan_backend.h"
 #include "vis_scenes.h"
+#include "../../src/visibility/sampling.h"
 
 using namespace mirage;
 using namespace mirage::vis;
@@ -242,6 +244,85 @@ TEST_F(VulkanRays, GvsBakesAgreeWithEmbree) {
   EXPECT_NEAR(double(b.triangles.size()), n, 0.1 * n);
   EXPECT_GE(common(a, b), common(a, c) - 0.03 * n);
   EXPECT_GE(common(a, b), 0.97 * common(a, c));
+  EXPECT_TRUE(b.stats.generatedRandomRays); // the random phase ran in the raygen shader
+  EXPECT_FALSE(a.stats.generatedRandomRays);
+}
+
+// The raygen shader's cell rays are the host sampler's rays: traced through trace() with the
+// host's lowest-ray crediting, they give the same discoveries as traceCellRays.
+TEST_F(VulkanRays, CellRaysMatchHostMadeRays) {
+  Scene city = cityScene(1);
+  ViewCell cell = streetCell();
+  auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
+  ASSERT_TRUE(vk);
+  detail::RandomizedHalton<5> halton(5);
+  detail::SurfaceSampler surface(cell);
+  const size_t n = 20'000;
+  const uint64_t first = (uint64_t(1) << 32) - 5000; // crosses the shader's 32/64-bit switch
+  std::vector<Ray> rays(n);
+  for (size_t i = 0; i < n; ++i) {
+    auto h = halton(first + i);
+    rays[i].origin = surface.point(h[0], h[1], h[2]);
+    rays[i].dir = detail::sphereDirection(h[3], h[4]);
+  }
+  TriangleSet hostSet(vk->triangleCount()), deviceSet(vk->triangleCount());
+  std::vector<Hit> hits(n);
+  vk->trace(rays, hits, {.record = &hostSet});
+  std::map<uint32_t, uint32_t> hostFirst; // triangle -> lowest ray whose closest/see-through hit it is
+  for (size_t i = 0; i < n; ++i)
+    for (uint32_t t : {hits[i].triangle, hits[i].seeThrough})
+      if (t != kNoHit) hostFirst.emplace(t, uint32_t(i));
+  CellRaySource source{surface.faces, surface.cdf, halton.offsets(), first};
+  std::vector<FirstHit> found;
+  ASSERT_TRUE(vk->traceCellRays(source, n, deviceSet, found));
+  std::map<uint32_t, uint32_t> deviceFirst;
+  for (const FirstHit& f : found) {
+    EXPECT_TRUE(deviceFirst.emplace(f.triangle, f.ray).second) << "triangle " << f.triangle << " reported twice";
+    EXPECT_LT(f.ray, n);
+    EXPECT_TRUE(deviceSet.contains(f.triangle));
+  }
+  size_t same = 0;
+  for (auto [t, ray] : hostFirst) {
+    auto it = deviceFirst.find(t);
+    same += it != deviceFirst.end() && it->second == ray;
+  }
+  std::printf("cell rays: host %zu discoveries, device %zu, same triangle and ray %zu\n", hostFirst.size(),
+              deviceFirst.size(), same);
+  // Float rounding of the Halton points differs between host and shader; a few rays graze edges.
+  EXPECT_GE(double(same), 0.98 * double(hostFirst.size()));
+  EXPECT_NEAR(double(deviceFirst.size()), double(hostFirst.size()), 0.02 * double(hostFirst.size()));
+  EXPECT_NEAR(double(deviceSet.count()), double(hostSet.count()), 0.02 * double(hostSet.count()));
+  // Again into the same set: nothing new. Into a fresh set: exactly the same discoveries.
+  std::vector<FirstHit> again;
+  ASSERT_TRUE(vk->traceCellRays(source, n, deviceSet, again));
+  EXPECT_TRUE(again.empty());
+  TriangleSet fresh(vk->triangleCount());
+  ASSERT_TRUE(vk->traceCellRays(source, n, fresh, again));
+  auto key = [](const FirstHit& a, const FirstHit& b) { return a.triangle < b.triangle; };
+  std::sort(found.begin(), found.end(), key);
+  std::sort(again.begin(), again.end(), key);
+  ASSERT_EQ(again.size(), found.size());
+  for (size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(again[i].triangle, found[i].triangle);
+    EXPECT_EQ(again[i].ray, found[i].ray);
+  }
+  EXPECT_EQ(fresh.sorted(), deviceSet.sorted());
+}
+
+TEST_F(VulkanRays, GeneratedBakesAreReproducible) {
+  Scene city = cityScene(1);
+  auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
+  ASSERT_TRUE(vk);
+  GvsConfig cfg;
+  cfg.randomRays = 5'000;
+  cfg.absEdgeSamples = 4;
+  cfg.seed = 9;
+  CellPvs a = computeCellPvs(*vk, city, streetCell(), cfg);
+  CellPvs b = computeCellPvs(*vk, city, streetCell(), cfg);
+  EXPECT_TRUE(a.stats.generatedRandomRays);
+  EXPECT_GT(a.triangles.size(), 100u);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.stats.rays, b.stats.rays);
 }
 
 TEST_F(VulkanRays, GeneratedRaysFromACellSeeOnlyWhatTheCellSees) {

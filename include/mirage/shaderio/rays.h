@@ -24,6 +24,11 @@ using uint = uint32_t;
 // origins in a box, uniform directions; nothing uploaded).
 #define MIRAGE_RT_MODE_BUFFER 0u
 #define MIRAGE_RT_MODE_GENERATED 1u
+// GVS++ random rays of a view cell made in the ray-generation shader (RtCellSource): randomized
+// Halton origins on the cell surface, uniform directions; only first discoveries come back.
+#define MIRAGE_RT_MODE_CELL 2u
+// Faces of a box cell (a rect has one).
+#define MIRAGE_RT_MAX_CELL_FACES 6
 // Rays per row of a launch: launches are 2D because one launch dimension is limited (65535 × 1024
 // on common devices, less than the millions of rays a batch holds).
 #define MIRAGE_RT_LAUNCH_WIDTH 32768u
@@ -57,6 +62,35 @@ struct RtCounters {
   uint pad2;
 };
 
+// One cell face: corner + u·edgeU + v·edgeV, picked when its cumulative area fraction exceeds the
+// sample's face coordinate.
+struct RtCellFace {
+  vec3 corner;
+  float cdf; // cumulative area fraction up to and including this face
+  vec3 edgeU;
+  float pad0;
+  vec3 edgeV;
+  float pad1;
+};
+
+// MODE_CELL: ray `i` of a launch is Halton point firstIndex + i + 1 (bases 2, 3, 5, 7, 11: face,
+// u, v, two direction coordinates) shifted by `offset` (Cranley-Patterson), as in sampling.h. A
+// ray whose closest or nearest see-through triangle is absent from `before` (the record set when
+// the launch began) takes part in atomicMin(firstRay[triangle], i): the lowest-indexed ray wins
+// whatever the scheduling, so the discoveries the host reads back are reproducible.
+struct RtCellSource {
+  uint64_t before;   // uint bit set, read-only during the launch
+  uint64_t firstRay; // uint per triangle: lowest launch index that found it (~0u: none)
+  uint64_t firstIndex;
+  uint faceCount;
+  float offset0;
+  float offset1;
+  float offset2;
+  float offset3;
+  float offset4;
+  RtCellFace faces[MIRAGE_RT_MAX_CELL_FACES];
+};
+
 struct RtTracePush {
   uint64_t rays;     // RtRay[count] (MODE_BUFFER)
   uint64_t hits;     // RtHit[count]; 0: not written
@@ -73,6 +107,7 @@ struct RtTracePush {
   uint seed;         // MODE_GENERATED: random stream
   uint onlyRequired; // 1: triangles outside `require` do not exist (the PVS-only render)
   uint pad0;
+  uint64_t cell; // MODE_CELL: RtCellSource
 };
 
 #ifndef __cplusplus
@@ -81,6 +116,7 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtHitRef { R
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtSlotRef { RtSlot v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtCountersRef { RtCounters c; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtU32Ref { uint v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 8) buffer RtCellSourceRef { RtCellSource s; };
 #endif
 
 #ifdef __cplusplus
@@ -88,7 +124,9 @@ static_assert(sizeof(RtRay) == 32, "RtRay layout");
 static_assert(sizeof(RtHit) == 16, "RtHit layout");
 static_assert(sizeof(RtSlot) == 8, "RtSlot layout");
 static_assert(sizeof(RtCounters) == 16, "RtCounters layout");
-static_assert(sizeof(RtTracePush) == 104, "RtTracePush layout");
+static_assert(sizeof(RtCellFace) == 48, "RtCellFace layout");
+static_assert(sizeof(RtCellSource) == 48 + 48 * MIRAGE_RT_MAX_CELL_FACES, "RtCellSource layout");
+static_assert(sizeof(RtTracePush) == 112, "RtTracePush layout");
 } // namespace mirage::shaderio
 #endif
 

@@ -73,6 +73,18 @@ struct PvsStats {
   uint32_t iterations = 0;
   double seconds = 0.0;      // whole bake of the cell
   double traceSeconds = 0.0; // inside RayBackend::trace (the rest generates rays and bookkeeps)
+  // Per phase: all of it, and inside the backend (trace or traceCellRays).
+  double randomSeconds = 0.0, randomTraceSeconds = 0.0;
+  double absSeconds = 0.0, absTraceSeconds = 0.0; // ABS ray making, tracing, discontinuity tests
+  double rsSeconds = 0.0, rsTraceSeconds = 0.0;
+  bool generatedRandomRays = false; // the backend made the random rays (traceCellRays)
+};
+
+// The PVS as it stood when the bake had traced `rays` rays (for plots of size and error against
+// rays traced).
+struct PvsCheckpoint {
+  uint64_t rays = 0;
+  std::vector<uint32_t> triangles; // sorted global IDs
 };
 
 // The ray that first found a triangle (for the "every PVS triangle was hit" invariant).
@@ -84,13 +96,23 @@ struct Witness {
 struct CellPvs {
   std::vector<uint32_t> triangles; // sorted global IDs
   PvsStats stats;
-  std::vector<Witness> witnesses; // filled when requested: one per opaque discovery
+  std::vector<Witness> witnesses;         // filled when requested: one per opaque discovery
+  std::vector<PvsCheckpoint> checkpoints; // one per requested ray count reached, rays increasing
+};
+
+struct BakeOptions {
+  bool keepWitnesses = false;
+  // Snapshots of the PVS once at least this many rays were traced (increasing), taken between
+  // batches; the final set is not included.
+  std::vector<uint64_t> checkpointRays;
 };
 
 // GVS++ for one cell. `scene` must be the scene the backend was built from (ABS needs triangle
 // corners). Runs on all cores through the backend.
 CellPvs computeCellPvs(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config,
                        bool keepWitnesses = false);
+CellPvs computeCellPvs(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config,
+                       const BakeOptions& options);
 
 // Dense random sampling until `stableRounds` rounds of `raysPerRound` find nothing new: an estimate
 // of the exact visible set on small scenes.

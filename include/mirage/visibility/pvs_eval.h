@@ -15,6 +15,7 @@
 
 #include <glm/glm.hpp>
 
+#include "mirage/visibility/gvs.h"
 #include "mirage/visibility/ray_backend.h"
 #include "mirage/visibility/view_cell.h"
 
@@ -42,5 +43,23 @@ struct PixelError {
 std::vector<glm::vec3> evaluationViewpoints(const ViewCell& cell, const EvalConfig& config);
 
 PixelError evaluatePvs(RayBackend& backend, const ViewCell& cell, const TriangleSet& pvs, const EvalConfig& config);
+
+// The RASTER baseline (after Nirenstein & Blake 2004): triangle-ID cube maps (6 axis-aligned 90°
+// faces of resolution² pixels) rendered at Halton points inside the cell (on it, for a Rect); the
+// union of the IDs seen is the PVS. Each pixel is one primary ray through its centre, traced by
+// the backend: the same point samples a rasterizer takes at pixel centres, with see-through
+// triangles in front of the nearest opaque one recorded as a blended ID pass would draw them.
+struct RasterConfig {
+  uint32_t resolution = 256;
+  // Cube maps rendered: enough to spend `pixelBudget` pixels (at least one), or `points` if the
+  // budget is 0.
+  uint64_t pixelBudget = 0;
+  uint32_t points = 16;
+  uint64_t seed = 3;
+};
+uint32_t rasterPoints(const RasterConfig& config);
+// Pixels traced are reported as rays (stats.rays) so RASTER sits on the same axis as GVS++ and RAND.
+// Checkpoints as in computeCellPvs, taken after each cube map.
+CellPvs rasterPvs(RayBackend& backend, const ViewCell& cell, const RasterConfig& config, const BakeOptions& options);
 
 } // namespace mirage::vis

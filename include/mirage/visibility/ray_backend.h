@@ -17,6 +17,7 @@
 
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
+#include "mirage/visibility/view_cell.h"
 
 namespace mirage::vis {
 
@@ -83,6 +84,24 @@ struct TraceSets {
   bool onlyRequired = false;            // trace the scene reduced to `require` (a PVS-only render)
 };
 
+// GVS++ random rays of a view cell, for backends that make them where they are traced: ray i of a
+// call is the randomized Halton point firstIndex + i + 1 (bases 2, 3, 5, 7, 11: face by area, u, v
+// on the face, two coordinates of a uniform sphere direction) shifted by `offset`, exactly the
+// map of the host sampler (src/visibility/sampling.h).
+struct CellRaySource {
+  std::span<const CellFace> faces;
+  std::span<const float> cdf; // cumulative area fractions, one per face (the last is 1)
+  std::array<float, 5> offset{};
+  uint64_t firstIndex = 0;
+};
+
+// A first discovery of a generated trace: the triangle and the lowest ray index (within the call)
+// whose closest or nearest see-through hit it was.
+struct FirstHit {
+  uint32_t triangle;
+  uint32_t ray;
+};
+
 class RayBackend {
 public:
   virtual ~RayBackend() = default;
@@ -94,6 +113,15 @@ public:
   // Rays per trace() call the sampler should batch: enough to fill the device (all CPU cores, or
   // a GPU, where each call also pays for a submission and the transfers).
   virtual size_t preferredBatchRays() const { return size_t(1) << 18; }
+  // Traces `count` rays of `source` without per-ray traffic: every triangle seen goes into
+  // `record`; `out` gets (triangle, lowest ray) for each closest or nearest see-through hit absent
+  // from `record` before the call, in no particular order. The same discoveries as tracing the
+  // rays through trace() and crediting the lowest-indexed ray. False (nothing traced) when the
+  // backend cannot; the caller then makes the rays itself.
+  virtual bool traceCellRays(const CellRaySource& /*source*/, size_t /*count*/, TriangleSet& /*record*/,
+                             std::vector<FirstHit>& /*out*/) {
+    return false;
+  }
 };
 
 // First global triangle ID of each instance (size instances + 1; the last entry is the total).
