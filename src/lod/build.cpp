@@ -278,7 +278,7 @@ private:
         uint32_t a = std::min(l.a, l.b), b = std::max(l.a, l.b);
         if (a != b) pairs.push_back({uint64_t(a) << 32 | b, l.weight});
       }
-      std::sort(pairs.begin(), pairs.end());
+      tbb::parallel_sort(pairs.begin(), pairs.end());
       std::vector<std::vector<std::pair<uint32_t, int32_t>>> adj(n);
       for (size_t j = 0; j < pairs.size();) {
         float w = 0.0f;
@@ -316,21 +316,34 @@ private:
     return groups;
   }
 
-  // Marks (or clears) which group touches each position; kMulti = on a group border.
+  // Marks (or clears) which group touches each position; kMulti = on a group border. Parallel over
+  // groups: the result (one owner, or kMulti for two or more) does not depend on the order.
   void markOwners(const std::vector<GroupWork>& work, bool mark) {
-    for (uint32_t g = 0; g < work.size(); ++g)
+    tbb::parallel_for(size_t(0), work.size(), [&](size_t gi) {
+      uint32_t g = uint32_t(gi);
       for (uint32_t c : work[g].children) {
         const Cluster& cl = dag_.clusters[c];
         for (uint32_t v = 0; v < cl.vertexCount; ++v) {
-          uint32_t& owner = posOwner_[dag_.vertexPosition[dag_.clusterVertices[cl.vertexOffset + v]]];
-          owner = !mark ? kNone : (owner == kNone || owner == g) ? g : kMulti;
+          std::atomic_ref<uint32_t> owner(posOwner_[dag_.vertexPosition[dag_.clusterVertices[cl.vertexOffset + v]]]);
+          if (!mark) {
+            owner.store(kNone, std::memory_order_relaxed);
+            continue;
+          }
+          uint32_t cur = owner.load(std::memory_order_relaxed);
+          while (cur != g && cur != kMulti &&
+                 !owner.compare_exchange_weak(cur, cur == kNone ? g : kMulti, std::memory_order_relaxed)) {
+          }
         }
       }
+    });
   }
 
   void simplifyGroup(GroupWork& w) const {
     std::optional<StageTimer> timer(kGather);
-    std::vector<uint32_t> attrs;
+    GroupScratch& gs = groupScratch_.local();
+    SimplifyMesh& sm = gs.mesh;
+    std::vector<uint32_t>& attrs = sm.attributes;
+    attrs.clear();
     for (uint32_t c : w.children) {
       forTriangles(c, [&](uint32_t a, uint32_t b, uint32_t d) { attrs.insert(attrs.end(), {a, b, d}); });
       // Nested spheres: the group's sphere encloses every child's LOD sphere.
@@ -342,7 +355,6 @@ private:
     SplitScratch& scratch = splitScratch_.local();
     std::vector<uint32_t>& localOf = scratch.localOfPosition;
     if (localOf.size() < dag_.positions.size()) localOf.resize(dag_.positions.size(), kNone);
-    SimplifyMesh sm;
     sm.corners.resize(attrs.size());
     std::vector<uint32_t>& unique = scratch.global;
     unique.clear();
@@ -359,10 +371,11 @@ private:
       sm.locked[i] = posOwner_[unique[i]] == kMulti;
       localOf[unique[i]] = kNone;
     }
-    sm.attributes = std::move(attrs);
+    sm.normals = dag_.normals.empty() ? nullptr : dag_.normals.data();
+    sm.normalWeight = cfg_.normalWeight;
     size_t before = sm.corners.size() / 3;
     timer.emplace(kSimplify);
-    w.simplifyError = simplifyLocked(sm, before / 2);
+    w.simplifyError = simplifyLocked(sm, before / 2, gs.simplify);
     size_t after = sm.corners.size() / 3;
     if (after == 0 || double(after) > double(cfg_.stuckRatio) * double(before)) {
       w.stuck = true;
@@ -420,6 +433,11 @@ private:
   std::chrono::steady_clock::time_point start_;
   std::vector<uint32_t> posOwner_;
   mutable tbb::enumerable_thread_specific<SplitScratch> splitScratch_;
+  struct GroupScratch {
+    SimplifyScratch simplify;
+    SimplifyMesh mesh; // the group's triangles: reused, so groups allocate almost nothing
+  };
+  mutable tbb::enumerable_thread_specific<GroupScratch> groupScratch_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far
 };
 
@@ -429,6 +447,7 @@ std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
   if (cfg.clusterVertices < 3 || cfg.clusterVertices > 255) return "clusterVertices must be in [3, 255]";
   if (cfg.groupClusters < 2) return "groupClusters must be at least 2";
   if (!(cfg.stuckRatio > 0.0f && cfg.stuckRatio < 1.0f)) return "stuckRatio must be in (0, 1)";
+  if (!(cfg.normalWeight >= 0.0f && std::isfinite(cfg.normalWeight))) return "normalWeight must be finite and >= 0";
   if (cfg.rootClusters < 1) return "rootClusters must be at least 1";
   if (mesh.indices.size() % 3 != 0) return "index count is not a multiple of 3";
   for (uint32_t i : mesh.indices)
