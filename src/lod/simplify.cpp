@@ -8,11 +8,14 @@ namespace mirage::lod::detail {
 namespace {
 
 constexpr uint32_t kNil = ~0u;
+constexpr uint32_t kUnchecked = ~0u; // Entry::time of an entry whose legality was not tested yet
 // Border planes keep open borders (the mesh's own) from shrinking or drifting; meshoptimizer uses
 // a similar boost for its border edges.
 constexpr double kBorderWeight = 4.0;
 // A collapse may turn a triangle by at most ~78 degrees (cos = 0.2): larger turns are folds.
 constexpr double kFlipCos = 0.2;
+// A face may turn at most ~75 degrees away from the mean shading normal of its corners.
+constexpr double kShadingCos = 0.25;
 
 using Entry = SimplifyScratch::Entry;
 
@@ -77,7 +80,7 @@ public:
   }
 
   float run(size_t target) {
-    for (uint32_t v = 0; v < s_.p.size(); ++v) push(v);
+    for (uint32_t v = 0; v < s_.p.size(); ++v) push(v, true);
     while (live_ > target && !s_.heap.empty()) {
       std::pop_heap(s_.heap.begin(), s_.heap.end());
       Entry e = s_.heap.back();
@@ -86,12 +89,12 @@ public:
       if (s_.dirty[e.u]) {
         // Lazy re-evaluation: collapses only raise costs (quadrics accumulate), so the stale cost
         // is a good lower bound and most dirty vertices are never evaluated again before the target.
-        push(e.u);
+        push(e.u, true);
         continue;
       }
-      // u is clean, but w's triangles may have changed since this entry was queued: recheck then.
-      if (s_.changed[e.w] > e.time && (gatherRing(e.u, ringU()), !legal(e.u, e.w))) {
-        push(e.u);
+      // u is clean, but the entry was queued unchecked or w's triangles changed since: check now.
+      if ((e.time == kUnchecked || s_.changed[e.w] > e.time) && (gatherRing(e.u, ringU()), !legal(e.u, e.w))) {
+        push(e.u, false);
         continue;
       }
       // The reported error is the cost with the normal term at collapse time (w's quadrics may
@@ -150,17 +153,18 @@ private:
         float len = glm::length(n);
         n = len > 0.0f ? n / len : glm::vec3(0.0f);
       }
-    // Open edges (used by one live triangle) get a plane through the edge, perpendicular to the
-    // face. An edge a->b is open iff no other triangle at a also has b (corner lists are short).
-    for (uint32_t t = 0; t < nt; ++t)
-      for (uint32_t k = 0; k < 3; ++k) {
-        uint32_t a = corners[t * 3 + k], b = corners[t * 3 + (k + 1) % 3], o = corners[t * 3 + (k + 2) % 3];
-        bool shared = false;
-        for (uint32_t c = s_.head[a]; c != kNil && !shared; c = s_.next[c]) {
-          const uint32_t* v = &corners[c / 3 * 3];
-          shared = c / 3 != t && (v[0] == b || v[1] == b || v[2] == b);
-        }
-        if (shared) continue;
+    // Open edges (used by one triangle) get a plane through the edge, perpendicular to the face.
+    // Found on each vertex's ring (edge use count 1), once per edge from its lower end.
+    Ring r = ringW();
+    for (uint32_t a = 0; a < s_.p.size(); ++a) {
+      gatherRing(a, r);
+      for (uint32_t b : r.list) {
+        if (b < a || r.count[b] != 1) continue;
+        uint32_t o = kNil;
+        forTriangles(a, [&](uint32_t t, uint32_t k) {
+          uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
+          if (x == b || y == b) o = x == b ? y : x;
+        });
         glm::dvec3 e = s_.p[b] - s_.p[a];
         glm::dvec3 fn = glm::cross(e, s_.p[o] - s_.p[a]);
         glm::dvec3 n = glm::cross(e, fn);
@@ -172,6 +176,7 @@ private:
           add(s_.q[b], q);
         }
       }
+    }
   }
 
   void gatherRing(uint32_t v, Ring r) {
@@ -243,11 +248,13 @@ private:
       double d = glm::dot(n0, n1), l0 = glm::dot(n0, n0);
       // d < cos * |n0| |n1| without square roots; a degenerate n0 never blocks.
       if (d <= 0.0 ? l0 > 0.0 : d * d < kFlipCos * kFlipCos * l0 * glm::dot(n1, n1)) ok = false;
-      // With normals: the new face must not face away from the shading normals at its corners
-      // (small turns per collapse can add up to a back-facing fold that shows in the interior).
-      if (normalWeight2_ > 0.0 && l0 > 0.0 &&
-          glm::dot(n1, glm::dvec3(s_.normal[w] + s_.normal[v[(k + 1) % 3]] + s_.normal[v[(k + 2) % 3]])) <= 0.0)
-        ok = false;
+      // With normals: the new face must stay within ~75 degrees of the shading normals at its
+      // corners (small turns per collapse add up to folds whose back faces show near silhouettes).
+      if (normalWeight2_ > 0.0 && l0 > 0.0) {
+        glm::dvec3 shading = glm::dvec3(s_.normal[w] + s_.normal[v[(k + 1) % 3]] + s_.normal[v[(k + 2) % 3]]);
+        double f = glm::dot(n1, shading);
+        if (f <= 0.0 || f * f < kShadingCos * kShadingCos * glm::dot(n1, n1) * glm::dot(shading, shading)) ok = false;
+      }
     });
     return ok;
   }
@@ -275,8 +282,11 @@ private:
     std::push_heap(s_.heap.begin(), s_.heap.end());
   }
 
-  // Re-evaluates v's cheapest legal collapse and queues it (older entries of v go stale).
-  void push(uint32_t v) {
+  // Re-evaluates v's cheapest collapse and queues it (older entries of v go stale). Optimistic:
+  // the cheapest candidate goes in unchecked and its legality is tested when it comes up, so
+  // vertices that change again before then never pay for the test; otherwise the cheapest legal
+  // candidate.
+  void push(uint32_t v, bool optimistic) {
     ++s_.version[v];
     s_.dirty[v] = 0;
     s_.queued[v] = 0;
@@ -286,6 +296,12 @@ private:
     if (s_.cand.empty()) return;
     s_.scored.clear();
     for (uint32_t w : s_.cand) s_.scored.push_back({cost(v, w), w});
+    if (optimistic) {
+      auto best = *std::min_element(s_.scored.begin(), s_.scored.end());
+      heapPush({float(best.first), v, best.second, s_.version[v], kUnchecked});
+      s_.queued[v] = 1;
+      return;
+    }
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
