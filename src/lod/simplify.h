@@ -16,8 +16,9 @@ struct SimplifyMesh {
   std::vector<uint32_t> attributes; // carried attribute-vertex id per corner
   // Unit normal per attribute-vertex id (indexed by `attributes`), or null: no normal term.
   const glm::vec3* normals = nullptr;
-  // Normal deviation counts as normalWeight * edge length * angle (radians) of distance, so the
-  // error bounds shading changes as well as geometric ones. 0 = geometric error only.
+  // Normal deviation counts as normalWeight * edge length * angle (radians) of distance in the
+  // reported error (half of it in the collapse order), so the error covers shading changes as well
+  // as geometric ones. 0 = geometric error only.
   float normalWeight = 0.0f;
 };
 
