@@ -18,8 +18,8 @@ constexpr double kFlipCos = 0.2;
 constexpr double kShadingCos = 0.25;
 // The collapse order sees the normal term at half the reported weight: with the full weight the
 // order traded geometric accuracy for normals (bunny surface distance at equal triangle count +16
-// to +26 %) without more PSNR per triangle; at half weight it costs +3 to +9 % and the bunny
-// reaches 41.4 dB at 18 k triangles where the geometric-only DAG had 40.0 dB at 17 k (docs/lod.md).
+// to +26 %) without more PSNR per triangle; at half weight geometry stays within a few percent
+// (docs/lod.md, "Normal-aware error").
 constexpr double kOrderNormalFraction = 0.5;
 
 using Entry = SimplifyScratch::Entry;

@@ -235,7 +235,7 @@ TEST_F(ClusterRender, SmallTauMatchesForwardOnBlob) { expectMatchesForward(conte
 
 // The bar: 40 dB at a quarter pixel (256x256). With geometric error only the bunny reached
 // 38.8 dB; the DAG error now includes a normal-deviation term (BuildConfig::normalWeight, see
-// docs/lod.md), so shading changes on flat-but-curved regions refine the cut too (41.4 dB).
+// docs/lod.md), so shading changes on flat-but-curved regions refine the cut too (42.0 dB).
 TEST_F(ClusterRender, SmallTauMatchesForwardOnBunny) {
   MIRAGE_REQUIRE_DATA(path, "stanford-bunny/bun_zipper.ply");
   auto scene = io::importScene(path);
