@@ -40,28 +40,23 @@ public:
     });
   }
 
-  template <class Same> void insert(uint32_t item, uint64_t hash, Same&& same) {
+  // Returns the slot of item's key: after every insert finished, first(slot) is the smallest item
+  // with that key (a sequential pass over the saved slots instead of probing again).
+  template <class Same> uint32_t insert(uint32_t item, uint64_t hash, Same&& same) {
     for (size_t h = hash & (size_ - 1);; h = (h + 1) & (size_ - 1)) {
       uint32_t cur = slots_[h].load(std::memory_order_relaxed);
       if (cur == kEmpty) {
-        if (slots_[h].compare_exchange_strong(cur, item, std::memory_order_relaxed)) return;
+        if (slots_[h].compare_exchange_strong(cur, item, std::memory_order_relaxed)) return uint32_t(h);
         // Lost the race: cur now holds the winner, fall through and compare with it.
       }
       if (!same(cur, item)) continue;
       while (item < cur && !slots_[h].compare_exchange_weak(cur, item, std::memory_order_relaxed)) {
       }
-      return;
+      return uint32_t(h);
     }
   }
 
-  // The smallest item with item's key (call after every insert finished).
-  template <class Same> uint32_t first(uint32_t item, uint64_t hash, Same&& same) const {
-    for (size_t h = hash & (size_ - 1);; h = (h + 1) & (size_ - 1)) {
-      uint32_t cur = slots_[h].load(std::memory_order_relaxed);
-      if (cur == kEmpty) return item; // not reached: item itself was inserted
-      if (same(cur, item)) return cur;
-    }
-  }
+  uint32_t first(uint32_t slot) const { return slots_[slot].load(std::memory_order_relaxed); }
 
 private:
   size_t size_;
@@ -103,12 +98,13 @@ Welded weldPositions(const std::vector<glm::vec3>& positions) {
   // Parallel: on 21M-vertex inputs the serial table was a large part of level 0.
   FirstOccurrence table(n);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, kGrain), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) table.insert(uint32_t(i), hash(uint32_t(i)), same);
+    for (size_t i = r.begin(); i < r.end(); ++i)
+      w.vertexPosition[i] = table.insert(uint32_t(i), hash(uint32_t(i)), same); // slot for now
   });
   std::vector<uint8_t> isFirst(n);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, kGrain), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i < r.end(); ++i) {
-      uint32_t f = table.first(uint32_t(i), hash(uint32_t(i)), same);
+      uint32_t f = table.first(w.vertexPosition[i]);
       w.vertexPosition[i] = f;
       isFirst[i] = f == i;
     }
@@ -141,19 +137,19 @@ std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices,
   // Keep the first of each set of triangles over the same three positions, skip zero-area ones.
   FirstOccurrence table(triCount);
   std::vector<uint8_t> keep(triCount);
+  std::vector<uint32_t> slot(triCount);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t) {
       std::array<uint32_t, 3> k = sortedKey(uint32_t(t));
       keep[t] = k[0] != k[1] && k[1] != k[2]; // zero area by construction otherwise
-      if (keep[t]) table.insert(uint32_t(t), hash(k), same);
+      if (keep[t]) slot[t] = table.insert(uint32_t(t), hash(k), same);
     }
   });
   tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t)
-      if (keep[t]) keep[t] = table.first(uint32_t(t), hash(sortedKey(uint32_t(t))), same) == t;
+      if (keep[t]) keep[t] = table.first(slot[t]) == t;
   });
-  std::vector<uint32_t> slot;
-  std::vector<uint32_t> out(size_t(prefixSum(keep, slot)) * 3);
+  std::vector<uint32_t> out(size_t(prefixSum(keep, slot)) * 3); // slot becomes the output index
   tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t)
       if (keep[t]) std::copy(&indices[t * 3], &indices[t * 3] + 3, &out[size_t(slot[t]) * 3]);
