@@ -62,7 +62,8 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
                           {{"cluster_triangles", config.clusterTriangles},
                            {"cluster_vertices", config.clusterVertices},
                            {"group_clusters", config.groupClusters},
-                           {"stuck_ratio", config.stuckRatio}}},
+                           {"stuck_ratio", config.stuckRatio},
+                           {"normal_weight", config.normalWeight}}},
                          {"meshes", statsJson(out)}};
   out.metaJson = meta.dump();
   return out;

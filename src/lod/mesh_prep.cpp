@@ -2,7 +2,12 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstring>
+#include <memory>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace mirage::lod::detail {
 
@@ -21,69 +26,134 @@ size_t tableSize(size_t n) {
   return size;
 }
 
+constexpr uint32_t kEmpty = ~0u;
+constexpr size_t kGrain = 1 << 14;
+
+// Lock-free "first occurrence" table: each key's slot ends up holding the smallest item id with that
+// key whatever the thread timing, so the parallel result equals the serial first-come one.
+// `same(a, b)` compares the keys of two items; `hash(i)` is item i's key hash.
+class FirstOccurrence {
+public:
+  explicit FirstOccurrence(size_t items) : size_(tableSize(items)), slots_(new std::atomic<uint32_t>[size_]) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, size_, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i < r.end(); ++i) slots_[i].store(kEmpty, std::memory_order_relaxed);
+    });
+  }
+
+  // Returns the slot of item's key: after every insert finished, first(slot) is the smallest item
+  // with that key (a sequential pass over the saved slots instead of probing again).
+  template <class Same> uint32_t insert(uint32_t item, uint64_t hash, Same&& same) {
+    for (size_t h = hash & (size_ - 1);; h = (h + 1) & (size_ - 1)) {
+      uint32_t cur = slots_[h].load(std::memory_order_relaxed);
+      if (cur == kEmpty) {
+        if (slots_[h].compare_exchange_strong(cur, item, std::memory_order_relaxed)) return uint32_t(h);
+        // Lost the race: cur now holds the winner, fall through and compare with it.
+      }
+      if (!same(cur, item)) continue;
+      while (item < cur && !slots_[h].compare_exchange_weak(cur, item, std::memory_order_relaxed)) {
+      }
+      return uint32_t(h);
+    }
+  }
+
+  uint32_t first(uint32_t slot) const { return slots_[slot].load(std::memory_order_relaxed); }
+
+private:
+  size_t size_;
+  std::unique_ptr<std::atomic<uint32_t>[]> slots_;
+};
+
+// Exclusive prefix sum of flags in parallel blocks: out[i] = number of set flags before i.
+uint32_t prefixSum(const std::vector<uint8_t>& flags, std::vector<uint32_t>& out) {
+  size_t n = flags.size(), blocks = (n + kGrain - 1) / kGrain;
+  out.resize(n);
+  std::vector<uint32_t> blockSum(blocks + 1, 0);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+    uint32_t s = 0;
+    for (size_t i = b * kGrain; i < std::min(n, (b + 1) * kGrain); ++i) s += flags[i];
+    blockSum[b + 1] = s;
+  });
+  for (size_t b = 0; b < blocks; ++b) blockSum[b + 1] += blockSum[b];
+  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+    uint32_t s = blockSum[b];
+    for (size_t i = b * kGrain; i < std::min(n, (b + 1) * kGrain); ++i) out[i] = s, s += flags[i];
+  });
+  return blockSum[blocks];
+}
+
 } // namespace
 
 Welded weldPositions(const std::vector<glm::vec3>& positions) {
+  size_t n = positions.size();
   Welded w;
-  w.vertexPosition.resize(positions.size());
-  size_t size = tableSize(positions.size());
-  std::vector<uint32_t> table(size, ~0u); // holds welded position ids
-  for (size_t i = 0; i < positions.size(); ++i) {
+  w.vertexPosition.resize(n);
+  auto hash = [&](uint32_t i) {
     glm::vec3 p = positions[i];
-    uint32_t x = floatBits(p.x), y = floatBits(p.y), z = floatBits(p.z);
-    size_t h = mix64((uint64_t(x) << 32 | y) ^ mix64(z)) & (size - 1);
-    for (;;) {
-      uint32_t id = table[h];
-      if (id == ~0u) {
-        id = uint32_t(w.positions.size());
-        w.positions.push_back(glm::vec3(p.x + 0.0f, p.y + 0.0f, p.z + 0.0f));
-        table[h] = id;
-        w.vertexPosition[i] = id;
-        break;
-      }
-      glm::vec3 q = w.positions[id];
-      if (floatBits(q.x) == x && floatBits(q.y) == y && floatBits(q.z) == z) {
-        w.vertexPosition[i] = id;
-        break;
-      }
-      h = (h + 1) & (size - 1);
+    return mix64((uint64_t(floatBits(p.x)) << 32 | floatBits(p.y)) ^ mix64(floatBits(p.z)));
+  };
+  auto same = [&](uint32_t a, uint32_t b) {
+    glm::vec3 p = positions[a], q = positions[b];
+    return floatBits(p.x) == floatBits(q.x) && floatBits(p.y) == floatBits(q.y) && floatBits(p.z) == floatBits(q.z);
+  };
+  // Parallel: on 21M-vertex inputs the serial table was a large part of level 0.
+  FirstOccurrence table(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i)
+      w.vertexPosition[i] = table.insert(uint32_t(i), hash(uint32_t(i)), same); // slot for now
+  });
+  std::vector<uint8_t> isFirst(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      uint32_t f = table.first(w.vertexPosition[i]);
+      w.vertexPosition[i] = f;
+      isFirst[i] = f == i;
     }
-  }
+  });
+  // Welded ids in order of first occurrence (as the serial weld numbered them).
+  std::vector<uint32_t> id;
+  w.positions.resize(prefixSum(isFirst, id));
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      if (isFirst[i]) w.positions[id[i]] = positions[i] + glm::vec3(0.0f);
+      w.vertexPosition[i] = id[w.vertexPosition[i]];
+    }
+  });
   return w;
 }
 
 std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices,
                                      const std::vector<uint32_t>& vertexPosition) {
   size_t triCount = indices.size() / 3;
-  std::vector<uint32_t> out;
-  out.reserve(triCount * 3);
-  size_t size = tableSize(triCount);
-  std::vector<uint32_t> table(size, ~0u); // holds output triangle ids
-  auto sortedKey = [&](const uint32_t* t) {
-    std::array<uint32_t, 3> k{vertexPosition[t[0]], vertexPosition[t[1]], vertexPosition[t[2]]};
-    std::sort(k.begin(), k.end());
+  auto sortedKey = [&](uint32_t t) {
+    const uint32_t* tri = &indices[size_t(t) * 3];
+    std::array<uint32_t, 3> k{vertexPosition[tri[0]], vertexPosition[tri[1]], vertexPosition[tri[2]]};
+    if (k[0] > k[1]) std::swap(k[0], k[1]);
+    if (k[1] > k[2]) std::swap(k[1], k[2]);
+    if (k[0] > k[1]) std::swap(k[0], k[1]);
     return k;
   };
-  for (size_t t = 0; t < triCount; ++t) {
-    const uint32_t* tri = &indices[t * 3];
-    std::array<uint32_t, 3> k = sortedKey(tri);
-    if (k[0] == k[1] || k[1] == k[2]) continue; // zero area by construction
-    size_t h = mix64((uint64_t(k[0]) << 32 | k[1]) ^ mix64(k[2])) & (size - 1);
-    bool duplicate = false;
-    for (;;) {
-      uint32_t id = table[h];
-      if (id == ~0u) {
-        table[h] = uint32_t(out.size() / 3);
-        break;
-      }
-      if (sortedKey(&out[size_t(id) * 3]) == k) {
-        duplicate = true;
-        break;
-      }
-      h = (h + 1) & (size - 1);
+  auto hash = [](const std::array<uint32_t, 3>& k) { return mix64((uint64_t(k[0]) << 32 | k[1]) ^ mix64(k[2])); };
+  auto same = [&](uint32_t a, uint32_t b) { return sortedKey(a) == sortedKey(b); };
+  // Keep the first of each set of triangles over the same three positions, skip zero-area ones.
+  FirstOccurrence table(triCount);
+  std::vector<uint8_t> keep(triCount);
+  std::vector<uint32_t> slot(triCount);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t < r.end(); ++t) {
+      std::array<uint32_t, 3> k = sortedKey(uint32_t(t));
+      keep[t] = k[0] != k[1] && k[1] != k[2]; // zero area by construction otherwise
+      if (keep[t]) slot[t] = table.insert(uint32_t(t), hash(k), same);
     }
-    if (!duplicate) out.insert(out.end(), tri, tri + 3);
-  }
+  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t < r.end(); ++t)
+      if (keep[t]) keep[t] = table.first(slot[t]) == t;
+  });
+  std::vector<uint32_t> out(size_t(prefixSum(keep, slot)) * 3); // slot becomes the output index
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t < r.end(); ++t)
+      if (keep[t]) std::copy(&indices[t * 3], &indices[t * 3] + 3, &out[size_t(slot[t]) * 3]);
+  });
   return out;
 }
 

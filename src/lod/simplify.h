@@ -13,15 +13,52 @@ struct SimplifyMesh {
   std::vector<glm::vec3> positions; // compact, welded: topology is decided on these
   std::vector<uint8_t> locked;      // per position: 1 = must not move (group border)
   std::vector<uint32_t> corners;    // position id per triangle corner, 3 per triangle
-  std::vector<uint32_t> attributes; // carried attribute-vertex id per corner (never inspected)
+  std::vector<uint32_t> attributes; // carried attribute-vertex id per corner
+  // Unit normal per attribute-vertex id (indexed by `attributes`), or null: no normal term.
+  const glm::vec3* normals = nullptr;
+  // Normal deviation counts as normalWeight * edge length * angle (radians) of distance in the
+  // reported error (half of it in the collapse order), so the error covers shading changes as well
+  // as geometric ones. 0 = geometric error only.
+  float normalWeight = 0.0f;
+};
+
+// Plane quadric, relative to the group centre: Σ w (n·p + d)², and Σ w.
+struct Quadric {
+  double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, b0 = 0, b1 = 0, b2 = 0, c = 0, w = 0;
+};
+
+// Normal "quadric" of the original corners merged into a vertex: Σ a, Σ a·n, Σ a·n·n, so that
+// Σ a |m - n|² for the normal m the vertex carries is a|m|² - 2 b·m + c.
+struct NormalQuadric {
+  double a = 0, bx = 0, by = 0, bz = 0, c = 0;
+};
+
+// Per-thread buffers of simplifyLocked, reused from call to call (no per-group allocations).
+struct SimplifyScratch {
+  std::vector<glm::dvec3> p;
+  std::vector<Quadric> q;
+  std::vector<NormalQuadric> nq;
+  std::vector<glm::vec3> normal; // normal a vertex carries (area-weighted over its corners)
+  std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW, cand;
+  std::vector<uint8_t> alive, dirty, queued;
+  std::vector<std::pair<double, uint32_t>> scored;
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  struct Entry {
+    float cost;
+    uint32_t u, w, version;
+    uint32_t time; // collapse clock when queued: w unchanged since then means the check still holds
+    bool operator<(const Entry& o) const { return cost > o.cost; } // min-heap
+  };
+  std::vector<Entry> heap;
 };
 
 // Collapses edges (the removed vertex moves onto a kept neighbour, so no new positions or
-// attributes appear) in order of quadric error until at most targetTriangles remain or no legal
-// collapse is left. Locked vertices never move; an unlocked open-border vertex only slides along
-// its border; non-manifold vertices stay. Rewrites corners/attributes to the surviving triangles
-// and returns the error: the square root of the largest area-normalised quadric cost collapsed,
-// a distance in position units.
+// attributes appear) in order of cost until at most targetTriangles remain or no legal collapse is
+// left. Locked vertices never move; an unlocked open-border vertex only slides along its border;
+// non-manifold vertices stay. Rewrites corners/attributes to the surviving triangles and returns
+// the error: the square root of the largest cost collapsed, a distance in position units (the
+// area-normalised plane quadric plus the weighted normal term, see SimplifyMesh::normalWeight).
+float simplifyLocked(SimplifyMesh& mesh, size_t targetTriangles, SimplifyScratch& scratch);
 float simplifyLocked(SimplifyMesh& mesh, size_t targetTriangles);
 
 } // namespace mirage::lod::detail

@@ -2,6 +2,7 @@
 //   build/tests/test_lod --gtest_also_run_disabled_tests --gtest_filter='LodBench.*'
 // MIRAGE_LOD_BENCH_MESH=path.ply or MIRAGE_LOD_BENCH_BLOB=subdivisions picks the mesh (default: the
 // dragon, else a 1.3M-triangle blob). MIRAGE_LOD_BENCH_THREADS=n runs one build with n threads only.
+// MIRAGE_LOD_NORMAL_WEIGHT=w overrides BuildConfig::normalWeight (here and in LodQuality).
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -71,17 +72,23 @@ void report(const Mesh& mesh, const BuildConfig& cfg, bool perLevel) {
   }
 }
 
+BuildConfig benchConfig() {
+  BuildConfig cfg;
+  if (const char* env = std::getenv("MIRAGE_LOD_NORMAL_WEIGHT")) cfg.normalWeight = float(std::atof(env));
+  return cfg;
+}
+
 TEST(LodBench, DISABLED_Throughput) {
   Mesh mesh = benchMesh();
   if (const char* env = std::getenv("MIRAGE_LOD_BENCH_THREADS")) { // one run only (profilers, callgrind)
-    BuildConfig cfg;
+    BuildConfig cfg = benchConfig();
     cfg.threads = uint32_t(std::atoi(env));
     report(mesh, cfg, true);
     return;
   }
-  report(mesh, BuildConfig{}, true);
+  report(mesh, benchConfig(), true);
   if (mesh.triangleCount() > 2'000'000) return; // keep huge runs to a couple of minutes
-  BuildConfig one;
+  BuildConfig one = benchConfig();
   one.threads = 1;
   report(mesh, one, false);
 }

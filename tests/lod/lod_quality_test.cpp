@@ -142,7 +142,9 @@ TEST(LodQuality, DISABLED_CutVersusSimplifyChain) {
   const char* which = std::getenv("MIRAGE_LOD_QUALITY_MESH");
   MIRAGE_REQUIRE_DATA(path, which ? which : "stanford-bunny/bun_zipper.ply");
   Mesh mesh = *lodtest::readAsciiPly(path);
-  Result<ClusterDag> dag = buildClusterDag(mesh, {});
+  BuildConfig cfg;
+  if (const char* env = std::getenv("MIRAGE_LOD_NORMAL_WEIGHT")) cfg.normalWeight = float(std::atof(env));
+  Result<ClusterDag> dag = buildClusterDag(mesh, cfg);
   ASSERT_TRUE(dag.ok());
   std::vector<Tri> original = meshTriangles(mesh, mesh.indices);
   std::vector<float> errors;
