@@ -450,6 +450,9 @@ void SurfelRenderer::stageCmdPrefix(VkCommandBuffer cmd, GpuTimer& timer) {
   impl_->cmdPrefix(cmd, impl_->stagePush, timer);
 }
 void SurfelRenderer::stageCmdSplat(VkCommandBuffer cmd, GpuTimer& timer) {
+  // The cluster passes between the prefix and here pushed their own constants (another layout):
+  // push ours again, else the splat reads the cluster push's addresses as its own.
+  vkCmdPushConstants(cmd, impl_->layout, kPushStages, 0, sizeof(impl_->stagePush), &impl_->stagePush);
   impl_->cmdSplat(cmd, SurfelRaster::Compute, timer);
 }
 

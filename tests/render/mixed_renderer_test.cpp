@@ -145,7 +145,8 @@ protected:
   }
 };
 
-// In the band (fade 0.5: half the pixels to each kind) the union covers the mesh's own silhouette.
+// In the band (fade 0.2 / 0.5 / 0.8 of the pixels to the surfels) the union covers the mesh's own
+// silhouette, and each kind draws its share.
 TEST_F(MixedRender, BandIsHoleFree) {
   Renderers r = makeRenderers({glm::mat4(1.0f)});
   for (float factor : {1.1f, 1.25f, 1.4f}) {
@@ -155,16 +156,26 @@ TEST_F(MixedRender, BandIsHoleFree) {
     EXPECT_EQ(mixed.stats.surfels.fadingInstances, 1u) << factor;
     EXPECT_EQ(mixed.stats.instancesVisible, 1u) << factor; // the mesh draws its share too
     EXPECT_GT(mixed.stats.trianglesRasterized, 0u);
-    size_t inside = 0, holes = 0;
+    size_t inside = 0, holes = 0, changed = 0;
     for (size_t i = 0; i < size_t(kSize) * kSize; ++i)
       if (!isBackground(mesh.image.srgb, i)) {
         ++inside;
         holes += isBackground(mixed.image.srgb, i);
+        const uint8_t* a = &mesh.image.srgb.pixels[i * 4];
+        changed += !std::equal(a, a + 3, &mixed.image.srgb.pixels[i * 4]);
       }
     ASSERT_GT(inside, 500u);
     double fraction = double(holes) / double(inside);
     RecordProperty(fmt::format("holes_{}", factor), std::to_string(fraction));
     EXPECT_LE(fraction, 0.01) << "depth factor " << factor << ": " << holes << " of " << inside;
+    // Both kinds really draw their share: the surfels' pixels (shaded from surfel positions and
+    // normals, so they differ from the mesh's) are about `fade` of the silhouette. Without this a
+    // mesh that ignored the dither would pass the hole check alone.
+    float fade = (factor - 1.0f) / kBand;
+    EXPECT_GT(mixed.stats.surfels.surfelsSplatted, 0u) << factor;
+    double changedFraction = double(changed) / double(inside);
+    RecordProperty(fmt::format("surfel_share_{}", factor), std::to_string(changedFraction));
+    EXPECT_NEAR(changedFraction, fade, 0.05) << "depth factor " << factor;
   }
 }
 
