@@ -95,8 +95,12 @@ Camera cameraAt(float depthFactor) {
   return c;
 }
 
-ClusterRenderSettings clusterSettings(const Camera& camera) {
+// Hybrid with threshold 0 sends every cluster to the hardware path (its fragment shader applies the
+// dither); Auto resolves to compute or hybrid wherever 64-bit atomics exist.
+ClusterRenderSettings clusterSettings(const Camera& camera, RasterBackend raster = RasterBackend::Auto) {
   ClusterRenderSettings s;
+  s.raster = raster;
+  if (raster == RasterBackend::Hybrid) s.hybridThreshold = 0.0f;
   s.base.width = s.base.height = kSize;
   s.base.camera = camera;
   s.base.background = kMagenta;
@@ -122,15 +126,15 @@ Renderers makeRenderers(const std::vector<glm::mat4>& transforms) {
   return r;
 }
 
-ClusterRenderOutput renderMixed(Renderers& r, const Camera& camera) {
-  ClusterRenderSettings s = clusterSettings(camera);
+ClusterRenderOutput renderMixed(Renderers& r, const Camera& camera, RasterBackend raster = RasterBackend::Auto) {
+  ClusterRenderSettings s = clusterSettings(camera, raster);
   s.surfels = r.surfels.get();
   auto out = r.clusters->render(s);
   EXPECT_TRUE(out.ok()) << out.error().message;
   return std::move(*out);
 }
-ClusterRenderOutput renderMeshOnly(Renderers& r, const Camera& camera) {
-  auto out = r.clusters->render(clusterSettings(camera));
+ClusterRenderOutput renderMeshOnly(Renderers& r, const Camera& camera, RasterBackend raster = RasterBackend::Auto) {
+  auto out = r.clusters->render(clusterSettings(camera, raster));
   EXPECT_TRUE(out.ok()) << out.error().message;
   return std::move(*out);
 }
@@ -146,37 +150,42 @@ protected:
 };
 
 // In the band (fade 0.2 / 0.5 / 0.8 of the pixels to the surfels) the union covers the mesh's own
-// silhouette, and each kind draws its share.
+// silhouette, and each kind draws its share; with the compute rasterizer and the hardware path.
 TEST_F(MixedRender, BandIsHoleFree) {
   Renderers r = makeRenderers({glm::mat4(1.0f)});
-  for (float factor : {1.1f, 1.25f, 1.4f}) {
-    Camera cam = cameraAt(factor);
-    ClusterRenderOutput mesh = renderMeshOnly(r, cam);
-    ClusterRenderOutput mixed = renderMixed(r, cam);
-    EXPECT_EQ(mixed.stats.surfels.fadingInstances, 1u) << factor;
-    EXPECT_EQ(mixed.stats.instancesVisible, 1u) << factor; // the mesh draws its share too
-    EXPECT_GT(mixed.stats.trianglesRasterized, 0u);
-    size_t inside = 0, holes = 0, changed = 0;
-    for (size_t i = 0; i < size_t(kSize) * kSize; ++i)
-      if (!isBackground(mesh.image.srgb, i)) {
-        ++inside;
-        holes += isBackground(mixed.image.srgb, i);
-        const uint8_t* a = &mesh.image.srgb.pixels[i * 4];
-        changed += !std::equal(a, a + 3, &mixed.image.srgb.pixels[i * 4]);
+  for (RasterBackend raster : {RasterBackend::Compute, RasterBackend::Hybrid})
+    for (float factor : {1.1f, 1.25f, 1.4f}) {
+      SCOPED_TRACE(toString(raster));
+      Camera cam = cameraAt(factor);
+      ClusterRenderOutput mesh = renderMeshOnly(r, cam, raster);
+      ClusterRenderOutput mixed = renderMixed(r, cam, raster);
+      if (raster == RasterBackend::Hybrid) {
+        EXPECT_GT(mixed.stats.clustersHardware, 0u);
       }
-    ASSERT_GT(inside, 500u);
-    double fraction = double(holes) / double(inside);
-    RecordProperty(fmt::format("holes_{}", factor), std::to_string(fraction));
-    EXPECT_LE(fraction, 0.01) << "depth factor " << factor << ": " << holes << " of " << inside;
-    // Both kinds really draw their share: the surfels' pixels (shaded from surfel positions and
-    // normals, so they differ from the mesh's) are about `fade` of the silhouette. Without this a
-    // mesh that ignored the dither would pass the hole check alone.
-    float fade = (factor - 1.0f) / kBand;
-    EXPECT_GT(mixed.stats.surfels.surfelsSplatted, 0u) << factor;
-    double changedFraction = double(changed) / double(inside);
-    RecordProperty(fmt::format("surfel_share_{}", factor), std::to_string(changedFraction));
-    EXPECT_NEAR(changedFraction, fade, 0.05) << "depth factor " << factor;
-  }
+      EXPECT_EQ(mixed.stats.surfels.fadingInstances, 1u) << factor;
+      EXPECT_EQ(mixed.stats.instancesVisible, 1u) << factor; // the mesh draws its share too
+      EXPECT_GT(mixed.stats.trianglesRasterized, 0u);
+      size_t inside = 0, holes = 0, changed = 0;
+      for (size_t i = 0; i < size_t(kSize) * kSize; ++i)
+        if (!isBackground(mesh.image.srgb, i)) {
+          ++inside;
+          holes += isBackground(mixed.image.srgb, i);
+          const uint8_t* a = &mesh.image.srgb.pixels[i * 4];
+          changed += !std::equal(a, a + 3, &mixed.image.srgb.pixels[i * 4]);
+        }
+      ASSERT_GT(inside, 500u);
+      double fraction = double(holes) / double(inside);
+      RecordProperty(fmt::format("holes_{}_{}", toString(raster), factor), std::to_string(fraction));
+      EXPECT_LE(fraction, 0.01) << "depth factor " << factor << ": " << holes << " of " << inside;
+      // Both kinds really draw their share: the surfels' pixels (shaded from surfel positions and
+      // normals, so they differ from the mesh's) are about `fade` of the silhouette. Without this a
+      // mesh that ignored the dither would pass the hole check alone.
+      float fade = (factor - 1.0f) / kBand;
+      EXPECT_GT(mixed.stats.surfels.surfelsSplatted, 0u) << factor;
+      double changedFraction = double(changed) / double(inside);
+      RecordProperty(fmt::format("surfel_share_{}_{}", toString(raster), factor), std::to_string(changedFraction));
+      EXPECT_NEAR(changedFraction, fade, 0.05) << "depth factor " << factor;
+    }
 }
 
 // Beyond the band the mixed frame is the surfel-only frame; before it, the mesh-only frame.
