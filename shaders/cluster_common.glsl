@@ -155,3 +155,5 @@ bool setHistoryBitAt(uint bit) {
   if ((history.data[bit >> 5] & (1u << (bit & 31u))) != 0) return false; // most pixels: no atomic
   return (atomicOr(history.data[bit >> 5], 1u << (bit & 31u)) & (1u << (bit & 31u))) == 0;
 }
+
+#include "cluster_fade.glsl"

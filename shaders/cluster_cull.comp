@@ -18,6 +18,7 @@ void main() {
   if (i >= f.instanceCount) return;
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[i];
   if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0 && !sphereVisible(inst.sphere)) return;
+  if (instanceFade(i) >= 1.0) return; // mixed scenes: drawn by its surfels alone
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
 
   // Every LOD sphere of the mesh lies within `reach` of its centre, so its distance term

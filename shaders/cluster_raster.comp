@@ -31,7 +31,7 @@ vec3 toScreen(vec4 clip, vec2 viewport) {
 }
 
 // One screen-space triangle (snapped vertices) into the 64-bit visibility buffer.
-void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, vec2 viewport) {
+void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, vec2 viewport, float fade) {
   float area = edge(a.xy, p1.xy, p2.xy);
   if (area == 0.0) return;
   // Vulkan: with y down, a counter-clockwise (front) triangle has a negative edge area here.
@@ -56,6 +56,7 @@ void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirror
       if ((w0 == 0.0 && !tl0) || (w1 == 0.0 && !tl1) || (w2 == 0.0 && !tl2)) continue;
       float z = (w0 * a.z + w1 * p1.z + w2 * p2.z) / area;
       if (z < 0.0) continue; // beyond the far plane
+      if (!meshKeepsPixel(fade, uvec2(x, y))) continue; // the surfels' pixel in the blend band
       uint64_t value = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
       atomicMax(vis.pixels[uint(y) * width + uint(x)], value);
     }
@@ -80,6 +81,7 @@ void main() {
 
   bool keepAll = (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 || (inst.flags & MIRAGE_INSTANCE_DOUBLE_SIDED) != 0;
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
+  float fade = instanceFade(vc.instance);
   for (uint t = gl_LocalInvocationIndex; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
     uint b = (c.triangleOffset + t) * 3u;
     uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
@@ -87,7 +89,7 @@ void main() {
     vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
     float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
     if (d[0] >= 0.0 && d[1] >= 0.0 && d[2] >= 0.0) {
-      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f.viewport);
+      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f.viewport, fade);
       continue;
     }
     if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
@@ -102,7 +104,7 @@ void main() {
       if ((d[k] >= 0.0) != (d[k1] >= 0.0)) poly[n++] = toScreen(mix(q[k], q[k1], d[k] / (d[k] - d[k1])), f.viewport);
     }
     atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
-    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f.viewport);
-    if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f.viewport);
+    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f.viewport, fade);
+    if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f.viewport, fade);
   }
 }

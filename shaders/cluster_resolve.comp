@@ -14,6 +14,7 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 layout(set = 0, binding = 1) uniform usampler2D visImage;
 
 #include "shading.glsl"
+#include "cluster_surfel_shade.glsl"
 
 layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D outImage;
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -38,9 +39,14 @@ void main() {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
   if (px.x >= int(f.viewport.x) || px.y >= int(f.viewport.y)) return;
-  uint v1, t;
+  uint v1, t, surfelId = 0;
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
     uint id = uint(VisBufferRef(push.visBufferAddress).pixels[px.y * int(f.viewport.x) + px.x] & 0xffffffffUL);
+    // Mixed scenes: a tagged id is a surfel; the mesh path below then runs as for background.
+    if (f.surfelLinkAddress != 0 && (id & MIRAGE_SURFEL_ID_TAG) != 0) {
+      surfelId = id & ~MIRAGE_SURFEL_ID_TAG;
+      id = 0;
+    }
     v1 = id >> MIRAGE_CLUSTER_TRIANGLE_BITS;
     t = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
   } else {
@@ -86,6 +92,11 @@ void main() {
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
   GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
   if (background) {
+    if (surfelId != 0) {
+      ClusterSurfelLink link = LinkRef(f.surfelLinkAddress).link;
+      imageStore(outImage, px, vec4(shadeLinkedSurfel(link, surfelId, f), 1.0));
+      return;
+    }
     imageStore(outImage, px, f.background);
     return;
   }

@@ -5,5 +5,7 @@ void main() {
   uint id = (inId.x << MIRAGE_CLUSTER_TRIANGLE_BITS) | inId.y;
   uint64_t value = (uint64_t(floatBitsToUint(gl_FragCoord.z)) << 32) | uint64_t(id);
   ivec2 p = ivec2(gl_FragCoord.xy);
+  uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
+  if (!meshKeepsPixel(instanceFade(instance), uvec2(p))) return; // the surfels' pixel in the blend band
   atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(f.viewport.x) + p.x], value);
 }

@@ -16,6 +16,7 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SrCounterRef
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SrDrawRef { uvec4 draws[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer SrVisRef { uint64_t pixels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SrFloatRef { float v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer SrFadeRef { float v[]; };
 
 layout(push_constant, scalar) uniform Push { SurfelRenderPush push; };
 
@@ -50,7 +51,4 @@ uint findInstance(uint value, bool batches) {
   return lo;
 }
 
-// Ordered dither in [0, 1) per pixel (interleaved gradient noise, Jimenez 2014): the surfels of a
-// fading instance keep pixels below `fade`, the mesh keeps the others, so the two never overlap and
-// never leave a hole.
-float fadeDither(uvec2 px) { return fract(52.9829189 * fract(0.06711056 * float(px.x) + 0.00583715 * float(px.y))); }
+#include "fade_dither.glsl"

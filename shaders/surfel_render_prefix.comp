@@ -37,6 +37,9 @@ void main() {
     fade = f.fadeBand > 0.0 ? clamp((distance - switchDistance) / (f.fadeBand * switchDistance), 0.0, 1.0)
                             : (distance >= switchDistance ? 1.0 : 0.0);
   }
+  // Mixed scenes: the cluster renderer's instance of the same object draws the complementary pixels
+  // (dither >= fade), and skips the instance entirely at fade 1 (cluster_cull.comp).
+  if (push.meshFadeAddress != 0 && inst.meshInstance != ~0u) SrFadeRef(push.meshFadeAddress).v[inst.meshInstance] = fade;
   bool visible = ((f.flags & MIRAGE_SURFEL_FRUSTUM_CULL) == 0 || sphereVisible(f, inst.sphere)) && fade > 0.0;
   uint count = visible ? uint(k) : 0u;
   // Disc radius: the prefix's Poisson radius radii[k-1], which bounds its covering radius (every

@@ -48,7 +48,7 @@ void main() {
     // Behind the eye, nearer than the near plane (reverse-Z: z > w) or beyond the far plane (z < 0).
     if (clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) continue;
     vec2 p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
-    uint64_t value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t(s.firstId + i);
+    uint64_t value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t((s.firstId + i) | f.idTag);
     float radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
     if (p.x < 0.0 || p.y < 0.0 || p.x >= f.viewport.x || p.y >= f.viewport.y) {
       if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;

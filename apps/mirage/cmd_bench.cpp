@@ -43,9 +43,14 @@ struct BenchRenderOptions {
   bool baselines = false;     // .mrg only: brute force + discrete LOD chain in the same run
   LodCullOptions cull;        // .mrg only
   std::string camera;         // .mrg only: empty = auto 3/4 view
+  bool surfels = false;       // .mrg with DAGs + per-mesh SURF chunks: the mixed scene
+  float surfelSize = 2.0f;
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
+  if (o.surfels && !mrgHasClusterDags(o.input))
+    return fail(o.input + ": bench render --surfels needs a .mrg with cluster DAGs and SURF chunks (surfel-only: "
+                          "mirage bench surfels)");
   if (isLodAssetPath(o.input)) {
     LodRenderRequest r{.input = o.input,
                        .camera = o.camera,
@@ -59,7 +64,9 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .stats = true,
                        .json = o.json,
                        .baselines = o.baselines,
-                       .cull = o.cull};
+                       .cull = o.cull,
+                       .surfels = o.surfels,
+                       .surfelSize = o.surfelSize};
     return runLodBench(r);
   }
   if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
@@ -328,6 +335,8 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
   r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute|hybrid")->capture_default_str();
   addLodCullOptions(*r, o->cull, /*bench=*/true);
+  r->add_flag("--surfels", o->surfels, ".mrg with DAGs and per-mesh SURF chunks: meshes near, surfels far");
+  r->add_option("--surfel-size", o->surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str();
   r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,

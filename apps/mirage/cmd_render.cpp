@@ -38,6 +38,26 @@ struct RenderOptions {
 };
 
 void runRender(const RenderOptions& o) {
+  if (o.surfels && mrgHasClusterDags(o.input)) { // DAGs + SURF: meshes near, surfels far (one frame)
+    if (!o.pvs.empty() || o.surfelRaster != "auto")
+      return fail("--pvs and --surfel-raster do not apply to mixed scenes");
+    LodRenderRequest r{.input = o.input,
+                       .output = o.output,
+                       .exr = o.exr,
+                       .camera = o.camera,
+                       .path = o.path,
+                       .size = o.size,
+                       .device = o.device,
+                       .raster = o.raster,
+                       .tau = o.tau,
+                       .frames = o.repeat,
+                       .stats = o.stats,
+                       .json = o.json,
+                       .cull = o.cull,
+                       .surfels = true,
+                       .surfelSize = o.surfelSize};
+    return runLodRender(r);
+  }
   if (o.surfels) {
     if (!o.pvs.empty() || !o.exr.empty() || !o.path.empty())
       return fail("--pvs, --exr and --path do not apply to --surfels");

@@ -15,7 +15,9 @@
 #include "lod_render.h"
 #include "mirage/io/image_io.h"
 #include "mirage/lod/lod_asset.h"
+#include "mirage/asset/container.h"
 #include "mirage/render/cluster_renderer.h"
+#include "mirage/surfels/surfel_io.h"
 #include "render_common.h"
 
 namespace mirage::cli {
@@ -29,7 +31,47 @@ struct Session {
   render::ClusterRenderSettings settings;
   std::vector<render::Camera> path; // --path: frame i uses path[i % size]
   double loadSeconds = 0.0;
+  std::vector<surfels::MeshSurfels> clouds; // --surfels: per-mesh clouds (kept alive for the renderer)
+  std::unique_ptr<render::SurfelRenderer> surfelRenderer;
 };
+
+// --surfels: the file's per-mesh clouds placed on every instance of their mesh (after --grid), each
+// linked to its cluster instance for the cross-fade. Returns false after fail().
+bool openSurfels(const LodRenderRequest& r, Session& s) {
+  auto clouds = surfels::readSurfelMrgAll(r.input);
+  if (!clouds) return fail(clouds.error()), false;
+  s.clouds = std::move(*clouds);
+  render::SurfelScene scene;
+  std::vector<int32_t> cloudOfMesh(s.asset.scene.meshes.size(), -1);
+  for (const surfels::MeshSurfels& m : s.clouds) {
+    if (m.mesh == surfels::kWholeScene)
+      return fail(r.input +
+                  ": a whole-scene SURF chunk cannot cross-fade with meshes (write per-mesh clouds: "
+                  "mirage surfels INPUT --per-mesh --append -o " +
+                  r.input + ")"),
+             false;
+    if (m.mesh >= cloudOfMesh.size() || m.cloud.size() == 0)
+      return fail(fmt::format("{}: SURF chunk for mesh {} of {} (or empty)", r.input, m.mesh, cloudOfMesh.size())),
+             false;
+    const Mesh& mesh = s.asset.scene.meshes[m.mesh];
+    Material material =
+        mesh.material < s.asset.scene.materials.size() ? s.asset.scene.materials[mesh.material] : Material{};
+    cloudOfMesh[m.mesh] = int32_t(scene.clouds.size());
+    scene.clouds.push_back({&m.cloud, material});
+  }
+  for (uint32_t i = 0; i < s.asset.scene.instances.size(); ++i) {
+    const Instance& inst = s.asset.scene.instances[i];
+    if (inst.mesh < cloudOfMesh.size() && cloudOfMesh[inst.mesh] >= 0)
+      scene.instances.push_back({uint32_t(cloudOfMesh[inst.mesh]), inst.transform, i});
+  }
+  if (scene.instances.empty()) return fail(r.input + ": no instance uses a mesh with a SURF chunk"), false;
+  auto renderer = render::SurfelRenderer::create(*s.ctx, scene);
+  if (!renderer) return fail(renderer.error()), false;
+  s.surfelRenderer = std::move(*renderer);
+  s.settings.surfels = s.surfelRenderer.get();
+  s.settings.surfelSettings.surfelSize = r.surfelSize;
+  return true;
+}
 
 // "on" / "off" (and "both" where allowed) of a culling option; false after fail().
 bool parseSwitch(const std::string& value, const char* option, bool allowBoth) {
@@ -71,6 +113,10 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   auto renderer = render::ClusterRenderer::create(*s.ctx, s.asset);
   if (!renderer) return fail(renderer.error()), false;
   s.renderer = std::move(*renderer);
+  if (r.surfels) {
+    if (!(r.surfelSize >= 0.5f && r.surfelSize <= 16.0f)) return fail("--surfel-size must be in 0.5..16 pixels"), false;
+    if (!openSurfels(r, s)) return false;
+  }
   s.settings.base.width = width;
   s.settings.base.height = height;
   s.settings.base.camera =
@@ -151,7 +197,10 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"clusters_hardware", st.clustersHardware},
           {"triangles_near_clipped", st.trianglesNearClipped},
           {"clusters_overflow", st.clustersOverflow},
-          {"triangles_rasterized", st.trianglesRasterized}};
+          {"triangles_rasterized", st.trianglesRasterized},
+          {"surfel_instances", st.surfels.visibleInstances},
+          {"surfel_instances_fading", st.surfels.fadingInstances},
+          {"surfels_splatted", st.surfels.surfelsSplatted}};
 }
 
 void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>& times, bool median) {
@@ -166,6 +215,9 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
                st.clustersOcclusionCulled, st.historyKept);
   fmt::print("clusters drawn {} ({} by hardware)  triangles rasterized {}  near-clipped {}\n", st.clustersDrawn,
              st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
+  if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)
+    fmt::print("surfels: {} instances ({} in the blend band)  surfels splatted {}\n", st.surfels.visibleInstances,
+               st.surfels.fadingInstances, st.surfels.surfelsSplatted);
   for (const auto& t : times) fmt::print("gpu {:<8} {:9.3f} ms{}\n", t.name, t.milliseconds, median ? " (median)" : "");
 }
 
@@ -193,6 +245,15 @@ void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
 }
 
 bool isLodAssetPath(const std::string& input) { return input.size() > 4 && input.ends_with(".mrg"); }
+
+bool mrgHasClusterDags(const std::string& input) {
+  if (!isLodAssetPath(input)) return false;
+  auto reader = asset::AssetReader::open(input);
+  if (!reader) return false; // the surfel path reports the error
+  for (const asset::ChunkInfo& c : reader->chunks())
+    if (c.type == asset::chunk::ClusterDag) return true;
+  return false;
+}
 
 void runLodRender(const LodRenderRequest& r) {
   if (r.frames < 1 || r.frames > 10000) return fail("--repeat must be in 1..10000");

@@ -1,11 +1,13 @@
 // mirage surfels INPUT -o out.ply|out.mrg: progressive blue-noise surfels of a scene or a point cloud
 // (issue 5); --per-mesh: one cloud per mesh.
 #include <chrono>
+#include <span>
 
 #include <fmt/format.h>
 
 #include "cmd_list.h"
 #include "commands.h"
+#include "mirage/asset/container.h"
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/gpu_sampler.h"
 #include "mirage/surfels/point_cloud.h"
@@ -28,6 +30,7 @@ struct SurfelsOptions {
   float threshold = 0.75f;
   bool reference = false;
   bool perMesh = false;
+  bool append = false; // add the SURF chunks to the existing .mrg at -o (its other chunks kept)
   bool bitonicSort = false;
 };
 
@@ -137,6 +140,22 @@ Scene meshScene(const Scene& scene, uint32_t index) {
   return sub;
 }
 
+// --append: the existing file's chunks (its SURF chunks replaced) plus `clouds`, written atomically.
+Status appendSurfelChunks(const std::string& path, std::span<const surfels::MeshSurfels> clouds) {
+  auto reader = asset::AssetReader::open(path);
+  if (!reader) return reader.error();
+  asset::AssetWriter writer;
+  for (size_t i = 0; i < reader->chunks().size(); ++i) {
+    if (reader->chunks()[i].type == asset::chunk::Surfels) continue;
+    auto bytes = reader->readChunk(i);
+    if (!bytes) return bytes.error();
+    writer.addChunk(reader->chunks()[i].type, *bytes);
+  }
+  for (const surfels::MeshSurfels& m : clouds)
+    writer.addChunk(asset::chunk::Surfels, surfels::encodeSurfelChunk(m.cloud, m.mesh));
+  return writer.write(path);
+}
+
 void runSurfels(const SurfelsOptions& o) {
   // Everything cheap first, so bad input fails before the import and the GPU start.
   if (auto s = checkOutputPath(o.output, {".ply", ".mrg"}); !s) return fail(s.error());
@@ -147,6 +166,12 @@ void runSurfels(const SurfelsOptions& o) {
   if (!(o.threshold > 0.0f && o.threshold <= 1.0f)) return fail("--threshold must be in (0, 1]");
   if (o.perMesh && !o.output.ends_with(".mrg"))
     return fail("--per-mesh writes one SURF chunk per mesh: use a .mrg output");
+  if (o.append && !o.perMesh)
+    return fail("--append adds per-mesh SURF chunks to a baked .mrg: give --per-mesh (mirage build INPUT -o A.mrg; "
+                "mirage surfels INPUT --per-mesh --append -o A.mrg)");
+  if (o.append) {
+    if (auto r = asset::AssetReader::open(o.output); !r) return fail(r.error());
+  }
 
   auto t0 = std::chrono::steady_clock::now();
   io::ImportOptions importOptions;
@@ -179,7 +204,8 @@ void runSurfels(const SurfelsOptions& o) {
                  sampled->captureSeconds + sampled->samplerSeconds);
     }
     if (clouds.empty()) return fail(o.input + ": scene has no triangles to sample");
-    if (Status w = surfels::writeSurfelMrg(o.output, clouds); !w) return fail(w.error());
+    if (Status w = o.append ? appendSurfelChunks(o.output, clouds) : surfels::writeSurfelMrg(o.output, clouds); !w)
+      return fail(w.error());
     fmt::print("surfels {} -> {}: {} SURF chunks (one per mesh, object space) on {}\n", o.input, o.output,
                clouds.size(), device);
     return;
@@ -220,6 +246,9 @@ void addSurfelsCommand(CLI::App& app) {
   cmd->add_option("--layers", o->layers, "Depth-peeling layers per view (occluded interior surfaces)")
       ->capture_default_str();
   cmd->add_flag("--reference", o->reference, "Also run the exact CPU farthest-point reference and compare");
+  cmd->add_flag(
+      "--append", o->append,
+      "--per-mesh: add the SURF chunks to the existing .mrg at -o (e.g. from mirage build), keeping its DAGs");
   cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
   cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");

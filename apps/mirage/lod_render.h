@@ -34,9 +34,13 @@ struct LodRenderRequest {
   bool json = false;
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
   LodCullOptions cull;
+  bool surfels = false;    // --surfels on a .mrg with DAGs and per-mesh SURF chunks: meshes near, surfels far
+  float surfelSize = 2.0f; // --surfel-size
 };
 
 bool isLodAssetPath(const std::string& input);
+// A .mrg holding cluster DAGs ('CDAG'): `--surfels` on it renders the mixed scene (docs/render.md).
+bool mrgHasClusterDags(const std::string& input);
 void runLodRender(const LodRenderRequest& request);
 void runLodBench(const LodRenderRequest& request);
 

@@ -89,6 +89,7 @@ struct ClusterRenderer::Impl {
   Context& ctx;
   ClusterSceneData scene;
   Buffer frame, visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
+  Buffer fade, surfelLink;   // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
   DescriptorSet descriptors; // material textures, the visibility image, the colour target, depth
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> cullPipeline, selectPipeline, argsPipeline, rasterPipeline, meshPipeline, indirectPipeline,
@@ -470,6 +471,10 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   if (!resolved) return resolved.error();
   RasterBackend backend = *resolved;
   bool bufferTarget = backend == RasterBackend::Compute || backend == RasterBackend::Hybrid;
+  if (cs.surfels && !bufferTarget)
+    return Error{fmt::format("mesh + surfel scenes share the 64-bit visibility buffer: --raster {} cannot draw "
+                             "them (use compute or hybrid)",
+                             toString(backend))};
   bool occlusion = cs.occlusionCulling && d.historyUsable;
   d.ensureTargets(s.width, s.height);
 
@@ -503,6 +508,32 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   f.lateInstanceAddress = d.lateInstances.address();
   f.instanceHistoryBase = uint32_t(d.scene.instancedClusters);
   std::copy(std::begin(d.hzbOffset), std::end(d.hzbOffset), std::begin(f.hzbOffset));
+  if (cs.surfels) {
+    if (!d.fade) {
+      d.fade = createBuffer(d.ctx, uint64_t(std::max(d.scene.instanceCount, 1u)) * 4,
+                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                            "mesh fade");
+      d.surfelLink = createBuffer(d.ctx, sizeof(sio::ClusterSurfelLink), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                  MemoryUsage::Upload, "surfel link");
+    }
+    SurfelStageFrame sf;
+    sf.viewProj = f.viewProj;
+    sf.eye = cam.eye;
+    sf.znear = cam.znear;
+    sf.pixelScale = f.errorScale; // the same pixels per world unit at distance 1
+    sf.width = s.width;
+    sf.height = s.height;
+    sf.visBufferAddress = d.visBuffer.address();
+    sf.meshFadeAddress = d.fade.address();
+    SurfelRenderSettings ss = cs.surfelSettings;
+    ss.meshFade = true;
+    ss.frustumCulling = cs.frustumCulling;
+    if (Status st = cs.surfels->stagePrepare(ss, sf); !st) return st.error();
+    sio::ClusterSurfelLink link = cs.surfels->stageLink();
+    std::memcpy(d.surfelLink.mapped(), &link, sizeof(link));
+    f.fadeAddress = d.fade.address();
+    f.surfelLinkAddress = d.surfelLink.address();
+  }
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::ClusterPush p = d.push();
 
@@ -516,7 +547,15 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                      VK_ACCESS_2_TRANSFER_WRITE_BIT);
     vkCmdFillBuffer(cmd, d.counters.handle(), 0, VK_WHOLE_SIZE, 0);
     if (bufferTarget) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
+      vkCmdFillBuffer(cmd, d.fade.handle(), 0, VK_WHOLE_SIZE, 0);
+      cs.surfels->stageCmdClear(cmd);
+    }
     cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
+    if (cs.surfels) { // k and the fade per instance first: the mesh passes read the fade
+      cs.surfels->stageCmdPrefix(cmd, d.timer);
+      cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
+    }
     d.cmdSelect(cmd, p); // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
     if (occlusion) {     // the select pass read last frame's history; the resolve writes this frame's
       vkCmdFillBuffer(cmd, d.history.handle(), 0, VK_WHOLE_SIZE, 0);
@@ -529,6 +568,10 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
       d.cmdOcclusion(cmd, p); // pass-2 cull: candidates against the HZB
       d.cmdArgs(cmd, p, /*pass=*/1);
       d.cmdRasterize(cmd, p, backend, 1); // the newly visible clusters
+    }
+    if (cs.surfels) { // after the meshes, so the HZB holds meshes only (as without surfels)
+      cs.surfels->stageCmdSplat(cmd, d.timer);
+      cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
     }
     d.cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
     d.timer.cmdEnd(cmd, frameSlot);
@@ -559,6 +602,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   st.trianglesRasterized = c.trianglesSelected;
   st.raster = backend;
   st.occlusion = occlusion;
+  if (cs.surfels) st.surfels = cs.surfels->stageStats();
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = c.trianglesSelected;
 

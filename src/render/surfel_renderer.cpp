@@ -80,8 +80,9 @@ struct SurfelRenderer::Impl {
   void createPipelines();
   void ensureTargets(uint32_t w, uint32_t h);
   sio::SurfelRenderPush push() const;
-  void cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRenderPush& p);
-  void cmdSplat(VkCommandBuffer cmd, SurfelRaster raster); // push constants from cmdPrefix
+  void cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRenderPush& p, GpuTimer& t);
+  void cmdSplat(VkCommandBuffer cmd, SurfelRaster raster, GpuTimer& t); // push constants from cmdPrefix
+  sio::SurfelRenderPush stagePush{}; // mixed scenes: the shared visibility buffer and fade array
   void cmdResolve(VkCommandBuffer cmd, const sio::SurfelRenderPush& p);
 };
 
@@ -124,6 +125,7 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
     Bounds world = transformBounds(cloud.box, p.transform);
     g.sphere = glm::vec4(world.center(), 0.5f * glm::length(world.extent()));
     g.cloud = p.cloud;
+    g.meshInstance = p.meshInstance;
     gpuInstances.push_back(g);
     worldBounds.add(world.min);
     worldBounds.add(world.max);
@@ -215,8 +217,8 @@ sio::SurfelRenderPush SurfelRenderer::Impl::push() const {
 // barriers: on entry the counters were zeroed by a transfer and made visible to compute. On exit
 // the instance states, draws and dispatch arguments are written and visible to the indirect,
 // vertex, fragment and compute stages.
-void SurfelRenderer::Impl::cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRenderPush& p) {
-  uint32_t slot = timer.cmdBegin(cmd, "prefix", kCS);
+void SurfelRenderer::Impl::cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRenderPush& p, GpuTimer& t) {
+  uint32_t slot = t.cmdBegin(cmd, "prefix", kCS);
   vkCmdPushConstants(cmd, layout, kPushStages, 0, sizeof(p), &p);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, prefixPipeline);
   vkCmdDispatch(cmd, (instanceCount + MIRAGE_SURFEL_INSTANCE_WORKGROUP - 1) / MIRAGE_SURFEL_INSTANCE_WORKGROUP, 1, 1);
@@ -228,14 +230,14 @@ void SurfelRenderer::Impl::cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRende
                        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
                    VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
                        VK_ACCESS_2_TRANSFER_READ_BIT);
-  timer.cmdEnd(cmd, slot, kCS);
+  t.cmdEnd(cmd, slot, kCS);
 }
 
 // barriers: cmdPrefix's outputs visible; for compute, the 64-bit visibility buffer zeroed and
 // visible to compute. On exit the visibility image is in SHADER_READ_ONLY_OPTIMAL and whatever the
 // splat wrote is visible to the resolve (compute) and to copies (tests read the ids back).
-void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster) {
-  uint32_t slot = timer.cmdBegin(cmd, "splat");
+void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster, GpuTimer& t) {
+  uint32_t slot = t.cmdBegin(cmd, "splat");
   ImageBarrier toRead{vis.handle(),
                       VK_PIPELINE_STAGE_2_NONE,
                       0,
@@ -248,8 +250,8 @@ void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster) {
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::SurfelRenderCounters, splatArgs));
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
-    cmdImageBarrier(cmd, toRead); // unused by the resolve here, but the descriptor must be valid
-    timer.cmdEnd(cmd, slot);
+    if (vis) cmdImageBarrier(cmd, toRead); // unused by the resolve here, but the descriptor must be valid
+    t.cmdEnd(cmd, slot);
     return;
   }
   ImageBarrier toAttachment[] = {
@@ -292,7 +294,7 @@ void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster) {
   toRead.srcAccess = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
   toRead.oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
   cmdImageBarrier(cmd, toRead);
-  timer.cmdEnd(cmd, slot);
+  t.cmdEnd(cmd, slot);
 }
 
 // barriers: cmdSplat's output visible to compute. The colour target ends in GENERAL with the
@@ -374,9 +376,9 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
     // track: make the clears visible to every later reader directly.
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      kCS | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, kShaderRW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-    d.cmdPrefix(cmd, p);     // cull, k per instance, ids and batches, dispatch arguments
-    d.cmdSplat(cmd, raster); // visibility: (depth, surfel id) per pixel
-    d.cmdResolve(cmd, p);    // fetch and shade
+    d.cmdPrefix(cmd, p, d.timer);     // cull, k per instance, ids and batches, dispatch arguments
+    d.cmdSplat(cmd, raster, d.timer); // visibility: (depth, surfel id) per pixel
+    d.cmdResolve(cmd, p);             // fetch and shade
     d.timer.cmdEnd(cmd, frameSlot);
   });
 
@@ -412,6 +414,67 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
   std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
   convertHalfImage(img, s.width, s.height, s.readLinear, out.image);
   return out;
+}
+
+Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const SurfelStageFrame& sf) {
+  Impl& d = *impl_;
+  if (!d.ctx.caps().int64BufferAtomics) return Error{"mixed mesh/surfel rendering needs 64-bit buffer atomics"};
+  if (!(ss.surfelSize >= 0.5f && ss.surfelSize <= 16.0f))
+    return Error{fmt::format("--surfel-size {} must be in 0.5..16 pixels", ss.surfelSize)};
+  // Surfel ids carry MIRAGE_SURFEL_ID_TAG, so the id space halves.
+  if (d.instancedCount >= MIRAGE_SURFEL_ID_TAG) return Error{"mixed scene: more than 2^31 - 1 instanced surfels"};
+  sio::SurfelRenderFrame f{};
+  f.viewProj = sf.viewProj;
+  f.invViewProj = glm::inverse(sf.viewProj);
+  f.eye = glm::vec4(sf.eye, 1.0f);
+  frustumPlanes(f.viewProj, f.planes);
+  f.viewport = {float(sf.width), float(sf.height)};
+  f.pixelScale = sf.pixelScale;
+  f.surfelSize = ss.surfelSize;
+  f.znear = sf.znear;
+  f.fadeBand = std::max(ss.fadeBand, 0.0f);
+  f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
+            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u);
+  f.instanceCount = d.instanceCount;
+  f.idTag = MIRAGE_SURFEL_ID_TAG;
+  std::memcpy(d.frame.mapped(), &f, sizeof(f));
+  d.stagePush = d.push();
+  d.stagePush.visBufferAddress = sf.visBufferAddress;
+  d.stagePush.meshFadeAddress = sf.meshFadeAddress;
+  return Ok{};
+}
+
+void SurfelRenderer::stageCmdClear(VkCommandBuffer cmd) {
+  vkCmdFillBuffer(cmd, impl_->counters.handle(), 0, VK_WHOLE_SIZE, 0);
+}
+void SurfelRenderer::stageCmdPrefix(VkCommandBuffer cmd, GpuTimer& timer) {
+  impl_->cmdPrefix(cmd, impl_->stagePush, timer);
+}
+void SurfelRenderer::stageCmdSplat(VkCommandBuffer cmd, GpuTimer& timer) {
+  // The cluster passes between the prefix and here pushed their own constants (another layout):
+  // push ours again, else the splat reads the cluster push's addresses as its own.
+  vkCmdPushConstants(cmd, impl_->layout, kPushStages, 0, sizeof(impl_->stagePush), &impl_->stagePush);
+  impl_->cmdSplat(cmd, SurfelRaster::Compute, timer);
+}
+
+sio::ClusterSurfelLink SurfelRenderer::stageLink() const {
+  const Impl& d = *impl_;
+  sio::ClusterSurfelLink l{};
+  l.stateAddress = d.states.address();
+  l.instanceAddress = d.instances.address();
+  l.cloudAddress = d.clouds.address();
+  l.positionAddress = d.positions.address();
+  l.attributeAddress = d.attributes.address();
+  l.materialAddress = d.materials.address();
+  l.instanceCount = d.instanceCount;
+  return l;
+}
+
+SurfelStageStats SurfelRenderer::stageStats() const {
+  sio::SurfelRenderCounters c{};
+  std::vector<uint8_t> raw = readbackBuffer(impl_->ctx, impl_->counters, sizeof(c));
+  std::memcpy(&c, raw.data(), sizeof(c));
+  return {c.visibleInstances, c.fadingInstances, c.totalSurfels};
 }
 
 } // namespace mirage::render

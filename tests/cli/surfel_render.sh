@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # mirage render --surfels / mirage bench surfels: a small cloud renders and benches; a .mrg without
-# a SURF chunk (a cluster-LOD asset) and bad flags exit 2 with one line and write nothing.
+# a SURF chunk (a cluster-LOD asset) and bad flags exit 2 with one line and write nothing; per-mesh
+# SURF chunks appended to a cluster-LOD .mrg render and bench as a mixed scene (meshes near, surfels far).
 # Usage: surfel_render.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 mirage=$1
@@ -33,6 +34,15 @@ expect_ok() { # NAME ARGS...
 if expect_ok build-lod build gen:blob:2 -o "$tmp/lod.mrg" --quiet; then
   expect_fail surfels-no-surf "no SURF chunk" "$tmp/a.png" -- render "$tmp/lod.mrg" -o "$tmp/a.png" --surfels
   expect_fail bench-no-surf "no SURF chunk" "" -- bench surfels "$tmp/lod.mrg" --size 32x32 --frames 2
+  # Mixed scenes: per-mesh SURF chunks appended to the DAGs; meshes near, surfels far in one frame.
+  expect_fail append-without-per-mesh "--per-mesh" "" -- surfels gen:blob:2 --append -o "$tmp/lod.mrg" --count 400 --resolution 32 --views 6
+  if expect_ok append-surfels surfels gen:blob:2 --per-mesh --append -o "$tmp/lod.mrg" --count 400 --resolution 32 --views 6; then
+    expect_ok render-mixed render "$tmp/lod.mrg" -o "$tmp/mixed.png" --surfels --size 64x64 --stats --json
+    grep -q '"surfel_instances"' "$tmp/stdout" || { echo "FAIL render-mixed: no surfel stats"; failures=$((failures + 1)); }
+    [ -s "$tmp/mixed.png" ] || { echo "FAIL render-mixed: no PNG"; failures=$((failures + 1)); }
+    expect_ok bench-mixed bench render "$tmp/lod.mrg" --surfels --raster compute --size 64x64 --frames 2 --grid 2
+    expect_fail mixed-mesh-raster "compute or hybrid" "$tmp/mm.png" -- render "$tmp/lod.mrg" -o "$tmp/mm.png" --surfels --raster mesh --size 64x64
+  fi
 fi
 if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 48 --views 6; then
   expect_ok render-surfels render "$tmp/s.mrg" -o "$tmp/s.png" --surfels --size 64x64 --stats

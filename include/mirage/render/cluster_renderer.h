@@ -17,6 +17,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
+#include "mirage/render/surfel_renderer.h"
 
 namespace mirage::render {
 
@@ -45,6 +46,12 @@ struct ClusterRenderSettings {
   // faster when consecutive frames are alike).
   bool occlusionCulling = true;
   bool coneCulling = true; // per-cluster normal cones drop back-facing clusters of single-sided instances
+  // Mixed scenes (docs/render.md, "Mixed scenes"): a surfel renderer whose placements name this
+  // renderer's instances (SurfelScene::Placement::meshInstance) draws them far away, into the same
+  // visibility buffer and resolve, cross-fading with the meshes per pixel. Its surfelSize and
+  // fadeBand apply (meshFade is forced on); needs the compute or hybrid backend.
+  SurfelRenderer* surfels = nullptr;
+  SurfelRenderSettings surfelSettings;
 };
 
 struct ClusterStats {
@@ -67,6 +74,7 @@ struct ClusterStats {
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
   bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto; // the backend that ran
+  SurfelStageStats surfels;                   // mixed scenes: instances drawn (partly) as surfels
 };
 
 struct ClusterRenderOutput {

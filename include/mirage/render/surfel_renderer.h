@@ -15,7 +15,9 @@
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
+#include "mirage/gpu/query.h"
 #include "mirage/render/forward_renderer.h"
+#include "mirage/shaderio/surfel_link.h"
 #include "mirage/surfels/surfel.h"
 
 namespace mirage::render {
@@ -39,6 +41,7 @@ struct SurfelScene {
   struct Placement {
     uint32_t cloud = 0;
     glm::mat4 transform{1.0f};
+    uint32_t meshInstance = UINT32_MAX; // mixed scenes: the ClusterRenderer instance of the same object
   };
   std::vector<Cloud> clouds;
   std::vector<Placement> instances;
@@ -86,6 +89,24 @@ inline float surfelSwitchDistance(float P, uint32_t N, float pixelScale, float s
   return N == 0 || !(P > 0.0f) ? 0.0f : 2.0f * pixelScale * std::sqrt(P / float(N)) / surfelSize;
 }
 
+// Mixed scenes (docs/render.md, "Mixed scenes"): the cluster renderer runs this renderer's prefix
+// and splat inside its own frame, with its camera, into its 64-bit visibility buffer, and shades the
+// surfel pixels in its own resolve. What that frame hands over:
+struct SurfelStageFrame {
+  glm::mat4 viewProj{1.0f};
+  glm::vec3 eye{0.0f};
+  float znear = 0.0f;
+  float pixelScale = 1.0f; // |proj[1][1]| * height / 2
+  uint32_t width = 0, height = 0;
+  uint64_t visBufferAddress = 0; // the shared uint64 per pixel buffer (zeroed by the caller)
+  uint64_t meshFadeAddress = 0;  // float per mesh instance: the prefix pass writes each fade
+};
+struct SurfelStageStats {
+  uint32_t visibleInstances = 0; // instances drawing surfels (in view, fade > 0)
+  uint32_t fadingInstances = 0;  // of those, inside the blend band (0 < fade < 1)
+  uint64_t surfelsSplatted = 0;
+};
+
 class SurfelRenderer {
 public:
   // Uploads every cloud (positions and attributes as two arrays) and the instances. Errors: no
@@ -97,6 +118,16 @@ public:
   const Bounds& worldBounds() const;
   uint64_t surfelCount() const;    // stored surfels (all clouds, once each)
   uint64_t instancedCount() const; // sum over instances of their cloud's N
+
+  // Mixed-scene stage (used by ClusterRenderer): write the frame constants (ids tagged with
+  // MIRAGE_SURFEL_ID_TAG, cross-fade on), then record clear + prefix + scan, and the splat, into the
+  // caller's command buffer, timed with the caller's timer. Needs 64-bit buffer atomics.
+  Status stagePrepare(const SurfelRenderSettings& settings, const SurfelStageFrame& frame);
+  void stageCmdClear(VkCommandBuffer cmd);
+  void stageCmdPrefix(VkCommandBuffer cmd, gpu::GpuTimer& timer);
+  void stageCmdSplat(VkCommandBuffer cmd, gpu::GpuTimer& timer);
+  shaderio::ClusterSurfelLink stageLink() const;
+  SurfelStageStats stageStats() const; // after the caller's submission completed
 
   struct Impl;
 

@@ -148,6 +148,9 @@ struct ClusterFrame {
   uint64_t lateInstanceAddress;          // VisibleInstance[]: visible instances that drew nothing last frame
   uint hzbOffset[MIRAGE_HZB_MAX_LEVELS]; // first float of each level
   uint instanceHistoryBase;              // history bit of instance i: instanceHistoryBase + i
+  // Mixed scenes (docs/render.md, "Mixed scenes"); both 0 without surfels.
+  uint64_t fadeAddress;       // float[] per instance: share of its pixels left to surfels (dither < fade)
+  uint64_t surfelLinkAddress; // ClusterSurfelLink: the resolve shades ids tagged MIRAGE_SURFEL_ID_TAG
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -215,7 +218,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 432, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 448, "ClusterFrame layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
 static_assert(sizeof(ClusterCounters) == 16 + 36 + 4 * 48 + 72, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,

@@ -52,8 +52,9 @@ struct SurfelRenderInstance {
   mat4 normalMatrix;
   vec4 sphere; // world-space bounding sphere of the cloud's box
   uint cloud;
-  float maxScale; // largest axis scale of `model`: object lengths become world lengths
-  uint pad0, pad1;
+  float maxScale;    // largest axis scale of `model`: object lengths become world lengths
+  uint meshInstance; // mixed scenes: the cluster renderer's instance it fades against (~0u: none)
+  uint pad1;
 };
 
 // Written per instance by the prefix pass every frame (read by the scan, splat and resolve).
@@ -85,6 +86,8 @@ struct SurfelRenderFrame {
   float fadeBand; // blend band width relative to the switch distance (MIRAGE_SURFEL_MESH_FADE)
   uint flags;     // MIRAGE_SURFEL_*
   uint instanceCount;
+  uint idTag; // OR-ed into every visibility id (mixed scenes: tells surfels from clusters; else 0)
+  uint pad0;
 };
 
 // Zeroed each frame; indirect arguments and statistics.
@@ -110,15 +113,16 @@ struct SurfelRenderPush {
   uint64_t drawAddress;      // VkDrawIndirectCommand[instanceCount] (raster fallback)
   uint64_t visBufferAddress; // uint64[width * height]: (reverse-Z depth bits << 32) | id
   uint64_t radiusAddress;    // float[]: SurfelCloud::radii, the Poisson radius of each prefix
+  uint64_t meshFadeAddress;  // mixed scenes: float[] per cluster instance, the prefix pass writes fade (0: none)
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(SurfelRenderCloud) == 48, "SurfelRenderCloud layout");
 static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout");
 static_assert(sizeof(SurfelInstanceState) == 96, "SurfelInstanceState layout");
-static_assert(sizeof(SurfelRenderFrame) == 320, "SurfelRenderFrame layout");
+static_assert(sizeof(SurfelRenderFrame) == 328, "SurfelRenderFrame layout");
 static_assert(sizeof(SurfelRenderCounters) == 32, "SurfelRenderCounters layout");
-static_assert(sizeof(SurfelRenderPush) == 88, "SurfelRenderPush layout");
+static_assert(sizeof(SurfelRenderPush) == 96, "SurfelRenderPush layout");
 } // namespace mirage::shaderio
 #endif
 
