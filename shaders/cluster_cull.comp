@@ -49,8 +49,9 @@ void main() {
   GpuClusterLevel a = LevelRef(push.levelAddress).levels[mesh.levelOffset + first];
   GpuClusterLevel b = LevelRef(push.levelAddress).levels[mesh.levelOffset + last];
   uint count = b.firstCluster + b.clusterCount - a.firstCluster;
-  VisibleInstance entry = VisibleInstance(i, a.firstCluster, count, 0);
-  uint groups = (count + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP;
+  VisibleInstance entry = VisibleInstance(i, a.firstCluster, count, first | ((last - first + 1) << 16));
+  // Flat selection: one thread per cluster of the range; hierarchical: one per level (its BVH root).
+  uint groups = (f.flags & MIRAGE_FRAME_HIERARCHY) != 0 ? 1 : (count + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP;
   // Occlusion: an instance that drew no pixel last frame waits for the HZB of pass 1
   // (cluster_instance_occlusion.comp) and, if it passes, the phase-2 selection.
   if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && !historyBitAt(f.instanceHistoryBase + i)) {
