@@ -117,7 +117,7 @@ struct ClusterRenderer::Impl {
   sio::ClusterPush push() const;
   void cmdPush(VkCommandBuffer cmd, sio::ClusterPush p, uint32_t rasterList);
   void cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy);
-  void cmdTraverse(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t phase, VkDeviceSize rootArgsOffset);
+  void cmdTraverse(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t phase);
   void cmdArgs(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t pass);
   void cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass);
   void cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass,
@@ -284,7 +284,7 @@ void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPus
   // range), or the BVH traversal that visits only groups above the cut.
   slot = timer.cmdBegin(cmd, "select", kCS);
   if (hierarchy) {
-    cmdTraverse(cmd, p, 0, offsetof(sio::ClusterCounters, selectArgs));
+    cmdTraverse(cmd, p, 0);
   } else {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, selectArgs));
@@ -293,18 +293,15 @@ void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPus
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
 }
 
-// Hierarchical selection of one phase: depth 0 over the visible instances' level roots (dispatch
-// at `rootArgsOffset` in the counters), then one dispatch per BVH depth over the nodes queued by
-// the previous one (cluster_traverse.comp); as many as the deepest BVH needs, fixed per scene.
+// Hierarchical selection of one phase: one dispatch per BVH depth over the nodes queued by the
+// previous depth (depth 0: the level roots queued by the cull pass or the late-instance test),
+// as many as the deepest BVH needs, fixed per scene (cluster_traverse.comp).
 // barriers: entry as the flat pass's dispatch; on exit the last depth's appends are still to be
 // made visible by the caller.
-void ClusterRenderer::Impl::cmdTraverse(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t phase,
-                                        VkDeviceSize rootArgsOffset) {
+void ClusterRenderer::Impl::cmdTraverse(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t phase) {
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, traversePipeline);
-  cmdPush(cmd, p, phase);
-  vkCmdDispatchIndirect(cmd, counters.handle(), rootArgsOffset);
-  for (uint32_t bvhDepth = 1; bvhDepth <= scene.lodDepth; ++bvhDepth) {
-    cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  for (uint32_t bvhDepth = 0; bvhDepth <= scene.lodDepth; ++bvhDepth) {
+    if (bvhDepth > 0) cmdPhaseBarrier(cmd, ctx.caps().meshShader);
     cmdPush(cmd, p, phase | bvhDepth << 1);
     vkCmdDispatchIndirect(cmd, traversal.handle(),
                           offsetof(sio::ClusterTraversal, args) + (phase * MIRAGE_LOD_MAX_DEPTH + bvhDepth) * 16);
@@ -447,7 +444,7 @@ void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::Cluster
   vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, instanceOcclusionArgs));
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   if (hierarchy) {
-    cmdTraverse(cmd, p, /*phase=*/1, offsetof(sio::ClusterCounters, lateSelectArgs));
+    cmdTraverse(cmd, p, /*phase=*/1);
   } else {
     cmdPush(cmd, p, /*phase=*/1);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
