@@ -140,6 +140,7 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
   return {{"raster", render::toString(st.raster)},
           {"selection", render::toString(st.selection)},
           {"nodes_tested", st.nodesTested},
+          {"selection_passes", st.selectionPasses},
           {"occlusion", st.occlusion},
           {"instances_visible", st.instancesVisible},
           {"clusters_tested", st.clustersTested},
@@ -160,11 +161,11 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
 }
 
 void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>& times, bool median) {
-  fmt::print("raster {}  selection {}  instances visible {}  nodes tested {}  clusters tested {}  selected {}  "
-             "frustum-culled {}  cone-culled {}{}\n",
-             render::toString(st.raster), render::toString(st.selection), st.instancesVisible, st.nodesTested,
-             st.clustersTested, st.clustersSelected, st.clustersFrustumCulled, st.clustersBackfaceCulled,
-             st.clustersOverflow ? fmt::format("  OVERFLOW {}", st.clustersOverflow) : "");
+  fmt::print("raster {}  selection {} ({} passes)  instances visible {}  nodes tested {}  clusters tested {}  "
+             "selected {}  frustum-culled {}  cone-culled {}{}\n",
+             render::toString(st.raster), render::toString(st.selection), st.selectionPasses, st.instancesVisible,
+             st.nodesTested, st.clustersTested, st.clustersSelected, st.clustersFrustumCulled,
+             st.clustersBackfaceCulled, st.clustersOverflow ? fmt::format("  OVERFLOW {}", st.clustersOverflow) : "");
   if (st.occlusion)
     fmt::print("occlusion: pass 1 drew {} clusters (visible last frame); pass 2 tested {} instances, culled {}, "
                "tested {} clusters, culled {}; {} clusters own pixels\n",

@@ -598,6 +598,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     std::vector<uint8_t> rawT = readbackBuffer(d.ctx, d.traversal, sizeof(t));
     std::memcpy(&t, rawT.data(), sizeof(t));
     st.nodesTested = t.nodesTested;
+    st.selectionPasses = d.scene.lodDepth + 1;
   }
   st.selection = cs.selection;
   st.instancesVisible = c.visibleInstances;

@@ -61,6 +61,7 @@ struct ClusterStats {
   uint32_t instancesVisible = 0;         // inside the frustum with a level range (minus occlusion-culled late ones)
   uint32_t clustersTested = 0;           // (instance, cluster) pairs the selection pass looked at
   uint32_t nodesTested = 0;              // hierarchical selection: (instance, BVH node) pairs visited
+  uint32_t selectionPasses = 0;          // hierarchical selection: dispatches per phase (deepest BVH + 1)
   uint32_t selectRows = 0;               // workgroup rows of the selection dispatch (<= 65535)
   uint32_t clustersSelected = 0;         // on the LOCALCUT cut and inside the frustum
   uint32_t clustersFrustumCulled = 0;    // on the cut but outside the frustum
