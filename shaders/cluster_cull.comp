@@ -4,6 +4,7 @@
 // dispatch (y: instances up to 65535, x: the widest range), so the cluster pass skips off-screen
 // instances and levels far from the cut.
 #include "cluster_common.glsl"
+#include "cluster_traversal.glsl"
 
 layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
 
@@ -50,7 +51,7 @@ void main() {
   GpuClusterLevel a = LevelRef(push.levelAddress).levels[mesh.levelOffset + first];
   GpuClusterLevel b = LevelRef(push.levelAddress).levels[mesh.levelOffset + last];
   uint count = b.firstCluster + b.clusterCount - a.firstCluster;
-  VisibleInstance entry = VisibleInstance(i, a.firstCluster, count, 0);
+  VisibleInstance entry = VisibleInstance(i, a.firstCluster, count, first | ((last - first + 1) << 16));
   uint groups = (count + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP;
   // Occlusion: an instance that drew no pixel last frame waits for the HZB of pass 1
   // (cluster_instance_occlusion.comp) and, if it passes, the phase-2 selection.
@@ -68,4 +69,6 @@ void main() {
   if (slot < MIRAGE_CLUSTER_DISPATCH_X) atomicAdd(counters.counters.selectArgs[1], 1);
   atomicMax(counters.counters.selectArgs[0], groups);
   VisibleInstanceRef(push.visibleInstanceAddress).entries[slot] = entry;
+  // Hierarchical selection: the traversal starts at this instance's level roots.
+  if ((f.flags & MIRAGE_FRAME_HIERARCHY) != 0) queueLevelRoots(0, slot, entry.levels);
 }

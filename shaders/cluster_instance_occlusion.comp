@@ -3,6 +3,7 @@
 // be visible are appended to the visible instances for the phase-2 selection, the rest skip
 // selection altogether. Conservative like the cluster test (cluster_occlusion.comp).
 #include "cluster_common.glsl"
+#include "cluster_traversal.glsl"
 
 layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
 
@@ -18,4 +19,5 @@ void main() {
   }
   uint slot = atomicAdd(counters.counters.visibleInstances, 1);
   VisibleInstanceRef(push.visibleInstanceAddress).entries[slot] = entry;
+  if ((f.flags & MIRAGE_FRAME_HIERARCHY) != 0) queueLevelRoots(1, slot, entry.levels);
 }

@@ -94,6 +94,8 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
     return fail("--hybrid-threshold must be a number of pixels in 0..1e6"), false;
   if (!parseSwitch(r.cull.occlusion, "--occlusion", /*allowBoth=*/!needOutput)) return false;
   if (!parseSwitch(r.cull.cones, "--cones", /*allowBoth=*/false)) return false;
+  auto selection = render::parseSelectionMode(r.cull.selection);
+  if (!selection) return fail(selection.error()), false;
   render::Camera camera;
   if (!r.camera.empty()) {
     auto c = render::parseCamera(r.camera);
@@ -133,6 +135,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   s.settings.hybridThreshold = r.cull.hybridThreshold;
   s.settings.occlusionCulling = r.cull.occlusion != "off";
   s.settings.coneCulling = r.cull.cones == "on";
+  s.settings.selection = *selection;
   return true;
 }
 
@@ -181,6 +184,9 @@ std::string pathFrameName(const std::string& output, size_t index) {
 
 nlohmann::json statsJson(const render::ClusterStats& st) {
   return {{"raster", render::toString(st.raster)},
+          {"selection", render::toString(st.selection)},
+          {"nodes_tested", st.nodesTested},
+          {"selection_passes", st.selectionPasses},
           {"occlusion", st.occlusion},
           {"instances_visible", st.instancesVisible},
           {"clusters_tested", st.clustersTested},
@@ -204,10 +210,11 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
 }
 
 void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>& times, bool median) {
-  fmt::print("raster {}  instances visible {}  clusters tested {}  selected {}  frustum-culled {}  cone-culled {}{}\n",
-             render::toString(st.raster), st.instancesVisible, st.clustersTested, st.clustersSelected,
-             st.clustersFrustumCulled, st.clustersBackfaceCulled,
-             st.clustersOverflow ? fmt::format("  OVERFLOW {}", st.clustersOverflow) : "");
+  fmt::print("raster {}  selection {} ({} passes)  instances visible {}  nodes tested {}  clusters tested {}  "
+             "selected {}  frustum-culled {}  cone-culled {}{}\n",
+             render::toString(st.raster), render::toString(st.selection), st.selectionPasses, st.instancesVisible,
+             st.nodesTested, st.clustersTested, st.clustersSelected, st.clustersFrustumCulled,
+             st.clustersBackfaceCulled, st.clustersOverflow ? fmt::format("  OVERFLOW {}", st.clustersOverflow) : "");
   if (st.occlusion)
     fmt::print("occlusion: pass 1 drew {} clusters (visible last frame); pass 2 tested {} instances, culled {}, "
                "tested {} clusters, culled {}; {} clusters own pixels\n",
@@ -242,6 +249,10 @@ void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
                         : ".mrg: two-pass HZB occlusion culling on|off")
       ->capture_default_str();
   command.add_option("--cones", o.cones, ".mrg: normal-cone back-face culling on|off")->capture_default_str();
+  command
+      .add_option("--selection", o.selection,
+                  ".mrg: LOD cut selection: flat (every cluster of the kept levels) or hierarchy (BVH over groups)")
+      ->capture_default_str();
 }
 
 bool isLodAssetPath(const std::string& input) { return input.size() > 4 && input.ends_with(".mrg"); }
@@ -344,9 +355,9 @@ void runLodBench(const LodRenderRequest& r) {
   double bestLodMs = INFINITY;
   if (!r.json)
     fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, tau {} px, hybrid threshold {} "
-               "px, cones {}, {} timed frames\n",
+               "px, cones {}, selection {}, {} timed frames\n",
                r.input, caps.name, sourceTriangles(s.asset), s.asset.scene.instances.size(), s.settings.base.width,
-               s.settings.base.height, r.tau, r.cull.hybridThreshold, r.cull.cones, frames - 1);
+               s.settings.base.height, r.tau, r.cull.hybridThreshold, r.cull.cones, r.cull.selection, frames - 1);
   for (render::RasterBackend b : backends)
     for (bool occlusion : occlusionModes) {
       s.settings.raster = b;

@@ -14,7 +14,10 @@ struct LodCullOptions {
   float hybridThreshold = 16.0f; // --hybrid-threshold: estimated triangle edge (px) from which clusters go to hardware
   std::string occlusion = "on";  // --occlusion on|off (bench: also "both": each backend with and without)
   std::string cones = "on";      // --cones on|off: normal-cone back-face culling
-  bool isDefault() const { return hybridThreshold == 16.0f && occlusion == "on" && cones == "on"; }
+  std::string selection = "hierarchy"; // --selection flat|hierarchy: how the LOD cut is found
+  bool isDefault() const {
+    return hybridThreshold == 16.0f && occlusion == "on" && cones == "on" && selection == "hierarchy";
+  }
 };
 void addLodCullOptions(CLI::App& command, LodCullOptions& options, bool bench);
 

@@ -21,12 +21,16 @@ struct ClusterSceneData {
   gpu::Buffer instances;       // GpuClusterInstance[]
   gpu::Buffer materials;       // GpuMaterial[] (the forward renderer's layout)
   gpu::Buffer cones;           // GpuClusterCone[], parallel to `clusters`
+  gpu::Buffer lodNodes;        // GpuLodNode[], per mesh (GpuClusterMesh::nodeOffset)
+  gpu::Buffer leafClusters;    // uint[]: mesh-local cluster ids of the LOD BVH's leaves
   std::vector<gpu::Image> textures;
   gpu::Unique<VkSampler> sampler;        // trilinear, repeat: material textures
   gpu::Unique<VkSampler> nearestSampler; // the integer visibility image
   uint32_t clusterCount = 0;
   uint32_t instanceCount = 0;
   uint32_t maxMeshClusters = 0;
+  uint32_t maxMeshNodes = 0;      // largest LOD BVH of one mesh (nodes)
+  uint32_t lodDepth = 0;          // deepest LOD BVH node below its level root (traversal passes - 1)
   uint64_t instancedClusters = 0; // sum over instances of their mesh's clusters (history bits)
   Bounds worldBounds;
 };

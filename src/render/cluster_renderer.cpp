@@ -85,19 +85,28 @@ Result<RasterBackend> parseRasterBackend(std::string_view text) {
   return Error{fmt::format("--raster '{}': expected auto, mesh, indirect, compute or hybrid", text)};
 }
 
+const char* toString(SelectionMode m) { return m == SelectionMode::Flat ? "flat" : "hierarchy"; }
+
+Result<SelectionMode> parseSelectionMode(std::string_view text) {
+  for (SelectionMode m : {SelectionMode::Flat, SelectionMode::Hierarchy})
+    if (text == toString(m)) return m;
+  return Error{fmt::format("--selection '{}': expected flat or hierarchy", text)};
+}
+
 struct ClusterRenderer::Impl {
   Context& ctx;
   ClusterSceneData scene;
   Buffer frame, visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
-  Buffer fade, surfelLink;   // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
-  DescriptorSet descriptors; // material textures, the visibility image, the colour target, depth
+  Buffer fade, surfelLink;     // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
+  Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
+  DescriptorSet descriptors;   // material textures, the visibility image, the colour target, depth
   Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> cullPipeline, selectPipeline, argsPipeline, rasterPipeline, meshPipeline, indirectPipeline,
-      meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, instanceOcclusionPipeline, hzbPipeline,
-      resolvePipeline;
+  Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline, meshPipeline,
+      indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, instanceOcclusionPipeline,
+      hzbPipeline, resolvePipeline;
   VkShaderStageFlags pushStages = 0;
   Image color, vis, depth;
-  uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0;
+  uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
   GpuTimer timer;
@@ -108,13 +117,14 @@ struct ClusterRenderer::Impl {
   void ensureTargets(uint32_t w, uint32_t h);
   sio::ClusterPush push() const;
   void cmdPush(VkCommandBuffer cmd, sio::ClusterPush p, uint32_t rasterList);
-  void cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p);
+  void cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy);
+  void cmdTraverse(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t phase);
   void cmdArgs(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t pass);
   void cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass);
   void cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend, uint32_t pass,
                        bool atomic);
   void cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p);
-  void cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p);
+  void cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy);
   void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p);
 };
 
@@ -141,6 +151,7 @@ void ClusterRenderer::Impl::createPipelines() {
   layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::ClusterPush), pushStages);
   cullPipeline = createComputePipeline(ctx, "cluster_cull.comp", layout);
   selectPipeline = createComputePipeline(ctx, "cluster_select.comp", layout);
+  traversePipeline = createComputePipeline(ctx, "cluster_traverse.comp", layout);
   argsPipeline = createComputePipeline(ctx, "cluster_args.comp", layout);
   occlusionPipeline = createComputePipeline(ctx, "cluster_occlusion.comp", layout);
   instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
@@ -185,6 +196,16 @@ void ClusterRenderer::Impl::createPipelines() {
                           kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                           MemoryUsage::GpuOnly, "cluster counters");
+  // Traversal queues: one phase queues each (instance, node) at most once, and never more than fits
+  // one dispatch row of workgroups.
+  queueCapacity = uint32_t(std::clamp<uint64_t>(uint64_t(scene.instanceCount) * scene.maxMeshNodes, 64,
+                                                uint64_t(MIRAGE_CLUSTER_DISPATCH_X) * MIRAGE_CLUSTER_WORKGROUP));
+  for (Buffer& q : queues)
+    q = createBuffer(ctx, queueCapacity * uint64_t(8), kStorage, MemoryUsage::GpuOnly, "selection queue");
+  traversal = createBuffer(ctx, sizeof(sio::ClusterTraversal),
+                           kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "selection traversal");
   // One bit per (instance, cluster), then one per instance, zeroed: the first frame draws
   // everything in pass 2.
   uint64_t historyBits = scene.instancedClusters + scene.instanceCount;
@@ -252,7 +273,7 @@ void ClusterRenderer::Impl::cmdPush(VkCommandBuffer cmd, sio::ClusterPush p, uin
 
 // barriers: on entry the counters were zeroed and the clears made visible (cmdPhaseBarrier); on
 // exit the visible instances, pass-1 lists and occlusion candidates are written and visible.
-void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p) {
+void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy) {
   cmdPush(cmd, p, 0);
   // Per-instance culling first: the cluster pass only visits clusters of visible instances.
   uint32_t slot = timer.cmdBegin(cmd, "cull", kCS);
@@ -260,12 +281,32 @@ void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPus
   vkCmdDispatch(cmd, (scene.instanceCount + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP, 1, 1);
   timer.cmdEnd(cmd, slot, kCS);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  // LOCALCUT + frustum + cones over every (visible instance, cluster): a flat pass, one thread each.
+  // LOCALCUT + frustum + cones: a flat pass over every (visible instance, cluster of its level
+  // range), or the BVH traversal that visits only groups above the cut.
   slot = timer.cmdBegin(cmd, "select", kCS);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
-  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, selectArgs));
+  if (hierarchy) {
+    cmdTraverse(cmd, p, 0);
+  } else {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
+    vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, selectArgs));
+  }
   timer.cmdEnd(cmd, slot, kCS);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+}
+
+// Hierarchical selection of one phase: one dispatch per BVH depth over the nodes queued by the
+// previous depth (depth 0: the level roots queued by the cull pass or the late-instance test),
+// as many as the deepest BVH needs, fixed per scene (cluster_traverse.comp).
+// barriers: entry as the flat pass's dispatch; on exit the last depth's appends are still to be
+// made visible by the caller.
+void ClusterRenderer::Impl::cmdTraverse(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t phase) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, traversePipeline);
+  for (uint32_t bvhDepth = 0; bvhDepth <= scene.lodDepth; ++bvhDepth) {
+    if (bvhDepth > 0) cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+    cmdPush(cmd, p, phase | bvhDepth << 1);
+    vkCmdDispatchIndirect(cmd, traversal.handle(),
+                          offsetof(sio::ClusterTraversal, args) + (phase * MIRAGE_LOD_MAX_DEPTH + bvhDepth) * 16);
+  }
 }
 
 // barriers: the lists' appends visible (cmdPhaseBarrier); on exit the pass's arguments are.
@@ -395,7 +436,7 @@ void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterP
 // Pass-2 culling against the HZB of pass 1: late instances (then the phase-2 selection of the ones
 // that pass) and the clusters left over from phase 1.
 // barriers: the HZB, the late instances and the candidates visible; on exit pass 2's appends are.
-void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p) {
+void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy) {
   uint32_t slot = timer.cmdBegin(cmd, "occlusion", kCS);
   cmdPush(cmd, p, 0);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, occlusionPipeline);
@@ -403,9 +444,13 @@ void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::Cluster
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, instanceOcclusionPipeline);
   vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, instanceOcclusionArgs));
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  cmdPush(cmd, p, /*phase=*/1);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
-  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, lateSelectArgs));
+  if (hierarchy) {
+    cmdTraverse(cmd, p, /*phase=*/1);
+  } else {
+    cmdPush(cmd, p, /*phase=*/1);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
+    vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, lateSelectArgs));
+  }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   timer.cmdEnd(cmd, slot, kCS);
 }
@@ -476,6 +521,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                              "them (use compute or hybrid)",
                              toString(backend))};
   bool occlusion = cs.occlusionCulling && d.historyUsable;
+  bool hierarchy = cs.selection == SelectionMode::Hierarchy;
   d.ensureTargets(s.width, s.height);
 
   Camera cam = withClipPlanes(s.camera, d.scene.worldBounds);
@@ -495,7 +541,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   f.flags = (cs.flagBackFaces ? MIRAGE_FRAME_FLAG_BACKFACES : 0u) |
             (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) | (bufferTarget ? MIRAGE_FRAME_SOURCE_BUFFER : 0u) |
             (backend == RasterBackend::Hybrid ? MIRAGE_FRAME_HYBRID : 0u) | (occlusion ? MIRAGE_FRAME_OCCLUSION : 0u) |
-            (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u);
+            (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u) | (hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u);
   f.visibleCapacity = d.visibleCapacity;
   f.instanceCount = d.scene.instanceCount;
   f.background = s.background;
@@ -534,6 +580,12 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     f.fadeAddress = d.fade.address();
     f.surfelLinkAddress = d.surfelLink.address();
   }
+  f.nodeAddress = d.scene.lodNodes.address();
+  f.leafClusterAddress = d.scene.leafClusters.address();
+  f.traversalAddress = d.traversal.address();
+  f.queueAddress[0] = d.queues[0].address();
+  f.queueAddress[1] = d.queues[1].address();
+  f.queueCapacity = d.queueCapacity;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::ClusterPush p = d.push();
 
@@ -546,6 +598,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                      VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
                      VK_ACCESS_2_TRANSFER_WRITE_BIT);
     vkCmdFillBuffer(cmd, d.counters.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (hierarchy) vkCmdFillBuffer(cmd, d.traversal.handle(), 0, VK_WHOLE_SIZE, 0);
     if (bufferTarget) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
     if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
       vkCmdFillBuffer(cmd, d.fade.handle(), 0, VK_WHOLE_SIZE, 0);
@@ -556,16 +609,16 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
       cs.surfels->stageCmdPrefix(cmd, d.timer);
       cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
     }
-    d.cmdSelect(cmd, p); // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
-    if (occlusion) {     // the select pass read last frame's history; the resolve writes this frame's
+    d.cmdSelect(cmd, p, hierarchy); // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
+    if (occlusion) {                // the select pass read last frame's history; the resolve writes this frame's
       vkCmdFillBuffer(cmd, d.history.handle(), 0, VK_WHOLE_SIZE, 0);
       cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
     }
     d.cmdArgs(cmd, p, /*pass=*/0);      // pass-1 raster arguments (everything without occlusion)
     d.cmdRasterize(cmd, p, backend, 0); // visibility: (cluster, triangle) per pixel
     if (occlusion) {
-      d.cmdBuildHzb(cmd, p);  // farthest-depth pyramid of pass 1
-      d.cmdOcclusion(cmd, p); // pass-2 cull: candidates against the HZB
+      d.cmdBuildHzb(cmd, p);             // farthest-depth pyramid of pass 1
+      d.cmdOcclusion(cmd, p, hierarchy); // pass-2 cull: candidates against the HZB
       d.cmdArgs(cmd, p, /*pass=*/1);
       d.cmdRasterize(cmd, p, backend, 1); // the newly visible clusters
     }
@@ -583,6 +636,14 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   std::vector<uint8_t> raw = readbackBuffer(d.ctx, d.counters, sizeof(c));
   std::memcpy(&c, raw.data(), sizeof(c));
   ClusterStats& st = out.stats;
+  if (hierarchy) {
+    sio::ClusterTraversal t{};
+    std::vector<uint8_t> rawT = readbackBuffer(d.ctx, d.traversal, sizeof(t));
+    std::memcpy(&t, rawT.data(), sizeof(t));
+    st.nodesTested = t.nodesTested;
+    st.selectionPasses = d.scene.lodDepth + 1;
+  }
+  st.selection = cs.selection;
   st.instancesVisible = c.visibleInstances;
   st.clustersTested = c.clustersTested;
   st.selectRows = c.selectArgs[1];

@@ -43,6 +43,131 @@ sio::GpuClusterCone clusterCone(const lod::ClusterDag& dag, const lod::Cluster& 
   return cone;
 }
 
+// Smallest-effort sphere around spheres: the centre of their boxes, the farthest reach, padded so
+// float rounding on the GPU never puts an enclosed sphere's nearest point before the parent's.
+glm::vec4 encloseSpheres(const std::vector<glm::vec4>& spheres) {
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const glm::vec4& s : spheres) {
+    lo = glm::min(lo, glm::vec3(s) - s.w);
+    hi = glm::max(hi, glm::vec3(s) + s.w);
+  }
+  glm::vec3 c = 0.5f * (lo + hi);
+  float r = 0.0f;
+  for (const glm::vec4& s : spheres) r = std::max(r, glm::length(glm::vec3(s) - c) + s.w);
+  float magnitude = std::max({std::abs(c.x), std::abs(c.y), std::abs(c.z), r});
+  return {c, r + 1e-5f * r + 1e-6f * magnitude};
+}
+
+// Build-time BVH node: a leaf (a member group's clusters of one level) or up to
+// MIRAGE_LOD_NODE_WIDTH children.
+struct LodBuildNode {
+  glm::vec4 sphere{0.0f};
+  float maxParentError = 0.0f;
+  std::vector<uint32_t> clusters; // leaf: mesh-local cluster ids
+  std::vector<uint32_t> children; // inner: build-node ids
+};
+
+// Splits `items` (build-node ids) into at most MIRAGE_LOD_NODE_WIDTH spatially coherent parts:
+// the largest part is halved at the median of its centres' longest axis until there are enough.
+std::vector<std::vector<uint32_t>> splitItems(const std::vector<LodBuildNode>& nodes, std::vector<uint32_t> items) {
+  std::vector<std::vector<uint32_t>> parts{std::move(items)};
+  while (parts.size() < MIRAGE_LOD_NODE_WIDTH) {
+    auto largest =
+        std::max_element(parts.begin(), parts.end(), [](const auto& a, const auto& b) { return a.size() < b.size(); });
+    if (largest->size() < 2) break;
+    std::vector<uint32_t> part = std::move(*largest);
+    parts.erase(largest);
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (uint32_t i : part)
+      lo = glm::min(lo, glm::vec3(nodes[i].sphere)), hi = glm::max(hi, glm::vec3(nodes[i].sphere));
+    glm::vec3 extent = hi - lo;
+    int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
+    auto mid = part.begin() + part.size() / 2;
+    std::nth_element(part.begin(), mid, part.end(),
+                     [&](uint32_t a, uint32_t b) { return nodes[a].sphere[axis] < nodes[b].sphere[axis]; });
+    parts.emplace_back(part.begin(), mid);
+    parts.emplace_back(mid, part.end());
+  }
+  return parts;
+}
+
+// An inner node over `items`, built top-down; returns its build-node id.
+uint32_t buildLodSubtree(std::vector<LodBuildNode>& nodes, std::vector<uint32_t> items) {
+  if (items.size() == 1) return items[0];
+  LodBuildNode node;
+  for (std::vector<uint32_t>& part : splitItems(nodes, std::move(items)))
+    node.children.push_back(buildLodSubtree(nodes, std::move(part)));
+  std::vector<glm::vec4> spheres;
+  for (uint32_t c : node.children) {
+    spheres.push_back(nodes[c].sphere);
+    node.maxParentError = std::max(node.maxParentError, nodes[c].maxParentError);
+  }
+  node.sphere = encloseSpheres(spheres);
+  nodes.push_back(std::move(node));
+  return uint32_t(nodes.size() - 1);
+}
+
+// The LOD BVH of one mesh (see GpuLodNode): per level of `levels` (the mesh's level table) one leaf
+// per member group (roots: one leaf), a BVH over them, and the roots stored first in level order,
+// every node's children contiguous. Appends to `out` / `leafClusters`; returns the deepest node's
+// depth below its level root.
+uint32_t buildLodBvh(const sio::GpuCluster* clusters, const lod::ClusterDag& dag,
+                     const std::vector<sio::GpuClusterLevel>& levels, std::vector<sio::GpuLodNode>& out,
+                     std::vector<uint32_t>& leafClusters) {
+  std::vector<LodBuildNode> nodes;
+  std::vector<uint32_t> roots;
+  for (const sio::GpuClusterLevel& level : levels) {
+    std::vector<std::pair<uint32_t, uint32_t>> byGroup; // (member group, cluster), roots as kNone
+    for (uint32_t i = level.firstCluster; i < level.firstCluster + level.clusterCount; ++i)
+      byGroup.push_back({dag.clusters[i].group, i});
+    std::sort(byGroup.begin(), byGroup.end());
+    std::vector<uint32_t> leaves;
+    for (size_t i = 0; i < byGroup.size(); ++i) {
+      if (i == 0 || byGroup[i].first != byGroup[i - 1].first) {
+        leaves.push_back(uint32_t(nodes.size()));
+        nodes.emplace_back();
+      }
+      LodBuildNode& leaf = nodes.back();
+      leaf.clusters.push_back(byGroup[i].second);
+      leaf.maxParentError = std::max(leaf.maxParentError, clusters[byGroup[i].second].parentError);
+    }
+    for (uint32_t l : leaves) {
+      std::vector<glm::vec4> spheres;
+      for (uint32_t c : nodes[l].clusters)
+        spheres.push_back(clusters[c].parentSphere), spheres.push_back(clusters[c].boundsSphere);
+      nodes[l].sphere = encloseSpheres(spheres);
+    }
+    roots.push_back(buildLodSubtree(nodes, std::move(leaves)));
+  }
+  // Breadth-first layout: level roots first, then each node's children in one contiguous run.
+  uint32_t base = uint32_t(out.size());
+  std::vector<std::pair<uint32_t, uint32_t>> queue; // (build node, depth), in output order
+  for (uint32_t r : roots) queue.push_back({r, 0});
+  out.resize(base + roots.size());
+  uint32_t maxDepth = 0;
+  for (size_t q = 0; q < queue.size(); ++q) {
+    auto [id, depth] = queue[q];
+    const LodBuildNode& n = nodes[id];
+    maxDepth = std::max(maxDepth, depth);
+    sio::GpuLodNode g{};
+    g.sphere = n.sphere;
+    g.maxParentError = n.maxParentError;
+    if (n.children.empty()) {
+      g.leaf = 1;
+      g.childOffset = uint32_t(leafClusters.size());
+      g.childCount = uint32_t(n.clusters.size());
+      leafClusters.insert(leafClusters.end(), n.clusters.begin(), n.clusters.end());
+    } else {
+      g.childOffset = uint32_t(out.size()) - base;
+      g.childCount = uint32_t(n.children.size());
+      out.resize(out.size() + n.children.size());
+      for (uint32_t c : n.children) queue.push_back({c, depth + 1});
+    }
+    out[base + q] = g;
+  }
+  return maxDepth;
+}
+
 } // namespace
 
 Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& asset) {
@@ -57,6 +182,8 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   std::vector<uint8_t> indexBytes;
   std::vector<sio::GpuClusterMesh> meshes;
   std::vector<sio::GpuClusterLevel> levels;
+  std::vector<sio::GpuLodNode> lodNodes;
+  std::vector<uint32_t> leafClusters;
   std::vector<Bounds> meshBounds;
   for (size_t m = 0; m < asset.dags.size(); ++m) {
     const lod::ClusterDag& dag = asset.dags[m];
@@ -119,6 +246,14 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
         gm.reach = std::max(gm.reach, glm::length(b->center - centre) + b->radius);
     }
     gm.levelCount = uint32_t(levels.size()) - gm.levelOffset;
+    gm.nodeOffset = uint32_t(lodNodes.size());
+    std::vector<sio::GpuClusterLevel> meshLevels(levels.begin() + gm.levelOffset, levels.end());
+    uint32_t depth = buildLodBvh(&clusters[gm.clusterOffset], dag, meshLevels, lodNodes, leafClusters);
+    if (depth >= MIRAGE_LOD_MAX_DEPTH)
+      return Error{fmt::format("{}: mesh '{}': LOD BVH of depth {} (at most {})", scene.source, scene.meshes[m].name,
+                               depth, MIRAGE_LOD_MAX_DEPTH - 1)};
+    d.lodDepth = std::max(d.lodDepth, depth);
+    d.maxMeshNodes = std::max(d.maxMeshNodes, uint32_t(lodNodes.size()) - gm.nodeOffset);
     d.maxMeshClusters = std::max(d.maxMeshClusters, gm.clusterCount);
     meshes.push_back(gm);
     meshBounds.push_back(bounds);
@@ -172,6 +307,8 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");
   d.materials = createBufferWithData<sio::GpuMaterial>(ctx, gpuMats, kStorage, "cluster materials");
   d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
+  d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, lodNodes, kStorage, "cluster LOD BVH");
+  d.leafClusters = createBufferWithData<uint32_t>(ctx, leafClusters, kStorage, "cluster LOD BVH leaves");
   d.textures = uploadTextures(ctx, scene);
   d.sampler = makeSampler(ctx, VK_FILTER_LINEAR);
   d.nearestSampler = makeSampler(ctx, VK_FILTER_NEAREST);

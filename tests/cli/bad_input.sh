@@ -93,6 +93,8 @@ if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   expect_fail render-bad-path "cams.json: camera 0" "$tmp/bad_0000.png" -- render "$tmp/blob.mrg" -o "$tmp/bad.png" --size 48x32 --path "$tmp/cams.json"
   expect_fail render-path-not-json "blob.glb: not valid JSON" "$tmp/bad_0000.png" -- render "$tmp/blob.mrg" -o "$tmp/bad.png" --size 48x32 --path "$tmp/blob.glb"
   expect_fail render-bad-occlusion "--occlusion" "$tmp/o.png" -- render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --occlusion maybe
+  expect_fail render-bad-selection "--selection" "$tmp/o.png" -- render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --selection tree
+  expect_ok render-flat-selection render "$tmp/blob.mrg" -o "$tmp/flat.png" --size 32x32 --selection flat --stats
   expect_fail render-bad-hybrid "--hybrid-threshold" "$tmp/o.png" -- render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --hybrid-threshold -1
   expect_ok render-hybrid-stats render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --raster hybrid --cones off --stats
 fi

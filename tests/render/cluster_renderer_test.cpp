@@ -3,6 +3,8 @@
 // no cracks at any threshold, fewer triangles at larger thresholds. Validation must stay silent.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <algorithm>
@@ -110,11 +112,14 @@ CpuCut cpuCut(const lod::ClusterDag& dag, const Camera& cam, float tau) {
   return cut;
 }
 
-void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float tau, bool expectEyeInside) {
+void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float tau, bool expectEyeInside,
+                               SelectionMode mode) {
+  SCOPED_TRACE(toString(mode));
   const lod::LodAsset& asset = blobAsset();
   auto r = ClusterRenderer::create(ctx, asset);
   ASSERT_TRUE(r.ok()) << r.error().message;
   ClusterRenderSettings s = settingsFor((*r)->worldBounds(), tau, RasterBackend::Indirect);
+  s.selection = mode;
   s.base.camera = camera;
   s.frustumCulling = false;
   s.occlusionCulling = false; // the whole cut is drawn: compare it with the CPU's
@@ -124,8 +129,11 @@ void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float ta
   const lod::ClusterDag& dag = asset.dags[0];
   CpuCut cut = cpuCut(dag, withClipPlanes(camera, (*r)->worldBounds()), tau);
   // The cull pass skips levels that cannot be on this instance's cut: from outside every LOD sphere
-  // fewer clusters are tested; with the eye inside one, every cluster is.
-  if (expectEyeInside)
+  // fewer clusters are tested; with the eye inside one, every cluster is (flat pass); the BVH
+  // traversal tests the clusters of groups above the cut (here close to all of them at small tau).
+  if (mode == SelectionMode::Hierarchy)
+    EXPECT_LE(out->stats.clustersTested, dag.clusters.size());
+  else if (expectEyeInside)
     EXPECT_EQ(out->stats.clustersTested, dag.clusters.size());
   else
     EXPECT_LT(out->stats.clustersTested, dag.clusters.size());
@@ -157,27 +165,82 @@ TEST_F(ClusterRender, LevelPruningKeepsTheCutForManyInstances) {
   s.frustumCulling = false;
   s.occlusionCulling = false;
   s.coneCulling = false;
-  auto out = (*r)->render(s);
-  ASSERT_TRUE(out.ok()) << out.error().message;
-  uint32_t clusters = 0;
-  uint64_t triangles = 0;
-  for (const glm::vec3& o : offsets) {
-    Camera shifted = cam;
-    shifted.eye -= o;
-    shifted.target -= o;
-    CpuCut cut = cpuCut(asset.dags[0], shifted, 1.0f);
-    clusters += cut.clusters;
-    triangles += cut.triangles;
+  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy}) {
+    SCOPED_TRACE(toString(mode));
+    s.selection = mode;
+    auto out = (*r)->render(s);
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    uint32_t clusters = 0;
+    uint64_t triangles = 0;
+    for (const glm::vec3& o : offsets) {
+      Camera shifted = cam;
+      shifted.eye -= o;
+      shifted.target -= o;
+      CpuCut cut = cpuCut(asset.dags[0], shifted, 1.0f);
+      clusters += cut.clusters;
+      triangles += cut.triangles;
+    }
+    EXPECT_EQ(out->stats.instancesVisible, offsets.size());
+    EXPECT_EQ(out->stats.clustersSelected, clusters);
+    EXPECT_EQ(out->stats.trianglesRasterized, triangles);
+    EXPECT_LT(out->stats.clustersTested, uint64_t(asset.dags[0].clusters.size()) * offsets.size() / 2);
+    EXPECT_EQ(out->stats.clustersOverflow, 0u);
   }
-  EXPECT_EQ(out->stats.instancesVisible, offsets.size());
-  EXPECT_EQ(out->stats.clustersSelected, clusters);
-  EXPECT_EQ(out->stats.trianglesRasterized, triangles);
-  EXPECT_LT(out->stats.clustersTested, uint64_t(asset.dags[0].clusters.size()) * offsets.size() / 2);
+}
+
+// The BVH traversal selects exactly what the flat pass selects, with every culling option on, at
+// several thresholds and cameras (far, close up, inside group spheres, partly out of view), over two
+// frames (the second with occlusion history): same counts, same triangles, the same pixels.
+TEST_F(ClusterRender, HierarchicalSelectionMatchesFlat) {
+  const lod::LodAsset& asset = blobAsset();
+  auto flat = ClusterRenderer::create(context(), asset);
+  auto tree = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(flat.ok() && tree.ok());
+  Camera far = autoCamera((*flat)->worldBounds(), 1.0f);
+  Camera close = far;
+  close.eye = glm::mix(far.target, far.eye, 0.45f); // the blob fills the view, partly outside it
+  close.znear = 0.01f;
+  Camera inside; // just above the surface, looking along it: inside group spheres
+  inside.eye = {0.0f, 0.0f, 1.3f};
+  inside.target = {1.0f, 0.2f, 1.3f};
+  inside.znear = 0.01f;
+  inside.zfar = 10.0f;
+  uint32_t fewerTested = 0;
+  for (const Camera& cam : {far, close, inside})
+    for (float tau : {0.5f, 1.0f, 3.0f, 12.0f}) {
+      SCOPED_TRACE(fmt::format("eye {} {} {}, tau {}", cam.eye.x, cam.eye.y, cam.eye.z, tau));
+      ClusterRenderSettings s = settingsFor((*flat)->worldBounds(), tau, RasterBackend::Auto);
+      s.base.camera = cam;
+      for (int frame = 0; frame < 2; ++frame) {
+        // Frame 0 without occlusion: the whole cut is drawn and compared; frame 1 with the history
+        // of frame 0 (which cluster owns a pixel where two tie can differ, so only the selection
+        // counts and the image are compared there).
+        s.occlusionCulling = frame == 1;
+        s.selection = SelectionMode::Flat;
+        auto a = (*flat)->render(s);
+        s.selection = SelectionMode::Hierarchy;
+        auto b = (*tree)->render(s);
+        ASSERT_TRUE(a.ok() && b.ok());
+        EXPECT_EQ(a->stats.clustersSelected, b->stats.clustersSelected);
+        EXPECT_EQ(a->stats.clustersBackfaceCulled, b->stats.clustersBackfaceCulled);
+        if (frame == 0) {
+          EXPECT_EQ(a->stats.clustersDrawn, b->stats.clustersDrawn);
+          EXPECT_EQ(a->stats.trianglesRasterized, b->stats.trianglesRasterized);
+        }
+        EXPECT_EQ(b->stats.clustersOverflow, 0u);
+        EXPECT_GT(b->stats.nodesTested, 0u);
+        EXPECT_GT(b->stats.clustersSelected, 0u);
+        EXPECT_GE(psnr(a->image.srgb, b->image.srgb), 60.0); // identical but for ties between equal depths
+        fewerTested += b->stats.clustersTested < a->stats.clustersTested;
+      }
+    }
+  EXPECT_GT(fewerTested, 12u); // of 24 renders: the traversal skips groups below the cut
 }
 
 TEST_F(ClusterRender, SelectionMatchesCpuLocalCut) {
   Camera cam = autoCamera(blobAsset().scene.worldBounds(), 1.0f);
-  expectSelectionMatchesCpu(context(), cam, 2.0f, /*expectEyeInside=*/false);
+  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy})
+    expectSelectionMatchesCpu(context(), cam, 2.0f, /*expectEyeInside=*/false, mode);
   EXPECT_LT(cpuCut(blobAsset().dags[0], cam, 2.0f).triangles, blobAsset().dags[0].inputTriangles);
 }
 
@@ -188,7 +251,8 @@ TEST_F(ClusterRender, SelectionMatchesCpuWithEyeInsideSpheres) {
   cam.target = {1.0f, 0.0f, 1.3f};
   cam.znear = 0.01f;
   cam.zfar = 10.0f;
-  expectSelectionMatchesCpu(context(), cam, 1.0f, /*expectEyeInside=*/true);
+  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy})
+    for (float tau : {0.5f, 1.0f, 4.0f}) expectSelectionMatchesCpu(context(), cam, tau, /*expectEyeInside=*/true, mode);
 }
 
 TEST_F(ClusterRender, BackendsGiveTheSameImage) {

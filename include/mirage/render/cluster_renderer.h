@@ -32,6 +32,15 @@ const char* toString(RasterBackend backend);
 // "auto", "mesh", "indirect", "compute" or "hybrid"; anything else is an error naming the choices.
 Result<RasterBackend> parseRasterBackend(std::string_view text);
 
+// How the selection pass finds the cut clusters (docs/render.md, "Selection").
+enum class SelectionMode {
+  Flat,      // one thread per (visible instance, cluster of its level range)
+  Hierarchy, // breadth-first traversal of per-level BVHs over the DAG's groups: work follows the cut
+};
+const char* toString(SelectionMode mode);
+// "flat" or "hierarchy"; anything else is an error naming the choices.
+Result<SelectionMode> parseSelectionMode(std::string_view text);
+
 struct ClusterRenderSettings {
   RenderSettings base;                        // size, camera, lighting, background
   float tauPixels = 1.0f;                     // LOD threshold: projected error allowed, in pixels
@@ -52,11 +61,14 @@ struct ClusterRenderSettings {
   // fadeBand apply (meshFade is forced on); needs the compute or hybrid backend.
   SurfelRenderer* surfels = nullptr;
   SurfelRenderSettings surfelSettings;
+  SelectionMode selection = SelectionMode::Hierarchy; // both select exactly the same clusters
 };
 
 struct ClusterStats {
   uint32_t instancesVisible = 0;         // inside the frustum with a level range (minus occlusion-culled late ones)
   uint32_t clustersTested = 0;           // (instance, cluster) pairs the selection pass looked at
+  uint32_t nodesTested = 0;              // hierarchical selection: (instance, BVH node) pairs visited
+  uint32_t selectionPasses = 0;          // hierarchical selection: dispatches per phase (deepest BVH + 1)
   uint32_t selectRows = 0;               // workgroup rows of the selection dispatch (<= 65535)
   uint32_t clustersSelected = 0;         // on the LOCALCUT cut and inside the frustum
   uint32_t clustersFrustumCulled = 0;    // on the cut but outside the frustum
@@ -75,6 +87,7 @@ struct ClusterStats {
   bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto; // the backend that ran
   SurfelStageStats surfels;                   // mixed scenes: instances drawn (partly) as surfels
+  SelectionMode selection = SelectionMode::Hierarchy;
 };
 
 struct ClusterRenderOutput {

@@ -35,6 +35,13 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_HYBRID 8u         // selection splits clusters: small triangles to compute, large to hardware
 #define MIRAGE_FRAME_OCCLUSION 16u     // two-pass HZB occlusion culling with last frame's visibility
 #define MIRAGE_FRAME_CONE_CULL 32u     // per-cluster normal-cone back-face culling
+#define MIRAGE_FRAME_HIERARCHY 64u     // selection traverses the LOD BVH (cluster_traverse.comp), else a flat pass
+
+// LOD BVH (hierarchical selection): depth of the deepest node below its level root (0). The
+// traversal runs one indirect dispatch per depth, so this bounds the passes per phase.
+#define MIRAGE_LOD_MAX_DEPTH 24
+// Children per inner BVH node.
+#define MIRAGE_LOD_NODE_WIDTH 8
 
 // Visible-cluster lists: the compute (or only) list grows up from entry 0, the hardware list of the
 // hybrid backend grows down from the last entry, so one buffer and one id space serve both.
@@ -76,7 +83,10 @@ struct GpuClusterMesh {
   // selection projects lies within this distance of the mesh centre, which bounds its distance to
   // the eye per instance.
   float reach;
-  uint pad0, pad1;
+  // First node of this mesh's LOD BVH (GpuLodNode): nodes [nodeOffset, nodeOffset + levelCount)
+  // are the roots of the levels' BVHs, in level order; child offsets are relative to nodeOffset.
+  uint nodeOffset;
+  uint pad0;
 };
 
 // One DAG level of a mesh: clusters are stored by level, so a level is a contiguous range. Its
@@ -93,7 +103,35 @@ struct VisibleInstance {
   uint instance;
   uint firstCluster; // mesh-local
   uint clusterCount;
-  uint pad0;
+  uint levels; // the same range as levels: first level | level count << 16 (hierarchical selection)
+};
+
+// One node of a mesh's LOD BVH (vk_lod_clusters style): per DAG level a BVH over the level's
+// member groups (the group a cluster is a child of; the level's roots form one more leaf), built at
+// upload (cluster_upload.cpp). A leaf lists its clusters, which share the group's parent sphere and
+// error. The traversal (cluster_traverse.comp) enters a node only when
+//   projected(sphere, maxParentError) > tau  (and, with frustum culling, the sphere is in view):
+// the sphere encloses every parent sphere beneath, so it is nearer than any of them and the bound is
+// >= every cluster's projected parent error; a node failing it has only clusters whose parent is
+// already fine enough (LOCALCUT's `tau < parent` fails), so skipping it loses no cut cluster. The
+// sphere also encloses the clusters' culling spheres, so the frustum test is conservative too.
+// Visited leaves are groups above the cut: the work follows the cut, not the mesh size.
+struct GpuLodNode {
+  vec4 sphere;          // object space, encloses parent spheres and cluster bounds beneath
+  float maxParentError; // largest parent error beneath (+inf with a root cluster beneath)
+  uint childOffset;     // inner: first child node (mesh-relative); leaf: first entry in the leaf-cluster list
+  uint childCount;      // inner: <= MIRAGE_LOD_NODE_WIDTH children; leaf: its clusters
+  uint leaf;            // 1: childOffset/childCount are mesh-local cluster ids in the leaf-cluster list
+};
+
+// Work queues of the hierarchical selection: per phase and depth the indirect dispatch (x, 1, 1)
+// over the queued nodes and their count. Zeroed every frame; pushing entry n adds a workgroup when
+// n is a multiple of the workgroup size.
+struct ClusterTraversal {
+  uint args[2][MIRAGE_LOD_MAX_DEPTH][4]; // [phase][depth]: dispatch x, y, z, queued items
+  uint nodesTested;
+  uint queueOverflow; // items dropped past the queue capacity (clusters then missing: counted as overflow)
+  uint pad0, pad1;
 };
 
 struct GpuClusterInstance {
@@ -151,6 +189,14 @@ struct ClusterFrame {
   // Mixed scenes (docs/render.md, "Mixed scenes"); both 0 without surfels.
   uint64_t fadeAddress;       // float[] per instance: share of its pixels left to surfels (dither < fade)
   uint64_t surfelLinkAddress; // ClusterSurfelLink: the resolve shades ids tagged MIRAGE_SURFEL_ID_TAG
+  // Hierarchical selection (MIRAGE_FRAME_HIERARCHY): the LOD BVH, its leaves' cluster lists, the
+  // traversal counters and two ping-pong queues of uvec2(visible-instance row, mesh-relative node).
+  uint64_t nodeAddress;        // GpuLodNode[]
+  uint64_t leafClusterAddress; // uint[]: mesh-local cluster ids per leaf
+  uint64_t traversalAddress;   // ClusterTraversal
+  uint64_t queueAddress[2];    // uvec2[]: depth d reads queue d & 1, writes queue (d + 1) & 1
+  uint queueCapacity;          // entries per queue
+  uint pad0;
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -218,7 +264,10 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 448, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 496, "ClusterFrame layout");
+static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
+static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
 static_assert(sizeof(ClusterCounters) == 16 + 36 + 4 * 48 + 72, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,

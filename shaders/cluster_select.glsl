@@ -1,0 +1,78 @@
+// Cluster selection shared by the flat pass (cluster_select.comp) and the LOD BVH traversal
+// (cluster_traverse.comp): LOCALCUT (draw iff self error <= tau < parent error, both projected to
+// pixels), frustum, normal-cone and (phase 2) HZB culling of one (instance, cluster), appended to
+// the raster lists or the occlusion candidates.
+#include "cluster_common.glsl"
+
+// Object-space error of a sphere projected to pixels at the sphere's nearest point:
+// err / max(dist - r, znear) * |proj[1][1]| * 0.5 * height. A camera inside the sphere sees an
+// unbounded error: refine. Zero errors stay zero (level 0 cannot refine). Parent
+// spheres contain their children's and parent errors are larger, so the projection stays monotonic
+// from child to parent and the cut stays crack-free.
+float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterFrame f) {
+  if (error <= 0.0 || isinf(error)) return error;
+  vec3 c = (inst.model * vec4(sphere.xyz, 1.0)).xyz;
+  float d = length(c - f.eye.xyz) - sphere.w * inst.maxScale;
+  if (d <= 0.0) return uintBitsToFloat(0x7f800000u);
+  return error * inst.maxScale / max(d, f.znear) * f.errorScale;
+}
+
+// Normal-cone test in object space (exact for any transform with a positive determinant: facing
+// is affine-invariant there): the whole cluster faces away from the eye.
+bool coneBackfacing(GpuClusterInstance inst, uint cluster, ClusterFrame f) {
+  GpuClusterCone cone = ConeRef(f.coneAddress).cones[cluster];
+  if (cone.axisCutoff.w >= 1.0) return false;
+  vec3 eye = (transpose(inst.normalMatrix) * vec4(f.eye.xyz, 1.0)).xyz; // inverse(model) * eye
+  return dot(normalize(cone.apex.xyz - eye), cone.axisCutoff.xyz) >= cone.axisCutoff.w;
+}
+
+// Mesh-local cluster `meshLocal` of instance `instanceIndex` in selection phase `phase` (0: pass
+// 1 and candidates, 1: late instances, HZB-tested here).
+void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh mesh, uint meshLocal, uint phase) {
+  CounterRef counters = CounterRef(push.counterAddress);
+  atomicAdd(counters.counters.clustersTested, 1);
+  uint ci = mesh.clusterOffset + meshLocal;
+  GpuCluster c = ClusterRef(push.clusterAddress).clusters[ci];
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= f.tau &&
+               projectedError(c.parentSphere, c.parentError, inst, f) > f.tau;
+  if (!onCut) return;
+  vec4 s = vec4((inst.model * vec4(c.boundsSphere.xyz, 1.0)).xyz, c.boundsSphere.w * inst.maxScale);
+  if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0 && !sphereVisible(s)) {
+    atomicAdd(counters.counters.clustersFrustumCulled, 1);
+    return;
+  }
+  atomicAdd(counters.counters.clustersSelected, 1);
+  // Back-face cones: single-sided, non-mirrored instances only (mirrored ones swap which side is
+  // kept; the crack-test mode keeps back faces).
+  bool singleSided = (inst.flags & (MIRAGE_INSTANCE_DOUBLE_SIDED | MIRAGE_INSTANCE_MIRRORED)) == 0 &&
+                     (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) == 0;
+  if ((f.flags & MIRAGE_FRAME_CONE_CULL) != 0 && singleSided && coneBackfacing(inst, ci, f)) {
+    atomicAdd(counters.counters.clustersBackfaceCulled, 1);
+    return;
+  }
+  VisibleCluster vc = VisibleCluster(instanceIndex, ci);
+  // Phase 2 (instances that drew nothing last frame, past their own HZB test): each cluster is
+  // tested against the HZB of pass 1 and drawn in pass 2.
+  if (phase == 1) {
+    if (!hzbVisible(s)) {
+      atomicAdd(counters.counters.clustersOcclusionCulled, 1);
+      return;
+    }
+    emitCluster(vc, s, c.triangleCount, f);
+    return;
+  }
+  // Two-pass occlusion: clusters drawn and unoccluded last frame are drawn now (pass 1); the rest
+  // wait for the HZB built from pass 1 (cluster_occlusion.comp).
+  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && !historyBit(inst, meshLocal)) {
+    uint slot = atomicAdd(counters.counters.candidates, 1);
+    if (slot < f.visibleCapacity)
+      VisibleRef(f.candidateAddress).visible[slot] = vc;
+    else
+      atomicAdd(counters.counters.clustersOverflow, 1); // dropped, like visible-list overflow
+    return;
+  }
+  if (emitCluster(vc, s, c.triangleCount, f) && (f.flags & MIRAGE_FRAME_OCCLUSION) != 0)
+    atomicAdd(counters.counters.clustersPass1, 1);
+}
+
