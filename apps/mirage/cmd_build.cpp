@@ -121,6 +121,9 @@ void addBuildCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--cluster-vertices", o->config.clusterVertices, "Vertices per cluster (<= 255)")
       ->capture_default_str();
+  cmd->add_option("--normal-weight", o->config.normalWeight,
+                  "Weight of the shading-normal term in the LOD error (0 = geometric error only)")
+      ->capture_default_str();
   cmd->add_option("--group-clusters", o->config.groupClusters, "Clusters per simplification group")
       ->capture_default_str();
   cmd->add_option("--threads", o->config.threads, "Worker threads (0 = all cores)")->capture_default_str();

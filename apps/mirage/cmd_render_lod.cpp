@@ -245,13 +245,15 @@ void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
       ->capture_default_str();
   command
       .add_option("--occlusion", o.occlusion,
-                  bench ? ".mrg: two-pass HZB occlusion culling on|off|both"
-                        : ".mrg: two-pass HZB occlusion culling on|off")
+                  bench
+                      ? ".mrg: two-pass HZB occlusion culling on|off|both (off: it cost more than it saved on the H200)"
+                      : ".mrg: two-pass HZB occlusion culling on|off (off: it cost more than it saved on the H200)")
       ->capture_default_str();
   command.add_option("--cones", o.cones, ".mrg: normal-cone back-face culling on|off")->capture_default_str();
   command
       .add_option("--selection", o.selection,
-                  ".mrg: LOD cut selection: flat (every cluster of the kept levels) or hierarchy (BVH over groups)")
+                  ".mrg: LOD cut selection: auto (hierarchy from 8192 instances), flat (every cluster of the kept "
+                  "levels) or hierarchy (BVH over groups)")
       ->capture_default_str();
 }
 

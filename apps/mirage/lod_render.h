@@ -11,12 +11,12 @@ namespace mirage::cli {
 
 // Culling and raster-split options of the cluster renderer, shared by render and bench render.
 struct LodCullOptions {
-  float hybridThreshold = 16.0f; // --hybrid-threshold: estimated triangle edge (px) from which clusters go to hardware
-  std::string occlusion = "on";  // --occlusion on|off (bench: also "both": each backend with and without)
-  std::string cones = "on";      // --cones on|off: normal-cone back-face culling
-  std::string selection = "hierarchy"; // --selection flat|hierarchy: how the LOD cut is found
+  float hybridThreshold = 16.0f;  // --hybrid-threshold: estimated triangle edge (px) from which clusters go to hardware
+  std::string occlusion = "off";  // --occlusion on|off (bench: also "both": each backend with and without)
+  std::string cones = "on";       // --cones on|off: normal-cone back-face culling
+  std::string selection = "auto"; // --selection auto|flat|hierarchy: how the LOD cut is found
   bool isDefault() const {
-    return hybridThreshold == 16.0f && occlusion == "on" && cones == "on" && selection == "hierarchy";
+    return hybridThreshold == 16.0f && occlusion == "off" && cones == "on" && selection == "auto";
   }
 };
 void addLodCullOptions(CLI::App& command, LodCullOptions& options, bool bench);

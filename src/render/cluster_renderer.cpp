@@ -85,12 +85,14 @@ Result<RasterBackend> parseRasterBackend(std::string_view text) {
   return Error{fmt::format("--raster '{}': expected auto, mesh, indirect, compute or hybrid", text)};
 }
 
-const char* toString(SelectionMode m) { return m == SelectionMode::Flat ? "flat" : "hierarchy"; }
+const char* toString(SelectionMode m) {
+  return m == SelectionMode::Auto ? "auto" : m == SelectionMode::Flat ? "flat" : "hierarchy";
+}
 
 Result<SelectionMode> parseSelectionMode(std::string_view text) {
-  for (SelectionMode m : {SelectionMode::Flat, SelectionMode::Hierarchy})
+  for (SelectionMode m : {SelectionMode::Auto, SelectionMode::Flat, SelectionMode::Hierarchy})
     if (text == toString(m)) return m;
-  return Error{fmt::format("--selection '{}': expected flat or hierarchy", text)};
+  return Error{fmt::format("--selection '{}': expected auto, flat or hierarchy", text)};
 }
 
 struct ClusterRenderer::Impl {
@@ -521,7 +523,8 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                              "them (use compute or hybrid)",
                              toString(backend))};
   bool occlusion = cs.occlusionCulling && d.historyUsable;
-  bool hierarchy = cs.selection == SelectionMode::Hierarchy;
+  bool hierarchy = cs.selection == SelectionMode::Hierarchy ||
+                   (cs.selection == SelectionMode::Auto && d.scene.instanceCount >= kHierarchyInstances);
   d.ensureTargets(s.width, s.height);
 
   Camera cam = withClipPlanes(s.camera, d.scene.worldBounds);
@@ -643,7 +646,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     st.nodesTested = t.nodesTested;
     st.selectionPasses = d.scene.lodDepth + 1;
   }
-  st.selection = cs.selection;
+  st.selection = hierarchy ? SelectionMode::Hierarchy : SelectionMode::Flat;
   st.instancesVisible = c.visibleInstances;
   st.clustersTested = c.clustersTested;
   st.selectRows = c.selectArgs[1];

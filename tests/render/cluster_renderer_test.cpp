@@ -546,6 +546,7 @@ TEST_F(ClusterRender, OcclusionCullingKeepsTheImageOverACameraPath) {
       s.base.height = 189;
       s.base.camera = path[i];
       s.hybridThreshold = 3.0f;
+      s.occlusionCulling = true;
       auto on = (*withOcclusion)->render(s);
       s.occlusionCulling = false;
       auto off = (*without)->render(s);
