@@ -10,19 +10,7 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer Lin
 layout(buffer_reference, scalar, buffer_reference_align = 8) readonly buffer LinkUvec2Ref { uvec2 v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer LinkMaterialRef { GpuMaterial materials[]; };
 
-vec3 linkQuantized(uvec2 p) {
-  const uint mask = (1u << MIRAGE_SURFEL_POSITION_BITS) - 1u;
-  return vec3(float(p.x & mask), float((p.x >> 21) | ((p.y & 0x3ffu) << 11)), float(p.y >> 10));
-}
-
-vec3 linkNormal(uint packed) {
-  vec2 p = max(vec2(float(int(packed << 16) >> 16), float(int(packed) >> 16)) / 32767.0, vec2(-1.0));
-  vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
-  float t = max(-n.z, 0.0);
-  n.x += n.x >= 0.0 ? -t : t;
-  n.y += n.y >= 0.0 ? -t : t;
-  return normalize(n);
-}
+#include "surfel_decode.glsl"
 
 // Shaded colour of surfel visibility id `id` (tag removed, >= 1). The caller passes a valid id on
 // every lane (lavapipe runs the loads of inactive lanes too).
@@ -38,10 +26,10 @@ vec3 shadeLinkedSurfel(ClusterSurfelLink l, uint id, ClusterFrame f) {
   SurfelRenderInstance inst = LinkInstanceRef(l.instanceAddress).instances[lo];
   SurfelRenderCloud cloud = LinkCloudRef(l.cloudAddress).clouds[inst.cloud];
   uint at = cloud.firstSurfel + min(id - s.firstId, max(cloud.count, 1u) - 1u);
-  vec3 q = linkQuantized(LinkUvec2Ref(l.positionAddress).v[at]);
+  vec3 q = surfelQuantized(LinkUvec2Ref(l.positionAddress).v[at]);
   uvec2 attr = LinkUvec2Ref(l.attributeAddress).v[at];
   vec3 pos = (inst.model * vec4(cloud.boxMin.xyz + q * cloud.boxStep.xyz, 1.0)).xyz;
-  vec3 normal = mat3(inst.normalMatrix) * linkNormal(attr.x);
+  vec3 normal = mat3(inst.normalMatrix) * surfelNormal(attr.x);
   GpuMaterial m = LinkMaterialRef(l.materialAddress).materials[cloud.material];
   SurfaceDerivatives d;
   d.dpdx = d.dpdy = vec3(0.0);
