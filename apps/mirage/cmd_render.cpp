@@ -37,25 +37,29 @@ struct RenderOptions {
   LodCullOptions cull; // .mrg only
 };
 
+LodRenderRequest lodRequest(const RenderOptions& o) {
+  return LodRenderRequest{.input = o.input,
+                          .output = o.output,
+                          .exr = o.exr,
+                          .camera = o.camera,
+                          .path = o.path,
+                          .size = o.size,
+                          .device = o.device,
+                          .raster = o.raster,
+                          .tau = o.tau,
+                          .frames = o.repeat,
+                          .stats = o.stats,
+                          .json = o.json,
+                          .cull = o.cull};
+}
+
 void runRender(const RenderOptions& o) {
   if (o.surfels && mrgHasClusterDags(o.input)) { // DAGs + SURF: meshes near, surfels far (one frame)
     if (!o.pvs.empty() || o.surfelRaster != "auto")
       return fail("--pvs and --surfel-raster do not apply to mixed scenes");
-    LodRenderRequest r{.input = o.input,
-                       .output = o.output,
-                       .exr = o.exr,
-                       .camera = o.camera,
-                       .path = o.path,
-                       .size = o.size,
-                       .device = o.device,
-                       .raster = o.raster,
-                       .tau = o.tau,
-                       .frames = o.repeat,
-                       .stats = o.stats,
-                       .json = o.json,
-                       .cull = o.cull,
-                       .surfels = true,
-                       .surfelSize = o.surfelSize};
+    LodRenderRequest r = lodRequest(o);
+    r.surfels = true;
+    r.surfelSize = o.surfelSize;
     return runLodRender(r);
   }
   if (o.surfels) {
@@ -77,19 +81,7 @@ void runRender(const RenderOptions& o) {
   if (o.surfelSize != 2.0f || o.surfelRaster != "auto") return fail("--surfel-size and --surfel-raster need --surfels");
   if (isLodAssetPath(o.input) && !o.pvs.empty()) return fail("--pvs applies to scene files (forward renderer) for now");
   if (isLodAssetPath(o.input)) {
-    LodRenderRequest r{.input = o.input,
-                       .output = o.output,
-                       .exr = o.exr,
-                       .camera = o.camera,
-                       .path = o.path,
-                       .size = o.size,
-                       .device = o.device,
-                       .raster = o.raster,
-                       .tau = o.tau,
-                       .frames = o.repeat,
-                       .stats = o.stats,
-                       .json = o.json,
-                       .cull = o.cull};
+    LodRenderRequest r = lodRequest(o);
     return runLodRender(r);
   }
   if (o.raster != "auto" || o.tau != 1.0f || !o.path.empty() || !o.cull.isDefault())
