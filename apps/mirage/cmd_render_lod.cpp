@@ -146,12 +146,6 @@ struct Timed {
   double maxFrameMs = 0.0; // slowest timed frame (on a camera path the median hides the worst view)
 };
 
-double frameMilliseconds(const std::vector<gpu::PassTime>& times) {
-  for (const auto& t : times)
-    if (t.name == "frame") return t.milliseconds;
-  return 0.0;
-}
-
 // Renders `frames` frames; with more than one, the first (pipeline warm-up) is not timed. On a
 // camera path, frame i uses camera i - 1 (the warm-up repeats camera 0); `onFrame` sees each
 // timed frame's output with its camera index.

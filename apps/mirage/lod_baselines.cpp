@@ -43,10 +43,6 @@ Chain buildChain(const lod::ClusterDag& dag) {
   return chain;
 }
 
-float maxAxisScale(const glm::mat4& m) {
-  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
-}
-
 Result<BaselineResult> timeScene(gpu::Context& context, const Scene& scene, const render::RenderSettings& settings,
                                  int frames, const char* name) {
   auto renderer = render::ForwardRenderer::create(context, scene);
@@ -60,8 +56,7 @@ Result<BaselineResult> timeScene(gpu::Context& context, const Scene& scene, cons
     if (i > 0 || frames == 1) times.push_back(out->stats.passTimes);
     r.triangles = out->stats.trianglesSubmitted;
   }
-  for (const auto& t : medianPassTimes(times))
-    if (t.name == "frame") r.frameMs = t.milliseconds;
+  r.frameMs = frameMilliseconds(medianPassTimes(times));
   return r;
 }
 

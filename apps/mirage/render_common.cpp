@@ -58,4 +58,10 @@ std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::Pa
   return out;
 }
 
+double frameMilliseconds(const std::vector<gpu::PassTime>& times) {
+  for (const auto& t : times)
+    if (t.name == "frame") return t.milliseconds;
+  return 0.0;
+}
+
 } // namespace mirage::cli

@@ -33,5 +33,7 @@ Result<Scene> restrictSceneToPvs(const Scene& scene, const vis::PvsData& pvs, co
                                  int& cell);
 // Median over frames of each pass's GPU time (frames[i] lists the passes of frame i).
 std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::PassTime>>& frames);
+// The whole frame's GPU time among a frame's pass times ("frame"), 0 when absent.
+double frameMilliseconds(const std::vector<gpu::PassTime>& times);
 
 } // namespace mirage::cli

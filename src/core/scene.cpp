@@ -33,6 +33,10 @@ Bounds Scene::worldBounds() const {
   return out;
 }
 
+float maxAxisScale(const glm::mat4& m) {
+  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
+}
+
 void repeatOnGrid(Scene& scene, uint32_t copies) {
   if (copies <= 1) return;
   Bounds b = scene.worldBounds();

@@ -20,10 +20,6 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-float maxAxisScale(const glm::mat4& m) {
-  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
-}
-
 glm::vec4 sphere(const lod::LodBounds& b) { return {b.center, b.radius}; }
 
 // Normal cone of one cluster's triangles (object space) from meshoptimizer; degenerate clusters

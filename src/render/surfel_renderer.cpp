@@ -36,10 +36,6 @@ void frustumPlanes(const glm::mat4& m, glm::vec4* planes) {
   for (int i = 0; i < 5; ++i) planes[i] = p[i] / glm::length(glm::vec3(p[i]));
 }
 
-float maxAxisScale(const glm::mat4& m) {
-  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
-}
-
 } // namespace
 
 const char* toString(SurfelRaster r) {

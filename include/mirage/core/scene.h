@@ -98,6 +98,10 @@ struct Scene {
 // Transform an object-space box to a world-space box (the box of its 8 transformed corners).
 Bounds transformBounds(const Bounds& b, const glm::mat4& m);
 
+// Largest length of the transform's three axes: how much it can stretch object-space distances
+// (LOD errors and bounding-sphere radii are scaled by it).
+float maxAxisScale(const glm::mat4& m);
+
 // The seed's benchmark scenes: `copies` copies of all the scene's instances on a square grid in the
 // ground (xz) plane, row by row (ceil(sqrt(copies)) per row), centred on the original, spaced by
 // 1.25x the scene's largest horizontal extent so copies never overlap. Meshes are shared, not copied.
