@@ -67,29 +67,40 @@ Result<std::vector<BaselineResult>> renderLodBaselines(gpu::Context& context, co
   std::vector<Chain> chains;
   for (const lod::ClusterDag& dag : asset.dags) chains.push_back(buildChain(dag));
 
-  // Both scenes share the chain meshes: brute force uses level 0 of each, the discrete LOD scene
-  // picks a level per instance.
-  Scene scene = asset.scene;
-  scene.meshes.clear();
+  // A chain mesh with its source mesh's material and name.
+  auto chainMesh = [&](size_t m, size_t level) {
+    Mesh mesh = chains[m].meshes[level];
+    mesh.material = asset.scene.meshes[m].material;
+    mesh.name = asset.scene.meshes[m].name;
+    return mesh;
+  };
+  std::vector<BaselineResult> out;
+
+  // Brute force: level 0 of mesh m is mesh m, so the instances stay as they are. Built, timed and
+  // freed before the discrete scene, so only one scene's geometry lives at a time.
+  {
+    Scene brute = asset.scene;
+    brute.meshes.clear();
+    for (size_t m = 0; m < chains.size(); ++m) brute.meshes.push_back(chainMesh(m, 0));
+    auto r = timeScene(context, brute, settings, frames, "brute-force");
+    if (!r) return r.error();
+    out.push_back(std::move(*r));
+  }
+
+  // Discrete LOD: every chain level, each instance pointing at its level.
+  Scene discrete = asset.scene;
+  discrete.meshes.clear();
   std::vector<uint32_t> firstMesh;
   for (size_t m = 0; m < chains.size(); ++m) {
-    firstMesh.push_back(uint32_t(scene.meshes.size()));
-    for (Mesh mesh : chains[m].meshes) {
-      mesh.material = asset.scene.meshes[m].material;
-      mesh.name = asset.scene.meshes[m].name;
-      scene.meshes.push_back(std::move(mesh));
-    }
+    firstMesh.push_back(uint32_t(discrete.meshes.size()));
+    for (size_t level = 0; level < chains[m].meshes.size(); ++level) discrete.meshes.push_back(chainMesh(m, level));
   }
   render::Camera camera = render::withClipPlanes(settings.camera, asset.scene.worldBounds());
   float pixelsPerSlope = 0.5f * float(settings.height) / std::tan(glm::radians(camera.fovYDegrees) * 0.5f);
-
-  Scene brute = scene, discrete = scene;
-  BaselineResult usage;
-  usage.chainLevels = chains.empty() ? 0 : uint32_t(chains[0].meshes.size());
-  usage.usage.assign(usage.chainLevels, 0);
+  uint32_t chainLevels = chains.empty() ? 0 : uint32_t(chains[0].meshes.size());
+  std::vector<uint32_t> usage(chainLevels, 0);
   for (size_t i = 0; i < asset.scene.instances.size(); ++i) {
     const Instance& inst = asset.scene.instances[i];
-    brute.instances[i].mesh = firstMesh[inst.mesh];
     const Chain& chain = chains[inst.mesh];
     const Bounds& b = asset.scene.meshes[inst.mesh].bounds;
     float s = maxAxisScale(inst.transform);
@@ -99,15 +110,13 @@ Result<std::vector<BaselineResult>> renderLodBaselines(gpu::Context& context, co
     for (uint32_t k = 1; k < chain.meshes.size(); ++k)
       if (chain.thresholds[k] * s / nearest * pixelsPerSlope <= tau) level = k;
     discrete.instances[i].mesh = firstMesh[inst.mesh] + level;
-    if (inst.mesh == 0) ++usage.usage[level];
+    if (inst.mesh == 0) ++usage[level];
   }
-  std::vector<BaselineResult> out;
-  for (auto [s, name] : {std::pair{&brute, "brute-force"}, std::pair{&discrete, "discrete-lod"}}) {
-    auto r = timeScene(context, *s, settings, frames, name);
-    if (!r) return r.error();
-    if (s == &discrete) r->chainLevels = usage.chainLevels, r->usage = usage.usage;
-    out.push_back(std::move(*r));
-  }
+  auto r = timeScene(context, discrete, settings, frames, "discrete-lod");
+  if (!r) return r.error();
+  r->chainLevels = chainLevels;
+  r->usage = std::move(usage);
+  out.push_back(std::move(*r));
   return out;
 }
 
