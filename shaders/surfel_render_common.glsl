@@ -38,3 +38,10 @@ uint findInstance(uint value, bool batches) {
 }
 
 #include "fade_dither.glsl"
+
+// True when a surfel of the instance faces away from the eye by more than the culling margin
+// (dot(n, v) > cos * |v| with v from the eye to the surfel, all in the cloud's object frame).
+bool surfelBackFacing(SurfelInstanceState s, vec3 quantized, uint packedNormal) {
+  vec3 v = (quantized - s.eyeQuantized.xyz) * s.quantStep.xyz;
+  return dot(surfelNormal(packedNormal), v) > MIRAGE_SURFEL_BACKFACE_COS * length(v);
+}

@@ -63,6 +63,13 @@ void main() {
   s.fade = fade;
   s.distance = distance;
   s.pad0 = 0;
+  // Back faces: only for single-sided materials (a leaf's surfels carry one normal but show both
+  // sides), in the quantized frame the splat reads positions in.
+  bool singleSided = SrMaterialRef(push.materialAddress).materials[cloud.material].doubleSided == 0u;
+  vec3 eyeObject = (inverse(inst.model) * vec4(f.eye.xyz, 1.0)).xyz;
+  s.eyeQuantized = vec4((eyeObject - cloud.boxMin.xyz) / cloud.boxStep.xyz,
+                        (f.flags & MIRAGE_SURFEL_BACKFACE_CULL) != 0 && singleSided ? 1.0 : 0.0);
+  s.quantStep = vec4(cloud.boxStep.xyz, 0.0);
   SrStateRef(push.stateAddress).states[i] = s;
   // vkCmdDrawIndirect: 6 vertices (two triangles) per surfel, firstInstance = instance index.
   SrDrawRef(push.drawAddress).draws[i] = uvec4(count * 6u, 1u, 0u, i);

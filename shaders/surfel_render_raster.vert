@@ -14,10 +14,13 @@ void main() {
   SurfelInstanceState s = SrStateRef(push.stateAddress).states[slot];
   SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
   uint firstSurfel = SrCloudRef(push.cloudAddress).clouds[SrInstanceRef(push.instanceAddress).instances[slot].cloud].firstSurfel;
-  vec4 clip = s.clipFromQuantized * vec4(surfelQuantized(SrUvec2Ref(push.positionAddress).v[firstSurfel + i]), 1.0);
+  vec3 quantized = surfelQuantized(SrUvec2Ref(push.positionAddress).v[firstSurfel + i]);
+  vec4 clip = s.clipFromQuantized * vec4(quantized, 1.0);
   outId = s.firstId + i;
   outFade = s.fade;
-  if (clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) {
+  bool backFacing =
+      s.eyeQuantized.w != 0.0 && surfelBackFacing(s, quantized, SrUvec2Ref(push.attributeAddress).v[firstSurfel + i].x);
+  if (backFacing || clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) {
     gl_Position = vec4(2.0, 2.0, 2.0, 1.0); // outside the clip volume: dropped
     outDisc = vec3(0.0);
     return;

@@ -36,15 +36,23 @@ void main() {
 
   // All loads first, so each thread has MIRAGE_SURFEL_PER_THREAD requests in flight before the
   // first atomic (bandwidth needs memory-level parallelism; atomics would otherwise serialize them).
+  // Back-face culling reads each surfel's normal too (4 more bytes, coalesced): it saves the random
+  // visibility-buffer access of the surfels it drops, the splat's real cost.
+  bool cullBackFaces = s.eyeQuantized.w != 0.0; // uniform over the workgroup (one instance)
+  SrUvec2Ref attributes = SrUvec2Ref(push.attributeAddress);
   uvec2 q[MIRAGE_SURFEL_PER_THREAD];
+  uint normals[MIRAGE_SURFEL_PER_THREAD];
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     q[j] = i < s.count ? positions.v[firstSurfel + i] : uvec2(0u);
+    normals[j] = cullBackFaces && i < s.count ? attributes.v[firstSurfel + i].x : 0u;
   }
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     if (i >= s.count) break;
-    vec4 clip = s.clipFromQuantized * vec4(surfelQuantized(q[j]), 1.0);
+    vec3 quantized = surfelQuantized(q[j]);
+    if (cullBackFaces && surfelBackFacing(s, quantized, normals[j])) continue;
+    vec4 clip = s.clipFromQuantized * vec4(quantized, 1.0);
     // Behind the eye, nearer than the near plane (reverse-Z: z > w) or beyond the far plane (z < 0).
     if (clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) continue;
     vec2 p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;

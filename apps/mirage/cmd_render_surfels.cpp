@@ -167,6 +167,10 @@ void runSurfelBench(const SurfelRenderRequest& r) {
     if (!b) return fail(b.error());
     rasters.push_back(*b);
   }
+  std::vector<bool> cullings;
+  if (r.backface == "on" || r.backface == "both") cullings.push_back(true);
+  if (r.backface == "off" || r.backface == "both") cullings.push_back(false);
+  if (cullings.empty()) return fail("--backface must be on, off or both (got " + r.backface + ")");
   SurfelSession s;
   if (!open(r, /*needOutput=*/false, s)) return;
   s.settings.base.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
@@ -182,31 +186,36 @@ void runSurfelBench(const SurfelRenderRequest& r) {
                s.settings.base.width, s.settings.base.height, r.surfelSize,
                r.allSurfels ? "all surfels (no prefix)" : "adaptive prefix", r.frames - 1, r.bandwidth);
   nlohmann::json all = nlohmann::json::array();
-  for (render::SurfelRaster raster : rasters) {
-    s.settings.raster = raster;
-    Timed t;
-    if (!renderFrames(s, r.frames, t)) return;
-    double splatMs = passMs(t.times, "splat");
-    double surfels = double(t.last.surfelsSplatted);
-    double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
-    // The splat streams the 8-byte quantized positions; normals and colours are read by the resolve
-    // only for visible pixels.
-    double bytesPerSecond = perSecond * 8.0;
-    if (r.json) {
-      nlohmann::json j = {
-          {"raster", render::toString(raster)},           {"surfels_splatted", t.last.surfelsSplatted},
-          {"instances_visible", t.last.visibleInstances}, {"surfels_per_second", perSecond},
-          {"bytes_per_second", bytesPerSecond},           {"bandwidth_fraction", bytesPerSecond / r.bandwidth}};
-      for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-      all.push_back(j);
-      continue;
+  for (render::SurfelRaster raster : rasters)
+    for (bool cull : cullings) {
+      s.settings.raster = raster;
+      s.settings.backfaceCulling = cull;
+      Timed t;
+      if (!renderFrames(s, r.frames, t)) return;
+      double splatMs = passMs(t.times, "splat");
+      double surfels = double(t.last.surfelsSplatted);
+      double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
+      // The splat streams the 8-byte quantized positions, and with back-face culling the 8-byte
+      // attributes (normal + colour, one sector) too; the resolve reads attributes of visible pixels.
+      double bytesPerSecond = perSecond * (cull ? 16.0 : 8.0);
+      if (r.json) {
+        nlohmann::json j = {{"raster", render::toString(raster)},
+                            {"backface_culling", cull},
+                            {"surfels_splatted", t.last.surfelsSplatted},
+                            {"instances_visible", t.last.visibleInstances},
+                            {"surfels_per_second", perSecond},
+                            {"bytes_per_second", bytesPerSecond},
+                            {"bandwidth_fraction", bytesPerSecond / r.bandwidth}};
+        for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+        all.push_back(j);
+        continue;
+      }
+      fmt::print("-- {}, back-face culling {}: instances visible {}, surfels splatted {}\n", render::toString(raster),
+                 cull ? "on" : "off", t.last.visibleInstances, t.last.surfelsSplatted);
+      for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
+      fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
+                 perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
     }
-    fmt::print("-- {}: instances visible {}, surfels splatted {}\n", render::toString(raster), t.last.visibleInstances,
-               t.last.surfelsSplatted);
-    for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
-    fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
-               perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
-  }
   if (r.json) {
     nlohmann::json j = {{"bench", "surfels"},
                         {"input", r.input},
@@ -240,6 +249,9 @@ void addBenchSurfelsCommand(CLI::App& bench) {
   b->add_flag("--shared-copies", o->sharedCopies,
               "All copies read one stored cloud (cache-resident; default: one each)");
   b->add_flag("--all", o->allSurfels, "Splat every surfel of every instance (no prefix): raw throughput");
+  b->add_option("--backface", o->backface,
+                "Back-face culling of single-sided clouds: on|off|both (both: timed in one run)")
+      ->capture_default_str();
   b->add_option("--bandwidth", o->bandwidth, "Device memory bandwidth in B/s (H200 HBM3e: 4.8e12)")
       ->capture_default_str();
   b->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60]; default: auto 3/4 view of all copies");

@@ -351,7 +351,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | (ss.allSurfels ? MIRAGE_SURFEL_ALL : 0u) |
             (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
-            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u);
+            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
   f.instanceCount = d.instanceCount;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::SurfelRenderPush p = d.push();
@@ -430,7 +430,7 @@ Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const Surfel
   f.znear = sf.znear;
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
-            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u);
+            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
   f.instanceCount = d.instanceCount;
   f.idTag = MIRAGE_SURFEL_ID_TAG;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));

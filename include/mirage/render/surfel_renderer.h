@@ -53,6 +53,9 @@ struct SurfelRenderSettings {
   SurfelRaster raster = SurfelRaster::Auto; // resolved against the device at render time
   bool frustumCulling = true;               // instances outside the view draw nothing
   bool allSurfels = false;                  // benchmark: every instance splats all N (no prefix)
+  // Surfels of single-sided clouds facing away from the eye are skipped (as the mesh renderers cull
+  // back faces): they would lose the depth test anyway, but each costs a random visibility access.
+  bool backfaceCulling = true;
   // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
   // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
   // beyond it (0: hard switch). Off: surfels everywhere.

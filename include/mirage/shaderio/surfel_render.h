@@ -30,10 +30,16 @@ namespace mirage::shaderio {
 #define MIRAGE_SURFEL_FAST_RADIUS_PX 0.5
 
 // SurfelRenderFrame::flags
-#define MIRAGE_SURFEL_FRUSTUM_CULL 1u  // instances outside the view frustum get k = 0
-#define MIRAGE_SURFEL_ALL 2u           // benchmark: every instance splats all N surfels (no prefix)
-#define MIRAGE_SURFEL_SOURCE_BUFFER 4u // the resolve reads the 64-bit buffer (compute splat), else the image
-#define MIRAGE_SURFEL_MESH_FADE 8u     // a mesh pass draws near instances: fade surfels in over a band
+#define MIRAGE_SURFEL_FRUSTUM_CULL 1u   // instances outside the view frustum get k = 0
+#define MIRAGE_SURFEL_ALL 2u            // benchmark: every instance splats all N surfels (no prefix)
+#define MIRAGE_SURFEL_SOURCE_BUFFER 4u  // the resolve reads the 64-bit buffer (compute splat), else the image
+#define MIRAGE_SURFEL_MESH_FADE 8u      // a mesh pass draws near instances: fade surfels in over a band
+#define MIRAGE_SURFEL_BACKFACE_CULL 16u // single-sided clouds skip surfels facing away from the eye
+
+// Back-face culling keeps surfels whose normal leans away from the eye by less than this cosine:
+// capture normals are shading normals, which can face slightly away on silhouette triangles that
+// still face the eye, and those surfels fill the rim (the hole-free test covers it).
+#define MIRAGE_SURFEL_BACKFACE_COS 0.25
 
 // One surfel cloud as the shaders see it: positions and attributes live in two arrays (SoA), so the
 // splat streams 8 bytes per surfel and only the resolve touches normals and colours.
@@ -68,6 +74,10 @@ struct SurfelInstanceState {
   float fade;             // fraction of pixels the surfels may cover (1 = all; < 1 in the mesh blend band)
   float distance;         // reference depth: eye to the nearest point of the world sphere (>= znear)
   uint pad0;
+  // Back-face culling in quantized coordinates (the test is affine-invariant: dot(n, p - eye) has
+  // the same sign in object and world space): xyz the eye, w 1 when this instance culls back faces.
+  vec4 eyeQuantized;
+  vec4 quantStep; // xyz: object units per quantization step (the cloud's boxStep)
 };
 
 struct SurfelRenderFrame {
@@ -119,7 +129,7 @@ struct SurfelRenderPush {
 #ifdef __cplusplus
 static_assert(sizeof(SurfelRenderCloud) == 48, "SurfelRenderCloud layout");
 static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout");
-static_assert(sizeof(SurfelInstanceState) == 96, "SurfelInstanceState layout");
+static_assert(sizeof(SurfelInstanceState) == 128, "SurfelInstanceState layout");
 static_assert(sizeof(SurfelRenderFrame) == 328, "SurfelRenderFrame layout");
 static_assert(sizeof(SurfelRenderCounters) == 32, "SurfelRenderCounters layout");
 static_assert(sizeof(SurfelRenderPush) == 96, "SurfelRenderPush layout");
