@@ -16,22 +16,21 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SrCounterRef
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SrDrawRef { uvec4 draws[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer SrVisRef { uint64_t pixels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SrFloatRef { float v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SrUintRef { uint v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer SrFadeRef { float v[]; };
 
 layout(push_constant, scalar) uniform Push { SurfelRenderPush push; };
 
 #include "surfel_decode.glsl"
 
-// The instance whose visibility ids (or batches) contain `value`: the last instance whose first
-// entry is <= value. Instances with nothing drawn share their first entry with the next one, so
-// "last" skips them. `batches` selects firstBatch, else firstId.
-uint findInstance(uint value, bool batches) {
+// The instance whose visibility ids contain `id`: the last instance whose first id is <= id.
+// Instances with nothing drawn share their first id with the next one, so "last" skips them.
+uint findInstance(uint id) {
   SrStateRef states = SrStateRef(push.stateAddress);
   uint lo = 0, hi = SrFrameRef(push.frameAddress).frame.instanceCount; // answer in [lo, hi)
   while (hi - lo > 1u) {
     uint mid = (lo + hi) >> 1;
-    uint first = batches ? states.states[mid].firstBatch : states.states[mid].firstId;
-    if (first <= value) lo = mid;
+    if (states.states[mid].firstId <= id) lo = mid;
     else hi = mid;
   }
   return lo;

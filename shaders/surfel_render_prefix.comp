@@ -62,7 +62,7 @@ void main() {
   s.radiusPixels = radius * f.pixelScale;
   s.fade = fade;
   s.distance = distance;
-  s.pad0 = 0;
+  s.firstSurfel = cloud.firstSurfel;
   // Back faces: only for single-sided materials (a leaf's surfels carry one normal but show both
   // sides), in the quantized frame the splat reads positions in.
   bool singleSided = SrMaterialRef(push.materialAddress).materials[cloud.material].doubleSided == 0u;

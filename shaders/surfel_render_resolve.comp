@@ -25,7 +25,7 @@ void main() {
     imageStore(outImage, px, f.background);
     return;
   }
-  uint slot = findInstance(id, /*batches=*/false);
+  uint slot = findInstance(id);
   SurfelInstanceState s = SrStateRef(push.stateAddress).states[slot];
   SurfelRenderInstance inst = SrInstanceRef(push.instanceAddress).instances[slot];
   SurfelRenderCloud cloud = SrCloudRef(push.cloudAddress).clouds[inst.cloud];

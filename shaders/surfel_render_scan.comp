@@ -1,7 +1,8 @@
 #version 460
 // One workgroup: exclusive prefix sums over the instances of their batch counts (where each
 // instance's splat workgroups start) and surfel counts (their visibility ids; 0 stays background),
-// in chunks of the workgroup size with a running carry; then the splat dispatch arguments. A
+// in chunks of the workgroup size with a running carry, and each batch's instance; then the splat
+// dispatch arguments. A
 // single workgroup is enough for thousands of instances (a chunk per 256); a decoupled look-back
 // scan would replace it for millions.
 #include "surfel_render_common.glsl"
@@ -31,6 +32,8 @@ void main() {
       uvec2 first = carry + sums[t] - own;
       states.states[i].firstBatch = first.x;
       states.states[i].firstId = first.y;
+      SrUintRef batchInstance = SrUintRef(push.batchInstanceAddress);
+      for (uint b = 0; b < own.x; ++b) batchInstance.v[first.x + b] = i;
     }
     carry += sums[MIRAGE_SURFEL_INSTANCE_WORKGROUP - 1];
     barrier();

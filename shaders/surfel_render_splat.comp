@@ -24,10 +24,11 @@ void main() {
   uint batch = gl_WorkGroupID.y * MIRAGE_SURFEL_DISPATCH_X + gl_WorkGroupID.x;
   SrCounterRef counters = SrCounterRef(push.counterAddress);
   if (batch >= counters.c.totalBatches) return; // uniform over the workgroup
-  uint slot = findInstance(batch, /*batches=*/true);
+  // Two dependent loads to the instance state: the workgroup's prologue is latency it cannot hide.
+  uint slot = SrUintRef(push.batchInstanceAddress).v[batch];
   SurfelInstanceState s = SrStateRef(push.stateAddress).states[slot];
   SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
-  uint firstSurfel = SrCloudRef(push.cloudAddress).clouds[SrInstanceRef(push.instanceAddress).instances[slot].cloud].firstSurfel;
+  uint firstSurfel = s.firstSurfel;
   SrUvec2Ref positions = SrUvec2Ref(push.positionAddress);
   SrVisRef vis = SrVisRef(push.visBufferAddress);
   uint width = uint(f.viewport.x);

@@ -59,7 +59,7 @@ Result<SurfelRaster> parseSurfelRaster(std::string_view text) {
 struct SurfelRenderer::Impl {
   Context& ctx;
   Buffer positions, attributes, radii, clouds, instances, materials; // set-up time
-  Buffer frame, states, counters, draws, visBuffer;                  // per frame
+  Buffer frame, states, counters, draws, visBuffer, batchInstance;   // per frame
   std::vector<Image> textures;                                       // one white texel: shading.glsl's array
   Unique<VkSampler> sampler, nearestSampler;
   DescriptorSet descriptors;
@@ -68,6 +68,7 @@ struct SurfelRenderer::Impl {
   Image color, vis, depth;
   uint32_t width = 0, height = 0, instanceCount = 0;
   uint64_t surfelCount = 0, instancedCount = 0;
+  uint64_t maxBatches = 0; // splat batches when every instance draws all its surfels
   Bounds worldBounds;
   GpuTimer timer;
 
@@ -126,6 +127,7 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
     worldBounds.add(world.min);
     worldBounds.add(world.max);
     instancedCount += cloud.size();
+    maxBatches += (cloud.size() + MIRAGE_SURFEL_BATCH - 1) / MIRAGE_SURFEL_BATCH;
   }
   surfelCount = pos.size();
   instanceCount = uint32_t(gpuInstances.size());
@@ -166,6 +168,8 @@ void SurfelRenderer::Impl::createPipelines() {
   frame = createBuffer(ctx, sizeof(sio::SurfelRenderFrame), kStorage, MemoryUsage::Upload, "surfel frame");
   states = createBuffer(ctx, uint64_t(instanceCount) * sizeof(sio::SurfelInstanceState),
                         kStorage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::GpuOnly, "surfel states");
+  batchInstance = createBuffer(ctx, std::max<uint64_t>(maxBatches, 1) * sizeof(uint32_t), kStorage,
+                               MemoryUsage::GpuOnly, "surfel batch instances");
   draws = createBuffer(ctx, uint64_t(instanceCount) * sizeof(VkDrawIndirectCommand),
                        kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUsage::GpuOnly, "surfel draws");
   counters = createBuffer(ctx, sizeof(sio::SurfelRenderCounters),
@@ -207,6 +211,7 @@ sio::SurfelRenderPush SurfelRenderer::Impl::push() const {
   p.drawAddress = draws.address();
   p.visBufferAddress = visBuffer.address();
   p.radiusAddress = radii.address();
+  p.batchInstanceAddress = batchInstance.address();
   return p;
 }
 

@@ -73,7 +73,7 @@ struct SurfelInstanceState {
   float radiusPixels;     // splat radius in pixels at clip w = 1: the prefix's Poisson radius (world) * pixel scale
   float fade;             // fraction of pixels the surfels may cover (1 = all; < 1 in the mesh blend band)
   float distance;         // reference depth: eye to the nearest point of the world sphere (>= znear)
-  uint pad0;
+  uint firstSurfel;       // the cloud's first surfel in the position and attribute arrays
   // Back-face culling in quantized coordinates (the test is affine-invariant: dot(n, p - eye) has
   // the same sign in object and world space): xyz the eye, w 1 when this instance culls back faces.
   vec4 eyeQuantized;
@@ -124,6 +124,9 @@ struct SurfelRenderPush {
   uint64_t visBufferAddress; // uint64[width * height]: (reverse-Z depth bits << 32) | id
   uint64_t radiusAddress;    // float[]: SurfelCloud::radii, the Poisson radius of each prefix
   uint64_t meshFadeAddress;  // mixed scenes: float[] per cluster instance, the prefix pass writes fade (0: none)
+  // uint[] per splat batch: the instance it belongs to (the scan pass writes it), so a splat
+  // workgroup finds its instance with one load instead of a binary search of dependent loads.
+  uint64_t batchInstanceAddress;
 };
 
 #ifdef __cplusplus
@@ -132,7 +135,7 @@ static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout"
 static_assert(sizeof(SurfelInstanceState) == 128, "SurfelInstanceState layout");
 static_assert(sizeof(SurfelRenderFrame) == 328, "SurfelRenderFrame layout");
 static_assert(sizeof(SurfelRenderCounters) == 32, "SurfelRenderCounters layout");
-static_assert(sizeof(SurfelRenderPush) == 96, "SurfelRenderPush layout");
+static_assert(sizeof(SurfelRenderPush) == 104, "SurfelRenderPush layout");
 } // namespace mirage::shaderio
 #endif
 
