@@ -99,7 +99,17 @@ Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipeli
 }
 
 Unique<VkPipeline> createComputePipeline(Context& context, std::string_view shader, VkPipelineLayout layout) {
+  return createComputePipeline(context, shader, layout, {});
+}
+
+Unique<VkPipeline> createComputePipeline(Context& context, std::string_view shader, VkPipelineLayout layout,
+                                         std::span<const uint32_t> specialization) {
   Unique<VkShaderModule> cs = createShaderModule(context, shader);
+  std::vector<VkSpecializationMapEntry> entries;
+  for (uint32_t i = 0; i < specialization.size(); ++i)
+    entries.push_back({i, uint32_t(i * sizeof(uint32_t)), sizeof(uint32_t)});
+  VkSpecializationInfo info{uint32_t(entries.size()), entries.data(), specialization.size_bytes(),
+                            specialization.data()};
   VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
   ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
               nullptr,
@@ -107,7 +117,7 @@ Unique<VkPipeline> createComputePipeline(Context& context, std::string_view shad
               VK_SHADER_STAGE_COMPUTE_BIT,
               cs,
               "main",
-              nullptr};
+              specialization.empty() ? nullptr : &info};
   ci.layout = layout;
   VkPipeline pipeline;
   MIRAGE_VK_CHECK(vkCreateComputePipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));

@@ -64,7 +64,8 @@ struct SurfelRenderer::Impl {
   Unique<VkSampler> sampler, nearestSampler;
   DescriptorSet descriptors;
   Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> prefixPipeline, scanPipeline, splatPipeline, rasterPipeline, resolvePipeline;
+  Unique<VkPipeline> prefixPipeline, scanPipeline, splatPipeline, splatCullPipeline, rasterPipeline, resolvePipeline;
+  bool cullBackFaces = false; // the frame's setting: which splat pipeline runs
   Image color, vis, depth;
   uint32_t width = 0, height = 0, instanceCount = 0;
   uint64_t surfelCount = 0, instancedCount = 0;
@@ -155,7 +156,11 @@ void SurfelRenderer::Impl::createPipelines() {
   layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::SurfelRenderPush), kPushStages);
   prefixPipeline = createComputePipeline(ctx, "surfel_render_prefix.comp", layout);
   scanPipeline = createComputePipeline(ctx, "surfel_render_scan.comp", layout);
-  if (ctx.caps().int64BufferAtomics) splatPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout);
+  if (ctx.caps().int64BufferAtomics) {
+    const uint32_t off[] = {VK_FALSE}, on[] = {VK_TRUE};
+    splatPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout, off);
+    splatCullPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout, on);
+  }
   resolvePipeline = createComputePipeline(ctx, "surfel_render_resolve.comp", layout);
   GraphicsPipelineDesc d;
   d.vertexShader = "surfel_render_raster.vert";
@@ -247,7 +252,7 @@ void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster, Gp
                       VK_IMAGE_LAYOUT_UNDEFINED,
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   if (raster == SurfelRaster::Compute) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, splatPipeline);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cullBackFaces ? splatCullPipeline : splatPipeline);
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::SurfelRenderCounters, splatArgs));
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
@@ -357,6 +362,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | (ss.allSurfels ? MIRAGE_SURFEL_ALL : 0u) |
             (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
+  d.cullBackFaces = ss.backfaceCulling;
   f.instanceCount = d.instanceCount;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::SurfelRenderPush p = d.push();
@@ -436,6 +442,7 @@ Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const Surfel
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
+  d.cullBackFaces = ss.backfaceCulling;
   f.instanceCount = d.instanceCount;
   f.idTag = MIRAGE_SURFEL_ID_TAG;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));

@@ -1,6 +1,7 @@
 #pragma once
 // Shader modules from embedded SPIR-V, and small builders for the pipelines Mirage uses
 // (dynamic rendering, no render-pass objects).
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -32,6 +33,11 @@ struct GraphicsPipelineDesc {
 
 Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipelineDesc& desc);
 Unique<VkPipeline> createComputePipeline(Context& context, std::string_view shader, VkPipelineLayout layout);
+// With specialization constants: constant_id i takes specialization[i] (32-bit values: uint, int,
+// float bits or a VkBool32), so one shader yields variants the compiler folds (e.g. a feature off
+// costs no registers).
+Unique<VkPipeline> createComputePipeline(Context& context, std::string_view shader, VkPipelineLayout layout,
+                                         std::span<const uint32_t> specialization);
 
 Unique<VkPipelineLayout> createPipelineLayout(Context& context, const std::vector<VkDescriptorSetLayout>& sets,
                                               uint32_t pushConstantBytes, VkShaderStageFlags pushStages);
