@@ -4,6 +4,7 @@
 #extension GL_EXT_mesh_shader : require
 #extension GL_EXT_shader_atomic_int64 : require
 #include "cluster_common.glsl"
+#include "cluster_vis_alpha.glsl"
 
 layout(location = 0) perprimitiveEXT flat in uvec2 inId;
 
