@@ -1,6 +1,6 @@
-// Body of the compute software rasterizers (cluster_raster.comp: opaque and masked clusters into
-// the 64-bit visibility buffer; cluster_raster_blend.comp, MIRAGE_RASTER_BLEND: blended clusters
-// into the transparency lists). Compute software rasterizer: one workgroup per visible cluster; each thread walks the pixel
+// Body of the compute software rasterizers (cluster_raster.comp: opaque clusters, and
+// cluster_raster_mask.comp, MIRAGE_RASTER_MASK: masked ones, into the 64-bit visibility buffer;
+// cluster_raster_blend.comp, MIRAGE_RASTER_BLEND: blended clusters into the transparency lists). Compute software rasterizer: one workgroup per visible cluster; each thread walks the pixel
 // bounding box of its triangles and keeps the nearest sample with a 64-bit atomicMax of
 // (reverse-Z depth bits << 32 | ((visible index + 1) << 7 | triangle)): larger depth is nearer and
 // positive float bits order like the floats. Vertices snap to 1/256 pixel and ties follow the
@@ -65,8 +65,8 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 #endif
 
 // One screen-space triangle (snapped vertices) into the 64-bit visibility buffer (or the
-// transparency lists). `masked`: a constant at each call (see rasterCluster), so the opaque copy
-// carries no alpha code; masked pixels pass maskKeeps on `tri` (the unclipped triangle) first.
+// transparency lists). `masked`: a constant per kernel, so the opaque one carries no alpha code;
+// masked pixels pass maskKeeps on `tri` (the unclipped triangle) first.
 void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, ClusterFrame f, float fade,
                     bool masked, ClusterTriangle tri, GpuMaterial m) {
   vec2 viewport = f.viewport;
@@ -141,6 +141,16 @@ void main() {
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v];
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
+  // Masked clusters are drawn by their own pipeline (cluster_raster_mask.comp) over the same list:
+  // the opaque kernel is today's loop with no alpha code (no added registers), and each kernel
+  // skips the other's clusters at this uniform test. Blended clusters are never alpha-tested
+  // (their alpha blends in the composite).
+  bool masked = (inst.flags & MIRAGE_INSTANCE_ALPHA_MASK) != 0;
+#if defined(MIRAGE_RASTER_MASK)
+  if (!masked) return;
+#elif !defined(MIRAGE_RASTER_BLEND)
+  if (masked) return;
+#endif
   mat4 mvp = f.viewProj * inst.model;
   for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
@@ -149,16 +159,9 @@ void main() {
     screen[i] = toScreen(clip, f.viewport);
   }
   barrier();
-  float fade = instanceFade(vc.instance);
-  // Opaque clusters take the copy with `masked` folded to false: the fast path is today's loop,
-  // and the per-cluster flag costs one uniform branch per workgroup. Blended clusters are never
-  // alpha-tested (their alpha blends in the composite).
-#ifdef MIRAGE_RASTER_BLEND
-  rasterCluster(v, c, inst, f, fade, false);
+#if defined(MIRAGE_RASTER_MASK)
+  rasterCluster(v, c, inst, f, instanceFade(vc.instance), true);
 #else
-  if ((inst.flags & MIRAGE_INSTANCE_ALPHA_MASK) != 0)
-    rasterCluster(v, c, inst, f, fade, true);
-  else
-    rasterCluster(v, c, inst, f, fade, false);
+  rasterCluster(v, c, inst, f, instanceFade(vc.instance), false);
 #endif
 }

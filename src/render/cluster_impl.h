@@ -33,6 +33,7 @@ struct ClusterSceneData {
   uint32_t lodDepth = 0;               // deepest LOD BVH node below its level root (traversal passes - 1)
   uint64_t instancedClusters = 0;      // sum over instances of their mesh's clusters (history bits)
   uint64_t blendInstancedClusters = 0; // the same over BLEND instances: 0 = no transparency passes
+  bool hasMask = false;                // a MASK instance: the compute raster adds the masked kernel
   Bounds worldBounds;
 };
 

@@ -107,9 +107,9 @@ struct ClusterRenderer::Impl {
   Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
   DescriptorSet descriptors;               // material textures, the visibility image, the colour target, depth
   Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline, meshPipeline,
-      indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, instanceOcclusionPipeline,
-      hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
+  Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline, rasterMaskPipeline,
+      meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
+      instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
   VkShaderStageFlags pushStages = 0;
   Image color, vis, depth;
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
@@ -168,6 +168,8 @@ void ClusterRenderer::Impl::createPipelines() {
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
   if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
+  if (caps.int64BufferAtomics && scene.hasMask)
+    rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout);
   if (scene.blendInstancedClusters > 0) {
     blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout);
     compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
@@ -433,6 +435,10 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
+    if (rasterMaskPipeline) { // masked clusters of the same list (the opaque kernel skipped them)
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterMaskPipeline);
+      vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
+    }
     if (backend == RasterBackend::Hybrid)
       cmdHardwareList(cmd, p, meshAtomicPipeline ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
                       /*atomic=*/true);

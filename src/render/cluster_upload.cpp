@@ -289,6 +289,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
     instances.push_back(g);
     d.instancedClusters += meshes[inst.mesh].clusterCount;
     if (mat.alphaMode == AlphaMode::Blend) d.blendInstancedClusters += meshes[inst.mesh].clusterCount;
+    d.hasMask |= mat.alphaMode == AlphaMode::Mask;
     d.worldBounds.add(transformBounds(meshBounds[inst.mesh], inst.transform));
   }
   if (instances.empty()) return Error{scene.source + ": the scene has no instances"};
