@@ -5,9 +5,5 @@
 #include "cluster_vis_alpha.glsl"
 
 layout(location = 0) perprimitiveEXT flat in uvec2 inId;
-layout(location = 0) out uvec2 outVis;
 
-void main() {
-  if (!keepFacing(inId.x - 1, gl_FrontFacing) || !fragmentAlphaKeeps(inId.x - 1, inId.y, gl_FragCoord.xy)) discard;
-  outVis = inId;
-}
+#include "cluster_vis_frag.glsl"

@@ -179,8 +179,11 @@ void ClusterRenderer::Impl::createPipelines() {
   auto graphics = [&](bool mesh, bool atomic) {
     GraphicsPipelineDesc d;
     (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_vis.mesh" : "cluster_vis.vert";
-    d.fragmentShader = mesh ? (atomic ? "cluster_vis_mesh_atomic.frag" : "cluster_vis_mesh.frag")
-                            : (atomic ? "cluster_vis_atomic.frag" : "cluster_vis.frag");
+    // Scenes with MASK materials take the *_mask variants (alpha test); others run no alpha code.
+    std::string fragment = std::string(mesh ? (atomic ? "cluster_vis_mesh_atomic" : "cluster_vis_mesh")
+                                            : (atomic ? "cluster_vis_atomic" : "cluster_vis")) +
+                           (scene.hasMask ? "_mask.frag" : ".frag");
+    d.fragmentShader = fragment;
     d.layout = layout;
     if (!atomic) {
       d.colorFormats = {kVisFormat};
