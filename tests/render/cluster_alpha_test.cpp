@@ -219,6 +219,22 @@ TEST_F(ClusterAlpha, BlendIsIndependentOfOrder) {
   }
 }
 
+// The masked panel shows its back: double-sided, its clusters pass the normal-cone test (the image
+// is held to the forward renderer above); made single-sided, the cones drop them, as the forward
+// renderer's back-face culling drops their triangles.
+TEST_F(ClusterAlpha, MaskedDoubleSidedIsNotConeCulled) {
+  Scene scene = alphaScene(false);
+  lod::LodAsset asset = bake(scene);
+  scene.materials[1].doubleSided = false;
+  lod::LodAsset singleSided = bake(scene);
+  ASSERT_FALSE(asset.dags.empty() || singleSided.dags.empty());
+  ClusterRenderOutput both = renderCluster(context(), asset, settings(RasterBackend::Auto));
+  ClusterRenderOutput one = renderCluster(context(), singleSided, settings(RasterBackend::Auto));
+  EXPECT_EQ(both.stats.clustersBackfaceCulled, 0u);
+  EXPECT_GT(one.stats.clustersBackfaceCulled, 0u);
+  EXPECT_LT(psnr(both.image.srgb, one.image.srgb), 30.0); // the panel is gone
+}
+
 // Occlusion culling with blended instances (they own no pixels, so they are always late and
 // HZB-tested in phase 2) and a masked occluder: the image equals the one without occlusion.
 TEST_F(ClusterAlpha, OcclusionKeepsAlphaImage) {
