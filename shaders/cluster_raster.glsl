@@ -1,7 +1,8 @@
 // Body of the compute software rasterizers (cluster_raster.comp: opaque clusters, and
 // cluster_raster_mask.comp, MIRAGE_RASTER_MASK: masked ones, into the 64-bit visibility buffer;
 // cluster_raster_blend.comp, MIRAGE_RASTER_BLEND: blended clusters into the transparency lists).
-// One workgroup per visible cluster; each thread walks the pixel bounding box of its triangles and keeps the nearest sample with a 64-bit atomicMax of
+// One workgroup per visible cluster; each thread walks the pixel bounding box of its triangles and
+// keeps the nearest sample with a 64-bit atomicMax of
 // (reverse-Z depth bits << 32 | ((visible index + 1) << 7 | triangle)): larger depth is nearer and
 // positive float bits order like the floats. Vertices snap to 1/256 pixel and ties follow the
 // top-left rule, as fixed-function hardware does, so the ids match the other backends.
