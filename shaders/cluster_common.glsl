@@ -20,6 +20,7 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CounterRef {
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer VisBufferRef { uint64_t pixels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ConeRef { GpuClusterCone cones[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer FloatRef { float data[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitNodeRef { OitNode nodes[]; };
 
 layout(push_constant, scalar) uniform Push { ClusterPush push; };
 

@@ -14,26 +14,11 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 layout(set = 0, binding = 1) uniform usampler2D visImage;
 
 #include "shading.glsl"
+#include "cluster_surface.glsl"
 #include "cluster_surfel_shade.glsl"
 
 layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D outImage;
 layout(local_size_x = 8, local_size_y = 8) in;
-
-// Distance t and barycentrics (b1, b2) of the ray o + t*dir on the triangle's plane (Möller-Trumbore
-// without the inside test: neighbouring pixels' rays may leave the triangle).
-vec3 rayTriangle(vec3 o, vec3 dir, vec3 p0, vec3 e1, vec3 e2) {
-  vec3 pv = cross(dir, e2);
-  float inv = 1.0 / dot(e1, pv);
-  vec3 tv = o - p0;
-  vec3 qv = cross(tv, e1);
-  return vec3(dot(e2, qv), dot(tv, pv), dot(dir, qv)) * inv; // (t, b1, b2)
-}
-
-vec3 pixelRay(ClusterFrame f, vec2 pixel) {
-  vec2 ndc = pixel / f.viewport * 2.0 - 1.0;
-  vec4 q = f.invViewProj * vec4(ndc, 0.5, 1.0);
-  return q.xyz / q.w - f.eye.xyz;
-}
 
 void main() {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
@@ -62,33 +47,16 @@ void main() {
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[background ? 0 : v1 - 1];
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
-  GpuClusterVertex a = VertexRef(push.vertexAddress).vertices[triangleVertex(c, t, 0)];
-  GpuClusterVertex b = VertexRef(push.vertexAddress).vertices[triangleVertex(c, t, 1)];
-  GpuClusterVertex cc = VertexRef(push.vertexAddress).vertices[triangleVertex(c, t, 2)];
-  vec3 p0 = (inst.model * vec4(a.position, 1.0)).xyz;
-  vec3 e1 = (inst.model * vec4(b.position, 1.0)).xyz - p0;
-  vec3 e2 = (inst.model * vec4(cc.position, 1.0)).xyz - p0;
-
-  vec2 centre = vec2(px) + 0.5;
-  vec3 h = rayTriangle(f.eye.xyz, pixelRay(f, centre), p0, e1, e2);
-  vec3 hx = rayTriangle(f.eye.xyz, pixelRay(f, centre + vec2(1, 0)), p0, e1, e2);
-  vec3 hy = rayTriangle(f.eye.xyz, pixelRay(f, centre + vec2(0, 1)), p0, e1, e2);
-  vec3 bary = vec3(1.0 - h.y - h.z, h.y, h.z);
-  vec3 pos = p0 + e1 * h.y + e2 * h.z;
-  vec2 uv = a.uv * bary.x + b.uv * bary.y + cc.uv * bary.z;
-  SurfaceDerivatives d;
-  d.dpdx = e1 * (hx.y - h.y) + e2 * (hx.z - h.z);
-  d.dpdy = e1 * (hy.y - h.y) + e2 * (hy.z - h.z);
-  d.duvdx = (b.uv - a.uv) * (hx.y - h.y) + (cc.uv - a.uv) * (hx.z - h.z);
-  d.duvdy = (b.uv - a.uv) * (hy.y - h.y) + (cc.uv - a.uv) * (hy.z - h.z);
+  ClusterTriangle tri = fetchTriangle(c, inst, t);
+  ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5);
 
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
-  bool front = (dot(cross(e1, e2), f.eye.xyz - pos) > 0.0) != mirrored;
+  bool front = (dot(cross(tri.e1, tri.e2), f.eye.xyz - s.pos) > 0.0) != mirrored;
   if ((f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 && !front && !background) {
     imageStore(outImage, px, vec4(1.0, 0.0, 1.0, 1.0)); // crack-test flag colour
     return;
   }
-  vec3 normal = mat3(inst.normalMatrix) * (a.normal * bary.x + b.normal * bary.y + cc.normal * bary.z);
+  vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
   GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
   if (background) {
@@ -106,8 +74,8 @@ void main() {
     atomicAdd(CounterRef(push.counterAddress).counters.historyKept, 1);
     setHistoryBitAt(f.instanceHistoryBase + vc.instance);
   }
-  vec4 base = baseColor(m, uv, vec4(1.0), d); // DAG vertices carry no colours or tangents
-  vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), front, uv, d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,
+  vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
+  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);
   imageStore(outImage, px, vec4(rgb, 1.0));
 }

@@ -52,6 +52,22 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
     return;
   }
   VisibleCluster vc = VisibleCluster(instanceIndex, ci);
+  // Blended clusters never write the opaque visibility: their own list, drawn after the resolve.
+  // They own no pixels, so with occlusion their instances are always late (phase 2, HZB-tested).
+  if ((inst.flags & MIRAGE_INSTANCE_ALPHA_BLEND) != 0) {
+    if (phase == 1 && !hzbVisible(s)) {
+      atomicAdd(counters.counters.clustersOcclusionCulled, 1);
+      return;
+    }
+    uint slot = atomicAdd(counters.counters.blendClusters, 1);
+    if (slot < f.blendCapacity) {
+      VisibleRef(f.blendVisibleAddress).visible[slot] = vc;
+      atomicAdd(counters.counters.trianglesSelected, c.triangleCount);
+    } else {
+      atomicAdd(counters.counters.clustersOverflow, 1);
+    }
+    return;
+  }
   // Phase 2 (instances that drew nothing last frame, past their own HZB test): each cluster is
   // tested against the HZB of pass 1 and drawn in pass 2.
   if (phase == 1) {

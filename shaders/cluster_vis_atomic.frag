@@ -5,6 +5,7 @@
 // facing is decided here per instance, and early depth writes would let dropped back faces occlude.
 #extension GL_EXT_shader_atomic_int64 : require
 #include "cluster_common.glsl"
+#include "cluster_vis_alpha.glsl"
 
 layout(location = 0) flat in uvec2 inId;
 

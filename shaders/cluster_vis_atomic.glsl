@@ -1,6 +1,6 @@
 // Body of the hybrid backend's fragment shaders (inId: visible entry + 1, triangle).
 void main() {
-  if (!keepFacing(inId.x - 1, gl_FrontFacing)) return;
+  if (!keepFacing(inId.x - 1, gl_FrontFacing) || !fragmentAlphaKeeps(inId.x - 1, inId.y, gl_FragCoord.xy)) return;
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   uint id = (inId.x << MIRAGE_CLUSTER_TRIANGLE_BITS) | inId.y;
   uint64_t value = (uint64_t(floatBitsToUint(gl_FragCoord.z)) << 32) | uint64_t(id);

@@ -2,11 +2,8 @@
 // Visibility output of the mesh-shader backend (the id arrives per primitive).
 #extension GL_EXT_mesh_shader : require
 #include "cluster_common.glsl"
+#include "cluster_vis_alpha.glsl"
 
 layout(location = 0) perprimitiveEXT flat in uvec2 inId;
-layout(location = 0) out uvec2 outVis;
 
-void main() {
-  if (!keepFacing(inId.x - 1, gl_FrontFacing)) discard;
-  outVis = inId;
-}
+#include "cluster_vis_frag.glsl"

@@ -1,9 +1,9 @@
 #version 460
-// Hybrid backend, hardware list through mesh shaders: as cluster_vis_atomic.frag, the id arriving
-// per primitive.
+// Hybrid backend, hardware list through mesh shaders: as cluster_vis_atomic.frag, the id arriving per primitive.
 #extension GL_EXT_mesh_shader : require
 #extension GL_EXT_shader_atomic_int64 : require
 #include "cluster_common.glsl"
+#include "cluster_vis_alpha.glsl"
 
 layout(location = 0) perprimitiveEXT flat in uvec2 inId;
 

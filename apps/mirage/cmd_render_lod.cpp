@@ -198,6 +198,10 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"triangles_near_clipped", st.trianglesNearClipped},
           {"clusters_overflow", st.clustersOverflow},
           {"triangles_rasterized", st.trianglesRasterized},
+          {"clusters_blend", st.clustersBlend},
+          {"oit_fragments", st.oitFragments},
+          {"oit_pool_overflow", st.oitPoolOverflow},
+          {"oit_layers_dropped", st.oitLayersDropped},
           {"surfel_instances", st.surfels.visibleInstances},
           {"surfel_instances_fading", st.surfels.fadingInstances},
           {"surfels_splatted", st.surfels.surfelsSplatted}};
@@ -216,6 +220,9 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
                st.clustersOcclusionCulled, st.historyKept);
   fmt::print("clusters drawn {} ({} by hardware)  triangles rasterized {}  near-clipped {}\n", st.clustersDrawn,
              st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
+  if (st.clustersBlend)
+    fmt::print("blend: {} clusters  {} fragments  dropped: {} past the node pool, {} past 16 layers per pixel\n",
+               st.clustersBlend, st.oitFragments, st.oitPoolOverflow, st.oitLayersDropped);
   if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)
     fmt::print("surfels: {} instances ({} in the blend band)  surfels splatted {}\n", st.surfels.visibleInstances,
                st.surfels.fadingInstances, st.surfels.surfelsSplatted);

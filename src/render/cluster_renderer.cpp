@@ -24,6 +24,9 @@ constexpr VkFormat kVisFormat = VK_FORMAT_R32G32_UINT;           // (visible ind
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Visible-cluster entries: the instanced cluster count, capped so the buffer stays 32 MiB.
 constexpr uint64_t kMaxVisibleClusters = 4u << 20;
+// Transparency node pool: this many blended fragments per pixel on average (12 bytes each), capped
+// by the device's storage-buffer range; excess fragments are dropped and counted.
+constexpr uint64_t kOitNodesPerPixel = 4;
 
 // World-space frustum planes (Gribb-Hartmann) of a reverse-Z projection: clip-space inside is
 // -w <= x, y <= w and z <= w (near); the far plane is left out (the camera's far bound is loose).
@@ -99,16 +102,18 @@ struct ClusterRenderer::Impl {
   Context& ctx;
   ClusterSceneData scene;
   Buffer frame, visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
-  Buffer fade, surfelLink;     // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
-  Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
-  DescriptorSet descriptors;   // material textures, the visibility image, the colour target, depth
+  Buffer fade, surfelLink;                 // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
+  Buffer traversal, queues[2];             // hierarchical selection: counters / indirect arguments, node queues
+  Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
+  DescriptorSet descriptors;               // material textures, the visibility image, the colour target, depth
   Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline, meshPipeline,
-      indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline, instanceOcclusionPipeline,
-      hzbPipeline, resolvePipeline;
+  Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline, rasterMaskPipeline,
+      meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
+      instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
   VkShaderStageFlags pushStages = 0;
   Image color, vis, depth;
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
+  uint32_t blendCapacity = 0, oitNodeCapacity = 0; // 0 without BLEND materials: no transparency passes
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
   GpuTimer timer;
@@ -128,14 +133,17 @@ struct ClusterRenderer::Impl {
   void cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy);
   void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p);
+  void cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p);
+  bool hasBlend() const { return blendCapacity > 0; }
 };
 
 void ClusterRenderer::Impl::createDescriptors() {
-  // Textures and the visibility image are read by the resolve (compute); binding 2 is its output;
-  // binding 3 the hardware backends' depth, read by the HZB build.
+  // Textures and the visibility image are read by the resolve (compute); the textures also by the
+  // rasterizers' alpha test (compute and fragment); binding 2 is the resolve's output; binding 3 the
+  // hardware backends' depth, read by the HZB build and the blend raster.
   VkDescriptorSetLayoutBinding bindings[] = {
-      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(scene.textures.size()), VK_SHADER_STAGE_COMPUTE_BIT,
-       nullptr},
+      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(scene.textures.size()),
+       VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
@@ -160,13 +168,22 @@ void ClusterRenderer::Impl::createPipelines() {
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
   if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
+  if (caps.int64BufferAtomics && scene.hasMask)
+    rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout);
+  if (scene.blendInstancedClusters > 0) {
+    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout);
+    compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+  }
   // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
   // hardware list: no attachments, the fragment shader does the compute rasterizer's atomicMax.
   auto graphics = [&](bool mesh, bool atomic) {
     GraphicsPipelineDesc d;
     (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_vis.mesh" : "cluster_vis.vert";
-    d.fragmentShader = mesh ? (atomic ? "cluster_vis_mesh_atomic.frag" : "cluster_vis_mesh.frag")
-                            : (atomic ? "cluster_vis_atomic.frag" : "cluster_vis.frag");
+    // Scenes with MASK materials take the *_mask variants (alpha test); others run no alpha code.
+    std::string fragment = std::string(mesh ? (atomic ? "cluster_vis_mesh_atomic" : "cluster_vis_mesh")
+                                            : (atomic ? "cluster_vis_atomic" : "cluster_vis")) +
+                           (scene.hasMask ? "_mask.frag" : ".frag");
+    d.fragmentShader = fragment;
     d.layout = layout;
     if (!atomic) {
       d.colorFormats = {kVisFormat};
@@ -192,6 +209,11 @@ void ClusterRenderer::Impl::createPipelines() {
   // for background pixels too (see cluster_resolve.comp).
   std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
   visible = createBufferWithData<sio::VisibleCluster>(ctx, zeros, kStorage, "visible clusters");
+  if (scene.blendInstancedClusters > 0) { // zeroed: entry 0 is valid for every lane (as `visible`)
+    blendCapacity = uint32_t(std::min<uint64_t>(scene.blendInstancedClusters, kMaxVisibleClusters));
+    std::vector<sio::VisibleCluster> blendZeros(blendCapacity, sio::VisibleCluster{0, 0});
+    blendVisible = createBufferWithData<sio::VisibleCluster>(ctx, blendZeros, kStorage, "blend clusters");
+  }
   candidates = createBuffer(ctx, visibleCapacity * uint64_t(sizeof(sio::VisibleCluster)), kStorage,
                             MemoryUsage::GpuOnly, "occlusion candidates");
   counters = createBuffer(ctx, sizeof(sio::ClusterCounters),
@@ -239,6 +261,15 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
     if (lw == 1 && lh == 1) break;
   }
   hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
+  if (hasBlend()) {
+    uint64_t pixels = uint64_t(w) * h;
+    oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                            MemoryUsage::GpuOnly, "transparency heads");
+    oitNodeCapacity = uint32_t(
+        std::min<uint64_t>(pixels * kOitNodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode)));
+    oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                            MemoryUsage::GpuOnly, "transparency nodes");
+  }
   VkDescriptorImageInfo visInfo{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
   VkDescriptorImageInfo depthInfo{scene.nearestSampler, depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL};
@@ -354,6 +385,7 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
   vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
   vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
   cmdPush(cmd, p, pass * 2 + list);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
   if (backend == RasterBackend::Mesh) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, atomic ? meshAtomicPipeline : meshPipeline);
     vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), dispatchArgsOffset(pass, list), 1,
@@ -404,7 +436,12 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
   } else {
     cmdPush(cmd, p, pass * 2 + MIRAGE_LIST_UP);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
+    if (rasterMaskPipeline) { // masked clusters of the same list (the opaque kernel skipped them)
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterMaskPipeline);
+      vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
+    }
     if (backend == RasterBackend::Hybrid)
       cmdHardwareList(cmd, p, meshAtomicPipeline ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
                       /*atomic=*/true);
@@ -468,6 +505,27 @@ void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPu
   cmdPush(cmd, p, 0);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
   timer.cmdEnd(cmd, slot);
+}
+
+// Alpha BLEND after the resolve (only for scenes with BLEND materials): the blend list rasterized
+// by the compute rasterizer into per-pixel fragment lists, depth-tested against the opaque depth,
+// then the composite sorts and blends each pixel's fragments over the resolved colour.
+// barriers: the resolve's colour, the opaque depth and the blend arguments (cmdArgs pass 2) written;
+// the heads zeroed at the frame start. On exit the colour is in GENERAL with its writes available.
+void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p) {
+  p.visibleAddress = blendVisible.address(); // ids of the blend passes name blend-list entries
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  uint32_t slot = timer.cmdBegin(cmd, "blend", kCS);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blendRasterPipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+  cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
+  vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
+  timer.cmdEnd(cmd, slot, kCS);
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  slot = timer.cmdBegin(cmd, "composite", kCS);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compositePipeline);
+  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  timer.cmdEnd(cmd, slot, kCS);
 }
 
 ClusterRenderer::ClusterRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -589,6 +647,13 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   f.queueAddress[0] = d.queues[0].address();
   f.queueAddress[1] = d.queues[1].address();
   f.queueCapacity = d.queueCapacity;
+  if (d.hasBlend()) {
+    f.blendVisibleAddress = d.blendVisible.address();
+    f.oitHeadAddress = d.oitHeads.address();
+    f.oitNodeAddress = d.oitNodes.address();
+    f.blendCapacity = d.blendCapacity;
+    f.oitNodeCapacity = d.oitNodeCapacity;
+  }
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::ClusterPush p = d.push();
 
@@ -603,6 +668,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     vkCmdFillBuffer(cmd, d.counters.handle(), 0, VK_WHOLE_SIZE, 0);
     if (hierarchy) vkCmdFillBuffer(cmd, d.traversal.handle(), 0, VK_WHOLE_SIZE, 0);
     if (bufferTarget) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (d.hasBlend()) vkCmdFillBuffer(cmd, d.oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
     if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
       vkCmdFillBuffer(cmd, d.fade.handle(), 0, VK_WHOLE_SIZE, 0);
       cs.surfels->stageCmdClear(cmd);
@@ -629,7 +695,9 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
       cs.surfels->stageCmdSplat(cmd, d.timer);
       cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
     }
+    if (d.hasBlend()) d.cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
     d.cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
+    if (d.hasBlend()) d.cmdTransparency(cmd, p); // blend raster into fragment lists, sorted composite
     d.timer.cmdEnd(cmd, frameSlot);
   });
 
@@ -659,7 +727,11 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   st.instancesLate = c.lateInstances;
   st.instancesOcclusionCulled = c.instancesOcclusionCulled;
   st.historyKept = c.historyKept;
-  st.clustersDrawn = c.listEnd[0] + c.listEnd[1];
+  st.clustersDrawn = c.listEnd[0] + c.listEnd[1] + std::min(c.blendClusters, d.blendCapacity);
+  st.clustersBlend = std::min(c.blendClusters, d.blendCapacity);
+  st.oitFragments = c.oitNodes;
+  st.oitPoolOverflow = c.oitNodes > d.oitNodeCapacity ? c.oitNodes - d.oitNodeCapacity : 0;
+  st.oitLayersDropped = c.oitLayersDropped;
   st.clustersHardware = c.clustersHardware;
   st.trianglesNearClipped = c.trianglesNearClipped;
   st.clustersOverflow = c.clustersOverflow;

@@ -265,11 +265,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   std::vector<Material> mats = scene.materials;
   if (mats.empty()) mats.push_back(Material{});
   std::vector<sio::GpuMaterial> gpuMats;
-  for (const Material& m : mats) {
-    gpuMats.push_back(toGpuMaterial(m, scene.textures.size()));
-    // The visibility pass has no alpha test yet: MASK and BLEND render as opaque (docs/render.md).
-    gpuMats.back().alphaMode = MIRAGE_ALPHA_OPAQUE;
-  }
+  for (const Material& m : mats) gpuMats.push_back(toGpuMaterial(m, scene.textures.size()));
 
   std::vector<sio::GpuClusterInstance> instances;
   for (const Instance& inst : scene.instances) {
@@ -284,10 +280,16 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
     g.mesh = inst.mesh;
     // Bits past 2^32 wrap: the renderer turns occlusion culling off for such scenes.
     g.historyOffset = uint32_t(d.instancedClusters);
+    // Alpha modes as instance flags (the material is per mesh): the rasterizers branch on them per
+    // cluster, so opaque clusters never touch the alpha code (docs/render.md, "Alpha").
     g.flags = (mat.doubleSided ? MIRAGE_INSTANCE_DOUBLE_SIDED : 0u) |
-              (glm::determinant(glm::mat3(inst.transform)) < 0.0f ? MIRAGE_INSTANCE_MIRRORED : 0u);
+              (glm::determinant(glm::mat3(inst.transform)) < 0.0f ? MIRAGE_INSTANCE_MIRRORED : 0u) |
+              (mat.alphaMode == AlphaMode::Mask ? MIRAGE_INSTANCE_ALPHA_MASK : 0u) |
+              (mat.alphaMode == AlphaMode::Blend ? MIRAGE_INSTANCE_ALPHA_BLEND : 0u);
     instances.push_back(g);
     d.instancedClusters += meshes[inst.mesh].clusterCount;
+    if (mat.alphaMode == AlphaMode::Blend) d.blendInstancedClusters += meshes[inst.mesh].clusterCount;
+    d.hasMask |= mat.alphaMode == AlphaMode::Mask;
     d.worldBounds.add(transformBounds(meshBounds[inst.mesh], inst.transform));
   }
   if (instances.empty()) return Error{scene.source + ": the scene has no instances"};

@@ -89,6 +89,10 @@ struct ClusterStats {
   uint32_t clustersHardware = 0;         // hybrid: drawn by the mesh/indirect path
   uint32_t trianglesNearClipped = 0;     // compute raster: triangles clipped at the near plane
   uint32_t clustersOverflow = 0;         // selected beyond the visible-buffer capacity (dropped)
+  uint32_t clustersBlend = 0;            // alpha BLEND: drawn into the transparency lists (in clustersDrawn)
+  uint32_t oitFragments = 0;             // blended fragments in front of the opaque depth
+  uint32_t oitPoolOverflow = 0;          // blended fragments beyond the node pool (dropped)
+  uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
   bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto;         // the backend that ran

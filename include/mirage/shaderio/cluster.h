@@ -27,6 +27,8 @@ namespace mirage::shaderio {
 // GpuClusterInstance::flags
 #define MIRAGE_INSTANCE_DOUBLE_SIDED 1u // material draws back faces
 #define MIRAGE_INSTANCE_MIRRORED 2u     // negative determinant: front faces are clockwise
+#define MIRAGE_INSTANCE_ALPHA_MASK 4u   // material MASK: the visibility raster alpha-tests its pixels
+#define MIRAGE_INSTANCE_ALPHA_BLEND 8u  // material BLEND: own list, drawn into the OIT lists after the resolve
 
 // ClusterFrame::flags
 #define MIRAGE_FRAME_FLAG_BACKFACES 1u // debug: keep back faces and shade them in a flag colour
@@ -47,6 +49,12 @@ namespace mirage::shaderio {
 // hybrid backend grows down from the last entry, so one buffer and one id space serve both.
 #define MIRAGE_LIST_UP 0u
 #define MIRAGE_LIST_DOWN 1u
+// push.rasterList of the blend raster (cluster_raster_blend.comp): ClusterCounters::lists[2][UP]
+// holds the blend list's arguments; its entries index ClusterFrame::blendVisibleAddress.
+#define MIRAGE_RASTER_BLEND_LIST 4u
+// Order-independent transparency: fragments kept and sorted per pixel by the composite (the
+// nearest ones; farther ones past this are dropped and counted).
+#define MIRAGE_OIT_MAX_LAYERS 16
 // Hierarchical depth levels kept (level 0 is full resolution): enough for 16384 pixels.
 #define MIRAGE_HZB_MAX_LEVELS 15
 
@@ -151,6 +159,14 @@ struct GpuClusterCone {
   vec4 apex;       // xyz apex, w unused
 };
 
+// One blended fragment of the per-pixel linked lists (order-independent transparency): its depth
+// and visibility id (blend-list entry + 1 << 7 | triangle); the composite shades it. 0 ends a list.
+struct OitNode {
+  uint depthBits; // reverse-Z depth as float bits (larger is nearer)
+  uint id;
+  uint next; // node index + 1 of the next fragment of the pixel, 0 at the end
+};
+
 // Appended by the selection pass, read by every rasterizer and by the resolve.
 struct VisibleCluster {
   uint instance;
@@ -197,6 +213,13 @@ struct ClusterFrame {
   uint64_t queueAddress[2];    // uvec2[]: depth d reads queue d & 1, writes queue (d + 1) & 1
   uint queueCapacity;          // entries per queue
   uint pad0;
+  // Alpha BLEND (docs/render.md, "Alpha"): the blend clusters' own list, and the per-pixel linked
+  // lists of their fragments (head per pixel: node index + 1, 0 = empty). 0 without blend materials.
+  uint64_t blendVisibleAddress; // VisibleCluster[]
+  uint64_t oitHeadAddress;      // uint[] per pixel
+  uint64_t oitNodeAddress;      // OitNode[]
+  uint blendCapacity;           // entries of the blend list
+  uint oitNodeCapacity;         // nodes in the pool
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -218,7 +241,7 @@ struct ClusterCounters {
   uint instanceOcclusionArgs[3]; // late-instance HZB test dispatch
   uint lateInstances;            // visible instances that drew nothing last frame
   uint instancesOcclusionCulled; // late instances behind the HZB
-  ClusterListArgs lists[2][2];   // [pass][MIRAGE_LIST_*]: what each raster pass draws
+  ClusterListArgs lists[3][2];   // [pass][MIRAGE_LIST_*]: what each raster pass draws; [2][UP]: the blend list
   uint occlusionArgs[3];         // pass-2 cull dispatch over the candidates
   uint candidates;               // selected clusters not drawn in pass 1 (tested against the HZB)
   uint allocated;                // list entries handed out (up + down), may exceed the capacity
@@ -234,6 +257,10 @@ struct ClusterCounters {
   uint clustersOcclusionCulled; // pass 2: candidates behind the HZB
   uint clustersBackfaceCulled;  // normal cone entirely facing away
   uint historyKept;             // clusters owning a pixel (next frame's pass 1)
+  uint blendClusters;           // appended to the blend list (may exceed its capacity: overflow)
+  uint oitNodes;                // blended fragments appended (may exceed the pool: the rest dropped)
+  uint oitLayersDropped;        // composite: fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
+  uint pad0;
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -264,12 +291,14 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 496, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 528, "ClusterFrame layout");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 4 * 48 + 72, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 88, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");

@@ -1,0 +1,168 @@
+// Body of the compute software rasterizers (cluster_raster.comp: opaque clusters, and
+// cluster_raster_mask.comp, MIRAGE_RASTER_MASK: masked ones, into the 64-bit visibility buffer;
+// cluster_raster_blend.comp, MIRAGE_RASTER_BLEND: blended clusters into the transparency lists).
+// One workgroup per visible cluster; each thread walks the pixel bounding box of its triangles and
+// keeps the nearest sample with a 64-bit atomicMax of
+// (reverse-Z depth bits << 32 | ((visible index + 1) << 7 | triangle)): larger depth is nearer and
+// positive float bits order like the floats. Vertices snap to 1/256 pixel and ties follow the
+// top-left rule, as fixed-function hardware does, so the ids match the other backends.
+// Triangles crossing the near plane are clipped against it in clip space (at most a quad, drawn as
+// a two-triangle fan), so a camera inside or next to the geometry draws what the hardware draws.
+#extension GL_EXT_nonuniform_qualifier : require
+#include "cluster_common.glsl"
+
+layout(set = 0, binding = 0) uniform sampler2D textures[];
+
+#include "shading.glsl"
+#include "cluster_surface.glsl"
+#include "cluster_alpha.glsl"
+
+layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
+
+shared vec4 clipPos[MIRAGE_CLUSTER_MAX_VERTICES]; // clip space (only read for near-crossing triangles)
+shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES];  // pixels x, y; depth z/w
+
+float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
+bool topLeft(vec2 a, vec2 b) {
+  vec2 d = b - a;
+  return (d.y == 0.0 && d.x > 0.0) || d.y < 0.0;
+}
+
+// Signed distance to the near plane in clip space: reverse-Z puts the near plane at z = w, so
+// w - z >= 0 is in front of it (and w >= znear > 0 there, so the divide below is safe).
+float nearDistance(vec4 clip) { return clip.w - clip.z; }
+
+vec3 toScreen(vec4 clip, vec2 viewport) {
+  vec3 ndc = clip.xyz / clip.w;
+  vec2 px = (ndc.xy * 0.5 + 0.5) * viewport;
+  return vec3(round(px * 256.0) / 256.0, ndc.z);
+}
+
+#ifdef MIRAGE_RASTER_BLEND
+layout(set = 0, binding = 3) uniform sampler2D opaqueDepthImage; // image backends' depth
+
+// Nearest opaque depth of pixel (x, y): the 64-bit buffer's high word (compute, hybrid) or the
+// hardware depth (mesh, indirect); 0 (far) where nothing opaque was drawn.
+float opaqueDepth(ClusterFrame f, uint x, uint y) {
+  if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) == 0) return texelFetch(opaqueDepthImage, ivec2(x, y), 0).r;
+  uint pixel = min(y * uint(f.viewport.x) + x, uint(f.viewport.x * f.viewport.y) - 1u); // lavapipe: any lane loads
+  return uintBitsToFloat(uint(VisBufferRef(push.visBufferAddress).pixels[pixel] >> 32));
+}
+
+// A blended fragment in front of the opaque surface: pushed onto its pixel's list (node pool
+// permitting; oitNodes counts every attempt, so the excess is known).
+void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
+  if (!(z > opaqueDepth(f, x, y))) return;
+  uint n = atomicAdd(CounterRef(push.counterAddress).counters.oitNodes, 1);
+  if (n >= f.oitNodeCapacity) return;
+  uint next = atomicExchange(UintRef(f.oitHeadAddress).data[y * uint(f.viewport.x) + x], n + 1);
+  OitNodeRef(f.oitNodeAddress).nodes[n] = OitNode(floatBitsToUint(z), id, next);
+}
+#else
+void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
+  uint64_t value = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * uint(f.viewport.x) + x], value);
+}
+#endif
+
+// One screen-space triangle (snapped vertices) into the 64-bit visibility buffer (or the
+// transparency lists). `masked`: a constant per kernel, so the opaque one carries no alpha code;
+// masked pixels pass maskKeeps on `tri` (the unclipped triangle) first.
+void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, ClusterFrame f, float fade,
+                    bool masked, ClusterTriangle tri, GpuMaterial m) {
+  vec2 viewport = f.viewport;
+  float area = edge(a.xy, p1.xy, p2.xy);
+  if (area == 0.0) return;
+  // Vulkan: with y down, a counter-clockwise (front) triangle has a negative edge area here.
+  bool front = area < 0.0;
+  if (!keepAll && front == mirrored) return;
+  if (area < 0.0) { // orient so inside is positive for all three edges
+    vec3 tmp = p1;
+    p1 = p2;
+    p2 = tmp;
+    area = -area;
+  }
+  vec2 lo = max(floor(min(a.xy, min(p1.xy, p2.xy)) - 0.5), vec2(0.0));
+  vec2 hi = min(ceil(max(a.xy, max(p1.xy, p2.xy)) - 0.5), viewport - 1.0);
+  bool tl0 = topLeft(p1.xy, p2.xy), tl1 = topLeft(p2.xy, a.xy), tl2 = topLeft(a.xy, p1.xy);
+  for (float y = lo.y; y <= hi.y; y += 1.0) {
+    for (float x = lo.x; x <= hi.x; x += 1.0) {
+      vec2 s = vec2(x + 0.5, y + 0.5);
+      float w0 = edge(p1.xy, p2.xy, s), w1 = edge(p2.xy, a.xy, s), w2 = edge(a.xy, p1.xy, s);
+      if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
+      if ((w0 == 0.0 && !tl0) || (w1 == 0.0 && !tl1) || (w2 == 0.0 && !tl2)) continue;
+      float z = (w0 * a.z + w1 * p1.z + w2 * p2.z) / area;
+      if (z < 0.0) continue; // beyond the far plane
+      if (!meshKeepsPixel(fade, uvec2(x, y))) continue; // the surfels' pixel in the blend band
+      if (masked && !maskKeeps(f, m, tri, s)) continue;  // alpha below the cutoff: a hole
+      writeSample(f, uint(x), uint(y), z, id);
+    }
+  }
+}
+
+// The cluster's triangles (vertices already in shared memory), one per thread per round.
+void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f, float fade, bool masked) {
+  bool keepAll = (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 || (inst.flags & MIRAGE_INSTANCE_DOUBLE_SIDED) != 0;
+  bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
+  GpuMaterial m;
+  if (masked) m = instanceMaterial(inst);
+  for (uint t = gl_LocalInvocationIndex; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
+    uint b = (c.triangleOffset + t) * 3u;
+    uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
+    uint id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
+    ClusterTriangle tri;
+    if (masked) tri = fetchTriangle(c, inst, t);
+    vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
+    float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
+    if (d[0] >= 0.0 && d[1] >= 0.0 && d[2] >= 0.0) {
+      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m);
+      continue;
+    }
+    if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
+    // Sutherland-Hodgman against the near plane: keep inside corners, add the crossing point of
+    // each edge that crosses. One or two corners inside give a triangle or a quad, with the
+    // original winding (w > 0 everywhere), so facing is decided per fan triangle as usual.
+    vec3 poly[4];
+    uint n = 0;
+    for (uint k = 0; k < 3; ++k) {
+      uint k1 = k == 2 ? 0 : k + 1;
+      if (d[k] >= 0.0) poly[n++] = toScreen(q[k], f.viewport);
+      if ((d[k] >= 0.0) != (d[k1] >= 0.0)) poly[n++] = toScreen(mix(q[k], q[k1], d[k] / (d[k] - d[k1])), f.viewport);
+    }
+    atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
+    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m);
+    if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m);
+  }
+}
+
+void main() {
+  uint v = rasterEntry(gl_WorkGroupID.y * MIRAGE_CLUSTER_DISPATCH_X + gl_WorkGroupID.x);
+  if (v == ~0u) return; // uniform over the workgroup
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v];
+  GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
+  GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
+  // Masked clusters are drawn by their own pipeline (cluster_raster_mask.comp) over the same list:
+  // the opaque kernel is today's loop with no alpha code (no added registers), and each kernel
+  // skips the other's clusters at this uniform test. Blended clusters are never alpha-tested
+  // (their alpha blends in the composite).
+  bool masked = (inst.flags & MIRAGE_INSTANCE_ALPHA_MASK) != 0;
+#if defined(MIRAGE_RASTER_MASK)
+  if (!masked) return;
+#elif !defined(MIRAGE_RASTER_BLEND)
+  if (masked) return;
+#endif
+  mat4 mvp = f.viewProj * inst.model;
+  for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
+    uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
+    vec4 clip = mvp * vec4(VertexRef(push.vertexAddress).vertices[id].position, 1.0);
+    clipPos[i] = clip;
+    screen[i] = toScreen(clip, f.viewport);
+  }
+  barrier();
+#if defined(MIRAGE_RASTER_MASK)
+  rasterCluster(v, c, inst, f, instanceFade(vc.instance), true);
+#else
+  rasterCluster(v, c, inst, f, instanceFade(vc.instance), false);
+#endif
+}

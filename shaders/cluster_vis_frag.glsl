@@ -1,0 +1,7 @@
+// Body of the image backends' visibility fragment shaders (inId: visible entry + 1, triangle).
+layout(location = 0) out uvec2 outVis;
+
+void main() {
+  if (!keepFacing(inId.x - 1, gl_FrontFacing) || !fragmentAlphaKeeps(inId.x - 1, inId.y, gl_FragCoord.xy)) discard;
+  outVis = inId;
+}

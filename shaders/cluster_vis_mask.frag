@@ -1,0 +1,9 @@
+#version 460
+// cluster_vis.frag with the alpha MASK test (scenes with MASK materials).
+#define MIRAGE_VIS_MASK 1
+#include "cluster_common.glsl"
+#include "cluster_vis_alpha.glsl"
+
+layout(location = 0) flat in uvec2 inId;
+
+#include "cluster_vis_frag.glsl"

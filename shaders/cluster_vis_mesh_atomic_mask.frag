@@ -1,0 +1,11 @@
+#version 460
+// cluster_vis_mesh_atomic.frag with the alpha MASK test (scenes with MASK materials).
+#extension GL_EXT_mesh_shader : require
+#extension GL_EXT_shader_atomic_int64 : require
+#define MIRAGE_VIS_MASK 1
+#include "cluster_common.glsl"
+#include "cluster_vis_alpha.glsl"
+
+layout(location = 0) perprimitiveEXT flat in uvec2 inId;
+
+#include "cluster_vis_atomic.glsl"

@@ -1,0 +1,336 @@
+// Alpha MASK and BLEND in the cluster-LOD renderer (docs/render.md, "Alpha"): a small scene of
+// tessellated panels (an opaque wall, a masked checker panel seen from behind, two overlapping
+// blended panels) baked in memory, rendered by every backend and compared with the forward
+// renderer, which alpha-tests in its fragment shader and sorts blended instances back to front.
+#include <gtest/gtest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+
+#include "gpu_test.h"
+#include "mirage/core/image_metrics.h"
+#include "mirage/io/image_io.h"
+#include "mirage/io/import.h"
+#include "mirage/lod/lod_asset.h"
+#include "mirage/render/cluster_renderer.h"
+#include "test_support.h"
+
+using namespace mirage;
+using namespace mirage::render;
+
+namespace {
+
+constexpr uint32_t kSize = 192;
+
+// An n x n grid of quads in the XY plane at z, facing +Z, uv 0..1 over the panel: enough
+// triangles for a few clusters, so culling and selection run per cluster.
+Mesh makePanel(float halfSize, float z, uint32_t material, int n = 12) {
+  Mesh m;
+  m.name = "panel";
+  m.material = material;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      float u = float(x) / float(n), v = float(y) / float(n);
+      m.positions.push_back({(u * 2.0f - 1.0f) * halfSize, (v * 2.0f - 1.0f) * halfSize, z});
+      m.normals.push_back({0, 0, 1});
+      m.uv0.push_back({u, 1.0f - v});
+    }
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + uint32_t(n) + 2, d = a + uint32_t(n) + 1;
+      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+    }
+  for (const glm::vec3& p : m.positions) m.bounds.add(p);
+  return m;
+}
+
+Material material(glm::vec4 color, AlphaMode mode, bool doubleSided = false) {
+  Material m;
+  m.baseColorFactor = color;
+  m.metallicFactor = 0.0f;
+  m.roughnessFactor = 0.8f;
+  m.alphaMode = mode;
+  m.doubleSided = doubleSided;
+  return m;
+}
+
+// Wall (opaque, z = -1); masked checker panel (z = 0, double-sided, turned to show its back, so a
+// normal cone would cull it if cones ignored double-sidedness); two blended panels overlapping in
+// the middle (z = 0.6 blue, z = 1.1 yellow). `swapBlend` lists the blended panels the other way
+// round (draw and list order), which must not change the image.
+Scene alphaScene(bool swapBlend) {
+  Scene s;
+  s.materials = {material({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
+                 material({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true),
+                 material({0.1f, 0.3f, 0.9f, 0.5f}, AlphaMode::Blend),
+                 material({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
+  s.materials[1].alphaCutoff = 0.5f;
+  s.materials[1].baseColorTexture = 0;
+  // 8 x 8 checker: alpha 255 / 0 (colour white), as a glTF MASK cut-out.
+  Texture checker;
+  checker.name = "checker";
+  checker.width = checker.height = 8;
+  for (uint32_t y = 0; y < 8; ++y)
+    for (uint32_t x = 0; x < 8; ++x)
+      checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
+  s.textures.push_back(checker);
+  s.meshes = {makePanel(2.5f, -1.0f, 0), makePanel(1.2f, 0.0f, 1), makePanel(0.8f, 0.0f, 2), makePanel(0.8f, 0.0f, 3)};
+  glm::mat4 turned = glm::rotate(glm::mat4(1.0f), glm::radians(180.0f), glm::vec3(0, 1, 0));
+  Instance blue{2, glm::translate(glm::mat4(1.0f), {-0.45f, 0.1f, 0.6f})};
+  Instance yellow{3, glm::translate(glm::mat4(1.0f), {0.45f, -0.1f, 1.1f})};
+  s.instances = {{0, glm::mat4(1.0f)}, {1, turned}};
+  if (swapBlend) {
+    s.instances.push_back(yellow);
+    s.instances.push_back(blue);
+  } else {
+    s.instances.push_back(blue);
+    s.instances.push_back(yellow);
+  }
+  return s;
+}
+
+lod::LodAsset bake(const Scene& scene) {
+  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+  EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
+  return baked.ok() ? std::move(*baked) : lod::LodAsset{};
+}
+
+// The forward renderer's reference: the DAG's level-0 meshes with the scene's materials.
+Scene levelZeroScene(const lod::LodAsset& asset) {
+  Scene scene = asset.scene;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    uint32_t mat = scene.meshes[m].material;
+    scene.meshes[m] = lod::levelZeroMesh(asset.dags[m]);
+    scene.meshes[m].normals = asset.dags[m].normals;
+    scene.meshes[m].uv0 = asset.dags[m].uv0;
+    scene.meshes[m].material = mat;
+  }
+  return scene;
+}
+
+ClusterRenderSettings settings(RasterBackend raster) {
+  ClusterRenderSettings s;
+  s.base.width = s.base.height = kSize;
+  s.base.camera.eye = {0.3f, 0.4f, 6.0f};
+  s.base.camera.target = {0.0f, 0.0f, 0.0f};
+  s.base.camera.fovYDegrees = 45.0f;
+  s.base.background = {0.05f, 0.05f, 0.1f, 1};
+  s.tauPixels = 0.5f;
+  s.raster = raster;
+  s.occlusionCulling = false;
+  return s;
+}
+
+std::vector<RasterBackend> backends(const gpu::Context& ctx) {
+  std::vector<RasterBackend> list{RasterBackend::Indirect};
+  if (ctx.caps().meshShader) list.push_back(RasterBackend::Mesh);
+  if (ctx.caps().int64BufferAtomics) list.push_back(RasterBackend::Compute);
+  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics) list.push_back(RasterBackend::Hybrid);
+  return list;
+}
+
+ClusterRenderOutput renderCluster(gpu::Context& ctx, const lod::LodAsset& asset, const ClusterRenderSettings& s) {
+  auto r = ClusterRenderer::create(ctx, asset);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
+  auto out = (*r)->render(s);
+  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
+  return std::move(*out);
+}
+
+ImageRGBA8 renderForward(gpu::Context& ctx, const Scene& scene, const RenderSettings& s) {
+  auto fwd = ForwardRenderer::create(ctx, scene);
+  EXPECT_TRUE(fwd.ok());
+  auto out = (*fwd)->render(s);
+  EXPECT_TRUE(out.ok());
+  return std::move(out->srgb);
+}
+
+bool hasPass(const ClusterRenderOutput& out, const char* name) {
+  for (const auto& t : out.image.stats.passTimes)
+    if (t.name == name) return true;
+  return false;
+}
+
+void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
+  if (!::testing::Test::HasFailure()) return;
+  static const std::filesystem::path dir = test::tempDir("cluster_alpha");
+  auto path = dir / name;
+  if (io::writePng(path, img)) std::fprintf(stderr, "wrote %s\n", path.string().c_str());
+}
+
+} // namespace
+
+class ClusterAlpha : public test::GpuTest {};
+
+// Every backend: the forward renderer's image (holes of the masked panel show the wall; blended
+// panels tint what lies behind them, sorted per pixel), far from the image with either alpha mode
+// ignored; blended clusters are drawn into the transparency lists, none dropped.
+TEST_F(ClusterAlpha, MaskAndBlendMatchForward) {
+  lod::LodAsset asset = bake(alphaScene(false));
+  ASSERT_FALSE(asset.dags.empty());
+  Scene reference = levelZeroScene(asset);
+  ImageRGBA8 fwd = renderForward(context(), reference, settings(RasterBackend::Auto).base);
+  // Mask ignored (opaque) and blend ignored (opaque): both must be visibly wrong.
+  Scene maskOpaque = reference, blendOpaque = reference;
+  maskOpaque.materials[1].alphaMode = AlphaMode::Opaque;
+  blendOpaque.materials[2].alphaMode = blendOpaque.materials[3].alphaMode = AlphaMode::Opaque;
+  double maskIgnored = psnr(fwd, renderForward(context(), maskOpaque, settings(RasterBackend::Auto).base));
+  double blendIgnored = psnr(fwd, renderForward(context(), blendOpaque, settings(RasterBackend::Auto).base));
+  std::printf("forward vs mask ignored %.1f dB, vs blend ignored %.1f dB\n", maskIgnored, blendIgnored);
+  EXPECT_LT(maskIgnored, 30.0);
+  EXPECT_LT(blendIgnored, 30.0);
+  for (RasterBackend b : backends(context())) {
+    ClusterRenderSettings s = settings(b);
+    if (b == RasterBackend::Hybrid) s.hybridThreshold = 0.0f; // every cluster through the fragment atomics
+    ClusterRenderOutput out = renderCluster(context(), asset, s);
+    double p = psnr(fwd, out.image.srgb);
+    std::printf("%s: %u clusters (%u blend), %u blended fragments, PSNR vs forward %.2f dB\n", toString(b),
+                out.stats.clustersDrawn, out.stats.clustersBlend, out.stats.oitFragments, p);
+    EXPECT_GE(p, 35.0) << toString(b);
+    EXPECT_GT(out.stats.clustersBlend, 0u);
+    EXPECT_GT(out.stats.oitFragments, 0u);
+    EXPECT_EQ(out.stats.oitPoolOverflow + out.stats.oitLayersDropped, 0u);
+    EXPECT_EQ(out.stats.clustersOverflow, 0u);
+    EXPECT_TRUE(hasPass(out, "blend") && hasPass(out, "composite"));
+    writeOnFailure(out.image.srgb, std::string("alpha_") + toString(b) + ".png");
+  }
+  writeOnFailure(fwd, "alpha_forward.png");
+}
+
+// The blended panels listed in the other order: the same image (the composite sorts per pixel),
+// on every backend; and the masked, double-sided panel seen from behind is not cone-culled.
+TEST_F(ClusterAlpha, BlendIsIndependentOfOrder) {
+  lod::LodAsset a = bake(alphaScene(false)), b = bake(alphaScene(true));
+  ASSERT_FALSE(a.dags.empty() || b.dags.empty());
+  for (RasterBackend backend : backends(context())) {
+    ClusterRenderOutput outA = renderCluster(context(), a, settings(backend));
+    ClusterRenderOutput outB = renderCluster(context(), b, settings(backend));
+    double p = psnr(outA.image.srgb, outB.image.srgb);
+    std::printf("%s: order swapped PSNR %.2f dB, %u cone-culled\n", toString(backend), p,
+                outA.stats.clustersBackfaceCulled);
+    EXPECT_GE(p, 60.0) << toString(backend);
+    // Only the single-sided wall and blended panels face the camera; nothing faces away.
+    EXPECT_EQ(outA.stats.clustersBackfaceCulled, 0u);
+    writeOnFailure(outA.image.srgb, std::string("order_a_") + toString(backend) + ".png");
+    writeOnFailure(outB.image.srgb, std::string("order_b_") + toString(backend) + ".png");
+  }
+}
+
+// The masked panel shows its back: double-sided, its clusters pass the normal-cone test (the image
+// is held to the forward renderer above); made single-sided, the cones drop them, as the forward
+// renderer's back-face culling drops their triangles.
+TEST_F(ClusterAlpha, MaskedDoubleSidedIsNotConeCulled) {
+  Scene scene = alphaScene(false);
+  lod::LodAsset asset = bake(scene);
+  scene.materials[1].doubleSided = false;
+  lod::LodAsset singleSided = bake(scene);
+  ASSERT_FALSE(asset.dags.empty() || singleSided.dags.empty());
+  ClusterRenderOutput both = renderCluster(context(), asset, settings(RasterBackend::Auto));
+  ClusterRenderOutput one = renderCluster(context(), singleSided, settings(RasterBackend::Auto));
+  EXPECT_EQ(both.stats.clustersBackfaceCulled, 0u);
+  EXPECT_GT(one.stats.clustersBackfaceCulled, 0u);
+  EXPECT_LT(psnr(both.image.srgb, one.image.srgb), 30.0); // the panel is gone
+}
+
+// Occlusion culling with blended instances (they own no pixels, so they are always late and
+// HZB-tested in phase 2) and a masked occluder: the image equals the one without occlusion.
+TEST_F(ClusterAlpha, OcclusionKeepsAlphaImage) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  lod::LodAsset asset = bake(alphaScene(false));
+  ASSERT_FALSE(asset.dags.empty());
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = settings(RasterBackend::Compute);
+  auto off = (*r)->render(s);
+  ASSERT_TRUE(off.ok());
+  s.occlusionCulling = true;
+  for (int frame = 0; frame < 2; ++frame) {
+    auto on = (*r)->render(s);
+    ASSERT_TRUE(on.ok());
+    EXPECT_GE(psnr(on->image.srgb, off->image.srgb), 60.0) << "frame " << frame;
+    EXPECT_EQ(on->stats.clustersBlend, off->stats.clustersBlend);
+  }
+}
+
+// Blended layers beyond the limits: 18 stacked half-transparent panels. Over part of the view, the
+// composite keeps the nearest MIRAGE_OIT_MAX_LAYERS (16) per pixel and counts the rest; over the
+// whole view, the node pool (4 fragments per pixel on average) overflows and counts the excess.
+TEST_F(ClusterAlpha, CountsFragmentsBeyondTheLimits) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  for (float halfSize : {0.4f, 10.0f}) {
+    Scene s;
+    s.materials = {material({0.9f, 0.3f, 0.2f, 0.2f}, AlphaMode::Blend)};
+    s.meshes = {makePanel(halfSize, 0.0f, 0, 2)};
+    for (int i = 0; i < 18; ++i) s.instances.push_back({0, glm::translate(glm::mat4(1.0f), {0, 0, 0.05f * float(i)})});
+    lod::LodAsset asset = bake(s);
+    ASSERT_FALSE(asset.dags.empty());
+    ClusterRenderSettings cs = settings(RasterBackend::Compute);
+    cs.base.camera.eye = {0.0f, 0.0f, 6.0f}; // on the axis: the panels' projections nest
+    cs.base.width = cs.base.height = 48;
+    ClusterRenderOutput out = renderCluster(context(), asset, cs);
+    std::printf("half size %.1f: %u fragments, %u beyond the pool, %u beyond 16 layers\n", halfSize,
+                out.stats.oitFragments, out.stats.oitPoolOverflow, out.stats.oitLayersDropped);
+    EXPECT_EQ(out.stats.clustersBlend % 18, 0u);
+    EXPECT_GT(out.stats.clustersBlend, 0u);
+    if (halfSize < 1.0f) {
+      EXPECT_EQ(out.stats.oitPoolOverflow, 0u);
+      EXPECT_GT(out.stats.oitLayersDropped, 0u);
+      EXPECT_LE(out.stats.oitLayersDropped * 9, out.stats.oitFragments); // at most 2 of every 18
+    } else {
+      EXPECT_EQ(out.stats.oitFragments, 18u * 48 * 48); // every pixel under every panel
+      EXPECT_EQ(out.stats.oitPoolOverflow, 18u * 48 * 48 - 4u * 48 * 48);
+    }
+  }
+}
+
+// Khronos AlphaBlendModeTest (OPAQUE, BLEND and MASK at several cutoffs, textured): the cluster
+// renderer matches the forward renderer of the same meshes, which alpha ignored would not.
+TEST_F(ClusterAlpha, KhronosAlphaBlendModeTestMatchesForward) {
+  MIRAGE_REQUIRE_DATA(path, "khronos-alpha-blend-mode-test/glTF/AlphaBlendModeTest.gltf");
+  auto scene = io::importScene(path);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  lod::LodAsset asset = bake(*scene);
+  ASSERT_FALSE(asset.dags.empty());
+  Scene reference = levelZeroScene(asset);
+  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  s.base.width = 240;
+  s.base.height = 135;
+  s.base.camera = autoCamera(reference.worldBounds(), 240.0f / 135.0f);
+  s.tauPixels = 0.01f;
+  ImageRGBA8 fwd = renderForward(context(), reference, s.base);
+  Scene ignored = reference; // what the cluster renderer drew before: every material opaque
+  for (Material& m : ignored.materials) m.alphaMode = AlphaMode::Opaque;
+  double ignoredPsnr = psnr(fwd, renderForward(context(), ignored, s.base));
+  std::printf("AlphaBlendModeTest with alpha ignored: %.2f dB\n", ignoredPsnr);
+  EXPECT_LT(ignoredPsnr, 30.0);
+  for (RasterBackend b : backends(context())) {
+    s.raster = b;
+    ClusterRenderOutput out = renderCluster(context(), asset, s);
+    double p = psnr(fwd, out.image.srgb);
+    std::printf("AlphaBlendModeTest %s: %u blend clusters, PSNR vs forward %.2f dB\n", toString(b),
+                out.stats.clustersBlend, p);
+    EXPECT_GE(p, 38.0) << toString(b);
+    EXPECT_GT(out.stats.clustersBlend, 0u);
+    writeOnFailure(out.image.srgb, std::string("khronos_") + toString(b) + ".png");
+  }
+  writeOnFailure(fwd, "khronos_forward.png");
+}
+
+// Opaque-only scenes run no transparency pass and allocate no lists (the cost of BLEND support
+// is zero there); the image is the existing renderer's (SmallTauMatchesForward* and the golden
+// tests hold it to the forward renderer).
+TEST_F(ClusterAlpha, OpaqueScenesRunNoTransparencyPass) {
+  Scene s = alphaScene(false);
+  for (Material& m : s.materials) m.alphaMode = AlphaMode::Opaque;
+  lod::LodAsset asset = bake(s);
+  ASSERT_FALSE(asset.dags.empty());
+  for (RasterBackend b : backends(context())) {
+    ClusterRenderOutput out = renderCluster(context(), asset, settings(b));
+    EXPECT_FALSE(hasPass(out, "blend") || hasPass(out, "composite")) << toString(b);
+    EXPECT_EQ(out.stats.clustersBlend, 0u);
+    EXPECT_EQ(out.stats.oitFragments, 0u);
+  }
+}
