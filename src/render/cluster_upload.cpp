@@ -288,6 +288,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
               (glm::determinant(glm::mat3(inst.transform)) < 0.0f ? MIRAGE_INSTANCE_MIRRORED : 0u);
     instances.push_back(g);
     d.instancedClusters += meshes[inst.mesh].clusterCount;
+    d.instanceClusters.push_back(meshes[inst.mesh].clusterCount);
     d.worldBounds.add(transformBounds(meshBounds[inst.mesh], inst.transform));
   }
   if (instances.empty()) return Error{scene.source + ": the scene has no instances"};
