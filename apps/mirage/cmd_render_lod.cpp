@@ -216,7 +216,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
       s.path = cellCameras(s.pvs);
       s.settings.base.camera = s.path[0];
     }
-    if (!selectPvsCell(s, s.settings.base.camera.eye, /*quiet=*/!s.path.empty())) return false;
+    if (!selectPvsCell(s, s.settings.base.camera.eye, /*quiet=*/r.json || !s.path.empty())) return false;
   }
   return true;
 }
@@ -410,6 +410,10 @@ void runLodRender(const LodRenderRequest& r) {
     j["source_triangles"] = sourceTriangles(s.asset);
     j["load_seconds"] = s.loadSeconds;
     j["frames_timed"] = t.frames;
+    if (!s.pvsPath.empty()) { // -1: the camera is in no view cell (no PVS culling)
+      j["pvs_cell"] = s.pvsCell;
+      j["pvs_bytes"] = s.pvsCell >= 0 ? s.clusterPvs.bytes() : 0;
+    }
     for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
     fmt::print("{}\n", j.dump(2));
     return;

@@ -38,8 +38,6 @@ nlohmann::json statsJson(const LodAsset& a) {
   return meshes;
 }
 
-constexpr asset::FourCC kSourceMapChunk{"TMAP"};
-
 // 'TMAP': u32 version, varint mesh count, per mesh: varint triangles, then per triangle
 // zigzag(cluster + 1 - previous) as a varint (neighbouring source triangles mostly share a cluster,
 // and the container's zstd takes the rest).
@@ -174,7 +172,7 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeO
   if (!a.sourceClusters.empty()) {
     if (a.sourceClusters.size() != a.dags.size()) return makeError(path, "one source-triangle map per mesh required");
     mapBytes = encodeSourceMaps(a.sourceClusters);
-    w.addChunk(kSourceMapChunk, mapBytes);
+    w.addChunk(asset::chunk::SourceMap, mapBytes);
   }
   std::string meta = a.metaJson.empty() ? "{}" : a.metaJson;
   w.addChunk(asset::chunk::Meta, std::span(reinterpret_cast<const uint8_t*>(meta.data()), meta.size()));
@@ -208,8 +206,8 @@ Result<LodAsset> loadLodAsset(const std::string& path) {
   if (a.dags.size() != a.scene.meshes.size())
     return makeError(path, std::to_string(a.dags.size()) + " cluster DAGs for " +
                                std::to_string(a.scene.meshes.size()) + " meshes");
-  if (reader->find(kSourceMapChunk)) {
-    auto bytes = reader->readChunk(kSourceMapChunk);
+  if (reader->find(asset::chunk::SourceMap)) {
+    auto bytes = reader->readChunk(asset::chunk::SourceMap);
     if (!bytes) return bytes.error();
     auto maps = decodeSourceMaps(*bytes, a, path);
     if (!maps) return maps.error();
