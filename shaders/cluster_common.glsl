@@ -25,8 +25,7 @@ layout(push_constant, scalar) uniform Push { ClusterPush push; };
 
 // Cluster PVS of the camera's cell (MIRAGE_FRAME_PVS): whether mesh-local cluster `meshLocal` of
 // instance `instance` may be visible from the cell. Instances outside it never reach selection.
-bool pvsClusterVisible(uint instance, uint meshLocal) {
-  ClusterFrame f = FrameRef(push.frameAddress).frame;
+bool pvsClusterVisible(ClusterFrame f, uint instance, uint meshLocal) {
   if ((f.flags & MIRAGE_FRAME_PVS) == 0) return true;
   uint base = UintRef(f.pvsInstanceAddress).data[instance];
   if (base == MIRAGE_PVS_INSTANCE_CULLED) return false;

@@ -37,7 +37,7 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
   bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= f.tau &&
                projectedError(c.parentSphere, c.parentError, inst, f) > f.tau;
   if (!onCut) return;
-  if (!pvsClusterVisible(instanceIndex, meshLocal)) { // hidden from every point of the camera's cell
+  if (!pvsClusterVisible(f, instanceIndex, meshLocal)) { // hidden from every point of the camera's cell
     atomicAdd(counters.counters.clustersPvsCulled, 1);
     return;
   }
