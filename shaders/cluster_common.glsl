@@ -24,6 +24,16 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitNodeRef {
 
 layout(push_constant, scalar) uniform Push { ClusterPush push; };
 
+// Cluster PVS of the camera's cell (MIRAGE_FRAME_PVS): whether mesh-local cluster `meshLocal` of
+// instance `instance` may be visible from the cell. Instances outside it never reach selection.
+bool pvsClusterVisible(ClusterFrame f, uint instance, uint meshLocal) {
+  if ((f.flags & MIRAGE_FRAME_PVS) == 0) return true;
+  uint base = UintRef(f.pvsInstanceAddress).data[instance];
+  if (base == MIRAGE_PVS_INSTANCE_CULLED) return false;
+  uint bit = base + meshLocal;
+  return (UintRef(f.pvsClusterAddress).data[bit >> 5] & (1u << (bit & 31u))) != 0;
+}
+
 // Local 8-bit index number `i` of the global index array (packed four per word).
 uint localIndex(uint i) {
   uint word = UintRef(push.indexAddress).data[i >> 2];

@@ -20,6 +20,12 @@ void main() {
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[i];
   if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0 && !sphereVisible(inst.sphere)) return;
   if (instanceFade(i) >= 1.0) return; // mixed scenes: drawn by its surfels alone
+  // Cell PVS: an instance with no cluster visible from the camera's cell skips selection.
+  if ((f.flags & MIRAGE_FRAME_PVS) != 0 &&
+      UintRef(f.pvsInstanceAddress).data[i] == MIRAGE_PVS_INSTANCE_CULLED) {
+    atomicAdd(counters.counters.instancesPvsCulled, 1);
+    return;
+  }
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
 
   // Every LOD sphere of the mesh lies within `reach` of its centre, so its distance term

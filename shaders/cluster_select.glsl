@@ -37,6 +37,10 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
   bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= f.tau &&
                projectedError(c.parentSphere, c.parentError, inst, f) > f.tau;
   if (!onCut) return;
+  if (!pvsClusterVisible(f, instanceIndex, meshLocal)) { // hidden from every point of the camera's cell
+    atomicAdd(counters.counters.clustersPvsCulled, 1);
+    return;
+  }
   vec4 s = vec4((inst.model * vec4(c.boundsSphere.xyz, 1.0)).xyz, c.boundsSphere.w * inst.maxScale);
   if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0 && !sphereVisible(s)) {
     atomicAdd(counters.counters.clustersFrustumCulled, 1);

@@ -45,6 +45,7 @@ struct BenchRenderOptions {
   std::string camera;         // .mrg only: empty = auto 3/4 view
   bool surfels = false;       // .mrg with DAGs + per-mesh SURF chunks: the mixed scene
   float surfelSize = 2.0f;
+  std::string pvs; // .mrg only: time every frame with and without the camera cell's cluster PVS
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
@@ -66,10 +67,13 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .baselines = o.baselines,
                        .cull = o.cull,
                        .surfels = o.surfels,
-                       .surfelSize = o.surfelSize};
+                       .surfelSize = o.surfelSize,
+                       .pvs = o.pvs};
     return runLodBench(r);
   }
   if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
+  if (!o.pvs.empty())
+    return fail("bench render --pvs applies to .mrg cluster-LOD assets (scene files: mirage bench pvs)");
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
   if (o.frames < 2 || o.frames > 100000) return fail("--frames must be in 2..100000");
@@ -341,6 +345,9 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,
               ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");
+  r->add_option("--pvs", o->pvs,
+                ".mrg: PVS from mirage pvs of the asset's source scene: every frame timed with and without the camera "
+                "cell's cluster PVS (no --camera/--path: 4 views from every cell's centre)");
   r->add_option("--grid", o->grid, ".mrg: repeat the scene on an N x N grid (e.g. 50 -> 2500 instances)")
       ->capture_default_str();
   r->callback([o] { runBenchRender(*o); });

@@ -29,7 +29,7 @@ struct RenderOptions {
   bool json = false;
   float tau = 1.0f;            // .mrg only
   std::string raster = "auto"; // .mrg only
-  std::string pvs;             // forward path: draw only the PVS of the camera's view cell
+  std::string pvs;             // draw only the PVS of the camera's view cell (.mrg: its cluster PVS)
   std::string path;            // .mrg only: camera path (cameras.json or orbit:N), one image per camera
   bool surfels = false;        // draw the file's SURF chunk (or surfel PLY) with the surfel renderer
   float surfelSize = 2.0f;
@@ -50,7 +50,8 @@ LodRenderRequest lodRequest(const RenderOptions& o) {
                           .frames = o.repeat,
                           .stats = o.stats,
                           .json = o.json,
-                          .cull = o.cull};
+                          .cull = o.cull,
+                          .pvs = o.pvs};
 }
 
 void runRender(const RenderOptions& o) {
@@ -79,7 +80,6 @@ void runRender(const RenderOptions& o) {
     return runSurfelRender(r);
   }
   if (o.surfelSize != 2.0f || o.surfelRaster != "auto") return fail("--surfel-size and --surfel-raster need --surfels");
-  if (isLodAssetPath(o.input) && !o.pvs.empty()) return fail("--pvs applies to scene files (forward renderer) for now");
   if (isLodAssetPath(o.input)) {
     LodRenderRequest r = lodRequest(o);
     return runLodRender(r);
@@ -201,7 +201,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute|hybrid")->capture_default_str();
   addLodCullOptions(*cmd, o->cull, /*bench=*/false);
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
-  cmd->add_option("--pvs", o->pvs, "Draw only the PVS (from mirage pvs) of the view cell holding the camera");
+  cmd->add_option("--pvs", o->pvs,
+                  "Draw only the PVS (from mirage pvs) of the view cell holding the camera (.mrg: its cluster PVS)");
   cmd->add_flag("--surfels", o->surfels, "Render the file's SURF chunk (.mrg from mirage surfels) or surfel .ply");
   cmd->add_option("--surfel-size", o->surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str();
   cmd->add_option("--surfel-raster", o->surfelRaster, "--surfels: auto|compute|raster")->capture_default_str();

@@ -16,8 +16,11 @@
 #include "mirage/io/image_io.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/asset/container.h"
+#include "mirage/lod/cluster_pvs.h"
 #include "mirage/render/cluster_renderer.h"
 #include "mirage/surfels/surfel_io.h"
+#include "mirage/visibility/pvs_cull.h"
+#include "mirage/visibility/pvs_storage.h"
 #include "render_common.h"
 
 namespace mirage::cli {
@@ -33,7 +36,77 @@ struct Session {
   double loadSeconds = 0.0;
   std::vector<surfels::MeshSurfels> clouds; // --surfels: per-mesh clouds (kept alive for the renderer)
   std::unique_ptr<render::SurfelRenderer> surfelRenderer;
+  // --pvs: the triangle PVS, the cell whose cluster PVS is uploaded (-2: none yet, -1: outside
+  // every cell) and that set's figures for the report.
+  std::string pvsPath;
+  vis::PvsData pvs;
+  int pvsCell = -2;
+  lod::ClusterPvs clusterPvs;
+  double clusterPvsMs = 0.0;
 };
+
+// Uploads the cluster PVS of the cell holding `eye` when it changed; outside every cell the
+// renderer culls nothing (said once). Returns false after fail().
+bool selectPvsCell(Session& s, glm::vec3 eye, bool quiet) {
+  if (s.pvsPath.empty()) return true;
+  int cell = vis::findCell(s.pvs.cells, eye);
+  if (cell == s.pvsCell) return true;
+  s.pvsCell = cell;
+  if (cell < 0) {
+    if (!quiet)
+      fmt::print("PVS: the camera at ({:.4g}, {:.4g}, {:.4g}) is in none of the {} view cells: no PVS culling\n", eye.x,
+                 eye.y, eye.z, s.pvs.cells.size());
+    if (auto st = s.renderer->setPvs(nullptr); !st) return fail(st.error()), false;
+    return true;
+  }
+  auto t0 = std::chrono::steady_clock::now();
+  auto set = lod::clusterPvs(s.asset.scene, s.asset.dags, s.asset.sourceClusters, s.pvs.triangles[size_t(cell)]);
+  if (!set) return fail(s.pvsPath + ": " + set.error().message), false;
+  s.clusterPvs = std::move(*set);
+  s.clusterPvsMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (auto st = s.renderer->setPvs(&s.clusterPvs); !st) return fail(st.error()), false;
+  if (!quiet)
+    fmt::print("PVS: cell {} of {}: {} triangles -> {} of {} instances, {} (instance, cluster) pairs visible; "
+               "{} bytes uploaded, made in {:.2f} ms\n",
+               cell, s.pvs.cells.size(), s.pvs.triangles[size_t(cell)].size(), s.clusterPvs.visibleInstances,
+               s.asset.scene.instances.size(), s.clusterPvs.visibleClusters, s.clusterPvs.bytes(), s.clusterPvsMs);
+  return true;
+}
+
+// --pvs: loads the triangle PVS and checks it was baked for the asset's source scene. Returns false
+// after fail().
+bool openPvs(const LodRenderRequest& r, Session& s) {
+  if (s.asset.sourceClusters.empty())
+    return fail(r.input + ": no source-triangle map ('TMAP' chunk): built before cluster PVS support, run mirage "
+                          "build again"),
+           false;
+  auto pvs = vis::loadPvs(r.pvs);
+  if (!pvs) return fail(pvs.error()), false;
+  uint64_t triangles = lod::sourceTriangleCount(s.asset.scene, s.asset.sourceClusters);
+  if (pvs->sceneTriangles != triangles)
+    return fail(fmt::format("{}: baked for a scene of {} triangles, {} was built from one of {} (a PVS of another "
+                            "scene, or --grid?)",
+                            r.pvs, pvs->sceneTriangles, r.input, triangles)),
+           false;
+  s.pvs = std::move(*pvs);
+  s.pvsPath = r.pvs;
+  return true;
+}
+
+// Cameras at every view cell's centre looking four ways (as `bench pvs`).
+std::vector<render::Camera> cellCameras(const vis::PvsData& pvs) {
+  std::vector<render::Camera> cams;
+  for (const vis::ViewCell& cell : pvs.cells)
+    for (int v = 0; v < 4; ++v) {
+      float a = float(v) * 1.5707963f;
+      render::Camera c;
+      c.eye = cell.position;
+      c.target = cell.position + glm::vec3(std::cos(a), 0.0f, std::sin(a));
+      c.fovYDegrees = 70.0f;
+      cams.push_back(c);
+    }
+  return cams;
+}
 
 // --surfels: the file's per-mesh clouds placed on every instance of their mesh (after --grid), each
 // linked to its cluster instance for the cross-fade. Returns false after fail().
@@ -136,6 +209,15 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   s.settings.occlusionCulling = r.cull.occlusion != "off";
   s.settings.coneCulling = r.cull.cones == "on";
   s.settings.selection = *selection;
+  if (!r.pvs.empty()) {
+    if (r.surfels) return fail("--pvs does not apply to mixed (--surfels) scenes yet"), false;
+    if (!openPvs(r, s)) return false;
+    if (!needOutput && r.camera.empty() && r.path.empty()) { // bench: views from every cell
+      s.path = cellCameras(s.pvs);
+      s.settings.base.camera = s.path[0];
+    }
+    if (!selectPvsCell(s, s.settings.base.camera.eye, /*quiet=*/r.json || !s.path.empty())) return false;
+  }
   return true;
 }
 
@@ -143,7 +225,11 @@ struct Timed {
   std::vector<gpu::PassTime> times; // medians over the timed frames
   render::ClusterRenderOutput last;
   size_t frames = 0;
-  double maxFrameMs = 0.0; // slowest timed frame (on a camera path the median hides the worst view)
+  double maxFrameMs = 0.0;       // slowest timed frame (on a camera path the median hides the worst view)
+  double meanTriangles = 0.0;    // triangles rasterized per timed frame
+  double meanPvsInstances = 0.0; // --pvs: instances culled by the cell's PVS per timed frame
+  double meanPvsClusters = 0.0;  // --pvs: cut clusters culled by it
+  size_t framesOutsideCells = 0; // --pvs: timed frames whose camera was in no view cell
 };
 
 // Renders `frames` frames; with more than one, the first (pipeline warm-up) is not timed. On a
@@ -154,14 +240,23 @@ template <class OnFrame> bool renderFrames(Session& s, int frames, Timed& out, O
   for (int i = 0; i < frames; ++i) {
     size_t cameraIndex = frames > 1 ? size_t(std::max(i - 1, 0)) : 0;
     if (!s.path.empty()) s.settings.base.camera = s.path[cameraIndex % s.path.size()];
+    if (!selectPvsCell(s, s.settings.base.camera.eye, /*quiet=*/s.path.size() > 1)) return false;
     auto o = s.renderer->render(s.settings);
     if (!o) return fail(o.error()), false;
     all.push_back(o->image.stats.passTimes);
-    if ((i > 0 || frames == 1) && !onFrame(*o, cameraIndex)) return false;
+    if (i > 0 || frames == 1) {
+      if (!onFrame(*o, cameraIndex)) return false;
+      out.meanTriangles += double(o->stats.trianglesRasterized);
+      out.meanPvsInstances += o->stats.instancesPvsCulled;
+      out.meanPvsClusters += o->stats.clustersPvsCulled;
+      out.framesOutsideCells += !s.pvsPath.empty() && s.pvsCell < 0;
+    }
     out.last = std::move(*o);
   }
   if (all.size() > 1) all.erase(all.begin());
   out.frames = all.size();
+  for (double* mean : {&out.meanTriangles, &out.meanPvsInstances, &out.meanPvsClusters})
+    *mean /= double(std::max<size_t>(out.frames, 1));
   out.times = medianPassTimes(all);
   for (const auto& f : all) out.maxFrameMs = std::max(out.maxFrameMs, frameMilliseconds(f));
   return true;
@@ -202,6 +297,9 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"oit_fragments", st.oitFragments},
           {"oit_pool_overflow", st.oitPoolOverflow},
           {"oit_layers_dropped", st.oitLayersDropped},
+          {"pvs", st.pvs},
+          {"instances_pvs_culled", st.instancesPvsCulled},
+          {"clusters_pvs_culled", st.clustersPvsCulled},
           {"surfel_instances", st.surfels.visibleInstances},
           {"surfel_instances_fading", st.surfels.fadingInstances},
           {"surfels_splatted", st.surfels.surfelsSplatted}};
@@ -223,6 +321,8 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
   if (st.clustersBlend)
     fmt::print("blend: {} clusters  {} fragments  dropped: {} past the node pool, {} past 16 layers per pixel\n",
                st.clustersBlend, st.oitFragments, st.oitPoolOverflow, st.oitLayersDropped);
+  if (st.pvs)
+    fmt::print("cell PVS: {} instances and {} cut clusters culled\n", st.instancesPvsCulled, st.clustersPvsCulled);
   if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)
     fmt::print("surfels: {} instances ({} in the blend band)  surfels splatted {}\n", st.surfels.visibleInstances,
                st.surfels.fadingInstances, st.surfels.surfelsSplatted);
@@ -317,6 +417,10 @@ void runLodRender(const LodRenderRequest& r) {
     j["source_triangles"] = sourceTriangles(s.asset);
     j["load_seconds"] = s.loadSeconds;
     j["frames_timed"] = t.frames;
+    if (!s.pvsPath.empty()) { // -1: the camera is in no view cell (no PVS culling)
+      j["pvs_cell"] = s.pvsCell;
+      j["pvs_bytes"] = s.pvsCell >= 0 ? s.clusterPvs.bytes() : 0;
+    }
     for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
     fmt::print("{}\n", j.dump(2));
     return;
@@ -365,19 +469,47 @@ void runLodBench(const LodRenderRequest& r) {
     for (bool occlusion : occlusionModes) {
       s.settings.raster = b;
       s.settings.occlusionCulling = occlusion;
+      s.settings.pvsCulling = true;
       Timed t; // the untimed warm-up frame fills the occlusion history for this view
       if (!renderFrames(s, frames, t)) return;
       bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
+      // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
+      Timed off;
+      if (!s.pvsPath.empty()) {
+        s.settings.pvsCulling = false;
+        if (!renderFrames(s, frames, off)) return;
+      }
       if (r.json) {
         nlohmann::json j = statsJson(t.last.stats);
         for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
         j["gpu_ms_max_frame"] = t.maxFrameMs;
+        if (!s.pvsPath.empty()) {
+          j["triangles_mean"] = t.meanTriangles;
+          j["pvs_frames_outside_cells"] = t.framesOutsideCells;
+          j["without_pvs"] = {{"gpu_ms_frame", frameMilliseconds(off.times)},
+                              {"gpu_ms_max_frame", off.maxFrameMs},
+                              {"triangles_mean", off.meanTriangles}};
+          for (const auto& p : off.times) j["without_pvs"]["gpu_ms"][p.name] = p.milliseconds;
+        }
         all.push_back(j);
         continue;
       }
-      fmt::print("-- {}, occlusion {}\n", render::toString(b), occlusion ? "on" : "off");
+      fmt::print("-- {}, occlusion {}{}\n", render::toString(b), occlusion ? "on" : "off",
+                 s.pvsPath.empty() ? "" : ", cell PVS on");
       printStats(t.last.stats, t.times, true);
       if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
+      if (!s.pvsPath.empty()) {
+        double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
+        fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
+                   "culled by the PVS per frame{}\n",
+                   on, t.meanTriangles, t.meanPvsInstances, t.meanPvsClusters,
+                   t.framesOutsideCells
+                       ? fmt::format(" ({} frames outside every cell: not culled)", t.framesOutsideCells)
+                       : "");
+        fmt::print("PVS off: frame {:.3f} ms (median), {:.0f} triangles\n", without, off.meanTriangles);
+        fmt::print("PVS speed-up {:.2f}x, triangles {:.1f}% of the unculled frame\n", without / std::max(on, 1e-9),
+                   100.0 * t.meanTriangles / std::max(off.meanTriangles, 1.0));
+      }
     }
   nlohmann::json baselines = nlohmann::json::array();
   if (r.baselines) {

@@ -42,7 +42,10 @@ BuildSummary summarize(const lod::LodAsset& a, const std::string& path) {
     if (auto reader = asset::AssetReader::open(path)) {
       s.fileBytes = reader->fileBytes();
       for (const asset::ChunkInfo& c : reader->chunks())
-        if (c.type == asset::chunk::ClusterDag) s.dagBytes += c.storedBytes;
+        if (c.type == asset::chunk::ClusterDag)
+          s.dagBytes += c.storedBytes;
+        else if (c.type == asset::chunk::SourceMap)
+          s.sourceMapBytes += c.storedBytes;
     }
   }
   std::vector<double> fillWeighted, ageWeighted;
@@ -85,6 +88,7 @@ nlohmann::json summaryJson(const BuildSummary& s) {
           {"root_triangles", s.rootTriangles},
           {"file_bytes", s.fileBytes},
           {"geometry_bytes", s.dagBytes},
+          {"source_map_bytes", s.sourceMapBytes},
           {"geometry_bytes_per_input_triangle", s.inputTriangles ? double(s.dagBytes) / double(s.inputTriangles) : 0.0},
           {"bytes_per_input_triangle", s.inputTriangles ? double(s.fileBytes) / double(s.inputTriangles) : 0.0}};
 }
@@ -102,6 +106,8 @@ void printSummary(const BuildSummary& s) {
     double n = s.inputTriangles ? double(s.inputTriangles) : 1.0;
     fmt::print("  geometry (CDAG chunks): {} bytes = {:.2f} bytes per input triangle; whole file {} bytes = {:.2f}\n",
                s.dagBytes, double(s.dagBytes) / n, s.fileBytes, double(s.fileBytes) / n);
+    fmt::print("  source-triangle map (TMAP chunk, for cluster PVS): {} bytes = {:.2f} bytes per input triangle\n",
+               s.sourceMapBytes, double(s.sourceMapBytes) / n);
   }
 }
 

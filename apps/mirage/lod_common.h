@@ -31,6 +31,7 @@ struct BuildSummary {
   uint64_t rootTriangles = 0;
   uint64_t fileBytes = 0;
   uint64_t dagBytes = 0;            // stored (compressed) bytes of the CDAG chunks: the geometry
+  uint64_t sourceMapBytes = 0;      // stored bytes of the TMAP chunk (source triangle -> level-0 cluster)
   std::vector<LevelSummary> levels; // over all meshes
 };
 

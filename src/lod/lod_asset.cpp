@@ -1,9 +1,12 @@
 #include "mirage/lod/lod_asset.h"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 
 #include <nlohmann/json.hpp>
 
+#include "mirage/asset/bytes.h"
 #include "mirage/asset/container.h"
 #include "mirage/asset/scene_chunk.h"
 
@@ -35,7 +38,87 @@ nlohmann::json statsJson(const LodAsset& a) {
   return meshes;
 }
 
+// 'TMAP': u32 version, varint mesh count, per mesh: varint triangles, then per triangle
+// zigzag(cluster + 1 - previous) as a varint (neighbouring source triangles mostly share a cluster,
+// and the container's zstd takes the rest).
+std::vector<uint8_t> encodeSourceMaps(const std::vector<std::vector<uint32_t>>& maps) {
+  asset::ByteWriter w;
+  w.write(kSourceMapVersion);
+  w.writeVarint(maps.size());
+  for (const std::vector<uint32_t>& map : maps) {
+    w.writeVarint(map.size());
+    int64_t prev = 0;
+    for (uint32_t c : map) {
+      int64_t v = int64_t(uint32_t(c + 1)), d = v - prev; // kNone + 1 wraps to 0
+      w.writeVarint((uint64_t(d) << 1) ^ uint64_t(d >> 63));
+      prev = v;
+    }
+  }
+  return w.take();
+}
+
+Result<std::vector<std::vector<uint32_t>>> decodeSourceMaps(std::span<const uint8_t> bytes, const LodAsset& a,
+                                                            const std::string& path) {
+  asset::ByteReader r(bytes, path);
+  uint32_t version = 0;
+  if (!r.read(version)) return r.error();
+  if (version != kSourceMapVersion)
+    return makeError(path, "source-triangle map version " + std::to_string(version) + " (this build reads " +
+                               std::to_string(kSourceMapVersion) + ")");
+  uint64_t meshes = 0;
+  if (!r.readCount(meshes, a.dags.size(), "source map mesh count")) return r.error();
+  if (meshes != a.dags.size())
+    return makeError(path, "source-triangle maps for " + std::to_string(meshes) + " of " +
+                               std::to_string(a.dags.size()) + " meshes");
+  std::vector<std::vector<uint32_t>> maps(meshes);
+  for (size_t m = 0; m < meshes; ++m) {
+    uint64_t n = 0;
+    if (!r.readCount(n, r.remaining(), "source triangle count")) return r.error();
+    maps[m].resize(n);
+    int64_t prev = 0;
+    uint64_t clusters = a.dags[m].clusters.size();
+    for (uint64_t t = 0; t < n; ++t) {
+      uint64_t z = 0;
+      if (!r.readVarint(z)) return r.error();
+      int64_t v = prev + (int64_t(z >> 1) ^ -int64_t(z & 1));
+      if (v < 0 || uint64_t(v) > clusters || (v > 0 && a.dags[m].clusters[size_t(v - 1)].level != 0))
+        return makeError(path, "source-triangle map of mesh " + std::to_string(m) + " names a bad cluster");
+      maps[m][t] = uint32_t(v - 1);
+      prev = v;
+    }
+  }
+  if (Status s = r.finish(); !s) return s.error();
+  return maps;
+}
+
 } // namespace
+
+std::vector<uint32_t> sourceTriangleClusters(const Mesh& mesh, const ClusterDag& dag) {
+  using Key = std::array<uint32_t, 3>;
+  auto key = [&](uint32_t a, uint32_t b, uint32_t c) {
+    Key k{dag.vertexPosition[a], dag.vertexPosition[b], dag.vertexPosition[c]};
+    std::sort(k.begin(), k.end());
+    return k;
+  };
+  std::vector<std::pair<Key, uint32_t>> level0; // sorted welded triple -> cluster
+  for (uint32_t c = 0; c < dag.clusters.size() && dag.clusters[c].level == 0; ++c) {
+    const Cluster& cl = dag.clusters[c];
+    for (uint32_t t = 0; t < cl.triangleCount; ++t) {
+      const uint8_t* local = &dag.clusterIndices[(size_t(cl.triangleOffset) + t) * 3];
+      const uint32_t* v = &dag.clusterVertices[cl.vertexOffset];
+      level0.push_back({key(v[local[0]], v[local[1]], v[local[2]]), c});
+    }
+  }
+  std::sort(level0.begin(), level0.end());
+  std::vector<uint32_t> out(mesh.indices.size() / 3, kNone);
+  for (size_t t = 0; t < out.size(); ++t) {
+    Key k = key(mesh.indices[t * 3], mesh.indices[t * 3 + 1], mesh.indices[t * 3 + 2]);
+    if (k[0] == k[1] || k[1] == k[2]) continue; // degenerate: dropped by the builder, covers no pixel
+    auto it = std::lower_bound(level0.begin(), level0.end(), std::pair<Key, uint32_t>{k, 0});
+    if (it != level0.end() && it->first == k) out[t] = it->second;
+  }
+  return out;
+}
 
 Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, const BuildProgress& progress) {
   LodAsset out;
@@ -46,6 +129,7 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
     auto dag = buildClusterDag(mesh, config);
     if (!dag)
       return Error{scene.source + ": mesh " + std::to_string(i) + " '" + mesh.name + "': " + dag.error().message};
+    out.sourceClusters.push_back(sourceTriangleClusters(mesh, *dag));
     out.dags.push_back(std::move(dag).value());
     done += mesh.triangleCount();
     if (progress) progress(i + 1, scene.meshes.size(), done, total);
@@ -84,6 +168,12 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeO
     int level = dagBytes[i].size() <= (4u << 20) ? 19 : 9;
     w.addChunk(asset::chunk::ClusterDag, dagBytes[i], level);
   }
+  std::vector<uint8_t> mapBytes;
+  if (!a.sourceClusters.empty()) {
+    if (a.sourceClusters.size() != a.dags.size()) return makeError(path, "one source-triangle map per mesh required");
+    mapBytes = encodeSourceMaps(a.sourceClusters);
+    w.addChunk(asset::chunk::SourceMap, mapBytes);
+  }
   std::string meta = a.metaJson.empty() ? "{}" : a.metaJson;
   w.addChunk(asset::chunk::Meta, std::span(reinterpret_cast<const uint8_t*>(meta.data()), meta.size()));
   return w.write(path);
@@ -116,6 +206,13 @@ Result<LodAsset> loadLodAsset(const std::string& path) {
   if (a.dags.size() != a.scene.meshes.size())
     return makeError(path, std::to_string(a.dags.size()) + " cluster DAGs for " +
                                std::to_string(a.scene.meshes.size()) + " meshes");
+  if (reader->find(asset::chunk::SourceMap)) {
+    auto bytes = reader->readChunk(asset::chunk::SourceMap);
+    if (!bytes) return bytes.error();
+    auto maps = decodeSourceMaps(*bytes, a, path);
+    if (!maps) return maps.error();
+    a.sourceClusters = std::move(*maps);
+  }
   return a;
 }
 

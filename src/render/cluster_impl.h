@@ -29,11 +29,12 @@ struct ClusterSceneData {
   uint32_t clusterCount = 0;
   uint32_t instanceCount = 0;
   uint32_t maxMeshClusters = 0;
-  uint32_t maxMeshNodes = 0;           // largest LOD BVH of one mesh (nodes)
-  uint32_t lodDepth = 0;               // deepest LOD BVH node below its level root (traversal passes - 1)
-  uint64_t instancedClusters = 0;      // sum over instances of their mesh's clusters (history bits)
-  uint64_t blendInstancedClusters = 0; // the same over BLEND instances: 0 = no transparency passes
-  bool hasMask = false;                // a MASK instance: the compute raster adds the masked kernel
+  uint32_t maxMeshNodes = 0;              // largest LOD BVH of one mesh (nodes)
+  uint32_t lodDepth = 0;                  // deepest LOD BVH node below its level root (traversal passes - 1)
+  uint64_t instancedClusters = 0;         // sum over instances of their mesh's clusters (history bits)
+  uint64_t blendInstancedClusters = 0;    // the same over BLEND instances: 0 = no transparency passes
+  bool hasMask = false;                   // a MASK instance: the compute raster adds the masked kernel
+  std::vector<uint32_t> instanceClusters; // per GPU instance: its mesh's cluster count (history ranges)
   Bounds worldBounds;
 };
 

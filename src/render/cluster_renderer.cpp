@@ -106,6 +106,7 @@ struct ClusterRenderer::Impl {
   Buffer traversal, queues[2];             // hierarchical selection: counters / indirect arguments, node queues
   Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
   DescriptorSet descriptors;               // material textures, the visibility image, the colour target, depth
+  Buffer pvsInstances, pvsClusters;        // the camera cell's cluster PVS (setPvs); empty: no PVS culling
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline, rasterMaskPipeline,
       meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
@@ -236,8 +237,9 @@ void ClusterRenderer::Impl::createPipelines() {
   uint64_t historyBytes = (historyBits + 31) / 32 * 4;
   historyUsable = historyBits < (uint64_t(1) << 32) && historyBytes <= caps.maxStorageBufferRange;
   std::vector<uint32_t> noHistory(historyUsable ? historyBytes / 4 : 1, 0u);
-  history =
-      createBufferWithData<uint32_t>(ctx, noHistory, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, "visibility history");
+  history = createBufferWithData<uint32_t>(
+      ctx, noHistory, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+      "visibility history"); // SRC: readOwnedClusters
 }
 
 void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
@@ -533,6 +535,26 @@ ClusterRenderer::~ClusterRenderer() = default;
 const Bounds& ClusterRenderer::worldBounds() const { return impl_->scene.worldBounds; }
 uint64_t ClusterRenderer::clusterCount() const { return impl_->scene.clusterCount; }
 
+Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
+  Impl& d = *impl_;
+  if (!pvs) {
+    d.pvsInstances = {};
+    d.pvsClusters = {};
+    return Ok{};
+  }
+  if (pvs->instanceBitOffset.size() != d.scene.instanceCount)
+    return Error{fmt::format("cluster PVS for {} instances, the scene has {}", pvs->instanceBitOffset.size(),
+                             d.scene.instanceCount)};
+  if (pvs->clusterBits.size() * 4 > d.ctx.caps().maxStorageBufferRange)
+    return Error{fmt::format("cluster PVS of {} bytes exceeds the device's storage buffer range", pvs->bytes())};
+  constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  d.pvsInstances = createBufferWithData<uint32_t>(d.ctx, pvs->instanceBitOffset, kStorage, "pvs instances");
+  std::vector<uint32_t> bits = pvs->clusterBits;
+  if (bits.empty()) bits.push_back(0); // every instance culled: the buffer still needs an address
+  d.pvsClusters = createBufferWithData<uint32_t>(d.ctx, bits, kStorage, "pvs cluster bits");
+  return Ok{};
+}
+
 Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& context, const lod::LodAsset& asset) {
   auto data = uploadClusterScene(context, asset);
   if (!data) return data.error();
@@ -581,6 +603,9 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
                              "them (use compute or hybrid)",
                              toString(backend))};
   bool occlusion = cs.occlusionCulling && d.historyUsable;
+  if (cs.readOwnedClusters && !occlusion)
+    return Error{"reading the clusters that own pixels needs occlusion culling (its history)"};
+  bool pvs = cs.pvsCulling && d.pvsInstances;
   bool hierarchy = cs.selection == SelectionMode::Hierarchy ||
                    (cs.selection == SelectionMode::Auto && d.scene.instanceCount >= kHierarchyInstances);
   d.ensureTargets(s.width, s.height);
@@ -602,7 +627,12 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   f.flags = (cs.flagBackFaces ? MIRAGE_FRAME_FLAG_BACKFACES : 0u) |
             (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) | (bufferTarget ? MIRAGE_FRAME_SOURCE_BUFFER : 0u) |
             (backend == RasterBackend::Hybrid ? MIRAGE_FRAME_HYBRID : 0u) | (occlusion ? MIRAGE_FRAME_OCCLUSION : 0u) |
-            (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u) | (hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u);
+            (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u) | (hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u) |
+            (pvs ? MIRAGE_FRAME_PVS : 0u);
+  if (pvs) {
+    f.pvsInstanceAddress = d.pvsInstances.address();
+    f.pvsClusterAddress = d.pvsClusters.address();
+  }
   f.visibleCapacity = d.visibleCapacity;
   f.instanceCount = d.scene.instanceCount;
   f.background = s.background;
@@ -736,12 +766,24 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   st.trianglesNearClipped = c.trianglesNearClipped;
   st.clustersOverflow = c.clustersOverflow;
   st.trianglesRasterized = c.trianglesSelected;
+  st.instancesPvsCulled = c.instancesPvsCulled;
+  st.clustersPvsCulled = c.clustersPvsCulled;
+  st.pvs = pvs;
   st.raster = backend;
   st.occlusion = occlusion;
   if (cs.surfels) st.surfels = cs.surfels->stageStats();
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = c.trianglesSelected;
 
+  if (cs.readOwnedClusters) {
+    // The resolve set bit (historyOffset + cluster) of every cluster owning a pixel this frame.
+    std::vector<uint8_t> bits = readbackBuffer(d.ctx, d.history, (d.scene.instancedClusters + 31) / 32 * 4);
+    const uint32_t* words = reinterpret_cast<const uint32_t*>(bits.data());
+    uint64_t base = 0;
+    for (uint32_t i = 0; i < d.scene.instanceCount; base += d.scene.instanceClusters[i++])
+      for (uint32_t k = 0; k < d.scene.instanceClusters[i]; ++k)
+        if ((words[(base + k) / 32] >> ((base + k) % 32)) & 1u) out.ownedClusters.emplace_back(i, k);
+  }
   if (!s.readImage) return out;
   std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
   convertHalfImage(img, s.width, s.height, s.readLinear, out.image);

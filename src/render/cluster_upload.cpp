@@ -290,6 +290,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
     d.instancedClusters += meshes[inst.mesh].clusterCount;
     if (mat.alphaMode == AlphaMode::Blend) d.blendInstancedClusters += meshes[inst.mesh].clusterCount;
     d.hasMask |= mat.alphaMode == AlphaMode::Mask;
+    d.instanceClusters.push_back(meshes[inst.mesh].clusterCount);
     d.worldBounds.add(transformBounds(meshBounds[inst.mesh], inst.transform));
   }
   if (instances.empty()) return Error{scene.source + ": the scene has no instances"};

@@ -39,6 +39,7 @@ namespace chunk {
 inline constexpr FourCC Scene{"SCEN"};
 inline constexpr FourCC Mesh{"MESH"};
 inline constexpr FourCC ClusterDag{"CDAG"};
+inline constexpr FourCC SourceMap{"TMAP"}; // cluster-LOD asset: source triangle -> level-0 cluster
 inline constexpr FourCC Surfels{"SURF"};
 inline constexpr FourCC Visibility{"PVS "};
 inline constexpr FourCC Meta{"META"};

@@ -1,7 +1,9 @@
 #pragma once
 // A baked cluster-LOD scene in a .mrg file: the scene (instances, materials, textures; mesh
 // geometry stripped, since each mesh's DAG holds it) in a 'SCEN' chunk, one 'CDAG' chunk per mesh
-// in mesh order, and a 'META' JSON chunk with the build settings and statistics.
+// in mesh order, a 'TMAP' chunk mapping every mesh's source triangles to level-0 clusters (how a
+// triangle PVS of the source scene becomes a cluster PVS, cluster_pvs.h), and a 'META' JSON chunk
+// with the build settings and statistics.
 #include <functional>
 #include <string>
 #include <vector>
@@ -17,7 +19,19 @@ struct LodAsset {
   Scene scene;                  // meshes keep name, material and bounds; geometry lives in dags
   std::vector<ClusterDag> dags; // one per scene mesh
   std::string metaJson;         // build settings and statistics as written
+  // Per mesh, per source triangle (the input mesh's index order): the level-0 cluster holding it,
+  // or kNone for a degenerate one (dropped by the builder). A dropped duplicate maps to the cluster
+  // of the copy that was kept. Empty for assets baked before the map was recorded.
+  std::vector<std::vector<uint32_t>> sourceClusters;
 };
+
+inline constexpr uint32_t kSourceMapVersion = 1;
+
+// The source-triangle map of one mesh and its DAG (see LodAsset::sourceClusters), found by
+// matching each source triangle's three welded positions (either winding) against the level-0
+// clusters' triangles: the builder only welds, drops degenerate and duplicate triangles and
+// reorders, so every other source triangle has exactly that triple in level 0.
+std::vector<uint32_t> sourceTriangleClusters(const Mesh& mesh, const ClusterDag& dag);
 
 // Progress callback: (meshes done, mesh count, input triangles done, total input triangles).
 using BuildProgress = std::function<void(size_t, size_t, uint64_t, uint64_t)>;

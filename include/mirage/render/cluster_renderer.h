@@ -12,9 +12,12 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
+#include "mirage/lod/cluster_pvs.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/render/surfel_renderer.h"
@@ -68,6 +71,11 @@ struct ClusterRenderSettings {
   SurfelRenderer* surfels = nullptr;
   SurfelRenderSettings surfelSettings;
   SelectionMode selection = SelectionMode::Auto; // all select exactly the same clusters
+  // Cull with the cluster PVS given to setPvs (if any); off renders as if none were set.
+  bool pvsCulling = true;
+  // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
+  // occlusion history the resolve writes; needs occlusionCulling) into ownedClusters.
+  bool readOwnedClusters = false;
 };
 
 struct ClusterStats {
@@ -94,6 +102,9 @@ struct ClusterStats {
   uint32_t oitPoolOverflow = 0;          // blended fragments beyond the node pool (dropped)
   uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
+  uint32_t instancesPvsCulled = 0;       // cell PVS: instances in the frustum with no visible cluster
+  uint32_t clustersPvsCulled = 0;        // cell PVS: clusters on the cut outside the cluster PVS
+  bool pvs = false;                      // the cell's cluster PVS culled this frame
   bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto;         // the backend that ran
   SurfelStageStats surfels;                           // mixed scenes: instances drawn (partly) as surfels
@@ -103,6 +114,7 @@ struct ClusterStats {
 struct ClusterRenderOutput {
   RenderOutput image; // srgb (+ linear), pass times in image.stats.passTimes
   ClusterStats stats;
+  std::vector<std::pair<uint32_t, uint32_t>> ownedClusters; // readOwnedClusters: (instance, mesh-local cluster)
 };
 
 class ClusterRenderer {
@@ -113,6 +125,11 @@ public:
   ~ClusterRenderer();
 
   Result<ClusterRenderOutput> render(const ClusterRenderSettings& settings);
+  // Uploads the camera cell's cluster PVS (lod::clusterPvs over this renderer's asset instances);
+  // later frames skip instances and clusters outside it (unless settings.pvsCulling is off).
+  // nullptr: no PVS culling (the camera is outside every cell). Errors when the set was made for
+  // another instance count.
+  Status setPvs(const lod::ClusterPvs* pvs);
   const Bounds& worldBounds() const;
   uint64_t clusterCount() const; // all DAG clusters uploaded (not per instance)
 

@@ -38,6 +38,9 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_OCCLUSION 16u     // two-pass HZB occlusion culling with last frame's visibility
 #define MIRAGE_FRAME_CONE_CULL 32u     // per-cluster normal-cone back-face culling
 #define MIRAGE_FRAME_HIERARCHY 64u     // selection traverses the LOD BVH (cluster_traverse.comp), else a flat pass
+#define MIRAGE_FRAME_PVS 128u          // cull instances and clusters outside the camera cell's cluster PVS
+// ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
+#define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
 
 // LOD BVH (hierarchical selection): depth of the deepest node below its level root (0). The
 // traversal runs one indirect dispatch per depth, so this bounds the passes per phase.
@@ -220,6 +223,10 @@ struct ClusterFrame {
   uint64_t oitNodeAddress;      // OitNode[]
   uint blendCapacity;           // entries of the blend list
   uint oitNodeCapacity;         // nodes in the pool
+  // Cluster PVS of the camera's view cell (MIRAGE_FRAME_PVS; lod/cluster_pvs.h): per instance the
+  // first bit of its clusters in the bit array, or MIRAGE_PVS_INSTANCE_CULLED.
+  uint64_t pvsInstanceAddress; // uint[] per instance
+  uint64_t pvsClusterAddress;  // uint[]: bit (offset + mesh-local cluster) set = may be visible
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -261,6 +268,8 @@ struct ClusterCounters {
   uint oitNodes;                // blended fragments appended (may exceed the pool: the rest dropped)
   uint oitLayersDropped;        // composite: fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
   uint pad0;
+  uint instancesPvsCulled; // in the frustum but outside the cell's PVS
+  uint clustersPvsCulled;  // on the cut but outside the cell's cluster PVS
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -291,14 +300,15 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 528, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 544, "ClusterFrame layout");
+static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 88, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 96, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");
