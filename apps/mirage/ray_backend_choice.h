@@ -1,5 +1,5 @@
 #pragma once
-// Which ray backend a visibility command runs on (--backend auto|embree|vulkan, --device).
+// Which ray backend a visibility command runs on (--backend auto|embree|vulkan|compute, --device).
 #include <memory>
 #include <string>
 
@@ -11,7 +11,10 @@
 namespace mirage::cli {
 
 struct RayBackendChoice {
-  std::string backend = "auto"; // auto: Vulkan on a GPU with a ray-tracing pipeline, else Embree
+  // auto: Vulkan on a GPU (its ray-tracing pipeline, or the compute traversal where it has none),
+  // Embree on a CPU driver; vulkan: the pipeline where the device has one, else compute;
+  // compute: the Vulkan compute traversal.
+  std::string backend = "auto";
   std::string geometry = "auto";
   std::string device;
   bool packets = true; // Embree: packets of 16 for coherent traces
@@ -26,7 +29,7 @@ struct OpenedRayBackend {
 // The option values are checked here too (one-line errors).
 Status checkRayBackendChoice(const RayBackendChoice& choice);
 Result<OpenedRayBackend> openRayBackend(const RayBackendChoice& choice, const Scene& scene);
-// Opens the backend named `backend` ("embree" or "vulkan"); `context` is reused when set.
+// Opens the backend named `backend` ("embree", "vulkan" or "compute"); `context` is reused when set.
 Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& backend, const std::string& geometry,
                                                              bool packets, const Scene& scene, gpu::Context* context);
 
