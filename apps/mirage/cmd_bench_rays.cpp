@@ -2,7 +2,8 @@
 // view cells or the scene box, uniform directions), with every hit recorded into a triangle set as
 // GVS++ does. Vulkan reports the trace dispatch alone (timestamp queries) and the wall time with
 // upload and readback; its "generated" mode makes the rays on the device. Both Vulkan traversals
-// (the ray-tracing pipeline and the compute shader, plain and with persistent threads) trace the
+// (the ray-tracing pipeline and the compute shader: plain, with persistent threads, with its stack
+// in shared memory) trace the
 // same rays in one run, and their GPU-time ratios are printed, so one run decides the default.
 #include <algorithm>
 #include <chrono>
@@ -27,6 +28,7 @@ struct BenchRaysOptions {
   uint64_t rays = 4'000'000;
   int repeat = 3;
   bool json = false;
+  bool spatialSplits = false;
 };
 
 // Random numbers from the ray index alone (PCG hash), so any slice of rays can be made anywhere.
@@ -119,21 +121,23 @@ void runBenchRays(const BenchRaysOptions& o) {
     struct Variant {
       const char* label;
       vis::VulkanRayOptions::Traversal traversal;
-      bool persistent;
+      bool persistent = false;
+      bool sharedStack = false;
       double traceGpu = 0.0, generatedGpu = 0.0; // medians, milliseconds
     };
     using T = vis::VulkanRayOptions::Traversal;
     std::vector<Variant> variants;
     if (o.backend != "compute") {
       if ((*ctx)->caps().rayTracingPipeline)
-        variants.push_back({"pipeline", T::Pipeline, false});
+        variants.push_back({"pipeline", T::Pipeline});
       else if (o.backend == "vulkan")
         return fail(
             fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", (*ctx)->caps().name));
     }
     if (o.backend != "vulkan") {
-      variants.push_back({"compute", T::Compute, false});
+      variants.push_back({"compute", T::Compute});
       variants.push_back({"compute-persistent", T::Compute, true});
+      variants.push_back({"compute-shared-stack", T::Compute, false, true});
     }
     for (Variant& v : variants) {
       vis::VulkanRayOptions vo;
@@ -142,6 +146,8 @@ void runBenchRays(const BenchRaysOptions& o) {
                                              : vis::VulkanRayOptions::Geometry::Auto;
       vo.traversal = v.traversal;
       vo.persistentThreads = v.persistent;
+      vo.sharedStack = v.sharedStack;
+      vo.spatialSplits = o.spatialSplits;
       vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do
       auto b = vis::createVulkanBackend(**ctx, *scene, vo);
       if (!b) return fail(b.error());
@@ -176,7 +182,7 @@ void runBenchRays(const BenchRaysOptions& o) {
         for (size_t i = 0; i < hits.size(); ++i) same += hits[i].triangle == reference[i].triangle;
         agree = double(same) / double(hits.size());
       }
-      std::string name = std::string((*b)->name()) + (v.persistent ? "-persistent" : "");
+      std::string name = v.traversal == T::Pipeline ? std::string((*b)->name()) : "vulkan-" + std::string(v.label);
       report(name, median(wall), median(gpu), found, agree);
       results.back()["traversal"] = v.label;
       report(name + " generated", median(genWall), median(genGpu), genFound, -1.0);
@@ -217,6 +223,7 @@ void addBenchRaysCommand(CLI::App* bench) {
   br->add_option("--repeat", o->repeat, "Runs; the median is reported")->capture_default_str();
   br->add_option("--device", o->device, "Vulkan device name substring or index");
   br->add_flag("--json", o->json, "Print results as JSON");
+  br->add_flag("--spatial-splits", o->spatialSplits, "Compute traversal: BVH with spatial splits (slower build)");
   br->callback([o] { runBenchRays(*o); });
 }
 

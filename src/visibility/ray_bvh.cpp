@@ -1,5 +1,5 @@
 // Host build of the compute traversal's BVH (ray_bvh.h). Embree's generic builder does the SAH
-// work (binning, spatial splits, parallel over TBB); its callbacks build a small pointer tree in
+// work (binning, optionally spatial splits, parallel over TBB); its callbacks build a small pointer tree in
 // Embree's thread-local memory, which is then laid out depth-first into 64-byte nodes.
 #include "ray_bvh.h"
 
@@ -157,13 +157,13 @@ struct Layout {
 
 } // namespace
 
-Result<RayBvh> buildRayBvh(const Scene& scene) {
+Result<RayBvh> buildRayBvh(const Scene& scene, bool spatialSplits) {
   auto t0 = std::chrono::steady_clock::now();
   RayBvh out;
   std::vector<FlatTriangle> tris = flattenTriangles(scene);
   if (tris.empty()) return out;
   // Spatial splits add references; the builder may use the whole capacity.
-  std::vector<RTCBuildPrimitive> prims(tris.size() * 2);
+  std::vector<RTCBuildPrimitive> prims(tris.size() * (spatialSplits ? 2 : 1));
   glm::vec3 sceneLo(INFINITY), sceneHi(-INFINITY);
   for (size_t i = 0; i < tris.size(); ++i) {
     glm::vec3 lo = glm::min(glm::min(tris[i].v[0], tris[i].v[1]), tris[i].v[2]);
@@ -177,7 +177,9 @@ Result<RayBvh> buildRayBvh(const Scene& scene) {
   RTCDevice device = rtcNewDevice(nullptr);
   RTCBVH bvh = rtcNewBVH(device);
   RTCBuildArguments args = rtcDefaultBuildArguments();
-  args.buildQuality = RTC_BUILD_QUALITY_HIGH; // spatial splits: long thin triangles, many rays per build
+  // Binned SAH by default; HIGH adds spatial splits (tighter boxes around long thin triangles, but
+  // on gen:city:8 41% more leaf triangles and a 12x slower build: docs/visibility.md).
+  args.buildQuality = spatialSplits ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM;
   args.maxBranchingFactor = 2;
   args.maxDepth = MIRAGE_RT_BVH_STACK - 2; // the shader's stack holds one entry per level and a sentinel
   args.minLeafSize = 1;

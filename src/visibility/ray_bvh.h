@@ -1,7 +1,7 @@
 #pragma once
 // The compute traversal's acceleration structure (vulkan_backend.cpp, shaders/vis_trace.comp): a
-// binary SAH BVH with spatial splits built by Embree's own builder (rtcBuildBVH) over the
-// flattened world-space triangles, stored in the Aila-Laine layout of shaderio/rays.h.
+// binary SAH BVH (optionally with spatial splits) built by Embree's own builder (rtcBuildBVH) over
+// the flattened world-space triangles, stored in the Aila-Laine layout of shaderio/rays.h.
 #include <vector>
 
 #include "mirage/core/result.h"
@@ -18,7 +18,7 @@ struct RayBvh {
 };
 
 // Global IDs as triangleOffsets (instance-major); Blend and Mask materials flagged see-through.
-// An empty scene gives no nodes.
-Result<RayBvh> buildRayBvh(const Scene& scene);
+// An empty scene gives no nodes. `spatialSplits`: RTC_BUILD_QUALITY_HIGH instead of MEDIUM.
+Result<RayBvh> buildRayBvh(const Scene& scene, bool spatialSplits = false);
 
 } // namespace mirage::vis::detail

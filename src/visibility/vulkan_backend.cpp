@@ -95,7 +95,7 @@ private:
                    std::span<const uint32_t> primitives, const char* name);
   void buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets);
   void createPipeline();
-  Status buildCompute(const Scene& scene);
+  Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
   void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
   bool prepareSet(DeviceSet& set, const TriangleSet* host);
   void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false);
@@ -208,7 +208,7 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   triangles_ = offsets.back();
   if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
   if (compute_) {
-    if (auto ok = buildCompute(scene); !ok) return ok;
+    if (auto ok = buildCompute(scene, options); !ok) return ok;
   } else {
     instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
                  (options.geometry == VulkanRayOptions::Geometry::Auto && triangles_ >= 4 * scene.meshTriangleCount());
@@ -334,8 +334,8 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
   tlas_ = buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, {&top, 1}, {&instanceCount, 1}, "rt tlas");
 }
 
-Status VulkanBackend::buildCompute(const Scene& scene) {
-  auto bvh = detail::buildRayBvh(scene);
+Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& options) {
+  auto bvh = detail::buildRayBvh(scene, options.spatialSplits);
   if (!bvh) return bvh.error();
   bvhNodes_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
@@ -344,7 +344,8 @@ Status VulkanBackend::buildCompute(const Scene& scene) {
   bvhEmpty_ = bvh->nodes.empty();
   bvhStats_ = {bvh->buildSeconds, bvh->nodes.size(), bvh->triangles.size(), bvh->depth};
   computeLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
-  computePipeline_ = createComputePipeline(ctx_, "vis_trace.comp", computeLayout_);
+  computePipeline_ = createComputePipeline(ctx_, options.sharedStack ? "vis_trace_shared_stack.comp" : "vis_trace.comp",
+                                           computeLayout_);
   return Ok{};
 }
 

@@ -404,34 +404,50 @@ TEST_P(VulkanRays, SeeThroughTrianglesCountOnlyInFrontOfTheWall) {
   EXPECT_GT(seeThroughNew, 0u);
 }
 
-// Persistent threads change the schedule, not the rays' results.
-TEST_P(VulkanRays, PersistentThreadsTraceTheSameHits) {
-  if (GetParam() != Traversal::Compute) GTEST_SKIP() << "a compute traversal option";
+// The compute traversal's variants: persistent threads and a shared-memory stack change the
+// schedule, not the rays' results; spatial splits change the tree, so only ties may differ.
+TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
+  if (GetParam() != Traversal::Compute) GTEST_SKIP() << "compute traversal options";
   Scene city = cityScene(1);
-  auto plain = vulkan(city, VulkanRayOptions::Geometry::Auto);
-  auto persistent = vulkan(city, VulkanRayOptions::Geometry::Auto, true);
-  ASSERT_TRUE(plain && persistent);
   std::vector<Ray> rays = randomRays(city.worldBounds(), streetCell(), 20'000, 7);
-  std::vector<Hit> a(rays.size()), b(rays.size());
-  TriangleSet ra(plain->triangleCount()), rb(persistent->triangleCount());
-  plain->trace(rays, a, {.record = &ra});
-  persistent->trace(rays, b, {.record = &rb});
-  for (size_t i = 0; i < rays.size(); ++i) {
-    ASSERT_EQ(a[i].triangle, b[i].triangle) << "ray " << i;
-    ASSERT_EQ(a[i].seeThrough, b[i].seeThrough) << "ray " << i;
-    ASSERT_EQ(a[i].t, b[i].t) << "ray " << i;
+  auto run = [&](VulkanRayOptions o, TriangleSet& record) {
+    o.traversal = Traversal::Compute;
+    o.batchRays = 4096;
+    auto b = createVulkanBackend(context(), city, o);
+    EXPECT_TRUE(b.ok()) << b.error().message;
+    std::vector<Hit> hits(rays.size());
+    if (b.ok()) (*b)->trace(rays, hits, {.record = &record});
+    return hits;
+  };
+  const size_t n = triangleOffsets(city).back();
+  TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n);
+  std::vector<Hit> plain = run({}, plainSet);
+  std::vector<Hit> persistent = run({.persistentThreads = true}, persistentSet);
+  std::vector<Hit> shared = run({.sharedStack = true}, sharedSet);
+  std::vector<Hit> split = run({.spatialSplits = true}, splitSet);
+  for (const std::vector<Hit>* other : {&persistent, &shared}) {
+    for (size_t i = 0; i < rays.size(); ++i) {
+      ASSERT_EQ(plain[i].triangle, (*other)[i].triangle) << "ray " << i;
+      ASSERT_EQ(plain[i].seeThrough, (*other)[i].seeThrough) << "ray " << i;
+      ASSERT_EQ(plain[i].t, (*other)[i].t) << "ray " << i;
+    }
   }
-  EXPECT_EQ(ra.sorted(), rb.sorted());
+  EXPECT_EQ(plainSet.sorted(), persistentSet.sorted());
+  EXPECT_EQ(plainSet.sorted(), sharedSet.sorted());
+  Agreement g = compare(plain, split);
+  EXPECT_GE(double(g.sameTriangle + g.tieMismatches), 0.9995 * double(g.n));
+  EXPECT_GE(double(g.sameSeeThrough), 0.999 * double(g.n));
 }
+
+namespace {
 
 // The host-built BVH of the compute traversal: every triangle is in a leaf, leaves are well
 // formed, every leaf triangle touches its box, and the depth fits the shader's stack.
-TEST(ComputeBvh, LeavesCoverEveryTriangleWithinTheirBoxes) {
-  Scene city = cityScene(1);
-  auto bvh = detail::buildRayBvh(city);
+void checkBvh(const Scene& city, bool splits) {
+  auto bvh = detail::buildRayBvh(city, splits);
   ASSERT_TRUE(bvh.ok()) << bvh.error().message;
-  std::printf("compute BVH of gen:city:1: %zu triangles, %zu nodes, %zu leaf triangles, depth %u, %.3f s\n",
-              size_t(triangleOffsets(city).back()), bvh->nodes.size(), bvh->triangles.size(), bvh->depth,
+  std::printf("compute BVH of gen:city:1 (splits %d): %zu triangles, %zu nodes, %zu leaf triangles, depth %u, %.3f s\n",
+              int(splits), size_t(triangleOffsets(city).back()), bvh->nodes.size(), bvh->triangles.size(), bvh->depth,
               bvh->buildSeconds);
   ASSERT_FALSE(bvh->nodes.empty());
   EXPECT_LE(bvh->depth, uint32_t(MIRAGE_RT_BVH_STACK - 2));
@@ -462,6 +478,16 @@ TEST(ComputeBvh, LeavesCoverEveryTriangleWithinTheirBoxes) {
   EXPECT_EQ(inner + 1, bvh->nodes.size()); // a tree: every node but the root is someone's child
   EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), true)), seen.size());
   EXPECT_GT(leaves, seen.size() / 4); // leaves of at most 4 triangles (plus split references)
+}
+
+} // namespace
+
+TEST(ComputeBvh, LeavesCoverEveryTriangleWithinTheirBoxes) {
+  Scene city = cityScene(1);
+  for (bool splits : {false, true}) {
+    SCOPED_TRACE(splits ? "spatial splits" : "binned SAH");
+    checkBvh(city, splits);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Traversals, VulkanRays, ::testing::Values(Traversal::Pipeline, Traversal::Compute),
