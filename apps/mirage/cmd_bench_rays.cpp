@@ -52,6 +52,16 @@ std::vector<vis::Ray> randomRays(const Bounds& box, uint64_t count) {
   return rays;
 }
 
+// Rays whose closest triangle differs from Embree's but lies at the same depth (a shared edge or
+// a coplanar duplicate), to tell tie-breaking from wrong hits.
+size_t tiedHits(const std::vector<vis::Hit>& a, const std::vector<vis::Hit>& b) {
+  size_t n = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    n += a[i].triangle != b[i].triangle && a[i].triangle != vis::kNoHit && b[i].triangle != vis::kNoHit &&
+         std::abs(a[i].t - b[i].t) <= 1e-3f * std::max(1.0f, b[i].t);
+  return n;
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[v.size() / 2];
@@ -176,15 +186,21 @@ void runBenchRays(const BenchRaysOptions& o) {
         genGpu.push_back((*b)->lastTiming().gpuMilliseconds);
         genFound = generated.count();
       }
-      double agree = -1.0;
+      double agree = -1.0, tied = -1.0;
       if (!reference.empty()) {
         size_t same = 0;
         for (size_t i = 0; i < hits.size(); ++i) same += hits[i].triangle == reference[i].triangle;
         agree = double(same) / double(hits.size());
+        tied = double(same + tiedHits(hits, reference)) / double(hits.size());
       }
       std::string name = v.traversal == T::Pipeline ? std::string((*b)->name()) : "vulkan-" + std::string(v.label);
       report(name, median(wall), median(gpu), found, agree);
       results.back()["traversal"] = v.label;
+      if (tied >= 0) {
+        results.back()["same_or_tied_with_embree"] = tied;
+        if (!o.json)
+          fmt::print("{:18} same closest triangle as Embree or another at the same depth: {:.4f}%\n", "", tied * 100.0);
+      }
       report(name + " generated", median(genWall), median(genGpu), genFound, -1.0);
       results.back()["traversal"] = v.label;
       v.traceGpu = median(gpu);
