@@ -125,14 +125,17 @@ void main() {
     if (index < push.count) traceOne(index);
     return;
   }
-  // Persistent threads: a resident grid loops over the rays, each subgroup fetching the next
-  // gl_SubgroupSize rays with one atomic when all its lanes are done (Aila & Laine's batching).
+  // Persistent threads: a resident grid loops over the rays, the lanes of a subgroup fetching their
+  // next rays together with one atomic (Aila & Laine's batching). Counting the lanes present
+  // (ballot) keeps every ray traced even where the lanes have not reconverged.
   for (;;) {
+    uvec4 present = subgroupBallot(true);
     uint base = 0u;
-    if (subgroupElect()) base = atomicAdd(RtCountersRef(push.counters).c.nextBatch, gl_SubgroupSize);
+    if (subgroupElect())
+      base = atomicAdd(RtCountersRef(push.counters).c.nextBatch, subgroupBallotBitCount(present));
     base = subgroupBroadcastFirst(base);
     if (base >= push.count) break;
-    uint index = base + gl_SubgroupInvocationID;
+    uint index = base + subgroupBallotExclusiveBitCount(present);
     if (index < push.count) traceOne(index);
   }
 }

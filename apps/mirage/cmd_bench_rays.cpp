@@ -29,6 +29,7 @@ struct BenchRaysOptions {
   int repeat = 3;
   bool json = false;
   bool spatialSplits = false;
+  uint32_t leafSize = 4;
 };
 
 // Random numbers from the ray index alone (PCG hash), so any slice of rays can be made anywhere.
@@ -72,6 +73,7 @@ void runBenchRays(const BenchRaysOptions& o) {
     return fail("--backend must be embree, vulkan, compute or all");
   if (o.rays == 0 || o.rays > (uint64_t(1) << 31)) return fail("--rays must be in 1..2^31");
   if (o.repeat < 1) return fail("--repeat must be at least 1");
+  if (o.leafSize < 1 || o.leafSize > 32) return fail("--leaf-size must be in 1..32");
   if (auto s = checkRayBackendChoice({.backend = "auto", .geometry = o.geometry}); !s) return fail(s.error());
   std::vector<vis::ViewCell> cells;
   if (!o.cells.empty()) {
@@ -158,6 +160,7 @@ void runBenchRays(const BenchRaysOptions& o) {
       vo.persistentThreads = v.persistent;
       vo.sharedStack = v.sharedStack;
       vo.spatialSplits = o.spatialSplits;
+      vo.bvhLeafSize = o.leafSize;
       vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do
       auto b = vis::createVulkanBackend(**ctx, *scene, vo);
       if (!b) return fail(b.error());
@@ -239,6 +242,8 @@ void addBenchRaysCommand(CLI::App* bench) {
   br->add_option("--repeat", o->repeat, "Runs; the median is reported")->capture_default_str();
   br->add_option("--device", o->device, "Vulkan device name substring or index");
   br->add_flag("--json", o->json, "Print results as JSON");
+  br->add_option("--leaf-size", o->leafSize, "Compute traversal: most triangles per BVH leaf (1..32)")
+      ->capture_default_str();
   br->add_flag("--spatial-splits", o->spatialSplits, "Compute traversal: BVH with spatial splits (slower build)");
   br->callback([o] { runBenchRays(*o); });
 }

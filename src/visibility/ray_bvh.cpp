@@ -157,7 +157,8 @@ struct Layout {
 
 } // namespace
 
-Result<RayBvh> buildRayBvh(const Scene& scene, bool spatialSplits) {
+Result<RayBvh> buildRayBvh(const Scene& scene, const RayBvhOptions& options) {
+  const bool spatialSplits = options.spatialSplits;
   auto t0 = std::chrono::steady_clock::now();
   RayBvh out;
   std::vector<FlatTriangle> tris = flattenTriangles(scene);
@@ -183,7 +184,7 @@ Result<RayBvh> buildRayBvh(const Scene& scene, bool spatialSplits) {
   args.maxBranchingFactor = 2;
   args.maxDepth = MIRAGE_RT_BVH_STACK - 2; // the shader's stack holds one entry per level and a sentinel
   args.minLeafSize = 1;
-  args.maxLeafSize = 4;
+  args.maxLeafSize = std::clamp(options.maxLeafSize, 1u, uint32_t(RTC_BUILD_MAX_PRIMITIVES_PER_LEAF));
   args.traversalCost = 1.0f;
   args.intersectionCost = 1.0f;
   args.bvh = bvh;

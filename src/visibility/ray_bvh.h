@@ -18,7 +18,12 @@ struct RayBvh {
 };
 
 // Global IDs as triangleOffsets (instance-major); Blend and Mask materials flagged see-through.
-// An empty scene gives no nodes. `spatialSplits`: RTC_BUILD_QUALITY_HIGH instead of MEDIUM.
-Result<RayBvh> buildRayBvh(const Scene& scene, bool spatialSplits = false);
+struct RayBvhOptions {
+  bool spatialSplits = false; // RTC_BUILD_QUALITY_HIGH instead of MEDIUM
+  uint32_t maxLeafSize = 4;   // 1..RTC_BUILD_MAX_PRIMITIVES_PER_LEAF (32)
+};
+
+// An empty scene gives no nodes.
+Result<RayBvh> buildRayBvh(const Scene& scene, const RayBvhOptions& options = {});
 
 } // namespace mirage::vis::detail

@@ -335,7 +335,7 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
 }
 
 Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& options) {
-  auto bvh = detail::buildRayBvh(scene, options.spatialSplits);
+  auto bvh = detail::buildRayBvh(scene, {.spatialSplits = options.spatialSplits, .maxLeafSize = options.bvhLeafSize});
   if (!bvh) return bvh.error();
   bvhNodes_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");

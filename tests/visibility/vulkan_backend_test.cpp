@@ -444,7 +444,7 @@ namespace {
 // The host-built BVH of the compute traversal: every triangle is in a leaf, leaves are well
 // formed, every leaf triangle touches its box, and the depth fits the shader's stack.
 void checkBvh(const Scene& city, bool splits) {
-  auto bvh = detail::buildRayBvh(city, splits);
+  auto bvh = detail::buildRayBvh(city, {.spatialSplits = splits});
   ASSERT_TRUE(bvh.ok()) << bvh.error().message;
   std::printf("compute BVH of gen:city:1 (splits %d): %zu triangles, %zu nodes, %zu leaf triangles, depth %u, %.3f s\n",
               int(splits), size_t(triangleOffsets(city).back()), bvh->nodes.size(), bvh->triangles.size(), bvh->depth,

@@ -36,6 +36,8 @@ struct VulkanRayOptions {
   // Compute traversal: the BVH builder's spatial splits (RTC_BUILD_QUALITY_HIGH). Off by default:
   // on gen:city:8 they add 41% leaf triangles and build 12x slower (docs/visibility.md).
   bool spatialSplits = false;
+  // Compute traversal: the most triangles per BVH leaf (the SAH decides below it; 1..32).
+  uint32_t bvhLeafSize = 4;
   // Rays per launch: 2 M rays are 64 MiB of rays and 32 MiB of hits, few enough submissions that
   // their fixed cost stays small beside the trace on a large GPU.
   size_t batchRays = size_t(1) << 21;
