@@ -5,7 +5,8 @@
 // descending until every lane of the subgroup holds a leaf, then intersect leaves, so lanes
 // diverge less between box tests and triangle tests. Children are visited nearest first and a
 // closer opaque hit shrinks the interval; see-through triangles are remembered, not committed.
-// Included by vis_trace.comp and vis_trace_shared_stack.comp (the two stack placements).
+// Included by vis_trace.comp, vis_trace_shared_stack.comp (the stack in shared memory) and
+// vis_trace_bvh4.comp (MIRAGE_RT_BVH4: 4-wide nodes, RtBvh4Node).
 #extension GL_KHR_shader_subgroup_vote : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #include "vis_trace_common.glsl"
@@ -31,6 +32,19 @@ float enterBox(vec3 lo, vec3 hi, vec3 idir, vec3 ood, float tnear, float tbest) 
   float exit = min(min(mx.x, mx.y), min(mx.z, tbest));
   return entry <= exit ? entry : 1.0 / 0.0;
 }
+
+#ifdef MIRAGE_RT_BVH4
+// Compare-exchange of two lanes of (key, ref) in the 4-wide node visit.
+#define SORT2(a, b)                                                                                                    \
+  if (key.b < key.a) {                                                                                                 \
+    float k = key.a;                                                                                                   \
+    key.a = key.b;                                                                                                     \
+    key.b = k;                                                                                                         \
+    uint r = ref.a;                                                                                                    \
+    ref.a = ref.b;                                                                                                     \
+    ref.b = r;                                                                                                         \
+  }
+#endif
 
 // A direction component of zero would give inf * 0 = NaN in the slab test: use a tiny one.
 float safeInverse(float d) { return 1.0 / (abs(d) > 1e-20 ? d : (d >= 0.0 ? 1e-20 : -1e-20)); }
@@ -58,6 +72,27 @@ Payload traverse(RtRay ray) {
   uint leaf = MIRAGE_RT_BVH_NONE; // a postponed leaf, or none
   while (node != MIRAGE_RT_BVH_NONE) {
     while (node < MIRAGE_RT_BVH_NONE) { // inner nodes
+#ifdef MIRAGE_RT_BVH4
+      // Four boxes as vec4 planes; entry distances of the children hit, +inf for the rest, sorted
+      // with a five-comparator network (registers only), the nearest visited, the others pushed.
+      uint base = node * 7u;
+      vec4 ax = fma(nodes.v[base], vec4(idir.x), vec4(-ood.x));
+      vec4 bx = fma(nodes.v[base + 1u], vec4(idir.x), vec4(-ood.x));
+      vec4 ay = fma(nodes.v[base + 2u], vec4(idir.y), vec4(-ood.y));
+      vec4 by = fma(nodes.v[base + 3u], vec4(idir.y), vec4(-ood.y));
+      vec4 az = fma(nodes.v[base + 4u], vec4(idir.z), vec4(-ood.z));
+      vec4 bz = fma(nodes.v[base + 5u], vec4(idir.z), vec4(-ood.z));
+      uvec4 ref = floatBitsToUint(nodes.v[base + 6u]);
+      vec4 entry = max(max(min(ax, bx), min(ay, by)), max(min(az, bz), vec4(tnear)));
+      vec4 exit = min(min(max(ax, bx), max(ay, by)), min(max(az, bz), vec4(tbest)));
+      bvec4 hit = bvec4(uvec4(lessThanEqual(entry, exit)) & uvec4(notEqual(ref, uvec4(MIRAGE_RT_BVH_NONE))));
+      vec4 key = mix(vec4(1.0 / 0.0), entry, hit);
+      SORT2(x, y) SORT2(z, w) SORT2(x, z) SORT2(y, w) SORT2(y, z)
+      if (key.w < 1.0 / 0.0) STACK(sp++) = ref.w;
+      if (key.z < 1.0 / 0.0) STACK(sp++) = ref.z;
+      if (key.y < 1.0 / 0.0) STACK(sp++) = ref.y;
+      node = key.x < 1.0 / 0.0 ? ref.x : STACK(--sp);
+#else
       vec4 a = nodes.v[node * 4u], b = nodes.v[node * 4u + 1u], c = nodes.v[node * 4u + 2u];
       uvec4 children = floatBitsToUint(nodes.v[node * 4u + 3u]);
       float e0 = enterBox(a.xyz, vec3(a.w, b.xy), idir, ood, tnear, tbest);
@@ -72,6 +107,7 @@ Payload traverse(RtRay ray) {
       } else {
         node = h0 ? children.x : children.y;
       }
+#endif
       if (node > MIRAGE_RT_BVH_NONE && leaf == MIRAGE_RT_BVH_NONE) { // postpone the leaf
         leaf = node;
         node = STACK(--sp);

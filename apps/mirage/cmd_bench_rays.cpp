@@ -3,7 +3,7 @@
 // GVS++ does. Vulkan reports the trace dispatch alone (timestamp queries) and the wall time with
 // upload and readback; its "generated" mode makes the rays on the device. Both Vulkan traversals
 // (the ray-tracing pipeline and the compute shader: plain, with persistent threads, with its stack
-// in shared memory) trace the
+// in shared memory, over 4-wide nodes) trace the
 // same rays in one run, and their GPU-time ratios are printed, so one run decides the default.
 #include <algorithm>
 #include <chrono>
@@ -135,6 +135,7 @@ void runBenchRays(const BenchRaysOptions& o) {
       vis::VulkanRayOptions::Traversal traversal;
       bool persistent = false;
       bool sharedStack = false;
+      uint32_t width = 2;
       double traceGpu = 0.0, generatedGpu = 0.0; // medians, milliseconds
     };
     using T = vis::VulkanRayOptions::Traversal;
@@ -150,6 +151,8 @@ void runBenchRays(const BenchRaysOptions& o) {
       variants.push_back({"compute", T::Compute});
       variants.push_back({"compute-persistent", T::Compute, true});
       variants.push_back({"compute-shared-stack", T::Compute, false, true});
+      variants.push_back({"compute-bvh4", T::Compute, false, false, 4});
+      variants.push_back({"compute-bvh4-persistent", T::Compute, true, false, 4});
     }
     for (Variant& v : variants) {
       vis::VulkanRayOptions vo;
@@ -159,6 +162,7 @@ void runBenchRays(const BenchRaysOptions& o) {
       vo.traversal = v.traversal;
       vo.persistentThreads = v.persistent;
       vo.sharedStack = v.sharedStack;
+      vo.bvhWidth = v.width;
       vo.spatialSplits = o.spatialSplits;
       vo.bvhLeafSize = o.leafSize;
       vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do

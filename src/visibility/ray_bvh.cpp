@@ -21,13 +21,13 @@ struct FlatTriangle {
   bool seeThrough;
 };
 
-// The builder's tree: inner nodes with two boxes, leaves with their flat-triangle indices.
+// The builder's tree: inner nodes with up to four boxes, leaves with their flat-triangle indices.
 struct BuildNode {
   bool leaf = false;
-  uint32_t count = 0; // leaf: triangles in `prims`
+  uint32_t count = 0; // leaf: triangles in `prims`; inner: children
   const uint32_t* prims = nullptr;
-  RTCBounds bounds[2]{};
-  BuildNode* child[2]{};
+  RTCBounds bounds[4]{};
+  BuildNode* child[4]{};
 };
 
 void* createNode(RTCThreadLocalAllocator alloc, unsigned int /*childCount*/, void* /*user*/) {
@@ -36,12 +36,13 @@ void* createNode(RTCThreadLocalAllocator alloc, unsigned int /*childCount*/, voi
 
 void setNodeChildren(void* node, void** children, unsigned int count, void* /*user*/) {
   auto* n = static_cast<BuildNode*>(node);
-  for (unsigned int i = 0; i < 2; ++i) n->child[i] = static_cast<BuildNode*>(children[std::min(i, count - 1)]);
+  n->count = std::min(count, 4u);
+  for (unsigned int i = 0; i < n->count; ++i) n->child[i] = static_cast<BuildNode*>(children[i]);
 }
 
 void setNodeBounds(void* node, const RTCBounds** bounds, unsigned int count, void* /*user*/) {
   auto* n = static_cast<BuildNode*>(node);
-  for (unsigned int i = 0; i < 2; ++i) n->bounds[i] = *bounds[std::min(i, count - 1)];
+  for (unsigned int i = 0; i < std::min(count, 4u); ++i) n->bounds[i] = *bounds[i];
 }
 
 void* createLeaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count, void* /*user*/) {
@@ -114,6 +115,7 @@ std::vector<FlatTriangle> flattenTriangles(const Scene& scene) {
 struct Layout {
   const std::vector<FlatTriangle>& tris;
   float pad;
+  bool wide;
   RayBvh& out;
 
   // Depth-first: returns the child reference of `n` (a node index or LEAF | first triangle).
@@ -129,13 +131,38 @@ struct Layout {
       }
       return MIRAGE_RT_BVH_LEAF | first;
     }
+    if (wide) return placeWide(n, depth);
+    // A binary node with one child (never made by the builder) repeats it.
     uint32_t index = uint32_t(out.nodes.size());
     out.nodes.emplace_back();
-    setBoxes(index, n->bounds);
+    const RTCBounds boxes[2] = {n->bounds[0], n->bounds[n->count > 1 ? 1 : 0]};
+    setBoxes(index, boxes);
     uint32_t c0 = place(n->child[0], depth + 1);
-    uint32_t c1 = place(n->child[1], depth + 1);
+    uint32_t c1 = n->count > 1 ? place(n->child[1], depth + 1) : c0;
     out.nodes[index].child0 = c0;
     out.nodes[index].child1 = c1;
+    return index;
+  }
+
+  uint32_t placeWide(const BuildNode* n, uint32_t depth) {
+    uint32_t index = uint32_t(out.nodes4.size());
+    out.nodes4.emplace_back();
+    for (uint32_t c = 0; c < 4; ++c) {
+      shaderio::RtBvh4Node& w = out.nodes4[index];
+      const RTCBounds& b = n->bounds[c];
+      bool used = c < n->count;
+      w.loX[c] = used ? b.lower_x - pad : 0.0f;
+      w.loY[c] = used ? b.lower_y - pad : 0.0f;
+      w.loZ[c] = used ? b.lower_z - pad : 0.0f;
+      w.hiX[c] = used ? b.upper_x + pad : 0.0f;
+      w.hiY[c] = used ? b.upper_y + pad : 0.0f;
+      w.hiZ[c] = used ? b.upper_z + pad : 0.0f;
+      w.child[c] = MIRAGE_RT_BVH_NONE;
+    }
+    for (uint32_t c = 0; c < n->count; ++c) {
+      uint32_t ref = place(n->child[c], depth + 1);
+      out.nodes4[index].child[c] = ref; // after the recursion: it may grow the vector
+    }
     return index;
   }
 
@@ -181,8 +208,10 @@ Result<RayBvh> buildRayBvh(const Scene& scene, const RayBvhOptions& options) {
   // Binned SAH by default; HIGH adds spatial splits (tighter boxes around long thin triangles, but
   // on gen:city:8 41% more leaf triangles and a 12x slower build: docs/visibility.md).
   args.buildQuality = spatialSplits ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM;
-  args.maxBranchingFactor = 2;
-  args.maxDepth = MIRAGE_RT_BVH_STACK - 2; // the shader's stack holds one entry per level and a sentinel
+  const bool wide = options.width == 4;
+  args.maxBranchingFactor = wide ? 4 : 2;
+  // The shader's stack holds a sentinel and what each level pushes: one entry (binary), three (4-wide).
+  args.maxDepth = wide ? (MIRAGE_RT_BVH_STACK - 2) / 3 : MIRAGE_RT_BVH_STACK - 2;
   args.minLeafSize = 1;
   args.maxLeafSize = std::clamp(options.maxLeafSize, 1u, uint32_t(RTC_BUILD_MAX_PRIMITIVES_PER_LEAF));
   args.traversalCost = 1.0f;
@@ -204,20 +233,24 @@ Result<RayBvh> buildRayBvh(const Scene& scene, const RayBvhOptions& options) {
     rtcReleaseDevice(device);
     return makeError(scene.source, "compute BVH: Embree build failed (error " + std::to_string(int(error)) + ")");
   }
-  Layout layout{tris, extent * 0x1p-21f, out};
-  out.nodes.reserve(tris.size());
+  Layout layout{tris, extent * 0x1p-21f, wide, out};
+  if (wide)
+    out.nodes4.reserve(tris.size() / 2);
+  else
+    out.nodes.reserve(tris.size());
   out.triangles.reserve(tris.size() * 3 / 2);
-  if (root->leaf) { // a root inner node whose two children are the one leaf
+  if (root->leaf) { // a root inner node whose only child is the one leaf
     BuildNode top;
-    top.child[0] = top.child[1] = root;
-    top.bounds[0] = top.bounds[1] = {sceneLo.x, sceneLo.y, sceneLo.z, 0, sceneHi.x, sceneHi.y, sceneHi.z, 0};
+    top.count = 1;
+    top.child[0] = root;
+    top.bounds[0] = {sceneLo.x, sceneLo.y, sceneLo.z, 0, sceneHi.x, sceneHi.y, sceneHi.z, 0};
     layout.place(&top, 0);
   } else {
     layout.place(root, 0);
   }
   rtcReleaseBVH(bvh); // frees the builder's tree
   rtcReleaseDevice(device);
-  if (out.triangles.size() >= MIRAGE_RT_BVH_LEAF || out.nodes.size() >= MIRAGE_RT_BVH_NONE)
+  if (out.triangles.size() >= MIRAGE_RT_BVH_LEAF || std::max(out.nodes.size(), out.nodes4.size()) >= MIRAGE_RT_BVH_NONE)
     return makeError(scene.source, "compute BVH: more than 2^31 triangle references");
   out.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

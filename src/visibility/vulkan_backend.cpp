@@ -335,17 +335,24 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
 }
 
 Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& options) {
-  auto bvh = detail::buildRayBvh(scene, {.spatialSplits = options.spatialSplits, .maxLeafSize = options.bvhLeafSize});
+  if (options.bvhWidth != 2 && options.bvhWidth != 4) return Error{"vulkan: the BVH width must be 2 or 4"};
+  const bool wide = options.bvhWidth == 4;
+  auto bvh = detail::buildRayBvh(
+      scene, {.spatialSplits = options.spatialSplits, .maxLeafSize = options.bvhLeafSize, .width = options.bvhWidth});
   if (!bvh) return bvh.error();
-  bvhNodes_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
-                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
+  bvhNodes_ = wide ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
+                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+                   : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
+                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
   bvhTriangles_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhTriangle>(bvh->triangles),
                                        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh triangles");
-  bvhEmpty_ = bvh->nodes.empty();
-  bvhStats_ = {bvh->buildSeconds, bvh->nodes.size(), bvh->triangles.size(), bvh->depth};
+  bvhEmpty_ = bvh->nodes.empty() && bvh->nodes4.empty();
+  bvhStats_ = {bvh->buildSeconds, wide ? bvh->nodes4.size() : bvh->nodes.size(), bvh->triangles.size(), bvh->depth};
   computeLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
-  computePipeline_ = createComputePipeline(ctx_, options.sharedStack ? "vis_trace_shared_stack.comp" : "vis_trace.comp",
-                                           computeLayout_);
+  const char* shader = wide                  ? "vis_trace_bvh4.comp"
+                       : options.sharedStack ? "vis_trace_shared_stack.comp"
+                                             : "vis_trace.comp";
+  computePipeline_ = createComputePipeline(ctx_, shader, computeLayout_);
   return Ok{};
 }
 

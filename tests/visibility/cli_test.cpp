@@ -122,6 +122,6 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
     EXPECT_GT(res["gpu_ms"].get<double>(), 0.0);
     compute += res["traversal"].get<std::string>().rfind("compute", 0) == 0;
   }
-  EXPECT_EQ(compute, 3u); // plain, persistent threads, shared-memory stack
+  EXPECT_EQ(compute, 5u); // plain, persistent threads, shared-memory stack, 4-wide, 4-wide persistent
   EXPECT_GE(json["speedups"].size(), 1u);
 }

@@ -405,7 +405,8 @@ TEST_P(VulkanRays, SeeThroughTrianglesCountOnlyInFrontOfTheWall) {
 }
 
 // The compute traversal's variants: persistent threads and a shared-memory stack change the
-// schedule, not the rays' results; spatial splits change the tree, so only ties may differ.
+// schedule, not the rays' results; spatial splits and 4-wide nodes change the tree, so only ties
+// may differ.
 TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   if (GetParam() != Traversal::Compute) GTEST_SKIP() << "compute traversal options";
   Scene city = cityScene(1);
@@ -420,11 +421,17 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
     return hits;
   };
   const size_t n = triangleOffsets(city).back();
-  TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n);
+  TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n), wideSet(n), widePersistentSet(n);
   std::vector<Hit> plain = run({}, plainSet);
   std::vector<Hit> persistent = run({.persistentThreads = true}, persistentSet);
   std::vector<Hit> shared = run({.sharedStack = true}, sharedSet);
   std::vector<Hit> split = run({.spatialSplits = true}, splitSet);
+  std::vector<Hit> wide = run({.bvhWidth = 4}, wideSet);
+  std::vector<Hit> widePersistent = run({.persistentThreads = true, .bvhWidth = 4}, widePersistentSet);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(wide[i].triangle, widePersistent[i].triangle) << "ray " << i;
+    ASSERT_EQ(wide[i].t, widePersistent[i].t) << "ray " << i;
+  }
   for (const std::vector<Hit>* other : {&persistent, &shared}) {
     for (size_t i = 0; i < rays.size(); ++i) {
       ASSERT_EQ(plain[i].triangle, (*other)[i].triangle) << "ray " << i;
@@ -434,28 +441,33 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   }
   EXPECT_EQ(plainSet.sorted(), persistentSet.sorted());
   EXPECT_EQ(plainSet.sorted(), sharedSet.sorted());
-  Agreement g = compare(plain, split);
-  EXPECT_GE(double(g.sameTriangle + g.tieMismatches), 0.9995 * double(g.n));
-  EXPECT_GE(double(g.sameSeeThrough), 0.999 * double(g.n));
+  for (const std::vector<Hit>* other : {&split, &wide}) {
+    Agreement g = compare(plain, *other);
+    EXPECT_GE(double(g.sameTriangle + g.tieMismatches), 0.9995 * double(g.n));
+    EXPECT_GE(double(g.sameSeeThrough), 0.999 * double(g.n));
+  }
 }
 
 namespace {
 
 // The host-built BVH of the compute traversal: every triangle is in a leaf, leaves are well
 // formed, every leaf triangle touches its box, and the depth fits the shader's stack.
-void checkBvh(const Scene& city, bool splits) {
-  auto bvh = detail::buildRayBvh(city, {.spatialSplits = splits});
+void checkBvh(const Scene& city, bool splits, uint32_t width) {
+  auto bvh = detail::buildRayBvh(city, {.spatialSplits = splits, .width = width});
   ASSERT_TRUE(bvh.ok()) << bvh.error().message;
-  std::printf("compute BVH of gen:city:1 (splits %d): %zu triangles, %zu nodes, %zu leaf triangles, depth %u, %.3f s\n",
-              int(splits), size_t(triangleOffsets(city).back()), bvh->nodes.size(), bvh->triangles.size(), bvh->depth,
-              bvh->buildSeconds);
-  ASSERT_FALSE(bvh->nodes.empty());
-  EXPECT_LE(bvh->depth, uint32_t(MIRAGE_RT_BVH_STACK - 2));
+  std::printf("compute BVH of gen:city:1 (splits %d, width %u): %zu triangles, %zu nodes, %zu leaf triangles, depth "
+              "%u, %.3f s\n",
+              int(splits), width, size_t(triangleOffsets(city).back()), bvh->nodes.size() + bvh->nodes4.size(),
+              bvh->triangles.size(), bvh->depth, bvh->buildSeconds);
+  const size_t nodes = width == 4 ? bvh->nodes4.size() : bvh->nodes.size();
+  ASSERT_GT(nodes, 0u);
+  EXPECT_EQ(width == 4 ? bvh->nodes.size() : bvh->nodes4.size(), 0u);
+  EXPECT_LE(bvh->depth * (width - 1), uint32_t(MIRAGE_RT_BVH_STACK - 2)); // the pushes fit the shader's stack
   std::vector<bool> seen(triangleOffsets(city).back(), false);
   size_t leaves = 0, inner = 0;
   auto visit = [&](uint32_t ref, glm::vec3 lo, glm::vec3 hi) {
     if (!(ref & MIRAGE_RT_BVH_LEAF)) {
-      ASSERT_LT(ref, bvh->nodes.size());
+      ASSERT_LT(ref, nodes);
       ++inner;
       return;
     }
@@ -475,7 +487,17 @@ void checkBvh(const Scene& city, bool splits) {
     visit(n.child0, n.lo0, {n.hi0x, n.hi0y, n.hi0z});
     visit(n.child1, {n.lo1x, n.lo1y, n.lo1z}, {n.hi1x, n.hi1y, n.hi1z});
   }
-  EXPECT_EQ(inner + 1, bvh->nodes.size()); // a tree: every node but the root is someone's child
+  size_t wideChildren = 0;
+  for (const shaderio::RtBvh4Node& n : bvh->nodes4)
+    for (int c = 0; c < 4; ++c) {
+      if (n.child[c] == MIRAGE_RT_BVH_NONE) continue;
+      ++wideChildren;
+      visit(n.child[c], {n.loX[c], n.loY[c], n.loZ[c]}, {n.hiX[c], n.hiY[c], n.hiZ[c]});
+    }
+  if (width == 4) {
+    EXPECT_GT(double(wideChildren), 3.0 * double(nodes)); // mostly full nodes
+  }
+  EXPECT_EQ(inner + 1, nodes); // a tree: every node but the root is someone's child
   EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), true)), seen.size());
   EXPECT_GT(leaves, seen.size() / 4); // leaves of at most 4 triangles (plus split references)
 }
@@ -484,10 +506,11 @@ void checkBvh(const Scene& city, bool splits) {
 
 TEST(ComputeBvh, LeavesCoverEveryTriangleWithinTheirBoxes) {
   Scene city = cityScene(1);
-  for (bool splits : {false, true}) {
-    SCOPED_TRACE(splits ? "spatial splits" : "binned SAH");
-    checkBvh(city, splits);
-  }
+  for (bool splits : {false, true})
+    for (uint32_t width : {2u, 4u}) {
+      SCOPED_TRACE(std::string(splits ? "spatial splits" : "binned SAH") + ", width " + std::to_string(width));
+      checkBvh(city, splits, width);
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Traversals, VulkanRays, ::testing::Values(Traversal::Pipeline, Traversal::Compute),

@@ -120,6 +120,19 @@ struct RtBvhNode {
   uint pad1;
 };
 
+// The 4-wide variant (VulkanRayOptions::bvhWidth = 4, vis_trace_bvh4.comp): four children's boxes
+// as six planes of four (one 16-byte load each, so the slab test runs on vec4s) and their
+// references (MIRAGE_RT_BVH_NONE where a node has fewer than four children), 112 bytes.
+struct RtBvh4Node {
+  float loX[4];
+  float hiX[4];
+  float loY[4];
+  float hiY[4];
+  float loZ[4];
+  float hiZ[4];
+  uint child[4];
+};
+
 // A leaf triangle: world-space corners and the global ID, three 16-byte loads.
 struct RtBvhTriangle {
   vec3 v0;
@@ -171,6 +184,7 @@ static_assert(sizeof(RtCellFace) == 48, "RtCellFace layout");
 static_assert(sizeof(RtCellSource) == 48 + 48 * MIRAGE_RT_MAX_CELL_FACES, "RtCellSource layout");
 static_assert(sizeof(RtBvhNode) == 64, "RtBvhNode layout");
 static_assert(sizeof(RtBvhTriangle) == 48, "RtBvhTriangle layout");
+static_assert(sizeof(RtBvh4Node) == 112, "RtBvh4Node layout");
 static_assert(sizeof(RtTracePush) == 128, "RtTracePush layout: 128 bytes, the smallest push constant limit");
 } // namespace mirage::shaderio
 #endif

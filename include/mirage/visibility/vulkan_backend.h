@@ -38,6 +38,9 @@ struct VulkanRayOptions {
   bool spatialSplits = false;
   // Compute traversal: the most triangles per BVH leaf (the SAH decides below it; 1..32).
   uint32_t bvhLeafSize = 4;
+  // Compute traversal: children per BVH node, 2 (Aila-Laine nodes) or 4 (four boxes tested as
+  // vec4 planes, vis_trace_bvh4.comp; not combined with sharedStack).
+  uint32_t bvhWidth = 2;
   // Rays per launch: 2 M rays are 64 MiB of rays and 32 MiB of hits, few enough submissions that
   // their fixed cost stays small beside the trace on a large GPU.
   size_t batchRays = size_t(1) << 21;
@@ -52,7 +55,7 @@ struct RayTiming {
 // The compute traversal's BVH (zeros for the pipeline traversal).
 struct RayBvhStats {
   double buildSeconds = 0.0; // host build (Embree) and layout, not the upload
-  size_t nodes = 0;          // 64-byte inner nodes
+  size_t nodes = 0;          // inner nodes (64 bytes, 4-wide: 112)
   size_t triangleRefs = 0;   // 48-byte leaf triangles (spatial splits reference some twice)
   uint32_t depth = 0;
 };
