@@ -34,15 +34,11 @@ float enterBox(vec3 lo, vec3 hi, vec3 idir, vec3 ood, float tnear, float tbest) 
 }
 
 #ifdef MIRAGE_RT_BVH4
-// Compare-exchange of two lanes of (key, ref) in the 4-wide node visit.
-#define SORT2(a, b)                                                                                                    \
-  if (key.b < key.a) {                                                                                                 \
-    float k = key.a;                                                                                                   \
-    key.a = key.b;                                                                                                     \
-    key.b = k;                                                                                                         \
-    uint r = ref.a;                                                                                                    \
-    ref.a = ref.b;                                                                                                     \
-    ref.b = r;                                                                                                         \
+// Compare-exchange of two lanes of (key, ref) in the 4-wide node visit (a swizzle swap).
+#define SORT2(a, b)                                                                                    \
+  if (key.b < key.a) {                                                                                 \
+    key.a##b = key.b##a;                                                                               \
+    ref.a##b = ref.b##a;                                                                               \
   }
 #endif
 
