@@ -131,11 +131,9 @@ void runBenchRays(const BenchRaysOptions& o) {
     auto ctx = openDevice(o.device);
     if (!ctx) return fail(ctx.error());
     struct Variant {
-      const char* label;
+      std::string label;
       vis::VulkanRayOptions::Traversal traversal;
-      bool persistent = false;
-      bool sharedStack = false;
-      uint32_t width = 2;
+      ComputeVariant compute{};
       double traceGpu = 0.0, generatedGpu = 0.0; // medians, milliseconds
     };
     using T = vis::VulkanRayOptions::Traversal;
@@ -147,22 +145,17 @@ void runBenchRays(const BenchRaysOptions& o) {
         return fail(
             fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", (*ctx)->caps().name));
     }
-    if (o.backend != "vulkan") {
-      variants.push_back({"compute", T::Compute});
-      variants.push_back({"compute-persistent", T::Compute, true});
-      variants.push_back({"compute-shared-stack", T::Compute, false, true});
-      variants.push_back({"compute-bvh4", T::Compute, false, false, 4});
-      variants.push_back({"compute-bvh4-persistent", T::Compute, true, false, 4});
-    }
+    if (o.backend != "vulkan")
+      for (const ComputeVariant& c : kComputeVariants) variants.push_back({c.name, T::Compute, c});
     for (Variant& v : variants) {
       vis::VulkanRayOptions vo;
       vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
                     : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance
                                              : vis::VulkanRayOptions::Geometry::Auto;
       vo.traversal = v.traversal;
-      vo.persistentThreads = v.persistent;
-      vo.sharedStack = v.sharedStack;
-      vo.bvhWidth = v.width;
+      vo.persistentThreads = v.compute.persistentThreads;
+      vo.sharedStack = v.compute.sharedStack;
+      vo.bvhWidth = v.traversal == T::Compute ? v.compute.bvhWidth : 2;
       vo.spatialSplits = o.spatialSplits;
       vo.bvhLeafSize = o.leafSize;
       vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do
@@ -200,7 +193,7 @@ void runBenchRays(const BenchRaysOptions& o) {
         agree = double(same) / double(hits.size());
         tied = double(same + tiedHits(hits, reference)) / double(hits.size());
       }
-      std::string name = v.traversal == T::Pipeline ? std::string((*b)->name()) : "vulkan-" + std::string(v.label);
+      std::string name((*b)->name());
       report(name, median(wall), median(gpu), found, agree);
       results.back()["traversal"] = v.label;
       if (tied >= 0) {

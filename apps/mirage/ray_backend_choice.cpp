@@ -7,9 +7,16 @@
 
 namespace mirage::cli {
 
+const ComputeVariant* findComputeVariant(const std::string& name) {
+  for (const ComputeVariant& v : kComputeVariants)
+    if (name == v.name) return &v;
+  return nullptr;
+}
+
 Status checkRayBackendChoice(const RayBackendChoice& c) {
-  if (c.backend != "auto" && c.backend != "embree" && c.backend != "vulkan" && c.backend != "compute")
-    return Error{"--backend must be auto, embree, vulkan or compute"};
+  if (c.backend != "auto" && c.backend != "embree" && c.backend != "vulkan" && !findComputeVariant(c.backend))
+    return Error{"--backend must be auto, embree, vulkan, compute, compute-persistent, compute-shared-stack, "
+                 "compute-bvh4 or compute-bvh4-persistent"};
   if (c.geometry != "auto" && c.geometry != "flatten" && c.geometry != "instance")
     return Error{"--geometry must be auto, flatten or instance"};
   return Ok{};
@@ -17,11 +24,16 @@ Status checkRayBackendChoice(const RayBackendChoice& c) {
 
 Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& backend, const std::string& geometry,
                                                              bool packets, const Scene& scene, gpu::Context* context) {
-  if (backend == "vulkan" || backend == "compute") {
+  const ComputeVariant* variant = findComputeVariant(backend);
+  if (backend == "vulkan" || variant) {
     if (!context) return Error{"vulkan: no device"};
     vis::VulkanRayOptions vo;
-    vo.traversal =
-        backend == "compute" ? vis::VulkanRayOptions::Traversal::Compute : vis::VulkanRayOptions::Traversal::Auto;
+    vo.traversal = variant ? vis::VulkanRayOptions::Traversal::Compute : vis::VulkanRayOptions::Traversal::Auto;
+    if (variant) {
+      vo.persistentThreads = variant->persistentThreads;
+      vo.sharedStack = variant->sharedStack;
+      vo.bvhWidth = variant->bvhWidth;
+    }
     vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
                   : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance
                                            : vis::VulkanRayOptions::Geometry::Auto;

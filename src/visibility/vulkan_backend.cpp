@@ -75,9 +75,7 @@ public:
       : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), timer_(context, 1) {}
   ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
 
-  std::string_view name() const override {
-    return compute_ ? "vulkan-compute" : instanced_ ? "vulkan-instanced" : "vulkan";
-  }
+  std::string_view name() const override { return name_; }
   size_t triangleCount() const override { return triangles_; }
   size_t preferredBatchRays() const override { return batch_; }
   RayTiming lastTiming() const override { return timing_; }
@@ -106,6 +104,7 @@ private:
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
+  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh4][-shared-stack][-persistent]
   size_t triangles_ = 0;
   double buildSeconds_ = 0.0;
   Buffer vertices_, indices_, transforms_, instances_, slots_;
@@ -208,10 +207,13 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   triangles_ = offsets.back();
   if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
   if (compute_) {
+    name_ = std::string("vulkan-compute") + (options.bvhWidth == 4 ? "-bvh4" : "") +
+            (options.sharedStack && options.bvhWidth != 4 ? "-shared-stack" : "") + (persistent_ ? "-persistent" : "");
     if (auto ok = buildCompute(scene, options); !ok) return ok;
   } else {
     instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
                  (options.geometry == VulkanRayOptions::Geometry::Auto && triangles_ >= 4 * scene.meshTriangleCount());
+    name_ = instanced_ ? "vulkan-instanced" : "vulkan";
     buildAccelerationStructures(scene, offsets);
     createPipeline();
   }

@@ -57,6 +57,7 @@ TEST(PvsCli, BadInputsFailCleanly) {
       "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend vulkan --device nosuchgpu -o " +
           out.string(),
       "bench rays gen:city:1 --backend optix",
+      "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend compute-bvh8 -o " + out.string(),
   };
   for (const std::string& args : cases) {
     CliRun r = runMirage(args, dir);
@@ -120,7 +121,11 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
       continue;
     EXPECT_GE(res["same_hit_as_embree"].get<double>(), 0.99) << res.dump();
     EXPECT_GT(res["gpu_ms"].get<double>(), 0.0);
-    compute += res["traversal"].get<std::string>().rfind("compute", 0) == 0;
+    const std::string traversal = res["traversal"].get<std::string>();
+    if (traversal.rfind("compute", 0) == 0) {
+      ++compute;
+      EXPECT_EQ(res["backend"].get<std::string>(), "vulkan-" + traversal); // the --backend value to bake with
+    }
   }
   EXPECT_EQ(compute, 5u); // plain, persistent threads, shared-memory stack, 4-wide, 4-wide persistent
   EXPECT_GE(json["speedups"].size(), 1u);
