@@ -1,7 +1,10 @@
 // mirage bench rays: ray throughput of the ray backends on one set of random rays (origins in the
 // view cells or the scene box, uniform directions), with every hit recorded into a triangle set as
 // GVS++ does. Vulkan reports the trace dispatch alone (timestamp queries) and the wall time with
-// upload and readback; its "generated" mode makes the rays in the ray-generation shader.
+// upload and readback; its "generated" mode makes the rays on the device. Both Vulkan traversals
+// (the ray-tracing pipeline and the compute shader: plain, with persistent threads, with its stack
+// in shared memory, over 4-wide nodes) trace the
+// same rays in one run, and their GPU-time ratios are printed, so one run decides the default.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,6 +28,8 @@ struct BenchRaysOptions {
   uint64_t rays = 4'000'000;
   int repeat = 3;
   bool json = false;
+  bool spatialSplits = false;
+  uint32_t leafSize = 4;
 };
 
 // Random numbers from the ray index alone (PCG hash), so any slice of rays can be made anywhere.
@@ -48,16 +53,27 @@ std::vector<vis::Ray> randomRays(const Bounds& box, uint64_t count) {
   return rays;
 }
 
+// Rays whose closest triangle differs from Embree's but lies at the same depth (a shared edge or
+// a coplanar duplicate), to tell tie-breaking from wrong hits.
+size_t tiedHits(const std::vector<vis::Hit>& a, const std::vector<vis::Hit>& b) {
+  size_t n = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    n += a[i].triangle != b[i].triangle && a[i].triangle != vis::kNoHit && b[i].triangle != vis::kNoHit &&
+         std::abs(a[i].t - b[i].t) <= 1e-3f * std::max(1.0f, b[i].t);
+  return n;
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[v.size() / 2];
 }
 
 void runBenchRays(const BenchRaysOptions& o) {
-  if (o.backend != "all" && o.backend != "embree" && o.backend != "vulkan")
-    return fail("--backend must be embree, vulkan or all");
+  if (o.backend != "all" && o.backend != "embree" && o.backend != "vulkan" && o.backend != "compute")
+    return fail("--backend must be embree, vulkan, compute or all");
   if (o.rays == 0 || o.rays > (uint64_t(1) << 31)) return fail("--rays must be in 1..2^31");
   if (o.repeat < 1) return fail("--repeat must be at least 1");
+  if (o.leafSize < 1 || o.leafSize > 32) return fail("--leaf-size must be in 1..32");
   if (auto s = checkRayBackendChoice({.backend = "auto", .geometry = o.geometry}); !s) return fail(s.error());
   std::vector<vis::ViewCell> cells;
   if (!o.cells.empty()) {
@@ -74,7 +90,7 @@ void runBenchRays(const BenchRaysOptions& o) {
   if (box.empty()) return fail(o.input + ": empty scene");
   std::vector<vis::Ray> rays = randomRays(box, o.rays);
   std::vector<vis::Hit> reference, hits(rays.size());
-  nlohmann::json results = nlohmann::json::array();
+  nlohmann::json results = nlohmann::json::array(), speedups = nlohmann::json::array();
   auto report = [&](const std::string& name, double wallMs, double gpuMs, size_t found, double agree) {
     nlohmann::json j{{"backend", name},
                      {"rays", o.rays},
@@ -114,42 +130,98 @@ void runBenchRays(const BenchRaysOptions& o) {
   if (o.backend != "embree") {
     auto ctx = openDevice(o.device);
     if (!ctx) return fail(ctx.error());
-    vis::VulkanRayOptions vo;
-    vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
-                  : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance
-                                           : vis::VulkanRayOptions::Geometry::Auto;
-    vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do
-    auto b = vis::createVulkanBackend(**ctx, *scene, vo);
-    if (!b) return fail(b.error());
-    if (!o.json)
-      fmt::print("{} on {}: {} triangles, build {:.2f} s\n", o.input, (*ctx)->caps().name, (*b)->triangleCount(),
-                 (*b)->buildSeconds());
-    std::vector<double> wall, gpu, genWall, genGpu;
-    size_t found = 0, genFound = 0;
-    for (int r = 0; r < o.repeat; ++r) {
-      vis::TriangleSet record((*b)->triangleCount());
-      auto t0 = std::chrono::steady_clock::now();
-      (*b)->trace(rays, hits, {.record = &record});
-      wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-      gpu.push_back((*b)->lastTiming().gpuMilliseconds);
-      found = record.count();
-      vis::TriangleSet generated((*b)->triangleCount());
-      t0 = std::chrono::steady_clock::now();
-      (*b)->traceGenerated(box.min, box.max, o.rays, 1, &generated);
-      genWall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-      genGpu.push_back((*b)->lastTiming().gpuMilliseconds);
-      genFound = generated.count();
+    struct Variant {
+      std::string label;
+      vis::VulkanRayOptions::Traversal traversal;
+      ComputeVariant compute{};
+      double traceGpu = 0.0, generatedGpu = 0.0; // medians, milliseconds
+    };
+    using T = vis::VulkanRayOptions::Traversal;
+    std::vector<Variant> variants;
+    if (o.backend != "compute") {
+      if ((*ctx)->caps().rayTracingPipeline)
+        variants.push_back({"pipeline", T::Pipeline});
+      else if (o.backend == "vulkan")
+        return fail(
+            fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", (*ctx)->caps().name));
     }
-    double agree = -1.0;
-    if (!reference.empty()) {
-      size_t same = 0;
-      for (size_t i = 0; i < hits.size(); ++i) same += hits[i].triangle == reference[i].triangle;
-      agree = double(same) / double(hits.size());
+    if (o.backend != "vulkan")
+      for (const ComputeVariant& c : kComputeVariants) variants.push_back({c.name, T::Compute, c});
+    for (Variant& v : variants) {
+      vis::VulkanRayOptions vo;
+      vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
+                    : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance
+                                             : vis::VulkanRayOptions::Geometry::Auto;
+      vo.traversal = v.traversal;
+      vo.persistentThreads = v.compute.persistentThreads;
+      vo.sharedStack = v.compute.sharedStack;
+      vo.bvhWidth = v.traversal == T::Compute ? v.compute.bvhWidth : 2;
+      vo.spatialSplits = o.spatialSplits;
+      vo.bvhLeafSize = o.leafSize;
+      vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do
+      auto b = vis::createVulkanBackend(**ctx, *scene, vo);
+      if (!b) return fail(b.error());
+      vis::RayBvhStats bvh = (*b)->bvhStats();
+      if (!o.json) {
+        fmt::print("{} ({}) on {}: {} triangles, build {:.2f} s", o.input, v.label, (*ctx)->caps().name,
+                   (*b)->triangleCount(), (*b)->buildSeconds());
+        if (bvh.nodes > 0)
+          fmt::print(" (BVH on the host {:.2f} s: {} nodes, {} leaf triangles, depth {})", bvh.buildSeconds, bvh.nodes,
+                     bvh.triangleRefs, bvh.depth);
+        fmt::print("\n");
+      }
+      std::vector<double> wall, gpu, genWall, genGpu;
+      size_t found = 0, genFound = 0;
+      for (int r = 0; r < o.repeat; ++r) {
+        vis::TriangleSet record((*b)->triangleCount());
+        auto t0 = std::chrono::steady_clock::now();
+        (*b)->trace(rays, hits, {.record = &record});
+        wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        gpu.push_back((*b)->lastTiming().gpuMilliseconds);
+        found = record.count();
+        vis::TriangleSet generated((*b)->triangleCount());
+        t0 = std::chrono::steady_clock::now();
+        (*b)->traceGenerated(box.min, box.max, o.rays, 1, &generated);
+        genWall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        genGpu.push_back((*b)->lastTiming().gpuMilliseconds);
+        genFound = generated.count();
+      }
+      double agree = -1.0, tied = -1.0;
+      if (!reference.empty()) {
+        size_t same = 0;
+        for (size_t i = 0; i < hits.size(); ++i) same += hits[i].triangle == reference[i].triangle;
+        agree = double(same) / double(hits.size());
+        tied = double(same + tiedHits(hits, reference)) / double(hits.size());
+      }
+      std::string name((*b)->name());
+      report(name, median(wall), median(gpu), found, agree);
+      results.back()["traversal"] = v.label;
+      if (tied >= 0) {
+        results.back()["same_or_tied_with_embree"] = tied;
+        if (!o.json)
+          fmt::print("{:18} same closest triangle as Embree or another at the same depth: {:.4f}%\n", "", tied * 100.0);
+      }
+      report(name + " generated", median(genWall), median(genGpu), genFound, -1.0);
+      results.back()["traversal"] = v.label;
+      v.traceGpu = median(gpu);
+      v.generatedGpu = median(genGpu);
     }
-    report(std::string((*b)->name()), median(wall), median(gpu), found, agree);
-    report(std::string((*b)->name()) + " generated", median(genWall), median(genGpu), genFound, -1.0);
+    // GPU-time speedups over the first variant (the pipeline when the device has one).
+    for (size_t i = 1; i < variants.size(); ++i) {
+      const Variant &base = variants[0], &v = variants[i];
+      if (base.traceGpu <= 0 || v.traceGpu <= 0 || v.generatedGpu <= 0) continue;
+      double trace = base.traceGpu / v.traceGpu, generated = base.generatedGpu / v.generatedGpu;
+      speedups.push_back(
+          {{"variant", v.label}, {"baseline", base.label}, {"trace_speedup", trace}, {"generated_speedup", generated}});
+      if (!o.json)
+        fmt::print("{} vs {}: {:.2f}x the GPU ray rate on the same rays, {:.2f}x on generated rays\n", v.label,
+                   base.label, trace, generated);
+    }
   }
-  if (o.json) fmt::print("{}\n", nlohmann::json{{"input", o.input}, {"rays", o.rays}, {"results", results}}.dump(2));
+  if (o.json)
+    fmt::print(
+        "{}\n",
+        nlohmann::json{{"input", o.input}, {"rays", o.rays}, {"results", results}, {"speedups", speedups}}.dump(2));
 }
 
 } // namespace
@@ -158,13 +230,18 @@ void addBenchRaysCommand(CLI::App* bench) {
   auto* br = bench->add_subcommand("rays", "Ray throughput per backend: random rays, hits recorded as GVS++ does");
   auto o = std::make_shared<BenchRaysOptions>();
   br->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
-  br->add_option("--backend", o->backend, "embree, vulkan or all")->capture_default_str();
+  br->add_option("--backend", o->backend,
+                 "embree, vulkan (ray-tracing pipeline), compute (compute traversal, plain and persistent) or all")
+      ->capture_default_str();
   br->add_option("--rays", o->rays, "Rays per run")->capture_default_str();
   br->add_option("--cells", o->cells, "Ray origins in these view cells' box (default: the scene box)");
   br->add_option("--geometry", o->geometry, "auto, flatten or instance")->capture_default_str();
   br->add_option("--repeat", o->repeat, "Runs; the median is reported")->capture_default_str();
   br->add_option("--device", o->device, "Vulkan device name substring or index");
   br->add_flag("--json", o->json, "Print results as JSON");
+  br->add_option("--leaf-size", o->leafSize, "Compute traversal: most triangles per BVH leaf (1..32)")
+      ->capture_default_str();
+  br->add_flag("--spatial-splits", o->spatialSplits, "Compute traversal: BVH with spatial splits (slower build)");
   br->callback([o] { runBenchRays(*o); });
 }
 

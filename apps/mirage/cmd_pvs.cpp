@@ -425,9 +425,11 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   cmd->add_option("--geometry", o.rays.geometry, "Ray-tracing geometry: auto, flatten or instance")
       ->capture_default_str();
   cmd->add_option("--backend", o.rays.backend,
-                  "Ray backend: auto (Vulkan on a GPU with ray-tracing pipelines, else Embree), embree or vulkan")
+                  "Ray backend: auto (Vulkan on a GPU, else Embree), embree, vulkan (the ray-tracing pipeline, "
+                  "or compute where the device has none), compute (compute-shader BVH traversal) or one of its "
+                  "variants: compute-persistent, compute-shared-stack, compute-bvh4, compute-bvh4-persistent")
       ->capture_default_str();
-  cmd->add_option("--device", o.rays.device, "Vulkan device name substring or index (--backend vulkan)");
+  cmd->add_option("--device", o.rays.device, "Vulkan device name substring or index (--backend vulkan|compute)");
   cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");
   cmd->add_flag("--json", o.json, "Print results as JSON");
   cmd->add_option("--raster-size", o.rasterSize, "RASTER cube-map face resolution")->capture_default_str();

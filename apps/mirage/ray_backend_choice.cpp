@@ -7,9 +7,16 @@
 
 namespace mirage::cli {
 
+const ComputeVariant* findComputeVariant(const std::string& name) {
+  for (const ComputeVariant& v : kComputeVariants)
+    if (name == v.name) return &v;
+  return nullptr;
+}
+
 Status checkRayBackendChoice(const RayBackendChoice& c) {
-  if (c.backend != "auto" && c.backend != "embree" && c.backend != "vulkan")
-    return Error{"--backend must be auto, embree or vulkan"};
+  if (c.backend != "auto" && c.backend != "embree" && c.backend != "vulkan" && !findComputeVariant(c.backend))
+    return Error{"--backend must be auto, embree, vulkan, compute, compute-persistent, compute-shared-stack, "
+                 "compute-bvh4 or compute-bvh4-persistent"};
   if (c.geometry != "auto" && c.geometry != "flatten" && c.geometry != "instance")
     return Error{"--geometry must be auto, flatten or instance"};
   return Ok{};
@@ -17,9 +24,16 @@ Status checkRayBackendChoice(const RayBackendChoice& c) {
 
 Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& backend, const std::string& geometry,
                                                              bool packets, const Scene& scene, gpu::Context* context) {
-  if (backend == "vulkan") {
+  const ComputeVariant* variant = findComputeVariant(backend);
+  if (backend == "vulkan" || variant) {
     if (!context) return Error{"vulkan: no device"};
     vis::VulkanRayOptions vo;
+    vo.traversal = variant ? vis::VulkanRayOptions::Traversal::Compute : vis::VulkanRayOptions::Traversal::Auto;
+    if (variant) {
+      vo.persistentThreads = variant->persistentThreads;
+      vo.sharedStack = variant->sharedStack;
+      vo.bvhWidth = variant->bvhWidth;
+    }
     vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
                   : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance
                                            : vis::VulkanRayOptions::Geometry::Auto;
@@ -43,12 +57,12 @@ Result<OpenedRayBackend> openRayBackend(const RayBackendChoice& choice, const Sc
     auto ctx = openDevice(choice.device);
     if (ctx)
       out.context = std::move(*ctx);
-    else if (backend == "vulkan")
+    else if (backend != "auto")
       return ctx.error();
-    // auto: a GPU's ray-tracing pipeline; a CPU driver (lavapipe) is slower than Embree.
-    bool gpuRt = out.context && out.context->caps().rayTracingPipeline &&
-                 out.context->caps().type != VK_PHYSICAL_DEVICE_TYPE_CPU;
-    if (backend == "auto") backend = gpuRt ? "vulkan" : "embree";
+    // auto: a GPU (its ray-tracing pipeline until the compute traversal is measured faster, see
+    // docs/visibility.md); a CPU driver (lavapipe) is slower than Embree.
+    bool gpu = out.context && out.context->caps().type != VK_PHYSICAL_DEVICE_TYPE_CPU;
+    if (backend == "auto") backend = gpu ? "vulkan" : "embree";
     if (backend == "embree") out.context.reset();
   }
   auto t0 = std::chrono::steady_clock::now();

@@ -1,5 +1,6 @@
 #pragma once
-// Which ray backend a visibility command runs on (--backend auto|embree|vulkan, --device).
+// Which ray backend a visibility command runs on (--backend auto|embree|vulkan|compute[-VARIANT],
+// --device).
 #include <memory>
 #include <string>
 
@@ -11,11 +12,31 @@
 namespace mirage::cli {
 
 struct RayBackendChoice {
-  std::string backend = "auto"; // auto: Vulkan on a GPU with a ray-tracing pipeline, else Embree
+  // auto: Vulkan on a GPU (its ray-tracing pipeline, or the compute traversal where it has none),
+  // Embree on a CPU driver; vulkan: the pipeline where the device has one, else compute;
+  // compute: the Vulkan compute traversal; compute-VARIANT: one of its variants (kComputeVariants).
+  std::string backend = "auto";
   std::string geometry = "auto";
   std::string device;
   bool packets = true; // Embree: packets of 16 for coherent traces
 };
+
+// The Vulkan compute traversal's variants by name: --backend values and `bench rays` labels, so
+// the fastest variant a bench run reports can be named for a bake.
+struct ComputeVariant {
+  const char* name;
+  bool persistentThreads;
+  bool sharedStack;
+  uint32_t bvhWidth;
+};
+inline constexpr ComputeVariant kComputeVariants[] = {
+    {"compute", false, false, 2},
+    {"compute-persistent", true, false, 2},
+    {"compute-shared-stack", false, true, 2},
+    {"compute-bvh4", false, false, 4},
+    {"compute-bvh4-persistent", true, false, 4},
+};
+const ComputeVariant* findComputeVariant(const std::string& name);
 
 struct OpenedRayBackend {
   std::unique_ptr<gpu::Context> context; // declared first: outlives the backend
@@ -26,7 +47,8 @@ struct OpenedRayBackend {
 // The option values are checked here too (one-line errors).
 Status checkRayBackendChoice(const RayBackendChoice& choice);
 Result<OpenedRayBackend> openRayBackend(const RayBackendChoice& choice, const Scene& scene);
-// Opens the backend named `backend` ("embree" or "vulkan"); `context` is reused when set.
+// Opens the backend named `backend` ("embree", "vulkan" or a compute variant); `context` is reused
+// when set.
 Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& backend, const std::string& geometry,
                                                              bool packets, const Scene& scene, gpu::Context* context);
 

@@ -1,5 +1,6 @@
 // Vulkan ray backend (vulkan_backend.h): acceleration structures, the ray-tracing pipeline and its
-// shader binding table, and launches over host-visible ray and hit buffers.
+// shader binding table, or the compute traversal's BVH (ray_bvh.h) and pipeline; launches over
+// host-visible ray and hit buffers.
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -13,6 +14,7 @@
 #include "mirage/gpu/query.h"
 #include "mirage/shaderio/rays.h"
 #include "mirage/visibility/vulkan_backend.h"
+#include "ray_bvh.h"
 
 namespace mirage::vis {
 
@@ -26,6 +28,10 @@ static_assert(kHitNew == MIRAGE_RT_HIT_NEW && kHitMissing == MIRAGE_RT_HIT_MISSI
 
 constexpr VkShaderStageFlags kRtStages = VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR |
                                          VK_SHADER_STAGE_ANY_HIT_BIT_KHR | VK_SHADER_STAGE_MISS_BIT_KHR;
+
+// Persistent threads: workgroups of the resident grid, enough to fill a large GPU (the H200 holds
+// about 132 SMs x 2048 threads = 4224 groups of 64 at full occupancy).
+constexpr uint32_t kPersistentGroups = 8192;
 
 VkDeviceAddress alignUp(VkDeviceAddress v, VkDeviceAddress a) { return (v + a - 1) / a * a; }
 
@@ -69,11 +75,12 @@ public:
       : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), timer_(context, 1) {}
   ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
 
-  std::string_view name() const override { return instanced_ ? "vulkan-instanced" : "vulkan"; }
+  std::string_view name() const override { return name_; }
   size_t triangleCount() const override { return triangles_; }
   size_t preferredBatchRays() const override { return batch_; }
   RayTiming lastTiming() const override { return timing_; }
   double buildSeconds() const override { return buildSeconds_; }
+  RayBvhStats bvhStats() const override { return bvhStats_; }
 
   Status build(const Scene& scene, const VulkanRayOptions& options);
   void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
@@ -84,7 +91,9 @@ public:
 private:
   Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
                    std::span<const uint32_t> primitives, const char* name);
+  void buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets);
   void createPipeline();
+  Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
   void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
   bool prepareSet(DeviceSet& set, const TriangleSet* host);
   void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false);
@@ -93,6 +102,9 @@ private:
   Context& ctx_;
   size_t batch_;
   bool instanced_ = false;
+  bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
+  bool persistent_ = false; // compute: persistent threads
+  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh4][-shared-stack][-persistent]
   size_t triangles_ = 0;
   double buildSeconds_ = 0.0;
   Buffer vertices_, indices_, transforms_, instances_, slots_;
@@ -103,6 +115,12 @@ private:
   Unique<VkPipeline> pipeline_;
   Buffer sbt_;
   VkStridedDeviceAddressRegionKHR raygenRegion_{}, missRegion_{}, hitRegion_{}, callableRegion_{};
+  // Compute traversal: RtBvhNode[] and RtBvhTriangle[] (ray_bvh.h), its pipeline.
+  Buffer bvhNodes_, bvhTriangles_;
+  Unique<VkPipelineLayout> computeLayout_;
+  Unique<VkPipeline> computePipeline_;
+  bool bvhEmpty_ = true;
+  RayBvhStats bvhStats_;
   Buffer rays_, hits_, newIds_, counters_, countersReadback_;
   // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
   // and the cell description (RtCellSource).
@@ -179,15 +197,62 @@ VkAccelerationStructureGeometryKHR triangles(VkDeviceAddress vertices, uint32_t 
 
 Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options) {
   const DeviceCapabilities& caps = ctx_.caps();
-  if (!caps.rayTracingPipeline)
+  compute_ = options.traversal == VulkanRayOptions::Traversal::Compute ||
+             (options.traversal == VulkanRayOptions::Traversal::Auto && !caps.rayTracingPipeline);
+  persistent_ = options.persistentThreads;
+  if (!compute_ && !caps.rayTracingPipeline)
     return Error{fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", caps.name)};
   auto t0 = std::chrono::steady_clock::now();
   std::vector<uint64_t> offsets = triangleOffsets(scene);
   triangles_ = offsets.back();
   if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
-  instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
-               (options.geometry == VulkanRayOptions::Geometry::Auto && triangles_ >= 4 * scene.meshTriangleCount());
+  if (compute_) {
+    name_ = std::string("vulkan-compute") + (options.bvhWidth == 4 ? "-bvh4" : "") +
+            (options.sharedStack && options.bvhWidth != 4 ? "-shared-stack" : "") + (persistent_ ? "-persistent" : "");
+    if (auto ok = buildCompute(scene, options); !ok) return ok;
+  } else {
+    instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
+                 (options.geometry == VulkanRayOptions::Geometry::Auto && triangles_ >= 4 * scene.meshTriangleCount());
+    name_ = instanced_ ? "vulkan-instanced" : "vulkan";
+    buildAccelerationStructures(scene, offsets);
+    createPipeline();
+  }
 
+  // Bit sets, the list of first insertions and the counters exist once for the whole backend.
+  const size_t setBytes = (triangles_ + 63) / 64 * 8;
+  for (DeviceSet* s : {&record_, &require_}) {
+    // TRANSFER_SRC: the record set is copied to `before_` at the start of cell-ray launches.
+    s->bits = createBuffer(ctx_, setBytes,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "rt set");
+    s->staging = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "rt set staging");
+  }
+  newIds_ =
+      createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt new ids");
+  counters_ = createBuffer(ctx_, sizeof(shaderio::RtCounters),
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "rt counters");
+  countersReadback_ = createBuffer(ctx_, sizeof(shaderio::RtCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                   MemoryUsage::Readback, "rt counters readback");
+  before_ = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                         MemoryUsage::GpuOnly, "rt set before launch");
+  const size_t rayBytes = std::max<size_t>(triangles_, 1) * 4;
+  firstRay_ = createBuffer(ctx_, rayBytes,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "rt first ray");
+  firstRayReadback_ =
+      createBuffer(ctx_, rayBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "rt first ray readback");
+  cellSource_ = createBuffer(ctx_, sizeof(shaderio::RtCellSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                             MemoryUsage::Upload, "rt cell source");
+  firstRayValid_ = false;
+  buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return Ok{};
+}
+
+void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets) {
   // Every mesh's vertices and indices once, in two buffers; flattened scenes transform them at
   // build time (transformData), so instances never copy vertices.
   std::vector<glm::vec3> positions;
@@ -269,39 +334,27 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   top.geometry.instances.data.deviceAddress = instances_.address();
   uint32_t instanceCount = uint32_t(instances.size());
   tlas_ = buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, {&top, 1}, {&instanceCount, 1}, "rt tlas");
-  createPipeline();
+}
 
-  // Bit sets, the list of first insertions and the counters exist once for the whole backend.
-  const size_t setBytes = (triangles_ + 63) / 64 * 8;
-  for (DeviceSet* s : {&record_, &require_}) {
-    // TRANSFER_SRC: the record set is copied to `before_` at the start of cell-ray launches.
-    s->bits = createBuffer(ctx_, setBytes,
-                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                           MemoryUsage::GpuOnly, "rt set");
-    s->staging = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "rt set staging");
-  }
-  newIds_ =
-      createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt new ids");
-  counters_ = createBuffer(ctx_, sizeof(shaderio::RtCounters),
-                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                           MemoryUsage::GpuOnly, "rt counters");
-  countersReadback_ = createBuffer(ctx_, sizeof(shaderio::RtCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                   MemoryUsage::Readback, "rt counters readback");
-  before_ = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                         MemoryUsage::GpuOnly, "rt set before launch");
-  const size_t rayBytes = std::max<size_t>(triangles_, 1) * 4;
-  firstRay_ = createBuffer(ctx_, rayBytes,
-                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                           MemoryUsage::GpuOnly, "rt first ray");
-  firstRayReadback_ =
-      createBuffer(ctx_, rayBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "rt first ray readback");
-  cellSource_ = createBuffer(ctx_, sizeof(shaderio::RtCellSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                             MemoryUsage::Upload, "rt cell source");
-  firstRayValid_ = false;
-  buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& options) {
+  if (options.bvhWidth != 2 && options.bvhWidth != 4) return Error{"vulkan: the BVH width must be 2 or 4"};
+  const bool wide = options.bvhWidth == 4;
+  auto bvh = detail::buildRayBvh(
+      scene, {.spatialSplits = options.spatialSplits, .maxLeafSize = options.bvhLeafSize, .width = options.bvhWidth});
+  if (!bvh) return bvh.error();
+  bvhNodes_ = wide ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
+                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+                   : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
+                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
+  bvhTriangles_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhTriangle>(bvh->triangles),
+                                       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh triangles");
+  bvhEmpty_ = bvh->nodes.empty() && bvh->nodes4.empty();
+  bvhStats_ = {bvh->buildSeconds, wide ? bvh->nodes4.size() : bvh->nodes.size(), bvh->triangles.size(), bvh->depth};
+  computeLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
+  const char* shader = wide                  ? "vis_trace_bvh4.comp"
+                       : options.sharedStack ? "vis_trace_shared_stack.comp"
+                                             : "vis_trace.comp";
+  computePipeline_ = createComputePipeline(ctx_, shader, computeLayout_);
   return Ok{};
 }
 
@@ -403,8 +456,13 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
   push.counters = counters_.address();
   push.newIds = newIds_.address();
   push.newCapacity = uint32_t(triangles_ + 1);
+  push.bvhNodes = compute_ && !bvhEmpty_ ? bvhNodes_.address() : 0;
+  push.bvhTriangles = compute_ && !bvhEmpty_ ? bvhTriangles_.address() : 0;
+  push.persistent = compute_ && persistent_ ? 1u : 0u;
   const uint32_t width = std::min(push.count, MIRAGE_RT_LAUNCH_WIDTH);
   const uint32_t height = (push.count + width - 1) / std::max(width, 1u);
+  const VkPipelineStageFlags2 stage =
+      compute_ ? VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR;
   // barriers: earlier launches' writes to the sets and counters are complete before the copies.
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     timer_.cmdReset(cmd);
@@ -420,25 +478,38 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
                        VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
       vkCmdCopyBuffer(cmd, record_.bits.handle(), before_.handle(), 1, &whole);
     }
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR,
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, stage,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, pipeline_);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, layout_, 0, 1, &descriptors_.set, 0, nullptr);
-    vkCmdPushConstants(cmd, layout_, kRtStages, 0, sizeof(push), &push);
-    uint32_t slot = timer_.cmdBegin(cmd, "trace", VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR);
-    if (push.count > 0)
-      vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
-    timer_.cmdEnd(cmd, slot, VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR);
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    uint32_t slot = 0;
+    if (compute_) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, computePipeline_);
+      vkCmdPushConstants(cmd, computeLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+      slot = timer_.cmdBegin(cmd, "trace", stage);
+      // One thread per ray in rows of MIRAGE_RT_LAUNCH_WIDTH, or a resident grid that loops.
+      const uint32_t groupsX = (width + MIRAGE_RT_COMPUTE_GROUP - 1) / MIRAGE_RT_COMPUTE_GROUP;
+      if (push.count > 0 && persistent_)
+        vkCmdDispatch(cmd, std::min(groupsX * height, kPersistentGroups), 1, 1);
+      else if (push.count > 0)
+        vkCmdDispatch(cmd, groupsX, height, 1);
+    } else {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, pipeline_);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, layout_, 0, 1, &descriptors_.set, 0,
+                              nullptr);
+      vkCmdPushConstants(cmd, layout_, kRtStages, 0, sizeof(push), &push);
+      slot = timer_.cmdBegin(cmd, "trace", stage);
+      if (push.count > 0)
+        vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
+    }
+    timer_.cmdEnd(cmd, slot, stage);
+    cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                     VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
     vkCmdCopyBuffer(cmd, counters_.handle(), countersReadback_.handle(), 1, &counters);
     if (cellMode) {
       VkBufferCopy all{0, 0, firstRay_.size()};
       vkCmdCopyBuffer(cmd, firstRay_.handle(), firstRayReadback_.handle(), 1, &all);
     }
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+    cmdMemoryBarrier(cmd, stage | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
   });

@@ -1,9 +1,11 @@
 // mirage pvs through the built binary (mirage::test::mirageBinary()): bad inputs give one line on
 // stderr, exit 2 and no output file; a good run writes a .mrg whose PVS loads back.
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "mirage/visibility/pvs_storage.h"
 #include "test_support.h"
@@ -55,6 +57,7 @@ TEST(PvsCli, BadInputsFailCleanly) {
       "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend vulkan --device nosuchgpu -o " +
           out.string(),
       "bench rays gen:city:1 --backend optix",
+      "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend compute-bvh8 -o " + out.string(),
   };
   for (const std::string& args : cases) {
     CliRun r = runMirage(args, dir);
@@ -80,4 +83,50 @@ TEST(PvsCli, BakesAndLoadsBack) {
   ASSERT_EQ(pvs->cells.size(), 2u);
   EXPECT_GT(pvs->triangles[0].size(), 0u);
   EXPECT_EQ(pvs->cells[1].shape, mirage::vis::CellShape::Rect);
+}
+
+// --backend compute bakes what Embree bakes (within sampling noise: tie-breaking sends the samplers
+// down different paths), and bench rays times every traversal on the same rays.
+TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
+  ASSERT_TRUE(fs::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
+  fs::path dir = mirage::test::tempDir("pvs_cli_compute");
+  write(dir / "ok.json", R"({"cells": [{"type": "box", "position": [0,1.7,-38], "size": [4,2,4]}]})");
+  std::vector<uint32_t> sets[2];
+  const char* backends[2] = {"embree", "compute"};
+  for (int b = 0; b < 2; ++b) {
+    fs::path out = dir / (std::string(backends[b]) + ".mrg");
+    CliRun r = runMirage("pvs gen:city:1 --cells " + (dir / "ok.json").string() + " -o " + out.string() +
+                             " --rays 20000 --abs-edge 10 --seed 3 --backend " + backends[b],
+                         dir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    auto pvs = mirage::vis::loadPvs(out.string());
+    ASSERT_TRUE(pvs.ok()) << pvs.error().message;
+    sets[b] = pvs->triangles[0];
+  }
+  std::vector<uint32_t> both;
+  std::set_intersection(sets[0].begin(), sets[0].end(), sets[1].begin(), sets[1].end(), std::back_inserter(both));
+  std::printf("city:1 cell: Embree %zu triangles, compute %zu, shared %zu\n", sets[0].size(), sets[1].size(),
+              both.size());
+  EXPECT_NEAR(double(sets[1].size()), double(sets[0].size()), 0.1 * double(sets[0].size()));
+  EXPECT_GE(double(both.size()), 0.9 * double(sets[0].size()));
+
+  CliRun r = runMirage("bench rays gen:city:1 --rays 20000 --repeat 1 --backend all --json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(dir / "stdout.txt");
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  auto json = nlohmann::json::parse(text);
+  size_t compute = 0;
+  for (const auto& res : json["results"]) {
+    if (!res.contains("traversal") || res["backend"].get<std::string>().find("generated") != std::string::npos)
+      continue;
+    EXPECT_GE(res["same_hit_as_embree"].get<double>(), 0.99) << res.dump();
+    EXPECT_GT(res["gpu_ms"].get<double>(), 0.0);
+    const std::string traversal = res["traversal"].get<std::string>();
+    if (traversal.rfind("compute", 0) == 0) {
+      ++compute;
+      EXPECT_EQ(res["backend"].get<std::string>(), "vulkan-" + traversal); // the --backend value to bake with
+    }
+  }
+  EXPECT_EQ(compute, 5u); // plain, persistent threads, shared-memory stack, 4-wide, 4-wide persistent
+  EXPECT_GE(json["speedups"].size(), 1u);
 }

@@ -89,6 +89,23 @@ VisScene roomWithWindow() {
   return v;
 }
 
+VisScene glassPanes() {
+  Mesh front = named("front"), wall = named("wall"), behind = named("behind");
+  for (float z : {1.0f, 2.0f, 3.0f}) rectZ(front, -10, 10, -10, 10, z, 4, 4);
+  rectZ(wall, -10, 10, -10, 10, 5, 4, 4);
+  rectZ(behind, -10, 10, -10, 10, 7, 4, 4);
+  front.material = 1;
+  behind.material = 1;
+  VisScene v;
+  v.scene = assemble({std::move(front), std::move(wall), std::move(behind)});
+  Material glass;
+  glass.alphaMode = AlphaMode::Blend;
+  v.scene.materials.push_back(glass);
+  v.cell.position = {0.0f, 0.0f, -1.0f};
+  v.cell.size = {2.0f, 2.0f, 0.5f};
+  return v;
+}
+
 std::vector<uint32_t> meshTriangles(const Scene& scene, const std::string& name) {
   auto offsets = vis::triangleOffsets(scene);
   std::vector<uint32_t> out;

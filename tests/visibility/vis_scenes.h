@@ -19,6 +19,9 @@ VisScene wallWithHole();
 // "tree" in front of the window (seen), "shed" beside it (x in [5, 7], z = 8: hidden), "back"
 // behind the room (hidden).
 VisScene roomWithWindow();
+// See-through materials: glass panes ("front", Blend material; 20×20 at z = 1, 2 and 3), an opaque
+// "wall" (z = 5) and a pane "behind" it (z = 7); `cell` sits at z = -1 in front of them.
+VisScene glassPanes();
 // Triangles of mesh `name` as global IDs (each mesh has one identity instance in these scenes).
 std::vector<uint32_t> meshTriangles(const Scene& scene, const std::string& name);
 

@@ -1,6 +1,8 @@
 // The Vulkan ray backend against Embree: the same rays hit the same triangles (ties on shared
 // edges and coplanar duplicates aside), the record/require sets behave the same, and GVS++ bakes
-// on either backend agree within sampling noise. Runs on lavapipe with small ray counts.
+// on either backend agree within sampling noise. Every test runs on both traversals, the
+// ray-tracing pipeline and the compute shader over the host-built BVH. Runs on lavapipe with
+// small ray counts.
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -13,6 +15,7 @@
 #include "mirage/visibility/gvs.h"
 #include "mirage/visibility/vulkan_backend.h"
 #include "vis_scenes.h"
+#include "../../src/visibility/ray_bvh.h"
 #include "../../src/visibility/sampling.h"
 
 using namespace mirage;
@@ -20,15 +23,21 @@ using namespace mirage::vis;
 
 namespace {
 
-class VulkanRays : public test::GpuTest {
+using Traversal = VulkanRayOptions::Traversal;
+
+class VulkanRays : public test::GpuTest, public ::testing::WithParamInterface<Traversal> {
 protected:
   void SetUp() override {
     GpuTest::SetUp();
-    if (!context().caps().rayTracingPipeline) GTEST_SKIP() << "device has no ray-tracing pipeline";
+    if (GetParam() == Traversal::Pipeline && !context().caps().rayTracingPipeline)
+      GTEST_SKIP() << "device has no ray-tracing pipeline";
   }
-  std::unique_ptr<VulkanRayBackend> vulkan(const Scene& scene, VulkanRayOptions::Geometry g) {
+  std::unique_ptr<VulkanRayBackend> vulkan(const Scene& scene, VulkanRayOptions::Geometry g,
+                                           bool persistentThreads = false) {
     VulkanRayOptions o;
     o.geometry = g;
+    o.traversal = GetParam();
+    o.persistentThreads = persistentThreads;
     o.batchRays = 4096; // several launches per trace: exercises the batching and set mirroring
     auto b = createVulkanBackend(context(), scene, o);
     EXPECT_TRUE(b.ok()) << b.error().message;
@@ -99,7 +108,7 @@ ViewCell streetCell() {
 
 } // namespace
 
-TEST_F(VulkanRays, SameHitsAsEmbreeOnRandomRays) {
+TEST_P(VulkanRays, SameHitsAsEmbreeOnRandomRays) {
   auto wall = test::wallWithHole();
   auto room = test::roomWithWindow();
   Scene city = cityScene(1);
@@ -110,6 +119,7 @@ TEST_F(VulkanRays, SameHitsAsEmbreeOnRandomRays) {
   } cases[] = {{"wall", &wall.scene, wall.cell}, {"room", &room.scene, room.cell}, {"city", &city, streetCell()}};
   for (const Case& c : cases) {
     for (auto g : {VulkanRayOptions::Geometry::Flatten, VulkanRayOptions::Geometry::Instance}) {
+      if (GetParam() == Traversal::Compute && g == VulkanRayOptions::Geometry::Instance) continue; // always flat
       SCOPED_TRACE(std::string(c.name) + (g == VulkanRayOptions::Geometry::Flatten ? " flatten" : " instance"));
       auto vk = vulkan(*c.scene, g);
       ASSERT_TRUE(vk);
@@ -160,7 +170,7 @@ TEST_F(VulkanRays, SameHitsAsEmbreeOnRandomRays) {
   }
 }
 
-TEST_F(VulkanRays, RequireAndPvsOnlyTracesMatchEmbree) {
+TEST_P(VulkanRays, RequireAndPvsOnlyTracesMatchEmbree) {
   Scene city = cityScene(1);
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
@@ -198,7 +208,7 @@ TEST_F(VulkanRays, RequireAndPvsOnlyTracesMatchEmbree) {
   EXPECT_TRUE(std::all_of(b.begin(), b.end(), [](const Hit& h) { return h.triangle == kNoHit; }));
 }
 
-TEST_F(VulkanRays, GvsBakesAgreeWithEmbree) {
+TEST_P(VulkanRays, GvsBakesAgreeWithEmbree) {
   GvsConfig cfg;
   cfg.randomRays = 20'000;
   cfg.absEdgeSamples = 10;
@@ -250,7 +260,7 @@ TEST_F(VulkanRays, GvsBakesAgreeWithEmbree) {
 
 // The raygen shader's cell rays are the host sampler's rays: traced through trace() with the
 // host's lowest-ray crediting, they give the same discoveries as traceCellRays.
-TEST_F(VulkanRays, CellRaysMatchHostMadeRays) {
+TEST_P(VulkanRays, CellRaysMatchHostMadeRays) {
   Scene city = cityScene(1);
   ViewCell cell = streetCell();
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
@@ -309,7 +319,7 @@ TEST_F(VulkanRays, CellRaysMatchHostMadeRays) {
   EXPECT_EQ(fresh.sorted(), deviceSet.sorted());
 }
 
-TEST_F(VulkanRays, GeneratedBakesAreReproducible) {
+TEST_P(VulkanRays, GeneratedBakesAreReproducible) {
   Scene city = cityScene(1);
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
@@ -325,7 +335,7 @@ TEST_F(VulkanRays, GeneratedBakesAreReproducible) {
   EXPECT_EQ(a.stats.rays, b.stats.rays);
 }
 
-TEST_F(VulkanRays, GeneratedRaysFromACellSeeOnlyWhatTheCellSees) {
+TEST_P(VulkanRays, GeneratedRaysFromACellSeeOnlyWhatTheCellSees) {
   auto v = test::wallWithHole();
   auto vk = vulkan(v.scene, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
@@ -350,3 +360,160 @@ TEST_F(VulkanRays, GeneratedRaysFromACellSeeOnlyWhatTheCellSees) {
   EXPECT_EQ(again.sorted(), found.sorted());
   EXPECT_GT(vk->lastTiming().wallMilliseconds, 0.0);
 }
+
+// Glass in front of a wall and glass behind it: every ray reports the wall, the nearest front pane
+// as its see-through triangle, records the panes it passed and never the pane behind the wall.
+TEST_P(VulkanRays, SeeThroughTrianglesCountOnlyInFrontOfTheWall) {
+  auto v = test::glassPanes();
+  auto vk = vulkan(v.scene, VulkanRayOptions::Geometry::Auto);
+  ASSERT_TRUE(vk);
+  auto cpu = embree(v.scene, EmbreeOptions::Geometry::Flatten);
+  std::vector<Ray> rays(4000);
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (Ray& r : rays) {
+    r.origin = v.cell.toWorld(glm::vec3(u(rng), u(rng), u(rng)) * 0.5f);
+    r.dir = glm::vec3(0.3f * u(rng), 0.3f * u(rng), 1.0f);
+  }
+  std::vector<Hit> a(rays.size()), b(rays.size());
+  TriangleSet ra(cpu->triangleCount()), rb(vk->triangleCount());
+  cpu->trace(rays, a, {.record = &ra});
+  vk->trace(rays, b, {.record = &rb});
+  auto ids = [&](const char* mesh) { return test::meshTriangles(v.scene, mesh); };
+  auto in = [](const std::vector<uint32_t>& set, uint32_t id) {
+    return std::find(set.begin(), set.end(), id) != set.end();
+  };
+  const auto wall = ids("wall"), front = ids("front"), behind = ids("behind");
+  // The nearest pane (z = 1) holds the first third of the front mesh's triangles.
+  const std::vector<uint32_t> nearest(front.begin(), front.begin() + std::ptrdiff_t(front.size() / 3));
+  size_t seeThroughNew = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_TRUE(in(wall, b[i].triangle)) << "ray " << i;
+    ASSERT_TRUE(in(nearest, b[i].seeThrough)) << "ray " << i;
+    EXPECT_NEAR(b[i].t, 5.0f - rays[i].origin.z, 1e-3f); // dir.z = 1: t is the z distance
+    seeThroughNew += (b[i].flags & kHitSeeThroughNew) != 0;
+  }
+  EXPECT_EQ(compare(a, b).sameSeeThrough, rays.size());
+  for (uint32_t id : behind) EXPECT_FALSE(rb.contains(id));
+  for (size_t pane = 0; pane < 3; ++pane) { // the panes behind the nearest are recorded too
+    size_t recorded = 0;
+    for (size_t k = pane * front.size() / 3; k < (pane + 1) * front.size() / 3; ++k) recorded += rb.contains(front[k]);
+    EXPECT_GT(recorded, 0u) << "pane " << pane;
+  }
+  EXPECT_EQ(ra.sorted(), rb.sorted());
+  EXPECT_GT(seeThroughNew, 0u);
+}
+
+// The compute traversal's variants: persistent threads and a shared-memory stack change the
+// schedule, not the rays' results; spatial splits and 4-wide nodes change the tree, so only ties
+// may differ.
+TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
+  if (GetParam() != Traversal::Compute) GTEST_SKIP() << "compute traversal options";
+  Scene city = cityScene(1);
+  std::vector<Ray> rays = randomRays(city.worldBounds(), streetCell(), 20'000, 7);
+  auto run = [&](VulkanRayOptions o, TriangleSet& record) {
+    o.traversal = Traversal::Compute;
+    o.batchRays = 4096;
+    auto b = createVulkanBackend(context(), city, o);
+    EXPECT_TRUE(b.ok()) << b.error().message;
+    std::vector<Hit> hits(rays.size());
+    if (b.ok()) (*b)->trace(rays, hits, {.record = &record});
+    return hits;
+  };
+  const size_t n = triangleOffsets(city).back();
+  TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n), wideSet(n), widePersistentSet(n);
+  std::vector<Hit> plain = run({}, plainSet);
+  std::vector<Hit> persistent = run({.persistentThreads = true}, persistentSet);
+  std::vector<Hit> shared = run({.sharedStack = true}, sharedSet);
+  std::vector<Hit> split = run({.spatialSplits = true}, splitSet);
+  std::vector<Hit> wide = run({.bvhWidth = 4}, wideSet);
+  std::vector<Hit> widePersistent = run({.persistentThreads = true, .bvhWidth = 4}, widePersistentSet);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(wide[i].triangle, widePersistent[i].triangle) << "ray " << i;
+    ASSERT_EQ(wide[i].t, widePersistent[i].t) << "ray " << i;
+  }
+  for (const std::vector<Hit>* other : {&persistent, &shared}) {
+    for (size_t i = 0; i < rays.size(); ++i) {
+      ASSERT_EQ(plain[i].triangle, (*other)[i].triangle) << "ray " << i;
+      ASSERT_EQ(plain[i].seeThrough, (*other)[i].seeThrough) << "ray " << i;
+      ASSERT_EQ(plain[i].t, (*other)[i].t) << "ray " << i;
+    }
+  }
+  EXPECT_EQ(plainSet.sorted(), persistentSet.sorted());
+  EXPECT_EQ(plainSet.sorted(), sharedSet.sorted());
+  for (const std::vector<Hit>* other : {&split, &wide}) {
+    Agreement g = compare(plain, *other);
+    EXPECT_GE(double(g.sameTriangle + g.tieMismatches), 0.9995 * double(g.n));
+    EXPECT_GE(double(g.sameSeeThrough), 0.999 * double(g.n));
+  }
+}
+
+namespace {
+
+// The host-built BVH of the compute traversal: every triangle is in a leaf, leaves are well
+// formed, every leaf triangle touches its box, and the depth fits the shader's stack.
+void checkBvh(const Scene& city, bool splits, uint32_t width) {
+  auto bvh = detail::buildRayBvh(city, {.spatialSplits = splits, .width = width});
+  ASSERT_TRUE(bvh.ok()) << bvh.error().message;
+  std::printf("compute BVH of gen:city:1 (splits %d, width %u): %zu triangles, %zu nodes, %zu leaf triangles, depth "
+              "%u, %.3f s\n",
+              int(splits), width, size_t(triangleOffsets(city).back()), bvh->nodes.size() + bvh->nodes4.size(),
+              bvh->triangles.size(), bvh->depth, bvh->buildSeconds);
+  const size_t nodes = width == 4 ? bvh->nodes4.size() : bvh->nodes.size();
+  ASSERT_GT(nodes, 0u);
+  EXPECT_EQ(width == 4 ? bvh->nodes.size() : bvh->nodes4.size(), 0u);
+  EXPECT_LE(bvh->depth * (width - 1), uint32_t(MIRAGE_RT_BVH_STACK - 2)); // the pushes fit the shader's stack
+  std::vector<bool> seen(triangleOffsets(city).back(), false);
+  size_t leaves = 0, inner = 0;
+  auto visit = [&](uint32_t ref, glm::vec3 lo, glm::vec3 hi) {
+    if (!(ref & MIRAGE_RT_BVH_LEAF)) {
+      ASSERT_LT(ref, nodes);
+      ++inner;
+      return;
+    }
+    ++leaves;
+    for (uint32_t k = ref & ~MIRAGE_RT_BVH_LEAF;; ++k) {
+      ASSERT_LT(k, bvh->triangles.size());
+      const shaderio::RtBvhTriangle& t = bvh->triangles[k];
+      ASSERT_LT(t.id, seen.size());
+      seen[t.id] = true;
+      glm::vec3 tlo = glm::min(glm::min(t.v0, t.v1), t.v2), thi = glm::max(glm::max(t.v0, t.v1), t.v2);
+      EXPECT_TRUE(glm::all(glm::lessThanEqual(lo, thi)) && glm::all(glm::lessThanEqual(tlo, hi)))
+          << "triangle " << t.id << " outside its leaf box";
+      if (t.flags & MIRAGE_RT_BVH_LAST) break;
+    }
+  };
+  for (const shaderio::RtBvhNode& n : bvh->nodes) {
+    visit(n.child0, n.lo0, {n.hi0x, n.hi0y, n.hi0z});
+    visit(n.child1, {n.lo1x, n.lo1y, n.lo1z}, {n.hi1x, n.hi1y, n.hi1z});
+  }
+  size_t wideChildren = 0;
+  for (const shaderio::RtBvh4Node& n : bvh->nodes4)
+    for (int c = 0; c < 4; ++c) {
+      if (n.child[c] == MIRAGE_RT_BVH_NONE) continue;
+      ++wideChildren;
+      visit(n.child[c], {n.loX[c], n.loY[c], n.loZ[c]}, {n.hiX[c], n.hiY[c], n.hiZ[c]});
+    }
+  if (width == 4) {
+    EXPECT_GT(double(wideChildren), 3.0 * double(nodes)); // mostly full nodes
+  }
+  EXPECT_EQ(inner + 1, nodes); // a tree: every node but the root is someone's child
+  EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), true)), seen.size());
+  EXPECT_GT(leaves, seen.size() / 4); // leaves of at most 4 triangles (plus split references)
+}
+
+} // namespace
+
+TEST(ComputeBvh, LeavesCoverEveryTriangleWithinTheirBoxes) {
+  Scene city = cityScene(1);
+  for (bool splits : {false, true})
+    for (uint32_t width : {2u, 4u}) {
+      SCOPED_TRACE(std::string(splits ? "spatial splits" : "binned SAH") + ", width " + std::to_string(width));
+      checkBvh(city, splits, width);
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Traversals, VulkanRays, ::testing::Values(Traversal::Pipeline, Traversal::Compute),
+                         [](const ::testing::TestParamInfo<Traversal>& param) {
+                           return param.param == Traversal::Pipeline ? "Pipeline" : "Compute";
+                         });

@@ -1,6 +1,6 @@
 // Structs shared by C++ and GLSL for the Vulkan ray backend (src/visibility/vulkan_backend.cpp,
-// shaders/vis_trace.*): written once, compiled by both. GLSL reads them with scalar block layout
-// through buffer device addresses; the static_asserts keep the C++ sizes equal to what shaders read.
+// src/visibility/ray_bvh.cpp, shaders/vis_trace*): written once, compiled by both. GLSL reads them with scalar block
+// layout through buffer device addresses; the static_asserts keep the C++ sizes equal to what shaders read.
 #ifndef MIRAGE_SHADERIO_RAYS_H
 #define MIRAGE_SHADERIO_RAYS_H
 
@@ -56,8 +56,8 @@ struct RtSlot {
 };
 
 struct RtCounters {
-  uint newCount; // IDs appended to newIds (first insertions into the record set)
-  uint pad0;
+  uint newCount;  // IDs appended to newIds (first insertions into the record set)
+  uint nextBatch; // compute traversal, persistent threads: rays handed out so far
   uint pad1;
   uint pad2;
 };
@@ -91,6 +91,58 @@ struct RtCellSource {
   RtCellFace faces[MIRAGE_RT_MAX_CELL_FACES];
 };
 
+// Compute traversal (vis_trace.comp): a binary BVH in the Aila-Laine layout, both children's boxes
+// in one 64-byte node so one fetch (four 16-byte loads) tests two boxes. A child reference is a
+// node index, or MIRAGE_RT_BVH_LEAF | the first of the leaf's triangles, which run up to one
+// flagged MIRAGE_RT_BVH_LAST. Node 0 is the root.
+#define MIRAGE_RT_BVH_LEAF 0x80000000u
+#define MIRAGE_RT_BVH_NONE 0x7fffffffu // stack sentinel: above every node index, not a leaf
+#define MIRAGE_RT_BVH_LAST 1u          // RtBvhTriangle::flags: the leaf's last triangle
+#define MIRAGE_RT_BVH_SEE_THROUGH 2u   // RtBvhTriangle::flags: a Blend or Mask material
+#define MIRAGE_RT_BVH_STACK 64         // per-thread traversal stack (the builder's depth limit)
+// Rays per workgroup of the compute traversal.
+#define MIRAGE_RT_COMPUTE_GROUP 64u
+
+struct RtBvhNode {
+  vec3 lo0;
+  float hi0x;
+  float hi0y;
+  float hi0z;
+  float lo1x;
+  float lo1y;
+  float lo1z;
+  float hi1x;
+  float hi1y;
+  float hi1z;
+  uint child0;
+  uint child1;
+  uint pad0;
+  uint pad1;
+};
+
+// The 4-wide variant (VulkanRayOptions::bvhWidth = 4, vis_trace_bvh4.comp): four children's boxes
+// as six planes of four (one 16-byte load each, so the slab test runs on vec4s) and their
+// references (MIRAGE_RT_BVH_NONE where a node has fewer than four children), 112 bytes.
+struct RtBvh4Node {
+  float loX[4];
+  float hiX[4];
+  float loY[4];
+  float hiY[4];
+  float loZ[4];
+  float hiZ[4];
+  uint child[4];
+};
+
+// A leaf triangle: world-space corners and the global ID, three 16-byte loads.
+struct RtBvhTriangle {
+  vec3 v0;
+  uint id;
+  vec3 v1;
+  uint flags; // MIRAGE_RT_BVH_LAST | MIRAGE_RT_BVH_SEE_THROUGH
+  vec3 v2;
+  uint pad0;
+};
+
 struct RtTracePush {
   uint64_t rays;     // RtRay[count] (MODE_BUFFER)
   uint64_t hits;     // RtHit[count]; 0: not written
@@ -104,10 +156,12 @@ struct RtTracePush {
   vec3 boxMax;
   uint mode; // MIRAGE_RT_MODE_*
   uint newCapacity;
-  uint seed;         // MODE_GENERATED: random stream
-  uint onlyRequired; // 1: triangles outside `require` do not exist (the PVS-only render)
-  uint pad0;
-  uint64_t cell; // MODE_CELL: RtCellSource
+  uint seed;             // MODE_GENERATED: random stream
+  uint onlyRequired;     // 1: triangles outside `require` do not exist (the PVS-only render)
+  uint persistent;       // compute traversal: threads fetch rays from RtCounters::nextBatch
+  uint64_t cell;         // MODE_CELL: RtCellSource
+  uint64_t bvhNodes;     // compute traversal: RtBvhNode[], vec4-aligned
+  uint64_t bvhTriangles; // compute traversal: RtBvhTriangle[]
 };
 
 #ifndef __cplusplus
@@ -117,6 +171,8 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtSlotRef { 
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtCountersRef { RtCounters c; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtU32Ref { uint v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer RtCellSourceRef { RtCellSource s; };
+// RtBvhNode and RtBvhTriangle read as 16-byte vectors: four per node, three per triangle.
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer RtVec4Ref { vec4 v[]; };
 #endif
 
 #ifdef __cplusplus
@@ -126,7 +182,10 @@ static_assert(sizeof(RtSlot) == 8, "RtSlot layout");
 static_assert(sizeof(RtCounters) == 16, "RtCounters layout");
 static_assert(sizeof(RtCellFace) == 48, "RtCellFace layout");
 static_assert(sizeof(RtCellSource) == 48 + 48 * MIRAGE_RT_MAX_CELL_FACES, "RtCellSource layout");
-static_assert(sizeof(RtTracePush) == 112, "RtTracePush layout");
+static_assert(sizeof(RtBvhNode) == 64, "RtBvhNode layout");
+static_assert(sizeof(RtBvhTriangle) == 48, "RtBvhTriangle layout");
+static_assert(sizeof(RtBvh4Node) == 112, "RtBvh4Node layout");
+static_assert(sizeof(RtTracePush) == 128, "RtTracePush layout: 128 bytes, the smallest push constant limit");
 } // namespace mirage::shaderio
 #endif
 

@@ -1,8 +1,9 @@
 #pragma once
 // The Vulkan ray backend: RayBackend on a ray-tracing pipeline (raygen + closest-hit + any-hit +
 // miss; no VK_KHR_ray_query, which the H200 lacks). One BLAS per mesh under a TLAS of instances,
-// or one BLAS with one geometry per instance (flattened, transformed at build time). Record sets
-// live on the device as bit arrays updated with atomicOr; only first insertions come back.
+// or one BLAS with one geometry per instance (flattened, transformed at build time). Or, on any
+// Vulkan 1.2+ device, a compute-shader traversal of a BVH built on the host (ray_bvh.h). Record
+// sets live on the device as bit arrays updated with atomicOr; only first insertions come back.
 #include <memory>
 
 #include <glm/glm.hpp>
@@ -20,6 +21,26 @@ namespace mirage::vis {
 struct VulkanRayOptions {
   // As EmbreeOptions::Geometry: Auto instances when that saves at least 4x the triangles.
   enum class Geometry { Auto, Flatten, Instance } geometry = Geometry::Auto;
+  // Pipeline: the driver's ray-tracing pipeline (hardware RT cores where the GPU has them; on the
+  // H200 a software emulation). Compute: a compute shader traversing a binary SAH BVH built on the
+  // host with Embree's builder over the flattened triangles (Geometry is ignored), on any device
+  // with buffer device addresses. Auto: Pipeline when the device has one, else Compute (which is
+  // faster on Hopper is what `mirage bench rays` measures; see docs/visibility.md).
+  enum class Traversal { Auto, Pipeline, Compute } traversal = Traversal::Auto;
+  // Compute traversal: a resident grid whose subgroups fetch rays from an atomic counter
+  // (Aila-Laine persistent threads) instead of one thread per ray.
+  bool persistentThreads = false;
+  // Compute traversal: the per-thread stack in shared memory (16 KiB per workgroup) instead of
+  // local memory (vis_trace_shared_stack.comp).
+  bool sharedStack = false;
+  // Compute traversal: the BVH builder's spatial splits (RTC_BUILD_QUALITY_HIGH). Off by default:
+  // on gen:city:8 they add 41% leaf triangles and build 12x slower (docs/visibility.md).
+  bool spatialSplits = false;
+  // Compute traversal: the most triangles per BVH leaf (the SAH decides below it; 1..32).
+  uint32_t bvhLeafSize = 4;
+  // Compute traversal: children per BVH node, 2 (Aila-Laine nodes) or 4 (four boxes tested as
+  // vec4 planes, vis_trace_bvh4.comp; not combined with sharedStack).
+  uint32_t bvhWidth = 2;
   // Rays per launch: 2 M rays are 64 MiB of rays and 32 MiB of hits, few enough submissions that
   // their fixed cost stays small beside the trace on a large GPU.
   size_t batchRays = size_t(1) << 21;
@@ -31,6 +52,14 @@ struct RayTiming {
   double wallMilliseconds = 0.0; // host copy in, submission, wait, copy out
 };
 
+// The compute traversal's BVH (zeros for the pipeline traversal).
+struct RayBvhStats {
+  double buildSeconds = 0.0; // host build (Embree) and layout, not the upload
+  size_t nodes = 0;          // inner nodes (64 bytes, 4-wide: 112)
+  size_t triangleRefs = 0;   // 48-byte leaf triangles (spatial splits reference some twice)
+  uint32_t depth = 0;
+};
+
 class VulkanRayBackend : public RayBackend {
 public:
   // `count` rays generated in the ray-generation shader (uniform origins in [boxMin, boxMax],
@@ -40,9 +69,10 @@ public:
                               TriangleSet* record) = 0;
   virtual RayTiming lastTiming() const = 0;
   virtual double buildSeconds() const = 0;
+  virtual RayBvhStats bvhStats() const = 0;
 };
 
-// Fails when the device has no ray-tracing pipeline. The scene may be freed after; the context
+// Fails when Pipeline is asked of a device without a ray-tracing pipeline. The scene may be freed after; the context
 // must outlive the backend.
 Result<std::unique_ptr<VulkanRayBackend>> createVulkanBackend(gpu::Context& context, const Scene& scene,
                                                               const VulkanRayOptions& options = {});

@@ -1,0 +1,198 @@
+// Shared by both traversals of the ray backend, the ray-tracing pipeline (vis_trace.rgen and its
+// hit shaders) and the compute traversal (vis_trace.comp): push constants, the per-ray result
+// (Payload), the ray sources (buffer, generated, cell) and what happens after the closest hit is
+// known (record/require sets, see-through candidates, first-ray claims). Stage-neutral: no
+// ray-tracing extension here.
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_scalar_block_layout : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#include "mirage/shaderio/rays.h"
+
+layout(push_constant, scalar) uniform Push { RtTracePush push; };
+
+struct Payload {
+  uint triangle; // closest opaque hit (global ID) or MIRAGE_RT_NO_HIT
+  float t;
+  uint count; // see-through candidates below
+  uint ids[MIRAGE_RT_MAX_CANDIDATES];
+  float ts[MIRAGE_RT_MAX_CANDIDATES];
+};
+
+// The bit sets use 32-bit words: the same bytes as TriangleSet's 64-bit words (little endian).
+bool testBit(uint64_t set, uint id) { return ((RtU32Ref(set).v[id >> 5] >> (id & 31u)) & 1u) != 0u; }
+
+// A see-through hit at `t` is remembered and ignored, as Embree's intersection filter does; `tmax`
+// is the closest opaque hit so far. When the list is full, candidates behind `tmax` are dropped
+// (they can never count). A triangle met twice (the compute BVH's spatial splits put one triangle
+// in several leaves) is kept once.
+void addSeeThrough(inout Payload p, uint id, float t, float tmax) {
+  for (uint c = 0u; c < p.count; ++c)
+    if (p.ids[c] == id) return;
+  if (p.count == MIRAGE_RT_MAX_CANDIDATES) {
+    uint kept = 0u;
+    for (uint c = 0u; c < p.count; ++c) {
+      if (p.ts[c] < tmax) {
+        p.ids[kept] = p.ids[c];
+        p.ts[kept] = p.ts[c];
+        ++kept;
+      }
+    }
+    p.count = kept;
+  }
+  if (p.count < MIRAGE_RT_MAX_CANDIDATES) {
+    p.ids[p.count] = id;
+    p.ts[p.count] = t;
+    ++p.count;
+  }
+}
+
+#ifndef MIRAGE_RT_HIT_STAGE
+// PCG hash (Jarzynski & Olano 2020): decorrelated random numbers from (seed, index) alone.
+uint pcg(uint v) {
+  uint state = v * 747796405u + 2891336453u;
+  uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+  return (word >> 22u) ^ word;
+}
+float unit(uint v) { return float(v >> 8) * (1.0 / 16777216.0); }
+
+RtRay generatedRay(uint index) {
+  uint h = pcg(index ^ pcg(push.seed));
+  uint h1 = pcg(h), h2 = pcg(h1), h3 = pcg(h2), h4 = pcg(h3);
+  RtRay r;
+  r.origin = mix(push.boxMin, push.boxMax, vec3(unit(h), unit(h1), unit(h2)));
+  float z = 1.0 - 2.0 * unit(h3);
+  float s = sqrt(max(0.0, 1.0 - z * z));
+  float phi = 6.28318530718 * unit(h4);
+  r.dir = vec3(s * cos(phi), s * sin(phi), z);
+  r.tnear = 0.0;
+  r.tfar = 1.0 / 0.0;
+  return r;
+}
+
+// Radical inverse of `index` in `base` (float digits: enough for sample positions). Launch indices
+// below 2^32 take the 32-bit path; 64-bit division is emulated and far slower.
+float radicalInverse(uint64_t index, uint base) {
+  float inv = 1.0 / float(base), f = inv, r = 0.0;
+  if (index <= 0xffffffffUL) {
+    uint i = uint(index);
+    if (base == 2u) return float(bitfieldReverse(i)) * (1.0 / 4294967296.0);
+    while (i > 0u) {
+      r += float(i % base) * f;
+      i /= base;
+      f *= inv;
+    }
+    return r;
+  }
+  while (index > 0UL) {
+    r += float(uint(index % uint64_t(base))) * f;
+    index /= uint64_t(base);
+    f *= inv;
+  }
+  return r;
+}
+
+float wrapUnit(float v) { return v >= 1.0 ? v - 1.0 : v; }
+
+// GVS++ random ray `index` of a cell: the same map as the host sampler (sampling.h).
+RtRay cellRay(uint index) {
+  RtCellSourceRef src = RtCellSourceRef(push.cell);
+  uint64_t h = src.s.firstIndex + uint64_t(index) + 1UL;
+  float select = wrapUnit(radicalInverse(h, 2u) + src.s.offset0);
+  float u = wrapUnit(radicalInverse(h, 3u) + src.s.offset1);
+  float v = wrapUnit(radicalInverse(h, 5u) + src.s.offset2);
+  float du = wrapUnit(radicalInverse(h, 7u) + src.s.offset3);
+  float dv = wrapUnit(radicalInverse(h, 11u) + src.s.offset4);
+  uint face = 0u;
+  while (face + 1u < src.s.faceCount && select >= src.s.faces[face].cdf) ++face;
+  RtRay r;
+  r.origin = src.s.faces[face].corner + src.s.faces[face].edgeU * u + src.s.faces[face].edgeV * v;
+  float z = 1.0 - 2.0 * du;
+  float s = sqrt(max(0.0, 1.0 - z * z));
+  float phi = 6.28318530718 * dv;
+  r.dir = vec3(s * cos(phi), s * sin(phi), z);
+  r.tnear = 0.0;
+  r.tfar = 1.0 / 0.0;
+  return r;
+}
+
+// A triangle absent from the set as the launch began: the lowest ray index that saw it wins.
+void claim(uint id, uint index) {
+  RtCellSourceRef src = RtCellSourceRef(push.cell);
+  if (testBit(src.s.before, id)) return;
+  atomicMin(RtU32Ref(src.s.firstRay).v[id], index);
+}
+
+// Degenerate rays (NaN, inverted interval) are misses, as in the Embree backend.
+bool validRay(RtRay r) {
+  return !any(isnan(r.origin)) && !any(isinf(r.origin)) && !any(isnan(r.dir)) && !any(isinf(r.dir)) &&
+         dot(r.dir, r.dir) > 0.0 && r.tnear >= 0.0 && r.tnear <= r.tfar;
+}
+
+// True when this call set the bit first; then the ID is appended for the host.
+bool insert(uint id) {
+  if (testBit(push.record, id)) return false; // most hits land on known triangles: read first
+  uint bit = 1u << (id & 31u);
+  if ((atomicOr(RtU32Ref(push.record).v[id >> 5], bit) & bit) != 0u) return false;
+  uint slot = atomicAdd(RtCountersRef(push.counters).c.newCount, 1u);
+  if (slot < push.newCapacity) RtU32Ref(push.newIds).v[slot] = id;
+  return true;
+}
+
+RtRay loadRay(uint index) {
+  if (push.mode == MIRAGE_RT_MODE_GENERATED) return generatedRay(index);
+  if (push.mode == MIRAGE_RT_MODE_CELL) return cellRay(index);
+  // Field by field: glslc's optimizer rejects whole-struct copies from a buffer reference.
+  RtRayRef rays = RtRayRef(push.rays);
+  RtRay ray;
+  ray.origin = rays.v[index].origin;
+  ray.tnear = rays.v[index].tnear;
+  ray.dir = rays.v[index].dir;
+  ray.tfar = rays.v[index].tfar;
+  return ray;
+}
+
+// Everything after the traversal: the closest hit and the see-through candidates in front of it
+// go into the record set (first insertions flagged), are checked against the require set, claim
+// their first ray (MODE_CELL) and are written out.
+void finishRay(uint index, RtRay ray, Payload payload) {
+  RtHit hit;
+  hit.triangle = payload.triangle;
+  hit.t = payload.triangle == MIRAGE_RT_NO_HIT ? ray.tfar : payload.t;
+  hit.flags = 0u;
+  hit.seeThrough = MIRAGE_RT_NO_HIT;
+  bool recording = push.record != 0ul, requiring = push.require != 0ul;
+  if (hit.triangle != MIRAGE_RT_NO_HIT) {
+    if (recording && insert(hit.triangle)) hit.flags |= MIRAGE_RT_HIT_NEW;
+    if (requiring && !testBit(push.require, hit.triangle)) hit.flags |= MIRAGE_RT_HIT_MISSING;
+  }
+  // See-through candidates count only in front of the closest opaque hit.
+  float nearest = hit.t;
+  bool nearestNew = false;
+  for (uint c = 0u; c < payload.count; ++c) {
+    uint id = payload.ids[c];
+    float t = payload.ts[c];
+    if (hit.triangle != MIRAGE_RT_NO_HIT && t >= hit.t) continue;
+    bool fresh = recording && insert(id);
+    if (requiring && !testBit(push.require, id)) hit.flags |= MIRAGE_RT_HIT_MISSING;
+    if (hit.seeThrough == MIRAGE_RT_NO_HIT || t < nearest) {
+      hit.seeThrough = id;
+      nearest = t;
+      nearestNew = fresh;
+    } else if (id == hit.seeThrough) {
+      nearestNew = nearestNew || fresh;
+    }
+  }
+  if (nearestNew) hit.flags |= MIRAGE_RT_HIT_SEE_THROUGH_NEW;
+  if (push.mode == MIRAGE_RT_MODE_CELL) {
+    if (hit.triangle != MIRAGE_RT_NO_HIT) claim(hit.triangle, index);
+    if (hit.seeThrough != MIRAGE_RT_NO_HIT) claim(hit.seeThrough, index);
+  }
+  if (push.hits != 0ul) {
+    RtHitRef hits = RtHitRef(push.hits);
+    hits.v[index].triangle = hit.triangle;
+    hits.v[index].t = hit.t;
+    hits.v[index].flags = hit.flags;
+    hits.v[index].seeThrough = hit.seeThrough;
+  }
+}
+#endif
