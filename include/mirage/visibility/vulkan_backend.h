@@ -24,8 +24,9 @@ struct VulkanRayOptions {
   // Pipeline: the driver's ray-tracing pipeline (hardware RT cores where the GPU has them; on the
   // H200 a software emulation). Compute: a compute shader traversing a binary SAH BVH built on the
   // host with Embree's builder over the flattened triangles (Geometry is ignored), on any device
-  // with buffer device addresses. Auto: Pipeline when the device has one, else Compute (which is
-  // faster on Hopper is what `mirage bench rays` measures; see docs/visibility.md).
+  // with buffer device addresses. Auto: Compute where the pipeline is missing or emulated in
+  // software (a GPU with the pipeline but without ray queries: the H200, where compute traced 2.0x
+  // faster, docs/visibility.md) up to 2^26 flattened triangles; else Pipeline.
   enum class Traversal { Auto, Pipeline, Compute } traversal = Traversal::Auto;
   // Compute traversal: a resident grid whose subgroups fetch rays from an atomic counter
   // (Aila-Laine persistent threads) instead of one thread per ray.
