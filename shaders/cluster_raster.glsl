@@ -23,6 +23,20 @@ shared vec4 clipPos[MIRAGE_CLUSTER_MAX_VERTICES]; // clip space (only read for n
 shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES];  // pixels x, y; depth z/w
 
 float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
+// An edge's function evaluated from its endpoints in one canonical order (by y, then x) and
+// negated when (a, b) is the other order: two triangles sharing an edge then compute bit-identical
+// values of opposite sign at every sample (the float products round, but identically), so the
+// top-left rule gives each shared-edge sample to exactly one of them (no double blends, no cracks).
+struct Edge {
+  vec2 u, v;
+  float sign;
+};
+Edge canonicalEdge(vec2 a, vec2 b) {
+  bool swap = a.y > b.y || (a.y == b.y && a.x > b.x);
+  return Edge(swap ? b : a, swap ? a : b, swap ? -1.0 : 1.0);
+}
+float edgeAt(Edge e, vec2 p) { return e.sign * edge(e.u, e.v, p); }
+
 bool topLeft(vec2 a, vec2 b) {
   vec2 d = b - a;
   return (d.y == 0.0 && d.x > 0.0) || d.y < 0.0;
@@ -85,10 +99,11 @@ void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirror
   vec2 lo = max(floor(min(a.xy, min(p1.xy, p2.xy)) - 0.5), vec2(0.0));
   vec2 hi = min(ceil(max(a.xy, max(p1.xy, p2.xy)) - 0.5), viewport - 1.0);
   bool tl0 = topLeft(p1.xy, p2.xy), tl1 = topLeft(p2.xy, a.xy), tl2 = topLeft(a.xy, p1.xy);
+  Edge e0 = canonicalEdge(p1.xy, p2.xy), e1 = canonicalEdge(p2.xy, a.xy), e2 = canonicalEdge(a.xy, p1.xy);
   for (float y = lo.y; y <= hi.y; y += 1.0) {
     for (float x = lo.x; x <= hi.x; x += 1.0) {
       vec2 s = vec2(x + 0.5, y + 0.5);
-      float w0 = edge(p1.xy, p2.xy, s), w1 = edge(p2.xy, a.xy, s), w2 = edge(a.xy, p1.xy, s);
+      float w0 = edgeAt(e0, s), w1 = edgeAt(e1, s), w2 = edgeAt(e2, s);
       if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
       if ((w0 == 0.0 && !tl0) || (w1 == 0.0 && !tl1) || (w2 == 0.0 && !tl2)) continue;
       float z = (w0 * a.z + w1 * p1.z + w2 * p2.z) / area;

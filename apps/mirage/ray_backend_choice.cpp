@@ -15,8 +15,8 @@ const ComputeVariant* findComputeVariant(const std::string& name) {
 
 Status checkRayBackendChoice(const RayBackendChoice& c) {
   if (c.backend != "auto" && c.backend != "embree" && c.backend != "vulkan" && !findComputeVariant(c.backend))
-    return Error{"--backend must be auto, embree, vulkan, compute, compute-persistent, compute-shared-stack, "
-                 "compute-bvh4 or compute-bvh4-persistent"};
+    return Error{"--backend must be auto, embree, vulkan, compute, compute-persistent, compute-bvh2, "
+                 "compute-bvh2-persistent or compute-bvh2-shared-stack"};
   if (c.geometry != "auto" && c.geometry != "flatten" && c.geometry != "instance")
     return Error{"--geometry must be auto, flatten or instance"};
   return Ok{};

@@ -30,11 +30,11 @@ struct ComputeVariant {
   uint32_t bvhWidth;
 };
 inline constexpr ComputeVariant kComputeVariants[] = {
-    {"compute", false, false, 2},
-    {"compute-persistent", true, false, 2},
-    {"compute-shared-stack", false, true, 2},
-    {"compute-bvh4", false, false, 4},
-    {"compute-bvh4-persistent", true, false, 4},
+    {"compute", false, false, 4}, // the default: 4-wide BVH (fastest on the H200, docs/visibility.md)
+    {"compute-persistent", true, false, 4},
+    {"compute-bvh2", false, false, 2},
+    {"compute-bvh2-persistent", true, false, 2},
+    {"compute-bvh2-shared-stack", false, true, 2},
 };
 const ComputeVariant* findComputeVariant(const std::string& name);
 

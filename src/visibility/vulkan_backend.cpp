@@ -104,7 +104,7 @@ private:
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
-  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh4][-shared-stack][-persistent]
+  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh2][-shared-stack][-persistent]
   size_t triangles_ = 0;
   double buildSeconds_ = 0.0;
   Buffer vertices_, indices_, transforms_, instances_, slots_;
@@ -215,7 +215,7 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
     return Error{fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", caps.name)};
   if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
   if (compute_) {
-    name_ = std::string("vulkan-compute") + (options.bvhWidth == 4 ? "-bvh4" : "") +
+    name_ = std::string("vulkan-compute") + (options.bvhWidth == 4 ? "" : "-bvh2") +
             (options.sharedStack && options.bvhWidth != 4 ? "-shared-stack" : "") + (persistent_ ? "-persistent" : "");
     if (auto ok = buildCompute(scene, options); !ok) return ok;
   } else {

@@ -127,6 +127,6 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
       EXPECT_EQ(res["backend"].get<std::string>(), "vulkan-" + traversal); // the --backend value to bake with
     }
   }
-  EXPECT_EQ(compute, 5u); // plain, persistent threads, shared-memory stack, 4-wide, 4-wide persistent
+  EXPECT_EQ(compute, 5u); // 4-wide, 4-wide persistent, 2-wide, 2-wide persistent, 2-wide shared-memory stack
   EXPECT_GE(json["speedups"].size(), 1u);
 }

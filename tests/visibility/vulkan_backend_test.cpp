@@ -422,10 +422,10 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   };
   const size_t n = triangleOffsets(city).back();
   TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n), wideSet(n), widePersistentSet(n);
-  std::vector<Hit> plain = run({}, plainSet);
-  std::vector<Hit> persistent = run({.persistentThreads = true}, persistentSet);
-  std::vector<Hit> shared = run({.sharedStack = true}, sharedSet);
-  std::vector<Hit> split = run({.spatialSplits = true}, splitSet);
+  std::vector<Hit> plain = run({.bvhWidth = 2}, plainSet);
+  std::vector<Hit> persistent = run({.persistentThreads = true, .bvhWidth = 2}, persistentSet);
+  std::vector<Hit> shared = run({.sharedStack = true, .bvhWidth = 2}, sharedSet);
+  std::vector<Hit> split = run({.spatialSplits = true, .bvhWidth = 2}, splitSet);
   std::vector<Hit> wide = run({.bvhWidth = 4}, wideSet);
   std::vector<Hit> widePersistent = run({.persistentThreads = true, .bvhWidth = 4}, widePersistentSet);
   for (size_t i = 0; i < rays.size(); ++i) {
