@@ -174,12 +174,13 @@ private:
     // The rings are kept (flat) for the first evaluation of every vertex in run().
     Ring r = ringW();
     s_.ringStart.resize(s_.p.size() + 1);
-    s_.ringNbr.clear();
-    s_.ringCnt.clear();
+    s_.ringNbr.resize(nt * 6); // a ring has at most two entries per corner
+    s_.ringCnt.resize(nt * 6);
+    uint32_t saved = 0;
     for (uint32_t a = 0; a < s_.p.size(); ++a) {
       gatherRing(a, r);
-      s_.ringStart[a] = uint32_t(s_.ringNbr.size());
-      for (uint32_t b : r) s_.ringNbr.push_back(b), s_.ringCnt.push_back(r.count[b]);
+      s_.ringStart[a] = saved;
+      for (uint32_t b : r) s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count[b];
       for (uint32_t b : r) {
         if (b < a || r.count[b] != 1) continue;
         uint32_t o = kNil;
@@ -199,7 +200,7 @@ private:
         }
       }
     }
-    s_.ringStart[s_.p.size()] = uint32_t(s_.ringNbr.size());
+    s_.ringStart[s_.p.size()] = saved;
     s_.selfCost.resize(s_.p.size());
     for (uint32_t v = 0; v < s_.p.size(); ++v) s_.selfCost[v] = eval(s_.q[v], s_.p[v]);
   }
@@ -235,21 +236,21 @@ private:
     }
   }
 
-  // Candidate targets of u (ringU gathered): empty when u must stay.
-  void candidates(uint32_t u, std::vector<uint32_t>& out) {
-    out.clear();
+  // Which neighbours u (ringU gathered) may collapse onto: none when u must stay, only those
+  // across a border edge when u is on an open border (it slides along it, so the border keeps its
+  // shape), else all.
+  enum class Targets { kNone, kAll, kBorder };
+  Targets targets(uint32_t u) {
     Ring r = ringU();
-    if (m_.locked[u] || r.size == 0) return;
+    if (m_.locked[u] || r.size == 0) return Targets::kNone;
     uint32_t borderEdges = 0;
     for (uint32_t x : r) {
       uint32_t n = r.count[x];
-      if (n > 2) return; // non-manifold edge: keep the vertex
+      if (n > 2) return Targets::kNone; // non-manifold edge: keep the vertex
       borderEdges += n == 1;
     }
-    if (borderEdges != 0 && borderEdges != 2) return; // several borders meet: a complex vertex
-    // A border vertex only slides along its border, so the border keeps its shape.
-    for (uint32_t x : r)
-      if (borderEdges == 0 || r.count[x] == 1) out.push_back(x);
+    if (borderEdges == 0) return Targets::kAll;
+    return borderEdges == 2 ? Targets::kBorder : Targets::kNone; // several borders meet: a complex vertex
   }
 
   // Link condition (no pinched or duplicated triangles) and no folded triangles. ringU is u's ring.
@@ -339,17 +340,20 @@ private:
       loadSavedRing(v);
     else
       gatherRing(v, ringU());
-    candidates(v, s_.cand);
-    if (s_.cand.empty()) return;
+    Targets mode = targets(v);
+    if (mode == Targets::kNone) return;
+    Ring r = ringU();
     if (optimistic) {
       std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
-      for (uint32_t w : s_.cand) best = std::min(best, {cost(v, w, orderWeight2_), w});
+      for (uint32_t w : r)
+        if (mode == Targets::kAll || r.count[w] == 1) best = std::min(best, {cost(v, w, orderWeight2_), w});
       heapPush({float(best.first), v, best.second, s_.version[v], kUnchecked});
       s_.queued[v] = 1;
       return;
     }
     s_.scored.clear();
-    for (uint32_t w : s_.cand) s_.scored.push_back({cost(v, w, orderWeight2_), w});
+    for (uint32_t w : r)
+      if (mode == Targets::kAll || r.count[w] == 1) s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
