@@ -61,6 +61,16 @@ void printStages(uint64_t triangles) {
   }
 }
 
+// Bits 0..9 of x moved to bits 0, 3, 6, ..., 27 (one axis of a 30-bit Morton code).
+uint32_t spreadBits(uint32_t x) {
+  x &= 0x3ffu;
+  x = (x | x << 16) & 0x030000ffu;
+  x = (x | x << 8) & 0x0300f00fu;
+  x = (x | x << 4) & 0x030c30c3u;
+  x = (x | x << 2) & 0x09249249u;
+  return x;
+}
+
 struct GroupWork {
   std::vector<uint32_t> children;
   bool stuck = false;
@@ -167,10 +177,7 @@ private:
       glm::vec3 c(0.0f);
       for (int k = 0; k < 3; ++k) c += dag_.positions[dag_.vertexPosition[triangles[t * 3 + k]]];
       glm::uvec3 q = glm::uvec3(glm::clamp((c / 3.0f - box.min) * scale, glm::vec3(0.0f), glm::vec3(1023.0f)));
-      uint32_t code = 0;
-      for (uint32_t b = 0; b < 10; ++b)
-        code |= ((q.x >> b) & 1u) << (3 * b) | ((q.y >> b) & 1u) << (3 * b + 1) | ((q.z >> b) & 1u) << (3 * b + 2);
-      order[t] = {code, uint32_t(t)};
+      order[t] = {spreadBits(q.x) | spreadBits(q.y) << 1 | spreadBits(q.z) << 2, uint32_t(t)};
     });
     tbb::parallel_sort(order.begin(), order.end());
     size_t chunks = (triCount + chunk - 1) / chunk;
