@@ -61,6 +61,16 @@ void printStages(uint64_t triangles) {
   }
 }
 
+// Bits 0..9 of x moved to bits 0, 3, 6, ..., 27 (one axis of a 30-bit Morton code).
+uint32_t spreadBits(uint32_t x) {
+  x &= 0x3ffu;
+  x = (x | x << 16) & 0x030000ffu;
+  x = (x | x << 8) & 0x0300f00fu;
+  x = (x | x << 4) & 0x030c30c3u;
+  x = (x | x << 2) & 0x09249249u;
+  return x;
+}
+
 struct GroupWork {
   std::vector<uint32_t> children;
   bool stuck = false;
@@ -167,10 +177,7 @@ private:
       glm::vec3 c(0.0f);
       for (int k = 0; k < 3; ++k) c += dag_.positions[dag_.vertexPosition[triangles[t * 3 + k]]];
       glm::uvec3 q = glm::uvec3(glm::clamp((c / 3.0f - box.min) * scale, glm::vec3(0.0f), glm::vec3(1023.0f)));
-      uint32_t code = 0;
-      for (uint32_t b = 0; b < 10; ++b)
-        code |= ((q.x >> b) & 1u) << (3 * b) | ((q.y >> b) & 1u) << (3 * b + 1) | ((q.z >> b) & 1u) << (3 * b + 2);
-      order[t] = {code, uint32_t(t)};
+      order[t] = {spreadBits(q.x) | spreadBits(q.y) << 1 | spreadBits(q.z) << 2, uint32_t(t)};
     });
     tbb::parallel_sort(order.begin(), order.end());
     size_t chunks = (triCount + chunk - 1) / chunk;
@@ -222,6 +229,41 @@ private:
     for (uint32_t t = 0; t < c.triangleCount; ++t) f(verts[idx[t * 3]], verts[idx[t * 3 + 1]], verts[idx[t * 3 + 2]]);
   }
 
+  // Edges (welded position keys) used by exactly one triangle of the cluster, in no particular
+  // order. Counted in a per-thread table over cluster-local position pairs (a cluster has at most
+  // 255 vertices) instead of sorting every edge key: the sort was a fifth of the partition stage.
+  void clusterBorder(uint32_t cluster, std::vector<uint64_t>& out) const {
+    const Cluster& c = dag_.clusters[cluster];
+    SplitScratch& s = splitScratch_.local();
+    std::vector<uint32_t>& localOf = s.localOfPosition;
+    if (localOf.size() < dag_.positions.size()) localOf.resize(dag_.positions.size(), kNone);
+    if (s.edgeUses.size() < 256 * 256) s.edgeUses.assign(256 * 256, 0);
+    std::vector<uint32_t>& local = s.vertLocal; // cluster vertex -> local position id
+    std::vector<uint32_t>& positions = s.global;
+    local.resize(c.vertexCount);
+    positions.clear();
+    for (uint32_t v = 0; v < c.vertexCount; ++v) {
+      uint32_t p = dag_.vertexPosition[dag_.clusterVertices[c.vertexOffset + v]];
+      uint32_t& l = localOf[p];
+      if (l == kNone) l = uint32_t(positions.size()), positions.push_back(p);
+      local[v] = l;
+    }
+    std::vector<uint32_t>& touched = s.candidates;
+    touched.clear();
+    const uint8_t* idx = &dag_.clusterIndices[size_t(c.triangleOffset) * 3];
+    for (uint32_t t = 0; t < c.triangleCount; ++t)
+      for (int k = 0; k < 3; ++k) {
+        uint32_t a = local[idx[t * 3 + k]], b = local[idx[t * 3 + (k + 1) % 3]];
+        uint32_t pair = std::min(a, b) << 8 | std::max(a, b);
+        if (s.edgeUses[pair]++ == 0) touched.push_back(pair);
+      }
+    for (uint32_t pair : touched) {
+      if (s.edgeUses[pair] == 1) out.push_back(edgeKey(positions[pair >> 8], positions[pair & 255]));
+      s.edgeUses[pair] = 0;
+    }
+    for (uint32_t p : positions) localOf[p] = kNone;
+  }
+
   // Groups active clusters with METIS over the cluster adjacency graph. An edge between two clusters
   // weighs their shared border length times (1 + its age, the levels it has already stayed locked),
   // so long and old borders end up inside groups and get simplified away.
@@ -230,20 +272,7 @@ private:
     size_t n = active.size();
     uint32_t parts = uint32_t((n + groupSize - 1) / groupSize);
     std::vector<std::vector<uint64_t>> borders(n);
-    tbb::parallel_for(size_t(0), n, [&](size_t i) {
-      std::vector<uint64_t> edges;
-      forTriangles(active[i], [&](uint32_t a, uint32_t b, uint32_t c) {
-        uint32_t p[3] = {dag_.vertexPosition[a], dag_.vertexPosition[b], dag_.vertexPosition[c]};
-        for (int k = 0; k < 3; ++k) edges.push_back(edgeKey(p[k], p[(k + 1) % 3]));
-      });
-      std::sort(edges.begin(), edges.end());
-      for (size_t j = 0; j < edges.size();) {
-        size_t e = j;
-        while (e < edges.size() && edges[e] == edges[j]) ++e;
-        if (e - j == 1) borders[i].push_back(edges[j]);
-        j = e;
-      }
-    });
+    tbb::parallel_for(size_t(0), n, [&](size_t i) { clusterBorder(active[i], borders[i]); });
     std::vector<std::pair<uint64_t, uint32_t>> entries;
     for (size_t i = 0; i < n; ++i)
       for (uint64_t k : borders[i]) entries.push_back({k, uint32_t(i)});

@@ -24,9 +24,10 @@ struct ClusterSet {
 struct SplitScratch {
   std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
   std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
-  std::vector<uint32_t> global, corners, offsets, fill, adjacency, triStamp, vertStamp, vertLocal, live, candidates,
-      score;
+  std::vector<uint32_t> global, corners, offsets, fill, adjacency, triStamp, vertStamp, vertLocal, live, candidates;
+  std::vector<uint32_t> candScore, candPos;
   std::vector<uint8_t> emitted, extra;
+  std::vector<uint16_t> edgeUses;   // 256 x 256 cluster-local position pairs (build.cpp); all 0 between calls
   std::vector<glm::vec3> centroids; // 3x the centroid: only compared
 };
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace mirage::lod::detail {
 
@@ -39,15 +40,15 @@ void add(Quadric& q, const Quadric& o) {
   q.b0 += o.b0, q.b1 += o.b1, q.b2 += o.b2, q.c += o.c, q.w += o.w;
 }
 
-// Sum of weighted squared plane distances at p of q + o (no temporary quadric).
-double evalSum(const Quadric& q, const Quadric& o, glm::dvec3 p) {
-  double a00 = q.a00 + o.a00, a01 = q.a01 + o.a01, a02 = q.a02 + o.a02, a11 = q.a11 + o.a11, a12 = q.a12 + o.a12,
-         a22 = q.a22 + o.a22, b0 = q.b0 + o.b0, b1 = q.b1 + o.b1, b2 = q.b2 + o.b2;
-  double rx = a00 * p.x + a01 * p.y + a02 * p.z + 2.0 * b0;
-  double ry = a01 * p.x + a11 * p.y + a12 * p.z + 2.0 * b1;
-  double rz = a02 * p.x + a12 * p.y + a22 * p.z + 2.0 * b2;
-  return rx * p.x + ry * p.y + rz * p.z + q.c + o.c;
+// Sum of weighted squared plane distances at p.
+double eval(const Quadric& q, glm::dvec3 p) {
+  double rx = q.a00 * p.x + q.a01 * p.y + q.a02 * p.z + 2.0 * q.b0;
+  double ry = q.a01 * p.x + q.a11 * p.y + q.a12 * p.z + 2.0 * q.b1;
+  double rz = q.a02 * p.x + q.a12 * p.y + q.a22 * p.z + 2.0 * q.b2;
+  return rx * p.x + ry * p.y + rz * p.z + q.c;
 }
+
+constexpr uint32_t kNextCorner[3] = {1, 2, 0}, kPrevCorner[3] = {2, 0, 1};
 
 void add(NormalQuadric& q, const NormalQuadric& o) { q.a += o.a, q.bx += o.bx, q.by += o.by, q.bz += o.bz, q.c += o.c; }
 
@@ -78,6 +79,8 @@ public:
     s.stampW.assign(nv, 0);
     s.countU.resize(nv);
     s.countW.resize(nv);
+    s.ringU.resize(nv);
+    s.ringW.resize(nv);
     s.q.assign(nv, Quadric{});
     s.heap.clear();
     normalWeight2_ = m.normals ? double(m.normalWeight) * double(m.normalWeight) : 0.0;
@@ -86,7 +89,9 @@ public:
   }
 
   float run(size_t target) {
+    savedRings_ = true;
     for (uint32_t v = 0; v < s_.p.size(); ++v) push(v, true);
+    savedRings_ = false;
     while (live_ > target && !s_.heap.empty()) {
       std::pop_heap(s_.heap.begin(), s_.heap.end());
       Entry e = s_.heap.back();
@@ -115,14 +120,19 @@ public:
 private:
   // Distinct neighbours of a vertex with their edge use counts, valid while stamp == gen.
   struct Ring {
-    std::vector<uint32_t>& list;
+    std::vector<uint32_t>& list; // sized to the vertex count once: no push_back in the hot loops
     std::vector<uint32_t>& stamp;
     std::vector<uint32_t>& count;
     uint32_t& gen;
+    uint32_t& size;
     uint32_t uses(uint32_t x) const { return stamp[x] == gen ? count[x] : 0; }
+    const uint32_t* begin() const { return list.data(); }
+    const uint32_t* end() const { return list.data() + size; }
+    void clear() { size = 0, ++gen; }
+    void add(uint32_t x, uint32_t n) { stamp[x] = gen, count[x] = n, list[size++] = x; }
   };
-  Ring ringU() { return {s_.ringU, s_.stampU, s_.countU, genU_}; }
-  Ring ringW() { return {s_.ringW, s_.stampW, s_.countW, genW_}; }
+  Ring ringU() { return {s_.ringU, s_.stampU, s_.countU, genU_, sizeU_}; }
+  Ring ringW() { return {s_.ringW, s_.stampW, s_.countW, genW_, sizeW_}; }
 
   template <class F> void forTriangles(uint32_t v, F&& f) {
     for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c])
@@ -161,10 +171,17 @@ private:
       }
     // Open edges (used by one triangle) get a plane through the edge, perpendicular to the face.
     // Found on each vertex's ring (edge use count 1), once per edge from its lower end.
+    // The rings are kept (flat) for the first evaluation of every vertex in run().
     Ring r = ringW();
+    s_.ringStart.resize(s_.p.size() + 1);
+    s_.ringNbr.resize(nt * 6); // a ring has at most two entries per corner
+    s_.ringCnt.resize(nt * 6);
+    uint32_t saved = 0;
     for (uint32_t a = 0; a < s_.p.size(); ++a) {
       gatherRing(a, r);
-      for (uint32_t b : r.list) {
+      s_.ringStart[a] = saved;
+      for (uint32_t b : r) s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count[b];
+      for (uint32_t b : r) {
         if (b < a || r.count[b] != 1) continue;
         uint32_t o = kNil;
         forTriangles(a, [&](uint32_t t, uint32_t k) {
@@ -183,36 +200,57 @@ private:
         }
       }
     }
+    s_.ringStart[s_.p.size()] = saved;
+    s_.selfCost.resize(s_.p.size());
+    for (uint32_t v = 0; v < s_.p.size(); ++v) s_.selfCost[v] = eval(s_.q[v], s_.p[v]);
   }
 
-  void gatherRing(uint32_t v, Ring r) {
-    r.list.clear();
-    ++r.gen;
-    auto touch = [&](uint32_t x) {
-      if (r.stamp[x] != r.gen) r.stamp[x] = r.gen, r.count[x] = 0, r.list.push_back(x);
-      ++r.count[x];
-    };
-    forTriangles(v, [&](uint32_t t, uint32_t k) {
-      touch(m_.corners[t * 3 + (k + 1) % 3]);
-      touch(m_.corners[t * 3 + (k + 2) % 3]);
-    });
-  }
-
-  // Candidate targets of u (ringU gathered): empty when u must stay.
-  void candidates(uint32_t u, std::vector<uint32_t>& out) {
-    out.clear();
+  // ringU = v's ring as saved by initQuadrics (valid until the first collapse).
+  void loadSavedRing(uint32_t v) {
     Ring r = ringU();
-    if (m_.locked[u] || r.list.empty()) return;
+    r.clear();
+    for (uint32_t i = s_.ringStart[v]; i < s_.ringStart[v + 1]; ++i) r.add(s_.ringNbr[i], s_.ringCnt[i]);
+  }
+
+  // Also unlinks v's dead corners (triangles removed by neighbouring collapses), so later walks
+  // over v's list are shorter; the order of the live corners stays.
+  void gatherRing(uint32_t v, Ring r) {
+    r.clear();
+    auto touch = [&](uint32_t x) {
+      if (r.stamp[x] != r.gen)
+        r.add(x, 1);
+      else
+        ++r.count[x];
+    };
+    const uint32_t* corners = m_.corners.data();
+    uint32_t* link = &s_.head[v];
+    for (uint32_t c = *link; c != kNil; c = *link) {
+      uint32_t t = c / 3, base = t * 3, k = c - base;
+      if (!s_.alive[t]) {
+        *link = s_.next[c];
+        continue;
+      }
+      touch(corners[base + kNextCorner[k]]);
+      touch(corners[base + kPrevCorner[k]]);
+      link = &s_.next[c];
+    }
+  }
+
+  // Which neighbours u (ringU gathered) may collapse onto: none when u must stay, only those
+  // across a border edge when u is on an open border (it slides along it, so the border keeps its
+  // shape), else all.
+  enum class Targets { kNone, kAll, kBorder };
+  Targets targets(uint32_t u) {
+    Ring r = ringU();
+    if (m_.locked[u] || r.size == 0) return Targets::kNone;
     uint32_t borderEdges = 0;
-    for (uint32_t x : r.list) {
+    for (uint32_t x : r) {
       uint32_t n = r.count[x];
-      if (n > 2) return; // non-manifold edge: keep the vertex
+      if (n > 2) return Targets::kNone; // non-manifold edge: keep the vertex
       borderEdges += n == 1;
     }
-    if (borderEdges != 0 && borderEdges != 2) return; // several borders meet: a complex vertex
-    // A border vertex only slides along its border, so the border keeps its shape.
-    for (uint32_t x : r.list)
-      if (borderEdges == 0 || r.count[x] == 1) out.push_back(x);
+    if (borderEdges == 0) return Targets::kAll;
+    return borderEdges == 2 ? Targets::kBorder : Targets::kNone; // several borders meet: a complex vertex
   }
 
   // Link condition (no pinched or duplicated triangles) and no folded triangles. ringU is u's ring.
@@ -222,7 +260,7 @@ private:
     if (edgeUse == 0 || edgeUse > 2 || s_.head[w] == kNil) return false;
     gatherRing(w, rw);
     uint32_t common = 0;
-    for (uint32_t x : rw.list) common += ru.uses(x) != 0;
+    for (uint32_t x : rw) common += ru.uses(x) != 0;
     if (common != edgeUse) return false;
     // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
     // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
@@ -241,7 +279,7 @@ private:
     // (e.g. along a straight border, as a zero-area sliver) and the edge would then join four
     // triangles. Edges that already exist are fine.
     if (m_.locked[w])
-      for (uint32_t x : ru.list)
+      for (uint32_t x : ru)
         if (x != w && m_.locked[x] && !rw.uses(x)) return false;
     bool ok = true;
     glm::dvec3 pu = s_.p[u], pw = s_.p[w];
@@ -268,7 +306,8 @@ private:
   double cost(uint32_t u, uint32_t w, double normalWeight2) const {
     const Quadric &qu = s_.q[u], &qw = s_.q[w];
     double weight = qu.w + qw.w;
-    double geometric = weight > 0.0 ? std::max(evalSum(qu, qw, s_.p[w]), 0.0) / weight : 0.0;
+    // (Q_u + Q_w)(p_w) = Q_u(p_w) + Q_w(p_w); the second term only changes when w's quadric grows.
+    double geometric = weight > 0.0 ? std::max(eval(qu, s_.p[w]) + s_.selfCost[w], 0.0) / weight : 0.0;
     if (normalWeight2 <= 0.0) return geometric;
     // Mean squared difference between the original normals merged into u and w and the normal w
     // carries (|m - n|² ≈ angle² for small angles), as a distance: weight * edge length * angle.
@@ -297,17 +336,24 @@ private:
     s_.dirty[v] = 0;
     s_.queued[v] = 0;
     if (s_.head[v] == kNil || m_.locked[v]) return;
-    gatherRing(v, ringU());
-    candidates(v, s_.cand);
-    if (s_.cand.empty()) return;
-    s_.scored.clear();
-    for (uint32_t w : s_.cand) s_.scored.push_back({cost(v, w, orderWeight2_), w});
+    if (savedRings_)
+      loadSavedRing(v);
+    else
+      gatherRing(v, ringU());
+    Targets mode = targets(v);
+    if (mode == Targets::kNone) return;
+    Ring r = ringU();
     if (optimistic) {
-      auto best = *std::min_element(s_.scored.begin(), s_.scored.end());
+      std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
+      for (uint32_t w : r)
+        if (mode == Targets::kAll || r.count[w] == 1) best = std::min(best, {cost(v, w, orderWeight2_), w});
       heapPush({float(best.first), v, best.second, s_.version[v], kUnchecked});
       s_.queued[v] = 1;
       return;
     }
+    s_.scored.clear();
+    for (uint32_t w : r)
+      if (mode == Targets::kAll || r.count[w] == 1) s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
@@ -353,6 +399,7 @@ private:
       a = mapped;
     });
     add(s_.q[w], s_.q[u]);
+    s_.selfCost[w] = eval(s_.q[w], s_.p[w]);
     if (normalWeight2_ > 0.0) add(s_.nq[w], s_.nq[u]);
     // w's corner list becomes its live corners plus u's: dropping dead ones keeps lists short.
     uint32_t first = kNil, last = kNil;
@@ -371,9 +418,9 @@ private:
     gatherRing(w, touched);
     ++clock_;
     s_.changed[w] = clock_;
-    for (uint32_t x : touched.list) s_.changed[x] = clock_;
+    for (uint32_t x : touched) s_.changed[x] = clock_;
     markDirty(w, e.cost);
-    for (uint32_t x : touched.list) markDirty(x, e.cost);
+    for (uint32_t x : touched) markDirty(x, e.cost);
   }
 
   void compact() {
@@ -394,7 +441,8 @@ private:
   SimplifyScratch& s_;
   glm::dvec3 center_;
   double normalWeight2_ = 0.0, orderWeight2_ = 0.0;
-  uint32_t clock_ = 0, genU_ = 0, genW_ = 0;
+  uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0;
+  bool savedRings_ = false; // push() reads rings saved by initQuadrics (first evaluation)
   size_t live_ = 0;
   double maxCost_ = 0.0;
 };

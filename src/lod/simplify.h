@@ -38,8 +38,10 @@ struct SimplifyScratch {
   std::vector<glm::dvec3> p;
   std::vector<Quadric> q;
   std::vector<NormalQuadric> nq;
-  std::vector<glm::vec3> normal; // normal a vertex carries (area-weighted over its corners)
-  std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW, cand;
+  std::vector<glm::vec3> normal;                     // normal a vertex carries (area-weighted over its corners)
+  std::vector<double> selfCost;                      // Q_v(p_v): the target's share of a collapse cost, kept up to date
+  std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
+  std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW;
   std::vector<uint8_t> alive, dirty, queued;
   std::vector<std::pair<double, uint32_t>> scored;
   std::vector<std::pair<uint32_t, uint32_t>> pairs;

@@ -47,38 +47,50 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     s.centroids[t] = positions[vertexPosition[triangles[t * 3]]] + positions[vertexPosition[triangles[t * 3 + 1]]] +
                      positions[vertexPosition[triangles[t * 3 + 2]]];
   s.emitted.assign(nt, 0);
-  s.score.resize(nt);
   s.extra.resize(nt);
   s.triStamp.assign(nt, kNil);
   s.vertStamp.assign(nv, kNil);
   s.live.resize(nv);
   for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
   s.vertLocal.resize(nv);
-  // Candidates: unemitted triangles touching the cluster (deduplicated per cluster by triStamp).
-  std::vector<uint32_t>& cand = s.candidates;
-
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
   size_t scan = 0; // every triangle before it is emitted
+  // Candidates: unemitted triangles touching the cluster (deduplicated per cluster by triStamp),
+  // with their scores in a parallel array and each triangle's slot in candPos, so picking is a scan
+  // over one contiguous array instead of three scattered per-triangle lookups per entry. Removal
+  // swaps the last entry in, and ties go to the first slot: the order (and so every pick) is the
+  // one the per-triangle version had.
+  s.candidates.resize(nt);
+  s.candScore.resize(nt);
+  s.candPos.resize(nt);
+  uint32_t* cand = s.candidates.data();
+  uint32_t* candScore = s.candScore.data();
+  size_t candCount = 0;
+  auto removeCandidate = [&](uint32_t t) {
+    uint32_t at = s.candPos[t];
+    --candCount;
+    cand[at] = cand[candCount], candScore[at] = candScore[candCount];
+    s.candPos[cand[at]] = at;
+  };
+
   // Lower is better: triangles adding no vertex, then dangling ones (the last unused triangle at
   // a vertex: left behind they become islands of a few triangles, as in meshoptimizer), then by
   // vertices added; ties go to the most enclosed triangle (fewest unused triangles around its
   // vertices), so clusters fill the pockets that earlier clusters left instead of growing as
-  // discs that leave gaps between them. Sets extra[t], the vertices t would add.
+  // discs that leave gaps between them. Returns the score; sets extra[t], the vertices t would add.
   auto rescore = [&](uint32_t t) {
     const uint32_t* v = &s.corners[size_t(t) * 3];
-    uint32_t e = 0, liveSum = 0;
-    bool dangling = false;
-    for (int k = 0; k < 3; ++k) {
-      bool repeat = (k > 0 && v[k] == v[0]) || (k > 1 && v[k] == v[1]);
-      e += !repeat && s.vertStamp[v[k]] != cluster;
-      liveSum += s.live[v[k]];
-      dangling |= s.live[v[k]] == 1;
-    }
+    uint32_t v0 = v[0], v1 = v[1], v2 = v[2];
+    uint32_t l0 = s.live[v0], l1 = s.live[v1], l2 = s.live[v2];
+    uint32_t e = uint32_t(s.vertStamp[v0] != cluster) + uint32_t(s.vertStamp[v1] != cluster && v1 != v0) +
+                 uint32_t(s.vertStamp[v2] != cluster && v2 != v0 && v2 != v1);
+    bool dangling = (l0 == 1) | (l1 == 1) | (l2 == 1);
     uint32_t rank = e == 0 ? 0 : dangling ? 1 : e + 1;
     s.extra[t] = uint8_t(e);
-    s.score[t] = rank << 16 | std::min<uint32_t>(liveSum, 0xffff);
+    return rank << 16 | std::min<uint32_t>(l0 + l1 + l2, 0xffff);
   };
   auto addTriangle = [&](uint32_t t) {
+    if (s.triStamp[t] == cluster) removeCandidate(t); // not yet emitted: it is a candidate
     s.emitted[t] = 1;
     const uint32_t* tv = &s.corners[size_t(t) * 3];
     for (int k = 0; k < 3; ++k) {
@@ -89,17 +101,23 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         out.vertices.push_back(s.global[v]);
         for (uint32_t a = s.offsets[v]; a < s.offsets[v + 1]; ++a) {
           uint32_t n = s.adjacency[a];
-          if (!s.emitted[n] && s.triStamp[n] != cluster) s.triStamp[n] = cluster, cand.push_back(n);
+          if (!s.emitted[n] && s.triStamp[n] != cluster) {
+            // Scored below: n lies around one of t's vertices.
+            s.triStamp[n] = cluster, s.candPos[n] = uint32_t(candCount), cand[candCount++] = n;
+          }
         }
       }
       out.indices.push_back(uint8_t(s.vertLocal[v]));
     }
     for (int k = 0; k < 3; ++k) --s.live[tv[k]];
     // Scores change only through t's vertices (joined the cluster, fewer live triangles), so only
-    // the triangles around them are rescored; picking is then a scan over cached scores.
+    // the triangles around them are rescored; picking is then a scan over cached scores. Every
+    // unemitted triangle around a cluster vertex is a candidate.
     for (int k = 0; k < 3; ++k)
-      for (uint32_t a = s.offsets[tv[k]]; a < s.offsets[tv[k] + 1]; ++a)
-        if (!s.emitted[s.adjacency[a]]) rescore(s.adjacency[a]);
+      for (uint32_t a = s.offsets[tv[k]]; a < s.offsets[tv[k] + 1]; ++a) {
+        uint32_t n = s.adjacency[a];
+        if (!s.emitted[n]) candScore[s.candPos[n]] = rescore(n);
+      }
     ++triangleCount;
     while (scan < nt && s.emitted[scan]) ++scan;
   };
@@ -109,24 +127,19 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   while (done < nt) {
     ClusterPiece piece{uint32_t(out.vertices.size()), 0, uint32_t(out.indices.size()), 0};
     vertexCount = triangleCount = 0;
-    cand.clear();
+    candCount = 0;
     glm::vec3 seedCenter = s.centroids[seed];
     addTriangle(seed);
     while (triangleCount < maxTriangles) {
       uint32_t pick = kNil, best = kNil;
-      size_t pickAt = 0;
-      for (size_t i = 0; i < cand.size();) {
-        uint32_t t = cand[i];
-        if (s.emitted[t]) {
-          cand[i] = cand.back(), cand.pop_back();
-          continue;
-        }
-        if (s.score[t] < best && vertexCount + s.extra[t] <= maxVertices) best = s.score[t], pick = t, pickAt = i;
-        ++i;
-      }
-      if (pick != kNil) {
-        cand[pickAt] = cand.back(), cand.pop_back();
+      if (vertexCount + 3 <= maxVertices) {
+        for (size_t i = 0; i < candCount; ++i) // every candidate fits
+          if (candScore[i] < best) best = candScore[i], pick = cand[i];
       } else {
+        for (size_t i = 0; i < candCount; ++i)
+          if (candScore[i] < best && vertexCount + s.extra[cand[i]] <= maxVertices) best = candScore[i], pick = cand[i];
+      }
+      if (pick == kNil) {
         // Nothing adjacent fits: continue with the nearest unused triangle that fits, as
         // meshoptimizer does; otherwise the pockets between clusters become clusters of a few
         // triangles (fill fell to 65 %). Linear scan: rare, and sets are small.
@@ -153,8 +166,8 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     // stays contiguous and closes pockets first), else the first unemitted one in input order.
     seed = kNil;
     uint32_t bestLive = kNil;
-    for (uint32_t t : cand) {
-      if (s.emitted[t]) continue;
+    for (size_t i = 0; i < candCount; ++i) {
+      uint32_t t = cand[i];
       const uint32_t* v = &s.corners[size_t(t) * 3];
       uint32_t l = s.live[v[0]] + s.live[v[1]] + s.live[v[2]];
       if (l < bestLive) bestLive = l, seed = t;
