@@ -11,14 +11,14 @@ struct SurfelRenderRequest {
   std::string camera; // empty: auto 3/4 view
   std::string size = "1920x1080";
   std::string device;
-  std::string raster = "auto"; // auto | compute | raster; bench: "all"
-  float surfelSize = 2.0f;     // s, pixels
-  uint32_t copies = 1;         // instances of the cloud on a grid
-  bool sharedCopies = false;   // bench: copies read one stored cloud (else each its own copy of the data)
-  bool allSurfels = false;     // bench: splat all N per instance
-  std::string backface = "on"; // back-face culling: on | off; bench also "both" (timed in one run)
-  double bandwidth = 4.8e12;   // bench: device bandwidth in B/s for the reported fraction
-  int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
+  std::string raster = "auto";  // auto | compute | raster; bench: "all"
+  float surfelSize = 2.0f;      // s, pixels
+  uint32_t copies = 1;          // instances of the cloud on a grid
+  bool sharedCopies = false;    // bench: copies read one stored cloud (else each its own copy of the data)
+  bool allSurfels = false;      // bench: splat all N per instance
+  std::string backface = "off"; // back-face culling: on | off; bench also "both" (timed in one run)
+  double bandwidth = 4.8e12;    // bench: device bandwidth in B/s for the reported fraction
+  int frames = 1;               // render: --repeat; bench: --frames (the first is a warm-up)
   bool stats = false;
   bool json = false;
 };

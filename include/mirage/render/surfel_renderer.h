@@ -54,8 +54,10 @@ struct SurfelRenderSettings {
   bool frustumCulling = true;               // instances outside the view draw nothing
   bool allSurfels = false;                  // benchmark: every instance splats all N (no prefix)
   // Surfels of single-sided clouds facing away from the eye are skipped (as the mesh renderers cull
-  // back faces): they would lose the depth test anyway, but each costs a random visibility access.
-  bool backfaceCulling = true;
+  // back faces): they would lose the depth test anyway. Off by default: on the H200 the normal
+  // reads cost more than the skipped splats save (1080p, 102 M surfels: 85.5 G surfels/s culled vs
+  // 93.1 unculled; docs/surfels.md), the splat being latency- rather than atomic-bound.
+  bool backfaceCulling = false;
   // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
   // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
   // beyond it (0: hard switch). Off: surfels everywhere.
