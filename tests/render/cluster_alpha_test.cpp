@@ -16,6 +16,7 @@
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
+#include "test_scenes.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -47,26 +48,16 @@ Mesh makePanel(float halfSize, float z, uint32_t material, int n = 12) {
   return m;
 }
 
-Material material(glm::vec4 color, AlphaMode mode, bool doubleSided = false) {
-  Material m;
-  m.baseColorFactor = color;
-  m.metallicFactor = 0.0f;
-  m.roughnessFactor = 0.8f;
-  m.alphaMode = mode;
-  m.doubleSided = doubleSided;
-  return m;
-}
-
 // Wall (opaque, z = -1); masked checker panel (z = 0, double-sided, turned to show its back, so a
 // normal cone would cull it if cones ignored double-sidedness); two blended panels overlapping in
 // the middle (z = 0.6 blue, z = 1.1 yellow). `swapBlend` lists the blended panels the other way
 // round (draw and list order), which must not change the image.
 Scene alphaScene(bool swapBlend) {
   Scene s;
-  s.materials = {material({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
-                 material({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true),
-                 material({0.1f, 0.3f, 0.9f, 0.5f}, AlphaMode::Blend),
-                 material({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
+  s.materials = {test::solidMaterial({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
+                 test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true),
+                 test::solidMaterial({0.1f, 0.3f, 0.9f, 0.5f}, AlphaMode::Blend),
+                 test::solidMaterial({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
   s.materials[1].alphaCutoff = 0.5f;
   s.materials[1].baseColorTexture = 0;
   // 8 x 8 checker: alpha 255 / 0 (colour white), as a glTF MASK cut-out.
@@ -262,7 +253,7 @@ TEST_F(ClusterAlpha, CountsFragmentsBeyondTheLimits) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
   for (float halfSize : {0.4f, 10.0f}) {
     Scene s;
-    s.materials = {material({0.9f, 0.3f, 0.2f, 0.2f}, AlphaMode::Blend)};
+    s.materials = {test::solidMaterial({0.9f, 0.3f, 0.2f, 0.2f}, AlphaMode::Blend)};
     s.meshes = {makePanel(halfSize, 0.0f, 0, 2)};
     for (int i = 0; i < 18; ++i) s.instances.push_back({0, glm::translate(glm::mat4(1.0f), {0, 0, 0.05f * float(i)})});
     lod::LodAsset asset = bake(s);
