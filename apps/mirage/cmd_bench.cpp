@@ -274,15 +274,11 @@ void runBenchPvs(const BenchPvsOptions& o) {
     auto part = render::ForwardRenderer::create(**ctx, *restricted);
     if (!part) return fail(part.error());
     double cellFull = 0.0, cellPvs = 0.0, cellPsnr = 1e30;
-    for (int v = 0; v < 4; ++v) {
-      float a = float(v) * 1.5707963f;
+    for (const render::Camera& view : cellViewCameras(pvs->cells[c])) {
       render::RenderSettings rs;
       rs.width = width;
       rs.height = height;
-      rs.camera.eye = eye;
-      rs.camera.target = eye + glm::vec3(std::cos(a), 0.0f, std::sin(a));
-      rs.camera.fovYDegrees = 70.0f;
-      rs.camera = render::withClipPlanes(rs.camera, bounds);
+      rs.camera = render::withClipPlanes(view, bounds);
       ImageRGBA8 a1, a2;
       Status st = Ok{};
       cellFull += medianFrameMs(**full, rs, o.frames, &a1, st);

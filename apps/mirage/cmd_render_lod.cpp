@@ -97,14 +97,7 @@ bool openPvs(const LodRenderRequest& r, Session& s) {
 std::vector<render::Camera> cellCameras(const vis::PvsData& pvs) {
   std::vector<render::Camera> cams;
   for (const vis::ViewCell& cell : pvs.cells)
-    for (int v = 0; v < 4; ++v) {
-      float a = float(v) * 1.5707963f;
-      render::Camera c;
-      c.eye = cell.position;
-      c.target = cell.position + glm::vec3(std::cos(a), 0.0f, std::sin(a));
-      c.fovYDegrees = 70.0f;
-      cams.push_back(c);
-    }
+    for (const render::Camera& c : cellViewCameras(cell)) cams.push_back(c);
   return cams;
 }
 

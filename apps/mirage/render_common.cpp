@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <map>
 
 #include <fmt/format.h>
@@ -62,6 +63,17 @@ double frameMilliseconds(const std::vector<gpu::PassTime>& times) {
   for (const auto& t : times)
     if (t.name == "frame") return t.milliseconds;
   return 0.0;
+}
+
+std::array<render::Camera, 4> cellViewCameras(const vis::ViewCell& cell) {
+  std::array<render::Camera, 4> cams;
+  for (int v = 0; v < 4; ++v) {
+    float a = float(v) * 1.5707963f;
+    cams[size_t(v)].eye = cell.position;
+    cams[size_t(v)].target = cell.position + glm::vec3(std::cos(a), 0.0f, std::sin(a));
+    cams[size_t(v)].fovYDegrees = 70.0f;
+  }
+  return cams;
 }
 
 } // namespace mirage::cli

@@ -1,5 +1,6 @@
 #pragma once
 // Shared pieces of the commands that render: output-path checks and timing summaries.
+#include <array>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -12,6 +13,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
 #include "mirage/io/import.h"
+#include "mirage/render/camera.h"
 #include "mirage/visibility/pvs_storage.h"
 
 namespace mirage::cli {
@@ -35,5 +37,9 @@ Result<Scene> restrictSceneToPvs(const Scene& scene, const vis::PvsData& pvs, co
 std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::PassTime>>& frames);
 // The whole frame's GPU time among a frame's pass times ("frame"), 0 when absent.
 double frameMilliseconds(const std::vector<gpu::PassTime>& times);
+
+// The four views the PVS benches time from a view cell: at its centre, level, 90 degrees apart,
+// 70 degree field of view (clip planes left for the caller to derive).
+std::array<render::Camera, 4> cellViewCameras(const vis::ViewCell& cell);
 
 } // namespace mirage::cli
