@@ -2,9 +2,8 @@
 // One workgroup: exclusive prefix sums over the instances of their batch counts (where each
 // instance's splat workgroups start) and surfel counts (their visibility ids; 0 stays background),
 // in chunks of the workgroup size with a running carry, and each batch's instance; then the splat
-// dispatch arguments. A
-// single workgroup is enough for thousands of instances (a chunk per 256); a decoupled look-back
-// scan would replace it for millions.
+// dispatch arguments. A single workgroup is enough for thousands of instances (a chunk per 256); a
+// decoupled look-back scan would replace it for millions.
 #include "surfel_render_common.glsl"
 
 layout(local_size_x = MIRAGE_SURFEL_INSTANCE_WORKGROUP) in;

@@ -41,8 +41,8 @@ void main() {
 
   // All loads first, so each thread has MIRAGE_SURFEL_PER_THREAD requests in flight before the
   // first atomic (bandwidth needs memory-level parallelism; atomics would otherwise serialize them).
-  // Back-face culling reads each surfel's normal too (4 more bytes, coalesced): it saves the random
-  // visibility-buffer access of the surfels it drops, the splat's real cost.
+  // Back-face culling reads each surfel's attributes too (8 more bytes, coalesced) to skip the
+  // surfels facing away; on the H200 that cost more than it saved (docs/surfels.md).
   bool cullBackFaces = kCullBackFaces && s.eyeQuantized.w != 0.0; // uniform over the workgroup (one instance)
   SrUvec2Ref attributes = SrUvec2Ref(push.attributeAddress);
   uvec2 q[MIRAGE_SURFEL_PER_THREAD];

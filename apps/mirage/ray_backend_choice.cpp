@@ -59,8 +59,8 @@ Result<OpenedRayBackend> openRayBackend(const RayBackendChoice& choice, const Sc
       out.context = std::move(*ctx);
     else if (backend != "auto")
       return ctx.error();
-    // auto: a GPU (its ray-tracing pipeline until the compute traversal is measured faster, see
-    // docs/visibility.md); a CPU driver (lavapipe) is slower than Embree.
+    // auto: a GPU (the Vulkan backend picks its traversal, VulkanRayOptions::Traversal::Auto); a
+    // CPU driver (lavapipe) is slower than Embree.
     bool gpu = out.context && out.context->caps().type != VK_PHYSICAL_DEVICE_TYPE_CPU;
     if (backend == "auto") backend = gpu ? "vulkan" : "embree";
     if (backend == "embree") out.context.reset();

@@ -12,9 +12,9 @@
 namespace mirage::cli {
 
 struct RayBackendChoice {
-  // auto: Vulkan on a GPU (its ray-tracing pipeline, or the compute traversal where it has none),
-  // Embree on a CPU driver; vulkan: the pipeline where the device has one, else compute;
-  // compute: the Vulkan compute traversal; compute-VARIANT: one of its variants (kComputeVariants).
+  // auto: Vulkan on a GPU, Embree on a CPU driver; vulkan: the traversal Traversal::Auto picks
+  // (compute where the ray-tracing pipeline is missing or emulated); compute: the Vulkan compute
+  // traversal; compute-VARIANT: one of its variants (kComputeVariants).
   std::string backend = "auto";
   std::string geometry = "auto";
   std::string device;

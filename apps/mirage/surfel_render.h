@@ -16,7 +16,7 @@ struct SurfelRenderRequest {
   uint32_t copies = 1;          // instances of the cloud on a grid
   bool sharedCopies = false;    // bench: copies read one stored cloud (else each its own copy of the data)
   bool allSurfels = false;      // bench: splat all N per instance
-  std::string backface = "off"; // back-face culling: on | off; bench also "both" (timed in one run)
+  std::string backface = "off"; // bench: back-face culling on | off | both (both timed in one run)
   double bandwidth = 4.8e12;    // bench: device bandwidth in B/s for the reported fraction
   int frames = 1;               // render: --repeat; bench: --frames (the first is a warm-up)
   bool stats = false;
