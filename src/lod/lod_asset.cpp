@@ -5,6 +5,9 @@
 #include <chrono>
 
 #include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #include "mirage/asset/bytes.h"
 #include "mirage/asset/container.h"
@@ -100,23 +103,30 @@ std::vector<uint32_t> sourceTriangleClusters(const Mesh& mesh, const ClusterDag&
     std::sort(k.begin(), k.end());
     return k;
   };
-  std::vector<std::pair<Key, uint32_t>> level0; // sorted welded triple -> cluster
-  for (uint32_t c = 0; c < dag.clusters.size() && dag.clusters[c].level == 0; ++c) {
+  // Parallel throughout (the bake runs it on every mesh, 21 M triangles take seconds serially):
+  // each level-0 cluster writes its triangles' keys at its own offset, then one parallel sort
+  // (the pairs are totally ordered, so the result does not depend on the schedule) and
+  // independent lookups.
+  std::vector<size_t> first{0}; // per level-0 cluster: its first entry in level0
+  for (uint32_t c = 0; c < dag.clusters.size() && dag.clusters[c].level == 0; ++c)
+    first.push_back(first.back() + dag.clusters[c].triangleCount);
+  std::vector<std::pair<Key, uint32_t>> level0(first.back()); // sorted welded triple -> cluster
+  tbb::parallel_for(size_t(0), first.size() - 1, [&](size_t c) {
     const Cluster& cl = dag.clusters[c];
+    const uint32_t* v = &dag.clusterVertices[cl.vertexOffset];
     for (uint32_t t = 0; t < cl.triangleCount; ++t) {
       const uint8_t* local = &dag.clusterIndices[(size_t(cl.triangleOffset) + t) * 3];
-      const uint32_t* v = &dag.clusterVertices[cl.vertexOffset];
-      level0.push_back({key(v[local[0]], v[local[1]], v[local[2]]), c});
+      level0[first[c] + t] = {key(v[local[0]], v[local[1]], v[local[2]]), uint32_t(c)};
     }
-  }
-  std::sort(level0.begin(), level0.end());
+  });
+  tbb::parallel_sort(level0.begin(), level0.end());
   std::vector<uint32_t> out(mesh.indices.size() / 3, kNone);
-  for (size_t t = 0; t < out.size(); ++t) {
+  tbb::parallel_for(size_t(0), out.size(), [&](size_t t) {
     Key k = key(mesh.indices[t * 3], mesh.indices[t * 3 + 1], mesh.indices[t * 3 + 2]);
-    if (k[0] == k[1] || k[1] == k[2]) continue; // degenerate: dropped by the builder, covers no pixel
+    if (k[0] == k[1] || k[1] == k[2]) return; // degenerate: dropped by the builder, covers no pixel
     auto it = std::lower_bound(level0.begin(), level0.end(), std::pair<Key, uint32_t>{k, 0});
     if (it != level0.end() && it->first == k) out[t] = it->second;
-  }
+  });
   return out;
 }
 
@@ -129,7 +139,9 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
     auto dag = buildClusterDag(mesh, config);
     if (!dag)
       return Error{scene.source + ": mesh " + std::to_string(i) + " '" + mesh.name + "': " + dag.error().message};
-    out.sourceClusters.push_back(sourceTriangleClusters(mesh, *dag));
+    // On the build's worker count, like the DAG build itself.
+    tbb::task_arena arena(config.threads ? int(config.threads) : tbb::task_arena::automatic);
+    arena.execute([&] { out.sourceClusters.push_back(sourceTriangleClusters(mesh, *dag)); });
     out.dags.push_back(std::move(dag).value());
     done += mesh.triangleCount();
     if (progress) progress(i + 1, scene.meshes.size(), done, total);
