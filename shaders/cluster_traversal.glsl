@@ -26,6 +26,11 @@ void queueNode(uint phase, uint depth, uvec2 item) {
 }
 
 // The roots of the levels of visible instance `row` (VisibleInstance::levels), for depth 0.
+// The DAG group tree (MIRAGE_FRAME_DAG) has one root whatever the level range.
 void queueLevelRoots(uint phase, uint row, uint levels) {
+  if ((FrameRef(push.frameAddress).frame.flags & MIRAGE_FRAME_DAG) != 0) {
+    queueNode(phase, 0, uvec2(row, 0));
+    return;
+  }
   for (uint l = 0; l < (levels >> 16); ++l) queueNode(phase, 0, uvec2(row, (levels & 0xffffu) + l));
 }

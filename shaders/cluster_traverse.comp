@@ -1,7 +1,8 @@
 #version 460
 // Hierarchical selection (--selection hierarchy): breadth-first traversal of the per-level LOD
 // BVHs (GpuLodNode, cluster.h), one indirect dispatch per depth, so no workgroup waits on another
-// (lavapipe gives spinning persistent threads no forward-progress guarantee).
+// (lavapipe gives spinning persistent threads no forward-progress guarantee). --selection dag runs
+// the same kernel over the DAG's group tree (MIRAGE_FRAME_DAG, GpuClusterMesh::dagNodeOffset).
 //   depth 0: the level roots of the visible instances' level ranges, queued by the cull pass
 //            (phase 0) or the late-instance HZB test (phase 1);
 //   depth d: one thread per node queued by depth d - 1 (uvec2(row, node) in queue d & 1).
@@ -21,7 +22,8 @@ void visitNode(uint row, uint node, uint phase, uint depth) {
   VisibleInstance vi = VisibleInstanceRef(push.visibleInstanceAddress).entries[row];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vi.instance];
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
-  GpuLodNode n = NodeRef(f.nodeAddress).nodes[mesh.nodeOffset + node];
+  uint base = (f.flags & MIRAGE_FRAME_DAG) != 0 ? mesh.dagNodeOffset : mesh.nodeOffset;
+  GpuLodNode n = NodeRef(f.nodeAddress).nodes[base + node];
   atomicAdd(TraversalRef(f.traversalAddress).traversal.nodesTested, 1);
   // Every cluster beneath has projected parent error <= this bound (GpuLodNode); the 0.1% margin
   // keeps float rounding from skipping a node whose cluster the exact per-cluster test would take.

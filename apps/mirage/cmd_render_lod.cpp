@@ -160,7 +160,9 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
     return fail("--hybrid-threshold must be a number of pixels in 0..1e6"), false;
   if (!parseSwitch(r.cull.occlusion, "--occlusion", /*allowBoth=*/!needOutput)) return false;
   if (!parseSwitch(r.cull.cones, "--cones", /*allowBoth=*/false)) return false;
-  auto selection = render::parseSelectionMode(r.cull.selection);
+  // bench: --selection all times flat, hierarchy and dag in one run (runLodBench).
+  bool allSelections = r.cull.selection == "all" && !needOutput;
+  auto selection = render::parseSelectionMode(allSelections ? "auto" : r.cull.selection);
   if (!selection) return fail(selection.error()), false;
   render::Camera camera;
   if (!r.camera.empty()) {
@@ -346,8 +348,10 @@ void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
   command.add_option("--cones", o.cones, ".mrg: normal-cone back-face culling on|off")->capture_default_str();
   command
       .add_option("--selection", o.selection,
-                  ".mrg: LOD cut selection: auto (hierarchy from 8192 instances), flat (every cluster of the kept "
-                  "levels) or hierarchy (BVH over groups)")
+                  bench ? ".mrg: LOD cut selection: auto (hierarchy from 8192 instances), flat (every cluster of the "
+                          "kept levels), hierarchy (BVH over groups), dag (tree of the DAG's groups) or all"
+                        : ".mrg: LOD cut selection: auto (hierarchy from 8192 instances), flat (every cluster of the "
+                          "kept levels), hierarchy (BVH over groups) or dag (tree of the DAG's groups)")
       ->capture_default_str();
 }
 
@@ -451,6 +455,9 @@ void runLodBench(const LodRenderRequest& r) {
   std::vector<bool> occlusionModes;
   if (r.cull.occlusion != "off") occlusionModes.push_back(true);
   if (r.cull.occlusion != "on") occlusionModes.push_back(false);
+  std::vector<render::SelectionMode> selections{s.settings.selection};
+  if (r.cull.selection == "all")
+    selections = {render::SelectionMode::Flat, render::SelectionMode::Hierarchy, render::SelectionMode::Dag};
   nlohmann::json all = nlohmann::json::array();
   double bestLodMs = INFINITY;
   if (!r.json)
@@ -459,51 +466,54 @@ void runLodBench(const LodRenderRequest& r) {
                r.input, caps.name, sourceTriangles(s.asset), s.asset.scene.instances.size(), s.settings.base.width,
                s.settings.base.height, r.tau, r.cull.hybridThreshold, r.cull.cones, r.cull.selection, frames - 1);
   for (render::RasterBackend b : backends)
-    for (bool occlusion : occlusionModes) {
-      s.settings.raster = b;
-      s.settings.occlusionCulling = occlusion;
-      s.settings.pvsCulling = true;
-      Timed t; // the untimed warm-up frame fills the occlusion history for this view
-      if (!renderFrames(s, frames, t)) return;
-      bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
-      // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
-      Timed off;
-      if (!s.pvsPath.empty()) {
-        s.settings.pvsCulling = false;
-        if (!renderFrames(s, frames, off)) return;
-      }
-      if (r.json) {
-        nlohmann::json j = statsJson(t.last.stats);
-        for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-        j["gpu_ms_max_frame"] = t.maxFrameMs;
+    for (bool occlusion : occlusionModes)
+      for (render::SelectionMode selection : selections) {
+        s.settings.raster = b;
+        s.settings.occlusionCulling = occlusion;
+        s.settings.selection = selection;
+        s.settings.pvsCulling = true;
+        Timed t; // the untimed warm-up frame fills the occlusion history for this view
+        if (!renderFrames(s, frames, t)) return;
+        bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
+        // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
+        Timed off;
         if (!s.pvsPath.empty()) {
-          j["triangles_mean"] = t.meanTriangles;
-          j["pvs_frames_outside_cells"] = t.framesOutsideCells;
-          j["without_pvs"] = {{"gpu_ms_frame", frameMilliseconds(off.times)},
-                              {"gpu_ms_max_frame", off.maxFrameMs},
-                              {"triangles_mean", off.meanTriangles}};
-          for (const auto& p : off.times) j["without_pvs"]["gpu_ms"][p.name] = p.milliseconds;
+          s.settings.pvsCulling = false;
+          if (!renderFrames(s, frames, off)) return;
         }
-        all.push_back(j);
-        continue;
+        if (r.json) {
+          nlohmann::json j = statsJson(t.last.stats);
+          for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+          j["gpu_ms_max_frame"] = t.maxFrameMs;
+          if (!s.pvsPath.empty()) {
+            j["triangles_mean"] = t.meanTriangles;
+            j["pvs_frames_outside_cells"] = t.framesOutsideCells;
+            j["without_pvs"] = {{"gpu_ms_frame", frameMilliseconds(off.times)},
+                                {"gpu_ms_max_frame", off.maxFrameMs},
+                                {"triangles_mean", off.meanTriangles}};
+            for (const auto& p : off.times) j["without_pvs"]["gpu_ms"][p.name] = p.milliseconds;
+          }
+          all.push_back(j);
+          continue;
+        }
+        fmt::print("-- {}, occlusion {}{}{}\n", render::toString(b), occlusion ? "on" : "off",
+                   selections.size() > 1 ? fmt::format(", selection {}", render::toString(selection)) : "",
+                   s.pvsPath.empty() ? "" : ", cell PVS on");
+        printStats(t.last.stats, t.times, true);
+        if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
+        if (!s.pvsPath.empty()) {
+          double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
+          fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
+                     "culled by the PVS per frame{}\n",
+                     on, t.meanTriangles, t.meanPvsInstances, t.meanPvsClusters,
+                     t.framesOutsideCells
+                         ? fmt::format(" ({} frames outside every cell: not culled)", t.framesOutsideCells)
+                         : "");
+          fmt::print("PVS off: frame {:.3f} ms (median), {:.0f} triangles\n", without, off.meanTriangles);
+          fmt::print("PVS speed-up {:.2f}x, triangles {:.1f}% of the unculled frame\n", without / std::max(on, 1e-9),
+                     100.0 * t.meanTriangles / std::max(off.meanTriangles, 1.0));
+        }
       }
-      fmt::print("-- {}, occlusion {}{}\n", render::toString(b), occlusion ? "on" : "off",
-                 s.pvsPath.empty() ? "" : ", cell PVS on");
-      printStats(t.last.stats, t.times, true);
-      if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
-      if (!s.pvsPath.empty()) {
-        double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
-        fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
-                   "culled by the PVS per frame{}\n",
-                   on, t.meanTriangles, t.meanPvsInstances, t.meanPvsClusters,
-                   t.framesOutsideCells
-                       ? fmt::format(" ({} frames outside every cell: not culled)", t.framesOutsideCells)
-                       : "");
-        fmt::print("PVS off: frame {:.3f} ms (median), {:.0f} triangles\n", without, off.meanTriangles);
-        fmt::print("PVS speed-up {:.2f}x, triangles {:.1f}% of the unculled frame\n", without / std::max(on, 1e-9),
-                   100.0 * t.meanTriangles / std::max(off.meanTriangles, 1.0));
-      }
-    }
   nlohmann::json baselines = nlohmann::json::array();
   if (r.baselines) {
     // Brute force at full resolution can take seconds per frame on big grids: few frames.

@@ -31,6 +31,7 @@ struct ClusterSceneData {
   uint32_t maxMeshClusters = 0;
   uint32_t maxMeshNodes = 0;              // largest LOD BVH of one mesh (nodes)
   uint32_t lodDepth = 0;                  // deepest LOD BVH node below its level root (traversal passes - 1)
+  uint32_t dagDepth = 0;                  // deepest node of the DAG group trees (--selection dag: passes - 1)
   uint64_t instancedClusters = 0;         // sum over instances of their mesh's clusters (history bits)
   uint64_t blendInstancedClusters = 0;    // the same over BLEND instances: 0 = no transparency passes
   bool hasMask = false;                   // a MASK instance: the compute raster adds the masked kernel

@@ -89,13 +89,23 @@ Result<RasterBackend> parseRasterBackend(std::string_view text) {
 }
 
 const char* toString(SelectionMode m) {
-  return m == SelectionMode::Auto ? "auto" : m == SelectionMode::Flat ? "flat" : "hierarchy";
+  switch (m) {
+  case SelectionMode::Auto:
+    return "auto";
+  case SelectionMode::Flat:
+    return "flat";
+  case SelectionMode::Hierarchy:
+    return "hierarchy";
+  case SelectionMode::Dag:
+    return "dag";
+  }
+  return "?";
 }
 
 Result<SelectionMode> parseSelectionMode(std::string_view text) {
-  for (SelectionMode m : {SelectionMode::Auto, SelectionMode::Flat, SelectionMode::Hierarchy})
+  for (SelectionMode m : {SelectionMode::Auto, SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag})
     if (text == toString(m)) return m;
-  return Error{fmt::format("--selection '{}': expected auto, flat or hierarchy", text)};
+  return Error{fmt::format("--selection '{}': expected auto, flat, hierarchy or dag", text)};
 }
 
 struct ClusterRenderer::Impl {
@@ -115,6 +125,7 @@ struct ClusterRenderer::Impl {
   Image color, vis, depth;
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
   uint32_t blendCapacity = 0, oitNodeCapacity = 0; // 0 without BLEND materials: no transparency passes
+  uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
   GpuTimer timer;
@@ -336,7 +347,7 @@ void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPus
 // made visible by the caller.
 void ClusterRenderer::Impl::cmdTraverse(VkCommandBuffer cmd, const sio::ClusterPush& p, uint32_t phase) {
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, traversePipeline);
-  for (uint32_t bvhDepth = 0; bvhDepth <= scene.lodDepth; ++bvhDepth) {
+  for (uint32_t bvhDepth = 0; bvhDepth <= traversalDepth; ++bvhDepth) {
     if (bvhDepth > 0) cmdPhaseBarrier(cmd, ctx.caps().meshShader);
     cmdPush(cmd, p, phase | bvhDepth << 1);
     vkCmdDispatchIndirect(cmd, traversal.handle(),
@@ -606,8 +617,10 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   if (cs.readOwnedClusters && !occlusion)
     return Error{"reading the clusters that own pixels needs occlusion culling (its history)"};
   bool pvs = cs.pvsCulling && d.pvsInstances;
-  bool hierarchy = cs.selection == SelectionMode::Hierarchy ||
+  bool dagTree = cs.selection == SelectionMode::Dag;
+  bool hierarchy = dagTree || cs.selection == SelectionMode::Hierarchy ||
                    (cs.selection == SelectionMode::Auto && d.scene.instanceCount >= kHierarchyInstances);
+  d.traversalDepth = dagTree ? d.scene.dagDepth : d.scene.lodDepth;
   d.ensureTargets(s.width, s.height);
 
   Camera cam = withClipPlanes(s.camera, d.scene.worldBounds);
@@ -628,7 +641,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
             (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) | (bufferTarget ? MIRAGE_FRAME_SOURCE_BUFFER : 0u) |
             (backend == RasterBackend::Hybrid ? MIRAGE_FRAME_HYBRID : 0u) | (occlusion ? MIRAGE_FRAME_OCCLUSION : 0u) |
             (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u) | (hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u) |
-            (pvs ? MIRAGE_FRAME_PVS : 0u);
+            (pvs ? MIRAGE_FRAME_PVS : 0u) | (dagTree ? MIRAGE_FRAME_DAG : 0u);
   if (pvs) {
     f.pvsInstanceAddress = d.pvsInstances.address();
     f.pvsClusterAddress = d.pvsClusters.address();
@@ -742,9 +755,9 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     std::vector<uint8_t> rawT = readbackBuffer(d.ctx, d.traversal, sizeof(t));
     std::memcpy(&t, rawT.data(), sizeof(t));
     st.nodesTested = t.nodesTested;
-    st.selectionPasses = d.scene.lodDepth + 1;
+    st.selectionPasses = d.traversalDepth + 1;
   }
-  st.selection = hierarchy ? SelectionMode::Hierarchy : SelectionMode::Flat;
+  st.selection = dagTree ? SelectionMode::Dag : hierarchy ? SelectionMode::Hierarchy : SelectionMode::Flat;
   st.instancesVisible = c.visibleInstances;
   st.clustersTested = c.clustersTested;
   st.selectRows = c.selectArgs[1];

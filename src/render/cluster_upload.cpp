@@ -103,6 +103,39 @@ uint32_t buildLodSubtree(std::vector<LodBuildNode>& nodes, std::vector<uint32_t>
   return uint32_t(nodes.size() - 1);
 }
 
+// Breadth-first layout of build nodes into GpuLodNodes: `roots` first, then each node's children
+// in one contiguous run (child offsets relative to the first root). Returns the deepest node's
+// depth below the roots.
+uint32_t layoutLodNodes(const std::vector<LodBuildNode>& nodes, const std::vector<uint32_t>& roots,
+                        std::vector<sio::GpuLodNode>& out, std::vector<uint32_t>& leafClusters) {
+  uint32_t base = uint32_t(out.size());
+  std::vector<std::pair<uint32_t, uint32_t>> queue; // (build node, depth), in output order
+  for (uint32_t r : roots) queue.push_back({r, 0});
+  out.resize(base + roots.size());
+  uint32_t maxDepth = 0;
+  for (size_t q = 0; q < queue.size(); ++q) {
+    auto [id, depth] = queue[q];
+    const LodBuildNode& n = nodes[id];
+    maxDepth = std::max(maxDepth, depth);
+    sio::GpuLodNode g{};
+    g.sphere = n.sphere;
+    g.maxParentError = n.maxParentError;
+    if (n.children.empty()) {
+      g.leaf = 1;
+      g.childOffset = uint32_t(leafClusters.size());
+      g.childCount = uint32_t(n.clusters.size());
+      leafClusters.insert(leafClusters.end(), n.clusters.begin(), n.clusters.end());
+    } else {
+      g.childOffset = uint32_t(out.size()) - base;
+      g.childCount = uint32_t(n.children.size());
+      out.resize(out.size() + n.children.size());
+      for (uint32_t c : n.children) queue.push_back({c, depth + 1});
+    }
+    out[base + q] = g;
+  }
+  return maxDepth;
+}
+
 // The LOD BVH of one mesh (see GpuLodNode): per level of `levels` (the mesh's level table) one leaf
 // per member group (roots: one leaf), a BVH over them, and the roots stored first in level order,
 // every node's children contiguous. Appends to `out` / `leafClusters`; returns the deepest node's
@@ -135,33 +168,69 @@ uint32_t buildLodBvh(const sio::GpuCluster* clusters, const lod::ClusterDag& dag
     }
     roots.push_back(buildLodSubtree(nodes, std::move(leaves)));
   }
-  // Breadth-first layout: level roots first, then each node's children in one contiguous run.
-  uint32_t base = uint32_t(out.size());
-  std::vector<std::pair<uint32_t, uint32_t>> queue; // (build node, depth), in output order
-  for (uint32_t r : roots) queue.push_back({r, 0});
-  out.resize(base + roots.size());
-  uint32_t maxDepth = 0;
-  for (size_t q = 0; q < queue.size(); ++q) {
-    auto [id, depth] = queue[q];
-    const LodBuildNode& n = nodes[id];
-    maxDepth = std::max(maxDepth, depth);
-    sio::GpuLodNode g{};
-    g.sphere = n.sphere;
-    g.maxParentError = n.maxParentError;
-    if (n.children.empty()) {
-      g.leaf = 1;
-      g.childOffset = uint32_t(leafClusters.size());
-      g.childCount = uint32_t(n.clusters.size());
-      leafClusters.insert(leafClusters.end(), n.clusters.begin(), n.clusters.end());
-    } else {
-      g.childOffset = uint32_t(out.size()) - base;
-      g.childCount = uint32_t(n.children.size());
-      out.resize(out.size() + n.children.size());
-      for (uint32_t c : n.children) queue.push_back({c, depth + 1});
+  return layoutLodNodes(nodes, roots, out, leafClusters);
+}
+
+// The DAG traversal's group tree (--selection dag, after the dissertation's DAG-TRAVERSE), in the
+// same node format: one node per group, entered when the group's projected error exceeds tau
+// (LOCALCUT's parent test of its member clusters). A group's node has a leaf with its member
+// clusters and, as further children, the groups whose FIRST parent cluster is one of its members:
+// the DAG gives a group several parents, the tree hangs it under exactly one, so the traversal
+// visits it once without deduplication. That parent is entered whenever the child must be: group g
+// holds child group s's first output p, so g's error >= p's self error = s's error and g's sphere
+// encloses s's (monotonic errors, nested spheres: lod/verify.h), hence projected(g) >= projected(s).
+// The root node holds the DAG roots (error +inf) and the groups whose first output is a root.
+// Spheres enclose everything beneath, so frustum culling stays conservative. Returns the depth.
+uint32_t buildDagTree(const sio::GpuCluster* clusters, const lod::ClusterDag& dag, std::vector<sio::GpuLodNode>& out,
+                      std::vector<uint32_t>& leafClusters) {
+  std::vector<LodBuildNode> nodes;
+  auto addLeaf = [&](const uint32_t* members, uint32_t count) {
+    LodBuildNode leaf;
+    std::vector<glm::vec4> spheres;
+    for (uint32_t i = 0; i < count; ++i) {
+      leaf.clusters.push_back(members[i]);
+      leaf.maxParentError = std::max(leaf.maxParentError, clusters[members[i]].parentError);
+      spheres.push_back(clusters[members[i]].parentSphere), spheres.push_back(clusters[members[i]].boundsSphere);
     }
-    out[base + q] = g;
+    leaf.sphere = encloseSpheres(spheres);
+    nodes.push_back(std::move(leaf));
+    return uint32_t(nodes.size() - 1);
+  };
+  // Children of each group's node (index = group; the root's at dag.groups.size()): groups owned.
+  std::vector<std::vector<uint32_t>> owned(dag.groups.size() + 1);
+  for (uint32_t g = 0; g < dag.groups.size(); ++g) {
+    uint32_t firstParent = dag.groupParents[dag.groups[g].parentOffset];
+    uint32_t owner = dag.clusters[firstParent].group;
+    owned[owner == lod::kNone ? dag.groups.size() : owner].push_back(g);
   }
-  return maxDepth;
+  // Bottom-up: an owned group's parents are one level up, so ascending levels build children first.
+  std::vector<uint32_t> order(dag.groups.size());
+  for (uint32_t g = 0; g < order.size(); ++g) order[g] = g;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](uint32_t a, uint32_t b) { return dag.groups[a].level < dag.groups[b].level; });
+  std::vector<uint32_t> groupNode(dag.groups.size() + 1, lod::kNone);
+  auto addGroupNode = [&](uint32_t leaf, const std::vector<uint32_t>& children) {
+    if (children.empty()) return leaf;
+    LodBuildNode node;
+    node.children.push_back(leaf);
+    for (uint32_t c : children) node.children.push_back(groupNode[c]);
+    std::vector<glm::vec4> spheres;
+    for (uint32_t c : node.children) {
+      spheres.push_back(nodes[c].sphere);
+      node.maxParentError = std::max(node.maxParentError, nodes[c].maxParentError);
+    }
+    node.sphere = encloseSpheres(spheres);
+    nodes.push_back(std::move(node));
+    return uint32_t(nodes.size() - 1);
+  };
+  for (uint32_t g : order) {
+    const lod::Group& group = dag.groups[g];
+    uint32_t leaf = addLeaf(&dag.groupChildren[group.childOffset], group.childCount);
+    groupNode[g] = addGroupNode(leaf, owned[g]);
+  }
+  uint32_t rootLeaf = addLeaf(dag.roots.data(), uint32_t(dag.roots.size()));
+  uint32_t root = addGroupNode(rootLeaf, owned[dag.groups.size()]);
+  return layoutLodNodes(nodes, {root}, out, leafClusters);
 }
 
 } // namespace
@@ -249,6 +318,12 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
       return Error{fmt::format("{}: mesh '{}': LOD BVH of depth {} (at most {})", scene.source, scene.meshes[m].name,
                                depth, MIRAGE_LOD_MAX_DEPTH - 1)};
     d.lodDepth = std::max(d.lodDepth, depth);
+    gm.dagNodeOffset = uint32_t(lodNodes.size());
+    uint32_t dagDepth = buildDagTree(&clusters[gm.clusterOffset], dag, lodNodes, leafClusters);
+    if (dagDepth >= MIRAGE_LOD_MAX_DEPTH)
+      return Error{fmt::format("{}: mesh '{}': DAG group tree of depth {} (at most {})", scene.source,
+                               scene.meshes[m].name, dagDepth, MIRAGE_LOD_MAX_DEPTH - 1)};
+    d.dagDepth = std::max(d.dagDepth, dagDepth);
     d.maxMeshNodes = std::max(d.maxMeshNodes, uint32_t(lodNodes.size()) - gm.nodeOffset);
     d.maxMeshClusters = std::max(d.maxMeshClusters, gm.clusterCount);
     meshes.push_back(gm);

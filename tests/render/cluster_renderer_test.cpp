@@ -132,7 +132,7 @@ void expectSelectionMatchesCpu(gpu::Context& ctx, const Camera& camera, float ta
   // The cull pass skips levels that cannot be on this instance's cut: from outside every LOD sphere
   // fewer clusters are tested; with the eye inside one, every cluster is (flat pass); the BVH
   // traversal tests the clusters of groups above the cut (here close to all of them at small tau).
-  if (mode == SelectionMode::Hierarchy)
+  if (mode != SelectionMode::Flat)
     EXPECT_LE(out->stats.clustersTested, dag.clusters.size());
   else if (expectEyeInside)
     EXPECT_EQ(out->stats.clustersTested, dag.clusters.size());
@@ -166,7 +166,7 @@ TEST_F(ClusterRender, LevelPruningKeepsTheCutForManyInstances) {
   s.frustumCulling = false;
   s.occlusionCulling = false;
   s.coneCulling = false;
-  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy}) {
+  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag}) {
     SCOPED_TRACE(toString(mode));
     s.selection = mode;
     auto out = (*r)->render(s);
@@ -189,14 +189,16 @@ TEST_F(ClusterRender, LevelPruningKeepsTheCutForManyInstances) {
   }
 }
 
-// The BVH traversal selects exactly what the flat pass selects, with every culling option on, at
-// several thresholds and cameras (far, close up, inside group spheres, partly out of view), over two
-// frames (the second with occlusion history): same counts, same triangles, the same pixels.
+// The BVH traversal and the DAG group-tree traversal select exactly what the flat pass selects,
+// with every culling option on, at several thresholds and cameras (far, close up, inside group
+// spheres, partly out of view), over two frames (the second with occlusion history): same counts,
+// same triangles, the same pixels.
 TEST_F(ClusterRender, HierarchicalSelectionMatchesFlat) {
   const lod::LodAsset& asset = blobAsset();
   auto flat = ClusterRenderer::create(context(), asset);
   auto tree = ClusterRenderer::create(context(), asset);
-  ASSERT_TRUE(flat.ok() && tree.ok());
+  auto dagTree = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(flat.ok() && tree.ok() && dagTree.ok());
   Camera far = autoCamera((*flat)->worldBounds(), 1.0f);
   Camera close = far;
   close.eye = glm::mix(far.target, far.eye, 0.45f); // the blob fills the view, partly outside it
@@ -206,7 +208,7 @@ TEST_F(ClusterRender, HierarchicalSelectionMatchesFlat) {
   inside.target = {1.0f, 0.2f, 1.3f};
   inside.znear = 0.01f;
   inside.zfar = 10.0f;
-  uint32_t fewerTested = 0;
+  uint32_t fewerTested[2] = {0, 0};
   for (const Camera& cam : {far, close, inside})
     for (float tau : {0.5f, 1.0f, 3.0f, 12.0f}) {
       SCOPED_TRACE(fmt::format("eye {} {} {}, tau {}", cam.eye.x, cam.eye.y, cam.eye.z, tau));
@@ -219,28 +221,35 @@ TEST_F(ClusterRender, HierarchicalSelectionMatchesFlat) {
         s.occlusionCulling = frame == 1;
         s.selection = SelectionMode::Flat;
         auto a = (*flat)->render(s);
-        s.selection = SelectionMode::Hierarchy;
-        auto b = (*tree)->render(s);
-        ASSERT_TRUE(a.ok() && b.ok());
-        EXPECT_EQ(a->stats.clustersSelected, b->stats.clustersSelected);
-        EXPECT_EQ(a->stats.clustersBackfaceCulled, b->stats.clustersBackfaceCulled);
-        if (frame == 0) {
-          EXPECT_EQ(a->stats.clustersDrawn, b->stats.clustersDrawn);
-          EXPECT_EQ(a->stats.trianglesRasterized, b->stats.trianglesRasterized);
+        ASSERT_TRUE(a.ok());
+        for (int t = 0; t < 2; ++t) {
+          s.selection = t == 0 ? SelectionMode::Hierarchy : SelectionMode::Dag;
+          SCOPED_TRACE(toString(s.selection));
+          auto b = (t == 0 ? *tree : *dagTree)->render(s);
+          ASSERT_TRUE(b.ok());
+          EXPECT_EQ(b->stats.selection, s.selection);
+          EXPECT_EQ(a->stats.clustersSelected, b->stats.clustersSelected);
+          EXPECT_EQ(a->stats.clustersBackfaceCulled, b->stats.clustersBackfaceCulled);
+          if (frame == 0) {
+            EXPECT_EQ(a->stats.clustersDrawn, b->stats.clustersDrawn);
+            EXPECT_EQ(a->stats.trianglesRasterized, b->stats.trianglesRasterized);
+          }
+          EXPECT_EQ(b->stats.clustersOverflow, 0u);
+          EXPECT_GT(b->stats.nodesTested, 0u);
+          EXPECT_GT(b->stats.clustersSelected, 0u);
+          EXPECT_GE(psnr(a->image.srgb, b->image.srgb), 60.0); // identical but for ties between equal depths
+          fewerTested[t] += b->stats.clustersTested < a->stats.clustersTested;
         }
-        EXPECT_EQ(b->stats.clustersOverflow, 0u);
-        EXPECT_GT(b->stats.nodesTested, 0u);
-        EXPECT_GT(b->stats.clustersSelected, 0u);
-        EXPECT_GE(psnr(a->image.srgb, b->image.srgb), 60.0); // identical but for ties between equal depths
-        fewerTested += b->stats.clustersTested < a->stats.clustersTested;
       }
     }
-  EXPECT_GT(fewerTested, 12u); // of 24 renders: the traversal skips groups below the cut
+  // Of 24 renders: the traversals skip groups below the cut.
+  EXPECT_GT(fewerTested[0], 12u);
+  EXPECT_GT(fewerTested[1], 12u);
 }
 
 TEST_F(ClusterRender, SelectionMatchesCpuLocalCut) {
   Camera cam = autoCamera(blobAsset().scene.worldBounds(), 1.0f);
-  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy})
+  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag})
     expectSelectionMatchesCpu(context(), cam, 2.0f, /*expectEyeInside=*/false, mode);
   EXPECT_LT(cpuCut(blobAsset().dags[0], cam, 2.0f).triangles, blobAsset().dags[0].inputTriangles);
 }
@@ -252,7 +261,7 @@ TEST_F(ClusterRender, SelectionMatchesCpuWithEyeInsideSpheres) {
   cam.target = {1.0f, 0.0f, 1.3f};
   cam.znear = 0.01f;
   cam.zfar = 10.0f;
-  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy})
+  for (SelectionMode mode : {SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag})
     for (float tau : {0.5f, 1.0f, 4.0f}) expectSelectionMatchesCpu(context(), cam, tau, /*expectEyeInside=*/true, mode);
 }
 

@@ -169,7 +169,8 @@ TEST_F(ClusterPvsRender, CulledImageMatchesAndOwnedClustersAreInThePvs) {
   uint64_t trianglesFull = 0, trianglesCulled = 0;
   uint32_t instancesPvsCulled = 0, clustersPvsCulled = 0;
 
-  for (render::SelectionMode mode : {render::SelectionMode::Flat, render::SelectionMode::Hierarchy})
+  for (render::SelectionMode mode :
+       {render::SelectionMode::Flat, render::SelectionMode::Hierarchy, render::SelectionMode::Dag})
     for (int v = 0; v < 4; ++v) {
       SCOPED_TRACE(testing::Message() << render::toString(mode) << " view " << v);
       render::ClusterRenderSettings cs;

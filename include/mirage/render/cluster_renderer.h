@@ -40,6 +40,7 @@ enum class SelectionMode {
   Auto,      // hierarchy from kHierarchyInstances instances on, else flat (measured on the H200, below)
   Flat,      // one thread per (visible instance, cluster of its level range)
   Hierarchy, // breadth-first traversal of per-level BVHs over the DAG's groups: work follows the cut
+  Dag,       // the dissertation's DAG traversal: from the roots down a tree of the DAG's groups
 };
 // H200, select pass: 2500 instances flat 0.010 ms / hierarchy 0.022; 65025 instances 0.150 / 0.030;
 // one 21 M-triangle mesh close up 0.020 / 0.190 (the flat pass tests 335 k clusters faster than the
@@ -47,7 +48,7 @@ enum class SelectionMode {
 // is mostly fixed: the crossover lies near 10 k instances.
 constexpr uint32_t kHierarchyInstances = 8192;
 const char* toString(SelectionMode mode);
-// "auto", "flat" or "hierarchy"; anything else is an error naming the choices.
+// "auto", "flat", "hierarchy" or "dag"; anything else is an error naming the choices.
 Result<SelectionMode> parseSelectionMode(std::string_view text);
 
 struct ClusterRenderSettings {

@@ -39,6 +39,7 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_CONE_CULL 32u     // per-cluster normal-cone back-face culling
 #define MIRAGE_FRAME_HIERARCHY 64u     // selection traverses the LOD BVH (cluster_traverse.comp), else a flat pass
 #define MIRAGE_FRAME_PVS 128u          // cull instances and clusters outside the camera cell's cluster PVS
+#define MIRAGE_FRAME_DAG 256u          // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
 // ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
 #define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
 
@@ -97,7 +98,9 @@ struct GpuClusterMesh {
   // First node of this mesh's LOD BVH (GpuLodNode): nodes [nodeOffset, nodeOffset + levelCount)
   // are the roots of the levels' BVHs, in level order; child offsets are relative to nodeOffset.
   uint nodeOffset;
-  uint pad0;
+  // First node of this mesh's group tree (--selection dag, the dissertation's DAG traversal): node 0
+  // is the root; child offsets are relative to dagNodeOffset. Same GpuLodNode format.
+  uint dagNodeOffset;
 };
 
 // One DAG level of a mesh: clusters are stored by level, so a level is a contiguous range. Its
@@ -131,7 +134,7 @@ struct GpuLodNode {
   vec4 sphere;          // object space, encloses parent spheres and cluster bounds beneath
   float maxParentError; // largest parent error beneath (+inf with a root cluster beneath)
   uint childOffset;     // inner: first child node (mesh-relative); leaf: first entry in the leaf-cluster list
-  uint childCount;      // inner: <= MIRAGE_LOD_NODE_WIDTH children; leaf: its clusters
+  uint childCount;      // inner: <= MIRAGE_LOD_NODE_WIDTH children (group tree: any); leaf: its clusters
   uint leaf;            // 1: childOffset/childCount are mesh-local cluster ids in the leaf-cluster list
 };
 
