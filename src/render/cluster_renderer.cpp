@@ -573,6 +573,7 @@ void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::Cluste
     d.depthCompare = VK_COMPARE_OP_ALWAYS;
     blendDepthPipeline = createGraphicsPipeline(ctx, d);
   }
+  uint32_t slot = timer.cmdBegin(cmd, "blend-z");
   // Unwritten on the buffer backends (only read through descriptors): the old contents are dropped.
   cmdImageBarrier(cmd,
                   {depth.handle(), kCS, 0, kTests,
@@ -602,6 +603,7 @@ void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::Cluste
                         VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
                         VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
                         VK_IMAGE_ASPECT_DEPTH_BIT});
+  timer.cmdEnd(cmd, slot);
 }
 
 // The hardware blend list (entries from the blend list's end) drawn with no colour output over the
@@ -640,7 +642,7 @@ void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::Clu
 // into per-pixel fragment lists, depth-tested against the opaque depth (the compute list by
 // cluster_raster_blend.comp, the hardware list by cmdHardwareBlend), then the composite sorts and
 // blends each pixel's fragments over the resolved colour. "blend" times both rasters; hybrid adds
-// "blend-cs" and "blend-hw" for each alone.
+// "blend-cs" and "blend-hw" for each alone, and the buffer backends' depth copy is "blend-z".
 // barriers: the resolve's colour, the opaque depth and the blend arguments (cmdArgs pass 2) written;
 // the heads zeroed at the frame start. On exit the colour is in GENERAL with its writes available.
 void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, BlendRaster blend, bool meshBlend,
