@@ -1,7 +1,7 @@
 #version 460
 // Indirect arguments of one raster pass (push.rasterList = pass) from the list ends (one thread):
 // the pass draws what was appended since the previous pass. Pass 0 also sizes the occlusion pass
-// over the candidates; pass 2 is the blend list.
+// over the candidates; pass 2 are the blend lists.
 #include "cluster_common.glsl"
 
 layout(local_size_x = 1) in;
@@ -15,19 +15,10 @@ uvec3 splitDispatch(uint n, uint perGroup) {
 void main() {
   uint pass = push.rasterList;
   CounterRef c = CounterRef(push.counterAddress);
-  if (pass == 2) { // the blend list, complete after both selection phases (compute raster only)
-    uint n = min(c.counters.blendClusters, FrameRef(push.frameAddress).frame.blendCapacity);
-    uvec3 d = splitDispatch(n, 1);
-    c.counters.lists[2][MIRAGE_LIST_UP].dispatch[0] = d.x;
-    c.counters.lists[2][MIRAGE_LIST_UP].dispatch[1] = d.y;
-    c.counters.lists[2][MIRAGE_LIST_UP].dispatch[2] = 1;
-    c.counters.lists[2][MIRAGE_LIST_UP].first = 0;
-    c.counters.lists[2][MIRAGE_LIST_UP].count = n;
-    return;
-  }
+  // Pass 2: the blend lists (compute, hardware), complete after both selection phases.
   for (uint list = 0; list < 2; ++list) {
-    uint first = pass == 0 ? 0 : c.counters.lists[0][list].first + c.counters.lists[0][list].count;
-    uint n = c.counters.listEnd[list] - first;
+    uint first = pass != 1 ? 0 : c.counters.lists[0][list].first + c.counters.lists[0][list].count;
+    uint n = (pass == 2 ? c.counters.blendListEnd[list] : c.counters.listEnd[list]) - first;
     uvec3 d = splitDispatch(n, 1); // one mesh / compute workgroup per cluster
     c.counters.lists[pass][list].dispatch[0] = d.x;
     c.counters.lists[pass][list].dispatch[1] = d.y;

@@ -46,9 +46,15 @@ uint triangleVertex(GpuCluster c, uint t, uint k) {
   return UintRef(push.clusterVertexAddress).data[c.vertexOffset + local];
 }
 
-// Entry `i` of a visible-cluster list: the up list from the front, the down list from the back.
+// Entry `i` of a visible-cluster list: the up list from the front, the down list from the back
+// (of the blend list with MIRAGE_BLEND_LISTS: the blend rasters).
 uint listEntry(uint list, uint i) {
-  return list == MIRAGE_LIST_UP ? i : FrameRef(push.frameAddress).frame.visibleCapacity - 1u - i;
+#ifdef MIRAGE_BLEND_LISTS
+  uint capacity = FrameRef(push.frameAddress).frame.blendCapacity;
+#else
+  uint capacity = FrameRef(push.frameAddress).frame.visibleCapacity;
+#endif
+  return list == MIRAGE_LIST_UP ? i : capacity - 1u - i;
 }
 
 // The raster pass's share of its list (push.rasterList = pass * 2 + list): entries

@@ -53,24 +53,19 @@ vec3 toScreen(vec4 clip, vec2 viewport) {
 }
 
 #ifdef MIRAGE_RASTER_BLEND
+#include "cluster_oit.glsl"
 layout(set = 0, binding = 3) uniform sampler2D opaqueDepthImage; // image backends' depth
 
 // Nearest opaque depth of pixel (x, y): the 64-bit buffer's high word (compute, hybrid) or the
 // hardware depth (mesh, indirect); 0 (far) where nothing opaque was drawn.
 float opaqueDepth(ClusterFrame f, uint x, uint y) {
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) == 0) return texelFetch(opaqueDepthImage, ivec2(x, y), 0).r;
-  uint pixel = min(y * uint(f.viewport.x) + x, uint(f.viewport.x * f.viewport.y) - 1u); // lavapipe: any lane loads
-  return uintBitsToFloat(uint(VisBufferRef(push.visBufferAddress).pixels[pixel] >> 32));
+  return bufferOpaqueDepth(f, x, y);
 }
 
-// A blended fragment in front of the opaque surface: pushed onto its pixel's list (node pool
-// permitting; oitNodes counts every attempt, so the excess is known).
+// A blended fragment in front of the opaque surface: onto its pixel's list (cluster_oit.glsl).
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
-  if (!(z > opaqueDepth(f, x, y))) return;
-  uint n = atomicAdd(CounterRef(push.counterAddress).counters.oitNodes, 1);
-  if (n >= f.oitNodeCapacity) return;
-  uint next = atomicExchange(UintRef(f.oitHeadAddress).data[y * uint(f.viewport.x) + x], n + 1);
-  OitNodeRef(f.oitNodeAddress).nodes[n] = OitNode(floatBitsToUint(z), id, next);
+  if (z > opaqueDepth(f, x, y)) oitAppend(f, x, y, z, id);
 }
 #else
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {

@@ -63,9 +63,14 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
       atomicAdd(counters.counters.clustersOcclusionCulled, 1);
       return;
     }
-    uint slot = atomicAdd(counters.counters.blendClusters, 1);
-    if (slot < f.blendCapacity) {
-      VisibleRef(f.blendVisibleAddress).visible[slot] = vc;
+    // A ticket first (the lists share the capacity), then the compute list from the front or the
+    // hardware list from the back (hybrid: large triangles, as emitCluster splits opaque ones).
+    if (atomicAdd(counters.counters.blendClusters, 1) < f.blendCapacity) {
+      bool hardware = (f.flags & MIRAGE_FRAME_BLEND_HARDWARE) != 0 ||
+                      ((f.flags & MIRAGE_FRAME_BLEND_HYBRID) != 0 && hardwareCluster(s, c.triangleCount, f));
+      uint list = hardware ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP;
+      uint slot = atomicAdd(counters.counters.blendListEnd[list], 1);
+      VisibleRef(f.blendVisibleAddress).visible[hardware ? f.blendCapacity - 1u - slot : slot] = vc;
       atomicAdd(counters.counters.trianglesSelected, c.triangleCount);
     } else {
       atomicAdd(counters.counters.clustersOverflow, 1);

@@ -85,8 +85,8 @@ void runRender(const RenderOptions& o) {
     return runLodRender(r);
   }
   if (o.raster != "auto" || o.tau != 1.0f || !o.path.empty() || !o.cull.isDefault())
-    return fail("--tau, --raster, --path, --hybrid-threshold, --occlusion and --cones apply to .mrg cluster-LOD assets "
-                "only");
+    return fail("--tau, --raster, --path, --hybrid-threshold, --occlusion, --cones, --selection and --blend-raster "
+                "apply to .mrg cluster-LOD assets only");
   // Check everything cheap before the import and the GPU start.
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());

@@ -164,6 +164,8 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   bool allSelections = r.cull.selection == "all" && !needOutput;
   auto selection = render::parseSelectionMode(allSelections ? "auto" : r.cull.selection);
   if (!selection) return fail(selection.error()), false;
+  if (!(!needOutput && r.cull.blendRaster == "all"))
+    if (auto blend = render::parseBlendRaster(r.cull.blendRaster); !blend) return fail(blend.error()), false;
   render::Camera camera;
   if (!r.camera.empty()) {
     auto c = render::parseCamera(r.camera);
@@ -204,6 +206,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   s.settings.occlusionCulling = r.cull.occlusion != "off";
   s.settings.coneCulling = r.cull.cones == "on";
   s.settings.selection = *selection;
+  if (auto blend = render::parseBlendRaster(r.cull.blendRaster)) s.settings.blendRaster = *blend; // else bench "all"
   if (!r.pvs.empty()) {
     if (r.surfels) return fail("--pvs does not apply to mixed (--surfels) scenes yet"), false;
     if (!openPvs(r, s)) return false;
@@ -289,6 +292,8 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"clusters_overflow", st.clustersOverflow},
           {"triangles_rasterized", st.trianglesRasterized},
           {"clusters_blend", st.clustersBlend},
+          {"blend_raster", render::toString(st.blendRaster)},
+          {"clusters_blend_hardware", st.clustersBlendHardware},
           {"oit_fragments", st.oitFragments},
           {"oit_pool_overflow", st.oitPoolOverflow},
           {"oit_layers_dropped", st.oitLayersDropped},
@@ -314,8 +319,10 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
   fmt::print("clusters drawn {} ({} by hardware)  triangles rasterized {}  near-clipped {}\n", st.clustersDrawn,
              st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
   if (st.clustersBlend)
-    fmt::print("blend: {} clusters  {} fragments  dropped: {} past the node pool, {} past 16 layers per pixel\n",
-               st.clustersBlend, st.oitFragments, st.oitPoolOverflow, st.oitLayersDropped);
+    fmt::print("blend ({} raster): {} clusters ({} by hardware)  {} fragments  dropped: {} past the node pool, {} "
+               "past 16 layers per pixel\n",
+               render::toString(st.blendRaster), st.clustersBlend, st.clustersBlendHardware, st.oitFragments,
+               st.oitPoolOverflow, st.oitLayersDropped);
   if (st.pvs)
     fmt::print("cell PVS: {} instances and {} cut clusters culled\n", st.instancesPvsCulled, st.clustersPvsCulled);
   if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)
@@ -346,6 +353,12 @@ void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
                       : ".mrg: two-pass HZB occlusion culling on|off (off: it cost more than it saved on the H200)")
       ->capture_default_str();
   command.add_option("--cones", o.cones, ".mrg: normal-cone back-face culling on|off")->capture_default_str();
+  command
+      .add_option("--blend-raster", o.blendRaster,
+                  bench ? ".mrg, alpha BLEND clusters: auto (follows --raster), compute, hybrid, hardware, or all "
+                          "(each, timed as 'blend')"
+                        : ".mrg, alpha BLEND clusters: auto (follows --raster), compute, hybrid or hardware")
+      ->capture_default_str();
   command
       .add_option("--selection", o.selection,
                   bench ? ".mrg: LOD cut selection: auto (hierarchy from 8192 instances), flat (every cluster of the "
@@ -452,6 +465,16 @@ void runLodBench(const LodRenderRequest& r) {
     if (caps.int64BufferAtomics && caps.fragmentStoresAndAtomics && caps.meshShader)
       backends.push_back(render::RasterBackend::Hybrid);
   }
+  // --blend-raster all: every blend raster the device has, per opaque backend (scenes with BLEND
+  // materials; the others draw no blend pass, so one run each).
+  std::vector<render::BlendRaster> blends{s.settings.blendRaster};
+  bool hasBlend = std::any_of(s.asset.scene.materials.begin(), s.asset.scene.materials.end(),
+                              [](const Material& m) { return m.alphaMode == AlphaMode::Blend; });
+  if (r.cull.blendRaster == "all" && hasBlend) {
+    blends = {render::BlendRaster::Compute};
+    if (caps.fragmentStoresAndAtomics)
+      blends.insert(blends.end(), {render::BlendRaster::Hybrid, render::BlendRaster::Hardware});
+  }
   std::vector<bool> occlusionModes;
   if (r.cull.occlusion != "off") occlusionModes.push_back(true);
   if (r.cull.occlusion != "on") occlusionModes.push_back(false);
@@ -466,54 +489,60 @@ void runLodBench(const LodRenderRequest& r) {
                r.input, caps.name, sourceTriangles(s.asset), s.asset.scene.instances.size(), s.settings.base.width,
                s.settings.base.height, r.tau, r.cull.hybridThreshold, r.cull.cones, r.cull.selection, frames - 1);
   for (render::RasterBackend b : backends)
-    for (bool occlusion : occlusionModes)
-      for (render::SelectionMode selection : selections) {
-        s.settings.raster = b;
-        s.settings.occlusionCulling = occlusion;
-        s.settings.selection = selection;
-        s.settings.pvsCulling = true;
-        Timed t; // the untimed warm-up frame fills the occlusion history for this view
-        if (!renderFrames(s, frames, t)) return;
-        bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
-        // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
-        Timed off;
-        if (!s.pvsPath.empty()) {
-          s.settings.pvsCulling = false;
-          if (!renderFrames(s, frames, off)) return;
-        }
-        if (r.json) {
-          nlohmann::json j = statsJson(t.last.stats);
-          for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-          j["gpu_ms_max_frame"] = t.maxFrameMs;
+    for (render::BlendRaster blend : blends)
+      for (bool occlusion : occlusionModes)
+        for (render::SelectionMode selection : selections) {
+          s.settings.raster = b;
+          s.settings.blendRaster = blend;
+          s.settings.occlusionCulling = occlusion;
+          s.settings.selection = selection;
+          s.settings.pvsCulling = true;
+          Timed t; // the untimed warm-up frame fills the occlusion history for this view
+          if (!renderFrames(s, frames, t)) return;
+          bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
+          // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
+          Timed off;
           if (!s.pvsPath.empty()) {
-            j["triangles_mean"] = t.meanTriangles;
-            j["pvs_frames_outside_cells"] = t.framesOutsideCells;
-            j["without_pvs"] = {{"gpu_ms_frame", frameMilliseconds(off.times)},
-                                {"gpu_ms_max_frame", off.maxFrameMs},
-                                {"triangles_mean", off.meanTriangles}};
-            for (const auto& p : off.times) j["without_pvs"]["gpu_ms"][p.name] = p.milliseconds;
+            s.settings.pvsCulling = false;
+            if (!renderFrames(s, frames, off)) return;
           }
-          all.push_back(j);
-          continue;
+          if (r.json) {
+            nlohmann::json j = statsJson(t.last.stats);
+            for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+            j["gpu_ms_max_frame"] = t.maxFrameMs;
+            if (!s.pvsPath.empty()) {
+              j["triangles_mean"] = t.meanTriangles;
+              j["pvs_frames_outside_cells"] = t.framesOutsideCells;
+              j["without_pvs"] = {{"gpu_ms_frame", frameMilliseconds(off.times)},
+                                  {"gpu_ms_max_frame", off.maxFrameMs},
+                                  {"triangles_mean", off.meanTriangles}};
+              for (const auto& p : off.times) j["without_pvs"]["gpu_ms"][p.name] = p.milliseconds;
+            }
+            all.push_back(j);
+            continue;
+          }
+          fmt::print("-- {}{}, occlusion {}{}{}\n", render::toString(b),
+                     t.last.stats.clustersBlend || blends.size() > 1
+                         ? fmt::format(", blend {}", render::toString(t.last.stats.blendRaster))
+                         : "",
+                     occlusion ? "on" : "off",
+                     selections.size() > 1 ? fmt::format(", selection {}", render::toString(selection)) : "",
+                     s.pvsPath.empty() ? "" : ", cell PVS on");
+          printStats(t.last.stats, t.times, true);
+          if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
+          if (!s.pvsPath.empty()) {
+            double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
+            fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
+                       "culled by the PVS per frame{}\n",
+                       on, t.meanTriangles, t.meanPvsInstances, t.meanPvsClusters,
+                       t.framesOutsideCells
+                           ? fmt::format(" ({} frames outside every cell: not culled)", t.framesOutsideCells)
+                           : "");
+            fmt::print("PVS off: frame {:.3f} ms (median), {:.0f} triangles\n", without, off.meanTriangles);
+            fmt::print("PVS speed-up {:.2f}x, triangles {:.1f}% of the unculled frame\n", without / std::max(on, 1e-9),
+                       100.0 * t.meanTriangles / std::max(off.meanTriangles, 1.0));
+          }
         }
-        fmt::print("-- {}, occlusion {}{}{}\n", render::toString(b), occlusion ? "on" : "off",
-                   selections.size() > 1 ? fmt::format(", selection {}", render::toString(selection)) : "",
-                   s.pvsPath.empty() ? "" : ", cell PVS on");
-        printStats(t.last.stats, t.times, true);
-        if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
-        if (!s.pvsPath.empty()) {
-          double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
-          fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
-                     "culled by the PVS per frame{}\n",
-                     on, t.meanTriangles, t.meanPvsInstances, t.meanPvsClusters,
-                     t.framesOutsideCells
-                         ? fmt::format(" ({} frames outside every cell: not culled)", t.framesOutsideCells)
-                         : "");
-          fmt::print("PVS off: frame {:.3f} ms (median), {:.0f} triangles\n", without, off.meanTriangles);
-          fmt::print("PVS speed-up {:.2f}x, triangles {:.1f}% of the unculled frame\n", without / std::max(on, 1e-9),
-                     100.0 * t.meanTriangles / std::max(off.meanTriangles, 1.0));
-        }
-      }
   nlohmann::json baselines = nlohmann::json::array();
   if (r.baselines) {
     // Brute force at full resolution can take seconds per frame on big grids: few frames.

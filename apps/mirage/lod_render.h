@@ -15,8 +15,12 @@ struct LodCullOptions {
   std::string occlusion = "off";  // --occlusion on|off (bench: also "both": each backend with and without)
   std::string cones = "on";       // --cones on|off: normal-cone back-face culling
   std::string selection = "auto"; // --selection auto|flat|hierarchy: how the LOD cut is found
+  // --blend-raster auto|compute|hybrid|hardware: how BLEND clusters are rasterized (bench: also
+  // "all": each of compute, hybrid and hardware the device has, per opaque backend)
+  std::string blendRaster = "auto";
   bool isDefault() const {
-    return hybridThreshold == 16.0f && occlusion == "off" && cones == "on" && selection == "auto";
+    return hybridThreshold == 16.0f && occlusion == "off" && cones == "on" && selection == "auto" &&
+           blendRaster == "auto";
   }
 };
 void addLodCullOptions(CLI::App& command, LodCullOptions& options, bool bench);

@@ -88,6 +88,26 @@ Result<RasterBackend> parseRasterBackend(std::string_view text) {
   return Error{fmt::format("--raster '{}': expected auto, mesh, indirect, compute or hybrid", text)};
 }
 
+const char* toString(BlendRaster b) {
+  switch (b) {
+  case BlendRaster::Auto:
+    return "auto";
+  case BlendRaster::Compute:
+    return "compute";
+  case BlendRaster::Hybrid:
+    return "hybrid";
+  case BlendRaster::Hardware:
+    return "hardware";
+  }
+  return "?";
+}
+
+Result<BlendRaster> parseBlendRaster(std::string_view text) {
+  for (BlendRaster b : {BlendRaster::Auto, BlendRaster::Compute, BlendRaster::Hybrid, BlendRaster::Hardware})
+    if (text == toString(b)) return b;
+  return Error{fmt::format("--blend-raster '{}': expected auto, compute, hybrid or hardware", text)};
+}
+
 const char* toString(SelectionMode m) {
   switch (m) {
   case SelectionMode::Auto:
@@ -121,6 +141,8 @@ struct ClusterRenderer::Impl {
   Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline, rasterMaskPipeline,
       meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
+  // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
+  Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
   VkShaderStageFlags pushStages = 0;
   Image color, vis, depth;
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
@@ -145,7 +167,10 @@ struct ClusterRenderer::Impl {
   void cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy);
   void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p);
-  void cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p);
+  void cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, BlendRaster blend, bool meshBlend, bool bufferTarget);
+  void cmdBlendDepth(VkCommandBuffer cmd, const sio::ClusterPush& p, bool bufferTarget);
+  void cmdHardwareBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool mesh);
+  VkPipeline blendHardwarePipeline(bool mesh);
   bool hasBlend() const { return blendCapacity > 0; }
 };
 
@@ -520,20 +545,137 @@ void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPu
   timer.cmdEnd(cmd, slot);
 }
 
-// Alpha BLEND after the resolve (only for scenes with BLEND materials): the blend list rasterized
-// by the compute rasterizer into per-pixel fragment lists, depth-tested against the opaque depth,
-// then the composite sorts and blends each pixel's fragments over the resolved colour.
+VkPipeline ClusterRenderer::Impl::blendHardwarePipeline(bool mesh) {
+  Unique<VkPipeline>& pipeline = mesh ? blendMeshPipeline : blendIndirectPipeline;
+  if (!pipeline) {
+    // No colour output; the opaque depth read-only, tested GREATER (reverse-Z) before the shader.
+    GraphicsPipelineDesc d;
+    (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_blend.mesh" : "cluster_blend.vert";
+    d.fragmentShader = mesh ? "cluster_blend_mesh.frag" : "cluster_blend.frag";
+    d.layout = layout;
+    d.depthFormat = kDepthFormat;
+    d.depthWrite = false;
+    pipeline = createGraphicsPipeline(ctx, d);
+  }
+  return pipeline;
+}
+
+// The opaque depth as the hardware blend raster's depth attachment, left in DEPTH_READ_ONLY_OPTIMAL
+// (where the blend draw and the compute blend raster's descriptor read it). Image backends: the
+// raster's depth as it is. Buffer backends: the 64-bit buffer's depth words copied in by a
+// full-screen pass (cluster_blend_depth.frag; ~1 write per pixel, cheap next to the fragments the
+// early test then rejects).
+// barriers: on entry the opaque raster's writes visible (cmdPhaseBarrier, cmdRasterize's toRead).
+void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::ClusterPush& p, bool bufferTarget) {
+  const VkPipelineStageFlags2 kTests =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  if (!bufferTarget) {
+    cmdImageBarrier(cmd, {depth.handle(), kTests | kCS, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests,
+                          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+                          VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT});
+    return;
+  }
+  if (!blendDepthPipeline) {
+    GraphicsPipelineDesc d;
+    d.vertexShader = "cluster_fullscreen.vert";
+    d.fragmentShader = "cluster_blend_depth.frag";
+    d.layout = layout;
+    d.depthFormat = kDepthFormat;
+    d.depthCompare = VK_COMPARE_OP_ALWAYS;
+    blendDepthPipeline = createGraphicsPipeline(ctx, d);
+  }
+  uint32_t slot = timer.cmdBegin(cmd, "blend-z");
+  // Unwritten on the buffer backends (only read through descriptors): the old contents are dropped.
+  cmdImageBarrier(cmd,
+                  {depth.handle(), kCS, 0, kTests,
+                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT});
+  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAtt.imageView = depth.view();
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE; // every pixel written
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {width, height}};
+  ri.layerCount = 1;
+  ri.pDepthAttachment = &depthAtt;
+  vkCmdBeginRendering(cmd, &ri);
+  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {width, height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
+  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blendDepthPipeline);
+  cmdPush(cmd, p, 0);
+  vkCmdDraw(cmd, 3, 1, 0, 0);
+  vkCmdEndRendering(cmd);
+  cmdImageBarrier(cmd, {depth.handle(), kTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests | kCS,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+                        VK_IMAGE_ASPECT_DEPTH_BIT});
+  timer.cmdEnd(cmd, slot);
+}
+
+// The hardware blend list (entries from the blend list's end) drawn with no colour output over the
+// read-only opaque depth; its fragment shader appends to the transparency lists.
+// barriers: the blend arguments visible; the depth prepared by cmdBlendDepth.
+void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool mesh) {
+  VkPipeline pipeline = blendHardwarePipeline(mesh);
+  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAtt.imageView = depth.view();
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
+  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_NONE; // read-only: nothing to store
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {width, height}};
+  ri.layerCount = 1;
+  ri.pDepthAttachment = &depthAtt;
+  vkCmdBeginRendering(cmd, &ri);
+  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {width, height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE); // facing per instance in the fragment shader
+  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST + MIRAGE_LIST_DOWN);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  if (mesh)
+    vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_DOWN), 1,
+                                  sizeof(VkDrawMeshTasksIndirectCommandEXT));
+  else
+    vkCmdDrawIndirect(cmd, counters.handle(), drawArgsOffset(2, MIRAGE_LIST_DOWN), 1, sizeof(VkDrawIndirectCommand));
+  vkCmdEndRendering(cmd);
+}
+
+// Alpha BLEND after the resolve (only for scenes with BLEND materials): the blend lists rasterized
+// into per-pixel fragment lists, depth-tested against the opaque depth (the compute list by
+// cluster_raster_blend.comp, the hardware list by cmdHardwareBlend), then the composite sorts and
+// blends each pixel's fragments over the resolved colour. "blend" times both rasters; hybrid adds
+// "blend-cs" and "blend-hw" for each alone, and the buffer backends' depth copy is "blend-z".
 // barriers: the resolve's colour, the opaque depth and the blend arguments (cmdArgs pass 2) written;
 // the heads zeroed at the frame start. On exit the colour is in GENERAL with its writes available.
-void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p) {
+void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, BlendRaster blend, bool meshBlend,
+                                            bool bufferTarget) {
   p.visibleAddress = blendVisible.address(); // ids of the blend passes name blend-list entries
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  uint32_t slot = timer.cmdBegin(cmd, "blend", kCS);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blendRasterPipeline);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
-  cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
-  vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
-  timer.cmdEnd(cmd, slot, kCS);
+  uint32_t slot = timer.cmdBegin(cmd, "blend");
+  if (blend != BlendRaster::Compute) cmdBlendDepth(cmd, p, bufferTarget);
+  if (blend != BlendRaster::Hardware) {
+    uint32_t part = blend == BlendRaster::Hybrid ? timer.cmdBegin(cmd, "blend-cs", kCS) : 0;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blendRasterPipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+    cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
+    vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
+    if (blend == BlendRaster::Hybrid) timer.cmdEnd(cmd, part, kCS);
+  }
+  if (blend != BlendRaster::Compute) {
+    uint32_t part = blend == BlendRaster::Hybrid ? timer.cmdBegin(cmd, "blend-hw") : 0;
+    cmdHardwareBlend(cmd, p, meshBlend);
+    if (blend == BlendRaster::Hybrid) timer.cmdEnd(cmd, part);
+  }
+  timer.cmdEnd(cmd, slot);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   slot = timer.cmdBegin(cmd, "composite", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compositePipeline);
@@ -595,6 +737,23 @@ Result<RasterBackend> resolveBackend(RasterBackend requested, const DeviceCapabi
   return requested;
 }
 
+// The blend raster that runs: auto follows the opaque backend (its per-cluster trade carries over:
+// compute for small triangles, fixed-function raster for large ones); hardware needs fragment
+// stores and atomics (the list append), else auto falls back to compute.
+Result<BlendRaster> resolveBlendRaster(BlendRaster requested, RasterBackend opaque, const DeviceCapabilities& caps) {
+  bool hardware = caps.fragmentStoresAndAtomics;
+  if (requested == BlendRaster::Auto) {
+    BlendRaster follow = opaque == RasterBackend::Compute  ? BlendRaster::Compute
+                         : opaque == RasterBackend::Hybrid ? BlendRaster::Hybrid
+                                                           : BlendRaster::Hardware;
+    return hardware ? follow : BlendRaster::Compute;
+  }
+  if (requested != BlendRaster::Compute && !hardware)
+    return Error{fmt::format("--blend-raster {}: the device has no stores and atomics in fragment shaders",
+                             toString(requested))};
+  return requested;
+}
+
 } // namespace
 
 Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings& cs) {
@@ -608,6 +767,11 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   auto resolved = resolveBackend(cs.raster, d.ctx.caps());
   if (!resolved) return resolved.error();
   RasterBackend backend = *resolved;
+  auto blendResolved = resolveBlendRaster(cs.blendRaster, backend, d.ctx.caps());
+  if (!blendResolved) return blendResolved.error();
+  BlendRaster blend = d.hasBlend() ? *blendResolved : BlendRaster::Compute;
+  // The hardware blend raster: mesh shaders where the device has them, unless indirect was asked for.
+  bool meshBlend = d.ctx.caps().meshShader && backend != RasterBackend::Indirect;
   bool bufferTarget = backend == RasterBackend::Compute || backend == RasterBackend::Hybrid;
   if (cs.surfels && !bufferTarget)
     return Error{fmt::format("mesh + surfel scenes share the 64-bit visibility buffer: --raster {} cannot draw "
@@ -641,7 +805,8 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
             (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) | (bufferTarget ? MIRAGE_FRAME_SOURCE_BUFFER : 0u) |
             (backend == RasterBackend::Hybrid ? MIRAGE_FRAME_HYBRID : 0u) | (occlusion ? MIRAGE_FRAME_OCCLUSION : 0u) |
             (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u) | (hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u) |
-            (pvs ? MIRAGE_FRAME_PVS : 0u) | (dagTree ? MIRAGE_FRAME_DAG : 0u);
+            (pvs ? MIRAGE_FRAME_PVS : 0u) | (blend == BlendRaster::Hybrid ? MIRAGE_FRAME_BLEND_HYBRID : 0u) |
+            (blend == BlendRaster::Hardware ? MIRAGE_FRAME_BLEND_HARDWARE : 0u) | (dagTree ? MIRAGE_FRAME_DAG : 0u);
   if (pvs) {
     f.pvsInstanceAddress = d.pvsInstances.address();
     f.pvsClusterAddress = d.pvsClusters.address();
@@ -740,7 +905,8 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     }
     if (d.hasBlend()) d.cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
     d.cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
-    if (d.hasBlend()) d.cmdTransparency(cmd, p); // blend raster into fragment lists, sorted composite
+    if (d.hasBlend())     // blend raster into fragment lists, sorted composite
+      d.cmdTransparency(cmd, p, blend, meshBlend, bufferTarget);
     d.timer.cmdEnd(cmd, frameSlot);
   });
 
@@ -772,6 +938,8 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   st.historyKept = c.historyKept;
   st.clustersDrawn = c.listEnd[0] + c.listEnd[1] + std::min(c.blendClusters, d.blendCapacity);
   st.clustersBlend = std::min(c.blendClusters, d.blendCapacity);
+  st.clustersBlendHardware = c.blendListEnd[MIRAGE_LIST_DOWN];
+  st.blendRaster = blend;
   st.oitFragments = c.oitNodes;
   st.oitPoolOverflow = c.oitNodes > d.oitNodeCapacity ? c.oitNodes - d.oitNodeCapacity : 0;
   st.oitLayersDropped = c.oitLayersDropped;

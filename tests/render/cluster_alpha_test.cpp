@@ -12,6 +12,7 @@
 
 #include "gpu_test.h"
 #include "mirage/core/image_metrics.h"
+#include "mirage/io/generate.h"
 #include "mirage/io/image_io.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
@@ -152,9 +153,107 @@ void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
   if (io::writePng(path, img)) std::fprintf(stderr, "wrote %s\n", path.string().c_str());
 }
 
+// The hardware and hybrid blend rasters against the compute one (docs/render.md, "Blend rasters"),
+// over each opaque backend: the same blend clusters, the same fragments up to edge and depth-tie
+// rules (the compute raster's canonical edge order and its own depth interpolation against the
+// hardware's top-left rule and interpolator: a sample exactly on an edge, or a pane meeting a wall
+// at equal depth, may fall the other way), hence the same image. `hybridThreshold` is chosen per
+// scene so hybrid really splits (asserted where `expectSplit`).
+void expectBlendRastersAgree(gpu::Context& ctx, const lod::LodAsset& asset, ClusterRenderSettings s,
+                             const std::string& scene, bool expectSplit) {
+  if (!ctx.caps().fragmentStoresAndAtomics) GTEST_SKIP() << "no fragment stores: compute blend raster only";
+  auto renderer = ClusterRenderer::create(ctx, asset);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  std::vector<RasterBackend> opaque{RasterBackend::Indirect};
+  if (ctx.caps().meshShader) opaque.push_back(RasterBackend::Mesh);
+  if (ctx.caps().int64BufferAtomics) opaque.push_back(RasterBackend::Compute);
+  for (RasterBackend b : opaque) {
+    s.raster = b;
+    s.blendRaster = BlendRaster::Compute;
+    auto reference = (*renderer)->render(s);
+    ASSERT_TRUE(reference.ok()) << reference.error().message;
+    const ClusterStats& ref = reference->stats;
+    ASSERT_GT(ref.clustersBlend, 0u) << scene;
+    ASSERT_GT(ref.oitFragments, 0u) << scene;
+    EXPECT_EQ(ref.blendRaster, BlendRaster::Compute);
+    EXPECT_EQ(ref.clustersBlendHardware, 0u);
+    for (BlendRaster blend : {BlendRaster::Hybrid, BlendRaster::Hardware}) {
+      s.blendRaster = blend;
+      auto out = (*renderer)->render(s);
+      ASSERT_TRUE(out.ok()) << out.error().message;
+      const ClusterStats& st = out->stats;
+      double p = psnr(reference->image.srgb, out->image.srgb);
+      int64_t diff = int64_t(st.oitFragments) - int64_t(ref.oitFragments);
+      std::printf("%s, %s + blend %s: %u of %u blend clusters by hardware, %u fragments (compute %u, %+lld), "
+                  "PSNR vs compute blend %.2f dB\n",
+                  scene.c_str(), toString(b), toString(blend), st.clustersBlendHardware, st.clustersBlend,
+                  st.oitFragments, ref.oitFragments, (long long)diff, p);
+      EXPECT_EQ(st.blendRaster, blend);
+      EXPECT_EQ(st.clustersBlend, ref.clustersBlend) << scene << " " << toString(blend);
+      if (blend == BlendRaster::Hardware) {
+        EXPECT_EQ(st.clustersBlendHardware, st.clustersBlend);
+      }
+      if (blend == BlendRaster::Hybrid && expectSplit) {
+        EXPECT_GT(st.clustersBlendHardware, 0u) << scene;
+        EXPECT_LT(st.clustersBlendHardware, st.clustersBlend) << scene;
+      }
+      // Edge and depth-tie rules only: a fraction of a percent of the fragments.
+      EXPECT_LE(std::abs(diff), int64_t(ref.oitFragments / 200 + 4)) << scene << " " << toString(blend);
+      EXPECT_EQ(st.oitPoolOverflow, ref.oitPoolOverflow);
+      EXPECT_GE(p, 50.0) << scene << " " << toString(b) << " + blend " << toString(blend);
+      writeOnFailure(out->image.srgb, scene + "_" + toString(b) + "_blend_" + toString(blend) + ".png");
+    }
+  }
+}
+
 } // namespace
 
 class ClusterAlpha : public test::GpuTest {};
+
+// Blend rasters on the panel scene (two overlapping blended panels over an opaque wall and a
+// masked panel; similar triangle sizes, so hybrid's split is asserted on the city below).
+TEST_F(ClusterAlpha, HardwareBlendRasterMatchesCompute) {
+  lod::LodAsset asset = bake(alphaScene(false));
+  ASSERT_FALSE(asset.dags.empty());
+  expectBlendRastersAgree(context(), asset, settings(RasterBackend::Auto), "panels", /*expectSplit=*/false);
+}
+
+// Khronos AlphaBlendModeTest (textured BLEND quads over opaque and masked ones).
+TEST_F(ClusterAlpha, HardwareBlendRasterMatchesComputeOnKhronosAlphaBlendModeTest) {
+  MIRAGE_REQUIRE_DATA(path, "khronos-alpha-blend-mode-test/glTF/AlphaBlendModeTest.gltf");
+  auto scene = io::importScene(path);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  lod::LodAsset asset = bake(*scene);
+  ASSERT_FALSE(asset.dags.empty());
+  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  s.base.width = 240;
+  s.base.height = 135;
+  s.base.camera = autoCamera(asset.scene.worldBounds(), 240.0f / 135.0f);
+  s.tauPixels = 0.01f;
+  expectBlendRastersAgree(context(), asset, s, "khronos", /*expectSplit=*/false);
+}
+
+// A small generated city at street level (glass panes: double-sided BLEND in window reveals, in
+// front of the hollow shells' far walls): many blend clusters, near and far, so hybrid splits.
+TEST_F(ClusterAlpha, HardwareBlendRasterMatchesComputeOnCity) {
+  io::CityOptions o;
+  o.blocks = 3;
+  o.lotsPerBlockSide = 1;
+  o.buildingVariants = 2;
+  o.minFloors = 2;
+  o.maxFloors = 4;
+  o.interiors = false;
+  lod::LodAsset asset = bake(io::generateCity(o));
+  ASSERT_FALSE(asset.dags.empty());
+  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  s.base.width = 256;
+  s.base.height = 160;
+  s.base.camera.eye = {21.0f, 1.7f, -50.0f}; // in a street, looking down it past three blocks
+  s.base.camera.target = {25.0f, 6.0f, 40.0f};
+  s.base.camera.fovYDegrees = 60.0f;
+  s.hybridThreshold = 6.0f;
+  expectBlendRastersAgree(context(), asset, s, "city", /*expectSplit=*/true);
+}
 
 // Every backend: the forward renderer's image (holes of the masked panel show the wall; blended
 // panels tint what lies behind them, sorted per pixel), far from the image with either alpha mode

@@ -35,6 +35,19 @@ const char* toString(RasterBackend backend);
 // "auto", "mesh", "indirect", "compute" or "hybrid"; anything else is an error naming the choices.
 Result<RasterBackend> parseRasterBackend(std::string_view text);
 
+// How alpha BLEND clusters are rasterized into the per-pixel transparency lists (docs/render.md,
+// "Blend rasters"). Every choice appends the same nodes, so the composite and the image agree.
+enum class BlendRaster {
+  Auto,     // follows the opaque backend: compute -> compute, hybrid -> hybrid, mesh / indirect -> hardware
+            // (compute where fragment shaders cannot store)
+  Compute,  // cluster_raster_blend.comp: one thread walks each triangle's pixel box
+  Hybrid,   // per cluster as the hybrid opaque split (hybridThreshold): large triangles to hardware
+  Hardware, // every blend cluster by mesh shaders (indirect draws with --raster indirect or without them)
+};
+const char* toString(BlendRaster blend);
+// "auto", "compute", "hybrid" or "hardware"; anything else is an error naming the choices.
+Result<BlendRaster> parseBlendRaster(std::string_view text);
+
 // How the selection pass finds the cut clusters (docs/render.md, "Selection").
 enum class SelectionMode {
   Auto,      // hierarchy from kHierarchyInstances instances on, else flat (measured on the H200, below)
@@ -52,11 +65,12 @@ const char* toString(SelectionMode mode);
 Result<SelectionMode> parseSelectionMode(std::string_view text);
 
 struct ClusterRenderSettings {
-  RenderSettings base;                        // size, camera, lighting, background
-  float tauPixels = 1.0f;                     // LOD threshold: projected error allowed, in pixels
-  RasterBackend raster = RasterBackend::Auto; // resolved against the device at render time
-  bool frustumCulling = true;                 // instances and clusters outside the view are skipped
-  bool flagBackFaces = false;                 // debug: draw back faces in magenta (crack tests)
+  RenderSettings base;                         // size, camera, lighting, background
+  float tauPixels = 1.0f;                      // LOD threshold: projected error allowed, in pixels
+  RasterBackend raster = RasterBackend::Auto;  // resolved against the device at render time
+  BlendRaster blendRaster = BlendRaster::Auto; // BLEND clusters (scenes with blend materials only)
+  bool frustumCulling = true;                  // instances and clusters outside the view are skipped
+  bool flagBackFaces = false;                  // debug: draw back faces in magenta (crack tests)
   // Hybrid: clusters whose estimated triangle edge (projected bounding-sphere diameter /
   // sqrt(triangles)) is below this many pixels go to the compute rasterizer, the rest (and those
   // reaching the near plane) to the hardware path. To be tuned on the H200 (docs/render.md).
@@ -99,6 +113,7 @@ struct ClusterStats {
   uint32_t trianglesNearClipped = 0;     // compute raster: triangles clipped at the near plane
   uint32_t clustersOverflow = 0;         // selected beyond the visible-buffer capacity (dropped)
   uint32_t clustersBlend = 0;            // alpha BLEND: drawn into the transparency lists (in clustersDrawn)
+  uint32_t clustersBlendHardware = 0;    // of those, drawn by the hardware blend raster
   uint32_t oitFragments = 0;             // blended fragments in front of the opaque depth
   uint32_t oitPoolOverflow = 0;          // blended fragments beyond the node pool (dropped)
   uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
@@ -108,6 +123,7 @@ struct ClusterStats {
   bool pvs = false;                      // the cell's cluster PVS culled this frame
   bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto;         // the backend that ran
+  BlendRaster blendRaster = BlendRaster::Compute;     // the blend raster that ran (Auto resolved)
   SurfelStageStats surfels;                           // mixed scenes: instances drawn (partly) as surfels
   SelectionMode selection = SelectionMode::Hierarchy; // the mode that ran (Auto resolved)
 };

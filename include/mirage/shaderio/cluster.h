@@ -31,15 +31,17 @@ namespace mirage::shaderio {
 #define MIRAGE_INSTANCE_ALPHA_BLEND 8u  // material BLEND: own list, drawn into the OIT lists after the resolve
 
 // ClusterFrame::flags
-#define MIRAGE_FRAME_FLAG_BACKFACES 1u // debug: keep back faces and shade them in a flag colour
-#define MIRAGE_FRAME_FRUSTUM_CULL 2u   // cull instances and clusters against the view frustum
-#define MIRAGE_FRAME_SOURCE_BUFFER 4u  // resolve reads the 64-bit buffer (compute raster), else the image
-#define MIRAGE_FRAME_HYBRID 8u         // selection splits clusters: small triangles to compute, large to hardware
-#define MIRAGE_FRAME_OCCLUSION 16u     // two-pass HZB occlusion culling with last frame's visibility
-#define MIRAGE_FRAME_CONE_CULL 32u     // per-cluster normal-cone back-face culling
-#define MIRAGE_FRAME_HIERARCHY 64u     // selection traverses the LOD BVH (cluster_traverse.comp), else a flat pass
-#define MIRAGE_FRAME_PVS 128u          // cull instances and clusters outside the camera cell's cluster PVS
-#define MIRAGE_FRAME_DAG 256u          // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
+#define MIRAGE_FRAME_FLAG_BACKFACES 1u   // debug: keep back faces and shade them in a flag colour
+#define MIRAGE_FRAME_FRUSTUM_CULL 2u     // cull instances and clusters against the view frustum
+#define MIRAGE_FRAME_SOURCE_BUFFER 4u    // resolve reads the 64-bit buffer (compute raster), else the image
+#define MIRAGE_FRAME_HYBRID 8u           // selection splits clusters: small triangles to compute, large to hardware
+#define MIRAGE_FRAME_OCCLUSION 16u       // two-pass HZB occlusion culling with last frame's visibility
+#define MIRAGE_FRAME_CONE_CULL 32u       // per-cluster normal-cone back-face culling
+#define MIRAGE_FRAME_HIERARCHY 64u       // selection traverses the LOD BVH (cluster_traverse.comp), else a flat pass
+#define MIRAGE_FRAME_PVS 128u            // cull instances and clusters outside the camera cell's cluster PVS
+#define MIRAGE_FRAME_BLEND_HYBRID 256u   // blend clusters split by hardwareCluster, as hybrid splits opaque ones
+#define MIRAGE_FRAME_BLEND_HARDWARE 512u // every blend cluster to the hardware blend list
+#define MIRAGE_FRAME_DAG 1024u // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
 // ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
 #define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
 
@@ -53,8 +55,10 @@ namespace mirage::shaderio {
 // hybrid backend grows down from the last entry, so one buffer and one id space serve both.
 #define MIRAGE_LIST_UP 0u
 #define MIRAGE_LIST_DOWN 1u
-// push.rasterList of the blend raster (cluster_raster_blend.comp): ClusterCounters::lists[2][UP]
-// holds the blend list's arguments; its entries index ClusterFrame::blendVisibleAddress.
+// push.rasterList of the blend rasters: ClusterCounters::lists[2][UP] holds the compute blend
+// list's arguments (cluster_raster_blend.comp), lists[2][DOWN] the hardware one's (cluster_blend.*);
+// both index ClusterFrame::blendVisibleAddress, the compute list from entry 0 up, the hardware
+// list from entry blendCapacity - 1 down (shaders built with MIRAGE_BLEND_LISTS).
 #define MIRAGE_RASTER_BLEND_LIST 4u
 // Order-independent transparency: fragments kept and sorted per pixel by the composite (the
 // nearest ones; farther ones past this are dropped and counted).
@@ -273,6 +277,9 @@ struct ClusterCounters {
   uint pad0;
   uint instancesPvsCulled; // in the frustum but outside the cell's PVS
   uint clustersPvsCulled;  // on the cut but outside the cell's cluster PVS
+  // Entries of the two blend lists ([MIRAGE_LIST_UP]: compute, [DOWN]: hardware); their sum is
+  // min(blendClusters, blendCapacity): blendClusters hands out the tickets, so the lists never meet.
+  uint blendListEnd[2];
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -311,7 +318,7 @@ static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 96, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 104, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");

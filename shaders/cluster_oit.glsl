@@ -1,0 +1,19 @@
+// Appending blended fragments to the per-pixel transparency lists, shared by the compute blend
+// raster (cluster_raster.glsl, MIRAGE_RASTER_BLEND) and the hardware one (cluster_blend_frag.glsl),
+// so both write the same nodes under the same pool rule and the composite cannot tell them apart.
+
+// Nearest opaque depth of pixel (x, y) in the 64-bit visibility buffer (compute, hybrid): its high
+// word; 0 (far) where nothing opaque was drawn.
+float bufferOpaqueDepth(ClusterFrame f, uint x, uint y) {
+  uint pixel = min(y * uint(f.viewport.x) + x, uint(f.viewport.x * f.viewport.y) - 1u); // lavapipe: any lane loads
+  return uintBitsToFloat(uint(VisBufferRef(push.visBufferAddress).pixels[pixel] >> 32));
+}
+
+// A blended fragment already known to lie in front of the opaque surface, pushed onto its pixel's
+// list (node pool permitting; oitNodes counts every attempt, so the excess is known).
+void oitAppend(ClusterFrame f, uint x, uint y, float z, uint id) {
+  uint n = atomicAdd(CounterRef(push.counterAddress).counters.oitNodes, 1);
+  if (n >= f.oitNodeCapacity) return;
+  uint next = atomicExchange(UintRef(f.oitHeadAddress).data[y * uint(f.viewport.x) + x], n + 1);
+  OitNodeRef(f.oitNodeAddress).nodes[n] = OitNode(floatBitsToUint(z), id, next);
+}
