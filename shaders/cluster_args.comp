@@ -31,6 +31,12 @@ void main() {
     c.counters.lists[pass][list].draw[2] = 0;
     c.counters.lists[pass][list].draw[3] = 0;
   }
+  if (pass == 2) {
+    c.counters.blendDepthDraw[0] = 3;
+    c.counters.blendDepthDraw[1] = c.counters.lists[2][MIRAGE_LIST_DOWN].count > 0 ? 1 : 0;
+    c.counters.blendDepthDraw[2] = 0;
+    c.counters.blendDepthDraw[3] = 0;
+  }
   if (pass == 0) {
     uint n = min(c.counters.candidates, FrameRef(push.frameAddress).frame.visibleCapacity);
     uvec3 o = splitDispatch(n, MIRAGE_CLUSTER_WORKGROUP);

@@ -355,9 +355,9 @@ void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
   command.add_option("--cones", o.cones, ".mrg: normal-cone back-face culling on|off")->capture_default_str();
   command
       .add_option("--blend-raster", o.blendRaster,
-                  bench ? ".mrg, alpha BLEND clusters: auto (follows --raster), compute, hybrid, hardware, or all "
+                  bench ? ".mrg, alpha BLEND clusters: auto (hybrid), compute, hybrid, hardware, or all "
                           "(each, timed as 'blend')"
-                        : ".mrg, alpha BLEND clusters: auto (follows --raster), compute, hybrid or hardware")
+                        : ".mrg, alpha BLEND clusters: auto (hybrid), compute, hybrid or hardware")
       ->capture_default_str();
   command
       .add_option("--selection", o.selection,

@@ -452,16 +452,37 @@ Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const Captur
   const float* pos4 = reinterpret_cast<const float*>(readback[0].mapped());
   const uint16_t* nrm = reinterpret_cast<const uint16_t*>(readback[1].mapped());
   const uint32_t* col = reinterpret_cast<const uint32_t*>(readback[2].mapped());
-  for (size_t i = 0; i < layerTexels * peelLayers; ++i) {
-    if (pos4[4 * i + 3] < 0.5f) continue;
-    t.ids.push_back(uint32_t(i));
-    t.positions.push_back({pos4[4 * i], pos4[4 * i + 1], pos4[4 * i + 2]});
-    glm::vec3 n(glm::unpackHalf1x16(nrm[4 * i]), glm::unpackHalf1x16(nrm[4 * i + 1]),
-                glm::unpackHalf1x16(nrm[4 * i + 2]));
-    float len = glm::length(n);
-    t.normals.push_back(len > 0.0f ? n / len : glm::vec3(0, 0, 1));
-    t.colors.push_back(col[i]);
-  }
+  // In parallel blocks (16 M texels at 1024² x 16 views: serial, this was most of the capture's
+  // wall time on the H200 host): count per block, prefix sums, then each block fills its range.
+  size_t total = layerTexels * peelLayers;
+  constexpr size_t kBlock = size_t(1) << 16;
+  size_t blocks = (total + kBlock - 1) / kBlock;
+  std::vector<size_t> firstOfBlock(blocks + 1, 0);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+    size_t n = 0;
+    for (size_t i = b * kBlock; i < std::min(total, (b + 1) * kBlock); ++i) n += pos4[4 * i + 3] >= 0.5f;
+    firstOfBlock[b + 1] = n;
+  });
+  for (size_t b = 0; b < blocks; ++b) firstOfBlock[b + 1] += firstOfBlock[b];
+  size_t valid = firstOfBlock[blocks];
+  t.ids.resize(valid);
+  t.positions.resize(valid);
+  t.normals.resize(valid);
+  t.colors.resize(valid);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+    size_t k = firstOfBlock[b];
+    for (size_t i = b * kBlock; i < std::min(total, (b + 1) * kBlock); ++i) {
+      if (pos4[4 * i + 3] < 0.5f) continue;
+      t.ids[k] = uint32_t(i);
+      t.positions[k] = {pos4[4 * i], pos4[4 * i + 1], pos4[4 * i + 2]};
+      glm::vec3 n(glm::unpackHalf1x16(nrm[4 * i]), glm::unpackHalf1x16(nrm[4 * i + 1]),
+                  glm::unpackHalf1x16(nrm[4 * i + 2]));
+      float len = glm::length(n);
+      t.normals[k] = len > 0.0f ? n / len : glm::vec3(0, 0, 1);
+      t.colors[k] = col[i];
+      ++k;
+    }
+  });
   computeAreas(t, out.views, pos4);
   return out;
 }

@@ -38,8 +38,8 @@ Result<RasterBackend> parseRasterBackend(std::string_view text);
 // How alpha BLEND clusters are rasterized into the per-pixel transparency lists (docs/render.md,
 // "Blend rasters"). Every choice appends the same nodes, so the composite and the image agree.
 enum class BlendRaster {
-  Auto,     // follows the opaque backend: compute -> compute, hybrid -> hybrid, mesh / indirect -> hardware
-            // (compute where fragment shaders cannot store)
+  Auto,     // hybrid (measured on the H200: docs/render.md "Blend rasters"); compute where fragment
+            // shaders cannot store
   Compute,  // cluster_raster_blend.comp: one thread walks each triangle's pixel box
   Hybrid,   // per cluster as the hybrid opaque split (hybridThreshold): large triangles to hardware
   Hardware, // every blend cluster by mesh shaders (indirect draws with --raster indirect or without them)

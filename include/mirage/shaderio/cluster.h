@@ -280,6 +280,9 @@ struct ClusterCounters {
   // Entries of the two blend lists ([MIRAGE_LIST_UP]: compute, [DOWN]: hardware); their sum is
   // min(blendClusters, blendCapacity): blendClusters hands out the tickets, so the lists never meet.
   uint blendListEnd[2];
+  // vkCmdDrawIndirect of the buffer backends' blend depth copy: (3, 1 if the hardware blend list is
+  // non-empty else 0, 0, 0), so frames whose blend clusters all went to compute skip the copy.
+  uint blendDepthDraw[4];
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -318,7 +321,7 @@ static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 104, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 120, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");
