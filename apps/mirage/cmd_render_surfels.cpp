@@ -196,6 +196,10 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   if (r.backface == "on" || r.backface == "both") cullings.push_back(true);
   if (r.backface == "off" || r.backface == "both") cullings.push_back(false);
   if (cullings.empty()) return fail("--backface must be on, off or both (got " + r.backface + ")");
+  std::vector<bool> merges;
+  if (r.merge == "off" || r.merge == "both") merges.push_back(false);
+  if (r.merge == "on" || r.merge == "both") merges.push_back(true);
+  if (merges.empty()) return fail("--merge must be on, off or both (got " + r.merge + ")");
   auto orders = parseOrders(r.order, "--order", /*allowAll=*/true);
   if (!orders) return fail(orders.error());
   SurfelSession s;
@@ -214,52 +218,57 @@ void runSurfelBench(const SurfelRenderRequest& r) {
                r.allSurfels ? "all surfels (no prefix)" : "adaptive prefix", r.frames - 1, r.bandwidth);
   nlohmann::json all = nlohmann::json::array();
   for (render::SurfelRaster raster : rasters)
-    for (bool cull : cullings) {
-      s.settings.raster = raster;
-      s.settings.backfaceCulling = cull;
-      std::vector<Timed> timed;
-      if (!renderFrames(s, r.frames, timed)) return;
-      double baseSplatMs = 0.0, baseFrameMs = 0.0;
-      for (size_t o = 0; o < timed.size(); ++o) {
-        const Timed& t = timed[o];
-        const char* order = render::toString((*orders)[o]);
-        double splatMs = passMs(t.times, "splat"), frameMs = passMs(t.times, "frame");
-        double surfels = double(t.last.surfelsSplatted);
-        double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
-        // The splat streams the 8-byte quantized positions, and with back-face culling the 8-byte
-        // attributes (normal + colour, one sector) too; the resolve reads attributes of visible pixels.
-        double bytesPerSecond = perSecond * (cull ? 16.0 : 8.0);
-        // The first order is the baseline: the coherent order's rounded-up prefixes splat more
-        // surfels, so its frame and splat times compare, not only its surfels/s.
-        if (o == 0) baseSplatMs = splatMs, baseFrameMs = frameMs;
-        double splatSpeedup = splatMs > 0.0 ? baseSplatMs / splatMs : 0.0;
-        double frameSpeedup = frameMs > 0.0 ? baseFrameMs / frameMs : 0.0;
-        if (r.json) {
-          nlohmann::json j = {{"raster", render::toString(raster)},
-                              {"order", order},
-                              {"backface_culling", cull},
-                              {"surfels_splatted", t.last.surfelsSplatted},
-                              {"instances_visible", t.last.visibleInstances},
-                              {"surfels_per_second", perSecond},
-                              {"bytes_per_second", bytesPerSecond},
-                              {"bandwidth_fraction", bytesPerSecond / r.bandwidth},
-                              {"splat_speedup_vs_first_order", splatSpeedup},
-                              {"frame_speedup_vs_first_order", frameSpeedup}};
-          for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-          all.push_back(j);
-          continue;
+    for (bool cull : cullings)
+      for (bool merge : merges) {
+        if (merge && raster != render::SurfelRaster::Compute) continue; // a compute splat variant
+        s.settings.raster = raster;
+        s.settings.backfaceCulling = cull;
+        s.settings.subgroupMerge = merge;
+        std::vector<Timed> timed;
+        if (!renderFrames(s, r.frames, timed)) return;
+        double baseSplatMs = 0.0, baseFrameMs = 0.0;
+        for (size_t o = 0; o < timed.size(); ++o) {
+          const Timed& t = timed[o];
+          const char* order = render::toString((*orders)[o]);
+          double splatMs = passMs(t.times, "splat"), frameMs = passMs(t.times, "frame");
+          double surfels = double(t.last.surfelsSplatted);
+          double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
+          // The splat streams the 8-byte quantized positions, and with back-face culling the 8-byte
+          // attributes (normal + colour, one sector) too; the resolve reads attributes of visible pixels.
+          double bytesPerSecond = perSecond * (cull ? 16.0 : 8.0);
+          // The first order is the baseline: the coherent order's rounded-up prefixes splat more
+          // surfels, so its frame and splat times compare, not only its surfels/s.
+          if (o == 0) baseSplatMs = splatMs, baseFrameMs = frameMs;
+          double splatSpeedup = splatMs > 0.0 ? baseSplatMs / splatMs : 0.0;
+          double frameSpeedup = frameMs > 0.0 ? baseFrameMs / frameMs : 0.0;
+          if (r.json) {
+            nlohmann::json j = {{"raster", render::toString(raster)},
+                                {"order", order},
+                                {"backface_culling", cull},
+                                {"subgroup_merge", merge},
+                                {"surfels_splatted", t.last.surfelsSplatted},
+                                {"instances_visible", t.last.visibleInstances},
+                                {"surfels_per_second", perSecond},
+                                {"bytes_per_second", bytesPerSecond},
+                                {"bandwidth_fraction", bytesPerSecond / r.bandwidth},
+                                {"splat_speedup_vs_first_order", splatSpeedup},
+                                {"frame_speedup_vs_first_order", frameSpeedup}};
+            for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+            all.push_back(j);
+            continue;
+          }
+          fmt::print("-- {}{}, {} order, back-face culling {}: instances visible {}, surfels splatted {}\n",
+                     render::toString(raster), merge ? " + subgroup merge" : "", order, cull ? "on" : "off",
+                     t.last.visibleInstances, t.last.surfelsSplatted);
+          for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
+          fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
+                     perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
+          if (o > 0)
+            fmt::print("{} vs {} order: speedup x{:.3f} splat, x{:.3f} frame ({} time / {} time)\n", order,
+                       render::toString((*orders)[0]), splatSpeedup, frameSpeedup, render::toString((*orders)[0]),
+                       order);
         }
-        fmt::print("-- {}, {} order, back-face culling {}: instances visible {}, surfels splatted {}\n",
-                   render::toString(raster), order, cull ? "on" : "off", t.last.visibleInstances,
-                   t.last.surfelsSplatted);
-        for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
-        fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
-                   perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
-        if (o > 0)
-          fmt::print("{} vs {} order: speedup x{:.3f} splat, x{:.3f} frame ({} time / {} time)\n", order,
-                     render::toString((*orders)[0]), splatSpeedup, frameSpeedup, render::toString((*orders)[0]), order);
       }
-    }
   if (r.json) {
     nlohmann::json j = {{"bench", "surfels"},
                         {"input", r.input},
@@ -299,6 +308,9 @@ void addBenchSurfelsCommand(CLI::App& bench) {
       ->capture_default_str();
   b->add_option("--backface", o->backface,
                 "Back-face culling of single-sided clouds: on|off|both (both: timed in one run)")
+      ->capture_default_str();
+  b->add_option("--merge", o->merge,
+                "Compute splat variant: subgroup lanes hitting one pixel merge before the atomic: on|off|both")
       ->capture_default_str();
   b->add_option("--bandwidth", o->bandwidth, "Device memory bandwidth in B/s (H200 HBM3e: 4.8e12)")
       ->capture_default_str();

@@ -106,8 +106,10 @@ struct SurfelRenderer::Impl {
   Unique<VkSampler> sampler, nearestSampler;
   DescriptorSet descriptors;
   Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> prefixPipeline, scanPipeline, splatPipeline, splatCullPipeline, rasterPipeline, resolvePipeline;
-  bool cullBackFaces = false; // the frame's setting: which splat pipeline runs
+  Unique<VkPipeline> prefixPipeline, scanPipeline, rasterPipeline, resolvePipeline;
+  Unique<VkPipeline> splatPipelines[2][2]; // [subgroup merge][back-face culling]
+  bool cullBackFaces = false;              // the frame's settings: which splat pipeline runs
+  bool subgroupMerge = false;
   Image color, vis, depth;
   uint32_t width = 0, height = 0, instanceCount = 0;
   uint64_t surfelCount = 0, instancedCount = 0;
@@ -213,8 +215,11 @@ void SurfelRenderer::Impl::createPipelines() {
   scanPipeline = createComputePipeline(ctx, "surfel_render_scan.comp", layout);
   if (ctx.caps().int64BufferAtomics) {
     const uint32_t off[] = {VK_FALSE}, on[] = {VK_TRUE};
-    splatPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout, off);
-    splatCullPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout, on);
+    for (int merge = 0; merge < 2; ++merge) {
+      const char* shader = merge ? "surfel_render_splat_merge.comp" : "surfel_render_splat.comp";
+      splatPipelines[merge][0] = createComputePipeline(ctx, shader, layout, off);
+      splatPipelines[merge][1] = createComputePipeline(ctx, shader, layout, on);
+    }
   }
   resolvePipeline = createComputePipeline(ctx, "surfel_render_resolve.comp", layout);
   GraphicsPipelineDesc d;
@@ -307,7 +312,7 @@ void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster, Gp
                       VK_IMAGE_LAYOUT_UNDEFINED,
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   if (raster == SurfelRaster::Compute) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cullBackFaces ? splatCullPipeline : splatPipeline);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, splatPipelines[subgroupMerge][cullBackFaces]);
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::SurfelRenderCounters, splatArgs));
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
@@ -421,6 +426,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
             (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
   d.cullBackFaces = ss.backfaceCulling;
+  d.subgroupMerge = ss.subgroupMerge;
   f.instanceCount = d.instanceCount;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::SurfelRenderPush p = d.push();
@@ -505,6 +511,7 @@ Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const Surfel
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
   d.cullBackFaces = ss.backfaceCulling;
+  d.subgroupMerge = ss.subgroupMerge;
   f.instanceCount = d.instanceCount;
   f.idTag = MIRAGE_SURFEL_ID_TAG;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));

@@ -88,7 +88,8 @@ ImageRGBA8 renderMesh(GpuTest&, const Camera& camera) {
 }
 
 SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, float size = 2.0f,
-                                 SurfelOrder order = kDefaultSurfelOrder, bool allSurfels = false) {
+                                 SurfelOrder order = kDefaultSurfelOrder, bool allSurfels = false,
+                                 bool subgroupMerge = false) {
   auto r = SurfelRenderer::create(test::gpuContext(), surfelScene({glm::mat4(1.0f)}), order);
   EXPECT_TRUE(r.ok()) << r.error().message;
   SurfelRenderSettings s;
@@ -96,6 +97,7 @@ SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, floa
   s.raster = raster;
   s.surfelSize = size;
   s.allSurfels = allSurfels;
+  s.subgroupMerge = subgroupMerge;
   s.readInstanceStates = true;
   auto out = (*r)->render(s);
   EXPECT_TRUE(out.ok()) << out.error().message;
@@ -486,4 +488,27 @@ TEST_F(SurfelRender, CoherentOrderDrawsTheBlueImageWhenEverySurfelIsDrawn) {
     EXPECT_EQ(coherentK.prefix[0], coherentPrefix(blueK.prefix[0], n));
     std::printf("adaptive, distance x%.0f: k %u blue, %u coherent\n", factor, blueK.prefix[0], coherentK.prefix[0]);
   }
+}
+
+TEST_F(SurfelRender, SubgroupMergeWritesTheSameVisibilityBuffer) {
+  // Merging same-pixel lanes before the atomic keeps each pixel's maximum over the same values, so
+  // the 64-bit buffer (depth and id) must be identical to the plain splat's, in both orders, for
+  // 1-pixel (fast path) and 2-pixel surfels, every surfel and the adaptive prefix.
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent})
+    for (float size : {1.0f, 2.0f})
+      for (bool all : {true, false}) {
+        Camera cam = blobCamera(all ? 1.0f : 3.0f);
+        SurfelRenderOutput plain = renderSurfels(cam, SurfelRaster::Compute, size, order, all, false);
+        SurfelRenderOutput merged = renderSurfels(cam, SurfelRaster::Compute, size, order, all, true);
+        size_t covered = std::count_if(plain.idBuffer.begin(), plain.idBuffer.end(), [](uint32_t id) { return id; });
+        std::printf("%s order, size %.0f, %s: %zu covered px\n", toString(order), size, all ? "all" : "adaptive",
+                    covered);
+        EXPECT_GT(covered, 500u);
+        ASSERT_EQ(plain.depthBits.size(), merged.depthBits.size());
+        size_t differing = 0;
+        for (size_t i = 0; i < plain.idBuffer.size(); ++i)
+          differing += plain.idBuffer[i] != merged.idBuffer[i] || plain.depthBits[i] != merged.depthBits[i];
+        EXPECT_EQ(differing, 0u) << toString(order) << " size " << size << " all " << all;
+      }
 }

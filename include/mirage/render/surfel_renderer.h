@@ -89,6 +89,10 @@ struct SurfelRenderSettings {
   // reads cost more than the skipped splats save (1080p, 102 M surfels: 85.5 G surfels/s culled vs
   // 93.1 unculled; docs/surfels.md), the splat being latency- rather than atomic-bound.
   bool backfaceCulling = false;
+  // Compute splat variant: lanes of a subgroup that hit the same pixel pool their values first, and
+  // one lane per pixel touches the visibility buffer (same image, bit for bit). Meant for the
+  // coherent order; timed against the plain splat by `bench surfels --merge both`.
+  bool subgroupMerge = false;
   // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
   // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
   // beyond it (0: hard switch). Off: surfels everywhere.
