@@ -151,6 +151,52 @@ bool renderFrames(SurfelSession& s, int frames, std::vector<Timed>& out) {
   return true;
 }
 
+// CPU estimate of the splat's visibility-buffer locality: for up to 16 instances spread over the
+// grid, the surfels each draws (its k from `states`), projected as the splat does, grouped as one
+// 32-lane warp reads them (32 consecutive stored surfels); the mean number of distinct 128-byte
+// lines (16 pixels of 8 bytes, row-major) and distinct pixels per warp over warps with a pixel on
+// screen. What the coherent order is for: the blue-noise order touches ~32 lines per warp.
+struct WarpLocality {
+  double lines = 0.0, pixels = 0.0;
+  size_t warps = 0;
+};
+WarpLocality warpLocality(const SurfelSession& s, const render::SurfelScene& scene, render::SurfelOrder order,
+                          const std::vector<uint32_t>& prefix) {
+  const auto& base = s.settings.base;
+  render::Camera cam = render::withClipPlanes(base.camera, s.renderers[0]->worldBounds());
+  glm::mat4 viewProj = cam.projection(float(base.width) / float(base.height)) * cam.view();
+  std::vector<uint32_t> at =
+      order == render::SurfelOrder::Coherent ? render::coherentSurfelOrder(s.cloud) : std::vector<uint32_t>{};
+  WarpLocality w;
+  size_t step = std::max<size_t>(1, scene.instances.size() / 16);
+  for (size_t inst = 0; inst < scene.instances.size() && inst < prefix.size(); inst += step) {
+    glm::mat4 m = viewProj * scene.instances[inst].transform;
+    for (uint32_t first = 0; first < prefix[inst]; first += 32) {
+      std::vector<uint32_t> lines, pixels;
+      for (uint32_t i = first; i < std::min(first + 32, prefix[inst]); ++i) {
+        glm::vec3 p = surfels::surfelPosition(s.cloud.box, s.cloud.surfels[at.empty() ? i : at[i]]);
+        glm::vec4 clip = m * glm::vec4(p, 1.0f);
+        if (clip.w <= 0.0f) continue;
+        glm::vec2 px = (glm::vec2(clip) / clip.w * 0.5f + 0.5f) * glm::vec2(base.width, base.height);
+        if (px.x < 0.0f || px.y < 0.0f || px.x >= float(base.width) || px.y >= float(base.height)) continue;
+        uint32_t pixel = uint32_t(px.y) * base.width + uint32_t(px.x);
+        pixels.push_back(pixel);
+        lines.push_back(pixel / 16);
+      }
+      if (pixels.empty()) continue;
+      for (auto* v : {&lines, &pixels}) {
+        std::sort(v->begin(), v->end());
+        v->erase(std::unique(v->begin(), v->end()), v->end());
+      }
+      w.lines += double(lines.size());
+      w.pixels += double(pixels.size());
+      ++w.warps;
+    }
+  }
+  if (w.warps) w.lines /= double(w.warps), w.pixels /= double(w.warps);
+  return w;
+}
+
 double passMs(const std::vector<gpu::PassTime>& times, const std::string& name) {
   for (const auto& t : times)
     if (t.name == name) return t.milliseconds;
@@ -269,6 +315,23 @@ void runSurfelBench(const SurfelRenderRequest& r) {
                        order);
         }
       }
+  // After the timed frames: one frame per order with its instance states read back, for the CPU
+  // estimate of how many visibility-buffer lines a warp touches (the quantity the order changes).
+  nlohmann::json locality = nlohmann::json::object();
+  render::SurfelScene scene = gridScene(s, r.copies, r.sharedCopies);
+  for (size_t o = 0; o < orders->size(); ++o) {
+    render::SurfelRenderSettings probe = s.settings;
+    probe.readInstanceStates = true;
+    auto out = s.renderers[o]->render(probe);
+    if (!out) return fail(out.error());
+    WarpLocality w = warpLocality(s, scene, (*orders)[o], out->prefix);
+    const char* order = render::toString((*orders)[o]);
+    locality[order] = {{"lines_per_warp", w.lines}, {"pixels_per_warp", w.pixels}, {"warps", w.warps}};
+    if (!r.json)
+      fmt::print("{} order: a 32-surfel warp touches {:.1f} visibility-buffer lines of 128 B, {:.1f} pixels (CPU "
+                 "estimate, {} warps of up to 16 instances)\n",
+                 order, w.lines, w.pixels, w.warps);
+  }
   if (r.json) {
     nlohmann::json j = {{"bench", "surfels"},
                         {"input", r.input},
@@ -282,7 +345,8 @@ void runSurfelBench(const SurfelRenderRequest& r) {
                         {"bandwidth", r.bandwidth},
                         {"width", s.settings.base.width},
                         {"height", s.settings.base.height},
-                        {"rasters", all}};
+                        {"rasters", all},
+                        {"warp_locality", locality}};
     fmt::print("{}\n", j.dump(2));
   }
 }

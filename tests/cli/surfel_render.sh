@@ -52,6 +52,7 @@ if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 
   grep -q "G surfels/s" "$tmp/stdout" || { echo "FAIL bench-surfels: no throughput line"; failures=$((failures + 1)); }
   # Default --order all: both splat orders timed in one run, the coherent one against the blue one.
   grep -q "coherent vs blue order: speedup" "$tmp/stdout" || { echo "FAIL bench-surfels: no order comparison"; failures=$((failures + 1)); }
+  grep -q "coherent order: a 32-surfel warp touches" "$tmp/stdout" || { echo "FAIL bench-surfels: no locality estimate"; failures=$((failures + 1)); }
   expect_ok bench-surfels-blue bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order blue --surfel-raster compute --all
   grep -q "blue order" "$tmp/stdout" && ! grep -q "coherent order" "$tmp/stdout" || { echo "FAIL bench-surfels-blue: wrong orders"; failures=$((failures + 1)); }
   expect_ok bench-surfels-merge bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --surfel-raster compute --merge both
