@@ -209,8 +209,9 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--surfels", o->surfels, "Render the file's SURF chunk (.mrg from mirage surfels) or surfel .ply");
   cmd->add_option("--surfel-size", o->surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str();
   cmd->add_option("--surfel-raster", o->surfelRaster, "--surfels: auto|compute|raster")->capture_default_str();
-  cmd->add_option("--surfel-order", o->surfelOrder,
-                  "--surfels: splat order blue|coherent (default coherent: Morton-sorted blocks, docs/surfels.md)");
+  cmd->add_option(
+      "--surfel-order", o->surfelOrder,
+      "--surfels: splat order blue|coherent|coherent256 (default coherent: Morton-sorted blocks, docs/surfels.md)");
   cmd->callback([o] { runRender(*o); });
 }
 

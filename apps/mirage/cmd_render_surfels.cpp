@@ -75,12 +75,22 @@ render::SurfelScene gridScene(const SurfelSession& s, uint32_t copies, bool shar
   return scene;
 }
 
-// "blue", "coherent", or (bench) "all": both, compared in one run. `flag` names the option in errors.
-Result<std::vector<render::SurfelOrder>> parseOrders(const std::string& text, const char* flag, bool allowAll) {
-  if (allowAll && text == "all") return std::vector{render::SurfelOrder::Blue, render::SurfelOrder::Coherent};
-  auto o = render::parseSurfelOrder(text);
-  if (!o) return Error{fmt::format("{} '{}': expected blue, coherent{}", flag, text, allowAll ? " or all" : "")};
-  return std::vector{*o};
+// One order ("blue", "coherent", "coherent256"), or (bench) a comma-separated list or "all" (every
+// order, compared in one run; the first is the baseline). `flag` names the option in errors.
+Result<std::vector<render::SurfelOrder>> parseOrders(const std::string& text, const char* flag, bool allowList) {
+  std::vector<render::SurfelOrder> out;
+  if (allowList && text == "all")
+    return std::vector{render::SurfelOrder::Blue, render::SurfelOrder::Coherent, render::SurfelOrder::Coherent256};
+  for (size_t start = 0; start <= text.size();) {
+    size_t end = allowList ? std::min(text.find(',', start), text.size()) : text.size();
+    auto o = render::parseSurfelOrder(std::string_view(text).substr(start, end - start));
+    if (!o || std::find(out.begin(), out.end(), *o) != out.end())
+      return Error{fmt::format("{} '{}': expected {}blue, coherent or coherent256{}", flag, text,
+                               allowList ? "a list of distinct " : "", allowList ? ", or all" : "")};
+    out.push_back(*o);
+    start = end + 1;
+  }
+  return out;
 }
 
 // Checks the arguments, loads the cloud, starts the GPU, uploads the scene once per order. Returns
@@ -165,8 +175,9 @@ WarpLocality warpLocality(const SurfelSession& s, const render::SurfelScene& sce
   const auto& base = s.settings.base;
   render::Camera cam = render::withClipPlanes(base.camera, s.renderers[0]->worldBounds());
   glm::mat4 viewProj = cam.projection(float(base.width) / float(base.height)) * cam.view();
-  std::vector<uint32_t> at =
-      order == render::SurfelOrder::Coherent ? render::coherentSurfelOrder(s.cloud) : std::vector<uint32_t>{};
+  std::vector<uint32_t> at = order == render::SurfelOrder::Blue
+                                 ? std::vector<uint32_t>{}
+                                 : render::coherentSurfelOrder(s.cloud, render::coherentMinBlock(order));
   WarpLocality w;
   size_t step = std::max<size_t>(1, scene.instances.size() / 16);
   for (size_t inst = 0; inst < scene.instances.size() && inst < prefix.size(); inst += step) {
@@ -209,7 +220,7 @@ void runSurfelRender(const SurfelRenderRequest& r) {
   auto raster = render::parseSurfelRaster(r.raster);
   if (!raster) return fail(raster.error());
   auto orders = parseOrders(r.order.empty() ? render::toString(render::kDefaultSurfelOrder) : r.order, "--surfel-order",
-                            /*allowAll=*/false);
+                            /*allowList=*/false);
   if (!orders) return fail(orders.error());
   SurfelSession s;
   if (!open(r, /*needOutput=*/true, *orders, s)) return;
@@ -246,7 +257,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   if (r.merge == "off" || r.merge == "both") merges.push_back(false);
   if (r.merge == "on" || r.merge == "both") merges.push_back(true);
   if (merges.empty()) return fail("--merge must be on, off or both (got " + r.merge + ")");
-  auto orders = parseOrders(r.order, "--order", /*allowAll=*/true);
+  auto orders = parseOrders(r.order, "--order", /*allowList=*/true);
   if (!orders) return fail(orders.error());
   SurfelSession s;
   if (!open(r, /*needOutput=*/false, *orders, s)) return;
@@ -368,7 +379,8 @@ void addBenchSurfelsCommand(CLI::App& bench) {
   b->add_flag("--all", o->allSurfels, "Splat every surfel of every instance (no prefix): raw throughput");
   o->order = "all";
   b->add_option("--order", o->order,
-                "Splat order of the uploaded clouds: blue|coherent|all (all: both, frames interleaved, one run)")
+                "Splat orders of the uploaded clouds, timed in one run with frames interleaved (the first is the "
+                "baseline): all, or a comma list of blue|coherent|coherent256")
       ->capture_default_str();
   b->add_option("--backface", o->backface,
                 "Back-face culling of single-sided clouds: on|off|both (both: timed in one run)")

@@ -57,14 +57,14 @@ uint64_t mortonCode(const sio::Surfel& s) {
 
 } // namespace
 
-std::vector<uint32_t> coherentSurfelOrder(const surfels::SurfelCloud& cloud) {
+std::vector<uint32_t> coherentSurfelOrder(const surfels::SurfelCloud& cloud, uint32_t minBlock) {
   uint32_t n = uint32_t(cloud.size());
   std::vector<uint32_t> at(n);
   std::iota(at.begin(), at.end(), 0u);
   std::vector<uint64_t> codes(n);
   for (uint32_t i = 0; i < n; ++i) codes[i] = mortonCode(cloud.surfels[i]);
   for (uint32_t start = 0; start < n;) {
-    uint32_t end = coherentBlockEnd(start, n);
+    uint32_t end = coherentBlockEnd(start, n, minBlock);
     std::sort(at.begin() + start, at.begin() + end,
               [&](uint32_t a, uint32_t b) { return codes[a] != codes[b] ? codes[a] < codes[b] : a < b; });
     start = end;
@@ -72,12 +72,27 @@ std::vector<uint32_t> coherentSurfelOrder(const surfels::SurfelCloud& cloud) {
   return at;
 }
 
-const char* toString(SurfelOrder o) { return o == SurfelOrder::Blue ? "blue" : "coherent"; }
+static_assert(std::has_single_bit(coherentMinBlock(SurfelOrder::Coherent)) &&
+                  std::has_single_bit(coherentMinBlock(SurfelOrder::Coherent256)) &&
+                  coherentMinBlock(SurfelOrder::Coherent256) >= 32,
+              "coherent blocks tile the order, and hold whole warps, only with power-of-two sizes >= 32");
+
+const char* toString(SurfelOrder o) {
+  switch (o) {
+  case SurfelOrder::Blue:
+    return "blue";
+  case SurfelOrder::Coherent:
+    return "coherent";
+  case SurfelOrder::Coherent256:
+    return "coherent256";
+  }
+  return "?";
+}
 
 Result<SurfelOrder> parseSurfelOrder(std::string_view text) {
-  for (SurfelOrder o : {SurfelOrder::Blue, SurfelOrder::Coherent})
+  for (SurfelOrder o : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256})
     if (text == toString(o)) return o;
-  return Error{fmt::format("surfel order '{}': expected blue or coherent", text)};
+  return Error{fmt::format("surfel order '{}': expected blue, coherent or coherent256", text)};
 }
 
 const char* toString(SurfelRaster r) {
@@ -147,7 +162,7 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
     g.firstSurfel = uint32_t(pos.size());
     g.count = uint32_t(cloud.size());
     g.material = uint32_t(gpuMaterials.size());
-    g.coherentOrder = order == SurfelOrder::Coherent ? 1u : 0u;
+    g.coherentMinBlock = coherentMinBlock(order);
     gpuClouds.push_back(g);
     Material m = c.material;
     m.baseColorTexture = m.metallicRoughnessTexture = m.normalTexture = m.occlusionTexture = m.emissiveTexture = -1;
@@ -156,9 +171,9 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
     // Radii belong to prefix lengths, not to surfels: they keep the blue-noise order.
     for (size_t i = 0; i < cloud.size(); ++i) prefixRadii.push_back(i < cloud.radii.size() ? cloud.radii[i] : 0.0f);
     const std::vector<uint32_t>* at = nullptr;
-    if (order == SurfelOrder::Coherent) {
+    if (g.coherentMinBlock != 0) {
       auto [it, added] = orders.try_emplace(&cloud);
-      if (added) it->second = coherentSurfelOrder(cloud);
+      if (added) it->second = coherentSurfelOrder(cloud, g.coherentMinBlock);
       at = &it->second;
     }
     // Positions and attributes move together, so a visibility id still names its own attributes.

@@ -151,12 +151,13 @@ TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
     transforms.push_back(t);
   }
   transforms.push_back(glm::translate(glm::mat4(1.0f), glm::vec3(500.0f, 0.0f, 0.0f)));
-  for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent}) {
+  for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
     auto r = SurfelRenderer::create(context(), surfelScene(transforms), order);
     ASSERT_TRUE(r.ok()) << r.error().message;
     uint32_t n = uint32_t(cloud.size());
     // The coherent order draws k rounded up to its block's end.
-    auto drawn = [&](uint32_t k) { return order == SurfelOrder::Coherent ? coherentPrefix(k, n) : k; };
+    uint32_t minBlock = coherentMinBlock(order);
+    auto drawn = [&](uint32_t k) { return minBlock ? coherentPrefix(k, n, minBlock) : k; };
     Camera cam;
     cam.eye = {0.0f, 0.5f, 6.0f};
     cam.target = {0.0f, 0.0f, -20.0f};
@@ -198,7 +199,7 @@ TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
 TEST_F(SurfelRender, HoleFreeOverTheMeshSilhouette) {
   // Near (k clamped to N: surfels grow to the cloud's own spacing) and far (k < N: s-pixel surfels).
   for (float factor : {1.0f, 3.0f})
-    for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent}) {
+    for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
       Camera cam = blobCamera(factor);
       ImageRGBA8 mesh = renderMesh(*this, cam);
       SurfelRenderOutput out = renderSurfels(cam, computeOrRaster(), 2.0f, order);
@@ -220,7 +221,7 @@ TEST_F(SurfelRender, CloseToTheMeshAtDistance) {
   // reach it (measured 0.866 vs 0.829 at x2, 0.741 vs 0.712 at x4 where the object is ~36 px wide;
   // 0.02 slack for driver rounding).
   for (float factor : {2.0f, 4.0f})
-    for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent}) {
+    for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
       Camera cam = blobCamera(factor);
       ImageRGBA8 mesh = renderMesh(*this, cam);
       SurfelRenderOutput out = renderSurfels(cam, computeOrRaster(), 2.0f, order);
@@ -412,45 +413,47 @@ TEST(SurfelCoherentOrder, PermutesWithinBlocksAndKeepsEveryRoundedPrefix) {
     glm::vec3 p = cloud.box.min + glm::vec3(next(), next(), next()) * cloud.box.extent();
     cloud.surfels.push_back(surfels::packSurfel(cloud.box, p, glm::vec3(0.0f, 0.0f, 1.0f), i));
   }
-  std::vector<uint32_t> at = coherentSurfelOrder(cloud);
-  ASSERT_EQ(at.size(), n);
-  auto morton = [&](uint32_t index) {
-    const auto& s = cloud.surfels[index];
-    uint32_t q[3] = {s.posLo & 0x1fffffu, (s.posLo >> 21) | ((s.posHi & 0x3ffu) << 11), s.posHi >> 10};
-    uint64_t code = 0;
-    for (int bit = 0; bit < 21; ++bit)
-      for (int axis = 0; axis < 3; ++axis) code |= uint64_t((q[axis] >> bit) & 1u) << (3 * bit + axis);
-    return code;
-  };
-  std::vector<uint32_t> blockSizes;
-  for (uint32_t start = 0; start < n;) {
-    uint32_t end = coherentBlockEnd(start, n);
-    ASSERT_GT(end, start);
-    for (uint32_t i = start; i < end; ++i) EXPECT_EQ(coherentBlockEnd(i, n), end) << "position " << i;
-    std::vector<uint32_t> block(at.begin() + start, at.begin() + end);
-    for (uint32_t i = start + 1; i < end; ++i) ASSERT_LE(morton(at[i - 1]), morton(at[i])) << "position " << i;
-    std::sort(block.begin(), block.end());
-    for (uint32_t i = start; i < end; ++i) ASSERT_EQ(block[i - start], i) << "block at " << start;
-    // Rounding up adds at most a minimum block or 1/2^SHIFT of the prefix.
-    EXPECT_LE(end - start,
-              std::max<uint32_t>(MIRAGE_SURFEL_COHERENT_MIN_BLOCK, start >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT));
-    blockSizes.push_back(end - start);
-    start = end;
+  for (SurfelOrder order : {SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
+    uint32_t minBlock = coherentMinBlock(order);
+    std::vector<uint32_t> at = coherentSurfelOrder(cloud, minBlock);
+    ASSERT_EQ(at.size(), n);
+    auto morton = [&](uint32_t index) {
+      const auto& s = cloud.surfels[index];
+      uint32_t q[3] = {s.posLo & 0x1fffffu, (s.posLo >> 21) | ((s.posHi & 0x3ffu) << 11), s.posHi >> 10};
+      uint64_t code = 0;
+      for (int bit = 0; bit < 21; ++bit)
+        for (int axis = 0; axis < 3; ++axis) code |= uint64_t((q[axis] >> bit) & 1u) << (3 * bit + axis);
+      return code;
+    };
+    std::vector<uint32_t> blockSizes;
+    for (uint32_t start = 0; start < n;) {
+      uint32_t end = coherentBlockEnd(start, n, minBlock);
+      ASSERT_GT(end, start);
+      for (uint32_t i = start; i < end; ++i) EXPECT_EQ(coherentBlockEnd(i, n, minBlock), end) << "position " << i;
+      std::vector<uint32_t> block(at.begin() + start, at.begin() + end);
+      for (uint32_t i = start + 1; i < end; ++i) ASSERT_LE(morton(at[i - 1]), morton(at[i])) << "position " << i;
+      std::sort(block.begin(), block.end());
+      for (uint32_t i = start; i < end; ++i) ASSERT_EQ(block[i - start], i) << "block at " << start;
+      // Rounding up adds at most a minimum block or 1/2^SHIFT of the prefix.
+      EXPECT_LE(end - start, std::max(minBlock, start >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT));
+      blockSizes.push_back(end - start);
+      start = end;
+    }
+    EXPECT_GT(blockSizes.back(), minBlock) << "blocks must grow";
+    // Every rounded prefix: the same set as the blue-noise prefix of its length (a superset of k).
+    for (uint32_t k = 1; k <= n; k += 97) {
+      uint32_t rounded = coherentPrefix(k, n, minBlock);
+      ASSERT_GE(rounded, k);
+      ASSERT_LE(rounded - k, std::max(minBlock, k >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT));
+      uint32_t largest = *std::max_element(at.begin(), at.begin() + rounded);
+      EXPECT_EQ(largest, rounded - 1) << toString(order) << " k "
+                                      << k; // a bijection on [0, rounded): max = rounded - 1
+    }
+    EXPECT_EQ(coherentPrefix(0, n, minBlock), 0u);
+    EXPECT_EQ(coherentPrefix(n, n, minBlock), n);
   }
-  EXPECT_GT(blockSizes.back(), uint32_t(MIRAGE_SURFEL_COHERENT_MIN_BLOCK)) << "blocks must grow";
-  // Every rounded prefix: the same set as the blue-noise prefix of its length (a superset of k).
-  for (uint32_t k = 1; k <= n; k += 97) {
-    uint32_t rounded = coherentPrefix(k, n);
-    ASSERT_GE(rounded, k);
-    ASSERT_LE(rounded - k,
-              std::max<uint32_t>(MIRAGE_SURFEL_COHERENT_MIN_BLOCK, k >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT));
-    uint32_t largest = *std::max_element(at.begin(), at.begin() + rounded);
-    EXPECT_EQ(largest, rounded - 1) << "k " << k; // a bijection on [0, rounded): max = rounded - 1
-  }
-  EXPECT_EQ(coherentPrefix(0, n), 0u);
-  EXPECT_EQ(coherentPrefix(n, n), n);
   // Near 2^32 the block end does not overflow.
-  EXPECT_EQ(coherentBlockEnd(0xfffffff0u, 0xfffffffeu), 0xfffffffeu);
+  EXPECT_EQ(coherentBlockEnd(0xfffffff0u, 0xfffffffeu, 1024), 0xfffffffeu);
 }
 
 TEST_F(SurfelRender, CoherentOrderDrawsTheBlueImageWhenEverySurfelIsDrawn) {
@@ -460,33 +463,36 @@ TEST_F(SurfelRender, CoherentOrderDrawsTheBlueImageWhenEverySurfelIsDrawn) {
   // id, which the orders number differently). Adaptive prefix: the coherent k is the blue k rounded
   // up to its block.
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
-  std::vector<uint32_t> at = coherentSurfelOrder(blob().cloud);
+  uint32_t n = uint32_t(blob().cloud.size());
   for (float factor : {1.0f, 3.0f}) {
     Camera cam = blobCamera(factor);
     SurfelRenderOutput blue = renderSurfels(cam, SurfelRaster::Compute, 1.0f, SurfelOrder::Blue, true);
-    SurfelRenderOutput coherent = renderSurfels(cam, SurfelRaster::Compute, 1.0f, SurfelOrder::Coherent, true);
-    ASSERT_EQ(blue.prefix, coherent.prefix);
-    ASSERT_EQ(blue.depthBits.size(), coherent.depthBits.size());
-    size_t covered = 0, sameDepth = 0, sameSurfel = 0;
-    for (size_t i = 0; i < blue.idBuffer.size(); ++i) {
-      if (blue.idBuffer[i] == 0 && coherent.idBuffer[i] == 0) continue;
-      ++covered;
-      sameDepth += blue.depthBits[i] == coherent.depthBits[i];
-      // Ids are 1 + stored index (one instance): map the coherent one back to the blue-noise index.
-      bool bothSet = blue.idBuffer[i] != 0 && coherent.idBuffer[i] != 0;
-      sameSurfel += bothSet && blue.idBuffer[i] - 1 == at[coherent.idBuffer[i] - 1];
-    }
-    std::printf("all surfels, distance x%.0f: %zu covered px, same depth %zu, same surfel %zu\n", factor, covered,
-                sameDepth, sameSurfel);
-    EXPECT_GT(covered, 1000u);
-    EXPECT_EQ(sameDepth, covered) << "depth is order-independent";
-    EXPECT_GE(double(sameSurfel), 0.99 * double(covered)) << "only exact depth ties may differ";
-
     SurfelRenderOutput blueK = renderSurfels(cam, SurfelRaster::Compute, 2.0f, SurfelOrder::Blue);
-    SurfelRenderOutput coherentK = renderSurfels(cam, SurfelRaster::Compute, 2.0f, SurfelOrder::Coherent);
-    uint32_t n = uint32_t(blob().cloud.size());
-    EXPECT_EQ(coherentK.prefix[0], coherentPrefix(blueK.prefix[0], n));
-    std::printf("adaptive, distance x%.0f: k %u blue, %u coherent\n", factor, blueK.prefix[0], coherentK.prefix[0]);
+    for (SurfelOrder order : {SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
+      std::vector<uint32_t> at = coherentSurfelOrder(blob().cloud, coherentMinBlock(order));
+      SurfelRenderOutput coherent = renderSurfels(cam, SurfelRaster::Compute, 1.0f, order, true);
+      ASSERT_EQ(blue.prefix, coherent.prefix);
+      ASSERT_EQ(blue.depthBits.size(), coherent.depthBits.size());
+      size_t covered = 0, sameDepth = 0, sameSurfel = 0;
+      for (size_t i = 0; i < blue.idBuffer.size(); ++i) {
+        if (blue.idBuffer[i] == 0 && coherent.idBuffer[i] == 0) continue;
+        ++covered;
+        sameDepth += blue.depthBits[i] == coherent.depthBits[i];
+        // Ids are 1 + stored index (one instance): map the coherent one back to the blue-noise index.
+        bool bothSet = blue.idBuffer[i] != 0 && coherent.idBuffer[i] != 0;
+        sameSurfel += bothSet && blue.idBuffer[i] - 1 == at[coherent.idBuffer[i] - 1];
+      }
+      std::printf("%s, all surfels, distance x%.0f: %zu covered px, same depth %zu, same surfel %zu\n", toString(order),
+                  factor, covered, sameDepth, sameSurfel);
+      EXPECT_GT(covered, 1000u);
+      EXPECT_EQ(sameDepth, covered) << toString(order) << ": depth is order-independent";
+      EXPECT_GE(double(sameSurfel), 0.99 * double(covered)) << toString(order) << ": only exact depth ties may differ";
+
+      SurfelRenderOutput coherentK = renderSurfels(cam, SurfelRaster::Compute, 2.0f, order);
+      EXPECT_EQ(coherentK.prefix[0], coherentPrefix(blueK.prefix[0], n, coherentMinBlock(order)));
+      std::printf("%s, adaptive, distance x%.0f: k %u blue, %u coherent\n", toString(order), factor, blueK.prefix[0],
+                  coherentK.prefix[0]);
+    }
   }
 }
 

@@ -36,31 +36,38 @@ Result<SurfelRaster> parseSurfelRaster(std::string_view text);
 
 // How the renderer stores each cloud for splatting (files keep the blue-noise order either way).
 enum class SurfelOrder {
-  Blue,     // the file's order: prefix k is exactly the first k surfels
-  Coherent, // Morton-sorted within geometrically growing blocks; prefixes round up to a block end
+  Blue,        // the file's order: prefix k is exactly the first k surfels
+  Coherent,    // Morton-sorted within geometrically growing blocks of >= 1024 (one splat batch)
+  Coherent256, // the same with blocks of >= 256: less rounding for small prefixes, less coherence
 };
 const char* toString(SurfelOrder order);
-// "blue" or "coherent"; anything else is an error naming the choices.
+// "blue", "coherent" or "coherent256"; anything else is an error naming the choices.
 Result<SurfelOrder> parseSurfelOrder(std::string_view text);
 // The order `mirage render --surfels` and SurfelRenderer::create use unless told otherwise.
 inline constexpr SurfelOrder kDefaultSurfelOrder = SurfelOrder::Coherent;
+// The smallest block of a coherent order (0 for the blue-noise order).
+inline constexpr uint32_t coherentMinBlock(SurfelOrder order) {
+  return order == SurfelOrder::Coherent ? MIRAGE_SURFEL_BATCH : order == SurfelOrder::Coherent256 ? 256u : 0u;
+}
 
 // Coherent order (docs/surfels.md, "Coherent order"): the end of the block holding position i of a
-// cloud of n surfels. Blocks: size max(MIN_BLOCK, 2^floor(log2 i) >> SHIFT), aligned to multiples of
-// their size (MIRAGE_SURFEL_COHERENT_*; the GLSL twin is in surfel_render_prefix.comp).
-inline uint32_t coherentBlockEnd(uint32_t i, uint32_t n) {
-  uint32_t size = MIRAGE_SURFEL_COHERENT_MIN_BLOCK;
+// cloud of n surfels. Blocks: size max(minBlock, 2^floor(log2 i) >> SHIFT), aligned to multiples of
+// their size (minBlock a power of two >= 32; the GLSL twin is in surfel_render_prefix.comp).
+inline uint32_t coherentBlockEnd(uint32_t i, uint32_t n, uint32_t minBlock) {
+  uint32_t size = minBlock;
   if (i > 0) size = std::max(size, (1u << (31 - std::countl_zero(i))) >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT);
   uint32_t start = i - i % size;
   return n - start <= size ? n : start + size; // no overflow near 2^32
 }
 // A prefix length rounded up to the end of its block (0 stays 0): the first k' surfels of the
 // coherent order are the same set as the first k' of the blue-noise order.
-inline uint32_t coherentPrefix(uint32_t k, uint32_t n) { return k == 0 ? 0 : coherentBlockEnd(k - 1, n); }
+inline uint32_t coherentPrefix(uint32_t k, uint32_t n, uint32_t minBlock) {
+  return k == 0 ? 0 : coherentBlockEnd(k - 1, n, minBlock);
+}
 // The coherent order of a cloud: at[i] is the index (in the cloud's blue-noise order) of the surfel
 // stored at position i. A permutation within each block, by Morton code of the quantized position
 // (ties by index).
-std::vector<uint32_t> coherentSurfelOrder(const surfels::SurfelCloud& cloud);
+std::vector<uint32_t> coherentSurfelOrder(const surfels::SurfelCloud& cloud, uint32_t minBlock);
 
 // What the renderer draws: clouds (each with the material its metallic / roughness come from) and
 // placed copies of them.

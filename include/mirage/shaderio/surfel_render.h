@@ -38,12 +38,11 @@ namespace mirage::shaderio {
 
 // Coherent splat order (docs/surfels.md, "Coherent order"): the renderer stores each cloud in
 // blocks that keep the blue-noise prefix order between blocks and sort by Morton code within them.
-// The block holding position i (i >= 1) has size max(MIN_BLOCK, 2^floor(log2 i) >> SHIFT): MIN_BLOCK
-// surfels up to 2^SHIFT * MIN_BLOCK, then 1/2^SHIFT of the position, so rounding a prefix up to its
-// block's end adds at most 1/2^SHIFT (6.25 %) beyond MIN_BLOCK. MIN_BLOCK must be a power of two
-// (block boundaries are then multiples of the block size) and is one splat batch, so a batch of a
-// coherent cloud is one Morton run.
-#define MIRAGE_SURFEL_COHERENT_MIN_BLOCK MIRAGE_SURFEL_BATCH
+// The block holding position i (i >= 1) has size max(minBlock, 2^floor(log2 i) >> SHIFT): minBlock
+// surfels up to 2^SHIFT * minBlock, then 1/2^SHIFT of the position, so rounding a prefix up to its
+// block's end adds at most 1/2^SHIFT (6.25 %) beyond minBlock. minBlock (per cloud,
+// SurfelRenderCloud::coherentMinBlock) is a power of two >= 32, so block boundaries are multiples
+// of the block size and every warp's 32 consecutive surfels lie in one block.
 #define MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT 4
 
 // Back-face culling keeps surfels whose normal leans away from the eye by less than this cosine:
@@ -54,12 +53,12 @@ namespace mirage::shaderio {
 // One surfel cloud as the shaders see it: positions and attributes live in two arrays (SoA), so the
 // splat streams 8 bytes per surfel and only the resolve touches normals and colours.
 struct SurfelRenderCloud {
-  vec4 boxMin;        // xyz quantization box minimum; w: P = N_ref * d^2 (object units squared)
-  vec4 boxStep;       // xyz box extent / (2^21 - 1): object units per quantization step
-  uint firstSurfel;   // offset into the position and attribute arrays
-  uint count;         // N
-  uint material;      // index into the material array
-  uint coherentOrder; // 1: stored in the coherent order, prefixes round up to a block end
+  vec4 boxMin;           // xyz quantization box minimum; w: P = N_ref * d^2 (object units squared)
+  vec4 boxStep;          // xyz box extent / (2^21 - 1): object units per quantization step
+  uint firstSurfel;      // offset into the position and attribute arrays
+  uint count;            // N
+  uint material;         // index into the material array
+  uint coherentMinBlock; // 0: blue-noise order; else the coherent order's smallest block (prefixes round up)
 };
 
 // One placed copy of a cloud.
@@ -140,8 +139,6 @@ struct SurfelRenderPush {
 };
 
 #ifdef __cplusplus
-static_assert((MIRAGE_SURFEL_COHERENT_MIN_BLOCK & (MIRAGE_SURFEL_COHERENT_MIN_BLOCK - 1)) == 0,
-              "coherent blocks tile the order only with a power-of-two minimum size");
 static_assert(sizeof(SurfelRenderCloud) == 48, "SurfelRenderCloud layout");
 static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout");
 static_assert(sizeof(SurfelInstanceState) == 128, "SurfelInstanceState layout");
