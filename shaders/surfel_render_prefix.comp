@@ -14,6 +14,18 @@ bool sphereVisible(SurfelRenderFrame f, vec4 s) {
   return true;
 }
 
+// Coherent order: a prefix length rounded up to the end of its block, so the drawn set is the
+// blue-noise prefix of that length (Morton-sorted inside). C++ twin: coherentPrefix() in
+// mirage/render/surfel_renderer.h (tested equal).
+uint coherentPrefix(uint k, uint n, uint minBlock) {
+  if (k == 0u) return 0u;
+  uint i = k - 1u;
+  uint size = minBlock;
+  if (i > 0u) size = max(size, (1u << findMSB(i)) >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT);
+  uint start = i - i % size;
+  return n - start <= size ? n : start + size;
+}
+
 void main() {
   SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
   uint i = gl_GlobalInvocationID.x;
@@ -42,8 +54,10 @@ void main() {
   if (push.meshFadeAddress != 0 && inst.meshInstance != ~0u) SrFadeRef(push.meshFadeAddress).v[inst.meshInstance] = fade;
   bool visible = ((f.flags & MIRAGE_SURFEL_FRUSTUM_CULL) == 0 || sphereVisible(f, inst.sphere)) && fade > 0.0;
   uint count = visible ? uint(k) : 0u;
+  if (cloud.coherentMinBlock != 0u) count = coherentPrefix(count, cloud.count, cloud.coherentMinBlock);
   // Disc radius: the prefix's Poisson radius radii[k-1], which bounds its covering radius (every
-  // sampled point lies within it of a prefix surfel), so discs of that radius leave no hole. Clouds
+  // sampled point lies within it of a prefix surfel), so discs of that radius leave no hole. In the
+  // coherent order k is already rounded up: the drawn set is the blue-noise prefix of that length. Clouds
   // without radii (a PLY without them) fall back to the mean spacing sqrt(P / k).
   float radius = 0.0;
   if (count > 0u) {

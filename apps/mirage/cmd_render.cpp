@@ -34,7 +34,8 @@ struct RenderOptions {
   bool surfels = false;        // draw the file's SURF chunk (or surfel PLY) with the surfel renderer
   float surfelSize = 2.0f;
   std::string surfelRaster = "auto";
-  LodCullOptions cull; // .mrg only
+  std::string surfelOrder; // empty: render::kDefaultSurfelOrder
+  LodCullOptions cull;     // .mrg only
 };
 
 LodRenderRequest lodRequest(const RenderOptions& o) {
@@ -56,8 +57,8 @@ LodRenderRequest lodRequest(const RenderOptions& o) {
 
 void runRender(const RenderOptions& o) {
   if (o.surfels && mrgHasClusterDags(o.input)) { // DAGs + SURF: meshes near, surfels far (one frame)
-    if (!o.pvs.empty() || o.surfelRaster != "auto")
-      return fail("--pvs and --surfel-raster do not apply to mixed scenes");
+    if (!o.pvs.empty() || o.surfelRaster != "auto" || !o.surfelOrder.empty())
+      return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");
     LodRenderRequest r = lodRequest(o);
     r.surfels = true;
     r.surfelSize = o.surfelSize;
@@ -73,13 +74,15 @@ void runRender(const RenderOptions& o) {
     r.size = o.size;
     r.device = o.device;
     r.raster = o.surfelRaster;
+    r.order = o.surfelOrder;
     r.surfelSize = o.surfelSize;
     r.frames = o.repeat;
     r.stats = o.stats;
     if (o.repeat < 1 || o.repeat > 10000) return fail("--repeat must be in 1..10000");
     return runSurfelRender(r);
   }
-  if (o.surfelSize != 2.0f || o.surfelRaster != "auto") return fail("--surfel-size and --surfel-raster need --surfels");
+  if (o.surfelSize != 2.0f || o.surfelRaster != "auto" || !o.surfelOrder.empty())
+    return fail("--surfel-size, --surfel-raster and --surfel-order need --surfels");
   if (isLodAssetPath(o.input)) {
     LodRenderRequest r = lodRequest(o);
     return runLodRender(r);
@@ -206,6 +209,9 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--surfels", o->surfels, "Render the file's SURF chunk (.mrg from mirage surfels) or surfel .ply");
   cmd->add_option("--surfel-size", o->surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str();
   cmd->add_option("--surfel-raster", o->surfelRaster, "--surfels: auto|compute|raster")->capture_default_str();
+  cmd->add_option(
+      "--surfel-order", o->surfelOrder,
+      "--surfels: splat order blue|coherent|coherent256 (default coherent: Morton-sorted blocks, docs/surfels.md)");
   cmd->callback([o] { runRender(*o); });
 }
 

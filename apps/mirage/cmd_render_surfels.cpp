@@ -24,7 +24,7 @@ struct SurfelSession {
   surfels::SurfelCloud cloud;
   Material material;
   std::unique_ptr<gpu::Context> ctx;
-  std::unique_ptr<render::SurfelRenderer> renderer;
+  std::vector<std::unique_ptr<render::SurfelRenderer>> renderers; // one per splat order, same scene
   render::SurfelRenderSettings settings;
 };
 
@@ -75,8 +75,28 @@ render::SurfelScene gridScene(const SurfelSession& s, uint32_t copies, bool shar
   return scene;
 }
 
-// Checks the arguments, loads the cloud, starts the GPU. Returns false after fail().
-bool open(const SurfelRenderRequest& r, bool needOutput, SurfelSession& s) {
+// One order ("blue", "coherent", "coherent256"), or (bench) a comma-separated list or "all" (every
+// order, compared in one run; the first is the baseline). `flag` names the option in errors.
+Result<std::vector<render::SurfelOrder>> parseOrders(const std::string& text, const char* flag, bool allowList) {
+  std::vector<render::SurfelOrder> out;
+  if (allowList && text == "all")
+    return std::vector{render::SurfelOrder::Blue, render::SurfelOrder::Coherent, render::SurfelOrder::Coherent256};
+  for (size_t start = 0; start <= text.size();) {
+    size_t end = allowList ? std::min(text.find(',', start), text.size()) : text.size();
+    auto o = render::parseSurfelOrder(std::string_view(text).substr(start, end - start));
+    if (!o || std::find(out.begin(), out.end(), *o) != out.end())
+      return Error{fmt::format("{} '{}': expected {}blue, coherent or coherent256{}", flag, text,
+                               allowList ? "a list of distinct " : "", allowList ? ", or all" : "")};
+    out.push_back(*o);
+    start = end + 1;
+  }
+  return out;
+}
+
+// Checks the arguments, loads the cloud, starts the GPU, uploads the scene once per order. Returns
+// false after fail().
+bool open(const SurfelRenderRequest& r, bool needOutput, const std::vector<render::SurfelOrder>& orders,
+          SurfelSession& s) {
   uint32_t width = 0, height = 0;
   if (auto st = parseSize(r.size, width, height); !st) return fail(st.error()), false;
   if (needOutput)
@@ -99,13 +119,16 @@ bool open(const SurfelRenderRequest& r, bool needOutput, SurfelSession& s) {
   auto ctx = openDevice(r.device);
   if (!ctx) return fail(ctx.error()), false;
   s.ctx = std::move(*ctx);
-  auto renderer = render::SurfelRenderer::create(*s.ctx, gridScene(s, r.copies, r.sharedCopies));
-  if (!renderer) return fail(renderer.error()), false;
-  s.renderer = std::move(*renderer);
+  render::SurfelScene scene = gridScene(s, r.copies, r.sharedCopies);
+  for (render::SurfelOrder order : orders) {
+    auto renderer = render::SurfelRenderer::create(*s.ctx, scene, order);
+    if (!renderer) return fail(renderer.error()), false;
+    s.renderers.push_back(std::move(*renderer));
+  }
   s.settings.base.width = width;
   s.settings.base.height = height;
   s.settings.base.camera =
-      r.camera.empty() ? render::autoCamera(s.renderer->worldBounds(), float(width) / float(height)) : camera;
+      r.camera.empty() ? render::autoCamera(s.renderers[0]->worldBounds(), float(width) / float(height)) : camera;
   s.settings.surfelSize = r.surfelSize;
   s.settings.allSurfels = r.allSurfels;
   return true;
@@ -117,18 +140,72 @@ struct Timed {
   size_t frames = 0;
 };
 
-bool renderFrames(SurfelSession& s, int frames, Timed& out) {
-  std::vector<std::vector<gpu::PassTime>> all;
-  for (int i = 0; i < frames; ++i) {
-    auto o = s.renderer->render(s.settings);
-    if (!o) return fail(o.error()), false;
-    all.push_back(o->image.stats.passTimes);
-    out.last = std::move(*o);
+// `frames` frames of every renderer (same settings, same view), interleaved frame by frame so a
+// clock or thermal drift during the run affects every order alike; out[i] for renderer i.
+bool renderFrames(SurfelSession& s, int frames, std::vector<Timed>& out) {
+  size_t n = s.renderers.size();
+  std::vector<std::vector<std::vector<gpu::PassTime>>> all(n);
+  out.assign(n, Timed{});
+  for (int i = 0; i < frames; ++i)
+    for (size_t r = 0; r < n; ++r) {
+      auto o = s.renderers[r]->render(s.settings);
+      if (!o) return fail(o.error()), false;
+      all[r].push_back(o->image.stats.passTimes);
+      out[r].last = std::move(*o);
+    }
+  for (size_t r = 0; r < n; ++r) {
+    if (all[r].size() > 1) all[r].erase(all[r].begin()); // pipeline warm-up
+    out[r].frames = all[r].size();
+    out[r].times = medianPassTimes(all[r]);
   }
-  if (all.size() > 1) all.erase(all.begin()); // pipeline warm-up
-  out.frames = all.size();
-  out.times = medianPassTimes(all);
   return true;
+}
+
+// CPU estimate of the splat's visibility-buffer locality: for up to 16 instances spread over the
+// grid, the surfels each draws (its k from `states`), projected as the splat does, grouped as one
+// 32-lane warp reads them (32 consecutive stored surfels); the mean number of distinct 128-byte
+// lines (16 pixels of 8 bytes, row-major) and distinct pixels per warp over warps with a pixel on
+// screen. What the coherent order is for: the blue-noise order touches ~32 lines per warp.
+struct WarpLocality {
+  double lines = 0.0, pixels = 0.0;
+  size_t warps = 0;
+};
+WarpLocality warpLocality(const SurfelSession& s, const render::SurfelScene& scene, render::SurfelOrder order,
+                          const std::vector<uint32_t>& prefix) {
+  const auto& base = s.settings.base;
+  render::Camera cam = render::withClipPlanes(base.camera, s.renderers[0]->worldBounds());
+  glm::mat4 viewProj = cam.projection(float(base.width) / float(base.height)) * cam.view();
+  std::vector<uint32_t> at = order == render::SurfelOrder::Blue
+                                 ? std::vector<uint32_t>{}
+                                 : render::coherentSurfelOrder(s.cloud, render::coherentMinBlock(order));
+  WarpLocality w;
+  size_t step = std::max<size_t>(1, scene.instances.size() / 16);
+  for (size_t inst = 0; inst < scene.instances.size() && inst < prefix.size(); inst += step) {
+    glm::mat4 m = viewProj * scene.instances[inst].transform;
+    for (uint32_t first = 0; first < prefix[inst]; first += 32) {
+      std::vector<uint32_t> lines, pixels;
+      for (uint32_t i = first; i < std::min(first + 32, prefix[inst]); ++i) {
+        glm::vec3 p = surfels::surfelPosition(s.cloud.box, s.cloud.surfels[at.empty() ? i : at[i]]);
+        glm::vec4 clip = m * glm::vec4(p, 1.0f);
+        if (clip.w <= 0.0f) continue;
+        glm::vec2 px = (glm::vec2(clip) / clip.w * 0.5f + 0.5f) * glm::vec2(base.width, base.height);
+        if (px.x < 0.0f || px.y < 0.0f || px.x >= float(base.width) || px.y >= float(base.height)) continue;
+        uint32_t pixel = uint32_t(px.y) * base.width + uint32_t(px.x);
+        pixels.push_back(pixel);
+        lines.push_back(pixel / 16);
+      }
+      if (pixels.empty()) continue;
+      for (auto* v : {&lines, &pixels}) {
+        std::sort(v->begin(), v->end());
+        v->erase(std::unique(v->begin(), v->end()), v->end());
+      }
+      w.lines += double(lines.size());
+      w.pixels += double(pixels.size());
+      ++w.warps;
+    }
+  }
+  if (w.warps) w.lines /= double(w.warps), w.pixels /= double(w.warps);
+  return w;
 }
 
 double passMs(const std::vector<gpu::PassTime>& times, const std::string& name) {
@@ -142,15 +219,20 @@ double passMs(const std::vector<gpu::PassTime>& times, const std::string& name) 
 void runSurfelRender(const SurfelRenderRequest& r) {
   auto raster = render::parseSurfelRaster(r.raster);
   if (!raster) return fail(raster.error());
+  auto orders = parseOrders(r.order.empty() ? render::toString(render::kDefaultSurfelOrder) : r.order, "--surfel-order",
+                            /*allowList=*/false);
+  if (!orders) return fail(orders.error());
   SurfelSession s;
-  if (!open(r, /*needOutput=*/true, s)) return;
+  if (!open(r, /*needOutput=*/true, *orders, s)) return;
   s.settings.raster = *raster;
-  Timed t;
-  if (!renderFrames(s, r.frames, t)) return;
+  std::vector<Timed> timed;
+  if (!renderFrames(s, r.frames, timed)) return;
+  const Timed& t = timed[0];
   if (auto st = io::writePng(r.output, t.last.image.srgb); !st) return fail(st.error());
-  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}) at {}x{} on {} -> {}\n", r.input,
-             s.renderer->surfelCount(), r.copies, r.surfelSize, render::toString(t.last.raster), s.settings.base.width,
-             s.settings.base.height, s.ctx->caps().name, r.output);
+  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}, {} order) at {}x{} on {} -> {}\n",
+             r.input, s.renderers[0]->surfelCount(), r.copies, r.surfelSize, render::toString(t.last.raster),
+             render::toString((*orders)[0]), s.settings.base.width, s.settings.base.height, s.ctx->caps().name,
+             r.output);
   if (r.stats) {
     fmt::print("instances visible {}  surfels splatted {}\n", t.last.visibleInstances, t.last.surfelsSplatted);
     for (const auto& p : t.times)
@@ -171,8 +253,14 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   if (r.backface == "on" || r.backface == "both") cullings.push_back(true);
   if (r.backface == "off" || r.backface == "both") cullings.push_back(false);
   if (cullings.empty()) return fail("--backface must be on, off or both (got " + r.backface + ")");
+  std::vector<bool> merges;
+  if (r.merge == "off" || r.merge == "both") merges.push_back(false);
+  if (r.merge == "on" || r.merge == "both") merges.push_back(true);
+  if (merges.empty()) return fail("--merge must be on, off or both (got " + r.merge + ")");
+  auto orders = parseOrders(r.order, "--order", /*allowList=*/true);
+  if (!orders) return fail(orders.error());
   SurfelSession s;
-  if (!open(r, /*needOutput=*/false, s)) return;
+  if (!open(r, /*needOutput=*/false, *orders, s)) return;
   s.settings.base.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   const auto& caps = s.ctx->caps();
   if (rasters.empty()) {
@@ -181,55 +269,95 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   }
   if (!r.json)
     fmt::print("bench surfels {} on {}: {} surfels stored, {} copies ({} instanced) at {}x{}, surfel size {} px, {}; "
-               "{} timed frames; bandwidth {:.3g} B/s\n",
-               r.input, caps.name, s.renderer->surfelCount(), r.copies, s.renderer->instancedCount(),
+               "{} timed frames per order (orders interleaved frame by frame); bandwidth {:.3g} B/s\n",
+               r.input, caps.name, s.renderers[0]->surfelCount(), r.copies, s.renderers[0]->instancedCount(),
                s.settings.base.width, s.settings.base.height, r.surfelSize,
                r.allSurfels ? "all surfels (no prefix)" : "adaptive prefix", r.frames - 1, r.bandwidth);
   nlohmann::json all = nlohmann::json::array();
   for (render::SurfelRaster raster : rasters)
-    for (bool cull : cullings) {
-      s.settings.raster = raster;
-      s.settings.backfaceCulling = cull;
-      Timed t;
-      if (!renderFrames(s, r.frames, t)) return;
-      double splatMs = passMs(t.times, "splat");
-      double surfels = double(t.last.surfelsSplatted);
-      double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
-      // The splat streams the 8-byte quantized positions, and with back-face culling the 8-byte
-      // attributes (normal + colour, one sector) too; the resolve reads attributes of visible pixels.
-      double bytesPerSecond = perSecond * (cull ? 16.0 : 8.0);
-      if (r.json) {
-        nlohmann::json j = {{"raster", render::toString(raster)},
-                            {"backface_culling", cull},
-                            {"surfels_splatted", t.last.surfelsSplatted},
-                            {"instances_visible", t.last.visibleInstances},
-                            {"surfels_per_second", perSecond},
-                            {"bytes_per_second", bytesPerSecond},
-                            {"bandwidth_fraction", bytesPerSecond / r.bandwidth}};
-        for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-        all.push_back(j);
-        continue;
+    for (bool cull : cullings)
+      for (bool merge : merges) {
+        if (merge && raster != render::SurfelRaster::Compute) continue; // a compute splat variant
+        s.settings.raster = raster;
+        s.settings.backfaceCulling = cull;
+        s.settings.subgroupMerge = merge;
+        std::vector<Timed> timed;
+        if (!renderFrames(s, r.frames, timed)) return;
+        double baseSplatMs = 0.0, baseFrameMs = 0.0;
+        for (size_t o = 0; o < timed.size(); ++o) {
+          const Timed& t = timed[o];
+          const char* order = render::toString((*orders)[o]);
+          double splatMs = passMs(t.times, "splat"), frameMs = passMs(t.times, "frame");
+          double surfels = double(t.last.surfelsSplatted);
+          double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
+          // The splat streams the 8-byte quantized positions, and with back-face culling the 8-byte
+          // attributes (normal + colour, one sector) too; the resolve reads attributes of visible pixels.
+          double bytesPerSecond = perSecond * (cull ? 16.0 : 8.0);
+          // The first order is the baseline: the coherent order's rounded-up prefixes splat more
+          // surfels, so its frame and splat times compare, not only its surfels/s.
+          if (o == 0) baseSplatMs = splatMs, baseFrameMs = frameMs;
+          double splatSpeedup = splatMs > 0.0 ? baseSplatMs / splatMs : 0.0;
+          double frameSpeedup = frameMs > 0.0 ? baseFrameMs / frameMs : 0.0;
+          if (r.json) {
+            nlohmann::json j = {{"raster", render::toString(raster)},
+                                {"order", order},
+                                {"backface_culling", cull},
+                                {"subgroup_merge", merge},
+                                {"surfels_splatted", t.last.surfelsSplatted},
+                                {"instances_visible", t.last.visibleInstances},
+                                {"surfels_per_second", perSecond},
+                                {"bytes_per_second", bytesPerSecond},
+                                {"bandwidth_fraction", bytesPerSecond / r.bandwidth},
+                                {"splat_speedup_vs_first_order", splatSpeedup},
+                                {"frame_speedup_vs_first_order", frameSpeedup}};
+            for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+            all.push_back(j);
+            continue;
+          }
+          fmt::print("-- {}{}, {} order, back-face culling {}: instances visible {}, surfels splatted {}\n",
+                     render::toString(raster), merge ? " + subgroup merge" : "", order, cull ? "on" : "off",
+                     t.last.visibleInstances, t.last.surfelsSplatted);
+          for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
+          fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
+                     perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
+          if (o > 0)
+            fmt::print("{} vs {} order: speedup x{:.3f} splat, x{:.3f} frame ({} time / {} time)\n", order,
+                       render::toString((*orders)[0]), splatSpeedup, frameSpeedup, render::toString((*orders)[0]),
+                       order);
+        }
       }
-      fmt::print("-- {}, back-face culling {}: instances visible {}, surfels splatted {}\n", render::toString(raster),
-                 cull ? "on" : "off", t.last.visibleInstances, t.last.surfelsSplatted);
-      for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
-      fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
-                 perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
-    }
+  // After the timed frames: one frame per order with its instance states read back, for the CPU
+  // estimate of how many visibility-buffer lines a warp touches (the quantity the order changes).
+  nlohmann::json locality = nlohmann::json::object();
+  render::SurfelScene scene = gridScene(s, r.copies, r.sharedCopies);
+  for (size_t o = 0; o < orders->size(); ++o) {
+    render::SurfelRenderSettings probe = s.settings;
+    probe.readInstanceStates = true;
+    auto out = s.renderers[o]->render(probe);
+    if (!out) return fail(out.error());
+    WarpLocality w = warpLocality(s, scene, (*orders)[o], out->prefix);
+    const char* order = render::toString((*orders)[o]);
+    locality[order] = {{"lines_per_warp", w.lines}, {"pixels_per_warp", w.pixels}, {"warps", w.warps}};
+    if (!r.json)
+      fmt::print("{} order: a 32-surfel warp touches {:.1f} visibility-buffer lines of 128 B, {:.1f} pixels (CPU "
+                 "estimate, {} warps of up to 16 instances)\n",
+                 order, w.lines, w.pixels, w.warps);
+  }
   if (r.json) {
     nlohmann::json j = {{"bench", "surfels"},
                         {"input", r.input},
                         {"device", caps.name},
-                        {"surfels", s.renderer->surfelCount()},
+                        {"surfels", s.renderers[0]->surfelCount()},
                         {"copies", r.copies},
                         {"shared_copies", r.sharedCopies},
-                        {"instanced_surfels", s.renderer->instancedCount()},
+                        {"instanced_surfels", s.renderers[0]->instancedCount()},
                         {"surfel_size", r.surfelSize},
                         {"all_surfels", r.allSurfels},
                         {"bandwidth", r.bandwidth},
                         {"width", s.settings.base.width},
                         {"height", s.settings.base.height},
-                        {"rasters", all}};
+                        {"rasters", all},
+                        {"warp_locality", locality}};
     fmt::print("{}\n", j.dump(2));
   }
 }
@@ -249,8 +377,16 @@ void addBenchSurfelsCommand(CLI::App& bench) {
   b->add_flag("--shared-copies", o->sharedCopies,
               "All copies read one stored cloud (cache-resident; default: one each)");
   b->add_flag("--all", o->allSurfels, "Splat every surfel of every instance (no prefix): raw throughput");
+  o->order = "all";
+  b->add_option("--order", o->order,
+                "Splat orders of the uploaded clouds, timed in one run with frames interleaved (the first is the "
+                "baseline): all, or a comma list of blue|coherent|coherent256")
+      ->capture_default_str();
   b->add_option("--backface", o->backface,
                 "Back-face culling of single-sided clouds: on|off|both (both: timed in one run)")
+      ->capture_default_str();
+  b->add_option("--merge", o->merge,
+                "Compute splat variant: subgroup lanes hitting one pixel merge before the atomic: on|off|both")
       ->capture_default_str();
   b->add_option("--bandwidth", o->bandwidth, "Device memory bandwidth in B/s (H200 HBM3e: 4.8e12)")
       ->capture_default_str();

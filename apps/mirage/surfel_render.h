@@ -17,8 +17,11 @@ struct SurfelRenderRequest {
   bool sharedCopies = false;    // bench: copies read one stored cloud (else each its own copy of the data)
   bool allSurfels = false;      // bench: splat all N per instance
   std::string backface = "off"; // bench: back-face culling on | off | both (both timed in one run)
-  double bandwidth = 4.8e12;    // bench: device bandwidth in B/s for the reported fraction
-  int frames = 1;               // render: --repeat; bench: --frames (the first is a warm-up)
+  std::string merge = "off";    // bench: subgroup merge of equal pixels in the compute splat: on | off | both
+  std::string
+      order; // blue | coherent | coherent256 (default: render::kDefaultSurfelOrder); bench: a comma list or "all"
+  double bandwidth = 4.8e12; // bench: device bandwidth in B/s for the reported fraction
+  int frames = 1;            // render: --repeat; bench: --frames (the first is a warm-up)
   bool stats = false;
   bool json = false;
 };

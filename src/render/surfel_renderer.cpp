@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <numeric>
+#include <unordered_map>
 
 #include <fmt/format.h>
 
@@ -36,7 +38,62 @@ void frustumPlanes(const glm::mat4& m, glm::vec4* planes) {
   for (int i = 0; i < 5; ++i) planes[i] = p[i] / glm::length(glm::vec3(p[i]));
 }
 
+// Morton code of a quantized position: the three 21-bit coordinates interleaved (x lowest).
+uint64_t spreadBits21(uint32_t v) {
+  uint64_t x = v & 0x1fffffu;
+  x = (x | x << 32) & 0x1f00000000ffffull;
+  x = (x | x << 16) & 0x1f0000ff0000ffull;
+  x = (x | x << 8) & 0x100f00f00f00f00full;
+  x = (x | x << 4) & 0x10c30c30c30c30c3ull;
+  x = (x | x << 2) & 0x1249249249249249ull;
+  return x;
+}
+
+uint64_t mortonCode(const sio::Surfel& s) {
+  constexpr uint32_t kMask = (1u << MIRAGE_SURFEL_POSITION_BITS) - 1u;
+  uint32_t x = s.posLo & kMask, y = (s.posLo >> 21) | ((s.posHi & 0x3ffu) << 11), z = s.posHi >> 10;
+  return spreadBits21(x) | spreadBits21(y) << 1 | spreadBits21(z) << 2;
+}
+
 } // namespace
+
+std::vector<uint32_t> coherentSurfelOrder(const surfels::SurfelCloud& cloud, uint32_t minBlock) {
+  uint32_t n = uint32_t(cloud.size());
+  std::vector<uint32_t> at(n);
+  std::iota(at.begin(), at.end(), 0u);
+  std::vector<uint64_t> codes(n);
+  for (uint32_t i = 0; i < n; ++i) codes[i] = mortonCode(cloud.surfels[i]);
+  for (uint32_t start = 0; start < n;) {
+    uint32_t end = coherentBlockEnd(start, n, minBlock);
+    std::sort(at.begin() + start, at.begin() + end,
+              [&](uint32_t a, uint32_t b) { return codes[a] != codes[b] ? codes[a] < codes[b] : a < b; });
+    start = end;
+  }
+  return at;
+}
+
+static_assert(std::has_single_bit(coherentMinBlock(SurfelOrder::Coherent)) &&
+                  std::has_single_bit(coherentMinBlock(SurfelOrder::Coherent256)) &&
+                  coherentMinBlock(SurfelOrder::Coherent256) >= 32,
+              "coherent blocks tile the order, and hold whole warps, only with power-of-two sizes >= 32");
+
+const char* toString(SurfelOrder o) {
+  switch (o) {
+  case SurfelOrder::Blue:
+    return "blue";
+  case SurfelOrder::Coherent:
+    return "coherent";
+  case SurfelOrder::Coherent256:
+    return "coherent256";
+  }
+  return "?";
+}
+
+Result<SurfelOrder> parseSurfelOrder(std::string_view text) {
+  for (SurfelOrder o : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256})
+    if (text == toString(o)) return o;
+  return Error{fmt::format("surfel order '{}': expected blue, coherent or coherent256", text)};
+}
 
 const char* toString(SurfelRaster r) {
   switch (r) {
@@ -64,13 +121,16 @@ struct SurfelRenderer::Impl {
   Unique<VkSampler> sampler, nearestSampler;
   DescriptorSet descriptors;
   Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> prefixPipeline, scanPipeline, splatPipeline, splatCullPipeline, rasterPipeline, resolvePipeline;
-  bool cullBackFaces = false; // the frame's setting: which splat pipeline runs
+  Unique<VkPipeline> prefixPipeline, scanPipeline, rasterPipeline, resolvePipeline;
+  Unique<VkPipeline> splatPipelines[2][2]; // [subgroup merge][back-face culling]
+  bool cullBackFaces = false;              // the frame's settings: which splat pipeline runs
+  bool subgroupMerge = false;
   Image color, vis, depth;
   uint32_t width = 0, height = 0, instanceCount = 0;
   uint64_t surfelCount = 0, instancedCount = 0;
   uint64_t maxBatches = 0; // splat batches when every instance draws all its surfels
   Bounds worldBounds;
+  SurfelOrder order = kDefaultSurfelOrder;
   GpuTimer timer;
 
   explicit Impl(Context& c) : ctx(c), timer(c) {}
@@ -90,6 +150,8 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
   std::vector<float> prefixRadii;
   std::vector<sio::SurfelRenderCloud> gpuClouds;
   std::vector<sio::GpuMaterial> gpuMaterials;
+  // Coherent order: one sort per distinct cloud (the benchmark places one cloud many times).
+  std::unordered_map<const surfels::SurfelCloud*, std::vector<uint32_t>> orders;
   for (const SurfelScene::Cloud& c : scene.clouds) {
     const surfels::SurfelCloud& cloud = *c.cloud;
     sio::SurfelRenderCloud g{};
@@ -100,13 +162,23 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
     g.firstSurfel = uint32_t(pos.size());
     g.count = uint32_t(cloud.size());
     g.material = uint32_t(gpuMaterials.size());
+    g.coherentMinBlock = coherentMinBlock(order);
     gpuClouds.push_back(g);
     Material m = c.material;
     m.baseColorTexture = m.metallicRoughnessTexture = m.normalTexture = m.occlusionTexture = m.emissiveTexture = -1;
     gpuMaterials.push_back(toGpuMaterial(m, 0));
     if (pos.size() + cloud.size() > 0xfffffffeull) return Error{"surfel scene holds more than 2^32 - 2 surfels"};
+    // Radii belong to prefix lengths, not to surfels: they keep the blue-noise order.
     for (size_t i = 0; i < cloud.size(); ++i) prefixRadii.push_back(i < cloud.radii.size() ? cloud.radii[i] : 0.0f);
-    for (const shaderio::Surfel& s : cloud.surfels) {
+    const std::vector<uint32_t>* at = nullptr;
+    if (g.coherentMinBlock != 0) {
+      auto [it, added] = orders.try_emplace(&cloud);
+      if (added) it->second = coherentSurfelOrder(cloud, g.coherentMinBlock);
+      at = &it->second;
+    }
+    // Positions and attributes move together, so a visibility id still names its own attributes.
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      const shaderio::Surfel& s = cloud.surfels[at ? (*at)[i] : i];
       pos.push_back({s.posLo, s.posHi});
       attr.push_back({s.normal, s.color});
     }
@@ -158,8 +230,11 @@ void SurfelRenderer::Impl::createPipelines() {
   scanPipeline = createComputePipeline(ctx, "surfel_render_scan.comp", layout);
   if (ctx.caps().int64BufferAtomics) {
     const uint32_t off[] = {VK_FALSE}, on[] = {VK_TRUE};
-    splatPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout, off);
-    splatCullPipeline = createComputePipeline(ctx, "surfel_render_splat.comp", layout, on);
+    for (int merge = 0; merge < 2; ++merge) {
+      const char* shader = merge ? "surfel_render_splat_merge.comp" : "surfel_render_splat.comp";
+      splatPipelines[merge][0] = createComputePipeline(ctx, shader, layout, off);
+      splatPipelines[merge][1] = createComputePipeline(ctx, shader, layout, on);
+    }
   }
   resolvePipeline = createComputePipeline(ctx, "surfel_render_resolve.comp", layout);
   GraphicsPipelineDesc d;
@@ -252,7 +327,7 @@ void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster, Gp
                       VK_IMAGE_LAYOUT_UNDEFINED,
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   if (raster == SurfelRaster::Compute) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cullBackFaces ? splatCullPipeline : splatPipeline);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, splatPipelines[subgroupMerge][cullBackFaces]);
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::SurfelRenderCounters, splatArgs));
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_COPY_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
@@ -321,9 +396,12 @@ SurfelRenderer::~SurfelRenderer() = default;
 const Bounds& SurfelRenderer::worldBounds() const { return impl_->worldBounds; }
 uint64_t SurfelRenderer::surfelCount() const { return impl_->surfelCount; }
 uint64_t SurfelRenderer::instancedCount() const { return impl_->instancedCount; }
+SurfelOrder SurfelRenderer::order() const { return impl_->order; }
 
-Result<std::unique_ptr<SurfelRenderer>> SurfelRenderer::create(Context& context, const SurfelScene& scene) {
+Result<std::unique_ptr<SurfelRenderer>> SurfelRenderer::create(Context& context, const SurfelScene& scene,
+                                                               SurfelOrder order) {
   auto impl = std::make_unique<Impl>(context);
+  impl->order = order;
   if (auto s = impl->upload(scene); !s) return s.error();
   impl->createPipelines();
   return std::unique_ptr<SurfelRenderer>(new SurfelRenderer(std::move(impl)));
@@ -363,6 +441,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
             (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
   d.cullBackFaces = ss.backfaceCulling;
+  d.subgroupMerge = ss.subgroupMerge;
   f.instanceCount = d.instanceCount;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::SurfelRenderPush p = d.push();
@@ -411,7 +490,11 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
     out.idBuffer.resize(size_t(s.width) * s.height);
     if (raster == SurfelRaster::Compute) {
       raw = readbackBuffer(d.ctx, d.visBuffer, size_t(s.width) * s.height * 8);
-      for (size_t i = 0; i < out.idBuffer.size(); ++i) std::memcpy(&out.idBuffer[i], raw.data() + i * 8, 4);
+      out.depthBits.resize(out.idBuffer.size());
+      for (size_t i = 0; i < out.idBuffer.size(); ++i) {
+        std::memcpy(&out.idBuffer[i], raw.data() + i * 8, 4);
+        std::memcpy(&out.depthBits[i], raw.data() + i * 8 + 4, 4);
+      }
     } else {
       raw = readbackImage(d.ctx, d.vis, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, 8);
       for (size_t i = 0; i < out.idBuffer.size(); ++i) std::memcpy(&out.idBuffer[i], raw.data() + i * 8, 4);
@@ -443,6 +526,7 @@ Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const Surfel
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
   d.cullBackFaces = ss.backfaceCulling;
+  d.subgroupMerge = ss.subgroupMerge;
   f.instanceCount = d.instanceCount;
   f.idTag = MIRAGE_SURFEL_ID_TAG;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));

@@ -50,6 +50,22 @@ if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 
   expect_ok render-surfels-raster render "$tmp/s.mrg" -o "$tmp/r.png" --surfels --surfel-raster raster --size 64x64
   expect_ok bench-surfels bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --copies 4
   grep -q "G surfels/s" "$tmp/stdout" || { echo "FAIL bench-surfels: no throughput line"; failures=$((failures + 1)); }
+  # Default --order all: both splat orders timed in one run, the coherent one against the blue one.
+  grep -q "coherent vs blue order: speedup" "$tmp/stdout" || { echo "FAIL bench-surfels: no order comparison"; failures=$((failures + 1)); }
+  grep -q "coherent order: a 32-surfel warp touches" "$tmp/stdout" || { echo "FAIL bench-surfels: no locality estimate"; failures=$((failures + 1)); }
+  grep -q "coherent256 vs blue order: speedup" "$tmp/stdout" || { echo "FAIL bench-surfels: no coherent256 row"; failures=$((failures + 1)); }
+  expect_ok bench-surfels-list bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order coherent256,blue --surfel-raster compute
+  grep -q "blue vs coherent256 order: speedup" "$tmp/stdout" || { echo "FAIL bench-surfels-list: first order is not the baseline"; failures=$((failures + 1)); }
+  expect_fail bench-repeated-order "--order" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order blue,blue
+  expect_ok bench-surfels-blue bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order blue --surfel-raster compute --all
+  grep -q "blue order" "$tmp/stdout" && ! grep -q "coherent order" "$tmp/stdout" || { echo "FAIL bench-surfels-blue: wrong orders"; failures=$((failures + 1)); }
+  expect_ok bench-surfels-merge bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --surfel-raster compute --merge both
+  [ "$(grep -c "compute + subgroup merge" "$tmp/stdout")" -eq 3 ] || { echo "FAIL bench-surfels-merge: no merged rows for the three orders"; failures=$((failures + 1)); }
+  expect_fail bench-bad-merge "--merge" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --merge maybe
+  expect_ok render-surfels-blue render "$tmp/s.mrg" -o "$tmp/blue.png" --surfels --surfel-order blue --size 64x64
+  expect_fail bench-bad-order "--order" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order morton
+  expect_fail surfels-bad-order "--surfel-order" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfels --surfel-order all
+  expect_fail surfel-order-without-surfels "--surfels" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfel-order blue
   expect_fail surfels-bad-size "--surfel-size" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfels --surfel-size 0
   expect_fail surfels-bad-raster "--surfel-raster" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfels --surfel-raster mesh
   expect_fail surfel-size-without-surfels "--surfels" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfel-size 3

@@ -87,13 +87,17 @@ ImageRGBA8 renderMesh(GpuTest&, const Camera& camera) {
   return (*fwd)->render(baseSettings(camera)).value().srgb;
 }
 
-SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, float size = 2.0f) {
-  auto r = SurfelRenderer::create(test::gpuContext(), surfelScene({glm::mat4(1.0f)}));
+SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, float size = 2.0f,
+                                 SurfelOrder order = kDefaultSurfelOrder, bool allSurfels = false,
+                                 bool subgroupMerge = false) {
+  auto r = SurfelRenderer::create(test::gpuContext(), surfelScene({glm::mat4(1.0f)}), order);
   EXPECT_TRUE(r.ok()) << r.error().message;
   SurfelRenderSettings s;
   s.base = baseSettings(camera);
   s.raster = raster;
   s.surfelSize = size;
+  s.allSurfels = allSurfels;
+  s.subgroupMerge = subgroupMerge;
   s.readInstanceStates = true;
   auto out = (*r)->render(s);
   EXPECT_TRUE(out.ok()) << out.error().message;
@@ -147,56 +151,66 @@ TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
     transforms.push_back(t);
   }
   transforms.push_back(glm::translate(glm::mat4(1.0f), glm::vec3(500.0f, 0.0f, 0.0f)));
-  auto r = SurfelRenderer::create(context(), surfelScene(transforms));
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  Camera cam;
-  cam.eye = {0.0f, 0.5f, 6.0f};
-  cam.target = {0.0f, 0.0f, -20.0f};
-  SurfelRenderSettings s;
-  s.base = baseSettings(cam);
-  s.readInstanceStates = true;
-  for (float size : {1.0f, 2.0f, 4.0f}) {
-    s.surfelSize = size;
-    auto out = (*r)->render(s);
-    ASSERT_TRUE(out.ok()) << out.error().message;
-    Camera clipped = withClipPlanes(cam, (*r)->worldBounds());
-    float pixelScale = std::abs(clipped.projection(1.0f)[1][1]) * 0.5f * float(kSize);
-    float P0 = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
-    uint32_t below = 0;
-    uint64_t sum = 0;
-    for (size_t i = 0; i + 1 < transforms.size(); ++i) {
-      float scale = i % 2 ? 2.0f : 1.0f;
-      Bounds w = transformBounds(cloud.box, transforms[i]);
-      float distance = std::max(glm::length(w.center() - cam.eye) - 0.5f * glm::length(w.extent()), clipped.znear);
-      EXPECT_NEAR(out->distance[i], distance, 1e-4f * distance);
-      uint32_t expected = surfelPrefix(P0 * scale * scale, uint32_t(cloud.size()), distance, pixelScale, size);
-      // ceil() of a float quotient: one either way at an exact integer boundary.
-      EXPECT_NEAR(double(out->prefix[i]), double(expected), 1.0) << "instance " << i << " size " << size;
-      below += expected < cloud.size();
-      sum += out->prefix[i];
-      std::printf("s %.0f instance %zu distance %.2f k %u (cpu %u)\n", size, i, distance, out->prefix[i], expected);
+  for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
+    auto r = SurfelRenderer::create(context(), surfelScene(transforms), order);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    uint32_t n = uint32_t(cloud.size());
+    // The coherent order draws k rounded up to its block's end.
+    uint32_t minBlock = coherentMinBlock(order);
+    auto drawn = [&](uint32_t k) { return minBlock ? coherentPrefix(k, n, minBlock) : k; };
+    Camera cam;
+    cam.eye = {0.0f, 0.5f, 6.0f};
+    cam.target = {0.0f, 0.0f, -20.0f};
+    SurfelRenderSettings s;
+    s.base = baseSettings(cam);
+    s.readInstanceStates = true;
+    for (float size : {1.0f, 2.0f, 4.0f}) {
+      s.surfelSize = size;
+      auto out = (*r)->render(s);
+      ASSERT_TRUE(out.ok()) << out.error().message;
+      Camera clipped = withClipPlanes(cam, (*r)->worldBounds());
+      float pixelScale = std::abs(clipped.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+      float P0 = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
+      uint32_t below = 0;
+      uint64_t sum = 0;
+      for (size_t i = 0; i + 1 < transforms.size(); ++i) {
+        float scale = i % 2 ? 2.0f : 1.0f;
+        Bounds w = transformBounds(cloud.box, transforms[i]);
+        float distance = std::max(glm::length(w.center() - cam.eye) - 0.5f * glm::length(w.extent()), clipped.znear);
+        EXPECT_NEAR(out->distance[i], distance, 1e-4f * distance);
+        uint32_t expected = surfelPrefix(P0 * scale * scale, n, distance, pixelScale, size);
+        // ceil() of a float quotient: one either way at an exact integer boundary.
+        uint32_t k = out->prefix[i];
+        EXPECT_TRUE(k == drawn(expected) || k == drawn(expected - 1) || k == drawn(std::min(expected + 1, n)))
+            << toString(order) << " instance " << i << " size " << size << ": k " << k << ", cpu " << drawn(expected);
+        below += expected < cloud.size();
+        sum += out->prefix[i];
+        std::printf("%s s %.0f instance %zu distance %.2f k %u (cpu %u)\n", toString(order), size, i, distance,
+                    out->prefix[i], drawn(expected));
+      }
+      EXPECT_EQ(out->prefix.back(), 0u) << "the instance outside the frustum is culled";
+      EXPECT_GE(below, 2u) << "some instances must be far enough for k < N";
+      EXPECT_EQ(out->surfelsSplatted, sum);
+      EXPECT_EQ(out->visibleInstances, transforms.size() - 1);
     }
-    EXPECT_EQ(out->prefix.back(), 0u) << "the instance outside the frustum is culled";
-    EXPECT_GE(below, 2u) << "some instances must be far enough for k < N";
-    EXPECT_EQ(out->surfelsSplatted, sum);
-    EXPECT_EQ(out->visibleInstances, transforms.size() - 1);
   }
 }
 
 TEST_F(SurfelRender, HoleFreeOverTheMeshSilhouette) {
   // Near (k clamped to N: surfels grow to the cloud's own spacing) and far (k < N: s-pixel surfels).
-  for (float factor : {1.0f, 3.0f}) {
-    Camera cam = blobCamera(factor);
-    ImageRGBA8 mesh = renderMesh(*this, cam);
-    SurfelRenderOutput out = renderSurfels(cam, computeOrRaster());
-    double holes = holeFraction(mesh, out.image.srgb);
-    std::printf("distance x%.0f: k %u of %zu, holes %.4f%%\n", factor, out.prefix[0], blob().cloud.size(),
-                100.0 * holes);
-    EXPECT_LE(holes, 0.01) << "factor " << factor;
-    if (factor > 1.0f) {
-      EXPECT_LT(out.prefix[0], blob().cloud.size());
+  for (float factor : {1.0f, 3.0f})
+    for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
+      Camera cam = blobCamera(factor);
+      ImageRGBA8 mesh = renderMesh(*this, cam);
+      SurfelRenderOutput out = renderSurfels(cam, computeOrRaster(), 2.0f, order);
+      double holes = holeFraction(mesh, out.image.srgb);
+      std::printf("%s order, distance x%.0f: k %u of %zu, holes %.4f%%\n", toString(order), factor, out.prefix[0],
+                  blob().cloud.size(), 100.0 * holes);
+      EXPECT_LE(holes, 0.01) << toString(order) << " factor " << factor;
+      if (factor > 1.0f) {
+        EXPECT_LT(out.prefix[0], blob().cloud.size());
+      }
     }
-  }
 }
 
 TEST_F(SurfelRender, CloseToTheMeshAtDistance) {
@@ -206,30 +220,32 @@ TEST_F(SurfelRender, CloseToTheMeshAtDistance) {
   // (rendered at half size, upsampled by pixel replication), compared the same way. The surfels must
   // reach it (measured 0.866 vs 0.829 at x2, 0.741 vs 0.712 at x4 where the object is ~36 px wide;
   // 0.02 slack for driver rounding).
-  for (float factor : {2.0f, 4.0f}) {
-    Camera cam = blobCamera(factor);
-    ImageRGBA8 mesh = renderMesh(*this, cam);
-    SurfelRenderOutput out = renderSurfels(cam, computeOrRaster());
-    auto fwd = ForwardRenderer::create(context(), blob().scene);
-    ASSERT_TRUE(fwd.ok());
-    RenderSettings half = baseSettings(cam);
-    half.width = half.height = kSize / 2;
-    ImageRGBA8 low = (*fwd)->render(half).value().srgb,
-               up{kSize, kSize, std::vector<uint8_t>(size_t(kSize) * kSize * 4)};
-    for (uint32_t y = 0; y < kSize; ++y)
-      for (uint32_t x = 0; x < kSize; ++x)
-        std::copy_n(&low.pixels[(size_t(y / 2) * low.width + x / 2) * 4], 4, &up.pixels[(size_t(y) * kSize + x) * 4]);
-    double ssim = mirage::ssim(crop(out.image.srgb, mesh), crop(mesh, mesh));
-    double psnr = mirage::psnr(crop(out.image.srgb, mesh), crop(mesh, mesh));
-    double yardstick = mirage::ssim(crop(up, mesh), crop(mesh, mesh));
-    std::printf("distance x%.0f: k %u, SSIM %.4f (half-resolution mesh %.4f), PSNR %.2f dB\n", factor, out.prefix[0],
-                ssim, yardstick, psnr);
-    if (std::getenv("MIRAGE_SURFEL_TEST_IMAGES")) {
-      (void)io::writePng(fmt::format("/tmp/surfel_mesh_x{}.png", factor), crop(mesh, mesh));
-      (void)io::writePng(fmt::format("/tmp/surfel_surfels_x{}.png", factor), crop(out.image.srgb, mesh));
+  for (float factor : {2.0f, 4.0f})
+    for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
+      Camera cam = blobCamera(factor);
+      ImageRGBA8 mesh = renderMesh(*this, cam);
+      SurfelRenderOutput out = renderSurfels(cam, computeOrRaster(), 2.0f, order);
+      auto fwd = ForwardRenderer::create(context(), blob().scene);
+      ASSERT_TRUE(fwd.ok());
+      RenderSettings half = baseSettings(cam);
+      half.width = half.height = kSize / 2;
+      ImageRGBA8 low = (*fwd)->render(half).value().srgb,
+                 up{kSize, kSize, std::vector<uint8_t>(size_t(kSize) * kSize * 4)};
+      for (uint32_t y = 0; y < kSize; ++y)
+        for (uint32_t x = 0; x < kSize; ++x)
+          std::copy_n(&low.pixels[(size_t(y / 2) * low.width + x / 2) * 4], 4, &up.pixels[(size_t(y) * kSize + x) * 4]);
+      double ssim = mirage::ssim(crop(out.image.srgb, mesh), crop(mesh, mesh));
+      double psnr = mirage::psnr(crop(out.image.srgb, mesh), crop(mesh, mesh));
+      double yardstick = mirage::ssim(crop(up, mesh), crop(mesh, mesh));
+      std::printf("%s order, distance x%.0f: k %u, SSIM %.4f (half-resolution mesh %.4f), PSNR %.2f dB\n",
+                  toString(order), factor, out.prefix[0], ssim, yardstick, psnr);
+      if (std::getenv("MIRAGE_SURFEL_TEST_IMAGES")) {
+        (void)io::writePng(fmt::format("/tmp/surfel_mesh_x{}.png", factor), crop(mesh, mesh));
+        (void)io::writePng(fmt::format("/tmp/surfel_surfels_{}_x{}.png", toString(order), factor),
+                           crop(out.image.srgb, mesh));
+      }
+      EXPECT_GE(ssim, yardstick - 0.02) << toString(order) << " factor " << factor;
     }
-    EXPECT_GE(ssim, yardstick - 0.02) << "factor " << factor;
-  }
 }
 
 TEST_F(SurfelRender, ComputeSplatAndRasterFallbackAgree) {
@@ -379,4 +395,126 @@ TEST_F(SurfelRender, RejectsBadSettings) {
   bad.instances[0].cloud = 3;
   EXPECT_FALSE(SurfelRenderer::create(context(), bad).ok());
   EXPECT_FALSE(SurfelRenderer::create(context(), SurfelScene{}).ok());
+}
+
+TEST(SurfelCoherentOrder, PermutesWithinBlocksAndKeepsEveryRoundedPrefix) {
+  // 100k random surfels (blocks grow past 2^(SHIFT+1) * MIN_BLOCK = 32k): the order is a bijection
+  // inside every block, Morton-sorted there (codes computed here bit by bit), and for every k the
+  // first coherentPrefix(k) stored surfels are exactly the blue-noise prefix of that length, so they
+  // contain the first k.
+  constexpr uint32_t n = 100000;
+  surfels::SurfelCloud cloud;
+  cloud.box = {glm::vec3(-1.0f, -2.0f, 0.0f), glm::vec3(3.0f, 1.0f, 0.5f)};
+  uint64_t state = 12345;
+  auto next = [&] {
+    return float((state = state * 6364136223846793005ull + 1442695040888963407ull) >> 40) / 16777216.0f;
+  };
+  for (uint32_t i = 0; i < n; ++i) {
+    glm::vec3 p = cloud.box.min + glm::vec3(next(), next(), next()) * cloud.box.extent();
+    cloud.surfels.push_back(surfels::packSurfel(cloud.box, p, glm::vec3(0.0f, 0.0f, 1.0f), i));
+  }
+  for (SurfelOrder order : {SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
+    uint32_t minBlock = coherentMinBlock(order);
+    std::vector<uint32_t> at = coherentSurfelOrder(cloud, minBlock);
+    ASSERT_EQ(at.size(), n);
+    auto morton = [&](uint32_t index) {
+      const auto& s = cloud.surfels[index];
+      uint32_t q[3] = {s.posLo & 0x1fffffu, (s.posLo >> 21) | ((s.posHi & 0x3ffu) << 11), s.posHi >> 10};
+      uint64_t code = 0;
+      for (int bit = 0; bit < 21; ++bit)
+        for (int axis = 0; axis < 3; ++axis) code |= uint64_t((q[axis] >> bit) & 1u) << (3 * bit + axis);
+      return code;
+    };
+    std::vector<uint32_t> blockSizes;
+    for (uint32_t start = 0; start < n;) {
+      uint32_t end = coherentBlockEnd(start, n, minBlock);
+      ASSERT_GT(end, start);
+      for (uint32_t i = start; i < end; ++i) EXPECT_EQ(coherentBlockEnd(i, n, minBlock), end) << "position " << i;
+      std::vector<uint32_t> block(at.begin() + start, at.begin() + end);
+      for (uint32_t i = start + 1; i < end; ++i) ASSERT_LE(morton(at[i - 1]), morton(at[i])) << "position " << i;
+      std::sort(block.begin(), block.end());
+      for (uint32_t i = start; i < end; ++i) ASSERT_EQ(block[i - start], i) << "block at " << start;
+      // Rounding up adds at most a minimum block or 1/2^SHIFT of the prefix.
+      EXPECT_LE(end - start, std::max(minBlock, start >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT));
+      blockSizes.push_back(end - start);
+      start = end;
+    }
+    EXPECT_GT(blockSizes.back(), minBlock) << "blocks must grow";
+    // Every rounded prefix: the same set as the blue-noise prefix of its length (a superset of k).
+    for (uint32_t k = 1; k <= n; k += 97) {
+      uint32_t rounded = coherentPrefix(k, n, minBlock);
+      ASSERT_GE(rounded, k);
+      ASSERT_LE(rounded - k, std::max(minBlock, k >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT));
+      uint32_t largest = *std::max_element(at.begin(), at.begin() + rounded);
+      EXPECT_EQ(largest, rounded - 1) << toString(order) << " k "
+                                      << k; // a bijection on [0, rounded): max = rounded - 1
+    }
+    EXPECT_EQ(coherentPrefix(0, n, minBlock), 0u);
+    EXPECT_EQ(coherentPrefix(n, n, minBlock), n);
+  }
+  // Near 2^32 the block end does not overflow.
+  EXPECT_EQ(coherentBlockEnd(0xfffffff0u, 0xfffffffeu, 1024), 0xfffffffeu);
+}
+
+TEST_F(SurfelRender, CoherentOrderDrawsTheBlueImageWhenEverySurfelIsDrawn) {
+  // --all: both orders splat the same surfels with the same discs, so every pixel's depth (the max of
+  // the same candidates) must be bit-identical; the stored surfel, mapped back to its blue-noise
+  // index, can differ only where two surfels tie on that depth (the atomic then keeps the larger
+  // id, which the orders number differently). Adaptive prefix: the coherent k is the blue k rounded
+  // up to its block.
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  uint32_t n = uint32_t(blob().cloud.size());
+  for (float factor : {1.0f, 3.0f}) {
+    Camera cam = blobCamera(factor);
+    SurfelRenderOutput blue = renderSurfels(cam, SurfelRaster::Compute, 1.0f, SurfelOrder::Blue, true);
+    SurfelRenderOutput blueK = renderSurfels(cam, SurfelRaster::Compute, 2.0f, SurfelOrder::Blue);
+    for (SurfelOrder order : {SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
+      std::vector<uint32_t> at = coherentSurfelOrder(blob().cloud, coherentMinBlock(order));
+      SurfelRenderOutput coherent = renderSurfels(cam, SurfelRaster::Compute, 1.0f, order, true);
+      ASSERT_EQ(blue.prefix, coherent.prefix);
+      ASSERT_EQ(blue.depthBits.size(), coherent.depthBits.size());
+      size_t covered = 0, sameDepth = 0, sameSurfel = 0;
+      for (size_t i = 0; i < blue.idBuffer.size(); ++i) {
+        if (blue.idBuffer[i] == 0 && coherent.idBuffer[i] == 0) continue;
+        ++covered;
+        sameDepth += blue.depthBits[i] == coherent.depthBits[i];
+        // Ids are 1 + stored index (one instance): map the coherent one back to the blue-noise index.
+        bool bothSet = blue.idBuffer[i] != 0 && coherent.idBuffer[i] != 0;
+        sameSurfel += bothSet && blue.idBuffer[i] - 1 == at[coherent.idBuffer[i] - 1];
+      }
+      std::printf("%s, all surfels, distance x%.0f: %zu covered px, same depth %zu, same surfel %zu\n", toString(order),
+                  factor, covered, sameDepth, sameSurfel);
+      EXPECT_GT(covered, 1000u);
+      EXPECT_EQ(sameDepth, covered) << toString(order) << ": depth is order-independent";
+      EXPECT_GE(double(sameSurfel), 0.99 * double(covered)) << toString(order) << ": only exact depth ties may differ";
+
+      SurfelRenderOutput coherentK = renderSurfels(cam, SurfelRaster::Compute, 2.0f, order);
+      EXPECT_EQ(coherentK.prefix[0], coherentPrefix(blueK.prefix[0], n, coherentMinBlock(order)));
+      std::printf("%s, adaptive, distance x%.0f: k %u blue, %u coherent\n", toString(order), factor, blueK.prefix[0],
+                  coherentK.prefix[0]);
+    }
+  }
+}
+
+TEST_F(SurfelRender, SubgroupMergeWritesTheSameVisibilityBuffer) {
+  // Merging same-pixel lanes before the atomic keeps each pixel's maximum over the same values, so
+  // the 64-bit buffer (depth and id) must be identical to the plain splat's, in both orders, for
+  // 1-pixel (fast path) and 2-pixel surfels, every surfel and the adaptive prefix.
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent})
+    for (float size : {1.0f, 2.0f})
+      for (bool all : {true, false}) {
+        Camera cam = blobCamera(all ? 1.0f : 3.0f);
+        SurfelRenderOutput plain = renderSurfels(cam, SurfelRaster::Compute, size, order, all, false);
+        SurfelRenderOutput merged = renderSurfels(cam, SurfelRaster::Compute, size, order, all, true);
+        size_t covered = std::count_if(plain.idBuffer.begin(), plain.idBuffer.end(), [](uint32_t id) { return id; });
+        std::printf("%s order, size %.0f, %s: %zu covered px\n", toString(order), size, all ? "all" : "adaptive",
+                    covered);
+        EXPECT_GT(covered, 500u);
+        ASSERT_EQ(plain.depthBits.size(), merged.depthBits.size());
+        size_t differing = 0;
+        for (size_t i = 0; i < plain.idBuffer.size(); ++i)
+          differing += plain.idBuffer[i] != merged.idBuffer[i] || plain.depthBits[i] != merged.depthBits[i];
+        EXPECT_EQ(differing, 0u) << toString(order) << " size " << size << " all " << all;
+      }
 }

@@ -5,6 +5,8 @@
 //   splat (compute: 64-bit atomicMax of depth | id; or raster fallback: quads into R32G32_UINT +
 //   depth) -> resolve (shading.glsl, the meshes' material model).
 // Passes, formulas and the mesh cross-fade: docs/surfels.md, "Rendering".
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <memory>
 #include <string_view>
@@ -18,6 +20,7 @@
 #include "mirage/gpu/query.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/shaderio/surfel_link.h"
+#include "mirage/shaderio/surfel_render.h"
 #include "mirage/surfels/surfel.h"
 
 namespace mirage::render {
@@ -30,6 +33,41 @@ enum class SurfelRaster {
 const char* toString(SurfelRaster raster);
 // "auto", "compute" or "raster"; anything else is an error naming the choices.
 Result<SurfelRaster> parseSurfelRaster(std::string_view text);
+
+// How the renderer stores each cloud for splatting (files keep the blue-noise order either way).
+enum class SurfelOrder {
+  Blue,        // the file's order: prefix k is exactly the first k surfels
+  Coherent,    // Morton-sorted within geometrically growing blocks of >= 1024 (one splat batch)
+  Coherent256, // the same with blocks of >= 256: less rounding for small prefixes, less coherence
+};
+const char* toString(SurfelOrder order);
+// "blue", "coherent" or "coherent256"; anything else is an error naming the choices.
+Result<SurfelOrder> parseSurfelOrder(std::string_view text);
+// The order `mirage render --surfels` and SurfelRenderer::create use unless told otherwise.
+inline constexpr SurfelOrder kDefaultSurfelOrder = SurfelOrder::Coherent;
+// The smallest block of a coherent order (0 for the blue-noise order).
+inline constexpr uint32_t coherentMinBlock(SurfelOrder order) {
+  return order == SurfelOrder::Coherent ? MIRAGE_SURFEL_BATCH : order == SurfelOrder::Coherent256 ? 256u : 0u;
+}
+
+// Coherent order (docs/surfels.md, "Coherent order"): the end of the block holding position i of a
+// cloud of n surfels. Blocks: size max(minBlock, 2^floor(log2 i) >> SHIFT), aligned to multiples of
+// their size (minBlock a power of two >= 32; the GLSL twin is in surfel_render_prefix.comp).
+inline uint32_t coherentBlockEnd(uint32_t i, uint32_t n, uint32_t minBlock) {
+  uint32_t size = minBlock;
+  if (i > 0) size = std::max(size, (1u << (31 - std::countl_zero(i))) >> MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT);
+  uint32_t start = i - i % size;
+  return n - start <= size ? n : start + size; // no overflow near 2^32
+}
+// A prefix length rounded up to the end of its block (0 stays 0): the first k' surfels of the
+// coherent order are the same set as the first k' of the blue-noise order.
+inline uint32_t coherentPrefix(uint32_t k, uint32_t n, uint32_t minBlock) {
+  return k == 0 ? 0 : coherentBlockEnd(k - 1, n, minBlock);
+}
+// The coherent order of a cloud: at[i] is the index (in the cloud's blue-noise order) of the surfel
+// stored at position i. A permutation within each block, by Morton code of the quantized position
+// (ties by index).
+std::vector<uint32_t> coherentSurfelOrder(const surfels::SurfelCloud& cloud, uint32_t minBlock);
 
 // What the renderer draws: clouds (each with the material its metallic / roughness come from) and
 // placed copies of them.
@@ -58,6 +96,10 @@ struct SurfelRenderSettings {
   // reads cost more than the skipped splats save (1080p, 102 M surfels: 85.5 G surfels/s culled vs
   // 93.1 unculled; docs/surfels.md), the splat being latency- rather than atomic-bound.
   bool backfaceCulling = false;
+  // Compute splat variant: lanes of a subgroup that hit the same pixel pool their values first, and
+  // one lane per pixel touches the visibility buffer (same image, bit for bit). Meant for the
+  // coherent order; timed against the plain splat by `bench surfels --merge both`.
+  bool subgroupMerge = false;
   // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
   // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
   // beyond it (0: hard switch). Off: surfels everywhere.
@@ -71,11 +113,12 @@ struct SurfelRenderOutput {
   SurfelRaster raster = SurfelRaster::Auto;
   uint32_t visibleInstances = 0;
   uint32_t fadingInstances = 0;
-  uint64_t surfelsSplatted = 0;   // sum of k over instances
-  std::vector<uint32_t> prefix;   // per instance: k (readInstanceStates)
-  std::vector<float> fade;        // per instance: share of pixels the surfels may cover
-  std::vector<float> distance;    // per instance: reference depth used for k
-  std::vector<uint32_t> idBuffer; // per pixel: visibility id (0 = background), when readInstanceStates
+  uint64_t surfelsSplatted = 0;    // sum of k over instances
+  std::vector<uint32_t> prefix;    // per instance: k (readInstanceStates)
+  std::vector<float> fade;         // per instance: share of pixels the surfels may cover
+  std::vector<float> distance;     // per instance: reference depth used for k
+  std::vector<uint32_t> idBuffer;  // per pixel: visibility id (0 = background), when readInstanceStates
+  std::vector<uint32_t> depthBits; // per pixel: reverse-Z depth bits of the compute splat (readInstanceStates)
 };
 
 // The CPU mirror of the GPU prefix length (shaders/surfel_render_prefix.comp): P = N_ref * d^2 in
@@ -114,15 +157,17 @@ struct SurfelStageStats {
 
 class SurfelRenderer {
 public:
-  // Uploads every cloud (positions and attributes as two arrays) and the instances. Errors: no
-  // clouds or instances, an instance naming a missing cloud, more than 2^32 - 2 surfels in all.
-  static Result<std::unique_ptr<SurfelRenderer>> create(gpu::Context& context, const SurfelScene& scene);
+  // Uploads every cloud (positions and attributes as two arrays, in `order`) and the instances.
+  // Errors: no clouds or instances, an instance naming a missing cloud, more than 2^32 - 2 surfels.
+  static Result<std::unique_ptr<SurfelRenderer>> create(gpu::Context& context, const SurfelScene& scene,
+                                                        SurfelOrder order = kDefaultSurfelOrder);
   ~SurfelRenderer();
 
   Result<SurfelRenderOutput> render(const SurfelRenderSettings& settings);
   const Bounds& worldBounds() const;
   uint64_t surfelCount() const;    // stored surfels (all clouds, once each)
   uint64_t instancedCount() const; // sum over instances of their cloud's N
+  SurfelOrder order() const;
 
   // Mixed-scene stage (used by ClusterRenderer): write the frame constants (ids tagged with
   // MIRAGE_SURFEL_ID_TAG, cross-fade on), then record clear + prefix + scan, and the splat, into the

@@ -36,6 +36,15 @@ namespace mirage::shaderio {
 #define MIRAGE_SURFEL_MESH_FADE 8u      // a mesh pass draws near instances: fade surfels in over a band
 #define MIRAGE_SURFEL_BACKFACE_CULL 16u // single-sided clouds skip surfels facing away from the eye
 
+// Coherent splat order (docs/surfels.md, "Coherent order"): the renderer stores each cloud in
+// blocks that keep the blue-noise prefix order between blocks and sort by Morton code within them.
+// The block holding position i (i >= 1) has size max(minBlock, 2^floor(log2 i) >> SHIFT): minBlock
+// surfels up to 2^SHIFT * minBlock, then 1/2^SHIFT of the position, so rounding a prefix up to its
+// block's end adds at most 1/2^SHIFT (6.25 %) beyond minBlock. minBlock (per cloud,
+// SurfelRenderCloud::coherentMinBlock) is a power of two >= 32, so block boundaries are multiples
+// of the block size and every warp's 32 consecutive surfels lie in one block.
+#define MIRAGE_SURFEL_COHERENT_BLOCK_SHIFT 4
+
 // Back-face culling keeps surfels whose normal leans away from the eye by less than this cosine:
 // capture normals are shading normals, which can face slightly away on silhouette triangles that
 // still face the eye, and those surfels fill the rim (the hole-free test covers it).
@@ -44,12 +53,12 @@ namespace mirage::shaderio {
 // One surfel cloud as the shaders see it: positions and attributes live in two arrays (SoA), so the
 // splat streams 8 bytes per surfel and only the resolve touches normals and colours.
 struct SurfelRenderCloud {
-  vec4 boxMin;      // xyz quantization box minimum; w: P = N_ref * d^2 (object units squared)
-  vec4 boxStep;     // xyz box extent / (2^21 - 1): object units per quantization step
-  uint firstSurfel; // offset into the position and attribute arrays
-  uint count;       // N
-  uint material;    // index into the material array
-  uint pad0;
+  vec4 boxMin;           // xyz quantization box minimum; w: P = N_ref * d^2 (object units squared)
+  vec4 boxStep;          // xyz box extent / (2^21 - 1): object units per quantization step
+  uint firstSurfel;      // offset into the position and attribute arrays
+  uint count;            // N
+  uint material;         // index into the material array
+  uint coherentMinBlock; // 0: blue-noise order; else the coherent order's smallest block (prefixes round up)
 };
 
 // One placed copy of a cloud.

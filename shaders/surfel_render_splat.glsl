@@ -1,0 +1,165 @@
+// Compute splat (Schütz et al. 2021): one workgroup per batch of MIRAGE_SURFEL_BATCH surfels of one
+// instance, each thread MIRAGE_SURFEL_PER_THREAD surfels strided by the workgroup size so every
+// position load (8 bytes: the quantized position only) is coalesced. A surfel is a disc of
+// `radiusPixels / w` pixels around its projection: pixels whose centre lies inside it take
+// atomicMax(reverse-Z depth bits << 32 | id) on the 64-bit visibility buffer (larger is nearer),
+// and so does the pixel holding the projection (the nearest centre). Discs under half a pixel take
+// the fast path: that one pixel, one atomic (a sample within the disc's radius of a pixel centre
+// then lies inside that pixel, so the covering argument still holds). A plain
+// load first skips the atomic when a nearer surfel is already there (most are, at high density).
+// Compiled twice: surfel_render_splat.comp and surfel_render_splat_merge.comp (MIRAGE_SURFEL_SPLAT_MERGE,
+// the subgroup merge below; a separate module so the plain splat needs no subgroup shuffles).
+#extension GL_EXT_shader_atomic_int64 : require
+#ifdef MIRAGE_SURFEL_SPLAT_MERGE
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_shuffle_relative : require
+#endif
+#include "surfel_render_common.glsl"
+
+layout(local_size_x = MIRAGE_SURFEL_SPLAT_WORKGROUP) in;
+
+// Back-face culling as a pipeline variant: without it the normal loads and their registers fold
+// away (measured on the H200, the culling code slowed the unculled splat by 7 %).
+layout(constant_id = 0) const bool kCullBackFaces = false;
+
+void splatPixel(SrVisRef vis, uvec2 px, uint width, uint64_t value, float fade) {
+  if (fade < 1.0 && fadeDither(px) >= fade) return; // the mesh's pixel in the blend band
+  uint at = px.y * width + px.x;
+  if (vis.pixels[at] >= value) return;
+  atomicMax(vis.pixels[at], value);
+}
+
+#ifdef MIRAGE_SURFEL_SPLAT_MERGE
+// Subgroup merge (SurfelRenderSettings::subgroupMerge, timed by `bench surfels --merge`): before
+// the visibility-buffer access, lanes of a subgroup that hit the same pixel pool their values, and
+// only the last lane of each run of equal pixels loads and atomics, with the run's maximum. Meant
+// for the coherent order, where consecutive surfels (consecutive lanes) often share a pixel.
+
+// Segmented inclusive max over runs of equal `pixel` in lane order (Hillis-Steele; a lane merges
+// lane - offset when both hold the same pixel, so a run's last lane ends with the maximum of the
+// whole run; merging a same-pixel lane beyond a gap is harmless, every merged value belongs to
+// that pixel). Returns true for the lanes that write: the last of each run. ~0u: no pixel.
+// Called in uniform control flow (every lane of the subgroup active).
+bool mergeSamePixel(uint pixel, inout uint64_t value) {
+  uvec2 acc = unpackUint2x32(value);
+  for (uint offset = 1u; offset < gl_SubgroupSize; offset <<= 1) {
+    uint otherPixel = subgroupShuffleUp(pixel, offset);
+    uvec2 other = subgroupShuffleUp(acc, offset);
+    if (gl_SubgroupInvocationID >= offset && otherPixel == pixel && packUint2x32(other) > packUint2x32(acc))
+      acc = other;
+  }
+  value = packUint2x32(acc);
+  uint nextPixel = subgroupShuffleDown(pixel, 1u);
+  bool last = gl_SubgroupInvocationID + 1u == gl_SubgroupSize || nextPixel != pixel;
+  return pixel != ~0u && last;
+}
+
+// The subgroup-merge variant of main's loop: the same surfels, discs and atomics, but every lane
+// reaches the merge (no early exits), and the pixel holding each projection goes through it.
+void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFEL_PER_THREAD],
+                 uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start) {
+  SrVisRef vis = SrVisRef(push.visBufferAddress);
+  uint width = uint(f.viewport.x);
+  uint height = uint(f.viewport.y);
+  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
+    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
+    uint pixel = ~0u;
+    uint64_t value = 0ul;
+    vec2 p = vec2(0.0);
+    float radius = 0.0;
+    vec3 quantized = surfelQuantized(q[j]);
+    if (i < s.count && !(cullBackFaces && surfelBackFacing(s, quantized, normals[j]))) {
+      vec4 clip = s.clipFromQuantized * vec4(quantized, 1.0);
+      if (clip.w > 0.0 && clip.z <= clip.w && clip.z >= 0.0) {
+        p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+        value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t((s.firstId + i) | f.idTag);
+        radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
+        if (p.x >= 0.0 && p.y >= 0.0 && p.x < f.viewport.x && p.y < f.viewport.y)
+          pixel = uint(p.y) * width + uint(p.x);
+      }
+    }
+    uint64_t merged = value;
+    if (mergeSamePixel(pixel, merged)) {
+      uvec2 px = uvec2(pixel % width, pixel / width);
+      if (!(s.fade < 1.0 && fadeDither(px) >= s.fade) && vis.pixels[pixel] < merged) atomicMax(vis.pixels[pixel], merged);
+    }
+    if (value == 0ul || radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
+    ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
+    ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
+    ivec2 own = ivec2(floor(p));
+    float r2 = radius * radius;
+    for (int y = lo.y; y <= hi.y; ++y) {
+      float dy = float(y) + 0.5 - p.y;
+      for (int x = lo.x; x <= hi.x; ++x) {
+        float dx = float(x) + 0.5 - p.x;
+        if (dx * dx + dy * dy <= r2 && ivec2(x, y) != own) splatPixel(vis, uvec2(x, y), width, value, s.fade);
+      }
+    }
+  }
+}
+#endif
+
+void main() {
+  uint batch = gl_WorkGroupID.y * MIRAGE_SURFEL_DISPATCH_X + gl_WorkGroupID.x;
+  SrCounterRef counters = SrCounterRef(push.counterAddress);
+  if (batch >= counters.c.totalBatches) return; // uniform over the workgroup
+  // Two dependent loads to the instance state: the workgroup's prologue is latency it cannot hide.
+  uint slot = SrUintRef(push.batchInstanceAddress).v[batch];
+  SurfelInstanceState s = SrStateRef(push.stateAddress).states[slot];
+  SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
+  uint firstSurfel = s.firstSurfel;
+  SrUvec2Ref positions = SrUvec2Ref(push.positionAddress);
+  SrVisRef vis = SrVisRef(push.visBufferAddress);
+  uint width = uint(f.viewport.x);
+  uint height = uint(f.viewport.y);
+  uint start = (batch - s.firstBatch) * MIRAGE_SURFEL_BATCH + gl_LocalInvocationIndex;
+
+  // All loads first, so each thread has MIRAGE_SURFEL_PER_THREAD requests in flight before the
+  // first atomic (bandwidth needs memory-level parallelism; atomics would otherwise serialize them).
+  // Back-face culling reads each surfel's attributes too (8 more bytes, coalesced) to skip the
+  // surfels facing away; on the H200 that cost more than it saved (docs/surfels.md).
+  bool cullBackFaces = kCullBackFaces && s.eyeQuantized.w != 0.0; // uniform over the workgroup (one instance)
+  SrUvec2Ref attributes = SrUvec2Ref(push.attributeAddress);
+  uvec2 q[MIRAGE_SURFEL_PER_THREAD];
+  uint normals[MIRAGE_SURFEL_PER_THREAD];
+  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
+    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
+    q[j] = i < s.count ? positions.v[firstSurfel + i] : uvec2(0u);
+    normals[j] = cullBackFaces && i < s.count ? attributes.v[firstSurfel + i].x : 0u;
+  }
+#ifdef MIRAGE_SURFEL_SPLAT_MERGE
+  splatMerged(s, f, q, normals, cullBackFaces, start);
+#else
+  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
+    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
+    if (i >= s.count) break;
+    vec3 quantized = surfelQuantized(q[j]);
+    if (cullBackFaces && surfelBackFacing(s, quantized, normals[j])) continue;
+    vec4 clip = s.clipFromQuantized * vec4(quantized, 1.0);
+    // Behind the eye, nearer than the near plane (reverse-Z: z > w) or beyond the far plane (z < 0).
+    if (clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) continue;
+    vec2 p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+    uint64_t value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t((s.firstId + i) | f.idTag);
+    float radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
+    if (p.x < 0.0 || p.y < 0.0 || p.x >= f.viewport.x || p.y >= f.viewport.y) {
+      if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
+    } else {
+      // The pixel holding the projection: the whole footprint on the fast path.
+      splatPixel(vis, uvec2(p), width, value, s.fade);
+      if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
+    }
+    // The other pixel centres c (integer + 0.5) with |c - p| <= radius.
+    ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
+    ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
+    ivec2 own = ivec2(floor(p));
+    float r2 = radius * radius;
+    for (int y = lo.y; y <= hi.y; ++y) {
+      float dy = float(y) + 0.5 - p.y;
+      for (int x = lo.x; x <= hi.x; ++x) {
+        float dx = float(x) + 0.5 - p.x;
+        if (dx * dx + dy * dy <= r2 && ivec2(x, y) != own) splatPixel(vis, uvec2(x, y), width, value, s.fade);
+      }
+    }
+  }
+#endif
+}
