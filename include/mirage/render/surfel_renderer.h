@@ -43,8 +43,11 @@ enum class SurfelOrder {
 const char* toString(SurfelOrder order);
 // "blue", "coherent" or "coherent256"; anything else is an error naming the choices.
 Result<SurfelOrder> parseSurfelOrder(std::string_view text);
-// The order `mirage render --surfels` and SurfelRenderer::create use unless told otherwise.
-inline constexpr SurfelOrder kDefaultSurfelOrder = SurfelOrder::Coherent;
+// The order `mirage render --surfels` and SurfelRenderer::create use unless told otherwise. H200,
+// 1080p, 1024 copies of a 100 k cloud (docs/surfels.md, session 10): coherent256 splats faster than
+// blue both with every surfel drawn (1.124x) and with adaptive prefixes (1.064x, its rounding adds
+// 3 % surfels); coherent's 1024-surfel blocks add 12 % there and lose (0.92x).
+inline constexpr SurfelOrder kDefaultSurfelOrder = SurfelOrder::Coherent256;
 // The smallest block of a coherent order (0 for the blue-noise order).
 inline constexpr uint32_t coherentMinBlock(SurfelOrder order) {
   return order == SurfelOrder::Coherent ? MIRAGE_SURFEL_BATCH : order == SurfelOrder::Coherent256 ? 256u : 0u;
@@ -98,7 +101,10 @@ struct SurfelRenderSettings {
   bool backfaceCulling = false;
   // Compute splat variant: lanes of a subgroup that hit the same pixel pool their values first, and
   // one lane per pixel touches the visibility buffer (same image, bit for bit). Meant for the
-  // coherent order; timed against the plain splat by `bench surfels --merge both`.
+  // coherent order; timed against the plain splat by `bench surfels --merge both`. H200: it pays
+  // where many surfels share a pixel (every surfel of 1024 copies drawn: 133 G surfels/s vs 102
+  // plain, coherent256) and costs with adaptive prefixes (~1 surfel per pixel: splat 0.226 vs
+  // 0.184 ms), so it is off by default.
   bool subgroupMerge = false;
   // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
   // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
