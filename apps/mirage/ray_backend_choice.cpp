@@ -16,7 +16,7 @@ const ComputeVariant* findComputeVariant(const std::string& name) {
 Status checkRayBackendChoice(const RayBackendChoice& c) {
   if (c.backend != "auto" && c.backend != "embree" && c.backend != "vulkan" && !findComputeVariant(c.backend))
     return Error{"--backend must be auto, embree, vulkan, compute, compute-persistent, compute-bvh2, "
-                 "compute-bvh2-persistent or compute-bvh2-shared-stack"};
+                 "compute-bvh2-persistent, compute-bvh2-shared-stack, compute-bvh8 or compute-bvh8-persistent"};
   if (c.geometry != "auto" && c.geometry != "flatten" && c.geometry != "instance")
     return Error{"--geometry must be auto, flatten or instance"};
   return Ok{};

@@ -35,6 +35,8 @@ inline constexpr ComputeVariant kComputeVariants[] = {
     {"compute-bvh2", false, false, 2},
     {"compute-bvh2-persistent", true, false, 2},
     {"compute-bvh2-shared-stack", false, true, 2},
+    {"compute-bvh8", false, false, 8}, // compressed 8-wide nodes (Ylitie et al. 2017)
+    {"compute-bvh8-persistent", true, false, 8},
 };
 const ComputeVariant* findComputeVariant(const std::string& name);
 

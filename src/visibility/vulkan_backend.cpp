@@ -104,7 +104,7 @@ private:
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
-  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh2][-shared-stack][-persistent]
+  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-persistent]
   size_t triangles_ = 0;
   double buildSeconds_ = 0.0;
   Buffer vertices_, indices_, transforms_, instances_, slots_;
@@ -215,8 +215,11 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
     return Error{fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", caps.name)};
   if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
   if (compute_) {
-    name_ = std::string("vulkan-compute") + (options.bvhWidth == 4 ? "" : "-bvh2") +
-            (options.sharedStack && options.bvhWidth != 4 ? "-shared-stack" : "") + (persistent_ ? "-persistent" : "");
+    name_ = std::string("vulkan-compute") +
+            (options.bvhWidth == 4   ? ""
+             : options.bvhWidth == 8 ? "-bvh8"
+                                     : "-bvh2") +
+            (options.sharedStack && options.bvhWidth == 2 ? "-shared-stack" : "") + (persistent_ ? "-persistent" : "");
     if (auto ok = buildCompute(scene, options); !ok) return ok;
   } else {
     instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
@@ -345,21 +348,29 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
 }
 
 Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& options) {
-  if (options.bvhWidth != 2 && options.bvhWidth != 4) return Error{"vulkan: the BVH width must be 2 or 4"};
-  const bool wide = options.bvhWidth == 4;
+  if (options.bvhWidth != 2 && options.bvhWidth != 4 && options.bvhWidth != 8)
+    return Error{"vulkan: the BVH width must be 2, 4 or 8"};
+  const bool wide = options.bvhWidth == 4, compressed = options.bvhWidth == 8;
   auto bvh = detail::buildRayBvh(
       scene, {.spatialSplits = options.spatialSplits, .maxLeafSize = options.bvhLeafSize, .width = options.bvhWidth});
   if (!bvh) return bvh.error();
-  bvhNodes_ = wide ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
-                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
-                   : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
-                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
+  bvhNodes_ = compressed ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh8Node>(bvh->nodes8),
+                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+              : wide     ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
+                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+                         : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
+                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
   bvhTriangles_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhTriangle>(bvh->triangles),
                                        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh triangles");
-  bvhEmpty_ = bvh->nodes.empty() && bvh->nodes4.empty();
-  bvhStats_ = {bvh->buildSeconds, wide ? bvh->nodes4.size() : bvh->nodes.size(), bvh->triangles.size(), bvh->depth};
+  bvhEmpty_ = bvh->nodes.empty() && bvh->nodes4.empty() && bvh->nodes8.empty();
+  bvhStats_ = {bvh->buildSeconds,
+               compressed ? bvh->nodes8.size()
+               : wide     ? bvh->nodes4.size()
+                          : bvh->nodes.size(),
+               bvh->triangles.size(), bvh->depth};
   computeLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
-  const char* shader = wide                  ? "vis_trace_bvh4.comp"
+  const char* shader = compressed            ? "vis_trace_bvh8.comp"
+                       : wide                ? "vis_trace_bvh4.comp"
                        : options.sharedStack ? "vis_trace_shared_stack.comp"
                                              : "vis_trace.comp";
   computePipeline_ = createComputePipeline(ctx_, shader, computeLayout_);
