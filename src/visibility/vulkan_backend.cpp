@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -72,7 +73,8 @@ VkTransformMatrixKHR toVk(const glm::mat4& m) {
 class VulkanBackend final : public VulkanRayBackend {
 public:
   VulkanBackend(Context& context, const VulkanRayOptions& options)
-      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), timer_(context, 1) {}
+      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays), timer_(context, 3) {
+  }
   ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
 
   std::string_view name() const override { return name_; }
@@ -81,6 +83,7 @@ public:
   RayTiming lastTiming() const override { return timing_; }
   double buildSeconds() const override { return buildSeconds_; }
   RayBvhStats bvhStats() const override { return bvhStats_; }
+  void setStagedRays(bool staged) override { staged_ = staged; }
 
   Status build(const Scene& scene, const VulkanRayOptions& options);
   void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
@@ -96,11 +99,14 @@ private:
   Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
   void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
   bool prepareSet(DeviceSet& set, const TriangleSet* host);
-  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false);
+  // stagedRays > 0: copy that many rays into raysDevice_ first and their hits out of hitsDevice_ after.
+  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
+              size_t stagedRays = 0);
   void collectNew(TriangleSet* record);
 
   Context& ctx_;
   size_t batch_;
+  bool staged_; // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
@@ -122,6 +128,7 @@ private:
   bool bvhEmpty_ = true;
   RayBvhStats bvhStats_;
   Buffer rays_, hits_, newIds_, counters_, countersReadback_;
+  Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
   // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
   // and the cell description (RtCellSource).
   Buffer before_, firstRay_, firstRayReadback_, cellSource_;
@@ -469,7 +476,8 @@ bool VulkanBackend::prepareSet(DeviceSet& set, const TriangleSet* host) {
   return true;
 }
 
-void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode) {
+void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode,
+                           size_t stagedRays) {
   auto t0 = std::chrono::steady_clock::now();
   push.slots = slots_.address();
   push.counters = counters_.address();
@@ -490,6 +498,12 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
     if (uploadRecord) vkCmdCopyBuffer(cmd, record_.staging.handle(), record_.bits.handle(), 1, &whole);
     if (uploadRequire) vkCmdCopyBuffer(cmd, require_.staging.handle(), require_.bits.handle(), 1, &whole);
     vkCmdFillBuffer(cmd, counters_.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (stagedRays > 0) {
+      uint32_t upload = timer_.cmdBegin(cmd, "upload", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+      VkBufferCopy bytes{0, 0, stagedRays * sizeof(Ray)};
+      vkCmdCopyBuffer(cmd, rays_.handle(), raysDevice_.handle(), 1, &bytes);
+      timer_.cmdEnd(cmd, upload, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+    }
     if (cellMode) {
       // A replaced record set may have cleared triangles whose firstRay entries are still set.
       if (uploadRecord || !firstRayValid_) vkCmdFillBuffer(cmd, firstRay_.handle(), 0, VK_WHOLE_SIZE, ~0u);
@@ -524,6 +538,12 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
                      VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
     vkCmdCopyBuffer(cmd, counters_.handle(), countersReadback_.handle(), 1, &counters);
+    if (stagedRays > 0) {
+      uint32_t readback = timer_.cmdBegin(cmd, "readback", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+      VkBufferCopy bytes{0, 0, stagedRays * sizeof(Hit)};
+      vkCmdCopyBuffer(cmd, hitsDevice_.handle(), hits_.handle(), 1, &bytes);
+      timer_.cmdEnd(cmd, readback, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+    }
     if (cellMode) {
       VkBufferCopy all{0, 0, firstRay_.size()};
       vkCmdCopyBuffer(cmd, firstRay_.handle(), firstRayReadback_.handle(), 1, &all);
@@ -532,8 +552,9 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
   });
-  auto times = timer_.read();
-  timing_.gpuMilliseconds = times.empty() ? 0.0 : times[0].milliseconds;
+  timing_ = {};
+  for (const PassTime& pass : timer_.read())
+    (pass.name == "trace" ? timing_.gpuMilliseconds : timing_.copyMilliseconds) += pass.milliseconds;
   timing_.wallMilliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
@@ -553,12 +574,24 @@ void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const 
   for (size_t begin = 0; begin < n; begin += batch_) {
     const size_t count = std::min(batch_, n - begin);
     auto t0 = std::chrono::steady_clock::now();
-    ensureCapacity(rays_, count * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt rays");
-    ensureCapacity(hits_, count * sizeof(Hit), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt hits");
+    ensureCapacity(rays_, count * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                   MemoryUsage::Upload, "rt rays");
+    ensureCapacity(hits_, count * sizeof(Hit), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                   MemoryUsage::Readback, "rt hits");
     std::memcpy(rays_.mapped(), rays.data() + begin, count * sizeof(Ray));
     shaderio::RtTracePush push{};
     push.rays = rays_.address();
     push.hits = hits_.address();
+    if (staged_) {
+      ensureCapacity(raysDevice_, count * sizeof(Ray),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                     "rt rays (device)");
+      ensureCapacity(hitsDevice_, count * sizeof(Hit),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::GpuOnly,
+                     "rt hits (device)");
+      push.rays = raysDevice_.address();
+      push.hits = hitsDevice_.address();
+    }
     push.record = sets.record ? record_.bits.address() : 0;
     push.require = sets.require ? require_.bits.address() : 0;
     push.count = uint32_t(count);
@@ -566,10 +599,11 @@ void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const 
     push.onlyRequired = sets.onlyRequired && sets.require ? 1u : 0u;
     bool uploadRecord = prepareSet(record_, sets.record);
     bool uploadRequire = prepareSet(require_, sets.require);
-    launch(push, uploadRecord, uploadRequire);
+    launch(push, uploadRecord, uploadRequire, false, staged_ ? count : 0);
     std::memcpy(hits.data() + begin, hits_.mapped(), count * sizeof(Hit));
     collectNew(sets.record);
     total.gpuMilliseconds += timing_.gpuMilliseconds;
+    total.copyMilliseconds += timing_.copyMilliseconds;
     total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   timing_ = total;
@@ -648,6 +682,33 @@ bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, Tri
 }
 
 } // namespace
+
+Result<TraversalWork> countTraversalWork(const Scene& scene, std::span<const Ray> rays, uint32_t bvhWidth) {
+  if (bvhWidth != 4 && bvhWidth != 8) return Error{"traversal work: the BVH width must be 4 or 8"};
+  auto bvh = detail::buildRayBvh(scene, {.width = bvhWidth});
+  if (!bvh) return bvh.error();
+  const size_t threads = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<TraversalWork> parts(threads);
+  std::vector<std::thread> workers;
+  for (size_t w = 0; w < threads; ++w)
+    workers.emplace_back([&, w] {
+      for (size_t i = w; i < rays.size(); i += threads) {
+        detail::CpuTraceResult r = detail::cpuTrace(*bvh, rays[i].origin, rays[i].dir, rays[i].tnear, rays[i].tfar);
+        parts[w].nodes += r.nodes;
+        parts[w].triangleTests += r.triangleTests;
+        parts[w].hitFraction += r.triangle != MIRAGE_RT_NO_HIT;
+      }
+    });
+  for (std::thread& t : workers) t.join();
+  TraversalWork total;
+  for (const TraversalWork& p : parts) {
+    total.nodes += p.nodes;
+    total.triangleTests += p.triangleTests;
+    total.hitFraction += p.hitFraction;
+  }
+  const double n = double(std::max<size_t>(1, rays.size()));
+  return TraversalWork{total.nodes / n, total.triangleTests / n, total.hitFraction / n};
+}
 
 Result<std::unique_ptr<VulkanRayBackend>> createVulkanBackend(gpu::Context& context, const Scene& scene,
                                                               const VulkanRayOptions& options) {

@@ -413,9 +413,9 @@ TEST_P(VulkanRays, SeeThroughTrianglesCountOnlyInFrontOfTheWall) {
   EXPECT_GT(seeThroughNew, 0u);
 }
 
-// The compute traversal's variants: persistent threads and a shared-memory stack change the
-// schedule, not the rays' results; spatial splits and 4-wide nodes change the tree, so only ties
-// may differ.
+// The compute traversal's variants: persistent threads, a shared-memory stack and staged rays
+// change the schedule or where rays live, not the rays' results; spatial splits and 4- or 8-wide
+// nodes change the tree, so only ties may differ.
 TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   if (GetParam().traversal != Traversal::Compute || GetParam().bvhWidth != 4)
     GTEST_SKIP() << "compute traversal options";
@@ -432,7 +432,7 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   };
   const size_t n = triangleOffsets(city).back();
   TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n), wideSet(n), widePersistentSet(n), bvh8Set(n),
-      bvh8PersistentSet(n);
+      bvh8PersistentSet(n), stagedSet(n);
   std::vector<Hit> plain = run({.bvhWidth = 2}, plainSet);
   std::vector<Hit> persistent = run({.persistentThreads = true, .bvhWidth = 2}, persistentSet);
   std::vector<Hit> shared = run({.sharedStack = true, .bvhWidth = 2}, sharedSet);
@@ -448,6 +448,15 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
     ASSERT_EQ(bvh8[i].t, bvh8Persistent[i].t) << "ray " << i;
   }
   EXPECT_EQ(bvh8Set.sorted(), bvh8PersistentSet.sorted());
+  // Staged rays (device-local copies) trace exactly what the shader reading host memory traces.
+  std::vector<Hit> staged = run({.bvhWidth = 8, .stagedRays = true}, stagedSet);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(bvh8[i].triangle, staged[i].triangle) << "ray " << i;
+    ASSERT_EQ(bvh8[i].t, staged[i].t) << "ray " << i;
+    ASSERT_EQ(bvh8[i].seeThrough, staged[i].seeThrough) << "ray " << i;
+    ASSERT_EQ(bvh8[i].flags, staged[i].flags) << "ray " << i;
+  }
+  EXPECT_EQ(bvh8Set.sorted(), stagedSet.sorted());
   for (const std::vector<Hit>* other : {&persistent, &shared}) {
     for (size_t i = 0; i < rays.size(); ++i) {
       ASSERT_EQ(plain[i].triangle, (*other)[i].triangle) << "ray " << i;

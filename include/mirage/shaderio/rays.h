@@ -195,14 +195,14 @@ struct RtTracePush {
 };
 
 #ifndef __cplusplus
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtRayRef { RtRay v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtHitRef { RtHit v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtSlotRef { RtSlot v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtCountersRef { RtCounters c; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtU32Ref { uint v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer RtCellSourceRef { RtCellSource s; };
-// RtBvhNode and RtBvhTriangle read as 16-byte vectors: four per node, three per triangle.
+// RtBvhNode and RtBvhTriangle read as 16-byte vectors: four per node, three per triangle;
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer RtVec4Ref { vec4 v[]; };
+// RtRay read as two 16-byte vectors, RtHit written as one.
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer RtUVec4Ref { uvec4 v[]; };
 #endif
 
 #ifdef __cplusplus
