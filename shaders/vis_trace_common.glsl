@@ -141,11 +141,20 @@ bool insert(uint id) {
 RtRay loadRay(uint index) {
   if (push.mode == MIRAGE_RT_MODE_GENERATED) return generatedRay(index);
   if (push.mode == MIRAGE_RT_MODE_CELL) return cellRay(index);
+  RtRay ray;
+  if (push.mode == MIRAGE_RT_MODE_COMPACT) { // 24 bytes: origin, direction; [0, inf)
+    RtVec2Ref rays = RtVec2Ref(push.rays);
+    vec2 a = rays.v[3u * index], b = rays.v[3u * index + 1u], c = rays.v[3u * index + 2u];
+    ray.origin = vec3(a, b.x);
+    ray.dir = vec3(b.y, c);
+    ray.tnear = 0.0;
+    ray.tfar = 1.0 / 0.0;
+    return ray;
+  }
   // Two 16-byte loads (the buffer is 16-byte aligned): eight scalar loads through the scalar-layout
   // reference cost 4x the memory requests, and the rays live in host-visible memory (PCIe).
   RtVec4Ref rays = RtVec4Ref(push.rays);
   vec4 a = rays.v[2u * index], b = rays.v[2u * index + 1u];
-  RtRay ray;
   ray.origin = a.xyz;
   ray.tnear = a.w;
   ray.dir = b.xyz;

@@ -1,8 +1,9 @@
 // mirage bench rays: ray throughput of the ray backends on one set of random rays (origins in the
 // view cells or the scene box, uniform directions), with every hit recorded into a triangle set as
 // GVS++ does. Vulkan reports the trace dispatch alone (timestamp queries) and the wall time with
-// upload and readback; its "generated" mode makes the rays on the device, and the compute
-// traversal's "staged" mode traces the same rays from device-local copies (copies timed apart).
+// upload and readback (24-byte rays, as GVS++ rays go; the default compute variant also with
+// 32-byte ones); its "generated" mode makes the rays on the device, and the compute traversal's
+// "staged" mode traces the same rays from device-local copies (copies timed apart).
 // Both Vulkan traversals (the ray-tracing pipeline and the compute shader: plain, with persistent
 // threads, with its stack in shared memory, over 4-wide and compressed 8-wide nodes) trace the same
 // rays in one run, and their GPU-time ratios are printed, so one run decides the default.
@@ -199,9 +200,12 @@ void runBenchRays(const BenchRaysOptions& o) {
                      bvh.triangleRefs, bvh.depth);
         fmt::print("\n");
       }
-      std::vector<double> wall, gpu, genWall, genGpu, stagedWall, stagedGpu, stagedCopy;
-      size_t found = 0, genFound = 0, stagedFound = 0;
+      std::vector<double> wall, gpu, genWall, genGpu, stagedWall, stagedGpu, stagedCopy, fullWall, fullGpu;
+      size_t found = 0, genFound = 0, stagedFound = 0, fullFound = 0;
       const bool staging = v.traversal == T::Compute;
+      // The default compute variant also with 32-byte rays (the others send 24-byte ones: the rays
+      // here have the interval [0, inf)), to show what the bytes per ray cost across PCIe.
+      const bool fullRays = v.label == kComputeVariants[0].name;
       std::vector<vis::Hit> stagedHits(staging ? rays.size() : 0);
       for (int r = 0; r < o.repeat; ++r) {
         vis::TriangleSet record((*b)->triangleCount());
@@ -210,6 +214,16 @@ void runBenchRays(const BenchRaysOptions& o) {
         wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         gpu.push_back((*b)->lastTiming().gpuMilliseconds);
         found = record.count();
+        if (fullRays) {
+          vis::TriangleSet fullRecord((*b)->triangleCount());
+          (*b)->setCompactRays(false);
+          t0 = std::chrono::steady_clock::now();
+          (*b)->trace(rays, stagedHits, {.record = &fullRecord});
+          fullWall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+          (*b)->setCompactRays(true);
+          fullGpu.push_back((*b)->lastTiming().gpuMilliseconds);
+          fullFound = fullRecord.count();
+        }
         if (staging) { // the same rays through device-local copies: the trace alone, then the copies
           vis::TriangleSet stagedRecord((*b)->triangleCount());
           (*b)->setStagedRays(true);
@@ -243,6 +257,10 @@ void runBenchRays(const BenchRaysOptions& o) {
         results.back()["same_or_tied_with_embree"] = tied;
         if (!o.json)
           fmt::print("{:18} same closest triangle as Embree or another at the same depth: {:.4f}%\n", "", tied * 100.0);
+      }
+      if (fullRays) {
+        report(name + " 32B rays", median(fullWall), median(fullGpu), fullFound, -1.0);
+        results.back()["traversal"] = v.label;
       }
       if (staging) {
         size_t same = 0;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <thread>
 
 #include <fmt/format.h>
@@ -70,11 +71,32 @@ VkTransformMatrixKHR toVk(const glm::mat4& m) {
   return t;
 }
 
+// MODE_COMPACT: rays whose interval is [0, inf) (every GVS++ ray) go as (origin, direction).
+constexpr size_t kCompactRayBytes = 6 * sizeof(float);
+
+bool compactInterval(std::span<const Ray> rays) {
+  return std::all_of(rays.begin(), rays.end(),
+                     [](const Ray& r) { return r.tnear == 0.0f && r.tfar == std::numeric_limits<float>::infinity(); });
+}
+
+// Written in order into write-combined memory.
+void packCompact(std::span<const Ray> rays, float* out) {
+  for (const Ray& r : rays) {
+    out[0] = r.origin.x;
+    out[1] = r.origin.y;
+    out[2] = r.origin.z;
+    out[3] = r.dir.x;
+    out[4] = r.dir.y;
+    out[5] = r.dir.z;
+    out += 6;
+  }
+}
+
 class VulkanBackend final : public VulkanRayBackend {
 public:
   VulkanBackend(Context& context, const VulkanRayOptions& options)
-      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays), timer_(context, 3) {
-  }
+      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
+        compact_(options.compactRays), timer_(context, 3) {}
   ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
 
   std::string_view name() const override { return name_; }
@@ -84,6 +106,7 @@ public:
   double buildSeconds() const override { return buildSeconds_; }
   RayBvhStats bvhStats() const override { return bvhStats_; }
   void setStagedRays(bool staged) override { staged_ = staged; }
+  void setCompactRays(bool compact) override { compact_ = compact; }
 
   Status build(const Scene& scene, const VulkanRayOptions& options);
   void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
@@ -99,14 +122,16 @@ private:
   Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
   void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
   bool prepareSet(DeviceSet& set, const TriangleSet* host);
-  // stagedRays > 0: copy that many rays into raysDevice_ first and their hits out of hitsDevice_ after.
+  // stagedRays > 0: copy that many rays (rayBytes each) into raysDevice_ first and their hits out
+  // of hitsDevice_ after.
   void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
-              size_t stagedRays = 0);
+              size_t stagedRays = 0, size_t rayBytes = sizeof(Ray));
   void collectNew(TriangleSet* record);
 
   Context& ctx_;
   size_t batch_;
-  bool staged_; // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
+  bool staged_;  // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
+  bool compact_; // trace(): 24-byte rays where the interval is [0, inf) (VulkanRayOptions::compactRays)
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
@@ -477,7 +502,7 @@ bool VulkanBackend::prepareSet(DeviceSet& set, const TriangleSet* host) {
 }
 
 void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode,
-                           size_t stagedRays) {
+                           size_t stagedRays, size_t rayBytes) {
   auto t0 = std::chrono::steady_clock::now();
   push.slots = slots_.address();
   push.counters = counters_.address();
@@ -500,7 +525,7 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
     vkCmdFillBuffer(cmd, counters_.handle(), 0, VK_WHOLE_SIZE, 0);
     if (stagedRays > 0) {
       uint32_t upload = timer_.cmdBegin(cmd, "upload", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
-      VkBufferCopy bytes{0, 0, stagedRays * sizeof(Ray)};
+      VkBufferCopy bytes{0, 0, stagedRays * rayBytes};
       vkCmdCopyBuffer(cmd, rays_.handle(), raysDevice_.handle(), 1, &bytes);
       timer_.cmdEnd(cmd, upload, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
     }
@@ -578,7 +603,13 @@ void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const 
                    MemoryUsage::Upload, "rt rays");
     ensureCapacity(hits_, count * sizeof(Hit), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                    MemoryUsage::Readback, "rt hits");
-    std::memcpy(rays_.mapped(), rays.data() + begin, count * sizeof(Ray));
+    const std::span<const Ray> batch = rays.subspan(begin, count);
+    const bool compact = compact_ && compactInterval(batch);
+    const size_t rayBytes = compact ? kCompactRayBytes : sizeof(Ray);
+    if (compact)
+      packCompact(batch, reinterpret_cast<float*>(rays_.mapped()));
+    else
+      std::memcpy(rays_.mapped(), batch.data(), count * sizeof(Ray));
     shaderio::RtTracePush push{};
     push.rays = rays_.address();
     push.hits = hits_.address();
@@ -595,11 +626,11 @@ void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const 
     push.record = sets.record ? record_.bits.address() : 0;
     push.require = sets.require ? require_.bits.address() : 0;
     push.count = uint32_t(count);
-    push.mode = MIRAGE_RT_MODE_BUFFER;
+    push.mode = compact ? MIRAGE_RT_MODE_COMPACT : MIRAGE_RT_MODE_BUFFER;
     push.onlyRequired = sets.onlyRequired && sets.require ? 1u : 0u;
     bool uploadRecord = prepareSet(record_, sets.record);
     bool uploadRequire = prepareSet(require_, sets.require);
-    launch(push, uploadRecord, uploadRequire, false, staged_ ? count : 0);
+    launch(push, uploadRecord, uploadRequire, false, staged_ ? count : 0, rayBytes);
     std::memcpy(hits.data() + begin, hits_.mapped(), count * sizeof(Hit));
     collectNew(sets.record);
     total.gpuMilliseconds += timing_.gpuMilliseconds;

@@ -27,6 +27,9 @@ using uint = uint32_t;
 // GVS++ random rays of a view cell made in the ray-generation shader (RtCellSource): randomized
 // Halton origins on the cell surface, uniform directions; only first discoveries come back.
 #define MIRAGE_RT_MODE_CELL 2u
+// Rays read from a buffer of 24-byte (origin, direction) pairs, the interval [0, inf): what every
+// GVS++ ray is. A third fewer bytes than RtRay across PCIe, where host-made rays live.
+#define MIRAGE_RT_MODE_COMPACT 3u
 // Faces of a box cell (a rect has one).
 #define MIRAGE_RT_MAX_CELL_FACES 6
 // Rays per row of a launch: launches are 2D because one launch dimension is limited (65535 × 1024
@@ -174,7 +177,7 @@ struct RtBvhTriangle {
 };
 
 struct RtTracePush {
-  uint64_t rays;     // RtRay[count] (MODE_BUFFER)
+  uint64_t rays;     // RtRay[count] (MODE_BUFFER) or float[6 * count] (MODE_COMPACT)
   uint64_t hits;     // RtHit[count]; 0: not written
   uint64_t record;   // uint bit set of global IDs; 0: none
   uint64_t require;  // uint bit set; 0: none
@@ -201,7 +204,8 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtU32Ref { u
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer RtCellSourceRef { RtCellSource s; };
 // RtBvhNode and RtBvhTriangle read as 16-byte vectors: four per node, three per triangle;
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer RtVec4Ref { vec4 v[]; };
-// RtRay read as two 16-byte vectors, RtHit written as one.
+// RtRay read as two 16-byte vectors, RtHit written as one, a compact ray as three 8-byte ones.
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer RtVec2Ref { vec2 v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer RtUVec4Ref { uvec4 v[]; };
 #endif
 

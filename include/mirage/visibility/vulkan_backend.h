@@ -52,6 +52,10 @@ struct VulkanRayOptions {
   // goes. The trace then runs at the rate of rays made on the device; the copies are timed apart
   // (RayTiming::copyMilliseconds) and are not overlapped with the trace.
   bool stagedRays = false;
+  // trace(): a batch whose rays all have the interval [0, inf) (every GVS++ ray) is sent as 24-byte
+  // (origin, direction) pairs instead of 32-byte rays: rays in host memory are read across PCIe,
+  // which caps the trace at its bandwidth over the bytes per ray (docs/visibility.md).
+  bool compactRays = true;
   // Rays per launch: 2 M rays are 64 MiB of rays and 32 MiB of hits, few enough submissions that
   // their fixed cost stays small beside the trace on a large GPU.
   size_t batchRays = size_t(1) << 21;
@@ -94,6 +98,8 @@ public:
   virtual RayBvhStats bvhStats() const = 0;
   // VulkanRayOptions::stagedRays for the following traces.
   virtual void setStagedRays(bool staged) = 0;
+  // VulkanRayOptions::compactRays for the following traces.
+  virtual void setCompactRays(bool compact) = 0;
 };
 
 // Fails when Pipeline is asked of a device without a ray-tracing pipeline. The scene may be freed after; the context
