@@ -202,6 +202,7 @@ void runBenchRays(const BenchRaysOptions& o) {
       }
       std::vector<double> wall, gpu, genWall, genGpu, stagedWall, stagedGpu, stagedCopy, fullWall, fullGpu;
       size_t found = 0, genFound = 0, stagedFound = 0, fullFound = 0;
+      double stagedBytes = 0.0;
       const bool staging = v.traversal == T::Compute;
       // The default compute variant also with 32-byte rays (the others send 24-byte ones: the rays
       // here have the interval [0, inf)), to show what the bytes per ray cost across PCIe.
@@ -234,6 +235,7 @@ void runBenchRays(const BenchRaysOptions& o) {
           (*b)->setStagedRays(false);
           stagedGpu.push_back((*b)->lastTiming().gpuMilliseconds);
           stagedCopy.push_back((*b)->lastTiming().copyMilliseconds);
+          stagedBytes = (*b)->lastTiming().copyBytes;
           stagedFound = stagedRecord.count();
         }
         vis::TriangleSet generated((*b)->triangleCount());
@@ -269,12 +271,12 @@ void runBenchRays(const BenchRaysOptions& o) {
         report(name + " staged", median(stagedWall), median(stagedGpu), stagedFound, -1.0);
         results.back()["traversal"] = v.label;
         results.back()["copy_ms"] = median(stagedCopy);
+        results.back()["copy_bytes"] = stagedBytes;
         results.back()["same_hits_as_unstaged"] = double(same) / double(hits.size());
         if (!o.json)
           fmt::print("{:18} staged: rays and hits copied in {:.3f} ms of GPU time around the trace "
                      "({:.2f} GB/s); {:.4f}% the same hits as the unstaged trace\n",
-                     "", median(stagedCopy),
-                     double(o.rays) * double(sizeof(vis::Ray) + sizeof(vis::Hit)) / (median(stagedCopy) * 1e6),
+                     "", median(stagedCopy), stagedBytes / (median(stagedCopy) * 1e6),
                      100.0 * double(same) / double(hits.size()));
       }
       report(name + " generated", median(genWall), median(genGpu), genFound, -1.0);

@@ -635,6 +635,7 @@ void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const 
     collectNew(sets.record);
     total.gpuMilliseconds += timing_.gpuMilliseconds;
     total.copyMilliseconds += timing_.copyMilliseconds;
+    total.copyBytes += staged_ ? double(count * (rayBytes + sizeof(Hit))) : 0.0;
     total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   timing_ = total;

@@ -123,6 +123,7 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
       ++staged;
       EXPECT_EQ(res["same_hits_as_unstaged"].get<double>(), 1.0) << res.dump();
       EXPECT_GT(res["copy_ms"].get<double>(), 0.0);
+      EXPECT_EQ(res["copy_bytes"].get<double>(), 20000.0 * (24 + 16)); // compact rays in, hits out
       continue;
     }
     if (!res.contains("traversal") || backend.find("generated") != std::string::npos ||

@@ -66,6 +66,7 @@ struct RayTiming {
   double gpuMilliseconds = 0.0;  // the trace dispatch alone (timestamp queries)
   double wallMilliseconds = 0.0; // host copy in, submission, wait, copy out
   double copyMilliseconds = 0.0; // staged rays: the device copies of rays in and hits out
+  double copyBytes = 0.0;        // staged rays: the bytes those copies moved
 };
 
 // The compute traversal's BVH (zeros for the pipeline traversal).
