@@ -4,8 +4,13 @@
 // leaf's run of up to three), inner children in bits 24..31 ordered so that the highest bit is the
 // child nearest first for the ray's direction octant (the host sorted the slots by octant). The
 // stack holds node groups (the children's base index, the hit bits left | imask), one push per
-// level at most; triangles are tested as soon as their node is opened. Included by
-// vis_trace_compute.glsl (MIRAGE_RT_BVH8), which provides testTriangle, the ray sources and main().
+// level at most; triangles are tested as soon as their node is opened, or with
+// MIRAGE_RT_BVH8_POSTPONE (vis_trace_bvh8_postpone.comp) Ylitie et al.'s triangle postponing: when
+// fewer than a fifth of the subgroup's lanes are testing triangles, a lane pushes its remaining
+// triangles as a group of their own (hit bits only below bit 24) and goes on down the tree, so the
+// subgroup does not run the triangle loop for a few lanes; popped later, such a group is tested
+// then. Ties may then resolve differently from run to run. Included by vis_trace_compute.glsl
+// (MIRAGE_RT_BVH8), which provides testTriangle, the ray sources and main().
 
 Payload traverse(RtRay ray) {
   Payload p;
@@ -25,10 +30,26 @@ Payload traverse(RtRay ray) {
       7u - ((ray.dir.x < 0.0 ? 1u : 0u) | (ray.dir.y < 0.0 ? 2u : 0u) | (ray.dir.z < 0.0 ? 4u : 0u));
   const uvec4 byteShift = uvec4(0u, 8u, 16u, 24u);
 
+#ifdef MIRAGE_RT_BVH8_POSTPONE
+  // Node groups (one per level) and postponed triangle groups; when full, triangles are not postponed.
+  uvec2 stack[2 * MIRAGE_RT_BVH8_STACK];
+  const uint minLanes = (gl_SubgroupSize + 4u) / 5u; // a fifth, rounded up: 7 of 32, 2 of 8 (lavapipe)
+#else
   uvec2 stack[MIRAGE_RT_BVH8_STACK];
+#endif
   int sp = 0;
   uvec2 group = uvec2(0u, 0x80000000u); // the root: node 0, one inner "child" on the top bit
   for (;;) {
+#ifdef MIRAGE_RT_BVH8_POSTPONE
+    if (group.y <= 0x00ffffffu) { // a postponed triangle group, popped
+      uint left = group.y;
+      for (; left != 0u; left &= left - 1u)
+        testTriangle(tris, group.x + uint(findLSB(left)), ray, tnear, tbest, p, onlyRequired);
+      if (sp == 0) break;
+      group = stack[--sp];
+      continue;
+    }
+#endif
     // The next inner child of the group: its index is the base plus the inner slots below it.
     const uint bit = uint(findMSB(group.y));
     group.y &= ~(1u << bit);
@@ -70,8 +91,17 @@ Payload traverse(RtRay ray) {
       }
     }
     group = uvec2(n1.x, (hitMask & 0xff000000u) | (packed >> 24));
-    for (uint left = hitMask & 0x00ffffffu; left != 0u; left &= left - 1u)
+    for (uint left = hitMask & 0x00ffffffu; left != 0u; left &= left - 1u) {
+#ifdef MIRAGE_RT_BVH8_POSTPONE
+      // Postponed only while there is a node group to go on with and room on the stack.
+      if (group.y > 0x00ffffffu && sp < 2 * MIRAGE_RT_BVH8_STACK &&
+          subgroupBallotBitCount(subgroupBallot(true)) < minLanes) {
+        stack[sp++] = uvec2(n1.y, left);
+        break;
+      }
+#endif
       testTriangle(tris, n1.y + uint(findLSB(left)), ray, tnear, tbest, p, onlyRequired);
+    }
     if (group.y <= 0x00ffffffu) {
       if (sp == 0) break;
       group = stack[--sp];

@@ -186,6 +186,7 @@ void runBenchRays(const BenchRaysOptions& o) {
       vo.persistentThreads = v.compute.persistentThreads;
       vo.sharedStack = v.compute.sharedStack;
       vo.bvhWidth = v.traversal == T::Compute ? v.compute.bvhWidth : 2;
+      vo.postponeTriangles = v.compute.postponeTriangles;
       vo.spatialSplits = o.spatialSplits;
       vo.bvhLeafSize = o.leafSize;
       vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do

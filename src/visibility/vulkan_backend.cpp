@@ -135,7 +135,7 @@ private:
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
-  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-persistent]
+  std::string name_; // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-postpone][-persistent]
   size_t triangles_ = 0;
   double buildSeconds_ = 0.0;
   Buffer vertices_, indices_, transforms_, instances_, slots_;
@@ -251,7 +251,9 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
             (options.bvhWidth == 4   ? ""
              : options.bvhWidth == 8 ? "-bvh8"
                                      : "-bvh2") +
-            (options.sharedStack && options.bvhWidth == 2 ? "-shared-stack" : "") + (persistent_ ? "-persistent" : "");
+            (options.sharedStack && options.bvhWidth == 2 ? "-shared-stack" : "") +
+            (options.postponeTriangles && options.bvhWidth == 8 ? "-postpone" : "") +
+            (persistent_ ? "-persistent" : "");
     if (auto ok = buildCompute(scene, options); !ok) return ok;
   } else {
     instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
@@ -401,8 +403,8 @@ Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& o
                           : bvh->nodes.size(),
                bvh->triangles.size(), bvh->depth};
   computeLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
-  const char* shader = compressed            ? "vis_trace_bvh8.comp"
-                       : wide                ? "vis_trace_bvh4.comp"
+  const char* shader = compressed ? (options.postponeTriangles ? "vis_trace_bvh8_postpone.comp" : "vis_trace_bvh8.comp")
+                       : wide     ? "vis_trace_bvh4.comp"
                        : options.sharedStack ? "vis_trace_shared_stack.comp"
                                              : "vis_trace.comp";
   computePipeline_ = createComputePipeline(ctx_, shader, computeLayout_);

@@ -456,7 +456,7 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   };
   const size_t n = triangleOffsets(city).back();
   TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n), wideSet(n), widePersistentSet(n), bvh8Set(n),
-      bvh8PersistentSet(n), stagedSet(n);
+      bvh8PersistentSet(n), stagedSet(n), postponeSet(n);
   std::vector<Hit> plain = run({.bvhWidth = 2}, plainSet);
   std::vector<Hit> persistent = run({.persistentThreads = true, .bvhWidth = 2}, persistentSet);
   std::vector<Hit> shared = run({.sharedStack = true, .bvhWidth = 2}, sharedSet);
@@ -489,7 +489,8 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   }
   EXPECT_EQ(plainSet.sorted(), persistentSet.sorted());
   EXPECT_EQ(plainSet.sorted(), sharedSet.sorted());
-  for (const std::vector<Hit>* other : {&split, &wide, &bvh8}) {
+  std::vector<Hit> postpone = run({.bvhWidth = 8, .postponeTriangles = true}, postponeSet);
+  for (const std::vector<Hit>* other : {&split, &wide, &bvh8, &postpone}) {
     Agreement g = compare(plain, *other);
     EXPECT_GE(double(g.sameTriangle + g.tieMismatches), 0.9995 * double(g.n));
     EXPECT_GE(double(g.sameSeeThrough), 0.999 * double(g.n));

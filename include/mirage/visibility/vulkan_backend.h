@@ -47,6 +47,10 @@ struct VulkanRayOptions {
   // (gen:city:8, 100 M rays) 1.49 G rays/s on host rays and 2.79 G/s generated, vs 1.24 / 1.28 for
   // width 2 and 0.62 / 0.63 through the ray-tracing pipeline.
   uint32_t bvhWidth = 4;
+  // Compute traversal, width 8: Ylitie et al.'s triangle postponing (a lane pushes its node's
+  // triangles to the stack and goes on down while under a fifth of the subgroup tests triangles,
+  // vis_trace_bvh8_postpone.comp). Ties may then resolve differently from run to run.
+  bool postponeTriangles = false;
   // trace(): copy the rays into device-local memory and the hits out of it with transfer commands
   // around the launch, instead of the shader reading and writing host-visible memory (PCIe) as it
   // goes. The trace then runs at the rate of rays made on the device; the copies are timed apart
