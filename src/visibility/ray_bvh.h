@@ -1,7 +1,8 @@
 #pragma once
-// The compute traversal's acceleration structure (vulkan_backend.cpp, shaders/vis_trace.comp): a
-// binary SAH BVH (optionally with spatial splits) built by Embree's own builder (rtcBuildBVH) over
-// the flattened world-space triangles, stored in the Aila-Laine layout of shaderio/rays.h.
+// The compute traversal's acceleration structure (vulkan_backend.cpp, shaders/vis_trace*.comp): an
+// SAH BVH (optionally with spatial splits) built by Embree's own builder (rtcBuildBVH) over the
+// flattened world-space triangles, stored as binary Aila-Laine nodes, 4-wide nodes or compressed
+// 8-wide nodes (Ylitie et al. 2017) of shaderio/rays.h.
 #include <vector>
 
 #include "mirage/core/result.h"
@@ -36,7 +37,8 @@ Result<RayBvh> buildRayBvh(const Scene& scene, const RayBvhOptions& options = {}
 void decodeBvh8Box(const shaderio::RtBvh8Node& node, uint32_t slot, glm::dvec3& lo, glm::dvec3& hi);
 
 // A CPU replica of the compute shaders' traversal of the 4- and 8-wide BVHs (the same slab tests,
-// visiting order and Moller-Trumbore test; see-through triangles do not stop the ray), counting
+// child order and Moller-Trumbore test, but not the 4-wide shader's leaf postponing, which only
+// reorders leaves between lanes of a subgroup; see-through triangles do not stop the ray), counting
 // the work per ray: to compare ray distributions and node layouts without a GPU, and to test the
 // 8-wide encoding against Embree without one.
 struct CpuTraceResult {
