@@ -141,13 +141,24 @@ bool insert(uint id) {
 RtRay loadRay(uint index) {
   if (push.mode == MIRAGE_RT_MODE_GENERATED) return generatedRay(index);
   if (push.mode == MIRAGE_RT_MODE_CELL) return cellRay(index);
-  // Field by field: glslc's optimizer rejects whole-struct copies from a buffer reference.
-  RtRayRef rays = RtRayRef(push.rays);
   RtRay ray;
-  ray.origin = rays.v[index].origin;
-  ray.tnear = rays.v[index].tnear;
-  ray.dir = rays.v[index].dir;
-  ray.tfar = rays.v[index].tfar;
+  if (push.mode == MIRAGE_RT_MODE_COMPACT) { // 24 bytes: origin, direction; [0, inf)
+    RtVec2Ref rays = RtVec2Ref(push.rays);
+    vec2 a = rays.v[3u * index], b = rays.v[3u * index + 1u], c = rays.v[3u * index + 2u];
+    ray.origin = vec3(a, b.x);
+    ray.dir = vec3(b.y, c);
+    ray.tnear = 0.0;
+    ray.tfar = 1.0 / 0.0;
+    return ray;
+  }
+  // Two 16-byte loads (the buffer is 16-byte aligned): eight scalar loads through the scalar-layout
+  // reference cost 4x the memory requests, and the rays live in host-visible memory (PCIe).
+  RtVec4Ref rays = RtVec4Ref(push.rays);
+  vec4 a = rays.v[2u * index], b = rays.v[2u * index + 1u];
+  ray.origin = a.xyz;
+  ray.tnear = a.w;
+  ray.dir = b.xyz;
+  ray.tfar = b.w;
   return ray;
 }
 
@@ -187,12 +198,7 @@ void finishRay(uint index, RtRay ray, Payload payload) {
     if (hit.triangle != MIRAGE_RT_NO_HIT) claim(hit.triangle, index);
     if (hit.seeThrough != MIRAGE_RT_NO_HIT) claim(hit.seeThrough, index);
   }
-  if (push.hits != 0ul) {
-    RtHitRef hits = RtHitRef(push.hits);
-    hits.v[index].triangle = hit.triangle;
-    hits.v[index].t = hit.t;
-    hits.v[index].flags = hit.flags;
-    hits.v[index].seeThrough = hit.seeThrough;
-  }
+  if (push.hits != 0ul) // one 16-byte store, not four 4-byte ones into host-visible memory
+    RtUVec4Ref(push.hits).v[index] = uvec4(hit.triangle, floatBitsToUint(hit.t), hit.flags, hit.seeThrough);
 }
 #endif

@@ -6,7 +6,8 @@
 // diverge less between box tests and triangle tests. Children are visited nearest first and a
 // closer opaque hit shrinks the interval; see-through triangles are remembered, not committed.
 // Included by vis_trace.comp, vis_trace_shared_stack.comp (the stack in shared memory) and
-// vis_trace_bvh4.comp (MIRAGE_RT_BVH4: 4-wide nodes, RtBvh4Node).
+// vis_trace_bvh4.comp (MIRAGE_RT_BVH4: 4-wide nodes, RtBvh4Node) and vis_trace_bvh8.comp
+// (MIRAGE_RT_BVH8: compressed 8-wide nodes, RtBvh8Node; its traversal is vis_trace_bvh8.glsl).
 #extension GL_KHR_shader_subgroup_vote : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #include "vis_trace_common.glsl"
@@ -45,6 +46,37 @@ float enterBox(vec3 lo, vec3 hi, vec3 idir, vec3 ood, float tnear, float tbest) 
 // A direction component of zero would give inf * 0 = NaN in the slab test: use a tiny one.
 float safeInverse(float d) { return 1.0 / (abs(d) > 1e-20 ? d : (d >= 0.0 ? 1e-20 : -1e-20)); }
 
+// Leaf triangle k (RtBvhTriangle): Moller-Trumbore, both faces; NaNs (degenerate triangles) fail
+// every comparison. An opaque hit shrinks the interval, a see-through one is remembered. Returns
+// the triangle's flags.
+uint testTriangle(RtVec4Ref tris, uint k, RtRay ray, float tnear, inout float tbest, inout Payload p,
+                  bool onlyRequired) {
+  vec4 a = tris.v[k * 3u], b = tris.v[k * 3u + 1u], c = tris.v[k * 3u + 2u];
+  uint id = floatBitsToUint(a.w), flags = floatBitsToUint(b.w);
+  vec3 e1 = b.xyz - a.xyz, e2 = c.xyz - a.xyz;
+  vec3 pv = cross(ray.dir, e2);
+  float inv = 1.0 / dot(e1, pv);
+  vec3 s = ray.origin - a.xyz;
+  float u = dot(s, pv) * inv;
+  vec3 q = cross(s, e1);
+  float v = dot(ray.dir, q) * inv;
+  float t = dot(e2, q) * inv;
+  if (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= tnear && t < tbest &&
+      (!onlyRequired || testBit(push.require, id))) {
+    if ((flags & MIRAGE_RT_BVH_SEE_THROUGH) != 0u) {
+      addSeeThrough(p, id, t, tbest);
+    } else {
+      tbest = t;
+      p.triangle = id;
+      p.t = t;
+    }
+  }
+  return flags;
+}
+
+#ifdef MIRAGE_RT_BVH8
+#include "vis_trace_bvh8.glsl"
+#else
 Payload traverse(RtRay ray) {
   Payload p;
   p.triangle = MIRAGE_RT_NO_HIT;
@@ -111,30 +143,8 @@ Payload traverse(RtRay ray) {
       if (subgroupAll(leaf != MIRAGE_RT_BVH_NONE)) break;
     }
     while (leaf != MIRAGE_RT_BVH_NONE) {
-      for (uint k = leaf & ~MIRAGE_RT_BVH_LEAF;; ++k) {
-        vec4 a = tris.v[k * 3u], b = tris.v[k * 3u + 1u], c = tris.v[k * 3u + 2u];
-        uint id = floatBitsToUint(a.w), flags = floatBitsToUint(b.w);
-        // Moller-Trumbore, both faces; NaNs (degenerate triangles) fail every comparison.
-        vec3 e1 = b.xyz - a.xyz, e2 = c.xyz - a.xyz;
-        vec3 pv = cross(ray.dir, e2);
-        float inv = 1.0 / dot(e1, pv);
-        vec3 s = ray.origin - a.xyz;
-        float u = dot(s, pv) * inv;
-        vec3 q = cross(s, e1);
-        float v = dot(ray.dir, q) * inv;
-        float t = dot(e2, q) * inv;
-        if (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= tnear && t < tbest &&
-            (!onlyRequired || testBit(push.require, id))) {
-          if ((flags & MIRAGE_RT_BVH_SEE_THROUGH) != 0u) {
-            addSeeThrough(p, id, t, tbest);
-          } else {
-            tbest = t;
-            p.triangle = id;
-            p.t = t;
-          }
-        }
-        if ((flags & MIRAGE_RT_BVH_LAST) != 0u) break;
-      }
+      for (uint k = leaf & ~MIRAGE_RT_BVH_LEAF;; ++k)
+        if ((testTriangle(tris, k, ray, tnear, tbest, p, onlyRequired) & MIRAGE_RT_BVH_LAST) != 0u) break;
       // Another leaf waiting (the inner loop stopped on one): intersect it too.
       leaf = MIRAGE_RT_BVH_NONE;
       if (node > MIRAGE_RT_BVH_NONE) {
@@ -145,6 +155,7 @@ Payload traverse(RtRay ray) {
   }
   return p;
 }
+#endif
 
 void traceOne(uint index) {
   RtRay ray = loadRay(index);

@@ -1,10 +1,12 @@
 // mirage bench rays: ray throughput of the ray backends on one set of random rays (origins in the
 // view cells or the scene box, uniform directions), with every hit recorded into a triangle set as
 // GVS++ does. Vulkan reports the trace dispatch alone (timestamp queries) and the wall time with
-// upload and readback; its "generated" mode makes the rays on the device. Both Vulkan traversals
-// (the ray-tracing pipeline and the compute shader: plain, with persistent threads, with its stack
-// in shared memory, over 4-wide nodes) trace the
-// same rays in one run, and their GPU-time ratios are printed, so one run decides the default.
+// upload and readback (24-byte rays, as GVS++ rays go; the default compute variant also with
+// 32-byte ones); its "generated" mode makes the rays on the device, and the compute traversal's
+// "staged" mode traces the same rays from device-local copies (copies timed apart).
+// Both Vulkan traversals (the ray-tracing pipeline and the compute shader: plain, with persistent
+// threads, with its stack in shared memory, over 4-wide and compressed 8-wide nodes) trace the same
+// rays in one run, and their GPU-time ratios are printed, so one run decides the default.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -30,6 +32,7 @@ struct BenchRaysOptions {
   bool json = false;
   bool spatialSplits = false;
   uint32_t leafSize = 4;
+  uint64_t work = 0; // rays counted by the CPU replica of the traversal (0: none)
 };
 
 // Random numbers from the ray index alone (PCG hash), so any slice of rays can be made anywhere.
@@ -40,10 +43,14 @@ uint32_t pcg(uint32_t v) {
 }
 float unit(uint32_t v) { return float(v >> 8) * (1.0f / 16777216.0f); }
 
-std::vector<vis::Ray> randomRays(const Bounds& box, uint64_t count) {
+// The stream key of the host-made rays; the shader's generated rays (generatedRay in
+// vis_trace_common.glsl) are the same map with key pcg(seed).
+constexpr uint32_t kHostRayKey = 0x2545f491u;
+
+std::vector<vis::Ray> randomRays(const Bounds& box, uint64_t count, uint32_t key = kHostRayKey) {
   std::vector<vis::Ray> rays(count);
   for (uint64_t i = 0; i < count; ++i) {
-    uint32_t h = pcg(uint32_t(i) ^ 0x2545f491u), h1 = pcg(h), h2 = pcg(h1), h3 = pcg(h2), h4 = pcg(h3);
+    uint32_t h = pcg(uint32_t(i) ^ key), h1 = pcg(h), h2 = pcg(h1), h3 = pcg(h2), h4 = pcg(h3);
     vis::Ray& r = rays[i];
     r.origin = glm::mix(box.min, box.max, glm::vec3(unit(h), unit(h1), unit(h2)));
     float z = 1.0f - 2.0f * unit(h3), s = std::sqrt(std::max(0.0f, 1.0f - z * z));
@@ -90,7 +97,30 @@ void runBenchRays(const BenchRaysOptions& o) {
   if (box.empty()) return fail(o.input + ": empty scene");
   std::vector<vis::Ray> rays = randomRays(box, o.rays);
   std::vector<vis::Hit> reference, hits(rays.size());
-  nlohmann::json results = nlohmann::json::array(), speedups = nlohmann::json::array();
+  nlohmann::json results = nlohmann::json::array(), speedups = nlohmann::json::array(), work = nlohmann::json::array();
+  if (o.work > 0) {
+    // The same traversal on the host-made rays and on the rays the shader generates (seed 1, as
+    // traceGenerated below): equal work per ray means the rate gap between the two modes comes
+    // from moving rays and hits, not from the rays themselves.
+    const uint64_t n = std::min(o.work, o.rays);
+    const std::vector<vis::Ray> host(rays.begin(), rays.begin() + std::ptrdiff_t(n));
+    const std::vector<vis::Ray> generated = randomRays(box, n, pcg(1u));
+    for (uint32_t width : {4u, 8u})
+      for (int g = 0; g < 2; ++g) {
+        auto w = vis::countTraversalWork(*scene, g ? generated : host, width);
+        if (!w) return fail(w.error());
+        work.push_back({{"bvh_width", width},
+                        {"rays", g ? "generated" : "host"},
+                        {"counted", n},
+                        {"nodes_per_ray", w->nodes},
+                        {"triangle_tests_per_ray", w->triangleTests},
+                        {"hit_fraction", w->hitFraction}});
+        if (!o.json)
+          fmt::print("CPU replica, {}-wide BVH, {:9} rays ({}): {:6.2f} nodes and {:6.2f} triangle tests per ray, "
+                     "{:.2f}% hit\n",
+                     width, g ? "generated" : "host", n, w->nodes, w->triangleTests, 100.0 * w->hitFraction);
+      }
+  }
   auto report = [&](const std::string& name, double wallMs, double gpuMs, size_t found, double agree) {
     nlohmann::json j{{"backend", name},
                      {"rays", o.rays},
@@ -156,6 +186,7 @@ void runBenchRays(const BenchRaysOptions& o) {
       vo.persistentThreads = v.compute.persistentThreads;
       vo.sharedStack = v.compute.sharedStack;
       vo.bvhWidth = v.traversal == T::Compute ? v.compute.bvhWidth : 2;
+      vo.postponeTriangles = v.compute.postponeTriangles;
       vo.spatialSplits = o.spatialSplits;
       vo.bvhLeafSize = o.leafSize;
       vo.batchRays = size_t(o.rays); // one launch: what the dispatch alone can do
@@ -170,8 +201,14 @@ void runBenchRays(const BenchRaysOptions& o) {
                      bvh.triangleRefs, bvh.depth);
         fmt::print("\n");
       }
-      std::vector<double> wall, gpu, genWall, genGpu;
-      size_t found = 0, genFound = 0;
+      std::vector<double> wall, gpu, genWall, genGpu, stagedWall, stagedGpu, stagedCopy, fullWall, fullGpu;
+      size_t found = 0, genFound = 0, stagedFound = 0, fullFound = 0;
+      double stagedBytes = 0.0;
+      const bool staging = v.traversal == T::Compute;
+      // The default compute variant also with 32-byte rays (the others send 24-byte ones: the rays
+      // here have the interval [0, inf)), to show what the bytes per ray cost across PCIe.
+      const bool fullRays = v.label == kComputeVariants[0].name;
+      std::vector<vis::Hit> stagedHits(staging ? rays.size() : 0);
       for (int r = 0; r < o.repeat; ++r) {
         vis::TriangleSet record((*b)->triangleCount());
         auto t0 = std::chrono::steady_clock::now();
@@ -179,6 +216,29 @@ void runBenchRays(const BenchRaysOptions& o) {
         wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         gpu.push_back((*b)->lastTiming().gpuMilliseconds);
         found = record.count();
+        if (fullRays) {
+          vis::TriangleSet fullRecord((*b)->triangleCount());
+          (*b)->setCompactRays(false);
+          t0 = std::chrono::steady_clock::now();
+          (*b)->trace(rays, stagedHits, {.record = &fullRecord});
+          fullWall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+          (*b)->setCompactRays(true);
+          fullGpu.push_back((*b)->lastTiming().gpuMilliseconds);
+          fullFound = fullRecord.count();
+        }
+        if (staging) { // the same rays through device-local copies: the trace alone, then the copies
+          vis::TriangleSet stagedRecord((*b)->triangleCount());
+          (*b)->setStagedRays(true);
+          t0 = std::chrono::steady_clock::now();
+          (*b)->trace(rays, stagedHits, {.record = &stagedRecord});
+          stagedWall.push_back(
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+          (*b)->setStagedRays(false);
+          stagedGpu.push_back((*b)->lastTiming().gpuMilliseconds);
+          stagedCopy.push_back((*b)->lastTiming().copyMilliseconds);
+          stagedBytes = (*b)->lastTiming().copyBytes;
+          stagedFound = stagedRecord.count();
+        }
         vis::TriangleSet generated((*b)->triangleCount());
         t0 = std::chrono::steady_clock::now();
         (*b)->traceGenerated(box.min, box.max, o.rays, 1, &generated);
@@ -201,6 +261,25 @@ void runBenchRays(const BenchRaysOptions& o) {
         if (!o.json)
           fmt::print("{:18} same closest triangle as Embree or another at the same depth: {:.4f}%\n", "", tied * 100.0);
       }
+      if (fullRays) {
+        report(name + " 32B rays", median(fullWall), median(fullGpu), fullFound, -1.0);
+        results.back()["traversal"] = v.label;
+      }
+      if (staging) {
+        size_t same = 0;
+        for (size_t i = 0; i < hits.size(); ++i)
+          same += stagedHits[i].triangle == hits[i].triangle && stagedHits[i].t == hits[i].t;
+        report(name + " staged", median(stagedWall), median(stagedGpu), stagedFound, -1.0);
+        results.back()["traversal"] = v.label;
+        results.back()["copy_ms"] = median(stagedCopy);
+        results.back()["copy_bytes"] = stagedBytes;
+        results.back()["same_hits_as_unstaged"] = double(same) / double(hits.size());
+        if (!o.json)
+          fmt::print("{:18} staged: rays and hits copied in {:.3f} ms of GPU time around the trace "
+                     "({:.2f} GB/s); {:.4f}% the same hits as the unstaged trace\n",
+                     "", median(stagedCopy), stagedBytes / (median(stagedCopy) * 1e6),
+                     100.0 * double(same) / double(hits.size()));
+      }
       report(name + " generated", median(genWall), median(genGpu), genFound, -1.0);
       results.back()["traversal"] = v.label;
       v.traceGpu = median(gpu);
@@ -219,9 +298,10 @@ void runBenchRays(const BenchRaysOptions& o) {
     }
   }
   if (o.json)
-    fmt::print(
-        "{}\n",
-        nlohmann::json{{"input", o.input}, {"rays", o.rays}, {"results", results}, {"speedups", speedups}}.dump(2));
+    fmt::print("{}\n",
+               nlohmann::json{
+                   {"input", o.input}, {"rays", o.rays}, {"results", results}, {"speedups", speedups}, {"work", work}}
+                   .dump(2));
 }
 
 } // namespace
@@ -231,7 +311,7 @@ void addBenchRaysCommand(CLI::App* bench) {
   auto o = std::make_shared<BenchRaysOptions>();
   br->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
   br->add_option("--backend", o->backend,
-                 "embree, vulkan (ray-tracing pipeline), compute (compute traversal, plain and persistent) or all")
+                 "embree, vulkan (ray-tracing pipeline), compute (every compute traversal variant) or all")
       ->capture_default_str();
   br->add_option("--rays", o->rays, "Rays per run")->capture_default_str();
   br->add_option("--cells", o->cells, "Ray origins in these view cells' box (default: the scene box)");
@@ -242,6 +322,9 @@ void addBenchRaysCommand(CLI::App* bench) {
   br->add_option("--leaf-size", o->leafSize, "Compute traversal: most triangles per BVH leaf (1..32)")
       ->capture_default_str();
   br->add_flag("--spatial-splits", o->spatialSplits, "Compute traversal: BVH with spatial splits (slower build)");
+  br->add_option("--work", o->work,
+                 "Count nodes and triangle tests per ray with a CPU replica of the 4- and 8-wide traversals on "
+                 "this many host-made and shader-generated rays");
   br->callback([o] { runBenchRays(*o); });
 }
 

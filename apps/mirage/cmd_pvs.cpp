@@ -427,7 +427,8 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   cmd->add_option("--backend", o.rays.backend,
                   "Ray backend: auto (Vulkan on a GPU, else Embree), embree, vulkan (the ray-tracing pipeline, "
                   "or compute where the device has none), compute (compute-shader BVH traversal) or one of its "
-                  "variants: compute-persistent, compute-bvh2, compute-bvh2-persistent, compute-bvh2-shared-stack")
+                  "variants: compute-persistent, compute-bvh2, compute-bvh2-persistent, compute-bvh2-shared-stack, "
+                  "compute-bvh8, compute-bvh8-persistent, compute-bvh8-postpone")
       ->capture_default_str();
   cmd->add_option("--device", o.rays.device, "Vulkan device name substring or index (--backend vulkan|compute)");
   cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");

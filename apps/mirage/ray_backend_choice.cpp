@@ -16,7 +16,8 @@ const ComputeVariant* findComputeVariant(const std::string& name) {
 Status checkRayBackendChoice(const RayBackendChoice& c) {
   if (c.backend != "auto" && c.backend != "embree" && c.backend != "vulkan" && !findComputeVariant(c.backend))
     return Error{"--backend must be auto, embree, vulkan, compute, compute-persistent, compute-bvh2, "
-                 "compute-bvh2-persistent or compute-bvh2-shared-stack"};
+                 "compute-bvh2-persistent, compute-bvh2-shared-stack, compute-bvh8, compute-bvh8-persistent or "
+                 "compute-bvh8-postpone"};
   if (c.geometry != "auto" && c.geometry != "flatten" && c.geometry != "instance")
     return Error{"--geometry must be auto, flatten or instance"};
   return Ok{};
@@ -33,6 +34,7 @@ Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& 
       vo.persistentThreads = variant->persistentThreads;
       vo.sharedStack = variant->sharedStack;
       vo.bvhWidth = variant->bvhWidth;
+      vo.postponeTriangles = variant->postponeTriangles;
     }
     vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
                   : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance

@@ -28,6 +28,7 @@ struct ComputeVariant {
   bool persistentThreads;
   bool sharedStack;
   uint32_t bvhWidth;
+  bool postponeTriangles = false;
 };
 inline constexpr ComputeVariant kComputeVariants[] = {
     {"compute", false, false, 4}, // the default: 4-wide BVH (fastest on the H200, docs/visibility.md)
@@ -35,6 +36,9 @@ inline constexpr ComputeVariant kComputeVariants[] = {
     {"compute-bvh2", false, false, 2},
     {"compute-bvh2-persistent", true, false, 2},
     {"compute-bvh2-shared-stack", false, true, 2},
+    {"compute-bvh8", false, false, 8}, // compressed 8-wide nodes (Ylitie et al. 2017)
+    {"compute-bvh8-persistent", true, false, 8},
+    {"compute-bvh8-postpone", false, false, 8, true},
 };
 const ComputeVariant* findComputeVariant(const std::string& name);
 

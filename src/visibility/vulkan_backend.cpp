@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <limits>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -69,10 +71,32 @@ VkTransformMatrixKHR toVk(const glm::mat4& m) {
   return t;
 }
 
+// MODE_COMPACT: rays whose interval is [0, inf) (every GVS++ ray) go as (origin, direction).
+constexpr size_t kCompactRayBytes = 6 * sizeof(float);
+
+bool compactInterval(std::span<const Ray> rays) {
+  return std::all_of(rays.begin(), rays.end(),
+                     [](const Ray& r) { return r.tnear == 0.0f && r.tfar == std::numeric_limits<float>::infinity(); });
+}
+
+// Written in order into write-combined memory.
+void packCompact(std::span<const Ray> rays, float* out) {
+  for (const Ray& r : rays) {
+    out[0] = r.origin.x;
+    out[1] = r.origin.y;
+    out[2] = r.origin.z;
+    out[3] = r.dir.x;
+    out[4] = r.dir.y;
+    out[5] = r.dir.z;
+    out += 6;
+  }
+}
+
 class VulkanBackend final : public VulkanRayBackend {
 public:
   VulkanBackend(Context& context, const VulkanRayOptions& options)
-      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), timer_(context, 1) {}
+      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
+        compact_(options.compactRays), timer_(context, 3) {}
   ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
 
   std::string_view name() const override { return name_; }
@@ -81,6 +105,8 @@ public:
   RayTiming lastTiming() const override { return timing_; }
   double buildSeconds() const override { return buildSeconds_; }
   RayBvhStats bvhStats() const override { return bvhStats_; }
+  void setStagedRays(bool staged) override { staged_ = staged; }
+  void setCompactRays(bool compact) override { compact_ = compact; }
 
   Status build(const Scene& scene, const VulkanRayOptions& options);
   void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
@@ -96,15 +122,20 @@ private:
   Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
   void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
   bool prepareSet(DeviceSet& set, const TriangleSet* host);
-  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false);
+  // stagedRays > 0: copy that many rays (rayBytes each) into raysDevice_ first and their hits out
+  // of hitsDevice_ after.
+  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
+              size_t stagedRays = 0, size_t rayBytes = sizeof(Ray));
   void collectNew(TriangleSet* record);
 
   Context& ctx_;
   size_t batch_;
+  bool staged_;  // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
+  bool compact_; // trace(): 24-byte rays where the interval is [0, inf) (VulkanRayOptions::compactRays)
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
-  std::string name_;        // vulkan, vulkan-instanced, vulkan-compute[-bvh2][-shared-stack][-persistent]
+  std::string name_; // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-postpone][-persistent]
   size_t triangles_ = 0;
   double buildSeconds_ = 0.0;
   Buffer vertices_, indices_, transforms_, instances_, slots_;
@@ -122,6 +153,7 @@ private:
   bool bvhEmpty_ = true;
   RayBvhStats bvhStats_;
   Buffer rays_, hits_, newIds_, counters_, countersReadback_;
+  Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
   // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
   // and the cell description (RtCellSource).
   Buffer before_, firstRay_, firstRayReadback_, cellSource_;
@@ -215,8 +247,13 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
     return Error{fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", caps.name)};
   if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
   if (compute_) {
-    name_ = std::string("vulkan-compute") + (options.bvhWidth == 4 ? "" : "-bvh2") +
-            (options.sharedStack && options.bvhWidth != 4 ? "-shared-stack" : "") + (persistent_ ? "-persistent" : "");
+    name_ = std::string("vulkan-compute") +
+            (options.bvhWidth == 4   ? ""
+             : options.bvhWidth == 8 ? "-bvh8"
+                                     : "-bvh2") +
+            (options.sharedStack && options.bvhWidth == 2 ? "-shared-stack" : "") +
+            (options.postponeTriangles && options.bvhWidth == 8 ? "-postpone" : "") +
+            (persistent_ ? "-persistent" : "");
     if (auto ok = buildCompute(scene, options); !ok) return ok;
   } else {
     instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
@@ -345,21 +382,29 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
 }
 
 Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& options) {
-  if (options.bvhWidth != 2 && options.bvhWidth != 4) return Error{"vulkan: the BVH width must be 2 or 4"};
-  const bool wide = options.bvhWidth == 4;
+  if (options.bvhWidth != 2 && options.bvhWidth != 4 && options.bvhWidth != 8)
+    return Error{"vulkan: the BVH width must be 2, 4 or 8"};
+  const bool wide = options.bvhWidth == 4, compressed = options.bvhWidth == 8;
   auto bvh = detail::buildRayBvh(
       scene, {.spatialSplits = options.spatialSplits, .maxLeafSize = options.bvhLeafSize, .width = options.bvhWidth});
   if (!bvh) return bvh.error();
-  bvhNodes_ = wide ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
-                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
-                   : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
-                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
+  bvhNodes_ = compressed ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh8Node>(bvh->nodes8),
+                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+              : wide     ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
+                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+                         : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
+                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
   bvhTriangles_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhTriangle>(bvh->triangles),
                                        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh triangles");
-  bvhEmpty_ = bvh->nodes.empty() && bvh->nodes4.empty();
-  bvhStats_ = {bvh->buildSeconds, wide ? bvh->nodes4.size() : bvh->nodes.size(), bvh->triangles.size(), bvh->depth};
+  bvhEmpty_ = bvh->nodes.empty() && bvh->nodes4.empty() && bvh->nodes8.empty();
+  bvhStats_ = {bvh->buildSeconds,
+               compressed ? bvh->nodes8.size()
+               : wide     ? bvh->nodes4.size()
+                          : bvh->nodes.size(),
+               bvh->triangles.size(), bvh->depth};
   computeLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
-  const char* shader = wide                  ? "vis_trace_bvh4.comp"
+  const char* shader = compressed ? (options.postponeTriangles ? "vis_trace_bvh8_postpone.comp" : "vis_trace_bvh8.comp")
+                       : wide     ? "vis_trace_bvh4.comp"
                        : options.sharedStack ? "vis_trace_shared_stack.comp"
                                              : "vis_trace.comp";
   computePipeline_ = createComputePipeline(ctx_, shader, computeLayout_);
@@ -458,7 +503,8 @@ bool VulkanBackend::prepareSet(DeviceSet& set, const TriangleSet* host) {
   return true;
 }
 
-void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode) {
+void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode,
+                           size_t stagedRays, size_t rayBytes) {
   auto t0 = std::chrono::steady_clock::now();
   push.slots = slots_.address();
   push.counters = counters_.address();
@@ -479,6 +525,12 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
     if (uploadRecord) vkCmdCopyBuffer(cmd, record_.staging.handle(), record_.bits.handle(), 1, &whole);
     if (uploadRequire) vkCmdCopyBuffer(cmd, require_.staging.handle(), require_.bits.handle(), 1, &whole);
     vkCmdFillBuffer(cmd, counters_.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (stagedRays > 0) {
+      uint32_t upload = timer_.cmdBegin(cmd, "upload", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+      VkBufferCopy bytes{0, 0, stagedRays * rayBytes};
+      vkCmdCopyBuffer(cmd, rays_.handle(), raysDevice_.handle(), 1, &bytes);
+      timer_.cmdEnd(cmd, upload, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+    }
     if (cellMode) {
       // A replaced record set may have cleared triangles whose firstRay entries are still set.
       if (uploadRecord || !firstRayValid_) vkCmdFillBuffer(cmd, firstRay_.handle(), 0, VK_WHOLE_SIZE, ~0u);
@@ -513,6 +565,12 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
                      VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
     vkCmdCopyBuffer(cmd, counters_.handle(), countersReadback_.handle(), 1, &counters);
+    if (stagedRays > 0) {
+      uint32_t readback = timer_.cmdBegin(cmd, "readback", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+      VkBufferCopy bytes{0, 0, stagedRays * sizeof(Hit)};
+      vkCmdCopyBuffer(cmd, hitsDevice_.handle(), hits_.handle(), 1, &bytes);
+      timer_.cmdEnd(cmd, readback, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+    }
     if (cellMode) {
       VkBufferCopy all{0, 0, firstRay_.size()};
       vkCmdCopyBuffer(cmd, firstRay_.handle(), firstRayReadback_.handle(), 1, &all);
@@ -521,8 +579,9 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
   });
-  auto times = timer_.read();
-  timing_.gpuMilliseconds = times.empty() ? 0.0 : times[0].milliseconds;
+  timing_ = {};
+  for (const PassTime& pass : timer_.read())
+    (pass.name == "trace" ? timing_.gpuMilliseconds : timing_.copyMilliseconds) += pass.milliseconds;
   timing_.wallMilliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
@@ -542,23 +601,43 @@ void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const 
   for (size_t begin = 0; begin < n; begin += batch_) {
     const size_t count = std::min(batch_, n - begin);
     auto t0 = std::chrono::steady_clock::now();
-    ensureCapacity(rays_, count * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt rays");
-    ensureCapacity(hits_, count * sizeof(Hit), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt hits");
-    std::memcpy(rays_.mapped(), rays.data() + begin, count * sizeof(Ray));
+    ensureCapacity(rays_, count * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                   MemoryUsage::Upload, "rt rays");
+    ensureCapacity(hits_, count * sizeof(Hit), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                   MemoryUsage::Readback, "rt hits");
+    const std::span<const Ray> batch = rays.subspan(begin, count);
+    const bool compact = compact_ && compactInterval(batch);
+    const size_t rayBytes = compact ? kCompactRayBytes : sizeof(Ray);
+    if (compact)
+      packCompact(batch, reinterpret_cast<float*>(rays_.mapped()));
+    else
+      std::memcpy(rays_.mapped(), batch.data(), count * sizeof(Ray));
     shaderio::RtTracePush push{};
     push.rays = rays_.address();
     push.hits = hits_.address();
+    if (staged_) {
+      ensureCapacity(raysDevice_, count * sizeof(Ray),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                     "rt rays (device)");
+      ensureCapacity(hitsDevice_, count * sizeof(Hit),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::GpuOnly,
+                     "rt hits (device)");
+      push.rays = raysDevice_.address();
+      push.hits = hitsDevice_.address();
+    }
     push.record = sets.record ? record_.bits.address() : 0;
     push.require = sets.require ? require_.bits.address() : 0;
     push.count = uint32_t(count);
-    push.mode = MIRAGE_RT_MODE_BUFFER;
+    push.mode = compact ? MIRAGE_RT_MODE_COMPACT : MIRAGE_RT_MODE_BUFFER;
     push.onlyRequired = sets.onlyRequired && sets.require ? 1u : 0u;
     bool uploadRecord = prepareSet(record_, sets.record);
     bool uploadRequire = prepareSet(require_, sets.require);
-    launch(push, uploadRecord, uploadRequire);
+    launch(push, uploadRecord, uploadRequire, false, staged_ ? count : 0, rayBytes);
     std::memcpy(hits.data() + begin, hits_.mapped(), count * sizeof(Hit));
     collectNew(sets.record);
     total.gpuMilliseconds += timing_.gpuMilliseconds;
+    total.copyMilliseconds += timing_.copyMilliseconds;
+    total.copyBytes += staged_ ? double(count * (rayBytes + sizeof(Hit))) : 0.0;
     total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   timing_ = total;
@@ -637,6 +716,33 @@ bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, Tri
 }
 
 } // namespace
+
+Result<TraversalWork> countTraversalWork(const Scene& scene, std::span<const Ray> rays, uint32_t bvhWidth) {
+  if (bvhWidth != 4 && bvhWidth != 8) return Error{"traversal work: the BVH width must be 4 or 8"};
+  auto bvh = detail::buildRayBvh(scene, {.width = bvhWidth});
+  if (!bvh) return bvh.error();
+  const size_t threads = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<TraversalWork> parts(threads);
+  std::vector<std::thread> workers;
+  for (size_t w = 0; w < threads; ++w)
+    workers.emplace_back([&, w] {
+      for (size_t i = w; i < rays.size(); i += threads) {
+        detail::CpuTraceResult r = detail::cpuTrace(*bvh, rays[i].origin, rays[i].dir, rays[i].tnear, rays[i].tfar);
+        parts[w].nodes += r.nodes;
+        parts[w].triangleTests += r.triangleTests;
+        parts[w].hitFraction += r.triangle != MIRAGE_RT_NO_HIT;
+      }
+    });
+  for (std::thread& t : workers) t.join();
+  TraversalWork total;
+  for (const TraversalWork& p : parts) {
+    total.nodes += p.nodes;
+    total.triangleTests += p.triangleTests;
+    total.hitFraction += p.hitFraction;
+  }
+  const double n = double(std::max<size_t>(1, rays.size()));
+  return TraversalWork{total.nodes / n, total.triangleTests / n, total.hitFraction / n};
+}
 
 Result<std::unique_ptr<VulkanRayBackend>> createVulkanBackend(gpu::Context& context, const Scene& scene,
                                                               const VulkanRayOptions& options) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -57,7 +58,7 @@ TEST(PvsCli, BadInputsFailCleanly) {
       "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend vulkan --device nosuchgpu -o " +
           out.string(),
       "bench rays gen:city:1 --backend optix",
-      "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend compute-bvh8 -o " + out.string(),
+      "pvs gen:city:1 --cells " + (dir / "ok.json").string() + " --backend compute-bvh16 -o " + out.string(),
   };
   for (const std::string& args : cases) {
     CliRun r = runMirage(args, dir);
@@ -110,14 +111,23 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
   EXPECT_NEAR(double(sets[1].size()), double(sets[0].size()), 0.1 * double(sets[0].size()));
   EXPECT_GE(double(both.size()), 0.9 * double(sets[0].size()));
 
-  CliRun r = runMirage("bench rays gen:city:1 --rays 20000 --repeat 1 --backend all --json", dir);
+  CliRun r = runMirage("bench rays gen:city:1 --rays 20000 --repeat 1 --backend all --json --work 20000", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   std::ifstream in(dir / "stdout.txt");
   std::string text((std::istreambuf_iterator<char>(in)), {});
   auto json = nlohmann::json::parse(text);
-  size_t compute = 0;
+  size_t compute = 0, staged = 0;
   for (const auto& res : json["results"]) {
-    if (!res.contains("traversal") || res["backend"].get<std::string>().find("generated") != std::string::npos)
+    const std::string backend = res["backend"].get<std::string>();
+    if (backend.find(" staged") != std::string::npos) { // the same rays from device-local copies
+      ++staged;
+      EXPECT_EQ(res["same_hits_as_unstaged"].get<double>(), 1.0) << res.dump();
+      EXPECT_GT(res["copy_ms"].get<double>(), 0.0);
+      EXPECT_EQ(res["copy_bytes"].get<double>(), 20000.0 * (24 + 16)); // compact rays in, hits out
+      continue;
+    }
+    if (!res.contains("traversal") || backend.find("generated") != std::string::npos ||
+        backend.find(" 32B rays") != std::string::npos)
       continue;
     EXPECT_GE(res["same_hit_as_embree"].get<double>(), 0.99) << res.dump();
     EXPECT_GT(res["gpu_ms"].get<double>(), 0.0);
@@ -127,6 +137,19 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
       EXPECT_EQ(res["backend"].get<std::string>(), "vulkan-" + traversal); // the --backend value to bake with
     }
   }
-  EXPECT_EQ(compute, 5u); // 4-wide, 4-wide persistent, 2-wide, 2-wide persistent, 2-wide shared-memory stack
+  // 4-wide, 4-wide persistent, 2-wide, 2-wide persistent, 2-wide shared-memory stack, 8-wide, 8-wide
+  // persistent, 8-wide with triangle postponing
+  EXPECT_EQ(compute, 8u);
+  EXPECT_EQ(staged, compute);
+  // The CPU replica counts the same work on host-made and generated rays (the same distribution;
+  // 20 k rays: within a few percent), and fewer nodes per ray on the 8-wide tree.
+  ASSERT_EQ(json["work"].size(), 4u);
+  std::map<std::string, double> nodes;
+  for (const auto& w : json["work"])
+    nodes[std::to_string(w["bvh_width"].get<int>()) + w["rays"].get<std::string>()] = w["nodes_per_ray"].get<double>();
+  EXPECT_NEAR(nodes["4host"], nodes["4generated"], 0.05 * nodes["4host"]);
+  EXPECT_NEAR(nodes["8host"], nodes["8generated"], 0.05 * nodes["8host"]);
+  EXPECT_LT(nodes["8host"], nodes["4host"]);
+  EXPECT_GT(nodes["8host"], 1.0);
   EXPECT_GE(json["speedups"].size(), 1u);
 }

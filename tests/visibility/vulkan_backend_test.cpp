@@ -25,18 +25,26 @@ namespace {
 
 using Traversal = VulkanRayOptions::Traversal;
 
-class VulkanRays : public test::GpuTest, public ::testing::WithParamInterface<Traversal> {
+// The ray-tracing pipeline, or the compute traversal over 4-wide or 8-wide (compressed) nodes.
+struct TraversalCase {
+  Traversal traversal;
+  uint32_t bvhWidth;
+  const char* name;
+};
+
+class VulkanRays : public test::GpuTest, public ::testing::WithParamInterface<TraversalCase> {
 protected:
   void SetUp() override {
     GpuTest::SetUp();
-    if (GetParam() == Traversal::Pipeline && !context().caps().rayTracingPipeline)
+    if (GetParam().traversal == Traversal::Pipeline && !context().caps().rayTracingPipeline)
       GTEST_SKIP() << "device has no ray-tracing pipeline";
   }
   std::unique_ptr<VulkanRayBackend> vulkan(const Scene& scene, VulkanRayOptions::Geometry g,
                                            bool persistentThreads = false) {
     VulkanRayOptions o;
     o.geometry = g;
-    o.traversal = GetParam();
+    o.traversal = GetParam().traversal;
+    o.bvhWidth = GetParam().bvhWidth;
     o.persistentThreads = persistentThreads;
     o.batchRays = 4096; // several launches per trace: exercises the batching and set mirroring
     auto b = createVulkanBackend(context(), scene, o);
@@ -119,7 +127,8 @@ TEST_P(VulkanRays, SameHitsAsEmbreeOnRandomRays) {
   } cases[] = {{"wall", &wall.scene, wall.cell}, {"room", &room.scene, room.cell}, {"city", &city, streetCell()}};
   for (const Case& c : cases) {
     for (auto g : {VulkanRayOptions::Geometry::Flatten, VulkanRayOptions::Geometry::Instance}) {
-      if (GetParam() == Traversal::Compute && g == VulkanRayOptions::Geometry::Instance) continue; // always flat
+      if (GetParam().traversal == Traversal::Compute && g == VulkanRayOptions::Geometry::Instance)
+        continue; // always flat
       SCOPED_TRACE(std::string(c.name) + (g == VulkanRayOptions::Geometry::Flatten ? " flatten" : " instance"));
       auto vk = vulkan(*c.scene, g);
       ASSERT_TRUE(vk);
@@ -404,11 +413,36 @@ TEST_P(VulkanRays, SeeThroughTrianglesCountOnlyInFrontOfTheWall) {
   EXPECT_GT(seeThroughNew, 0u);
 }
 
-// The compute traversal's variants: persistent threads and a shared-memory stack change the
-// schedule, not the rays' results; spatial splits and 4-wide nodes change the tree, so only ties
-// may differ.
+// Rays with the interval [0, inf) (every GVS++ ray) travel as 24-byte (origin, direction) pairs;
+// they hit exactly what the same rays sent as 32-byte rays hit, in every traversal.
+TEST_P(VulkanRays, CompactRaysHitWhatFullRaysHit) {
+  Scene city = cityScene(1);
+  std::vector<Ray> rays = randomRays(city.worldBounds(), streetCell(), 10'000, 13);
+  for (Ray& r : rays) r = Ray{.origin = r.origin, .dir = r.dir}; // the default interval
+  auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
+  ASSERT_TRUE(vk);
+  std::vector<Hit> compact(rays.size()), full(rays.size());
+  TriangleSet compactSet(vk->triangleCount()), fullSet(vk->triangleCount());
+  vk->trace(rays, compact, {.record = &compactSet});
+  vk->setCompactRays(false);
+  vk->trace(rays, full, {.record = &fullSet});
+  size_t hit = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(compact[i].triangle, full[i].triangle) << "ray " << i;
+    ASSERT_EQ(compact[i].t, full[i].t) << "ray " << i;
+    ASSERT_EQ(compact[i].seeThrough, full[i].seeThrough) << "ray " << i;
+    hit += full[i].triangle != kNoHit;
+  }
+  EXPECT_GT(hit, rays.size() / 4);
+  EXPECT_EQ(compactSet.sorted(), fullSet.sorted());
+}
+
+// The compute traversal's variants: persistent threads, a shared-memory stack and staged rays
+// change the schedule or where rays live, not the rays' results; spatial splits and 4- or 8-wide
+// nodes change the tree, so only ties may differ.
 TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
-  if (GetParam() != Traversal::Compute) GTEST_SKIP() << "compute traversal options";
+  if (GetParam().traversal != Traversal::Compute || GetParam().bvhWidth != 4)
+    GTEST_SKIP() << "compute traversal options";
   Scene city = cityScene(1);
   std::vector<Ray> rays = randomRays(city.worldBounds(), streetCell(), 20'000, 7);
   auto run = [&](VulkanRayOptions o, TriangleSet& record) {
@@ -421,17 +455,31 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
     return hits;
   };
   const size_t n = triangleOffsets(city).back();
-  TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n), wideSet(n), widePersistentSet(n);
+  TriangleSet plainSet(n), persistentSet(n), sharedSet(n), splitSet(n), wideSet(n), widePersistentSet(n), bvh8Set(n),
+      bvh8PersistentSet(n), stagedSet(n), postponeSet(n);
   std::vector<Hit> plain = run({.bvhWidth = 2}, plainSet);
   std::vector<Hit> persistent = run({.persistentThreads = true, .bvhWidth = 2}, persistentSet);
   std::vector<Hit> shared = run({.sharedStack = true, .bvhWidth = 2}, sharedSet);
   std::vector<Hit> split = run({.spatialSplits = true, .bvhWidth = 2}, splitSet);
   std::vector<Hit> wide = run({.bvhWidth = 4}, wideSet);
   std::vector<Hit> widePersistent = run({.persistentThreads = true, .bvhWidth = 4}, widePersistentSet);
+  std::vector<Hit> bvh8 = run({.bvhWidth = 8}, bvh8Set);
+  std::vector<Hit> bvh8Persistent = run({.persistentThreads = true, .bvhWidth = 8}, bvh8PersistentSet);
   for (size_t i = 0; i < rays.size(); ++i) {
     ASSERT_EQ(wide[i].triangle, widePersistent[i].triangle) << "ray " << i;
     ASSERT_EQ(wide[i].t, widePersistent[i].t) << "ray " << i;
+    ASSERT_EQ(bvh8[i].triangle, bvh8Persistent[i].triangle) << "ray " << i;
+    ASSERT_EQ(bvh8[i].t, bvh8Persistent[i].t) << "ray " << i;
   }
+  EXPECT_EQ(bvh8Set.sorted(), bvh8PersistentSet.sorted());
+  // Staged rays (device-local copies) trace exactly what the shader reading host memory traces.
+  std::vector<Hit> staged = run({.bvhWidth = 8, .stagedRays = true}, stagedSet);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(bvh8[i].triangle, staged[i].triangle) << "ray " << i;
+    ASSERT_EQ(bvh8[i].t, staged[i].t) << "ray " << i;
+    ASSERT_EQ(bvh8[i].seeThrough, staged[i].seeThrough) << "ray " << i;
+  } // (not the flags: which of several rays inserts a new triangle first depends on thread timing)
+  EXPECT_EQ(bvh8Set.sorted(), stagedSet.sorted());
   for (const std::vector<Hit>* other : {&persistent, &shared}) {
     for (size_t i = 0; i < rays.size(); ++i) {
       ASSERT_EQ(plain[i].triangle, (*other)[i].triangle) << "ray " << i;
@@ -441,11 +489,54 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   }
   EXPECT_EQ(plainSet.sorted(), persistentSet.sorted());
   EXPECT_EQ(plainSet.sorted(), sharedSet.sorted());
-  for (const std::vector<Hit>* other : {&split, &wide}) {
+  std::vector<Hit> postpone = run({.bvhWidth = 8, .postponeTriangles = true}, postponeSet);
+  for (const std::vector<Hit>* other : {&split, &wide, &bvh8, &postpone}) {
     Agreement g = compare(plain, *other);
     EXPECT_GE(double(g.sameTriangle + g.tieMismatches), 0.9995 * double(g.n));
     EXPECT_GE(double(g.sameSeeThrough), 0.999 * double(g.n));
   }
+}
+
+// The 8-wide compressed BVH bakes the PVS the 4-wide one does: RAND (the same rays, no feedback)
+// gives the same set up to triangles reached only through depth ties; GVS++ (whose border and
+// reverse rays follow what earlier rays hit, so one tie sends the sampling down another path)
+// agrees within the noise of the same bake with another seed. 8-wide on the city street cell:
+// RAND 2,122 of 2,123 shared; GVS++ 3,624 shared of 3,678 / 3,648.
+class VulkanBvh8 : public test::GpuTest {};
+
+TEST_F(VulkanBvh8, BakesTheSamePvsAsTheFourWideTraversal) {
+  Scene city = cityScene(1);
+  ViewCell cell = streetCell();
+  auto backend = [&](uint32_t width) {
+    auto b = createVulkanBackend(context(), city, {.traversal = Traversal::Compute, .bvhWidth = width});
+    EXPECT_TRUE(b.ok()) << b.error().message;
+    return std::move(*b);
+  };
+  auto wide4 = backend(4), wide8 = backend(8);
+  auto common = [](const CellPvs& x, const CellPvs& y) {
+    std::vector<uint32_t> both;
+    std::set_intersection(x.triangles.begin(), x.triangles.end(), y.triangles.begin(), y.triangles.end(),
+                          std::back_inserter(both));
+    return double(both.size());
+  };
+  GvsConfig rand = randomOnlyConfig(200'000, 5);
+  CellPvs r4 = computeCellPvs(*wide4, city, cell, rand), r8 = computeCellPvs(*wide8, city, cell, rand);
+  GvsConfig cfg;
+  cfg.randomRays = 20'000;
+  cfg.absEdgeSamples = 10;
+  cfg.seed = 3;
+  CellPvs g4 = computeCellPvs(*wide4, city, cell, cfg), g8 = computeCellPvs(*wide8, city, cell, cfg);
+  std::printf("RAND: 4-wide %zu, 8-wide %zu triangles, %.0f shared; GVS++: 4-wide %zu, 8-wide %zu, %.0f shared\n",
+              r4.triangles.size(), r8.triangles.size(), common(r4, r8), g4.triangles.size(), g8.triangles.size(),
+              common(g4, g8));
+  EXPECT_EQ(r4.stats.rays, r8.stats.rays);
+  EXPECT_GE(common(r4, r8), 0.998 * double(r4.triangles.size()));
+  EXPECT_GE(common(r4, r8), 0.998 * double(r8.triangles.size()));
+  // The 4-wide bake with seed 4 instead of 3 shares 95.7% of the seed-3 set (measured; a third
+  // bake here would double the test's time): the two trees must agree at least that well.
+  const double n = double(g4.triangles.size());
+  EXPECT_NEAR(double(g8.triangles.size()), n, 0.05 * n);
+  EXPECT_GE(common(g4, g8), 0.957 * n);
 }
 
 namespace {
@@ -513,7 +604,8 @@ TEST(ComputeBvh, LeavesCoverEveryTriangleWithinTheirBoxes) {
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(Traversals, VulkanRays, ::testing::Values(Traversal::Pipeline, Traversal::Compute),
-                         [](const ::testing::TestParamInfo<Traversal>& param) {
-                           return param.param == Traversal::Pipeline ? "Pipeline" : "Compute";
-                         });
+INSTANTIATE_TEST_SUITE_P(Traversals, VulkanRays,
+                         ::testing::Values(TraversalCase{Traversal::Pipeline, 4, "Pipeline"},
+                                           TraversalCase{Traversal::Compute, 4, "Compute"},
+                                           TraversalCase{Traversal::Compute, 8, "ComputeBvh8"}),
+                         [](const ::testing::TestParamInfo<TraversalCase>& param) { return param.param.name; });

@@ -27,6 +27,9 @@ using uint = uint32_t;
 // GVS++ random rays of a view cell made in the ray-generation shader (RtCellSource): randomized
 // Halton origins on the cell surface, uniform directions; only first discoveries come back.
 #define MIRAGE_RT_MODE_CELL 2u
+// Rays read from a buffer of 24-byte (origin, direction) pairs, the interval [0, inf): what every
+// GVS++ ray is. A third fewer bytes than RtRay across PCIe, where host-made rays live.
+#define MIRAGE_RT_MODE_COMPACT 3u
 // Faces of a box cell (a rect has one).
 #define MIRAGE_RT_MAX_CELL_FACES 6
 // Rays per row of a launch: launches are 2D because one launch dimension is limited (65535 × 1024
@@ -133,6 +136,36 @@ struct RtBvh4Node {
   uint child[4];
 };
 
+// The 8-wide compressed variant (VulkanRayOptions::bvhWidth = 8, vis_trace_bvh8.comp), after
+// Ylitie, Karras & Laine 2017 ("Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+// BVHs"), 80 bytes (five 16-byte loads) for eight children. Child boxes are 8-bit offsets from the
+// node's `origin` in steps of 2^e per axis (e + 127 in a byte, like a float exponent: the shader
+// makes the step with one shift), rounded outwards, so a decoded box always contains the child's
+// (padded) box. Slot s holds the child nearest first for rays of direction octant s (bit 0: x < 0,
+// bit 1: y < 0, bit 2: z < 0). The inner children are stored consecutively from `childBase` in slot
+// order (bit s of imask: slot s is an inner node), the leaves' triangles consecutively from
+// `triangleBase`. A slot's meta byte: 0 empty; inner (1 << 5) | (24 + s); leaf (the count in unary:
+// 1, 3 or 7) << 5 | the offset of its first triangle from triangleBase (0..23). The shader ORs
+// `meta >> 5` shifted by the low five bits into a 32-bit hit mask: triangles in bits 0..23, inner
+// children in bits 24..31, with the slot XORed by the ray's inverted octant so that the highest
+// bit is the nearest child.
+#define MIRAGE_RT_BVH8_LEAF_MAX 3u    // triangles per leaf (three unary bits)
+#define MIRAGE_RT_BVH8_STACK 32       // node groups (uvec2) per thread; the builder's depth limit
+#define MIRAGE_RT_BVH8_INNER_META 56u // (1 << 5) | 24: plus the slot
+struct RtBvh8Node {
+  vec3 origin;
+  uint exponents; // e.x + 127 | (e.y + 127) << 8 | (e.z + 127) << 16 | imask << 24
+  uint childBase;
+  uint triangleBase;
+  uint meta[2]; // slots 0-3, 4-7, one byte each
+  uint loX[2];  // quantized lower x of slots 0-3 and 4-7, one byte each
+  uint hiX[2];
+  uint loY[2];
+  uint hiY[2];
+  uint loZ[2];
+  uint hiZ[2];
+};
+
 // A leaf triangle: world-space corners and the global ID, three 16-byte loads.
 struct RtBvhTriangle {
   vec3 v0;
@@ -144,7 +177,7 @@ struct RtBvhTriangle {
 };
 
 struct RtTracePush {
-  uint64_t rays;     // RtRay[count] (MODE_BUFFER)
+  uint64_t rays;     // RtRay[count] (MODE_BUFFER) or float[6 * count] (MODE_COMPACT)
   uint64_t hits;     // RtHit[count]; 0: not written
   uint64_t record;   // uint bit set of global IDs; 0: none
   uint64_t require;  // uint bit set; 0: none
@@ -165,14 +198,15 @@ struct RtTracePush {
 };
 
 #ifndef __cplusplus
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtRayRef { RtRay v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtHitRef { RtHit v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtSlotRef { RtSlot v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtCountersRef { RtCounters c; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtU32Ref { uint v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer RtCellSourceRef { RtCellSource s; };
-// RtBvhNode and RtBvhTriangle read as 16-byte vectors: four per node, three per triangle.
+// RtBvhNode and RtBvhTriangle read as 16-byte vectors: four per node, three per triangle;
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer RtVec4Ref { vec4 v[]; };
+// RtRay read as two 16-byte vectors, RtHit written as one, a compact ray as three 8-byte ones.
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer RtVec2Ref { vec2 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer RtUVec4Ref { uvec4 v[]; };
 #endif
 
 #ifdef __cplusplus
@@ -185,6 +219,7 @@ static_assert(sizeof(RtCellSource) == 48 + 48 * MIRAGE_RT_MAX_CELL_FACES, "RtCel
 static_assert(sizeof(RtBvhNode) == 64, "RtBvhNode layout");
 static_assert(sizeof(RtBvhTriangle) == 48, "RtBvhTriangle layout");
 static_assert(sizeof(RtBvh4Node) == 112, "RtBvh4Node layout");
+static_assert(sizeof(RtBvh8Node) == 80, "RtBvh8Node layout");
 static_assert(sizeof(RtTracePush) == 128, "RtTracePush layout: 128 bytes, the smallest push constant limit");
 } // namespace mirage::shaderio
 #endif

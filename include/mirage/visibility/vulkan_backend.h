@@ -5,6 +5,7 @@
 // Vulkan 1.2+ device, a compute-shader traversal of a BVH built on the host (ray_bvh.h). Record
 // sets live on the device as bit arrays updated with atomicOr; only first insertions come back.
 #include <memory>
+#include <span>
 
 #include <glm/glm.hpp>
 
@@ -39,11 +40,26 @@ struct VulkanRayOptions {
   bool spatialSplits = false;
   // Compute traversal: the most triangles per BVH leaf (the SAH decides below it; 1..32).
   uint32_t bvhLeafSize = 4;
-  // Compute traversal: children per BVH node, 2 (Aila-Laine nodes) or 4 (four boxes tested as
-  // vec4 planes, vis_trace_bvh4.comp; not combined with sharedStack). 4 by default: on the H200
+  // Compute traversal: children per BVH node, 2 (Aila-Laine nodes), 4 (four boxes tested as
+  // vec4 planes, vis_trace_bvh4.comp) or 8 (compressed 80-byte nodes with 8-bit child boxes, after
+  // Ylitie et al. 2017, vis_trace_bvh8.comp; leaves of at most 3 triangles); sharedStack only with
+  // width 2. 4 by default: on the H200
   // (gen:city:8, 100 M rays) 1.49 G rays/s on host rays and 2.79 G/s generated, vs 1.24 / 1.28 for
   // width 2 and 0.62 / 0.63 through the ray-tracing pipeline.
   uint32_t bvhWidth = 4;
+  // Compute traversal, width 8: Ylitie et al.'s triangle postponing (a lane pushes its node's
+  // triangles to the stack and goes on down while under a fifth of the subgroup tests triangles,
+  // vis_trace_bvh8_postpone.comp). Ties may then resolve differently from run to run.
+  bool postponeTriangles = false;
+  // trace(): copy the rays into device-local memory and the hits out of it with transfer commands
+  // around the launch, instead of the shader reading and writing host-visible memory (PCIe) as it
+  // goes. The trace then runs at the rate of rays made on the device; the copies are timed apart
+  // (RayTiming::copyMilliseconds) and are not overlapped with the trace.
+  bool stagedRays = false;
+  // trace(): a batch whose rays all have the interval [0, inf) (every GVS++ ray) is sent as 24-byte
+  // (origin, direction) pairs instead of 32-byte rays: rays in host memory are read across PCIe,
+  // which caps the trace at its bandwidth over the bytes per ray (docs/visibility.md).
+  bool compactRays = true;
   // Rays per launch: 2 M rays are 64 MiB of rays and 32 MiB of hits, few enough submissions that
   // their fixed cost stays small beside the trace on a large GPU.
   size_t batchRays = size_t(1) << 21;
@@ -53,15 +69,27 @@ struct VulkanRayOptions {
 struct RayTiming {
   double gpuMilliseconds = 0.0;  // the trace dispatch alone (timestamp queries)
   double wallMilliseconds = 0.0; // host copy in, submission, wait, copy out
+  double copyMilliseconds = 0.0; // staged rays: the device copies of rays in and hits out
+  double copyBytes = 0.0;        // staged rays: the bytes those copies moved
 };
 
 // The compute traversal's BVH (zeros for the pipeline traversal).
 struct RayBvhStats {
   double buildSeconds = 0.0; // host build (Embree) and layout, not the upload
-  size_t nodes = 0;          // inner nodes (64 bytes, 4-wide: 112)
+  size_t nodes = 0;          // inner nodes (64 bytes; 4-wide: 112; 8-wide: 80)
   size_t triangleRefs = 0;   // 48-byte leaf triangles (spatial splits reference some twice)
   uint32_t depth = 0;
 };
+
+// Work per ray of the compute traversal, counted by a CPU replica of its 4- or 8-wide BVH walk
+// (the same tree, slab tests and visiting order): `bench rays --work` compares host-made and
+// device-generated rays, and the widths, without a GPU.
+struct TraversalWork {
+  double nodes = 0.0;         // inner nodes visited per ray
+  double triangleTests = 0.0; // triangles tested per ray
+  double hitFraction = 0.0;   // rays with an opaque hit
+};
+Result<TraversalWork> countTraversalWork(const Scene& scene, std::span<const Ray> rays, uint32_t bvhWidth);
 
 class VulkanRayBackend : public RayBackend {
 public:
@@ -73,6 +101,10 @@ public:
   virtual RayTiming lastTiming() const = 0;
   virtual double buildSeconds() const = 0;
   virtual RayBvhStats bvhStats() const = 0;
+  // VulkanRayOptions::stagedRays for the following traces.
+  virtual void setStagedRays(bool staged) = 0;
+  // VulkanRayOptions::compactRays for the following traces.
+  virtual void setCompactRays(bool compact) = 0;
 };
 
 // Fails when Pipeline is asked of a device without a ray-tracing pipeline. The scene may be freed after; the context
