@@ -84,14 +84,23 @@ public:
   Builder(ClusterDag& dag, const BuildConfig& cfg, std::chrono::steady_clock::time_point start)
       : dag_(dag), cfg_(cfg), start_(start) {}
 
-  void run(const std::vector<uint32_t>& triangles) {
+  // level0Cluster, when given, receives the level-0 cluster of every triangle of `triangles`.
+  void run(const std::vector<uint32_t>& triangles, std::vector<uint32_t>* level0Cluster) {
     if (triangles.empty()) return;
     posOwner_.assign(dag_.positions.size(), kNone);
     std::vector<uint32_t> active;
     {
       StageTimer timer(kLevel0);
-      for (const ClusterSet& set : splitLevel0(triangles)) {
-        std::vector<uint32_t> ids = appendClusters(set, 0, kNone, nullptr);
+      Level0 l0 = splitLevel0(triangles, level0Cluster != nullptr);
+      if (level0Cluster) level0Cluster->assign(triangles.size() / 3, kNone);
+      for (size_t i = 0; i < l0.sets.size(); ++i) {
+        std::vector<uint32_t> ids = appendClusters(l0.sets[i], 0, kNone, nullptr);
+        if (level0Cluster)
+          for (size_t p = 0; p < ids.size(); ++p) {
+            const ClusterPiece& piece = l0.sets[i].pieces[p];
+            for (uint32_t t = 0; t < piece.triangleCount; ++t)
+              (*level0Cluster)[l0.source[i][piece.indexOffset / 3 + t]] = ids[p];
+          }
         active.insert(active.end(), ids.begin(), ids.end());
       }
     }
@@ -163,12 +172,21 @@ private:
   // of 16 clusters, not 256: the splitter's nearest-triangle fallback scans its whole input, so
   // level 0 cost 3200 instructions per triangle on the dragon at 256 and 2000 at 16 (level-0
   // fill stays 1.00, and the dragon even gets 6817 level-0 clusters instead of 6831).
-  std::vector<ClusterSet> splitLevel0(const std::vector<uint32_t>& triangles) const {
+  struct Level0 {
+    std::vector<ClusterSet> sets;
+    std::vector<std::vector<uint32_t>> source; // per set, the input triangle of each output triangle
+  };
+  Level0 splitLevel0(const std::vector<uint32_t>& triangles, bool trackSource) const {
     size_t triCount = triangles.size() / 3;
     const size_t chunk = size_t(cfg_.clusterTriangles) * 16;
-    if (triCount <= chunk * 2)
-      return {splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
-                            splitScratch_.local())};
+    Level0 out;
+    if (triCount <= chunk * 2) {
+      out.source.resize(1);
+      out.sets.push_back(splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                                       cfg_.clusterTriangles, splitScratch_.local(),
+                                       trackSource ? &out.source[0] : nullptr));
+      return out;
+    }
     Bounds box;
     for (const glm::vec3& p : dag_.positions) box.add(p);
     glm::vec3 scale = 1023.0f / glm::max(box.extent(), glm::vec3(1e-30f));
@@ -181,15 +199,20 @@ private:
     });
     tbb::parallel_sort(order.begin(), order.end());
     size_t chunks = (triCount + chunk - 1) / chunk;
-    std::vector<ClusterSet> sets(chunks);
+    out.sets.resize(chunks);
+    out.source.resize(chunks);
     tbb::parallel_for(size_t(0), chunks, [&](size_t i) {
       std::vector<uint32_t> part;
-      for (size_t j = i * chunk; j < std::min(triCount, (i + 1) * chunk); ++j)
+      size_t begin = i * chunk, end = std::min(triCount, (i + 1) * chunk);
+      for (size_t j = begin; j < end; ++j)
         part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
-      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
-                              splitScratch_.local());
+      std::vector<uint32_t>* source = trackSource ? &out.source[i] : nullptr;
+      out.sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                                  cfg_.clusterTriangles, splitScratch_.local(), source);
+      if (source)
+        for (uint32_t& t : *source) t = order[begin + t].second; // chunk-local -> input triangle
     });
-    return sets;
+    return out;
   }
 
   // Appends clusters of one set; `self` null means level 0 (own sphere, zero error).
@@ -493,6 +516,10 @@ std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
 } // namespace
 
 Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
+  return buildClusterDag(mesh, cfg, nullptr);
+}
+
+Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg, std::vector<uint32_t>* sourceClusters) {
   std::string problem = checkConfig(mesh, cfg);
   if (!problem.empty()) return makeError(mesh.name.empty() ? "mesh" : mesh.name, problem);
   try {
@@ -500,7 +527,9 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
     ClusterDag dag;
     std::optional<StageTimer> timer(kPrep);
     Welded welded = weldPositions(mesh.positions);
-    std::vector<uint32_t> triangles = cleanTriangles(mesh.indices, welded.vertexPosition);
+    std::vector<uint32_t> keptOf;
+    std::vector<uint32_t> triangles =
+        cleanTriangles(mesh.indices, welded.vertexPosition, sourceClusters ? &keptOf : nullptr);
     timer.reset();
     dag.positions = std::move(welded.positions);
     dag.vertexPosition = std::move(welded.vertexPosition);
@@ -508,7 +537,16 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
     dag.uv0 = mesh.uv0;
     dag.inputTriangles = triangles.size() / 3;
     tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
-    arena.execute([&] { Builder(dag, cfg, start).run(triangles); });
+    std::vector<uint32_t> level0Cluster;
+    arena.execute([&] {
+      Builder(dag, cfg, start).run(triangles, sourceClusters ? &level0Cluster : nullptr);
+      if (!sourceClusters) return;
+      // Source triangle -> its kept copy -> that copy's level-0 cluster (degenerate: kNone).
+      sourceClusters->resize(keptOf.size());
+      tbb::parallel_for(size_t(0), keptOf.size(), [&](size_t t) {
+        (*sourceClusters)[t] = keptOf[t] == kNone ? kNone : level0Cluster[keptOf[t]];
+      });
+    });
     printStages(dag.inputTriangles);
     return dag;
   } catch (const std::exception& e) {

@@ -121,8 +121,8 @@ Welded weldPositions(const std::vector<glm::vec3>& positions) {
   return w;
 }
 
-std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices,
-                                     const std::vector<uint32_t>& vertexPosition) {
+std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices, const std::vector<uint32_t>& vertexPosition,
+                                     std::vector<uint32_t>* keptOf) {
   size_t triCount = indices.size() / 3;
   auto sortedKey = [&](uint32_t t) {
     const uint32_t* tri = &indices[size_t(t) * 3];
@@ -145,11 +145,23 @@ std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices,
       if (keep[t]) slot[t] = table.insert(uint32_t(t), hash(k), same);
     }
   });
+  std::vector<uint32_t> firstCopy;
+  if (keptOf) firstCopy.assign(triCount, kEmpty);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t t = r.begin(); t < r.end(); ++t)
-      if (keep[t]) keep[t] = table.first(slot[t]) == t;
+    for (size_t t = r.begin(); t < r.end(); ++t) {
+      if (!keep[t]) continue;
+      uint32_t first = table.first(slot[t]);
+      keep[t] = first == t;
+      if (keptOf) firstCopy[t] = first;
+    }
   });
   std::vector<uint32_t> out(size_t(prefixSum(keep, slot)) * 3); // slot becomes the output index
+  if (keptOf) {
+    keptOf->resize(triCount);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t < r.end(); ++t) (*keptOf)[t] = firstCopy[t] == kEmpty ? kEmpty : slot[firstCopy[t]];
+    });
+  }
   tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t)
       if (keep[t]) std::copy(&indices[t * 3], &indices[t * 3] + 3, &out[size_t(slot[t]) * 3]);

@@ -18,8 +18,11 @@ struct Welded {
 Welded weldPositions(const std::vector<glm::vec3>& positions);
 
 // Keeps triangles whose three welded positions are distinct and drops later copies of a triangle
-// over the same three positions (either winding). Returns input-vertex triples.
-std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices, const std::vector<uint32_t>& vertexPosition);
+// over the same three positions (either winding). Returns input-vertex triples. keptOf, when
+// given, receives per input triangle the output triangle covering the same positions (its first
+// copy), or ~0u for a degenerate one: the builder's source-triangle map comes from it.
+std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices, const std::vector<uint32_t>& vertexPosition,
+                                     std::vector<uint32_t>* keptOf = nullptr);
 
 inline uint64_t edgeKey(uint32_t a, uint32_t b) { return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a); }
 

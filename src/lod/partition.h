@@ -35,10 +35,11 @@ struct SplitScratch {
 // by greedy growth: each cluster takes the triangle that adds the fewest new vertices, breadth
 // first, and the next cluster starts next to the previous one.
 // Positions (through vertexPosition) only pick the nearest triangle when a cluster has no fitting
-// neighbour left.
+// neighbour left. emitted, when given, receives the input triangle (index into `triangles` / 3)
+// of every output triangle in output order (level 0's source-triangle map).
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
                          const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
-                         SplitScratch& scratch);
+                         SplitScratch& scratch, std::vector<uint32_t>* emitted = nullptr);
 
 // Partitions a weighted undirected graph (CSR, symmetric) into `parts` parts with METIS
 // PartGraphRecursive. Returns the part of each node; falls back to consecutive chunks if METIS fails.

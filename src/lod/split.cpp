@@ -17,8 +17,9 @@ constexpr uint32_t kNil = ~0u;
 
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
                          const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
-                         SplitScratch& s) {
+                         SplitScratch& s, std::vector<uint32_t>* emittedOut) {
   ClusterSet out;
+  if (emittedOut) emittedOut->clear();
   size_t nt = triangles.size() / 3;
   if (nt == 0) return out;
   // Compact local vertex ids through a flat map (reset afterwards), not a sort or a hash map.
@@ -92,6 +93,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   auto addTriangle = [&](uint32_t t) {
     if (s.triStamp[t] == cluster) removeCandidate(t); // not yet emitted: it is a candidate
     s.emitted[t] = 1;
+    if (emittedOut) emittedOut->push_back(t);
     const uint32_t* tv = &s.corners[size_t(t) * 3];
     for (int k = 0; k < 3; ++k) {
       uint32_t v = tv[k];
