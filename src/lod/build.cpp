@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <exception>
 #include <limits>
 #include <optional>
@@ -27,33 +28,61 @@ using namespace detail;
 
 constexpr uint32_t kMulti = ~0u - 1; // position touched by two or more groups: locked
 
-// Per-stage time summed over threads, printed to stderr when MIRAGE_LOD_PROFILE is set: the
-// numbers in docs/lod.md's "where the time goes" come from here (no public API for it).
-enum Stage { kPrep, kLevel0, kPartition, kOwners, kGather, kSimplify, kSplit, kCommit, kStageCount };
-constexpr const char* kStageNames[kStageCount] = {"weld+clean",   "level-0 split", "partition",   "lock marking",
-                                                  "group gather", "simplify",      "group split", "commit"};
+// Per-stage CPU time summed over threads (CLOCK_THREAD_CPUTIME_ID: other processes on a shared
+// machine do not inflate it), printed to stderr when MIRAGE_LOD_PROFILE is set: the numbers in
+// docs/lod.md's "where the time goes" come from here (no public API for it). Stages marked
+// serial run on one thread whatever --threads says; the others are parallel, and a stage timed
+// around a parallel loop counts only the calling thread, so profile those with --threads 1.
+enum Stage {
+  kPrep,
+  kLevel0,
+  kLevel0Append,
+  kBorders,
+  kPartition,
+  kOwners,
+  kGather,
+  kSimplify,
+  kSplit,
+  kCommit,
+  kSourceMap,
+  kStageCount
+};
+constexpr const char* kStageNames[kStageCount] = {"weld+clean",
+                                                  "level-0 split",
+                                                  "level-0 append (serial)",
+                                                  "cluster borders",
+                                                  "grouping+METIS (serial)",
+                                                  "lock marking",
+                                                  "group gather",
+                                                  "simplify",
+                                                  "group split",
+                                                  "commit (serial)",
+                                                  "source map"};
 std::atomic<int64_t> gStageNs[kStageCount];
+
+int64_t threadCpuNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return int64_t(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
 
 class StageTimer {
 public:
-  explicit StageTimer(Stage s) : stage_(s), start_(std::chrono::steady_clock::now()) {}
-  ~StageTimer() {
-    gStageNs[stage_] +=
-        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
-  }
+  explicit StageTimer(Stage s) : stage_(s), start_(threadCpuNs()) {}
+  ~StageTimer() { gStageNs[stage_] += threadCpuNs() - start_; }
   StageTimer(const StageTimer&) = delete;
   StageTimer& operator=(const StageTimer&) = delete;
 
 private:
   Stage stage_;
-  std::chrono::steady_clock::time_point start_;
+  int64_t start_;
 };
 
 void printStages(uint64_t triangles) {
   if (!std::getenv("MIRAGE_LOD_PROFILE")) return;
   double total = 0.0;
   for (auto& ns : gStageNs) total += double(ns.load()) * 1e-9;
-  std::fprintf(stderr, "lod stages (thread-seconds, %llu tris):", (unsigned long long)triangles);
+  std::fprintf(stderr, "lod stages (thread CPU seconds, %llu tris):", (unsigned long long)triangles);
   for (int i = 0; i < kStageCount; ++i) {
     double sec = double(gStageNs[i].exchange(0)) * 1e-9;
     std::fprintf(stderr, " %s %.3f (%.0f%%)%s", kStageNames[i], sec, 100.0 * sec / std::max(total, 1e-9),
@@ -88,10 +117,18 @@ public:
   void run(const std::vector<uint32_t>& triangles, std::vector<uint32_t>* level0Cluster) {
     if (triangles.empty()) return;
     posOwner_.assign(dag_.positions.size(), kNone);
+    // Every level about halves the triangles, so the whole DAG holds about twice the input: reserve
+    // once instead of growing (and copying) the flat arrays level by level. Untouched capacity
+    // costs no resident memory.
+    size_t inputTriangles = triangles.size() / 3;
+    dag_.clusterIndices.reserve(inputTriangles * 3 * 21 / 10);
+    dag_.clusterVertices.reserve(inputTriangles * 21 / 10);
+    dag_.clusters.reserve(inputTriangles / cfg_.clusterTriangles * 23 / 10 + 16);
     std::vector<uint32_t> active;
     {
-      StageTimer timer(kLevel0);
+      std::optional<StageTimer> timer(kLevel0);
       Level0 l0 = splitLevel0(triangles, level0Cluster != nullptr);
+      timer.emplace(kLevel0Append);
       if (level0Cluster) level0Cluster->assign(triangles.size() / 3, kNone);
       for (size_t i = 0; i < l0.sets.size(); ++i) {
         std::vector<uint32_t> ids = appendClusters(l0.sets[i], 0, kNone, nullptr);
@@ -113,7 +150,6 @@ public:
       float meanAge = 0.0f;
       std::vector<GroupWork> work;
       {
-        StageTimer timer(kPartition);
         std::vector<std::vector<uint32_t>> groups = partition(active, groupSize, meanAge);
         work.resize(groups.size());
         for (size_t g = 0; g < groups.size(); ++g) work[g].children = std::move(groups[g]);
@@ -185,6 +221,7 @@ private:
       out.sets.push_back(splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
                                        cfg_.clusterTriangles, splitScratch_.local(),
                                        trackSource ? &out.source[0] : nullptr));
+      setBounds(out.sets[0]);
       return out;
     }
     Bounds box;
@@ -211,15 +248,29 @@ private:
                                   cfg_.clusterTriangles, splitScratch_.local(), source);
       if (source)
         for (uint32_t& t : *source) t = order[begin + t].second; // chunk-local -> input triangle
+      setBounds(out.sets[i]);
     });
     return out;
+  }
+
+  // Cluster spheres of a freshly split set, computed by the worker that split it (appending the
+  // clusters is serial).
+  void setBounds(ClusterSet& set) const {
+    std::vector<glm::vec3> points;
+    set.bounds.resize(set.pieces.size());
+    for (size_t i = 0; i < set.pieces.size(); ++i) {
+      const ClusterPiece& p = set.pieces[i];
+      points.clear();
+      for (uint32_t v = 0; v < p.vertexCount; ++v)
+        points.push_back(dag_.positions[dag_.vertexPosition[set.vertices[p.vertexOffset + v]]]);
+      set.bounds[i] = boundingSphere(points.data(), points.size());
+    }
   }
 
   // Appends clusters of one set; `self` null means level 0 (own sphere, zero error).
   std::vector<uint32_t> appendClusters(const ClusterSet& set, uint32_t level, uint32_t generatingGroup,
                                        const LodBounds* self) {
     std::vector<uint32_t> ids;
-    std::vector<glm::vec3> points;
     for (const ClusterPiece& p : set.pieces) {
       Cluster c;
       c.vertexOffset = uint32_t(dag_.clusterVertices.size());
@@ -228,15 +279,11 @@ private:
       c.triangleCount = uint16_t(p.triangleCount);
       c.level = level;
       c.generatingGroup = generatingGroup;
-      points.clear();
-      for (uint32_t v = 0; v < p.vertexCount; ++v) {
-        uint32_t a = set.vertices[p.vertexOffset + v];
-        dag_.clusterVertices.push_back(a);
-        points.push_back(dag_.positions[dag_.vertexPosition[a]]);
-      }
+      dag_.clusterVertices.insert(dag_.clusterVertices.end(), set.vertices.begin() + p.vertexOffset,
+                                  set.vertices.begin() + p.vertexOffset + p.vertexCount);
       dag_.clusterIndices.insert(dag_.clusterIndices.end(), set.indices.begin() + p.indexOffset,
                                  set.indices.begin() + p.indexOffset + p.triangleCount * 3);
-      c.bounds = boundingSphere(points.data(), points.size());
+      c.bounds = set.bounds[size_t(&p - set.pieces.data())];
       c.self = self ? *self : c.bounds;
       if (!self) c.self.error = 0.0f;
       ids.push_back(uint32_t(dag_.clusters.size()));
@@ -295,7 +342,11 @@ private:
     size_t n = active.size();
     uint32_t parts = uint32_t((n + groupSize - 1) / groupSize);
     std::vector<std::vector<uint64_t>> borders(n);
-    tbb::parallel_for(size_t(0), n, [&](size_t i) { clusterBorder(active[i], borders[i]); });
+    {
+      StageTimer timer(kBorders);
+      tbb::parallel_for(size_t(0), n, [&](size_t i) { clusterBorder(active[i], borders[i]); });
+    }
+    StageTimer timer(kPartition);
     std::vector<std::pair<uint64_t, uint32_t>> entries;
     for (size_t i = 0; i < n; ++i)
       for (uint64_t k : borders[i]) entries.push_back({k, uint32_t(i)});
@@ -438,6 +489,7 @@ private:
     timer.emplace(kSplit);
     w.parents = splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
                               cfg_.clusterTriangles, splitScratch_.local());
+    setBounds(w.parents);
     // Monotonic error: a parent is never more accurate than the children it replaces.
     float childError = 0.0f;
     for (uint32_t c : w.children) childError = std::max(childError, dag_.clusters[c].self.error);
@@ -525,22 +577,23 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg, std
   try {
     auto start = std::chrono::steady_clock::now();
     ClusterDag dag;
-    std::optional<StageTimer> timer(kPrep);
-    Welded welded = weldPositions(mesh.positions);
-    std::vector<uint32_t> keptOf;
-    std::vector<uint32_t> triangles =
-        cleanTriangles(mesh.indices, welded.vertexPosition, sourceClusters ? &keptOf : nullptr);
-    timer.reset();
-    dag.positions = std::move(welded.positions);
-    dag.vertexPosition = std::move(welded.vertexPosition);
+    std::vector<uint32_t> keptOf, triangles;
     dag.normals = mesh.normals;
     dag.uv0 = mesh.uv0;
-    dag.inputTriangles = triangles.size() / 3;
+    // Weld and clean inside the arena too, so --threads bounds the whole build.
     tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
     std::vector<uint32_t> level0Cluster;
     arena.execute([&] {
+      std::optional<StageTimer> timer(kPrep);
+      Welded welded = weldPositions(mesh.positions);
+      triangles = cleanTriangles(mesh.indices, welded.vertexPosition, sourceClusters ? &keptOf : nullptr);
+      timer.reset();
+      dag.positions = std::move(welded.positions);
+      dag.vertexPosition = std::move(welded.vertexPosition);
+      dag.inputTriangles = triangles.size() / 3;
       Builder(dag, cfg, start).run(triangles, sourceClusters ? &level0Cluster : nullptr);
       if (!sourceClusters) return;
+      timer.emplace(kSourceMap);
       // Source triangle -> its kept copy -> that copy's level-0 cluster (degenerate: kNone).
       sourceClusters->resize(keptOf.size());
       tbb::parallel_for(size_t(0), keptOf.size(), [&](size_t t) {

@@ -16,6 +16,7 @@ struct ClusterPiece {
 // Clusters over attribute vertices: vertices are attribute-vertex ids, indices local (8-bit).
 struct ClusterSet {
   std::vector<ClusterPiece> pieces;
+  std::vector<LodBounds> bounds; // per piece: boundingSphere of its vertices (filled by the worker that split it)
   std::vector<uint32_t> vertices;
   std::vector<uint8_t> indices;
 };
@@ -25,8 +26,8 @@ struct SplitScratch {
   std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
   std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
   std::vector<uint32_t> global, corners, offsets, fill, adjacency, triStamp, vertStamp, vertLocal, live, candidates;
-  std::vector<uint32_t> candScore, candPos;
-  std::vector<uint8_t> emitted, extra;
+  std::vector<uint32_t> candScore, candPos, liveSum;
+  std::vector<uint8_t> emitted, extra, outside, dangling, repeated; // outside..: a candidate's score parts
   std::vector<uint16_t> edgeUses;   // 256 x 256 cluster-local position pairs (build.cpp); all 0 between calls
   std::vector<glm::vec3> centroids; // 3x the centroid: only compared
 };
