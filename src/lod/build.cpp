@@ -334,6 +334,32 @@ private:
     for (uint32_t p : positions) localOf[p] = kNone;
   }
 
+  // Every cluster's border edges as (edge key, cluster) in ascending order: a counting sort on
+  // the key's lower position id (stable, so clusters stay ascending) and an insertion sort of
+  // each bucket's few entries by the upper id. Same order as sorting all entries, which was the
+  // largest serial step of partitioning after METIS.
+  std::vector<std::pair<uint64_t, uint32_t>> sortedBorderEntries(const std::vector<std::vector<uint64_t>>& borders) {
+    std::vector<uint32_t>& start = bucketStart_;
+    start.assign(dag_.positions.size() + 1, 0);
+    size_t total = 0;
+    for (const std::vector<uint64_t>& b : borders) {
+      total += b.size();
+      for (uint64_t k : b) ++start[(k >> 32) + 1];
+    }
+    for (size_t p = 0; p + 1 < start.size(); ++p) start[p + 1] += start[p];
+    std::vector<std::pair<uint64_t, uint32_t>> entries(total);
+    for (size_t i = 0; i < borders.size(); ++i)
+      for (uint64_t k : borders[i]) {
+        size_t at = start[k >> 32]++; // start[p] ends at bucket p's end
+        entries[at] = {k, uint32_t(i)};
+        // Insertion by the full key within the bucket: earlier entries of a lower cluster with
+        // an equal key stay in front (strict comparison), so the order is (key, cluster).
+        for (size_t j = at; j > 0 && (entries[j - 1].first >> 32) == (k >> 32) && entries[j - 1].first > k; --j)
+          std::swap(entries[j - 1], entries[j]);
+      }
+    return entries;
+  }
+
   // Groups active clusters with METIS over the cluster adjacency graph. An edge between two clusters
   // weighs their shared border length times (1 + its age, the levels it has already stayed locked),
   // so long and old borders end up inside groups and get simplified away.
@@ -347,10 +373,7 @@ private:
       tbb::parallel_for(size_t(0), n, [&](size_t i) { clusterBorder(active[i], borders[i]); });
     }
     StageTimer timer(kPartition);
-    std::vector<std::pair<uint64_t, uint32_t>> entries;
-    for (size_t i = 0; i < n; ++i)
-      for (uint64_t k : borders[i]) entries.push_back({k, uint32_t(i)});
-    tbb::parallel_sort(entries.begin(), entries.end());
+    std::vector<std::pair<uint64_t, uint32_t>> entries = sortedBorderEntries(borders);
 
     struct Link {
       uint32_t a, b;
@@ -378,28 +401,53 @@ private:
     std::vector<uint32_t> part(n, 0);
     if (parts > 1) {
       float unit = links.empty() ? 1.0f : float(lengthSum / double(links.size())) * 0.25f;
-      std::vector<std::pair<uint64_t, float>> pairs;
-      for (const Link& l : links) {
-        uint32_t a = std::min(l.a, l.b), b = std::max(l.a, l.b);
-        if (a != b) pairs.push_back({uint64_t(a) << 32 | b, l.weight});
+      // Links by their lower cluster (a counting sort; entries come in cluster order, so a < b),
+      // each cluster's few links sorted by (other cluster, weight) in parallel, weights summed in
+      // that order: the sums a global sort of all (pair, weight) gave, without its serial cost.
+      std::vector<uint32_t> start(n + 1, 0);
+      for (const Link& l : links) ++start[l.a + 1];
+      for (size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+      std::vector<std::pair<uint32_t, float>> byLower(links.size());
+      {
+        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+        for (const Link& l : links) byLower[fill[l.a]++] = {l.b, l.weight};
       }
-      tbb::parallel_sort(pairs.begin(), pairs.end());
-      std::vector<std::vector<std::pair<uint32_t, int32_t>>> adj(n);
-      for (size_t j = 0; j < pairs.size();) {
-        float w = 0.0f;
-        size_t e = j;
-        for (; e < pairs.size() && pairs[e].first == pairs[j].first; ++e) w += pairs[e].second;
-        int32_t iw = std::max<int32_t>(1, int32_t(std::lround(std::min(w / unit, 1e6f))));
-        uint32_t a = uint32_t(pairs[j].first >> 32), b = uint32_t(pairs[j].first);
-        adj[a].push_back({b, iw});
-        adj[b].push_back({a, iw});
-        j = e;
+      std::vector<uint32_t> degree(n + 1, 0);                         // then CSR offsets
+      std::vector<std::pair<uint32_t, int32_t>> merged(links.size()); // per lower cluster, prefix used
+      std::vector<uint32_t> mergedCount(n, 0);
+      tbb::parallel_for(size_t(0), n, [&](size_t a) {
+        auto first = byLower.begin() + start[a], last = byLower.begin() + start[a + 1];
+        std::sort(first, last);
+        uint32_t count = 0;
+        for (auto j = first; j != last;) {
+          float w = 0.0f;
+          auto e = j;
+          for (; e != last && e->first == j->first; ++e) w += e->second;
+          merged[start[a] + count++] = {j->first, std::max<int32_t>(1, int32_t(std::lround(std::min(w / unit, 1e6f))))};
+          j = e;
+        }
+        mergedCount[a] = count;
+      });
+      // CSR with every node's neighbours ascending, as the global pair order gave: first the
+      // lower neighbours of every node,
+      for (size_t a = 0; a < n; ++a) {
+        degree[a + 1] += mergedCount[a];
+        for (uint32_t j = 0; j < mergedCount[a]; ++j) ++degree[merged[start[a] + j].first + 1];
       }
-      std::vector<int32_t> xadj(n + 1, 0), adjncy, weights;
-      for (size_t i = 0; i < n; ++i) {
-        for (auto [b, w] : adj[i]) adjncy.push_back(int32_t(b)), weights.push_back(w);
-        xadj[i + 1] = int32_t(adjncy.size());
-      }
+      for (size_t i = 0; i < n; ++i) degree[i + 1] += degree[i];
+      std::vector<int32_t> xadj(degree.begin(), degree.end()), adjncy(degree[n]), weights(degree[n]);
+      std::vector<uint32_t> fill(degree.begin(), degree.end() - 1);
+      for (size_t a = 0; a < n; ++a)
+        for (uint32_t j = 0; j < mergedCount[a]; ++j) {
+          auto [b, w] = merged[start[a] + j];
+          adjncy[fill[b]] = int32_t(a), weights[fill[b]++] = w;
+        }
+      // Then each node's upper neighbours, after its lower ones (fill[a] points past those).
+      for (size_t a = 0; a < n; ++a)
+        for (uint32_t j = 0; j < mergedCount[a]; ++j) {
+          auto [b, w] = merged[start[a] + j];
+          adjncy[fill[a]] = int32_t(b), weights[fill[a]++] = w;
+        }
       part = partitionGraph(xadj, adjncy, weights, parts);
     }
     // Edge ages for the next level: borders between different groups stay locked one more level.
@@ -545,6 +593,7 @@ private:
   };
   mutable tbb::enumerable_thread_specific<GroupScratch> groupScratch_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far
+  std::vector<uint32_t> bucketStart_;               // sortedBorderEntries' counting sort, per position
 };
 
 std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
