@@ -113,8 +113,10 @@ public:
   Builder(ClusterDag& dag, const BuildConfig& cfg, std::chrono::steady_clock::time_point start)
       : dag_(dag), cfg_(cfg), start_(start) {}
 
-  // level0Cluster, when given, receives the level-0 cluster of every triangle of `triangles`.
-  void run(const std::vector<uint32_t>& triangles, std::vector<uint32_t>* level0Cluster) {
+  // `triangles` (the cleaned input) is only needed for level 0 and released after it. With
+  // sourceClusters, `kept` says which input triangle each kept one is (cleanTriangles) and
+  // sourceClusters receives each input triangle's level-0 cluster, filled during level 0.
+  void run(std::vector<uint32_t> triangles, KeptSources kept, std::vector<uint32_t>* sourceClusters) {
     if (triangles.empty()) return;
     posOwner_.assign(dag_.positions.size(), kNone);
     // Every level about halves the triangles, so the whole DAG holds about twice the input: reserve
@@ -127,18 +129,26 @@ public:
     std::vector<uint32_t> active;
     {
       std::optional<StageTimer> timer(kLevel0);
-      Level0 l0 = splitLevel0(triangles, level0Cluster != nullptr);
+      const std::vector<uint32_t>* keptSource = sourceClusters ? &kept.source : nullptr;
+      Level0 l0 = splitLevel0(triangles, keptSource, sourceClusters);
+      triangles = {};
       timer.emplace(kLevel0Append);
-      if (level0Cluster) level0Cluster->assign(triangles.size() / 3, kNone);
+      std::vector<uint32_t> setBase(l0.sets.size());
       for (size_t i = 0; i < l0.sets.size(); ++i) {
+        setBase[i] = uint32_t(dag_.clusters.size());
         std::vector<uint32_t> ids = appendClusters(l0.sets[i], 0, kNone, nullptr);
-        if (level0Cluster)
-          for (size_t p = 0; p < ids.size(); ++p) {
-            const ClusterPiece& piece = l0.sets[i].pieces[p];
-            for (uint32_t t = 0; t < piece.triangleCount; ++t)
-              (*level0Cluster)[l0.source[i][piece.indexOffset / 3 + t]] = ids[p];
-          }
         active.insert(active.end(), ids.begin(), ids.end());
+      }
+      if (sourceClusters) {
+        timer.emplace(kSourceMap);
+        // The workers wrote set-local cluster numbers; add each set's first cluster id. Dropped
+        // copies take their first copy's cluster; degenerate triangles stay kNone.
+        tbb::parallel_for(size_t(0), l0.sets.size(), [&](size_t i) {
+          for (uint32_t k : l0.source[i]) (*sourceClusters)[kept.source[k]] += setBase[i];
+          l0.source[i] = {};
+        });
+        for (auto [copy, first] : kept.laterCopies) (*sourceClusters)[copy] = (*sourceClusters)[first];
+        kept = {};
       }
     }
     std::vector<LevelStats> stats(1);
@@ -210,17 +220,29 @@ private:
   // fill stays 1.00, and the dragon even gets 6817 level-0 clusters instead of 6831).
   struct Level0 {
     std::vector<ClusterSet> sets;
-    std::vector<std::vector<uint32_t>> source; // per set, the input triangle of each output triangle
+    std::vector<std::vector<uint32_t>> source; // per set, its triangles (indices into `triangles` / 3)
   };
-  Level0 splitLevel0(const std::vector<uint32_t>& triangles, bool trackSource) const {
+  // With keptSource (input triangle of each of `triangles`), also writes each input triangle's
+  // cluster number within its set into sourceClusters (run() adds the sets' first cluster ids).
+  Level0 splitLevel0(const std::vector<uint32_t>& triangles, const std::vector<uint32_t>* keptSource,
+                     std::vector<uint32_t>* sourceClusters) const {
     size_t triCount = triangles.size() / 3;
     const size_t chunk = size_t(cfg_.clusterTriangles) * 16;
     Level0 out;
+    // Emitted triangles (already mapped to `triangles`) -> set-local cluster numbers.
+    auto recordSource = [&](const ClusterSet& set, const std::vector<uint32_t>& emitted) {
+      for (size_t p = 0; p < set.pieces.size(); ++p) {
+        const ClusterPiece& piece = set.pieces[p];
+        for (uint32_t t = 0; t < piece.triangleCount; ++t)
+          (*sourceClusters)[(*keptSource)[emitted[piece.indexOffset / 3 + t]]] = uint32_t(p);
+      }
+    };
     if (triCount <= chunk * 2) {
       out.source.resize(1);
       out.sets.push_back(splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
                                        cfg_.clusterTriangles, splitScratch_.local(),
-                                       trackSource ? &out.source[0] : nullptr));
+                                       keptSource ? &out.source[0] : nullptr));
+      if (keptSource) recordSource(out.sets[0], out.source[0]);
       setBounds(out.sets[0]);
       return out;
     }
@@ -241,13 +263,19 @@ private:
     tbb::parallel_for(size_t(0), chunks, [&](size_t i) {
       std::vector<uint32_t> part;
       size_t begin = i * chunk, end = std::min(triCount, (i + 1) * chunk);
-      for (size_t j = begin; j < end; ++j)
+      part.reserve((end - begin) * 3);
+      for (size_t j = begin; j < end; ++j) {
+        // Morton order scatters the reads over the whole index buffer: fetch ahead.
+        if (j + 16 < end) __builtin_prefetch(&triangles[size_t(order[j + 16].second) * 3]);
         part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
-      std::vector<uint32_t>* source = trackSource ? &out.source[i] : nullptr;
+      }
+      std::vector<uint32_t>* source = keptSource ? &out.source[i] : nullptr;
       out.sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
                                   cfg_.clusterTriangles, splitScratch_.local(), source);
-      if (source)
-        for (uint32_t& t : *source) t = order[begin + t].second; // chunk-local -> input triangle
+      if (source) {
+        for (uint32_t& t : *source) t = order[begin + t].second; // chunk-local -> `triangles`
+        recordSource(out.sets[i], *source);
+      }
       setBounds(out.sets[i]);
     });
     return out;
@@ -626,28 +654,22 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg, std
   try {
     auto start = std::chrono::steady_clock::now();
     ClusterDag dag;
-    std::vector<uint32_t> keptOf, triangles;
+    std::vector<uint32_t> triangles;
+    KeptSources kept;
     dag.normals = mesh.normals;
     dag.uv0 = mesh.uv0;
     // Weld and clean inside the arena too, so --threads bounds the whole build.
     tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
-    std::vector<uint32_t> level0Cluster;
     arena.execute([&] {
       std::optional<StageTimer> timer(kPrep);
       Welded welded = weldPositions(mesh.positions);
-      triangles = cleanTriangles(mesh.indices, welded.vertexPosition, sourceClusters ? &keptOf : nullptr);
+      triangles = cleanTriangles(mesh.indices, welded.vertexPosition, sourceClusters ? &kept : nullptr);
+      if (sourceClusters) sourceClusters->assign(mesh.indices.size() / 3, kNone);
       timer.reset();
       dag.positions = std::move(welded.positions);
       dag.vertexPosition = std::move(welded.vertexPosition);
       dag.inputTriangles = triangles.size() / 3;
-      Builder(dag, cfg, start).run(triangles, sourceClusters ? &level0Cluster : nullptr);
-      if (!sourceClusters) return;
-      timer.emplace(kSourceMap);
-      // Source triangle -> its kept copy -> that copy's level-0 cluster (degenerate: kNone).
-      sourceClusters->resize(keptOf.size());
-      tbb::parallel_for(size_t(0), keptOf.size(), [&](size_t t) {
-        (*sourceClusters)[t] = keptOf[t] == kNone ? kNone : level0Cluster[keptOf[t]];
-      });
+      Builder(dag, cfg, start).run(std::move(triangles), std::move(kept), sourceClusters);
     });
     printStages(dag.inputTriangles);
     return dag;

@@ -137,7 +137,7 @@ Welded weldPositions(const std::vector<glm::vec3>& positions) {
 }
 
 std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices, const std::vector<uint32_t>& vertexPosition,
-                                     std::vector<uint32_t>* keptOf) {
+                                     KeptSources* sources) {
   size_t triCount = indices.size() / 3;
   auto sortedKey = [&](uint32_t t) {
     const uint32_t* tri = &indices[size_t(t) * 3];
@@ -170,22 +170,25 @@ std::vector<uint32_t> cleanTriangles(const std::vector<uint32_t>& indices, const
       }
     }
   });
-  std::vector<uint32_t> firstCopy;
-  if (keptOf) firstCopy.assign(triCount, kEmpty);
+  std::vector<uint8_t> laterCopy(sources ? triCount : 0, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t) {
       if (t + kBlock < r.end() && keep[t + kBlock]) table.prefetchSlot(slot[t + kBlock]);
       if (!keep[t]) continue;
       uint32_t first = table.first(slot[t]);
       keep[t] = first == t;
-      if (keptOf) firstCopy[t] = first;
+      if (sources && first != t) laterCopy[t] = 1, slot[t] = first; // slot now names the first copy
     }
   });
+  if (sources) // rare (duplicates): a serial pass over flags
+    for (size_t t = 0; t < triCount; ++t)
+      if (laterCopy[t]) sources->laterCopies.push_back({uint32_t(t), slot[t]});
   std::vector<uint32_t> out(size_t(prefixSum(keep, slot)) * 3); // slot becomes the output index
-  if (keptOf) {
-    keptOf->resize(triCount);
+  if (sources) {
+    sources->source.resize(out.size() / 3);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t t = r.begin(); t < r.end(); ++t) (*keptOf)[t] = firstCopy[t] == kEmpty ? kEmpty : slot[firstCopy[t]];
+      for (size_t t = r.begin(); t < r.end(); ++t)
+        if (keep[t]) sources->source[slot[t]] = uint32_t(t);
     });
   }
   tbb::parallel_for(tbb::blocked_range<size_t>(0, triCount, kGrain), [&](const tbb::blocked_range<size_t>& r) {

@@ -28,6 +28,8 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   s.global.clear();
   s.corners.resize(triangles.size());
   for (size_t i = 0; i < triangles.size(); ++i) {
+    // Level-0 chunks name vertices all over the mesh: fetch the map entries ahead.
+    if (i + 32 < triangles.size()) __builtin_prefetch(&s.localOf[triangles[i + 32]]);
     uint32_t& l = s.localOf[triangles[i]];
     if (l == kNil) l = uint32_t(s.global.size()), s.global.push_back(triangles[i]);
     s.corners[i] = l;
