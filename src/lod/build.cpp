@@ -100,6 +100,40 @@ uint32_t spreadBits(uint32_t x) {
   return x;
 }
 
+// Ids 0..n-1 sorted by key (ties by id), for keys below 2^30 (Morton codes): a stable parallel
+// LSD radix sort, three passes of 10 bits with per-block histograms. Same order as sorting
+// (key, id) pairs, at a fraction of parallel_sort's instructions (0.2 G on the dragon).
+std::vector<uint32_t> sortIdsByKey(std::vector<uint32_t> key) {
+  constexpr size_t kBlock = size_t(1) << 16, kBuckets = 1024;
+  size_t n = key.size(), blocks = (n + kBlock - 1) / kBlock;
+  std::vector<uint32_t> id(n), keyOut(n), idOut(n), start(blocks * kBuckets);
+  for (size_t i = 0; i < n; ++i) id[i] = uint32_t(i);
+  for (uint32_t shift = 0; shift < 30; shift += 10) {
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      uint32_t* count = &start[b * kBuckets];
+      std::fill(count, count + kBuckets, 0u);
+      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) ++count[key[i] >> shift & (kBuckets - 1)];
+    });
+    uint32_t sum = 0; // exclusive prefix in (bucket, block) order: stable
+    for (size_t d = 0; d < kBuckets; ++d)
+      for (size_t b = 0; b < blocks; ++b) {
+        uint32_t c = start[b * kBuckets + d];
+        start[b * kBuckets + d] = sum;
+        sum += c;
+      }
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      uint32_t* next = &start[b * kBuckets];
+      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
+        uint32_t at = next[key[i] >> shift & (kBuckets - 1)]++;
+        keyOut[at] = key[i], idOut[at] = id[i];
+      }
+    });
+    key.swap(keyOut);
+    id.swap(idOut);
+  }
+  return id;
+}
+
 struct GroupWork {
   std::vector<uint32_t> children;
   bool stuck = false;
@@ -249,14 +283,14 @@ private:
     Bounds box;
     for (const glm::vec3& p : dag_.positions) box.add(p);
     glm::vec3 scale = 1023.0f / glm::max(box.extent(), glm::vec3(1e-30f));
-    std::vector<std::pair<uint32_t, uint32_t>> order(triCount);
+    std::vector<uint32_t> code(triCount);
     tbb::parallel_for(size_t(0), triCount, [&](size_t t) {
       glm::vec3 c(0.0f);
       for (int k = 0; k < 3; ++k) c += dag_.positions[dag_.vertexPosition[triangles[t * 3 + k]]];
       glm::uvec3 q = glm::uvec3(glm::clamp((c / 3.0f - box.min) * scale, glm::vec3(0.0f), glm::vec3(1023.0f)));
-      order[t] = {spreadBits(q.x) | spreadBits(q.y) << 1 | spreadBits(q.z) << 2, uint32_t(t)};
+      code[t] = spreadBits(q.x) | spreadBits(q.y) << 1 | spreadBits(q.z) << 2;
     });
-    tbb::parallel_sort(order.begin(), order.end());
+    std::vector<uint32_t> order = sortIdsByKey(std::move(code)); // triangles along the Morton curve
     size_t chunks = (triCount + chunk - 1) / chunk;
     out.sets.resize(chunks);
     out.source.resize(chunks);
@@ -266,14 +300,14 @@ private:
       part.reserve((end - begin) * 3);
       for (size_t j = begin; j < end; ++j) {
         // Morton order scatters the reads over the whole index buffer: fetch ahead.
-        if (j + 16 < end) __builtin_prefetch(&triangles[size_t(order[j + 16].second) * 3]);
-        part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
+        if (j + 16 < end) __builtin_prefetch(&triangles[size_t(order[j + 16]) * 3]);
+        part.insert(part.end(), &triangles[size_t(order[j]) * 3], &triangles[size_t(order[j]) * 3] + 3);
       }
       std::vector<uint32_t>* source = keptSource ? &out.source[i] : nullptr;
       out.sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
                                   cfg_.clusterTriangles, splitScratch_.local(), source);
       if (source) {
-        for (uint32_t& t : *source) t = order[begin + t].second; // chunk-local -> `triangles`
+        for (uint32_t& t : *source) t = order[begin + t]; // chunk-local -> `triangles`
         recordSource(out.sets[i], *source);
       }
       setBounds(out.sets[i]);
