@@ -10,6 +10,7 @@
 #include <limits>
 #include <optional>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_sort.h>
@@ -39,6 +40,7 @@ enum Stage {
   kLevel0Append,
   kBorders,
   kPartition,
+  kMetis,
   kOwners,
   kGather,
   kSimplify,
@@ -51,7 +53,8 @@ constexpr const char* kStageNames[kStageCount] = {"weld+clean",
                                                   "level-0 split",
                                                   "level-0 append (serial)",
                                                   "cluster borders",
-                                                  "grouping+METIS (serial)",
+                                                  "grouping (partly serial)",
+                                                  "METIS (serial)",
                                                   "lock marking",
                                                   "group gather",
                                                   "simplify",
@@ -397,28 +400,29 @@ private:
   }
 
   // Every cluster's border edges as (edge key, cluster) in ascending order: a counting sort on
-  // the key's lower position id (stable, so clusters stay ascending) and an insertion sort of
-  // each bucket's few entries by the upper id. Same order as sorting all entries, which was the
-  // largest serial step of partitioning after METIS.
+  // the key's lower position id, then a sort of each bucket's few entries. Parallel throughout
+  // (atomic counters; the bucket sort makes the order independent of the scatter's timing) and
+  // the same order as sorting all entries, which was the largest step of grouping after METIS.
   std::vector<std::pair<uint64_t, uint32_t>> sortedBorderEntries(const std::vector<std::vector<uint64_t>>& borders) {
-    std::vector<uint32_t>& start = bucketStart_;
-    start.assign(dag_.positions.size() + 1, 0);
-    size_t total = 0;
-    for (const std::vector<uint64_t>& b : borders) {
-      total += b.size();
-      for (uint64_t k : b) ++start[(k >> 32) + 1];
-    }
-    for (size_t p = 0; p + 1 < start.size(); ++p) start[p + 1] += start[p];
-    std::vector<std::pair<uint64_t, uint32_t>> entries(total);
-    for (size_t i = 0; i < borders.size(); ++i)
-      for (uint64_t k : borders[i]) {
-        size_t at = start[k >> 32]++; // start[p] ends at bucket p's end
-        entries[at] = {k, uint32_t(i)};
-        // Insertion by the full key within the bucket: earlier entries of a lower cluster with
-        // an equal key stay in front (strict comparison), so the order is (key, cluster).
-        for (size_t j = at; j > 0 && (entries[j - 1].first >> 32) == (k >> 32) && entries[j - 1].first > k; --j)
-          std::swap(entries[j - 1], entries[j]);
+    std::vector<uint32_t>& end = bucketStart_; // per position: its bucket's end, once scattered
+    size_t positions = dag_.positions.size();
+    end.assign(positions + 1, 0);
+    tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
+      for (uint64_t k : borders[i])
+        std::atomic_ref<uint32_t>(end[(k >> 32) + 1]).fetch_add(1, std::memory_order_relaxed);
+    });
+    for (size_t p = 0; p < positions; ++p) end[p + 1] += end[p]; // end[p] = bucket p's start for now
+    std::vector<std::pair<uint64_t, uint32_t>> entries(end[positions]);
+    tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
+      for (uint64_t k : borders[i])
+        entries[std::atomic_ref<uint32_t>(end[k >> 32]).fetch_add(1, std::memory_order_relaxed)] = {k, uint32_t(i)};
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, positions, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t p = r.begin(); p < r.end(); ++p) {
+        auto first = entries.begin() + (p ? end[p - 1] : 0), last = entries.begin() + end[p];
+        if (last - first > 1) std::sort(first, last);
       }
+    });
     return entries;
   }
 
@@ -434,7 +438,7 @@ private:
       StageTimer timer(kBorders);
       tbb::parallel_for(size_t(0), n, [&](size_t i) { clusterBorder(active[i], borders[i]); });
     }
-    StageTimer timer(kPartition);
+    std::optional<StageTimer> timer(kPartition);
     std::vector<std::pair<uint64_t, uint32_t>> entries = sortedBorderEntries(borders);
 
     struct Link {
@@ -442,24 +446,42 @@ private:
       float weight;
       uint64_t key;
     };
-    std::vector<Link> links;
-    size_t agePos = 0;
-    double lengthSum = 0.0;
-    for (size_t j = 0; j < entries.size();) {
-      size_t e = j;
-      while (e < entries.size() && entries[e].first == entries[j].first) ++e;
-      if (e - j >= 2) {
-        uint64_t key = entries[j].first;
-        while (agePos < ages_.size() && ages_[agePos].first < key) ++agePos;
-        uint32_t age = agePos < ages_.size() && ages_[agePos].first == key ? ages_[agePos].second : 0;
-        float len = glm::distance(dag_.positions[uint32_t(key >> 32)], dag_.positions[uint32_t(key)]);
-        lengthSum += len;
-        for (size_t x = j; x < e; ++x)
-          for (size_t y = x + 1; y < e; ++y)
-            links.push_back({entries[x].second, entries[y].second, len * float(1 + age), key});
+    // Shared edges -> links, in blocks of entries processed in parallel (the edge lengths are
+    // scattered reads; on the 5 M blob this loop was most of the serial grouping time). A block
+    // owns the runs of equal keys that start in it; blocks are joined in order and the lengths
+    // summed in key order, so links and weights are those of the serial loop.
+    constexpr size_t kEntryBlock = 1 << 14;
+    size_t blocks = (entries.size() + kEntryBlock - 1) / kEntryBlock;
+    std::vector<std::vector<Link>> blockLinks(blocks);
+    std::vector<std::vector<float>> blockLengths(blocks);
+    tbb::parallel_for(size_t(0), blocks, [&](size_t blk) {
+      size_t j = blk * kEntryBlock, stop = std::min(entries.size(), j + kEntryBlock);
+      while (j > 0 && j < stop && entries[j].first == entries[j - 1].first) ++j; // run began earlier
+      auto agePos = std::lower_bound(ages_.begin(), ages_.end(),
+                                     std::pair<uint64_t, uint32_t>{j < stop ? entries[j].first : 0, 0});
+      while (j < stop) {
+        size_t e = j;
+        while (e < entries.size() && entries[e].first == entries[j].first) ++e;
+        if (e - j >= 2) {
+          uint64_t key = entries[j].first;
+          while (agePos != ages_.end() && agePos->first < key) ++agePos;
+          uint32_t age = agePos != ages_.end() && agePos->first == key ? agePos->second : 0;
+          float len = glm::distance(dag_.positions[uint32_t(key >> 32)], dag_.positions[uint32_t(key)]);
+          blockLengths[blk].push_back(len);
+          for (size_t x = j; x < e; ++x)
+            for (size_t y = x + 1; y < e; ++y)
+              blockLinks[blk].push_back({entries[x].second, entries[y].second, len * float(1 + age), key});
+        }
+        j = e;
       }
-      j = e;
+    });
+    std::vector<Link> links;
+    double lengthSum = 0.0;
+    for (size_t blk = 0; blk < blocks; ++blk) {
+      links.insert(links.end(), blockLinks[blk].begin(), blockLinks[blk].end());
+      for (float len : blockLengths[blk]) lengthSum += len;
     }
+    blockLinks = {};
     std::vector<uint32_t> part(n, 0);
     if (parts > 1) {
       float unit = links.empty() ? 1.0f : float(lengthSum / double(links.size())) * 0.25f;
@@ -510,12 +532,14 @@ private:
           auto [b, w] = merged[start[a] + j];
           adjncy[fill[a]] = int32_t(b), weights[fill[a]++] = w;
         }
+      timer.emplace(kMetis);
       part = partitionGraph(xadj, adjncy, weights, parts);
+      timer.emplace(kPartition);
     }
     // Edge ages for the next level: borders between different groups stay locked one more level.
     std::vector<std::pair<uint64_t, uint32_t>> ages;
     double ageSum = 0.0;
-    agePos = 0;
+    size_t agePos = 0;
     for (const Link& l : links) {
       if (part[l.a] == part[l.b]) continue;
       while (agePos < ages_.size() && ages_[agePos].first < l.key) ++agePos;
