@@ -440,6 +440,7 @@ private:
     }
     std::optional<StageTimer> timer(kPartition);
     std::vector<std::pair<uint64_t, uint32_t>> entries = sortedBorderEntries(borders);
+    borders = {}; // level 1 of a large mesh holds millions of these: keep the peak down
 
     struct Link {
       uint32_t a, b;
@@ -479,9 +480,10 @@ private:
     double lengthSum = 0.0;
     for (size_t blk = 0; blk < blocks; ++blk) {
       links.insert(links.end(), blockLinks[blk].begin(), blockLinks[blk].end());
+      blockLinks[blk] = {};
       for (float len : blockLengths[blk]) lengthSum += len;
     }
-    blockLinks = {};
+    entries = {};
     std::vector<uint32_t> part(n, 0);
     if (parts > 1) {
       float unit = links.empty() ? 1.0f : float(lengthSum / double(links.size())) * 0.25f;
