@@ -5,10 +5,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <exception>
 #include <limits>
 #include <optional>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_sort.h>
@@ -27,33 +29,63 @@ using namespace detail;
 
 constexpr uint32_t kMulti = ~0u - 1; // position touched by two or more groups: locked
 
-// Per-stage time summed over threads, printed to stderr when MIRAGE_LOD_PROFILE is set: the
-// numbers in docs/lod.md's "where the time goes" come from here (no public API for it).
-enum Stage { kPrep, kLevel0, kPartition, kOwners, kGather, kSimplify, kSplit, kCommit, kStageCount };
-constexpr const char* kStageNames[kStageCount] = {"weld+clean",   "level-0 split", "partition",   "lock marking",
-                                                  "group gather", "simplify",      "group split", "commit"};
+// Per-stage CPU time summed over threads (CLOCK_THREAD_CPUTIME_ID: other processes on a shared
+// machine do not inflate it), printed to stderr when MIRAGE_LOD_PROFILE is set: the numbers in
+// docs/lod.md's "where the time goes" come from here (no public API for it). Stages marked
+// serial run on one thread whatever --threads says; the others are parallel, and a stage timed
+// around a parallel loop counts only the calling thread, so profile those with --threads 1.
+enum Stage {
+  kPrep,
+  kLevel0,
+  kLevel0Append,
+  kBorders,
+  kPartition,
+  kMetis,
+  kOwners,
+  kGather,
+  kSimplify,
+  kSplit,
+  kCommit,
+  kSourceMap,
+  kStageCount
+};
+constexpr const char* kStageNames[kStageCount] = {"weld+clean",
+                                                  "level-0 split",
+                                                  "level-0 append (serial)",
+                                                  "cluster borders",
+                                                  "grouping (partly serial)",
+                                                  "METIS (serial)",
+                                                  "lock marking",
+                                                  "group gather",
+                                                  "simplify",
+                                                  "group split",
+                                                  "commit (serial)",
+                                                  "source map"};
 std::atomic<int64_t> gStageNs[kStageCount];
+
+int64_t threadCpuNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return int64_t(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
 
 class StageTimer {
 public:
-  explicit StageTimer(Stage s) : stage_(s), start_(std::chrono::steady_clock::now()) {}
-  ~StageTimer() {
-    gStageNs[stage_] +=
-        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
-  }
+  explicit StageTimer(Stage s) : stage_(s), start_(threadCpuNs()) {}
+  ~StageTimer() { gStageNs[stage_] += threadCpuNs() - start_; }
   StageTimer(const StageTimer&) = delete;
   StageTimer& operator=(const StageTimer&) = delete;
 
 private:
   Stage stage_;
-  std::chrono::steady_clock::time_point start_;
+  int64_t start_;
 };
 
 void printStages(uint64_t triangles) {
   if (!std::getenv("MIRAGE_LOD_PROFILE")) return;
   double total = 0.0;
   for (auto& ns : gStageNs) total += double(ns.load()) * 1e-9;
-  std::fprintf(stderr, "lod stages (thread-seconds, %llu tris):", (unsigned long long)triangles);
+  std::fprintf(stderr, "lod stages (thread CPU seconds, %llu tris):", (unsigned long long)triangles);
   for (int i = 0; i < kStageCount; ++i) {
     double sec = double(gStageNs[i].exchange(0)) * 1e-9;
     std::fprintf(stderr, " %s %.3f (%.0f%%)%s", kStageNames[i], sec, 100.0 * sec / std::max(total, 1e-9),
@@ -71,6 +103,40 @@ uint32_t spreadBits(uint32_t x) {
   return x;
 }
 
+// Ids 0..n-1 sorted by key (ties by id), for keys below 2^30 (Morton codes): a stable parallel
+// LSD radix sort, three passes of 10 bits with per-block histograms. Same order as sorting
+// (key, id) pairs, at a fraction of parallel_sort's instructions (0.2 G on the dragon).
+std::vector<uint32_t> sortIdsByKey(std::vector<uint32_t> key) {
+  constexpr size_t kBlock = size_t(1) << 16, kBuckets = 1024;
+  size_t n = key.size(), blocks = (n + kBlock - 1) / kBlock;
+  std::vector<uint32_t> id(n), keyOut(n), idOut(n), start(blocks * kBuckets);
+  for (size_t i = 0; i < n; ++i) id[i] = uint32_t(i);
+  for (uint32_t shift = 0; shift < 30; shift += 10) {
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      uint32_t* count = &start[b * kBuckets];
+      std::fill(count, count + kBuckets, 0u);
+      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) ++count[key[i] >> shift & (kBuckets - 1)];
+    });
+    uint32_t sum = 0; // exclusive prefix in (bucket, block) order: stable
+    for (size_t d = 0; d < kBuckets; ++d)
+      for (size_t b = 0; b < blocks; ++b) {
+        uint32_t c = start[b * kBuckets + d];
+        start[b * kBuckets + d] = sum;
+        sum += c;
+      }
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      uint32_t* next = &start[b * kBuckets];
+      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
+        uint32_t at = next[key[i] >> shift & (kBuckets - 1)]++;
+        keyOut[at] = key[i], idOut[at] = id[i];
+      }
+    });
+    key.swap(keyOut);
+    id.swap(idOut);
+  }
+  return id;
+}
+
 struct GroupWork {
   std::vector<uint32_t> children;
   bool stuck = false;
@@ -84,15 +150,42 @@ public:
   Builder(ClusterDag& dag, const BuildConfig& cfg, std::chrono::steady_clock::time_point start)
       : dag_(dag), cfg_(cfg), start_(start) {}
 
-  void run(const std::vector<uint32_t>& triangles) {
+  // `triangles` (the cleaned input) is only needed for level 0 and released after it. With
+  // sourceClusters, `kept` says which input triangle each kept one is (cleanTriangles) and
+  // sourceClusters receives each input triangle's level-0 cluster, filled during level 0.
+  void run(std::vector<uint32_t> triangles, KeptSources kept, std::vector<uint32_t>* sourceClusters) {
     if (triangles.empty()) return;
     posOwner_.assign(dag_.positions.size(), kNone);
+    // Every level about halves the triangles, so the whole DAG holds about twice the input: reserve
+    // once instead of growing (and copying) the flat arrays level by level. Untouched capacity
+    // costs no resident memory.
+    size_t inputTriangles = triangles.size() / 3;
+    dag_.clusterIndices.reserve(inputTriangles * 3 * 21 / 10);
+    dag_.clusterVertices.reserve(inputTriangles * 21 / 10);
+    dag_.clusters.reserve(inputTriangles / cfg_.clusterTriangles * 23 / 10 + 16);
     std::vector<uint32_t> active;
     {
-      StageTimer timer(kLevel0);
-      for (const ClusterSet& set : splitLevel0(triangles)) {
-        std::vector<uint32_t> ids = appendClusters(set, 0, kNone, nullptr);
+      std::optional<StageTimer> timer(kLevel0);
+      const std::vector<uint32_t>* keptSource = sourceClusters ? &kept.source : nullptr;
+      Level0 l0 = splitLevel0(triangles, keptSource, sourceClusters);
+      triangles = {};
+      timer.emplace(kLevel0Append);
+      std::vector<uint32_t> setBase(l0.sets.size());
+      for (size_t i = 0; i < l0.sets.size(); ++i) {
+        setBase[i] = uint32_t(dag_.clusters.size());
+        std::vector<uint32_t> ids = appendClusters(l0.sets[i], 0, kNone, nullptr);
         active.insert(active.end(), ids.begin(), ids.end());
+      }
+      if (sourceClusters) {
+        timer.emplace(kSourceMap);
+        // The workers wrote set-local cluster numbers; add each set's first cluster id. Dropped
+        // copies take their first copy's cluster; degenerate triangles stay kNone.
+        tbb::parallel_for(size_t(0), l0.sets.size(), [&](size_t i) {
+          for (uint32_t k : l0.source[i]) (*sourceClusters)[kept.source[k]] += setBase[i];
+          l0.source[i] = {};
+        });
+        for (auto [copy, first] : kept.laterCopies) (*sourceClusters)[copy] = (*sourceClusters)[first];
+        kept = {};
       }
     }
     std::vector<LevelStats> stats(1);
@@ -104,7 +197,6 @@ public:
       float meanAge = 0.0f;
       std::vector<GroupWork> work;
       {
-        StageTimer timer(kPartition);
         std::vector<std::vector<uint32_t>> groups = partition(active, groupSize, meanAge);
         work.resize(groups.size());
         for (size_t g = 0; g < groups.size(); ++g) work[g].children = std::move(groups[g]);
@@ -163,40 +255,87 @@ private:
   // of 16 clusters, not 256: the splitter's nearest-triangle fallback scans its whole input, so
   // level 0 cost 3200 instructions per triangle on the dragon at 256 and 2000 at 16 (level-0
   // fill stays 1.00, and the dragon even gets 6817 level-0 clusters instead of 6831).
-  std::vector<ClusterSet> splitLevel0(const std::vector<uint32_t>& triangles) const {
+  struct Level0 {
+    std::vector<ClusterSet> sets;
+    std::vector<std::vector<uint32_t>> source; // per set, its triangles (indices into `triangles` / 3)
+  };
+  // With keptSource (input triangle of each of `triangles`), also writes each input triangle's
+  // cluster number within its set into sourceClusters (run() adds the sets' first cluster ids).
+  Level0 splitLevel0(const std::vector<uint32_t>& triangles, const std::vector<uint32_t>* keptSource,
+                     std::vector<uint32_t>* sourceClusters) const {
     size_t triCount = triangles.size() / 3;
     const size_t chunk = size_t(cfg_.clusterTriangles) * 16;
-    if (triCount <= chunk * 2)
-      return {splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
-                            splitScratch_.local())};
+    Level0 out;
+    // Emitted triangles (already mapped to `triangles`) -> set-local cluster numbers.
+    auto recordSource = [&](const ClusterSet& set, const std::vector<uint32_t>& emitted) {
+      for (size_t p = 0; p < set.pieces.size(); ++p) {
+        const ClusterPiece& piece = set.pieces[p];
+        for (uint32_t t = 0; t < piece.triangleCount; ++t)
+          (*sourceClusters)[(*keptSource)[emitted[piece.indexOffset / 3 + t]]] = uint32_t(p);
+      }
+    };
+    if (triCount <= chunk * 2) {
+      out.source.resize(1);
+      out.sets.push_back(splitClusters(triangles, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                                       cfg_.clusterTriangles, splitScratch_.local(),
+                                       keptSource ? &out.source[0] : nullptr));
+      if (keptSource) recordSource(out.sets[0], out.source[0]);
+      setBounds(out.sets[0]);
+      return out;
+    }
     Bounds box;
     for (const glm::vec3& p : dag_.positions) box.add(p);
     glm::vec3 scale = 1023.0f / glm::max(box.extent(), glm::vec3(1e-30f));
-    std::vector<std::pair<uint32_t, uint32_t>> order(triCount);
+    std::vector<uint32_t> code(triCount);
     tbb::parallel_for(size_t(0), triCount, [&](size_t t) {
       glm::vec3 c(0.0f);
       for (int k = 0; k < 3; ++k) c += dag_.positions[dag_.vertexPosition[triangles[t * 3 + k]]];
       glm::uvec3 q = glm::uvec3(glm::clamp((c / 3.0f - box.min) * scale, glm::vec3(0.0f), glm::vec3(1023.0f)));
-      order[t] = {spreadBits(q.x) | spreadBits(q.y) << 1 | spreadBits(q.z) << 2, uint32_t(t)};
+      code[t] = spreadBits(q.x) | spreadBits(q.y) << 1 | spreadBits(q.z) << 2;
     });
-    tbb::parallel_sort(order.begin(), order.end());
+    std::vector<uint32_t> order = sortIdsByKey(std::move(code)); // triangles along the Morton curve
     size_t chunks = (triCount + chunk - 1) / chunk;
-    std::vector<ClusterSet> sets(chunks);
+    out.sets.resize(chunks);
+    out.source.resize(chunks);
     tbb::parallel_for(size_t(0), chunks, [&](size_t i) {
       std::vector<uint32_t> part;
-      for (size_t j = i * chunk; j < std::min(triCount, (i + 1) * chunk); ++j)
-        part.insert(part.end(), &triangles[order[j].second * 3], &triangles[order[j].second * 3] + 3);
-      sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices, cfg_.clusterTriangles,
-                              splitScratch_.local());
+      size_t begin = i * chunk, end = std::min(triCount, (i + 1) * chunk);
+      part.reserve((end - begin) * 3);
+      for (size_t j = begin; j < end; ++j) {
+        // Morton order scatters the reads over the whole index buffer: fetch ahead.
+        if (j + 16 < end) __builtin_prefetch(&triangles[size_t(order[j + 16]) * 3]);
+        part.insert(part.end(), &triangles[size_t(order[j]) * 3], &triangles[size_t(order[j]) * 3] + 3);
+      }
+      std::vector<uint32_t>* source = keptSource ? &out.source[i] : nullptr;
+      out.sets[i] = splitClusters(part, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                                  cfg_.clusterTriangles, splitScratch_.local(), source);
+      if (source) {
+        for (uint32_t& t : *source) t = order[begin + t]; // chunk-local -> `triangles`
+        recordSource(out.sets[i], *source);
+      }
+      setBounds(out.sets[i]);
     });
-    return sets;
+    return out;
+  }
+
+  // Cluster spheres of a freshly split set, computed by the worker that split it (appending the
+  // clusters is serial).
+  void setBounds(ClusterSet& set) const {
+    std::vector<glm::vec3> points;
+    set.bounds.resize(set.pieces.size());
+    for (size_t i = 0; i < set.pieces.size(); ++i) {
+      const ClusterPiece& p = set.pieces[i];
+      points.clear();
+      for (uint32_t v = 0; v < p.vertexCount; ++v)
+        points.push_back(dag_.positions[dag_.vertexPosition[set.vertices[p.vertexOffset + v]]]);
+      set.bounds[i] = boundingSphere(points.data(), points.size());
+    }
   }
 
   // Appends clusters of one set; `self` null means level 0 (own sphere, zero error).
   std::vector<uint32_t> appendClusters(const ClusterSet& set, uint32_t level, uint32_t generatingGroup,
                                        const LodBounds* self) {
     std::vector<uint32_t> ids;
-    std::vector<glm::vec3> points;
     for (const ClusterPiece& p : set.pieces) {
       Cluster c;
       c.vertexOffset = uint32_t(dag_.clusterVertices.size());
@@ -205,15 +344,11 @@ private:
       c.triangleCount = uint16_t(p.triangleCount);
       c.level = level;
       c.generatingGroup = generatingGroup;
-      points.clear();
-      for (uint32_t v = 0; v < p.vertexCount; ++v) {
-        uint32_t a = set.vertices[p.vertexOffset + v];
-        dag_.clusterVertices.push_back(a);
-        points.push_back(dag_.positions[dag_.vertexPosition[a]]);
-      }
+      dag_.clusterVertices.insert(dag_.clusterVertices.end(), set.vertices.begin() + p.vertexOffset,
+                                  set.vertices.begin() + p.vertexOffset + p.vertexCount);
       dag_.clusterIndices.insert(dag_.clusterIndices.end(), set.indices.begin() + p.indexOffset,
                                  set.indices.begin() + p.indexOffset + p.triangleCount * 3);
-      c.bounds = boundingSphere(points.data(), points.size());
+      c.bounds = set.bounds[size_t(&p - set.pieces.data())];
       c.self = self ? *self : c.bounds;
       if (!self) c.self.error = 0.0f;
       ids.push_back(uint32_t(dag_.clusters.size()));
@@ -264,6 +399,33 @@ private:
     for (uint32_t p : positions) localOf[p] = kNone;
   }
 
+  // Every cluster's border edges as (edge key, cluster) in ascending order: a counting sort on
+  // the key's lower position id, then a sort of each bucket's few entries. Parallel throughout
+  // (atomic counters; the bucket sort makes the order independent of the scatter's timing) and
+  // the same order as sorting all entries, which was the largest step of grouping after METIS.
+  std::vector<std::pair<uint64_t, uint32_t>> sortedBorderEntries(const std::vector<std::vector<uint64_t>>& borders) {
+    std::vector<uint32_t>& end = bucketStart_; // per position: its bucket's end, once scattered
+    size_t positions = dag_.positions.size();
+    end.assign(positions + 1, 0);
+    tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
+      for (uint64_t k : borders[i])
+        std::atomic_ref<uint32_t>(end[(k >> 32) + 1]).fetch_add(1, std::memory_order_relaxed);
+    });
+    for (size_t p = 0; p < positions; ++p) end[p + 1] += end[p]; // end[p] = bucket p's start for now
+    std::vector<std::pair<uint64_t, uint32_t>> entries(end[positions]);
+    tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
+      for (uint64_t k : borders[i])
+        entries[std::atomic_ref<uint32_t>(end[k >> 32]).fetch_add(1, std::memory_order_relaxed)] = {k, uint32_t(i)};
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, positions, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t p = r.begin(); p < r.end(); ++p) {
+        auto first = entries.begin() + (p ? end[p - 1] : 0), last = entries.begin() + end[p];
+        if (last - first > 1) std::sort(first, last);
+      }
+    });
+    return entries;
+  }
+
   // Groups active clusters with METIS over the cluster adjacency graph. An edge between two clusters
   // weighs their shared border length times (1 + its age, the levels it has already stayed locked),
   // so long and old borders end up inside groups and get simplified away.
@@ -272,66 +434,114 @@ private:
     size_t n = active.size();
     uint32_t parts = uint32_t((n + groupSize - 1) / groupSize);
     std::vector<std::vector<uint64_t>> borders(n);
-    tbb::parallel_for(size_t(0), n, [&](size_t i) { clusterBorder(active[i], borders[i]); });
-    std::vector<std::pair<uint64_t, uint32_t>> entries;
-    for (size_t i = 0; i < n; ++i)
-      for (uint64_t k : borders[i]) entries.push_back({k, uint32_t(i)});
-    tbb::parallel_sort(entries.begin(), entries.end());
+    {
+      StageTimer timer(kBorders);
+      tbb::parallel_for(size_t(0), n, [&](size_t i) { clusterBorder(active[i], borders[i]); });
+    }
+    std::optional<StageTimer> timer(kPartition);
+    std::vector<std::pair<uint64_t, uint32_t>> entries = sortedBorderEntries(borders);
+    borders = {}; // level 1 of a large mesh holds millions of these: keep the peak down
 
     struct Link {
       uint32_t a, b;
       float weight;
       uint64_t key;
     };
-    std::vector<Link> links;
-    size_t agePos = 0;
-    double lengthSum = 0.0;
-    for (size_t j = 0; j < entries.size();) {
-      size_t e = j;
-      while (e < entries.size() && entries[e].first == entries[j].first) ++e;
-      if (e - j >= 2) {
-        uint64_t key = entries[j].first;
-        while (agePos < ages_.size() && ages_[agePos].first < key) ++agePos;
-        uint32_t age = agePos < ages_.size() && ages_[agePos].first == key ? ages_[agePos].second : 0;
-        float len = glm::distance(dag_.positions[uint32_t(key >> 32)], dag_.positions[uint32_t(key)]);
-        lengthSum += len;
-        for (size_t x = j; x < e; ++x)
-          for (size_t y = x + 1; y < e; ++y)
-            links.push_back({entries[x].second, entries[y].second, len * float(1 + age), key});
+    // Shared edges -> links, in blocks of entries processed in parallel (the edge lengths are
+    // scattered reads; on the 5 M blob this loop was most of the serial grouping time). A block
+    // owns the runs of equal keys that start in it; blocks are joined in order and the lengths
+    // summed in key order, so links and weights are those of the serial loop.
+    constexpr size_t kEntryBlock = 1 << 14;
+    size_t blocks = (entries.size() + kEntryBlock - 1) / kEntryBlock;
+    std::vector<std::vector<Link>> blockLinks(blocks);
+    std::vector<std::vector<float>> blockLengths(blocks);
+    tbb::parallel_for(size_t(0), blocks, [&](size_t blk) {
+      size_t j = blk * kEntryBlock, stop = std::min(entries.size(), j + kEntryBlock);
+      while (j > 0 && j < stop && entries[j].first == entries[j - 1].first) ++j; // run began earlier
+      auto agePos = std::lower_bound(ages_.begin(), ages_.end(),
+                                     std::pair<uint64_t, uint32_t>{j < stop ? entries[j].first : 0, 0});
+      while (j < stop) {
+        size_t e = j;
+        while (e < entries.size() && entries[e].first == entries[j].first) ++e;
+        if (e - j >= 2) {
+          uint64_t key = entries[j].first;
+          while (agePos != ages_.end() && agePos->first < key) ++agePos;
+          uint32_t age = agePos != ages_.end() && agePos->first == key ? agePos->second : 0;
+          float len = glm::distance(dag_.positions[uint32_t(key >> 32)], dag_.positions[uint32_t(key)]);
+          blockLengths[blk].push_back(len);
+          for (size_t x = j; x < e; ++x)
+            for (size_t y = x + 1; y < e; ++y)
+              blockLinks[blk].push_back({entries[x].second, entries[y].second, len * float(1 + age), key});
+        }
+        j = e;
       }
-      j = e;
+    });
+    std::vector<Link> links;
+    double lengthSum = 0.0;
+    for (size_t blk = 0; blk < blocks; ++blk) {
+      links.insert(links.end(), blockLinks[blk].begin(), blockLinks[blk].end());
+      blockLinks[blk] = {};
+      for (float len : blockLengths[blk]) lengthSum += len;
     }
+    entries = {};
     std::vector<uint32_t> part(n, 0);
     if (parts > 1) {
       float unit = links.empty() ? 1.0f : float(lengthSum / double(links.size())) * 0.25f;
-      std::vector<std::pair<uint64_t, float>> pairs;
-      for (const Link& l : links) {
-        uint32_t a = std::min(l.a, l.b), b = std::max(l.a, l.b);
-        if (a != b) pairs.push_back({uint64_t(a) << 32 | b, l.weight});
+      // Links by their lower cluster (a counting sort; entries come in cluster order, so a < b),
+      // each cluster's few links sorted by (other cluster, weight) in parallel, weights summed in
+      // that order: the sums a global sort of all (pair, weight) gave, without its serial cost.
+      std::vector<uint32_t> start(n + 1, 0);
+      for (const Link& l : links) ++start[l.a + 1];
+      for (size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+      std::vector<std::pair<uint32_t, float>> byLower(links.size());
+      {
+        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+        for (const Link& l : links) byLower[fill[l.a]++] = {l.b, l.weight};
       }
-      tbb::parallel_sort(pairs.begin(), pairs.end());
-      std::vector<std::vector<std::pair<uint32_t, int32_t>>> adj(n);
-      for (size_t j = 0; j < pairs.size();) {
-        float w = 0.0f;
-        size_t e = j;
-        for (; e < pairs.size() && pairs[e].first == pairs[j].first; ++e) w += pairs[e].second;
-        int32_t iw = std::max<int32_t>(1, int32_t(std::lround(std::min(w / unit, 1e6f))));
-        uint32_t a = uint32_t(pairs[j].first >> 32), b = uint32_t(pairs[j].first);
-        adj[a].push_back({b, iw});
-        adj[b].push_back({a, iw});
-        j = e;
+      std::vector<uint32_t> degree(n + 1, 0);                         // then CSR offsets
+      std::vector<std::pair<uint32_t, int32_t>> merged(links.size()); // per lower cluster, prefix used
+      std::vector<uint32_t> mergedCount(n, 0);
+      tbb::parallel_for(size_t(0), n, [&](size_t a) {
+        auto first = byLower.begin() + start[a], last = byLower.begin() + start[a + 1];
+        std::sort(first, last);
+        uint32_t count = 0;
+        for (auto j = first; j != last;) {
+          float w = 0.0f;
+          auto e = j;
+          for (; e != last && e->first == j->first; ++e) w += e->second;
+          merged[start[a] + count++] = {j->first, std::max<int32_t>(1, int32_t(std::lround(std::min(w / unit, 1e6f))))};
+          j = e;
+        }
+        mergedCount[a] = count;
+      });
+      // CSR with every node's neighbours ascending, as the global pair order gave: first the
+      // lower neighbours of every node,
+      for (size_t a = 0; a < n; ++a) {
+        degree[a + 1] += mergedCount[a];
+        for (uint32_t j = 0; j < mergedCount[a]; ++j) ++degree[merged[start[a] + j].first + 1];
       }
-      std::vector<int32_t> xadj(n + 1, 0), adjncy, weights;
-      for (size_t i = 0; i < n; ++i) {
-        for (auto [b, w] : adj[i]) adjncy.push_back(int32_t(b)), weights.push_back(w);
-        xadj[i + 1] = int32_t(adjncy.size());
-      }
+      for (size_t i = 0; i < n; ++i) degree[i + 1] += degree[i];
+      std::vector<int32_t> xadj(degree.begin(), degree.end()), adjncy(degree[n]), weights(degree[n]);
+      std::vector<uint32_t> fill(degree.begin(), degree.end() - 1);
+      for (size_t a = 0; a < n; ++a)
+        for (uint32_t j = 0; j < mergedCount[a]; ++j) {
+          auto [b, w] = merged[start[a] + j];
+          adjncy[fill[b]] = int32_t(a), weights[fill[b]++] = w;
+        }
+      // Then each node's upper neighbours, after its lower ones (fill[a] points past those).
+      for (size_t a = 0; a < n; ++a)
+        for (uint32_t j = 0; j < mergedCount[a]; ++j) {
+          auto [b, w] = merged[start[a] + j];
+          adjncy[fill[a]] = int32_t(b), weights[fill[a]++] = w;
+        }
+      timer.emplace(kMetis);
       part = partitionGraph(xadj, adjncy, weights, parts);
+      timer.emplace(kPartition);
     }
     // Edge ages for the next level: borders between different groups stay locked one more level.
     std::vector<std::pair<uint64_t, uint32_t>> ages;
     double ageSum = 0.0;
-    agePos = 0;
+    size_t agePos = 0;
     for (const Link& l : links) {
       if (part[l.a] == part[l.b]) continue;
       while (agePos < ages_.size() && ages_[agePos].first < l.key) ++agePos;
@@ -415,6 +625,7 @@ private:
     timer.emplace(kSplit);
     w.parents = splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
                               cfg_.clusterTriangles, splitScratch_.local());
+    setBounds(w.parents);
     // Monotonic error: a parent is never more accurate than the children it replaces.
     float childError = 0.0f;
     for (uint32_t c : w.children) childError = std::max(childError, dag_.clusters[c].self.error);
@@ -470,6 +681,7 @@ private:
   };
   mutable tbb::enumerable_thread_specific<GroupScratch> groupScratch_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far
+  std::vector<uint32_t> bucketStart_;               // sortedBorderEntries' counting sort, per position
 };
 
 std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
@@ -493,22 +705,32 @@ std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
 } // namespace
 
 Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg) {
+  return buildClusterDag(mesh, cfg, nullptr);
+}
+
+Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg, std::vector<uint32_t>* sourceClusters) {
   std::string problem = checkConfig(mesh, cfg);
   if (!problem.empty()) return makeError(mesh.name.empty() ? "mesh" : mesh.name, problem);
   try {
     auto start = std::chrono::steady_clock::now();
     ClusterDag dag;
-    std::optional<StageTimer> timer(kPrep);
-    Welded welded = weldPositions(mesh.positions);
-    std::vector<uint32_t> triangles = cleanTriangles(mesh.indices, welded.vertexPosition);
-    timer.reset();
-    dag.positions = std::move(welded.positions);
-    dag.vertexPosition = std::move(welded.vertexPosition);
+    std::vector<uint32_t> triangles;
+    KeptSources kept;
     dag.normals = mesh.normals;
     dag.uv0 = mesh.uv0;
-    dag.inputTriangles = triangles.size() / 3;
+    // Weld and clean inside the arena too, so --threads bounds the whole build.
     tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
-    arena.execute([&] { Builder(dag, cfg, start).run(triangles); });
+    arena.execute([&] {
+      std::optional<StageTimer> timer(kPrep);
+      Welded welded = weldPositions(mesh.positions);
+      triangles = cleanTriangles(mesh.indices, welded.vertexPosition, sourceClusters ? &kept : nullptr);
+      if (sourceClusters) sourceClusters->assign(mesh.indices.size() / 3, kNone);
+      timer.reset();
+      dag.positions = std::move(welded.positions);
+      dag.vertexPosition = std::move(welded.vertexPosition);
+      dag.inputTriangles = triangles.size() / 3;
+      Builder(dag, cfg, start).run(std::move(triangles), std::move(kept), sourceClusters);
+    });
     printStages(dag.inputTriangles);
     return dag;
   } catch (const std::exception& e) {

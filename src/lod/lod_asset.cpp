@@ -136,12 +136,13 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
   uint64_t total = scene.meshTriangleCount(), done = 0;
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& mesh = scene.meshes[i];
-    auto dag = buildClusterDag(mesh, config);
+    // The builder knows where each source triangle went (sourceTriangleClusters recomputes the
+    // same map by sorting triangle keys: 9 % of the bake's instructions on the dragon).
+    std::vector<uint32_t> sourceMap;
+    auto dag = buildClusterDag(mesh, config, &sourceMap);
     if (!dag)
       return Error{scene.source + ": mesh " + std::to_string(i) + " '" + mesh.name + "': " + dag.error().message};
-    // On the build's worker count, like the DAG build itself.
-    tbb::task_arena arena(config.threads ? int(config.threads) : tbb::task_arena::automatic);
-    arena.execute([&] { out.sourceClusters.push_back(sourceTriangleClusters(mesh, *dag)); });
+    out.sourceClusters.push_back(std::move(sourceMap));
     out.dags.push_back(std::move(dag).value());
     done += mesh.triangleCount();
     if (progress) progress(i + 1, scene.meshes.size(), done, total);

@@ -16,6 +16,7 @@ struct ClusterPiece {
 // Clusters over attribute vertices: vertices are attribute-vertex ids, indices local (8-bit).
 struct ClusterSet {
   std::vector<ClusterPiece> pieces;
+  std::vector<LodBounds> bounds; // per piece: boundingSphere of its vertices (filled by the worker that split it)
   std::vector<uint32_t> vertices;
   std::vector<uint8_t> indices;
 };
@@ -25,8 +26,8 @@ struct SplitScratch {
   std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
   std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
   std::vector<uint32_t> global, corners, offsets, fill, adjacency, triStamp, vertStamp, vertLocal, live, candidates;
-  std::vector<uint32_t> candScore, candPos;
-  std::vector<uint8_t> emitted, extra;
+  std::vector<uint32_t> candScore, candPos, liveSum;
+  std::vector<uint8_t> emitted, extra, outside, dangling, repeated; // outside..: a candidate's score parts
   std::vector<uint16_t> edgeUses;   // 256 x 256 cluster-local position pairs (build.cpp); all 0 between calls
   std::vector<glm::vec3> centroids; // 3x the centroid: only compared
 };
@@ -35,10 +36,11 @@ struct SplitScratch {
 // by greedy growth: each cluster takes the triangle that adds the fewest new vertices, breadth
 // first, and the next cluster starts next to the previous one.
 // Positions (through vertexPosition) only pick the nearest triangle when a cluster has no fitting
-// neighbour left.
+// neighbour left. emitted, when given, receives the input triangle (index into `triangles` / 3)
+// of every output triangle in output order (level 0's source-triangle map).
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
                          const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
-                         SplitScratch& scratch);
+                         SplitScratch& scratch, std::vector<uint32_t>* emitted = nullptr);
 
 // Partitions a weighted undirected graph (CSR, symmetric) into `parts` parts with METIS
 // PartGraphRecursive. Returns the part of each node; falls back to consecutive chunks if METIS fails.

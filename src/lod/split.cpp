@@ -17,8 +17,9 @@ constexpr uint32_t kNil = ~0u;
 
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
                          const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
-                         SplitScratch& s) {
+                         SplitScratch& s, std::vector<uint32_t>* emittedOut) {
   ClusterSet out;
+  if (emittedOut) emittedOut->clear();
   size_t nt = triangles.size() / 3;
   if (nt == 0) return out;
   // Compact local vertex ids through a flat map (reset afterwards), not a sort or a hash map.
@@ -27,6 +28,8 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   s.global.clear();
   s.corners.resize(triangles.size());
   for (size_t i = 0; i < triangles.size(); ++i) {
+    // Level-0 chunks name vertices all over the mesh: fetch the map entries ahead.
+    if (i + 32 < triangles.size()) __builtin_prefetch(&s.localOf[triangles[i + 32]]);
     uint32_t& l = s.localOf[triangles[i]];
     if (l == kNil) l = uint32_t(s.global.size()), s.global.push_back(triangles[i]);
     s.corners[i] = l;
@@ -51,6 +54,14 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   s.triStamp.assign(nt, kNil);
   s.vertStamp.assign(nv, kNil);
   s.live.resize(nv);
+  s.outside.resize(nt);
+  s.dangling.resize(nt);
+  s.liveSum.resize(nt);
+  s.repeated.resize(nt);
+  for (size_t t = 0; t < nt; ++t) {
+    const uint32_t* v = &s.corners[t * 3];
+    s.repeated[t] = v[0] == v[1] || v[1] == v[2] || v[0] == v[2];
+  }
   for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
   s.vertLocal.resize(nv);
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
@@ -89,35 +100,97 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     s.extra[t] = uint8_t(e);
     return rank << 16 | std::min<uint32_t>(l0 + l1 + l2, 0xffff);
   };
+  // Incremental scores: a candidate's score depends only on its corners' live counts and cluster
+  // membership, which change only at the corners of the triangle just added. Instead of rescoring
+  // every triangle around those corners from scratch (three corner loads and six vertex lookups
+  // each), a candidate keeps its parts -- corners outside the cluster, corners with one live
+  // triangle left, the live sum -- and each change adjusts them; the score is the same number.
+  // Triangles with a repeated vertex (never made by clean or the simplifier, but allowed here)
+  // are rescored from scratch, where "vertices added" counts distinct vertices.
+  auto partsScore = [&](uint32_t t) {
+    uint32_t e = s.outside[t];
+    uint32_t rank = e == 0 ? 0 : s.dangling[t] ? 1 : e + 1;
+    s.extra[t] = uint8_t(e);
+    return rank << 16 | std::min<uint32_t>(s.liveSum[t], 0xffff);
+  };
+  auto initParts = [&](uint32_t t) {
+    const uint32_t* v = &s.corners[size_t(t) * 3];
+    uint32_t outside = 0, dangling = 0, liveSum = 0;
+    for (int k = 0; k < 3; ++k) {
+      outside += s.vertStamp[v[k]] != cluster;
+      dangling += s.live[v[k]] == 1;
+      liveSum += s.live[v[k]];
+    }
+    s.outside[t] = uint8_t(outside), s.dangling[t] = uint8_t(dangling), s.liveSum[t] = liveSum;
+  };
+  // Each vertex's adjacency range keeps its unemitted triangles first (live[v] of them, in the
+  // original order: an emitted triangle is removed by shifting the rest down), so the loops below
+  // never test emitted triangles; the scans were a third of the splitter's time, mostly
+  // mispredicted "already emitted" branches.
+  uint32_t* adjacency = s.adjacency.data();
+  const uint32_t* offsets = s.offsets.data();
+  uint32_t* live = s.live.data();
+  uint32_t* triStamp = s.triStamp.data();
+  uint32_t* vertStamp = s.vertStamp.data();
+  uint32_t* candPos = s.candPos.data();
+  uint8_t* outsideOf = s.outside.data();
+  uint8_t* danglingOf = s.dangling.data();
+  uint32_t* liveSum = s.liveSum.data();
+  const uint8_t* repeated = s.repeated.data();
   auto addTriangle = [&](uint32_t t) {
-    if (s.triStamp[t] == cluster) removeCandidate(t); // not yet emitted: it is a candidate
+    if (triStamp[t] == cluster) removeCandidate(t); // not yet emitted: it is a candidate
     s.emitted[t] = 1;
+    if (emittedOut) emittedOut->push_back(t);
     const uint32_t* tv = &s.corners[size_t(t) * 3];
+    // Fewer live triangles at t's corners: adjust the candidates around them (every unemitted
+    // triangle around a cluster vertex is a candidate; the others are scored when they join).
     for (int k = 0; k < 3; ++k) {
       uint32_t v = tv[k];
-      if (s.vertStamp[v] != cluster) {
-        s.vertStamp[v] = cluster;
+      uint32_t* list = adjacency + offsets[v];
+      uint32_t left = --live[v], i = 0;
+      while (list[i] != t) ++i;
+      for (; i < left; ++i) list[i] = list[i + 1];
+      list[left] = t;
+      for (i = 0; i < left; ++i) {
+        uint32_t n = list[i];
+        if (triStamp[n] != cluster) continue;
+        if (repeated[n]) {
+          candScore[candPos[n]] = rescore(n);
+          continue;
+        }
+        --liveSum[n];
+        danglingOf[n] += left == 1;
+        candScore[candPos[n]] = partsScore(n);
+      }
+    }
+    for (int k = 0; k < 3; ++k) {
+      uint32_t v = tv[k];
+      if (vertStamp[v] != cluster) {
+        vertStamp[v] = cluster;
         s.vertLocal[v] = vertexCount++;
         out.vertices.push_back(s.global[v]);
-        for (uint32_t a = s.offsets[v]; a < s.offsets[v + 1]; ++a) {
-          uint32_t n = s.adjacency[a];
-          if (!s.emitted[n] && s.triStamp[n] != cluster) {
-            // Scored below: n lies around one of t's vertices.
-            s.triStamp[n] = cluster, s.candPos[n] = uint32_t(candCount), cand[candCount++] = n;
+        const uint32_t* list = adjacency + offsets[v];
+        for (uint32_t i = 0, left = live[v]; i < left; ++i) {
+          uint32_t n = list[i];
+          if (triStamp[n] != cluster) {
+            // A new candidate around one of t's corners: scored from scratch (sees v inside).
+            triStamp[n] = cluster, candPos[n] = uint32_t(candCount), cand[candCount++] = n;
+            if (repeated[n]) {
+              candScore[candPos[n]] = rescore(n);
+              continue;
+            }
+            initParts(n);
+          } else if (repeated[n]) {
+            candScore[candPos[n]] = rescore(n);
+            continue;
+          } else {
+            --outsideOf[n];
           }
+          candScore[candPos[n]] = partsScore(n);
         }
       }
       out.indices.push_back(uint8_t(s.vertLocal[v]));
     }
-    for (int k = 0; k < 3; ++k) --s.live[tv[k]];
-    // Scores change only through t's vertices (joined the cluster, fewer live triangles), so only
-    // the triangles around them are rescored; picking is then a scan over cached scores. Every
-    // unemitted triangle around a cluster vertex is a candidate.
-    for (int k = 0; k < 3; ++k)
-      for (uint32_t a = s.offsets[tv[k]]; a < s.offsets[tv[k] + 1]; ++a) {
-        uint32_t n = s.adjacency[a];
-        if (!s.emitted[n]) candScore[s.candPos[n]] = rescore(n);
-      }
     ++triangleCount;
     while (scan < nt && s.emitted[scan]) ++scan;
   };

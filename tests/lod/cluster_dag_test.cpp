@@ -8,6 +8,7 @@
 
 #include "lod_meshes.h"
 #include "mirage/lod/cluster_dag.h"
+#include "mirage/lod/lod_asset.h"
 #include "mirage/lod/verify.h"
 #include "test_scenes.h"
 #include "test_support.h"
@@ -127,6 +128,24 @@ TEST(ClusterDag, DegenerateInputBuilds) {
   ClusterDag dag = buildAndVerify(mesh);
   EXPECT_EQ(dag.inputTriangles, 1280u + 1u + 200u);
   EXPECT_TRUE(rootIsSmall(dag));
+}
+
+// The source-triangle map the builder records (level-0 split order, clean's first copies) must be
+// the one the key lookup finds, for the single-set path and the chunked (Morton) one, with
+// degenerate and duplicate (either winding) triangles.
+TEST(ClusterDag, BuilderSourceMapEqualsTheKeyLookup) {
+  for (uint32_t subdivisions : {3u, 5u}) {
+    Mesh mesh = makeBlob(subdivisions, 7);
+    mesh.indices.insert(mesh.indices.end(), {0, 0, 1, 2, 3, 2});
+    for (size_t t = 0; t < 40; t += 4)
+      mesh.indices.insert(mesh.indices.end(), {mesh.indices[t * 3 + 2], mesh.indices[t * 3 + 1], mesh.indices[t * 3]});
+    std::vector<uint32_t> map;
+    Result<ClusterDag> dag = buildClusterDag(mesh, {}, &map);
+    ASSERT_TRUE(dag.ok());
+    EXPECT_GT(dag->levels.size(), 2u);
+    EXPECT_EQ(map, sourceTriangleClusters(mesh, *dag)) << subdivisions;
+    EXPECT_EQ(std::count(map.begin(), map.end(), kNone), 2);
+  }
 }
 
 TEST(ClusterDag, TinyAndEmptyMeshes) {

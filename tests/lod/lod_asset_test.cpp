@@ -19,6 +19,8 @@ void bakeSaveLoadAndCut(const std::filesystem::path& input, int cutsPerMesh) {
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   auto baked = lod::bakeLodAsset(*scene, {});
   ASSERT_TRUE(baked.ok()) << baked.error().message;
+  for (size_t i = 0; i < scene->meshes.size(); ++i) // the builder's map is the key lookup's
+    EXPECT_EQ(baked->sourceClusters[i], lod::sourceTriangleClusters(scene->meshes[i], baked->dags[i])) << i;
   auto path = test::tempDir("lodasset") / "scene.mrg";
   ASSERT_TRUE(lod::saveLodAsset(path.string(), *baked).ok());
   auto loaded = lod::loadLodAsset(path.string());

@@ -124,5 +124,8 @@ struct BuildConfig {
 
 // Builds the DAG. Errors (never exceptions): empty mesh, out-of-range indices, bad config.
 Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& config = {});
+// The same, and per input triangle the level-0 cluster holding it (kNone: degenerate, dropped),
+// i.e. lod_asset.h's sourceTriangleClusters(mesh, dag), known to the builder at no extra cost.
+Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& config, std::vector<uint32_t>* sourceClusters);
 
 } // namespace mirage::lod
