@@ -377,8 +377,11 @@ private:
     std::vector<uint32_t>& positions = s.global;
     local.resize(c.vertexCount);
     positions.clear();
+    const uint32_t* verts = &dag_.clusterVertices[c.vertexOffset];
     for (uint32_t v = 0; v < c.vertexCount; ++v) {
-      uint32_t p = dag_.vertexPosition[dag_.clusterVertices[c.vertexOffset + v]];
+      if (v + 16 < c.vertexCount) __builtin_prefetch(&dag_.vertexPosition[verts[v + 16]]); // scattered ids
+      if (v + 8 < c.vertexCount) __builtin_prefetch(&localOf[dag_.vertexPosition[verts[v + 8]]]);
+      uint32_t p = dag_.vertexPosition[verts[v]];
       uint32_t& l = localOf[p];
       if (l == kNone) l = uint32_t(positions.size()), positions.push_back(p);
       local[v] = l;
@@ -584,9 +587,12 @@ private:
     GroupScratch& gs = groupScratch_.local();
     SimplifyMesh& sm = gs.mesh;
     std::vector<uint32_t>& attrs = sm.attributes;
-    attrs.clear();
+    size_t corners = 0;
+    for (uint32_t c : w.children) corners += size_t(dag_.clusters[c].triangleCount) * 3;
+    attrs.resize(corners);
+    uint32_t* out = attrs.data();
     for (uint32_t c : w.children) {
-      forTriangles(c, [&](uint32_t a, uint32_t b, uint32_t d) { attrs.insert(attrs.end(), {a, b, d}); });
+      forTriangles(c, [&](uint32_t a, uint32_t b, uint32_t d) { out[0] = a, out[1] = b, out[2] = d, out += 3; });
       // Nested spheres: the group's sphere encloses every child's LOD sphere.
       const LodBounds& self = dag_.clusters[c].self;
       w.bounds = c == w.children[0] ? self : mergeSpheres(w.bounds, self);
@@ -600,6 +606,9 @@ private:
     std::vector<uint32_t>& unique = scratch.global;
     unique.clear();
     for (size_t i = 0; i < attrs.size(); ++i) {
+      // Scattered reads on large meshes (vertex ids are not spatial): fetch ahead.
+      if (i + 32 < attrs.size()) __builtin_prefetch(&dag_.vertexPosition[attrs[i + 32]]);
+      if (i + 16 < attrs.size()) __builtin_prefetch(&localOf[dag_.vertexPosition[attrs[i + 16]]]);
       uint32_t p = dag_.vertexPosition[attrs[i]];
       uint32_t& l = localOf[p];
       if (l == kNone) l = uint32_t(unique.size()), unique.push_back(p);
