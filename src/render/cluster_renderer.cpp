@@ -82,10 +82,9 @@ const char* toString(RasterBackend b) {
 }
 
 Result<RasterBackend> parseRasterBackend(std::string_view text) {
-  for (RasterBackend b : {RasterBackend::Auto, RasterBackend::Mesh, RasterBackend::Indirect, RasterBackend::Compute,
-                          RasterBackend::Hybrid})
-    if (text == toString(b)) return b;
-  return Error{fmt::format("--raster '{}': expected auto, mesh, indirect, compute or hybrid", text)};
+  return parseNamed(text, "--raster",
+                    {RasterBackend::Auto, RasterBackend::Mesh, RasterBackend::Indirect, RasterBackend::Compute,
+                     RasterBackend::Hybrid});
 }
 
 const char* toString(BlendRaster b) {
@@ -103,9 +102,8 @@ const char* toString(BlendRaster b) {
 }
 
 Result<BlendRaster> parseBlendRaster(std::string_view text) {
-  for (BlendRaster b : {BlendRaster::Auto, BlendRaster::Compute, BlendRaster::Hybrid, BlendRaster::Hardware})
-    if (text == toString(b)) return b;
-  return Error{fmt::format("--blend-raster '{}': expected auto, compute, hybrid or hardware", text)};
+  return parseNamed(text, "--blend-raster",
+                    {BlendRaster::Auto, BlendRaster::Compute, BlendRaster::Hybrid, BlendRaster::Hardware});
 }
 
 const char* toString(SelectionMode m) {
@@ -123,9 +121,8 @@ const char* toString(SelectionMode m) {
 }
 
 Result<SelectionMode> parseSelectionMode(std::string_view text) {
-  for (SelectionMode m : {SelectionMode::Auto, SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag})
-    if (text == toString(m)) return m;
-  return Error{fmt::format("--selection '{}': expected auto, flat, hierarchy or dag", text)};
+  return parseNamed(text, "--selection",
+                    {SelectionMode::Auto, SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag});
 }
 
 struct ClusterRenderer::Impl {

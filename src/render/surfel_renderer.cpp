@@ -90,9 +90,7 @@ const char* toString(SurfelOrder o) {
 }
 
 Result<SurfelOrder> parseSurfelOrder(std::string_view text) {
-  for (SurfelOrder o : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256})
-    if (text == toString(o)) return o;
-  return Error{fmt::format("surfel order '{}': expected blue, coherent or coherent256", text)};
+  return parseNamed(text, "surfel order", {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256});
 }
 
 const char* toString(SurfelRaster r) {
@@ -108,9 +106,7 @@ const char* toString(SurfelRaster r) {
 }
 
 Result<SurfelRaster> parseSurfelRaster(std::string_view text) {
-  for (SurfelRaster r : {SurfelRaster::Auto, SurfelRaster::Compute, SurfelRaster::Raster})
-    if (text == toString(r)) return r;
-  return Error{fmt::format("--surfel-raster '{}': expected auto, compute or raster", text)};
+  return parseNamed(text, "--surfel-raster", {SurfelRaster::Auto, SurfelRaster::Compute, SurfelRaster::Raster});
 }
 
 struct SurfelRenderer::Impl {
