@@ -87,20 +87,44 @@ std::vector<std::vector<uint32_t>> splitItems(const std::vector<LodBuildNode>& n
   return parts;
 }
 
-// An inner node over `items`, built top-down; returns its build-node id.
-uint32_t buildLodSubtree(std::vector<LodBuildNode>& nodes, std::vector<uint32_t> items) {
-  if (items.size() == 1) return items[0];
-  LodBuildNode node;
-  for (std::vector<uint32_t>& part : splitItems(nodes, std::move(items)))
-    node.children.push_back(buildLodSubtree(nodes, std::move(part)));
+// A leaf over `members` (mesh-local clusters sharing a member group): its sphere encloses their
+// parent and culling spheres, its error bound is their largest parent error. Returns its id.
+uint32_t appendLeafNode(std::vector<LodBuildNode>& nodes, const sio::GpuCluster* clusters,
+                        std::vector<uint32_t> members) {
+  LodBuildNode leaf;
   std::vector<glm::vec4> spheres;
-  for (uint32_t c : node.children) {
+  for (uint32_t c : members) {
+    leaf.maxParentError = std::max(leaf.maxParentError, clusters[c].parentError);
+    spheres.push_back(clusters[c].parentSphere), spheres.push_back(clusters[c].boundsSphere);
+  }
+  leaf.sphere = encloseSpheres(spheres);
+  leaf.clusters = std::move(members);
+  nodes.push_back(std::move(leaf));
+  return uint32_t(nodes.size() - 1);
+}
+
+// An inner node over existing `children`: its sphere encloses theirs, its error bound is their
+// largest. Returns its build-node id.
+uint32_t appendInnerNode(std::vector<LodBuildNode>& nodes, std::vector<uint32_t> children) {
+  LodBuildNode node;
+  std::vector<glm::vec4> spheres;
+  for (uint32_t c : children) {
     spheres.push_back(nodes[c].sphere);
     node.maxParentError = std::max(node.maxParentError, nodes[c].maxParentError);
   }
   node.sphere = encloseSpheres(spheres);
+  node.children = std::move(children);
   nodes.push_back(std::move(node));
   return uint32_t(nodes.size() - 1);
+}
+
+// An inner node over `items`, built top-down; returns its build-node id.
+uint32_t buildLodSubtree(std::vector<LodBuildNode>& nodes, std::vector<uint32_t> items) {
+  if (items.size() == 1) return items[0];
+  std::vector<uint32_t> children;
+  for (std::vector<uint32_t>& part : splitItems(nodes, std::move(items)))
+    children.push_back(buildLodSubtree(nodes, std::move(part)));
+  return appendInnerNode(nodes, std::move(children));
 }
 
 // Breadth-first layout of build nodes into GpuLodNodes: `roots` first, then each node's children
@@ -150,21 +174,13 @@ uint32_t buildLodBvh(const sio::GpuCluster* clusters, const lod::ClusterDag& dag
     for (uint32_t i = level.firstCluster; i < level.firstCluster + level.clusterCount; ++i)
       byGroup.push_back({dag.clusters[i].group, i});
     std::sort(byGroup.begin(), byGroup.end());
-    std::vector<uint32_t> leaves;
+    std::vector<uint32_t> leaves, members;
     for (size_t i = 0; i < byGroup.size(); ++i) {
-      if (i == 0 || byGroup[i].first != byGroup[i - 1].first) {
-        leaves.push_back(uint32_t(nodes.size()));
-        nodes.emplace_back();
+      members.push_back(byGroup[i].second);
+      if (i + 1 == byGroup.size() || byGroup[i + 1].first != byGroup[i].first) {
+        leaves.push_back(appendLeafNode(nodes, clusters, members));
+        members.clear();
       }
-      LodBuildNode& leaf = nodes.back();
-      leaf.clusters.push_back(byGroup[i].second);
-      leaf.maxParentError = std::max(leaf.maxParentError, clusters[byGroup[i].second].parentError);
-    }
-    for (uint32_t l : leaves) {
-      std::vector<glm::vec4> spheres;
-      for (uint32_t c : nodes[l].clusters)
-        spheres.push_back(clusters[c].parentSphere), spheres.push_back(clusters[c].boundsSphere);
-      nodes[l].sphere = encloseSpheres(spheres);
     }
     roots.push_back(buildLodSubtree(nodes, std::move(leaves)));
   }
@@ -184,18 +200,6 @@ uint32_t buildLodBvh(const sio::GpuCluster* clusters, const lod::ClusterDag& dag
 uint32_t buildDagTree(const sio::GpuCluster* clusters, const lod::ClusterDag& dag, std::vector<sio::GpuLodNode>& out,
                       std::vector<uint32_t>& leafClusters) {
   std::vector<LodBuildNode> nodes;
-  auto addLeaf = [&](const uint32_t* members, uint32_t count) {
-    LodBuildNode leaf;
-    std::vector<glm::vec4> spheres;
-    for (uint32_t i = 0; i < count; ++i) {
-      leaf.clusters.push_back(members[i]);
-      leaf.maxParentError = std::max(leaf.maxParentError, clusters[members[i]].parentError);
-      spheres.push_back(clusters[members[i]].parentSphere), spheres.push_back(clusters[members[i]].boundsSphere);
-    }
-    leaf.sphere = encloseSpheres(spheres);
-    nodes.push_back(std::move(leaf));
-    return uint32_t(nodes.size() - 1);
-  };
   // Children of each group's node (index = group; the root's at dag.groups.size()): groups owned.
   std::vector<std::vector<uint32_t>> owned(dag.groups.size() + 1);
   for (uint32_t g = 0; g < dag.groups.size(); ++g) {
@@ -209,26 +213,19 @@ uint32_t buildDagTree(const sio::GpuCluster* clusters, const lod::ClusterDag& da
   std::stable_sort(order.begin(), order.end(),
                    [&](uint32_t a, uint32_t b) { return dag.groups[a].level < dag.groups[b].level; });
   std::vector<uint32_t> groupNode(dag.groups.size() + 1, lod::kNone);
-  auto addGroupNode = [&](uint32_t leaf, const std::vector<uint32_t>& children) {
-    if (children.empty()) return leaf;
-    LodBuildNode node;
-    node.children.push_back(leaf);
-    for (uint32_t c : children) node.children.push_back(groupNode[c]);
-    std::vector<glm::vec4> spheres;
-    for (uint32_t c : node.children) {
-      spheres.push_back(nodes[c].sphere);
-      node.maxParentError = std::max(node.maxParentError, nodes[c].maxParentError);
-    }
-    node.sphere = encloseSpheres(spheres);
-    nodes.push_back(std::move(node));
-    return uint32_t(nodes.size() - 1);
+  auto addGroupNode = [&](uint32_t leaf, const std::vector<uint32_t>& ownedGroups) {
+    if (ownedGroups.empty()) return leaf;
+    std::vector<uint32_t> children{leaf};
+    for (uint32_t g : ownedGroups) children.push_back(groupNode[g]);
+    return appendInnerNode(nodes, std::move(children));
   };
   for (uint32_t g : order) {
     const lod::Group& group = dag.groups[g];
-    uint32_t leaf = addLeaf(&dag.groupChildren[group.childOffset], group.childCount);
+    const uint32_t* members = &dag.groupChildren[group.childOffset];
+    uint32_t leaf = appendLeafNode(nodes, clusters, {members, members + group.childCount});
     groupNode[g] = addGroupNode(leaf, owned[g]);
   }
-  uint32_t rootLeaf = addLeaf(dag.roots.data(), uint32_t(dag.roots.size()));
+  uint32_t rootLeaf = appendLeafNode(nodes, clusters, dag.roots);
   uint32_t root = addGroupNode(rootLeaf, owned[dag.groups.size()]);
   return layoutLodNodes(nodes, {root}, out, leafClusters);
 }
