@@ -29,6 +29,22 @@ void splatPixel(SrVisRef vis, uvec2 px, uint width, uint64_t value, float fade) 
   atomicMax(vis.pixels[at], value);
 }
 
+// The disc's other pixels: centres c (integer + 0.5) with |c - p| <= radius, except the pixel
+// holding the projection p (which the caller writes, directly or through the subgroup merge).
+void splatDiscRest(SrVisRef vis, vec2 p, float radius, uint width, uint height, uint64_t value, float fade) {
+  ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
+  ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
+  ivec2 own = ivec2(floor(p));
+  float r2 = radius * radius;
+  for (int y = lo.y; y <= hi.y; ++y) {
+    float dy = float(y) + 0.5 - p.y;
+    for (int x = lo.x; x <= hi.x; ++x) {
+      float dx = float(x) + 0.5 - p.x;
+      if (dx * dx + dy * dy <= r2 && ivec2(x, y) != own) splatPixel(vis, uvec2(x, y), width, value, fade);
+    }
+  }
+}
+
 #ifdef MIRAGE_SURFEL_SPLAT_MERGE
 // Subgroup merge (SurfelRenderSettings::subgroupMerge, timed by `bench surfels --merge`): before
 // the visibility-buffer access, lanes of a subgroup that hit the same pixel pool their values, and
@@ -79,22 +95,9 @@ void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURF
       }
     }
     uint64_t merged = value;
-    if (mergeSamePixel(pixel, merged)) {
-      uvec2 px = uvec2(pixel % width, pixel / width);
-      if (!(s.fade < 1.0 && fadeDither(px) >= s.fade) && vis.pixels[pixel] < merged) atomicMax(vis.pixels[pixel], merged);
-    }
+    if (mergeSamePixel(pixel, merged)) splatPixel(vis, uvec2(pixel % width, pixel / width), width, merged, s.fade);
     if (value == 0ul || radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
-    ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
-    ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
-    ivec2 own = ivec2(floor(p));
-    float r2 = radius * radius;
-    for (int y = lo.y; y <= hi.y; ++y) {
-      float dy = float(y) + 0.5 - p.y;
-      for (int x = lo.x; x <= hi.x; ++x) {
-        float dx = float(x) + 0.5 - p.x;
-        if (dx * dx + dy * dy <= r2 && ivec2(x, y) != own) splatPixel(vis, uvec2(x, y), width, value, s.fade);
-      }
-    }
+    splatDiscRest(vis, p, radius, width, height, value, s.fade);
   }
 }
 #endif
@@ -148,18 +151,7 @@ void main() {
       splatPixel(vis, uvec2(p), width, value, s.fade);
       if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
     }
-    // The other pixel centres c (integer + 0.5) with |c - p| <= radius.
-    ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
-    ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
-    ivec2 own = ivec2(floor(p));
-    float r2 = radius * radius;
-    for (int y = lo.y; y <= hi.y; ++y) {
-      float dy = float(y) + 0.5 - p.y;
-      for (int x = lo.x; x <= hi.x; ++x) {
-        float dx = float(x) + 0.5 - p.x;
-        if (dx * dx + dy * dy <= r2 && ivec2(x, y) != own) splatPixel(vis, uvec2(x, y), width, value, s.fade);
-      }
-    }
+    splatDiscRest(vis, p, radius, width, height, value, s.fade);
   }
 #endif
 }
