@@ -243,6 +243,18 @@ Mesh levelZeroMesh(const ClusterDag& dag) {
   return m;
 }
 
+Scene levelZeroScene(const LodAsset& asset) {
+  Scene scene = asset.scene;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    uint32_t material = scene.meshes[m].material;
+    scene.meshes[m] = levelZeroMesh(asset.dags[m]);
+    scene.meshes[m].normals = asset.dags[m].normals;
+    scene.meshes[m].uv0 = asset.dags[m].uv0;
+    scene.meshes[m].material = material;
+  }
+  return scene;
+}
+
 Mesh cutMesh(const ClusterDag& dag, const std::vector<uint32_t>& clusters) {
   Mesh m;
   m.name = "cut";

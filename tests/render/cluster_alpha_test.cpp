@@ -90,19 +90,6 @@ lod::LodAsset bake(const Scene& scene) {
   return baked.ok() ? std::move(*baked) : lod::LodAsset{};
 }
 
-// The forward renderer's reference: the DAG's level-0 meshes with the scene's materials.
-Scene levelZeroScene(const lod::LodAsset& asset) {
-  Scene scene = asset.scene;
-  for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    uint32_t mat = scene.meshes[m].material;
-    scene.meshes[m] = lod::levelZeroMesh(asset.dags[m]);
-    scene.meshes[m].normals = asset.dags[m].normals;
-    scene.meshes[m].uv0 = asset.dags[m].uv0;
-    scene.meshes[m].material = mat;
-  }
-  return scene;
-}
-
 ClusterRenderSettings settings(RasterBackend raster) {
   ClusterRenderSettings s;
   s.base.width = s.base.height = kSize;
@@ -261,7 +248,7 @@ TEST_F(ClusterAlpha, HardwareBlendRasterMatchesComputeOnCity) {
 TEST_F(ClusterAlpha, MaskAndBlendMatchForward) {
   lod::LodAsset asset = bake(alphaScene(false));
   ASSERT_FALSE(asset.dags.empty());
-  Scene reference = levelZeroScene(asset);
+  Scene reference = lod::levelZeroScene(asset);
   ImageRGBA8 fwd = renderForward(context(), reference, settings(RasterBackend::Auto).base);
   // Mask ignored (opaque) and blend ignored (opaque): both must be visibly wrong.
   Scene maskOpaque = reference, blendOpaque = reference;
@@ -384,7 +371,7 @@ TEST_F(ClusterAlpha, KhronosAlphaBlendModeTestMatchesForward) {
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   lod::LodAsset asset = bake(*scene);
   ASSERT_FALSE(asset.dags.empty());
-  Scene reference = levelZeroScene(asset);
+  Scene reference = lod::levelZeroScene(asset);
   ClusterRenderSettings s = settings(RasterBackend::Auto);
   s.base.width = 240;
   s.base.height = 135;

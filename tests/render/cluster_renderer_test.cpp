@@ -18,6 +18,7 @@
 #include "mirage/io/generate.h"
 #include "mirage/io/image_io.h"
 #include "mirage/io/import.h"
+#include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
 #include "test_support.h"
 
@@ -56,19 +57,6 @@ ClusterRenderOutput renderAsset(gpu::Context& ctx, const lod::LodAsset& asset, c
   auto out = (*r)->render(s);
   EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
   return std::move(*out);
-}
-
-// The mesh the DAG's level 0 covers, with its attributes: the forward renderer's reference.
-Scene levelZeroScene(const lod::LodAsset& asset) {
-  Scene scene = asset.scene;
-  for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    uint32_t material = scene.meshes[m].material;
-    scene.meshes[m] = lod::levelZeroMesh(asset.dags[m]);
-    scene.meshes[m].normals = asset.dags[m].normals;
-    scene.meshes[m].uv0 = asset.dags[m].uv0;
-    scene.meshes[m].material = material;
-  }
-  return scene;
 }
 
 std::vector<RasterBackend> backends(const gpu::Context& ctx) {
@@ -291,7 +279,7 @@ TEST_F(ClusterRender, BackendsGiveTheSameImage) {
 // At full resolution (tiny tau) the LOD renderer must reproduce the forward renderer of the
 // source mesh; at a quarter pixel the cut is coarser but must still look the same (PSNR).
 void expectMatchesForward(gpu::Context& ctx, const lod::LodAsset& asset, const char* name, double minPsnrQuarterPixel) {
-  Scene reference = levelZeroScene(asset);
+  Scene reference = lod::levelZeroScene(asset);
   auto fwd = ForwardRenderer::create(ctx, reference);
   ASSERT_TRUE(fwd.ok());
   ClusterRenderSettings s = settingsFor(reference.worldBounds(), 0.25f, RasterBackend::Auto);

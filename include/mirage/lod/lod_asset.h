@@ -47,6 +47,9 @@ Result<LodAsset> loadLodAsset(const std::string& path);
 // The mesh the DAG's level-0 clusters cover (cleaned input, positions as stored): the reference
 // for cut checks on a loaded asset.
 Mesh levelZeroMesh(const ClusterDag& dag);
+// The asset's scene with every mesh replaced by its level-0 mesh, with the DAG's normals and UVs
+// and the mesh's material: the forward renderer's full-resolution reference for LOD images.
+Scene levelZeroScene(const LodAsset& asset);
 
 // The clusters' triangles as an ordinary indexed mesh with normals and UVs, holding only the
 // vertices they use: a fixed LOD (e.g. the cut selectCut gives for one object-space error), for
