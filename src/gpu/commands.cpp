@@ -31,6 +31,13 @@ void cmdImageBarriers(VkCommandBuffer cmd, std::span<const ImageBarrier> barrier
   vkCmdPipelineBarrier2(cmd, &di);
 }
 
+void cmdSetFullViewport(VkCommandBuffer cmd, uint32_t width, uint32_t height) {
+  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {width, height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+}
+
 void cmdMemoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
                       VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess) {
   VkMemoryBarrier2 mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};

@@ -166,6 +166,8 @@ struct ClusterRenderer::Impl {
   void cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p);
   void cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, BlendRaster blend, bool meshBlend, bool bufferTarget);
   void cmdBlendDepth(VkCommandBuffer cmd, const sio::ClusterPush& p, bool bufferTarget);
+  void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri);
+  void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
   void cmdHardwareBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
   bool hasBlend() const { return blendCapacity > 0; }
@@ -385,6 +387,28 @@ void ClusterRenderer::Impl::cmdArgs(VkCommandBuffer cmd, const sio::ClusterPush&
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
 }
 
+// Dynamic rendering over the whole target with the state every cluster draw shares: full viewport
+// and scissor, no culling and counter-clockwise fronts (facing is decided per instance in the
+// fragment shaders: single/double-sided, mirrored, so one draw serves every material).
+void ClusterRenderer::Impl::cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri) {
+  ri.renderArea = {{0, 0}, {width, height}};
+  ri.layerCount = 1;
+  vkCmdBeginRendering(cmd, &ri);
+  cmdSetFullViewport(cmd, width, height);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
+  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+}
+
+// The indirect draw of one list's share of a pass (ClusterListArgs): one mesh task per cluster, or
+// one instance of 3 x max-triangles vertices per cluster.
+void ClusterRenderer::Impl::cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list) {
+  if (mesh)
+    vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), dispatchArgsOffset(pass, list), 1,
+                                  sizeof(VkDrawMeshTasksIndirectCommandEXT));
+  else
+    vkCmdDrawIndirect(cmd, counters.handle(), drawArgsOffset(pass, list), 1, sizeof(VkDrawIndirectCommand));
+}
+
 // One hardware list into the visibility image + depth (image backends; pass 1 loads pass 0's) or,
 // `atomic`, into the 64-bit buffer through fragment atomics with no attachments (hybrid).
 // barriers: the pass's arguments visible; the images in the layouts cmdRasterize leaves them in.
@@ -402,33 +426,20 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
   depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE; // the HZB reads it
   depthAtt.clearValue.depthStencil = {0.0f, 0};    // reverse-Z: far is 0
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {width, height}};
-  ri.layerCount = 1;
   if (!atomic) {
     ri.colorAttachmentCount = 1;
     ri.pColorAttachments = &visAtt;
     ri.pDepthAttachment = &depthAtt;
   }
   uint32_t list = atomic ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP;
-  vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-  VkRect2D scissor{{0, 0}, {width, height}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
-  // Facing is decided per instance in the fragment shader (single/double-sided, mirrored), so one
-  // draw serves every material.
-  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
-  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  cmdBeginFullTarget(cmd, ri);
   cmdPush(cmd, p, pass * 2 + list);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
-  if (backend == RasterBackend::Mesh) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, atomic ? meshAtomicPipeline : meshPipeline);
-    vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), dispatchArgsOffset(pass, list), 1,
-                                  sizeof(VkDrawMeshTasksIndirectCommandEXT));
-  } else {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, atomic ? indirectAtomicPipeline : indirectPipeline);
-    vkCmdDrawIndirect(cmd, counters.handle(), drawArgsOffset(pass, list), 1, sizeof(VkDrawIndirectCommand));
-  }
+  bool mesh = backend == RasterBackend::Mesh;
+  VkPipeline pipeline =
+      mesh ? (atomic ? meshAtomicPipeline : meshPipeline) : (atomic ? indirectAtomicPipeline : indirectPipeline);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  cmdDrawList(cmd, mesh, pass, list);
   vkCmdEndRendering(cmd);
 }
 
@@ -594,16 +605,8 @@ void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::Cluste
   depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE; // every pixel written
   depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {width, height}};
-  ri.layerCount = 1;
   ri.pDepthAttachment = &depthAtt;
-  vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-  VkRect2D scissor{{0, 0}, {width, height}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
-  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
-  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  cmdBeginFullTarget(cmd, ri);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, blendDepthPipeline);
   cmdPush(cmd, p, 0);
   // Indirect: no draw when the hardware list is empty (H200, 2500 AlphaBlendModeTest copies under
@@ -629,24 +632,12 @@ void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::Clu
   depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
   depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_NONE; // read-only: nothing to store
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {width, height}};
-  ri.layerCount = 1;
   ri.pDepthAttachment = &depthAtt;
-  vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-  VkRect2D scissor{{0, 0}, {width, height}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
-  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE); // facing per instance in the fragment shader
-  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  cmdBeginFullTarget(cmd, ri);
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST + MIRAGE_LIST_DOWN);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
-  if (mesh)
-    vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_DOWN), 1,
-                                  sizeof(VkDrawMeshTasksIndirectCommandEXT));
-  else
-    vkCmdDrawIndirect(cmd, counters.handle(), drawArgsOffset(2, MIRAGE_LIST_DOWN), 1, sizeof(VkDrawIndirectCommand));
+  cmdDrawList(cmd, mesh, 2, MIRAGE_LIST_DOWN);
   vkCmdEndRendering(cmd);
 }
 

@@ -276,10 +276,7 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
     vkCmdBeginRendering(cmd, &ri);
     d.stats.cmdBegin(cmd);
 
-    VkViewport vp{0.0f, 0.0f, float(s.width), float(s.height), 0.0f, 1.0f};
-    VkRect2D scissor{{0, 0}, {s.width, s.height}};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    cmdSetFullViewport(cmd, s.width, s.height);
     VkDeviceSize zero = 0;
     VkBuffer vb = d.vertices.handle();
     vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);

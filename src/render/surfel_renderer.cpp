@@ -357,10 +357,7 @@ void SurfelRenderer::Impl::cmdSplat(VkCommandBuffer cmd, SurfelRaster raster, Gp
   ri.pColorAttachments = &visAtt;
   ri.pDepthAttachment = &depthAtt;
   vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-  VkRect2D scissor{{0, 0}, {width, height}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  cmdSetFullViewport(cmd, width, height);
   vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
   vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, rasterPipeline);

@@ -383,10 +383,7 @@ Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const Captur
         ri.pColorAttachments = color;
         ri.pDepthAttachment = &depthAtt;
         vkCmdBeginRendering(cmd, &ri);
-        VkViewport vp{0.0f, 0.0f, float(res), float(res), 0.0f, 1.0f};
-        VkRect2D scissor{{0, 0}, {res, res}};
-        vkCmdSetViewport(cmd, 0, 1, &vp);
-        vkCmdSetScissor(cmd, 0, 1, &scissor);
+        cmdSetFullViewport(cmd, res, res);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines[p.count]);
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
         VkDeviceSize zero = 0;

@@ -25,6 +25,9 @@ struct ImageBarrier {
 
 void cmdImageBarriers(VkCommandBuffer cmd, std::span<const ImageBarrier> barriers);
 inline void cmdImageBarrier(VkCommandBuffer cmd, const ImageBarrier& b) { cmdImageBarriers(cmd, {&b, 1}); }
+// Viewport (depth 0..1) and scissor covering a width x height target: the dynamic state every
+// full-target draw sets.
+void cmdSetFullViewport(VkCommandBuffer cmd, uint32_t width, uint32_t height);
 // A global memory barrier: everything `srcStage` wrote with `srcAccess` is visible to `dstStage`/`dstAccess`.
 void cmdMemoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
                       VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess);
