@@ -83,12 +83,16 @@ void main() {
   vec3 eyeObject = (inverse(inst.model) * vec4(f.eye.xyz, 1.0)).xyz;
   s.eyeQuantized = vec4((eyeObject - cloud.boxMin.xyz) / cloud.boxStep.xyz,
                         (f.flags & MIRAGE_SURFEL_BACKFACE_CULL) != 0 && singleSided ? 1.0 : 0.0);
-  s.quantStep = vec4(cloud.boxStep.xyz, 0.0);
+  // Subgroup merge (the merge pipeline reads it): everywhere, or where the cloud is dense on screen.
+  bool merge = (f.flags & MIRAGE_SURFEL_MERGE_ALL) != 0 ||
+               ((f.flags & MIRAGE_SURFEL_MERGE_AUTO) != 0 && s.radiusPixels < MIRAGE_SURFEL_MERGE_RADIUS_PX * distance);
+  s.quantStep = vec4(cloud.boxStep.xyz, merge ? 1.0 : 0.0);
   SrStateRef(push.stateAddress).states[i] = s;
   // vkCmdDrawIndirect: 6 vertices (two triangles) per surfel, firstInstance = instance index.
   SrDrawRef(push.drawAddress).draws[i] = uvec4(count * 6u, 1u, 0u, i);
   if (count > 0u) {
     atomicAdd(SrCounterRef(push.counterAddress).c.visibleInstances, 1u);
     if (fade < 1.0) atomicAdd(SrCounterRef(push.counterAddress).c.fadingInstances, 1u);
+    if (merge) atomicAdd(SrCounterRef(push.counterAddress).c.mergedInstances, 1u);
   }
 }

@@ -102,37 +102,12 @@ void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURF
 }
 #endif
 
-void main() {
-  uint batch = gl_WorkGroupID.y * MIRAGE_SURFEL_DISPATCH_X + gl_WorkGroupID.x;
-  SrCounterRef counters = SrCounterRef(push.counterAddress);
-  if (batch >= counters.c.totalBatches) return; // uniform over the workgroup
-  // Two dependent loads to the instance state: the workgroup's prologue is latency it cannot hide.
-  uint slot = SrUintRef(push.batchInstanceAddress).v[batch];
-  SurfelInstanceState s = SrStateRef(push.stateAddress).states[slot];
-  SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
-  uint firstSurfel = s.firstSurfel;
-  SrUvec2Ref positions = SrUvec2Ref(push.positionAddress);
+// The plain splat: each lane writes its own surfels' pixels (an early exit per surfel).
+void splatPlain(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFEL_PER_THREAD],
+                uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start) {
   SrVisRef vis = SrVisRef(push.visBufferAddress);
   uint width = uint(f.viewport.x);
   uint height = uint(f.viewport.y);
-  uint start = (batch - s.firstBatch) * MIRAGE_SURFEL_BATCH + gl_LocalInvocationIndex;
-
-  // All loads first, so each thread has MIRAGE_SURFEL_PER_THREAD requests in flight before the
-  // first atomic (bandwidth needs memory-level parallelism; atomics would otherwise serialize them).
-  // Back-face culling reads each surfel's attributes too (8 more bytes, coalesced) to skip the
-  // surfels facing away; on the H200 that cost more than it saved (docs/surfels.md).
-  bool cullBackFaces = kCullBackFaces && s.eyeQuantized.w != 0.0; // uniform over the workgroup (one instance)
-  SrUvec2Ref attributes = SrUvec2Ref(push.attributeAddress);
-  uvec2 q[MIRAGE_SURFEL_PER_THREAD];
-  uint normals[MIRAGE_SURFEL_PER_THREAD];
-  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
-    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
-    q[j] = i < s.count ? positions.v[firstSurfel + i] : uvec2(0u);
-    normals[j] = cullBackFaces && i < s.count ? attributes.v[firstSurfel + i].x : 0u;
-  }
-#ifdef MIRAGE_SURFEL_SPLAT_MERGE
-  splatMerged(s, f, q, normals, cullBackFaces, start);
-#else
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     if (i >= s.count) break;
@@ -153,5 +128,40 @@ void main() {
     }
     splatDiscRest(vis, p, radius, width, height, value, s.fade);
   }
-#endif
 }
+
+void main() {
+  uint batch = gl_WorkGroupID.y * MIRAGE_SURFEL_DISPATCH_X + gl_WorkGroupID.x;
+  SrCounterRef counters = SrCounterRef(push.counterAddress);
+  if (batch >= counters.c.totalBatches) return; // uniform over the workgroup
+  // Two dependent loads to the instance state: the workgroup's prologue is latency it cannot hide.
+  uint slot = SrUintRef(push.batchInstanceAddress).v[batch];
+  SurfelInstanceState s = SrStateRef(push.stateAddress).states[slot];
+  SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
+  uint firstSurfel = s.firstSurfel;
+  SrUvec2Ref positions = SrUvec2Ref(push.positionAddress);
+  uint start = (batch - s.firstBatch) * MIRAGE_SURFEL_BATCH + gl_LocalInvocationIndex;
+
+  // All loads first, so each thread has MIRAGE_SURFEL_PER_THREAD requests in flight before the
+  // first atomic (bandwidth needs memory-level parallelism; atomics would otherwise serialize them).
+  // Back-face culling reads each surfel's attributes too (8 more bytes, coalesced) to skip the
+  // surfels facing away; on the H200 that cost more than it saved (docs/surfels.md).
+  bool cullBackFaces = kCullBackFaces && s.eyeQuantized.w != 0.0; // uniform over the workgroup (one instance)
+  SrUvec2Ref attributes = SrUvec2Ref(push.attributeAddress);
+  uvec2 q[MIRAGE_SURFEL_PER_THREAD];
+  uint normals[MIRAGE_SURFEL_PER_THREAD];
+  for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
+    uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
+    q[j] = i < s.count ? positions.v[firstSurfel + i] : uvec2(0u);
+    normals[j] = cullBackFaces && i < s.count ? attributes.v[firstSurfel + i].x : 0u;
+  }
+#ifdef MIRAGE_SURFEL_SPLAT_MERGE
+  // The prefix pass decides per instance (quantStep.w, SurfelMerge): uniform over the workgroup,
+  // so the merge's shuffles run in uniform control flow.
+  if (s.quantStep.w != 0.0)
+    splatMerged(s, f, q, normals, cullBackFaces, start);
+  else
+#endif
+    splatPlain(s, f, q, normals, cullBackFaces, start);
+}
+

@@ -253,10 +253,15 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   if (r.backface == "on" || r.backface == "both") cullings.push_back(true);
   if (r.backface == "off" || r.backface == "both") cullings.push_back(false);
   if (cullings.empty()) return fail("--backface must be on, off or both (got " + r.backface + ")");
-  std::vector<bool> merges;
-  if (r.merge == "off" || r.merge == "both") merges.push_back(false);
-  if (r.merge == "on" || r.merge == "both") merges.push_back(true);
-  if (merges.empty()) return fail("--merge must be on, off or both (got " + r.merge + ")");
+  std::vector<render::SurfelMerge> merges;
+  if (r.merge == "both" || r.merge == "all") {
+    merges = {render::SurfelMerge::Off, render::SurfelMerge::On};
+    if (r.merge == "all") merges.push_back(render::SurfelMerge::Auto);
+  } else {
+    auto m = render::parseSurfelMerge(r.merge);
+    if (!m) return fail(m.error().message + " (or both, all)");
+    merges.push_back(*m);
+  }
   auto orders = parseOrders(r.order, "--order", /*allowList=*/true);
   if (!orders) return fail(orders.error());
   SurfelSession s;
@@ -276,11 +281,12 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   nlohmann::json all = nlohmann::json::array();
   for (render::SurfelRaster raster : rasters)
     for (bool cull : cullings)
-      for (bool merge : merges) {
-        if (merge && raster != render::SurfelRaster::Compute) continue; // a compute splat variant
+      for (render::SurfelMerge merge : merges) {
+        // A compute splat variant: the raster fallback runs once, under the first merge choice.
+        if (raster != render::SurfelRaster::Compute && merge != merges[0]) continue;
         s.settings.raster = raster;
         s.settings.backfaceCulling = cull;
-        s.settings.subgroupMerge = merge;
+        s.settings.merge = merge;
         std::vector<Timed> timed;
         if (!renderFrames(s, r.frames, timed)) return;
         double baseSplatMs = 0.0, baseFrameMs = 0.0;
@@ -302,7 +308,8 @@ void runSurfelBench(const SurfelRenderRequest& r) {
             nlohmann::json j = {{"raster", render::toString(raster)},
                                 {"order", order},
                                 {"backface_culling", cull},
-                                {"subgroup_merge", merge},
+                                {"subgroup_merge", render::toString(merge)},
+                                {"instances_merged", t.last.mergedInstances},
                                 {"surfels_splatted", t.last.surfelsSplatted},
                                 {"instances_visible", t.last.visibleInstances},
                                 {"surfels_per_second", perSecond},
@@ -314,9 +321,10 @@ void runSurfelBench(const SurfelRenderRequest& r) {
             all.push_back(j);
             continue;
           }
-          fmt::print("-- {}{}, {} order, back-face culling {}: instances visible {}, surfels splatted {}\n",
-                     render::toString(raster), merge ? " + subgroup merge" : "", order, cull ? "on" : "off",
-                     t.last.visibleInstances, t.last.surfelsSplatted);
+          fmt::print("-- {}, subgroup merge {}, {} order, back-face culling {}: instances visible {} (merged {}), "
+                     "surfels splatted {}\n",
+                     render::toString(raster), render::toString(merge), order, cull ? "on" : "off",
+                     t.last.visibleInstances, t.last.mergedInstances, t.last.surfelsSplatted);
           for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
           fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
                      perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
@@ -386,7 +394,8 @@ void addBenchSurfelsCommand(CLI::App& bench) {
                 "Back-face culling of single-sided clouds: on|off|both (both: timed in one run)")
       ->capture_default_str();
   b->add_option("--merge", o->merge,
-                "Compute splat variant: subgroup lanes hitting one pixel merge before the atomic: on|off|both")
+                "Compute splat variant: subgroup lanes hitting one pixel merge before the atomic: off|on|auto (per "
+                "instance: where surfels are dense on screen), both (off, on) or all (off, on, auto) timed in one run")
       ->capture_default_str();
   b->add_option("--bandwidth", o->bandwidth, "Device memory bandwidth in B/s (H200 HBM3e: 4.8e12)")
       ->capture_default_str();

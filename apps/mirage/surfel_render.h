@@ -17,7 +17,7 @@ struct SurfelRenderRequest {
   bool sharedCopies = false;    // bench: copies read one stored cloud (else each its own copy of the data)
   bool allSurfels = false;      // bench: splat all N per instance
   std::string backface = "off"; // bench: back-face culling on | off | both (both timed in one run)
-  std::string merge = "off";    // bench: subgroup merge of equal pixels in the compute splat: on | off | both
+  std::string merge = "auto";   // bench: subgroup merge in the compute splat: off | on | auto | both | all
   std::string
       order; // blue | coherent | coherent256 (default: render::kDefaultSurfelOrder); bench: a comma list or "all"
   double bandwidth = 4.8e12; // bench: device bandwidth in B/s for the reported fraction

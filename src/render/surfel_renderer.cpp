@@ -109,6 +109,27 @@ Result<SurfelRaster> parseSurfelRaster(std::string_view text) {
   return parseNamed(text, "--surfel-raster", {SurfelRaster::Auto, SurfelRaster::Compute, SurfelRaster::Raster});
 }
 
+const char* toString(SurfelMerge m) {
+  switch (m) {
+  case SurfelMerge::Off:
+    return "off";
+  case SurfelMerge::On:
+    return "on";
+  case SurfelMerge::Auto:
+    return "auto";
+  }
+  return "?";
+}
+
+Result<SurfelMerge> parseSurfelMerge(std::string_view text) {
+  return parseNamed(text, "--merge", {SurfelMerge::Off, SurfelMerge::On, SurfelMerge::Auto});
+}
+
+// SurfelRenderFrame::flags for the merge choice.
+static uint32_t mergeFlags(SurfelMerge m) {
+  return m == SurfelMerge::On ? MIRAGE_SURFEL_MERGE_ALL : m == SurfelMerge::Auto ? MIRAGE_SURFEL_MERGE_AUTO : 0u;
+}
+
 struct SurfelRenderer::Impl {
   Context& ctx;
   Buffer positions, attributes, radii, clouds, instances, materials; // set-up time
@@ -118,7 +139,7 @@ struct SurfelRenderer::Impl {
   DescriptorSet descriptors;
   Unique<VkPipelineLayout> layout;
   Unique<VkPipeline> prefixPipeline, scanPipeline, rasterPipeline, resolvePipeline;
-  Unique<VkPipeline> splatPipelines[2][2]; // [subgroup merge][back-face culling]
+  Unique<VkPipeline> splatPipelines[2][2]; // [merge pipeline (per-instance choice)][back-face culling]
   bool cullBackFaces = false;              // the frame's settings: which splat pipeline runs
   bool subgroupMerge = false;
   Image color, vis, depth;
@@ -432,9 +453,10 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | (ss.allSurfels ? MIRAGE_SURFEL_ALL : 0u) |
             (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
-            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
+            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u) |
+            mergeFlags(ss.merge);
   d.cullBackFaces = ss.backfaceCulling;
-  d.subgroupMerge = ss.subgroupMerge;
+  d.subgroupMerge = ss.merge != SurfelMerge::Off;
   f.instanceCount = d.instanceCount;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));
   sio::SurfelRenderPush p = d.push();
@@ -469,6 +491,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
   std::memcpy(&c, raw.data(), sizeof(c));
   out.visibleInstances = c.visibleInstances;
   out.fadingInstances = c.fadingInstances;
+  out.mergedInstances = raster == SurfelRaster::Compute && d.subgroupMerge ? c.mergedInstances : 0;
   out.surfelsSplatted = c.totalSurfels;
   out.image.stats.drawCalls = raster == SurfelRaster::Raster ? 1 : 0;
   if (ss.readInstanceStates) {
@@ -479,6 +502,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
       out.prefix.push_back(e.count);
       out.fade.push_back(e.fade);
       out.distance.push_back(e.distance);
+      out.merged.push_back(e.quantStep.w != 0.0f && d.subgroupMerge && raster == SurfelRaster::Compute ? 1 : 0);
     }
     out.idBuffer.resize(size_t(s.width) * s.height);
     if (raster == SurfelRaster::Compute) {
@@ -517,9 +541,10 @@ Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const Surfel
   f.znear = sf.znear;
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
-            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u);
+            (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u) |
+            mergeFlags(ss.merge);
   d.cullBackFaces = ss.backfaceCulling;
-  d.subgroupMerge = ss.subgroupMerge;
+  d.subgroupMerge = ss.merge != SurfelMerge::Off;
   f.instanceCount = d.instanceCount;
   f.idTag = MIRAGE_SURFEL_ID_TAG;
   std::memcpy(d.frame.mapped(), &f, sizeof(f));

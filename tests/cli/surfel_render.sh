@@ -59,8 +59,9 @@ if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 
   expect_fail bench-repeated-order "--order" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order blue,blue
   expect_ok bench-surfels-blue bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order blue --surfel-raster compute --all
   grep -q "blue order" "$tmp/stdout" && ! grep -q "coherent order" "$tmp/stdout" || { echo "FAIL bench-surfels-blue: wrong orders"; failures=$((failures + 1)); }
-  expect_ok bench-surfels-merge bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --surfel-raster compute --merge both
-  [ "$(grep -c "compute + subgroup merge" "$tmp/stdout")" -eq 3 ] || { echo "FAIL bench-surfels-merge: no merged rows for the three orders"; failures=$((failures + 1)); }
+  expect_ok bench-surfels-merge bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --surfel-raster compute --merge all
+  [ "$(grep -c "compute, subgroup merge on," "$tmp/stdout")" -eq 3 ] || { echo "FAIL bench-surfels-merge: no merged rows for the three orders"; failures=$((failures + 1)); }
+  [ "$(grep -c "compute, subgroup merge auto," "$tmp/stdout")" -eq 3 ] || { echo "FAIL bench-surfels-merge: no auto rows for the three orders"; failures=$((failures + 1)); }
   expect_fail bench-bad-merge "--merge" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --merge maybe
   expect_ok render-surfels-blue render "$tmp/s.mrg" -o "$tmp/blue.png" --surfels --surfel-order blue --size 64x64
   expect_fail bench-bad-order "--order" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order morton

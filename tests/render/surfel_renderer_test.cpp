@@ -89,7 +89,7 @@ ImageRGBA8 renderMesh(GpuTest&, const Camera& camera) {
 
 SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, float size = 2.0f,
                                  SurfelOrder order = kDefaultSurfelOrder, bool allSurfels = false,
-                                 bool subgroupMerge = false) {
+                                 SurfelMerge merge = SurfelRenderSettings{}.merge) {
   auto r = SurfelRenderer::create(test::gpuContext(), surfelScene({glm::mat4(1.0f)}), order);
   EXPECT_TRUE(r.ok()) << r.error().message;
   SurfelRenderSettings s;
@@ -97,7 +97,7 @@ SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, floa
   s.raster = raster;
   s.surfelSize = size;
   s.allSurfels = allSurfels;
-  s.subgroupMerge = subgroupMerge;
+  s.merge = merge;
   s.readInstanceStates = true;
   auto out = (*r)->render(s);
   EXPECT_TRUE(out.ok()) << out.error().message;
@@ -505,8 +505,10 @@ TEST_F(SurfelRender, SubgroupMergeWritesTheSameVisibilityBuffer) {
     for (float size : {1.0f, 2.0f})
       for (bool all : {true, false}) {
         Camera cam = blobCamera(all ? 1.0f : 3.0f);
-        SurfelRenderOutput plain = renderSurfels(cam, SurfelRaster::Compute, size, order, all, false);
-        SurfelRenderOutput merged = renderSurfels(cam, SurfelRaster::Compute, size, order, all, true);
+        SurfelRenderOutput plain = renderSurfels(cam, SurfelRaster::Compute, size, order, all, SurfelMerge::Off);
+        SurfelRenderOutput merged = renderSurfels(cam, SurfelRaster::Compute, size, order, all, SurfelMerge::On);
+        EXPECT_EQ(plain.mergedInstances, 0u);
+        EXPECT_EQ(merged.mergedInstances, 1u);
         size_t covered = std::count_if(plain.idBuffer.begin(), plain.idBuffer.end(), [](uint32_t id) { return id; });
         std::printf("%s order, size %.0f, %s: %zu covered px\n", toString(order), size, all ? "all" : "adaptive",
                     covered);
@@ -517,4 +519,41 @@ TEST_F(SurfelRender, SubgroupMergeWritesTheSameVisibilityBuffer) {
           differing += plain.idBuffer[i] != merged.idBuffer[i] || plain.depthBits[i] != merged.depthBits[i];
         EXPECT_EQ(differing, 0u) << toString(order) << " size " << size << " all " << all;
       }
+}
+
+TEST_F(SurfelRender, AutoMergeTakesTheInstancesWhoseSurfelsAreDenseOnScreen) {
+  // SurfelMerge::Auto merges an instance exactly when its disc radius at the reference depth is under
+  // MIRAGE_SURFEL_MERGE_RADIUS_PX pixels (checked against the CPU from the read-back prefix): 2-pixel
+  // adaptive prefixes stay plain, 1-pixel ones and far clouds drawn whole merge. The image stays the
+  // plain splat's, bit for bit.
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
+  const surfels::SurfelCloud& cloud = blob().cloud;
+  struct View {
+    float factor, size;
+    bool all;
+  };
+  bool sawMerged = false, sawPlain = false;
+  for (View v : {View{1, 2, false}, View{4, 2, false}, View{4, 1, false}, View{8, 2, true}, View{16, 2, true}}) {
+    Camera cam = blobCamera(v.factor);
+    SurfelRenderOutput plain =
+        renderSurfels(cam, SurfelRaster::Compute, v.size, kDefaultSurfelOrder, v.all, SurfelMerge::Off);
+    SurfelRenderOutput autoMerge =
+        renderSurfels(cam, SurfelRaster::Compute, v.size, kDefaultSurfelOrder, v.all, SurfelMerge::Auto);
+    ASSERT_EQ(autoMerge.prefix.size(), 1u);
+    uint32_t k = autoMerge.prefix[0];
+    ASSERT_GT(k, 0u);
+    float pixelScale = std::abs(cam.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+    float radiusPx = cloud.radii[k - 1] * pixelScale / autoMerge.distance[0];
+    std::printf("factor %.0f, size %.0f, %s: k %u of %zu, disc radius %.3f px, merged %u\n", v.factor, v.size,
+                v.all ? "all" : "adaptive", k, cloud.size(), radiusPx, unsigned(autoMerge.merged[0]));
+    if (std::abs(radiusPx / MIRAGE_SURFEL_MERGE_RADIUS_PX - 1.0f) > 0.01f) {
+      EXPECT_EQ(autoMerge.merged[0] != 0, radiusPx < MIRAGE_SURFEL_MERGE_RADIUS_PX) << "factor " << v.factor;
+    }
+    EXPECT_EQ(autoMerge.mergedInstances, uint32_t(autoMerge.merged[0]));
+    sawMerged |= autoMerge.merged[0] != 0;
+    sawPlain |= autoMerge.merged[0] == 0;
+    EXPECT_EQ(plain.idBuffer, autoMerge.idBuffer) << "factor " << v.factor;
+    EXPECT_EQ(plain.depthBits, autoMerge.depthBits) << "factor " << v.factor;
+  }
+  EXPECT_TRUE(sawMerged && sawPlain) << "the views should span both sides of the threshold";
 }

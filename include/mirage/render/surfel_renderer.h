@@ -34,6 +34,17 @@ const char* toString(SurfelRaster raster);
 // "auto", "compute" or "raster"; anything else is an error naming the choices.
 Result<SurfelRaster> parseSurfelRaster(std::string_view text);
 
+// The compute splat's subgroup merge (lanes of a subgroup that hit the same pixel pool their values
+// first, and one lane per pixel touches the visibility buffer; the image is the same bit for bit).
+enum class SurfelMerge {
+  Off,  // the plain splat pipeline (no subgroup operations)
+  On,   // every instance merges
+  Auto, // per instance, on the GPU: where its disc radius is under MIRAGE_SURFEL_MERGE_RADIUS_PX
+};
+const char* toString(SurfelMerge merge);
+// "off", "on" or "auto"; anything else is an error naming the choices.
+Result<SurfelMerge> parseSurfelMerge(std::string_view text);
+
 // How the renderer stores each cloud for splatting (files keep the blue-noise order either way).
 enum class SurfelOrder {
   Blue,        // the file's order: prefix k is exactly the first k surfels
@@ -99,13 +110,11 @@ struct SurfelRenderSettings {
   // reads cost more than the skipped splats save (1080p, 102 M surfels: 85.5 G surfels/s culled vs
   // 93.1 unculled; docs/surfels.md), the splat being latency- rather than atomic-bound.
   bool backfaceCulling = false;
-  // Compute splat variant: lanes of a subgroup that hit the same pixel pool their values first, and
-  // one lane per pixel touches the visibility buffer (same image, bit for bit). Meant for the
-  // coherent order; timed against the plain splat by `bench surfels --merge both`. H200: it pays
-  // where many surfels share a pixel (every surfel of 1024 copies drawn: 133 G surfels/s vs 102
-  // plain, coherent256) and costs with adaptive prefixes (~1 surfel per pixel: splat 0.226 vs
-  // 0.184 ms), so it is off by default.
-  bool subgroupMerge = false;
+  // Compute splat variant, meant for the coherent order; timed against the plain splat by `bench
+  // surfels --merge all`. H200: it pays where many surfels share a pixel (every surfel of 1024
+  // copies drawn: 133 G surfels/s vs 102 plain, coherent256) and costs with adaptive prefixes
+  // (~1 surfel per pixel: splat 0.226 vs 0.184 ms), hence the per-instance choice of Auto.
+  SurfelMerge merge = SurfelMerge::Auto;
   // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
   // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
   // beyond it (0: hard switch). Off: surfels everywhere.
@@ -119,10 +128,12 @@ struct SurfelRenderOutput {
   SurfelRaster raster = SurfelRaster::Auto;
   uint32_t visibleInstances = 0;
   uint32_t fadingInstances = 0;
+  uint32_t mergedInstances = 0;    // visible instances whose compute splat took the subgroup merge
   uint64_t surfelsSplatted = 0;    // sum of k over instances
   std::vector<uint32_t> prefix;    // per instance: k (readInstanceStates)
   std::vector<float> fade;         // per instance: share of pixels the surfels may cover
   std::vector<float> distance;     // per instance: reference depth used for k
+  std::vector<uint8_t> merged;     // per instance: 1 when its splat took the subgroup merge
   std::vector<uint32_t> idBuffer;  // per pixel: visibility id (0 = background), when readInstanceStates
   std::vector<uint32_t> depthBits; // per pixel: reverse-Z depth bits of the compute splat (readInstanceStates)
 };

@@ -35,6 +35,8 @@ namespace mirage::shaderio {
 #define MIRAGE_SURFEL_SOURCE_BUFFER 4u  // the resolve reads the 64-bit buffer (compute splat), else the image
 #define MIRAGE_SURFEL_MESH_FADE 8u      // a mesh pass draws near instances: fade surfels in over a band
 #define MIRAGE_SURFEL_BACKFACE_CULL 16u // single-sided clouds skip surfels facing away from the eye
+#define MIRAGE_SURFEL_MERGE_ALL 32u     // the merge splat pipeline: every instance takes the subgroup merge
+#define MIRAGE_SURFEL_MERGE_AUTO 64u    // ... only dense instances (SurfelMerge::Auto, below)
 
 // Coherent splat order (docs/surfels.md, "Coherent order"): the renderer stores each cloud in
 // blocks that keep the blue-noise prefix order between blocks and sort by Morton code within them.
@@ -49,6 +51,13 @@ namespace mirage::shaderio {
 // capture normals are shading normals, which can face slightly away on silhouette triangles that
 // still face the eye, and those surfels fill the rim (the hole-free test covers it).
 #define MIRAGE_SURFEL_BACKFACE_COS 0.25
+
+// SurfelMerge::Auto: an instance takes the subgroup merge when its surfels' disc radius at its
+// nearest point is below this many pixels: then about 1 / (0.87 r^2) >= 4.6 surfels share a pixel,
+// so a warp of 32 consecutive (coherent) surfels covers ~7 pixels and most of its atomics merge.
+// Adaptive prefixes keep r near s / 2 (1 px by default) and never get there; instances whose
+// whole cloud is drawn (k = N, far away, or every surfel in the benchmark) do.
+#define MIRAGE_SURFEL_MERGE_RADIUS_PX 0.5
 
 // One surfel cloud as the shaders see it: positions and attributes live in two arrays (SoA), so the
 // splat streams 8 bytes per surfel and only the resolve touches normals and colours.
@@ -86,7 +95,7 @@ struct SurfelInstanceState {
   // Back-face culling in quantized coordinates (the test is affine-invariant: dot(n, p - eye) has
   // the same sign in object and world space): xyz the eye, w 1 when this instance culls back faces.
   vec4 eyeQuantized;
-  vec4 quantStep; // xyz: object units per quantization step (the cloud's boxStep)
+  vec4 quantStep; // xyz: object units per quantization step (the cloud's boxStep); w: 1 = subgroup merge
 };
 
 struct SurfelRenderFrame {
@@ -116,7 +125,7 @@ struct SurfelRenderCounters {
   uint totalSurfels; // sum of k over instances
   uint visibleInstances;
   uint fadingInstances; // instances inside the blend band (0 < fade < 1)
-  uint pad0;
+  uint mergedInstances; // visible instances whose splat takes the subgroup merge (quantStep.w)
 };
 
 // Push constants of every surfel-render pipeline: addresses of all the arrays.
