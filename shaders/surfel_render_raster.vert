@@ -7,6 +7,7 @@
 layout(location = 0) flat out uint outId;
 layout(location = 1) flat out vec3 outDisc; // centre and radius in pixels
 layout(location = 2) flat out float outFade;
+layout(location = 3) flat out vec3 outShape; // surfelEllipse, as the compute splat's discShape
 
 void main() {
   uint slot = gl_InstanceIndex;
@@ -23,6 +24,7 @@ void main() {
   if (backFacing || clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) {
     gl_Position = vec4(2.0, 2.0, 2.0, 1.0); // outside the clip volume: dropped
     outDisc = vec3(0.0);
+    outShape = vec3(1.0, 0.0, 1.0);
     return;
   }
   float radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
@@ -30,6 +32,10 @@ void main() {
   float half_ = max(radius, 1.0);
   vec2 centre = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
   outDisc = vec3(centre, radius);
+  outShape = vec3(1.0, 0.0, 1.0);
+  if ((f.flags & MIRAGE_SURFEL_ORIENTED) != 0u && radius >= MIRAGE_SURFEL_ORIENTED_MIN_RADIUS_PX)
+    outShape = surfelEllipse(s, quantized, clip, SrUvec2Ref(push.attributeAddress).v[firstSurfel + i].x, radius,
+                             f.viewport);
   // Corners of two triangles: (0,0) (1,0) (0,1), (1,0) (1,1) (0,1).
   const vec2 corners[6] = vec2[](vec2(-1, -1), vec2(1, -1), vec2(-1, 1), vec2(1, -1), vec2(1, 1), vec2(-1, 1));
   vec2 offsetNdc = corners[corner] * half_ * 2.0 / f.viewport;

@@ -31,18 +31,29 @@ void splatPixel(SrVisRef vis, uvec2 px, uint width, uint64_t value, float fade) 
 
 // The disc's other pixels: centres c (integer + 0.5) with |c - p| <= radius, except the pixel
 // holding the projection p (which the caller writes, directly or through the subgroup merge).
-void splatDiscRest(SrVisRef vis, vec2 p, float radius, uint width, uint height, uint64_t value, float fade) {
+// `shape` squashes the disc into its projected ellipse (discShape).
+void splatDiscRest(SrVisRef vis, vec2 p, float radius, vec3 shape, uint width, uint height, uint64_t value,
+                   float fade) {
   ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
   ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
   ivec2 own = ivec2(floor(p));
-  float r2 = radius * radius;
   for (int y = lo.y; y <= hi.y; ++y) {
     float dy = float(y) + 0.5 - p.y;
     for (int x = lo.x; x <= hi.x; ++x) {
       float dx = float(x) + 0.5 - p.x;
-      if (dx * dx + dy * dy <= r2 && ivec2(x, y) != own) splatPixel(vis, uvec2(x, y), width, value, fade);
+      if (insideSurfelDisc(vec2(dx, dy), radius, shape) && ivec2(x, y) != own)
+        splatPixel(vis, uvec2(x, y), width, value, fade);
     }
   }
+}
+
+// The disc's shape on screen (surfelEllipse): the facing circle unless oriented discs are on and
+// the disc is large enough for its orientation to matter (only then is the normal read).
+vec3 discShape(SurfelInstanceState s, SurfelRenderFrame f, vec3 quantized, vec4 clip, float radius, uint surfel) {
+  if ((f.flags & MIRAGE_SURFEL_ORIENTED) == 0u || radius < MIRAGE_SURFEL_ORIENTED_MIN_RADIUS_PX)
+    return vec3(1.0, 0.0, 1.0);
+  uint normal = SrUvec2Ref(push.attributeAddress).v[s.firstSurfel + surfel].x;
+  return surfelEllipse(s, quantized, clip, normal, radius, f.viewport);
 }
 
 #ifdef MIRAGE_SURFEL_SPLAT_MERGE
@@ -83,9 +94,10 @@ void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURF
     uint64_t value = 0ul;
     vec2 p = vec2(0.0);
     float radius = 0.0;
+    vec4 clip = vec4(0.0);
     vec3 quantized = surfelQuantized(q[j]);
     if (i < s.count && !(cullBackFaces && surfelBackFacing(s, quantized, normals[j]))) {
-      vec4 clip = s.clipFromQuantized * vec4(quantized, 1.0);
+      clip = s.clipFromQuantized * vec4(quantized, 1.0);
       if (clip.w > 0.0 && clip.z <= clip.w && clip.z >= 0.0) {
         p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
         value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t((s.firstId + i) | f.idTag);
@@ -97,7 +109,7 @@ void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURF
     uint64_t merged = value;
     if (mergeSamePixel(pixel, merged)) splatPixel(vis, uvec2(pixel % width, pixel / width), width, merged, s.fade);
     if (value == 0ul || radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
-    splatDiscRest(vis, p, radius, width, height, value, s.fade);
+    splatDiscRest(vis, p, radius, discShape(s, f, quantized, clip, radius, i), width, height, value, s.fade);
   }
 }
 #endif
@@ -126,7 +138,7 @@ void splatPlain(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFE
       splatPixel(vis, uvec2(p), width, value, s.fade);
       if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
     }
-    splatDiscRest(vis, p, radius, width, height, value, s.fade);
+    splatDiscRest(vis, p, radius, discShape(s, f, quantized, clip, radius, i), width, height, value, s.fade);
   }
 }
 

@@ -262,6 +262,10 @@ void runSurfelBench(const SurfelRenderRequest& r) {
     if (!m) return fail(m.error().message + " (or both, all)");
     merges.push_back(*m);
   }
+  std::vector<bool> orientations; // oriented discs
+  if (r.discs == "oriented" || r.discs == "both") orientations.push_back(true);
+  if (r.discs == "facing" || r.discs == "both") orientations.push_back(false);
+  if (orientations.empty()) return fail("--discs must be oriented, facing or both (got " + r.discs + ")");
   auto orders = parseOrders(r.order, "--order", /*allowList=*/true);
   if (!orders) return fail(orders.error());
   SurfelSession s;
@@ -281,59 +285,62 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   nlohmann::json all = nlohmann::json::array();
   for (render::SurfelRaster raster : rasters)
     for (bool cull : cullings)
-      for (render::SurfelMerge merge : merges) {
-        // A compute splat variant: the raster fallback runs once, under the first merge choice.
-        if (raster != render::SurfelRaster::Compute && merge != merges[0]) continue;
-        s.settings.raster = raster;
-        s.settings.backfaceCulling = cull;
-        s.settings.merge = merge;
-        std::vector<Timed> timed;
-        if (!renderFrames(s, r.frames, timed)) return;
-        double baseSplatMs = 0.0, baseFrameMs = 0.0;
-        for (size_t o = 0; o < timed.size(); ++o) {
-          const Timed& t = timed[o];
-          const char* order = render::toString((*orders)[o]);
-          double splatMs = passMs(t.times, "splat"), frameMs = passMs(t.times, "frame");
-          double surfels = double(t.last.surfelsSplatted);
-          double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
-          // The splat streams the 8-byte quantized positions, and with back-face culling the 8-byte
-          // attributes (normal + colour, one sector) too; the resolve reads attributes of visible pixels.
-          double bytesPerSecond = perSecond * (cull ? 16.0 : 8.0);
-          // The first order is the baseline: the coherent order's rounded-up prefixes splat more
-          // surfels, so its frame and splat times compare, not only its surfels/s.
-          if (o == 0) baseSplatMs = splatMs, baseFrameMs = frameMs;
-          double splatSpeedup = splatMs > 0.0 ? baseSplatMs / splatMs : 0.0;
-          double frameSpeedup = frameMs > 0.0 ? baseFrameMs / frameMs : 0.0;
-          if (r.json) {
-            nlohmann::json j = {{"raster", render::toString(raster)},
-                                {"order", order},
-                                {"backface_culling", cull},
-                                {"subgroup_merge", render::toString(merge)},
-                                {"instances_merged", t.last.mergedInstances},
-                                {"surfels_splatted", t.last.surfelsSplatted},
-                                {"instances_visible", t.last.visibleInstances},
-                                {"surfels_per_second", perSecond},
-                                {"bytes_per_second", bytesPerSecond},
-                                {"bandwidth_fraction", bytesPerSecond / r.bandwidth},
-                                {"splat_speedup_vs_first_order", splatSpeedup},
-                                {"frame_speedup_vs_first_order", frameSpeedup}};
-            for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-            all.push_back(j);
-            continue;
+      for (render::SurfelMerge merge : merges)
+        for (bool oriented : orientations) {
+          // A compute splat variant: the raster fallback runs once, under the first merge choice.
+          if (raster != render::SurfelRaster::Compute && merge != merges[0]) continue;
+          s.settings.raster = raster;
+          s.settings.backfaceCulling = cull;
+          s.settings.merge = merge;
+          s.settings.orientedDiscs = oriented;
+          std::vector<Timed> timed;
+          if (!renderFrames(s, r.frames, timed)) return;
+          double baseSplatMs = 0.0, baseFrameMs = 0.0;
+          for (size_t o = 0; o < timed.size(); ++o) {
+            const Timed& t = timed[o];
+            const char* order = render::toString((*orders)[o]);
+            double splatMs = passMs(t.times, "splat"), frameMs = passMs(t.times, "frame");
+            double surfels = double(t.last.surfelsSplatted);
+            double perSecond = splatMs > 0.0 ? surfels / (splatMs * 1e-3) : 0.0;
+            // The splat streams the 8-byte quantized positions, and with back-face culling the 8-byte
+            // attributes (normal + colour, one sector) too; the resolve reads attributes of visible pixels.
+            double bytesPerSecond = perSecond * (cull ? 16.0 : 8.0);
+            // The first order is the baseline: the coherent order's rounded-up prefixes splat more
+            // surfels, so its frame and splat times compare, not only its surfels/s.
+            if (o == 0) baseSplatMs = splatMs, baseFrameMs = frameMs;
+            double splatSpeedup = splatMs > 0.0 ? baseSplatMs / splatMs : 0.0;
+            double frameSpeedup = frameMs > 0.0 ? baseFrameMs / frameMs : 0.0;
+            if (r.json) {
+              nlohmann::json j = {{"raster", render::toString(raster)},
+                                  {"order", order},
+                                  {"backface_culling", cull},
+                                  {"subgroup_merge", render::toString(merge)},
+                                  {"oriented_discs", oriented},
+                                  {"instances_merged", t.last.mergedInstances},
+                                  {"surfels_splatted", t.last.surfelsSplatted},
+                                  {"instances_visible", t.last.visibleInstances},
+                                  {"surfels_per_second", perSecond},
+                                  {"bytes_per_second", bytesPerSecond},
+                                  {"bandwidth_fraction", bytesPerSecond / r.bandwidth},
+                                  {"splat_speedup_vs_first_order", splatSpeedup},
+                                  {"frame_speedup_vs_first_order", frameSpeedup}};
+              for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+              all.push_back(j);
+              continue;
+            }
+            fmt::print("-- {}, subgroup merge {}, {} discs, {} order, back-face culling {}: instances visible {} "
+                       "(merged {}), surfels splatted {}\n",
+                       render::toString(raster), render::toString(merge), oriented ? "oriented" : "facing", order,
+                       cull ? "on" : "off", t.last.visibleInstances, t.last.mergedInstances, t.last.surfelsSplatted);
+            for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
+            fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
+                       perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
+            if (o > 0)
+              fmt::print("{} vs {} order: speedup x{:.3f} splat, x{:.3f} frame ({} time / {} time)\n", order,
+                         render::toString((*orders)[0]), splatSpeedup, frameSpeedup, render::toString((*orders)[0]),
+                         order);
           }
-          fmt::print("-- {}, subgroup merge {}, {} order, back-face culling {}: instances visible {} (merged {}), "
-                     "surfels splatted {}\n",
-                     render::toString(raster), render::toString(merge), order, cull ? "on" : "off",
-                     t.last.visibleInstances, t.last.mergedInstances, t.last.surfelsSplatted);
-          for (const auto& p : t.times) fmt::print("gpu {:<8} {:9.3f} ms (median)\n", p.name, p.milliseconds);
-          fmt::print("splat {:.4g} G surfels/s, {:.4g} GB/s of surfel positions read = {:.3g}% of {:.3g} B/s\n",
-                     perSecond * 1e-9, bytesPerSecond * 1e-9, 100.0 * bytesPerSecond / r.bandwidth, r.bandwidth);
-          if (o > 0)
-            fmt::print("{} vs {} order: speedup x{:.3f} splat, x{:.3f} frame ({} time / {} time)\n", order,
-                       render::toString((*orders)[0]), splatSpeedup, frameSpeedup, render::toString((*orders)[0]),
-                       order);
         }
-      }
   // After the timed frames: one frame per order with its instance states read back, for the CPU
   // estimate of how many visibility-buffer lines a warp touches (the quantity the order changes).
   nlohmann::json locality = nlohmann::json::object();
@@ -396,6 +403,9 @@ void addBenchSurfelsCommand(CLI::App& bench) {
   b->add_option("--merge", o->merge,
                 "Compute splat variant: subgroup lanes hitting one pixel merge before the atomic: off|on|auto (per "
                 "instance: where surfels are dense on screen), both (off, on) or all (off, on, auto) timed in one run")
+      ->capture_default_str();
+  b->add_option("--discs", o->discs,
+                "Disc shape: oriented (in the tangent plane, ellipses on screen), facing (screen circles) or both")
       ->capture_default_str();
   b->add_option("--bandwidth", o->bandwidth, "Device memory bandwidth in B/s (H200 HBM3e: 4.8e12)")
       ->capture_default_str();

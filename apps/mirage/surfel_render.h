@@ -11,13 +11,14 @@ struct SurfelRenderRequest {
   std::string camera; // empty: auto 3/4 view
   std::string size = "1920x1080";
   std::string device;
-  std::string raster = "auto";  // auto | compute | raster; bench: "all"
-  float surfelSize = 2.0f;      // s, pixels
-  uint32_t copies = 1;          // instances of the cloud on a grid
-  bool sharedCopies = false;    // bench: copies read one stored cloud (else each its own copy of the data)
-  bool allSurfels = false;      // bench: splat all N per instance
-  std::string backface = "off"; // bench: back-face culling on | off | both (both timed in one run)
-  std::string merge = "auto";   // bench: subgroup merge in the compute splat: off | on | auto | both | all
+  std::string raster = "auto";    // auto | compute | raster; bench: "all"
+  float surfelSize = 2.0f;        // s, pixels
+  uint32_t copies = 1;            // instances of the cloud on a grid
+  bool sharedCopies = false;      // bench: copies read one stored cloud (else each its own copy of the data)
+  bool allSurfels = false;        // bench: splat all N per instance
+  std::string backface = "off";   // bench: back-face culling on | off | both (both timed in one run)
+  std::string discs = "oriented"; // bench: oriented | facing | both
+  std::string merge = "auto";     // bench: subgroup merge in the compute splat: off | on | auto | both | all
   std::string
       order; // blue | coherent | coherent256 (default: render::kDefaultSurfelOrder); bench: a comma list or "all"
   double bandwidth = 4.8e12; // bench: device bandwidth in B/s for the reported fraction

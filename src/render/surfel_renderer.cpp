@@ -454,7 +454,7 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | (ss.allSurfels ? MIRAGE_SURFEL_ALL : 0u) |
             (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u) |
-            mergeFlags(ss.merge);
+            mergeFlags(ss.merge) | (ss.orientedDiscs ? MIRAGE_SURFEL_ORIENTED : 0u);
   d.cullBackFaces = ss.backfaceCulling;
   d.subgroupMerge = ss.merge != SurfelMerge::Off;
   f.instanceCount = d.instanceCount;
@@ -542,7 +542,7 @@ Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const Surfel
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u) |
-            mergeFlags(ss.merge);
+            mergeFlags(ss.merge) | (ss.orientedDiscs ? MIRAGE_SURFEL_ORIENTED : 0u);
   d.cullBackFaces = ss.backfaceCulling;
   d.subgroupMerge = ss.merge != SurfelMerge::Off;
   f.instanceCount = d.instanceCount;

@@ -63,6 +63,9 @@ if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 
   [ "$(grep -c "compute, subgroup merge on," "$tmp/stdout")" -eq 3 ] || { echo "FAIL bench-surfels-merge: no merged rows for the three orders"; failures=$((failures + 1)); }
   [ "$(grep -c "compute, subgroup merge auto," "$tmp/stdout")" -eq 3 ] || { echo "FAIL bench-surfels-merge: no auto rows for the three orders"; failures=$((failures + 1)); }
   expect_fail bench-bad-merge "--merge" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --merge maybe
+  expect_ok bench-surfels-discs bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --surfel-raster compute --order blue --discs both
+  [ "$(grep -c "oriented discs" "$tmp/stdout")" -eq 1 ] && [ "$(grep -c "facing discs" "$tmp/stdout")" -eq 1 ] || { echo "FAIL bench-surfels-discs: no row per disc shape"; failures=$((failures + 1)); }
+  expect_fail bench-bad-discs "--discs" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --discs round
   expect_ok render-surfels-blue render "$tmp/s.mrg" -o "$tmp/blue.png" --surfels --surfel-order blue --size 64x64
   expect_fail bench-bad-order "--order" "" -- bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --order morton
   expect_fail surfels-bad-order "--surfel-order" "$tmp/b.png" -- render "$tmp/s.mrg" -o "$tmp/b.png" --surfels --surfel-order all

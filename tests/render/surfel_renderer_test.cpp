@@ -89,7 +89,8 @@ ImageRGBA8 renderMesh(GpuTest&, const Camera& camera) {
 
 SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, float size = 2.0f,
                                  SurfelOrder order = kDefaultSurfelOrder, bool allSurfels = false,
-                                 SurfelMerge merge = SurfelRenderSettings{}.merge) {
+                                 SurfelMerge merge = SurfelRenderSettings{}.merge,
+                                 bool orientedDiscs = SurfelRenderSettings{}.orientedDiscs) {
   auto r = SurfelRenderer::create(test::gpuContext(), surfelScene({glm::mat4(1.0f)}), order);
   EXPECT_TRUE(r.ok()) << r.error().message;
   SurfelRenderSettings s;
@@ -98,6 +99,7 @@ SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, floa
   s.surfelSize = size;
   s.allSurfels = allSurfels;
   s.merge = merge;
+  s.orientedDiscs = orientedDiscs;
   s.readInstanceStates = true;
   auto out = (*r)->render(s);
   EXPECT_TRUE(out.ok()) << out.error().message;
@@ -556,4 +558,33 @@ TEST_F(SurfelRender, AutoMergeTakesTheInstancesWhoseSurfelsAreDenseOnScreen) {
     EXPECT_EQ(plain.depthBits, autoMerge.depthBits) << "factor " << v.factor;
   }
   EXPECT_TRUE(sawMerged && sawPlain) << "the views should span both sides of the threshold";
+}
+
+TEST_F(SurfelRender, OrientedDiscsBloatTheSilhouetteLessAndStayHoleFree) {
+  // Near the mesh switch the discs are several pixels wide. Facing discs overhang the silhouette by
+  // about a radius; discs in the tangent plane are edge-on there, so the surfel pixels outside the
+  // mesh's own mask must drop clearly, with no holes inside it (both splat paths, which must agree).
+  for (float factor : {0.6f, 1.0f}) {
+    Camera cam = blobCamera(factor);
+    ImageRGBA8 mesh = renderMesh(*this, cam);
+    auto outside = [&](const ImageRGBA8& img) {
+      size_t n = 0;
+      for (size_t i = 0; i < size_t(kSize) * kSize; ++i) n += isBackground(mesh, i) && !isBackground(img, i);
+      return n;
+    };
+    for (SurfelRaster raster : {SurfelRaster::Compute, SurfelRaster::Raster}) {
+      if (raster == SurfelRaster::Compute && !context().caps().int64BufferAtomics) continue;
+      SurfelRenderOutput facing =
+          renderSurfels(cam, raster, 2.0f, kDefaultSurfelOrder, false, SurfelRenderSettings{}.merge, false);
+      SurfelRenderOutput oriented =
+          renderSurfels(cam, raster, 2.0f, kDefaultSurfelOrder, false, SurfelRenderSettings{}.merge, true);
+      size_t bloatFacing = outside(facing.image.srgb), bloatOriented = outside(oriented.image.srgb);
+      double holes = holeFraction(mesh, oriented.image.srgb);
+      std::printf("distance x%.1f, %s: pixels outside the mesh: facing %zu, oriented %zu; holes %.4f%%\n", factor,
+                  toString(raster), bloatFacing, bloatOriented, 100.0 * holes);
+      EXPECT_GT(bloatFacing, 100u) << "the view should show the facing discs' overhang";
+      EXPECT_LT(double(bloatOriented), 0.75 * double(bloatFacing)) << toString(raster) << " x" << factor;
+      EXPECT_LE(holes, 0.01) << toString(raster) << " x" << factor;
+    }
+  }
 }

@@ -115,6 +115,10 @@ struct SurfelRenderSettings {
   // copies drawn: 133 G surfels/s vs 102 plain, coherent256) and costs with adaptive prefixes
   // (~1 surfel per pixel: splat 0.226 vs 0.184 ms), hence the per-instance choice of Auto.
   SurfelMerge merge = SurfelMerge::Auto;
+  // Discs in the surfels' tangent planes (ellipses on screen, docs/surfels.md "Oriented discs")
+  // rather than facing the viewer: silhouettes stop bloating by a disc radius where discs are large
+  // (near the mesh switch). Only discs of >= MIRAGE_SURFEL_ORIENTED_MIN_RADIUS_PX read the normal.
+  bool orientedDiscs = true;
   // Cross-fade with a mesh pass: instances nearer than the switch distance (where k reaches N)
   // draw nothing, and surfels cover a dithered share of pixels over `fadeBand` x that distance
   // beyond it (0: hard switch). Off: surfels everywhere.

@@ -37,6 +37,7 @@ namespace mirage::shaderio {
 #define MIRAGE_SURFEL_BACKFACE_CULL 16u // single-sided clouds skip surfels facing away from the eye
 #define MIRAGE_SURFEL_MERGE_ALL 32u     // the merge splat pipeline: every instance takes the subgroup merge
 #define MIRAGE_SURFEL_MERGE_AUTO 64u    // ... only dense instances (SurfelMerge::Auto, below)
+#define MIRAGE_SURFEL_ORIENTED 128u     // discs lie in the surfel's tangent plane (ellipses on screen)
 
 // Coherent splat order (docs/surfels.md, "Coherent order"): the renderer stores each cloud in
 // blocks that keep the blue-noise prefix order between blocks and sort by Morton code within them.
@@ -51,6 +52,15 @@ namespace mirage::shaderio {
 // capture normals are shading normals, which can face slightly away on silhouette triangles that
 // still face the eye, and those surfels fill the rim (the hole-free test covers it).
 #define MIRAGE_SURFEL_BACKFACE_COS 0.25
+
+// Oriented discs (SurfelRenderSettings::orientedDiscs): a disc seen at angle θ projects to an
+// ellipse whose minor radius R·|cos θ| is kept at least this many pixels, so a disc seen edge-on
+// still writes its line of pixels (the role of EWA's low-pass filter).
+#define MIRAGE_SURFEL_MIN_MINOR_PX 0.5
+// ... and only discs of at least this radius are oriented: below, a disc's footprint is the pixel
+// holding its centre and at most a few neighbours, which the ellipse would barely change, and the
+// normal load (8 more bytes per surfel) is saved on the dense splats that dominate the cost.
+#define MIRAGE_SURFEL_ORIENTED_MIN_RADIUS_PX 1.0
 
 // SurfelMerge::Auto: an instance takes the subgroup merge when its surfels' disc radius at its
 // nearest point is below this many pixels: then about 1 / (0.87 r^2) >= 4.6 surfels share a pixel,
