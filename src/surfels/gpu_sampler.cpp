@@ -30,22 +30,48 @@ uint32_t nextPow2(uint32_t v) {
 
 uint32_t groups1D(uint64_t items) { return uint32_t(std::clamp<uint64_t>((items + 255) / 256, 1, 4096)); }
 
+// Shader stages that read or write the sampler's buffers for each splatter.
+VkPipelineStageFlags2 splatStages(DiscRaster raster) {
+  switch (raster) {
+  case DiscRaster::Mesh:
+    return VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  case DiscRaster::Geometry:
+    return VK_PIPELINE_STAGE_2_GEOMETRY_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  case DiscRaster::Compute:
+    break;
+  }
+  return 0;
+}
+
+VkShaderStageFlags splatPushStages(DiscRaster raster) {
+  switch (raster) {
+  case DiscRaster::Mesh:
+    return VK_SHADER_STAGE_MESH_BIT_EXT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  case DiscRaster::Geometry:
+    return VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_GEOMETRY_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  case DiscRaster::Compute:
+    break;
+  }
+  return VK_SHADER_STAGE_COMPUTE_BIT;
+}
+
 struct Sampler {
   Context& ctx;
   const GpuGBuffer& gb;
-  Unique<VkPipelineLayout> layout;
+  DiscRaster raster = DiscRaster::Compute;
+  Unique<VkPipelineLayout> layout, rasterLayout;
   Unique<VkPipeline> splat, farthest, candidates, validate, append;
   Buffer globals, cells, owners, samples, radii, cellMax, candidateKeys, counters, hostCounters, views;
   GpuTimer timer;
   std::map<std::string, double> stageMs;
   std::vector<std::string> stageOrder;
 
-  Sampler(Context& c, const GpuGBuffer& g) : ctx(c), gb(g), timer(c, 32) {}
+  Sampler(Context& c, const GpuGBuffer& g, DiscRaster r) : ctx(c), gb(g), raster(r), timer(c, 32) {}
 
   void cmdBarrier(VkCommandBuffer cmd) {
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
-                     VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+    VkPipelineStageFlags2 stages =
+        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT | splatStages(raster);
+    cmdMemoryBarrier(cmd, stages, VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT, stages,
                      VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
                          VK_ACCESS_2_TRANSFER_WRITE_BIT);
   }
@@ -64,6 +90,7 @@ struct Sampler {
   // every item's radius (<= 0: whole views).
   // barriers: the positions and the item list are written; the caller adds a barrier after.
   void cmdSplat(VkCommandBuffer cmd, uint32_t mode, uint32_t first, uint32_t count, float radius) {
+    if (raster != DiscRaster::Compute) return cmdRasterSplat(cmd, mode, first, count, radius);
     uint32_t res = gb.texels.resolution;
     uint32_t side = res;
     if (radius > 0.0f)
@@ -78,6 +105,35 @@ struct Sampler {
       p.count = std::min(kMaxGroups, count - done);
       cmdDispatch(cmd, splat, p, p.tilesPerSide * p.tilesPerSide, p.count, gb.texels.viewCount);
     }
+  }
+  // The same splat through the raster pipeline: one quad per (item, view) into a res × res
+  // framebuffer without attachments; the fragment shader applies the atomic.
+  void cmdRasterSplat(VkCommandBuffer cmd, uint32_t mode, uint32_t first, uint32_t count, float radius) {
+    uint32_t res = gb.texels.resolution, viewCount = gb.texels.viewCount;
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {res, res}};
+    ri.layerCount = 1;
+    vkCmdBeginRendering(cmd, &ri);
+    cmdSetFullViewport(cmd, res, res);
+    vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
+    vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, splat);
+    sio::SurfelSamplerPush p = basePush();
+    p.mode = mode;
+    p.radius = radius;
+    // Mesh draws: 32 (item, view) pairs per work group, at most kMaxGroups groups per draw.
+    uint32_t perDraw = std::max(1u, kMaxGroups * 32 / viewCount);
+    for (uint32_t done = 0; done < count; done += perDraw) {
+      p.first = first + done;
+      p.count = std::min(perDraw, count - done);
+      vkCmdPushConstants(cmd, rasterLayout, splatPushStages(raster), 0, sizeof(p), &p);
+      uint32_t pairs = p.count * viewCount;
+      if (raster == DiscRaster::Mesh)
+        vkCmdDrawMeshTasksEXT(cmd, (pairs + 31) / 32, 1, 1);
+      else
+        vkCmdDraw(cmd, pairs, 1, 0, 0);
+    }
+    vkCmdEndRendering(cmd);
   }
   uint32_t cmdBegin(VkCommandBuffer cmd, const char* name) {
     if (!stageMs.count(name)) stageOrder.push_back(name), stageMs[name] = 0.0;
@@ -102,13 +158,48 @@ struct Sampler {
 
 } // namespace
 
+const char* toString(DiscRaster raster) {
+  switch (raster) {
+  case DiscRaster::Compute:
+    return "compute";
+  case DiscRaster::Mesh:
+    return "mesh";
+  case DiscRaster::Geometry:
+    return "geometry";
+  }
+  return "?";
+}
+
+Result<DiscRaster> parseDiscRaster(std::string_view text) {
+  for (DiscRaster r : {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry})
+    if (text == toString(r)) return r;
+  return Error{fmt::format("--disc-raster '{}': expected compute, mesh or geometry", text)};
+}
+
+std::string discRasterUnsupported(const Context& ctx, DiscRaster raster) {
+  const DeviceCapabilities& c = ctx.caps();
+  std::string missing;
+  if (raster == DiscRaster::Mesh && !c.meshShader) missing = "mesh shaders (VK_EXT_mesh_shader)";
+  if (raster == DiscRaster::Geometry && !c.geometryShader) missing = "geometry shaders (geometryShader)";
+  if (raster != DiscRaster::Compute && !c.fragmentStoresAndAtomics)
+    missing += std::string(missing.empty() ? "" : " and ") + "fragment-shader atomics (fragmentStoresAndAtomics)";
+  if (missing.empty()) return {};
+  return fmt::format("surfels: --disc-raster {} needs {}, which {} does not have", toString(raster), missing, c.name);
+}
+
 Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const GpuSamplerConfig& config) {
   if (!ctx.caps().int64BufferAtomics)
     return Error{"surfels: the GPU sampler needs 64-bit buffer atomics (shaderBufferInt64Atomics)"};
   if (config.count == 0) return Error{"surfels: the surfel count must be at least 1"};
   if (gb.texels.size() == 0) return Error{"surfels: the G-buffer has no texels to sample"};
+  if (std::string why = discRasterUnsupported(ctx, config.discRaster); !why.empty()) return Error{why};
+  const VkPhysicalDeviceLimits& limits = ctx.properties().limits;
+  if (config.discRaster != DiscRaster::Compute &&
+      (gb.texels.resolution > limits.maxFramebufferWidth || gb.texels.resolution > limits.maxFramebufferHeight))
+    return Error{fmt::format("surfels: --disc-raster {} renders {}² but the framebuffer limit is {}",
+                             toString(config.discRaster), gb.texels.resolution, limits.maxFramebufferWidth)};
   auto start = std::chrono::steady_clock::now();
-  Sampler s(ctx, gb);
+  Sampler s(ctx, gb, config.discRaster);
   const GBufferTexels& t = gb.texels;
   uint64_t texelCount = uint64_t(t.viewCount) * t.resolution * t.resolution;
   uint32_t target = uint32_t(std::min<uint64_t>(config.count, t.size()));
@@ -148,7 +239,23 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
                                                               "surfel globals");
 
   s.layout = createPipelineLayout(ctx, {}, sizeof(sio::SurfelSamplerPush), VK_SHADER_STAGE_COMPUTE_BIT);
-  s.splat = createComputePipeline(ctx, "surfel_splat.comp", s.layout);
+  if (config.discRaster == DiscRaster::Compute) {
+    s.splat = createComputePipeline(ctx, "surfel_splat.comp", s.layout);
+  } else {
+    s.rasterLayout = createPipelineLayout(ctx, {}, sizeof(sio::SurfelSamplerPush), splatPushStages(config.discRaster));
+    GraphicsPipelineDesc d;
+    if (config.discRaster == DiscRaster::Mesh) {
+      d.meshShader = "surfel_splat.mesh";
+    } else {
+      d.vertexShader = "surfel_splat.vert";
+      d.geometryShader = "surfel_splat.geom";
+      d.topology = VK_PRIMITIVE_TOPOLOGY_POINT_LIST;
+    }
+    d.fragmentShader = "surfel_splat.frag";
+    d.layout = s.rasterLayout;
+    d.depthWrite = false; // no attachments: the fragment shader's atomics are the only output
+    s.splat = createGraphicsPipeline(ctx, d);
+  }
   s.farthest = createComputePipeline(ctx, "surfel_farthest.comp", s.layout);
   s.candidates = createComputePipeline(ctx, "surfel_candidates.comp", s.layout);
   s.validate = createComputePipeline(ctx, "surfel_validate.comp", s.layout);

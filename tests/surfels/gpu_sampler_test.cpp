@@ -68,3 +68,40 @@ TEST_F(SurfelGpuSampler, StopsWhenTexelsRunOut) {
   config.count = 0;
   EXPECT_FALSE(sampleOnGpu(context(), *gb, config).ok());
 }
+
+// The raster splatters (mesh shader, geometry shader) apply the compute splatter's atomics on the
+// same keys to the same texels: the whole order and every radius are bit-identical.
+TEST_F(SurfelGpuSampler, DiscRastersGiveTheComputeOrder) {
+  Scene scene = io::generateScene("blob", 1, 7).value();
+  CaptureConfig capture;
+  capture.resolution = 64;
+  capture.views = 6;
+  auto gb = captureGBuffer(context(), scene, capture);
+  ASSERT_TRUE(gb.ok()) << gb.error().message;
+  GpuSamplerConfig config;
+  config.count = 3000;
+  auto compute = sampleOnGpu(context(), *gb, config);
+  ASSERT_TRUE(compute.ok()) << compute.error().message;
+  ASSERT_EQ(compute->order.texels.size(), 3000u);
+  for (DiscRaster raster : {DiscRaster::Mesh, DiscRaster::Geometry}) {
+    SCOPED_TRACE(toString(raster));
+    config.discRaster = raster;
+    if (std::string why = discRasterUnsupported(context(), raster); !why.empty()) {
+      EXPECT_FALSE(sampleOnGpu(context(), *gb, config).ok()); // refused with the reason, not run
+      continue;
+    }
+    auto r = sampleOnGpu(context(), *gb, config);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->rounds, compute->rounds);
+    EXPECT_EQ(r->order.texels, compute->order.texels);
+    EXPECT_EQ(r->order.radii, compute->order.radii);
+  }
+}
+
+TEST(SurfelDiscRaster, ParsesTheChoices) {
+  for (DiscRaster r : {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry})
+    EXPECT_EQ(parseDiscRaster(toString(r)).value(), r);
+  auto bad = parseDiscRaster("depth");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("expected compute, mesh or geometry"), std::string::npos);
+}
