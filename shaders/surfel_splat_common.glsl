@@ -48,14 +48,20 @@ ivec4 splatSquare(SurfelSamplerGlobals g, SplatDisc d, uint view) {
   return ivec4(max(ivec2(floor(pixel - rp)), ivec2(0)), min(ivec2(ceil(pixel + rp)), ivec2(res - 1)));
 }
 
-// The disc's update of texel t (any texel of its square). `precise`: no splatter may fuse the
-// distance differently (an fma in one stage and not another would change which key wins).
+// Distance from the disc's centre to a texel's position. `precise`: no splatter may fuse it
+// differently (an fma in one stage and not another would change which key wins).
+float splatDistance(SplatDisc d, vec3 q) {
+  vec3 e = q - d.center;
+  precise float d2 = e.x * e.x + e.y * e.y + e.z * e.z;
+  precise float dist = sqrt(d2);
+  return dist;
+}
+
+// The disc's update of texel t (any texel of its square).
 void splatTexel(SurfelSamplerGlobals g, SplatDisc d, uint t) {
   vec4 q = SurfelVec4Ref(g.positions).v[t];
   if (q.w < 0.5) return; // no surface seen at this texel
-  vec3 e = q.xyz - d.center;
-  precise float d2 = e.x * e.x + e.y * e.y + e.z * e.z;
-  precise float dist = sqrt(d2);
+  float dist = splatDistance(d, q.xyz);
   // The high word alone is read plainly (32-bit reads do not tear): distances only shrink and
   // owners only grow, so a stale value never skips an update that would win.
   if (push.mode == 0) {

@@ -185,7 +185,7 @@ void runBenchSampler(const BenchSamplerOptions& o) {
     printDiscRasterTable(*runs);
     for (const DiscRasterRun& r : *runs) {
       if (!r.skipped.empty()) continue;
-      fmt::print("{:<9}", surfels::toString(r.raster));
+      fmt::print("{:<10}", surfels::toString(r.raster));
       for (const gpu::PassTime& t : r.times) fmt::print(" {} {:.3f}", t.name, t.milliseconds);
       fmt::print(" ms; sampler wall {:.3f} s\n", r.seconds);
     }
@@ -208,7 +208,8 @@ void addBenchSurfelsSamplerCommand(CLI::App& bench) {
   b->add_option("--views", o->views, "Orthographic capture directions")->capture_default_str();
   b->add_option("--layers", o->layers, "Depth-peeling layers per view")->capture_default_str();
   b->add_option("--threshold", o->threshold, "Candidate threshold")->capture_default_str();
-  b->add_option("--disc-raster", o->discRaster, "Splatters to time: all, or a comma list of compute, mesh, geometry")
+  b->add_option("--disc-raster", o->discRaster,
+                "Splatters to time: all, or a comma list of compute, mesh, geometry, mesh-depth")
       ->capture_default_str();
   b->add_option("--repeat", o->repeat, "Timed runs per splatter; the median is reported")->capture_default_str();
   b->add_option("--device", o->device, "Vulkan device name substring or index");

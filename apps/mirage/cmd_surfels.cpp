@@ -287,7 +287,8 @@ void addSurfelsCommand(CLI::App& app) {
   cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
   cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
   cmd->add_option("--disc-raster", o->discRaster,
-                  "Disc splatter of the voronoi and conflicts stages: compute, mesh or geometry (same order); all or "
+                  "Disc splatter of the voronoi and conflicts stages: compute, mesh, geometry or mesh-depth (same "
+                  "order); all or "
                   "a comma list times each on the same G-buffer")
       ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");

@@ -17,7 +17,7 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-constexpr DiscRaster kAll[] = {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry};
+constexpr DiscRaster kAll[] = {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth};
 
 } // namespace
 
@@ -85,11 +85,11 @@ void printDiscRasterTable(const std::vector<DiscRasterRun>& runs) {
   const DiscRasterRun* base = nullptr;
   for (const DiscRasterRun& r : runs)
     if (r.skipped.empty() && r.raster == DiscRaster::Compute) base = &r;
-  fmt::print("{:<9} {:>7} {:>12} {:>12} {:>12} {:>10} {:>10}  {}\n", "disc", "rounds", "voronoi ms", "conflicts ms",
+  fmt::print("{:<10} {:>7} {:>12} {:>12} {:>12} {:>10} {:>10}  {}\n", "disc", "rounds", "voronoi ms", "conflicts ms",
              "all GPU ms", "voronoi", "conflicts", "order");
   for (const DiscRasterRun& r : runs) {
     if (!r.skipped.empty()) {
-      fmt::print("{:<9} skipped: {}\n", surfels::toString(r.raster), r.skipped);
+      fmt::print("{:<10} skipped: {}\n", surfels::toString(r.raster), r.skipped);
       continue;
     }
     double total = 0.0;
@@ -98,7 +98,7 @@ void printDiscRasterTable(const std::vector<DiscRasterRun>& runs) {
       if (!base || r.stageMs(stage) <= 0.0) return std::string("-");
       return fmt::format("{:.2f}x", r.stageMs(stage) / base->stageMs(stage));
     };
-    fmt::print("{:<9} {:>7} {:>12.3f} {:>12.3f} {:>12.3f} {:>10} {:>10}  {}\n", surfels::toString(r.raster), r.rounds,
+    fmt::print("{:<10} {:>7} {:>12.3f} {:>12.3f} {:>12.3f} {:>10} {:>10}  {}\n", surfels::toString(r.raster), r.rounds,
                r.stageMs("voronoi"), r.stageMs("conflicts"), total, ratio("voronoi"), ratio("conflicts"),
                r.sameOrderAsFirst ? "same" : "DIFFERS");
   }

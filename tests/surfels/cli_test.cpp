@@ -124,7 +124,7 @@ TEST(SurfelCli, DiscRasterChoicesWriteTheSameSurfels) {
   ASSERT_EQ(compute.code, 0) << compute.err;
   std::string expected = read("compute.ply");
   ASSERT_FALSE(expected.empty());
-  for (std::string raster : {"mesh", "geometry", "all", "geometry,mesh"}) {
+  for (std::string raster : {"mesh", "geometry", "mesh-depth", "all", "geometry,mesh"}) {
     std::string name = "out_" + raster + ".ply";
     CliRun r = runMirage(base + (dir / name).string() + " --disc-raster " + raster, dir);
     if (r.code == 2 && r.err.find("does not have") != std::string::npos) continue; // unsupported on this device
@@ -140,5 +140,6 @@ TEST(SurfelCli, DiscRasterChoicesWriteTheSameSurfels) {
   EXPECT_NE(text.find("\"disc_raster\": \"compute\""), std::string::npos) << text;
   EXPECT_NE(text.find("\"disc_raster\": \"mesh\""), std::string::npos) << text;
   EXPECT_NE(text.find("\"disc_raster\": \"geometry\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"disc_raster\": \"mesh-depth\""), std::string::npos) << text;
   EXPECT_EQ(text.find("\"same_order\": false"), std::string::npos) << text;
 }

@@ -83,7 +83,7 @@ TEST_F(SurfelGpuSampler, DiscRastersGiveTheComputeOrder) {
   auto compute = sampleOnGpu(context(), *gb, config);
   ASSERT_TRUE(compute.ok()) << compute.error().message;
   ASSERT_EQ(compute->order.texels.size(), 3000u);
-  for (DiscRaster raster : {DiscRaster::Mesh, DiscRaster::Geometry}) {
+  for (DiscRaster raster : {DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth}) {
     SCOPED_TRACE(toString(raster));
     config.discRaster = raster;
     if (std::string why = discRasterUnsupported(context(), raster); !why.empty()) {
@@ -99,9 +99,9 @@ TEST_F(SurfelGpuSampler, DiscRastersGiveTheComputeOrder) {
 }
 
 TEST(SurfelDiscRaster, ParsesTheChoices) {
-  for (DiscRaster r : {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry})
+  for (DiscRaster r : {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth})
     EXPECT_EQ(parseDiscRaster(toString(r)).value(), r);
   auto bad = parseDiscRaster("depth");
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message.find("expected compute, mesh or geometry"), std::string::npos);
+  EXPECT_NE(bad.error().message.find("expected compute, mesh, geometry or mesh-depth"), std::string::npos);
 }

@@ -15,14 +15,16 @@ namespace mirage::surfels {
 // Who splats the Voronoi and Poisson discs (the voronoi and conflicts stages). All apply the same
 // 64-bit atomics on the same keys to the same texels, so the sample order is bit-identical.
 enum class DiscRaster {
-  Compute,  // compute splatter: 8×8-thread tiles of each disc's bounding square per view
-  Mesh,     // mesh shader: one quad per (disc, view); the fragment shader does the atomic
-  Geometry, // geometry shader: one point per (disc, view) expanded to that quad; same fragment shader
+  Compute,   // compute splatter: 8×8-thread tiles of each disc's bounding square per view
+  Mesh,      // mesh shader: one quad per (disc, view); the fragment shader does the atomic
+  Geometry,  // geometry shader: one point per (disc, view) expanded to that quad; same fragment shader
+  MeshDepth, // Voronoi by the depth test (mesh quads into per-view layers, depth = distance, an id
+             // attachment, converted back to the cells); conflicts as Mesh
 };
 const char* toString(DiscRaster raster);
-Result<DiscRaster> parseDiscRaster(std::string_view text); // "compute", "mesh" or "geometry"
-// Empty when `context` can run `raster`; otherwise why not (the missing feature).
-std::string discRasterUnsupported(const gpu::Context& context, DiscRaster raster);
+Result<DiscRaster> parseDiscRaster(std::string_view text); // "compute", "mesh", "geometry" or "mesh-depth"
+// Empty when `context` can run `raster` (on `views` G-buffer views; 0: any count); otherwise why not.
+std::string discRasterUnsupported(const gpu::Context& context, DiscRaster raster, uint32_t views = 0);
 
 struct GpuSamplerConfig {
   uint32_t count = 100000;  // surfels wanted (fewer when the G-buffer runs out of texels)
