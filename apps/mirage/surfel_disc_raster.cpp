@@ -44,39 +44,40 @@ Result<std::vector<DiscRaster>> parseDiscRasterList(const std::string& text) {
 Result<std::vector<DiscRasterRun>> compareDiscRasters(gpu::Context& ctx, const surfels::GpuGBuffer& gb,
                                                       surfels::GpuSamplerConfig config,
                                                       const std::vector<DiscRaster>& rasters, int repeat) {
-  std::vector<DiscRasterRun> runs;
+  std::vector<DiscRasterRun> runs(rasters.size());
+  std::vector<std::map<std::string, std::vector<double>>> stageRuns(rasters.size());
+  std::vector<std::vector<std::string>> stageOrder(rasters.size());
+  std::vector<std::vector<double>> seconds(rasters.size());
   for (size_t i = 0; i < rasters.size(); ++i) {
-    DiscRasterRun run;
-    run.raster = rasters[i];
-    run.skipped = surfels::discRasterUnsupported(ctx, run.raster);
-    if (!run.skipped.empty()) {
-      runs.push_back(std::move(run));
-      continue;
-    }
-    config.discRaster = run.raster;
-    std::map<std::string, std::vector<double>> stageRuns;
-    std::vector<std::string> stageOrder;
-    std::vector<double> seconds;
-    // The first splatter gets an untimed warm-up (caches, clocks), so it is not penalized for going first.
-    for (int k = i == 0 ? -1 : 0; k < repeat; ++k) {
+    runs[i].raster = rasters[i];
+    runs[i].skipped = surfels::discRasterUnsupported(ctx, rasters[i], gb.texels.viewCount);
+  }
+  // Round-robin over the splatters, so a change of load or clocks during the run hits all alike;
+  // round -1 is an untimed warm-up of the first splatter.
+  for (int k = -1; k < repeat; ++k)
+    for (size_t i = 0; i < rasters.size(); ++i) {
+      DiscRasterRun& run = runs[i];
+      if (!run.skipped.empty() || (k < 0 && i > 0)) continue;
+      config.discRaster = run.raster;
       auto r = surfels::sampleOnGpu(ctx, gb, config);
       if (!r) return r.error();
       if (k < 0) continue;
       for (const gpu::PassTime& t : r->times) {
-        if (!stageRuns.count(t.name)) stageOrder.push_back(t.name);
-        stageRuns[t.name].push_back(t.milliseconds);
+        if (!stageRuns[i].count(t.name)) stageOrder[i].push_back(t.name);
+        stageRuns[i][t.name].push_back(t.milliseconds);
       }
-      seconds.push_back(r->seconds);
+      seconds[i].push_back(r->seconds);
       run.rounds = r->rounds;
       if (k == 0) run.order = std::move(r->order);
     }
-    for (const std::string& name : stageOrder) run.times.push_back({name, median(stageRuns[name])});
-    run.seconds = median(seconds);
-    const DiscRasterRun* first = nullptr;
-    for (const DiscRasterRun& r : runs)
-      if (r.skipped.empty() && !first) first = &r;
-    if (first) run.sameOrderAsFirst = run.order.texels == first->order.texels && run.order.radii == first->order.radii;
-    runs.push_back(std::move(run));
+  const DiscRasterRun* first = nullptr;
+  for (size_t i = 0; i < runs.size(); ++i) {
+    DiscRasterRun& run = runs[i];
+    if (!run.skipped.empty()) continue;
+    for (const std::string& name : stageOrder[i]) run.times.push_back({name, median(stageRuns[i][name])});
+    run.seconds = median(seconds[i]);
+    if (!first) first = &run;
+    run.sameOrderAsFirst = run.order.texels == first->order.texels && run.order.radii == first->order.radii;
   }
   return runs;
 }

@@ -26,8 +26,8 @@ struct DiscRasterRun {
   double stageMs(const std::string& name) const;
 };
 
-// Runs the sampler with `config` once per splatter in `rasters` (`repeat` times each, after the first
-// splatter's untimed warm-up); unsupported splatters are reported as skipped.
+// Runs the sampler with `config` with every splatter in `rasters`, `repeat` rounds round-robin after
+// an untimed warm-up of the first; unsupported splatters are reported as skipped.
 Result<std::vector<DiscRasterRun>> compareDiscRasters(gpu::Context& ctx, const surfels::GpuGBuffer& gb,
                                                       surfels::GpuSamplerConfig config,
                                                       const std::vector<surfels::DiscRaster>& rasters, int repeat);

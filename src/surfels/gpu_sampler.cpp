@@ -34,8 +34,7 @@ uint32_t groups1D(uint64_t items) { return uint32_t(std::clamp<uint64_t>((items 
 VkPipelineStageFlags2 splatStages(DiscRaster raster) {
   switch (raster) {
   case DiscRaster::Mesh:
-    return VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  case DiscRaster::MeshDepth: // + the depth/id attachments (image barriers) and their copies
+  case DiscRaster::MeshDepth: // its attachments have their own image barriers (cmdDepthImageBarriers)
     return VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
   case DiscRaster::Geometry:
     return VK_PIPELINE_STAGE_2_GEOMETRY_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
