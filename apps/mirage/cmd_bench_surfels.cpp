@@ -1,5 +1,7 @@
 // mirage bench surfels-sort: the GPU radix sort against the bitonic sort it replaced, on keys
 // shaped like the surfel sampler's candidates (radius float bits << 32 | texel index).
+// mirage bench surfels-sampler: the whole sampler per disc splatter (compute, mesh, geometry) on one
+// G-buffer, per-stage GPU times.
 #include <algorithm>
 #include <bit>
 #include <cstring>
@@ -13,7 +15,9 @@
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/query.h"
 #include "mirage/gpu/radix_sort.h"
+#include "mirage/surfels/capture.h"
 #include "render_common.h"
+#include "surfel_disc_raster.h"
 
 namespace mirage::cli {
 
@@ -126,7 +130,92 @@ void runBenchSort(const BenchSortOptions& o) {
                std::popcount(samplerDigits), o.texels);
 }
 
+struct BenchSamplerOptions {
+  std::string input;
+  uint32_t count = 100000;
+  uint32_t resolution = 1024;
+  uint32_t views = 16;
+  uint32_t layers = 1;
+  float threshold = 0.75f;
+  std::string discRaster = "all";
+  int repeat = 3;
+  std::string device;
+  bool json = false;
+};
+
+void runBenchSampler(const BenchSamplerOptions& o) {
+  auto rasters = parseDiscRasterList(o.discRaster);
+  if (!rasters) return fail(rasters.error());
+  if (o.repeat < 1 || o.repeat > 100) return fail("--repeat must be in 1..100");
+  if (o.count == 0) return fail("--count must be at least 1");
+  if (o.views == 0 || o.views > 256) return fail("--views must be in 1..256");
+  if (o.layers == 0 || o.layers > 16) return fail("--layers must be in 1..16");
+  if (o.resolution == 0) return fail("--resolution must be at least 1");
+  if (!(o.threshold > 0.0f && o.threshold <= 1.0f)) return fail("--threshold must be in (0, 1]");
+  auto scene = loadSceneArgument(o.input);
+  if (!scene) return fail(scene.error());
+  auto ctx = openDevice(o.device);
+  if (!ctx) return fail(ctx.error());
+  gpu::Context& c = **ctx;
+  surfels::CaptureConfig cc;
+  cc.resolution = o.resolution;
+  cc.views = o.views;
+  cc.layers = o.layers;
+  auto gb = surfels::captureGBuffer(c, *scene, cc);
+  if (!gb) return fail(gb.error());
+  surfels::GpuSamplerConfig sc;
+  sc.count = o.count;
+  sc.threshold = o.threshold;
+  auto runs = compareDiscRasters(c, *gb, sc, *rasters, o.repeat);
+  if (!runs) return fail(runs.error());
+  if (o.json) {
+    fmt::print("{}\n", nlohmann::json({{"bench", "surfels-sampler"},
+                                       {"device", c.caps().name},
+                                       {"input", o.input},
+                                       {"texels", gb->texels.size()},
+                                       {"count", o.count},
+                                       {"resolution", o.resolution},
+                                       {"views", o.views * o.layers},
+                                       {"repeat", o.repeat},
+                                       {"rows", discRasterJson(*runs)}})
+                           .dump(2));
+  } else {
+    fmt::print("surfel sampler on {}: {} ({} texels, {} views x {}^2), {} surfels, median of {}\n", c.caps().name,
+               o.input, gb->texels.size(), o.views * o.layers, o.resolution, o.count, o.repeat);
+    printDiscRasterTable(*runs);
+    for (const DiscRasterRun& r : *runs) {
+      if (!r.skipped.empty()) continue;
+      fmt::print("{:<10}", surfels::toString(r.raster));
+      for (const gpu::PassTime& t : r.times) fmt::print(" {} {:.3f}", t.name, t.milliseconds);
+      fmt::print(" ms; sampler wall {:.3f} s\n", r.seconds);
+    }
+  }
+  for (const DiscRasterRun& r : *runs)
+    if (r.skipped.empty() && !r.sameOrderAsFirst)
+      return fail(fmt::format("--disc-raster {} gives another sample order than the first splatter",
+                              surfels::toString(r.raster)));
+}
+
 } // namespace
+
+void addBenchSurfelsSamplerCommand(CLI::App& bench) {
+  auto* b = bench.add_subcommand("surfels-sampler",
+                                 "Surfel sampler per disc splatter (compute, mesh, geometry) on one G-buffer");
+  auto o = std::make_shared<BenchSamplerOptions>();
+  b->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
+  b->add_option("--count", o->count, "Surfels to sample")->capture_default_str();
+  b->add_option("--resolution", o->resolution, "G-buffer resolution per view")->capture_default_str();
+  b->add_option("--views", o->views, "Orthographic capture directions")->capture_default_str();
+  b->add_option("--layers", o->layers, "Depth-peeling layers per view")->capture_default_str();
+  b->add_option("--threshold", o->threshold, "Candidate threshold")->capture_default_str();
+  b->add_option("--disc-raster", o->discRaster,
+                "Splatters to time: all, or a comma list of compute, mesh, geometry, mesh-depth")
+      ->capture_default_str();
+  b->add_option("--repeat", o->repeat, "Timed runs per splatter; the median is reported")->capture_default_str();
+  b->add_option("--device", o->device, "Vulkan device name substring or index");
+  b->add_flag("--json", o->json, "Print results as JSON");
+  b->callback([o] { runBenchSampler(*o); });
+}
 
 void addBenchSurfelsSortCommand(CLI::App& bench) {
   auto* b = bench.add_subcommand("surfels-sort", "GPU radix sort vs the bitonic baseline on surfel-sampler keys");

@@ -20,6 +20,7 @@ nlohmann::json capsJson(const gpu::DeviceInfo& d) {
           {"api", fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(c.apiVersion), VK_API_VERSION_MINOR(c.apiVersion),
                               VK_API_VERSION_PATCH(c.apiVersion))},
           {"mesh_shader", c.meshShader},
+          {"geometry_shader", c.geometryShader},
           {"ray_tracing_pipeline", c.rayTracingPipeline},
           {"ray_query", c.rayQuery},
           {"acceleration_structure", c.accelerationStructure},
@@ -56,9 +57,10 @@ void printDevices(bool json) {
     fmt::print("[{}] {}{} ({}, Vulkan {}.{}.{}, {})\n", d.index, c.name, c.name == chosen ? "  <- default" : "",
                gpu::deviceTypeName(c.type), VK_API_VERSION_MAJOR(c.apiVersion), VK_API_VERSION_MINOR(c.apiVersion),
                VK_API_VERSION_PATCH(c.apiVersion), c.driver);
-    fmt::print("    mesh shader {}  ray tracing pipeline {}  ray query {}  int64 atomics buffer {} image {}\n",
-               yes(c.meshShader), yes(c.rayTracingPipeline), yes(c.rayQuery), yes(c.int64BufferAtomics),
-               yes(c.int64ImageAtomics));
+    fmt::print("    mesh shader {}  geometry shader {}  ray tracing pipeline {}  ray query {}  int64 atomics buffer {} "
+               "image {}\n",
+               yes(c.meshShader), yes(c.geometryShader), yes(c.rayTracingPipeline), yes(c.rayQuery),
+               yes(c.int64BufferAtomics), yes(c.int64ImageAtomics));
     fmt::print("    multiview {} views  subgroup {}  timestamps {} ({} ns/tick)  pipeline statistics {}\n",
                c.maxMultiviewViews, c.subgroupSize, yes(c.timestamps), c.timestampPeriodNs, yes(c.pipelineStatistics));
     fmt::print("    max storage buffer range {} MiB  device-local memory {} MiB\n", c.maxStorageBufferRange >> 20,

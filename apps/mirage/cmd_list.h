@@ -20,6 +20,8 @@ void addBenchSurfelsCommand(CLI::App& bench);
 void addBenchRaysCommand(CLI::App* bench);
 // mirage bench surfels-sort (cmd_bench_surfels.cpp), added under `bench`.
 void addBenchSurfelsSortCommand(CLI::App& bench);
+// mirage bench surfels-sampler INPUT [--disc-raster all] (cmd_bench_surfels.cpp), added under `bench`.
+void addBenchSurfelsSamplerCommand(CLI::App& bench);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.

@@ -14,6 +14,7 @@
 #include "mirage/surfels/reference.h"
 #include "mirage/surfels/surfel_io.h"
 #include "render_common.h"
+#include "surfel_disc_raster.h"
 
 namespace mirage::cli {
 
@@ -32,6 +33,8 @@ struct SurfelsOptions {
   bool perMesh = false;
   bool append = false; // add the SURF chunks to the existing .mrg at -o (its other chunks kept)
   bool bitonicSort = false;
+  std::string discRaster = "compute"; // one splatter, a comma list or all (timed side by side)
+  std::vector<surfels::DiscRaster> discRasters;
 };
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
@@ -46,6 +49,7 @@ struct Sampled {
   uint32_t passes = 0, rounds = 0;
   double captureSeconds = 0.0, samplerSeconds = 0.0, referenceSeconds = 0.0;
   std::vector<gpu::PassTime> gpuTimes, samplerTimes;
+  std::vector<DiscRasterRun> discRuns; // several --disc-raster splatters: each one's run
 };
 
 // Point clouds: the exact farthest-point order over the points (no capture, no GPU). Meshes: G-buffer
@@ -76,12 +80,32 @@ Result<Sampled> sampleScene(gpu::Context* ctx, const Scene& scene, const Surfels
   sc.count = o.count;
   sc.threshold = o.threshold;
   sc.bitonicSort = o.bitonicSort;
-  auto sampled = surfels::sampleOnGpu(*ctx, *gb, sc);
-  if (!sampled) return sampled.error();
-  s.order = std::move(sampled->order);
-  s.rounds = sampled->rounds;
-  s.samplerSeconds = sampled->seconds;
-  s.samplerTimes = sampled->times;
+  sc.discRaster = o.discRasters[0];
+  if (o.discRasters.size() > 1) {
+    auto runs = compareDiscRasters(*ctx, *gb, sc, o.discRasters, 1);
+    if (!runs) return runs.error();
+    s.discRuns = std::move(*runs);
+    const DiscRasterRun* first = nullptr; // the output comes from the first splatter that ran here
+    for (const DiscRasterRun& r : s.discRuns) {
+      if (!r.skipped.empty()) continue;
+      if (!first) first = &r;
+      if (!r.sameOrderAsFirst)
+        return Error{fmt::format("surfels: internal error: --disc-raster {} gives another order than {}",
+                                 surfels::toString(r.raster), surfels::toString(first->raster))};
+    }
+    if (!first) return Error{"surfels: none of the --disc-raster splatters runs on " + ctx->caps().name};
+    s.order = first->order;
+    s.rounds = first->rounds;
+    s.samplerSeconds = first->seconds;
+    s.samplerTimes = first->times;
+  } else {
+    auto sampled = surfels::sampleOnGpu(*ctx, *gb, sc);
+    if (!sampled) return sampled.error();
+    s.order = std::move(sampled->order);
+    s.rounds = sampled->rounds;
+    s.samplerSeconds = sampled->seconds;
+    s.samplerTimes = sampled->times;
+  }
   s.texels = std::move(gb->texels);
   if (o.reference) {
     t0 = std::chrono::steady_clock::now();
@@ -156,7 +180,7 @@ Status appendSurfelChunks(const std::string& path, std::span<const surfels::Mesh
   return writer.write(path);
 }
 
-void runSurfels(const SurfelsOptions& o) {
+void runSurfels(SurfelsOptions o) {
   // Everything cheap first, so bad input fails before the import and the GPU start.
   if (auto s = checkOutputPath(o.output, {".ply", ".mrg"}); !s) return fail(s.error());
   if (o.count == 0) return fail("--count must be at least 1");
@@ -164,6 +188,11 @@ void runSurfels(const SurfelsOptions& o) {
   if (o.layers == 0 || o.layers > 16) return fail("--layers must be in 1..16");
   if (o.resolution == 0) return fail("--resolution must be at least 1");
   if (!(o.threshold > 0.0f && o.threshold <= 1.0f)) return fail("--threshold must be in (0, 1]");
+  auto rasters = parseDiscRasterList(o.discRaster);
+  if (!rasters) return fail(rasters.error());
+  o.discRasters = *rasters;
+  if (rasters->size() > 1 && o.perMesh)
+    return fail("--disc-raster " + o.discRaster + " times several splatters: give one with --per-mesh");
   if (o.perMesh && !o.output.ends_with(".mrg"))
     return fail("--per-mesh writes one SURF chunk per mesh: use a .mrg output");
   if (o.append && !o.perMesh)
@@ -186,6 +215,8 @@ void runSurfels(const SurfelsOptions& o) {
     auto opened = openDevice(o.device);
     if (!opened) return fail(opened.error());
     ctx = std::move(*opened);
+    if (rasters->size() == 1)
+      if (std::string why = surfels::discRasterUnsupported(*ctx, (*rasters)[0]); !why.empty()) return fail(why);
   }
   std::string device = ctx ? ctx->caps().name : "the CPU (point cloud: exact farthest-point order)";
   fmt::print("import {:.3f} s\n", importSeconds);
@@ -226,6 +257,10 @@ void runSurfels(const SurfelsOptions& o) {
                o.input, o.output, cloud.size(), sampled->texels.size(), o.views, o.layers, o.resolution,
                sampled->passes, device);
   printReport(*sampled, cloud, o.reference && !pointCloud);
+  if (!sampled->discRuns.empty()) {
+    fmt::print("disc splatters on the same G-buffer (GPU times summed over rounds):\n");
+    printDiscRasterTable(sampled->discRuns);
+  }
 }
 
 } // namespace
@@ -251,6 +286,11 @@ void addSurfelsCommand(CLI::App& app) {
       "--per-mesh: add the SURF chunks to the existing .mrg at -o (e.g. from mirage build), keeping its DAGs");
   cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
   cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
+  cmd->add_option("--disc-raster", o->discRaster,
+                  "Disc splatter of the voronoi and conflicts stages: compute, mesh, geometry or mesh-depth (same "
+                  "order); all or "
+                  "a comma list times each on the same G-buffer")
+      ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
   cmd->callback([o] { runSurfels(*o); });
 }

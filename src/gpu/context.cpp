@@ -146,6 +146,7 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   c.int64ImageAtomics = p.hasImageInt64 && f.imageInt64.shaderImageInt64Atomics;
   c.pipelineStatistics = f.core.features.pipelineStatisticsQuery;
   c.fragmentStoresAndAtomics = f.core.features.fragmentStoresAndAtomics;
+  c.geometryShader = f.core.features.geometryShader;
 
   if (VK_API_VERSION_MINOR(props.apiVersion) < 3 && VK_API_VERSION_MAJOR(props.apiVersion) == 1)
     p.whyUnusable = "Vulkan 1.3 required";

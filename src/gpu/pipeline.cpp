@@ -24,10 +24,15 @@ Unique<VkShaderModule> createShaderModule(Context& context, std::string_view nam
 Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipelineDesc& d) {
   bool mesh = !d.meshShader.empty();
   Unique<VkShaderModule> vs = createShaderModule(context, mesh ? d.meshShader : d.vertexShader);
-  Unique<VkShaderModule> fs;
+  Unique<VkShaderModule> gs, fs;
   std::vector<VkPipelineShaderStageCreateInfo> stages;
   stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
                     mesh ? VK_SHADER_STAGE_MESH_BIT_EXT : VK_SHADER_STAGE_VERTEX_BIT, vs, "main", nullptr});
+  if (!d.geometryShader.empty()) {
+    gs = createShaderModule(context, d.geometryShader);
+    stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_GEOMETRY_BIT, gs,
+                      "main", nullptr});
+  }
   if (!d.fragmentShader.empty()) {
     fs = createShaderModule(context, d.fragmentShader);
     stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, fs,

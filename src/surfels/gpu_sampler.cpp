@@ -30,22 +30,54 @@ uint32_t nextPow2(uint32_t v) {
 
 uint32_t groups1D(uint64_t items) { return uint32_t(std::clamp<uint64_t>((items + 255) / 256, 1, 4096)); }
 
+// Shader stages that read or write the sampler's buffers for each splatter.
+VkPipelineStageFlags2 splatStages(DiscRaster raster) {
+  switch (raster) {
+  case DiscRaster::Mesh:
+  case DiscRaster::MeshDepth: // its attachments have their own image barriers (cmdDepthImageBarriers)
+    return VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  case DiscRaster::Geometry:
+    return VK_PIPELINE_STAGE_2_GEOMETRY_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  case DiscRaster::Compute:
+    break;
+  }
+  return 0;
+}
+
+VkShaderStageFlags splatPushStages(DiscRaster raster) {
+  switch (raster) {
+  case DiscRaster::Mesh:
+  case DiscRaster::MeshDepth:
+    return VK_SHADER_STAGE_MESH_BIT_EXT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  case DiscRaster::Geometry:
+    return VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_GEOMETRY_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  case DiscRaster::Compute:
+    break;
+  }
+  return VK_SHADER_STAGE_COMPUTE_BIT;
+}
+
 struct Sampler {
   Context& ctx;
   const GpuGBuffer& gb;
-  Unique<VkPipelineLayout> layout;
+  DiscRaster raster = DiscRaster::Compute;
+  Unique<VkPipelineLayout> layout, rasterLayout;
   Unique<VkPipeline> splat, farthest, candidates, validate, append;
+  Unique<VkPipeline> depthSplat, depthCells; // mesh-depth: the depth-test Voronoi and its conversion to cells
+  Image depthImage, idImage;                 // mesh-depth: one layer per view, kept across rounds
+  Buffer depthCopy, idCopy;
+  uint32_t depthShift = 0;
   Buffer globals, cells, owners, samples, radii, cellMax, candidateKeys, counters, hostCounters, views;
   GpuTimer timer;
   std::map<std::string, double> stageMs;
   std::vector<std::string> stageOrder;
 
-  Sampler(Context& c, const GpuGBuffer& g) : ctx(c), gb(g), timer(c, 32) {}
+  Sampler(Context& c, const GpuGBuffer& g, DiscRaster r) : ctx(c), gb(g), raster(r), timer(c, 32) {}
 
   void cmdBarrier(VkCommandBuffer cmd) {
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
-                     VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+    VkPipelineStageFlags2 stages =
+        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT | splatStages(raster);
+    cmdMemoryBarrier(cmd, stages, VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT, stages,
                      VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
                          VK_ACCESS_2_TRANSFER_WRITE_BIT);
   }
@@ -64,6 +96,8 @@ struct Sampler {
   // every item's radius (<= 0: whole views).
   // barriers: the positions and the item list are written; the caller adds a barrier after.
   void cmdSplat(VkCommandBuffer cmd, uint32_t mode, uint32_t first, uint32_t count, float radius) {
+    if (raster == DiscRaster::MeshDepth && mode == 0) return cmdDepthVoronoi(cmd, first, count, radius);
+    if (raster != DiscRaster::Compute) return cmdRasterSplat(cmd, mode, first, count, radius);
     uint32_t res = gb.texels.resolution;
     uint32_t side = res;
     if (radius > 0.0f)
@@ -77,6 +111,105 @@ struct Sampler {
       p.first = first + done;
       p.count = std::min(kMaxGroups, count - done);
       cmdDispatch(cmd, splat, p, p.tilesPerSide * p.tilesPerSide, p.count, gb.texels.viewCount);
+    }
+  }
+  // The same splat through the raster pipeline: one quad per (item, view) into a res × res
+  // framebuffer without attachments; the fragment shader applies the atomic.
+  void cmdRasterSplat(VkCommandBuffer cmd, uint32_t mode, uint32_t first, uint32_t count, float radius) {
+    uint32_t res = gb.texels.resolution;
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {res, res}};
+    ri.layerCount = 1;
+    vkCmdBeginRendering(cmd, &ri);
+    cmdRasterDraws(cmd, splat, mode, first, count, radius);
+    vkCmdEndRendering(cmd);
+  }
+  // Voronoi by the depth test: the quads into their view's layer of the kept depth/id images, then
+  // both images copied out and converted into `cells` for the farthest pass.
+  // barriers: the images are in attachment layouts (set up by the first submit, restored here).
+  void cmdDepthVoronoi(VkCommandBuffer cmd, uint32_t first, uint32_t count, float radius) {
+    uint32_t res = gb.texels.resolution, viewCount = gb.texels.viewCount;
+    VkRenderingAttachmentInfo color{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    color.imageView = idImage.view();
+    color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    color.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    VkRenderingAttachmentInfo depth = color;
+    depth.imageView = depthImage.view();
+    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {res, res}};
+    ri.layerCount = viewCount;
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &color;
+    ri.pDepthAttachment = &depth;
+    vkCmdBeginRendering(cmd, &ri);
+    cmdRasterDraws(cmd, depthSplat, 0, first, count, radius);
+    vkCmdEndRendering(cmd);
+    cmdDepthImageBarriers(cmd, false);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, viewCount};
+    region.imageExtent = {res, res, 1};
+    vkCmdCopyImageToBuffer(cmd, idImage.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, idCopy.handle(), 1, &region);
+    region.imageSubresource.aspectMask = VK_IMAGE_ASPECT_DEPTH_BIT;
+    vkCmdCopyImageToBuffer(cmd, depthImage.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, depthCopy.handle(), 1,
+                           &region);
+    cmdDepthImageBarriers(cmd, true);
+    cmdBarrier(cmd);
+    sio::SurfelSamplerPush p = basePush();
+    p.depthShift = depthShift;
+    cmdDispatch(cmd, depthCells, p, groups1D(uint64_t(viewCount) * res * res));
+  }
+  // The depth/id images from attachment to copy-source layouts (toAttachment false) or back.
+  void cmdDepthImageBarriers(VkCommandBuffer cmd, bool toAttachment) {
+    ImageBarrier b[2];
+    b[0].image = idImage.handle();
+    b[0].srcStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+    b[0].srcAccess = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    b[0].oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    b[1].image = depthImage.handle();
+    b[1].srcStage = VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+    b[1].srcAccess = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    b[1].oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    b[1].aspect = VK_IMAGE_ASPECT_DEPTH_BIT;
+    for (ImageBarrier& x : b) {
+      x.dstStage = VK_PIPELINE_STAGE_2_COPY_BIT;
+      x.dstAccess = VK_ACCESS_2_TRANSFER_READ_BIT;
+      x.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+      if (toAttachment) {
+        std::swap(x.srcStage, x.dstStage);
+        std::swap(x.oldLayout, x.newLayout);
+        x.srcAccess = VK_ACCESS_2_TRANSFER_READ_BIT;
+        x.dstAccess = &x == &b[0] ? VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT
+                                  : VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+                                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+      }
+    }
+    cmdImageBarriers(cmd, b);
+  }
+  // The quads of `count` items from `first` with `pipeline`, inside a begun rendering.
+  void cmdRasterDraws(VkCommandBuffer cmd, VkPipeline pipeline, uint32_t mode, uint32_t first, uint32_t count,
+                      float radius) {
+    uint32_t res = gb.texels.resolution, viewCount = gb.texels.viewCount;
+    cmdSetFullViewport(cmd, res, res);
+    vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
+    vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+    sio::SurfelSamplerPush p = basePush();
+    p.depthShift = depthShift;
+    p.mode = mode;
+    p.radius = radius;
+    // Mesh draws: 32 (item, view) pairs per work group, at most kMaxGroups groups per draw.
+    uint32_t perDraw = std::max(1u, kMaxGroups * 32 / viewCount);
+    for (uint32_t done = 0; done < count; done += perDraw) {
+      p.first = first + done;
+      p.count = std::min(perDraw, count - done);
+      vkCmdPushConstants(cmd, rasterLayout, splatPushStages(raster), 0, sizeof(p), &p);
+      uint32_t pairs = p.count * viewCount;
+      if (raster == DiscRaster::Geometry)
+        vkCmdDraw(cmd, pairs, 1, 0, 0);
+      else
+        vkCmdDrawMeshTasksEXT(cmd, (pairs + 31) / 32, 1, 1);
     }
   }
   uint32_t cmdBegin(VkCommandBuffer cmd, const char* name) {
@@ -102,13 +235,65 @@ struct Sampler {
 
 } // namespace
 
+const char* toString(DiscRaster raster) {
+  switch (raster) {
+  case DiscRaster::Compute:
+    return "compute";
+  case DiscRaster::Mesh:
+    return "mesh";
+  case DiscRaster::Geometry:
+    return "geometry";
+  case DiscRaster::MeshDepth:
+    return "mesh-depth";
+  }
+  return "?";
+}
+
+Result<DiscRaster> parseDiscRaster(std::string_view text) {
+  for (DiscRaster r : {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth})
+    if (text == toString(r)) return r;
+  return Error{fmt::format("--disc-raster '{}': expected compute, mesh, geometry or mesh-depth", text)};
+}
+
+std::string discRasterUnsupported(const Context& ctx, DiscRaster raster, uint32_t views) {
+  const DeviceCapabilities& c = ctx.caps();
+  const VkPhysicalDeviceLimits& limits = ctx.properties().limits;
+  std::string missing;
+  if ((raster == DiscRaster::Mesh || raster == DiscRaster::MeshDepth) && !c.meshShader)
+    missing = "mesh shaders (VK_EXT_mesh_shader)";
+  if (raster == DiscRaster::MeshDepth) {
+    VkFormatProperties depth, id;
+    vkGetPhysicalDeviceFormatProperties(ctx.physicalDevice(), VK_FORMAT_D32_SFLOAT, &depth);
+    vkGetPhysicalDeviceFormatProperties(ctx.physicalDevice(), VK_FORMAT_R32_UINT, &id);
+    if (!(depth.optimalTilingFeatures & VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT) ||
+        !(id.optimalTilingFeatures & VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT))
+      missing += std::string(missing.empty() ? "" : " and ") + "D32_SFLOAT depth and R32_UINT colour attachments";
+    uint32_t maxLayers = std::min(limits.maxFramebufferLayers, limits.maxImageArrayLayers);
+    if (views > maxLayers)
+      missing +=
+          std::string(missing.empty() ? "" : " and ") + fmt::format("{} framebuffer layers (one per view)", views);
+  }
+  if (raster == DiscRaster::Geometry && !c.geometryShader) missing = "geometry shaders (geometryShader)";
+  if (raster != DiscRaster::Compute && !c.fragmentStoresAndAtomics)
+    missing += std::string(missing.empty() ? "" : " and ") + "fragment-shader atomics (fragmentStoresAndAtomics)";
+  if (missing.empty()) return {};
+  return fmt::format("surfels: --disc-raster {} needs {}, which {} does not have", toString(raster), missing, c.name);
+}
+
 Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const GpuSamplerConfig& config) {
   if (!ctx.caps().int64BufferAtomics)
     return Error{"surfels: the GPU sampler needs 64-bit buffer atomics (shaderBufferInt64Atomics)"};
   if (config.count == 0) return Error{"surfels: the surfel count must be at least 1"};
   if (gb.texels.size() == 0) return Error{"surfels: the G-buffer has no texels to sample"};
+  if (std::string why = discRasterUnsupported(ctx, config.discRaster, gb.texels.viewCount); !why.empty())
+    return Error{why};
+  const VkPhysicalDeviceLimits& limits = ctx.properties().limits;
+  if (config.discRaster != DiscRaster::Compute &&
+      (gb.texels.resolution > limits.maxFramebufferWidth || gb.texels.resolution > limits.maxFramebufferHeight))
+    return Error{fmt::format("surfels: --disc-raster {} renders {}² but the framebuffer limit is {}",
+                             toString(config.discRaster), gb.texels.resolution, limits.maxFramebufferWidth)};
   auto start = std::chrono::steady_clock::now();
-  Sampler s(ctx, gb);
+  Sampler s(ctx, gb, config.discRaster);
   const GBufferTexels& t = gb.texels;
   uint64_t texelCount = uint64_t(t.viewCount) * t.resolution * t.resolution;
   uint32_t target = uint32_t(std::min<uint64_t>(config.count, t.size()));
@@ -129,6 +314,27 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
   s.hostCounters = createBuffer(ctx, sizeof(sio::SurfelSamplerCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                 MemoryUsage::Readback, "surfel counters readback");
   s.views = createBufferWithData<sio::SurfelView>(ctx, gb.views, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel views");
+  if (config.discRaster == DiscRaster::MeshDepth) {
+    s.depthCopy = createBuffer(ctx, texelCount * 4, usage, MemoryUsage::GpuOnly, "surfel depth copy");
+    s.idCopy = createBuffer(ctx, texelCount * 4, usage, MemoryUsage::GpuOnly, "surfel id copy");
+    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ci.imageType = VK_IMAGE_TYPE_2D;
+    ci.extent = {t.resolution, t.resolution, 1};
+    ci.mipLevels = 1;
+    ci.arrayLayers = t.viewCount;
+    ci.samples = VK_SAMPLE_COUNT_1_BIT;
+    ci.usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    ci.format = VK_FORMAT_D32_SFLOAT;
+    ci.usage |= VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
+    s.depthImage = createImage(ctx, ci, VK_IMAGE_ASPECT_DEPTH_BIT, "surfel Voronoi depth");
+    ci.format = VK_FORMAT_R32_UINT;
+    ci.usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+    s.idImage = createImage(ctx, ci, VK_IMAGE_ASPECT_COLOR_BIT, "surfel Voronoi ids");
+    // Depth = distance · 2^-shift <= 0.5 for every distance inside the capture sphere (<= its
+    // diameter), below the cleared 1.0; scaling by a power of two is exact, so the conversion back
+    // gives the fragment shader's distance bit for bit.
+    s.depthShift = uint32_t(int(std::ceil(std::log2(2.0 * t.sphereRadius * 1.01))) + 1);
+  }
   sio::SurfelSamplerGlobals g{};
   g.positions = gb.positions.address();
   g.cells = s.cells.address();
@@ -144,11 +350,39 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
   g.viewCount = t.viewCount;
   g.texelCount = uint32_t(texelCount);
   g.texelSize = t.texelSize;
+  if (s.depthCopy) g.depthCopy = s.depthCopy.address(), g.idCopy = s.idCopy.address();
   s.globals = createBufferWithData<sio::SurfelSamplerGlobals>(ctx, std::span(&g, 1), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                                               "surfel globals");
 
   s.layout = createPipelineLayout(ctx, {}, sizeof(sio::SurfelSamplerPush), VK_SHADER_STAGE_COMPUTE_BIT);
-  s.splat = createComputePipeline(ctx, "surfel_splat.comp", s.layout);
+  if (config.discRaster == DiscRaster::Compute) {
+    s.splat = createComputePipeline(ctx, "surfel_splat.comp", s.layout);
+  } else {
+    s.rasterLayout = createPipelineLayout(ctx, {}, sizeof(sio::SurfelSamplerPush), splatPushStages(config.discRaster));
+    GraphicsPipelineDesc d;
+    if (config.discRaster == DiscRaster::Geometry) {
+      d.vertexShader = "surfel_splat.vert";
+      d.geometryShader = "surfel_splat.geom";
+      d.topology = VK_PRIMITIVE_TOPOLOGY_POINT_LIST;
+    } else {
+      d.meshShader = "surfel_splat.mesh"; // mesh, and mesh-depth's conflicts
+    }
+    d.fragmentShader = "surfel_splat.frag";
+    d.layout = s.rasterLayout;
+    d.depthWrite = false; // no attachments: the fragment shader's atomics are the only output
+    s.splat = createGraphicsPipeline(ctx, d);
+  }
+  if (config.discRaster == DiscRaster::MeshDepth) {
+    GraphicsPipelineDesc d;
+    d.meshShader = "surfel_splat_depth.mesh";
+    d.fragmentShader = "surfel_splat_depth.frag";
+    d.layout = s.rasterLayout;
+    d.colorFormats = {VK_FORMAT_R32_UINT};
+    d.depthFormat = VK_FORMAT_D32_SFLOAT;
+    d.depthCompare = VK_COMPARE_OP_LESS; // ties keep the earlier primitive = the smaller sample index
+    s.depthSplat = createGraphicsPipeline(ctx, d);
+    s.depthCells = createComputePipeline(ctx, "surfel_depth_cells.comp", s.layout);
+  }
   s.farthest = createComputePipeline(ctx, "surfel_farthest.comp", s.layout);
   s.candidates = createComputePipeline(ctx, "surfel_candidates.comp", s.layout);
   s.validate = createComputePipeline(ctx, "surfel_validate.comp", s.layout);
@@ -158,7 +392,40 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
   RadixSortOptions sortOptions{true, digitMaskForIndexBelow(uint32_t(texelCount))};
 
   // Every texel starts in no cell (all ones: larger than any real key).
-  ctx.submitAndWait([&](VkCommandBuffer cmd) { vkCmdFillBuffer(cmd, s.cells.handle(), 0, VK_WHOLE_SIZE, ~0u); });
+  // mesh-depth: depth 1 (farther than any scaled distance) and id ~0 (no sample), then attachment layouts.
+  ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    vkCmdFillBuffer(cmd, s.cells.handle(), 0, VK_WHOLE_SIZE, ~0u);
+    if (!s.depthImage) return;
+    ImageBarrier b[2];
+    b[0].image = s.idImage.handle();
+    b[1].image = s.depthImage.handle();
+    b[1].aspect = VK_IMAGE_ASPECT_DEPTH_BIT;
+    for (ImageBarrier& x : b) {
+      x.dstStage = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+      x.dstAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+      x.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    }
+    cmdImageBarriers(cmd, b);
+    VkClearColorValue noSample{};
+    noSample.uint32[0] = ~0u;
+    VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS};
+    vkCmdClearColorImage(cmd, s.idImage.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &noSample, 1, &range);
+    VkClearDepthStencilValue far{1.0f, 0};
+    range.aspectMask = VK_IMAGE_ASPECT_DEPTH_BIT;
+    vkCmdClearDepthStencilImage(cmd, s.depthImage.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &far, 1, &range);
+    for (ImageBarrier& x : b) {
+      x.srcStage = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+      x.srcAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+      x.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    }
+    b[0].dstStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+    b[0].dstAccess = VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    b[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    b[1].dstStage = VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+    b[1].dstAccess = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    cmdImageBarriers(cmd, b);
+  });
 
   GpuSamplerResult result;
   uint32_t n = 0, previous = 0;

@@ -94,13 +94,52 @@ TEST(SurfelCli, BadInputsExit2WithOneLineAndWriteNothing) {
   std::string empty = (dir / "empty.obj").string();
   std::ofstream(empty) << "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
   std::string out = (dir / "out.ply").string();
-  for (std::string args : {"surfels " + empty + " -o " + out, "surfels gen:blob:3 -o " + out + " --count 0",
-                           "surfels gen:blob:3 -o " + out + " --resolution 1000000",
-                           "surfels gen:blob:3 -o " + (dir / "out.txt").string()}) {
+  for (std::string args :
+       {"surfels " + empty + " -o " + out, "surfels gen:blob:3 -o " + out + " --count 0",
+        "surfels gen:blob:3 -o " + out + " --resolution 1000000", "surfels gen:blob:3 -o " + (dir / "out.txt").string(),
+        "surfels gen:blob:3 -o " + out + " --disc-raster depth",
+        "surfels gen:blob:3 -o " + out + " --disc-raster compute,", // empty choice
+        "surfels gen:blob:3 -o " + (dir / "out.mrg").string() + " --per-mesh --disc-raster all",
+        std::string("bench surfels-sampler gen:blob:3 --disc-raster quad")}) {
     CliRun r = runMirage(args, dir);
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
     EXPECT_EQ(r.err.rfind("mirage: error: ", 0), 0u) << r.err;
     EXPECT_FALSE(std::filesystem::exists(out)) << args;
   }
+}
+
+// --disc-raster: every splatter writes the same surfels (the same order, so the same file); `all`
+// times them side by side and writes compute's; the bench prints one JSON row per splatter.
+TEST(SurfelCli, DiscRasterChoicesWriteTheSameSurfels) {
+  auto dir = mirage::test::tempDir("surfels_cli_disc");
+  std::string base = "surfels gen:blob:4 --count 300 --resolution 32 --views 6 -o ";
+  auto read = [&](const std::string& name) {
+    std::ifstream f(dir / name, std::ios::binary);
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+  };
+  CliRun compute = runMirage(base + (dir / "compute.ply").string() + " --disc-raster compute", dir);
+  ASSERT_EQ(compute.code, 0) << compute.err;
+  std::string expected = read("compute.ply");
+  ASSERT_FALSE(expected.empty());
+  for (std::string raster : {"mesh", "geometry", "mesh-depth", "all", "geometry,mesh"}) {
+    std::string name = "out_" + raster + ".ply";
+    CliRun r = runMirage(base + (dir / name).string() + " --disc-raster " + raster, dir);
+    if (r.code == 2 && r.err.find("does not have") != std::string::npos) continue; // unsupported on this device
+    ASSERT_EQ(r.code, 0) << raster << ": " << r.err;
+    EXPECT_TRUE(read(name) == expected) << raster;
+  }
+  std::string json = (dir / "bench.json").string();
+  std::string cmd = mirage::test::mirageBinary() +
+                    " bench surfels-sampler gen:blob:4 --count 300 --resolution 32 --views 6 --repeat 1 --json > " +
+                    json;
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::string text = read("bench.json");
+  EXPECT_NE(text.find("\"disc_raster\": \"compute\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"disc_raster\": \"mesh\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"disc_raster\": \"geometry\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"disc_raster\": \"mesh-depth\""), std::string::npos) << text;
+  EXPECT_EQ(text.find("\"same_order\": false"), std::string::npos) << text;
 }

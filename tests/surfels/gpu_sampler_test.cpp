@@ -3,9 +3,11 @@
 // give the same order.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <set>
 
+#include "mirage/gpu/commands.h"
 #include "gpu_test.h"
 #include "mirage/io/generate.h"
 #include "mirage/surfels/gpu_sampler.h"
@@ -67,4 +69,103 @@ TEST_F(SurfelGpuSampler, StopsWhenTexelsRunOut) {
   EXPECT_GT(r->order.texels.size(), gb->texels.size() * 9 / 10);
   config.count = 0;
   EXPECT_FALSE(sampleOnGpu(context(), *gb, config).ok());
+}
+
+// The raster splatters (mesh shader, geometry shader) apply the compute splatter's atomics on the
+// same keys to the same texels: the whole order and every radius are bit-identical.
+TEST_F(SurfelGpuSampler, DiscRastersGiveTheComputeOrder) {
+  Scene scene = io::generateScene("blob", 1, 7).value();
+  CaptureConfig capture;
+  capture.resolution = 64;
+  capture.views = 6;
+  auto gb = captureGBuffer(context(), scene, capture);
+  ASSERT_TRUE(gb.ok()) << gb.error().message;
+  GpuSamplerConfig config;
+  config.count = 3000;
+  auto compute = sampleOnGpu(context(), *gb, config);
+  ASSERT_TRUE(compute.ok()) << compute.error().message;
+  ASSERT_EQ(compute->order.texels.size(), 3000u);
+  for (DiscRaster raster : {DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth}) {
+    SCOPED_TRACE(toString(raster));
+    config.discRaster = raster;
+    if (std::string why = discRasterUnsupported(context(), raster); !why.empty()) {
+      EXPECT_FALSE(sampleOnGpu(context(), *gb, config).ok()); // refused with the reason, not run
+      continue;
+    }
+    auto r = sampleOnGpu(context(), *gb, config);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->rounds, compute->rounds);
+    EXPECT_EQ(r->order.texels, compute->order.texels);
+    EXPECT_EQ(r->order.radii, compute->order.radii);
+  }
+}
+
+// A hand-made G-buffer full of exact distance ties: two views of the same 32 × 32 grid of integer
+// points (+0.5) on z = 0, the second mirrored, so every point is two texels at distance 0 and
+// symmetric points are exactly equidistant; a hole of empty texels (w = 0) in the first view. Every
+// splatter must break every tie as compute's atomics do (the depth test by primitive order).
+GpuGBuffer tiedGrid(gpu::Context& ctx) {
+  const uint32_t res = 32;
+  const float half = 16.0f; // world [-16, 16]², texel size 1
+  GpuGBuffer gb;
+  GBufferTexels& t = gb.texels;
+  t.resolution = res;
+  t.viewCount = 2;
+  t.texelSize = 2.0f * half / float(res);
+  t.sphereRadius = half * std::sqrt(2.0f);
+  std::vector<glm::vec4> positions(size_t(2) * res * res, glm::vec4(0.0f));
+  for (uint32_t view = 0; view < 2; ++view) {
+    shaderio::SurfelView v{};
+    v.viewProj = glm::mat4(1.0f);
+    v.viewProj[0][0] = (view == 0 ? 1.0f : -1.0f) / half; // view 1 sees the grid mirrored in x
+    v.viewProj[1][1] = 1.0f / half;
+    v.viewProj[2][2] = 0.0f;
+    v.viewProj[3][2] = 0.5f;
+    v.direction = glm::vec4(0.0f, 0.0f, view == 0 ? 1.0f : -1.0f, 0.0f);
+    gb.views.push_back(v);
+    t.directions.push_back(glm::vec3(v.direction));
+    for (uint32_t y = 0; y < res; ++y)
+      for (uint32_t x = 0; x < res; ++x) {
+        float px = float(x) + 0.5f - half, py = float(y) + 0.5f - half;
+        if (view == 0 && px * px + py * py < 16.0f) continue; // the hole
+        uint32_t id = (view * res + y) * res + x;
+        glm::vec3 p(view == 0 ? px : -px, py, 0.0f);
+        positions[id] = glm::vec4(p, 1.0f);
+        t.ids.push_back(id);
+        t.positions.push_back(p);
+        t.normals.push_back(glm::vec3(0.0f, 0.0f, 1.0f));
+        t.colors.push_back(~0u);
+        t.areas.push_back(0.5f);
+      }
+  }
+  t.totalArea = 0.5 * double(t.size());
+  gb.positions =
+      gpu::createBufferWithData<glm::vec4>(ctx, positions, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "tied grid positions");
+  return gb;
+}
+
+TEST_F(SurfelGpuSampler, DiscRastersBreakExactTiesAsCompute) {
+  GpuGBuffer gb = tiedGrid(context());
+  GpuSamplerConfig config;
+  config.count = 800;
+  auto compute = sampleOnGpu(context(), gb, config);
+  ASSERT_TRUE(compute.ok()) << compute.error().message;
+  ASSERT_EQ(compute->order.texels.size(), 800u);
+  for (DiscRaster raster : {DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth}) {
+    if (!discRasterUnsupported(context(), raster).empty()) continue;
+    SCOPED_TRACE(toString(raster));
+    config.discRaster = raster;
+    auto r = sampleOnGpu(context(), gb, config);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->order.texels, compute->order.texels);
+    EXPECT_EQ(r->order.radii, compute->order.radii);
+  }
+}
+
+TEST(SurfelDiscRaster, ParsesTheChoices) {
+  for (DiscRaster r : {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth})
+    EXPECT_EQ(parseDiscRaster(toString(r)).value(), r);
+  auto bad = parseDiscRaster("depth");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("expected compute, mesh, geometry or mesh-depth"), std::string::npos);
 }

@@ -18,6 +18,7 @@ struct DeviceCapabilities {
   VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
   uint32_t apiVersion = 0;
   bool meshShader = false;         // VK_EXT_mesh_shader mesh + task stages
+  bool geometryShader = false;     // the geometry stage (core feature geometryShader)
   bool rayTracingPipeline = false; // VK_KHR_ray_tracing_pipeline (with acceleration structures)
   bool rayQuery = false;           // VK_KHR_ray_query
   bool accelerationStructure = false;

@@ -17,6 +17,7 @@ Unique<VkShaderModule> createShaderModule(Context& context, std::string_view nam
 struct GraphicsPipelineDesc {
   std::string_view vertexShader;   // embedded names, e.g. "forward.vert"
   std::string_view meshShader;     // instead of vertexShader: a VK_EXT_mesh_shader pipeline (no vertex input)
+  std::string_view geometryShader; // optional, after vertexShader (needs the geometryShader feature)
   std::string_view fragmentShader; // empty: depth-only
   VkPipelineLayout layout = VK_NULL_HANDLE;
   std::vector<VkVertexInputBindingDescription> bindings;

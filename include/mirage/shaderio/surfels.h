@@ -74,8 +74,10 @@ struct SurfelSamplerGlobals {
   vec4 center;         // xyz centre of the capture sphere (first sample's reference point)
   uint resolution;     // G-buffer width = height
   uint viewCount;
-  uint texelCount; // viewCount * resolution²
-  float texelSize; // world size of one texel
+  uint texelCount;    // viewCount * resolution²
+  float texelSize;    // world size of one texel
+  uint64_t depthCopy; // --disc-raster mesh-depth: float[texelCount], the Voronoi depth images' copy (distance·2^-shift)
+  uint64_t idCopy;    // --disc-raster mesh-depth: uint[texelCount], the Voronoi id images' copy (~0: no sample)
 };
 
 // Counters the sampler reads back after each half-round.
@@ -96,8 +98,8 @@ struct SurfelSamplerPush {
   uint tilesPerSide; // splat tiles per side of the disc's bounding square
   uint tileSpan;     // texels per side of one tile
   uint padTo;        // surfel_validate.comp: zero the keys in [count, padTo) (the bitonic sort's padding)
-  uint pad1;
-  uint mode; // surfel_farthest.comp: 1 = first round (distance to the centre)
+  uint depthShift;   // mesh-depth Voronoi: depth = distance · 2^-depthShift (int; exact, <= 0.5)
+  uint mode;         // surfel_farthest.comp: 1 = first round (distance to the centre)
   uint pad0;
 };
 
@@ -121,7 +123,7 @@ static_assert(sizeof(SurfelCaptureVertex) == 36, "SurfelCaptureVertex layout");
 static_assert(sizeof(SurfelView) == 80, "SurfelView layout");
 static_assert(sizeof(SurfelInstance) == 128, "SurfelInstance layout");
 static_assert(sizeof(SurfelCapturePush) == 56, "SurfelCapturePush layout");
-static_assert(sizeof(SurfelSamplerGlobals) == 104, "SurfelSamplerGlobals layout");
+static_assert(sizeof(SurfelSamplerGlobals) == 120, "SurfelSamplerGlobals layout");
 static_assert(sizeof(SurfelSamplerCounters) == 16, "SurfelSamplerCounters layout");
 static_assert(sizeof(SurfelSamplerPush) == 48, "SurfelSamplerPush layout");
 } // namespace mirage::shaderio

@@ -2,6 +2,7 @@
 // The GPU progressive sampler (Brandt et al. 2019, as in PADrend): rounds of incremental Voronoi
 // splatting, farthest texel per cell by 64-bit atomicMax, candidate filtering, Poisson-disc
 // conflict resolution, GPU radix sort by decreasing radius and append, until the requested count.
+#include <string_view>
 #include <vector>
 
 #include "mirage/core/result.h"
@@ -11,11 +12,26 @@
 
 namespace mirage::surfels {
 
+// Who splats the Voronoi and Poisson discs (the voronoi and conflicts stages). All apply the same
+// 64-bit atomics on the same keys to the same texels, so the sample order is bit-identical.
+enum class DiscRaster {
+  Compute,   // compute splatter: 8×8-thread tiles of each disc's bounding square per view
+  Mesh,      // mesh shader: one quad per (disc, view); the fragment shader does the atomic
+  Geometry,  // geometry shader: one point per (disc, view) expanded to that quad; same fragment shader
+  MeshDepth, // Voronoi by the depth test (mesh quads into per-view layers, depth = distance, an id
+             // attachment, converted back to the cells); conflicts as Mesh
+};
+const char* toString(DiscRaster raster);
+Result<DiscRaster> parseDiscRaster(std::string_view text); // "compute", "mesh", "geometry" or "mesh-depth"
+// Empty when `context` can run `raster` (on `views` G-buffer views; 0: any count); otherwise why not.
+std::string discRasterUnsupported(const gpu::Context& context, DiscRaster raster, uint32_t views = 0);
+
 struct GpuSamplerConfig {
   uint32_t count = 100000;  // surfels wanted (fewer when the G-buffer runs out of texels)
   float threshold = 0.75f;  // keep a cell's farthest texel when >= threshold × the round's maximum
                             // (PADrend's 0.75: lower = fewer rounds, looser blue noise)
   bool bitonicSort = false; // the old bitonic candidate sort instead of the radix sort (same order; for timing)
+  DiscRaster discRaster = DiscRaster::Compute; // fastest on lavapipe; see docs/surfels.md for the H200
 };
 
 struct GpuSamplerResult {
