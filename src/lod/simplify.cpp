@@ -9,7 +9,7 @@ namespace mirage::lod::detail {
 namespace {
 
 constexpr uint32_t kNil = ~0u;
-constexpr uint32_t kUnchecked = ~0u; // Entry::time of an entry whose legality was not tested yet
+constexpr uint32_t kUnchecked = ~0u; // time[v] of an entry whose legality was not tested yet
 // Border planes keep open borders (the mesh's own) from shrinking or drifting; meshoptimizer uses
 // a similar boost for its border edges.
 constexpr double kBorderWeight = 4.0;
@@ -23,7 +23,7 @@ constexpr double kShadingCos = 0.25;
 // (docs/lod.md, "Normal-aware error").
 constexpr double kOrderNormalFraction = 0.5;
 
-using Entry = SimplifyScratch::Entry;
+using HeapItem = SimplifyScratch::HeapItem;
 
 Quadric planeQuadric(glm::dvec3 n, double d, double weight) {
   Quadric q;
@@ -71,10 +71,11 @@ public:
     }
     s.alive.assign(nt, 1);
     live_ = nt;
-    s.version.assign(nv, 0);
     s.dirty.assign(nv, 0);
     s.changed.assign(nv, 0);
-    s.queued.assign(nv, 0);
+    s.heapPos.assign(nv, kNil);
+    s.target.assign(nv, kNil);
+    s.time.assign(nv, kUnchecked);
     s.stampU.assign(nv, 0);
     s.stampW.assign(nv, 0);
     s.countU.resize(nv);
@@ -89,29 +90,35 @@ public:
   }
 
   float run(size_t target) {
+    // Every vertex's cheapest collapse, then one heapify (deterministic: the order is the ids').
     savedRings_ = true;
-    for (uint32_t v = 0; v < s_.p.size(); ++v) push(v, true);
+    for (uint32_t v = 0; v < s_.p.size(); ++v) {
+      float c = evaluate(v, true);
+      if (c >= 0.0f) s_.heapPos[v] = uint32_t(s_.heap.size()), s_.heap.push_back({c, v});
+    }
     savedRings_ = false;
+    if (s_.heap.size() > 1)
+      for (size_t i = (s_.heap.size() - 2) / 4 + 1; i-- > 0;) siftDown(uint32_t(i));
     while (live_ > target && !s_.heap.empty()) {
-      std::pop_heap(s_.heap.begin(), s_.heap.end());
-      Entry e = s_.heap.back();
-      s_.heap.pop_back();
-      if (e.version != s_.version[e.u] || s_.head[e.u] == kNil) continue;
-      if (s_.dirty[e.u]) {
-        // Lazy re-evaluation: collapses only raise costs (quadrics accumulate), so the stale cost
-        // is a good lower bound and most dirty vertices are never evaluated again before the target.
-        push(e.u, true);
+      uint32_t u = s_.heap[0].v;
+      if (s_.dirty[u]) {
+        // Lazy re-evaluation: collapses mostly raise costs (quadrics accumulate), so the stale cost
+        // is a good lower bound and many dirty vertices are never evaluated again before the target.
+        requeue(u, true);
         continue;
       }
-      // u is clean, but the entry was queued unchecked or w's triangles changed since: check now.
-      if ((e.time == kUnchecked || s_.changed[e.w] > e.time) && (gatherRing(e.u, ringU()), !legal(e.u, e.w))) {
-        push(e.u, false);
+      uint32_t w = s_.target[u], checked = s_.time[u];
+      // u is clean, but the entry was queued unchecked or w's triangles changed since.
+      if ((checked == kUnchecked || s_.changed[w] > checked) && (gatherRing(u, ringU()), !legal(u, w))) {
+        requeue(u, false);
         continue;
       }
       // The reported error is the cost with the normal term at collapse time (w's quadrics may
       // have grown since the entry was queued).
-      maxCost_ = std::max(maxCost_, cost(e.u, e.w, normalWeight2_));
-      collapse(e);
+      maxCost_ = std::max(maxCost_, cost(u, w, normalWeight2_));
+      float queuedCost = s_.heap[0].cost;
+      heapRemove(u);
+      collapse(u, w, queuedCost);
     }
     compact();
     return float(std::sqrt(maxCost_));
@@ -203,13 +210,6 @@ private:
     s_.ringStart[s_.p.size()] = saved;
     s_.selfCost.resize(s_.p.size());
     for (uint32_t v = 0; v < s_.p.size(); ++v) s_.selfCost[v] = eval(s_.q[v], s_.p[v]);
-  }
-
-  // ringU = v's ring as saved by initQuadrics (valid until the first collapse).
-  void loadSavedRing(uint32_t v) {
-    Ring r = ringU();
-    r.clear();
-    for (uint32_t i = s_.ringStart[v]; i < s_.ringStart[v + 1]; ++i) r.add(s_.ringNbr[i], s_.ringCnt[i]);
   }
 
   // Also unlinks v's dead corners (triangles removed by neighbouring collapses), so later walks
@@ -322,34 +322,85 @@ private:
     return geometric + normalWeight2 * glm::dot(e, e) * std::max(dev, 0.0);
   }
 
-  void heapPush(const Entry& e) {
-    s_.heap.push_back(e);
-    std::push_heap(s_.heap.begin(), s_.heap.end());
+  // Indexed 4-ary min-heap over (cost, vertex): half the depth of a binary heap, one entry per
+  // vertex (no stale entries), updated in place.
+  void heapSet(uint32_t i, HeapItem item) {
+    s_.heap[i] = item;
+    s_.heapPos[item.v] = i;
+  }
+  void siftUp(uint32_t i) {
+    HeapItem item = s_.heap[i];
+    while (i > 0) {
+      uint32_t parent = (i - 1) / 4;
+      if (!(item.cost < s_.heap[parent].cost)) break;
+      heapSet(i, s_.heap[parent]);
+      i = parent;
+    }
+    heapSet(i, item);
+  }
+  void siftDown(uint32_t i) {
+    HeapItem item = s_.heap[i];
+    uint32_t n = uint32_t(s_.heap.size());
+    for (;;) {
+      uint32_t first = i * 4 + 1;
+      if (first >= n) break;
+      uint32_t best = first;
+      for (uint32_t c = first + 1; c < std::min(first + 4, n); ++c)
+        if (s_.heap[c].cost < s_.heap[best].cost) best = c;
+      if (!(s_.heap[best].cost < item.cost)) break;
+      heapSet(i, s_.heap[best]);
+      i = best;
+    }
+    heapSet(i, item);
+  }
+  void heapUpdate(uint32_t v, float c) {
+    uint32_t i = s_.heapPos[v];
+    if (i == kNil) {
+      s_.heap.push_back({c, v});
+      s_.heapPos[v] = uint32_t(s_.heap.size() - 1);
+      siftUp(uint32_t(s_.heap.size() - 1));
+      return;
+    }
+    float old = s_.heap[i].cost;
+    s_.heap[i].cost = c;
+    if (c < old)
+      siftUp(i);
+    else
+      siftDown(i);
+  }
+  void heapRemove(uint32_t v) {
+    uint32_t i = s_.heapPos[v];
+    if (i == kNil) return;
+    s_.heapPos[v] = kNil;
+    HeapItem last = s_.heap.back();
+    s_.heap.pop_back();
+    if (i == s_.heap.size()) return;
+    float old = s_.heap[i].cost;
+    heapSet(i, last);
+    if (last.cost < old)
+      siftUp(i);
+    else
+      siftDown(i);
   }
 
-  // Re-evaluates v's cheapest collapse and queues it (older entries of v go stale). Optimistic:
-  // the cheapest candidate goes in unchecked and its legality is tested when it comes up, so
-  // vertices that change again before then never pay for the test; otherwise the cheapest legal
-  // candidate.
-  void push(uint32_t v, bool optimistic) {
-    ++s_.version[v];
+  // v's cheapest collapse: sets target/time and returns its order cost, or -1 when v cannot
+  // move. Optimistic: the cheapest candidate is taken untested and its legality is tested when it
+  // comes up, so vertices that change again before then never pay for the test; otherwise the
+  // cheapest legal candidate.
+  float evaluate(uint32_t v, bool optimistic) {
     s_.dirty[v] = 0;
-    s_.queued[v] = 0;
-    if (s_.head[v] == kNil || m_.locked[v]) return;
-    if (savedRings_)
-      loadSavedRing(v);
-    else
-      gatherRing(v, ringU());
+    if (s_.head[v] == kNil || m_.locked[v]) return -1.0f;
+    if (savedRings_) return evaluateSaved(v);
+    gatherRing(v, ringU());
     Targets mode = targets(v);
-    if (mode == Targets::kNone) return;
+    if (mode == Targets::kNone) return -1.0f;
     Ring r = ringU();
     if (optimistic) {
       std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
       for (uint32_t w : r)
         if (mode == Targets::kAll || r.count[w] == 1) best = std::min(best, {cost(v, w, orderWeight2_), w});
-      heapPush({float(best.first), v, best.second, s_.version[v], kUnchecked});
-      s_.queued[v] = 1;
-      return;
+      s_.target[v] = best.second, s_.time[v] = kUnchecked;
+      return float(best.first);
     }
     s_.scored.clear();
     for (uint32_t w : r)
@@ -357,25 +408,48 @@ private:
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
-        heapPush({float(c), v, w, s_.version[v], clock_});
-        s_.queued[v] = 1;
-        return;
+        s_.target[v] = w, s_.time[v] = clock_;
+        return float(c);
       }
+    return -1.0f;
+  }
+
+  // The first, optimistic evaluation straight from the rings initQuadrics saved (the same
+  // candidates in the same order as evaluate(), without copying them into a stamped ring).
+  float evaluateSaved(uint32_t v) {
+    const uint32_t *nbr = &s_.ringNbr[s_.ringStart[v]], *count = &s_.ringCnt[s_.ringStart[v]];
+    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v], borderEdges = 0;
+    if (size == 0) return -1.0f;
+    for (uint32_t i = 0; i < size; ++i) {
+      if (count[i] > 2) return -1.0f; // as targets(): non-manifold edge
+      borderEdges += count[i] == 1;
+    }
+    if (borderEdges != 0 && borderEdges != 2) return -1.0f;
+    std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
+    for (uint32_t i = 0; i < size; ++i)
+      if (borderEdges == 0 || count[i] == 1) best = std::min(best, {cost(v, nbr[i], orderWeight2_), nbr[i]});
+    s_.target[v] = best.second, s_.time[v] = kUnchecked;
+    return float(best.first);
+  }
+
+  // Re-evaluates v and moves its entry (or drops it when v cannot move).
+  void requeue(uint32_t v, bool optimistic) {
+    float c = evaluate(v, optimistic);
+    if (c < 0.0f)
+      heapRemove(v);
+    else
+      heapUpdate(v, c);
   }
 
   // v's neighbourhood changed: re-evaluate it when its (stale) entry comes up; a vertex without
   // an entry gets one at the current cost level so it is looked at again soon.
-  void markDirty(uint32_t v, float cost) {
+  void markDirty(uint32_t v, float c) {
     if (m_.locked[v] || s_.head[v] == kNil) return;
     s_.dirty[v] = 1;
-    if (!s_.queued[v]) {
-      heapPush({cost, v, kNil, s_.version[v], clock_});
-      s_.queued[v] = 1;
-    }
+    if (s_.heapPos[v] == kNil) heapUpdate(v, c);
   }
 
-  void collapse(const Entry& e) {
-    uint32_t u = e.u, w = e.w;
+  void collapse(uint32_t u, uint32_t w, float queuedCost) {
     // Attribute wedges: a corner of u takes the attribute w has in a dying triangle on the same
     // side of any attribute seam (same attribute at u), so UV charts stay consistent.
     std::vector<std::pair<uint32_t, uint32_t>>& pairs = s_.pairs;
@@ -392,11 +466,11 @@ private:
         return;
       }
       v[k] = w;
-      uint32_t& a = m_.attributes[t * 3 + k];
-      uint32_t mapped = pairs.empty() ? a : pairs[0].second;
+      uint32_t& attr = m_.attributes[t * 3 + k];
+      uint32_t mapped = pairs.empty() ? attr : pairs[0].second;
       for (auto [from, to] : pairs)
-        if (from == a) mapped = to;
-      a = mapped;
+        if (from == attr) mapped = to;
+      attr = mapped;
     });
     add(s_.q[w], s_.q[u]);
     s_.selfCost[w] = eval(s_.q[w], s_.p[w]);
@@ -413,14 +487,13 @@ private:
     if (last != kNil) s_.next[last] = kNil;
     s_.head[w] = first;
     s_.head[u] = kNil;
-    ++s_.version[u];
     Ring touched = ringW();
     gatherRing(w, touched);
     ++clock_;
     s_.changed[w] = clock_;
     for (uint32_t x : touched) s_.changed[x] = clock_;
-    markDirty(w, e.cost);
-    for (uint32_t x : touched) markDirty(x, e.cost);
+    markDirty(w, queuedCost);
+    for (uint32_t x : touched) markDirty(x, queuedCost);
   }
 
   void compact() {
@@ -442,7 +515,7 @@ private:
   glm::dvec3 center_;
   double normalWeight2_ = 0.0, orderWeight2_ = 0.0;
   uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0;
-  bool savedRings_ = false; // push() reads rings saved by initQuadrics (first evaluation)
+  bool savedRings_ = false; // evaluate() reads the rings saved by initQuadrics (first evaluation)
   size_t live_ = 0;
   double maxCost_ = 0.0;
 };
