@@ -280,7 +280,6 @@ private:
                                        cfg_.clusterTriangles, splitScratch_.local(),
                                        keptSource ? &out.source[0] : nullptr));
       if (keptSource) recordSource(out.sets[0], out.source[0]);
-      setBounds(out.sets[0]);
       return out;
     }
     Bounds box;
@@ -313,23 +312,8 @@ private:
         for (uint32_t& t : *source) t = order[begin + t]; // chunk-local -> `triangles`
         recordSource(out.sets[i], *source);
       }
-      setBounds(out.sets[i]);
     });
     return out;
-  }
-
-  // Cluster spheres of a freshly split set, computed by the worker that split it (appending the
-  // clusters is serial).
-  void setBounds(ClusterSet& set) const {
-    std::vector<glm::vec3> points;
-    set.bounds.resize(set.pieces.size());
-    for (size_t i = 0; i < set.pieces.size(); ++i) {
-      const ClusterPiece& p = set.pieces[i];
-      points.clear();
-      for (uint32_t v = 0; v < p.vertexCount; ++v)
-        points.push_back(dag_.positions[dag_.vertexPosition[set.vertices[p.vertexOffset + v]]]);
-      set.bounds[i] = boundingSphere(points.data(), points.size());
-    }
   }
 
   // Appends clusters of one set; `self` null means level 0 (own sphere, zero error).
@@ -632,9 +616,8 @@ private:
       return;
     }
     timer.emplace(kSplit);
-    w.parents = splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
-                              cfg_.clusterTriangles, splitScratch_.local());
-    setBounds(w.parents);
+    w.parents = splitClusters(sm.attributes, sm.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                              cfg_.clusterTriangles, splitScratch_.local(), nullptr, sm.corners.data());
     // Monotonic error: a parent is never more accurate than the children it replaces.
     float childError = 0.0f;
     for (uint32_t c : w.children) childError = std::max(childError, dag_.clusters[c].self.error);

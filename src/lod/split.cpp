@@ -17,7 +17,7 @@ constexpr uint32_t kNil = ~0u;
 
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
                          const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
-                         SplitScratch& s, std::vector<uint32_t>* emittedOut) {
+                         SplitScratch& s, std::vector<uint32_t>* emittedOut, const uint32_t* cornerPositions) {
   ClusterSet out;
   if (emittedOut) emittedOut->clear();
   size_t nt = triangles.size() / 3;
@@ -26,12 +26,18 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   uint32_t maxId = *std::max_element(triangles.begin(), triangles.end());
   if (s.localOf.size() <= maxId) s.localOf.resize(size_t(maxId) + 1, kNil);
   s.global.clear();
+  s.vertPos.clear();
   s.corners.resize(triangles.size());
   for (size_t i = 0; i < triangles.size(); ++i) {
     // Level-0 chunks name vertices all over the mesh: fetch the map entries ahead.
     if (i + 32 < triangles.size()) __builtin_prefetch(&s.localOf[triangles[i + 32]]);
     uint32_t& l = s.localOf[triangles[i]];
-    if (l == kNil) l = uint32_t(s.global.size()), s.global.push_back(triangles[i]);
+    if (l == kNil) {
+      l = uint32_t(s.global.size()), s.global.push_back(triangles[i]);
+      // Each vertex's position copied once (centroids and spheres read the copy, not the
+      // mesh-wide arrays: those reads were scattered cache misses, three per triangle).
+      s.vertPos.push_back(positions[cornerPositions ? cornerPositions[i] : vertexPosition[triangles[i]]]);
+    }
     s.corners[i] = l;
   }
   for (uint32_t g : s.global) s.localOf[g] = kNil;
@@ -47,8 +53,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
 
   s.centroids.resize(nt);
   for (size_t t = 0; t < nt; ++t)
-    s.centroids[t] = positions[vertexPosition[triangles[t * 3]]] + positions[vertexPosition[triangles[t * 3 + 1]]] +
-                     positions[vertexPosition[triangles[t * 3 + 2]]];
+    s.centroids[t] = s.vertPos[s.corners[t * 3]] + s.vertPos[s.corners[t * 3 + 1]] + s.vertPos[s.corners[t * 3 + 2]];
   s.emitted.assign(nt, 0);
   s.extra.resize(nt);
   s.triStamp.assign(nt, kNil);
@@ -169,6 +174,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         vertStamp[v] = cluster;
         s.vertLocal[v] = vertexCount++;
         out.vertices.push_back(s.global[v]);
+        s.points.push_back(s.vertPos[v]);
         const uint32_t* list = adjacency + offsets[v];
         for (uint32_t i = 0, left = live[v]; i < left; ++i) {
           uint32_t n = list[i];
@@ -201,6 +207,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     ClusterPiece piece{uint32_t(out.vertices.size()), 0, uint32_t(out.indices.size()), 0};
     vertexCount = triangleCount = 0;
     candCount = 0;
+    s.points.clear();
     glm::vec3 seedCenter = s.centroids[seed];
     addTriangle(seed);
     while (triangleCount < maxTriangles) {
@@ -232,6 +239,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     piece.vertexCount = vertexCount;
     piece.triangleCount = triangleCount;
     out.pieces.push_back(piece);
+    out.bounds.push_back(boundingSphere(s.points.data(), s.points.size()));
     done += triangleCount;
     ++cluster;
     if (done == nt) break;
