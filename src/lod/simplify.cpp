@@ -109,7 +109,7 @@ public:
       }
       uint32_t w = s_.target[u], checked = s_.time[u];
       // u is clean, but the entry was queued unchecked or w's triangles changed since.
-      if ((checked == kUnchecked || s_.changed[w] > checked) && (gatherRing(u, ringU()), !legal(u, w))) {
+      if ((checked == kUnchecked || s_.changed[w] > checked) && (gatherRingU(u), !legal(u, w))) {
         requeue(u, false);
         continue;
       }
@@ -144,6 +144,15 @@ private:
   template <class F> void forTriangles(uint32_t v, F&& f) {
     for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c])
       if (s_.alive[c / 3]) f(c / 3, c % 3);
+  }
+
+  // Like forTriangles, while f returns true; false when f stopped the walk.
+  template <class F> bool allTriangles(uint32_t v, F&& f) {
+    for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c]) {
+      uint32_t t = c / 3;
+      if (s_.alive[t] && !f(t, c - t * 3)) return false;
+    }
+    return true;
   }
 
   void initQuadrics() {
@@ -236,6 +245,14 @@ private:
     }
   }
 
+  // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
+  // vertex re-evaluated at the top of the heap often stays there and is tested next.
+  void gatherRingU(uint32_t v) {
+    if (ringUOf_ == v && ringUClock_ == clock_) return;
+    gatherRing(v, ringU());
+    ringUOf_ = v, ringUClock_ = clock_;
+  }
+
   // Which neighbours u (ringU gathered) may collapse onto: none when u must stay, only those
   // across a border edge when u is on an open border (it slides along it, so the border keeps its
   // shape), else all.
@@ -262,45 +279,41 @@ private:
     uint32_t common = 0;
     for (uint32_t x : rw) common += ru.uses(x) != 0;
     if (common != edgeUse) return false;
-    // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
-    // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
-    bool duplicate = false;
-    forTriangles(u, [&](uint32_t t, uint32_t k) {
-      uint32_t a = m_.corners[t * 3 + (k + 1) % 3], b = m_.corners[t * 3 + (k + 2) % 3];
-      if (duplicate || a == w || b == w || !rw.uses(a) || !rw.uses(b)) return;
-      forTriangles(w, [&](uint32_t t2, uint32_t) {
-        const uint32_t* v = &m_.corners[t2 * 3];
-        bool hasA = v[0] == a || v[1] == a || v[2] == a, hasB = v[0] == b || v[1] == b || v[2] == b;
-        duplicate |= hasA && hasB;
-      });
-    });
-    if (duplicate) return false;
     // No new edge between two locked vertices: a neighbouring group may create the same chord
     // (e.g. along a straight border, as a zero-area sliver) and the edge would then join four
     // triangles. Edges that already exist are fine.
     if (m_.locked[w])
       for (uint32_t x : ru)
         if (x != w && m_.locked[x] && !rw.uses(x)) return false;
-    bool ok = true;
+    // One walk over u's triangles (stopping at the first failure) for the rest:
     glm::dvec3 pu = s_.p[u], pw = s_.p[w];
-    forTriangles(u, [&](uint32_t t, uint32_t k) {
+    return allTriangles(u, [&](uint32_t t, uint32_t k) {
       const uint32_t* v = &m_.corners[t * 3];
-      if (!ok || v[0] == w || v[1] == w || v[2] == w) return;
-      glm::dvec3 a = s_.p[v[(k + 1) % 3]], b = s_.p[v[(k + 2) % 3]];
-      glm::dvec3 n0 = glm::cross(a - pu, b - pu);
-      glm::dvec3 n1 = glm::cross(a - pw, b - pw);
+      uint32_t a = v[kNextCorner[k]], b = v[kPrevCorner[k]];
+      if (a == w || b == w) return true;
+      // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
+      // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
+      if (rw.uses(a) && rw.uses(b) && !allTriangles(w, [&](uint32_t t2, uint32_t) {
+            const uint32_t* x = &m_.corners[t2 * 3];
+            bool hasA = x[0] == a || x[1] == a || x[2] == a, hasB = x[0] == b || x[1] == b || x[2] == b;
+            return !(hasA && hasB);
+          }))
+        return false;
+      glm::dvec3 pa = s_.p[a], pb = s_.p[b];
+      glm::dvec3 n0 = glm::cross(pa - pu, pb - pu);
+      glm::dvec3 n1 = glm::cross(pa - pw, pb - pw);
       double d = glm::dot(n0, n1), l0 = glm::dot(n0, n0);
-      // d < cos * |n0| |n1| without square roots; a degenerate n0 never blocks.
-      if (d <= 0.0 ? l0 > 0.0 : d * d < kFlipCos * kFlipCos * l0 * glm::dot(n1, n1)) ok = false;
+      // No fold: d < cos * |n0| |n1| without square roots; a degenerate n0 never blocks.
+      if (d <= 0.0 ? l0 > 0.0 : d * d < kFlipCos * kFlipCos * l0 * glm::dot(n1, n1)) return false;
       // With normals: the new face must stay within ~75 degrees of the shading normals at its
       // corners (small turns per collapse add up to folds whose back faces show near silhouettes).
       if (normalWeight2_ > 0.0 && l0 > 0.0) {
-        glm::dvec3 shading = glm::dvec3(s_.normal[w] + s_.normal[v[(k + 1) % 3]] + s_.normal[v[(k + 2) % 3]]);
+        glm::dvec3 shading = glm::dvec3(s_.normal[w] + s_.normal[a] + s_.normal[b]);
         double f = glm::dot(n1, shading);
-        if (f <= 0.0 || f * f < kShadingCos * kShadingCos * glm::dot(n1, n1) * glm::dot(shading, shading)) ok = false;
+        if (f <= 0.0 || f * f < kShadingCos * kShadingCos * glm::dot(n1, n1) * glm::dot(shading, shading)) return false;
       }
+      return true;
     });
-    return ok;
   }
 
   double cost(uint32_t u, uint32_t w, double normalWeight2) const {
@@ -391,7 +404,7 @@ private:
     s_.dirty[v] = 0;
     if (s_.head[v] == kNil || m_.locked[v]) return -1.0f;
     if (savedRings_) return evaluateSaved(v);
-    gatherRing(v, ringU());
+    gatherRingU(v);
     Targets mode = targets(v);
     if (mode == Targets::kNone) return -1.0f;
     Ring r = ringU();
@@ -453,37 +466,43 @@ private:
     // Attribute wedges: a corner of u takes the attribute w has in a dying triangle on the same
     // side of any attribute seam (same attribute at u), so UV charts stay consistent.
     std::vector<std::pair<uint32_t, uint32_t>>& pairs = s_.pairs;
+    std::vector<uint32_t>& kept = s_.kept; // u's corners in surviving triangles, in list order
     pairs.clear();
-    forTriangles(u, [&](uint32_t t, uint32_t k) {
-      for (uint32_t j = 0; j < 3; ++j)
-        if (m_.corners[t * 3 + j] == w) pairs.push_back({m_.attributes[t * 3 + k], m_.attributes[t * 3 + j]});
-    });
+    kept.clear();
     forTriangles(u, [&](uint32_t t, uint32_t k) {
       uint32_t* v = &m_.corners[t * 3];
-      if (v[0] == w || v[1] == w || v[2] == w) {
-        s_.alive[t] = 0;
-        --live_;
+      if (v[0] != w && v[1] != w && v[2] != w) {
+        kept.push_back(t * 3 + k);
         return;
       }
-      v[k] = w;
-      uint32_t& attr = m_.attributes[t * 3 + k];
-      uint32_t mapped = pairs.empty() ? attr : pairs[0].second;
-      for (auto [from, to] : pairs)
-        if (from == attr) mapped = to;
-      attr = mapped;
+      for (uint32_t j = 0; j < 3; ++j)
+        if (v[j] == w) pairs.push_back({m_.attributes[t * 3 + k], m_.attributes[t * 3 + j]});
+      s_.alive[t] = 0;
+      --live_;
     });
+    for (uint32_t c : kept) {
+      m_.corners[c] = w;
+      uint32_t& a = m_.attributes[c];
+      uint32_t mapped = pairs.empty() ? a : pairs[0].second;
+      for (auto [from, to] : pairs)
+        if (from == a) mapped = to;
+      a = mapped;
+    }
     add(s_.q[w], s_.q[u]);
     s_.selfCost[w] = eval(s_.q[w], s_.p[w]);
     if (normalWeight2_ > 0.0) add(s_.nq[w], s_.nq[u]);
     // w's corner list becomes its live corners plus u's: dropping dead ones keeps lists short.
     uint32_t first = kNil, last = kNil;
-    for (uint32_t v : {w, u})
-      for (uint32_t c = s_.head[v], n; c != kNil; c = n) {
-        n = s_.next[c];
-        if (!s_.alive[c / 3]) continue;
-        (last == kNil ? first : s_.next[last]) = c;
-        last = c;
-      }
+    for (uint32_t c = s_.head[w], n; c != kNil; c = n) {
+      n = s_.next[c];
+      if (!s_.alive[c / 3]) continue;
+      (last == kNil ? first : s_.next[last]) = c;
+      last = c;
+    }
+    for (uint32_t c : kept) {
+      (last == kNil ? first : s_.next[last]) = c;
+      last = c;
+    }
     if (last != kNil) s_.next[last] = kNil;
     s_.head[w] = first;
     s_.head[u] = kNil;
@@ -514,6 +533,7 @@ private:
   SimplifyScratch& s_;
   glm::dvec3 center_;
   double normalWeight2_ = 0.0, orderWeight2_ = 0.0;
+  uint32_t ringUOf_ = kNil, ringUClock_ = 0; // whose ring ringU holds, gathered at which clock
   uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0;
   bool savedRings_ = false; // evaluate() reads the rings saved by initQuadrics (first evaluation)
   size_t live_ = 0;

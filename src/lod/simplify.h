@@ -45,6 +45,7 @@ struct SimplifyScratch {
   std::vector<uint8_t> alive, dirty;
   std::vector<std::pair<double, uint32_t>> scored;
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  std::vector<uint32_t> kept;
   // One queued collapse per vertex (v -> target[v]) in an indexed 4-ary min-heap of (cost, v):
   // heapPos[v] is v's slot or ~0u. time[v] = collapse clock when the entry's legality was tested
   // (~0u: not tested yet).
