@@ -213,8 +213,15 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     while (triangleCount < maxTriangles) {
       uint32_t pick = kNil, best = kNil;
       if (vertexCount + 3 <= maxVertices) {
-        for (size_t i = 0; i < candCount; ++i) // every candidate fits
-          if (candScore[i] < best) best = candScore[i], pick = cand[i];
+        // Every candidate fits: the first candidate with the lowest score, as a minimum (which
+        // the compiler vectorizes; scores stay below 2^20) and then a search for its first slot.
+        if (candCount) {
+          int32_t lowest = std::numeric_limits<int32_t>::max();
+          for (size_t i = 0; i < candCount; ++i) lowest = std::min(lowest, int32_t(candScore[i]));
+          size_t i = 0;
+          while (candScore[i] != uint32_t(lowest)) ++i;
+          pick = cand[i];
+        }
       } else {
         for (size_t i = 0; i < candCount; ++i)
           if (candScore[i] < best && vertexCount + s.extra[cand[i]] <= maxVertices) best = candScore[i], pick = cand[i];
