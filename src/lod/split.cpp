@@ -55,17 +55,16 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   for (size_t t = 0; t < nt; ++t)
     s.centroids[t] = s.vertPos[s.corners[t * 3]] + s.vertPos[s.corners[t * 3 + 1]] + s.vertPos[s.corners[t * 3 + 2]];
   s.emitted.assign(nt, 0);
-  s.extra.resize(nt);
-  s.triStamp.assign(nt, kNil);
   s.vertStamp.assign(nv, kNil);
   s.live.resize(nv);
-  s.outside.resize(nt);
-  s.dangling.resize(nt);
-  s.liveSum.resize(nt);
-  s.repeated.resize(nt);
+  // Per-triangle state in one 16-byte record: the neighbour updates below touch all of it, and
+  // separate arrays cost a cache line each.
+  s.tri.resize(nt);
+  SplitScratch::TriState* tri = s.tri.data();
   for (size_t t = 0; t < nt; ++t) {
     const uint32_t* v = &s.corners[t * 3];
-    s.repeated[t] = v[0] == v[1] || v[1] == v[2] || v[0] == v[2];
+    tri[t].stamp = kNil;
+    tri[t].repeated = v[0] == v[1] || v[1] == v[2] || v[0] == v[2];
   }
   for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
   s.vertLocal.resize(nv);
@@ -78,15 +77,14 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // one the per-triangle version had.
   s.candidates.resize(nt);
   s.candScore.resize(nt);
-  s.candPos.resize(nt);
   uint32_t* cand = s.candidates.data();
   uint32_t* candScore = s.candScore.data();
   size_t candCount = 0;
   auto removeCandidate = [&](uint32_t t) {
-    uint32_t at = s.candPos[t];
+    uint32_t at = tri[t].candPos;
     --candCount;
     cand[at] = cand[candCount], candScore[at] = candScore[candCount];
-    s.candPos[cand[at]] = at;
+    tri[cand[at]].candPos = at;
   };
 
   // Lower is better: triangles adding no vertex, then dangling ones (the last unused triangle at
@@ -102,7 +100,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
                  uint32_t(s.vertStamp[v2] != cluster && v2 != v0 && v2 != v1);
     bool dangling = (l0 == 1) | (l1 == 1) | (l2 == 1);
     uint32_t rank = e == 0 ? 0 : dangling ? 1 : e + 1;
-    s.extra[t] = uint8_t(e);
+    tri[t].extra = uint8_t(e);
     return rank << 16 | std::min<uint32_t>(l0 + l1 + l2, 0xffff);
   };
   // Incremental scores: a candidate's score depends only on its corners' live counts and cluster
@@ -113,10 +111,10 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // Triangles with a repeated vertex (never made by clean or the simplifier, but allowed here)
   // are rescored from scratch, where "vertices added" counts distinct vertices.
   auto partsScore = [&](uint32_t t) {
-    uint32_t e = s.outside[t];
-    uint32_t rank = e == 0 ? 0 : s.dangling[t] ? 1 : e + 1;
-    s.extra[t] = uint8_t(e);
-    return rank << 16 | std::min<uint32_t>(s.liveSum[t], 0xffff);
+    uint32_t e = tri[t].outside;
+    uint32_t rank = e == 0 ? 0 : tri[t].dangling ? 1 : e + 1;
+    tri[t].extra = uint8_t(e);
+    return rank << 16 | std::min<uint32_t>(tri[t].liveSum, 0xffff);
   };
   auto initParts = [&](uint32_t t) {
     const uint32_t* v = &s.corners[size_t(t) * 3];
@@ -126,7 +124,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       dangling += s.live[v[k]] == 1;
       liveSum += s.live[v[k]];
     }
-    s.outside[t] = uint8_t(outside), s.dangling[t] = uint8_t(dangling), s.liveSum[t] = liveSum;
+    tri[t].outside = uint8_t(outside), tri[t].dangling = uint8_t(dangling), tri[t].liveSum = liveSum;
   };
   // Each vertex's adjacency range keeps its unemitted triangles first (live[v] of them, in the
   // original order: an emitted triangle is removed by shifting the rest down), so the loops below
@@ -135,15 +133,9 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   uint32_t* adjacency = s.adjacency.data();
   const uint32_t* offsets = s.offsets.data();
   uint32_t* live = s.live.data();
-  uint32_t* triStamp = s.triStamp.data();
   uint32_t* vertStamp = s.vertStamp.data();
-  uint32_t* candPos = s.candPos.data();
-  uint8_t* outsideOf = s.outside.data();
-  uint8_t* danglingOf = s.dangling.data();
-  uint32_t* liveSum = s.liveSum.data();
-  const uint8_t* repeated = s.repeated.data();
   auto addTriangle = [&](uint32_t t) {
-    if (triStamp[t] == cluster) removeCandidate(t); // not yet emitted: it is a candidate
+    if (tri[t].stamp == cluster) removeCandidate(t); // not yet emitted: it is a candidate
     s.emitted[t] = 1;
     if (emittedOut) emittedOut->push_back(t);
     const uint32_t* tv = &s.corners[size_t(t) * 3];
@@ -158,14 +150,14 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       list[left] = t;
       for (i = 0; i < left; ++i) {
         uint32_t n = list[i];
-        if (triStamp[n] != cluster) continue;
-        if (repeated[n]) {
-          candScore[candPos[n]] = rescore(n);
+        if (tri[n].stamp != cluster) continue;
+        if (tri[n].repeated) {
+          candScore[tri[n].candPos] = rescore(n);
           continue;
         }
-        --liveSum[n];
-        danglingOf[n] += left == 1;
-        candScore[candPos[n]] = partsScore(n);
+        --tri[n].liveSum;
+        tri[n].dangling += left == 1;
+        candScore[tri[n].candPos] = partsScore(n);
       }
     }
     for (int k = 0; k < 3; ++k) {
@@ -178,21 +170,21 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         const uint32_t* list = adjacency + offsets[v];
         for (uint32_t i = 0, left = live[v]; i < left; ++i) {
           uint32_t n = list[i];
-          if (triStamp[n] != cluster) {
+          if (tri[n].stamp != cluster) {
             // A new candidate around one of t's corners: scored from scratch (sees v inside).
-            triStamp[n] = cluster, candPos[n] = uint32_t(candCount), cand[candCount++] = n;
-            if (repeated[n]) {
-              candScore[candPos[n]] = rescore(n);
+            tri[n].stamp = cluster, tri[n].candPos = uint32_t(candCount), cand[candCount++] = n;
+            if (tri[n].repeated) {
+              candScore[tri[n].candPos] = rescore(n);
               continue;
             }
             initParts(n);
-          } else if (repeated[n]) {
-            candScore[candPos[n]] = rescore(n);
+          } else if (tri[n].repeated) {
+            candScore[tri[n].candPos] = rescore(n);
             continue;
           } else {
-            --outsideOf[n];
+            --tri[n].outside;
           }
-          candScore[candPos[n]] = partsScore(n);
+          candScore[tri[n].candPos] = partsScore(n);
         }
       }
       out.indices.push_back(uint8_t(s.vertLocal[v]));
@@ -224,7 +216,8 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         }
       } else {
         for (size_t i = 0; i < candCount; ++i)
-          if (candScore[i] < best && vertexCount + s.extra[cand[i]] <= maxVertices) best = candScore[i], pick = cand[i];
+          if (candScore[i] < best && vertexCount + tri[cand[i]].extra <= maxVertices)
+            best = candScore[i], pick = cand[i];
       }
       if (pick == kNil) {
         // Nothing adjacent fits: continue with the nearest unused triangle that fits, as
@@ -237,7 +230,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
           float d2 = glm::dot(d, d);
           if (d2 >= bestD) continue;
           rescore(uint32_t(t));
-          if (vertexCount + s.extra[t] <= maxVertices) bestD = d2, pick = uint32_t(t);
+          if (vertexCount + tri[t].extra <= maxVertices) bestD = d2, pick = uint32_t(t);
         }
         if (pick == kNil) break;
       }
