@@ -22,7 +22,7 @@ struct SimplifyMesh {
   float normalWeight = 0.0f;
 };
 
-// Plane quadric, relative to the group centre: Σ w (n·p + d)², and Σ w.
+// Plane quadric, relative to the group centre: Σ w (n·p + d)², and Σ w; b holds 2 Σ w n d.
 struct Quadric {
   double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, b0 = 0, b1 = 0, b2 = 0, c = 0, w = 0;
 };
