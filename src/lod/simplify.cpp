@@ -359,8 +359,15 @@ private:
       uint32_t first = i * 4 + 1;
       if (first >= n) break;
       uint32_t best = first;
-      for (uint32_t c = first + 1; c < std::min(first + 4, n); ++c)
-        if (s_.heap[c].cost < s_.heap[best].cost) best = c;
+      if (first + 3 < n) {
+        // Four children: a branch-free tournament (same pick as the scan: the first lowest).
+        const HeapItem* h = &s_.heap[first];
+        uint32_t a = h[1].cost < h[0].cost ? 1 : 0, b = h[3].cost < h[2].cost ? 3 : 2;
+        best = first + (h[b].cost < h[a].cost ? b : a);
+      } else {
+        for (uint32_t c = first + 1; c < n; ++c)
+          if (s_.heap[c].cost < s_.heap[best].cost) best = c;
+      }
       if (!(s_.heap[best].cost < item.cost)) break;
       heapSet(i, s_.heap[best]);
       i = best;
