@@ -518,9 +518,11 @@ private:
     gatherRing(w, touched);
     ++clock_;
     s_.changed[w] = clock_;
-    for (uint32_t x : touched) s_.changed[x] = clock_;
     markDirty(w, queuedCost);
-    for (uint32_t x : touched) markDirty(x, queuedCost);
+    for (uint32_t x : touched) {
+      s_.changed[x] = clock_;
+      markDirty(x, queuedCost);
+    }
   }
 
   void compact() {
