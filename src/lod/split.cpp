@@ -144,12 +144,12 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     for (int k = 0; k < 3; ++k) {
       uint32_t v = tv[k];
       uint32_t* list = adjacency + offsets[v];
-      uint32_t left = --live[v], i = 0;
-      while (list[i] != t) ++i;
-      for (; i < left; ++i) list[i] = list[i + 1];
-      list[left] = t;
-      for (i = 0; i < left; ++i) {
+      uint32_t left = --live[v], kept = 0;
+      // One pass: t moves behind the live ones (order kept) while the others are adjusted.
+      for (uint32_t i = 0; i <= left; ++i) {
         uint32_t n = list[i];
+        if (n == t) continue;
+        list[kept++] = n;
         if (tri[n].stamp != cluster) continue;
         if (tri[n].repeated) {
           candScore[tri[n].candPos] = rescore(n);
@@ -159,6 +159,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         tri[n].dangling += left == 1;
         candScore[tri[n].candPos] = partsScore(n);
       }
+      list[left] = t;
     }
     for (int k = 0; k < 3; ++k) {
       uint32_t v = tv[k];
