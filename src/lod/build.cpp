@@ -391,20 +391,28 @@ private:
   // (atomic counters; the bucket sort makes the order independent of the scatter's timing) and
   // the same order as sorting all entries, which was the largest step of grouping after METIS.
   std::vector<std::pair<uint64_t, uint32_t>> sortedBorderEntries(const std::vector<std::vector<uint64_t>>& borders) {
-    std::vector<uint32_t>& end = bucketStart_; // per position: its bucket's end, once scattered
-    size_t positions = dag_.positions.size();
-    end.assign(positions + 1, 0);
+    // Buckets of 2^shift consecutive lower position ids, about as many as entries: the upper
+    // levels have few entries, and buckets per position made every level pass over all positions
+    // three times (part of the serial grouping time). Any bucket width gives the same order.
+    size_t positions = dag_.positions.size(), total = 0;
+    for (const std::vector<uint64_t>& b : borders) total += b.size();
+    uint32_t shift = 0;
+    while (shift < 31 && (positions >> shift) > total) ++shift;
+    size_t buckets = (positions >> shift) + 1;
+    std::vector<uint32_t>& end = bucketStart_; // per bucket: its end, once scattered
+    end.assign(buckets + 1, 0);
     tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
       for (uint64_t k : borders[i])
-        std::atomic_ref<uint32_t>(end[(k >> 32) + 1]).fetch_add(1, std::memory_order_relaxed);
+        std::atomic_ref<uint32_t>(end[(k >> 32 >> shift) + 1]).fetch_add(1, std::memory_order_relaxed);
     });
-    for (size_t p = 0; p < positions; ++p) end[p + 1] += end[p]; // end[p] = bucket p's start for now
-    std::vector<std::pair<uint64_t, uint32_t>> entries(end[positions]);
+    for (size_t p = 0; p < buckets; ++p) end[p + 1] += end[p]; // end[p] = bucket p's start for now
+    std::vector<std::pair<uint64_t, uint32_t>> entries(end[buckets]);
     tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
       for (uint64_t k : borders[i])
-        entries[std::atomic_ref<uint32_t>(end[k >> 32]).fetch_add(1, std::memory_order_relaxed)] = {k, uint32_t(i)};
+        entries[std::atomic_ref<uint32_t>(end[k >> 32 >> shift]).fetch_add(1, std::memory_order_relaxed)] = {
+            k, uint32_t(i)};
     });
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, positions, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t p = r.begin(); p < r.end(); ++p) {
         auto first = entries.begin() + (p ? end[p - 1] : 0), last = entries.begin() + end[p];
         if (last - first > 1) std::sort(first, last);
