@@ -471,13 +471,18 @@ private:
         j = e;
       }
     });
-    std::vector<Link> links;
-    double lengthSum = 0.0;
-    for (size_t blk = 0; blk < blocks; ++blk) {
-      links.insert(links.end(), blockLinks[blk].begin(), blockLinks[blk].end());
+    // Joined in block order: sized once and copied in parallel (the serial, growing join was a
+    // sixth of the grouping stage).
+    std::vector<size_t> linkStart(blocks + 1, 0);
+    for (size_t blk = 0; blk < blocks; ++blk) linkStart[blk + 1] = linkStart[blk] + blockLinks[blk].size();
+    std::vector<Link> links(linkStart[blocks]);
+    tbb::parallel_for(size_t(0), blocks, [&](size_t blk) {
+      std::copy(blockLinks[blk].begin(), blockLinks[blk].end(), links.begin() + linkStart[blk]);
       blockLinks[blk] = {};
+    });
+    double lengthSum = 0.0;
+    for (size_t blk = 0; blk < blocks; ++blk)
       for (float len : blockLengths[blk]) lengthSum += len;
-    }
     entries = {};
     std::vector<uint32_t> part(n, 0);
     if (parts > 1) {
