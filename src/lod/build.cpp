@@ -280,7 +280,6 @@ private:
                                        cfg_.clusterTriangles, splitScratch_.local(),
                                        keptSource ? &out.source[0] : nullptr));
       if (keptSource) recordSource(out.sets[0], out.source[0]);
-      setBounds(out.sets[0]);
       return out;
     }
     Bounds box;
@@ -313,23 +312,8 @@ private:
         for (uint32_t& t : *source) t = order[begin + t]; // chunk-local -> `triangles`
         recordSource(out.sets[i], *source);
       }
-      setBounds(out.sets[i]);
     });
     return out;
-  }
-
-  // Cluster spheres of a freshly split set, computed by the worker that split it (appending the
-  // clusters is serial).
-  void setBounds(ClusterSet& set) const {
-    std::vector<glm::vec3> points;
-    set.bounds.resize(set.pieces.size());
-    for (size_t i = 0; i < set.pieces.size(); ++i) {
-      const ClusterPiece& p = set.pieces[i];
-      points.clear();
-      for (uint32_t v = 0; v < p.vertexCount; ++v)
-        points.push_back(dag_.positions[dag_.vertexPosition[set.vertices[p.vertexOffset + v]]]);
-      set.bounds[i] = boundingSphere(points.data(), points.size());
-    }
   }
 
   // Appends clusters of one set; `self` null means level 0 (own sphere, zero error).
@@ -407,20 +391,28 @@ private:
   // (atomic counters; the bucket sort makes the order independent of the scatter's timing) and
   // the same order as sorting all entries, which was the largest step of grouping after METIS.
   std::vector<std::pair<uint64_t, uint32_t>> sortedBorderEntries(const std::vector<std::vector<uint64_t>>& borders) {
-    std::vector<uint32_t>& end = bucketStart_; // per position: its bucket's end, once scattered
-    size_t positions = dag_.positions.size();
-    end.assign(positions + 1, 0);
+    // Buckets of 2^shift consecutive lower position ids, about as many as entries: the upper
+    // levels have few entries, and buckets per position made every level pass over all positions
+    // three times (part of the serial grouping time). Any bucket width gives the same order.
+    size_t positions = dag_.positions.size(), total = 0;
+    for (const std::vector<uint64_t>& b : borders) total += b.size();
+    uint32_t shift = 0;
+    while (shift < 31 && (positions >> shift) > total) ++shift;
+    size_t buckets = (positions >> shift) + 1;
+    std::vector<uint32_t>& end = bucketStart_; // per bucket: its end, once scattered
+    end.assign(buckets + 1, 0);
     tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
       for (uint64_t k : borders[i])
-        std::atomic_ref<uint32_t>(end[(k >> 32) + 1]).fetch_add(1, std::memory_order_relaxed);
+        std::atomic_ref<uint32_t>(end[(k >> 32 >> shift) + 1]).fetch_add(1, std::memory_order_relaxed);
     });
-    for (size_t p = 0; p < positions; ++p) end[p + 1] += end[p]; // end[p] = bucket p's start for now
-    std::vector<std::pair<uint64_t, uint32_t>> entries(end[positions]);
+    for (size_t p = 0; p < buckets; ++p) end[p + 1] += end[p]; // end[p] = bucket p's start for now
+    std::vector<std::pair<uint64_t, uint32_t>> entries(end[buckets]);
     tbb::parallel_for(size_t(0), borders.size(), [&](size_t i) {
       for (uint64_t k : borders[i])
-        entries[std::atomic_ref<uint32_t>(end[k >> 32]).fetch_add(1, std::memory_order_relaxed)] = {k, uint32_t(i)};
+        entries[std::atomic_ref<uint32_t>(end[k >> 32 >> shift]).fetch_add(1, std::memory_order_relaxed)] = {
+            k, uint32_t(i)};
     });
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, positions, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t p = r.begin(); p < r.end(); ++p) {
         auto first = entries.begin() + (p ? end[p - 1] : 0), last = entries.begin() + end[p];
         if (last - first > 1) std::sort(first, last);
@@ -479,13 +471,18 @@ private:
         j = e;
       }
     });
-    std::vector<Link> links;
-    double lengthSum = 0.0;
-    for (size_t blk = 0; blk < blocks; ++blk) {
-      links.insert(links.end(), blockLinks[blk].begin(), blockLinks[blk].end());
+    // Joined in block order: sized once and copied in parallel (the serial, growing join was a
+    // sixth of the grouping stage).
+    std::vector<size_t> linkStart(blocks + 1, 0);
+    for (size_t blk = 0; blk < blocks; ++blk) linkStart[blk + 1] = linkStart[blk] + blockLinks[blk].size();
+    std::vector<Link> links(linkStart[blocks]);
+    tbb::parallel_for(size_t(0), blocks, [&](size_t blk) {
+      std::copy(blockLinks[blk].begin(), blockLinks[blk].end(), links.begin() + linkStart[blk]);
       blockLinks[blk] = {};
+    });
+    double lengthSum = 0.0;
+    for (size_t blk = 0; blk < blocks; ++blk)
       for (float len : blockLengths[blk]) lengthSum += len;
-    }
     entries = {};
     std::vector<uint32_t> part(n, 0);
     if (parts > 1) {
@@ -632,9 +629,8 @@ private:
       return;
     }
     timer.emplace(kSplit);
-    w.parents = splitClusters(sm.attributes, dag_.positions, dag_.vertexPosition, cfg_.clusterVertices,
-                              cfg_.clusterTriangles, splitScratch_.local());
-    setBounds(w.parents);
+    w.parents = splitClusters(sm.attributes, sm.positions, dag_.vertexPosition, cfg_.clusterVertices,
+                              cfg_.clusterTriangles, splitScratch_.local(), nullptr, sm.corners.data());
     // Monotonic error: a parent is never more accurate than the children it replaces.
     float childError = 0.0f;
     for (uint32_t c : w.children) childError = std::max(childError, dag_.clusters[c].self.error);

@@ -16,7 +16,7 @@ struct ClusterPiece {
 // Clusters over attribute vertices: vertices are attribute-vertex ids, indices local (8-bit).
 struct ClusterSet {
   std::vector<ClusterPiece> pieces;
-  std::vector<LodBounds> bounds; // per piece: boundingSphere of its vertices (filled by the worker that split it)
+  std::vector<LodBounds> bounds; // per piece: boundingSphere of its vertices (computed by splitClusters)
   std::vector<uint32_t> vertices;
   std::vector<uint8_t> indices;
 };
@@ -25,22 +25,37 @@ struct ClusterSet {
 struct SplitScratch {
   std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
   std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
-  std::vector<uint32_t> global, corners, offsets, fill, adjacency, triStamp, vertStamp, vertLocal, live, candidates;
-  std::vector<uint32_t> candScore, candPos, liveSum;
-  std::vector<uint8_t> emitted, extra, outside, dangling, repeated; // outside..: a candidate's score parts
+  std::vector<uint32_t> global, corners, offsets, fill, adjacency, vertStamp, vertLocal, live, candidates, candScore;
+  std::vector<uint8_t> emitted;
+  struct TriState {
+    uint32_t stamp;   // cluster it is a candidate of
+    uint32_t candPos; // its slot in candidates / candScore
+    uint32_t liveSum; // score parts: live triangles at its corners,
+    uint8_t outside;  // corners outside the cluster,
+    uint8_t dangling; // corners with one live triangle left,
+    uint8_t extra;    // vertices it would add (set with the score)
+    uint8_t repeated; // has a repeated vertex: scored from scratch
+  };
+  std::vector<TriState> tri;
   std::vector<uint16_t> edgeUses;   // 256 x 256 cluster-local position pairs (build.cpp); all 0 between calls
   std::vector<glm::vec3> centroids; // 3x the centroid: only compared
+  std::vector<glm::vec3> vertPos;   // per local vertex, its position
+  std::vector<glm::vec3> points;    // the current cluster's vertex positions (its sphere)
 };
 
 // Splits a triangle list (attribute-vertex ids) into clusters of at most maxVertices/maxTriangles
 // by greedy growth: each cluster takes the triangle that adds the fewest new vertices, breadth
 // first, and the next cluster starts next to the previous one.
-// Positions (through vertexPosition) only pick the nearest triangle when a cluster has no fitting
-// neighbour left. emitted, when given, receives the input triangle (index into `triangles` / 3)
-// of every output triangle in output order (level 0's source-triangle map).
+// Positions only pick the nearest triangle when a cluster has no fitting neighbour left, and give
+// each cluster its bounding sphere (ClusterSet::bounds). A corner's position is
+// positions[vertexPosition[vertex]], or positions[cornerPositions[corner]] when cornerPositions
+// (one per entry of `triangles`) is given: a group's simplified mesh has compact local positions.
+// emitted, when given, receives the input triangle (index into `triangles` / 3) of every output
+// triangle in output order (level 0's source-triangle map).
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
                          const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
-                         SplitScratch& scratch, std::vector<uint32_t>* emitted = nullptr);
+                         SplitScratch& scratch, std::vector<uint32_t>* emitted = nullptr,
+                         const uint32_t* cornerPositions = nullptr);
 
 // Partitions a weighted undirected graph (CSR, symmetric) into `parts` parts with METIS
 // PartGraphRecursive. Returns the part of each node; falls back to consecutive chunks if METIS fails.

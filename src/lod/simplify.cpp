@@ -9,7 +9,7 @@ namespace mirage::lod::detail {
 namespace {
 
 constexpr uint32_t kNil = ~0u;
-constexpr uint32_t kUnchecked = ~0u; // Entry::time of an entry whose legality was not tested yet
+constexpr uint32_t kUnchecked = ~0u; // time[v] of an entry whose legality was not tested yet
 // Border planes keep open borders (the mesh's own) from shrinking or drifting; meshoptimizer uses
 // a similar boost for its border edges.
 constexpr double kBorderWeight = 4.0;
@@ -23,13 +23,14 @@ constexpr double kShadingCos = 0.25;
 // (docs/lod.md, "Normal-aware error").
 constexpr double kOrderNormalFraction = 0.5;
 
-using Entry = SimplifyScratch::Entry;
+using HeapItem = SimplifyScratch::HeapItem;
 
 Quadric planeQuadric(glm::dvec3 n, double d, double weight) {
   Quadric q;
   q.a00 = weight * n.x * n.x, q.a01 = weight * n.x * n.y, q.a02 = weight * n.x * n.z;
   q.a11 = weight * n.y * n.y, q.a12 = weight * n.y * n.z, q.a22 = weight * n.z * n.z;
-  q.b0 = weight * n.x * d, q.b1 = weight * n.y * d, q.b2 = weight * n.z * d;
+  // b is stored doubled (exact: a factor of 2 commutes with rounding), saving eval three products.
+  q.b0 = 2.0 * (weight * n.x * d), q.b1 = 2.0 * (weight * n.y * d), q.b2 = 2.0 * (weight * n.z * d);
   q.c = weight * d * d;
   q.w = weight;
   return q;
@@ -42,9 +43,9 @@ void add(Quadric& q, const Quadric& o) {
 
 // Sum of weighted squared plane distances at p.
 double eval(const Quadric& q, glm::dvec3 p) {
-  double rx = q.a00 * p.x + q.a01 * p.y + q.a02 * p.z + 2.0 * q.b0;
-  double ry = q.a01 * p.x + q.a11 * p.y + q.a12 * p.z + 2.0 * q.b1;
-  double rz = q.a02 * p.x + q.a12 * p.y + q.a22 * p.z + 2.0 * q.b2;
+  double rx = q.a00 * p.x + q.a01 * p.y + q.a02 * p.z + q.b0;
+  double ry = q.a01 * p.x + q.a11 * p.y + q.a12 * p.z + q.b1;
+  double rz = q.a02 * p.x + q.a12 * p.y + q.a22 * p.z + q.b2;
   return rx * p.x + ry * p.y + rz * p.z + q.c;
 }
 
@@ -71,10 +72,11 @@ public:
     }
     s.alive.assign(nt, 1);
     live_ = nt;
-    s.version.assign(nv, 0);
     s.dirty.assign(nv, 0);
     s.changed.assign(nv, 0);
-    s.queued.assign(nv, 0);
+    s.heapPos.assign(nv, kNil);
+    s.target.assign(nv, kNil);
+    s.time.assign(nv, kUnchecked);
     s.stampU.assign(nv, 0);
     s.stampW.assign(nv, 0);
     s.countU.resize(nv);
@@ -89,29 +91,35 @@ public:
   }
 
   float run(size_t target) {
+    // Every vertex's cheapest collapse, then one heapify (deterministic: the order is the ids').
     savedRings_ = true;
-    for (uint32_t v = 0; v < s_.p.size(); ++v) push(v, true);
+    for (uint32_t v = 0; v < s_.p.size(); ++v) {
+      float c = evaluate(v, true);
+      if (c >= 0.0f) s_.heapPos[v] = uint32_t(s_.heap.size()), s_.heap.push_back({c, v});
+    }
     savedRings_ = false;
+    if (s_.heap.size() > 1)
+      for (size_t i = (s_.heap.size() - 2) / 4 + 1; i-- > 0;) siftDown(uint32_t(i));
     while (live_ > target && !s_.heap.empty()) {
-      std::pop_heap(s_.heap.begin(), s_.heap.end());
-      Entry e = s_.heap.back();
-      s_.heap.pop_back();
-      if (e.version != s_.version[e.u] || s_.head[e.u] == kNil) continue;
-      if (s_.dirty[e.u]) {
-        // Lazy re-evaluation: collapses only raise costs (quadrics accumulate), so the stale cost
-        // is a good lower bound and most dirty vertices are never evaluated again before the target.
-        push(e.u, true);
+      uint32_t u = s_.heap[0].v;
+      if (s_.dirty[u]) {
+        // Lazy re-evaluation: collapses mostly raise costs (quadrics accumulate), so the stale cost
+        // is a good lower bound and many dirty vertices are never evaluated again before the target.
+        requeue(u, true);
         continue;
       }
-      // u is clean, but the entry was queued unchecked or w's triangles changed since: check now.
-      if ((e.time == kUnchecked || s_.changed[e.w] > e.time) && (gatherRing(e.u, ringU()), !legal(e.u, e.w))) {
-        push(e.u, false);
+      uint32_t w = s_.target[u], checked = s_.time[u];
+      // u is clean, but the entry was queued unchecked or w's triangles changed since.
+      if ((checked == kUnchecked || s_.changed[w] > checked) && (gatherRingU(u), !legal(u, w))) {
+        requeue(u, false);
         continue;
       }
       // The reported error is the cost with the normal term at collapse time (w's quadrics may
       // have grown since the entry was queued).
-      maxCost_ = std::max(maxCost_, cost(e.u, e.w, normalWeight2_));
-      collapse(e);
+      maxCost_ = std::max(maxCost_, cost(u, w, normalWeight2_));
+      float queuedCost = s_.heap[0].cost;
+      heapRemove(u);
+      collapse(u, w, queuedCost);
     }
     compact();
     return float(std::sqrt(maxCost_));
@@ -137,6 +145,15 @@ private:
   template <class F> void forTriangles(uint32_t v, F&& f) {
     for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c])
       if (s_.alive[c / 3]) f(c / 3, c % 3);
+  }
+
+  // Like forTriangles, while f returns true; false when f stopped the walk.
+  template <class F> bool allTriangles(uint32_t v, F&& f) {
+    for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c]) {
+      uint32_t t = c / 3;
+      if (s_.alive[t] && !f(t, c - t * 3)) return false;
+    }
+    return true;
   }
 
   void initQuadrics() {
@@ -180,8 +197,8 @@ private:
     for (uint32_t a = 0; a < s_.p.size(); ++a) {
       gatherRing(a, r);
       s_.ringStart[a] = saved;
-      for (uint32_t b : r) s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count[b];
       for (uint32_t b : r) {
+        s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count[b];
         if (b < a || r.count[b] != 1) continue;
         uint32_t o = kNil;
         forTriangles(a, [&](uint32_t t, uint32_t k) {
@@ -203,13 +220,6 @@ private:
     s_.ringStart[s_.p.size()] = saved;
     s_.selfCost.resize(s_.p.size());
     for (uint32_t v = 0; v < s_.p.size(); ++v) s_.selfCost[v] = eval(s_.q[v], s_.p[v]);
-  }
-
-  // ringU = v's ring as saved by initQuadrics (valid until the first collapse).
-  void loadSavedRing(uint32_t v) {
-    Ring r = ringU();
-    r.clear();
-    for (uint32_t i = s_.ringStart[v]; i < s_.ringStart[v + 1]; ++i) r.add(s_.ringNbr[i], s_.ringCnt[i]);
   }
 
   // Also unlinks v's dead corners (triangles removed by neighbouring collapses), so later walks
@@ -234,6 +244,14 @@ private:
       touch(corners[base + kPrevCorner[k]]);
       link = &s_.next[c];
     }
+  }
+
+  // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
+  // vertex re-evaluated at the top of the heap often stays there and is tested next.
+  void gatherRingU(uint32_t v) {
+    if (ringUOf_ == v && ringUClock_ == clock_) return;
+    gatherRing(v, ringU());
+    ringUOf_ = v, ringUClock_ = clock_;
   }
 
   // Which neighbours u (ringU gathered) may collapse onto: none when u must stay, only those
@@ -262,45 +280,41 @@ private:
     uint32_t common = 0;
     for (uint32_t x : rw) common += ru.uses(x) != 0;
     if (common != edgeUse) return false;
-    // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
-    // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
-    bool duplicate = false;
-    forTriangles(u, [&](uint32_t t, uint32_t k) {
-      uint32_t a = m_.corners[t * 3 + (k + 1) % 3], b = m_.corners[t * 3 + (k + 2) % 3];
-      if (duplicate || a == w || b == w || !rw.uses(a) || !rw.uses(b)) return;
-      forTriangles(w, [&](uint32_t t2, uint32_t) {
-        const uint32_t* v = &m_.corners[t2 * 3];
-        bool hasA = v[0] == a || v[1] == a || v[2] == a, hasB = v[0] == b || v[1] == b || v[2] == b;
-        duplicate |= hasA && hasB;
-      });
-    });
-    if (duplicate) return false;
     // No new edge between two locked vertices: a neighbouring group may create the same chord
     // (e.g. along a straight border, as a zero-area sliver) and the edge would then join four
     // triangles. Edges that already exist are fine.
     if (m_.locked[w])
       for (uint32_t x : ru)
         if (x != w && m_.locked[x] && !rw.uses(x)) return false;
-    bool ok = true;
+    // One walk over u's triangles (stopping at the first failure) for the rest:
     glm::dvec3 pu = s_.p[u], pw = s_.p[w];
-    forTriangles(u, [&](uint32_t t, uint32_t k) {
+    return allTriangles(u, [&](uint32_t t, uint32_t k) {
       const uint32_t* v = &m_.corners[t * 3];
-      if (!ok || v[0] == w || v[1] == w || v[2] == w) return;
-      glm::dvec3 a = s_.p[v[(k + 1) % 3]], b = s_.p[v[(k + 2) % 3]];
-      glm::dvec3 n0 = glm::cross(a - pu, b - pu);
-      glm::dvec3 n1 = glm::cross(a - pw, b - pw);
+      uint32_t a = v[kNextCorner[k]], b = v[kPrevCorner[k]];
+      if (a == w || b == w) return true;
+      // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
+      // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
+      if (rw.uses(a) && rw.uses(b) && !allTriangles(w, [&](uint32_t t2, uint32_t) {
+            const uint32_t* x = &m_.corners[t2 * 3];
+            bool hasA = x[0] == a || x[1] == a || x[2] == a, hasB = x[0] == b || x[1] == b || x[2] == b;
+            return !(hasA && hasB);
+          }))
+        return false;
+      glm::dvec3 pa = s_.p[a], pb = s_.p[b];
+      glm::dvec3 n0 = glm::cross(pa - pu, pb - pu);
+      glm::dvec3 n1 = glm::cross(pa - pw, pb - pw);
       double d = glm::dot(n0, n1), l0 = glm::dot(n0, n0);
-      // d < cos * |n0| |n1| without square roots; a degenerate n0 never blocks.
-      if (d <= 0.0 ? l0 > 0.0 : d * d < kFlipCos * kFlipCos * l0 * glm::dot(n1, n1)) ok = false;
+      // No fold: d < cos * |n0| |n1| without square roots; a degenerate n0 never blocks.
+      if (d <= 0.0 ? l0 > 0.0 : d * d < kFlipCos * kFlipCos * l0 * glm::dot(n1, n1)) return false;
       // With normals: the new face must stay within ~75 degrees of the shading normals at its
       // corners (small turns per collapse add up to folds whose back faces show near silhouettes).
       if (normalWeight2_ > 0.0 && l0 > 0.0) {
-        glm::dvec3 shading = glm::dvec3(s_.normal[w] + s_.normal[v[(k + 1) % 3]] + s_.normal[v[(k + 2) % 3]]);
+        glm::dvec3 shading = glm::dvec3(s_.normal[w] + s_.normal[a] + s_.normal[b]);
         double f = glm::dot(n1, shading);
-        if (f <= 0.0 || f * f < kShadingCos * kShadingCos * glm::dot(n1, n1) * glm::dot(shading, shading)) ok = false;
+        if (f <= 0.0 || f * f < kShadingCos * kShadingCos * glm::dot(n1, n1) * glm::dot(shading, shading)) return false;
       }
+      return true;
     });
-    return ok;
   }
 
   double cost(uint32_t u, uint32_t w, double normalWeight2) const {
@@ -322,34 +336,92 @@ private:
     return geometric + normalWeight2 * glm::dot(e, e) * std::max(dev, 0.0);
   }
 
-  void heapPush(const Entry& e) {
-    s_.heap.push_back(e);
-    std::push_heap(s_.heap.begin(), s_.heap.end());
+  // Indexed 4-ary min-heap over (cost, vertex): half the depth of a binary heap, one entry per
+  // vertex (no stale entries), updated in place.
+  void heapSet(uint32_t i, HeapItem item) {
+    s_.heap[i] = item;
+    s_.heapPos[item.v] = i;
+  }
+  void siftUp(uint32_t i) {
+    HeapItem item = s_.heap[i];
+    while (i > 0) {
+      uint32_t parent = (i - 1) / 4;
+      if (!(item.cost < s_.heap[parent].cost)) break;
+      heapSet(i, s_.heap[parent]);
+      i = parent;
+    }
+    heapSet(i, item);
+  }
+  void siftDown(uint32_t i) {
+    HeapItem item = s_.heap[i];
+    uint32_t n = uint32_t(s_.heap.size());
+    for (;;) {
+      uint32_t first = i * 4 + 1;
+      if (first >= n) break;
+      uint32_t best = first;
+      if (first + 3 < n) {
+        // Four children: a branch-free tournament (same pick as the scan: the first lowest).
+        const HeapItem* h = &s_.heap[first];
+        uint32_t a = h[1].cost < h[0].cost ? 1 : 0, b = h[3].cost < h[2].cost ? 3 : 2;
+        best = first + (h[b].cost < h[a].cost ? b : a);
+      } else {
+        for (uint32_t c = first + 1; c < n; ++c)
+          if (s_.heap[c].cost < s_.heap[best].cost) best = c;
+      }
+      if (!(s_.heap[best].cost < item.cost)) break;
+      heapSet(i, s_.heap[best]);
+      i = best;
+    }
+    heapSet(i, item);
+  }
+  void heapUpdate(uint32_t v, float c) {
+    uint32_t i = s_.heapPos[v];
+    if (i == kNil) {
+      s_.heap.push_back({c, v});
+      s_.heapPos[v] = uint32_t(s_.heap.size() - 1);
+      siftUp(uint32_t(s_.heap.size() - 1));
+      return;
+    }
+    float old = s_.heap[i].cost;
+    s_.heap[i].cost = c;
+    if (c < old)
+      siftUp(i);
+    else
+      siftDown(i);
+  }
+  void heapRemove(uint32_t v) {
+    uint32_t i = s_.heapPos[v];
+    if (i == kNil) return;
+    s_.heapPos[v] = kNil;
+    HeapItem last = s_.heap.back();
+    s_.heap.pop_back();
+    if (i == s_.heap.size()) return;
+    float old = s_.heap[i].cost;
+    heapSet(i, last);
+    if (last.cost < old)
+      siftUp(i);
+    else
+      siftDown(i);
   }
 
-  // Re-evaluates v's cheapest collapse and queues it (older entries of v go stale). Optimistic:
-  // the cheapest candidate goes in unchecked and its legality is tested when it comes up, so
-  // vertices that change again before then never pay for the test; otherwise the cheapest legal
-  // candidate.
-  void push(uint32_t v, bool optimistic) {
-    ++s_.version[v];
+  // v's cheapest collapse: sets target/time and returns its order cost, or -1 when v cannot
+  // move. Optimistic: the cheapest candidate is taken untested and its legality is tested when it
+  // comes up, so vertices that change again before then never pay for the test; otherwise the
+  // cheapest legal candidate.
+  float evaluate(uint32_t v, bool optimistic) {
     s_.dirty[v] = 0;
-    s_.queued[v] = 0;
-    if (s_.head[v] == kNil || m_.locked[v]) return;
-    if (savedRings_)
-      loadSavedRing(v);
-    else
-      gatherRing(v, ringU());
+    if (s_.head[v] == kNil || m_.locked[v]) return -1.0f;
+    if (savedRings_) return evaluateSaved(v);
+    gatherRingU(v);
     Targets mode = targets(v);
-    if (mode == Targets::kNone) return;
+    if (mode == Targets::kNone) return -1.0f;
     Ring r = ringU();
     if (optimistic) {
       std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
       for (uint32_t w : r)
         if (mode == Targets::kAll || r.count[w] == 1) best = std::min(best, {cost(v, w, orderWeight2_), w});
-      heapPush({float(best.first), v, best.second, s_.version[v], kUnchecked});
-      s_.queued[v] = 1;
-      return;
+      s_.target[v] = best.second, s_.time[v] = kUnchecked;
+      return float(best.first);
     }
     s_.scored.clear();
     for (uint32_t w : r)
@@ -357,70 +429,100 @@ private:
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
-        heapPush({float(c), v, w, s_.version[v], clock_});
-        s_.queued[v] = 1;
-        return;
+        s_.target[v] = w, s_.time[v] = clock_;
+        return float(c);
       }
+    return -1.0f;
+  }
+
+  // The first, optimistic evaluation straight from the rings initQuadrics saved (the same
+  // candidates in the same order as evaluate(), without copying them into a stamped ring).
+  float evaluateSaved(uint32_t v) {
+    const uint32_t *nbr = &s_.ringNbr[s_.ringStart[v]], *count = &s_.ringCnt[s_.ringStart[v]];
+    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v], borderEdges = 0;
+    if (size == 0) return -1.0f;
+    for (uint32_t i = 0; i < size; ++i) {
+      if (count[i] > 2) return -1.0f; // as targets(): non-manifold edge
+      borderEdges += count[i] == 1;
+    }
+    if (borderEdges != 0 && borderEdges != 2) return -1.0f;
+    std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
+    for (uint32_t i = 0; i < size; ++i)
+      if (borderEdges == 0 || count[i] == 1) best = std::min(best, {cost(v, nbr[i], orderWeight2_), nbr[i]});
+    s_.target[v] = best.second, s_.time[v] = kUnchecked;
+    return float(best.first);
+  }
+
+  // Re-evaluates v and moves its entry (or drops it when v cannot move).
+  void requeue(uint32_t v, bool optimistic) {
+    float c = evaluate(v, optimistic);
+    if (c < 0.0f)
+      heapRemove(v);
+    else
+      heapUpdate(v, c);
   }
 
   // v's neighbourhood changed: re-evaluate it when its (stale) entry comes up; a vertex without
   // an entry gets one at the current cost level so it is looked at again soon.
-  void markDirty(uint32_t v, float cost) {
+  void markDirty(uint32_t v, float c) {
     if (m_.locked[v] || s_.head[v] == kNil) return;
     s_.dirty[v] = 1;
-    if (!s_.queued[v]) {
-      heapPush({cost, v, kNil, s_.version[v], clock_});
-      s_.queued[v] = 1;
-    }
+    if (s_.heapPos[v] == kNil) heapUpdate(v, c);
   }
 
-  void collapse(const Entry& e) {
-    uint32_t u = e.u, w = e.w;
+  void collapse(uint32_t u, uint32_t w, float queuedCost) {
     // Attribute wedges: a corner of u takes the attribute w has in a dying triangle on the same
     // side of any attribute seam (same attribute at u), so UV charts stay consistent.
     std::vector<std::pair<uint32_t, uint32_t>>& pairs = s_.pairs;
+    std::vector<uint32_t>& kept = s_.kept; // u's corners in surviving triangles, in list order
     pairs.clear();
-    forTriangles(u, [&](uint32_t t, uint32_t k) {
-      for (uint32_t j = 0; j < 3; ++j)
-        if (m_.corners[t * 3 + j] == w) pairs.push_back({m_.attributes[t * 3 + k], m_.attributes[t * 3 + j]});
-    });
+    kept.clear();
     forTriangles(u, [&](uint32_t t, uint32_t k) {
       uint32_t* v = &m_.corners[t * 3];
-      if (v[0] == w || v[1] == w || v[2] == w) {
-        s_.alive[t] = 0;
-        --live_;
+      if (v[0] != w && v[1] != w && v[2] != w) {
+        kept.push_back(t * 3 + k);
         return;
       }
-      v[k] = w;
-      uint32_t& a = m_.attributes[t * 3 + k];
+      for (uint32_t j = 0; j < 3; ++j)
+        if (v[j] == w) pairs.push_back({m_.attributes[t * 3 + k], m_.attributes[t * 3 + j]});
+      s_.alive[t] = 0;
+      --live_;
+    });
+    for (uint32_t c : kept) {
+      m_.corners[c] = w;
+      uint32_t& a = m_.attributes[c];
       uint32_t mapped = pairs.empty() ? a : pairs[0].second;
       for (auto [from, to] : pairs)
         if (from == a) mapped = to;
       a = mapped;
-    });
+    }
     add(s_.q[w], s_.q[u]);
     s_.selfCost[w] = eval(s_.q[w], s_.p[w]);
     if (normalWeight2_ > 0.0) add(s_.nq[w], s_.nq[u]);
     // w's corner list becomes its live corners plus u's: dropping dead ones keeps lists short.
     uint32_t first = kNil, last = kNil;
-    for (uint32_t v : {w, u})
-      for (uint32_t c = s_.head[v], n; c != kNil; c = n) {
-        n = s_.next[c];
-        if (!s_.alive[c / 3]) continue;
-        (last == kNil ? first : s_.next[last]) = c;
-        last = c;
-      }
+    for (uint32_t c = s_.head[w], n; c != kNil; c = n) {
+      n = s_.next[c];
+      if (!s_.alive[c / 3]) continue;
+      (last == kNil ? first : s_.next[last]) = c;
+      last = c;
+    }
+    for (uint32_t c : kept) {
+      (last == kNil ? first : s_.next[last]) = c;
+      last = c;
+    }
     if (last != kNil) s_.next[last] = kNil;
     s_.head[w] = first;
     s_.head[u] = kNil;
-    ++s_.version[u];
     Ring touched = ringW();
     gatherRing(w, touched);
     ++clock_;
     s_.changed[w] = clock_;
-    for (uint32_t x : touched) s_.changed[x] = clock_;
-    markDirty(w, e.cost);
-    for (uint32_t x : touched) markDirty(x, e.cost);
+    markDirty(w, queuedCost);
+    for (uint32_t x : touched) {
+      s_.changed[x] = clock_;
+      markDirty(x, queuedCost);
+    }
   }
 
   void compact() {
@@ -441,8 +543,9 @@ private:
   SimplifyScratch& s_;
   glm::dvec3 center_;
   double normalWeight2_ = 0.0, orderWeight2_ = 0.0;
+  uint32_t ringUOf_ = kNil, ringUClock_ = 0; // whose ring ringU holds, gathered at which clock
   uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0;
-  bool savedRings_ = false; // push() reads rings saved by initQuadrics (first evaluation)
+  bool savedRings_ = false; // evaluate() reads the rings saved by initQuadrics (first evaluation)
   size_t live_ = 0;
   double maxCost_ = 0.0;
 };

@@ -22,7 +22,7 @@ struct SimplifyMesh {
   float normalWeight = 0.0f;
 };
 
-// Plane quadric, relative to the group centre: Σ w (n·p + d)², and Σ w.
+// Plane quadric, relative to the group centre: Σ w (n·p + d)², and Σ w; b holds 2 Σ w n d.
 struct Quadric {
   double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, b0 = 0, b1 = 0, b2 = 0, c = 0, w = 0;
 };
@@ -42,16 +42,19 @@ struct SimplifyScratch {
   std::vector<double> selfCost;                      // Q_v(p_v): the target's share of a collapse cost, kept up to date
   std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
   std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW;
-  std::vector<uint8_t> alive, dirty, queued;
+  std::vector<uint8_t> alive, dirty;
   std::vector<std::pair<double, uint32_t>> scored;
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
-  struct Entry {
+  std::vector<uint32_t> kept;
+  // One queued collapse per vertex (v -> target[v]) in an indexed 4-ary min-heap of (cost, v):
+  // heapPos[v] is v's slot or ~0u. time[v] = collapse clock when the entry's legality was tested
+  // (~0u: not tested yet).
+  struct HeapItem {
     float cost;
-    uint32_t u, w, version;
-    uint32_t time; // collapse clock when queued: w unchanged since then means the check still holds
-    bool operator<(const Entry& o) const { return cost > o.cost; } // min-heap
+    uint32_t v;
   };
-  std::vector<Entry> heap;
+  std::vector<HeapItem> heap;
+  std::vector<uint32_t> heapPos, target, time;
 };
 
 // Collapses edges (the removed vertex moves onto a kept neighbour, so no new positions or

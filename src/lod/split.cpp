@@ -17,7 +17,7 @@ constexpr uint32_t kNil = ~0u;
 
 ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vector<glm::vec3>& positions,
                          const std::vector<uint32_t>& vertexPosition, uint32_t maxVertices, uint32_t maxTriangles,
-                         SplitScratch& s, std::vector<uint32_t>* emittedOut) {
+                         SplitScratch& s, std::vector<uint32_t>* emittedOut, const uint32_t* cornerPositions) {
   ClusterSet out;
   if (emittedOut) emittedOut->clear();
   size_t nt = triangles.size() / 3;
@@ -26,12 +26,18 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   uint32_t maxId = *std::max_element(triangles.begin(), triangles.end());
   if (s.localOf.size() <= maxId) s.localOf.resize(size_t(maxId) + 1, kNil);
   s.global.clear();
+  s.vertPos.clear();
   s.corners.resize(triangles.size());
   for (size_t i = 0; i < triangles.size(); ++i) {
     // Level-0 chunks name vertices all over the mesh: fetch the map entries ahead.
     if (i + 32 < triangles.size()) __builtin_prefetch(&s.localOf[triangles[i + 32]]);
     uint32_t& l = s.localOf[triangles[i]];
-    if (l == kNil) l = uint32_t(s.global.size()), s.global.push_back(triangles[i]);
+    if (l == kNil) {
+      l = uint32_t(s.global.size()), s.global.push_back(triangles[i]);
+      // Each vertex's position copied once (centroids and spheres read the copy, not the
+      // mesh-wide arrays: those reads were scattered cache misses, three per triangle).
+      s.vertPos.push_back(positions[cornerPositions ? cornerPositions[i] : vertexPosition[triangles[i]]]);
+    }
     s.corners[i] = l;
   }
   for (uint32_t g : s.global) s.localOf[g] = kNil;
@@ -47,20 +53,18 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
 
   s.centroids.resize(nt);
   for (size_t t = 0; t < nt; ++t)
-    s.centroids[t] = positions[vertexPosition[triangles[t * 3]]] + positions[vertexPosition[triangles[t * 3 + 1]]] +
-                     positions[vertexPosition[triangles[t * 3 + 2]]];
+    s.centroids[t] = s.vertPos[s.corners[t * 3]] + s.vertPos[s.corners[t * 3 + 1]] + s.vertPos[s.corners[t * 3 + 2]];
   s.emitted.assign(nt, 0);
-  s.extra.resize(nt);
-  s.triStamp.assign(nt, kNil);
   s.vertStamp.assign(nv, kNil);
   s.live.resize(nv);
-  s.outside.resize(nt);
-  s.dangling.resize(nt);
-  s.liveSum.resize(nt);
-  s.repeated.resize(nt);
+  // Per-triangle state in one 16-byte record: the neighbour updates below touch all of it, and
+  // separate arrays cost a cache line each.
+  s.tri.resize(nt);
+  SplitScratch::TriState* tri = s.tri.data();
   for (size_t t = 0; t < nt; ++t) {
     const uint32_t* v = &s.corners[t * 3];
-    s.repeated[t] = v[0] == v[1] || v[1] == v[2] || v[0] == v[2];
+    tri[t].stamp = kNil;
+    tri[t].repeated = v[0] == v[1] || v[1] == v[2] || v[0] == v[2];
   }
   for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
   s.vertLocal.resize(nv);
@@ -73,15 +77,14 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // one the per-triangle version had.
   s.candidates.resize(nt);
   s.candScore.resize(nt);
-  s.candPos.resize(nt);
   uint32_t* cand = s.candidates.data();
   uint32_t* candScore = s.candScore.data();
   size_t candCount = 0;
   auto removeCandidate = [&](uint32_t t) {
-    uint32_t at = s.candPos[t];
+    uint32_t at = tri[t].candPos;
     --candCount;
     cand[at] = cand[candCount], candScore[at] = candScore[candCount];
-    s.candPos[cand[at]] = at;
+    tri[cand[at]].candPos = at;
   };
 
   // Lower is better: triangles adding no vertex, then dangling ones (the last unused triangle at
@@ -97,7 +100,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
                  uint32_t(s.vertStamp[v2] != cluster && v2 != v0 && v2 != v1);
     bool dangling = (l0 == 1) | (l1 == 1) | (l2 == 1);
     uint32_t rank = e == 0 ? 0 : dangling ? 1 : e + 1;
-    s.extra[t] = uint8_t(e);
+    tri[t].extra = uint8_t(e);
     return rank << 16 | std::min<uint32_t>(l0 + l1 + l2, 0xffff);
   };
   // Incremental scores: a candidate's score depends only on its corners' live counts and cluster
@@ -108,10 +111,10 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // Triangles with a repeated vertex (never made by clean or the simplifier, but allowed here)
   // are rescored from scratch, where "vertices added" counts distinct vertices.
   auto partsScore = [&](uint32_t t) {
-    uint32_t e = s.outside[t];
-    uint32_t rank = e == 0 ? 0 : s.dangling[t] ? 1 : e + 1;
-    s.extra[t] = uint8_t(e);
-    return rank << 16 | std::min<uint32_t>(s.liveSum[t], 0xffff);
+    uint32_t e = tri[t].outside;
+    uint32_t rank = e == 0 ? 0 : tri[t].dangling ? 1 : e + 1;
+    tri[t].extra = uint8_t(e);
+    return rank << 16 | std::min<uint32_t>(tri[t].liveSum, 0xffff);
   };
   auto initParts = [&](uint32_t t) {
     const uint32_t* v = &s.corners[size_t(t) * 3];
@@ -121,7 +124,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       dangling += s.live[v[k]] == 1;
       liveSum += s.live[v[k]];
     }
-    s.outside[t] = uint8_t(outside), s.dangling[t] = uint8_t(dangling), s.liveSum[t] = liveSum;
+    tri[t].outside = uint8_t(outside), tri[t].dangling = uint8_t(dangling), tri[t].liveSum = liveSum;
   };
   // Each vertex's adjacency range keeps its unemitted triangles first (live[v] of them, in the
   // original order: an emitted triangle is removed by shifting the rest down), so the loops below
@@ -130,15 +133,9 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   uint32_t* adjacency = s.adjacency.data();
   const uint32_t* offsets = s.offsets.data();
   uint32_t* live = s.live.data();
-  uint32_t* triStamp = s.triStamp.data();
   uint32_t* vertStamp = s.vertStamp.data();
-  uint32_t* candPos = s.candPos.data();
-  uint8_t* outsideOf = s.outside.data();
-  uint8_t* danglingOf = s.dangling.data();
-  uint32_t* liveSum = s.liveSum.data();
-  const uint8_t* repeated = s.repeated.data();
   auto addTriangle = [&](uint32_t t) {
-    if (triStamp[t] == cluster) removeCandidate(t); // not yet emitted: it is a candidate
+    if (tri[t].stamp == cluster) removeCandidate(t); // not yet emitted: it is a candidate
     s.emitted[t] = 1;
     if (emittedOut) emittedOut->push_back(t);
     const uint32_t* tv = &s.corners[size_t(t) * 3];
@@ -147,21 +144,22 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     for (int k = 0; k < 3; ++k) {
       uint32_t v = tv[k];
       uint32_t* list = adjacency + offsets[v];
-      uint32_t left = --live[v], i = 0;
-      while (list[i] != t) ++i;
-      for (; i < left; ++i) list[i] = list[i + 1];
-      list[left] = t;
-      for (i = 0; i < left; ++i) {
+      uint32_t left = --live[v], kept = 0;
+      // One pass: t moves behind the live ones (order kept) while the others are adjusted.
+      for (uint32_t i = 0; i <= left; ++i) {
         uint32_t n = list[i];
-        if (triStamp[n] != cluster) continue;
-        if (repeated[n]) {
-          candScore[candPos[n]] = rescore(n);
+        if (n == t) continue;
+        list[kept++] = n;
+        if (tri[n].stamp != cluster) continue;
+        if (tri[n].repeated) {
+          candScore[tri[n].candPos] = rescore(n);
           continue;
         }
-        --liveSum[n];
-        danglingOf[n] += left == 1;
-        candScore[candPos[n]] = partsScore(n);
+        --tri[n].liveSum;
+        tri[n].dangling += left == 1;
+        candScore[tri[n].candPos] = partsScore(n);
       }
+      list[left] = t;
     }
     for (int k = 0; k < 3; ++k) {
       uint32_t v = tv[k];
@@ -169,24 +167,25 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         vertStamp[v] = cluster;
         s.vertLocal[v] = vertexCount++;
         out.vertices.push_back(s.global[v]);
+        s.points.push_back(s.vertPos[v]);
         const uint32_t* list = adjacency + offsets[v];
         for (uint32_t i = 0, left = live[v]; i < left; ++i) {
           uint32_t n = list[i];
-          if (triStamp[n] != cluster) {
+          if (tri[n].stamp != cluster) {
             // A new candidate around one of t's corners: scored from scratch (sees v inside).
-            triStamp[n] = cluster, candPos[n] = uint32_t(candCount), cand[candCount++] = n;
-            if (repeated[n]) {
-              candScore[candPos[n]] = rescore(n);
+            tri[n].stamp = cluster, tri[n].candPos = uint32_t(candCount), cand[candCount++] = n;
+            if (tri[n].repeated) {
+              candScore[tri[n].candPos] = rescore(n);
               continue;
             }
             initParts(n);
-          } else if (repeated[n]) {
-            candScore[candPos[n]] = rescore(n);
+          } else if (tri[n].repeated) {
+            candScore[tri[n].candPos] = rescore(n);
             continue;
           } else {
-            --outsideOf[n];
+            --tri[n].outside;
           }
-          candScore[candPos[n]] = partsScore(n);
+          candScore[tri[n].candPos] = partsScore(n);
         }
       }
       out.indices.push_back(uint8_t(s.vertLocal[v]));
@@ -201,16 +200,25 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     ClusterPiece piece{uint32_t(out.vertices.size()), 0, uint32_t(out.indices.size()), 0};
     vertexCount = triangleCount = 0;
     candCount = 0;
+    s.points.clear();
     glm::vec3 seedCenter = s.centroids[seed];
     addTriangle(seed);
     while (triangleCount < maxTriangles) {
       uint32_t pick = kNil, best = kNil;
       if (vertexCount + 3 <= maxVertices) {
-        for (size_t i = 0; i < candCount; ++i) // every candidate fits
-          if (candScore[i] < best) best = candScore[i], pick = cand[i];
+        // Every candidate fits: the first candidate with the lowest score, as a minimum (which
+        // the compiler vectorizes; scores stay below 2^20) and then a search for its first slot.
+        if (candCount) {
+          int32_t lowest = std::numeric_limits<int32_t>::max();
+          for (size_t i = 0; i < candCount; ++i) lowest = std::min(lowest, int32_t(candScore[i]));
+          size_t i = 0;
+          while (candScore[i] != uint32_t(lowest)) ++i;
+          pick = cand[i];
+        }
       } else {
         for (size_t i = 0; i < candCount; ++i)
-          if (candScore[i] < best && vertexCount + s.extra[cand[i]] <= maxVertices) best = candScore[i], pick = cand[i];
+          if (candScore[i] < best && vertexCount + tri[cand[i]].extra <= maxVertices)
+            best = candScore[i], pick = cand[i];
       }
       if (pick == kNil) {
         // Nothing adjacent fits: continue with the nearest unused triangle that fits, as
@@ -223,7 +231,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
           float d2 = glm::dot(d, d);
           if (d2 >= bestD) continue;
           rescore(uint32_t(t));
-          if (vertexCount + s.extra[t] <= maxVertices) bestD = d2, pick = uint32_t(t);
+          if (vertexCount + tri[t].extra <= maxVertices) bestD = d2, pick = uint32_t(t);
         }
         if (pick == kNil) break;
       }
@@ -232,6 +240,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     piece.vertexCount = vertexCount;
     piece.triangleCount = triangleCount;
     out.pieces.push_back(piece);
+    out.bounds.push_back(boundingSphere(s.points.data(), s.points.size()));
     done += triangleCount;
     ++cluster;
     if (done == nt) break;
