@@ -11,8 +11,6 @@ namespace mirage::surfels {
 
 namespace {
 
-constexpr uint32_t kNeighbours = 16;
-
 uint32_t packColor(glm::vec4 c) {
   glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
   return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
@@ -27,25 +25,41 @@ bool isPointCloud(const Scene& scene) {
   return false;
 }
 
-Result<GBufferTexels> pointCloudTexels(const Scene& scene) {
+Result<ScanPoints> scanPoints(const Scene& scene) {
   std::string source = scene.source.empty() ? "scene" : scene.source;
-  GBufferTexels t;
+  ScanPoints s;
+  s.hasNormals = true;
   for (const Instance& inst : scene.instances) {
     if (inst.mesh >= scene.meshes.size()) continue;
     const Mesh& m = scene.meshes[inst.mesh];
     glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(inst.transform)));
+    s.hasNormals = s.hasNormals && m.normals.size() >= m.positions.size();
     for (size_t i = 0; i < m.positions.size(); ++i) {
-      t.positions.push_back(glm::vec3(inst.transform * glm::vec4(m.positions[i], 1.0f)));
+      s.positions.push_back(glm::vec3(inst.transform * glm::vec4(m.positions[i], 1.0f)));
       glm::vec3 n = i < m.normals.size() ? normalMatrix * m.normals[i] : glm::vec3(0, 0, 1);
       float len = glm::length(n);
-      t.normals.push_back(len > 0.0f ? n / len : glm::vec3(0, 0, 1));
-      t.colors.push_back(i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu);
+      s.normals.push_back(len > 0.0f ? n / len : glm::vec3(0, 0, 1));
+      s.colors.push_back(i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu);
     }
   }
-  if (t.positions.size() <= kNeighbours)
-    return makeError(
-        source, fmt::format("point cloud has {} points; sampling needs more than {}", t.positions.size(), kNeighbours));
-  if (t.positions.size() >= (1ull << 32)) return makeError(source, "point cloud has 2^32 points or more");
+  if (s.size() <= kPointNeighbours)
+    return makeError(source,
+                     fmt::format("point cloud has {} points; sampling needs more than {}", s.size(), kPointNeighbours));
+  if (s.size() >= (1ull << 32)) return makeError(source, "point cloud has 2^32 points or more");
+  KdTree tree(s.positions);
+  s.spacing.resize(s.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, s.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i < range.end(); ++i)
+      s.spacing[i] = std::sqrt(tree.kthNearestSquared(s.positions[i], kPointNeighbours, uint32_t(i)));
+  });
+  return s;
+}
+
+GBufferTexels pointCloudTexels(const ScanPoints& points) {
+  GBufferTexels t;
+  t.positions = points.positions;
+  t.normals = points.normals;
+  t.colors = points.colors;
   Bounds box;
   for (glm::vec3 p : t.positions) box.add(p);
   t.center = box.center();
@@ -56,20 +70,22 @@ Result<GBufferTexels> pointCloudTexels(const Scene& scene) {
   for (uint32_t i = 0; i < t.ids.size(); ++i) t.ids[i] = i;
   t.resolution = 0; // no G-buffer: ids are point indices
   t.viewCount = 0;
-
-  KdTree tree(t.positions);
   t.areas.resize(t.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, t.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t i = range.begin(); i < range.end(); ++i) {
-      float r2 = tree.kthNearestSquared(t.positions[i], kNeighbours, uint32_t(i));
-      t.areas[i] = float(3.14159265358979 * double(r2) / double(kNeighbours));
-    }
-  });
+  for (size_t i = 0; i < t.size(); ++i) {
+    double r = points.spacing[i];
+    t.areas[i] = float(3.14159265358979 * r * r / double(kPointNeighbours));
+  }
   t.totalArea = 0.0;
   for (float a : t.areas) t.totalArea += a;
   // The typical spacing stands in for the texel size (what a G-buffer's resolution would be).
   t.texelSize = float(std::sqrt(t.totalArea / double(t.size())));
   return t;
+}
+
+Result<GBufferTexels> pointCloudTexels(const Scene& scene) {
+  auto points = scanPoints(scene);
+  if (!points) return points.error();
+  return pointCloudTexels(*points);
 }
 
 } // namespace mirage::surfels

@@ -127,6 +127,73 @@ TEST_F(SurfelInputs, PointCloudPlySamplesWithBlueNoiseAndKeepsColours) {
   EXPECT_GT(checked, 2500u);
 }
 
+// The GPU path for scans: the same sphere cloud splatted as discs into 96² × 16 views, then the
+// GPU sampler; quality against the exact CPU path on the points themselves.
+TEST_F(SurfelInputs, PointCloudGpuCaptureSamplesLikeTheExactPath) {
+  auto dir = mirage::test::tempDir("surfels_points_gpu");
+  std::string path = (dir / "sphere.ply").string();
+  writeSpherePly(path, 40000);
+  io::ImportOptions options;
+  options.allowPointClouds = true;
+  auto scene = io::importPly(path, options);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  auto points = scanPoints(*scene);
+  ASSERT_TRUE(points.ok()) << points.error().message;
+  CaptureConfig capture;
+  capture.resolution = 96;
+  auto gb = capturePointCloud(context(), *points, capture);
+  ASSERT_TRUE(gb.ok()) << gb.error().message;
+  const GBufferTexels& t = gb->texels;
+  // Discs cover the sphere's projection in every view (π / texel² texels, a few more at the rim),
+  // and the deduplicated area is the sphere's.
+  double perView = 3.14159265 / (double(t.texelSize) * t.texelSize);
+  std::printf("GPU point capture: %zu texels (%.3f of the sphere's projections), A %.3f, texel %.4f\n", t.size(),
+              double(t.size()) / (16 * perView), t.totalArea, t.texelSize);
+  EXPECT_GT(double(t.size()), 0.99 * 16 * perView);
+  EXPECT_LT(double(t.size()), 1.05 * 16 * perView);
+  EXPECT_NEAR(t.totalArea, 4.0 * 3.14159265, 0.05 * 4.0 * 3.14159265);
+  for (size_t i = 0; i < t.size(); ++i) ASSERT_NEAR(glm::length(t.positions[i]), 1.0f, 0.25f * t.texelSize) << i;
+
+  GpuSamplerConfig config;
+  config.count = 3000;
+  auto r = sampleOnGpu(context(), *gb, config);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const SampleOrder& o = r->order;
+  ASSERT_EQ(o.texels.size(), 3000u);
+  for (size_t i = 1; i < o.radii.size(); ++i) ASSERT_LE(o.radii[i], o.radii[i - 1]) << i;
+  GBufferTexels exactTexels = pointCloudTexels(*points);
+  SampleOrder exact = farthestPointReference(exactTexels, 3000);
+  for (uint32_t n : {100u, 1000u, 3000u}) {
+    PrefixQuality g = measurePrefix(t, o, n), c = measurePrefix(exactTexels, exact, n);
+    std::printf("prefix %4u: gpu points rho %.3f coverage %.4f | exact CPU rho %.3f\n", n, g.rho, g.coverage, c.rho);
+    EXPECT_GE(g.rho, 0.65) << n;
+    EXPECT_GE(g.rho, 0.9 * c.rho) << n;
+    EXPECT_GE(g.coverage, 0.99) << n;
+  }
+  SurfelCloud cloud = buildSurfelCloud(t, o);
+  size_t checked = 0;
+  for (const Surfel& s : cloud.surfels) {
+    glm::vec3 p = surfelPosition(cloud.box, s);
+    EXPECT_NEAR(glm::length(p), 1.0f, t.texelSize); // a disc's plane point, within a texel of the sphere
+    EXPECT_GT(glm::dot(surfelNormal(s), glm::normalize(p)), 0.99f);
+    if (std::abs(p.y) < 0.1f) continue; // discs near the equator may carry either colour
+    EXPECT_EQ(channel(s.color, 0), p.y > 0 ? 255 : 0);
+    EXPECT_EQ(channel(s.color, 2), p.y > 0 ? 0 : 255);
+    ++checked;
+  }
+  EXPECT_GT(checked, 2400u);
+
+  // Deterministic: a second capture and sampling give the same texels and the same order.
+  auto gb2 = capturePointCloud(context(), *points, capture);
+  ASSERT_TRUE(gb2.ok());
+  EXPECT_EQ(gb2->texels.ids, t.ids);
+  EXPECT_EQ(gb2->texels.positions, t.positions);
+  auto r2 = sampleOnGpu(context(), *gb2, config);
+  ASSERT_TRUE(r2.ok());
+  EXPECT_EQ(r2->order.texels, o.texels);
+  EXPECT_EQ(r2->order.radii, o.radii);
+}
+
 TEST_F(SurfelInputs, DepthPeelingReachesTheInnerBox) {
   Scene scene = boxInBox();
   CaptureConfig config;

@@ -1,12 +1,33 @@
 #pragma once
 // Point clouds (a scanner's PLY: vertices with normals and colours, no faces) as sampler input.
-// The points already lie on the surface, so there is nothing to rasterize or to hide: each point
-// becomes one "texel" and the exact farthest-point order (reference.h) runs on them directly.
+// Two paths: the exact one (pointCloudTexels: each point becomes one "texel" and the exact CPU
+// farthest-point order, reference.h, runs on them) and the GPU one (capturePointCloud in
+// capture.h splats every point as an oriented disc into the same G-buffers as a mesh, and the
+// GPU sampler runs unchanged). ScanPoints is what both start from.
+#include <vector>
+
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/surfels/surfel.h"
 
 namespace mirage::surfels {
+
+// Neighbours of the spacing estimate: r_k, the distance to the k-th nearest other point.
+constexpr uint32_t kPointNeighbours = 16;
+
+// The points of every instance in world space, with what each path needs per point.
+struct ScanPoints {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals; // unit; +z where the scan has none
+  std::vector<uint32_t> colors;   // linear RGBA8; white where the scan has none
+  std::vector<float> spacing;     // r_k per point (k = kPointNeighbours)
+  bool hasNormals = false;        // every point came with a normal
+
+  size_t size() const { return positions.size(); }
+};
+
+// Errors: no points, fewer than k + 1 points, 2^32 points or more.
+Result<ScanPoints> scanPoints(const Scene& scene);
 
 // True when the scene has points but no triangles.
 bool isPointCloud(const Scene& scene);
@@ -18,5 +39,6 @@ bool isPointCloud(const Scene& scene);
 // unbiased area per point (π·r_k² / (k − 1) would be 1/k too large). A is their sum.
 // Errors: no points, or fewer than k + 1 points.
 Result<GBufferTexels> pointCloudTexels(const Scene& scene);
+GBufferTexels pointCloudTexels(const ScanPoints& points);
 
 } // namespace mirage::surfels

@@ -1,0 +1,161 @@
+// GPU capture of a point cloud (a scanner's PLY) into the layered G-buffers of the mesh capture:
+// a compute splat of oriented discs with a 64-bit depth test, then a resolve into the position,
+// normal and colour layout the mesh capture reads back. docs/surfels.md "Point-cloud input".
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "capture_internal.h"
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/pipeline.h"
+#include "mirage/surfels/capture.h"
+#include "mirage/surfels/point_cloud.h"
+
+namespace mirage::surfels {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+constexpr uint32_t kMaxGroups = 65535; // the guaranteed maxComputeWorkGroupCount per dimension
+
+float medianOf(std::vector<float> v) {
+  auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// The GPU's points: disc radius = the point's spacing, clamped to kMaxDiscSpacingRatio medians.
+std::vector<sio::SurfelPoint> discPoints(const ScanPoints& points) {
+  float maxRadius = kMaxDiscSpacingRatio * medianOf(points.spacing);
+  std::vector<sio::SurfelPoint> out(points.size());
+  for (size_t i = 0; i < points.size(); ++i)
+    out[i] = {points.positions[i], std::min(points.spacing[i], maxRadius), points.normals[i], points.colors[i]};
+  return out;
+}
+
+} // namespace
+
+Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, const CaptureConfig& config) {
+  const VkPhysicalDeviceLimits& limits = ctx.properties().limits;
+  std::string source = "point cloud";
+  if (!ctx.caps().int64BufferAtomics)
+    return makeError(source, "the GPU point capture needs 64-bit buffer atomics (shaderBufferInt64Atomics)");
+  if (config.resolution == 0 || config.resolution > limits.maxImageDimension2D)
+    return makeError(
+        source, fmt::format("G-buffer resolution {} is outside 1..{}", config.resolution, limits.maxImageDimension2D));
+  if (config.views == 0 || config.views > 65535)
+    return makeError(source, fmt::format("view count {} is outside 1..65535", config.views));
+  if (config.layers != 1)
+    return makeError(source, "depth peeling (--layers) is not implemented for the GPU point capture; use --points cpu");
+  uint64_t texelCount = uint64_t(config.views) * config.resolution * config.resolution;
+  if (texelCount >= (1ull << 32))
+    return makeError(source, fmt::format("{} views of {}² texels exceed 2^32 texels", config.views, config.resolution));
+  if (points.size() == 0 || points.spacing.size() != points.size()) return makeError(source, "no points to capture");
+  // Discs need an orientation: a scan without normals would splat every disc facing +z.
+  if (!points.hasNormals)
+    return makeError(source, "the GPU point capture needs per-point normals (nx ny nz); use --points cpu");
+
+  std::vector<sio::SurfelPoint> discs = discPoints(points);
+  GpuGBuffer out;
+  GBufferTexels& t = out.texels;
+  t.resolution = config.resolution;
+  t.viewCount = config.views;
+  t.layers = 1;
+  Bounds box;
+  for (glm::vec3 p : points.positions) box.add(p);
+  t.center = box.center();
+  // The tightest sphere around the box centre that holds every disc, with the mesh capture's margin.
+  float maxDistance = 0.0f;
+  for (const sio::SurfelPoint& d : discs)
+    maxDistance = std::max(maxDistance, glm::length(d.position - t.center) + d.radius);
+  t.sphereRadius = maxDistance * 1.01f + 1e-6f;
+  t.texelSize = 2.0f * t.sphereRadius / float(config.resolution);
+  out.views = detail::captureViews(t, config.views);
+  out.passes = 1;
+
+  VkBufferUsageFlags storage =
+      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+  Buffer pointBuffer =
+      createBufferWithData<sio::SurfelPoint>(ctx, discs, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel scan points");
+  Buffer viewBuffer =
+      createBufferWithData<sio::SurfelView>(ctx, out.views, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel views");
+  Buffer keys = createBuffer(ctx, texelCount * 8, storage, MemoryUsage::GpuOnly, "surfel point depth keys");
+  out.positions = createBuffer(ctx, texelCount * 16, storage, MemoryUsage::GpuOnly, "surfel texel positions");
+  Buffer normals = createBuffer(ctx, texelCount * 8, storage, MemoryUsage::GpuOnly, "surfel texel normals");
+  Buffer colors = createBuffer(ctx, texelCount * 4, storage, MemoryUsage::GpuOnly, "surfel texel colours");
+  const uint32_t bytesPerTexel[3] = {16, 8, 4};
+  Buffer readback[3];
+  for (int i = 0; i < 3; ++i)
+    readback[i] = createBuffer(ctx, texelCount * bytesPerTexel[i], VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                               MemoryUsage::Readback, "surfel readback");
+
+  Unique<VkPipelineLayout> layout =
+      createPipelineLayout(ctx, {}, sizeof(sio::SurfelPointPush), VK_SHADER_STAGE_COMPUTE_BIT);
+  Unique<VkPipeline> splat = createComputePipeline(ctx, "surfel_points_splat.comp", layout);
+  Unique<VkPipeline> resolve = createComputePipeline(ctx, "surfel_points_resolve.comp", layout);
+  sio::SurfelPointPush push{};
+  push.points = pointBuffer.address();
+  push.views = viewBuffer.address();
+  push.depthKeys = keys.address();
+  push.positions = out.positions.address();
+  push.normals = normals.address();
+  push.colors = colors.address();
+  push.center = glm::vec4(t.center, t.sphereRadius);
+  push.resolution = config.resolution;
+  push.viewCount = config.views;
+  push.pointCount = uint32_t(points.size());
+  push.cullBackFacing = 1;
+
+  GpuTimer timer(ctx, 4);
+  // barriers: none on entry (uploads waited); on exit the readback copies are complete (submitAndWait).
+  ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    timer.cmdReset(cmd);
+    auto computeAfterTransfer = [&] {
+      cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    };
+    // Splat: every texel starts empty (all ones: farther than any disc); one thread per (point, view).
+    uint32_t slot = timer.cmdBegin(cmd, "splat");
+    vkCmdFillBuffer(cmd, keys.handle(), 0, VK_WHOLE_SIZE, ~0u);
+    computeAfterTransfer();
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, splat);
+    vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    uint32_t pointGroups = uint32_t(std::clamp<uint64_t>((points.size() + 255) / 256, 1, kMaxGroups));
+    vkCmdDispatch(cmd, pointGroups, config.views, 1); // views <= 65535, checked above
+    timer.cmdEnd(cmd, slot);
+    // Resolve: each texel's winning disc into positions / normals / colours.
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    slot = timer.cmdBegin(cmd, "resolve");
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve);
+    vkCmdDispatch(cmd, uint32_t(std::clamp<uint64_t>((texelCount + 255) / 256, 1, kMaxGroups)), 1, 1);
+    timer.cmdEnd(cmd, slot);
+    // Copy: the three targets to the host (the positions stay on the GPU for the sampler too).
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    slot = timer.cmdBegin(cmd, "copy");
+    const Buffer* sources[3] = {&out.positions, &normals, &colors};
+    for (int i = 0; i < 3; ++i) {
+      VkBufferCopy whole{0, 0, texelCount * bytesPerTexel[i]};
+      vkCmdCopyBuffer(cmd, sources[i]->handle(), readback[i].handle(), 1, &whole);
+    }
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                     VK_ACCESS_2_HOST_READ_BIT);
+    timer.cmdEnd(cmd, slot);
+  });
+  out.times = timer.read();
+
+  const float* pos4 = reinterpret_cast<const float*>(readback[0].mapped());
+  detail::compactTexels(t, pos4, reinterpret_cast<const uint16_t*>(readback[1].mapped()),
+                        reinterpret_cast<const uint32_t*>(readback[2].mapped()), texelCount);
+  detail::computeAreas(t, out.views, pos4);
+  if (t.size() == 0) return makeError(source, "no disc covered a texel (resolution too low for the cloud?)");
+  return out;
+}
+
+} // namespace mirage::surfels
