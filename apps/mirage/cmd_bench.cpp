@@ -375,6 +375,7 @@ void addBenchCommand(CLI::App& app) {
 
   addBenchRaysCommand(bench);
   addBenchSurfelsSortCommand(*bench);
+  addBenchSurfelPointsCommand(*bench);
 }
 
 } // namespace mirage::cli

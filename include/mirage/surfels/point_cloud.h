@@ -29,6 +29,14 @@ struct ScanPoints {
 // Errors: no points, fewer than k + 1 points, 2^32 points or more.
 Result<ScanPoints> scanPoints(const Scene& scene);
 
+// `mirage surfels --points auto` takes the GPU path (capturePointCloud + the GPU sampler) from this
+// many points on, when the scan has normals and a GPU with 64-bit atomics is there; below it the
+// exact CPU order. Both paths share the k-NN spacing pass, so the choice is about the sampler: the
+// CPU reference grows with points × log(samples) and passes ~1 s on 2 cores at ~0.5 M points
+// (docs/surfels.md), where the GPU path's fixed cost (device start, G-buffer readback and areas)
+// is about that large on a real GPU; below, exactness is cheap.
+constexpr size_t kAutoGpuPointCount = 500000;
+
 // True when the scene has points but no triangles.
 bool isPointCloud(const Scene& scene);
 
