@@ -16,6 +16,8 @@ KdTree::KdTree(std::span<const glm::vec3> points) : points_(points), order_(poin
     nodes_.reserve(2 * points.size() / kLeafSize + 2);
     build(0, uint32_t(points.size()));
   }
+  sorted_.resize(points.size());
+  for (size_t i = 0; i < points.size(); ++i) sorted_[i] = points_[order_[i]];
 }
 
 uint32_t KdTree::build(uint32_t begin, uint32_t end) {
@@ -48,7 +50,7 @@ void KdTree::nearest(uint32_t n, glm::vec3 q, uint32_t exclude, float& best) con
   if (node.left == 0) {
     for (uint32_t i = node.begin; i < node.end; ++i) {
       if (order_[i] == exclude) continue;
-      glm::vec3 d = points_[order_[i]] - q;
+      glm::vec3 d = sorted_[i] - q;
       best = std::min(best, glm::dot(d, d));
     }
     return;
@@ -65,7 +67,7 @@ void KdTree::kNearest(uint32_t n, glm::vec3 q, uint32_t k, uint32_t exclude, std
   if (node.left == 0) {
     for (uint32_t i = node.begin; i < node.end; ++i) {
       if (order_[i] == exclude) continue;
-      glm::vec3 d = points_[order_[i]] - q;
+      glm::vec3 d = sorted_[i] - q;
       float d2 = glm::dot(d, d);
       if (heap.size() < k) {
         heap.push_back(d2);
@@ -85,8 +87,8 @@ void KdTree::kNearest(uint32_t n, glm::vec3 q, uint32_t k, uint32_t exclude, std
 }
 
 float KdTree::kthNearestSquared(glm::vec3 q, uint32_t k, uint32_t exclude) const {
-  std::vector<float> heap;
-  heap.reserve(k);
+  thread_local std::vector<float> heap; // one allocation per thread, not per query
+  heap.clear();
   if (!nodes_.empty() && k > 0) kNearest(0, q, k, exclude, heap);
   return heap.size() == k && k > 0 ? heap.front() : std::numeric_limits<float>::infinity();
 }

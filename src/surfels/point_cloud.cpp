@@ -48,9 +48,12 @@ Result<ScanPoints> scanPoints(const Scene& scene) {
   if (s.size() >= (1ull << 32)) return makeError(source, "point cloud has 2^32 points or more");
   KdTree tree(s.positions);
   s.spacing.resize(s.size());
+  std::span<const uint32_t> order = tree.treeOrder(); // queries in leaf order: warm caches
   tbb::parallel_for(tbb::blocked_range<size_t>(0, s.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t i = range.begin(); i < range.end(); ++i)
-      s.spacing[i] = std::sqrt(tree.kthNearestSquared(s.positions[i], kPointNeighbours, uint32_t(i)));
+    for (size_t j = range.begin(); j < range.end(); ++j) {
+      uint32_t i = order[j];
+      s.spacing[i] = std::sqrt(tree.kthNearestSquared(s.positions[i], kPointNeighbours, i));
+    }
   });
   return s;
 }
