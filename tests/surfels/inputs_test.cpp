@@ -194,6 +194,69 @@ TEST_F(SurfelInputs, PointCloudGpuCaptureSamplesLikeTheExactPath) {
   EXPECT_EQ(r2->order.radii, o.radii);
 }
 
+// A scan of a room from inside: points on the inner faces of a cube with normals pointing in (towards
+// the scanner). Views from outside skip the discs facing away (the near walls), so every view sees
+// the far walls' insides: all six faces are captured without depth peeling.
+TEST_F(SurfelInputs, PointCloudGpuCaptureSeesARoomFromOutside) {
+  ScanPoints room;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int face = 0; face < 6; ++face)
+    for (int i = 0; i < 3000; ++i) {
+      int axis = face / 2;
+      float sign = face % 2 ? 1.0f : -1.0f;
+      glm::vec3 p(u(rng), u(rng), u(rng)), n(0.0f);
+      p[axis] = sign;
+      n[axis] = -sign; // inwards
+      room.positions.push_back(p);
+      room.normals.push_back(n);
+      room.colors.push_back(0xff000000u | uint32_t(40 * face));
+    }
+  room.hasNormals = true;
+  room.spacing.assign(room.size(), 0.0f);
+  // The spacing pass of scanPoints, on a scene holding these points.
+  Scene scene;
+  scene.meshes.resize(1);
+  scene.meshes[0].positions = room.positions;
+  scene.meshes[0].normals = room.normals;
+  scene.instances.push_back({0, glm::mat4(1.0f)});
+  auto scanned = scanPoints(scene);
+  ASSERT_TRUE(scanned.ok()) << scanned.error().message;
+  room.spacing = scanned->spacing;
+
+  CaptureConfig capture;
+  capture.resolution = 64;
+  auto gb = capturePointCloud(context(), room, capture);
+  ASSERT_TRUE(gb.ok()) << gb.error().message;
+  const GBufferTexels& t = gb->texels;
+  size_t perFace[6] = {};
+  for (size_t i = 0; i < t.size(); ++i) {
+    glm::vec3 p = t.positions[i];
+    // The wall a texel lies on: the coordinate at ±1 (discs near an edge overhang it a little, in
+    // their wall's plane).
+    glm::vec3 gap = glm::abs(glm::abs(p) - 1.0f);
+    int axis = gap.x <= gap.y && gap.x <= gap.z ? 0 : gap.y <= gap.z ? 1 : 2;
+    int face = 2 * axis + (p[axis] > 0 ? 1 : 0);
+    ++perFace[face];
+    ASSERT_NEAR(std::abs(p[axis]), 1.0f, 1e-3f) << i; // flat walls: the discs' planes are the walls
+    ASSERT_LT(glm::length(glm::max(glm::abs(p) - 1.0f, 0.0f)), 0.1f) << i; // overhang < a disc radius
+    ASSERT_LT(glm::dot(t.normals[i], p), 0.0f) << i;                       // every normal points into the room
+  }
+  std::printf("room from inside: %zu texels, faces %zu %zu %zu %zu %zu %zu, A %.3f (24)\n", t.size(), perFace[0],
+              perFace[1], perFace[2], perFace[3], perFace[4], perFace[5], t.totalArea);
+  for (size_t n : perFace) EXPECT_GT(n, t.size() / 12);
+  EXPECT_NEAR(t.totalArea, 24.0, 2.4);
+  GpuSamplerConfig config;
+  config.count = 500;
+  auto r = sampleOnGpu(context(), *gb, config);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  for (uint32_t n : {100u, 500u}) {
+    PrefixQuality q = measurePrefix(t, r->order, n);
+    std::printf("room prefix %u: rho %.3f coverage %.4f\n", n, q.rho, q.coverage);
+    EXPECT_GE(q.rho, 0.6) << n;
+  }
+}
+
 TEST_F(SurfelInputs, DepthPeelingReachesTheInnerBox) {
   Scene scene = boxInBox();
   CaptureConfig config;
