@@ -67,12 +67,12 @@ void runBenchPoints(const BenchPointsOptions& o) {
   auto points = surfels::scanPoints(*scene);
   if (!points) return fail(points.error());
   double spacingSeconds = secondsSince(t0);
-  if (!points->hasNormals) return fail(o.input + ": the GPU path needs per-point normals (nx ny nz)");
   auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
   gpu::Context& c = **ctx;
-  fmt::print("{}: {} points on {}; import {:.3f} s, k-NN spacing (both paths) {:.3f} s\n", o.input, points->size(),
-             c.caps().name, importSeconds, spacingSeconds);
+  fmt::print("{}: {} points ({}) on {}; import {:.3f} s, k-NN spacing (both paths) {:.3f} s\n", o.input, points->size(),
+             points->hasNormals ? "normals from the file" : "normals estimated: two-sided discs", c.caps().name,
+             importSeconds, spacingSeconds);
 
   // The exact CPU path.
   surfels::GBufferTexels cpuTexels;
@@ -126,7 +126,7 @@ void addBenchSurfelPointsCommand(CLI::App& bench) {
   auto* b = bench.add_subcommand("surfels-points",
                                  "Point-cloud surfels: exact CPU order vs GPU disc capture + sampler on one scan");
   auto o = std::make_shared<BenchPointsOptions>();
-  b->add_option("input", o->input, "Point cloud PLY (no faces, with normals), e.g. from mirage gen points")->required();
+  b->add_option("input", o->input, "Point cloud PLY (no faces), e.g. from mirage gen points")->required();
   b->add_option("--count", o->count, "Surfels to sample")->capture_default_str();
   b->add_option("--resolution", o->resolution, "GPU path: G-buffer resolution per view")->capture_default_str();
   b->add_option("--views", o->views, "GPU path: capture directions")->capture_default_str();

@@ -198,12 +198,10 @@ void runSurfels(const SurfelsOptions& o) {
     if (!scanned) return fail(scanned.error());
     points = std::move(*scanned);
     spacingSeconds = secondsSince(t0);
-    if (o.points == "gpu" && !points.hasNormals)
-      return fail(o.input + ": --points gpu needs per-point normals (nx ny nz); use --points cpu");
     if (o.points == "gpu" && o.layers != 1)
       return fail("--layers (depth peeling) is not implemented for --points gpu; use --points cpu");
-    pointsOnGpu = o.points == "gpu" || (o.points == "auto" && points.hasNormals && o.layers == 1 &&
-                                        points.size() >= surfels::kAutoGpuPointCount);
+    pointsOnGpu =
+        o.points == "gpu" || (o.points == "auto" && o.layers == 1 && points.size() >= surfels::kAutoGpuPointCount);
   }
   std::unique_ptr<gpu::Context> ctx;
   if (!pointCloud || pointsOnGpu) {
@@ -291,8 +289,8 @@ void addSurfelsCommand(CLI::App& app) {
   cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
   cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
   cmd->add_option("--points", o->points,
-                  "Point clouds: cpu (exact farthest-point order), gpu (discs into the G-buffers + GPU sampler; "
-                  "needs normals), auto (gpu from 500k points with normals when a GPU is there)")
+                  "Point clouds: cpu (exact farthest-point order), gpu (discs into the G-buffers + GPU sampler), "
+                  "auto (gpu from 500k points when a GPU is there)")
       ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
   cmd->callback([o] { runSurfels(*o); });

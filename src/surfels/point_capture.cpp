@@ -54,9 +54,6 @@ Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, con
   if (texelCount >= (1ull << 32))
     return makeError(source, fmt::format("{} views of {}² texels exceed 2^32 texels", config.views, config.resolution));
   if (points.size() == 0 || points.spacing.size() != points.size()) return makeError(source, "no points to capture");
-  // Discs need an orientation: a scan without normals would splat every disc facing +z.
-  if (!points.hasNormals)
-    return makeError(source, "the GPU point capture needs per-point normals (nx ny nz); use --points cpu");
 
   std::vector<sio::SurfelPoint> discs = discPoints(points);
   GpuGBuffer out;
@@ -107,7 +104,9 @@ Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, con
   push.resolution = config.resolution;
   push.viewCount = config.views;
   push.pointCount = uint32_t(points.size());
-  push.cullBackFacing = 1;
+  // Oriented normals (the scan's): discs facing away are left to the views they face. Estimated
+  // ones have no sign: both sides are splatted and the resolve turns the normal to the viewer.
+  push.cullBackFacing = points.hasNormals ? 1 : 0;
 
   GpuTimer timer(ctx, 4);
   // barriers: none on entry (uploads waited); on exit the readback copies are complete (submitAndWait).

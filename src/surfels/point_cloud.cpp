@@ -1,5 +1,6 @@
 #include "mirage/surfels/point_cloud.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -23,6 +24,30 @@ bool isPointCloud(const Scene& scene) {
   for (const Instance& inst : scene.instances)
     if (inst.mesh < scene.meshes.size() && !scene.meshes[inst.mesh].positions.empty()) return true;
   return false;
+}
+
+glm::vec3 leastSpreadDirection(const glm::dmat3& a) {
+  // Eigenvalues of a symmetric matrix in closed form (Smith 1961): A = qI + pB, eig(B) = 2cos(φ + 2πk/3).
+  double offDiagonal = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+  double q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+  double p2 =
+      (a[0][0] - q) * (a[0][0] - q) + (a[1][1] - q) * (a[1][1] - q) + (a[2][2] - q) * (a[2][2] - q) + 2.0 * offDiagonal;
+  double p = std::sqrt(p2 / 6.0);
+  if (!(p > 0.0)) return glm::vec3(0, 0, 1);
+  glm::dmat3 b = (a - glm::dmat3(q)) / p;
+  double phi = std::acos(std::clamp(glm::determinant(b) / 2.0, -1.0, 1.0)) / 3.0;
+  double smallest = q + 2.0 * p * std::cos(phi + 2.0 * 3.14159265358979323846 / 3.0);
+  // The eigenvector is orthogonal to the rows of A - λI: the longest cross product of two rows.
+  glm::dmat3 m = a - glm::dmat3(smallest);
+  glm::dvec3 rows[3] = {glm::dvec3(m[0][0], m[1][0], m[2][0]), glm::dvec3(m[0][1], m[1][1], m[2][1]),
+                        glm::dvec3(m[0][2], m[1][2], m[2][2])};
+  glm::dvec3 best(0.0);
+  for (int i = 0; i < 3; ++i) {
+    glm::dvec3 c = glm::cross(rows[i], rows[(i + 1) % 3]);
+    if (glm::dot(c, c) > glm::dot(best, best)) best = c;
+  }
+  double len = glm::length(best);
+  return len > 0.0 ? glm::vec3(best / len) : glm::vec3(0, 0, 1);
 }
 
 Result<ScanPoints> scanPoints(const Scene& scene) {
@@ -53,6 +78,20 @@ Result<ScanPoints> scanPoints(const Scene& scene) {
     for (size_t j = range.begin(); j < range.end(); ++j) {
       uint32_t i = order[j];
       s.spacing[i] = std::sqrt(tree.kthNearestSquared(s.positions[i], kPointNeighbours, i));
+      if (s.hasNormals) continue;
+      // No normal in the file: the covariance of the point and its k nearest neighbours.
+      glm::dvec3 mean(0.0);
+      uint32_t count = 0;
+      float radius = std::nextafter(s.spacing[i], INFINITY); // the k-th neighbour included
+      tree.forEachWithin(s.positions[i], radius,
+                         [&](uint32_t k, float) { mean += glm::dvec3(s.positions[k]), ++count; });
+      mean /= double(std::max(count, 1u));
+      glm::dmat3 covariance(0.0);
+      tree.forEachWithin(s.positions[i], radius, [&](uint32_t k, float) {
+        glm::dvec3 d = glm::dvec3(s.positions[k]) - mean;
+        covariance += glm::outerProduct(d, d);
+      });
+      s.normals[i] = leastSpreadDirection(covariance);
     }
   });
   return s;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -132,7 +133,7 @@ TEST(SurfelCli, GenPointsAndTheGpuPointPath) {
   }
   EXPECT_EQ(runMirage("bench surfels-points " + scan + common, dir).code, 0);
 
-  // A scan without normals: the GPU path refuses (discs need an orientation), cpu and auto work.
+  // A scan without normals: both paths estimate them (PCA of the neighbours).
   std::string bare = (dir / "bare.ply").string();
   {
     std::ofstream f(bare, std::ios::binary);
@@ -144,14 +145,21 @@ TEST(SurfelCli, GenPointsAndTheGpuPointPath) {
     }
   }
   std::string out = (dir / "out.ply").string();
-  EXPECT_EQ(runMirage("surfels " + bare + " -o " + out + " --count 50", dir).code, 0);
-  std::filesystem::remove(out);
-  for (std::string args :
-       {"surfels " + bare + " -o " + out + " --count 50 --points gpu",
-        "surfels " + scan + " -o " + out + " --points fast",
-        "surfels " + scan + " -o " + out + " --points gpu --layers 2", "gen points --points 100 -o " + out,
-        "gen points --mesh gen:blob:2 -o " + out,
-        "gen points --mesh gen:blob:2 --points 100 -o " + (dir / "out.glb").string(), "bench surfels-points " + bare}) {
+  for (const char* path : {"cpu", "gpu"}) {
+    CliRun r =
+        runMirage("surfels " + bare + " -o " + out + " --count 50 --resolution 32 --views 4 --points " + path, dir);
+    EXPECT_EQ(r.code, 0) << path << ": " << r.err;
+    auto cloud = mirage::surfels::readSurfelPly(out);
+    ASSERT_TRUE(cloud.ok()) << cloud.error().message;
+    for (const auto& s : cloud->surfels) // a plane z = 0: estimated normals are ±z
+      EXPECT_GT(std::abs(mirage::surfels::surfelNormal(s).z), 0.999f) << path;
+    std::filesystem::remove(out);
+  }
+  for (std::string args : {"surfels " + scan + " -o " + out + " --points fast",
+                           "surfels " + scan + " -o " + out + " --points gpu --layers 2",
+                           "gen points --points 100 -o " + out, "gen points --mesh gen:blob:2 -o " + out,
+                           "gen points --mesh gen:blob:2 --points 100 -o " + (dir / "out.glb").string(),
+                           std::string("bench surfels-points gen:blob:2")}) {
     CliRun r = runMirage(args, dir);
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;

@@ -192,6 +192,26 @@ TEST_F(SurfelInputs, PointCloudGpuCaptureSamplesLikeTheExactPath) {
   ASSERT_TRUE(r2.ok());
   EXPECT_EQ(r2->order.texels, o.texels);
   EXPECT_EQ(r2->order.radii, o.radii);
+
+  // The same scan without normals: estimated from the neighbours (unoriented), discs two-sided,
+  // each texel's normal turned towards its view: on a closed surface that is outwards.
+  Scene bare = *scene;
+  bare.meshes[0].normals.clear();
+  auto estimated = scanPoints(bare);
+  ASSERT_TRUE(estimated.ok());
+  EXPECT_FALSE(estimated->hasNormals);
+  auto gb3 = capturePointCloud(context(), *estimated, capture);
+  ASSERT_TRUE(gb3.ok()) << gb3.error().message;
+  const GBufferTexels& e = gb3->texels;
+  size_t outwards = 0;
+  for (size_t i = 0; i < e.size(); ++i) {
+    ASSERT_NEAR(glm::length(e.positions[i]), 1.0f, 0.25f * e.texelSize) << i;
+    outwards += glm::dot(e.normals[i], glm::normalize(e.positions[i])) > 0.95f;
+  }
+  std::printf("estimated normals: %zu texels, %.4f outwards, A %.3f\n", e.size(), double(outwards) / double(e.size()),
+              e.totalArea);
+  EXPECT_GT(double(outwards), 0.98 * double(e.size()));
+  EXPECT_NEAR(e.totalArea, 4.0 * 3.14159265, 0.05 * 4.0 * 3.14159265);
 }
 
 // A scan of a room from inside: points on the inner faces of a cube with normals pointing in (towards

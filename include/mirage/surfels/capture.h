@@ -41,7 +41,9 @@ struct ScanPoints; // point_cloud.h
 // 16th-neighbour distance, at most kMaxDiscSpacingRatio × the median one) into every view by a
 // compute pass with a 64-bit atomicMin depth test; each texel gets the nearest disc's plane point,
 // normal (towards the viewer) and colour. The texel areas, the GPU sampler and the metrics then
-// run as for a mesh. Deterministic (ties go to the smaller point index). Times: "splat",
+// run as for a mesh. Discs facing away from a view are skipped when the scan's normals are its own
+// (oriented); estimated normals are splatted two-sided. Deterministic (ties go to the smaller
+// point index). Times: "splat",
 // "resolve", "copy". Errors: as captureGBuffer; layers other than 1 (no depth peeling of discs yet).
 Result<GpuGBuffer> capturePointCloud(gpu::Context& context, const ScanPoints& points, const CaptureConfig& config);
 
