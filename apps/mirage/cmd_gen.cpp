@@ -41,12 +41,12 @@ Result<Scene> gridScene(const GenArgs& args) {
 
 // `gen points`: a scanner-like PLY (xyz, normals, colours, no faces) for the surfel sampler's
 // point-cloud paths, without downloading a scan.
-Result<Scene> pointsScene(const GenArgs& args) {
+Result<Scene> pointsScene(const GenArgs& args, double& surfaceArea) {
   if (args.mesh.empty()) return Error{"gen points needs --mesh FILE (or gen:KIND[:SIZE[:SEED]]) to sample"};
   if (args.points < 1 || args.points >= (1ull << 32)) return Error{"--points must be in 1..4294967295"};
   auto scene = loadSceneArgument(args.mesh);
   if (!scene) return scene;
-  return io::samplePointCloud(*scene, args.points, args.seed);
+  return io::samplePointCloud(*scene, args.points, args.seed, &surfaceArea);
 }
 
 void runGen(const GenArgs& args) {
@@ -66,8 +66,9 @@ void runGen(const GenArgs& args) {
   if (args.kind != "points" && args.points) return fail("--points belongs to `gen points`");
   if (args.kind == "points" && out.extension() != ".ply")
     return fail(makeError(args.output, "gen points writes a .ply"));
+  double surfaceArea = 0.0;
   Result<Scene> scene = args.kind == "grid"     ? gridScene(args)
-                        : args.kind == "points" ? pointsScene(args)
+                        : args.kind == "points" ? pointsScene(args, surfaceArea)
                                                 : io::generateScene(args.kind, args.seed, args.size);
   if (!scene) return fail(scene.error());
   double genSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -77,9 +78,9 @@ void runGen(const GenArgs& args) {
   if (!written) return fail(written.error());
   double totalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (args.kind == "points")
-    fmt::print("wrote {}: {} points on {} seed {}, {} bytes ({:.2f}s, generate {:.2f}s)\n", args.output,
-               scene->meshes[0].positions.size(), args.mesh, args.seed, fs::file_size(out, ec), totalSeconds,
-               genSeconds);
+    fmt::print("wrote {}: {} points on {} (surface area {:.6g}) seed {}, {} bytes ({:.2f}s, generate {:.2f}s)\n",
+               args.output, scene->meshes[0].positions.size(), args.mesh, surfaceArea, args.seed,
+               fs::file_size(out, ec), totalSeconds, genSeconds);
   else
     fmt::print("wrote {}: {} seed {}, {} triangles ({} unique), {} instances, {} meshes, {} bytes ({:.2f}s, "
                "generate {:.2f}s)\n",

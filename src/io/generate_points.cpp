@@ -21,7 +21,7 @@ struct SourceTriangle {
 
 } // namespace
 
-Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t seed) {
+Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t seed, double* surfaceArea) {
   if (count == 0) return Error{"point count must be at least 1"};
   if (count >= (1ull << 32)) return Error{"point count must be below 2^32"};
   std::vector<SourceTriangle> triangles;
@@ -42,6 +42,7 @@ Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t see
     }
   }
   if (triangles.empty()) return Error{fmt::format("{}: no triangles to sample points on", source.source)};
+  if (surfaceArea) *surfaceArea = total;
 
   Mesh cloud;
   cloud.name = "scan";

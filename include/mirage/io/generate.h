@@ -47,7 +47,8 @@ Scene generateBlob(const BlobOptions& options);
 // `source` (world space, area-weighted), with interpolated unit normals and colours (the mesh's
 // vertex colours, else the normal mapped to RGB). One mesh without indices (a point cloud),
 // identity instance. Deterministic for a seed (any thread count). Errors: no triangles, count 0.
-Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t seed);
+// surfaceArea (optional) receives the sampled surface's area (what a sampler's A should approach).
+Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t seed, double* surfaceArea = nullptr);
 
 // kind is "city", "terrain" or "blob"; sizeParameter is blocks / resolution / subdivisions
 // (0 = the default). Unknown kinds and out-of-range sizes are errors.
