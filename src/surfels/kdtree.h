@@ -32,7 +32,7 @@ private:
     float split = 0.0f;
     uint32_t axis = 0;
   };
-  uint32_t build(uint32_t begin, uint32_t end);
+  void build(uint32_t index, uint32_t begin, uint32_t end);
   void nearest(uint32_t node, glm::vec3 q, uint32_t exclude, float& best) const;
   void kNearest(uint32_t node, glm::vec3 q, uint32_t k, uint32_t exclude, std::vector<float>& heap) const;
   template <class F> void within(uint32_t n, glm::vec3 q, float r2, F& visit) const {
