@@ -39,8 +39,14 @@ void main() {
         if (!discPlanePoint(pv, texelOrigin(pv, push.center, res, uint(x), uint(y)), p, q)) continue;
         vec3 off = q - p.position;
         if (dot(off, off) > p.radius * p.radius) continue;
+        uint texel = viewBase + uint(y) * res + uint(x);
+        if (push.previousLayer != 0ul) {
+          // Depth peeling: only what lies behind the previous layer's surface at this texel.
+          vec4 previous = SurfelVec4Ref(push.previousLayer).v[texel];
+          if (previous.w == 0.0 || dot(previous.xyz - q, pv.towardsCamera) <= push.peelEpsilon) continue;
+        }
         uint64_t key = (uint64_t(floatBitsToUint(pointDepth(pv, push.center, q))) << 32) | uint64_t(i);
-        atomicMin(SurfelU64Ref(push.depthKeys).v[viewBase + uint(y) * res + uint(x)], key);
+        atomicMin(SurfelU64Ref(push.depthKeys).v[texel], key);
       }
   }
 }

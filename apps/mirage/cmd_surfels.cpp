@@ -198,10 +198,9 @@ void runSurfels(const SurfelsOptions& o) {
     if (!scanned) return fail(scanned.error());
     points = std::move(*scanned);
     spacingSeconds = secondsSince(t0);
-    if (o.points == "gpu" && o.layers != 1)
-      return fail("--layers (depth peeling) is not implemented for --points gpu; use --points cpu");
-    pointsOnGpu =
-        o.points == "gpu" || (o.points == "auto" && o.layers == 1 && points.size() >= surfels::kAutoGpuPointCount);
+    // auto: depth peeling of discs needs the scan's own normals; the exact path has no layers to peel.
+    pointsOnGpu = o.points == "gpu" || (o.points == "auto" && (o.layers == 1 || points.hasNormals) &&
+                                        points.size() >= surfels::kAutoGpuPointCount);
   }
   std::unique_ptr<gpu::Context> ctx;
   if (!pointCloud || pointsOnGpu) {

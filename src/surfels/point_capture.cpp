@@ -48,19 +48,25 @@ Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, con
         source, fmt::format("G-buffer resolution {} is outside 1..{}", config.resolution, limits.maxImageDimension2D));
   if (config.views == 0 || config.views > 65535)
     return makeError(source, fmt::format("view count {} is outside 1..65535", config.views));
-  if (config.layers != 1)
-    return makeError(source, "depth peeling (--layers) is not implemented for the GPU point capture; use --points cpu");
-  uint64_t texelCount = uint64_t(config.views) * config.resolution * config.resolution;
+  if (config.layers == 0 || config.layers > 16)
+    return makeError(source, fmt::format("depth-peeling layer count {} is outside 1..16", config.layers));
+  // Peeling behind two-sided discs would capture the inside of every closed surface (a mesh's back
+  // faces are told apart; unoriented normals cannot be).
+  if (config.layers > 1 && !points.hasNormals)
+    return makeError(source, "depth peeling of a point cloud needs the scan's own (oriented) normals");
+  uint64_t layerTexels = uint64_t(config.views) * config.resolution * config.resolution;
+  uint64_t texelCount = layerTexels * config.layers;
   if (texelCount >= (1ull << 32))
-    return makeError(source, fmt::format("{} views of {}² texels exceed 2^32 texels", config.views, config.resolution));
+    return makeError(source, fmt::format("{} views × {} layers of {}² texels exceed 2^32 texels", config.views,
+                                         config.layers, config.resolution));
   if (points.size() == 0 || points.spacing.size() != points.size()) return makeError(source, "no points to capture");
 
   std::vector<sio::SurfelPoint> discs = discPoints(points);
   GpuGBuffer out;
   GBufferTexels& t = out.texels;
   t.resolution = config.resolution;
-  t.viewCount = config.views;
-  t.layers = 1;
+  t.viewCount = config.views * config.layers;
+  t.layers = config.layers;
   Bounds box;
   for (glm::vec3 p : points.positions) box.add(p);
   t.center = box.center();
@@ -71,15 +77,16 @@ Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, con
   t.sphereRadius = maxDistance * 1.01f + 1e-6f;
   t.texelSize = 2.0f * t.sphereRadius / float(config.resolution);
   out.views = detail::captureViews(t, config.views);
-  out.passes = 1;
+  out.passes = config.layers;
 
   VkBufferUsageFlags storage =
       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
   Buffer pointBuffer =
       createBufferWithData<sio::SurfelPoint>(ctx, discs, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel scan points");
+  std::vector<sio::SurfelView> directionViews(out.views.begin(), out.views.begin() + config.views);
   Buffer viewBuffer =
-      createBufferWithData<sio::SurfelView>(ctx, out.views, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel views");
-  Buffer keys = createBuffer(ctx, texelCount * 8, storage, MemoryUsage::GpuOnly, "surfel point depth keys");
+      createBufferWithData<sio::SurfelView>(ctx, directionViews, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "surfel views");
+  Buffer keys = createBuffer(ctx, layerTexels * 8, storage, MemoryUsage::GpuOnly, "surfel point depth keys");
   out.positions = createBuffer(ctx, texelCount * 16, storage, MemoryUsage::GpuOnly, "surfel texel positions");
   Buffer normals = createBuffer(ctx, texelCount * 8, storage, MemoryUsage::GpuOnly, "surfel texel normals");
   Buffer colors = createBuffer(ctx, texelCount * 4, storage, MemoryUsage::GpuOnly, "surfel texel colours");
@@ -97,9 +104,6 @@ Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, con
   push.points = pointBuffer.address();
   push.views = viewBuffer.address();
   push.depthKeys = keys.address();
-  push.positions = out.positions.address();
-  push.normals = normals.address();
-  push.colors = colors.address();
   push.center = glm::vec4(t.center, t.sphereRadius);
   push.resolution = config.resolution;
   push.viewCount = config.views;
@@ -107,37 +111,51 @@ Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, con
   // Oriented normals (the scan's): discs facing away are left to the views they face. Estimated
   // ones have no sign: both sides are splatted and the resolve turns the normal to the viewer.
   push.cullBackFacing = points.hasNormals ? 1 : 0;
+  // Overlapping discs of one surface meet a texel's ray at slightly different depths (their planes
+  // tilt by the curvature, and by the noise of a real scan): a peeled layer must lie two disc
+  // radii behind, not the mesh capture's quarter texel.
+  push.peelEpsilon = std::max(0.25f * t.texelSize, 2.0f * medianOf(points.spacing));
 
-  GpuTimer timer(ctx, 4);
+  GpuTimer timer(ctx, 2 * config.layers + 1);
   // barriers: none on entry (uploads waited); on exit the readback copies are complete (submitAndWait).
   ctx.submitAndWait([&](VkCommandBuffer cmd) {
     timer.cmdReset(cmd);
-    auto computeAfterTransfer = [&] {
-      cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    // Every pass here reads or writes what the previous one wrote (keys, the previous layer).
+    auto cmdBarrier = [&] {
+      cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                           VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                           VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
     };
-    // Splat: every texel starts empty (all ones: farther than any disc); one thread per (point, view).
-    uint32_t slot = timer.cmdBegin(cmd, "splat");
-    vkCmdFillBuffer(cmd, keys.handle(), 0, VK_WHOLE_SIZE, ~0u);
-    computeAfterTransfer();
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, splat);
-    vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
     uint32_t pointGroups = uint32_t(std::clamp<uint64_t>((points.size() + 255) / 256, 1, kMaxGroups));
-    vkCmdDispatch(cmd, pointGroups, config.views, 1); // views <= 65535, checked above
-    timer.cmdEnd(cmd, slot);
-    // Resolve: each texel's winning disc into positions / normals / colours.
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    slot = timer.cmdBegin(cmd, "resolve");
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve);
-    vkCmdDispatch(cmd, uint32_t(std::clamp<uint64_t>((texelCount + 255) / 256, 1, kMaxGroups)), 1, 1);
-    timer.cmdEnd(cmd, slot);
+    uint32_t texelGroups = uint32_t(std::clamp<uint64_t>((layerTexels + 255) / 256, 1, kMaxGroups));
+    for (uint32_t layer = 0; layer < config.layers; ++layer) {
+      // Splat: every texel starts empty (all ones: farther than any disc); one thread per (point, view).
+      uint32_t slot = timer.cmdBegin(cmd, "splat");
+      if (layer) cmdBarrier(); // the previous layer's resolve read the keys
+      vkCmdFillBuffer(cmd, keys.handle(), 0, VK_WHOLE_SIZE, ~0u);
+      cmdBarrier();
+      push.previousLayer = layer ? out.positions.address() + (layer - 1) * layerTexels * 16 : 0;
+      push.positions = out.positions.address() + layer * layerTexels * 16;
+      push.normals = normals.address() + layer * layerTexels * 8;
+      push.colors = colors.address() + layer * layerTexels * 4;
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, splat);
+      vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+      vkCmdDispatch(cmd, pointGroups, config.views, 1); // views <= 65535, checked above
+      timer.cmdEnd(cmd, slot);
+      // Resolve: each texel's winning disc into this layer's positions / normals / colours.
+      cmdBarrier();
+      slot = timer.cmdBegin(cmd, "resolve");
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve);
+      vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+      vkCmdDispatch(cmd, texelGroups, 1, 1);
+      timer.cmdEnd(cmd, slot);
+    }
     // Copy: the three targets to the host (the positions stay on the GPU for the sampler too).
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    slot = timer.cmdBegin(cmd, "copy");
+    cmdBarrier();
+    uint32_t slot = timer.cmdBegin(cmd, "copy");
     const Buffer* sources[3] = {&out.positions, &normals, &colors};
     for (int i = 0; i < 3; ++i) {
       VkBufferCopy whole{0, 0, texelCount * bytesPerTexel[i]};
@@ -147,7 +165,15 @@ Result<GpuGBuffer> capturePointCloud(Context& ctx, const ScanPoints& points, con
                      VK_ACCESS_2_HOST_READ_BIT);
     timer.cmdEnd(cmd, slot);
   });
-  out.times = timer.read();
+  // One time per stage, summed over layers.
+  for (const PassTime& pass : timer.read()) {
+    auto same =
+        std::find_if(out.times.begin(), out.times.end(), [&](const PassTime& p) { return p.name == pass.name; });
+    if (same == out.times.end())
+      out.times.push_back(pass);
+    else
+      same->milliseconds += pass.milliseconds;
+  }
 
   const float* pos4 = reinterpret_cast<const float*>(readback[0].mapped());
   detail::compactTexels(t, pos4, reinterpret_cast<const uint16_t*>(readback[1].mapped()),

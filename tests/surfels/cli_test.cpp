@@ -156,7 +156,7 @@ TEST(SurfelCli, GenPointsAndTheGpuPointPath) {
     std::filesystem::remove(out);
   }
   for (std::string args : {"surfels " + scan + " -o " + out + " --points fast",
-                           "surfels " + scan + " -o " + out + " --points gpu --layers 2",
+                           "surfels " + bare + " -o " + out + " --points gpu --layers 2",
                            "gen points --points 100 -o " + out, "gen points --mesh gen:blob:2 -o " + out,
                            "gen points --mesh gen:blob:2 --points 100 -o " + (dir / "out.glb").string(),
                            std::string("bench surfels-points gen:blob:2")}) {

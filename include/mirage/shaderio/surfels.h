@@ -68,19 +68,23 @@ struct SurfelPoint {
   uint color;    // linear RGBA8
 };
 
-// Push constants of the point-cloud capture passes (surfel_points_splat.comp, surfel_points_resolve.comp).
+// Push constants of the point-cloud capture passes (surfel_points_splat.comp, surfel_points_resolve.comp),
+// one depth-peeling layer per splat + resolve.
 struct SurfelPointPush {
-  uint64_t points;    // SurfelPoint[pointCount]
-  uint64_t views;     // SurfelView[viewCount]
-  uint64_t depthKeys; // uint64[texelCount]: (depth bits << 32) | point, min wins; ~0 = empty
-  uint64_t positions; // vec4[texelCount] out: the disc's plane point at the texel centre, w = 1 where hit
-  uint64_t normals;   // uvec2[texelCount] out: half-float xyz0 (the mesh capture's RGBA16F layout)
-  uint64_t colors;    // uint[texelCount] out: linear RGBA8
-  vec4 center;        // xyz capture sphere centre, w its radius
-  uint resolution;    // G-buffer width = height
-  uint viewCount;
+  uint64_t points;        // SurfelPoint[pointCount]
+  uint64_t views;         // SurfelView[viewCount] (the directions of one layer)
+  uint64_t depthKeys;     // uint64[texelCount]: (depth bits << 32) | point, min wins; ~0 = empty
+  uint64_t positions;     // vec4[texelCount] out (this layer's slice): the disc's plane point, w = 1 where hit
+  uint64_t normals;       // uvec2[texelCount] out: half-float xyz0 (the mesh capture's RGBA16F layout)
+  uint64_t colors;        // uint[texelCount] out: linear RGBA8
+  uint64_t previousLayer; // depth peeling: vec4 positions of the previous layer's slice; 0 on layer 0
+  vec4 center;            // xyz capture sphere centre, w its radius
+  uint resolution;        // G-buffer width = height
+  uint viewCount;         // views of one layer
   uint pointCount;
   uint cullBackFacing; // 1: discs facing away from a view are not splatted into it (oriented normals)
+  float peelEpsilon;   // a peeled disc point lies at least this far behind the previous layer's
+  uint pad0, pad1, pad2;
 };
 
 // Everything the sampler's compute passes share, in one small buffer (push constants stay small).
@@ -147,7 +151,7 @@ static_assert(sizeof(SurfelView) == 80, "SurfelView layout");
 static_assert(sizeof(SurfelInstance) == 128, "SurfelInstance layout");
 static_assert(sizeof(SurfelCapturePush) == 56, "SurfelCapturePush layout");
 static_assert(sizeof(SurfelPoint) == 32, "SurfelPoint layout");
-static_assert(sizeof(SurfelPointPush) == 80, "SurfelPointPush layout");
+static_assert(sizeof(SurfelPointPush) == 104, "SurfelPointPush layout");
 static_assert(sizeof(SurfelSamplerGlobals) == 104, "SurfelSamplerGlobals layout");
 static_assert(sizeof(SurfelSamplerCounters) == 16, "SurfelSamplerCounters layout");
 static_assert(sizeof(SurfelSamplerPush) == 48, "SurfelSamplerPush layout");

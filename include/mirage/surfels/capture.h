@@ -43,8 +43,10 @@ struct ScanPoints; // point_cloud.h
 // normal (towards the viewer) and colour. The texel areas, the GPU sampler and the metrics then
 // run as for a mesh. Discs facing away from a view are skipped when the scan's normals are its own
 // (oriented); estimated normals are splatted two-sided. Deterministic (ties go to the smaller
-// point index). Times: "splat",
-// "resolve", "copy". Errors: as captureGBuffer; layers other than 1 (no depth peeling of discs yet).
+// point index). Depth peeling (layers > 1) as in the mesh capture: layer i keeps disc points more
+// than two median disc radii behind layer i−1's; it needs oriented normals. Times: "splat",
+// "resolve", "copy" (summed over layers). Errors: as captureGBuffer; layers > 1 without the scan's
+// own normals.
 Result<GpuGBuffer> capturePointCloud(gpu::Context& context, const ScanPoints& points, const CaptureConfig& config);
 
 // Disc radii are clamped to this many median spacings: an isolated outlier's 16th neighbour can be

@@ -37,7 +37,7 @@ Result<ScanPoints> scanPoints(const Scene& scene);
 glm::vec3 leastSpreadDirection(const glm::dmat3& covariance);
 
 // `mirage surfels --points auto` takes the GPU path (capturePointCloud + the GPU sampler) from this
-// many points on (and one depth-peeling layer), when a GPU with 64-bit atomics is there; below it the
+// many points on (peeling layers only with the scan's normals), when a GPU with 64-bit atomics is there; below it the
 // exact CPU order. Both paths share the k-NN spacing pass, so the choice is about the sampler: the
 // CPU reference grows with points × log(samples) and passes ~1 s on 2 cores at ~0.5 M points
 // (docs/surfels.md), where the GPU path's fixed cost (device start, G-buffer readback and areas)
