@@ -254,8 +254,9 @@ void runSurfels(const SurfelsOptions& o) {
     fmt::print("surfels {} -> {}: {} surfels from {} points on {}\n", o.input, o.output, cloud.size(),
                sampled->texels.size(), device);
   else if (pointCloud)
-    fmt::print("surfels {} -> {}: {} surfels from {} points via {} texels ({} views x {}^2) on {}\n", o.input, o.output,
-               cloud.size(), points.size(), sampled->texels.size(), o.views, o.resolution, device);
+    fmt::print("surfels {} -> {}: {} surfels from {} points via {} texels ({} views x {} layer(s) x {}^2) on {}\n",
+               o.input, o.output, cloud.size(), points.size(), sampled->texels.size(), o.views, o.layers, o.resolution,
+               device);
   else
     fmt::print("surfels {} -> {}: {} surfels from {} texels ({} views x {} layer(s) x {}^2, {} render pass(es)) on "
                "{}\n",
