@@ -376,6 +376,7 @@ void addBenchCommand(CLI::App& app) {
   addBenchRaysCommand(bench);
   addBenchSurfelsSortCommand(*bench);
   addBenchSurfelsSamplerCommand(*bench);
+  addBenchSurfelPointsCommand(*bench);
 }
 
 } // namespace mirage::cli

@@ -1,4 +1,5 @@
-// mirage gen: procedural test scenes written as GLB (or binary PLY, like a scanner's output).
+// mirage gen: procedural test scenes written as GLB (or binary PLY, like a scanner's output), and
+// synthetic scans (`gen points`: a point cloud PLY sampled from a mesh scene).
 #include <chrono>
 #include <filesystem>
 #include <memory>
@@ -21,8 +22,9 @@ struct GenArgs {
   std::string kind, output;
   uint32_t seed = 1;
   uint64_t size = 0;
-  std::string mesh;       // grid: the scene (file or gen:KIND...) repeated
+  std::string mesh;       // grid: the scene (file or gen:KIND...) repeated; points: the surface sampled
   uint32_t instances = 0; // grid: number of copies
+  uint64_t points = 0;    // points: how many
 };
 
 // `gen grid`: the seed's benchmark scenes (e.g. 2500 copies of a 1M-triangle mesh) as a file, so
@@ -37,6 +39,16 @@ Result<Scene> gridScene(const GenArgs& args) {
   return scene;
 }
 
+// `gen points`: a scanner-like PLY (xyz, normals, colours, no faces) for the surfel sampler's
+// point-cloud paths, without downloading a scan.
+Result<Scene> pointsScene(const GenArgs& args, double& surfaceArea) {
+  if (args.mesh.empty()) return Error{"gen points needs --mesh FILE (or gen:KIND[:SIZE[:SEED]]) to sample"};
+  if (args.points < 1 || args.points >= (1ull << 32)) return Error{"--points must be in 1..4294967295"};
+  auto scene = loadSceneArgument(args.mesh);
+  if (!scene) return scene;
+  return io::samplePointCloud(*scene, args.points, args.seed, &surfaceArea);
+}
+
 void runGen(const GenArgs& args) {
   namespace fs = std::filesystem;
   // Check the destination before spending seconds generating a scene that cannot be written.
@@ -48,18 +60,32 @@ void runGen(const GenArgs& args) {
     return fail(makeError(args.output, "unsupported output extension (expected .glb or .ply)"));
 
   auto start = std::chrono::steady_clock::now();
-  if (args.kind != "grid" && (!args.mesh.empty() || args.instances))
-    return fail("--mesh and --instances belong to `gen grid`");
-  Result<Scene> scene = args.kind == "grid" ? gridScene(args) : io::generateScene(args.kind, args.seed, args.size);
+  if (args.kind != "grid" && args.instances) return fail("--instances belongs to `gen grid`");
+  if (args.kind != "grid" && args.kind != "points" && !args.mesh.empty())
+    return fail("--mesh belongs to `gen grid` and `gen points`");
+  if (args.kind != "points" && args.points) return fail("--points belongs to `gen points`");
+  if (args.kind == "points" && out.extension() != ".ply")
+    return fail(makeError(args.output, "gen points writes a .ply"));
+  double surfaceArea = 0.0;
+  Result<Scene> scene = args.kind == "grid"     ? gridScene(args)
+                        : args.kind == "points" ? pointsScene(args, surfaceArea)
+                                                : io::generateScene(args.kind, args.seed, args.size);
   if (!scene) return fail(scene.error());
   double genSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  Status written = out.extension() == ".ply" ? io::writePly(*scene, out) : io::writeGlb(*scene, out);
+  io::PlyWriteOptions plyOptions;
+  plyOptions.normals = plyOptions.colors = args.kind == "points"; // a scan: normals and colours per point
+  Status written = out.extension() == ".ply" ? io::writePly(*scene, out, plyOptions) : io::writeGlb(*scene, out);
   if (!written) return fail(written.error());
   double totalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  fmt::print("wrote {}: {} seed {}, {} triangles ({} unique), {} instances, {} meshes, {} bytes ({:.2f}s, "
-             "generate {:.2f}s)\n",
-             args.output, args.kind, args.seed, scene->instancedTriangleCount(), scene->meshTriangleCount(),
-             scene->instances.size(), scene->meshes.size(), fs::file_size(out, ec), totalSeconds, genSeconds);
+  if (args.kind == "points")
+    fmt::print("wrote {}: {} points on {} (surface area {:.6g}) seed {}, {} bytes ({:.2f}s, generate {:.2f}s)\n",
+               args.output, scene->meshes[0].positions.size(), args.mesh, surfaceArea, args.seed,
+               fs::file_size(out, ec), totalSeconds, genSeconds);
+  else
+    fmt::print("wrote {}: {} seed {}, {} triangles ({} unique), {} instances, {} meshes, {} bytes ({:.2f}s, "
+               "generate {:.2f}s)\n",
+               args.output, args.kind, args.seed, scene->instancedTriangleCount(), scene->meshTriangleCount(),
+               scene->instances.size(), scene->meshes.size(), fs::file_size(out, ec), totalSeconds, genSeconds);
 }
 
 } // namespace
@@ -67,14 +93,18 @@ void runGen(const GenArgs& args) {
 void addGenCommand(CLI::App& app) {
   auto args = std::make_shared<GenArgs>();
   CLI::App* cmd = app.add_subcommand("gen", "Generate a procedural scene (deterministic per seed) as GLB");
-  cmd->add_option("kind", args->kind, "city | terrain | blob | grid (copies of --mesh)")->required();
+  cmd->add_option("kind", args->kind,
+                  "city | terrain | blob | grid (copies of --mesh) | points (a scan of --mesh: PLY point cloud)")
+      ->required();
   cmd->add_option("-o,--output", args->output, "Output .glb (scene with instances) or .ply (binary, instances baked)")
       ->required();
   cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
   cmd->add_option("--size", args->size,
                   "city: blocks per side (default 4); terrain: vertices per side (default 1024); "
                   "blob: subdivision levels (default 8); 0 = default");
-  cmd->add_option("--mesh", args->mesh, "grid: scene file or gen:KIND[:SIZE[:SEED]] to repeat");
+  cmd->add_option("--mesh", args->mesh,
+                  "grid: scene file or gen:KIND[:SIZE[:SEED]] to repeat; points: the surface to sample");
+  cmd->add_option("--points", args->points, "points: number of points (uniform over the surface)");
   cmd->add_option("--instances", args->instances, "grid: number of copies on a square grid (e.g. 2500)");
   cmd->callback([args] { runGen(*args); });
 }

@@ -22,11 +22,13 @@ void addBenchRaysCommand(CLI::App* bench);
 void addBenchSurfelsSortCommand(CLI::App& bench);
 // mirage bench surfels-sampler INPUT [--disc-raster all] (cmd_bench_surfels.cpp), added under `bench`.
 void addBenchSurfelsSamplerCommand(CLI::App& bench);
+// mirage bench surfels-points SCAN.ply (cmd_bench_surfel_points.cpp), added under `bench`.
+void addBenchSurfelPointsCommand(CLI::App& bench);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.
 void addCompareCommand(CLI::App& app);
-// mirage gen city|terrain|blob -o OUT.glb [--seed N] [--size N]: write a procedural scene.
+// mirage gen city|terrain|blob|grid|points -o OUT.glb|OUT.ply [--seed N] [--size N]: write a procedural scene.
 void addGenCommand(CLI::App& app);
 // mirage surfels INPUT -o out.ply|out.mrg [--count N] [--resolution R] [--views V] [--reference]
 void addSurfelsCommand(CLI::App& app);

@@ -35,6 +35,7 @@ struct SurfelsOptions {
   bool bitonicSort = false;
   std::string discRaster = "compute"; // one splatter, a comma list or all (timed side by side)
   std::vector<surfels::DiscRaster> discRasters;
+  std::string points = "auto"; // point clouds: "cpu" (exact order), "gpu" (disc capture + GPU sampler), "auto"
 };
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
@@ -52,28 +53,32 @@ struct Sampled {
   std::vector<DiscRasterRun> discRuns; // several --disc-raster splatters: each one's run
 };
 
-// Point clouds: the exact farthest-point order over the points (no capture, no GPU). Meshes: G-buffer
-// capture and the GPU sampler.
-Result<Sampled> sampleScene(gpu::Context* ctx, const Scene& scene, const SurfelsOptions& o) {
+// Point clouds on the CPU: the exact farthest-point order over the points themselves (no capture,
+// no GPU; the k-NN spacing pass is counted as the capture).
+Sampled samplePointsExactly(const surfels::ScanPoints& points, double spacingSeconds, const SurfelsOptions& o) {
   Sampled s;
   auto t0 = std::chrono::steady_clock::now();
-  if (surfels::isPointCloud(scene)) {
-    auto texels = surfels::pointCloudTexels(scene);
-    if (!texels) return texels.error();
-    s.texels = std::move(*texels);
-    s.captureSeconds = secondsSince(t0);
-    t0 = std::chrono::steady_clock::now();
-    s.order = surfels::farthestPointReference(s.texels, o.count);
-    s.samplerSeconds = secondsSince(t0);
-    return s;
-  }
+  s.texels = surfels::pointCloudTexels(points);
+  s.captureSeconds = spacingSeconds + secondsSince(t0);
+  t0 = std::chrono::steady_clock::now();
+  s.order = surfels::farthestPointReference(s.texels, o.count);
+  s.samplerSeconds = secondsSince(t0);
+  return s;
+}
+
+// Meshes (scene) or point clouds on the GPU (points: the discs' capture): G-buffer capture, then
+// the GPU sampler.
+Result<Sampled> sampleScene(gpu::Context* ctx, const Scene& scene, const SurfelsOptions& o,
+                            const surfels::ScanPoints* points = nullptr, double spacingSeconds = 0.0) {
+  Sampled s;
+  auto t0 = std::chrono::steady_clock::now();
   surfels::CaptureConfig cc;
   cc.resolution = o.resolution;
   cc.views = o.views;
   cc.layers = o.layers;
-  auto gb = surfels::captureGBuffer(*ctx, scene, cc);
+  auto gb = points ? surfels::capturePointCloud(*ctx, *points, cc) : surfels::captureGBuffer(*ctx, scene, cc);
   if (!gb) return gb.error();
-  s.captureSeconds = secondsSince(t0);
+  s.captureSeconds = spacingSeconds + secondsSince(t0);
   s.passes = gb->passes;
   s.gpuTimes = gb->times;
   surfels::GpuSamplerConfig sc;
@@ -201,6 +206,8 @@ void runSurfels(SurfelsOptions o) {
   if (o.append) {
     if (auto r = asset::AssetReader::open(o.output); !r) return fail(r.error());
   }
+  if (o.points != "auto" && o.points != "cpu" && o.points != "gpu")
+    return fail(fmt::format("--points must be auto, cpu or gpu (got '{}')", o.points));
 
   auto t0 = std::chrono::steady_clock::now();
   io::ImportOptions importOptions;
@@ -210,15 +217,39 @@ void runSurfels(SurfelsOptions o) {
   double importSeconds = secondsSince(t0);
   bool pointCloud = surfels::isPointCloud(*scene);
   if (pointCloud && o.perMesh) return fail(o.input + ": --per-mesh needs a mesh scene, not a point cloud");
-  std::unique_ptr<gpu::Context> ctx;
-  if (!pointCloud) {
-    auto opened = openDevice(o.device);
-    if (!opened) return fail(opened.error());
-    ctx = std::move(*opened);
-    if (rasters->size() == 1)
-      if (std::string why = surfels::discRasterUnsupported(*ctx, (*rasters)[0]); !why.empty()) return fail(why);
+  // Point clouds: the spacing pass first (both paths need it), then the path (--points).
+  surfels::ScanPoints points;
+  double spacingSeconds = 0.0;
+  bool pointsOnGpu = false;
+  if (pointCloud) {
+    t0 = std::chrono::steady_clock::now();
+    auto scanned = surfels::scanPoints(*scene);
+    if (!scanned) return fail(scanned.error());
+    points = std::move(*scanned);
+    spacingSeconds = secondsSince(t0);
+    // auto: depth peeling of discs needs the scan's own normals; the exact path has no layers to peel.
+    pointsOnGpu = o.points == "gpu" || (o.points == "auto" && (o.layers == 1 || points.hasNormals) &&
+                                        points.size() >= surfels::kAutoGpuPointCount);
   }
-  std::string device = ctx ? ctx->caps().name : "the CPU (point cloud: exact farthest-point order)";
+  std::unique_ptr<gpu::Context> ctx;
+  if (!pointCloud || pointsOnGpu) {
+    auto opened = openDevice(o.device);
+    if (opened && pointCloud && !(*opened)->caps().int64BufferAtomics)
+      opened = Error{fmt::format("{} has no 64-bit buffer atomics", (*opened)->caps().name)};
+    if (!opened && pointCloud && o.points == "auto") {
+      fmt::print("no usable GPU ({}): the exact CPU path\n", opened.error().message);
+      pointsOnGpu = false;
+    } else if (!opened) {
+      return fail(opened.error());
+    } else {
+      ctx = std::move(*opened);
+    }
+  }
+  if (ctx && rasters->size() == 1)
+    if (std::string why = surfels::discRasterUnsupported(*ctx, (*rasters)[0]); !why.empty()) return fail(why);
+  std::string device = !pointCloud   ? ctx->caps().name
+                       : pointsOnGpu ? ctx->caps().name + " (point cloud: disc capture + GPU sampler)"
+                                     : std::string("the CPU (point cloud: exact farthest-point order)");
   fmt::print("import {:.3f} s\n", importSeconds);
 
   if (o.perMesh) {
@@ -242,21 +273,27 @@ void runSurfels(SurfelsOptions o) {
     return;
   }
 
-  auto sampled = sampleScene(ctx.get(), *scene, o);
+  auto sampled = !pointCloud   ? sampleScene(ctx.get(), *scene, o)
+                 : pointsOnGpu ? sampleScene(ctx.get(), *scene, o, &points, spacingSeconds)
+                               : Result<Sampled>(samplePointsExactly(points, spacingSeconds, o));
   if (!sampled) return fail(sampled.error());
   surfels::SurfelCloud cloud = surfels::buildSurfelCloud(sampled->texels, sampled->order);
   Status written =
       o.output.ends_with(".mrg") ? surfels::writeSurfelMrg(o.output, cloud) : surfels::writeSurfelPly(o.output, cloud);
   if (!written) return fail(written.error());
-  if (pointCloud)
+  if (pointCloud && !pointsOnGpu)
     fmt::print("surfels {} -> {}: {} surfels from {} points on {}\n", o.input, o.output, cloud.size(),
                sampled->texels.size(), device);
+  else if (pointCloud)
+    fmt::print("surfels {} -> {}: {} surfels from {} points via {} texels ({} views x {} layer(s) x {}^2) on {}\n",
+               o.input, o.output, cloud.size(), points.size(), sampled->texels.size(), o.views, o.layers, o.resolution,
+               device);
   else
     fmt::print("surfels {} -> {}: {} surfels from {} texels ({} views x {} layer(s) x {}^2, {} render pass(es)) on "
                "{}\n",
                o.input, o.output, cloud.size(), sampled->texels.size(), o.views, o.layers, o.resolution,
                sampled->passes, device);
-  printReport(*sampled, cloud, o.reference && !pointCloud);
+  printReport(*sampled, cloud, o.reference && (!pointCloud || pointsOnGpu));
   if (!sampled->discRuns.empty()) {
     fmt::print("disc splatters on the same G-buffer (GPU times summed over rounds):\n");
     printDiscRasterTable(sampled->discRuns);
@@ -290,6 +327,10 @@ void addSurfelsCommand(CLI::App& app) {
                   "Disc splatter of the voronoi and conflicts stages: compute, mesh, geometry or mesh-depth (same "
                   "order); all or "
                   "a comma list times each on the same G-buffer")
+      ->capture_default_str();
+  cmd->add_option("--points", o->points,
+                  "Point clouds: cpu (exact farthest-point order), gpu (discs into the G-buffers + GPU sampler), "
+                  "auto (gpu from 500k points when a GPU is there)")
       ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
   cmd->callback([o] { runSurfels(*o); });

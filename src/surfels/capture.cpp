@@ -12,6 +12,7 @@
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/pipeline.h"
+#include "capture_internal.h"
 
 namespace mirage::surfels {
 
@@ -28,25 +29,6 @@ constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 uint32_t packColor(const glm::vec4& c) {
   glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
   return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
-}
-
-// Orthographic world -> clip for a camera on direction d around the sphere (c, r): x right, y up
-// (negated: Vulkan's clip y points down), depth 0 on the camera side and 1 on the far side.
-sio::SurfelView makeView(glm::vec3 d, glm::vec3 c, float r) {
-  glm::vec3 upRef = std::abs(d.y) < 0.99f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
-  glm::vec3 right = glm::normalize(glm::cross(upRef, d));
-  glm::vec3 up = glm::cross(d, right);
-  glm::mat4 m(0.0f); // glm is column-major: m[column][row]
-  for (int i = 0; i < 3; ++i) {
-    m[i][0] = right[i] / r;
-    m[i][1] = -up[i] / r;
-    m[i][2] = -d[i] / (2.0f * r);
-  }
-  m[3][0] = -glm::dot(c, right) / r;
-  m[3][1] = glm::dot(c, up) / r;
-  m[3][2] = (r + glm::dot(c, d)) / (2.0f * r);
-  m[3][3] = 1.0f;
-  return {m, glm::vec4(d, 0.0f)};
 }
 
 struct Draw {
@@ -100,6 +82,88 @@ Image layeredImage(Context& ctx, uint32_t res, uint32_t layers, VkFormat format,
   return createImage(ctx, ci, aspect, name);
 }
 
+} // namespace
+
+std::vector<glm::vec3> fibonacciDirections(uint32_t count) {
+  std::vector<glm::vec3> dirs;
+  const float golden = 3.14159265358979f * (3.0f - std::sqrt(5.0f));
+  for (uint32_t i = 0; i < count; ++i) {
+    float z = 1.0f - (2.0f * float(i) + 1.0f) / float(count);
+    float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+    float phi = golden * float(i);
+    // y is "up" in glTF scenes: the spiral runs from top to bottom.
+    dirs.push_back(glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi))));
+  }
+  return dirs;
+}
+
+namespace detail {
+
+// Orthographic world -> clip for a camera on direction d around the sphere (c, r): x right, y up
+// (negated: Vulkan's clip y points down), depth 0 on the camera side and 1 on the far side.
+sio::SurfelView makeView(glm::vec3 d, glm::vec3 c, float r) {
+  glm::vec3 upRef = std::abs(d.y) < 0.99f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+  glm::vec3 right = glm::normalize(glm::cross(upRef, d));
+  glm::vec3 up = glm::cross(d, right);
+  glm::mat4 m(0.0f); // glm is column-major: m[column][row]
+  for (int i = 0; i < 3; ++i) {
+    m[i][0] = right[i] / r;
+    m[i][1] = -up[i] / r;
+    m[i][2] = -d[i] / (2.0f * r);
+  }
+  m[3][0] = -glm::dot(c, right) / r;
+  m[3][1] = glm::dot(c, up) / r;
+  m[3][2] = (r + glm::dot(c, d)) / (2.0f * r);
+  m[3][3] = 1.0f;
+  return {m, glm::vec4(d, 0.0f)};
+}
+
+std::vector<sio::SurfelView> captureViews(GBufferTexels& t, uint32_t directionCount) {
+  std::vector<glm::vec3> directions = fibonacciDirections(directionCount);
+  std::vector<sio::SurfelView> directionViews, views;
+  for (glm::vec3 d : directions) directionViews.push_back(makeView(d, t.center, t.sphereRadius));
+  t.directions.clear();
+  for (uint32_t layer = 0; layer < t.layers; ++layer) {
+    t.directions.insert(t.directions.end(), directions.begin(), directions.end());
+    views.insert(views.end(), directionViews.begin(), directionViews.end());
+  }
+  return views;
+}
+
+void compactTexels(GBufferTexels& t, const float* pos4, const uint16_t* nrm, const uint32_t* col, size_t total) {
+  // Valid texels, in global index order (what GBufferTexels::compactIndex relies on).
+  // In parallel blocks (16 M texels at 1024² x 16 views: serial, this was most of the capture's
+  // wall time on the H200 host): count per block, prefix sums, then each block fills its range.
+  constexpr size_t kBlock = size_t(1) << 16;
+  size_t blocks = (total + kBlock - 1) / kBlock;
+  std::vector<size_t> firstOfBlock(blocks + 1, 0);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+    size_t n = 0;
+    for (size_t i = b * kBlock; i < std::min(total, (b + 1) * kBlock); ++i) n += pos4[4 * i + 3] >= 0.5f;
+    firstOfBlock[b + 1] = n;
+  });
+  for (size_t b = 0; b < blocks; ++b) firstOfBlock[b + 1] += firstOfBlock[b];
+  size_t valid = firstOfBlock[blocks];
+  t.ids.resize(valid);
+  t.positions.resize(valid);
+  t.normals.resize(valid);
+  t.colors.resize(valid);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+    size_t k = firstOfBlock[b];
+    for (size_t i = b * kBlock; i < std::min(total, (b + 1) * kBlock); ++i) {
+      if (pos4[4 * i + 3] < 0.5f) continue;
+      t.ids[k] = uint32_t(i);
+      t.positions[k] = {pos4[4 * i], pos4[4 * i + 1], pos4[4 * i + 2]};
+      glm::vec3 n(glm::unpackHalf1x16(nrm[4 * i]), glm::unpackHalf1x16(nrm[4 * i + 1]),
+                  glm::unpackHalf1x16(nrm[4 * i + 2]));
+      float len = glm::length(n);
+      t.normals[k] = len > 0.0f ? n / len : glm::vec3(0, 0, 1);
+      t.colors[k] = col[i];
+      ++k;
+    }
+  });
+}
+
 // Area of each texel's surface patch, deduplicated across views: a patch dA shows up as
 // dA·|cos θ_w| / texelSize² texels in every view w that sees it, so giving each texel
 // texelSize² / Σ_w |cos θ_w| (over the views where the patch passes a depth check) makes the sum
@@ -141,20 +205,7 @@ void computeAreas(GBufferTexels& t, const std::vector<sio::SurfelView>& views, c
   for (float a : t.areas) t.totalArea += a;
 }
 
-} // namespace
-
-std::vector<glm::vec3> fibonacciDirections(uint32_t count) {
-  std::vector<glm::vec3> dirs;
-  const float golden = 3.14159265358979f * (3.0f - std::sqrt(5.0f));
-  for (uint32_t i = 0; i < count; ++i) {
-    float z = 1.0f - (2.0f * float(i) + 1.0f) / float(count);
-    float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-    float phi = golden * float(i);
-    // y is "up" in glTF scenes: the spiral runs from top to bottom.
-    dirs.push_back(glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi))));
-  }
-  return dirs;
-}
+} // namespace detail
 
 Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const CaptureConfig& config) {
   const VkPhysicalDeviceLimits& limits = ctx.properties().limits;
@@ -230,13 +281,8 @@ Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const Captur
       }
   t.sphereRadius = std::sqrt(maxDistance2) * 1.01f + 1e-6f;
   t.texelSize = 2.0f * t.sphereRadius / float(config.resolution);
-  std::vector<glm::vec3> directions = fibonacciDirections(config.views);
-  std::vector<sio::SurfelView> directionViews;
-  for (glm::vec3 d : directions) directionViews.push_back(makeView(d, t.center, t.sphereRadius));
-  for (uint32_t layer = 0; layer < config.layers; ++layer) {
-    t.directions.insert(t.directions.end(), directions.begin(), directions.end());
-    out.views.insert(out.views.end(), directionViews.begin(), directionViews.end());
-  }
+  out.views = detail::captureViews(t, config.views);
+  std::vector<sio::SurfelView> directionViews(out.views.begin(), out.views.begin() + config.views);
 
   Buffer vertexBuffer =
       createBufferWithData<sio::SurfelCaptureVertex>(ctx, verts, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "surfel vertices");
@@ -445,42 +491,10 @@ Result<GpuGBuffer> captureGBuffer(Context& ctx, const Scene& scene, const Captur
   });
   out.times = timer.read();
 
-  // Valid texels, in global index order (what GBufferTexels::compactIndex relies on).
   const float* pos4 = reinterpret_cast<const float*>(readback[0].mapped());
-  const uint16_t* nrm = reinterpret_cast<const uint16_t*>(readback[1].mapped());
-  const uint32_t* col = reinterpret_cast<const uint32_t*>(readback[2].mapped());
-  // In parallel blocks (16 M texels at 1024² x 16 views: serial, this was most of the capture's
-  // wall time on the H200 host): count per block, prefix sums, then each block fills its range.
-  size_t total = layerTexels * peelLayers;
-  constexpr size_t kBlock = size_t(1) << 16;
-  size_t blocks = (total + kBlock - 1) / kBlock;
-  std::vector<size_t> firstOfBlock(blocks + 1, 0);
-  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
-    size_t n = 0;
-    for (size_t i = b * kBlock; i < std::min(total, (b + 1) * kBlock); ++i) n += pos4[4 * i + 3] >= 0.5f;
-    firstOfBlock[b + 1] = n;
-  });
-  for (size_t b = 0; b < blocks; ++b) firstOfBlock[b + 1] += firstOfBlock[b];
-  size_t valid = firstOfBlock[blocks];
-  t.ids.resize(valid);
-  t.positions.resize(valid);
-  t.normals.resize(valid);
-  t.colors.resize(valid);
-  tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
-    size_t k = firstOfBlock[b];
-    for (size_t i = b * kBlock; i < std::min(total, (b + 1) * kBlock); ++i) {
-      if (pos4[4 * i + 3] < 0.5f) continue;
-      t.ids[k] = uint32_t(i);
-      t.positions[k] = {pos4[4 * i], pos4[4 * i + 1], pos4[4 * i + 2]};
-      glm::vec3 n(glm::unpackHalf1x16(nrm[4 * i]), glm::unpackHalf1x16(nrm[4 * i + 1]),
-                  glm::unpackHalf1x16(nrm[4 * i + 2]));
-      float len = glm::length(n);
-      t.normals[k] = len > 0.0f ? n / len : glm::vec3(0, 0, 1);
-      t.colors[k] = col[i];
-      ++k;
-    }
-  });
-  computeAreas(t, out.views, pos4);
+  detail::compactTexels(t, pos4, reinterpret_cast<const uint16_t*>(readback[1].mapped()),
+                        reinterpret_cast<const uint32_t*>(readback[2].mapped()), layerTexels * peelLayers);
+  detail::computeAreas(t, out.views, pos4);
   return out;
 }
 

@@ -21,6 +21,9 @@ public:
   float nearestSquared(glm::vec3 q, uint32_t exclude = UINT32_MAX) const;
   // Squared distance from q to its k-th nearest point other than `exclude` (infinity when fewer).
   float kthNearestSquared(glm::vec3 q, uint32_t k, uint32_t exclude = UINT32_MAX) const;
+  // Point indices in leaf order: neighbours in space are neighbours here, so queries issued in this
+  // order hit warm caches (a scan shuffled in memory otherwise misses on every leaf).
+  std::span<const uint32_t> treeOrder() const { return order_; }
 
 private:
   struct Node {
@@ -29,14 +32,14 @@ private:
     float split = 0.0f;
     uint32_t axis = 0;
   };
-  uint32_t build(uint32_t begin, uint32_t end);
+  void build(uint32_t index, uint32_t begin, uint32_t end);
   void nearest(uint32_t node, glm::vec3 q, uint32_t exclude, float& best) const;
   void kNearest(uint32_t node, glm::vec3 q, uint32_t k, uint32_t exclude, std::vector<float>& heap) const;
   template <class F> void within(uint32_t n, glm::vec3 q, float r2, F& visit) const {
     const Node& node = nodes_[n];
     if (node.left == 0) {
       for (uint32_t i = node.begin; i < node.end; ++i) {
-        glm::vec3 d = points_[order_[i]] - q;
+        glm::vec3 d = sorted_[i] - q;
         float d2 = glm::dot(d, d);
         if (d2 < r2) visit(order_[i], d2);
       }
@@ -51,6 +54,7 @@ private:
 
   std::span<const glm::vec3> points_;
   std::vector<uint32_t> order_;
+  std::vector<glm::vec3> sorted_; // points_[order_[i]]: leaves read contiguous memory
   std::vector<Node> nodes_;
 };
 

@@ -1,5 +1,6 @@
 #include "mirage/surfels/point_cloud.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -10,8 +11,6 @@
 namespace mirage::surfels {
 
 namespace {
-
-constexpr uint32_t kNeighbours = 16;
 
 uint32_t packColor(glm::vec4 c) {
   glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
@@ -27,25 +26,82 @@ bool isPointCloud(const Scene& scene) {
   return false;
 }
 
-Result<GBufferTexels> pointCloudTexels(const Scene& scene) {
+glm::vec3 leastSpreadDirection(const glm::dmat3& a) {
+  // Eigenvalues of a symmetric matrix in closed form (Smith 1961): A = qI + pB, eig(B) = 2cos(φ + 2πk/3).
+  double offDiagonal = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+  double q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+  double p2 =
+      (a[0][0] - q) * (a[0][0] - q) + (a[1][1] - q) * (a[1][1] - q) + (a[2][2] - q) * (a[2][2] - q) + 2.0 * offDiagonal;
+  double p = std::sqrt(p2 / 6.0);
+  if (!(p > 0.0)) return glm::vec3(0, 0, 1);
+  glm::dmat3 b = (a - glm::dmat3(q)) / p;
+  double phi = std::acos(std::clamp(glm::determinant(b) / 2.0, -1.0, 1.0)) / 3.0;
+  double smallest = q + 2.0 * p * std::cos(phi + 2.0 * 3.14159265358979323846 / 3.0);
+  // The eigenvector is orthogonal to the rows of A - λI: the longest cross product of two rows.
+  glm::dmat3 m = a - glm::dmat3(smallest);
+  glm::dvec3 rows[3] = {glm::dvec3(m[0][0], m[1][0], m[2][0]), glm::dvec3(m[0][1], m[1][1], m[2][1]),
+                        glm::dvec3(m[0][2], m[1][2], m[2][2])};
+  glm::dvec3 best(0.0);
+  for (int i = 0; i < 3; ++i) {
+    glm::dvec3 c = glm::cross(rows[i], rows[(i + 1) % 3]);
+    if (glm::dot(c, c) > glm::dot(best, best)) best = c;
+  }
+  double len = glm::length(best);
+  return len > 0.0 ? glm::vec3(best / len) : glm::vec3(0, 0, 1);
+}
+
+Result<ScanPoints> scanPoints(const Scene& scene) {
   std::string source = scene.source.empty() ? "scene" : scene.source;
-  GBufferTexels t;
+  ScanPoints s;
+  s.hasNormals = true;
   for (const Instance& inst : scene.instances) {
     if (inst.mesh >= scene.meshes.size()) continue;
     const Mesh& m = scene.meshes[inst.mesh];
     glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(inst.transform)));
+    s.hasNormals = s.hasNormals && m.normals.size() >= m.positions.size();
     for (size_t i = 0; i < m.positions.size(); ++i) {
-      t.positions.push_back(glm::vec3(inst.transform * glm::vec4(m.positions[i], 1.0f)));
+      s.positions.push_back(glm::vec3(inst.transform * glm::vec4(m.positions[i], 1.0f)));
       glm::vec3 n = i < m.normals.size() ? normalMatrix * m.normals[i] : glm::vec3(0, 0, 1);
       float len = glm::length(n);
-      t.normals.push_back(len > 0.0f ? n / len : glm::vec3(0, 0, 1));
-      t.colors.push_back(i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu);
+      s.normals.push_back(len > 0.0f ? n / len : glm::vec3(0, 0, 1));
+      s.colors.push_back(i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu);
     }
   }
-  if (t.positions.size() <= kNeighbours)
-    return makeError(
-        source, fmt::format("point cloud has {} points; sampling needs more than {}", t.positions.size(), kNeighbours));
-  if (t.positions.size() >= (1ull << 32)) return makeError(source, "point cloud has 2^32 points or more");
+  if (s.size() <= kPointNeighbours)
+    return makeError(source,
+                     fmt::format("point cloud has {} points; sampling needs more than {}", s.size(), kPointNeighbours));
+  if (s.size() >= (1ull << 32)) return makeError(source, "point cloud has 2^32 points or more");
+  KdTree tree(s.positions);
+  s.spacing.resize(s.size());
+  std::span<const uint32_t> order = tree.treeOrder(); // queries in leaf order: warm caches
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, s.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t j = range.begin(); j < range.end(); ++j) {
+      uint32_t i = order[j];
+      s.spacing[i] = std::sqrt(tree.kthNearestSquared(s.positions[i], kPointNeighbours, i));
+      if (s.hasNormals) continue;
+      // No normal in the file: the covariance of the point and its k nearest neighbours.
+      glm::dvec3 mean(0.0);
+      uint32_t count = 0;
+      float radius = std::nextafter(s.spacing[i], INFINITY); // the k-th neighbour included
+      tree.forEachWithin(s.positions[i], radius,
+                         [&](uint32_t k, float) { mean += glm::dvec3(s.positions[k]), ++count; });
+      mean /= double(std::max(count, 1u));
+      glm::dmat3 covariance(0.0);
+      tree.forEachWithin(s.positions[i], radius, [&](uint32_t k, float) {
+        glm::dvec3 d = glm::dvec3(s.positions[k]) - mean;
+        covariance += glm::outerProduct(d, d);
+      });
+      s.normals[i] = leastSpreadDirection(covariance);
+    }
+  });
+  return s;
+}
+
+GBufferTexels pointCloudTexels(const ScanPoints& points) {
+  GBufferTexels t;
+  t.positions = points.positions;
+  t.normals = points.normals;
+  t.colors = points.colors;
   Bounds box;
   for (glm::vec3 p : t.positions) box.add(p);
   t.center = box.center();
@@ -56,20 +112,22 @@ Result<GBufferTexels> pointCloudTexels(const Scene& scene) {
   for (uint32_t i = 0; i < t.ids.size(); ++i) t.ids[i] = i;
   t.resolution = 0; // no G-buffer: ids are point indices
   t.viewCount = 0;
-
-  KdTree tree(t.positions);
   t.areas.resize(t.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, t.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t i = range.begin(); i < range.end(); ++i) {
-      float r2 = tree.kthNearestSquared(t.positions[i], kNeighbours, uint32_t(i));
-      t.areas[i] = float(3.14159265358979 * double(r2) / double(kNeighbours));
-    }
-  });
+  for (size_t i = 0; i < t.size(); ++i) {
+    double r = points.spacing[i];
+    t.areas[i] = float(3.14159265358979 * r * r / double(kPointNeighbours));
+  }
   t.totalArea = 0.0;
   for (float a : t.areas) t.totalArea += a;
   // The typical spacing stands in for the texel size (what a G-buffer's resolution would be).
   t.texelSize = float(std::sqrt(t.totalArea / double(t.size())));
   return t;
+}
+
+Result<GBufferTexels> pointCloudTexels(const Scene& scene) {
+  auto points = scanPoints(scene);
+  if (!points) return points.error();
+  return pointCloudTexels(*points);
 }
 
 } // namespace mirage::surfels

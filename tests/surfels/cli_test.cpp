@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -142,4 +143,65 @@ TEST(SurfelCli, DiscRasterChoicesWriteTheSameSurfels) {
   EXPECT_NE(text.find("\"disc_raster\": \"geometry\""), std::string::npos) << text;
   EXPECT_NE(text.find("\"disc_raster\": \"mesh-depth\""), std::string::npos) << text;
   EXPECT_EQ(text.find("\"same_order\": false"), std::string::npos) << text;
+}
+
+// Synthetic scans (`gen points`) and the GPU point path (`--points gpu`) end to end, the bench
+// that runs both paths, and the point path's bad inputs.
+TEST(SurfelCli, GenPointsAndTheGpuPointPath) {
+  auto dir = mirage::test::tempDir("surfels_cli_points");
+  std::string scan = (dir / "scan.ply").string(), again = (dir / "scan2.ply").string();
+  ASSERT_EQ(runMirage("gen points --mesh gen:blob:3 --points 20000 --seed 3 -o " + scan, dir).code, 0);
+  ASSERT_EQ(runMirage("gen points --mesh gen:blob:3 --points 20000 --seed 3 -o " + again, dir).code, 0);
+  auto bytes = [](const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  };
+  EXPECT_EQ(bytes(scan), bytes(again)); // deterministic per seed
+
+  std::string gpu = (dir / "gpu.ply").string(), gpu2 = (dir / "gpu2.ply").string(), cpu = (dir / "cpu.ply").string();
+  std::string common = " --count 300 --resolution 48 --views 6";
+  CliRun a = runMirage("surfels " + scan + " -o " + gpu + common + " --points gpu", dir);
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(runMirage("surfels " + scan + " -o " + gpu2 + common + " --points gpu", dir).code, 0);
+  EXPECT_EQ(bytes(gpu), bytes(gpu2)); // the GPU path is deterministic too
+  ASSERT_EQ(runMirage("surfels " + scan + " -o " + cpu + common + " --points cpu", dir).code, 0);
+  for (const std::string& path : {gpu, cpu}) {
+    auto cloud = mirage::surfels::readSurfelPly(path);
+    ASSERT_TRUE(cloud.ok()) << cloud.error().message;
+    EXPECT_EQ(cloud->size(), 300u) << path;
+  }
+  EXPECT_EQ(runMirage("bench surfels-points " + scan + common, dir).code, 0);
+
+  // A scan without normals: both paths estimate them (PCA of the neighbours).
+  std::string bare = (dir / "bare.ply").string();
+  {
+    std::ofstream f(bare, std::ios::binary);
+    f << "ply\nformat binary_little_endian 1.0\nelement vertex 400\nproperty float x\nproperty float y\n"
+         "property float z\nend_header\n";
+    for (int i = 0; i < 400; ++i) {
+      float v[3] = {float(i % 20) * 0.1f, float(i / 20) * 0.1f, 0.0f};
+      f.write(reinterpret_cast<const char*>(v), sizeof(v));
+    }
+  }
+  std::string out = (dir / "out.ply").string();
+  for (const char* path : {"cpu", "gpu"}) {
+    CliRun r =
+        runMirage("surfels " + bare + " -o " + out + " --count 50 --resolution 32 --views 4 --points " + path, dir);
+    EXPECT_EQ(r.code, 0) << path << ": " << r.err;
+    auto cloud = mirage::surfels::readSurfelPly(out);
+    ASSERT_TRUE(cloud.ok()) << cloud.error().message;
+    for (const auto& s : cloud->surfels) // a plane z = 0: estimated normals are ±z
+      EXPECT_GT(std::abs(mirage::surfels::surfelNormal(s).z), 0.999f) << path;
+    std::filesystem::remove(out);
+  }
+  for (std::string args : {"surfels " + scan + " -o " + out + " --points fast",
+                           "surfels " + bare + " -o " + out + " --points gpu --layers 2",
+                           "gen points --points 100 -o " + out, "gen points --mesh gen:blob:2 -o " + out,
+                           "gen points --mesh gen:blob:2 --points 100 -o " + (dir / "out.glb").string(),
+                           std::string("bench surfels-points gen:blob:2")}) {
+    CliRun r = runMirage(args, dir);
+    EXPECT_EQ(r.code, 2) << args;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out)) << args;
+  }
 }

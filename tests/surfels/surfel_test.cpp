@@ -5,6 +5,7 @@
 #include <random>
 
 #include "../../src/surfels/kdtree.h"
+#include "mirage/surfels/point_cloud.h"
 #include "mirage/surfels/surfel.h"
 
 using namespace mirage;
@@ -65,4 +66,33 @@ TEST(SurfelKdTree, MatchesBruteForce) {
     EXPECT_EQ(tree.nearestSquared(pts[self], self), best);
   }
   EXPECT_EQ(tree.nearestSquared(pts[10], 10), 0.0f);
+}
+
+// Normal estimation of scans without normals: the least-spread direction of points scattered on
+// randomly oriented planes (with a little noise) is the plane's normal, up to sign.
+TEST(SurfelPointNormals, LeastSpreadDirectionIsThePlaneNormal) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> g;
+  for (int trial = 0; trial < 200; ++trial) {
+    glm::dvec3 n = glm::normalize(glm::dvec3(g(rng), g(rng), g(rng)));
+    glm::dvec3 u = glm::normalize(glm::cross(n, std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
+    glm::dvec3 v = glm::cross(n, u);
+    double su = 0.5 + trial % 7, sv = 1.0 + trial % 3; // anisotropic in the plane, too
+    std::vector<glm::dvec3> pts;
+    glm::dvec3 mean(0.0);
+    for (int i = 0; i < 16; ++i) {
+      pts.push_back(su * g(rng) * u + sv * g(rng) * v + 0.01 * g(rng) * n);
+      mean += pts.back();
+    }
+    mean /= 16.0;
+    glm::dmat3 c(0.0);
+    for (const glm::dvec3& p : pts) c += glm::outerProduct(p - mean, p - mean);
+    glm::vec3 e = leastSpreadDirection(c);
+    EXPECT_NEAR(glm::length(e), 1.0f, 1e-5f);
+    EXPECT_GT(std::abs(glm::dot(glm::dvec3(e), n)), 0.99) << trial;
+  }
+  EXPECT_EQ(leastSpreadDirection(glm::dmat3(2.0)), glm::vec3(0, 0, 1)); // isotropic: no direction
+  EXPECT_GT(
+      std::abs(leastSpreadDirection(glm::dmat3(glm::dvec3(3, 0, 0), glm::dvec3(0, 0.1, 0), glm::dvec3(0, 0, 2))).y),
+      0.999f);
 }

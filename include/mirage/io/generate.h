@@ -43,6 +43,13 @@ Scene generateCity(const CityOptions& options);
 Scene generateTerrain(const TerrainOptions& options);
 Scene generateBlob(const BlobOptions& options);
 
+// A synthetic scan: `count` points uniformly distributed over the surface of every instance of
+// `source` (world space, area-weighted), with interpolated unit normals and colours (the mesh's
+// vertex colours, else the normal mapped to RGB). One mesh without indices (a point cloud),
+// identity instance. Deterministic for a seed (any thread count). Errors: no triangles, count 0.
+// surfaceArea (optional) receives the sampled surface's area (what a sampler's A should approach).
+Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t seed, double* surfaceArea = nullptr);
+
 // kind is "city", "terrain" or "blob"; sizeParameter is blocks / resolution / subdivisions
 // (0 = the default). Unknown kinds and out-of-range sizes are errors.
 Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeParameter);

@@ -10,9 +10,11 @@ namespace mirage::io {
 
 struct PlyWriteOptions {
   bool normals = false; // write nx, ny, nz per vertex (scans such as Lucy have positions only)
+  bool colors = false;  // write uchar red, green, blue per vertex (sRGB-encoded; white where a mesh has none)
 };
 
-// Written atomically (temp file + rename).
+// Written atomically (temp file + rename). A scene without triangles is written without a face
+// element: a point cloud, as a scanner's PLY.
 Status writePly(const Scene& scene, const std::filesystem::path& path, const PlyWriteOptions& options = {});
 
 } // namespace mirage::io

@@ -60,6 +60,33 @@ struct SurfelCapturePush {
   uint baseColorTexture;    // index into the capture's texture array; 0 is a white texel
 };
 
+// One scanner point of the GPU point-cloud capture (32 bytes): splatted as an oriented disc.
+struct SurfelPoint {
+  vec3 position; // world space
+  float radius;  // disc radius (world): the point's 16th-neighbour distance, clamped (point_cloud.h)
+  vec3 normal;   // unit normal (+z when the scan has none)
+  uint color;    // linear RGBA8
+};
+
+// Push constants of the point-cloud capture passes (surfel_points_splat.comp, surfel_points_resolve.comp),
+// one depth-peeling layer per splat + resolve.
+struct SurfelPointPush {
+  uint64_t points;        // SurfelPoint[pointCount]
+  uint64_t views;         // SurfelView[viewCount] (the directions of one layer)
+  uint64_t depthKeys;     // uint64[texelCount]: (depth bits << 32) | point, min wins; ~0 = empty
+  uint64_t positions;     // vec4[texelCount] out (this layer's slice): the disc's plane point, w = 1 where hit
+  uint64_t normals;       // uvec2[texelCount] out: half-float xyz0 (the mesh capture's RGBA16F layout)
+  uint64_t colors;        // uint[texelCount] out: linear RGBA8
+  uint64_t previousLayer; // depth peeling: vec4 positions of the previous layer's slice; 0 on layer 0
+  vec4 center;            // xyz capture sphere centre, w its radius
+  uint resolution;        // G-buffer width = height
+  uint viewCount;         // views of one layer
+  uint pointCount;
+  uint cullBackFacing; // 1: discs facing away from a view are not splatted into it (oriented normals)
+  float peelEpsilon;   // a peeled disc point lies at least this far behind the previous layer's
+  uint pad0, pad1, pad2;
+};
+
 // Everything the sampler's compute passes share, in one small buffer (push constants stay small).
 struct SurfelSamplerGlobals {
   uint64_t positions;  // vec4[texelCount]: world position, w = 1 where the texel saw the surface
@@ -109,6 +136,8 @@ struct SurfelSamplerPush {
 // before including this header.
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelViewRef { SurfelView v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelInstanceRef { SurfelInstance v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelPointRef { SurfelPoint v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 8) buffer SurfelU32x2Ref { uvec2 v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer SurfelGlobalsRef { SurfelSamplerGlobals g; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SurfelCountersRef { SurfelSamplerCounters c; };
 layout(buffer_reference, scalar, buffer_reference_align = 16) buffer SurfelVec4Ref { vec4 v[]; };
@@ -123,6 +152,8 @@ static_assert(sizeof(SurfelCaptureVertex) == 36, "SurfelCaptureVertex layout");
 static_assert(sizeof(SurfelView) == 80, "SurfelView layout");
 static_assert(sizeof(SurfelInstance) == 128, "SurfelInstance layout");
 static_assert(sizeof(SurfelCapturePush) == 56, "SurfelCapturePush layout");
+static_assert(sizeof(SurfelPoint) == 32, "SurfelPoint layout");
+static_assert(sizeof(SurfelPointPush) == 104, "SurfelPointPush layout");
 static_assert(sizeof(SurfelSamplerGlobals) == 120, "SurfelSamplerGlobals layout");
 static_assert(sizeof(SurfelSamplerCounters) == 16, "SurfelSamplerCounters layout");
 static_assert(sizeof(SurfelSamplerPush) == 48, "SurfelSamplerPush layout");

@@ -35,4 +35,22 @@ std::vector<glm::vec3> fibonacciDirections(uint32_t count);
 // Errors: a scene without triangles, resolution or view count outside what the device supports.
 Result<GpuGBuffer> captureGBuffer(gpu::Context& context, const Scene& scene, const CaptureConfig& config);
 
+struct ScanPoints; // point_cloud.h
+
+// A point cloud captured into the same G-buffers: every point splats an oriented disc (radius its
+// 16th-neighbour distance, at most kMaxDiscSpacingRatio × the median one) into every view by a
+// compute pass with a 64-bit atomicMin depth test; each texel gets the nearest disc's plane point,
+// normal (towards the viewer) and colour. The texel areas, the GPU sampler and the metrics then
+// run as for a mesh. Discs facing away from a view are skipped when the scan's normals are its own
+// (oriented); estimated normals are splatted two-sided. Deterministic (ties go to the smaller
+// point index). Depth peeling (layers > 1) as in the mesh capture: layer i keeps disc points more
+// than two median disc radii behind layer i−1's; it needs oriented normals. Times: "splat",
+// "resolve", "copy" (summed over layers). Errors: as captureGBuffer; layers > 1 without the scan's
+// own normals.
+Result<GpuGBuffer> capturePointCloud(gpu::Context& context, const ScanPoints& points, const CaptureConfig& config);
+
+// Disc radii are clamped to this many median spacings: an isolated outlier's 16th neighbour can be
+// far away, and its disc would paint a large flat patch over the G-buffer.
+constexpr float kMaxDiscSpacingRatio = 4.0f;
+
 } // namespace mirage::surfels
