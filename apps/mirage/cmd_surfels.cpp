@@ -1,7 +1,10 @@
 // mirage surfels INPUT -o out.ply|out.mrg: progressive blue-noise surfels of a scene or a point cloud
 // (issue 5); --per-mesh: one cloud per mesh.
 #include <chrono>
+#include <cstdio>
 #include <span>
+
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -33,6 +36,7 @@ struct SurfelsOptions {
   bool perMesh = false;
   bool append = false; // add the SURF chunks to the existing .mrg at -o (its other chunks kept)
   bool bitonicSort = false;
+  bool quiet = false;                 // no progress bar (it only shows when stderr is a terminal)
   std::string discRaster = "compute"; // one splatter, a comma list or all (timed side by side)
   std::vector<surfels::DiscRaster> discRasters;
   std::string points = "auto"; // point clouds: "cpu" (exact order), "gpu" (disc capture + GPU sampler), "auto"
@@ -52,6 +56,15 @@ struct Sampled {
   std::vector<gpu::PassTime> gpuTimes, samplerTimes;
   std::vector<DiscRasterRun> discRuns; // several --disc-raster splatters: each one's run
 };
+
+// The sampler's progress bar on stderr (a terminal only): samples so far of the count, and rounds.
+void printSamplerProgress(uint32_t samples, uint32_t count, uint32_t rounds) {
+  int width = 40, filled = count ? int(double(samples) / double(count) * width) : width;
+  std::fprintf(stderr, "\rsampling [%-*s] %3d%%  %u / %u surfels, round %u", width,
+               std::string(size_t(filled), '#').c_str(), count ? int(100.0 * double(samples) / double(count)) : 100,
+               samples, count, rounds);
+  if (samples >= count) std::fprintf(stderr, "\n");
+}
 
 // Point clouds on the CPU: the exact farthest-point order over the points themselves (no capture,
 // no GPU; the k-NN spacing pass is counted as the capture).
@@ -86,6 +99,7 @@ Result<Sampled> sampleScene(gpu::Context* ctx, const Scene& scene, const Surfels
   sc.threshold = o.threshold;
   sc.bitonicSort = o.bitonicSort;
   sc.discRaster = o.discRasters[0];
+  if (!o.quiet && isatty(STDERR_FILENO)) sc.progress = printSamplerProgress;
   if (o.discRasters.size() > 1) {
     auto runs = compareDiscRasters(*ctx, *gb, sc, o.discRasters, 1);
     if (!runs) return runs.error();
@@ -322,6 +336,7 @@ void addSurfelsCommand(CLI::App& app) {
       "--append", o->append,
       "--per-mesh: add the SURF chunks to the existing .mrg at -o (e.g. from mirage build), keeping its DAGs");
   cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
+  cmd->add_flag("--quiet", o->quiet, "No progress bar (shown on a terminal's stderr)");
   cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
   cmd->add_option("--disc-raster", o->discRaster,
                   "Disc splatter of the voronoi and conflicts stages: compute, mesh, geometry or mesh-depth (same "

@@ -501,6 +501,7 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
     previous = n;
     n += valid;
     ++result.rounds;
+    if (config.progress) config.progress(std::min(n, target), target, result.rounds);
   }
 
   n = std::min(n, target);

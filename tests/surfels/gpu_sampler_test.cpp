@@ -1,6 +1,7 @@
 // The GPU progressive sampler against the CPU reference on a small blob: prefixes keep ρ >= 0.65
 // and >= 90% of the reference's ρ, radii never grow, every sample is a distinct texel, and two runs
 // give the same order.
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -47,8 +48,20 @@ TEST_F(SurfelGpuSampler, MatchesTheReferenceQuality) {
   }
   std::printf("%u rounds, %.3f s\n", r->rounds, r->seconds);
 
+  // The same run with a progress callback (what `mirage surfels` draws its bar from): once per round,
+  // samples never decreasing, ending at the count; the order is unchanged.
+  std::vector<uint32_t> reported;
+  config.progress = [&](uint32_t samples, uint32_t count, uint32_t rounds) {
+    EXPECT_EQ(count, 5000u);
+    EXPECT_EQ(rounds, reported.size() + 1);
+    reported.push_back(samples);
+  };
   auto again = sampleOnGpu(context(), *gb, config);
   ASSERT_TRUE(again.ok());
+  EXPECT_EQ(reported.size(), again->rounds);
+  EXPECT_TRUE(std::is_sorted(reported.begin(), reported.end()));
+  ASSERT_FALSE(reported.empty());
+  EXPECT_EQ(reported.back(), 5000u);
   EXPECT_EQ(again->order.texels, o.texels);
   EXPECT_EQ(again->order.radii, o.radii);
 }

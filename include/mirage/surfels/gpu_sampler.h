@@ -2,6 +2,7 @@
 // The GPU progressive sampler (Brandt et al. 2019, as in PADrend): rounds of incremental Voronoi
 // splatting, farthest texel per cell by 64-bit atomicMax, candidate filtering, Poisson-disc
 // conflict resolution, GPU radix sort by decreasing radius and append, until the requested count.
+#include <functional>
 #include <string_view>
 #include <vector>
 
@@ -31,7 +32,9 @@ struct GpuSamplerConfig {
   float threshold = 0.75f;  // keep a cell's farthest texel when >= threshold × the round's maximum
                             // (PADrend's 0.75: lower = fewer rounds, looser blue noise)
   bool bitonicSort = false; // the old bitonic candidate sort instead of the radix sort (same order; for timing)
-  DiscRaster discRaster = DiscRaster::Compute; // fastest on lavapipe; see docs/surfels.md for the H200
+  DiscRaster discRaster = DiscRaster::Compute; // fastest on lavapipe and (12-16x) on the H200: docs/surfels.md
+  // Called after every round with the samples so far (capped at count) and count: a progress bar.
+  std::function<void(uint32_t samples, uint32_t count, uint32_t rounds)> progress;
 };
 
 struct GpuSamplerResult {
