@@ -18,10 +18,13 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
 #include "test_scenes.h"
+#include "render/cluster_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
 using namespace mirage::render;
+using mirage::test::availableRasterBackends;
+using mirage::test::renderCluster;
 
 namespace {
 
@@ -101,22 +104,6 @@ ClusterRenderSettings settings(RasterBackend raster) {
   s.raster = raster;
   s.occlusionCulling = false;
   return s;
-}
-
-std::vector<RasterBackend> backends(const gpu::Context& ctx) {
-  std::vector<RasterBackend> list{RasterBackend::Indirect};
-  if (ctx.caps().meshShader) list.push_back(RasterBackend::Mesh);
-  if (ctx.caps().int64BufferAtomics) list.push_back(RasterBackend::Compute);
-  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics) list.push_back(RasterBackend::Hybrid);
-  return list;
-}
-
-ClusterRenderOutput renderCluster(gpu::Context& ctx, const lod::LodAsset& asset, const ClusterRenderSettings& s) {
-  auto r = ClusterRenderer::create(ctx, asset);
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
-  auto out = (*r)->render(s);
-  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
-  return std::move(*out);
 }
 
 ImageRGBA8 renderForward(gpu::Context& ctx, const Scene& scene, const RenderSettings& s) {
@@ -259,7 +246,7 @@ TEST_F(ClusterAlpha, MaskAndBlendMatchForward) {
   std::printf("forward vs mask ignored %.1f dB, vs blend ignored %.1f dB\n", maskIgnored, blendIgnored);
   EXPECT_LT(maskIgnored, 30.0);
   EXPECT_LT(blendIgnored, 30.0);
-  for (RasterBackend b : backends(context())) {
+  for (RasterBackend b : availableRasterBackends(context())) {
     ClusterRenderSettings s = settings(b);
     if (b == RasterBackend::Hybrid) s.hybridThreshold = 0.0f; // every cluster through the fragment atomics
     ClusterRenderOutput out = renderCluster(context(), asset, s);
@@ -282,7 +269,7 @@ TEST_F(ClusterAlpha, MaskAndBlendMatchForward) {
 TEST_F(ClusterAlpha, BlendIsIndependentOfOrder) {
   lod::LodAsset a = bake(alphaScene(false)), b = bake(alphaScene(true));
   ASSERT_FALSE(a.dags.empty() || b.dags.empty());
-  for (RasterBackend backend : backends(context())) {
+  for (RasterBackend backend : availableRasterBackends(context())) {
     ClusterRenderOutput outA = renderCluster(context(), a, settings(backend));
     ClusterRenderOutput outB = renderCluster(context(), b, settings(backend));
     double p = psnr(outA.image.srgb, outB.image.srgb);
@@ -383,7 +370,7 @@ TEST_F(ClusterAlpha, KhronosAlphaBlendModeTestMatchesForward) {
   double ignoredPsnr = psnr(fwd, renderForward(context(), ignored, s.base));
   std::printf("AlphaBlendModeTest with alpha ignored: %.2f dB\n", ignoredPsnr);
   EXPECT_LT(ignoredPsnr, 30.0);
-  for (RasterBackend b : backends(context())) {
+  for (RasterBackend b : availableRasterBackends(context())) {
     s.raster = b;
     ClusterRenderOutput out = renderCluster(context(), asset, s);
     double p = psnr(fwd, out.image.srgb);
@@ -404,7 +391,7 @@ TEST_F(ClusterAlpha, OpaqueScenesRunNoTransparencyPass) {
   for (Material& m : s.materials) m.alphaMode = AlphaMode::Opaque;
   lod::LodAsset asset = bake(s);
   ASSERT_FALSE(asset.dags.empty());
-  for (RasterBackend b : backends(context())) {
+  for (RasterBackend b : availableRasterBackends(context())) {
     ClusterRenderOutput out = renderCluster(context(), asset, settings(b));
     EXPECT_FALSE(hasPass(out, "blend") || hasPass(out, "composite")) << toString(b);
     EXPECT_EQ(out.stats.clustersBlend, 0u);

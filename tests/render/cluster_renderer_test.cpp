@@ -20,10 +20,13 @@
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
+#include "render/cluster_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
 using namespace mirage::render;
+using mirage::test::availableRasterBackends;
+using mirage::test::renderCluster;
 
 namespace {
 
@@ -49,22 +52,6 @@ ClusterRenderSettings settingsFor(const Bounds& bounds, float tau, RasterBackend
   s.tauPixels = tau;
   s.raster = raster;
   return s;
-}
-
-ClusterRenderOutput renderAsset(gpu::Context& ctx, const lod::LodAsset& asset, const ClusterRenderSettings& s) {
-  auto r = ClusterRenderer::create(ctx, asset);
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
-  auto out = (*r)->render(s);
-  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
-  return std::move(*out);
-}
-
-std::vector<RasterBackend> backends(const gpu::Context& ctx) {
-  std::vector<RasterBackend> list{RasterBackend::Indirect};
-  if (ctx.caps().meshShader) list.push_back(RasterBackend::Mesh);
-  if (ctx.caps().int64BufferAtomics) list.push_back(RasterBackend::Compute);
-  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics) list.push_back(RasterBackend::Hybrid);
-  return list;
 }
 
 void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
@@ -258,7 +245,7 @@ TEST_F(ClusterRender, BackendsGiveTheSameImage) {
   auto r = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(r.ok()) << r.error().message;
   std::vector<ClusterRenderOutput> outs;
-  for (RasterBackend b : backends(context())) {
+  for (RasterBackend b : availableRasterBackends(context())) {
     ClusterRenderSettings s = settingsFor((*r)->worldBounds(), 1.0f, b);
     s.occlusionCulling = false; // same cut every frame: the triangle counts compare
     auto out = (*r)->render(s);
@@ -285,11 +272,11 @@ void expectMatchesForward(gpu::Context& ctx, const lod::LodAsset& asset, const c
   ClusterRenderSettings s = settingsFor(reference.worldBounds(), 0.25f, RasterBackend::Auto);
   auto a = (*fwd)->render(s.base);
   ASSERT_TRUE(a.ok());
-  for (RasterBackend b : backends(ctx)) {
+  for (RasterBackend b : availableRasterBackends(ctx)) {
     s.raster = b;
     for (float tau : {0.001f, 0.25f}) {
       s.tauPixels = tau;
-      ClusterRenderOutput lodOut = renderAsset(ctx, asset, s);
+      ClusterRenderOutput lodOut = renderCluster(ctx, asset, s);
       double p = psnr(a->srgb, lodOut.image.srgb);
       std::printf("%s %s tau %g: %llu triangles, PSNR %.2f dB\n", name, toString(b), tau,
                   (unsigned long long)lodOut.stats.trianglesRasterized, p);
@@ -357,7 +344,7 @@ TEST_F(ClusterRender, QuarterPixelTauMatchesSupersampledForwardOnDragon) {
   auto a = (*fwd)->render(s.base);
   ASSERT_TRUE(a.ok());
   ImageRGBA8 reference = downsampleLinear(a->srgb, kSamples);
-  ClusterRenderOutput lodOut = renderAsset(context(), *asset, s);
+  ClusterRenderOutput lodOut = renderCluster(context(), *asset, s);
   double p = psnr(reference, downsampleLinear(lodOut.image.srgb, kSamples));
   std::printf("dragon tau 0.25 output px: %llu of %u triangles, PSNR %.2f dB\n",
               (unsigned long long)lodOut.stats.trianglesRasterized, (unsigned)scene->instancedTriangleCount(), p);
@@ -376,7 +363,7 @@ TEST_F(ClusterRender, NoCracksAtAnyTau) {
   const lod::LodAsset& asset = blobAsset();
   auto r = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(r.ok()) << r.error().message;
-  for (RasterBackend b : backends(context())) {
+  for (RasterBackend b : availableRasterBackends(context())) {
     for (float tau : {0.5f, 2.0f, 6.0f, 20.0f}) {
       ClusterRenderSettings s = settingsFor((*r)->worldBounds(), tau, b);
       s.flagBackFaces = true;
@@ -569,7 +556,7 @@ lod::LodAsset occluderScene() {
 // fewer triangles; after the cut the history is wrong and the image is still right.
 TEST_F(ClusterRender, OcclusionCullingKeepsTheImageOverACameraPath) {
   lod::LodAsset asset = occluderScene();
-  for (RasterBackend b : backends(context())) {
+  for (RasterBackend b : availableRasterBackends(context())) {
     auto withOcclusion = ClusterRenderer::create(context(), asset);
     auto without = ClusterRenderer::create(context(), asset);
     ASSERT_TRUE(withOcclusion.ok() && without.ok());
