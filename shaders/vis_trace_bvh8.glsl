@@ -13,14 +13,11 @@
 // (MIRAGE_RT_BVH8), which provides testTriangle, the ray sources and main().
 
 Payload traverse(RtRay ray) {
-  Payload p;
-  p.triangle = MIRAGE_RT_NO_HIT;
-  p.t = ray.tfar;
-  p.count = 0u;
+  Payload p = missPayload(ray);
   if (!validRay(ray) || push.bvhNodes == 0ul) return p; // no BVH: an empty scene
   RtVec4Ref nodes = RtVec4Ref(push.bvhNodes);
   RtVec4Ref tris = RtVec4Ref(push.bvhTriangles);
-  const vec3 idir = vec3(safeInverse(ray.dir.x), safeInverse(ray.dir.y), safeInverse(ray.dir.z));
+  const vec3 idir = safeInverse(ray.dir);
   const float tnear = ray.tnear;
   float tbest = min(ray.tfar, 3.4e38);
   const bool onlyRequired = push.onlyRequired != 0u;

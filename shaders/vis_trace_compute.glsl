@@ -45,6 +45,17 @@ float enterBox(vec3 lo, vec3 hi, vec3 idir, vec3 ood, float tnear, float tbest) 
 
 // A direction component of zero would give inf * 0 = NaN in the slab test: use a tiny one.
 float safeInverse(float d) { return 1.0 / (abs(d) > 1e-20 ? d : (d >= 0.0 ? 1e-20 : -1e-20)); }
+vec3 safeInverse(vec3 d) { return vec3(safeInverse(d.x), safeInverse(d.y), safeInverse(d.z)); }
+
+// What every traversal starts from: no hit, no see-through candidate, t at the ray's far end (also
+// the answer for an invalid ray or an empty scene).
+Payload missPayload(RtRay ray) {
+  Payload p;
+  p.triangle = MIRAGE_RT_NO_HIT;
+  p.t = ray.tfar;
+  p.count = 0u;
+  return p;
+}
 
 // Leaf triangle k (RtBvhTriangle): Moller-Trumbore, both faces; NaNs (degenerate triangles) fail
 // every comparison. An opaque hit shrinks the interval, a see-through one is remembered. Returns
@@ -78,14 +89,11 @@ uint testTriangle(RtVec4Ref tris, uint k, RtRay ray, float tnear, inout float tb
 #include "vis_trace_bvh8.glsl"
 #else
 Payload traverse(RtRay ray) {
-  Payload p;
-  p.triangle = MIRAGE_RT_NO_HIT;
-  p.t = ray.tfar;
-  p.count = 0u;
+  Payload p = missPayload(ray);
   if (!validRay(ray) || push.bvhNodes == 0ul) return p; // no BVH: an empty scene
   RtVec4Ref nodes = RtVec4Ref(push.bvhNodes);
   RtVec4Ref tris = RtVec4Ref(push.bvhTriangles);
-  const vec3 idir = vec3(safeInverse(ray.dir.x), safeInverse(ray.dir.y), safeInverse(ray.dir.z));
+  const vec3 idir = safeInverse(ray.dir);
   const vec3 ood = ray.origin * idir;
   const float tnear = ray.tnear;
   float tbest = min(ray.tfar, 3.4e38);
