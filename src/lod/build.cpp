@@ -81,8 +81,35 @@ private:
   int64_t start_;
 };
 
+// Wall-clock seconds of the build's phases (main thread), beside the CPU stages: where a parallel
+// build waits on serial work.
+enum WallPhase { kWallPrep, kWallLevel0, kWallGrouping, kWallSimplify, kWallCommit, kWallCount };
+constexpr const char* kWallNames[kWallCount] = {"weld+clean", "level 0", "grouping+METIS", "simplify+split",
+                                                "marking+commit"};
+double gWallSeconds[kWallCount];
+
+class WallTimer {
+public:
+  explicit WallTimer(WallPhase p) : phase_(p), start_(std::chrono::steady_clock::now()) {}
+  ~WallTimer() { gWallSeconds[phase_] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  WallTimer(const WallTimer&) = delete;
+  WallTimer& operator=(const WallTimer&) = delete;
+
+private:
+  WallPhase phase_;
+  std::chrono::steady_clock::time_point start_;
+};
+
 void printStages(uint64_t triangles) {
-  if (!std::getenv("MIRAGE_LOD_PROFILE")) return;
+  if (!std::getenv("MIRAGE_LOD_PROFILE")) {
+    for (double& s : gWallSeconds) s = 0.0;
+    return;
+  }
+  std::fprintf(stderr, "lod wall seconds:");
+  for (int i = 0; i < kWallCount; ++i) {
+    std::fprintf(stderr, " %s %.3f%s", kWallNames[i], gWallSeconds[i], i + 1 < kWallCount ? "," : "\n");
+    gWallSeconds[i] = 0.0;
+  }
   double total = 0.0;
   for (auto& ns : gStageNs) total += double(ns.load()) * 1e-9;
   std::fprintf(stderr, "lod stages (thread CPU seconds, %llu tris):", (unsigned long long)triangles);
@@ -165,6 +192,7 @@ public:
     dag_.clusters.reserve(inputTriangles / cfg_.clusterTriangles * 23 / 10 + 16);
     std::vector<uint32_t> active;
     {
+      WallTimer wall(kWallLevel0);
       std::optional<StageTimer> timer(kLevel0);
       const std::vector<uint32_t>* keptSource = sourceClusters ? &kept.source : nullptr;
       Level0 l0 = splitLevel0(triangles, keptSource, sourceClusters);
@@ -197,15 +225,21 @@ public:
       float meanAge = 0.0f;
       std::vector<GroupWork> work;
       {
+        WallTimer wall(kWallGrouping);
         std::vector<std::vector<uint32_t>> groups = partition(active, groupSize, meanAge);
         work.resize(groups.size());
         for (size_t g = 0; g < groups.size(); ++g) work[g].children = std::move(groups[g]);
       }
       {
+        WallTimer wall(kWallCommit);
         StageTimer timer(kOwners);
         markOwners(work, true);
       }
-      tbb::parallel_for(size_t(0), work.size(), [&](size_t g) { simplifyGroup(work[g]); });
+      {
+        WallTimer wall(kWallSimplify);
+        tbb::parallel_for(size_t(0), work.size(), [&](size_t g) { simplifyGroup(work[g]); });
+      }
+      WallTimer commitWall(kWallCommit);
       {
         StageTimer timer(kOwners);
         markOwners(work, false);
@@ -726,11 +760,13 @@ Result<ClusterDag> buildClusterDag(const Mesh& mesh, const BuildConfig& cfg, std
     // Weld and clean inside the arena too, so --threads bounds the whole build.
     tbb::task_arena arena(cfg.threads ? int(cfg.threads) : tbb::task_arena::automatic);
     arena.execute([&] {
+      std::optional<WallTimer> wall(kWallPrep);
       std::optional<StageTimer> timer(kPrep);
       Welded welded = weldPositions(mesh.positions);
       triangles = cleanTriangles(mesh.indices, welded.vertexPosition, sourceClusters ? &kept : nullptr);
       if (sourceClusters) sourceClusters->assign(mesh.indices.size() / 3, kNone);
       timer.reset();
+      wall.reset();
       dag.positions = std::move(welded.positions);
       dag.vertexPosition = std::move(welded.vertexPosition);
       dag.inputTriangles = triangles.size() / 3;
