@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/task_group.h>
 #include <tbb/task_arena.h>
 
 #include "mesh_prep.h"
@@ -26,8 +27,6 @@ namespace mirage::lod {
 namespace {
 
 using namespace detail;
-
-constexpr uint32_t kMulti = ~0u - 1; // position touched by two or more groups: locked
 
 // Per-stage CPU time summed over threads (CLOCK_THREAD_CPUTIME_ID: other processes on a shared
 // machine do not inflate it), printed to stderr when MIRAGE_LOD_PROFILE is set: the numbers in
@@ -54,8 +53,8 @@ constexpr const char* kStageNames[kStageCount] = {"weld+clean",
                                                   "level-0 append (serial)",
                                                   "cluster borders",
                                                   "grouping (partly serial)",
-                                                  "METIS (serial)",
-                                                  "lock marking",
+                                                  "METIS (one thread)",
+                                                  "touch counts",
                                                   "group gather",
                                                   "simplify",
                                                   "group split",
@@ -91,7 +90,9 @@ double gWallSeconds[kWallCount];
 class WallTimer {
 public:
   explicit WallTimer(WallPhase p) : phase_(p), start_(std::chrono::steady_clock::now()) {}
-  ~WallTimer() { gWallSeconds[phase_] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  ~WallTimer() {
+    gWallSeconds[phase_] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
   WallTimer(const WallTimer&) = delete;
   WallTimer& operator=(const WallTimer&) = delete;
 
@@ -182,7 +183,7 @@ public:
   // sourceClusters receives each input triangle's level-0 cluster, filled during level 0.
   void run(std::vector<uint32_t> triangles, KeptSources kept, std::vector<uint32_t>* sourceClusters) {
     if (triangles.empty()) return;
-    posOwner_.assign(dag_.positions.size(), kNone);
+    touches_.assign(dag_.positions.size(), 0);
     // Every level about halves the triangles, so the whole DAG holds about twice the input: reserve
     // once instead of growing (and copying) the flat arrays level by level. Untouched capacity
     // costs no resident memory.
@@ -223,27 +224,8 @@ public:
     uint32_t groupSize = cfg_.groupClusters;
     while (active.size() > cfg_.rootClusters && level + 1 < cfg_.maxLevels) {
       float meanAge = 0.0f;
-      std::vector<GroupWork> work;
-      {
-        WallTimer wall(kWallGrouping);
-        std::vector<std::vector<uint32_t>> groups = partition(active, groupSize, meanAge);
-        work.resize(groups.size());
-        for (size_t g = 0; g < groups.size(); ++g) work[g].children = std::move(groups[g]);
-      }
-      {
-        WallTimer wall(kWallCommit);
-        StageTimer timer(kOwners);
-        markOwners(work, true);
-      }
-      {
-        WallTimer wall(kWallSimplify);
-        tbb::parallel_for(size_t(0), work.size(), [&](size_t g) { simplifyGroup(work[g]); });
-      }
+      std::vector<GroupWork> work = groupAndSimplify(active, groupSize, meanAge);
       WallTimer commitWall(kWallCommit);
-      {
-        StageTimer timer(kOwners);
-        markOwners(work, false);
-      }
       StageTimer commitTimer(kCommit);
 
       std::vector<uint32_t> next;
@@ -455,13 +437,18 @@ private:
     return entries;
   }
 
-  // Groups active clusters with METIS over the cluster adjacency graph. An edge between two clusters
-  // weighs their shared border length times (1 + its age, the levels it has already stayed locked),
-  // so long and old borders end up inside groups and get simplified away.
-  std::vector<std::vector<uint32_t>> partition(const std::vector<uint32_t>& active, uint32_t groupSize,
-                                               float& meanAge) {
+  // Groups active clusters with METIS over the cluster adjacency graph and simplifies every group.
+  // An edge between two clusters weighs their shared border length times (1 + its age, the levels
+  // it has already stayed locked), so long and old borders end up inside groups and get simplified
+  // away. The partition's recursive bisection runs on this thread and hands out each group as soon
+  // as it is final; other threads simplify it meanwhile (METIS was a serial 7 % of the dragon's
+  // build, and the two-thread build sat idle on one core for it). Groups come back in part order
+  // (empty ones dropped), whatever the timing.
+  std::vector<GroupWork> groupAndSimplify(const std::vector<uint32_t>& active, uint32_t groupSize, float& meanAge) {
+    std::optional<WallTimer> wall(kWallGrouping);
     size_t n = active.size();
     uint32_t parts = uint32_t((n + groupSize - 1) / groupSize);
+    countTouches(active, true);
     std::vector<std::vector<uint64_t>> borders(n);
     {
       StageTimer timer(kBorders);
@@ -519,6 +506,15 @@ private:
       for (float len : blockLengths[blk]) lengthSum += len;
     entries = {};
     std::vector<uint32_t> part(n, 0);
+    std::vector<GroupWork> work(std::max(parts, 1u));
+    // Declared after `work`, so that on an exception it waits for its tasks before `work` goes.
+    tbb::task_group tasks;
+    auto emit = [&](uint32_t p, const std::vector<uint32_t>& nodes) {
+      GroupWork& w = work[p];
+      for (uint32_t i : nodes) part[i] = p, w.children.push_back(active[i]);
+      if (!w.children.empty()) tasks.run([this, &w] { simplifyGroup(w); });
+    };
+    std::vector<int32_t> xadj, adjncy, weights;
     if (parts > 1) {
       float unit = links.empty() ? 1.0f : float(lengthSum / double(links.size())) * 0.25f;
       // Links by their lower cluster (a counting sort; entries come in cluster order, so a < b),
@@ -555,7 +551,9 @@ private:
         for (uint32_t j = 0; j < mergedCount[a]; ++j) ++degree[merged[start[a] + j].first + 1];
       }
       for (size_t i = 0; i < n; ++i) degree[i + 1] += degree[i];
-      std::vector<int32_t> xadj(degree.begin(), degree.end()), adjncy(degree[n]), weights(degree[n]);
+      xadj.assign(degree.begin(), degree.end());
+      adjncy.resize(degree[n]);
+      weights.resize(degree[n]);
       std::vector<uint32_t> fill(degree.begin(), degree.end() - 1);
       for (size_t a = 0; a < n; ++a)
         for (uint32_t j = 0; j < mergedCount[a]; ++j) {
@@ -568,10 +566,20 @@ private:
           auto [b, w] = merged[start[a] + j];
           adjncy[fill[a]] = int32_t(b), weights[fill[a]++] = w;
         }
-      timer.emplace(kMetis);
-      part = partitionGraph(xadj, adjncy, weights, parts);
-      timer.emplace(kPartition);
     }
+    timer.reset();
+    wall.emplace(kWallSimplify);
+    if (parts > 1) {
+      StageTimer metis(kMetis);
+      partitionGraphRecursive(xadj, adjncy, weights, parts, emit);
+    } else {
+      std::vector<uint32_t> all(n);
+      for (size_t i = 0; i < n; ++i) all[i] = uint32_t(i);
+      emit(0, all);
+    }
+    tasks.wait();
+    wall.emplace(kWallCommit);
+    timer.emplace(kPartition);
     // Edge ages for the next level: borders between different groups stay locked one more level.
     std::vector<std::pair<uint64_t, uint32_t>> ages;
     double ageSum = 0.0;
@@ -584,31 +592,26 @@ private:
     }
     meanAge = ages.empty() ? 0.0f : float(ageSum / double(ages.size()));
     ages_ = std::move(ages);
-
-    std::vector<std::vector<uint32_t>> groups(parts);
-    for (size_t i = 0; i < n; ++i) groups[part[i]].push_back(active[i]);
-    groups.erase(std::remove_if(groups.begin(), groups.end(), [](const auto& g) { return g.empty(); }), groups.end());
-    return groups;
+    timer.reset();
+    countTouches(active, false);
+    work.erase(std::remove_if(work.begin(), work.end(), [](const GroupWork& w) { return w.children.empty(); }),
+               work.end());
+    return work;
   }
 
-  // Marks (or clears) which group touches each position; kMulti = on a group border. Parallel over
-  // groups: the result (one owner, or kMulti for two or more) does not depend on the order.
-  void markOwners(const std::vector<GroupWork>& work, bool mark) {
-    tbb::parallel_for(size_t(0), work.size(), [&](size_t gi) {
-      uint32_t g = uint32_t(gi);
-      for (uint32_t c : work[g].children) {
-        const Cluster& cl = dag_.clusters[c];
-        for (uint32_t v = 0; v < cl.vertexCount; ++v) {
-          std::atomic_ref<uint32_t> owner(posOwner_[dag_.vertexPosition[dag_.clusterVertices[cl.vertexOffset + v]]]);
-          if (!mark) {
-            owner.store(kNone, std::memory_order_relaxed);
-            continue;
-          }
-          uint32_t cur = owner.load(std::memory_order_relaxed);
-          while (cur != g && cur != kMulti &&
-                 !owner.compare_exchange_weak(cur, cur == kNone ? g : kMulti, std::memory_order_relaxed)) {
-          }
-        }
+  // Counts (or clears) how many vertex entries of active clusters each position has. A group's
+  // position is locked iff the group's own clusters hold fewer of its entries, i.e. a cluster of
+  // another group touches it: decided per group, so a group can start before the others are known.
+  void countTouches(const std::vector<uint32_t>& active, bool count) {
+    StageTimer timer(kOwners);
+    tbb::parallel_for(size_t(0), active.size(), [&](size_t i) {
+      const Cluster& cl = dag_.clusters[active[i]];
+      for (uint32_t v = 0; v < cl.vertexCount; ++v) {
+        std::atomic_ref<uint32_t> t(touches_[dag_.vertexPosition[dag_.clusterVertices[cl.vertexOffset + v]]]);
+        if (count)
+          t.fetch_add(1, std::memory_order_relaxed);
+        else
+          t.store(0, std::memory_order_relaxed);
       }
     });
   }
@@ -645,11 +648,20 @@ private:
       if (l == kNone) l = uint32_t(unique.size()), unique.push_back(p);
       sm.corners[i] = l;
     }
+    // The group's own vertex entries per position (see countTouches): fewer than all of them means
+    // another group touches the position, which is then locked.
+    std::vector<uint32_t>& own = gs.ownTouches;
+    own.assign(unique.size(), 0);
+    for (uint32_t c : w.children) {
+      const Cluster& cl = dag_.clusters[c];
+      for (uint32_t v = 0; v < cl.vertexCount; ++v)
+        if (uint32_t l = localOf[dag_.vertexPosition[dag_.clusterVertices[cl.vertexOffset + v]]]; l != kNone) ++own[l];
+    }
     sm.positions.resize(unique.size());
     sm.locked.resize(unique.size());
     for (size_t i = 0; i < unique.size(); ++i) {
       sm.positions[i] = dag_.positions[unique[i]];
-      sm.locked[i] = posOwner_[unique[i]] == kMulti;
+      sm.locked[i] = own[i] < touches_[unique[i]];
       localOf[unique[i]] = kNone;
     }
     sm.normals = dag_.normals.empty() ? nullptr : dag_.normals.data();
@@ -712,11 +724,12 @@ private:
   ClusterDag& dag_;
   const BuildConfig& cfg_;
   std::chrono::steady_clock::time_point start_;
-  std::vector<uint32_t> posOwner_;
+  std::vector<uint32_t> touches_; // per position: vertex entries of the level's active clusters
   mutable tbb::enumerable_thread_specific<SplitScratch> splitScratch_;
   struct GroupScratch {
     SimplifyScratch simplify;
-    SimplifyMesh mesh; // the group's triangles: reused, so groups allocate almost nothing
+    SimplifyMesh mesh;                // the group's triangles: reused, so groups allocate almost nothing
+    std::vector<uint32_t> ownTouches; // per local position: vertex entries of the group's clusters
   };
   mutable tbb::enumerable_thread_specific<GroupScratch> groupScratch_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far

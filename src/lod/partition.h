@@ -1,6 +1,7 @@
 #pragma once
 // Cluster splitting (split.cpp) and cluster grouping (METIS), plus sphere helpers.
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -57,10 +58,16 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
                          SplitScratch& scratch, std::vector<uint32_t>* emitted = nullptr,
                          const uint32_t* cornerPositions = nullptr);
 
-// Partitions a weighted undirected graph (CSR, symmetric) into `parts` parts with METIS
-// PartGraphRecursive. Returns the part of each node; falls back to consecutive chunks if METIS fails.
-std::vector<uint32_t> partitionGraph(const std::vector<int32_t>& xadj, const std::vector<int32_t>& adjncy,
-                                     const std::vector<int32_t>& weights, uint32_t parts);
+// Partitions a weighted undirected graph (CSR, symmetric) into `parts` parts by recursive METIS
+// bisection (as METIS_PartGraphRecursive, which meshoptimizer found better than Kway for
+// clustering), driven from here so that every final part reaches `emit(part, nodes)` (nodes
+// ascending) as soon as it is known, depth first, parts in ascending order: the builder starts
+// simplifying a group while the rest is still being partitioned. Runs on the calling thread
+// (METIS's random numbers come from the C library's shared rand() state: concurrent calls would
+// make builds depend on thread timing). A part is emitted at most once; tiny graphs leave some empty.
+void partitionGraphRecursive(const std::vector<int32_t>& xadj, const std::vector<int32_t>& adjncy,
+                             const std::vector<int32_t>& weights, uint32_t parts,
+                             const std::function<void(uint32_t, const std::vector<uint32_t>&)>& emit);
 
 // Smallest sphere of the two that contains both (exact for two spheres).
 LodBounds mergeSpheres(const LodBounds& a, const LodBounds& b);
