@@ -80,18 +80,25 @@ private:
   int64_t start_;
 };
 
-// Wall-clock seconds of the build's phases (main thread), beside the CPU stages: where a parallel
-// build waits on serial work.
+// Wall-clock seconds of the build's phases (main thread) and the process CPU seconds spent in
+// them (all threads), beside the CPU stages: where a parallel build waits on serial work.
 enum WallPhase { kWallPrep, kWallLevel0, kWallGrouping, kWallSimplify, kWallCommit, kWallCount };
-constexpr const char* kWallNames[kWallCount] = {"weld+clean", "level 0", "grouping+METIS", "simplify+split",
-                                                "marking+commit"};
-double gWallSeconds[kWallCount];
+constexpr const char* kWallNames[kWallCount] = {"weld+clean", "level 0", "grouping", "METIS+simplify+split",
+                                                "ages+commit"};
+double gWallSeconds[kWallCount], gWallCpuSeconds[kWallCount];
+
+double processCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
+}
 
 class WallTimer {
 public:
-  explicit WallTimer(WallPhase p) : phase_(p), start_(std::chrono::steady_clock::now()) {}
+  explicit WallTimer(WallPhase p) : phase_(p), start_(std::chrono::steady_clock::now()), cpu_(processCpuSeconds()) {}
   ~WallTimer() {
     gWallSeconds[phase_] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    gWallCpuSeconds[phase_] += processCpuSeconds() - cpu_;
   }
   WallTimer(const WallTimer&) = delete;
   WallTimer& operator=(const WallTimer&) = delete;
@@ -99,17 +106,19 @@ public:
 private:
   WallPhase phase_;
   std::chrono::steady_clock::time_point start_;
+  double cpu_;
 };
 
 void printStages(uint64_t triangles) {
   if (!std::getenv("MIRAGE_LOD_PROFILE")) {
-    for (double& s : gWallSeconds) s = 0.0;
+    for (int i = 0; i < kWallCount; ++i) gWallSeconds[i] = gWallCpuSeconds[i] = 0.0;
     return;
   }
-  std::fprintf(stderr, "lod wall seconds:");
+  std::fprintf(stderr, "lod wall seconds (process CPU seconds):");
   for (int i = 0; i < kWallCount; ++i) {
-    std::fprintf(stderr, " %s %.3f%s", kWallNames[i], gWallSeconds[i], i + 1 < kWallCount ? "," : "\n");
-    gWallSeconds[i] = 0.0;
+    std::fprintf(stderr, " %s %.3f (%.3f)%s", kWallNames[i], gWallSeconds[i], gWallCpuSeconds[i],
+                 i + 1 < kWallCount ? "," : "\n");
+    gWallSeconds[i] = gWallCpuSeconds[i] = 0.0;
   }
   double total = 0.0;
   for (auto& ns : gStageNs) total += double(ns.load()) * 1e-9;
