@@ -110,7 +110,8 @@ public:
       }
       uint32_t w = s_.target[u], checked = s_.time[u];
       // u is clean, but the entry was queued unchecked or w's triangles changed since.
-      if ((checked == kUnchecked || s_.changed[w] > checked) && (gatherRingU(u), !legal(u, w))) {
+      bool tested = checked == kUnchecked || s_.changed[w] > checked;
+      if (tested && (gatherRingU(u), !legal(u, w))) {
         requeue(u, false);
         continue;
       }
@@ -119,7 +120,7 @@ public:
       maxCost_ = std::max(maxCost_, cost(u, w, normalWeight2_));
       float queuedCost = s_.heap[0].cost;
       heapRemove(u);
-      collapse(u, w, queuedCost);
+      collapse(u, w, queuedCost, tested);
     }
     compact();
     return float(std::sqrt(maxCost_));
@@ -470,7 +471,8 @@ private:
     if (s_.heapPos[v] == kNil) heapUpdate(v, c);
   }
 
-  void collapse(uint32_t u, uint32_t w, float queuedCost) {
+  // ringsKnown: legal(u, w) just passed, so ringU and ringW hold u's and w's rings.
+  void collapse(uint32_t u, uint32_t w, float queuedCost, bool ringsKnown) {
     // Attribute wedges: a corner of u takes the attribute w has in a dying triangle on the same
     // side of any attribute seam (same attribute at u), so UV charts stay consistent.
     std::vector<std::pair<uint32_t, uint32_t>>& pairs = s_.pairs;
@@ -514,15 +516,24 @@ private:
     if (last != kNil) s_.next[last] = kNil;
     s_.head[w] = first;
     s_.head[u] = kNil;
-    Ring touched = ringW();
-    gatherRing(w, touched);
     ++clock_;
     s_.changed[w] = clock_;
     markDirty(w, queuedCost);
-    for (uint32_t x : touched) {
+    auto touch = [&](uint32_t x) {
       s_.changed[x] = clock_;
       markDirty(x, queuedCost);
+    };
+    if (ringsKnown) {
+      // w's new neighbours are among u's and w's old ones (a few twice: harmless), so no walk.
+      for (uint32_t x : ringW())
+        if (x != u) touch(x);
+      for (uint32_t x : ringU())
+        if (x != w) touch(x);
+      return;
     }
+    Ring touched = ringW();
+    gatherRing(w, touched);
+    for (uint32_t x : touched) touch(x);
   }
 
   void compact() {
