@@ -417,16 +417,21 @@ private:
     Targets mode = targets(v);
     if (mode == Targets::kNone) return -1.0f;
     Ring r = ringU();
+    uint32_t lockedAround = 0;
+    for (uint32_t w : r) lockedAround += m_.locked[w];
     if (optimistic) {
       std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
       for (uint32_t w : r)
-        if (mode == Targets::kAll || r.count[w] == 1) best = std::min(best, {cost(v, w, orderWeight2_), w});
+        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
+          best = std::min(best, {cost(v, w, orderWeight2_), w});
+      if (best.second == kNil) return -1.0f;
       s_.target[v] = best.second, s_.time[v] = kUnchecked;
       return float(best.first);
     }
     s_.scored.clear();
     for (uint32_t w : r)
-      if (mode == Targets::kAll || r.count[w] == 1) s_.scored.push_back({cost(v, w, orderWeight2_), w});
+      if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
+        s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
@@ -447,11 +452,36 @@ private:
       borderEdges += count[i] == 1;
     }
     if (borderEdges != 0 && borderEdges != 2) return -1.0f;
+    uint32_t lockedAround = 0;
+    for (uint32_t i = 0; i < size; ++i) lockedAround += m_.locked[nbr[i]];
     std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
     for (uint32_t i = 0; i < size; ++i)
-      if (borderEdges == 0 || count[i] == 1) best = std::min(best, {cost(v, nbr[i], orderWeight2_), nbr[i]});
+      if ((borderEdges == 0 || count[i] == 1) && chordFree(v, nbr[i], lockedAround))
+        best = std::min(best, {cost(v, nbr[i], orderWeight2_), nbr[i]});
+    if (best.second == kNil) return -1.0f;
     s_.target[v] = best.second, s_.time[v] = kUnchecked;
     return float(best.first);
+  }
+
+  // A necessary condition of legal(u, w), from u's triangles alone: when w is locked, every other
+  // locked neighbour x of u must be a wing of the edge (a third corner of a triangle on u-w).
+  // Otherwise x is either no neighbour of w (the collapse makes a new locked chord) or a common
+  // neighbour that is no wing (the link condition fails). Most failed legality tests were such
+  // chords next to the group border; filtering them while choosing the candidate saves gathering
+  // w's ring to find out. lockedAround = locked neighbours of u.
+  bool chordFree(uint32_t u, uint32_t w, uint32_t lockedAround) {
+    if (!m_.locked[w]) return true;
+    uint32_t others = lockedAround - 1;
+    if (others == 0) return true;
+    if (others > 2) return false;
+    uint32_t lockedWings = 0;
+    forTriangles(u, [&](uint32_t t, uint32_t k) {
+      const uint32_t* c = &m_.corners[t * 3];
+      uint32_t a = c[kNextCorner[k]], b = c[kPrevCorner[k]];
+      if (a == w) lockedWings += m_.locked[b];
+      if (b == w) lockedWings += m_.locked[a];
+    });
+    return lockedWings >= others;
   }
 
   // Re-evaluates v and moves its entry (or drops it when v cannot move).
