@@ -83,6 +83,7 @@ public:
     s.countW.resize(nv);
     s.ringU.resize(nv);
     s.ringW.resize(nv);
+    s.ringEnds.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
     s.q.assign(nv, Quadric{});
     s.heap.clear();
     normalWeight2_ = m.normals ? double(m.normalWeight) * double(m.normalWeight) : 0.0;
@@ -227,24 +228,34 @@ private:
   // over v's list are shorter; the order of the live corners stays.
   void gatherRing(uint32_t v, Ring r) {
     r.clear();
-    auto touch = [&](uint32_t x) {
-      if (r.stamp[x] != r.gen)
-        r.add(x, 1);
-      else
-        ++r.count[x];
-    };
     const uint32_t* corners = m_.corners.data();
+    const uint8_t* alive = s_.alive.data();
+    uint32_t* next = s_.next.data();
+    uint32_t* ends = s_.ringEnds.data();
+    uint32_t n = 0;
     uint32_t* link = &s_.head[v];
     for (uint32_t c = *link; c != kNil; c = *link) {
       uint32_t t = c / 3, base = t * 3, k = c - base;
-      if (!s_.alive[t]) {
-        *link = s_.next[c];
+      if (!alive[t]) {
+        *link = next[c];
         continue;
       }
-      touch(corners[base + kNextCorner[k]]);
-      touch(corners[base + kPrevCorner[k]]);
-      link = &s_.next[c];
+      ends[n] = corners[base + kNextCorner[k]];
+      ends[n + 1] = corners[base + kPrevCorner[k]];
+      n += 2;
+      link = &next[c];
     }
+    // Distinct neighbours in first-seen order with their use counts, without a "seen before?"
+    // branch per end (a coin flip): stamp and zero every end first, then count.
+    uint32_t *stamp = r.stamp.data(), *count = r.count.data(), *list = r.list.data(), gen = r.gen, size = 0;
+    for (uint32_t i = 0; i < n; ++i) stamp[ends[i]] = gen, count[ends[i]] = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+      uint32_t x = ends[i], seen = count[x];
+      count[x] = seen + 1;
+      list[size] = x;
+      size += seen == 0;
+    }
+    r.size = size;
   }
 
   // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
