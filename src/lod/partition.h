@@ -25,7 +25,8 @@ struct ClusterSet {
 struct SplitScratch {
   std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
   std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
-  std::vector<uint32_t> global, corners, offsets, fill, adjacency, vertStamp, vertLocal, live, candidates, candScore;
+  std::vector<uint32_t> global, corners, offsets, fill, adjacency, vertStamp, vertLocal, live, candidates;
+  std::vector<uint16_t> candScore; // rank << 12 | live sum (split.cpp)
   std::vector<uint8_t> emitted;
   struct TriState {
     uint32_t stamp;   // cluster it is a candidate of

@@ -4,6 +4,9 @@
 // simplified group, or a Morton-sorted level-0 chunk), so topology alone gives full clusters.
 #include <algorithm>
 #include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "partition.h"
 
@@ -18,6 +21,31 @@ constexpr uint32_t kRepeated = 16;
 // Score rank by parts & 15: no vertex added 0, dangling (some corner's last live triangle) 1,
 // else vertices added + 1.
 constexpr uint32_t kRank[16] = {0, 2, 3, 4, 0, 1, 1, 1, 0, 1, 1, 1, 0, 1, 1, 1};
+
+// The first slot holding the lowest of score[0..count) (count > 0). Scores are below 0x7fff, and
+// score has 8 spare entries past count (overwritten here). The scan runs once per added triangle
+// over every candidate, so 16-bit scores, eight to a vector.
+size_t firstLowest(uint16_t* score, size_t count) {
+#if defined(__SSE2__)
+  for (size_t i = count; i < count + 8; ++i) score[i] = 0x7fff;
+  size_t blocks = (count + 7) / 8;
+  auto block = [&](size_t b) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(score + b * 8)); };
+  __m128i m = block(0);
+  for (size_t b = 1; b < blocks; ++b) m = _mm_min_epi16(m, block(b));
+  m = _mm_min_epi16(m, _mm_shuffle_epi32(m, 0x4e));
+  m = _mm_min_epi16(m, _mm_shuffle_epi32(m, 0xb1));
+  m = _mm_min_epi16(m, _mm_shufflelo_epi16(m, 0xb1));
+  __m128i lowest = _mm_set1_epi16(int16_t(_mm_extract_epi16(m, 0)));
+  for (size_t b = 0;; ++b)
+    if (int mask = _mm_movemask_epi8(_mm_cmpeq_epi16(block(b), lowest)))
+      return b * 8 + size_t(__builtin_ctz(uint32_t(mask))) / 2;
+#else
+  uint16_t lowest = *std::min_element(score, score + count);
+  size_t i = 0;
+  while (score[i] != lowest) ++i;
+  return i;
+#endif
+}
 
 } // namespace
 
@@ -82,9 +110,9 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // swaps the last entry in, and ties go to the first slot: the order (and so every pick) is the
   // one the per-triangle version had.
   s.candidates.resize(nt);
-  s.candScore.resize(nt);
+  s.candScore.resize(nt + 8); // spare entries for firstLowest
   uint32_t* cand = s.candidates.data();
-  uint32_t* candScore = s.candScore.data();
+  uint16_t* candScore = s.candScore.data();
   size_t candCount = 0;
   // Raw pointers (not the scratch's vectors) so stores through them do not force the compiler to
   // reload every vector's data pointer.
@@ -122,7 +150,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // the same number. Triangles with a repeated vertex (never made by clean or the simplifier, but
   // allowed here) are rescored from scratch, where "vertices added" counts distinct vertices.
   auto partsScore = [&](const SplitScratch::TriState& ts) {
-    return kRank[ts.parts & 15] << 16 | std::min<uint32_t>(ts.liveSum, 0xffff);
+    return uint16_t(kRank[ts.parts & 15] << 12 | std::min<uint32_t>(ts.liveSum, 0xfff));
   };
   auto initParts = [&](uint32_t t) {
     SplitScratch::TriState& ts = tri[t];
@@ -204,15 +232,8 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     while (triangleCount < maxTriangles) {
       uint32_t pick = kNil, best = kNil;
       if (vertexCount + 3 <= maxVertices) {
-        // Every candidate fits: the first candidate with the lowest score, as a minimum (which
-        // the compiler vectorizes; scores stay below 2^20) and then a search for its first slot.
-        if (candCount) {
-          int32_t lowest = std::numeric_limits<int32_t>::max();
-          for (size_t i = 0; i < candCount; ++i) lowest = std::min(lowest, int32_t(candScore[i]));
-          size_t i = 0;
-          while (candScore[i] != uint32_t(lowest)) ++i;
-          pick = cand[i];
-        }
+        // Every candidate fits: the first candidate with the lowest score.
+        if (candCount) pick = cand[firstLowest(candScore, candCount)];
       } else {
         for (size_t i = 0; i < candCount; ++i)
           if (candScore[i] < best && vertexCount + (tri[cand[i]].parts & 3) <= maxVertices)
