@@ -348,6 +348,30 @@ private:
     return geometric + normalWeight2 * glm::dot(e, e) * std::max(dev, 0.0);
   }
 
+  // cost(u, w, orderWeight2_) as a fraction num / den (den > 0), so that choosing among the
+  // candidates of a vertex divides once, for the winner (the division was most of a candidate's
+  // latency).
+  struct Fraction {
+    double num, den;
+  };
+  Fraction orderCost(uint32_t u, uint32_t w) const {
+    if (orderWeight2_ > 0.0) return {cost(u, w, orderWeight2_), 1.0};
+    const Quadric &qu = s_.q[u], &qw = s_.q[w];
+    double weight = qu.w + qw.w;
+    if (!(weight > 0.0)) return {0.0, 1.0};
+    return {std::max(eval(qu, s_.p[w]) + s_.selfCost[w], 0.0), weight};
+  }
+  // The cheapest of the offered candidates (ties to the lower vertex id).
+  struct Cheapest {
+    Fraction best{std::numeric_limits<double>::max(), 1.0};
+    uint32_t w = kNil;
+    void offer(Fraction c, uint32_t x) {
+      double l = c.num * best.den, r = best.num * c.den;
+      if (l < r || (l == r && x < w)) best = c, w = x;
+    }
+    float cost() const { return float(best.num / best.den); }
+  };
+
   // Indexed 4-ary min-heap over (cost, vertex): half the depth of a binary heap, one entry per
   // vertex (no stale entries), updated in place.
   void heapSet(uint32_t i, HeapItem item) {
@@ -431,13 +455,12 @@ private:
     uint32_t lockedAround = 0;
     for (uint32_t w : r) lockedAround += m_.locked[w];
     if (optimistic) {
-      std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
+      Cheapest best;
       for (uint32_t w : r)
-        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
-          best = std::min(best, {cost(v, w, orderWeight2_), w});
-      if (best.second == kNil) return -1.0f;
-      s_.target[v] = best.second, s_.time[v] = kUnchecked;
-      return float(best.first);
+        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround)) best.offer(orderCost(v, w), w);
+      if (best.w == kNil) return -1.0f;
+      s_.target[v] = best.w, s_.time[v] = kUnchecked;
+      return best.cost();
     }
     s_.scored.clear();
     for (uint32_t w : r)
@@ -465,13 +488,13 @@ private:
     if (borderEdges != 0 && borderEdges != 2) return -1.0f;
     uint32_t lockedAround = 0;
     for (uint32_t i = 0; i < size; ++i) lockedAround += m_.locked[nbr[i]];
-    std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
+    Cheapest best;
     for (uint32_t i = 0; i < size; ++i)
       if ((borderEdges == 0 || count[i] == 1) && chordFree(v, nbr[i], lockedAround))
-        best = std::min(best, {cost(v, nbr[i], orderWeight2_), nbr[i]});
-    if (best.second == kNil) return -1.0f;
-    s_.target[v] = best.second, s_.time[v] = kUnchecked;
-    return float(best.first);
+        best.offer(orderCost(v, nbr[i]), nbr[i]);
+    if (best.w == kNil) return -1.0f;
+    s_.target[v] = best.w, s_.time[v] = kUnchecked;
+    return best.cost();
   }
 
   // A necessary condition of legal(u, w), from u's triangles alone: when w is locked, every other
