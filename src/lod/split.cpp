@@ -103,7 +103,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
   s.vertLocal.resize(nv);
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
-  size_t scan = 0; // every triangle before it is emitted
+  size_t scan = 0; // every triangle before it is emitted (see firstUnemitted)
   // Candidates: unemitted triangles touching the cluster (deduplicated per cluster by triStamp),
   // with their scores in a parallel array and each triangle's slot in candPos, so picking is a scan
   // over one contiguous array instead of three scattered per-triangle lookups per entry. Removal
@@ -195,29 +195,50 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       uint32_t* list = adjacency + offsets[v];
       uint32_t left = --live[v], kept = 0;
       uint32_t delta = (left == 1 ? 1u << 2 : 0u) - (joins ? 1u : 0u); // parts change (mod 2^32)
-      for (uint32_t i = 0; i <= left; ++i) {
-        uint32_t n = list[i];
-        if (n == t) continue;
-        list[kept++] = n;
-        SplitScratch::TriState& ts = tri[n];
-        if (ts.stamp != cluster) {
-          // A new candidate around a joining corner: its parts from scratch (corners of t not
-          // visited yet are adjusted when they are).
-          ts.stamp = cluster, ts.candPos = uint32_t(candCount), cand[candCount++] = n;
-          initParts(n);
-        } else if (ts.parts & kRepeated) {
-          initParts(n);
-        } else {
-          --ts.liveSum;
-          ts.parts += delta;
+      if (joins) {
+        for (uint32_t i = 0; i <= left; ++i) {
+          uint32_t n = list[i];
+          if (n == t) continue;
+          list[kept++] = n;
+          SplitScratch::TriState& ts = tri[n];
+          if (ts.stamp != cluster) {
+            // A new candidate around a joining corner: its parts from scratch (corners of t not
+            // visited yet are adjusted when they are).
+            ts.stamp = cluster, ts.candPos = uint32_t(candCount), cand[candCount++] = n;
+            initParts(n);
+          } else if (ts.parts & kRepeated) {
+            initParts(n);
+          } else {
+            --ts.liveSum;
+            ts.parts += delta;
+          }
+          candScore[ts.candPos] = partsScore(ts);
         }
-        candScore[ts.candPos] = partsScore(ts);
+      } else {
+        // The corner was in the cluster already: every triangle around it is a candidate.
+        for (uint32_t i = 0; i <= left; ++i) {
+          uint32_t n = list[i];
+          if (n == t) continue;
+          list[kept++] = n;
+          SplitScratch::TriState& ts = tri[n];
+          if (ts.parts & kRepeated) {
+            initParts(n);
+          } else {
+            --ts.liveSum;
+            ts.parts += delta;
+          }
+          candScore[ts.candPos] = partsScore(ts);
+        }
       }
       list[left] = t;
       out.indices.push_back(uint8_t(vertLocal[v]));
     }
     ++triangleCount;
+  };
+  // The first unemitted triangle (scan only moves forward; advanced when asked).
+  auto firstUnemitted = [&]() {
     while (scan < nt && emitted[scan]) ++scan;
+    return scan;
   };
 
   uint32_t seed = 0;
@@ -244,7 +265,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         // meshoptimizer does; otherwise the pockets between clusters become clusters of a few
         // triangles (fill fell to 65 %). Linear scan: rare, and sets are small.
         float bestD = std::numeric_limits<float>::max();
-        for (size_t t = scan; t < nt; ++t) {
+        for (size_t t = firstUnemitted(); t < nt; ++t) {
           if (emitted[t]) continue;
           glm::vec3 d = s.centroids[t] - seedCenter;
           float d2 = glm::dot(d, d);
@@ -272,7 +293,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       uint32_t l = s.live[v[0]] + s.live[v[1]] + s.live[v[2]];
       if (l < bestLive) bestLive = l, seed = t;
     }
-    if (seed == kNil) seed = uint32_t(scan);
+    if (seed == kNil) seed = uint32_t(firstUnemitted());
   }
   return out;
 }
