@@ -84,6 +84,8 @@ public:
     s.ringU.resize(nv);
     s.ringW.resize(nv);
     s.ringEnds.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
+    s.cands.resize(nv);
+    s.candCost.resize(nv);
     s.q.assign(nv, Quadric{});
     s.heap.clear();
     normalWeight2_ = m.normals ? double(m.normalWeight) * double(m.normalWeight) : 0.0;
@@ -351,9 +353,7 @@ private:
   // cost(u, w, orderWeight2_) as a fraction num / den (den > 0), so that choosing among the
   // candidates of a vertex divides once, for the winner (the division was most of a candidate's
   // latency).
-  struct Fraction {
-    double num, den;
-  };
+  using Fraction = SimplifyScratch::Fraction;
   Fraction orderCost(uint32_t u, uint32_t w) const {
     if (orderWeight2_ > 0.0) return {cost(u, w, orderWeight2_), 1.0};
     const Quadric &qu = s_.q[u], &qw = s_.q[w];
@@ -455,12 +455,10 @@ private:
     uint32_t lockedAround = 0;
     for (uint32_t w : r) lockedAround += m_.locked[w];
     if (optimistic) {
-      Cheapest best;
+      uint32_t n = 0;
       for (uint32_t w : r)
-        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround)) best.offer(orderCost(v, w), w);
-      if (best.w == kNil) return -1.0f;
-      s_.target[v] = best.w, s_.time[v] = kUnchecked;
-      return best.cost();
+        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround)) s_.cands[n++] = w;
+      return queueCheapest(v, n);
     }
     s_.scored.clear();
     for (uint32_t w : r)
@@ -488,10 +486,20 @@ private:
     if (borderEdges != 0 && borderEdges != 2) return -1.0f;
     uint32_t lockedAround = 0;
     for (uint32_t i = 0; i < size; ++i) lockedAround += m_.locked[nbr[i]];
-    Cheapest best;
+    uint32_t n = 0;
     for (uint32_t i = 0; i < size; ++i)
-      if ((borderEdges == 0 || count[i] == 1) && chordFree(v, nbr[i], lockedAround))
-        best.offer(orderCost(v, nbr[i]), nbr[i]);
+      if ((borderEdges == 0 || count[i] == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
+    return queueCheapest(v, n);
+  }
+
+  // Queues v's cheapest of the n candidates in s_.cands, untested (optimistic); -1 when n is 0.
+  // All costs first, then the choice: the cost evaluations are independent of each other and
+  // overlap, where choosing while evaluating chained each one to the previous comparison.
+  float queueCheapest(uint32_t v, uint32_t n) {
+    Fraction* costs = s_.candCost.data();
+    for (uint32_t i = 0; i < n; ++i) costs[i] = orderCost(v, s_.cands[i]);
+    Cheapest best;
+    for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], s_.cands[i]);
     if (best.w == kNil) return -1.0f;
     s_.target[v] = best.w, s_.time[v] = kUnchecked;
     return best.cost();
