@@ -26,16 +26,14 @@ struct ClusterSet {
 struct SplitScratch {
   std::vector<uint32_t> localOf;         // global vertex id -> local id; all kNone between calls
   std::vector<uint32_t> localOfPosition; // the same for welded positions (build.cpp's group gather)
-  std::vector<uint32_t> global, corners, offsets, fill, adjacency, vertStamp, vertLocal, live, candidates, candScore;
+  std::vector<uint32_t> global, corners, offsets, fill, adjacency, vertStamp, vertLocal, live, candidates;
+  std::vector<uint16_t> candScore; // rank << 12 | live sum (split.cpp)
   std::vector<uint8_t> emitted;
   struct TriState {
     uint32_t stamp;   // cluster it is a candidate of
     uint32_t candPos; // its slot in candidates / candScore
     uint32_t liveSum; // score parts: live triangles at its corners,
-    uint8_t outside;  // corners outside the cluster,
-    uint8_t dangling; // corners with one live triangle left,
-    uint8_t extra;    // vertices it would add (set with the score)
-    uint8_t repeated; // has a repeated vertex: scored from scratch
+    uint32_t parts;   // corners outside the cluster, corners with one live triangle left, repeated vertex (split.cpp)
   };
   std::vector<TriState> tri;
   std::vector<uint16_t> edgeUses;   // 256 x 256 cluster-local position pairs (build.cpp); all 0 between calls

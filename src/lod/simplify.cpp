@@ -83,6 +83,9 @@ public:
     s.countW.resize(nv);
     s.ringU.resize(nv);
     s.ringW.resize(nv);
+    s.ringEnds.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
+    s.cands.resize(nv);
+    s.candCost.resize(nv);
     s.q.assign(nv, Quadric{});
     s.heap.clear();
     normalWeight2_ = m.normals ? double(m.normalWeight) * double(m.normalWeight) : 0.0;
@@ -110,7 +113,8 @@ public:
       }
       uint32_t w = s_.target[u], checked = s_.time[u];
       // u is clean, but the entry was queued unchecked or w's triangles changed since.
-      if ((checked == kUnchecked || s_.changed[w] > checked) && (gatherRingU(u), !legal(u, w))) {
+      bool tested = checked == kUnchecked || s_.changed[w] > checked;
+      if (tested && (gatherRingU(u), !legal(u, w))) {
         requeue(u, false);
         continue;
       }
@@ -119,7 +123,7 @@ public:
       maxCost_ = std::max(maxCost_, cost(u, w, normalWeight2_));
       float queuedCost = s_.heap[0].cost;
       heapRemove(u);
-      collapse(u, w, queuedCost);
+      collapse(u, w, queuedCost, tested);
     }
     compact();
     return float(std::sqrt(maxCost_));
@@ -226,24 +230,34 @@ private:
   // over v's list are shorter; the order of the live corners stays.
   void gatherRing(uint32_t v, Ring r) {
     r.clear();
-    auto touch = [&](uint32_t x) {
-      if (r.stamp[x] != r.gen)
-        r.add(x, 1);
-      else
-        ++r.count[x];
-    };
     const uint32_t* corners = m_.corners.data();
+    const uint8_t* alive = s_.alive.data();
+    uint32_t* next = s_.next.data();
+    uint32_t* ends = s_.ringEnds.data();
+    uint32_t n = 0;
     uint32_t* link = &s_.head[v];
     for (uint32_t c = *link; c != kNil; c = *link) {
       uint32_t t = c / 3, base = t * 3, k = c - base;
-      if (!s_.alive[t]) {
-        *link = s_.next[c];
+      if (!alive[t]) {
+        *link = next[c];
         continue;
       }
-      touch(corners[base + kNextCorner[k]]);
-      touch(corners[base + kPrevCorner[k]]);
-      link = &s_.next[c];
+      ends[n] = corners[base + kNextCorner[k]];
+      ends[n + 1] = corners[base + kPrevCorner[k]];
+      n += 2;
+      link = &next[c];
     }
+    // Distinct neighbours in first-seen order with their use counts, without a "seen before?"
+    // branch per end (a coin flip): stamp and zero every end first, then count.
+    uint32_t *stamp = r.stamp.data(), *count = r.count.data(), *list = r.list.data(), gen = r.gen, size = 0;
+    for (uint32_t i = 0; i < n; ++i) stamp[ends[i]] = gen, count[ends[i]] = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+      uint32_t x = ends[i], seen = count[x];
+      count[x] = seen + 1;
+      list[size] = x;
+      size += seen == 0;
+    }
+    r.size = size;
   }
 
   // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
@@ -336,6 +350,28 @@ private:
     return geometric + normalWeight2 * glm::dot(e, e) * std::max(dev, 0.0);
   }
 
+  // cost(u, w, orderWeight2_) as a fraction num / den (den > 0), so that choosing among the
+  // candidates of a vertex divides once, for the winner (the division was most of a candidate's
+  // latency).
+  using Fraction = SimplifyScratch::Fraction;
+  Fraction orderCost(uint32_t u, uint32_t w) const {
+    if (orderWeight2_ > 0.0) return {cost(u, w, orderWeight2_), 1.0};
+    const Quadric &qu = s_.q[u], &qw = s_.q[w];
+    double weight = qu.w + qw.w;
+    if (!(weight > 0.0)) return {0.0, 1.0};
+    return {std::max(eval(qu, s_.p[w]) + s_.selfCost[w], 0.0), weight};
+  }
+  // The cheapest of the offered candidates (ties to the lower vertex id).
+  struct Cheapest {
+    Fraction best{std::numeric_limits<double>::max(), 1.0};
+    uint32_t w = kNil;
+    void offer(Fraction c, uint32_t x) {
+      double l = c.num * best.den, r = best.num * c.den;
+      if (l < r || (l == r && x < w)) best = c, w = x;
+    }
+    float cost() const { return float(best.num / best.den); }
+  };
+
   // Indexed 4-ary min-heap over (cost, vertex): half the depth of a binary heap, one entry per
   // vertex (no stale entries), updated in place.
   void heapSet(uint32_t i, HeapItem item) {
@@ -416,16 +452,18 @@ private:
     Targets mode = targets(v);
     if (mode == Targets::kNone) return -1.0f;
     Ring r = ringU();
+    uint32_t lockedAround = 0;
+    for (uint32_t w : r) lockedAround += m_.locked[w];
     if (optimistic) {
-      std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
+      uint32_t n = 0;
       for (uint32_t w : r)
-        if (mode == Targets::kAll || r.count[w] == 1) best = std::min(best, {cost(v, w, orderWeight2_), w});
-      s_.target[v] = best.second, s_.time[v] = kUnchecked;
-      return float(best.first);
+        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround)) s_.cands[n++] = w;
+      return queueCheapest(v, n);
     }
     s_.scored.clear();
     for (uint32_t w : r)
-      if (mode == Targets::kAll || r.count[w] == 1) s_.scored.push_back({cost(v, w, orderWeight2_), w});
+      if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
+        s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
@@ -446,11 +484,46 @@ private:
       borderEdges += count[i] == 1;
     }
     if (borderEdges != 0 && borderEdges != 2) return -1.0f;
-    std::pair<double, uint32_t> best{std::numeric_limits<double>::max(), kNil};
+    uint32_t lockedAround = 0;
+    for (uint32_t i = 0; i < size; ++i) lockedAround += m_.locked[nbr[i]];
+    uint32_t n = 0;
     for (uint32_t i = 0; i < size; ++i)
-      if (borderEdges == 0 || count[i] == 1) best = std::min(best, {cost(v, nbr[i], orderWeight2_), nbr[i]});
-    s_.target[v] = best.second, s_.time[v] = kUnchecked;
-    return float(best.first);
+      if ((borderEdges == 0 || count[i] == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
+    return queueCheapest(v, n);
+  }
+
+  // Queues v's cheapest of the n candidates in s_.cands, untested (optimistic); -1 when n is 0.
+  // All costs first, then the choice: the cost evaluations are independent of each other and
+  // overlap, where choosing while evaluating chained each one to the previous comparison.
+  float queueCheapest(uint32_t v, uint32_t n) {
+    Fraction* costs = s_.candCost.data();
+    for (uint32_t i = 0; i < n; ++i) costs[i] = orderCost(v, s_.cands[i]);
+    Cheapest best;
+    for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], s_.cands[i]);
+    if (best.w == kNil) return -1.0f;
+    s_.target[v] = best.w, s_.time[v] = kUnchecked;
+    return best.cost();
+  }
+
+  // A necessary condition of legal(u, w), from u's triangles alone: when w is locked, every other
+  // locked neighbour x of u must be a wing of the edge (a third corner of a triangle on u-w).
+  // Otherwise x is either no neighbour of w (the collapse makes a new locked chord) or a common
+  // neighbour that is no wing (the link condition fails). Most failed legality tests were such
+  // chords next to the group border; filtering them while choosing the candidate saves gathering
+  // w's ring to find out. lockedAround = locked neighbours of u.
+  bool chordFree(uint32_t u, uint32_t w, uint32_t lockedAround) {
+    if (!m_.locked[w]) return true;
+    uint32_t others = lockedAround - 1;
+    if (others == 0) return true;
+    if (others > 2) return false;
+    uint32_t lockedWings = 0;
+    forTriangles(u, [&](uint32_t t, uint32_t k) {
+      const uint32_t* c = &m_.corners[t * 3];
+      uint32_t a = c[kNextCorner[k]], b = c[kPrevCorner[k]];
+      if (a == w) lockedWings += m_.locked[b];
+      if (b == w) lockedWings += m_.locked[a];
+    });
+    return lockedWings >= others;
   }
 
   // Re-evaluates v and moves its entry (or drops it when v cannot move).
@@ -470,7 +543,8 @@ private:
     if (s_.heapPos[v] == kNil) heapUpdate(v, c);
   }
 
-  void collapse(uint32_t u, uint32_t w, float queuedCost) {
+  // ringsKnown: legal(u, w) just passed, so ringU and ringW hold u's and w's rings.
+  void collapse(uint32_t u, uint32_t w, float queuedCost, bool ringsKnown) {
     // Attribute wedges: a corner of u takes the attribute w has in a dying triangle on the same
     // side of any attribute seam (same attribute at u), so UV charts stay consistent.
     std::vector<std::pair<uint32_t, uint32_t>>& pairs = s_.pairs;
@@ -514,15 +588,24 @@ private:
     if (last != kNil) s_.next[last] = kNil;
     s_.head[w] = first;
     s_.head[u] = kNil;
-    Ring touched = ringW();
-    gatherRing(w, touched);
     ++clock_;
     s_.changed[w] = clock_;
     markDirty(w, queuedCost);
-    for (uint32_t x : touched) {
+    auto touch = [&](uint32_t x) {
       s_.changed[x] = clock_;
       markDirty(x, queuedCost);
+    };
+    if (ringsKnown) {
+      // w's new neighbours are among u's and w's old ones (a few twice: harmless), so no walk.
+      for (uint32_t x : ringW())
+        if (x != u) touch(x);
+      for (uint32_t x : ringU())
+        if (x != w) touch(x);
+      return;
     }
+    Ring touched = ringW();
+    gatherRing(w, touched);
+    for (uint32_t x : touched) touch(x);
   }
 
   void compact() {

@@ -42,6 +42,12 @@ struct SimplifyScratch {
   std::vector<double> selfCost;                      // Q_v(p_v): the target's share of a collapse cost, kept up to date
   std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
   std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW;
+  std::vector<uint32_t> ringEnds; // gatherRing's edge ends of one vertex
+  struct Fraction {
+    double num, den; // a collapse cost num / den
+  };
+  std::vector<uint32_t> cands;    // one vertex's collapse candidates ...
+  std::vector<Fraction> candCost; // ... and their costs
   std::vector<uint8_t> alive, dirty;
   std::vector<std::pair<double, uint32_t>> scored;
   std::vector<std::pair<uint32_t, uint32_t>> pairs;

@@ -4,6 +4,9 @@
 // simplified group, or a Morton-sorted level-0 chunk), so topology alone gives full clusters.
 #include <algorithm>
 #include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "partition.h"
 
@@ -12,6 +15,37 @@ namespace mirage::lod::detail {
 namespace {
 
 constexpr uint32_t kNil = ~0u;
+// TriState::parts: corners outside the cluster (bits 0-1), corners with one live triangle left
+// (bits 2-3), has a repeated vertex (bit 4).
+constexpr uint32_t kRepeated = 16;
+// Score rank by parts & 15: no vertex added 0, dangling (some corner's last live triangle) 1,
+// else vertices added + 1.
+constexpr uint32_t kRank[16] = {0, 2, 3, 4, 0, 1, 1, 1, 0, 1, 1, 1, 0, 1, 1, 1};
+
+// The first slot holding the lowest of score[0..count) (count > 0). Scores are below 0x7fff, and
+// score has 8 spare entries past count (overwritten here). The scan runs once per added triangle
+// over every candidate, so 16-bit scores, eight to a vector.
+size_t firstLowest(uint16_t* score, size_t count) {
+#if defined(__SSE2__)
+  for (size_t i = count; i < count + 8; ++i) score[i] = 0x7fff;
+  size_t blocks = (count + 7) / 8;
+  auto block = [&](size_t b) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(score + b * 8)); };
+  __m128i m = block(0);
+  for (size_t b = 1; b < blocks; ++b) m = _mm_min_epi16(m, block(b));
+  m = _mm_min_epi16(m, _mm_shuffle_epi32(m, 0x4e));
+  m = _mm_min_epi16(m, _mm_shuffle_epi32(m, 0xb1));
+  m = _mm_min_epi16(m, _mm_shufflelo_epi16(m, 0xb1));
+  __m128i lowest = _mm_set1_epi16(int16_t(_mm_extract_epi16(m, 0)));
+  for (size_t b = 0;; ++b)
+    if (int mask = _mm_movemask_epi8(_mm_cmpeq_epi16(block(b), lowest)))
+      return b * 8 + size_t(__builtin_ctz(uint32_t(mask))) / 2;
+#else
+  uint16_t lowest = *std::min_element(score, score + count);
+  size_t i = 0;
+  while (score[i] != lowest) ++i;
+  return i;
+#endif
+}
 
 } // namespace
 
@@ -64,22 +98,31 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   for (size_t t = 0; t < nt; ++t) {
     const uint32_t* v = &s.corners[t * 3];
     tri[t].stamp = kNil;
-    tri[t].repeated = v[0] == v[1] || v[1] == v[2] || v[0] == v[2];
+    tri[t].parts = v[0] == v[1] || v[1] == v[2] || v[0] == v[2] ? kRepeated : 0;
   }
   for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
   s.vertLocal.resize(nv);
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
-  size_t scan = 0; // every triangle before it is emitted
+  size_t scan = 0; // every triangle before it is emitted (see firstUnemitted)
   // Candidates: unemitted triangles touching the cluster (deduplicated per cluster by triStamp),
   // with their scores in a parallel array and each triangle's slot in candPos, so picking is a scan
   // over one contiguous array instead of three scattered per-triangle lookups per entry. Removal
   // swaps the last entry in, and ties go to the first slot: the order (and so every pick) is the
   // one the per-triangle version had.
   s.candidates.resize(nt);
-  s.candScore.resize(nt);
+  s.candScore.resize(nt + 8); // spare entries for firstLowest
   uint32_t* cand = s.candidates.data();
-  uint32_t* candScore = s.candScore.data();
+  uint16_t* candScore = s.candScore.data();
   size_t candCount = 0;
+  // Raw pointers (not the scratch's vectors) so stores through them do not force the compiler to
+  // reload every vector's data pointer.
+  const uint32_t* corners = s.corners.data();
+  uint32_t* adjacency = s.adjacency.data();
+  const uint32_t* offsets = s.offsets.data();
+  uint32_t* live = s.live.data();
+  uint32_t* vertStamp = s.vertStamp.data();
+  uint32_t* vertLocal = s.vertLocal.data();
+  uint8_t* emitted = s.emitted.data();
   auto removeCandidate = [&](uint32_t t) {
     uint32_t at = tri[t].candPos;
     --candCount;
@@ -91,107 +134,111 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // a vertex: left behind they become islands of a few triangles, as in meshoptimizer), then by
   // vertices added; ties go to the most enclosed triangle (fewest unused triangles around its
   // vertices), so clusters fill the pockets that earlier clusters left instead of growing as
-  // discs that leave gaps between them. Returns the score; sets extra[t], the vertices t would add.
-  auto rescore = [&](uint32_t t) {
-    const uint32_t* v = &s.corners[size_t(t) * 3];
+  // discs that leave gaps between them.
+  // Vertices t would add (distinct corners outside the cluster).
+  auto verticesAdded = [&](uint32_t t) {
+    const uint32_t* v = &corners[size_t(t) * 3];
     uint32_t v0 = v[0], v1 = v[1], v2 = v[2];
-    uint32_t l0 = s.live[v0], l1 = s.live[v1], l2 = s.live[v2];
-    uint32_t e = uint32_t(s.vertStamp[v0] != cluster) + uint32_t(s.vertStamp[v1] != cluster && v1 != v0) +
-                 uint32_t(s.vertStamp[v2] != cluster && v2 != v0 && v2 != v1);
-    bool dangling = (l0 == 1) | (l1 == 1) | (l2 == 1);
-    uint32_t rank = e == 0 ? 0 : dangling ? 1 : e + 1;
-    tri[t].extra = uint8_t(e);
-    return rank << 16 | std::min<uint32_t>(l0 + l1 + l2, 0xffff);
+    return uint32_t(vertStamp[v0] != cluster) + uint32_t(vertStamp[v1] != cluster && v1 != v0) +
+           uint32_t(vertStamp[v2] != cluster && v2 != v0 && v2 != v1);
   };
   // Incremental scores: a candidate's score depends only on its corners' live counts and cluster
   // membership, which change only at the corners of the triangle just added. Instead of rescoring
   // every triangle around those corners from scratch (three corner loads and six vertex lookups
   // each), a candidate keeps its parts -- corners outside the cluster, corners with one live
-  // triangle left, the live sum -- and each change adjusts them; the score is the same number.
-  // Triangles with a repeated vertex (never made by clean or the simplifier, but allowed here)
-  // are rescored from scratch, where "vertices added" counts distinct vertices.
-  auto partsScore = [&](uint32_t t) {
-    uint32_t e = tri[t].outside;
-    uint32_t rank = e == 0 ? 0 : tri[t].dangling ? 1 : e + 1;
-    tri[t].extra = uint8_t(e);
-    return rank << 16 | std::min<uint32_t>(tri[t].liveSum, 0xffff);
+  // triangle left (packed in `parts`), the live sum -- and each change adjusts them; the score is
+  // the same number. Triangles with a repeated vertex (never made by clean or the simplifier, but
+  // allowed here) are rescored from scratch, where "vertices added" counts distinct vertices.
+  auto partsScore = [&](const SplitScratch::TriState& ts) {
+    return uint16_t(kRank[ts.parts & 15] << 12 | std::min<uint32_t>(ts.liveSum, 0xfff));
   };
   auto initParts = [&](uint32_t t) {
-    const uint32_t* v = &s.corners[size_t(t) * 3];
+    SplitScratch::TriState& ts = tri[t];
+    const uint32_t* v = &corners[size_t(t) * 3];
+    if (ts.parts & kRepeated) {
+      uint32_t l0 = live[v[0]], l1 = live[v[1]], l2 = live[v[2]];
+      uint32_t dangling = (l0 == 1) | (l1 == 1) | (l2 == 1);
+      ts.parts = kRepeated | verticesAdded(t) | dangling << 2;
+      ts.liveSum = l0 + l1 + l2;
+      return;
+    }
     uint32_t outside = 0, dangling = 0, liveSum = 0;
     for (int k = 0; k < 3; ++k) {
-      outside += s.vertStamp[v[k]] != cluster;
-      dangling += s.live[v[k]] == 1;
-      liveSum += s.live[v[k]];
+      outside += vertStamp[v[k]] != cluster;
+      dangling += live[v[k]] == 1;
+      liveSum += live[v[k]];
     }
-    tri[t].outside = uint8_t(outside), tri[t].dangling = uint8_t(dangling), tri[t].liveSum = liveSum;
+    ts.parts = outside | dangling << 2, ts.liveSum = liveSum;
   };
   // Each vertex's adjacency range keeps its unemitted triangles first (live[v] of them, in the
   // original order: an emitted triangle is removed by shifting the rest down), so the loops below
   // never test emitted triangles; the scans were a third of the splitter's time, mostly
   // mispredicted "already emitted" branches.
-  uint32_t* adjacency = s.adjacency.data();
-  const uint32_t* offsets = s.offsets.data();
-  uint32_t* live = s.live.data();
-  uint32_t* vertStamp = s.vertStamp.data();
   auto addTriangle = [&](uint32_t t) {
     if (tri[t].stamp == cluster) removeCandidate(t); // not yet emitted: it is a candidate
-    s.emitted[t] = 1;
+    emitted[t] = 1;
     if (emittedOut) emittedOut->push_back(t);
-    const uint32_t* tv = &s.corners[size_t(t) * 3];
-    // Fewer live triangles at t's corners: adjust the candidates around them (every unemitted
-    // triangle around a cluster vertex is a candidate; the others are scored when they join).
+    const uint32_t* tv = &corners[size_t(t) * 3];
+    // One pass per corner: t leaves the corner's live triangles, and the triangles around it are
+    // adjusted (one live triangle fewer; one corner fewer outside when the corner joins the
+    // cluster) or, around a corner that joins, become candidates. Every unemitted triangle around
+    // a cluster vertex is a candidate, so around a corner already in the cluster all are.
     for (int k = 0; k < 3; ++k) {
       uint32_t v = tv[k];
-      uint32_t* list = adjacency + offsets[v];
-      uint32_t left = --live[v], kept = 0;
-      // One pass: t moves behind the live ones (order kept) while the others are adjusted.
-      for (uint32_t i = 0; i <= left; ++i) {
-        uint32_t n = list[i];
-        if (n == t) continue;
-        list[kept++] = n;
-        if (tri[n].stamp != cluster) continue;
-        if (tri[n].repeated) {
-          candScore[tri[n].candPos] = rescore(n);
-          continue;
-        }
-        --tri[n].liveSum;
-        tri[n].dangling += left == 1;
-        candScore[tri[n].candPos] = partsScore(n);
-      }
-      list[left] = t;
-    }
-    for (int k = 0; k < 3; ++k) {
-      uint32_t v = tv[k];
-      if (vertStamp[v] != cluster) {
+      bool joins = vertStamp[v] != cluster;
+      if (joins) {
         vertStamp[v] = cluster;
-        s.vertLocal[v] = vertexCount++;
+        vertLocal[v] = vertexCount++;
         out.vertices.push_back(s.global[v]);
         s.points.push_back(s.vertPos[v]);
-        const uint32_t* list = adjacency + offsets[v];
-        for (uint32_t i = 0, left = live[v]; i < left; ++i) {
+      }
+      uint32_t* list = adjacency + offsets[v];
+      uint32_t left = --live[v], kept = 0;
+      uint32_t delta = (left == 1 ? 1u << 2 : 0u) - (joins ? 1u : 0u); // parts change (mod 2^32)
+      if (joins) {
+        for (uint32_t i = 0; i <= left; ++i) {
           uint32_t n = list[i];
-          if (tri[n].stamp != cluster) {
-            // A new candidate around one of t's corners: scored from scratch (sees v inside).
-            tri[n].stamp = cluster, tri[n].candPos = uint32_t(candCount), cand[candCount++] = n;
-            if (tri[n].repeated) {
-              candScore[tri[n].candPos] = rescore(n);
-              continue;
-            }
+          if (n == t) continue;
+          list[kept++] = n;
+          SplitScratch::TriState& ts = tri[n];
+          if (ts.stamp != cluster) {
+            // A new candidate around a joining corner: its parts from scratch (corners of t not
+            // visited yet are adjusted when they are).
+            ts.stamp = cluster, ts.candPos = uint32_t(candCount), cand[candCount++] = n;
             initParts(n);
-          } else if (tri[n].repeated) {
-            candScore[tri[n].candPos] = rescore(n);
-            continue;
+          } else if (ts.parts & kRepeated) {
+            initParts(n);
           } else {
-            --tri[n].outside;
+            --ts.liveSum;
+            ts.parts += delta;
           }
-          candScore[tri[n].candPos] = partsScore(n);
+          candScore[ts.candPos] = partsScore(ts);
+        }
+      } else {
+        // The corner was in the cluster already: every triangle around it is a candidate.
+        for (uint32_t i = 0; i <= left; ++i) {
+          uint32_t n = list[i];
+          if (n == t) continue;
+          list[kept++] = n;
+          SplitScratch::TriState& ts = tri[n];
+          if (ts.parts & kRepeated) {
+            initParts(n);
+          } else {
+            --ts.liveSum;
+            ts.parts += delta;
+          }
+          candScore[ts.candPos] = partsScore(ts);
         }
       }
-      out.indices.push_back(uint8_t(s.vertLocal[v]));
+      list[left] = t;
+      out.indices.push_back(uint8_t(vertLocal[v]));
     }
     ++triangleCount;
-    while (scan < nt && s.emitted[scan]) ++scan;
+  };
+  // The first unemitted triangle (scan only moves forward; advanced when asked).
+  auto firstUnemitted = [&]() {
+    while (scan < nt && emitted[scan]) ++scan;
+    return scan;
   };
 
   uint32_t seed = 0;
@@ -206,18 +253,11 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     while (triangleCount < maxTriangles) {
       uint32_t pick = kNil, best = kNil;
       if (vertexCount + 3 <= maxVertices) {
-        // Every candidate fits: the first candidate with the lowest score, as a minimum (which
-        // the compiler vectorizes; scores stay below 2^20) and then a search for its first slot.
-        if (candCount) {
-          int32_t lowest = std::numeric_limits<int32_t>::max();
-          for (size_t i = 0; i < candCount; ++i) lowest = std::min(lowest, int32_t(candScore[i]));
-          size_t i = 0;
-          while (candScore[i] != uint32_t(lowest)) ++i;
-          pick = cand[i];
-        }
+        // Every candidate fits: the first candidate with the lowest score.
+        if (candCount) pick = cand[firstLowest(candScore, candCount)];
       } else {
         for (size_t i = 0; i < candCount; ++i)
-          if (candScore[i] < best && vertexCount + tri[cand[i]].extra <= maxVertices)
+          if (candScore[i] < best && vertexCount + (tri[cand[i]].parts & 3) <= maxVertices)
             best = candScore[i], pick = cand[i];
       }
       if (pick == kNil) {
@@ -225,13 +265,12 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         // meshoptimizer does; otherwise the pockets between clusters become clusters of a few
         // triangles (fill fell to 65 %). Linear scan: rare, and sets are small.
         float bestD = std::numeric_limits<float>::max();
-        for (size_t t = scan; t < nt; ++t) {
-          if (s.emitted[t]) continue;
+        for (size_t t = firstUnemitted(); t < nt; ++t) {
+          if (emitted[t]) continue;
           glm::vec3 d = s.centroids[t] - seedCenter;
           float d2 = glm::dot(d, d);
           if (d2 >= bestD) continue;
-          rescore(uint32_t(t));
-          if (vertexCount + tri[t].extra <= maxVertices) bestD = d2, pick = uint32_t(t);
+          if (vertexCount + verticesAdded(uint32_t(t)) <= maxVertices) bestD = d2, pick = uint32_t(t);
         }
         if (pick == kNil) break;
       }
@@ -254,7 +293,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       uint32_t l = s.live[v[0]] + s.live[v[1]] + s.live[v[2]];
       if (l < bestLive) bestLive = l, seed = t;
     }
-    if (seed == kNil) seed = uint32_t(scan);
+    if (seed == kNil) seed = uint32_t(firstUnemitted());
   }
   return out;
 }
