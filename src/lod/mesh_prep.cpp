@@ -38,9 +38,11 @@ constexpr size_t kBlock = 16; // inserts whose slots are prefetched together
 // welded positions, two cache misses: a third of cleanTriangles' time).
 class FirstOccurrence {
 public:
-  explicit FirstOccurrence(size_t items) : size_(tableSize(items)), slots_(new std::atomic<uint64_t>[size_]) {
+  // Plain words accessed through atomic_ref: an array of std::atomic is zeroed by its constructors
+  // on this thread (16 MB for the dragon's triangles) before the parallel fill below.
+  explicit FirstOccurrence(size_t items) : size_(tableSize(items)), slots_(new uint64_t[size_]) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, size_, kGrain), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t i = r.begin(); i < r.end(); ++i) slots_[i].store(kEmpty, std::memory_order_relaxed);
+      std::fill(&slots_[r.begin()], &slots_[r.end()], kEmpty);
     });
   }
 
@@ -55,24 +57,26 @@ public:
   template <class Same> uint32_t insert(uint32_t item, uint64_t hash, Same&& same) {
     const uint64_t tag = hash & ~0xffffffffull, entry = tag | item;
     for (size_t h = hash & (size_ - 1);; h = (h + 1) & (size_ - 1)) {
-      uint64_t cur = slots_[h].load(std::memory_order_relaxed);
+      std::atomic_ref<uint64_t> slot(slots_[h]);
+      uint64_t cur = slot.load(std::memory_order_relaxed);
       if (cur == kEmpty) {
-        if (slots_[h].compare_exchange_strong(cur, entry, std::memory_order_relaxed)) return uint32_t(h);
+        if (slot.compare_exchange_strong(cur, entry, std::memory_order_relaxed)) return uint32_t(h);
         // Lost the race: cur now holds the winner, fall through and compare with it.
       }
       if ((cur & ~0xffffffffull) != tag || !same(uint32_t(cur))) continue;
       // Only items with this key replace the entry, so cur keeps the tag.
-      while (item < uint32_t(cur) && !slots_[h].compare_exchange_weak(cur, entry, std::memory_order_relaxed)) {
+      while (item < uint32_t(cur) && !slot.compare_exchange_weak(cur, entry, std::memory_order_relaxed)) {
       }
       return uint32_t(h);
     }
   }
 
-  uint32_t first(uint32_t slot) const { return uint32_t(slots_[slot].load(std::memory_order_relaxed)); }
+  // After all inserts (the parallel loop's end orders them before this).
+  uint32_t first(uint32_t slot) const { return uint32_t(slots_[slot]); }
 
 private:
   size_t size_;
-  std::unique_ptr<std::atomic<uint64_t>[]> slots_;
+  std::unique_ptr<uint64_t[]> slots_;
 };
 
 // Exclusive prefix sum of flags in parallel blocks: out[i] = number of set flags before i.
