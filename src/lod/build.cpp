@@ -85,7 +85,7 @@ private:
 enum WallPhase { kWallPrep, kWallLevel0, kWallGrouping, kWallSimplify, kWallCommit, kWallCount };
 constexpr const char* kWallNames[kWallCount] = {"weld+clean", "level 0", "grouping", "METIS+simplify+split",
                                                 "ages+commit"};
-double gWallSeconds[kWallCount], gWallCpuSeconds[kWallCount];
+std::atomic<double> gWallSeconds[kWallCount], gWallCpuSeconds[kWallCount]; // builds may run concurrently
 
 double processCpuSeconds() {
   timespec ts{};
@@ -97,8 +97,8 @@ class WallTimer {
 public:
   explicit WallTimer(WallPhase p) : phase_(p), start_(std::chrono::steady_clock::now()), cpu_(processCpuSeconds()) {}
   ~WallTimer() {
-    gWallSeconds[phase_] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    gWallCpuSeconds[phase_] += processCpuSeconds() - cpu_;
+    gWallSeconds[phase_].fetch_add(std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+    gWallCpuSeconds[phase_].fetch_add(processCpuSeconds() - cpu_);
   }
   WallTimer(const WallTimer&) = delete;
   WallTimer& operator=(const WallTimer&) = delete;
@@ -111,14 +111,13 @@ private:
 
 void printStages(uint64_t triangles) {
   if (!std::getenv("MIRAGE_LOD_PROFILE")) {
-    for (int i = 0; i < kWallCount; ++i) gWallSeconds[i] = gWallCpuSeconds[i] = 0.0;
+    for (int i = 0; i < kWallCount; ++i) gWallSeconds[i] = 0.0, gWallCpuSeconds[i] = 0.0;
     return;
   }
   std::fprintf(stderr, "lod wall seconds (process CPU seconds):");
   for (int i = 0; i < kWallCount; ++i) {
-    std::fprintf(stderr, " %s %.3f (%.3f)%s", kWallNames[i], gWallSeconds[i], gWallCpuSeconds[i],
-                 i + 1 < kWallCount ? "," : "\n");
-    gWallSeconds[i] = gWallCpuSeconds[i] = 0.0;
+    std::fprintf(stderr, " %s %.3f (%.3f)%s", kWallNames[i], gWallSeconds[i].exchange(0.0),
+                 gWallCpuSeconds[i].exchange(0.0), i + 1 < kWallCount ? "," : "\n");
   }
   double total = 0.0;
   for (auto& ns : gStageNs) total += double(ns.load()) * 1e-9;
