@@ -1,13 +1,10 @@
 #pragma once
 // Pieces every renderer shares (private to src/render).
 #include <cstdint>
-#include <initializer_list>
 #include <string>
-#include <string_view>
 #include <vector>
 
-#include <fmt/format.h>
-
+#include "mirage/core/named_enum.h"
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
@@ -31,20 +28,5 @@ shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount);
 // `keepLinear`, the float image.
 void convertHalfImage(const std::vector<uint8_t>& rgba16f, uint32_t width, uint32_t height, bool keepLinear,
                       RenderOutput& out);
-
-// The enum value whose toString() is `text`; otherwise an error naming `label`, the text and every
-// choice, e.g. "--raster 'x': expected auto, mesh, indirect, compute or hybrid".
-template <typename E>
-Result<E> parseNamed(std::string_view text, std::string_view label, std::initializer_list<E> values) {
-  std::string choices;
-  size_t i = 0;
-  for (E v : values) {
-    if (text == toString(v)) return v;
-    choices += i == 0 ? "" : i + 1 == values.size() ? " or " : ", ";
-    choices += toString(v);
-    ++i;
-  }
-  return Error{fmt::format("{} '{}': expected {}", label, text, choices)};
-}
 
 } // namespace mirage::render

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "mirage/core/named_enum.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/radix_sort.h"
@@ -250,9 +251,8 @@ const char* toString(DiscRaster raster) {
 }
 
 Result<DiscRaster> parseDiscRaster(std::string_view text) {
-  for (DiscRaster r : {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth})
-    if (text == toString(r)) return r;
-  return Error{fmt::format("--disc-raster '{}': expected compute, mesh, geometry or mesh-depth", text)};
+  return parseNamed(text, "--disc-raster",
+                    {DiscRaster::Compute, DiscRaster::Mesh, DiscRaster::Geometry, DiscRaster::MeshDepth});
 }
 
 std::string discRasterUnsupported(const Context& ctx, DiscRaster raster, uint32_t views) {
