@@ -349,13 +349,18 @@ double expectSupersampledQuarterPixel(gpu::Context& ctx, const Scene& scene, con
   return p;
 }
 
+// The build both quarter-pixel tests judge: the shading-aware error, weight 0.6 (see above).
+Result<lod::LodAsset> bakeShadingAware(const Scene& scene) {
+  lod::BuildConfig config;
+  config.normalWeight = 0.6f;
+  return lod::bakeLodAsset(scene, config);
+}
+
 TEST_F(ClusterRender, QuarterPixelTauMatchesSupersampledForwardOnBunny) {
   MIRAGE_REQUIRE_DATA(path, "stanford-bunny/bun_zipper.ply");
   auto scene = io::importScene(path);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  lod::BuildConfig config;
-  config.normalWeight = 0.6f;
-  auto asset = lod::bakeLodAsset(*scene, config);
+  auto asset = bakeShadingAware(*scene);
   ASSERT_TRUE(asset.ok()) << asset.error().message;
   expectMatchesForward(context(), *asset, "bunny", 0.0); // tiny tau on every backend
   expectSupersampledQuarterPixel(context(), *scene, *asset, "bunny");
@@ -365,9 +370,7 @@ TEST_F(ClusterRender, QuarterPixelTauMatchesSupersampledForwardOnDragon) {
   MIRAGE_REQUIRE_DATA(path, "stanford-dragon/dragon_vrip.ply");
   auto scene = io::importScene(path);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  lod::BuildConfig config;
-  config.normalWeight = 0.6f;
-  auto asset = lod::bakeLodAsset(*scene, config);
+  auto asset = bakeShadingAware(*scene);
   ASSERT_TRUE(asset.ok()) << asset.error().message;
   expectSupersampledQuarterPixel(context(), *scene, *asset, "dragon");
 }
