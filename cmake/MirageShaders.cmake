@@ -43,5 +43,6 @@ std::span<const uint32_t> shaderCode(std::string_view name) {
 } // namespace mirage::gpu
 ")
   add_library(${target} STATIC ${gen} ${outputs})
-  target_include_directories(${target} PUBLIC ${PROJECT_SOURCE_DIR}/include PRIVATE ${CMAKE_CURRENT_BINARY_DIR})
+  target_include_directories(${target} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
+                             $<INSTALL_INTERFACE:include> PRIVATE ${CMAKE_CURRENT_BINARY_DIR})
 endfunction()

@@ -10,6 +10,9 @@ endfunction()
 function(mirage_module name)
   add_library(mirage_${name} STATIC ${ARGN})
   add_library(mirage::${name} ALIAS mirage_${name})
-  target_include_directories(mirage_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+  target_include_directories(mirage_${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
+                             $<INSTALL_INTERFACE:include> PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+  # Installed as Mirage::<name> (cmake/MirageInstall.cmake).
+  set_target_properties(mirage_${name} PROPERTIES EXPORT_NAME ${name})
   mirage_warnings(mirage_${name})
 endfunction()
