@@ -26,12 +26,23 @@ for f in bin/mirage include/mirage/render/cluster_renderer.h include/mirage/shad
   [ -e "$prefix/$f" ] || fail "not installed: $f"
 done
 
-# The example, configured like this build (compiler, flags: a sanitized build stays sanitized).
+# The example, configured like this build: same compiler and flags, and the -fsanitize options the
+# libraries were compiled with however they were set (a sanitized archive needs a sanitized link).
+sanitize=$(python3 - "$build/compile_commands.json" "$src/src/" <<'PY'
+import json, sys
+flags = set()
+for entry in json.load(open(sys.argv[1])):
+    if entry["file"].startswith(sys.argv[2]):
+        flags.update(f for f in entry.get("command", "").split() if f.startswith("-fsanitize="))
+print(" ".join(sorted(flags)))
+PY
+)
+cxxflags="$(cache CMAKE_CXX_FLAGS) $sanitize"
+ldflags="$(cache CMAKE_EXE_LINKER_FLAGS) $sanitize"
 embed=$tmp/embed
 if ! cmake -S "$src/examples/embed" -B "$embed" -G Ninja -DCMAKE_PREFIX_PATH="$prefix" \
      -DCMAKE_BUILD_TYPE="$(cache CMAKE_BUILD_TYPE)" -DCMAKE_CXX_COMPILER="$(cache CMAKE_CXX_COMPILER)" \
-     -DCMAKE_C_COMPILER="$(cache CMAKE_C_COMPILER)" -DCMAKE_CXX_FLAGS="$(cache CMAKE_CXX_FLAGS)" \
-     -DCMAKE_EXE_LINKER_FLAGS="$(cache CMAKE_EXE_LINKER_FLAGS)" \
+     -DCMAKE_C_COMPILER="$(cache CMAKE_C_COMPILER)" -DCMAKE_CXX_FLAGS="$cxxflags" -DCMAKE_EXE_LINKER_FLAGS="$ldflags" \
      -DCMAKE_CXX_COMPILER_LAUNCHER="$(cache CMAKE_CXX_COMPILER_LAUNCHER)" >"$tmp/configure.log" 2>&1 ||
    ! cmake --build "$embed" >"$tmp/build.log" 2>&1; then
   cat "$tmp/configure.log" "$tmp/build.log" 2>/dev/null; fail "examples/embed does not build against the prefix"; exit 1
@@ -49,7 +60,7 @@ else
     fail "main.cpp does not preprocess with pkg-config --cflags mirage"
   object=$(find "$embed" -name 'main.cpp.o' | head -1)
   # shellcheck disable=SC2046,SC2086
-  $cxx $(cache CMAKE_CXX_FLAGS) $(cache CMAKE_EXE_LINKER_FLAGS) "$object" $(pkg-config --libs mirage) -o "$tmp/embed_pc" ||
+  $cxx $cxxflags $ldflags "$object" $(pkg-config --libs mirage) -o "$tmp/embed_pc" ||
     fail "the example does not link with pkg-config --libs mirage ($pc)"
 fi
 
