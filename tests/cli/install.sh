@@ -64,9 +64,11 @@ else
     fail "the example does not link with pkg-config --libs mirage ($pc)"
 fi
 
-# A small scene from the installed CLI; the example's frame against `mirage render` of the same view.
+# A small scene from the installed CLI (a blob of radius ~1 at the origin); the example's frame
+# against `mirage render` of the same camera.
+camera=eye=2.2,1.4,2.6,target=0,0,0,fov=45
 "$prefix/bin/mirage" build gen:blob:2 -o "$tmp/blob.mrg" --quiet >/dev/null || { fail "mirage build"; exit 1; }
-"$embed/mirage_embed" "$tmp/blob.mrg" "$tmp/embed.png" 160x96 >"$tmp/stdout" 2>"$tmp/stderr"
+"$embed/mirage_embed" "$tmp/blob.mrg" "$tmp/embed.png" 160x96 "$camera" >"$tmp/stdout" 2>"$tmp/stderr"
 rc=$?
 [ $rc -eq 0 ] || { cat "$tmp/stderr"; fail "mirage_embed exits $rc"; }
 grep -qi validation "$tmp/stderr" && { cat "$tmp/stderr"; fail "validation messages"; }
@@ -77,7 +79,7 @@ import struct, sys
 head = open(sys.argv[1], "rb").read(24)
 sys.exit(0 if head[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", head[16:24]) == (160, 96) else 1)
 PY
-"$prefix/bin/mirage" render "$tmp/blob.mrg" -o "$tmp/cli.png" --size 160x96 >/dev/null || fail "mirage render"
+"$prefix/bin/mirage" render "$tmp/blob.mrg" -o "$tmp/cli.png" --size 160x96 --camera "$camera" >/dev/null || fail "mirage render"
 psnr=$("$prefix/bin/mirage" compare "$tmp/embed.png" "$tmp/cli.png" --json | python3 -c \
   'import json, sys; p = json.load(sys.stdin)["psnr"]; print("inf" if p is None else p)')
 python3 -c "import sys; sys.exit(0 if float('$psnr') >= 40 else 1)" || fail "example vs mirage render: psnr $psnr dB < 40"
