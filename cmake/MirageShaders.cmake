@@ -1,6 +1,7 @@
 # Shaders compile at build time: glslc writes SPIR-V as comma-separated words (-mfmt=num), and one
 # generated source embeds every shader so binaries need no files beside them. A compile error fails
 # the build. Each shader depends on the headers it includes (glslc -MD depfile).
+include(GNUInstallDirs)
 function(mirage_embed_shaders target)
   find_program(GLSLC glslc REQUIRED)
   set(entries "")
@@ -44,5 +45,5 @@ std::span<const uint32_t> shaderCode(std::string_view name) {
 ")
   add_library(${target} STATIC ${gen} ${outputs})
   target_include_directories(${target} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
-                             $<INSTALL_INTERFACE:include> PRIVATE ${CMAKE_CURRENT_BINARY_DIR})
+                             $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}> PRIVATE ${CMAKE_CURRENT_BINARY_DIR})
 endfunction()

@@ -6,12 +6,14 @@ function(mirage_warnings target)
   endif()
 endfunction()
 
+include(GNUInstallDirs) # CMAKE_INSTALL_INCLUDEDIR of the installed targets
+
 # mirage_module(name SOURCES...): a static library with public headers in include/mirage/<name>.
 function(mirage_module name)
   add_library(mirage_${name} STATIC ${ARGN})
   add_library(mirage::${name} ALIAS mirage_${name})
   target_include_directories(mirage_${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
-                             $<INSTALL_INTERFACE:include> PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+                             $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}> PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
   # Installed as Mirage::<name> (cmake/MirageInstall.cmake).
   set_target_properties(mirage_${name} PROPERTIES EXPORT_NAME ${name})
   mirage_warnings(mirage_${name})
