@@ -35,6 +35,7 @@ struct BenchRenderOptions {
   std::string size = "1920x1080";
   std::string device;
   int frames = 20;
+  double warmupMs = 1000.0; // untimed frames first, until the GPU has left its idle clock
   bool json = false;
   float tau = 1.0f;           // .mrg only
   uint32_t grid = 1;          // .mrg only: the scene repeated on a grid x grid layout
@@ -62,6 +63,7 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .tau = o.tau,
                        .grid = o.grid,
                        .frames = o.frames,
+                       .warmupMs = o.warmupMs,
                        .stats = true,
                        .json = o.json,
                        .baselines = o.baselines,
@@ -92,12 +94,18 @@ void runBenchRender(const BenchRenderOptions& o) {
   std::vector<std::vector<gpu::PassTime>> frames;
   std::vector<double> wall;
   render::FrameStats lastStats;
+  auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < o.frames; ++i) {
     auto t0 = std::chrono::steady_clock::now();
     auto out = (*renderer)->render(rs);
     if (!out) return fail(out.error());
+    // Warm-up: pipeline compilation, first touch of memory, and --warmup-ms of work for the clock.
+    if (i == 0 && std::chrono::duration<double, std::milli>(t0 - start).count() < o.warmupMs) {
+      --i;
+      continue;
+    }
     wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    if (i == 0) continue; // warm-up: pipeline compilation and first-touch of memory
+    if (i == 0) continue;
     frames.push_back(out->stats.passTimes);
     lastStats = out->stats;
   }
@@ -330,6 +338,10 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
   r->add_option("--size", o->size, "WxH")->capture_default_str();
   r->add_option("--frames", o->frames, "Frames to render (the first is a warm-up)")->capture_default_str();
+  r->add_option("--warmup-ms", o->warmupMs,
+                "Untimed frames first for this long: an idle GPU's clock may not rise for short frames alone")
+      ->check(CLI::Range(0.0, 60000.0))
+      ->capture_default_str();
   r->add_option("--device", o->device, "Vulkan device name substring or index");
   r->add_flag("--json", o->json, "Print results as JSON");
   r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();

@@ -232,15 +232,24 @@ struct Timed {
 
 // Renders `frames` frames; with more than one, the first (pipeline warm-up) is not timed. On a
 // camera path, frame i uses camera i - 1 (the warm-up repeats camera 0); `onFrame` sees each
-// timed frame's output with its camera index.
-template <class OnFrame> bool renderFrames(Session& s, int frames, Timed& out, OnFrame&& onFrame) {
+// timed frame's output with its camera index. The warm-up frame repeats until `warmupMs` of wall
+// time have passed: a GPU left idle sits at a low clock, and short frames alone may not raise it
+// (on the H200 a whole process then ran 5.4x slower, every pass alike).
+template <class OnFrame>
+bool renderFrames(Session& s, int frames, Timed& out, OnFrame&& onFrame, double warmupMs = 0.0) {
   std::vector<std::vector<gpu::PassTime>> all;
+  auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < frames; ++i) {
     size_t cameraIndex = frames > 1 ? size_t(std::max(i - 1, 0)) : 0;
     if (!s.path.empty()) s.settings.base.camera = s.path[cameraIndex % s.path.size()];
     if (!selectPvsCell(s, s.settings.base.camera.eye, /*quiet=*/s.path.size() > 1)) return false;
     auto o = s.renderer->render(s.settings);
     if (!o) return fail(o.error()), false;
+    if (i == 0 && frames > 1 &&
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() < warmupMs) {
+      --i; // still warming up: this frame again
+      continue;
+    }
     all.push_back(o->image.stats.passTimes);
     if (i > 0 || frames == 1) {
       if (!onFrame(*o, cameraIndex)) return false;
@@ -259,8 +268,9 @@ template <class OnFrame> bool renderFrames(Session& s, int frames, Timed& out, O
   for (const auto& f : all) out.maxFrameMs = std::max(out.maxFrameMs, frameMilliseconds(f));
   return true;
 }
-bool renderFrames(Session& s, int frames, Timed& out) {
-  return renderFrames(s, frames, out, [](const render::ClusterRenderOutput&, size_t) { return true; });
+bool renderFrames(Session& s, int frames, Timed& out, double warmupMs = 0.0) {
+  return renderFrames(
+      s, frames, out, [](const render::ClusterRenderOutput&, size_t) { return true; }, warmupMs);
 }
 
 // out.png -> out_0007.png: one image per camera of a path.
@@ -498,13 +508,13 @@ void runLodBench(const LodRenderRequest& r) {
           s.settings.selection = selection;
           s.settings.pvsCulling = true;
           Timed t; // the untimed warm-up frame fills the occlusion history for this view
-          if (!renderFrames(s, frames, t)) return;
+          if (!renderFrames(s, frames, t, r.warmupMs)) return;
           bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
           // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
           Timed off;
           if (!s.pvsPath.empty()) {
             s.settings.pvsCulling = false;
-            if (!renderFrames(s, frames, off)) return;
+            if (!renderFrames(s, frames, off, r.warmupMs)) return;
           }
           if (r.json) {
             nlohmann::json j = statsJson(t.last.stats);

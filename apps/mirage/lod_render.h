@@ -37,6 +37,7 @@ struct LodRenderRequest {
   float tau = 1.0f;            // LOD threshold in pixels
   uint32_t grid = 1;           // >1: the scene's instances repeated on a grid x grid layout (benchmark scenes)
   int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
+  double warmupMs = 0.0;       // bench: the warm-up frame repeats for this long (GPU clock)
   bool stats = false;
   bool json = false;
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
