@@ -35,7 +35,7 @@ struct BenchRenderOptions {
   std::string size = "1920x1080";
   std::string device;
   int frames = 20;
-  double warmupMs = 1000.0; // untimed frames first, until the GPU has left its idle clock
+  double warmupMs = kBenchWarmupMs;
   bool json = false;
   float tau = 1.0f;           // .mrg only
   uint32_t grid = 1;          // .mrg only: the scene repeated on a grid x grid layout
@@ -339,7 +339,7 @@ void addBenchCommand(CLI::App& app) {
   r->add_option("--size", o->size, "WxH")->capture_default_str();
   r->add_option("--frames", o->frames, "Frames to render (the first is a warm-up)")->capture_default_str();
   r->add_option("--warmup-ms", o->warmupMs,
-                "Untimed frames first for this long: an idle GPU's clock may not rise for short frames alone")
+                "Untimed frames first for this long (an idle GPU's clock may not rise for short frames alone)")
       ->check(CLI::Range(0.0, 60000.0))
       ->capture_default_str();
   r->add_option("--device", o->device, "Vulkan device name substring or index");

@@ -1,6 +1,7 @@
 // mirage render FILE --surfels and mirage bench surfels: the surfel renderer on a .mrg 'SURF' chunk
 // (from `mirage surfels INPUT -o FILE.mrg`) or a surfel PLY.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -141,11 +142,15 @@ struct Timed {
 };
 
 // `frames` frames of every renderer (same settings, same view), interleaved frame by frame so a
-// clock or thermal drift during the run affects every order alike; out[i] for renderer i.
-bool renderFrames(SurfelSession& s, int frames, std::vector<Timed>& out) {
+// clock or thermal drift during the run affects every order alike; out[i] for renderer i. Before
+// them, untimed frames of the first renderer for `warmupMs` (the GPU's clock, kBenchWarmupMs).
+bool renderFrames(SurfelSession& s, int frames, std::vector<Timed>& out, double warmupMs = 0.0) {
   size_t n = s.renderers.size();
   std::vector<std::vector<std::vector<gpu::PassTime>>> all(n);
   out.assign(n, Timed{});
+  for (auto start = std::chrono::steady_clock::now();
+       n > 0 && std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() < warmupMs;)
+    if (auto o = s.renderers[0]->render(s.settings); !o) return fail(o.error()), false;
   for (int i = 0; i < frames; ++i)
     for (size_t r = 0; r < n; ++r) {
       auto o = s.renderers[r]->render(s.settings);
@@ -294,7 +299,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
           s.settings.merge = merge;
           s.settings.orientedDiscs = oriented;
           std::vector<Timed> timed;
-          if (!renderFrames(s, r.frames, timed)) return;
+          if (!renderFrames(s, r.frames, timed, r.warmupMs)) return;
           double baseSplatMs = 0.0, baseFrameMs = 0.0;
           for (size_t o = 0; o < timed.size(); ++o) {
             const Timed& t = timed[o];
@@ -386,6 +391,11 @@ void addBenchSurfelsCommand(CLI::App& bench) {
   b->add_option("input", o->input, ".mrg with a SURF chunk, or a surfel .ply")->required();
   b->add_option("--size", o->size, "WxH")->capture_default_str();
   b->add_option("--frames", o->frames, "Frames (the first is a warm-up)")->capture_default_str();
+  o->warmupMs = kBenchWarmupMs;
+  b->add_option("--warmup-ms", o->warmupMs,
+                "Untimed frames first for this long (an idle GPU's clock may not rise for short frames alone)")
+      ->check(CLI::Range(0.0, 60000.0))
+      ->capture_default_str();
   b->add_option("--copies", o->copies, "Instances of the cloud on a square grid")->capture_default_str();
   b->add_option("--surfel-size", o->surfelSize, "Surfel diameter in pixels")->capture_default_str();
   b->add_option("--surfel-raster", o->raster, "all|compute|raster")->capture_default_str();

@@ -33,6 +33,10 @@ Result<Scene> loadSceneArgument(const std::string& argument, const io::ImportOpt
 // cells. `cell` receives the cell index.
 Result<Scene> restrictSceneToPvs(const Scene& scene, const vis::PvsData& pvs, const std::string& pvsPath, glm::vec3 eye,
                                  int& cell);
+// Benchmarks render untimed frames for this long before timing: an idle GPU can stay at its low
+// clock through short frames (on the H200 whole processes then ran up to 5x slower, every pass
+// alike). `--warmup-ms` on the bench commands.
+inline constexpr double kBenchWarmupMs = 1000.0;
 // Median over frames of each pass's GPU time (frames[i] lists the passes of frame i).
 std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::PassTime>>& frames);
 // The whole frame's GPU time among a frame's pass times ("frame"), 0 when absent.

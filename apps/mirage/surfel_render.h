@@ -23,6 +23,7 @@ struct SurfelRenderRequest {
       order; // blue | coherent | coherent256 (default: render::kDefaultSurfelOrder); bench: a comma list or "all"
   double bandwidth = 4.8e12; // bench: device bandwidth in B/s for the reported fraction
   int frames = 1;            // render: --repeat; bench: --frames (the first is a warm-up)
+  double warmupMs = 0.0;     // bench: the warm-up frame repeats for this long (GPU clock)
   bool stats = false;
   bool json = false;
 };
