@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 
 #include <fmt/format.h>
 #include <meshoptimizer.h>
@@ -46,11 +47,20 @@ bool base64Decode(std::string_view in, std::vector<uint8_t>& out) {
   return true;
 }
 
+int hexDigit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// A relative URI's %XX escapes decoded; a '%' not followed by two hex digits stays as it is.
 std::string percentDecode(const std::string& s) {
   std::string out;
   for (size_t i = 0; i < s.size(); ++i) {
-    if (s[i] == '%' && i + 2 < s.size()) {
-      out.push_back(char(std::stoi(s.substr(i + 1, 2), nullptr, 16)));
+    int hi = s[i] == '%' && i + 2 < s.size() ? hexDigit(s[i + 1]) : -1, lo = hi >= 0 ? hexDigit(s[i + 2]) : -1;
+    if (lo >= 0) {
+      out.push_back(char(hi * 16 + lo));
       i += 2;
     } else {
       out.push_back(s[i]);
@@ -59,18 +69,132 @@ std::string percentDecode(const std::string& s) {
   return out;
 }
 
+// Bytes a base64 data URI decodes to, from its length alone.
+uint64_t dataUriBytes(const std::string& uri) {
+  size_t comma = uri.find(',');
+  if (comma == std::string::npos) return 0;
+  std::string_view payload = std::string_view(uri).substr(comma + 1);
+  while (!payload.empty() && payload.back() == '=') payload.remove_suffix(1);
+  return uint64_t(payload.size()) * 3 / 4;
+}
+
+// An unsigned integer property; `fallback` when absent, nullopt when present but not a non-negative integer (the
+// glTF parser then reports the type error in its own words).
+std::optional<uint64_t> uintProp(const json& o, const char* key, uint64_t fallback) {
+  if (!o.contains(key)) return fallback;
+  const json& v = o[key];
+  if (v.is_number_unsigned()) return v.get<uint64_t>();
+  if (v.is_number_integer() && v.get<int64_t>() >= 0) return uint64_t(v.get<int64_t>());
+  return std::nullopt;
+}
+
+// Everything the glTF parser and its image decoder trust about buffer layout, checked first: they index buffers by
+// bufferView ranges without bounds checks (an image bufferView past its buffer crashes the image decoder), read a
+// directory named by a uri as a file, and skip missing images with a warning.
+Status checkLayout(const json& doc, size_t binBytes, bool glb, const std::filesystem::path& baseDir, bool checkImages,
+                   const std::string& file) {
+  auto fail = [&](const std::string& problem) -> Status { return makeError(file, problem); };
+  auto external = [&](const char* what, size_t i, const std::string& uri, uint64_t need) -> Status {
+    std::filesystem::path p = baseDir / percentDecode(uri);
+    if (std::string problem = inputFileProblem(p); !problem.empty())
+      return fail(fmt::format("{} {} {}: {}", what, i, quoteInput(uri), problem));
+    std::error_code ec;
+    uint64_t size = std::filesystem::file_size(p, ec);
+    if (!ec && size < need)
+      return fail(
+          fmt::format("{} {} {}: the file holds {} bytes, byteLength says {}", what, i, quoteInput(uri), size, need));
+    return Ok{};
+  };
+  std::vector<uint64_t> bufferBytes;
+  if (doc.contains("buffers") && doc["buffers"].is_array()) {
+    const json& buffers = doc["buffers"];
+    for (size_t i = 0; i < buffers.size(); ++i) {
+      const json& b = buffers[i];
+      const uint64_t length = b.is_object() ? uintProp(b, "byteLength", 0).value_or(0) : 0;
+      bufferBytes.push_back(length);
+      if (!b.is_object()) continue;
+      if (b.contains("uri") && b["uri"].is_string()) {
+        const std::string uri = b["uri"].get<std::string>();
+        if (uri.rfind("data:", 0) == 0) {
+          if (dataUriBytes(uri) < length)
+            return fail(fmt::format("buffer {}: its data URI holds {} bytes, byteLength says {}", i, dataUriBytes(uri),
+                                    length));
+        } else if (Status s = external("buffer", i, uri, length); !s) {
+          return s;
+        }
+      } else if (glb && i == 0 && length > binBytes) {
+        return fail(fmt::format("buffer 0: byteLength {} exceeds the GLB BIN chunk ({} bytes)", length, binBytes));
+      }
+    }
+  }
+  if (doc.contains("bufferViews") && doc["bufferViews"].is_array()) {
+    const json& views = doc["bufferViews"];
+    for (size_t v = 0; v < views.size(); ++v) {
+      const json& view = views[v];
+      if (!view.is_object()) continue;
+      auto buffer = uintProp(view, "buffer", 0), offset = uintProp(view, "byteOffset", 0),
+           length = uintProp(view, "byteLength", 0);
+      if (!buffer || !offset || !length) continue;
+      if (*buffer >= bufferBytes.size())
+        return fail(fmt::format("bufferView {} refers to buffer {} ({} buffers)", v, *buffer, bufferBytes.size()));
+      if (*offset > bufferBytes[*buffer] || *length > bufferBytes[*buffer] - *offset)
+        return fail(fmt::format("bufferView {} (bytes {}..{}) runs past buffer {} ({} bytes)", v, *offset,
+                                *offset + *length, *buffer, bufferBytes[*buffer]));
+    }
+  }
+  if (checkImages && doc.contains("images") && doc["images"].is_array()) {
+    const json& images = doc["images"];
+    for (size_t i = 0; i < images.size(); ++i) {
+      const json& img = images[i];
+      if (!img.is_object() || !img.contains("uri") || !img["uri"].is_string()) continue;
+      const std::string uri = img["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) != 0)
+        if (Status s = external("image", i, uri, 0); !s) return s;
+    }
+  }
+  return Ok{};
+}
+
 void align(std::vector<uint8_t>& v, size_t a) { v.resize((v.size() + a - 1) / a * a, 0); }
+
+// The extension's constraints on one compressed view, checked before decoding: the decoders assert on them instead
+// of returning an error. The message is the problem only (the caller names the file and view).
+Status checkMeshoptView(const std::string& mode, const std::string& filter, size_t stride, size_t count) {
+  auto bad = [](std::string problem) -> Status { return Error{std::move(problem)}; };
+  if (mode == "ATTRIBUTES") {
+    if (stride % 4 != 0) return bad(fmt::format("mode ATTRIBUTES needs a byteStride divisible by 4 (got {})", stride));
+  } else if (mode == "TRIANGLES" || mode == "INDICES") {
+    if (stride != 2 && stride != 4) return bad(fmt::format("mode {} needs byteStride 2 or 4 (got {})", mode, stride));
+    if (mode == "TRIANGLES" && count % 3 != 0)
+      return bad(fmt::format("mode TRIANGLES needs a count divisible by 3 (got {})", count));
+  } else {
+    return bad(fmt::format("has unknown mode {}", quoteInput(mode)));
+  }
+  if (filter == "NONE") return Ok{};
+  if (mode != "ATTRIBUTES") return bad(fmt::format("filter {} needs mode ATTRIBUTES", quoteInput(filter)));
+  if (filter == "OCTAHEDRAL" && stride != 4 && stride != 8)
+    return bad(fmt::format("filter OCTAHEDRAL needs byteStride 4 or 8 (got {})", stride));
+  if (filter == "QUATERNION" && stride != 8)
+    return bad(fmt::format("filter QUATERNION needs byteStride 8 (got {})", stride));
+  if (filter != "OCTAHEDRAL" && filter != "QUATERNION" && filter != "EXPONENTIAL")
+    return bad(fmt::format("has unknown filter {}", quoteInput(filter)));
+  return Ok{};
+}
 
 } // namespace
 
-Result<std::optional<std::vector<uint8_t>>>
-decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& baseDir, const std::string& file) {
+Result<std::optional<std::vector<uint8_t>>> prepareGltf(const std::vector<char>& bytes,
+                                                        const std::filesystem::path& baseDir, bool checkImages,
+                                                        const std::string& file) {
+  if (bytes.empty()) return makeError(file, "empty file (0 bytes)");
   std::string_view jsonText(bytes.data(), bytes.size());
   std::string_view bin;
   const bool glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
   if (glb) {
-    // 12-byte header, then chunks of (length, type, data); tinygltf reports malformed files itself.
-    if (bytes.size() < 20) return std::optional<std::vector<uint8_t>>{};
+    // 12-byte header, then chunks of (length, type, data); tinygltf reports other malformations itself.
+    if (bytes.size() < 20)
+      return makeError(
+          file, fmt::format("truncated GLB: {} bytes, less than a header and one chunk header (20)", bytes.size()));
     uint32_t jsonLen = readU32(bytes.data() + 12);
     if (readU32(bytes.data() + 16) != 0x4E4F534A || 20 + uint64_t(jsonLen) > bytes.size())
       return std::optional<std::vector<uint8_t>>{};
@@ -84,6 +208,7 @@ decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& b
   }
   json doc = json::parse(jsonText, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded() || !doc.is_object()) return std::optional<std::vector<uint8_t>>{};
+  if (Status s = checkLayout(doc, bin.size(), glb, baseDir, checkImages, file); !s) return s.error();
   auto usesExt = [&](const char* key) {
     if (!doc.contains(key) || !doc[key].is_array()) return false;
     for (const json& e : doc[key])
@@ -108,7 +233,7 @@ decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& b
             return makeError(file, fmt::format("buffer {} has a bad data URI", i));
         } else {
           auto ext = readFile(baseDir / percentDecode(uri));
-          if (!ext) return makeError(file, fmt::format("buffer {}: cannot read '{}'", i, uri));
+          if (!ext) return makeError(file, fmt::format("buffer {}: cannot read {}", i, quoteInput(uri)));
           data[i].assign(ext->begin(), ext->end());
         }
         present[i] = true;
@@ -138,11 +263,13 @@ decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& b
         size_t off = ext.value("byteOffset", size_t(0)), len = ext.at("byteLength").get<size_t>();
         size_t stride = ext.at("byteStride").get<size_t>(), count = ext.at("count").get<size_t>();
         std::string mode = ext.at("mode").get<std::string>(), filter = ext.value("filter", std::string("NONE"));
-        if (src >= data.size() || !present[src] || off + len > data[src].size())
+        if (src >= data.size() || !present[src] || off > data[src].size() || len > data[src].size() - off)
           return makeError(file, fmt::format("bufferView {}: compressed data out of range", v));
         // The codecs expand at most ~64x (an all-zero vertex stream); larger claims are hostile or corrupt.
         if (stride == 0 || stride > 256 || count > (64 * len + (size_t(1) << 20)) / stride)
           return makeError(file, fmt::format("bufferView {}: bad meshopt stride/count", v));
+        if (Status s = checkMeshoptView(mode, filter, stride, count); !s)
+          return makeError(file, fmt::format("bufferView {}: EXT_meshopt_compression {}", v, s.error().message));
         align(out, 16);
         size_t at = out.size();
         out.resize(at + count * stride);
@@ -155,7 +282,7 @@ decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& b
         else if (mode == "INDICES")
           rc = meshopt_decodeIndexSequence(out.data() + at, count, stride, in, len);
         else
-          return makeError(file, fmt::format("bufferView {}: unknown meshopt mode '{}'", v, mode));
+          return makeError(file, fmt::format("bufferView {}: unknown meshopt mode {}", v, quoteInput(mode)));
         if (rc != 0) return makeError(file, fmt::format("bufferView {}: meshopt decoding failed ({})", v, rc));
         if (filter == "OCTAHEDRAL")
           meshopt_decodeFilterOct(out.data() + at, count, stride);
@@ -164,7 +291,7 @@ decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& b
         else if (filter == "EXPONENTIAL")
           meshopt_decodeFilterExp(out.data() + at, count, stride);
         else if (filter != "NONE")
-          return makeError(file, fmt::format("bufferView {}: unknown filter '{}'", v, filter));
+          return makeError(file, fmt::format("bufferView {}: unknown filter {}", v, quoteInput(filter)));
         view["buffer"] = 0;
         view["byteOffset"] = at;
         view["byteLength"] = count * stride;
@@ -204,7 +331,7 @@ decodeMeshoptGltf(const std::vector<char>& bytes, const std::filesystem::path& b
     std::memcpy(glbOut.data() + binAt + 8, out.data(), out.size());
     return std::optional<std::vector<uint8_t>>(std::move(glbOut));
   } catch (const std::exception& e) {
-    return makeError(file, fmt::format("bad EXT_meshopt_compression data: {}", e.what()));
+    return makeError(file, fmt::format("bad EXT_meshopt_compression data: {}", escapeInput(e.what(), 160)));
   }
 }
 
