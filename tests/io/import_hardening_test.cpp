@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include "mirage/core/input_text.h"
+#include "mirage/io/image_io.h"
 #include "mirage/io/import.h"
 #include "support/test_support.h"
 
@@ -107,6 +108,11 @@ TEST(ImportHardening, InputPathsHaveOneWording) {
   expectError(io::importPly(dir / "f.ply"), dir / "f.ply", "is a FIFO (named pipe), not a regular file");
   expectError(io::importScene(dir / "missing.ply"), dir / "missing.ply", "file not found");
   expectError(io::importScene(dir / "missing"), dir / "missing", "file not found");
+  // Image inputs (compare, reference images) use the same words.
+  std::filesystem::create_directory(dir / "d.png");
+  auto png = io::readPng(dir / "d.png");
+  ASSERT_FALSE(png.ok());
+  EXPECT_EQ(png.error().message, (dir / "d.png").string() + ": is a directory, not a file");
 }
 
 TEST(ImportHardening, EmptyAndTruncatedGlb) {
