@@ -17,7 +17,7 @@ std::string inputFileProblem(const std::filesystem::path& path) {
     return std::strerror(errno);
   }
   if (S_ISREG(st.st_mode)) return "";
-  if (S_ISDIR(st.st_mode)) return "is a directory, not a file";
+  if (S_ISDIR(st.st_mode)) return "is a directory, not a regular file";
   if (S_ISFIFO(st.st_mode)) return "is a FIFO (named pipe), not a regular file";
   if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "is a device, not a regular file";
   if (S_ISSOCK(st.st_mode)) return "is a socket, not a regular file";
@@ -70,6 +70,11 @@ std::string escapeInput(std::string_view raw, size_t maxBytes) {
   return out;
 }
 
-std::string quoteInput(std::string_view raw, size_t maxBytes) { return "'" + escapeInput(raw, maxBytes) + "'"; }
+std::string quoteInput(std::string_view raw, size_t maxBytes) {
+  std::string out(1, '\'');
+  out += escapeInput(raw, maxBytes);
+  out += '\'';
+  return out;
+}
 
 } // namespace mirage

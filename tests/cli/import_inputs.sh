@@ -56,10 +56,10 @@ fi
 
 # Paths that are not regular files: one wording whatever the command or the name's extension.
 mkdir "$tmp/dir.glb" "$tmp/dir.ply" "$tmp/dir.mrg" "$tmp/scans"
-for d in dir.glb dir.ply scans; do all_fail "directory-$d" "$tmp/$d" "is a directory, not a file"; done
-expect_fail directory-mrg-info "$tmp/dir.mrg" "is a directory, not a file" "" -- info "$tmp/dir.mrg"
-expect_fail directory-mrg-render "$tmp/dir.mrg" "is a directory, not a file" "$tmp/o.png" -- render "$tmp/dir.mrg" -o "$tmp/o.png"
-expect_fail directory-surfels "$tmp/dir.ply" "is a directory, not a file" "$tmp/s.ply" -- surfels "$tmp/dir.ply" -o "$tmp/s.ply"
+for d in dir.glb dir.ply scans; do all_fail "directory-$d" "$tmp/$d" "is a directory, not a regular file"; done
+expect_fail directory-mrg-info "$tmp/dir.mrg" "is a directory, not a regular file" "" -- info "$tmp/dir.mrg"
+expect_fail directory-mrg-render "$tmp/dir.mrg" "is a directory, not a regular file" "$tmp/o.png" -- render "$tmp/dir.mrg" -o "$tmp/o.png"
+expect_fail directory-surfels "$tmp/dir.ply" "is a directory, not a regular file" "$tmp/s.ply" -- surfels "$tmp/dir.ply" -o "$tmp/s.ply"
 mkfifo "$tmp/fifo.ply"
 all_fail fifo "$tmp/fifo.ply" "is a FIFO (named pipe), not a regular file"
 : >"$tmp/empty.glb"

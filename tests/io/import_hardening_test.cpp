@@ -98,11 +98,11 @@ TEST(ImportHardening, InputPathsHaveOneWording) {
   auto dir = test::tempDir("input_paths");
   for (const char* name : {"d.glb", "d.gltf", "d.obj", "d.ply", "scans"}) {
     std::filesystem::create_directory(dir / name);
-    expectError(io::importScene(dir / name), dir / name, "is a directory, not a file");
+    expectError(io::importScene(dir / name), dir / name, "is a directory, not a regular file");
   }
-  expectError(io::importPly(dir / "d.ply"), dir / "d.ply", "is a directory, not a file");
-  expectError(io::importGltf(dir / "d.glb"), dir / "d.glb", "is a directory, not a file");
-  expectError(io::importObj(dir / "d.obj"), dir / "d.obj", "is a directory, not a file");
+  expectError(io::importPly(dir / "d.ply"), dir / "d.ply", "is a directory, not a regular file");
+  expectError(io::importGltf(dir / "d.glb"), dir / "d.glb", "is a directory, not a regular file");
+  expectError(io::importObj(dir / "d.obj"), dir / "d.obj", "is a directory, not a regular file");
   ASSERT_EQ(::mkfifo((dir / "f.ply").c_str(), 0600), 0);
   expectError(io::importScene(dir / "f.ply"), dir / "f.ply", "is a FIFO (named pipe), not a regular file");
   expectError(io::importPly(dir / "f.ply"), dir / "f.ply", "is a FIFO (named pipe), not a regular file");
@@ -112,7 +112,7 @@ TEST(ImportHardening, InputPathsHaveOneWording) {
   std::filesystem::create_directory(dir / "d.png");
   auto png = io::readPng(dir / "d.png");
   ASSERT_FALSE(png.ok());
-  EXPECT_EQ(png.error().message, (dir / "d.png").string() + ": is a directory, not a file");
+  EXPECT_EQ(png.error().message, (dir / "d.png").string() + ": is a directory, not a regular file");
 }
 
 TEST(ImportHardening, EmptyAndTruncatedGlb) {
@@ -166,7 +166,7 @@ TEST(ImportHardening, BufferUrisMustNameFilesThatHoldThem) {
     return t;
   };
   auto dot = writeFile(dir / "dot.gltf", replace(R"("uri":"tri.bin")", R"("uri":".")"));
-  expectError(io::importScene(dot), dot, "buffer 0 '.': is a directory, not a file");
+  expectError(io::importScene(dot), dot, "buffer 0 '.': is a directory, not a regular file");
   auto missing = writeFile(dir / "missing.gltf", replace(R"("uri":"tri.bin")", R"("uri":"nowhere.bin")"));
   expectError(io::importScene(missing), missing, "buffer 0 'nowhere.bin': file not found");
   auto longer = writeFile(dir / "longer.gltf",

@@ -8,7 +8,7 @@
 namespace mirage {
 
 // Why `path` cannot be opened as an input file, or "" when it is a regular file. One phrase per condition:
-// "file not found", "is a directory, not a file", "is a FIFO (named pipe), not a regular file",
+// "file not found", "is a directory, not a regular file", "is a FIFO (named pipe), not a regular file",
 // "is a device, not a regular file", "is a socket, not a regular file", "permission denied", or the system's
 // reason. Checked before anything opens the path, so a FIFO is never opened (which would wait for a writer).
 std::string inputFileProblem(const std::filesystem::path& path);
