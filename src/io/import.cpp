@@ -135,7 +135,8 @@ Status finalizeScene(Scene& scene, const std::string& file, const ImportOptions&
     scene.materials.push_back(def);
   }
   for (Mesh& m : scene.meshes)
-    if (m.material >= scene.materials.size()) return makeError(file, fmt::format("mesh '{}': bad material", m.name));
+    if (m.material >= scene.materials.size())
+      return makeError(file, fmt::format("mesh {}: bad material", quoteInput(m.name)));
   if (scene.instances.empty())
     for (uint32_t i = 0; i < scene.meshes.size(); ++i) scene.instances.push_back(Instance{i, glm::mat4(1.0f)});
   if (Status s = validateScene(scene, file); !s) return s;

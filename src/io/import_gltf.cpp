@@ -1,6 +1,6 @@
-// glTF 2.0 import through tinygltf (JSON, buffers, image decoding) with our own accessor reading (strided,
-// normalized, quantized and sparse accessors), node flattening and material conversion. EXT_meshopt_compression
-// files are first rewritten to plain GLB in memory (gltf_meshopt.cpp).
+// glTF 2.0 import through tinygltf (JSON, buffers) with our own accessor reading (strided, normalized, quantized
+// and sparse accessors), image decoding (decodeImage), node flattening and material conversion. The file's layout is
+// checked, and EXT_meshopt_compression files rewritten to plain GLB in memory, first (gltf_prepare.cpp).
 #include <algorithm>
 #include <cstring>
 #include <functional>
@@ -12,7 +12,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <tiny_gltf.h>
 
-#include "gltf_meshopt.h"
+#include "gltf_prepare.h"
 #include "import_internal.h"
 
 namespace mirage::io {

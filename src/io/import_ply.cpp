@@ -205,8 +205,8 @@ private:
       for (const Property& p : e.props) per += p.isList() ? typeSize(p.countType) : typeSize(p.type);
       if (ascii_) per = 2 * e.props.size();
       if ((per > 0 && e.count > fileSize_ / per) || (per == 0 && e.count > fileSize_))
-        return fail(fmt::format("file truncated: element '{}' declares {} records, more than the file's {} bytes hold",
-                                e.name, e.count, fileSize_));
+        return fail(fmt::format("file truncated: element {} declares {} records, more than the file's {} bytes hold",
+                                quoteInput(e.name), e.count, fileSize_));
       minBytes += e.count * per;
     }
     if (minBytes > fileSize_) return fail("file truncated: shorter than its header declares");
@@ -289,8 +289,8 @@ private:
   }
 
   Status truncated(const Element& e, uint64_t got) const {
-    return fail(
-        fmt::format("file truncated: element '{}' declares {} records, the data holds {}", e.name, e.count, got));
+    return fail(fmt::format("file truncated: element {} declares {} records, the data holds {}", quoteInput(e.name),
+                            e.count, got));
   }
 
   // Element kinds that carry triangles, and their index list (both property names occur in the wild).
@@ -334,7 +334,7 @@ Status PlyParser::readBinary(const Element& e) {
   const bool strips = isStrips(e);
   int listProp = face || strips ? faceListProp(e) : -1;
   if (face || strips) {
-    if (listProp < 0) return fail(fmt::format("PLY {} element has no vertex_indices list", e.name));
+    if (listProp < 0) return fail(fmt::format("PLY {} element has no vertex_indices list", quoteInput(e.name)));
     faceSeen_ = true;
     const Property& lp = e.props[listProp];
     if (face && e.props.size() == 1 && lp.countType == Type::U8 && (lp.type == Type::I32 || lp.type == Type::U32) &&
@@ -347,7 +347,7 @@ Status PlyParser::readBinary(const Element& e) {
     uint64_t left = e.count * e.recordSize();
     while (left > 0) {
       size_t step = size_t(std::min<uint64_t>(left, in_.capacity()));
-      if (!in_.ensure(step)) return fail(fmt::format("file truncated inside element '{}'", e.name));
+      if (!in_.ensure(step)) return fail(fmt::format("file truncated inside element {}", quoteInput(e.name)));
       in_.consume(step);
       left -= step;
     }
@@ -370,7 +370,7 @@ Status PlyParser::readBinary(const Element& e) {
       if (!in_.ensure(cs)) return truncated(e, r);
       double cnt = loadScalar(in_.data(), p.countType, swap_);
       in_.consume(cs);
-      if (cnt < 0) return fail(fmt::format("element '{}' record {} has a negative list length", e.name, r));
+      if (cnt < 0) return fail(fmt::format("element {} record {} has a negative list length", quoteInput(e.name), r));
       size_t n = size_t(cnt), s = typeSize(p.type);
       if (n * s > fileSize_) return truncated(e, r); // a list longer than the whole file
       if (!in_.ensure(n * s)) return truncated(e, r);
@@ -495,7 +495,7 @@ Status PlyParser::readAscii(const Element& e) {
   const bool strips = isStrips(e);
   int listProp = face || strips ? faceListProp(e) : -1;
   if (face || strips) {
-    if (listProp < 0) return fail(fmt::format("PLY {} element has no vertex_indices list", e.name));
+    if (listProp < 0) return fail(fmt::format("PLY {} element has no vertex_indices list", quoteInput(e.name)));
     faceSeen_ = true;
   }
   std::vector<double> vals(e.props.size());
@@ -504,7 +504,7 @@ Status PlyParser::readAscii(const Element& e) {
   auto number = [&](uint64_t r, double& v) -> Status {
     if (!in_.token(tok)) return truncated(e, r);
     if (!parseNumber(tok, v))
-      return fail(fmt::format("element '{}' record {}: bad number {}", e.name, r, quoteInput(tok, 32)));
+      return fail(fmt::format("element {} record {}: bad number {}", quoteInput(e.name), r, quoteInput(tok, 32)));
     return Ok{};
   };
   for (uint64_t r = 0; r < e.count; ++r) {
@@ -518,7 +518,7 @@ Status PlyParser::readAscii(const Element& e) {
       }
       // Every ascii value takes at least two bytes; strips often come as one record holding every index.
       if (v < 0 || v > double(fileSize_ / 2))
-        return fail(fmt::format("element '{}' record {}: bad list length", e.name, r));
+        return fail(fmt::format("element {} record {}: bad list length", quoteInput(e.name), r));
       size_t n = size_t(v);
       if (int(pi) == listProp) poly.resize(n);
       for (size_t k = 0; k < n; ++k) {
@@ -576,11 +576,11 @@ Status PlyParser::checkEnd() {
   while (skipRecord(last)) {
     ++extra;
     if (in_.atEndAfterSpace(ascii_))
-      return fail(fmt::format("element '{}' declares {} records, the data holds {}", last.name, last.count,
+      return fail(fmt::format("element {} declares {} records, the data holds {}", quoteInput(last.name), last.count,
                               last.count + extra));
   }
-  return fail(fmt::format("element '{}' declares {} records but {} more bytes follow them", last.name, last.count,
-                          fileSize_ - dataEnd));
+  return fail(fmt::format("element {} declares {} records but {} more bytes follow them", quoteInput(last.name),
+                          last.count, fileSize_ - dataEnd));
 }
 
 } // namespace

@@ -1,4 +1,4 @@
-#include "gltf_meshopt.h"
+#include "gltf_prepare.h"
 
 #include <algorithm>
 #include <cstring>

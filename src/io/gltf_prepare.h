@@ -1,5 +1,5 @@
 #pragma once
-// EXT_meshopt_compression support for the glTF importer (not public API).
+// What the glTF importer does to the file before tinygltf parses it (not public API).
 #include <cstdint>
 #include <filesystem>
 #include <optional>
