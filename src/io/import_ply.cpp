@@ -497,6 +497,7 @@ Status PlyParser::readAscii(const Element& e) {
   if (face || strips) {
     if (listProp < 0) return fail(fmt::format("PLY {} element has no vertex_indices list", quoteInput(e.name)));
     faceSeen_ = true;
+    if (face) mesh_.indices.reserve(mesh_.indices.size() + size_t(e.count) * 3);
   }
   std::vector<double> vals(e.props.size());
   std::vector<uint32_t> poly;
