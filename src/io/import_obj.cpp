@@ -103,7 +103,7 @@ public:
       else if (kw == "usemtl")
         current_ = groupFor(std::string(c.restOfLine()));
       else if (kw == "mtllib")
-        s = loadMtl(std::string(c.restOfLine()));
+        s = mtllib(std::string(c.restOfLine()));
       if (!s) return s.error();
       c.skipLine();
     }
@@ -240,6 +240,7 @@ private:
 
   Status texture(const std::filesystem::path& dir, const Material& m, std::string_view kw, std::string_view spec,
                  bool srgb, int32_t& slot);
+  Status mtllib(const std::string& names);
   Status loadMtl(const std::string& name);
 
   std::filesystem::path path_;
@@ -278,6 +279,20 @@ Status ObjParser::texture(const std::filesystem::path& dir, const Material& m, s
   slot = int32_t(scene_.textures.size());
   scene_.textures.push_back(std::move(t));
   textureCache_[key] = slot;
+  return Ok{};
+}
+
+// "mtllib a.mtl b.mtl" names several files; a single name may also contain spaces. The whole text is one file when
+// such a file exists, otherwise each word is.
+Status ObjParser::mtllib(const std::string& names) {
+  if (names.find_first_of(" \t") == std::string::npos || inputFileProblem(path_.parent_path() / names).empty())
+    return loadMtl(names);
+  for (size_t at = 0; at < names.size();) {
+    size_t end = std::min(names.find_first_of(" \t", at), names.size());
+    if (end > at)
+      if (Status s = loadMtl(names.substr(at, end - at)); !s) return s;
+    at = end + 1;
+  }
   return Ok{};
 }
 

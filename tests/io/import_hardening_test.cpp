@@ -230,6 +230,14 @@ TEST(ImportHardening, ObjMissingMtlAndBadTexturesRejected) {
   const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl m\nf 1/1 2/1 3/1\n";
   auto noMtl = writeFile(dir / "nomtl.obj", "mtllib none.mtl\n" + tri);
   expectError(io::importScene(noMtl), noMtl, "mtllib 'none.mtl': file not found");
+  // Several files on one mtllib line: each must exist.
+  writeFile(dir / "a.mtl", "newmtl m\nKd 1 0 0\n");
+  writeFile(dir / "b c.mtl", "newmtl m\nKd 0 1 0\n");
+  auto two = writeFile(dir / "two.obj", "mtllib a.mtl none.mtl\n" + tri);
+  expectError(io::importScene(two), two, "mtllib 'none.mtl': file not found");
+  auto spaced = io::importScene(writeFile(dir / "spaced.obj", "mtllib b c.mtl\n" + tri)); // one name with a space
+  ASSERT_TRUE(spaced.ok()) << spaced.error().message;
+  EXPECT_EQ(spaced->materials[0].baseColorFactor.g, 1.0f);
   writeFile(dir / "missing.mtl", "newmtl m\nmap_Kd gone.png\n");
   auto missing = writeFile(dir / "missing.obj", "mtllib missing.mtl\n" + tri);
   expectError(io::importScene(missing), missing, "material 'm' map_Kd 'gone.png': file not found");
