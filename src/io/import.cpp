@@ -97,7 +97,13 @@ Status finalizeScene(Scene& scene, const std::string& file, const ImportOptions&
   size_t triangles = 0;
   for (const Mesh& m : scene.meshes) triangles += m.triangleCount();
   if (scene.meshes.empty()) return makeError(file, "no triangles");
-  if (triangles == 0 && !options.allowPointClouds) return makeError(file, "no triangles");
+  if (triangles == 0 && !options.allowPointClouds) {
+    size_t points = 0;
+    for (const Mesh& m : scene.meshes) points += m.positions.size();
+    // Say what the file does hold: a scan's PLY without faces is a point cloud, readable where points are accepted.
+    if (points > 0) return makeError(file, fmt::format("no triangles: a point cloud of {} points", points));
+    return makeError(file, "no triangles");
+  }
   if (triangles == 0) { // a point cloud: unit normals where the file has them, nothing to weld or compute
     for (Mesh& m : scene.meshes) {
       if (m.positions.empty()) return makeError(file, "no points");

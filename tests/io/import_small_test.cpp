@@ -489,7 +489,7 @@ TEST(ImportErrors, Ply) {
   expectError(io::importPly(shortAscii), shortAscii, "truncated");
   auto noFaces = writeFile(dir / "nofaces.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
                                                 "property float y\nproperty float z\nend_header\n0 0 0\n");
-  expectError(io::importPly(noFaces), noFaces, "no triangles");
+  expectError(io::importPly(noFaces), noFaces, "no triangles: a point cloud of 1 points");
   // Header counts the file cannot hold are rejected before any array is sized by them.
   auto huge = writeFile(dir / "huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n"
                                           "property float x\nproperty float y\nproperty float z\nend_header\n0000");
