@@ -574,7 +574,7 @@ Status PlyParser::checkEnd() {
   const Element& last = elements_.back();
   const uint64_t dataEnd = in_.offset();
   uint64_t extra = 0;
-  while (skipRecord(last)) {
+  for (uint64_t before = in_.offset(); skipRecord(last) && in_.offset() > before; before = in_.offset()) {
     ++extra;
     if (in_.atEndAfterSpace(ascii_))
       return fail(fmt::format("element {} declares {} records, the data holds {}", quoteInput(last.name), last.count,

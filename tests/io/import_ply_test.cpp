@@ -186,6 +186,20 @@ TEST(ImportPly, BinaryVertexCountTooLargeRejected) {
   expectError(io::importPly(cloud, o), cloud, "element 'vertex' declares 4 records, the data holds 3");
 }
 
+// An element without properties holds no bytes: data after it cannot be counted in its records (and must not hang).
+TEST(ImportPly, TrailingBytesAfterAnEmptyElement) {
+  auto dir = test::tempDir("ply_empty_element");
+  std::string ply = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nelement nothing 2\n"
+                    "end_header\n";
+  for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put<float>(ply, v);
+  ply += char(3);
+  for (int32_t i : {0, 1, 2}) put<int32_t>(ply, i);
+  auto path = writeFile(dir / "empty_element.ply", ply + "zz");
+  expectError(io::importPly(path), path, "element 'nothing' declares 2 records but 2 more bytes follow them");
+  EXPECT_TRUE(io::importPly(writeFile(dir / "exact.ply", ply)).ok());
+}
+
 // ASCII: both directions.
 TEST(ImportPly, AsciiCountsMustMatchData) {
   auto dir = test::tempDir("ply_ascii_counts");
