@@ -85,6 +85,10 @@ std::optional<uint64_t> uintProp(const json& o, const char* key, uint64_t fallba
   const json& v = o[key];
   if (v.is_number_unsigned()) return v.get<uint64_t>();
   if (v.is_number_integer() && v.get<int64_t>() >= 0) return uint64_t(v.get<int64_t>());
+  if (v.is_number_float()) { // "36.0": JSON has one number type; integral values count
+    double d = v.get<double>();
+    if (d >= 0.0 && d < 9.2e18 && d == double(uint64_t(d))) return uint64_t(d);
+  }
   return std::nullopt;
 }
 
@@ -110,9 +114,16 @@ Status checkLayout(const json& doc, size_t binBytes, bool glb, const std::filesy
     const json& buffers = doc["buffers"];
     for (size_t i = 0; i < buffers.size(); ++i) {
       const json& b = buffers[i];
-      const uint64_t length = b.is_object() ? uintProp(b, "byteLength", 0).value_or(0) : 0;
+      // A length that is no integer: the parser rejects the file; meanwhile no view is checked against it.
+      const std::optional<uint64_t> parsed = b.is_object() ? uintProp(b, "byteLength", 0) : std::nullopt;
+      const uint64_t length = parsed.value_or(UINT64_MAX);
       bufferBytes.push_back(length);
-      if (!b.is_object()) continue;
+      if (!parsed) continue;
+      // A meshopt fallback buffer has a length and deliberately no data.
+      const bool fallback = b.contains("extensions") && b["extensions"].is_object() && b["extensions"].contains(kExt) &&
+                            b["extensions"][kExt].is_object() && b["extensions"][kExt].contains("fallback") &&
+                            b["extensions"][kExt]["fallback"].is_boolean() &&
+                            b["extensions"][kExt]["fallback"].get<bool>();
       if (b.contains("uri") && b["uri"].is_string()) {
         const std::string uri = b["uri"].get<std::string>();
         if (uri.rfind("data:", 0) == 0) {
@@ -122,7 +133,7 @@ Status checkLayout(const json& doc, size_t binBytes, bool glb, const std::filesy
         } else if (Status s = external("buffer", i, uri, length); !s) {
           return s;
         }
-      } else if (glb && i == 0 && length > binBytes) {
+      } else if (glb && i == 0 && !fallback && length > binBytes) {
         return fail(fmt::format("buffer 0: byteLength {} exceeds the GLB BIN chunk ({} bytes)", length, binBytes));
       }
     }
@@ -208,7 +219,11 @@ Result<std::optional<std::vector<uint8_t>>> prepareGltf(const std::vector<char>&
   }
   json doc = json::parse(jsonText, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded() || !doc.is_object()) return std::optional<std::vector<uint8_t>>{};
-  if (Status s = checkLayout(doc, bin.size(), glb, baseDir, checkImages, file); !s) return s.error();
+  try { // every access is type-checked first; the guard keeps a missed case an Error, never a throw
+    if (Status s = checkLayout(doc, bin.size(), glb, baseDir, checkImages, file); !s) return s.error();
+  } catch (const std::exception& e) {
+    return makeError(file, fmt::format("bad glTF layout: {}", escapeInput(e.what(), 160)));
+  }
   auto usesExt = [&](const char* key) {
     if (!doc.contains(key) || !doc[key].is_array()) return false;
     for (const json& e : doc[key])

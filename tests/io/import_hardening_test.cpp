@@ -172,6 +172,10 @@ TEST(ImportHardening, BufferUrisMustNameFilesThatHoldThem) {
   auto longer = writeFile(dir / "longer.gltf",
                           replace(R"("uri":"tri.bin","byteLength":36)", R"("uri":"tri.bin","byteLength":360)"));
   expectError(io::importScene(longer), longer, "the file holds 36 bytes, byteLength says 360");
+  // A byteLength that is no integer: the parser's own words, on one line.
+  auto bad = writeFile(dir / "bad.gltf",
+                       replace(R"("uri":"tri.bin","byteLength":36)", R"("uri":"tri.bin","byteLength":"36")"));
+  expectError(io::importScene(bad), bad, "byteLength");
 }
 
 // Missing images are errors in glTF as in OBJ (one policy: what a scene names must be there).
