@@ -156,6 +156,8 @@ Result<Scene> importScene(const std::filesystem::path& path, const ImportOptions
   // The file before its name: a directory called "x.glb" or "scans" gets the same words as any other.
   if (std::string problem = inputFileProblem(path); !problem.empty())
     return makeError(detail::displayName(path), problem);
+  if (std::error_code ec; std::filesystem::file_size(path, ec) == 0 && !ec)
+    return makeError(detail::displayName(path), "empty file (0 bytes)");
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if (ext == ".gltf" || ext == ".glb") return importGltf(path, options);

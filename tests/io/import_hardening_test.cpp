@@ -119,6 +119,8 @@ TEST(ImportHardening, EmptyAndTruncatedGlb) {
   auto dir = test::tempDir("empty_glb");
   auto empty = writeFile(dir / "empty.glb", "");
   expectError(io::importScene(empty), empty, "empty file (0 bytes)");
+  for (const char* name : {"empty.gltf", "empty.obj", "empty.ply"}) // one wording for every format
+    expectError(io::importScene(writeFile(dir / name, "")), dir / name, "empty file (0 bytes)");
   auto shortGlb = writeFile(dir / "short.glb", std::string("glTF\x02\0\0\0", 8));
   expectError(io::importScene(shortGlb), shortGlb, "truncated GLB");
 }
