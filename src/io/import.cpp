@@ -28,24 +28,22 @@ Result<std::vector<char>> readFile(const std::filesystem::path& path) {
   return data;
 }
 
-Status decodeImage(const unsigned char* bytes, size_t size, const std::string& file, const std::string& what,
-                   Texture& out) {
-  if (size == 0) return makeError(file, fmt::format("{}: empty image", what));
-  if (size > size_t(INT32_MAX)) return makeError(file, fmt::format("{}: image file over 2 GiB", what));
+std::string decodeImageProblem(const unsigned char* bytes, size_t size, Texture& out) {
+  if (size == 0) return "empty image";
+  if (size > size_t(INT32_MAX)) return "image file over 2 GiB";
   int w = 0, h = 0, comp = 0;
   if (!stbi_info_from_memory(bytes, int(size), &w, &h, &comp))
-    return makeError(file, fmt::format("{}: cannot decode image ({})", what, stbi_failure_reason()));
+    return fmt::format("cannot decode image ({})", stbi_failure_reason());
   if (w <= 0 || h <= 0 || uint32_t(w) > kMaxTextureSide || uint32_t(h) > kMaxTextureSide)
-    return makeError(file,
-                     fmt::format("{}: image is {}x{}, over the {}-pixel limit per side", what, w, h, kMaxTextureSide));
+    return fmt::format("image is {}x{}, over the {}-pixel limit per side", w, h, kMaxTextureSide);
   // Request 4 channels so every texture lands as RGBA8 whatever the file stores.
   stbi_uc* pixels = stbi_load_from_memory(bytes, int(size), &w, &h, &comp, 4);
-  if (!pixels) return makeError(file, fmt::format("{}: cannot decode image ({})", what, stbi_failure_reason()));
+  if (!pixels) return fmt::format("cannot decode image ({})", stbi_failure_reason());
   out.width = static_cast<uint32_t>(w);
   out.height = static_cast<uint32_t>(h);
   out.rgba8.assign(pixels, pixels + size_t(w) * size_t(h) * 4);
   stbi_image_free(pixels);
-  return Ok{};
+  return {};
 }
 
 Status loadImageFile(const std::filesystem::path& path, const std::string& file, const std::string& what,
@@ -55,7 +53,9 @@ Status loadImageFile(const std::filesystem::path& path, const std::string& file,
   auto bytes = readFile(path);
   if (!bytes) return makeError(file, fmt::format("{}: cannot read the file", what));
   out.name = path.filename().string();
-  return decodeImage(reinterpret_cast<const unsigned char*>(bytes->data()), bytes->size(), file, what, out);
+  std::string problem = decodeImageProblem(reinterpret_cast<const unsigned char*>(bytes->data()), bytes->size(), out);
+  if (!problem.empty()) return makeError(file, fmt::format("{}: {}", what, problem));
+  return Ok{};
 }
 
 namespace {
@@ -79,6 +79,7 @@ Status validateScene(const Scene& scene, const std::string& file) {
   }
   for (size_t i = 0; i < scene.instances.size(); ++i) {
     const Instance& inst = scene.instances[i];
+    if (inst.mesh >= scene.meshes.size()) return makeError(file, fmt::format("instance {}: bad mesh", i));
     const Mesh& mesh = scene.meshes[inst.mesh];
     if (!finite(inst.transform))
       return makeError(file, fmt::format("mesh {} placed by a NaN or infinite transform", quoteInput(mesh.name)));

@@ -1,6 +1,6 @@
 // glTF 2.0 import through tinygltf (JSON, buffers) with our own accessor reading (strided, normalized, quantized
-// and sparse accessors), image decoding (decodeImage), node flattening and material conversion. The file's layout is
-// checked, and EXT_meshopt_compression files rewritten to plain GLB in memory, first (gltf_prepare.cpp).
+// and sparse accessors), image decoding (decodeImageProblem), node flattening and material conversion. The file's
+// layout is checked, and EXT_meshopt_compression files rewritten to plain GLB in memory, first (gltf_prepare.cpp).
 #include <algorithm>
 #include <cstring>
 #include <functional>
@@ -37,14 +37,10 @@ bool skipImage(tg::Image*, const int, std::string*, std::string*, int, int, cons
 
 // Decodes glTF images through the importers' one image decoder (same size limit and wording as OBJ textures).
 bool decodeGltfImage(tg::Image* image, const int index, std::string* err, std::string*, int, int,
-                     const unsigned char* bytes, int size, void* file) {
+                     const unsigned char* bytes, int size, void*) {
   Texture t;
-  Status s = detail::decodeImage(bytes, size_t(std::max(size, 0)), *static_cast<const std::string*>(file),
-                                 fmt::format("image {}", index), t);
-  if (!s) {
-    // The message already names the file; the caller adds it again, so keep the part after "<file>: ".
-    const std::string& m = s.error().message;
-    *err = m.substr(std::min(m.size(), static_cast<const std::string*>(file)->size() + 2));
+  if (std::string problem = detail::decodeImageProblem(bytes, size_t(std::max(size, 0)), t); !problem.empty()) {
+    *err += fmt::format("image {}: {}", index, problem);
     return false;
   }
   image->width = int(t.width);
@@ -407,7 +403,7 @@ Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions&
 
   tg::TinyGLTF loader;
   if (options.loadTextures)
-    loader.SetImageLoader(decodeGltfImage, const_cast<std::string*>(&file));
+    loader.SetImageLoader(decodeGltfImage, nullptr);
   else
     loader.SetImageLoader(skipImage, nullptr);
   tg::Model model;

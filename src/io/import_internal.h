@@ -25,10 +25,9 @@ Status finalizeScene(Scene& scene, const std::string& file, const ImportOptions&
 // decoding, so a corrupt or hostile header cannot demand gigabytes.
 constexpr uint32_t kMaxTextureSide = 16384;
 
-// Decode image bytes (png/jpg/bmp/tga/...) to RGBA8 through stb_image; the Error names `file` (the scene) and
-// `what` (which image). Every importer decodes through here: one limit, one wording.
-Status decodeImage(const unsigned char* bytes, size_t size, const std::string& file, const std::string& what,
-                   Texture& out);
+// Decode image bytes (png/jpg/bmp/tga/...) to RGBA8 through stb_image; "" on success, else the problem. Every
+// importer decodes through here: one limit, one wording.
+std::string decodeImageProblem(const unsigned char* bytes, size_t size, Texture& out);
 
 // Read and decode an image file; a missing or non-regular file is an Error too (inputFileProblem's wording).
 Status loadImageFile(const std::filesystem::path& path, const std::string& file, const std::string& what, Texture& out);

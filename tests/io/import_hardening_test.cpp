@@ -185,6 +185,9 @@ TEST(ImportHardening, GltfMissingImageRejected) {
   auto dir = test::tempDir("gltf_missing_image");
   auto path = triangleGltf(dir, "img.gltf", R"(,"images":[{"uri":"gone.png"}])");
   expectError(io::importScene(path), path, "image 0 'gone.png': file not found");
+  writeFile(dir / "bad.png", "\x89PNG\r\n\x1a\ngarbage");
+  auto corrupt = triangleGltf(dir, "corrupt.gltf", R"(,"images":[{"uri":"bad.png"}])");
+  expectError(io::importScene(corrupt), corrupt, "image 0: cannot decode image");
   io::ImportOptions noTextures;
   noTextures.loadTextures = false;
   EXPECT_TRUE(io::importScene(path, noTextures).ok());
