@@ -17,6 +17,7 @@
 #include <zstd.h>
 
 #include "mirage/asset/container.h"
+#include "mirage/core/input_text.h"
 
 namespace mirage::asset {
 namespace {
@@ -80,6 +81,7 @@ AssetReader::~AssetReader() {
 Result<AssetReader> AssetReader::open(const std::string& path) {
   AssetReader r;
   r.path_ = path;
+  if (std::string problem = inputFileProblem(path); !problem.empty()) return r.error(problem);
   // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer forever. It has no
   // effect on regular files, and anything else is rejected right below.
   r.fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);

@@ -32,6 +32,7 @@ public:
     if (end_ - pos_ >= n) return true;
     if (pos_ > 0) { // compact: keep the unread tail at the front
       std::memmove(buf_.data(), buf_.data() + pos_, end_ - pos_);
+      base_ += pos_;
       end_ -= pos_;
       pos_ = 0;
     }
@@ -56,6 +57,18 @@ public:
   const char* data() const { return buf_.data() + pos_; }
   void consume(size_t n) { pos_ += n; }
   bool atEnd() { return !ensure(1); }
+  // Text formats: skip whitespace first (a trailing newline is not data). Binary formats: atEnd().
+  bool atEndAfterSpace(bool text) {
+    if (!text) return atEnd();
+    while (ensure(1)) {
+      char c = buf_[pos_];
+      if (c != ' ' && c != '\t' && c != '\n' && c != '\r') return false;
+      ++pos_;
+    }
+    return true;
+  }
+  // File offset of data().
+  size_t offset() const { return base_ + pos_; }
   size_t capacity() const { return buf_.size(); }
 
   // Next whitespace-separated token (text formats); false at end of file. Tokens longer than the buffer fail.
@@ -87,6 +100,7 @@ public:
 private:
   std::vector<char> buf_;
   size_t pos_ = 0, end_ = 0;
+  size_t base_ = 0; // file offset of buf_[0]
   int fd_ = -1;
   bool eof_ = false;
 };

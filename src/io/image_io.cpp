@@ -17,6 +17,8 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
+#include "mirage/core/input_text.h"
+
 namespace mirage::io {
 
 namespace {
@@ -24,8 +26,7 @@ namespace {
 std::string name(const std::filesystem::path& p) { return p.string(); }
 
 Result<std::vector<uint8_t>> readAll(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) return makeError(name(path), "is a directory");
+  if (std::string problem = inputFileProblem(path); !problem.empty()) return makeError(name(path), problem);
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return makeError(name(path), std::string("cannot open: ") + std::strerror(errno));
   std::streamsize size = in.tellg();

@@ -1,6 +1,6 @@
-// glTF 2.0 import through tinygltf (JSON, buffers, image decoding) with our own accessor reading (strided,
-// normalized, quantized and sparse accessors), node flattening and material conversion. EXT_meshopt_compression
-// files are first rewritten to plain GLB in memory (gltf_meshopt.cpp).
+// glTF 2.0 import through tinygltf (JSON, buffers) with our own accessor reading (strided, normalized, quantized
+// and sparse accessors), image decoding (decodeImageProblem), node flattening and material conversion. The file's
+// layout is checked, and EXT_meshopt_compression files rewritten to plain GLB in memory, first (gltf_prepare.cpp).
 #include <algorithm>
 #include <cstring>
 #include <functional>
@@ -12,7 +12,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <tiny_gltf.h>
 
-#include "gltf_meshopt.h"
+#include "gltf_prepare.h"
 #include "import_internal.h"
 
 namespace mirage::io {
@@ -20,15 +20,35 @@ namespace {
 
 namespace tg = tinygltf;
 
-// tinygltf joins messages with newlines; our errors are one line.
+// Deepest node hierarchy accepted (recursion depth of the flattening).
+constexpr int kMaxNodeDepth = 1024;
+
+// tinygltf joins messages with newlines and quotes input in them; our errors are one line of printable text.
 std::string oneLine(std::string s) {
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
   for (size_t p; (p = s.find('\n')) != std::string::npos;) s.replace(p, 1, "; ");
-  return s;
+  return escapeInput(s, 240);
 }
 
 // Skips image decoding when textures are not wanted (the images keep no pixels).
 bool skipImage(tg::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+  return true;
+}
+
+// Decodes glTF images through the importers' one image decoder (same size limit and wording as OBJ textures).
+bool decodeGltfImage(tg::Image* image, const int index, std::string* err, std::string*, int, int,
+                     const unsigned char* bytes, int size, void*) {
+  Texture t;
+  if (std::string problem = detail::decodeImageProblem(bytes, size_t(std::max(size, 0)), t); !problem.empty()) {
+    *err += fmt::format("image {}: {}", index, problem);
+    return false;
+  }
+  image->width = int(t.width);
+  image->height = int(t.height);
+  image->component = 4;
+  image->bits = 8;
+  image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+  image->image = std::move(t.rgba8);
   return true;
 }
 
@@ -54,7 +74,7 @@ public:
     }
     std::vector<bool> onPath(m_.nodes.size(), false);
     for (int r : roots)
-      if (Status s = visit(r, glm::mat4(1.0f), onPath, 0); !s) return s.error();
+      if (Status s = visit(r, glm::mat4(1.0f), onPath, 1); !s) return s.error();
     if (Status s = detail::finalizeScene(scene_, file_, options_); !s) return s.error();
     return std::move(scene_);
   }
@@ -80,7 +100,9 @@ private:
 
   Status visit(int index, const glm::mat4& parent, std::vector<bool>& onPath, int depth) {
     if (index < 0 || size_t(index) >= m_.nodes.size()) return fail(fmt::format("node index {} out of range", index));
-    if (onPath[index] || depth > 1024) return fail(fmt::format("node {} is part of a cycle", index));
+    if (onPath[index]) return fail(fmt::format("node {} is part of a cycle", index));
+    if (depth > kMaxNodeDepth)
+      return fail(fmt::format("node hierarchy deeper than {} levels (at node {})", kMaxNodeDepth, index));
     // glTF nodes have one parent; a file that shares subtrees could otherwise expand exponentially.
     if (++visits_ > 4 * m_.nodes.size() + 1000000) return fail("node graph too large (nodes with several parents)");
     const tg::Node& node = m_.nodes[index];
@@ -249,7 +271,8 @@ private:
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
       return Ok{}; // points and lines have no surface
     auto pos = prim.attributes.find("POSITION");
-    if (pos == prim.attributes.end()) return fail(fmt::format("mesh '{}': primitive without POSITION", gm.name));
+    if (pos == prim.attributes.end())
+      return fail(fmt::format("mesh {}: primitive without POSITION", quoteInput(gm.name)));
     mesh.name = gm.name;
     if (Status s = attribute(prim, "POSITION", m_.accessors.at(pos->second).count, 3, mesh.positions); !s) return s;
     const size_t n = mesh.positions.size();
@@ -375,11 +398,14 @@ Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions&
   auto bytes = detail::readFile(path);
   if (!bytes) return bytes.error();
   const std::string baseDir = path.parent_path().string();
-  auto decoded = detail::decodeMeshoptGltf(*bytes, path.parent_path(), file);
+  auto decoded = detail::prepareGltf(*bytes, path.parent_path(), options.loadTextures, file);
   if (!decoded) return decoded.error();
 
   tg::TinyGLTF loader;
-  if (!options.loadTextures) loader.SetImageLoader(skipImage, nullptr);
+  if (options.loadTextures)
+    loader.SetImageLoader(decodeGltfImage, nullptr);
+  else
+    loader.SetImageLoader(skipImage, nullptr);
   tg::Model model;
   std::string err, warn;
   bool ok;
@@ -394,7 +420,7 @@ Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions&
       ok = loader.LoadASCIIFromString(&model, &err, &warn, bytes->data(), unsigned(bytes->size()), baseDir);
     }
   } catch (const std::exception& e) {
-    return makeError(file, fmt::format("glTF parse error: {}", e.what()));
+    return makeError(file, fmt::format("glTF parse error: {}", escapeInput(e.what(), 240)));
   }
   if (!ok) return makeError(file, oneLine(err.empty() ? "cannot parse glTF" : err));
   // Geometry in an extension we do not decode (Draco, ...) would import as garbage: refuse it up front. Material
@@ -402,7 +428,7 @@ Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions&
   for (const std::string& ext : model.extensionsRequired) {
     bool ignorable = ext == "KHR_mesh_quantization" || ext == "KHR_texture_transform" || ext == "KHR_lights_punctual" ||
                      ext.rfind("KHR_materials_", 0) == 0 || ext == "KHR_texture_basisu" || ext == "EXT_texture_webp";
-    if (!ignorable) return makeError(file, fmt::format("requires unsupported glTF extension {}", ext));
+    if (!ignorable) return makeError(file, fmt::format("requires unsupported glTF extension {}", quoteInput(ext)));
   }
   bytes->clear();
   bytes->shrink_to_fit();
@@ -410,7 +436,7 @@ Result<Scene> importGltf(const std::filesystem::path& path, const ImportOptions&
     GltfConverter converter(model, file, options);
     return converter.run();
   } catch (const std::exception& e) { // e.g. bad_alloc on absurd sizes: still one Error line, never a throw
-    return makeError(file, fmt::format("import failed: {}", e.what()));
+    return makeError(file, fmt::format("import failed: {}", escapeInput(e.what(), 240)));
   }
 }
 

@@ -5,14 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "mirage/core/input_text.h"
 #include "mirage/io/import.h"
 
 namespace mirage::io::detail {
 
-// The file name as it appears in error messages.
-inline std::string displayName(const std::filesystem::path& p) { return p.string(); }
+// The file name as it appears in error messages (escaped: a name may hold any byte but a message is one line).
+inline std::string displayName(const std::filesystem::path& p) { return escapeInput(p.string(), 4096); }
 
-// Read a whole file into memory; Error when it cannot be opened or read.
+// Read a whole file into memory; Error when it is not a readable regular file (inputFileProblem's wording).
 Result<std::vector<char>> readFile(const std::filesystem::path& path);
 
 // Common tail of every importer: validate each mesh, weld (optional), compute missing normals, bounds; make sure
@@ -20,7 +21,15 @@ Result<std::vector<char>> readFile(const std::filesystem::path& path);
 // has no placement (OBJ, PLY). Error "no triangles" when nothing is left.
 Status finalizeScene(Scene& scene, const std::string& file, const ImportOptions& options);
 
-// Decode an image file (png/jpg/...) to RGBA8 through stb_image; false when it cannot be read or decoded.
-bool loadImageFile(const std::filesystem::path& path, Texture& out);
+// Largest texture side the importers accept (the common GPU limit for 2D images); larger ones are rejected before
+// decoding, so a corrupt or hostile header cannot demand gigabytes.
+constexpr uint32_t kMaxTextureSide = 16384;
+
+// Decode image bytes (png/jpg/bmp/tga/...) to RGBA8 through stb_image; "" on success, else the problem. Every
+// importer decodes through here: one limit, one wording.
+std::string decodeImageProblem(const unsigned char* bytes, size_t size, Texture& out);
+
+// Read and decode an image file; a missing or non-regular file is an Error too (inputFileProblem's wording).
+Status loadImageFile(const std::filesystem::path& path, const std::string& file, const std::string& what, Texture& out);
 
 } // namespace mirage::io::detail

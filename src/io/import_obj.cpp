@@ -1,6 +1,8 @@
 // Wavefront OBJ + MTL import. The whole file is read once and scanned in place with std::from_chars; faces are
 // fan-triangulated and split into one Mesh per material (usemtl), with vertices shared per mesh by their
-// (position, uv, normal) index triple so the mesh keeps the file's topology.
+// (position, uv, normal) index triple so the mesh keeps the file's topology. Files the OBJ names (mtllib, texture
+// maps) must exist and decode, as a glTF's buffers and images must: a missing one is an error naming it, never a
+// silently untextured import (ImportOptions::loadTextures = false skips texture maps altogether).
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -101,7 +103,7 @@ public:
       else if (kw == "usemtl")
         current_ = groupFor(std::string(c.restOfLine()));
       else if (kw == "mtllib")
-        s = loadMtl(std::string(c.restOfLine()));
+        s = mtllib(std::string(c.restOfLine()));
       if (!s) return s.error();
       c.skipLine();
     }
@@ -236,7 +238,9 @@ private:
     return int(groups_.size() - 1);
   }
 
-  int texture(const std::filesystem::path& dir, std::string_view spec, bool srgb);
+  Status texture(const std::filesystem::path& dir, const Material& m, std::string_view kw, std::string_view spec,
+                 bool srgb, int32_t& slot);
+  Status mtllib(const std::string& names);
   Status loadMtl(const std::string& name);
 
   std::filesystem::path path_;
@@ -254,36 +258,56 @@ private:
   std::unordered_map<std::string, int> textureCache_;
 };
 
-// A map statement "map_Kd [-options ...] file": the file name is the last word. Missing or unreadable images
-// leave the material untextured rather than failing the import (OBJ exports often reference absent files).
-int ObjParser::texture(const std::filesystem::path& dir, std::string_view spec, bool srgb) {
-  if (!options_.loadTextures) return -1;
+// A map statement "map_Kd [-options ...] file": the file name is the last word.
+Status ObjParser::texture(const std::filesystem::path& dir, const Material& m, std::string_view kw,
+                          std::string_view spec, bool srgb, int32_t& slot) {
+  slot = -1;
+  if (!options_.loadTextures) return Ok{};
   size_t cut = spec.find_last_of(" \t");
   std::string fileName(cut == std::string_view::npos ? spec : spec.substr(cut + 1));
   std::replace(fileName.begin(), fileName.end(), '\\', '/');
   std::filesystem::path p = dir / fileName;
   std::string key = p.string() + (srgb ? "|s" : "|l");
-  if (auto it = textureCache_.find(key); it != textureCache_.end()) return it->second;
-  Texture t;
-  int index = -1;
-  if (detail::loadImageFile(p, t)) {
-    t.srgb = srgb;
-    index = int(scene_.textures.size());
-    scene_.textures.push_back(std::move(t));
+  if (auto it = textureCache_.find(key); it != textureCache_.end()) {
+    slot = it->second;
+    return Ok{};
   }
-  textureCache_[key] = index;
-  return index;
+  Texture t;
+  std::string what = fmt::format("material {} {} {}", quoteInput(m.name), std::string(kw), quoteInput(fileName));
+  if (Status s = detail::loadImageFile(p, file_, what, t); !s) return s;
+  t.srgb = srgb;
+  slot = int32_t(scene_.textures.size());
+  scene_.textures.push_back(std::move(t));
+  textureCache_[key] = slot;
+  return Ok{};
+}
+
+// "mtllib a.mtl b.mtl" names several files; a single name may also contain spaces. The whole text is one file when
+// such a file exists, otherwise each word is.
+Status ObjParser::mtllib(const std::string& names) {
+  if (names.find_first_of(" \t") == std::string::npos || inputFileProblem(path_.parent_path() / names).empty())
+    return loadMtl(names);
+  for (size_t at = 0; at < names.size();) {
+    size_t end = std::min(names.find_first_of(" \t", at), names.size());
+    if (end > at)
+      if (Status s = loadMtl(names.substr(at, end - at)); !s) return s;
+    at = end + 1;
+  }
+  return Ok{};
 }
 
 Status ObjParser::loadMtl(const std::string& name) {
   std::filesystem::path mtlPath = path_.parent_path() / name;
+  if (std::string problem = inputFileProblem(mtlPath); !problem.empty())
+    return makeError(file_, fmt::format("mtllib {}: {}", quoteInput(name), problem));
   auto data = detail::readFile(mtlPath);
-  if (!data) return Ok{}; // a missing .mtl leaves the named materials at defaults, like most viewers
+  if (!data) return makeError(file_, fmt::format("mtllib {}: cannot read the file", quoteInput(name)));
   const std::vector<char>& buf = *data;
   Cursor c{buf.data(), buf.data() + buf.size()};
   const std::filesystem::path dir = mtlPath.parent_path();
   Material* m = nullptr;
-  while (c.p < c.end) {
+  Status status = Ok{};
+  while (c.p < c.end && status) {
     std::string_view kw = c.word();
     if (kw == "newmtl") {
       std::string n(c.restOfLine());
@@ -311,18 +335,18 @@ Status ObjParser::loadMtl(const std::string& name) {
         // Blinn-Phong exponent to GGX roughness: the usual alpha = sqrt(2 / (Ns + 2)) mapping.
         m->roughnessFactor = std::sqrt(2.0f / (std::max(a, 0.0f) + 2.0f));
       } else if (kw == "map_Kd") {
-        m->baseColorTexture = texture(dir, c.restOfLine(), true);
+        status = texture(dir, *m, kw, c.restOfLine(), true, m->baseColorTexture);
       } else if (kw == "map_bump" || kw == "bump" || kw == "norm" || kw == "map_Bump") {
-        m->normalTexture = texture(dir, c.restOfLine(), false);
+        status = texture(dir, *m, kw, c.restOfLine(), false, m->normalTexture);
       } else if (kw == "map_Ke") {
-        m->emissiveTexture = texture(dir, c.restOfLine(), true);
+        status = texture(dir, *m, kw, c.restOfLine(), true, m->emissiveTexture);
       } else if (kw == "map_d" && m->alphaMode == AlphaMode::Opaque) {
         m->alphaMode = AlphaMode::Mask; // cut-out maps (foliage) rather than true translucency
       }
     }
     c.skipLine();
   }
-  return Ok{};
+  return status;
 }
 
 } // namespace
@@ -332,7 +356,7 @@ Result<Scene> importObj(const std::filesystem::path& path, const ImportOptions& 
     ObjParser parser(path, options);
     return parser.run();
   } catch (const std::exception& e) { // bad_alloc on absurd inputs: an Error, never a throw
-    return makeError(detail::displayName(path), fmt::format("import failed: {}", e.what()));
+    return makeError(detail::displayName(path), fmt::format("import failed: {}", escapeInput(e.what(), 240)));
   }
 }
 

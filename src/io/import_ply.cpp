@@ -1,6 +1,8 @@
 // PLY import: ascii and binary (little/big endian), streamed through ChunkReader. The common binary layouts
 // (float xyz[+normals][+uchar colours], faces as uchar count + int indices) take fast paths that copy straight
-// from the read buffer; everything else goes through a generic per-property reader.
+// from the read buffer; everything else goes through a generic per-property reader. Triangles come from `face`
+// (polygons, fan-triangulated) and `tristrips` (strips with -1 restarts) elements. The data must match the header
+// exactly: short data and bytes after the last element are both errors naming the element and both counts.
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -100,8 +102,15 @@ double loadScalar(const char* p, Type t, bool swap) {
   }
 }
 
-// Integer list entries must convert exactly; anything negative becomes an out-of-range index (validateMesh reports).
-uint32_t toIndex(double v) { return (v >= 0.0 && v < 4294967296.0) ? uint32_t(v) : 0xffffffffu; }
+// A strip's restart marker (-1 in the file).
+constexpr uint32_t kRestart = 0xffffffffu;
+
+// Integer list entries must convert exactly; -1 becomes kRestart, anything else negative or too large an index past
+// any vertex array (validateMesh reports it; a face with -1 is reported the same way).
+uint32_t toIndex(double v) {
+  if (v == -1.0) return kRestart;
+  return (v >= 0.0 && v < 4294967295.0) ? uint32_t(v) : 0xfffffffeu;
+}
 
 float srgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
@@ -110,7 +119,7 @@ public:
   PlyParser(std::string file, const ImportOptions& options) : file_(std::move(file)), options_(options) {}
 
   Result<Scene> run(const std::filesystem::path& path) {
-    if (std::error_code ec; !std::filesystem::is_regular_file(path, ec)) return makeError(file_, "file not found");
+    if (std::string problem = inputFileProblem(path); !problem.empty()) return makeError(file_, problem);
     if (!in_.open(path)) return makeError(file_, "cannot open file");
     std::error_code ec;
     fileSize_ = std::filesystem::file_size(path, ec);
@@ -120,6 +129,7 @@ public:
       Status s = ascii_ ? readAscii(e) : readBinary(e);
       if (!s) return s.error();
     }
+    if (Status s = checkEnd(); !s) return s.error();
     if (mesh_.positions.empty() && !faceSeen_) return makeError(file_, "no vertex element");
     Scene scene;
     mesh_.name = std::filesystem::path(file_).stem().string();
@@ -159,11 +169,11 @@ private:
         else if (fmtName == "binary_big_endian")
           swap_ = std::endian::native != std::endian::big;
         else
-          return fail(fmt::format("unknown PLY format '{}'", fmtName));
+          return fail(fmt::format("unknown PLY format {}", quoteInput(fmtName)));
         haveFormat = true;
       } else if (kw == "element") {
         Element e;
-        if (!(ls >> e.name >> e.count)) return fail("bad PLY element line: " + line);
+        if (!(ls >> e.name >> e.count)) return fail("bad PLY element line " + quoteInput(line));
         elements_.push_back(std::move(e));
       } else if (kw == "property") {
         if (elements_.empty()) return fail("PLY property before any element");
@@ -176,12 +186,12 @@ private:
           p.countType = parseType(ct);
           p.type = parseType(it);
           if (p.countType == Type::Invalid || p.countType == Type::F32 || p.countType == Type::F64)
-            return fail("bad PLY list count type in: " + line);
+            return fail("bad PLY list count type in " + quoteInput(line));
         } else {
           p.type = parseType(t);
           ls >> p.name;
         }
-        if (p.type == Type::Invalid || p.name.empty()) return fail("bad PLY property line: " + line);
+        if (p.type == Type::Invalid || p.name.empty()) return fail("bad PLY property line " + quoteInput(line));
         elements_.back().props.push_back(std::move(p));
       }
       // comment, obj_info and unknown keywords carry nothing we need.
@@ -194,7 +204,9 @@ private:
       uint64_t per = 0;
       for (const Property& p : e.props) per += p.isList() ? typeSize(p.countType) : typeSize(p.type);
       if (ascii_) per = 2 * e.props.size();
-      if (per > 0 && e.count > fileSize_ / per) return truncated(e, 0);
+      if ((per > 0 && e.count > fileSize_ / per) || (per == 0 && e.count > fileSize_))
+        return fail(fmt::format("file truncated: element {} declares {} records, more than the file's {} bytes hold",
+                                quoteInput(e.name), e.count, fileSize_));
       minBytes += e.count * per;
     }
     if (minBytes > fileSize_) return fail("file truncated: shorter than its header declares");
@@ -259,17 +271,39 @@ private:
     return Ok{};
   }
 
-  Status truncated(const Element& e, uint64_t got) const {
-    return fail(fmt::format("file truncated: element '{}' has {} of {} records", e.name, got, e.count));
+  // Append a triangle strip: -1 restarts; every other triangle is flipped to keep one winding; triangles with a
+  // repeated index are the zero-area stitches strippers insert between runs and carry no surface, so they are dropped.
+  void addStrip(const uint32_t* idx, size_t n) {
+    size_t start = 0; // first index of the current run
+    for (size_t i = 0; i < n; ++i) {
+      if (idx[i] == kRestart) {
+        start = i + 1;
+        continue;
+      }
+      if (i < start + 2) continue;
+      uint32_t a = idx[i - 2], b = idx[i - 1], c = idx[i];
+      if ((i - start) % 2 == 1) std::swap(a, b);
+      if (a == b || b == c || a == c) continue;
+      mesh_.indices.insert(mesh_.indices.end(), {a, b, c});
+    }
   }
 
+  Status truncated(const Element& e, uint64_t got) const {
+    return fail(fmt::format("file truncated: element {} declares {} records, the data holds {}", quoteInput(e.name),
+                            e.count, got));
+  }
+
+  // Element kinds that carry triangles, and their index list (both property names occur in the wild).
   bool isVertex(const Element& e) const { return e.name == "vertex"; }
   bool isFace(const Element& e) const { return e.name == "face"; }
+  bool isStrips(const Element& e) const { return e.name == "tristrips"; }
   int faceListProp(const Element& e) const {
     int i = e.find({"vertex_indices", "vertex_index"});
     return (i >= 0 && e.props[i].isList()) ? i : -1;
   }
 
+  Status checkEnd();
+  bool skipRecord(const Element& e);
   Status readBinary(const Element& e);
   Status readBinaryFastVertices(const Element& e, const VertexLayout& L);
   Status readBinaryFastFaces(const Element& e);
@@ -297,20 +331,23 @@ Status PlyParser::readBinary(const Element& e) {
     beginVertices(e, L);
     if (e.fixedSize() && !swap_) return readBinaryFastVertices(e, L);
   }
-  int listProp = face ? faceListProp(e) : -1;
-  if (face) {
-    if (listProp < 0) return fail("PLY face element has no vertex_indices list");
+  const bool strips = isStrips(e);
+  int listProp = face || strips ? faceListProp(e) : -1;
+  if (face || strips) {
+    if (listProp < 0) return fail(fmt::format("PLY {} element has no vertex_indices list", quoteInput(e.name)));
     faceSeen_ = true;
-    mesh_.indices.reserve(size_t(e.count) * 3);
     const Property& lp = e.props[listProp];
-    if (e.props.size() == 1 && lp.countType == Type::U8 && (lp.type == Type::I32 || lp.type == Type::U32) && !swap_)
+    if (face && e.props.size() == 1 && lp.countType == Type::U8 && (lp.type == Type::I32 || lp.type == Type::U32) &&
+        !swap_) {
+      mesh_.indices.reserve(size_t(e.count) * 3);
       return readBinaryFastFaces(e);
+    }
   }
-  if (!vertex && !face && e.fixedSize()) { // skip unknown fixed-size elements wholesale
+  if (!vertex && !face && !strips && e.fixedSize()) { // skip unknown fixed-size elements wholesale
     uint64_t left = e.count * e.recordSize();
     while (left > 0) {
       size_t step = size_t(std::min<uint64_t>(left, in_.capacity()));
-      if (!in_.ensure(step)) return fail(fmt::format("file truncated inside element '{}'", e.name));
+      if (!in_.ensure(step)) return fail(fmt::format("file truncated inside element {}", quoteInput(e.name)));
       in_.consume(step);
       left -= step;
     }
@@ -333,7 +370,7 @@ Status PlyParser::readBinary(const Element& e) {
       if (!in_.ensure(cs)) return truncated(e, r);
       double cnt = loadScalar(in_.data(), p.countType, swap_);
       in_.consume(cs);
-      if (cnt < 0) return fail(fmt::format("element '{}' record {} has a negative list length", e.name, r));
+      if (cnt < 0) return fail(fmt::format("element {} record {} has a negative list length", quoteInput(e.name), r));
       size_t n = size_t(cnt), s = typeSize(p.type);
       if (n * s > fileSize_) return truncated(e, r); // a list longer than the whole file
       if (!in_.ensure(n * s)) return truncated(e, r);
@@ -346,6 +383,7 @@ Status PlyParser::readBinary(const Element& e) {
     if (vertex) storeVertex(size_t(r), e, L, vals.data());
     if (face)
       if (Status st = addPolygon(poly.data(), poly.size(), r); !st) return st;
+    if (strips) addStrip(poly.data(), poly.size());
   }
   return Ok{};
 }
@@ -454,11 +492,12 @@ Status PlyParser::readAscii(const Element& e) {
     if (L.x < 0 || L.y < 0 || L.z < 0) return fail("PLY vertex element lacks x, y or z");
     beginVertices(e, L);
   }
-  int listProp = face ? faceListProp(e) : -1;
-  if (face) {
-    if (listProp < 0) return fail("PLY face element has no vertex_indices list");
+  const bool strips = isStrips(e);
+  int listProp = face || strips ? faceListProp(e) : -1;
+  if (face || strips) {
+    if (listProp < 0) return fail(fmt::format("PLY {} element has no vertex_indices list", quoteInput(e.name)));
     faceSeen_ = true;
-    mesh_.indices.reserve(size_t(e.count) * 3);
+    if (face) mesh_.indices.reserve(mesh_.indices.size() + size_t(e.count) * 3);
   }
   std::vector<double> vals(e.props.size());
   std::vector<uint32_t> poly;
@@ -466,7 +505,7 @@ Status PlyParser::readAscii(const Element& e) {
   auto number = [&](uint64_t r, double& v) -> Status {
     if (!in_.token(tok)) return truncated(e, r);
     if (!parseNumber(tok, v))
-      return fail(fmt::format("element '{}' record {}: bad number '{}'", e.name, r, std::string(tok.substr(0, 32))));
+      return fail(fmt::format("element {} record {}: bad number {}", quoteInput(e.name), r, quoteInput(tok, 32)));
     return Ok{};
   };
   for (uint64_t r = 0; r < e.count; ++r) {
@@ -478,7 +517,9 @@ Status PlyParser::readAscii(const Element& e) {
         vals[pi] = v;
         continue;
       }
-      if (v < 0 || v > 1e6) return fail(fmt::format("element '{}' record {}: bad list length", e.name, r));
+      // Every ascii value takes at least two bytes; strips often come as one record holding every index.
+      if (v < 0 || v > double(fileSize_ / 2))
+        return fail(fmt::format("element {} record {}: bad list length", quoteInput(e.name), r));
       size_t n = size_t(v);
       if (int(pi) == listProp) poly.resize(n);
       for (size_t k = 0; k < n; ++k) {
@@ -490,8 +531,57 @@ Status PlyParser::readAscii(const Element& e) {
     if (vertex) storeVertex(size_t(r), e, L, vals.data());
     if (face)
       if (Status st = addPolygon(poly.data(), poly.size(), r); !st) return st;
+    if (strips) addStrip(poly.data(), poly.size());
   }
   return Ok{};
+}
+
+// Read past one record of `e` without keeping it; false when the file ends inside it or (ascii) a value is no number.
+bool PlyParser::skipRecord(const Element& e) {
+  for (const Property& p : e.props) {
+    if (ascii_) {
+      std::string_view tok;
+      double v = 0;
+      if (!in_.token(tok) || !parseNumber(tok, v)) return false;
+      if (!p.isList()) continue;
+      if (v < 0 || v > double(fileSize_ / 2)) return false;
+      double item = 0;
+      for (size_t k = 0; k < size_t(v); ++k)
+        if (!in_.token(tok) || !parseNumber(tok, item)) return false;
+      continue;
+    }
+    size_t head = typeSize(p.isList() ? p.countType : p.type);
+    if (!in_.ensure(head)) return false;
+    if (!p.isList()) {
+      in_.consume(head);
+      continue;
+    }
+    double cnt = loadScalar(in_.data(), p.countType, swap_);
+    in_.consume(head);
+    if (cnt < 0 || cnt * double(typeSize(p.type)) > double(fileSize_)) return false;
+    size_t n = size_t(cnt) * typeSize(p.type);
+    if (!in_.ensure(n)) return false;
+    in_.consume(n);
+  }
+  return true;
+}
+
+// Anything after the last element means the header's counts are wrong (a face count too small drops triangles
+// silently otherwise). Count the whole records of the last element that follow, to name both counts.
+Status PlyParser::checkEnd() {
+  if (in_.atEndAfterSpace(ascii_)) return Ok{};
+  if (elements_.empty()) return fail("data after a header that declares no elements");
+  const Element& last = elements_.back();
+  const uint64_t dataEnd = in_.offset();
+  uint64_t extra = 0;
+  for (uint64_t before = in_.offset(); skipRecord(last) && in_.offset() > before; before = in_.offset()) {
+    ++extra;
+    if (in_.atEndAfterSpace(ascii_))
+      return fail(fmt::format("element {} declares {} records, the data holds {}", quoteInput(last.name), last.count,
+                              last.count + extra));
+  }
+  return fail(fmt::format("element {} declares {} records but {} more bytes follow them", quoteInput(last.name),
+                          last.count, fileSize_ - dataEnd));
 }
 
 } // namespace
@@ -501,7 +591,7 @@ Result<Scene> importPly(const std::filesystem::path& path, const ImportOptions& 
     PlyParser parser(detail::displayName(path), options);
     return parser.run(path);
   } catch (const std::exception& e) { // bad_alloc on absurd inputs: an Error, never a throw
-    return makeError(detail::displayName(path), fmt::format("import failed: {}", e.what()));
+    return makeError(detail::displayName(path), fmt::format("import failed: {}", escapeInput(e.what(), 240)));
   }
 }
 

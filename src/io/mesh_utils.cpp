@@ -2,8 +2,11 @@
 
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 #include <fmt/format.h>
+
+#include "mirage/core/input_text.h"
 
 namespace mirage::io {
 
@@ -190,9 +193,33 @@ void computeTangents(Mesh& mesh) {
   }
 }
 
+namespace {
+
+template <class V> std::optional<size_t> firstNonFinite(const std::vector<V>& values) {
+  for (size_t i = 0; i < values.size(); ++i)
+    for (int k = 0; k < V::length(); ++k)
+      if (!std::isfinite(values[i][k])) return i;
+  return std::nullopt;
+}
+
+} // namespace
+
+Status validateFinite(const Mesh& mesh, const std::string& file) {
+  auto fail = [&](const char* what, size_t i) -> Status {
+    return makeError(
+        file, fmt::format("mesh {}: vertex {} has a non-finite {} (NaN or Inf)", quoteInput(mesh.name), i, what));
+  };
+  if (auto i = firstNonFinite(mesh.positions)) return fail("position", *i);
+  if (auto i = firstNonFinite(mesh.normals)) return fail("normal", *i);
+  if (auto i = firstNonFinite(mesh.tangents)) return fail("tangent", *i);
+  if (auto i = firstNonFinite(mesh.uv0)) return fail("texture coordinate", *i);
+  if (auto i = firstNonFinite(mesh.colors)) return fail("colour", *i);
+  return Ok{};
+}
+
 Status validateMesh(const Mesh& mesh, const std::string& file) {
   auto fail = [&](const std::string& problem) -> Status {
-    return makeError(file, fmt::format("mesh '{}': {}", mesh.name, problem));
+    return makeError(file, fmt::format("mesh {}: {}", quoteInput(mesh.name), problem));
   };
   const size_t n = mesh.positions.size();
   if (mesh.indices.empty() || n == 0) return fail("empty mesh (no triangles)");
@@ -201,15 +228,10 @@ Status validateMesh(const Mesh& mesh, const std::string& file) {
   for (size_t i = 0; i < mesh.indices.size(); ++i)
     if (mesh.indices[i] >= n)
       return fail(fmt::format("index {} at position {} is out of range ({} vertices)", mesh.indices[i], i, n));
-  for (size_t i = 0; i < n; ++i) {
-    const glm::vec3& v = mesh.positions[i];
-    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-      return fail(fmt::format("vertex {} has a non-finite position (NaN or Inf)", i));
-  }
   auto sized = [n](const auto& v) { return v.empty() || v.size() == n; };
   if (!sized(mesh.normals) || !sized(mesh.tangents) || !sized(mesh.uv0) || !sized(mesh.colors))
     return fail("attribute array size differs from the vertex count");
-  return Ok{};
+  return validateFinite(mesh, file);
 }
 
 } // namespace mirage::io

@@ -19,6 +19,8 @@ uint32_t packColor(glm::vec4 c) {
 
 } // namespace
 
+// What a file holds is decided once, by the importer (PLY faces and triangle strips are triangles; a file without any
+// is points only with ImportOptions::allowPointClouds): this only reads the imported scene.
 bool isPointCloud(const Scene& scene) {
   if (scene.instancedTriangleCount() > 0) return false;
   for (const Instance& inst : scene.instances)

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "mirage/asset/container.h"
+#include "mirage/core/input_text.h"
 
 namespace mirage::surfels {
 
@@ -78,6 +79,7 @@ Status writeSurfelPly(const std::string& path, const SurfelCloud& c) {
 }
 
 Result<SurfelCloud> readSurfelPly(const std::string& path) {
+  if (std::string problem = inputFileProblem(path); !problem.empty()) return makeError(path, problem);
   std::ifstream f(path, std::ios::binary);
   if (!f) return makeError(path, "cannot open the file");
   std::string line;

@@ -24,8 +24,11 @@ void weldMesh(Mesh& mesh);
 // Gram-Schmidt orthogonalised). Leaves tangents empty when the mesh has no uv0 or normals.
 void computeTangents(Mesh& mesh);
 
-// Check a mesh: non-empty, index count a multiple of 3, indices in range, finite positions, attribute arrays
-// empty or sized like positions. The error names `file` and the mesh.
+// Check a mesh: non-empty, index count a multiple of 3, indices in range, attribute arrays empty or sized like
+// positions, then validateFinite. The error names `file` and the mesh.
 Status validateMesh(const Mesh& mesh, const std::string& file);
+
+// Every position, normal, tangent, texture coordinate and colour finite (the check a point cloud gets too).
+Status validateFinite(const Mesh& mesh, const std::string& file);
 
 } // namespace mirage::io
