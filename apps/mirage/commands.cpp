@@ -19,6 +19,11 @@ void fail(const std::string& message) {
 }
 void fail(const Error& error) { fail(error.message); }
 
+void addOutputFlags(CLI::App* cmd, OutputFlags& flags) {
+  cmd->add_flag("--quiet", flags.quiet, "Print nothing but errors");
+  cmd->add_flag("--progress", flags.progressLines, "Progress as plain lines on stderr (for logs)");
+}
+
 void registerCommands(CLI::App& app) {
   addInfoCommand(app);
   addGenCommand(app);

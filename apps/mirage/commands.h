@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "mirage/core/progress.h"
 #include "mirage/core/result.h"
 
 namespace mirage::cli {
@@ -15,5 +16,14 @@ void setExitCode(int code);
 // Print "mirage: error: <message>" on one line to stderr and set exit code 2.
 void fail(const Error& error);
 void fail(const std::string& message);
+
+// --quiet (print nothing but errors) and --progress (plain progress lines on stderr, for logs) of a
+// long-running subcommand; without either, progress shows as one self-updating line on a terminal.
+struct OutputFlags {
+  bool quiet = false;
+  bool progressLines = false;
+  ProgressMode progressMode() const { return mirage::progressMode(quiet, progressLines); }
+};
+void addOutputFlags(CLI::App* cmd, OutputFlags& flags);
 
 } // namespace mirage::cli
