@@ -1,6 +1,7 @@
 #include "mirage/core/progress.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include <unistd.h>
@@ -8,6 +9,9 @@
 namespace mirage {
 
 namespace {
+
+// The reporter whose terminal line is on screen without its newline (one stderr, so one line).
+std::atomic<Progress*> g_terminalLine{nullptr};
 
 // Seconds for humans: "0.4 s", "12.3 s", "4 min 05 s", "1 h 02 min".
 std::string formatSeconds(double s) {
@@ -87,8 +91,26 @@ Progress::Progress(ProgressMode mode, std::FILE* out)
 
 Progress::~Progress() {
   std::lock_guard lock(mutex_);
-  // An unfinished terminal line (an error cut the work short) must not swallow the error message.
-  if (mode_ == ProgressMode::Terminal && open_ && printed_) std::fputc('\n', out_);
+  // An unfinished terminal line (the work stopped early) ends so later output starts on a fresh line.
+  if (lineShown_) std::fputc('\n', out_);
+  releaseLine();
+}
+
+void Progress::releaseLine() {
+  lineShown_ = false;
+  Progress* self = this;
+  g_terminalLine.compare_exchange_strong(self, nullptr);
+}
+
+void Progress::breakLine() {
+  Progress* p = g_terminalLine.exchange(nullptr);
+  if (!p) return;
+  std::lock_guard lock(p->mutex_);
+  if (!p->lineShown_) return;
+  std::fputc('\n', p->out_);
+  std::fflush(p->out_);
+  p->lineShown_ = false;
+  p->lastWidth_ = 0;
 }
 
 // The terminal line shows the last unit at once; log lines leave it to end()'s line.
@@ -138,6 +160,7 @@ void Progress::end(std::string_view detail) {
   if (mode_ == ProgressMode::Terminal) {
     size_t pad = lastWidth_ > line.size() ? lastWidth_ - line.size() : 0;
     std::fprintf(out_, "\r%s%*s\n", line.c_str(), int(pad), "");
+    releaseLine();
   } else {
     std::fprintf(out_, "%s\n", line.c_str());
   }
@@ -159,6 +182,8 @@ void Progress::print(bool force, std::string_view detail) {
     size_t pad = lastWidth_ > line.size() ? lastWidth_ - line.size() : 0;
     std::fprintf(out_, "\r%s%*s", line.c_str(), int(pad), "");
     lastWidth_ = line.size();
+    lineShown_ = true;
+    g_terminalLine.store(this);
   } else {
     std::fprintf(out_, "%s\n", line.c_str());
   }

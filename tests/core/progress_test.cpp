@@ -105,5 +105,21 @@ TEST(Progress, UnfinishedTerminalLineIsEndedSoAnErrorStartsOnAFreshLine) {
   EXPECT_EQ(s.back(), '\n');
 }
 
+TEST(Progress, BreakLineEndsTheTerminalLineBeforeAnError) {
+  Capture c;
+  Progress p(ProgressMode::Terminal, c.file);
+  p.begin("verify", 10);
+  p.advance(1);
+  Progress::breakLine();
+  std::fprintf(c.file, "mirage: error: x\n");
+  Progress::breakLine(); // nothing on screen any more: no blank line
+  p.end();
+  std::string s = c.text();
+  size_t error = s.find("mirage: error: x\n");
+  ASSERT_NE(error, std::string::npos) << s;
+  EXPECT_EQ(s[error - 1], '\n') << s;
+  EXPECT_EQ(count(s, '\n'), 3u) << s; // the broken line, the error, the end line
+}
+
 } // namespace
 } // namespace mirage

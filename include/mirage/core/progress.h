@@ -62,12 +62,17 @@ public:
   ProgressCallback callback();
 
   ProgressMode mode() const { return mode_; }
+  // Ends the terminal line on screen (if any) with a newline, so that a message printed next (an
+  // error) starts on a fresh line; that reporter's next update starts a new line. Call it from the
+  // thread that owns the reporter, before printing to stderr.
+  static void breakLine();
   // Minimum seconds between two printed updates (first and last always print); 0 prints all.
   double intervalSeconds;
 
 private:
   void print(bool force, std::string_view detail);
   double elapsed() const;
+  void releaseLine(); // mutex_ held
   bool finished() const;
 
   ProgressMode mode_;
@@ -78,7 +83,8 @@ private:
   bool open_ = false;
   std::chrono::steady_clock::time_point start_{}, lastPrint_{};
   bool printed_ = false;
-  size_t lastWidth_ = 0; // terminal: characters of the previous line, to blank what is left of it
+  size_t lastWidth_ = 0;   // terminal: characters of the previous line, to blank what is left of it
+  bool lineShown_ = false; // terminal: a line without its newline is on screen
 };
 
 } // namespace mirage
