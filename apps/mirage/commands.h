@@ -10,6 +10,9 @@
 namespace mirage::cli {
 
 void registerCommands(CLI::App& app);
+// The one line printed for a command line CLI11 rejects, e.g. "unknown subcommand 'x' (expected
+// one of: info, gen, ...; see mirage --help)"; every other error as CLI11 words it.
+std::string parseErrorMessage(const CLI::App& app, const CLI::ParseError& error);
 // Exit code set by the subcommand that ran (0 success, 2 bad input or failure).
 int exitCode();
 void setExitCode(int code);
