@@ -265,7 +265,8 @@ TEST(Camera, PathFromJsonAndOrbit) {
   EXPECT_NEAR(glm::length(orbit[0].eye - first.eye), 0.0f, 1e-4f);
   glm::vec3 sum{0.0f};
   for (const Camera& c : orbit) {
-    EXPECT_NEAR(glm::length(c.eye - c.target), glm::length(first.eye - first.target), 1e-3f);
+    EXPECT_NEAR(glm::length(c.target - b.center()), 0.0f, 1e-5f); // around the bounds' centre
+    EXPECT_NEAR(glm::length(c.eye - c.target), glm::length(first.eye - b.center()), 1e-3f);
     sum += c.eye - c.target;
   }
   EXPECT_NEAR(sum.x, 0.0f, 1e-3f); // a full turn: horizontal offsets cancel
