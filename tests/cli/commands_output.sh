@@ -44,7 +44,7 @@ if run build-blob 0 build gen:blob:1 -o "$tmp/b.mrg" --quiet; then
     grep -q $'\r' "$tmp/stderr" && fail "verify-progress: carriage returns in log lines"
     grep -qE '^verify: 0/[0-9]+ \(0%\)' "$tmp/stderr" || fail "verify-progress: no first line: $(cat "$tmp/stderr")"
     grep -qE '^verify: done ([0-9]+)/\1 in [0-9.]+ s$' "$tmp/stderr" || fail "verify-progress: no done line: $(cat "$tmp/stderr")"
-    grep -q ": ok:" "$tmp/stdout" || fail "verify-progress: no result on stdout"
+    grep -qE ': ok: .* \([0-9.]+ s wall, load [0-9.]+ s\)$' "$tmp/stdout" || fail "verify-progress: no wall time: $(cat "$tmp/stdout")"
   fi
   # Not a terminal and no --progress: the result only.
   if run verify-plain 0 verify "$tmp/b.mrg" --cuts 5; then
