@@ -74,18 +74,25 @@ struct VerifyOptions {
   int cuts = 100;
   uint32_t seed = 1;
   bool json = false;
+  OutputFlags flags;
 };
 
 void runVerify(const VerifyOptions& o) {
   if (o.cuts < 0 || o.cuts > 100000) return fail("--cuts must be in 0..100000");
+  auto t0 = std::chrono::steady_clock::now();
   auto a = lod::loadLodAsset(o.input);
   if (!a) return fail(a.error());
+  double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::mt19937 rng(o.seed);
   size_t cutsChecked = 0;
+  // One unit per mesh's structural check and one per cut.
+  Progress progress(o.flags.progressMode());
+  progress.begin("verify", uint64_t(a->dags.size()) * uint64_t(o.cuts + 1));
   for (size_t i = 0; i < a->dags.size(); ++i) {
     const lod::ClusterDag& dag = a->dags[i];
     std::string where = fmt::format("{}: mesh {} '{}'", o.input, i, a->scene.meshes[i].name);
     if (Status s = lod::verifyDag(dag); !s) return fail(where + ": " + s.error().message);
+    progress.advance(1, fmt::format("mesh {}/{}: structure", i + 1, a->dags.size()));
     Mesh reference = lod::levelZeroMesh(dag);
     float maxError = 0.0f;
     for (const lod::Group& g : dag.groups) maxError = std::max(maxError, g.bounds.error);
@@ -97,17 +104,26 @@ void runVerify(const VerifyOptions& o) {
       if (Status s = lod::verifyCut(dag, cut, reference); !s)
         return fail(fmt::format("{}: cut at threshold {:.6g}: {}", where, tau, s.error().message));
       ++cutsChecked;
+      progress.advance(1, fmt::format("mesh {}/{}: cut {}/{}", i + 1, a->dags.size(), c + 1, o.cuts));
     }
   }
+  progress.end();
+  // Wall time of the whole command (load and decode included), not of the checks alone.
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (o.json) {
-    fmt::print(
-        "{}\n",
-        nlohmann::json{{"file", o.input}, {"meshes", a->dags.size()}, {"cuts_checked", cutsChecked}, {"ok", true}}.dump(
-            2));
+    fmt::print("{}\n", nlohmann::json{{"file", o.input},
+                                      {"meshes", a->dags.size()},
+                                      {"cuts_checked", cutsChecked},
+                                      {"ok", true},
+                                      {"load_seconds", loadSeconds},
+                                      {"seconds", seconds}}
+                           .dump(2));
     return;
   }
-  fmt::print("{}: ok: {} DAGs structurally valid; {} random cuts watertight and overlap-free\n", o.input,
-             a->dags.size(), cutsChecked);
+  if (o.flags.quiet) return;
+  fmt::print("{}: ok: {} DAGs structurally valid; {} random cuts watertight and overlap-free ({:.2f} s wall, load "
+             "{:.2f} s)\n",
+             o.input, a->dags.size(), cutsChecked, seconds, loadSeconds);
 }
 
 } // namespace
@@ -137,6 +153,7 @@ void addBuildCommand(CLI::App& app) {
   v->add_option("--cuts", vo->cuts, "Random thresholds per mesh")->capture_default_str();
   v->add_option("--seed", vo->seed, "Seed of the thresholds")->capture_default_str();
   v->add_flag("--json", vo->json, "Print results as JSON");
+  addOutputFlags(v, vo->flags);
   v->callback([vo] { runVerify(*vo); });
 }
 

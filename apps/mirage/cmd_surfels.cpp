@@ -4,8 +4,6 @@
 #include <cstdio>
 #include <span>
 
-#include <unistd.h>
-
 #include <fmt/format.h>
 
 #include "cmd_list.h"
@@ -36,7 +34,7 @@ struct SurfelsOptions {
   bool perMesh = false;
   bool append = false; // add the SURF chunks to the existing .mrg at -o (its other chunks kept)
   bool bitonicSort = false;
-  bool quiet = false;                 // no progress bar (it only shows when stderr is a terminal)
+  OutputFlags flags;                  // --quiet (errors only), --progress (log lines)
   std::string discRaster = "compute"; // one splatter, a comma list or all (timed side by side)
   std::vector<surfels::DiscRaster> discRasters;
   std::string points = "auto"; // point clouds: "cpu" (exact order), "gpu" (disc capture + GPU sampler), "auto"
@@ -56,15 +54,6 @@ struct Sampled {
   std::vector<gpu::PassTime> gpuTimes, samplerTimes;
   std::vector<DiscRasterRun> discRuns; // several --disc-raster splatters: each one's run
 };
-
-// The sampler's progress bar on stderr (a terminal only): samples so far of the count, and rounds.
-void printSamplerProgress(uint32_t samples, uint32_t count, uint32_t rounds) {
-  int width = 40, filled = count ? int(double(samples) / double(count) * width) : width;
-  std::fprintf(stderr, "\rsampling [%-*s] %3d%%  %u / %u surfels, round %u", width,
-               std::string(size_t(filled), '#').c_str(), count ? int(100.0 * double(samples) / double(count)) : 100,
-               samples, count, rounds);
-  if (samples >= count) std::fprintf(stderr, "\n");
-}
 
 // Point clouds on the CPU: the exact farthest-point order over the points themselves (no capture,
 // no GPU; the k-NN spacing pass is counted as the capture).
@@ -99,7 +88,13 @@ Result<Sampled> sampleScene(gpu::Context* ctx, const Scene& scene, const Surfels
   sc.threshold = o.threshold;
   sc.bitonicSort = o.bitonicSort;
   sc.discRaster = o.discRasters[0];
-  if (!o.quiet && isatty(STDERR_FILENO)) sc.progress = printSamplerProgress;
+  // The sampler reports samples so far of the count after every round.
+  Progress progress(o.flags.progressMode());
+  progress.begin("sampling", sc.count);
+  if (progress.mode() != ProgressMode::None)
+    sc.progress = [&progress](uint32_t samples, uint32_t count, uint32_t rounds) {
+      progress.update(samples, count, fmt::format("{} surfels, round {}", samples, rounds));
+    };
   if (o.discRasters.size() > 1) {
     auto runs = compareDiscRasters(*ctx, *gb, sc, o.discRasters, 1);
     if (!runs) return runs.error();
@@ -125,6 +120,7 @@ Result<Sampled> sampleScene(gpu::Context* ctx, const Scene& scene, const Surfels
     s.samplerSeconds = sampled->seconds;
     s.samplerTimes = sampled->times;
   }
+  progress.end();
   s.texels = std::move(gb->texels);
   if (o.reference) {
     t0 = std::chrono::steady_clock::now();
@@ -251,7 +247,7 @@ void runSurfels(SurfelsOptions o) {
     if (opened && pointCloud && !(*opened)->caps().int64BufferAtomics)
       opened = Error{fmt::format("{} has no 64-bit buffer atomics", (*opened)->caps().name)};
     if (!opened && pointCloud && o.points == "auto") {
-      fmt::print("no usable GPU ({}): the exact CPU path\n", opened.error().message);
+      if (!o.flags.quiet) fmt::print("no usable GPU ({}): the exact CPU path\n", opened.error().message);
       pointsOnGpu = false;
     } else if (!opened) {
       return fail(opened.error());
@@ -264,7 +260,8 @@ void runSurfels(SurfelsOptions o) {
   std::string device = !pointCloud   ? ctx->caps().name
                        : pointsOnGpu ? ctx->caps().name + " (point cloud: disc capture + GPU sampler)"
                                      : std::string("the CPU (point cloud: exact farthest-point order)");
-  fmt::print("import {:.3f} s\n", importSeconds);
+  bool say = !o.flags.quiet; // --quiet: nothing but errors
+  if (say) fmt::print("import {:.3f} s\n", importSeconds);
 
   if (o.perMesh) {
     std::vector<surfels::MeshSurfels> clouds;
@@ -274,6 +271,7 @@ void runSurfels(SurfelsOptions o) {
       if (!sampled) return fail(sampled.error());
       clouds.push_back({i, surfels::buildSurfelCloud(sampled->texels, sampled->order)});
       const surfels::SurfelCloud& c = clouds.back().cloud;
+      if (!say) continue;
       surfels::PrefixQuality q = surfels::measurePrefix(sampled->texels, sampled->order, uint32_t(c.size()));
       fmt::print("mesh {:>4} {:<24} {:>8} surfels from {:>9} texels, rho {:.3f}, coverage {:.4f}, {:.3f} s\n", i,
                  scene->meshes[i].name.substr(0, 24), c.size(), sampled->texels.size(), q.rho, q.coverage,
@@ -282,8 +280,9 @@ void runSurfels(SurfelsOptions o) {
     if (clouds.empty()) return fail(o.input + ": scene has no triangles to sample");
     if (Status w = o.append ? appendSurfelChunks(o.output, clouds) : surfels::writeSurfelMrg(o.output, clouds); !w)
       return fail(w.error());
-    fmt::print("surfels {} -> {}: {} SURF chunks (one per mesh, object space) on {}\n", o.input, o.output,
-               clouds.size(), device);
+    if (say)
+      fmt::print("surfels {} -> {}: {} SURF chunks (one per mesh, object space) on {}\n", o.input, o.output,
+                 clouds.size(), device);
     return;
   }
 
@@ -295,6 +294,7 @@ void runSurfels(SurfelsOptions o) {
   Status written =
       o.output.ends_with(".mrg") ? surfels::writeSurfelMrg(o.output, cloud) : surfels::writeSurfelPly(o.output, cloud);
   if (!written) return fail(written.error());
+  if (!say) return;
   if (pointCloud && !pointsOnGpu)
     fmt::print("surfels {} -> {}: {} surfels from {} points on {}\n", o.input, o.output, cloud.size(),
                sampled->texels.size(), device);
@@ -336,7 +336,7 @@ void addSurfelsCommand(CLI::App& app) {
       "--append", o->append,
       "--per-mesh: add the SURF chunks to the existing .mrg at -o (e.g. from mirage build), keeping its DAGs");
   cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
-  cmd->add_flag("--quiet", o->quiet, "No progress bar (shown on a terminal's stderr)");
+  addOutputFlags(cmd, o->flags);
   cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
   cmd->add_option("--disc-raster", o->discRaster,
                   "Disc splatter of the voronoi and conflicts stages: compute, mesh, geometry or mesh-depth (same "

@@ -7,7 +7,7 @@
 #include "commands.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"Mirage: huge 3D scenes, fast on weak clients"};
+  CLI::App app{"Mirage: huge 3D scenes, fast on weak clients", "mirage"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Help for every subcommand");
   mirage::cli::registerCommands(app);
@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e); // --help
-    std::fprintf(stderr, "mirage: error: %s (see mirage --help)\n", e.what());
+    std::fprintf(stderr, "mirage: error: %s\n", mirage::cli::parseErrorMessage(app, e).c_str());
     return 2;
   }
   return mirage::cli::exitCode();

@@ -92,26 +92,56 @@ Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees) {
   c.fovYDegrees = fovYDegrees;
   glm::vec3 center = bounds.empty() ? glm::vec3(0.0f) : bounds.center();
   glm::vec3 dir = glm::normalize(glm::vec3(1.0f, 0.75f, 1.4f)); // from the target towards the eye
-  glm::vec3 right = glm::normalize(glm::cross(-dir, c.up));
-  glm::vec3 up = glm::cross(right, -dir);
-  float tanY = std::tan(glm::radians(fovYDegrees) * 0.5f);
-  float tanX = tanY * aspect;
-  // The nearest eye distance at which all 8 box corners project inside the frustum: a corner at
-  // offset q from the centre has depth d - q.dir, and needs |q.right| <= tanX * depth (same for up).
-  float distance = 0.0f;
-  if (!bounds.empty()) {
-    for (int i = 0; i < 8; ++i) {
-      glm::vec3 p{(i & 1) ? bounds.max.x : bounds.min.x, (i & 2) ? bounds.max.y : bounds.min.y,
-                  (i & 4) ? bounds.max.z : bounds.min.z};
-      glm::vec3 q = p - center;
-      float along = glm::dot(q, dir);
-      distance = std::max(distance, along + std::abs(glm::dot(q, right)) / tanX);
-      distance = std::max(distance, along + std::abs(glm::dot(q, up)) / tanY);
-    }
+  glm::vec3 forward = -dir;
+  glm::vec3 right = glm::normalize(glm::cross(forward, c.up));
+  glm::vec3 up = glm::cross(right, forward);
+  // The margin: the box fills 1/kAutoCameraMargin of the limiting axis (see camera.h).
+  float tanY = std::tan(glm::radians(fovYDegrees) * 0.5f) / kAutoCameraMargin;
+  float tanX = tanY * std::max(aspect, 1e-6f);
+  // The tightest eye for this view direction: on each frustum side, the plane through the eye with
+  // that side's fixed normal must have every box corner inside. Corner q (x right, y up, z forward
+  // from the centre) is inside the right plane of an eye at (ex, ., ez) iff x - tanX·z <= ex - tanX·ez,
+  // inside the left one iff -x - tanX·z <= -ex - tanX·ez; both tight at once gives ex and ez.
+  // Pulling the eye straight back from there keeps every side satisfied, so the axis needing the
+  // farther eye decides and the other is centred with room to spare. Fitting the eye distance
+  // alone (target at the centre) lets the nearest corner fill one side of the frame while the far
+  // side stays empty: a flat city then covers a third of the width.
+  glm::vec3 corners[8]; // x right, y up, z forward, from the centre
+  float rightMax = 0.0f, leftMax = 0.0f, upMax = 0.0f, downMax = 0.0f;
+  int count = bounds.empty() ? 0 : 8;
+  for (int i = 0; i < count; ++i) {
+    glm::vec3 p{(i & 1) ? bounds.max.x : bounds.min.x, (i & 2) ? bounds.max.y : bounds.min.y,
+                (i & 4) ? bounds.max.z : bounds.min.z};
+    glm::vec3 q = p - center;
+    corners[i] = {glm::dot(q, right), glm::dot(q, up), glm::dot(q, forward)};
+    float x = corners[i].x, y = corners[i].y, z = corners[i].z;
+    float r = x - tanX * z, l = -x - tanX * z, u = y - tanY * z, d = -y - tanY * z;
+    rightMax = i == 0 ? r : std::max(rightMax, r);
+    leftMax = i == 0 ? l : std::max(leftMax, l);
+    upMax = i == 0 ? u : std::max(upMax, u);
+    downMax = i == 0 ? d : std::max(downMax, d);
   }
-  distance = std::max(distance * 1.05f, 1e-5f); // a small margin around the box
-  c.eye = center + dir * distance;
-  c.target = center;
+  float ezX = -(rightMax + leftMax) / (2.0f * tanX), ezY = -(upMax + downMax) / (2.0f * tanY);
+  float ex = 0.5f * (rightMax - leftMax), ey = 0.5f * (upMax - downMax);
+  float ez = std::min(std::min(ezX, ezY), -1e-5f); // -1e-5: an empty or point-sized box
+  // The slack axis: from the farther eye its corners no longer project symmetrically; centre them
+  // (the sum of the extreme slopes falls as the eye moves along the axis: bisection).
+  auto centre = [&](int axis, float lo, float hi) {
+    for (int it = 0; it < 60; ++it) {
+      float mid = 0.5f * (lo + hi), most = -1e30f, least = 1e30f;
+      for (int i = 0; i < count; ++i) {
+        float slope = (corners[i][axis] - mid) / (corners[i].z - ez);
+        most = std::max(most, slope), least = std::min(least, slope);
+      }
+      (most + least > 0.0f ? lo : hi) = mid;
+    }
+    return 0.5f * (lo + hi);
+  };
+  if (count && ezX > ez) ex = centre(0, ex - 2.0f * bounds.radius(), ex + 2.0f * bounds.radius());
+  if (count && ezY > ez) ey = centre(1, ey - 2.0f * bounds.radius(), ey + 2.0f * bounds.radius());
+  glm::vec3 lateral = center + ex * right + ey * up;
+  c.eye = lateral + ez * forward;
+  c.target = lateral; // at the centre's depth: the view direction stays the 3/4 one
   return withClipPlanes(c, bounds);
 }
 
@@ -197,6 +227,7 @@ Result<std::vector<Camera>> loadCameraPath(const std::filesystem::path& path) {
 
 std::vector<Camera> orbitPath(const Bounds& bounds, float aspect, uint32_t count) {
   Camera start = autoCamera(bounds, aspect);
+  start.target = bounds.empty() ? glm::vec3(0.0f) : bounds.center(); // the circle's centre
   glm::vec3 offset = start.eye - start.target;
   float radius = glm::length(glm::vec2(offset.x, offset.z));
   float angle0 = std::atan2(offset.z, offset.x);

@@ -285,6 +285,15 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
     return Error{"surfels: the GPU sampler needs 64-bit buffer atomics (shaderBufferInt64Atomics)"};
   if (config.count == 0) return Error{"surfels: the surfel count must be at least 1"};
   if (gb.texels.size() == 0) return Error{"surfels: the G-buffer has no texels to sample"};
+  // Distances from non-finite positions compare false both ways: no round would ever append a sample.
+  if (!std::isfinite(gb.texels.sphereRadius))
+    return Error{"surfels: the G-buffer's bounding sphere is not finite (non-finite input coordinates)"};
+  for (size_t i = 0; i < gb.texels.size(); ++i) {
+    glm::vec3 p = gb.texels.positions[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      return Error{
+          fmt::format("surfels: G-buffer texel {} has a non-finite position (non-finite input coordinates)", i)};
+  }
   if (std::string why = discRasterUnsupported(ctx, config.discRaster, gb.texels.viewCount); !why.empty())
     return Error{why};
   const VkPhysicalDeviceLimits& limits = ctx.properties().limits;
@@ -497,6 +506,13 @@ Result<GpuSamplerResult> sampleOnGpu(Context& ctx, const GpuGBuffer& gb, const G
     });
     s.collectTimes();
     uint32_t valid = s.readCounters().validCount;
+    // The loop's bound: the largest candidate never conflicts with a larger one, so a sane round
+    // appends at least one sample and the loop runs at most `target` rounds. A round appending none
+    // would repeat forever: stop it.
+    if (valid == 0)
+      return Error{fmt::format("surfels: sampler round {} appended none of its {} candidates (farthest distance "
+                               "{}): the G-buffer holds non-finite or degenerate positions",
+                               result.rounds + 1, candidates, maxDistance)};
     if (n > 0) splatRadius = maxDistance; // texels farther than this from all samples do not exist
     previous = n;
     n += valid;

@@ -17,6 +17,20 @@ uint32_t packColor(glm::vec4 c) {
   return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
 }
 
+bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// Point i of mesh m, at world position p: every attribute a sampler reads must be finite.
+Status checkFinitePoint(const Mesh& m, size_t i, glm::vec3 p) {
+  if (!finite(m.positions[i]))
+    return Error{fmt::format("point {} has a non-finite position ({}, {}, {})", i, m.positions[i].x, m.positions[i].y,
+                             m.positions[i].z)};
+  if (!finite(p)) return Error{fmt::format("point {} is not finite once transformed into the scene", i)};
+  if (i < m.normals.size() && !finite(m.normals[i])) return Error{fmt::format("point {} has a non-finite normal", i)};
+  if (i < m.colors.size() && (!finite(glm::vec3(m.colors[i])) || !std::isfinite(m.colors[i].a)))
+    return Error{fmt::format("point {} has a non-finite colour", i)};
+  return Ok{};
+}
+
 } // namespace
 
 // What a file holds is decided once, by the importer (PLY faces and triangle strips are triangles; a file without any
@@ -62,7 +76,11 @@ Result<ScanPoints> scanPoints(const Scene& scene) {
     glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(inst.transform)));
     s.hasNormals = s.hasNormals && m.normals.size() >= m.positions.size();
     for (size_t i = 0; i < m.positions.size(); ++i) {
-      s.positions.push_back(glm::vec3(inst.transform * glm::vec4(m.positions[i], 1.0f)));
+      glm::vec3 p = glm::vec3(inst.transform * glm::vec4(m.positions[i], 1.0f));
+      // One NaN or infinity poisons the spacing, the bounds and every distance the samplers compare
+      // (the GPU sampler then never converges): reject it, naming the point as the file numbers it.
+      if (Status ok = checkFinitePoint(m, i, p); !ok) return makeError(source, ok.error().message);
+      s.positions.push_back(p);
       glm::vec3 n = i < m.normals.size() ? normalMatrix * m.normals[i] : glm::vec3(0, 0, 1);
       float len = glm::length(n);
       s.normals.push_back(len > 0.0f ? n / len : glm::vec3(0, 0, 1));

@@ -1,5 +1,6 @@
 // Forward renderer properties on hand-made scenes: what is drawn where, culling and winding,
 // reverse-Z depth, alpha MASK/BLEND, auto-framing, timings. Validation must stay silent.
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -8,6 +9,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu_test.h"
+#include "mirage/io/generate.h"
 #include "mirage/render/forward_renderer.h"
 #include "test_scenes.h"
 
@@ -196,6 +198,38 @@ TEST_F(Forward, AutoCameraFramesTheScene) {
   }
 }
 
+// A generated city (wide, low, its box's top corners empty air) seen by the automatic camera in
+// landscape, portrait and square frames: what is drawn spans most of the frame along one axis
+// (the old camera left it at half the width and height) and stays inside the frame.
+TEST_F(Forward, AutoCameraFillsTheFrameWithACity) {
+  auto scene = io::generateScene("city", 1, 2);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  for (auto [w, h] : {std::pair{192u, 108u}, std::pair{108u, 192u}, std::pair{128u, 128u}}) {
+    RenderSettings s;
+    s.width = w;
+    s.height = h;
+    s.camera = autoCamera(scene->worldBounds(), float(w) / float(h));
+    s.background = {0, 0, 0, 1};
+    RenderOutput out = renderScene(context(), *scene, s);
+    uint32_t minX = w, maxX = 0, minY = h, maxY = 0;
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x)
+        if (!isBackground(out.srgb, x, y)) {
+          minX = std::min(minX, x), maxX = std::max(maxX, x);
+          minY = std::min(minY, y), maxY = std::max(maxY, y);
+        }
+    ASSERT_LT(minX, maxX) << "nothing drawn at " << w << "x" << h;
+    EXPECT_GT(minX, 0u);
+    EXPECT_LT(maxX, w - 1);
+    EXPECT_GT(minY, 0u);
+    EXPECT_LT(maxY, h - 1);
+    double fillX = double(maxX - minX + 1) / w, fillY = double(maxY - minY + 1) / h;
+    std::printf("city at %ux%u: drawn over %.0f %% of the width, %.0f %% of the height\n", w, h, 100 * fillX,
+                100 * fillY);
+    EXPECT_GE(std::max(fillX, fillY), 0.85) << w << "x" << h;
+  }
+}
+
 TEST_F(Forward, ReportsGpuTimesAndRejectsBadSizes) {
   Scene scene = test::makeScene({test::makeSphere(1.0f, 16, 32)}, {});
   auto renderer = ForwardRenderer::create(context(), scene);
@@ -265,7 +299,8 @@ TEST(Camera, PathFromJsonAndOrbit) {
   EXPECT_NEAR(glm::length(orbit[0].eye - first.eye), 0.0f, 1e-4f);
   glm::vec3 sum{0.0f};
   for (const Camera& c : orbit) {
-    EXPECT_NEAR(glm::length(c.eye - c.target), glm::length(first.eye - first.target), 1e-3f);
+    EXPECT_NEAR(glm::length(c.target - b.center()), 0.0f, 1e-5f); // around the bounds' centre
+    EXPECT_NEAR(glm::length(c.eye - c.target), glm::length(first.eye - b.center()), 1e-3f);
     sum += c.eye - c.target;
   }
   EXPECT_NEAR(sum.x, 0.0f, 1e-3f); // a full turn: horizontal offsets cancel

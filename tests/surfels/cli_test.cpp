@@ -21,10 +21,12 @@ struct CliRun {
   std::string err;
 };
 
-CliRun runMirage(const std::string& args, const std::filesystem::path& dir) {
+// timeoutSeconds > 0: killed after that long (exit 124), so a hang fails the test instead of stalling it.
+CliRun runMirage(const std::string& args, const std::filesystem::path& dir, int timeoutSeconds = 0) {
   std::string bin = mirage::test::mirageBinary();
   std::string errFile = (dir / "stderr.txt").string();
-  std::string cmd = bin + " " + args + " > /dev/null 2> " + errFile;
+  std::string cmd = (timeoutSeconds > 0 ? "timeout " + std::to_string(timeoutSeconds) + " " : std::string()) + bin +
+                    " " + args + " > /dev/null 2> " + errFile;
   int status = std::system(cmd.c_str());
   CliRun r;
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -203,5 +205,53 @@ TEST(SurfelCli, GenPointsAndTheGpuPointPath) {
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
     EXPECT_FALSE(std::filesystem::exists(out)) << args;
+  }
+}
+
+// One non-finite coordinate in a point cloud: both point paths exit 2 at once with one line naming
+// the file and the point (the GPU sampler used to resubmit rounds forever; the CPU path wrote
+// surfels from it). `timeout` turns a hang into a failure instead of a stuck test.
+TEST(SurfelCli, NonFinitePointCloudsExit2Quickly) {
+  auto dir = mirage::test::tempDir("surfels_cli_nan");
+  std::string out = (dir / "s.ply").string();
+  for (const char* bad : {"nan", "inf", "-inf"}) {
+    std::string scan = (dir / (std::string("pts_") + (bad[0] == '-' ? "minf" : bad) + ".ply")).string();
+    {
+      std::ofstream f(scan);
+      f << "ply\nformat ascii 1.0\nelement vertex 300\nproperty float x\nproperty float y\nproperty float z\n"
+           "end_header\n";
+      for (int i = 0; i < 300; ++i) {
+        float a = float(i) * 2.39996f, z = 1.0f - 2.0f * (float(i) + 0.5f) / 300.0f, r = std::sqrt(1.0f - z * z);
+        if (i == 137)
+          f << r * std::cos(a) << " " << bad << " " << z << "\n";
+        else
+          f << r * std::cos(a) << " " << r * std::sin(a) << " " << z << "\n";
+      }
+    }
+    for (const char* path : {"gpu", "cpu"}) {
+      CliRun r = runMirage("surfels " + scan + " -o " + out + " --count 200 --resolution 64 --views 4 --points " + path,
+                           dir, 60);
+      EXPECT_EQ(r.code, 2) << bad << " " << path << ": " << r.err;
+      EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+      EXPECT_NE(r.err.find(scan), std::string::npos) << r.err;
+      EXPECT_NE(r.err.find("137"), std::string::npos) << r.err; // the point, as the file numbers it
+      EXPECT_FALSE(std::filesystem::exists(out)) << bad << " " << path;
+    }
+  }
+}
+
+// The fuzzing reproducers (points with NaN and infinity; a mesh with a NaN vertex): exit 2, no hang.
+TEST(SurfelCli, FuzzedNonFiniteInputsExit2) {
+  MIRAGE_REQUIRE_DATA(folder, "fuzz-regressions");
+  auto dir = mirage::test::tempDir("surfels_cli_fuzz_nan");
+  std::string out = (dir / "s.ply").string();
+  for (const char* name : {"pts_nan.ply", "pts_inf.ply", "blob_nan.ply"}) {
+    std::string input = (folder / name).string();
+    CliRun r = runMirage(
+        "surfels " + input + " -o " + out + " --count 200 --resolution 64 --views 4 --quiet --points gpu", dir, 60);
+    EXPECT_EQ(r.code, 2) << name << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out)) << name;
   }
 }

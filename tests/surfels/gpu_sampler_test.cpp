@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <limits>
 #include <set>
 
 #include "mirage/gpu/commands.h"
@@ -181,4 +183,48 @@ TEST(SurfelDiscRaster, ParsesTheChoices) {
   auto bad = parseDiscRaster("depth");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message.find("expected compute, mesh, geometry or mesh-depth"), std::string::npos);
+}
+
+// Non-finite texel positions (a NaN coordinate that reached the capture) are refused before any
+// GPU round: their distances compare false both ways and the rounds would never end.
+TEST_F(SurfelGpuSampler, RefusesNonFiniteTexels) {
+  Scene scene = io::generateScene("blob", 2, 2).value();
+  CaptureConfig capture;
+  capture.resolution = 16;
+  capture.views = 3;
+  auto gb = captureGBuffer(context(), scene, capture);
+  ASSERT_TRUE(gb.ok()) << gb.error().message;
+  ASSERT_GT(gb->texels.size(), 10u);
+  GpuSamplerConfig config;
+  config.count = 50;
+  gb->texels.positions[7].y = std::numeric_limits<float>::quiet_NaN();
+  auto r = sampleOnGpu(context(), *gb, config);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("non-finite"), std::string::npos) << r.error().message;
+  gb->texels.positions[7].y = 0.0f;
+  gb->texels.sphereRadius = std::numeric_limits<float>::infinity();
+  EXPECT_FALSE(sampleOnGpu(context(), *gb, config).ok());
+}
+
+// The rounds' bound on its own: the G-buffer's GPU positions turned into NaN behind the host
+// texels' back (so the up-front check passes) make every distance incomparable; the sampler must
+// stop with an error instead of resubmitting rounds forever.
+TEST_F(SurfelGpuSampler, RoundsAreBounded) {
+  Scene scene = io::generateScene("blob", 2, 2).value();
+  CaptureConfig capture;
+  capture.resolution = 16;
+  capture.views = 3;
+  auto gb = captureGBuffer(context(), scene, capture);
+  ASSERT_TRUE(gb.ok()) << gb.error().message;
+  std::vector<uint8_t> bytes = gpu::readbackBuffer(context(), gb->positions, gb->positions.size());
+  std::vector<float> positions(bytes.size() / 4);
+  std::memcpy(positions.data(), bytes.data(), bytes.size());
+  for (size_t i = 0; i + 3 < positions.size(); i += 4)
+    if (positions[i + 3] >= 0.5f) positions[i] = std::numeric_limits<float>::quiet_NaN(); // valid texels' x
+  gpu::uploadBuffer(context(), gb->positions, positions.data(), bytes.size());
+  GpuSamplerConfig config;
+  config.count = 50;
+  auto r = sampleOnGpu(context(), *gb, config);
+  ASSERT_FALSE(r.ok()) << r->order.texels.size() << " samples in " << r->rounds << " rounds";
+  EXPECT_NE(r.error().message.find("appended none"), std::string::npos) << r.error().message;
 }

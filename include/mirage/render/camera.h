@@ -27,8 +27,14 @@ struct Camera {
 // "eye=x,y,z,target=x,y,z,fov=60[,up=x,y,z]" (keys in any order; eye and target required).
 Result<Camera> parseCamera(std::string_view text);
 
-// 3/4 view from above-front-right at the nearest distance where the whole bounding box projects
-// inside the view (5% margin), with near/far planes bracketing the bounds.
+// The automatic camera's margin: the bounding box spans 1/kAutoCameraMargin of the frame along
+// its limiting axis (the other axis has room to spare).
+constexpr float kAutoCameraMargin = 1.05f;
+
+// 3/4 view from above-front-right (a fixed view direction) placed so that the bounding box's
+// projection fits the frame as tightly as that direction allows: every corner inside, touching
+// both sides of the limiting axis (up to the margin) and centred on the other, for any aspect
+// ratio. Near/far planes bracket the bounds.
 Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees = 60.0f);
 
 // Fill znear/zfar when zero, from the bounds seen by this camera (near plane never behind the eye).

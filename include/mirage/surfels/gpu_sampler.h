@@ -46,6 +46,8 @@ struct GpuSamplerResult {
 
 // Requires 64-bit buffer atomics (lavapipe and the H200 have them). Deterministic for the same
 // G-buffer: every atomic's winner is a total order on (distance, index) and candidates are sorted.
+// Bounded: every round appends at least one sample (at most min(count, texels) rounds); a round that
+// appends none is an error, as are non-finite texel positions (checked before any GPU work).
 Result<GpuSamplerResult> sampleOnGpu(gpu::Context& context, const GpuGBuffer& gbuffer, const GpuSamplerConfig& config);
 
 } // namespace mirage::surfels
