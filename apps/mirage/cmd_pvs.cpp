@@ -127,6 +127,10 @@ Result<Prepared> prepare(const PvsOptions& o) {
   auto cells = early->empty() ? cellsFromOptions(o, &p.scene) : std::move(early);
   if (!cells) return cells.error();
   p.cells = std::move(*cells);
+  // Cells far outside the scene make rays no backend can trace: one line naming the cell.
+  if (auto s = vis::validateCellsForScene(p.cells, p.scene.worldBounds(), o.cells.empty() ? "--cell-region" : o.cells);
+      !s)
+    return s.error();
   RayBackendChoice choice = o.rays;
   choice.packets = !o.noPackets;
   auto opened = openRayBackend(choice, p.scene);

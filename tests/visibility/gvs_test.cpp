@@ -234,11 +234,13 @@ TEST(EmbreeBackend, InvalidRaysAreMisses) {
   rays[1].origin = {0, 0, nan};
   rays[2].tnear = 5.0f;
   rays[2].tfar = 1.0f;
-  rays[3].origin = {0, 3, -3}; // valid: hits the wall
+  rays[3].origin = {0, 3, -3};     // valid: hits the wall
+  rays[4].origin = {0, 3, -1e20f}; // beyond what Embree accepts (it asserted on 1e20, not on 1e18)
+  rays[5].dir = {0, 0, 0};
   std::vector<Hit> hits(rays.size());
   for (bool coherent : {false, true}) {
     backend->trace(rays, hits, {.coherent = coherent});
-    for (int i = 0; i < 3; ++i) EXPECT_EQ(hits[size_t(i)].triangle, kNoHit);
+    for (int i : {0, 1, 2, 4, 5}) EXPECT_EQ(hits[size_t(i)].triangle, kNoHit) << i;
     EXPECT_NE(hits[3].triangle, kNoHit);
     EXPECT_NEAR(hits[3].t, 3.0f, 1e-4f);
   }
