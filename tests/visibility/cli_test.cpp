@@ -186,3 +186,29 @@ TEST(PvsCli, FarCellsAreRejectedNamingTheCell) {
     EXPECT_FALSE(fs::exists(out)) << c.args;
   }
 }
+
+// Progress: plain lines per cell with --progress (stderr), nothing at all with --quiet.
+TEST(PvsCli, ProgressLinesAndQuiet) {
+  ASSERT_TRUE(fs::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
+  fs::path dir = mirage::test::tempDir("pvs_cli_progress");
+  write(dir / "two.json", R"({"cells": [{"type": "box", "position": [0,1.7,-38], "size": [4,2,4]},
+                                        {"type": "box", "position": [4,1.7,-38], "size": [4,2,4]}]})");
+  const std::string base = "pvs gen:city:1 --cells " + (dir / "two.json").string() + " --rays 5000 --budget 40000";
+  CliRun r = runMirage(base + " --progress -o " + (dir / "a.mrg").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("cell 1/2 GVS++: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("cell 2/2 done: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(" of 40.0 k rays"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ETA "), std::string::npos) << r.err;
+  r = runMirage(base + " --quiet -o " + (dir / "b.mrg").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  std::ifstream out(dir / "stdout.txt");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(out), {}), "");
+  r = runMirage("pvs-eval gen:city:1 --cells " + (dir / "two.json").string() +
+                    " --rays 5000 --budget 20000 --size 8 --viewpoints 1 --progress",
+                dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("cell 2/2 RAND: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("cell 2/2 evaluation 3: view 1/54"), std::string::npos) << r.err;
+}
