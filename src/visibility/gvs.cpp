@@ -334,7 +334,13 @@ private:
   void randomStep(uint64_t count) {
     auto t0 = std::chrono::steady_clock::now();
     phaseTrace_ = &result_.stats.randomTraceSeconds;
-    const size_t n = size_t(budgetClamp(count));
+    size_t n = size_t(budgetClamp(count));
+    // Random rays alone (RAND) end their steps at the requested checkpoints, so RAND's snapshots
+    // fall exactly where GVS++'s did (pvs-eval --plot compares them at equal rays); the rays are
+    // the same either way. GVS++'s steps are not cut: that would change its schedule.
+    if (!cfg_.adaptiveBorder && nextCheckpoint_ < options_.checkpointRays.size() &&
+        options_.checkpointRays[nextCheckpoint_] > result_.stats.rays)
+      n = size_t(std::min<uint64_t>(n, options_.checkpointRays[nextCheckpoint_] - result_.stats.rays));
     double gain = 0.0;
     // Generated rays cost no per-ray traffic: the backend makes them where it traces them.
     if (!(generate_ && generatedRandomBatch(haltonIndex_, n, gain))) {

@@ -96,6 +96,12 @@ TEST(GvsAnytime, BudgetCutsTheSameBake) {
     EXPECT_EQ(part.stats.rays, c.rays);
     EXPECT_EQ(part.triangles, c.triangles);
   }
+  // RAND snapshots exactly where GVS++ did (pvs-eval --plot compares the two at equal rays).
+  BakeOptions same;
+  for (const PvsCheckpoint& c : full.checkpoints) same.checkpointRays.push_back(c.rays);
+  CellPvs rnd = computeCellPvs(**backend, v.scene, v.cell, randomOnlyConfig(full.stats.rays, cfg.seed), same);
+  ASSERT_EQ(rnd.checkpoints.size(), full.checkpoints.size());
+  for (size_t i = 0; i < rnd.checkpoints.size(); ++i) EXPECT_EQ(rnd.checkpoints[i].rays, full.checkpoints[i].rays);
   // Shorter than a step: the first rays of the same random batch.
   GvsConfig tiny = cfg;
   tiny.rayBudget = 777;
