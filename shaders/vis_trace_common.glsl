@@ -122,9 +122,11 @@ void claim(uint id, uint index) {
   atomicMin(RtU32Ref(src.s.firstRay).v[id], index);
 }
 
-// Degenerate rays (NaN, inverted interval) are misses, as in the Embree backend.
+// Degenerate rays (NaN, coordinates beyond kMaxRayCoordinate = 1e18, a zero direction, an
+// inverted interval) are misses: validRay in ray_backend.h, the one contract for every backend.
 bool validRay(RtRay r) {
-  return !any(isnan(r.origin)) && !any(isinf(r.origin)) && !any(isnan(r.dir)) && !any(isinf(r.dir)) &&
+  return !any(isnan(r.origin)) && !any(isnan(r.dir)) && all(lessThanEqual(abs(r.origin), vec3(1e18))) &&
+         all(lessThanEqual(abs(r.dir), vec3(1e18))) &&
          dot(r.dir, r.dir) > 0.0 && r.tnear >= 0.0 && r.tnear <= r.tfar;
 }
 

@@ -273,14 +273,6 @@ void EmbreeBackend::finish(Hit& hit, const FilterContext& ctx, uint32_t lane, co
   if (nearestNew) hit.flags |= kHitSeeThroughNew;
 }
 
-// Debian's Embree is built with assertions: a NaN or inverted ray aborts the process. Such rays
-// are reported as misses instead (they can come from degenerate input geometry).
-bool validRay(const Ray& r) {
-  return std::isfinite(r.origin.x) && std::isfinite(r.origin.y) && std::isfinite(r.origin.z) &&
-         std::isfinite(r.dir.x) && std::isfinite(r.dir.y) && std::isfinite(r.dir.z) && r.tnear >= 0.0f &&
-         r.tnear <= r.tfar;
-}
-
 void EmbreeBackend::traceOne(const Ray& ray, Hit& hit, const TraceSets& sets) const {
   if (!validRay(ray)) {
     hit = Hit{.t = ray.tfar};
@@ -316,9 +308,13 @@ void EmbreeBackend::trace16(const Ray* rays, Hit* hits, uint32_t n, const TraceS
   ctx.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   alignas(64) int valid[16];
   alignas(64) RTCRayHit16 rh;
+  // Inactive lanes still carry a valid ray: Debian's Embree asserts ray.valid() on lanes the
+  // coherent path handles together, masked or not (a NaN in one lane aborted the whole packet).
+  const Ray idle{.dir = {0.0f, 0.0f, 1.0f}, .tfar = 0.0f};
   for (uint32_t i = 0; i < 16; ++i) {
-    const Ray& r = rays[std::min(i, n - 1)];
-    valid[i] = i < n && validRay(r) ? -1 : 0;
+    const bool active = i < n && validRay(rays[i]);
+    const Ray& r = active ? rays[i] : idle;
+    valid[i] = active ? -1 : 0;
     rh.ray.org_x[i] = r.origin.x;
     rh.ray.org_y[i] = r.origin.y;
     rh.ray.org_z[i] = r.origin.z;

@@ -2,6 +2,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <numbers>
+#include <queue>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -56,14 +59,78 @@ bool segmentHitsTriangle(glm::vec3 o, glm::vec3 d, const std::array<glm::vec3, 3
   return t > 1e-4f && t < 1.0f - 1e-4f;
 }
 
+// Queued exploration work, highest expected gain first (ties: first queued first, so bakes are
+// reproducible). `value` is the gain this item is expected to bring, in the units of discoveryValue.
+template <class T> struct Queued {
+  float value;
+  uint64_t order;
+  T item;
+};
+template <class T> struct LowerValue {
+  bool operator()(const Queued<T>& a, const Queued<T>& b) const {
+    return a.value != b.value ? a.value < b.value : a.order > b.order;
+  }
+};
+
+// One exploration phase's work list and its record of how well queued value turned into gain.
+template <class T> struct Explorer {
+  std::priority_queue<Queued<T>, std::vector<Queued<T>>, LowerValue<T>> queue;
+  std::vector<Queued<T>> staged; // the next chunk, taken off the queue to price it
+  size_t raysPerItem = 1;
+  size_t chunkRays = 1; // rays of the next chunk: small while the phase's rate is still being learnt
+  // Gain found per unit of queued value (running mean of the last chunks); unknown until the
+  // phase ran once, and then the phase is tried first (optimism: its rate can only be learnt).
+  double gainPerValue = 0.0;
+  bool tried = false;
+
+  bool pending() const { return !queue.empty() || !staged.empty(); }
+  size_t size() const { return queue.size() + staged.size(); }
+  // Takes the `items` most valuable items as the next chunk (returning the previous one first, as
+  // more valuable work may have been queued since) and returns the gain per ray expected of it;
+  // negative when nothing is pending.
+  double stage(size_t items) {
+    for (auto& q : staged) queue.push(std::move(q));
+    staged.clear();
+    double value = 0.0;
+    while (staged.size() < items && !queue.empty()) {
+      staged.push_back(queue.top());
+      value += staged.back().value;
+      queue.pop();
+    }
+    if (staged.empty()) return -1.0;
+    if (!tried) return std::numeric_limits<double>::infinity();
+    return gainPerValue * value / double(staged.size() * raysPerItem);
+  }
+  void record(double value, double gain, size_t stepRays) {
+    chunkRays = std::min(stepRays, chunkRays * 2);
+    double rate = value > 0.0 ? gain / value : 0.0;
+    gainPerValue = tried ? 0.5 * (gainPerValue + rate) : rate;
+    tried = true;
+  }
+};
+
+// Random rays alone for the first steps: at first nearly every random ray finds something large,
+// and the first chunks of ABS and RS, which are needed to learn their rates, would cost rays that
+// random sampling uses better (on the generated cities of tests/visibility/anytime_test.cpp, ABS
+// found 45x less per ray than a random batch right after the first one, and exploring from the
+// second or third step on lost to random rays at those budgets; from the fifth on it won).
+constexpr uint64_t kWarmupSteps = 4;
+// A phase's first chunk is this fraction of a step, and each later one twice the previous, up to
+// a step: a phase that turns out to find little has cost little.
+constexpr size_t kFirstChunkDivisor = 16;
+
+// Outstanding RS seeds are capped: beyond this many, reverse sampling runs whatever its yield, so
+// memory stays bounded on scenes where ABS finds millions of discontinuities.
+constexpr size_t kMaxPendingSeeds = size_t(1) << 21;
+
 class Baker {
 public:
   Baker(RayBackend& backend, const Scene& scene, const ViewCell& cell, const GvsConfig& config,
         const BakeOptions& options)
-      : backend_(backend), scene_(scene), cfg_(config), offsets_(triangleOffsets(scene)),
+      : backend_(backend), scene_(scene), cfg_(config), options_(options), offsets_(triangleOffsets(scene)),
         found_(backend.triangleCount()), surface_(cell), halton_(config.seed), rsHalton_(config.seed ^ 0x9e3779b9u),
-        keepWitnesses_(options.keepWitnesses), checkpointRays_(options.checkpointRays),
-        batch_(backend.preferredBatchRays()) {
+        randomPerIteration_(std::max<uint64_t>(1, config.randomRays)),
+        step_(size_t(std::max<uint64_t>(1, std::min<uint64_t>(backend.preferredBatchRays(), randomPerIteration_)))) {
     // Meshes without bounds (hand-made scenes) leave the world bounds empty: drop the scene term.
     Bounds b = scene.worldBounds();
     sceneDiagonal_ = b.empty() ? 0.0f : glm::length(b.extent());
@@ -72,43 +139,104 @@ public:
       edges_.push_back(e);
       edgeLength_ += glm::length(e[1] - e[0]);
     }
+    // A cell whose surface points are not traceable rays' origins gives an empty PVS: no ray from
+    // it reaches a backend (callers reject such cells first, validateCellsForScene).
+    traceable_ = cell.surfaceArea() > 0.0f;
+    for (glm::vec3 c : cell.corners()) traceable_ = traceable_ && validRay(Ray{.origin = c});
+    border_.raysPerItem = 9 + 3 * size_t(cfg_.absEdgeSamples);
+    reverse_.raysPerItem = std::max<size_t>(1, size_t(cfg_.rsEdgeSamples) + cfg_.rsAreaSamples);
+    border_.chunkRays = reverse_.chunkRays = std::max<size_t>(1, step_ / kFirstChunkDivisor);
   }
 
   CellPvs run() {
     auto t0 = std::chrono::steady_clock::now();
-    uint32_t stable = 0;
-    for (uint32_t iter = 0; iter < cfg_.maxIterations && budgetLeft(); ++iter) {
-      size_t before = found_.count();
-      halton_.reshuffle();
-      auto tr = std::chrono::steady_clock::now();
-      phaseTrace_ = &result_.stats.randomTraceSeconds;
-      std::vector<Discovery> queue = randomPhase();
-      result_.stats.randomSeconds += secondsSince(tr);
-      while (!queue.empty() && cfg_.adaptiveBorder && budgetLeft()) {
-        std::vector<Discovery> next;
-        auto ta = std::chrono::steady_clock::now();
-        const double rsBefore = result_.stats.rsSeconds;
-        absPhase(queue, next);
-        result_.stats.absSeconds += secondsSince(ta) - (result_.stats.rsSeconds - rsBefore);
-        queue = std::move(next);
-      }
-      ++result_.stats.iterations;
-      stable = found_.count() - before < cfg_.minNewTriangles ? stable + 1 : 0;
-      if (stable >= cfg_.stableIterations) break;
-    }
+    if (traceable_) schedule();
     result_.triangles = found_.sorted();
-    result_.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    result_.stats.seconds = secondsSince(t0);
     return std::move(result_);
   }
 
 private:
+  enum class Step { Random, Border, Reverse };
+
   static double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
+
+  // The anytime schedule (docs/visibility.md). Every step traces about one batch: a batch of
+  // random rays, or a chunk of the most valuable queued ABS or RS work, whichever is expected to
+  // gain more per ray. So a bake stopped by the budget at any point has spent its rays where they
+  // found the most, and never spends them on the neighbourhood of its first hits while random
+  // rays would still find more. Iterations are counted in random rays (randomRays each) and the
+  // termination test is the seed's: fewer than T new triangles in k consecutive iterations, then
+  // whatever is still queued is explored before the bake stops.
+  void schedule() {
+    uint64_t iterationEnd = 0; // random rays traced when the current iteration's are spent
+    size_t iterationStart = 0; // triangles found when it began
+    uint32_t stable = 0;
+    bool draining = false;
+    while (budgetLeft()) {
+      const bool pending = border_.pending() || reverse_.pending();
+      if (draining && !pending) {
+        if (found_.count() - iterationStart < cfg_.minNewTriangles) return;
+        draining = false; // exploring the rest found enough to go on
+        stable = 0;
+      }
+      const Step step = choose(draining);
+      if (step == Step::Random) {
+        if (result_.stats.randomRays >= iterationEnd) {
+          if (result_.stats.iterations > 0) {
+            stable = found_.count() - iterationStart < cfg_.minNewTriangles ? stable + 1 : 0;
+            iterationStart = found_.count();
+            if (stable >= cfg_.stableIterations) {
+              if (!pending) return;
+              draining = true;
+              continue;
+            }
+          }
+          if (result_.stats.iterations >= cfg_.maxIterations) return;
+          ++result_.stats.iterations;
+          iterationStart = found_.count();
+          iterationEnd += randomPerIteration_;
+        }
+        randomStep(std::min<uint64_t>(step_, iterationEnd - result_.stats.randomRays));
+      } else if (step == Step::Border) {
+        borderStep();
+      } else {
+        reverseStep();
+      }
+      report();
+    }
+  }
+
+  Step choose(bool draining) {
+    const double border = border_.stage(std::max<size_t>(1, border_.chunkRays / border_.raysPerItem));
+    const double reverse = reverse_.stage(std::max<size_t>(1, reverse_.chunkRays / reverse_.raysPerItem));
+    if (result_.stats.randomRays < kWarmupSteps * step_ && !draining) return Step::Random;
+    if (reverse_.size() > kMaxPendingSeeds) return Step::Reverse;
+    if (border < 0.0 && reverse < 0.0) return Step::Random;
+    const Step best = border >= reverse ? Step::Border : Step::Reverse;
+    return draining || std::max(border, reverse) >= randomYield_ ? best : Step::Random;
+  }
+
+  void report() {
+    if (!options_.progress) return;
+    const PvsStats& s = result_.stats;
+    options_.progress({.rays = s.rays,
+                       .budget = cfg_.rayBudget,
+                       .triangles = found_.count(),
+                       .iterations = s.iterations,
+                       .randomRays = s.randomRays,
+                       .absRays = s.absRays,
+                       .rsRays = s.rsRays,
+                       .seconds = secondsSince(start_)});
+  }
+
   void checkpoint() {
     // One snapshot however many requested counts this batch passed: rays strictly increase.
     bool reached = false;
-    while (nextCheckpoint_ < checkpointRays_.size() && result_.stats.rays >= checkpointRays_[nextCheckpoint_]) {
+    while (nextCheckpoint_ < options_.checkpointRays.size() &&
+           result_.stats.rays >= options_.checkpointRays[nextCheckpoint_]) {
       reached = true;
       ++nextCheckpoint_;
     }
@@ -120,8 +248,32 @@ private:
     return cfg_.rayBudget == 0 ? n : std::min<uint64_t>(n, cfg_.rayBudget - result_.stats.rays);
   }
 
-  // Trace rays_[0, n) into hits_, recording into found_; append each new discovery to `out`.
-  void traceAndCollect(size_t n, std::vector<Discovery>& out) {
+  // What finding `triangle` from `origin` is worth: the solid angle it spans seen from there,
+  // unoccluded and at most a hemisphere. Missing triangles cost pixels in proportion to the solid
+  // angle they cover, and random rays find triangles at that rate too, so gains of every phase
+  // compare in one unit.
+  float discoveryValue(uint32_t triangle, glm::vec3 origin) const {
+    constexpr float kHemisphere = 2.0f * std::numbers::pi_v<float>;
+    auto tri = worldTriangle(scene_, offsets_, triangle);
+    glm::vec3 n = glm::cross(tri[1] - tri[0], tri[2] - tri[0]); // twice the area, along the normal
+    glm::vec3 d = (tri[0] + tri[1] + tri[2]) / 3.0f - origin;
+    float d2 = glm::dot(d, d);
+    if (!(d2 > 0.0f)) return kHemisphere;
+    float value = std::abs(glm::dot(n, d)) / (2.0f * d2 * std::sqrt(d2));
+    return std::isfinite(value) ? std::min(value, kHemisphere) : 0.0f;
+  }
+
+  // A triangle found for the first time by `ray`: queued for ABS, witnessed; returns its value.
+  double discover(uint32_t triangle, const Ray& ray) {
+    float value = discoveryValue(triangle, ray.origin);
+    if (cfg_.adaptiveBorder) border_.queue.push({value, order_++, Discovery{triangle, ray.origin}});
+    if (options_.keepWitnesses) result_.witnesses.push_back({triangle, ray});
+    return value;
+  }
+
+  // Trace rays_[0, n) into hits_, recording into found_; every new discovery goes to discover().
+  // Returns the value found.
+  double traceAndCollect(size_t n) {
     // Which of several rays hitting a new triangle wins the atomic insert depends on thread
     // timing. Against a snapshot of the set taken before the batch, the lowest-indexed ray that
     // hit a triangle absent from it is credited instead, so discoveries (and with them the ABS
@@ -133,11 +285,11 @@ private:
     result_.stats.traceSeconds += traced;
     *phaseTrace_ += traced;
     result_.stats.rays += n;
+    double gain = 0.0;
     auto claim = [&](uint32_t t, size_t i) {
       if (t == kNoHit || (before_[t >> 6] >> (t & 63) & 1)) return;
       before_[t >> 6] |= uint64_t(1) << (t & 63); // later rays of the batch find it taken
-      out.push_back({t, rays_[i].origin});
-      if (keepWitnesses_) result_.witnesses.push_back({t, rays_[i]});
+      gain += discover(t, rays_[i]);
     };
     for (size_t i = 0; i < n; ++i) {
       claim(hits_[i].triangle, i);
@@ -146,12 +298,13 @@ private:
       claim(hits_[i].seeThrough, i);
     }
     checkpoint();
+    return gain;
   }
 
   // Random rays made by the backend where they are traced: only first discoveries come back, and
   // the host rebuilds the discovering ray from its Halton index (the same map, in float on both
   // sides: the origin agrees to rounding, which ABS does not notice).
-  bool generatedRandomBatch(uint64_t base, size_t n, std::vector<Discovery>& out) {
+  bool generatedRandomBatch(uint64_t base, size_t n, double& gain) {
     CellRaySource source{surface_.faces, surface_.cdf, halton_.offsets(), base};
     firstHits_.clear();
     auto t0 = std::chrono::steady_clock::now();
@@ -170,33 +323,31 @@ private:
       Ray ray{};
       ray.origin = surface_.point(h[0], h[1], h[2]);
       ray.dir = detail::sphereDirection(h[3], h[4]);
-      out.push_back({f.triangle, ray.origin});
-      if (keepWitnesses_) result_.witnesses.push_back({f.triangle, ray});
+      gain += discover(f.triangle, ray);
     }
     checkpoint();
     return true;
   }
 
-  std::vector<Discovery> randomPhase() {
-    std::vector<Discovery> out;
-    uint64_t total = budgetClamp(cfg_.randomRays);
-    for (uint64_t done = 0; done < total;) {
-      // Generated rays cost no per-ray traffic, so their batches are larger (fewer submissions,
-      // fewer read-backs of the discoveries); they still end at checkpoints for the budget.
-      if (generate_) {
-        size_t n = size_t(std::min<uint64_t>(std::min<uint64_t>(batch_ * 8, uint64_t(1) << 31), total - done));
-        if (generatedRandomBatch(haltonIndex_, n, out)) {
-          haltonIndex_ += n;
-          result_.stats.randomRays += n;
-          done += n;
-          continue;
-        }
-        generate_ = false; // the backend cannot: make the rays here from now on
-      }
-      size_t n = size_t(std::min<uint64_t>(batch_, total - done));
+  // `n` rays of the cell's one randomized Halton sequence (the same rays for the same seed as the
+  // RAND baseline's, so the two differ only in what GVS++ does besides).
+  void randomStep(uint64_t count) {
+    auto t0 = std::chrono::steady_clock::now();
+    phaseTrace_ = &result_.stats.randomTraceSeconds;
+    size_t n = size_t(budgetClamp(count));
+    // Random rays alone (RAND) end their steps at the requested checkpoints, so RAND's snapshots
+    // fall exactly where GVS++'s did (pvs-eval --plot compares them at equal rays); the rays are
+    // the same either way. GVS++'s steps are not cut: that would change its schedule.
+    if (!cfg_.adaptiveBorder && nextCheckpoint_ < options_.checkpointRays.size() &&
+        options_.checkpointRays[nextCheckpoint_] > result_.stats.rays)
+      n = size_t(std::min<uint64_t>(n, options_.checkpointRays[nextCheckpoint_] - result_.stats.rays));
+    double gain = 0.0;
+    // Generated rays cost no per-ray traffic: the backend makes them where it traces them.
+    if (!(generate_ && generatedRandomBatch(haltonIndex_, n, gain))) {
+      generate_ = false; // the backend cannot: make the rays here from now on
       rays_.resize(n);
       hits_.resize(n);
-      uint64_t base = haltonIndex_;
+      const uint64_t base = haltonIndex_;
       tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
         auto cursor = halton_.cursor(base + r.begin());
         for (size_t i = r.begin(); i < r.end(); ++i, cursor.next()) {
@@ -207,12 +358,12 @@ private:
           ray.dir = detail::sphereDirection(h[3], h[4]);
         }
       });
-      haltonIndex_ += n;
-      traceAndCollect(n, out);
-      result_.stats.randomRays += n;
-      done += n;
+      gain = traceAndCollect(n);
     }
-    return out;
+    haltonIndex_ += n;
+    result_.stats.randomRays += n;
+    randomYield_ = n ? gain / double(n) : 0.0;
+    result_.stats.randomSeconds += secondsSince(t0);
   }
 
   // The 9-vertex border polygon of `tri` enlarged by delta, sampled: its 9 vertices plus
@@ -238,70 +389,74 @@ private:
     }
   }
 
-  // Rays are generated in parallel into fixed slots (one block per discovery or seed); unused
-  // slots get tfar < 0 and are squeezed out before tracing, so every traced ray is a real sample.
+  // Rays are generated in parallel into fixed slots (one block per queued item); unused slots get
+  // tfar < 0 and are squeezed out before tracing, so every traced ray is a real sample. `owner_`
+  // (the item a ray belongs to) and `targets` move along.
   void compact(std::vector<glm::vec3>* targets) {
     size_t out = 0;
     for (size_t i = 0; i < rays_.size(); ++i) {
       if (rays_[i].tfar < 0.0f) continue;
       rays_[out] = rays_[i];
+      owner_[out] = owner_[i];
       if (targets) (*targets)[out] = (*targets)[i];
       ++out;
     }
     rays_.resize(out);
+    owner_.resize(out);
     if (targets) targets->resize(out);
   }
 
-  // ABS in chunks of about one batch of rays; each chunk's discontinuities are reverse-sampled
-  // right away, so the seed list stays batch-sized however many triangles an iteration finds.
-  void absPhase(const std::vector<Discovery>& queue, std::vector<Discovery>& next) {
-    std::vector<RsSeed> seeds;
-    const size_t perTriangle = 9 + 3 * size_t(cfg_.absEdgeSamples);
-    const size_t chunk = std::max<size_t>(1, batch_ / perTriangle);
-    std::vector<glm::vec3> targets;
+  // ABS on the staged chunk of discoveries; the discontinuities its rays meet are queued for RS,
+  // each worth what the triangle whose border it lies on was.
+  void borderStep() {
+    auto t0 = std::chrono::steady_clock::now();
     phaseTrace_ = &result_.stats.absTraceSeconds;
-    for (size_t begin = 0; begin < queue.size() && budgetLeft(); begin += chunk) {
-      size_t end = std::min(queue.size(), begin + chunk);
-      rays_.assign((end - begin) * perTriangle, Ray{.tfar = -1.0f});
-      targets.resize(rays_.size());
-      tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 64), [&](const tbb::blocked_range<size_t>& r) {
-        std::vector<glm::vec3> pts;
-        for (size_t q = r.begin(); q < r.end(); ++q) {
-          auto tri = worldTriangle(scene_, offsets_, queue[q].triangle);
-          float longest =
-              std::max({glm::length(tri[1] - tri[0]), glm::length(tri[2] - tri[1]), glm::length(tri[0] - tri[2])});
-          float delta = cfg_.absDeltaTriangle * longest + cfg_.absDeltaScene * sceneDiagonal_;
-          pts.clear();
-          borderPoints(tri, delta, cfg_.absEdgeSamples, pts);
-          size_t slot = (q - begin) * perTriangle;
-          for (glm::vec3 p : pts) {
-            glm::vec3 d = p - queue[q].origin;
-            if (glm::dot(d, d) < 1e-30f) continue;
-            rays_[slot] = Ray{.origin = queue[q].origin, .dir = glm::normalize(d)};
-            targets[slot++] = p;
-          }
+    std::vector<Queued<Discovery>> items = std::move(border_.staged);
+    border_.staged.clear();
+    double value = 0.0;
+    for (const auto& q : items) value += q.value;
+    const size_t perTriangle = border_.raysPerItem;
+    rays_.assign(items.size() * perTriangle, Ray{.tfar = -1.0f});
+    owner_.resize(rays_.size());
+    targets_.resize(rays_.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, items.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<glm::vec3> pts;
+      for (size_t q = r.begin(); q < r.end(); ++q) {
+        const Discovery& d = items[q].item;
+        auto tri = worldTriangle(scene_, offsets_, d.triangle);
+        float longest =
+            std::max({glm::length(tri[1] - tri[0]), glm::length(tri[2] - tri[1]), glm::length(tri[0] - tri[2])});
+        float delta = cfg_.absDeltaTriangle * longest + cfg_.absDeltaScene * sceneDiagonal_;
+        pts.clear();
+        borderPoints(tri, delta, cfg_.absEdgeSamples, pts);
+        size_t slot = q * perTriangle;
+        for (glm::vec3 p : pts) {
+          glm::vec3 dir = p - d.origin;
+          if (glm::dot(dir, dir) < 1e-30f) continue;
+          Ray ray{.origin = d.origin, .dir = glm::normalize(dir)};
+          if (!validRay(ray)) continue; // never hand a backend a NaN or far-out ray
+          owner_[slot] = uint32_t(q);
+          rays_[slot] = ray;
+          targets_[slot++] = p;
         }
-      });
-      compact(&targets);
-      size_t n = size_t(budgetClamp(rays_.size()));
-      hits_.resize(rays_.size());
-      traceAndCollect(n, next);
-      result_.stats.absRays += n;
-      seeds.clear();
-      for (size_t i = 0; i < n; ++i) {
-        float dist = glm::length(targets[i] - rays_[i].origin);
-        if (hits_[i].triangle == kNoHit || hits_[i].t < dist * (1.0f - cfg_.rsDeltaRelative))
-          seeds.push_back({targets[i], hits_[i].triangle});
       }
-      result_.stats.discontinuities += seeds.size();
-      if (cfg_.reverseSampling) {
-        auto tr = std::chrono::steady_clock::now();
-        phaseTrace_ = &result_.stats.rsTraceSeconds;
-        rsPhase(seeds, next);
-        phaseTrace_ = &result_.stats.absTraceSeconds;
-        result_.stats.rsSeconds += secondsSince(tr);
-      } // reuses rays_/hits_: the seeds hold what RS needs
+    });
+    compact(&targets_);
+    const size_t n = size_t(budgetClamp(rays_.size()));
+    hits_.resize(rays_.size());
+    const double gain = traceAndCollect(n);
+    result_.stats.absRays += n;
+    uint64_t seeds = 0;
+    for (size_t i = 0; i < n; ++i) {
+      float dist = glm::length(targets_[i] - rays_[i].origin);
+      if (hits_[i].triangle != kNoHit && hits_[i].t >= dist * (1.0f - cfg_.rsDeltaRelative)) continue;
+      ++seeds;
+      if (cfg_.reverseSampling && cfg_.rsEdgeSamples + cfg_.rsAreaSamples > 0)
+        reverse_.queue.push({items[owner_[i]].value, order_++, RsSeed{targets_[i], hits_[i].triangle}});
     }
+    result_.stats.discontinuities += seeds;
+    border_.record(value, gain, step_);
+    result_.stats.absSeconds += secondsSince(t0);
   }
 
   glm::vec3 edgePoint(float s) const {
@@ -314,70 +469,88 @@ private:
     return edges_.back()[1];
   }
 
-  void rsPhase(const std::vector<RsSeed>& seeds, std::vector<Discovery>& next) {
+  // RS on the staged chunk of seeds: origins spread over the cell, aimed at each seed's target.
+  void reverseStep() {
+    auto t0 = std::chrono::steady_clock::now();
+    phaseTrace_ = &result_.stats.rsTraceSeconds;
+    std::vector<Queued<RsSeed>> items = std::move(reverse_.staged);
+    reverse_.staged.clear();
+    double value = 0.0;
+    for (const auto& q : items) value += q.value;
     const size_t perSeed = size_t(cfg_.rsEdgeSamples) + cfg_.rsAreaSamples;
-    if (perSeed == 0) return;
-    const size_t chunk = std::max<size_t>(1, batch_ / perSeed);
-    for (size_t begin = 0; begin < seeds.size() && budgetLeft(); begin += chunk) {
-      size_t end = std::min(seeds.size(), begin + chunk);
-      rays_.assign((end - begin) * perSeed, Ray{.tfar = -1.0f});
-      const uint64_t base = rsIndex_;
-      tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 64), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t s = r.begin(); s < r.end(); ++s) {
-          const RsSeed& seed = seeds[s];
-          const uint64_t index = base + (s - begin);
-          std::array<glm::vec3, 3> occ{};
-          if (seed.occluder != kNoHit) occ = worldTriangle(scene_, offsets_, seed.occluder);
-          size_t slot = (s - begin) * perSeed;
-          auto emit = [&](glm::vec3 o) {
-            glm::vec3 d = seed.target - o;
-            if (glm::dot(d, d) < 1e-30f) return;
-            // Inside the occluder's shadow on the cell: the occluder blocks this origin too.
-            if (seed.occluder != kNoHit && segmentHitsTriangle(seed.target, o - seed.target, occ)) return;
-            rays_[slot++] = Ray{.origin = o, .dir = glm::normalize(d)};
-          };
-          // Edge origins evenly spread along the cell's edges, shifted per seed so seeds differ.
-          float shift = detail::radicalInverse(index, 2);
-          for (uint32_t j = 0; j < cfg_.rsEdgeSamples; ++j)
-            emit(edgePoint((float(j) + shift) / float(cfg_.rsEdgeSamples)));
-          for (uint32_t j = 0; j < cfg_.rsAreaSamples; ++j) {
-            auto h = rsHalton_(index * cfg_.rsAreaSamples + j);
-            emit(surface_.point(h[0], h[1], h[2]));
-          }
+    rays_.assign(items.size() * perSeed, Ray{.tfar = -1.0f});
+    owner_.resize(rays_.size());
+    const uint64_t base = rsIndex_;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, items.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t s = r.begin(); s < r.end(); ++s) {
+        const RsSeed& seed = items[s].item;
+        const uint64_t index = base + s;
+        std::array<glm::vec3, 3> occ{};
+        if (seed.occluder != kNoHit) occ = worldTriangle(scene_, offsets_, seed.occluder);
+        size_t slot = s * perSeed;
+        auto emit = [&](glm::vec3 o) {
+          glm::vec3 d = seed.target - o;
+          if (glm::dot(d, d) < 1e-30f) return;
+          // Inside the occluder's shadow on the cell: the occluder blocks this origin too.
+          if (seed.occluder != kNoHit && segmentHitsTriangle(seed.target, o - seed.target, occ)) return;
+          Ray ray{.origin = o, .dir = glm::normalize(d)};
+          if (!validRay(ray)) return;
+          owner_[slot] = uint32_t(s);
+          rays_[slot++] = ray;
+        };
+        // Edge origins evenly spread along the cell's edges, shifted per seed so seeds differ.
+        float shift = detail::radicalInverse(index, 2);
+        for (uint32_t j = 0; j < cfg_.rsEdgeSamples; ++j)
+          emit(edgePoint((float(j) + shift) / float(cfg_.rsEdgeSamples)));
+        for (uint32_t j = 0; j < cfg_.rsAreaSamples; ++j) {
+          auto h = rsHalton_(index * cfg_.rsAreaSamples + j);
+          emit(surface_.point(h[0], h[1], h[2]));
         }
-      });
-      rsIndex_ += end - begin;
-      compact(nullptr);
-      size_t n = size_t(budgetClamp(rays_.size()));
-      hits_.resize(rays_.size());
-      traceAndCollect(n, next);
-      result_.stats.rsRays += n;
-    }
+      }
+    });
+    rsIndex_ += items.size();
+    compact(nullptr);
+    const size_t n = size_t(budgetClamp(rays_.size()));
+    hits_.resize(rays_.size());
+    const double gain = traceAndCollect(n);
+    result_.stats.rsRays += n;
+    reverse_.record(value, gain, step_);
+    result_.stats.rsSeconds += secondsSince(t0);
   }
 
   RayBackend& backend_;
   const Scene& scene_;
   const GvsConfig& cfg_;
+  const BakeOptions& options_;
   std::vector<uint64_t> offsets_;
   TriangleSet found_;
   detail::SurfaceSampler surface_;
   RandomizedHalton<5> halton_; // face, u, v, direction u, direction v
   RandomizedHalton<3> rsHalton_;
+  const uint64_t randomPerIteration_;
+  // Rays per step: the backend's batch (256 k fill all CPU cores), at most one iteration's random
+  // rays, so a budget of a few iterations is still spent in many decisions.
+  const size_t step_;
   uint64_t haltonIndex_ = 0;
   uint64_t rsIndex_ = 0;
-  bool keepWitnesses_;
-  std::vector<uint64_t> checkpointRays_;
+  uint64_t order_ = 0; // queue insertions so far (ties in value go first-in first-out)
+  Explorer<Discovery> border_;
+  Explorer<RsSeed> reverse_;
+  double randomYield_ = 0.0; // value found per ray by the last random step
   size_t nextCheckpoint_ = 0;
   bool generate_ = true; // try the backend's own random rays (traceCellRays) first
+  bool traceable_ = true;
   std::vector<FirstHit> firstHits_;
   double* phaseTrace_ = nullptr; // the current phase's share of the trace time
-  const size_t batch_;           // rays per trace call (the backend's choice: 256 k fill all CPU cores)
   float sceneDiagonal_ = 1.0f;
   std::vector<std::array<glm::vec3, 2>> edges_;
   float edgeLength_ = 0.0f;
   std::vector<Ray> rays_;
   std::vector<Hit> hits_;
-  std::vector<uint64_t> before_; // found_ before the current batch, plus the batch's claims
+  std::vector<uint32_t> owner_;    // the queued item each ray of a step belongs to
+  std::vector<glm::vec3> targets_; // the border point each ABS ray aims at
+  std::vector<uint64_t> before_;   // found_ before the current batch, plus the batch's claims
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
   CellPvs result_;
 };
 

@@ -72,7 +72,8 @@ PixelError evaluatePvs(RayBackend& backend, const ViewCell& cell, const Triangle
   std::mt19937_64 rng(config.seed);
   std::normal_distribution<float> normal;
   double sumWrong = 0.0;
-  for (glm::vec3 eye : evaluationViewpoints(cell, config)) {
+  const std::vector<glm::vec3> eyes = evaluationViewpoints(cell, config);
+  for (glm::vec3 eye : eyes) {
     // A uniformly random rotation (normalized Gaussian quaternion) of the cube frame.
     glm::quat q = glm::normalize(glm::quat(normal(rng), normal(rng), normal(rng), normal(rng)));
     glm::mat3 frame = glm::mat3_cast(q);
@@ -114,6 +115,7 @@ PixelError evaluatePvs(RayBackend& backend, const ViewCell& cell, const Triangle
       sumWrong += double(count);
       err.maxWrong = std::max(err.maxWrong, count);
       ++err.views;
+      if (config.progress) config.progress(err.views, uint32_t(eyes.size() * 6));
     }
   }
   err.averageWrong = err.views ? sumWrong / err.views : 0.0;

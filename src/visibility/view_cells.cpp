@@ -1,4 +1,5 @@
 // View cells: geometry, validation, JSON and grids (view_cell.h).
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -7,6 +8,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
+#include "mirage/visibility/ray_backend.h"
 #include "mirage/visibility/view_cell.h"
 
 namespace mirage::vis {
@@ -126,6 +128,36 @@ Status validateCell(const ViewCell& cell, const std::string& where) {
   // Relative, so the check means the same in millimetres and kilometres.
   if (!(smallest > 0.0f) || smallest <= 1e-6f * largest)
     return Error{where + ": degenerate box (size " + vecText(cell.size) + "; use \"type\": \"rect\" for a flat cell)"};
+  return Ok{};
+}
+
+Status validateCellsForScene(const std::vector<ViewCell>& cells, const Bounds& sceneBounds, const std::string& where) {
+  // The reach: the scene's bounds grown by kCellSceneDiagonals diagonals (a point-like scene gets
+  // a margin relative to its position, so the test means the same in any unit).
+  const bool haveScene = !sceneBounds.empty() && finite(sceneBounds.min) && finite(sceneBounds.max);
+  Bounds reach;
+  if (haveScene) {
+    float diagonal = glm::length(sceneBounds.extent());
+    float scale = std::max(std::abs(sceneBounds.center().x),
+                           std::max(std::abs(sceneBounds.center().y), std::abs(sceneBounds.center().z)));
+    float margin = kCellSceneDiagonals * std::max({diagonal, 1e-6f * scale, 1e-30f});
+    reach.min = sceneBounds.min - glm::vec3(margin);
+    reach.max = sceneBounds.max + glm::vec3(margin);
+  }
+  for (size_t i = 0; i < cells.size(); ++i) {
+    const std::string cell = where + ": cell " + std::to_string(i);
+    if (auto ok = validateCell(cells[i], cell); !ok) return ok;
+    Bounds b = cells[i].bounds();
+    float largest = std::max({std::abs(b.min.x), std::abs(b.min.y), std::abs(b.min.z), std::abs(b.max.x),
+                              std::abs(b.max.y), std::abs(b.max.z)});
+    if (!finite(b.min) || !finite(b.max) || !(largest <= kMaxRayCoordinate))
+      return Error{cell + ": coordinates too large to ray trace (cell spans " + vecText(b.min) + " to " +
+                   vecText(b.max) + ")"};
+    if (haveScene && (glm::any(glm::lessThan(b.min, reach.min)) || glm::any(glm::greaterThan(b.max, reach.max))))
+      return Error{cell + ": lies too far from the scene (cell spans " + vecText(b.min) + " to " + vecText(b.max) +
+                   ", scene " + vecText(sceneBounds.min) + " to " + vecText(sceneBounds.max) +
+                   "; cells must lie within " + std::to_string(int(kCellSceneDiagonals)) + " scene diagonals of it)"};
+  }
   return Ok{};
 }
 

@@ -153,3 +153,62 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
   EXPECT_GT(nodes["8host"], 1.0);
   EXPECT_GE(json["speedups"].size(), 1u);
 }
+
+// A view cell far outside the scene (1e30 from a city) aborted inside Embree; now the cells file is
+// rejected with one line naming it and the cell, exit 2, no output.
+TEST(PvsCli, FarCellsAreRejectedNamingTheCell) {
+  ASSERT_TRUE(fs::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
+  MIRAGE_REQUIRE_DATA(far, "fuzz-regressions/cells_far.json");
+  fs::path dir = mirage::test::tempDir("pvs_cli_far");
+  write(dir / "far2.json", R"({"cells": [{"type": "box", "position": [0,1.7,-38], "size": [4,2,4]},
+                                         {"type": "box", "position": [0,1e20,0], "size": [4,2,4]}]})");
+  write(dir / "huge.json", R"({"cells": [{"type": "box", "position": [0,0,0], "size": [1e25,1e25,1e25]}]})");
+  fs::path out = dir / "p.mrg";
+  struct Case {
+    std::string args, file, cell;
+  } cases[] = {
+      {"pvs gen:city:1 --cells " + far.string() + " -o " + out.string() + " --rays 10000 --budget 100000", far.string(),
+       "cell 0"},
+      {"pvs-eval gen:city:1 --cells " + far.string() + " --rays 10000 --budget 100000 --size 8", far.string(),
+       "cell 0"},
+      {"pvs gen:city:1 --cells " + (dir / "far2.json").string() + " -o " + out.string(), (dir / "far2.json").string(),
+       "cell 1"},
+      {"pvs gen:city:1 --cells " + (dir / "huge.json").string() + " -o " + out.string(), (dir / "huge.json").string(),
+       "cell 0"},
+      {"pvs gen:city:1 --cell-grid 2x1x1 --cell-region -1e25,0,-1e25,1e25,2,1e25 -o " + out.string(), "--cell-region",
+       "cell 0"},
+  };
+  for (const Case& c : cases) {
+    CliRun r = runMirage(c.args, dir);
+    EXPECT_EQ(r.code, 2) << c.args << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.args << ": " << r.err;
+    EXPECT_NE(r.err.find(c.file + ": " + c.cell + ": "), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << c.args;
+  }
+}
+
+// Progress: plain lines per cell with --progress (stderr), nothing at all with --quiet.
+TEST(PvsCli, ProgressLinesAndQuiet) {
+  ASSERT_TRUE(fs::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
+  fs::path dir = mirage::test::tempDir("pvs_cli_progress");
+  write(dir / "two.json", R"({"cells": [{"type": "box", "position": [0,1.7,-38], "size": [4,2,4]},
+                                        {"type": "box", "position": [4,1.7,-38], "size": [4,2,4]}]})");
+  const std::string base = "pvs gen:city:1 --cells " + (dir / "two.json").string() + " --rays 5000 --budget 40000";
+  CliRun r = runMirage(base + " --progress -o " + (dir / "a.mrg").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("cell 1/2 GVS++: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("cell 2/2 done: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(" of 40.0 k rays"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ETA "), std::string::npos) << r.err;
+  r = runMirage(base + " --quiet -o " + (dir / "b.mrg").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  std::ifstream out(dir / "stdout.txt");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(out), {}), "");
+  r = runMirage("pvs-eval gen:city:1 --cells " + (dir / "two.json").string() +
+                    " --rays 5000 --budget 20000 --size 8 --viewpoints 1 --progress",
+                dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("cell 2/2 RAND: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("cell 2/2 evaluation 3: view 1/54"), std::string::npos) << r.err;
+}

@@ -136,9 +136,11 @@ TEST(Gvs, FindsGeometryInsideTheCell) {
   inner.name = "inner";
   inner.positions = {{-0.2f, -0.2f, 0.0f}, {0.2f, -0.2f, 0.0f}, {0.2f, 0.2f, 0.0f}};
   inner.indices = {0, 1, 2};
+  // Outside, 8 units beyond the cell: 4x the inner one's size, so that random rays find it with
+  // near certainty (at 0.4 units it is hit about 3 times in 60 k rays, and missed by some seeds).
   Mesh outer = inner;
   outer.name = "outer";
-  for (glm::vec3& p : outer.positions) p.z = 10.0f;
+  for (glm::vec3& p : outer.positions) p = glm::vec3(4.0f * p.x, 4.0f * p.y, 10.0f);
   Scene scene;
   scene.materials.push_back(Material{});
   scene.meshes = {inner, outer};
@@ -234,11 +236,13 @@ TEST(EmbreeBackend, InvalidRaysAreMisses) {
   rays[1].origin = {0, 0, nan};
   rays[2].tnear = 5.0f;
   rays[2].tfar = 1.0f;
-  rays[3].origin = {0, 3, -3}; // valid: hits the wall
+  rays[3].origin = {0, 3, -3};     // valid: hits the wall
+  rays[4].origin = {0, 3, -1e20f}; // beyond what Embree accepts (it asserted on 1e20, not on 1e18)
+  rays[5].dir = {0, 0, 0};
   std::vector<Hit> hits(rays.size());
   for (bool coherent : {false, true}) {
     backend->trace(rays, hits, {.coherent = coherent});
-    for (int i = 0; i < 3; ++i) EXPECT_EQ(hits[size_t(i)].triangle, kNoHit);
+    for (int i : {0, 1, 2, 4, 5}) EXPECT_EQ(hits[size_t(i)].triangle, kNoHit) << i;
     EXPECT_NE(hits[3].triangle, kNoHit);
     EXPECT_NEAR(hits[3].t, 3.0f, 1e-4f);
   }

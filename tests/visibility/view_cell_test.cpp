@@ -175,3 +175,35 @@ TEST(ViewCells, MutatedJsonFailsCleanly) {
     }
   }
 }
+
+// Cells must lie within reach of the scene: far-out ones (1e30 aborted Embree) are one-line errors
+// naming the file and the cell; cells near or inside the scene pass in any unit.
+TEST(ViewCells, CellsFarFromTheSceneAreRejected) {
+  Bounds city;
+  city.add({-100, 0, -100});
+  city.add({100, 40, 100});
+  auto cells = [](glm::vec3 position, glm::vec3 size = {4, 2, 4}) {
+    ViewCell c;
+    c.position = position;
+    c.size = size;
+    return std::vector<ViewCell>{ViewCell{}, c};
+  };
+  EXPECT_TRUE(validateCellsForScene(cells({0, 1.7f, -30}), city, "c.json").ok());
+  EXPECT_TRUE(validateCellsForScene(cells({5e4f, 0, 0}), city, "c.json").ok()); // 5 km from a 300 m scene
+  for (glm::vec3 p : {glm::vec3(1e30f, 0, 0), glm::vec3(0, -1e20f, 0), glm::vec3(1e6f, 0, 0)}) {
+    auto s = validateCellsForScene(cells(p), city, "c.json");
+    ASSERT_FALSE(s.ok());
+    EXPECT_EQ(s.error().message.rfind("c.json: cell 1: ", 0), 0u) << s.error().message;
+    EXPECT_EQ(s.error().message.find('\n'), std::string::npos);
+  }
+  EXPECT_FALSE(validateCellsForScene(cells({0, 0, 0}, {1e25f, 1e25f, 1e25f}), city, "c.json").ok());
+  // The same scene and cells in millimetres.
+  Bounds mm;
+  mm.add(city.min * 1000.0f);
+  mm.add(city.max * 1000.0f);
+  EXPECT_TRUE(validateCellsForScene(cells({5e7f, 0, 0}, {4e3f, 2e3f, 4e3f}), mm, "c.json").ok());
+  EXPECT_FALSE(validateCellsForScene(cells({1e9f, 0, 0}, {4e3f, 2e3f, 4e3f}), mm, "c.json").ok());
+  // No scene bounds: only the absolute limit of what rays can carry.
+  EXPECT_TRUE(validateCellsForScene(cells({1e6f, 0, 0}), Bounds{}, "c.json").ok());
+  EXPECT_FALSE(validateCellsForScene(cells({1e30f, 0, 0}), Bounds{}, "c.json").ok());
+}

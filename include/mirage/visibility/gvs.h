@@ -2,11 +2,16 @@
 // GVS++ (Koch & Wimmer 2021, after Wonka et al. 2006 "Guided Visibility Sampling"): an aggressive
 // from-region PVS. Every triangle in the result was hit by a traced ray from the cell (never
 // conservative junk); what it misses shows up as pixel error (pvs_eval.h).
-// One iteration: n_rand random rays (randomized Halton origins on the cell surface, uniform sphere
-// directions); then, until nothing new turns up, adaptive border sampling (ABS) around every newly
-// found triangle and reverse sampling (RS) wherever an ABS ray met a discontinuity. The bake stops
-// when fewer than T new triangles were found in each of k consecutive iterations.
+// The work: random rays (one randomized Halton sequence of origins on the cell surface and uniform
+// sphere directions), adaptive border sampling (ABS) around every newly found triangle, and
+// reverse sampling (RS) wherever an ABS ray met a discontinuity. The schedule is anytime: each
+// step traces about one batch, of random rays or of the queued ABS/RS work worth most, whichever
+// is expected to find more per ray, so a bake cut short by `rayBudget` is never worse than
+// random rays alone (docs/visibility.md, "Anytime schedule"). The bake stops when fewer than T
+// new triangles were found in each of k consecutive iterations of n_rand random rays, and the
+// queued work is done.
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -43,8 +48,9 @@ struct GvsConfig {
   uint32_t minNewTriangles = 10; // T
   uint32_t stableIterations = 3; // k
   uint32_t maxIterations = 1000;
-  // Stop once this many rays were traced (0: no limit); checked between batches, so a bake may
-  // overshoot by one batch. Used for equal-budget comparisons.
+  // Stop once this many rays were traced (0: no limit); every step is cut to it, so a bake traces
+  // exactly this many unless it converged first. The schedule does not depend on it: a bake with
+  // budget B traces the first B rays of the unlimited bake.
   uint64_t rayBudget = 0;
   // Turning both off gives the RAND baseline (random rays only).
   bool adaptiveBorder = true;
@@ -61,7 +67,8 @@ Result<GvsConfig> parseGvsConfig(const std::string& jsonText, const std::string&
                                  const GvsConfig& base = {});
 std::string gvsConfigToJson(const GvsConfig& config);
 
-// The RAND baseline with exactly `rays` random rays (no termination test).
+// The RAND baseline with exactly `rays` random rays (no termination test): for the same seed the
+// very random rays GVS++ traces, without the rest.
 GvsConfig randomOnlyConfig(uint64_t rays, uint64_t seed = 1);
 
 struct PvsStats {
@@ -100,11 +107,23 @@ struct CellPvs {
   std::vector<PvsCheckpoint> checkpoints; // one per requested ray count reached, rays increasing
 };
 
+// Where a bake stands, reported after every step (about one batch of rays).
+struct GvsProgress {
+  uint64_t rays = 0;    // traced so far
+  uint64_t budget = 0;  // GvsConfig::rayBudget (0: none, the bake runs until it converges)
+  size_t triangles = 0; // found so far
+  uint32_t iterations = 0;
+  uint64_t randomRays = 0, absRays = 0, rsRays = 0;
+  double seconds = 0.0; // since the bake began
+};
+
 struct BakeOptions {
   bool keepWitnesses = false;
   // Snapshots of the PVS once at least this many rays were traced (increasing), taken between
   // batches; the final set is not included.
   std::vector<uint64_t> checkpointRays;
+  // Called on the baking thread after every step; the CLI prints it (progress per cell).
+  std::function<void(const GvsProgress&)> progress;
 };
 
 // GVS++ for one cell. `scene` must be the scene the backend was built from (ABS needs triangle

@@ -11,6 +11,7 @@
 // (an exactly coplanar duplicate or a shared edge, whose tie the two traversals may break
 // differently) the rendered images agree, and the pixel is not counted.
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -27,6 +28,8 @@ struct EvalConfig {
   // Each viewpoint renders 6 views of 90° along a randomly rotated cube frame, so errors are
   // measured over the whole view sphere, not only around one viewing direction.
   uint64_t seed = 7;
+  // Called after every view rendered (views done, views in all).
+  std::function<void(uint32_t, uint32_t)> progress;
 };
 
 struct PixelError {

@@ -6,6 +6,7 @@
 // Blend or Mask are "see-through": a ray records them but continues, because the renderer shows
 // what lies behind glass and alpha-tested cut-outs.
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -30,6 +31,20 @@ struct Ray {
   float tfar = std::numeric_limits<float>::infinity();
 };
 static_assert(sizeof(Ray) == 32);
+
+// Largest |coordinate| of a ray's origin or direction any backend traces: Embree asserts beyond
+// its FLT_LARGE (1.844e18), and no float hit test means anything that far out.
+inline constexpr float kMaxRayCoordinate = 1e18f;
+
+// What every backend traces; anything else (NaN, infinities, huge coordinates, a zero direction,
+// an inverted interval) is reported as a miss, and the samplers never make such rays.
+inline bool validRay(const Ray& r) {
+  auto inRange = [](glm::vec3 v) {
+    return std::abs(v.x) <= kMaxRayCoordinate && std::abs(v.y) <= kMaxRayCoordinate &&
+           std::abs(v.z) <= kMaxRayCoordinate; // false for NaN
+  };
+  return inRange(r.origin) && inRange(r.dir) && glm::dot(r.dir, r.dir) > 0.0f && r.tnear >= 0.0f && r.tnear <= r.tfar;
+}
 
 enum HitFlags : uint32_t {
   kHitNew = 1,           // this ray's closest (opaque) hit was the first insertion of its triangle into `record`

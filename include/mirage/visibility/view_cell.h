@@ -58,6 +58,14 @@ std::vector<CellFace> cellFaces(const ViewCell& cell);
 // (or ≤ 0), a Rect with a non-positive X or Z extent. `where` prefixes the message (e.g. "cell 3").
 Status validateCell(const ViewCell& cell, const std::string& where);
 
+// Cells must lie where rays from them can be traced against the scene: within
+// kCellSceneDiagonals scene diagonals of its bounds (a cell 1e30 away from a 100 m city makes ray
+// origins that Embree rejects and that no float hit test could resolve anyway). `where` prefixes
+// each message (the cells file or the flag); errors name the cell index. Empty scene bounds only
+// get the absolute limit (kMaxRayCoordinate, ray_backend.h).
+inline constexpr float kCellSceneDiagonals = 1000.0f;
+Status validateCellsForScene(const std::vector<ViewCell>& cells, const Bounds& sceneBounds, const std::string& where);
+
 // JSON: {"cells": [ {"type": "box", "position": [x,y,z], "size": [sx,sy,sz], "rotation": [rx,ry,rz]},
 //                   {"type": "rect", "position": [...], "size": [sx,sz], "rotation": [...]} ]}
 // or a bare array of cells; "rotation" is optional (degrees). Errors: "<file>: cell N: <problem>".
