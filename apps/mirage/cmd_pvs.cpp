@@ -5,8 +5,6 @@
 #include <memory>
 #include <sstream>
 
-#include <unistd.h>
-
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -30,7 +28,7 @@ struct PvsOptions {
   vis::GvsConfig gvs;
   int threads = 0;
   bool json = false, noPackets = false, noDiff = false;
-  bool quiet = false, progressLines = false; // --quiet, --progress
+  OutputFlags flags; // --quiet, --progress
   // pvs-eval only
   vis::EvalConfig eval{.resolution = 1000, .haltonViewpoints = 4};
   uint64_t bruteRays = 0;
@@ -58,17 +56,6 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Progress per cell on stderr while a bake runs (a bake of one cell can take minutes): one
-// self-updating line on a terminal, plain lines with --progress (for logs), nothing with --quiet.
-// The library reports through BakeOptions::progress and EvalConfig::progress; this only prints.
-enum class ProgressMode { None, Terminal, Lines };
-
-ProgressMode progressMode(const PvsOptions& o) {
-  if (o.quiet) return ProgressMode::None;
-  if (o.progressLines) return ProgressMode::Lines;
-  return isatty(STDERR_FILENO) ? ProgressMode::Terminal : ProgressMode::None;
-}
-
 std::string countText(double n) {
   if (n < 1e4) return fmt::format("{:.0f}", n);
   if (n < 1e6) return fmt::format("{:.1f} k", n * 1e-3);
@@ -76,84 +63,26 @@ std::string countText(double n) {
   return fmt::format("{:.2f} G", n * 1e-9);
 }
 
-std::string durationText(double s) {
-  if (s < 60) return fmt::format("{:.1f} s", s);
-  if (s < 3600) return fmt::format("{}m{:02}s", int(s) / 60, int(s) % 60);
-  return fmt::format("{}h{:02}m", int(s) / 3600, int(s) / 60 % 60);
-}
+// Progress on stderr while a bake runs (a bake of one cell can take minutes), through the shared
+// reporter (mirage/core/progress.h): one task per cell and stage ("cell 2/16 GVS++"), counting
+// rays of the budget (no ETA without one); the library reports through BakeOptions::progress and
+// EvalConfig::progress.
+struct CellProgress {
+  Progress& out;
+  size_t cells;
+  size_t cell = 0;
 
-class CellProgress {
-public:
-  CellProgress(ProgressMode mode, size_t cells) : mode_(mode), cells_(cells) {}
-  ~CellProgress() { finish(); }
-  // Ends the terminal line, so what is printed next starts on a fresh one.
-  void finish() {
-    if (mode_ == ProgressMode::Terminal && width_ > 0) std::fputc('\n', stderr);
-    width_ = 0;
+  void begin(std::string_view stage, uint64_t total) {
+    out.begin(fmt::format("cell {}/{} {}", cell + 1, cells, stage), total);
   }
-  void beginCell(size_t cell) {
-    cell_ = cell;
-    cellStart_ = std::chrono::steady_clock::now();
+  // "1.20 M rays, 4512 triangles, iteration 3"
+  std::function<void(const vis::GvsProgress&)> bake() {
+    return [this](const vis::GvsProgress& g) {
+      out.update(
+          g.rays, g.budget,
+          fmt::format("{} rays, {} triangles, iteration {}", countText(double(g.rays)), g.triangles, g.iterations));
+    };
   }
-  // Lines: one line per finished cell, whatever the throttle.
-  void endCell(const std::string& summary) {
-    const double seconds = secondsSince(cellStart_);
-    if (mode_ == ProgressMode::Lines)
-      std::fprintf(stderr, "cell %zu/%zu done: %s, %s\n", cell_ + 1, cells_, summary.c_str(),
-                   durationText(seconds).c_str());
-    ++doneCells_;
-    doneSeconds_ += seconds;
-  }
-  // "cell 2/16 GVS++: 1.20 M of 4.00 M rays, 4,512 triangles, iteration 3, 12.3 s, ETA 40.0 s"
-  void bake(const char* method, const vis::GvsProgress& p, bool cellIsBake) {
-    std::string rays = p.budget ? fmt::format("{} of {} rays", countText(double(p.rays)), countText(double(p.budget)))
-                                : fmt::format("{} rays", countText(double(p.rays)));
-    // This cell's share of the budget tells its remaining time only when the cell is one bake.
-    double cellTotal = cellIsBake && p.budget && p.rays ? p.seconds * double(p.budget) / double(p.rays) : -1.0;
-    show(method, fmt::format("{}: {}, {} triangles, iteration {}", method, rays, p.triangles, p.iterations), cellTotal);
-  }
-  // Another stage of a cell's work (`key` names it: its first report always prints).
-  void stage(const std::string& key, const std::string& what) { show(key, what, -1.0); }
-
-private:
-  // Throttled to 10 lines a second on a terminal and one in 2 s in logs, except that the first
-  // report of every stage of every cell prints.
-  void show(const std::string& key, const std::string& what, double cellTotal) {
-    if (mode_ == ProgressMode::None) return;
-    auto now = std::chrono::steady_clock::now();
-    const double interval = mode_ == ProgressMode::Terminal ? 0.1 : 2.0;
-    const std::string stage = std::to_string(cell_) + " " + key;
-    if (printed_ && stage == lastStage_ && std::chrono::duration<double>(now - lastPrint_).count() < interval) return;
-    printed_ = true;
-    lastStage_ = stage;
-    lastPrint_ = now;
-    const double elapsed = secondsSince(cellStart_);
-    // The rest of this cell (from its budget, or the mean of the finished cells) and the other cells.
-    const double perCell = doneCells_ ? doneSeconds_ / double(doneCells_) : cellTotal;
-    const double thisCell = cellTotal >= 0 ? cellTotal : perCell;
-    std::string eta;
-    if (perCell >= 0 && thisCell >= 0)
-      eta = ", ETA " + durationText(std::max(0.0, thisCell - elapsed) + perCell * double(cells_ - cell_ - 1));
-    std::string line =
-        fmt::format("cell {}/{} {}, {}{}", cell_ + 1, cells_, what, durationText(doneSeconds_ + elapsed), eta);
-    if (mode_ == ProgressMode::Lines) {
-      std::fprintf(stderr, "%s\n", line.c_str());
-    } else {
-      const size_t width = std::max<size_t>(1, line.size());
-      if (line.size() < width_) line.append(width_ - line.size(), ' '); // blank the rest of the last line
-      std::fprintf(stderr, "\r%s", line.c_str());
-      width_ = width;
-    }
-    std::fflush(stderr);
-  }
-
-  ProgressMode mode_;
-  size_t cells_, cell_ = 0, doneCells_ = 0;
-  double doneSeconds_ = 0.0;
-  bool printed_ = false;
-  std::string lastStage_;
-  size_t width_ = 0; // terminal: characters of the open line (0: none open)
-  std::chrono::steady_clock::time_point cellStart_ = std::chrono::steady_clock::now(), lastPrint_{};
 };
 
 Result<Bounds> parseRegion(const std::string& text) {
@@ -261,11 +190,13 @@ void runPvs(PvsOptions o) {
   double traceSeconds = 0, totalSeconds = 0;
   vis::PvsStats phases; // summed over cells: where the time goes
   bool generated = false;
-  CellProgress progress(progressMode(o), p->cells.size());
+  Progress reporter(o.flags.progressMode());
+  CellProgress progress{reporter, p->cells.size()};
   const char* methodName = o.method == "gvs" ? "GVS++" : o.method == "rand" ? "RAND" : "RASTER";
   for (size_t i = 0; i < p->cells.size(); ++i) {
-    progress.beginCell(i);
-    vis::BakeOptions bake{.progress = [&](const vis::GvsProgress& g) { progress.bake(methodName, g, true); }};
+    progress.cell = i;
+    progress.begin(methodName, o.method == "rand" && !o.gvs.rayBudget ? o.gvs.randomRays : o.gvs.rayBudget);
+    vis::BakeOptions bake{.progress = progress.bake()};
     // RAND spends --budget rays (or --rays when no budget is given) on random sampling alone.
     vis::GvsConfig cfg = o.method == "gvs"
                              ? o.gvs
@@ -278,7 +209,7 @@ void runPvs(PvsOptions o) {
                                              .seed = o.gvs.seed},
                                             {})
                            : vis::computeCellPvs(*p->backend, p->scene, p->cells[i], cfg, bake);
-    progress.endCell(fmt::format("{} triangles, {} rays", pvs.triangles.size(), countText(double(pvs.stats.rays))));
+    reporter.end(fmt::format("{} triangles, {} rays", pvs.triangles.size(), countText(double(pvs.stats.rays))));
     phases.randomSeconds += pvs.stats.randomSeconds;
     phases.randomTraceSeconds += pvs.stats.randomTraceSeconds;
     phases.absSeconds += pvs.stats.absSeconds;
@@ -310,7 +241,6 @@ void runPvs(PvsOptions o) {
                          {"mrays_per_s", double(pvs.stats.rays) / pvs.stats.seconds * 1e-6}});
     data.triangles.push_back(std::move(pvs.triangles));
   }
-  progress.finish();
   vis::PvsEncodeStats es;
   if (auto s = vis::savePvs(o.output, data, o.input, {.differences = !o.noDiff}, &es); !s) return fail(s.error());
   // Load time: decode every cell back from the file, as a renderer would at start-up.
@@ -336,7 +266,7 @@ void runPvs(PvsOptions o) {
       {"difference_cells", es.differenceCells},
       {"load_seconds", loadSeconds}};
   if (o.json) return fmt::print("{}\n", j.dump(2));
-  if (o.quiet) return;
+  if (o.flags.quiet) return;
   fmt::print("{}: {} triangles, {} cells, {} on {} (BVH {:.2f} s)\n", o.input, data.sceneTriangles, data.cells.size(),
              o.method, p->backend->name(), p->buildSeconds);
   for (const auto& c : cellsJson)
@@ -392,23 +322,24 @@ void runEval(PvsOptions o) {
   std::vector<vis::PlotSeries> series{{"GVS++", {}}, {"RAND", {}}, {"RASTER", {}}};
   size_t plotPoints = SIZE_MAX;
   std::vector<std::vector<std::vector<vis::PlotPoint>>> perCell(3);
-  CellProgress progress(progressMode(o), p->cells.size());
+  Progress reporter(o.flags.progressMode());
+  CellProgress progress{reporter, p->cells.size()};
   for (size_t i = 0; i < p->cells.size(); ++i) {
     const vis::ViewCell& cell = p->cells[i];
-    progress.beginCell(i);
+    progress.cell = i;
+    progress.begin("GVS++", o.gvs.rayBudget);
     vis::CellPvs gvs = vis::computeCellPvs(*p->backend, p->scene, cell, o.gvs,
-                                           {.checkpointRays = requested, .progress = [&](const vis::GvsProgress& g) {
-                                              progress.bake("GVS++", g, false);
-                                            }});
+                                           {.checkpointRays = requested, .progress = progress.bake()});
     // RAND and RASTER snapshot where GVS++ did, so the series share their x positions. RAND has
     // the same seed: its rays are the random rays GVS++ traced and as many more, so the two
     // differ in what GVS++ did with the rest of its rays, not in the luck of the draw.
-    vis::BakeOptions same{.progress = [&](const vis::GvsProgress& g) { progress.bake("RAND", g, false); }};
+    progress.begin("RAND", gvs.stats.rays);
+    vis::BakeOptions same{.progress = progress.bake()};
     for (const auto& c : gvs.checkpoints) same.checkpointRays.push_back(c.rays);
     vis::CellPvs rnd =
         vis::computeCellPvs(*p->backend, p->scene, cell, vis::randomOnlyConfig(gvs.stats.rays, o.gvs.seed), same);
     // RASTER at the same cost: as many ID pixels as GVS++ traced rays.
-    progress.stage("RASTER", "RASTER: cube maps");
+    progress.begin("RASTER cube maps", 0);
     vis::CellPvs ras = vis::rasterPvs(
         *p->backend, cell, {.resolution = o.rasterSize, .pixelBudget = gvs.stats.rays, .seed = o.gvs.seed}, same);
     vis::TriangleSet set(p->backend->triangleCount());
@@ -417,10 +348,8 @@ void runEval(PvsOptions o) {
       set.assign(triangles);
       vis::EvalConfig ec = o.eval;
       ++evaluations;
-      ec.progress = [&](uint32_t views, uint32_t total) {
-        const std::string key = fmt::format("evaluation {}", evaluations);
-        progress.stage(key, fmt::format("{}: view {}/{}", key, views, total));
-      };
+      progress.begin(fmt::format("evaluation {}", evaluations), 0);
+      ec.progress = [&](uint32_t views, uint32_t total) { reporter.update(views, total, "views"); };
       return vis::evaluatePvs(*p->backend, cell, set, ec);
     };
     if (!o.plot.empty()) {
@@ -472,9 +401,8 @@ void runEval(PvsOptions o) {
                     {"gvs_extra", gvs.triangles.size() - found}};
     }
     cells.push_back(c);
-    progress.endCell(fmt::format("GVS++ {:.2f}, RAND {:.2f} wrong px/view", ge, re));
-    progress.finish();
-    if (!o.json && !o.quiet)
+    reporter.end(fmt::format("GVS++ {:.2f}, RAND {:.2f} wrong px/view", ge, re));
+    if (!o.json && !o.flags.quiet)
       fmt::print("cell {:3}: GVS++ {:8} tris {:10} rays {:5.2f} Mrays/s err {:9.2f} px/view (max {}, {} regions, "
                  "largest {}) | RAND {:8} tris err {:9.2f} px/view (max {}) | RASTER {:8} tris ({} cube maps "
                  "of {}²) err {:9.2f} px/view (max {}){}\n",
@@ -526,7 +454,7 @@ void runEval(PvsOptions o) {
     j["plot"] = plot;
   }
   if (o.json) return fmt::print("{}\n", j.dump(2));
-  if (o.quiet) return;
+  if (o.flags.quiet) return;
   fmt::print("average wrong pixels per {}x{} view: GVS++ {:.3f}, RAND {:.3f}, RASTER {:.3f} (RAND/GVS++ = {}, "
              "RASTER/GVS++ = {})\n",
              o.eval.resolution, o.eval.resolution, gvsSum / n, randSum / n, rasterSum / n,
@@ -566,8 +494,7 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   cmd->add_option("--device", o.rays.device, "Vulkan device name substring or index (--backend vulkan|compute)");
   cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");
   cmd->add_flag("--json", o.json, "Print results as JSON");
-  cmd->add_flag("--progress", o.progressLines, "Progress per cell as plain lines on stderr (for logs)");
-  cmd->add_flag("--quiet", o.quiet, "Print nothing but errors (and --json)");
+  addOutputFlags(cmd, o.flags);
   cmd->add_option("--raster-size", o.rasterSize, "RASTER cube-map face resolution")->capture_default_str();
 }
 
