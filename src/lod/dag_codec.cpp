@@ -11,6 +11,7 @@
 
 #include "mirage/asset/bytes.h"
 #include "mirage/core/octahedral.h"
+#include "mirage/lod/verify.h"
 
 namespace mirage::lod {
 
@@ -382,15 +383,15 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   // group's (roots: +inf). Quantization moved vertices by up to positionSlack, so spheres grow by
   // that much and errors by the same distance, which keeps both conservative.
   float slack = positionSlack(q, bits);
+  // Every path that loads a DAG (render, info, verify) gets the same structural checks here, before
+  // anything indexes with what was decoded.
+  if (Status s = checkDagStructure(dag); !s) return makeError(file, s.error().message);
   for (Group& g : dag.groups) {
     g.bounds.radius += slack * float(g.level + 2); // nested spheres stay nested level over level
     g.bounds.error += slack;
   }
   for (size_t i = 0; i < dag.clusters.size(); ++i) {
     Cluster& c = dag.clusters[i];
-    if (c.generatingGroup != kNone && c.generatingGroup >= groupCount)
-      return makeError(file, "cluster has a bad generating group");
-    if (c.group != kNone && c.group >= groupCount) return makeError(file, "cluster has a bad group");
     c.bounds.radius += slack;
     if (c.generatingGroup == kNone) {
       c.self = c.bounds;

@@ -228,3 +228,30 @@ TEST(DagCodec, NearCoincidentVerticesRoundTrip) {
     }
   }
 }
+
+// Damage the encoder faithfully writes (checksums would be valid in a file) must be rejected by the
+// decoder itself, so no reader indexes with it: meshopt_computeClusterBounds aborted on an
+// out-of-range local index that only `verify` checked.
+TEST(DagCodec, DecodeRejectsStructuralDamage) {
+  auto built = buildClusterDag(lodtest::makeBlob(3, 4));
+  ASSERT_TRUE(built.ok());
+  ASSERT_GT(built->groups.size(), 1u);
+  auto expectRejected = [](const ClusterDag& bad, const std::string& problem) {
+    auto r = decodeDag(encodeDag(bad), "bad.mrg");
+    ASSERT_FALSE(r.ok()) << problem << " was accepted";
+    EXPECT_NE(r.error().message.find(problem), std::string::npos) << r.error().message;
+    EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
+  };
+  ClusterDag bad = *built;
+  bad.clusterIndices[7] = uint8_t(bad.clusters[0].vertexCount); // one past cluster 0's vertices
+  expectRejected(bad, "local index out of range");
+  bad = *built;
+  bad.roots.back() = 0; // a level-0 cluster that has a group
+  expectRejected(bad, "root list names a non-root cluster");
+  bad = *built;
+  std::swap(bad.groupChildren.front(), bad.groupChildren.back()); // children of other groups
+  expectRejected(bad, "does not point back");
+  bad = *built;
+  bad.groups[0].level = bad.clusters[bad.groupParents[bad.groups[0].parentOffset]].level; // a level loop
+  expectRejected(bad, "not one level above");
+}
