@@ -12,6 +12,7 @@
 //   'PVS ' potentially visible sets
 //   'META' JSON metadata (format version, counts; for tools and humans)
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -73,7 +74,9 @@ public:
   // Writes "<path>.tmp-<pid>", fsyncs it and renames it over `path`, so readers see either the
   // old file or the complete new one. On any failure the temp file is removed and `path` is
   // untouched. Writes nothing but these two names (a symlink at `path` is replaced, not followed).
-  Status write(const std::string& path) const;
+  // `check`, when given, reads the complete temp file back (its argument is the temp path) before
+  // the rename: a writer that must not publish a file its readers reject fails there instead.
+  Status write(const std::string& path, const std::function<Status(const std::string& tempPath)>& check = {}) const;
 
 private:
   struct Pending {
