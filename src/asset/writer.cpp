@@ -94,6 +94,19 @@ void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdL
   }
 }
 
+void AssetWriter::addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> stored) {
+  if (error_) return;
+  if (stored.size() != info.storedBytes || XXH3_64bits(stored.data(), stored.size()) != info.storedHash) {
+    error_ = Error{"chunk " + info.type.str() + ": stored bytes do not match their table entry"};
+    return;
+  }
+  Pending p;
+  p.info = info;
+  p.info.offset = 0; // laid out again by write()
+  p.stored = std::move(stored);
+  chunks_.push_back(std::move(p));
+}
+
 Status AssetWriter::write(const std::string& path,
                           const std::function<Status(const std::string& tempPath)>& check) const {
   if (error_) return makeError(path, error_->message);

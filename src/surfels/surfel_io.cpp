@@ -233,6 +233,21 @@ Status writeSurfelMrg(const std::string& path, std::span<const MeshSurfels> clou
   return writer.write(path);
 }
 
+Status appendSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds) {
+  auto reader = asset::AssetReader::open(path);
+  if (!reader) return reader.error();
+  asset::AssetWriter writer;
+  for (size_t i = 0; i < reader->chunks().size(); ++i) {
+    const asset::ChunkInfo& info = reader->chunks()[i];
+    if (info.type == asset::chunk::Surfels) continue;
+    auto stored = reader->readStoredChunk(i);
+    if (!stored) return stored.error();
+    writer.addStoredChunk(info, std::move(*stored));
+  }
+  for (const MeshSurfels& m : clouds) writer.addChunk(asset::chunk::Surfels, encodeSurfelChunk(m.cloud, m.mesh));
+  return writer.write(path);
+}
+
 Result<std::vector<MeshSurfels>> readSurfelMrgAll(const std::string& path) {
   auto reader = asset::AssetReader::open(path);
   if (!reader) return reader.error();

@@ -69,6 +69,9 @@ public:
   // zstdLevel: 0 stores raw, otherwise a zstd level (clamped to zstd's range). Compressed output
   // that is not smaller than the input is stored raw instead. Compression errors surface in write().
   void addChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel = kDefaultZstdLevel);
+  // A chunk exactly as another file stores it (from AssetReader::readStoredChunk): its bytes, level
+  // and checksums are kept, so copying a chunk between files never recompresses it.
+  void addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> stored);
   size_t chunkCount() const { return chunks_.size(); }
 
   // Writes "<path>.tmp-<pid>", fsyncs it and renames it over `path`, so readers see either the
@@ -112,6 +115,9 @@ public:
   Result<std::vector<uint8_t>> readChunk(size_t index) const;
   // The first chunk of `type`; an error naming the type when there is none.
   Result<std::vector<uint8_t>> readChunk(FourCC type) const;
+  // The payload as stored (compressed or not), after checking its stored hash: what
+  // AssetWriter::addStoredChunk copies into another file unchanged.
+  Result<std::vector<uint8_t>> readStoredChunk(size_t index) const;
 
 private:
   AssetReader() = default;

@@ -34,6 +34,9 @@ Result<SurfelCloud> decodeSurfelChunk(std::span<const uint8_t> bytes, const std:
 // whole-scene cloud, or one per mesh.
 Status writeSurfelMrg(const std::string& path, const SurfelCloud& cloud);
 Status writeSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds);
+// Replaces the SURF chunks of the .mrg at `path` by `clouds`, atomically. Every other chunk is
+// copied as stored (same bytes, same compression), so appending never changes the geometry.
+Status appendSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds);
 // The single cloud of a file (an error names the count when it holds several: use readSurfelMrgAll).
 Result<SurfelCloud> readSurfelMrg(const std::string& path);
 // Every 'SURF' chunk, in file order.
