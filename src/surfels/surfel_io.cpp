@@ -79,6 +79,16 @@ Status writeSurfelPly(const std::string& path, const SurfelCloud& c) {
   return Ok{};
 }
 
+bool isSurfelPly(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::string line;
+  if (!std::getline(f, line) || line != "ply") return false;
+  // The header is a few hundred bytes; a bounded read never scans a large binary body.
+  for (int lines = 0; lines < 256 && std::getline(f, line) && line != "end_header"; ++lines)
+    if (line.starts_with("comment mirage surfels")) return true;
+  return false;
+}
+
 Result<SurfelCloud> readSurfelPly(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   if (!f) return makeError(path, "cannot open the file");

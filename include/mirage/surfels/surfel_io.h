@@ -16,6 +16,8 @@ Status writeSurfelPly(const std::string& path, const SurfelCloud& cloud);
 // Reads what writeSurfelPly writes (and any binary little-endian PLY with float x, y, z and
 // optional normals, uchar colours and float radius). Errors are one line naming the file.
 Result<SurfelCloud> readSurfelPly(const std::string& path);
+// True for a PLY that writeSurfelPly wrote (its header says so): a surfel cloud, not a mesh or scan.
+bool isSurfelPly(const std::string& path);
 
 // A cloud of one mesh of a scene, in that mesh's object space (every instance of the mesh reuses it
 // under its own transform), or of the whole scene in world space (mesh = kWholeScene).
