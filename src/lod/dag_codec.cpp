@@ -156,6 +156,7 @@ bool quantize(const std::vector<glm::vec3>& positions, const Quantizer& q, uint3
               std::vector<PackedPosition>& packed) {
   double maxGrid = double((1u << bits) - 1);
   float slack = positionSlack(q, bits);
+  if (!std::isfinite(slack)) return false; // coordinates near the float range: the decoder would refuse it
   for (size_t i = 0; i < positions.size(); ++i) {
     uint32_t g[3];
     for (int a = 0; a < 3; ++a) {

@@ -187,6 +187,22 @@ TEST(DagCodec, QuantizerKeepsEveryBoxOnItsGridAtEveryDepth) {
   }
 }
 
+// Coordinates near the float range (the grid's extent or slack would overflow) and a mesh far from
+// the origin for its size (float rounding beyond the step) still decode, exactly or on a grid.
+TEST(DagCodec, ExtremeCoordinatesRoundTrip) {
+  for (std::vector<glm::vec3> positions :
+       {std::vector<glm::vec3>{{-3e38f, 0, 0}, {3e38f, 1, 2}, {0, -3e38f, 3e38f}},
+        std::vector<glm::vec3>{{1e6f, 1e6f, 1e6f}, {1e6f + 0.0625f, 1e6f, 1e6f}, {1e6f, 1e6f + 0.125f, 1e6f}}}) {
+    ClusterDag dag;
+    dag.positions = positions;
+    dag.vertexPosition = {0, 1, 2};
+    std::vector<uint8_t> bytes = encodeDag(dag);
+    auto back = decodeDag(bytes, "far.mrg");
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    expectPositionsRoundTrip(dag.positions, bytes, *back, "extreme");
+  }
+}
+
 // A mesh whose every vertex has a distinct twin 4.2e-7 away over a 2.72 extent (as one mesh of a
 // real diorama): the encoder needs 23+ bits or raw floats, the decoded DAG keeps every position
 // apart, stays valid, and its cuts stay watertight.
