@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Mirage's own outputs through the CLI: build reports both triangle counts and its wall time, and
 # --quiet prints nothing; a build of near-coincident vertices reads back; info describes every kind
-# of .mrg (cluster LOD, surfels, PVS) and a surfel PLY; render names the flag a surfel-only or
-# PVS-only .mrg needs; a CDAG chunk with a bad local index (checksums valid) is one line from every
-# command. Usage: mirage_outputs.sh MIRAGE_BINARY SOURCE_DIR
+# of .mrg (cluster LOD, surfels, PVS), a surfel PLY and a point cloud; render names the flag a
+# surfel-only or PVS-only .mrg needs; a CDAG chunk with a bad local index (checksums valid) is one
+# line from every command. Usage: mirage_outputs.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 mirage=$1
 source_dir=$2
@@ -75,6 +75,12 @@ if expect_ok surfels-mrg surfels gen:blob:3 -o "$tmp/s.mrg" --count 100 --resolu
   expect_ok info-surfel-mrg-json info "$tmp/s.mrg" --json
   check "info --json counts the surfels" grep -q '"total": 100' "$tmp/stdout"
   expect_fail render-surfel-only "render it with --surfels" "$tmp/s.png" -- render "$tmp/s.mrg" -o "$tmp/s.png" --size 32x32
+fi
+
+# A point cloud PLY (no faces): described, not "no triangles".
+if expect_ok gen-points gen points --mesh gen:blob:3 --points 500 -o "$tmp/pts.ply"; then
+  expect_ok info-points info "$tmp/pts.ply"
+  check "info describes a point cloud" grep -q "point cloud, 500 points, no faces" "$tmp/stdout"
 fi
 
 # A PVS-only .mrg.
