@@ -70,7 +70,7 @@ bool describeLod(const std::string& path, nlohmann::json& j, bool json) {
   if (!a) return fail(a.error()), false;
   BuildSummary s = summarize(*a, path);
   if (json) {
-    j["lod"] = summaryJson(s);
+    j.update(summaryJson(s)); // at the top level, as before the other chunk kinds were described
     j["instances"] = a->scene.instances.size();
     j["materials"] = a->scene.materials.size();
     j["textures"] = a->scene.textures.size();
