@@ -255,6 +255,7 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeO
     Result<LodAsset> read = reader ? readLodAsset(*reader, path) : Result<LodAsset>(reader.error());
     std::string problem = read ? readBackDifference(a, *read) : read.error().message;
     if (problem.empty()) return Ok{};
+    if (problem.starts_with(path + ": ")) problem.erase(0, path.size() + 2); // named once, in front
     return makeError(path, "the written file does not read back (" + problem + "); nothing written");
   });
 }

@@ -96,5 +96,6 @@ TEST(LodAsset, SaveRefusesAFileThatDoesNotReadBack) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("bad.mrg"), std::string::npos) << s.error().message;
   EXPECT_NE(s.error().message.find("local index out of range"), std::string::npos) << s.error().message;
+  EXPECT_EQ(s.error().message.rfind("bad.mrg"), s.error().message.find("bad.mrg")) << "the file is named once";
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1) << "only good.mrg may exist";
 }
