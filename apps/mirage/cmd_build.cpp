@@ -35,9 +35,12 @@ void runBuild(const BuildOptions& o) {
     return fail("--cluster-triangles must be a multiple of 4 in 4..252");
   if (o.config.groupClusters < 2 || o.config.groupClusters > 64) return fail("--group-clusters must be in 2..64");
   auto t0 = std::chrono::steady_clock::now();
+  auto secondsSince = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
   auto scene = loadScenes(o.inputs);
   if (!scene) return fail(scene.error());
-  double importSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  double importSeconds = secondsSince(t0);
 
   bool showProgress = !o.quiet && isatty(STDERR_FILENO);
   auto progress = [&](size_t meshes, size_t meshCount, uint64_t done, uint64_t total) {
@@ -50,8 +53,11 @@ void runBuild(const BuildOptions& o) {
   auto t1 = std::chrono::steady_clock::now();
   auto baked = lod::bakeLodAsset(*scene, o.config, progress);
   if (!baked) return fail(baked.error());
-  double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  double buildSeconds = secondsSince(t1);
+  auto t2 = std::chrono::steady_clock::now();
   if (auto s = lod::saveLodAsset(o.output, *baked); !s) return fail(s.error());
+  double writeSeconds = secondsSince(t2), wallSeconds = secondsSince(t0);
+  if (o.quiet) return; // errors only
   uint64_t triangles = scene->meshTriangleCount();
   BuildSummary summary = summarize(*baked, o.output);
   if (o.json) {
@@ -59,13 +65,16 @@ void runBuild(const BuildOptions& o) {
     j["output"] = o.output;
     j["import_seconds"] = importSeconds;
     j["build_seconds"] = buildSeconds;
+    j["write_seconds"] = writeSeconds; // encode, compress, write, read back
+    j["wall_seconds"] = wallSeconds;
     j["input_triangles_per_second"] = double(triangles) / buildSeconds;
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("built {}: {} meshes, {} input triangles in {:.2f} s ({:.2f} M triangles/s), {} instances\n", o.output,
-             scene->meshes.size(), triangles, buildSeconds, double(triangles) / buildSeconds * 1e-6,
-             scene->instances.size());
+  fmt::print("built {}: {} meshes, {} instances in {:.2f} s wall (import {:.2f} s, bake {:.2f} s at {:.2f} M "
+             "triangles/s, write {:.2f} s)\n",
+             o.output, scene->meshes.size(), scene->instances.size(), wallSeconds, importSeconds, buildSeconds,
+             double(triangles) / buildSeconds * 1e-6, writeSeconds);
   printSummary(summary);
 }
 
@@ -143,7 +152,7 @@ void addBuildCommand(CLI::App& app) {
   cmd->add_option("--group-clusters", o->config.groupClusters, "Clusters per simplification group")
       ->capture_default_str();
   cmd->add_option("--threads", o->config.threads, "Worker threads (0 = all cores)")->capture_default_str();
-  cmd->add_flag("--quiet", o->quiet, "No progress bar");
+  cmd->add_flag("--quiet", o->quiet, "Print nothing but errors");
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->callback([o] { runBuild(*o); });
 

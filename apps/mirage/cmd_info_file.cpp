@@ -1,5 +1,7 @@
-// mirage info FILE: what a scene file holds.
+// mirage info FILE: what a scene file or any Mirage output holds.
+#include <algorithm>
 #include <filesystem>
+#include <map>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -7,39 +9,215 @@
 #include "cmd_list.h"
 #include "commands.h"
 #include "lod_common.h"
+#include "mirage/asset/container.h"
+#include "mirage/asset/scene_chunk.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
+#include "mirage/surfels/point_cloud.h"
+#include "mirage/surfels/surfel_io.h"
+#include "mirage/visibility/pvs_storage.h"
 #include "render_common.h"
 
 namespace mirage::cli {
 
 namespace {
 
-// A baked .mrg: levels, clusters and triangles per level, fill, root size, bytes per input triangle.
-void infoAsset(const std::string& path, bool json) {
+nlohmann::json boundsJson(const Bounds& b) {
+  return {{"bounds_min", {b.min.x, b.min.y, b.min.z}}, {"bounds_max", {b.max.x, b.max.y, b.max.z}}};
+}
+std::string boundsText(const Bounds& b) {
+  return fmt::format("({:.4g}, {:.4g}, {:.4g}) .. ({:.4g}, {:.4g}, {:.4g})", b.min.x, b.min.y, b.min.z, b.max.x,
+                     b.max.y, b.max.z);
+}
+
+// Per chunk type in file order: count, stored and raw bytes, zstd levels used.
+struct ChunkKind {
+  std::string type;
+  size_t count = 0;
+  uint64_t storedBytes = 0, rawBytes = 0;
+  int minLevel = 0, maxLevel = 0;
+};
+
+std::vector<ChunkKind> chunkKinds(const asset::AssetReader& reader) {
+  std::vector<ChunkKind> kinds;
+  for (const asset::ChunkInfo& c : reader.chunks()) {
+    std::string type = c.type.str();
+    auto it = std::find_if(kinds.begin(), kinds.end(), [&](const ChunkKind& k) { return k.type == type; });
+    if (it == kinds.end()) it = kinds.insert(kinds.end(), ChunkKind{type, 0, 0, 0, c.zstdLevel, c.zstdLevel});
+    ++it->count;
+    it->storedBytes += c.storedBytes;
+    it->rawBytes += c.rawBytes;
+    it->minLevel = std::min(it->minLevel, int(c.zstdLevel));
+    it->maxLevel = std::max(it->maxLevel, int(c.zstdLevel));
+  }
+  return kinds;
+}
+
+const char* chunkMeaning(const std::string& type) {
+  if (type == asset::chunk::Scene.str()) return "scene: instances, materials, textures";
+  if (type == asset::chunk::Mesh.str()) return "mesh geometry";
+  if (type == asset::chunk::ClusterDag.str()) return "cluster-LOD DAG, one per mesh";
+  if (type == asset::chunk::SourceMap.str()) return "source triangle -> level-0 cluster map";
+  if (type == asset::chunk::Surfels.str()) return "surfel cloud";
+  if (type == asset::chunk::Visibility.str()) return "potentially visible sets";
+  if (type == asset::chunk::Meta.str()) return "JSON metadata";
+  return "unknown to this build (skipped by readers)";
+}
+
+// The cluster-LOD part: levels, clusters and triangles per level, fill, root, bytes per triangle.
+bool describeLod(const std::string& path, nlohmann::json& j, bool json) {
   auto a = lod::loadLodAsset(path);
-  if (!a) return fail(a.error());
+  if (!a) return fail(a.error()), false;
   BuildSummary s = summarize(*a, path);
   if (json) {
-    nlohmann::json j = summaryJson(s);
-    j["file"] = path;
+    j.update(summaryJson(s)); // at the top level, as before the other chunk kinds were described
     j["instances"] = a->scene.instances.size();
     j["materials"] = a->scene.materials.size();
     j["textures"] = a->scene.textures.size();
+    return true;
+  }
+  fmt::print("  cluster-LOD: {} meshes, {} instances, {} materials, {} textures\n", s.meshes, a->scene.instances.size(),
+             a->scene.materials.size(), a->scene.textures.size());
+  printSummary(s);
+  return true;
+}
+
+// A scene chunk without DAGs (asset::saveScene): the imported scene as stored.
+bool describeScene(const asset::AssetReader& reader, const std::string& path, nlohmann::json& j, bool json) {
+  auto bytes = reader.readChunk(asset::chunk::Scene);
+  if (!bytes) return fail(bytes.error()), false;
+  auto scene = asset::decodeScene(*bytes, path);
+  if (!scene) return fail(scene.error()), false;
+  if (json) {
+    j["scene"] = {{"meshes", scene->meshes.size()},
+                  {"instances", scene->instances.size()},
+                  {"triangles", scene->meshTriangleCount()},
+                  {"materials", scene->materials.size()},
+                  {"textures", scene->textures.size()}};
+    return true;
+  }
+  fmt::print("  scene: {} meshes, {} instances, {} triangles, {} materials, {} textures\n", scene->meshes.size(),
+             scene->instances.size(), grouped(scene->meshTriangleCount()), scene->materials.size(),
+             scene->textures.size());
+  return true;
+}
+
+bool describeSurfels(const std::string& path, nlohmann::json& j, bool json) {
+  auto clouds = surfels::readSurfelMrgAll(path);
+  if (!clouds) return fail(clouds.error()), false;
+  uint64_t total = 0;
+  Bounds box;
+  nlohmann::json list = nlohmann::json::array();
+  for (const surfels::MeshSurfels& m : *clouds) {
+    total += m.cloud.size();
+    box.add(m.cloud.box);
+    nlohmann::json c = boundsJson(m.cloud.box);
+    c["surfels"] = m.cloud.size();
+    c["mesh"] = m.mesh == surfels::kWholeScene ? nlohmann::json("scene") : nlohmann::json(m.mesh);
+    c["reference_mean_spacing"] = m.cloud.referenceMeanSpacing;
+    list.push_back(c);
+  }
+  bool wholeScene = clouds->size() == 1 && clouds->front().mesh == surfels::kWholeScene;
+  if (json) {
+    j["surfels"] = {{"clouds", list}, {"total", total}};
+    return true;
+  }
+  fmt::print("  surfels: {} in {} ({}), box {}\n", grouped(total),
+             wholeScene ? "one whole-scene cloud (world space)" : fmt::format("{} clouds", clouds->size()),
+             wholeScene ? "render with --surfels" : "one per mesh, object space", boundsText(box));
+  return true;
+}
+
+bool describePvs(const std::string& path, nlohmann::json& j, bool json) {
+  auto pvs = vis::loadPvs(path);
+  if (!pvs) return fail(pvs.error()), false;
+  uint64_t sum = 0, most = 0;
+  for (const auto& t : pvs->triangles) sum += t.size(), most = std::max<uint64_t>(most, t.size());
+  double mean = pvs->cells.empty() ? 0.0 : double(sum) / double(pvs->cells.size());
+  if (json) {
+    j["pvs"] = {{"cells", pvs->cells.size()},
+                {"scene_triangles", pvs->sceneTriangles},
+                {"mean_triangles_per_cell", mean},
+                {"max_triangles_per_cell", most}};
+    return true;
+  }
+  fmt::print("  PVS: {} view cells over a scene of {} triangles; visible per cell: mean {} ({:.2f}%), max {}\n",
+             pvs->cells.size(), grouped(pvs->sceneTriangles), grouped(uint64_t(mean + 0.5)),
+             pvs->sceneTriangles ? 100.0 * mean / double(pvs->sceneTriangles) : 0.0, grouped(most));
+  fmt::print("  (render the scene it was baked for with --pvs {})\n", path);
+  return true;
+}
+
+// Any .mrg: the chunk table by type, then what each kind of chunk holds (each decoded and checked).
+void infoMrg(const std::string& path, bool json) {
+  auto reader = asset::AssetReader::open(path);
+  if (!reader) return fail(reader.error());
+  std::vector<ChunkKind> kinds = chunkKinds(*reader);
+  auto has = [&](asset::FourCC t) { return reader->find(t).has_value(); };
+  std::vector<std::string> holds;
+  if (has(asset::chunk::ClusterDag)) holds.push_back("cluster-LOD asset");
+  if (!has(asset::chunk::ClusterDag) && has(asset::chunk::Scene)) holds.push_back("scene");
+  if (has(asset::chunk::Surfels)) holds.push_back("surfels");
+  if (has(asset::chunk::Visibility)) holds.push_back("PVS");
+  std::string what = holds.empty() ? "no chunk this build describes" : fmt::format("{}", fmt::join(holds, " + "));
+  nlohmann::json j;
+  if (json) {
+    j["file"] = path;
+    j["file_bytes"] = reader->fileBytes();
+    j["holds"] = holds;
+    nlohmann::json chunks = nlohmann::json::array();
+    for (const ChunkKind& k : kinds)
+      chunks.push_back({{"type", k.type.substr(1, 4)},
+                        {"count", k.count},
+                        {"stored_bytes", k.storedBytes},
+                        {"raw_bytes", k.rawBytes},
+                        {"zstd_level_min", k.minLevel},
+                        {"zstd_level_max", k.maxLevel}});
+    j["chunks"] = chunks;
+  } else {
+    fmt::print("{}: {}, {} bytes in {} chunks\n", path, what, grouped(reader->fileBytes()), reader->chunks().size());
+    for (const ChunkKind& k : kinds) {
+      std::string level = k.maxLevel == 0            ? "raw"
+                          : k.minLevel == k.maxLevel ? fmt::format("zstd {}", k.maxLevel)
+                                                     : fmt::format("zstd {}..{}", k.minLevel, k.maxLevel);
+      fmt::print("  {} x{:<4} {:>14} bytes stored ({}), {:>14} raw  {}\n", k.type, k.count, grouped(k.storedBytes),
+                 level, grouped(k.rawBytes), chunkMeaning(k.type));
+    }
+  }
+  if (has(asset::chunk::ClusterDag) && !describeLod(path, j, json)) return;
+  if (!has(asset::chunk::ClusterDag) && has(asset::chunk::Scene) && !describeScene(*reader, path, j, json)) return;
+  if (has(asset::chunk::Surfels) && !describeSurfels(path, j, json)) return;
+  if (has(asset::chunk::Visibility) && !describePvs(path, j, json)) return;
+  if (json) fmt::print("{}\n", j.dump(2));
+}
+
+// A surfel PLY (from mirage surfels): the cloud, not a mesh.
+void infoSurfelPly(const std::string& path, bool json) {
+  auto cloud = surfels::readSurfelPly(path);
+  if (!cloud) return fail(cloud.error());
+  if (json) {
+    nlohmann::json j = boundsJson(cloud->box);
+    j["file"] = path;
+    j["holds"] = {"surfels"};
+    j["surfels"] = cloud->size();
+    j["reference_mean_spacing"] = cloud->referenceMeanSpacing;
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("{}: cluster-LOD asset, {} meshes, {} instances, {} materials, {} textures, {} input triangles\n", path,
-             s.meshes, a->scene.instances.size(), a->scene.materials.size(), a->scene.textures.size(),
-             s.inputTriangles);
-  printSummary(s);
+  fmt::print("{}: surfel cloud (mirage surfels), {} surfels in progressive order\n", path, grouped(cloud->size()));
+  fmt::print("  box {}  reference spacing mean {:.4g} median {:.4g} over the first {}\n", boundsText(cloud->box),
+             cloud->referenceMeanSpacing, cloud->referenceMedianSpacing, cloud->referenceCount);
+  fmt::print("  (render it with --surfels)\n");
 }
 
 } // namespace
 
 void infoFile(const std::string& path, bool json) {
-  if (path.ends_with(".mrg")) return infoAsset(path, json);
-  auto scene = loadSceneArgument(path);
+  if (path.ends_with(".mrg")) return infoMrg(path, json);
+  if (path.ends_with(".ply") && surfels::isSurfelPly(path)) return infoSurfelPly(path, json);
+  io::ImportOptions options;
+  options.allowPointClouds = true; // a scan without faces is described, not rejected (surfels reads it)
+  auto scene = loadSceneArgument(path, options);
   if (!scene) return fail(scene.error());
   const Scene& s = *scene;
   Bounds b = s.worldBounds();
@@ -48,8 +226,10 @@ void infoFile(const std::string& path, bool json) {
   size_t blend = 0, mask = 0;
   for (const Material& m : s.materials)
     blend += m.alphaMode == AlphaMode::Blend, mask += m.alphaMode == AlphaMode::Mask;
+  bool points = surfels::isPointCloud(s);
   if (json) {
     nlohmann::json j = {{"file", path},
+                        {"holds", {points ? "point cloud" : "scene"}},
                         {"meshes", s.meshes.size()},
                         {"instances", s.instances.size()},
                         {"triangles", s.meshTriangleCount()},
@@ -58,18 +238,21 @@ void infoFile(const std::string& path, bool json) {
                         {"materials", s.materials.size()},
                         {"materials_mask", mask},
                         {"materials_blend", blend},
-                        {"textures", s.textures.size()},
-                        {"bounds_min", {b.min.x, b.min.y, b.min.z}},
-                        {"bounds_max", {b.max.x, b.max.y, b.max.z}}};
+                        {"textures", s.textures.size()}};
+    j.update(boundsJson(b));
     fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  if (points) {
+    fmt::print("{}: point cloud, {} points, no faces (sample it with mirage surfels)\n", path, grouped(vertices));
+    fmt::print("  bounds {}\n", boundsText(b));
     return;
   }
   fmt::print("{}\n", path);
   fmt::print("  meshes {}  instances {}  triangles {} ({} instanced)  vertices {}\n", s.meshes.size(),
              s.instances.size(), s.meshTriangleCount(), s.instancedTriangleCount(), vertices);
   fmt::print("  materials {} ({} mask, {} blend)  textures {}\n", s.materials.size(), mask, blend, s.textures.size());
-  fmt::print("  bounds ({:.4g}, {:.4g}, {:.4g}) .. ({:.4g}, {:.4g}, {:.4g})\n", b.min.x, b.min.y, b.min.z, b.max.x,
-             b.max.y, b.max.z);
+  fmt::print("  bounds {}\n", boundsText(b));
 }
 
 } // namespace mirage::cli

@@ -56,6 +56,15 @@ LodRenderRequest lodRequest(const RenderOptions& o) {
 }
 
 void runRender(const RenderOptions& o) {
+  if (!o.surfels && isLodAssetPath(o.input)) {
+    // A .mrg without DAGs: say which flag its chunks call for.
+    MrgContents c = mrgContents(o.input);
+    if (!c.clusterDags && c.surfels)
+      return fail(o.input + ": holds surfels only (SURF chunks, no cluster DAG): render it with --surfels");
+    if (!c.clusterDags && c.pvs)
+      return fail(o.input + ": holds a PVS only (from mirage pvs): render the scene it was baked for with --pvs " +
+                  o.input);
+  }
   if (o.surfels && mrgHasClusterDags(o.input)) { // DAGs + SURF: meshes near, surfels far (one frame)
     if (!o.pvs.empty() || o.surfelRaster != "auto" || !o.surfelOrder.empty())
       return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");

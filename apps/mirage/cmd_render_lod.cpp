@@ -380,13 +380,18 @@ void addLodCullOptions(CLI::App& command, LodCullOptions& o, bool bench) {
 
 bool isLodAssetPath(const std::string& input) { return input.size() > 4 && input.ends_with(".mrg"); }
 
-bool mrgHasClusterDags(const std::string& input) {
-  if (!isLodAssetPath(input)) return false;
+bool mrgHasClusterDags(const std::string& input) { return mrgContents(input).clusterDags; }
+
+MrgContents mrgContents(const std::string& input) {
+  MrgContents m;
+  if (!isLodAssetPath(input)) return m;
   auto reader = asset::AssetReader::open(input);
-  if (!reader) return false; // the surfel path reports the error
-  for (const asset::ChunkInfo& c : reader->chunks())
-    if (c.type == asset::chunk::ClusterDag) return true;
-  return false;
+  if (!reader) return m; // the loader reports the error
+  m.clusterDags = reader->find(asset::chunk::ClusterDag).has_value();
+  m.surfels = reader->find(asset::chunk::Surfels).has_value();
+  m.pvs = reader->find(asset::chunk::Visibility).has_value();
+  m.scene = reader->find(asset::chunk::Scene).has_value();
+  return m;
 }
 
 void runLodRender(const LodRenderRequest& r) {

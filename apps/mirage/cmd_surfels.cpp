@@ -179,22 +179,6 @@ Scene meshScene(const Scene& scene, uint32_t index) {
   return sub;
 }
 
-// --append: the existing file's chunks (its SURF chunks replaced) plus `clouds`, written atomically.
-Status appendSurfelChunks(const std::string& path, std::span<const surfels::MeshSurfels> clouds) {
-  auto reader = asset::AssetReader::open(path);
-  if (!reader) return reader.error();
-  asset::AssetWriter writer;
-  for (size_t i = 0; i < reader->chunks().size(); ++i) {
-    if (reader->chunks()[i].type == asset::chunk::Surfels) continue;
-    auto bytes = reader->readChunk(i);
-    if (!bytes) return bytes.error();
-    writer.addChunk(reader->chunks()[i].type, *bytes);
-  }
-  for (const surfels::MeshSurfels& m : clouds)
-    writer.addChunk(asset::chunk::Surfels, surfels::encodeSurfelChunk(m.cloud, m.mesh));
-  return writer.write(path);
-}
-
 void runSurfels(SurfelsOptions o) {
   // Everything cheap first, so bad input fails before the import and the GPU start.
   if (auto s = checkOutputPath(o.output, {".ply", ".mrg"}); !s) return fail(s.error());
@@ -278,7 +262,8 @@ void runSurfels(SurfelsOptions o) {
                  sampled->captureSeconds + sampled->samplerSeconds);
     }
     if (clouds.empty()) return fail(o.input + ": scene has no triangles to sample");
-    if (Status w = o.append ? appendSurfelChunks(o.output, clouds) : surfels::writeSurfelMrg(o.output, clouds); !w)
+    if (Status w = o.append ? surfels::appendSurfelMrg(o.output, clouds) : surfels::writeSurfelMrg(o.output, clouds);
+        !w)
       return fail(w.error());
     if (say)
       fmt::print("surfels {} -> {}: {} SURF chunks (one per mesh, object space) on {}\n", o.input, o.output,

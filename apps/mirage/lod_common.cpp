@@ -48,6 +48,7 @@ BuildSummary summarize(const lod::LodAsset& a, const std::string& path) {
           s.sourceMapBytes += c.storedBytes;
     }
   }
+  for (const std::vector<uint32_t>& map : a.sourceClusters) s.readTriangles += map.size();
   std::vector<double> fillWeighted, ageWeighted;
   for (const lod::ClusterDag& d : a.dags) {
     s.inputTriangles += d.inputTriangles;
@@ -81,6 +82,7 @@ nlohmann::json summaryJson(const BuildSummary& s) {
                       {"stuck_groups", l.stuckGroups},
                       {"seconds", l.seconds}});
   return {{"meshes", s.meshes},
+          {"read_triangles", s.readTriangles},
           {"input_triangles", s.inputTriangles},
           {"clusters", s.clusters},
           {"levels", levels},
@@ -93,7 +95,25 @@ nlohmann::json summaryJson(const BuildSummary& s) {
           {"bytes_per_input_triangle", s.inputTriangles ? double(s.fileBytes) / double(s.inputTriangles) : 0.0}};
 }
 
+std::string grouped(uint64_t n) {
+  std::string digits = std::to_string(n), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
 void printSummary(const BuildSummary& s) {
+  // The builder welds positions and drops degenerate and duplicate triangles: both counts, so the
+  // import's count and the asset's agree with what each command prints.
+  if (s.readTriangles == s.inputTriangles)
+    fmt::print("  {} triangles read, none degenerate or duplicate\n", grouped(s.readTriangles));
+  else if (s.readTriangles > s.inputTriangles)
+    fmt::print("  {} triangles read, {} after removing {} degenerate/duplicate\n", grouped(s.readTriangles),
+               grouped(s.inputTriangles), grouped(s.readTriangles - s.inputTriangles));
+  else
+    fmt::print("  {} triangles (after removing degenerate/duplicate ones)\n", grouped(s.inputTriangles));
   fmt::print("  level  clusters   triangles  fill   edge age  stuck  seconds\n");
   for (size_t l = 0; l < s.levels.size(); ++l) {
     const LevelSummary& v = s.levels[l];

@@ -25,7 +25,8 @@ struct LevelSummary {
 
 struct BuildSummary {
   size_t meshes = 0;
-  uint64_t inputTriangles = 0;
+  uint64_t readTriangles = 0;  // source triangles as imported (0: unknown, asset without a TMAP chunk)
+  uint64_t inputTriangles = 0; // after the builder dropped degenerate and duplicate triangles
   uint64_t clusters = 0;
   uint64_t rootClusters = 0;
   uint64_t rootTriangles = 0;
@@ -39,5 +40,7 @@ struct BuildSummary {
 BuildSummary summarize(const lod::LodAsset& asset, const std::string& path);
 nlohmann::json summaryJson(const BuildSummary& s);
 void printSummary(const BuildSummary& s);
+// 102822 -> "102,822".
+std::string grouped(uint64_t n);
 
 } // namespace mirage::cli

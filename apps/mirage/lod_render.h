@@ -53,6 +53,11 @@ struct LodRenderRequest {
 bool isLodAssetPath(const std::string& input);
 // A .mrg holding cluster DAGs ('CDAG'): `--surfels` on it renders the mixed scene (docs/render.md).
 bool mrgHasClusterDags(const std::string& input);
+// Which kinds of chunk a .mrg holds (all false when it cannot be opened: the loader reports why).
+struct MrgContents {
+  bool clusterDags = false, surfels = false, pvs = false, scene = false;
+};
+MrgContents mrgContents(const std::string& input);
 void runLodRender(const LodRenderRequest& request);
 void runLodBench(const LodRenderRequest& request);
 

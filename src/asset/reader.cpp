@@ -197,7 +197,7 @@ Result<std::vector<uint8_t>> AssetReader::readChunk(FourCC type) const {
   return readChunk(*i);
 }
 
-Result<std::vector<uint8_t>> AssetReader::readChunk(size_t index) const {
+Result<std::vector<uint8_t>> AssetReader::readStoredChunk(size_t index) const {
   if (index >= chunks_.size())
     return error("chunk index " + std::to_string(index) + " out of range (" + std::to_string(chunks_.size()) +
                  " chunks)");
@@ -211,6 +211,19 @@ Result<std::vector<uint8_t>> AssetReader::readChunk(size_t index) const {
     uint64_t storedHash = XXH3_64bits(stored.data(), stored.size());
     if (storedHash != c.storedHash)
       return error(name + " checksum mismatch (stored " + hex(c.storedHash) + ", computed " + hex(storedHash) + ")");
+    return stored;
+  } catch (const std::bad_alloc&) {
+    return error(name + ": out of memory for " + std::to_string(c.storedBytes) + " bytes");
+  }
+}
+
+Result<std::vector<uint8_t>> AssetReader::readChunk(size_t index) const {
+  Result<std::vector<uint8_t>> read = readStoredChunk(index);
+  if (!read) return read.error();
+  const ChunkInfo& c = chunks_[index];
+  std::string name = "chunk " + std::to_string(index) + " " + c.type.str();
+  try {
+    std::vector<uint8_t> stored = std::move(*read);
     std::vector<uint8_t> raw;
     if (!c.compressed) {
       raw = std::move(stored);

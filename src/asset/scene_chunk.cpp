@@ -35,7 +35,10 @@ template <class V> std::optional<size_t> firstNonFinite(const std::vector<V>& va
 }
 
 std::string validateTexture(const Texture& t) {
-  // width*height*4 in 64 bits cannot overflow for 32-bit width and height.
+  // width*height fits 64 bits for 32-bit sizes, but *4 does not: 2^31 x 2^31 wrapped to 0 and
+  // matched an empty pixel array.
+  if (uint64_t(t.width) * t.height >= (uint64_t(1) << 62))
+    return "is " + std::to_string(t.width) + "x" + std::to_string(t.height) + ": too large";
   uint64_t expected = uint64_t(t.width) * t.height * 4;
   if (t.rgba8.size() != expected)
     return "has " + std::to_string(t.rgba8.size()) + " bytes, expected " + std::to_string(t.width) + "x" +

@@ -94,7 +94,21 @@ void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdL
   }
 }
 
-Status AssetWriter::write(const std::string& path) const {
+void AssetWriter::addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> stored) {
+  if (error_) return;
+  if (stored.size() != info.storedBytes || XXH3_64bits(stored.data(), stored.size()) != info.storedHash) {
+    error_ = Error{"chunk " + info.type.str() + ": stored bytes do not match their table entry"};
+    return;
+  }
+  Pending p;
+  p.info = info;
+  p.info.offset = 0; // laid out again by write()
+  p.stored = std::move(stored);
+  chunks_.push_back(std::move(p));
+}
+
+Status AssetWriter::write(const std::string& path,
+                          const std::function<Status(const std::string& tempPath)>& check) const {
   if (error_) return makeError(path, error_->message);
   if (chunks_.size() > kMaxChunks) return makeError(path, "too many chunks (" + std::to_string(chunks_.size()) + ")");
 
@@ -161,6 +175,12 @@ Status AssetWriter::write(const std::string& path) const {
   int closeResult = ::close(fd);
   fd = -1;
   if (closeResult != 0) return fail("close failed");
+  if (check) {
+    if (Status s = check(tmp); !s) {
+      ::unlink(tmp.c_str());
+      return s;
+    }
+  }
   if (::rename(tmp.c_str(), path.c_str()) != 0) return fail("cannot rename " + tmp + " to the output");
   // Persist the rename itself; best effort (some file systems refuse fsync on directories).
   int dir = ::open(parentDir(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);

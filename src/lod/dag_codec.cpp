@@ -1,6 +1,7 @@
 #include "mirage/lod/dag_codec.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -10,6 +11,7 @@
 
 #include "mirage/asset/bytes.h"
 #include "mirage/core/octahedral.h"
+#include "mirage/lod/verify.h"
 
 namespace mirage::lod {
 
@@ -70,6 +72,10 @@ struct Quantizer {
   float step = 1.0f;
 };
 
+// Raw float positions (no grid): stored in the bits field.
+constexpr uint32_t kRawPositionBits = 32;
+constexpr uint32_t kMaxGridBits = 24; // float holds every integer up to 2^24 exactly
+
 struct PackedPosition {
   uint32_t x, y, z; // grid coordinates (up to 24 bits used)
 };
@@ -81,27 +87,86 @@ struct PackedAttributes {
 };
 static_assert(sizeof(PackedAttributes) == 12);
 
-// Open-addressing hash set of the grid points: linear time (a sort of the indices per tried bit
-// count was an eighth of the whole `mirage build` of the dragon, run once per bit count tried).
-bool positionsDistinct(const std::vector<PackedPosition>& packed) {
+glm::vec3 gridPosition(const Quantizer& q, const PackedPosition& p);
+
+// Open-addressing hash set of the decoded positions: linear time (a sort of the indices per tried
+// bit count was an eighth of the whole `mirage build` of the dragon, run once per bit count
+// tried). Compared as decoded floats, not grid points: far from the origin two grid points can
+// round to one float.
+bool positionsDistinct(const Quantizer& q, const std::vector<PackedPosition>& packed) {
+  auto bitsOf = [&](uint32_t i) {
+    glm::vec3 p = gridPosition(q, packed[i]) + glm::vec3(0.0f); // -0 and +0 are one position
+    std::array<uint32_t, 3> b;
+    std::memcpy(b.data(), &p, sizeof(p));
+    return b;
+  };
   size_t size = 16;
   while (size < packed.size() * 2) size *= 2;
   std::vector<uint32_t> slots(size, ~0u);
   for (uint32_t i = 0; i < packed.size(); ++i) {
-    const PackedPosition& p = packed[i];
-    uint64_t h = (uint64_t(p.x) * 0x9e3779b97f4a7c15ull) ^ (uint64_t(p.y) * 0xc2b2ae3d27d4eb4full) ^
-                 (uint64_t(p.z) * 0x165667b19e3779f9ull);
+    std::array<uint32_t, 3> p = bitsOf(i);
+    uint64_t h = (uint64_t(p[0]) * 0x9e3779b97f4a7c15ull) ^ (uint64_t(p[1]) * 0xc2b2ae3d27d4eb4full) ^
+                 (uint64_t(p[2]) * 0x165667b19e3779f9ull);
     h ^= h >> 29;
     for (size_t s = size_t(h) & (size - 1);; s = (s + 1) & (size - 1)) {
       if (slots[s] == ~0u) {
         slots[s] = i;
         break;
       }
-      const PackedPosition& q = packed[slots[s]];
-      if (q.x == p.x && q.y == p.y && q.z == p.z) return false;
+      if (bitsOf(slots[s]) == p) return false;
     }
   }
   return true;
+}
+
+// A grid point as the decoder places it (the encoder checks its choice with the same function).
+glm::vec3 gridPosition(const Quantizer& q, const PackedPosition& p) {
+  return q.origin + glm::vec3(float(p.x), float(p.y), float(p.z)) * q.step;
+}
+
+// How far a decoded position may be from the original: half a step per axis (sqrt(3)/2 step in
+// all) plus the float rounding of the product and the sum, at most 2^-24 of the largest coordinate
+// each per axis. The encoder only keeps a grid that meets it; the decoder widens every sphere and
+// error by it, so culling and LOD selection stay conservative.
+float positionSlack(const Quantizer& q, uint32_t bits) {
+  if (bits == kRawPositionBits) return 0.0f;
+  float top = q.step * float((1u << bits) - 1);
+  float magnitude = std::max({std::abs(q.origin.x), std::abs(q.origin.y), std::abs(q.origin.z)}) + top;
+  return q.step + std::ldexp(magnitude, -22);
+}
+
+// The grid of `bits` per axis over `box`: step = largest extent / (2^bits - 1), rounded up as a
+// float so that the top coordinate lands on the last grid point, not one past it (rounded to
+// nearest, the step was too small for about 10 % of boxes at 23 bits).
+Quantizer makeGrid(const Bounds& box, uint32_t bits) {
+  Quantizer q;
+  if (box.empty()) return q;
+  q.origin = box.min;
+  double extent = 0.0; // in double: max - min of two floats is exact there
+  for (int a = 0; a < 3; ++a) extent = std::max(extent, double(box.max[a]) - double(box.min[a]));
+  double cells = double((1u << bits) - 1);
+  q.step = std::max(float(extent / cells), std::numeric_limits<float>::min());
+  while (double(q.step) * cells < extent) q.step = std::nextafter(q.step, std::numeric_limits<float>::infinity());
+  return q;
+}
+
+// Quantizes `positions` on `q`, true when the result decodes within positionSlack of every
+// original and keeps distinct positions distinct (fused ones would change the topology).
+bool quantize(const std::vector<glm::vec3>& positions, const Quantizer& q, uint32_t bits,
+              std::vector<PackedPosition>& packed) {
+  double maxGrid = double((1u << bits) - 1);
+  float slack = positionSlack(q, bits);
+  if (!std::isfinite(slack)) return false; // coordinates near the float range: the decoder would refuse it
+  for (size_t i = 0; i < positions.size(); ++i) {
+    uint32_t g[3];
+    for (int a = 0; a < 3; ++a) {
+      double t = (double(positions[i][a]) - double(q.origin[a])) / double(q.step);
+      g[a] = uint32_t(std::clamp(std::nearbyint(t), 0.0, maxGrid));
+    }
+    packed[i] = {g[0], g[1], g[2]};
+    if (!(glm::distance(gridPosition(q, packed[i]), positions[i]) <= slack)) return false;
+  }
+  return positionsDistinct(q, packed);
 }
 
 void writeSphere(ByteWriter& w, const LodBounds& b) {
@@ -124,30 +189,21 @@ std::vector<uint8_t> encodeDag(const ClusterDag& dag, const DagEncodeOptions& op
   // collide.
   Bounds box;
   for (const glm::vec3& p : dag.positions) box.add(p);
-  uint32_t bits = std::clamp(options.positionBits, 8u, 24u);
+  uint32_t bits = options.positionBits > kMaxGridBits ? kRawPositionBits : std::max(options.positionBits, 8u);
   Quantizer q;
   std::vector<PackedPosition> packed(dag.positions.size());
-  for (;; ++bits) {
+  for (; bits <= kMaxGridBits; ++bits) {
+    q = makeGrid(box, bits);
+    if (quantize(dag.positions, q, bits, packed)) break;
+  }
+  if (bits > kMaxGridBits) {
+    // Vertices closer than 1/2^24 of the extent but not equal (float noise in the source), or a
+    // mesh so far from the origin that float rounding of the grid exceeds its step: only the
+    // exact floats keep them. bits = 32 marks raw float positions.
+    bits = kRawPositionBits;
     q = Quantizer{};
-    if (!box.empty()) {
-      q.origin = box.min;
-      float extent = std::max({box.extent().x, box.extent().y, box.extent().z, 1e-30f});
-      q.step = extent / float((1u << bits) - 1);
-    }
-    for (size_t i = 0; i < packed.size(); ++i) {
-      glm::vec3 g = (dag.positions[i] - q.origin) / q.step;
-      packed[i] = {uint32_t(std::lround(g.x)), uint32_t(std::lround(g.y)), uint32_t(std::lround(g.z))};
-    }
-    if (positionsDistinct(packed)) break;
-    if (bits == 24) {
-      // Vertices closer than 1/2^24 of the extent but not equal (float noise in the source): only
-      // the exact floats keep them apart. bits = 32 marks raw float positions.
-      bits = 32;
-      q = Quantizer{};
-      static_assert(sizeof(PackedPosition) == sizeof(glm::vec3));
-      std::memcpy(packed.data(), dag.positions.data(), packed.size() * sizeof(glm::vec3));
-      break;
-    }
+    static_assert(sizeof(PackedPosition) == sizeof(glm::vec3));
+    std::memcpy(packed.data(), dag.positions.data(), packed.size() * sizeof(glm::vec3));
   }
   w.write(bits);
   w.write(q.origin.x), w.write(q.origin.y), w.write(q.origin.z), w.write(q.step);
@@ -215,8 +271,10 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   Quantizer q;
   r.read(inputTriangles), r.read(bits), r.read(q.origin.x), r.read(q.origin.y), r.read(q.origin.z), r.read(q.step);
   if (!r.ok()) return r.error();
-  bool rawFloats = bits == 32;
-  if (!rawFloats && (bits < 8 || bits > 24 || !(q.step > 0.0f) || !std::isfinite(q.step)))
+  bool rawFloats = bits == kRawPositionBits;
+  if (!rawFloats &&
+      (bits < 8 || bits > kMaxGridBits || !(q.step > 0.0f) || !std::isfinite(q.step) || !std::isfinite(q.origin.x) ||
+       !std::isfinite(q.origin.y) || !std::isfinite(q.origin.z) || !std::isfinite(positionSlack(q, bits))))
     return makeError(file, "bad position quantization");
   dag.inputTriangles = inputTriangles;
 
@@ -238,7 +296,7 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   for (size_t i = 0; i < packed.size() && !rawFloats; ++i) {
     if (packed[i].x > maxGrid || packed[i].y > maxGrid || packed[i].z > maxGrid)
       return makeError(file, "position off the grid");
-    dag.positions[i] = q.origin + glm::vec3(float(packed[i].x), float(packed[i].y), float(packed[i].z)) * q.step;
+    dag.positions[i] = gridPosition(q, packed[i]);
   }
 
   uint64_t vertexCount = 0;
@@ -323,18 +381,18 @@ Result<ClusterDag> decodeDag(std::span<const uint8_t> bytes, const std::string& 
   if (Status s = r.finish(); !s) return s.error();
 
   // Derived LOD bounds: self = generating group's (level 0: own sphere, error 0), parent = member
-  // group's (roots: +inf). Quantization moved vertices by up to half a grid step per axis, so
-  // spheres grow by that much and errors by the same distance, which keeps both conservative.
-  float slack = rawFloats ? 0.0f : q.step; // >= sqrt(3)/2 step, with room for float rounding
+  // group's (roots: +inf). Quantization moved vertices by up to positionSlack, so spheres grow by
+  // that much and errors by the same distance, which keeps both conservative.
+  float slack = positionSlack(q, bits);
+  // Every path that loads a DAG (render, info, verify) gets the same structural checks here, before
+  // anything indexes with what was decoded.
+  if (Status s = checkDagStructure(dag); !s) return makeError(file, s.error().message);
   for (Group& g : dag.groups) {
     g.bounds.radius += slack * float(g.level + 2); // nested spheres stay nested level over level
     g.bounds.error += slack;
   }
   for (size_t i = 0; i < dag.clusters.size(); ++i) {
     Cluster& c = dag.clusters[i];
-    if (c.generatingGroup != kNone && c.generatingGroup >= groupCount)
-      return makeError(file, "cluster has a bad generating group");
-    if (c.group != kNone && c.group >= groupCount) return makeError(file, "cluster has a bad group");
     c.bounds.radius += slack;
     if (c.generatingGroup == kNone) {
       c.self = c.bounds;

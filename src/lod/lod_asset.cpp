@@ -168,6 +168,63 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
   return out;
 }
 
+namespace {
+
+// The asset of an open container; `path` names the file in errors.
+Result<LodAsset> readLodAsset(const asset::AssetReader& reader, const std::string& path) {
+  LodAsset a;
+  auto sceneBytes = reader.readChunk(asset::chunk::Scene);
+  if (!sceneBytes) return sceneBytes.error();
+  auto scene = asset::decodeScene(*sceneBytes, path);
+  if (!scene) return scene.error();
+  a.scene = std::move(scene).value();
+  for (size_t i = 0; i < reader.chunks().size(); ++i) {
+    asset::FourCC type = reader.chunks()[i].type;
+    if (type == asset::chunk::ClusterDag) {
+      auto bytes = reader.readChunk(i);
+      if (!bytes) return bytes.error();
+      auto dag = decodeDag(*bytes, path);
+      if (!dag) return dag.error();
+      a.dags.push_back(std::move(dag).value());
+    } else if (type == asset::chunk::Meta) {
+      auto bytes = reader.readChunk(i);
+      if (!bytes) return bytes.error();
+      a.metaJson.assign(bytes->begin(), bytes->end());
+    }
+  }
+  if (a.dags.empty()) return makeError(path, "no cluster DAG chunk (not built with mirage build?)");
+  if (a.dags.size() != a.scene.meshes.size())
+    return makeError(path, std::to_string(a.dags.size()) + " cluster DAGs for " +
+                               std::to_string(a.scene.meshes.size()) + " meshes");
+  if (reader.find(asset::chunk::SourceMap)) {
+    auto bytes = reader.readChunk(asset::chunk::SourceMap);
+    if (!bytes) return bytes.error();
+    auto maps = decodeSourceMaps(*bytes, a, path);
+    if (!maps) return maps.error();
+    a.sourceClusters = std::move(*maps);
+  }
+  return a;
+}
+
+// What a reader of the written file gets is what was baked: the same counts and topology
+// (positions moved only within the grid's slack, which decodeDag accounts for).
+std::string readBackDifference(const LodAsset& written, const LodAsset& read) {
+  if (read.dags.size() != written.dags.size()) return "mesh count differs";
+  for (size_t i = 0; i < written.dags.size(); ++i) {
+    const ClusterDag &a = written.dags[i], &b = read.dags[i];
+    if (a.positions.size() != b.positions.size() || a.vertexPosition != b.vertexPosition ||
+        a.clusters.size() != b.clusters.size() || a.clusterVertices != b.clusterVertices ||
+        a.clusterIndices != b.clusterIndices || a.groups.size() != b.groups.size() ||
+        a.groupChildren != b.groupChildren || a.groupParents != b.groupParents || a.roots != b.roots ||
+        a.normals.size() != b.normals.size() || a.uv0 != b.uv0)
+      return "mesh " + std::to_string(i) + "'s cluster DAG decodes differently";
+  }
+  if (read.sourceClusters != written.sourceClusters) return "source-triangle maps differ";
+  return {};
+}
+
+} // namespace
+
 Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeOptions& options) {
   if (a.dags.size() != a.scene.meshes.size()) return makeError(path, "one DAG per mesh required");
   if (Status s = asset::validateScene(a.scene, path); !s) return s;
@@ -191,44 +248,22 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeO
   }
   std::string meta = a.metaJson.empty() ? "{}" : a.metaJson;
   w.addChunk(asset::chunk::Meta, std::span(reinterpret_cast<const uint8_t*>(meta.data()), meta.size()));
-  return w.write(path);
+  // Read the complete file back before it takes the name: a file that `info`, `verify` or `render`
+  // would reject is never published (the encoder once wrote positions one step off its grid).
+  return w.write(path, [&](const std::string& tempPath) -> Status {
+    auto reader = asset::AssetReader::open(tempPath);
+    Result<LodAsset> read = reader ? readLodAsset(*reader, path) : Result<LodAsset>(reader.error());
+    std::string problem = read ? readBackDifference(a, *read) : read.error().message;
+    if (problem.empty()) return Ok{};
+    if (problem.starts_with(path + ": ")) problem.erase(0, path.size() + 2); // named once, in front
+    return makeError(path, "the written file does not read back (" + problem + "); nothing written");
+  });
 }
 
 Result<LodAsset> loadLodAsset(const std::string& path) {
   auto reader = asset::AssetReader::open(path);
   if (!reader) return reader.error();
-  LodAsset a;
-  auto sceneBytes = reader->readChunk(asset::chunk::Scene);
-  if (!sceneBytes) return sceneBytes.error();
-  auto scene = asset::decodeScene(*sceneBytes, path);
-  if (!scene) return scene.error();
-  a.scene = std::move(scene).value();
-  for (size_t i = 0; i < reader->chunks().size(); ++i) {
-    asset::FourCC type = reader->chunks()[i].type;
-    if (type == asset::chunk::ClusterDag) {
-      auto bytes = reader->readChunk(i);
-      if (!bytes) return bytes.error();
-      auto dag = decodeDag(*bytes, path);
-      if (!dag) return dag.error();
-      a.dags.push_back(std::move(dag).value());
-    } else if (type == asset::chunk::Meta) {
-      auto bytes = reader->readChunk(i);
-      if (!bytes) return bytes.error();
-      a.metaJson.assign(bytes->begin(), bytes->end());
-    }
-  }
-  if (a.dags.empty()) return makeError(path, "no cluster DAG chunk (not built with mirage build?)");
-  if (a.dags.size() != a.scene.meshes.size())
-    return makeError(path, std::to_string(a.dags.size()) + " cluster DAGs for " +
-                               std::to_string(a.scene.meshes.size()) + " meshes");
-  if (reader->find(asset::chunk::SourceMap)) {
-    auto bytes = reader->readChunk(asset::chunk::SourceMap);
-    if (!bytes) return bytes.error();
-    auto maps = decodeSourceMaps(*bytes, a, path);
-    if (!maps) return maps.error();
-    a.sourceClusters = std::move(*maps);
-  }
-  return a;
+  return readLodAsset(*reader, path);
 }
 
 Mesh levelZeroMesh(const ClusterDag& dag) {

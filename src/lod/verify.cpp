@@ -61,7 +61,9 @@ bool contains(const LodBounds& outer, const LodBounds& inner) {
 
 std::string str(uint64_t v) { return std::to_string(v); }
 
-Status checkRanges(const ClusterDag& dag) {
+} // namespace
+
+Status checkDagStructure(const ClusterDag& dag) {
   for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
     const Cluster& cl = dag.clusters[c];
     if (size_t(cl.vertexOffset) + cl.vertexCount > dag.clusterVertices.size() ||
@@ -78,48 +80,35 @@ Status checkRanges(const ClusterDag& dag) {
     if (cl.group != kNone && cl.group >= dag.groups.size()) return fail("cluster " + str(c) + " bad group");
     if (cl.generatingGroup != kNone && cl.generatingGroup >= dag.groups.size())
       return fail("cluster " + str(c) + " bad generating group");
+    if (c > 0 && cl.level < dag.clusters[c - 1].level) return fail("cluster " + str(c) + " is out of level order");
   }
   for (uint32_t p : dag.vertexPosition)
     if (p >= dag.positions.size()) return fail("vertex position out of range");
+  for (size_t n : {dag.normals.size(), dag.uv0.size()})
+    if (n != 0 && n != dag.vertexPosition.size()) return fail("attribute count differs from the vertex count");
+  // Links both ways, each cluster in at most one group as a child and as a parent, parents one
+  // level above their group and children at most at it: group levels then strictly grow along
+  // every child -> parent path, so the group graph has no cycle (renderers walk it).
+  std::vector<uint32_t> childCount(dag.clusters.size(), 0), parentCount(dag.clusters.size(), 0);
   for (uint32_t g = 0; g < dag.groups.size(); ++g) {
     const Group& gr = dag.groups[g];
     if (size_t(gr.childOffset) + gr.childCount > dag.groupChildren.size() ||
         size_t(gr.parentOffset) + gr.parentCount > dag.groupParents.size() || gr.childCount == 0 || gr.parentCount == 0)
       return fail("group " + str(g) + " range out of bounds or empty");
-    for (uint32_t i = 0; i < gr.childCount; ++i)
-      if (dag.groupChildren[gr.childOffset + i] >= dag.clusters.size()) return fail("group " + str(g) + " bad child");
-    for (uint32_t i = 0; i < gr.parentCount; ++i)
-      if (dag.groupParents[gr.parentOffset + i] >= dag.clusters.size()) return fail("group " + str(g) + " bad parent");
-  }
-  return Ok{};
-}
-
-} // namespace
-
-Status verifyDag(const ClusterDag& dag) {
-  if (Status s = checkRanges(dag); !s) return s;
-  std::vector<uint32_t> childCount(dag.clusters.size(), 0), parentCount(dag.clusters.size(), 0);
-  for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
-    const Cluster& cl = dag.clusters[c];
-    if (!(cl.self.error <= cl.parent.error)) return fail("cluster " + str(c) + " error decreases towards its parents");
-    if (cl.group == kNone && !std::isinf(cl.parent.error)) return fail("root cluster " + str(c) + " has finite error");
-  }
-  for (uint32_t g = 0; g < dag.groups.size(); ++g) {
-    const Group& gr = dag.groups[g];
     for (uint32_t i = 0; i < gr.childCount; ++i) {
       uint32_t c = dag.groupChildren[gr.childOffset + i];
-      const Cluster& cl = dag.clusters[c];
+      if (c >= dag.clusters.size()) return fail("group " + str(g) + " bad child");
+      if (dag.clusters[c].group != g) return fail("group " + str(g) + " child " + str(c) + " does not point back");
+      if (dag.clusters[c].level > gr.level) return fail("group " + str(g) + " child " + str(c) + " above its level");
       ++childCount[c];
-      if (cl.group != g) return fail("group " + str(g) + " child " + str(c) + " does not point back");
-      if (cl.parent.error != gr.bounds.error) return fail("cluster " + str(c) + " parent error differs from its group");
-      if (gr.bounds.error < cl.self.error) return fail("group " + str(g) + " error below child " + str(c));
-      if (!contains(gr.bounds, cl.self)) return fail("group " + str(g) + " sphere does not contain child " + str(c));
     }
     for (uint32_t i = 0; i < gr.parentCount; ++i) {
       uint32_t c = dag.groupParents[gr.parentOffset + i];
-      ++parentCount[c];
+      if (c >= dag.clusters.size()) return fail("group " + str(g) + " bad parent");
       if (dag.clusters[c].generatingGroup != g) return fail("group " + str(g) + " parent " + str(c) + " mismatch");
-      if (dag.clusters[c].self.error != gr.bounds.error) return fail("cluster " + str(c) + " error differs from group");
+      if (dag.clusters[c].level != gr.level + 1)
+        return fail("group " + str(g) + " parent " + str(c) + " not one level above");
+      ++parentCount[c];
     }
   }
   for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
@@ -131,6 +120,32 @@ Status verifyDag(const ClusterDag& dag) {
   size_t rootCount = 0;
   for (const Cluster& cl : dag.clusters) rootCount += cl.group == kNone;
   if (rootCount != dag.roots.size()) return fail("root list does not match clusters without a group");
+  for (uint32_t r : dag.roots)
+    if (r >= dag.clusters.size() || dag.clusters[r].group != kNone) return fail("root list names a non-root cluster");
+  return Ok{};
+}
+
+Status verifyDag(const ClusterDag& dag) {
+  if (Status s = checkDagStructure(dag); !s) return s;
+  for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
+    const Cluster& cl = dag.clusters[c];
+    if (!(cl.self.error <= cl.parent.error)) return fail("cluster " + str(c) + " error decreases towards its parents");
+    if (cl.group == kNone && !std::isinf(cl.parent.error)) return fail("root cluster " + str(c) + " has finite error");
+  }
+  for (uint32_t g = 0; g < dag.groups.size(); ++g) {
+    const Group& gr = dag.groups[g];
+    for (uint32_t i = 0; i < gr.childCount; ++i) {
+      uint32_t c = dag.groupChildren[gr.childOffset + i];
+      const Cluster& cl = dag.clusters[c];
+      if (cl.parent.error != gr.bounds.error) return fail("cluster " + str(c) + " parent error differs from its group");
+      if (gr.bounds.error < cl.self.error) return fail("group " + str(g) + " error below child " + str(c));
+      if (!contains(gr.bounds, cl.self)) return fail("group " + str(g) + " sphere does not contain child " + str(c));
+    }
+    for (uint32_t i = 0; i < gr.parentCount; ++i) {
+      uint32_t c = dag.groupParents[gr.parentOffset + i];
+      if (dag.clusters[c].self.error != gr.bounds.error) return fail("cluster " + str(c) + " error differs from group");
+    }
+  }
 
   // The mesh's own open border, from the level-0 clusters (they are the cleaned input).
   std::vector<uint32_t> level0;

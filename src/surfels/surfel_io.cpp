@@ -1,5 +1,7 @@
 #include "mirage/surfels/surfel_io.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -78,6 +80,16 @@ Status writeSurfelPly(const std::string& path, const SurfelCloud& c) {
   return Ok{};
 }
 
+bool isSurfelPly(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::string line;
+  if (!std::getline(f, line) || line != "ply") return false;
+  // The header is a few hundred bytes; a bounded read never scans a large binary body.
+  for (int lines = 0; lines < 256 && std::getline(f, line) && line != "end_header"; ++lines)
+    if (line.starts_with("comment mirage surfels")) return true;
+  return false;
+}
+
 Result<SurfelCloud> readSurfelPly(const std::string& path) {
   if (std::string problem = inputFileProblem(path); !problem.empty()) return makeError(path, problem);
   std::ifstream f(path, std::ios::binary);
@@ -136,6 +148,18 @@ Result<SurfelCloud> readSurfelPly(const std::string& path) {
   }
   if (px < 0 || py < 0 || pz < 0 || !props[px].isFloat || !props[py].isFloat || !props[pz].isFloat)
     return makeError(path, "PLY vertices need float x, y and z");
+  // The count is checked against the bytes there before anything is allocated for it.
+  std::streamoff start = f.tellg();
+  f.seekg(0, std::ios::end);
+  uint64_t available = uint64_t(f.tellg() - start);
+  f.seekg(start);
+  if (count > available / std::max<size_t>(stride, 1) || uint64_t(count) * stride != available)
+    return makeError(path,
+                     fmt::format("{}: element vertex count {} needs {} bytes of {}-byte vertices, the file has {}",
+                                 count > available / std::max<size_t>(stride, 1) || uint64_t(count) * stride > available
+                                     ? "truncated"
+                                     : "trailing bytes",
+                                 count, uint64_t(count) * stride, stride, available));
   std::vector<uint8_t> body(count * stride);
   f.read(reinterpret_cast<char*>(body.data()), std::streamsize(body.size()));
   if (size_t(f.gcount()) != body.size())
@@ -167,8 +191,15 @@ Result<SurfelCloud> readSurfelPly(const std::string& path) {
       }
     }
   }
+  auto finite = [](glm::vec3 p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); };
+  for (size_t v = 0; v < count; ++v)
+    if (!finite(positions[v]) || !finite(normals[v]) || !std::isfinite(c.radii[v]) || c.radii[v] < 0.0f)
+      return makeError(path, fmt::format("vertex {} has a NaN or infinite position, normal or radius", v));
   if (!haveBox)
     for (glm::vec3 p : positions) c.box.add(p);
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(c.box.min[a]) || !std::isfinite(c.box.max[a]))
+      return makeError(path, "mirage_box comment is NaN or infinite");
   c.surfels.reserve(count);
   for (size_t v = 0; v < count; ++v) c.surfels.push_back(packSurfel(c.box, positions[v], normals[v], colors[v]));
   return c;
@@ -202,6 +233,14 @@ Result<MeshSurfels> decodeSurfelChunkWithMesh(std::span<const uint8_t> bytes, co
   size_t expected = headerBytes + size_t(h.count) * (sizeof(Surfel) + sizeof(float));
   if (bytes.size() != expected)
     return makeError(file, fmt::format("SURF chunk has {} bytes, {} surfels need {}", bytes.size(), h.count, expected));
+  // What renderers compute with: the quantization box and the spacings (the surfels themselves are
+  // integers inside the box, any value valid).
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(h.boxMin[a]) || !std::isfinite(h.boxMax[a]) || (h.count > 0 && !(h.boxMin[a] <= h.boxMax[a])))
+      return makeError(file, "SURF chunk has a NaN, infinite or inverted box");
+  if (!std::isfinite(h.referenceMeanSpacing) || !std::isfinite(h.referenceMedianSpacing) ||
+      h.referenceMeanSpacing < 0.0f || h.referenceMedianSpacing < 0.0f || h.referenceCount > h.count)
+    return makeError(file, "SURF chunk has bad reference spacing statistics");
   MeshSurfels out;
   if (h.version >= 2) std::memcpy(&out.mesh, bytes.data() + sizeof(h), 4);
   SurfelCloud& c = out.cloud;
@@ -214,6 +253,9 @@ Result<MeshSurfels> decodeSurfelChunkWithMesh(std::span<const uint8_t> bytes, co
   c.radii.resize(h.count);
   std::memcpy(c.surfels.data(), bytes.data() + headerBytes, h.count * sizeof(Surfel));
   std::memcpy(c.radii.data(), bytes.data() + headerBytes + h.count * sizeof(Surfel), h.count * sizeof(float));
+  for (size_t i = 0; i < c.radii.size(); ++i)
+    if (!std::isfinite(c.radii[i]) || c.radii[i] < 0.0f)
+      return makeError(file, fmt::format("SURF chunk: radius {} is negative, NaN or infinite", i));
   return out;
 }
 
@@ -231,6 +273,21 @@ Status writeSurfelMrg(const std::string& path, const SurfelCloud& cloud) {
 
 Status writeSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds) {
   asset::AssetWriter writer;
+  for (const MeshSurfels& m : clouds) writer.addChunk(asset::chunk::Surfels, encodeSurfelChunk(m.cloud, m.mesh));
+  return writer.write(path);
+}
+
+Status appendSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds) {
+  auto reader = asset::AssetReader::open(path);
+  if (!reader) return reader.error();
+  asset::AssetWriter writer;
+  for (size_t i = 0; i < reader->chunks().size(); ++i) {
+    const asset::ChunkInfo& info = reader->chunks()[i];
+    if (info.type == asset::chunk::Surfels) continue;
+    auto stored = reader->readStoredChunk(i);
+    if (!stored) return stored.error();
+    writer.addStoredChunk(info, std::move(*stored));
+  }
   for (const MeshSurfels& m : clouds) writer.addChunk(asset::chunk::Surfels, encodeSurfelChunk(m.cloud, m.mesh));
   return writer.write(path);
 }

@@ -143,10 +143,13 @@ Result<PvsData> decodePvs(std::span<const uint8_t> bytes, const std::string& fil
     if (!r.readCount(rawBytes, 10 * pvs.sceneTriangles + 20, "raw size") ||
         !r.readCount(storedBytes, r.remaining(), "stored size"))
       return r.error();
-    std::vector<uint8_t> stored(storedBytes), raw(rawBytes);
+    std::vector<uint8_t> stored(storedBytes);
     if (!r.readBytes(stored)) return r.error();
     unsigned long long declared = ZSTD_getFrameContentSize(stored.data(), stored.size());
     if (declared != rawBytes) return fail(where + "zstd frame size does not match");
+    // Checked before allocating: a zstd block yields at most 128 KiB and takes at least 4 bytes.
+    if (rawBytes / 32768 > storedBytes) return fail(where + "raw size is more than zstd can expand its bytes to");
+    std::vector<uint8_t> raw(rawBytes);
     size_t n = ZSTD_decompress(raw.data(), raw.size(), stored.data(), stored.size());
     if (ZSTD_isError(n) || n != rawBytes) return fail(where + "corrupt zstd frame");
     asset::ByteReader ids(raw, file);

@@ -72,6 +72,12 @@ TEST(SceneChunk, InvalidScenesAreRejectedOnSaveAndDecode) {
       {"instance 2 uses mesh 5", [](Scene& s) { s.instances[2].mesh = 5; }},
       {"texture 1 has 11 bytes, expected 1x3x4 = 12", [](Scene& s) { s.textures[1].rgba8.pop_back(); }},
       {"alpha mode", [](Scene& s) { s.materials[0].alphaMode = AlphaMode(7); }},
+      // 2^31 x 2^31 x 4 bytes wraps to 0 in 64 bits: it matched an empty pixel array.
+      {"texture 1 is 2147483648x2147483648: too large",
+       [](Scene& s) {
+         s.textures[1].width = s.textures[1].height = 1u << 31;
+         s.textures[1].rgba8.clear();
+       }},
   };
   TempDir dir;
   for (const Case& c : cases) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <random>
 
+#include "lod_meshes.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/verify.h"
@@ -73,4 +74,28 @@ TEST(LodAsset, CorruptFileIsAClearError) {
   auto missing = lod::loadLodAsset((dir / "missing.mrg").string());
   ASSERT_FALSE(missing.ok());
   EXPECT_NE(missing.error().message.find("missing.mrg"), std::string::npos);
+}
+
+// saveLodAsset reads the complete file back before it takes the name: a file its readers would
+// reject is never published, and nothing is left behind.
+TEST(LodAsset, SaveRefusesAFileThatDoesNotReadBack) {
+  Scene scene;
+  scene.source = "blob";
+  scene.meshes.push_back(lodtest::makeBlob(2, 5));
+  scene.materials.push_back(Material{});
+  scene.instances.push_back({0, glm::mat4(1.0f)});
+  auto baked = lod::bakeLodAsset(scene, {});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  auto dir = test::tempDir("lodreadback");
+  auto good = dir / "good.mrg";
+  ASSERT_TRUE(lod::saveLodAsset(good.string(), *baked).ok());
+  EXPECT_TRUE(lod::loadLodAsset(good.string()).ok());
+  baked->dags[0].clusterIndices[0] = 255; // encodes, but no reader accepts it
+  auto bad = dir / "bad.mrg";
+  Status s = lod::saveLodAsset(bad.string(), *baked);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("bad.mrg"), std::string::npos) << s.error().message;
+  EXPECT_NE(s.error().message.find("local index out of range"), std::string::npos) << s.error().message;
+  EXPECT_EQ(s.error().message.rfind("bad.mrg"), s.error().message.find("bad.mrg")) << "the file is named once";
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1) << "only good.mrg may exist";
 }

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <sys/wait.h>
 
+#include "mirage/asset/container.h"
 #include "mirage/surfels/surfel_io.h"
 #include "test_support.h"
 
@@ -253,5 +254,42 @@ TEST(SurfelCli, FuzzedNonFiniteInputsExit2) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(out)) << name;
+  }
+}
+
+// --append adds SURF chunks to a baked asset: every other chunk keeps its stored bytes (it was
+// recompressed at a lower zstd level, 9 % larger), and appending again replaces the SURF chunks.
+TEST(SurfelCli, AppendKeepsExistingChunksByteIdentical) {
+  auto dir = mirage::test::tempDir("surfels_cli_append");
+  std::string mrg = (dir / "blob.mrg").string();
+  ASSERT_EQ(runMirage("build gen:blob:4 -o " + mrg + " --quiet", dir).code, 0);
+  auto storedChunks = [&] {
+    std::vector<std::pair<mirage::asset::ChunkInfo, std::vector<uint8_t>>> out;
+    auto reader = mirage::asset::AssetReader::open(mrg);
+    EXPECT_TRUE(reader.ok()) << reader.error().message;
+    if (!reader) return out;
+    for (size_t i = 0; i < reader->chunks().size(); ++i)
+      if (reader->chunks()[i].type != mirage::asset::chunk::Surfels)
+        out.push_back({reader->chunks()[i], *reader->readStoredChunk(i)});
+    return out;
+  };
+  auto before = storedChunks();
+  ASSERT_GE(before.size(), 3u); // SCEN, CDAG, TMAP, META
+  std::string append = "surfels gen:blob:4 -o " + mrg + " --count 50 --resolution 16 --views 3 --per-mesh --append";
+  for (int pass = 0; pass < 2; ++pass) {
+    CliRun r = runMirage(append, dir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    auto after = storedChunks();
+    ASSERT_EQ(after.size(), before.size());
+    for (size_t i = 0; i < before.size(); ++i) {
+      std::string what = before[i].first.type.str() + " chunk " + std::to_string(i) + " pass " + std::to_string(pass);
+      EXPECT_EQ(after[i].first.type, before[i].first.type) << what;
+      EXPECT_EQ(after[i].first.zstdLevel, before[i].first.zstdLevel) << what;
+      EXPECT_EQ(after[i].first.rawHash, before[i].first.rawHash) << what;
+      EXPECT_TRUE(after[i].second == before[i].second) << what << ": stored bytes changed";
+    }
+    auto clouds = mirage::surfels::readSurfelMrgAll(mrg);
+    ASSERT_TRUE(clouds.ok()) << clouds.error().message;
+    EXPECT_EQ(clouds->size(), 1u);
   }
 }

@@ -12,6 +12,7 @@
 //   'PVS ' potentially visible sets
 //   'META' JSON metadata (format version, counts; for tools and humans)
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -68,12 +69,17 @@ public:
   // zstdLevel: 0 stores raw, otherwise a zstd level (clamped to zstd's range). Compressed output
   // that is not smaller than the input is stored raw instead. Compression errors surface in write().
   void addChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel = kDefaultZstdLevel);
+  // A chunk exactly as another file stores it (from AssetReader::readStoredChunk): its bytes, level
+  // and checksums are kept, so copying a chunk between files never recompresses it.
+  void addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> stored);
   size_t chunkCount() const { return chunks_.size(); }
 
   // Writes "<path>.tmp-<pid>", fsyncs it and renames it over `path`, so readers see either the
   // old file or the complete new one. On any failure the temp file is removed and `path` is
   // untouched. Writes nothing but these two names (a symlink at `path` is replaced, not followed).
-  Status write(const std::string& path) const;
+  // `check`, when given, reads the complete temp file back (its argument is the temp path) before
+  // the rename: a writer that must not publish a file its readers reject fails there instead.
+  Status write(const std::string& path, const std::function<Status(const std::string& tempPath)>& check = {}) const;
 
 private:
   struct Pending {
@@ -109,6 +115,9 @@ public:
   Result<std::vector<uint8_t>> readChunk(size_t index) const;
   // The first chunk of `type`; an error naming the type when there is none.
   Result<std::vector<uint8_t>> readChunk(FourCC type) const;
+  // The payload as stored (compressed or not), after checking its stored hash: what
+  // AssetWriter::addStoredChunk copies into another file unchanged.
+  Result<std::vector<uint8_t>> readStoredChunk(size_t index) const;
 
 private:
   AssetReader() = default;

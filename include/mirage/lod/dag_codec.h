@@ -16,10 +16,11 @@ namespace mirage::lod {
 inline constexpr uint32_t kDagCodecVersion = 1;
 
 struct DagEncodeOptions {
-  // Bits per position axis on a grid spanning the mesh bounds (8..24). 16 bits put the grid step at
-  // 1/65535 of the largest extent: far below a pixel for any view that shows the whole mesh. The
-  // decoder widens every sphere and error by the step so culling and LOD stay conservative. The
-  // encoder takes more bits (up to 24) when two distinct positions would share a grid point.
+  // Bits per position axis on a grid spanning the mesh bounds (8..24; above 24: raw floats). 16 bits
+  // put the grid step at 1/65535 of the largest extent: far below a pixel for any view that shows
+  // the whole mesh. The decoder widens every sphere and error by the step (plus float rounding) so
+  // culling and LOD stay conservative. The encoder takes more bits (up to 24, then raw floats) when
+  // two distinct positions would decode to one, or a decoded position would move by more than that.
   uint32_t positionBits = 16;
 };
 

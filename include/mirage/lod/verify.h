@@ -10,7 +10,13 @@
 
 namespace mirage::lod {
 
-// Structure: index ranges, cluster sizes, parent/child links both ways, monotonic error
+// What every reader of a DAG relies on, checked by decodeDag on every decode: index ranges and ids
+// (clusters, local indices, vertices, positions, attributes, groups, roots), clusters in level
+// order, group links both ways with each cluster in at most one group as child and as parent, and
+// group levels growing from children to parents (so walking the groups terminates). Linear time.
+Status checkDagStructure(const ClusterDag& dag);
+
+// checkDagStructure, then: index ranges, cluster sizes, parent/child links both ways, monotonic error
 // (self.error <= parent.error, group error >= children's), nested spheres (group sphere contains
 // children's self spheres), and each group's outer border and area preserved by its parents
 // (border edges equal except on the mesh's own open border, area within 50 % for

@@ -16,6 +16,8 @@ Status writeSurfelPly(const std::string& path, const SurfelCloud& cloud);
 // Reads what writeSurfelPly writes (and any binary little-endian PLY with float x, y, z and
 // optional normals, uchar colours and float radius). Errors are one line naming the file.
 Result<SurfelCloud> readSurfelPly(const std::string& path);
+// True for a PLY that writeSurfelPly wrote (its header says so): a surfel cloud, not a mesh or scan.
+bool isSurfelPly(const std::string& path);
 
 // A cloud of one mesh of a scene, in that mesh's object space (every instance of the mesh reuses it
 // under its own transform), or of the whole scene in world space (mesh = kWholeScene).
@@ -34,6 +36,9 @@ Result<SurfelCloud> decodeSurfelChunk(std::span<const uint8_t> bytes, const std:
 // whole-scene cloud, or one per mesh.
 Status writeSurfelMrg(const std::string& path, const SurfelCloud& cloud);
 Status writeSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds);
+// Replaces the SURF chunks of the .mrg at `path` by `clouds`, atomically. Every other chunk is
+// copied as stored (same bytes, same compression), so appending never changes the geometry.
+Status appendSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds);
 // The single cloud of a file (an error names the count when it holds several: use readSurfelMrgAll).
 Result<SurfelCloud> readSurfelMrg(const std::string& path);
 // Every 'SURF' chunk, in file order.
