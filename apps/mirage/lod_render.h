@@ -3,6 +3,8 @@
 // renderer on baked assets (the forward path keeps every other input).
 #include <string>
 
+#include "mirage/render/cluster_renderer.h"
+
 namespace CLI {
 class App;
 }
@@ -34,9 +36,9 @@ struct LodRenderRequest {
   std::string size = "1920x1080";
   std::string device;
   std::string raster = "auto"; // auto | mesh | indirect | compute | hybrid; bench: "all" = every supported one
-  float tau = 1.0f;            // LOD threshold in pixels
-  uint32_t grid = 1;           // >1: the scene's instances repeated on a grid x grid layout (benchmark scenes)
-  int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
+  float tau = render::kDefaultTauPixels; // LOD threshold in pixels
+  uint32_t grid = 1; // >1: the scene's instances repeated on a grid x grid layout (benchmark scenes)
+  int frames = 1;    // render: --repeat; bench: --frames (the first is a warm-up)
   bool stats = false;
   bool json = false;
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
