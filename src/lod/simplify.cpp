@@ -182,6 +182,9 @@ private:
     }
     for (uint32_t t = 0; t < nt; ++t) {
       const uint32_t* v = &corners[t * 3];
+      // Attribute ids are the input's (scattered over the whole normal array): fetch ahead.
+      if (normalWeight2_ > 0.0 && t + 8 < nt)
+        for (int k = 0; k < 3; ++k) __builtin_prefetch(&m_.normals[m_.attributes[(t + 8) * 3 + k]]);
       glm::dvec3 a = s_.p[v[0]], b = s_.p[v[1]], c = s_.p[v[2]];
       glm::dvec3 n = glm::cross(b - a, c - a);
       double len = glm::length(n);
