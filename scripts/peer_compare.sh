@@ -4,7 +4,8 @@
 #   MESH   a PLY under ../shared/data (default stanford-dragon/dragon_vrip.ply)
 #   PAIRS  alternated one-thread timing runs of each builder (default 3; the machines are noisy,
 #          compare the medians)
-# Prints, for both builders: one-thread build seconds, and the LodQuality measure (symmetric surface
+# Prints, for both builders: one-thread build seconds (Mirage's default build, normals included),
+# and the LodQuality measure (symmetric surface
 # distance of DAG cuts at 25 / 6.2 / 1.6 % of the input triangles, both with the same code: the
 # peer driver ports tests/lod/lod_quality_test.cpp) with the triangle counts of the cuts and the
 # DAG's root. Needs build/mirage and build/tests/test_lod (Release); builds the peer into
@@ -46,9 +47,16 @@ echo "clusterlod ${peer_times[*]}  median $pm"
 awk -v m="$mm" -v p="$pm" 'BEGIN { if (m > 0) printf "clusterlod / mirage = %.2fx\n", p / m }'
 
 echo "== LodQuality: symmetric surface distance of the DAG cut at 25 / 6.2 / 1.6 % of the triangles"
-echo "-- mirage"
-MIRAGE_LOD_QUALITY_MESH=$mesh_rel "$root/build/tests/test_lod" --gtest_also_run_disabled_tests \
-  --gtest_filter='LodQuality.DISABLED_CutVersusSimplifyChain' | grep -E 'DAG cut|root' || true
+quality() {
+  MIRAGE_LOD_QUALITY_MESH=$mesh_rel "$@" "$root/build/tests/test_lod" --gtest_also_run_disabled_tests \
+    --gtest_filter='LodQuality.DISABLED_CutVersusSimplifyChain' | grep -E 'DAG cut' || true
+}
+# The peer gets positions only, so the like-for-like row is Mirage's geometric error (weight 0);
+# the default build (shading-aware error, vertex normals as imported) spends triangles on shading.
+echo "-- mirage, geometric error (positions only, as the peer)"
+quality env MIRAGE_LOD_NORMAL_WEIGHT=0
+echo "-- mirage, default build (shading-aware error)"
+quality env
 "$root/build/mirage" bench build "$mesh" --threads 1 | grep -iE '^  root' || true
 echo "-- clusterlod"
 "$peer_out/clod" "$mesh" --quality | grep -E 'quality at|levels [0-9]+;|coarsest'
