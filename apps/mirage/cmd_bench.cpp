@@ -37,14 +37,14 @@ struct BenchRenderOptions {
   int frames = 20;
   double warmupMs = kBenchWarmupMs;
   bool json = false;
-  float tau = 1.0f;           // .mrg only
-  uint32_t grid = 1;          // .mrg only: the scene repeated on a grid x grid layout
-  std::string raster = "all"; // .mrg only: every backend the device has
-  std::string path;           // .mrg only: camera path, each camera timed once
-  bool baselines = false;     // .mrg only: brute force + discrete LOD chain in the same run
-  LodCullOptions cull;        // .mrg only
-  std::string camera;         // .mrg only: empty = auto 3/4 view
-  bool surfels = false;       // .mrg with DAGs + per-mesh SURF chunks: the mixed scene
+  float tau = render::kDefaultTauPixels; // .mrg only
+  uint32_t grid = 1;                     // .mrg only: the scene repeated on a grid x grid layout
+  std::string raster = "all";            // .mrg only: every backend the device has
+  std::string path;                      // .mrg only: camera path, each camera timed once
+  bool baselines = false;                // .mrg only: brute force + discrete LOD chain in the same run
+  LodCullOptions cull;                   // .mrg only
+  std::string camera;                    // .mrg only: empty = auto 3/4 view
+  bool surfels = false;                  // .mrg with DAGs + per-mesh SURF chunks: the mixed scene
   float surfelSize = 2.0f;
   std::string pvs; // .mrg only: time every frame with and without the camera cell's cluster PVS
 };

@@ -147,7 +147,7 @@ void addBuildCommand(CLI::App& app) {
   cmd->add_option("--cluster-vertices", o->config.clusterVertices, "Vertices per cluster (<= 255)")
       ->capture_default_str();
   cmd->add_option("--normal-weight", o->config.normalWeight,
-                  "Weight of the shading-normal term in the LOD error (0 = geometric error only)")
+                  "Weight of the shading term in the LOD error (0 = geometric error only)")
       ->capture_default_str();
   cmd->add_option("--group-clusters", o->config.groupClusters, "Clusters per simplification group")
       ->capture_default_str();

@@ -27,11 +27,11 @@ struct RenderOptions {
   int repeat = 1;
   bool stats = false;
   bool json = false;
-  float tau = 1.0f;            // .mrg only
-  std::string raster = "auto"; // .mrg only
-  std::string pvs;             // draw only the PVS of the camera's view cell (.mrg: its cluster PVS)
-  std::string path;            // .mrg only: camera path (cameras.json or orbit:N), one image per camera
-  bool surfels = false;        // draw the file's SURF chunk (or surfel PLY) with the surfel renderer
+  float tau = render::kDefaultTauPixels; // .mrg only
+  std::string raster = "auto";           // .mrg only
+  std::string pvs;                       // draw only the PVS of the camera's view cell (.mrg: its cluster PVS)
+  std::string path;                      // .mrg only: camera path (cameras.json or orbit:N), one image per camera
+  bool surfels = false;                  // draw the file's SURF chunk (or surfel PLY) with the surfel renderer
   float surfelSize = 2.0f;
   std::string surfelRaster = "auto";
   std::string surfelOrder; // empty: render::kDefaultSurfelOrder
@@ -96,7 +96,7 @@ void runRender(const RenderOptions& o) {
     LodRenderRequest r = lodRequest(o);
     return runLodRender(r);
   }
-  if (o.raster != "auto" || o.tau != 1.0f || !o.path.empty() || !o.cull.isDefault())
+  if (o.raster != "auto" || o.tau != render::kDefaultTauPixels || !o.path.empty() || !o.cull.isDefault())
     return fail("--tau, --raster, --path, --hybrid-threshold, --occlusion, --cones, --selection and --blend-raster "
                 "apply to .mrg cluster-LOD assets only");
   // Check everything cheap before the import and the GPU start.

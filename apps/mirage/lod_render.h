@@ -3,6 +3,8 @@
 // renderer on baked assets (the forward path keeps every other input).
 #include <string>
 
+#include "mirage/render/cluster_renderer.h"
+
 namespace CLI {
 class App;
 }
@@ -34,10 +36,10 @@ struct LodRenderRequest {
   std::string size = "1920x1080";
   std::string device;
   std::string raster = "auto"; // auto | mesh | indirect | compute | hybrid; bench: "all" = every supported one
-  float tau = 1.0f;            // LOD threshold in pixels
-  uint32_t grid = 1;           // >1: the scene's instances repeated on a grid x grid layout (benchmark scenes)
-  int frames = 1;              // render: --repeat; bench: --frames (the first is a warm-up)
-  double warmupMs = 0.0;       // bench: the warm-up frame repeats for this long (GPU clock)
+  float tau = render::kDefaultTauPixels; // LOD threshold in pixels
+  uint32_t grid = 1;     // >1: the scene's instances repeated on a grid x grid layout (benchmark scenes)
+  int frames = 1;        // render: --repeat; bench: --frames (the first is a warm-up)
+  double warmupMs = 0.0; // bench: the warm-up frame repeats for this long (GPU clock)
   bool stats = false;
   bool json = false;
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)

@@ -196,6 +196,7 @@ public:
     // once instead of growing (and copying) the flat arrays level by level. Untouched capacity
     // costs no resident memory.
     size_t inputTriangles = triangles.size() / 3;
+    normalLength_ = typicalEdgeLength(triangles);
     dag_.clusterIndices.reserve(inputTriangles * 3 * 21 / 10);
     dag_.clusterVertices.reserve(inputTriangles * 21 / 10);
     dag_.clusters.reserve(inputTriangles / cfg_.clusterTriangles * 23 / 10 + 16);
@@ -274,6 +275,25 @@ public:
   }
 
 private:
+  // Typical edge length of the cleaned input: the median over (at most 65 536 evenly spaced)
+  // triangles of their RMS edge length. The median, not the mean: a few long edges over flat parts
+  // (modelled meshes) would otherwise set the scale of the finely tessellated rest.
+  float typicalEdgeLength(const std::vector<uint32_t>& triangles) const {
+    size_t n = triangles.size() / 3;
+    if (n == 0) return 0.0f;
+    size_t step = (n + 65535) / 65536;
+    std::vector<float> len2;
+    len2.reserve(n / step + 1);
+    for (size_t t = 0; t < n; t += step) {
+      glm::vec3 p[3];
+      for (int k = 0; k < 3; ++k) p[k] = dag_.positions[dag_.vertexPosition[triangles[t * 3 + k]]];
+      len2.push_back(glm::dot(p[1] - p[0], p[1] - p[0]) + glm::dot(p[2] - p[1], p[2] - p[1]) +
+                     glm::dot(p[0] - p[2], p[0] - p[2]));
+    }
+    std::nth_element(len2.begin(), len2.begin() + len2.size() / 2, len2.end());
+    return std::sqrt(len2[len2.size() / 2] / 3.0f);
+  }
+
   // Level-0 clusters. Large inputs are sorted along a Morton curve and cut into chunks that are
   // split in parallel; a chunk border costs at most one partly filled cluster per chunk. Chunks
   // of 16 clusters, not 256: the splitter's nearest-triangle fallback scans its whole input, so
@@ -674,6 +694,7 @@ private:
     }
     sm.normals = dag_.normals.empty() ? nullptr : dag_.normals.data();
     sm.normalWeight = cfg_.normalWeight;
+    sm.normalLength = normalLength_;
     size_t before = sm.corners.size() / 3;
     timer.emplace(kSimplify);
     w.simplifyError = simplifyLocked(sm, before / 2, gs.simplify);
@@ -732,6 +753,7 @@ private:
   ClusterDag& dag_;
   const BuildConfig& cfg_;
   std::chrono::steady_clock::time_point start_;
+  float normalLength_ = 0.0f;     // the input's typical edge length: the normal term's length scale
   std::vector<uint32_t> touches_; // per position: vertex entries of the level's active clusters
   mutable tbb::enumerable_thread_specific<SplitScratch> splitScratch_;
   struct GroupScratch {

@@ -20,6 +20,9 @@ struct SimplifyMesh {
   // reported error (half of it in the collapse order), so the error covers shading changes as well
   // as geometric ones. 0 = geometric error only.
   float normalWeight = 0.0f;
+  // The length that turns a normal angle into a distance (the input's RMS edge length, see
+  // BuildConfig::normalWeight); > 0 when normalWeight is.
+  float normalLength = 0.0f;
 };
 
 // Plane quadric, relative to the group centre: Σ w (n·p + d)², and Σ w; b holds 2 Σ w n d.
@@ -28,9 +31,12 @@ struct Quadric {
 };
 
 // Normal "quadric" of the original corners merged into a vertex: Σ a, Σ a·n, Σ a·n·n, so that
-// Σ a |m - n|² for the normal m the vertex carries is a|m|² - 2 b·m + c.
+// Σ a |m - n|² for the normal m the vertex carries is a|m|² - 2 b·m + c. `spread` is that sum for
+// each merged vertex at its own normal when the group was set up: the spread a hard edge (several
+// normals at one position) has before any collapse, which the carried wedges keep, so it is not
+// counted as a change.
 struct NormalQuadric {
-  double a = 0, bx = 0, by = 0, bz = 0, c = 0;
+  double a = 0, bx = 0, by = 0, bz = 0, c = 0, spread = 0;
 };
 
 // Per-thread buffers of simplifyLocked, reused from call to call (no per-group allocations).
@@ -38,8 +44,9 @@ struct SimplifyScratch {
   std::vector<glm::dvec3> p;
   std::vector<Quadric> q;
   std::vector<NormalQuadric> nq;
-  std::vector<glm::vec3> normal;                     // normal a vertex carries (area-weighted over its corners)
-  std::vector<double> selfCost;                      // Q_v(p_v): the target's share of a collapse cost, kept up to date
+  std::vector<glm::vec3> normal; // normal a vertex carries (area-weighted over its corners)
+  std::vector<double> selfDev;   // Σ a·|m_v − n|² − spread of v's own normal quadric, kept up to date
+  std::vector<double> selfCost;  // Q_v(p_v): the target's share of a collapse cost, kept up to date
   std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
   std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW;
   std::vector<uint32_t> ringEnds; // gatherRing's edge ends of one vertex

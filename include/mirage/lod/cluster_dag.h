@@ -106,14 +106,17 @@ struct BuildConfig {
   // A group is stuck when simplification keeps more than this fraction of its triangles; its clusters
   // then stay roots of the current level and are regrouped with others at the next level.
   float stuckRatio = 0.85f;
-  // Normal-aware error: a collapse that changes the shading normal by an angle a (radians) over an
-  // edge of length l adds normalWeight * l * a of distance (in quadrature) to the plane-quadric
-  // distance in the reported error, so cuts refine where shading would change; the collapse order
-  // sees half of that weight. 0 = geometric error only (the default, as Nanite): measured at tau 1 px,
-  // 2500 dragons at 1080p draw 2.13 M / 5.56 M / 14.1 M triangles at weight 0 / 0.2 / 0.6 (the term
-  // grows with edge length, so it dominates far, coarse cuts), while the bunny at tau 0.25 px only
-  // moves 41.1 / 41.4 / 43.2 dB from the full-resolution image. `mirage build --normal-weight W`.
-  float normalWeight = 0.0f;
+  // Shading-aware error: a collapse that moves the shading normals by an angle a (radians, RMS over
+  // the area it merges, hard edges' own spread not counted, at most 0.3 rad) adds
+  // normalWeight * l0 * a of distance (in quadrature) to the plane-quadric distance in the reported
+  // error, l0 = the input's median edge length; the collapse order sees half of the weight. With l0
+  // as the length the term is the same at every level: where the input's triangles are about
+  // 1 / (normalWeight * a) pixels or larger on screen a cut keeps the shading within tau, far away
+  // (sub-pixel input triangles) the geometric error rules. 12 is tuned on the Stanford dragon's close
+  // view (docs/lod.md, "Measurements"): at tau 1 px, 960x540, 41.4 dB single-sample and 44.3 dB
+  // 4x4-supersampled against the full mesh (10: 39.8 / 43.5 dB; 0, geometric only: 32.0 / 34.0 dB).
+  // 0 = geometric error only. `mirage build --normal-weight W`.
+  float normalWeight = 12.0f;
   // Stop once the remaining (root) clusters are at most this many.
   uint32_t rootClusters = 1;
   // Hard cap on levels, a safety net against a pathological mesh (each level halves the triangles).

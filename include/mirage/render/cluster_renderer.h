@@ -64,9 +64,13 @@ const char* toString(SelectionMode mode);
 // "auto", "flat", "hierarchy" or "dag"; anything else is an error naming the choices.
 Result<SelectionMode> parseSelectionMode(std::string_view text);
 
+// Default LOD threshold in pixels; the CLI binds it. The build's shading-aware error
+// (lod::BuildConfig::normalWeight) is tuned so that 1 px matches the full mesh (docs/lod.md).
+inline constexpr float kDefaultTauPixels = 1.0f;
+
 struct ClusterRenderSettings {
   RenderSettings base;                         // size, camera, lighting, background
-  float tauPixels = 1.0f;                      // LOD threshold: projected error allowed, in pixels
+  float tauPixels = kDefaultTauPixels;         // LOD threshold: projected error allowed, in pixels
   RasterBackend raster = RasterBackend::Auto;  // resolved against the device at render time
   BlendRaster blendRaster = BlendRaster::Auto; // BLEND clusters (scenes with blend materials only)
   bool frustumCulling = true;                  // instances and clusters outside the view are skipped
