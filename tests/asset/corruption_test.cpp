@@ -203,7 +203,6 @@ TEST(Corruption, StructuralFieldsBehindTheChecksums) {
 TEST(Corruption, FuzzRandomBytesAndMutations) {
   TempDir dir;
   const std::vector<uint8_t> valid = smallFile(dir);
-  const auto start = std::chrono::steady_clock::now();
   std::mt19937_64 rng(12345);
   auto pick = [&](uint64_t n) { return n ? rng() % n : 0; };
   int loaded = 0;
@@ -246,6 +245,5 @@ TEST(Corruption, FuzzRandomBytesAndMutations) {
       expectSameScene(s, makeFullScene()); // only padding or unread bytes may change
     }
   }
-  EXPECT_GT(loaded, 0); // some mutations land in padding
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
+  EXPECT_GT(loaded, 0); // some mutations land in padding (a hang is ctest's timeout, not a timed assertion)
 }
