@@ -1,6 +1,5 @@
 // Every corruption of a .mrg is a clean one-line error (or, for bytes the format does not read,
 // an identical scene) and never a crash, a hang or a huge allocation.
-#include <chrono>
 #include <random>
 
 #include "asset_test_util.h"
