@@ -13,6 +13,7 @@
 #include "commands.h"
 #include "ray_backend_choice.h"
 #include "mirage/visibility/gvs.h"
+#include "mirage/core/input_text.h"
 #include "mirage/visibility/pvs_eval.h"
 #include "mirage/visibility/pvs_plot.h"
 #include "mirage/visibility/pvs_storage.h"
@@ -40,6 +41,7 @@ struct PvsOptions {
 // --config first, then every sampling flag given on the command line on top of it.
 Status resolveConfig(PvsOptions& o) {
   if (o.config.empty()) return Ok{};
+  if (std::string problem = inputFileProblem(o.config); !problem.empty()) return makeError(o.config, problem);
   std::ifstream in(o.config, std::ios::binary);
   if (!in) return makeError(o.config, "cannot open");
   std::stringstream text;

@@ -1,4 +1,5 @@
 #include "mirage/render/camera.h"
+#include "mirage/core/input_text.h"
 
 #include <algorithm>
 #include <charconv>
@@ -204,6 +205,8 @@ Result<Camera> cameraFromJson(const nlohmann::json& j) {
 } // namespace
 
 Result<std::vector<Camera>> loadCameraPath(const std::filesystem::path& path) {
+  if (std::string problem = inputFileProblem(path); !problem.empty())
+    return Error{fmt::format("{}: {}", path.string(), problem)};
   std::ifstream in(path);
   if (!in) return Error{fmt::format("{}: cannot open camera path", path.string())};
   nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);

@@ -81,6 +81,7 @@ Status writeSurfelPly(const std::string& path, const SurfelCloud& c) {
 }
 
 bool isSurfelPly(const std::string& path) {
+  if (!inputFileProblem(path).empty()) return false; // never open a FIFO (it waits for a writer)
   std::ifstream f(path, std::ios::binary);
   std::string line;
   if (!std::getline(f, line) || line != "ply") return false;

@@ -10,6 +10,7 @@
 
 #include "mirage/visibility/ray_backend.h"
 #include "mirage/visibility/view_cell.h"
+#include "mirage/core/input_text.h"
 
 namespace mirage::vis {
 
@@ -234,6 +235,7 @@ Result<std::vector<ViewCell>> parseViewCells(const std::string& jsonText, const 
 }
 
 Result<std::vector<ViewCell>> loadViewCells(const std::filesystem::path& path) {
+  if (std::string problem = inputFileProblem(path); !problem.empty()) return makeError(path.string(), problem);
   std::ifstream in(path, std::ios::binary);
   if (!in) return makeError(path.string(), "cannot open");
   std::stringstream text;
