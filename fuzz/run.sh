@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Runs every fuzz target of a sanitized build (make fuzz / make fuzz-ci): usage
+#   fuzz/run.sh BUILD_DIR [libFuzzer flags...]      e.g. -runs=2000 or -max_total_time=600
+# Seeds come from make_seeds.sh (BUILD_DIR/fuzz-seeds, made once); what a target finds new goes to
+# BUILD_DIR/fuzz-corpus/<target> (kept between runs), crashes to BUILD_DIR/fuzz-findings/<target>/.
+# FUZZ_TARGETS (space separated) picks targets; JOBS targets run at once. Exit 1 if any target failed.
+set -uo pipefail
+build=$1
+shift
+src=$(cd "$(dirname "$0")/.." && pwd)
+targets=${FUZZ_TARGETS:-$(sed -n 's/^set(MIRAGE_FUZZ_TARGETS \(.*\))$/\1/p' "$src/fuzz/CMakeLists.txt")}
+jobs=${JOBS:-$(nproc)}
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$src/cmake/sanitize/lsan.supp:print_suppressions=0}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+
+if [ ! -d "$build/fuzz-seeds" ]; then
+  bash "$src/fuzz/make_seeds.sh" "$build" "$build/fuzz-seeds.tmp" && mv "$build/fuzz-seeds.tmp" "$build/fuzz-seeds" || exit 1
+fi
+
+run_one() {
+  local t=$1
+  shift
+  local corpus=$build/fuzz-corpus/$t findings=$build/fuzz-findings/$t log=$build/fuzz-logs/$t.log
+  mkdir -p "$corpus" "$findings" "$(dirname "$log")"
+  local start=$SECONDS dirs=("$corpus" "$build/fuzz-seeds/$t")
+  [ -d "$src/fuzz/regressions/$t" ] && dirs+=("$src/fuzz/regressions/$t")
+  # -timeout: an input taking longer is a hang (a finding); -rss_limit_mb: runaway allocations are too.
+  "$build/fuzz/fuzz_$t" -timeout=30 -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$findings/" \
+    "$@" "${dirs[@]}" >"$log" 2>&1
+  local rc=$?
+  local runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  local cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1)
+  if [ $rc -eq 0 ]; then
+    echo "fuzz_$t: ok, ${runs:-?} executions, ${cov:-cov: ?}, $((SECONDS - start)) s"
+  else
+    echo "fuzz_$t: FAILED (exit $rc) after $((SECONDS - start)) s; log $log; input in $findings/"
+    grep -m1 -E '^==[0-9]+==ERROR|runtime error|invariant broken|ALARM|out-of-memory|deadly signal' "$log" | sed 's/^/  /'
+    grep -m8 -E '^ +#[0-9]+ ' "$log" | sed 's/^/  /'
+  fi
+  return $rc
+}
+export -f run_one
+export build src
+
+printf '%s\n' $targets | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {} "$@"
+status=$?
+[ $status -eq 0 ] && echo "fuzz: every target ran clean" || echo "fuzz: some targets failed (see above)"
+exit $((status != 0))
