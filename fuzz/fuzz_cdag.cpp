@@ -10,42 +10,13 @@
 
 using namespace mirage;
 
-namespace {
-
-void checkRanges(const lod::ClusterDag& dag) {
-  size_t vertices = dag.vertexPosition.size();
-  for (uint32_t p : dag.vertexPosition) fuzz::check(p < dag.positions.size(), "vertex position id out of range");
-  fuzz::check(dag.normals.empty() || dag.normals.size() == vertices, "normal count");
-  fuzz::check(dag.uv0.empty() || dag.uv0.size() == vertices, "uv count");
-  for (const lod::Cluster& c : dag.clusters) {
-    fuzz::check(size_t(c.vertexOffset) + c.vertexCount <= dag.clusterVertices.size(), "cluster vertex range");
-    fuzz::check((size_t(c.triangleOffset) + c.triangleCount) * 3 <= dag.clusterIndices.size(),
-                "cluster triangle range");
-    for (size_t i = 0; i < size_t(c.triangleCount) * 3; ++i)
-      fuzz::check(dag.clusterIndices[size_t(c.triangleOffset) * 3 + i] < c.vertexCount, "local index out of range");
-    for (size_t i = 0; i < c.vertexCount; ++i)
-      fuzz::check(dag.clusterVertices[c.vertexOffset + i] < vertices, "cluster vertex id out of range");
-    fuzz::check(c.group == lod::kNone || c.group < dag.groups.size(), "cluster group id");
-    fuzz::check(c.generatingGroup == lod::kNone || c.generatingGroup < dag.groups.size(), "generating group id");
-  }
-  for (const lod::Group& g : dag.groups) {
-    fuzz::check(size_t(g.childOffset) + g.childCount <= dag.groupChildren.size(), "group child range");
-    fuzz::check(size_t(g.parentOffset) + g.parentCount <= dag.groupParents.size(), "group parent range");
-  }
-  for (uint32_t c : dag.groupChildren) fuzz::check(c < dag.clusters.size(), "group child id");
-  for (uint32_t c : dag.groupParents) fuzz::check(c < dag.clusters.size(), "group parent id");
-  for (uint32_t c : dag.roots) fuzz::check(c < dag.clusters.size(), "root id");
-}
-
-} // namespace
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Result<lod::ClusterDag> dag = lod::decodeDag(std::span(data, size), "in.mrg");
   if (!dag) {
     fuzz::checkOneLine(dag.error());
     return 0;
   }
-  checkRanges(*dag);
+  fuzz::checkDag(*dag);
   Mesh level0 = lod::levelZeroMesh(*dag);
   for (float threshold : {0.0f, 1e-3f, 1.0f, INFINITY}) {
     std::vector<uint32_t> cut = lod::selectCut(*dag, threshold);

@@ -116,6 +116,30 @@ const std::vector<Chunk>& lodAssetChunks() {
   return chunks;
 }
 
+void checkDag(const lod::ClusterDag& dag) {
+  size_t vertices = dag.vertexPosition.size();
+  for (uint32_t p : dag.vertexPosition) check(p < dag.positions.size(), "vertex position id out of range");
+  check(dag.normals.empty() || dag.normals.size() == vertices, "normal count");
+  check(dag.uv0.empty() || dag.uv0.size() == vertices, "uv count");
+  for (const lod::Cluster& c : dag.clusters) {
+    check(size_t(c.vertexOffset) + c.vertexCount <= dag.clusterVertices.size(), "cluster vertex range");
+    check((size_t(c.triangleOffset) + c.triangleCount) * 3 <= dag.clusterIndices.size(), "cluster triangle range");
+    for (size_t i = 0; i < size_t(c.triangleCount) * 3; ++i)
+      check(dag.clusterIndices[size_t(c.triangleOffset) * 3 + i] < c.vertexCount, "local index out of range");
+    for (size_t i = 0; i < c.vertexCount; ++i)
+      check(dag.clusterVertices[c.vertexOffset + i] < vertices, "cluster vertex id out of range");
+    check(c.group == lod::kNone || c.group < dag.groups.size(), "cluster group id");
+    check(c.generatingGroup == lod::kNone || c.generatingGroup < dag.groups.size(), "generating group id");
+  }
+  for (const lod::Group& g : dag.groups) {
+    check(size_t(g.childOffset) + g.childCount <= dag.groupChildren.size(), "group child range");
+    check(size_t(g.parentOffset) + g.parentCount <= dag.groupParents.size(), "group parent range");
+  }
+  for (uint32_t c : dag.groupChildren) check(c < dag.clusters.size(), "group child id");
+  for (uint32_t c : dag.groupParents) check(c < dag.clusters.size(), "group parent id");
+  for (uint32_t c : dag.roots) check(c < dag.clusters.size(), "root id");
+}
+
 void loadEveryWay(const std::filesystem::path& path) {
   std::string file = path.string();
   if (Result<Scene> s = asset::loadScene(file); s) {
@@ -126,6 +150,7 @@ void loadEveryWay(const std::filesystem::path& path) {
   }
   if (Result<lod::LodAsset> a = lod::loadLodAsset(file); a) {
     check(a->dags.size() == a->scene.meshes.size(), "one DAG per mesh");
+    for (const lod::ClusterDag& dag : a->dags) checkDag(dag);
     check(a->sourceClusters.empty() || a->sourceClusters.size() == a->dags.size(), "one source map per mesh");
     for (size_t m = 0; m < a->sourceClusters.size(); ++m)
       for (uint32_t c : a->sourceClusters[m])

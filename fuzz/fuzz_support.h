@@ -38,6 +38,7 @@ void checkImportedScene(const Scene& scene, const std::string& file);
 #include <vector>
 
 #include "mirage/asset/container.h"
+#include "mirage/lod/cluster_dag.h"
 
 namespace mirage::fuzz {
 
@@ -54,6 +55,8 @@ std::vector<Chunk> readMrg(const std::filesystem::path& path);
 // The chunks of a small baked cluster-LOD asset (a 320-triangle blob: SCEN, CDAG, TMAP, META),
 // made once per process: the valid neighbours a fuzzed chunk is placed among.
 const std::vector<Chunk>& lodAssetChunks();
+// What every consumer of a decoded DAG relies on without checking: all ids and ranges in bounds.
+void checkDag(const lod::ClusterDag& dag);
 // Runs every loader of .mrg files on `path` (scene, cluster-LOD asset, surfels, PVS) and checks
 // what each accepted against its documented contract.
 void loadEveryWay(const std::filesystem::path& path);
