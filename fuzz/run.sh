@@ -36,7 +36,9 @@ run_one() {
   else
     echo "fuzz_$t: FAILED (exit $rc) after $((SECONDS - start)) s; log $log; input in $findings/"
     grep -m1 -E '^==[0-9]+==ERROR|runtime error|invariant broken|ALARM|out-of-memory|deadly signal' "$log" | sed 's/^/  /'
-    grep -m8 -E '^ +#[0-9]+ ' "$log" | sed 's/^/  /'
+    # The first frames below libFuzzer's and the sanitizers' own: where it went wrong.
+    grep -E '^ +#[0-9]+ ' "$log" | grep -v -E 'fuzzer::|__sanitizer|libc\.so|pthread_kill|raise\.c|abort\.c|fuzz::fail' |
+      head -6 | sed -E 's/^ +/    /; s/ \(BuildId: [0-9a-f]+\)//'
   fi
   return $rc
 }

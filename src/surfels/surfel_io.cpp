@@ -1,5 +1,6 @@
 #include "mirage/surfels/surfel_io.h"
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -200,6 +201,13 @@ Result<MeshSurfels> decodeSurfelChunkWithMesh(std::span<const uint8_t> bytes, co
   size_t expected = headerBytes + size_t(h.count) * (sizeof(Surfel) + sizeof(float));
   if (bytes.size() != expected)
     return makeError(file, fmt::format("SURF chunk has {} bytes, {} surfels need {}", bytes.size(), h.count, expected));
+  // Positions dequantize inside the box and renderers size discs by the radii: NaN or an infinite box
+  // would reach the GPU as NaN geometry.
+  bool finiteBox = true;
+  for (int i = 0; i < 3; ++i) finiteBox = finiteBox && std::isfinite(h.boxMin[i]) && std::isfinite(h.boxMax[i]);
+  if (!finiteBox) return makeError(file, "SURF chunk has a non-finite quantization box");
+  if (std::isnan(h.referenceMeanSpacing) || std::isnan(h.referenceMedianSpacing))
+    return makeError(file, "SURF chunk has a NaN reference spacing");
   MeshSurfels out;
   if (h.version >= 2) std::memcpy(&out.mesh, bytes.data() + sizeof(h), 4);
   SurfelCloud& c = out.cloud;
@@ -210,8 +218,11 @@ Result<MeshSurfels> decodeSurfelChunkWithMesh(std::span<const uint8_t> bytes, co
   c.referenceMedianSpacing = h.referenceMedianSpacing;
   c.surfels.resize(h.count);
   c.radii.resize(h.count);
+  if (h.count == 0) return out; // memcpy from an empty vector's null data() is undefined, even for 0 bytes
   std::memcpy(c.surfels.data(), bytes.data() + headerBytes, h.count * sizeof(Surfel));
   std::memcpy(c.radii.data(), bytes.data() + headerBytes + h.count * sizeof(Surfel), h.count * sizeof(float));
+  for (float r : c.radii)
+    if (!(r >= 0.0f)) return makeError(file, "SURF chunk has a negative or NaN radius");
   return out;
 }
 
