@@ -5,11 +5,17 @@
 #include <fstream>
 #include <unistd.h>
 
+#include <tbb/global_control.h>
+
 #include "mirage/asset/scene_chunk.h"
 
 namespace mirage::fuzz {
 
 namespace {
+
+// One thread: each input is tiny, so waking TBB's workers costs more than it saves (and, on a busy
+// machine, far more); a serial run is also reproducible.
+const tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);
 
 std::filesystem::path makeScratchDir() {
   const char* tmp = std::getenv("TMPDIR");

@@ -6,6 +6,7 @@
 // varint count + delta-coded IDs (full), or the same for the added IDs then the removed IDs.
 #include <algorithm>
 #include <iterator>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 #include <zstd.h>
@@ -39,6 +40,36 @@ bool getIds(asset::ByteReader& r, uint64_t limit, std::vector<uint32_t>& out) {
     prev = id;
   }
   return true;
+}
+
+// One zstd frame that must decode to exactly rawBytes. The output grows as bytes come out of the
+// frame instead of being allocated at the declared size up front: a few bytes of chunk can declare
+// gigabytes, and only a frame that really holds them may make the decoder allocate them.
+bool decompressFrame(std::span<const uint8_t> stored, uint64_t rawBytes, std::vector<uint8_t>& raw) {
+  std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> dctx(ZSTD_createDCtx(), ZSTD_freeDCtx);
+  if (!dctx) return false;
+  ZSTD_inBuffer in{stored.data(), stored.size(), 0};
+  // One byte more than declared, so a frame holding more shows it by filling that byte.
+  uint64_t capacity = rawBytes + 1;
+  raw.assign(size_t(std::min<uint64_t>(capacity, 1 << 16)), 0);
+  size_t produced = 0;
+  for (;;) {
+    size_t consumed = in.pos;
+    ZSTD_outBuffer out{raw.data(), raw.size(), produced};
+    size_t left = ZSTD_decompressStream(dctx.get(), &out, &in);
+    if (ZSTD_isError(left)) return false;
+    bool progress = out.pos > produced || in.pos > consumed;
+    produced = out.pos;
+    if (left == 0) break;                  // frame complete
+    if (produced > rawBytes) return false; // the frame holds more than it declared
+    if (produced == raw.size()) {
+      raw.resize(size_t(std::min<uint64_t>(capacity, 2 * raw.size())));
+    } else if (!progress) {
+      return false; // truncated frame
+    }
+  }
+  raw.resize(produced);
+  return in.pos == in.size && produced == rawBytes;
 }
 
 std::vector<uint8_t> compress(const std::vector<uint8_t>& raw, int level) {
@@ -143,12 +174,11 @@ Result<PvsData> decodePvs(std::span<const uint8_t> bytes, const std::string& fil
     if (!r.readCount(rawBytes, 10 * pvs.sceneTriangles + 20, "raw size") ||
         !r.readCount(storedBytes, r.remaining(), "stored size"))
       return r.error();
-    std::vector<uint8_t> stored(storedBytes), raw(rawBytes);
+    std::vector<uint8_t> stored(storedBytes), raw;
     if (!r.readBytes(stored)) return r.error();
     unsigned long long declared = ZSTD_getFrameContentSize(stored.data(), stored.size());
     if (declared != rawBytes) return fail(where + "zstd frame size does not match");
-    size_t n = ZSTD_decompress(raw.data(), raw.size(), stored.data(), stored.size());
-    if (ZSTD_isError(n) || n != rawBytes) return fail(where + "corrupt zstd frame");
+    if (!decompressFrame(stored, rawBytes, raw)) return fail(where + "corrupt zstd frame");
     asset::ByteReader ids(raw, file);
     std::vector<uint32_t> a, b;
     if (!getIds(ids, pvs.sceneTriangles, a)) return fail(where + "bad triangle IDs");
