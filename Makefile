@@ -47,10 +47,10 @@ test-sanitize: sanitize-build
 	cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 900 -E '$(SANITIZE_SKIP)'
 
 fuzz-ci: sanitize-build
-	bash fuzz/run.sh $(ASAN_BUILD) -runs=$(FUZZ_RUNS)
+	SEED_BUILD=$(BUILD) bash fuzz/run.sh $(ASAN_BUILD) -runs=$(FUZZ_RUNS)
 
 fuzz: sanitize-build
-	bash fuzz/run.sh $(ASAN_BUILD) -max_total_time=$(FUZZ_SECONDS)
+	SEED_BUILD=$(BUILD) bash fuzz/run.sh $(ASAN_BUILD) -max_total_time=$(FUZZ_SECONDS)
 
 bench: build
 	$(BUILD)/bench/mirage_microbench

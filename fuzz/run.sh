@@ -3,7 +3,8 @@
 #   fuzz/run.sh BUILD_DIR [libFuzzer flags...]      e.g. -runs=2000 or -max_total_time=600
 # Seeds come from make_seeds.sh (BUILD_DIR/fuzz-seeds, made once); what a target finds new goes to
 # BUILD_DIR/fuzz-corpus/<target> (kept between runs), crashes to BUILD_DIR/fuzz-findings/<target>/.
-# FUZZ_TARGETS (space separated) picks targets; JOBS targets run at once. Exit 1 if any target failed.
+# FUZZ_TARGETS (space separated) picks targets; JOBS targets run at once; SEED_BUILD names a plain
+# build whose mirage makes the seeds. Exit 1 if any target failed.
 set -uo pipefail
 build=$1
 shift
@@ -14,8 +15,12 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$src/cmake/sanitize/lsan.supp:print_suppressions=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
+# Seeds are made with the plain build's mirage when there is one (faster than the sanitized one).
+seed_build=${SEED_BUILD:-$build}
+[ -x "$seed_build/mirage" ] && [ -x "$seed_build/fuzz/seed_tool" ] || seed_build=$build
 if [ ! -d "$build/fuzz-seeds" ]; then
-  bash "$src/fuzz/make_seeds.sh" "$build" "$build/fuzz-seeds.tmp" && mv "$build/fuzz-seeds.tmp" "$build/fuzz-seeds" || exit 1
+  rm -rf "$build/fuzz-seeds.tmp"
+  bash "$src/fuzz/make_seeds.sh" "$seed_build" "$build/fuzz-seeds.tmp" && mv "$build/fuzz-seeds.tmp" "$build/fuzz-seeds" || exit 1
 fi
 
 run_one() {
