@@ -1,10 +1,23 @@
 # The two commands of the README: `make demo` and `make test`. Both install what is missing
 # (scripts/setup, via sudo when not root), configure CMake (Ninja, Release) into build/, and build.
+# `make test-sanitize`, `make fuzz-ci` and `make fuzz` use a second, sanitized build (clang, ASan +
+# UBSan + libFuzzer: cmake/Sanitize.cmake) in build-asan/.
 BUILD ?= build
+ASAN_BUILD ?= build-asan
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
+# Executions per fuzz target in CI (fuzz-ci), and seconds per target for `make fuzz`.
+FUZZ_RUNS ?= 3000
+FUZZ_SECONDS ?= 600
+# Left out of the sanitized run to keep CI on two cores in time: the large GPU renders (lavapipe is
+# not instrumented; the Mirage code around them runs the same paths as the small GPU tests), the
+# real-data scans (the longest plain tests, 25-110 s each) and timed checks (sanitizers slow them).
+SANITIZE_SKIP ?= ClusterAlpha\.|ClusterRender\.|SurfelRender\.|MixedRender\.|Golden\.|RealData|BunnyScan|ClusterDag\.Bunny|DamagedHelmet|DragonFullResolution|LodBench|LodQuality|IsFast
+export ASAN_OPTIONS ?= detect_leaks=1
+export LSAN_OPTIONS ?= suppressions=$(CURDIR)/cmake/sanitize/lsan.supp:print_suppressions=0
+export UBSAN_OPTIONS ?= print_stacktrace=1:halt_on_error=1
 
-.PHONY: all setup configure build demo test bench format clean
+.PHONY: all setup configure build demo test bench format clean sanitize-build test-sanitize fuzz fuzz-ci
 
 all: build
 
@@ -25,6 +38,21 @@ demo: build
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 900
 
+$(ASAN_BUILD)/build.ninja:
+	cmake -S . -B $(ASAN_BUILD) -G Ninja -C cmake/Sanitize.cmake $(CMAKE_FLAGS)
+
+sanitize-build: setup $(ASAN_BUILD)/build.ninja
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+
+test-sanitize: sanitize-build
+	cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 900 -E '$(SANITIZE_SKIP)'
+
+fuzz-ci: sanitize-build
+	SEED_BUILD=$(BUILD) bash fuzz/run.sh $(ASAN_BUILD) -runs=$(FUZZ_RUNS)
+
+fuzz: sanitize-build
+	SEED_BUILD=$(BUILD) bash fuzz/run.sh $(ASAN_BUILD) -max_total_time=$(FUZZ_SECONDS)
+
 bench: build
 	$(BUILD)/bench/mirage_microbench
 
@@ -32,4 +60,4 @@ format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h' '*.glsl' | grep -v '^shaders/.*\.glsl$$')
 
 clean:
-	rm -rf $(BUILD) demo-out
+	rm -rf $(BUILD) $(ASAN_BUILD) demo-out

@@ -6,6 +6,7 @@
 // varint count + delta-coded IDs (full), or the same for the added IDs then the removed IDs.
 #include <algorithm>
 #include <iterator>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 #include <zstd.h>

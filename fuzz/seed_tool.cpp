@@ -1,0 +1,123 @@
+// Seed maker for the fuzz targets (used by make_seeds.sh):
+//   seed_tool chunks in.mrg out_dir   out_dir/<name>.chunks: every chunk as FourCC, uint32 size,
+//                                     bytes (fuzz_mrg's input form); out_dir/<name>-<i>.<FOURCC>: each
+//                                     chunk's payload alone (the per-chunk targets' input)
+//   seed_tool scen in.gltf out.SCEN   an imported scene as a 'SCEN' payload (with geometry and textures,
+//                                     which the SCEN of a built asset lacks)
+//   seed_tool meshopt-glb out.glb     a quad in a GLB with EXT_meshopt_compression (attributes with
+//                                     the octahedral filter, triangle indices), which `mirage gen` cannot write
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+
+#include <meshoptimizer.h>
+
+#include "fuzz_support.h"
+#include "mirage/asset/scene_chunk.h"
+#include "mirage/io/import.h"
+
+using namespace mirage;
+
+namespace {
+
+bool writeFile(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), std::streamsize(bytes.size()));
+  return bool(out);
+}
+
+int chunks(const std::filesystem::path& in, const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  std::string all;
+  std::vector<fuzz::Chunk> list = fuzz::readMrg(in);
+  for (size_t i = 0; i < list.size(); ++i) {
+    const fuzz::Chunk& c = list[i];
+    uint32_t size = uint32_t(c.bytes.size());
+    all.append(reinterpret_cast<const char*>(&c.type.code), 4);
+    all.append(reinterpret_cast<const char*>(&size), 4);
+    std::string payload(c.bytes.begin(), c.bytes.end());
+    all += payload;
+    std::string type(reinterpret_cast<const char*>(&c.type.code), 4); // "PVS " -> "PVS"
+    while (!type.empty() && (type.back() == ' ' || type.back() == '\0')) type.pop_back();
+    if (!writeFile(dir / (in.stem().string() + "-" + std::to_string(i) + "." + type), payload)) return 2;
+  }
+  return writeFile(dir / (in.stem().string() + ".chunks"), all) ? 0 : 2;
+}
+
+int scen(const std::filesystem::path& in, const std::filesystem::path& out) {
+  Result<Scene> scene = io::importScene(in);
+  if (!scene) {
+    std::fprintf(stderr, "%s\n", scene.error().message.c_str());
+    return 2;
+  }
+  std::vector<uint8_t> bytes = asset::encodeScene(*scene);
+  return writeFile(out, std::string(bytes.begin(), bytes.end())) ? 0 : 2;
+}
+
+template <class T> void put(std::string& s, T v) { s.append(reinterpret_cast<const char*>(&v), sizeof v); }
+
+int meshoptGlb(const std::filesystem::path& out) {
+  const float pos[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  const float nrm[4][4] = {{0, 0, 1, 0}, {0, 0, 1, 0}, {0.6f, 0, 0.8f, 0}, {0, -0.6f, 0.8f, 0}};
+  const unsigned int idx[6] = {0, 1, 2, 0, 2, 3};
+  int8_t oct[4][4];
+  meshopt_encodeFilterOct(oct, 4, 4, 8, &nrm[0][0]);
+  std::string bin;
+  auto append = [&](size_t bound, auto encode) {
+    size_t at = bin.size();
+    bin.resize(at + bound);
+    size_t len = encode(reinterpret_cast<unsigned char*>(&bin[at]), bound);
+    bin.resize((at + len + 3) / 4 * 4);
+    return std::to_string(at) + ", \"byteLength\": " + std::to_string(len);
+  };
+  std::string p = append(meshopt_encodeVertexBufferBound(4, 12),
+                         [&](unsigned char* d, size_t b) { return meshopt_encodeVertexBuffer(d, b, pos, 4, 12); });
+  std::string n = append(meshopt_encodeVertexBufferBound(4, 4),
+                         [&](unsigned char* d, size_t b) { return meshopt_encodeVertexBuffer(d, b, oct, 4, 4); });
+  std::string i = append(meshopt_encodeIndexBufferBound(6, 4),
+                         [&](unsigned char* d, size_t b) { return meshopt_encodeIndexBuffer(d, b, idx, 6); });
+  auto ext = [](const std::string& range, int stride, int count, const char* mode, const char* filter) {
+    return std::string(R"("extensions": {"EXT_meshopt_compression": {"buffer": 0, "byteOffset": )") + range +
+           ", \"byteStride\": " + std::to_string(stride) + ", \"count\": " + std::to_string(count) + ", \"mode\": \"" +
+           mode + "\", \"filter\": \"" + filter + "\"}}";
+  };
+  std::string json = R"({"asset": {"version": "2.0"},
+"extensionsUsed": ["EXT_meshopt_compression"], "extensionsRequired": ["EXT_meshopt_compression"],
+"scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+"meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+"accessors": [
+ {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
+ {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"},
+ {"bufferView": 2, "componentType": 5125, "count": 6, "type": "SCALAR"}],
+"buffers": [{"byteLength": )" +
+                     std::to_string(bin.size()) +
+                     R"(}, {"byteLength": 88, "extensions": {"EXT_meshopt_compression": {"fallback": true}}}],
+"bufferViews": [
+ {"buffer": 1, "byteOffset": 0, "byteLength": 48, "byteStride": 12, )" +
+                     ext(p, 12, 4, "ATTRIBUTES", "NONE") + R"(},
+ {"buffer": 1, "byteOffset": 48, "byteLength": 16, "byteStride": 4, )" +
+                     ext(n, 4, 4, "ATTRIBUTES", "OCTAHEDRAL") + R"(},
+ {"buffer": 1, "byteOffset": 64, "byteLength": 24, )" +
+                     ext(i, 4, 6, "TRIANGLES", "NONE") + "}]}";
+  json.resize((json.size() + 3) / 4 * 4, ' ');
+  std::string glb = "glTF";
+  put<uint32_t>(glb, 2);
+  put<uint32_t>(glb, uint32_t(12 + 8 + json.size() + 8 + bin.size()));
+  put<uint32_t>(glb, uint32_t(json.size()));
+  put<uint32_t>(glb, 0x4E4F534Au); // "JSON"
+  glb += json;
+  put<uint32_t>(glb, uint32_t(bin.size()));
+  put<uint32_t>(glb, 0x004E4942u); // "BIN\0"
+  glb += bin;
+  return writeFile(out, glb) ? 0 : 2;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  if (argc == 4 && std::strcmp(argv[1], "chunks") == 0) return chunks(argv[2], argv[3]);
+  if (argc == 4 && std::strcmp(argv[1], "scen") == 0) return scen(argv[2], argv[3]);
+  if (argc == 3 && std::strcmp(argv[1], "meshopt-glb") == 0) return meshoptGlb(argv[2]);
+  std::fprintf(stderr, "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb\n");
+  return 2;
+}
