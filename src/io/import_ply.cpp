@@ -174,6 +174,10 @@ private:
       } else if (kw == "element") {
         Element e;
         if (!(ls >> e.name >> e.count)) return fail("bad PLY element line " + quoteInput(line));
+        // One element of each name: a second 'vertex' element would be read with the first one's
+        // attribute arrays (a uv array sized by it, a layout without uv: out-of-bounds reads).
+        for (const Element& other : elements_)
+          if (other.name == e.name) return fail(fmt::format("PLY element {} declared twice", quoteInput(e.name)));
         elements_.push_back(std::move(e));
       } else if (kw == "property") {
         if (elements_.empty()) return fail("PLY property before any element");
