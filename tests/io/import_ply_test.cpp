@@ -12,6 +12,7 @@
 
 #include "mirage/io/import.h"
 #include "mirage/io/mesh_utils.h"
+#include "import_test_util.h"
 #include "support/test_support.h"
 
 using namespace mirage;
@@ -23,19 +24,8 @@ std::filesystem::path writeFile(const std::filesystem::path& p, const std::strin
   return p;
 }
 
-template <class T> void put(std::string& s, T v) {
-  char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  s.append(b, sizeof(T));
-}
-
-void expectError(const Result<Scene>& r, const std::filesystem::path& file, const std::string& phrase) {
-  ASSERT_FALSE(r.ok()) << "expected an error containing '" << phrase << "'";
-  const std::string& msg = r.error().message;
-  EXPECT_NE(msg.find(file.string()), std::string::npos) << msg;
-  EXPECT_NE(msg.find(phrase), std::string::npos) << msg;
-  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
-}
+using test::expectError;
+using test::put;
 
 io::ImportOptions raw() {
   io::ImportOptions o;

@@ -17,6 +17,7 @@
 #include "mirage/io/gltf_write.h"
 #include "mirage/io/mesh_utils.h"
 #include "mirage/io/ply_write.h"
+#include "import_test_util.h"
 #include "support/test_support.h"
 
 using namespace mirage;
@@ -28,21 +29,8 @@ std::filesystem::path writeFile(const std::filesystem::path& p, const std::strin
   return p;
 }
 
-template <class T> void put(std::string& s, T v, bool bigEndian = false) {
-  char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  if (bigEndian) std::reverse(b, b + sizeof(T));
-  s.append(b, sizeof(T));
-}
-
-// Error must name the file, mention the problem, and be one line.
-void expectError(const Result<Scene>& r, const std::filesystem::path& file, const std::string& phrase) {
-  ASSERT_FALSE(r.ok()) << "expected an error containing '" << phrase << "'";
-  const std::string& msg = r.error().message;
-  EXPECT_NE(msg.find(file.string()), std::string::npos) << msg;
-  EXPECT_NE(msg.find(phrase), std::string::npos) << msg;
-  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
-}
+using test::expectError;
+using test::put;
 
 // A binary PLY: a unit quad as one 4-gon, with an extra per-vertex property and an extra element to skip.
 std::string quadPly(bool bigEndian, bool truncate = false) {
