@@ -1,5 +1,6 @@
 #include "render_options.h"
 
+#include <cstddef>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -8,26 +9,22 @@ namespace mirage::cli {
 
 namespace {
 
-// A transformer binding an enum through its library parser: the name becomes the value's number
-// (what CLI11 converts into the enum); a bad name fails the parse with the parser's message. In
-// bench mode `sweepWord` (e.g. "all") sets *sweep and keeps the default.
-template <typename E>
-CLI::Validator enumNames(Result<E> (*parse)(std::string_view), E fallback, const char* sweepWord = nullptr,
+// A transformer binding an enum through its name table in the library: the name becomes the
+// value's number (what CLI11 converts into the enum); a bad name fails the parse naming the choices.
+// In bench mode `sweepWord` (e.g. "all") sets *sweep and keeps `fallback`, the default.
+template <typename E, size_t N>
+CLI::Validator enumNames(const EnumName<E> (&table)[N], E fallback, const char* sweepWord = nullptr,
                          bool* sweep = nullptr) {
   return CLI::Validator(
-      [=](std::string& text) -> std::string {
+      [&table, fallback, sweepWord, sweep](std::string& text) -> std::string {
         if (sweep) *sweep = sweepWord && text == sweepWord;
         if (sweep && *sweep) {
           text = std::to_string(int(fallback));
           return "";
         }
-        auto value = parse(text);
-        if (!value) {
-          // "--raster 'x': expected ..." -> "'x': expected ...": CLI11 puts the option name first.
-          const std::string& m = value.error().message;
-          size_t quote = m.find('\'');
-          return quote == std::string::npos ? m : m.substr(quote);
-        }
+        auto value = parseNamed(text, "", table);
+        if (!value) // " 'x': expected a, b or c" (CLI11 puts the option's name first)
+          return value.error().message.substr(1) + (sweep ? std::string(", or ") + sweepWord : "");
         text = std::to_string(int(*value));
         return "";
       },
@@ -75,7 +72,8 @@ CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode 
       .add_option("--surfel-order", o.surfelOrder,
                   "--surfels: splat order blue|coherent|coherent256 (default coherent256: Morton-sorted blocks, "
                   "docs/surfels.md)")
-      ->transform(enumNames(render::parseSurfelOrder, o.surfelOrder))
+      ->type_name("NAME")
+      ->transform(enumNames(render::kSurfelOrderNames, o.surfelOrder))
       ->default_str(render::toString(o.surfelOrder));
 }
 
@@ -88,7 +86,8 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
   lod.push_back(
       cmd.add_option("--raster", c.raster,
                      bench ? ".mrg: all|auto|mesh|indirect|compute|hybrid" : ".mrg: auto|mesh|indirect|compute|hybrid")
-          ->transform(enumNames(render::parseRasterBackend, c.raster, "all", bench ? &sweeps->allRasters : nullptr))
+          ->type_name("NAME")
+          ->transform(enumNames(render::kRasterBackendNames, c.raster, "all", bench ? &sweeps->allRasters : nullptr))
           ->default_str(bench ? "all" : render::toString(c.raster)));
   lod.push_back(cmd.add_option("--hybrid-threshold", c.hybridThreshold,
                                ".mrg, hybrid raster: clusters whose estimated triangle edge reaches this many pixels "
@@ -101,15 +100,18 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
                            "the H200)"
                          : ".mrg: two-pass HZB occlusion culling on|off (off: it cost more than it saved on the H200)")
           ->transform(onOff(bench ? &sweeps->bothOcclusion : nullptr))
+          ->type_name(bench ? "on|off|both" : "on|off")
           ->default_str(onOffName(c.occlusionCulling)));
   lod.push_back(cmd.add_option("--cones", c.coneCulling, ".mrg: normal-cone back-face culling on|off")
                     ->transform(onOff())
+                    ->type_name("on|off")
                     ->default_str(onOffName(c.coneCulling)));
   lod.push_back(cmd.add_option("--blend-raster", c.blendRaster,
                                bench ? ".mrg, alpha BLEND clusters: auto (hybrid), compute, hybrid, hardware, or all "
                                        "(each, timed as 'blend')"
                                      : ".mrg, alpha BLEND clusters: auto (hybrid), compute, hybrid or hardware")
-                    ->transform(enumNames(render::parseBlendRaster, c.blendRaster, "all",
+                    ->type_name("NAME")
+                    ->transform(enumNames(render::kBlendRasterNames, c.blendRaster, "all",
                                           bench ? &sweeps->allBlendRasters : nullptr))
                     ->default_str(render::toString(c.blendRaster)));
   lod.push_back(
@@ -118,14 +120,16 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
                              "the kept levels), hierarchy (BVH over groups), dag (tree of the DAG's groups) or all"
                            : ".mrg: LOD cut selection: auto (hierarchy from 8192 instances), flat (every cluster of "
                              "the kept levels), hierarchy (BVH over groups) or dag (tree of the DAG's groups)")
+          ->type_name("NAME")
           ->transform(
-              enumNames(render::parseSelectionMode, c.selection, "all", bench ? &sweeps->allSelections : nullptr))
+              enumNames(render::kSelectionModeNames, c.selection, "all", bench ? &sweeps->allSelections : nullptr))
           ->default_str(render::toString(c.selection)));
   out.surfels.push_back(
       cmd.add_option("--surfel-size", c.surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str());
   if (mode == BindMode::Render) // bench render draws surfels only in mixed scenes (bench surfels: the rest)
     out.surfels.push_back(cmd.add_option("--surfel-raster", c.surfelRaster, "--surfels: auto|compute|raster")
-                              ->transform(enumNames(render::parseSurfelRaster, c.surfelRaster))
+                              ->type_name("NAME")
+                              ->transform(enumNames(render::kSurfelRasterNames, c.surfelRaster))
                               ->default_str(render::toString(c.surfelRaster)));
   return out;
 }

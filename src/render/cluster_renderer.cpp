@@ -65,64 +65,17 @@ VkDeviceSize drawArgsOffset(uint32_t pass, uint32_t list) {
 
 } // namespace
 
-const char* toString(RasterBackend b) {
-  switch (b) {
-  case RasterBackend::Auto:
-    return "auto";
-  case RasterBackend::Mesh:
-    return "mesh";
-  case RasterBackend::Indirect:
-    return "indirect";
-  case RasterBackend::Compute:
-    return "compute";
-  case RasterBackend::Hybrid:
-    return "hybrid";
-  }
-  return "?";
-}
-
+const char* toString(RasterBackend b) { return nameOf(kRasterBackendNames, b); }
 Result<RasterBackend> parseRasterBackend(std::string_view text) {
-  return parseNamed(text, "--raster",
-                    {RasterBackend::Auto, RasterBackend::Mesh, RasterBackend::Indirect, RasterBackend::Compute,
-                     RasterBackend::Hybrid});
+  return parseNamed(text, "--raster", kRasterBackendNames);
 }
-
-const char* toString(BlendRaster b) {
-  switch (b) {
-  case BlendRaster::Auto:
-    return "auto";
-  case BlendRaster::Compute:
-    return "compute";
-  case BlendRaster::Hybrid:
-    return "hybrid";
-  case BlendRaster::Hardware:
-    return "hardware";
-  }
-  return "?";
-}
-
+const char* toString(BlendRaster b) { return nameOf(kBlendRasterNames, b); }
 Result<BlendRaster> parseBlendRaster(std::string_view text) {
-  return parseNamed(text, "--blend-raster",
-                    {BlendRaster::Auto, BlendRaster::Compute, BlendRaster::Hybrid, BlendRaster::Hardware});
+  return parseNamed(text, "--blend-raster", kBlendRasterNames);
 }
-
-const char* toString(SelectionMode m) {
-  switch (m) {
-  case SelectionMode::Auto:
-    return "auto";
-  case SelectionMode::Flat:
-    return "flat";
-  case SelectionMode::Hierarchy:
-    return "hierarchy";
-  case SelectionMode::Dag:
-    return "dag";
-  }
-  return "?";
-}
-
+const char* toString(SelectionMode m) { return nameOf(kSelectionModeNames, m); }
 Result<SelectionMode> parseSelectionMode(std::string_view text) {
-  return parseNamed(text, "--selection",
-                    {SelectionMode::Auto, SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag});
+  return parseNamed(text, "--selection", kSelectionModeNames);
 }
 
 struct ClusterRenderer::Impl {

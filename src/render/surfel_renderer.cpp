@@ -77,53 +77,16 @@ static_assert(std::has_single_bit(coherentMinBlock(SurfelOrder::Coherent)) &&
                   coherentMinBlock(SurfelOrder::Coherent256) >= 32,
               "coherent blocks tile the order, and hold whole warps, only with power-of-two sizes >= 32");
 
-const char* toString(SurfelOrder o) {
-  switch (o) {
-  case SurfelOrder::Blue:
-    return "blue";
-  case SurfelOrder::Coherent:
-    return "coherent";
-  case SurfelOrder::Coherent256:
-    return "coherent256";
-  }
-  return "?";
-}
-
+const char* toString(SurfelOrder o) { return nameOf(kSurfelOrderNames, o); }
 Result<SurfelOrder> parseSurfelOrder(std::string_view text) {
-  return parseNamed(text, "surfel order", {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256});
+  return parseNamed(text, "surfel order", kSurfelOrderNames);
 }
-
-const char* toString(SurfelRaster r) {
-  switch (r) {
-  case SurfelRaster::Auto:
-    return "auto";
-  case SurfelRaster::Compute:
-    return "compute";
-  case SurfelRaster::Raster:
-    return "raster";
-  }
-  return "?";
-}
-
+const char* toString(SurfelRaster r) { return nameOf(kSurfelRasterNames, r); }
 Result<SurfelRaster> parseSurfelRaster(std::string_view text) {
-  return parseNamed(text, "--surfel-raster", {SurfelRaster::Auto, SurfelRaster::Compute, SurfelRaster::Raster});
+  return parseNamed(text, "--surfel-raster", kSurfelRasterNames);
 }
-
-const char* toString(SurfelMerge m) {
-  switch (m) {
-  case SurfelMerge::Off:
-    return "off";
-  case SurfelMerge::On:
-    return "on";
-  case SurfelMerge::Auto:
-    return "auto";
-  }
-  return "?";
-}
-
-Result<SurfelMerge> parseSurfelMerge(std::string_view text) {
-  return parseNamed(text, "--merge", {SurfelMerge::Off, SurfelMerge::On, SurfelMerge::Auto});
-}
+const char* toString(SurfelMerge m) { return nameOf(kSurfelMergeNames, m); }
+Result<SurfelMerge> parseSurfelMerge(std::string_view text) { return parseNamed(text, "--merge", kSurfelMergeNames); }
 
 // SurfelRenderFrame::flags for the merge choice.
 static uint32_t mergeFlags(SurfelMerge m) {

@@ -21,14 +21,6 @@ const char* toString(SceneKind kind) {
   return "?";
 }
 
-Status validate(const RenderConfig& c) {
-  if (!(c.tauPixels > 0.0f) || c.tauPixels > 1e6f) return Error{"--tau must be a positive number of pixels"};
-  if (!(c.hybridThreshold >= 0.0f) || c.hybridThreshold > 1e6f)
-    return Error{"--hybrid-threshold must be a number of pixels in 0..1e6"};
-  if (!(c.surfelSize >= 0.5f && c.surfelSize <= 16.0f)) return Error{"--surfel-size must be in 0.5..16 pixels"};
-  return Ok{};
-}
-
 // The path for `o`: a .mrg's chunks decide (DAGs: cluster LOD; SURF only: surfels), other inputs
 // go to the forward renderer unless surfels are asked for (a surfel .ply).
 Result<SceneKind> sceneKind(const SceneOptions& o) {

@@ -97,6 +97,14 @@ if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   expect_ok render-flat-selection render "$tmp/blob.mrg" -o "$tmp/flat.png" --size 32x32 --selection flat --stats
   expect_fail render-bad-hybrid "--hybrid-threshold" "$tmp/o.png" -- render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --hybrid-threshold -1
   expect_ok render-hybrid-stats render "$tmp/blob.mrg" -o "$tmp/o.png" --size 32x32 --raster hybrid --cones off --stats
+  # The flag binding (apps/mirage/render_options.cpp): bench-only words are refused by render; a
+  # cluster-LOD flag given on a scene file is an error even at its default value (given, not compared).
+  expect_fail render-raster-all "--raster" "$tmp/flags.png" -- render "$tmp/blob.mrg" -o "$tmp/flags.png" --size 32x32 --raster all
+  expect_fail render-occlusion-both "--occlusion" "$tmp/flags.png" -- render "$tmp/blob.mrg" -o "$tmp/flags.png" --size 32x32 --occlusion both
+  expect_fail render-default-tau-on-glb "cluster-LOD assets only" "$tmp/flags.png" -- render "$tmp/blob.glb" -o "$tmp/flags.png" --size 32x32 --tau 1
+  if expect_ok bench-occlusion-both bench render "$tmp/blob.mrg" --size 32x32 --frames 2 --raster indirect --occlusion both --json; then
+    [ "$(grep -c '"occlusion": \(true\|false\)' "$tmp/stdout")" -eq 2 ] || { echo "FAIL bench-occlusion-both: expected 2 runs"; failures=$((failures + 1)); }
+  fi
 fi
 expect_fail build-missing "missing.ply" "$tmp/m.mrg" -- build "$tmp/missing.ply" -o "$tmp/m.mrg"
 expect_fail build-bad-ext "out.glb" "$tmp/out.glb" -- build "$tmp/range.obj" -o "$tmp/out.glb"

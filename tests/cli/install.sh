@@ -20,6 +20,7 @@ if ! cmake --install "$build" --prefix "$prefix" >"$tmp/install.log" 2>&1; then
   cat "$tmp/install.log"; fail "cmake --install"; exit 1
 fi
 for f in bin/mirage include/mirage/render/cluster_renderer.h include/mirage/shaderio/cluster.h \
+         include/mirage/runtime/scene.h "$libdir"/libmirage_runtime.a \
          "$libdir"/libmirage_core.a "$libdir"/libmirage_render.a "$libdir"/libmirage_shaders.a \
          "$libdir"/cmake/Mirage/MirageConfig.cmake "$libdir"/cmake/Mirage/MirageConfigVersion.cmake \
          "$libdir"/pkgconfig/mirage.pc; do

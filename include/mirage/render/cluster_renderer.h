@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "mirage/core/named_enum.h"
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
 #include "mirage/lod/cluster_pvs.h"
@@ -31,6 +32,11 @@ enum class RasterBackend {
   Compute,  // software rasterizer: atomicMax of (depth << 32 | id) into a 64-bit buffer
   Hybrid,   // per cluster: compute for small triangles, mesh (or indirect) for large / near-plane ones
 };
+inline constexpr EnumName<RasterBackend> kRasterBackendNames[] = {{RasterBackend::Auto, "auto"},
+                                                                  {RasterBackend::Mesh, "mesh"},
+                                                                  {RasterBackend::Indirect, "indirect"},
+                                                                  {RasterBackend::Compute, "compute"},
+                                                                  {RasterBackend::Hybrid, "hybrid"}};
 const char* toString(RasterBackend backend);
 // "auto", "mesh", "indirect", "compute" or "hybrid"; anything else is an error naming the choices.
 Result<RasterBackend> parseRasterBackend(std::string_view text);
@@ -44,6 +50,10 @@ enum class BlendRaster {
   Hybrid,   // per cluster as the hybrid opaque split (hybridThreshold): large triangles to hardware
   Hardware, // every blend cluster by mesh shaders (indirect draws with --raster indirect or without them)
 };
+inline constexpr EnumName<BlendRaster> kBlendRasterNames[] = {{BlendRaster::Auto, "auto"},
+                                                              {BlendRaster::Compute, "compute"},
+                                                              {BlendRaster::Hybrid, "hybrid"},
+                                                              {BlendRaster::Hardware, "hardware"}};
 const char* toString(BlendRaster blend);
 // "auto", "compute", "hybrid" or "hardware"; anything else is an error naming the choices.
 Result<BlendRaster> parseBlendRaster(std::string_view text);
@@ -60,6 +70,10 @@ enum class SelectionMode {
 // traversal's six dependent dispatches run). The flat cost grows with instances, the traversal's
 // is mostly fixed: the crossover lies near 10 k instances.
 constexpr uint32_t kHierarchyInstances = 8192;
+inline constexpr EnumName<SelectionMode> kSelectionModeNames[] = {{SelectionMode::Auto, "auto"},
+                                                                  {SelectionMode::Flat, "flat"},
+                                                                  {SelectionMode::Hierarchy, "hierarchy"},
+                                                                  {SelectionMode::Dag, "dag"}};
 const char* toString(SelectionMode mode);
 // "auto", "flat", "hierarchy" or "dag"; anything else is an error naming the choices.
 Result<SelectionMode> parseSelectionMode(std::string_view text);

@@ -14,6 +14,7 @@
 
 #include <glm/glm.hpp>
 
+#include "mirage/core/named_enum.h"
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
@@ -30,6 +31,8 @@ enum class SurfelRaster {
   Compute, // splat with 64-bit atomics into a buffer (one atomic per pixel-sized surfel)
   Raster,  // fallback: indirect draws of screen-aligned quads, depth-tested
 };
+inline constexpr EnumName<SurfelRaster> kSurfelRasterNames[] = {
+    {SurfelRaster::Auto, "auto"}, {SurfelRaster::Compute, "compute"}, {SurfelRaster::Raster, "raster"}};
 const char* toString(SurfelRaster raster);
 // "auto", "compute" or "raster"; anything else is an error naming the choices.
 Result<SurfelRaster> parseSurfelRaster(std::string_view text);
@@ -41,6 +44,8 @@ enum class SurfelMerge {
   On,   // every instance merges
   Auto, // per instance, on the GPU: where its disc radius is under MIRAGE_SURFEL_MERGE_RADIUS_PX
 };
+inline constexpr EnumName<SurfelMerge> kSurfelMergeNames[] = {
+    {SurfelMerge::Off, "off"}, {SurfelMerge::On, "on"}, {SurfelMerge::Auto, "auto"}};
 const char* toString(SurfelMerge merge);
 // "off", "on" or "auto"; anything else is an error naming the choices.
 Result<SurfelMerge> parseSurfelMerge(std::string_view text);
@@ -51,6 +56,8 @@ enum class SurfelOrder {
   Coherent,    // Morton-sorted within geometrically growing blocks of >= 1024 (one splat batch)
   Coherent256, // the same with blocks of >= 256: less rounding for small prefixes, less coherence
 };
+inline constexpr EnumName<SurfelOrder> kSurfelOrderNames[] = {
+    {SurfelOrder::Blue, "blue"}, {SurfelOrder::Coherent, "coherent"}, {SurfelOrder::Coherent256, "coherent256"}};
 const char* toString(SurfelOrder order);
 // "blue", "coherent" or "coherent256"; anything else is an error naming the choices.
 Result<SurfelOrder> parseSurfelOrder(std::string_view text);

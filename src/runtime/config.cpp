@@ -1,0 +1,14 @@
+// RenderConfig's ranges, checked once for every caller (CLI, viewer): the messages name the flag.
+#include "mirage/runtime/config.h"
+
+namespace mirage::runtime {
+
+Status validate(const RenderConfig& c) {
+  if (!(c.tauPixels > 0.0f) || c.tauPixels > 1e6f) return Error{"--tau must be a positive number of pixels"};
+  if (!(c.hybridThreshold >= 0.0f) || c.hybridThreshold > 1e6f)
+    return Error{"--hybrid-threshold must be a number of pixels in 0..1e6"};
+  if (!(c.surfelSize >= 0.5f && c.surfelSize <= 16.0f)) return Error{"--surfel-size must be in 0.5..16 pixels"};
+  return Ok{};
+}
+
+} // namespace mirage::runtime
