@@ -40,7 +40,7 @@ CLI::Validator onOff(bool* both = nullptr) {
           text = text == "on" ? "true" : "false";
           return "";
         }
-        return "'" + text + "': expected on, off" + (both ? " or both" : "");
+        return "'" + text + (both ? "': expected on, off or both" : "': expected on or off");
       },
       "");
 }
