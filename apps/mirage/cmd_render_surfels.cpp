@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "mirage/io/image_io.h"
 #include "mirage/render/surfel_renderer.h"
+#include "mirage/runtime/config.h"
 #include "mirage/runtime/scene_argument.h"
 #include "mirage/surfels/surfel_io.h"
 #include "render_common.h"
@@ -69,13 +70,12 @@ Result<std::vector<render::SurfelOrder>> parseOrders(const std::string& text, co
 
 // Checks the arguments, loads the cloud, starts the GPU, uploads the scene once per order. Returns
 // false after fail().
-bool open(const SurfelRenderRequest& r, bool needOutput, const std::vector<render::SurfelOrder>& orders,
-          SurfelSession& s) {
+bool open(const SurfelRenderRequest& r, const std::vector<render::SurfelOrder>& orders, SurfelSession& s) {
   uint32_t width = 0, height = 0;
   if (auto st = parseSize(r.size, width, height); !st) return fail(st.error()), false;
-  if (needOutput)
-    if (auto st = checkOutputPath(r.output, {".png"}); !st) return fail(st.error()), false;
-  if (!(r.surfelSize >= 0.5f && r.surfelSize <= 16.0f)) return fail("--surfel-size must be in 0.5..16 pixels"), false;
+  runtime::RenderConfig config; // the range of --surfel-size, checked where the runtime checks it
+  config.surfelSize = r.surfelSize;
+  if (auto st = runtime::validate(config); !st) return fail(st.error()), false;
   if (r.copies < 1 || r.copies > 65536) return fail("--copies must be in 1..65536"), false;
   render::Camera camera;
   if (!r.camera.empty()) {
@@ -223,7 +223,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   auto orders = parseOrders(r.order, "--order", /*allowList=*/true);
   if (!orders) return fail(orders.error());
   SurfelSession s;
-  if (!open(r, /*needOutput=*/false, *orders, s)) return;
+  if (!open(r, *orders, s)) return;
   s.settings.base.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   const auto& caps = s.ctx->caps();
   if (rasters.empty()) {

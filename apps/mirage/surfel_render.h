@@ -3,17 +3,18 @@
 // (cmd_render_surfels.cpp).
 #include <string>
 
+#include "mirage/runtime/config.h"
+
 namespace mirage::cli {
 
 struct SurfelRenderRequest {
   std::string input;  // .mrg with a SURF chunk, or .ply
-  std::string output; // .png (render only)
   std::string camera; // empty: auto 3/4 view
   std::string size = "1920x1080";
   std::string device;
-  std::string raster = "auto";    // auto | compute | raster; bench: "all"
-  float surfelSize = 2.0f;        // s, pixels
-  uint32_t copies = 1;            // instances of the cloud on a grid
+  std::string raster = "auto";                            // auto | compute | raster; bench: "all"
+  float surfelSize = runtime::kSurfelDefaults.surfelSize; // s, pixels
+  uint32_t copies = 1;                                    // instances of the cloud on a grid
   bool sharedCopies = false;      // bench: copies read one stored cloud (else each its own copy of the data)
   bool allSurfels = false;        // bench: splat all N per instance
   std::string backface = "off";   // bench: back-face culling on | off | both (both timed in one run)
@@ -22,7 +23,7 @@ struct SurfelRenderRequest {
   std::string
       order; // blue | coherent | coherent256 (default: render::kDefaultSurfelOrder); bench: a comma list or "all"
   double bandwidth = 4.8e12; // bench: device bandwidth in B/s for the reported fraction
-  int frames = 1;            // render: --repeat; bench: --frames (the first is a warm-up)
+  int frames = 1;            // --frames (the first is a warm-up)
   double warmupMs = 0.0;     // bench: the warm-up frame repeats for this long (GPU clock)
   bool stats = false;
   bool json = false;
