@@ -142,6 +142,14 @@ TEST_F(RuntimeScene, BadInputIsOneLineNamingTheFile) {
   auto grid = runtime::Scene::open(context(), {.input = blob().mrg.string(), .grid = 0});
   ASSERT_FALSE(grid.ok());
   EXPECT_NE(grid.error().message.find("--grid"), std::string::npos);
+  // render() validates the view's config before drawing.
+  auto s = openOk({.input = blob().mrg.string()});
+  ASSERT_TRUE(s);
+  runtime::View view = viewOf(*s);
+  view.config.tauPixels = -1.0f;
+  auto f = s->render(view);
+  ASSERT_FALSE(f.ok());
+  EXPECT_NE(f.error().message.find("--tau"), std::string::npos);
 }
 
 TEST(RuntimeConfig, ValidateNamesTheFlag) {
