@@ -16,14 +16,6 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-// World-space frustum planes (Gribb-Hartmann) of a reverse-Z projection: clip-space inside is
-// -w <= x, y <= w and z <= w (near); the far plane is left out (the camera's far bound is loose).
-void frustumPlanes(const glm::mat4& m, glm::vec4* planes) {
-  auto row = [&](int r) { return glm::vec4(m[0][r], m[1][r], m[2][r], m[3][r]); };
-  glm::vec4 p[5] = {row(3) + row(0), row(3) - row(0), row(3) + row(1), row(3) - row(1), row(3) - row(2)};
-  for (int i = 0; i < 5; ++i) planes[i] = p[i] / glm::length(glm::vec3(p[i]));
-}
-
 // The backend that runs: auto prefers hybrid (compute for small triangles, mesh shaders for large),
 // then compute alone, then mesh shaders, then indirect draws.
 Result<RasterBackend> resolveBackend(RasterBackend requested, const DeviceCapabilities& caps) {
@@ -92,18 +84,11 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
 Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const ClusterFramePlan& plan) {
   const RenderSettings& s = cs.base;
   Camera cam = withClipPlanes(s.camera, scene.worldBounds);
-  glm::mat4 proj = cam.projection(float(s.width) / float(s.height));
   sio::ClusterFrame f{};
-  f.viewProj = proj * cam.view();
-  f.invViewProj = glm::inverse(f.viewProj);
-  f.eye = glm::vec4(cam.eye, 1.0f);
-  frustumPlanes(f.viewProj, f.planes);
+  f.camera = viewFrame(cam, s.width, s.height);
   f.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
   f.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
   f.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
-  f.viewport = {float(s.width), float(s.height)};
-  f.znear = cam.znear;
-  f.errorScale = std::abs(proj[1][1]) * 0.5f * float(s.height);
   f.tau = cs.tauPixels;
   f.flags =
       (cs.flagBackFaces ? MIRAGE_FRAME_FLAG_BACKFACES : 0u) | (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) |
@@ -138,12 +123,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
                                 MemoryUsage::Upload, "surfel link");
     }
     SurfelStageFrame sf;
-    sf.viewProj = f.viewProj;
-    sf.eye = cam.eye;
-    sf.znear = cam.znear;
-    sf.pixelScale = f.errorScale; // the same pixels per world unit at distance 1
-    sf.width = s.width;
-    sf.height = s.height;
+    sf.camera = f.camera;
     sf.visBufferAddress = visBuffer.address();
     sf.meshFadeAddress = fade.address();
     SurfelRenderSettings ss = cs.surfelSettings;
