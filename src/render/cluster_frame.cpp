@@ -148,21 +148,22 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.blendCapacity = blendCapacity;
     f.oitNodeCapacity = oitNodeCapacity;
   }
-  std::memcpy(frame.mapped(), &f, sizeof(f));
+  std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
   return Ok{};
 }
 
-ClusterStats ClusterRenderer::Impl::readStats(const ClusterRenderSettings& cs, const ClusterFramePlan& plan) {
+// The slot's counters as cmdFrame copied them at the end of its frame.
+ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
+  const ClusterFramePlan& plan = plans[frameSlot];
+  const uint8_t* raw = readbacks[frameSlot].mapped();
   sio::ClusterCounters c{};
-  std::vector<uint8_t> raw = readbackBuffer(ctx, counters, sizeof(c));
-  std::memcpy(&c, raw.data(), sizeof(c));
+  std::memcpy(&c, raw, sizeof(c));
   ClusterStats st;
   if (plan.hierarchy) {
     sio::ClusterTraversal t{};
-    std::vector<uint8_t> rawT = readbackBuffer(ctx, traversal, sizeof(t));
-    std::memcpy(&t, rawT.data(), sizeof(t));
+    std::memcpy(&t, raw + sizeof(c), sizeof(t));
     st.nodesTested = t.nodesTested;
-    st.selectionPasses = traversalDepth + 1;
+    st.selectionPasses = (plan.dagTree ? scene.dagDepth : scene.lodDepth) + 1;
   }
   st.selection = plan.dagTree ? SelectionMode::Dag : plan.hierarchy ? SelectionMode::Hierarchy : SelectionMode::Flat;
   st.instancesVisible = c.visibleInstances;
@@ -193,7 +194,6 @@ ClusterStats ClusterRenderer::Impl::readStats(const ClusterRenderSettings& cs, c
   st.pvs = plan.pvs;
   st.raster = plan.backend;
   st.occlusion = plan.occlusion;
-  if (cs.surfels) st.surfels = cs.surfels->stageStats();
   return st;
 }
 

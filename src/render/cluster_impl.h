@@ -92,7 +92,7 @@ struct ClusterFramePlan {
 struct ClusterRenderer::Impl {
   gpu::Context& ctx;
   ClusterSceneData scene;
-  gpu::Buffer frame, visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
+  gpu::Buffer visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
   gpu::Buffer fade, surfelLink;     // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
   gpu::Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
   gpu::Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
@@ -111,9 +111,19 @@ struct ClusterRenderer::Impl {
   uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
-  gpu::GpuTimer timer;
+  // Frames in flight (record/collect): what the CPU writes or reads while other frames run is per
+  // slot; everything else is GPU-only scratch shared by the slots (see cmdFrame).
+  gpu::Buffer frames[kMaxFramesInFlight];    // ClusterFrame, written by the CPU at record time
+  gpu::Buffer readbacks[kMaxFramesInFlight]; // ClusterCounters + ClusterTraversal, copied at the frame's end
+  std::vector<gpu::GpuTimer> timers;         // per slot: pass timestamps
+  ClusterFramePlan plans[kMaxFramesInFlight];
+  bool recorded[kMaxFramesInFlight] = {};
+  uint32_t currentSlot = 0; // the slot being recorded
 
-  Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)), timer(c, 48) {}
+  Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)) {
+    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) timers.emplace_back(c, 48);
+  }
+  gpu::GpuTimer& timer() { return timers[currentSlot]; }
   void createDescriptors(); // cluster_pipelines.cpp
   void createPipelines();
   void ensureTargets(uint32_t w, uint32_t h);
@@ -141,7 +151,11 @@ struct ClusterRenderer::Impl {
   // counters read back into stats.
   Result<ClusterFramePlan> plan(const ClusterRenderSettings& cs) const;
   Status packFrame(const ClusterRenderSettings& cs, const ClusterFramePlan& plan);
-  ClusterStats readStats(const ClusterRenderSettings& cs, const ClusterFramePlan& plan);
+  ClusterStats readStats(uint32_t slot) const;
+
+  // cluster_renderer.cpp: plan, targets and frame data of `slot` (no commands), then its commands.
+  Status prepareFrame(const ClusterRenderSettings& cs, uint32_t slot);
+  void cmdFrame(VkCommandBuffer cmd, const ClusterRenderSettings& cs);
 };
 
 } // namespace mirage::render

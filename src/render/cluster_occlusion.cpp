@@ -11,7 +11,7 @@ namespace sio = mirage::shaderio;
 // barriers: the raster pass's depth visible to compute (cmdRasterize). On exit every HZB level is
 // written and visible.
 void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p) {
-  uint32_t slot = timer.cmdBegin(cmd, "hzb", kCS);
+  uint32_t slot = timer().cmdBegin(cmd, "hzb", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, hzbPipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
   // Levels 1..5 per 16x16 tile of level 1, then one workgroup for the rest (cluster_hzb.comp).
@@ -26,14 +26,14 @@ void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterP
   }
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS,
                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  timer.cmdEnd(cmd, slot, kCS);
+  timer().cmdEnd(cmd, slot, kCS);
 }
 
 // Pass-2 culling against the HZB of pass 1: late instances (then the phase-2 selection of the ones
 // that pass) and the clusters left over from phase 1.
 // barriers: the HZB, the late instances and the candidates visible; on exit pass 2's appends are.
 void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy) {
-  uint32_t slot = timer.cmdBegin(cmd, "occlusion", kCS);
+  uint32_t slot = timer().cmdBegin(cmd, "occlusion", kCS);
   cmdPush(cmd, p, 0);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, occlusionPipeline);
   vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, occlusionArgs));
@@ -48,7 +48,7 @@ void ClusterRenderer::Impl::cmdOcclusion(VkCommandBuffer cmd, const sio::Cluster
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, lateSelectArgs));
   }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  timer.cmdEnd(cmd, slot, kCS);
+  timer().cmdEnd(cmd, slot, kCS);
 }
 
 } // namespace mirage::render

@@ -48,7 +48,7 @@ void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::Cluste
     d.depthCompare = VK_COMPARE_OP_ALWAYS;
     blendDepthPipeline = createGraphicsPipeline(ctx, d);
   }
-  uint32_t slot = timer.cmdBegin(cmd, "blend-z");
+  uint32_t slot = timer().cmdBegin(cmd, "blend-z");
   // Unwritten on the buffer backends (only read through descriptors): the old contents are dropped.
   cmdImageBarrier(cmd,
                   {depth.handle(), kCS, 0, kTests,
@@ -73,7 +73,7 @@ void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::Cluste
                         VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
                         VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
                         VK_IMAGE_ASPECT_DEPTH_BIT});
-  timer.cmdEnd(cmd, slot);
+  timer().cmdEnd(cmd, slot);
 }
 
 // The hardware blend list (entries from the blend list's end) drawn with no colour output over the
@@ -107,27 +107,27 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
                                             bool bufferTarget) {
   p.visibleAddress = blendVisible.address(); // ids of the blend passes name blend-list entries
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  uint32_t slot = timer.cmdBegin(cmd, "blend");
+  uint32_t slot = timer().cmdBegin(cmd, "blend");
   if (blend != BlendRaster::Compute) cmdBlendDepth(cmd, p, bufferTarget);
   if (blend != BlendRaster::Hardware) {
-    uint32_t part = blend == BlendRaster::Hybrid ? timer.cmdBegin(cmd, "blend-cs", kCS) : 0;
+    uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blendRasterPipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
     cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
-    if (blend == BlendRaster::Hybrid) timer.cmdEnd(cmd, part, kCS);
+    if (blend == BlendRaster::Hybrid) timer().cmdEnd(cmd, part, kCS);
   }
   if (blend != BlendRaster::Compute) {
-    uint32_t part = blend == BlendRaster::Hybrid ? timer.cmdBegin(cmd, "blend-hw") : 0;
+    uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-hw") : 0;
     cmdHardwareBlend(cmd, p, meshBlend);
-    if (blend == BlendRaster::Hybrid) timer.cmdEnd(cmd, part);
+    if (blend == BlendRaster::Hybrid) timer().cmdEnd(cmd, part);
   }
-  timer.cmdEnd(cmd, slot);
+  timer().cmdEnd(cmd, slot);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  slot = timer.cmdBegin(cmd, "composite", kCS);
+  slot = timer().cmdBegin(cmd, "composite", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compositePipeline);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
-  timer.cmdEnd(cmd, slot, kCS);
+  timer().cmdEnd(cmd, slot, kCS);
 }
 
 } // namespace mirage::render

@@ -86,7 +86,11 @@ void ClusterRenderer::Impl::createPipelines() {
 
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   visibleCapacity = uint32_t(std::clamp<uint64_t>(scene.instancedClusters, 1, kMaxVisibleClusters));
-  frame = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
+    frames[i] = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
+    readbacks[i] = createBuffer(ctx, sizeof(sio::ClusterCounters) + sizeof(sio::ClusterTraversal),
+                                VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "cluster counters readback");
+  }
   visibleInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
                                   MemoryUsage::GpuOnly, "visible instances");
   lateInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
@@ -169,7 +173,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
 
 sio::ClusterPush ClusterRenderer::Impl::push() const {
   sio::ClusterPush p{};
-  p.frameAddress = frame.address();
+  p.frameAddress = frames[currentSlot].address();
   p.clusterAddress = scene.clusters.address();
   p.vertexAddress = scene.vertices.address();
   p.clusterVertexAddress = scene.clusterVertices.address();

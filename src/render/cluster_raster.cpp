@@ -69,7 +69,7 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
 // and every write of the pass is visible to the HZB build, the next pass and the resolve.
 void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
                                          uint32_t pass) {
-  uint32_t slot = timer.cmdBegin(cmd, pass == 0 ? "raster" : "raster2");
+  uint32_t slot = timer().cmdBegin(cmd, pass == 0 ? "raster" : "raster2");
   bool imageTarget = backend == RasterBackend::Mesh || backend == RasterBackend::Indirect;
   const VkPipelineStageFlags2 kDepthStages =
       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
@@ -114,20 +114,20 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
     if (pass == 0) cmdImageBarriers(cmd, toRead); // unwritten, but the descriptors must be valid
   }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
-  timer.cmdEnd(cmd, slot);
+  timer().cmdEnd(cmd, slot);
 }
 
 // barriers: cmdRasterize's output visible to compute shaders. The color target ends in GENERAL with
 // the resolve's writes available, which the readback expects.
 void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p) {
-  uint32_t slot = timer.cmdBegin(cmd, "resolve");
+  uint32_t slot = timer().cmdBegin(cmd, "resolve");
   cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                         VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolvePipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
   cmdPush(cmd, p, 0);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
-  timer.cmdEnd(cmd, slot);
+  timer().cmdEnd(cmd, slot);
 }
 
 } // namespace mirage::render

@@ -78,6 +78,7 @@ uint64_t ClusterRenderer::clusterCount() const { return impl_->scene.clusterCoun
 
 Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
   Impl& d = *impl_;
+  vkDeviceWaitIdle(d.ctx.device()); // frames in flight may still read the buffers replaced here
   if (!pvs) {
     d.pvsInstances = {};
     d.pvsClusters = {};
@@ -105,68 +106,119 @@ Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& contex
   return std::unique_ptr<ClusterRenderer>(new ClusterRenderer(std::move(impl)));
 }
 
+Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint32_t frameSlot) {
+  auto planned = plan(cs);
+  if (!planned) return planned.error();
+  currentSlot = frameSlot;
+  plans[currentSlot] = *planned;
+  recorded[currentSlot] = false;
+  traversalDepth = planned->dagTree ? scene.dagDepth : scene.lodDepth;
+  // New targets replace images and buffers that frames in flight may still use.
+  if (width != 0 && (cs.base.width != width || cs.base.height != height)) vkDeviceWaitIdle(ctx.device());
+  ensureTargets(cs.base.width, cs.base.height);
+  return packFrame(cs, *planned);
+}
+
+// One frame's commands; prepareFrame ran for `currentSlot`.
+// barriers: the first one orders this frame after all work submitted before it on the queue, so
+// the GPU-only scratch every slot shares (counters, lists, queues, visibility, HZB, history, OIT
+// lists, the targets) is never written while an earlier frame still reads it, and whatever an
+// earlier frame wrote (the history of last frame's visible clusters) is visible. Per slot are only
+// what the CPU touches while other frames run: the ClusterFrame upload, the counter readback and
+// the timestamp queries. On exit the counters are in readbacks[currentSlot] (visible to the host)
+// and the colour target is in GENERAL, written by the resolve or composite (compute shaders).
+void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSettings& cs) {
+  const ClusterFramePlan& plan = plans[currentSlot];
+  bool hierarchy = plan.hierarchy, occlusion = plan.occlusion, mesh = ctx.caps().meshShader;
+  sio::ClusterPush p = push();
+  timer().cmdReset(cmd);
+  uint32_t frameTime = timer().cmdBegin(cmd, "frame");
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                   VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                   VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
+  if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
+  if (plan.bufferTarget) vkCmdFillBuffer(cmd, visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
+  if (hasBlend()) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
+  if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
+    vkCmdFillBuffer(cmd, fade.handle(), 0, VK_WHOLE_SIZE, 0);
+    cs.surfels->stageCmdClear(cmd);
+  }
+  cmdPhaseBarrier(cmd, mesh);
+  if (cs.surfels) { // k and the fade per instance first: the mesh passes read the fade
+    cs.surfels->stageCmdPrefix(cmd, timer());
+    cmdPhaseBarrier(cmd, mesh);
+  }
+  cmdSelect(cmd, p, hierarchy); // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
+  if (occlusion) {              // the select pass read last frame's history; the resolve writes this frame's
+    vkCmdFillBuffer(cmd, history.handle(), 0, VK_WHOLE_SIZE, 0);
+    cmdPhaseBarrier(cmd, mesh);
+  }
+  cmdArgs(cmd, p, /*pass=*/0);           // pass-1 raster arguments (everything without occlusion)
+  cmdRasterize(cmd, p, plan.backend, 0); // visibility: (cluster, triangle) per pixel
+  if (occlusion) {
+    cmdBuildHzb(cmd, p);             // farthest-depth pyramid of pass 1
+    cmdOcclusion(cmd, p, hierarchy); // pass-2 cull: candidates against the HZB
+    cmdArgs(cmd, p, /*pass=*/1);
+    cmdRasterize(cmd, p, plan.backend, 1); // the newly visible clusters
+  }
+  if (cs.surfels) { // after the meshes, so the HZB holds meshes only (as without surfels)
+    cs.surfels->stageCmdSplat(cmd, timer());
+    cmdPhaseBarrier(cmd, mesh);
+  }
+  if (hasBlend()) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
+  cmdResolve(cmd, p);                          // fetch, interpolate, shade; with occlusion: the clusters owning pixels
+  if (hasBlend())                              // blend raster into fragment lists, sorted composite
+    cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
+  timer().cmdEnd(cmd, frameTime);
+  // Counters (and traversal counters) into this slot's readback for collect().
+  cmdPhaseBarrier(cmd, mesh);
+  VkBufferCopy countersRegion{0, 0, sizeof(sio::ClusterCounters)};
+  vkCmdCopyBuffer(cmd, counters.handle(), readbacks[currentSlot].handle(), 1, &countersRegion);
+  if (hierarchy) {
+    VkBufferCopy traversalRegion{0, sizeof(sio::ClusterCounters), sizeof(sio::ClusterTraversal)};
+    vkCmdCopyBuffer(cmd, traversal.handle(), readbacks[currentSlot].handle(), 1, &traversalRegion);
+  }
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+  recorded[currentSlot] = true;
+}
+
+Status ClusterRenderer::record(VkCommandBuffer cmd, const ClusterRenderSettings& cs, uint32_t slot) {
+  if (slot >= kMaxFramesInFlight)
+    return Error{fmt::format("frame slot {} is outside 0..{}", slot, kMaxFramesInFlight - 1)};
+  // The surfel stage keeps one frame's data (its own frame upload), so it cannot be in flight twice.
+  if (cs.surfels) return Error{"mixed mesh/surfel frames render through render() only, not record()"};
+  Impl& d = *impl_;
+  if (Status st = d.prepareFrame(cs, slot); !st) return st.error();
+  d.cmdFrame(cmd, cs);
+  return Ok{};
+}
+
+Result<ClusterRenderOutput> ClusterRenderer::collect(uint32_t slot) {
+  Impl& d = *impl_;
+  if (slot >= kMaxFramesInFlight || !d.recorded[slot])
+    return Error{fmt::format("frame slot {} holds no recorded frame", slot)};
+  ClusterRenderOutput out;
+  out.image.stats.passTimes = d.timers[slot].read();
+  out.stats = d.readStats(slot);
+  out.image.stats.drawCalls = 1;
+  out.image.stats.trianglesSubmitted = out.stats.trianglesRasterized;
+  d.recorded[slot] = false;
+  return out;
+}
+
+const gpu::Image& ClusterRenderer::colorTarget() const { return impl_->color; }
+
 Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings& cs) {
   const RenderSettings& s = cs.base;
   Impl& d = *impl_;
-  auto planned = d.plan(cs);
-  if (!planned) return planned.error();
-  const ClusterFramePlan& plan = *planned;
-  bool hierarchy = plan.hierarchy, occlusion = plan.occlusion;
-  d.traversalDepth = plan.dagTree ? d.scene.dagDepth : d.scene.lodDepth;
-  d.ensureTargets(s.width, s.height);
-  if (Status st = d.packFrame(cs, plan); !st) return st.error();
-  sio::ClusterPush p = d.push();
-
-  // barriers: none on entry (the previous frame completed: one-shot submits wait), beyond ordering
-  // this frame's clears after any earlier use of the same buffers.
-  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
-    d.timer.cmdReset(cmd);
-    uint32_t frameSlot = d.timer.cmdBegin(cmd, "frame");
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
-                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
-                     VK_ACCESS_2_TRANSFER_WRITE_BIT);
-    vkCmdFillBuffer(cmd, d.counters.handle(), 0, VK_WHOLE_SIZE, 0);
-    if (hierarchy) vkCmdFillBuffer(cmd, d.traversal.handle(), 0, VK_WHOLE_SIZE, 0);
-    if (plan.bufferTarget) vkCmdFillBuffer(cmd, d.visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
-    if (d.hasBlend()) vkCmdFillBuffer(cmd, d.oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
-    if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
-      vkCmdFillBuffer(cmd, d.fade.handle(), 0, VK_WHOLE_SIZE, 0);
-      cs.surfels->stageCmdClear(cmd);
-    }
-    cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
-    if (cs.surfels) { // k and the fade per instance first: the mesh passes read the fade
-      cs.surfels->stageCmdPrefix(cmd, d.timer);
-      cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
-    }
-    d.cmdSelect(cmd, p, hierarchy); // instance cull; LOCALCUT + frustum + cones: pass-1 lists, candidates
-    if (occlusion) {                // the select pass read last frame's history; the resolve writes this frame's
-      vkCmdFillBuffer(cmd, d.history.handle(), 0, VK_WHOLE_SIZE, 0);
-      cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
-    }
-    d.cmdArgs(cmd, p, /*pass=*/0);           // pass-1 raster arguments (everything without occlusion)
-    d.cmdRasterize(cmd, p, plan.backend, 0); // visibility: (cluster, triangle) per pixel
-    if (occlusion) {
-      d.cmdBuildHzb(cmd, p);             // farthest-depth pyramid of pass 1
-      d.cmdOcclusion(cmd, p, hierarchy); // pass-2 cull: candidates against the HZB
-      d.cmdArgs(cmd, p, /*pass=*/1);
-      d.cmdRasterize(cmd, p, plan.backend, 1); // the newly visible clusters
-    }
-    if (cs.surfels) { // after the meshes, so the HZB holds meshes only (as without surfels)
-      cs.surfels->stageCmdSplat(cmd, d.timer);
-      cmdPhaseBarrier(cmd, d.ctx.caps().meshShader);
-    }
-    if (d.hasBlend()) d.cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
-    d.cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
-    if (d.hasBlend())     // blend raster into fragment lists, sorted composite
-      d.cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
-    d.timer.cmdEnd(cmd, frameSlot);
-  });
-
-  ClusterRenderOutput out;
-  out.image.stats.passTimes = d.timer.read();
-  out.stats = d.readStats(cs, plan);
-  out.image.stats.drawCalls = 1;
-  out.image.stats.trianglesSubmitted = out.stats.trianglesRasterized;
+  if (Status st = d.prepareFrame(cs, 0); !st) return st.error();
+  d.ctx.submitAndWait([&](VkCommandBuffer cmd) { d.cmdFrame(cmd, cs); });
+  auto collected = collect(0);
+  if (!collected) return collected.error();
+  ClusterRenderOutput out = std::move(*collected);
+  if (cs.surfels) out.stats.surfels = cs.surfels->stageStats();
 
   if (cs.readOwnedClusters) {
     // The resolve set bit (historyOffset + cluster) of every cluster owning a pixel this frame.

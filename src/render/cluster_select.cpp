@@ -13,21 +13,21 @@ namespace sio = mirage::shaderio;
 void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy) {
   cmdPush(cmd, p, 0);
   // Per-instance culling first: the cluster pass only visits clusters of visible instances.
-  uint32_t slot = timer.cmdBegin(cmd, "cull", kCS);
+  uint32_t slot = timer().cmdBegin(cmd, "cull", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cullPipeline);
   vkCmdDispatch(cmd, (scene.instanceCount + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP, 1, 1);
-  timer.cmdEnd(cmd, slot, kCS);
+  timer().cmdEnd(cmd, slot, kCS);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   // LOCALCUT + frustum + cones: a flat pass over every (visible instance, cluster of its level
   // range), or the BVH traversal that visits only groups above the cut.
-  slot = timer.cmdBegin(cmd, "select", kCS);
+  slot = timer().cmdBegin(cmd, "select", kCS);
   if (hierarchy) {
     cmdTraverse(cmd, p, 0);
   } else {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, selectPipeline);
     vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, selectArgs));
   }
-  timer.cmdEnd(cmd, slot, kCS);
+  timer().cmdEnd(cmd, slot, kCS);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
 }
 
