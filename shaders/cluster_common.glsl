@@ -96,7 +96,7 @@ bool keepFacing(uint v, bool frontFacing) {
 bool sphereVisible(vec4 s) {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   for (int i = 0; i < 5; ++i)
-    if (dot(f.planes[i].xyz, s.xyz) + f.planes[i].w < -s.w) return false;
+    if (dot(f.camera.planes[i].xyz, s.xyz) + f.camera.planes[i].w < -s.w) return false;
   return true;
 }
 
@@ -104,9 +104,9 @@ bool sphereVisible(vec4 s) {
 // (projected sphere diameter / sqrt(triangles)) reaches the threshold, or its sphere reaches the
 // near plane (big on screen and clipped: fixed-function clipping is cheaper).
 bool hardwareCluster(vec4 worldSphere, uint triangles, ClusterFrame f) {
-  float d = length(worldSphere.xyz - f.eye.xyz) - worldSphere.w;
-  if (d <= f.znear) return true;
-  float diameter = 2.0 * worldSphere.w / d * f.errorScale;
+  float d = length(worldSphere.xyz - f.camera.eye.xyz) - worldSphere.w;
+  if (d <= f.camera.znear) return true;
+  float diameter = 2.0 * worldSphere.w / d * f.camera.pixelScale;
   return diameter >= f.hybridThreshold * sqrt(float(max(triangles, 1u)));
 }
 
@@ -133,26 +133,26 @@ vec4 worldSphere(GpuCluster c, GpuClusterInstance inst) {
 // visible.
 bool hzbVisible(vec4 s) {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
-  vec4 row3 = vec4(f.viewProj[0][3], f.viewProj[1][3], f.viewProj[2][3], f.viewProj[3][3]);
+  vec4 row3 = vec4(f.camera.viewProj[0][3], f.camera.viewProj[1][3], f.camera.viewProj[2][3], f.camera.viewProj[3][3]);
   float w = dot(row3.xyz, s.xyz) + row3.w; // view depth of the centre (row 3 has a unit forward axis)
-  if (w - s.w * 1.7321 <= f.znear) return true;
+  if (w - s.w * 1.7321 <= f.camera.znear) return true;
   vec2 lo = vec2(1e30), hi = vec2(-1e30);
   for (int k = 0; k < 8; ++k) {
     vec3 corner = s.xyz + s.w * vec3((k & 1) != 0 ? 1.0 : -1.0, (k & 2) != 0 ? 1.0 : -1.0, (k & 4) != 0 ? 1.0 : -1.0);
-    vec4 clip = f.viewProj * vec4(corner, 1.0);
-    vec2 px = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+    vec4 clip = f.camera.viewProj * vec4(corner, 1.0);
+    vec2 px = (clip.xy / clip.w * 0.5 + 0.5) * f.camera.viewport;
     lo = min(lo, px);
     hi = max(hi, px);
   }
-  vec4 nearest = f.viewProj * vec4(s.xyz - s.w * row3.xyz, 1.0);
+  vec4 nearest = f.camera.viewProj * vec4(s.xyz - s.w * row3.xyz, 1.0);
   float nearestDepth = nearest.z / nearest.w;
-  ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(f.viewport) - 1);
-  ivec2 p1 = clamp(ivec2(floor(hi)), ivec2(0), ivec2(f.viewport) - 1);
+  ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(f.camera.viewport) - 1);
+  ivec2 p1 = clamp(ivec2(floor(hi)), ivec2(0), ivec2(f.camera.viewport) - 1);
   int extent = max(p1.x - p0.x, p1.y - p0.y) + 1;
   // 2^level >= extent / 2; level 0 (full resolution) is not stored.
   int level = clamp(findMSB(max(extent - 1, 1)), 1, int(f.hzbLevels) - 1);
   ivec2 t0 = p0 >> level, t1 = p1 >> level;
-  int levelWidth = (int(f.viewport.x) + (1 << level) - 1) >> level;
+  int levelWidth = (int(f.camera.viewport.x) + (1 << level) - 1) >> level;
   FloatRef hzb = FloatRef(f.hzbAddress);
   float farthest = 1.0;
   for (int y = t0.y; y <= t1.y; ++y)

@@ -35,13 +35,13 @@ void main() {
   // coarse). Either way none of its clusters passes LOCALCUT. The 0.1% margins keep float rounding
   // in the per-cluster test from deciding otherwise.
   vec3 centre = (inst.model * vec4(mesh.sphere.xyz, 1.0)).xyz;
-  float dist = length(centre - f.eye.xyz);
+  float dist = length(centre - f.camera.eye.xyz);
   float reach = mesh.reach * inst.maxScale;
   float dmin = dist - reach, dmax = dist + reach;
   uint first = 0, last = mesh.levelCount - 1;
   if (dmin > 0.0) {
-    float nearScale = inst.maxScale / max(dmin, f.znear) * f.errorScale;
-    float farScale = inst.maxScale / max(dmax, f.znear) * f.errorScale;
+    float nearScale = inst.maxScale / max(dmin, f.camera.znear) * f.camera.pixelScale;
+    float farScale = inst.maxScale / max(dmax, f.camera.znear) * f.camera.pixelScale;
     bool found = false;
     for (uint l = 0; l < mesh.levelCount; ++l) {
       GpuClusterLevel level = LevelRef(push.levelAddress).levels[mesh.levelOffset + l];

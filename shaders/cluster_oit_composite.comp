@@ -20,8 +20,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 void main() {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-  if (px.x >= int(f.viewport.x) || px.y >= int(f.viewport.y)) return;
-  uint node = UintRef(f.oitHeadAddress).data[px.y * int(f.viewport.x) + px.x];
+  if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
+  uint node = UintRef(f.oitHeadAddress).data[px.y * int(f.camera.viewport.x) + px.x];
   if (node == 0) return;
   // Keys (depth bits << 32 | id) ascending: far to near (reverse-Z); at most K, the nearest kept.
   // Unused keys stay 0 (id 0 reads entry 0, valid: lavapipe loads for inactive lanes too).

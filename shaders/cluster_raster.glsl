@@ -70,7 +70,7 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 #else
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
   uint64_t value = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
-  atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * uint(f.viewport.x) + x], value);
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * uint(f.camera.viewport.x) + x], value);
 }
 #endif
 
@@ -79,7 +79,7 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 // masked pixels pass maskKeeps on `tri` (the unclipped triangle) first.
 void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, ClusterFrame f, float fade,
                     bool masked, ClusterTriangle tri, GpuMaterial m) {
-  vec2 viewport = f.viewport;
+  vec2 viewport = f.camera.viewport;
   float area = edge(a.xy, p1.xy, p2.xy);
   if (area == 0.0) return;
   // Vulkan: with y down, a counter-clockwise (front) triangle has a negative edge area here.
@@ -136,8 +136,8 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     uint n = 0;
     for (uint k = 0; k < 3; ++k) {
       uint k1 = k == 2 ? 0 : k + 1;
-      if (d[k] >= 0.0) poly[n++] = toScreen(q[k], f.viewport);
-      if ((d[k] >= 0.0) != (d[k1] >= 0.0)) poly[n++] = toScreen(mix(q[k], q[k1], d[k] / (d[k] - d[k1])), f.viewport);
+      if (d[k] >= 0.0) poly[n++] = toScreen(q[k], f.camera.viewport);
+      if ((d[k] >= 0.0) != (d[k1] >= 0.0)) poly[n++] = toScreen(mix(q[k], q[k1], d[k] / (d[k] - d[k1])), f.camera.viewport);
     }
     atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
     rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m);
@@ -162,12 +162,12 @@ void main() {
 #elif !defined(MIRAGE_RASTER_BLEND)
   if (masked) return;
 #endif
-  mat4 mvp = f.viewProj * inst.model;
+  mat4 mvp = f.camera.viewProj * inst.model;
   for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
     vec4 clip = mvp * vec4(VertexRef(push.vertexAddress).vertices[id].position, 1.0);
     clipPos[i] = clip;
-    screen[i] = toScreen(clip, f.viewport);
+    screen[i] = toScreen(clip, f.camera.viewport);
   }
   barrier();
 #if defined(MIRAGE_RASTER_MASK)

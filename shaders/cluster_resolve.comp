@@ -23,10 +23,10 @@ layout(local_size_x = 8, local_size_y = 8) in;
 void main() {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-  if (px.x >= int(f.viewport.x) || px.y >= int(f.viewport.y)) return;
+  if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
   uint v1, t, surfelId = 0;
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
-    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[px.y * int(f.viewport.x) + px.x] & 0xffffffffUL);
+    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[px.y * int(f.camera.viewport.x) + px.x] & 0xffffffffUL);
     // Mixed scenes: a tagged id is a surfel; the mesh path below then runs as for background.
     if (f.surfelLinkAddress != 0 && (id & MIRAGE_SURFEL_ID_TAG) != 0) {
       surfelId = id & ~MIRAGE_SURFEL_ID_TAG;
@@ -51,7 +51,7 @@ void main() {
   ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5);
 
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
-  bool front = (dot(cross(tri.e1, tri.e2), f.eye.xyz - s.pos) > 0.0) != mirrored;
+  bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;
   if ((f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 && !front && !background) {
     imageStore(outImage, px, vec4(1.0, 0.0, 1.0, 1.0)); // crack-test flag colour
     return;
@@ -75,7 +75,7 @@ void main() {
     setHistoryBitAt(f.instanceHistoryBase + vc.instance);
   }
   vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
-  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,
+  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);
   imageStore(outImage, px, vec4(rgb, 1.0));
 }

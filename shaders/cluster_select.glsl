@@ -4,17 +4,13 @@
 // the raster lists or the occlusion candidates.
 #include "cluster_common.glsl"
 
-// Object-space error of a sphere projected to pixels at the sphere's nearest point:
-// err / max(dist - r, znear) * |proj[1][1]| * 0.5 * height. A camera inside the sphere sees an
-// unbounded error: refine. Zero errors stay zero (level 0 cannot refine). Parent
-// spheres contain their children's and parent errors are larger, so the projection stays monotonic
-// from child to parent and the cut stays crack-free.
+#include "mirage/shaderio/lod_error.h"
+
+// A cluster's (or node's) object-space sphere and error projected to pixels for instance `inst`
+// (projectedSphereError, shared with the CPU).
 float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterFrame f) {
-  if (error <= 0.0 || isinf(error)) return error;
   vec3 c = (inst.model * vec4(sphere.xyz, 1.0)).xyz;
-  float d = length(c - f.eye.xyz) - sphere.w * inst.maxScale;
-  if (d <= 0.0) return uintBitsToFloat(0x7f800000u);
-  return error * inst.maxScale / max(d, f.znear) * f.errorScale;
+  return projectedSphereError(c, sphere.w, error, inst.maxScale, f.camera.eye.xyz, f.camera.znear, f.camera.pixelScale);
 }
 
 // Normal-cone test in object space (exact for any transform with a positive determinant: facing
@@ -22,7 +18,7 @@ float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterF
 bool coneBackfacing(GpuClusterInstance inst, uint cluster, ClusterFrame f) {
   GpuClusterCone cone = ConeRef(f.coneAddress).cones[cluster];
   if (cone.axisCutoff.w >= 1.0) return false;
-  vec3 eye = (transpose(inst.normalMatrix) * vec4(f.eye.xyz, 1.0)).xyz; // inverse(model) * eye
+  vec3 eye = (transpose(inst.normalMatrix) * vec4(f.camera.eye.xyz, 1.0)).xyz; // inverse(model) * eye
   return dot(normalize(cone.apex.xyz - eye), cone.axisCutoff.xyz) >= cone.axisCutoff.w;
 }
 

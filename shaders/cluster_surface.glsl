@@ -15,9 +15,9 @@ vec3 rayTriangle(vec3 o, vec3 dir, vec3 p0, vec3 e1, vec3 e2) {
 }
 
 vec3 pixelRay(ClusterFrame f, vec2 pixel) {
-  vec2 ndc = pixel / f.viewport * 2.0 - 1.0;
-  vec4 q = f.invViewProj * vec4(ndc, 0.5, 1.0);
-  return q.xyz / q.w - f.eye.xyz;
+  vec2 ndc = pixel / f.camera.viewport * 2.0 - 1.0;
+  vec4 q = f.camera.invViewProj * vec4(ndc, 0.5, 1.0);
+  return q.xyz / q.w - f.camera.eye.xyz;
 }
 
 // Triangle t of cluster c in world space, with its attribute vertices.
@@ -46,9 +46,9 @@ struct ClusterSurface {
 
 // The surface point of `tri` under the pixel centre `centre`, with per-pixel derivatives.
 ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre) {
-  vec3 h = rayTriangle(f.eye.xyz, pixelRay(f, centre), tri.p0, tri.e1, tri.e2);
-  vec3 hx = rayTriangle(f.eye.xyz, pixelRay(f, centre + vec2(1, 0)), tri.p0, tri.e1, tri.e2);
-  vec3 hy = rayTriangle(f.eye.xyz, pixelRay(f, centre + vec2(0, 1)), tri.p0, tri.e1, tri.e2);
+  vec3 h = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre), tri.p0, tri.e1, tri.e2);
+  vec3 hx = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(1, 0)), tri.p0, tri.e1, tri.e2);
+  vec3 hy = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(0, 1)), tri.p0, tri.e1, tri.e2);
   ClusterSurface s;
   s.bary = vec3(1.0 - h.y - h.z, h.y, h.z);
   s.pos = tri.p0 + tri.e1 * h.y + tri.e2 * h.z;
@@ -68,11 +68,11 @@ vec4 shadeClusterPixel(ClusterFrame f, VisibleCluster vc, uint t, ivec2 px) {
   ClusterTriangle tri = fetchTriangle(c, inst, t);
   ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5);
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
-  bool front = (dot(cross(tri.e1, tri.e2), f.eye.xyz - s.pos) > 0.0) != mirrored;
+  bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;
   vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);
   GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
   vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
-  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.eye.xyz, f.lightDir, f.skyAmbient.rgb,
+  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);
   return vec4(rgb, m.alphaMode == MIRAGE_ALPHA_BLEND ? base.a : 1.0);
 }

@@ -21,5 +21,5 @@ void main() {
   outTangent = vec4(mat3(inst.model) * inTangent.xyz, inTangent.w);
   outUv = inUv;
   outColor = inColor;
-  gl_Position = FrameRef(push.frameAddress).frame.viewProj * world;
+  gl_Position = FrameRef(push.frameAddress).frame.camera.viewProj * world;
 }

@@ -10,7 +10,7 @@ layout(local_size_x = MIRAGE_SURFEL_INSTANCE_WORKGROUP) in;
 
 bool sphereVisible(SurfelRenderFrame f, vec4 s) {
   for (int i = 0; i < 5; ++i)
-    if (dot(f.planes[i].xyz, s.xyz) + f.planes[i].w < -s.w) return false;
+    if (dot(f.camera.planes[i].xyz, s.xyz) + f.camera.planes[i].w < -s.w) return false;
   return true;
 }
 
@@ -33,11 +33,11 @@ void main() {
   SurfelRenderInstance inst = SrInstanceRef(push.instanceAddress).instances[i];
   SurfelRenderCloud cloud = SrCloudRef(push.cloudAddress).clouds[inst.cloud];
 
-  float distance = max(length(inst.sphere.xyz - f.eye.xyz) - inst.sphere.w, f.znear);
+  float distance = max(length(inst.sphere.xyz - f.camera.eye.xyz) - inst.sphere.w, f.camera.znear);
   float P = cloud.boxMin.w * inst.maxScale * inst.maxScale; // world units squared
   float N = float(cloud.count);
   // k = P / r^2 with r = s * (distance / pixelScale) / 2; ceil so the spacing never exceeds r.
-  float r = f.surfelSize * distance / (2.0 * f.pixelScale);
+  float r = f.surfelSize * distance / (2.0 * f.camera.pixelScale);
   float k = P > 0.0 ? min(ceil(P / (r * r)), N) : N;
   k = max(k, min(N, 1.0));
   if ((f.flags & MIRAGE_SURFEL_ALL) != 0) k = N;
@@ -45,7 +45,7 @@ void main() {
   // the mesh draws the instance; surfels fade in over the band above it.
   float fade = 1.0;
   if ((f.flags & MIRAGE_SURFEL_MESH_FADE) != 0 && P > 0.0 && N > 0.0) {
-    float switchDistance = 2.0 * f.pixelScale * sqrt(P / N) / f.surfelSize;
+    float switchDistance = 2.0 * f.camera.pixelScale * sqrt(P / N) / f.surfelSize;
     fade = f.fadeBand > 0.0 ? clamp((distance - switchDistance) / (f.fadeBand * switchDistance), 0.0, 1.0)
                             : (distance >= switchDistance ? 1.0 : 0.0);
   }
@@ -68,19 +68,19 @@ void main() {
   mat4 dequantize = mat4(vec4(cloud.boxStep.x, 0, 0, 0), vec4(0, cloud.boxStep.y, 0, 0), vec4(0, 0, cloud.boxStep.z, 0),
                          vec4(cloud.boxMin.xyz, 1.0));
   SurfelInstanceState s;
-  s.clipFromQuantized = f.viewProj * inst.model * dequantize;
+  s.clipFromQuantized = f.camera.viewProj * inst.model * dequantize;
   s.count = count;
   s.batchCount = (count + MIRAGE_SURFEL_BATCH - 1) / MIRAGE_SURFEL_BATCH;
   s.firstBatch = 0; // the scan pass fills these two
   s.firstId = 0;
-  s.radiusPixels = radius * f.pixelScale;
+  s.radiusPixels = radius * f.camera.pixelScale;
   s.fade = fade;
   s.distance = distance;
   s.firstSurfel = cloud.firstSurfel;
   // Back faces: only for single-sided materials (a leaf's surfels carry one normal but show both
   // sides), in the quantized frame the splat reads positions in.
   bool singleSided = SrMaterialRef(push.materialAddress).materials[cloud.material].doubleSided == 0u;
-  vec3 eyeObject = (inverse(inst.model) * vec4(f.eye.xyz, 1.0)).xyz;
+  vec3 eyeObject = (inverse(inst.model) * vec4(f.camera.eye.xyz, 1.0)).xyz;
   s.eyeQuantized = vec4((eyeObject - cloud.boxMin.xyz) / cloud.boxStep.xyz,
                         (f.flags & MIRAGE_SURFEL_BACKFACE_CULL) != 0 && singleSided ? 1.0 : 0.0);
   // Subgroup merge (the merge pipeline reads it): everywhere, or where the cloud is dense on screen.

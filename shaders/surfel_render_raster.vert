@@ -30,14 +30,14 @@ void main() {
   float radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
   // The square must hold the disc and the pixel holding the centre (up to one pixel away).
   float half_ = max(radius, 1.0);
-  vec2 centre = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+  vec2 centre = (clip.xy / clip.w * 0.5 + 0.5) * f.camera.viewport;
   outDisc = vec3(centre, radius);
   outShape = vec3(1.0, 0.0, 1.0);
   if ((f.flags & MIRAGE_SURFEL_ORIENTED) != 0u && radius >= MIRAGE_SURFEL_ORIENTED_MIN_RADIUS_PX)
     outShape = surfelEllipse(s, quantized, clip, SrUvec2Ref(push.attributeAddress).v[firstSurfel + i].x, radius,
-                             f.viewport);
+                             f.camera.viewport);
   // Corners of two triangles: (0,0) (1,0) (0,1), (1,0) (1,1) (0,1).
   const vec2 corners[6] = vec2[](vec2(-1, -1), vec2(1, -1), vec2(-1, 1), vec2(1, -1), vec2(1, 1), vec2(-1, 1));
-  vec2 offsetNdc = corners[corner] * half_ * 2.0 / f.viewport;
+  vec2 offsetNdc = corners[corner] * half_ * 2.0 / f.camera.viewport;
   gl_Position = vec4((clip.xy / clip.w + offsetNdc) * clip.w, clip.z, clip.w);
 }

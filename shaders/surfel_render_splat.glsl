@@ -53,7 +53,7 @@ vec3 discShape(SurfelInstanceState s, SurfelRenderFrame f, vec3 quantized, vec4 
   if ((f.flags & MIRAGE_SURFEL_ORIENTED) == 0u || radius < MIRAGE_SURFEL_ORIENTED_MIN_RADIUS_PX)
     return vec3(1.0, 0.0, 1.0);
   uint normal = SrUvec2Ref(push.attributeAddress).v[s.firstSurfel + surfel].x;
-  return surfelEllipse(s, quantized, clip, normal, radius, f.viewport);
+  return surfelEllipse(s, quantized, clip, normal, radius, f.camera.viewport);
 }
 
 #ifdef MIRAGE_SURFEL_SPLAT_MERGE
@@ -86,8 +86,8 @@ bool mergeSamePixel(uint pixel, inout uint64_t value) {
 void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFEL_PER_THREAD],
                  uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start) {
   SrVisRef vis = SrVisRef(push.visBufferAddress);
-  uint width = uint(f.viewport.x);
-  uint height = uint(f.viewport.y);
+  uint width = uint(f.camera.viewport.x);
+  uint height = uint(f.camera.viewport.y);
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     uint pixel = ~0u;
@@ -99,10 +99,10 @@ void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURF
     if (i < s.count && !(cullBackFaces && surfelBackFacing(s, quantized, normals[j]))) {
       clip = s.clipFromQuantized * vec4(quantized, 1.0);
       if (clip.w > 0.0 && clip.z <= clip.w && clip.z >= 0.0) {
-        p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+        p = (clip.xy / clip.w * 0.5 + 0.5) * f.camera.viewport;
         value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t((s.firstId + i) | f.idTag);
         radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
-        if (p.x >= 0.0 && p.y >= 0.0 && p.x < f.viewport.x && p.y < f.viewport.y)
+        if (p.x >= 0.0 && p.y >= 0.0 && p.x < f.camera.viewport.x && p.y < f.camera.viewport.y)
           pixel = uint(p.y) * width + uint(p.x);
       }
     }
@@ -118,8 +118,8 @@ void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURF
 void splatPlain(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFEL_PER_THREAD],
                 uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start) {
   SrVisRef vis = SrVisRef(push.visBufferAddress);
-  uint width = uint(f.viewport.x);
-  uint height = uint(f.viewport.y);
+  uint width = uint(f.camera.viewport.x);
+  uint height = uint(f.camera.viewport.y);
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     if (i >= s.count) break;
@@ -128,10 +128,10 @@ void splatPlain(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFE
     vec4 clip = s.clipFromQuantized * vec4(quantized, 1.0);
     // Behind the eye, nearer than the near plane (reverse-Z: z > w) or beyond the far plane (z < 0).
     if (clip.w <= 0.0 || clip.z > clip.w || clip.z < 0.0) continue;
-    vec2 p = (clip.xy / clip.w * 0.5 + 0.5) * f.viewport;
+    vec2 p = (clip.xy / clip.w * 0.5 + 0.5) * f.camera.viewport;
     uint64_t value = (uint64_t(floatBitsToUint(clip.z / clip.w)) << 32) | uint64_t((s.firstId + i) | f.idTag);
     float radius = min(s.radiusPixels / clip.w, MIRAGE_SURFEL_MAX_RADIUS_PX);
-    if (p.x < 0.0 || p.y < 0.0 || p.x >= f.viewport.x || p.y >= f.viewport.y) {
+    if (p.x < 0.0 || p.y < 0.0 || p.x >= f.camera.viewport.x || p.y >= f.camera.viewport.y) {
       if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
     } else {
       // The pixel holding the projection: the whole footprint on the fast path.

@@ -31,8 +31,10 @@ struct BuildOptions {
 
 void runBuild(const BuildOptions& o) {
   if (auto s = checkOutputPath(o.output, {".mrg"}); !s) return fail(s.error());
-  if (o.config.clusterTriangles < 4 || o.config.clusterTriangles > 255 || o.config.clusterTriangles % 4)
-    return fail("--cluster-triangles must be a multiple of 4 in 4..252");
+  if (o.config.clusterTriangles < 4 || o.config.clusterTriangles > lod::kMaxClusterTriangles ||
+      o.config.clusterTriangles % 4)
+    return fail(fmt::format("--cluster-triangles must be a multiple of 4 in 4..{} (the renderer's limit)",
+                            lod::kMaxClusterTriangles));
   if (o.config.groupClusters < 2 || o.config.groupClusters > 64) return fail("--group-clusters must be in 2..64");
   auto t0 = std::chrono::steady_clock::now();
   auto secondsSince = [](std::chrono::steady_clock::time_point t) {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "mirage/lod/verify.h"
+#include "mirage/shaderio/lod_error.h"
 #include "render_common.h"
 
 namespace mirage::cli {
@@ -96,7 +97,7 @@ Result<std::vector<BaselineResult>> renderLodBaselines(gpu::Context& context, co
     for (size_t level = 0; level < chains[m].meshes.size(); ++level) discrete.meshes.push_back(chainMesh(m, level));
   }
   render::Camera camera = render::withClipPlanes(settings.camera, asset.scene.worldBounds());
-  float pixelsPerSlope = 0.5f * float(settings.height) / std::tan(glm::radians(camera.fovYDegrees) * 0.5f);
+  float pixelScale = shaderio::projectionScale(camera.projection(1.0f)[1][1], float(settings.height));
   uint32_t chainLevels = chains.empty() ? 0 : uint32_t(chains[0].meshes.size());
   std::vector<uint32_t> usage(chainLevels, 0);
   for (size_t i = 0; i < asset.scene.instances.size(); ++i) {
@@ -105,10 +106,11 @@ Result<std::vector<BaselineResult>> renderLodBaselines(gpu::Context& context, co
     const Bounds& b = asset.scene.meshes[inst.mesh].bounds;
     float s = maxAxisScale(inst.transform);
     glm::vec3 centre = glm::vec3(inst.transform * glm::vec4(b.center(), 1.0f));
-    float nearest = std::max(glm::length(camera.eye - centre) - b.radius() * s, camera.znear);
-    uint32_t level = 0;
+    uint32_t level = 0; // the coarsest level whose error projects within tau (as the cluster selection)
     for (uint32_t k = 1; k < chain.meshes.size(); ++k)
-      if (chain.thresholds[k] * s / nearest * pixelsPerSlope <= tau) level = k;
+      if (shaderio::projectedSphereError(centre, b.radius(), chain.thresholds[k], s, camera.eye, camera.znear,
+                                         pixelScale) <= tau)
+        level = k;
     discrete.instances[i].mesh = firstMesh[inst.mesh] + level;
     if (inst.mesh == 0) ++usage[level];
   }

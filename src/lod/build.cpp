@@ -9,6 +9,7 @@
 #include <exception>
 #include <limits>
 #include <optional>
+#include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -767,8 +768,8 @@ private:
 };
 
 std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
-  if (cfg.clusterTriangles < 4 || cfg.clusterTriangles > 512 || cfg.clusterTriangles % 4 != 0)
-    return "clusterTriangles must be a multiple of 4 in [4, 512]";
+  if (cfg.clusterTriangles < 4 || cfg.clusterTriangles > kMaxClusterTriangles || cfg.clusterTriangles % 4 != 0)
+    return "clusterTriangles must be a multiple of 4 in [4, " + std::to_string(kMaxClusterTriangles) + "]";
   if (cfg.clusterVertices < 3 || cfg.clusterVertices > 255) return "clusterVertices must be in [3, 255]";
   if (cfg.groupClusters < 2) return "groupClusters must be at least 2";
   if (!(cfg.stuckRatio > 0.0f && cfg.stuckRatio < 1.0f)) return "stuckRatio must be in (0, 1)";

@@ -1,5 +1,6 @@
 #include "mirage/render/camera.h"
 #include "mirage/core/input_text.h"
+#include "mirage/shaderio/lod_error.h"
 
 #include <algorithm>
 #include <charconv>
@@ -22,6 +23,26 @@ glm::mat4 Camera::projection(float aspect) const {
   glm::mat4 p = glm::perspectiveRH_ZO(glm::radians(fovYDegrees), aspect, zfar, znear);
   p[1][1] *= -1.0f; // Vulkan's clip space has y pointing down
   return p;
+}
+
+void frustumPlanes(const glm::mat4& m, glm::vec4 planes[5]) {
+  auto row = [&](int r) { return glm::vec4(m[0][r], m[1][r], m[2][r], m[3][r]); };
+  glm::vec4 p[5] = {row(3) + row(0), row(3) - row(0), row(3) + row(1), row(3) - row(1), row(3) - row(2)};
+  for (int i = 0; i < 5; ++i) planes[i] = p[i] / glm::length(glm::vec3(p[i]));
+}
+
+shaderio::ViewFrame viewFrame(const Camera& camera, uint32_t width, uint32_t height) {
+  shaderio::ViewFrame v{};
+  v.view = camera.view();
+  v.proj = camera.projection(float(width) / float(height));
+  v.viewProj = v.proj * v.view;
+  v.invViewProj = glm::inverse(v.viewProj);
+  v.eye = glm::vec4(camera.eye, 1.0f);
+  frustumPlanes(v.viewProj, v.planes);
+  v.viewport = {float(width), float(height)};
+  v.znear = camera.znear;
+  v.pixelScale = shaderio::projectionScale(v.proj[1][1], float(height));
+  return v;
 }
 
 namespace {

@@ -1,9 +1,18 @@
 #pragma once
-// Private state of ClusterRenderer, shared by cluster_upload.cpp (scene data, set-up time) and
-// cluster_renderer.cpp (pipelines and the per-frame command sequence).
+// Private state of ClusterRenderer, shared by its source files (docs/render.md, "Files"):
+//   cluster_upload.cpp     scene data, set-up time
+//   cluster_pipelines.cpp  pipelines, descriptors, per-size targets and per-scene buffers
+//   cluster_frame.cpp      settings -> frame plan, ClusterFrame packing, counters -> stats
+//   cluster_select.cpp     selection: instance cull, flat pass, LOD BVH / DAG traversal, raster args
+//   cluster_raster.cpp     visibility rasterizers and the resolve
+//   cluster_occlusion.cpp  HZB build and the pass-2 occlusion cull (history)
+//   cluster_oit.cpp        alpha BLEND: blend rasters and the sorted composite
+//   cluster_renderer.cpp   the public API and the per-frame phase list
 #include <vector>
 
+#include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/memory.h"
+#include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/cluster_renderer.h"
 #include "mirage/shaderio/cluster.h"
@@ -41,5 +50,112 @@ struct ClusterSceneData {
 
 // Uploads `asset`; errors for clusters beyond the mesh-shader limits or an empty scene.
 Result<ClusterSceneData> uploadClusterScene(gpu::Context& ctx, const lod::LodAsset& asset);
+
+constexpr VkFormat kColorFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // as the forward renderer
+constexpr VkFormat kVisFormat = VK_FORMAT_R32G32_UINT;           // (visible index + 1, triangle)
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+// Visible-cluster entries: the instanced cluster count, capped so the buffer stays 32 MiB.
+constexpr uint64_t kMaxVisibleClusters = 4u << 20;
+// Transparency node pool: this many blended fragments per pixel on average (12 bytes each), capped
+// by the device's storage-buffer range; excess fragments are dropped and counted.
+constexpr uint64_t kOitNodesPerPixel = 4;
+constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+
+// Every pass reaches its buffers through device addresses, which synchronization validation does
+// not track, so each phase boundary is one conservative global barrier: whatever compute, fragment
+// or transfer work wrote is visible to every later indirect read, shader access and transfer.
+void cmdPhaseBarrier(VkCommandBuffer cmd, bool meshShaders);
+
+// Byte offsets of one raster pass's indirect arguments in ClusterCounters.
+inline VkDeviceSize listArgsOffset(uint32_t pass, uint32_t list) {
+  return offsetof(shaderio::ClusterCounters, lists) + (pass * 2 + list) * sizeof(shaderio::ClusterListArgs);
+}
+inline VkDeviceSize dispatchArgsOffset(uint32_t pass, uint32_t list) {
+  return listArgsOffset(pass, list) + offsetof(shaderio::ClusterListArgs, dispatch);
+}
+inline VkDeviceSize drawArgsOffset(uint32_t pass, uint32_t list) {
+  return listArgsOffset(pass, list) + offsetof(shaderio::ClusterListArgs, draw);
+}
+
+// What one frame runs: the settings resolved against the device and the scene.
+struct ClusterFramePlan {
+  RasterBackend backend = RasterBackend::Auto; // never Auto once planned
+  BlendRaster blend = BlendRaster::Compute;    // Compute for scenes without BLEND materials
+  bool meshBlend = false;                      // the hardware blend raster uses mesh shaders (else indirect draws)
+  bool bufferTarget = false;                   // visibility in the 64-bit buffer (compute, hybrid), else the image
+  bool occlusion = false;                      // two-pass HZB occlusion culling runs
+  bool pvs = false;                            // the cell's cluster PVS culls
+  bool dagTree = false;                        // hierarchical selection over the DAG's group tree
+  bool hierarchy = false;                      // hierarchical selection (LOD BVH or DAG tree), else the flat pass
+};
+
+struct ClusterRenderer::Impl {
+  gpu::Context& ctx;
+  ClusterSceneData scene;
+  gpu::Buffer visibleInstances, lateInstances, visible, counters, visBuffer, candidates, history, hzb;
+  gpu::Buffer fade, surfelLink;     // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
+  gpu::Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
+  gpu::Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
+  gpu::DescriptorSet descriptors;               // material textures, the visibility image, the colour target, depth
+  gpu::Buffer pvsInstances, pvsClusters;        // the camera cell's cluster PVS (setPvs); empty: no PVS culling
+  gpu::Unique<VkPipelineLayout> layout;
+  gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
+      rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
+      instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
+  // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
+  gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
+  VkShaderStageFlags pushStages = 0;
+  gpu::Image color, vis, depth;
+  uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
+  uint32_t blendCapacity = 0, oitNodeCapacity = 0; // 0 without BLEND materials: no transparency passes
+  uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
+  uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
+  bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
+  // Frames in flight (record/collect): what the CPU writes or reads while other frames run is per
+  // slot; everything else is GPU-only scratch shared by the slots (see cmdFrame).
+  gpu::Buffer frames[kMaxFramesInFlight];    // ClusterFrame, written by the CPU at record time
+  gpu::Buffer readbacks[kMaxFramesInFlight]; // ClusterCounters + ClusterTraversal, copied at the frame's end
+  std::vector<gpu::GpuTimer> timers;         // per slot: pass timestamps
+  ClusterFramePlan plans[kMaxFramesInFlight];
+  bool recorded[kMaxFramesInFlight] = {};
+  uint32_t currentSlot = 0; // the slot being recorded
+
+  Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)) {
+    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) timers.emplace_back(c, 48);
+  }
+  gpu::GpuTimer& timer() { return timers[currentSlot]; }
+  void createDescriptors(); // cluster_pipelines.cpp
+  void createPipelines();
+  void ensureTargets(uint32_t w, uint32_t h);
+  shaderio::ClusterPush push() const;
+  void cmdPush(VkCommandBuffer cmd, shaderio::ClusterPush p, uint32_t rasterList);
+  void cmdSelect(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
+  void cmdTraverse(VkCommandBuffer cmd, const shaderio::ClusterPush& p, uint32_t phase);
+  void cmdArgs(VkCommandBuffer cmd, const shaderio::ClusterPush& p, uint32_t pass);
+  void cmdRasterize(VkCommandBuffer cmd, const shaderio::ClusterPush& p, RasterBackend backend, uint32_t pass);
+  void cmdHardwareList(VkCommandBuffer cmd, const shaderio::ClusterPush& p, RasterBackend backend, uint32_t pass,
+                       bool atomic);
+  void cmdBuildHzb(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
+  void cmdOcclusion(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
+  void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
+  void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, BlendRaster blend, bool meshBlend,
+                       bool bufferTarget);
+  void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
+  void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri);
+  void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
+  void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
+  VkPipeline blendHardwarePipeline(bool mesh);
+  bool hasBlend() const { return blendCapacity > 0; }
+
+  // cluster_frame.cpp: settings resolved into a plan, the plan and camera packed into `frame`, the
+  // counters read back into stats.
+  Result<ClusterFramePlan> plan(const ClusterRenderSettings& cs) const;
+  Status packFrame(const ClusterRenderSettings& cs, const ClusterFramePlan& plan);
+  ClusterStats readStats(uint32_t slot) const;
+
+  // cluster_renderer.cpp: plan, targets and frame data of `slot` (no commands), then its commands.
+  Status prepareFrame(const ClusterRenderSettings& cs, uint32_t slot);
+  void cmdFrame(VkCommandBuffer cmd, const ClusterRenderSettings& cs);
+};
 
 } // namespace mirage::render

@@ -216,13 +216,10 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
     return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
   Impl& d = *impl_;
   d.ensureTargets(s.width, s.height);
-  float aspect = float(s.width) / float(s.height);
   Camera cam = withClipPlanes(s.camera, worldBounds_);
 
   sio::FrameData fd{};
-  fd.view = cam.view();
-  fd.viewProj = cam.projection(aspect) * fd.view;
-  fd.eye = glm::vec4(cam.eye, 1.0f);
+  fd.camera = viewFrame(cam, s.width, s.height);
   fd.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
   fd.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
   fd.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
@@ -232,7 +229,7 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
   std::vector<std::pair<float, const Instance*>> order;
   for (const Instance& inst : d.blendInstances) {
     glm::vec3 c = transformBounds(d.meshes[inst.mesh].bounds, inst.transform).center();
-    order.push_back({(fd.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
+    order.push_back({(fd.camera.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
   }
   std::stable_sort(order.begin(), order.end(), [](auto& a, auto& b) { return a.first < b.first; });
   auto* blendData = reinterpret_cast<sio::GpuInstance*>(d.instanceBuffer.mapped()) + d.instanceData.size();

@@ -31,13 +31,6 @@ constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
 constexpr VkShaderStageFlags kPushStages =
     VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
 
-// World-space frustum planes of a reverse-Z projection (left, right, bottom, top, near).
-void frustumPlanes(const glm::mat4& m, glm::vec4* planes) {
-  auto row = [&](int r) { return glm::vec4(m[0][r], m[1][r], m[2][r], m[3][r]); };
-  glm::vec4 p[5] = {row(3) + row(0), row(3) - row(0), row(3) + row(1), row(3) - row(1), row(3) - row(2)};
-  for (int i = 0; i < 5; ++i) planes[i] = p[i] / glm::length(glm::vec3(p[i]));
-}
-
 // Morton code of a quantized position: the three 21-bit coordinates interleaved (x lowest).
 uint64_t spreadBits21(uint32_t v) {
   uint64_t x = v & 0x1fffffu;
@@ -399,20 +392,13 @@ Result<SurfelRenderOutput> SurfelRenderer::render(const SurfelRenderSettings& ss
   d.ensureTargets(s.width, s.height);
 
   Camera cam = withClipPlanes(s.camera, d.worldBounds);
-  glm::mat4 proj = cam.projection(float(s.width) / float(s.height));
   sio::SurfelRenderFrame f{};
-  f.viewProj = proj * cam.view();
-  f.invViewProj = glm::inverse(f.viewProj);
-  f.eye = glm::vec4(cam.eye, 1.0f);
-  frustumPlanes(f.viewProj, f.planes);
+  f.camera = viewFrame(cam, s.width, s.height);
   f.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
   f.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
   f.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
   f.background = s.background;
-  f.viewport = {float(s.width), float(s.height)};
-  f.pixelScale = std::abs(proj[1][1]) * 0.5f * float(s.height);
   f.surfelSize = ss.surfelSize;
-  f.znear = cam.znear;
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | (ss.allSurfels ? MIRAGE_SURFEL_ALL : 0u) |
             (raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u) |
@@ -494,14 +480,8 @@ Status SurfelRenderer::stagePrepare(const SurfelRenderSettings& ss, const Surfel
   // Surfel ids carry MIRAGE_SURFEL_ID_TAG, so the id space halves.
   if (d.instancedCount >= MIRAGE_SURFEL_ID_TAG) return Error{"mixed scene: more than 2^31 - 1 instanced surfels"};
   sio::SurfelRenderFrame f{};
-  f.viewProj = sf.viewProj;
-  f.invViewProj = glm::inverse(sf.viewProj);
-  f.eye = glm::vec4(sf.eye, 1.0f);
-  frustumPlanes(f.viewProj, f.planes);
-  f.viewport = {float(sf.width), float(sf.height)};
-  f.pixelScale = sf.pixelScale;
+  f.camera = sf.camera;
   f.surfelSize = ss.surfelSize;
-  f.znear = sf.znear;
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = (ss.frustumCulling ? MIRAGE_SURFEL_FRUSTUM_CULL : 0u) | MIRAGE_SURFEL_SOURCE_BUFFER |
             (ss.meshFade ? MIRAGE_SURFEL_MESH_FADE : 0u) | (ss.backfaceCulling ? MIRAGE_SURFEL_BACKFACE_CULL : 0u) |

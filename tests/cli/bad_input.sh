@@ -110,6 +110,14 @@ expect_fail build-missing "missing.ply" "$tmp/m.mrg" -- build "$tmp/missing.ply"
 expect_fail build-bad-ext "out.glb" "$tmp/out.glb" -- build "$tmp/range.obj" -o "$tmp/out.glb"
 expect_fail build-no-folder "nofolder" "$tmp/nofolder/x.mrg" -- build "$tmp/range.obj" -o "$tmp/nofolder/x.mrg"
 expect_fail build-bad-group "--group-clusters" "$tmp/g.mrg" -- build "$tmp/range.obj" -o "$tmp/g.mrg" --group-clusters 1
+# Cluster size: build takes exactly what the renderer draws (MIRAGE_CLUSTER_MAX_TRIANGLES, one
+# definition in shaderio/cluster.h) and refuses more with one line naming the flag and the limit.
+max_tris=$(sed -n 's/^#define MIRAGE_CLUSTER_MAX_TRIANGLES \([0-9]*\).*/\1/p' "$2/include/mirage/shaderio/cluster.h")
+[ -n "$max_tris" ] || { echo "FAIL cluster-limit: no MIRAGE_CLUSTER_MAX_TRIANGLES in cluster.h"; failures=$((failures + 1)); }
+if [ -n "$max_tris" ] && expect_ok build-max-cluster build gen:blob:4 -o "$tmp/max.mrg" --quiet --cluster-triangles "$max_tris" --cluster-vertices 255; then
+  expect_ok render-max-cluster render "$tmp/max.mrg" -o "$tmp/max.png" --size 32x32
+  expect_fail build-cluster-too-big "--cluster-triangles.*4\.\.$max_tris" "$tmp/big.mrg" -- build gen:blob:4 -o "$tmp/big.mrg" --cluster-triangles $((max_tris + 4))
+fi
 # PVS culling at render time: a camera outside every cell is a clear error.
 if expect_ok pvs-bake pvs gen:city:1 --cell-grid 1x1x1 --cell-region -10,1,-10,10,3,10 -o "$tmp/c.mrg" --rays 20000 --budget 100000; then
   expect_fail render-pvs-outside "none of its" "$tmp/p.png" -- render gen:city:1 -o "$tmp/p.png" --size 64x48 --pvs "$tmp/c.mrg" --camera eye=500,500,500,target=0,0,0

@@ -180,6 +180,27 @@ TEST(ClusterDag, BadInputIsAnErrorNotACrash) {
   EXPECT_FALSE(buildClusterDag(mesh, cfg).ok());
 }
 
+// The builder's cluster size limit is the renderer's (shaderio/cluster.h): the largest allowed size
+// builds clusters the renderer draws, one more step is refused with an error naming the limit.
+TEST(ClusterDag, ClusterSizeLimitIsTheRenderers) {
+  static_assert(kMaxClusterTriangles == MIRAGE_CLUSTER_MAX_TRIANGLES);
+  Mesh mesh = makeBlob(4, 5);
+  BuildConfig cfg;
+  cfg.clusterTriangles = kMaxClusterTriangles;
+  cfg.clusterVertices = 255;
+  auto dag = buildClusterDag(mesh, cfg);
+  ASSERT_TRUE(dag.ok()) << dag.error().message;
+  for (const Cluster& c : dag->clusters) {
+    EXPECT_LE(c.triangleCount, uint32_t(MIRAGE_CLUSTER_MAX_TRIANGLES));
+    EXPECT_LE(c.vertexCount, uint32_t(MIRAGE_CLUSTER_MAX_VERTICES));
+  }
+  cfg.clusterTriangles = kMaxClusterTriangles + 4;
+  auto refused = buildClusterDag(mesh, cfg);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find(std::to_string(kMaxClusterTriangles)), std::string::npos)
+      << refused.error().message;
+}
+
 TEST(ClusterDag, RandomSmallMeshesProperty) {
   uint32_t stuck = 0;
   for (uint32_t seed = 1; seed <= 40; ++seed) {

@@ -21,6 +21,7 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
 #include "render/cluster_test_util.h"
+#include "mirage/shaderio/lod_error.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -85,14 +86,13 @@ struct CpuCut {
   uint32_t eyeInside = 0;
 };
 CpuCut cpuCut(const lod::ClusterDag& dag, const Camera& cam, float tau) {
-  float errorScale = std::abs(cam.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+  float pixelScale = shaderio::projectionScale(cam.projection(1.0f)[1][1], float(kSize));
   CpuCut cut;
   auto projected = [&](const lod::LodBounds& b, bool root) {
     if (root) return std::numeric_limits<float>::infinity();
-    if (b.error <= 0.0f) return 0.0f;
-    float d = glm::length(b.center - cam.eye) - b.radius;
-    if (d <= 0.0f) return ++cut.eyeInside, std::numeric_limits<float>::infinity();
-    return b.error / std::max(d, cam.znear) * errorScale;
+    float e = shaderio::projectedSphereError(b.center, b.radius, b.error, 1.0f, cam.eye, cam.znear, pixelScale);
+    if (std::isinf(e)) ++cut.eyeInside; // finite error, eye inside the sphere
+    return e;
   };
   for (const lod::Cluster& c : dag.clusters)
     if (projected(c.self, false) <= tau && projected(c.parent, c.group == lod::kNone) > tau)

@@ -23,6 +23,7 @@
 #include "mirage/render/surfel_renderer.h"
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/reference.h"
+#include "mirage/shaderio/lod_error.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -81,7 +82,7 @@ glm::vec4 cloudSphere() {
   const Bounds& b = object().cloud.box;
   return glm::vec4(b.center(), 0.5f * glm::length(b.extent()));
 }
-float pixelScale(const Camera& c) { return std::abs(c.projection(1.0f)[1][1]) * 0.5f * float(kSize); }
+float pixelScale(const Camera& c) { return shaderio::projectionScale(c.projection(1.0f)[1][1], float(kSize)); }
 
 // The auto view's direction, with the eye where the reference depth (eye to the nearest point of
 // the cloud's sphere) is `depthFactor` × the switch distance.

@@ -22,6 +22,7 @@
 #include "mirage/shaderio/surfel_render.h"
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/reference.h"
+#include "mirage/shaderio/lod_error.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -171,7 +172,7 @@ TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
       auto out = (*r)->render(s);
       ASSERT_TRUE(out.ok()) << out.error().message;
       Camera clipped = withClipPlanes(cam, (*r)->worldBounds());
-      float pixelScale = std::abs(clipped.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+      float pixelScale = shaderio::projectionScale(clipped.projection(1.0f)[1][1], float(kSize));
       float P0 = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
       uint32_t below = 0;
       uint64_t sum = 0;
@@ -276,7 +277,7 @@ TEST_F(SurfelRender, MeshFadeSwitchesAtTheDocumentedDistance) {
   ASSERT_TRUE(r.ok());
   float P = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
   Camera probe = withClipPlanes(blobCamera(1.0f), (*r)->worldBounds());
-  float pixelScale = std::abs(probe.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+  float pixelScale = shaderio::projectionScale(probe.projection(1.0f)[1][1], float(kSize));
   float switchDistance = surfelSwitchDistance(P, uint32_t(cloud.size()), pixelScale, 2.0f);
   SurfelRenderSettings s;
   s.readInstanceStates = true;
@@ -544,7 +545,7 @@ TEST_F(SurfelRender, AutoMergeTakesTheInstancesWhoseSurfelsAreDenseOnScreen) {
     ASSERT_EQ(autoMerge.prefix.size(), 1u);
     uint32_t k = autoMerge.prefix[0];
     ASSERT_GT(k, 0u);
-    float pixelScale = std::abs(cam.projection(1.0f)[1][1]) * 0.5f * float(kSize);
+    float pixelScale = shaderio::projectionScale(cam.projection(1.0f)[1][1], float(kSize));
     float radiusPx = cloud.radii[k - 1] * pixelScale / autoMerge.distance[0];
     std::printf("factor %.0f, size %.0f, %s: k %u of %zu, disc radius %.3f px, merged %u\n", v.factor, v.size,
                 v.all ? "all" : "adaptive", k, cloud.size(), radiusPx, unsigned(autoMerge.merged[0]));

@@ -11,6 +11,7 @@
 
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
+#include "mirage/shaderio/cluster.h" // MIRAGE_CLUSTER_MAX_TRIANGLES: what the renderer draws
 
 namespace mirage::lod {
 
@@ -92,9 +93,13 @@ struct ClusterDag {
   }
 };
 
+// Largest clusterTriangles: the renderer's mesh-shader output limit (shaderio/cluster.h), so every
+// asset the builder writes renders. meshoptimizer would take up to 512, but with 8-bit local indices
+// and <= 255 vertices more than 128 rarely fills anyway.
+inline constexpr uint32_t kMaxClusterTriangles = MIRAGE_CLUSTER_MAX_TRIANGLES;
+
 struct BuildConfig {
-  // Mesh-shader friendly cluster size; meshoptimizer 0.18 wants a multiple of 4, <= 512 (we use 8-bit
-  // local indices and <= 255 vertices, so more than 128 rarely fills anyway).
+  // Mesh-shader friendly cluster size: a multiple of 4 (meshoptimizer) in 4..kMaxClusterTriangles.
   uint32_t clusterTriangles = 128;
   // Vertex limit per cluster (<= 255). Measured on the dragon (docs/lod.md): 64 -> 54 % mean fill,
   // 96 -> 83 %, 128 -> 91 %, 192 and 255 no better; 128 also keeps mesh-shader outputs small.

@@ -8,6 +8,7 @@
 
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
+#include "mirage/shaderio/view.h"
 
 namespace mirage::render {
 
@@ -39,6 +40,15 @@ Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees = 60.0f)
 
 // Fill znear/zfar when zero, from the bounds seen by this camera (near plane never behind the eye).
 Camera withClipPlanes(Camera camera, const Bounds& bounds);
+
+// World-space frustum planes (Gribb-Hartmann) of a reverse-Z view-projection: clip-space inside is
+// -w <= x, y <= w and z <= w (near); the far plane is left out (the camera's far bound is loose).
+// Order: left, right, bottom, top, near; normalized, dot(xyz, p) + w >= 0 inside.
+void frustumPlanes(const glm::mat4& viewProj, glm::vec4 planes[5]);
+
+// What every renderer's shaders know of the camera (shaderio/view.h) for a `width` x `height`
+// target. `camera` must have its clip planes set (withClipPlanes).
+shaderio::ViewFrame viewFrame(const Camera& camera, uint32_t width, uint32_t height);
 
 // A camera path for `--path`: a JSON file holding an array of cameras (or {"cameras": [...]}), each
 // either a --camera string or an object {"eye": [x,y,z], "target": [x,y,z], "up": [...], "fov": deg,

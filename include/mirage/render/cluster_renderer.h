@@ -18,6 +18,7 @@
 #include "mirage/core/named_enum.h"
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
+#include "mirage/gpu/memory.h"
 #include "mirage/lod/cluster_pvs.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
@@ -152,6 +153,9 @@ struct ClusterRenderOutput {
   std::vector<std::pair<uint32_t, uint32_t>> ownedClusters; // readOwnedClusters: (instance, mesh-local cluster)
 };
 
+// Frames a caller may have recorded and not yet collected (record/collect slots 0..2).
+inline constexpr uint32_t kMaxFramesInFlight = 3;
+
 class ClusterRenderer {
 public:
   // Uploads every DAG, the instances, materials and textures. Refuses clusters larger than the
@@ -159,7 +163,28 @@ public:
   static Result<std::unique_ptr<ClusterRenderer>> create(gpu::Context& context, const lod::LodAsset& asset);
   ~ClusterRenderer();
 
+  // One frame, synchronously: record + submit and wait + collect, then the owned clusters and the
+  // image read back as the settings ask. Mixed mesh/surfel frames render only through here.
   Result<ClusterRenderOutput> render(const ClusterRenderSettings& settings);
+
+  // Frames in flight. record() writes `slot`'s frame data and records the whole frame into the
+  // caller's command buffer (nothing is submitted); the caller submits it with a fence of its own
+  // and, once that fence signalled, calls collect(slot) for the frame's stats and pass times
+  // (image and ownedClusters stay empty: the image is colorTarget()). Slots are 0..
+  // kMaxFramesInFlight - 1; a slot is reused only after its frame completed. Frames must run on
+  // one queue in the order recorded: they share GPU scratch, which each frame's first barrier
+  // orders after everything submitted before it. A size change waits for the device to idle
+  // (targets are recreated). Errors (settings, mixed frames) record nothing.
+  Status record(VkCommandBuffer cmd, const ClusterRenderSettings& settings, uint32_t slot);
+  Result<ClusterRenderOutput> collect(uint32_t slot);
+  // The colour target of the last recorded frame: VK_FORMAT_R16G16B16A16_SFLOAT, linear (not
+  // sRGB), alpha straight. A recorded frame leaves it in VK_IMAGE_LAYOUT_GENERAL, last written by
+  // compute shaders (COMPUTE_SHADER stage, SHADER_STORAGE_WRITE access). The caller transitions it
+  // for its own use after record() (e.g. to TRANSFER_SRC_OPTIMAL for a vkCmdBlitImage to a
+  // swapchain image) and may leave it in any layout: the next frame discards the contents
+  // (UNDEFINED -> GENERAL) after waiting for everything submitted before it. Recreated (a new
+  // handle) when the render size changes.
+  const gpu::Image& colorTarget() const;
   // Uploads the camera cell's cluster PVS (lod::clusterPvs over this renderer's asset instances);
   // later frames skip instances and clusters outside it (unless settings.pvsCulling is off).
   // nullptr: no PVS culling (the camera is outside every cell). Errors when the set was made for

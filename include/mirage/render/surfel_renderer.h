@@ -169,11 +169,7 @@ inline float surfelSwitchDistance(float P, uint32_t N, float pixelScale, float s
 // and splat inside its own frame, with its camera, into its 64-bit visibility buffer, and shades the
 // surfel pixels in its own resolve. What that frame hands over:
 struct SurfelStageFrame {
-  glm::mat4 viewProj{1.0f};
-  glm::vec3 eye{0.0f};
-  float znear = 0.0f;
-  float pixelScale = 1.0f; // |proj[1][1]| * height / 2
-  uint32_t width = 0, height = 0;
+  shaderio::ViewFrame camera{};  // the cluster frame's camera (viewFrame)
   uint64_t visBufferAddress = 0; // the shared uint64 per pixel buffer (zeroed by the caller)
   uint64_t meshFadeAddress = 0;  // float per mesh instance: the prefix pass writes each fade
 };

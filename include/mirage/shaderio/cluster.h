@@ -186,16 +186,10 @@ struct VisibleCluster {
 // Per frame: camera, LOD threshold, culling planes, lighting (the forward renderer's FrameData
 // fields plus what the cluster passes need).
 struct ClusterFrame {
-  mat4 viewProj;
-  mat4 invViewProj;
-  vec4 eye;       // xyz camera position
-  vec4 planes[5]; // world-space frustum planes (left, right, bottom, top, near), xyz.p + w >= 0 inside
-  vec4 lightDir;  // xyz towards the light, w intensity
+  ViewFrame camera; // camera.pixelScale turns object error / distance into pixels (lod_error.h)
+  vec4 lightDir;    // xyz towards the light, w intensity
   vec4 skyAmbient;
   vec4 groundAmbient;
-  vec2 viewport; // width, height in pixels
-  float znear;
-  float errorScale;     // |proj[1][1]| * 0.5 * height: object error / distance -> pixels
   float tau;            // LOD threshold in pixels
   uint flags;           // MIRAGE_FRAME_*
   uint visibleCapacity; // entries in the visible-cluster buffer
@@ -313,7 +307,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 544, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 672, "ClusterFrame layout");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");

@@ -4,6 +4,8 @@
 #ifndef MIRAGE_SHADERIO_FORWARD_H
 #define MIRAGE_SHADERIO_FORWARD_H
 
+#include "mirage/shaderio/view.h"
+
 #ifdef __cplusplus
 #include <cstdint>
 #include <glm/glm.hpp>
@@ -31,9 +33,7 @@ struct GpuVertex {
 
 // Per frame: camera and lighting.
 struct FrameData {
-  mat4 viewProj;
-  mat4 view;
-  vec4 eye;           // xyz camera position
+  ViewFrame camera;
   vec4 lightDir;      // xyz direction towards the light (normalized), w intensity
   vec4 skyAmbient;    // rgb ambient from above
   vec4 groundAmbient; // rgb ambient from below
@@ -75,7 +75,7 @@ struct ForwardPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(GpuVertex) == 52, "GpuVertex layout");
-static_assert(sizeof(FrameData) == 192, "FrameData layout");
+static_assert(sizeof(FrameData) == 416, "FrameData layout");
 static_assert(sizeof(GpuInstance) == 128, "GpuInstance layout");
 static_assert(sizeof(GpuMaterial) == 80, "GpuMaterial layout");
 static_assert(sizeof(ForwardPush) == 32, "ForwardPush layout");

@@ -109,20 +109,14 @@ struct SurfelInstanceState {
 };
 
 struct SurfelRenderFrame {
-  mat4 viewProj;
-  mat4 invViewProj;
-  vec4 eye;       // xyz camera position
-  vec4 planes[5]; // world-space frustum planes (left, right, bottom, top, near), xyz.p + w >= 0 inside
-  vec4 lightDir;  // xyz towards the light, w intensity
+  ViewFrame camera;
+  vec4 lightDir; // xyz towards the light, w intensity
   vec4 skyAmbient;
   vec4 groundAmbient;
   vec4 background;  // linear RGBA where no surfel covers the pixel
-  vec2 viewport;    // width, height in pixels
-  float pixelScale; // |proj[1][1]| * 0.5 * height: pixels per world unit at distance 1
   float surfelSize; // s: surfel diameter in pixels at the reference depth
-  float znear;
-  float fadeBand; // blend band width relative to the switch distance (MIRAGE_SURFEL_MESH_FADE)
-  uint flags;     // MIRAGE_SURFEL_*
+  float fadeBand;   // blend band width relative to the switch distance (MIRAGE_SURFEL_MESH_FADE)
+  uint flags;       // MIRAGE_SURFEL_*
   uint instanceCount;
   uint idTag; // OR-ed into every visibility id (mixed scenes: tells surfels from clusters; else 0)
   uint pad0;
@@ -161,7 +155,7 @@ struct SurfelRenderPush {
 static_assert(sizeof(SurfelRenderCloud) == 48, "SurfelRenderCloud layout");
 static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout");
 static_assert(sizeof(SurfelInstanceState) == 128, "SurfelInstanceState layout");
-static_assert(sizeof(SurfelRenderFrame) == 328, "SurfelRenderFrame layout");
+static_assert(sizeof(SurfelRenderFrame) == 456, "SurfelRenderFrame layout");
 static_assert(sizeof(SurfelRenderCounters) == 32, "SurfelRenderCounters layout");
 static_assert(sizeof(SurfelRenderPush) == 104, "SurfelRenderPush layout");
 } // namespace mirage::shaderio

@@ -1,0 +1,200 @@
+// One cluster frame's data: the settings resolved against the device and scene (the plan), the
+// camera and plan packed into ClusterFrame, and the GPU counters turned into ClusterStats.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "cluster_impl.h"
+#include "mirage/gpu/commands.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+// The backend that runs: auto prefers hybrid (compute for small triangles, mesh shaders for large),
+// then compute alone, then mesh shaders, then indirect draws.
+Result<RasterBackend> resolveBackend(RasterBackend requested, const DeviceCapabilities& caps) {
+  bool atomics = caps.int64BufferAtomics, fragmentAtomics = atomics && caps.fragmentStoresAndAtomics;
+  if (requested == RasterBackend::Auto)
+    return fragmentAtomics && caps.meshShader ? RasterBackend::Hybrid
+           : atomics                          ? RasterBackend::Compute
+           : caps.meshShader                  ? RasterBackend::Mesh
+                                              : RasterBackend::Indirect;
+  if (requested == RasterBackend::Mesh && !caps.meshShader)
+    return Error{"--raster mesh: the device has no VK_EXT_mesh_shader"};
+  if (requested == RasterBackend::Compute && !atomics)
+    return Error{"--raster compute: the device has no 64-bit buffer atomics"};
+  if (requested == RasterBackend::Hybrid && !fragmentAtomics)
+    return Error{"--raster hybrid: the device has no 64-bit buffer atomics in fragment shaders"};
+  return requested;
+}
+
+// The blend raster that runs: auto is hybrid whatever the opaque backend, measured on the H200
+// (docs/render.md, "Blend rasters"): the city's large glass at street level takes 15.0 ms by
+// compute, 0.28 hybrid, 0.25 hardware; 2500 AlphaBlendModeTest copies (5000 small clusters) 0.034
+// by compute, 0.39 hardware, and hybrid sends them all to compute. Hardware needs fragment stores
+// and atomics (the list append), else auto falls back to compute.
+Result<BlendRaster> resolveBlendRaster(BlendRaster requested, const DeviceCapabilities& caps) {
+  bool hardware = caps.fragmentStoresAndAtomics;
+  if (requested == BlendRaster::Auto) return hardware ? BlendRaster::Hybrid : BlendRaster::Compute;
+  if (requested != BlendRaster::Compute && !hardware)
+    return Error{fmt::format("--blend-raster {}: the device has no stores and atomics in fragment shaders",
+                             toString(requested))};
+  return requested;
+}
+
+} // namespace
+
+Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings& cs) const {
+  const RenderSettings& s = cs.base;
+  if (s.width == 0 || s.height == 0 || s.width > kMaxRenderDimension || s.height > kMaxRenderDimension)
+    return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
+  if (!(cs.tauPixels > 0.0f)) return Error{fmt::format("--tau {} must be a positive number of pixels", cs.tauPixels)};
+  if (!(cs.hybridThreshold >= 0.0f))
+    return Error{fmt::format("--hybrid-threshold {} must be a non-negative number of pixels", cs.hybridThreshold)};
+  ClusterFramePlan p;
+  auto resolved = resolveBackend(cs.raster, ctx.caps());
+  if (!resolved) return resolved.error();
+  p.backend = *resolved;
+  auto blendResolved = resolveBlendRaster(cs.blendRaster, ctx.caps());
+  if (!blendResolved) return blendResolved.error();
+  p.blend = hasBlend() ? *blendResolved : BlendRaster::Compute;
+  // The hardware blend raster: mesh shaders where the device has them, unless indirect was asked for.
+  p.meshBlend = ctx.caps().meshShader && p.backend != RasterBackend::Indirect;
+  p.bufferTarget = p.backend == RasterBackend::Compute || p.backend == RasterBackend::Hybrid;
+  if (cs.surfels && !p.bufferTarget)
+    return Error{fmt::format("mesh + surfel scenes share the 64-bit visibility buffer: --raster {} cannot draw "
+                             "them (use compute or hybrid)",
+                             toString(p.backend))};
+  p.occlusion = cs.occlusionCulling && historyUsable;
+  if (cs.readOwnedClusters && !p.occlusion)
+    return Error{"reading the clusters that own pixels needs occlusion culling (its history)"};
+  p.pvs = cs.pvsCulling && pvsInstances;
+  p.dagTree = cs.selection == SelectionMode::Dag;
+  p.hierarchy = p.dagTree || cs.selection == SelectionMode::Hierarchy ||
+                (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances);
+  return p;
+}
+
+Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const ClusterFramePlan& plan) {
+  const RenderSettings& s = cs.base;
+  Camera cam = withClipPlanes(s.camera, scene.worldBounds);
+  sio::ClusterFrame f{};
+  f.camera = viewFrame(cam, s.width, s.height);
+  f.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
+  f.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
+  f.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
+  f.tau = cs.tauPixels;
+  f.flags =
+      (cs.flagBackFaces ? MIRAGE_FRAME_FLAG_BACKFACES : 0u) | (cs.frustumCulling ? MIRAGE_FRAME_FRUSTUM_CULL : 0u) |
+      (plan.bufferTarget ? MIRAGE_FRAME_SOURCE_BUFFER : 0u) |
+      (plan.backend == RasterBackend::Hybrid ? MIRAGE_FRAME_HYBRID : 0u) |
+      (plan.occlusion ? MIRAGE_FRAME_OCCLUSION : 0u) | (cs.coneCulling ? MIRAGE_FRAME_CONE_CULL : 0u) |
+      (plan.hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u) | (plan.pvs ? MIRAGE_FRAME_PVS : 0u) |
+      (plan.blend == BlendRaster::Hybrid ? MIRAGE_FRAME_BLEND_HYBRID : 0u) |
+      (plan.blend == BlendRaster::Hardware ? MIRAGE_FRAME_BLEND_HARDWARE : 0u) | (plan.dagTree ? MIRAGE_FRAME_DAG : 0u);
+  if (plan.pvs) {
+    f.pvsInstanceAddress = pvsInstances.address();
+    f.pvsClusterAddress = pvsClusters.address();
+  }
+  f.visibleCapacity = visibleCapacity;
+  f.instanceCount = scene.instanceCount;
+  f.background = s.background;
+  f.hybridThreshold = cs.hybridThreshold;
+  f.hzbLevels = hzbLevels;
+  f.coneAddress = scene.cones.address();
+  f.historyAddress = history.address();
+  f.candidateAddress = candidates.address();
+  f.hzbAddress = hzb.address();
+  f.lateInstanceAddress = lateInstances.address();
+  f.instanceHistoryBase = uint32_t(scene.instancedClusters);
+  std::copy(std::begin(hzbOffset), std::end(hzbOffset), std::begin(f.hzbOffset));
+  if (cs.surfels) {
+    if (!fade) {
+      fade = createBuffer(ctx, uint64_t(std::max(scene.instanceCount, 1u)) * 4,
+                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                          "mesh fade");
+      surfelLink = createBuffer(ctx, sizeof(sio::ClusterSurfelLink), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                MemoryUsage::Upload, "surfel link");
+    }
+    SurfelStageFrame sf;
+    sf.camera = f.camera;
+    sf.visBufferAddress = visBuffer.address();
+    sf.meshFadeAddress = fade.address();
+    SurfelRenderSettings ss = cs.surfelSettings;
+    ss.meshFade = true;
+    ss.frustumCulling = cs.frustumCulling;
+    if (Status st = cs.surfels->stagePrepare(ss, sf); !st) return st.error();
+    sio::ClusterSurfelLink link = cs.surfels->stageLink();
+    std::memcpy(surfelLink.mapped(), &link, sizeof(link));
+    f.fadeAddress = fade.address();
+    f.surfelLinkAddress = surfelLink.address();
+  }
+  f.nodeAddress = scene.lodNodes.address();
+  f.leafClusterAddress = scene.leafClusters.address();
+  f.traversalAddress = traversal.address();
+  f.queueAddress[0] = queues[0].address();
+  f.queueAddress[1] = queues[1].address();
+  f.queueCapacity = queueCapacity;
+  if (hasBlend()) {
+    f.blendVisibleAddress = blendVisible.address();
+    f.oitHeadAddress = oitHeads.address();
+    f.oitNodeAddress = oitNodes.address();
+    f.blendCapacity = blendCapacity;
+    f.oitNodeCapacity = oitNodeCapacity;
+  }
+  std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
+  return Ok{};
+}
+
+// The slot's counters as cmdFrame copied them at the end of its frame.
+ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
+  const ClusterFramePlan& plan = plans[frameSlot];
+  const uint8_t* raw = readbacks[frameSlot].mapped();
+  sio::ClusterCounters c{};
+  std::memcpy(&c, raw, sizeof(c));
+  ClusterStats st;
+  if (plan.hierarchy) {
+    sio::ClusterTraversal t{};
+    std::memcpy(&t, raw + sizeof(c), sizeof(t));
+    st.nodesTested = t.nodesTested;
+    st.selectionPasses = (plan.dagTree ? scene.dagDepth : scene.lodDepth) + 1;
+  }
+  st.selection = plan.dagTree ? SelectionMode::Dag : plan.hierarchy ? SelectionMode::Hierarchy : SelectionMode::Flat;
+  st.instancesVisible = c.visibleInstances;
+  st.clustersTested = c.clustersTested;
+  st.selectRows = c.selectArgs[1];
+  st.clustersSelected = c.clustersSelected;
+  st.clustersFrustumCulled = c.clustersFrustumCulled;
+  st.clustersBackfaceCulled = c.clustersBackfaceCulled;
+  st.clustersPass1 = c.clustersPass1;
+  st.clustersOcclusionTested = std::min(c.candidates, visibleCapacity);
+  st.clustersOcclusionCulled = c.clustersOcclusionCulled;
+  st.instancesLate = c.lateInstances;
+  st.instancesOcclusionCulled = c.instancesOcclusionCulled;
+  st.historyKept = c.historyKept;
+  st.clustersDrawn = c.listEnd[0] + c.listEnd[1] + std::min(c.blendClusters, blendCapacity);
+  st.clustersBlend = std::min(c.blendClusters, blendCapacity);
+  st.clustersBlendHardware = c.blendListEnd[MIRAGE_LIST_DOWN];
+  st.blendRaster = plan.blend;
+  st.oitFragments = c.oitNodes;
+  st.oitPoolOverflow = c.oitNodes > oitNodeCapacity ? c.oitNodes - oitNodeCapacity : 0;
+  st.oitLayersDropped = c.oitLayersDropped;
+  st.clustersHardware = c.clustersHardware;
+  st.trianglesNearClipped = c.trianglesNearClipped;
+  st.clustersOverflow = c.clustersOverflow;
+  st.trianglesRasterized = c.trianglesSelected;
+  st.instancesPvsCulled = c.instancesPvsCulled;
+  st.clustersPvsCulled = c.clustersPvsCulled;
+  st.pvs = plan.pvs;
+  st.raster = plan.backend;
+  st.occlusion = plan.occlusion;
+  return st;
+}
+
+} // namespace mirage::render

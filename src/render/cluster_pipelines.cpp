@@ -1,0 +1,198 @@
+// ClusterRenderer set-up: descriptors, pipelines, per-scene buffers and per-size targets.
+#include <algorithm>
+
+#include "cluster_impl.h"
+#include "render_util.h"
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/shaders.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+// See cluster_impl.h.
+void cmdPhaseBarrier(VkCommandBuffer cmd, bool meshShaders) {
+  VkPipelineStageFlags2 mesh = meshShaders ? VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT : 0;
+  cmdMemoryBarrier(cmd, kCS | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                   VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | kCS | mesh | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                   VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                       VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT |
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT);
+}
+
+void ClusterRenderer::Impl::createDescriptors() {
+  // Textures and the visibility image are read by the resolve (compute); the textures also by the
+  // rasterizers' alpha test (compute and fragment); binding 2 is the resolve's output; binding 3 the
+  // hardware backends' depth, read by the HZB build and the blend raster.
+  VkDescriptorSetLayoutBinding bindings[] = {
+      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(scene.textures.size()),
+       VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
+  descriptors = createDescriptorSet(ctx, bindings);
+  std::vector<VkDescriptorImageInfo> infos;
+  for (const Image& img : scene.textures)
+    infos.push_back({scene.sampler, img.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
+  writeImageDescriptors(ctx, descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
+}
+
+void ClusterRenderer::Impl::createPipelines() {
+  const DeviceCapabilities& caps = ctx.caps();
+  pushStages = VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  if (caps.meshShader) pushStages |= VK_SHADER_STAGE_MESH_BIT_EXT;
+  layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::ClusterPush), pushStages);
+  cullPipeline = createComputePipeline(ctx, "cluster_cull.comp", layout);
+  selectPipeline = createComputePipeline(ctx, "cluster_select.comp", layout);
+  traversePipeline = createComputePipeline(ctx, "cluster_traverse.comp", layout);
+  argsPipeline = createComputePipeline(ctx, "cluster_args.comp", layout);
+  occlusionPipeline = createComputePipeline(ctx, "cluster_occlusion.comp", layout);
+  instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
+  hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
+  resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
+  if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
+  if (caps.int64BufferAtomics && scene.hasMask)
+    rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout);
+  if (scene.blendInstancedClusters > 0) {
+    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout);
+    compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+  }
+  // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
+  // hardware list: no attachments, the fragment shader does the compute rasterizer's atomicMax.
+  auto graphics = [&](bool mesh, bool atomic) {
+    GraphicsPipelineDesc d;
+    (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_vis.mesh" : "cluster_vis.vert";
+    // Scenes with MASK materials take the *_mask variants (alpha test); others run no alpha code.
+    std::string fragment = std::string(mesh ? (atomic ? "cluster_vis_mesh_atomic" : "cluster_vis_mesh")
+                                            : (atomic ? "cluster_vis_atomic" : "cluster_vis")) +
+                           (scene.hasMask ? "_mask.frag" : ".frag");
+    d.fragmentShader = fragment;
+    d.layout = layout;
+    if (!atomic) {
+      d.colorFormats = {kVisFormat};
+      d.depthFormat = kDepthFormat;
+    }
+    return createGraphicsPipeline(ctx, d);
+  };
+  indirectPipeline = graphics(/*mesh=*/false, /*atomic=*/false);
+  if (caps.meshShader) meshPipeline = graphics(/*mesh=*/true, /*atomic=*/false);
+  if (caps.int64BufferAtomics && caps.fragmentStoresAndAtomics) {
+    indirectAtomicPipeline = graphics(/*mesh=*/false, /*atomic=*/true);
+    if (caps.meshShader) meshAtomicPipeline = graphics(/*mesh=*/true, /*atomic=*/true);
+  }
+
+  constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  visibleCapacity = uint32_t(std::clamp<uint64_t>(scene.instancedClusters, 1, kMaxVisibleClusters));
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
+    frames[i] = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
+    readbacks[i] = createBuffer(ctx, sizeof(sio::ClusterCounters) + sizeof(sio::ClusterTraversal),
+                                VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "cluster counters readback");
+  }
+  visibleInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
+                                  MemoryUsage::GpuOnly, "visible instances");
+  lateInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
+                               MemoryUsage::GpuOnly, "late instances");
+  // Zeroed once: entry 0 is then always a valid (instance, cluster) pair, which the resolve reads
+  // for background pixels too (see cluster_resolve.comp).
+  std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
+  visible = createBufferWithData<sio::VisibleCluster>(ctx, zeros, kStorage, "visible clusters");
+  if (scene.blendInstancedClusters > 0) { // zeroed: entry 0 is valid for every lane (as `visible`)
+    blendCapacity = uint32_t(std::min<uint64_t>(scene.blendInstancedClusters, kMaxVisibleClusters));
+    std::vector<sio::VisibleCluster> blendZeros(blendCapacity, sio::VisibleCluster{0, 0});
+    blendVisible = createBufferWithData<sio::VisibleCluster>(ctx, blendZeros, kStorage, "blend clusters");
+  }
+  candidates = createBuffer(ctx, visibleCapacity * uint64_t(sizeof(sio::VisibleCluster)), kStorage,
+                            MemoryUsage::GpuOnly, "occlusion candidates");
+  counters = createBuffer(ctx, sizeof(sio::ClusterCounters),
+                          kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                              VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                          MemoryUsage::GpuOnly, "cluster counters");
+  // Traversal queues: one phase queues each (instance, node) at most once, and never more than fits
+  // one dispatch row of workgroups.
+  queueCapacity = uint32_t(std::clamp<uint64_t>(uint64_t(scene.instanceCount) * scene.maxMeshNodes, 64,
+                                                uint64_t(MIRAGE_CLUSTER_DISPATCH_X) * MIRAGE_CLUSTER_WORKGROUP));
+  for (Buffer& q : queues)
+    q = createBuffer(ctx, queueCapacity * uint64_t(8), kStorage, MemoryUsage::GpuOnly, "selection queue");
+  traversal = createBuffer(ctx, sizeof(sio::ClusterTraversal),
+                           kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                           MemoryUsage::GpuOnly, "selection traversal");
+  // One bit per (instance, cluster), then one per instance, zeroed: the first frame draws
+  // everything in pass 2.
+  uint64_t historyBits = scene.instancedClusters + scene.instanceCount;
+  uint64_t historyBytes = (historyBits + 31) / 32 * 4;
+  historyUsable = historyBits < (uint64_t(1) << 32) && historyBytes <= caps.maxStorageBufferRange;
+  std::vector<uint32_t> noHistory(historyUsable ? historyBytes / 4 : 1, 0u);
+  history = createBufferWithData<uint32_t>(
+      ctx, noHistory, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+      "visibility history"); // SRC: readOwnedClusters
+}
+
+void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
+  if (w == width && h == height) return;
+  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
+  vis = createImage2D(ctx, w, h, kVisFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                      "visibility");
+  depth = createImage2D(ctx, w, h, kDepthFormat,
+                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, "visibility depth");
+  visBuffer =
+      createBuffer(ctx, uint64_t(w) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                   MemoryUsage::GpuOnly, "visibility64");
+  // HZB levels 1.. down to 1x1 (at least level 1) in one float buffer; level 0 would be the depth
+  // itself, which the level-1 build reads directly.
+  uint64_t floats = 0;
+  hzbLevels = 1;
+  for (uint32_t lw = (w + 1) / 2, lh = (h + 1) / 2; hzbLevels < MIRAGE_HZB_MAX_LEVELS;
+       lw = (lw + 1) / 2, lh = (lh + 1) / 2) {
+    hzbOffset[hzbLevels++] = uint32_t(floats);
+    floats += uint64_t(lw) * lh;
+    if (lw == 1 && lh == 1) break;
+  }
+  hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
+  if (hasBlend()) {
+    uint64_t pixels = uint64_t(w) * h;
+    oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                            MemoryUsage::GpuOnly, "transparency heads");
+    oitNodeCapacity = uint32_t(
+        std::min<uint64_t>(pixels * kOitNodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode)));
+    oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                            MemoryUsage::GpuOnly, "transparency nodes");
+  }
+  VkDescriptorImageInfo visInfo{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
+  VkDescriptorImageInfo depthInfo{scene.nearestSampler, depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL};
+  writeImageDescriptors(ctx, descriptors.set, 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&visInfo, 1});
+  writeImageDescriptors(ctx, descriptors.set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
+  writeImageDescriptors(ctx, descriptors.set, 3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
+  width = w;
+  height = h;
+}
+
+sio::ClusterPush ClusterRenderer::Impl::push() const {
+  sio::ClusterPush p{};
+  p.frameAddress = frames[currentSlot].address();
+  p.clusterAddress = scene.clusters.address();
+  p.vertexAddress = scene.vertices.address();
+  p.clusterVertexAddress = scene.clusterVertices.address();
+  p.indexAddress = scene.indices.address();
+  p.meshAddress = scene.meshes.address();
+  p.instanceAddress = scene.instances.address();
+  p.materialAddress = scene.materials.address();
+  p.visibleInstanceAddress = visibleInstances.address();
+  p.levelAddress = scene.levels.address();
+  p.visibleAddress = visible.address();
+  p.counterAddress = counters.address();
+  p.visBufferAddress = visBuffer.address();
+  p.maxMeshClusters = scene.maxMeshClusters;
+  return p;
+}
+
+void ClusterRenderer::Impl::cmdPush(VkCommandBuffer cmd, sio::ClusterPush p, uint32_t rasterList) {
+  p.rasterList = rasterList;
+  vkCmdPushConstants(cmd, layout, pushStages, 0, sizeof(p), &p);
+}
+
+} // namespace mirage::render

@@ -1,0 +1,133 @@
+// Visibility rasterizers (mesh, indirect, compute, hybrid) and the resolve (docs/render.md, "Passes").
+#include "cluster_impl.h"
+#include "mirage/gpu/commands.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+// Dynamic rendering over the whole target with the state every cluster draw shares: full viewport
+// and scissor, no culling and counter-clockwise fronts (facing is decided per instance in the
+// fragment shaders: single/double-sided, mirrored, so one draw serves every material).
+void ClusterRenderer::Impl::cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri) {
+  ri.renderArea = {{0, 0}, {width, height}};
+  ri.layerCount = 1;
+  vkCmdBeginRendering(cmd, &ri);
+  cmdSetFullViewport(cmd, width, height);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
+  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+}
+
+// The indirect draw of one list's share of a pass (ClusterListArgs): one mesh task per cluster, or
+// one instance of 3 x max-triangles vertices per cluster.
+void ClusterRenderer::Impl::cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list) {
+  if (mesh)
+    vkCmdDrawMeshTasksIndirectEXT(cmd, counters.handle(), dispatchArgsOffset(pass, list), 1,
+                                  sizeof(VkDrawMeshTasksIndirectCommandEXT));
+  else
+    vkCmdDrawIndirect(cmd, counters.handle(), drawArgsOffset(pass, list), 1, sizeof(VkDrawIndirectCommand));
+}
+
+// One hardware list into the visibility image + depth (image backends; pass 1 loads pass 0's) or,
+// `atomic`, into the 64-bit buffer through fragment atomics with no attachments (hybrid).
+// barriers: the pass's arguments visible; the images in the layouts cmdRasterize leaves them in.
+void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
+                                            uint32_t pass, bool atomic) {
+  VkRenderingAttachmentInfo visAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  visAtt.imageView = vis.view();
+  visAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  visAtt.loadOp = pass == 0 ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD; // 0 = no cluster
+  visAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAtt.imageView = depth.view();
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAtt.loadOp = pass == 0 ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE; // the HZB reads it
+  depthAtt.clearValue.depthStencil = {0.0f, 0};    // reverse-Z: far is 0
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  if (!atomic) {
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &visAtt;
+    ri.pDepthAttachment = &depthAtt;
+  }
+  uint32_t list = atomic ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP;
+  cmdBeginFullTarget(cmd, ri);
+  cmdPush(cmd, p, pass * 2 + list);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
+  bool mesh = backend == RasterBackend::Mesh;
+  VkPipeline pipeline =
+      mesh ? (atomic ? meshAtomicPipeline : meshPipeline) : (atomic ? indirectAtomicPipeline : indirectPipeline);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  cmdDrawList(cmd, mesh, pass, list);
+  vkCmdEndRendering(cmd);
+}
+
+// barriers: cmdArgs(pass) visible; the 64-bit buffer zeroed and visible (buffer backends). On exit
+// the visibility image and depth are readable by compute shaders (SHADER_READ_ONLY /
+// DEPTH_READ_ONLY; the buffer backends transition them unwritten so the descriptors stay valid)
+// and every write of the pass is visible to the HZB build, the next pass and the resolve.
+void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
+                                         uint32_t pass) {
+  uint32_t slot = timer().cmdBegin(cmd, pass == 0 ? "raster" : "raster2");
+  bool imageTarget = backend == RasterBackend::Mesh || backend == RasterBackend::Indirect;
+  const VkPipelineStageFlags2 kDepthStages =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  const VkAccessFlags2 kDepthAccess =
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  ImageBarrier toRead[] = {{vis.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                            VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+                           {depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                            VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+                            VK_IMAGE_ASPECT_DEPTH_BIT}};
+  if (imageTarget) {
+    // Pass 0 starts from nothing; pass 1 keeps pass 0's ids and depth (read by the HZB since).
+    ImageBarrier toAttachment[] = {
+        {vis.handle(), pass == 0 ? VK_PIPELINE_STAGE_2_NONE : kCS, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+         VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+         pass == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+         VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+        {depth.handle(), pass == 0 ? VK_PIPELINE_STAGE_2_NONE : kCS, 0, kDepthStages, kDepthAccess,
+         pass == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+         VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+    cmdImageBarriers(cmd, toAttachment);
+    cmdHardwareList(cmd, p, backend, pass, /*atomic=*/false);
+    toRead[0].srcStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+    toRead[0].srcAccess = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    toRead[0].oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    toRead[1].srcStage = kDepthStages;
+    toRead[1].srcAccess = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    toRead[1].oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    cmdImageBarriers(cmd, toRead);
+  } else {
+    cmdPush(cmd, p, pass * 2 + MIRAGE_LIST_UP);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+    vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
+    if (rasterMaskPipeline) { // masked clusters of the same list (the opaque kernel skipped them)
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterMaskPipeline);
+      vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
+    }
+    if (backend == RasterBackend::Hybrid)
+      cmdHardwareList(cmd, p, meshAtomicPipeline ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
+                      /*atomic=*/true);
+    if (pass == 0) cmdImageBarriers(cmd, toRead); // unwritten, but the descriptors must be valid
+  }
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+  timer().cmdEnd(cmd, slot);
+}
+
+// barriers: cmdRasterize's output visible to compute shaders. The color target ends in GENERAL with
+// the resolve's writes available, which the readback expects.
+void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p) {
+  uint32_t slot = timer().cmdBegin(cmd, "resolve");
+  cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolvePipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+  cmdPush(cmd, p, 0);
+  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
+  timer().cmdEnd(cmd, slot);
+}
+
+} // namespace mirage::render
