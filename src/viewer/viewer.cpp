@@ -1,5 +1,6 @@
 #include "mirage/viewer/viewer.h"
 
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <filesystem>
@@ -174,7 +175,9 @@ Status runViewer(const ViewerOptions& o) {
   ViewConfig lastGood = ui.config;
   FrameStats stats;
   auto last = std::chrono::steady_clock::now();
+  auto start = last;
   uint64_t frames = 0;
+  std::vector<double> gpuFrameMs; // per frame: the renderer's "frame" pass
 
   while (!win.shouldClose()) {
     win.poll();
@@ -272,6 +275,8 @@ Status runViewer(const ViewerOptions& o) {
     }
     lastGood = ui.config;
     stats = frame->stats;
+    for (const gpu::PassTime& t : stats.passTimes)
+      if (t.name == "frame") gpuFrameMs.push_back(t.milliseconds);
     if (replaying && writingPath) {
       std::string name = render::pathFrameName(o.screenshot, pathIndex);
       if (auto st = io::writePng(name, frame->srgb); !st) {
@@ -298,6 +303,13 @@ Status runViewer(const ViewerOptions& o) {
     ++frames;
     if (o.maxFrames && frames >= o.maxFrames) win.requestClose();
   }
+  // How to measure the viewer (docs/viewer.md): frames per second of the whole loop (render,
+  // readback, upload, overlay, present) and the renderer's median GPU frame time.
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::sort(gpuFrameMs.begin(), gpuFrameMs.end());
+  fmt::print("viewed {} frames in {:.2f} s: {:.1f} FPS, GPU frame median {:.3f} ms ({})\n", frames, seconds,
+             seconds > 0.0 ? double(frames) / seconds : 0.0,
+             gpuFrameMs.empty() ? 0.0 : gpuFrameMs[gpuFrameMs.size() / 2], context->caps().name);
   return Ok{};
 }
 
