@@ -2,7 +2,8 @@
 # mirage view: a scene that fails to load exits 2 with one line before any window opens (run
 # without a display, so opening one would fail differently); bad flags exit 2; under Xvfb the
 # headless path mode (--path --screenshot --exit-after-path) writes OUT_0000.png ... that match
-# `mirage render --path` (PSNR >= 45 dB per frame) with silent validation layers.
+# `mirage render --path` (PSNR >= 45 dB per frame) with silent validation layers, and the swapchain
+# follows a window resize and present-mode switches (test_viewer's SwapchainWindow test).
 # Usage: view.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 mirage=$1
@@ -42,6 +43,17 @@ elif [ -z "${DISPLAY:-}" ]; then
   echo "cli view: $pass passed, $failures failed"
   [ $failures -eq 0 ]
   exit
+fi
+
+# The swapchain on a window: present, resize, present modes (test_viewer beside the binary).
+test_viewer="$(dirname "$mirage")/tests/test_viewer"
+if [ -x "$test_viewer" ]; then
+  if "${xrun[@]}" "$test_viewer" --gtest_filter='SwapchainWindow.*' >"$tmp/stdout" 2>"$tmp/stderr" &&
+    grep -q "1 test.*PASSED\|PASSED.*1 test" "$tmp/stdout" && ! grep -q "SKIPPED" "$tmp/stdout"; then
+    pass=$((pass + 1))
+  else
+    echo "FAIL swapchain-window:"; cat "$tmp/stdout" "$tmp/stderr"; failures=$((failures + 1))
+  fi
 fi
 
 if "$mirage" build gen:blob:2 -o "$tmp/blob.mrg" --quiet 2>"$tmp/stderr"; then
