@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "mirage/core/input_text.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/cluster_pvs.h"
 #include "mirage/lod/lod_asset.h"
@@ -16,7 +17,6 @@ namespace mirage::viewer {
 struct SceneView::Impl {
   SceneOptions options;
   bool lod = false;
-  Scene scene; // forward path
   lod::LodAsset asset;
   std::vector<surfels::MeshSurfels> clouds;
   vis::PvsData pvs;
@@ -32,8 +32,6 @@ struct SceneView::Impl {
 namespace {
 
 bool isMrg(const std::string& path) { return path.size() > 4 && path.substr(path.size() - 4) == ".mrg"; }
-
-Bounds sceneBounds(const Scene& scene) { return scene.worldBounds(); }
 
 Status loadSurfels(SceneView::Impl& s) {
   auto clouds = surfels::readSurfelMrgAll(s.options.path);
@@ -87,17 +85,26 @@ Status selectCell(SceneView::Impl& s, glm::vec3 eye) {
 SceneView::SceneView(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 SceneView::~SceneView() = default;
 
-Result<std::unique_ptr<SceneView>> SceneView::load(const SceneOptions& options) {
+Status SceneView::check(const SceneOptions& options) {
+  if (std::string problem = inputFileProblem(options.path); !problem.empty()) return makeError(options.path, problem);
+  if (!isMrg(options.path) && (!options.pvs.empty() || options.surfels))
+    return makeError(options.path, "--pvs and --surfels apply to .mrg cluster-LOD assets only");
+  return Ok{};
+}
+
+Result<std::unique_ptr<SceneView>> SceneView::open(gpu::Context& context, const SceneOptions& options) {
+  if (auto st = check(options); !st) return st.error();
   auto s = std::make_unique<Impl>();
   s->options = options;
+  s->context = &context;
   s->lod = isMrg(options.path);
   if (!s->lod) {
-    if (!options.pvs.empty() || options.surfels)
-      return Error{fmt::format("{}: --pvs and --surfels apply to .mrg cluster-LOD assets only", options.path)};
     auto scene = io::importScene(options.path);
     if (!scene) return scene.error();
-    s->scene = std::move(*scene);
-    s->bounds = sceneBounds(s->scene);
+    auto r = render::ForwardRenderer::create(context, *scene);
+    if (!r) return r.error();
+    s->forward = std::move(*r);
+    s->bounds = s->forward->worldBounds();
     return std::unique_ptr<SceneView>(new SceneView(std::move(s)));
   }
   auto asset = lod::loadLodAsset(options.path);
@@ -117,26 +124,13 @@ Result<std::unique_ptr<SceneView>> SceneView::load(const SceneOptions& options) 
                                                 pvs->sceneTriangles, options.path, triangles));
     s->pvs = std::move(*pvs);
   }
-  return std::unique_ptr<SceneView>(new SceneView(std::move(s)));
-}
-
-Status SceneView::open(gpu::Context& context) {
-  Impl& s = *impl_;
-  s.context = &context;
-  if (!s.lod) {
-    auto r = render::ForwardRenderer::create(context, s.scene);
-    if (!r) return r.error();
-    s.forward = std::move(*r);
-    s.bounds = s.forward->worldBounds();
-    return Ok{};
-  }
-  auto r = render::ClusterRenderer::create(context, s.asset);
+  auto r = render::ClusterRenderer::create(context, s->asset);
   if (!r) return r.error();
-  s.cluster = std::move(*r);
-  s.bounds = s.cluster->worldBounds();
-  if (!s.clouds.empty())
-    if (auto st = openSurfels(s); !st) return st;
-  return Ok{};
+  s->cluster = std::move(*r);
+  s->bounds = s->cluster->worldBounds();
+  if (!s->clouds.empty())
+    if (auto st = openSurfels(*s); !st) return st.error();
+  return std::unique_ptr<SceneView>(new SceneView(std::move(s)));
 }
 
 Result<Frame> SceneView::render(const View& view) {

@@ -55,11 +55,11 @@ struct Frame {
 
 class SceneView {
 public:
-  // Reads and checks the files (CPU only: a bad scene fails before any window or device).
-  static Result<std::unique_ptr<SceneView>> load(const SceneOptions& options);
+  // Cheap checks of the options and the input's name and kind (no GPU; before the window system).
+  static Status check(const SceneOptions& options);
+  // Reads the input, checks it, uploads it. Errors are one line naming the file.
+  static Result<std::unique_ptr<SceneView>> open(gpu::Context& context, const SceneOptions& options);
   ~SceneView();
-  // Uploads to the GPU.
-  Status open(gpu::Context& context);
   Result<Frame> render(const View& view);
 
   const Bounds& bounds() const;

@@ -116,30 +116,28 @@ Status runViewer(const ViewerOptions& o) {
     if (o.path.empty()) return Error{"--screenshot needs --path (F12 takes screenshots interactively)"};
     if (auto st = checkPng(o.screenshot); !st) return st;
   }
-  auto scene = SceneView::load({.path = o.scene, .pvs = o.pvs, .surfels = o.surfels});
-  if (!scene) return scene.error();
+  const SceneOptions sceneOptions{.path = o.scene, .pvs = o.pvs, .surfels = o.surfels};
+  if (auto st = SceneView::check(sceneOptions); !st) return st;
 
-  std::unique_ptr<WindowSystem> system;
-  std::unique_ptr<gpu::Context> context;
-  std::unique_ptr<SceneView> view = std::move(*scene);
-  {
-    auto s = WindowSystem::start();
-    if (!s) return s.error();
-    system = std::move(*s);
-    gpu::ContextOptions co;
-    co.device = o.device;
-    co.instanceExtensions = system->instanceExtensions();
-    co.swapchain = true;
-    auto c = gpu::Context::create(co);
-    if (!c) return c.error();
-    context = std::move(*c);
+  auto system = WindowSystem::start();
+  if (!system) {
+    // No display: a scene that fails to load still reports its own error (the one to fix first).
+    gpu::ContextOptions headless;
+    headless.device = o.device;
+    if (auto c = gpu::Context::create(headless))
+      if (auto s = SceneView::open(**c, sceneOptions); !s) return s.error();
+    return system.error();
   }
-  // Declared after the context: the scene's renderers go before it.
-  struct SceneOwner {
-    std::unique_ptr<SceneView> scene;
-  } owner{std::move(view)};
-  SceneView& sceneView = *owner.scene;
-  if (auto st = sceneView.open(*context); !st) return st;
+  gpu::ContextOptions co;
+  co.device = o.device;
+  co.instanceExtensions = (*system)->instanceExtensions();
+  co.swapchain = true;
+  auto context = gpu::Context::create(co);
+  if (!context) return context.error();
+  // The scene opens before the window: a scene that fails to load exits with no window shown.
+  auto scene = SceneView::open(**context, sceneOptions);
+  if (!scene) return scene.error();
+  SceneView& sceneView = **scene;
   float aspect = float(width) / float(height);
   std::vector<render::Camera> path;
   if (!o.path.empty()) {
@@ -150,16 +148,16 @@ Status runViewer(const ViewerOptions& o) {
 
   auto window = Window::create(width, height, "mirage view: " + std::filesystem::path(o.scene).filename().string());
   if (!window) return window.error();
-  auto surface = (*window)->createSurface(context->instance());
+  auto surface = (*window)->createSurface((*context)->instance());
   if (!surface) return surface.error();
   gpu::SwapchainOptions so;
   so.presentMode = *present;
-  auto swapchain = gpu::Swapchain::create(*context, *surface, (*window)->framebufferSize(), so);
+  auto swapchain = gpu::Swapchain::create(**context, *surface, (*window)->framebufferSize(), so);
   if (!swapchain) return swapchain.error();
   ImGuiSession imgui((*window)->handle());
-  Presenter presenter{*context, std::move(*swapchain), nullptr, {}};
+  Presenter presenter{**context, std::move(*swapchain), nullptr, {}};
   presenter.overlay =
-      OverlayRenderer::create(*context, presenter.swapchain->format(), presenter.swapchain->framesInFlight());
+      OverlayRenderer::create(**context, presenter.swapchain->format(), presenter.swapchain->framesInFlight());
   Window& win = **window;
 
   UiState ui;
@@ -309,7 +307,7 @@ Status runViewer(const ViewerOptions& o) {
   std::sort(gpuFrameMs.begin(), gpuFrameMs.end());
   fmt::print("viewed {} frames in {:.2f} s: {:.1f} FPS, GPU frame median {:.3f} ms ({})\n", frames, seconds,
              seconds > 0.0 ? double(frames) / seconds : 0.0,
-             gpuFrameMs.empty() ? 0.0 : gpuFrameMs[gpuFrameMs.size() / 2], context->caps().name);
+             gpuFrameMs.empty() ? 0.0 : gpuFrameMs[gpuFrameMs.size() / 2], (*context)->caps().name);
   return Ok{};
 }
 
