@@ -54,6 +54,7 @@ bool drawOverlayPanel(UiState& s, const FrameStats& stats) {
   ImGui::Separator();
   ImGui::TextUnformatted("WASD/QE move, right button look, wheel speed");
   ImGui::TextUnformatted("F frame  C print camera  R record  P replay  F12 shot");
+  if (!s.camera.empty()) ImGui::TextWrapped("--camera %s (copied)", s.camera.c_str());
   if (s.recording) ImGui::Text("recording: %zu cameras", s.recorded);
   if (s.replaying) ImGui::TextUnformatted("replaying path");
   if (!s.message.empty()) ImGui::TextWrapped("%s", s.message.c_str());

@@ -16,7 +16,7 @@ struct UiState {
   size_t recorded = 0; // cameras recorded so far
   bool replaying = false;
   double cpuFrameMs = 0.0; // smoothed wall time per frame
-  std::string camera;      // current --camera string
+  std::string camera;      // the last camera printed with C (a --camera string)
   std::string message;     // last action or error (screenshot written, ...)
   bool clusterLod = false, hasSurfels = false, hasPvs = false;
 };

@@ -200,6 +200,7 @@ Status runViewer(const ViewerOptions& o) {
       }
       if (win.keyPressed(GLFW_KEY_C)) {
         ui.camera = render::formatCamera(toCamera(fly));
+        ImGui::SetClipboardText(ui.camera.c_str()); // through GLFW: paste it after --camera
         fmt::print("--camera {}\n", ui.camera);
         std::fflush(stdout);
       }
