@@ -169,6 +169,7 @@ Status runViewer(const ViewerOptions& o) {
   std::vector<render::Camera> recorded;
   size_t replayIndex = 0;
   bool replaying = !path.empty();
+  bool looking = false;                     // right button held since a press outside the overlay
   bool writingPath = !o.screenshot.empty(); // the --path replay writes OUT_NNNN.png; later replays do not
   ViewConfig lastGood = ui.config;
   FrameStats stats;
@@ -227,10 +228,14 @@ Status runViewer(const ViewerOptions& o) {
       if (keys)
         in.move = moveAxes(win.keyDown(GLFW_KEY_W), win.keyDown(GLFW_KEY_A), win.keyDown(GLFW_KEY_S),
                            win.keyDown(GLFW_KEY_D), win.keyDown(GLFW_KEY_Q), win.keyDown(GLFW_KEY_E));
-      if (!io.WantCaptureMouse) {
-        if (win.rightButtonDown()) in.look = win.mouseDelta();
-        in.scroll = win.scroll();
-      }
+      // Looking starts with a right press outside the overlay and lasts while the button is held;
+      // the cursor is hidden and unbounded meanwhile, so a turn never stops at the window's edge.
+      bool right = win.rightButtonDown();
+      if (right && !looking && !io.WantCaptureMouse) looking = true;
+      if (!right) looking = false;
+      win.setCursorCaptured(looking);
+      if (looking) in.look = win.mouseDelta();
+      if (!io.WantCaptureMouse) in.scroll = win.scroll();
       in.seconds = std::min(seconds, 0.25f); // a stall does not fling the camera away
       update(fly, in);
     }

@@ -88,6 +88,13 @@ void Window::poll() {
 
 bool Window::keyDown(int key) const { return key >= 0 && key < kKeys && down_[size_t(key)]; }
 bool Window::keyPressed(int key) const { return key >= 0 && key < kKeys && pressed_[size_t(key)]; }
+void Window::setCursorCaptured(bool captured) {
+  if (captured == captured_) return;
+  captured_ = captured;
+  glfwSetInputMode(window_, GLFW_CURSOR, captured ? GLFW_CURSOR_DISABLED : GLFW_CURSOR_NORMAL);
+  haveCursor_ = false; // the position jumps when the mode changes: no delta from it
+}
+
 bool Window::rightButtonDown() const { return glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS; }
 
 } // namespace mirage::viewer

@@ -49,6 +49,8 @@ public:
   bool keyDown(int key) const;
   bool keyPressed(int key) const; // went down since the previous poll
   bool rightButtonDown() const;
+  // Hidden, unbounded cursor (mouse look) or the normal one.
+  void setCursorCaptured(bool captured);
   glm::vec2 mouseDelta() const { return mouseDelta_; }
   float scroll() const { return scroll_; } // notches since the previous poll
 
@@ -61,6 +63,7 @@ private:
   bool haveCursor_ = false;
   glm::vec2 mouseDelta_{0.0f};
   float scroll_ = 0.0f, scrollPending_ = 0.0f;
+  bool captured_ = false;
   friend void onScroll(GLFWwindow*, double, double);
 };
 
