@@ -41,14 +41,11 @@ bool drawOverlayPanel(UiState& s, const FrameStats& stats) {
       s.config.raster = kRasters[raster];
       changed = true;
     }
-    changed |= ImGui::Checkbox("occlusion culling", &s.config.occlusion);
-    if (s.hasPvs) changed |= ImGui::Checkbox("PVS culling", &s.config.pvs);
-    if (s.hasSurfels) {
-      changed |= ImGui::Checkbox("surfels", &s.config.surfels);
-      changed |= ImGui::SliderFloat("surfel size (px)", &s.config.surfelSize, 0.5f, 16.0f, "%.2f");
-    }
-    changed |= ImGui::Checkbox("flag back faces (debug)", &s.config.flagBackFaces);
+    changed |= ImGui::Checkbox("occlusion culling", &s.config.occlusionCulling);
+    changed |= ImGui::Checkbox("normal-cone culling", &s.config.coneCulling);
+    if (s.hasPvs) changed |= ImGui::Checkbox("PVS culling", &s.config.pvsCulling);
   }
+  if (s.hasSurfels) changed |= ImGui::SliderFloat("surfel size (px)", &s.config.surfelSize, 0.5f, 16.0f, "%.2f");
   changed |= ImGui::Checkbox("vsync", &s.vsync);
 
   ImGui::Separator();

@@ -1,8 +1,7 @@
 #pragma once
-// The viewer's one seam to the renderers: open a scene, render a View into a CPU sRGB image with
-// its stats. Cluster-LOD assets (.mrg) go to render::ClusterRenderer (with the cell's cluster PVS
-// and per-mesh surfels when asked), other scene files to render::ForwardRenderer. The shape follows
-// runtime::Scene (Scene::open, Scene::render(View) -> Frame) so the viewer moves to it here only.
+// The viewer's one seam to the renderers: runtime::Scene (docs/runtime.md) opens the scene and
+// renders a View into a CPU sRGB image with its stats; this file adds the viewer's checks and the
+// figures the overlay shows.
 #include <memory>
 #include <string>
 #include <vector>
@@ -13,26 +12,22 @@
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/camera.h"
-#include "mirage/render/cluster_renderer.h"
+#include "mirage/runtime/config.h"
+
+namespace mirage::runtime {
+class Scene;
+}
 
 namespace mirage::viewer {
 
 struct SceneOptions {
-  std::string path;     // .mrg (cluster LOD) or a scene file (.gltf .glb .obj .ply)
+  std::string path;     // .mrg, a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
   std::string pvs;      // .mrg: a triangle PVS (mirage pvs) of the scene the asset was built from
-  bool surfels = false; // .mrg: draw the per-mesh SURF chunks far away (mixed scene)
+  bool surfels = false; // .mrg: its SURF chunks (alone, or far from the meshes)
 };
 
-// What the overlay changes between frames (each maps to a renderer setting that exists).
-struct ViewConfig {
-  float tauPixels = render::kDefaultTauPixels;
-  float surfelSize = 2.0f;
-  render::RasterBackend raster = render::RasterBackend::Auto;
-  bool occlusion = false; // the render command's default
-  bool pvs = true;        // cull with the cell's PVS (when the scene has one)
-  bool surfels = true;    // draw the surfels (when the scene has them)
-  bool flagBackFaces = false;
-};
+// What the overlay changes between frames: the runtime's per-frame settings, its defaults.
+using ViewConfig = runtime::RenderConfig;
 
 struct View {
   render::Camera camera; // clip planes derived from the scene when zero
@@ -55,7 +50,7 @@ struct Frame {
 
 class SceneView {
 public:
-  // Cheap checks of the options and the input's name and kind (no GPU; before the window system).
+  // Cheap checks of the options and the input's kind (no GPU; before the window system starts).
   static Status check(const SceneOptions& options);
   // Reads the input, checks it, uploads it. Errors are one line naming the file.
   static Result<std::unique_ptr<SceneView>> open(gpu::Context& context, const SceneOptions& options);
@@ -67,11 +62,9 @@ public:
   bool hasSurfels() const;
   bool hasPvs() const;
 
-  struct Impl;
-
 private:
-  explicit SceneView(std::unique_ptr<Impl> impl);
-  std::unique_ptr<Impl> impl_;
+  explicit SceneView(std::unique_ptr<runtime::Scene> scene);
+  std::unique_ptr<runtime::Scene> scene_;
 };
 
 } // namespace mirage::viewer

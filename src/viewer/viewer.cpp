@@ -172,6 +172,7 @@ Status runViewer(const ViewerOptions& o) {
   bool looking = false;                     // right button held since a press outside the overlay
   bool writingPath = !o.screenshot.empty(); // the --path replay writes OUT_NNNN.png; later replays do not
   ViewConfig lastGood = ui.config;
+  bool untried = false; // the overlay changed a setting no frame has rendered with yet
   FrameStats stats;
   auto last = std::chrono::steady_clock::now();
   auto start = last;
@@ -267,17 +268,19 @@ Status runViewer(const ViewerOptions& o) {
     v.config = ui.config;
     auto frame = sceneView.render(v);
     if (!frame) {
-      if (ui.config.raster == lastGood.raster && ui.config.occlusion == lastGood.occlusion) {
+      if (!untried) {
         ImGui::EndFrame();
         return frame.error();
       }
       ui.message = frame.error().message; // a setting the device lacks: back to the last good one
       fmt::print(stderr, "mirage: {}\n", ui.message);
       ui.config = lastGood;
+      untried = false;
       ImGui::EndFrame();
       continue;
     }
     lastGood = ui.config;
+    untried = false;
     stats = frame->stats;
     for (const gpu::PassTime& t : stats.passTimes)
       if (t.name == "frame") gpuFrameMs.push_back(t.milliseconds);
@@ -301,7 +304,10 @@ Status runViewer(const ViewerOptions& o) {
       if (o.exitAfterPath) win.requestClose();
     }
 
-    if (drawOverlayPanel(ui, stats)) presenter.swapchain->setPresentMode(vsyncMode(ui.vsync, *present));
+    if (drawOverlayPanel(ui, stats)) {
+      untried = true;
+      presenter.swapchain->setPresentMode(vsyncMode(ui.vsync, *present));
+    }
     ImGui::Render();
     presenter.show(win, frame->srgb);
     ++frames;
