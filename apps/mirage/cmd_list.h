@@ -32,6 +32,8 @@ void addCompareCommand(CLI::App& app);
 void addGenCommand(CLI::App& app);
 // mirage surfels INPUT -o out.ply|out.mrg [--count N] [--resolution R] [--views V] [--reference]
 void addSurfelsCommand(CLI::App& app);
+// mirage view SCENE [--camera ...] [--path P --screenshot OUT.png --exit-after-path] (cmd_view.cpp).
+void addViewCommand(CLI::App& app);
 // mirage pvs / pvs-eval: GVS++ potentially visible sets per view cell (cmd_pvs.cpp).
 void addPvsCommands(CLI::App& app);
 

@@ -83,6 +83,7 @@ void registerCommands(CLI::App& app) {
   addBenchCommand(app);
   addSurfelsCommand(app);
   addPvsCommands(app);
+  addViewCommand(app);
 }
 
 } // namespace mirage::cli

@@ -167,7 +167,8 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   return p;
 }
 
-Result<VkInstance> createInstance(bool validation, bool syncValidation, bool& validationActive) {
+Result<VkInstance> createInstance(bool validation, bool syncValidation, const std::vector<std::string>& extra,
+                                  bool& validationActive) {
   static std::once_flag volk_once;
   static VkResult volk_result = VK_SUCCESS;
   std::call_once(volk_once, [] { volk_result = volkInitialize(); });
@@ -199,6 +200,10 @@ Result<VkInstance> createInstance(bool validation, bool syncValidation, bool& va
     if (hasExtension(available, VK_EXT_DEBUG_UTILS_EXTENSION_NAME))
       extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   }
+
+  for (const std::string& name : extra)
+    if (std::none_of(extensions.begin(), extensions.end(), [&](const char* e) { return name == e; }))
+      extensions.push_back(name.c_str());
 
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = "mirage";
@@ -265,7 +270,7 @@ const char* deviceTypeName(VkPhysicalDeviceType type) {
 
 Result<std::vector<DeviceInfo>> Context::enumerateDevices() {
   bool active = false;
-  auto instance = createInstance(false, false, active);
+  auto instance = createInstance(false, false, {}, active);
   if (!instance) return instance.error();
   std::vector<DeviceInfo> out;
   auto list = physicalDevices(*instance);
@@ -284,7 +289,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   std::unique_ptr<Context> ctx(new Context());
   bool validation = options.validation || envFlag("MIRAGE_VALIDATION");
   bool active = false;
-  auto instance = createInstance(validation, options.synchronizationValidation, active);
+  auto instance = createInstance(validation, options.synchronizationValidation, options.instanceExtensions, active);
   if (!instance) return instance.error();
   ctx->instance_ = *instance;
 
@@ -329,6 +334,11 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
     if (chosen < 0) return Error{fmt::format("vulkan: no usable device: {}", probes[0].whyUnusable)};
   }
   DeviceProbe& p = probes[chosen];
+  if (options.swapchain) {
+    if (!hasExtension(deviceExtensions(p.device), VK_KHR_SWAPCHAIN_EXTENSION_NAME))
+      return Error{fmt::format("vulkan: device '{}' cannot present (no VK_KHR_swapchain)", p.caps.name)};
+    p.extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+  }
   ctx->physical_ = p.device;
   ctx->caps_ = p.caps;
   ctx->queueFamily_ = p.queueFamily;

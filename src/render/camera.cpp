@@ -249,6 +249,49 @@ Result<std::vector<Camera>> loadCameraPath(const std::filesystem::path& path) {
   return cameras;
 }
 
+std::string formatCamera(const Camera& c) {
+  // fmt's "{}" prints a float's shortest representation that reads back to the same float.
+  return fmt::format("eye={},{},{},target={},{},{},up={},{},{},fov={}", c.eye.x, c.eye.y, c.eye.z, c.target.x,
+                     c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fovYDegrees);
+}
+
+Status writeCameraPath(const std::filesystem::path& path, const std::vector<Camera>& cameras) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const Camera& c : cameras) {
+    nlohmann::json e;
+    e["eye"] = {c.eye.x, c.eye.y, c.eye.z};
+    e["target"] = {c.target.x, c.target.y, c.target.z};
+    e["up"] = {c.up.x, c.up.y, c.up.z};
+    e["fov"] = c.fovYDegrees;
+    if (c.znear > 0.0f) e["znear"] = c.znear;
+    if (c.zfar > 0.0f) e["zfar"] = c.zfar;
+    j.push_back(std::move(e));
+  }
+  std::string text = j.dump(1) + "\n";
+  std::filesystem::path tmp = path;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out || !out.write(text.data(), std::streamsize(text.size())) || !out.flush()) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      return Error{fmt::format("{}: cannot write camera path", path.string())};
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return Error{fmt::format("{}: cannot write camera path", path.string())};
+  }
+  return Ok{};
+}
+
+std::string pathFrameName(const std::string& output, size_t index) {
+  std::filesystem::path p = output;
+  return (p.parent_path() / fmt::format("{}_{:04}{}", p.stem().string(), index, p.extension().string())).string();
+}
+
 std::vector<Camera> orbitPath(const Bounds& bounds, float aspect, uint32_t count) {
   Camera start = autoCamera(bounds, aspect);
   start.target = bounds.empty() ? glm::vec3(0.0f) : bounds.center(); // the circle's centre

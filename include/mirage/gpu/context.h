@@ -43,6 +43,10 @@ struct ContextOptions {
   std::string device;      // name substring or index; empty: MIRAGE_DEVICE, then discrete > integrated > CPU
   bool validation = false; // also on when MIRAGE_VALIDATION=1
   bool synchronizationValidation = true; // with validation: VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION
+  // Presentation (the viewer): the instance extensions the window system asks for
+  // (glfwGetRequiredInstanceExtensions) and VK_KHR_swapchain on the device. Headless: both empty.
+  std::vector<std::string> instanceExtensions;
+  bool swapchain = false;
 };
 
 class Context {

@@ -37,6 +37,7 @@ inline void destroyHandle(VkDevice d, VkCommandPool h) { vkDestroyCommandPool(d,
 inline void destroyHandle(VkDevice d, VkFence h) { vkDestroyFence(d, h, nullptr); }
 inline void destroyHandle(VkDevice d, VkSemaphore h) { vkDestroySemaphore(d, h, nullptr); }
 inline void destroyHandle(VkDevice d, VkQueryPool h) { vkDestroyQueryPool(d, h, nullptr); }
+inline void destroyHandle(VkDevice d, VkSwapchainKHR h) { vkDestroySwapchainKHR(d, h, nullptr); }
 inline void destroyHandle(VkDevice d, VkAccelerationStructureKHR h) {
   vkDestroyAccelerationStructureKHR(d, h, nullptr);
 }

@@ -1,6 +1,7 @@
 #pragma once
 // Cameras: explicit eye/target/fov, or an automatic 3/4 view that frames the scene bounds.
 #include <filesystem>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -50,10 +51,21 @@ void frustumPlanes(const glm::mat4& viewProj, glm::vec4 planes[5]);
 // target. `camera` must have its clip planes set (withClipPlanes).
 shaderio::ViewFrame viewFrame(const Camera& camera, uint32_t width, uint32_t height);
 
+// The --camera string of `camera` ("eye=x,y,z,target=x,y,z,up=x,y,z,fov=deg"), numbers in their
+// shortest exact form: parseCamera gives the camera back (clip planes are not part of it).
+std::string formatCamera(const Camera& camera);
+
 // A camera path for `--path`: a JSON file holding an array of cameras (or {"cameras": [...]}), each
 // either a --camera string or an object {"eye": [x,y,z], "target": [x,y,z], "up": [...], "fov": deg,
 // "znear": n, "zfar": f}. Errors name the file and the camera's index.
 Result<std::vector<Camera>> loadCameraPath(const std::filesystem::path& path);
+
+// Writes `cameras` as the JSON loadCameraPath reads (an array of objects; znear/zfar only when set),
+// atomically (a temporary file renamed over `path`). Errors name the file.
+Status writeCameraPath(const std::filesystem::path& path, const std::vector<Camera>& cameras);
+
+// out.png, 7 -> out_0007.png: the image of camera 7 of a path (render --path, view --screenshot).
+std::string pathFrameName(const std::string& output, size_t index);
 
 // `count` cameras on a horizontal circle around the bounds' centre at autoCamera's distance and
 // elevation, one full turn: a deterministic path for benchmarks and temporal tests.

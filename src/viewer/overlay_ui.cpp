@@ -1,0 +1,62 @@
+#include "overlay_ui.h"
+
+#include <imgui.h>
+
+namespace mirage::viewer {
+
+namespace {
+
+const char* kRasterNames[] = {"auto", "mesh", "indirect", "compute", "hybrid"};
+const render::RasterBackend kRasters[] = {render::RasterBackend::Auto, render::RasterBackend::Mesh,
+                                          render::RasterBackend::Indirect, render::RasterBackend::Compute,
+                                          render::RasterBackend::Hybrid};
+
+} // namespace
+
+bool drawOverlayPanel(UiState& s, const FrameStats& stats) {
+  bool changed = false;
+  ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowBgAlpha(0.75f);
+  ImGui::Begin("mirage", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
+  ImGui::Text("%.1f FPS  %.2f ms/frame", s.cpuFrameMs > 0.0 ? 1000.0 / s.cpuFrameMs : 0.0, s.cpuFrameMs);
+  if (ImGui::CollapsingHeader("GPU passes", ImGuiTreeNodeFlags_DefaultOpen)) {
+    for (const gpu::PassTime& t : stats.passTimes) ImGui::Text("%-10s %8.3f ms", t.name.c_str(), t.milliseconds);
+    if (stats.passTimes.empty()) ImGui::TextUnformatted("(no timestamp queries)");
+  }
+  ImGui::Text("triangles %llu", static_cast<unsigned long long>(stats.triangles));
+  if (s.clusterLod) ImGui::Text("clusters  %llu", static_cast<unsigned long long>(stats.clusters));
+  if (s.hasSurfels) ImGui::Text("surfels   %llu", static_cast<unsigned long long>(stats.surfels));
+  if (stats.cell >= 0)
+    ImGui::Text("view cell %d", stats.cell);
+  else if (stats.cell == -1)
+    ImGui::TextUnformatted("view cell: none (no PVS culling)");
+
+  ImGui::Separator();
+  if (s.clusterLod) {
+    changed |= ImGui::SliderFloat("tau (px)", &s.config.tauPixels, 0.25f, 16.0f, "%.2f", ImGuiSliderFlags_Logarithmic);
+    int raster = 0;
+    for (int i = 0; i < 5; ++i)
+      if (kRasters[i] == s.config.raster) raster = i;
+    if (ImGui::Combo("raster", &raster, kRasterNames, 5)) {
+      s.config.raster = kRasters[raster];
+      changed = true;
+    }
+    changed |= ImGui::Checkbox("occlusion culling", &s.config.occlusionCulling);
+    changed |= ImGui::Checkbox("normal-cone culling", &s.config.coneCulling);
+    if (s.hasPvs) changed |= ImGui::Checkbox("PVS culling", &s.config.pvsCulling);
+  }
+  if (s.hasSurfels) changed |= ImGui::SliderFloat("surfel size (px)", &s.config.surfelSize, 0.5f, 16.0f, "%.2f");
+  changed |= ImGui::Checkbox("vsync", &s.vsync);
+
+  ImGui::Separator();
+  ImGui::TextUnformatted("WASD/QE move, right button look, wheel speed");
+  ImGui::TextUnformatted("F frame  C print camera  R record  P replay  F12 shot");
+  if (!s.camera.empty()) ImGui::TextWrapped("--camera %s (copied)", s.camera.c_str());
+  if (s.recording) ImGui::Text("recording: %zu cameras", s.recorded);
+  if (s.replaying) ImGui::TextUnformatted("replaying path");
+  if (!s.message.empty()) ImGui::TextWrapped("%s", s.message.c_str());
+  ImGui::End();
+  return changed;
+}
+
+} // namespace mirage::viewer

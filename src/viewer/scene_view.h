@@ -1,0 +1,70 @@
+#pragma once
+// The viewer's one seam to the renderers: runtime::Scene (docs/runtime.md) opens the scene and
+// renders a View into a CPU sRGB image with its stats; this file adds the viewer's checks and the
+// figures the overlay shows.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mirage/core/image.h"
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/gpu/context.h"
+#include "mirage/gpu/query.h"
+#include "mirage/render/camera.h"
+#include "mirage/runtime/config.h"
+
+namespace mirage::runtime {
+class Scene;
+}
+
+namespace mirage::viewer {
+
+struct SceneOptions {
+  std::string path;     // .mrg, a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
+  std::string pvs;      // .mrg: a triangle PVS (mirage pvs) of the scene the asset was built from
+  bool surfels = false; // .mrg: its SURF chunks (alone, or far from the meshes)
+};
+
+// What the overlay changes between frames: the runtime's per-frame settings, its defaults.
+using ViewConfig = runtime::RenderConfig;
+
+struct View {
+  render::Camera camera; // clip planes derived from the scene when zero
+  uint32_t width = 1280, height = 720;
+  ViewConfig config;
+};
+
+struct FrameStats {
+  std::vector<gpu::PassTime> passTimes;
+  uint64_t triangles = 0; // rasterized (cluster LOD) or submitted (forward)
+  uint64_t clusters = 0;  // drawn; 0 on the forward path
+  uint64_t surfels = 0;   // splatted
+  int cell = -2;          // view cell of the camera: -2 no PVS, -1 outside every cell
+};
+
+struct Frame {
+  ImageRGBA8 srgb;
+  FrameStats stats;
+};
+
+class SceneView {
+public:
+  // Cheap checks of the options and the input's kind (no GPU; before the window system starts).
+  static Status check(const SceneOptions& options);
+  // Reads the input, checks it, uploads it. Errors are one line naming the file.
+  static Result<std::unique_ptr<SceneView>> open(gpu::Context& context, const SceneOptions& options);
+  ~SceneView();
+  Result<Frame> render(const View& view);
+
+  const Bounds& bounds() const;
+  bool clusterLod() const;
+  bool hasSurfels() const;
+  bool hasPvs() const;
+
+private:
+  explicit SceneView(std::unique_ptr<runtime::Scene> scene);
+  std::unique_ptr<runtime::Scene> scene_;
+};
+
+} // namespace mirage::viewer
