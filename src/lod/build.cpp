@@ -699,9 +699,17 @@ private:
     timer.emplace(kSimplify);
     w.simplifyError = simplifyLocked(sm, before / 2, gs.simplify);
     size_t after = sm.corners.size() / 3;
-    if (after == 0 || double(after) > double(cfg_.stuckRatio) * double(before)) {
-      w.stuck = true;
-      return;
+    auto stuck = [&] { return after == 0 || double(after) > double(cfg_.stuckRatio) * double(before); };
+    if (stuck()) {
+      // No legal collapse left short of the target (tunnels, complex vertices): cluster vertices,
+      // which may change topology, so that the DAG still ends in one root.
+      float clustered = simplifyClustered(sm, before / 2);
+      after = sm.corners.size() / 3;
+      if (clustered < 0.0f || stuck()) {
+        w.stuck = true;
+        return;
+      }
+      w.simplifyError = std::max(w.simplifyError, clustered);
     }
     timer.emplace(kSplit);
     w.parents = splitClusters(sm.attributes, sm.positions, dag_.vertexPosition, cfg_.clusterVertices,
