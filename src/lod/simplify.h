@@ -104,15 +104,16 @@ float simplifyLocked(SimplifyMesh& mesh, size_t targetTriangles, SimplifyScratch
 float simplifyLocked(SimplifyMesh& mesh, size_t targetTriangles);
 
 // Fallback for a group the collapses cannot bring below the stuck ratio (scan tunnels and complex
-// vertices: simplifyLocked keeps topology): vertex clustering on a uniform grid, each cell's
-// movable vertices merged into the one among them with the least error of the cell's summed
-// quadric, from the finest grid down until at most targetTriangles remain. Locked vertices and the
-// group's open-border vertices stay; triangles that degenerate go, and copies of one triangle
-// cancel in pairs, so the open border is kept (checked, as are new non-manifold edges and the area,
-// the DAG verifier's group rules). Rewrites corners/attributes (a moved corner takes an attribute
-// vertex of its new position) and returns the error (2x the cell quadric distance: topology
-// changes and flipped faces look worse than the plane distance says), or -1 with the mesh untouched
-// when no grid gives a valid reduction below the input's triangle count.
+// vertices: simplifyLocked keeps topology): vertex clustering on uniform grids, from fine to
+// coarse, until at most targetTriangles remain. Per grid, the movable vertices (not locked, not on
+// the group's open border) connected inside one cell merge into the one with the least error of
+// their summed quadric, cheapest merges first, each applied only when it keeps the DAG verifier's
+// group rules on the edges it touches (the open edges stay, no edge gets more than two triangles
+// unless it had as many, the area stays within 40 %). Degenerate triangles go and copies of one
+// triangle cancel in pairs, so a closed tunnel leaves no hole. Rewrites corners/attributes (a
+// moved corner takes an attribute vertex of its new position) and returns the error (2x the
+// largest merged cell quadric distance: topology changes look worse than the plane distance
+// says), or -1 with the mesh untouched when no merge was possible.
 float simplifyClustered(SimplifyMesh& mesh, size_t targetTriangles);
 
 } // namespace mirage::lod::detail
