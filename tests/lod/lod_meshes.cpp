@@ -188,10 +188,10 @@ Mesh makeRandomMesh(uint32_t seed) {
 Mesh makeDrilledSlab() {
   Mesh m;
   m.name = "drilled slab";
-  constexpr int kSide = 40, kDepth = 4;
+  constexpr int kSide = 40, kDepth = 6;
   auto solid = [](int x, int y, int z) {
     if (x < 0 || y < 0 || z < 0 || x >= kSide || y >= kSide || z >= kDepth) return false;
-    return !(x % 5 == 2 && y % 5 == 2); // the holes
+    return !(x % 10 == 5 && y % 10 == 5); // the holes
   };
   std::map<std::array<int, 3>, uint32_t> corner;
   auto vertex = [&](int x, int y, int z) {
