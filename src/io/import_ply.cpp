@@ -142,8 +142,9 @@ private:
   Status fail(const std::string& problem) const { return makeError(file_, problem); }
 
   Status parseHeader() {
-    // The header is text ending in "end_header"; 1 MiB is far more than any real header.
-    in_.ensure(1 << 20);
+    // The header is text ending in "end_header": the first buffer (the whole file, or 16 MiB) is
+    // far more than any real header.
+    in_.fill();
     std::string_view all(in_.data(), in_.available());
     if (all.substr(0, 3) != "ply") return fail("not a PLY file (missing 'ply' magic)");
     size_t endPos = all.find("end_header");
