@@ -44,7 +44,7 @@ public:
       Tri v{m.corners[t * 3], m.corners[t * 3 + 1], m.corners[t * 3 + 2]};
       Tri a{m.attributes[t * 3], m.attributes[t * 3 + 1], m.attributes[t * 3 + 2]};
       addTriangle(v, a);
-      for (int k = 0; k < 3; ++k) ++input_[edgeKey(v[k], v[(k + 1) % 3])];
+      for (size_t k = 0; k < 3; ++k) ++input_[edgeKey(v[k], v[(k + 1) % 3])];
     }
     edges_ = input_;
     areaBefore_ = area_;
@@ -73,14 +73,14 @@ public:
     delta_.clear();
     double areaDelta = 0.0;
     auto edgesOf = [&](const Tri& v, int sign) {
-      for (int k = 0; k < 3; ++k) delta_.push_back({edgeKey(v[k], v[(k + 1) % 3]), sign});
+      for (size_t k = 0; k < 3; ++k) delta_.push_back({edgeKey(v[k], v[(k + 1) % 3]), sign});
     };
     for (uint32_t t : affected_) edgesOf(tris_[t], -1), areaDelta -= triArea(tris_[t]);
     // Remapped triangles by key; existing copies outside the affected set cancel with them.
     made_.clear();
     for (uint32_t t : affected_) {
       Tri v = tris_[t], a = attrs_[t];
-      for (int k = 0; k < 3; ++k)
+      for (size_t k = 0; k < 3; ++k)
         if (v[k] != r && std::find(set.begin(), set.end(), v[k]) != set.end()) v[k] = r, a[k] = attribute;
       if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) continue;
       made_.push_back({triKey(v), v, a});
@@ -184,7 +184,7 @@ float simplifyClustered(SimplifyMesh& mesh, size_t targetTriangles) {
   std::vector<uint32_t> attributeOf(nv, kNil); // an attribute vertex at each position
   for (size_t t = 0; t < nt; ++t) {
     const uint32_t* v = &mesh.corners[t * 3];
-    for (int k = 0; k < 3; ++k) {
+    for (size_t k = 0; k < 3; ++k) {
       if (attributeOf[v[k]] == kNil) attributeOf[v[k]] = mesh.attributes[t * 3 + k];
       if (merger.inputUses(edgeKey(v[k], v[(k + 1) % 3])) == 1) fixed[v[k]] = fixed[v[(k + 1) % 3]] = 1;
     }
@@ -193,7 +193,7 @@ float simplifyClustered(SimplifyMesh& mesh, size_t targetTriangles) {
     if (len <= 0.0) continue;
     n /= len;
     Quadric pq = planeQuadric(n, -glm::dot(n, p[v[0]]), len * 0.5);
-    for (int k = 0; k < 3; ++k) add(q[v[k]], pq);
+    for (size_t k = 0; k < 3; ++k) add(q[v[k]], pq);
   }
   std::vector<uint8_t> merged(nv, 0);
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
@@ -230,7 +230,7 @@ float simplifyClustered(SimplifyMesh& mesh, size_t targetTriangles) {
     for (uint32_t t = 0; t < merger.tris().size(); ++t) {
       if (!merger.isAlive(t)) continue;
       const Tri& v = merger.tris()[t];
-      for (int k = 0; k < 3; ++k) {
+      for (size_t k = 0; k < 3; ++k) {
         uint32_t a = v[k], b = v[(k + 1) % 3];
         if (fixed[a] || fixed[b] || cellOf[a] != cellOf[b]) continue;
         a = find(a), b = find(b);
@@ -276,7 +276,7 @@ float simplifyClustered(SimplifyMesh& mesh, size_t targetTriangles) {
   mesh.attributes.clear();
   for (uint32_t t = 0; t < merger.tris().size(); ++t)
     if (merger.isAlive(t))
-      for (int k = 0; k < 3; ++k)
+      for (size_t k = 0; k < 3; ++k)
         mesh.corners.push_back(merger.tris()[t][k]), mesh.attributes.push_back(merger.attrs()[t][k]);
   return float(kErrorFactor * std::sqrt(maxError));
 }
