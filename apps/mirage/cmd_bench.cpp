@@ -24,72 +24,65 @@
 #include "mirage/visibility/pvs_storage.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
+#include "mirage/runtime/scene.h"
 #include "render_common.h"
+#include "render_options.h"
 
 namespace mirage::cli {
 
 namespace {
 
 struct BenchRenderOptions {
-  std::string input;
+  runtime::SceneOptions scene;
   std::string size = "1920x1080";
   std::string device;
   int frames = 20;
   double warmupMs = kBenchWarmupMs;
   bool json = false;
-  float tau = render::kDefaultTauPixels; // .mrg only
-  uint32_t grid = 1;                     // .mrg only: the scene repeated on a grid x grid layout
-  std::string raster = "all";            // .mrg only: every backend the device has
-  std::string path;                      // .mrg only: camera path, each camera timed once
-  bool baselines = false;                // .mrg only: brute force + discrete LOD chain in the same run
-  LodCullOptions cull;                   // .mrg only
-  std::string camera;                    // .mrg only: empty = auto 3/4 view
-  bool surfels = false;                  // .mrg with DAGs + per-mesh SURF chunks: the mixed scene
-  float surfelSize = 2.0f;
-  std::string pvs; // .mrg only: time every frame with and without the camera cell's cluster PVS
+  std::string path;       // .mrg only: camera path, each camera timed once
+  bool baselines = false; // .mrg only: brute force + discrete LOD chain in the same run
+  std::string camera;     // .mrg only: empty = auto 3/4 view
+  runtime::RenderConfig config;
+  BenchSweeps sweeps;
+  RenderConfigOptions given;
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
-  if (o.surfels && !mrgHasClusterDags(o.input))
-    return fail(o.input + ": bench render --surfels needs a .mrg with cluster DAGs and SURF chunks (surfel-only: "
-                          "mirage bench surfels)");
-  if (isLodAssetPath(o.input)) {
-    LodRenderRequest r{.input = o.input,
+  auto kind = runtime::sceneKind(o.scene);
+  if (o.scene.surfels && (!kind || *kind != runtime::SceneKind::ClusterLod))
+    return fail(o.scene.input + ": bench render --surfels needs a .mrg with cluster DAGs and SURF chunks (surfel-only: "
+                                "mirage bench surfels)");
+  if (!kind) return fail(kind.error());
+  if (*kind == runtime::SceneKind::ClusterLod) {
+    LodRenderRequest r{.scene = o.scene,
                        .camera = o.camera,
                        .path = o.path,
                        .size = o.size,
                        .device = o.device,
-                       .raster = o.raster,
-                       .tau = o.tau,
-                       .grid = o.grid,
+                       .config = o.config,
+                       .sweeps = o.sweeps,
                        .frames = o.frames,
                        .warmupMs = o.warmupMs,
                        .stats = true,
                        .json = o.json,
-                       .baselines = o.baselines,
-                       .cull = o.cull,
-                       .surfels = o.surfels,
-                       .surfelSize = o.surfelSize,
-                       .pvs = o.pvs};
+                       .baselines = o.baselines};
     return runLodBench(r);
   }
   if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
-  if (!o.pvs.empty())
+  if (!o.scene.pvs.empty())
     return fail("bench render --pvs applies to .mrg cluster-LOD assets (scene files: mirage bench pvs)");
   uint32_t width = 0, height = 0;
   if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
   if (o.frames < 2 || o.frames > 100000) return fail("--frames must be in 2..100000");
-  auto scene = loadSceneArgument(o.input);
-  if (!scene) return fail(scene.error());
   auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
-  auto renderer = render::ForwardRenderer::create(**ctx, *scene);
-  if (!renderer) return fail(renderer.error());
-  render::RenderSettings rs;
-  rs.width = width;
-  rs.height = height;
-  rs.camera = render::autoCamera(scene->worldBounds(), float(width) / float(height));
-  rs.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
+  auto scene = runtime::Scene::open(**ctx, o.scene);
+  if (!scene) return fail(scene.error());
+  runtime::View view;
+  view.width = width;
+  view.height = height;
+  view.camera = render::autoCamera((*scene)->bounds(), float(width) / float(height));
+  view.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
 
   std::vector<std::vector<gpu::PassTime>> frames;
   std::vector<double> wall;
@@ -97,7 +90,7 @@ void runBenchRender(const BenchRenderOptions& o) {
   auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < o.frames; ++i) {
     auto t0 = std::chrono::steady_clock::now();
-    auto out = (*renderer)->render(rs);
+    auto out = (*scene)->render(view);
     if (!out) return fail(out.error());
     // Warm-up: pipeline compilation, first touch of memory, and --warmup-ms of work for the clock.
     if (i == 0 && std::chrono::duration<double, std::milli>(t0 - start).count() < o.warmupMs) {
@@ -106,17 +99,17 @@ void runBenchRender(const BenchRenderOptions& o) {
     }
     wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     if (i == 0) continue;
-    frames.push_back(out->stats.passTimes);
-    lastStats = out->stats;
+    frames.push_back(out->passTimes);
+    lastStats = out->forward->stats;
   }
   std::vector<gpu::PassTime> times = medianPassTimes(frames);
   wall.erase(wall.begin());
   std::sort(wall.begin(), wall.end());
   double frameMs = times.empty() ? 0.0 : times[0].milliseconds;
-  size_t triangles = scene->instancedTriangleCount();
+  uint64_t triangles = (*scene)->info().sourceTriangles;
   const auto& caps = (*ctx)->caps();
   if (o.json) {
-    nlohmann::json j = {{"bench", "render"},       {"input", o.input},
+    nlohmann::json j = {{"bench", "render"},       {"input", o.scene.input},
                         {"device", caps.name},     {"width", width},
                         {"height", height},        {"triangles", triangles},
                         {"frames", frames.size()}, {"wall_ms_median_incl_readback", wall[wall.size() / 2]}};
@@ -126,8 +119,8 @@ void runBenchRender(const BenchRenderOptions& o) {
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("bench render {} on {}: {} triangles at {}x{}, {} timed frames (after 1 warm-up)\n", o.input, caps.name,
-             triangles, width, height, frames.size());
+  fmt::print("bench render {} on {}: {} triangles at {}x{}, {} timed frames (after 1 warm-up)\n", o.scene.input,
+             caps.name, triangles, width, height, frames.size());
   for (const auto& t : times) fmt::print("  gpu {:<8} {:9.3f} ms (median)\n", t.name, t.milliseconds);
   if (frameMs > 0) fmt::print("  {:.1f} M triangles/s (GPU frame time)\n", double(triangles) / (frameMs * 1e-3) * 1e-6);
   fmt::print("  wall per frame incl. readback {:.2f} ms (median)\n", wall[wall.size() / 2]);
@@ -335,7 +328,7 @@ void addBenchCommand(CLI::App& app) {
   auto* r = bench->add_subcommand("render",
                                   "Median per-pass GPU time over N frames (forward; .mrg: cluster LOD per backend)");
   auto o = std::make_shared<BenchRenderOptions>();
-  r->add_option("input", o->input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
+  r->add_option("input", o->scene.input, "Scene file or gen:KIND[:SIZE[:SEED]]")->required();
   r->add_option("--size", o->size, "WxH")->capture_default_str();
   r->add_option("--frames", o->frames, "Frames to render (the first is a warm-up)")->capture_default_str();
   r->add_option("--warmup-ms", o->warmupMs,
@@ -344,20 +337,12 @@ void addBenchCommand(CLI::App& app) {
       ->capture_default_str();
   r->add_option("--device", o->device, "Vulkan device name substring or index");
   r->add_flag("--json", o->json, "Print results as JSON");
-  r->add_option("--tau", o->tau, ".mrg: LOD threshold in pixels")->capture_default_str();
-  r->add_option("--raster", o->raster, ".mrg: all|auto|mesh|indirect|compute|hybrid")->capture_default_str();
-  addLodCullOptions(*r, o->cull, /*bench=*/true);
-  r->add_flag("--surfels", o->surfels, ".mrg with DAGs and per-mesh SURF chunks: meshes near, surfels far");
-  r->add_option("--surfel-size", o->surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str();
+  o->given = bindRenderConfig(*r, o->config, BindMode::Bench, &o->sweeps);
+  bindSceneOptions(*r, o->scene, BindMode::Bench);
   r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,
               ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");
-  r->add_option("--pvs", o->pvs,
-                ".mrg: PVS from mirage pvs of the asset's source scene: every frame timed with and without the camera "
-                "cell's cluster PVS (no --camera/--path: 4 views from every cell's centre)");
-  r->add_option("--grid", o->grid, ".mrg: repeat the scene on an N x N grid (e.g. 50 -> 2500 instances)")
-      ->capture_default_str();
   r->callback([o] { runBenchRender(*o); });
 
   auto* im = bench->add_subcommand("import", "Scene import speed: median wall time and MB/s (welding included)");

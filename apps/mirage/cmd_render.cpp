@@ -1,7 +1,7 @@
-// mirage render INPUT -o out.png: headless forward rendering of a scene file; .mrg assets go to the
-// cluster-LOD renderer (cmd_render_lod.cpp).
-#include <chrono>
-
+// mirage render INPUT -o out.png: headless rendering through runtime::Scene. Scene files and gen:
+// scenes take the forward path, surfel-only files the surfel path (both here); .mrg assets with
+// cluster DAGs go to the cluster-LOD path (cmd_render_lod.cpp).
+#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -9,16 +9,16 @@
 #include "commands.h"
 #include "lod_render.h"
 #include "mirage/io/image_io.h"
-#include "mirage/render/forward_renderer.h"
+#include "mirage/runtime/scene.h"
 #include "render_common.h"
-#include "surfel_render.h"
+#include "render_options.h"
 
 namespace mirage::cli {
 
 namespace {
 
 struct RenderOptions {
-  std::string input;
+  runtime::SceneOptions scene;
   std::string output;
   std::string exr;
   std::string camera;
@@ -27,170 +27,155 @@ struct RenderOptions {
   int repeat = 1;
   bool stats = false;
   bool json = false;
-  float tau = render::kDefaultTauPixels; // .mrg only
-  std::string raster = "auto";           // .mrg only
-  std::string pvs;                       // draw only the PVS of the camera's view cell (.mrg: its cluster PVS)
-  std::string path;                      // .mrg only: camera path (cameras.json or orbit:N), one image per camera
-  bool surfels = false;                  // draw the file's SURF chunk (or surfel PLY) with the surfel renderer
-  float surfelSize = 2.0f;
-  std::string surfelRaster = "auto";
-  std::string surfelOrder; // empty: render::kDefaultSurfelOrder
-  LodCullOptions cull;     // .mrg only
+  std::string path; // .mrg only: camera path (cameras.json or orbit:N), one image per camera
+  runtime::RenderConfig config;
+  RenderConfigOptions given;
+  CLI::Option* surfelOrder = nullptr;
 };
 
 LodRenderRequest lodRequest(const RenderOptions& o) {
-  return LodRenderRequest{.input = o.input,
+  return LodRenderRequest{.scene = o.scene,
                           .output = o.output,
                           .exr = o.exr,
                           .camera = o.camera,
                           .path = o.path,
                           .size = o.size,
                           .device = o.device,
-                          .raster = o.raster,
-                          .tau = o.tau,
+                          .config = o.config,
                           .frames = o.repeat,
                           .stats = o.stats,
-                          .json = o.json,
-                          .cull = o.cull,
-                          .pvs = o.pvs};
+                          .json = o.json};
 }
 
-void runRender(const RenderOptions& o) {
-  if (!o.surfels && isLodAssetPath(o.input)) {
-    // A .mrg without DAGs: say which flag its chunks call for.
-    MrgContents c = mrgContents(o.input);
-    if (!c.clusterDags && c.surfels)
-      return fail(o.input + ": holds surfels only (SURF chunks, no cluster DAG): render it with --surfels");
-    if (!c.clusterDags && c.pvs)
-      return fail(o.input + ": holds a PVS only (from mirage pvs): render the scene it was baked for with --pvs " +
-                  o.input);
-  }
-  if (o.surfels && mrgHasClusterDags(o.input)) { // DAGs + SURF: meshes near, surfels far (one frame)
-    if (!o.pvs.empty() || o.surfelRaster != "auto" || !o.surfelOrder.empty())
-      return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");
-    LodRenderRequest r = lodRequest(o);
-    r.surfels = true;
-    r.surfelSize = o.surfelSize;
-    return runLodRender(r);
-  }
-  if (o.surfels) {
-    if (!o.pvs.empty() || !o.exr.empty() || !o.path.empty())
-      return fail("--pvs, --exr and --path do not apply to --surfels");
-    SurfelRenderRequest r;
-    r.input = o.input;
-    r.output = o.output;
-    r.camera = o.camera;
-    r.size = o.size;
-    r.device = o.device;
-    r.raster = o.surfelRaster;
-    r.order = o.surfelOrder;
-    r.surfelSize = o.surfelSize;
-    r.frames = o.repeat;
-    r.stats = o.stats;
-    if (o.repeat < 1 || o.repeat > 10000) return fail("--repeat must be in 1..10000");
-    return runSurfelRender(r);
-  }
-  if (o.surfelSize != 2.0f || o.surfelRaster != "auto" || !o.surfelOrder.empty())
-    return fail("--surfel-size, --surfel-raster and --surfel-order need --surfels");
-  if (isLodAssetPath(o.input)) {
-    LodRenderRequest r = lodRequest(o);
-    return runLodRender(r);
-  }
-  if (o.raster != "auto" || o.tau != render::kDefaultTauPixels || !o.path.empty() || !o.cull.isDefault())
-    return fail("--tau, --raster, --path, --hybrid-threshold, --occlusion, --cones, --selection and --blend-raster "
-                "apply to .mrg cluster-LOD assets only");
-  // Check everything cheap before the import and the GPU start.
-  uint32_t width = 0, height = 0;
-  if (auto s = parseSize(o.size, width, height); !s) return fail(s.error());
-  if (auto s = checkOutputPath(o.output, {".png"}); !s) return fail(s.error());
+struct Rendered {
+  runtime::Frame last;
+  std::vector<gpu::PassTime> times; // medians over frames 2..N (the first pays for pipeline warm-up)
+  size_t framesTimed = 0;
+};
+
+// Forward and surfel paths: checks the arguments, opens the scene, renders --repeat frames and
+// writes the images. Returns false after fail().
+bool renderToFiles(const RenderOptions& o, std::unique_ptr<gpu::Context>& ctx, std::unique_ptr<runtime::Scene>& scene,
+                   runtime::View& view, Rendered& out) {
+  // Everything cheap before the import and the GPU start.
+  if (auto s = parseSize(o.size, view.width, view.height); !s) return fail(s.error()), false;
+  if (auto s = checkOutputPath(o.output, {".png"}); !s) return fail(s.error()), false;
   if (!o.exr.empty())
-    if (auto s = checkOutputPath(o.exr, {".exr", ".pfm"}); !s) return fail(s.error());
+    if (auto s = checkOutputPath(o.exr, {".exr", ".pfm"}); !s) return fail(s.error()), false;
+  if (auto s = runtime::validate(o.config); !s) return fail(s.error()), false;
   render::Camera camera;
-  bool autoCam = o.camera.empty();
-  if (!autoCam) {
+  if (!o.camera.empty()) {
     auto c = render::parseCamera(o.camera);
-    if (!c) return fail(c.error());
+    if (!c) return fail(c.error()), false;
     camera = *c;
   }
-  if (o.repeat < 1 || o.repeat > 10000) return fail("--repeat must be in 1..10000");
-
-  auto t0 = std::chrono::steady_clock::now();
-  auto scene = loadSceneArgument(o.input);
-  if (!scene) return fail(scene.error());
-  double importSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (autoCam) camera = render::autoCamera(scene->worldBounds(), float(width) / float(height));
-  int cell = -1;
-  if (!o.pvs.empty()) {
-    // Clip planes stay those of the whole scene, so the PVS image differs from the full one only
-    // where the PVS misses something.
-    camera = render::withClipPlanes(camera, scene->worldBounds());
-    auto pvs = vis::loadPvs(o.pvs);
-    if (!pvs) return fail(pvs.error());
-    auto restricted = restrictSceneToPvs(*scene, *pvs, o.pvs, camera.eye, cell);
-    if (!restricted) return fail(restricted.error());
-    scene = std::move(restricted);
-  }
-
-  auto ctx = openDevice(o.device);
-  if (!ctx) return fail(ctx.error());
-  auto renderer = render::ForwardRenderer::create(**ctx, *scene);
-  if (!renderer) return fail(renderer.error());
-
-  render::RenderSettings rs;
-  rs.width = width;
-  rs.height = height;
-  rs.camera = camera;
-  rs.readLinear = !o.exr.empty();
+  if (o.repeat < 1 || o.repeat > 10000) return fail("--repeat must be in 1..10000"), false;
+  auto c = openDevice(o.device);
+  if (!c) return fail(c.error()), false;
+  ctx = std::move(*c);
+  auto opened = runtime::Scene::open(*ctx, o.scene);
+  if (!opened) return fail(opened.error()), false;
+  scene = std::move(*opened);
+  view.camera = o.camera.empty() ? render::autoCamera(scene->bounds(), float(view.width) / float(view.height)) : camera;
+  view.readLinear = !o.exr.empty();
+  view.config = o.config;
   std::vector<std::vector<gpu::PassTime>> frames;
-  render::RenderOutput last;
   for (int i = 0; i < o.repeat; ++i) {
-    auto out = (*renderer)->render(rs);
-    if (!out) return fail(out.error());
-    frames.push_back(out->stats.passTimes);
-    last = std::move(*out);
+    auto f = scene->render(view);
+    if (!f) return fail(f.error()), false;
+    frames.push_back(f->passTimes);
+    out.last = std::move(*f);
   }
-  // The first frame pays for pipeline warm-up; with repeats, report the median of the others.
   if (frames.size() > 1) frames.erase(frames.begin());
-  std::vector<gpu::PassTime> times = medianPassTimes(frames);
-
-  if (auto s = io::writePng(o.output, last.srgb); !s) return fail(s.error());
+  out.framesTimed = frames.size();
+  out.times = medianPassTimes(frames);
+  if (auto s = io::writePng(o.output, out.last.srgb); !s) return fail(s.error()), false;
   if (!o.exr.empty()) {
-    auto s = o.exr.ends_with(".pfm") ? io::writePfm(o.exr, last.linear) : io::writeExr(o.exr, last.linear);
-    if (!s) return fail(s.error());
+    auto s = o.exr.ends_with(".pfm") ? io::writePfm(o.exr, out.last.linear) : io::writeExr(o.exr, out.last.linear);
+    if (!s) return fail(s.error()), false;
   }
+  return true;
+}
 
-  const auto& caps = (*ctx)->caps();
-  size_t triangles = scene->instancedTriangleCount();
+void runForwardRender(const RenderOptions& o) {
+  std::unique_ptr<gpu::Context> ctx;
+  std::unique_ptr<runtime::Scene> scene;
+  runtime::View view;
+  Rendered r;
+  if (!renderToFiles(o, ctx, scene, view, r)) return;
+  const auto& caps = ctx->caps();
+  const runtime::ForwardFrameStats& fw = *r.last.forward;
   if (o.json) {
     nlohmann::json j;
-    j["input"] = o.input;
+    j["input"] = o.scene.input;
     j["output"] = o.output;
     j["device"] = caps.name;
-    j["width"] = width;
-    j["height"] = height;
-    j["triangles"] = triangles;
-    j["instances"] = scene->instances.size();
-    j["import_seconds"] = importSeconds;
-    j["frames_timed"] = frames.size();
-    for (const auto& t : times) j["gpu_ms"][t.name] = t.milliseconds;
-    j["draw_calls"] = last.stats.drawCalls;
-    j["pipeline"] = {{"input_primitives", last.stats.pipeline.inputPrimitives},
-                     {"vertex_invocations", last.stats.pipeline.vertexInvocations},
-                     {"clipping_primitives", last.stats.pipeline.clippingPrimitives},
-                     {"fragment_invocations", last.stats.pipeline.fragmentInvocations}};
+    j["width"] = view.width;
+    j["height"] = view.height;
+    j["triangles"] = fw.triangles;
+    j["instances"] = fw.instances;
+    j["import_seconds"] = scene->info().loadSeconds;
+    j["frames_timed"] = r.framesTimed;
+    for (const auto& t : r.times) j["gpu_ms"][t.name] = t.milliseconds;
+    j["draw_calls"] = fw.stats.drawCalls;
+    j["pipeline"] = {{"input_primitives", fw.stats.pipeline.inputPrimitives},
+                     {"vertex_invocations", fw.stats.pipeline.vertexInvocations},
+                     {"clipping_primitives", fw.stats.pipeline.clippingPrimitives},
+                     {"fragment_invocations", fw.stats.pipeline.fragmentInvocations}};
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("rendered {} ({} triangles, {} instances{}) at {}x{} on {} -> {}\n", o.input, triangles,
-             scene->instances.size(), cell >= 0 ? fmt::format(", PVS of cell {}", cell) : "", width, height, caps.name,
-             o.output);
+  fmt::print("rendered {} ({} triangles, {} instances{}) at {}x{} on {} -> {}\n", o.scene.input, fw.triangles,
+             fw.instances, r.last.pvsCell >= 0 ? fmt::format(", PVS of cell {}", r.last.pvsCell) : "", view.width,
+             view.height, caps.name, o.output);
   if (o.stats) {
-    fmt::print("import {:.3f} s\n", importSeconds);
-    for (const auto& t : times)
-      fmt::print("gpu {:<8} {:9.3f} ms{}\n", t.name, t.milliseconds, frames.size() > 1 ? " (median)" : "");
-    fmt::print("draw calls {}  input primitives {}  fragment invocations {}\n", last.stats.drawCalls,
-               last.stats.pipeline.inputPrimitives, last.stats.pipeline.fragmentInvocations);
+    fmt::print("import {:.3f} s\n", scene->info().loadSeconds);
+    for (const auto& t : r.times)
+      fmt::print("gpu {:<8} {:9.3f} ms{}\n", t.name, t.milliseconds, r.framesTimed > 1 ? " (median)" : "");
+    fmt::print("draw calls {}  input primitives {}  fragment invocations {}\n", fw.stats.drawCalls,
+               fw.stats.pipeline.inputPrimitives, fw.stats.pipeline.fragmentInvocations);
   }
+}
+
+void runSurfelRender(const RenderOptions& o) {
+  std::unique_ptr<gpu::Context> ctx;
+  std::unique_ptr<runtime::Scene> scene;
+  runtime::View view;
+  Rendered r;
+  if (!renderToFiles(o, ctx, scene, view, r)) return;
+  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}, {} order) at {}x{} on {} -> {}\n",
+             o.scene.input, scene->info().surfels, scene->info().instances, o.config.surfelSize,
+             render::toString(r.last.surfels->raster), render::toString(o.scene.surfelOrder), view.width, view.height,
+             ctx->caps().name, o.output);
+  if (o.stats) {
+    fmt::print("instances visible {}  surfels splatted {}\n", r.last.surfels->visibleInstances, r.last.surfelsSplatted);
+    for (const auto& p : r.times)
+      fmt::print("gpu {:<8} {:9.3f} ms{}\n", p.name, p.milliseconds, r.framesTimed > 1 ? " (median)" : "");
+  }
+}
+
+void runRender(const RenderOptions& o) {
+  // The path follows the input's contents (a .mrg's chunk table): flags are checked against it.
+  auto kind = runtime::sceneKind(o.scene);
+  if (!kind) return fail(kind.error());
+  bool surfelOrderGiven = o.surfelOrder->count() > 0;
+  if (o.scene.surfels && *kind == runtime::SceneKind::ClusterLod) { // DAGs + SURF: meshes near, surfels far
+    if (!o.scene.pvs.empty() || o.given.surfels.back()->count() > 0 || surfelOrderGiven)
+      return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");
+    return runLodRender(lodRequest(o));
+  }
+  if (o.scene.surfels) {
+    if (!o.scene.pvs.empty() || !o.exr.empty() || !o.path.empty())
+      return fail("--pvs, --exr and --path do not apply to --surfels");
+    return runSurfelRender(o);
+  }
+  if (anyGiven(o.given.surfels) || surfelOrderGiven)
+    return fail("--surfel-size, --surfel-raster and --surfel-order need --surfels");
+  if (*kind == runtime::SceneKind::ClusterLod) return runLodRender(lodRequest(o));
+  if (anyGiven(o.given.clusterLod) || !o.path.empty())
+    return fail("--tau, --raster, --path, --hybrid-threshold, --occlusion, --cones, --selection and --blend-raster "
+                "apply to .mrg cluster-LOD assets only");
+  runForwardRender(o);
 }
 
 } // namespace
@@ -198,7 +183,7 @@ void runRender(const RenderOptions& o) {
 void addRenderCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("render", "Render a scene file to PNG (headless)");
   auto o = std::make_shared<RenderOptions>();
-  cmd->add_option("input", o->input, "Scene file (.gltf .glb .obj .ply), baked .mrg, or gen:KIND[:SIZE[:SEED]]")
+  cmd->add_option("input", o->scene.input, "Scene file (.gltf .glb .obj .ply), baked .mrg, or gen:KIND[:SIZE[:SEED]]")
       ->required();
   cmd->add_option("-o,--output", o->output, "Output PNG (8-bit sRGB)")->required();
   cmd->add_option("--exr", o->exr, "Also write the linear float image (.exr, or .pfm)");
@@ -209,18 +194,9 @@ void addRenderCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--stats", o->stats, "Print GPU pass times and pipeline statistics");
   cmd->add_flag("--json", o->json, "Print results as JSON");
-  cmd->add_option("--tau", o->tau, ".mrg: LOD threshold, projected error in pixels")->capture_default_str();
-  cmd->add_option("--raster", o->raster, ".mrg: auto|mesh|indirect|compute|hybrid")->capture_default_str();
-  addLodCullOptions(*cmd, o->cull, /*bench=*/false);
+  o->given = bindRenderConfig(*cmd, o->config, BindMode::Render);
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
-  cmd->add_option("--pvs", o->pvs,
-                  "Draw only the PVS (from mirage pvs) of the view cell holding the camera (.mrg: its cluster PVS)");
-  cmd->add_flag("--surfels", o->surfels, "Render the file's SURF chunk (.mrg from mirage surfels) or surfel .ply");
-  cmd->add_option("--surfel-size", o->surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str();
-  cmd->add_option("--surfel-raster", o->surfelRaster, "--surfels: auto|compute|raster")->capture_default_str();
-  cmd->add_option(
-      "--surfel-order", o->surfelOrder,
-      "--surfels: splat order blue|coherent|coherent256 (default coherent: Morton-sorted blocks, docs/surfels.md)");
+  o->surfelOrder = bindSceneOptions(*cmd, o->scene, BindMode::Render);
   cmd->callback([o] { runRender(*o); });
 }
 

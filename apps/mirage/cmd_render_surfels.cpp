@@ -1,5 +1,6 @@
-// mirage render FILE --surfels and mirage bench surfels: the surfel renderer on a .mrg 'SURF' chunk
-// (from `mirage surfels INPUT -o FILE.mrg`) or a surfel PLY.
+// mirage bench surfels: the surfel renderer on a .mrg 'SURF' chunk (from `mirage surfels INPUT -o
+// FILE.mrg`) or a surfel PLY, as copies on a grid, splat orders and variants timed in one run
+// (`mirage render FILE --surfels` goes through runtime::Scene, cmd_render.cpp).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,10 +10,9 @@
 
 #include "cmd_list.h"
 #include "commands.h"
-#include "mirage/asset/container.h"
-#include "mirage/asset/scene_chunk.h"
 #include "mirage/io/image_io.h"
 #include "mirage/render/surfel_renderer.h"
+#include "mirage/runtime/scene_argument.h"
 #include "mirage/surfels/surfel_io.h"
 #include "render_common.h"
 #include "surfel_render.h"
@@ -28,33 +28,6 @@ struct SurfelSession {
   std::vector<std::unique_ptr<render::SurfelRenderer>> renderers; // one per splat order, same scene
   render::SurfelRenderSettings settings;
 };
-
-// The cloud of a .mrg (its 'SURF' chunk; the material of the scene's first mesh when the file also
-// holds a scene) or of a surfel PLY. Surfel-only files get a dielectric, moderately rough material.
-Result<surfels::SurfelCloud> loadCloud(const std::string& path, Material& material) {
-  material.metallicFactor = 0.0f;
-  material.roughnessFactor = 0.6f;
-  if (path.ends_with(".ply")) return surfels::readSurfelPly(path);
-  if (!path.ends_with(".mrg")) return makeError(path, "surfel input must be a .mrg with a SURF chunk or a surfel .ply");
-  auto reader = asset::AssetReader::open(path);
-  if (!reader) return reader.error();
-  if (!reader->find(asset::chunk::Surfels))
-    return makeError(path, "has no SURF chunk (write one with: mirage surfels INPUT -o FILE.mrg)");
-  auto bytes = reader->readChunk(asset::chunk::Surfels);
-  if (!bytes) return bytes.error();
-  auto cloud = surfels::decodeSurfelChunk(*bytes, path);
-  if (!cloud) return cloud.error();
-  if (cloud->size() == 0) return makeError(path, "SURF chunk holds no surfels");
-  if (reader->find(asset::chunk::Scene)) {
-    auto sceneBytes = reader->readChunk(asset::chunk::Scene);
-    if (!sceneBytes) return sceneBytes.error();
-    auto scene = asset::decodeScene(*sceneBytes, path);
-    if (!scene) return scene.error();
-    if (!scene->meshes.empty() && scene->meshes[0].material < scene->materials.size())
-      material = scene->materials[scene->meshes[0].material];
-  }
-  return cloud;
-}
 
 // `copies` of the cloud on a square grid on the ground plane, spaced by 1.25x its largest
 // horizontal extent (how the benchmark reaches 100M+ surfels from one sampled cloud). Each copy gets
@@ -110,7 +83,7 @@ bool open(const SurfelRenderRequest& r, bool needOutput, const std::vector<rende
     if (!c) return fail(c.error()), false;
     camera = *c;
   }
-  auto cloud = loadCloud(r.input, s.material);
+  auto cloud = runtime::loadSurfelCloud(r.input, s.material);
   if (!cloud) return fail(cloud.error()), false;
   s.cloud = std::move(*cloud);
   if (!r.sharedCopies && uint64_t(r.copies) * s.cloud.size() > 0xfffffffeull)
@@ -220,30 +193,6 @@ double passMs(const std::vector<gpu::PassTime>& times, const std::string& name) 
 }
 
 } // namespace
-
-void runSurfelRender(const SurfelRenderRequest& r) {
-  auto raster = render::parseSurfelRaster(r.raster);
-  if (!raster) return fail(raster.error());
-  auto orders = parseOrders(r.order.empty() ? render::toString(render::kDefaultSurfelOrder) : r.order, "--surfel-order",
-                            /*allowList=*/false);
-  if (!orders) return fail(orders.error());
-  SurfelSession s;
-  if (!open(r, /*needOutput=*/true, *orders, s)) return;
-  s.settings.raster = *raster;
-  std::vector<Timed> timed;
-  if (!renderFrames(s, r.frames, timed)) return;
-  const Timed& t = timed[0];
-  if (auto st = io::writePng(r.output, t.last.image.srgb); !st) return fail(st.error());
-  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}, {} order) at {}x{} on {} -> {}\n",
-             r.input, s.renderers[0]->surfelCount(), r.copies, r.surfelSize, render::toString(t.last.raster),
-             render::toString((*orders)[0]), s.settings.base.width, s.settings.base.height, s.ctx->caps().name,
-             r.output);
-  if (r.stats) {
-    fmt::print("instances visible {}  surfels splatted {}\n", t.last.visibleInstances, t.last.surfelsSplatted);
-    for (const auto& p : t.times)
-      fmt::print("gpu {:<8} {:9.3f} ms{}\n", p.name, p.milliseconds, t.frames > 1 ? " (median)" : "");
-  }
-}
 
 void runSurfelBench(const SurfelRenderRequest& r) {
   if (r.frames < 2 || r.frames > 100000) return fail("--frames must be in 2..100000");

@@ -65,15 +65,4 @@ double frameMilliseconds(const std::vector<gpu::PassTime>& times) {
   return 0.0;
 }
 
-std::array<render::Camera, 4> cellViewCameras(const vis::ViewCell& cell) {
-  std::array<render::Camera, 4> cams;
-  for (int v = 0; v < 4; ++v) {
-    float a = float(v) * 1.5707963f;
-    cams[size_t(v)].eye = cell.position;
-    cams[size_t(v)].target = cell.position + glm::vec3(std::cos(a), 0.0f, std::sin(a));
-    cams[size_t(v)].fovYDegrees = 70.0f;
-  }
-  return cams;
-}
-
 } // namespace mirage::cli

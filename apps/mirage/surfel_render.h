@@ -1,6 +1,6 @@
 #pragma once
-// `mirage render FILE --surfels` and `mirage bench surfels FILE`: the surfel renderer on a .mrg
-// 'SURF' chunk or a surfel PLY (cmd_render_surfels.cpp).
+// `mirage bench surfels FILE`: the surfel renderer on a .mrg 'SURF' chunk or a surfel PLY
+// (cmd_render_surfels.cpp).
 #include <string>
 
 namespace mirage::cli {
@@ -28,7 +28,6 @@ struct SurfelRenderRequest {
   bool json = false;
 };
 
-void runSurfelRender(const SurfelRenderRequest& request);
 void runSurfelBench(const SurfelRenderRequest& request);
 
 } // namespace mirage::cli

@@ -1,0 +1,45 @@
+#pragma once
+// The one CLI binding of runtime::RenderConfig, used by render, bench render (and view): typed
+// options (enums through the renderers' name parsers), defaults from the config struct, ranges
+// checked by runtime::validate.
+#include <vector>
+
+#include "mirage/runtime/config.h"
+#include "mirage/runtime/scene.h"
+
+namespace CLI {
+class App;
+class Option;
+} // namespace CLI
+
+namespace mirage::cli {
+
+enum class BindMode { Render, Bench };
+
+// Bench-only sweep values. In BindMode::Bench, --raster all, --blend-raster all, --selection all
+// and --occlusion both set these flags instead of a config value (which keeps its default); the
+// bench then times each choice in one run. Render mode refuses those words like any other.
+struct BenchSweeps {
+  bool allRasters = true; // --raster all: the bench default, every backend the device has
+  bool allBlendRasters = false;
+  bool allSelections = false;
+  bool bothOcclusion = false;
+};
+
+// The options bound, so that commands can tell what was given (CLI11 counts, no sentinels).
+struct RenderConfigOptions {
+  std::vector<CLI::Option*>
+      clusterLod;                    // --tau --raster --hybrid-threshold --occlusion --cones --selection --blend-raster
+  std::vector<CLI::Option*> surfels; // --surfel-size (--surfel-raster in render)
+};
+bool anyGiven(const std::vector<CLI::Option*>& options);
+
+// The one CLI binding of runtime::SceneOptions but its input (a positional whose help differs per
+// command): --pvs and --surfels; render: --surfel-order; bench: --grid. Returns --surfel-order
+// (null in bench mode).
+CLI::Option* bindSceneOptions(CLI::App& command, runtime::SceneOptions& options, BindMode mode);
+
+RenderConfigOptions bindRenderConfig(CLI::App& command, runtime::RenderConfig& config, BindMode mode,
+                                     BenchSweeps* sweeps = nullptr);
+
+} // namespace mirage::cli

@@ -1,0 +1,33 @@
+#pragma once
+// Per-frame settings of a runtime::Scene (docs/runtime.md): every knob of the cluster-LOD, forward
+// and surfel renderers that may change from one frame to the next, typed, with the renderers' own
+// defaults. The CLI binds it once (apps/mirage/render_options.cpp), the viewer edits it live.
+#include "mirage/core/result.h"
+#include "mirage/render/cluster_renderer.h"
+#include "mirage/render/surfel_renderer.h"
+
+namespace mirage::runtime {
+
+// Defaults come from the renderers' settings structs: written there once.
+inline const render::ClusterRenderSettings kClusterDefaults{};
+inline const render::SurfelRenderSettings kSurfelDefaults{};
+
+struct RenderConfig {
+  // Cluster LOD (.mrg with cluster DAGs).
+  float tauPixels = kClusterDefaults.tauPixels; // projected error allowed, pixels
+  render::RasterBackend raster = kClusterDefaults.raster;
+  render::BlendRaster blendRaster = kClusterDefaults.blendRaster;
+  render::SelectionMode selection = kClusterDefaults.selection;
+  bool occlusionCulling = kClusterDefaults.occlusionCulling;
+  bool coneCulling = kClusterDefaults.coneCulling;
+  float hybridThreshold = kClusterDefaults.hybridThreshold; // pixels
+  bool pvsCulling = kClusterDefaults.pvsCulling;            // cull with the view cell's cluster PVS (if any)
+  // Surfels (surfel-only scenes, and the far field of mixed scenes).
+  float surfelSize = kSurfelDefaults.surfelSize; // diameter in pixels
+  render::SurfelRaster surfelRaster = kSurfelDefaults.raster;
+};
+
+// Range checks, done once here: the messages name the CLI flag ("--tau must be ...").
+Status validate(const RenderConfig& config);
+
+} // namespace mirage::runtime

@@ -1,0 +1,95 @@
+// The view cell's PVS at run time (docs/visibility.md): cluster LOD culls with the cell's cluster
+// PVS (lod::clusterPvs, uploaded when the eye changes cell); the forward path draws the scene
+// restricted to the cell's triangle PVS.
+#include <chrono>
+
+#include <fmt/format.h>
+
+#include "mirage/runtime/scene_argument.h"
+#include "mirage/visibility/pvs_cull.h"
+#include "scene_impl.h"
+
+namespace mirage::runtime {
+
+Status openPvs(Scene::Impl& s) {
+  const SceneOptions& o = s.options;
+  if (s.kind == SceneKind::Surfels) return Error{"--pvs does not apply to surfel-only scenes"};
+  if (s.kind == SceneKind::ClusterLod && s.asset.sourceClusters.empty())
+    return makeError(o.input, "no source-triangle map ('TMAP' chunk): built before cluster PVS support, run mirage "
+                              "build again");
+  auto pvs = vis::loadPvs(o.pvs);
+  if (!pvs) return pvs.error();
+  if (s.kind == SceneKind::ClusterLod) {
+    uint64_t triangles = lod::sourceTriangleCount(s.asset.scene, s.asset.sourceClusters);
+    if (pvs->sceneTriangles != triangles)
+      return Error{fmt::format("{}: baked for a scene of {} triangles, {} was built from one of {} (a PVS of another "
+                               "scene, or --grid?)",
+                               o.pvs, pvs->sceneTriangles, o.input, triangles)};
+  } else if (auto st = checkPvsScene(s.scene, *pvs, o.pvs); !st) {
+    return st;
+  }
+  s.pvs = std::move(*pvs);
+  s.pvsState.active = true;
+  s.pvsState.cells = s.pvs.cells.size();
+  return Ok{};
+}
+
+namespace {
+
+Result<bool> selectClusterCell(Scene::Impl& s, int cell) {
+  PvsState& st = s.pvsState;
+  st.cell = cell;
+  st.cellTriangles = 0;
+  st.visibleInstances = 0;
+  st.visibleClusters = 0;
+  st.bytes = 0;
+  st.milliseconds = 0.0;
+  if (cell < 0) { // outside every cell: nothing culled
+    if (auto r = s.cluster->setPvs(nullptr); !r) return r.error();
+    return true;
+  }
+  auto t0 = std::chrono::steady_clock::now();
+  auto set = lod::clusterPvs(s.asset.scene, s.asset.dags, s.asset.sourceClusters, s.pvs.triangles[size_t(cell)]);
+  if (!set) return makeError(s.options.pvs, set.error().message);
+  s.clusterPvs = std::move(*set);
+  st.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  st.cellTriangles = s.pvs.triangles[size_t(cell)].size();
+  st.visibleInstances = s.clusterPvs.visibleInstances;
+  st.visibleClusters = s.clusterPvs.visibleClusters;
+  st.bytes = s.clusterPvs.bytes();
+  if (auto r = s.cluster->setPvs(&s.clusterPvs); !r) return r.error();
+  return true;
+}
+
+// The forward renderer of the scene restricted to the cell's PVS; an eye in no cell is an error
+// (there is no culling to fall back on without drawing everything).
+Result<bool> selectForwardCell(Scene::Impl& s, glm::vec3 eye) {
+  int cell = -1;
+  auto restricted = restrictSceneToPvs(s.scene, s.pvs, s.options.pvs, eye, cell);
+  if (!restricted) return restricted.error();
+  if (cell == s.pvsState.cell && s.forward) return false;
+  auto renderer = render::ForwardRenderer::create(s.ctx, *restricted);
+  if (!renderer) return renderer.error();
+  s.forward = std::move(*renderer);
+  s.forwardTriangles = restricted->instancedTriangleCount();
+  s.forwardInstances = restricted->instances.size();
+  s.pvsState.cell = cell;
+  s.pvsState.cellTriangles = s.pvs.triangles[size_t(cell)].size();
+  return true;
+}
+
+} // namespace
+
+Result<bool> selectPvsCell(Scene::Impl& s, glm::vec3 eye) {
+  if (!s.pvsState.active) return false;
+  if (s.kind == SceneKind::Forward) {
+    int cell = vis::findCell(s.pvs.cells, eye);
+    if (cell >= 0 && cell == s.pvsState.cell && s.forward) return false;
+    return selectForwardCell(s, eye);
+  }
+  int cell = vis::findCell(s.pvs.cells, eye);
+  if (cell == s.pvsState.cell) return false;
+  return selectClusterCell(s, cell);
+}
+
+} // namespace mirage::runtime

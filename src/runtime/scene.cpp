@@ -1,0 +1,90 @@
+// runtime::Scene: picks the path from the input's contents and dispatches to it (scene_lod.cpp,
+// scene_forward.cpp, scene_surfels.cpp; the PVS in pvs_cell.cpp).
+#include "mirage/runtime/scene.h"
+
+#include <fmt/format.h>
+
+#include "mirage/runtime/scene_argument.h"
+#include "scene_impl.h"
+
+namespace mirage::runtime {
+
+const char* toString(SceneKind kind) {
+  switch (kind) {
+  case SceneKind::ClusterLod:
+    return "cluster-lod";
+  case SceneKind::Forward:
+    return "forward";
+  case SceneKind::Surfels:
+    return "surfels";
+  }
+  return "?";
+}
+
+Status validate(const RenderConfig& c) {
+  if (!(c.tauPixels > 0.0f) || c.tauPixels > 1e6f) return Error{"--tau must be a positive number of pixels"};
+  if (!(c.hybridThreshold >= 0.0f) || c.hybridThreshold > 1e6f)
+    return Error{"--hybrid-threshold must be a number of pixels in 0..1e6"};
+  if (!(c.surfelSize >= 0.5f && c.surfelSize <= 16.0f)) return Error{"--surfel-size must be in 0.5..16 pixels"};
+  return Ok{};
+}
+
+// The path for `o`: a .mrg's chunks decide (DAGs: cluster LOD; SURF only: surfels), other inputs
+// go to the forward renderer unless surfels are asked for (a surfel .ply).
+Result<SceneKind> sceneKind(const SceneOptions& o) {
+  if (!isMrgPath(o.input)) return o.surfels ? SceneKind::Surfels : SceneKind::Forward;
+  MrgContents c = mrgContents(o.input);
+  if (c.clusterDags) return SceneKind::ClusterLod;
+  if (o.surfels) return SceneKind::Surfels;
+  if (c.surfels)
+    return makeError(o.input, "holds surfels only (SURF chunks, no cluster DAG): render it with --surfels");
+  if (c.pvs)
+    return makeError(o.input,
+                     "holds a PVS only (from mirage pvs): render the scene it was baked for with --pvs " + o.input);
+  return SceneKind::ClusterLod; // the loader says what is missing
+}
+
+Scene::Scene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Scene::~Scene() = default;
+
+Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOptions& options) {
+  if (options.grid < 1 || options.grid > 256) return Error{"--grid must be in 1..256"};
+  auto kind = sceneKind(options);
+  if (!kind) return kind.error();
+  auto impl = std::make_unique<Impl>(context);
+  impl->options = options;
+  impl->kind = *kind;
+  Status opened = *kind == SceneKind::ClusterLod ? openClusterLod(*impl)
+                  : *kind == SceneKind::Forward  ? openForward(*impl)
+                                                 : openSurfels(*impl);
+  if (!opened) return opened.error();
+  if (!options.pvs.empty())
+    if (auto st = openPvs(*impl); !st) return st.error();
+  return std::unique_ptr<Scene>(new Scene(std::move(impl)));
+}
+
+Result<Frame> Scene::render(const View& view) {
+  if (auto st = validate(view.config); !st) return st.error();
+  switch (impl_->kind) {
+  case SceneKind::ClusterLod:
+    return renderClusterLod(*impl_, view);
+  case SceneKind::Forward:
+    return renderForward(*impl_, view);
+  case SceneKind::Surfels:
+    return renderSurfels(*impl_, view);
+  }
+  return Error{"unknown scene kind"};
+}
+
+Result<bool> Scene::selectPvsCell(glm::vec3 eye) { return runtime::selectPvsCell(*impl_, eye); }
+
+SceneKind Scene::kind() const { return impl_->kind; }
+const Bounds& Scene::bounds() const { return impl_->bounds; }
+const SceneInfo& Scene::info() const { return impl_->info; }
+const PvsState& Scene::pvs() const { return impl_->pvsState; }
+const SceneOptions& Scene::options() const { return impl_->options; }
+gpu::Context& Scene::context() const { return impl_->ctx; }
+const vis::PvsData* Scene::pvsData() const { return impl_->pvsState.active ? &impl_->pvs : nullptr; }
+const lod::LodAsset* Scene::lodAsset() const { return impl_->kind == SceneKind::ClusterLod ? &impl_->asset : nullptr; }
+
+} // namespace mirage::runtime

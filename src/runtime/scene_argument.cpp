@@ -1,0 +1,108 @@
+// Inputs of the runtime: scene arguments (a file, or gen:KIND[:SIZE[:SEED]]), .mrg contents, surfel
+// clouds, and the triangle PVS of a view cell.
+#include "mirage/runtime/scene_argument.h"
+
+#include <charconv>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "mirage/asset/container.h"
+#include "mirage/asset/scene_chunk.h"
+#include "mirage/io/generate.h"
+#include "mirage/surfels/surfel_io.h"
+#include "mirage/visibility/pvs_cull.h"
+
+namespace mirage::runtime {
+
+Result<mirage::Scene> loadSceneArgument(const std::string& argument, const io::ImportOptions& options) {
+  if (!argument.starts_with("gen:")) return io::importScene(argument, options);
+  // gen:KIND[:SIZE[:SEED]]
+  std::vector<std::string> parts;
+  size_t start = 4;
+  while (true) {
+    size_t colon = argument.find(':', start);
+    parts.push_back(argument.substr(start, colon == std::string::npos ? std::string::npos : colon - start));
+    if (colon == std::string::npos) break;
+    start = colon + 1;
+  }
+  uint64_t size = 0;
+  uint32_t seed = 1;
+  auto number = [](const std::string& s, auto& out) {
+    auto r = std::from_chars(s.data(), s.data() + s.size(), out);
+    return r.ec == std::errc() && r.ptr == s.data() + s.size();
+  };
+  if (parts.size() > 3 || (parts.size() > 1 && !number(parts[1], size)) ||
+      (parts.size() > 2 && !number(parts[2], seed)))
+    return Error{fmt::format("{}: expected gen:KIND[:SIZE[:SEED]]", argument)};
+  return io::generateScene(parts[0], seed, size);
+}
+
+bool isMrgPath(const std::string& input) { return input.size() > 4 && input.ends_with(".mrg"); }
+
+MrgContents mrgContents(const std::string& input) {
+  MrgContents m;
+  if (!isMrgPath(input)) return m;
+  auto reader = asset::AssetReader::open(input);
+  if (!reader) return m; // the loader reports the error
+  m.clusterDags = reader->find(asset::chunk::ClusterDag).has_value();
+  m.surfels = reader->find(asset::chunk::Surfels).has_value();
+  m.pvs = reader->find(asset::chunk::Visibility).has_value();
+  m.scene = reader->find(asset::chunk::Scene).has_value();
+  return m;
+}
+
+Result<surfels::SurfelCloud> loadSurfelCloud(const std::string& path, Material& material) {
+  material.metallicFactor = 0.0f;
+  material.roughnessFactor = 0.6f;
+  if (path.ends_with(".ply")) return surfels::readSurfelPly(path);
+  if (!path.ends_with(".mrg")) return makeError(path, "surfel input must be a .mrg with a SURF chunk or a surfel .ply");
+  auto reader = asset::AssetReader::open(path);
+  if (!reader) return reader.error();
+  if (!reader->find(asset::chunk::Surfels))
+    return makeError(path, "has no SURF chunk (write one with: mirage surfels INPUT -o FILE.mrg)");
+  auto bytes = reader->readChunk(asset::chunk::Surfels);
+  if (!bytes) return bytes.error();
+  auto cloud = surfels::decodeSurfelChunk(*bytes, path);
+  if (!cloud) return cloud.error();
+  if (cloud->size() == 0) return makeError(path, "SURF chunk holds no surfels");
+  if (reader->find(asset::chunk::Scene)) {
+    auto sceneBytes = reader->readChunk(asset::chunk::Scene);
+    if (!sceneBytes) return sceneBytes.error();
+    auto scene = asset::decodeScene(*sceneBytes, path);
+    if (!scene) return scene.error();
+    if (!scene->meshes.empty() && scene->meshes[0].material < scene->materials.size())
+      material = scene->materials[scene->meshes[0].material];
+  }
+  return cloud;
+}
+
+Status checkPvsScene(const mirage::Scene& scene, const vis::PvsData& pvs, const std::string& pvsPath) {
+  if (pvs.sceneTriangles != scene.instancedTriangleCount())
+    return makeError(pvsPath, fmt::format("baked for a scene of {} triangles, this one has {}", pvs.sceneTriangles,
+                                          scene.instancedTriangleCount()));
+  return Ok{};
+}
+
+Result<mirage::Scene> restrictSceneToPvs(const mirage::Scene& scene, const vis::PvsData& pvs,
+                                         const std::string& pvsPath, glm::vec3 eye, int& cell) {
+  if (auto st = checkPvsScene(scene, pvs, pvsPath); !st) return st.error();
+  cell = vis::findCell(pvs.cells, eye);
+  if (cell < 0)
+    return makeError(pvsPath, fmt::format("the camera at ({:.4g}, {:.4g}, {:.4g}) is in none of its {} view cells",
+                                          eye.x, eye.y, eye.z, pvs.cells.size()));
+  return vis::restrictToPvs(scene, pvs.triangles[size_t(cell)]);
+}
+
+std::array<render::Camera, 4> cellViewCameras(const vis::ViewCell& cell) {
+  std::array<render::Camera, 4> cams;
+  for (int v = 0; v < 4; ++v) {
+    float a = float(v) * 1.5707963f;
+    cams[size_t(v)].eye = cell.position;
+    cams[size_t(v)].target = cell.position + glm::vec3(std::cos(a), 0.0f, std::sin(a));
+    cams[size_t(v)].fovYDegrees = 70.0f;
+  }
+  return cams;
+}
+
+} // namespace mirage::runtime

@@ -1,0 +1,52 @@
+// runtime::Scene on a scene file or generated scene: the forward renderer draws every triangle (of
+// the view cell's PVS with one, pvs_cell.cpp).
+#include <chrono>
+
+#include "mirage/runtime/scene_argument.h"
+#include "scene_impl.h"
+
+namespace mirage::runtime {
+
+Status openForward(Scene::Impl& s) {
+  auto t0 = std::chrono::steady_clock::now();
+  auto scene = loadSceneArgument(s.options.input);
+  if (!scene) return scene.error();
+  s.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  s.scene = std::move(*scene);
+  s.bounds = s.scene.worldBounds();
+  s.info.sourceTriangles = s.scene.instancedTriangleCount();
+  s.info.instances = s.scene.instances.size();
+  for (const Material& m : s.scene.materials) s.info.blendMaterials |= m.alphaMode == AlphaMode::Blend;
+  if (!s.options.pvs.empty()) return Ok{}; // the renderer comes with the eye's cell
+  auto renderer = render::ForwardRenderer::create(s.ctx, s.scene);
+  if (!renderer) return renderer.error();
+  s.forward = std::move(*renderer);
+  s.forwardTriangles = s.info.sourceTriangles;
+  s.forwardInstances = s.info.instances;
+  return Ok{};
+}
+
+Result<Frame> renderForward(Scene::Impl& s, const View& view) {
+  if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
+  render::RenderSettings rs;
+  rs.width = view.width;
+  rs.height = view.height;
+  rs.camera = view.camera;
+  // With a PVS the clip planes stay those of the whole scene, so the image differs from the full
+  // one only where the PVS misses something.
+  if (s.pvsState.active) rs.camera = render::withClipPlanes(view.camera, s.bounds);
+  rs.readImage = view.readImage;
+  rs.readLinear = view.readLinear;
+  auto o = s.forward->render(rs);
+  if (!o) return o.error();
+  Frame f;
+  f.srgb = std::move(o->srgb);
+  f.linear = std::move(o->linear);
+  f.passTimes = o->stats.passTimes;
+  f.trianglesDrawn = s.forwardTriangles;
+  f.pvsCell = s.pvsState.active ? s.pvsState.cell : -1;
+  f.forward = ForwardFrameStats{std::move(o->stats), s.forwardTriangles, s.forwardInstances};
+  return f;
+}
+
+} // namespace mirage::runtime

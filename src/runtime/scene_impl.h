@@ -1,0 +1,55 @@
+#pragma once
+// runtime::Scene's state, shared by the files of each path (scene.cpp dispatches).
+#include <memory>
+#include <vector>
+
+#include "mirage/lod/cluster_pvs.h"
+#include "mirage/lod/lod_asset.h"
+#include "mirage/runtime/scene.h"
+#include "mirage/surfels/surfel_io.h"
+#include "mirage/visibility/pvs_storage.h"
+
+namespace mirage::runtime {
+
+struct Scene::Impl {
+  gpu::Context& ctx;
+  SceneOptions options;
+  SceneKind kind = SceneKind::Forward;
+  Bounds bounds;
+  SceneInfo info;
+  PvsState pvsState;
+  vis::PvsData pvs; // the triangle PVS (options.pvs)
+
+  // ClusterLod: the asset, its renderer, the mixed scene's per-mesh clouds (kept alive for the
+  // surfel renderer) and the current cell's cluster PVS.
+  lod::LodAsset asset;
+  std::unique_ptr<render::ClusterRenderer> cluster;
+  std::vector<surfels::MeshSurfels> meshClouds;
+  lod::ClusterPvs clusterPvs;
+
+  // Forward: the whole scene (kept to restrict it to another cell's PVS) and the renderer of what
+  // is drawn.
+  mirage::Scene scene;
+  std::unique_ptr<render::ForwardRenderer> forward;
+  uint64_t forwardTriangles = 0, forwardInstances = 0;
+
+  // Surfels: the surfel-only cloud, or the far field of a mixed scene.
+  surfels::SurfelCloud cloud;
+  Material cloudMaterial;
+  std::unique_ptr<render::SurfelRenderer> surfels;
+
+  explicit Impl(gpu::Context& c) : ctx(c) {}
+};
+
+// Per path (scene_lod.cpp, scene_forward.cpp, scene_surfels.cpp): open fills the Impl, render one
+// frame. pvs_cell.cpp: the PVS of each path.
+Status openClusterLod(Scene::Impl& s);
+Result<Frame> renderClusterLod(Scene::Impl& s, const View& view);
+Status openForward(Scene::Impl& s);
+Result<Frame> renderForward(Scene::Impl& s, const View& view);
+Status openSurfels(Scene::Impl& s);
+Result<Frame> renderSurfels(Scene::Impl& s, const View& view);
+Status openPvs(Scene::Impl& s);
+Result<bool> selectPvsCell(Scene::Impl& s, glm::vec3 eye);
+
+} // namespace mirage::runtime
