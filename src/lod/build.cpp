@@ -18,7 +18,9 @@
 #include <tbb/task_group.h>
 #include <tbb/task_arena.h>
 
+#include "build_profile.h"
 #include "mesh_prep.h"
+#include "morton.h"
 #include "mirage/lod/cluster_dag.h"
 #include "partition.h"
 #include "simplify.h"
@@ -28,151 +30,6 @@ namespace mirage::lod {
 namespace {
 
 using namespace detail;
-
-// Per-stage CPU time summed over threads (CLOCK_THREAD_CPUTIME_ID: other processes on a shared
-// machine do not inflate it), printed to stderr when MIRAGE_LOD_PROFILE is set: the numbers in
-// docs/lod.md's "where the time goes" come from here (no public API for it). Stages marked
-// serial run on one thread whatever --threads says; the others are parallel, and a stage timed
-// around a parallel loop counts only the calling thread, so profile those with --threads 1.
-enum Stage {
-  kPrep,
-  kLevel0,
-  kLevel0Append,
-  kBorders,
-  kPartition,
-  kMetis,
-  kOwners,
-  kGather,
-  kSimplify,
-  kSplit,
-  kCommit,
-  kSourceMap,
-  kStageCount
-};
-constexpr const char* kStageNames[kStageCount] = {"weld+clean",
-                                                  "level-0 split",
-                                                  "level-0 append (serial)",
-                                                  "cluster borders",
-                                                  "grouping (partly serial)",
-                                                  "METIS (one thread)",
-                                                  "touch counts",
-                                                  "group gather",
-                                                  "simplify",
-                                                  "group split",
-                                                  "commit (serial)",
-                                                  "source map"};
-std::atomic<int64_t> gStageNs[kStageCount];
-
-int64_t threadCpuNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return int64_t(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
-class StageTimer {
-public:
-  explicit StageTimer(Stage s) : stage_(s), start_(threadCpuNs()) {}
-  ~StageTimer() { gStageNs[stage_] += threadCpuNs() - start_; }
-  StageTimer(const StageTimer&) = delete;
-  StageTimer& operator=(const StageTimer&) = delete;
-
-private:
-  Stage stage_;
-  int64_t start_;
-};
-
-// Wall-clock seconds of the build's phases (main thread) and the process CPU seconds spent in
-// them (all threads), beside the CPU stages: where a parallel build waits on serial work.
-enum WallPhase { kWallPrep, kWallLevel0, kWallGrouping, kWallSimplify, kWallCommit, kWallCount };
-constexpr const char* kWallNames[kWallCount] = {"weld+clean", "level 0", "grouping", "METIS+simplify+split",
-                                                "ages+commit"};
-std::atomic<double> gWallSeconds[kWallCount], gWallCpuSeconds[kWallCount]; // builds may run concurrently
-
-double processCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
-}
-
-class WallTimer {
-public:
-  explicit WallTimer(WallPhase p) : phase_(p), start_(std::chrono::steady_clock::now()), cpu_(processCpuSeconds()) {}
-  ~WallTimer() {
-    gWallSeconds[phase_].fetch_add(std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
-    gWallCpuSeconds[phase_].fetch_add(processCpuSeconds() - cpu_);
-  }
-  WallTimer(const WallTimer&) = delete;
-  WallTimer& operator=(const WallTimer&) = delete;
-
-private:
-  WallPhase phase_;
-  std::chrono::steady_clock::time_point start_;
-  double cpu_;
-};
-
-void printStages(uint64_t triangles) {
-  if (!std::getenv("MIRAGE_LOD_PROFILE")) {
-    for (int i = 0; i < kWallCount; ++i) gWallSeconds[i] = 0.0, gWallCpuSeconds[i] = 0.0;
-    return;
-  }
-  std::fprintf(stderr, "lod wall seconds (process CPU seconds):");
-  for (int i = 0; i < kWallCount; ++i) {
-    std::fprintf(stderr, " %s %.3f (%.3f)%s", kWallNames[i], gWallSeconds[i].exchange(0.0),
-                 gWallCpuSeconds[i].exchange(0.0), i + 1 < kWallCount ? "," : "\n");
-  }
-  double total = 0.0;
-  for (auto& ns : gStageNs) total += double(ns.load()) * 1e-9;
-  std::fprintf(stderr, "lod stages (thread CPU seconds, %llu tris):", (unsigned long long)triangles);
-  for (int i = 0; i < kStageCount; ++i) {
-    double sec = double(gStageNs[i].exchange(0)) * 1e-9;
-    std::fprintf(stderr, " %s %.3f (%.0f%%)%s", kStageNames[i], sec, 100.0 * sec / std::max(total, 1e-9),
-                 i + 1 < kStageCount ? "," : "\n");
-  }
-}
-
-// Bits 0..9 of x moved to bits 0, 3, 6, ..., 27 (one axis of a 30-bit Morton code).
-uint32_t spreadBits(uint32_t x) {
-  x &= 0x3ffu;
-  x = (x | x << 16) & 0x030000ffu;
-  x = (x | x << 8) & 0x0300f00fu;
-  x = (x | x << 4) & 0x030c30c3u;
-  x = (x | x << 2) & 0x09249249u;
-  return x;
-}
-
-// Ids 0..n-1 sorted by key (ties by id), for keys below 2^30 (Morton codes): a stable parallel
-// LSD radix sort, three passes of 10 bits with per-block histograms. Same order as sorting
-// (key, id) pairs, at a fraction of parallel_sort's instructions (0.2 G on the dragon).
-std::vector<uint32_t> sortIdsByKey(std::vector<uint32_t> key) {
-  constexpr size_t kBlock = size_t(1) << 16, kBuckets = 1024;
-  size_t n = key.size(), blocks = (n + kBlock - 1) / kBlock;
-  std::vector<uint32_t> id(n), keyOut(n), idOut(n), start(blocks * kBuckets);
-  for (size_t i = 0; i < n; ++i) id[i] = uint32_t(i);
-  for (uint32_t shift = 0; shift < 30; shift += 10) {
-    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
-      uint32_t* count = &start[b * kBuckets];
-      std::fill(count, count + kBuckets, 0u);
-      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) ++count[key[i] >> shift & (kBuckets - 1)];
-    });
-    uint32_t sum = 0; // exclusive prefix in (bucket, block) order: stable
-    for (size_t d = 0; d < kBuckets; ++d)
-      for (size_t b = 0; b < blocks; ++b) {
-        uint32_t c = start[b * kBuckets + d];
-        start[b * kBuckets + d] = sum;
-        sum += c;
-      }
-    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
-      uint32_t* next = &start[b * kBuckets];
-      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
-        uint32_t at = next[key[i] >> shift & (kBuckets - 1)]++;
-        keyOut[at] = key[i], idOut[at] = id[i];
-      }
-    });
-    key.swap(keyOut);
-    id.swap(idOut);
-  }
-  return id;
-}
 
 struct GroupWork {
   std::vector<uint32_t> children;
@@ -700,9 +557,17 @@ private:
     timer.emplace(kSimplify);
     w.simplifyError = simplifyLocked(sm, before / 2, gs.simplify);
     size_t after = sm.corners.size() / 3;
-    if (after == 0 || double(after) > double(cfg_.stuckRatio) * double(before)) {
-      w.stuck = true;
-      return;
+    auto stuck = [&] { return after == 0 || double(after) > double(cfg_.stuckRatio) * double(before); };
+    if (stuck()) {
+      // No legal collapse left short of the target (tunnels, complex vertices): cluster vertices,
+      // which may change topology, so that the DAG still ends in one root.
+      float clustered = simplifyClustered(sm, before / 2);
+      after = sm.corners.size() / 3;
+      if (clustered < 0.0f || stuck()) {
+        w.stuck = true;
+        return;
+      }
+      w.simplifyError = std::max(w.simplifyError, clustered);
     }
     timer.emplace(kSplit);
     w.parents = splitClusters(sm.attributes, sm.positions, dag_.vertexPosition, cfg_.clusterVertices,

@@ -30,6 +30,30 @@ struct Quadric {
   double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, b0 = 0, b1 = 0, b2 = 0, c = 0, w = 0;
 };
 
+inline Quadric planeQuadric(glm::dvec3 n, double d, double weight) {
+  Quadric q;
+  q.a00 = weight * n.x * n.x, q.a01 = weight * n.x * n.y, q.a02 = weight * n.x * n.z;
+  q.a11 = weight * n.y * n.y, q.a12 = weight * n.y * n.z, q.a22 = weight * n.z * n.z;
+  // b is stored doubled (exact: a factor of 2 commutes with rounding), saving eval three products.
+  q.b0 = 2.0 * (weight * n.x * d), q.b1 = 2.0 * (weight * n.y * d), q.b2 = 2.0 * (weight * n.z * d);
+  q.c = weight * d * d;
+  q.w = weight;
+  return q;
+}
+
+inline void add(Quadric& q, const Quadric& o) {
+  q.a00 += o.a00, q.a01 += o.a01, q.a02 += o.a02, q.a11 += o.a11, q.a12 += o.a12, q.a22 += o.a22;
+  q.b0 += o.b0, q.b1 += o.b1, q.b2 += o.b2, q.c += o.c, q.w += o.w;
+}
+
+// Sum of weighted squared plane distances at p.
+inline double eval(const Quadric& q, glm::dvec3 p) {
+  double rx = q.a00 * p.x + q.a01 * p.y + q.a02 * p.z + q.b0;
+  double ry = q.a01 * p.x + q.a11 * p.y + q.a12 * p.z + q.b1;
+  double rz = q.a02 * p.x + q.a12 * p.y + q.a22 * p.z + q.b2;
+  return rx * p.x + ry * p.y + rz * p.z + q.c;
+}
+
 // Normal "quadric" of the original corners merged into a vertex: Σ a, Σ a·n, Σ a·n·n, so that
 // Σ a |m - n|² for the normal m the vertex carries is a|m|² - 2 b·m + c. `spread` is that sum for
 // each merged vertex at its own normal when the group was set up: the spread a hard edge (several
@@ -78,5 +102,18 @@ struct SimplifyScratch {
 // area-normalised plane quadric plus the weighted normal term, see SimplifyMesh::normalWeight).
 float simplifyLocked(SimplifyMesh& mesh, size_t targetTriangles, SimplifyScratch& scratch);
 float simplifyLocked(SimplifyMesh& mesh, size_t targetTriangles);
+
+// Fallback for a group the collapses cannot bring below the stuck ratio (scan tunnels and complex
+// vertices: simplifyLocked keeps topology): vertex clustering on uniform grids, from fine to
+// coarse, until at most targetTriangles remain. Per grid, the movable vertices (not locked, not on
+// the group's open border) connected inside one cell merge into the one with the least error of
+// their summed quadric, cheapest merges first, each applied only when it keeps the DAG verifier's
+// group rules on the edges it touches (the open edges stay, no edge gets more than two triangles
+// unless it had as many, the area stays within 40 %). Degenerate triangles go and copies of one
+// triangle cancel in pairs, so a closed tunnel leaves no hole. Rewrites corners/attributes (a
+// moved corner takes an attribute vertex of its new position) and returns the error (2x the
+// largest merged cell quadric distance: topology changes look worse than the plane distance
+// says), or -1 with the mesh untouched when no merge was possible.
+float simplifyClustered(SimplifyMesh& mesh, size_t targetTriangles);
 
 } // namespace mirage::lod::detail

@@ -99,6 +99,30 @@ TEST(ClusterDag, Bunny) {
   EXPECT_TRUE(rootIsSmall(dag)) << dag.roots.size() << " roots";
 }
 
+// Tunnels keep a tube of triangles under topology-keeping collapses; the stuck groups' vertex
+// clustering must still take the DAG to one root, within the verifier's rules.
+TEST(ClusterDag, TunnelsStillEndInOneRoot) {
+  Mesh mesh = lodtest::makeDrilledSlab();
+  ClusterDag dag = buildAndVerify(mesh);
+  EXPECT_EQ(dag.roots.size(), 1u) << dag.rootTriangles() << " root triangles";
+}
+
+TEST(ClusterDag, DragonEndsInOneRoot) {
+  MIRAGE_REQUIRE_DATA(path, "stanford-dragon/dragon_vrip.ply"); // genus about 55 (scan tunnels)
+  std::optional<Mesh> mesh = lodtest::readAsciiPly(path);
+  ASSERT_TRUE(mesh.has_value());
+  for (float normalWeight : {0.0f, BuildConfig{}.normalWeight}) {
+    BuildConfig cfg;
+    cfg.normalWeight = normalWeight;
+    Result<ClusterDag> dag = buildClusterDag(*mesh, cfg);
+    ASSERT_TRUE(dag.ok());
+    Status s = verifyDag(*dag);
+    EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message);
+    EXPECT_EQ(dag->roots.size(), 1u) << "normal weight " << normalWeight << ": " << dag->rootTriangles()
+                                     << " root triangles";
+  }
+}
+
 TEST(ClusterDag, ClustersRespectLimits) {
   BuildConfig cfg;
   cfg.clusterTriangles = 64;

@@ -1,6 +1,7 @@
 #include "lod_meshes.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -180,6 +181,48 @@ Mesh makeRandomMesh(uint32_t seed) {
     m.positions.insert(m.positions.end(), {{-5, 0, -5}, {-4, 0, -5}, {-5, 0, -4}, {-5, 1, -5}});
     m.indices.insert(m.indices.end(), {o, o + 2, o + 1, o, o + 1, o + 3, o + 1, o + 2, o + 3, o + 2, o, o + 3});
   }
+  finish(m);
+  return m;
+}
+
+Mesh makeDrilledSlab() {
+  Mesh m;
+  m.name = "drilled slab";
+  constexpr int kSide = 40, kDepth = 6;
+  auto solid = [](int x, int y, int z) {
+    if (x < 0 || y < 0 || z < 0 || x >= kSide || y >= kSide || z >= kDepth) return false;
+    return !(x % 10 == 5 && y % 10 == 5); // the holes
+  };
+  std::map<std::array<int, 3>, uint32_t> corner;
+  auto vertex = [&](int x, int y, int z) {
+    auto [it, added] = corner.try_emplace({x, y, z}, uint32_t(m.positions.size()));
+    if (added) m.positions.push_back(glm::vec3(float(x), float(y), float(z)) * 0.1f);
+    return it->second;
+  };
+  // One outward quad per voxel face with an empty neighbour.
+  const int dirs[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int z = 0; z < kDepth; ++z)
+    for (int y = 0; y < kSide; ++y)
+      for (int x = 0; x < kSide; ++x) {
+        if (!solid(x, y, z)) continue;
+        for (const int* d : dirs) {
+          if (solid(x + d[0], y + d[1], z + d[2])) continue;
+          int axis = d[0] ? 0 : d[1] ? 1 : 2, sign = d[axis];
+          int u = (axis + 1) % 3, v = (axis + 2) % 3;
+          std::array<int, 3> base{x, y, z};
+          if (sign > 0) base[axis] += 1;
+          uint32_t q[4];
+          for (int k = 0; k < 4; ++k) {
+            std::array<int, 3> c = base;
+            c[u] += (k == 1 || k == 2), c[v] += (k >= 2);
+            q[k] = vertex(c[0], c[1], c[2]);
+          }
+          if (sign > 0)
+            m.indices.insert(m.indices.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
+          else
+            m.indices.insert(m.indices.end(), {q[0], q[2], q[1], q[0], q[3], q[2]});
+        }
+      }
   finish(m);
   return m;
 }

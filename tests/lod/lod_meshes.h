@@ -18,6 +18,10 @@ Mesh makeSeamBlob(uint32_t subdivisions, uint32_t seed);
 // A random small soup on a jittered grid: random holes, flipped/duplicate/zero-area triangles,
 // non-manifold fins, isolated vertices and a disconnected second component.
 Mesh makeRandomMesh(uint32_t seed);
+// A slab of 40 x 40 x 6 voxels drilled through by a 4 x 4 lattice of one-voxel holes: a closed
+// surface of genus 16, small tunnels like a scan's. A collapse that keeps topology cannot take a
+// tunnel below a tube of triangles.
+Mesh makeDrilledSlab();
 // Positions and faces of an ASCII PLY (triangles; polygons fanned). nullopt when unreadable.
 std::optional<Mesh> readAsciiPly(const std::filesystem::path& path);
 
