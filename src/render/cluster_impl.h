@@ -10,6 +10,7 @@
 //   cluster_renderer.cpp   the public API and the per-frame phase list
 #include <vector>
 
+#include "mirage/gpu/deletion_queue.h"
 #include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/memory.h"
 #include "mirage/gpu/pipeline.h"
@@ -118,7 +119,8 @@ struct ClusterRenderer::Impl {
   std::vector<gpu::GpuTimer> timers;         // per slot: pass timestamps
   ClusterFramePlan plans[kMaxFramesInFlight];
   bool recorded[kMaxFramesInFlight] = {};
-  uint32_t currentSlot = 0; // the slot being recorded
+  gpu::DeletionQueue retired; // replaced PVS buffers that recorded, uncollected slots may still read
+  uint32_t currentSlot = 0;   // the slot being recorded
 
   Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)) {
     for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) timers.emplace_back(c, 48);

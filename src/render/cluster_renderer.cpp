@@ -31,12 +31,16 @@ uint64_t ClusterRenderer::clusterCount() const { return impl_->scene.clusterCoun
 
 Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
   Impl& d = *impl_;
-  vkDeviceWaitIdle(d.ctx.device()); // frames in flight may still read the buffers replaced here
-  if (!pvs) {
-    d.pvsInstances = {};
-    d.pvsClusters = {};
-    return Ok{};
-  }
+  // Frames recorded and not yet collected may still read the buffers replaced here: they live until
+  // those slots complete (no device wait; a cell change happens while frames are in flight).
+  uint32_t inFlight = 0;
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i)
+    if (d.recorded[i]) inFlight |= 1u << i;
+  d.retired.retire(std::move(d.pvsInstances), inFlight);
+  d.retired.retire(std::move(d.pvsClusters), inFlight);
+  d.pvsInstances = {};
+  d.pvsClusters = {};
+  if (!pvs) return Ok{};
   if (pvs->instanceBitOffset.size() != d.scene.instanceCount)
     return Error{fmt::format("cluster PVS for {} instances, the scene has {}", pvs->instanceBitOffset.size(),
                              d.scene.instanceCount)};
@@ -63,6 +67,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   auto planned = plan(cs);
   if (!planned) return planned.error();
   currentSlot = frameSlot;
+  retired.completed(frameSlot); // a slot is recorded again only after its previous frame completed
   plans[currentSlot] = *planned;
   recorded[currentSlot] = false;
   traversalDepth = planned->dagTree ? scene.dagDepth : scene.lodDepth;
@@ -158,6 +163,7 @@ Result<ClusterRenderOutput> ClusterRenderer::collect(uint32_t slot) {
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = out.stats.trianglesRasterized;
   d.recorded[slot] = false;
+  d.retired.completed(slot);
   return out;
 }
 

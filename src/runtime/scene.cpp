@@ -68,6 +68,23 @@ Result<Frame> Scene::render(const View& view) {
   return Error{"unknown scene kind"};
 }
 
+bool Scene::canRecord() const { return impl_->kind == SceneKind::ClusterLod && !impl_->surfels; }
+
+Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
+  if (!canRecord())
+    return Error{fmt::format("{} scenes{} render through render() only, not record()", toString(impl_->kind),
+                             impl_->surfels ? " with surfels" : "")};
+  if (auto st = validate(view.config); !st) return st.error();
+  return recordClusterLod(*impl_, cmd, view, slot);
+}
+
+Result<Frame> Scene::collect(uint32_t slot) {
+  if (!canRecord()) return Error{"collect(): this scene has no record path"};
+  return collectClusterLod(*impl_, slot);
+}
+
+const gpu::Image* Scene::colorTarget() const { return canRecord() ? &impl_->cluster->colorTarget() : nullptr; }
+
 Result<bool> Scene::selectPvsCell(glm::vec3 eye) { return runtime::selectPvsCell(*impl_, eye); }
 
 SceneKind Scene::kind() const { return impl_->kind; }

@@ -26,6 +26,7 @@ struct Scene::Impl {
   std::unique_ptr<render::ClusterRenderer> cluster;
   std::vector<surfels::MeshSurfels> meshClouds;
   lod::ClusterPvs clusterPvs;
+  int slotCell[render::kMaxFramesInFlight] = {-1, -1, -1}; // record(): the PVS cell of each slot's frame
 
   // Forward: the whole scene (kept to restrict it to another cell's PVS) and the renderer of what
   // is drawn.
@@ -45,6 +46,8 @@ struct Scene::Impl {
 // frame. pvs_cell.cpp: the PVS of each path.
 Status openClusterLod(Scene::Impl& s);
 Result<Frame> renderClusterLod(Scene::Impl& s, const View& view);
+Status recordClusterLod(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint32_t slot);
+Result<Frame> collectClusterLod(Scene::Impl& s, uint32_t slot);
 Status openForward(Scene::Impl& s);
 Result<Frame> renderForward(Scene::Impl& s, const View& view);
 Status openSurfels(Scene::Impl& s);

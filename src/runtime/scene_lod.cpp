@@ -73,8 +73,9 @@ Status openClusterLod(Scene::Impl& s) {
   return Ok{};
 }
 
-Result<Frame> renderClusterLod(Scene::Impl& s, const View& view) {
-  if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
+namespace {
+
+render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) {
   const RenderConfig& c = view.config;
   render::ClusterRenderSettings rs;
   rs.base.width = view.width;
@@ -95,18 +96,43 @@ Result<Frame> renderClusterLod(Scene::Impl& s, const View& view) {
     rs.surfelSettings.surfelSize = c.surfelSize;
     rs.surfelSettings.raster = c.surfelRaster;
   }
-  auto o = s.cluster->render(rs);
-  if (!o) return o.error();
+  return rs;
+}
+
+// The counters every path reports, from the cluster renderer's output (images move along).
+Frame clusterFrame(Scene::Impl& s, render::ClusterRenderOutput& o, int pvsCell) {
   Frame f;
-  f.srgb = std::move(o->image.srgb);
-  f.linear = std::move(o->image.linear);
-  f.passTimes = std::move(o->image.stats.passTimes);
-  f.trianglesDrawn = o->stats.trianglesRasterized;
-  f.clustersDrawn = o->stats.clustersDrawn;
-  f.surfelsSplatted = o->stats.surfels.surfelsSplatted;
-  f.pvsCell = s.pvsState.active && o->stats.pvs ? s.pvsState.cell : -1;
-  f.cluster = o->stats;
+  f.srgb = std::move(o.image.srgb);
+  f.linear = std::move(o.image.linear);
+  f.passTimes = std::move(o.image.stats.passTimes);
+  f.trianglesDrawn = o.stats.trianglesRasterized;
+  f.clustersDrawn = o.stats.clustersDrawn;
+  f.surfelsSplatted = o.stats.surfels.surfelsSplatted;
+  f.pvsCell = s.pvsState.active && o.stats.pvs ? pvsCell : -1;
+  f.cluster = o.stats;
   return f;
+}
+
+} // namespace
+
+Result<Frame> renderClusterLod(Scene::Impl& s, const View& view) {
+  if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
+  auto o = s.cluster->render(clusterSettings(s, view));
+  if (!o) return o.error();
+  return clusterFrame(s, *o, s.pvsState.cell);
+}
+
+Status recordClusterLod(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint32_t slot) {
+  if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
+  if (auto st = s.cluster->record(cmd, clusterSettings(s, view), slot); !st) return st;
+  s.slotCell[slot] = s.pvsState.cell;
+  return Ok{};
+}
+
+Result<Frame> collectClusterLod(Scene::Impl& s, uint32_t slot) {
+  auto o = s.cluster->collect(slot);
+  if (!o) return o.error();
+  return clusterFrame(s, *o, s.slotCell[slot]);
 }
 
 } // namespace mirage::runtime
