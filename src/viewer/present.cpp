@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "mirage/gpu/commands.h"
+#include "mirage/gpu/pipeline.h"
 
 namespace mirage::viewer {
 
@@ -56,6 +57,105 @@ void cmdCopyFrameToSwapchain(gpu::Context& context, PresentStaging& staging, con
   gpu::cmdImageBarrier(cmd,
                        {.image = frame.image,
                         .srcStage = VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                        .srcAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                        .dstStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                        .dstAccess = VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                        .oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                        .newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+}
+
+namespace {
+
+struct SrgbPush { // present_srgb.comp
+  VkDeviceAddress src = 0, dst = 0;
+  uint32_t pixels = 0, bgra = 0;
+};
+
+} // namespace
+
+TargetBlit createTargetBlit(gpu::Context& context, VkFormat format) {
+  TargetBlit blit;
+  if (format != VK_FORMAT_B8G8R8A8_UNORM && format != VK_FORMAT_R8G8B8A8_UNORM) return blit;
+  blit.layout = gpu::createPipelineLayout(context, {}, sizeof(SrgbPush), VK_SHADER_STAGE_COMPUTE_BIT);
+  blit.pipeline = gpu::createComputePipeline(context, "present_srgb.comp", blit.layout);
+  blit.format = format;
+  return blit;
+}
+
+void slotCompleted(TargetBlit& blit, uint32_t slot) {
+  blit.retired.completed(slot);
+  blit.inFlight &= ~(1u << slot);
+}
+
+void cmdBlitTargetToSwapchain(gpu::Context& context, TargetBlit& blit, const gpu::Swapchain::Frame& frame,
+                              const gpu::Image& target) {
+  VkCommandBuffer cmd = frame.cmd;
+  VkExtent3D size = target.extent();
+  uint32_t pixels = size.width * size.height;
+  if (!blit.half || blit.half.size() < uint64_t(pixels) * 8) {
+    blit.retired.retire(std::move(blit.half), blit.inFlight); // earlier frames may still use them
+    blit.retired.retire(std::move(blit.packed), blit.inFlight);
+    blit.half = gpu::createBuffer(context, uint64_t(pixels) * 8, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                  gpu::MemoryUsage::GpuOnly, "present half");
+    blit.packed = gpu::createBuffer(context, uint64_t(pixels) * 4, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                    gpu::MemoryUsage::GpuOnly, "present srgb");
+  }
+  blit.inFlight |= 1u << frame.slot;
+  uint32_t w = std::min(size.width, frame.extent.width), h = std::min(size.height, frame.extent.height);
+
+  // The target was last written by the frame's compute shaders; the buffers were last used by an
+  // earlier frame (queue order: the all-commands barrier below covers it); the swapchain image
+  // waits for the acquire semaphore (all commands).
+  gpu::cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                        VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                        VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  const gpu::ImageBarrier before[] = {
+      {.image = target.handle(),
+       .srcStage = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+       .srcAccess = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+       .dstStage = VK_PIPELINE_STAGE_2_COPY_BIT,
+       .dstAccess = VK_ACCESS_2_TRANSFER_READ_BIT,
+       .oldLayout = VK_IMAGE_LAYOUT_GENERAL,
+       .newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL},
+      {.image = frame.image,
+       .srcStage = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+       .dstStage = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+       .dstAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+       .oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+       .newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL},
+  };
+  gpu::cmdImageBarriers(cmd, before);
+  VkBufferImageCopy whole{};
+  whole.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  whole.imageExtent = {size.width, size.height, 1};
+  vkCmdCopyImageToBuffer(cmd, target.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, blit.half.handle(), 1, &whole);
+  gpu::cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  SrgbPush push{blit.half.address(), blit.packed.address(), pixels, blit.format == VK_FORMAT_B8G8R8A8_UNORM ? 1u : 0u};
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blit.pipeline);
+  vkCmdPushConstants(cmd, blit.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  uint32_t groups = (pixels + 255) / 256, x = std::min(groups, 65535u);
+  vkCmdDispatch(cmd, x, (groups + x - 1) / x, 1);
+  if (w < frame.extent.width || h < frame.extent.height) {
+    VkClearColorValue black{};
+    VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdClearColorImage(cmd, frame.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &black, 1, &range);
+  }
+  // The packed pixels (and the clear) before the copy into the swapchain image.
+  gpu::cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                        VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                        VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  if (w && h) {
+    VkBufferImageCopy region{};
+    region.bufferRowLength = size.width;
+    region.bufferImageHeight = size.height;
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {w, h, 1};
+    vkCmdCopyBufferToImage(cmd, blit.packed.handle(), frame.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  }
+  gpu::cmdImageBarrier(cmd,
+                       {.image = frame.image,
+                        .srcStage = VK_PIPELINE_STAGE_2_COPY_BIT,
                         .srcAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT,
                         .dstStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                         .dstAccess = VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,

@@ -15,6 +15,26 @@ runtime::SceneOptions runtimeOptions(const SceneOptions& o) {
   return r;
 }
 
+runtime::View runtimeView(const View& view, bool readImage) {
+  runtime::View v;
+  v.camera = view.camera;
+  v.width = view.width;
+  v.height = view.height;
+  v.config = view.config;
+  v.readImage = readImage;
+  return v;
+}
+
+FrameStats frameStats(runtime::Frame& out, int cell) {
+  FrameStats stats;
+  stats.passTimes = std::move(out.passTimes);
+  stats.triangles = out.trianglesDrawn;
+  stats.clusters = out.clustersDrawn;
+  stats.surfels = out.surfelsSplatted;
+  stats.cell = cell;
+  return stats;
+}
+
 } // namespace
 
 SceneView::SceneView(std::unique_ptr<runtime::Scene> scene) : scene_(std::move(scene)) {}
@@ -38,23 +58,29 @@ Result<std::unique_ptr<SceneView>> SceneView::open(gpu::Context& context, const 
 }
 
 Result<Frame> SceneView::render(const View& view) {
-  runtime::View v;
-  v.camera = view.camera;
-  v.width = view.width;
-  v.height = view.height;
-  v.config = view.config;
-  auto out = scene_->render(v);
+  auto out = scene_->render(runtimeView(view, true));
   if (!out) return out.error();
+  const runtime::PvsState& pvs = scene_->pvs();
   Frame frame;
   frame.srgb = std::move(out->srgb);
-  frame.stats.passTimes = std::move(out->passTimes);
-  frame.stats.triangles = out->trianglesDrawn;
-  frame.stats.clusters = out->clustersDrawn;
-  frame.stats.surfels = out->surfelsSplatted;
-  const runtime::PvsState& pvs = scene_->pvs();
-  frame.stats.cell = !pvs.active ? -2 : pvs.cell < 0 ? -1 : pvs.cell;
+  frame.stats = frameStats(*out, !pvs.active ? -2 : pvs.cell < 0 ? -1 : pvs.cell);
   return frame;
 }
+
+bool SceneView::canRecord() const { return scene_->canRecord(); }
+
+Status SceneView::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
+  return scene_->record(cmd, runtimeView(view, false), slot);
+}
+
+Result<FrameStats> SceneView::collect(uint32_t slot) {
+  auto out = scene_->collect(slot);
+  if (!out) return out.error();
+  // The cell the slot's frame culled with (-1 also when PVS culling was off for it).
+  return frameStats(*out, !scene_->pvs().active ? -2 : out->pvsCell);
+}
+
+const gpu::Image* SceneView::colorTarget() const { return scene_->colorTarget(); }
 
 const Bounds& SceneView::bounds() const { return scene_->bounds(); }
 bool SceneView::clusterLod() const { return scene_->kind() == runtime::SceneKind::ClusterLod; }

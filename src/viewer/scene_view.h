@@ -10,6 +10,7 @@
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
+#include "mirage/gpu/memory.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/camera.h"
 #include "mirage/runtime/config.h"
@@ -56,6 +57,13 @@ public:
   static Result<std::unique_ptr<SceneView>> open(gpu::Context& context, const SceneOptions& options);
   ~SceneView();
   Result<Frame> render(const View& view);
+  // Frames in flight (runtime::Scene::record / collect; cluster-LOD scenes without surfels): the
+  // frame is recorded into the swapchain frame's command buffer, its image is colorTarget(), its
+  // stats come from collect(slot) once the slot's fence signalled.
+  bool canRecord() const;
+  Status record(VkCommandBuffer cmd, const View& view, uint32_t slot);
+  Result<FrameStats> collect(uint32_t slot);
+  const gpu::Image* colorTarget() const;
 
   const Bounds& bounds() const;
   bool clusterLod() const;

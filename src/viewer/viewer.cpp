@@ -4,6 +4,7 @@
 #include <charconv>
 #include <chrono>
 #include <filesystem>
+#include <optional>
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -76,17 +77,46 @@ struct Presenter {
   std::unique_ptr<gpu::Swapchain> swapchain;
   std::unique_ptr<OverlayRenderer> overlay;
   PresentStaging staging;
+  TargetBlit blit;
+  // Swapchain slots whose scene frame was recorded and not yet collected (the scene's slots are the
+  // swapchain's: both counts are 3 at most).
+  bool pending[gpu::kMaxFramesInFlight] = {};
+  static_assert(gpu::kMaxFramesInFlight <= render::kMaxFramesInFlight);
   ~Presenter() {
     if (swapchain) swapchain->waitIdle();
   }
-  // Shows `image` with the overlay (ImGui::Render done) when the swapchain gives an image.
+  // Readback path: shows `image` with the overlay (ImGui::Render done) when the swapchain gives an image.
   void show(const Window& window, const ImageRGBA8& image) {
     auto frame = swapchain->beginFrame(window.framebufferSize());
     if (!frame) return;
+    slotCompleted(blit, frame->slot);
     cmdCopyFrameToSwapchain(context, staging, *frame, swapchain->format(), image);
-    overlay->record(frame->cmd, frame->slot, frame->view, frame->extent, ImGui::GetDrawData());
-    cmdTransitionForPresent(frame->cmd, frame->image);
-    swapchain->endFrame(*frame);
+    finish(*frame);
+  }
+  // The overlay (ImGui::Render done), then submit and present.
+  void finish(const gpu::Swapchain::Frame& frame) {
+    overlay->record(frame.cmd, frame.slot, frame.view, frame.extent, ImGui::GetDrawData());
+    cmdTransitionForPresent(frame.cmd, frame.image);
+    swapchain->endFrame(frame);
+  }
+  // The stats of slot `slot`'s recorded frame, if it holds one (its fence signalled).
+  void collect(SceneView& scene, uint32_t slot, FrameStats& stats, std::vector<double>& gpuFrameMs) {
+    if (!pending[slot]) return;
+    pending[slot] = false;
+    auto collected = scene.collect(slot);
+    if (!collected) return;
+    stats = std::move(*collected);
+    for (const gpu::PassTime& t : stats.passTimes)
+      if (t.name == "frame") gpuFrameMs.push_back(t.milliseconds);
+  }
+  // Before a frame through Scene::render (it uses slot 0 and waits): the frames in flight finish
+  // and give their stats. Rare: frames written to PNG, scenes switching paths never.
+  void drain(SceneView& scene, FrameStats& stats, std::vector<double>& gpuFrameMs) {
+    bool any = false;
+    for (bool p : pending) any = any || p;
+    if (!any) return;
+    swapchain->waitIdle();
+    for (uint32_t i = 0; i < gpu::kMaxFramesInFlight; ++i) collect(scene, i, stats, gpuFrameMs);
   }
 };
 
@@ -155,9 +185,12 @@ Status runViewer(const ViewerOptions& o) {
   auto swapchain = gpu::Swapchain::create(**context, *surface, (*window)->framebufferSize(), so);
   if (!swapchain) return swapchain.error();
   ImGuiSession imgui((*window)->handle());
-  Presenter presenter{**context, std::move(*swapchain), nullptr, {}};
+  Presenter presenter{**context, std::move(*swapchain), nullptr, {}, {}};
   presenter.overlay =
       OverlayRenderer::create(**context, presenter.swapchain->format(), presenter.swapchain->framesInFlight());
+  // Frames in flight from the scene to the swapchain when the scene records and the device blits.
+  presenter.blit = createTargetBlit(**context, presenter.swapchain->format());
+  const bool gpuPresent = sceneView.canRecord() && presenter.blit.format != VK_FORMAT_UNDEFINED;
   Window& win = **window;
 
   UiState ui;
@@ -262,10 +295,69 @@ Status runViewer(const ViewerOptions& o) {
     }
     View v;
     v.camera = camera;
+    v.config = ui.config;
+    auto advanceReplay = [&] {
+      if (replaying && ++replayIndex >= path.size()) {
+        replaying = false;
+        replayIndex = 0;
+        writingPath = false;
+        if (o.exitAfterPath) win.requestClose();
+      }
+    };
+    auto overlayPanel = [&] {
+      if (drawOverlayPanel(ui, stats)) {
+        untried = true;
+        presenter.swapchain->setPresentMode(vsyncMode(ui.vsync, *present));
+      }
+      ImGui::Render();
+    };
+
+    if (gpuPresent && !(replaying && writingPath) && !screenshot) {
+      // Frames in flight: the scene records into the swapchain frame's command buffer, a blit takes
+      // its colour target to the swapchain image, the overlay follows: one submit, no readback. The
+      // stats shown are those of the frame this slot held before (framesInFlight - 1 frames late).
+      auto sf = presenter.swapchain->beginFrame(extent);
+      if (!sf) {
+        ImGui::EndFrame();
+        continue;
+      }
+      slotCompleted(presenter.blit, sf->slot);
+      presenter.collect(sceneView, sf->slot, stats, gpuFrameMs);
+      v.width = sf->extent.width;
+      v.height = sf->extent.height;
+      Status sceneRecorded = sceneView.record(sf->cmd, v, sf->slot);
+      std::optional<Error> fatal;
+      if (sceneRecorded) {
+        presenter.pending[sf->slot] = true;
+        lastGood = ui.config;
+        untried = false;
+        cmdBlitTargetToSwapchain(**context, presenter.blit, *sf, *sceneView.colorTarget());
+      } else {
+        // Nothing recorded: a black frame, then the error (or back to the last good setting).
+        cmdCopyFrameToSwapchain(**context, presenter.staging, *sf, presenter.swapchain->format(), ImageRGBA8{});
+        if (!untried) {
+          fatal = sceneRecorded.error();
+        } else {
+          ui.message = sceneRecorded.error().message;
+          fmt::print(stderr, "mirage: {}\n", ui.message);
+          ui.config = lastGood;
+          untried = false;
+        }
+      }
+      if (!fatal) advanceReplay();
+      overlayPanel();
+      presenter.finish(*sf);
+      if (fatal) return *fatal;
+      ++frames;
+      if (o.maxFrames && frames >= o.maxFrames) win.requestClose();
+      continue;
+    }
+
+    // Readback path: the scene renders and waits, the image goes through the CPU (PNG frames).
+    presenter.drain(sceneView, stats, gpuFrameMs);
     // A recorded path renders at --size so its images match `mirage render --path` exactly.
     v.width = replaying && writingPath ? width : extent.width;
     v.height = replaying && writingPath ? height : extent.height;
-    v.config = ui.config;
     auto frame = sceneView.render(v);
     if (!frame) {
       if (!untried) {
@@ -297,24 +389,14 @@ Status runViewer(const ViewerOptions& o) {
       ui.message = st ? "wrote " + name : st.error().message;
       fmt::print("{}\n", ui.message);
     }
-    if (replaying && ++replayIndex >= path.size()) {
-      replaying = false;
-      replayIndex = 0;
-      writingPath = false;
-      if (o.exitAfterPath) win.requestClose();
-    }
-
-    if (drawOverlayPanel(ui, stats)) {
-      untried = true;
-      presenter.swapchain->setPresentMode(vsyncMode(ui.vsync, *present));
-    }
-    ImGui::Render();
+    advanceReplay();
+    overlayPanel();
     presenter.show(win, frame->srgb);
     ++frames;
     if (o.maxFrames && frames >= o.maxFrames) win.requestClose();
   }
-  // How to measure the viewer (docs/viewer.md): frames per second of the whole loop (render,
-  // readback, upload, overlay, present) and the renderer's median GPU frame time.
+  // How to measure the viewer (docs/viewer.md): frames per second of the whole loop (record or
+  // render, blit or readback and upload, overlay, present) and the renderer's median GPU frame time.
   double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::sort(gpuFrameMs.begin(), gpuFrameMs.end());
   fmt::print("viewed {} frames in {:.2f} s: {:.1f} FPS, GPU frame median {:.3f} ms ({})\n", frames, seconds,
