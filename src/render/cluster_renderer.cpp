@@ -31,6 +31,11 @@ uint64_t ClusterRenderer::clusterCount() const { return impl_->scene.clusterCoun
 
 Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
   Impl& d = *impl_;
+  if (pvs && pvs->instanceBitOffset.size() != d.scene.instanceCount)
+    return Error{fmt::format("cluster PVS for {} instances, the scene has {}", pvs->instanceBitOffset.size(),
+                             d.scene.instanceCount)};
+  if (pvs && pvs->clusterBits.size() * 4 > d.ctx.caps().maxStorageBufferRange)
+    return Error{fmt::format("cluster PVS of {} bytes exceeds the device's storage buffer range", pvs->bytes())};
   // Frames recorded and not yet collected may still read the buffers replaced here: they live until
   // those slots complete (no device wait; a cell change happens while frames are in flight).
   uint32_t inFlight = 0;
@@ -41,11 +46,6 @@ Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
   d.pvsInstances = {};
   d.pvsClusters = {};
   if (!pvs) return Ok{};
-  if (pvs->instanceBitOffset.size() != d.scene.instanceCount)
-    return Error{fmt::format("cluster PVS for {} instances, the scene has {}", pvs->instanceBitOffset.size(),
-                             d.scene.instanceCount)};
-  if (pvs->clusterBits.size() * 4 > d.ctx.caps().maxStorageBufferRange)
-    return Error{fmt::format("cluster PVS of {} bytes exceeds the device's storage buffer range", pvs->bytes())};
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   d.pvsInstances = createBufferWithData<uint32_t>(d.ctx, pvs->instanceBitOffset, kStorage, "pvs instances");
   std::vector<uint32_t> bits = pvs->clusterBits;

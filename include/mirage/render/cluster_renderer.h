@@ -189,6 +189,8 @@ public:
   // later frames skip instances and clusters outside it (unless settings.pvsCulling is off).
   // nullptr: no PVS culling (the camera is outside every cell). Errors when the set was made for
   // another instance count.
+  // No device wait: the buffers replaced here live until every slot recorded and not yet
+  // collected completed (collected, or recorded again).
   Status setPvs(const lod::ClusterPvs* pvs);
   const Bounds& worldBounds() const;
   uint64_t clusterCount() const; // all DAG clusters uploaded (not per instance)
