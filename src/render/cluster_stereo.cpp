@@ -25,8 +25,11 @@ void ClusterRenderer::Impl::cmdStereoEyes(VkCommandBuffer cmd, const sio::Cluste
         cmdPhaseBarrier(cmd, ctx.caps().meshShader);
       }
     }
+    // Each eye's raster + resolve timed as a whole too: the per-pass names repeat per eye.
+    uint32_t eyeTime = timer().cmdBegin(cmd, e == 0 ? "left eye" : "right eye");
     cmdRasterize(cmd, ep, plan.backend, 0);
     cmdResolve(cmd, ep, /*firstWrite=*/e == 0);
+    timer().cmdEnd(cmd, eyeTime);
   }
 }
 

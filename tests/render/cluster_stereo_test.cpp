@@ -1,11 +1,13 @@
 // Stereo cluster rendering (docs/render.md, "Stereo"): one selection shared by both eyes, each eye
 // rasterized and resolved into its half of a side-by-side target. Each half must match a mono
 // render of that eye's camera (the shared selection differs only where the nearer eye asks for a
-// finer cut, well below the 45 dB bar), on every raster backend the device has.
+// finer cut, well below the 45 dB bar), on every raster backend the device has and every selection.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -54,8 +56,9 @@ ImageRGBA8 half(const ImageRGBA8& image, uint32_t index) {
   return out;
 }
 
-ClusterRenderSettings settings(const Camera& camera, RasterBackend backend) {
+ClusterRenderSettings settings(const Camera& camera, RasterBackend backend, SelectionMode selection) {
   ClusterRenderSettings s;
+  s.selection = selection;
   s.base.width = kWidth;
   s.base.height = kHeight;
   s.base.camera = camera;
@@ -103,9 +106,14 @@ TEST_F(ClusterStereo, EachHalfMatchesAMonoRenderOfThatEye) {
   // A wide baseline so that the eyes' images differ visibly (a real IPD on this small scene would not).
   float ipd = 0.15f * glm::length(bounds.max - bounds.min);
   auto eyes = stereoEyes(camera, ipd);
-  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
-    SCOPED_TRACE(toString(backend));
-    ClusterRenderSettings s = settings(camera, backend);
+  // Every backend with the flat pass; the traversals (which cull and project per BVH node) on one.
+  std::vector<std::pair<RasterBackend, SelectionMode>> runs;
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) runs.emplace_back(backend, SelectionMode::Flat);
+  runs.emplace_back(runs.back().first, SelectionMode::Hierarchy);
+  runs.emplace_back(runs.back().first, SelectionMode::Dag);
+  for (auto [backend, selection] : runs) {
+    SCOPED_TRACE(std::string(toString(backend)) + " " + toString(selection));
+    ClusterRenderSettings s = settings(camera, backend, selection);
     s.stereoIpd = ipd;
     auto stereo = (*renderer)->render(s);
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
@@ -115,7 +123,7 @@ TEST_F(ClusterStereo, EachHalfMatchesAMonoRenderOfThatEye) {
     EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
     uint64_t monoTriangles[2] = {};
     for (uint32_t e = 0; e < 2; ++e) {
-      auto mono = (*renderer)->render(settings(eyes[e], backend));
+      auto mono = (*renderer)->render(settings(eyes[e], backend, selection));
       ASSERT_TRUE(mono.ok()) << mono.error().message;
       monoTriangles[e] = mono->stats.trianglesRasterized;
       double db = psnr(halves[e], mono->image.srgb);
@@ -131,7 +139,8 @@ TEST_F(ClusterStereo, RefusesWhatTheSharedSelectionCannotServe) {
   gpu::Context& ctx = context();
   auto renderer = ClusterRenderer::create(ctx, gridAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  ClusterRenderSettings s = settings(autoCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Auto);
+  ClusterRenderSettings s =
+      settings(autoCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Auto, SelectionMode::Auto);
   s.stereoIpd = -1.0f;
   auto bad = (*renderer)->render(s);
   ASSERT_FALSE(bad.ok());
