@@ -92,19 +92,37 @@ bool keepFacing(uint v, bool frontFacing) {
   return frontFacing != ((flags & MIRAGE_INSTANCE_MIRRORED) != 0);
 }
 
-// Sphere against the frustum planes (conservative: inside or intersecting).
+// Sphere against the frustum planes of the camera moved by `shift` (conservative: inside or
+// intersecting). A translated frustum keeps its normals: plane w becomes w - dot(n, shift).
+bool sphereInFrustum(ClusterFrame f, vec4 s, vec3 shift) {
+  for (int i = 0; i < 5; ++i)
+    if (dot(f.camera.planes[i].xyz, s.xyz - shift) + f.camera.planes[i].w < -s.w) return false;
+  return true;
+}
+
+// Sphere against the view: in stereo, the union of both eyes' frusta (ClusterFrame::stereoHalf).
 bool sphereVisible(vec4 s) {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
-  for (int i = 0; i < 5; ++i)
-    if (dot(f.camera.planes[i].xyz, s.xyz) + f.camera.planes[i].w < -s.w) return false;
-  return true;
+  vec3 h = f.stereoHalf.xyz;
+  if (h == vec3(0.0)) return sphereInFrustum(f, s, vec3(0.0));
+  return sphereInFrustum(f, s, -h) || sphereInFrustum(f, s, h);
+}
+
+// The eye nearest to `p`: the camera in mono, the nearest point of the segment between the two
+// eyes in stereo (LOD error from there is never below either eye's: conservative for both).
+vec3 nearestEye(ClusterFrame f, vec3 p) {
+  vec3 h = f.stereoHalf.xyz;
+  float hh = dot(h, h);
+  if (hh == 0.0) return f.camera.eye.xyz;
+  float t = clamp(dot(p - f.camera.eye.xyz, h) / hh, -1.0, 1.0);
+  return f.camera.eye.xyz + t * h;
 }
 
 // Hybrid raster: true when the cluster goes to the hardware list: its estimated triangle edge
 // (projected sphere diameter / sqrt(triangles)) reaches the threshold, or its sphere reaches the
 // near plane (big on screen and clipped: fixed-function clipping is cheaper).
 bool hardwareCluster(vec4 worldSphere, uint triangles, ClusterFrame f) {
-  float d = length(worldSphere.xyz - f.camera.eye.xyz) - worldSphere.w;
+  float d = length(worldSphere.xyz - nearestEye(f, worldSphere.xyz)) - worldSphere.w;
   if (d <= f.camera.znear) return true;
   float diameter = 2.0 * worldSphere.w / d * f.camera.pixelScale;
   return diameter >= f.hybridThreshold * sqrt(float(max(triangles, 1u)));

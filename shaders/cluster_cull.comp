@@ -35,7 +35,7 @@ void main() {
   // coarse). Either way none of its clusters passes LOCALCUT. The 0.1% margins keep float rounding
   // in the per-cluster test from deciding otherwise.
   vec3 centre = (inst.model * vec4(mesh.sphere.xyz, 1.0)).xyz;
-  float dist = length(centre - f.camera.eye.xyz);
+  float dist = length(centre - nearestEye(f, centre)); // 1-Lipschitz in the point, as |c - eye|
   float reach = mesh.reach * inst.maxScale;
   float dmin = dist - reach, dmax = dist + reach;
   uint first = 0, last = mesh.levelCount - 1;

@@ -53,7 +53,7 @@ void main() {
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;
   if ((f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 && !front && !background) {
-    imageStore(outImage, px, vec4(1.0, 0.0, 1.0, 1.0)); // crack-test flag colour
+    imageStore(outImage, px + ivec2(f.targetOffsetX, 0), vec4(1.0, 0.0, 1.0, 1.0)); // crack-test flag colour
     return;
   }
   vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);
@@ -62,10 +62,10 @@ void main() {
   if (background) {
     if (surfelId != 0) {
       ClusterSurfelLink link = LinkRef(f.surfelLinkAddress).link;
-      imageStore(outImage, px, vec4(shadeLinkedSurfel(link, surfelId, f), 1.0));
+      imageStore(outImage, px + ivec2(f.targetOffsetX, 0), vec4(shadeLinkedSurfel(link, surfelId, f), 1.0));
       return;
     }
-    imageStore(outImage, px, f.background);
+    imageStore(outImage, px + ivec2(f.targetOffsetX, 0), f.background);
     return;
   }
   // Occlusion history for the next frame: exactly the clusters that own a pixel. A visible cluster
@@ -77,5 +77,5 @@ void main() {
   vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
   vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);
-  imageStore(outImage, px, vec4(rgb, 1.0));
+  imageStore(outImage, px + ivec2(f.targetOffsetX, 0), vec4(rgb, 1.0));
 }

@@ -10,16 +10,23 @@
 // (projectedSphereError, shared with the CPU).
 float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterFrame f) {
   vec3 c = (inst.model * vec4(sphere.xyz, 1.0)).xyz;
-  return projectedSphereError(c, sphere.w, error, inst.maxScale, f.camera.eye.xyz, f.camera.znear, f.camera.pixelScale);
+  return projectedSphereError(c, sphere.w, error, inst.maxScale, nearestEye(f, c), f.camera.znear, f.camera.pixelScale);
 }
 
 // Normal-cone test in object space (exact for any transform with a positive determinant: facing
-// is affine-invariant there): the whole cluster faces away from the eye.
+// is affine-invariant there): the whole cluster faces away from the eye at world position `e`.
+bool coneBackfacingFrom(GpuClusterInstance inst, GpuClusterCone cone, vec3 e) {
+  vec3 eye = (transpose(inst.normalMatrix) * vec4(e, 1.0)).xyz; // inverse(model) * eye
+  return dot(normalize(cone.apex.xyz - eye), cone.axisCutoff.xyz) >= cone.axisCutoff.w;
+}
+
+// Back-facing from the camera, in stereo from both eyes (ClusterFrame::stereoHalf).
 bool coneBackfacing(GpuClusterInstance inst, uint cluster, ClusterFrame f) {
   GpuClusterCone cone = ConeRef(f.coneAddress).cones[cluster];
   if (cone.axisCutoff.w >= 1.0) return false;
-  vec3 eye = (transpose(inst.normalMatrix) * vec4(f.camera.eye.xyz, 1.0)).xyz; // inverse(model) * eye
-  return dot(normalize(cone.apex.xyz - eye), cone.axisCutoff.xyz) >= cone.axisCutoff.w;
+  vec3 h = f.stereoHalf.xyz;
+  if (h == vec3(0.0)) return coneBackfacingFrom(inst, cone, f.camera.eye.xyz);
+  return coneBackfacingFrom(inst, cone, f.camera.eye.xyz - h) && coneBackfacingFrom(inst, cone, f.camera.eye.xyz + h);
 }
 
 // Mesh-local cluster `meshLocal` of instance `instanceIndex` in selection phase `phase` (0: pass

@@ -45,6 +45,7 @@ struct BenchRenderOptions {
   runtime::RenderConfig config;
   BenchSweeps sweeps;
   RenderConfigOptions given;
+  StereoOptions stereo; // .mrg cluster LOD only
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
@@ -65,9 +66,11 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .warmupMs = o.warmupMs,
                        .stats = true,
                        .json = o.json,
-                       .baselines = o.baselines};
+                       .baselines = o.baselines,
+                       .stereoIpd = o.stereo.ipdOrNone()};
     return runLodBench(r);
   }
+  if (o.stereo.enabled) return fail(o.scene.input + ": --stereo needs a .mrg with cluster DAGs (cluster LOD)");
   if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
   if (!o.scene.pvs.empty())
     return fail("bench render --pvs applies to .mrg cluster-LOD assets (scene files: mirage bench pvs)");
@@ -339,6 +342,7 @@ void addBenchCommand(CLI::App& app) {
   r->add_flag("--json", o->json, "Print results as JSON");
   o->given = bindRenderConfig(*r, o->config, BindMode::Bench, &o->sweeps);
   bindSceneOptions(*r, o->scene, BindMode::Bench);
+  bindStereo(*r, o->stereo);
   r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,

@@ -31,6 +31,7 @@ struct RenderOptions {
   runtime::RenderConfig config;
   RenderConfigOptions given;
   CLI::Option* surfelOrder = nullptr;
+  StereoOptions stereo; // .mrg cluster LOD only
 };
 
 LodRenderRequest lodRequest(const RenderOptions& o) {
@@ -44,7 +45,8 @@ LodRenderRequest lodRequest(const RenderOptions& o) {
                           .config = o.config,
                           .frames = o.repeat,
                           .stats = o.stats,
-                          .json = o.json};
+                          .json = o.json,
+                          .stereoIpd = o.stereo.ipdOrNone()};
 }
 
 struct Rendered {
@@ -159,6 +161,8 @@ void runRender(const RenderOptions& o) {
   auto kind = runtime::sceneKind(o.scene);
   if (!kind) return fail(kind.error());
   bool surfelOrderGiven = o.surfelOrder->count() > 0;
+  if (o.stereo.enabled && *kind != runtime::SceneKind::ClusterLod)
+    return fail(o.scene.input + ": --stereo needs a .mrg with cluster DAGs (cluster LOD)");
   if (o.scene.surfels && *kind == runtime::SceneKind::ClusterLod) { // DAGs + SURF: meshes near, surfels far
     if (!o.scene.pvs.empty() || o.given.surfels.back()->count() > 0 || surfelOrderGiven)
       return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");
@@ -197,6 +201,7 @@ void addRenderCommand(CLI::App& app) {
   o->given = bindRenderConfig(*cmd, o->config, BindMode::Render);
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
   o->surfelOrder = bindSceneOptions(*cmd, o->scene, BindMode::Render);
+  bindStereo(*cmd, o->stereo);
   cmd->callback([o] { runRender(*o); });
 }
 

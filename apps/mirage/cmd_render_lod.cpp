@@ -65,6 +65,8 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
       if (auto st = checkOutputPath(r.exr, {".exr", ".pfm"}); !st) return fail(st.error()), false;
   }
   if (auto st = runtime::validate(r.config); !st) return fail(st.error()), false;
+  if (r.stereoIpd)
+    if (auto st = render::validateIpd(*r.stereoIpd); !st) return fail(st.error()), false;
   render::Camera camera;
   if (!r.camera.empty()) {
     auto c = render::parseCamera(r.camera);
@@ -88,6 +90,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   }
   s.view.readLinear = !r.exr.empty();
   s.view.config = r.config;
+  s.view.stereoIpd = r.stereoIpd;
   if (const vis::PvsData* pvs = s.scene->pvsData()) {
     if (!needOutput && r.camera.empty() && r.path.empty()) { // bench: views from every cell
       s.path = cellCameras(*pvs);
@@ -150,12 +153,6 @@ bool renderFrames(Session& s, int frames, Timed& out, OnFrame&& onFrame, double 
 bool renderFrames(Session& s, int frames, Timed& out, double warmupMs = 0.0) {
   return renderFrames(
       s, frames, out, [](const runtime::Frame&, size_t) { return true; }, warmupMs);
-}
-
-// out.png -> out_0007.png: one image per camera of a path.
-std::string pathFrameName(const std::string& output, size_t index) {
-  std::filesystem::path p = output;
-  return (p.parent_path() / fmt::format("{}_{:04}{}", p.stem().string(), index, p.extension().string())).string();
 }
 
 nlohmann::json statsJson(const render::ClusterStats& st) {
@@ -236,7 +233,7 @@ void runLodRender(const LodRenderRequest& r) {
       for (const auto& f : written) std::filesystem::remove(f, ec);
     };
     bool ok = renderFrames(s, int(s.path.size()) + 1, t, [&](const runtime::Frame& o, size_t i) {
-      std::string name = pathFrameName(r.output, i);
+      std::string name = render::pathFrameName(r.output, i);
       if (auto st = io::writePng(name, o.srgb); !st) return fail(st.error()), false;
       written.push_back(name);
       return true;
@@ -264,6 +261,7 @@ void runLodRender(const LodRenderRequest& r) {
     j["hybrid_threshold"] = r.config.hybridThreshold;
     j["width"] = s.view.width;
     j["height"] = s.view.height;
+    if (r.stereoIpd) j["stereo_ipd"] = *r.stereoIpd; // the image is 2 * width wide, left|right
     j["source_triangles"] = info.sourceTriangles;
     j["load_seconds"] = info.loadSeconds;
     j["frames_timed"] = t.frames;
@@ -275,8 +273,11 @@ void runLodRender(const LodRenderRequest& r) {
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("rendered {} ({} source triangles, {} instances, {} clusters) at {}x{}, tau {} px, on {} -> {}\n",
+  fmt::print("rendered {} ({} source triangles, {} instances, {} clusters) at {}x{}{}, tau {} px, on {} -> {}\n",
              r.scene.input, info.sourceTriangles, info.instances, info.clusters, s.view.width, s.view.height,
+             r.stereoIpd ? fmt::format(" per eye (stereo, ipd {}: {}x{} left|right)", *r.stereoIpd, t.last.srgb.width,
+                                       t.last.srgb.height)
+                         : "",
              r.config.tauPixels, caps.name, r.output);
   if (r.stats) {
     fmt::print("load {:.3f} s\n", info.loadSeconds);
@@ -322,10 +323,11 @@ void runLodBench(const LodRenderRequest& r) {
   double bestLodMs = INFINITY;
   if (!r.json)
     fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, tau {} px, hybrid threshold {} "
-               "px, cones {}, selection {}, {} timed frames\n",
+               "px, cones {}, selection {}, {} timed frames{}\n",
                r.scene.input, caps.name, info.sourceTriangles, info.instances, s.view.width, s.view.height,
                config.tauPixels, config.hybridThreshold, config.coneCulling ? "on" : "off",
-               r.sweeps.allSelections ? "all" : render::toString(config.selection), frames - 1);
+               r.sweeps.allSelections ? "all" : render::toString(config.selection), frames - 1,
+               r.stereoIpd ? fmt::format(", stereo per eye (ipd {})", *r.stereoIpd) : "");
   for (render::RasterBackend b : backends)
     for (render::BlendRaster blend : blends)
       for (bool occlusion : occlusionModes)
@@ -343,11 +345,26 @@ void runLodBench(const LodRenderRequest& r) {
           if (withPvs) {
             config.pvsCulling = false;
             if (!renderFrames(s, frames, off, r.warmupMs)) return;
+            config.pvsCulling = true;
           }
+          // --stereo: the same frames mono, one eye's size, in this run (same clocks, same cameras).
+          Timed mono;
+          if (r.stereoIpd) {
+            s.view.stereoIpd.reset();
+            bool ok = renderFrames(s, frames, mono, r.warmupMs);
+            s.view.stereoIpd = r.stereoIpd;
+            if (!ok) return;
+          }
+          double stereoRatio = frameMilliseconds(t.times) / std::max(frameMilliseconds(mono.times), 1e-9);
           if (r.json) {
             nlohmann::json j = statsJson(*t.last.cluster);
             for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
             j["gpu_ms_max_frame"] = t.maxFrameMs;
+            if (r.stereoIpd) {
+              j["stereo_ipd"] = *r.stereoIpd;
+              j["mono"] = {{"gpu_ms_frame", frameMilliseconds(mono.times)}, {"triangles_mean", mono.meanTriangles}};
+              j["stereo_over_mono"] = stereoRatio;
+            }
             if (withPvs) {
               j["triangles_mean"] = t.meanTriangles;
               j["pvs_frames_outside_cells"] = t.framesOutsideCells;
@@ -368,6 +385,11 @@ void runLodBench(const LodRenderRequest& r) {
                      withPvs ? ", cell PVS on" : "");
           printStats(*t.last.cluster, t.times, true);
           if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
+          if (r.stereoIpd)
+            fmt::print("stereo (ipd {}): both eyes {:.3f} ms, {:.0f} triangles; mono one eye {:.3f} ms, {:.0f} "
+                       "triangles; stereo/mono {:.2f}x\n",
+                       *r.stereoIpd, frameMilliseconds(t.times), t.meanTriangles, frameMilliseconds(mono.times),
+                       mono.meanTriangles, stereoRatio);
           if (withPvs) {
             double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
             fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "

@@ -1,6 +1,7 @@
 #pragma once
 // `mirage render scene.mrg` and `mirage bench render scene.mrg`: the cluster-LOD path of
 // runtime::Scene (cmd_render_lod.cpp prints what it renders).
+#include <optional>
 #include <string>
 
 #include "mirage/runtime/scene.h"
@@ -27,6 +28,8 @@ struct LodRenderRequest {
   bool stats = false;
   bool json = false;
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
+  // --stereo --ipd: both eyes side by side; bench: also one eye mono in the same run (the ratio).
+  std::optional<float> stereoIpd;
 };
 
 void runLodRender(const LodRenderRequest& request);

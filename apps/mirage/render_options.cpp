@@ -77,6 +77,14 @@ CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode 
       ->default_str(render::toString(o.surfelOrder));
 }
 
+void bindStereo(CLI::App& cmd, StereoOptions& stereo) {
+  CLI::Option* flag =
+      cmd.add_flag("--stereo", stereo.enabled, ".mrg: both eyes side by side (2W x H), one shared LOD selection");
+  cmd.add_option("--ipd", stereo.ipd, "--stereo: distance between the eyes, scene units")
+      ->needs(flag)
+      ->capture_default_str();
+}
+
 RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, BindMode mode, BenchSweeps* sweeps) {
   bool bench = mode == BindMode::Bench && sweeps;
   RenderConfigOptions out;

@@ -2,6 +2,7 @@
 // The one CLI binding of runtime::RenderConfig, used by render, bench render (and view): typed
 // options (enums through the renderers' name parsers), defaults from the config struct, ranges
 // checked by runtime::validate.
+#include <optional>
 #include <vector>
 
 #include "mirage/runtime/config.h"
@@ -38,6 +39,14 @@ bool anyGiven(const std::vector<CLI::Option*>& options);
 // command): --pvs and --surfels; render: --surfel-order; bench: --grid. Returns --surfel-order
 // (null in bench mode).
 CLI::Option* bindSceneOptions(CLI::App& command, runtime::SceneOptions& options, BindMode mode);
+
+// --stereo [--ipd D] (render, bench render; cluster LOD scenes): runtime::View::stereoIpd.
+struct StereoOptions {
+  bool enabled = false;
+  float ipd = render::kDefaultIpd;
+  std::optional<float> ipdOrNone() const { return enabled ? std::optional<float>(ipd) : std::nullopt; }
+};
+void bindStereo(CLI::App& command, StereoOptions& stereo);
 
 RenderConfigOptions bindRenderConfig(CLI::App& command, runtime::RenderConfig& config, BindMode mode,
                                      BenchSweeps* sweeps = nullptr);

@@ -17,6 +17,23 @@ namespace mirage::render {
 
 glm::mat4 Camera::view() const { return glm::lookAtRH(eye, target, up); }
 
+std::array<Camera, 2> stereoEyes(const Camera& camera, float ipd) {
+  glm::vec3 right = glm::normalize(glm::cross(camera.target - camera.eye, camera.up));
+  glm::vec3 half = right * (0.5f * ipd);
+  std::array<Camera, 2> eyes{camera, camera};
+  eyes[0].eye -= half;
+  eyes[0].target -= half;
+  eyes[1].eye += half;
+  eyes[1].target += half;
+  return eyes;
+}
+
+Status validateIpd(float ipd) {
+  if (!std::isfinite(ipd) || ipd < 0.0f)
+    return Error{fmt::format("--ipd {} must be a finite distance >= 0 (scene units, e.g. 0.064)", ipd)};
+  return Ok{};
+}
+
 glm::mat4 Camera::projection(float aspect) const {
   // Reverse-Z: swapping near and far of a [0,1]-depth projection maps near to 1 and far to 0, which
   // spreads float depth precision evenly in distance.

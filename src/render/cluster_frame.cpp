@@ -1,6 +1,7 @@
 // One cluster frame's data: the settings resolved against the device and scene (the plan), the
 // camera and plan packed into ClusterFrame, and the GPU counters turned into ClusterStats.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -75,6 +76,17 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   if (cs.readOwnedClusters && !p.occlusion)
     return Error{"reading the clusters that own pixels needs occlusion culling (its history)"};
   p.pvs = cs.pvsCulling && pvsInstances;
+  if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
+    if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
+    if (uint64_t(s.width) * 2 > kMaxRenderDimension)
+      return Error{fmt::format("--stereo: the side-by-side target {}x{} exceeds {} pixels across", s.width * 2,
+                               s.height, kMaxRenderDimension)};
+    if (cs.occlusionCulling) return Error{"--stereo does not support occlusion culling yet (drop --occlusion)"};
+    if (cs.surfels) return Error{"--stereo does not support mesh + surfel scenes yet"};
+    if (cs.readOwnedClusters) return Error{"--stereo cannot read the clusters owning pixels"};
+    if (hasBlend()) return Error{"--stereo does not support alpha BLEND materials yet"};
+    p.stereo = true;
+  }
   p.dagTree = cs.selection == SelectionMode::Dag;
   p.hierarchy = p.dagTree || cs.selection == SelectionMode::Hierarchy ||
                 (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances);
@@ -149,6 +161,20 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.oitNodeCapacity = oitNodeCapacity;
   }
   std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
+  if (plan.stereo) {
+    // The selection frame sees the camera plus half the IPD on each side; each eye frame is a
+    // mono frame of that eye (the eye's own clip planes, as a mono render of it) writing its half.
+    std::array<Camera, 2> eyes = stereoEyes(s.camera, *cs.stereoIpd);
+    f.stereoHalf = glm::vec4(0.5f * (eyes[1].eye - eyes[0].eye), 0.0f);
+    std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
+    for (uint32_t e = 0; e < 2; ++e) {
+      sio::ClusterFrame ef = f;
+      ef.stereoHalf = glm::vec4(0.0f);
+      ef.camera = viewFrame(withClipPlanes(eyes[e], scene.worldBounds), s.width, s.height);
+      ef.targetOffsetX = e * s.width;
+      std::memcpy(frames[currentSlot].mapped() + (e + 1) * kFrameStride, &ef, sizeof(ef));
+    }
+  }
   return Ok{};
 }
 

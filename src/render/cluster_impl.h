@@ -88,7 +88,13 @@ struct ClusterFramePlan {
   bool pvs = false;                            // the cell's cluster PVS culls
   bool dagTree = false;                        // hierarchical selection over the DAG's group tree
   bool hierarchy = false;                      // hierarchical selection (LOD BVH or DAG tree), else the flat pass
+  bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
 };
+
+// Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.
+inline constexpr uint32_t kFramesPerSlot = 3;
+// Byte stride of those frames (a multiple of every member's alignment).
+inline constexpr VkDeviceSize kFrameStride = (sizeof(shaderio::ClusterFrame) + 255) / 256 * 256;
 
 struct ClusterRenderer::Impl {
   gpu::Context& ctx;
@@ -107,6 +113,7 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
   VkShaderStageFlags pushStages = 0;
   gpu::Image color, vis, depth;
+  uint32_t colorWidth = 0; // the colour target: width, or 2 * width in stereo (left|right)
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
   uint32_t blendCapacity = 0, oitNodeCapacity = 0; // 0 without BLEND materials: no transparency passes
   uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
@@ -128,7 +135,7 @@ struct ClusterRenderer::Impl {
   gpu::GpuTimer& timer() { return timers[currentSlot]; }
   void createDescriptors(); // cluster_pipelines.cpp
   void createPipelines();
-  void ensureTargets(uint32_t w, uint32_t h);
+  void ensureTargets(uint32_t w, uint32_t h, uint32_t colorW);
   shaderio::ClusterPush push() const;
   void cmdPush(VkCommandBuffer cmd, shaderio::ClusterPush p, uint32_t rasterList);
   void cmdSelect(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
@@ -139,7 +146,8 @@ struct ClusterRenderer::Impl {
                        bool atomic);
   void cmdBuildHzb(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
-  void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
+  void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool firstWrite = true);
+  void cmdStereoEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, const ClusterFramePlan& plan);
   void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, BlendRaster blend, bool meshBlend,
                        bool bufferTarget);
   void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
@@ -158,6 +166,7 @@ struct ClusterRenderer::Impl {
   // cluster_renderer.cpp: plan, targets and frame data of `slot` (no commands), then its commands.
   Status prepareFrame(const ClusterRenderSettings& cs, uint32_t slot);
   void cmdFrame(VkCommandBuffer cmd, const ClusterRenderSettings& cs);
+  void finishFrame(VkCommandBuffer cmd, const ClusterFramePlan& plan, uint32_t frameTime);
 };
 
 } // namespace mirage::render

@@ -87,7 +87,7 @@ void ClusterRenderer::Impl::createPipelines() {
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   visibleCapacity = uint32_t(std::clamp<uint64_t>(scene.instancedClusters, 1, kMaxVisibleClusters));
   for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
-    frames[i] = createBuffer(ctx, sizeof(sio::ClusterFrame), kStorage, MemoryUsage::Upload, "cluster frame");
+    frames[i] = createBuffer(ctx, kFrameStride * kFramesPerSlot, kStorage, MemoryUsage::Upload, "cluster frame");
     readbacks[i] = createBuffer(ctx, sizeof(sio::ClusterCounters) + sizeof(sio::ClusterTraversal),
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "cluster counters readback");
   }
@@ -131,9 +131,10 @@ void ClusterRenderer::Impl::createPipelines() {
       "visibility history"); // SRC: readOwnedClusters
 }
 
-void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
-  if (w == width && h == height) return;
-  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
+void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t colorW) {
+  if (w == width && h == height && colorW == colorWidth) return;
+  color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                        "color");
   vis = createImage2D(ctx, w, h, kVisFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                       "visibility");
   depth = createImage2D(ctx, w, h, kDepthFormat,
@@ -169,6 +170,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
   writeImageDescriptors(ctx, descriptors.set, 3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
   width = w;
   height = h;
+  colorWidth = colorW;
 }
 
 sio::ClusterPush ClusterRenderer::Impl::push() const {

@@ -72,8 +72,10 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   recorded[currentSlot] = false;
   traversalDepth = planned->dagTree ? scene.dagDepth : scene.lodDepth;
   // New targets replace images and buffers that frames in flight may still use.
-  if (width != 0 && (cs.base.width != width || cs.base.height != height)) vkDeviceWaitIdle(ctx.device());
-  ensureTargets(cs.base.width, cs.base.height);
+  uint32_t colorW = planned->stereo ? cs.base.width * 2 : cs.base.width; // stereo: left|right
+  if (width != 0 && (cs.base.width != width || cs.base.height != height || colorW != colorWidth))
+    vkDeviceWaitIdle(ctx.device());
+  ensureTargets(cs.base.width, cs.base.height, colorW);
   return packFrame(cs, *planned);
 }
 
@@ -112,7 +114,12 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     vkCmdFillBuffer(cmd, history.handle(), 0, VK_WHOLE_SIZE, 0);
     cmdPhaseBarrier(cmd, mesh);
   }
-  cmdArgs(cmd, p, /*pass=*/0);           // pass-1 raster arguments (everything without occlusion)
+  cmdArgs(cmd, p, /*pass=*/0); // pass-1 raster arguments (everything without occlusion)
+  if (plan.stereo) {
+    cmdStereoEyes(cmd, p, plan); // per eye: visibility + resolve into its half (cluster_stereo.cpp)
+    finishFrame(cmd, plan, frameTime);
+    return;
+  }
   cmdRasterize(cmd, p, plan.backend, 0); // visibility: (cluster, triangle) per pixel
   if (occlusion) {
     cmdBuildHzb(cmd, p);             // farthest-depth pyramid of pass 1
@@ -128,8 +135,14 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   cmdResolve(cmd, p);                          // fetch, interpolate, shade; with occlusion: the clusters owning pixels
   if (hasBlend())                              // blend raster into fragment lists, sorted composite
     cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
+  finishFrame(cmd, plan, frameTime);
+}
+
+// The frame's end: its time, and the counters (and traversal counters) into this slot's readback
+// for collect().
+void ClusterRenderer::Impl::finishFrame(VkCommandBuffer cmd, const ClusterFramePlan& plan, uint32_t frameTime) {
+  bool hierarchy = plan.hierarchy, mesh = ctx.caps().meshShader;
   timer().cmdEnd(cmd, frameTime);
-  // Counters (and traversal counters) into this slot's readback for collect().
   cmdPhaseBarrier(cmd, mesh);
   VkBufferCopy countersRegion{0, 0, sizeof(sio::ClusterCounters)};
   vkCmdCopyBuffer(cmd, counters.handle(), readbacks[currentSlot].handle(), 1, &countersRegion);
@@ -190,7 +203,7 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   }
   if (!s.readImage) return out;
   std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
-  convertHalfImage(img, s.width, s.height, s.readLinear, out.image);
+  convertHalfImage(img, d.colorWidth, s.height, s.readLinear, out.image);
   return out;
 }
 

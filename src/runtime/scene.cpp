@@ -57,6 +57,9 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
 
 Result<Frame> Scene::render(const View& view) {
   if (auto st = validate(view.config); !st) return st.error();
+  if (view.stereoIpd && impl_->kind != SceneKind::ClusterLod)
+    return Error{fmt::format("--stereo needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
+                             toString(impl_->kind))};
   switch (impl_->kind) {
   case SceneKind::ClusterLod:
     return renderClusterLod(*impl_, view);

@@ -91,6 +91,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.coneCulling = c.coneCulling;
   rs.hybridThreshold = c.hybridThreshold;
   rs.pvsCulling = c.pvsCulling;
+  rs.stereoIpd = view.stereoIpd;
   if (s.surfels) {
     rs.surfels = s.surfels.get();
     rs.surfelSettings.surfelSize = c.surfelSize;

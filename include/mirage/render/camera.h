@@ -1,5 +1,6 @@
 #pragma once
 // Cameras: explicit eye/target/fov, or an automatic 3/4 view that frames the scene bounds.
+#include <array>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -41,6 +42,17 @@ Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees = 60.0f)
 
 // Fill znear/zfar when zero, from the bounds seen by this camera (near plane never behind the eye).
 Camera withClipPlanes(Camera camera, const Bounds& bounds);
+
+// Default interpupillary distance for --stereo, in scene units (metres): 64 mm, a typical adult.
+constexpr float kDefaultIpd = 0.064f;
+
+// The eyes of a stereo pair: `camera` moved by -ipd/2 (left) and +ipd/2 (right) along its right
+// vector (normalize(cross(target - eye, up))), eye and target alike: parallel axes, same fov, up
+// and clip planes. Left first.
+std::array<Camera, 2> stereoEyes(const Camera& camera, float ipd);
+
+// An --ipd value: finite and >= 0 (0: both eyes at the camera), else an error naming the flag.
+Status validateIpd(float ipd);
 
 // World-space frustum planes (Gribb-Hartmann) of a reverse-Z view-projection: clip-space inside is
 // -w <= x, y <= w and z <= w (near); the far plane is left out (the camera's far bound is loose).

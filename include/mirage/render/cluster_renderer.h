@@ -10,6 +10,7 @@
 // depth wins) and one resolve pass shades it with the forward renderer's material model, so all
 // backends give the same image. Passes and data layout: docs/render.md.
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -107,6 +108,11 @@ struct ClusterRenderSettings {
   SelectionMode selection = SelectionMode::Auto; // all select exactly the same clusters
   // Cull with the cluster PVS given to setPvs (if any); off renders as if none were set.
   bool pvsCulling = true;
+  // Stereo (docs/render.md, "Stereo"): the eyes are stereoEyes(base.camera, ipd) (camera.h). One
+  // selection serves both (union of the frusta, LOD error from the nearer eye), then each eye is
+  // rasterized and resolved into its half of a (2 * base.width) x base.height target, left|right.
+  // Refused with occlusion culling, surfels, owned-cluster readback and BLEND materials.
+  std::optional<float> stereoIpd;
   // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
   // occlusion history the resolve writes; needs occlusionCulling) into ownedClusters.
   bool readOwnedClusters = false;

@@ -54,6 +54,9 @@ struct View {
   RenderConfig config;
   bool readImage = true;   // false: no readback (benchmarks; the GPU stays busy)
   bool readLinear = false; // also the linear float image (EXR, metrics)
+  // Stereo (cluster LOD scenes only): the eyes are render::stereoEyes(camera, ipd), one shared
+  // selection, the image (2 * width) x height with the left eye left (docs/render.md, "Stereo").
+  std::optional<float> stereoIpd;
 };
 
 // Surfel renderer figures of a surfel-only frame.

@@ -216,7 +216,7 @@ struct ClusterFrame {
   uint64_t traversalAddress;   // ClusterTraversal
   uint64_t queueAddress[2];    // uvec2[]: depth d reads queue d & 1, writes queue (d + 1) & 1
   uint queueCapacity;          // entries per queue
-  uint pad0;
+  uint targetOffsetX;          // stereo: the resolve writes pixel (x + targetOffsetX, y) of the colour target
   // Alpha BLEND (docs/render.md, "Alpha"): the blend clusters' own list, and the per-pixel linked
   // lists of their fragments (head per pixel: node index + 1, 0 = empty). 0 without blend materials.
   uint64_t blendVisibleAddress; // VisibleCluster[]
@@ -228,6 +228,11 @@ struct ClusterFrame {
   // first bit of its clusters in the bit array, or MIRAGE_PVS_INSTANCE_CULLED.
   uint64_t pvsInstanceAddress; // uint[] per instance
   uint64_t pvsClusterAddress;  // uint[]: bit (offset + mesh-local cluster) set = may be visible
+  // Stereo selection (docs/render.md, "Stereo"): the eyes are camera.eye -/+ stereoHalf.xyz (half the
+  // IPD along the camera's right vector; 0 in mono and in the per-eye raster frames). A sphere is
+  // visible in either eye's frustum, facing is tested from both eyes, and LOD error is projected
+  // from the nearest point of the segment between the eyes.
+  vec4 stereoHalf;
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -307,7 +312,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 672, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 688, "ClusterFrame layout");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");

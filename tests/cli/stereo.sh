@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# render --stereo: a .mrg renders both eyes side by side (2W x H PNG); bad --ipd values and
+# --stereo on a scene without cluster DAGs get one line, exit 2 and no output.
+# Usage: stereo.sh MIRAGE_BINARY SOURCE_DIR
+set -u
+mirage=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+pass=0
+
+expect_fail() {
+  local name=$1 wanted=$2 output=$3
+  shift 4
+  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local rc=$?
+  if [ $rc -ne 2 ]; then
+    echo "FAIL $name: exit $rc, expected 2"; cat "$tmp/stderr"; failures=$((failures + 1)); return
+  fi
+  if [ "$(grep -c . "$tmp/stderr")" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
+    echo "FAIL $name: stderr should be one line naming '$wanted', got:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
+  fi
+  if [ -n "$output" ] && [ -e "$output" ]; then
+    echo "FAIL $name: left $output behind"; failures=$((failures + 1)); return
+  fi
+  pass=$((pass + 1))
+}
+
+expect_ok() {
+  local name=$1
+  shift
+  if ! "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"; then
+    echo "FAIL $name: exit non-zero"; cat "$tmp/stderr"; failures=$((failures + 1)); return 1
+  fi
+  pass=$((pass + 1))
+}
+
+# PNG width and height from the IHDR chunk (bytes 16..23, big-endian).
+png_size() {
+  od -An -tu1 -j16 -N8 "$1" | awk '{ printf "%dx%d", (($1*256+$2)*256+$3)*256+$4, (($5*256+$6)*256+$7)*256+$8 }'
+}
+
+if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb" && expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
+  if expect_ok render-stereo render "$tmp/blob.mrg" --stereo --size 48x32 -o "$tmp/s.png"; then
+    size=$(png_size "$tmp/s.png")
+    [ "$size" = "96x32" ] || { echo "FAIL render-stereo: PNG is $size, expected 96x32"; failures=$((failures + 1)); }
+  fi
+  expect_ok render-stereo-ipd render "$tmp/blob.mrg" --stereo --ipd 0.5 --size 48x32 -o "$tmp/s2.png" &&
+    { [ "$(png_size "$tmp/s2.png")" = "96x32" ] || { echo "FAIL render-stereo-ipd: size"; failures=$((failures + 1)); }; }
+  expect_fail ipd-negative "--ipd" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --ipd=-0.1 --size 48x32 -o "$tmp/bad.png"
+  expect_fail ipd-nan "--ipd" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --ipd nan --size 48x32 -o "$tmp/bad.png"
+  expect_fail ipd-without-stereo "--ipd" "$tmp/bad.png" -- render "$tmp/blob.mrg" --ipd 0.1 --size 48x32 -o "$tmp/bad.png"
+  expect_fail stereo-occlusion "occlusion" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --occlusion on --size 48x32 -o "$tmp/bad.png"
+  expect_fail bench-ipd-nan "--ipd" "" -- bench render "$tmp/blob.mrg" --stereo --ipd nan --size 48x32 --frames 2
+fi
+expect_fail stereo-forward "--stereo" "$tmp/f.png" -- render "$tmp/blob.glb" --stereo --size 48x32 -o "$tmp/f.png"
+
+echo "stereo: $pass passed, $failures failed"
+[ $failures -eq 0 ]

@@ -1,0 +1,70 @@
+// runtime::View::stereoIpd (docs/render.md, "Stereo"): a cluster-LOD scene renders both eyes side
+// by side, the left half being the left eye; other scene kinds refuse it with one line.
+#include <gtest/gtest.h>
+
+#include "gpu_test.h"
+#include "mirage/core/image_metrics.h"
+#include "mirage/io/generate.h"
+#include "mirage/lod/lod_asset.h"
+#include "mirage/render/camera.h"
+#include "mirage/runtime/scene.h"
+#include "test_support.h"
+
+using namespace mirage;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr uint32_t kWidth = 64, kHeight = 48;
+
+fs::path blobMrg() {
+  static const fs::path path = [] {
+    fs::path p = test::tempDir("runtime_stereo") / "blob.mrg";
+    auto asset = lod::bakeLodAsset(io::generateScene("blob", 1, 3).value(), {});
+    if (!asset || !lod::saveLodAsset(p.string(), *asset).ok()) std::abort();
+    return p;
+  }();
+  return path;
+}
+
+runtime::View viewOf(const runtime::Scene& scene) {
+  runtime::View v;
+  v.width = kWidth;
+  v.height = kHeight;
+  v.camera = render::autoCamera(scene.bounds(), float(kWidth) / float(kHeight));
+  return v;
+}
+
+} // namespace
+
+class RuntimeStereo : public test::GpuTest {};
+
+TEST_F(RuntimeStereo, ClusterLodRendersBothEyesSideBySide) {
+  auto s = runtime::Scene::open(context(), {.input = blobMrg().string()});
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  runtime::View view = viewOf(**s);
+  view.stereoIpd = 0.3f;
+  auto stereo = (*s)->render(view);
+  ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+  ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
+  ASSERT_EQ(stereo->srgb.height, kHeight);
+  runtime::View left = viewOf(**s);
+  left.camera = render::stereoEyes(view.camera, *view.stereoIpd)[0];
+  auto mono = (*s)->render(left);
+  ASSERT_TRUE(mono.ok()) << mono.error().message;
+  ImageRGBA8 half{kWidth, kHeight, {}};
+  for (uint32_t y = 0; y < kHeight; ++y)
+    half.pixels.insert(half.pixels.end(), stereo->srgb.at(0, y), stereo->srgb.at(0, y) + kWidth * 4);
+  EXPECT_GE(psnr(half, mono->srgb), 45.0);
+}
+
+TEST_F(RuntimeStereo, OtherSceneKindsRefuseStereo) {
+  auto s = runtime::Scene::open(context(), {.input = "gen:blob:3"});
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  runtime::View view = viewOf(**s);
+  view.stereoIpd = 0.064f;
+  auto f = (*s)->render(view);
+  ASSERT_FALSE(f.ok());
+  EXPECT_NE(f.error().message.find("--stereo"), std::string::npos);
+  EXPECT_EQ(f.error().message.find('\n'), std::string::npos);
+}
