@@ -133,10 +133,11 @@ public:
   Status record(VkCommandBuffer cmd, const View& view, uint32_t slot);
   Result<Frame> collect(uint32_t slot);
   // The colour target of the last recorded frame (canRecord() scenes; else null):
-  // VK_FORMAT_R16G16B16A16_SFLOAT, linear (not sRGB), alpha straight, View's size. record() leaves
-  // it in VK_IMAGE_LAYOUT_GENERAL, last written by compute shaders (COMPUTE_SHADER stage,
-  // SHADER_STORAGE_WRITE access); the caller transitions it for its blit or copy in the same
-  // command buffer and may leave it in any layout. A new handle after a size change.
+  // VK_FORMAT_R16G16B16A16_SFLOAT, linear (not sRGB), alpha straight, View's size (stereo: 2 *
+  // width, left eye left). record() leaves it in VK_IMAGE_LAYOUT_GENERAL, last written by compute
+  // shaders (COMPUTE_SHADER stage, SHADER_STORAGE_WRITE access); the caller transitions it for its
+  // blit or copy in the same command buffer and may leave it in any layout. A new handle after a
+  // size change.
   const gpu::Image* colorTarget() const;
 
   // With a PVS: makes the view cell holding `eye` current (cluster LOD: uploads its cluster PVS;
