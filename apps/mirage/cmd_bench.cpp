@@ -45,6 +45,8 @@ struct BenchRenderOptions {
   runtime::RenderConfig config;
   BenchSweeps sweeps;
   RenderConfigOptions given;
+  runtime::FrameTimeSettings frameTime; // --target-ms
+  CLI::Option* targetMs = nullptr;
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
@@ -65,10 +67,12 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .warmupMs = o.warmupMs,
                        .stats = true,
                        .json = o.json,
-                       .baselines = o.baselines};
+                       .baselines = o.baselines,
+                       .frameTime = o.targetMs->count() ? std::optional(o.frameTime) : std::nullopt};
     return runLodBench(r);
   }
   if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
+  if (o.targetMs->count()) return fail("bench render --target-ms applies to .mrg cluster-LOD assets only");
   if (!o.scene.pvs.empty())
     return fail("bench render --pvs applies to .mrg cluster-LOD assets (scene files: mirage bench pvs)");
   uint32_t width = 0, height = 0;
@@ -339,6 +343,7 @@ void addBenchCommand(CLI::App& app) {
   r->add_flag("--json", o->json, "Print results as JSON");
   o->given = bindRenderConfig(*r, o->config, BindMode::Bench, &o->sweeps);
   bindSceneOptions(*r, o->scene, BindMode::Bench);
+  o->targetMs = bindFrameTimeTarget(*r, o->frameTime);
   r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,

@@ -1,6 +1,7 @@
 #pragma once
 // `mirage render scene.mrg` and `mirage bench render scene.mrg`: the cluster-LOD path of
 // runtime::Scene (cmd_render_lod.cpp prints what it renders).
+#include <optional>
 #include <string>
 
 #include "mirage/runtime/scene.h"
@@ -27,6 +28,9 @@ struct LodRenderRequest {
   bool stats = false;
   bool json = false;
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
+  // bench --target-ms: each frame's tau from the frame-time controller fed with the previous
+  // frames' GPU times; one configuration, each frame reported.
+  std::optional<runtime::FrameTimeSettings> frameTime;
 };
 
 void runLodRender(const LodRenderRequest& request);

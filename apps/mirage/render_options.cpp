@@ -4,6 +4,7 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 namespace mirage::cli {
 
@@ -132,6 +133,13 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
                               ->transform(enumNames(render::kSurfelRasterNames, c.surfelRaster))
                               ->default_str(render::toString(c.surfelRaster)));
   return out;
+}
+
+CLI::Option* bindFrameTimeTarget(CLI::App& cmd, runtime::FrameTimeSettings& s) {
+  return cmd.add_option("--target-ms", s.targetMs,
+                        fmt::format(".mrg: hold this GPU frame time, choosing each frame's tau in {}..{} px (and the "
+                                    "surfel size) from the last frames' times",
+                                    s.tauMin, s.tauMax));
 }
 
 } // namespace mirage::cli

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "mirage/runtime/config.h"
+#include "mirage/runtime/frame_time.h"
 #include "mirage/runtime/scene.h"
 
 namespace CLI {
@@ -41,5 +42,9 @@ CLI::Option* bindSceneOptions(CLI::App& command, runtime::SceneOptions& options,
 
 RenderConfigOptions bindRenderConfig(CLI::App& command, runtime::RenderConfig& config, BindMode mode,
                                      BenchSweeps* sweeps = nullptr);
+
+// --target-ms: frame-time control (runtime/frame_time.h) holds this GPU frame time by choosing
+// each frame's tau and surfel size (ask the option whether it was given). Used by bench render.
+CLI::Option* bindFrameTimeTarget(CLI::App& command, runtime::FrameTimeSettings& settings);
 
 } // namespace mirage::cli

@@ -15,10 +15,10 @@
 namespace mirage::runtime {
 
 struct FrameTimeSettings {
-  double targetMs = 0.0;  // the GPU frame time to hold (--target-ms)
-  float tauMin = 1.0f;    // pixels: the finest detail, used whenever the target allows it
-  float tauMax = 16.0f;   // pixels: the coarsest detail the controller may choose
-  float surfelMin = 1.0f; // pixels (validate(): 0.5..16)
+  double targetMs = 0.0;                        // the GPU frame time to hold (--target-ms)
+  float tauMin = 1.0f;                          // pixels: the finest detail, used whenever the target allows it
+  float tauMax = 16.0f;                         // pixels: the coarsest detail the controller may choose
+  float surfelMin = kSurfelDefaults.surfelSize; // pixels, at tauMin (validate(): 0.5..16)
   float surfelMax = 16.0f;
   // Weight of the newest estimate in the log-space average (1: follow each frame; lower: steadier
   // under noisy timings, slower to recover).
