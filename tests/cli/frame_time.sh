@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # bench render --target-ms (frame-time control, docs/runtime.md): every frame reports its GPU time
 # and the tau the controller chose, within the bounds; bad targets and configurations it cannot
-# time are one line, exit 2. Usage: frame_time.sh MIRAGE_BINARY SOURCE_DIR
+# time are one line, exit 2. Also the foveation flags (--fovea, --fovea-radius). Usage: frame_time.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 mirage=$1
 tmp=$(mktemp -d)
@@ -43,6 +43,14 @@ expect_fail zero-target "--target-ms must be" -- bench render "$tmp/blob.mrg" --
 expect_fail negative-target "--target-ms must be" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms -2
 expect_fail sweep "--target-ms times one configuration" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms 2 --selection all
 expect_fail scene-file "--target-ms applies to .mrg" -- bench render "$tmp/blob.glb" --size 32x32 --target-ms 2
+
+# Foveation flags (bound with the config): a gaze point renders; bad ones are one line.
+"$mirage" render "$tmp/blob.mrg" -o "$tmp/fovea.png" --size 48x32 --fovea 0.5,0.5 --fovea-radius 5 >"$tmp/stdout" 2>"$tmp/stderr"
+check fovea-renders test $? -eq 0 -a -f "$tmp/fovea.png" -a ! -s "$tmp/stderr"
+expect_fail fovea-range "--fovea must be" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea 2,0.5
+expect_fail fovea-syntax "--fovea" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea middle
+expect_fail fovea-radius "--fovea-radius must be" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea 0.5,0.5 --fovea-radius 200
+check fovea-no-output test ! -e "$tmp/f.png"
 
 echo "frame_time: $pass passed, $failures failed"
 [ $failures -eq 0 ]

@@ -41,6 +41,7 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_PVS 128u            // cull instances and clusters outside the camera cell's cluster PVS
 #define MIRAGE_FRAME_BLEND_HYBRID 256u   // blend clusters split by hardwareCluster, as hybrid splits opaque ones
 #define MIRAGE_FRAME_BLEND_HARDWARE 512u // every blend cluster to the hardware blend list
+#define MIRAGE_FRAME_FOVEA 2048u         // tau grows with eccentricity from the gaze (ClusterFrame::fovea, lod_error.h)
 #define MIRAGE_FRAME_DAG 1024u // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
 // ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
 #define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
@@ -228,6 +229,10 @@ struct ClusterFrame {
   // first bit of its clusters in the bit array, or MIRAGE_PVS_INSTANCE_CULLED.
   uint64_t pvsInstanceAddress; // uint[] per instance
   uint64_t pvsClusterAddress;  // uint[]: bit (offset + mesh-local cluster) set = may be visible
+  // Foveation (MIRAGE_FRAME_FOVEA; fovealTauScale in lod_error.h).
+  vec4 fovea;       // xyz: gaze direction (world, unit), w: fovea radius in radians
+  float foveaSlope; // tau factor growth per radian beyond the fovea (foveaSlope())
+  uint pad1, pad2, pad3;
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -307,7 +312,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 672, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 704, "ClusterFrame layout");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");

@@ -16,6 +16,7 @@ using glm::dot;
 using glm::isinf;
 using glm::length;
 using glm::max;
+using glm::min;
 using glm::uintBitsToFloat;
 using vec3 = glm::vec3;
 #define MIRAGE_SHARED inline
@@ -59,6 +60,18 @@ MIRAGE_SHARED float fovealTauScale(vec3 center, float radius, vec3 eye, vec3 gaz
   float angle = acos(clamp(dot(toCenter, gaze) / d, -1.0f, 1.0f));
   float eccentricity = max(angle - asin(radius / d), 0.0f);
   return 1.0f + slope * max(eccentricity - foveaRadius, 0.0f);
+}
+
+// The largest fovealTauScale of any sphere inside the ball (`center`, `reach`): its nearest point
+// is at most the ball's angular radius further from the gaze than the centre (the instance-level
+// culling must not drop a level that the per-cluster test would take).
+MIRAGE_SHARED float fovealTauScaleMax(vec3 center, float reach, vec3 eye, vec3 gaze, float foveaRadius, float slope) {
+  const float pi = 3.14159265359f;
+  vec3 toCenter = center - eye;
+  float d = length(toCenter);
+  float angle = pi;
+  if (d > reach) angle = min(acos(clamp(dot(toCenter, gaze) / d, -1.0f, 1.0f)) + asin(reach / d), pi);
+  return 1.0f + slope * max(angle - foveaRadius, 0.0f);
 }
 
 // The slope of fovealTauScale per radian for a fovea of `foveaRadius` radians (see above).
