@@ -153,12 +153,6 @@ bool renderFrames(Session& s, int frames, Timed& out, double warmupMs = 0.0) {
       s, frames, out, [](const runtime::Frame&, size_t) { return true; }, warmupMs);
 }
 
-// out.png -> out_0007.png: one image per camera of a path.
-std::string pathFrameName(const std::string& output, size_t index) {
-  std::filesystem::path p = output;
-  return (p.parent_path() / fmt::format("{}_{:04}{}", p.stem().string(), index, p.extension().string())).string();
-}
-
 nlohmann::json statsJson(const render::ClusterStats& st) {
   return {{"raster", render::toString(st.raster)},
           {"selection", render::toString(st.selection)},
@@ -319,7 +313,7 @@ void runLodRender(const LodRenderRequest& r) {
       for (const auto& f : written) std::filesystem::remove(f, ec);
     };
     bool ok = renderFrames(s, int(s.path.size()) + 1, t, [&](const runtime::Frame& o, size_t i) {
-      std::string name = pathFrameName(r.output, i);
+      std::string name = render::pathFrameName(r.output, i);
       if (auto st = io::writePng(name, o.srgb); !st) return fail(st.error()), false;
       written.push_back(name);
       return true;
