@@ -91,6 +91,9 @@ Result<Frame> renderClusterLod(Scene::Impl& s, const View& view) {
   rs.hybridThreshold = c.hybridThreshold;
   rs.pvsCulling = c.pvsCulling;
   rs.stereoIpd = view.stereoIpd;
+  rs.foveation = c.foveation;
+  rs.foveaGaze = c.foveaGaze;
+  rs.foveaRadiusDegrees = c.foveaRadiusDegrees;
   if (s.surfels) {
     rs.surfels = s.surfels.get();
     rs.surfelSettings.surfelSize = c.surfelSize;
