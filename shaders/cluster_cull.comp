@@ -5,6 +5,7 @@
 // instances and levels far from the cut.
 #include "cluster_common.glsl"
 #include "cluster_traversal.glsl"
+#include "mirage/shaderio/lod_error.h"
 
 layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
 
@@ -42,11 +43,15 @@ void main() {
   if (dmin > 0.0) {
     float nearScale = inst.maxScale / max(dmin, f.camera.znear) * f.camera.pixelScale;
     float farScale = inst.maxScale / max(dmax, f.camera.znear) * f.camera.pixelScale;
+    // Foveation: tau lies between f.tau and this bound over the mesh's spheres.
+    float tauMax = f.tau;
+    if ((f.flags & MIRAGE_FRAME_FOVEA) != 0)
+      tauMax *= fovealTauScaleMax(centre, reach, f.camera.eye.xyz, f.fovea.xyz, f.fovea.w, f.foveaSlope);
     bool found = false;
     for (uint l = 0; l < mesh.levelCount; ++l) {
       GpuClusterLevel level = LevelRef(push.levelAddress).levels[mesh.levelOffset + l];
       bool tooFine = !isinf(level.maxParentError) && level.maxParentError * nearScale * 1.001 <= f.tau;
-      bool tooCoarse = level.minSelfError > 0.0 && level.minSelfError * farScale * 0.999 > f.tau;
+      bool tooCoarse = level.minSelfError > 0.0 && level.minSelfError * farScale * 0.999 > tauMax;
       if (tooFine || tooCoarse) continue;
       if (!found) first = l;
       last = l;

@@ -13,6 +13,14 @@ float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterF
   return projectedSphereError(c, sphere.w, error, inst.maxScale, nearestEye(f, c), f.camera.znear, f.camera.pixelScale);
 }
 
+// The LOD threshold at a sphere: tau, grown with the sphere's eccentricity from the gaze under
+// foveation (MIRAGE_FRAME_FOVEA; fovealTauScale, shared with the CPU).
+float tauAt(vec4 sphere, GpuClusterInstance inst, ClusterFrame f) {
+  if ((f.flags & MIRAGE_FRAME_FOVEA) == 0) return f.tau;
+  vec3 c = (inst.model * vec4(sphere.xyz, 1.0)).xyz;
+  return f.tau * fovealTauScale(c, sphere.w * inst.maxScale, f.camera.eye.xyz, f.fovea.xyz, f.fovea.w, f.foveaSlope);
+}
+
 // Normal-cone test in object space (exact for any transform with a positive determinant: facing
 // is affine-invariant there): the whole cluster faces away from the eye at world position `e`.
 bool coneBackfacingFrom(GpuClusterInstance inst, GpuClusterCone cone, vec3 e) {
@@ -37,8 +45,8 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
   uint ci = mesh.clusterOffset + meshLocal;
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[ci];
   ClusterFrame f = FrameRef(push.frameAddress).frame;
-  bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= f.tau &&
-               projectedError(c.parentSphere, c.parentError, inst, f) > f.tau;
+  bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= tauAt(c.selfSphere, inst, f) &&
+               projectedError(c.parentSphere, c.parentError, inst, f) > tauAt(c.parentSphere, inst, f);
   if (!onCut) return;
   if (!pvsClusterVisible(f, instanceIndex, meshLocal)) { // hidden from every point of the camera's cell
     atomicAdd(counters.counters.clustersPvsCulled, 1);

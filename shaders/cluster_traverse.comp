@@ -28,7 +28,8 @@ void visitNode(uint row, uint node, uint phase, uint depth) {
   // Every cluster beneath has projected parent error <= this bound (GpuLodNode); the 0.1% margin
   // keeps float rounding from skipping a node whose cluster the exact per-cluster test would take.
   // +inf (root beneath, or eye inside the sphere) always enters.
-  if (!(projectedError(n.sphere, n.maxParentError, inst, f) * 1.001 > f.tau)) return;
+  // Foveation: the node's sphere holds the parent spheres beneath, so its tau is never larger.
+  if (!(projectedError(n.sphere, n.maxParentError, inst, f) * 1.001 > tauAt(n.sphere, inst, f))) return;
   if ((f.flags & MIRAGE_FRAME_FRUSTUM_CULL) != 0 &&
       !sphereVisible(vec4((inst.model * vec4(n.sphere.xyz, 1.0)).xyz, n.sphere.w * inst.maxScale * 1.0001)))
     return;

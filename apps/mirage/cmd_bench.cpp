@@ -46,6 +46,8 @@ struct BenchRenderOptions {
   BenchSweeps sweeps;
   RenderConfigOptions given;
   StereoOptions stereo; // .mrg cluster LOD only
+  runtime::FrameTimeSettings frameTime; // --target-ms
+  CLI::Option* targetMs = nullptr;
 };
 
 void runBenchRender(const BenchRenderOptions& o) {
@@ -67,11 +69,13 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .stats = true,
                        .json = o.json,
                        .baselines = o.baselines,
-                       .stereoIpd = o.stereo.ipdOrNone()};
+                       .stereoIpd = o.stereo.ipdOrNone(),
+                       .frameTime = o.targetMs->count() ? std::optional(o.frameTime) : std::nullopt};
     return runLodBench(r);
   }
   if (o.stereo.enabled) return fail(o.scene.input + ": --stereo needs a .mrg with cluster DAGs (cluster LOD)");
   if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
+  if (o.targetMs->count()) return fail("bench render --target-ms applies to .mrg cluster-LOD assets only");
   if (!o.scene.pvs.empty())
     return fail("bench render --pvs applies to .mrg cluster-LOD assets (scene files: mirage bench pvs)");
   uint32_t width = 0, height = 0;
@@ -343,6 +347,7 @@ void addBenchCommand(CLI::App& app) {
   o->given = bindRenderConfig(*r, o->config, BindMode::Bench, &o->sweeps);
   bindSceneOptions(*r, o->scene, BindMode::Bench);
   bindStereo(*r, o->stereo);
+  o->targetMs = bindFrameTimeTarget(*r, o->frameTime);
   r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,

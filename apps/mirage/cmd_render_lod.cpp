@@ -15,6 +15,7 @@
 #include "lod_render.h"
 #include "mirage/io/image_io.h"
 #include "mirage/render/cluster_renderer.h"
+#include "mirage/runtime/frame_time.h"
 #include "mirage/runtime/scene.h"
 #include "mirage/runtime/scene_argument.h"
 #include "render_common.h"
@@ -217,6 +218,88 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
   for (const auto& t : times) fmt::print("gpu {:<8} {:9.3f} ms{}\n", t.name, t.milliseconds, median ? " (median)" : "");
 }
 
+// --- bench render --target-ms ------------------------------------------------------------------
+// The frame-time controller (runtime/frame_time.h) picks each frame's tau and surfel size from the
+// previous frames' GPU times. Bench frames are waited for, so frame i's time steers frame i + 1.
+struct TargetRow {
+  size_t camera = 0;
+  float tau = 0.0f, surfelSize = 0.0f;
+  double gpuMs = 0.0;
+  uint64_t triangles = 0;
+};
+
+void runFrameTimeBench(Session& s, const LodRenderRequest& r) {
+  const runtime::FrameTimeSettings& ft = *r.frameTime;
+  runtime::RenderConfig& config = s.view.config;
+  runtime::FrameTimeState state = runtime::startFrameTime(ft, config);
+  runtime::applyFrameTime(ft, state, config);
+  // Untimed warm-up at the starting tau (not fed: an idle GPU's clock is still rising).
+  auto start = std::chrono::steady_clock::now();
+  std::string raster;
+  do {
+    auto o = s.scene->render(s.view);
+    if (!o) return fail(o.error());
+    raster = render::toString(o->cluster->raster);
+  } while (std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() < r.warmupMs);
+  size_t timed = s.path.empty() ? size_t(r.frames - 1) : s.path.size();
+  std::vector<TargetRow> rows;
+  for (size_t i = 0; i < timed; ++i) {
+    size_t camera = s.path.empty() ? 0 : i % s.path.size();
+    if (!s.path.empty()) s.view.camera = s.path[camera];
+    if (!selectPvsCell(s, s.view.camera.eye, /*quiet=*/true)) return;
+    runtime::applyFrameTime(ft, state, config);
+    auto o = s.scene->render(s.view);
+    if (!o) return fail(o.error());
+    double ms = frameMilliseconds(o->passTimes);
+    rows.push_back({camera, config.tauPixels, config.surfelSize, ms, o->trianglesDrawn});
+    runtime::updateFrameTime(ft, state, config.tauPixels, ms);
+  }
+  size_t within = 0;
+  std::vector<double> times;
+  for (const TargetRow& row : rows) {
+    within += std::abs(row.gpuMs - ft.targetMs) <= 0.1 * ft.targetMs;
+    times.push_back(row.gpuMs);
+  }
+  std::sort(times.begin(), times.end());
+  double median = times.empty() ? 0.0 : times[times.size() / 2];
+  double share = rows.empty() ? 0.0 : double(within) / double(rows.size());
+  const runtime::SceneInfo& info = s.scene->info();
+  if (r.json) {
+    nlohmann::json frames = nlohmann::json::array();
+    for (const TargetRow& row : rows)
+      frames.push_back({{"camera", row.camera},
+                        {"tau_pixels", row.tau},
+                        {"surfel_size", row.surfelSize},
+                        {"gpu_ms_frame", row.gpuMs},
+                        {"triangles", row.triangles}});
+    nlohmann::json j = {{"bench", "render_lod_target"},
+                        {"input", r.scene.input},
+                        {"device", s.ctx->caps().name},
+                        {"width", s.view.width},
+                        {"height", s.view.height},
+                        {"source_triangles", info.sourceTriangles},
+                        {"raster", raster},
+                        {"target_ms", ft.targetMs},
+                        {"tau_min", ft.tauMin},
+                        {"tau_max", ft.tauMax},
+                        {"frames", frames},
+                        {"frames_within_10_percent", within},
+                        {"share_within_10_percent", share},
+                        {"gpu_ms_median", median}};
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, raster {}, target {} ms (tau {}..{} "
+             "px), {} timed frames\n",
+             r.scene.input, s.ctx->caps().name, info.sourceTriangles, info.instances, s.view.width, s.view.height,
+             raster, ft.targetMs, ft.tauMin, ft.tauMax, rows.size());
+  for (size_t i = 0; i < rows.size(); ++i)
+    fmt::print("frame {:4}  camera {:4}  tau {:6.2f} px  surfel {:5.2f} px  gpu {:9.3f} ms  triangles {}\n", i,
+               rows[i].camera, rows[i].tau, rows[i].surfelSize, rows[i].gpuMs, rows[i].triangles);
+  fmt::print("target {} ms: {} of {} frames within +-10 % ({:.1f} %), median gpu frame {:.3f} ms\n", ft.targetMs,
+             within, rows.size(), 100.0 * share, median);
+}
+
 } // namespace
 
 void runLodRender(const LodRenderRequest& r) {
@@ -287,11 +370,17 @@ void runLodRender(const LodRenderRequest& r) {
 
 void runLodBench(const LodRenderRequest& r) {
   if (r.frames < 2 || r.frames > 100000) return fail("--frames must be in 2..100000");
+  if (r.frameTime) {
+    if (auto st = runtime::validate(*r.frameTime); !st) return fail(st.error());
+    if (r.sweeps.allBlendRasters || r.sweeps.allSelections || r.sweeps.bothOcclusion || r.baselines)
+      return fail("--target-ms times one configuration: no all/both sweeps and no --baselines");
+  }
   std::vector<render::RasterBackend> backends;
   if (!r.sweeps.allRasters) backends.push_back(r.config.raster);
   Session s;
   if (!open(r, /*needOutput=*/false, s)) return;
   s.view.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
+  if (r.frameTime) return runFrameTimeBench(s, r);
   // On a path every camera is timed once (after a warm-up), whatever --frames says.
   int frames = s.path.empty() ? r.frames : int(s.path.size()) + 1;
   const auto& caps = s.ctx->caps();

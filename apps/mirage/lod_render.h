@@ -30,6 +30,9 @@ struct LodRenderRequest {
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
   // --stereo --ipd: both eyes side by side; bench: also one eye mono in the same run (the ratio).
   std::optional<float> stereoIpd;
+  // bench --target-ms: each frame's tau from the frame-time controller fed with the previous
+  // frames' GPU times; one configuration, each frame reported.
+  std::optional<runtime::FrameTimeSettings> frameTime;
 };
 
 void runLodRender(const LodRenderRequest& request);

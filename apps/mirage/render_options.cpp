@@ -1,9 +1,11 @@
 #include "render_options.h"
 
 #include <cstddef>
+#include <cstdio>
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 namespace mirage::cli {
 
@@ -132,6 +134,29 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
           ->transform(
               enumNames(render::kSelectionModeNames, c.selection, "all", bench ? &sweeps->allSelections : nullptr))
           ->default_str(render::toString(c.selection)));
+  // Foveation: the gaze point sets foveation on; ranges are checked by runtime::validate.
+  auto* fovea = cmd.add_option_function<std::string>(
+                       "--fovea",
+                       [&c](const std::string& text) {
+                         std::sscanf(text.c_str(), "%f,%f", &c.foveaGaze.x, &c.foveaGaze.y);
+                         c.foveation = true;
+                       },
+                       ".mrg: foveation: gaze point X,Y in normalized screen coordinates (0,0 top left); tau grows "
+                       "with eccentricity beyond --fovea-radius (docs/runtime.md)")
+                    ->type_name("X,Y")
+                    ->check(CLI::Validator(
+                        [](std::string& text) -> std::string {
+                          float x = 0, y = 0;
+                          char extra = 0;
+                          if (std::sscanf(text.c_str(), "%f,%f%c", &x, &y, &extra) != 2)
+                            return "'" + text + "': expected X,Y";
+                          return "";
+                        },
+                        ""));
+  lod.push_back(fovea);
+  lod.push_back(cmd.add_option("--fovea-radius", c.foveaRadiusDegrees, ".mrg, --fovea: fovea radius in degrees")
+                    ->needs(fovea)
+                    ->capture_default_str());
   out.surfels.push_back(
       cmd.add_option("--surfel-size", c.surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str());
   if (mode == BindMode::Render) // bench render draws surfels only in mixed scenes (bench surfels: the rest)
@@ -140,6 +165,13 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
                               ->transform(enumNames(render::kSurfelRasterNames, c.surfelRaster))
                               ->default_str(render::toString(c.surfelRaster)));
   return out;
+}
+
+CLI::Option* bindFrameTimeTarget(CLI::App& cmd, runtime::FrameTimeSettings& s) {
+  return cmd.add_option("--target-ms", s.targetMs,
+                        fmt::format(".mrg: hold this GPU frame time, choosing each frame's tau in {}..{} px (and the "
+                                    "surfel size) from the last frames' times",
+                                    s.tauMin, s.tauMax));
 }
 
 } // namespace mirage::cli

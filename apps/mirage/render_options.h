@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mirage/runtime/config.h"
+#include "mirage/runtime/frame_time.h"
 #include "mirage/runtime/scene.h"
 
 namespace CLI {
@@ -50,5 +51,9 @@ void bindStereo(CLI::App& command, StereoOptions& stereo);
 
 RenderConfigOptions bindRenderConfig(CLI::App& command, runtime::RenderConfig& config, BindMode mode,
                                      BenchSweeps* sweeps = nullptr);
+
+// --target-ms: frame-time control (runtime/frame_time.h) holds this GPU frame time by choosing
+// each frame's tau and surfel size (ask the option whether it was given). Used by bench render.
+CLI::Option* bindFrameTimeTarget(CLI::App& command, runtime::FrameTimeSettings& settings);
 
 } // namespace mirage::cli

@@ -9,6 +9,7 @@
 
 #include "cluster_impl.h"
 #include "mirage/gpu/commands.h"
+#include "mirage/shaderio/lod_error.h"
 
 namespace mirage::render {
 
@@ -110,6 +111,15 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
       (plan.hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u) | (plan.pvs ? MIRAGE_FRAME_PVS : 0u) |
       (plan.blend == BlendRaster::Hybrid ? MIRAGE_FRAME_BLEND_HYBRID : 0u) |
       (plan.blend == BlendRaster::Hardware ? MIRAGE_FRAME_BLEND_HARDWARE : 0u) | (plan.dagTree ? MIRAGE_FRAME_DAG : 0u);
+  if (cs.foveation) {
+    // The gaze ray through the screen point (Vulkan NDC: y down; any depth between the planes).
+    glm::vec4 p = f.camera.invViewProj * glm::vec4(2.0f * cs.foveaGaze - 1.0f, 0.5f, 1.0f);
+    glm::vec3 gaze = glm::normalize(glm::vec3(p) / p.w - glm::vec3(f.camera.eye));
+    float radius = glm::radians(cs.foveaRadiusDegrees);
+    f.fovea = glm::vec4(gaze, radius);
+    f.foveaSlope = sio::foveaSlope(radius);
+    f.flags |= MIRAGE_FRAME_FOVEA;
+  }
   if (plan.pvs) {
     f.pvsInstanceAddress = pvsInstances.address();
     f.pvsClusterAddress = pvsClusters.address();

@@ -92,6 +92,9 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.hybridThreshold = c.hybridThreshold;
   rs.pvsCulling = c.pvsCulling;
   rs.stereoIpd = view.stereoIpd;
+  rs.foveation = c.foveation;
+  rs.foveaGaze = c.foveaGaze;
+  rs.foveaRadiusDegrees = c.foveaRadiusDegrees;
   if (s.surfels) {
     rs.surfels = s.surfels.get();
     rs.surfelSettings.surfelSize = c.surfelSize;

@@ -99,6 +99,12 @@ struct ClusterRenderSettings {
   // faster when consecutive frames are alike).
   bool occlusionCulling = false; // off by default: on the H200 it cost more than it saved (docs/render.md)
   bool coneCulling = true;       // per-cluster normal cones drop back-facing clusters of single-sided instances
+  // Foveation: tau grows with a sphere's eccentricity from the gaze beyond the fovea's radius
+  // (fovealTauScale in shaderio/lod_error.h). The gaze point is in normalized screen coordinates
+  // (0,0 top left, 1,1 bottom right).
+  bool foveation = false;
+  glm::vec2 foveaGaze{0.5f, 0.5f};
+  float foveaRadiusDegrees = 5.0f;
   // Mixed scenes (docs/render.md, "Mixed scenes"): a surfel renderer whose placements name this
   // renderer's instances (SurfelScene::Placement::meshInstance) draws them far away, into the same
   // visibility buffer and resolve, cross-fading with the meshes per pixel. Its surfelSize and

@@ -22,6 +22,10 @@ struct RenderConfig {
   bool coneCulling = kClusterDefaults.coneCulling;
   float hybridThreshold = kClusterDefaults.hybridThreshold; // pixels
   bool pvsCulling = kClusterDefaults.pvsCulling;            // cull with the view cell's cluster PVS (if any)
+  // Foveation (--fovea X,Y --fovea-radius DEG): tau grows with eccentricity from the gaze point.
+  bool foveation = kClusterDefaults.foveation;
+  glm::vec2 foveaGaze = kClusterDefaults.foveaGaze; // normalized screen coordinates, 0..1
+  float foveaRadiusDegrees = kClusterDefaults.foveaRadiusDegrees;
   // Surfels (surfel-only scenes, and the far field of mixed scenes).
   float surfelSize = kSurfelDefaults.surfelSize; // diameter in pixels
   render::SurfelRaster surfelRaster = kSurfelDefaults.raster;

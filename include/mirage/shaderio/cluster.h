@@ -41,6 +41,7 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_PVS 128u            // cull instances and clusters outside the camera cell's cluster PVS
 #define MIRAGE_FRAME_BLEND_HYBRID 256u   // blend clusters split by hardwareCluster, as hybrid splits opaque ones
 #define MIRAGE_FRAME_BLEND_HARDWARE 512u // every blend cluster to the hardware blend list
+#define MIRAGE_FRAME_FOVEA 2048u         // tau grows with eccentricity from the gaze (ClusterFrame::fovea, lod_error.h)
 #define MIRAGE_FRAME_DAG 1024u // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
 // ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
 #define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
@@ -233,6 +234,10 @@ struct ClusterFrame {
   // visible in either eye's frustum, facing is tested from both eyes, and LOD error is projected
   // from the nearest point of the segment between the eyes.
   vec4 stereoHalf;
+  // Foveation (MIRAGE_FRAME_FOVEA; fovealTauScale in lod_error.h).
+  vec4 fovea;       // xyz: gaze direction (world, unit), w: fovea radius in radians
+  float foveaSlope; // tau factor growth per radian beyond the fovea (foveaSlope())
+  uint pad1, pad2, pad3;
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -312,7 +317,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 688, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 720, "ClusterFrame layout");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");
