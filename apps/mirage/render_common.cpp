@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "mirage/render/forward_renderer.h"
+#include "mirage/render/render_size.h"
 
 namespace mirage::cli {
 
@@ -28,16 +29,7 @@ Status checkOutputPath(const std::filesystem::path& path, const std::vector<std:
 }
 
 Status parseSize(const std::string& text, uint32_t& width, uint32_t& height) {
-  size_t x = text.find('x');
-  auto bad = Error{fmt::format("--size '{}': expected WxH with 1..{} each", text, render::kMaxRenderDimension)};
-  if (x == std::string::npos) return bad;
-  const char* s = text.data();
-  auto r1 = std::from_chars(s, s + x, width);
-  auto r2 = std::from_chars(s + x + 1, s + text.size(), height);
-  if (r1.ec != std::errc() || r1.ptr != s + x || r2.ec != std::errc() || r2.ptr != s + text.size()) return bad;
-  if (width == 0 || height == 0 || width > render::kMaxRenderDimension || height > render::kMaxRenderDimension)
-    return bad;
-  return Ok{};
+  return render::parseRenderSize(text, width, height);
 }
 
 Result<std::unique_ptr<gpu::Context>> openDevice(const std::string& device) {

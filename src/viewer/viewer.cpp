@@ -15,6 +15,7 @@
 #include "mirage/gpu/swapchain.h"
 #include "mirage/io/image_io.h"
 #include "mirage/render/forward_renderer.h"
+#include "mirage/render/render_size.h"
 #include "mirage/viewer/fly_camera.h"
 #include "overlay_renderer.h"
 #include "overlay_ui.h"
@@ -25,19 +26,6 @@
 namespace mirage::viewer {
 
 namespace {
-
-Status parseSize(const std::string& text, uint32_t& width, uint32_t& height) {
-  size_t x = text.find('x');
-  auto bad = Error{fmt::format("--size '{}': expected WxH with 1..{} each", text, render::kMaxRenderDimension)};
-  if (x == std::string::npos) return bad;
-  const char* s = text.data();
-  auto r1 = std::from_chars(s, s + x, width);
-  auto r2 = std::from_chars(s + x + 1, s + text.size(), height);
-  if (r1.ec != std::errc() || r1.ptr != s + x || r2.ec != std::errc() || r2.ptr != s + text.size()) return bad;
-  if (width == 0 || height == 0 || width > render::kMaxRenderDimension || height > render::kMaxRenderDimension)
-    return bad;
-  return Ok{};
-}
 
 Status checkPng(const std::string& path) {
   std::filesystem::path p = path;
@@ -130,7 +118,7 @@ gpu::PresentMode vsyncMode(bool vsync, gpu::PresentMode requested) {
 Status runViewer(const ViewerOptions& o) {
   // Everything checkable without a display first: a bad scene fails before any window opens.
   uint32_t width = 0, height = 0;
-  if (auto st = parseSize(o.size, width, height); !st) return st;
+  if (auto st = render::parseRenderSize(o.size, width, height); !st) return st;
   auto present = gpu::parsePresentMode(o.present);
   if (!present) return present.error();
   std::optional<render::Camera> startCamera;
