@@ -8,6 +8,33 @@
 
 namespace mirage::viewer {
 
+namespace {
+
+// Copies w x h packed RGBA8 pixels (rows of `rowLength` pixels) from `buffer` into the swapchain
+// image (in TRANSFER_DST_OPTIMAL, earlier writes to both made available), then hands the image to
+// the overlay's colour attachment.
+void cmdCopyPackedToSwapchain(VkCommandBuffer cmd, VkBuffer buffer, uint32_t rowLength, uint32_t rows,
+                              const gpu::Swapchain::Frame& frame, uint32_t w, uint32_t h) {
+  if (w && h) {
+    VkBufferImageCopy region{};
+    region.bufferRowLength = rowLength;
+    region.bufferImageHeight = rows;
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {w, h, 1};
+    vkCmdCopyBufferToImage(cmd, buffer, frame.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  }
+  gpu::cmdImageBarrier(cmd,
+                       {.image = frame.image,
+                        .srcStage = VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                        .srcAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                        .dstStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                        .dstAccess = VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                        .oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                        .newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+}
+
+} // namespace
+
 void cmdCopyFrameToSwapchain(gpu::Context& context, PresentStaging& staging, const gpu::Swapchain::Frame& frame,
                              VkFormat format, const ImageRGBA8& image) {
   VkCommandBuffer cmd = frame.cmd;
@@ -46,22 +73,7 @@ void cmdCopyFrameToSwapchain(gpu::Context& context, PresentStaging& staging, con
     gpu::cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                           VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
   }
-  if (w && h) {
-    VkBufferImageCopy region{};
-    region.bufferRowLength = image.width;
-    region.bufferImageHeight = image.height;
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {w, h, 1};
-    vkCmdCopyBufferToImage(cmd, buffer.handle(), frame.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-  }
-  gpu::cmdImageBarrier(cmd,
-                       {.image = frame.image,
-                        .srcStage = VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                        .srcAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                        .dstStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                        .dstAccess = VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                        .oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                        .newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+  cmdCopyPackedToSwapchain(cmd, buffer.handle(), image.width, image.height, frame, w, h);
 }
 
 namespace {
@@ -145,22 +157,7 @@ void cmdBlitTargetToSwapchain(gpu::Context& context, TargetBlit& blit, const gpu
   gpu::cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
                         VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
                         VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
-  if (w && h) {
-    VkBufferImageCopy region{};
-    region.bufferRowLength = size.width;
-    region.bufferImageHeight = size.height;
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {w, h, 1};
-    vkCmdCopyBufferToImage(cmd, blit.packed.handle(), frame.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-  }
-  gpu::cmdImageBarrier(cmd,
-                       {.image = frame.image,
-                        .srcStage = VK_PIPELINE_STAGE_2_COPY_BIT,
-                        .srcAccess = VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                        .dstStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                        .dstAccess = VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                        .oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                        .newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+  cmdCopyPackedToSwapchain(cmd, blit.packed.handle(), size.width, size.height, frame, w, h);
 }
 
 void cmdTransitionForPresent(VkCommandBuffer cmd, VkImage image) {
