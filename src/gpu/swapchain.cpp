@@ -208,6 +208,15 @@ std::optional<Swapchain::Frame> Swapchain::beginFrame(VkExtent2D extent) {
 }
 
 void Swapchain::endFrame(const Frame& f) {
+  submit(f);
+  present(f);
+}
+
+bool Swapchain::completed(uint32_t slot) const {
+  return slot < framesInFlight_ && vkGetFenceStatus(context_.device(), slots_[slot].done) == VK_SUCCESS;
+}
+
+void Swapchain::submit(const Frame& f) {
   Slot& slot = slots_[f.slot];
   VkDevice device = context_.device();
   MIRAGE_VK_CHECK(vkEndCommandBuffer(f.cmd));
@@ -229,7 +238,9 @@ void Swapchain::endFrame(const Frame& f) {
   si.signalSemaphoreInfoCount = 1;
   si.pSignalSemaphoreInfos = &signal;
   MIRAGE_VK_CHECK(vkQueueSubmit2(context_.queue(), 1, &si, slot.done));
+}
 
+void Swapchain::present(const Frame& f) {
   VkSwapchainKHR handle = swapchain_.get();
   VkPresentInfoKHR pi{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
   pi.waitSemaphoreCount = 1;

@@ -62,8 +62,13 @@ public:
   // window's framebuffer size now: a change recreates the swapchain first. No frame (nullopt) when
   // the extent is 0x0 or the swapchain went out of date (call again next iteration).
   std::optional<Frame> beginFrame(VkExtent2D extent);
-  // Ends frame.cmd, submits it (waiting for the acquire, signalling the present) and presents.
+  // Ends frame.cmd, submits it (waiting for the acquire, signalling the present) and presents:
+  // submit() then present() (the viewer times each step).
   void endFrame(const Frame& frame);
+  void submit(const Frame& frame);
+  void present(const Frame& frame);
+  // Whether the slot's last submission finished (its fence, not waited for).
+  bool completed(uint32_t slot) const;
   // Takes effect at the next beginFrame (the swapchain is recreated).
   void setPresentMode(PresentMode mode);
 
