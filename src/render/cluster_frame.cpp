@@ -77,6 +77,7 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   if (cs.readOwnedClusters && !p.occlusion)
     return Error{"reading the clusters that own pixels needs occlusion culling (its history)"};
   p.pvs = cs.pvsCulling && pvsInstances;
+  p.transparency = hasBlend() && cs.transparency;
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)

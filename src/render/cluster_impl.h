@@ -89,6 +89,7 @@ struct ClusterFramePlan {
   bool dagTree = false;                        // hierarchical selection over the DAG's group tree
   bool hierarchy = false;                      // hierarchical selection (LOD BVH or DAG tree), else the flat pass
   bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
+  bool transparency = false;                   // BLEND clusters rasterized and composited (scene has them, asked for)
 };
 
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.

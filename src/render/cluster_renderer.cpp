@@ -131,9 +131,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     cs.surfels->stageCmdSplat(cmd, timer());
     cmdPhaseBarrier(cmd, mesh);
   }
-  if (hasBlend()) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
-  cmdResolve(cmd, p);                          // fetch, interpolate, shade; with occlusion: the clusters owning pixels
-  if (hasBlend())                              // blend raster into fragment lists, sorted composite
+  if (plan.transparency) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
+  cmdResolve(cmd, p);    // fetch, interpolate, shade; with occlusion: the clusters owning pixels
+  if (plan.transparency) // blend raster into fragment lists, sorted composite
     cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
   finishFrame(cmd, plan, frameTime);
 }

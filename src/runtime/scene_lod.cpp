@@ -89,13 +89,14 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.selection = c.selection;
   rs.occlusionCulling = c.occlusionCulling;
   rs.coneCulling = c.coneCulling;
+  rs.transparency = c.transparency;
   rs.hybridThreshold = c.hybridThreshold;
   rs.pvsCulling = c.pvsCulling;
   rs.stereoIpd = view.stereoIpd;
   rs.foveation = c.foveation;
   rs.foveaGaze = c.foveaGaze;
   rs.foveaRadiusDegrees = c.foveaRadiusDegrees;
-  if (s.surfels) {
+  if (s.surfels && c.drawSurfels) {
     rs.surfels = s.surfels.get();
     rs.surfelSettings.surfelSize = c.surfelSize;
     rs.surfelSettings.raster = c.surfelRaster;

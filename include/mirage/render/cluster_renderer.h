@@ -99,6 +99,7 @@ struct ClusterRenderSettings {
   // faster when consecutive frames are alike).
   bool occlusionCulling = false; // off by default: on the H200 it cost more than it saved (docs/render.md)
   bool coneCulling = true;       // per-cluster normal cones drop back-facing clusters of single-sided instances
+  bool transparency = true;      // alpha BLEND clusters drawn (off: opaque and MASK only, the viewer's switch)
   // Foveation: tau grows with a sphere's eccentricity from the gaze beyond the fovea's radius
   // (fovealTauScale in shaderio/lod_error.h). The gaze point is in normalized screen coordinates
   // (0,0 top left, 1,1 bottom right).

@@ -20,6 +20,7 @@ struct RenderConfig {
   render::SelectionMode selection = kClusterDefaults.selection;
   bool occlusionCulling = kClusterDefaults.occlusionCulling;
   bool coneCulling = kClusterDefaults.coneCulling;
+  bool transparency = kClusterDefaults.transparency;        // alpha BLEND materials drawn (off: opaque and MASK only)
   float hybridThreshold = kClusterDefaults.hybridThreshold; // pixels
   bool pvsCulling = kClusterDefaults.pvsCulling;            // cull with the view cell's cluster PVS (if any)
   // Foveation (--fovea X,Y --fovea-radius DEG): tau grows with eccentricity from the gaze point.
@@ -29,6 +30,7 @@ struct RenderConfig {
   // Surfels (surfel-only scenes, and the far field of mixed scenes).
   float surfelSize = kSurfelDefaults.surfelSize; // diameter in pixels
   render::SurfelRaster surfelRaster = kSurfelDefaults.raster;
+  bool drawSurfels = true; // mixed scenes: surfels far away (off: the meshes at every distance)
 };
 
 // Range checks, done once here: the messages name the CLI flag ("--tau must be ...").
