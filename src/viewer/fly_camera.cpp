@@ -16,6 +16,20 @@ glm::vec3 moveAxes(bool w, bool a, bool s, bool d, bool q, bool e) {
   return {float(d) - float(a), float(e) - float(q), float(w) - float(s)};
 }
 
+bool nextLooking(bool looking, const InputState& in) {
+  if (!in.lookButton) return false;
+  return looking || !in.overlayMouse;
+}
+
+FlyInput flyInput(const InputState& in, bool looking, float seconds) {
+  FlyInput out;
+  if (!in.overlayKeyboard) out.move = moveAxes(in.forward, in.left, in.back, in.right, in.down, in.up);
+  if (looking) out.look = in.mouseDelta;
+  if (!in.overlayMouse) out.scroll = in.scroll;
+  out.seconds = std::clamp(seconds, 0.0f, kMaxStepSeconds);
+  return out;
+}
+
 void update(FlyCamera& c, const FlyInput& in) {
   c.yaw = std::remainder(c.yaw + in.look.x * kLookRadiansPerPixel, 2.0f * float(M_PI));
   c.pitch = std::clamp(c.pitch - in.look.y * kLookRadiansPerPixel, -kPitchLimitRadians, kPitchLimitRadians);

@@ -22,6 +22,7 @@ runtime::View runtimeView(const View& view, bool readImage) {
   v.height = view.height;
   v.config = view.config;
   v.readImage = readImage;
+  v.stereoIpd = view.stereoIpd;
   return v;
 }
 
@@ -40,18 +41,16 @@ FrameStats frameStats(runtime::Frame& out, int cell) {
 SceneView::SceneView(std::unique_ptr<runtime::Scene> scene) : scene_(std::move(scene)) {}
 SceneView::~SceneView() = default;
 
-Status SceneView::check(const SceneOptions& options) {
+Result<runtime::SceneKind> SceneView::check(const SceneOptions& options) {
   // The forward path restricts the scene to the eye's cell and fails outside every cell: a camera
   // flying out of the cells would end the viewer.
   if (!options.pvs.empty() && !runtime::isMrgPath(options.path))
     return makeError(options.path, "--pvs in the viewer applies to .mrg cluster-LOD assets only");
-  auto kind = runtime::sceneKind(runtimeOptions(options));
-  if (!kind) return kind.error();
-  return Ok{};
+  return runtime::sceneKind(runtimeOptions(options));
 }
 
 Result<std::unique_ptr<SceneView>> SceneView::open(gpu::Context& context, const SceneOptions& options) {
-  if (auto st = check(options); !st) return st.error();
+  if (auto kind = check(options); !kind) return kind.error();
   auto scene = runtime::Scene::open(context, runtimeOptions(options));
   if (!scene) return scene.error();
   return std::unique_ptr<SceneView>(new SceneView(std::move(*scene)));
@@ -86,5 +85,7 @@ const Bounds& SceneView::bounds() const { return scene_->bounds(); }
 bool SceneView::clusterLod() const { return scene_->kind() == runtime::SceneKind::ClusterLod; }
 bool SceneView::hasSurfels() const { return scene_->info().surfels > 0; }
 bool SceneView::hasPvs() const { return scene_->pvs().active; }
+bool SceneView::hasBlend() const { return clusterLod() && scene_->info().blendMaterials; }
+bool SceneView::mixed() const { return clusterLod() && hasSurfels(); }
 
 } // namespace mirage::viewer

@@ -3,6 +3,7 @@
 // renders a View into a CPU sRGB image with its stats; this file adds the viewer's checks and the
 // figures the overlay shows.
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,10 +15,7 @@
 #include "mirage/gpu/query.h"
 #include "mirage/render/camera.h"
 #include "mirage/runtime/config.h"
-
-namespace mirage::runtime {
-class Scene;
-}
+#include "mirage/runtime/scene.h"
 
 namespace mirage::viewer {
 
@@ -31,9 +29,10 @@ struct SceneOptions {
 using ViewConfig = runtime::RenderConfig;
 
 struct View {
-  render::Camera camera; // clip planes derived from the scene when zero
-  uint32_t width = 1280, height = 720;
+  render::Camera camera;               // clip planes derived from the scene when zero
+  uint32_t width = 1280, height = 720; // per eye with stereo
   ViewConfig config;
+  std::optional<float> stereoIpd; // both eyes side by side: the image is (2 * width) x height
 };
 
 struct FrameStats {
@@ -51,8 +50,8 @@ struct Frame {
 
 class SceneView {
 public:
-  // Cheap checks of the options and the input's kind (no GPU; before the window system starts).
-  static Status check(const SceneOptions& options);
+  // Cheap checks of the options; the input's kind (no GPU; before the window system starts).
+  static Result<runtime::SceneKind> check(const SceneOptions& options);
   // Reads the input, checks it, uploads it. Errors are one line naming the file.
   static Result<std::unique_ptr<SceneView>> open(gpu::Context& context, const SceneOptions& options);
   ~SceneView();
@@ -69,6 +68,8 @@ public:
   bool clusterLod() const;
   bool hasSurfels() const;
   bool hasPvs() const;
+  bool hasBlend() const; // cluster LOD with alpha BLEND materials
+  bool mixed() const;    // cluster LOD with surfels far away
 
 private:
   explicit SceneView(std::unique_ptr<runtime::Scene> scene);

@@ -17,6 +17,8 @@
 #include "mirage/render/forward_renderer.h"
 #include "mirage/render/render_size.h"
 #include "mirage/viewer/fly_camera.h"
+#include "frame_log.h"
+#include "keys.h"
 #include "overlay_renderer.h"
 #include "overlay_ui.h"
 #include "present.h"
@@ -59,6 +61,15 @@ struct ImGuiSession {
   }
 };
 
+using Clock = std::chrono::steady_clock;
+
+// The renderer's "frame" pass of a frame's stats; negative without timestamp queries.
+double gpuFrameMs(const FrameStats& stats) {
+  for (const gpu::PassTime& t : stats.passTimes)
+    if (t.name == "frame") return t.milliseconds;
+  return -1.0;
+}
+
 // Everything the loop owns on the GPU side, destroyed after the device went idle.
 struct Presenter {
   gpu::Context& context;
@@ -66,45 +77,70 @@ struct Presenter {
   std::unique_ptr<OverlayRenderer> overlay;
   PresentStaging staging;
   TargetBlit blit;
+  Clock::time_point epoch = Clock::now();
+  FrameLog log;
   // Swapchain slots whose scene frame was recorded and not yet collected (the scene's slots are the
-  // swapchain's: both counts are 3 at most).
+  // swapchain's: both counts are 3 at most), with the tau each was drawn with (frame-time control).
   bool pending[gpu::kMaxFramesInFlight] = {};
+  float pendingTau[gpu::kMaxFramesInFlight] = {};
+  SubmitStamp stamps[gpu::kMaxFramesInFlight]; // latency: submits waiting for their fence
   static_assert(gpu::kMaxFramesInFlight <= render::kMaxFramesInFlight);
   ~Presenter() {
     if (swapchain) swapchain->waitIdle();
   }
+  double now() const { return std::chrono::duration<double>(Clock::now() - epoch).count(); }
+  // Submits whose fence signalled since: their submit -> GPU done time.
+  void pollCompleted() {
+    for (uint32_t i = 0; i < swapchain->framesInFlight(); ++i)
+      if (stamps[i].pending && swapchain->completed(i)) {
+        log.submitToGpuMs.push_back((now() - stamps[i].submitSeconds) * 1000.0);
+        stamps[i].pending = false;
+      }
+  }
+  std::optional<gpu::Swapchain::Frame> begin(VkExtent2D extent) {
+    auto frame = swapchain->beginFrame(extent);
+    pollCompleted(); // beginFrame waited for the slot's fence
+    return frame;
+  }
   // Readback path: shows `image` with the overlay (ImGui::Render done) when the swapchain gives an image.
-  void show(const Window& window, const ImageRGBA8& image) {
-    auto frame = swapchain->beginFrame(window.framebufferSize());
+  void show(const Window& window, const ImageRGBA8& image, double inputSeconds) {
+    auto frame = begin(window.framebufferSize());
     if (!frame) return;
     slotCompleted(blit, frame->slot);
     cmdCopyFrameToSwapchain(context, staging, *frame, swapchain->format(), image);
-    finish(*frame);
+    finish(*frame, inputSeconds);
   }
-  // The overlay (ImGui::Render done), then submit and present.
-  void finish(const gpu::Swapchain::Frame& frame) {
+  // The overlay (ImGui::Render done), then submit and present, timed from the input poll.
+  void finish(const gpu::Swapchain::Frame& frame, double inputSeconds) {
     overlay->record(frame.cmd, frame.slot, frame.view, frame.extent, ImGui::GetDrawData());
     cmdTransitionForPresent(frame.cmd, frame.image);
-    swapchain->endFrame(frame);
+    swapchain->submit(frame);
+    double submitted = now();
+    stamps[frame.slot] = {true, submitted};
+    log.inputToSubmitMs.push_back((submitted - inputSeconds) * 1000.0);
+    swapchain->present(frame);
+    log.inputToPresentMs.push_back((now() - inputSeconds) * 1000.0);
+    pollCompleted();
   }
   // The stats of slot `slot`'s recorded frame, if it holds one (its fence signalled).
-  void collect(SceneView& scene, uint32_t slot, FrameStats& stats, std::vector<double>& gpuFrameMs) {
-    if (!pending[slot]) return;
+  std::optional<FrameStats> collect(SceneView& scene, uint32_t slot) {
+    if (!pending[slot]) return std::nullopt;
     pending[slot] = false;
     auto collected = scene.collect(slot);
-    if (!collected) return;
-    stats = std::move(*collected);
-    for (const gpu::PassTime& t : stats.passTimes)
-      if (t.name == "frame") gpuFrameMs.push_back(t.milliseconds);
+    if (!collected) return std::nullopt;
+    if (double ms = gpuFrameMs(*collected); ms >= 0.0) log.gpuFrameMs.push_back(ms);
+    return std::move(*collected);
   }
-  // Before a frame through Scene::render (it uses slot 0 and waits): the frames in flight finish
-  // and give their stats. Rare: frames written to PNG, scenes switching paths never.
-  void drain(SceneView& scene, FrameStats& stats, std::vector<double>& gpuFrameMs) {
+  // Before a frame through Scene::render (it uses slot 0 and waits): the frames in flight finish.
+  // Rare: frames written to PNG, scenes switching paths never.
+  template <typename OnStats> void drain(SceneView& scene, OnStats onStats) {
     bool any = false;
     for (bool p : pending) any = any || p;
     if (!any) return;
     swapchain->waitIdle();
-    for (uint32_t i = 0; i < gpu::kMaxFramesInFlight; ++i) collect(scene, i, stats, gpuFrameMs);
+    pollCompleted();
+    for (uint32_t i = 0; i < gpu::kMaxFramesInFlight; ++i)
+      if (auto stats = collect(scene, i)) onStats(*stats, pendingTau[i]);
   }
 };
 
@@ -113,11 +149,29 @@ gpu::PresentMode vsyncMode(bool vsync, gpu::PresentMode requested) {
   return requested == gpu::PresentMode::Fifo ? gpu::PresentMode::Immediate : requested;
 }
 
+// The options against each other and against the scene's kind, before any GPU or window.
+Status checkOptions(const ViewerOptions& o, runtime::SceneKind kind) {
+  if (auto st = runtime::validate(o.config); !st) return st;
+  if (o.stereoIpd)
+    if (auto st = render::validateIpd(*o.stereoIpd); !st) return st;
+  if (o.frameTime)
+    if (auto st = runtime::validate(*o.frameTime); !st) return st;
+  if (kind != runtime::SceneKind::ClusterLod) {
+    if (o.stereoIpd) return makeError(o.scene, "--stereo needs a .mrg with cluster DAGs (cluster LOD)");
+    if (o.frameTime) return makeError(o.scene, "--target-ms applies to .mrg cluster-LOD assets only");
+    if (o.clusterLodFlags)
+      return makeError(o.scene, "--tau, --raster, --hybrid-threshold, --occlusion, --cones, --selection, "
+                                "--blend-raster and --fovea apply to .mrg cluster-LOD assets only");
+  }
+  if (o.surfelFlags && !o.surfels) return Error{"--surfel-size and --surfel-raster need --surfels"};
+  return Ok{};
+}
+
 } // namespace
 
 Status runViewer(const ViewerOptions& o) {
   // Everything checkable without a display first: a bad scene fails before any window opens.
-  uint32_t width = 0, height = 0;
+  uint32_t width = 0, height = 0; // per eye with --stereo
   if (auto st = render::parseRenderSize(o.size, width, height); !st) return st;
   auto present = gpu::parsePresentMode(o.present);
   if (!present) return present.error();
@@ -128,14 +182,15 @@ Status runViewer(const ViewerOptions& o) {
     startCamera = *c;
   }
   if (!o.camera.empty() && !o.path.empty()) return Error{"give --camera or --path, not both"};
-  if (o.exitAfterPath && (o.path.empty() || o.screenshot.empty()))
-    return Error{"--exit-after-path needs --path and --screenshot"};
+  if (o.exitAfterPath && o.path.empty()) return Error{"--exit-after-path needs --path"};
   if (!o.screenshot.empty()) {
     if (o.path.empty()) return Error{"--screenshot needs --path (F12 takes screenshots interactively)"};
     if (auto st = checkPng(o.screenshot); !st) return st;
   }
   const SceneOptions sceneOptions{.path = o.scene, .pvs = o.pvs, .surfels = o.surfels};
-  if (auto st = SceneView::check(sceneOptions); !st) return st;
+  auto kind = SceneView::check(sceneOptions);
+  if (!kind) return kind.error();
+  if (auto st = checkOptions(o, *kind); !st) return st;
 
   auto system = WindowSystem::start();
   if (!system) {
@@ -156,7 +211,7 @@ Status runViewer(const ViewerOptions& o) {
   auto scene = SceneView::open(**context, sceneOptions);
   if (!scene) return scene.error();
   SceneView& sceneView = **scene;
-  float aspect = float(width) / float(height);
+  float aspect = float(width) / float(height); // of one eye
   std::vector<render::Camera> path;
   if (!o.path.empty()) {
     auto p = render::cameraPathArgument(o.path, sceneView.bounds(), aspect);
@@ -164,7 +219,36 @@ Status runViewer(const ViewerOptions& o) {
     path = std::move(*p);
   }
 
-  auto window = Window::create(width, height, "mirage view: " + std::filesystem::path(o.scene).filename().string());
+  UiState ui;
+  ui.config = o.config;
+  ui.vsync = *present == gpu::PresentMode::Fifo;
+  ui.clusterLod = sceneView.clusterLod();
+  ui.hasSurfels = sceneView.hasSurfels();
+  ui.hasPvs = sceneView.hasPvs();
+  ui.hasBlend = sceneView.hasBlend();
+  ui.mixed = sceneView.mixed();
+  ui.stereoIpd = o.stereoIpd.value_or(0.0f);
+  std::optional<runtime::FrameTimeState> frameTime;
+  if (o.frameTime) {
+    ui.targetMs = o.frameTime->targetMs;
+    ui.holdTarget = true;
+    frameTime = runtime::startFrameTime(*o.frameTime, ui.config);
+    runtime::applyFrameTime(*o.frameTime, *frameTime, ui.config);
+  }
+  FlyCamera fly = startCamera ? fromCamera(*startCamera, sceneView.bounds()) : frameScene(sceneView.bounds(), aspect);
+  // The first frame renders before the window opens too: settings the scene or the device cannot
+  // draw (a raster backend it lacks, --stereo with BLEND materials, ...) fail with no window shown.
+  {
+    View first{.camera = path.empty() ? toCamera(fly) : path[0],
+               .width = width,
+               .height = height,
+               .config = ui.config,
+               .stereoIpd = o.stereoIpd};
+    if (auto f = sceneView.render(first); !f) return f.error();
+  }
+
+  std::string title = "mirage view: " + std::filesystem::path(o.scene).filename().string();
+  auto window = Window::create(o.stereoIpd ? 2 * width : width, height, title);
   if (!window) return window.error();
   auto surface = (*window)->createSurface((*context)->instance());
   if (!surface) return surface.error();
@@ -181,12 +265,6 @@ Status runViewer(const ViewerOptions& o) {
   const bool gpuPresent = sceneView.canRecord() && presenter.blit.format != VK_FORMAT_UNDEFINED;
   Window& win = **window;
 
-  UiState ui;
-  ui.vsync = *present == gpu::PresentMode::Fifo;
-  ui.clusterLod = sceneView.clusterLod();
-  ui.hasSurfels = sceneView.hasSurfels();
-  ui.hasPvs = sceneView.hasPvs();
-  FlyCamera fly = startCamera ? fromCamera(*startCamera, sceneView.bounds()) : frameScene(sceneView.bounds(), aspect);
   std::vector<render::Camera> recorded;
   size_t replayIndex = 0;
   bool replaying = !path.empty();
@@ -195,39 +273,59 @@ Status runViewer(const ViewerOptions& o) {
   ViewConfig lastGood = ui.config;
   bool untried = false; // the overlay changed a setting no frame has rendered with yet
   FrameStats stats;
-  auto last = std::chrono::steady_clock::now();
+  auto last = Clock::now();
   auto start = last;
   uint64_t frames = 0;
-  std::vector<double> gpuFrameMs; // per frame: the renderer's "frame" pass
+  // A collected frame: its stats for the overlay, its GPU time for the controller (drawn at `tau`).
+  auto onStats = [&](FrameStats s, float tau) {
+    double ms = gpuFrameMs(s);
+    if (frameTime && ui.holdTarget && ms > 0.0) runtime::updateFrameTime(*o.frameTime, *frameTime, tau, ms);
+    stats = std::move(s);
+  };
+  auto setPresentMode = [&] { presenter.swapchain->setPresentMode(vsyncMode(ui.vsync, *present)); };
 
   while (!win.shouldClose()) {
     win.poll();
-    auto now = std::chrono::steady_clock::now();
+    const double inputSeconds = presenter.now();
+    presenter.pollCompleted();
+    auto now = Clock::now();
     float seconds = std::chrono::duration<float>(now - last).count();
     last = now;
     double ms = seconds * 1000.0;
+    if (frames > 0) presenter.log.frameMs.push_back(ms);
     ui.cpuFrameMs = frames == 0 ? ms : 0.9 * ui.cpuFrameMs + 0.1 * ms;
+    ui.inputToSubmitMs = recentMean(presenter.log.inputToSubmitMs);
+    ui.submitToGpuMs = recentMean(presenter.log.submitToGpuMs);
+    ui.inputToPresentMs = recentMean(presenter.log.inputToPresentMs);
 
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     const ImGuiIO& io = ImGui::GetIO();
     bool keys = !io.WantCaptureKeyboard;
     bool screenshot = false;
-    if (keys) {
-      if (win.keyPressed(GLFW_KEY_ESCAPE)) win.requestClose();
-      if (win.keyPressed(GLFW_KEY_F)) {
-        VkExtent2D e = win.framebufferSize();
+    VkExtent2D extent = win.framebufferSize();
+    // One eye's size: the window holds both eyes side by side with --stereo.
+    VkExtent2D eye{o.stereoIpd ? extent.width / 2 : extent.width, extent.height};
+    for (const KeyBinding& b : keyBindings()) {
+      if (!keys || !win.keyPressed(b.key)) continue;
+      switch (b.action) {
+      case Action::Close:
+        win.requestClose();
+        break;
+      case Action::FrameScene: {
         float speed = fly.speed;
-        fly = frameScene(sceneView.bounds(), e.height ? float(e.width) / float(e.height) : aspect, fly.fovYDegrees);
+        fly = frameScene(sceneView.bounds(), eye.height && eye.width ? float(eye.width) / float(eye.height) : aspect,
+                         fly.fovYDegrees);
         fly.speed = speed;
+        break;
       }
-      if (win.keyPressed(GLFW_KEY_C)) {
+      case Action::CopyCamera:
         ui.camera = render::formatCamera(toCamera(fly));
         ImGui::SetClipboardText(ui.camera.c_str()); // through GLFW: paste it after --camera
         fmt::print("--camera {}\n", ui.camera);
         std::fflush(stdout);
-      }
-      if (win.keyPressed(GLFW_KEY_R)) {
+        break;
+      case Action::Record:
         ui.recording = !ui.recording;
         if (ui.recording) {
           recorded.clear();
@@ -238,28 +336,39 @@ Status runViewer(const ViewerOptions& o) {
           fmt::print("{}\n", ui.message);
           path = recorded;
         }
+        break;
+      case Action::Replay:
+        if (!path.empty()) {
+          replaying = true;
+          replayIndex = 0;
+        }
+        break;
+      case Action::Screenshot:
+        screenshot = true;
+        break;
+      case Action::Vsync:
+      case Action::Transparency:
+      case Action::Surfels:
+        if (applySwitch(b.action, ui)) {
+          untried = true;
+          setPresentMode();
+        }
+        break;
       }
-      if (win.keyPressed(GLFW_KEY_P) && !path.empty()) {
-        replaying = true;
-        replayIndex = 0;
-      }
-      if (win.keyPressed(GLFW_KEY_F12)) screenshot = true;
     }
     if (!replaying) {
-      FlyInput in;
-      if (keys)
-        in.move = moveAxes(win.keyDown(GLFW_KEY_W), win.keyDown(GLFW_KEY_A), win.keyDown(GLFW_KEY_S),
-                           win.keyDown(GLFW_KEY_D), win.keyDown(GLFW_KEY_Q), win.keyDown(GLFW_KEY_E));
-      // Looking starts with a right press outside the overlay and lasts while the button is held;
-      // the cursor is hidden and unbounded meanwhile, so a turn never stops at the window's edge.
-      bool right = win.rightButtonDown();
-      if (right && !looking && !io.WantCaptureMouse) looking = true;
-      if (!right) looking = false;
+      InputState in;
+      const std::span<const int> fk = flyKeys();
+      in.forward = win.keyDown(fk[0]), in.left = win.keyDown(fk[1]), in.back = win.keyDown(fk[2]);
+      in.right = win.keyDown(fk[3]), in.down = win.keyDown(fk[4]), in.up = win.keyDown(fk[5]);
+      in.lookButton = win.rightButtonDown();
+      in.mouseDelta = win.mouseDelta();
+      in.scroll = win.scroll();
+      in.overlayKeyboard = io.WantCaptureKeyboard;
+      in.overlayMouse = io.WantCaptureMouse;
+      looking = nextLooking(looking, in);
       win.setCursorCaptured(looking);
-      if (looking) in.look = win.mouseDelta();
-      if (!io.WantCaptureMouse) in.scroll = win.scroll();
-      in.seconds = std::min(seconds, 0.25f); // a stall does not fling the camera away
-      update(fly, in);
+      update(fly, flyInput(in, looking, seconds));
     }
 
     // This frame's camera: the path while replaying (the fly camera follows it), else the fly camera.
@@ -275,15 +384,19 @@ Status runViewer(const ViewerOptions& o) {
     ui.recorded = recorded.size();
     ui.replaying = replaying;
 
-    VkExtent2D extent = win.framebufferSize();
-    if (extent.width == 0 || extent.height == 0) { // minimized: nothing to draw until restored
+    if (eye.width == 0 || eye.height == 0) { // minimized: nothing to draw until restored
       ImGui::EndFrame();
       win.waitEvents();
       continue;
     }
+    if (frameTime && ui.holdTarget) {
+      runtime::applyFrameTime(*o.frameTime, *frameTime, ui.config);
+      presenter.log.tau.push_back(ui.config.tauPixels);
+    }
     View v;
     v.camera = camera;
     v.config = ui.config;
+    v.stereoIpd = o.stereoIpd;
     auto advanceReplay = [&] {
       if (replaying && ++replayIndex >= path.size()) {
         replaying = false;
@@ -293,9 +406,11 @@ Status runViewer(const ViewerOptions& o) {
       }
     };
     auto overlayPanel = [&] {
+      bool held = ui.holdTarget;
       if (drawOverlayPanel(ui, stats)) {
         untried = true;
-        presenter.swapchain->setPresentMode(vsyncMode(ui.vsync, *present));
+        setPresentMode();
+        if (frameTime && ui.holdTarget && !held) frameTime = runtime::startFrameTime(*o.frameTime, ui.config);
       }
       ImGui::Render();
     };
@@ -304,19 +419,20 @@ Status runViewer(const ViewerOptions& o) {
       // Frames in flight: the scene records into the swapchain frame's command buffer, a blit takes
       // its colour target to the swapchain image, the overlay follows: one submit, no readback. The
       // stats shown are those of the frame this slot held before (framesInFlight - 1 frames late).
-      auto sf = presenter.swapchain->beginFrame(extent);
+      auto sf = presenter.begin(extent);
       if (!sf) {
         ImGui::EndFrame();
         continue;
       }
       slotCompleted(presenter.blit, sf->slot);
-      presenter.collect(sceneView, sf->slot, stats, gpuFrameMs);
-      v.width = sf->extent.width;
+      if (auto s = presenter.collect(sceneView, sf->slot)) onStats(std::move(*s), presenter.pendingTau[sf->slot]);
+      v.width = o.stereoIpd ? sf->extent.width / 2 : sf->extent.width;
       v.height = sf->extent.height;
-      Status sceneRecorded = sceneView.record(sf->cmd, v, sf->slot);
+      Status sceneRecorded = v.width > 0 ? sceneView.record(sf->cmd, v, sf->slot) : Status(Error{"window too narrow"});
       std::optional<Error> fatal;
       if (sceneRecorded) {
         presenter.pending[sf->slot] = true;
+        presenter.pendingTau[sf->slot] = v.config.tauPixels;
         lastGood = ui.config;
         untried = false;
         cmdBlitTargetToSwapchain(**context, presenter.blit, *sf, *sceneView.colorTarget());
@@ -334,7 +450,7 @@ Status runViewer(const ViewerOptions& o) {
       }
       if (!fatal) advanceReplay();
       overlayPanel();
-      presenter.finish(*sf);
+      presenter.finish(*sf, inputSeconds);
       if (fatal) return *fatal;
       ++frames;
       if (o.maxFrames && frames >= o.maxFrames) win.requestClose();
@@ -342,10 +458,10 @@ Status runViewer(const ViewerOptions& o) {
     }
 
     // Readback path: the scene renders and waits, the image goes through the CPU (PNG frames).
-    presenter.drain(sceneView, stats, gpuFrameMs);
+    presenter.drain(sceneView, onStats);
     // A recorded path renders at --size so its images match `mirage render --path` exactly.
-    v.width = replaying && writingPath ? width : extent.width;
-    v.height = replaying && writingPath ? height : extent.height;
+    v.width = replaying && writingPath ? width : eye.width;
+    v.height = replaying && writingPath ? height : eye.height;
     auto frame = sceneView.render(v);
     if (!frame) {
       if (!untried) {
@@ -361,9 +477,8 @@ Status runViewer(const ViewerOptions& o) {
     }
     lastGood = ui.config;
     untried = false;
-    stats = frame->stats;
-    for (const gpu::PassTime& t : stats.passTimes)
-      if (t.name == "frame") gpuFrameMs.push_back(t.milliseconds);
+    if (double gms = gpuFrameMs(frame->stats); gms >= 0.0) presenter.log.gpuFrameMs.push_back(gms);
+    onStats(frame->stats, v.config.tauPixels);
     if (replaying && writingPath) {
       std::string name = render::pathFrameName(o.screenshot, pathIndex);
       if (auto st = io::writePng(name, frame->srgb); !st) {
@@ -379,17 +494,17 @@ Status runViewer(const ViewerOptions& o) {
     }
     advanceReplay();
     overlayPanel();
-    presenter.show(win, frame->srgb);
+    presenter.show(win, frame->srgb, inputSeconds);
     ++frames;
     if (o.maxFrames && frames >= o.maxFrames) win.requestClose();
   }
   // How to measure the viewer (docs/viewer.md): frames per second of the whole loop (record or
-  // render, blit or readback and upload, overlay, present) and the renderer's median GPU frame time.
-  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::sort(gpuFrameMs.begin(), gpuFrameMs.end());
-  fmt::print("viewed {} frames in {:.2f} s: {:.1f} FPS, GPU frame median {:.3f} ms ({})\n", frames, seconds,
-             seconds > 0.0 ? double(frames) / seconds : 0.0,
-             gpuFrameMs.empty() ? 0.0 : gpuFrameMs[gpuFrameMs.size() / 2], (*context)->caps().name);
+  // render, blit or readback and upload, overlay, present), frame time and latency, and the
+  // renderer's median GPU frame time.
+  presenter.swapchain->waitIdle();
+  presenter.pollCompleted();
+  double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  fmt::print("{}\n", summaryLine(presenter.log, frames, seconds, (*context)->caps().name));
   return Ok{};
 }
 

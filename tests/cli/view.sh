@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # mirage view: a scene that fails to load exits 2 with one line before any window opens (run
-# without a display, so opening one would fail differently); bad flags exit 2; under Xvfb the
-# headless path mode (--path --screenshot --exit-after-path) writes OUT_0000.png ... that match
-# `mirage render --path` (PSNR >= 45 dB per frame) with silent validation layers, and the swapchain
-# follows a window resize and present-mode switches (test_viewer's SwapchainWindow test).
+# without a display, so opening one would fail differently); bad flags (view-only ones too: --stereo,
+# --target-ms, --fovea on scenes without cluster LOD) exit 2; under Xvfb the headless path mode
+# (--path --screenshot --exit-after-path) writes OUT_0000.png ... that match `mirage render --path`
+# (PSNR >= 45 dB per frame; with --stereo, `render --stereo --path`) with silent validation layers,
+# a refused stereo setting fails before the window, an interactive path replay prints the one-line
+# summary (FPS, frame time, latency, chosen tau), and the swapchain follows a window resize and
+# present-mode switches (test_viewer's SwapchainWindow test).
 # Usage: view.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 mirage=$1
@@ -31,8 +34,20 @@ printf 'not a mesh\n' >"$tmp/bad.obj"
 expect_fail bad-obj "bad.obj" -- view "$tmp/bad.obj"
 expect_fail bad-present "--present" -- view "$tmp/missing.mrg" --present vsync
 expect_fail bad-size "--size" -- view "$tmp/missing.mrg" --size 0x10
-expect_fail exit-needs-screenshot "--exit-after-path" -- view "$tmp/missing.mrg" --path orbit:2 --exit-after-path
+expect_fail exit-needs-path "--exit-after-path" -- view "$tmp/missing.mrg" --exit-after-path
 expect_fail screenshot-extension "unsupported output extension" -- view "$tmp/missing.mrg" --path orbit:2 --screenshot "$tmp/a.jpg"
+
+# View-only flags, checked before any window (the scene's kind from its name and chunk table).
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/tri.obj"
+expect_fail stereo-forward "--stereo needs a .mrg" -- view "$tmp/tri.obj" --stereo
+expect_fail target-forward "--target-ms applies to .mrg" -- view "$tmp/tri.obj" --target-ms 5
+expect_fail tau-forward "apply to .mrg cluster-LOD" -- view "$tmp/tri.obj" --tau 2
+expect_fail fovea-forward "apply to .mrg cluster-LOD" -- view "$tmp/tri.obj" --fovea 0.5,0.5
+expect_fail ipd-without-stereo "--ipd" -- view "$tmp/missing.mrg" --ipd 0.1
+expect_fail ipd-negative "--ipd" -- view "$tmp/missing.mrg" --stereo --ipd=-1
+expect_fail target-zero "--target-ms must be" -- view "$tmp/missing.mrg" --target-ms 0
+expect_fail fovea-range "--fovea must be" -- view "$tmp/missing.mrg" --fovea 2,0.5
+expect_fail surfel-size-alone "need --surfels" -- view "$tmp/missing.mrg" --surfel-size 3
 
 # The window tests need an X server: Xvfb through xvfb-run (Debian xvfb), else the display given.
 xrun=()
@@ -81,6 +96,43 @@ JSON
     [ -e "$tmp/view_0003.png" ] && { echo "FAIL view-path: wrote a fourth frame"; failures=$((failures + 1)); }
   else
     echo "FAIL view-path:"; cat "$tmp/stderr"; failures=$((failures + 1))
+  fi
+  # --stereo: both eyes side by side, each path image equal to `render --stereo --path` (2W x H).
+  "$mirage" render "$tmp/blob.mrg" --stereo --path "$tmp/cams.json" -o "$tmp/rs.png" --size 96x64 >/dev/null 2>"$tmp/stderr" ||
+    { echo "FAIL render-stereo-path:"; cat "$tmp/stderr"; failures=$((failures + 1)); }
+  if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --path "$tmp/cams.json" --screenshot "$tmp/vs.png" \
+      --exit-after-path --size 96x64 >"$tmp/stdout" 2>"$tmp/stderr" && ! grep -q . "$tmp/stderr"; then
+    for i in 0000 0001 0002; do
+      psnr=$("$mirage" compare "$tmp/rs_$i.png" "$tmp/vs_$i.png" --json 2>&1 | sed 's/.*"psnr":\([^,]*\),.*/\1/')
+      size=$(od -An -tu1 -j16 -N8 "$tmp/vs_$i.png" | awk '{ printf "%dx%d", $3*256+$4, $7*256+$8 }')
+      if [ "$size" = 192x64 ] && { [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 45) }'; }; then
+        pass=$((pass + 1))
+      else
+        echo "FAIL view-stereo frame $i: $size, PSNR $psnr dB vs render --stereo --path"; failures=$((failures + 1))
+      fi
+    done
+  else
+    echo "FAIL view-stereo:"; cat "$tmp/stderr"; failures=$((failures + 1))
+  fi
+  # A stereo setting the renderer refuses fails on the first frame, before the window: one line, exit 2.
+  "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --occlusion on --frames 2 --size 64x48 >"$tmp/stdout" 2>"$tmp/stderr"
+  rc=$?
+  if [ $rc -eq 2 ] && [ "$(grep -c . "$tmp/stderr")" -eq 1 ] && grep -q "occlusion" "$tmp/stderr" &&
+    ! grep -q "viewed" "$tmp/stdout"; then
+    pass=$((pass + 1))
+  else
+    echo "FAIL view-stereo-occlusion: exit $rc"; cat "$tmp/stderr"; failures=$((failures + 1))
+  fi
+  # A path replayed interactively (frames in flight, no screenshots) with frame-time control and
+  # foveation: the summary line gives FPS, frame time, latency and the chosen tau within 1..16 px.
+  if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --path orbit:6 --exit-after-path --target-ms 5 --fovea 0.5,0.5 \
+      --fovea-radius 10 --size 200x150 >"$tmp/stdout" 2>"$tmp/stderr" && ! grep -q . "$tmp/stderr" &&
+    [ "$(grep -c . "$tmp/stdout")" -eq 1 ] &&
+    grep -Eq "^viewed 6 frames in [0-9.]+ s: [0-9.]+ FPS, frame mean [0-9.]+ ms p95 [0-9.]+ ms, input->present mean [0-9.]+ ms p95 [0-9.]+ ms \(input->submit [0-9.]+ ms, submit->GPU done [0-9.]+ ms\)" "$tmp/stdout" &&
+    sed -n 's/.*tau mean [0-9.]* px (\([0-9.]*\)\.\.\([0-9.]*\)).*/\1 \2/p' "$tmp/stdout" | awk 'NF == 2 && $1 >= 1 && $2 <= 16 { ok = 1 } END { exit !ok }'; then
+    pass=$((pass + 1))
+  else
+    echo "FAIL view-target-ms:"; cat "$tmp/stdout" "$tmp/stderr"; failures=$((failures + 1))
   fi
   # A cluster-LOD scene through frames in flight (record, GPU sRGB pass, no readback): more frames
   # than slots, so slots are reused and collected; validation (environment) stays silent.

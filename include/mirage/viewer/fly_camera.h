@@ -33,6 +33,24 @@ struct FlyInput {
   float seconds = 0.0f;
 };
 
+// The raw input of one frame as the window reports it, and whether the overlay holds the keyboard
+// or the mouse (ImGui's WantCaptureKeyboard / WantCaptureMouse).
+struct InputState {
+  bool forward = false, left = false, back = false, right = false, down = false, up = false; // W A S D Q E
+  bool lookButton = false;                                                                   // right mouse button held
+  glm::vec2 mouseDelta{0.0f}; // pixels since the last frame
+  float scroll = 0.0f;        // notches since the last frame
+  bool overlayKeyboard = false, overlayMouse = false;
+};
+inline constexpr float kMaxStepSeconds = 0.25f; // a stall (loading, a breakpoint) does not fling the camera
+
+// Looking starts with a look-button press outside the overlay and lasts while the button is held
+// (the cursor is hidden and unbounded meanwhile, so a turn never stops at the window's edge).
+bool nextLooking(bool looking, const InputState& input);
+// The fly input of a frame: keys unless the overlay has the keyboard, mouse look while `looking`,
+// the wheel unless the overlay has the mouse, at most kMaxStepSeconds.
+FlyInput flyInput(const InputState& input, bool looking, float seconds);
+
 glm::vec3 forwardOf(const FlyCamera& camera);
 glm::vec3 rightOf(const FlyCamera& camera);
 // The move axes of WASD (forward/left/back/right) and Q/E (down/up).

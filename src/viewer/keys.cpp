@@ -1,0 +1,53 @@
+#include "keys.h"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+namespace mirage::viewer {
+
+namespace {
+
+const KeyBinding kBindings[] = {
+    {GLFW_KEY_ESCAPE, Action::Close, "Esc", "close"},
+    {GLFW_KEY_F, Action::FrameScene, "F", "frame the scene"},
+    {GLFW_KEY_C, Action::CopyCamera, "C", "print and copy the camera"},
+    {GLFW_KEY_R, Action::Record, "R", "record a path / stop and write it"},
+    {GLFW_KEY_P, Action::Replay, "P", "replay the path"},
+    {GLFW_KEY_F12, Action::Screenshot, "F12", "screenshot"},
+    {GLFW_KEY_V, Action::Vsync, "V", "vsync"},
+    {GLFW_KEY_T, Action::Transparency, "T", "transparency"},
+    {GLFW_KEY_U, Action::Surfels, "U", "surfels"},
+};
+
+const int kFlyKeys[] = {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E};
+
+} // namespace
+
+std::span<const KeyBinding> keyBindings() { return kBindings; }
+std::span<const int> flyKeys() { return kFlyKeys; }
+
+std::optional<Action> actionOfKey(int key) {
+  for (const KeyBinding& b : kBindings)
+    if (b.key == key) return b.action;
+  return std::nullopt;
+}
+
+bool applySwitch(Action action, UiState& s) {
+  switch (action) {
+  case Action::Vsync:
+    s.vsync = !s.vsync;
+    return true;
+  case Action::Transparency:
+    if (!s.hasBlend) return false;
+    s.config.transparency = !s.config.transparency;
+    return true;
+  case Action::Surfels:
+    if (!s.mixed) return false;
+    s.config.drawSurfels = !s.config.drawSurfels;
+    return true;
+  default:
+    return false;
+  }
+}
+
+} // namespace mirage::viewer

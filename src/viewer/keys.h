@@ -1,0 +1,41 @@
+#pragma once
+// The viewer's keys as one table (docs/viewer.md "Keys" lists the same): the loop asks which action
+// a pressed key means, the overlay prints the table, and the tests check it without a window. The
+// fly keys (W A S D Q E, held) and the mouse are read in the loop (fly_camera.h, InputState).
+#include <optional>
+#include <span>
+
+#include "overlay_ui.h"
+
+namespace mirage::viewer {
+
+enum class Action {
+  Close,        // Esc
+  FrameScene,   // F: render::autoCamera at the window's aspect
+  CopyCamera,   // C: print the camera as a --camera string, copy it to the clipboard
+  Record,       // R: start / stop recording a camera path
+  Replay,       // P: replay the last path
+  Screenshot,   // F12: the frame without the overlay to mirage_view_NNNN.png
+  Vsync,        // V: fifo <-> the --present mode
+  Transparency, // T: alpha BLEND materials on / off (cluster LOD scenes that have them)
+  Surfels,      // U: the far field's surfels on / off (mixed scenes)
+};
+
+struct KeyBinding {
+  int key; // GLFW key code
+  Action action;
+  const char* name; // as printed in the overlay
+  const char* what;
+};
+
+std::span<const KeyBinding> keyBindings();
+// The action of a key (GLFW code); none for keys without one (the fly keys among them).
+std::optional<Action> actionOfKey(int key);
+// The fly keys, GLFW codes, in InputState's order: forward, left, back, right, down, up.
+std::span<const int> flyKeys();
+
+// Actions that only flip a switch of the overlay's state: applied here (true when it changed a
+// setting; a switch the scene lacks stays as it is). The others need the loop (files, window).
+bool applySwitch(Action action, UiState& state);
+
+} // namespace mirage::viewer

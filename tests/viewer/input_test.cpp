@@ -1,0 +1,142 @@
+// The viewer's input handling without a window: the key table, the fly input of a frame (overlay
+// capture, mouse look, wheel, stall clamp), the switches keys flip, and the frame figures.
+#include <set>
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <gtest/gtest.h>
+
+#include "frame_log.h"
+#include "keys.h"
+#include "mirage/viewer/fly_camera.h"
+
+using namespace mirage;
+using namespace mirage::viewer;
+
+TEST(ViewerKeys, EveryActionHasOneKeyAndNoKeyTwoMeanings) {
+  std::set<int> keys, actions;
+  for (const KeyBinding& b : keyBindings()) {
+    EXPECT_TRUE(keys.insert(b.key).second) << b.name << " bound twice";
+    EXPECT_TRUE(actions.insert(int(b.action)).second) << b.what << " has two keys";
+    ASSERT_TRUE(actionOfKey(b.key));
+    EXPECT_EQ(*actionOfKey(b.key), b.action);
+  }
+  EXPECT_EQ(actions.size(), size_t(Action::Surfels) + 1); // every enumerator
+  for (int k : flyKeys()) {
+    EXPECT_FALSE(actionOfKey(k)) << "fly key " << k << " also triggers an action";
+    EXPECT_FALSE(keys.count(k));
+  }
+}
+
+TEST(ViewerKeys, TheKeysTheDocsList) {
+  EXPECT_EQ(actionOfKey(GLFW_KEY_F), Action::FrameScene);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_C), Action::CopyCamera);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_R), Action::Record);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_P), Action::Replay);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_F12), Action::Screenshot);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_V), Action::Vsync);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_T), Action::Transparency);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_U), Action::Surfels);
+  EXPECT_EQ(actionOfKey(GLFW_KEY_ESCAPE), Action::Close);
+  EXPECT_FALSE(actionOfKey(GLFW_KEY_X));
+  const int wasdqe[] = {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E};
+  ASSERT_EQ(flyKeys().size(), 6u);
+  for (size_t i = 0; i < 6; ++i) EXPECT_EQ(flyKeys()[i], wasdqe[i]);
+}
+
+TEST(ViewerKeys, SwitchesFlipOnlyWhatTheSceneHas) {
+  UiState s;
+  EXPECT_TRUE(s.config.transparency);
+  EXPECT_FALSE(applySwitch(Action::Transparency, s)); // no BLEND materials: nothing to switch
+  EXPECT_TRUE(s.config.transparency);
+  s.hasBlend = true;
+  EXPECT_TRUE(applySwitch(Action::Transparency, s));
+  EXPECT_FALSE(s.config.transparency);
+  EXPECT_TRUE(applySwitch(Action::Transparency, s));
+  EXPECT_TRUE(s.config.transparency);
+  EXPECT_FALSE(applySwitch(Action::Surfels, s));
+  s.mixed = true;
+  EXPECT_TRUE(applySwitch(Action::Surfels, s));
+  EXPECT_FALSE(s.config.drawSurfels);
+  bool vsync = s.vsync;
+  EXPECT_TRUE(applySwitch(Action::Vsync, s));
+  EXPECT_NE(s.vsync, vsync);
+  EXPECT_FALSE(applySwitch(Action::Screenshot, s)); // the loop's, not a switch
+}
+
+TEST(ViewerInput, KeysMoveUnlessTheOverlayHasTheKeyboard) {
+  InputState in;
+  in.forward = true;
+  in.up = true;
+  FlyInput f = flyInput(in, false, 0.1f);
+  EXPECT_EQ(f.move, glm::vec3(0, 1, 1));
+  EXPECT_FLOAT_EQ(f.seconds, 0.1f);
+  in.overlayKeyboard = true;
+  EXPECT_EQ(flyInput(in, false, 0.1f).move, glm::vec3(0));
+}
+
+TEST(ViewerInput, MouseLooksOnlyWhileLookingWhichStartsOutsideTheOverlay) {
+  InputState in;
+  in.mouseDelta = {4, -2};
+  EXPECT_EQ(flyInput(in, false, 0.0f).look, glm::vec2(0)); // a moving cursor alone does not turn
+  EXPECT_EQ(flyInput(in, true, 0.0f).look, glm::vec2(4, -2));
+  in.lookButton = true;
+  in.overlayMouse = true;
+  EXPECT_FALSE(nextLooking(false, in)); // pressed over the overlay: the overlay's drag
+  EXPECT_TRUE(nextLooking(true, in));   // looking already: the cursor may cross the overlay
+  in.overlayMouse = false;
+  EXPECT_TRUE(nextLooking(false, in));
+  in.lookButton = false;
+  EXPECT_FALSE(nextLooking(true, in)); // released
+}
+
+TEST(ViewerInput, WheelSetsSpeedUnlessOverTheOverlayAndStallsAreClamped) {
+  InputState in;
+  in.scroll = 2.0f;
+  FlyCamera c;
+  c.speed = 1.0f;
+  update(c, flyInput(in, false, 0.0f));
+  EXPECT_NEAR(c.speed, kSpeedStepPerNotch * kSpeedStepPerNotch, 1e-6f);
+  in.overlayMouse = true; // scrolling the overlay's panel
+  update(c, flyInput(in, false, 0.0f));
+  EXPECT_NEAR(c.speed, kSpeedStepPerNotch * kSpeedStepPerNotch, 1e-6f);
+  in = {};
+  in.right = true;
+  c = FlyCamera{};
+  glm::vec3 start = c.position;
+  update(c, flyInput(in, false, 5.0f)); // a five-second stall moves a quarter second's worth
+  EXPECT_NEAR(glm::length(c.position - start), c.speed * kMaxStepSeconds, 1e-5f);
+  EXPECT_EQ(flyInput(in, false, -1.0f).seconds, 0.0f);
+}
+
+TEST(ViewerFrameLog, MeanAndNearestRank95thPercentile) {
+  std::vector<double> v;
+  for (int i = 100; i >= 1; --i) v.push_back(double(i));
+  Figure f = figure(v);
+  EXPECT_EQ(f.count, 100u);
+  EXPECT_DOUBLE_EQ(f.mean, 50.5);
+  EXPECT_DOUBLE_EQ(f.p95, 95.0);
+  EXPECT_DOUBLE_EQ(figure(std::vector<double>{7.0}).p95, 7.0);
+  EXPECT_EQ(figure({}).count, 0u);
+  EXPECT_DOUBLE_EQ(recentMean(v, 2), 1.5); // the last two: 2 and 1
+  EXPECT_DOUBLE_EQ(recentMean({}), 0.0);
+}
+
+TEST(ViewerFrameLog, SummaryIsOneLineWithFpsFrameTimesAndLatency) {
+  FrameLog log;
+  log.frameMs = {10, 20, 30, 40};
+  log.inputToPresentMs = {5, 15};
+  log.inputToSubmitMs = {4, 6};
+  log.submitToGpuMs = {1, 3};
+  log.gpuFrameMs = {2, 8, 4};
+  std::string line = summaryLine(log, 4, 2.0, "dev");
+  EXPECT_EQ(line.find('\n'), std::string::npos);
+  EXPECT_NE(line.find("viewed 4 frames in 2.00 s: 2.0 FPS"), std::string::npos) << line;
+  EXPECT_NE(line.find("frame mean 25.0 ms p95 40.0 ms"), std::string::npos) << line;
+  EXPECT_NE(line.find("input->present mean 10.0 ms p95 15.0 ms"), std::string::npos) << line;
+  EXPECT_NE(line.find("input->submit 5.0 ms, submit->GPU done 2.0 ms"), std::string::npos) << line;
+  EXPECT_NE(line.find("GPU frame median 4.000 ms (dev)"), std::string::npos) << line;
+  log.tau = {1, 2, 6};
+  line = summaryLine(log, 4, 2.0, "dev");
+  EXPECT_NE(line.find("GPU frame median 4.000 ms, tau mean 3.00 px (1.00..6.00) (dev)"), std::string::npos) << line;
+}
