@@ -398,3 +398,28 @@ TEST_F(ClusterAlpha, OpaqueScenesRunNoTransparencyPass) {
     EXPECT_EQ(out.stats.oitFragments, 0u);
   }
 }
+
+// Transparency off (the viewer's switch): the blend raster and composite do not run, and the image
+// is the scene without its blended panels (forward renderer), not the image with them.
+TEST_F(ClusterAlpha, TransparencyOffDrawsTheSceneWithoutItsBlendedPanels) {
+  lod::LodAsset asset = bake(alphaScene(false));
+  ASSERT_FALSE(asset.dags.empty());
+  Scene withoutBlend = lod::levelZeroScene(asset);
+  withoutBlend.instances.resize(2); // the wall and the masked panel
+  ImageRGBA8 fwd = renderForward(context(), withoutBlend, settings(RasterBackend::Auto).base);
+  auto renderer = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  auto on = (*renderer)->render(s);
+  s.transparency = false;
+  auto off = (*renderer)->render(s);
+  ASSERT_TRUE(on.ok() && off.ok());
+  EXPECT_TRUE(hasPass(*on, "blend"));
+  EXPECT_FALSE(hasPass(*off, "blend"));
+  EXPECT_FALSE(hasPass(*off, "composite"));
+  double pOff = psnr(fwd, off->image.srgb), pOn = psnr(fwd, on->image.srgb);
+  std::printf("transparency off vs forward without the blended panels %.2f dB (on: %.2f dB)\n", pOff, pOn);
+  EXPECT_GE(pOff, 35.0);
+  EXPECT_LT(pOn, 30.0);
+  writeOnFailure(off->image.srgb, "transparency_off.png");
+}
