@@ -287,3 +287,29 @@ TEST_F(RuntimeScene, PvsCellSwitchCullsWhatThePvsSays) {
   ASSERT_FALSE(fo.ok());
   expectOneLineNaming(fo.error(), "pvs.mrg");
 }
+
+// RenderConfig::drawSurfels (the viewer's surfels switch): a mixed scene seen from far away splats
+// its surfels; switched off, the same view draws the meshes and no surfel.
+TEST_F(RuntimeScene, MixedSceneSurfelsSwitchOff) {
+  surfels::CaptureConfig config;
+  config.resolution = 32;
+  surfels::GBufferTexels texels = surfels::captureGBuffer(context(), blob().scene, config).value().texels;
+  surfels::MeshSurfels cloud{0, surfels::buildSurfelCloud(texels, surfels::farthestPointReference(texels, 2000))};
+  fs::path mrg = test::tempDir("runtime_mixed") / "mixed.mrg";
+  fs::copy_file(blob().mrg, mrg, fs::copy_options::overwrite_existing);
+  ASSERT_TRUE(surfels::appendSurfelMrg(mrg.string(), std::span(&cloud, 1)).ok());
+  auto s = openOk({.input = mrg.string(), .surfels = true});
+  ASSERT_TRUE(s);
+  runtime::View view = viewOf(*s);
+  view.config.raster = render::RasterBackend::Compute; // mesh + surfel frames share the 64-bit buffer
+  glm::vec3 centre = s->bounds().center();
+  view.camera.eye = centre + (view.camera.eye - centre) * 40.0f; // far: surfels replace the meshes
+  auto on = s->render(view);
+  ASSERT_TRUE(on.ok()) << on.error().message;
+  EXPECT_GT(on->surfelsSplatted, 0u);
+  view.config.drawSurfels = false;
+  auto off = s->render(view);
+  ASSERT_TRUE(off.ok()) << off.error().message;
+  EXPECT_EQ(off->surfelsSplatted, 0u);
+  EXPECT_GT(off->trianglesDrawn, 0u);
+}
