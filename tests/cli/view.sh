@@ -134,6 +134,22 @@ JSON
   else
     echo "FAIL view-target-ms:"; cat "$tmp/stdout" "$tmp/stderr"; failures=$((failures + 1))
   fi
+  # Stereo through frames in flight (both eyes into one target, blitted as a whole), and a mixed
+  # scene (cluster LOD near, per-mesh surfels far: the readback path): run, draw, close, stay silent.
+  if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --frames 4 --size 96x64 >"$tmp/stdout" 2>"$tmp/stderr" &&
+    ! grep -q . "$tmp/stderr" && grep -q "viewed 4 frames" "$tmp/stdout"; then
+    pass=$((pass + 1))
+  else
+    echo "FAIL view-stereo-frames:"; cat "$tmp/stderr"; failures=$((failures + 1))
+  fi
+  cp "$tmp/blob.mrg" "$tmp/mixed.mrg"
+  if "$mirage" surfels gen:blob:2 --per-mesh --append -o "$tmp/mixed.mrg" --count 400 --resolution 32 --views 6 >/dev/null 2>&1 &&
+    "${xrun[@]}" "$mirage" view "$tmp/mixed.mrg" --surfels --raster compute --frames 3 --size 96x64 >"$tmp/stdout" 2>"$tmp/stderr" &&
+    ! grep -q . "$tmp/stderr" && grep -q "viewed 3 frames" "$tmp/stdout"; then
+    pass=$((pass + 1))
+  else
+    echo "FAIL view-mixed:"; cat "$tmp/stderr"; failures=$((failures + 1))
+  fi
   # A cluster-LOD scene through frames in flight (record, GPU sRGB pass, no readback): more frames
   # than slots, so slots are reused and collected; validation (environment) stays silent.
   if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --frames 5 --size 200x150 >"$tmp/stdout" 2>"$tmp/stderr" &&
