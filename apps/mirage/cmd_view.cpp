@@ -39,6 +39,7 @@ void addViewCommand(CLI::App& app) {
   cmd->add_option("--screenshot", o.screenshot, "With --path: write OUT_0000.png ... as mirage render --path does");
   cmd->add_flag("--exit-after-path", o.exitAfterPath, "Close once the path was shown (tests, measurements)");
   cmd->add_option("--frames", o.maxFrames, "Close after N frames (0: run until closed)");
+  cmd->add_option("--keys", o.keys, "Press action keys at frames, KEY@FRAME,... (e.g. C@1,F12@2; scripted runs)");
   f->given = bindRenderConfig(*cmd, o.config, BindMode::Render);
   bindStereo(*cmd, f->stereo);
   f->targetMs = bindFrameTimeTarget(*cmd, f->frameTime);

@@ -1,7 +1,10 @@
 #include "keys.h"
 
+#include <charconv>
+
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
+#include <fmt/format.h>
 
 namespace mirage::viewer {
 
@@ -30,6 +33,27 @@ std::optional<Action> actionOfKey(int key) {
   for (const KeyBinding& b : kBindings)
     if (b.key == key) return b.action;
   return std::nullopt;
+}
+
+Result<std::vector<ScriptedKey>> parseKeyScript(std::string_view text) {
+  std::vector<ScriptedKey> out;
+  while (!text.empty()) {
+    size_t comma = text.find(',');
+    std::string_view item = text.substr(0, comma);
+    text = comma == std::string_view::npos ? std::string_view{} : text.substr(comma + 1);
+    size_t at = item.find('@');
+    std::string_view name = item.substr(0, at), frame = at == std::string_view::npos ? "" : item.substr(at + 1);
+    ScriptedKey key;
+    auto [end, ec] = std::from_chars(frame.data(), frame.data() + frame.size(), key.frame);
+    const KeyBinding* binding = nullptr;
+    for (const KeyBinding& b : kBindings)
+      if (name == b.name) binding = &b;
+    if (!binding || frame.empty() || ec != std::errc{} || end != frame.data() + frame.size())
+      return Error{fmt::format("--keys '{}': expected KEY@FRAME with KEY one of Esc F C R P F12 V T U", item)};
+    key.action = binding->action;
+    out.push_back(key);
+  }
+  return out;
 }
 
 bool applySwitch(Action action, UiState& s) {

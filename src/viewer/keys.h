@@ -2,8 +2,13 @@
 // The viewer's keys as one table (docs/viewer.md "Keys" lists the same): the loop asks which action
 // a pressed key means, the overlay prints the table, and the tests check it without a window. The
 // fly keys (W A S D Q E, held) and the mouse are read in the loop (fly_camera.h, InputState).
+#include <cstdint>
 #include <optional>
 #include <span>
+#include <string_view>
+#include <vector>
+
+#include "mirage/core/result.h"
 
 #include "overlay_ui.h"
 
@@ -33,6 +38,14 @@ std::span<const KeyBinding> keyBindings();
 std::optional<Action> actionOfKey(int key);
 // The fly keys, GLFW codes, in InputState's order: forward, left, back, right, down, up.
 std::span<const int> flyKeys();
+
+// --keys: action keys pressed at given frames (scripted demos, tests of the loop's actions without
+// a keyboard): "NAME@FRAME,..." with the names of keyBindings() (F12@2,C@3), frames counted from 0.
+struct ScriptedKey {
+  uint64_t frame = 0;
+  Action action = Action::Close;
+};
+Result<std::vector<ScriptedKey>> parseKeyScript(std::string_view text);
 
 // Actions that only flip a switch of the overlay's state: applied here (true when it changed a
 // setting; a switch the scene lacks stays as it is). The others need the loop (files, window).

@@ -187,6 +187,8 @@ Status runViewer(const ViewerOptions& o) {
     if (o.path.empty()) return Error{"--screenshot needs --path (F12 takes screenshots interactively)"};
     if (auto st = checkPng(o.screenshot); !st) return st;
   }
+  auto script = parseKeyScript(o.keys);
+  if (!script) return script.error();
   const SceneOptions sceneOptions{.path = o.scene, .pvs = o.pvs, .surfels = o.surfels};
   auto kind = SceneView::check(sceneOptions);
   if (!kind) return kind.error();
@@ -307,7 +309,12 @@ Status runViewer(const ViewerOptions& o) {
     // One eye's size: the window holds both eyes side by side with --stereo.
     VkExtent2D eye{o.stereoIpd ? extent.width / 2 : extent.width, extent.height};
     for (const KeyBinding& b : keyBindings()) {
-      if (!keys || !win.keyPressed(b.key)) continue;
+      // A key pressed now, or scripted for this frame (consumed: a frame that draws nothing comes again).
+      auto it = std::find_if(script->begin(), script->end(),
+                             [&](const ScriptedKey& k) { return k.frame == frames && k.action == b.action; });
+      bool scripted = it != script->end();
+      if (scripted) script->erase(it);
+      if (!scripted && (!keys || !win.keyPressed(b.key))) continue;
       switch (b.action) {
       case Action::Close:
         win.requestClose();

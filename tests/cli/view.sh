@@ -150,6 +150,31 @@ JSON
   else
     echo "FAIL view-mixed:"; cat "$tmp/stderr"; failures=$((failures + 1))
   fi
+  # The loop's action keys, scripted (--keys; no keyboard under Xvfb): C prints the camera, F12
+  # writes the frame, R..R records a path (three frames here), V/T/U flip their switches. The
+  # printed camera renders (render --camera) what F12 wrote; F from another start camera frames
+  # the scene as render's automatic camera does.
+  mkdir -p "$tmp/keys" && (cd "$tmp/keys" && "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --frames 8 --size 96x64 \
+    --keys C@1,F12@2,R@3,V@4,T@5,U@5,R@6 >"$tmp/stdout" 2>"$tmp/stderr")
+  cam=$(sed -n 's/^--camera //p' "$tmp/stdout")
+  if ! grep -q . "$tmp/stderr" && [ -n "$cam" ] && [ -f "$tmp/keys/mirage_view_0000.png" ] &&
+    [ "$(grep -c '"eye"' "$tmp/keys/mirage_path_0000.json")" -eq 3 ] &&
+    "$mirage" render "$tmp/blob.mrg" --camera "$cam" --size 96x64 -o "$tmp/cam.png" >/dev/null 2>&1; then
+    psnr=$("$mirage" compare "$tmp/cam.png" "$tmp/keys/mirage_view_0000.png" --json | sed 's/.*"psnr":\([^,]*\),.*/\1/')
+    if [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 45) }'; then pass=$((pass + 1)); else
+      echo "FAIL view-keys: F12 image vs render --camera (printed by C): PSNR $psnr dB"; failures=$((failures + 1)); fi
+  else
+    echo "FAIL view-keys:"; cat "$tmp/stdout" "$tmp/stderr"; ls "$tmp/keys"; failures=$((failures + 1))
+  fi
+  "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --frames 3 --size 96x64 --camera eye=0,5,0.1,target=0,0,0 --keys F@0,C@1 \
+    >"$tmp/stdout" 2>"$tmp/stderr"
+  cam=$(sed -n 's/^--camera //p' "$tmp/stdout")
+  "$mirage" render "$tmp/blob.mrg" --size 96x64 -o "$tmp/auto.png" >/dev/null 2>&1
+  [ -n "$cam" ] && "$mirage" render "$tmp/blob.mrg" --camera "$cam" --size 96x64 -o "$tmp/framed.png" >/dev/null 2>&1
+  psnr=$("$mirage" compare "$tmp/auto.png" "$tmp/framed.png" --json 2>/dev/null | sed 's/.*"psnr":\([^,]*\),.*/\1/')
+  if [ -n "$psnr" ] && { [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 45) }'; }; then pass=$((pass + 1)); else
+    echo "FAIL view-frame-key: PSNR '$psnr' vs the automatic camera"; cat "$tmp/stderr"; failures=$((failures + 1)); fi
+  expect_fail bad-keys "--keys" -- view "$tmp/blob.mrg" --keys X@1
   # A cluster-LOD scene through frames in flight (record, GPU sRGB pass, no readback): more frames
   # than slots, so slots are reused and collected; validation (environment) stays silent.
   if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --frames 5 --size 200x150 >"$tmp/stdout" 2>"$tmp/stderr" &&

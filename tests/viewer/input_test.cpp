@@ -140,3 +140,21 @@ TEST(ViewerFrameLog, SummaryIsOneLineWithFpsFrameTimesAndLatency) {
   line = summaryLine(log, 4, 2.0, "dev");
   EXPECT_NE(line.find("GPU frame median 4.000 ms, tau mean 3.00 px (1.00..6.00) (dev)"), std::string::npos) << line;
 }
+
+TEST(ViewerKeys, KeyScriptNamesActionsAtFrames) {
+  auto s = parseKeyScript("C@1,F12@2,R@3,R@10");
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_EQ(s->size(), 4u);
+  EXPECT_EQ((*s)[0].action, Action::CopyCamera);
+  EXPECT_EQ((*s)[0].frame, 1u);
+  EXPECT_EQ((*s)[1].action, Action::Screenshot);
+  EXPECT_EQ((*s)[3].action, Action::Record);
+  EXPECT_EQ((*s)[3].frame, 10u);
+  EXPECT_TRUE(parseKeyScript("")->empty());
+  for (const char* bad : {"X@1", "C", "C@", "C@-1", "C@1x", "@2", "C@1,,F@2"}) {
+    auto r = parseKeyScript(bad);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.error().message.find("--keys"), std::string::npos);
+    EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
+  }
+}

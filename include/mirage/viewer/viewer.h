@@ -24,6 +24,7 @@ struct ViewerOptions {
   std::string screenshot;         // with --path: OUT.png -> OUT_0000.png ... (the image without overlay)
   bool exitAfterPath = false;     // close after the path (needs --path)
   uint32_t maxFrames = 0;         // >0: close after this many frames (smoke tests, measurements)
+  std::string keys;               // action keys pressed at given frames: "F12@2,C@3" (scripted runs)
   runtime::RenderConfig config;   // the renderer's settings at start (the overlay edits them)
   bool clusterLodFlags = false;   // a cluster-LOD-only setting was given (refused on other scenes)
   bool surfelFlags = false;       // a surfel setting was given (needs --surfels)
