@@ -74,11 +74,23 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 }
 #endif
 
+// Triangles whose pixel box exceeds MIRAGE_RASTER_SHARED_PIXELS are not walked by their own thread:
+// one such triangle keeps its warp (and the dispatch's tail) waiting for hundreds of iterations
+// while its neighbours cover a few pixels each (coarse cuts, larger tau, foveation). Their indices
+// queue here and the whole workgroup walks each queued box after the per-thread pass, every thread
+// one pixel of each 8 x 8 block (rasterQueuedTriangles). The same loop serves both, so the kernel
+// needs no more registers than the per-thread walk.
+#define MIRAGE_RASTER_SHARED_PIXELS 64
+#define MIRAGE_RASTER_LATTICE 8 // MIRAGE_RASTER_LATTICE^2 == MIRAGE_CLUSTER_WORKGROUP
+shared uint queuedTriangles[MIRAGE_CLUSTER_MAX_TRIANGLES];
+shared uint queuedCount;
+
 // One screen-space triangle (snapped vertices) into the 64-bit visibility buffer (or the
-// transparency lists). `masked`: a constant per kernel, so the opaque one carries no alpha code;
-// masked pixels pass maskKeeps on `tri` (the unclipped triangle) first.
+// transparency lists): the pixels lattice + k * stride of its box. `queue`: a large box goes to
+// the workgroup's queue instead (triangle `id`'s index). `masked`: a constant per kernel, so the
+// opaque one carries no alpha code; masked pixels pass maskKeeps on `tri` (the unclipped triangle).
 void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, ClusterFrame f, float fade,
-                    bool masked, ClusterTriangle tri, GpuMaterial m) {
+                    bool masked, ClusterTriangle tri, GpuMaterial m, vec2 lattice, float stride, bool queue) {
   vec2 viewport = f.camera.viewport;
   float area = edge(a.xy, p1.xy, p2.xy);
   if (area == 0.0) return;
@@ -93,10 +105,15 @@ void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirror
   }
   vec2 lo = max(floor(min(a.xy, min(p1.xy, p2.xy)) - 0.5), vec2(0.0));
   vec2 hi = min(ceil(max(a.xy, max(p1.xy, p2.xy)) - 0.5), viewport - 1.0);
+  vec2 box = hi - lo + 1.0;
+  if (queue && box.x * box.y > float(MIRAGE_RASTER_SHARED_PIXELS)) {
+    queuedTriangles[atomicAdd(queuedCount, 1u)] = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
+    return;
+  }
   bool tl0 = topLeft(p1.xy, p2.xy), tl1 = topLeft(p2.xy, a.xy), tl2 = topLeft(a.xy, p1.xy);
   Edge e0 = canonicalEdge(p1.xy, p2.xy), e1 = canonicalEdge(p2.xy, a.xy), e2 = canonicalEdge(a.xy, p1.xy);
-  for (float y = lo.y; y <= hi.y; y += 1.0) {
-    for (float x = lo.x; x <= hi.x; x += 1.0) {
+  for (float y = lo.y + lattice.y; y <= hi.y; y += stride) {
+    for (float x = lo.x + lattice.x; x <= hi.x; x += stride) {
       vec2 s = vec2(x + 0.5, y + 0.5);
       float w0 = edgeAt(e0, s), w1 = edgeAt(e1, s), w2 = edgeAt(e2, s);
       if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
@@ -125,7 +142,8 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
     float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
     if (d[0] >= 0.0 && d[1] >= 0.0 && d[2] >= 0.0) {
-      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m);
+      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m, vec2(0.0), 1.0,
+                     true);
       continue;
     }
     if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
@@ -140,8 +158,21 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
       if ((d[k] >= 0.0) != (d[k1] >= 0.0)) poly[n++] = toScreen(mix(q[k], q[k1], d[k] / (d[k] - d[k1])), f.camera.viewport);
     }
     atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
-    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m);
-    if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m);
+    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m, vec2(0.0), 1.0, false);
+    if (n == 4)
+      rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m, vec2(0.0), 1.0, false);
+  }
+  barrier(); // the queue is complete (every thread left the loop above)
+  // The queued triangles (never near-clipped), each box over the workgroup's 8 x 8 lattice.
+  vec2 lattice = vec2(gl_LocalInvocationIndex % MIRAGE_RASTER_LATTICE, gl_LocalInvocationIndex / MIRAGE_RASTER_LATTICE);
+  for (uint k = 0; k < queuedCount; ++k) {
+    uint t = queuedTriangles[k];
+    uint b = (c.triangleOffset + t) * 3u;
+    uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
+    ClusterTriangle tri;
+    if (masked) tri = fetchTriangle(c, inst, t);
+    rasterTriangle(screen[i0], screen[i1], screen[i2], ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t, keepAll, mirrored,
+                   f, fade, masked, tri, m, lattice, float(MIRAGE_RASTER_LATTICE), false);
   }
 }
 
@@ -162,6 +193,7 @@ void main() {
 #elif !defined(MIRAGE_RASTER_BLEND)
   if (masked) return;
 #endif
+  if (gl_LocalInvocationIndex == 0) queuedCount = 0; // published by the barrier after the vertices
   mat4 mvp = f.camera.viewProj * inst.model;
   for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];

@@ -409,6 +409,18 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   di.pNext = &want.core;
   di.queueCreateInfoCount = 1;
   di.pQueueCreateInfos = &qi;
+  // MIRAGE_PIPELINE_STATS=1: the driver's statistics of every pipeline (registers, shared memory,
+  // ...) on stderr as it is created (pipeline.cpp), where VK_KHR_pipeline_executable_properties exists.
+  VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executableInfo{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+  if (envFlag("MIRAGE_PIPELINE_STATS") &&
+      hasExtension(deviceExtensions(p.device), VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
+    p.extensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+    executableInfo.pipelineExecutableInfo = VK_TRUE;
+    executableInfo.pNext = const_cast<void*>(di.pNext);
+    di.pNext = &executableInfo;
+    ctx->pipelineStatistics_ = true;
+  }
   di.enabledExtensionCount = uint32_t(p.extensions.size());
   di.ppEnabledExtensionNames = p.extensions.data();
   VkResult r = vkCreateDevice(p.device, &di, nullptr, &ctx->device_);
@@ -479,14 +491,15 @@ const char* toString(VkResult r) {
   case x:                                                                                                              \
     return #x;
     MIRAGE_CASE(VK_SUCCESS)
-    MIRAGE_CASE(VK_NOT_READY) MIRAGE_CASE(VK_TIMEOUT) MIRAGE_CASE(VK_INCOMPLETE)
-        MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
-            MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
-                MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
-                    MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
-                        MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
-                            MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
-                                MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
+    MIRAGE_CASE(VK_NOT_READY)
+    MIRAGE_CASE(VK_TIMEOUT) MIRAGE_CASE(VK_INCOMPLETE) MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
+        MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY) MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED)
+            MIRAGE_CASE(VK_ERROR_DEVICE_LOST) MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED)
+                MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT)
+                    MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER)
+                        MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS) MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED)
+                            MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL) MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY)
+                                MIRAGE_CASE(VK_ERROR_UNKNOWN)
 #undef MIRAGE_CASE
                                     default : return "VkResult(?)";
   }

@@ -1,11 +1,56 @@
 #include "mirage/gpu/pipeline.h"
 
 #include <string>
+#include <vector>
+
+#include <fmt/format.h>
 
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/shaders.h"
 
 namespace mirage::gpu {
+
+namespace {
+
+// The driver's statistics of each executable of `pipeline` (e.g. NVIDIA: register count, shared
+// memory), one stderr line per executable; pipelines are created with CAPTURE_STATISTICS when
+// Context::pipelineStatistics() (MIRAGE_PIPELINE_STATS).
+void printPipelineStatistics(Context& context, VkPipeline pipeline, std::string_view name) {
+  VkPipelineInfoKHR info{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR, nullptr, pipeline};
+  uint32_t n = 0;
+  if (vkGetPipelineExecutablePropertiesKHR(context.device(), &info, &n, nullptr) != VK_SUCCESS) return;
+  std::vector<VkPipelineExecutablePropertiesKHR> executables(n, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR});
+  vkGetPipelineExecutablePropertiesKHR(context.device(), &info, &n, executables.data());
+  for (uint32_t i = 0; i < n; ++i) {
+    VkPipelineExecutableInfoKHR ei{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR, nullptr, pipeline, i};
+    uint32_t m = 0;
+    vkGetPipelineExecutableStatisticsKHR(context.device(), &ei, &m, nullptr);
+    std::vector<VkPipelineExecutableStatisticKHR> stats(m, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
+    vkGetPipelineExecutableStatisticsKHR(context.device(), &ei, &m, stats.data());
+    std::string line = fmt::format("pipeline {} [{}]:", name, executables[i].name);
+    for (const VkPipelineExecutableStatisticKHR& st : stats) {
+      switch (st.format) {
+      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR:
+        line += fmt::format(" {}={}", st.name, st.value.b32);
+        break;
+      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
+        line += fmt::format(" {}={}", st.name, st.value.i64);
+        break;
+      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
+        line += fmt::format(" {}={}", st.name, st.value.u64);
+        break;
+      case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_FLOAT64_KHR:
+        line += fmt::format(" {}={}", st.name, st.value.f64);
+        break;
+      default:
+        break;
+      }
+    }
+    std::fprintf(stderr, "%s\n", line.c_str());
+  }
+}
+
+} // namespace
 
 Unique<VkShaderModule> createShaderModule(Context& context, std::string_view name) {
   auto code = shaderCode(name);
@@ -99,7 +144,9 @@ Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipeli
   ci.pDynamicState = &dyn;
   ci.layout = d.layout;
   VkPipeline pipeline;
+  if (context.pipelineStatistics()) ci.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
   MIRAGE_VK_CHECK(vkCreateGraphicsPipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
+  if (context.pipelineStatistics()) printPipelineStatistics(context, pipeline, mesh ? d.meshShader : d.vertexShader);
   return Unique<VkPipeline>(context.device(), pipeline);
 }
 
@@ -124,8 +171,10 @@ Unique<VkPipeline> createComputePipeline(Context& context, std::string_view shad
               "main",
               specialization.empty() ? nullptr : &info};
   ci.layout = layout;
+  if (context.pipelineStatistics()) ci.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
   VkPipeline pipeline;
   MIRAGE_VK_CHECK(vkCreateComputePipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
+  if (context.pipelineStatistics()) printPipelineStatistics(context, pipeline, shader);
   return Unique<VkPipeline>(context.device(), pipeline);
 }
 

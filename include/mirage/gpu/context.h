@@ -67,6 +67,8 @@ public:
   const VkPhysicalDeviceProperties& properties() const { return properties_; }
   Allocator& allocator() { return *allocator_; }
   bool validationEnabled() const { return messenger_ != VK_NULL_HANDLE; }
+  // MIRAGE_PIPELINE_STATS set and supported: pipelines report the driver's statistics on creation.
+  bool pipelineStatistics() const { return pipelineStatistics_; }
 
   // Validation warnings and errors since creation (tests fail when this is non-zero).
   uint32_t validationIssues() const { return validationIssues_.load(); }
@@ -98,6 +100,7 @@ private:
   std::unique_ptr<Allocator> allocator_;
   VkPhysicalDeviceProperties properties_{};
   DeviceCapabilities caps_;
+  bool pipelineStatistics_ = false;
   std::atomic<uint32_t> validationIssues_{0};
   std::vector<std::string> validationMessages_;
 };
