@@ -89,6 +89,7 @@ struct ClusterFramePlan {
   bool dagTree = false;                        // hierarchical selection over the DAG's group tree
   bool hierarchy = false;                      // hierarchical selection (LOD BVH or DAG tree), else the flat pass
   bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
+  DebugView debugView = DebugView::None;       // the debug resolve runs instead of the shading one
 };
 
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.
@@ -111,6 +112,10 @@ struct ClusterRenderer::Impl {
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
+  // Debug views, created on first use: the debug resolve, and the overdraw view's per-pixel counts
+  // (recreated with the targets).
+  gpu::Unique<VkPipeline> debugResolvePipeline;
+  gpu::Buffer overdraw;
   VkShaderStageFlags pushStages = 0;
   gpu::Image color, vis, depth;
   uint32_t colorWidth = 0; // the colour target: width, or 2 * width in stereo (left|right)

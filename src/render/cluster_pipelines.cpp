@@ -153,6 +153,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
     if (lw == 1 && lh == 1) break;
   }
   hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
+  overdraw = {}; // the overdraw view's counts, made at the new size on first use
   if (hasBlend()) {
     uint64_t pixels = uint64_t(w) * h;
     oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,

@@ -125,7 +125,8 @@ void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPu
   if (firstWrite)
     cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                           VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolvePipeline);
+  bool debug = plans[currentSlot].debugView != DebugView::None; // cluster_debug_resolve.comp instead
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, debug ? debugResolvePipeline : resolvePipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
   cmdPush(cmd, p, 0);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup

@@ -95,6 +95,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.foveation = c.foveation;
   rs.foveaGaze = c.foveaGaze;
   rs.foveaRadiusDegrees = c.foveaRadiusDegrees;
+  rs.debugView = c.debugView;
   if (s.surfels) {
     rs.surfels = s.surfels.get();
     rs.surfelSettings.surfelSize = c.surfelSize;
