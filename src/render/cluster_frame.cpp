@@ -138,7 +138,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
   f.debugView = uint32_t(plan.debugView); // DebugView's order is MIRAGE_DEBUG_VIEW_*'s
   if (plan.debugView == DebugView::Overdraw) {
     f.flags |= MIRAGE_FRAME_OVERDRAW;
-    f.overdrawAddress = overdraw.address();
+    f.overdrawAddress = overdrawCounts.address();
   }
   if (plan.pvs) {
     f.pvsInstanceAddress = pvsInstances.address();

@@ -58,6 +58,8 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
   bool mesh = backend == RasterBackend::Mesh;
   VkPipeline pipeline =
       mesh ? (atomic ? meshAtomicPipeline : meshPipeline) : (atomic ? indirectAtomicPipeline : indirectPipeline);
+  if (!atomic && plans[currentSlot].debugView == DebugView::Overdraw) // the counting variants
+    pipeline = mesh ? overdrawMeshPipeline : overdrawIndirectPipeline;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
   cmdDrawList(cmd, mesh, pass, list);
   vkCmdEndRendering(cmd);

@@ -82,10 +82,15 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   ensureTargets(cs.base.width, cs.base.height, colorW);
   if (planned->debugView != DebugView::None && !debugResolvePipeline)
     debugResolvePipeline = createComputePipeline(ctx, "cluster_debug_resolve.comp", layout);
-  if (planned->debugView == DebugView::Overdraw && !overdraw)
-    overdraw = createBuffer(ctx, uint64_t(width) * height * 4,
-                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
-                            "overdraw counts");
+  if (planned->debugView == DebugView::Overdraw && planned->backend == RasterBackend::Mesh && !overdrawMeshPipeline)
+    overdrawMeshPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/false, /*overdraw=*/true);
+  if (planned->debugView == DebugView::Overdraw && planned->backend == RasterBackend::Indirect &&
+      !overdrawIndirectPipeline)
+    overdrawIndirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false, /*overdraw=*/true);
+  if (planned->debugView == DebugView::Overdraw && !overdrawCounts)
+    overdrawCounts = createBuffer(ctx, uint64_t(width) * height * 4,
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                  MemoryUsage::GpuOnly, "overdraw counts");
   return packFrame(cs, *planned);
 }
 
@@ -110,7 +115,7 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
   if (plan.bufferTarget) vkCmdFillBuffer(cmd, visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hasBlend()) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
-  if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdraw.handle(), 0, VK_WHOLE_SIZE, 0);
+  if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdrawCounts.handle(), 0, VK_WHOLE_SIZE, 0);
   if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
     vkCmdFillBuffer(cmd, fade.handle(), 0, VK_WHOLE_SIZE, 0);
     cs.surfels->stageCmdClear(cmd);
