@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <set>
 #include <string>
@@ -190,6 +191,7 @@ TEST_F(ClusterDebugView, LodViewShowsCoarserLevelsFarAway) {
     ASSERT_GT(n, 20u);
     meanLevel[i] = double(sum) / double(n);
   }
+  std::printf("lod view: mean level near %.2f, far %.2f\n", meanLevel[0], meanLevel[1]);
   EXPECT_GT(meanLevel[1], meanLevel[0] + 1.0) << "near " << meanLevel[0] << ", far " << meanLevel[1];
 }
 
@@ -213,6 +215,7 @@ TEST_F(ClusterDebugView, DensityGrowsWithDistanceForTheSameTriangles) {
     std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
     median[i] = values[values.size() / 2];
   }
+  std::printf("density view: median log2 triangles per pixel near %.2f, far %.2f\n", median[0], median[1]);
   EXPECT_GT(median[1], median[0] + 2.5f) << "near " << median[0] << ", far " << median[1];
   EXPECT_LT(median[1], median[0] + 4.0f) << "near " << median[0] << ", far " << median[1];
 }
