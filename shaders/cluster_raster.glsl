@@ -69,6 +69,7 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 }
 #else
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
+  countOverdraw(f, uvec2(x, y));
   uint64_t value = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
   atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * uint(f.camera.viewport.x) + x], value);
 }

@@ -7,5 +7,6 @@ void main() {
   ivec2 p = ivec2(gl_FragCoord.xy);
   uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
   if (!meshKeepsPixel(instanceFade(instance), uvec2(p))) return; // the surfels' pixel in the blend band
+  countOverdraw(f, uvec2(p));
   atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(f.camera.viewport.x) + p.x], value);
 }

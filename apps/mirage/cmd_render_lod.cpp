@@ -345,6 +345,7 @@ void runLodRender(const LodRenderRequest& r) {
     j["width"] = s.view.width;
     j["height"] = s.view.height;
     if (r.stereoIpd) j["stereo_ipd"] = *r.stereoIpd; // the image is 2 * width wide, left|right
+    if (r.config.debugView != render::DebugView::None) j["debug_view"] = render::toString(r.config.debugView);
     j["source_triangles"] = info.sourceTriangles;
     j["load_seconds"] = info.loadSeconds;
     j["frames_timed"] = t.frames;
@@ -356,12 +357,16 @@ void runLodRender(const LodRenderRequest& r) {
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("rendered {} ({} source triangles, {} instances, {} clusters) at {}x{}{}, tau {} px, on {} -> {}\n",
+  fmt::print("rendered {} ({} source triangles, {} instances, {} clusters) at {}x{}{}, tau {} px{}, on {} -> {}\n",
              r.scene.input, info.sourceTriangles, info.instances, info.clusters, s.view.width, s.view.height,
              r.stereoIpd ? fmt::format(" per eye (stereo, ipd {}: {}x{} left|right)", *r.stereoIpd, t.last.srgb.width,
                                        t.last.srgb.height)
                          : "",
-             r.config.tauPixels, caps.name, r.output);
+             r.config.tauPixels,
+             r.config.debugView != render::DebugView::None
+                 ? fmt::format(", debug view {}", render::toString(r.config.debugView))
+                 : "",
+             caps.name, r.output);
   if (r.stats) {
     fmt::print("load {:.3f} s\n", info.loadSeconds);
     printStats(*t.last.cluster, t.times, t.frames > 1);
@@ -412,11 +417,14 @@ void runLodBench(const LodRenderRequest& r) {
   double bestLodMs = INFINITY;
   if (!r.json)
     fmt::print("bench render {} on {}: {} source triangles, {} instances at {}x{}, tau {} px, hybrid threshold {} "
-               "px, cones {}, selection {}, {} timed frames{}\n",
+               "px, cones {}, selection {}, {} timed frames{}{}\n",
                r.scene.input, caps.name, info.sourceTriangles, info.instances, s.view.width, s.view.height,
                config.tauPixels, config.hybridThreshold, config.coneCulling ? "on" : "off",
                r.sweeps.allSelections ? "all" : render::toString(config.selection), frames - 1,
-               r.stereoIpd ? fmt::format(", stereo per eye (ipd {})", *r.stereoIpd) : "");
+               r.stereoIpd ? fmt::format(", stereo per eye (ipd {})", *r.stereoIpd) : "",
+               config.debugView != render::DebugView::None
+                   ? fmt::format(", debug view {}", render::toString(config.debugView))
+                   : "");
   for (render::RasterBackend b : backends)
     for (render::BlendRaster blend : blends)
       for (bool occlusion : occlusionModes)

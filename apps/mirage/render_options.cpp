@@ -134,6 +134,12 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
           ->transform(
               enumNames(render::kSelectionModeNames, c.selection, "all", bench ? &sweeps->allSelections : nullptr))
           ->default_str(render::toString(c.selection)));
+  lod.push_back(cmd.add_option("--debug-view", c.debugView,
+                               ".mrg: none|clusters|lod|density|overdraw: colour by cluster, DAG level, triangles per "
+                               "pixel or overdraw instead of shading (docs/render.md, \"Debug views\")")
+                    ->type_name("NAME")
+                    ->transform(enumNames(render::kDebugViewNames, c.debugView))
+                    ->default_str(render::toString(c.debugView)));
   // Foveation: the gaze point sets foveation on; ranges are checked by runtime::validate.
   auto* fovea = cmd.add_option_function<std::string>(
                        "--fovea",

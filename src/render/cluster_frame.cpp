@@ -9,12 +9,19 @@
 
 #include "cluster_impl.h"
 #include "mirage/gpu/commands.h"
+#include "mirage/shaderio/debug_view.h"
 #include "mirage/shaderio/lod_error.h"
 
 namespace mirage::render {
 
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
+
+static_assert(uint32_t(DebugView::Clusters) == MIRAGE_DEBUG_VIEW_CLUSTERS &&
+                  uint32_t(DebugView::Lod) == MIRAGE_DEBUG_VIEW_LOD &&
+                  uint32_t(DebugView::Density) == MIRAGE_DEBUG_VIEW_DENSITY &&
+                  uint32_t(DebugView::Overdraw) == MIRAGE_DEBUG_VIEW_OVERDRAW,
+              "DebugView numbers are ClusterFrame::debugView's");
 
 namespace {
 
@@ -89,6 +96,14 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     if (hasBlend()) return Error{"--stereo does not support alpha BLEND materials yet"};
     p.stereo = true;
   }
+  if (cs.debugView != DebugView::None && cs.stereoIpd)
+    return Error{fmt::format("--debug-view {} is not available with --stereo yet", toString(cs.debugView))};
+  // The image backends count overdraw in their fragment shaders (a storage atomic).
+  if (cs.debugView == DebugView::Overdraw && !p.bufferTarget && !ctx.caps().fragmentStoresAndAtomics)
+    return Error{fmt::format("--debug-view overdraw: --raster {} needs stores and atomics in fragment shaders, which "
+                             "the device lacks",
+                             toString(p.backend))};
+  p.debugView = cs.debugView;
   p.dagTree = cs.selection == SelectionMode::Dag;
   p.hierarchy = p.dagTree || cs.selection == SelectionMode::Hierarchy ||
                 (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances);
@@ -120,6 +135,11 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.fovea = glm::vec4(gaze, radius);
     f.foveaSlope = sio::foveaSlope(radius);
     f.flags |= MIRAGE_FRAME_FOVEA;
+  }
+  f.debugView = uint32_t(plan.debugView); // DebugView's order is MIRAGE_DEBUG_VIEW_*'s
+  if (plan.debugView == DebugView::Overdraw) {
+    f.flags |= MIRAGE_FRAME_OVERDRAW;
+    f.overdrawAddress = overdrawCounts.address();
   }
   if (plan.pvs) {
     f.pvsInstanceAddress = pvsInstances.address();

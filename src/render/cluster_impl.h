@@ -90,6 +90,7 @@ struct ClusterFramePlan {
   bool hierarchy = false;                      // hierarchical selection (LOD BVH or DAG tree), else the flat pass
   bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
   bool transparency = false;                   // BLEND clusters rasterized and composited (scene has them, asked for)
+  DebugView debugView = DebugView::None;       // the debug resolve runs instead of the shading one
 };
 
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.
@@ -112,6 +113,10 @@ struct ClusterRenderer::Impl {
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
+  // Debug views, created on first use: the debug resolve, the image backends' overdraw-counting
+  // visibility rasters, and the overdraw view's per-pixel counts (recreated with the targets).
+  gpu::Unique<VkPipeline> debugResolvePipeline, overdrawMeshPipeline, overdrawIndirectPipeline;
+  gpu::Buffer overdrawCounts;
   VkShaderStageFlags pushStages = 0;
   gpu::Image color, vis, depth;
   uint32_t colorWidth = 0; // the colour target: width, or 2 * width in stereo (left|right)
@@ -136,6 +141,7 @@ struct ClusterRenderer::Impl {
   gpu::GpuTimer& timer() { return timers[currentSlot]; }
   void createDescriptors(); // cluster_pipelines.cpp
   void createPipelines();
+  gpu::Unique<VkPipeline> createVisPipeline(bool mesh, bool atomic, bool overdraw = false);
   void ensureTargets(uint32_t w, uint32_t h, uint32_t colorW);
   shaderio::ClusterPush push() const;
   void cmdPush(VkCommandBuffer cmd, shaderio::ClusterPush p, uint32_t rasterList);

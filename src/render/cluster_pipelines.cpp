@@ -60,28 +60,11 @@ void ClusterRenderer::Impl::createPipelines() {
     blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout);
     compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
   }
-  // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
-  // hardware list: no attachments, the fragment shader does the compute rasterizer's atomicMax.
-  auto graphics = [&](bool mesh, bool atomic) {
-    GraphicsPipelineDesc d;
-    (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_vis.mesh" : "cluster_vis.vert";
-    // Scenes with MASK materials take the *_mask variants (alpha test); others run no alpha code.
-    std::string fragment = std::string(mesh ? (atomic ? "cluster_vis_mesh_atomic" : "cluster_vis_mesh")
-                                            : (atomic ? "cluster_vis_atomic" : "cluster_vis")) +
-                           (scene.hasMask ? "_mask.frag" : ".frag");
-    d.fragmentShader = fragment;
-    d.layout = layout;
-    if (!atomic) {
-      d.colorFormats = {kVisFormat};
-      d.depthFormat = kDepthFormat;
-    }
-    return createGraphicsPipeline(ctx, d);
-  };
-  indirectPipeline = graphics(/*mesh=*/false, /*atomic=*/false);
-  if (caps.meshShader) meshPipeline = graphics(/*mesh=*/true, /*atomic=*/false);
+  indirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false);
+  if (caps.meshShader) meshPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/false);
   if (caps.int64BufferAtomics && caps.fragmentStoresAndAtomics) {
-    indirectAtomicPipeline = graphics(/*mesh=*/false, /*atomic=*/true);
-    if (caps.meshShader) meshAtomicPipeline = graphics(/*mesh=*/true, /*atomic=*/true);
+    indirectAtomicPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/true);
+    if (caps.meshShader) meshAtomicPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/true);
   }
 
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
@@ -131,6 +114,25 @@ void ClusterRenderer::Impl::createPipelines() {
       "visibility history"); // SRC: readOwnedClusters
 }
 
+// Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
+// hardware list: no attachments, the fragment shader does the compute rasterizer's atomicMax.
+// `overdraw` (image backends): the *_overdraw.frag variant counting samples for the debug view.
+gpu::Unique<VkPipeline> ClusterRenderer::Impl::createVisPipeline(bool mesh, bool atomic, bool overdraw) {
+  GraphicsPipelineDesc d;
+  (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_vis.mesh" : "cluster_vis.vert";
+  // Scenes with MASK materials take the *_mask variants (alpha test); others run no alpha code.
+  std::string fragment = std::string(mesh ? (atomic ? "cluster_vis_mesh_atomic" : "cluster_vis_mesh")
+                                          : (atomic ? "cluster_vis_atomic" : "cluster_vis")) +
+                         (scene.hasMask ? "_mask" : "") + (overdraw ? "_overdraw.frag" : ".frag");
+  d.fragmentShader = fragment;
+  d.layout = layout;
+  if (!atomic) {
+    d.colorFormats = {kVisFormat};
+    d.depthFormat = kDepthFormat;
+  }
+  return createGraphicsPipeline(ctx, d);
+}
+
 void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t colorW) {
   if (w == width && h == height && colorW == colorWidth) return;
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
@@ -153,6 +155,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
     if (lw == 1 && lh == 1) break;
   }
   hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
+  overdrawCounts = {}; // the overdraw view's counts, made at the new size on first use
   if (hasBlend()) {
     uint64_t pixels = uint64_t(w) * h;
     oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,

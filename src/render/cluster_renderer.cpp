@@ -5,6 +5,7 @@
 #include "cluster_impl.h"
 #include "render_util.h"
 #include "mirage/gpu/commands.h"
+#include "mirage/gpu/shaders.h"
 
 namespace mirage::render {
 
@@ -23,6 +24,9 @@ const char* toString(SelectionMode m) { return nameOf(kSelectionModeNames, m); }
 Result<SelectionMode> parseSelectionMode(std::string_view text) {
   return parseNamed(text, "--selection", kSelectionModeNames);
 }
+
+const char* toString(DebugView v) { return nameOf(kDebugViewNames, v); }
+Result<DebugView> parseDebugView(std::string_view text) { return parseNamed(text, "--debug-view", kDebugViewNames); }
 
 ClusterRenderer::ClusterRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 ClusterRenderer::~ClusterRenderer() = default;
@@ -76,6 +80,17 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   if (width != 0 && (cs.base.width != width || cs.base.height != height || colorW != colorWidth))
     vkDeviceWaitIdle(ctx.device());
   ensureTargets(cs.base.width, cs.base.height, colorW);
+  if (planned->debugView != DebugView::None && !debugResolvePipeline)
+    debugResolvePipeline = createComputePipeline(ctx, "cluster_debug_resolve.comp", layout);
+  if (planned->debugView == DebugView::Overdraw && planned->backend == RasterBackend::Mesh && !overdrawMeshPipeline)
+    overdrawMeshPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/false, /*overdraw=*/true);
+  if (planned->debugView == DebugView::Overdraw && planned->backend == RasterBackend::Indirect &&
+      !overdrawIndirectPipeline)
+    overdrawIndirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false, /*overdraw=*/true);
+  if (planned->debugView == DebugView::Overdraw && !overdrawCounts)
+    overdrawCounts = createBuffer(ctx, uint64_t(width) * height * 4,
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                  MemoryUsage::GpuOnly, "overdraw counts");
   return packFrame(cs, *planned);
 }
 
@@ -100,6 +115,7 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
   if (plan.bufferTarget) vkCmdFillBuffer(cmd, visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hasBlend()) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
+  if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdrawCounts.handle(), 0, VK_WHOLE_SIZE, 0);
   if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
     vkCmdFillBuffer(cmd, fade.handle(), 0, VK_WHOLE_SIZE, 0);
     cs.surfels->stageCmdClear(cmd);
@@ -131,9 +147,10 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     cs.surfels->stageCmdSplat(cmd, timer());
     cmdPhaseBarrier(cmd, mesh);
   }
-  if (plan.transparency) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
-  cmdResolve(cmd, p);    // fetch, interpolate, shade; with occlusion: the clusters owning pixels
-  if (plan.transparency) // blend raster into fragment lists, sorted composite
+  bool blend = plan.transparency && plan.debugView == DebugView::None; // debug views: opaque surfaces only
+  if (blend) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
+  cmdResolve(cmd, p);                     // fetch, interpolate, shade; with occlusion: the clusters owning pixels
+  if (blend)                              // blend raster into fragment lists, sorted composite
     cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
   finishFrame(cmd, plan, frameTime);
 }

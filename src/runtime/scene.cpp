@@ -60,6 +60,9 @@ Result<Frame> Scene::render(const View& view) {
   if (view.stereoIpd && impl_->kind != SceneKind::ClusterLod)
     return Error{fmt::format("--stereo needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
                              toString(impl_->kind))};
+  if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
+    return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
+                             toString(impl_->kind))};
   switch (impl_->kind) {
   case SceneKind::ClusterLod:
     return renderClusterLod(*impl_, view);

@@ -96,6 +96,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.foveation = c.foveation;
   rs.foveaGaze = c.foveaGaze;
   rs.foveaRadiusDegrees = c.foveaRadiusDegrees;
+  rs.debugView = c.debugView;
   if (s.surfels && c.drawSurfels) {
     rs.surfels = s.surfels.get();
     rs.surfelSettings.surfelSize = c.surfelSize;

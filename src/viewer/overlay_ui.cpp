@@ -1,5 +1,7 @@
 #include "overlay_ui.h"
 
+#include <iterator>
+
 #include <imgui.h>
 
 #include "keys.h"
@@ -51,6 +53,16 @@ bool drawOverlayPanel(UiState& s, const FrameStats& stats) {
       if (kRasters[i] == s.config.raster) raster = i;
     if (ImGui::Combo("raster", &raster, kRasterNames, 5)) {
       s.config.raster = kRasters[raster];
+      changed = true;
+    }
+    // Debug views (docs/render.md): the table's order is the enum's.
+    auto debugName = [](void*, int i, const char** out) {
+      *out = render::kDebugViewNames[i].name;
+      return true;
+    };
+    int debug = int(s.config.debugView);
+    if (ImGui::Combo("debug view", &debug, debugName, nullptr, int(std::size(render::kDebugViewNames)))) {
+      s.config.debugView = render::DebugView(debug);
       changed = true;
     }
     changed |= ImGui::Checkbox("occlusion culling", &s.config.occlusionCulling);

@@ -80,6 +80,25 @@ const char* toString(SelectionMode mode);
 // "auto", "flat", "hierarchy" or "dag"; anything else is an error naming the choices.
 Result<SelectionMode> parseSelectionMode(std::string_view text);
 
+// Debug views (docs/render.md, "Debug views"): a separate resolve colours each pixel by what it
+// shows instead of shading it (colours: shaderio/debug_view.h). Not with stereo yet; alpha BLEND
+// surfaces are not drawn in a debug view.
+enum class DebugView {
+  None,     // shaded image
+  Clusters, // a stable hash colour per (instance, cluster): cluster boundaries
+  Lod,      // the cluster's DAG level, fixed ramp (0 = full detail)
+  Density,  // triangles per pixel (1 / the triangle's projected area), log2 heat map, 1 marked
+  Overdraw, // samples rasterized per pixel before the depth test
+};
+inline constexpr EnumName<DebugView> kDebugViewNames[] = {{DebugView::None, "none"},
+                                                          {DebugView::Clusters, "clusters"},
+                                                          {DebugView::Lod, "lod"},
+                                                          {DebugView::Density, "density"},
+                                                          {DebugView::Overdraw, "overdraw"}};
+const char* toString(DebugView view);
+// "none", "clusters", "lod", "density" or "overdraw"; anything else is an error naming the choices.
+Result<DebugView> parseDebugView(std::string_view text);
+
 // Default LOD threshold in pixels; the CLI binds it. The build's shading-aware error
 // (lod::BuildConfig::normalWeight) is tuned so that 1 px matches the full mesh (docs/lod.md).
 inline constexpr float kDefaultTauPixels = 1.0f;
@@ -91,6 +110,7 @@ struct ClusterRenderSettings {
   BlendRaster blendRaster = BlendRaster::Auto; // BLEND clusters (scenes with blend materials only)
   bool frustumCulling = true;                  // instances and clusters outside the view are skipped
   bool flagBackFaces = false;                  // debug: draw back faces in magenta (crack tests)
+  DebugView debugView = DebugView::None;       // debug: colour pixels by cluster, level, density or overdraw
   // Hybrid: clusters whose estimated triangle edge (projected bounding-sphere diameter /
   // sqrt(triangles)) is below this many pixels go to the compute rasterizer, the rest (and those
   // reaching the near plane) to the hardware path. To be tuned on the H200 (docs/render.md).

@@ -27,6 +27,8 @@ struct RenderConfig {
   bool foveation = kClusterDefaults.foveation;
   glm::vec2 foveaGaze = kClusterDefaults.foveaGaze; // normalized screen coordinates, 0..1
   float foveaRadiusDegrees = kClusterDefaults.foveaRadiusDegrees;
+  // Debug view (--debug-view): colour by cluster, DAG level, triangle density or overdraw instead of shading.
+  render::DebugView debugView = kClusterDefaults.debugView;
   // Surfels (surfel-only scenes, and the far field of mixed scenes).
   float surfelSize = kSurfelDefaults.surfelSize; // diameter in pixels
   render::SurfelRaster surfelRaster = kSurfelDefaults.raster;

@@ -42,7 +42,8 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_BLEND_HYBRID 256u   // blend clusters split by hardwareCluster, as hybrid splits opaque ones
 #define MIRAGE_FRAME_BLEND_HARDWARE 512u // every blend cluster to the hardware blend list
 #define MIRAGE_FRAME_FOVEA 2048u         // tau grows with eccentricity from the gaze (ClusterFrame::fovea, lod_error.h)
-#define MIRAGE_FRAME_DAG 1024u // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
+#define MIRAGE_FRAME_DAG 1024u      // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
+#define MIRAGE_FRAME_OVERDRAW 4096u // debug: the rasters count covered samples per pixel (overdrawAddress)
 // ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
 #define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
 
@@ -237,7 +238,11 @@ struct ClusterFrame {
   // Foveation (MIRAGE_FRAME_FOVEA; fovealTauScale in lod_error.h).
   vec4 fovea;       // xyz: gaze direction (world, unit), w: fovea radius in radians
   float foveaSlope; // tau factor growth per radian beyond the fovea (foveaSlope())
-  uint pad1, pad2, pad3;
+  // Debug views (docs/render.md, "Debug views"): MIRAGE_DEBUG_VIEW_* (shaderio/debug_view.h), and
+  // with MIRAGE_FRAME_OVERDRAW the uint per pixel the rasters count every covered sample into,
+  // before the depth test.
+  uint debugView;
+  uint64_t overdrawAddress;
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -321,6 +326,7 @@ static_assert(sizeof(ClusterFrame) == 720, "ClusterFrame layout");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(offsetof(ClusterFrame, overdrawAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
