@@ -6,33 +6,18 @@
 # follows a window resize and present-mode switches (test_viewer's SwapchainWindow test).
 # Usage: view.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
+source "$(dirname "$0")/lib.sh" "$@"
+mirage_prefix=(env -u DISPLAY -u WAYLAND_DISPLAY) # the errors must come before any window
 
-expect_fail() { # NAME WANTED_TEXT -- ARGS... (no display: the error must come before any window)
-  local name=$1 wanted=$2
-  shift 3
-  env -u DISPLAY -u WAYLAND_DISPLAY "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$? lines
-  lines=$(grep -c . "$tmp/stderr")
-  if [ $rc -ne 2 ] || [ "$lines" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
-    echo "FAIL $name: exit $rc, stderr:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
-  fi
-  pass=$((pass + 1))
-}
-
-expect_fail missing-scene "missing.mrg" -- view "$tmp/missing.mrg"
+expect_fail missing-scene "missing.mrg" "" -- view "$tmp/missing.mrg"
 head -c 300 /dev/urandom >"$tmp/corrupt.mrg"
-expect_fail corrupt-scene "corrupt.mrg" -- view "$tmp/corrupt.mrg"
+expect_fail corrupt-scene "corrupt.mrg" "" -- view "$tmp/corrupt.mrg"
 printf 'not a mesh\n' >"$tmp/bad.obj"
-expect_fail bad-obj "bad.obj" -- view "$tmp/bad.obj"
-expect_fail bad-present "--present" -- view "$tmp/missing.mrg" --present vsync
-expect_fail bad-size "--size" -- view "$tmp/missing.mrg" --size 0x10
-expect_fail exit-needs-screenshot "--exit-after-path" -- view "$tmp/missing.mrg" --path orbit:2 --exit-after-path
-expect_fail screenshot-extension "unsupported output extension" -- view "$tmp/missing.mrg" --path orbit:2 --screenshot "$tmp/a.jpg"
+expect_fail bad-obj "bad.obj" "" -- view "$tmp/bad.obj"
+expect_fail bad-present "--present" "" -- view "$tmp/missing.mrg" --present vsync
+expect_fail bad-size "--size" "" -- view "$tmp/missing.mrg" --size 0x10
+expect_fail exit-needs-screenshot "--exit-after-path" "" -- view "$tmp/missing.mrg" --path orbit:2 --exit-after-path
+expect_fail screenshot-extension "unsupported output extension" "" -- view "$tmp/missing.mrg" --path orbit:2 --screenshot "$tmp/a.jpg"
 
 # The window tests need an X server: Xvfb through xvfb-run (Debian xvfb), else the display given.
 xrun=()
@@ -40,8 +25,7 @@ if command -v xvfb-run >/dev/null && xvfb-run -a -s "-screen 0 1280x720x24" true
   xrun=(xvfb-run -a -s "-screen 0 1280x720x24")
 elif [ -z "${DISPLAY:-}" ]; then
   echo "skip window tests: no X server (install xvfb)"
-  echo "cli view: $pass passed, $failures failed"
-  [ $failures -eq 0 ]
+  finish "cli view"
   exit
 fi
 
@@ -102,5 +86,4 @@ else
   echo "FAIL build:"; cat "$tmp/stderr"; failures=$((failures + 1))
 fi
 
-echo "cli view: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish "cli view"
