@@ -1,6 +1,7 @@
 // GVS++ is anytime: cut short by a ray budget at any point from one random batch up, its PVS has
 // no more pixel error than RAND's (random rays alone, the same random sequence) at the same rays.
-// Three scenes, budgets doubling from one random batch to 32; then wide cells with large batches.
+// Three scenes, budgets every half batch from one random batch to 32; then wide cells with large
+// batches.
 #include <algorithm>
 
 #include <gtest/gtest.h>
@@ -55,25 +56,33 @@ TEST(GvsAnytime, NeverWorseThanRandomAtAnyBudget) {
     cases.push_back({"wall with hole", std::move(v.scene), v.cell});
   }
   GvsConfig cfg;
-  cfg.randomRays = 10'000; // one random batch; budgets double from here
+  cfg.randomRays = 10'000; // one random batch; budgets from here to 32 batches, every half batch
   cfg.absEdgeSamples = 10;
   cfg.seed = 5;
+  cfg.rayBudget = 32 * cfg.randomRays;
+  // A bake cut at a budget is the unlimited bake's first rays (BudgetCutsTheSameBake), so one
+  // bake's checkpoints stand for a bake per budget.
+  BakeOptions budgets;
+  for (uint64_t r = cfg.randomRays; r < cfg.rayBudget; r += cfg.randomRays / 2) budgets.checkpointRays.push_back(r);
   for (Case& c : cases) {
     auto backend = createEmbreeBackend(c.scene);
     ASSERT_TRUE(backend.ok()) << backend.error().message;
-    for (uint64_t budget = cfg.randomRays;; budget *= 2) {
-      GvsConfig g = cfg;
-      g.rayBudget = budget;
-      CellPvs gvs = computeCellPvs(**backend, c.scene, c.cell, g);
-      CellPvs rnd = computeCellPvs(**backend, c.scene, c.cell, randomOnlyConfig(gvs.stats.rays, cfg.seed));
-      ASSERT_EQ(rnd.stats.rays, gvs.stats.rays);
-      double ge = wrongPixels(**backend, c.cell, gvs.triangles), re = wrongPixels(**backend, c.cell, rnd.triangles);
+    CellPvs gvs = computeCellPvs(**backend, c.scene, c.cell, cfg, budgets);
+    BakeOptions same;
+    for (const PvsCheckpoint& p : gvs.checkpoints) same.checkpointRays.push_back(p.rays);
+    CellPvs rnd = computeCellPvs(**backend, c.scene, c.cell, randomOnlyConfig(gvs.stats.rays, cfg.seed), same);
+    ASSERT_EQ(rnd.checkpoints.size(), gvs.checkpoints.size());
+    // The snapshots, then the final sets (converged below the budget, or at it).
+    gvs.checkpoints.push_back({gvs.stats.rays, gvs.triangles});
+    rnd.checkpoints.push_back({rnd.stats.rays, rnd.triangles});
+    for (size_t i = 0; i < gvs.checkpoints.size(); ++i) {
+      const PvsCheckpoint &g = gvs.checkpoints[i], &r = rnd.checkpoints[i];
+      ASSERT_EQ(r.rays, g.rays);
+      double ge = wrongPixels(**backend, c.cell, g.triangles), re = wrongPixels(**backend, c.cell, r.triangles);
       std::printf("%s: %7llu rays: GVS++ %6zu triangles %8.2f wrong px/view, RAND %6zu triangles %8.2f\n", c.name,
-                  (unsigned long long)gvs.stats.rays, gvs.triangles.size(), ge, rnd.triangles.size(), re);
+                  (unsigned long long)g.rays, g.triangles.size(), ge, r.triangles.size(), re);
       // Same seed, same random rays: the comparison is what GVS++ does with the rest, exactly.
-      EXPECT_LE(ge, re) << c.name << " at " << gvs.stats.rays << " rays";
-      if (gvs.stats.rays < budget) break; // converged below the budget: the rest is the same bake
-      if (budget >= 32 * cfg.randomRays) break;
+      EXPECT_LE(ge, re) << c.name << " at " << g.rays << " rays";
     }
   }
 }
