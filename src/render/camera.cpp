@@ -87,7 +87,8 @@ Result<Camera> parseCamera(std::string_view text) {
   // Split on "key=" boundaries: values themselves contain commas.
   size_t pos = 0;
   // fmt rather than operator+: GCC 12 warns falsely (-Wrestrict) on chained string concatenation.
-  auto bad = [&](const std::string& why) { return Error{fmt::format("--camera '{}': {}", text, why)}; };
+  // The text is echoed escaped: a camera path's strings reach here byte for byte.
+  auto bad = [&](const std::string& why) { return Error{fmt::format("--camera {}: {}", quoteInput(text, 120), why)}; };
   while (pos < text.size()) {
     size_t eq = text.find('=', pos);
     if (eq == std::string_view::npos) return bad("expected key=value");
@@ -120,9 +121,19 @@ Result<Camera> parseCamera(std::string_view text) {
     pos = next == text.size() ? next : next + 1;
   }
   if (!haveEye || !haveTarget) return bad("eye and target are required");
-  if (glm::length(c.eye - c.target) <= 0.0f) return bad("eye and target coincide");
+  // Finite coordinates can still make an infinite distance or a zero-length up (normalize gives
+  // NaN, which no comparison below would catch): each is rejected before it reaches a matrix.
+  const float distance = glm::length(c.eye - c.target);
+  if (distance <= 0.0f) return bad("eye and target coincide");
+  if (!std::isfinite(distance)) return bad("eye and target are too far apart");
+  const float upLength = glm::length(c.up);
+  if (!(upLength > 0.0f) || !std::isfinite(upLength)) return bad("up must be a non-zero vector");
   if (glm::length(glm::cross(glm::normalize(c.target - c.eye), glm::normalize(c.up))) < 1e-4f)
     return bad("view direction is parallel to up");
+  const glm::mat4 view = c.view();
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j)
+      if (!std::isfinite(view[i][j])) return bad("coordinates too large for a view matrix");
   return c;
 }
 
@@ -232,7 +243,9 @@ Result<Camera> cameraFromJson(const nlohmann::json& j) {
   if (!c) return c;
   for (const char* key : {"znear", "zfar"}) {
     if (!j.contains(key)) continue;
-    if (!j[key].is_number() || !(j[key].get<float>() > 0.0f)) return Error{fmt::format("'{}' must be positive", key)};
+    // As a float: a double beyond float's range would become an infinite plane.
+    if (!j[key].is_number() || !(j[key].get<float>() > 0.0f) || !std::isfinite(j[key].get<float>()))
+      return Error{fmt::format("'{}' must be a positive finite number", key)};
   }
   c->znear = j.value("znear", 0.0f);
   c->zfar = j.value("zfar", 0.0f);

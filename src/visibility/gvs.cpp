@@ -109,12 +109,14 @@ template <class T> struct Explorer {
   }
 };
 
-// Random rays alone for the first steps: at first nearly every random ray finds something large,
-// and the first chunks of ABS and RS, which are needed to learn their rates, would cost rays that
-// random sampling uses better (on the generated cities of tests/visibility/anytime_test.cpp, ABS
-// found 45x less per ray than a random batch right after the first one, and exploring from the
-// second or third step on lost to random rays at those budgets; from the fifth on it won).
-constexpr uint64_t kWarmupSteps = 4;
+// Random rays alone for the first two steps: at first nearly every random ray finds something
+// large, and the first chunks of ABS and RS, which are needed to learn their rates, would cost rays
+// that random sampling uses better. On the scenes of tests/visibility/anytime_test.cpp, checked
+// every 5 k rays (every 100 k on the wide cells): exploring from the third step is never worse
+// than RAND; from the second, never worse either and better early, but worse at the end (city 1
+// at 320 k rays: 0.73 wrong pixels against 0.52); from the fifth, city 1 fell 2 % behind RAND
+// around 70 k rays.
+constexpr uint64_t kWarmupSteps = 2;
 // A phase's first chunk is this fraction of a step, and each later one twice the previous, up to
 // a step: a phase that turns out to find little has cost little.
 constexpr size_t kFirstChunkDivisor = 16;
@@ -139,6 +141,8 @@ public:
       edges_.push_back(e);
       edgeLength_ += glm::length(e[1] - e[0]);
     }
+    probes_ = cell.corners();
+    probes_.push_back(cell.position);
     // A cell whose surface points are not traceable rays' origins gives an empty PVS: no ray from
     // it reaches a backend (callers reject such cells first, validateCellsForScene).
     traceable_ = cell.surfaceArea() > 0.0f;
@@ -248,24 +252,31 @@ private:
     return cfg_.rayBudget == 0 ? n : std::min<uint64_t>(n, cfg_.rayBudget - result_.stats.rays);
   }
 
-  // What finding `triangle` from `origin` is worth: the solid angle it spans seen from there,
-  // unoccluded and at most a hemisphere. Missing triangles cost pixels in proportion to the solid
-  // angle they cover, and random rays find triangles at that rate too, so gains of every phase
-  // compare in one unit.
-  float discoveryValue(uint32_t triangle, glm::vec3 origin) const {
+  // What finding `triangle` is worth: the solid angle it spans, unoccluded and at most a
+  // hemisphere, averaged over the cell's corners and centre. Missing triangles cost pixels in
+  // proportion to the solid angle they cover from wherever in the cell the view is, and random
+  // rays find triangles at that rate too, so gains of every phase compare in one unit. Seen from
+  // the discovering ray's origin alone, triangles near that origin were overrated by orders of
+  // magnitude on wide cells, and border sampling (which finds the neighbours of what one origin
+  // sees) looked several times better than random rays while losing to them in pixels.
+  float discoveryValue(uint32_t triangle) const {
     constexpr float kHemisphere = 2.0f * std::numbers::pi_v<float>;
     auto tri = worldTriangle(scene_, offsets_, triangle);
     glm::vec3 n = glm::cross(tri[1] - tri[0], tri[2] - tri[0]); // twice the area, along the normal
-    glm::vec3 d = (tri[0] + tri[1] + tri[2]) / 3.0f - origin;
-    float d2 = glm::dot(d, d);
-    if (!(d2 > 0.0f)) return kHemisphere;
-    float value = std::abs(glm::dot(n, d)) / (2.0f * d2 * std::sqrt(d2));
-    return std::isfinite(value) ? std::min(value, kHemisphere) : 0.0f;
+    glm::vec3 centroid = (tri[0] + tri[1] + tri[2]) / 3.0f;
+    float sum = 0.0f;
+    for (glm::vec3 p : probes_) {
+      glm::vec3 d = centroid - p;
+      float d2 = glm::dot(d, d);
+      float value = d2 > 0.0f ? std::abs(glm::dot(n, d)) / (2.0f * d2 * std::sqrt(d2)) : kHemisphere;
+      sum += std::isfinite(value) ? std::min(value, kHemisphere) : 0.0f;
+    }
+    return sum / float(probes_.size());
   }
 
   // A triangle found for the first time by `ray`: queued for ABS, witnessed; returns its value.
   double discover(uint32_t triangle, const Ray& ray) {
-    float value = discoveryValue(triangle, ray.origin);
+    float value = discoveryValue(triangle);
     if (cfg_.adaptiveBorder) border_.queue.push({value, order_++, Discovery{triangle, ray.origin}});
     if (options_.keepWitnesses) result_.witnesses.push_back({triangle, ray});
     return value;
@@ -544,6 +555,7 @@ private:
   double* phaseTrace_ = nullptr; // the current phase's share of the trace time
   float sceneDiagonal_ = 1.0f;
   std::vector<std::array<glm::vec3, 2>> edges_;
+  std::vector<glm::vec3> probes_; // where discoveryValue looks from: the cell's corners and centre
   float edgeLength_ = 0.0f;
   std::vector<Ray> rays_;
   std::vector<Hit> hits_;

@@ -2,40 +2,7 @@
 # CLI behaviour: bad input gets one clear line naming the file, exit 2 and no output file;
 # good input renders. Usage: cli_test.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
-
-# expect_fail NAME WANTED_TEXT OUTPUT_FILE -- ARGS...: exit 2, one stderr line mentioning WANTED_TEXT, no OUTPUT_FILE
-expect_fail() {
-  local name=$1 wanted=$2 output=$3
-  shift 4
-  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$?
-  local lines
-  lines=$(grep -c . "$tmp/stderr")
-  if [ $rc -ne 2 ]; then
-    echo "FAIL $name: exit $rc, expected 2"; failures=$((failures + 1)); return
-  fi
-  if [ "$lines" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
-    echo "FAIL $name: stderr should be one line naming '$wanted', got:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
-  fi
-  if [ -n "$output" ] && ls "$output"* >/dev/null 2>&1; then
-    echo "FAIL $name: left output behind: $(ls "$output"*)"; failures=$((failures + 1)); return
-  fi
-  pass=$((pass + 1))
-}
-
-expect_ok() {
-  local name=$1
-  shift
-  if ! "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"; then
-    echo "FAIL $name: exit non-zero"; cat "$tmp/stderr"; failures=$((failures + 1)); return 1
-  fi
-  pass=$((pass + 1))
-}
+source "$(dirname "$0")/lib.sh" "$@"
 
 printf 'not a glb at all' >"$tmp/garbage.glb"
 printf 'ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nelement face 10\nproperty list uchar int vertex_indices\nend_header\n\x00\x00' >"$tmp/truncated.ply"
@@ -135,5 +102,4 @@ if expect_ok build-city build gen:city:1 -o "$tmp/city.mrg"; then
 fi
 expect_ok help --help
 
-echo "cli: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish cli

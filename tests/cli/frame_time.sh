@@ -3,25 +3,7 @@
 # and the tau the controller chose, within the bounds; bad targets and configurations it cannot
 # time are one line, exit 2. Also the foveation flags (--fovea, --fovea-radius). Usage: frame_time.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
-
-check() { # NAME CONDITION...: count a failure unless the command succeeds
-  local name=$1
-  shift
-  if "$@"; then pass=$((pass + 1)); else echo "FAIL $name"; cat "$tmp/stdout" "$tmp/stderr"; failures=$((failures + 1)); fi
-}
-expect_fail() { # NAME WANTED_TEXT -- ARGS...: exit 2 and one stderr line naming WANTED_TEXT
-  local name=$1 wanted=$2
-  shift 3
-  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$?
-  check "$name" test $rc -eq 2 -a "$(grep -c . "$tmp/stderr")" -eq 1
-  grep -q -- "$wanted" "$tmp/stderr" || { echo "FAIL $name: stderr lacks '$wanted'"; cat "$tmp/stderr"; failures=$((failures + 1)); }
-}
+source "$(dirname "$0")/lib.sh" "$@"
 
 "$mirage" gen blob --size 4 -o "$tmp/blob.glb" >/dev/null || { echo "FAIL gen"; exit 1; }
 "$mirage" build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet >/dev/null || { echo "FAIL build"; exit 1; }
@@ -39,18 +21,17 @@ check text-runs test $? -eq 0
 check text-frames test "$(grep -c '^frame ' "$tmp/stdout")" -eq 3
 check text-summary grep -q 'within +-10 %' "$tmp/stdout"
 
-expect_fail zero-target "--target-ms must be" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms 0
-expect_fail negative-target "--target-ms must be" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms -2
-expect_fail sweep "--target-ms times one configuration" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms 2 --selection all
-expect_fail scene-file "--target-ms applies to .mrg" -- bench render "$tmp/blob.glb" --size 32x32 --target-ms 2
+expect_fail zero-target "--target-ms must be" "" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms 0
+expect_fail negative-target "--target-ms must be" "" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms -2
+expect_fail sweep "--target-ms times one configuration" "" -- bench render "$tmp/blob.mrg" --size 32x32 --target-ms 2 --selection all
+expect_fail scene-file "--target-ms applies to .mrg" "" -- bench render "$tmp/blob.glb" --size 32x32 --target-ms 2
 
 # Foveation flags (bound with the config): a gaze point renders; bad ones are one line.
 "$mirage" render "$tmp/blob.mrg" -o "$tmp/fovea.png" --size 48x32 --fovea 0.5,0.5 --fovea-radius 5 >"$tmp/stdout" 2>"$tmp/stderr"
 check fovea-renders test $? -eq 0 -a -f "$tmp/fovea.png" -a ! -s "$tmp/stderr"
-expect_fail fovea-range "--fovea must be" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea 2,0.5
-expect_fail fovea-syntax "--fovea" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea middle
-expect_fail fovea-radius "--fovea-radius must be" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea 0.5,0.5 --fovea-radius 200
+expect_fail fovea-range "--fovea must be" "" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea 2,0.5
+expect_fail fovea-syntax "--fovea" "" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea middle
+expect_fail fovea-radius "--fovea-radius must be" "" -- render "$tmp/blob.mrg" -o "$tmp/f.png" --size 32x32 --fovea 0.5,0.5 --fovea-radius 200
 check fovea-no-output test ! -e "$tmp/f.png"
 
-echo "frame_time: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish frame_time

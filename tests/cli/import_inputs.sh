@@ -3,44 +3,24 @@
 # that are not files end in exit 2, one stderr line naming the input, and no output; a strips-only PLY is the
 # same mesh to info, build and surfels. Usage: import_inputs.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-source_dir=$2
+source "$(dirname "$0")/lib.sh" "$@"
+mirage_prefix=(timeout 120)
 fuzz="$source_dir/../shared/data/fuzz-regressions"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
 
-# expect_fail NAME INPUT WANTED_TEXT OUTPUT_FILE -- ARGS...: exit 2, one stderr line naming INPUT (as given) and
-# WANTED_TEXT, printable ASCII only, no OUTPUT_FILE (nor a temporary beside it).
-expect_fail() {
-  local name=$1 input=$2 wanted=$3 output=$4
-  shift 5
-  timeout 120 "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$?
-  if [ $rc -ne 2 ]; then
-    echo "FAIL $name: exit $rc, expected 2: $(head -c 300 "$tmp/stderr")"; failures=$((failures + 1)); return
-  fi
-  if [ "$(grep -c . "$tmp/stderr")" -ne 1 ] || ! grep -qF -- "$input: " "$tmp/stderr" ||
-     ! grep -qF -- "$wanted" "$tmp/stderr"; then
-    echo "FAIL $name: stderr should be one line naming '$input' and '$wanted', got:"; cat "$tmp/stderr"
-    failures=$((failures + 1)); return
-  fi
-  if LC_ALL=C grep -q '[^ -~]' "$tmp/stderr"; then
-    echo "FAIL $name: raw bytes in the message"; failures=$((failures + 1)); return
-  fi
-  if [ -n "$output" ] && ls "$output"* >/dev/null 2>&1; then
-    echo "FAIL $name: left output behind: $(ls "$output"*)"; failures=$((failures + 1)); return
-  fi
-  pass=$((pass + 1))
+# expect_fail_naming NAME INPUT WANTED_TEXT OUTPUT_FILE -- ARGS...: expect_fail (lib.sh), and the line
+# names INPUT (as given) and holds printable ASCII only.
+expect_fail_naming() {
+  local name=$1 also_fixed="$2: " ascii_only=1
+  shift 2
+  expect_fail "$name" "$@"
 }
 
 # Every importing command on one input: info, render, build.
 all_fail() {
   local name=$1 input=$2 wanted=$3
-  expect_fail "$name-info" "$input" "$wanted" "" -- info "$input"
-  expect_fail "$name-render" "$input" "$wanted" "$tmp/o.png" -- render "$input" -o "$tmp/o.png" --size 32x32
-  expect_fail "$name-build" "$input" "$wanted" "$tmp/o.mrg" -- build "$input" -o "$tmp/o.mrg" --quiet
+  expect_fail_naming "$name-info" "$input" "$wanted" "" -- info "$input"
+  expect_fail_naming "$name-render" "$input" "$wanted" "$tmp/o.png" -- render "$input" -o "$tmp/o.png" --size 32x32
+  expect_fail_naming "$name-build" "$input" "$wanted" "$tmp/o.mrg" -- build "$input" -o "$tmp/o.mrg" --quiet
 }
 
 if [ -d "$fuzz" ]; then
@@ -57,9 +37,9 @@ fi
 # Paths that are not regular files: one wording whatever the command or the name's extension.
 mkdir "$tmp/dir.glb" "$tmp/dir.ply" "$tmp/dir.mrg" "$tmp/scans"
 for d in dir.glb dir.ply scans; do all_fail "directory-$d" "$tmp/$d" "is a directory, not a regular file"; done
-expect_fail directory-mrg-info "$tmp/dir.mrg" "is a directory, not a regular file" "" -- info "$tmp/dir.mrg"
-expect_fail directory-mrg-render "$tmp/dir.mrg" "is a directory, not a regular file" "$tmp/o.png" -- render "$tmp/dir.mrg" -o "$tmp/o.png"
-expect_fail directory-surfels "$tmp/dir.ply" "is a directory, not a regular file" "$tmp/s.ply" -- surfels "$tmp/dir.ply" -o "$tmp/s.ply"
+expect_fail_naming directory-mrg-info "$tmp/dir.mrg" "is a directory, not a regular file" "" -- info "$tmp/dir.mrg"
+expect_fail_naming directory-mrg-render "$tmp/dir.mrg" "is a directory, not a regular file" "$tmp/o.png" -- render "$tmp/dir.mrg" -o "$tmp/o.png"
+expect_fail_naming directory-surfels "$tmp/dir.ply" "is a directory, not a regular file" "$tmp/s.ply" -- surfels "$tmp/dir.ply" -o "$tmp/s.ply"
 mkfifo "$tmp/fifo.ply"
 all_fail fifo "$tmp/fifo.ply" "is a FIFO (named pipe), not a regular file"
 : >"$tmp/empty.glb"
@@ -86,5 +66,4 @@ else
   echo "FAIL strips-surfels: $(cat "$tmp/stdout")"; failures=$((failures + 1))
 fi
 
-echo "import inputs: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish "import inputs"

@@ -5,38 +5,7 @@
 # surfel-only or PVS-only .mrg needs; a CDAG chunk with a bad local index (checksums valid) is one
 # line from every command. Usage: mirage_outputs.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-source_dir=$2
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
-
-expect_fail() { # NAME WANTED_TEXT OUTPUT_FILE -- ARGS...: exit 2, one stderr line with WANTED_TEXT, no output
-  local name=$1 wanted=$2 output=$3
-  shift 4
-  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$? lines
-  lines=$(grep -c . "$tmp/stderr")
-  if [ $rc -ne 2 ] || [ "$lines" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
-    echo "FAIL $name: exit $rc, wanted one line with '$wanted', stderr:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
-  fi
-  if [ -n "$output" ] && ls "$output"* >/dev/null 2>&1; then echo "FAIL $name: left $(ls "$output"*)"; failures=$((failures + 1)); return; fi
-  pass=$((pass + 1))
-}
-expect_ok() { # NAME ARGS...
-  local name=$1
-  shift
-  if ! "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"; then
-    echo "FAIL $name:"; cat "$tmp/stderr"; failures=$((failures + 1)); return 1
-  fi
-  pass=$((pass + 1))
-}
-check() { # NAME COMMAND...: the command succeeds
-  local name=$1
-  shift
-  if "$@"; then pass=$((pass + 1)); else echo "FAIL $name"; failures=$((failures + 1)); fi
-}
+source "$(dirname "$0")/lib.sh" "$@"
 
 # A 40 x 40 grid of quads over 2.72 units, each vertex with a distinct twin 4.2e-7 away (the
 # encoder needs 23 bits or more), plus one duplicate and one degenerate triangle.
@@ -102,5 +71,4 @@ else
   echo "skip: $bad not found (shared data absent)"
 fi
 
-echo "cli mirage outputs: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish "cli mirage outputs"

@@ -3,37 +3,7 @@
 # --stereo on a scene without cluster DAGs get one line, exit 2 and no output.
 # Usage: stereo.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
-
-expect_fail() {
-  local name=$1 wanted=$2 output=$3
-  shift 4
-  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$?
-  if [ $rc -ne 2 ]; then
-    echo "FAIL $name: exit $rc, expected 2"; cat "$tmp/stderr"; failures=$((failures + 1)); return
-  fi
-  if [ "$(grep -c . "$tmp/stderr")" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
-    echo "FAIL $name: stderr should be one line naming '$wanted', got:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
-  fi
-  if [ -n "$output" ] && [ -e "$output" ]; then
-    echo "FAIL $name: left $output behind"; failures=$((failures + 1)); return
-  fi
-  pass=$((pass + 1))
-}
-
-expect_ok() {
-  local name=$1
-  shift
-  if ! "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"; then
-    echo "FAIL $name: exit non-zero"; cat "$tmp/stderr"; failures=$((failures + 1)); return 1
-  fi
-  pass=$((pass + 1))
-}
+source "$(dirname "$0")/lib.sh" "$@"
 
 # PNG width and height from the IHDR chunk (bytes 16..23, big-endian).
 png_size() {
@@ -55,5 +25,4 @@ if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb" && expect_ok build-bl
 fi
 expect_fail stereo-forward "--stereo" "$tmp/f.png" -- render "$tmp/blob.glb" --stereo --size 48x32 -o "$tmp/f.png"
 
-echo "stereo: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish "stereo"

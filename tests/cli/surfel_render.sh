@@ -4,32 +4,7 @@
 # SURF chunks appended to a cluster-LOD .mrg render and bench as a mixed scene (meshes near, surfels far).
 # Usage: surfel_render.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
-
-expect_fail() { # NAME WANTED_TEXT OUTPUT_FILE -- ARGS...
-  local name=$1 wanted=$2 output=$3
-  shift 4
-  "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$? lines
-  lines=$(grep -c . "$tmp/stderr")
-  if [ $rc -ne 2 ] || [ "$lines" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
-    echo "FAIL $name: exit $rc, stderr:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
-  fi
-  if [ -n "$output" ] && [ -e "$output" ]; then echo "FAIL $name: wrote $output"; failures=$((failures + 1)); return; fi
-  pass=$((pass + 1))
-}
-expect_ok() { # NAME ARGS...
-  local name=$1
-  shift
-  if ! "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"; then
-    echo "FAIL $name:"; cat "$tmp/stderr"; failures=$((failures + 1)); return 1
-  fi
-  pass=$((pass + 1))
-}
+source "$(dirname "$0")/lib.sh" "$@"
 
 if expect_ok build-lod build gen:blob:2 -o "$tmp/lod.mrg" --quiet; then
   expect_fail surfels-no-surf "no SURF chunk" "$tmp/a.png" -- render "$tmp/lod.mrg" -o "$tmp/a.png" --surfels
@@ -76,5 +51,4 @@ if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 
 fi
 expect_fail surfels-missing "missing.mrg" "$tmp/m.png" -- render "$tmp/missing.mrg" -o "$tmp/m.png" --surfels
 
-echo "cli surfel render: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish "cli surfel render"

@@ -9,45 +9,30 @@
 # present-mode switches (test_viewer's SwapchainWindow test).
 # Usage: view.sh MIRAGE_BINARY SOURCE_DIR
 set -u
-mirage=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-pass=0
+source "$(dirname "$0")/lib.sh" "$@"
+mirage_prefix=(env -u DISPLAY -u WAYLAND_DISPLAY) # the errors must come before any window
 
-expect_fail() { # NAME WANTED_TEXT -- ARGS... (no display: the error must come before any window)
-  local name=$1 wanted=$2
-  shift 3
-  env -u DISPLAY -u WAYLAND_DISPLAY "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local rc=$? lines
-  lines=$(grep -c . "$tmp/stderr")
-  if [ $rc -ne 2 ] || [ "$lines" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr"; then
-    echo "FAIL $name: exit $rc, stderr:"; cat "$tmp/stderr"; failures=$((failures + 1)); return
-  fi
-  pass=$((pass + 1))
-}
-
-expect_fail missing-scene "missing.mrg" -- view "$tmp/missing.mrg"
+expect_fail missing-scene "missing.mrg" "" -- view "$tmp/missing.mrg"
 head -c 300 /dev/urandom >"$tmp/corrupt.mrg"
-expect_fail corrupt-scene "corrupt.mrg" -- view "$tmp/corrupt.mrg"
+expect_fail corrupt-scene "corrupt.mrg" "" -- view "$tmp/corrupt.mrg"
 printf 'not a mesh\n' >"$tmp/bad.obj"
-expect_fail bad-obj "bad.obj" -- view "$tmp/bad.obj"
-expect_fail bad-present "--present" -- view "$tmp/missing.mrg" --present vsync
-expect_fail bad-size "--size" -- view "$tmp/missing.mrg" --size 0x10
-expect_fail exit-needs-path "--exit-after-path" -- view "$tmp/missing.mrg" --exit-after-path
-expect_fail screenshot-extension "unsupported output extension" -- view "$tmp/missing.mrg" --path orbit:2 --screenshot "$tmp/a.jpg"
+expect_fail bad-obj "bad.obj" "" -- view "$tmp/bad.obj"
+expect_fail bad-present "--present" "" -- view "$tmp/missing.mrg" --present vsync
+expect_fail bad-size "--size" "" -- view "$tmp/missing.mrg" --size 0x10
+expect_fail exit-needs-path "--exit-after-path" "" -- view "$tmp/missing.mrg" --exit-after-path
+expect_fail screenshot-extension "unsupported output extension" "" -- view "$tmp/missing.mrg" --path orbit:2 --screenshot "$tmp/a.jpg"
 
 # View-only flags, checked before any window (the scene's kind from its name and chunk table).
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/tri.obj"
-expect_fail stereo-forward "--stereo needs a .mrg" -- view "$tmp/tri.obj" --stereo
-expect_fail target-forward "--target-ms applies to .mrg" -- view "$tmp/tri.obj" --target-ms 5
-expect_fail tau-forward "apply to .mrg cluster-LOD" -- view "$tmp/tri.obj" --tau 2
-expect_fail fovea-forward "apply to .mrg cluster-LOD" -- view "$tmp/tri.obj" --fovea 0.5,0.5
-expect_fail ipd-without-stereo "--ipd" -- view "$tmp/missing.mrg" --ipd 0.1
-expect_fail ipd-negative "--ipd" -- view "$tmp/missing.mrg" --stereo --ipd=-1
-expect_fail target-zero "--target-ms must be" -- view "$tmp/missing.mrg" --target-ms 0
-expect_fail fovea-range "--fovea must be" -- view "$tmp/missing.mrg" --fovea 2,0.5
-expect_fail surfel-size-alone "need --surfels" -- view "$tmp/missing.mrg" --surfel-size 3
+expect_fail stereo-forward "--stereo needs a .mrg" "" -- view "$tmp/tri.obj" --stereo
+expect_fail target-forward "--target-ms applies to .mrg" "" -- view "$tmp/tri.obj" --target-ms 5
+expect_fail tau-forward "apply to .mrg cluster-LOD" "" -- view "$tmp/tri.obj" --tau 2
+expect_fail fovea-forward "apply to .mrg cluster-LOD" "" -- view "$tmp/tri.obj" --fovea 0.5,0.5
+expect_fail ipd-without-stereo "--ipd" "" -- view "$tmp/missing.mrg" --ipd 0.1
+expect_fail ipd-negative "--ipd" "" -- view "$tmp/missing.mrg" --stereo --ipd=-1
+expect_fail target-zero "--target-ms must be" "" -- view "$tmp/missing.mrg" --target-ms 0
+expect_fail fovea-range "--fovea must be" "" -- view "$tmp/missing.mrg" --fovea 2,0.5
+expect_fail surfel-size-alone "need --surfels" "" -- view "$tmp/missing.mrg" --surfel-size 3
 
 # The window tests need an X server: Xvfb through xvfb-run (Debian xvfb), else the display given.
 xrun=()
@@ -55,8 +40,7 @@ if command -v xvfb-run >/dev/null && xvfb-run -a -s "-screen 0 1280x720x24" true
   xrun=(xvfb-run -a -s "-screen 0 1280x720x24")
 elif [ -z "${DISPLAY:-}" ]; then
   echo "skip window tests: no X server (install xvfb)"
-  echo "cli view: $pass passed, $failures failed"
-  [ $failures -eq 0 ]
+  finish "cli view"
   exit
 fi
 
@@ -174,7 +158,7 @@ JSON
   psnr=$("$mirage" compare "$tmp/auto.png" "$tmp/framed.png" --json 2>/dev/null | sed 's/.*"psnr":\([^,]*\),.*/\1/')
   if [ -n "$psnr" ] && { [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 45) }'; }; then pass=$((pass + 1)); else
     echo "FAIL view-frame-key: PSNR '$psnr' vs the automatic camera"; cat "$tmp/stderr"; failures=$((failures + 1)); fi
-  expect_fail bad-keys "--keys" -- view "$tmp/blob.mrg" --keys X@1
+  expect_fail bad-keys "--keys" "" -- view "$tmp/blob.mrg" --keys X@1
   # A cluster-LOD scene through frames in flight (record, GPU sRGB pass, no readback): more frames
   # than slots, so slots are reused and collected; validation (environment) stays silent.
   if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --frames 5 --size 200x150 >"$tmp/stdout" 2>"$tmp/stderr" &&
@@ -195,5 +179,4 @@ else
   echo "FAIL build:"; cat "$tmp/stderr"; failures=$((failures + 1))
 fi
 
-echo "cli view: $pass passed, $failures failed"
-[ $failures -eq 0 ]
+finish "cli view"

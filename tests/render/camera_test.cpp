@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "mirage/render/camera.h"
 
@@ -90,4 +92,33 @@ TEST(AutoCamera, EmptyBoundsGiveAFiniteCamera) {
   Camera c = autoCamera(Bounds{}, 1.0f);
   EXPECT_TRUE(std::isfinite(c.eye.x) && std::isfinite(c.eye.y) && std::isfinite(c.eye.z));
   EXPECT_GT(glm::length(c.eye - c.target), 0.0f);
+}
+
+// Cameras that parse but make no view (the camera-path fuzz target's findings): a zero up vector
+// (normalize gives NaN, which passed the parallel test), eye and target whose distance overflows,
+// a view matrix that overflows, a clip plane beyond float's range; and raw bytes in a path's string
+// kept out of the one-line message.
+TEST(CameraParse, RejectsCamerasWithoutAFiniteView) {
+  for (const char* text : {"eye=0,0,5,target=0,0,0,up=0,0,0", "eye=3e38,0,0,target=-3e38,0,0",
+                           "eye=3e38,0,-3e38,target=3e38,1,-3e38,up=1,0,1"}) {
+    auto c = parseCamera(text);
+    EXPECT_FALSE(c.ok()) << text;
+  }
+  EXPECT_TRUE(parseCamera("eye=1e18,0,-1e18,target=1e18,1,-1e18,up=1,0,1").ok()); // large but finite
+
+  auto dir = std::filesystem::temp_directory_path() / "mirage_camera_parse_test";
+  std::filesystem::create_directories(dir);
+  auto load = [&](const char* text) {
+    std::ofstream(dir / "cams.json") << text;
+    return loadCameraPath(dir / "cams.json");
+  };
+  auto far = load(R"([{"eye": [0, 0, 5], "target": [0, 0, 0], "znear": 1e39}])");
+  ASSERT_FALSE(far.ok());
+  EXPECT_NE(far.error().message.find("'znear' must be a positive finite number"), std::string::npos);
+  auto raw = load("[\"eye=0,0,5,target=0,0,0,fov=\\n\\u0001\"]");
+  ASSERT_FALSE(raw.ok());
+  EXPECT_EQ(raw.error().message.find('\n'), std::string::npos) << raw.error().message;
+  EXPECT_EQ(raw.error().message.find('\x01'), std::string::npos) << raw.error().message;
+  EXPECT_NE(raw.error().message.find("cams.json: camera 0"), std::string::npos) << raw.error().message;
+  std::filesystem::remove_all(dir);
 }

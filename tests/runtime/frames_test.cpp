@@ -2,13 +2,9 @@
 // slots 0..2 before any wait, the eye changing PVS cell between them (the replaced cluster PVS must
 // outlive the frames reading it, with no device wait), give the images and counters of three
 // sequential render() calls.
-#include <cstring>
-
-#include <glm/gtc/packing.hpp>
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
-#include "mirage/gpu/commands.h"
 #include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/runtime/scene.h"
@@ -71,55 +67,14 @@ TEST_F(RuntimeFrames, ThreeRecordedFramesMatchSequentialRenders) {
   }
   EXPECT_NE(expected[0].trianglesDrawn, expected[1].trianglesDrawn); // the slots can be told apart
 
-  gpu::Context& ctx = test::gpuContext();
-  VkDevice device = ctx.device();
-  VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  pi.queueFamilyIndex = ctx.queueFamily();
-  VkCommandPool pool = VK_NULL_HANDLE;
-  ASSERT_EQ(vkCreateCommandPool(device, &pi, nullptr, &pool), VK_SUCCESS);
-  VkCommandBuffer cmds[render::kMaxFramesInFlight];
-  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  ai.commandPool = pool;
-  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  ai.commandBufferCount = render::kMaxFramesInFlight;
-  ASSERT_EQ(vkAllocateCommandBuffers(device, &ai, cmds), VK_SUCCESS);
-  VkFence fences[render::kMaxFramesInFlight];
-  std::vector<gpu::Buffer> pixels;
-  for (uint32_t i = 0; i < render::kMaxFramesInFlight; ++i) {
-    VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-    ASSERT_EQ(vkCreateFence(device, &fi, nullptr, &fences[i]), VK_SUCCESS);
-    pixels.push_back(gpu::createBuffer(ctx, uint64_t(kWidth) * kHeight * 8, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                       gpu::MemoryUsage::Readback, "frame pixels"));
-  }
-  for (uint32_t i = 0; i < render::kMaxFramesInFlight; ++i) {
-    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    ASSERT_EQ(vkBeginCommandBuffer(cmds[i], &bi), VK_SUCCESS);
-    Status recorded = (*inFlight)->record(cmds[i], views[i], i);
-    ASSERT_TRUE(recorded.ok()) << recorded.error().message;
-    const gpu::Image* color = (*inFlight)->colorTarget();
-    ASSERT_NE(color, nullptr);
-    ASSERT_EQ(color->format(), VK_FORMAT_R16G16B16A16_SFLOAT);
-    gpu::cmdImageBarrier(cmds[i],
-                         {color->handle(), VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                          VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_GENERAL,
-                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL});
-    VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {kWidth, kHeight, 1};
-    vkCmdCopyImageToBuffer(cmds[i], color->handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, pixels[i].handle(), 1,
-                           &region);
-    gpu::cmdMemoryBarrier(cmds[i], VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                          VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
-    ASSERT_EQ(vkEndCommandBuffer(cmds[i]), VK_SUCCESS);
-    VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
-    cbi.commandBuffer = cmds[i];
-    VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
-    si.commandBufferInfoCount = 1;
-    si.pCommandBufferInfos = &cbi;
-    ASSERT_EQ(vkQueueSubmit2(ctx.queue(), 1, &si, fences[i]), VK_SUCCESS);
-  }
-  ASSERT_EQ(vkWaitForFences(device, render::kMaxFramesInFlight, fences, VK_TRUE, UINT64_MAX), VK_SUCCESS);
+  std::vector<std::vector<uint16_t>> pixels =
+      test::recordFramesInFlight(test::gpuContext(), render::kMaxFramesInFlight, kWidth, kHeight,
+                                 [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
+                                   if (Status st = (*inFlight)->record(cmd, views[slot], slot); !st) return st;
+                                   color = (*inFlight)->colorTarget();
+                                   return Ok{};
+                                 });
+  ASSERT_EQ(pixels.size(), size_t(render::kMaxFramesInFlight));
 
   for (uint32_t i = 0; i < render::kMaxFramesInFlight; ++i) {
     SCOPED_TRACE(i);
@@ -134,16 +89,10 @@ TEST_F(RuntimeFrames, ThreeRecordedFramesMatchSequentialRenders) {
     EXPECT_EQ(out->cluster->instancesPvsCulled, expected[i].cluster->instancesPvsCulled);
     EXPECT_EQ(out->cluster->clustersSelected, expected[i].cluster->clustersSelected);
     EXPECT_FALSE(out->passTimes.empty());
-    std::vector<uint16_t> half(size_t(kWidth) * kHeight * 4);
-    std::memcpy(half.data(), pixels[i].mapped(), half.size() * 2);
-    ASSERT_EQ(expected[i].linear.pixels.size(), half.size());
-    size_t differing = 0;
-    for (size_t k = 0; k < half.size(); ++k) differing += glm::unpackHalf1x16(half[k]) != expected[i].linear.pixels[k];
-    EXPECT_EQ(differing, 0u) << "of " << half.size() << " channel values";
+    EXPECT_EQ(test::differingChannels(pixels[i], expected[i].linear.pixels), 0u)
+        << "of " << pixels[i].size() << " channel values";
     EXPECT_FALSE((*inFlight)->collect(i).ok()); // a slot is collected once
   }
-  for (VkFence f : fences) vkDestroyFence(device, f, nullptr);
-  vkDestroyCommandPool(device, pool, nullptr);
 }
 
 TEST_F(RuntimeFrames, ScenesWithoutARecordPathSaySo) {

@@ -1,0 +1,77 @@
+# Shared by the CLI test scripts (sourced, not a test itself: tests/CMakeLists.txt skips it).
+# `source "$(dirname "$0")/lib.sh" "$@"` in a script run as SCRIPT MIRAGE_BINARY SOURCE_DIR sets
+# $mirage, $source_dir, a scratch folder $tmp removed on exit, and the $pass / $failures counts;
+# `finish NAME` prints them and gives the script's exit status.
+mirage=$1
+source_dir=${2:-}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+pass=0
+# Put before the binary on every run (e.g. `timeout 120`, or `env -u DISPLAY` for the viewer).
+mirage_prefix=()
+
+fail() { # MESSAGE: count a failure
+  echo "FAIL $*"
+  failures=$((failures + 1))
+}
+
+run_mirage() { # ARGS...: the binary's exit status; its stdout and stderr in $tmp/stdout, $tmp/stderr
+  "${mirage_prefix[@]}" "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+}
+
+# expect_fail NAME WANTED_TEXT OUTPUT_FILE -- ARGS...: exit 2, exactly one stderr line matching
+# WANTED_TEXT (a grep pattern), and nothing named OUTPUT_FILE* left behind (no temporary beside it
+# either; "" when the command writes no file). A caller may set, as locals, `also_fixed` (a fixed
+# string the line must hold too) and `ascii_only=1` (printable ASCII only: no raw input bytes).
+expect_fail() {
+  local name=$1 wanted=$2 output=$3
+  shift 4
+  run_mirage "$@"
+  local rc=$?
+  if [ $rc -ne 2 ]; then
+    fail "$name: exit $rc, expected 2: $(head -c 300 "$tmp/stderr")"
+    return 1
+  fi
+  if [ "$(grep -c . "$tmp/stderr")" -ne 1 ] || ! grep -q -- "$wanted" "$tmp/stderr" ||
+     { [ -n "${also_fixed:-}" ] && ! grep -qF -- "$also_fixed" "$tmp/stderr"; }; then
+    fail "$name: stderr should be one line naming '$wanted'${also_fixed:+ and '$also_fixed'}, got: $(cat "$tmp/stderr")"
+    return 1
+  fi
+  if [ -n "${ascii_only:-}" ] && LC_ALL=C grep -q '[^ -~]' "$tmp/stderr"; then
+    fail "$name: raw bytes in the message"
+    return 1
+  fi
+  if [ -n "$output" ] && ls "$output"* >/dev/null 2>&1; then
+    fail "$name: left output behind: $(ls "$output"*)"
+    return 1
+  fi
+  pass=$((pass + 1))
+}
+
+expect_ok() { # NAME ARGS...: the command exits 0 (stderr shown otherwise)
+  local name=$1
+  shift
+  if ! run_mirage "$@"; then
+    fail "$name: exit non-zero: $(cat "$tmp/stderr")"
+    return 1
+  fi
+  pass=$((pass + 1))
+}
+
+check() { # NAME COMMAND...: the command succeeds (the last run's output shown otherwise)
+  local name=$1
+  shift
+  if "$@"; then
+    pass=$((pass + 1))
+  else
+    fail "$name"
+    cat "$tmp/stdout" "$tmp/stderr" 2>/dev/null
+    return 1
+  fi
+}
+
+finish() { # NAME: the summary line; the script's status
+  echo "$1: $pass passed, $failures failed"
+  [ $failures -eq 0 ]
+}
