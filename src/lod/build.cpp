@@ -88,7 +88,7 @@ public:
     stats[0].seconds = float(secondsSince(start_));
     auto levelStart = std::chrono::steady_clock::now();
     uint32_t level = 0;
-    uint32_t groupSize = cfg_.groupClusters;
+    uint32_t groupSize = groupClustersAt(0);
     while (active.size() > cfg_.rootClusters && level + 1 < cfg_.maxLevels) {
       float meanAge = 0.0f;
       std::vector<GroupWork> work = groupAndSimplify(active, groupSize, meanAge);
@@ -118,8 +118,8 @@ public:
       stats.emplace_back().seconds = float(secondsSince(levelStart));
       levelStart = std::chrono::steady_clock::now();
       active = std::move(next);
-      groupSize = cfg_.groupClusters;
       ++level;
+      groupSize = groupClustersAt(level);
     }
     for (uint32_t c : active) {
       Cluster& cl = dag_.clusters[c];
@@ -133,6 +133,11 @@ public:
   }
 
 private:
+  // Clusters per group when grouping clusters of `level` (BuildConfig::coarseGroupsFromLevel).
+  uint32_t groupClustersAt(uint32_t level) const {
+    return level >= cfg_.coarseGroupsFromLevel ? cfg_.groupClusters * 2 : cfg_.groupClusters;
+  }
+
   // Typical edge length of the cleaned input: the median over (at most 65 536 evenly spaced)
   // triangles of their RMS edge length. The median, not the mean: a few long edges over flat parts
   // (modelled meshes) would otherwise set the scale of the finely tessellated rest.
@@ -636,7 +641,7 @@ std::string checkConfig(const Mesh& mesh, const BuildConfig& cfg) {
   if (cfg.clusterTriangles < 4 || cfg.clusterTriangles > kMaxClusterTriangles || cfg.clusterTriangles % 4 != 0)
     return "clusterTriangles must be a multiple of 4 in [4, " + std::to_string(kMaxClusterTriangles) + "]";
   if (cfg.clusterVertices < 3 || cfg.clusterVertices > 255) return "clusterVertices must be in [3, 255]";
-  if (cfg.groupClusters < 2) return "groupClusters must be at least 2";
+  if (cfg.groupClusters < 2 || cfg.groupClusters > 1u << 30) return "groupClusters must be in [2, 2^30]";
   if (!(cfg.stuckRatio > 0.0f && cfg.stuckRatio < 1.0f)) return "stuckRatio must be in (0, 1)";
   if (!(cfg.normalWeight >= 0.0f && std::isfinite(cfg.normalWeight))) return "normalWeight must be finite and >= 0";
   if (cfg.rootClusters < 1) return "rootClusters must be at least 1";

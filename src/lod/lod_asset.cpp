@@ -161,6 +161,7 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
                           {{"cluster_triangles", config.clusterTriangles},
                            {"cluster_vertices", config.clusterVertices},
                            {"group_clusters", config.groupClusters},
+                           {"coarse_groups_from_level", config.coarseGroupsFromLevel},
                            {"stuck_ratio", config.stuckRatio},
                            {"normal_weight", config.normalWeight}}},
                          {"meshes", statsJson(out)}};

@@ -138,9 +138,36 @@ std::vector<Tri> meshTriangles(const Mesh& m, const std::vector<uint32_t>& indic
   return out;
 }
 
+// Triangle shapes: the fraction with a smallest angle under 10 degrees (slivers, slow to
+// rasterize) and the mean aspect ratio (longest edge over the shortest altitude, scaled so that an
+// equilateral triangle has 1).
+struct Shapes {
+  double sliverFraction = 0.0, meanAspect = 0.0;
+};
+Shapes triangleShapes(const std::vector<Tri>& tris) {
+  Shapes s;
+  size_t n = 0;
+  for (const Tri& t : tris) {
+    double area2 = glm::length(glm::dvec3(glm::cross(t[1] - t[0], t[2] - t[0])));
+    if (!(area2 > 0.0)) continue;
+    double l2[3], minSin2 = 1.0;
+    for (int k = 0; k < 3; ++k) l2[k] = glm::dot(glm::dvec3(t[(k + 1) % 3] - t[k]), glm::dvec3(t[(k + 1) % 3] - t[k]));
+    for (int k = 0; k < 3; ++k) // the angle between edges k and k+2 at corner k: sin = area2 / (|a| |b|)
+      minSin2 = std::min(minSin2, area2 * area2 / (l2[k] * l2[(k + 2) % 3]));
+    double smallest = std::asin(std::sqrt(std::min(minSin2, 1.0)));
+    s.sliverFraction += smallest < 10.0 * 3.14159265358979 / 180.0;
+    double longest = std::max({l2[0], l2[1], l2[2]});
+    s.meanAspect += longest / area2 * (std::sqrt(3.0) / 2.0); // longest / altitude on it, equilateral 1
+    ++n;
+  }
+  if (n) s.sliverFraction /= double(n), s.meanAspect /= double(n);
+  return s;
+}
+
 struct CutQuality {
   size_t triangles = 0;
   double distance = 0.0;
+  Shapes shapes;
 };
 
 // The DAG cut at the smallest group error threshold with at most `fraction` of the input's
@@ -158,7 +185,9 @@ CutQuality cutQuality(const Mesh& mesh, const ClusterDag& dag, const std::vector
     for (uint32_t c : cut) q.triangles += dag.clusters[c].triangleCount;
     if (q.triangles <= goal) break;
   }
-  q.distance = symmetricDistance(original, cutTriangles(dag, cut));
+  std::vector<Tri> tris = cutTriangles(dag, cut);
+  q.distance = symmetricDistance(original, tris);
+  q.shapes = triangleShapes(tris);
   return q;
 }
 
@@ -172,6 +201,7 @@ TEST(LodQuality, DISABLED_CutVersusSimplifyChain) {
   Mesh mesh = *lodtest::readAsciiPly(path);
   BuildConfig cfg;
   if (const char* env = std::getenv("MIRAGE_LOD_NORMAL_WEIGHT")) cfg.normalWeight = float(std::atof(env));
+  if (const char* env = std::getenv("MIRAGE_LOD_GROUP_CLUSTERS")) cfg.groupClusters = uint32_t(std::atoi(env));
   Result<ClusterDag> dag = buildClusterDag(mesh, cfg);
   ASSERT_TRUE(dag.ok());
   std::vector<Tri> original = meshTriangles(mesh, mesh.indices);
@@ -182,11 +212,18 @@ TEST(LodQuality, DISABLED_CutVersusSimplifyChain) {
                                        &mesh.positions[0].x, mesh.positions.size(), sizeof(glm::vec3), q.triangles * 3,
                                        1.0f, 0, nullptr));
     double dChain = symmetricDistance(original, meshTriangles(mesh, simplified));
-    std::printf("%s at %zu triangles (%.1f %%): DAG cut %.3g, meshopt_simplify %zu tris %.3g (x bbox diag %.3g)\n",
+    std::printf("%s at %zu triangles (%.1f %%): DAG cut %.3g, meshopt_simplify %zu tris %.3g (x bbox diag %.3g); "
+                "cut shapes: %.1f %% under 10 degrees, mean aspect %.2f\n",
                 path.filename().c_str(), q.triangles, 100.0 * double(q.triangles) / double(mesh.triangleCount()),
-                q.distance, simplified.size() / 3, dChain, double(mesh.bounds.radius() * 2.0f));
+                q.distance, simplified.size() / 3, dChain, double(mesh.bounds.radius() * 2.0f),
+                100.0 * q.shapes.sliverFraction, q.shapes.meanAspect);
     EXPECT_GT(q.distance, 0.0);
   }
+  Shapes root = triangleShapes(cutTriangles(*dag, dag->roots));
+  size_t rootTriangles = 0;
+  for (uint32_t c : dag->roots) rootTriangles += dag->clusters[c].triangleCount;
+  std::printf("%s root: %zu clusters, %zu triangles, %.1f %% with an angle under 10 degrees, mean aspect %.2f\n",
+              path.filename().c_str(), dag->roots.size(), rootTriangles, 100.0 * root.sliverFraction, root.meanAspect);
 }
 
 // Regression guard on generated meshes (CI speed): the geometric-error cuts at 25 / 6.2 / 1.6 %
