@@ -8,6 +8,11 @@
 // top-left rule, as fixed-function hardware does, so the ids match the other backends.
 // Triangles crossing the near plane are clipped against it in clip space (at most a quad, drawn as
 // a two-triangle fan), so a camera inside or next to the geometry draws what the hardware draws.
+// Stereo (MIRAGE_FRAME_STEREO, the left eye's frame): each vertex is transformed once; the right
+// eye's clip position is the left one's with x + stereoClipDx (y, z, w are the same), so only its
+// screen x is kept too, and every triangle is drawn into both halves of the 2W-wide buffer (an eye
+// whose bounding box misses its half loops over nothing). Near-plane clipping is per eye for free:
+// the near distance w - z is the same in both eyes.
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
 
@@ -21,6 +26,9 @@ layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
 
 shared vec4 clipPos[MIRAGE_CLUSTER_MAX_VERTICES]; // clip space (only read for near-crossing triangles)
 shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES];  // pixels x, y; depth z/w
+shared float screenRightX[MIRAGE_CLUSTER_MAX_VERTICES]; // stereo: the right eye's pixel x
+
+uint visRowPixels; // pixels per row of the 64-bit buffer: the viewport's width, both eyes' in stereo
 
 float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
 // An edge's function evaluated from its endpoints in one canonical order (by y, then x) and
@@ -70,15 +78,16 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 #else
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
   uint64_t value = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
-  atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * uint(f.camera.viewport.x) + x], value);
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * visRowPixels + x], value);
 }
 #endif
 
 // One screen-space triangle (snapped vertices) into the 64-bit visibility buffer (or the
 // transparency lists). `masked`: a constant per kernel, so the opaque one carries no alpha code;
-// masked pixels pass maskKeeps on `tri` (the unclipped triangle) first.
+// masked pixels pass maskKeeps on `tri` (the unclipped triangle) first, seen from the frame at
+// `eyeFrame`. Samples land `eyeX` pixels right of the eye's own pixel (stereo's right half).
 void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, ClusterFrame f, float fade,
-                    bool masked, ClusterTriangle tri, GpuMaterial m) {
+                    bool masked, ClusterTriangle tri, GpuMaterial m, uint64_t eyeFrame, uint eyeX) {
   vec2 viewport = f.camera.viewport;
   float area = edge(a.xy, p1.xy, p2.xy);
   if (area == 0.0) return;
@@ -104,8 +113,8 @@ void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirror
       float z = (w0 * a.z + w1 * p1.z + w2 * p2.z) / area;
       if (z < 0.0) continue; // beyond the far plane
       if (!meshKeepsPixel(fade, uvec2(x, y))) continue; // the surfels' pixel in the blend band
-      if (masked && !maskKeeps(f, m, tri, s)) continue;  // alpha below the cutoff: a hole
-      writeSample(f, uint(x), uint(y), z, id);
+      if (masked && !maskKeeps(FrameRef(eyeFrame).frame, m, tri, s)) continue; // alpha below the cutoff: a hole
+      writeSample(f, uint(x) + eyeX, uint(y), z, id);
     }
   }
 }
@@ -116,6 +125,9 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   GpuMaterial m;
   if (masked) m = instanceMaterial(inst);
+  bool stereo = (f.flags & MIRAGE_FRAME_STEREO) != 0;
+  uint rightX = uint(f.camera.viewport.x);
+  uint64_t leftFrame = push.frameAddress, rightFrame = push.frameAddress + MIRAGE_CLUSTER_FRAME_STRIDE;
   for (uint t = gl_LocalInvocationIndex; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
     uint b = (c.triangleOffset + t) * 3u;
     uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
@@ -125,23 +137,34 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
     float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
     if (d[0] >= 0.0 && d[1] >= 0.0 && d[2] >= 0.0) {
-      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m);
+      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m, leftFrame, 0);
+      if (stereo)
+        rasterTriangle(vec3(screenRightX[i0], screen[i0].yz), vec3(screenRightX[i1], screen[i1].yz),
+                       vec3(screenRightX[i2], screen[i2].yz), id, keepAll, mirrored, f, fade, masked, tri, m,
+                       rightFrame, rightX);
       continue;
     }
     if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
     // Sutherland-Hodgman against the near plane: keep inside corners, add the crossing point of
     // each edge that crosses. One or two corners inside give a triangle or a quad, with the
     // original winding (w > 0 everywhere), so facing is decided per fan triangle as usual.
-    vec3 poly[4];
+    vec4 clipped[4];
     uint n = 0;
     for (uint k = 0; k < 3; ++k) {
       uint k1 = k == 2 ? 0 : k + 1;
-      if (d[k] >= 0.0) poly[n++] = toScreen(q[k], f.camera.viewport);
-      if ((d[k] >= 0.0) != (d[k1] >= 0.0)) poly[n++] = toScreen(mix(q[k], q[k1], d[k] / (d[k] - d[k1])), f.camera.viewport);
+      if (d[k] >= 0.0) clipped[n++] = q[k];
+      if ((d[k] >= 0.0) != (d[k1] >= 0.0)) clipped[n++] = mix(q[k], q[k1], d[k] / (d[k] - d[k1]));
     }
     atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
-    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m);
-    if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m);
+    for (uint eye = 0; eye < (stereo ? 2u : 1u); ++eye) {
+      vec4 dx = vec4(eye == 0 ? 0.0 : f.stereoClipDx, 0.0, 0.0, 0.0);
+      vec3 poly[4];
+      for (uint k = 0; k < n; ++k) poly[k] = toScreen(clipped[k] + dx, f.camera.viewport);
+      uint64_t eyeFrame = eye == 0 ? leftFrame : rightFrame;
+      uint eyeX = eye == 0 ? 0 : rightX;
+      rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX);
+      if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX);
+    }
   }
 }
 
@@ -162,12 +185,15 @@ void main() {
 #elif !defined(MIRAGE_RASTER_BLEND)
   if (masked) return;
 #endif
+  bool stereo = (f.flags & MIRAGE_FRAME_STEREO) != 0;
+  visRowPixels = uint(f.camera.viewport.x) * (stereo ? 2u : 1u);
   mat4 mvp = f.camera.viewProj * inst.model;
   for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
     vec4 clip = mvp * vec4(VertexRef(push.vertexAddress).vertices[id].position, 1.0);
     clipPos[i] = clip;
     screen[i] = toScreen(clip, f.camera.viewport);
+    if (stereo) screenRightX[i] = toScreen(clip + vec4(f.stereoClipDx, 0.0, 0.0, 0.0), f.camera.viewport).x;
   }
   barrier();
 #if defined(MIRAGE_RASTER_MASK)

@@ -7,5 +7,7 @@ void main() {
   ivec2 p = ivec2(gl_FragCoord.xy);
   uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
   if (!meshKeepsPixel(instanceFade(instance), uvec2(p))) return; // the surfels' pixel in the blend band
-  atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(f.camera.viewport.x) + p.x], value);
+  // Stereo draws each eye with its viewport in its half, so p is already the buffer's column.
+  int row = int(f.camera.viewport.x) * ((f.flags & MIRAGE_FRAME_STEREO) != 0 ? 2 : 1);
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * row + p.x], value);
 }

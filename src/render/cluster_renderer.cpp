@@ -115,8 +115,11 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     cmdPhaseBarrier(cmd, mesh);
   }
   cmdArgs(cmd, p, /*pass=*/0); // pass-1 raster arguments (everything without occlusion)
-  if (plan.stereo) {
-    cmdStereoEyes(cmd, p, plan); // per eye: visibility + resolve into its half (cluster_stereo.cpp)
+  if (plan.stereo) {           // both eyes side by side, each pass once (docs/render.md, "Stereo")
+    sio::ClusterPush eyes = p;
+    eyes.frameAddress += kFrameStride; // the left eye's frame; the right eye's follows it
+    cmdRasterize(cmd, eyes, plan.backend, 0);
+    cmdResolve(cmd, eyes);
     finishFrame(cmd, plan, frameTime);
     return;
   }
