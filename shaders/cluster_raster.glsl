@@ -8,11 +8,13 @@
 // top-left rule, as fixed-function hardware does, so the ids match the other backends.
 // Triangles crossing the near plane are clipped against it in clip space (at most a quad, drawn as
 // a two-triangle fan), so a camera inside or next to the geometry draws what the hardware draws.
-// Stereo (MIRAGE_FRAME_STEREO, the left eye's frame): each vertex is transformed once; the right
-// eye's clip position is the left one's with x + stereoClipDx (y, z, w are the same), so only its
-// screen x is kept too, and every triangle is drawn into both halves of the 2W-wide buffer (an eye
-// whose bounding box misses its half loops over nothing). Near-plane clipping is per eye for free:
-// the near distance w - z is the same in both eyes.
+// Stereo (kEyes = 2, the left eye's frame): each vertex is transformed once; the right eye's clip
+// position is the left one's with x + stereoClipDx (y, z, w are the same), so only its screen x is
+// kept too, and every triangle is drawn into both halves of the 2W-wide buffer (an eye whose
+// bounding box misses its half loops over nothing). The workgroup doubles: its first
+// MIRAGE_CLUSTER_WORKGROUP threads draw the left eye, the others the right, so a thread walks as
+// many triangles as in mono (the pass is bound by that serial walk, not by the vertex transform).
+// Near-plane clipping is per eye for free: the near distance w - z is the same in both eyes.
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
 
@@ -22,7 +24,9 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 #include "cluster_surface.glsl"
 #include "cluster_alpha.glsl"
 
-layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
+// Specialization: eyes drawn (1, or 2 for stereo), and the workgroup size, kEyes * MIRAGE_CLUSTER_WORKGROUP.
+layout(constant_id = 0) const uint kEyes = 1;
+layout(local_size_x_id = 1) in;
 
 shared vec4 clipPos[MIRAGE_CLUSTER_MAX_VERTICES]; // clip space (only read for near-crossing triangles)
 shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES];  // pixels x, y; depth z/w
@@ -125,10 +129,12 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   GpuMaterial m;
   if (masked) m = instanceMaterial(inst);
-  bool stereo = (f.flags & MIRAGE_FRAME_STEREO) != 0;
-  uint rightX = uint(f.camera.viewport.x);
-  uint64_t leftFrame = push.frameAddress, rightFrame = push.frameAddress + MIRAGE_CLUSTER_FRAME_STRIDE;
-  for (uint t = gl_LocalInvocationIndex; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
+  // Stereo: this thread's eye, where its samples land, and the frame its alpha test sees.
+  uint eye = gl_LocalInvocationIndex / MIRAGE_CLUSTER_WORKGROUP;
+  uint eyeX = eye * uint(f.camera.viewport.x);
+  uint64_t eyeFrame = push.frameAddress + eye * MIRAGE_CLUSTER_FRAME_STRIDE;
+  vec4 eyeDx = vec4(eye == 0 ? 0.0 : f.stereoClipDx, 0.0, 0.0, 0.0);
+  for (uint t = gl_LocalInvocationIndex % MIRAGE_CLUSTER_WORKGROUP; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
     uint b = (c.triangleOffset + t) * 3u;
     uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
     uint id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
@@ -137,11 +143,12 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
     float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
     if (d[0] >= 0.0 && d[1] >= 0.0 && d[2] >= 0.0) {
-      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m, leftFrame, 0);
-      if (stereo)
+      if (eye == 0)
+        rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, 0);
+      else
         rasterTriangle(vec3(screenRightX[i0], screen[i0].yz), vec3(screenRightX[i1], screen[i1].yz),
                        vec3(screenRightX[i2], screen[i2].yz), id, keepAll, mirrored, f, fade, masked, tri, m,
-                       rightFrame, rightX);
+                       eyeFrame, eyeX);
       continue;
     }
     if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
@@ -155,16 +162,11 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
       if (d[k] >= 0.0) clipped[n++] = q[k];
       if ((d[k] >= 0.0) != (d[k1] >= 0.0)) clipped[n++] = mix(q[k], q[k1], d[k] / (d[k] - d[k1]));
     }
-    atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
-    for (uint eye = 0; eye < (stereo ? 2u : 1u); ++eye) {
-      vec4 dx = vec4(eye == 0 ? 0.0 : f.stereoClipDx, 0.0, 0.0, 0.0);
-      vec3 poly[4];
-      for (uint k = 0; k < n; ++k) poly[k] = toScreen(clipped[k] + dx, f.camera.viewport);
-      uint64_t eyeFrame = eye == 0 ? leftFrame : rightFrame;
-      uint eyeX = eye == 0 ? 0 : rightX;
-      rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX);
-      if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX);
-    }
+    if (eye == 0) atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
+    vec3 poly[4];
+    for (uint k = 0; k < n; ++k) poly[k] = toScreen(clipped[k] + eyeDx, f.camera.viewport);
+    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX);
+    if (n == 4) rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX);
   }
 }
 
@@ -185,15 +187,14 @@ void main() {
 #elif !defined(MIRAGE_RASTER_BLEND)
   if (masked) return;
 #endif
-  bool stereo = (f.flags & MIRAGE_FRAME_STEREO) != 0;
-  visRowPixels = uint(f.camera.viewport.x) * (stereo ? 2u : 1u);
+  visRowPixels = uint(f.camera.viewport.x) * kEyes;
   mat4 mvp = f.camera.viewProj * inst.model;
-  for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
+  for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += gl_WorkGroupSize.x) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
     vec4 clip = mvp * vec4(VertexRef(push.vertexAddress).vertices[id].position, 1.0);
     clipPos[i] = clip;
     screen[i] = toScreen(clip, f.camera.viewport);
-    if (stereo) screenRightX[i] = toScreen(clip + vec4(f.stereoClipDx, 0.0, 0.0, 0.0), f.camera.viewport).x;
+    if (kEyes == 2) screenRightX[i] = toScreen(clip + vec4(f.stereoClipDx, 0.0, 0.0, 0.0), f.camera.viewport).x;
   }
   barrier();
 #if defined(MIRAGE_RASTER_MASK)

@@ -53,11 +53,19 @@ void ClusterRenderer::Impl::createPipelines() {
   instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
-  if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
-  if (caps.int64BufferAtomics && scene.hasMask)
-    rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout);
+  // Compute rasterizers (cluster_raster.glsl), specialized by eyes and workgroup size: stereo
+  // draws both eyes with twice the threads.
+  const uint32_t kMono[] = {1, MIRAGE_CLUSTER_WORKGROUP}, kStereo[] = {2, 2 * MIRAGE_CLUSTER_WORKGROUP};
+  if (caps.int64BufferAtomics) {
+    rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kMono);
+    rasterStereoPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kStereo);
+  }
+  if (caps.int64BufferAtomics && scene.hasMask) {
+    rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kMono);
+    rasterMaskStereoPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kStereo);
+  }
   if (scene.blendInstancedClusters > 0) {
-    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout);
+    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
     compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
   }
   // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's

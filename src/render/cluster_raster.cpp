@@ -114,11 +114,12 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
     cmdImageBarriers(cmd, toRead);
   } else {
     cmdPush(cmd, p, pass * 2 + MIRAGE_LIST_UP);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
+    bool stereo = plans[currentSlot].stereo; // p: the left eye's frame, both eyes per workgroup
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterStereoPipeline : rasterPipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     if (rasterMaskPipeline) { // masked clusters of the same list (the opaque kernel skipped them)
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterMaskPipeline);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterMaskStereoPipeline : rasterMaskPipeline);
       vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     }
     if (backend == RasterBackend::Hybrid)

@@ -1,9 +1,10 @@
-// Stereo cluster rendering (docs/render.md, "Stereo"): one selection shared by both eyes, each eye
-// rasterized and resolved into its half of a side-by-side target. Each half must match a mono
+// Stereo cluster rendering (docs/render.md, "Stereo"): one selection shared by both eyes, both eyes
+// rasterized and resolved in one pass each into the halves of a side-by-side target. Each half must match a mono
 // render of that eye's camera (the shared selection differs only where the nearer eye asks for a
 // finer cut, well below the 45 dB bar), on every raster backend the device has and every selection.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -19,6 +20,7 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/camera.h"
 #include "mirage/render/cluster_renderer.h"
+#include "test_scenes.h"
 
 using namespace mirage;
 using namespace mirage::render;
@@ -54,6 +56,27 @@ ImageRGBA8 half(const ImageRGBA8& image, uint32_t index) {
     for (uint32_t x = 0; x < out.width; ++x)
       for (int c = 0; c < 4; ++c) out.at(x, y)[c] = image.at(x + index * out.width, y)[c];
   return out;
+}
+
+int passCount(const ClusterRenderOutput& out, const std::string& name) {
+  int n = 0;
+  for (const auto& t : out.image.stats.passTimes) n += t.name == name;
+  return n;
+}
+
+// Each half of a stereo render of `camera` against a mono render of that eye (PSNR >= 45 dB).
+void expectHalvesMatchMono(ClusterRenderer& renderer, const ClusterRenderOutput& stereo,
+                           const std::array<Camera, 2>& eyes, const ClusterRenderSettings& monoBase) {
+  ASSERT_EQ(stereo.image.srgb.width, 2 * monoBase.base.width);
+  for (uint32_t e = 0; e < 2; ++e) {
+    ClusterRenderSettings s = monoBase;
+    s.base.camera = eyes[e];
+    s.stereoIpd.reset();
+    auto mono = renderer.render(s);
+    ASSERT_TRUE(mono.ok()) << mono.error().message;
+    ImageRGBA8 h = half(stereo.image.srgb, e);
+    EXPECT_GE(psnr(h, mono->image.srgb), 45.0) << "eye " << e;
+  }
 }
 
 ClusterRenderSettings settings(const Camera& camera, RasterBackend backend, SelectionMode selection) {
@@ -121,6 +144,9 @@ TEST_F(ClusterStereo, EachHalfMatchesAMonoRenderOfThatEye) {
     ASSERT_EQ(stereo->image.srgb.height, kHeight);
     ImageRGBA8 halves[2] = {half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)};
     EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
+    // Both eyes in one raster pass and one resolve pass.
+    EXPECT_EQ(passCount(*stereo, "raster"), 1);
+    EXPECT_EQ(passCount(*stereo, "resolve"), 1);
     uint64_t monoTriangles[2] = {};
     for (uint32_t e = 0; e < 2; ++e) {
       auto mono = (*renderer)->render(settings(eyes[e], backend, selection));
@@ -150,4 +176,90 @@ TEST_F(ClusterStereo, RefusesWhatTheSharedSelectionCannotServe) {
   auto occl = (*renderer)->render(s);
   ASSERT_FALSE(occl.ok());
   EXPECT_NE(occl.error().message.find("occlusion"), std::string::npos);
+}
+
+// The compute raster draws the right eye from the left eye's clip positions (x shifted): triangles
+// crossing the near plane must still be clipped per eye as a mono render of that eye clips them.
+TEST_F(ClusterStereo, NearPlaneCrossingTrianglesMatchPerEye) {
+  gpu::Context& ctx = context();
+  auto renderer = ClusterRenderer::create(ctx, gridAsset());
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  const Bounds& bounds = (*renderer)->worldBounds();
+  // Inside the grid, the near plane cutting through the middle blob, the others in view behind it.
+  Camera camera;
+  camera.target = bounds.center() + glm::vec3(0.0f, 0.0f, -10.0f);
+  camera.eye = bounds.center() + glm::vec3(0.2f, 0.1f, 0.3f);
+  camera.znear = 0.4f;
+  camera.zfar = 20.0f;
+  float ipd = 0.3f;
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
+    SCOPED_TRACE(toString(backend));
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.stereoIpd = ipd;
+    auto stereo = (*renderer)->render(s);
+    ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+    if (backend == RasterBackend::Compute) {
+      EXPECT_GT(stereo->stats.trianglesNearClipped, 0u);
+    }
+    expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), s);
+  }
+}
+
+// Alpha MASK: every rasterizer alpha-tests each eye's pixels with that eye's camera (the compute
+// raster's right-eye threads, the hardware draws in the right half), so the cut-outs of a checker
+// panel in front of a wall land where a mono render of each eye puts them.
+TEST_F(ClusterStereo, MaskedCutoutsMatchPerEye) {
+  gpu::Context& ctx = context();
+  Scene scene;
+  scene.materials = {test::solidMaterial({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
+                     test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true)};
+  scene.materials[1].alphaCutoff = 0.5f;
+  scene.materials[1].baseColorTexture = 0;
+  Texture checker; // 8 x 8, alpha 255 / 0
+  checker.name = "checker";
+  checker.width = checker.height = 8;
+  for (uint32_t y = 0; y < 8; ++y)
+    for (uint32_t x = 0; x < 8; ++x)
+      checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
+  scene.textures.push_back(checker);
+  auto panel = [](float halfSize, float z, uint32_t material) {
+    Mesh m;
+    m.name = "panel";
+    m.material = material;
+    constexpr int n = 12;
+    for (int y = 0; y <= n; ++y)
+      for (int x = 0; x <= n; ++x) {
+        float u = float(x) / n, v = float(y) / n;
+        m.positions.push_back({(u * 2.0f - 1.0f) * halfSize, (v * 2.0f - 1.0f) * halfSize, z});
+        m.normals.push_back({0, 0, 1});
+        m.uv0.push_back({u, 1.0f - v});
+      }
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + n + 2, d = a + n + 1;
+        m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+      }
+    for (const glm::vec3& p : m.positions) m.bounds.add(p);
+    return m;
+  };
+  scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1)};
+  scene.instances = {{0, glm::mat4(1.0f)}, {1, glm::mat4(1.0f)}};
+  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  auto renderer = ClusterRenderer::create(ctx, *baked);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  Camera camera;
+  camera.eye = {0.3f, 0.4f, 4.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  float ipd = 0.5f; // a checker cell shifts visibly between the eyes
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
+    SCOPED_TRACE(toString(backend));
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.tauPixels = 0.5f;
+    s.stereoIpd = ipd;
+    auto stereo = (*renderer)->render(s);
+    ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+    EXPECT_LT(psnr(half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)), 30.0);
+    expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), s);
+  }
 }
