@@ -185,10 +185,10 @@ TEST_F(ClusterStereo, NearPlaneCrossingTrianglesMatchPerEye) {
   auto renderer = ClusterRenderer::create(ctx, gridAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   const Bounds& bounds = (*renderer)->worldBounds();
-  // Inside the grid, the near plane cutting through the middle blob, the others in view behind it.
+  // Just in front of the middle blob, the near plane cutting through its front, the others in view behind.
   Camera camera;
   camera.target = bounds.center() + glm::vec3(0.0f, 0.0f, -10.0f);
-  camera.eye = bounds.center() + glm::vec3(0.2f, 0.1f, 0.3f);
+  camera.eye = bounds.center() + glm::vec3(0.2f, 0.1f, 1.4f);
   camera.znear = 0.4f;
   camera.zfar = 20.0f;
   float ipd = 0.3f;
