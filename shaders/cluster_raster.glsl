@@ -129,12 +129,14 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   GpuMaterial m;
   if (masked) m = instanceMaterial(inst);
-  // Stereo: this thread's eye, where its samples land, and the frame its alpha test sees.
-  uint eye = gl_LocalInvocationIndex / MIRAGE_CLUSTER_WORKGROUP;
+  // Stereo: this thread's eye, where its samples land, and the frame its alpha test sees. Written
+  // through kEyes so that the mono kernels fold the eye to 0 and carry no stereo code.
+  uint eye = kEyes == 2 ? gl_LocalInvocationIndex / MIRAGE_CLUSTER_WORKGROUP : 0;
+  uint lane = kEyes == 2 ? gl_LocalInvocationIndex % MIRAGE_CLUSTER_WORKGROUP : gl_LocalInvocationIndex;
   uint eyeX = eye * uint(f.camera.viewport.x);
   uint64_t eyeFrame = push.frameAddress + eye * MIRAGE_CLUSTER_FRAME_STRIDE;
   vec4 eyeDx = vec4(eye == 0 ? 0.0 : f.stereoClipDx, 0.0, 0.0, 0.0);
-  for (uint t = gl_LocalInvocationIndex % MIRAGE_CLUSTER_WORKGROUP; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
+  for (uint t = lane; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
     uint b = (c.triangleOffset + t) * 3u;
     uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
     uint id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
@@ -143,12 +145,13 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
     float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
     if (d[0] >= 0.0 && d[1] >= 0.0 && d[2] >= 0.0) {
-      if (eye == 0)
-        rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, 0);
-      else
-        rasterTriangle(vec3(screenRightX[i0], screen[i0].yz), vec3(screenRightX[i1], screen[i1].yz),
-                       vec3(screenRightX[i2], screen[i2].yz), id, keepAll, mirrored, f, fade, masked, tri, m,
-                       eyeFrame, eyeX);
+      vec3 s0 = screen[i0], s1 = screen[i1], s2 = screen[i2];
+      if (eye == 1) {
+        s0.x = screenRightX[i0];
+        s1.x = screenRightX[i1];
+        s2.x = screenRightX[i2];
+      }
+      rasterTriangle(s0, s1, s2, id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX);
       continue;
     }
     if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
