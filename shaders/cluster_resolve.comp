@@ -66,7 +66,9 @@ void main() {
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
   ClusterTriangle tri = fetchTriangle(c, inst, t);
-  ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5);
+  GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
+  GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
+  ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5, materialTextured(m));
 
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;
@@ -75,8 +77,6 @@ void main() {
     return;
   }
   vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);
-  GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
-  GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
   // Occlusion history for the next frame: exactly the clusters that own a pixel. A visible cluster
   // that owns none is only deferred to the next frame's pass 2, which tests it against the HZB.
   if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBitAt(inst.historyOffset + vc.cluster - mesh.clusterOffset)) {
