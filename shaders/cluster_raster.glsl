@@ -30,7 +30,9 @@ layout(local_size_x_id = 1) in;
 
 shared vec4 clipPos[MIRAGE_CLUSTER_MAX_VERTICES]; // clip space (only read for near-crossing triangles)
 shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES];  // pixels x, y; depth z/w
-shared float screenRightX[MIRAGE_CLUSTER_MAX_VERTICES]; // stereo: the right eye's pixel x
+// Stereo: the right eye's pixel x. One element in the mono kernels, whose shared memory (and so
+// workgroups per SM: the raster is latency-bound) stays as it was.
+shared float screenRightX[kEyes == 2 ? MIRAGE_CLUSTER_MAX_VERTICES : 1];
 
 uint visRowPixels; // pixels per row of the 64-bit buffer: the viewport's width, both eyes' in stereo
 

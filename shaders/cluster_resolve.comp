@@ -24,10 +24,11 @@ void main() {
   // Stereo: one dispatch over both eyes side by side; the right half shades with the right eye's
   // frame (the next one in the frame buffer), px is the pixel within the eye.
   ivec2 target = ivec2(gl_GlobalInvocationID.xy);
+  // Only two scalars of the left eye's frame pick the eye: one whole frame is loaded per thread.
   uint64_t frameAddress = push.frameAddress;
-  ClusterFrame left = FrameRef(frameAddress).frame;
-  bool stereo = (left.flags & MIRAGE_FRAME_STEREO) != 0;
-  if (stereo && target.x >= int(left.camera.viewport.x)) frameAddress += MIRAGE_CLUSTER_FRAME_STRIDE;
+  bool stereo = (FrameRef(frameAddress).frame.flags & MIRAGE_FRAME_STEREO) != 0;
+  if (stereo && target.x >= int(FrameRef(frameAddress).frame.camera.viewport.x))
+    frameAddress += MIRAGE_CLUSTER_FRAME_STRIDE;
   ClusterFrame f = FrameRef(frameAddress).frame;
   ivec2 px = target - ivec2(f.targetOffsetX, 0);
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
@@ -66,9 +67,7 @@ void main() {
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
   ClusterTriangle tri = fetchTriangle(c, inst, t);
-  GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
-  GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
-  ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5, materialTextured(m));
+  ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5);
 
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;
@@ -77,6 +76,8 @@ void main() {
     return;
   }
   vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);
+  GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
+  GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
   // Occlusion history for the next frame: exactly the clusters that own a pixel. A visible cluster
   // that owns none is only deferred to the next frame's pass 2, which tests it against the HZB.
   if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBitAt(inst.historyOffset + vc.cluster - mesh.clusterOffset)) {

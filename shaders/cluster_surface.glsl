@@ -45,15 +45,10 @@ struct ClusterSurface {
 };
 
 // The surface point of `tri` under the pixel centre `centre`, with per-pixel derivatives.
-// `derivatives` false (materials without textures: only texture lookups and the normal map's
-// frame read them) skips the two neighbour rays and leaves the derivatives zero.
-ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre, bool derivatives) {
+ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre) {
   vec3 h = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre), tri.p0, tri.e1, tri.e2);
-  vec3 hx = h, hy = h;
-  if (derivatives) {
-    hx = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(1, 0)), tri.p0, tri.e1, tri.e2);
-    hy = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(0, 1)), tri.p0, tri.e1, tri.e2);
-  }
+  vec3 hx = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(1, 0)), tri.p0, tri.e1, tri.e2);
+  vec3 hy = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(0, 1)), tri.p0, tri.e1, tri.e2);
   ClusterSurface s;
   s.bary = vec3(1.0 - h.y - h.z, h.y, h.z);
   s.pos = tri.p0 + tri.e1 * h.y + tri.e2 * h.z;
@@ -63,13 +58,6 @@ ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre, bool 
   s.d.duvdx = (tri.b.uv - tri.a.uv) * (hx.y - h.y) + (tri.c.uv - tri.a.uv) * (hx.z - h.z);
   s.d.duvdy = (tri.b.uv - tri.a.uv) * (hy.y - h.y) + (tri.c.uv - tri.a.uv) * (hy.z - h.z);
   return s;
-}
-
-ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre) { return surfaceAt(f, tri, centre, true); }
-
-bool materialTextured(GpuMaterial m) {
-  return m.baseColorTexture >= 0 || m.metallicRoughnessTexture >= 0 || m.normalTexture >= 0 ||
-         m.occlusionTexture >= 0 || m.emissiveTexture >= 0;
 }
 
 // Shaded colour (rgb) and coverage (a: 1, or base-colour alpha for BLEND) of triangle t of visible
