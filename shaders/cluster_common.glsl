@@ -35,6 +35,12 @@ bool pvsClusterVisible(ClusterFrame f, uint instance, uint meshLocal) {
 }
 
 // Local 8-bit index number `i` of the global index array (packed four per word).
+// Pixels per row of the per-pixel buffers (64-bit visibility, transparency heads): the viewport's
+// width, or both eyes' side by side in stereo frames (MIRAGE_FRAME_STEREO).
+uint targetRowPixels(ClusterFrame f) {
+  return uint(f.camera.viewport.x) * ((f.flags & MIRAGE_FRAME_STEREO) != 0 ? 2u : 1u);
+}
+
 uint localIndex(uint i) {
   uint word = UintRef(push.indexAddress).data[i >> 2];
   return (word >> ((i & 3u) * 8u)) & 0xffu;

@@ -34,8 +34,8 @@ void main() {
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
   uint v1, t, surfelId = 0;
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
-    uint row = uint(f.camera.viewport.x) * (stereo ? 2u : 1u);
-    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[uint(target.y) * row + uint(target.x)] & 0xffffffffUL);
+    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[uint(target.y) * targetRowPixels(f) + uint(target.x)] &
+                   0xffffffffUL);
     // Mixed scenes: a tagged id is a surfel, shaded where background pixels are.
     if (f.surfelLinkAddress != 0 && (id & MIRAGE_SURFEL_ID_TAG) != 0) {
       surfelId = id & ~MIRAGE_SURFEL_ID_TAG;

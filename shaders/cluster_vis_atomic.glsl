@@ -8,6 +8,5 @@ void main() {
   uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
   if (!meshKeepsPixel(instanceFade(instance), uvec2(p))) return; // the surfels' pixel in the blend band
   // Stereo draws each eye with its viewport in its half, so p is already the buffer's column.
-  int row = int(f.camera.viewport.x) * ((f.flags & MIRAGE_FRAME_STEREO) != 0 ? 2 : 1);
-  atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * row + p.x], value);
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(targetRowPixels(f)) + p.x], value);
 }

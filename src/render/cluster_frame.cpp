@@ -85,7 +85,6 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     if (cs.occlusionCulling) return Error{"--stereo does not support occlusion culling yet (drop --occlusion)"};
     if (cs.surfels) return Error{"--stereo does not support mesh + surfel scenes yet"};
     if (cs.readOwnedClusters) return Error{"--stereo cannot read the clusters owning pixels"};
-    if (hasBlend()) return Error{"--stereo does not support alpha BLEND materials yet"};
     p.stereo = true;
   }
   p.dagTree = cs.selection == SelectionMode::Dag;

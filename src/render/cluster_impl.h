@@ -109,7 +109,7 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
       rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
-  gpu::Unique<VkPipeline> rasterStereoPipeline, rasterMaskStereoPipeline; // both eyes in one dispatch
+  gpu::Unique<VkPipeline> rasterStereoPipeline, rasterMaskStereoPipeline, blendRasterStereoPipeline; // both eyes
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
   VkShaderStageFlags pushStages = 0;
@@ -153,6 +153,8 @@ struct ClusterRenderer::Impl {
   void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
   void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri);
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
+  void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,
+                   uint32_t rasterList);
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
   bool hasBlend() const { return blendCapacity > 0; }

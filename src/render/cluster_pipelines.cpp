@@ -66,6 +66,7 @@ void ClusterRenderer::Impl::createPipelines() {
   }
   if (scene.blendInstancedClusters > 0) {
     blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
+    blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kStereo);
     compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
   }
   // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
@@ -163,7 +164,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   }
   hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
   if (hasBlend()) {
-    uint64_t pixels = uint64_t(w) * h;
+    uint64_t pixels = uint64_t(colorW) * h; // both eyes in stereo
     oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                             MemoryUsage::GpuOnly, "transparency heads");
     oitNodeCapacity = uint32_t(

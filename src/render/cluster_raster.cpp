@@ -14,7 +14,7 @@ void ClusterRenderer::Impl::cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingI
   ri.renderArea = {{0, 0}, {colorWidth, height}};
   ri.layerCount = 1;
   vkCmdBeginRendering(cmd, &ri);
-  cmdSetFullViewport(cmd, width, height);
+  cmdSetFullViewport(cmd, colorWidth, height);
   vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
   vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
 }
@@ -60,6 +60,14 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
   VkPipeline pipeline =
       mesh ? (atomic ? meshAtomicPipeline : meshPipeline) : (atomic ? indirectAtomicPipeline : indirectPipeline);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  cmdDrawEyes(cmd, p, mesh, pass, list, pass * 2 + list);
+  vkCmdEndRendering(cmd);
+}
+
+// One list drawn within a rendering begun by cmdBeginFullTarget; stereo (p: the left eye's frame):
+// once per eye with that eye's frame, viewport and scissor over its half of the target.
+void ClusterRenderer::Impl::cmdDrawEyes(VkCommandBuffer cmd, const sio::ClusterPush& p, bool mesh, uint32_t pass,
+                                        uint32_t list, uint32_t rasterList) {
   uint32_t eyes = plans[currentSlot].stereo ? 2 : 1;
   for (uint32_t e = 0; e < eyes; ++e) {
     sio::ClusterPush ep = p;
@@ -70,10 +78,9 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
       vkCmdSetViewport(cmd, 0, 1, &vp);
       vkCmdSetScissor(cmd, 0, 1, &scissor);
     }
-    cmdPush(cmd, ep, pass * 2 + list);
+    cmdPush(cmd, ep, rasterList);
     cmdDrawList(cmd, mesh, pass, list);
   }
-  vkCmdEndRendering(cmd);
 }
 
 // barriers: cmdArgs(pass) visible; the 64-bit buffer zeroed and visible (buffer backends). On exit

@@ -119,7 +119,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     sio::ClusterPush eyes = p;
     eyes.frameAddress += kFrameStride; // the left eye's frame; the right eye's follows it
     cmdRasterize(cmd, eyes, plan.backend, 0);
+    if (hasBlend()) cmdArgs(cmd, p, /*pass=*/2);
     cmdResolve(cmd, eyes);
+    if (hasBlend()) cmdTransparency(cmd, eyes, plan.blend, plan.meshBlend, plan.bufferTarget);
     finishFrame(cmd, plan, frameTime);
     return;
   }

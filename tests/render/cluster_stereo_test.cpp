@@ -205,14 +205,17 @@ TEST_F(ClusterStereo, NearPlaneCrossingTrianglesMatchPerEye) {
   }
 }
 
-// Alpha MASK: every rasterizer alpha-tests each eye's pixels with that eye's camera (the compute
-// raster's right-eye threads, the hardware draws in the right half), so the cut-outs of a checker
-// panel in front of a wall land where a mono render of each eye puts them.
-TEST_F(ClusterStereo, MaskedCutoutsMatchPerEye) {
+// Alpha MASK and BLEND: every rasterizer alpha-tests each eye's pixels with that eye's camera (the
+// compute raster's right-eye threads, the hardware draws in the right half), so the cut-outs of a
+// checker panel in front of a wall land where a mono render of each eye puts them; the blended
+// panels in front go through per-eye transparency lists (each blend raster) and one composite.
+TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
   gpu::Context& ctx = context();
   Scene scene;
   scene.materials = {test::solidMaterial({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
-                     test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true)};
+                     test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true),
+                     test::solidMaterial({0.1f, 0.3f, 0.9f, 0.5f}, AlphaMode::Blend),
+                     test::solidMaterial({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
   scene.materials[1].alphaCutoff = 0.5f;
   scene.materials[1].baseColorTexture = 0;
   Texture checker; // 8 x 8, alpha 255 / 0
@@ -242,8 +245,11 @@ TEST_F(ClusterStereo, MaskedCutoutsMatchPerEye) {
     for (const glm::vec3& p : m.positions) m.bounds.add(p);
     return m;
   };
-  scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1)};
-  scene.instances = {{0, glm::mat4(1.0f)}, {1, glm::mat4(1.0f)}};
+  scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1), panel(0.8f, 0.0f, 2), panel(0.8f, 0.0f, 3)};
+  scene.instances = {{0, glm::mat4(1.0f)},
+                     {1, glm::mat4(1.0f)},
+                     {2, glm::translate(glm::mat4(1.0f), {-0.45f, 0.1f, 0.6f})},
+                     {3, glm::translate(glm::mat4(1.0f), {0.45f, -0.1f, 1.1f})}};
   auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
   ASSERT_TRUE(baked.ok()) << baked.error().message;
   auto renderer = ClusterRenderer::create(ctx, *baked);
@@ -252,10 +258,17 @@ TEST_F(ClusterStereo, MaskedCutoutsMatchPerEye) {
   camera.eye = {0.3f, 0.4f, 4.0f};
   camera.target = {0.0f, 0.0f, 0.0f};
   float ipd = 0.5f; // a checker cell shifts visibly between the eyes
-  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
-    SCOPED_TRACE(toString(backend));
+  std::vector<BlendRaster> blends{BlendRaster::Compute};
+  if (ctx.caps().fragmentStoresAndAtomics) blends.insert(blends.end(), {BlendRaster::Hybrid, BlendRaster::Hardware});
+  std::vector<std::pair<RasterBackend, BlendRaster>> runs;
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) runs.emplace_back(backend, BlendRaster::Compute);
+  for (BlendRaster blend : blends) runs.emplace_back(test::availableRasterBackends(ctx).back(), blend);
+  runs.emplace_back(RasterBackend::Indirect, BlendRaster::Hardware);
+  for (auto [backend, blend] : runs) {
+    SCOPED_TRACE(std::string(toString(backend)) + " blend " + toString(blend));
     ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
     s.tauPixels = 0.5f;
+    s.blendRaster = blend;
     s.stereoIpd = ipd;
     auto stereo = (*renderer)->render(s);
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
