@@ -82,7 +82,6 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
       return Error{fmt::format("--stereo: the side-by-side target {}x{} exceeds {} pixels across", s.width * 2,
                                s.height, kMaxRenderDimension)};
-    if (cs.occlusionCulling) return Error{"--stereo does not support occlusion culling yet (drop --occlusion)"};
     if (cs.surfels) return Error{"--stereo does not support mesh + surfel scenes yet"};
     if (cs.readOwnedClusters) return Error{"--stereo cannot read the clusters owning pixels"};
     p.stereo = true;
@@ -178,6 +177,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     // all (P10 = P20 = P30 = 0 for every Camera::projection). The compute raster relies on it.
     std::array<Camera, 2> eyes = stereoEyes(s.camera, *cs.stereoIpd);
     f.stereoHalf = glm::vec4(0.5f * (eyes[1].eye - eyes[0].eye), 0.0f);
+    f.flags |= MIRAGE_FRAME_STEREO; // its HZB tests look through both eye frames (hzbVisible)
     std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
     Camera clipped[2] = {withClipPlanes(eyes[0], scene.worldBounds), withClipPlanes(eyes[1], scene.worldBounds)};
     for (Camera& c : clipped) {

@@ -156,7 +156,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   // itself, which the level-1 build reads directly.
   uint64_t floats = 0;
   hzbLevels = 1;
-  for (uint32_t lw = (w + 1) / 2, lh = (h + 1) / 2; hzbLevels < MIRAGE_HZB_MAX_LEVELS;
+  for (uint32_t lw = (colorW + 1) / 2, lh = (h + 1) / 2; hzbLevels < MIRAGE_HZB_MAX_LEVELS; // stereo: both eyes
        lw = (lw + 1) / 2, lh = (lh + 1) / 2) {
     hzbOffset[hzbLevels++] = uint32_t(floats);
     floats += uint64_t(lw) * lh;

@@ -119,6 +119,12 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     sio::ClusterPush eyes = p;
     eyes.frameAddress += kFrameStride; // the left eye's frame; the right eye's follows it
     cmdRasterize(cmd, eyes, plan.backend, 0);
+    if (occlusion) { // one HZB over both eyes; a sphere is hidden only if hidden from both
+      cmdBuildHzb(cmd, eyes);
+      cmdOcclusion(cmd, p, hierarchy);
+      cmdArgs(cmd, p, /*pass=*/1);
+      cmdRasterize(cmd, eyes, plan.backend, 1);
+    }
     if (hasBlend()) cmdArgs(cmd, p, /*pass=*/2);
     cmdResolve(cmd, eyes);
     if (hasBlend()) cmdTransparency(cmd, eyes, plan.blend, plan.meshBlend, plan.bufferTarget);

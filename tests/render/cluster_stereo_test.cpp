@@ -58,6 +58,28 @@ ImageRGBA8 half(const ImageRGBA8& image, uint32_t index) {
   return out;
 }
 
+// An n x n grid of quads in the XY plane at z facing +Z, uv 0..1 over it.
+Mesh panel(float halfSize, float z, uint32_t material) {
+  Mesh m;
+  m.name = "panel";
+  m.material = material;
+  constexpr int n = 12;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      float u = float(x) / n, v = float(y) / n;
+      m.positions.push_back({(u * 2.0f - 1.0f) * halfSize, (v * 2.0f - 1.0f) * halfSize, z});
+      m.normals.push_back({0, 0, 1});
+      m.uv0.push_back({u, 1.0f - v});
+    }
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + n + 2, d = a + n + 1;
+      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+    }
+  for (const glm::vec3& p : m.positions) m.bounds.add(p);
+  return m;
+}
+
 int passCount(const ClusterRenderOutput& out, const std::string& name) {
   int n = 0;
   for (const auto& t : out.image.stats.passTimes) n += t.name == name;
@@ -173,9 +195,77 @@ TEST_F(ClusterStereo, RefusesWhatTheSharedSelectionCannotServe) {
   EXPECT_NE(bad.error().message.find("--ipd"), std::string::npos);
   s.stereoIpd = 0.064f;
   s.occlusionCulling = true;
-  auto occl = (*renderer)->render(s);
-  ASSERT_FALSE(occl.ok());
-  EXPECT_NE(occl.error().message.find("occlusion"), std::string::npos);
+  s.readOwnedClusters = true;
+  auto owned = (*renderer)->render(s);
+  ASSERT_FALSE(owned.ok());
+  EXPECT_NE(owned.error().message.find("--stereo"), std::string::npos);
+}
+
+// A cluster hidden from one eye but not the other must be drawn: a wall hides a small blob from
+// the left eye while the right eye sees past the wall's edge. A first frame with the eyes together
+// (the blob hidden from both: no history) makes the blob a pass-2 candidate in the second, which
+// the HZB test must keep for the right eye.
+TEST_F(ClusterStereo, OcclusionKeepsWhatOnlyOneEyeSees) {
+  gpu::Context& ctx = context();
+  io::BlobOptions o;
+  o.subdivisions = 3;
+  o.radius = 0.3f;
+  Scene scene = io::generateBlob(o);
+  scene.materials.push_back(test::solidMaterial({0.8f, 0.8f, 0.8f, 1.0f}, AlphaMode::Opaque));
+  scene.meshes.push_back(panel(2.0f, 0.0f, uint32_t(scene.materials.size() - 1)));
+  scene.instances = {{0, glm::translate(glm::mat4(1.0f), {3.2f, 0.0f, -4.0f})},
+                     {uint32_t(scene.meshes.size() - 1), glm::mat4(1.0f)}};
+  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  Camera camera;
+  camera.eye = {0.0f, 0.0f, 4.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
+    SCOPED_TRACE(toString(backend));
+    auto renderer = ClusterRenderer::create(ctx, *baked);
+    ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.base.width = 256;
+    s.base.height = 192;
+    s.occlusionCulling = true;
+    s.stereoIpd = 0.01f;
+    ASSERT_TRUE((*renderer)->render(s).ok());
+    s.stereoIpd = 3.0f;
+    auto stereo = (*renderer)->render(s);
+    ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+    ClusterRenderSettings mono = s;
+    mono.occlusionCulling = false;
+    expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, 3.0f), mono);
+  }
+}
+
+// Occlusion culling in stereo: one HZB over both eyes, a cluster culled only when hidden from both,
+// the history the union of what either eye showed. Over frames (the second one draws pass 1 from
+// the first's history) each half still equals a mono render of its eye without occlusion.
+TEST_F(ClusterStereo, OcclusionCullingKeepsEachEyeImage) {
+  gpu::Context& ctx = context();
+  auto renderer = ClusterRenderer::create(ctx, gridAsset());
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  const Bounds& bounds = (*renderer)->worldBounds();
+  // Low over the grid's front row: the rows behind are partly hidden.
+  Camera camera;
+  camera.target = bounds.center() + glm::vec3(0.0f, 0.0f, -3.0f);
+  camera.eye = bounds.center() + glm::vec3(0.3f, 0.2f, 6.0f);
+  float ipd = 0.6f;
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
+    SCOPED_TRACE(toString(backend));
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.occlusionCulling = true;
+    s.stereoIpd = ipd;
+    for (int frame = 0; frame < 2; ++frame) {
+      auto stereo = (*renderer)->render(s);
+      ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+      EXPECT_TRUE(stereo->stats.occlusion);
+      ClusterRenderSettings mono = s;
+      mono.occlusionCulling = false;
+      expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), mono);
+    }
+  }
 }
 
 // The compute raster draws the right eye from the left eye's clip positions (x shifted): triangles
@@ -225,26 +315,6 @@ TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
     for (uint32_t x = 0; x < 8; ++x)
       checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
   scene.textures.push_back(checker);
-  auto panel = [](float halfSize, float z, uint32_t material) {
-    Mesh m;
-    m.name = "panel";
-    m.material = material;
-    constexpr int n = 12;
-    for (int y = 0; y <= n; ++y)
-      for (int x = 0; x <= n; ++x) {
-        float u = float(x) / n, v = float(y) / n;
-        m.positions.push_back({(u * 2.0f - 1.0f) * halfSize, (v * 2.0f - 1.0f) * halfSize, z});
-        m.normals.push_back({0, 0, 1});
-        m.uv0.push_back({u, 1.0f - v});
-      }
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) {
-        uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + n + 2, d = a + n + 1;
-        m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
-      }
-    for (const glm::vec3& p : m.positions) m.bounds.add(p);
-    return m;
-  };
   scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1), panel(0.8f, 0.0f, 2), panel(0.8f, 0.0f, 3)};
   scene.instances = {{0, glm::mat4(1.0f)},
                      {1, glm::mat4(1.0f)},
