@@ -22,5 +22,6 @@ bool fragmentAlphaKeeps(uint v, uint t, vec2 fragCoord) {
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
   if ((inst.flags & MIRAGE_INSTANCE_ALPHA_MASK) == 0) return true;
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
-  return maskKeeps(FrameRef(push.frameAddress).frame, instanceMaterial(inst), fetchTriangle(c, inst, t), fragCoord);
+  ClusterFrame f = FrameRef(push.frameAddress).frame; // stereo: the eye's viewport starts at targetOffsetX
+  return maskKeeps(f, instanceMaterial(inst), fetchTriangle(c, inst, t), fragCoord - vec2(f.targetOffsetX, 0.0));
 }

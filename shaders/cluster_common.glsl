@@ -35,6 +35,12 @@ bool pvsClusterVisible(ClusterFrame f, uint instance, uint meshLocal) {
 }
 
 // Local 8-bit index number `i` of the global index array (packed four per word).
+// Pixels per row of the per-pixel buffers (64-bit visibility, transparency heads): the viewport's
+// width, or both eyes' side by side in stereo frames (MIRAGE_FRAME_STEREO).
+uint targetRowPixels(ClusterFrame f) {
+  return uint(f.camera.viewport.x) * ((f.flags & MIRAGE_FRAME_STEREO) != 0 ? 2u : 1u);
+}
+
 uint localIndex(uint i) {
   uint word = UintRef(push.indexAddress).data[i >> 2];
   return (word >> ((i & 3u) * 8u)) & 0xffu;
@@ -149,8 +155,9 @@ vec4 worldSphere(GpuCluster c, GpuClusterInstance inst) {
 // rectangle spans at most three texels per axis gives the farthest depth drawn over it; the sphere is hidden when
 // its nearest point is farther still (reverse-Z: smaller). Spheres reaching the near plane are
 // visible.
-bool hzbVisible(vec4 s) {
-  ClusterFrame f = FrameRef(push.frameAddress).frame;
+// Stereo: the HZB spans both eyes side by side (2W wide; a texel straddling the seam holds the
+// farther of both, which only culls less); `f` is one eye's frame, its rectangle kept in its half.
+bool hzbVisibleIn(ClusterFrame f, vec4 s) {
   vec4 row3 = vec4(f.camera.viewProj[0][3], f.camera.viewProj[1][3], f.camera.viewProj[2][3], f.camera.viewProj[3][3]);
   float w = dot(row3.xyz, s.xyz) + row3.w; // view depth of the centre (row 3 has a unit forward axis)
   if (w - s.w * 1.7321 <= f.camera.znear) return true;
@@ -164,18 +171,27 @@ bool hzbVisible(vec4 s) {
   }
   vec4 nearest = f.camera.viewProj * vec4(s.xyz - s.w * row3.xyz, 1.0);
   float nearestDepth = nearest.z / nearest.w;
-  ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(f.camera.viewport) - 1);
-  ivec2 p1 = clamp(ivec2(floor(hi)), ivec2(0), ivec2(f.camera.viewport) - 1);
+  ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(f.camera.viewport) - 1) + ivec2(f.targetOffsetX, 0);
+  ivec2 p1 = clamp(ivec2(floor(hi)), ivec2(0), ivec2(f.camera.viewport) - 1) + ivec2(f.targetOffsetX, 0);
   int extent = max(p1.x - p0.x, p1.y - p0.y) + 1;
   // 2^level >= extent / 2; level 0 (full resolution) is not stored.
   int level = clamp(findMSB(max(extent - 1, 1)), 1, int(f.hzbLevels) - 1);
   ivec2 t0 = p0 >> level, t1 = p1 >> level;
-  int levelWidth = (int(f.camera.viewport.x) + (1 << level) - 1) >> level;
+  int levelWidth = (int(targetRowPixels(f)) + (1 << level) - 1) >> level;
   FloatRef hzb = FloatRef(f.hzbAddress);
   float farthest = 1.0;
   for (int y = t0.y; y <= t1.y; ++y)
     for (int x = t0.x; x <= t1.x; ++x) farthest = min(farthest, hzb.data[f.hzbOffset[level] + y * levelWidth + x]);
   return nearestDepth >= farthest;
+}
+
+// The selection and occlusion passes' test (their frame is the selection frame): in stereo a sphere
+// is hidden only when hidden from both eyes (the eye frames follow the selection frame).
+bool hzbVisible(vec4 s) {
+  ClusterFrame f = FrameRef(push.frameAddress).frame;
+  if ((f.flags & MIRAGE_FRAME_STEREO) == 0) return hzbVisibleIn(f, s);
+  return hzbVisibleIn(FrameRef(push.frameAddress + MIRAGE_CLUSTER_FRAME_STRIDE).frame, s) ||
+         hzbVisibleIn(FrameRef(push.frameAddress + 2 * MIRAGE_CLUSTER_FRAME_STRIDE).frame, s);
 }
 
 // Visibility-history bits: (instance, cluster) pairs at inst.historyOffset + mesh-local cluster,

@@ -18,11 +18,14 @@ layout(local_size_x = 16, local_size_y = 16) in;
 
 shared float tile[16][16];
 
-ivec2 levelSize(ClusterFrame f, uint level) { return (ivec2(f.camera.viewport) + (1 << level) - 1) >> level; }
+// Level 0 is the visibility target: both eyes side by side in stereo (pushed: the left eye's frame).
+ivec2 levelSize(ClusterFrame f, uint level) {
+  return (ivec2(targetRowPixels(f), f.camera.viewport.y) + (1 << level) - 1) >> level;
+}
 
 float sourceDepth(ClusterFrame f, ivec2 q) {
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0)
-    return uintBitsToFloat(uint(VisBufferRef(push.visBufferAddress).pixels[q.y * int(f.camera.viewport.x) + q.x] >> 32));
+    return uintBitsToFloat(uint(VisBufferRef(push.visBufferAddress).pixels[q.y * int(targetRowPixels(f)) + q.x] >> 32));
   return texelFetch(depthImage, q, 0).r;
 }
 
@@ -34,7 +37,7 @@ void buildTile(ClusterFrame f) {
   ivec2 size = levelSize(f, 1);
   float depth = 1.0;
   if (all(lessThan(p, size))) {
-    ivec2 last = ivec2(f.camera.viewport) - 1;
+    ivec2 last = levelSize(f, 0) - 1;
     for (int dy = 0; dy < 2; ++dy)
       for (int dx = 0; dx < 2; ++dx) depth = min(depth, sourceDepth(f, min(p * 2 + ivec2(dx, dy), last)));
     hzb.data[f.hzbOffset[1] + p.y * size.x + p.x] = depth;

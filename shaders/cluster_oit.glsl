@@ -3,9 +3,10 @@
 // so both write the same nodes under the same pool rule and the composite cannot tell them apart.
 
 // Nearest opaque depth of pixel (x, y) in the 64-bit visibility buffer (compute, hybrid): its high
-// word; 0 (far) where nothing opaque was drawn.
+// word; 0 (far) where nothing opaque was drawn. x counts across both eyes in stereo.
 float bufferOpaqueDepth(ClusterFrame f, uint x, uint y) {
-  uint pixel = min(y * uint(f.camera.viewport.x) + x, uint(f.camera.viewport.x * f.camera.viewport.y) - 1u); // lavapipe: any lane loads
+  uint row = targetRowPixels(f);
+  uint pixel = min(y * row + x, row * uint(f.camera.viewport.y) - 1u); // lavapipe: any lane loads
   return uintBitsToFloat(uint(VisBufferRef(push.visBufferAddress).pixels[pixel] >> 32));
 }
 
@@ -14,6 +15,6 @@ float bufferOpaqueDepth(ClusterFrame f, uint x, uint y) {
 void oitAppend(ClusterFrame f, uint x, uint y, float z, uint id) {
   uint n = atomicAdd(CounterRef(push.counterAddress).counters.oitNodes, 1);
   if (n >= f.oitNodeCapacity) return;
-  uint next = atomicExchange(UintRef(f.oitHeadAddress).data[y * uint(f.camera.viewport.x) + x], n + 1);
+  uint next = atomicExchange(UintRef(f.oitHeadAddress).data[y * targetRowPixels(f) + x], n + 1);
   OitNodeRef(f.oitNodeAddress).nodes[n] = OitNode(floatBitsToUint(z), id, next);
 }

@@ -18,10 +18,16 @@ layout(set = 0, binding = 2, rgba16f) uniform image2D colorImage;
 layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
-  ClusterFrame f = FrameRef(push.frameAddress).frame;
-  ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+  // Stereo: one dispatch over both eyes, as the resolve (the right half with the right eye's frame).
+  ivec2 target = ivec2(gl_GlobalInvocationID.xy);
+  uint64_t frameAddress = push.frameAddress;
+  bool stereo = (FrameRef(frameAddress).frame.flags & MIRAGE_FRAME_STEREO) != 0;
+  if (stereo && target.x >= int(FrameRef(frameAddress).frame.camera.viewport.x))
+    frameAddress += MIRAGE_CLUSTER_FRAME_STRIDE;
+  ClusterFrame f = FrameRef(frameAddress).frame;
+  ivec2 px = target - ivec2(f.targetOffsetX, 0); // the pixel within the eye
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
-  uint node = UintRef(f.oitHeadAddress).data[px.y * int(f.camera.viewport.x) + px.x];
+  uint node = UintRef(f.oitHeadAddress).data[uint(target.y) * targetRowPixels(f) + uint(target.x)];
   if (node == 0) return;
   // Keys (depth bits << 32 | id) ascending: far to near (reverse-Z); at most K, the nearest kept.
   // Unused keys stay 0 (id 0 reads entry 0, valid: lavapipe loads for inactive lanes too).
@@ -47,7 +53,7 @@ void main() {
     keys[at] = key;
   }
   if (dropped != 0) atomicAdd(CounterRef(push.counterAddress).counters.oitLayersDropped, dropped);
-  vec3 color = imageLoad(colorImage, px).rgb;
+  vec3 color = imageLoad(colorImage, target).rgb;
   for (int i = 0; i < count; ++i) {
     uint id = uint(keys[i] & 0xffffffffUL);
     uint v1 = max(id >> MIRAGE_CLUSTER_TRIANGLE_BITS, 1u);
@@ -55,5 +61,5 @@ void main() {
     vec4 c = shadeClusterPixel(f, vc, id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u), px);
     color = mix(color, c.rgb, c.a);
   }
-  imageStore(colorImage, px, vec4(color, 1.0));
+  imageStore(colorImage, target, vec4(color, 1.0));
 }

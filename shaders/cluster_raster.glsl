@@ -8,6 +8,13 @@
 // top-left rule, as fixed-function hardware does, so the ids match the other backends.
 // Triangles crossing the near plane are clipped against it in clip space (at most a quad, drawn as
 // a two-triangle fan), so a camera inside or next to the geometry draws what the hardware draws.
+// Stereo (kEyes = 2, the left eye's frame): each vertex is transformed once; the right eye's clip
+// position is the left one's with x + stereoClipDx (y, z, w are the same), so only its screen x is
+// kept too, and every triangle is drawn into both halves of the 2W-wide buffer (an eye whose
+// bounding box misses its half loops over nothing). The workgroup doubles: its first
+// MIRAGE_CLUSTER_WORKGROUP threads draw the left eye, the others the right, so a thread walks as
+// many triangles as in mono (the pass is bound by that serial walk, not by the vertex transform).
+// Near-plane clipping is per eye for free: the near distance w - z is the same in both eyes.
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
 
@@ -17,10 +24,17 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 #include "cluster_surface.glsl"
 #include "cluster_alpha.glsl"
 
-layout(local_size_x = MIRAGE_CLUSTER_WORKGROUP) in;
+// Specialization: eyes drawn (1, or 2 for stereo), and the workgroup size, kEyes * MIRAGE_CLUSTER_WORKGROUP.
+layout(constant_id = 0) const uint kEyes = 1;
+layout(local_size_x_id = 1) in;
 
 shared vec4 clipPos[MIRAGE_CLUSTER_MAX_VERTICES]; // clip space (only read for near-crossing triangles)
 shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES];  // pixels x, y; depth z/w
+// Stereo: the right eye's pixel x. One element in the mono kernels, whose shared memory (and so
+// workgroups per SM: the raster is latency-bound) stays as it was.
+shared float screenRightX[kEyes == 2 ? MIRAGE_CLUSTER_MAX_VERTICES : 1];
+
+uint visRowPixels; // pixels per row of the 64-bit buffer: the viewport's width, both eyes' in stereo
 
 float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
 // An edge's function evaluated from its endpoints in one canonical order (by y, then x) and
@@ -71,27 +85,30 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
   countOverdraw(f, uvec2(x, y));
   uint64_t value = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
-  atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * uint(f.camera.viewport.x) + x], value);
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[y * visRowPixels + x], value);
 }
 #endif
 
 // Triangles whose pixel box exceeds MIRAGE_RASTER_SHARED_PIXELS are not walked by their own thread:
 // one such triangle keeps its warp (and the dispatch's tail) waiting for hundreds of iterations
-// while its neighbours cover a few pixels each (coarse cuts, larger tau, foveation). Their indices
-// queue here and the whole workgroup walks each queued box after the per-thread pass, every thread
-// one pixel of each 8 x 8 block (rasterQueuedTriangles). The same loop serves both, so the kernel
-// needs no more registers than the per-thread walk.
+// while its neighbours cover a few pixels each (coarse cuts, larger tau, foveation). They queue
+// here (triangle index | eye << 7) and each eye's threads walk their eye's queued boxes after the
+// per-thread pass, every thread one pixel of each 8 x 8 block. The same loop serves both walks, so
+// the kernel needs no more registers than the per-thread walk.
 #define MIRAGE_RASTER_SHARED_PIXELS 64
 #define MIRAGE_RASTER_LATTICE 8 // MIRAGE_RASTER_LATTICE^2 == MIRAGE_CLUSTER_WORKGROUP
-shared uint queuedTriangles[MIRAGE_CLUSTER_MAX_TRIANGLES];
+shared uint queuedTriangles[MIRAGE_CLUSTER_MAX_TRIANGLES * kEyes];
 shared uint queuedCount;
 
 // One screen-space triangle (snapped vertices) into the 64-bit visibility buffer (or the
-// transparency lists): the pixels lattice + k * stride of its box. `queue`: a large box goes to
-// the workgroup's queue instead (triangle `id`'s index). `masked`: a constant per kernel, so the
-// opaque one carries no alpha code; masked pixels pass maskKeeps on `tri` (the unclipped triangle).
+// transparency lists): the pixels lattice + k * stride of its box. A large box goes to the
+// workgroup's queue as `queueEntry` instead (~0u: never). `masked`: a constant per kernel, so the
+// opaque one carries no alpha code; masked pixels pass maskKeeps on `tri` (the unclipped triangle)
+// first, seen from the frame at `eyeFrame`. Samples land `eyeX` pixels right of the eye's own
+// pixel (stereo's right half).
 void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirrored, ClusterFrame f, float fade,
-                    bool masked, ClusterTriangle tri, GpuMaterial m, vec2 lattice, float stride, bool queue) {
+                    bool masked, ClusterTriangle tri, GpuMaterial m, uint64_t eyeFrame, uint eyeX, vec2 lattice,
+                    float stride, uint queueEntry) {
   vec2 viewport = f.camera.viewport;
   float area = edge(a.xy, p1.xy, p2.xy);
   if (area == 0.0) return;
@@ -107,8 +124,8 @@ void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirror
   vec2 lo = max(floor(min(a.xy, min(p1.xy, p2.xy)) - 0.5), vec2(0.0));
   vec2 hi = min(ceil(max(a.xy, max(p1.xy, p2.xy)) - 0.5), viewport - 1.0);
   vec2 box = hi - lo + 1.0;
-  if (queue && box.x * box.y > float(MIRAGE_RASTER_SHARED_PIXELS)) {
-    queuedTriangles[atomicAdd(queuedCount, 1u)] = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
+  if (queueEntry != ~0u && box.x * box.y > float(MIRAGE_RASTER_SHARED_PIXELS)) {
+    queuedTriangles[atomicAdd(queuedCount, 1u)] = queueEntry;
     return;
   }
   bool tl0 = topLeft(p1.xy, p2.xy), tl1 = topLeft(p2.xy, a.xy), tl2 = topLeft(a.xy, p1.xy);
@@ -122,8 +139,8 @@ void rasterTriangle(vec3 a, vec3 p1, vec3 p2, uint id, bool keepAll, bool mirror
       float z = (w0 * a.z + w1 * p1.z + w2 * p2.z) / area;
       if (z < 0.0) continue; // beyond the far plane
       if (!meshKeepsPixel(fade, uvec2(x, y))) continue; // the surfels' pixel in the blend band
-      if (masked && !maskKeeps(f, m, tri, s)) continue;  // alpha below the cutoff: a hole
-      writeSample(f, uint(x), uint(y), z, id);
+      if (masked && !maskKeeps(FrameRef(eyeFrame).frame, m, tri, s)) continue; // alpha below the cutoff: a hole
+      writeSample(f, uint(x) + eyeX, uint(y), z, id);
     }
   }
 }
@@ -134,7 +151,14 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   GpuMaterial m;
   if (masked) m = instanceMaterial(inst);
-  for (uint t = gl_LocalInvocationIndex; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
+  // Stereo: this thread's eye, where its samples land, and the frame its alpha test sees. Written
+  // through kEyes so that the mono kernels fold the eye to 0 and carry no stereo code.
+  uint eye = kEyes == 2 ? gl_LocalInvocationIndex / MIRAGE_CLUSTER_WORKGROUP : 0;
+  uint lane = kEyes == 2 ? gl_LocalInvocationIndex % MIRAGE_CLUSTER_WORKGROUP : gl_LocalInvocationIndex;
+  uint eyeX = eye * uint(f.camera.viewport.x);
+  uint64_t eyeFrame = push.frameAddress + eye * MIRAGE_CLUSTER_FRAME_STRIDE;
+  vec4 eyeDx = vec4(eye == 0 ? 0.0 : f.stereoClipDx, 0.0, 0.0, 0.0);
+  for (uint t = lane; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
     uint b = (c.triangleOffset + t) * 3u;
     uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
     uint id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
@@ -143,37 +167,55 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
     float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
     if (d[0] >= 0.0 && d[1] >= 0.0 && d[2] >= 0.0) {
-      rasterTriangle(screen[i0], screen[i1], screen[i2], id, keepAll, mirrored, f, fade, masked, tri, m, vec2(0.0), 1.0,
-                     true);
+      vec3 s0 = screen[i0], s1 = screen[i1], s2 = screen[i2];
+      if (eye == 1) {
+        s0.x = screenRightX[i0];
+        s1.x = screenRightX[i1];
+        s2.x = screenRightX[i2];
+      }
+      rasterTriangle(s0, s1, s2, id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX, vec2(0.0), 1.0,
+                     t | (eye << MIRAGE_CLUSTER_TRIANGLE_BITS));
       continue;
     }
     if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
     // Sutherland-Hodgman against the near plane: keep inside corners, add the crossing point of
     // each edge that crosses. One or two corners inside give a triangle or a quad, with the
     // original winding (w > 0 everywhere), so facing is decided per fan triangle as usual.
-    vec3 poly[4];
+    vec4 clipped[4];
     uint n = 0;
     for (uint k = 0; k < 3; ++k) {
       uint k1 = k == 2 ? 0 : k + 1;
-      if (d[k] >= 0.0) poly[n++] = toScreen(q[k], f.camera.viewport);
-      if ((d[k] >= 0.0) != (d[k1] >= 0.0)) poly[n++] = toScreen(mix(q[k], q[k1], d[k] / (d[k] - d[k1])), f.camera.viewport);
+      if (d[k] >= 0.0) clipped[n++] = q[k];
+      if ((d[k] >= 0.0) != (d[k1] >= 0.0)) clipped[n++] = mix(q[k], q[k1], d[k] / (d[k] - d[k1]));
     }
-    atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
-    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m, vec2(0.0), 1.0, false);
+    if (eye == 0) atomicAdd(CounterRef(push.counterAddress).counters.trianglesNearClipped, 1);
+    vec3 poly[4];
+    for (uint k = 0; k < n; ++k) poly[k] = toScreen(clipped[k] + eyeDx, f.camera.viewport);
+    rasterTriangle(poly[0], poly[1], poly[2], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX, vec2(0.0),
+                   1.0, ~0u);
     if (n == 4)
-      rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m, vec2(0.0), 1.0, false);
+      rasterTriangle(poly[0], poly[2], poly[3], id, keepAll, mirrored, f, fade, masked, tri, m, eyeFrame, eyeX,
+                     vec2(0.0), 1.0, ~0u);
   }
   barrier(); // the queue is complete (every thread left the loop above)
-  // The queued triangles (never near-clipped), each box over the workgroup's 8 x 8 lattice.
-  vec2 lattice = vec2(gl_LocalInvocationIndex % MIRAGE_RASTER_LATTICE, gl_LocalInvocationIndex / MIRAGE_RASTER_LATTICE);
+  // The queued triangles (never near-clipped), each box over its eye's threads as an 8 x 8 lattice.
+  vec2 lattice = vec2(lane % MIRAGE_RASTER_LATTICE, lane / MIRAGE_RASTER_LATTICE);
   for (uint k = 0; k < queuedCount; ++k) {
-    uint t = queuedTriangles[k];
+    uint entry = queuedTriangles[k];
+    if (entry >> MIRAGE_CLUSTER_TRIANGLE_BITS != eye) continue; // uniform per eye's half (whole warps)
+    uint t = entry & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
     uint b = (c.triangleOffset + t) * 3u;
     uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
+    vec3 s0 = screen[i0], s1 = screen[i1], s2 = screen[i2];
+    if (eye == 1) {
+      s0.x = screenRightX[i0];
+      s1.x = screenRightX[i1];
+      s2.x = screenRightX[i2];
+    }
     ClusterTriangle tri;
     if (masked) tri = fetchTriangle(c, inst, t);
-    rasterTriangle(screen[i0], screen[i1], screen[i2], ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t, keepAll, mirrored,
-                   f, fade, masked, tri, m, lattice, float(MIRAGE_RASTER_LATTICE), false);
+    rasterTriangle(s0, s1, s2, ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t, keepAll, mirrored, f, fade, masked, tri,
+                   m, eyeFrame, eyeX, lattice, float(MIRAGE_RASTER_LATTICE), ~0u);
   }
 }
 
@@ -194,13 +236,15 @@ void main() {
 #elif !defined(MIRAGE_RASTER_BLEND)
   if (masked) return;
 #endif
+  visRowPixels = uint(f.camera.viewport.x) * kEyes;
   if (gl_LocalInvocationIndex == 0) queuedCount = 0; // published by the barrier after the vertices
   mat4 mvp = f.camera.viewProj * inst.model;
-  for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += MIRAGE_CLUSTER_WORKGROUP) {
+  for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += gl_WorkGroupSize.x) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
     vec4 clip = mvp * vec4(VertexRef(push.vertexAddress).vertices[id].position, 1.0);
     clipPos[i] = clip;
     screen[i] = toScreen(clip, f.camera.viewport);
+    if (kEyes == 2) screenRightX[i] = toScreen(clip + vec4(f.stereoClipDx, 0.0, 0.0, 0.0), f.camera.viewport).x;
   }
   barrier();
 #if defined(MIRAGE_RASTER_MASK)

@@ -21,13 +21,22 @@ layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D outImage;
 layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
-  ClusterFrame f = FrameRef(push.frameAddress).frame;
-  ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+  // Stereo: one dispatch over both eyes side by side; the right half shades with the right eye's
+  // frame (the next one in the frame buffer), px is the pixel within the eye.
+  ivec2 target = ivec2(gl_GlobalInvocationID.xy);
+  // Only two scalars of the left eye's frame pick the eye: one whole frame is loaded per thread.
+  uint64_t frameAddress = push.frameAddress;
+  bool stereo = (FrameRef(frameAddress).frame.flags & MIRAGE_FRAME_STEREO) != 0;
+  if (stereo && target.x >= int(FrameRef(frameAddress).frame.camera.viewport.x))
+    frameAddress += MIRAGE_CLUSTER_FRAME_STRIDE;
+  ClusterFrame f = FrameRef(frameAddress).frame;
+  ivec2 px = target - ivec2(f.targetOffsetX, 0);
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
   uint v1, t, surfelId = 0;
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
-    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[px.y * int(f.camera.viewport.x) + px.x] & 0xffffffffUL);
-    // Mixed scenes: a tagged id is a surfel; the mesh path below then runs as for background.
+    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[uint(target.y) * targetRowPixels(f) + uint(target.x)] &
+                   0xffffffffUL);
+    // Mixed scenes: a tagged id is a surfel, shaded where background pixels are.
     if (f.surfelLinkAddress != 0 && (id & MIRAGE_SURFEL_ID_TAG) != 0) {
       surfelId = id & ~MIRAGE_SURFEL_ID_TAG;
       id = 0;
@@ -35,14 +44,24 @@ void main() {
     v1 = id >> MIRAGE_CLUSTER_TRIANGLE_BITS;
     t = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
   } else {
-    uvec2 id = texelFetch(visImage, px, 0).xy;
+    uvec2 id = texelFetch(visImage, target, 0).xy;
     v1 = id.x;
     t = id.y;
   }
-  // Background pixels take the background colour, decided only at the end: lavapipe runs the loads
-  // below for every lane of a SIMD group, inactive or not, so every lane reads valid ids (the
-  // visible list's entry 0 always holds a valid pair: zeroed at creation).
+  // Background pixels (and surfels) leave before the dependent triangle fetches, so uncovered
+  // screen costs one load and one store. Lavapipe still runs the loads below for the inactive
+  // lanes of a SIMD group, so their ids stay valid: the visible list's entry 0 always holds a valid
+  // pair (zeroed at creation).
   bool background = v1 == 0;
+  if (background) {
+    if (surfelId != 0) {
+      ClusterSurfelLink link = LinkRef(f.surfelLinkAddress).link;
+      imageStore(outImage, target, vec4(shadeLinkedSurfel(link, surfelId, f), 1.0));
+      return;
+    }
+    imageStore(outImage, target, f.background);
+    return;
+  }
   if (background) t = 0;
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[background ? 0 : v1 - 1];
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
@@ -52,22 +71,13 @@ void main() {
 
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;
-  if ((f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 && !front && !background) {
-    imageStore(outImage, px + ivec2(f.targetOffsetX, 0), vec4(1.0, 0.0, 1.0, 1.0)); // crack-test flag colour
+  if ((f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 && !front) {
+    imageStore(outImage, target, vec4(1.0, 0.0, 1.0, 1.0)); // crack-test flag colour
     return;
   }
   vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);
   GpuClusterMesh mesh = MeshRef(push.meshAddress).meshes[inst.mesh];
   GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
-  if (background) {
-    if (surfelId != 0) {
-      ClusterSurfelLink link = LinkRef(f.surfelLinkAddress).link;
-      imageStore(outImage, px + ivec2(f.targetOffsetX, 0), vec4(shadeLinkedSurfel(link, surfelId, f), 1.0));
-      return;
-    }
-    imageStore(outImage, px + ivec2(f.targetOffsetX, 0), f.background);
-    return;
-  }
   // Occlusion history for the next frame: exactly the clusters that own a pixel. A visible cluster
   // that owns none is only deferred to the next frame's pass 2, which tests it against the HZB.
   if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBitAt(inst.historyOffset + vc.cluster - mesh.clusterOffset)) {
@@ -77,5 +87,5 @@ void main() {
   vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
   vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);
-  imageStore(outImage, px + ivec2(f.targetOffsetX, 0), vec4(rgb, 1.0));
+  imageStore(outImage, target, vec4(rgb, 1.0));
 }

@@ -8,5 +8,6 @@ void main() {
   uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
   if (!meshKeepsPixel(instanceFade(instance), uvec2(p))) return; // the surfels' pixel in the blend band
   countOverdraw(f, uvec2(p));
-  atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(f.camera.viewport.x) + p.x], value);
+  // Stereo draws each eye with its viewport in its half, so p is already the buffer's column.
+  atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(targetRowPixels(f)) + p.x], value);
 }

@@ -90,10 +90,8 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
       return Error{fmt::format("--stereo: the side-by-side target {}x{} exceeds {} pixels across", s.width * 2,
                                s.height, kMaxRenderDimension)};
-    if (cs.occlusionCulling) return Error{"--stereo does not support occlusion culling yet (drop --occlusion)"};
     if (cs.surfels) return Error{"--stereo does not support mesh + surfel scenes yet"};
     if (cs.readOwnedClusters) return Error{"--stereo cannot read the clusters owning pixels"};
-    if (hasBlend()) return Error{"--stereo does not support alpha BLEND materials yet"};
     p.stereo = true;
   }
   if (cs.debugView != DebugView::None && cs.stereoIpd)
@@ -193,16 +191,30 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
   }
   std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
   if (plan.stereo) {
-    // The selection frame sees the camera plus half the IPD on each side; each eye frame is a
-    // mono frame of that eye (the eye's own clip planes, as a mono render of it) writing its half.
+    // The selection frame sees the camera plus half the IPD on each side; each eye frame is the
+    // frame of that eye writing its half. The eyes share one projection (the union of their clip
+    // ranges), so a world point's clip positions differ by the projection's x column times the
+    // view-space offset between the eyes, (-ipd, 0, 0): clip x by -ipd * P00, and y, z, w not at
+    // all (P10 = P20 = P30 = 0 for every Camera::projection). The compute raster relies on it.
     std::array<Camera, 2> eyes = stereoEyes(s.camera, *cs.stereoIpd);
     f.stereoHalf = glm::vec4(0.5f * (eyes[1].eye - eyes[0].eye), 0.0f);
+    f.flags |= MIRAGE_FRAME_STEREO; // its HZB tests look through both eye frames (hzbVisible)
     std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
+    Camera clipped[2] = {withClipPlanes(eyes[0], scene.worldBounds), withClipPlanes(eyes[1], scene.worldBounds)};
+    for (Camera& c : clipped) {
+      c.znear = std::min(clipped[0].znear, clipped[1].znear);
+      c.zfar = std::max(clipped[0].zfar, clipped[1].zfar);
+    }
     for (uint32_t e = 0; e < 2; ++e) {
       sio::ClusterFrame ef = f;
       ef.stereoHalf = glm::vec4(0.0f);
-      ef.camera = viewFrame(withClipPlanes(eyes[e], scene.worldBounds), s.width, s.height);
+      ef.camera = viewFrame(clipped[e], s.width, s.height);
       ef.targetOffsetX = e * s.width;
+      ef.flags |= MIRAGE_FRAME_STEREO;
+      const glm::vec4& xColumn = ef.camera.proj[0];
+      if (xColumn.y != 0.0f || xColumn.z != 0.0f || xColumn.w != 0.0f)
+        return Error{"--stereo: the projection mixes view-space x into clip y, z or w"};
+      ef.stereoClipDx = -*cs.stereoIpd * xColumn.x;
       std::memcpy(frames[currentSlot].mapped() + (e + 1) * kFrameStride, &ef, sizeof(ef));
     }
   }

@@ -4,7 +4,7 @@
 //   cluster_pipelines.cpp  pipelines, descriptors, per-size targets and per-scene buffers
 //   cluster_frame.cpp      settings -> frame plan, ClusterFrame packing, counters -> stats
 //   cluster_select.cpp     selection: instance cull, flat pass, LOD BVH / DAG traversal, raster args
-//   cluster_raster.cpp     visibility rasterizers and the resolve
+//   cluster_raster.cpp     visibility rasterizers and the resolve (both stereo eyes in one pass)
 //   cluster_occlusion.cpp  HZB build and the pass-2 occlusion cull (history)
 //   cluster_oit.cpp        alpha BLEND: blend rasters and the sorted composite
 //   cluster_renderer.cpp   the public API and the per-frame phase list
@@ -96,7 +96,7 @@ struct ClusterFramePlan {
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.
 inline constexpr uint32_t kFramesPerSlot = 3;
 // Byte stride of those frames (a multiple of every member's alignment).
-inline constexpr VkDeviceSize kFrameStride = (sizeof(shaderio::ClusterFrame) + 255) / 256 * 256;
+inline constexpr VkDeviceSize kFrameStride = MIRAGE_CLUSTER_FRAME_STRIDE;
 
 struct ClusterRenderer::Impl {
   gpu::Context& ctx;
@@ -111,6 +111,7 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
       rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
+  gpu::Unique<VkPipeline> rasterStereoPipeline, rasterMaskStereoPipeline, blendRasterStereoPipeline; // both eyes
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
   // Debug views, created on first use: the debug resolve, the image backends' overdraw-counting
@@ -153,13 +154,14 @@ struct ClusterRenderer::Impl {
                        bool atomic);
   void cmdBuildHzb(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
-  void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool firstWrite = true);
-  void cmdStereoEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, const ClusterFramePlan& plan);
+  void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
   void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, BlendRaster blend, bool meshBlend,
                        bool bufferTarget);
   void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
   void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri);
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
+  void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,
+                   uint32_t rasterList);
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
   bool hasBlend() const { return blendCapacity > 0; }

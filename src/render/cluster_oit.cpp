@@ -89,10 +89,9 @@ void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::Clu
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.pDepthAttachment = &depthAtt;
   cmdBeginFullTarget(cmd, ri);
-  cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST + MIRAGE_LIST_DOWN);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
-  cmdDrawList(cmd, mesh, 2, MIRAGE_LIST_DOWN);
+  cmdDrawEyes(cmd, p, mesh, 2, MIRAGE_LIST_DOWN, MIRAGE_RASTER_BLEND_LIST + MIRAGE_LIST_DOWN);
   vkCmdEndRendering(cmd);
 }
 
@@ -111,7 +110,8 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
   if (blend != BlendRaster::Compute) cmdBlendDepth(cmd, p, bufferTarget);
   if (blend != BlendRaster::Hardware) {
     uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blendRasterPipeline);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                      plans[currentSlot].stereo ? blendRasterStereoPipeline : blendRasterPipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
     cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
@@ -126,7 +126,8 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   slot = timer().cmdBegin(cmd, "composite", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compositePipeline);
-  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST); // stereo: the hardware draws left the right eye's frame pushed
+  vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // both eyes in stereo
   timer().cmdEnd(cmd, slot, kCS);
 }
 

@@ -53,11 +53,20 @@ void ClusterRenderer::Impl::createPipelines() {
   instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
-  if (caps.int64BufferAtomics) rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout);
-  if (caps.int64BufferAtomics && scene.hasMask)
-    rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout);
+  // Compute rasterizers (cluster_raster.glsl), specialized by eyes and workgroup size: stereo
+  // draws both eyes with twice the threads.
+  const uint32_t kMono[] = {1, MIRAGE_CLUSTER_WORKGROUP}, kStereo[] = {2, 2 * MIRAGE_CLUSTER_WORKGROUP};
+  if (caps.int64BufferAtomics) {
+    rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kMono);
+    rasterStereoPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kStereo);
+  }
+  if (caps.int64BufferAtomics && scene.hasMask) {
+    rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kMono);
+    rasterMaskStereoPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kStereo);
+  }
   if (scene.blendInstancedClusters > 0) {
-    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout);
+    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
+    blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kStereo);
     compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
   }
   indirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false);
@@ -137,18 +146,19 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   if (w == width && h == height && colorW == colorWidth) return;
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                         "color");
-  vis = createImage2D(ctx, w, h, kVisFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+  // Visibility targets as wide as the colour target: stereo rasterizes both eyes side by side.
+  vis = createImage2D(ctx, colorW, h, kVisFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                       "visibility");
-  depth = createImage2D(ctx, w, h, kDepthFormat,
+  depth = createImage2D(ctx, colorW, h, kDepthFormat,
                         VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, "visibility depth");
   visBuffer =
-      createBuffer(ctx, uint64_t(w) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+      createBuffer(ctx, uint64_t(colorW) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                    MemoryUsage::GpuOnly, "visibility64");
   // HZB levels 1.. down to 1x1 (at least level 1) in one float buffer; level 0 would be the depth
   // itself, which the level-1 build reads directly.
   uint64_t floats = 0;
   hzbLevels = 1;
-  for (uint32_t lw = (w + 1) / 2, lh = (h + 1) / 2; hzbLevels < MIRAGE_HZB_MAX_LEVELS;
+  for (uint32_t lw = (colorW + 1) / 2, lh = (h + 1) / 2; hzbLevels < MIRAGE_HZB_MAX_LEVELS; // stereo: both eyes
        lw = (lw + 1) / 2, lh = (lh + 1) / 2) {
     hzbOffset[hzbLevels++] = uint32_t(floats);
     floats += uint64_t(lw) * lh;
@@ -157,7 +167,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
   overdrawCounts = {}; // the overdraw view's counts, made at the new size on first use
   if (hasBlend()) {
-    uint64_t pixels = uint64_t(w) * h;
+    uint64_t pixels = uint64_t(colorW) * h; // both eyes in stereo
     oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                             MemoryUsage::GpuOnly, "transparency heads");
     oitNodeCapacity = uint32_t(

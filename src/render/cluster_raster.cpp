@@ -7,14 +7,14 @@ namespace mirage::render {
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 
-// Dynamic rendering over the whole target with the state every cluster draw shares: full viewport
-// and scissor, no culling and counter-clockwise fronts (facing is decided per instance in the
-// fragment shaders: single/double-sided, mirrored, so one draw serves every material).
+// Dynamic rendering over the whole target (both eyes in stereo) with the state every cluster draw
+// shares: full viewport and scissor, no culling and counter-clockwise fronts (facing is decided per
+// instance in the fragment shaders: single/double-sided, mirrored, so one draw serves every material).
 void ClusterRenderer::Impl::cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri) {
-  ri.renderArea = {{0, 0}, {width, height}};
+  ri.renderArea = {{0, 0}, {colorWidth, height}};
   ri.layerCount = 1;
   vkCmdBeginRendering(cmd, &ri);
-  cmdSetFullViewport(cmd, width, height);
+  cmdSetFullViewport(cmd, colorWidth, height);
   vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
   vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
 }
@@ -30,7 +30,9 @@ void ClusterRenderer::Impl::cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t
 }
 
 // One hardware list into the visibility image + depth (image backends; pass 1 loads pass 0's) or,
-// `atomic`, into the 64-bit buffer through fragment atomics with no attachments (hybrid).
+// `atomic`, into the 64-bit buffer through fragment atomics with no attachments (hybrid). Stereo
+// (p: the left eye's frame): one rendering, the list drawn once per eye with that eye's frame and
+// its viewport over its half of the targets.
 // barriers: the pass's arguments visible; the images in the layouts cmdRasterize leaves them in.
 void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
                                             uint32_t pass, bool atomic) {
@@ -53,7 +55,6 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
   }
   uint32_t list = atomic ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP;
   cmdBeginFullTarget(cmd, ri);
-  cmdPush(cmd, p, pass * 2 + list);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
   bool mesh = backend == RasterBackend::Mesh;
   VkPipeline pipeline =
@@ -61,8 +62,27 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
   if (!atomic && plans[currentSlot].debugView == DebugView::Overdraw) // the counting variants
     pipeline = mesh ? overdrawMeshPipeline : overdrawIndirectPipeline;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
-  cmdDrawList(cmd, mesh, pass, list);
+  cmdDrawEyes(cmd, p, mesh, pass, list, pass * 2 + list);
   vkCmdEndRendering(cmd);
+}
+
+// One list drawn within a rendering begun by cmdBeginFullTarget; stereo (p: the left eye's frame):
+// once per eye with that eye's frame, viewport and scissor over its half of the target.
+void ClusterRenderer::Impl::cmdDrawEyes(VkCommandBuffer cmd, const sio::ClusterPush& p, bool mesh, uint32_t pass,
+                                        uint32_t list, uint32_t rasterList) {
+  uint32_t eyes = plans[currentSlot].stereo ? 2 : 1;
+  for (uint32_t e = 0; e < eyes; ++e) {
+    sio::ClusterPush ep = p;
+    ep.frameAddress += e * kFrameStride;
+    if (eyes == 2) {
+      VkViewport vp{float(e * width), 0.0f, float(width), float(height), 0.0f, 1.0f};
+      VkRect2D scissor{{int32_t(e * width), 0}, {width, height}};
+      vkCmdSetViewport(cmd, 0, 1, &vp);
+      vkCmdSetScissor(cmd, 0, 1, &scissor);
+    }
+    cmdPush(cmd, ep, rasterList);
+    cmdDrawList(cmd, mesh, pass, list);
+  }
 }
 
 // barriers: cmdArgs(pass) visible; the 64-bit buffer zeroed and visible (buffer backends). On exit
@@ -77,8 +97,8 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
   const VkAccessFlags2 kDepthAccess =
       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-  // Pass 0 discards the images (UNDEFINED) after compute shaders last read them: the resolve of
-  // the previous eye in stereo (so kCS, not NONE, as the source stage: write after read).
+  // Pass 0 discards the images (UNDEFINED) after compute shaders last read them (the previous
+  // frame's resolve; kCS, not NONE, as the source stage: write after read).
   ImageBarrier toRead[] = {{vis.handle(), kCS, 0, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                             VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
                            {depth.handle(), kCS, 0, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
@@ -103,11 +123,12 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
     cmdImageBarriers(cmd, toRead);
   } else {
     cmdPush(cmd, p, pass * 2 + MIRAGE_LIST_UP);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterPipeline);
+    bool stereo = plans[currentSlot].stereo; // p: the left eye's frame, both eyes per workgroup
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterStereoPipeline : rasterPipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     if (rasterMaskPipeline) { // masked clusters of the same list (the opaque kernel skipped them)
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, rasterMaskPipeline);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterMaskStereoPipeline : rasterMaskPipeline);
       vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     }
     if (backend == RasterBackend::Hybrid)
@@ -120,18 +141,17 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
 }
 
 // barriers: cmdRasterize's output visible to compute shaders. The color target ends in GENERAL with
-// the resolve's writes available, which the readback expects. `firstWrite`: the target's old
-// contents are discarded; else (stereo's second eye) the other half written before is kept.
-void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p, bool firstWrite) {
+// the resolve's writes available, which the readback expects; its old contents are discarded.
+// Stereo (p: the left eye's frame): one dispatch over both halves.
+void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPush& p) {
   uint32_t slot = timer().cmdBegin(cmd, "resolve");
-  if (firstWrite)
-    cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                          VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
+  cmdImageBarrier(cmd, {color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
   bool debug = plans[currentSlot].debugView != DebugView::None; // cluster_debug_resolve.comp instead
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, debug ? debugResolvePipeline : resolvePipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
   cmdPush(cmd, p, 0);
-  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
+  vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
   timer().cmdEnd(cmd, slot);
 }
 

@@ -131,8 +131,19 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     cmdPhaseBarrier(cmd, mesh);
   }
   cmdArgs(cmd, p, /*pass=*/0); // pass-1 raster arguments (everything without occlusion)
-  if (plan.stereo) {
-    cmdStereoEyes(cmd, p, plan); // per eye: visibility + resolve into its half (cluster_stereo.cpp)
+  if (plan.stereo) {           // both eyes side by side, each pass once (docs/render.md, "Stereo")
+    sio::ClusterPush eyes = p;
+    eyes.frameAddress += kFrameStride; // the left eye's frame; the right eye's follows it
+    cmdRasterize(cmd, eyes, plan.backend, 0);
+    if (occlusion) { // one HZB over both eyes; a sphere is hidden only if hidden from both
+      cmdBuildHzb(cmd, eyes);
+      cmdOcclusion(cmd, p, hierarchy);
+      cmdArgs(cmd, p, /*pass=*/1);
+      cmdRasterize(cmd, eyes, plan.backend, 1);
+    }
+    if (hasBlend()) cmdArgs(cmd, p, /*pass=*/2);
+    cmdResolve(cmd, eyes);
+    if (hasBlend()) cmdTransparency(cmd, eyes, plan.blend, plan.meshBlend, plan.bufferTarget);
     finishFrame(cmd, plan, frameTime);
     return;
   }

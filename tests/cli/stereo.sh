@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# render --stereo: a .mrg renders both eyes side by side (2W x H PNG); bad --ipd values and
+# render --stereo: a .mrg renders both eyes side by side (2W x H PNG), with occlusion culling too; bad --ipd values and
 # --stereo on a scene without cluster DAGs get one line, exit 2 and no output.
 # Usage: stereo.sh MIRAGE_BINARY SOURCE_DIR
 set -u
@@ -20,7 +20,8 @@ if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb" && expect_ok build-bl
   expect_fail ipd-negative "--ipd" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --ipd=-0.1 --size 48x32 -o "$tmp/bad.png"
   expect_fail ipd-nan "--ipd" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --ipd nan --size 48x32 -o "$tmp/bad.png"
   expect_fail ipd-without-stereo "--ipd" "$tmp/bad.png" -- render "$tmp/blob.mrg" --ipd 0.1 --size 48x32 -o "$tmp/bad.png"
-  expect_fail stereo-occlusion "occlusion" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --occlusion on --size 48x32 -o "$tmp/bad.png"
+  expect_ok render-stereo-occlusion render "$tmp/blob.mrg" --stereo --occlusion on --size 48x32 -o "$tmp/s3.png" &&
+    { [ "$(png_size "$tmp/s3.png")" = "96x32" ] || { echo "FAIL render-stereo-occlusion: size"; failures=$((failures + 1)); }; }
   expect_fail bench-ipd-nan "--ipd" "" -- bench render "$tmp/blob.mrg" --stereo --ipd nan --size 48x32 --frames 2
 fi
 expect_fail stereo-forward "--stereo" "$tmp/f.png" -- render "$tmp/blob.glb" --stereo --size 48x32 -o "$tmp/f.png"

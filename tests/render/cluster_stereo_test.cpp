@@ -1,9 +1,10 @@
-// Stereo cluster rendering (docs/render.md, "Stereo"): one selection shared by both eyes, each eye
-// rasterized and resolved into its half of a side-by-side target. Each half must match a mono
+// Stereo cluster rendering (docs/render.md, "Stereo"): one selection shared by both eyes, both eyes
+// rasterized and resolved in one pass each into the halves of a side-by-side target. Each half must match a mono
 // render of that eye's camera (the shared selection differs only where the nearer eye asks for a
 // finer cut, well below the 45 dB bar), on every raster backend the device has and every selection.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -19,6 +20,7 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/camera.h"
 #include "mirage/render/cluster_renderer.h"
+#include "test_scenes.h"
 
 using namespace mirage;
 using namespace mirage::render;
@@ -54,6 +56,49 @@ ImageRGBA8 half(const ImageRGBA8& image, uint32_t index) {
     for (uint32_t x = 0; x < out.width; ++x)
       for (int c = 0; c < 4; ++c) out.at(x, y)[c] = image.at(x + index * out.width, y)[c];
   return out;
+}
+
+// An n x n grid of quads in the XY plane at z facing +Z, uv 0..1 over it.
+Mesh panel(float halfSize, float z, uint32_t material) {
+  Mesh m;
+  m.name = "panel";
+  m.material = material;
+  constexpr int n = 12;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      float u = float(x) / n, v = float(y) / n;
+      m.positions.push_back({(u * 2.0f - 1.0f) * halfSize, (v * 2.0f - 1.0f) * halfSize, z});
+      m.normals.push_back({0, 0, 1});
+      m.uv0.push_back({u, 1.0f - v});
+    }
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + n + 2, d = a + n + 1;
+      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+    }
+  for (const glm::vec3& p : m.positions) m.bounds.add(p);
+  return m;
+}
+
+int passCount(const ClusterRenderOutput& out, const std::string& name) {
+  int n = 0;
+  for (const auto& t : out.image.stats.passTimes) n += t.name == name;
+  return n;
+}
+
+// Each half of a stereo render of `camera` against a mono render of that eye (PSNR >= 45 dB).
+void expectHalvesMatchMono(ClusterRenderer& renderer, const ClusterRenderOutput& stereo,
+                           const std::array<Camera, 2>& eyes, const ClusterRenderSettings& monoBase) {
+  ASSERT_EQ(stereo.image.srgb.width, 2 * monoBase.base.width);
+  for (uint32_t e = 0; e < 2; ++e) {
+    ClusterRenderSettings s = monoBase;
+    s.base.camera = eyes[e];
+    s.stereoIpd.reset();
+    auto mono = renderer.render(s);
+    ASSERT_TRUE(mono.ok()) << mono.error().message;
+    ImageRGBA8 h = half(stereo.image.srgb, e);
+    EXPECT_GE(psnr(h, mono->image.srgb), 45.0) << "eye " << e;
+  }
 }
 
 ClusterRenderSettings settings(const Camera& camera, RasterBackend backend, SelectionMode selection) {
@@ -121,6 +166,9 @@ TEST_F(ClusterStereo, EachHalfMatchesAMonoRenderOfThatEye) {
     ASSERT_EQ(stereo->image.srgb.height, kHeight);
     ImageRGBA8 halves[2] = {half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)};
     EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
+    // Both eyes in one raster pass and one resolve pass.
+    EXPECT_EQ(passCount(*stereo, "raster"), 1);
+    EXPECT_EQ(passCount(*stereo, "resolve"), 1);
     uint64_t monoTriangles[2] = {};
     for (uint32_t e = 0; e < 2; ++e) {
       auto mono = (*renderer)->render(settings(eyes[e], backend, selection));
@@ -147,7 +195,154 @@ TEST_F(ClusterStereo, RefusesWhatTheSharedSelectionCannotServe) {
   EXPECT_NE(bad.error().message.find("--ipd"), std::string::npos);
   s.stereoIpd = 0.064f;
   s.occlusionCulling = true;
-  auto occl = (*renderer)->render(s);
-  ASSERT_FALSE(occl.ok());
-  EXPECT_NE(occl.error().message.find("occlusion"), std::string::npos);
+  s.readOwnedClusters = true;
+  auto owned = (*renderer)->render(s);
+  ASSERT_FALSE(owned.ok());
+  EXPECT_NE(owned.error().message.find("--stereo"), std::string::npos);
+}
+
+// A cluster hidden from one eye but not the other must be drawn: a wall hides a small blob from
+// the left eye while the right eye sees past the wall's edge. A first frame with the eyes together
+// (the blob hidden from both: no history) makes the blob a pass-2 candidate in the second, which
+// the HZB test must keep for the right eye.
+TEST_F(ClusterStereo, OcclusionKeepsWhatOnlyOneEyeSees) {
+  gpu::Context& ctx = context();
+  io::BlobOptions o;
+  o.subdivisions = 3;
+  o.radius = 0.3f;
+  Scene scene = io::generateBlob(o);
+  scene.materials.push_back(test::solidMaterial({0.8f, 0.8f, 0.8f, 1.0f}, AlphaMode::Opaque));
+  scene.meshes.push_back(panel(2.0f, 0.0f, uint32_t(scene.materials.size() - 1)));
+  scene.instances = {{0, glm::translate(glm::mat4(1.0f), {3.2f, 0.0f, -4.0f})},
+                     {uint32_t(scene.meshes.size() - 1), glm::mat4(1.0f)}};
+  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  Camera camera;
+  camera.eye = {0.0f, 0.0f, 4.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
+    SCOPED_TRACE(toString(backend));
+    auto renderer = ClusterRenderer::create(ctx, *baked);
+    ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.base.width = 256;
+    s.base.height = 192;
+    s.occlusionCulling = true;
+    s.stereoIpd = 0.01f;
+    ASSERT_TRUE((*renderer)->render(s).ok());
+    s.stereoIpd = 3.0f;
+    auto stereo = (*renderer)->render(s);
+    ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+    ClusterRenderSettings mono = s;
+    mono.occlusionCulling = false;
+    expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, 3.0f), mono);
+  }
+}
+
+// Occlusion culling in stereo: one HZB over both eyes, a cluster culled only when hidden from both,
+// the history the union of what either eye showed. Over frames (the second one draws pass 1 from
+// the first's history) each half still equals a mono render of its eye without occlusion.
+TEST_F(ClusterStereo, OcclusionCullingKeepsEachEyeImage) {
+  gpu::Context& ctx = context();
+  auto renderer = ClusterRenderer::create(ctx, gridAsset());
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  const Bounds& bounds = (*renderer)->worldBounds();
+  // Low over the grid's front row: the rows behind are partly hidden.
+  Camera camera;
+  camera.target = bounds.center() + glm::vec3(0.0f, 0.0f, -3.0f);
+  camera.eye = bounds.center() + glm::vec3(0.3f, 0.2f, 6.0f);
+  float ipd = 0.6f;
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
+    SCOPED_TRACE(toString(backend));
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.occlusionCulling = true;
+    s.stereoIpd = ipd;
+    for (int frame = 0; frame < 2; ++frame) {
+      auto stereo = (*renderer)->render(s);
+      ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+      EXPECT_TRUE(stereo->stats.occlusion);
+      ClusterRenderSettings mono = s;
+      mono.occlusionCulling = false;
+      expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), mono);
+    }
+  }
+}
+
+// The compute raster draws the right eye from the left eye's clip positions (x shifted): triangles
+// crossing the near plane must still be clipped per eye as a mono render of that eye clips them.
+TEST_F(ClusterStereo, NearPlaneCrossingTrianglesMatchPerEye) {
+  gpu::Context& ctx = context();
+  auto renderer = ClusterRenderer::create(ctx, gridAsset());
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  const Bounds& bounds = (*renderer)->worldBounds();
+  // Just in front of the middle blob, the near plane cutting through its front, the others in view behind.
+  Camera camera;
+  camera.target = bounds.center() + glm::vec3(0.0f, 0.0f, -10.0f);
+  camera.eye = bounds.center() + glm::vec3(0.2f, 0.1f, 1.4f);
+  camera.znear = 0.4f;
+  camera.zfar = 20.0f;
+  float ipd = 0.3f;
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) {
+    SCOPED_TRACE(toString(backend));
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.stereoIpd = ipd;
+    auto stereo = (*renderer)->render(s);
+    ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+    if (backend == RasterBackend::Compute) {
+      EXPECT_GT(stereo->stats.trianglesNearClipped, 0u);
+    }
+    expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), s);
+  }
+}
+
+// Alpha MASK and BLEND: every rasterizer alpha-tests each eye's pixels with that eye's camera (the
+// compute raster's right-eye threads, the hardware draws in the right half), so the cut-outs of a
+// checker panel in front of a wall land where a mono render of each eye puts them; the blended
+// panels in front go through per-eye transparency lists (each blend raster) and one composite.
+TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
+  gpu::Context& ctx = context();
+  Scene scene;
+  scene.materials = {test::solidMaterial({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
+                     test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true),
+                     test::solidMaterial({0.1f, 0.3f, 0.9f, 0.5f}, AlphaMode::Blend),
+                     test::solidMaterial({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
+  scene.materials[1].alphaCutoff = 0.5f;
+  scene.materials[1].baseColorTexture = 0;
+  Texture checker; // 8 x 8, alpha 255 / 0
+  checker.name = "checker";
+  checker.width = checker.height = 8;
+  for (uint32_t y = 0; y < 8; ++y)
+    for (uint32_t x = 0; x < 8; ++x)
+      checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
+  scene.textures.push_back(checker);
+  scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1), panel(0.8f, 0.0f, 2), panel(0.8f, 0.0f, 3)};
+  scene.instances = {{0, glm::mat4(1.0f)},
+                     {1, glm::mat4(1.0f)},
+                     {2, glm::translate(glm::mat4(1.0f), {-0.45f, 0.1f, 0.6f})},
+                     {3, glm::translate(glm::mat4(1.0f), {0.45f, -0.1f, 1.1f})}};
+  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  auto renderer = ClusterRenderer::create(ctx, *baked);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  Camera camera;
+  camera.eye = {0.3f, 0.4f, 4.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  float ipd = 0.5f; // a checker cell shifts visibly between the eyes
+  std::vector<BlendRaster> blends{BlendRaster::Compute};
+  if (ctx.caps().fragmentStoresAndAtomics) blends.insert(blends.end(), {BlendRaster::Hybrid, BlendRaster::Hardware});
+  std::vector<std::pair<RasterBackend, BlendRaster>> runs;
+  for (RasterBackend backend : test::availableRasterBackends(ctx)) runs.emplace_back(backend, BlendRaster::Compute);
+  for (BlendRaster blend : blends) runs.emplace_back(test::availableRasterBackends(ctx).back(), blend);
+  runs.emplace_back(RasterBackend::Indirect, BlendRaster::Hardware);
+  for (auto [backend, blend] : runs) {
+    SCOPED_TRACE(std::string(toString(backend)) + " blend " + toString(blend));
+    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    s.tauPixels = 0.5f;
+    s.blendRaster = blend;
+    s.stereoIpd = ipd;
+    auto stereo = (*renderer)->render(s);
+    ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+    EXPECT_LT(psnr(half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)), 30.0);
+    expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), s);
+  }
 }

@@ -136,9 +136,9 @@ struct ClusterRenderSettings {
   // Cull with the cluster PVS given to setPvs (if any); off renders as if none were set.
   bool pvsCulling = true;
   // Stereo (docs/render.md, "Stereo"): the eyes are stereoEyes(base.camera, ipd) (camera.h). One
-  // selection serves both (union of the frusta, LOD error from the nearer eye), then each eye is
-  // rasterized and resolved into its half of a (2 * base.width) x base.height target, left|right.
-  // Refused with occlusion culling, surfels, owned-cluster readback and BLEND materials.
+  // selection serves both (union of the frusta, LOD error from the nearer eye), then both eyes are
+  // rasterized and resolved in one pass each into the halves of a (2 * base.width) x base.height
+  // target, left|right. Refused with surfels and owned-cluster readback.
   std::optional<float> stereoIpd;
   // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
   // occlusion history the resolve writes; needs occlusionCulling) into ownedClusters.

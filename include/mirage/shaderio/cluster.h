@@ -44,6 +44,14 @@ namespace mirage::shaderio {
 #define MIRAGE_FRAME_FOVEA 2048u         // tau grows with eccentricity from the gaze (ClusterFrame::fovea, lod_error.h)
 #define MIRAGE_FRAME_DAG 1024u      // with HIERARCHY: traverse the DAG's group tree (GpuClusterMesh::dagNodeOffset)
 #define MIRAGE_FRAME_OVERDRAW 4096u // debug: the rasters count covered samples per pixel (overdrawAddress)
+// Stereo eye frames (docs/render.md, "Stereo"): the visibility target is both eyes side by side,
+// rows of 2 * viewport.x pixels, this eye's half starting at targetOffsetX; the compute raster
+// draws the right eye too from the left eye's frame (stereoClipDx).
+#define MIRAGE_FRAME_STEREO 8192u
+
+// Byte stride of consecutive ClusterFrames in the frame buffer (selection frame, left eye, right
+// eye): shaders step from the left eye's frame to the right eye's by it.
+#define MIRAGE_CLUSTER_FRAME_STRIDE 768
 // ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
 #define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
 
@@ -243,6 +251,10 @@ struct ClusterFrame {
   // before the depth test.
   uint debugView;
   uint64_t overdrawAddress;
+  // Stereo, left eye frame: the right eye's clip x minus the left eye's for every world point (the
+  // eyes share the projection and differ by a view-space x translation, so clip y, z, w agree).
+  float stereoClipDx;
+  uint pad1, pad2, pad3;
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -322,7 +334,9 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 720, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 736, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) <= MIRAGE_CLUSTER_FRAME_STRIDE && MIRAGE_CLUSTER_FRAME_STRIDE % 256 == 0,
+              "ClusterFrame stride");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");
