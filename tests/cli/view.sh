@@ -99,13 +99,13 @@ JSON
     echo "FAIL view-stereo:"; cat "$tmp/stderr"; failures=$((failures + 1))
   fi
   # A stereo setting the renderer refuses fails on the first frame, before the window: one line, exit 2.
-  "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --occlusion on --frames 2 --size 64x48 >"$tmp/stdout" 2>"$tmp/stderr"
+  "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --debug-view lod --frames 2 --size 64x48 >"$tmp/stdout" 2>"$tmp/stderr"
   rc=$?
-  if [ $rc -eq 2 ] && [ "$(grep -c . "$tmp/stderr")" -eq 1 ] && grep -q "occlusion" "$tmp/stderr" &&
+  if [ $rc -eq 2 ] && [ "$(grep -c . "$tmp/stderr")" -eq 1 ] && grep -q -- "--debug-view" "$tmp/stderr" &&
     ! grep -q "viewed" "$tmp/stdout"; then
     pass=$((pass + 1))
   else
-    echo "FAIL view-stereo-occlusion: exit $rc"; cat "$tmp/stderr"; failures=$((failures + 1))
+    echo "FAIL view-stereo-debug-view: exit $rc"; cat "$tmp/stderr"; failures=$((failures + 1))
   fi
   # A path replayed interactively (frames in flight, no screenshots) with frame-time control and
   # foveation: the summary line gives FPS, frame time, latency and the chosen tau within 1..16 px.
