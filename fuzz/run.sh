@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs every fuzz target of a sanitized build (make fuzz / make fuzz-ci): usage
 #   fuzz/run.sh BUILD_DIR [libFuzzer flags...]      e.g. -runs=2000 or -max_total_time=600
-# Seeds come from make_seeds.sh (BUILD_DIR/fuzz-seeds, made once); what a target finds new goes to
+# Seeds come from make_seeds.sh (BUILD_DIR/fuzz-seeds, made once per set of targets); what a target finds new goes to
 # BUILD_DIR/fuzz-corpus/<target> (kept between runs), crashes to BUILD_DIR/fuzz-findings/<target>/.
 # FUZZ_TARGETS (space separated) picks targets; JOBS targets run at once; SEED_BUILD names a plain
 # build whose mirage makes the seeds. Exit 1 if any target failed.
@@ -18,6 +18,8 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # Seeds are made with the plain build's mirage when there is one (faster than the sanitized one).
 seed_build=${SEED_BUILD:-$build}
 [ -x "$seed_build/mirage" ] && [ -x "$seed_build/fuzz/seed_tool" ] || seed_build=$build
+# Made again when a target has no seeds yet (a target added since they were made).
+for t in $targets; do [ -d "$build/fuzz-seeds/$t" ] || rm -rf "$build/fuzz-seeds"; done
 if [ ! -d "$build/fuzz-seeds" ]; then
   rm -rf "$build/fuzz-seeds.tmp"
   bash "$src/fuzz/make_seeds.sh" "$seed_build" "$build/fuzz-seeds.tmp" && mv "$build/fuzz-seeds.tmp" "$build/fuzz-seeds" || exit 1
