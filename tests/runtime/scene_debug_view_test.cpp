@@ -7,32 +7,16 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/camera.h"
 #include "mirage/runtime/scene.h"
+#include "runtime/runtime_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
+using mirage::test::blobMrg;
 namespace fs = std::filesystem;
 
 namespace {
 
 constexpr uint32_t kWidth = 64, kHeight = 48;
-
-fs::path blobMrg() {
-  static const fs::path path = [] {
-    fs::path p = test::tempDir("runtime_debug_view") / "blob.mrg";
-    auto asset = lod::bakeLodAsset(io::generateScene("blob", 1, 3).value(), {});
-    if (!asset || !lod::saveLodAsset(p.string(), *asset).ok()) std::abort();
-    return p;
-  }();
-  return path;
-}
-
-runtime::View viewOf(const runtime::Scene& scene) {
-  runtime::View v;
-  v.width = kWidth;
-  v.height = kHeight;
-  v.camera = render::autoCamera(scene.bounds(), float(kWidth) / float(kHeight));
-  return v;
-}
 
 } // namespace
 
@@ -43,7 +27,7 @@ class RuntimeDebugView : public test::GpuTest {};
 TEST_F(RuntimeDebugView, SwitchesPerFrameOnOneScene) {
   auto s = runtime::Scene::open(context(), {.input = blobMrg().string()});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = viewOf(**s);
+  runtime::View view = test::viewOf(**s, kWidth, kHeight);
   auto shaded = (*s)->render(view);
   ASSERT_TRUE(shaded.ok()) << shaded.error().message;
   for (render::DebugView v :
@@ -63,7 +47,7 @@ TEST_F(RuntimeDebugView, SwitchesPerFrameOnOneScene) {
 TEST_F(RuntimeDebugView, OtherSceneKindsRefuseIt) {
   auto s = runtime::Scene::open(context(), {.input = "gen:blob:3"});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = viewOf(**s);
+  runtime::View view = test::viewOf(**s, kWidth, kHeight);
   view.config.debugView = render::DebugView::Lod;
   auto f = (*s)->render(view);
   ASSERT_FALSE(f.ok());

@@ -8,32 +8,16 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/camera.h"
 #include "mirage/runtime/scene.h"
+#include "runtime/runtime_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
+using mirage::test::blobMrg;
 namespace fs = std::filesystem;
 
 namespace {
 
 constexpr uint32_t kWidth = 64, kHeight = 48;
-
-fs::path blobMrg() {
-  static const fs::path path = [] {
-    fs::path p = test::tempDir("runtime_stereo") / "blob.mrg";
-    auto asset = lod::bakeLodAsset(io::generateScene("blob", 1, 3).value(), {});
-    if (!asset || !lod::saveLodAsset(p.string(), *asset).ok()) std::abort();
-    return p;
-  }();
-  return path;
-}
-
-runtime::View viewOf(const runtime::Scene& scene) {
-  runtime::View v;
-  v.width = kWidth;
-  v.height = kHeight;
-  v.camera = render::autoCamera(scene.bounds(), float(kWidth) / float(kHeight));
-  return v;
-}
 
 } // namespace
 
@@ -42,13 +26,13 @@ class RuntimeStereo : public test::GpuTest {};
 TEST_F(RuntimeStereo, ClusterLodRendersBothEyesSideBySide) {
   auto s = runtime::Scene::open(context(), {.input = blobMrg().string()});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = viewOf(**s);
+  runtime::View view = test::viewOf(**s, kWidth, kHeight);
   view.stereoIpd = 0.3f;
   auto stereo = (*s)->render(view);
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
   ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
   ASSERT_EQ(stereo->srgb.height, kHeight);
-  runtime::View left = viewOf(**s);
+  runtime::View left = test::viewOf(**s, kWidth, kHeight);
   left.camera = render::stereoEyes(view.camera, *view.stereoIpd)[0];
   auto mono = (*s)->render(left);
   ASSERT_TRUE(mono.ok()) << mono.error().message;
@@ -61,7 +45,7 @@ TEST_F(RuntimeStereo, ClusterLodRendersBothEyesSideBySide) {
 TEST_F(RuntimeStereo, OtherSceneKindsRefuseStereo) {
   auto s = runtime::Scene::open(context(), {.input = "gen:blob:3"});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = viewOf(**s);
+  runtime::View view = test::viewOf(**s, kWidth, kHeight);
   view.stereoIpd = 0.064f;
   auto f = (*s)->render(view);
   ASSERT_FALSE(f.ok());

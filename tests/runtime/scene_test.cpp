@@ -14,6 +14,7 @@
 #include "mirage/surfels/reference.h"
 #include "mirage/surfels/surfel_io.h"
 #include "mirage/visibility/ray_backend.h"
+#include "runtime/runtime_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -40,14 +41,6 @@ const BlobFixture& blob() {
     return b;
   }();
   return f;
-}
-
-runtime::View viewOf(const runtime::Scene& scene) {
-  runtime::View v;
-  v.width = kWidth;
-  v.height = kHeight;
-  v.camera = render::autoCamera(scene.bounds(), float(kWidth) / float(kHeight));
-  return v;
 }
 
 std::unique_ptr<runtime::Scene> openOk(const runtime::SceneOptions& o) {
@@ -97,7 +90,7 @@ TEST_F(RuntimeScene, SceneFilesAndGeneratedScenesOpenAsForward) {
   ASSERT_TRUE(o);
   EXPECT_EQ(o->kind(), runtime::SceneKind::Forward);
   EXPECT_EQ(o->info().sourceTriangles, 1u);
-  auto f = o->render(viewOf(*o));
+  auto f = o->render(test::viewOf(*o, kWidth, kHeight));
   ASSERT_TRUE(f.ok()) << f.error().message;
   ASSERT_TRUE(f->forward.has_value());
   EXPECT_EQ(f->forward->triangles, 1u);
@@ -120,7 +113,7 @@ TEST_F(RuntimeScene, SurfelOnlyFileOpensAsSurfels) {
   ASSERT_TRUE(s);
   EXPECT_EQ(s->kind(), runtime::SceneKind::Surfels);
   EXPECT_EQ(s->info().surfels, cloud.size());
-  auto f = s->render(viewOf(*s));
+  auto f = s->render(test::viewOf(*s, kWidth, kHeight));
   ASSERT_TRUE(f.ok()) << f.error().message;
   ASSERT_TRUE(f->surfels.has_value());
   EXPECT_EQ(f->surfels->visibleInstances, 1u);
@@ -145,7 +138,7 @@ TEST_F(RuntimeScene, BadInputIsOneLineNamingTheFile) {
   // render() validates the view's config before drawing.
   auto s = openOk({.input = blob().mrg.string()});
   ASSERT_TRUE(s);
-  runtime::View view = viewOf(*s);
+  runtime::View view = test::viewOf(*s, kWidth, kHeight);
   view.config.tauPixels = -1.0f;
   auto f = s->render(view);
   ASSERT_FALSE(f.ok());
@@ -173,7 +166,7 @@ TEST(RuntimeConfig, ValidateNamesTheFlag) {
 TEST_F(RuntimeScene, FrameEqualsTheRendererCalledDirectly) {
   auto s = openOk({.input = blob().mrg.string()});
   ASSERT_TRUE(s);
-  runtime::View view = viewOf(*s);
+  runtime::View view = test::viewOf(*s, kWidth, kHeight);
   view.config.tauPixels = 2.0f;
   view.config.raster = render::RasterBackend::Indirect;
   auto f = s->render(view);
@@ -237,7 +230,7 @@ TEST_F(RuntimeScene, PvsCellSwitchCullsWhatThePvsSays) {
   auto s = openOk({.input = mrg.string(), .pvs = pvsPath.string()});
   ASSERT_TRUE(s);
   ASSERT_NE(s->pvsData(), nullptr);
-  runtime::View view = viewOf(*s);
+  runtime::View view = test::viewOf(*s, kWidth, kHeight);
   auto render = [&](glm::vec3 eye, bool culling) {
     view.camera = base;
     view.camera.eye = eye;
@@ -300,7 +293,7 @@ TEST_F(RuntimeScene, MixedSceneSurfelsSwitchOff) {
   ASSERT_TRUE(surfels::appendSurfelMrg(mrg.string(), std::span(&cloud, 1)).ok());
   auto s = openOk({.input = mrg.string(), .surfels = true});
   ASSERT_TRUE(s);
-  runtime::View view = viewOf(*s);
+  runtime::View view = test::viewOf(*s, kWidth, kHeight);
   view.config.raster = render::RasterBackend::Compute; // mesh + surfel frames share the 64-bit buffer
   glm::vec3 centre = s->bounds().center();
   view.camera.eye = centre + (view.camera.eye - centre) * 40.0f; // far: surfels replace the meshes
