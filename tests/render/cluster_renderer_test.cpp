@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <optional>
 
 #include "gpu_test.h"
 #include "mirage/core/color.h"
@@ -542,6 +543,26 @@ size_t coverageMismatch(const ImageRGBA8& a, const ImageRGBA8& b, glm::vec3 bg) 
   return n;
 }
 
+// One frame of `s` rasterized by compute and by the hardware backend (mesh, else indirect), on a
+// green background (for coverageMismatch), occlusion off; nullopt (and a failure) if either fails.
+struct ComputeAndHardware {
+  ClusterRenderOutput compute, hardware;
+};
+std::optional<ComputeAndHardware> renderComputeAndHardware(gpu::Context& ctx, ClusterRenderer& r,
+                                                           ClusterRenderSettings s) {
+  s.base.background = {0.0f, 1.0f, 0.0f, 1.0f};
+  s.occlusionCulling = false;
+  s.raster = RasterBackend::Compute;
+  auto compute = r.render(s);
+  s.raster = ctx.caps().meshShader ? RasterBackend::Mesh : RasterBackend::Indirect;
+  auto hardware = r.render(s);
+  if (!compute.ok() || !hardware.ok()) {
+    ADD_FAILURE() << (compute.ok() ? hardware.error().message : compute.error().message);
+    return std::nullopt;
+  }
+  return ComputeAndHardware{std::move(*compute), std::move(*hardware)};
+}
+
 } // namespace
 
 // A camera skimming the surface with a near plane that cuts into it: triangles cross the near
@@ -557,27 +578,25 @@ TEST_F(ClusterRender, ComputeClipsTrianglesAtTheNearPlane) {
   s.base.camera.target = {0.6f, 0.0f, 0.6f};
   s.base.camera.znear = 0.15f;
   s.base.camera.zfar = 10.0f;
-  s.base.background = {0.0f, 1.0f, 0.0f, 1.0f};
-  s.occlusionCulling = false;
-  auto compute = (*r)->render(s);
-  ASSERT_TRUE(compute.ok()) << compute.error().message;
-  s.raster = context().caps().meshShader ? RasterBackend::Mesh : RasterBackend::Indirect;
-  auto hardware = (*r)->render(s);
-  ASSERT_TRUE(hardware.ok()) << hardware.error().message;
-  EXPECT_GT(compute->stats.trianglesNearClipped, 0u); // the view really cuts triangles
-  const ImageRGBA8& a = compute->image.srgb;
-  size_t mismatch = coverageMismatch(a, hardware->image.srgb, {0, 1, 0});
+  auto both = renderComputeAndHardware(context(), **r, s);
+  ASSERT_TRUE(both);
+  const ClusterRenderOutput& compute = both->compute;
+  const ClusterRenderOutput& hardware = both->hardware;
+  EXPECT_GT(compute.stats.trianglesNearClipped, 0u); // the view really cuts triangles
+  const ImageRGBA8& a = compute.image.srgb;
+  size_t mismatch = coverageMismatch(a, hardware.image.srgb, {0, 1, 0});
   std::printf("near clip: %u triangles clipped, %zu coverage mismatches, SSIM %.4f\n",
-              compute->stats.trianglesNearClipped, mismatch, ssim(a, hardware->image.srgb));
+              compute.stats.trianglesNearClipped, mismatch, ssim(a, hardware.image.srgb));
   EXPECT_LE(mismatch, a.width / 4) << "pixels covered by one backend only";
-  EXPECT_GE(ssim(a, hardware->image.srgb), 0.99);
+  EXPECT_GE(ssim(a, hardware.image.srgb), 0.99);
   writeOnFailure(a, "nearclip_compute.png");
-  writeOnFailure(hardware->image.srgb, "nearclip_hardware.png");
+  writeOnFailure(hardware.image.srgb, "nearclip_hardware.png");
 }
 
 // Coarse cuts seen close (tau 2 and 16 px): triangles tens of pixels long, slivers among them. The
-// compute rasterizer walks row spans for wide boxes; it must keep exactly the samples the hardware
-// keeps (same ids, so the same pixels), else shared edges crack or double.
+// compute rasterizer hands boxes over 64 pixels to the whole workgroup (cluster_raster.glsl); it
+// must keep exactly the samples the hardware keeps (same ids, so the same pixels), else shared
+// edges crack or double.
 TEST_F(ClusterRender, ComputeMatchesHardwareOnLargeTriangles) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
   const lod::LodAsset& asset = blobAsset();
@@ -589,20 +608,15 @@ TEST_F(ClusterRender, ComputeMatchesHardwareOnLargeTriangles) {
     s.base.camera.target = {0.0f, 0.0f, 0.0f};
     s.base.camera.znear = 0.05f;
     s.base.camera.zfar = 10.0f;
-    s.base.background = {0.0f, 1.0f, 0.0f, 1.0f};
-    s.occlusionCulling = false;
-    auto compute = (*r)->render(s);
-    ASSERT_TRUE(compute.ok()) << compute.error().message;
-    s.raster = context().caps().meshShader ? RasterBackend::Mesh : RasterBackend::Indirect;
-    auto hardware = (*r)->render(s);
-    ASSERT_TRUE(hardware.ok()) << hardware.error().message;
-    const ImageRGBA8& a = compute->image.srgb;
-    const ImageRGBA8& b = hardware->image.srgb;
+    auto both = renderComputeAndHardware(context(), **r, s);
+    ASSERT_TRUE(both);
+    const ImageRGBA8& a = both->compute.image.srgb;
+    const ImageRGBA8& b = both->hardware.image.srgb;
     size_t differ = 0;
     for (uint32_t y = 0; y < a.height; ++y)
       for (uint32_t x = 0; x < a.width; ++x) differ += std::memcmp(a.at(x, y), b.at(x, y), 3) != 0;
     std::printf("tau %g: %llu triangles, %zu of %u pixels differ\n", tau,
-                (unsigned long long)compute->stats.trianglesRasterized, differ, a.width * a.height);
+                (unsigned long long)both->compute.stats.trianglesRasterized, differ, a.width * a.height);
     EXPECT_EQ(coverageMismatch(a, b, {0, 1, 0}), 0u) << "tau " << tau;
     EXPECT_LE(differ, size_t(a.width)) << "tau " << tau; // ids agree: at most rounding in shading
     writeOnFailure(a, "large_compute_" + std::to_string(int(tau)) + ".png");
