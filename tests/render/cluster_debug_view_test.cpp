@@ -63,17 +63,6 @@ float densityLog2Of(Rgb c) {
   return best;
 }
 
-const lod::LodAsset& blobAsset() {
-  static lod::LodAsset asset = [] {
-    io::BlobOptions o;
-    o.subdivisions = 4;
-    auto baked = lod::bakeLodAsset(io::generateBlob(o), lod::BuildConfig{});
-    if (!baked) std::abort();
-    return std::move(*baked);
-  }();
-  return asset;
-}
-
 ClusterRenderSettings settings(const Camera& camera, RasterBackend backend, DebugView view) {
   ClusterRenderSettings s;
   s.base.width = kWidth;
@@ -130,7 +119,7 @@ class ClusterDebugView : public test::GpuTest {};
 // come close: a few of hundreds of clusters differ by only a few levels).
 TEST_F(ClusterDebugView, ClustersViewColoursEachPixelByItsOwnCluster) {
   gpu::Context& ctx = context();
-  const lod::LodAsset& asset = blobAsset();
+  const lod::LodAsset& asset = test::smallBlobAsset();
   ASSERT_EQ(asset.dags.size(), 1u); // mesh-local cluster ids are the global ones
   auto renderer = ClusterRenderer::create(ctx, asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
@@ -168,9 +157,9 @@ TEST_F(ClusterDebugView, ClustersViewColoursEachPixelByItsOwnCluster) {
 
 TEST_F(ClusterDebugView, LodViewShowsCoarserLevelsFarAway) {
   gpu::Context& ctx = context();
-  auto renderer = ClusterRenderer::create(ctx, blobAsset());
+  auto renderer = ClusterRenderer::create(ctx, test::smallBlobAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  uint32_t levels = uint32_t(blobAsset().dags[0].levelCount());
+  uint32_t levels = uint32_t(test::smallBlobAsset().dags[0].levelCount());
   ASSERT_GT(levels, 3u);
   double meanLevel[2] = {};
   float factors[2] = {1.0f, 6.0f};
@@ -199,7 +188,7 @@ TEST_F(ClusterDebugView, LodViewShowsCoarserLevelsFarAway) {
 // away cover a ninth of the pixels: log2 of triangles per pixel grows by about 3.2.
 TEST_F(ClusterDebugView, DensityGrowsWithDistanceForTheSameTriangles) {
   gpu::Context& ctx = context();
-  auto renderer = ClusterRenderer::create(ctx, blobAsset());
+  auto renderer = ClusterRenderer::create(ctx, test::smallBlobAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   float median[2] = {};
   float factors[2] = {1.0f, 3.0f};
@@ -296,7 +285,7 @@ TEST_F(ClusterDebugView, OverdrawCountsEverySampleBeforeTheDepthTest) {
 
 TEST_F(ClusterDebugView, RefusedWithStereoInOneLine) {
   gpu::Context& ctx = context();
-  auto renderer = ClusterRenderer::create(ctx, blobAsset());
+  auto renderer = ClusterRenderer::create(ctx, test::smallBlobAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   ClusterRenderSettings s =
       settings(blobCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Auto, DebugView::Clusters);

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "gpu_test.h"
+#include "render/cluster_test_util.h"
 #include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
@@ -16,17 +17,6 @@ using namespace mirage::render;
 namespace {
 
 constexpr uint32_t kSize = 96;
-
-const lod::LodAsset& blobAsset() {
-  static lod::LodAsset asset = [] {
-    io::BlobOptions o;
-    o.subdivisions = 4;
-    auto baked = lod::bakeLodAsset(io::generateBlob(o), lod::BuildConfig{});
-    if (!baked) std::abort();
-    return std::move(*baked);
-  }();
-  return asset;
-}
 
 // Three different frames: camera, LOD threshold and selection mode (the hierarchical ones read
 // their traversal counters back too), so a slot mixing up another's data shows.
@@ -75,8 +65,8 @@ class ClusterFrames : public test::GpuTest {};
 TEST_F(ClusterFrames, ThreeFramesInFlightMatchSequentialRenders) {
   static_assert(kMaxFramesInFlight == 3);
   gpu::Context& ctx = context();
-  auto sequential = ClusterRenderer::create(ctx, blobAsset());
-  auto inFlight = ClusterRenderer::create(ctx, blobAsset());
+  auto sequential = ClusterRenderer::create(ctx, test::smallBlobAsset());
+  auto inFlight = ClusterRenderer::create(ctx, test::smallBlobAsset());
   ASSERT_TRUE(sequential.ok() && inFlight.ok());
   std::vector<ClusterRenderSettings> frames = threeFrames((*sequential)->worldBounds());
   std::vector<ClusterRenderOutput> expected;

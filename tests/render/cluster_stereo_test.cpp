@@ -33,11 +33,7 @@ constexpr uint32_t kWidth = 80, kHeight = 64;
 // instances (the union of the frusta matters) at different distances (so does the nearer eye).
 const lod::LodAsset& gridAsset() {
   static lod::LodAsset asset = [] {
-    io::BlobOptions o;
-    o.subdivisions = 4;
-    auto baked = lod::bakeLodAsset(io::generateBlob(o), lod::BuildConfig{});
-    if (!baked) std::abort();
-    lod::LodAsset a = std::move(*baked);
+    lod::LodAsset a = test::smallBlobAsset();
     a.scene.instances.clear();
     for (int z = -1; z <= 1; ++z)
       for (int x = -1; x <= 1; ++x)

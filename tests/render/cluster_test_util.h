@@ -1,11 +1,13 @@
 #pragma once
-// Helpers shared by the cluster renderer's test files (cluster_renderer_test, cluster_alpha_test).
+// Helpers shared by the cluster renderer's test files.
+#include <cstdlib>
 #include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "mirage/gpu/context.h"
+#include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
 
@@ -29,6 +31,18 @@ inline render::ClusterRenderOutput renderCluster(gpu::Context& ctx, const lod::L
   auto out = (*r)->render(s);
   EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
   return std::move(*out);
+}
+
+// A blob of 5120 triangles (4 subdivisions) baked with the default build, once per process.
+inline const lod::LodAsset& smallBlobAsset() {
+  static lod::LodAsset asset = [] {
+    io::BlobOptions o;
+    o.subdivisions = 4;
+    auto baked = lod::bakeLodAsset(io::generateBlob(o), lod::BuildConfig{});
+    if (!baked) std::abort();
+    return std::move(*baked);
+  }();
+  return asset;
 }
 
 } // namespace mirage::test
