@@ -143,6 +143,7 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   c.rayTracingPipeline = c.accelerationStructure && p.hasRtPipeline && f.rtPipeline.rayTracingPipeline;
   c.rayQuery = c.accelerationStructure && p.hasRayQuery && f.rayQuery.rayQuery;
   c.int64BufferAtomics = f.v12.shaderBufferInt64Atomics;
+  c.int64SharedAtomics = f.v12.shaderSharedInt64Atomics;
   c.int64ImageAtomics = p.hasImageInt64 && f.imageInt64.shaderImageInt64Atomics;
   c.pipelineStatistics = f.core.features.pipelineStatisticsQuery;
   c.fragmentStoresAndAtomics = f.core.features.fragmentStoresAndAtomics;
@@ -492,16 +493,16 @@ const char* toString(VkResult r) {
     return #x;
     MIRAGE_CASE(VK_SUCCESS)
     MIRAGE_CASE(VK_NOT_READY)
-    MIRAGE_CASE(VK_TIMEOUT) MIRAGE_CASE(VK_INCOMPLETE) MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
-        MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY) MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED)
-            MIRAGE_CASE(VK_ERROR_DEVICE_LOST) MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED)
-                MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT)
-                    MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER)
-                        MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS) MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED)
-                            MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL) MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY)
-                                MIRAGE_CASE(VK_ERROR_UNKNOWN)
+    MIRAGE_CASE(VK_TIMEOUT)
+    MIRAGE_CASE(VK_INCOMPLETE) MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+        MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
+            MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
+                MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
+                    MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
+                        MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
+                            MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
 #undef MIRAGE_CASE
-                                    default : return "VkResult(?)";
+                                default : return "VkResult(?)";
   }
 }
 

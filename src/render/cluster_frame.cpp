@@ -28,7 +28,9 @@ namespace {
 // The backend that runs: auto prefers hybrid (compute for small triangles, mesh shaders for large),
 // then compute alone, then mesh shaders, then indirect draws.
 Result<RasterBackend> resolveBackend(RasterBackend requested, const DeviceCapabilities& caps) {
-  bool atomics = caps.int64BufferAtomics, fragmentAtomics = atomics && caps.fragmentStoresAndAtomics;
+  // The compute rasterizers need both (cluster_raster.glsl: the buffer, the tile queue).
+  bool atomics = caps.int64BufferAtomics && caps.int64SharedAtomics,
+       fragmentAtomics = atomics && caps.fragmentStoresAndAtomics;
   if (requested == RasterBackend::Auto)
     return fragmentAtomics && caps.meshShader ? RasterBackend::Hybrid
            : atomics                          ? RasterBackend::Compute
@@ -37,7 +39,7 @@ Result<RasterBackend> resolveBackend(RasterBackend requested, const DeviceCapabi
   if (requested == RasterBackend::Mesh && !caps.meshShader)
     return Error{"--raster mesh: the device has no VK_EXT_mesh_shader"};
   if (requested == RasterBackend::Compute && !atomics)
-    return Error{"--raster compute: the device has no 64-bit buffer atomics"};
+    return Error{"--raster compute: the device has no 64-bit buffer and shared atomics"};
   if (requested == RasterBackend::Hybrid && !fragmentAtomics)
     return Error{"--raster hybrid: the device has no 64-bit buffer atomics in fragment shaders"};
   return requested;

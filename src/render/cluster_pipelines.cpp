@@ -56,11 +56,12 @@ void ClusterRenderer::Impl::createPipelines() {
   // Compute rasterizers (cluster_raster.glsl), specialized by eyes and workgroup size: stereo
   // draws both eyes with twice the threads.
   const uint32_t kMono[] = {1, MIRAGE_CLUSTER_WORKGROUP}, kStereo[] = {2, 2 * MIRAGE_CLUSTER_WORKGROUP};
-  if (caps.int64BufferAtomics) {
+  bool computeRaster = caps.int64BufferAtomics && caps.int64SharedAtomics; // cluster_frame.cpp's condition
+  if (computeRaster) {
     rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kMono);
     rasterStereoPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kStereo);
   }
-  if (caps.int64BufferAtomics && scene.hasMask) {
+  if (computeRaster && scene.hasMask) {
     rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kMono);
     rasterMaskStereoPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kStereo);
   }

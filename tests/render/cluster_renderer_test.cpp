@@ -593,16 +593,17 @@ TEST_F(ClusterRender, ComputeClipsTrianglesAtTheNearPlane) {
   writeOnFailure(hardware.image.srgb, "nearclip_hardware.png");
 }
 
-// Coarse cuts seen close (tau 2 and 16 px): triangles tens of pixels long, slivers among them. The
-// compute rasterizer hands boxes over 64 pixels to the whole workgroup (cluster_raster.glsl); it
-// must keep exactly the samples the hardware keeps (same ids, so the same pixels), else shared
-// edges crack or double.
+// Coarse cuts seen close (tau 2, 6 and 16 px): triangles tens of pixels long, slivers among them.
+// The compute rasterizer walks small boxes per thread in 32-bit integers, hands larger ones to the
+// workgroup as 8 x 8 tiles or, the largest, as a lattice in 64-bit integers (cluster_raster.glsl);
+// every walk must keep exactly the samples the hardware keeps (same ids, so the same pixels), else
+// edges shared between triangles of different walks crack or double.
 TEST_F(ClusterRender, ComputeMatchesHardwareOnLargeTriangles) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
   const lod::LodAsset& asset = blobAsset();
   auto r = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(r.ok()) << r.error().message;
-  for (float tau : {2.0f, 16.0f}) {
+  for (float tau : {2.0f, 6.0f, 16.0f}) {
     ClusterRenderSettings s = settingsFor((*r)->worldBounds(), tau, RasterBackend::Compute);
     s.base.camera.eye = {0.3f, 0.5f, 1.8f};
     s.base.camera.target = {0.0f, 0.0f, 0.0f};

@@ -23,6 +23,7 @@ struct DeviceCapabilities {
   bool rayQuery = false;           // VK_KHR_ray_query
   bool accelerationStructure = false;
   bool int64BufferAtomics = false;       // shaderBufferInt64Atomics: the 64-bit visibility buffer
+  bool int64SharedAtomics = false;       // shaderSharedInt64Atomics: the compute raster's tile queue
   bool int64ImageAtomics = false;        // VK_EXT_shader_image_atomic_int64
   bool fragmentStoresAndAtomics = false; // storage writes from fragment shaders (hybrid raster)
   bool pipelineStatistics = false;
