@@ -156,9 +156,10 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
 // Stereo by multiview, image backends: the list into the eyes' layers (pass 1 loads pass 0's, which
 // the layers still hold), then each layer copied into its half of the side-by-side visibility image
 // and depth. The copy keeps every reader (HZB, resolve, debug views, blend rasters) on the one
-// side-by-side layout the compute raster writes too; it moves 12 bytes per pixel each pass.
+// side-by-side layout the compute raster writes too; it moves 8 bytes per pixel each pass, 12 when
+// the depth is read after the raster (the HZB with occlusion, the blend rasters' depth test).
 // barriers: as cmdRasterize's image branch; on exit the same layouts, the copies visible to compute
-// shaders and to depth tests (the hardware blend raster).
+// shaders and to depth tests (the hardware blend raster); an uncopied depth is left unwritten.
 void ClusterRenderer::Impl::cmdMultiviewList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
                                              uint32_t pass) {
   const VkPipelineStageFlags2 kDepthStages =
@@ -176,6 +177,7 @@ void ClusterRenderer::Impl::cmdMultiviewList(VkCommandBuffer cmd, const sio::Clu
                                   VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
   cmdImageBarriers(cmd, toAttachment);
   cmdHardwareList(cmd, p, backend, pass, /*atomic=*/false);
+  bool copyDepth = plans[currentSlot].occlusion || hasBlend(); // its readers (stereo runs blend passes by hasBlend)
   // The side-by-side images are overwritten whole: their contents (read by compute shaders: the
   // HZB, or the previous frame's resolve) are dropped.
   ImageBarrier toCopy[] = {{layeredVis.handle(), kColorStage, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, kCopy,
@@ -191,6 +193,7 @@ void ClusterRenderer::Impl::cmdMultiviewList(VkCommandBuffer cmd, const sio::Clu
   cmdImageBarriers(cmd, toCopy);
   uint32_t slot = timer().cmdBegin(cmd, "layer-copy");
   for (VkImageAspectFlags aspect : {VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_ASPECT_DEPTH_BIT}) {
+    if (aspect == VK_IMAGE_ASPECT_DEPTH_BIT && !copyDepth) continue;
     VkImageCopy regions[2];
     for (uint32_t e = 0; e < 2; ++e) {
       regions[e] = {};
@@ -207,7 +210,7 @@ void ClusterRenderer::Impl::cmdMultiviewList(VkCommandBuffer cmd, const sio::Clu
   ImageBarrier toRead[] = {
       {vis.handle(), kCopy, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
-      {depth.handle(), kCopy, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS | kDepthStages,
+      {depth.handle(), kCopy, copyDepth ? VK_ACCESS_2_TRANSFER_WRITE_BIT : 0, kCS | kDepthStages,
        VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT,
        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
   cmdImageBarriers(cmd, toRead);
