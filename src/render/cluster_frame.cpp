@@ -60,11 +60,14 @@ Result<BlendRaster> resolveBlendRaster(BlendRaster requested, const DeviceCapabi
 // Stereo through multiview for the backends that rasterize in a render pass (mesh, indirect, and
 // hybrid's hardware list); the compute raster draws both eyes in one dispatch either way, so it is
 // reported as viewports (its hardware blend draws, if any, take them). The overdraw view's counting
-// pipelines exist only for per-eye viewports.
+// pipelines exist only for per-eye viewports. Hybrid's list goes through mesh shaders where the
+// device has them; without multiviewMeshShader auto keeps them (viewports), while multiview asked
+// for draws the list by indirect draws instead (hybridListMesh).
 Result<StereoMode> resolveStereoMode(StereoMode requested, const ClusterFramePlan& p, const DeviceCapabilities& caps) {
-  bool meshRaster = p.backend == RasterBackend::Mesh || (p.backend == RasterBackend::Hybrid && caps.meshShader);
-  bool can = p.backend != RasterBackend::Compute && caps.multiview && (!meshRaster || caps.multiviewMeshShader) &&
-             p.debugView != DebugView::Overdraw;
+  bool can = p.backend != RasterBackend::Compute && caps.multiview &&
+             (p.backend != RasterBackend::Mesh || caps.multiviewMeshShader) && p.debugView != DebugView::Overdraw;
+  bool hybridLosesMesh = p.backend == RasterBackend::Hybrid && caps.meshShader && !caps.multiviewMeshShader;
+  if (requested == StereoMode::Auto && hybridLosesMesh) return StereoMode::Viewports;
   if (requested == StereoMode::Multiview && !can)
     return Error{
         fmt::format("--stereo-mode multiview: --raster {} cannot use it on this device ({})", toString(p.backend),

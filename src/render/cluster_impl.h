@@ -173,6 +173,11 @@ struct ClusterRenderer::Impl {
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
   bool hasBlend() const { return blendCapacity > 0; }
+  // Hybrid's hardware list through mesh shaders (else indirect draws): where the device has them,
+  // and with multiview stereo only where they have multiview (cluster_frame.cpp, resolveStereoMode).
+  bool hybridListMesh() const {
+    return meshAtomicPipeline && (!plans[currentSlot].multiview || ctx.caps().multiviewMeshShader);
+  }
 
   // cluster_frame.cpp: settings resolved into a plan, the plan and camera packed into `frame`, the
   // counters read back into stats.

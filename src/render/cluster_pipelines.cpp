@@ -200,7 +200,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
 // targets (one eye per layer, width x height).
 void ClusterRenderer::Impl::ensureMultiview(const ClusterFramePlan& plan) {
   bool atomic = plan.backend == RasterBackend::Hybrid;
-  bool mesh = atomic ? bool(meshAtomicPipeline) : plan.backend == RasterBackend::Mesh; // as cmdRasterize picks
+  bool mesh = atomic ? hybridListMesh() : plan.backend == RasterBackend::Mesh; // as cmdRasterize picks
   if (!multiviewPipelines[mesh][atomic])
     multiviewPipelines[mesh][atomic] = createVisPipeline(mesh, atomic, /*overdraw=*/false, /*multiview=*/true);
   if (plan.bufferTarget || layeredVis.handle()) return;

@@ -145,7 +145,7 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
       vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     }
     if (backend == RasterBackend::Hybrid)
-      cmdHardwareList(cmd, p, meshAtomicPipeline ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
+      cmdHardwareList(cmd, p, hybridListMesh() ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
                       /*atomic=*/true);
     if (pass == 0) cmdImageBarriers(cmd, toRead); // unwritten, but the descriptors must be valid
   }

@@ -354,20 +354,19 @@ TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
 }
 
 // Stereo by multiview (the hardware rasters: view mask 0b11 into 2-layer targets, copied side by
-// side) against per-eye viewports: the same image, each half a mono render of its eye, with
-// occlusion culling over two frames (pass 1 loads pass 0's layers) and with MASK and BLEND
+// side; hybrid's fragments into the side-by-side buffer) against per-eye viewports: the same image, each half a mono
+// render of its eye, with occlusion culling over two frames (pass 1 loads pass 0's layers) and with MASK and BLEND
 // materials (the fragment shaders' eye frame and side-by-side pixel come from gl_ViewIndex).
 TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
   gpu::Context& ctx = context();
   std::vector<RasterBackend> backends{RasterBackend::Indirect};
   if (ctx.caps().multiviewMeshShader) backends.push_back(RasterBackend::Mesh);
-  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics &&
-      (!ctx.caps().meshShader || ctx.caps().multiviewMeshShader)) // hybrid's hardware list: mesh shaders if any
+  if (ctx.caps().int64BufferAtomics &&
+      ctx.caps().fragmentStoresAndAtomics) // its list: indirect without multiviewMeshShader
     backends.push_back(RasterBackend::Hybrid);
   if (!ctx.caps().multiview) GTEST_SKIP() << "the device has no multiview";
   if (!ctx.caps().multiviewMeshShader)
-    std::printf("note: the device has no multiviewMeshShader: the mesh (and hybrid) rasters are not tested by "
-                "multiview here\n");
+    std::printf("note: the device has no multiviewMeshShader: the mesh raster is not tested by multiview here\n");
   struct Case {
     const lod::LodAsset* asset;
     Camera camera;
@@ -393,6 +392,7 @@ TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
       s.stereoIpd = c.ipd;
       s.occlusionCulling = c.occlusion;
       s.blendRaster = ctx.caps().fragmentStoresAndAtomics ? BlendRaster::Hardware : BlendRaster::Compute;
+      s.hybridThreshold = 0.0f; // hybrid: every cluster through the hardware list
       ClusterRenderOutput out[2];
       for (int frame = 0; frame < (c.occlusion ? 2 : 1); ++frame) // frame 2: pass 1 draws from the history
         for (StereoMode mode : {StereoMode::Multiview, StereoMode::Viewports}) {
@@ -402,6 +402,9 @@ TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
           EXPECT_EQ(r->stats.stereoMode, mode);
           out[mode == StereoMode::Viewports] = std::move(*r);
         }
+      if (backend == RasterBackend::Hybrid) {
+        EXPECT_GT(out[0].stats.clustersHardware, 0u);
+      }
       const ImageRGBA8& multiview = out[0].image.srgb;
       EXPECT_GE(psnr(multiview, out[1].image.srgb), 45.0) << "multiview against per-eye viewports";
       // An eye index ignored would draw the left eye into both layers.
@@ -436,6 +439,13 @@ TEST_F(ClusterStereo, MultiviewRefusedWhereItCannotRun) {
   std::vector<RasterBackend> refused;
   if (ctx.caps().int64BufferAtomics) refused.push_back(RasterBackend::Compute);
   if (ctx.caps().meshShader && !ctx.caps().multiviewMeshShader) refused.push_back(RasterBackend::Mesh);
+  // Hybrid keeps its mesh-shader list under auto (per-eye viewports) where mesh shaders lack multiview.
+  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics && ctx.caps().meshShader) {
+    s.raster = RasterBackend::Hybrid;
+    auto hybrid = (*renderer)->render(s);
+    ASSERT_TRUE(hybrid.ok()) << hybrid.error().message;
+    EXPECT_EQ(hybrid->stats.stereoMode, ctx.caps().multiviewMeshShader ? StereoMode::Multiview : StereoMode::Viewports);
+  }
   for (RasterBackend backend : refused) {
     SCOPED_TRACE(toString(backend));
     s.raster = backend;
