@@ -17,11 +17,11 @@ GpuMaterial instanceMaterial(GpuClusterInstance inst) {
 
 // Hardware fragment shaders: triangle t of visible entry v at gl_FragCoord.xy (the pixel centre).
 // Opaque instances return at the flag test.
-bool fragmentAlphaKeeps(uint v, uint t, vec2 fragCoord) {
+bool fragmentAlphaKeeps(uint64_t frameAddress, uint v, uint t, vec2 fragCoord) {
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
   if ((inst.flags & MIRAGE_INSTANCE_ALPHA_MASK) == 0) return true;
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
-  ClusterFrame f = FrameRef(push.frameAddress).frame; // stereo: the eye's viewport starts at targetOffsetX
+  ClusterFrame f = FrameRef(frameAddress).frame; // the eye's; stereo: its viewport starts at targetOffsetX
   return maskKeeps(f, instanceMaterial(inst), fetchTriangle(c, inst, t), fragCoord - vec2(f.targetOffsetX, 0.0));
 }

@@ -24,6 +24,14 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitNodeRef {
 
 layout(push_constant, scalar) uniform Push { ClusterPush push; };
 
+// The frame of the eye being drawn (docs/render.md, "Stereo"): stereo by multiview draws both eyes
+// with the left eye's frame pushed, the right eye's following it; the shaders of those draws define
+// MIRAGE_VIEW_INDEX as gl_ViewIndex (0 in every other rendering). Elsewhere the pushed frame is the eye's.
+#ifndef MIRAGE_VIEW_INDEX
+#define MIRAGE_VIEW_INDEX 0
+#endif
+uint64_t eyeFrameAddress() { return push.frameAddress + uint64_t(MIRAGE_VIEW_INDEX) * MIRAGE_CLUSTER_FRAME_STRIDE; }
+
 // Cluster PVS of the camera's cell (MIRAGE_FRAME_PVS): whether mesh-local cluster `meshLocal` of
 // instance `instance` may be visible from the cell. Instances outside it never reach selection.
 bool pvsClusterVisible(ClusterFrame f, uint instance, uint meshLocal) {

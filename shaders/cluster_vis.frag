@@ -1,5 +1,7 @@
 #version 460
 // Visibility output of the indirect-draw backend.
+#extension GL_EXT_multiview : require
+#define MIRAGE_VIEW_INDEX gl_ViewIndex // 0 unless the pipeline draws stereo by multiview
 #include "cluster_common.glsl"
 #include "cluster_vis_alpha.glsl"
 

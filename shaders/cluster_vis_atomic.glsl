@@ -1,13 +1,15 @@
 // Body of the hybrid backend's fragment shaders (inId: visible entry + 1, triangle).
 void main() {
-  if (!keepFacing(inId.x - 1, gl_FrontFacing) || !fragmentAlphaKeeps(inId.x - 1, inId.y, gl_FragCoord.xy)) return;
+  vec2 fragCoord = targetFragCoord();
+  if (!keepFacing(inId.x - 1, gl_FrontFacing) || !fragmentAlphaKeeps(eyeFrameAddress(), inId.x - 1, inId.y, fragCoord))
+    return;
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   uint id = (inId.x << MIRAGE_CLUSTER_TRIANGLE_BITS) | inId.y;
   uint64_t value = (uint64_t(floatBitsToUint(gl_FragCoord.z)) << 32) | uint64_t(id);
-  ivec2 p = ivec2(gl_FragCoord.xy);
+  ivec2 p = ivec2(fragCoord);
   uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
   if (!meshKeepsPixel(instanceFade(instance), uvec2(p))) return; // the surfels' pixel in the blend band
   countOverdraw(f, uvec2(p));
-  // Stereo draws each eye with its viewport in its half, so p is already the buffer's column.
+  // Stereo: p is the pixel in the side-by-side buffer (targetFragCoord).
   atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(targetRowPixels(f)) + p.x], value);
 }

@@ -15,7 +15,7 @@ void main() {
   }
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v];
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
-  mat4 mvp = FrameRef(push.frameAddress).frame.camera.viewProj * InstanceRef(push.instanceAddress).instances[vc.instance].model;
+  mat4 mvp = FrameRef(eyeFrameAddress()).frame.camera.viewProj * InstanceRef(push.instanceAddress).instances[vc.instance].model;
   SetMeshOutputsEXT(c.vertexCount, c.triangleCount);
   for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += 32) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];

@@ -1,5 +1,7 @@
 #version 460
 // cluster_vis_mesh.frag with the alpha MASK test (scenes with MASK materials).
+#extension GL_EXT_multiview : require
+#define MIRAGE_VIEW_INDEX gl_ViewIndex // 0 unless the pipeline draws stereo by multiview
 #extension GL_EXT_mesh_shader : require
 #define MIRAGE_VIS_MASK 1
 #include "cluster_common.glsl"

@@ -18,5 +18,5 @@ void main() {
   uint id = triangleVertex(c, t, gl_VertexIndex % 3);
   vec3 p = VertexRef(push.vertexAddress).vertices[id].position;
   mat4 model = InstanceRef(push.instanceAddress).instances[vc.instance].model;
-  gl_Position = FrameRef(push.frameAddress).frame.camera.viewProj * (model * vec4(p, 1.0));
+  gl_Position = FrameRef(eyeFrameAddress()).frame.camera.viewProj * (model * vec4(p, 1.0));
 }

@@ -27,6 +27,8 @@ nlohmann::json capsJson(const gpu::DeviceInfo& d) {
           {"int64_buffer_atomics", c.int64BufferAtomics},
           {"int64_image_atomics", c.int64ImageAtomics},
           {"max_multiview_views", c.maxMultiviewViews},
+          {"multiview", c.multiview},
+          {"multiview_mesh_shader", c.multiviewMeshShader},
           {"subgroup_size", c.subgroupSize},
           {"timestamps", c.timestamps},
           {"timestamp_period_ns", c.timestampPeriodNs},
@@ -61,8 +63,10 @@ void printDevices(bool json) {
                "image {}\n",
                yes(c.meshShader), yes(c.geometryShader), yes(c.rayTracingPipeline), yes(c.rayQuery),
                yes(c.int64BufferAtomics), yes(c.int64ImageAtomics));
-    fmt::print("    multiview {} views  subgroup {}  timestamps {} ({} ns/tick)  pipeline statistics {}\n",
-               c.maxMultiviewViews, c.subgroupSize, yes(c.timestamps), c.timestampPeriodNs, yes(c.pipelineStatistics));
+    fmt::print("    multiview {} ({} views, mesh shaders {})  subgroup {}  timestamps {} ({} ns/tick)  pipeline "
+               "statistics {}\n",
+               yes(c.multiview), c.maxMultiviewViews, yes(c.multiviewMeshShader), c.subgroupSize, yes(c.timestamps),
+               c.timestampPeriodNs, yes(c.pipelineStatistics));
     fmt::print("    max storage buffer range {} MiB  device-local memory {} MiB\n", c.maxStorageBufferRange >> 20,
                c.deviceLocalBytes >> 20);
   }

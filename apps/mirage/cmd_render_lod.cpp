@@ -180,6 +180,7 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"triangles_rasterized", st.trianglesRasterized},
           {"clusters_blend", st.clustersBlend},
           {"blend_raster", render::toString(st.blendRaster)},
+          {"stereo_mode", st.stereoMode == render::StereoMode::Auto ? "mono" : render::toString(st.stereoMode)},
           {"clusters_blend_hardware", st.clustersBlendHardware},
           {"oit_fragments", st.oitFragments},
           {"oit_pool_overflow", st.oitPoolOverflow},
@@ -483,10 +484,10 @@ void runLodBench(const LodRenderRequest& r) {
           printStats(*t.last.cluster, t.times, true);
           if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
           if (r.stereoIpd)
-            fmt::print("stereo (ipd {}): both eyes {:.3f} ms, {:.0f} triangles; mono one eye {:.3f} ms, {:.0f} "
+            fmt::print("stereo (ipd {}, {}): both eyes {:.3f} ms, {:.0f} triangles; mono one eye {:.3f} ms, {:.0f} "
                        "triangles; stereo/mono {:.2f}x\n",
-                       *r.stereoIpd, frameMilliseconds(t.times), t.meanTriangles, frameMilliseconds(mono.times),
-                       mono.meanTriangles, stereoRatio);
+                       *r.stereoIpd, render::toString(t.last.cluster->stereoMode), frameMilliseconds(t.times),
+                       t.meanTriangles, frameMilliseconds(mono.times), mono.meanTriangles, stereoRatio);
           if (withPvs) {
             double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
             fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "

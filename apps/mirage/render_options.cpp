@@ -134,6 +134,13 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
           ->transform(
               enumNames(render::kSelectionModeNames, c.selection, "all", bench ? &sweeps->allSelections : nullptr))
           ->default_str(render::toString(c.selection)));
+  lod.push_back(cmd.add_option("--stereo-mode", c.stereoMode,
+                               ".mrg, --stereo: how the mesh, indirect and hybrid rasters draw both eyes: auto "
+                               "(multiview where the device has it), multiview (VK_KHR_multiview) or viewports (each "
+                               "eye with its viewport)")
+                    ->type_name("NAME")
+                    ->transform(enumNames(render::kStereoModeNames, c.stereoMode))
+                    ->default_str(render::toString(c.stereoMode)));
   lod.push_back(cmd.add_option("--debug-view", c.debugView,
                                ".mrg: none|clusters|lod|density|overdraw: colour by cluster, DAG level, triangles per "
                                "pixel or overdraw instead of shading (docs/render.md, \"Debug views\")")

@@ -139,6 +139,8 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   f.link(p.hasMesh, p.hasAccel, p.hasRtPipeline, p.hasRayQuery, p.hasImageInt64);
   vkGetPhysicalDeviceFeatures2(pd, &f.core);
   c.meshShader = p.hasMesh && f.mesh.meshShader && f.mesh.taskShader;
+  c.multiview = f.v11.multiview;
+  c.multiviewMeshShader = c.meshShader && c.multiview && f.mesh.multiviewMeshShader;
   c.accelerationStructure = p.hasAccel && f.accel.accelerationStructure;
   c.rayTracingPipeline = c.accelerationStructure && p.hasRtPipeline && f.rtPipeline.rayTracingPipeline;
   c.rayQuery = c.accelerationStructure && p.hasRayQuery && f.rayQuery.rayQuery;
@@ -395,6 +397,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   if (p.caps.meshShader) {
     want.mesh.meshShader = VK_TRUE;
     want.mesh.taskShader = VK_TRUE;
+    want.mesh.multiviewMeshShader = p.caps.multiviewMeshShader ? VK_TRUE : VK_FALSE;
   }
   if (p.caps.accelerationStructure) want.accel.accelerationStructure = VK_TRUE;
   if (p.caps.rayTracingPipeline) want.rtPipeline.rayTracingPipeline = VK_TRUE;

@@ -40,8 +40,12 @@ std::vector<PassTime> GpuTimer::read() const {
   MIRAGE_VK_CHECK(vkGetQueryPoolResults(context_.device(), pool_, 0, uint32_t(ticks.size()), ticks.size() * 8,
                                         ticks.data(), 8, VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
   double period = context_.caps().timestampPeriodNs;
+  // An end before its begin reads as 0 rather than wrapping around: lavapipe resolves a timestamp
+  // when its rasterizer runs the binned scene, so a pass holding only copies after a rendering
+  // (stereo's layer-copy) can end "before" it began.
   for (size_t i = 0; i < names_.size(); ++i)
-    out.push_back({names_[i], double(ticks[2 * i + 1] - ticks[2 * i]) * period * 1e-6});
+    out.push_back(
+        {names_[i], ticks[2 * i + 1] >= ticks[2 * i] ? double(ticks[2 * i + 1] - ticks[2 * i]) * period * 1e-6 : 0.0});
   return out;
 }
 

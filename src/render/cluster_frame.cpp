@@ -59,6 +59,27 @@ Result<BlendRaster> resolveBlendRaster(BlendRaster requested, const DeviceCapabi
   return requested;
 }
 
+// Stereo through multiview for the backends that rasterize in a render pass (mesh, indirect, and
+// hybrid's hardware list); the compute raster draws both eyes in one dispatch either way, so it is
+// reported as viewports (its hardware blend draws, if any, take them). The overdraw view's counting
+// pipelines exist only for per-eye viewports. Hybrid's list goes through mesh shaders where the
+// device has them; without multiviewMeshShader auto keeps them (viewports), while multiview asked
+// for draws the list by indirect draws instead (hybridListMesh).
+Result<StereoMode> resolveStereoMode(StereoMode requested, const ClusterFramePlan& p, const DeviceCapabilities& caps) {
+  bool can = p.backend != RasterBackend::Compute && caps.multiview &&
+             (p.backend != RasterBackend::Mesh || caps.multiviewMeshShader) && p.debugView != DebugView::Overdraw;
+  bool hybridLosesMesh = p.backend == RasterBackend::Hybrid && caps.meshShader && !caps.multiviewMeshShader;
+  if (requested == StereoMode::Auto && hybridLosesMesh) return StereoMode::Viewports;
+  if (requested == StereoMode::Multiview && !can)
+    return Error{
+        fmt::format("--stereo-mode multiview: --raster {} cannot use it on this device ({})", toString(p.backend),
+                    p.backend == RasterBackend::Compute  ? "the compute raster draws both eyes in one dispatch"
+                    : !caps.multiview                    ? "no multiview"
+                    : p.debugView == DebugView::Overdraw ? "the overdraw view counts per eye viewport"
+                                                         : "no multiview for mesh shaders (multiviewMeshShader)")};
+  return requested == StereoMode::Viewports || !can ? StereoMode::Viewports : StereoMode::Multiview;
+}
+
 } // namespace
 
 Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings& cs) const {
@@ -104,6 +125,11 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
                              "the device lacks",
                              toString(p.backend))};
   p.debugView = cs.debugView;
+  if (p.stereo) {
+    auto mode = resolveStereoMode(cs.stereoMode, p, ctx.caps());
+    if (!mode) return mode.error();
+    p.multiview = *mode == StereoMode::Multiview;
+  }
   p.dagTree = cs.selection == SelectionMode::Dag;
   p.hierarchy = p.dagTree || cs.selection == SelectionMode::Hierarchy ||
                 (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances);
@@ -264,6 +290,7 @@ ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
   st.clustersPvsCulled = c.clustersPvsCulled;
   st.pvs = plan.pvs;
   st.raster = plan.backend;
+  st.stereoMode = !plan.stereo ? StereoMode::Auto : plan.multiview ? StereoMode::Multiview : StereoMode::Viewports;
   st.occlusion = plan.occlusion;
   return st;
 }

@@ -89,8 +89,9 @@ struct ClusterFramePlan {
   bool dagTree = false;                        // hierarchical selection over the DAG's group tree
   bool hierarchy = false;                      // hierarchical selection (LOD BVH or DAG tree), else the flat pass
   bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
-  bool transparency = false;                   // BLEND clusters rasterized and composited (scene has them, asked for)
-  DebugView debugView = DebugView::None;       // the debug resolve runs instead of the shading one
+  bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
+  bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
+  DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
 };
 
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.
@@ -118,6 +119,11 @@ struct ClusterRenderer::Impl {
   // visibility rasters, and the overdraw view's per-pixel counts (recreated with the targets).
   gpu::Unique<VkPipeline> debugResolvePipeline, overdrawMeshPipeline, overdrawIndirectPipeline;
   gpu::Buffer overdrawCounts;
+  // Stereo by multiview (docs/render.md, "Stereo"), created on first use: the visibility rasters
+  // with view mask 0b11 ([mesh][atomic]), and the image backends' 2-layer targets (one eye a layer)
+  // that each pass copies into the side-by-side visibility image and depth.
+  gpu::Unique<VkPipeline> multiviewPipelines[2][2];
+  gpu::Image layeredVis, layeredDepth;
   VkShaderStageFlags pushStages = 0;
   gpu::Image color, vis, depth;
   uint32_t colorWidth = 0; // the colour target: width, or 2 * width in stereo (left|right)
@@ -142,8 +148,9 @@ struct ClusterRenderer::Impl {
   gpu::GpuTimer& timer() { return timers[currentSlot]; }
   void createDescriptors(); // cluster_pipelines.cpp
   void createPipelines();
-  gpu::Unique<VkPipeline> createVisPipeline(bool mesh, bool atomic, bool overdraw = false);
+  gpu::Unique<VkPipeline> createVisPipeline(bool mesh, bool atomic, bool overdraw = false, bool multiview = false);
   void ensureTargets(uint32_t w, uint32_t h, uint32_t colorW);
+  void ensureMultiview(const ClusterFramePlan& plan);
   shaderio::ClusterPush push() const;
   void cmdPush(VkCommandBuffer cmd, shaderio::ClusterPush p, uint32_t rasterList);
   void cmdSelect(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
@@ -152,19 +159,25 @@ struct ClusterRenderer::Impl {
   void cmdRasterize(VkCommandBuffer cmd, const shaderio::ClusterPush& p, RasterBackend backend, uint32_t pass);
   void cmdHardwareList(VkCommandBuffer cmd, const shaderio::ClusterPush& p, RasterBackend backend, uint32_t pass,
                        bool atomic);
+  void cmdMultiviewList(VkCommandBuffer cmd, const shaderio::ClusterPush& p, RasterBackend backend, uint32_t pass);
   void cmdBuildHzb(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
   void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
   void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, BlendRaster blend, bool meshBlend,
                        bool bufferTarget);
   void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
-  void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri);
+  void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri, bool multiview = false);
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
   void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,
                    uint32_t rasterList);
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
   bool hasBlend() const { return blendCapacity > 0; }
+  // Hybrid's hardware list through mesh shaders (else indirect draws): where the device has them,
+  // and with multiview stereo only where they have multiview (cluster_frame.cpp, resolveStereoMode).
+  bool hybridListMesh() const {
+    return meshAtomicPipeline && (!plans[currentSlot].multiview || ctx.caps().multiviewMeshShader);
+  }
 
   // cluster_frame.cpp: settings resolved into a plan, the plan and camera packed into `frame`, the
   // counters read back into stats.

@@ -127,9 +127,13 @@ void ClusterRenderer::Impl::createPipelines() {
 // Image backends: (visible entry + 1, triangle) into an R32G32 target, depth-tested. Hybrid's
 // hardware list: no attachments, the fragment shader does the compute rasterizer's atomicMax.
 // `overdraw` (image backends): the *_overdraw.frag variant counting samples for the debug view.
-gpu::Unique<VkPipeline> ClusterRenderer::Impl::createVisPipeline(bool mesh, bool atomic, bool overdraw) {
+// `multiview`: both stereo eyes in one draw (view mask 0b11; the fragment shaders serve both kinds).
+gpu::Unique<VkPipeline> ClusterRenderer::Impl::createVisPipeline(bool mesh, bool atomic, bool overdraw,
+                                                                 bool multiview) {
   GraphicsPipelineDesc d;
-  (mesh ? d.meshShader : d.vertexShader) = mesh ? "cluster_vis.mesh" : "cluster_vis.vert";
+  (mesh ? d.meshShader : d.vertexShader) = mesh ? (multiview ? "cluster_vis_multiview.mesh" : "cluster_vis.mesh")
+                                                : (multiview ? "cluster_vis_multiview.vert" : "cluster_vis.vert");
+  d.viewMask = multiview ? 0b11u : 0u;
   // Scenes with MASK materials take the *_mask variants (alpha test); others run no alpha code.
   std::string fragment = std::string(mesh ? (atomic ? "cluster_vis_mesh_atomic" : "cluster_vis_mesh")
                                           : (atomic ? "cluster_vis_atomic" : "cluster_vis")) +
@@ -148,10 +152,16 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                         "color");
   // Visibility targets as wide as the colour target: stereo rasterizes both eyes side by side.
-  vis = createImage2D(ctx, colorW, h, kVisFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                      "visibility");
+  // TRANSFER_DST: stereo by multiview copies its layers in.
+  vis = createImage2D(
+      ctx, colorW, h, kVisFormat,
+      VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, "visibility");
   depth = createImage2D(ctx, colorW, h, kDepthFormat,
-                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, "visibility depth");
+                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
+                            VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                        "visibility depth");
+  layeredVis = {}; // made at the new size on first use
+  layeredDepth = {};
   visBuffer =
       createBuffer(ctx, uint64_t(colorW) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                    MemoryUsage::GpuOnly, "visibility64");
@@ -185,6 +195,29 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   width = w;
   height = h;
   colorWidth = colorW;
+}
+
+// Stereo by multiview: this frame's visibility pipeline and, for the image backends, the 2-layer
+// targets (one eye per layer, width x height).
+void ClusterRenderer::Impl::ensureMultiview(const ClusterFramePlan& plan) {
+  bool atomic = plan.backend == RasterBackend::Hybrid;
+  bool mesh = atomic ? hybridListMesh() : plan.backend == RasterBackend::Mesh; // as cmdRasterize picks
+  if (!multiviewPipelines[mesh][atomic])
+    multiviewPipelines[mesh][atomic] = createVisPipeline(mesh, atomic, /*overdraw=*/false, /*multiview=*/true);
+  if (plan.bufferTarget || layeredVis.handle()) return;
+  VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ci.imageType = VK_IMAGE_TYPE_2D;
+  ci.extent = {width, height, 1};
+  ci.mipLevels = 1;
+  ci.arrayLayers = 2;
+  ci.samples = VK_SAMPLE_COUNT_1_BIT;
+  ci.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ci.format = kVisFormat;
+  ci.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  layeredVis = createImage(ctx, ci, VK_IMAGE_ASPECT_COLOR_BIT, "visibility layers");
+  ci.format = kDepthFormat;
+  ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  layeredDepth = createImage(ctx, ci, VK_IMAGE_ASPECT_DEPTH_BIT, "visibility depth layers");
 }
 
 sio::ClusterPush ClusterRenderer::Impl::push() const {

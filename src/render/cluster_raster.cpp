@@ -7,14 +7,17 @@ namespace mirage::render {
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 
-// Dynamic rendering over the whole target (both eyes in stereo) with the state every cluster draw
+// Dynamic rendering over the whole target (both eyes in stereo: side by side, or `multiview`, one
+// eye's size with view mask 0b11 over 2-layer attachments) with the state every cluster draw
 // shares: full viewport and scissor, no culling and counter-clockwise fronts (facing is decided per
 // instance in the fragment shaders: single/double-sided, mirrored, so one draw serves every material).
-void ClusterRenderer::Impl::cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri) {
-  ri.renderArea = {{0, 0}, {colorWidth, height}};
-  ri.layerCount = 1;
+void ClusterRenderer::Impl::cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri, bool multiview) {
+  uint32_t w = multiview ? width : colorWidth;
+  ri.renderArea = {{0, 0}, {w, height}};
+  ri.layerCount = 1; // ignored with a view mask
+  ri.viewMask = multiview ? 0b11u : 0u;
   vkCmdBeginRendering(cmd, &ri);
-  cmdSetFullViewport(cmd, colorWidth, height);
+  cmdSetFullViewport(cmd, w, height);
   vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
   vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
 }
@@ -32,17 +35,19 @@ void ClusterRenderer::Impl::cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t
 // One hardware list into the visibility image + depth (image backends; pass 1 loads pass 0's) or,
 // `atomic`, into the 64-bit buffer through fragment atomics with no attachments (hybrid). Stereo
 // (p: the left eye's frame): one rendering, the list drawn once per eye with that eye's frame and
-// its viewport over its half of the targets.
+// its viewport over its half of the targets, or by multiview once into the eyes' layers (the
+// image backends' 2-layer targets; hybrid's fragments still address the side-by-side buffer).
 // barriers: the pass's arguments visible; the images in the layouts cmdRasterize leaves them in.
 void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
                                             uint32_t pass, bool atomic) {
+  bool multiview = plans[currentSlot].multiview;
   VkRenderingAttachmentInfo visAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  visAtt.imageView = vis.view();
+  visAtt.imageView = multiview ? layeredVis.view() : vis.view();
   visAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
   visAtt.loadOp = pass == 0 ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD; // 0 = no cluster
   visAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depthAtt.imageView = depth.view();
+  depthAtt.imageView = multiview ? layeredDepth.view() : depth.view();
   depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   depthAtt.loadOp = pass == 0 ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
   depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE; // the HZB reads it
@@ -54,15 +59,21 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
     ri.pDepthAttachment = &depthAtt;
   }
   uint32_t list = atomic ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP;
-  cmdBeginFullTarget(cmd, ri);
+  cmdBeginFullTarget(cmd, ri, multiview);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
   bool mesh = backend == RasterBackend::Mesh;
   VkPipeline pipeline =
       mesh ? (atomic ? meshAtomicPipeline : meshPipeline) : (atomic ? indirectAtomicPipeline : indirectPipeline);
   if (!atomic && plans[currentSlot].debugView == DebugView::Overdraw) // the counting variants
     pipeline = mesh ? overdrawMeshPipeline : overdrawIndirectPipeline;
+  if (multiview) pipeline = multiviewPipelines[mesh][atomic]; // ensureMultiview made it
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
-  cmdDrawEyes(cmd, p, mesh, pass, list, pass * 2 + list);
+  if (multiview) { // the shaders step to the right eye's frame by gl_ViewIndex
+    cmdPush(cmd, p, pass * 2 + list);
+    cmdDrawList(cmd, mesh, pass, list);
+  } else {
+    cmdDrawEyes(cmd, p, mesh, pass, list, pass * 2 + list);
+  }
   vkCmdEndRendering(cmd);
 }
 
@@ -103,7 +114,9 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
                             VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
                            {depth.handle(), kCS, 0, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                             VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
-  if (imageTarget) {
+  if (imageTarget && plans[currentSlot].multiview) {
+    cmdMultiviewList(cmd, p, backend, pass);
+  } else if (imageTarget) {
     // Pass 0 starts from nothing; pass 1 keeps pass 0's ids and depth (read by the HZB since).
     ImageBarrier toAttachment[] = {{vis.handle(), kCS, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                                     VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
@@ -132,12 +145,75 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
       vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     }
     if (backend == RasterBackend::Hybrid)
-      cmdHardwareList(cmd, p, meshAtomicPipeline ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
+      cmdHardwareList(cmd, p, hybridListMesh() ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
                       /*atomic=*/true);
     if (pass == 0) cmdImageBarriers(cmd, toRead); // unwritten, but the descriptors must be valid
   }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   timer().cmdEnd(cmd, slot);
+}
+
+// Stereo by multiview, image backends: the list into the eyes' layers (pass 1 loads pass 0's, which
+// the layers still hold), then each layer copied into its half of the side-by-side visibility image
+// and depth. The copy keeps every reader (HZB, resolve, debug views, blend rasters) on the one
+// side-by-side layout the compute raster writes too; it moves 8 bytes per pixel each pass, 12 when
+// the depth is read after the raster (the HZB with occlusion, the blend rasters' depth test).
+// barriers: as cmdRasterize's image branch; on exit the same layouts, the copies visible to compute
+// shaders and to depth tests (the hardware blend raster); an uncopied depth is left unwritten.
+void ClusterRenderer::Impl::cmdMultiviewList(VkCommandBuffer cmd, const sio::ClusterPush& p, RasterBackend backend,
+                                             uint32_t pass) {
+  const VkPipelineStageFlags2 kDepthStages =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  const VkAccessFlags2 kDepthAccess =
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  const VkPipelineStageFlags2 kColorStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+  const VkPipelineStageFlags2 kCopy = VK_PIPELINE_STAGE_2_COPY_BIT;
+  // Pass 0 starts from nothing (the last copy read the layers: write after read); pass 1 keeps pass 0's.
+  VkImageLayout layerOld = pass == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  ImageBarrier toAttachment[] = {{layeredVis.handle(), kCopy, 0, kColorStage,
+                                  VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                                  layerOld, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+                                 {layeredDepth.handle(), kCopy, 0, kDepthStages, kDepthAccess, layerOld,
+                                  VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+  cmdImageBarriers(cmd, toAttachment);
+  cmdHardwareList(cmd, p, backend, pass, /*atomic=*/false);
+  bool copyDepth = plans[currentSlot].occlusion || hasBlend(); // its readers (stereo runs blend passes by hasBlend)
+  // The side-by-side images are overwritten whole: their contents (read by compute shaders: the
+  // HZB, or the previous frame's resolve) are dropped.
+  ImageBarrier toCopy[] = {{layeredVis.handle(), kColorStage, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, kCopy,
+                            VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL},
+                           {layeredDepth.handle(), kDepthStages, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kCopy,
+                            VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT},
+                           {vis.handle(), kCS, 0, kCopy, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL},
+                           {depth.handle(), kCS, 0, kCopy, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+  cmdImageBarriers(cmd, toCopy);
+  uint32_t slot = timer().cmdBegin(cmd, "layer-copy");
+  for (VkImageAspectFlags aspect : {VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_ASPECT_DEPTH_BIT}) {
+    if (aspect == VK_IMAGE_ASPECT_DEPTH_BIT && !copyDepth) continue;
+    VkImageCopy regions[2];
+    for (uint32_t e = 0; e < 2; ++e) {
+      regions[e] = {};
+      regions[e].srcSubresource = {aspect, 0, e, 1};
+      regions[e].dstSubresource = {aspect, 0, 0, 1};
+      regions[e].dstOffset = {int32_t(e * width), 0, 0};
+      regions[e].extent = {width, height, 1};
+    }
+    bool ids = aspect == VK_IMAGE_ASPECT_COLOR_BIT;
+    vkCmdCopyImage(cmd, ids ? layeredVis.handle() : layeredDepth.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                   ids ? vis.handle() : depth.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 2, regions);
+  }
+  timer().cmdEnd(cmd, slot);
+  ImageBarrier toRead[] = {
+      {vis.handle(), kCopy, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+      {depth.handle(), kCopy, copyDepth ? VK_ACCESS_2_TRANSFER_WRITE_BIT : 0, kCS | kDepthStages,
+       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT,
+       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+  cmdImageBarriers(cmd, toRead);
 }
 
 // barriers: cmdRasterize's output visible to compute shaders. The color target ends in GENERAL with

@@ -20,6 +20,10 @@ const char* toString(BlendRaster b) { return nameOf(kBlendRasterNames, b); }
 Result<BlendRaster> parseBlendRaster(std::string_view text) {
   return parseNamed(text, "--blend-raster", kBlendRasterNames);
 }
+const char* toString(StereoMode m) { return nameOf(kStereoModeNames, m); }
+Result<StereoMode> parseStereoMode(std::string_view text) {
+  return parseNamed(text, "--stereo-mode", kStereoModeNames);
+}
 const char* toString(SelectionMode m) { return nameOf(kSelectionModeNames, m); }
 Result<SelectionMode> parseSelectionMode(std::string_view text) {
   return parseNamed(text, "--selection", kSelectionModeNames);
@@ -80,6 +84,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   if (width != 0 && (cs.base.width != width || cs.base.height != height || colorW != colorWidth))
     vkDeviceWaitIdle(ctx.device());
   ensureTargets(cs.base.width, cs.base.height, colorW);
+  if (planned->multiview) ensureMultiview(*planned);
   if (planned->debugView != DebugView::None && !debugResolvePipeline)
     debugResolvePipeline = createComputePipeline(ctx, "cluster_debug_resolve.comp", layout);
   if (planned->debugView == DebugView::Overdraw && planned->backend == RasterBackend::Mesh && !overdrawMeshPipeline)
@@ -159,9 +164,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     cmdPhaseBarrier(cmd, mesh);
   }
   bool blend = plan.transparency && plan.debugView == DebugView::None; // debug views: opaque surfaces only
-  if (blend) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
-  cmdResolve(cmd, p);                     // fetch, interpolate, shade; with occlusion: the clusters owning pixels
-  if (blend)                              // blend raster into fragment lists, sorted composite
+  if (blend) cmdArgs(cmd, p, /*pass=*/2);                              // the blend list is complete after both phases
+  cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
+  if (blend)          // blend raster into fragment lists, sorted composite
     cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
   finishFrame(cmd, plan, frameTime);
 }

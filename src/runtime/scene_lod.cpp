@@ -93,6 +93,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.hybridThreshold = c.hybridThreshold;
   rs.pvsCulling = c.pvsCulling;
   rs.stereoIpd = view.stereoIpd;
+  rs.stereoMode = c.stereoMode;
   rs.foveation = c.foveation;
   rs.foveaGaze = c.foveaGaze;
   rs.foveaRadiusDegrees = c.foveaRadiusDegrees;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # render --stereo: a .mrg renders both eyes side by side (2W x H PNG), with occlusion culling too; bad --ipd values and
-# --stereo on a scene without cluster DAGs get one line, exit 2 and no output.
+# --stereo on a scene without cluster DAGs get one line, exit 2 and no output; --stereo-mode shows in the JSON.
 # Usage: stereo.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -23,6 +23,19 @@ if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb" && expect_ok build-bl
   expect_ok render-stereo-occlusion render "$tmp/blob.mrg" --stereo --occlusion on --size 48x32 -o "$tmp/s3.png" &&
     { [ "$(png_size "$tmp/s3.png")" = "96x32" ] || { echo "FAIL render-stereo-occlusion: size"; failures=$((failures + 1)); }; }
   expect_fail bench-ipd-nan "--ipd" "" -- bench render "$tmp/blob.mrg" --stereo --ipd nan --size 48x32 --frames 2
+  # --stereo-mode: the mode that ran is in the JSON (viewports when forced; multiview or viewports under auto).
+  for mode in viewports auto; do
+    if "$mirage" render "$tmp/blob.mrg" --stereo --stereo-mode $mode --raster indirect --size 48x32 -o "$tmp/m.png" \
+      --json >"$tmp/m.json" 2>"$tmp/m.err"; then
+      want='"stereo_mode": "viewports"'
+      [ $mode = auto ] && want='"stereo_mode": "(multiview|viewports)"'
+      grep -Eq "$want" "$tmp/m.json" || { echo "FAIL stereo-mode-$mode: no $want in the JSON"; failures=$((failures + 1)); }
+    else
+      echo "FAIL stereo-mode-$mode: exit $?: $(cat "$tmp/m.err")"
+      failures=$((failures + 1))
+    fi
+  done
+  expect_fail stereo-mode-bad "--stereo-mode" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --stereo-mode sideways --size 48x32 -o "$tmp/bad.png"
 fi
 expect_fail stereo-forward "--stereo" "$tmp/f.png" -- render "$tmp/blob.glb" --stereo --size 48x32 -o "$tmp/f.png"
 

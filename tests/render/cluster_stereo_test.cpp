@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -74,6 +75,36 @@ Mesh panel(float halfSize, float z, uint32_t material) {
     }
   for (const glm::vec3& p : m.positions) m.bounds.add(p);
   return m;
+}
+
+// A wall behind a checker-cut MASK panel and two BLEND panels in front (alpha tests and
+// transparency lists per eye).
+const lod::LodAsset& maskedBlendedAsset() {
+  static lod::LodAsset asset = [] {
+    Scene scene;
+    scene.materials = {test::solidMaterial({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
+                       test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true),
+                       test::solidMaterial({0.1f, 0.3f, 0.9f, 0.5f}, AlphaMode::Blend),
+                       test::solidMaterial({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
+    scene.materials[1].alphaCutoff = 0.5f;
+    scene.materials[1].baseColorTexture = 0;
+    Texture checker; // 8 x 8, alpha 255 / 0
+    checker.name = "checker";
+    checker.width = checker.height = 8;
+    for (uint32_t y = 0; y < 8; ++y)
+      for (uint32_t x = 0; x < 8; ++x)
+        checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
+    scene.textures.push_back(checker);
+    scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1), panel(0.8f, 0.0f, 2), panel(0.8f, 0.0f, 3)};
+    scene.instances = {{0, glm::mat4(1.0f)},
+                       {1, glm::mat4(1.0f)},
+                       {2, glm::translate(glm::mat4(1.0f), {-0.45f, 0.1f, 0.6f})},
+                       {3, glm::translate(glm::mat4(1.0f), {0.45f, -0.1f, 1.1f})}};
+    auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+    EXPECT_TRUE(baked.ok()) << baked.error().message;
+    return baked.ok() ? std::move(*baked) : lod::LodAsset{};
+  }();
+  return asset;
 }
 
 int passCount(const ClusterRenderOutput& out, const std::string& name) {
@@ -297,28 +328,7 @@ TEST_F(ClusterStereo, NearPlaneCrossingTrianglesMatchPerEye) {
 // panels in front go through per-eye transparency lists (each blend raster) and one composite.
 TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
   gpu::Context& ctx = context();
-  Scene scene;
-  scene.materials = {test::solidMaterial({0.25f, 0.6f, 0.3f, 1.0f}, AlphaMode::Opaque),
-                     test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true),
-                     test::solidMaterial({0.1f, 0.3f, 0.9f, 0.5f}, AlphaMode::Blend),
-                     test::solidMaterial({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
-  scene.materials[1].alphaCutoff = 0.5f;
-  scene.materials[1].baseColorTexture = 0;
-  Texture checker; // 8 x 8, alpha 255 / 0
-  checker.name = "checker";
-  checker.width = checker.height = 8;
-  for (uint32_t y = 0; y < 8; ++y)
-    for (uint32_t x = 0; x < 8; ++x)
-      checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
-  scene.textures.push_back(checker);
-  scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1), panel(0.8f, 0.0f, 2), panel(0.8f, 0.0f, 3)};
-  scene.instances = {{0, glm::mat4(1.0f)},
-                     {1, glm::mat4(1.0f)},
-                     {2, glm::translate(glm::mat4(1.0f), {-0.45f, 0.1f, 0.6f})},
-                     {3, glm::translate(glm::mat4(1.0f), {0.45f, -0.1f, 1.1f})}};
-  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
-  ASSERT_TRUE(baked.ok()) << baked.error().message;
-  auto renderer = ClusterRenderer::create(ctx, *baked);
+  auto renderer = ClusterRenderer::create(ctx, maskedBlendedAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   Camera camera;
   camera.eye = {0.3f, 0.4f, 4.0f};
@@ -340,5 +350,112 @@ TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
     EXPECT_LT(psnr(half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)), 30.0);
     expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), s);
+  }
+}
+
+// Stereo by multiview (the hardware rasters: view mask 0b11 into 2-layer targets, copied side by
+// side; hybrid's fragments into the side-by-side buffer) against per-eye viewports: the same image, each half a mono
+// render of its eye, with occlusion culling over two frames (pass 1 loads pass 0's layers) and with MASK and BLEND
+// materials (the fragment shaders' eye frame and side-by-side pixel come from gl_ViewIndex).
+TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
+  gpu::Context& ctx = context();
+  std::vector<RasterBackend> backends{RasterBackend::Indirect};
+  if (ctx.caps().multiviewMeshShader) backends.push_back(RasterBackend::Mesh);
+  if (ctx.caps().int64BufferAtomics &&
+      ctx.caps().fragmentStoresAndAtomics) // its list: indirect without multiviewMeshShader
+    backends.push_back(RasterBackend::Hybrid);
+  if (!ctx.caps().multiview) GTEST_SKIP() << "the device has no multiview";
+  if (!ctx.caps().multiviewMeshShader)
+    std::printf("note: the device has no multiviewMeshShader: the mesh raster is not tested by multiview here\n");
+  struct Case {
+    const lod::LodAsset* asset;
+    Camera camera;
+    float ipd;
+    bool occlusion;
+  };
+  Camera grid;
+  grid.target = {0.0f, 0.0f, -3.0f};
+  grid.eye = {0.3f, 0.4f, 6.0f};
+  Camera panels;
+  panels.eye = {0.3f, 0.4f, 4.0f};
+  panels.target = {0.0f, 0.0f, 0.0f};
+  const Case cases[] = {{&gridAsset(), grid, 1.2f, false},
+                        {&gridAsset(), grid, 1.2f, true},
+                        {&maskedBlendedAsset(), panels, 0.5f, false}};
+  for (const Case& c : cases)
+    for (RasterBackend backend : backends) {
+      SCOPED_TRACE(std::string(toString(backend)) + (c.occlusion ? " occlusion" : "") +
+                   (c.asset == &gridAsset() ? " grid" : " masked+blended"));
+      auto renderer = ClusterRenderer::create(ctx, *c.asset);
+      ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+      ClusterRenderSettings s = settings(c.camera, backend, SelectionMode::Flat);
+      s.stereoIpd = c.ipd;
+      s.occlusionCulling = c.occlusion;
+      s.blendRaster = ctx.caps().fragmentStoresAndAtomics ? BlendRaster::Hardware : BlendRaster::Compute;
+      s.hybridThreshold = 0.0f; // hybrid: every cluster through the hardware list
+      ClusterRenderOutput out[2];
+      for (int frame = 0; frame < (c.occlusion ? 2 : 1); ++frame) // frame 2: pass 1 draws from the history
+        for (StereoMode mode : {StereoMode::Multiview, StereoMode::Viewports}) {
+          s.stereoMode = mode;
+          auto r = (*renderer)->render(s);
+          ASSERT_TRUE(r.ok()) << r.error().message;
+          EXPECT_EQ(r->stats.stereoMode, mode);
+          out[mode == StereoMode::Viewports] = std::move(*r);
+        }
+      if (backend == RasterBackend::Hybrid) {
+        EXPECT_GT(out[0].stats.clustersHardware, 0u);
+      }
+      const ImageRGBA8& multiview = out[0].image.srgb;
+      EXPECT_GE(psnr(multiview, out[1].image.srgb), 45.0) << "multiview against per-eye viewports";
+      // An eye index ignored would draw the left eye into both layers.
+      EXPECT_LT(psnr(half(multiview, 0), half(multiview, 1)), 30.0) << "the eyes see the same image";
+      // The image backends copy the layers side by side once per pass; hybrid's fragments write the buffer.
+      EXPECT_EQ(passCount(out[0], "layer-copy"), backend == RasterBackend::Hybrid ? 0 : c.occlusion ? 2 : 1);
+      // Plausible pass times: lavapipe can resolve the copy's begin timestamp after its end, which
+      // must not wrap around to ~1.8e13 ms.
+      for (const auto& t : out[0].image.stats.passTimes) EXPECT_LT(t.milliseconds, 1e6) << t.name;
+      EXPECT_EQ(out[0].stats.trianglesRasterized, out[1].stats.trianglesRasterized);
+      ClusterRenderSettings mono = s;
+      mono.occlusionCulling = false;
+      expectHalvesMatchMono(**renderer, out[0], stereoEyes(c.camera, c.ipd), mono);
+    }
+}
+
+// Multiview is asked for where it cannot run: a clear error naming the option; auto falls back to
+// per-eye viewports, and a mono frame reports no stereo mode.
+TEST_F(ClusterStereo, MultiviewRefusedWhereItCannotRun) {
+  gpu::Context& ctx = context();
+  auto renderer = ClusterRenderer::create(ctx, gridAsset());
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  ClusterRenderSettings s =
+      settings(autoCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Indirect, SelectionMode::Flat);
+  auto mono = (*renderer)->render(s);
+  ASSERT_TRUE(mono.ok()) << mono.error().message;
+  EXPECT_EQ(mono->stats.stereoMode, StereoMode::Auto);
+  s.stereoIpd = 0.2f;
+  auto stereo = (*renderer)->render(s);
+  ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+  EXPECT_EQ(stereo->stats.stereoMode, ctx.caps().multiview ? StereoMode::Multiview : StereoMode::Viewports);
+  std::vector<RasterBackend> refused;
+  if (ctx.caps().int64BufferAtomics) refused.push_back(RasterBackend::Compute);
+  if (ctx.caps().meshShader && !ctx.caps().multiviewMeshShader) refused.push_back(RasterBackend::Mesh);
+  // Hybrid keeps its mesh-shader list under auto (per-eye viewports) where mesh shaders lack multiview.
+  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics && ctx.caps().meshShader) {
+    s.raster = RasterBackend::Hybrid;
+    auto hybrid = (*renderer)->render(s);
+    ASSERT_TRUE(hybrid.ok()) << hybrid.error().message;
+    EXPECT_EQ(hybrid->stats.stereoMode, ctx.caps().multiviewMeshShader ? StereoMode::Multiview : StereoMode::Viewports);
+  }
+  for (RasterBackend backend : refused) {
+    SCOPED_TRACE(toString(backend));
+    s.raster = backend;
+    s.stereoMode = StereoMode::Auto;
+    auto fallback = (*renderer)->render(s);
+    ASSERT_TRUE(fallback.ok()) << fallback.error().message;
+    EXPECT_EQ(fallback->stats.stereoMode, StereoMode::Viewports);
+    s.stereoMode = StereoMode::Multiview;
+    auto bad = (*renderer)->render(s);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("--stereo-mode multiview"), std::string::npos) << bad.error().message;
   }
 }

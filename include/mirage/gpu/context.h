@@ -28,6 +28,8 @@ struct DeviceCapabilities {
   bool fragmentStoresAndAtomics = false; // storage writes from fragment shaders (hybrid raster)
   bool pipelineStatistics = false;
   uint32_t maxMultiviewViews = 0;
+  bool multiview = false;           // VK_KHR_multiview (core 1.1 feature): one pass renders several views
+  bool multiviewMeshShader = false; // multiview with mesh shaders (VK_EXT_mesh_shader's multiviewMeshShader)
   uint32_t subgroupSize = 0;
   bool timestamps = false;        // timestamps on the graphics/compute queue
   float timestampPeriodNs = 0.0f; // nanoseconds per timestamp tick

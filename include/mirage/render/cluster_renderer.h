@@ -60,6 +60,19 @@ const char* toString(BlendRaster blend);
 // "auto", "compute", "hybrid" or "hardware"; anything else is an error naming the choices.
 Result<BlendRaster> parseBlendRaster(std::string_view text);
 
+// How the hardware rasters (mesh, indirect, hybrid's hardware list) draw the two stereo eyes
+// (docs/render.md, "Stereo"). The compute raster draws both eyes in one dispatch either way.
+enum class StereoMode {
+  Auto,      // multiview where the device has it for the backend (multiviewMeshShader for mesh shaders)
+  Multiview, // VK_KHR_multiview: each draw once with view mask 0b11 into 2-layer targets
+  Viewports, // each draw once per eye with its viewport over its half of the side-by-side targets
+};
+inline constexpr EnumName<StereoMode> kStereoModeNames[] = {
+    {StereoMode::Auto, "auto"}, {StereoMode::Multiview, "multiview"}, {StereoMode::Viewports, "viewports"}};
+const char* toString(StereoMode mode);
+// "auto", "multiview" or "viewports"; anything else is an error naming the choices.
+Result<StereoMode> parseStereoMode(std::string_view text);
+
 // How the selection pass finds the cut clusters (docs/render.md, "Selection").
 enum class SelectionMode {
   Auto,      // hierarchy from kHierarchyInstances instances on, else flat (measured on the H200, below)
@@ -140,6 +153,7 @@ struct ClusterRenderSettings {
   // rasterized and resolved in one pass each into the halves of a (2 * base.width) x base.height
   // target, left|right. Refused with surfels and owned-cluster readback.
   std::optional<float> stereoIpd;
+  StereoMode stereoMode = StereoMode::Auto; // stereo: multiview or per-eye viewports (multiview refused where absent)
   // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
   // occlusion history the resolve writes; needs occlusionCulling) into ownedClusters.
   bool readOwnedClusters = false;
@@ -176,6 +190,7 @@ struct ClusterStats {
   bool occlusion = false;                // occlusion culling ran
   RasterBackend raster = RasterBackend::Auto;         // the backend that ran
   BlendRaster blendRaster = BlendRaster::Compute;     // the blend raster that ran (Auto resolved)
+  StereoMode stereoMode = StereoMode::Auto;           // stereo: the mode that ran (Auto: mono frame)
   SurfelStageStats surfels;                           // mixed scenes: instances drawn (partly) as surfels
   SelectionMode selection = SelectionMode::Hierarchy; // the mode that ran (Auto resolved)
 };

@@ -18,6 +18,7 @@ struct RenderConfig {
   render::RasterBackend raster = kClusterDefaults.raster;
   render::BlendRaster blendRaster = kClusterDefaults.blendRaster;
   render::SelectionMode selection = kClusterDefaults.selection;
+  render::StereoMode stereoMode = kClusterDefaults.stereoMode; // stereo views: multiview or per-eye viewports
   bool occlusionCulling = kClusterDefaults.occlusionCulling;
   bool coneCulling = kClusterDefaults.coneCulling;
   bool transparency = kClusterDefaults.transparency;        // alpha BLEND materials drawn (off: opaque and MASK only)
