@@ -266,19 +266,18 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   // Per eye its frame, with clip planes from its own position as a mono render of it has. The
   // blend instances back to front by the view depth of their bounds' centres: the eyes share the
   // view axis (parallel axes), so one order serves both.
-  auto* frameData = reinterpret_cast<sio::FrameData*>(d.frames[slot].mapped());
+  sio::FrameData fd[2] = {};
   for (uint32_t e = 0; e < eyeCount; ++e) {
-    sio::FrameData fd{};
-    fd.camera = viewFrame(withClipPlanes(eyes[e], worldBounds_), s.width, s.height);
-    fd.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
-    fd.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
-    fd.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
-    std::memcpy(&frameData[e], &fd, sizeof(fd));
+    fd[e].camera = viewFrame(withClipPlanes(eyes[e], worldBounds_), s.width, s.height);
+    fd[e].lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
+    fd[e].skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
+    fd[e].groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
   }
+  std::memcpy(d.frames[slot].mapped(), fd, eyeCount * sizeof(sio::FrameData));
   std::vector<std::pair<float, const Instance*>> order;
   for (const Instance& inst : d.blendInstances) {
     glm::vec3 c = transformBounds(d.meshes[inst.mesh].bounds, inst.transform).center();
-    order.push_back({(frameData[0].camera.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
+    order.push_back({(fd[0].camera.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
   }
   std::stable_sort(order.begin(), order.end(), [](auto& a, auto& b) { return a.first < b.first; });
   auto* blendData = reinterpret_cast<sio::GpuInstance*>(d.blendOrders[slot].mapped());
