@@ -215,10 +215,11 @@ bool setHistoryBitAt(uint bit) {
   return (atomicOr(history.data[bit >> 5], 1u << (bit & 31u)) & (1u << (bit & 31u))) == 0;
 }
 
-// Overdraw debug view: one more sample covering pixel p, counted before the depth test.
+// Overdraw debug view: one more sample covering pixel p of the target (both eyes side by side in
+// stereo), counted before the depth test.
 void countOverdraw(ClusterFrame f, uvec2 p) {
   if ((f.flags & MIRAGE_FRAME_OVERDRAW) != 0)
-    atomicAdd(UintRef(f.overdrawAddress).data[p.y * uint(f.camera.viewport.x) + p.x], 1u);
+    atomicAdd(UintRef(f.overdrawAddress).data[p.y * targetRowPixels(f) + p.x], 1u);
 }
 
 #include "cluster_fade.glsl"

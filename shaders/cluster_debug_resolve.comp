@@ -30,20 +30,28 @@ float projectedArea(ClusterFrame f, GpuCluster c, GpuClusterInstance inst, uint 
 }
 
 void main() {
-  ClusterFrame f = FrameRef(push.frameAddress).frame;
-  ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+  // Stereo: one dispatch over both eyes side by side, as cluster_resolve.comp: the right half uses
+  // the right eye's frame (the next one), px is the pixel within the eye; the per-pixel buffers
+  // (visibility, overdraw counts) span both eyes' rows.
+  ivec2 target = ivec2(gl_GlobalInvocationID.xy);
+  uint64_t frameAddress = push.frameAddress;
+  bool stereo = (FrameRef(frameAddress).frame.flags & MIRAGE_FRAME_STEREO) != 0;
+  if (stereo && target.x >= int(FrameRef(frameAddress).frame.camera.viewport.x))
+    frameAddress += MIRAGE_CLUSTER_FRAME_STRIDE;
+  ClusterFrame f = FrameRef(frameAddress).frame;
+  ivec2 px = target - ivec2(f.targetOffsetX, 0);
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
-  ivec2 target = px + ivec2(f.targetOffsetX, 0);
+  uint row = targetRowPixels(f);
   uint v1, t;
   bool surfel = false;
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
-    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[px.y * int(f.camera.viewport.x) + px.x] & 0xffffffffUL);
+    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[uint(target.y) * row + uint(target.x)] & 0xffffffffUL);
     surfel = f.surfelLinkAddress != 0 && (id & MIRAGE_SURFEL_ID_TAG) != 0;
     if (surfel) id = 0;
     v1 = id >> MIRAGE_CLUSTER_TRIANGLE_BITS;
     t = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
   } else {
-    uvec2 id = texelFetch(visImage, px, 0).xy;
+    uvec2 id = texelFetch(visImage, target, 0).xy;
     v1 = id.x;
     t = id.y;
   }
@@ -63,7 +71,7 @@ void main() {
     }
   }
   if (f.debugView == MIRAGE_DEBUG_VIEW_OVERDRAW) {
-    uint n = UintRef(f.overdrawAddress).data[px.y * int(f.camera.viewport.x) + px.x];
+    uint n = UintRef(f.overdrawAddress).data[uint(target.y) * row + uint(target.x)];
     imageStore(outImage, target, n == 0u ? f.background : vec4(debugToLinear(debugStepColor(n - 1u)), 1.0));
     return;
   }

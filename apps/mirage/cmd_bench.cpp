@@ -45,7 +45,7 @@ struct BenchRenderOptions {
   runtime::RenderConfig config;
   BenchSweeps sweeps;
   RenderConfigOptions given;
-  StereoOptions stereo; // .mrg cluster LOD only
+  StereoOptions stereo;                 // cluster LOD and forward scenes
   runtime::FrameTimeSettings frameTime; // --target-ms
   CLI::Option* targetMs = nullptr;
 };
@@ -73,7 +73,6 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .frameTime = o.targetMs->count() ? std::optional(o.frameTime) : std::nullopt};
     return runLodBench(r);
   }
-  if (o.stereo.enabled) return fail(o.scene.input + ": --stereo needs a .mrg with cluster DAGs (cluster LOD)");
   if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
   if (o.targetMs->count()) return fail("bench render --target-ms applies to .mrg cluster-LOD assets only");
   if (!o.scene.pvs.empty())
@@ -90,6 +89,7 @@ void runBenchRender(const BenchRenderOptions& o) {
   view.height = height;
   view.camera = render::autoCamera((*scene)->bounds(), float(width) / float(height));
   view.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
+  view.stereoIpd = o.stereo.ipdOrNone();
 
   std::vector<std::vector<gpu::PassTime>> frames;
   std::vector<double> wall;
@@ -120,14 +120,16 @@ void runBenchRender(const BenchRenderOptions& o) {
                         {"device", caps.name},     {"width", width},
                         {"height", height},        {"triangles", triangles},
                         {"frames", frames.size()}, {"wall_ms_median_incl_readback", wall[wall.size() / 2]}};
+    if (view.stereoIpd) j["stereo_ipd"] = *view.stereoIpd; // both eyes per frame, each width x height
     for (const auto& t : times) j["gpu_ms"][t.name] = t.milliseconds;
     if (frameMs > 0) j["triangles_per_second"] = double(triangles) / (frameMs * 1e-3);
     j["fragment_invocations"] = lastStats.pipeline.fragmentInvocations;
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("bench render {} on {}: {} triangles at {}x{}, {} timed frames (after 1 warm-up)\n", o.scene.input,
-             caps.name, triangles, width, height, frames.size());
+  fmt::print("bench render {} on {}: {} triangles at {}x{}{}, {} timed frames (after 1 warm-up)\n", o.scene.input,
+             caps.name, triangles, width, height,
+             view.stereoIpd ? fmt::format(" per eye (stereo, ipd {})", *view.stereoIpd) : "", frames.size());
   for (const auto& t : times) fmt::print("  gpu {:<8} {:9.3f} ms (median)\n", t.name, t.milliseconds);
   if (frameMs > 0) fmt::print("  {:.1f} M triangles/s (GPU frame time)\n", double(triangles) / (frameMs * 1e-3) * 1e-6);
   fmt::print("  wall per frame incl. readback {:.2f} ms (median)\n", wall[wall.size() / 2]);

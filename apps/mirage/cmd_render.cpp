@@ -31,7 +31,7 @@ struct RenderOptions {
   runtime::RenderConfig config;
   RenderConfigOptions given;
   CLI::Option* surfelOrder = nullptr;
-  StereoOptions stereo; // .mrg cluster LOD only
+  StereoOptions stereo; // cluster LOD and forward scenes
 };
 
 LodRenderRequest lodRequest(const RenderOptions& o) {
@@ -81,6 +81,7 @@ bool renderToFiles(const RenderOptions& o, std::unique_ptr<gpu::Context>& ctx, s
   view.camera = o.camera.empty() ? render::autoCamera(scene->bounds(), float(view.width) / float(view.height)) : camera;
   view.readLinear = !o.exr.empty();
   view.config = o.config;
+  view.stereoIpd = o.stereo.ipdOrNone();
   std::vector<std::vector<gpu::PassTime>> frames;
   for (int i = 0; i < o.repeat; ++i) {
     auto f = scene->render(view);
@@ -114,6 +115,7 @@ void runForwardRender(const RenderOptions& o) {
     j["device"] = caps.name;
     j["width"] = view.width;
     j["height"] = view.height;
+    if (view.stereoIpd) j["stereo_ipd"] = *view.stereoIpd; // the image is 2 * width wide, left|right
     j["triangles"] = fw.triangles;
     j["instances"] = fw.instances;
     j["import_seconds"] = scene->info().loadSeconds;
@@ -127,9 +129,13 @@ void runForwardRender(const RenderOptions& o) {
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("rendered {} ({} triangles, {} instances{}) at {}x{} on {} -> {}\n", o.scene.input, fw.triangles,
+  fmt::print("rendered {} ({} triangles, {} instances{}) at {}x{}{} on {} -> {}\n", o.scene.input, fw.triangles,
              fw.instances, r.last.pvsCell >= 0 ? fmt::format(", PVS of cell {}", r.last.pvsCell) : "", view.width,
-             view.height, caps.name, o.output);
+             view.height,
+             view.stereoIpd ? fmt::format(" per eye (stereo, ipd {}: {}x{} left|right)", *view.stereoIpd,
+                                          r.last.srgb.width, r.last.srgb.height)
+                            : "",
+             caps.name, o.output);
   if (o.stats) {
     fmt::print("import {:.3f} s\n", scene->info().loadSeconds);
     for (const auto& t : r.times)
@@ -161,8 +167,6 @@ void runRender(const RenderOptions& o) {
   auto kind = runtime::sceneKind(o.scene);
   if (!kind) return fail(kind.error());
   bool surfelOrderGiven = o.surfelOrder->count() > 0;
-  if (o.stereo.enabled && *kind != runtime::SceneKind::ClusterLod)
-    return fail(o.scene.input + ": --stereo needs a .mrg with cluster DAGs (cluster LOD)");
   if (o.scene.surfels && *kind == runtime::SceneKind::ClusterLod) { // DAGs + SURF: meshes near, surfels far
     if (!o.scene.pvs.empty() || o.given.surfels.back()->count() > 0 || surfelOrderGiven)
       return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");

@@ -81,7 +81,7 @@ CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode 
 
 void bindStereo(CLI::App& cmd, StereoOptions& stereo) {
   CLI::Option* flag =
-      cmd.add_flag("--stereo", stereo.enabled, ".mrg: both eyes side by side (2W x H), one shared LOD selection");
+      cmd.add_flag("--stereo", stereo.enabled, "both eyes side by side (2W x H); .mrg: one shared LOD selection");
   cmd.add_option("--ipd", stereo.ipd, "--stereo: distance between the eyes, scene units")
       ->needs(flag)
       ->capture_default_str();

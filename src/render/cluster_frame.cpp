@@ -117,8 +117,10 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     if (cs.readOwnedClusters) return Error{"--stereo cannot read the clusters owning pixels"};
     p.stereo = true;
   }
-  if (cs.debugView != DebugView::None && cs.stereoIpd)
-    return Error{fmt::format("--debug-view {} is not available with --stereo yet", toString(cs.debugView))};
+  // Stereo debug views resolve from the side-by-side visibility buffer of the buffer backends.
+  if (cs.debugView != DebugView::None && p.stereo && !p.bufferTarget)
+    return Error{fmt::format("--debug-view {} with --stereo needs --raster compute or hybrid, not {}",
+                             toString(cs.debugView), toString(p.backend))};
   // The image backends count overdraw in their fragment shaders (a storage atomic).
   if (cs.debugView == DebugView::Overdraw && !p.bufferTarget && !ctx.caps().fragmentStoresAndAtomics)
     return Error{fmt::format("--debug-view overdraw: --raster {} needs stores and atomics in fragment shaders, which "

@@ -93,7 +93,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
       !overdrawIndirectPipeline)
     overdrawIndirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false, /*overdraw=*/true);
   if (planned->debugView == DebugView::Overdraw && !overdrawCounts)
-    overdrawCounts = createBuffer(ctx, uint64_t(width) * height * 4,
+    overdrawCounts = createBuffer(ctx, uint64_t(colorWidth) * height * 4, // stereo: both eyes
                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                   MemoryUsage::GpuOnly, "overdraw counts");
   return packFrame(cs, *planned);
@@ -136,7 +136,8 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     cmdPhaseBarrier(cmd, mesh);
   }
   cmdArgs(cmd, p, /*pass=*/0); // pass-1 raster arguments (everything without occlusion)
-  if (plan.stereo) {           // both eyes side by side, each pass once (docs/render.md, "Stereo")
+  bool blend = plan.transparency && plan.debugView == DebugView::None; // debug views: opaque surfaces only
+  if (plan.stereo) { // both eyes side by side, each pass once (docs/render.md, "Stereo")
     sio::ClusterPush eyes = p;
     eyes.frameAddress += kFrameStride; // the left eye's frame; the right eye's follows it
     cmdRasterize(cmd, eyes, plan.backend, 0);
@@ -146,9 +147,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
       cmdArgs(cmd, p, /*pass=*/1);
       cmdRasterize(cmd, eyes, plan.backend, 1);
     }
-    if (hasBlend()) cmdArgs(cmd, p, /*pass=*/2);
+    if (blend) cmdArgs(cmd, p, /*pass=*/2);
     cmdResolve(cmd, eyes);
-    if (hasBlend()) cmdTransparency(cmd, eyes, plan.blend, plan.meshBlend, plan.bufferTarget);
+    if (blend) cmdTransparency(cmd, eyes, plan.blend, plan.meshBlend, plan.bufferTarget);
     finishFrame(cmd, plan, frameTime);
     return;
   }
@@ -163,10 +164,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     cs.surfels->stageCmdSplat(cmd, timer());
     cmdPhaseBarrier(cmd, mesh);
   }
-  bool blend = plan.transparency && plan.debugView == DebugView::None; // debug views: opaque surfaces only
-  if (blend) cmdArgs(cmd, p, /*pass=*/2);                              // the blend list is complete after both phases
-  cmdResolve(cmd, p); // fetch, interpolate, shade; with occlusion: the clusters owning pixels
-  if (blend)          // blend raster into fragment lists, sorted composite
+  if (blend) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
+  cmdResolve(cmd, p);                     // fetch, interpolate, shade; with occlusion: the clusters owning pixels
+  if (blend)                              // blend raster into fragment lists, sorted composite
     cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
   finishFrame(cmd, plan, frameTime);
 }

@@ -1,12 +1,14 @@
 #include "mirage/render/forward_renderer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 
 #include <fmt/format.h>
 
 #include "mirage/gpu/commands.h"
+#include "mirage/gpu/deletion_queue.h"
 #include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/shaderio/forward.h"
@@ -51,7 +53,7 @@ bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.
 
 struct ForwardRenderer::Impl {
   Context& ctx;
-  Buffer vertices, indices, materials, frame, instanceBuffer;
+  Buffer vertices, indices, materials, instanceBuffer; // instanceBuffer: opaque and masked instances
   std::vector<Image> textures;
   Unique<VkSampler> sampler;
   DescriptorSet descriptors; // bindless material textures
@@ -61,19 +63,33 @@ struct ForwardRenderer::Impl {
   std::vector<Material> sceneMaterials;
   std::vector<Batch> batches;           // opaque + mask
   std::vector<Instance> blendInstances; // sorted per frame
-  std::vector<sio::GpuInstance> instanceData;
+  // The targets, shared by every slot (each frame's first barrier orders it after the earlier
+  // ones); colorWidth is both eyes' in stereo.
   Image color, depth;
-  uint32_t width = 0, height = 0;
-  GpuTimer timer;
-  PipelineStatsQuery stats;
+  uint32_t colorWidth = 0, height = 0;
+  // Per slot: what the CPU writes or reads while other frames run.
+  Buffer frames[kMaxFramesInFlight];      // FrameData per eye
+  Buffer blendOrders[kMaxFramesInFlight]; // blend instances back to front
+  std::vector<GpuTimer> timers;
+  std::vector<PipelineStatsQuery> stats;
+  FrameStats slotStats[kMaxFramesInFlight]; // draw counts of the recorded frame
+  bool recorded[kMaxFramesInFlight] = {};
+  DeletionQueue retired; // targets replaced while frames in flight may still draw into them
 
-  explicit Impl(Context& c) : ctx(c), timer(c), stats(c) {}
+  explicit Impl(Context& c) : ctx(c) {
+    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) timers.emplace_back(c), stats.emplace_back(c);
+  }
 
   void upload(const Scene& scene);
   void createPipelines();
-  void ensureTargets(uint32_t w, uint32_t h);
-  void cmdDrawMesh(VkCommandBuffer cmd, uint32_t mesh, bool mirrored, uint32_t firstInstance, uint32_t count,
-                   FrameStats& fs);
+  void ensureTargets(uint32_t colorW, uint32_t h);
+  void cmdDrawMesh(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, uint32_t mesh, bool mirrored,
+                   uint32_t firstInstance, uint32_t count, FrameStats& fs);
+  uint32_t inFlight() const {
+    uint32_t mask = 0;
+    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) mask |= recorded[i] ? 1u << i : 0u;
+    return mask;
+  }
 };
 
 void ForwardRenderer::Impl::upload(const Scene& scene) {
@@ -135,17 +151,20 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
     else
       byMesh[inst.mesh * 2 + isMirrored(inst.transform)].push_back(&inst);
   }
+  std::vector<sio::GpuInstance> instanceData;
   for (uint32_t k = 0; k < byMesh.size(); ++k) {
     if (byMesh[k].empty()) continue;
     batches.push_back({k / 2, (k & 1) != 0, uint32_t(instanceData.size()), uint32_t(byMesh[k].size())});
     for (const Instance* inst : byMesh[k]) instanceData.push_back(makeInstance(inst->transform));
   }
-  size_t instanceBytes = (instanceData.size() + blendInstances.size()) * sizeof(sio::GpuInstance);
   instanceBuffer =
-      createBuffer(ctx, instanceBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "instances");
-  if (!instanceData.empty())
-    std::memcpy(instanceBuffer.mapped(), instanceData.data(), instanceData.size() * sizeof(sio::GpuInstance));
-  frame = createBuffer(ctx, sizeof(sio::FrameData), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "frame");
+      createBufferWithData<sio::GpuInstance>(ctx, instanceData, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "instances");
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
+    frames[i] =
+        createBuffer(ctx, 2 * sizeof(sio::FrameData), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "frame");
+    blendOrders[i] = createBuffer(ctx, std::max<size_t>(blendInstances.size(), 1) * sizeof(sio::GpuInstance),
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "blend order");
+  }
 }
 
 void ForwardRenderer::Impl::createPipelines() {
@@ -169,23 +188,28 @@ void ForwardRenderer::Impl::createPipelines() {
   blendPipeline = createGraphicsPipeline(ctx, d);
 }
 
-void ForwardRenderer::Impl::ensureTargets(uint32_t w, uint32_t h) {
-  if (w == width && h == height) return;
-  color = createImage2D(ctx, w, h, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                        "color");
-  depth = createImage2D(ctx, w, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth");
-  width = w;
+// New targets when the size changes; frames in flight keep drawing into the old ones, which are
+// freed once those frames completed.
+void ForwardRenderer::Impl::ensureTargets(uint32_t colorW, uint32_t h) {
+  if (colorW == colorWidth && h == height) return;
+  retired.retire(std::move(color), inFlight());
+  retired.retire(std::move(depth), inFlight());
+  color = createImage2D(ctx, colorW, h, kColorFormat,
+                        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
+  depth = createImage2D(ctx, colorW, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth");
+  colorWidth = colorW;
   height = h;
 }
 
-void ForwardRenderer::Impl::cmdDrawMesh(VkCommandBuffer cmd, uint32_t mesh, bool mirrored, uint32_t firstInstance,
-                                        uint32_t count, FrameStats& fs) {
+void ForwardRenderer::Impl::cmdDrawMesh(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
+                                        uint32_t mesh, bool mirrored, uint32_t firstInstance, uint32_t count,
+                                        FrameStats& fs) {
   const MeshRange& r = meshes[mesh];
   uint32_t materialIndex = std::min<uint32_t>(r.material, uint32_t(sceneMaterials.size() - 1));
   const Material& mat = sceneMaterials[materialIndex];
   sio::ForwardPush push{};
-  push.frameAddress = frame.address();
-  push.instanceAddress = instanceBuffer.address();
+  push.frameAddress = frame;
+  push.instanceAddress = instances;
   push.materialAddress = materials.address();
   push.materialIndex = materialIndex;
   vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
@@ -211,99 +235,170 @@ Result<std::unique_ptr<ForwardRenderer>> ForwardRenderer::create(Context& contex
   return r;
 }
 
-Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
+namespace {
+
+Status checkSettings(const ForwardRenderSettings& fs) {
+  const RenderSettings& s = fs.base;
   if (s.width == 0 || s.height == 0 || s.width > kMaxRenderDimension || s.height > kMaxRenderDimension)
     return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
+  if (!fs.stereoIpd) return Ok{};
+  if (Status st = validateIpd(*fs.stereoIpd); !st) return st.error();
+  if (uint64_t(s.width) * 2 > kMaxRenderDimension)
+    return Error{fmt::format("--stereo: the side-by-side target {}x{} exceeds {} pixels across", s.width * 2, s.height,
+                             kMaxRenderDimension)};
+  return Ok{};
+}
+
+} // namespace
+
+Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings& fs, uint32_t slot) {
+  const RenderSettings& s = fs.base;
+  if (slot >= kMaxFramesInFlight)
+    return Error{fmt::format("frame slot {} is outside 0..{}", slot, kMaxFramesInFlight - 1)};
+  if (Status st = checkSettings(fs); !st) return st.error();
+  uint32_t eyeCount = fs.stereoIpd ? 2 : 1;
+  std::array<Camera, 2> eyes = fs.stereoIpd ? stereoEyes(s.camera, *fs.stereoIpd) : std::array{s.camera, s.camera};
   Impl& d = *impl_;
-  d.ensureTargets(s.width, s.height);
-  Camera cam = withClipPlanes(s.camera, worldBounds_);
+  d.retired.completed(slot); // a slot is recorded again only after its previous frame completed
+  d.recorded[slot] = false;
+  d.ensureTargets(s.width * eyeCount, s.height);
 
-  sio::FrameData fd{};
-  fd.camera = viewFrame(cam, s.width, s.height);
-  fd.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
-  fd.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
-  fd.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
-  std::memcpy(d.frame.mapped(), &fd, sizeof(fd));
-
-  // Blend instances back to front by the view depth of their bounds' centres.
+  // Per eye its frame, with clip planes from its own position as a mono render of it has. The
+  // blend instances back to front by the view depth of their bounds' centres: the eyes share the
+  // view axis (parallel axes), so one order serves both.
+  sio::FrameData fd[2] = {};
+  for (uint32_t e = 0; e < eyeCount; ++e) {
+    fd[e].camera = viewFrame(withClipPlanes(eyes[e], worldBounds_), s.width, s.height);
+    fd[e].lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
+    fd[e].skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
+    fd[e].groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
+  }
+  std::memcpy(d.frames[slot].mapped(), fd, eyeCount * sizeof(sio::FrameData));
   std::vector<std::pair<float, const Instance*>> order;
   for (const Instance& inst : d.blendInstances) {
     glm::vec3 c = transformBounds(d.meshes[inst.mesh].bounds, inst.transform).center();
-    order.push_back({(fd.camera.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
+    order.push_back({(fd[0].camera.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
   }
   std::stable_sort(order.begin(), order.end(), [](auto& a, auto& b) { return a.first < b.first; });
-  auto* blendData = reinterpret_cast<sio::GpuInstance*>(d.instanceBuffer.mapped()) + d.instanceData.size();
+  auto* blendData = reinterpret_cast<sio::GpuInstance*>(d.blendOrders[slot].mapped());
   for (size_t i = 0; i < order.size(); ++i) blendData[i] = makeInstance(order[i].second->transform);
 
-  RenderOutput out;
-  FrameStats& fs = out.stats;
-  // barriers: none on entry (previous frames completed: one-shot submits wait); the color target
-  // ends in COLOR_ATTACHMENT_OPTIMAL, which readbackImage expects.
-  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
-    d.timer.cmdReset(cmd);
-    d.stats.cmdReset(cmd);
-    ImageBarrier toAttachment[] = {
-        {d.color.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-         VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
-        {d.depth.handle(), VK_PIPELINE_STAGE_2_NONE, 0,
-         VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-         VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-         VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
-    cmdImageBarriers(cmd, toAttachment);
-    uint32_t frameSlot = d.timer.cmdBegin(cmd, "frame");
+  FrameStats& stats = d.slotStats[slot];
+  stats = {};
+  GpuTimer& timer = d.timers[slot];
+  PipelineStatsQuery& pipelineStats = d.stats[slot];
+  // barriers: the first orders this frame after all work submitted before it (the targets are
+  // shared by the slots); the colour target ends in GENERAL, its writes visible to compute shaders
+  // and transfers (colorTarget(); readbackImage).
+  timer.cmdReset(cmd);
+  pipelineStats.cmdReset(cmd);
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                   VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                   VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  ImageBarrier toAttachment[] = {
+      {d.color.handle(), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+       VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+      {d.depth.handle(), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0,
+       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+  cmdImageBarriers(cmd, toAttachment);
+  uint32_t frameTime = timer.cmdBegin(cmd, "frame");
 
-    VkRenderingAttachmentInfo colorAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    colorAtt.imageView = d.color.view();
-    colorAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    colorAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    colorAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    colorAtt.clearValue.color = {{s.background.r, s.background.g, s.background.b, s.background.a}};
-    VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    depthAtt.imageView = d.depth.view();
-    depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    depthAtt.clearValue.depthStencil = {0.0f, 0}; // reverse-Z: far is 0
-    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-    ri.renderArea = {{0, 0}, {s.width, s.height}};
-    ri.layerCount = 1;
-    ri.colorAttachmentCount = 1;
-    ri.pColorAttachments = &colorAtt;
-    ri.pDepthAttachment = &depthAtt;
-    vkCmdBeginRendering(cmd, &ri);
-    d.stats.cmdBegin(cmd);
+  VkRenderingAttachmentInfo colorAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  colorAtt.imageView = d.color.view();
+  colorAtt.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  colorAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  colorAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  colorAtt.clearValue.color = {{s.background.r, s.background.g, s.background.b, s.background.a}};
+  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAtt.imageView = d.depth.view();
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depthAtt.clearValue.depthStencil = {0.0f, 0}; // reverse-Z: far is 0
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {d.colorWidth, s.height}};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = 1;
+  ri.pColorAttachments = &colorAtt;
+  ri.pDepthAttachment = &depthAtt;
+  vkCmdBeginRendering(cmd, &ri);
+  pipelineStats.cmdBegin(cmd);
 
-    cmdSetFullViewport(cmd, s.width, s.height);
-    VkDeviceSize zero = 0;
-    VkBuffer vb = d.vertices.handle();
-    vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
-    vkCmdBindIndexBuffer(cmd, d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
+  VkDeviceSize zero = 0;
+  VkBuffer vb = d.vertices.handle();
+  vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
+  vkCmdBindIndexBuffer(cmd, d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
+  // Each eye draws into its half: its viewport and scissor, its frame.
+  auto setEye = [&](uint32_t e) {
+    VkViewport vp{float(e * s.width), 0.0f, float(s.width), float(s.height), 0.0f, 1.0f};
+    VkRect2D scissor{{int32_t(e * s.width), 0}, {s.width, s.height}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    return d.frames[slot].address() + e * sizeof(sio::FrameData);
+  };
 
-    // Opaque and alpha-masked geometry.
-    uint32_t opaqueSlot = d.timer.cmdBegin(cmd, "opaque");
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.opaquePipeline);
-    for (const Batch& b : d.batches) d.cmdDrawMesh(cmd, b.mesh, b.mirrored, b.firstInstance, b.instanceCount, fs);
-    d.timer.cmdEnd(cmd, opaqueSlot);
+  // Opaque and alpha-masked geometry.
+  uint32_t opaqueTime = timer.cmdBegin(cmd, "opaque");
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.opaquePipeline);
+  for (uint32_t e = 0; e < eyeCount; ++e) {
+    VkDeviceAddress frame = setEye(e);
+    for (const Batch& b : d.batches)
+      d.cmdDrawMesh(cmd, frame, d.instanceBuffer.address(), b.mesh, b.mirrored, b.firstInstance, b.instanceCount,
+                    stats);
+  }
+  timer.cmdEnd(cmd, opaqueTime);
 
-    // Blended geometry, back to front, depth-tested against the opaque pass.
-    uint32_t blendSlot = d.timer.cmdBegin(cmd, "blend");
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.blendPipeline);
+  // Blended geometry, back to front, depth-tested against the opaque pass.
+  uint32_t blendTime = timer.cmdBegin(cmd, "blend");
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.blendPipeline);
+  for (uint32_t e = 0; e < eyeCount; ++e) {
+    VkDeviceAddress frame = setEye(e);
     for (size_t i = 0; i < order.size(); ++i)
-      d.cmdDrawMesh(cmd, order[i].second->mesh, isMirrored(order[i].second->transform),
-                    uint32_t(d.instanceData.size() + i), 1, fs);
-    d.timer.cmdEnd(cmd, blendSlot);
+      d.cmdDrawMesh(cmd, frame, d.blendOrders[slot].address(), order[i].second->mesh,
+                    isMirrored(order[i].second->transform), uint32_t(i), 1, stats);
+  }
+  timer.cmdEnd(cmd, blendTime);
 
-    d.stats.cmdEnd(cmd);
-    vkCmdEndRendering(cmd);
-    d.timer.cmdEnd(cmd, frameSlot);
-  });
-  fs.passTimes = d.timer.read();
-  fs.pipeline = d.stats.read();
+  pipelineStats.cmdEnd(cmd);
+  vkCmdEndRendering(cmd);
+  timer.cmdEnd(cmd, frameTime);
+  cmdImageBarrier(
+      cmd, {d.color.handle(), VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+            VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+            VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
+            VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL});
+  d.recorded[slot] = true;
+  return Ok{};
+}
 
-  if (!s.readImage) return out;
-  std::vector<uint8_t> raw = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, 8);
-  convertHalfImage(raw, s.width, s.height, s.readLinear, out);
+Result<RenderOutput> ForwardRenderer::collect(uint32_t slot) {
+  Impl& d = *impl_;
+  if (slot >= kMaxFramesInFlight || !d.recorded[slot])
+    return Error{fmt::format("frame slot {} holds no recorded frame", slot)};
+  RenderOutput out;
+  out.stats = d.slotStats[slot];
+  out.stats.passTimes = d.timers[slot].read();
+  out.stats.pipeline = d.stats[slot].read();
+  d.recorded[slot] = false;
+  d.retired.completed(slot);
+  return out;
+}
+
+const gpu::Image& ForwardRenderer::colorTarget() const { return impl_->color; }
+
+Result<RenderOutput> ForwardRenderer::render(const ForwardRenderSettings& fs) {
+  Impl& d = *impl_;
+  if (Status st = checkSettings(fs); !st) return st.error(); // nothing submitted
+  Status recorded = Ok{};
+  d.ctx.submitAndWait([&](VkCommandBuffer cmd) { recorded = record(cmd, fs, 0); });
+  if (!recorded) return recorded.error();
+  auto out = collect(0);
+  if (!out || !fs.base.readImage) return out;
+  std::vector<uint8_t> raw = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
+  convertHalfImage(raw, d.colorWidth, d.height, fs.base.readLinear, *out);
   return out;
 }
 

@@ -26,9 +26,11 @@ Status openForward(Scene::Impl& s) {
   return Ok{};
 }
 
-Result<Frame> renderForward(Scene::Impl& s, const View& view) {
-  if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
-  render::RenderSettings rs;
+namespace {
+
+render::ForwardRenderSettings forwardSettings(const Scene::Impl& s, const View& view) {
+  render::ForwardRenderSettings fs;
+  render::RenderSettings& rs = fs.base;
   rs.width = view.width;
   rs.height = view.height;
   rs.camera = view.camera;
@@ -37,16 +39,40 @@ Result<Frame> renderForward(Scene::Impl& s, const View& view) {
   if (s.pvsState.active) rs.camera = render::withClipPlanes(view.camera, s.bounds);
   rs.readImage = view.readImage;
   rs.readLinear = view.readLinear;
-  auto o = s.forward->render(rs);
-  if (!o) return o.error();
+  fs.stereoIpd = view.stereoIpd;
+  return fs;
+}
+
+// The counters every path reports, from the forward renderer's output (images move along).
+Frame forwardFrame(const Scene::Impl& s, render::RenderOutput& o) {
   Frame f;
-  f.srgb = std::move(o->srgb);
-  f.linear = std::move(o->linear);
-  f.passTimes = o->stats.passTimes;
+  f.srgb = std::move(o.srgb);
+  f.linear = std::move(o.linear);
+  f.passTimes = o.stats.passTimes;
   f.trianglesDrawn = s.forwardTriangles;
   f.pvsCell = s.pvsState.active ? s.pvsState.cell : -1;
-  f.forward = ForwardFrameStats{std::move(o->stats), s.forwardTriangles, s.forwardInstances};
+  f.forward = ForwardFrameStats{std::move(o.stats), s.forwardTriangles, s.forwardInstances};
   return f;
+}
+
+} // namespace
+
+Result<Frame> renderForward(Scene::Impl& s, const View& view) {
+  if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
+  auto o = s.forward->render(forwardSettings(s, view));
+  if (!o) return o.error();
+  return forwardFrame(s, *o);
+}
+
+// Scenes without a PVS only (Scene::canRecord()): a cell change replaces the renderer.
+Status recordForward(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint32_t slot) {
+  return s.forward->record(cmd, forwardSettings(s, view), slot);
+}
+
+Result<Frame> collectForward(Scene::Impl& s, uint32_t slot) {
+  auto o = s.forward->collect(slot);
+  if (!o) return o.error();
+  return forwardFrame(s, *o);
 }
 
 } // namespace mirage::runtime

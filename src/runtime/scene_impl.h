@@ -50,6 +50,8 @@ Status recordClusterLod(Scene::Impl& s, VkCommandBuffer cmd, const View& view, u
 Result<Frame> collectClusterLod(Scene::Impl& s, uint32_t slot);
 Status openForward(Scene::Impl& s);
 Result<Frame> renderForward(Scene::Impl& s, const View& view);
+Status recordForward(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint32_t slot);
+Result<Frame> collectForward(Scene::Impl& s, uint32_t slot);
 Status openSurfels(Scene::Impl& s);
 Result<Frame> renderSurfels(Scene::Impl& s, const View& view);
 Status openPvs(Scene::Impl& s);

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# render --stereo: a .mrg renders both eyes side by side (2W x H PNG), with occlusion culling too; bad --ipd values and
-# --stereo on a scene without cluster DAGs get one line, exit 2 and no output; --stereo-mode shows in the JSON.
+# render --stereo: a .mrg and a scene file (forward renderer) render both eyes side by side (2W x H PNG), the .mrg
+# with occlusion culling too; bad --ipd values get one line, exit 2 and no output; --stereo-mode shows in the JSON.
 # Usage: stereo.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -37,6 +37,14 @@ if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb" && expect_ok build-bl
   done
   expect_fail stereo-mode-bad "--stereo-mode" "$tmp/bad.png" -- render "$tmp/blob.mrg" --stereo --stereo-mode sideways --size 48x32 -o "$tmp/bad.png"
 fi
-expect_fail stereo-forward "--stereo" "$tmp/f.png" -- render "$tmp/blob.glb" --stereo --size 48x32 -o "$tmp/f.png"
+# Scene files through the forward renderer: both eyes side by side too, in render and bench render.
+if expect_ok render-stereo-forward render gen:city --stereo --size 48x32 -o "$tmp/f.png"; then
+  size=$(png_size "$tmp/f.png")
+  [ "$size" = "96x32" ] || { echo "FAIL render-stereo-forward: PNG is $size, expected 96x32"; failures=$((failures + 1)); }
+fi
+if expect_ok bench-stereo-forward bench render "$tmp/blob.glb" --stereo --ipd 0.1 --size 48x32 --frames 2 --warmup-ms 0 --json; then
+  grep -q '"stereo_ipd"' "$tmp/stdout" || { echo "FAIL bench-stereo-forward: no stereo_ipd in the JSON"; failures=$((failures + 1)); }
+fi
+expect_fail ipd-negative-forward "--ipd" "$tmp/f2.png" -- render "$tmp/blob.glb" --stereo --ipd=-1 --size 48x32 -o "$tmp/f2.png"
 
 finish "stereo"

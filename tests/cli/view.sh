@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # mirage view: a scene that fails to load exits 2 with one line before any window opens (run
-# without a display, so opening one would fail differently); bad flags (view-only ones too: --stereo,
+# without a display, so opening one would fail differently); bad flags (view-only ones too:
 # --target-ms, --fovea on scenes without cluster LOD) exit 2; under Xvfb the headless path mode
 # (--path --screenshot --exit-after-path) writes OUT_0000.png ... that match `mirage render --path`
 # (PSNR >= 45 dB per frame; with --stereo, `render --stereo --path`) with silent validation layers,
@@ -24,7 +24,6 @@ expect_fail screenshot-extension "unsupported output extension" "" -- view "$tmp
 
 # View-only flags, checked before any window (the scene's kind from its name and chunk table).
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/tri.obj"
-expect_fail stereo-forward "--stereo needs a .mrg" "" -- view "$tmp/tri.obj" --stereo
 expect_fail target-forward "--target-ms applies to .mrg" "" -- view "$tmp/tri.obj" --target-ms 5
 expect_fail tau-forward "apply to .mrg cluster-LOD" "" -- view "$tmp/tri.obj" --tau 2
 expect_fail fovea-forward "apply to .mrg cluster-LOD" "" -- view "$tmp/tri.obj" --fovea 0.5,0.5
@@ -99,7 +98,7 @@ JSON
     echo "FAIL view-stereo:"; cat "$tmp/stderr"; failures=$((failures + 1))
   fi
   # A stereo setting the renderer refuses fails on the first frame, before the window: one line, exit 2.
-  "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --debug-view lod --frames 2 --size 64x48 >"$tmp/stdout" 2>"$tmp/stderr"
+  "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --debug-view lod --raster indirect --frames 2 --size 64x48 >"$tmp/stdout" 2>"$tmp/stderr"
   rc=$?
   if [ $rc -eq 2 ] && [ "$(grep -c . "$tmp/stderr")" -eq 1 ] && grep -q -- "--debug-view" "$tmp/stderr" &&
     ! grep -q "viewed" "$tmp/stdout"; then
@@ -167,14 +166,17 @@ JSON
   else
     echo "FAIL view-frames-in-flight:"; cat "$tmp/stderr"; failures=$((failures + 1))
   fi
-  # A scene file through the forward renderer, a few interactive frames (smoke: opens, draws, closes).
+  # A scene file through the forward renderer's frames in flight, mono and stereo: more frames than
+  # slots (smoke: opens, draws, closes, validation silent).
   "$mirage" gen blob -o "$tmp/blob.glb" --size 2 >/dev/null 2>&1
-  if "${xrun[@]}" "$mirage" view "$tmp/blob.glb" --frames 3 --size 200x150 >"$tmp/stdout" 2>"$tmp/stderr" &&
-    ! grep -q . "$tmp/stderr"; then
-    pass=$((pass + 1))
-  else
-    echo "FAIL view-forward:"; cat "$tmp/stderr"; failures=$((failures + 1))
-  fi
+  for stereo in "" --stereo; do
+    if "${xrun[@]}" "$mirage" view "$tmp/blob.glb" $stereo --frames 5 --size 200x150 >"$tmp/stdout" 2>"$tmp/stderr" &&
+      ! grep -q . "$tmp/stderr" && grep -q "viewed 5 frames" "$tmp/stdout"; then
+      pass=$((pass + 1))
+    else
+      echo "FAIL view-forward $stereo:"; cat "$tmp/stderr"; failures=$((failures + 1))
+    fi
+  done
 else
   echo "FAIL build:"; cat "$tmp/stderr"; failures=$((failures + 1))
 fi

@@ -95,8 +95,58 @@ TEST_F(RuntimeFrames, ThreeRecordedFramesMatchSequentialRenders) {
   }
 }
 
+// A scene file (the forward renderer) records too: three frames in flight, the images and draw
+// counts of sequential render() calls.
+TEST_F(RuntimeFrames, ForwardScenesRecordFramesInFlight) {
+  const runtime::SceneOptions options{.input = "gen:blob:2"};
+  auto sequential = runtime::Scene::open(test::gpuContext(), options);
+  auto inFlight = runtime::Scene::open(test::gpuContext(), options);
+  ASSERT_TRUE(sequential.ok() && inFlight.ok());
+  ASSERT_TRUE((*inFlight)->canRecord());
+  render::Camera base = render::autoCamera((*sequential)->bounds(), float(kWidth) / float(kHeight));
+  std::vector<runtime::View> views(render::kMaxFramesInFlight);
+  std::vector<runtime::Frame> expected;
+  for (uint32_t i = 0; i < views.size(); ++i) {
+    views[i].width = kWidth;
+    views[i].height = kHeight;
+    views[i].camera = base;
+    views[i].camera.eye = glm::mix(base.target, base.eye, 1.0f - 0.2f * float(i));
+    views[i].readLinear = true;
+    auto f = (*sequential)->render(views[i]);
+    ASSERT_TRUE(f.ok()) << f.error().message;
+    expected.push_back(std::move(*f));
+  }
+  std::vector<std::vector<uint16_t>> pixels =
+      test::recordFramesInFlight(test::gpuContext(), render::kMaxFramesInFlight, kWidth, kHeight,
+                                 [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
+                                   if (Status st = (*inFlight)->record(cmd, views[slot], slot); !st) return st;
+                                   color = (*inFlight)->colorTarget();
+                                   return Ok{};
+                                 });
+  ASSERT_EQ(pixels.size(), size_t(render::kMaxFramesInFlight));
+  for (uint32_t i = 0; i < render::kMaxFramesInFlight; ++i) {
+    SCOPED_TRACE(i);
+    auto out = (*inFlight)->collect(i);
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    ASSERT_TRUE(out->forward && expected[i].forward);
+    EXPECT_EQ(out->forward->stats.drawCalls, expected[i].forward->stats.drawCalls);
+    EXPECT_EQ(out->trianglesDrawn, expected[i].trianglesDrawn);
+    EXPECT_EQ(test::differingChannels(pixels[i], expected[i].linear.pixels), 0u)
+        << "of " << pixels[i].size() << " channel values";
+  }
+}
+
+// A forward scene with a PVS replaces its renderer on a cell change: render() only.
 TEST_F(RuntimeFrames, ScenesWithoutARecordPathSaySo) {
-  auto forward = runtime::Scene::open(test::gpuContext(), {.input = "gen:blob:1"});
+  mirage::Scene blob = io::generateScene("blob", 1, 1).value();
+  vis::PvsData pvs;
+  pvs.sceneTriangles = blob.instancedTriangleCount();
+  pvs.cells.resize(1);
+  pvs.triangles.resize(1);
+  for (uint32_t t = 0; t < pvs.sceneTriangles; ++t) pvs.triangles[0].push_back(t);
+  fs::path pvsPath = test::tempDir("runtime_frames_forward") / "pvs.mrg";
+  ASSERT_TRUE(vis::savePvs(pvsPath.string(), pvs, "gen:blob:1").ok());
+  auto forward = runtime::Scene::open(test::gpuContext(), {.input = "gen:blob:1", .pvs = pvsPath.string()});
   ASSERT_TRUE(forward.ok()) << forward.error().message;
   EXPECT_FALSE((*forward)->canRecord());
   EXPECT_EQ((*forward)->colorTarget(), nullptr);

@@ -1,5 +1,5 @@
-// runtime::View::stereoIpd (docs/render.md, "Stereo"): a cluster-LOD scene renders both eyes side
-// by side, the left half being the left eye; other scene kinds refuse it with one line.
+// runtime::View::stereoIpd (docs/render.md, "Stereo"): cluster-LOD and forward scenes render both
+// eyes side by side, the left half being the left eye.
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
@@ -42,13 +42,26 @@ TEST_F(RuntimeStereo, ClusterLodRendersBothEyesSideBySide) {
   EXPECT_GE(psnr(half, mono->srgb), 45.0);
 }
 
-TEST_F(RuntimeStereo, OtherSceneKindsRefuseStereo) {
+// A scene file goes to the forward renderer, which draws both eyes side by side too.
+TEST_F(RuntimeStereo, ForwardRendersBothEyesSideBySide) {
   auto s = runtime::Scene::open(context(), {.input = "gen:blob:3"});
   ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_EQ((*s)->kind(), runtime::SceneKind::Forward);
   runtime::View view = test::viewOf(**s, kWidth, kHeight);
-  view.stereoIpd = 0.064f;
-  auto f = (*s)->render(view);
-  ASSERT_FALSE(f.ok());
-  EXPECT_NE(f.error().message.find("--stereo"), std::string::npos);
-  EXPECT_EQ(f.error().message.find('\n'), std::string::npos);
+  view.stereoIpd = 0.3f;
+  auto stereo = (*s)->render(view);
+  ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+  ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
+  ASSERT_EQ(stereo->srgb.height, kHeight);
+  for (uint32_t e = 0; e < 2; ++e) {
+    runtime::View eye = test::viewOf(**s, kWidth, kHeight);
+    eye.camera = render::stereoEyes(view.camera, *view.stereoIpd)[e];
+    auto mono = (*s)->render(eye);
+    ASSERT_TRUE(mono.ok()) << mono.error().message;
+    ImageRGBA8 half{kWidth, kHeight, {}};
+    for (uint32_t y = 0; y < kHeight; ++y)
+      half.pixels.insert(half.pixels.end(), stereo->srgb.at(e * kWidth, y),
+                         stereo->srgb.at(e * kWidth, y) + kWidth * 4);
+    EXPECT_GE(psnr(half, mono->srgb), 45.0) << "eye " << e;
+  }
 }

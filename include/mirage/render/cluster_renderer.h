@@ -201,9 +201,6 @@ struct ClusterRenderOutput {
   std::vector<std::pair<uint32_t, uint32_t>> ownedClusters; // readOwnedClusters: (instance, mesh-local cluster)
 };
 
-// Frames a caller may have recorded and not yet collected (record/collect slots 0..2).
-inline constexpr uint32_t kMaxFramesInFlight = 3;
-
 class ClusterRenderer {
 public:
   // Uploads every DAG, the instances, materials and textures. Refuses clusters larger than the

@@ -4,6 +4,7 @@
 // after opaque sorted back to front. Depth: 32-bit float, reverse-Z. Headless: renders to an
 // offscreen target and reads it back.
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "mirage/core/image.h"
@@ -44,13 +45,44 @@ struct RenderOutput {
   FrameStats stats;
 };
 
+// A forward frame: the common settings, and for stereo (docs/render.md, "Stereo") the distance
+// between the eyes: stereoEyes(base.camera, ipd) (camera.h) drawn left|right into one target of
+// 2 * base.width x base.height, each eye with its own viewport, clip planes and blend order.
+struct ForwardRenderSettings {
+  RenderSettings base;
+  std::optional<float> stereoIpd;
+};
+
+// Frames a caller may have recorded and not yet collected (record/collect slots 0..2), for every
+// renderer with a record/collect pair.
+inline constexpr uint32_t kMaxFramesInFlight = 3;
+
 class ForwardRenderer {
 public:
   // Uploads the scene's geometry, materials and textures. The scene may be freed afterwards.
   static Result<std::unique_ptr<ForwardRenderer>> create(gpu::Context& context, const Scene& scene);
   ~ForwardRenderer();
 
-  Result<RenderOutput> render(const RenderSettings& settings);
+  // One frame, synchronously: record + submit and wait + collect, then the image read back as the
+  // settings ask. Call it only with no recorded frame in flight (it uses slot 0).
+  Result<RenderOutput> render(const ForwardRenderSettings& settings);
+  Result<RenderOutput> render(const RenderSettings& settings) { return render(ForwardRenderSettings{settings, {}}); }
+
+  // Frames in flight, as ClusterRenderer's: record() writes `slot`'s frame data (cameras, the
+  // blend order) and records the frame into the caller's command buffer; the caller submits it
+  // with a fence of its own and, once that fence signalled, collect(slot) gives the stats and
+  // pass times (no image: the image is colorTarget()). Slots are 0..kMaxFramesInFlight - 1; a
+  // slot is reused only after its frame completed. Frames run on one queue in the order recorded:
+  // they share the targets, which each frame's first barrier orders after everything submitted
+  // before it. A size change retires the old targets until the frames using them completed.
+  // Errors (settings) record nothing.
+  Status record(VkCommandBuffer cmd, const ForwardRenderSettings& settings, uint32_t slot);
+  Result<RenderOutput> collect(uint32_t slot);
+  // The colour target of the last recorded frame: VK_FORMAT_R16G16B16A16_SFLOAT, linear, as
+  // ClusterRenderer::colorTarget(): left in VK_IMAGE_LAYOUT_GENERAL, its writes visible to compute
+  // shaders (a following barrier from COMPUTE_SHADER / SHADER_STORAGE_WRITE chains after them).
+  // The next frame discards the contents. Recreated (a new handle) when the size changes.
+  const gpu::Image& colorTarget() const;
   const Bounds& worldBounds() const { return worldBounds_; }
 
   struct Impl;

@@ -119,7 +119,7 @@ public:
   Result<Frame> render(const View& view);
 
   // Frames in flight (docs/runtime.md "Frames in flight"), for cluster-LOD scenes without surfels
-  // (canRecord()); forward, surfel-only and mixed scenes render through render() only.
+  // and forward scenes without a PVS (canRecord()); the others render through render() only.
   // record() selects the eye's PVS cell and records the whole frame into the caller's command
   // buffer (nothing is submitted; View::readImage / readLinear are ignored: the image is
   // colorTarget()). The caller submits it on the context's queue with a fence of its own and,
@@ -127,15 +127,15 @@ public:
   // Slots are 0..render::kMaxFramesInFlight - 1; a slot is reused only after its frame completed,
   // frames run on one queue in the order recorded. render() uses slot 0: call it only with no
   // recorded frame in flight. A PVS cell change keeps the replaced cluster PVS buffers alive until
-  // every slot that may read them completed (no device wait); a size change waits for the device
-  // to idle (the targets are recreated: rare).
+  // every slot that may read them completed (no device wait); a size change recreates the targets
+  // (the cluster path waits for the device to idle, the forward path retires the old ones).
   bool canRecord() const;
   Status record(VkCommandBuffer cmd, const View& view, uint32_t slot);
   Result<Frame> collect(uint32_t slot);
   // The colour target of the last recorded frame (canRecord() scenes; else null):
   // VK_FORMAT_R16G16B16A16_SFLOAT, linear (not sRGB), alpha straight, View's size (stereo: 2 *
-  // width, left eye left). record() leaves it in VK_IMAGE_LAYOUT_GENERAL, last written by compute
-  // shaders (COMPUTE_SHADER stage, SHADER_STORAGE_WRITE access); the caller transitions it for its
+  // width, left eye left). record() leaves it in VK_IMAGE_LAYOUT_GENERAL, its writes visible to a
+  // barrier from compute shaders (COMPUTE_SHADER stage, SHADER_STORAGE_WRITE access); the caller transitions it for its
   // blit or copy in the same command buffer and may leave it in any layout. A new handle after a
   // size change.
   const gpu::Image* colorTarget() const;
