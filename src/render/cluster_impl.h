@@ -91,6 +91,7 @@ struct ClusterFramePlan {
   bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
   bool transparency = false;                   // BLEND clusters rasterized and composited (scene has them, asked for)
   DebugView debugView = DebugView::None;       // the debug resolve runs instead of the shading one
+  SurfelRenderer* surfels = nullptr;           // mixed frames: the surfel stage (its counters in its slot's readback)
 };
 
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.
