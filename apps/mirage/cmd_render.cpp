@@ -81,6 +81,7 @@ bool renderToFiles(const RenderOptions& o, std::unique_ptr<gpu::Context>& ctx, s
   view.camera = o.camera.empty() ? render::autoCamera(scene->bounds(), float(view.width) / float(view.height)) : camera;
   view.readLinear = !o.exr.empty();
   view.config = o.config;
+  view.stereoIpd = o.stereo.ipdOrNone();
   std::vector<std::vector<gpu::PassTime>> frames;
   for (int i = 0; i < o.repeat; ++i) {
     auto f = scene->render(view);
@@ -145,9 +146,12 @@ void runSurfelRender(const RenderOptions& o) {
   runtime::View view;
   Rendered r;
   if (!renderToFiles(o, ctx, scene, view, r)) return;
-  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}, {} order) at {}x{} on {} -> {}\n",
+  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}, {} order) at {}x{}{} on {} -> {}\n",
              o.scene.input, scene->info().surfels, scene->info().instances, o.config.surfelSize,
              render::toString(r.last.surfels->raster), render::toString(o.scene.surfelOrder), view.width, view.height,
+             view.stereoIpd ? fmt::format(" per eye (stereo, ipd {}: {}x{} left|right)", *view.stereoIpd,
+                                          r.last.srgb.width, r.last.srgb.height)
+                            : "",
              ctx->caps().name, o.output);
   if (o.stats) {
     fmt::print("instances visible {}  surfels splatted {}\n", r.last.surfels->visibleInstances, r.last.surfelsSplatted);
@@ -161,8 +165,8 @@ void runRender(const RenderOptions& o) {
   auto kind = runtime::sceneKind(o.scene);
   if (!kind) return fail(kind.error());
   bool surfelOrderGiven = o.surfelOrder->count() > 0;
-  if (o.stereo.enabled && *kind != runtime::SceneKind::ClusterLod)
-    return fail(o.scene.input + ": --stereo needs a .mrg with cluster DAGs (cluster LOD)");
+  if (o.stereo.enabled && *kind == runtime::SceneKind::Forward)
+    return fail(o.scene.input + ": --stereo needs a .mrg (cluster LOD or surfels)");
   if (o.scene.surfels && *kind == runtime::SceneKind::ClusterLod) { // DAGs + SURF: meshes near, surfels far
     if (!o.scene.pvs.empty() || o.given.surfels.back()->count() > 0 || surfelOrderGiven)
       return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");

@@ -57,9 +57,8 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
 
 Result<Frame> Scene::render(const View& view) {
   if (auto st = validate(view.config); !st) return st.error();
-  if (view.stereoIpd && impl_->kind != SceneKind::ClusterLod)
-    return Error{fmt::format("--stereo needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
-                             toString(impl_->kind))};
+  if (view.stereoIpd && impl_->kind == SceneKind::Forward)
+    return Error{"--stereo needs a .mrg (cluster LOD or surfels), not a forward scene"};
   if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
     return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
                              toString(impl_->kind))};
@@ -74,22 +73,28 @@ Result<Frame> Scene::render(const View& view) {
   return Error{"unknown scene kind"};
 }
 
-bool Scene::canRecord() const { return impl_->kind == SceneKind::ClusterLod && !impl_->surfels; }
+bool Scene::canRecord() const { return impl_->kind != SceneKind::Forward; }
 
 Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
   if (!canRecord())
-    return Error{fmt::format("{} scenes{} render through render() only, not record()", toString(impl_->kind),
-                             impl_->surfels ? " with surfels" : "")};
+    return Error{fmt::format("{} scenes render through render() only, not record()", toString(impl_->kind))};
   if (auto st = validate(view.config); !st) return st.error();
-  return recordClusterLod(*impl_, cmd, view, slot);
+  if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
+    return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
+                             toString(impl_->kind))};
+  return impl_->kind == SceneKind::Surfels ? recordSurfels(*impl_, cmd, view, slot)
+                                           : recordClusterLod(*impl_, cmd, view, slot);
 }
 
 Result<Frame> Scene::collect(uint32_t slot) {
   if (!canRecord()) return Error{"collect(): this scene has no record path"};
-  return collectClusterLod(*impl_, slot);
+  return impl_->kind == SceneKind::Surfels ? collectSurfels(*impl_, slot) : collectClusterLod(*impl_, slot);
 }
 
-const gpu::Image* Scene::colorTarget() const { return canRecord() ? &impl_->cluster->colorTarget() : nullptr; }
+const gpu::Image* Scene::colorTarget() const {
+  if (impl_->kind == SceneKind::Surfels) return &impl_->surfels->colorTarget();
+  return impl_->kind == SceneKind::ClusterLod ? &impl_->cluster->colorTarget() : nullptr;
+}
 
 Result<bool> Scene::selectPvsCell(glm::vec3 eye) { return runtime::selectPvsCell(*impl_, eye); }
 

@@ -156,8 +156,9 @@ Status checkOptions(const ViewerOptions& o, runtime::SceneKind kind) {
     if (auto st = render::validateIpd(*o.stereoIpd); !st) return st;
   if (o.frameTime)
     if (auto st = runtime::validate(*o.frameTime); !st) return st;
+  if (o.stereoIpd && kind == runtime::SceneKind::Forward)
+    return makeError(o.scene, "--stereo needs a .mrg (cluster LOD or surfels)");
   if (kind != runtime::SceneKind::ClusterLod) {
-    if (o.stereoIpd) return makeError(o.scene, "--stereo needs a .mrg with cluster DAGs (cluster LOD)");
     if (o.frameTime) return makeError(o.scene, "--target-ms applies to .mrg cluster-LOD assets only");
     if (o.clusterLodFlags)
       return makeError(o.scene, "--tau, --raster, --hybrid-threshold, --occlusion, --cones, --selection, "
