@@ -30,6 +30,9 @@ if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 
   expect_ok render-surfels-stereo render "$tmp/s.mrg" -o "$tmp/st.png" --surfels --stereo --size 48x32 &&
     { [ "$(png_size "$tmp/st.png")" = "96x32" ] || { echo "FAIL render-surfels-stereo: size"; failures=$((failures + 1)); }; }
   expect_fail surfels-stereo-raster "--stereo" "$tmp/sr.png" -- render "$tmp/s.mrg" -o "$tmp/sr.png" --surfels --stereo --surfel-raster raster --size 48x32
+  expect_ok bench-surfels-stereo bench surfels "$tmp/s.mrg" --size 48x32 --frames 2 --copies 4 --order blue --stereo
+  grep -q "per eye (stereo" "$tmp/stdout" || { echo "FAIL bench-surfels-stereo: no stereo header"; failures=$((failures + 1)); }
+  expect_fail bench-surfels-stereo-raster "--stereo" "" -- bench surfels "$tmp/s.mrg" --size 48x32 --frames 2 --stereo --surfel-raster raster
   expect_ok bench-surfels bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --copies 4
   grep -q "G surfels/s" "$tmp/stdout" || { echo "FAIL bench-surfels: no throughput line"; failures=$((failures + 1)); }
   # Default --order all: both splat orders timed in one run, the coherent one against the blue one.
