@@ -187,7 +187,13 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     ss.frustumCulling = cs.frustumCulling;
     if (Status st = cs.surfels->stagePrepare(ss, sf); !st) return st.error();
     sio::ClusterSurfelLink link = cs.surfels->stageLink();
-    std::memcpy(surfelLink.mapped(), &link, sizeof(link));
+    // One link buffer for every slot: written only when it changes (another surfel renderer), so
+    // frames in flight never read it while the host writes it.
+    if (std::memcmp(surfelLink.mapped(), &link, sizeof(link)) != 0) {
+      if (std::any_of(std::begin(recorded), std::end(recorded), [](bool r) { return r; }))
+        vkDeviceWaitIdle(ctx.device()); // rare: the renderer is switched while frames run
+      std::memcpy(surfelLink.mapped(), &link, sizeof(link));
+    }
     f.fadeAddress = fade.address();
     f.surfelLinkAddress = surfelLink.address();
   }
