@@ -10,7 +10,8 @@ void main() {
   if (!keepFacing(inId.x - 1, gl_FrontFacing)) return;
   uvec2 p = uvec2(gl_FragCoord.xy);
   uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
-  if (!meshKeepsPixel(instanceFade(instance), p)) return; // the surfels' pixel in the blend band
+  // The surfels' pixel in the blend band, dithered by the pixel within the eye as the splat does.
+  if (!meshKeepsPixel(instanceFade(instance), p - uvec2(FrameRef(push.frameAddress).frame.targetOffsetX, 0u))) return;
   uint id = (inId.x << MIRAGE_CLUSTER_TRIANGLE_BITS) | inId.y;
   oitAppend(FrameRef(push.frameAddress).frame, p.x, p.y, gl_FragCoord.z, id);
 }

@@ -8,7 +8,8 @@ void main() {
   uint64_t value = (uint64_t(floatBitsToUint(gl_FragCoord.z)) << 32) | uint64_t(id);
   ivec2 p = ivec2(fragCoord);
   uint instance = VisibleRef(push.visibleAddress).visible[inId.x - 1].instance;
-  if (!meshKeepsPixel(instanceFade(instance), uvec2(p))) return; // the surfels' pixel in the blend band
+  // The surfels' pixel in the blend band, dithered by the pixel within the eye as the splat does.
+  if (!meshKeepsPixel(instanceFade(instance), uvec2(p) - uvec2(f.targetOffsetX, 0u))) return;
   countOverdraw(f, uvec2(p));
   // Stereo: p is the pixel in the side-by-side buffer (targetFragCoord).
   atomicMax(VisBufferRef(push.visBufferAddress).pixels[p.y * int(targetRowPixels(f)) + p.x], value);

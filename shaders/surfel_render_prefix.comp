@@ -8,10 +8,25 @@
 
 layout(local_size_x = MIRAGE_SURFEL_INSTANCE_WORKGROUP) in;
 
-bool sphereVisible(SurfelRenderFrame f, vec4 s) {
+// Sphere against the frustum of the camera moved by `shift` (a translated frustum keeps its
+// normals: plane w becomes w - dot(n, shift)).
+bool sphereInFrustum(SurfelRenderFrame f, vec4 s, vec3 shift) {
   for (int i = 0; i < 5; ++i)
-    if (dot(f.camera.planes[i].xyz, s.xyz) + f.camera.planes[i].w < -s.w) return false;
+    if (dot(f.camera.planes[i].xyz, s.xyz - shift) + f.camera.planes[i].w < -s.w) return false;
   return true;
+}
+
+// In stereo the union of both eyes' frusta (the camera is the left eye's).
+bool sphereVisible(SurfelRenderFrame f, vec4 s) {
+  return sphereInFrustum(f, s, vec3(0.0)) || (f.eyes == 2u && sphereInFrustum(f, s, f.stereoEye.xyz));
+}
+
+// Reference depth: eye to the nearest point of the sphere; in stereo from the nearer eye, so the
+// one selection draws the prefix that eye's mono frame would (the other eye's is at most that).
+float referenceDepth(SurfelRenderFrame f, vec4 s) {
+  float d = length(s.xyz - f.camera.eye.xyz);
+  if (f.eyes == 2u) d = min(d, length(s.xyz - f.camera.eye.xyz - f.stereoEye.xyz));
+  return max(d - s.w, f.camera.znear);
 }
 
 // Coherent order: a prefix length rounded up to the end of its block, so the drawn set is the
@@ -33,7 +48,7 @@ void main() {
   SurfelRenderInstance inst = SrInstanceRef(push.instanceAddress).instances[i];
   SurfelRenderCloud cloud = SrCloudRef(push.cloudAddress).clouds[inst.cloud];
 
-  float distance = max(length(inst.sphere.xyz - f.camera.eye.xyz) - inst.sphere.w, f.camera.znear);
+  float distance = referenceDepth(f, inst.sphere);
   float P = cloud.boxMin.w * inst.maxScale * inst.maxScale; // world units squared
   float N = float(cloud.count);
   // k = P / r^2 with r = s * (distance / pixelScale) / 2; ceil so the spacing never exceeds r.
@@ -80,13 +95,15 @@ void main() {
   // Back faces: only for single-sided materials (a leaf's surfels carry one normal but show both
   // sides), in the quantized frame the splat reads positions in.
   bool singleSided = SrMaterialRef(push.materialAddress).materials[cloud.material].doubleSided == 0u;
-  vec3 eyeObject = (inverse(inst.model) * vec4(f.camera.eye.xyz, 1.0)).xyz;
+  mat4 objectFromWorld = inverse(inst.model);
+  vec3 eyeObject = (objectFromWorld * vec4(f.camera.eye.xyz, 1.0)).xyz;
   s.eyeQuantized = vec4((eyeObject - cloud.boxMin.xyz) / cloud.boxStep.xyz,
                         (f.flags & MIRAGE_SURFEL_BACKFACE_CULL) != 0 && singleSided ? 1.0 : 0.0);
   // Subgroup merge (the merge pipeline reads it): everywhere, or where the cloud is dense on screen.
   bool merge = (f.flags & MIRAGE_SURFEL_MERGE_ALL) != 0 ||
                ((f.flags & MIRAGE_SURFEL_MERGE_AUTO) != 0 && s.radiusPixels < MIRAGE_SURFEL_MERGE_RADIUS_PX * distance);
   s.quantStep = vec4(cloud.boxStep.xyz, merge ? 1.0 : 0.0);
+  s.stereoEyeQuantized = vec4((objectFromWorld * vec4(f.stereoEye.xyz, 0.0)).xyz / cloud.boxStep.xyz, 0.0);
   SrStateRef(push.stateAddress).states[i] = s;
   // vkCmdDrawIndirect: 6 vertices (two triangles) per surfel, firstInstance = instance index.
   SrDrawRef(push.drawAddress).draws[i] = uvec4(count * 6u, 1u, 0u, i);

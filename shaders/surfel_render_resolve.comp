@@ -16,10 +16,14 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
   SurfelRenderFrame f = SrFrameRef(push.frameAddress).frame;
+  // Stereo: one dispatch over both eyes side by side (rows of 2 * viewport.x, compute splat only);
+  // the right half shades from the right eye.
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-  if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
+  int row = int(f.camera.viewport.x) * int(max(f.eyes, 1u));
+  if (px.x >= row || px.y >= int(f.camera.viewport.y)) return;
+  vec3 eye = f.camera.eye.xyz + (px.x >= int(f.camera.viewport.x) ? f.stereoEye.xyz : vec3(0.0));
   uint id = (f.flags & MIRAGE_SURFEL_SOURCE_BUFFER) != 0
-                ? uint(SrVisRef(push.visBufferAddress).pixels[px.y * int(f.camera.viewport.x) + px.x] & 0xffffffffUL)
+                ? uint(SrVisRef(push.visBufferAddress).pixels[px.y * row + px.x] & 0xffffffffUL)
                 : texelFetch(visImage, px, 0).x;
   if (id == 0u) {
     imageStore(outImage, px, f.background);
@@ -40,7 +44,7 @@ void main() {
   d.duvdx = d.duvdy = vec2(0.0);
   vec4 base = unpackUnorm4x8(attr.y); // linear RGBA8
   // The capture turned every normal towards the view that saw it: surfels are front-facing.
-  vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), true, vec2(0.0), d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
+  vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), true, vec2(0.0), d, eye, f.lightDir, f.skyAmbient.rgb,
                           f.groundAmbient.rgb);
   imageStore(outImage, px, vec4(rgb, 1.0));
 }

@@ -21,10 +21,19 @@ layout(local_size_x = MIRAGE_SURFEL_SPLAT_WORKGROUP) in;
 // Back-face culling as a pipeline variant: without it the normal loads and their registers fold
 // away (measured on the H200, the culling code slowed the unculled splat by 7 %).
 layout(constant_id = 0) const bool kCullBackFaces = false;
+// Eyes splatted (1, or 2 in stereo): a constant, so the mono pipeline carries no stereo code.
+layout(constant_id = 1) const int kEyes = 1;
 
-void splatPixel(SrVisRef vis, uvec2 px, uint width, uint64_t value, float fade) {
+// Where one eye's pixels go: its size, the buffer's row length (both eyes in stereo) and the
+// column its half starts at.
+struct EyeTarget {
+  uint width, height, row, offsetX;
+};
+
+// px is the pixel within the eye: the blend-band dither is the mono frame's in either eye.
+void splatPixel(SrVisRef vis, uvec2 px, EyeTarget t, uint64_t value, float fade) {
   if (fade < 1.0 && fadeDither(px) >= fade) return; // the mesh's pixel in the blend band
-  uint at = px.y * width + px.x;
+  uint at = px.y * t.row + px.x + t.offsetX;
   if (vis.pixels[at] >= value) return;
   atomicMax(vis.pixels[at], value);
 }
@@ -32,17 +41,16 @@ void splatPixel(SrVisRef vis, uvec2 px, uint width, uint64_t value, float fade) 
 // The disc's other pixels: centres c (integer + 0.5) with |c - p| <= radius, except the pixel
 // holding the projection p (which the caller writes, directly or through the subgroup merge).
 // `shape` squashes the disc into its projected ellipse (discShape).
-void splatDiscRest(SrVisRef vis, vec2 p, float radius, vec3 shape, uint width, uint height, uint64_t value,
-                   float fade) {
+void splatDiscRest(SrVisRef vis, vec2 p, float radius, vec3 shape, EyeTarget t, uint64_t value, float fade) {
   ivec2 lo = max(ivec2(ceil(p - radius - 0.5)), ivec2(0));
-  ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(width, height) - 1);
+  ivec2 hi = min(ivec2(floor(p + radius - 0.5)), ivec2(t.width, t.height) - 1);
   ivec2 own = ivec2(floor(p));
   for (int y = lo.y; y <= hi.y; ++y) {
     float dy = float(y) + 0.5 - p.y;
     for (int x = lo.x; x <= hi.x; ++x) {
       float dx = float(x) + 0.5 - p.x;
       if (insideSurfelDisc(vec2(dx, dy), radius, shape) && ivec2(x, y) != own)
-        splatPixel(vis, uvec2(x, y), width, value, fade);
+        splatPixel(vis, uvec2(x, y), t, value, fade);
     }
   }
 }
@@ -84,10 +92,9 @@ bool mergeSamePixel(uint pixel, inout uint64_t value) {
 // The subgroup-merge variant of main's loop: the same surfels, discs and atomics, but every lane
 // reaches the merge (no early exits), and the pixel holding each projection goes through it.
 void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFEL_PER_THREAD],
-                 uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start) {
+                 uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start, EyeTarget t) {
   SrVisRef vis = SrVisRef(push.visBufferAddress);
-  uint width = uint(f.camera.viewport.x);
-  uint height = uint(f.camera.viewport.y);
+  uint width = t.width;
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     uint pixel = ~0u;
@@ -107,19 +114,17 @@ void splatMerged(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURF
       }
     }
     uint64_t merged = value;
-    if (mergeSamePixel(pixel, merged)) splatPixel(vis, uvec2(pixel % width, pixel / width), width, merged, s.fade);
+    if (mergeSamePixel(pixel, merged)) splatPixel(vis, uvec2(pixel % width, pixel / width), t, merged, s.fade);
     if (value == 0ul || radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
-    splatDiscRest(vis, p, radius, discShape(s, f, quantized, clip, radius, i), width, height, value, s.fade);
+    splatDiscRest(vis, p, radius, discShape(s, f, quantized, clip, radius, i), t, value, s.fade);
   }
 }
 #endif
 
 // The plain splat: each lane writes its own surfels' pixels (an early exit per surfel).
 void splatPlain(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFEL_PER_THREAD],
-                uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start) {
+                uint normals[MIRAGE_SURFEL_PER_THREAD], bool cullBackFaces, uint start, EyeTarget t) {
   SrVisRef vis = SrVisRef(push.visBufferAddress);
-  uint width = uint(f.camera.viewport.x);
-  uint height = uint(f.camera.viewport.y);
   for (uint j = 0; j < MIRAGE_SURFEL_PER_THREAD; ++j) {
     uint i = start + j * MIRAGE_SURFEL_SPLAT_WORKGROUP;
     if (i >= s.count) break;
@@ -135,10 +140,10 @@ void splatPlain(SurfelInstanceState s, SurfelRenderFrame f, uvec2 q[MIRAGE_SURFE
       if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
     } else {
       // The pixel holding the projection: the whole footprint on the fast path.
-      splatPixel(vis, uvec2(p), width, value, s.fade);
+      splatPixel(vis, uvec2(p), t, value, s.fade);
       if (radius < MIRAGE_SURFEL_FAST_RADIUS_PX) continue;
     }
-    splatDiscRest(vis, p, radius, discShape(s, f, quantized, clip, radius, i), width, height, value, s.fade);
+    splatDiscRest(vis, p, radius, discShape(s, f, quantized, clip, radius, i), t, value, s.fade);
   }
 }
 
@@ -167,13 +172,28 @@ void main() {
     q[j] = i < s.count ? positions.v[firstSurfel + i] : uvec2(0u);
     normals[j] = cullBackFaces && i < s.count ? attributes.v[firstSurfel + i].x : 0u;
   }
+  EyeTarget t;
+  t.width = uint(f.camera.viewport.x);
+  t.height = uint(f.camera.viewport.y);
+  t.row = t.width * uint(kEyes);
+  // Stereo (docs/render.md, "Stereo"): the surfels loaded once are splatted into both halves. The
+  // right eye's state is the left's with its clip x shifted (one shared projection) and its eye
+  // moved (back faces, oriented discs); everything else (k, radius, fade) is the one selection's.
+  for (uint eye = 0; eye < uint(kEyes); ++eye) {
+    SurfelInstanceState se = s;
+    t.offsetX = eye * t.width;
+    if (eye == 1u) {
+      se.clipFromQuantized[3].x += f.stereoEye.w;
+      se.eyeQuantized.xyz += s.stereoEyeQuantized.xyz;
+    }
 #ifdef MIRAGE_SURFEL_SPLAT_MERGE
-  // The prefix pass decides per instance (quantStep.w, SurfelMerge): uniform over the workgroup,
-  // so the merge's shuffles run in uniform control flow.
-  if (s.quantStep.w != 0.0)
-    splatMerged(s, f, q, normals, cullBackFaces, start);
-  else
+    // The prefix pass decides per instance (quantStep.w, SurfelMerge): uniform over the workgroup,
+    // so the merge's shuffles run in uniform control flow.
+    if (s.quantStep.w != 0.0)
+      splatMerged(se, f, q, normals, cullBackFaces, start, t);
+    else
 #endif
-    splatPlain(s, f, q, normals, cullBackFaces, start);
+      splatPlain(se, f, q, normals, cullBackFaces, start, t);
+  }
 }
 

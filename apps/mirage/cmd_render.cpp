@@ -151,9 +151,12 @@ void runSurfelRender(const RenderOptions& o) {
   runtime::View view;
   Rendered r;
   if (!renderToFiles(o, ctx, scene, view, r)) return;
-  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}, {} order) at {}x{} on {} -> {}\n",
+  fmt::print("rendered {} as surfels ({} surfels, {} instances, size {} px, {}, {} order) at {}x{}{} on {} -> {}\n",
              o.scene.input, scene->info().surfels, scene->info().instances, o.config.surfelSize,
              render::toString(r.last.surfels->raster), render::toString(o.scene.surfelOrder), view.width, view.height,
+             view.stereoIpd ? fmt::format(" per eye (stereo, ipd {}: {}x{} left|right)", *view.stereoIpd,
+                                          r.last.srgb.width, r.last.srgb.height)
+                            : "",
              ctx->caps().name, o.output);
   if (o.stats) {
     fmt::print("instances visible {}  surfels splatted {}\n", r.last.surfels->visibleInstances, r.last.surfelsSplatted);

@@ -16,6 +16,7 @@
 #include "mirage/runtime/scene_argument.h"
 #include "mirage/surfels/surfel_io.h"
 #include "render_common.h"
+#include "render_options.h"
 #include "surfel_render.h"
 
 namespace mirage::cli {
@@ -105,6 +106,7 @@ bool open(const SurfelRenderRequest& r, const std::vector<render::SurfelOrder>& 
       r.camera.empty() ? render::autoCamera(s.renderers[0]->worldBounds(), float(width) / float(height)) : camera;
   s.settings.surfelSize = r.surfelSize;
   s.settings.allSurfels = r.allSurfels;
+  s.settings.stereoIpd = r.stereoIpd;
   return true;
 }
 
@@ -226,16 +228,24 @@ void runSurfelBench(const SurfelRenderRequest& r) {
   if (!open(r, *orders, s)) return;
   s.settings.base.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   const auto& caps = s.ctx->caps();
-  if (rasters.empty()) {
+  if (rasters.empty()) { // --stereo: the raster fallback has no stereo (the renderer says so if asked)
     if (caps.int64BufferAtomics) rasters.push_back(render::SurfelRaster::Compute);
-    rasters.push_back(render::SurfelRaster::Raster);
+    if (!r.stereoIpd || rasters.empty()) rasters.push_back(render::SurfelRaster::Raster);
+  }
+  // Before the header: a stereo frame the renderer refuses fails with its one line and nothing else.
+  if (r.stereoIpd) {
+    render::SurfelRenderSettings probe = s.settings;
+    probe.raster = rasters[0];
+    if (auto o = s.renderers[0]->render(probe); !o) return fail(o.error());
   }
   if (!r.json)
-    fmt::print("bench surfels {} on {}: {} surfels stored, {} copies ({} instanced) at {}x{}, surfel size {} px, {}; "
+    fmt::print("bench surfels {} on {}: {} surfels stored, {} copies ({} instanced) at {}x{}{}, surfel size {} px, {}; "
                "{} timed frames per order (orders interleaved frame by frame); bandwidth {:.3g} B/s\n",
                r.input, caps.name, s.renderers[0]->surfelCount(), r.copies, s.renderers[0]->instancedCount(),
-               s.settings.base.width, s.settings.base.height, r.surfelSize,
-               r.allSurfels ? "all surfels (no prefix)" : "adaptive prefix", r.frames - 1, r.bandwidth);
+               s.settings.base.width, s.settings.base.height,
+               r.stereoIpd ? fmt::format(" per eye (stereo, ipd {}: both eyes, one prefix selection)", *r.stereoIpd)
+                           : "",
+               r.surfelSize, r.allSurfels ? "all surfels (no prefix)" : "adaptive prefix", r.frames - 1, r.bandwidth);
   nlohmann::json all = nlohmann::json::array();
   for (render::SurfelRaster raster : rasters)
     for (bool cull : cullings)
@@ -325,6 +335,7 @@ void runSurfelBench(const SurfelRenderRequest& r) {
                         {"bandwidth", r.bandwidth},
                         {"width", s.settings.base.width},
                         {"height", s.settings.base.height},
+                        {"stereo_ipd", r.stereoIpd ? nlohmann::json(*r.stereoIpd) : nlohmann::json()},
                         {"rasters", all},
                         {"warp_locality", locality}};
     fmt::print("{}\n", j.dump(2));
@@ -371,7 +382,12 @@ void addBenchSurfelsCommand(CLI::App& bench) {
   b->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60]; default: auto 3/4 view of all copies");
   b->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
   b->add_flag("--json", o->json, "Print results as JSON");
-  b->callback([o] { runSurfelBench(*o); });
+  auto stereo = std::make_shared<StereoOptions>();
+  bindStereo(*b, *stereo);
+  b->callback([o, stereo] {
+    o->stereoIpd = stereo->ipdOrNone();
+    runSurfelBench(*o);
+  });
 }
 
 } // namespace mirage::cli

@@ -1,6 +1,7 @@
 #pragma once
 // `mirage bench surfels FILE`: the surfel renderer on a .mrg 'SURF' chunk or a surfel PLY
 // (cmd_render_surfels.cpp).
+#include <optional>
 #include <string>
 
 #include "mirage/runtime/config.h"
@@ -22,9 +23,10 @@ struct SurfelRenderRequest {
   std::string merge = "auto";     // bench: subgroup merge in the compute splat: off | on | auto | both | all
   std::string
       order; // blue | coherent | coherent256 (default: render::kDefaultSurfelOrder); bench: a comma list or "all"
-  double bandwidth = 4.8e12; // bench: device bandwidth in B/s for the reported fraction
-  int frames = 1;            // --frames (the first is a warm-up)
-  double warmupMs = 0.0;     // bench: the warm-up frame repeats for this long (GPU clock)
+  double bandwidth = 4.8e12;      // bench: device bandwidth in B/s for the reported fraction
+  int frames = 1;                 // --frames (the first is a warm-up)
+  double warmupMs = 0.0;          // bench: the warm-up frame repeats for this long (GPU clock)
+  std::optional<float> stereoIpd; // bench --stereo: both eyes (2W x H) per frame, compute splat only
   bool stats = false;
   bool json = false;
 };

@@ -28,6 +28,23 @@ std::array<Camera, 2> stereoEyes(const Camera& camera, float ipd) {
   return eyes;
 }
 
+std::array<Camera, 2> stereoEyesSharedClip(const Camera& camera, float ipd, const Bounds& bounds) {
+  std::array<Camera, 2> eyes = stereoEyes(camera, ipd);
+  std::array<Camera, 2> clipped = {withClipPlanes(eyes[0], bounds), withClipPlanes(eyes[1], bounds)};
+  for (Camera& c : clipped) {
+    c.znear = std::min(clipped[0].znear, clipped[1].znear);
+    c.zfar = std::max(clipped[0].zfar, clipped[1].zfar);
+  }
+  return clipped;
+}
+
+Result<float> stereoClipDx(const shaderio::ViewFrame& eye, float ipd) {
+  const glm::vec4& xColumn = eye.proj[0];
+  if (xColumn.y != 0.0f || xColumn.z != 0.0f || xColumn.w != 0.0f)
+    return Error{"--stereo: the projection mixes view-space x into clip y, z or w"};
+  return -ipd * xColumn.x;
+}
+
 Status validateIpd(float ipd) {
   if (!std::isfinite(ipd) || ipd < 0.0f)
     return Error{fmt::format("--ipd {} must be a finite distance >= 0 (scene units, e.g. 0.064)", ipd)};

@@ -113,7 +113,6 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
       return Error{fmt::format("--stereo: the side-by-side target {}x{} exceeds {} pixels across", s.width * 2,
                                s.height, kMaxRenderDimension)};
-    if (cs.surfels) return Error{"--stereo does not support mesh + surfel scenes yet"};
     if (cs.readOwnedClusters) return Error{"--stereo cannot read the clusters owning pixels"};
     p.stereo = true;
   }
@@ -132,6 +131,7 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     if (!mode) return mode.error();
     p.multiview = *mode == StereoMode::Multiview;
   }
+  p.surfels = cs.surfels;
   p.dagTree = cs.selection == SelectionMode::Dag;
   p.hierarchy = p.dagTree || cs.selection == SelectionMode::Hierarchy ||
                 (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances);
@@ -185,6 +185,15 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
   f.lateInstanceAddress = lateInstances.address();
   f.instanceHistoryBase = uint32_t(scene.instancedClusters);
   std::copy(std::begin(hzbOffset), std::end(hzbOffset), std::begin(f.hzbOffset));
+  // Stereo: the eyes sharing one projection, and the right eye's clip x shift (camera.h).
+  std::array<Camera, 2> eyes{};
+  float clipDx = 0.0f;
+  if (plan.stereo) {
+    eyes = stereoEyesSharedClip(s.camera, *cs.stereoIpd, scene.worldBounds);
+    auto dx = stereoClipDx(viewFrame(eyes[0], s.width, s.height), *cs.stereoIpd);
+    if (!dx) return dx.error();
+    clipDx = *dx;
+  }
   if (cs.surfels) {
     if (!fade) {
       fade = createBuffer(ctx, uint64_t(std::max(scene.instanceCount, 1u)) * 4,
@@ -197,12 +206,24 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     sf.camera = f.camera;
     sf.visBufferAddress = visBuffer.address();
     sf.meshFadeAddress = fade.address();
+    sf.slot = currentSlot;
+    if (plan.stereo) { // one prefix selection from the nearer eye, splatted into both halves
+      sf.camera = viewFrame(eyes[0], s.width, s.height);
+      sf.eyes = 2;
+      sf.stereoEye = glm::vec4(eyes[1].eye - eyes[0].eye, clipDx);
+    }
     SurfelRenderSettings ss = cs.surfelSettings;
     ss.meshFade = true;
     ss.frustumCulling = cs.frustumCulling;
     if (Status st = cs.surfels->stagePrepare(ss, sf); !st) return st.error();
     sio::ClusterSurfelLink link = cs.surfels->stageLink();
-    std::memcpy(surfelLink.mapped(), &link, sizeof(link));
+    // One link buffer for every slot: written only when it changes (another surfel renderer), so
+    // frames in flight never read it while the host writes it.
+    if (std::memcmp(surfelLink.mapped(), &link, sizeof(link)) != 0) {
+      if (std::any_of(std::begin(recorded), std::end(recorded), [](bool r) { return r; }))
+        vkDeviceWaitIdle(ctx.device()); // rare: the renderer is switched while frames run
+      std::memcpy(surfelLink.mapped(), &link, sizeof(link));
+    }
     f.fadeAddress = fade.address();
     f.surfelLinkAddress = surfelLink.address();
   }
@@ -226,25 +247,16 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     // ranges), so a world point's clip positions differ by the projection's x column times the
     // view-space offset between the eyes, (-ipd, 0, 0): clip x by -ipd * P00, and y, z, w not at
     // all (P10 = P20 = P30 = 0 for every Camera::projection). The compute raster relies on it.
-    std::array<Camera, 2> eyes = stereoEyes(s.camera, *cs.stereoIpd);
     f.stereoHalf = glm::vec4(0.5f * (eyes[1].eye - eyes[0].eye), 0.0f);
     f.flags |= MIRAGE_FRAME_STEREO; // its HZB tests look through both eye frames (hzbVisible)
     std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
-    Camera clipped[2] = {withClipPlanes(eyes[0], scene.worldBounds), withClipPlanes(eyes[1], scene.worldBounds)};
-    for (Camera& c : clipped) {
-      c.znear = std::min(clipped[0].znear, clipped[1].znear);
-      c.zfar = std::max(clipped[0].zfar, clipped[1].zfar);
-    }
     for (uint32_t e = 0; e < 2; ++e) {
       sio::ClusterFrame ef = f;
       ef.stereoHalf = glm::vec4(0.0f);
-      ef.camera = viewFrame(clipped[e], s.width, s.height);
+      ef.camera = viewFrame(eyes[e], s.width, s.height);
       ef.targetOffsetX = e * s.width;
       ef.flags |= MIRAGE_FRAME_STEREO;
-      const glm::vec4& xColumn = ef.camera.proj[0];
-      if (xColumn.y != 0.0f || xColumn.z != 0.0f || xColumn.w != 0.0f)
-        return Error{"--stereo: the projection mixes view-space x into clip y, z or w"};
-      ef.stereoClipDx = -*cs.stereoIpd * xColumn.x;
+      ef.stereoClipDx = clipDx;
       std::memcpy(frames[currentSlot].mapped() + (e + 1) * kFrameStride, &ef, sizeof(ef));
     }
   }

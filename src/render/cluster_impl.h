@@ -92,6 +92,7 @@ struct ClusterFramePlan {
   bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
   bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
+  SurfelRenderer* surfels = nullptr; // mixed frames: the surfel stage (its counters in its slot's readback)
 };
 
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.

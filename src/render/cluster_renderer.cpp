@@ -147,6 +147,10 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
       cmdArgs(cmd, p, /*pass=*/1);
       cmdRasterize(cmd, eyes, plan.backend, 1);
     }
+    if (cs.surfels) { // both eyes' halves of the 2W buffer, after the meshes as in mono
+      cs.surfels->stageCmdSplat(cmd, timer());
+      cmdPhaseBarrier(cmd, mesh);
+    }
     if (blend) cmdArgs(cmd, p, /*pass=*/2);
     cmdResolve(cmd, eyes);
     if (blend) cmdTransparency(cmd, eyes, plan.blend, plan.meshBlend, plan.bufferTarget);
@@ -177,6 +181,7 @@ void ClusterRenderer::Impl::finishFrame(VkCommandBuffer cmd, const ClusterFrameP
   bool hierarchy = plan.hierarchy, mesh = ctx.caps().meshShader;
   timer().cmdEnd(cmd, frameTime);
   cmdPhaseBarrier(cmd, mesh);
+  if (plan.surfels) plan.surfels->stageCmdFinish(cmd); // the surfel stage's counters into its slot's readback
   VkBufferCopy countersRegion{0, 0, sizeof(sio::ClusterCounters)};
   vkCmdCopyBuffer(cmd, counters.handle(), readbacks[currentSlot].handle(), 1, &countersRegion);
   if (hierarchy) {
@@ -191,8 +196,6 @@ void ClusterRenderer::Impl::finishFrame(VkCommandBuffer cmd, const ClusterFrameP
 Status ClusterRenderer::record(VkCommandBuffer cmd, const ClusterRenderSettings& cs, uint32_t slot) {
   if (slot >= kMaxFramesInFlight)
     return Error{fmt::format("frame slot {} is outside 0..{}", slot, kMaxFramesInFlight - 1)};
-  // The surfel stage keeps one frame's data (its own frame upload), so it cannot be in flight twice.
-  if (cs.surfels) return Error{"mixed mesh/surfel frames render through render() only, not record()"};
   Impl& d = *impl_;
   if (Status st = d.prepareFrame(cs, slot); !st) return st.error();
   d.cmdFrame(cmd, cs);
@@ -208,6 +211,7 @@ Result<ClusterRenderOutput> ClusterRenderer::collect(uint32_t slot) {
   out.stats = d.readStats(slot);
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = out.stats.trianglesRasterized;
+  if (d.plans[slot].surfels) out.stats.surfels = d.plans[slot].surfels->stageStats(slot);
   d.recorded[slot] = false;
   d.retired.completed(slot);
   return out;
@@ -223,7 +227,6 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
   auto collected = collect(0);
   if (!collected) return collected.error();
   ClusterRenderOutput out = std::move(*collected);
-  if (cs.surfels) out.stats.surfels = cs.surfels->stageStats();
 
   if (cs.readOwnedClusters) {
     // The resolve set bit (historyOffset + cluster) of every cluster owning a pixel this frame.

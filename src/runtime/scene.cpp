@@ -57,8 +57,6 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
 
 Result<Frame> Scene::render(const View& view) {
   if (auto st = validate(view.config); !st) return st.error();
-  if (view.stereoIpd && impl_->kind == SceneKind::Surfels)
-    return Error{fmt::format("--stereo needs a cluster LOD or forward scene, not a {} one", toString(impl_->kind))};
   if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
     return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
                              toString(impl_->kind))};
@@ -74,34 +72,40 @@ Result<Frame> Scene::render(const View& view) {
 }
 
 // Forward scenes with a PVS replace their renderer on a cell change, which frames in flight use.
-bool Scene::canRecord() const {
-  return impl_->kind == SceneKind::ClusterLod ? !impl_->surfels
-                                              : impl_->kind == SceneKind::Forward && !impl_->pvsState.active;
-}
+bool Scene::canRecord() const { return impl_->kind != SceneKind::Forward || !impl_->pvsState.active; }
 
 Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
-  if (!canRecord())
-    return Error{fmt::format("{} scenes{} render through render() only, not record()", toString(impl_->kind),
-                             impl_->surfels           ? " with surfels"
-                             : impl_->pvsState.active ? " with a PVS"
-                                                      : "")};
+  if (!canRecord()) return Error{"forward scenes with a PVS render through render() only, not record()"};
   if (auto st = validate(view.config); !st) return st.error();
-  if (impl_->kind == SceneKind::Forward) {
-    if (view.config.debugView != render::DebugView::None)
-      return Error{"--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a forward one"};
-    return recordForward(*impl_, cmd, view, slot);
+  if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
+    return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
+                             toString(impl_->kind))};
+  switch (impl_->kind) {
+  case SceneKind::Forward: return recordForward(*impl_, cmd, view, slot);
+  case SceneKind::Surfels: return recordSurfels(*impl_, cmd, view, slot);
+  case SceneKind::ClusterLod: return recordClusterLod(*impl_, cmd, view, slot);
   }
-  return recordClusterLod(*impl_, cmd, view, slot);
+  return Error{"unknown scene kind"};
 }
 
 Result<Frame> Scene::collect(uint32_t slot) {
   if (!canRecord()) return Error{"collect(): this scene has no record path"};
-  return impl_->kind == SceneKind::Forward ? collectForward(*impl_, slot) : collectClusterLod(*impl_, slot);
+  switch (impl_->kind) {
+  case SceneKind::Forward: return collectForward(*impl_, slot);
+  case SceneKind::Surfels: return collectSurfels(*impl_, slot);
+  case SceneKind::ClusterLod: return collectClusterLod(*impl_, slot);
+  }
+  return Error{"unknown scene kind"};
 }
 
 const gpu::Image* Scene::colorTarget() const {
   if (!canRecord()) return nullptr;
-  return impl_->kind == SceneKind::Forward ? &impl_->forward->colorTarget() : &impl_->cluster->colorTarget();
+  switch (impl_->kind) {
+  case SceneKind::Forward: return &impl_->forward->colorTarget();
+  case SceneKind::Surfels: return &impl_->surfels->colorTarget();
+  case SceneKind::ClusterLod: return &impl_->cluster->colorTarget();
+  }
+  return nullptr;
 }
 
 Result<bool> Scene::selectPvsCell(glm::vec3 eye) { return runtime::selectPvsCell(*impl_, eye); }

@@ -54,6 +54,8 @@ Status recordForward(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint
 Result<Frame> collectForward(Scene::Impl& s, uint32_t slot);
 Status openSurfels(Scene::Impl& s);
 Result<Frame> renderSurfels(Scene::Impl& s, const View& view);
+Status recordSurfels(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint32_t slot);
+Result<Frame> collectSurfels(Scene::Impl& s, uint32_t slot);
 Status openPvs(Scene::Impl& s);
 Result<bool> selectPvsCell(Scene::Impl& s, glm::vec3 eye);
 

@@ -21,7 +21,9 @@ Status openSurfels(Scene::Impl& s) {
   return Ok{};
 }
 
-Result<Frame> renderSurfels(Scene::Impl& s, const View& view) {
+namespace {
+
+render::SurfelRenderSettings surfelSettings(const View& view) {
   render::SurfelRenderSettings rs;
   rs.base.width = view.width;
   rs.base.height = view.height;
@@ -30,15 +32,36 @@ Result<Frame> renderSurfels(Scene::Impl& s, const View& view) {
   rs.base.readLinear = view.readLinear;
   rs.surfelSize = view.config.surfelSize;
   rs.raster = view.config.surfelRaster;
-  auto o = s.surfels->render(rs);
-  if (!o) return o.error();
+  rs.stereoIpd = view.stereoIpd;
+  return rs;
+}
+
+Frame surfelFrame(render::SurfelRenderOutput& o) {
   Frame f;
-  f.srgb = std::move(o->image.srgb);
-  f.linear = std::move(o->image.linear);
-  f.passTimes = std::move(o->image.stats.passTimes);
-  f.surfelsSplatted = o->surfelsSplatted;
-  f.surfels = SurfelFrameStats{o->raster, o->visibleInstances, o->fadingInstances};
+  f.srgb = std::move(o.image.srgb);
+  f.linear = std::move(o.image.linear);
+  f.passTimes = std::move(o.image.stats.passTimes);
+  f.surfelsSplatted = o.surfelsSplatted;
+  f.surfels = SurfelFrameStats{o.raster, o.visibleInstances, o.fadingInstances};
   return f;
+}
+
+} // namespace
+
+Result<Frame> renderSurfels(Scene::Impl& s, const View& view) {
+  auto o = s.surfels->render(surfelSettings(view));
+  if (!o) return o.error();
+  return surfelFrame(*o);
+}
+
+Status recordSurfels(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint32_t slot) {
+  return s.surfels->record(cmd, surfelSettings(view), slot);
+}
+
+Result<Frame> collectSurfels(Scene::Impl& s, uint32_t slot) {
+  auto o = s.surfels->collect(slot);
+  if (!o) return o.error();
+  return surfelFrame(*o);
 }
 
 } // namespace mirage::runtime

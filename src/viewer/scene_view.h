@@ -56,7 +56,7 @@ public:
   static Result<std::unique_ptr<SceneView>> open(gpu::Context& context, const SceneOptions& options);
   ~SceneView();
   Result<Frame> render(const View& view);
-  // Frames in flight (runtime::Scene::record / collect; cluster-LOD scenes without surfels): the
+  // Frames in flight (runtime::Scene::record / collect; cluster-LOD, mixed and surfel scenes): the
   // frame is recorded into the swapchain frame's command buffer, its image is colorTarget(), its
   // stats come from collect(slot) once the slot's fence signalled.
   bool canRecord() const;

@@ -156,8 +156,6 @@ Status checkOptions(const ViewerOptions& o, runtime::SceneKind kind) {
     if (auto st = render::validateIpd(*o.stereoIpd); !st) return st;
   if (o.frameTime)
     if (auto st = runtime::validate(*o.frameTime); !st) return st;
-  if (o.stereoIpd && kind == runtime::SceneKind::Surfels)
-    return makeError(o.scene, "--stereo needs a cluster LOD or forward scene, not a surfel one");
   if (kind != runtime::SceneKind::ClusterLod) {
     if (o.frameTime) return makeError(o.scene, "--target-ms applies to .mrg cluster-LOD assets only");
     if (o.clusterLodFlags)

@@ -71,6 +71,10 @@ check() { # NAME COMMAND...: the command succeeds (the last run's output shown o
   fi
 }
 
+png_size() { # FILE: a PNG's width and height from the IHDR chunk (bytes 16..23, big-endian), as WxH
+  od -An -tu1 -j16 -N8 "$1" | awk '{ printf "%dx%d", (($1*256+$2)*256+$3)*256+$4, (($5*256+$6)*256+$7)*256+$8 }'
+}
+
 finish() { # NAME: the summary line; the script's status
   echo "$1: $pass passed, $failures failed"
   [ $failures -eq 0 ]

@@ -1,14 +1,10 @@
 #!/usr/bin/env bash
-# render --stereo: a .mrg and a scene file (forward renderer) render both eyes side by side (2W x H PNG), the .mrg
-# with occlusion culling too; bad --ipd values get one line, exit 2 and no output; --stereo-mode shows in the JSON.
+# render --stereo: a .mrg (cluster LOD, surfels or both) and a scene file (forward renderer) render both eyes side by
+# side (2W x H PNG), the .mrg with occlusion culling too; bad --ipd values get one line, exit 2 and no output;
+# --stereo-mode shows in the JSON.
 # Usage: stereo.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
-
-# PNG width and height from the IHDR chunk (bytes 16..23, big-endian).
-png_size() {
-  od -An -tu1 -j16 -N8 "$1" | awk '{ printf "%dx%d", (($1*256+$2)*256+$3)*256+$4, (($5*256+$6)*256+$7)*256+$8 }'
-}
 
 if expect_ok gen-blob gen blob --size 3 -o "$tmp/blob.glb" && expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   if expect_ok render-stereo render "$tmp/blob.mrg" --stereo --size 48x32 -o "$tmp/s.png"; then

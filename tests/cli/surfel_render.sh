@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # mirage render --surfels / mirage bench surfels: a small cloud renders and benches; a .mrg without
 # a SURF chunk (a cluster-LOD asset) and bad flags exit 2 with one line and write nothing; per-mesh
-# SURF chunks appended to a cluster-LOD .mrg render and bench as a mixed scene (meshes near, surfels far).
+# SURF chunks appended to a cluster-LOD .mrg render and bench as a mixed scene (meshes near, surfels far);
+# both render --stereo as 2W x H PNGs.
 # Usage: surfel_render.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -17,12 +18,21 @@ if expect_ok build-lod build gen:blob:2 -o "$tmp/lod.mrg" --quiet; then
     [ -s "$tmp/mixed.png" ] || { echo "FAIL render-mixed: no PNG"; failures=$((failures + 1)); }
     expect_ok bench-mixed bench render "$tmp/lod.mrg" --surfels --raster compute --size 64x64 --frames 2 --grid 2
     expect_fail mixed-mesh-raster "compute or hybrid" "$tmp/mm.png" -- render "$tmp/lod.mrg" -o "$tmp/mm.png" --surfels --raster mesh --size 64x64
+    expect_ok render-mixed-stereo render "$tmp/lod.mrg" -o "$tmp/ms.png" --surfels --raster compute --stereo --size 48x32 &&
+      { [ "$(png_size "$tmp/ms.png")" = "96x32" ] || { echo "FAIL render-mixed-stereo: size"; failures=$((failures + 1)); }; }
   fi
 fi
 if expect_ok sample surfels gen:blob:3 -o "$tmp/s.mrg" --count 800 --resolution 48 --views 6; then
   expect_ok render-surfels render "$tmp/s.mrg" -o "$tmp/s.png" --surfels --size 64x64 --stats
   [ -s "$tmp/s.png" ] || { echo "FAIL render-surfels: no PNG"; failures=$((failures + 1)); }
   expect_ok render-surfels-raster render "$tmp/s.mrg" -o "$tmp/r.png" --surfels --surfel-raster raster --size 64x64
+  # --stereo: both eyes side by side (2W x H) from one prefix selection; the raster fallback refuses it.
+  expect_ok render-surfels-stereo render "$tmp/s.mrg" -o "$tmp/st.png" --surfels --stereo --size 48x32 &&
+    { [ "$(png_size "$tmp/st.png")" = "96x32" ] || { echo "FAIL render-surfels-stereo: size"; failures=$((failures + 1)); }; }
+  expect_fail surfels-stereo-raster "--stereo" "$tmp/sr.png" -- render "$tmp/s.mrg" -o "$tmp/sr.png" --surfels --stereo --surfel-raster raster --size 48x32
+  expect_ok bench-surfels-stereo bench surfels "$tmp/s.mrg" --size 48x32 --frames 2 --copies 4 --order blue --stereo
+  grep -q "per eye (stereo" "$tmp/stdout" || { echo "FAIL bench-surfels-stereo: no stereo header"; failures=$((failures + 1)); }
+  expect_fail bench-surfels-stereo-raster "--stereo" "" -- bench surfels "$tmp/s.mrg" --size 48x32 --frames 2 --stereo --surfel-raster raster
   expect_ok bench-surfels bench surfels "$tmp/s.mrg" --size 64x64 --frames 2 --copies 4
   grep -q "G surfels/s" "$tmp/stdout" || { echo "FAIL bench-surfels: no throughput line"; failures=$((failures + 1)); }
   # Default --order all: both splat orders timed in one run, the coherent one against the blue one.

@@ -118,7 +118,7 @@ JSON
     echo "FAIL view-target-ms:"; cat "$tmp/stdout" "$tmp/stderr"; failures=$((failures + 1))
   fi
   # Stereo through frames in flight (both eyes into one target, blitted as a whole), and a mixed
-  # scene (cluster LOD near, per-mesh surfels far: the readback path): run, draw, close, stay silent.
+  # scene (cluster LOD near, per-mesh surfels far: frames in flight too): run, draw, close, stay silent.
   if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --frames 4 --size 96x64 >"$tmp/stdout" 2>"$tmp/stderr" &&
     ! grep -q . "$tmp/stderr" && grep -q "viewed 4 frames" "$tmp/stdout"; then
     pass=$((pass + 1))

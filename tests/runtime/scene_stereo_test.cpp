@@ -1,5 +1,6 @@
-// runtime::View::stereoIpd (docs/render.md, "Stereo"): cluster-LOD and forward scenes render both
-// eyes side by side, the left half being the left eye.
+// runtime::View::stereoIpd (docs/render.md, "Stereo"): cluster-LOD, surfel and forward scenes
+// render both eyes side by side, the left half being the left eye. A surfel scene records its
+// stereo frames in flight like a cluster-LOD one.
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
@@ -8,6 +9,9 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/camera.h"
 #include "mirage/runtime/scene.h"
+#include "mirage/surfels/capture.h"
+#include "mirage/surfels/reference.h"
+#include "mirage/surfels/surfel_io.h"
 #include "runtime/runtime_test_util.h"
 #include "test_support.h"
 
@@ -18,6 +22,28 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr uint32_t kWidth = 64, kHeight = 48;
+
+ImageRGBA8 leftHalf(const ImageRGBA8& stereo) {
+  ImageRGBA8 half{stereo.width / 2, stereo.height, {}};
+  for (uint32_t y = 0; y < stereo.height; ++y)
+    half.pixels.insert(half.pixels.end(), stereo.at(0, y), stereo.at(0, y) + half.width * 4);
+  return half;
+}
+
+// A surfel-only .mrg of the blob (one per process).
+const fs::path& surfelMrg() {
+  static const fs::path path = [] {
+    Scene scene = io::generateScene("blob", 1, 3).value();
+    surfels::CaptureConfig config;
+    config.resolution = 32;
+    surfels::GBufferTexels texels = surfels::captureGBuffer(test::gpuContext(), scene, config).value().texels;
+    surfels::SurfelCloud cloud = surfels::buildSurfelCloud(texels, surfels::farthestPointReference(texels, 2000));
+    fs::path p = test::tempDir("runtime_stereo_surfels") / "s.mrg";
+    if (!surfels::writeSurfelMrg(p.string(), cloud).ok()) std::abort();
+    return p;
+  }();
+  return path;
+}
 
 } // namespace
 
@@ -64,4 +90,33 @@ TEST_F(RuntimeStereo, ForwardRendersBothEyesSideBySide) {
                          stereo->srgb.at(e * kWidth, y) + kWidth * 4);
     EXPECT_GE(psnr(half, mono->srgb), 45.0) << "eye " << e;
   }
+}
+
+TEST_F(RuntimeStereo, SurfelSceneRendersAndRecordsBothEyes) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "surfel stereo needs 64-bit buffer atomics";
+  auto s = runtime::Scene::open(context(), {.input = surfelMrg().string(), .surfels = true});
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_TRUE((*s)->canRecord());
+  runtime::View view = test::viewOf(**s, kWidth, kHeight);
+  view.stereoIpd = 0.3f;
+  view.readLinear = true;
+  auto stereo = (*s)->render(view);
+  ASSERT_TRUE(stereo.ok()) << stereo.error().message;
+  ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
+  runtime::View left = test::viewOf(**s, kWidth, kHeight);
+  left.camera = render::stereoEyes(view.camera, *view.stereoIpd)[0];
+  auto mono = (*s)->render(left);
+  ASSERT_TRUE(mono.ok()) << mono.error().message;
+  EXPECT_GE(psnr(leftHalf(stereo->srgb), mono->srgb), 45.0);
+  // The same frame recorded into two slots in flight: the same image.
+  std::vector<std::vector<uint16_t>> pixels =
+      test::recordFramesInFlight(test::gpuContext(), 2, 2 * kWidth, kHeight,
+                                 [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
+                                   if (Status st = (*s)->record(cmd, view, slot); !st) return st;
+                                   color = (*s)->colorTarget();
+                                   return Ok{};
+                                 });
+  ASSERT_EQ(pixels.size(), 2u);
+  for (uint32_t i = 0; i < 2; ++i) ASSERT_TRUE((*s)->collect(i).ok());
+  for (uint32_t i = 0; i < 2; ++i) EXPECT_EQ(test::differingChannels(pixels[i], stereo->linear.pixels), 0u);
 }

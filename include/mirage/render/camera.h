@@ -54,6 +54,15 @@ std::array<Camera, 2> stereoEyes(const Camera& camera, float ipd);
 // An --ipd value: finite and >= 0 (0: both eyes at the camera), else an error naming the flag.
 Status validateIpd(float ipd);
 
+// The stereo eyes as the renderers draw them in one pass: stereoEyes with clip planes from
+// `bounds`, both taking the union of the two eyes' clip ranges, so that they share one projection.
+std::array<Camera, 2> stereoEyesSharedClip(const Camera& camera, float ipd, const Bounds& bounds);
+// With that shared projection a world point's clip position in the right eye is the left eye's
+// with clip x + (-ipd * P00): parallel eyes differ by the view-space translation (-ipd, 0, 0), and
+// P10 = P20 = P30 = 0 for every Camera::projection. `eye` is either eye's frame; an error (checked,
+// not assumed) when its projection mixes view-space x into clip y, z or w.
+Result<float> stereoClipDx(const shaderio::ViewFrame& eye, float ipd);
+
 // World-space frustum planes (Gribb-Hartmann) of a reverse-Z view-projection: clip-space inside is
 // -w <= x, y <= w and z <= w (near); the far plane is left out (the camera's far bound is loose).
 // Order: left, right, bottom, top, near; normalized, dot(xyz, p) + w >= 0 inside.

@@ -23,6 +23,7 @@
 #include "mirage/lod/cluster_pvs.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
+#include "mirage/render/frames_in_flight.h"
 #include "mirage/render/surfel_renderer.h"
 
 namespace mirage::render {
@@ -151,7 +152,8 @@ struct ClusterRenderSettings {
   // Stereo (docs/render.md, "Stereo"): the eyes are stereoEyes(base.camera, ipd) (camera.h). One
   // selection serves both (union of the frusta, LOD error from the nearer eye), then both eyes are
   // rasterized and resolved in one pass each into the halves of a (2 * base.width) x base.height
-  // target, left|right. Refused with surfels and owned-cluster readback.
+  // target, left|right; mixed frames' surfels too (one prefix selection, from the nearer eye).
+  // Refused with owned-cluster readback.
   std::optional<float> stereoIpd;
   StereoMode stereoMode = StereoMode::Auto; // stereo: multiview or per-eye viewports (multiview refused where absent)
   // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
@@ -209,7 +211,7 @@ public:
   ~ClusterRenderer();
 
   // One frame, synchronously: record + submit and wait + collect, then the owned clusters and the
-  // image read back as the settings ask. Mixed mesh/surfel frames render only through here.
+  // image read back as the settings ask.
   Result<ClusterRenderOutput> render(const ClusterRenderSettings& settings);
 
   // Frames in flight. record() writes `slot`'s frame data and records the whole frame into the
@@ -219,7 +221,8 @@ public:
   // kMaxFramesInFlight - 1; a slot is reused only after its frame completed. Frames must run on
   // one queue in the order recorded: they share GPU scratch, which each frame's first barrier
   // orders after everything submitted before it. A size change waits for the device to idle
-  // (targets are recreated). Errors (settings, mixed frames) record nothing.
+  // (targets are recreated). Mixed frames may be in flight too: the surfel stage keeps its frame
+  // data and counters per slot as well. Errors (settings) record nothing.
   Status record(VkCommandBuffer cmd, const ClusterRenderSettings& settings, uint32_t slot);
   Result<ClusterRenderOutput> collect(uint32_t slot);
   // The colour target of the last recorded frame: VK_FORMAT_R16G16B16A16_SFLOAT, linear (not

@@ -13,6 +13,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/camera.h"
+#include "mirage/render/frames_in_flight.h"
 
 namespace mirage::render {
 
@@ -52,10 +53,6 @@ struct ForwardRenderSettings {
   RenderSettings base;
   std::optional<float> stereoIpd;
 };
-
-// Frames a caller may have recorded and not yet collected (record/collect slots 0..2), for every
-// renderer with a record/collect pair.
-inline constexpr uint32_t kMaxFramesInFlight = 3;
 
 class ForwardRenderer {
 public:

@@ -9,6 +9,7 @@
 #include <bit>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -20,6 +21,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/forward_renderer.h"
+#include "mirage/render/frames_in_flight.h"
 #include "mirage/shaderio/surfel_link.h"
 #include "mirage/shaderio/surfel_render.h"
 #include "mirage/surfels/surfel.h"
@@ -131,7 +133,12 @@ struct SurfelRenderSettings {
   // beyond it (0: hard switch). Off: surfels everywhere.
   bool meshFade = false;
   float fadeBand = 0.5f;
-  bool readInstanceStates = false; // fill SurfelRenderOutput::prefix / fade (tests, --stats)
+  bool readInstanceStates = false; // fill SurfelRenderOutput::prefix / fade (tests, --stats); render() only
+  // Stereo (docs/render.md, "Stereo"): the eyes are stereoEyes(base.camera, ipd) (camera.h). One
+  // prefix selection serves both (union of the frusta, k from the nearer eye); each workgroup
+  // splats its surfels into both halves of a (2 * base.width) x base.height target, left|right,
+  // and one resolve shades both. Compute splat only.
+  std::optional<float> stereoIpd;
 };
 
 struct SurfelRenderOutput {
@@ -139,13 +146,13 @@ struct SurfelRenderOutput {
   SurfelRaster raster = SurfelRaster::Auto;
   uint32_t visibleInstances = 0;
   uint32_t fadingInstances = 0;
-  uint32_t mergedInstances = 0;    // visible instances whose compute splat took the subgroup merge
-  uint64_t surfelsSplatted = 0;    // sum of k over instances
-  std::vector<uint32_t> prefix;    // per instance: k (readInstanceStates)
-  std::vector<float> fade;         // per instance: share of pixels the surfels may cover
-  std::vector<float> distance;     // per instance: reference depth used for k
-  std::vector<uint8_t> merged;     // per instance: 1 when its splat took the subgroup merge
-  std::vector<uint32_t> idBuffer;  // per pixel: visibility id (0 = background), when readInstanceStates
+  uint32_t mergedInstances = 0;   // visible instances whose compute splat took the subgroup merge
+  uint64_t surfelsSplatted = 0;   // sum of k over instances
+  std::vector<uint32_t> prefix;   // per instance: k (readInstanceStates)
+  std::vector<float> fade;        // per instance: share of pixels the surfels may cover
+  std::vector<float> distance;    // per instance: reference depth used for k
+  std::vector<uint8_t> merged;    // per instance: 1 when its splat took the subgroup merge
+  std::vector<uint32_t> idBuffer; // per pixel (both eyes in stereo): visibility id (0 = background), readInstanceStates
   std::vector<uint32_t> depthBits; // per pixel: reverse-Z depth bits of the compute splat (readInstanceStates)
 };
 
@@ -169,9 +176,14 @@ inline float surfelSwitchDistance(float P, uint32_t N, float pixelScale, float s
 // and splat inside its own frame, with its camera, into its 64-bit visibility buffer, and shades the
 // surfel pixels in its own resolve. What that frame hands over:
 struct SurfelStageFrame {
-  shaderio::ViewFrame camera{};  // the cluster frame's camera (viewFrame)
+  shaderio::ViewFrame camera{};  // the cluster frame's camera (viewFrame); stereo: the left eye's
   uint64_t visBufferAddress = 0; // the shared uint64 per pixel buffer (zeroed by the caller)
   uint64_t meshFadeAddress = 0;  // float per mesh instance: the prefix pass writes each fade
+  uint32_t slot = 0;             // the frame slot (0..kMaxFramesInFlight - 1) the caller records
+  // Stereo: 2 eyes side by side in the buffer (rows of 2 * viewport.x); xyz the right eye minus
+  // the left, w the right eye's clip x minus the left's (stereoClipDx, camera.h).
+  uint32_t eyes = 1;
+  glm::vec4 stereoEye{0.0f};
 };
 struct SurfelStageStats {
   uint32_t visibleInstances = 0; // instances drawing surfels (in view, fade > 0)
@@ -187,21 +199,44 @@ public:
                                                         SurfelOrder order = kDefaultSurfelOrder);
   ~SurfelRenderer();
 
+  // One frame, synchronously: record + submit and wait + collect (slot 0), then the instance
+  // states and the image read back as the settings ask.
   Result<SurfelRenderOutput> render(const SurfelRenderSettings& settings);
+
+  // Frames in flight, as ClusterRenderer::record / collect (cluster_renderer.h): record() writes
+  // `slot`'s frame data and records the whole frame into the caller's command buffer (nothing is
+  // submitted); once the caller's fence for it signalled, collect(slot) gives the frame's counters
+  // and pass times (no image: it is colorTarget(); readInstanceStates is refused here). Slots
+  // 0..kMaxFramesInFlight - 1, reused only after their frame completed; frames run on one queue
+  // in the order recorded (they share GPU scratch, which each frame's first barrier orders after
+  // everything submitted before it). A size change replaces the targets without a device wait:
+  // the old ones live until the slots that may use them completed (each slot has its own
+  // descriptor set). Errors record nothing.
+  Status record(VkCommandBuffer cmd, const SurfelRenderSettings& settings, uint32_t slot);
+  Result<SurfelRenderOutput> collect(uint32_t slot);
+  // The colour target of the last recorded frame: VK_FORMAT_R16G16B16A16_SFLOAT, linear, (2 x)
+  // width x height; left by record() in VK_IMAGE_LAYOUT_GENERAL, last written by compute shaders.
+  // The caller transitions it for its own use and may leave it in any layout.
+  const gpu::Image& colorTarget() const;
   const Bounds& worldBounds() const;
   uint64_t surfelCount() const;    // stored surfels (all clouds, once each)
   uint64_t instancedCount() const; // sum over instances of their cloud's N
   SurfelOrder order() const;
 
-  // Mixed-scene stage (used by ClusterRenderer): write the frame constants (ids tagged with
-  // MIRAGE_SURFEL_ID_TAG, cross-fade on), then record clear + prefix + scan, and the splat, into the
-  // caller's command buffer, timed with the caller's timer. Needs 64-bit buffer atomics.
+  // Mixed-scene stage (used by ClusterRenderer): write the frame constants of frame.slot (ids
+  // tagged with MIRAGE_SURFEL_ID_TAG, cross-fade on), then record clear + prefix + scan, the
+  // splat, and at the frame's end the counters into the slot's readback, into the caller's command
+  // buffer, timed with the caller's timer. Needs 64-bit buffer atomics. The stage's frames may be
+  // in flight like the caller's (per-slot frame data and readbacks, shared GPU scratch).
   Status stagePrepare(const SurfelRenderSettings& settings, const SurfelStageFrame& frame);
   void stageCmdClear(VkCommandBuffer cmd);
   void stageCmdPrefix(VkCommandBuffer cmd, gpu::GpuTimer& timer);
   void stageCmdSplat(VkCommandBuffer cmd, gpu::GpuTimer& timer);
+  // barriers: the counters' last writes (prefix, scan) visible to transfers; the caller makes the
+  // copy visible to the host, as for its own readbacks.
+  void stageCmdFinish(VkCommandBuffer cmd);
   shaderio::ClusterSurfelLink stageLink() const;
-  SurfelStageStats stageStats() const; // after the caller's submission completed
+  SurfelStageStats stageStats(uint32_t slot) const; // after the caller's submission of that slot completed
 
   struct Impl;
 

@@ -54,8 +54,9 @@ struct View {
   RenderConfig config;
   bool readImage = true;   // false: no readback (benchmarks; the GPU stays busy)
   bool readLinear = false; // also the linear float image (EXR, metrics)
-  // Stereo (cluster LOD scenes only): the eyes are render::stereoEyes(camera, ipd), one shared
-  // selection, the image (2 * width) x height with the left eye left (docs/render.md, "Stereo").
+  // Stereo (cluster LOD, mixed and surfel scenes): the eyes are render::stereoEyes(camera, ipd),
+  // one shared selection (clusters and surfel prefixes), the image (2 * width) x height with the
+  // left eye left (docs/render.md, "Stereo").
   std::optional<float> stereoIpd;
 };
 
@@ -118,8 +119,8 @@ public:
   // One frame. The config is validated first (validate()).
   Result<Frame> render(const View& view);
 
-  // Frames in flight (docs/runtime.md "Frames in flight"), for cluster-LOD scenes without surfels
-  // and forward scenes without a PVS (canRecord()); the others render through render() only.
+  // Frames in flight (docs/runtime.md "Frames in flight"), for cluster-LOD (mixed too) and surfel
+  // scenes and forward scenes without a PVS (canRecord()); the others render through render() only.
   // record() selects the eye's PVS cell and records the whole frame into the caller's command
   // buffer (nothing is submitted; View::readImage / readLinear are ignored: the image is
   // colorTarget()). The caller submits it on the context's queue with a fence of its own and,

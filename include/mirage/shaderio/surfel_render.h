@@ -106,6 +106,8 @@ struct SurfelInstanceState {
   // the same sign in object and world space): xyz the eye, w 1 when this instance culls back faces.
   vec4 eyeQuantized;
   vec4 quantStep; // xyz: object units per quantization step (the cloud's boxStep); w: 1 = subgroup merge
+  // Stereo: xyz the right eye minus the left in quantized coordinates (eyeQuantized is the left's).
+  vec4 stereoEyeQuantized;
 };
 
 struct SurfelRenderFrame {
@@ -119,7 +121,12 @@ struct SurfelRenderFrame {
   uint flags;       // MIRAGE_SURFEL_*
   uint instanceCount;
   uint idTag; // OR-ed into every visibility id (mixed scenes: tells surfels from clusters; else 0)
-  uint pad0;
+  // 1, or 2 in stereo (docs/render.md, "Stereo"): `camera` is the left eye's, the visibility buffer
+  // and colour target hold both eyes side by side in rows of 2 * viewport.x pixels.
+  uint eyes;
+  // Stereo: xyz the right eye minus the left (world); w the right eye's clip x minus the left's
+  // (stereoClipDx: the eyes share one projection, so clip y, z and w are the same).
+  vec4 stereoEye;
 };
 
 // Zeroed each frame; indirect arguments and statistics.
@@ -154,8 +161,8 @@ struct SurfelRenderPush {
 #ifdef __cplusplus
 static_assert(sizeof(SurfelRenderCloud) == 48, "SurfelRenderCloud layout");
 static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout");
-static_assert(sizeof(SurfelInstanceState) == 128, "SurfelInstanceState layout");
-static_assert(sizeof(SurfelRenderFrame) == 456, "SurfelRenderFrame layout");
+static_assert(sizeof(SurfelInstanceState) == 144, "SurfelInstanceState layout");
+static_assert(sizeof(SurfelRenderFrame) == 472, "SurfelRenderFrame layout");
 static_assert(sizeof(SurfelRenderCounters) == 32, "SurfelRenderCounters layout");
 static_assert(sizeof(SurfelRenderPush) == 104, "SurfelRenderPush layout");
 } // namespace mirage::shaderio
