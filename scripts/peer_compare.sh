@@ -4,8 +4,8 @@
 #   MESH   a PLY under ../shared/data (default stanford-dragon/dragon_vrip.ply)
 #   PAIRS  alternated one-thread timing runs of each builder (default 3; the machines are noisy,
 #          compare the medians)
-# Prints, for both builders: one-thread build seconds (Mirage's default build, normals included),
-# and the LodQuality measure (symmetric surface
+# Prints, for both builders: one-thread build seconds, wall and process CPU (Mirage's default build,
+# normals included, and its geometric build, positions only as the peer), and the LodQuality measure (symmetric surface
 # distance of DAG cuts at 25 / 6.2 / 1.6 % of the input triangles, both with the same code: the
 # peer driver ports tests/lod/lod_quality_test.cpp) with the triangle counts of the cuts and the
 # DAG's root. Needs build/mirage and build/tests/test_lod (Release); builds the peer into
@@ -32,19 +32,40 @@ for f in "$root/build/mirage" "$root/build/tests/test_lod"; do
 done
 [[ -x $peer_out/clod ]] || "$peer_src/build" "$peer_out" >/dev/null
 
-echo "== one-thread build time, $mesh_rel, $pairs alternated pairs (seconds)"
-mirage_times=() peer_times=()
+echo "== one-thread build, $mesh_rel, $pairs alternated rounds (seconds: wall and process CPU)"
+# Each round runs Mirage's default build, the peer, then Mirage's geometric build (--normal-weight 0:
+# positions only, as the peer). Wall = the bake span (Mirage) / clodBuild (peer); CPU = the process
+# CPU of the same span (MIRAGE_LOD_PROFILE's phases / the driver's clodBuild cpu), which other
+# processes on a loaded machine inflate less than the wall time.
+mirage_run() {
+  local out
+  out=$(MIRAGE_LOD_PROFILE=1 "$root/build/mirage" bench build "$mesh" --threads 1 --json "$@" 2>&1)
+  printf '%s %s\n' "$(echo "$out" | sed -n 's/^  "seconds": *\([0-9.e+-]*\).*/\1/p' | head -1 | awk '{printf "%.3f", $1}')" \
+    "$(echo "$out" | grep 'lod wall seconds' | grep -o '([0-9.]*)' | tr -d '()' | awk '{s += $1} END {printf "%.3f", s}')"
+}
+peer_run() {
+  "$peer_out/clod" "$mesh" | awk '/clodBuild cpu/ {c = $3} / input triangles in / {for (i = 1; i < NF; ++i) if ($i == "in") w = $(i + 1)} END {print w, c}'
+}
+md_w=() md_c=() mg_w=() mg_c=() p_w=() p_c=()
 for ((i = 0; i < pairs; ++i)); do
-  t=$("$root/build/mirage" bench build "$mesh" --threads 1 --json | sed -n 's/^  "seconds": *\([0-9.e+-]*\).*/\1/p' | head -1)
-  mirage_times+=("$t")
-  t=$("$peer_out/clod" "$mesh" | sed -n 's/.* triangles in \([0-9.]*\) s .*/\1/p' | head -1)
-  peer_times+=("$t")
+  read -r w c < <(mirage_run); md_w+=("$w") md_c+=("$c")
+  read -r w c < <(peer_run); p_w+=("$w") p_c+=("$c")
+  read -r w c < <(mirage_run --normal-weight 0); mg_w+=("$w") mg_c+=("$c")
 done
 median() { printf '%s\n' "$@" | sort -g | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}'; }
-mm=$(median "${mirage_times[@]}") pm=$(median "${peer_times[@]}")
-echo "mirage     ${mirage_times[*]}  median $mm"
-echo "clusterlod ${peer_times[*]}  median $pm"
-awk -v m="$mm" -v p="$pm" 'BEGIN { if (m > 0) printf "clusterlod / mirage = %.2fx\n", p / m }'
+row() { # name, walls (count n), cpus
+  local name=$1 n=$2; shift 2
+  local w=("${@:1:n}") c=("${@:n+1}")
+  printf '%-28s wall %s  median %s   cpu %s  median %s\n' "$name" "${w[*]}" "$(median "${w[@]}")" "${c[*]}" "$(median "${c[@]}")"
+}
+row "mirage (default)" "$pairs" "${md_w[@]}" "${md_c[@]}"
+row "mirage (--normal-weight 0)" "$pairs" "${mg_w[@]}" "${mg_c[@]}"
+row "clusterlod" "$pairs" "${p_w[@]}" "${p_c[@]}"
+for kind in default geometric; do
+  if [[ $kind == default ]]; then mw=("${md_w[@]}") mc=("${md_c[@]}"); else mw=("${mg_w[@]}") mc=("${mg_c[@]}"); fi
+  awk -v pw="$(median "${p_w[@]}")" -v mw="$(median "${mw[@]}")" -v pc="$(median "${p_c[@]}")" -v mc="$(median "${mc[@]}")" -v k="$kind" \
+    'BEGIN { if (mw > 0 && mc > 0) printf "clusterlod / mirage (%s): wall %.2fx, cpu %.2fx (medians)\n", k, pw / mw, pc / mc }'
+done
 
 echo "== LodQuality: symmetric surface distance of the DAG cut at 25 / 6.2 / 1.6 % of the triangles"
 quality() {

@@ -190,6 +190,7 @@ uint64_t procStatusBytes(const char* field) {
 struct BenchBuildOptions {
   std::vector<std::string> inputs;
   uint32_t threads = 0;
+  float normalWeight = lod::BuildConfig{}.normalWeight;
   bool json = false;
 };
 
@@ -198,6 +199,7 @@ void runBenchBuild(const BenchBuildOptions& o) {
   if (!scene) return fail(scene.error());
   lod::BuildConfig config;
   config.threads = o.threads;
+  config.normalWeight = o.normalWeight;
   // Reset the peak-RSS mark so it measures the build alone (Linux: writing 5 to clear_refs).
   if (std::FILE* f = std::fopen("/proc/self/clear_refs", "w")) std::fputs("5", f), std::fclose(f);
   uint64_t rssBefore = procStatusBytes("VmRSS:");
@@ -367,6 +369,9 @@ void addBenchCommand(CLI::App& app) {
   auto bo = std::make_shared<BenchBuildOptions>();
   bb->add_option("inputs", bo->inputs, "Scene files or gen:KIND[:SIZE[:SEED]]")->required();
   bb->add_option("--threads", bo->threads, "Worker threads (0 = all cores)")->capture_default_str();
+  bb->add_option("--normal-weight", bo->normalWeight,
+                 "Weight of the shading term in the LOD error (0 = geometric error only)")
+      ->capture_default_str();
   bb->add_flag("--json", bo->json, "Print results as JSON");
   bb->callback([bo] { runBenchBuild(*bo); });
 

@@ -133,9 +133,15 @@ public:
   }
 
 private:
-  // Clusters per group when grouping clusters of `level` (BuildConfig::coarseGroupsFromLevel).
+  // Clusters per group when grouping clusters of `level` (BuildConfig::coarseGroupsFromLevel,
+  // coarserGroupsFromLevel).
   uint32_t groupClustersAt(uint32_t level) const {
-    return level >= cfg_.coarseGroupsFromLevel ? cfg_.groupClusters * 2 : cfg_.groupClusters;
+    uint64_t n = cfg_.groupClusters;
+    if (level >= cfg_.coarserGroupsFromLevel)
+      n *= 4;
+    else if (level >= cfg_.coarseGroupsFromLevel)
+      n *= 2;
+    return uint32_t(std::min<uint64_t>(n, uint64_t(1) << 31));
   }
 
   // Typical edge length of the cleaned input: the median over (at most 65 536 evenly spaced)

@@ -162,6 +162,7 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
                            {"cluster_vertices", config.clusterVertices},
                            {"group_clusters", config.groupClusters},
                            {"coarse_groups_from_level", config.coarseGroupsFromLevel},
+                           {"coarser_groups_from_level", config.coarserGroupsFromLevel},
                            {"stuck_ratio", config.stuckRatio},
                            {"normal_weight", config.normalWeight}}},
                          {"meshes", statsJson(out)}};

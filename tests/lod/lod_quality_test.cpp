@@ -212,7 +212,7 @@ TEST(LodQuality, DISABLED_CutVersusSimplifyChain) {
                                        &mesh.positions[0].x, mesh.positions.size(), sizeof(glm::vec3), q.triangles * 3,
                                        1.0f, 0, nullptr));
     double dChain = symmetricDistance(original, meshTriangles(mesh, simplified));
-    std::printf("%s at %zu triangles (%.1f %%): DAG cut %.3g, meshopt_simplify %zu tris %.3g (x bbox diag %.3g); "
+    std::printf("%s at %zu triangles (%.1f %%): DAG cut %.4g, meshopt_simplify %zu tris %.4g (x bbox diag %.3g); "
                 "cut shapes: %.1f %% under 10 degrees, mean aspect %.2f\n",
                 path.filename().c_str(), q.triangles, 100.0 * double(q.triangles) / double(mesh.triangleCount()),
                 q.distance, simplified.size() / 3, dChain, double(mesh.bounds.radius() * 2.0f),
