@@ -2,6 +2,7 @@
 // and sparse accessors), image decoding (decodeImageProblem), node flattening and material conversion. The file's
 // layout is checked, and EXT_meshopt_compression files rewritten to plain GLB in memory, first (gltf_prepare.cpp).
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -378,7 +379,37 @@ private:
     m.normalTexture = texture(g.normalTexture.index, false);
     m.occlusionTexture = texture(g.occlusionTexture.index, false);
     m.emissiveTexture = texture(g.emissiveTexture.index, true);
+    m.uv[kMapBaseColor] = uvTransform(pbr.baseColorTexture);
+    m.uv[kMapMetallicRoughness] = uvTransform(pbr.metallicRoughnessTexture);
+    m.uv[kMapNormal] = uvTransform(g.normalTexture);
+    m.uv[kMapOcclusion] = uvTransform(g.occlusionTexture);
+    m.uv[kMapEmissive] = uvTransform(g.emissiveTexture);
     return m;
+  }
+
+  // KHR_texture_transform of a textureInfo: offset, rotation, scale (a texCoord override is moot:
+  // meshes keep one UV set). Malformed or non-finite values leave the identity.
+  template <class Info> static UvTransform uvTransform(const Info& info) {
+    UvTransform t;
+    auto it = info.extensions.find("KHR_texture_transform");
+    if (it == info.extensions.end() || !it->second.IsObject()) return t;
+    const tg::Value& v = it->second;
+    auto number = [](const tg::Value& n, float& out) {
+      if (!n.IsNumber()) return false;
+      float f = float(n.GetNumberAsDouble());
+      if (!std::isfinite(f)) return false;
+      out = f;
+      return true;
+    };
+    auto vec2 = [&](const char* key, glm::vec2& out) {
+      const tg::Value& a = v.Get(key);
+      glm::vec2 r;
+      if (a.IsArray() && a.ArrayLen() == 2 && number(a.Get(0), r.x) && number(a.Get(1), r.y)) out = r;
+    };
+    vec2("offset", t.offset);
+    vec2("scale", t.scale);
+    number(v.Get("rotation"), t.rotation);
+    return t;
   }
 
   const tg::Model& m_;

@@ -52,6 +52,8 @@ bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.
 struct ForwardRenderer::Impl {
   Context& ctx;
   Buffer vertices, indices, materials, frame, instanceBuffer;
+  Buffer lights; // GpuPointLight[lightCount] (one unused entry when the scene has none)
+  uint32_t lightCount = 0;
   std::vector<Image> textures;
   Unique<VkSampler> sampler;
   DescriptorSet descriptors; // bindless material textures
@@ -113,6 +115,11 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   std::vector<sio::GpuMaterial> mats;
   for (const Material& m : sceneMaterials) mats.push_back(toGpuMaterial(m, scene.textures.size()));
   materials = createBufferWithData<sio::GpuMaterial>(ctx, mats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "materials");
+
+  std::vector<sio::GpuPointLight> gpuLights = toGpuLights(scene.lights);
+  lightCount = uint32_t(gpuLights.size());
+  if (gpuLights.empty()) gpuLights.resize(1); // a buffer cannot be empty
+  lights = createBufferWithData<sio::GpuPointLight>(ctx, gpuLights, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "lights");
 
   textures = uploadTextures(ctx, scene);
   sampler = makeSampler(ctx, VK_FILTER_LINEAR);
@@ -223,6 +230,8 @@ Result<RenderOutput> ForwardRenderer::render(const RenderSettings& s) {
   fd.lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
   fd.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
   fd.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
+  fd.lightAddress = d.lights.address();
+  fd.lightCount = d.lightCount;
   std::memcpy(d.frame.mapped(), &fd, sizeof(fd));
 
   // Blend instances back to front by the view depth of their bounds' centres.
