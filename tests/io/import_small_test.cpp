@@ -398,6 +398,36 @@ TEST(ImportGltf, KhrTextureTransform) {
   EXPECT_EQ(r->materials[0].uv[kMapOcclusion].scale, glm::vec2(1, 1));
 }
 
+TEST(ImportGltf, KhrLightsPunctualPointLights) {
+  auto dir = test::tempDir("lights");
+  std::string bin;
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(bin, f);
+  writeFile(dir / "t.bin", bin);
+  auto gltf = writeFile(dir / "l.gltf", R"({"asset": {"version": "2.0"},
+  "extensionsUsed": ["KHR_lights_punctual"],
+  "extensions": {"KHR_lights_punctual": {"lights": [
+    {"type": "point", "color": [1, 0.5, 0.25], "intensity": 4, "range": 7},
+    {"type": "point", "intensity": 10},
+    {"type": "spot", "intensity": 5, "spot": {}}]}},
+  "nodes": [{"mesh": 0, "children": [1, 2, 3]},
+            {"translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"translation": [0, 5, 0], "extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"extensions": {"KHR_lights_punctual": {"light": 2}}}],
+  "scenes": [{"nodes": [0]}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"uri": "t.bin", "byteLength": 36}]})");
+  auto r = io::importGltf(gltf);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->lights.size(), 2u); // the spot light is skipped
+  EXPECT_EQ(r->lights[0].position, glm::vec3(1, 2, 3));
+  EXPECT_EQ(r->lights[0].color, glm::vec3(1, 0.5f, 0.25f));
+  EXPECT_FLOAT_EQ(r->lights[0].intensity, 4.0f);
+  EXPECT_FLOAT_EQ(r->lights[0].radius, 7.0f);
+  EXPECT_EQ(r->lights[1].position, glm::vec3(0, 5, 0));
+  EXPECT_FLOAT_EQ(r->lights[1].radius, 100.0f); // no range: where 10 / d^2 falls to 0.001
+}
+
 // EXT_meshopt_compression with the octahedral filter (not used by the dream-apartment file): encode with
 // meshoptimizer, pack a GLB with a data-less fallback buffer, and check the import reproduces the input.
 TEST(ImportGltf, MeshoptOctahedralFilterGlb) {
