@@ -16,7 +16,7 @@ namespace mirage::shading {
 
 namespace {
 
-// Early return of a failed Status or Result from a helper.
+// Early return of a failed Status or Result of a reading step.
 #define MIRAGE_TRY(expr)                                                                                               \
   do {                                                                                                                 \
     if (auto status_ = (expr); !status_) return status_.error();                                                       \
@@ -56,9 +56,8 @@ struct Table {
     return Ok{};
   }
 
-  // An array of `minSize`..`maxSize` numbers in lo..hi into out[0..]; returns the count read in *count.
-  Status numbers(std::string_view key, size_t minSize, size_t maxSize, float lo, float hi, float* out,
-                 size_t* count = nullptr) const {
+  // An array of `minSize`..`maxSize` numbers in lo..hi into out[0..].
+  Status numbers(std::string_view key, size_t minSize, size_t maxSize, float lo, float hi, float* out) const {
     const toml::node* n = get(key);
     if (!n) return Ok{};
     const toml::array* a = n->as_array();
@@ -73,7 +72,6 @@ struct Table {
         return error(n->source(), fmt::format("\"{}\"[{}] = {} is outside {}..{}", key, i, *v, lo, hi));
       out[i] = float(*v);
     }
-    if (count) *count = a->size();
     return Ok{};
   }
 
@@ -206,8 +204,7 @@ struct Parser {
         return t.error(n->source(), fmt::format("\"{}\" does not apply to model \"{}\"", key,
                                                 model == 0 ? "metallic-roughness" : "blinn-phong"));
     float albedo[4] = {1, 1, 1, 1};
-    size_t albedoCount = 0;
-    MIRAGE_TRY(t.numbers("albedo", 3, 4, 0.0f, 1.0f, albedo, &albedoCount));
+    MIRAGE_TRY(t.numbers("albedo", 3, 4, 0.0f, 1.0f, albedo)); // 3 numbers: alpha stays 1
     m.baseColorFactor = {albedo[0], albedo[1], albedo[2], albedo[3]};
     MIRAGE_TRY(t.numbers("emissive", 3, 3, 0.0f, kMaxEmissive, &m.emissiveFactor.x));
     m.metallicFactor = 0.0f; // a file's material is a dielectric unless it says otherwise
