@@ -24,8 +24,9 @@ void main() {
 
   vec4 base = baseColor(m, inUv, inColor, d);
   if (m.alphaMode == MIRAGE_ALPHA_MASK && base.a < m.alphaCutoff) discard;
-  vec3 rgb = shadeSurface(m, base, inWorldPos, inNormal, inTangent, gl_FrontFacing, inUv, d, frame.camera.eye.xyz,
-                          frame.lightDir, frame.skyAmbient.rgb, frame.groundAmbient.rgb);
+  vec3 rgb = shadeSurfaceLights(m, base, inWorldPos, inNormal, inTangent, gl_FrontFacing, inUv, d,
+                                frame.camera.eye.xyz, frame.lightDir, frame.skyAmbient.rgb, frame.groundAmbient.rgb,
+                                frame.lightAddress, frame.lightCount);
   float alpha = m.alphaMode == MIRAGE_ALPHA_BLEND ? base.a : 1.0;
   outColor = vec4(rgb, alpha);
 }

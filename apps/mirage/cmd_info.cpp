@@ -80,14 +80,18 @@ void addInfoCommand(CLI::App& app) {
     bool devices = false;
     bool json = false;
     std::string file;
+    std::string materials;
   };
   auto opt = std::make_shared<Options>();
   cmd->add_flag("--devices", opt->devices, "List Vulkan devices and the capabilities Mirage uses");
   cmd->add_flag("--json", opt->json, "Machine-readable output");
   cmd->add_option("file", opt->file, "Scene file (.gltf .glb .obj .ply)");
+  cmd->add_option("--materials", opt->materials,
+                  "Apply a material file (TOML) and list every material with where it came from")
+      ->type_name("FILE.toml");
   cmd->callback([opt] {
     if (opt->devices || opt->file.empty()) return printDevices(opt->json);
-    infoFile(opt->file, opt->json);
+    infoFile(opt->file, opt->json, opt->materials);
   });
 }
 

@@ -12,6 +12,7 @@
 #include "mirage/asset/container.h"
 #include "mirage/asset/scene_chunk.h"
 #include "mirage/io/import.h"
+#include "mirage/shading/material_file.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/surfels/point_cloud.h"
 #include "mirage/surfels/surfel_io.h"
@@ -210,15 +211,43 @@ void infoSurfelPly(const std::string& path, bool json) {
   fmt::print("  (render it with --surfels)\n");
 }
 
+// Every material with its origin (the scene file, or "<material file>:<line>") and how many meshes use it.
+nlohmann::json materialList(const Scene& s, const std::string& path) {
+  nlohmann::json list = nlohmann::json::array();
+  for (size_t i = 0; i < s.materials.size(); ++i) {
+    const Material& m = s.materials[i];
+    size_t meshes = 0;
+    for (const Mesh& mesh : s.meshes) meshes += mesh.material == i;
+    const char* alpha[] = {"OPAQUE", "MASK", "BLEND"};
+    list.push_back({{"index", i},
+                    {"name", m.name},
+                    {"model", m.model == ShadingModel::BlinnPhong ? "blinn-phong" : "metallic-roughness"},
+                    {"alpha_mode", alpha[int(m.alphaMode)]},
+                    {"meshes", meshes},
+                    {"origin", m.origin.empty() ? path : m.origin}});
+  }
+  return list;
+}
+
 } // namespace
 
-void infoFile(const std::string& path, bool json) {
+void infoFile(const std::string& path, bool json, const std::string& materials) {
+  if (!materials.empty() && (path.ends_with(".mrg") || (path.ends_with(".ply") && surfels::isSurfelPly(path))))
+    return fail(path + ": --materials applies to scene files (.gltf .glb .obj .ply) and gen: scenes");
   if (path.ends_with(".mrg")) return infoMrg(path, json);
   if (path.ends_with(".ply") && surfels::isSurfelPly(path)) return infoSurfelPly(path, json);
+  shading::MaterialFile file;
+  if (!materials.empty()) { // read first: a bad material file costs no import
+    auto loaded = shading::loadMaterialFile(materials);
+    if (!loaded) return fail(loaded.error());
+    file = std::move(*loaded);
+  }
   io::ImportOptions options;
   options.allowPointClouds = true; // a scan without faces is described, not rejected (surfels reads it)
   auto scene = loadSceneArgument(path, options);
   if (!scene) return fail(scene.error());
+  if (!materials.empty())
+    if (auto st = shading::applyMaterials(*scene, file); !st) return fail(st.error());
   const Scene& s = *scene;
   Bounds b = s.worldBounds();
   size_t vertices = 0;
@@ -240,6 +269,7 @@ void infoFile(const std::string& path, bool json) {
                         {"materials_blend", blend},
                         {"textures", s.textures.size()}};
     j.update(boundsJson(b));
+    if (!materials.empty()) j["material_list"] = materialList(s, path);
     fmt::print("{}\n", j.dump(2));
     return;
   }
@@ -253,6 +283,11 @@ void infoFile(const std::string& path, bool json) {
              s.instances.size(), s.meshTriangleCount(), s.instancedTriangleCount(), vertices);
   fmt::print("  materials {} ({} mask, {} blend)  textures {}\n", s.materials.size(), mask, blend, s.textures.size());
   fmt::print("  bounds {}\n", boundsText(b));
+  if (materials.empty()) return;
+  for (const nlohmann::json& m : materialList(s, path))
+    fmt::print("  material {} \"{}\": {}, {}, {} mesh(es), from {}\n", m["index"].get<size_t>(),
+               m["name"].get<std::string>(), m["model"].get<std::string>(), m["alpha_mode"].get<std::string>(),
+               m["meshes"].get<size_t>(), m["origin"].get<std::string>());
 }
 
 } // namespace mirage::cli

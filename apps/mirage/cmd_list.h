@@ -37,7 +37,8 @@ void addViewCommand(CLI::App& app);
 // mirage pvs / pvs-eval: GVS++ potentially visible sets per view cell (cmd_pvs.cpp).
 void addPvsCommands(CLI::App& app);
 
-// mirage info FILE (scene summary).
-void infoFile(const std::string& path, bool json);
+// mirage info FILE [--materials FILE.toml] (scene summary; with a material file applied, every
+// material and where it came from).
+void infoFile(const std::string& path, bool json, const std::string& materials);
 
 } // namespace mirage::cli

@@ -58,6 +58,10 @@ bool anyGiven(const std::vector<CLI::Option*>& options) {
 }
 
 CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode mode) {
+  cmd.add_option("--materials", o.materials,
+                 "Material file (TOML): materials assigned to meshes or materials by name or glob, point lights "
+                 "(docs/shading.md)")
+      ->type_name("FILE.toml");
   if (mode == BindMode::Bench) {
     cmd.add_option("--pvs", o.pvs,
                    ".mrg: PVS from mirage pvs of the asset's source scene: every frame timed with and without the "

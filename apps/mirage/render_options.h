@@ -37,7 +37,7 @@ struct RenderConfigOptions {
 bool anyGiven(const std::vector<CLI::Option*>& options);
 
 // The one CLI binding of runtime::SceneOptions but its input (a positional whose help differs per
-// command): --pvs and --surfels; render: --surfel-order; bench: --grid. Returns --surfel-order
+// command): --materials, --pvs and --surfels; render: --surfel-order; bench: --grid. Returns --surfel-order
 // (null in bench mode).
 CLI::Option* bindSceneOptions(CLI::App& command, runtime::SceneOptions& options, BindMode mode);
 

@@ -2,6 +2,7 @@
 // and sparse accessors), image decoding (decodeImageProblem), node flattening and material conversion. The file's
 // layout is checked, and EXT_meshopt_compression files rewritten to plain GLB in memory, first (gltf_prepare.cpp).
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -127,6 +128,7 @@ private:
         if (it->second >= 0) scene_.instances.push_back(Instance{uint32_t(it->second), world});
       }
     }
+    pointLight(node, world);
     onPath[index] = true;
     for (int c : node.children)
       if (Status s = visit(c, world, onPath, depth + 1); !s) return s;
@@ -378,7 +380,58 @@ private:
     m.normalTexture = texture(g.normalTexture.index, false);
     m.occlusionTexture = texture(g.occlusionTexture.index, false);
     m.emissiveTexture = texture(g.emissiveTexture.index, true);
+    m.uv[kMapBaseColor] = uvTransform(pbr.baseColorTexture);
+    m.uv[kMapMetallicRoughness] = uvTransform(pbr.metallicRoughnessTexture);
+    m.uv[kMapNormal] = uvTransform(g.normalTexture);
+    m.uv[kMapOcclusion] = uvTransform(g.occlusionTexture);
+    m.uv[kMapEmissive] = uvTransform(g.emissiveTexture);
     return m;
+  }
+
+  // A KHR_lights_punctual point light on the node, at its world origin. Intensity (candela) is taken
+  // as the light's intensity; without a range the radius is where its irradiance intensity / d^2
+  // falls to 0.001. Spot and directional lights, and malformed ones, are skipped (the key light stays).
+  void pointLight(const tg::Node& node, const glm::mat4& world) {
+    auto it = node.extensions.find("KHR_lights_punctual");
+    if (it == node.extensions.end() || !it->second.IsObject()) return;
+    const tg::Value& index = it->second.Get("light");
+    if (!index.IsInt() || index.GetNumberAsInt() < 0 || size_t(index.GetNumberAsInt()) >= m_.lights.size()) return;
+    const tg::Light& g = m_.lights[size_t(index.GetNumberAsInt())];
+    PointLight l;
+    l.position = glm::vec3(world[3]);
+    l.intensity = float(g.intensity);
+    if (g.color.size() == 3) l.color = glm::vec3(float(g.color[0]), float(g.color[1]), float(g.color[2]));
+    l.radius = g.range > 0.0 ? float(g.range) : std::sqrt(l.intensity * 1000.0f);
+    auto finite3 = [](glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+    bool valid = g.type == "point" && l.intensity > 0.0f && std::isfinite(l.intensity) && l.radius > 0.0f &&
+                 std::isfinite(l.radius) && finite3(l.position) && finite3(l.color) &&
+                 glm::all(glm::greaterThanEqual(l.color, glm::vec3(0.0f)));
+    if (valid) scene_.lights.push_back(l);
+  }
+
+  // KHR_texture_transform of a textureInfo: offset, rotation, scale (a texCoord override is moot:
+  // meshes keep one UV set). Malformed or non-finite values leave the identity.
+  template <class Info> static UvTransform uvTransform(const Info& info) {
+    UvTransform t;
+    auto it = info.extensions.find("KHR_texture_transform");
+    if (it == info.extensions.end() || !it->second.IsObject()) return t;
+    const tg::Value& v = it->second;
+    auto number = [](const tg::Value& n, float& out) {
+      if (!n.IsNumber()) return false;
+      float f = float(n.GetNumberAsDouble());
+      if (!std::isfinite(f)) return false;
+      out = f;
+      return true;
+    };
+    auto vec2 = [&](const char* key, glm::vec2& out) {
+      const tg::Value& a = v.Get(key);
+      glm::vec2 r;
+      if (a.IsArray() && a.ArrayLen() == 2 && number(a.Get(0), r.x) && number(a.Get(1), r.y)) out = r;
+    };
+    vec2("offset", t.offset);
+    vec2("scale", t.scale);
+    number(v.Get("rotation"), t.rotation);
+    return t;
   }
 
   const tg::Model& m_;

@@ -54,6 +54,8 @@ bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.
 struct ForwardRenderer::Impl {
   Context& ctx;
   Buffer vertices, indices, materials, instanceBuffer; // instanceBuffer: opaque and masked instances
+  Buffer lights; // GpuPointLight[lightCount] (one unused entry when the scene has none)
+  uint32_t lightCount = 0;
   std::vector<Image> textures;
   Unique<VkSampler> sampler;
   DescriptorSet descriptors; // bindless material textures
@@ -129,6 +131,11 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   std::vector<sio::GpuMaterial> mats;
   for (const Material& m : sceneMaterials) mats.push_back(toGpuMaterial(m, scene.textures.size()));
   materials = createBufferWithData<sio::GpuMaterial>(ctx, mats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "materials");
+
+  std::vector<sio::GpuPointLight> gpuLights = toGpuLights(scene.lights);
+  lightCount = uint32_t(gpuLights.size());
+  if (gpuLights.empty()) gpuLights.resize(1); // a buffer cannot be empty
+  lights = createBufferWithData<sio::GpuPointLight>(ctx, gpuLights, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "lights");
 
   textures = uploadTextures(ctx, scene);
   sampler = makeSampler(ctx, VK_FILTER_LINEAR);
@@ -272,6 +279,8 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
     fd[e].lightDir = glm::vec4(glm::normalize(s.lightDirection), s.lightIntensity);
     fd[e].skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
     fd[e].groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
+    fd[e].lightAddress = d.lights.address();
+    fd[e].lightCount = d.lightCount;
   }
   std::memcpy(d.frames[slot].mapped(), fd, eyeCount * sizeof(sio::FrameData));
   std::vector<std::pair<float, const Instance*>> order;

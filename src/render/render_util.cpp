@@ -64,7 +64,33 @@ shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount) {
                 : m.alphaMode == AlphaMode::Blend ? MIRAGE_ALPHA_BLEND
                                                   : MIRAGE_ALPHA_OPAQUE;
   g.doubleSided = m.doubleSided;
+  g.shadingModel = m.model == ShadingModel::BlinnPhong ? MIRAGE_MODEL_BLINN_PHONG : MIRAGE_MODEL_METALLIC_ROUGHNESS;
+  g.specularColor = m.specularColor;
+  g.glossiness = m.glossiness;
+  g.detailAlbedoTexture = tex(m.detailAlbedoTexture);
+  g.detailNormalTexture = tex(m.detailNormalTexture);
+  g.detailMaskTexture = tex(m.detailMaskTexture);
+  for (int map = 0; map < kMaterialMapCount; ++map) {
+    // KHR_texture_transform: uv' = offset + R * (scale * uv), R = [cos sin; -sin cos].
+    const UvTransform& t = m.uv[map];
+    float c = std::cos(t.rotation), s = std::sin(t.rotation);
+    g.uvRow0[map] = {c * t.scale.x, s * t.scale.y, t.offset.x};
+    g.uvRow1[map] = {-s * t.scale.x, c * t.scale.y, t.offset.y};
+  }
   return g;
+}
+
+// The shader's map and model numbers are core's enums.
+static_assert(MIRAGE_MATERIAL_MAPS == kMaterialMapCount && MIRAGE_MAP_BASE_COLOR == kMapBaseColor &&
+              MIRAGE_MAP_METALLIC_ROUGHNESS == kMapMetallicRoughness && MIRAGE_MAP_NORMAL == kMapNormal &&
+              MIRAGE_MAP_OCCLUSION == kMapOcclusion && MIRAGE_MAP_EMISSIVE == kMapEmissive &&
+              MIRAGE_MAP_DETAIL_ALBEDO == kMapDetailAlbedo && MIRAGE_MAP_DETAIL_NORMAL == kMapDetailNormal &&
+              MIRAGE_MAP_DETAIL_MASK == kMapDetailMask);
+
+std::vector<shaderio::GpuPointLight> toGpuLights(const std::vector<PointLight>& lights) {
+  std::vector<shaderio::GpuPointLight> out;
+  for (const PointLight& l : lights) out.push_back({l.position, l.radius, l.color * l.intensity, 0.0f});
+  return out;
 }
 
 void convertHalfImage(const std::vector<uint8_t>& rgba16f, uint32_t width, uint32_t height, bool keepLinear,

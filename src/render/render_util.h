@@ -21,8 +21,10 @@ gpu::Unique<VkSampler> makeSampler(gpu::Context& ctx, VkFilter filter);
 // when the scene has none (a descriptor array cannot be empty).
 std::vector<gpu::Image> uploadTextures(gpu::Context& ctx, const Scene& scene);
 
-// The glTF material as shaders read it; texture indices outside [0, textureCount) become -1.
+// The material as shaders read it; texture indices outside [0, textureCount) become -1.
 shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount);
+// The scene's point lights as shaders read them (colour x intensity).
+std::vector<shaderio::GpuPointLight> toGpuLights(const std::vector<PointLight>& lights);
 
 // RGBA16F pixels read back from a colour target -> 8-bit sRGB (alpha linear) and, when
 // `keepLinear`, the float image.

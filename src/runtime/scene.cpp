@@ -46,6 +46,12 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
   auto impl = std::make_unique<Impl>(context);
   impl->options = options;
   impl->kind = *kind;
+  if (!options.materials.empty()) { // read first: a bad material file costs no import
+    if (*kind == SceneKind::Surfels) return Error{"--materials does not apply to surfel-only scenes"};
+    auto file = shading::loadMaterialFile(options.materials);
+    if (!file) return file.error();
+    impl->materials = std::move(*file);
+  }
   Status opened = *kind == SceneKind::ClusterLod ? openClusterLod(*impl)
                   : *kind == SceneKind::Forward  ? openForward(*impl)
                                                  : openSurfels(*impl);

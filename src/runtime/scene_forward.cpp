@@ -13,6 +13,8 @@ Status openForward(Scene::Impl& s) {
   if (!scene) return scene.error();
   s.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s.scene = std::move(*scene);
+  if (!s.options.materials.empty())
+    if (auto st = shading::applyMaterials(s.scene, s.materials); !st) return st;
   s.bounds = s.scene.worldBounds();
   s.info.sourceTriangles = s.scene.instancedTriangleCount();
   s.info.instances = s.scene.instances.size();

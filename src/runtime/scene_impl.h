@@ -6,6 +6,7 @@
 #include "mirage/lod/cluster_pvs.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/runtime/scene.h"
+#include "mirage/shading/material_file.h"
 #include "mirage/surfels/surfel_io.h"
 #include "mirage/visibility/pvs_storage.h"
 
@@ -18,7 +19,8 @@ struct Scene::Impl {
   Bounds bounds;
   SceneInfo info;
   PvsState pvsState;
-  vis::PvsData pvs; // the triangle PVS (options.pvs)
+  vis::PvsData pvs;                // the triangle PVS (options.pvs)
+  shading::MaterialFile materials; // options.materials, read before the scene (applied by each path)
 
   // ClusterLod: the asset, its renderer, the mixed scene's per-mesh clouds (kept alive for the
   // surfel renderer) and the current cell's cluster PVS.

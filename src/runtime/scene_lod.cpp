@@ -54,6 +54,8 @@ Status openClusterLod(Scene::Impl& s) {
   auto asset = lod::loadLodAsset(s.options.input);
   if (!asset) return asset.error();
   s.asset = std::move(*asset);
+  if (!s.options.materials.empty())
+    if (auto st = shading::applyMaterials(s.asset.scene, s.materials); !st) return st;
   repeatOnGrid(s.asset.scene, s.options.grid * s.options.grid); // the seed's benchmark scenes
   s.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   auto renderer = render::ClusterRenderer::create(s.ctx, s.asset);

@@ -372,6 +372,62 @@ TEST(ImportTextures, SrgbAndLinearCopiesAndObjMaps) {
   EXPECT_EQ(o->materials[1].baseColorTexture, -1); // no map: untextured (a missing map is an error, see hardening)
 }
 
+TEST(ImportGltf, KhrTextureTransform) {
+  auto dir = test::tempDir("texture_transform");
+  const uint8_t px[4] = {255, 255, 255, 255};
+  ASSERT_NE(stbi_write_png((dir / "w.png").c_str(), 1, 1, 4, px, 4), 0);
+  std::string bin;
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(bin, f);
+  writeFile(dir / "t.bin", bin);
+  auto gltf = writeFile(dir / "t.gltf", R"({"asset": {"version": "2.0"}, "nodes": [{"mesh": 0}],
+  "extensionsUsed": ["KHR_texture_transform"],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+  "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform":
+                   {"offset": [0.5, 0.25], "rotation": 1.5, "scale": [2, 3]}}}},
+                 "normalTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"scale": [4, "x"]}}}}],
+  "textures": [{"source": 0}], "images": [{"uri": "w.png"}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"uri": "t.bin", "byteLength": 36}]})");
+  auto r = io::importGltf(gltf);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const UvTransform& base = r->materials[0].uv[kMapBaseColor];
+  EXPECT_EQ(base.offset, glm::vec2(0.5f, 0.25f));
+  EXPECT_EQ(base.scale, glm::vec2(2, 3));
+  EXPECT_FLOAT_EQ(base.rotation, 1.5f);
+  EXPECT_EQ(r->materials[0].uv[kMapNormal].scale, glm::vec2(1, 1)); // malformed: the identity
+  EXPECT_EQ(r->materials[0].uv[kMapOcclusion].scale, glm::vec2(1, 1));
+}
+
+TEST(ImportGltf, KhrLightsPunctualPointLights) {
+  auto dir = test::tempDir("lights");
+  std::string bin;
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(bin, f);
+  writeFile(dir / "t.bin", bin);
+  auto gltf = writeFile(dir / "l.gltf", R"({"asset": {"version": "2.0"},
+  "extensionsUsed": ["KHR_lights_punctual"],
+  "extensions": {"KHR_lights_punctual": {"lights": [
+    {"type": "point", "color": [1, 0.5, 0.25], "intensity": 4, "range": 7},
+    {"type": "point", "intensity": 10},
+    {"type": "spot", "intensity": 5, "spot": {}}]}},
+  "nodes": [{"mesh": 0, "children": [1, 2, 3]},
+            {"translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"translation": [0, 5, 0], "extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"extensions": {"KHR_lights_punctual": {"light": 2}}}],
+  "scenes": [{"nodes": [0]}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"uri": "t.bin", "byteLength": 36}]})");
+  auto r = io::importGltf(gltf);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->lights.size(), 2u); // the spot light is skipped
+  EXPECT_EQ(r->lights[0].position, glm::vec3(1, 2, 3));
+  EXPECT_EQ(r->lights[0].color, glm::vec3(1, 0.5f, 0.25f));
+  EXPECT_FLOAT_EQ(r->lights[0].intensity, 4.0f);
+  EXPECT_FLOAT_EQ(r->lights[0].radius, 7.0f);
+  EXPECT_EQ(r->lights[1].position, glm::vec3(0, 5, 0));
+  EXPECT_FLOAT_EQ(r->lights[1].radius, 100.0f); // no range: where 10 / d^2 falls to 0.001
+}
+
 // EXT_meshopt_compression with the octahedral filter (not used by the dream-apartment file): encode with
 // meshoptimizer, pack a GLB with a data-less fallback buffer, and check the import reproduces the input.
 TEST(ImportGltf, MeshoptOctahedralFilterGlb) {

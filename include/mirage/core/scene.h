@@ -40,9 +40,37 @@ struct Texture {
 
 enum class AlphaMode : uint8_t { Opaque, Mask, Blend };
 
-// glTF metallic-roughness material. Texture fields index Scene::textures, -1 for none.
+// How a material reflects light (docs/shading.md has the formulas): glTF metallic-roughness (GGX),
+// or the Blinn-Phong model of the material files (glossiness, specular colour).
+enum class ShadingModel : uint8_t { MetallicRoughness, BlinnPhong };
+
+// A texture coordinate transform as glTF's KHR_texture_transform (ratified form):
+// uv' = offset + R(rotation) * (scale * uv), R = [cos sin; -sin cos] (counter-clockwise in uv).
+struct UvTransform {
+  glm::vec2 offset{0.0f};
+  glm::vec2 scale{1.0f};
+  float rotation = 0.0f; // radians
+};
+
+// The maps of a material, each with its own UV transform (Material::uv).
+enum MaterialMap : uint8_t {
+  kMapBaseColor,
+  kMapMetallicRoughness,
+  kMapNormal,
+  kMapOcclusion,
+  kMapEmissive,
+  kMapDetailAlbedo,
+  kMapDetailNormal,
+  kMapDetailMask,
+  kMaterialMapCount
+};
+
+// A material: glTF metallic-roughness (what importers fill) or Blinn-Phong, plus the seed's detail
+// maps, from a material file (mirage/shading/material_file.h). Texture fields index
+// Scene::textures, -1 for none.
 struct Material {
   std::string name;
+  std::string origin; // where it was defined, "<file>:<line>" (a material file); empty: the scene file
   glm::vec4 baseColorFactor{1.0f};
   glm::vec3 emissiveFactor{0.0f};
   float metallicFactor = 1.0f;
@@ -57,6 +85,24 @@ struct Material {
   int32_t normalTexture = -1;            // tangent space
   int32_t occlusionTexture = -1;         // R
   int32_t emissiveTexture = -1;
+  ShadingModel model = ShadingModel::MetallicRoughness;
+  glm::vec3 specularColor{0.04f}; // Blinn-Phong: specular reflectance (linear RGB)
+  float glossiness = 0.5f;        // Blinn-Phong: 0..1, exponent 2^(1 + 10 glossiness) (2..2048)
+  // Detail maps (the seed's): albedo x (2 x detail albedo) and the detail normal blended in, both by
+  // the mask's R (1 without a mask texture). The detail albedo is a data map (0.5 = no change).
+  int32_t detailAlbedoTexture = -1;
+  int32_t detailNormalTexture = -1;
+  int32_t detailMaskTexture = -1;
+  UvTransform uv[kMaterialMapCount]; // per map, indexed by MaterialMap
+};
+
+// A point light besides the key light: colour x intensity, windowed inverse-square falloff that
+// reaches 0 at `radius` (docs/shading.md, "Point lights").
+struct PointLight {
+  glm::vec3 position{0.0f};
+  glm::vec3 color{1.0f}; // linear RGB
+  float intensity = 1.0f;
+  float radius = 10.0f; // > 0: no light at or beyond it
 };
 
 // One triangle list with one material. Optional attributes are empty or have positions.size() entries.
@@ -86,6 +132,7 @@ struct Scene {
   std::vector<Material> materials; // never empty after import: index 0 may be a default material
   std::vector<Texture> textures;
   std::vector<Instance> instances;
+  std::vector<PointLight> lights; // besides the renderer's key light
 
   // Sum over instances of their mesh's triangles (what a renderer draws).
   size_t instancedTriangleCount() const;

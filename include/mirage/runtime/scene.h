@@ -32,6 +32,9 @@ struct SceneOptions {
   std::string pvs;      // optional PVS .mrg (from mirage pvs) of the scene: draw only the eye's view cell's PVS
   bool surfels = false; // draw the file's SURF chunks: alone (surfel-only file) or far from meshes (mixed)
   uint32_t grid = 1;    // cluster LOD: the instances repeated on a grid x grid layout (1..256)
+  // Optional material file (TOML, mirage/shading/material_file.h) applied to the scene's meshes and
+  // materials after import: its materials override the file's, its point lights are added.
+  std::string materials;
   // Surfels: the order the clouds are uploaded in (fixed at open: the renderer stores it).
   render::SurfelOrder surfelOrder = render::kDefaultSurfelOrder;
 };

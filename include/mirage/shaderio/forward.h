@@ -22,6 +22,21 @@ using uint = uint32_t;
 #define MIRAGE_ALPHA_MASK 1
 #define MIRAGE_ALPHA_BLEND 2
 
+// Shading models (core ShadingModel; formulas in docs/shading.md).
+#define MIRAGE_MODEL_METALLIC_ROUGHNESS 0
+#define MIRAGE_MODEL_BLINN_PHONG 1
+
+// The maps of a material, each with its own UV transform (core MaterialMap, same order).
+#define MIRAGE_MAP_BASE_COLOR 0
+#define MIRAGE_MAP_METALLIC_ROUGHNESS 1
+#define MIRAGE_MAP_NORMAL 2
+#define MIRAGE_MAP_OCCLUSION 3
+#define MIRAGE_MAP_EMISSIVE 4
+#define MIRAGE_MAP_DETAIL_ALBEDO 5
+#define MIRAGE_MAP_DETAIL_NORMAL 6
+#define MIRAGE_MAP_DETAIL_MASK 7
+#define MIRAGE_MATERIAL_MAPS 8
+
 // One vertex as the vertex input reads it (52 bytes, tightly packed).
 struct GpuVertex {
   vec3 position;
@@ -34,9 +49,20 @@ struct GpuVertex {
 // Per frame: camera and lighting.
 struct FrameData {
   ViewFrame camera;
-  vec4 lightDir;      // xyz direction towards the light (normalized), w intensity
-  vec4 skyAmbient;    // rgb ambient from above
-  vec4 groundAmbient; // rgb ambient from below
+  vec4 lightDir;         // xyz direction towards the light (normalized), w intensity
+  vec4 skyAmbient;       // rgb ambient from above
+  vec4 groundAmbient;    // rgb ambient from below
+  uint64_t lightAddress; // GpuPointLight[lightCount]
+  uint lightCount;
+  uint pad0;
+};
+
+// A point light (core PointLight): colour already multiplied by its intensity.
+struct GpuPointLight {
+  vec3 position;
+  float radius; // > 0: no light at or beyond it
+  vec3 color;   // linear RGB x intensity
+  float pad0;
 };
 
 // Per instance: object-to-world and its normal matrix (inverse transpose), both as mat4 for alignment.
@@ -45,7 +71,8 @@ struct GpuInstance {
   mat4 normalMatrix;
 };
 
-// glTF metallic-roughness material; texture indices into the bindless array, -1 for none.
+// A material (core Material): glTF metallic-roughness or Blinn-Phong, with the detail maps; texture
+// indices into the bindless array, -1 for none.
 struct GpuMaterial {
   vec4 baseColorFactor;
   vec3 emissiveFactor;
@@ -61,7 +88,16 @@ struct GpuMaterial {
   int emissiveTexture;
   uint alphaMode;
   uint doubleSided;
+  uint shadingModel;  // MIRAGE_MODEL_*
+  vec3 specularColor; // Blinn-Phong
+  float glossiness;   // Blinn-Phong, 0..1
+  int detailAlbedoTexture;
+  int detailNormalTexture;
+  int detailMaskTexture;
   uint pad0;
+  // Per map (MIRAGE_MAP_*): uv' = vec2(dot(uvRow0[map], vec3(uv, 1)), dot(uvRow1[map], vec3(uv, 1))).
+  vec3 uvRow0[MIRAGE_MATERIAL_MAPS];
+  vec3 uvRow1[MIRAGE_MATERIAL_MAPS];
 };
 
 // Push constants of the forward pipelines (<= 128 bytes, the guaranteed minimum).
@@ -75,9 +111,10 @@ struct ForwardPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(GpuVertex) == 52, "GpuVertex layout");
-static_assert(sizeof(FrameData) == 416, "FrameData layout");
+static_assert(sizeof(FrameData) == 432, "FrameData layout");
+static_assert(sizeof(GpuPointLight) == 32, "GpuPointLight layout");
 static_assert(sizeof(GpuInstance) == 128, "GpuInstance layout");
-static_assert(sizeof(GpuMaterial) == 80, "GpuMaterial layout");
+static_assert(sizeof(GpuMaterial) == 304, "GpuMaterial layout");
 static_assert(sizeof(ForwardPush) == 32, "ForwardPush layout");
 } // namespace mirage::shaderio
 #endif

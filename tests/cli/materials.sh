@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Material files on the CLI (docs/shading.md): `render --materials` and `info --materials`; a bad
+# material file gets one line naming file, line and key, exit 2, and no image.
+# Usage: materials.sh MIRAGE_BINARY SOURCE_DIR
+set -u
+source "$(dirname "$0")/lib.sh" "$@"
+
+expect_ok gen-blob gen blob --size 2 -o "$tmp/blob.glb" || { finish materials; exit; }
+printf 'P3\n1 1\n255\n0 0 0\n' >"$tmp/not_png.png"
+cat >"$tmp/good.toml" <<'TOML'
+[[material]]
+name = "red"
+model = "blinn-phong"
+albedo = [0.9, 0.1, 0.1]
+glossiness = 0.6
+specular = [0.2, 0.2, 0.2]
+
+[[assign]]
+mesh = "*"
+use = "red"
+
+[[light]]
+position = [0, 2, 2]
+color = [1, 1, 1]
+intensity = 5
+radius = 20
+TOML
+printf '[[material]]\nname = "steel"\nroughnes = 0.5\n' >"$tmp/typo.toml"
+printf '[[material]]\nname = "steel"\nroughness = 2\n' >"$tmp/range.toml"
+printf '[[material]]\nname = "a"\nalbedo_texture = "not_png.png"\n' >"$tmp/texture.toml"
+printf '[[material]]\nname = "a"\n[[assign]]\nmesh = "no such mesh"\nuse = "a"\n' >"$tmp/nomatch.toml"
+printf '[[material]\nname = "a"\n' >"$tmp/syntax.toml"
+
+for bad in typo range texture nomatch syntax; do
+  expect_fail "render-$bad" "error: $tmp/$bad.toml:[0-9]*: " "$tmp/out.png" -- render "$tmp/blob.glb" -o "$tmp/out.png" \
+    --size 32x24 --materials "$tmp/$bad.toml"
+  expect_fail "info-$bad" "error: $tmp/$bad.toml:[0-9]*: " "" -- info "$tmp/blob.glb" --materials "$tmp/$bad.toml"
+done
+also_fixed='unknown key "roughnes"' expect_fail render-typo-line "typo.toml:3: material \"steel\"" "$tmp/out.png" -- \
+  render "$tmp/blob.glb" -o "$tmp/out.png" --size 32x24 --materials "$tmp/typo.toml"
+expect_fail render-missing-file "missing.toml" "$tmp/out.png" -- render "$tmp/blob.glb" -o "$tmp/out.png" \
+  --materials "$tmp/missing.toml"
+
+# The good path: info lists the file's material with its line, render applies it (red dominates).
+if expect_ok info-good info "$tmp/blob.glb" --materials "$tmp/good.toml"; then
+  grep -q "\"red\": blinn-phong, OPAQUE, [1-9][0-9]* mesh(es), from $tmp/good.toml:1" "$tmp/stdout" ||
+    fail "info-good: no origin line for red: $(cat "$tmp/stdout")"
+fi
+if expect_ok info-good-json info "$tmp/blob.glb" --materials "$tmp/good.toml" --json; then
+  grep -q "\"origin\": \"$tmp/good.toml:1\"" "$tmp/stdout" || fail "info-good-json: no origin: $(cat "$tmp/stdout")"
+fi
+if expect_ok render-good render "$tmp/blob.glb" -o "$tmp/red.png" --size 48x32 --materials "$tmp/good.toml"; then
+  expect_ok render-plain render "$tmp/blob.glb" -o "$tmp/plain.png" --size 48x32
+  cmp -s "$tmp/red.png" "$tmp/plain.png" && fail "render-good: the material file changed nothing"
+fi
+finish materials
