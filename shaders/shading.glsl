@@ -15,13 +15,19 @@ struct SurfaceDerivatives {
   vec2 duvdx, duvdy; // uv per pixel step
 };
 
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer MapTransformRef {
+  GpuMapTransform maps[];
+};
+
 // The material's UV transform of `map` (MIRAGE_MAP_*) applied to uv and to its derivatives.
 vec2 mapUv(GpuMaterial m, int map, vec2 uv) {
+  GpuMapTransform t = MapTransformRef(m.mapTransformAddress).maps[map];
   vec3 p = vec3(uv, 1.0);
-  return vec2(dot(m.uvRow0[map], p), dot(m.uvRow1[map], p));
+  return vec2(dot(t.row0, p), dot(t.row1, p));
 }
 SurfaceDerivatives mapDerivatives(GpuMaterial m, int map, SurfaceDerivatives d) {
-  mat2 a = mat2(m.uvRow0[map].x, m.uvRow1[map].x, m.uvRow0[map].y, m.uvRow1[map].y); // linear part, by columns
+  GpuMapTransform t = MapTransformRef(m.mapTransformAddress).maps[map];
+  mat2 a = mat2(t.row0.x, t.row1.x, t.row0.y, t.row1.y); // linear part, by columns
   d.duvdx = a * d.duvdx;
   d.duvdy = a * d.duvdy;
   return d;

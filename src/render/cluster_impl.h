@@ -30,6 +30,7 @@ struct ClusterSceneData {
   gpu::Buffer levels;          // GpuClusterLevel[], per mesh (GpuClusterMesh::levelOffset)
   gpu::Buffer instances;       // GpuClusterInstance[]
   gpu::Buffer materials;       // GpuMaterial[] (the forward renderer's layout)
+  gpu::Buffer mapTransforms;   // the materials' map transforms (uploadMaterials)
   gpu::Buffer cones;           // GpuClusterCone[], parallel to `clusters`
   gpu::Buffer lodNodes;        // GpuLodNode[], per mesh (GpuClusterMesh::nodeOffset)
   gpu::Buffer leafClusters;    // uint[]: mesh-local cluster ids of the LOD BVH's leaves
@@ -92,7 +93,7 @@ struct ClusterFramePlan {
   bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
   bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
-  SurfelRenderer* surfels = nullptr; // mixed frames: the surfel stage (its counters in its slot's readback)
+  SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
 
 // Frames per slot in the frame buffer: the selection frame, then stereo's left and right eye frames.

@@ -336,8 +336,6 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
 
   std::vector<Material> mats = scene.materials;
   if (mats.empty()) mats.push_back(Material{});
-  std::vector<sio::GpuMaterial> gpuMats;
-  for (const Material& m : mats) gpuMats.push_back(toGpuMaterial(m, scene.textures.size()));
 
   std::vector<sio::GpuClusterInstance> instances;
   for (const Instance& inst : scene.instances) {
@@ -376,7 +374,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   d.meshes = createBufferWithData<sio::GpuClusterMesh>(ctx, meshes, kStorage, "cluster meshes");
   d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
   d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");
-  d.materials = createBufferWithData<sio::GpuMaterial>(ctx, gpuMats, kStorage, "cluster materials");
+  d.materials = uploadMaterials(ctx, mats, scene.textures.size(), d.mapTransforms, "cluster materials");
   d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
   d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, lodNodes, kStorage, "cluster LOD BVH");
   d.leafClusters = createBufferWithData<uint32_t>(ctx, leafClusters, kStorage, "cluster LOD BVH leaves");

@@ -54,6 +54,7 @@ bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.
 struct ForwardRenderer::Impl {
   Context& ctx;
   Buffer vertices, indices, materials, instanceBuffer; // instanceBuffer: opaque and masked instances
+  Buffer mapTransforms;                                // the materials' map transforms (uploadMaterials)
   Buffer lights; // GpuPointLight[lightCount] (one unused entry when the scene has none)
   uint32_t lightCount = 0;
   std::vector<Image> textures;
@@ -128,9 +129,7 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   // texture falls back to the factor alone.
   sceneMaterials = scene.materials;
   if (sceneMaterials.empty()) sceneMaterials.push_back(Material{});
-  std::vector<sio::GpuMaterial> mats;
-  for (const Material& m : sceneMaterials) mats.push_back(toGpuMaterial(m, scene.textures.size()));
-  materials = createBufferWithData<sio::GpuMaterial>(ctx, mats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "materials");
+  materials = uploadMaterials(ctx, sceneMaterials, scene.textures.size(), mapTransforms, "materials");
 
   std::vector<sio::GpuPointLight> gpuLights = toGpuLights(scene.lights);
   lightCount = uint32_t(gpuLights.size());

@@ -45,7 +45,7 @@ std::vector<gpu::Image> uploadTextures(gpu::Context& ctx, const Scene& scene) {
   return out;
 }
 
-shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount) {
+shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount, uint64_t mapTransformAddress) {
   auto tex = [&](int32_t t) { return t >= 0 && size_t(t) < textureCount ? t : -1; };
   shaderio::GpuMaterial g{};
   g.baseColorFactor = m.baseColorFactor;
@@ -70,14 +70,38 @@ shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount) {
   g.detailAlbedoTexture = tex(m.detailAlbedoTexture);
   g.detailNormalTexture = tex(m.detailNormalTexture);
   g.detailMaskTexture = tex(m.detailMaskTexture);
+  g.mapTransformAddress = mapTransformAddress;
+  return g;
+}
+
+std::array<shaderio::GpuMapTransform, MIRAGE_MATERIAL_MAPS> toGpuMapTransforms(const Material& m) {
+  std::array<shaderio::GpuMapTransform, MIRAGE_MATERIAL_MAPS> out{};
   for (int map = 0; map < kMaterialMapCount; ++map) {
     // KHR_texture_transform: uv' = offset + R * (scale * uv), R = [cos sin; -sin cos].
     const UvTransform& t = m.uv[map];
     float c = std::cos(t.rotation), s = std::sin(t.rotation);
-    g.uvRow0[map] = {c * t.scale.x, s * t.scale.y, t.offset.x};
-    g.uvRow1[map] = {-s * t.scale.x, c * t.scale.y, t.offset.y};
+    out[map].row0 = {c * t.scale.x, s * t.scale.y, t.offset.x};
+    out[map].row1 = {-s * t.scale.x, c * t.scale.y, t.offset.y};
   }
-  return g;
+  return out;
+}
+
+gpu::Buffer uploadMaterials(gpu::Context& ctx, const std::vector<Material>& materials, size_t textureCount,
+                            gpu::Buffer& mapTransforms, const char* name) {
+  std::vector<shaderio::GpuMapTransform> transforms;
+  for (const Material& m : materials) {
+    auto t = toGpuMapTransforms(m);
+    transforms.insert(transforms.end(), t.begin(), t.end());
+  }
+  if (transforms.empty()) transforms.resize(MIRAGE_MATERIAL_MAPS); // the buffer still needs an address
+  mapTransforms =
+      gpu::createBufferWithData<shaderio::GpuMapTransform>(ctx, transforms, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, name);
+  std::vector<shaderio::GpuMaterial> records;
+  for (size_t i = 0; i < materials.size(); ++i)
+    records.push_back(
+        toGpuMaterial(materials[i], textureCount,
+                      mapTransforms.address() + i * MIRAGE_MATERIAL_MAPS * sizeof(shaderio::GpuMapTransform)));
+  return gpu::createBufferWithData<shaderio::GpuMaterial>(ctx, records, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, name);
 }
 
 // The shader's map and model numbers are core's enums.

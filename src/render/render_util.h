@@ -1,5 +1,6 @@
 #pragma once
 // Pieces every renderer shares (private to src/render).
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -21,8 +22,14 @@ gpu::Unique<VkSampler> makeSampler(gpu::Context& ctx, VkFilter filter);
 // when the scene has none (a descriptor array cannot be empty).
 std::vector<gpu::Image> uploadTextures(gpu::Context& ctx, const Scene& scene);
 
-// The material as shaders read it; texture indices outside [0, textureCount) become -1.
-shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount);
+// The material as shaders read it; texture indices outside [0, textureCount) become -1; its map
+// transforms at `mapTransformAddress` (toGpuMapTransforms).
+shaderio::GpuMaterial toGpuMaterial(const Material& m, size_t textureCount, uint64_t mapTransformAddress);
+std::array<shaderio::GpuMapTransform, MIRAGE_MATERIAL_MAPS> toGpuMapTransforms(const Material& m);
+// GpuMaterial[] of `materials` (returned) and their map transforms (into `mapTransforms`, which
+// must live as long as the materials buffer).
+gpu::Buffer uploadMaterials(gpu::Context& ctx, const std::vector<Material>& materials, size_t textureCount,
+                            gpu::Buffer& mapTransforms, const char* name);
 // The scene's point lights as shaders read them (colour x intensity).
 std::vector<shaderio::GpuPointLight> toGpuLights(const std::vector<PointLight>& lights);
 

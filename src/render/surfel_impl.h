@@ -32,6 +32,7 @@ struct SurfelFramePlan {
 struct SurfelRenderer::Impl {
   gpu::Context& ctx;
   gpu::Buffer positions, attributes, radii, clouds, instances, materials; // set-up time
+  gpu::Buffer mapTransforms;                                              // the materials' (uploadMaterials)
   // GPU-only scratch every frame slot shares (each frame's first barrier orders it after the
   // frames submitted before it).
   gpu::Buffer states, counters, draws, visBuffer, batchInstance;

@@ -81,7 +81,7 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
   std::vector<glm::uvec2> pos, attr;
   std::vector<float> prefixRadii;
   std::vector<sio::SurfelRenderCloud> gpuClouds;
-  std::vector<sio::GpuMaterial> gpuMaterials;
+  std::vector<Material> cloudMaterials;
   // Coherent order: one sort per distinct cloud (the benchmark places one cloud many times).
   std::unordered_map<const surfels::SurfelCloud*, std::vector<uint32_t>> orders;
   for (const SurfelScene::Cloud& c : scene.clouds) {
@@ -93,12 +93,12 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
     g.boxStep = glm::vec4((cloud.box.max - cloud.box.min) / kSteps, 0.0f);
     g.firstSurfel = uint32_t(pos.size());
     g.count = uint32_t(cloud.size());
-    g.material = uint32_t(gpuMaterials.size());
+    g.material = uint32_t(cloudMaterials.size());
     g.coherentMinBlock = coherentMinBlock(order);
     gpuClouds.push_back(g);
     Material m = c.material;
     m.baseColorTexture = m.metallicRoughnessTexture = m.normalTexture = m.occlusionTexture = m.emissiveTexture = -1;
-    gpuMaterials.push_back(toGpuMaterial(m, 0));
+    cloudMaterials.push_back(m);
     if (pos.size() + cloud.size() > 0xfffffffeull) return Error{"surfel scene holds more than 2^32 - 2 surfels"};
     // Radii belong to prefix lengths, not to surfels: they keep the blue-noise order.
     for (size_t i = 0; i < cloud.size(); ++i) prefixRadii.push_back(i < cloud.radii.size() ? cloud.radii[i] : 0.0f);
@@ -141,7 +141,7 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
   radii = createBufferWithData<float>(ctx, prefixRadii, kStorage, "surfel prefix radii");
   clouds = createBufferWithData<sio::SurfelRenderCloud>(ctx, gpuClouds, kStorage, "surfel clouds");
   instances = createBufferWithData<sio::SurfelRenderInstance>(ctx, gpuInstances, kStorage, "surfel instances");
-  materials = createBufferWithData<sio::GpuMaterial>(ctx, gpuMaterials, kStorage, "surfel materials");
+  materials = uploadMaterials(ctx, cloudMaterials, 0, mapTransforms, "surfel materials");
   return Ok{};
 }
 

@@ -421,8 +421,8 @@ TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
     }
 }
 
-// Multiview is asked for where it cannot run: a clear error naming the option; auto falls back to
-// per-eye viewports, and a mono frame reports no stereo mode.
+// Multiview is asked for where it cannot run: a clear error naming the option; auto is per-eye
+// viewports (measured faster), and a mono frame reports no stereo mode.
 TEST_F(ClusterStereo, MultiviewRefusedWhereItCannotRun) {
   gpu::Context& ctx = context();
   auto renderer = ClusterRenderer::create(ctx, gridAsset());
@@ -435,16 +435,16 @@ TEST_F(ClusterStereo, MultiviewRefusedWhereItCannotRun) {
   s.stereoIpd = 0.2f;
   auto stereo = (*renderer)->render(s);
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-  EXPECT_EQ(stereo->stats.stereoMode, ctx.caps().multiview ? StereoMode::Multiview : StereoMode::Viewports);
+  EXPECT_EQ(stereo->stats.stereoMode, StereoMode::Viewports);
   std::vector<RasterBackend> refused;
   if (ctx.caps().int64BufferAtomics) refused.push_back(RasterBackend::Compute);
   if (ctx.caps().meshShader && !ctx.caps().multiviewMeshShader) refused.push_back(RasterBackend::Mesh);
-  // Hybrid keeps its mesh-shader list under auto (per-eye viewports) where mesh shaders lack multiview.
+  // Hybrid under auto: per-eye viewports too.
   if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics && ctx.caps().meshShader) {
     s.raster = RasterBackend::Hybrid;
     auto hybrid = (*renderer)->render(s);
     ASSERT_TRUE(hybrid.ok()) << hybrid.error().message;
-    EXPECT_EQ(hybrid->stats.stereoMode, ctx.caps().multiviewMeshShader ? StereoMode::Multiview : StereoMode::Viewports);
+    EXPECT_EQ(hybrid->stats.stereoMode, StereoMode::Viewports);
   }
   for (RasterBackend backend : refused) {
     SCOPED_TRACE(toString(backend));

@@ -64,7 +64,7 @@ Result<BlendRaster> parseBlendRaster(std::string_view text);
 // How the hardware rasters (mesh, indirect, hybrid's hardware list) draw the two stereo eyes
 // (docs/render.md, "Stereo"). The compute raster draws both eyes in one dispatch either way.
 enum class StereoMode {
-  Auto,      // multiview where the device has it for the backend (multiviewMeshShader for mesh shaders)
+  Auto,      // per-eye viewports (multiview measured slower on the H100: docs/render.md "Stereo")
   Multiview, // VK_KHR_multiview: each draw once with view mask 0b11 into 2-layer targets
   Viewports, // each draw once per eye with its viewport over its half of the side-by-side targets
 };

@@ -95,9 +95,16 @@ struct GpuMaterial {
   int detailNormalTexture;
   int detailMaskTexture;
   uint pad0;
-  // Per map (MIRAGE_MAP_*): uv' = vec2(dot(uvRow0[map], vec3(uv, 1)), dot(uvRow1[map], vec3(uv, 1))).
-  vec3 uvRow0[MIRAGE_MATERIAL_MAPS];
-  vec3 uvRow1[MIRAGE_MATERIAL_MAPS];
+  // GpuMapTransform[MIRAGE_MATERIAL_MAPS] of this material, read only where a map is sampled: kept
+  // in the record, the 48 floats were loaded with it and took the cluster resolve from 72 to 128
+  // registers (0.035 -> 0.048 ms, 2500 blobs at 1080p on an H100).
+  uint64_t mapTransformAddress;
+};
+
+// A map's UV transform (MIRAGE_MAP_*): uv' = vec2(dot(row0, vec3(uv, 1)), dot(row1, vec3(uv, 1))).
+struct GpuMapTransform {
+  vec3 row0;
+  vec3 row1;
 };
 
 // Push constants of the forward pipelines (<= 128 bytes, the guaranteed minimum).
@@ -114,7 +121,8 @@ static_assert(sizeof(GpuVertex) == 52, "GpuVertex layout");
 static_assert(sizeof(FrameData) == 432, "FrameData layout");
 static_assert(sizeof(GpuPointLight) == 32, "GpuPointLight layout");
 static_assert(sizeof(GpuInstance) == 128, "GpuInstance layout");
-static_assert(sizeof(GpuMaterial) == 304, "GpuMaterial layout");
+static_assert(sizeof(GpuMaterial) == 120, "GpuMaterial layout");
+static_assert(sizeof(GpuMapTransform) == 24, "GpuMapTransform layout");
 static_assert(sizeof(ForwardPush) == 32, "ForwardPush layout");
 } // namespace mirage::shaderio
 #endif
