@@ -1,6 +1,9 @@
 #pragma once
 // Helpers shared by the cluster renderer's test files.
+#include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -8,8 +11,11 @@
 
 #include "mirage/gpu/context.h"
 #include "mirage/io/generate.h"
+#include "mirage/io/image_io.h"
 #include "mirage/lod/lod_asset.h"
+#include "mirage/render/camera.h"
 #include "mirage/render/cluster_renderer.h"
+#include "test_support.h"
 
 namespace mirage::test {
 
@@ -17,9 +23,9 @@ namespace mirage::test {
 inline std::vector<render::RasterBackend> availableRasterBackends(const gpu::Context& ctx) {
   std::vector<render::RasterBackend> list{render::RasterBackend::Indirect};
   if (ctx.caps().meshShader) list.push_back(render::RasterBackend::Mesh);
-  if (ctx.caps().int64BufferAtomics) list.push_back(render::RasterBackend::Compute);
-  if (ctx.caps().int64BufferAtomics && ctx.caps().fragmentStoresAndAtomics)
-    list.push_back(render::RasterBackend::Hybrid);
+  bool compute = ctx.caps().int64BufferAtomics && ctx.caps().int64SharedAtomics; // cluster_frame.cpp's condition
+  if (compute) list.push_back(render::RasterBackend::Compute);
+  if (compute && ctx.caps().fragmentStoresAndAtomics) list.push_back(render::RasterBackend::Hybrid);
   return list;
 }
 
@@ -43,6 +49,52 @@ inline const lod::LodAsset& smallBlobAsset() {
     return std::move(*baked);
   }();
   return asset;
+}
+
+// Size of the cluster renderer tests' square images.
+inline constexpr uint32_t kClusterTestSize = 256;
+
+inline lod::LodAsset bakeTestBlob(float normalWeight) {
+  io::BlobOptions o;
+  o.subdivisions = 5;
+  lod::BuildConfig config;
+  config.normalWeight = normalWeight;
+  auto baked = lod::bakeLodAsset(io::generateBlob(o), config);
+  if (!baked) std::abort();
+  return std::move(*baked);
+}
+
+// A closed blob (20480 triangles) baked in memory: a few DAG levels, quick on lavapipe. Built with
+// the geometric error: the selection and culling tests need cuts coarser than the input at 256²,
+// where the blob's triangles are ~2 px and the shading-aware default keeps nearly all of them.
+inline const lod::LodAsset& blobAsset() {
+  static lod::LodAsset asset = bakeTestBlob(0.0f);
+  return asset;
+}
+
+// The same blob with the default (shading-aware) error.
+inline const lod::LodAsset& defaultBlobAsset() {
+  static lod::LodAsset asset = bakeTestBlob(lod::BuildConfig{}.normalWeight);
+  return asset;
+}
+
+// kClusterTestSize² from the automatic camera on black, at `tau` pixels with `raster`.
+inline render::ClusterRenderSettings settingsFor(const Bounds& bounds, float tau, render::RasterBackend raster) {
+  render::ClusterRenderSettings s;
+  s.base.width = s.base.height = kClusterTestSize;
+  s.base.camera = render::autoCamera(bounds, 1.0f);
+  s.base.background = {0, 0, 0, 1};
+  s.tauPixels = tau;
+  s.raster = raster;
+  return s;
+}
+
+// The image as a PNG in the process's temporary directory when the test has failed.
+inline void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
+  if (!::testing::Test::HasFailure()) return;
+  static const std::filesystem::path dir = tempDir("cluster"); // one per process: tempDir empties it
+  auto path = dir / name;
+  if (io::writePng(path, img)) std::fprintf(stderr, "wrote %s\n", path.string().c_str());
 }
 
 } // namespace mirage::test
