@@ -284,41 +284,58 @@ void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, Cluster
     walkFloat(a, b, c, lo, hi, keepAll, mirrored, f, t);
 }
 
+// Triangle t's corners: their indices into the cluster's shared vertices, and their snapped screen
+// positions as eye `eye` sees them (the right eye keeps its own x).
+uvec3 triangleCorners(GpuCluster c, uint t) {
+  uint b = (c.triangleOffset + t) * 3u;
+  return uvec3(localIndex(b), localIndex(b + 1), localIndex(b + 2));
+}
+void eyeScreen(uvec3 i, uint eye, out vec3 s0, out vec3 s1, out vec3 s2) {
+  s0 = screen[i.x];
+  s1 = screen[i.y];
+  s2 = screen[i.z];
+  if (eye == 1) {
+    s0.x = screenRightX[i.x];
+    s1.x = screenRightX[i.y];
+    s2.x = screenRightX[i.z];
+  }
+}
+
+// What triangle t of visible cluster v writes, seen from eye `eye` (mono kernels pass 0).
+SampleTarget sampleTarget(uint v, uint t, uint eye, float fade, bool masked, GpuCluster c, GpuClusterInstance inst,
+                          GpuMaterial m, ClusterFrame f) {
+  SampleTarget target;
+  target.id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
+  target.fade = fade;
+  target.masked = masked;
+  if (masked) target.tri = fetchTriangle(c, inst, t);
+  target.m = m;
+  target.eyeFrame = push.frameAddress + eye * MIRAGE_CLUSTER_FRAME_STRIDE;
+  target.eyeX = eye * uint(f.camera.viewport.x);
+  return target;
+}
+
 // The cluster's triangles (vertices already in shared memory), one per thread per round.
 void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f, float fade, bool masked) {
   bool keepAll = (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 || (inst.flags & MIRAGE_INSTANCE_DOUBLE_SIDED) != 0;
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   GpuMaterial m;
   if (masked) m = instanceMaterial(inst);
-  // Stereo: this thread's eye, where its samples land, and the frame its alpha test sees. Written
-  // through kEyes so that the mono kernels fold the eye to 0 and carry no stereo code.
+  // Stereo: this thread's eye (sampleTarget: where its samples land, the frame its alpha test
+  // sees). Written through kEyes so that the mono kernels fold the eye to 0 and carry no stereo code.
   uint eye = kEyes == 2 ? gl_LocalInvocationIndex / MIRAGE_CLUSTER_WORKGROUP : 0;
   uint lane = kEyes == 2 ? gl_LocalInvocationIndex % MIRAGE_CLUSTER_WORKGROUP : gl_LocalInvocationIndex;
-  uint eyeX = eye * uint(f.camera.viewport.x);
-  uint64_t eyeFrame = push.frameAddress + eye * MIRAGE_CLUSTER_FRAME_STRIDE;
   vec4 eyeDx = vec4(eye == 0 ? 0.0 : f.stereoClipDx, 0.0, 0.0, 0.0);
   for (uint t = lane; t < c.triangleCount; t += MIRAGE_CLUSTER_WORKGROUP) {
-    uint b = (c.triangleOffset + t) * 3u;
-    uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
-    SampleTarget target;
-    target.id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
-    target.fade = fade;
-    target.masked = masked;
-    if (masked) target.tri = fetchTriangle(c, inst, t);
-    target.m = m;
-    target.eyeFrame = eyeFrame;
-    target.eyeX = eyeX;
-    vec4 q[3] = vec4[3](clipPos[i0], clipPos[i1], clipPos[i2]);
+    uvec3 i = triangleCorners(c, t);
+    SampleTarget target = sampleTarget(v, t, eye, fade, masked, c, inst, m, f);
+    vec4 q[3] = vec4[3](clipPos[i.x], clipPos[i.y], clipPos[i.z]);
     float d[3] = float[3](nearDistance(q[0]), nearDistance(q[1]), nearDistance(q[2]));
     // The triangle, or its part beyond the near plane as a fan of one or two triangles p0 p1 p2
     // and p0 p2 p3 (near-clipped ones are never queued).
-    vec3 p0 = screen[i0], p1 = screen[i1], p2 = screen[i2], p3;
+    vec3 p0, p1, p2, p3;
+    eyeScreen(i, eye, p0, p1, p2);
     uint fan = 1, queueEntry = t | (eye << MIRAGE_CLUSTER_TRIANGLE_BITS);
-    if (eye == 1) {
-      p0.x = screenRightX[i0];
-      p1.x = screenRightX[i1];
-      p2.x = screenRightX[i2];
-    }
     if (d[0] < 0.0 || d[1] < 0.0 || d[2] < 0.0) {
       if (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0) continue; // entirely in front of the near plane
       // Sutherland-Hodgman against the near plane: keep inside corners, add the crossing point of
@@ -358,22 +375,9 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     uint entry = queuedTriangles[first] & ~MIRAGE_RASTER_QUEUE_LATTICE, tile = item - queuedFirstTile[first];
     uint t = entry & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
     uint tileEye = kEyes == 2 ? entry >> MIRAGE_CLUSTER_TRIANGLE_BITS : 0; // the tile's eye, not the thread's
-    uint b = (c.triangleOffset + t) * 3u;
-    uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
-    vec3 s0 = screen[i0], s1 = screen[i1], s2 = screen[i2];
-    if (tileEye == 1) {
-      s0.x = screenRightX[i0];
-      s1.x = screenRightX[i1];
-      s2.x = screenRightX[i2];
-    }
-    SampleTarget target;
-    target.id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
-    target.fade = fade;
-    target.masked = masked;
-    if (masked) target.tri = fetchTriangle(c, inst, t);
-    target.m = m;
-    target.eyeFrame = push.frameAddress + tileEye * MIRAGE_CLUSTER_FRAME_STRIDE;
-    target.eyeX = tileEye * uint(f.camera.viewport.x);
+    vec3 s0, s1, s2;
+    eyeScreen(triangleCorners(c, t), tileEye, s0, s1, s2);
+    SampleTarget target = sampleTarget(v, t, tileEye, fade, masked, c, inst, m, f);
     vec2 lo, hi;
     sampleBox(s0, s1, s2, f.camera.viewport, lo, hi);
     uint tilesX = uint(ceil((hi.x - lo.x + 1.0) / MIRAGE_RASTER_TILE));
@@ -390,22 +394,9 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     entry &= ~MIRAGE_RASTER_QUEUE_LATTICE;
     if (entry >> MIRAGE_CLUSTER_TRIANGLE_BITS != eye) continue; // uniform per eye's half (whole warps)
     uint t = entry & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
-    uint b = (c.triangleOffset + t) * 3u;
-    uint i0 = localIndex(b), i1 = localIndex(b + 1), i2 = localIndex(b + 2);
-    vec3 s0 = screen[i0], s1 = screen[i1], s2 = screen[i2];
-    if (eye == 1) {
-      s0.x = screenRightX[i0];
-      s1.x = screenRightX[i1];
-      s2.x = screenRightX[i2];
-    }
-    SampleTarget target;
-    target.id = ((v + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS) | t;
-    target.fade = fade;
-    target.masked = masked;
-    if (masked) target.tri = fetchTriangle(c, inst, t);
-    target.m = m;
-    target.eyeFrame = eyeFrame;
-    target.eyeX = eyeX;
+    vec3 s0, s1, s2;
+    eyeScreen(triangleCorners(c, t), eye, s0, s1, s2);
+    SampleTarget target = sampleTarget(v, t, eye, fade, masked, c, inst, m, f);
     vec2 lo, hi;
     sampleBox(s0, s1, s2, f.camera.viewport, lo, hi);
     walkLarge(s0, s1, s2, lo, hi, lattice, MIRAGE_RASTER_LATTICE, keepAll, mirrored, f, target);
