@@ -16,6 +16,7 @@
 
 #include "cluster_test_util.h"
 #include "gpu_test.h"
+#include "test_support.h"
 #include "mirage/core/image_metrics.h"
 #include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
@@ -42,17 +43,6 @@ const lod::LodAsset& gridAsset() {
     return a;
   }();
   return asset;
-}
-
-ImageRGBA8 half(const ImageRGBA8& image, uint32_t index) {
-  ImageRGBA8 out;
-  out.width = image.width / 2;
-  out.height = image.height;
-  out.pixels.resize(size_t(out.width) * out.height * 4);
-  for (uint32_t y = 0; y < out.height; ++y)
-    for (uint32_t x = 0; x < out.width; ++x)
-      for (int c = 0; c < 4; ++c) out.at(x, y)[c] = image.at(x + index * out.width, y)[c];
-  return out;
 }
 
 // An n x n grid of quads in the XY plane at z facing +Z, uv 0..1 over it.
@@ -123,7 +113,7 @@ void expectHalvesMatchMono(ClusterRenderer& renderer, const ClusterRenderOutput&
     s.stereoIpd.reset();
     auto mono = renderer.render(s);
     ASSERT_TRUE(mono.ok()) << mono.error().message;
-    ImageRGBA8 h = half(stereo.image.srgb, e);
+    ImageRGBA8 h = test::stereoHalf(stereo.image.srgb, e);
     EXPECT_GE(psnr(h, mono->image.srgb), 45.0) << "eye " << e;
   }
 }
@@ -191,7 +181,7 @@ TEST_F(ClusterStereo, EachHalfMatchesAMonoRenderOfThatEye) {
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
     ASSERT_EQ(stereo->image.srgb.width, 2 * kWidth);
     ASSERT_EQ(stereo->image.srgb.height, kHeight);
-    ImageRGBA8 halves[2] = {half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)};
+    ImageRGBA8 halves[2] = {test::stereoHalf(stereo->image.srgb, 0), test::stereoHalf(stereo->image.srgb, 1)};
     EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
     // Both eyes in one raster pass and one resolve pass.
     EXPECT_EQ(passCount(*stereo, "raster"), 1);
@@ -348,7 +338,7 @@ TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
     s.stereoIpd = ipd;
     auto stereo = (*renderer)->render(s);
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-    EXPECT_LT(psnr(half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)), 30.0);
+    EXPECT_LT(psnr(test::stereoHalf(stereo->image.srgb, 0), test::stereoHalf(stereo->image.srgb, 1)), 30.0);
     expectHalvesMatchMono(**renderer, *stereo, stereoEyes(camera, ipd), s);
   }
 }
@@ -408,7 +398,8 @@ TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
       const ImageRGBA8& multiview = out[0].image.srgb;
       EXPECT_GE(psnr(multiview, out[1].image.srgb), 45.0) << "multiview against per-eye viewports";
       // An eye index ignored would draw the left eye into both layers.
-      EXPECT_LT(psnr(half(multiview, 0), half(multiview, 1)), 30.0) << "the eyes see the same image";
+      EXPECT_LT(psnr(test::stereoHalf(multiview, 0), test::stereoHalf(multiview, 1)), 30.0)
+          << "the eyes see the same image";
       // The image backends copy the layers side by side once per pass; hybrid's fragments write the buffer.
       EXPECT_EQ(passCount(out[0], "layer-copy"), backend == RasterBackend::Hybrid ? 0 : c.occlusion ? 2 : 1);
       // Plausible pass times: lavapipe can resolve the copy's begin timestamp after its end, which

@@ -9,6 +9,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu_test.h"
+#include "test_support.h"
 #include "mirage/core/image_metrics.h"
 #include "mirage/render/camera.h"
 #include "mirage/render/forward_renderer.h"
@@ -50,15 +51,6 @@ RenderSettings settings(const Camera& camera) {
   return s;
 }
 
-ImageRGBA8 half(const ImageRGBA8& image, uint32_t index) {
-  ImageRGBA8 out;
-  out.width = image.width / 2;
-  out.height = image.height;
-  for (uint32_t y = 0; y < out.height; ++y)
-    out.pixels.insert(out.pixels.end(), image.at(index * out.width, y), image.at(index * out.width, y) + out.width * 4);
-  return out;
-}
-
 } // namespace
 
 class ForwardFrames : public test::GpuTest {};
@@ -72,7 +64,7 @@ TEST_F(ForwardFrames, EachStereoHalfMatchesAMonoRenderOfThatEye) {
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
   ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
   ASSERT_EQ(stereo->srgb.height, kHeight);
-  ImageRGBA8 halves[2] = {half(stereo->srgb, 0), half(stereo->srgb, 1)};
+  ImageRGBA8 halves[2] = {test::stereoHalf(stereo->srgb, 0), test::stereoHalf(stereo->srgb, 1)};
   EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
   auto eyes = stereoEyes(stereoCamera(), ipd);
   uint64_t monoDraws = 0;

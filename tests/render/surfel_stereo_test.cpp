@@ -15,6 +15,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu_test.h"
+#include "test_support.h"
 #include "mirage/core/image_metrics.h"
 #include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
@@ -93,17 +94,6 @@ RenderSettings baseSettings(const Camera& camera) {
   return s;
 }
 
-ImageRGBA8 half(const ImageRGBA8& image, uint32_t index) {
-  ImageRGBA8 out;
-  out.width = image.width / 2;
-  out.height = image.height;
-  out.pixels.resize(size_t(out.width) * out.height * 4);
-  for (uint32_t y = 0; y < out.height; ++y)
-    for (uint32_t x = 0; x < out.width; ++x)
-      for (int c = 0; c < 4; ++c) out.at(x, y)[c] = image.at(x + index * out.width, y)[c];
-  return out;
-}
-
 int passCount(const std::vector<gpu::PassTime>& times, const std::string& name) {
   int n = 0;
   for (const auto& t : times) n += t.name == name;
@@ -150,7 +140,7 @@ TEST_F(SurfelStereo, EachHalfMatchesAMonoRenderOfThatEye) {
     EXPECT_EQ(passCount(stereo->image.stats.passTimes, "prefix"), 1);
     EXPECT_EQ(passCount(stereo->image.stats.passTimes, "splat"), 1);
     EXPECT_EQ(passCount(stereo->image.stats.passTimes, "resolve"), 1);
-    ImageRGBA8 halves[2] = {half(stereo->image.srgb, 0), half(stereo->image.srgb, 1)};
+    ImageRGBA8 halves[2] = {test::stereoHalf(stereo->image.srgb, 0), test::stereoHalf(stereo->image.srgb, 1)};
     EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
     for (uint32_t e = 0; e < 2; ++e) {
       SurfelRenderSettings m = s;
@@ -278,7 +268,7 @@ TEST_F(SurfelStereo, MixedFrameHalvesMatchMonoRendersOfEachEye) {
     auto mono = (*clusters)->render(m);
     ASSERT_TRUE(mono.ok()) << mono.error().message;
     EXPECT_EQ(mono->stats.surfels.visibleInstances, stereo->stats.surfels.visibleInstances);
-    EXPECT_GE(psnr(half(stereo->image.srgb, e), mono->image.srgb), 45.0) << "eye " << e;
+    EXPECT_GE(psnr(test::stereoHalf(stereo->image.srgb, e), mono->image.srgb), 45.0) << "eye " << e;
   }
 }
 

@@ -23,13 +23,6 @@ namespace {
 
 constexpr uint32_t kWidth = 64, kHeight = 48;
 
-ImageRGBA8 leftHalf(const ImageRGBA8& stereo) {
-  ImageRGBA8 half{stereo.width / 2, stereo.height, {}};
-  for (uint32_t y = 0; y < stereo.height; ++y)
-    half.pixels.insert(half.pixels.end(), stereo.at(0, y), stereo.at(0, y) + half.width * 4);
-  return half;
-}
-
 // A surfel-only .mrg of the blob (one per process).
 const fs::path& surfelMrg() {
   static const fs::path path = [] {
@@ -62,10 +55,7 @@ TEST_F(RuntimeStereo, ClusterLodRendersBothEyesSideBySide) {
   left.camera = render::stereoEyes(view.camera, *view.stereoIpd)[0];
   auto mono = (*s)->render(left);
   ASSERT_TRUE(mono.ok()) << mono.error().message;
-  ImageRGBA8 half{kWidth, kHeight, {}};
-  for (uint32_t y = 0; y < kHeight; ++y)
-    half.pixels.insert(half.pixels.end(), stereo->srgb.at(0, y), stereo->srgb.at(0, y) + kWidth * 4);
-  EXPECT_GE(psnr(half, mono->srgb), 45.0);
+  EXPECT_GE(psnr(test::stereoHalf(stereo->srgb, 0), mono->srgb), 45.0);
 }
 
 // A scene file goes to the forward renderer, which draws both eyes side by side too.
@@ -84,11 +74,7 @@ TEST_F(RuntimeStereo, ForwardRendersBothEyesSideBySide) {
     eye.camera = render::stereoEyes(view.camera, *view.stereoIpd)[e];
     auto mono = (*s)->render(eye);
     ASSERT_TRUE(mono.ok()) << mono.error().message;
-    ImageRGBA8 half{kWidth, kHeight, {}};
-    for (uint32_t y = 0; y < kHeight; ++y)
-      half.pixels.insert(half.pixels.end(), stereo->srgb.at(e * kWidth, y),
-                         stereo->srgb.at(e * kWidth, y) + kWidth * 4);
-    EXPECT_GE(psnr(half, mono->srgb), 45.0) << "eye " << e;
+    EXPECT_GE(psnr(test::stereoHalf(stereo->srgb, e), mono->srgb), 45.0) << "eye " << e;
   }
 }
 
@@ -107,7 +93,7 @@ TEST_F(RuntimeStereo, SurfelSceneRendersAndRecordsBothEyes) {
   left.camera = render::stereoEyes(view.camera, *view.stereoIpd)[0];
   auto mono = (*s)->render(left);
   ASSERT_TRUE(mono.ok()) << mono.error().message;
-  EXPECT_GE(psnr(leftHalf(stereo->srgb), mono->srgb), 45.0);
+  EXPECT_GE(psnr(test::stereoHalf(stereo->srgb, 0), mono->srgb), 45.0);
   // The same frame recorded into two slots in flight: the same image.
   std::vector<std::vector<uint16_t>> pixels =
       test::recordFramesInFlight(test::gpuContext(), 2, 2 * kWidth, kHeight,

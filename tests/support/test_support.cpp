@@ -34,4 +34,12 @@ std::filesystem::path tempDir(const std::string& name) {
   return p;
 }
 
+ImageRGBA8 stereoHalf(const ImageRGBA8& sideBySide, uint32_t eye) {
+  ImageRGBA8 half{sideBySide.width / 2, sideBySide.height, {}};
+  for (uint32_t y = 0; y < half.height; ++y)
+    half.pixels.insert(half.pixels.end(), sideBySide.at(eye * half.width, y),
+                       sideBySide.at(eye * half.width, y) + size_t(half.width) * 4);
+  return half;
+}
+
 } // namespace mirage::test

@@ -1,7 +1,10 @@
 #pragma once
 // Shared helpers for Mirage tests.
+#include <cstdint>
 #include <filesystem>
 #include <string>
+
+#include "mirage/core/image.h"
 
 namespace mirage::test {
 
@@ -13,6 +16,8 @@ std::filesystem::path sharedFile(const std::string& relative);
 std::string mirageBinary();
 // A fresh, empty temporary directory for this test, removed at process exit.
 std::filesystem::path tempDir(const std::string& name);
+// One eye's half (0 left, 1 right) of a side-by-side stereo image.
+ImageRGBA8 stereoHalf(const ImageRGBA8& sideBySide, uint32_t eye);
 
 } // namespace mirage::test
 
