@@ -17,9 +17,10 @@ namespace mirage::shaderio {
 #define MIRAGE_CLUSTER_MAX_VERTICES 256
 // Triangle id bits in a packed 32-bit visibility id: ((visibleIndex + 1) << 7) | triangle.
 #define MIRAGE_CLUSTER_TRIANGLE_BITS 7
-// Workgroup size of the per-cluster passes (selection, compute raster): a multiple of both subgroup
+// Workgroup size of the per-cluster passes (selection, occlusion): a multiple of both subgroup
 // sizes we meet (lavapipe 8, NVIDIA 32).
 #define MIRAGE_CLUSTER_WORKGROUP 64
+#define MIRAGE_RESOLVE_TILE_ROWS 4 // cluster_resolve.comp: 8x8 pixel tiles per workgroup, stacked in y
 // Mesh/compute-raster dispatches split the visible clusters over x and y: x stays under the
 // guaranteed maxMeshWorkGroupCount / maxComputeWorkGroupCount of 65535.
 #define MIRAGE_CLUSTER_DISPATCH_X 65535
