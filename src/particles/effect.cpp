@@ -57,6 +57,8 @@ Status validateSystem(const SystemDef& s) {
   if (!(s.rateOverTime >= 0.0f)) return Error{"\"rate_over_time\" must not be negative"};
   if (s.prewarm && !s.looping) return Error{"\"prewarm\" needs looping = true"};
   if (s.prewarm && s.startDelay > 0.0f) return Error{"\"prewarm\" and \"start_delay\" exclude each other"};
+  if (s.prewarm && s.duration > kMaxPrewarmSeconds)
+    return Error{fmt::format("\"prewarm\" of a {} s duration: at most {} s", s.duration, kMaxPrewarmSeconds)};
   if (s.sizeOverLifetime.keys.size() > kMaxCurveKeys || s.colorOverLifetime.times.size() > kMaxCurveKeys ||
       s.colorOverSpeed.times.size() > kMaxCurveKeys)
     return Error{fmt::format("a curve or gradient has more than {} keys", kMaxCurveKeys)};
@@ -116,8 +118,6 @@ shaderio::ParticleParams flattenSystem(const SystemDef& s) {
   p.velocityMax = s.velocityOverLifetime.max;
   p.forceMin = s.forceOverLifetime.min;
   p.forceMax = s.forceOverLifetime.max;
-  p.randomVelocity = p.velocityMin != p.velocityMax ? 1u : 0u;
-  p.randomForce = p.forceMin != p.forceMax ? 1u : 0u;
   p.angularVelocity = glm::radians(glm::vec2(s.angularVelocityDegrees.min, s.angularVelocityDegrees.max));
   p.sizeKeyCount = uint32_t(std::min<size_t>(s.sizeOverLifetime.keys.size(), kMaxCurveKeys));
   for (uint32_t i = 0; i < p.sizeKeyCount; ++i) p.sizeKeys[i] = s.sizeOverLifetime.keys[i];

@@ -1,8 +1,6 @@
-// The CPU pool: steps in chunks of the active list (fixed boundaries, so the order of survivors and
-// freed slots, and with it every later slot choice, does not depend on the thread count), then a
-// serial merge that closes the gaps and returns the dead slots to the inactive stack.
+// The CPU pool: steps in chunks of the live range (fixed boundaries, so the list of deaths, and with
+// it every later slot, does not depend on the thread count), then a serial swap-remove of the dead.
 #include <algorithm>
-#include <cstring>
 
 #include <tbb/parallel_for.h>
 
@@ -33,55 +31,40 @@ ParticlePool makePool(const SystemDef& def, float dt) {
   ParticlePool pool;
   pool.def = def;
   pool.params = flattenSystem(def);
-  size_t capacity = def.maxParticles;
-  pool.instances.resize(capacity);
-  pool.active.reserve(capacity);
-  pool.inactive.resize(capacity);
-  for (size_t i = 0; i < capacity; ++i) pool.inactive[i] = uint32_t(capacity - 1 - i); // slot 0 on top
-  pool.scratch.resize(capacity);
-  pool.chunkLive.resize(chunksFor(capacity));
+  pool.instances.resize(def.maxParticles);
+  pool.dead.resize(def.maxParticles);
+  pool.chunkDead.resize(chunksFor(def.maxParticles));
   for (uint64_t k = prewarmSteps(def, dt); k > 0; --k) stepPool(pool, dt);
   return pool;
 }
 
 void stepPool(ParticlePool& pool, float dt) {
-  // (1) Age and integrate; each chunk keeps its survivors at its front and its dead in scratch.
-  const sio::ParticleParams& params = pool.params;
-  uint32_t* active = pool.active.data();
-  uint32_t* dead = pool.scratch.data();
+  // (1) Age and integrate in parallel; each chunk lists its deaths at its own offset in `dead`.
   sio::Particle* instances = pool.instances.data();
-  size_t n = pool.active.size(), chunks = chunksFor(n);
+  uint32_t* dead = pool.dead.data();
+  size_t n = pool.live, chunks = chunksFor(n);
   forChunks(chunks, [&](size_t c) {
     size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
-    uint32_t live = 0, died = 0;
-    for (size_t i = begin; i < end; ++i) {
-      uint32_t slot = active[i];
-      if (sio::particleStep(params, instances[slot], dt))
-        active[begin + live++] = slot;
-      else
-        dead[begin + died++] = slot;
-    }
-    pool.chunkLive[c] = live;
+    uint32_t died = 0;
+    for (size_t i = begin; i < end; ++i)
+      if (!sio::particleStep(instances[i], dt)) dead[begin + died++] = uint32_t(i);
+    pool.chunkDead[c] = died;
   });
-  // Merge: survivors in order, dead slots onto the inactive stack (capacity reserved: no allocation).
-  size_t out = 0;
-  for (size_t c = 0; c < chunks; ++c) {
-    size_t begin = c * kChunk, end = std::min(n, begin + kChunk), live = pool.chunkLive[c];
-    if (out != begin) std::memmove(active + out, active + begin, live * sizeof(uint32_t));
-    out += live;
-    pool.inactive.insert(pool.inactive.end(), dead + begin, dead + begin + (end - begin - live));
-  }
-  pool.active.resize(out);
-  // (2) Emit at age 0.
+  // Swap-remove in descending slot order: every slot above the one removed is live by then, so the
+  // last live particle moves into it (or it is the last one).
+  uint32_t live = pool.live;
+  for (size_t c = chunks; c-- > 0;)
+    for (uint32_t k = pool.chunkDead[c]; k-- > 0;) {
+      uint32_t slot = dead[c * kChunk + k];
+      instances[slot] = instances[--live];
+    }
+  // (2) Emit at age 0 into the free slots after the live ones.
   uint32_t request = emitRequest(pool.def, pool.step, dt);
-  uint32_t take = uint32_t(std::min<size_t>(request, pool.inactive.size()));
+  uint32_t take = std::min<uint32_t>(request, uint32_t(pool.instances.size()) - live);
   pool.dropped += request - take;
-  for (uint32_t i = 0; i < take; ++i) {
-    uint32_t slot = pool.inactive.back();
-    pool.inactive.pop_back();
-    instances[slot] = sio::particleSpawn(params, pool.nextId++);
-    pool.active.push_back(slot);
-  }
+  for (uint32_t i = 0; i < take; ++i) instances[live + i] = sio::particleSpawn(pool.params, pool.nextId + i);
+  pool.nextId += take;
+  pool.live = live + take;
   ++pool.step;
 }
 
@@ -100,18 +83,18 @@ void step(Simulation& sim) {
 
 uint64_t liveParticles(const Simulation& sim) {
   uint64_t n = 0;
-  for (const ParticlePool& p : sim.pools) n += p.active.size();
+  for (const ParticlePool& p : sim.pools) n += p.live;
   return n;
 }
 
 size_t writeRenderParticles(const Simulation& sim, std::span<sio::RenderParticle> out) {
   size_t offset = 0;
   for (const ParticlePool& pool : sim.pools) {
-    size_t n = std::min(pool.active.size(), out.size() - offset);
+    size_t n = std::min<size_t>(pool.live, out.size() - offset);
     sio::RenderParticle* dst = out.data() + offset;
     forChunks(chunksFor(n), [&](size_t c) {
       size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
-      for (size_t i = begin; i < end; ++i) dst[i] = sio::particleRender(pool.params, pool.instances[pool.active[i]]);
+      for (size_t i = begin; i < end; ++i) dst[i] = sio::particleRender(pool.params, pool.instances[i]);
     });
     offset += n;
   }

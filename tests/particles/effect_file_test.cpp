@@ -141,6 +141,8 @@ TEST(EffectFile, ErrorsNameFileLineAndKey) {
             std::string::npos);
   EXPECT_NE(errorOf("[[system]]\nlooping = false\nprewarm = true\n").find("\"prewarm\" needs looping"),
             std::string::npos);
+  EXPECT_NE(errorOf("[[system]]\nprewarm = true\nduration = 1000\n").find("\"prewarm\" of a 1000 s duration"),
+            std::string::npos);
   EXPECT_NE(errorOf("[[system]]\n[system.size_over_lifetime]\ncurve = [[0.5, 1], [0.2, 1]]\n").find("ascend"),
             std::string::npos);
   EXPECT_NE(errorOf("[[system]]\n[system.size_over_lifetime]\ncurve = [[1.5, 1]]\n").find("fx.toml:3:"),

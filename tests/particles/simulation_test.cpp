@@ -35,7 +35,13 @@ void run(ParticlePool& pool, int steps) {
   for (int i = 0; i < steps; ++i) stepPool(pool, kDt);
 }
 
-const sio::Particle& oldest(const ParticlePool& pool) { return pool.instances[pool.active.at(0)]; }
+// The first particle emitted (spawn index 0).
+const sio::Particle& oldest(const ParticlePool& pool) {
+  for (uint32_t i = 0; i < pool.live; ++i)
+    if (pool.instances[i].id == 0) return pool.instances[i];
+  ADD_FAILURE() << "particle 0 is not alive";
+  return pool.instances.at(0);
+}
 
 TEST(ParticleSim, ConstantVelocity) {
   SystemDef s = pointSystem(2.0f, 100.0f);
@@ -81,8 +87,8 @@ TEST(ParticleSim, ForceAccelerates) {
   s.forceOverLifetime.max = glm::vec3(1.0f, 0.0f, 3.0f);
   ParticlePool random = makePool(s, kDt);
   run(random, 31);
-  for (uint32_t slot : random.active) {
-    const sio::Particle& q = random.instances[slot];
+  for (uint32_t i = 0; i < random.live; ++i) {
+    const sio::Particle& q = random.instances[i];
     if (q.age <= 0.0f) continue;
     glm::vec3 a = q.velocity / q.age;
     EXPECT_LE(std::abs(a.x), 1.0f + 1e-3f);
@@ -148,7 +154,7 @@ TEST(ParticleSim, RotationAndSheetFrame) {
 uint64_t liveAfter(const SystemDef& s, double seconds) {
   ParticlePool pool = makePool(s, kDt);
   run(pool, int(std::lround(seconds / kDt)));
-  return pool.active.size();
+  return pool.live;
 }
 
 TEST(ParticleSim, EmissionCounts) {
@@ -165,7 +171,7 @@ TEST(ParticleSim, EmissionCounts) {
   EXPECT_EQ(liveAfter(s, 1.0), 50u);
   s.startDelay = 0.0f;
   s.prewarm = true; // one whole cycle has run before the first step
-  EXPECT_EQ(makePool(s, kDt).active.size(), 200u);
+  EXPECT_EQ(makePool(s, kDt).live, 200u);
   EXPECT_EQ(liveAfter(s, 1.0), 300u);
 }
 
@@ -182,20 +188,18 @@ TEST(ParticleSim, MaxParticlesAndNoAllocationAfterWarmUp) {
   s.rateOverTime = 3000.0f;
   s.maxParticles = 1000;
   ParticlePool pool = makePool(s, kDt);
-  const void* buffers[] = {pool.instances.data(), pool.active.data(), pool.inactive.data(), pool.scratch.data()};
-  size_t capacities[] = {pool.instances.capacity(), pool.active.capacity(), pool.inactive.capacity(),
-                         pool.scratch.capacity()};
+  const void* buffers[] = {pool.instances.data(), pool.dead.data(), pool.chunkDead.data()};
+  size_t capacities[] = {pool.instances.capacity(), pool.dead.capacity(), pool.chunkDead.capacity()};
   for (int i = 0; i < 200; ++i) {
     stepPool(pool, kDt);
-    ASSERT_LE(pool.active.size(), 1000u);
-    ASSERT_EQ(pool.active.size() + pool.inactive.size(), 1000u);
+    ASSERT_LE(pool.live, 1000u);
+    ASSERT_EQ(pool.instances.size(), 1000u);
   }
-  EXPECT_EQ(pool.active.size(), 1000u);
+  EXPECT_EQ(pool.live, 1000u);
   EXPECT_GT(pool.dropped, 0u);
-  const void* after[] = {pool.instances.data(), pool.active.data(), pool.inactive.data(), pool.scratch.data()};
-  size_t capacitiesAfter[] = {pool.instances.capacity(), pool.active.capacity(), pool.inactive.capacity(),
-                              pool.scratch.capacity()};
-  for (int i = 0; i < 4; ++i) {
+  const void* after[] = {pool.instances.data(), pool.dead.data(), pool.chunkDead.data()};
+  size_t capacitiesAfter[] = {pool.instances.capacity(), pool.dead.capacity(), pool.chunkDead.capacity()};
+  for (int i = 0; i < 3; ++i) {
     EXPECT_EQ(buffers[i], after[i]) << i;
     EXPECT_EQ(capacities[i], capacitiesAfter[i]) << i;
   }

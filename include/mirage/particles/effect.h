@@ -18,7 +18,9 @@ namespace mirage::particles {
 
 constexpr uint64_t kMaxEffectFileBytes = 1ull << 20;
 constexpr uint32_t kMaxSystems = 64;
-constexpr uint32_t kMaxParticlesPerSystem = 1u << 26; // 64 M: a Particle pool of 2.3 GB
+constexpr uint32_t kMaxParticlesPerSystem = 1u << 26; // 64 M: a Particle pool of 3.8 GB
+// Longest prewarm (it runs duration / dt steps at creation: bounded so a file cannot stall a run).
+constexpr float kMaxPrewarmSeconds = 60.0f;
 constexpr uint32_t kMaxCurveKeys = 8;                 // MIRAGE_PARTICLE_KEYS
 constexpr uint32_t kMaxSheetTiles = 64;               // per axis
 constexpr float kMaxCoordinate = 1e6f;
@@ -119,7 +121,8 @@ Result<EffectFile> loadEffectFile(const std::filesystem::path& path);
 Result<EffectFile> parseEffectFile(std::string_view text, const std::string& name);
 
 // Cross-field rules of a system built in code or parsed: ranges ordered, curve keys ascending,
-// prewarm only when looping and without a start delay, rows within the sheet. Error: one line
+// prewarm only when looping, without a start delay and
+// for at most kMaxPrewarmSeconds, rows within the sheet. Error: one line
 // "<key>: <problem>" (the parser prefixes file, line and system).
 Status validateSystem(const SystemDef& system);
 
