@@ -62,7 +62,14 @@ void stepPool(ParticlePool& pool, float dt) {
   uint32_t request = emitRequest(pool.def, pool.step, dt);
   uint32_t take = std::min<uint32_t>(request, uint32_t(pool.instances.size()) - live);
   pool.dropped += request - take;
-  for (uint32_t i = 0; i < take; ++i) instances[live + i] = sio::particleSpawn(pool.params, pool.nextId + i);
+  // In parallel too: a spawn (shape sample, seven random draws, trigonometry) costs more than a
+  // step, and short-lived effects replace a few percent of their particles every step.
+  sio::Particle* spawned = instances + live;
+  uint32_t firstId = pool.nextId;
+  forChunks(chunksFor(take), [&](size_t c) {
+    size_t begin = c * kChunk, end = std::min<size_t>(take, begin + kChunk);
+    for (size_t i = begin; i < end; ++i) spawned[i] = sio::particleSpawn(pool.params, firstId + uint32_t(i));
+  });
   pool.nextId += take;
   pool.live = live + take;
   ++pool.step;
