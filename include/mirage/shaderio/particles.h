@@ -10,7 +10,6 @@
 #ifdef __cplusplus
 #include <cstdint>
 #include <glm/glm.hpp>
-#include <glm/gtc/packing.hpp>
 namespace mirage::shaderio {
 using glm::abs;
 using glm::clamp;
@@ -22,7 +21,6 @@ using glm::max;
 using glm::min;
 using glm::mix;
 using glm::normalize;
-using glm::packUnorm4x8;
 using glm::pow;
 using glm::sin;
 using glm::sqrt;
@@ -145,7 +143,7 @@ struct RenderParticle {
   vec3 position;  // world space, billboard centre
   float size;     // world units, the billboard's edge
   float rotation; // radians about the view axis
-  uint color;     // RGBA8 (packUnorm4x8: r in the low byte), straight alpha
+  uint color;     // RGBA8 (particlePackColor: r in the low byte), straight alpha
   uint frame;     // texture sheet tile, row-major from the top left
   uint id;        // spawn index (stable order for sorting ties)
 };
@@ -186,10 +184,20 @@ MIRAGE_SHARED uint particleHash(uint v) {
   return (word >> 22u) ^ word;
 }
 
-// A uniform number in [0, 1) (24 bits) for one attr of one particle.
+// A uniform number in [0, 1) (24 bits) for one attribute of one particle: a particle key
+// hash(seed ^ hash(id)), which the compiler computes once for all of a particle's draws, then one
+// hash per attribute.
 MIRAGE_SHARED float particleRandom(uint seed, uint id, uint attr) {
-  uint h = particleHash(seed ^ particleHash(id ^ particleHash(attr * 0x9E3779B9u)));
+  uint key = particleHash(seed ^ particleHash(id));
+  uint h = particleHash(key ^ (attr * 0x9E3779B9u));
   return float(h >> 8u) * (1.0f / 16777216.0f);
+}
+
+// RGBA8 with r in the low byte, each channel round(clamp(c, 0, 1) * 255) as floor(x + 0.5): the
+// same on both sides without a rounding library call on the CPU.
+MIRAGE_SHARED uint particlePackColor(vec4 c) {
+  vec4 v = clamp(c, vec4(0.0f), vec4(1.0f)) * 255.0f + vec4(0.5f);
+  return uint(v.x) | (uint(v.y) << 8u) | (uint(v.z) << 16u) | (uint(v.w) << 24u);
 }
 
 MIRAGE_SHARED float particleRange(vec2 range, uint seed, uint id, uint attr) {
@@ -347,7 +355,7 @@ MIRAGE_SHARED RenderParticle particleRender(MIRAGE_IN(ParticleParams) e, MIRAGE_
     float s = (length(p.velocity) - e.speedRange.x) / max(e.speedRange.y - e.speedRange.x, 1e-9f);
     c *= particleGradient(e, true, clamp(s, 0.0f, 1.0f));
   }
-  r.color = packUnorm4x8(clamp(c, vec4(0.0f), vec4(1.0f)));
+  r.color = particlePackColor(c);
   uint frames = e.sheetMode == MIRAGE_SHEET_ROW ? e.tiles.x : e.tiles.x * e.tiles.y;
   float start = floor(particleRange(e.startFrame, e.seed, p.id, MIRAGE_RND_FRAME));
   uint frame = uint(start + floor(t * e.sheetCycles * float(frames))) % frames;
