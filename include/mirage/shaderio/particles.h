@@ -175,7 +175,7 @@ struct ParticleCounters {
   uint live;      // slots written by the output pass (compacted)
 };
 
-// ---- Random numbers: a counter-based hash of (seed, particle id, attr). ----
+// ---- Random numbers: a counter-based hash of (seed, particle id, attribute). ----
 
 // PCG-style integer hash (Jarzynski and Olano 2020, "Hash functions for GPU rendering").
 MIRAGE_SHARED uint particleHash(uint v) {
