@@ -170,8 +170,9 @@ EffectFile scaleEffect(const EffectFile& effect, uint64_t count) {
   uint64_t given = 0;
   for (size_t i = 0; i < out.systems.size(); ++i) {
     SystemDef& s = out.systems[i];
-    uint64_t share =
-        i + 1 == out.systems.size() ? count - given : count * s.maxParticles / std::max<uint64_t>(total, 1);
+    // The last system takes what is left (none left when the others already got their minimum of 1).
+    uint64_t share = i + 1 == out.systems.size() ? (count > given ? count - given : 1)
+                                                 : count * s.maxParticles / std::max<uint64_t>(total, 1);
     share = std::clamp<uint64_t>(share, 1, kMaxParticlesPerSystem);
     given += share;
     s.maxParticles = uint32_t(share);

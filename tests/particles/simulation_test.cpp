@@ -245,6 +245,18 @@ TEST(ParticleSim, ScaledEffectFillsItsPools) {
   EXPECT_EQ(liveParticles(sim), 5000u);
 }
 
+// Fewer particles than systems: every system gets at least one, and the last one's remainder
+// must not underflow (it would clamp to 2^26 particles, gigabytes of pool).
+TEST(ParticleSim, ScaledEffectWithFewerParticlesThanSystems) {
+  EffectFile fx = scaleEffect(example("fire.toml"), 1);
+  ASSERT_EQ(fx.systems.size(), 3u);
+  for (const SystemDef& s : fx.systems) EXPECT_EQ(s.maxParticles, 1u) << s.name;
+  fx = scaleEffect(example("fire.toml"), 2200); // the file's own proportions: 1500, 300, 400
+  EXPECT_EQ(fx.systems[0].maxParticles, 1500u);
+  EXPECT_EQ(fx.systems[1].maxParticles, 300u);
+  EXPECT_EQ(fx.systems[2].maxParticles, 400u);
+}
+
 TEST(ParticleSheet, GeneratedDeterministicAndShaped) {
   for (const char* kind : {"puff", "spark", "flame", "drop", "none"}) {
     auto a = generateSheet(kind, 4, 2, 32), b = generateSheet(kind, 4, 2, 32);
