@@ -21,8 +21,8 @@ constexpr uint32_t kMaxSystems = 64;
 constexpr uint32_t kMaxParticlesPerSystem = 1u << 26; // 64 M: a Particle pool of 3.8 GB
 // Longest prewarm (it runs duration / dt steps at creation: bounded so a file cannot stall a run).
 constexpr float kMaxPrewarmSeconds = 60.0f;
-constexpr uint32_t kMaxCurveKeys = 8;                 // MIRAGE_PARTICLE_KEYS
-constexpr uint32_t kMaxSheetTiles = 64;               // per axis
+constexpr uint32_t kMaxCurveKeys = 8;   // MIRAGE_PARTICLE_KEYS
+constexpr uint32_t kMaxSheetTiles = 64; // per axis
 constexpr float kMaxCoordinate = 1e6f;
 constexpr float kMaxSeconds = 1e5f;
 
