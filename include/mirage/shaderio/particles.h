@@ -251,7 +251,8 @@ MIRAGE_SHARED void particleShapeSample(MIRAGE_IN(ParticleParams) e, uint id, MIR
   } else if (e.shape == MIRAGE_SHAPE_BOX) {
     vec3 p = vec3(u0, u1, u2) - vec3(0.5f);
     if (e.boxMode != MIRAGE_BOX_VOLUME) {
-      // Push the largest coordinate onto its face (shell), then the second largest too (edge).
+      // Push the largest coordinate onto its face (shell), then the second largest too (edge). Faces
+      // are picked as in the unit cube (equally per axis), not in proportion to the box's face areas.
       uint axis = abs(p.x) >= abs(p.y) && abs(p.x) >= abs(p.z) ? 0u : (abs(p.y) >= abs(p.z) ? 1u : 2u);
       p[axis] = p[axis] < 0.0f ? -0.5f : 0.5f;
       if (e.boxMode == MIRAGE_BOX_EDGE) {
