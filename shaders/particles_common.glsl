@@ -12,3 +12,9 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer ParticlesRef
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer UintRef { uint v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CountersRef { ParticleCounters c; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer RenderRef { RenderParticle v[]; };
+
+// The invocation's index over a dispatch of up to 65535 x N groups (cmdPass splits large counts
+// into rows: 65535 is the smallest maxComputeWorkGroupCount[0] Vulkan allows).
+uint particleIndex() {
+  return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * MIRAGE_PARTICLE_GROUP + gl_LocalInvocationID.x;
+}

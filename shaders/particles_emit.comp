@@ -5,7 +5,7 @@
 #include "particles_common.glsl"
 
 void main() {
-  uint i = gl_GlobalInvocationID.x;
+  uint i = particleIndex();
   CountersRef counters = CountersRef(push.counters);
   uint n = min(push.emit, counters.c.deadCount);
   if (i == 0u) counters.c.emitted = n;

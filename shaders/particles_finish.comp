@@ -3,7 +3,7 @@
 #include "particles_common.glsl"
 
 void main() {
-  if (gl_GlobalInvocationID.x != 0u) return;
+  if (particleIndex() != 0u) return;
   CountersRef counters = CountersRef(push.counters);
   counters.c.deadCount -= counters.c.emitted;
   counters.c.nextId += counters.c.emitted;

@@ -4,7 +4,7 @@
 #include "particles_common.glsl"
 
 void main() {
-  uint slot = gl_GlobalInvocationID.x;
+  uint slot = particleIndex();
   if (slot >= push.capacity || UintRef(push.alive).v[slot] == 0u) return;
   uint index = atomicAdd(CountersRef(push.counters).c.live, 1u);
   RenderRef(push.render).v[index] = particleRender(ParamsRef(push.params).p, ParticlesRef(push.particles).v[slot]);

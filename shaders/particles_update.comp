@@ -4,7 +4,7 @@
 #include "particles_common.glsl"
 
 void main() {
-  uint slot = gl_GlobalInvocationID.x;
+  uint slot = particleIndex();
   if (slot >= push.capacity) return;
   UintRef alive = UintRef(push.alive);
   if (alive.v[slot] == 0u) return;

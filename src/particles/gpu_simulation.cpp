@@ -34,6 +34,10 @@ void cmdComputeBarrier(VkCommandBuffer cmd) {
 
 uint32_t groupsFor(uint32_t threads) { return (threads + MIRAGE_PARTICLE_GROUP - 1) / MIRAGE_PARTICLE_GROUP; }
 
+// Work groups per dispatch row: Vulkan guarantees 65535 in x; larger pools dispatch several rows
+// (particleIndex in particles_common.glsl).
+constexpr uint32_t kMaxGroupsPerRow = 65535;
+
 } // namespace
 
 GpuSimulation::GpuSimulation(gpu::Context& context, const EffectFile& effect, float dt) : context_(context), dt_(dt) {
@@ -108,7 +112,8 @@ void GpuSimulation::cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const Syst
   p.dt = dt_;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(p), &p);
-  vkCmdDispatch(cmd, groupsFor(threads), 1, 1);
+  uint32_t groups = groupsFor(threads), rows = (groups + kMaxGroupsPerRow - 1) / kMaxGroupsPerRow;
+  vkCmdDispatch(cmd, std::min(groups, kMaxGroupsPerRow), rows, 1);
 }
 
 void GpuSimulation::cmdStep(VkCommandBuffer cmd) {
