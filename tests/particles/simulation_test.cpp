@@ -55,7 +55,7 @@ TEST(ParticleSim, ConstantVelocity) {
   EXPECT_NEAR(t, 119 * kDt, 1e-4f); // emitted at the end of step 0, aged by the 119 steps after it
   glm::vec3 expected = s.position + glm::vec3(0.5f, 2.0f, 0.0f) * t;
   EXPECT_NEAR(glm::length(p.position - expected), 0.0f, 1e-4f);
-  EXPECT_EQ(p.velocity, glm::vec3(0.0f, 2.0f, 0.0f)); // velocity over lifetime is not integrated
+  EXPECT_EQ(p.velocity, glm::vec3(0.5f, 2.0f, 0.0f)); // start velocity + velocity over lifetime, no acceleration
 }
 
 TEST(ParticleSim, GravityFollowsSemiImplicitEuler) {
