@@ -34,12 +34,16 @@ void runBenchParticles(const BenchParticlesOptions& o) {
   particles::BenchResult r;
   std::string device = "cpu";
   if (o.sim == "cpu") {
-    r = particles::benchCpu(*effect, bo);
+    auto result = particles::benchCpu(*effect, bo);
+    if (!result) return fail(result.error());
+    r = *result;
     device = fmt::format("cpu ({} threads)", r.threads);
   } else {
     auto ctx = openDevice(o.device);
     if (!ctx) return fail(ctx.error());
-    r = particles::benchGpu(**ctx, *effect, bo);
+    auto result = particles::benchGpu(**ctx, *effect, bo);
+    if (!result) return fail(result.error());
+    r = *result;
     device = (*ctx)->caps().name;
   }
   if (o.json) {

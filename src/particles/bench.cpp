@@ -6,7 +6,9 @@
 #include <numeric>
 #include <vector>
 
+#include <fmt/format.h>
 #include <tbb/info.h>
+#include <unistd.h>
 
 #include "mirage/particles/simulation.h"
 
@@ -20,7 +22,17 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 } // namespace
 
-BenchResult benchCpu(const EffectFile& effect, const BenchOptions& o) {
+Status checkParticleMemory(uint64_t count, uint64_t bytesPerParticle, uint64_t available, const char* where) {
+  uint64_t need = count * bytesPerParticle;
+  if (need > available)
+    return Error{fmt::format("{} particles need {:.1f} GB, more than the {:.1f} GB of {} a bench may use", count,
+                             double(need) / 1e9, double(available) / 1e9, where)};
+  return Ok{};
+}
+
+Result<BenchResult> benchCpu(const EffectFile& effect, const BenchOptions& o) {
+  uint64_t physical = uint64_t(sysconf(_SC_PHYS_PAGES)) * uint64_t(sysconf(_SC_PAGE_SIZE));
+  if (Status s = checkParticleMemory(o.count, kCpuBytesPerParticle, physical / 2, "host memory"); !s) return s.error();
   EffectFile scaled = scaleEffect(effect, o.count);
   BenchResult r;
   r.threads = uint32_t(tbb::info::default_concurrency());

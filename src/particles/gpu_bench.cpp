@@ -11,7 +11,14 @@
 
 namespace mirage::particles {
 
-BenchResult benchGpu(gpu::Context& context, const EffectFile& effect, const BenchOptions& o) {
+Result<BenchResult> benchGpu(gpu::Context& context, const EffectFile& effect, const BenchOptions& o) {
+  VkPhysicalDeviceMemoryProperties memory{};
+  vkGetPhysicalDeviceMemoryProperties(context.physicalDevice(), &memory);
+  uint64_t heap = 0;
+  for (uint32_t i = 0; i < memory.memoryHeapCount; ++i)
+    if (memory.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
+      heap = std::max(heap, memory.memoryHeaps[i].size);
+  if (Status s = checkParticleMemory(o.count, kGpuBytesPerParticle, heap / 2, "device memory"); !s) return s.error();
   EffectFile scaled = scaleEffect(effect, o.count);
   BenchResult r;
   GpuSimulation sim(context, scaled, o.dt);

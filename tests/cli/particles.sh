@@ -18,6 +18,10 @@ also_fixed='"max_particles" = -3' expect_fail bench-negative-line "negative.toml
   bench particles "$tmp/negative.toml" --count 10 --steps 1
 expect_fail bench-missing "missing.toml: no such file" "" -- bench particles "$tmp/missing.toml" --count 10
 
+# A count no memory holds: one line, no attempt (2^30 particles need some 90 GB).
+expect_fail bench-too-many "GB, more than the" "" -- bench particles "$source_dir/examples/particles/fire.toml" \
+  --count 1073741824 --steps 1
+
 for sim in cpu gpu; do
   if expect_ok "bench-$sim" bench particles "$source_dir/examples/particles/fire.toml" --count 3000 --steps 3 \
     --sim "$sim" --json; then

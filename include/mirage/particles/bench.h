@@ -5,7 +5,9 @@
 #include <cstdint>
 #include <string>
 
+#include "mirage/core/result.h"
 #include "mirage/particles/effect.h"
+#include "mirage/shaderio/particles.h"
 
 namespace mirage::particles {
 
@@ -25,6 +27,15 @@ struct BenchResult {
   uint32_t threads = 0;  // CPU: worker threads available to oneTBB
 };
 
-BenchResult benchCpu(const EffectFile& effect, const BenchOptions& options);
+// Bytes a pool needs per particle: CPU (state, death list, render record), GPU (state, alive flag,
+// dead stack, render record).
+constexpr uint64_t kCpuBytesPerParticle = sizeof(shaderio::Particle) + 4 + sizeof(shaderio::RenderParticle);
+constexpr uint64_t kGpuBytesPerParticle = sizeof(shaderio::Particle) + 8 + sizeof(shaderio::RenderParticle);
+// An error when `count` particles at `bytesPerParticle` exceed `available` bytes (`where` names
+// the memory): a bench of an impossible count stops with one line instead of being killed.
+Status checkParticleMemory(uint64_t count, uint64_t bytesPerParticle, uint64_t available, const char* where);
+
+// Error: more particles than half the machine's physical memory holds.
+Result<BenchResult> benchCpu(const EffectFile& effect, const BenchOptions& options);
 
 } // namespace mirage::particles

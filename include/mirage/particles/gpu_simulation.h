@@ -67,5 +67,6 @@ struct BenchOptions;
 struct BenchResult;
 // `mirage bench particles --sim gpu`: the effect scaled and filled as benchCpu does, then each
 // timed step in its own submission between timestamp queries (GPU time of the three passes).
-BenchResult benchGpu(gpu::Context& context, const EffectFile& effect, const BenchOptions& options);
+// Error: more particles than half the largest device-local heap holds.
+Result<BenchResult> benchGpu(gpu::Context& context, const EffectFile& effect, const BenchOptions& options);
 } // namespace mirage::particles
