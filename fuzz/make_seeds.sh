@@ -12,7 +12,10 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out"
 cp -r "$src"/fuzz/seeds/. "$out"/
-for t in ply obj gltf scen cdag surf pvs tmap meta mrg cells gvs_config camera_path material_file; do mkdir -p "$out/$t"; done
+for t in ply obj gltf scen cdag surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file; do
+  mkdir -p "$out/$t"
+done
+cp "$src"/examples/particles/*.toml "$out/effect_file/"
 
 q() { "$mirage" "$@" >/dev/null; }
 q gen blob --size 1 -o "$out/gltf/blob1.glb"

@@ -390,6 +390,7 @@ void addBenchCommand(CLI::App& app) {
   addBenchSurfelsSortCommand(*bench);
   addBenchSurfelsSamplerCommand(*bench);
   addBenchSurfelPointsCommand(*bench);
+  addBenchParticlesCommand(*bench);
 }
 
 } // namespace mirage::cli

@@ -24,6 +24,8 @@ void addBenchSurfelsSortCommand(CLI::App& bench);
 void addBenchSurfelsSamplerCommand(CLI::App& bench);
 // mirage bench surfels-points SCAN.ply (cmd_bench_surfel_points.cpp), added under `bench`.
 void addBenchSurfelPointsCommand(CLI::App& bench);
+// mirage bench particles FX.toml --count N --sim cpu|gpu (cmd_bench_particles.cpp), added under `bench`.
+void addBenchParticlesCommand(CLI::App& bench);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.
