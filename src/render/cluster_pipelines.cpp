@@ -52,7 +52,7 @@ void ClusterRenderer::Impl::createPipelines() {
   occlusionPipeline = createComputePipeline(ctx, "cluster_occlusion.comp", layout);
   instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
-  resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
+  resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout, scene.resolveSpecialization);
   // Compute rasterizers (cluster_raster.glsl), specialized by eyes and workgroup size: stereo
   // draws both eyes with twice the threads.
   const uint32_t kMono[] = {1, MIRAGE_CLUSTER_WORKGROUP}, kStereo[] = {2, 2 * MIRAGE_CLUSTER_WORKGROUP};
