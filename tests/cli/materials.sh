@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Material files on the CLI (docs/shading.md): `render --materials` and `info --materials`; a bad
-# material file gets one line naming file, line and key, exit 2, and no image.
+# Material files on the CLI (docs/shading.md): `render --materials`, `info --materials` and
+# `build --materials` (baked into the .mrg); a bad material file gets one line naming file, line
+# and key, exit 2, and no output.
 # Usage: materials.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -52,5 +53,26 @@ fi
 if expect_ok render-good render "$tmp/blob.glb" -o "$tmp/red.png" --size 48x32 --materials "$tmp/good.toml"; then
   expect_ok render-plain render "$tmp/blob.glb" -o "$tmp/plain.png" --size 48x32
   cmp -s "$tmp/red.png" "$tmp/plain.png" && fail "render-good: the material file changed nothing"
+fi
+
+# build --materials bakes the file's materials and light into the .mrg (SCEN chunk version 2):
+# render shows them without the flag, as render --materials does on a plain build; info says
+# where each material came from.
+expect_fail build-typo "typo.toml:3: material \"steel\"" "$tmp/typo.mrg" -- build gen:blob:2 -o "$tmp/typo.mrg" \
+  --materials "$tmp/typo.toml"
+if expect_ok build-baked build gen:blob:2 -o "$tmp/baked.mrg" --materials "$tmp/good.toml" --quiet &&
+  expect_ok build-plain build gen:blob:2 -o "$tmp/plain.mrg" --quiet &&
+  expect_ok render-baked render "$tmp/baked.mrg" -o "$tmp/baked.png" --size 48x32 &&
+  expect_ok render-applied render "$tmp/plain.mrg" -o "$tmp/applied.png" --size 48x32 --materials "$tmp/good.toml" &&
+  expect_ok render-plain-mrg render "$tmp/plain.mrg" -o "$tmp/plain_mrg.png" --size 48x32; then
+  check baked-equals-applied cmp -s "$tmp/baked.png" "$tmp/applied.png"
+  cmp -s "$tmp/baked.png" "$tmp/plain_mrg.png" && fail "render-baked: the baked material file changed nothing"
+  if expect_ok info-baked info "$tmp/baked.mrg"; then
+    grep -q "\"red\": blinn-phong, OPAQUE, [1-9][0-9]* mesh(es), from $tmp/good.toml:1 (baked)" "$tmp/stdout" &&
+      grep -q "point lights 1" "$tmp/stdout" || fail "info-baked: no baked origin or light: $(cat "$tmp/stdout")"
+  fi
+  if expect_ok info-plain-mrg info "$tmp/plain.mrg"; then
+    grep -q "point lights\|(baked)" "$tmp/stdout" && fail "info-plain-mrg: lists baked materials: $(cat "$tmp/stdout")"
+  fi
 fi
 finish materials
