@@ -71,6 +71,15 @@ if expect_ok build-baked build gen:blob:2 -o "$tmp/baked.mrg" --materials "$tmp/
     grep -q "\"red\": blinn-phong, OPAQUE, [1-9][0-9]* mesh(es), from $tmp/good.toml:1 (baked)" "$tmp/stdout" &&
       grep -q "point lights 1" "$tmp/stdout" || fail "info-baked: no baked origin or light: $(cat "$tmp/stdout")"
   fi
+  # One changed byte in the SCEN payload (the first chunk: its offset at table entry 0, byte 8):
+  # the chunk's checksum rejects the file with one line naming it.
+  cp "$tmp/baked.mrg" "$tmp/corrupt.mrg"
+  at=$(($(od -An -tu8 -j72 -N8 "$tmp/corrupt.mrg") + 20))
+  byte=$(od -An -tu1 -j"$at" -N1 "$tmp/corrupt.mrg")
+  printf "\\$(printf '%03o' $(((byte + 1) % 256)))" | dd of="$tmp/corrupt.mrg" bs=1 seek="$at" conv=notrunc 2>/dev/null
+  expect_fail render-corrupt-scen "corrupt.mrg: chunk 0 .SCEN. checksum mismatch" "$tmp/corrupt.png" -- render "$tmp/corrupt.mrg" -o "$tmp/corrupt.png" \
+    --size 48x32
+  expect_fail info-corrupt-scen "corrupt.mrg" "" -- info "$tmp/corrupt.mrg"
   if expect_ok info-plain-mrg info "$tmp/plain.mrg"; then
     grep -q "point lights\|(baked)" "$tmp/stdout" && fail "info-plain-mrg: lists baked materials: $(cat "$tmp/stdout")"
   fi
