@@ -84,4 +84,22 @@ if expect_ok build-baked build gen:blob:2 -o "$tmp/baked.mrg" --materials "$tmp/
     grep -q "point lights\|(baked)" "$tmp/stdout" && fail "info-plain-mrg: lists baked materials: $(cat "$tmp/stdout")"
   fi
 fi
+
+# A glTF's KHR_lights_punctual point lights are baked too, also when build merges several inputs.
+printf '\0\0\0\0\0\0\0\0\0\0\0\0\0\0\200\77\0\0\0\0\0\0\0\0\0\0\0\0\0\0\200\77\0\0\0\0' >"$tmp/t.bin"
+cat >"$tmp/lights.gltf" <<'JSON'
+{"asset": {"version": "2.0"}, "extensionsUsed": ["KHR_lights_punctual"],
+ "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 4, "range": 7}]}},
+ "nodes": [{"mesh": 0, "children": [1]}, {"translation": [0, 1, 1], "extensions": {"KHR_lights_punctual": {"light": 0}}}],
+ "scenes": [{"nodes": [0]}], "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+ "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+ "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"uri": "t.bin", "byteLength": 36}]}
+JSON
+for inputs in "$tmp/lights.gltf" "$tmp/lights.gltf gen:blob:1"; do
+  # shellcheck disable=SC2086
+  if expect_ok "build-gltf-lights $inputs" build $inputs -o "$tmp/lights.mrg" --quiet &&
+    expect_ok "info-gltf-lights $inputs" info "$tmp/lights.mrg"; then
+    grep -q "point lights 1" "$tmp/stdout" || fail "build $inputs: the glTF's light is not baked: $(cat "$tmp/stdout")"
+  fi
+done
 finish materials
