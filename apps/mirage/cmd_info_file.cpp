@@ -285,7 +285,8 @@ void infoFile(const std::string& path, bool json, const std::string& materials) 
                         {"materials", s.materials.size()},
                         {"materials_mask", mask},
                         {"materials_blend", blend},
-                        {"textures", s.textures.size()}};
+                        {"textures", s.textures.size()},
+                        {"lights", s.lights.size()}};
     j.update(boundsJson(b));
     if (!materials.empty()) j["material_list"] = materialList(s, path, false);
     fmt::print("{}\n", j.dump(2));
@@ -300,6 +301,7 @@ void infoFile(const std::string& path, bool json, const std::string& materials) 
   fmt::print("  meshes {}  instances {}  triangles {} ({} instanced)  vertices {}\n", s.meshes.size(),
              s.instances.size(), s.meshTriangleCount(), s.instancedTriangleCount(), vertices);
   fmt::print("  materials {} ({} mask, {} blend)  textures {}\n", s.materials.size(), mask, blend, s.textures.size());
+  if (!s.lights.empty()) fmt::print("  point lights {} (the file's and the material file's)\n", s.lights.size());
   fmt::print("  bounds {}\n", boundsText(b));
   if (materials.empty()) return;
   printMaterialList(materialList(s, path, false));

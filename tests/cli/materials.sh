@@ -102,4 +102,8 @@ for inputs in "$tmp/lights.gltf" "$tmp/lights.gltf gen:blob:1"; do
     grep -q "point lights 1" "$tmp/stdout" || fail "build $inputs: the glTF's light is not baked: $(cat "$tmp/stdout")"
   fi
 done
+# info on the scene file counts its lights, and the material file's.
+if expect_ok info-gltf-lights info "$tmp/lights.gltf" --materials "$tmp/good.toml"; then
+  grep -q "point lights 2" "$tmp/stdout" || fail "info-gltf-lights: $(cat "$tmp/stdout")"
+fi
 finish materials
