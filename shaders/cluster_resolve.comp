@@ -85,8 +85,8 @@ void resolvePixel(ivec2 target) {
     setHistoryBitAt(f.instanceHistoryBase + vc.instance);
   }
   vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
-  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
-                          f.groundAmbient.rgb);
+  vec3 rgb = shadeSurfaceLights(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir,
+                                f.skyAmbient.rgb, f.groundAmbient.rgb, f.lightAddress, f.lightCount);
   imageStore(outImage, target, vec4(rgb, 1.0));
 }
 

@@ -228,6 +228,8 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.fadeAddress = fade.address();
     f.surfelLinkAddress = surfelLink.address();
   }
+  f.lightAddress = scene.lights.address();
+  f.lightCount = scene.lightCount;
   f.nodeAddress = scene.lodNodes.address();
   f.leafClusterAddress = scene.leafClusters.address();
   f.traversalAddress = traversal.address();

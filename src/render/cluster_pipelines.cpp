@@ -52,7 +52,7 @@ void ClusterRenderer::Impl::createPipelines() {
   occlusionPipeline = createComputePipeline(ctx, "cluster_occlusion.comp", layout);
   instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
-  resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout);
+  resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout, scene.resolveSpecialization);
   // Compute rasterizers (cluster_raster.glsl), specialized by eyes and workgroup size: 128 threads
   // per eye (one round over a cluster's triangles; measured on an H100 against 32, 64 and 256:
   // 64 threads took 79 registers, 128 take 64, so more warps hide the walks' latency); stereo

@@ -255,7 +255,10 @@ struct ClusterFrame {
   // Stereo, left eye frame: the right eye's clip x minus the left eye's for every world point (the
   // eyes share the projection and differ by a view-space x translation, so clip y, z, w agree).
   float stereoClipDx;
-  uint pad1, pad2, pad3;
+  // Point lights (docs/shading.md): read through their own buffer, not copied into the frame, so
+  // the resolve loads only the count unless a scene has lights.
+  uint lightCount;
+  uint64_t lightAddress; // GpuPointLight[lightCount]
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end

@@ -36,6 +36,9 @@ using uint = uint32_t;
 #define MIRAGE_MAP_DETAIL_NORMAL 6
 #define MIRAGE_MAP_DETAIL_MASK 7
 #define MIRAGE_MATERIAL_MAPS 8
+// constant_id of shading.glsl's kMaterialMaps (bit MIRAGE_MAP_k: the pipeline may meet map k). Not
+// used by any other shader that includes shading.glsl (cluster_raster.glsl's kEyes is 0).
+#define MIRAGE_SPEC_MATERIAL_MAPS 4
 
 // One vertex as the vertex input reads it (52 bytes, tightly packed).
 struct GpuVertex {
