@@ -90,6 +90,7 @@ void runBenchRender(const BenchRenderOptions& o) {
   view.camera = render::autoCamera((*scene)->bounds(), float(width) / float(height));
   view.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   view.stereoIpd = o.stereo.ipdOrNone();
+  view.config = o.config; // --oit (the cluster-LOD options were refused above)
 
   std::vector<std::vector<gpu::PassTime>> frames;
   std::vector<double> wall;
@@ -124,6 +125,10 @@ void runBenchRender(const BenchRenderOptions& o) {
     for (const auto& t : times) j["gpu_ms"][t.name] = t.milliseconds;
     if (frameMs > 0) j["triangles_per_second"] = double(triangles) / (frameMs * 1e-3);
     j["fragment_invocations"] = lastStats.pipeline.fragmentInvocations;
+    j["oit"] = render::toString(o.config.oit);
+    j["msl"] = lastStats.oit.msl;
+    j["oit_dropped"] = lastStats.oit.dropped();
+    j["oit_fragments"] = lastStats.oit.fragments;
     fmt::print("{}\n", j.dump(2));
     return;
   }
@@ -133,6 +138,9 @@ void runBenchRender(const BenchRenderOptions& o) {
   for (const auto& t : times) fmt::print("  gpu {:<8} {:9.3f} ms (median)\n", t.name, t.milliseconds);
   if (frameMs > 0) fmt::print("  {:.1f} M triangles/s (GPU frame time)\n", double(triangles) / (frameMs * 1e-3) * 1e-6);
   fmt::print("  wall per frame incl. readback {:.2f} ms (median)\n", wall[wall.size() / 2]);
+  if (lastStats.oit.fragments)
+    fmt::print("  oit {}: {} fragments  msl {:.3f}  oit_dropped {}\n", render::toString(o.config.oit),
+               lastStats.oit.fragments, lastStats.oit.msl, lastStats.oit.dropped());
 }
 
 struct BenchImportOptions {
