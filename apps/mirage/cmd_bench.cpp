@@ -12,6 +12,7 @@
 #include "commands.h"
 #include <algorithm>
 #include <filesystem>
+#include <optional>
 
 #include <unistd.h>
 
@@ -41,7 +42,7 @@ struct BenchRenderOptions {
   bool json = false;
   std::string path;       // .mrg only: camera path, each camera timed once
   bool baselines = false; // .mrg only: brute force + discrete LOD chain in the same run
-  std::string camera;     // .mrg only: empty = auto 3/4 view
+  std::string camera;     // empty = auto 3/4 view
   runtime::RenderConfig config;
   BenchSweeps sweeps;
   RenderConfigOptions given;
@@ -73,7 +74,12 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .frameTime = o.targetMs->count() ? std::optional(o.frameTime) : std::nullopt};
     return runLodBench(r);
   }
-  if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
+  std::optional<render::Camera> camera; // scene files: a fixed view, e.g. layers filling the screen
+  if (!o.camera.empty()) {
+    auto c = render::parseCamera(o.camera);
+    if (!c) return fail(c.error());
+    camera = *c;
+  }
   if (o.targetMs->count()) return fail("bench render --target-ms applies to .mrg cluster-LOD assets only");
   if (!o.scene.pvs.empty())
     return fail("bench render --pvs applies to .mrg cluster-LOD assets (scene files: mirage bench pvs)");
@@ -87,7 +93,7 @@ void runBenchRender(const BenchRenderOptions& o) {
   runtime::View view;
   view.width = width;
   view.height = height;
-  view.camera = render::autoCamera((*scene)->bounds(), float(width) / float(height));
+  view.camera = camera ? *camera : render::autoCamera((*scene)->bounds(), float(width) / float(height));
   view.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   view.stereoIpd = o.stereo.ipdOrNone();
   view.config = o.config; // --oit (the cluster-LOD options were refused above)
@@ -360,7 +366,7 @@ void addBenchCommand(CLI::App& app) {
   bindSceneOptions(*r, o->scene, BindMode::Bench);
   bindStereo(*r, o->stereo);
   o->targetMs = bindFrameTimeTarget(*r, o->frameTime);
-  r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
+  r->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,
               ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");

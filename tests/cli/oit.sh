@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # --oit: every mode renders a scene file of stacked blended quads (gen:layers) with msl and oit_dropped in
-# --json and --stats, and bench render reports them; bad values and modes a .mrg refuses get one line, exit 2,
-# no output.
+# --json and --stats, and bench render reports them (msl = N^2 when the camera puts all N layers over every
+# pixel); bad values and modes a .mrg refuses get one line, exit 2, no output.
 # Usage: oit.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -24,6 +24,9 @@ expect_ok render-stats render gen:layers:4 --size 32x24 -o "$tmp/s.png" --stats 
   { grep -q "msl .*oit_dropped 0" "$tmp/stdout" || fail "render-stats: no msl / oit_dropped line: $(cat "$tmp/stdout")"; }
 expect_ok bench-oit bench render gen:layers:4 --oit linked-list --size 32x24 --frames 2 --json &&
   { grep -q '"msl"' "$tmp/stdout" && grep -q '"composite"' "$tmp/stdout" || fail "bench-oit: no msl or composite time"; }
+# A camera close in front: all 4 layers over every pixel, msl exactly 16.
+expect_ok bench-oit-camera bench render gen:layers:4 --camera eye=0,0,0.6,target=0,0,0,fov=60 --size 32x24 --frames 2 \
+  --json && { grep -q '"msl": 16.0' "$tmp/stdout" || fail "bench-oit-camera: msl not 16: $(grep msl "$tmp/stdout")"; }
 
 expect_fail oit-bad "--oit" "$tmp/bad.png" -- render gen:layers:2 --oit bogus --size 32x24 -o "$tmp/bad.png"
 expect_fail bench-oit-bad "--oit" "" -- bench render gen:layers:2 --oit bogus --size 32x24 --frames 2
