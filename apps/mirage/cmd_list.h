@@ -30,7 +30,7 @@ void addBenchParticlesCommand(CLI::App& bench);
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.
 void addCompareCommand(CLI::App& app);
-// mirage gen city|terrain|blob|grid|points -o OUT.glb|OUT.ply [--seed N] [--size N]: write a procedural scene.
+// mirage gen city|terrain|blob|layers|grid|points -o OUT.glb|OUT.ply [--seed N] [--size N]: write a procedural scene.
 void addGenCommand(CLI::App& app);
 // mirage surfels INPUT -o out.ply|out.mrg [--count N] [--resolution R] [--views V] [--reference]
 void addSurfelsCommand(CLI::App& app);

@@ -180,6 +180,13 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
   lod.push_back(cmd.add_option("--fovea-radius", c.foveaRadiusDegrees, ".mrg, --fovea: fovea radius in degrees")
                     ->needs(fovea)
                     ->capture_default_str());
+  // Not in clusterLod: forward scenes take it too (cluster LOD ones refuse all but linked-list).
+  cmd.add_option("--oit", c.oit,
+                 "alpha BLEND: linked-list (per-pixel sorted lists), weighted (weighted blended, approximate; "
+                 "forward only) or sorted (every blended triangle back to front, the reference; forward only)")
+      ->type_name("NAME")
+      ->transform(enumNames(render::kOitModeNames, c.oit))
+      ->default_str(render::toString(c.oit));
   out.surfels.push_back(
       cmd.add_option("--surfel-size", c.surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str());
   if (mode == BindMode::Render) // bench render draws surfels only in mixed scenes (bench surfels: the rest)

@@ -61,11 +61,25 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
   return std::unique_ptr<Scene>(new Scene(std::move(impl)));
 }
 
+namespace {
+
+// validate() and what a scene kind's renderer refuses.
+Status checkConfig(const RenderConfig& c, SceneKind kind) {
+  if (auto st = validate(c); !st) return st.error();
+  if (c.debugView != render::DebugView::None && kind != SceneKind::ClusterLod)
+    return Error{
+        fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one", toString(kind))};
+  if (c.oit != render::OitMode::LinkedList && kind == SceneKind::ClusterLod)
+    return Error{
+        fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by linked lists only (--oit linked-list)",
+                    render::toString(c.oit))};
+  return Ok{};
+}
+
+} // namespace
+
 Result<Frame> Scene::render(const View& view) {
-  if (auto st = validate(view.config); !st) return st.error();
-  if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
-    return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
-                             toString(impl_->kind))};
+  if (auto st = checkConfig(view.config, impl_->kind); !st) return st.error();
   switch (impl_->kind) {
   case SceneKind::ClusterLod:
     return renderClusterLod(*impl_, view);
@@ -82,14 +96,14 @@ bool Scene::canRecord() const { return impl_->kind != SceneKind::Forward || !imp
 
 Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
   if (!canRecord()) return Error{"forward scenes with a PVS render through render() only, not record()"};
-  if (auto st = validate(view.config); !st) return st.error();
-  if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
-    return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
-                             toString(impl_->kind))};
+  if (auto st = checkConfig(view.config, impl_->kind); !st) return st.error();
   switch (impl_->kind) {
-  case SceneKind::Forward: return recordForward(*impl_, cmd, view, slot);
-  case SceneKind::Surfels: return recordSurfels(*impl_, cmd, view, slot);
-  case SceneKind::ClusterLod: return recordClusterLod(*impl_, cmd, view, slot);
+  case SceneKind::Forward:
+    return recordForward(*impl_, cmd, view, slot);
+  case SceneKind::Surfels:
+    return recordSurfels(*impl_, cmd, view, slot);
+  case SceneKind::ClusterLod:
+    return recordClusterLod(*impl_, cmd, view, slot);
   }
   return Error{"unknown scene kind"};
 }
@@ -97,9 +111,12 @@ Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
 Result<Frame> Scene::collect(uint32_t slot) {
   if (!canRecord()) return Error{"collect(): this scene has no record path"};
   switch (impl_->kind) {
-  case SceneKind::Forward: return collectForward(*impl_, slot);
-  case SceneKind::Surfels: return collectSurfels(*impl_, slot);
-  case SceneKind::ClusterLod: return collectClusterLod(*impl_, slot);
+  case SceneKind::Forward:
+    return collectForward(*impl_, slot);
+  case SceneKind::Surfels:
+    return collectSurfels(*impl_, slot);
+  case SceneKind::ClusterLod:
+    return collectClusterLod(*impl_, slot);
   }
   return Error{"unknown scene kind"};
 }
@@ -107,9 +124,12 @@ Result<Frame> Scene::collect(uint32_t slot) {
 const gpu::Image* Scene::colorTarget() const {
   if (!canRecord()) return nullptr;
   switch (impl_->kind) {
-  case SceneKind::Forward: return &impl_->forward->colorTarget();
-  case SceneKind::Surfels: return &impl_->surfels->colorTarget();
-  case SceneKind::ClusterLod: return &impl_->cluster->colorTarget();
+  case SceneKind::Forward:
+    return &impl_->forward->colorTarget();
+  case SceneKind::Surfels:
+    return &impl_->surfels->colorTarget();
+  case SceneKind::ClusterLod:
+    return &impl_->cluster->colorTarget();
   }
   return nullptr;
 }
