@@ -4,6 +4,8 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 
 #include <sys/stat.h>
 
@@ -22,6 +24,22 @@ std::string inputFileProblem(const std::filesystem::path& path) {
   if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "is a device, not a regular file";
   if (S_ISSOCK(st.st_mode)) return "is a socket, not a regular file";
   return "not a regular file";
+}
+
+Result<std::string> readInputText(const std::filesystem::path& path, uint64_t maxBytes, std::string_view what) {
+  std::string name = path.string();
+  if (std::string problem = inputFileProblem(path); !problem.empty()) return Error{name + ": " + problem};
+  std::error_code ec;
+  uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec) return Error{name + ": cannot read: " + ec.message()};
+  if (size > maxBytes)
+    return Error{name + ": " + std::to_string(size) + " bytes, more than " + std::string(what) + " may hold (" +
+                 std::to_string(maxBytes) + ")"};
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!in && !in.eof()) return Error{name + ": cannot read"};
+  return text.str();
 }
 
 namespace {

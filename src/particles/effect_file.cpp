@@ -3,13 +3,12 @@
 // rules live in validateSystem (effect.cpp). toml++ throws on syntax errors; the exception is
 // caught here and never leaves the library.
 #include <cmath>
-#include <fstream>
 #include <optional>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "mirage/core/input_text.h"
 #include "mirage/particles/effect.h"
 
 namespace mirage::particles {
@@ -400,17 +399,9 @@ Result<EffectFile> parseEffectFile(std::string_view text, const std::string& nam
 
 Result<EffectFile> loadEffectFile(const std::filesystem::path& path) {
   std::string name = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return Error{name + ": no such file"};
-  uint64_t size = std::filesystem::file_size(path, ec);
-  if (ec) return Error{name + ": cannot read: " + ec.message()};
-  if (size > kMaxEffectFileBytes)
-    return Error{fmt::format("{}: {} bytes, more than an effect file may hold ({})", name, size, kMaxEffectFileBytes)};
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (!in && !in.eof()) return Error{name + ": cannot read"};
-  return parseEffectFile(text.str(), name);
+  Result<std::string> text = readInputText(path, kMaxEffectFileBytes, "an effect file");
+  if (!text) return text.error();
+  return parseEffectFile(*text, name);
 }
 
 } // namespace mirage::particles

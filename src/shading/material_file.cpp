@@ -1,11 +1,10 @@
 // Material files: TOML through toml++ (Debian's libtomlplusplus), every key checked against the
 // tables below, every number range-checked, every texture decoded. toml++ throws on syntax errors;
 // the exception is caught here and never leaves the library.
+#include "mirage/core/input_text.h"
 #include "mirage/shading/material_file.h"
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
@@ -314,18 +313,9 @@ Result<MaterialFile> parseMaterialFile(std::string_view text, const std::string&
 
 Result<MaterialFile> loadMaterialFile(const std::filesystem::path& path) {
   std::string name = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return Error{name + ": no such file"};
-  uint64_t size = std::filesystem::file_size(path, ec);
-  if (ec) return Error{name + ": cannot read: " + ec.message()};
-  if (size > kMaxMaterialFileBytes)
-    return Error{
-        fmt::format("{}: {} bytes, more than a material file may hold ({})", name, size, kMaxMaterialFileBytes)};
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (!in && !in.eof()) return Error{name + ": cannot read"};
-  return parseMaterialFile(text.str(), name, path.parent_path());
+  Result<std::string> text = readInputText(path, kMaxMaterialFileBytes, "a material file");
+  if (!text) return text.error();
+  return parseMaterialFile(*text, name, path.parent_path());
 }
 
 } // namespace mirage::shading

@@ -16,7 +16,7 @@ also_fixed='unknown key "speed"' expect_fail bench-typo-line "typo.toml:3: syste
   bench particles "$tmp/typo.toml" --count 10 --steps 1
 also_fixed='"max_particles" = -3' expect_fail bench-negative-line "negative.toml:2: system 1" "" -- \
   bench particles "$tmp/negative.toml" --count 10 --steps 1
-expect_fail bench-missing "missing.toml: no such file" "" -- bench particles "$tmp/missing.toml" --count 10
+expect_fail bench-missing "missing.toml: file not found" "" -- bench particles "$tmp/missing.toml" --count 10
 
 # A count no memory holds: one line, no attempt (2^30 particles need some 90 GB).
 expect_fail bench-too-many "GB, more than the" "" -- bench particles "$source_dir/examples/particles/fire.toml" \

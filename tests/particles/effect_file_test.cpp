@@ -162,7 +162,7 @@ TEST(EffectFile, ErrorsNameFileLineAndKey) {
 TEST(EffectFile, MissingFileIsOneLine) {
   auto r = loadEffectFile("/nonexistent/fx.toml");
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().message, "/nonexistent/fx.toml: no such file");
+  EXPECT_EQ(r.error().message, "/nonexistent/fx.toml: file not found");
 }
 
 } // namespace

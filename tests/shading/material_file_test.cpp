@@ -194,7 +194,7 @@ TEST(MaterialFile, LoadNamesThePathGiven) {
   EXPECT_EQ(r.error().message, (dir / "bad.toml").string() + ":3: material \"steel\": unknown key \"roughnes\"");
   auto missing = loadMaterialFile(dir / "none.toml");
   ASSERT_FALSE(missing.ok());
-  EXPECT_EQ(missing.error().message, (dir / "none.toml").string() + ": no such file");
+  EXPECT_EQ(missing.error().message, (dir / "none.toml").string() + ": file not found");
   // Textures resolve relative to the material file, not the working directory.
   std::filesystem::create_directories(dir / "sub");
   std::ofstream(dir / "sub" / "ok.toml") << "[[material]]\nname = \"a\"\nalbedo_texture = \"../red.png\"\n";
