@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 
 #include <fmt/format.h>
 
@@ -32,12 +33,36 @@ struct MeshRange {
   Bounds bounds;
 };
 
-// Opaque and masked instances of one mesh, drawn with one instanced call.
+// The indices one draw reads: a whole mesh, or an instance's visible triangles (VisibleSet).
+struct DrawRange {
+  uint32_t mesh = 0;       // material and vertex offset
+  uint32_t firstIndex = 0; // into the bound index buffer
+  uint32_t indexCount = 0;
+};
+
+// Opaque and masked instances of one range, drawn with one instanced call.
 struct Batch {
-  uint32_t mesh = 0;
+  DrawRange range;
   bool mirrored = false; // negative-determinant transform: glTF flips the winding
   uint32_t firstInstance = 0;
   uint32_t instanceCount = 0;
+};
+
+// A blended instance's draw; the frame sorts them back to front.
+struct BlendDraw {
+  const Instance* instance = nullptr;
+  DrawRange range;
+};
+
+// The triangles setVisibleTriangles listed: per instance with any, one draw of just those, their
+// indices copied out of the scene's index buffer by the next frame recorded.
+struct VisibleSet {
+  bool active = false;
+  gpu::Buffer indices;   // each draw's indices contiguous
+  gpu::Buffer instances; // GpuInstance of each opaque draw (its firstInstance)
+  std::vector<Batch> batches;
+  std::vector<BlendDraw> blendDraws;
+  std::vector<VkBufferCopy> pendingCopies; // scene indices -> `indices`, not yet recorded
 };
 
 uint32_t packColor(const glm::vec4& c) {
@@ -64,8 +89,10 @@ struct ForwardRenderer::Impl {
   Unique<VkPipeline> opaquePipeline, blendPipeline;
   std::vector<MeshRange> meshes;
   std::vector<Material> sceneMaterials;
-  std::vector<Batch> batches;           // opaque + mask
-  std::vector<Instance> blendInstances; // sorted per frame
+  std::vector<Instance> sceneInstances; // in scene order (setVisibleTriangles' IDs count through them)
+  std::vector<Batch> batches;           // opaque + mask, the whole scene
+  std::vector<BlendDraw> blendDraws;    // the whole scene's, sorted per frame
+  VisibleSet visible;                   // drawn instead of the whole scene when active
   // The targets, shared by every slot (each frame's first barrier orders it after the earlier
   // ones); colorWidth is both eyes' in stereo.
   Image color, depth;
@@ -86,8 +113,13 @@ struct ForwardRenderer::Impl {
   void upload(const Scene& scene);
   void createPipelines();
   void ensureTargets(uint32_t colorW, uint32_t h);
-  void cmdDrawMesh(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, uint32_t mesh, bool mirrored,
-                   uint32_t firstInstance, uint32_t count, FrameStats& fs);
+  void cmdDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, const DrawRange& range,
+               bool mirrored, uint32_t firstInstance, uint32_t count, FrameStats& fs);
+  DrawRange wholeMesh(uint32_t mesh) const { return {mesh, meshes[mesh].firstIndex, meshes[mesh].indexCount}; }
+  bool isBlend(uint32_t mesh) const {
+    return sceneMaterials[std::min<size_t>(meshes[mesh].material, sceneMaterials.size() - 1)].alphaMode ==
+           AlphaMode::Blend;
+  }
   uint32_t inFlight() const {
     uint32_t mask = 0;
     for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) mask |= recorded[i] ? 1u << i : 0u;
@@ -123,7 +155,9 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
     idx.insert(idx.end(), m.indices.begin(), m.indices.end());
   }
   vertices = createBufferWithData<sio::GpuVertex>(ctx, verts, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "vertices");
-  indices = createBufferWithData<uint32_t>(ctx, idx, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, "indices");
+  // TRANSFER_SRC: a visible set's indices are copied out of it.
+  indices = createBufferWithData<uint32_t>(
+      ctx, idx, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "indices");
 
   // Materials, with texture indices into the bindless array. A material referring to a missing
   // texture falls back to the factor alone.
@@ -148,19 +182,19 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
 
   // Instances: opaque/mask ones grouped by mesh (one instanced draw each); blend ones re-sorted per
   // frame and appended after them.
+  sceneInstances = scene.instances;
   std::vector<std::vector<const Instance*>> byMesh(scene.meshes.size() * 2); // [mesh * 2 + mirrored]
-  for (const Instance& inst : scene.instances) {
+  for (const Instance& inst : sceneInstances) {
     if (inst.mesh >= scene.meshes.size()) continue;
-    const Material& mat = sceneMaterials[std::min<size_t>(scene.meshes[inst.mesh].material, sceneMaterials.size() - 1)];
-    if (mat.alphaMode == AlphaMode::Blend)
-      blendInstances.push_back(inst);
+    if (isBlend(inst.mesh))
+      blendDraws.push_back({&inst, wholeMesh(inst.mesh)});
     else
       byMesh[inst.mesh * 2 + isMirrored(inst.transform)].push_back(&inst);
   }
   std::vector<sio::GpuInstance> instanceData;
   for (uint32_t k = 0; k < byMesh.size(); ++k) {
     if (byMesh[k].empty()) continue;
-    batches.push_back({k / 2, (k & 1) != 0, uint32_t(instanceData.size()), uint32_t(byMesh[k].size())});
+    batches.push_back({wholeMesh(k / 2), (k & 1) != 0, uint32_t(instanceData.size()), uint32_t(byMesh[k].size())});
     for (const Instance* inst : byMesh[k]) instanceData.push_back(makeInstance(inst->transform));
   }
   instanceBuffer =
@@ -168,7 +202,7 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
     frames[i] =
         createBuffer(ctx, 2 * sizeof(sio::FrameData), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "frame");
-    blendOrders[i] = createBuffer(ctx, std::max<size_t>(blendInstances.size(), 1) * sizeof(sio::GpuInstance),
+    blendOrders[i] = createBuffer(ctx, std::max<size_t>(blendDraws.size(), 1) * sizeof(sio::GpuInstance),
                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "blend order");
   }
 }
@@ -207,10 +241,10 @@ void ForwardRenderer::Impl::ensureTargets(uint32_t colorW, uint32_t h) {
   height = h;
 }
 
-void ForwardRenderer::Impl::cmdDrawMesh(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
-                                        uint32_t mesh, bool mirrored, uint32_t firstInstance, uint32_t count,
-                                        FrameStats& fs) {
-  const MeshRange& r = meshes[mesh];
+void ForwardRenderer::Impl::cmdDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
+                                    const DrawRange& range, bool mirrored, uint32_t firstInstance, uint32_t count,
+                                    FrameStats& fs) {
+  const MeshRange& r = meshes[range.mesh];
   uint32_t materialIndex = std::min<uint32_t>(r.material, uint32_t(sceneMaterials.size() - 1));
   const Material& mat = sceneMaterials[materialIndex];
   sio::ForwardPush push{};
@@ -221,9 +255,9 @@ void ForwardRenderer::Impl::cmdDrawMesh(VkCommandBuffer cmd, VkDeviceAddress fra
   vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
   vkCmdSetCullMode(cmd, mat.doubleSided ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
   vkCmdSetFrontFace(cmd, mirrored ? VK_FRONT_FACE_CLOCKWISE : VK_FRONT_FACE_COUNTER_CLOCKWISE);
-  vkCmdDrawIndexed(cmd, r.indexCount, count, r.firstIndex, r.vertexOffset, firstInstance);
+  vkCmdDrawIndexed(cmd, range.indexCount, count, range.firstIndex, r.vertexOffset, firstInstance);
   fs.drawCalls++;
-  fs.trianglesSubmitted += uint64_t(r.indexCount / 3) * count;
+  fs.trianglesSubmitted += uint64_t(range.indexCount / 3) * count;
 }
 
 ForwardRenderer::ForwardRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -268,6 +302,12 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   d.retired.completed(slot); // a slot is recorded again only after its previous frame completed
   d.recorded[slot] = false;
   d.ensureTargets(s.width * eyeCount, s.height);
+  // The whole scene, or the visible set's draws (setVisibleTriangles).
+  const bool subset = d.visible.active;
+  const std::vector<Batch>& batches = subset ? d.visible.batches : d.batches;
+  const std::vector<BlendDraw>& blendDraws = subset ? d.visible.blendDraws : d.blendDraws;
+  const Buffer& indexBuffer = subset ? d.visible.indices : d.indices;
+  const VkDeviceAddress instanceAddress = subset ? d.visible.instances.address() : d.instanceBuffer.address();
 
   // Per eye its frame, with clip planes from its own position as a mono render of it has. The
   // blend instances back to front by the view depth of their bounds' centres: the eyes share the
@@ -282,14 +322,14 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
     fd[e].lightCount = d.lightCount;
   }
   std::memcpy(d.frames[slot].mapped(), fd, eyeCount * sizeof(sio::FrameData));
-  std::vector<std::pair<float, const Instance*>> order;
-  for (const Instance& inst : d.blendInstances) {
-    glm::vec3 c = transformBounds(d.meshes[inst.mesh].bounds, inst.transform).center();
-    order.push_back({(fd[0].camera.view * glm::vec4(c, 1.0f)).z, &inst}); // more negative = farther
+  std::vector<std::pair<float, const BlendDraw*>> order;
+  for (const BlendDraw& b : blendDraws) {
+    glm::vec3 c = transformBounds(d.meshes[b.range.mesh].bounds, b.instance->transform).center();
+    order.push_back({(fd[0].camera.view * glm::vec4(c, 1.0f)).z, &b}); // more negative = farther
   }
   std::stable_sort(order.begin(), order.end(), [](auto& a, auto& b) { return a.first < b.first; });
   auto* blendData = reinterpret_cast<sio::GpuInstance*>(d.blendOrders[slot].mapped());
-  for (size_t i = 0; i < order.size(); ++i) blendData[i] = makeInstance(order[i].second->transform);
+  for (size_t i = 0; i < order.size(); ++i) blendData[i] = makeInstance(order[i].second->instance->transform);
 
   FrameStats& stats = d.slotStats[slot];
   stats = {};
@@ -300,6 +340,12 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   // and transfers (colorTarget(); readbackImage).
   timer.cmdReset(cmd);
   pipelineStats.cmdReset(cmd);
+  // A new visible set's indices, copied before the barrier that orders them before the draws.
+  if (!d.visible.pendingCopies.empty()) {
+    vkCmdCopyBuffer(cmd, d.indices.handle(), d.visible.indices.handle(), uint32_t(d.visible.pendingCopies.size()),
+                    d.visible.pendingCopies.data());
+    d.visible.pendingCopies.clear();
+  }
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
@@ -337,7 +383,7 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   VkDeviceSize zero = 0;
   VkBuffer vb = d.vertices.handle();
   vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
-  vkCmdBindIndexBuffer(cmd, d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+  vkCmdBindIndexBuffer(cmd, indexBuffer.handle(), 0, VK_INDEX_TYPE_UINT32);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
   // Each eye draws into its half: its viewport and scissor, its frame.
   auto setEye = [&](uint32_t e) {
@@ -353,9 +399,8 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.opaquePipeline);
   for (uint32_t e = 0; e < eyeCount; ++e) {
     VkDeviceAddress frame = setEye(e);
-    for (const Batch& b : d.batches)
-      d.cmdDrawMesh(cmd, frame, d.instanceBuffer.address(), b.mesh, b.mirrored, b.firstInstance, b.instanceCount,
-                    stats);
+    for (const Batch& b : batches)
+      d.cmdDraw(cmd, frame, instanceAddress, b.range, b.mirrored, b.firstInstance, b.instanceCount, stats);
   }
   timer.cmdEnd(cmd, opaqueTime);
 
@@ -365,8 +410,8 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   for (uint32_t e = 0; e < eyeCount; ++e) {
     VkDeviceAddress frame = setEye(e);
     for (size_t i = 0; i < order.size(); ++i)
-      d.cmdDrawMesh(cmd, frame, d.blendOrders[slot].address(), order[i].second->mesh,
-                    isMirrored(order[i].second->transform), uint32_t(i), 1, stats);
+      d.cmdDraw(cmd, frame, d.blendOrders[slot].address(), order[i].second->range,
+                isMirrored(order[i].second->instance->transform), uint32_t(i), 1, stats);
   }
   timer.cmdEnd(cmd, blendTime);
 
@@ -396,6 +441,60 @@ Result<RenderOutput> ForwardRenderer::collect(uint32_t slot) {
 }
 
 const gpu::Image& ForwardRenderer::colorTarget() const { return impl_->color; }
+
+Status ForwardRenderer::setVisibleTriangles(const std::vector<uint32_t>* sortedIds) {
+  Impl& d = *impl_;
+  VisibleSet next;
+  if (sortedIds) {
+    const std::vector<uint32_t>& ids = *sortedIds;
+    uint64_t total = 0;
+    for (const Instance& inst : d.sceneInstances)
+      if (inst.mesh < d.meshes.size()) total += d.meshes[inst.mesh].indexCount / 3;
+    if (std::adjacent_find(ids.begin(), ids.end(), std::greater_equal<uint32_t>()) != ids.end())
+      return Error{"visible triangle IDs are not sorted and unique"};
+    if (!ids.empty() && ids.back() >= total)
+      return Error{fmt::format("visible triangle {} is outside the scene's {} triangles", ids.back(), total)};
+    next.active = true;
+    std::vector<sio::GpuInstance> instanceData;
+    uint64_t begin = 0, indexCount = 0; // the instance's first global triangle ID; indices so far
+    size_t k = 0;
+    for (const Instance& inst : d.sceneInstances) {
+      if (inst.mesh >= d.meshes.size()) continue;
+      const MeshRange& m = d.meshes[inst.mesh];
+      uint64_t end = begin + m.indexCount / 3;
+      DrawRange range{inst.mesh, uint32_t(indexCount), 0};
+      while (k < ids.size() && ids[k] < end) { // one copy per run of consecutive triangles
+        size_t run = 1;
+        while (k + run < ids.size() && ids[k + run] == ids[k] + run && ids[k + run] < end) ++run;
+        next.pendingCopies.push_back({(m.firstIndex + (ids[k] - begin) * 3) * 4, indexCount * 4, run * 12});
+        indexCount += run * 3;
+        k += run;
+      }
+      begin = end;
+      if (indexCount > UINT32_MAX) return Error{"visible triangles exceed 32-bit index ranges"};
+      range.indexCount = uint32_t(indexCount - range.firstIndex);
+      if (range.indexCount == 0) continue;
+      if (d.isBlend(inst.mesh)) {
+        next.blendDraws.push_back({&inst, range});
+      } else {
+        next.batches.push_back({range, isMirrored(inst.transform), uint32_t(instanceData.size()), 1});
+        instanceData.push_back(makeInstance(inst.transform));
+      }
+    }
+    next.indices = createBuffer(d.ctx, std::max<uint64_t>(indexCount, 1) * 4,
+                                VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                MemoryUsage::GpuOnly, "visible indices");
+    next.instances = createBuffer(d.ctx, std::max<size_t>(instanceData.size(), 1) * sizeof(sio::GpuInstance),
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "visible instances");
+    if (!instanceData.empty())
+      std::memcpy(next.instances.mapped(), instanceData.data(), instanceData.size() * sizeof(sio::GpuInstance));
+  }
+  // Frames recorded and not yet collected may still draw the replaced set.
+  d.retired.retire(std::move(d.visible.indices), d.inFlight());
+  d.retired.retire(std::move(d.visible.instances), d.inFlight());
+  d.visible = std::move(next);
+  return Ok{};
+}
 
 Result<RenderOutput> ForwardRenderer::render(const ForwardRenderSettings& fs) {
   Impl& d = *impl_;

@@ -77,39 +77,42 @@ Result<Frame> Scene::render(const View& view) {
   return Error{"unknown scene kind"};
 }
 
-// Forward scenes with a PVS replace their renderer on a cell change, which frames in flight use.
-bool Scene::canRecord() const { return impl_->kind != SceneKind::Forward || !impl_->pvsState.active; }
-
 Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
-  if (!canRecord()) return Error{"forward scenes with a PVS render through render() only, not record()"};
   if (auto st = validate(view.config); !st) return st.error();
   if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
     return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
                              toString(impl_->kind))};
   switch (impl_->kind) {
-  case SceneKind::Forward: return recordForward(*impl_, cmd, view, slot);
-  case SceneKind::Surfels: return recordSurfels(*impl_, cmd, view, slot);
-  case SceneKind::ClusterLod: return recordClusterLod(*impl_, cmd, view, slot);
+  case SceneKind::Forward:
+    return recordForward(*impl_, cmd, view, slot);
+  case SceneKind::Surfels:
+    return recordSurfels(*impl_, cmd, view, slot);
+  case SceneKind::ClusterLod:
+    return recordClusterLod(*impl_, cmd, view, slot);
   }
   return Error{"unknown scene kind"};
 }
 
 Result<Frame> Scene::collect(uint32_t slot) {
-  if (!canRecord()) return Error{"collect(): this scene has no record path"};
   switch (impl_->kind) {
-  case SceneKind::Forward: return collectForward(*impl_, slot);
-  case SceneKind::Surfels: return collectSurfels(*impl_, slot);
-  case SceneKind::ClusterLod: return collectClusterLod(*impl_, slot);
+  case SceneKind::Forward:
+    return collectForward(*impl_, slot);
+  case SceneKind::Surfels:
+    return collectSurfels(*impl_, slot);
+  case SceneKind::ClusterLod:
+    return collectClusterLod(*impl_, slot);
   }
   return Error{"unknown scene kind"};
 }
 
 const gpu::Image* Scene::colorTarget() const {
-  if (!canRecord()) return nullptr;
   switch (impl_->kind) {
-  case SceneKind::Forward: return &impl_->forward->colorTarget();
-  case SceneKind::Surfels: return &impl_->surfels->colorTarget();
-  case SceneKind::ClusterLod: return &impl_->cluster->colorTarget();
+  case SceneKind::Forward:
+    return &impl_->forward->colorTarget();
+  case SceneKind::Surfels:
+    return &impl_->surfels->colorTarget();
+  case SceneKind::ClusterLod:
+    return &impl_->cluster->colorTarget();
   }
   return nullptr;
 }

@@ -261,9 +261,9 @@ Status runViewer(const ViewerOptions& o) {
   Presenter presenter{**context, std::move(*swapchain), nullptr, {}, {}};
   presenter.overlay =
       OverlayRenderer::create(**context, presenter.swapchain->format(), presenter.swapchain->framesInFlight());
-  // Frames in flight from the scene to the swapchain when the scene records and the device blits.
+  // Frames in flight from the scene to the swapchain when the device blits.
   presenter.blit = createTargetBlit(**context, presenter.swapchain->format());
-  const bool gpuPresent = sceneView.canRecord() && presenter.blit.format != VK_FORMAT_UNDEFINED;
+  const bool gpuPresent = presenter.blit.format != VK_FORMAT_UNDEFINED;
   Window& win = **window;
 
   std::vector<render::Camera> recorded;
