@@ -206,14 +206,17 @@ TEST_F(RuntimeFrames, ForwardScenesWithAPvsRecordFramesInFlight) {
 
   for (uint32_t batch = 0; batch < 2; ++batch) {
     const uint32_t first = batch * render::kMaxFramesInFlight;
-    std::vector<std::vector<uint16_t>> pixels =
-        test::recordFramesInFlight(test::gpuContext(), render::kMaxFramesInFlight, kWidth, kHeight,
-                                   [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
-                                     if (Status st = (*inFlight)->record(cmd, views[first + slot], slot); !st)
-                                       return st;
-                                     color = (*inFlight)->colorTarget();
-                                     return Ok{};
-                                   });
+    // The first frame is held back on the GPU until all three were recorded: a cell change must not
+    // wait for it (no renderer built, no staging upload).
+    const VkExtent2D sizes[render::kMaxFramesInFlight] = {{kWidth, kHeight}, {kWidth, kHeight}, {kWidth, kHeight}};
+    std::vector<std::vector<uint16_t>> pixels = test::recordFramesInFlight(
+        test::gpuContext(), sizes,
+        [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
+          if (Status st = (*inFlight)->record(cmd, views[first + slot], slot); !st) return st;
+          color = (*inFlight)->colorTarget();
+          return Ok{};
+        },
+        /*gateFirstFrame=*/true);
     ASSERT_EQ(pixels.size(), size_t(render::kMaxFramesInFlight));
     for (uint32_t slot = 0; slot < render::kMaxFramesInFlight; ++slot) {
       const uint32_t i = first + slot;

@@ -131,8 +131,7 @@ public:
   // frames run on one queue in the order recorded. render() uses slot 0: call it only with no
   // recorded frame in flight. A PVS cell change keeps the replaced cluster PVS buffers (forward:
   // visible triangles) alive until every slot that may read them completed (no device wait); a
-  // size change recreates the targets (the cluster path waits for the device to idle, the forward
-  // and surfel paths retire the old ones).
+  // size change recreates the targets and retires the old ones the same way.
   Status record(VkCommandBuffer cmd, const View& view, uint32_t slot);
   Result<Frame> collect(uint32_t slot);
   // The colour target of the last recorded frame (never null):
