@@ -12,7 +12,10 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out"
 cp -r "$src"/fuzz/seeds/. "$out"/
-for t in ply obj gltf scen cdag surf pvs tmap meta mrg cells gvs_config camera_path material_file; do mkdir -p "$out/$t"; done
+for t in ply obj gltf scen cdag surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file; do
+  mkdir -p "$out/$t"
+done
+cp "$src"/examples/particles/*.toml "$out/effect_file/"
 
 q() { "$mirage" "$@" >/dev/null; }
 q gen blob --size 1 -o "$out/gltf/blob1.glb"
@@ -23,6 +26,9 @@ q gen blob --size 1 -o "$out/ply/blob1.ply"
 q gen points --mesh gen:blob:1 --points 40 -o "$out/ply/points40.ply"
 
 q build gen:blob:2 -o "$tmp/lod.mrg" --quiet
+# A SCEN with a material file's fields and point lights (build --materials bakes them in).
+printf '[[material]]\nname = "m"\nmodel = "blinn-phong"\nglossiness = 0.7\n[[assign]]\nmesh = "*"\nuse = "m"\n[[light]]\nposition = [0, 2, 0]\n' >"$tmp/m.toml"
+q build gen:blob:1 -o "$tmp/lod_materials.mrg" --materials "$tmp/m.toml" --quiet
 q surfels gen:blob:1 -o "$tmp/surfels.mrg" --count 32 --resolution 32 --views 4 --quiet
 q surfels gen:blob:1 -o "$out/ply/surfels.ply" --count 32 --resolution 32 --views 4 --quiet
 q pvs gen:blob:1 --cells "$src/fuzz/seeds/cells/boxes.json" -o "$tmp/pvs.mrg" --rays 2000 --budget 20000

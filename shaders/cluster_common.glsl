@@ -20,9 +20,10 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CounterRef {
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer VisBufferRef { uint64_t pixels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ConeRef { GpuClusterCone cones[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer FloatRef { float data[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitNodeRef { OitNode nodes[]; };
 
 layout(push_constant, scalar) uniform Push { ClusterPush push; };
+
+#include "oit_list.glsl" // the transparency lists, shared with the forward renderer
 
 // The frame of the eye being drawn (docs/render.md, "Stereo"): stereo by multiview draws both eyes
 // with the left eye's frame pushed, the right eye's following it; the shaders of those draws define

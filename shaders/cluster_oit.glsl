@@ -1,4 +1,4 @@
-// Appending blended fragments to the per-pixel transparency lists, shared by the compute blend
+// Appending blended fragments to the per-pixel transparency lists (oit_list.glsl), shared by the compute blend
 // raster (cluster_raster.glsl, MIRAGE_RASTER_BLEND) and the hardware one (cluster_blend_frag.glsl),
 // so both write the same nodes under the same pool rule and the composite cannot tell them apart.
 
@@ -11,10 +11,8 @@ float bufferOpaqueDepth(ClusterFrame f, uint x, uint y) {
 }
 
 // A blended fragment already known to lie in front of the opaque surface, pushed onto its pixel's
-// list (node pool permitting; oitNodes counts every attempt, so the excess is known).
+// list under the shared pool rule (oit_list.glsl).
 void oitAppend(ClusterFrame f, uint x, uint y, float z, uint id) {
-  uint n = atomicAdd(CounterRef(push.counterAddress).counters.oitNodes, 1);
-  if (n >= f.oitNodeCapacity) return;
-  uint next = atomicExchange(UintRef(f.oitHeadAddress).data[y * targetRowPixels(f) + x], n + 1);
-  OitNodeRef(f.oitNodeAddress).nodes[n] = OitNode(floatBitsToUint(z), id, next);
+  uint n = oitAllocate(f.oitCounterAddress, f.oitNodeCapacity);
+  if (n != kOitNoNode) oitLink(f.oitHeadAddress, f.oitNodeAddress, y * targetRowPixels(f) + x, n, z, id);
 }

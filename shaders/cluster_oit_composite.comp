@@ -1,6 +1,7 @@
 #version 460
 // Transparency composite, one thread per pixel, after the resolve and the blend raster: the
-// pixel's linked list of blended fragments (cluster_raster_blend.comp) is gathered, the nearest
+// pixel's linked list of blended fragments (cluster_raster_blend.comp) is gathered (oit_list.glsl,
+// shared with the forward renderer's resolve), the nearest
 // MIRAGE_OIT_MAX_LAYERS kept sorted by (depth, id), and each fragment, shaded with the forward
 // material model (alpha = base-colour alpha), is blended back to front over the resolved opaque
 // colour: c = mix(c, rgb, a), the forward renderer's SRC_ALPHA / ONE_MINUS_SRC_ALPHA. The order
@@ -29,37 +30,16 @@ void main() {
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
   uint node = UintRef(f.oitHeadAddress).data[uint(target.y) * targetRowPixels(f) + uint(target.x)];
   if (node == 0) return;
-  // Keys (depth bits << 32 | id) ascending: far to near (reverse-Z); at most K, the nearest kept.
-  // Unused keys stay 0 (id 0 reads entry 0, valid: lavapipe loads for inactive lanes too).
-  uint64_t keys[MIRAGE_OIT_MAX_LAYERS];
-  for (int i = 0; i < MIRAGE_OIT_MAX_LAYERS; ++i) keys[i] = 0;
-  int count = 0;
-  uint dropped = 0;
-  OitNodeRef nodes = OitNodeRef(f.oitNodeAddress);
-  for (uint steps = 0; node != 0 && steps < f.oitNodeCapacity; ++steps) {
-    OitNode n = nodes.nodes[min(node - 1, f.oitNodeCapacity - 1)];
-    node = n.next;
-    uint64_t key = (uint64_t(n.depthBits) << 32) | uint64_t(n.id);
-    int at;
-    if (count < MIRAGE_OIT_MAX_LAYERS) {
-      at = count++;
-    } else {
-      ++dropped;
-      if (key <= keys[0]) continue; // farther than every kept fragment
-      for (int i = 0; i + 1 < MIRAGE_OIT_MAX_LAYERS; ++i) keys[i] = keys[i + 1]; // drop the farthest
-      at = MIRAGE_OIT_MAX_LAYERS - 1;
-    }
-    for (; at > 0 && keys[at - 1] > key; --at) keys[at] = keys[at - 1]; // insertion sort
-    keys[at] = key;
-  }
-  if (dropped != 0) atomicAdd(CounterRef(push.counterAddress).counters.oitLayersDropped, dropped);
+  // The nearest MIRAGE_OIT_MAX_LAYERS keys (depth bits << 32 | id), far to near (oit_list.glsl).
+  OitPixel list = oitGather(f.oitNodeAddress, f.oitNodeCapacity, node);
+  oitCountPixel(f.oitCounterAddress, list);
   vec3 color = imageLoad(colorImage, target).rgb;
-  for (int i = 0; i < count; ++i) {
-    uint id = uint(keys[i] & 0xffffffffUL);
+  for (int i = 0; i < list.count; ++i) {
+    uint id = uint(oitKeys[i] & 0xffffffffUL);
     uint v1 = max(id >> MIRAGE_CLUSTER_TRIANGLE_BITS, 1u);
     VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v1 - 1];
     vec4 c = shadeClusterPixel(f, vc, id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u), px);
-    color = mix(color, c.rgb, c.a);
+    color = oitBlend(color, c);
   }
   imageStore(colorImage, target, vec4(color, 1.0));
 }

@@ -20,10 +20,10 @@ layout(set = 0, binding = 1) uniform usampler2D visImage;
 layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D outImage;
 layout(local_size_x = 8, local_size_y = 8) in;
 
-void main() {
-  // Stereo: one dispatch over both eyes side by side; the right half shades with the right eye's
-  // frame (the next one in the frame buffer), px is the pixel within the eye.
-  ivec2 target = ivec2(gl_GlobalInvocationID.xy);
+// Pixel `target` of the colour target. Stereo: one dispatch over both eyes side by side; the right
+// half shades with the right eye's frame (the next one in the frame buffer), px is the pixel
+// within the eye.
+void resolvePixel(ivec2 target) {
   // Only two scalars of the left eye's frame pick the eye: one whole frame is loaded per thread.
   uint64_t frameAddress = push.frameAddress;
   bool stereo = (FrameRef(frameAddress).frame.flags & MIRAGE_FRAME_STEREO) != 0;
@@ -85,7 +85,16 @@ void main() {
     setHistoryBitAt(f.instanceHistoryBase + vc.instance);
   }
   vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
-  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
-                          f.groundAmbient.rgb);
+  vec3 rgb = shadeSurfaceLights(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir,
+                                f.skyAmbient.rgb, f.groundAmbient.rgb, f.lightAddress, f.lightCount);
   imageStore(outImage, target, vec4(rgb, 1.0));
+}
+
+// Each workgroup resolves MIRAGE_RESOLVE_TILE_ROWS 8 x 8 tiles stacked vertically, one pixel of
+// each per thread: more loads in flight per thread (H100: 2500 blobs 0.0375 -> 0.035 ms, stereo
+// 2 x 2064 x 2208 0.143 -> 0.125).
+void main() {
+  for (uint k = 0; k < MIRAGE_RESOLVE_TILE_ROWS; ++k)
+    resolvePixel(ivec2(gl_GlobalInvocationID.x,
+                       (gl_WorkGroupID.y * MIRAGE_RESOLVE_TILE_ROWS + k) * 8 + gl_LocalInvocationID.y));
 }

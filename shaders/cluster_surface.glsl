@@ -72,7 +72,7 @@ vec4 shadeClusterPixel(ClusterFrame f, VisibleCluster vc, uint t, ivec2 px) {
   vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);
   GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
   vec4 base = baseColor(m, s.uv, vec4(1.0), s.d); // DAG vertices carry no colours or tangents
-  vec3 rgb = shadeSurface(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
-                          f.groundAmbient.rgb);
+  vec3 rgb = shadeSurfaceLights(m, base, s.pos, normal, vec4(0.0), front, s.uv, s.d, f.camera.eye.xyz, f.lightDir,
+                                f.skyAmbient.rgb, f.groundAmbient.rgb, f.lightAddress, f.lightCount);
   return vec4(rgb, m.alphaMode == MIRAGE_ALPHA_BLEND ? base.a : 1.0);
 }

@@ -36,6 +36,6 @@ vec3 shadeLinkedSurfel(ClusterSurfelLink l, uint id, ClusterFrame f) {
   d.duvdx = d.duvdy = vec2(0.0);
   m.baseColorTexture = -1; // the colour already holds the base colour (capture)
   vec4 base = unpackUnorm4x8(attr.y);
-  return shadeSurface(m, base, pos, normal, vec4(0.0), true, vec2(0.0), d, f.camera.eye.xyz, f.lightDir, f.skyAmbient.rgb,
-                      f.groundAmbient.rgb);
+  return shadeSurfaceLights(m, base, pos, normal, vec4(0.0), true, vec2(0.0), d, f.camera.eye.xyz, f.lightDir,
+                            f.skyAmbient.rgb, f.groundAmbient.rgb, f.lightAddress, f.lightCount);
 }

@@ -1,32 +1,8 @@
 #version 460
+// Opaque and MASK geometry, and BLEND triangles of the sorted mode (hardware "over" blending).
 #include "forward_common.glsl"
-
-layout(set = 0, binding = 0) uniform sampler2D textures[];
-
-layout(location = 0) in vec3 inWorldPos;
-layout(location = 1) in vec3 inNormal;
-layout(location = 2) in vec2 inUv;
-layout(location = 3) in vec4 inTangent;
-layout(location = 4) in vec4 inColor;
+#include "forward_surface.glsl"
 
 layout(location = 0) out vec4 outColor;
 
-#include "shading.glsl"
-
-void main() {
-  FrameData frame = FrameRef(push.frameAddress).frame;
-  GpuMaterial m = MaterialRef(push.materialAddress).materials[push.materialIndex];
-  SurfaceDerivatives d;
-  d.dpdx = dFdx(inWorldPos);
-  d.dpdy = dFdy(inWorldPos);
-  d.duvdx = dFdx(inUv);
-  d.duvdy = dFdy(inUv);
-
-  vec4 base = baseColor(m, inUv, inColor, d);
-  if (m.alphaMode == MIRAGE_ALPHA_MASK && base.a < m.alphaCutoff) discard;
-  vec3 rgb = shadeSurfaceLights(m, base, inWorldPos, inNormal, inTangent, gl_FrontFacing, inUv, d,
-                                frame.camera.eye.xyz, frame.lightDir, frame.skyAmbient.rgb, frame.groundAmbient.rgb,
-                                frame.lightAddress, frame.lightCount);
-  float alpha = m.alphaMode == MIRAGE_ALPHA_BLEND ? base.a : 1.0;
-  outColor = vec4(rgb, alpha);
-}
+void main() { outColor = shadeForwardSurface(); }

@@ -1,12 +1,21 @@
 // Mirage's one material and lighting model, shared by every renderer (forward.frag, the cluster-LOD
 // resolve and the surfel resolve): glTF metallic-roughness (GGX) or Blinn-Phong, per-map UV
-// transforms, detail maps, one directional light, point lights (forward), hemisphere ambient. The
+// transforms, detail maps, one directional light, point lights, hemisphere ambient. The
 // formulas are written down in docs/shading.md. Derivatives are explicit because the
 // visibility-buffer resolve reconstructs attributes per pixel instead of interpolating them;
 // forward.frag passes dFdx/dFdy. Needs `textures[]` declared by the including shader, and buffer
 // references, scalar layout and 64-bit integers enabled (every includer reads materials so).
 
 const float PI = 3.14159265359;
+
+// The maps a pipeline may meet, bit MIRAGE_MAP_k per map (the seed's specialization constants): a
+// map whose bit is 0 is never sampled and its branches compile away. The default, every bit, leaves
+// each map to the material's texture index (one pipeline for every material); renderers specialize
+// it to their scene's maps under MIRAGE_SPECIALIZE_MAPS=1 (docs/shading.md, "Optional maps").
+layout(constant_id = MIRAGE_SPEC_MATERIAL_MAPS) const uint kMaterialMaps = 0xffffffffu;
+
+// Whether texture `index` of map `map` is there: the pipeline may meet the map and the material has it.
+bool hasMap(int index, int map) { return (kMaterialMaps & (1u << uint(map))) != 0u && index >= 0; }
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer PointLightRef { GpuPointLight lights[]; };
 
@@ -33,13 +42,9 @@ SurfaceDerivatives mapDerivatives(GpuMaterial m, int map, SurfaceDerivatives d) 
   return d;
 }
 
-vec4 sampleGradOr(int index, vec2 uv, SurfaceDerivatives d, vec4 fallback) {
-  return index >= 0 ? textureGrad(textures[nonuniformEXT(index)], uv, d.duvdx, d.duvdy) : fallback;
-}
-
 // Texture `index` of map `map` through the map's UV transform; `fallback` without a texture.
 vec4 sampleMap(GpuMaterial m, int index, int map, vec2 uv, SurfaceDerivatives d, vec4 fallback) {
-  if (index < 0) return fallback;
+  if (!hasMap(index, map)) return fallback;
   SurfaceDerivatives t = mapDerivatives(m, map, d);
   return textureGrad(textures[nonuniformEXT(index)], mapUv(m, map, uv), t.duvdx, t.duvdy);
 }
@@ -47,7 +52,8 @@ vec4 sampleMap(GpuMaterial m, int index, int map, vec2 uv, SurfaceDerivatives d,
 // The detail mask (per-pixel mix factor of the detail maps): its R, 1 without a mask texture, 0
 // without detail maps.
 float detailMask(GpuMaterial m, vec2 uv, SurfaceDerivatives d) {
-  if (m.detailAlbedoTexture < 0 && m.detailNormalTexture < 0) return 0.0;
+  if (!hasMap(m.detailAlbedoTexture, MIRAGE_MAP_DETAIL_ALBEDO) && !hasMap(m.detailNormalTexture, MIRAGE_MAP_DETAIL_NORMAL))
+    return 0.0;
   return sampleMap(m, m.detailMaskTexture, MIRAGE_MAP_DETAIL_MASK, uv, d, vec4(1.0)).r;
 }
 
@@ -75,7 +81,7 @@ float visibilitySmithGGX(float nv, float nl, float a) {
 // detail albedo x 2 mixed in by the detail mask (a detail texel of 0.5 changes nothing).
 vec4 baseColor(GpuMaterial m, vec2 uv, vec4 vertexColor, SurfaceDerivatives d) {
   vec4 base = m.baseColorFactor * vertexColor * sampleMap(m, m.baseColorTexture, MIRAGE_MAP_BASE_COLOR, uv, d, vec4(1.0));
-  if (m.detailAlbedoTexture >= 0) {
+  if (hasMap(m.detailAlbedoTexture, MIRAGE_MAP_DETAIL_ALBEDO)) {
     vec3 detail = sampleMap(m, m.detailAlbedoTexture, MIRAGE_MAP_DETAIL_ALBEDO, uv, d, vec4(0.5)).rgb * 2.0;
     base.rgb *= mix(vec3(1.0), detail, detailMask(m, uv, d));
   }
@@ -125,7 +131,7 @@ vec3 lightTerm(SurfacePoint s, vec3 l) {
 
 // Tangent-space normal map sample (xyz in -1..1) of map `map`, or (0, 0, 1) without a texture.
 vec3 tangentNormal(GpuMaterial m, int index, int map, vec2 uv, SurfaceDerivatives d) {
-  if (index < 0) return vec3(0.0, 0.0, 1.0);
+  if (!hasMap(index, map)) return vec3(0.0, 0.0, 1.0);
   return sampleMap(m, index, map, uv, d, vec4(0.5, 0.5, 1.0, 1.0)).xyz * 2.0 - 1.0;
 }
 
@@ -136,10 +142,12 @@ vec3 shadeSurfaceLights(GpuMaterial m, vec4 base, vec3 worldPos, vec3 normal, ve
                         uint64_t lightAddress, uint lightCount) {
   vec3 n = normalize(normal);
   if (!frontFacing) n = -n; // double-sided materials light their back faces
-  if (m.normalTexture >= 0 || m.detailNormalTexture >= 0) {
+  bool normalMap = hasMap(m.normalTexture, MIRAGE_MAP_NORMAL);
+  bool detailNormal = hasMap(m.detailNormalTexture, MIRAGE_MAP_DETAIL_NORMAL);
+  if (normalMap || detailNormal) {
     vec3 tn = tangentNormal(m, m.normalTexture, MIRAGE_MAP_NORMAL, uv, d);
     tn.xy *= m.normalScale;
-    if (m.detailNormalTexture >= 0) { // detail normal added by the mask (UDN blend)
+    if (detailNormal) { // detail normal added by the mask (UDN blend)
       vec3 dn = tangentNormal(m, m.detailNormalTexture, MIRAGE_MAP_DETAIL_NORMAL, uv, d);
       tn.xy += dn.xy * detailMask(m, uv, d);
     }
@@ -148,7 +156,7 @@ vec3 shadeSurfaceLights(GpuMaterial m, vec4 base, vec3 worldPos, vec3 normal, ve
       vec3 t = normalize(tangent.xyz - n * dot(n, tangent.xyz));
       tbn = mat3(t, cross(n, t) * tangent.w, n);
     } else {
-      tbn = derivativeFrame(n, mapDerivatives(m, m.normalTexture >= 0 ? MIRAGE_MAP_NORMAL : MIRAGE_MAP_DETAIL_NORMAL, d));
+      tbn = derivativeFrame(n, mapDerivatives(m, normalMap ? MIRAGE_MAP_NORMAL : MIRAGE_MAP_DETAIL_NORMAL, d));
     }
     n = normalize(tbn * tn);
   }
@@ -181,11 +189,4 @@ vec3 shadeSurfaceLights(GpuMaterial m, vec4 base, vec3 worldPos, vec3 normal, ve
                                                              : s.f0 * (1.0 - s.roughness) * 0.5;
   vec3 ambient = ambientLight * (base.rgb * (1.0 - s.metallic) + ambientSpecular) * occlusion;
   return direct + ambient + emissive;
-}
-
-// The key light and ambient only (renderers without point lights yet).
-vec3 shadeSurface(GpuMaterial m, vec4 base, vec3 worldPos, vec3 normal, vec4 tangent, bool frontFacing, vec2 uv,
-                  SurfaceDerivatives d, vec3 eye, vec4 lightDir, vec3 skyAmbient, vec3 groundAmbient) {
-  return shadeSurfaceLights(m, base, worldPos, normal, tangent, frontFacing, uv, d, eye, lightDir, skyAmbient,
-                            groundAmbient, uint64_t(0), 0u);
 }

@@ -44,7 +44,7 @@ void main() {
   d.duvdx = d.duvdy = vec2(0.0);
   vec4 base = unpackUnorm4x8(attr.y); // linear RGBA8
   // The capture turned every normal towards the view that saw it: surfels are front-facing.
-  vec3 rgb = shadeSurface(m, base, pos, normal, vec4(0.0), true, vec2(0.0), d, eye, f.lightDir, f.skyAmbient.rgb,
-                          f.groundAmbient.rgb);
+  vec3 rgb = shadeSurfaceLights(m, base, pos, normal, vec4(0.0), true, vec2(0.0), d, eye, f.lightDir, f.skyAmbient.rgb,
+                                f.groundAmbient.rgb, f.lightAddress, f.lightCount);
   imageStore(outImage, px, vec4(rgb, 1.0));
 }

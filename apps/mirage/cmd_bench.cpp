@@ -12,6 +12,7 @@
 #include "commands.h"
 #include <algorithm>
 #include <filesystem>
+#include <optional>
 
 #include <unistd.h>
 
@@ -41,7 +42,7 @@ struct BenchRenderOptions {
   bool json = false;
   std::string path;       // .mrg only: camera path, each camera timed once
   bool baselines = false; // .mrg only: brute force + discrete LOD chain in the same run
-  std::string camera;     // .mrg only: empty = auto 3/4 view
+  std::string camera;     // empty = auto 3/4 view
   runtime::RenderConfig config;
   BenchSweeps sweeps;
   RenderConfigOptions given;
@@ -73,7 +74,12 @@ void runBenchRender(const BenchRenderOptions& o) {
                        .frameTime = o.targetMs->count() ? std::optional(o.frameTime) : std::nullopt};
     return runLodBench(r);
   }
-  if (!o.camera.empty()) return fail("bench render --camera applies to .mrg cluster-LOD assets only");
+  std::optional<render::Camera> camera; // scene files: a fixed view, e.g. layers filling the screen
+  if (!o.camera.empty()) {
+    auto c = render::parseCamera(o.camera);
+    if (!c) return fail(c.error());
+    camera = *c;
+  }
   if (o.targetMs->count()) return fail("bench render --target-ms applies to .mrg cluster-LOD assets only");
   if (!o.scene.pvs.empty())
     return fail("bench render --pvs applies to .mrg cluster-LOD assets (scene files: mirage bench pvs)");
@@ -87,9 +93,10 @@ void runBenchRender(const BenchRenderOptions& o) {
   runtime::View view;
   view.width = width;
   view.height = height;
-  view.camera = render::autoCamera((*scene)->bounds(), float(width) / float(height));
+  view.camera = camera ? *camera : render::autoCamera((*scene)->bounds(), float(width) / float(height));
   view.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   view.stereoIpd = o.stereo.ipdOrNone();
+  view.config = o.config; // --oit (the cluster-LOD options were refused above)
 
   std::vector<std::vector<gpu::PassTime>> frames;
   std::vector<double> wall;
@@ -124,6 +131,10 @@ void runBenchRender(const BenchRenderOptions& o) {
     for (const auto& t : times) j["gpu_ms"][t.name] = t.milliseconds;
     if (frameMs > 0) j["triangles_per_second"] = double(triangles) / (frameMs * 1e-3);
     j["fragment_invocations"] = lastStats.pipeline.fragmentInvocations;
+    j["oit"] = render::toString(o.config.oit);
+    j["msl"] = lastStats.oit.msl;
+    j["oit_dropped"] = lastStats.oit.dropped();
+    j["oit_fragments"] = lastStats.oit.fragments;
     fmt::print("{}\n", j.dump(2));
     return;
   }
@@ -133,6 +144,9 @@ void runBenchRender(const BenchRenderOptions& o) {
   for (const auto& t : times) fmt::print("  gpu {:<8} {:9.3f} ms (median)\n", t.name, t.milliseconds);
   if (frameMs > 0) fmt::print("  {:.1f} M triangles/s (GPU frame time)\n", double(triangles) / (frameMs * 1e-3) * 1e-6);
   fmt::print("  wall per frame incl. readback {:.2f} ms (median)\n", wall[wall.size() / 2]);
+  if (lastStats.oit.fragments)
+    fmt::print("  oit {}: {} fragments  msl {:.3f}  oit_dropped {}\n", render::toString(o.config.oit),
+               lastStats.oit.fragments, lastStats.oit.msl, lastStats.oit.dropped());
 }
 
 struct BenchImportOptions {
@@ -352,7 +366,7 @@ void addBenchCommand(CLI::App& app) {
   bindSceneOptions(*r, o->scene, BindMode::Bench);
   bindStereo(*r, o->stereo);
   o->targetMs = bindFrameTimeTarget(*r, o->frameTime);
-  r->add_option("--camera", o->camera, ".mrg: eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
+  r->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
   r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
   r->add_flag("--baselines", o->baselines,
               ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");
@@ -390,6 +404,7 @@ void addBenchCommand(CLI::App& app) {
   addBenchSurfelsSortCommand(*bench);
   addBenchSurfelsSamplerCommand(*bench);
   addBenchSurfelPointsCommand(*bench);
+  addBenchParticlesCommand(*bench);
 }
 
 } // namespace mirage::cli

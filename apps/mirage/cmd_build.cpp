@@ -1,4 +1,5 @@
-// mirage build INPUT... -o scene.mrg: bake cluster-LOD DAGs into a .mrg asset.
+// mirage build INPUT... -o scene.mrg [--materials mats.toml]: bake cluster-LOD DAGs into a .mrg
+// asset, with a material file's materials and point lights applied (stored in the SCEN chunk).
 // mirage verify scene.mrg: structural checks and random-cut watertightness of every DAG.
 #include <unistd.h>
 
@@ -15,7 +16,9 @@
 #include "lod_common.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/verify.h"
+#include "mirage/shading/material_file.h"
 #include "render_common.h"
+#include "render_options.h"
 
 namespace mirage::cli {
 
@@ -24,6 +27,7 @@ namespace {
 struct BuildOptions {
   std::vector<std::string> inputs;
   std::string output;
+  std::string materials; // material file applied before the bake (docs/shading.md)
   lod::BuildConfig config;
   bool quiet = false;
   bool json = false;
@@ -40,8 +44,16 @@ void runBuild(const BuildOptions& o) {
   auto secondsSince = [](std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
   };
+  shading::MaterialFile materials;
+  if (!o.materials.empty()) { // read first: a bad material file costs no import
+    auto loaded = shading::loadMaterialFile(o.materials);
+    if (!loaded) return fail(loaded.error());
+    materials = std::move(*loaded);
+  }
   auto scene = loadScenes(o.inputs);
   if (!scene) return fail(scene.error());
+  if (!o.materials.empty())
+    if (auto st = shading::applyMaterials(*scene, materials); !st) return fail(st.error());
   double importSeconds = secondsSince(t0);
 
   bool showProgress = !o.quiet && isatty(STDERR_FILENO);
@@ -144,6 +156,7 @@ void addBuildCommand(CLI::App& app) {
   auto o = std::make_shared<BuildOptions>();
   cmd->add_option("inputs", o->inputs, "Scene files (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]")->required();
   cmd->add_option("-o,--output", o->output, "Output .mrg")->required();
+  bindMaterials(*cmd, o->materials);
   cmd->add_option("--cluster-triangles", o->config.clusterTriangles, "Triangles per cluster (multiple of 4)")
       ->capture_default_str();
   cmd->add_option("--cluster-vertices", o->config.clusterVertices, "Vertices per cluster (<= 255)")

@@ -94,14 +94,15 @@ void addGenCommand(CLI::App& app) {
   auto args = std::make_shared<GenArgs>();
   CLI::App* cmd = app.add_subcommand("gen", "Generate a procedural scene (deterministic per seed) as GLB");
   cmd->add_option("kind", args->kind,
-                  "city | terrain | blob | grid (copies of --mesh) | points (a scan of --mesh: PLY point cloud)")
+                  "city | terrain | blob | layers (stacked blended quads) | grid (copies of --mesh) | points (a scan "
+                  "of --mesh: PLY point cloud)")
       ->required();
   cmd->add_option("-o,--output", args->output, "Output .glb (scene with instances) or .ply (binary, instances baked)")
       ->required();
   cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
   cmd->add_option("--size", args->size,
                   "city: blocks per side (default 4); terrain: vertices per side (default 1024); "
-                  "blob: subdivision levels (default 8); 0 = default");
+                  "blob: subdivision levels (default 8); layers: quads (default 8); 0 = default");
   cmd->add_option("--mesh", args->mesh,
                   "grid: scene file or gen:KIND[:SIZE[:SEED]] to repeat; points: the surface to sample");
   cmd->add_option("--points", args->points, "points: number of points (uniform over the surface)");

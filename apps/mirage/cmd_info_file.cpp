@@ -65,6 +65,33 @@ const char* chunkMeaning(const std::string& type) {
   return "unknown to this build (skipped by readers)";
 }
 
+// Every material with its origin and how many meshes use it. The origin is `path` (the scene file
+// carries it), "<material file>:<line>" (applied now), or, in a .mrg, "<material file>:<line>
+// (baked)" (applied by `mirage build --materials`).
+nlohmann::json materialList(const Scene& s, const std::string& path, bool baked) {
+  nlohmann::json list = nlohmann::json::array();
+  for (size_t i = 0; i < s.materials.size(); ++i) {
+    const Material& m = s.materials[i];
+    size_t meshes = 0;
+    for (const Mesh& mesh : s.meshes) meshes += mesh.material == i;
+    const char* alpha[] = {"OPAQUE", "MASK", "BLEND"};
+    list.push_back({{"index", i},
+                    {"name", m.name},
+                    {"model", m.model == ShadingModel::BlinnPhong ? "blinn-phong" : "metallic-roughness"},
+                    {"alpha_mode", alpha[int(m.alphaMode)]},
+                    {"meshes", meshes},
+                    {"origin", m.origin.empty() ? path : m.origin + (baked ? " (baked)" : "")}});
+  }
+  return list;
+}
+
+void printMaterialList(const nlohmann::json& list) {
+  for (const nlohmann::json& m : list)
+    fmt::print("  material {} \"{}\": {}, {}, {} mesh(es), from {}\n", m["index"].get<size_t>(),
+               m["name"].get<std::string>(), m["model"].get<std::string>(), m["alpha_mode"].get<std::string>(),
+               m["meshes"].get<size_t>(), m["origin"].get<std::string>());
+}
+
 // The cluster-LOD part: levels, clusters and triangles per level, fill, root, bytes per triangle.
 bool describeLod(const std::string& path, nlohmann::json& j, bool json) {
   auto a = lod::loadLodAsset(path);
@@ -75,11 +102,20 @@ bool describeLod(const std::string& path, nlohmann::json& j, bool json) {
     j["instances"] = a->scene.instances.size();
     j["materials"] = a->scene.materials.size();
     j["textures"] = a->scene.textures.size();
+    j["lights"] = a->scene.lights.size();
+    j["material_list"] = materialList(a->scene, a->scene.source, true);
     return true;
   }
   fmt::print("  cluster-LOD: {} meshes, {} instances, {} materials, {} textures\n", s.meshes, a->scene.instances.size(),
              a->scene.materials.size(), a->scene.textures.size());
   printSummary(s);
+  // Baked material files: every material with its origin, and the point lights.
+  bool baked = !a->scene.lights.empty() || std::any_of(a->scene.materials.begin(), a->scene.materials.end(),
+                                                       [](const Material& m) { return !m.origin.empty(); });
+  if (baked) {
+    printMaterialList(materialList(a->scene, a->scene.source, true));
+    fmt::print("  point lights {}\n", a->scene.lights.size());
+  }
   return true;
 }
 
@@ -211,24 +247,6 @@ void infoSurfelPly(const std::string& path, bool json) {
   fmt::print("  (render it with --surfels)\n");
 }
 
-// Every material with its origin (the scene file, or "<material file>:<line>") and how many meshes use it.
-nlohmann::json materialList(const Scene& s, const std::string& path) {
-  nlohmann::json list = nlohmann::json::array();
-  for (size_t i = 0; i < s.materials.size(); ++i) {
-    const Material& m = s.materials[i];
-    size_t meshes = 0;
-    for (const Mesh& mesh : s.meshes) meshes += mesh.material == i;
-    const char* alpha[] = {"OPAQUE", "MASK", "BLEND"};
-    list.push_back({{"index", i},
-                    {"name", m.name},
-                    {"model", m.model == ShadingModel::BlinnPhong ? "blinn-phong" : "metallic-roughness"},
-                    {"alpha_mode", alpha[int(m.alphaMode)]},
-                    {"meshes", meshes},
-                    {"origin", m.origin.empty() ? path : m.origin}});
-  }
-  return list;
-}
-
 } // namespace
 
 void infoFile(const std::string& path, bool json, const std::string& materials) {
@@ -267,9 +285,10 @@ void infoFile(const std::string& path, bool json, const std::string& materials) 
                         {"materials", s.materials.size()},
                         {"materials_mask", mask},
                         {"materials_blend", blend},
-                        {"textures", s.textures.size()}};
+                        {"textures", s.textures.size()},
+                        {"lights", s.lights.size()}};
     j.update(boundsJson(b));
-    if (!materials.empty()) j["material_list"] = materialList(s, path);
+    if (!materials.empty()) j["material_list"] = materialList(s, path, false);
     fmt::print("{}\n", j.dump(2));
     return;
   }
@@ -282,12 +301,10 @@ void infoFile(const std::string& path, bool json, const std::string& materials) 
   fmt::print("  meshes {}  instances {}  triangles {} ({} instanced)  vertices {}\n", s.meshes.size(),
              s.instances.size(), s.meshTriangleCount(), s.instancedTriangleCount(), vertices);
   fmt::print("  materials {} ({} mask, {} blend)  textures {}\n", s.materials.size(), mask, blend, s.textures.size());
+  if (!s.lights.empty()) fmt::print("  point lights {} (the file's and the material file's)\n", s.lights.size());
   fmt::print("  bounds {}\n", boundsText(b));
   if (materials.empty()) return;
-  for (const nlohmann::json& m : materialList(s, path))
-    fmt::print("  material {} \"{}\": {}, {}, {} mesh(es), from {}\n", m["index"].get<size_t>(),
-               m["name"].get<std::string>(), m["model"].get<std::string>(), m["alpha_mode"].get<std::string>(),
-               m["meshes"].get<size_t>(), m["origin"].get<std::string>());
+  printMaterialList(materialList(s, path, false));
 }
 
 } // namespace mirage::cli

@@ -24,11 +24,13 @@ void addBenchSurfelsSortCommand(CLI::App& bench);
 void addBenchSurfelsSamplerCommand(CLI::App& bench);
 // mirage bench surfels-points SCAN.ply (cmd_bench_surfel_points.cpp), added under `bench`.
 void addBenchSurfelPointsCommand(CLI::App& bench);
+// mirage bench particles FX.toml --count N --sim cpu|gpu (cmd_bench_particles.cpp), added under `bench`.
+void addBenchParticlesCommand(CLI::App& bench);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.
 void addBuildCommand(CLI::App& app);
 // mirage compare A B [--json]: PSNR / SSIM / MAE between two images.
 void addCompareCommand(CLI::App& app);
-// mirage gen city|terrain|blob|grid|points -o OUT.glb|OUT.ply [--seed N] [--size N]: write a procedural scene.
+// mirage gen city|terrain|blob|layers|grid|points -o OUT.glb|OUT.ply [--seed N] [--size N]: write a procedural scene.
 void addGenCommand(CLI::App& app);
 // mirage surfels INPUT -o out.ply|out.mrg [--count N] [--resolution R] [--views V] [--reference]
 void addSurfelsCommand(CLI::App& app);

@@ -122,6 +122,10 @@ void runForwardRender(const RenderOptions& o) {
     j["frames_timed"] = r.framesTimed;
     for (const auto& t : r.times) j["gpu_ms"][t.name] = t.milliseconds;
     j["draw_calls"] = fw.stats.drawCalls;
+    j["oit"] = render::toString(view.config.oit);
+    j["msl"] = fw.stats.oit.msl;
+    j["oit_dropped"] = fw.stats.oit.dropped();
+    j["oit_fragments"] = fw.stats.oit.fragments;
     j["pipeline"] = {{"input_primitives", fw.stats.pipeline.inputPrimitives},
                      {"vertex_invocations", fw.stats.pipeline.vertexInvocations},
                      {"clipping_primitives", fw.stats.pipeline.clippingPrimitives},
@@ -142,6 +146,10 @@ void runForwardRender(const RenderOptions& o) {
       fmt::print("gpu {:<8} {:9.3f} ms{}\n", t.name, t.milliseconds, r.framesTimed > 1 ? " (median)" : "");
     fmt::print("draw calls {}  input primitives {}  fragment invocations {}\n", fw.stats.drawCalls,
                fw.stats.pipeline.inputPrimitives, fw.stats.pipeline.fragmentInvocations);
+    const render::OitStats& oit = fw.stats.oit;
+    fmt::print("oit {}: fragments {}  msl {:.3f}  oit_dropped {} (pool {}, layers {})\n",
+               render::toString(view.config.oit), oit.fragments, oit.msl, oit.dropped(), oit.poolOverflow,
+               oit.layersDropped);
   }
 }
 

@@ -185,6 +185,8 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"oit_fragments", st.oitFragments},
           {"oit_pool_overflow", st.oitPoolOverflow},
           {"oit_layers_dropped", st.oitLayersDropped},
+          {"oit_dropped", uint64_t(st.oitPoolOverflow) + st.oitLayersDropped},
+          {"msl", st.msl},
           {"pvs", st.pvs},
           {"instances_pvs_culled", st.instancesPvsCulled},
           {"clusters_pvs_culled", st.clustersPvsCulled},
@@ -207,10 +209,10 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
   fmt::print("clusters drawn {} ({} by hardware)  triangles rasterized {}  near-clipped {}\n", st.clustersDrawn,
              st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
   if (st.clustersBlend)
-    fmt::print("blend ({} raster): {} clusters ({} by hardware)  {} fragments  dropped: {} past the node pool, {} "
-               "past 16 layers per pixel\n",
-               render::toString(st.blendRaster), st.clustersBlend, st.clustersBlendHardware, st.oitFragments,
-               st.oitPoolOverflow, st.oitLayersDropped);
+    fmt::print("blend ({} raster): {} clusters ({} by hardware)  {} fragments  msl {:.3f}  oit_dropped {}: {} past "
+               "the node pool, {} past 16 layers per pixel\n",
+               render::toString(st.blendRaster), st.clustersBlend, st.clustersBlendHardware, st.oitFragments, st.msl,
+               uint64_t(st.oitPoolOverflow) + st.oitLayersDropped, st.oitPoolOverflow, st.oitLayersDropped);
   if (st.pvs)
     fmt::print("cell PVS: {} instances and {} cut clusters culled\n", st.instancesPvsCulled, st.clustersPvsCulled);
   if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)

@@ -21,7 +21,7 @@ Result<Scene> loadScenes(const std::vector<std::string>& inputs) {
     }
     for (Material m : s->materials) {
       for (int32_t* t : {&m.baseColorTexture, &m.metallicRoughnessTexture, &m.normalTexture, &m.occlusionTexture,
-                         &m.emissiveTexture})
+                         &m.emissiveTexture, &m.detailAlbedoTexture, &m.detailNormalTexture, &m.detailMaskTexture})
         if (*t >= 0) *t += textureBase;
       merged.materials.push_back(m);
     }
@@ -30,6 +30,7 @@ Result<Scene> loadScenes(const std::vector<std::string>& inputs) {
       i.mesh += meshBase;
       merged.instances.push_back(i);
     }
+    merged.lights.insert(merged.lights.end(), s->lights.begin(), s->lights.end());
     merged.source += (merged.source.empty() ? "" : "+") + s->source;
   }
   return merged;

@@ -57,11 +57,15 @@ bool anyGiven(const std::vector<CLI::Option*>& options) {
   return false;
 }
 
-CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode mode) {
-  cmd.add_option("--materials", o.materials,
+void bindMaterials(CLI::App& cmd, std::string& materials) {
+  cmd.add_option("--materials", materials,
                  "Material file (TOML): materials assigned to meshes or materials by name or glob, point lights "
                  "(docs/shading.md)")
       ->type_name("FILE.toml");
+}
+
+CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode mode) {
+  bindMaterials(cmd, o.materials);
   if (mode == BindMode::Bench) {
     cmd.add_option("--pvs", o.pvs,
                    ".mrg: PVS from mirage pvs of the asset's source scene: every frame timed with and without the "
@@ -138,13 +142,15 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
           ->transform(
               enumNames(render::kSelectionModeNames, c.selection, "all", bench ? &sweeps->allSelections : nullptr))
           ->default_str(render::toString(c.selection)));
-  lod.push_back(cmd.add_option("--stereo-mode", c.stereoMode,
-                               ".mrg, --stereo: how the mesh, indirect and hybrid rasters draw both eyes: auto "
-                               "(per-eye viewports: measured faster on the H100), multiview (VK_KHR_multiview) or viewports (each "
-                               "eye with its viewport)")
-                    ->type_name("NAME")
-                    ->transform(enumNames(render::kStereoModeNames, c.stereoMode))
-                    ->default_str(render::toString(c.stereoMode)));
+  lod.push_back(
+      cmd.add_option(
+             "--stereo-mode", c.stereoMode,
+             ".mrg, --stereo: how the mesh, indirect and hybrid rasters draw both eyes: auto "
+             "(per-eye viewports: measured faster on the H100), multiview (VK_KHR_multiview) or viewports (each "
+             "eye with its viewport)")
+          ->type_name("NAME")
+          ->transform(enumNames(render::kStereoModeNames, c.stereoMode))
+          ->default_str(render::toString(c.stereoMode)));
   lod.push_back(cmd.add_option("--debug-view", c.debugView,
                                ".mrg: none|clusters|lod|density|overdraw: colour by cluster, DAG level, triangles per "
                                "pixel or overdraw instead of shading (docs/render.md, \"Debug views\")")
@@ -174,6 +180,13 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
   lod.push_back(cmd.add_option("--fovea-radius", c.foveaRadiusDegrees, ".mrg, --fovea: fovea radius in degrees")
                     ->needs(fovea)
                     ->capture_default_str());
+  // Not in clusterLod: forward scenes take it too (cluster LOD ones refuse all but linked-list).
+  cmd.add_option("--oit", c.oit,
+                 "alpha BLEND: linked-list (per-pixel sorted lists), weighted (weighted blended, approximate; "
+                 "forward only) or sorted (every blended triangle back to front, the reference; forward only)")
+      ->type_name("NAME")
+      ->transform(enumNames(render::kOitModeNames, c.oit))
+      ->default_str(render::toString(c.oit));
   out.surfels.push_back(
       cmd.add_option("--surfel-size", c.surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str());
   if (mode == BindMode::Render) // bench render draws surfels only in mixed scenes (bench surfels: the rest)

@@ -3,6 +3,7 @@
 // options (enums through the renderers' name parsers), defaults from the config struct, ranges
 // checked by runtime::validate.
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "mirage/runtime/config.h"
@@ -40,6 +41,9 @@ bool anyGiven(const std::vector<CLI::Option*>& options);
 // command): --materials, --pvs and --surfels; render: --surfel-order; bench: --grid. Returns --surfel-order
 // (null in bench mode).
 CLI::Option* bindSceneOptions(CLI::App& command, runtime::SceneOptions& options, BindMode mode);
+// --materials FILE.toml alone (SceneOptions::materials): bindSceneOptions binds it, and view, whose
+// other scene options differ.
+void bindMaterials(CLI::App& command, std::string& materials);
 
 // --stereo [--ipd D] (render, bench render; cluster LOD scenes): runtime::View::stereoIpd.
 struct StereoOptions {

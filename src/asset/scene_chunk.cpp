@@ -1,5 +1,6 @@
-// SCEN payload: a version varint, then textures, materials, meshes and instances in that order,
-// each list a varint count followed by its records (layout table in docs/asset.md).
+// SCEN payload: a version varint, then textures, materials, meshes, instances and (version 2)
+// point lights in that order, each list a varint count followed by its records (layout table in
+// docs/asset.md).
 #include "mirage/asset/scene_chunk.h"
 
 #include <cmath>
@@ -49,11 +50,15 @@ std::string validateTexture(const Texture& t) {
 std::string validateMaterial(const Material& m, size_t textureCount) {
   if (!allFinite(m.baseColorFactor) || !allFinite(m.emissiveFactor) || !allFinite(m.metallicFactor) ||
       !allFinite(m.roughnessFactor) || !allFinite(m.normalScale) || !allFinite(m.occlusionStrength) ||
-      !allFinite(m.alphaCutoff))
+      !allFinite(m.alphaCutoff) || !allFinite(m.specularColor) || !allFinite(m.glossiness))
     return "has a NaN or infinite factor";
+  for (const UvTransform& t : m.uv)
+    if (!allFinite(t.offset) || !allFinite(t.scale) || !allFinite(t.rotation))
+      return "has a NaN or infinite UV transform";
   if (uint8_t(m.alphaMode) > uint8_t(AlphaMode::Blend)) return "has an invalid alpha mode";
-  const int32_t slots[] = {m.baseColorTexture, m.metallicRoughnessTexture, m.normalTexture, m.occlusionTexture,
-                           m.emissiveTexture};
+  if (uint8_t(m.model) > uint8_t(ShadingModel::BlinnPhong)) return "has an invalid shading model";
+  const int32_t slots[] = {m.baseColorTexture, m.metallicRoughnessTexture, m.normalTexture,       m.occlusionTexture,
+                           m.emissiveTexture,  m.detailAlbedoTexture,      m.detailNormalTexture, m.detailMaskTexture};
   for (int32_t t : slots)
     if (t < -1 || (t >= 0 && size_t(t) >= textureCount))
       return "references texture " + std::to_string(t) + " (" + std::to_string(textureCount) + " textures)";
@@ -98,6 +103,14 @@ std::string validate(const Scene& s) {
              std::to_string(s.meshes.size()) + " meshes)";
     if (!allFinite(inst.transform)) return "instance " + std::to_string(i) + " has a NaN or infinite transform";
   }
+  for (size_t i = 0; i < s.lights.size(); ++i) {
+    const PointLight& l = s.lights[i];
+    if (!allFinite(l.position) || !allFinite(l.color) || !allFinite(l.intensity) || !allFinite(l.radius))
+      return "light " + std::to_string(i) + " has a NaN or infinite value";
+    if (!(l.radius > 0.0f) || l.intensity < 0.0f)
+      return "light " + std::to_string(i) + " has radius " + std::to_string(l.radius) + " and intensity " +
+             std::to_string(l.intensity) + " (radius > 0, intensity >= 0)";
+  }
   return {};
 }
 
@@ -126,6 +139,20 @@ void decodeMaterial(ByteReader& r, Material& m) {
   if (alpha > uint8_t(AlphaMode::Blend)) r.fail("alpha mode " + std::to_string(alpha) + " is invalid");
   m.alphaMode = AlphaMode(alpha <= uint8_t(AlphaMode::Blend) ? alpha : 0);
   m.doubleSided = doubleSided;
+}
+
+// Version 2's material fields, after the version 1 record.
+void decodeMaterialV2(ByteReader& r, Material& m) {
+  uint8_t model = 0;
+  r.readString(m.origin) && r.read(model) && r.read(m.specularColor) && r.read(m.glossiness) &&
+      r.read(m.detailAlbedoTexture) && r.read(m.detailNormalTexture) && r.read(m.detailMaskTexture);
+  for (UvTransform& t : m.uv) r.read(t.offset) && r.read(t.scale) && r.read(t.rotation);
+  if (model > uint8_t(ShadingModel::BlinnPhong)) r.fail("shading model " + std::to_string(model) + " is invalid");
+  m.model = ShadingModel(model <= uint8_t(ShadingModel::BlinnPhong) ? model : 0);
+}
+
+void decodeLight(ByteReader& r, PointLight& l) {
+  r.read(l.position) && r.read(l.color) && r.read(l.intensity) && r.read(l.radius);
 }
 
 void decodeMesh(ByteReader& r, Mesh& m) {
@@ -179,6 +206,16 @@ std::vector<uint8_t> encodeScene(const Scene& s) {
     for (int32_t t :
          {m.baseColorTexture, m.metallicRoughnessTexture, m.normalTexture, m.occlusionTexture, m.emissiveTexture})
       w.write(t);
+    w.writeString(m.origin);
+    w.write(uint8_t(m.model));
+    w.write(m.specularColor);
+    w.write(m.glossiness);
+    for (int32_t t : {m.detailAlbedoTexture, m.detailNormalTexture, m.detailMaskTexture}) w.write(t);
+    for (const UvTransform& t : m.uv) {
+      w.write(t.offset);
+      w.write(t.scale);
+      w.write(t.rotation);
+    }
   }
   w.writeVarint(s.meshes.size());
   for (const Mesh& m : s.meshes) {
@@ -198,6 +235,13 @@ std::vector<uint8_t> encodeScene(const Scene& s) {
     w.write(inst.mesh);
     w.write(inst.transform);
   }
+  w.writeVarint(s.lights.size());
+  for (const PointLight& l : s.lights) {
+    w.write(l.position);
+    w.write(l.color);
+    w.write(l.intensity);
+    w.write(l.radius);
+  }
   return w.take();
 }
 
@@ -207,14 +251,20 @@ Result<Scene> decodeScene(std::span<const uint8_t> bytes, const std::string& fil
     ByteReader r(bytes, file);
     Scene s;
     uint64_t version = 0;
-    if (r.readVarint(version) && version != kSceneChunkVersion)
+    if (r.readVarint(version) && (version < kOldestSceneChunkVersion || version > kSceneChunkVersion))
       return makeError(file, "unsupported scene chunk version " + std::to_string(version) + " (this build reads " +
-                                 std::to_string(kSceneChunkVersion) + ")");
+                                 std::to_string(kOldestSceneChunkVersion) + ".." + std::to_string(kSceneChunkVersion) +
+                                 ")");
+    bool v2 = version >= 2;
     r.readString(s.source);
     decodeList(r, s.textures, decodeTexture);
-    decodeList(r, s.materials, decodeMaterial);
+    decodeList(r, s.materials, [v2](ByteReader& rr, Material& m) {
+      decodeMaterial(rr, m);
+      if (v2) decodeMaterialV2(rr, m);
+    });
     decodeList(r, s.meshes, decodeMesh);
     decodeList(r, s.instances, [](ByteReader& rr, Instance& i) { rr.read(i.mesh) && rr.read(i.transform); });
+    if (v2) decodeList(r, s.lights, decodeLight);
     if (Status st = r.finish(); !st) return st.error();
     if (Status st = validateScene(s, file); !st) return st.error();
     return s;
@@ -236,6 +286,7 @@ std::string sceneMeta(const Scene& s) {
                       {"materials", s.materials.size()},
                       {"textures", s.textures.size()},
                       {"instances", s.instances.size()},
+                      {"lights", s.lights.size()},
                       {"vertices", vertices},
                       {"triangles", s.meshTriangleCount()}};
   // dump() throws on invalid UTF-8 (a source path in another encoding); replace instead.

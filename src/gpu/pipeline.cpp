@@ -117,6 +117,7 @@ Unique<VkPipeline> createGraphicsPipeline(Context& context, const GraphicsPipeli
       b.alphaBlendOp = VK_BLEND_OP_ADD;
     }
   }
+  for (size_t i = 0; i < d.colorBlends.size() && i < blends.size(); ++i) blends[i] = d.colorBlends[i];
   VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
   cb.attachmentCount = uint32_t(blends.size());
   cb.pAttachments = blends.data();

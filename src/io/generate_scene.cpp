@@ -38,7 +38,15 @@ Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeP
     }
     return generateBlob(o);
   }
-  return makeError(where, "unknown scene kind (expected city, terrain or blob)");
+  if (kind == "layers") {
+    LayersOptions o;
+    if (sizeParameter != 0) {
+      if (sizeParameter > 1024) return outOfRange("layers", 1, 1024);
+      o.layers = uint32_t(sizeParameter);
+    }
+    return generateLayers(o);
+  }
+  return makeError(where, "unknown scene kind (expected city, terrain, blob or layers)");
 }
 
 } // namespace mirage::io

@@ -138,6 +138,7 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
   out.scene.materials = scene.materials;
   out.scene.textures = scene.textures;
   out.scene.instances = scene.instances;
+  out.scene.lights = scene.lights;
   for (const Mesh& m : scene.meshes)
     out.scene.meshes.push_back(Mesh{m.name, {}, {}, {}, {}, {}, {}, m.material, m.bounds});
   uint64_t total = scene.meshTriangleCount(), done = 0;

@@ -9,6 +9,7 @@
 
 #include "cluster_impl.h"
 #include "mirage/gpu/commands.h"
+#include "mirage/render/oit.h"
 #include "mirage/shaderio/debug_view.h"
 #include "mirage/shaderio/lod_error.h"
 
@@ -228,6 +229,8 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.fadeAddress = fade.address();
     f.surfelLinkAddress = surfelLink.address();
   }
+  f.lightAddress = scene.lights.address();
+  f.lightCount = scene.lightCount;
   f.nodeAddress = scene.lodNodes.address();
   f.leafClusterAddress = scene.leafClusters.address();
   f.traversalAddress = traversal.address();
@@ -240,6 +243,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.oitNodeAddress = oitNodes.address();
     f.blendCapacity = blendCapacity;
     f.oitNodeCapacity = oitNodeCapacity;
+    f.oitCounterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
   }
   std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
   if (plan.stereo) {
@@ -294,9 +298,11 @@ ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
   st.clustersBlend = std::min(c.blendClusters, blendCapacity);
   st.clustersBlendHardware = c.blendListEnd[MIRAGE_LIST_DOWN];
   st.blendRaster = plan.blend;
-  st.oitFragments = c.oitNodes;
-  st.oitPoolOverflow = c.oitNodes > oitNodeCapacity ? c.oitNodes - oitNodeCapacity : 0;
-  st.oitLayersDropped = c.oitLayersDropped;
+  OitStats oit = oitStats(c.oit, oitNodeCapacity);
+  st.oitFragments = oit.fragments;
+  st.oitPoolOverflow = oit.poolOverflow;
+  st.oitLayersDropped = oit.layersDropped;
+  st.msl = oit.msl;
   st.clustersHardware = c.clustersHardware;
   st.trianglesNearClipped = c.trianglesNearClipped;
   st.clustersOverflow = c.clustersOverflow;

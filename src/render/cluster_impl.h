@@ -22,23 +22,26 @@ namespace mirage::render {
 
 // Everything uploaded once per asset (docs/render.md, "Data layout").
 struct ClusterSceneData {
-  gpu::Buffer clusters;        // GpuCluster[], all meshes' DAGs concatenated
-  gpu::Buffer vertices;        // GpuClusterVertex[], all attribute vertices
-  gpu::Buffer clusterVertices; // uint[], attribute-vertex ids rebased to `vertices`
-  gpu::Buffer indices;         // uint[], local 8-bit indices packed 4 per word
-  gpu::Buffer meshes;          // GpuClusterMesh[]
-  gpu::Buffer levels;          // GpuClusterLevel[], per mesh (GpuClusterMesh::levelOffset)
-  gpu::Buffer instances;       // GpuClusterInstance[]
-  gpu::Buffer materials;       // GpuMaterial[] (the forward renderer's layout)
-  gpu::Buffer mapTransforms;   // the materials' map transforms (uploadMaterials)
-  gpu::Buffer cones;           // GpuClusterCone[], parallel to `clusters`
-  gpu::Buffer lodNodes;        // GpuLodNode[], per mesh (GpuClusterMesh::nodeOffset)
-  gpu::Buffer leafClusters;    // uint[]: mesh-local cluster ids of the LOD BVH's leaves
+  gpu::Buffer clusters;                        // GpuCluster[], all meshes' DAGs concatenated
+  gpu::Buffer vertices;                        // GpuClusterVertex[], all attribute vertices
+  gpu::Buffer clusterVertices;                 // uint[], attribute-vertex ids rebased to `vertices`
+  gpu::Buffer indices;                         // uint[], local 8-bit indices packed 4 per word
+  gpu::Buffer meshes;                          // GpuClusterMesh[]
+  gpu::Buffer levels;                          // GpuClusterLevel[], per mesh (GpuClusterMesh::levelOffset)
+  gpu::Buffer instances;                       // GpuClusterInstance[]
+  gpu::Buffer materials;                       // GpuMaterial[] (the forward renderer's layout)
+  gpu::Buffer mapTransforms;                   // the materials' map transforms (uploadMaterials)
+  gpu::Buffer cones;                           // GpuClusterCone[], parallel to `clusters`
+  gpu::Buffer lodNodes;                        // GpuLodNode[], per mesh (GpuClusterMesh::nodeOffset)
+  gpu::Buffer leafClusters;                    // uint[]: mesh-local cluster ids of the LOD BVH's leaves
+  gpu::Buffer lights;                          // GpuPointLight[lightCount] (one unused entry without lights)
+  std::vector<uint32_t> resolveSpecialization; // shading.glsl's kMaterialMaps (materialMapSpecialization)
   std::vector<gpu::Image> textures;
   gpu::Unique<VkSampler> sampler;        // trilinear, repeat: material textures
   gpu::Unique<VkSampler> nearestSampler; // the integer visibility image
   uint32_t clusterCount = 0;
   uint32_t instanceCount = 0;
+  uint32_t lightCount = 0;
   uint32_t maxMeshClusters = 0;
   uint32_t maxMeshNodes = 0;              // largest LOD BVH of one mesh (nodes)
   uint32_t lodDepth = 0;                  // deepest LOD BVH node below its level root (traversal passes - 1)

@@ -229,7 +229,8 @@ void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPu
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, debug ? debugResolvePipeline : resolvePipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0, nullptr);
   cmdPush(cmd, p, 0);
-  vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // 8x8 pixels per workgroup
+  uint32_t tileRows = debug ? 1 : MIRAGE_RESOLVE_TILE_ROWS; // 8x8 pixel tiles per workgroup
+  vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 8 * tileRows - 1) / (8 * tileRows), 1);
   timer().cmdEnd(cmd, slot);
 }
 

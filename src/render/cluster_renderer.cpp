@@ -114,7 +114,6 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
-  if (plan.bufferTarget) vkCmdFillBuffer(cmd, visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hasBlend()) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
   if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdrawCounts.handle(), 0, VK_WHOLE_SIZE, 0);
   if (cs.surfels) { // instances without a cloud keep fade 0: meshes only

@@ -9,13 +9,19 @@ using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 
 // barriers: on entry the counters were zeroed and the clears made visible (cmdPhaseBarrier); on
-// exit the visible instances, pass-1 lists and occlusion candidates are written and visible.
+// exit the visible instances, pass-1 lists and occlusion candidates are written and visible, and
+// the 64-bit visibility buffer (buffer backends) is zeroed.
 void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPush& p, bool hierarchy) {
   cmdPush(cmd, p, 0);
   // Per-instance culling first: the cluster pass only visits clusters of visible instances.
   uint32_t slot = timer().cmdBegin(cmd, "cull", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cullPipeline);
   vkCmdDispatch(cmd, (scene.instanceCount + MIRAGE_CLUSTER_WORKGROUP - 1) / MIRAGE_CLUSTER_WORKGROUP, 1, 1);
+  // The 64-bit visibility buffer is zeroed here, with no barrier between it and the cull dispatch,
+  // so the two overlap (the frame's opening barrier ordered it after the last frame's readers; the
+  // barrier below before the raster writes it). H100: 2500 blobs frame 0.183 -> 0.179 ms, stereo
+  // 0.311 -> 0.304 against a fill before the cull's barrier.
+  if (plans[currentSlot].bufferTarget) vkCmdFillBuffer(cmd, visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
   timer().cmdEnd(cmd, slot, kCS);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   // LOCALCUT + frustum + cones: a flat pass over every (visible instance, cluster of its level

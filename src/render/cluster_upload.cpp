@@ -375,9 +375,12 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
   d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");
   d.materials = uploadMaterials(ctx, mats, scene.textures.size(), d.mapTransforms, "cluster materials");
+  d.resolveSpecialization = materialMapSpecialization(mats, scene.textures.size());
   d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
   d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, lodNodes, kStorage, "cluster LOD BVH");
   d.leafClusters = createBufferWithData<uint32_t>(ctx, leafClusters, kStorage, "cluster LOD BVH leaves");
+  d.lights = uploadLights(ctx, scene.lights, "cluster point lights");
+  d.lightCount = uint32_t(scene.lights.size());
   d.textures = uploadTextures(ctx, scene);
   d.sampler = makeSampler(ctx, VK_FILTER_LINEAR);
   d.nearestSampler = makeSampler(ctx, VK_FILTER_NEAREST);

@@ -8,11 +8,8 @@
 
 #include <fmt/format.h>
 
+#include "forward_impl.h"
 #include "mirage/gpu/commands.h"
-#include "mirage/gpu/deletion_queue.h"
-#include "mirage/gpu/descriptors.h"
-#include "mirage/gpu/pipeline.h"
-#include "mirage/shaderio/forward.h"
 #include "render_util.h"
 
 namespace mirage::render {
@@ -22,110 +19,16 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr VkFormat kColorFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // linear HDR, converted on readback
-constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
-
-struct MeshRange {
-  uint32_t firstIndex = 0;
-  uint32_t indexCount = 0;
-  int32_t vertexOffset = 0;
-  uint32_t material = 0;
-  Bounds bounds;
-};
-
-// The indices one draw reads: a whole mesh, or an instance's visible triangles (VisibleSet).
-struct DrawRange {
-  uint32_t mesh = 0;       // material and vertex offset
-  uint32_t firstIndex = 0; // into the bound index buffer
-  uint32_t indexCount = 0;
-};
-
-// Opaque and masked instances of one range, drawn with one instanced call.
-struct Batch {
-  DrawRange range;
-  bool mirrored = false; // negative-determinant transform: glTF flips the winding
-  uint32_t firstInstance = 0;
-  uint32_t instanceCount = 0;
-};
-
-// A blended instance's draw; the frame sorts them back to front.
-struct BlendDraw {
-  const Instance* instance = nullptr;
-  DrawRange range;
-};
-
-// The triangles setVisibleTriangles listed: per instance with any, one draw of just those, their
-// indices copied out of the scene's index buffer by the next frame recorded.
-struct VisibleSet {
-  bool active = false;
-  gpu::Buffer indices;   // each draw's indices contiguous
-  gpu::Buffer instances; // GpuInstance of each opaque draw (its firstInstance)
-  std::vector<Batch> batches;
-  std::vector<BlendDraw> blendDraws;
-  std::vector<VkBufferCopy> pendingCopies; // scene indices -> `indices`, not yet recorded
-};
-
 uint32_t packColor(const glm::vec4& c) {
   glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
   return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
 }
 
-sio::GpuInstance makeInstance(const glm::mat4& m) { return {m, glm::transpose(glm::inverse(m))}; }
-
-bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.0f; }
-
 } // namespace
 
-struct ForwardRenderer::Impl {
-  Context& ctx;
-  Buffer vertices, indices, materials, instanceBuffer; // instanceBuffer: opaque and masked instances
-  Buffer mapTransforms;                                // the materials' map transforms (uploadMaterials)
-  Buffer lights; // GpuPointLight[lightCount] (one unused entry when the scene has none)
-  uint32_t lightCount = 0;
-  std::vector<Image> textures;
-  Unique<VkSampler> sampler;
-  DescriptorSet descriptors; // bindless material textures
-  Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> opaquePipeline, blendPipeline;
-  std::vector<MeshRange> meshes;
-  std::vector<Material> sceneMaterials;
-  std::vector<Instance> sceneInstances; // in scene order (setVisibleTriangles' IDs count through them)
-  std::vector<Batch> batches;           // opaque + mask, the whole scene
-  std::vector<BlendDraw> blendDraws;    // the whole scene's, sorted per frame
-  VisibleSet visible;                   // drawn instead of the whole scene when active
-  // The targets, shared by every slot (each frame's first barrier orders it after the earlier
-  // ones); colorWidth is both eyes' in stereo.
-  Image color, depth;
-  uint32_t colorWidth = 0, height = 0;
-  // Per slot: what the CPU writes or reads while other frames run.
-  Buffer frames[kMaxFramesInFlight];      // FrameData per eye
-  Buffer blendOrders[kMaxFramesInFlight]; // blend instances back to front
-  std::vector<GpuTimer> timers;
-  std::vector<PipelineStatsQuery> stats;
-  FrameStats slotStats[kMaxFramesInFlight]; // draw counts of the recorded frame
-  bool recorded[kMaxFramesInFlight] = {};
-  DeletionQueue retired; // targets replaced while frames in flight may still draw into them
+sio::GpuInstance makeGpuInstance(const glm::mat4& m) { return {m, glm::transpose(glm::inverse(m))}; }
 
-  explicit Impl(Context& c) : ctx(c) {
-    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) timers.emplace_back(c), stats.emplace_back(c);
-  }
-
-  void upload(const Scene& scene);
-  void createPipelines();
-  void ensureTargets(uint32_t colorW, uint32_t h);
-  void cmdDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, const DrawRange& range,
-               bool mirrored, uint32_t firstInstance, uint32_t count, FrameStats& fs);
-  DrawRange wholeMesh(uint32_t mesh) const { return {mesh, meshes[mesh].firstIndex, meshes[mesh].indexCount}; }
-  bool isBlend(uint32_t mesh) const {
-    return sceneMaterials[std::min<size_t>(meshes[mesh].material, sceneMaterials.size() - 1)].alphaMode ==
-           AlphaMode::Blend;
-  }
-  uint32_t inFlight() const {
-    uint32_t mask = 0;
-    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) mask |= recorded[i] ? 1u << i : 0u;
-    return mask;
-  }
-};
+bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.0f; }
 
 void ForwardRenderer::Impl::upload(const Scene& scene) {
   // Geometry: all meshes in one vertex and one index buffer.
@@ -136,7 +39,7 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   verts.reserve(nv);
   idx.reserve(ni);
   for (const Mesh& m : scene.meshes) {
-    MeshRange r;
+    ForwardMeshRange r;
     r.firstIndex = uint32_t(idx.size());
     r.indexCount = uint32_t(m.indices.size());
     r.vertexOffset = int32_t(verts.size());
@@ -180,14 +83,14 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   for (const Image& img : textures) infos.push_back({sampler, img.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
   writeImageDescriptors(ctx, descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
 
-  // Instances: opaque/mask ones grouped by mesh (one instanced draw each); blend ones re-sorted per
-  // frame and appended after them.
+  // Instances: opaque/mask ones grouped by mesh (one instanced draw each); blend ones to the
+  // transparency passes (uploadTransparency).
   sceneInstances = scene.instances;
   std::vector<std::vector<const Instance*>> byMesh(scene.meshes.size() * 2); // [mesh * 2 + mirrored]
   for (const Instance& inst : sceneInstances) {
     if (inst.mesh >= scene.meshes.size()) continue;
     if (isBlend(inst.mesh))
-      blendDraws.push_back({&inst, wholeMesh(inst.mesh)});
+      blendInstances.push_back(inst);
     else
       byMesh[inst.mesh * 2 + isMirrored(inst.transform)].push_back(&inst);
   }
@@ -195,16 +98,14 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   for (uint32_t k = 0; k < byMesh.size(); ++k) {
     if (byMesh[k].empty()) continue;
     batches.push_back({wholeMesh(k / 2), (k & 1) != 0, uint32_t(instanceData.size()), uint32_t(byMesh[k].size())});
-    for (const Instance* inst : byMesh[k]) instanceData.push_back(makeInstance(inst->transform));
+    for (const Instance* inst : byMesh[k]) instanceData.push_back(makeGpuInstance(inst->transform));
   }
   instanceBuffer =
       createBufferWithData<sio::GpuInstance>(ctx, instanceData, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "instances");
-  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i)
     frames[i] =
         createBuffer(ctx, 2 * sizeof(sio::FrameData), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "frame");
-    blendOrders[i] = createBuffer(ctx, std::max<size_t>(blendDraws.size(), 1) * sizeof(sio::GpuInstance),
-                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "blend order");
-  }
+  uploadTransparency(scene);
 }
 
 void ForwardRenderer::Impl::createPipelines() {
@@ -220,12 +121,9 @@ void ForwardRenderer::Impl::createPipelines() {
                   {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(sio::GpuVertex, uv)},
                   {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(sio::GpuVertex, tangent)},
                   {4, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(sio::GpuVertex, color)}};
-  d.colorFormats = {kColorFormat};
-  d.depthFormat = kDepthFormat;
+  d.colorFormats = {kForwardColorFormat};
+  d.depthFormat = kForwardDepthFormat;
   opaquePipeline = createGraphicsPipeline(ctx, d);
-  d.alphaBlend = true;
-  d.depthWrite = false; // blended surfaces test against opaque depth but do not occlude each other
-  blendPipeline = createGraphicsPipeline(ctx, d);
 }
 
 // New targets when the size changes; frames in flight keep drawing into the old ones, which are
@@ -234,28 +132,49 @@ void ForwardRenderer::Impl::ensureTargets(uint32_t colorW, uint32_t h) {
   if (colorW == colorWidth && h == height) return;
   retired.retire(std::move(color), inFlight());
   retired.retire(std::move(depth), inFlight());
-  color = createImage2D(ctx, colorW, h, kColorFormat,
-                        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "color");
-  depth = createImage2D(ctx, colorW, h, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth");
+  retired.retire(std::move(accum), inFlight());
+  retired.retire(std::move(reveal), inFlight());
+  retired.retire(std::move(oitHeads), inFlight());
+  retired.retire(std::move(oitNodes), inFlight());
+  retired.retire(std::move(oitColors), inFlight());
+  oitNodeCapacity = oitNodesPerPixel = 0; // the pool follows the size (ensureOitTargets)
+  // Storage: the transparency resolves blend into it.
+  color = createImage2D(
+      ctx, colorW, h, kForwardColorFormat,
+      VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_STORAGE_BIT, "color");
+  depth = createImage2D(ctx, colorW, h, kForwardDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth");
   colorWidth = colorW;
   height = h;
 }
 
-void ForwardRenderer::Impl::cmdDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
-                                    const DrawRange& range, bool mirrored, uint32_t firstInstance, uint32_t count,
-                                    FrameStats& fs) {
-  const MeshRange& r = meshes[range.mesh];
-  uint32_t materialIndex = std::min<uint32_t>(r.material, uint32_t(sceneMaterials.size() - 1));
-  const Material& mat = sceneMaterials[materialIndex];
+VkDeviceAddress ForwardRenderer::Impl::cmdSetEye(VkCommandBuffer cmd, uint32_t slot, uint32_t e) const {
+  VkViewport vp{float(e * eyeWidth), 0.0f, float(eyeWidth), float(height), 0.0f, 1.0f};
+  VkRect2D scissor{{int32_t(e * eyeWidth), 0}, {eyeWidth, height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  return frames[slot].address() + e * sizeof(sio::FrameData);
+}
+
+// The push constants and facing state of a draw of mesh `mesh`'s material.
+void ForwardRenderer::Impl::cmdBindMeshDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
+                                            uint32_t mesh, bool mirrored, VkDeviceAddress oit) {
+  uint32_t materialIndex = std::min<uint32_t>(meshes[mesh].material, uint32_t(sceneMaterials.size() - 1));
   sio::ForwardPush push{};
   push.frameAddress = frame;
   push.instanceAddress = instances;
   push.materialAddress = materials.address();
   push.materialIndex = materialIndex;
+  push.oitAddress = oit;
   vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-  vkCmdSetCullMode(cmd, mat.doubleSided ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+  vkCmdSetCullMode(cmd, sceneMaterials[materialIndex].doubleSided ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
   vkCmdSetFrontFace(cmd, mirrored ? VK_FRONT_FACE_CLOCKWISE : VK_FRONT_FACE_COUNTER_CLOCKWISE);
-  vkCmdDrawIndexed(cmd, range.indexCount, count, range.firstIndex, r.vertexOffset, firstInstance);
+}
+
+void ForwardRenderer::Impl::cmdDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
+                                    const ForwardDrawRange& range, bool mirrored, uint32_t firstInstance,
+                                    uint32_t count, FrameStats& fs, VkDeviceAddress oit) {
+  cmdBindMeshDraw(cmd, frame, instances, range.mesh, mirrored, oit);
+  vkCmdDrawIndexed(cmd, range.indexCount, count, range.firstIndex, meshes[range.mesh].vertexOffset, firstInstance);
   fs.drawCalls++;
   fs.trianglesSubmitted += uint64_t(range.indexCount / 3) * count;
 }
@@ -281,6 +200,8 @@ Status checkSettings(const ForwardRenderSettings& fs) {
   const RenderSettings& s = fs.base;
   if (s.width == 0 || s.height == 0 || s.width > kMaxRenderDimension || s.height > kMaxRenderDimension)
     return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
+  if (fs.oitNodesPerPixel < 1 || fs.oitNodesPerPixel > 64)
+    return Error{fmt::format("OIT node pool of {} nodes per pixel is outside 1..64", fs.oitNodesPerPixel)};
   if (!fs.stereoIpd) return Ok{};
   if (Status st = validateIpd(*fs.stereoIpd); !st) return st.error();
   if (uint64_t(s.width) * 2 > kMaxRenderDimension)
@@ -302,16 +223,9 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   d.retired.completed(slot); // a slot is recorded again only after its previous frame completed
   d.recorded[slot] = false;
   d.ensureTargets(s.width * eyeCount, s.height);
-  // The whole scene, or the visible set's draws (setVisibleTriangles).
-  const bool subset = d.visible.active;
-  const std::vector<Batch>& batches = subset ? d.visible.batches : d.batches;
-  const std::vector<BlendDraw>& blendDraws = subset ? d.visible.blendDraws : d.blendDraws;
-  const Buffer& indexBuffer = subset ? d.visible.indices : d.indices;
-  const VkDeviceAddress instanceAddress = subset ? d.visible.instances.address() : d.instanceBuffer.address();
+  d.eyeWidth = s.width;
 
-  // Per eye its frame, with clip planes from its own position as a mono render of it has. The
-  // blend instances back to front by the view depth of their bounds' centres: the eyes share the
-  // view axis (parallel axes), so one order serves both.
+  // Per eye its frame, with clip planes from its own position as a mono render of it has.
   sio::FrameData fd[2] = {};
   for (uint32_t e = 0; e < eyeCount; ++e) {
     fd[e].camera = viewFrame(withClipPlanes(eyes[e], worldBounds_), s.width, s.height);
@@ -322,22 +236,14 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
     fd[e].lightCount = d.lightCount;
   }
   std::memcpy(d.frames[slot].mapped(), fd, eyeCount * sizeof(sio::FrameData));
-  std::vector<std::pair<float, const BlendDraw*>> order;
-  for (const BlendDraw& b : blendDraws) {
-    glm::vec3 c = transformBounds(d.meshes[b.range.mesh].bounds, b.instance->transform).center();
-    order.push_back({(fd[0].camera.view * glm::vec4(c, 1.0f)).z, &b}); // more negative = farther
-  }
-  std::stable_sort(order.begin(), order.end(), [](auto& a, auto& b) { return a.first < b.first; });
-  auto* blendData = reinterpret_cast<sio::GpuInstance*>(d.blendOrders[slot].mapped());
-  for (size_t i = 0; i < order.size(); ++i) blendData[i] = makeInstance(order[i].second->instance->transform);
 
   FrameStats& stats = d.slotStats[slot];
   stats = {};
   GpuTimer& timer = d.timers[slot];
   PipelineStatsQuery& pipelineStats = d.stats[slot];
-  // barriers: the first orders this frame after all work submitted before it (the targets are
-  // shared by the slots); the colour target ends in GENERAL, its writes visible to compute shaders
-  // and transfers (colorTarget(); readbackImage).
+  // barriers: the first orders this frame after all work submitted before it (the targets and the
+  // lists are shared by the slots); the colour target ends in GENERAL, its writes visible to
+  // compute shaders and transfers (colorTarget(); readbackImage).
   timer.cmdReset(cmd);
   pipelineStats.cmdReset(cmd);
   // A new visible set's indices, copied before the barrier that orders them before the draws.
@@ -349,6 +255,7 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  d.prepareTransparency(cmd, fs, slot, fd[0].camera.view);
   ImageBarrier toAttachment[] = {
       {d.color.handle(), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
        VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
@@ -358,6 +265,7 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
   cmdImageBarriers(cmd, toAttachment);
   uint32_t frameTime = timer.cmdBegin(cmd, "frame");
+  pipelineStats.cmdBegin(cmd);
 
   VkRenderingAttachmentInfo colorAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   colorAtt.imageView = d.color.view();
@@ -369,8 +277,8 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   depthAtt.imageView = d.depth.view();
   depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depthAtt.clearValue.depthStencil = {0.0f, 0}; // reverse-Z: far is 0
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_STORE; // the transparency passes test against it
+  depthAtt.clearValue.depthStencil = {0.0f, 0};    // reverse-Z: far is 0
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.renderArea = {{0, 0}, {d.colorWidth, s.height}};
   ri.layerCount = 1;
@@ -378,51 +286,29 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   ri.pColorAttachments = &colorAtt;
   ri.pDepthAttachment = &depthAtt;
   vkCmdBeginRendering(cmd, &ri);
-  pipelineStats.cmdBegin(cmd);
 
   VkDeviceSize zero = 0;
   VkBuffer vb = d.vertices.handle();
   vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
-  vkCmdBindIndexBuffer(cmd, indexBuffer.handle(), 0, VK_INDEX_TYPE_UINT32);
+  // Opaque and alpha-masked geometry: the whole scene, or the visible set's draws.
+  const bool subset = d.visible.active;
+  vkCmdBindIndexBuffer(cmd, subset ? d.visible.indices.handle() : d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
-  // Each eye draws into its half: its viewport and scissor, its frame.
-  auto setEye = [&](uint32_t e) {
-    VkViewport vp{float(e * s.width), 0.0f, float(s.width), float(s.height), 0.0f, 1.0f};
-    VkRect2D scissor{{int32_t(e * s.width), 0}, {s.width, s.height}};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &scissor);
-    return d.frames[slot].address() + e * sizeof(sio::FrameData);
-  };
-
-  // Opaque and alpha-masked geometry.
+  const VkDeviceAddress instances = subset ? d.visible.instances.address() : d.instanceBuffer.address();
   uint32_t opaqueTime = timer.cmdBegin(cmd, "opaque");
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.opaquePipeline);
   for (uint32_t e = 0; e < eyeCount; ++e) {
-    VkDeviceAddress frame = setEye(e);
-    for (const Batch& b : batches)
-      d.cmdDraw(cmd, frame, instanceAddress, b.range, b.mirrored, b.firstInstance, b.instanceCount, stats);
+    VkDeviceAddress frame = d.cmdSetEye(cmd, slot, e);
+    for (const ForwardBatch& b : subset ? d.visible.batches : d.batches)
+      d.cmdDraw(cmd, frame, instances, b.range, b.mirrored, b.firstInstance, b.instanceCount, stats);
   }
   timer.cmdEnd(cmd, opaqueTime);
-
-  // Blended geometry, back to front, depth-tested against the opaque pass.
-  uint32_t blendTime = timer.cmdBegin(cmd, "blend");
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.blendPipeline);
-  for (uint32_t e = 0; e < eyeCount; ++e) {
-    VkDeviceAddress frame = setEye(e);
-    for (size_t i = 0; i < order.size(); ++i)
-      d.cmdDraw(cmd, frame, d.blendOrders[slot].address(), order[i].second->range,
-                isMirrored(order[i].second->instance->transform), uint32_t(i), 1, stats);
-  }
-  timer.cmdEnd(cmd, blendTime);
-
-  pipelineStats.cmdEnd(cmd);
   vkCmdEndRendering(cmd);
+
+  // Blended geometry (forward_oit.cpp), which leaves the colour in GENERAL.
+  d.cmdTransparency(cmd, fs, slot, eyeCount, stats);
+  pipelineStats.cmdEnd(cmd);
   timer.cmdEnd(cmd, frameTime);
-  cmdImageBarrier(
-      cmd, {d.color.handle(), VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-            VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
-            VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
-            VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL});
   d.recorded[slot] = true;
   return Ok{};
 }
@@ -435,6 +321,9 @@ Result<RenderOutput> ForwardRenderer::collect(uint32_t slot) {
   out.stats = d.slotStats[slot];
   out.stats.passTimes = d.timers[slot].read();
   out.stats.pipeline = d.stats[slot].read();
+  if (d.slotOit[slot])
+    out.stats.oit =
+        oitStats(*reinterpret_cast<const sio::OitCounters*>(d.oitReadback[slot].mapped()), d.oitNodeCapacity);
   d.recorded[slot] = false;
   d.retired.completed(slot);
   return out;
@@ -444,7 +333,7 @@ const gpu::Image& ForwardRenderer::colorTarget() const { return impl_->color; }
 
 Status ForwardRenderer::setVisibleTriangles(const std::vector<uint32_t>* sortedIds) {
   Impl& d = *impl_;
-  VisibleSet next;
+  ForwardVisibleSet next;
   if (sortedIds) {
     const std::vector<uint32_t>& ids = *sortedIds;
     uint64_t total = 0;
@@ -457,28 +346,33 @@ Status ForwardRenderer::setVisibleTriangles(const std::vector<uint32_t>* sortedI
     next.active = true;
     std::vector<sio::GpuInstance> instanceData;
     uint64_t begin = 0, indexCount = 0; // the instance's first global triangle ID; indices so far
+    uint32_t blendInstance = 0;         // BLEND instances so far (blendInstances' order)
     size_t k = 0;
     for (const Instance& inst : d.sceneInstances) {
       if (inst.mesh >= d.meshes.size()) continue;
-      const MeshRange& m = d.meshes[inst.mesh];
+      const ForwardMeshRange& m = d.meshes[inst.mesh];
+      const bool blend = d.isBlend(inst.mesh);
       uint64_t end = begin + m.indexCount / 3;
-      DrawRange range{inst.mesh, uint32_t(indexCount), 0};
+      ForwardBlendRange listed{blendInstance, {inst.mesh, uint32_t(indexCount), 0}, {}};
       while (k < ids.size() && ids[k] < end) { // one copy per run of consecutive triangles
         size_t run = 1;
         while (k + run < ids.size() && ids[k + run] == ids[k] + run && ids[k + run] < end) ++run;
         next.pendingCopies.push_back({(m.firstIndex + (ids[k] - begin) * 3) * 4, indexCount * 4, run * 12});
+        if (blend)
+          for (size_t i = 0; i < run; ++i) listed.triangles.push_back(uint32_t(ids[k] - begin + i));
         indexCount += run * 3;
         k += run;
       }
       begin = end;
+      blendInstance += blend;
       if (indexCount > UINT32_MAX) return Error{"visible triangles exceed 32-bit index ranges"};
-      range.indexCount = uint32_t(indexCount - range.firstIndex);
-      if (range.indexCount == 0) continue;
-      if (d.isBlend(inst.mesh)) {
-        next.blendDraws.push_back({&inst, range});
+      listed.range.indexCount = uint32_t(indexCount - listed.range.firstIndex);
+      if (listed.range.indexCount == 0) continue;
+      if (blend) {
+        next.blend.push_back(std::move(listed));
       } else {
-        next.batches.push_back({range, isMirrored(inst.transform), uint32_t(instanceData.size()), 1});
-        instanceData.push_back(makeInstance(inst.transform));
+        next.batches.push_back({listed.range, isMirrored(inst.transform), uint32_t(instanceData.size()), 1});
+        instanceData.push_back(makeGpuInstance(inst.transform));
       }
     }
     next.indices = createBuffer(d.ctx, std::max<uint64_t>(indexCount, 1) * 4,

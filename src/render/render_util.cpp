@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <string_view>
 
 #include <glm/gtc/packing.hpp>
 
@@ -111,10 +113,34 @@ static_assert(MIRAGE_MATERIAL_MAPS == kMaterialMapCount && MIRAGE_MAP_BASE_COLOR
               MIRAGE_MAP_DETAIL_ALBEDO == kMapDetailAlbedo && MIRAGE_MAP_DETAIL_NORMAL == kMapDetailNormal &&
               MIRAGE_MAP_DETAIL_MASK == kMapDetailMask);
 
+std::vector<uint32_t> materialMapSpecialization(const std::vector<Material>& materials, size_t textureCount) {
+  std::vector<uint32_t> values(MIRAGE_SPEC_MATERIAL_MAPS + 1, 0u);
+  uint32_t mask = ~0u;
+  const char* env = std::getenv("MIRAGE_SPECIALIZE_MAPS");
+  if (env && std::string_view(env) == "1") {
+    mask = 0;
+    for (const Material& m : materials) {
+      const int32_t maps[kMaterialMapCount] = {m.baseColorTexture,    m.metallicRoughnessTexture, m.normalTexture,
+                                               m.occlusionTexture,    m.emissiveTexture,          m.detailAlbedoTexture,
+                                               m.detailNormalTexture, m.detailMaskTexture}; // MaterialMap order
+      for (int k = 0; k < kMaterialMapCount; ++k)
+        if (maps[k] >= 0 && size_t(maps[k]) < textureCount) mask |= 1u << k;
+    }
+  }
+  values[MIRAGE_SPEC_MATERIAL_MAPS] = mask;
+  return values;
+}
+
 std::vector<shaderio::GpuPointLight> toGpuLights(const std::vector<PointLight>& lights) {
   std::vector<shaderio::GpuPointLight> out;
   for (const PointLight& l : lights) out.push_back({l.position, l.radius, l.color * l.intensity, 0.0f});
   return out;
+}
+
+gpu::Buffer uploadLights(gpu::Context& ctx, const std::vector<PointLight>& lights, const char* name) {
+  std::vector<shaderio::GpuPointLight> records = toGpuLights(lights);
+  if (records.empty()) records.resize(1);
+  return gpu::createBufferWithData<shaderio::GpuPointLight>(ctx, records, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, name);
 }
 
 void convertHalfImage(const std::vector<uint8_t>& rgba16f, uint32_t width, uint32_t height, bool keepLinear,

@@ -30,8 +30,16 @@ std::array<shaderio::GpuMapTransform, MIRAGE_MATERIAL_MAPS> toGpuMapTransforms(c
 // must live as long as the materials buffer).
 gpu::Buffer uploadMaterials(gpu::Context& ctx, const std::vector<Material>& materials, size_t textureCount,
                             gpu::Buffer& mapTransforms, const char* name);
+// shading.glsl's kMaterialMaps for a pipeline shading `materials`: with MIRAGE_SPECIALIZE_MAPS=1
+// the maps some material has (bit MIRAGE_MAP_k), else every bit (each map decided per material, one
+// pipeline for any scene). Returned as a compute pipeline's specialization values (constant_id i
+// takes value i; the others are 0, which no shader including shading.glsl declares).
+std::vector<uint32_t> materialMapSpecialization(const std::vector<Material>& materials, size_t textureCount);
 // The scene's point lights as shaders read them (colour x intensity).
 std::vector<shaderio::GpuPointLight> toGpuLights(const std::vector<PointLight>& lights);
+// GpuPointLight[] of `lights`; one unused entry when there are none (a buffer cannot be empty, and
+// shaders read lightCount first).
+gpu::Buffer uploadLights(gpu::Context& ctx, const std::vector<PointLight>& lights, const char* name);
 
 // RGBA16F pixels read back from a colour target -> 8-bit sRGB (alpha linear) and, when
 // `keepLinear`, the float image.

@@ -88,6 +88,8 @@ Status SurfelRenderer::Impl::prepareFrame(const SurfelRenderSettings& ss, uint32
   f.skyAmbient = glm::vec4(s.skyAmbient, 0.0f);
   f.groundAmbient = glm::vec4(s.groundAmbient, 0.0f);
   f.background = s.background;
+  f.lightAddress = lights.address();
+  f.lightCount = lightCount;
   f.surfelSize = ss.surfelSize;
   f.fadeBand = std::max(ss.fadeBand, 0.0f);
   f.flags = frameFlags(ss) | (planned->raster == SurfelRaster::Compute ? MIRAGE_SURFEL_SOURCE_BUFFER : 0u);

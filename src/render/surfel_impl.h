@@ -33,6 +33,9 @@ struct SurfelRenderer::Impl {
   gpu::Context& ctx;
   gpu::Buffer positions, attributes, radii, clouds, instances, materials; // set-up time
   gpu::Buffer mapTransforms;                                              // the materials' (uploadMaterials)
+  gpu::Buffer lights;                                                     // GpuPointLight[lightCount]
+  std::vector<uint32_t> resolveSpecialization; // shading.glsl's kMaterialMaps (materialMapSpecialization)
+  uint32_t lightCount = 0;
   // GPU-only scratch every frame slot shares (each frame's first barrier orders it after the
   // frames submitted before it).
   gpu::Buffer states, counters, draws, visBuffer, batchInstance;

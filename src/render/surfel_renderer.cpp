@@ -142,6 +142,9 @@ Status SurfelRenderer::Impl::upload(const SurfelScene& scene) {
   clouds = createBufferWithData<sio::SurfelRenderCloud>(ctx, gpuClouds, kStorage, "surfel clouds");
   instances = createBufferWithData<sio::SurfelRenderInstance>(ctx, gpuInstances, kStorage, "surfel instances");
   materials = uploadMaterials(ctx, cloudMaterials, 0, mapTransforms, "surfel materials");
+  resolveSpecialization = materialMapSpecialization(cloudMaterials, 0);
+  lights = uploadLights(ctx, scene.lights, "surfel point lights");
+  lightCount = uint32_t(scene.lights.size());
   return Ok{};
 }
 
@@ -164,7 +167,7 @@ void SurfelRenderer::Impl::createPipelines() {
   layout = createPipelineLayout(ctx, {descriptors[0].layout.get()}, sizeof(sio::SurfelRenderPush), kSurfelPushStages);
   prefixPipeline = createComputePipeline(ctx, "surfel_render_prefix.comp", layout);
   scanPipeline = createComputePipeline(ctx, "surfel_render_scan.comp", layout);
-  resolvePipeline = createComputePipeline(ctx, "surfel_render_resolve.comp", layout);
+  resolvePipeline = createComputePipeline(ctx, "surfel_render_resolve.comp", layout, resolveSpecialization);
   GraphicsPipelineDesc d;
   d.vertexShader = "surfel_render_raster.vert";
   d.fragmentShader = "surfel_render_raster.frag";

@@ -61,11 +61,25 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
   return std::unique_ptr<Scene>(new Scene(std::move(impl)));
 }
 
+namespace {
+
+// validate() and what a scene kind's renderer refuses.
+Status checkConfig(const RenderConfig& c, SceneKind kind) {
+  if (auto st = validate(c); !st) return st.error();
+  if (c.debugView != render::DebugView::None && kind != SceneKind::ClusterLod)
+    return Error{
+        fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one", toString(kind))};
+  if (c.oit != render::OitMode::LinkedList && kind == SceneKind::ClusterLod)
+    return Error{
+        fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by linked lists only (--oit linked-list)",
+                    render::toString(c.oit))};
+  return Ok{};
+}
+
+} // namespace
+
 Result<Frame> Scene::render(const View& view) {
-  if (auto st = validate(view.config); !st) return st.error();
-  if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
-    return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
-                             toString(impl_->kind))};
+  if (auto st = checkConfig(view.config, impl_->kind); !st) return st.error();
   switch (impl_->kind) {
   case SceneKind::ClusterLod:
     return renderClusterLod(*impl_, view);
@@ -78,10 +92,7 @@ Result<Frame> Scene::render(const View& view) {
 }
 
 Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
-  if (auto st = validate(view.config); !st) return st.error();
-  if (view.config.debugView != render::DebugView::None && impl_->kind != SceneKind::ClusterLod)
-    return Error{fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
-                             toString(impl_->kind))};
+  if (auto st = checkConfig(view.config, impl_->kind); !st) return st.error();
   switch (impl_->kind) {
   case SceneKind::Forward:
     return recordForward(*impl_, cmd, view, slot);

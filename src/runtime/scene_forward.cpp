@@ -40,6 +40,7 @@ render::ForwardRenderSettings forwardSettings(const Scene::Impl& s, const View& 
   rs.readImage = view.readImage;
   rs.readLinear = view.readLinear;
   fs.stereoIpd = view.stereoIpd;
+  fs.oit = view.config.oit;
   return fs;
 }
 

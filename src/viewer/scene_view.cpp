@@ -12,6 +12,7 @@ runtime::SceneOptions runtimeOptions(const SceneOptions& o) {
   r.input = o.path;
   r.pvs = o.pvs;
   r.surfels = o.surfels;
+  r.materials = o.materials;
   return r;
 }
 

@@ -20,9 +20,10 @@
 namespace mirage::viewer {
 
 struct SceneOptions {
-  std::string path;     // .mrg, a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
-  std::string pvs;      // .mrg: a triangle PVS (mirage pvs) of the scene the asset was built from
-  bool surfels = false; // .mrg: its SURF chunks (alone, or far from the meshes)
+  std::string path;      // .mrg, a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
+  std::string pvs;       // .mrg: a triangle PVS (mirage pvs) of the scene the asset was built from
+  bool surfels = false;  // .mrg: its SURF chunks (alone, or far from the meshes)
+  std::string materials; // material file (TOML): runtime::SceneOptions::materials
 };
 
 // What the overlay changes between frames: the runtime's per-frame settings, its defaults.

@@ -118,7 +118,15 @@ inline Scene makeFullScene() {
   m0.emissiveTexture = 0;
   Material m1;
   m1.name = "glass";
+  m1.origin = "mats.toml:12";
   m1.alphaMode = AlphaMode::Blend;
+  m1.model = ShadingModel::BlinnPhong;
+  m1.specularColor = {0.5f, 0.25f, 0.125f};
+  m1.glossiness = 0.75f;
+  m1.detailAlbedoTexture = 0;
+  m1.detailNormalTexture = 1;
+  m1.detailMaskTexture = 0;
+  m1.uv[kMapDetailNormal] = {{0.5f, -0.25f}, {4.0f, 2.0f}, 0.3f};
   s.materials = {m0, m1};
 
   Mesh a;
@@ -148,6 +156,7 @@ inline Scene makeFullScene() {
   r[2] = {0, 0, 2, 0};
   r[3] = {0.25f, 0, 0, 1};
   s.instances = {{0, glm::mat4(1.0f)}, {1, t}, {0, r}};
+  s.lights = {{{1, 2, 3}, {1, 0.5f, 0.25f}, 4.0f, 7.5f}, {{-1, 0, 0}, {0, 1, 0}, 0.0f, 0.01f}};
   return s;
 }
 
@@ -181,6 +190,25 @@ inline void expectSameScene(const Scene& a, const Scene& b) {
     EXPECT_EQ(x.normalTexture, y.normalTexture);
     EXPECT_EQ(x.occlusionTexture, y.occlusionTexture);
     EXPECT_EQ(x.emissiveTexture, y.emissiveTexture);
+    EXPECT_EQ(x.origin, y.origin);
+    EXPECT_EQ(x.model, y.model);
+    EXPECT_EQ(x.specularColor, y.specularColor);
+    EXPECT_EQ(x.glossiness, y.glossiness);
+    EXPECT_EQ(x.detailAlbedoTexture, y.detailAlbedoTexture);
+    EXPECT_EQ(x.detailNormalTexture, y.detailNormalTexture);
+    EXPECT_EQ(x.detailMaskTexture, y.detailMaskTexture);
+    for (int k = 0; k < kMaterialMapCount; ++k) {
+      EXPECT_EQ(x.uv[k].offset, y.uv[k].offset);
+      EXPECT_EQ(x.uv[k].scale, y.uv[k].scale);
+      EXPECT_EQ(x.uv[k].rotation, y.uv[k].rotation);
+    }
+  }
+  ASSERT_EQ(a.lights.size(), b.lights.size());
+  for (size_t i = 0; i < a.lights.size(); ++i) {
+    EXPECT_EQ(a.lights[i].position, b.lights[i].position);
+    EXPECT_EQ(a.lights[i].color, b.lights[i].color);
+    EXPECT_EQ(a.lights[i].intensity, b.lights[i].intensity);
+    EXPECT_EQ(a.lights[i].radius, b.lights[i].radius);
   }
   ASSERT_EQ(a.meshes.size(), b.meshes.size());
   for (size_t i = 0; i < a.meshes.size(); ++i) {

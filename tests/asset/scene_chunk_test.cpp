@@ -1,5 +1,6 @@
 // SCEN encoding: exact round trips, validation of everything a decoder must reject, and a
 // decoder that survives arbitrary payload bytes (bypassing the container checksums).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <random>
@@ -72,6 +73,13 @@ TEST(SceneChunk, InvalidScenesAreRejectedOnSaveAndDecode) {
       {"instance 2 uses mesh 5", [](Scene& s) { s.instances[2].mesh = 5; }},
       {"texture 1 has 11 bytes, expected 1x3x4 = 12", [](Scene& s) { s.textures[1].rgba8.pop_back(); }},
       {"alpha mode", [](Scene& s) { s.materials[0].alphaMode = AlphaMode(7); }},
+      {"shading model", [](Scene& s) { s.materials[1].model = ShadingModel(5); }},
+      {"references texture 3", [](Scene& s) { s.materials[1].detailMaskTexture = 3; }},
+      {"NaN or infinite factor", [nan](Scene& s) { s.materials[1].glossiness = nan; }},
+      {"NaN or infinite UV transform", [nan](Scene& s) { s.materials[0].uv[kMapNormal].rotation = nan; }},
+      {"light 1 has a NaN", [nan](Scene& s) { s.lights[1].position.x = nan; }},
+      {"light 0 has radius 0", [](Scene& s) { s.lights[0].radius = 0.0f; }},
+      {"light 1 has radius", [](Scene& s) { s.lights[1].intensity = -1.0f; }},
       // 2^31 x 2^31 x 4 bytes wraps to 0 in 64 bits: it matched an empty pixel array.
       {"texture 1 is 2147483648x2147483648: too large",
        [](Scene& s) {
@@ -97,11 +105,15 @@ TEST(SceneChunk, InvalidScenesAreRejectedOnSaveAndDecode) {
 
 TEST(SceneChunk, DecodeRejectsVersionTrailingBytesAndEveryTruncation) {
   std::vector<uint8_t> bytes = encodeScene(makeFullScene());
-  std::vector<uint8_t> v2 = bytes;
-  v2[0] = 2;
-  Result<Scene> a = decodeScene(v2, "f");
-  ASSERT_FALSE(a.ok());
-  EXPECT_NE(a.error().message.find("scene chunk version 2 (this build reads 1)"), std::string::npos);
+  for (uint8_t v : {0, 3}) {
+    std::vector<uint8_t> other = bytes;
+    other[0] = v;
+    Result<Scene> a = decodeScene(other, "f");
+    ASSERT_FALSE(a.ok());
+    EXPECT_NE(a.error().message.find("scene chunk version " + std::to_string(v) + " (this build reads 1..2)"),
+              std::string::npos)
+        << a.error().message;
+  }
   std::vector<uint8_t> longer = bytes;
   longer.push_back(0);
   Result<Scene> b = decodeScene(longer, "f");
@@ -118,6 +130,34 @@ TEST(SceneChunk, DecodeRejectsVersionTrailingBytesAndEveryTruncation) {
   Result<Scene> c = decodeScene(badBool, "f");
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.error().message.find("boolean byte 2"), std::string::npos) << c.error().message;
+}
+
+// Version 2 appended fields: a version 1 payload (no material-file fields, no lights) still
+// decodes, with those fields at their defaults.
+TEST(SceneChunk, VersionOnePayloadDecodes) {
+  Scene s = makeFullScene();
+  s.materials.clear();
+  for (Mesh& m : s.meshes) m.material = 0;
+  s.materials.push_back(Material{});
+  s.materials[0].name = "plain";
+  s.lights.clear();
+  std::vector<uint8_t> v2 = encodeScene(s);
+  // The v1 layout: the same bytes without the material's version 2 fields and the light count.
+  std::vector<uint8_t> v1 = v2;
+  v1[0] = 1;
+  v1.pop_back(); // light count 0
+  // The one material's v2 tail: origin (empty string: 1 byte), model u8, specular 3xf32,
+  // glossiness f32, 3 detail textures i32, 8 UV transforms of 5 f32.
+  size_t tail = 1 + 1 + 12 + 4 + 12 + kMaterialMapCount * 20;
+  // The v1 record ends after name, 4+3+5 f32 factors, alpha mode, double-sided and 5 i32 textures.
+  std::string name = s.materials[0].name;
+  auto it = std::search(v2.begin(), v2.end(), name.begin(), name.end());
+  ASSERT_NE(it, v2.end());
+  size_t materialEnd = size_t(it - v2.begin()) + name.size() + 12 * 4 + 2 + 5 * 4;
+  v1.erase(v1.begin() + materialEnd, v1.begin() + materialEnd + tail);
+  Result<Scene> back = decodeScene(v1, "old.mrg");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  expectSameScene(*back, s);
 }
 
 TEST(SceneChunk, MetaMustMatchTheScene) {

@@ -6,7 +6,7 @@
 # (PSNR >= 45 dB per frame; with --stereo, `render --stereo --path`) with silent validation layers,
 # a refused stereo setting fails before the window, an interactive path replay prints the one-line
 # summary (FPS, frame time, latency, chosen tau), and the swapchain follows a window resize and
-# present-mode switches (test_viewer's SwapchainWindow test).
+# present-mode switches (test_viewer's SwapchainWindow test); --materials as render's.
 # Usage: view.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -32,6 +32,8 @@ expect_fail ipd-negative "--ipd" "" -- view "$tmp/missing.mrg" --stereo --ipd=-1
 expect_fail target-zero "--target-ms must be" "" -- view "$tmp/missing.mrg" --target-ms 0
 expect_fail fovea-range "--fovea must be" "" -- view "$tmp/missing.mrg" --fovea 2,0.5
 expect_fail surfel-size-alone "need --surfels" "" -- view "$tmp/missing.mrg" --surfel-size 3
+printf '[[material]]\nname = "steel"\nroughnes = 0.5\n' >"$tmp/typo.toml"
+expect_fail materials-typo "typo.toml:3: material \"steel\"" "" -- view "$tmp/tri.obj" --materials "$tmp/typo.toml"
 
 # The window tests need an X server: Xvfb through xvfb-run (Debian xvfb), else the display given.
 xrun=()
@@ -96,6 +98,36 @@ JSON
     done
   else
     echo "FAIL view-stereo:"; cat "$tmp/stderr"; failures=$((failures + 1))
+  fi
+  # --materials (the binding render has): the path images equal `render --materials --path`, and
+  # the file's material and point light change them.
+  cat >"$tmp/red.toml" <<'TOML'
+[[material]]
+name = "red"
+model = "blinn-phong"
+albedo = [0.9, 0.1, 0.1]
+[[assign]]
+mesh = "*"
+use = "red"
+[[light]]
+position = [0, 2, 2]
+intensity = 5
+TOML
+  "$mirage" render "$tmp/blob.mrg" --materials "$tmp/red.toml" --path "$tmp/cams.json" -o "$tmp/rm.png" --size 96x64 \
+    >/dev/null 2>"$tmp/stderr" || { echo "FAIL render-materials-path:"; cat "$tmp/stderr"; failures=$((failures + 1)); }
+  "$mirage" render "$tmp/blob.mrg" --path "$tmp/cams.json" -o "$tmp/pm.png" --size 96x64 >/dev/null 2>&1
+  if "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --materials "$tmp/red.toml" --path "$tmp/cams.json" \
+      --screenshot "$tmp/vm.png" --exit-after-path --size 96x64 >"$tmp/stdout" 2>"$tmp/stderr" && ! grep -q . "$tmp/stderr"; then
+    psnr=$("$mirage" compare "$tmp/rm_0000.png" "$tmp/vm_0000.png" --json 2>&1 | sed 's/.*"psnr":\([^,]*\),.*/\1/')
+    plain=$("$mirage" compare "$tmp/pm_0000.png" "$tmp/vm_0000.png" --json 2>&1 | sed 's/.*"psnr":\([^,]*\),.*/\1/')
+    if { [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 45) }'; } && [ "$plain" != null ] &&
+      awk -v p="$plain" 'BEGIN { exit !(p < 30) }'; then
+      pass=$((pass + 1))
+    else
+      echo "FAIL view-materials: PSNR $psnr dB vs render --materials, $plain dB vs without"; failures=$((failures + 1))
+    fi
+  else
+    echo "FAIL view-materials:"; cat "$tmp/stderr"; failures=$((failures + 1))
   fi
   # A stereo setting the renderer refuses fails on the first frame, before the window: one line, exit 2.
   "${xrun[@]}" "$mirage" view "$tmp/blob.mrg" --stereo --debug-view lod --raster indirect --frames 2 --size 64x48 >"$tmp/stdout" 2>"$tmp/stderr"

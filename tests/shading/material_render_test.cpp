@@ -12,46 +12,15 @@
 #include "mirage/render/camera.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/shading/material_file.h"
-#include "test_scenes.h"
+#include "lit_plane.h"
 #include "test_support.h"
 
 using namespace mirage;
 using namespace mirage::render;
 using mirage::test::GpuTest;
+using namespace mirage::test;
 
 namespace {
-
-constexpr float kPi = 3.14159265358979f;
-constexpr uint32_t kWidth = 64, kHeight = 48;
-
-// A 2 x 2 plane (z = 0, facing +Z) seen head-on from z = 3.
-struct Plane {
-  float half = 1.0f;
-  Scene scene;
-  RenderSettings settings;
-  explicit Plane(float h = 1.0f) : half(h) {
-    scene = test::makeScene({test::makeQuad(h, 0.0f)}, {test::solidMaterial({1, 1, 1, 1})});
-    scene.meshes[0].name = "plane";
-    settings.width = kWidth;
-    settings.height = kHeight;
-    settings.camera.eye = {0, 0, 3};
-    settings.camera.target = {0, 0, 0};
-    settings.camera.fovYDegrees = 70.0f;
-    settings.skyAmbient = settings.groundAmbient = glm::vec3(0.0f);
-    settings.background = {0, 0, 0, 1};
-    settings.readLinear = true;
-  }
-  shaderio::ViewFrame view() const {
-    return viewFrame(withClipPlanes(settings.camera, scene.worldBounds()), kWidth, kHeight);
-  }
-};
-
-// Applies `toml` (textures resolved in `dir`) to the plane's scene.
-void applyToml(Scene& scene, const std::string& toml, const std::filesystem::path& dir = {}) {
-  auto file = shading::parseMaterialFile(toml, "test.toml", dir);
-  ASSERT_TRUE(file.ok()) << file.error().message;
-  ASSERT_TRUE(shading::applyMaterials(scene, *file).ok());
-}
 
 ImageF32 renderPlane(gpu::Context& ctx, const Plane& p) {
   auto r = ForwardRenderer::create(ctx, p.scene);
@@ -59,39 +28,6 @@ ImageF32 renderPlane(gpu::Context& ctx, const Plane& p) {
   auto out = r.value()->render(p.settings);
   EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
   return out.ok() ? out->linear : ImageF32{};
-}
-
-glm::vec3 rgbAt(const ImageF32& img, uint32_t x, uint32_t y) {
-  const float* q = &img.pixels[(size_t(y) * img.width + x) * 4];
-  return {q[0], q[1], q[2]};
-}
-
-// Where the ray through pixel (x, y)'s centre meets z = 0.
-glm::vec3 planePoint(const shaderio::ViewFrame& v, uint32_t x, uint32_t y) {
-  glm::vec2 ndc{2.0f * (float(x) + 0.5f) / float(kWidth) - 1.0f, 2.0f * (float(y) + 0.5f) / float(kHeight) - 1.0f};
-  glm::vec4 a = v.invViewProj * glm::vec4(ndc, 1.0f, 1.0f), b = v.invViewProj * glm::vec4(ndc, 0.5f, 1.0f);
-  glm::vec3 p0 = glm::vec3(a) / a.w, p1 = glm::vec3(b) / b.w;
-  float t = p0.z / (p0.z - p1.z);
-  return p0 + t * (p1 - p0);
-}
-
-// Compares every pixel well inside the plane with `expected(point)`; returns how many were compared.
-template <class F> size_t expectPlane(const Plane& p, const ImageF32& img, F expected, float relTol = 0.01f) {
-  shaderio::ViewFrame v = p.view();
-  size_t compared = 0, bad = 0;
-  for (uint32_t y = 0; y < kHeight; ++y)
-    for (uint32_t x = 0; x < kWidth; ++x) {
-      glm::vec3 q = planePoint(v, x, y);
-      if (std::abs(q.x) > p.half - 0.05f || std::abs(q.y) > p.half - 0.05f) continue;
-      glm::vec3 want = expected(q), got = rgbAt(img, x, y);
-      for (int c = 0; c < 3; ++c)
-        if (std::abs(got[c] - want[c]) > relTol * want[c] + 2e-3f && bad++ < 5)
-          ADD_FAILURE() << "pixel " << x << "," << y << " (" << q.x << "," << q.y << ") channel " << c << ": got "
-                        << got[c] << ", expected " << want[c];
-      ++compared;
-    }
-  EXPECT_EQ(bad, 0u);
-  return compared;
 }
 
 // Blinn-Phong direct term of docs/shading.md for the plane's normal (0, 0, 1).
@@ -188,11 +124,8 @@ radius = 2.5
   glm::vec3 light{0.5f, 0, 1}, color{1, 0.5f, 0.25f};
   size_t dark = 0;
   expectPlane(p, img, [&](glm::vec3 q) {
-    float d = glm::length(light - q), x = d / 2.5f;
-    float window = std::clamp(1.0f - x * x * x * x, 0.0f, 1.0f);
-    float falloff = window * window / (d * d + 1.0f);
-    dark += d >= 2.5f;
-    return glm::vec3(1.0f) / kPi * (1.0f / d) * color * 3.0f * falloff; // n.l = height / d
+    dark += glm::length(light - q) >= 2.5f;
+    return matteUnderPointLight(q, light, color * 3.0f, 2.5f);
   });
   EXPECT_GT(dark, 0u); // the corners lie beyond the radius: exactly black there
 }

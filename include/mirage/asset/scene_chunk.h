@@ -12,12 +12,16 @@
 namespace mirage::asset {
 
 // Version of the SCEN payload layout, independent of the container version, so the scene
-// encoding can evolve without touching other chunks.
-inline constexpr uint32_t kSceneChunkVersion = 1;
+// encoding can evolve without touching other chunks. 2 added the material file's fields (origin,
+// shading model, Blinn-Phong, detail maps, per-map UV transforms) and point lights; version 1
+// payloads still decode (those fields at their defaults, no lights).
+inline constexpr uint32_t kSceneChunkVersion = 2;
+inline constexpr uint32_t kOldestSceneChunkVersion = 1;
 
 // Checks what a decoder must reject: triangle indices inside the vertex array, optional attribute
 // arrays empty or one per vertex, material/texture/mesh indices in range, texture byte counts of
-// width*height*4, enums in range, and no NaN/Inf in any float. `file` names the scene in errors.
+// width*height*4, enums in range, and no NaN/Inf in any float; point lights with a positive
+// radius and a non-negative intensity. `file` names the scene in errors.
 Status validateScene(const Scene& scene, const std::string& file);
 
 // Encodes every field of `scene` (validate it first: decodeScene rejects what validateScene does).

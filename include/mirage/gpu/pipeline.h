@@ -27,6 +27,9 @@ struct GraphicsPipelineDesc {
   VkCompareOp depthCompare = VK_COMPARE_OP_GREATER; // reverse-Z
   bool depthWrite = true;
   bool alphaBlend = false; // premultiplied-free "over": src*a + dst*(1-a)
+  // Per colour format, replacing alphaBlend's state where given (e.g. weighted OIT's accumulation
+  // and revealage targets).
+  std::vector<VkPipelineColorBlendAttachmentState> colorBlends;
   VkPrimitiveTopology topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
   uint32_t viewMask = 0; // multiview: one bit per view rendered in one pass (0: no multiview)
   // Cull mode and front face are dynamic state: one pipeline serves single- and double-sided materials.

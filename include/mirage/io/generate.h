@@ -39,7 +39,18 @@ struct BlobOptions {
   uint32_t seed = 1;         // noise seed
 };
 
+// A stack of alpha-blended, double-sided 2 x 2 quads along z (transparency benchmark and test):
+// quad i at z = (i - (layers - 1) / 2) * spacing, tilted about y by +/- tiltDegrees alternately,
+// so neighbours intersect; one mesh and material (hue by layer) each.
+struct LayersOptions {
+  uint32_t layers = 8; // 1..1024
+  float spacing = 0.05f;
+  float tiltDegrees = 3.0f;
+  float alpha = 0.3f;
+};
+
 Scene generateCity(const CityOptions& options);
+Scene generateLayers(const LayersOptions& options);
 Scene generateTerrain(const TerrainOptions& options);
 Scene generateBlob(const BlobOptions& options);
 
@@ -50,8 +61,8 @@ Scene generateBlob(const BlobOptions& options);
 // surfaceArea (optional) receives the sampled surface's area (what a sampler's A should approach).
 Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t seed, double* surfaceArea = nullptr);
 
-// kind is "city", "terrain" or "blob"; sizeParameter is blocks / resolution / subdivisions
-// (0 = the default). Unknown kinds and out-of-range sizes are errors.
+// kind is "city", "terrain", "blob" or "layers"; sizeParameter is blocks / resolution /
+// subdivisions / layers (0 = the default). Unknown kinds and out-of-range sizes are errors.
 Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeParameter);
 
 } // namespace mirage::io

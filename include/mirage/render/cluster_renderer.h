@@ -185,6 +185,7 @@ struct ClusterStats {
   uint32_t oitFragments = 0;             // blended fragments in front of the opaque depth
   uint32_t oitPoolOverflow = 0;          // blended fragments beyond the node pool (dropped)
   uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
+  double msl = 0.0;                      // Mean Squared Layers of the transparency lists (render/oit.h)
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
   uint32_t instancesPvsCulled = 0;       // cell PVS: instances in the frustum with no visible cluster
   uint32_t clustersPvsCulled = 0;        // cell PVS: clusters on the cut outside the cluster PVS

@@ -1,8 +1,8 @@
 #pragma once
 // The baseline renderer: forward shading with dynamic rendering, glTF metallic-roughness, one
 // directional key light plus hemisphere ambient, tangent-space normal maps, alpha MASK, BLEND drawn
-// after opaque sorted back to front. Depth: 32-bit float, reverse-Z. Headless: renders to an
-// offscreen target and reads it back.
+// after opaque by order-independent transparency (render/oit.h; docs/render.md "Transparency").
+// Depth: 32-bit float, reverse-Z. Headless: renders to an offscreen target and reads it back.
 #include <memory>
 #include <optional>
 #include <vector>
@@ -14,6 +14,7 @@
 #include "mirage/gpu/query.h"
 #include "mirage/render/camera.h"
 #include "mirage/render/frames_in_flight.h"
+#include "mirage/render/oit.h"
 
 namespace mirage::render {
 
@@ -38,6 +39,7 @@ struct FrameStats {
   gpu::PipelineStatistics pipeline;     // zero where the device has no pipeline-statistics queries
   uint64_t drawCalls = 0;
   uint64_t trianglesSubmitted = 0;
+  OitStats oit; // linked-list transparency (zero in the other modes and without BLEND materials)
 };
 
 struct RenderOutput {
@@ -48,10 +50,14 @@ struct RenderOutput {
 
 // A forward frame: the common settings, and for stereo (docs/render.md, "Stereo") the distance
 // between the eyes: stereoEyes(base.camera, ipd) (camera.h) drawn left|right into one target of
-// 2 * base.width x base.height, each eye with its own viewport, clip planes and blend order.
+// 2 * base.width x base.height, each eye with its own viewport and clip planes.
 struct ForwardRenderSettings {
   RenderSettings base;
   std::optional<float> stereoIpd;
+  OitMode oit = OitMode::LinkedList; // how BLEND materials are drawn
+  // Linked lists: the node pool holds this many fragments per target pixel on average (1..64;
+  // capped by maxStorageBufferRange); fragments past it are dropped and counted.
+  uint32_t oitNodesPerPixel = 8;
 };
 
 class ForwardRenderer {

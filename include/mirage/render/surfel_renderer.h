@@ -106,6 +106,7 @@ struct SurfelScene {
   };
   std::vector<Cloud> clouds;
   std::vector<Placement> instances;
+  std::vector<PointLight> lights; // besides the key light (docs/shading.md)
 };
 
 struct SurfelRenderSettings {

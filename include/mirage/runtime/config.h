@@ -11,6 +11,7 @@ namespace mirage::runtime {
 // Defaults come from the renderers' settings structs: written there once.
 inline const render::ClusterRenderSettings kClusterDefaults{};
 inline const render::SurfelRenderSettings kSurfelDefaults{};
+inline const render::ForwardRenderSettings kForwardDefaults{};
 
 struct RenderConfig {
   // Cluster LOD (.mrg with cluster DAGs).
@@ -21,7 +22,9 @@ struct RenderConfig {
   render::StereoMode stereoMode = kClusterDefaults.stereoMode; // stereo views: multiview or per-eye viewports
   bool occlusionCulling = kClusterDefaults.occlusionCulling;
   bool coneCulling = kClusterDefaults.coneCulling;
-  bool transparency = kClusterDefaults.transparency;        // alpha BLEND materials drawn (off: opaque and MASK only)
+  bool transparency = kClusterDefaults.transparency; // alpha BLEND materials drawn (off: opaque and MASK only)
+  // How BLEND materials are drawn (--oit): forward scenes every mode, cluster LOD linked lists only.
+  render::OitMode oit = kForwardDefaults.oit;
   float hybridThreshold = kClusterDefaults.hybridThreshold; // pixels
   bool pvsCulling = kClusterDefaults.pvsCulling;            // cull with the view cell's cluster PVS (if any)
   // Foveation (--fovea X,Y --fovea-radius DEG): tau grows with eccentricity from the gaze point.

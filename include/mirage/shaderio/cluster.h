@@ -5,6 +5,7 @@
 #define MIRAGE_SHADERIO_CLUSTER_H
 
 #include "mirage/shaderio/forward.h" // GpuMaterial, shared with the forward renderer
+#include "mirage/shaderio/oit.h"     // OitNode, OitCounters, shared with the forward renderer
 
 #ifdef __cplusplus
 #include <cstddef>
@@ -17,9 +18,10 @@ namespace mirage::shaderio {
 #define MIRAGE_CLUSTER_MAX_VERTICES 256
 // Triangle id bits in a packed 32-bit visibility id: ((visibleIndex + 1) << 7) | triangle.
 #define MIRAGE_CLUSTER_TRIANGLE_BITS 7
-// Workgroup size of the per-cluster passes (selection, compute raster): a multiple of both subgroup
+// Workgroup size of the per-cluster passes (selection, occlusion): a multiple of both subgroup
 // sizes we meet (lavapipe 8, NVIDIA 32).
 #define MIRAGE_CLUSTER_WORKGROUP 64
+#define MIRAGE_RESOLVE_TILE_ROWS 4 // cluster_resolve.comp: 8x8 pixel tiles per workgroup, stacked in y
 // Mesh/compute-raster dispatches split the visible clusters over x and y: x stays under the
 // guaranteed maxMeshWorkGroupCount / maxComputeWorkGroupCount of 65535.
 #define MIRAGE_CLUSTER_DISPATCH_X 65535
@@ -70,9 +72,6 @@ namespace mirage::shaderio {
 // both index ClusterFrame::blendVisibleAddress, the compute list from entry 0 up, the hardware
 // list from entry blendCapacity - 1 down (shaders built with MIRAGE_BLEND_LISTS).
 #define MIRAGE_RASTER_BLEND_LIST 4u
-// Order-independent transparency: fragments kept and sorted per pixel by the composite (the
-// nearest ones; farther ones past this are dropped and counted).
-#define MIRAGE_OIT_MAX_LAYERS 16
 // Hierarchical depth levels kept (level 0 is full resolution): enough for 16384 pixels.
 #define MIRAGE_HZB_MAX_LEVELS 15
 
@@ -179,14 +178,6 @@ struct GpuClusterCone {
   vec4 apex;       // xyz apex, w unused
 };
 
-// One blended fragment of the per-pixel linked lists (order-independent transparency): its depth
-// and visibility id (blend-list entry + 1 << 7 | triangle); the composite shades it. 0 ends a list.
-struct OitNode {
-  uint depthBits; // reverse-Z depth as float bits (larger is nearer)
-  uint id;
-  uint next; // node index + 1 of the next fragment of the pixel, 0 at the end
-};
-
 // Appended by the selection pass, read by every rasterizer and by the resolve.
 struct VisibleCluster {
   uint instance;
@@ -254,7 +245,13 @@ struct ClusterFrame {
   // Stereo, left eye frame: the right eye's clip x minus the left eye's for every world point (the
   // eyes share the projection and differ by a view-space x translation, so clip y, z, w agree).
   float stereoClipDx;
-  uint pad1, pad2, pad3;
+  // Point lights (docs/shading.md): read through their own buffer, not copied into the frame, so
+  // the resolve loads only the count unless a scene has lights.
+  uint lightCount;
+  uint64_t lightAddress; // GpuPointLight[lightCount]
+  // Alpha BLEND: ClusterCounters::oit (the OIT nodes' ids are visibility ids, shaderio/oit.h).
+  uint64_t oitCounterAddress;
+  uint64_t pad1; // the size stays a multiple of 16, as std430 rounds a struct holding a mat4
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -293,11 +290,9 @@ struct ClusterCounters {
   uint clustersBackfaceCulled;  // normal cone entirely facing away
   uint historyKept;             // clusters owning a pixel (next frame's pass 1)
   uint blendClusters;           // appended to the blend list (may exceed its capacity: overflow)
-  uint oitNodes;                // blended fragments appended (may exceed the pool: the rest dropped)
-  uint oitLayersDropped;        // composite: fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
-  uint pad0;
-  uint instancesPvsCulled; // in the frustum but outside the cell's PVS
-  uint clustersPvsCulled;  // on the cut but outside the cell's cluster PVS
+  OitCounters oit;              // transparency lists: appends, composite drops, Mean Squared Layers
+  uint instancesPvsCulled;      // in the frustum but outside the cell's PVS
+  uint clustersPvsCulled;       // on the cut but outside the cell's cluster PVS
   // Entries of the two blend lists ([MIRAGE_LIST_UP]: compute, [DOWN]: hardware); their sum is
   // min(blendClusters, blendCapacity): blendClusters hands out the tickets, so the lists never meet.
   uint blendListEnd[2];
@@ -334,18 +329,18 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 736, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 752, "ClusterFrame layout");
 static_assert(sizeof(ClusterFrame) <= MIRAGE_CLUSTER_FRAME_STRIDE && MIRAGE_CLUSTER_FRAME_STRIDE % 256 == 0,
               "ClusterFrame stride");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
 static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, overdrawAddress) % 8 == 0, "ClusterFrame address alignment");
-static_assert(sizeof(OitNode) == 12, "OitNode layout");
+static_assert(offsetof(ClusterFrame, oitCounterAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 120, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 132, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");

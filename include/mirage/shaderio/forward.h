@@ -36,6 +36,9 @@ using uint = uint32_t;
 #define MIRAGE_MAP_DETAIL_NORMAL 6
 #define MIRAGE_MAP_DETAIL_MASK 7
 #define MIRAGE_MATERIAL_MAPS 8
+// constant_id of shading.glsl's kMaterialMaps (bit MIRAGE_MAP_k: the pipeline may meet map k). Not
+// used by any other shader that includes shading.glsl (cluster_raster.glsl's kEyes is 0).
+#define MIRAGE_SPEC_MATERIAL_MAPS 4
 
 // One vertex as the vertex input reads it (52 bytes, tightly packed).
 struct GpuVertex {
@@ -114,6 +117,15 @@ struct ForwardPush {
   uint64_t materialAddress; // GpuMaterial[]
   uint materialIndex;
   uint pad0;
+  uint64_t oitAddress; // OitLists (shaderio/oit.h) of the linked-list transparency pass, else 0
+};
+
+// Push constants of the forward transparency resolves (forward_oit_resolve.comp,
+// forward_weighted_resolve.comp): their colour targets are descriptors, the lists an address.
+struct ForwardResolvePush {
+  uint64_t oitAddress; // OitLists
+  uint width;          // target pixels (both eyes in stereo)
+  uint height;
 };
 
 #ifdef __cplusplus
@@ -123,7 +135,8 @@ static_assert(sizeof(GpuPointLight) == 32, "GpuPointLight layout");
 static_assert(sizeof(GpuInstance) == 128, "GpuInstance layout");
 static_assert(sizeof(GpuMaterial) == 120, "GpuMaterial layout");
 static_assert(sizeof(GpuMapTransform) == 24, "GpuMapTransform layout");
-static_assert(sizeof(ForwardPush) == 32, "ForwardPush layout");
+static_assert(sizeof(ForwardPush) == 40, "ForwardPush layout");
+static_assert(sizeof(ForwardResolvePush) == 16, "ForwardResolvePush layout");
 } // namespace mirage::shaderio
 #endif
 

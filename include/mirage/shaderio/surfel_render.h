@@ -127,6 +127,9 @@ struct SurfelRenderFrame {
   // Stereo: xyz the right eye minus the left (world); w the right eye's clip x minus the left's
   // (stereoClipDx: the eyes share one projection, so clip y, z and w are the same).
   vec4 stereoEye;
+  uint64_t lightAddress; // GpuPointLight[lightCount] (docs/shading.md)
+  uint lightCount;
+  uint pad0;
 };
 
 // Zeroed each frame; indirect arguments and statistics.
@@ -162,7 +165,7 @@ struct SurfelRenderPush {
 static_assert(sizeof(SurfelRenderCloud) == 48, "SurfelRenderCloud layout");
 static_assert(sizeof(SurfelRenderInstance) == 160, "SurfelRenderInstance layout");
 static_assert(sizeof(SurfelInstanceState) == 144, "SurfelInstanceState layout");
-static_assert(sizeof(SurfelRenderFrame) == 472, "SurfelRenderFrame layout");
+static_assert(sizeof(SurfelRenderFrame) == 488, "SurfelRenderFrame layout");
 static_assert(sizeof(SurfelRenderCounters) == 32, "SurfelRenderCounters layout");
 static_assert(sizeof(SurfelRenderPush) == 104, "SurfelRenderPush layout");
 } // namespace mirage::shaderio

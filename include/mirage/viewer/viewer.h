@@ -20,6 +20,7 @@ struct ViewerOptions {
   std::string device;             // Vulkan device name substring or index
   std::string pvs;                // .mrg: triangle PVS, culls with the camera's view cell
   bool surfels = false;           // .mrg: per-mesh surfels far away
+  std::string materials;          // material file (TOML) applied to the scene (docs/shading.md)
   std::string path;               // camera path (cameras.json or orbit:N): replayed, one camera per frame
   std::string screenshot;         // with --path: OUT.png -> OUT_0000.png ... (the image without overlay)
   bool exitAfterPath = false;     // close after the path (needs --path)

@@ -1,0 +1,60 @@
+// Order-independent transparency shared by the forward and cluster-LOD renderers (docs/render.md,
+// "Transparency"): per-pixel linked lists of blended fragments (Yang et al. 2010), written once for
+// C++ and GLSL (shaders/oit_list.glsl holds the code on them).
+#ifndef MIRAGE_SHADERIO_OIT_H
+#define MIRAGE_SHADERIO_OIT_H
+
+#ifdef __cplusplus
+#include <cstdint>
+namespace mirage::shaderio {
+using uint = uint32_t;
+#endif
+
+// Fragments kept and sorted per pixel by a resolve (the nearest ones; farther ones past this are
+// dropped and counted).
+#define MIRAGE_OIT_MAX_LAYERS 16
+// The forward renderer's exact mode (--oit sorted) keeps this many instead.
+#define MIRAGE_OIT_SORTED_LAYERS 64
+
+// One blended fragment of a pixel's list: its depth and a 32-bit id (cluster renderer: visibility
+// id, shaded by the resolve; forward renderer: its own node index, naming the colour stored beside
+// it). 0 ends a list.
+struct OitNode {
+  uint depthBits; // reverse-Z depth as float bits (larger is nearer)
+  uint id;
+  uint next; // node index + 1 of the next fragment of the pixel, 0 at the end
+};
+
+// Counters of one frame's lists, zeroed at the frame start. Mean Squared Layers (the seed's
+// transparency cost metric) = squaredLayers / coveredPixels, squaredLayers = hi << 32 | lo.
+struct OitCounters {
+  uint nodes;           // fragments appended (may exceed the pool: the rest dropped)
+  uint layersDropped;   // resolve: fragments beyond its layer cap (the farthest of a pixel)
+  uint coveredPixels;   // resolve: pixels with a non-empty list
+  uint squaredLayersLo; // resolve: sum over pixels of (list length)^2, 64 bits with carry
+  uint squaredLayersHi;
+  uint pad0;
+};
+
+// The forward renderer's lists (the cluster renderer keeps the same addresses in ClusterFrame):
+// heads per pixel of a rowPixels-wide target, the pool, and beside each node its colour (uvec2:
+// packHalf2x16 of rg, of ba).
+struct OitLists {
+  uint64_t headAddress;    // uint[] per pixel: node index + 1, 0 = empty
+  uint64_t nodeAddress;    // OitNode[nodeCapacity]
+  uint64_t colorAddress;   // uvec2[nodeCapacity]
+  uint64_t counterAddress; // OitCounters
+  uint rowPixels;          // target width (both eyes in stereo)
+  uint height;
+  uint nodeCapacity;
+  uint pad0;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(OitNode) == 12, "OitNode layout");
+static_assert(sizeof(OitCounters) == 24, "OitCounters layout");
+static_assert(sizeof(OitLists) == 48, "OitLists layout");
+} // namespace mirage::shaderio
+#endif
+
+#endif

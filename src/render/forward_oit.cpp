@@ -1,0 +1,327 @@
+// Alpha BLEND in the forward renderer (docs/render.md, "Transparency"), after the opaque pass:
+// linked lists (build: every blended fragment appended, forward_oit.frag; resolve: sorted per
+// pixel, forward_oit_resolve.comp; the code shared with the cluster composite, oit_list.glsl),
+// weighted blended OIT (accumulate + revealage, forward_weighted_resolve.comp), or the sorted
+// reference (every blended triangle back to front by its centroid's view depth, hardware "over").
+#include <algorithm>
+#include <cstring>
+
+#include "forward_impl.h"
+#include "mirage/gpu/commands.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+constexpr VkPipelineStageFlags2 kFS = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+constexpr VkPipelineStageFlags2 kTests =
+    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+constexpr VkAccessFlags2 kStorageRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+constexpr VkFormat kAccumFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // both weighted targets: blend + storage guaranteed
+
+// Weighted blending's one state for both targets (no independentBlend needed): colour channels
+// add (ONE, ONE), alpha multiplies by 1 - a (ZERO, ONE_MINUS_SRC_ALPHA), so target 0 gathers
+// (sum of rgb a w, revealage) and target 1 (sum of a w in r).
+VkPipelineColorBlendAttachmentState weightedBlend() {
+  VkPipelineColorBlendAttachmentState b{};
+  b.blendEnable = VK_TRUE;
+  b.srcColorBlendFactor = VK_BLEND_FACTOR_ONE;
+  b.dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
+  b.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+  b.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
+  b.colorBlendOp = b.alphaBlendOp = VK_BLEND_OP_ADD;
+  b.colorWriteMask =
+      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  return b;
+}
+
+} // namespace
+
+void ForwardRenderer::Impl::uploadTransparency(const Scene& scene) {
+  if (blendInstances.empty()) return;
+  std::vector<sio::GpuInstance> data;
+  blendPositions.resize(scene.meshes.size());
+  blendIndices.resize(scene.meshes.size());
+  for (const Instance& inst : blendInstances) {
+    data.push_back(makeGpuInstance(inst.transform));
+    const Mesh& m = scene.meshes[inst.mesh];
+    if (blendIndices[inst.mesh].empty()) blendPositions[inst.mesh] = m.positions, blendIndices[inst.mesh] = m.indices;
+    blendTriangles += m.indices.size() / 3;
+  }
+  blendInstanceBuffer =
+      createBufferWithData<sio::GpuInstance>(ctx, data, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "blend instances");
+  oitCounters = createBuffer(ctx, sizeof(sio::OitCounters),
+                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                             MemoryUsage::GpuOnly, "oit counters");
+  VkDescriptorSetLayoutBinding bindings[3];
+  for (uint32_t b = 0; b < 3; ++b)
+    bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
+    oitLists[i] =
+        createBuffer(ctx, sizeof(sio::OitLists), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "oit lists");
+    oitReadback[i] = createBuffer(ctx, sizeof(sio::OitCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                  MemoryUsage::Readback, "oit counters readback");
+    sortedIndices[i] = createBuffer(ctx, std::max<uint64_t>(blendTriangles, 1) * 3 * sizeof(uint32_t),
+                                    VK_BUFFER_USAGE_INDEX_BUFFER_BIT, MemoryUsage::Upload, "sorted blend indices");
+    resolveDescriptors[i] = createDescriptorSet(ctx, bindings);
+  }
+}
+
+// The pipelines of a mode, made on its first frame (most scenes use one mode).
+static void ensurePipelines(ForwardRenderer::Impl& d, OitMode mode) {
+  GraphicsPipelineDesc g;
+  g.vertexShader = "forward.vert";
+  g.layout = d.layout;
+  g.bindings = {{0, sizeof(sio::GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX}};
+  g.attributes = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::GpuVertex, position)},
+                  {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(sio::GpuVertex, normal)},
+                  {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(sio::GpuVertex, uv)},
+                  {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(sio::GpuVertex, tangent)},
+                  {4, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(sio::GpuVertex, color)}};
+  g.depthFormat = kForwardDepthFormat;
+  g.depthWrite = false; // blended surfaces test against the opaque depth but do not occlude each other
+  if (!d.resolveLayout)
+    d.resolveLayout = createPipelineLayout(d.ctx, {d.resolveDescriptors[0].layout.get()},
+                                           sizeof(sio::ForwardResolvePush), VK_SHADER_STAGE_COMPUTE_BIT);
+  if (mode == OitMode::Sorted && !d.sortedPipeline) {
+    g.fragmentShader = "forward.frag";
+    g.colorFormats = {kForwardColorFormat};
+    g.alphaBlend = true;
+    d.sortedPipeline = createGraphicsPipeline(d.ctx, g);
+  } else if (mode == OitMode::LinkedList && !d.appendPipeline) {
+    g.fragmentShader = "forward_oit.frag"; // no colour output: the lists are the result
+    d.appendPipeline = createGraphicsPipeline(d.ctx, g);
+    d.resolvePipeline = createComputePipeline(d.ctx, "forward_oit_resolve.comp", d.resolveLayout);
+  } else if (mode == OitMode::Weighted && !d.weightedPipeline) {
+    g.fragmentShader = "forward_weighted.frag";
+    g.colorFormats = {kAccumFormat, kAccumFormat};
+    g.colorBlends = {weightedBlend(), weightedBlend()};
+    d.weightedPipeline = createGraphicsPipeline(d.ctx, g);
+    d.weightedResolvePipeline = createComputePipeline(d.ctx, "forward_weighted_resolve.comp", d.resolveLayout);
+  }
+}
+
+// The lists' pool for the current target size: nodesPerPixel per pixel, capped by what one storage
+// buffer may address. Replaced ones wait for the frames in flight that use them.
+void ForwardRenderer::Impl::ensureOitTargets(uint32_t nodesPerPixel) {
+  if (oitHeads && oitNodesPerPixel == nodesPerPixel) return;
+  retired.retire(std::move(oitHeads), inFlight());
+  retired.retire(std::move(oitNodes), inFlight());
+  retired.retire(std::move(oitColors), inFlight());
+  uint64_t pixels = uint64_t(colorWidth) * height;
+  oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                          MemoryUsage::GpuOnly, "oit heads");
+  oitNodeCapacity = uint32_t(
+      std::min<uint64_t>({pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / 12, uint64_t(UINT32_MAX) - 1}));
+  oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                          MemoryUsage::GpuOnly, "oit nodes");
+  oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
+                           "oit colours");
+  oitNodesPerPixel = nodesPerPixel;
+}
+
+void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const ForwardRenderSettings& fs, uint32_t slot,
+                                                const glm::mat4& view) {
+  slotOit[slot] = false;
+  if (blendInstances.empty()) return;
+  ensurePipelines(*this, fs.oit);
+  if (fs.oit == OitMode::LinkedList) {
+    ensureOitTargets(fs.oitNodesPerPixel);
+    sio::OitLists l{oitHeads.address(),  oitNodes.address(),
+                    oitColors.address(), oitCounters.address(),
+                    colorWidth,          height,
+                    oitNodeCapacity,     0};
+    std::memcpy(oitLists[slot].mapped(), &l, sizeof(l));
+    vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
+    vkCmdFillBuffer(cmd, oitCounters.handle(), 0, VK_WHOLE_SIZE, 0);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kFS | kCS, kStorageRW);
+    slotOit[slot] = true;
+  } else if (fs.oit == OitMode::Weighted) {
+    if (!accum || accum.extent().width != colorWidth || accum.extent().height != height) {
+      retired.retire(std::move(accum), inFlight());
+      retired.retire(std::move(reveal), inFlight());
+      VkImageUsageFlags usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT;
+      accum = createImage2D(ctx, colorWidth, height, kAccumFormat, usage, "oit accumulation");
+      reveal = createImage2D(ctx, colorWidth, height, kAccumFormat, usage, "oit revealage");
+    }
+  } else {
+    // Every blended triangle by its centroid's view depth (more negative = farther first), ties by
+    // instance and triangle: exact where no two triangles overlap in depth across a pixel
+    // (non-intersecting, or split along their intersections), the reference the tests compare with.
+    // With a visible set only its listed triangles.
+    struct Key {
+      float z;
+      uint32_t instance, triangle;
+    };
+    std::vector<Key> keys;
+    keys.reserve(blendTriangles);
+    auto addKeys = [&](uint32_t i, const std::vector<uint32_t>* listed) {
+      const Instance& inst = blendInstances[i];
+      glm::mat4 mv = view * inst.transform;
+      const std::vector<glm::vec3>& p = blendPositions[inst.mesh];
+      const std::vector<uint32_t>& idx = blendIndices[inst.mesh];
+      size_t count = listed ? listed->size() : idx.size() / 3;
+      for (size_t k = 0; k < count; ++k) {
+        uint32_t t = listed ? (*listed)[k] : uint32_t(k);
+        glm::vec3 c = (p[idx[t * 3]] + p[idx[t * 3 + 1]] + p[idx[t * 3 + 2]]) / 3.0f;
+        keys.push_back({(mv * glm::vec4(c, 1.0f)).z, i, t});
+      }
+    };
+    if (visible.active)
+      for (const ForwardBlendRange& b : visible.blend) addKeys(b.blendInstance, &b.triangles);
+    else
+      for (uint32_t i = 0; i < blendInstances.size(); ++i) addKeys(i, nullptr);
+    std::stable_sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) { return a.z < b.z; });
+    auto* out = reinterpret_cast<uint32_t*>(sortedIndices[slot].mapped());
+    std::vector<SortedRun>& runs = sortedRuns[slot];
+    runs.clear();
+    for (size_t k = 0; k < keys.size(); ++k) {
+      const std::vector<uint32_t>& idx = blendIndices[blendInstances[keys[k].instance].mesh];
+      std::memcpy(out + k * 3, &idx[keys[k].triangle * 3], 3 * sizeof(uint32_t));
+      if (runs.empty() || runs.back().blendInstance != keys[k].instance)
+        runs.push_back({keys[k].instance, uint32_t(k * 3), 0});
+      runs.back().indexCount += 3;
+    }
+  }
+}
+
+void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRenderSettings& fs, uint32_t slot,
+                                            uint32_t eyeCount, FrameStats& frameStats) {
+  const VkImageLayout kAttachment = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  const VkPipelineStageFlags2 kColorOut = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+  // The colour into GENERAL for the resolves (or the caller), its attachment writes visible.
+  auto colorToGeneral = [&] {
+    cmdImageBarrier(cmd, {color.handle(), kColorOut, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                          kCS | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, kStorageRW | VK_ACCESS_2_TRANSFER_READ_BIT,
+                          kAttachment, VK_IMAGE_LAYOUT_GENERAL});
+  };
+  GpuTimer& timer = timers[slot];
+  if (blendInstances.empty()) { // the pass is still reported (0 ms), as every frame's report has it
+    timer.cmdEnd(cmd, timer.cmdBegin(cmd, "blend"));
+    return colorToGeneral();
+  }
+  // The opaque depth, stored by the opaque pass, tested (read-only) by the blended geometry.
+  cmdImageBarrier(cmd, {depth.handle(), kTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT});
+  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAtt.imageView = depth.view();
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_NONE; // nothing written
+  VkRenderingAttachmentInfo colorAtts[2] = {{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO},
+                                            {VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO}};
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {colorWidth, height}};
+  ri.layerCount = 1;
+  ri.pColorAttachments = colorAtts;
+  ri.pDepthAttachment = &depthAtt;
+  VkPipeline pipeline = appendPipeline;
+  if (fs.oit == OitMode::Sorted) {
+    colorAtts[0].imageView = color.view();
+    colorAtts[0].imageLayout = kAttachment;
+    colorAtts[0].loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+    colorAtts[0].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    ri.colorAttachmentCount = 1;
+    pipeline = sortedPipeline;
+  } else if (fs.oit == OitMode::Weighted) {
+    ImageBarrier toAttachment[2];
+    for (int i = 0; i < 2; ++i) {
+      const Image& target = i == 0 ? accum : reveal;
+      toAttachment[i] = {target.handle(),           kCS,        0, kColorOut, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                         VK_IMAGE_LAYOUT_UNDEFINED, kAttachment};
+      colorAtts[i].imageView = target.view();
+      colorAtts[i].imageLayout = kAttachment;
+      colorAtts[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      colorAtts[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      colorAtts[i].clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}}; // sums 0, revealage 1 (nothing covers)
+    }
+    cmdImageBarriers(cmd, toAttachment);
+    ri.colorAttachmentCount = 2;
+    pipeline = weightedPipeline;
+  }
+
+  uint32_t blendTime = timer.cmdBegin(cmd, "blend");
+  vkCmdBeginRendering(cmd, &ri);
+  VkDeviceSize zero = 0;
+  VkBuffer vb = vertices.handle();
+  vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
+  // Linked lists and weighted draw the visible set's blended ranges (or whole meshes) in any order
+  // (the resolve sorts); the sorted mode its slot's triangle order.
+  VkBuffer indexBuffer = fs.oit == OitMode::Sorted ? sortedIndices[slot].handle()
+                         : visible.active          ? visible.indices.handle()
+                                                   : indices.handle();
+  vkCmdBindIndexBuffer(cmd, indexBuffer, 0, VK_INDEX_TYPE_UINT32);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  VkDeviceAddress oit = fs.oit == OitMode::LinkedList ? oitLists[slot].address() : 0;
+  for (uint32_t e = 0; e < eyeCount; ++e) {
+    VkDeviceAddress frame = cmdSetEye(cmd, slot, e);
+    auto draw = [&](uint32_t i, const ForwardDrawRange& range) {
+      cmdDraw(cmd, frame, blendInstanceBuffer.address(), range, isMirrored(blendInstances[i].transform), i, 1,
+              frameStats, oit);
+    };
+    if (fs.oit == OitMode::Sorted) {
+      for (const SortedRun& run : sortedRuns[slot])
+        draw(run.blendInstance, {blendInstances[run.blendInstance].mesh, run.firstIndex, run.indexCount});
+    } else if (visible.active) {
+      for (const ForwardBlendRange& b : visible.blend) draw(b.blendInstance, b.range);
+    } else {
+      for (uint32_t i = 0; i < blendInstances.size(); ++i) draw(i, wholeMesh(blendInstances[i].mesh));
+    }
+  }
+  vkCmdEndRendering(cmd);
+  timer.cmdEnd(cmd, blendTime);
+  colorToGeneral();
+  if (fs.oit == OitMode::Sorted) return;
+
+  // The resolve: per pixel over the opaque colour, in place.
+  if (fs.oit == OitMode::LinkedList) {
+    cmdMemoryBarrier(cmd, kFS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  } else {
+    ImageBarrier toRead[2];
+    for (int i = 0; i < 2; ++i)
+      toRead[i] = {(i == 0 ? accum : reveal).handle(),
+                   kColorOut,
+                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                   kCS,
+                   VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                   kAttachment,
+                   VK_IMAGE_LAYOUT_GENERAL};
+    cmdImageBarriers(cmd, toRead);
+  }
+  // The slot's set: its frame is the only one recorded with it, and its previous one completed.
+  VkDescriptorImageInfo images[3] = {{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL}, {}, {}};
+  writeImageDescriptors(ctx, resolveDescriptors[slot].set, 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {images, 1});
+  if (fs.oit == OitMode::Weighted) {
+    images[1] = {VK_NULL_HANDLE, accum.view(), VK_IMAGE_LAYOUT_GENERAL};
+    images[2] = {VK_NULL_HANDLE, reveal.view(), VK_IMAGE_LAYOUT_GENERAL};
+    writeImageDescriptors(ctx, resolveDescriptors[slot].set, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {images + 1, 1});
+    writeImageDescriptors(ctx, resolveDescriptors[slot].set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {images + 2, 1});
+  }
+  uint32_t resolveTime = timer.cmdBegin(cmd, "composite", kCS);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                    fs.oit == OitMode::LinkedList ? resolvePipeline : weightedResolvePipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolveLayout, 0, 1, &resolveDescriptors[slot].set, 0,
+                          nullptr);
+  sio::ForwardResolvePush push{oit, colorWidth, height};
+  vkCmdPushConstants(cmd, resolveLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1);
+  timer.cmdEnd(cmd, resolveTime, kCS);
+  // The colour's writes visible to compute and transfers, as without transparency; the counters
+  // to the slot's readback.
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                   kStorageRW | VK_ACCESS_2_TRANSFER_READ_BIT);
+  if (fs.oit != OitMode::LinkedList) return;
+  VkBufferCopy copy{0, 0, sizeof(sio::OitCounters)};
+  vkCmdCopyBuffer(cmd, oitCounters.handle(), oitReadback[slot].handle(), 1, &copy);
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+} // namespace mirage::render
