@@ -111,8 +111,11 @@ struct ClusterRenderer::Impl {
   gpu::Buffer fade, surfelLink;     // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
   gpu::Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
   gpu::Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
-  gpu::DescriptorSet descriptors;               // material textures, the visibility image, the colour target, depth
-  gpu::Buffer pvsInstances, pvsClusters;        // the camera cell's cluster PVS (setPvs); empty: no PVS culling
+  // Per slot (identically defined layouts are compatible): material textures, and the slot's
+  // frame's visibility image, colour target and depth, written when the slot is recorded while
+  // other slots' frames may still read their own (a resize mid-flight).
+  gpu::DescriptorSet descriptors[kMaxFramesInFlight];
+  gpu::Buffer pvsInstances, pvsClusters; // the camera cell's cluster PVS (setPvs); empty: no PVS culling
   gpu::Unique<VkPipelineLayout> layout;
   gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
       rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
@@ -144,7 +147,7 @@ struct ClusterRenderer::Impl {
   std::vector<gpu::GpuTimer> timers;         // per slot: pass timestamps
   ClusterFramePlan plans[kMaxFramesInFlight];
   bool recorded[kMaxFramesInFlight] = {};
-  gpu::DeletionQueue retired; // replaced PVS buffers that recorded, uncollected slots may still read
+  gpu::DeletionQueue retired; // replaced PVS buffers and targets that recorded, uncollected slots may still use
   uint32_t currentSlot = 0;   // the slot being recorded
 
   Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)) {
@@ -154,7 +157,9 @@ struct ClusterRenderer::Impl {
   void createDescriptors(); // cluster_pipelines.cpp
   void createPipelines();
   gpu::Unique<VkPipeline> createVisPipeline(bool mesh, bool atomic, bool overdraw = false, bool multiview = false);
+  uint32_t inFlightSlots() const; // slots recorded and not yet collected, as a bit mask
   void ensureTargets(uint32_t w, uint32_t h, uint32_t colorW);
+  void writeTargetDescriptors(uint32_t slot);
   void ensureMultiview(const ClusterFramePlan& plan);
   shaderio::ClusterPush push() const;
   void cmdPush(VkCommandBuffer cmd, shaderio::ClusterPush p, uint32_t rasterList);

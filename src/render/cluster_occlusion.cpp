@@ -13,7 +13,7 @@ namespace sio = mirage::shaderio;
 void ClusterRenderer::Impl::cmdBuildHzb(VkCommandBuffer cmd, const sio::ClusterPush& p) {
   uint32_t slot = timer().cmdBegin(cmd, "hzb", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, hzbPipeline);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0, nullptr);
   // Levels 1..5 per 16x16 tile of level 1, then one workgroup for the rest (cluster_hzb.comp).
   uint32_t w1 = (colorWidth + 1) / 2, h1 = (height + 1) / 2; // both eyes in stereo
   cmdPush(cmd, p, 0);

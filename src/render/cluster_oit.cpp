@@ -89,7 +89,8 @@ void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::Clu
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.pDepthAttachment = &depthAtt;
   cmdBeginFullTarget(cmd, ri);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors[currentSlot].set, 0,
+                          nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
   cmdDrawEyes(cmd, p, mesh, 2, MIRAGE_LIST_DOWN, MIRAGE_RASTER_BLEND_LIST + MIRAGE_LIST_DOWN);
   vkCmdEndRendering(cmd);
@@ -112,7 +113,8 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
     uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
                       plans[currentSlot].stereo ? blendRasterStereoPipeline : blendRasterPipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0,
+                            nullptr);
     cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
     if (blend == BlendRaster::Hybrid) timer().cmdEnd(cmd, part, kCS);

@@ -33,18 +33,20 @@ void ClusterRenderer::Impl::createDescriptors() {
       {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
-  descriptors = createDescriptorSet(ctx, bindings);
   std::vector<VkDescriptorImageInfo> infos;
   for (const Image& img : scene.textures)
     infos.push_back({scene.sampler, img.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
-  writeImageDescriptors(ctx, descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
+  for (DescriptorSet& set : descriptors) {
+    set = createDescriptorSet(ctx, bindings);
+    writeImageDescriptors(ctx, set.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
+  }
 }
 
 void ClusterRenderer::Impl::createPipelines() {
   const DeviceCapabilities& caps = ctx.caps();
   pushStages = VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
   if (caps.meshShader) pushStages |= VK_SHADER_STAGE_MESH_BIT_EXT;
-  layout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::ClusterPush), pushStages);
+  layout = createPipelineLayout(ctx, {descriptors[0].layout.get()}, sizeof(sio::ClusterPush), pushStages);
   cullPipeline = createComputePipeline(ctx, "cluster_cull.comp", layout);
   selectPipeline = createComputePipeline(ctx, "cluster_select.comp", layout);
   traversePipeline = createComputePipeline(ctx, "cluster_traverse.comp", layout);
@@ -150,8 +152,21 @@ gpu::Unique<VkPipeline> ClusterRenderer::Impl::createVisPipeline(bool mesh, bool
   return createGraphicsPipeline(ctx, d);
 }
 
+uint32_t ClusterRenderer::Impl::inFlightSlots() const {
+  uint32_t slots = 0;
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i)
+    if (recorded[i]) slots |= 1u << i;
+  return slots;
+}
+
+// New targets for a new size: the replaced ones live until every slot recorded and not yet
+// collected completed (no device wait; each slot's descriptor set names its own frame's targets).
 void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t colorW) {
   if (w == width && h == height && colorW == colorWidth) return;
+  const uint32_t inFlight = inFlightSlots();
+  for (Image* image : {&color, &vis, &depth, &layeredVis, &layeredDepth}) retired.retire(std::move(*image), inFlight);
+  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads, &oitNodes})
+    retired.retire(std::move(*buffer), inFlight);
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                         "color");
   // Visibility targets as wide as the colour target: stereo rasterizes both eyes side by side.
@@ -189,15 +204,20 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
     oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                             MemoryUsage::GpuOnly, "transparency nodes");
   }
-  VkDescriptorImageInfo visInfo{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
-  VkDescriptorImageInfo depthInfo{scene.nearestSampler, depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL};
-  writeImageDescriptors(ctx, descriptors.set, 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&visInfo, 1});
-  writeImageDescriptors(ctx, descriptors.set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
-  writeImageDescriptors(ctx, descriptors.set, 3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
   width = w;
   height = h;
   colorWidth = colorW;
+}
+
+// The slot's previous frame completed (the caller's contract), so its set may be rewritten.
+void ClusterRenderer::Impl::writeTargetDescriptors(uint32_t slot) {
+  VkDescriptorImageInfo visInfo{scene.nearestSampler, vis.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo colorInfo{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
+  VkDescriptorImageInfo depthInfo{scene.nearestSampler, depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL};
+  VkDescriptorSet set = descriptors[slot].set;
+  writeImageDescriptors(ctx, set, 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&visInfo, 1});
+  writeImageDescriptors(ctx, set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
+  writeImageDescriptors(ctx, set, 3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
 }
 
 // Stereo by multiview: this frame's visibility pipeline and, for the image backends, the 2-layer

@@ -60,7 +60,8 @@ void ClusterRenderer::Impl::cmdHardwareList(VkCommandBuffer cmd, const sio::Clus
   }
   uint32_t list = atomic ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP;
   cmdBeginFullTarget(cmd, ri, multiview);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors[currentSlot].set, 0,
+                          nullptr);
   bool mesh = backend == RasterBackend::Mesh;
   VkPipeline pipeline =
       mesh ? (atomic ? meshAtomicPipeline : meshPipeline) : (atomic ? indirectAtomicPipeline : indirectPipeline);
@@ -138,7 +139,8 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
     cmdPush(cmd, p, pass * 2 + MIRAGE_LIST_UP);
     bool stereo = plans[currentSlot].stereo; // p: the left eye's frame, both eyes per workgroup
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterStereoPipeline : rasterPipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0,
+                            nullptr);
     vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     if (rasterMaskPipeline) { // masked clusters of the same list (the opaque kernel skipped them)
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterMaskStereoPipeline : rasterMaskPipeline);
@@ -225,7 +227,7 @@ void ClusterRenderer::Impl::cmdResolve(VkCommandBuffer cmd, const sio::ClusterPu
                         VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
   bool debug = plans[currentSlot].debugView != DebugView::None; // cluster_debug_resolve.comp instead
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, debug ? debugResolvePipeline : resolvePipeline);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0, nullptr);
   cmdPush(cmd, p, 0);
   uint32_t tileRows = debug ? 1 : MIRAGE_RESOLVE_TILE_ROWS; // 8x8 pixel tiles per workgroup
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 8 * tileRows - 1) / (8 * tileRows), 1);

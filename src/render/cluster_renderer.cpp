@@ -46,11 +46,8 @@ Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
     return Error{fmt::format("cluster PVS of {} bytes exceeds the device's storage buffer range", pvs->bytes())};
   // Frames recorded and not yet collected may still read the buffers replaced here: they live until
   // those slots complete (no device wait; a cell change happens while frames are in flight).
-  uint32_t inFlight = 0;
-  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i)
-    if (d.recorded[i]) inFlight |= 1u << i;
-  d.retired.retire(std::move(d.pvsInstances), inFlight);
-  d.retired.retire(std::move(d.pvsClusters), inFlight);
+  d.retired.retire(std::move(d.pvsInstances), d.inFlightSlots());
+  d.retired.retire(std::move(d.pvsClusters), d.inFlightSlots());
   d.pvsInstances = {};
   d.pvsClusters = {};
   if (!pvs) return Ok{};
@@ -79,11 +76,10 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   plans[currentSlot] = *planned;
   recorded[currentSlot] = false;
   traversalDepth = planned->dagTree ? scene.dagDepth : scene.lodDepth;
-  // New targets replace images and buffers that frames in flight may still use.
+  // New targets for a new size retire those frames in flight still use (no device wait).
   uint32_t colorW = planned->stereo ? cs.base.width * 2 : cs.base.width; // stereo: left|right
-  if (width != 0 && (cs.base.width != width || cs.base.height != height || colorW != colorWidth))
-    vkDeviceWaitIdle(ctx.device());
   ensureTargets(cs.base.width, cs.base.height, colorW);
+  writeTargetDescriptors(currentSlot);
   if (planned->multiview) ensureMultiview(*planned);
   if (planned->debugView != DebugView::None && !debugResolvePipeline)
     debugResolvePipeline = createComputePipeline(ctx, "cluster_debug_resolve.comp", layout);

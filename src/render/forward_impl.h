@@ -2,6 +2,7 @@
 // ForwardRenderer's state, shared by its files:
 //   forward_renderer.cpp  upload, opaque pipeline, targets, frame recording
 //   forward_oit.cpp       transparency: linked lists, weighted blended, sorted triangles
+#include <algorithm>
 #include <vector>
 
 #include "mirage/gpu/deletion_queue.h"
@@ -23,9 +24,17 @@ struct ForwardMeshRange {
   Bounds bounds;
 };
 
-// Opaque and masked instances of one mesh, drawn with one instanced call.
-struct ForwardBatch {
+// The indices one draw reads from the bound index buffer: a whole mesh, or an instance's triangles
+// in the visible set's buffer (setVisibleTriangles). The mesh gives the material and vertex offset.
+struct ForwardDrawRange {
   uint32_t mesh = 0;
+  uint32_t firstIndex = 0;
+  uint32_t indexCount = 0;
+};
+
+// Opaque and masked instances of one range, drawn with one instanced call.
+struct ForwardBatch {
+  ForwardDrawRange range;
   bool mirrored = false; // negative-determinant transform: glTF flips the winding
   uint32_t firstInstance = 0;
   uint32_t instanceCount = 0;
@@ -36,6 +45,24 @@ struct SortedRun {
   uint32_t blendInstance = 0;
   uint32_t firstIndex = 0; // into the slot's sorted index buffer
   uint32_t indexCount = 0;
+};
+
+// A BLEND instance's listed triangles in the visible set.
+struct ForwardBlendRange {
+  uint32_t blendInstance = 0;      // into Impl::blendInstances
+  ForwardDrawRange range;          // linked lists and weighted: into the visible set's indices
+  std::vector<uint32_t> triangles; // the sorted mode: the mesh's listed triangles, ascending
+};
+
+// The triangles setVisibleTriangles listed: per instance with any, one draw of just those, their
+// indices copied out of the scene's index buffer by the next frame recorded.
+struct ForwardVisibleSet {
+  bool active = false;
+  gpu::Buffer indices;   // each draw's indices contiguous (opaque and blended)
+  gpu::Buffer instances; // GpuInstance of each opaque draw (its firstInstance)
+  std::vector<ForwardBatch> batches;
+  std::vector<ForwardBlendRange> blend;
+  std::vector<VkBufferCopy> pendingCopies; // scene indices -> `indices`, not yet recorded
 };
 
 struct ForwardRenderer::Impl {
@@ -51,7 +78,9 @@ struct ForwardRenderer::Impl {
   gpu::Unique<VkPipeline> opaquePipeline;
   std::vector<ForwardMeshRange> meshes;
   std::vector<Material> sceneMaterials;
-  std::vector<ForwardBatch> batches; // opaque + mask
+  std::vector<Instance> sceneInstances; // in scene order (setVisibleTriangles' IDs count through them)
+  std::vector<ForwardBatch> batches;    // opaque + mask, the whole scene
+  ForwardVisibleSet visible;            // drawn instead of the whole scene when active
 
   // Transparency (forward_oit.cpp). The BLEND instances in scene order, their GpuInstance data, and
   // for the sorted mode their meshes' positions and indices on the CPU.
@@ -98,12 +127,14 @@ struct ForwardRenderer::Impl {
   VkDeviceAddress cmdSetEye(VkCommandBuffer cmd, uint32_t slot, uint32_t eye) const;
   void cmdBindMeshDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, uint32_t mesh,
                        bool mirrored, VkDeviceAddress oit);
-  void cmdDrawMesh(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, uint32_t mesh, bool mirrored,
-                   uint32_t firstInstance, uint32_t count, FrameStats& fs, VkDeviceAddress oit = 0);
-  // Indices [firstIndex, +indexCount) of the bound index buffer, as mesh `mesh`'s (its vertices and
-  // material), one instance.
-  void cmdDrawMeshRange(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, uint32_t mesh,
-                        bool mirrored, uint32_t instance, uint32_t firstIndex, uint32_t indexCount, FrameStats& fs);
+  // The range's indices of the bound index buffer, as mesh range.mesh's (its vertices and material).
+  void cmdDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances, const ForwardDrawRange& range,
+               bool mirrored, uint32_t firstInstance, uint32_t count, FrameStats& fs, VkDeviceAddress oit = 0);
+  ForwardDrawRange wholeMesh(uint32_t mesh) const { return {mesh, meshes[mesh].firstIndex, meshes[mesh].indexCount}; }
+  bool isBlend(uint32_t mesh) const {
+    return sceneMaterials[std::min<size_t>(meshes[mesh].material, sceneMaterials.size() - 1)].alphaMode ==
+           AlphaMode::Blend;
+  }
   uint32_t inFlight() const {
     uint32_t mask = 0;
     for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) mask |= recorded[i] ? 1u << i : 0u;

@@ -153,22 +153,29 @@ void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const Forwa
     // Every blended triangle by its centroid's view depth (more negative = farther first), ties by
     // instance and triangle: exact where no two triangles overlap in depth across a pixel
     // (non-intersecting, or split along their intersections), the reference the tests compare with.
+    // With a visible set only its listed triangles.
     struct Key {
       float z;
       uint32_t instance, triangle;
     };
     std::vector<Key> keys;
     keys.reserve(blendTriangles);
-    for (uint32_t i = 0; i < blendInstances.size(); ++i) {
+    auto addKeys = [&](uint32_t i, const std::vector<uint32_t>* listed) {
       const Instance& inst = blendInstances[i];
       glm::mat4 mv = view * inst.transform;
       const std::vector<glm::vec3>& p = blendPositions[inst.mesh];
       const std::vector<uint32_t>& idx = blendIndices[inst.mesh];
-      for (uint32_t t = 0; t * 3 + 2 < idx.size(); ++t) {
+      size_t count = listed ? listed->size() : idx.size() / 3;
+      for (size_t k = 0; k < count; ++k) {
+        uint32_t t = listed ? (*listed)[k] : uint32_t(k);
         glm::vec3 c = (p[idx[t * 3]] + p[idx[t * 3 + 1]] + p[idx[t * 3 + 2]]) / 3.0f;
         keys.push_back({(mv * glm::vec4(c, 1.0f)).z, i, t});
       }
-    }
+    };
+    if (visible.active)
+      for (const ForwardBlendRange& b : visible.blend) addKeys(b.blendInstance, &b.triangles);
+    else
+      for (uint32_t i = 0; i < blendInstances.size(); ++i) addKeys(i, nullptr);
     std::stable_sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) { return a.z < b.z; });
     auto* out = reinterpret_cast<uint32_t*>(sortedIndices[slot].mapped());
     std::vector<SortedRun>& runs = sortedRuns[slot];
@@ -244,23 +251,28 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
   VkDeviceSize zero = 0;
   VkBuffer vb = vertices.handle();
   vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
-  vkCmdBindIndexBuffer(cmd, fs.oit == OitMode::Sorted ? sortedIndices[slot].handle() : indices.handle(), 0,
-                       VK_INDEX_TYPE_UINT32);
+  // Linked lists and weighted draw the visible set's blended ranges (or whole meshes) in any order
+  // (the resolve sorts); the sorted mode its slot's triangle order.
+  VkBuffer indexBuffer = fs.oit == OitMode::Sorted ? sortedIndices[slot].handle()
+                         : visible.active          ? visible.indices.handle()
+                                                   : indices.handle();
+  vkCmdBindIndexBuffer(cmd, indexBuffer, 0, VK_INDEX_TYPE_UINT32);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
   VkDeviceAddress oit = fs.oit == OitMode::LinkedList ? oitLists[slot].address() : 0;
   for (uint32_t e = 0; e < eyeCount; ++e) {
     VkDeviceAddress frame = cmdSetEye(cmd, slot, e);
-    if (fs.oit != OitMode::Sorted) {
-      for (uint32_t i = 0; i < blendInstances.size(); ++i) // any order: the resolve sorts
-        cmdDrawMesh(cmd, frame, blendInstanceBuffer.address(), blendInstances[i].mesh,
-                    isMirrored(blendInstances[i].transform), i, 1, frameStats, oit);
-      continue;
-    }
-    for (const SortedRun& run : sortedRuns[slot]) {
-      const Instance& inst = blendInstances[run.blendInstance];
-      cmdDrawMeshRange(cmd, frame, blendInstanceBuffer.address(), inst.mesh, isMirrored(inst.transform),
-                       run.blendInstance, run.firstIndex, run.indexCount, frameStats);
+    auto draw = [&](uint32_t i, const ForwardDrawRange& range) {
+      cmdDraw(cmd, frame, blendInstanceBuffer.address(), range, isMirrored(blendInstances[i].transform), i, 1,
+              frameStats, oit);
+    };
+    if (fs.oit == OitMode::Sorted) {
+      for (const SortedRun& run : sortedRuns[slot])
+        draw(run.blendInstance, {blendInstances[run.blendInstance].mesh, run.firstIndex, run.indexCount});
+    } else if (visible.active) {
+      for (const ForwardBlendRange& b : visible.blend) draw(b.blendInstance, b.range);
+    } else {
+      for (uint32_t i = 0; i < blendInstances.size(); ++i) draw(i, wholeMesh(blendInstances[i].mesh));
     }
   }
   vkCmdEndRendering(cmd);

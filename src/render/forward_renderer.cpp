@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 
 #include <fmt/format.h>
 
@@ -57,7 +58,9 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
     idx.insert(idx.end(), m.indices.begin(), m.indices.end());
   }
   vertices = createBufferWithData<sio::GpuVertex>(ctx, verts, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "vertices");
-  indices = createBufferWithData<uint32_t>(ctx, idx, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, "indices");
+  // TRANSFER_SRC: a visible set's indices are copied out of it.
+  indices = createBufferWithData<uint32_t>(
+      ctx, idx, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "indices");
 
   // Materials, with texture indices into the bindless array. A material referring to a missing
   // texture falls back to the factor alone.
@@ -82,11 +85,11 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
 
   // Instances: opaque/mask ones grouped by mesh (one instanced draw each); blend ones to the
   // transparency passes (uploadTransparency).
+  sceneInstances = scene.instances;
   std::vector<std::vector<const Instance*>> byMesh(scene.meshes.size() * 2); // [mesh * 2 + mirrored]
-  for (const Instance& inst : scene.instances) {
+  for (const Instance& inst : sceneInstances) {
     if (inst.mesh >= scene.meshes.size()) continue;
-    const Material& mat = sceneMaterials[std::min<size_t>(scene.meshes[inst.mesh].material, sceneMaterials.size() - 1)];
-    if (mat.alphaMode == AlphaMode::Blend)
+    if (isBlend(inst.mesh))
       blendInstances.push_back(inst);
     else
       byMesh[inst.mesh * 2 + isMirrored(inst.transform)].push_back(&inst);
@@ -94,7 +97,7 @@ void ForwardRenderer::Impl::upload(const Scene& scene) {
   std::vector<sio::GpuInstance> instanceData;
   for (uint32_t k = 0; k < byMesh.size(); ++k) {
     if (byMesh[k].empty()) continue;
-    batches.push_back({k / 2, (k & 1) != 0, uint32_t(instanceData.size()), uint32_t(byMesh[k].size())});
+    batches.push_back({wholeMesh(k / 2), (k & 1) != 0, uint32_t(instanceData.size()), uint32_t(byMesh[k].size())});
     for (const Instance* inst : byMesh[k]) instanceData.push_back(makeGpuInstance(inst->transform));
   }
   instanceBuffer =
@@ -167,23 +170,13 @@ void ForwardRenderer::Impl::cmdBindMeshDraw(VkCommandBuffer cmd, VkDeviceAddress
   vkCmdSetFrontFace(cmd, mirrored ? VK_FRONT_FACE_CLOCKWISE : VK_FRONT_FACE_COUNTER_CLOCKWISE);
 }
 
-void ForwardRenderer::Impl::cmdDrawMeshRange(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
-                                             uint32_t mesh, bool mirrored, uint32_t instance, uint32_t firstIndex,
-                                             uint32_t indexCount, FrameStats& fs) {
-  cmdBindMeshDraw(cmd, frame, instances, mesh, mirrored, 0);
-  vkCmdDrawIndexed(cmd, indexCount, 1, firstIndex, meshes[mesh].vertexOffset, instance);
+void ForwardRenderer::Impl::cmdDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
+                                    const ForwardDrawRange& range, bool mirrored, uint32_t firstInstance,
+                                    uint32_t count, FrameStats& fs, VkDeviceAddress oit) {
+  cmdBindMeshDraw(cmd, frame, instances, range.mesh, mirrored, oit);
+  vkCmdDrawIndexed(cmd, range.indexCount, count, range.firstIndex, meshes[range.mesh].vertexOffset, firstInstance);
   fs.drawCalls++;
-  fs.trianglesSubmitted += indexCount / 3;
-}
-
-void ForwardRenderer::Impl::cmdDrawMesh(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress instances,
-                                        uint32_t mesh, bool mirrored, uint32_t firstInstance, uint32_t count,
-                                        FrameStats& fs, VkDeviceAddress oit) {
-  const ForwardMeshRange& r = meshes[mesh];
-  cmdBindMeshDraw(cmd, frame, instances, mesh, mirrored, oit);
-  vkCmdDrawIndexed(cmd, r.indexCount, count, r.firstIndex, r.vertexOffset, firstInstance);
-  fs.drawCalls++;
-  fs.trianglesSubmitted += uint64_t(r.indexCount / 3) * count;
+  fs.trianglesSubmitted += uint64_t(range.indexCount / 3) * count;
 }
 
 ForwardRenderer::ForwardRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -253,6 +246,12 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   // compute shaders and transfers (colorTarget(); readbackImage).
   timer.cmdReset(cmd);
   pipelineStats.cmdReset(cmd);
+  // A new visible set's indices, copied before the barrier that orders them before the draws.
+  if (!d.visible.pendingCopies.empty()) {
+    vkCmdCopyBuffer(cmd, d.indices.handle(), d.visible.indices.handle(), uint32_t(d.visible.pendingCopies.size()),
+                    d.visible.pendingCopies.data());
+    d.visible.pendingCopies.clear();
+  }
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
@@ -291,17 +290,17 @@ Status ForwardRenderer::record(VkCommandBuffer cmd, const ForwardRenderSettings&
   VkDeviceSize zero = 0;
   VkBuffer vb = d.vertices.handle();
   vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
-  vkCmdBindIndexBuffer(cmd, d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+  // Opaque and alpha-masked geometry: the whole scene, or the visible set's draws.
+  const bool subset = d.visible.active;
+  vkCmdBindIndexBuffer(cmd, subset ? d.visible.indices.handle() : d.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
-
-  // Opaque and alpha-masked geometry.
+  const VkDeviceAddress instances = subset ? d.visible.instances.address() : d.instanceBuffer.address();
   uint32_t opaqueTime = timer.cmdBegin(cmd, "opaque");
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.opaquePipeline);
   for (uint32_t e = 0; e < eyeCount; ++e) {
     VkDeviceAddress frame = d.cmdSetEye(cmd, slot, e);
-    for (const ForwardBatch& b : d.batches)
-      d.cmdDrawMesh(cmd, frame, d.instanceBuffer.address(), b.mesh, b.mirrored, b.firstInstance, b.instanceCount,
-                    stats);
+    for (const ForwardBatch& b : subset ? d.visible.batches : d.batches)
+      d.cmdDraw(cmd, frame, instances, b.range, b.mirrored, b.firstInstance, b.instanceCount, stats);
   }
   timer.cmdEnd(cmd, opaqueTime);
   vkCmdEndRendering(cmd);
@@ -331,6 +330,65 @@ Result<RenderOutput> ForwardRenderer::collect(uint32_t slot) {
 }
 
 const gpu::Image& ForwardRenderer::colorTarget() const { return impl_->color; }
+
+Status ForwardRenderer::setVisibleTriangles(const std::vector<uint32_t>* sortedIds) {
+  Impl& d = *impl_;
+  ForwardVisibleSet next;
+  if (sortedIds) {
+    const std::vector<uint32_t>& ids = *sortedIds;
+    uint64_t total = 0;
+    for (const Instance& inst : d.sceneInstances)
+      if (inst.mesh < d.meshes.size()) total += d.meshes[inst.mesh].indexCount / 3;
+    if (std::adjacent_find(ids.begin(), ids.end(), std::greater_equal<uint32_t>()) != ids.end())
+      return Error{"visible triangle IDs are not sorted and unique"};
+    if (!ids.empty() && ids.back() >= total)
+      return Error{fmt::format("visible triangle {} is outside the scene's {} triangles", ids.back(), total)};
+    next.active = true;
+    std::vector<sio::GpuInstance> instanceData;
+    uint64_t begin = 0, indexCount = 0; // the instance's first global triangle ID; indices so far
+    uint32_t blendInstance = 0;         // BLEND instances so far (blendInstances' order)
+    size_t k = 0;
+    for (const Instance& inst : d.sceneInstances) {
+      if (inst.mesh >= d.meshes.size()) continue;
+      const ForwardMeshRange& m = d.meshes[inst.mesh];
+      const bool blend = d.isBlend(inst.mesh);
+      uint64_t end = begin + m.indexCount / 3;
+      ForwardBlendRange listed{blendInstance, {inst.mesh, uint32_t(indexCount), 0}, {}};
+      while (k < ids.size() && ids[k] < end) { // one copy per run of consecutive triangles
+        size_t run = 1;
+        while (k + run < ids.size() && ids[k + run] == ids[k] + run && ids[k + run] < end) ++run;
+        next.pendingCopies.push_back({(m.firstIndex + (ids[k] - begin) * 3) * 4, indexCount * 4, run * 12});
+        if (blend)
+          for (size_t i = 0; i < run; ++i) listed.triangles.push_back(uint32_t(ids[k] - begin + i));
+        indexCount += run * 3;
+        k += run;
+      }
+      begin = end;
+      blendInstance += blend;
+      if (indexCount > UINT32_MAX) return Error{"visible triangles exceed 32-bit index ranges"};
+      listed.range.indexCount = uint32_t(indexCount - listed.range.firstIndex);
+      if (listed.range.indexCount == 0) continue;
+      if (blend) {
+        next.blend.push_back(std::move(listed));
+      } else {
+        next.batches.push_back({listed.range, isMirrored(inst.transform), uint32_t(instanceData.size()), 1});
+        instanceData.push_back(makeGpuInstance(inst.transform));
+      }
+    }
+    next.indices = createBuffer(d.ctx, std::max<uint64_t>(indexCount, 1) * 4,
+                                VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                MemoryUsage::GpuOnly, "visible indices");
+    next.instances = createBuffer(d.ctx, std::max<size_t>(instanceData.size(), 1) * sizeof(sio::GpuInstance),
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "visible instances");
+    if (!instanceData.empty())
+      std::memcpy(next.instances.mapped(), instanceData.data(), instanceData.size() * sizeof(sio::GpuInstance));
+  }
+  // Frames recorded and not yet collected may still draw the replaced set.
+  d.retired.retire(std::move(d.visible.indices), d.inFlight());
+  d.retired.retire(std::move(d.visible.instances), d.inFlight());
+  d.visible = std::move(next);
+  return Ok{};
+}
 
 Result<RenderOutput> ForwardRenderer::render(const ForwardRenderSettings& fs) {
   Impl& d = *impl_;

@@ -1,12 +1,13 @@
 // The view cell's PVS at run time (docs/visibility.md): cluster LOD culls with the cell's cluster
-// PVS (lod::clusterPvs, uploaded when the eye changes cell); the forward path draws the scene
-// restricted to the cell's triangle PVS.
+// PVS (lod::clusterPvs, uploaded when the eye changes cell); the forward path draws only the cell's
+// triangle PVS (ForwardRenderer::setVisibleTriangles). Neither waits for frames in flight.
 #include <chrono>
 
 #include <fmt/format.h>
 
 #include "mirage/runtime/scene_argument.h"
 #include "mirage/visibility/pvs_cull.h"
+#include "mirage/visibility/ray_backend.h"
 #include "scene_impl.h"
 
 namespace mirage::runtime {
@@ -27,6 +28,8 @@ Status openPvs(Scene::Impl& s) {
                                o.pvs, pvs->sceneTriangles, o.input, triangles)};
   } else if (auto st = checkPvsScene(s.scene, *pvs, o.pvs); !st) {
     return st;
+  } else {
+    s.forwardOffsets = vis::triangleOffsets(s.scene);
   }
   s.pvs = std::move(*pvs);
   s.pvsState.active = true;
@@ -61,20 +64,22 @@ Result<bool> selectClusterCell(Scene::Impl& s, int cell) {
   return true;
 }
 
-// The forward renderer of the scene restricted to the cell's PVS; an eye in no cell is an error
-// (there is no culling to fall back on without drawing everything).
+// The forward renderer draws the cell's PVS triangles from the next frame on; an eye in no cell is
+// an error (there is no culling to fall back on without drawing everything).
 Result<bool> selectForwardCell(Scene::Impl& s, glm::vec3 eye) {
-  int cell = -1;
-  auto restricted = restrictSceneToPvs(s.scene, s.pvs, s.options.pvs, eye, cell);
-  if (!restricted) return restricted.error();
-  if (cell == s.pvsState.cell && s.forward) return false;
-  auto renderer = render::ForwardRenderer::create(s.ctx, *restricted);
-  if (!renderer) return renderer.error();
-  s.forward = std::move(*renderer);
-  s.forwardTriangles = restricted->instancedTriangleCount();
-  s.forwardInstances = restricted->instances.size();
-  s.pvsState.cell = cell;
-  s.pvsState.cellTriangles = s.pvs.triangles[size_t(cell)].size();
+  auto cell = pvsCellOf(s.pvs, s.options.pvs, eye);
+  if (!cell) return cell.error();
+  if (*cell == s.pvsState.cell) return false;
+  const std::vector<uint32_t>& ids = s.pvs.triangles[size_t(*cell)];
+  if (auto st = s.forward->setVisibleTriangles(&ids); !st) return makeError(s.options.pvs, st.error().message);
+  uint64_t instances = 0; // those with a triangle in the PVS (ids and offsets ascend: one merge)
+  for (size_t i = 0, k = 0; i + 1 < s.forwardOffsets.size() && k < ids.size(); ++i) {
+    instances += ids[k] < s.forwardOffsets[i + 1];
+    while (k < ids.size() && ids[k] < s.forwardOffsets[i + 1]) ++k;
+  }
+  s.forwardDrawn = {*cell, ids.size(), instances};
+  s.pvsState.cell = *cell;
+  s.pvsState.cellTriangles = ids.size();
   return true;
 }
 
@@ -82,11 +87,7 @@ Result<bool> selectForwardCell(Scene::Impl& s, glm::vec3 eye) {
 
 Result<bool> selectPvsCell(Scene::Impl& s, glm::vec3 eye) {
   if (!s.pvsState.active) return false;
-  if (s.kind == SceneKind::Forward) {
-    int cell = vis::findCell(s.pvs.cells, eye);
-    if (cell >= 0 && cell == s.pvsState.cell && s.forward) return false;
-    return selectForwardCell(s, eye);
-  }
+  if (s.kind == SceneKind::Forward) return selectForwardCell(s, eye);
   int cell = vis::findCell(s.pvs.cells, eye);
   if (cell == s.pvsState.cell) return false;
   return selectClusterCell(s, cell);

@@ -91,11 +91,7 @@ Result<Frame> Scene::render(const View& view) {
   return Error{"unknown scene kind"};
 }
 
-// Forward scenes with a PVS replace their renderer on a cell change, which frames in flight use.
-bool Scene::canRecord() const { return impl_->kind != SceneKind::Forward || !impl_->pvsState.active; }
-
 Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
-  if (!canRecord()) return Error{"forward scenes with a PVS render through render() only, not record()"};
   if (auto st = checkConfig(view.config, impl_->kind); !st) return st.error();
   switch (impl_->kind) {
   case SceneKind::Forward:
@@ -109,7 +105,6 @@ Status Scene::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
 }
 
 Result<Frame> Scene::collect(uint32_t slot) {
-  if (!canRecord()) return Error{"collect(): this scene has no record path"};
   switch (impl_->kind) {
   case SceneKind::Forward:
     return collectForward(*impl_, slot);
@@ -122,7 +117,6 @@ Result<Frame> Scene::collect(uint32_t slot) {
 }
 
 const gpu::Image* Scene::colorTarget() const {
-  if (!canRecord()) return nullptr;
   switch (impl_->kind) {
   case SceneKind::Forward:
     return &impl_->forward->colorTarget();

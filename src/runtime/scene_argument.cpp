@@ -84,13 +84,20 @@ Status checkPvsScene(const mirage::Scene& scene, const vis::PvsData& pvs, const 
   return Ok{};
 }
 
-Result<mirage::Scene> restrictSceneToPvs(const mirage::Scene& scene, const vis::PvsData& pvs,
-                                         const std::string& pvsPath, glm::vec3 eye, int& cell) {
-  if (auto st = checkPvsScene(scene, pvs, pvsPath); !st) return st.error();
-  cell = vis::findCell(pvs.cells, eye);
+Result<int> pvsCellOf(const vis::PvsData& pvs, const std::string& pvsPath, glm::vec3 eye) {
+  int cell = vis::findCell(pvs.cells, eye);
   if (cell < 0)
     return makeError(pvsPath, fmt::format("the camera at ({:.4g}, {:.4g}, {:.4g}) is in none of its {} view cells",
                                           eye.x, eye.y, eye.z, pvs.cells.size()));
+  return cell;
+}
+
+Result<mirage::Scene> restrictSceneToPvs(const mirage::Scene& scene, const vis::PvsData& pvs,
+                                         const std::string& pvsPath, glm::vec3 eye, int& cell) {
+  if (auto st = checkPvsScene(scene, pvs, pvsPath); !st) return st.error();
+  auto found = pvsCellOf(pvs, pvsPath, eye);
+  if (!found) return found.error();
+  cell = *found;
   return vis::restrictToPvs(scene, pvs.triangles[size_t(cell)]);
 }
 

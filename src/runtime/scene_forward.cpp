@@ -19,12 +19,10 @@ Status openForward(Scene::Impl& s) {
   s.info.sourceTriangles = s.scene.instancedTriangleCount();
   s.info.instances = s.scene.instances.size();
   for (const Material& m : s.scene.materials) s.info.blendMaterials |= m.alphaMode == AlphaMode::Blend;
-  if (!s.options.pvs.empty()) return Ok{}; // the renderer comes with the eye's cell
   auto renderer = render::ForwardRenderer::create(s.ctx, s.scene);
   if (!renderer) return renderer.error();
   s.forward = std::move(*renderer);
-  s.forwardTriangles = s.info.sourceTriangles;
-  s.forwardInstances = s.info.instances;
+  s.forwardDrawn = {-1, s.info.sourceTriangles, s.info.instances};
   return Ok{};
 }
 
@@ -47,14 +45,14 @@ render::ForwardRenderSettings forwardSettings(const Scene::Impl& s, const View& 
 }
 
 // The counters every path reports, from the forward renderer's output (images move along).
-Frame forwardFrame(const Scene::Impl& s, render::RenderOutput& o) {
+Frame forwardFrame(render::RenderOutput& o, const Scene::Impl::ForwardDrawn& drawn) {
   Frame f;
   f.srgb = std::move(o.srgb);
   f.linear = std::move(o.linear);
   f.passTimes = o.stats.passTimes;
-  f.trianglesDrawn = s.forwardTriangles;
-  f.pvsCell = s.pvsState.active ? s.pvsState.cell : -1;
-  f.forward = ForwardFrameStats{std::move(o.stats), s.forwardTriangles, s.forwardInstances};
+  f.trianglesDrawn = drawn.triangles;
+  f.pvsCell = drawn.cell;
+  f.forward = ForwardFrameStats{std::move(o.stats), drawn.triangles, drawn.instances};
   return f;
 }
 
@@ -64,18 +62,21 @@ Result<Frame> renderForward(Scene::Impl& s, const View& view) {
   if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
   auto o = s.forward->render(forwardSettings(s, view));
   if (!o) return o.error();
-  return forwardFrame(s, *o);
+  return forwardFrame(*o, s.forwardDrawn);
 }
 
-// Scenes without a PVS only (Scene::canRecord()): a cell change replaces the renderer.
+// A cell change only swaps the renderer's visible triangles, which outlive the frames reading them.
 Status recordForward(Scene::Impl& s, VkCommandBuffer cmd, const View& view, uint32_t slot) {
-  return s.forward->record(cmd, forwardSettings(s, view), slot);
+  if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
+  if (auto st = s.forward->record(cmd, forwardSettings(s, view), slot); !st) return st;
+  s.slotForward[slot] = s.forwardDrawn;
+  return Ok{};
 }
 
 Result<Frame> collectForward(Scene::Impl& s, uint32_t slot) {
   auto o = s.forward->collect(slot);
   if (!o) return o.error();
-  return forwardFrame(s, *o);
+  return forwardFrame(*o, s.slotForward[slot]);
 }
 
 } // namespace mirage::runtime

@@ -30,11 +30,17 @@ struct Scene::Impl {
   lod::ClusterPvs clusterPvs;
   int slotCell[render::kMaxFramesInFlight] = {-1, -1, -1}; // record(): the PVS cell of each slot's frame
 
-  // Forward: the whole scene (kept to restrict it to another cell's PVS) and the renderer of what
-  // is drawn.
+  // Forward: the scene, its renderer and what it draws (with a PVS the cell's visible triangles,
+  // set on the renderer when the eye changes cell): now, and in each recorded slot's frame.
+  struct ForwardDrawn {
+    int cell = -1;
+    uint64_t triangles = 0, instances = 0;
+  };
   mirage::Scene scene;
   std::unique_ptr<render::ForwardRenderer> forward;
-  uint64_t forwardTriangles = 0, forwardInstances = 0;
+  std::vector<uint64_t> forwardOffsets; // with a PVS: each instance's first global triangle ID
+  ForwardDrawn forwardDrawn;
+  ForwardDrawn slotForward[render::kMaxFramesInFlight];
 
   // Surfels: the surfel-only cloud, or the far field of a mixed scene.
   surfels::SurfelCloud cloud;

@@ -1,5 +1,6 @@
 #include "keys.h"
 
+#include <algorithm>
 #include <charconv>
 
 #define GLFW_INCLUDE_NONE
@@ -54,6 +55,34 @@ Result<std::vector<ScriptedKey>> parseKeyScript(std::string_view text) {
     out.push_back(key);
   }
   return out;
+}
+
+std::vector<Action> frameActions(const PolledInput& input, bool overlayKeyboard, std::vector<ScriptedKey>& script,
+                                 uint64_t frame) {
+  std::vector<Action> actions;
+  for (const KeyBinding& b : kBindings) {
+    // A key pressed now, or scripted for this frame (consumed: a frame that draws nothing comes again).
+    auto it = std::find_if(script.begin(), script.end(),
+                           [&](const ScriptedKey& k) { return k.frame == frame && k.action == b.action; });
+    bool scripted = it != script.end();
+    if (scripted) script.erase(it);
+    if (scripted || (!overlayKeyboard && input.keyPressed(b.key))) actions.push_back(b.action);
+  }
+  return actions;
+}
+
+void flyStep(const PolledInput& input, bool overlayKeyboard, bool overlayMouse, float seconds, bool& looking,
+             FlyCamera& fly) {
+  InputState in;
+  in.forward = input.keyDown(kFlyKeys[0]), in.left = input.keyDown(kFlyKeys[1]), in.back = input.keyDown(kFlyKeys[2]);
+  in.right = input.keyDown(kFlyKeys[3]), in.down = input.keyDown(kFlyKeys[4]), in.up = input.keyDown(kFlyKeys[5]);
+  in.lookButton = input.lookButton;
+  in.mouseDelta = input.mouseDelta;
+  in.scroll = input.scroll;
+  in.overlayKeyboard = overlayKeyboard;
+  in.overlayMouse = overlayMouse;
+  looking = nextLooking(looking, in);
+  update(fly, flyInput(in, looking, seconds));
 }
 
 bool applySwitch(Action action, UiState& s) {

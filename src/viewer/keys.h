@@ -9,8 +9,10 @@
 #include <vector>
 
 #include "mirage/core/result.h"
+#include "mirage/viewer/fly_camera.h"
 
 #include "overlay_ui.h"
+#include "polled_input.h"
 
 namespace mirage::viewer {
 
@@ -50,5 +52,17 @@ Result<std::vector<ScriptedKey>> parseKeyScript(std::string_view text);
 // Actions that only flip a switch of the overlay's state: applied here (true when it changed a
 // setting; a switch the scene lacks stays as it is). The others need the loop (files, window).
 bool applySwitch(Action action, UiState& state);
+
+// The viewer loop's input of one frame, in its order (tests feed scripted PolledInput through the
+// same calls):
+// 1. frameActions: the actions of the keys that went down (unless the overlay has the keyboard)
+//    and of those scripted for `frame` (--keys; consumed from `script`), in key-table order.
+std::vector<Action> frameActions(const PolledInput& input, bool overlayKeyboard, std::vector<ScriptedKey>& script,
+                                 uint64_t frame);
+// 2. flyStep (not while a path replays): W A S D Q E held move the fly camera along its axes, the
+//    look button held (pressed outside the overlay) with mouse motion turns it, the wheel scales
+//    its speed (fly_camera.h). `looking` carries over from frame to frame.
+void flyStep(const PolledInput& input, bool overlayKeyboard, bool overlayMouse, float seconds, bool& looking,
+             FlyCamera& fly);
 
 } // namespace mirage::viewer

@@ -67,8 +67,6 @@ Result<Frame> SceneView::render(const View& view) {
   return frame;
 }
 
-bool SceneView::canRecord() const { return scene_->canRecord(); }
-
 Status SceneView::record(VkCommandBuffer cmd, const View& view, uint32_t slot) {
   return scene_->record(cmd, runtimeView(view, false), slot);
 }

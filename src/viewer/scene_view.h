@@ -57,10 +57,9 @@ public:
   static Result<std::unique_ptr<SceneView>> open(gpu::Context& context, const SceneOptions& options);
   ~SceneView();
   Result<Frame> render(const View& view);
-  // Frames in flight (runtime::Scene::record / collect; cluster-LOD, mixed and surfel scenes): the
-  // frame is recorded into the swapchain frame's command buffer, its image is colorTarget(), its
-  // stats come from collect(slot) once the slot's fence signalled.
-  bool canRecord() const;
+  // Frames in flight (runtime::Scene::record / collect): the frame is recorded into the swapchain
+  // frame's command buffer, its image is colorTarget(), its stats come from collect(slot) once the
+  // slot's fence signalled.
   Status record(VkCommandBuffer cmd, const View& view, uint32_t slot);
   Result<FrameStats> collect(uint32_t slot);
   const gpu::Image* colorTarget() const;

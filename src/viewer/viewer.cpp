@@ -261,9 +261,9 @@ Status runViewer(const ViewerOptions& o) {
   Presenter presenter{**context, std::move(*swapchain), nullptr, {}, {}};
   presenter.overlay =
       OverlayRenderer::create(**context, presenter.swapchain->format(), presenter.swapchain->framesInFlight());
-  // Frames in flight from the scene to the swapchain when the scene records and the device blits.
+  // Frames in flight from the scene to the swapchain when the device blits.
   presenter.blit = createTargetBlit(**context, presenter.swapchain->format());
-  const bool gpuPresent = sceneView.canRecord() && presenter.blit.format != VK_FORMAT_UNDEFINED;
+  const bool gpuPresent = presenter.blit.format != VK_FORMAT_UNDEFINED;
   Window& win = **window;
 
   std::vector<render::Camera> recorded;
@@ -302,19 +302,12 @@ Status runViewer(const ViewerOptions& o) {
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     const ImGuiIO& io = ImGui::GetIO();
-    bool keys = !io.WantCaptureKeyboard;
     bool screenshot = false;
     VkExtent2D extent = win.framebufferSize();
     // One eye's size: the window holds both eyes side by side with --stereo.
     VkExtent2D eye{o.stereoIpd ? extent.width / 2 : extent.width, extent.height};
-    for (const KeyBinding& b : keyBindings()) {
-      // A key pressed now, or scripted for this frame (consumed: a frame that draws nothing comes again).
-      auto it = std::find_if(script->begin(), script->end(),
-                             [&](const ScriptedKey& k) { return k.frame == frames && k.action == b.action; });
-      bool scripted = it != script->end();
-      if (scripted) script->erase(it);
-      if (!scripted && (!keys || !win.keyPressed(b.key))) continue;
-      switch (b.action) {
+    for (Action action : frameActions(win.input(), io.WantCaptureKeyboard, *script, frames)) {
+      switch (action) {
       case Action::Close:
         win.requestClose();
         break;
@@ -355,7 +348,7 @@ Status runViewer(const ViewerOptions& o) {
       case Action::Vsync:
       case Action::Transparency:
       case Action::Surfels:
-        if (applySwitch(b.action, ui)) {
+        if (applySwitch(action, ui)) {
           untried = true;
           setPresentMode();
         }
@@ -363,18 +356,8 @@ Status runViewer(const ViewerOptions& o) {
       }
     }
     if (!replaying) {
-      InputState in;
-      const std::span<const int> fk = flyKeys();
-      in.forward = win.keyDown(fk[0]), in.left = win.keyDown(fk[1]), in.back = win.keyDown(fk[2]);
-      in.right = win.keyDown(fk[3]), in.down = win.keyDown(fk[4]), in.up = win.keyDown(fk[5]);
-      in.lookButton = win.rightButtonDown();
-      in.mouseDelta = win.mouseDelta();
-      in.scroll = win.scroll();
-      in.overlayKeyboard = io.WantCaptureKeyboard;
-      in.overlayMouse = io.WantCaptureMouse;
-      looking = nextLooking(looking, in);
+      flyStep(win.input(), io.WantCaptureKeyboard, io.WantCaptureMouse, seconds, looking, fly);
       win.setCursorCaptured(looking);
-      update(fly, flyInput(in, looking, seconds));
     }
 
     // This frame's camera: the path while replaying (the fly camera follows it), else the fly camera.

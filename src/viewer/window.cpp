@@ -72,29 +72,23 @@ void Window::waitEvents() { glfwWaitEventsTimeout(0.1); }
 
 void Window::poll() {
   glfwPollEvents();
-  for (int key = GLFW_KEY_SPACE; key < kKeys && key <= GLFW_KEY_LAST; ++key) {
-    bool now = glfwGetKey(window_, key) == GLFW_PRESS;
-    pressed_[size_t(key)] = now && !down_[size_t(key)];
-    down_[size_t(key)] = now;
-  }
+  for (int key = GLFW_KEY_SPACE; key < PolledInput::kKeys && key <= GLFW_KEY_LAST; ++key)
+    input_.setKey(key, glfwGetKey(window_, key) == GLFW_PRESS);
+  input_.lookButton = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
   glm::dvec2 cursor;
   glfwGetCursorPos(window_, &cursor.x, &cursor.y);
-  mouseDelta_ = haveCursor_ ? glm::vec2(cursor - cursor_) : glm::vec2(0.0f);
+  input_.mouseDelta = haveCursor_ ? glm::vec2(cursor - cursor_) : glm::vec2(0.0f);
   cursor_ = cursor;
   haveCursor_ = true;
-  scroll_ = scrollPending_;
+  input_.scroll = scrollPending_;
   scrollPending_ = 0.0f;
 }
 
-bool Window::keyDown(int key) const { return key >= 0 && key < kKeys && down_[size_t(key)]; }
-bool Window::keyPressed(int key) const { return key >= 0 && key < kKeys && pressed_[size_t(key)]; }
 void Window::setCursorCaptured(bool captured) {
   if (captured == captured_) return;
   captured_ = captured;
   glfwSetInputMode(window_, GLFW_CURSOR, captured ? GLFW_CURSOR_DISABLED : GLFW_CURSOR_NORMAL);
   haveCursor_ = false; // the position jumps when the mode changes: no delta from it
 }
-
-bool Window::rightButtonDown() const { return glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS; }
 
 } // namespace mirage::viewer

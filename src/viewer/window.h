@@ -10,6 +10,7 @@
 
 #include "mirage/core/result.h"
 #include "mirage/gpu/vk.h"
+#include "polled_input.h"
 
 struct GLFWwindow;
 
@@ -42,27 +43,21 @@ public:
   void requestClose();
   void setTitle(const std::string& title);
 
-  // Polls events and updates the input below (call once per frame).
+  // Polls events and updates input() (call once per frame).
   void poll();
   // Sleeps until an event arrives (a minimized window draws nothing).
   void waitEvents();
-  bool keyDown(int key) const;
-  bool keyPressed(int key) const; // went down since the previous poll
-  bool rightButtonDown() const;
+  const PolledInput& input() const { return input_; }
   // Hidden, unbounded cursor (mouse look) or the normal one.
   void setCursorCaptured(bool captured);
-  glm::vec2 mouseDelta() const { return mouseDelta_; }
-  float scroll() const { return scroll_; } // notches since the previous poll
 
 private:
   Window() = default;
-  static constexpr int kKeys = 512;
   GLFWwindow* window_ = nullptr;
-  std::array<bool, kKeys> down_{}, pressed_{};
+  PolledInput input_;
   glm::dvec2 cursor_{0.0};
   bool haveCursor_ = false;
-  glm::vec2 mouseDelta_{0.0f};
-  float scroll_ = 0.0f, scrollPending_ = 0.0f;
+  float scrollPending_ = 0.0f;
   bool captured_ = false;
   friend void onScroll(GLFWwindow*, double, double);
 };

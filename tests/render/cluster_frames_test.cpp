@@ -3,6 +3,8 @@
 // render() calls. Validation (with synchronization validation) must stay silent.
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <span>
 #include <vector>
 
 #include "gpu_test.h"
@@ -58,17 +60,18 @@ void expectSameStats(const ClusterStats& a, const ClusterStats& b) {
   EXPECT_EQ(a.raster, b.raster);
 }
 
-} // namespace
-
-class ClusterFrames : public test::GpuTest {};
-
-TEST_F(ClusterFrames, ThreeFramesInFlightMatchSequentialRenders) {
-  static_assert(kMaxFramesInFlight == 3);
-  gpu::Context& ctx = context();
+// Renders threeFrames (after `adjust`) one by one with one renderer, records them into slots 0..2
+// of another before any wait (each slot's colour target copied at sizes[slot]; gateFirstFrame: see
+// recordFramesInFlight) and expects the stats and linear images of the sequential renders; a slot
+// is collected once, and there is no fourth.
+void expectFramesInFlightMatchSequential(gpu::Context& ctx,
+                                         const std::function<void(std::vector<ClusterRenderSettings>&)>& adjust,
+                                         std::span<const VkExtent2D> sizes, bool gateFirstFrame) {
   auto sequential = ClusterRenderer::create(ctx, test::smallBlobAsset());
   auto inFlight = ClusterRenderer::create(ctx, test::smallBlobAsset());
   ASSERT_TRUE(sequential.ok() && inFlight.ok());
   std::vector<ClusterRenderSettings> frames = threeFrames((*sequential)->worldBounds());
+  adjust(frames);
   std::vector<ClusterRenderOutput> expected;
   for (const ClusterRenderSettings& s : frames) {
     auto out = (*sequential)->render(s);
@@ -78,15 +81,15 @@ TEST_F(ClusterFrames, ThreeFramesInFlightMatchSequentialRenders) {
   // The stats differ between the frames, or the test could not tell the slots apart.
   EXPECT_NE(expected[0].stats.trianglesRasterized, expected[1].stats.trianglesRasterized);
 
-  std::vector<std::vector<uint16_t>> pixels =
-      test::recordFramesInFlight(ctx, kMaxFramesInFlight, kSize, kSize,
-                                 [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
-                                   if (Status st = (*inFlight)->record(cmd, frames[slot], slot); !st) return st;
-                                   color = &(*inFlight)->colorTarget();
-                                   return Ok{};
-                                 });
+  std::vector<std::vector<uint16_t>> pixels = test::recordFramesInFlight(
+      ctx, sizes,
+      [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
+        if (Status st = (*inFlight)->record(cmd, frames[slot], slot); !st) return st;
+        color = &(*inFlight)->colorTarget();
+        return Ok{};
+      },
+      gateFirstFrame);
   ASSERT_EQ(pixels.size(), size_t(kMaxFramesInFlight));
-
   for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) {
     SCOPED_TRACE(i);
     auto out = (*inFlight)->collect(i);
@@ -95,9 +98,37 @@ TEST_F(ClusterFrames, ThreeFramesInFlightMatchSequentialRenders) {
     EXPECT_FALSE(out->image.stats.passTimes.empty());
     EXPECT_EQ(test::differingChannels(pixels[i], expected[i].image.linear.pixels), 0u)
         << "of " << pixels[i].size() << " channel values";
-    // A slot is collected once.
-    EXPECT_FALSE((*inFlight)->collect(i).ok());
+    EXPECT_FALSE((*inFlight)->collect(i).ok()); // a slot is collected once
   }
   // No fourth slot (refused before anything is recorded).
   EXPECT_FALSE((*inFlight)->record(VK_NULL_HANDLE, frames[0], kMaxFramesInFlight).ok());
+}
+
+} // namespace
+
+class ClusterFrames : public test::GpuTest {};
+
+TEST_F(ClusterFrames, ThreeFramesInFlightMatchSequentialRenders) {
+  static_assert(kMaxFramesInFlight == 3);
+  const VkExtent2D sizes[] = {{kSize, kSize}, {kSize, kSize}, {kSize, kSize}};
+  expectFramesInFlightMatchSequential(
+      context(), [](std::vector<ClusterRenderSettings>&) {}, sizes, false);
+}
+
+// A size change while frames are in flight (a window resize): three frames of three sizes, the
+// middle one stereo (its target twice as wide), recorded with the first frame held back on the GPU
+// until all were recorded. No record waits for the device (the replaced targets are retired until
+// the frames using them completed, each slot's descriptor set names its own frame's targets), and
+// each frame's image is that of a sequential render() of its settings. Validation catches a target
+// destroyed or a descriptor set updated while a frame still uses it.
+TEST_F(ClusterFrames, ResizeWhileFramesAreInFlightNeitherWaitsNorFreesTargetsInUse) {
+  auto resize = [](std::vector<ClusterRenderSettings>& frames) {
+    frames[1].base.width = 64;
+    frames[1].base.height = 80;
+    frames[1].stereoIpd = 0.2f;
+    frames[2].base.width = 80;
+    frames[2].base.height = 64;
+  };
+  const VkExtent2D sizes[] = {{kSize, kSize}, {2 * 64, 80}, {80, 64}};
+  expectFramesInFlightMatchSequential(context(), resize, sizes, /*gateFirstFrame=*/true);
 }

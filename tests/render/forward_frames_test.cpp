@@ -1,7 +1,8 @@
 // Forward renderer stereo and frames in flight (docs/render.md, "Stereo" and "Frames in flight"):
 // each half of a stereo image equals a mono render of that eye's camera; frames recorded into every
 // slot and submitted before any wait, one of them stereo (the target is replaced while the others
-// are in flight), give exactly the images and stats of sequential render() calls.
+// are in flight), give exactly the images and stats of sequential render() calls; a visible set
+// (setVisibleTriangles) draws only what it lists.
 #include <gtest/gtest.h>
 
 #include <vector>
@@ -143,4 +144,46 @@ TEST_F(ForwardFrames, ThreeFramesInFlightMatchSequentialRenders) {
     EXPECT_FALSE((*inFlight)->collect(i).ok()); // a slot is collected once
   }
   EXPECT_FALSE((*inFlight)->record(VK_NULL_HANDLE, frames[0], kMaxFramesInFlight).ok()); // no fourth slot
+}
+
+// A visible set (a view cell's PVS): bad ID lists change nothing, an empty one draws nothing, none
+// draws the whole scene again; the whole scene listed draws what no set draws.
+TEST_F(ForwardFrames, VisibleTrianglesRestrictTheDrawsAndBadListsAreRefused) {
+  Scene scene = stereoScene();
+  auto renderer = ForwardRenderer::create(context(), scene);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  RenderSettings s = settings(stereoCamera());
+  s.readLinear = true;
+  auto full = (*renderer)->render(s);
+  ASSERT_TRUE(full.ok()) << full.error().message;
+  const uint32_t total = uint32_t(scene.instancedTriangleCount());
+
+  const std::vector<uint32_t> unsorted = {2, 1}, outside = {0, total};
+  EXPECT_FALSE((*renderer)->setVisibleTriangles(&unsorted).ok());
+  EXPECT_FALSE((*renderer)->setVisibleTriangles(&outside).ok());
+  auto unchanged = (*renderer)->render(s);
+  ASSERT_TRUE(unchanged.ok());
+  EXPECT_TRUE(unchanged->linear.pixels == full->linear.pixels);
+
+  std::vector<uint32_t> all(total);
+  for (uint32_t t = 0; t < total; ++t) all[t] = t;
+  ASSERT_TRUE((*renderer)->setVisibleTriangles(&all).ok());
+  auto listed = (*renderer)->render(s);
+  ASSERT_TRUE(listed.ok());
+  EXPECT_EQ(listed->stats.trianglesSubmitted, full->stats.trianglesSubmitted);
+  EXPECT_TRUE(listed->linear.pixels == full->linear.pixels);
+
+  const std::vector<uint32_t> none;
+  ASSERT_TRUE((*renderer)->setVisibleTriangles(&none).ok());
+  auto empty = (*renderer)->render(s);
+  ASSERT_TRUE(empty.ok());
+  EXPECT_EQ(empty->stats.drawCalls, 0u);
+  EXPECT_EQ(empty->stats.trianglesSubmitted, 0u);
+  EXPECT_FALSE(empty->linear.pixels == full->linear.pixels);
+
+  ASSERT_TRUE((*renderer)->setVisibleTriangles(nullptr).ok());
+  auto again = (*renderer)->render(s);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->stats.drawCalls, full->stats.drawCalls);
+  EXPECT_TRUE(again->linear.pixels == full->linear.pixels);
 }

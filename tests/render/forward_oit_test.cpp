@@ -1,7 +1,8 @@
 // Order-independent transparency in the forward renderer (docs/render.md, "Transparency"): the
 // linked lists against the sorted reference on geometry that sorting whole objects gets wrong
 // (intersecting quads, one self-overlapping mesh), weighted blended OIT within its bound, Mean
-// Squared Layers on stacked full-screen layers, pool overflow counted. Validation stays silent.
+// Squared Layers on stacked full-screen layers, pool overflow counted, a visible set's blended
+// triangles only. Validation stays silent.
 #include <cstdio>
 #include <filesystem>
 
@@ -217,4 +218,39 @@ TEST_F(ForwardOit, StereoCountsBothEyes) {
   RenderOutput out = renderOit(context(), stackedLayers(3), s);
   EXPECT_EQ(out.stats.oit.coveredPixels, 2 * pixels);
   EXPECT_DOUBLE_EQ(out.stats.oit.msl, 9.0);
+}
+
+// A visible set (setVisibleTriangles, a view cell's PVS) in every mode: the blended passes draw
+// only the listed triangles, as a renderer of the scene cut down to them draws (the lists and the
+// weighted pass from the set's index ranges, the sorted reference sorting only listed triangles).
+TEST_F(ForwardOit, VisibleTrianglesDrawOnlyListedBlendedTriangles) {
+  const Scene scene = crossingQuads(); // 32 triangles per mesh: wall 0..31, quads 32..63, 64..95
+  // The wall, two runs of the first quad, the middle of the second.
+  std::vector<uint32_t> ids;
+  auto list = [&](uint32_t first, uint32_t end) {
+    for (uint32_t t = first; t < end; ++t) ids.push_back(t);
+  };
+  list(0, 32), list(32, 40), list(48, 64), list(72, 88);
+  Scene cut = scene;
+  auto keep = [&](uint32_t mesh, uint32_t first, uint32_t end) {
+    const std::vector<uint32_t>& all = scene.meshes[mesh].indices;
+    cut.meshes[mesh].indices.insert(cut.meshes[mesh].indices.end(), all.begin() + first * 3, all.begin() + end * 3);
+  };
+  cut.meshes[1].indices.clear(), cut.meshes[2].indices.clear();
+  keep(1, 0, 8), keep(1, 16, 32), keep(2, 8, 24);
+
+  auto renderer = ForwardRenderer::create(context(), scene);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  ASSERT_TRUE((*renderer)->setVisibleTriangles(&ids).ok());
+  for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted, OitMode::Sorted}) {
+    auto listed = (*renderer)->render(settings(mode));
+    ASSERT_TRUE(listed.ok()) << listed.error().message;
+    RenderOutput expected = renderOit(context(), cut, settings(mode));
+    RenderOutput full = renderOit(context(), scene, settings(mode));
+    EXPECT_EQ(listed->stats.trianglesSubmitted, ids.size()) << toString(mode);
+    EXPECT_EQ(listed->stats.oit.fragments, expected.stats.oit.fragments) << toString(mode);
+    EXPECT_GE(psnr(expected.srgb, listed->srgb), 60.0) << toString(mode);
+    EXPECT_LT(psnr(full.srgb, listed->srgb), 40.0) << toString(mode) << ": the unlisted triangles were drawn";
+    writeOnFailure(listed->srgb, std::string("visible_") + toString(mode) + ".png");
+  }
 }

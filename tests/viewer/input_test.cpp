@@ -1,6 +1,8 @@
 // The viewer's input handling without a window: the key table, the fly input of a frame (overlay
-// capture, mouse look, wheel, stall clamp), the switches keys flip, and the frame figures.
+// capture, mouse look, wheel, stall clamp), the switches keys flip, a scripted input session through
+// the loop's own calls, and the frame figures.
 #include <set>
+#include <vector>
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -157,4 +159,124 @@ TEST(ViewerKeys, KeyScriptNamesActionsAtFrames) {
     EXPECT_NE(r.error().message.find("--keys"), std::string::npos);
     EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
   }
+}
+
+namespace {
+
+// A scripted input session: events at frames, turned into each frame's PolledInput the way
+// Window::poll turns GLFW's state into it (every key's state set each frame, so a held key is
+// pressed only on its first frame), then through the viewer loop's calls in its order:
+// frameActions, applySwitch for the switches, flyStep.
+struct InputEvent {
+  enum Kind { KeyDown, KeyUp, LookDown, LookUp, Move, Scroll };
+  uint64_t frame = 0;
+  Kind kind = KeyDown;
+  int key = 0;
+  glm::vec2 value{0.0f}; // Move: pixels; Scroll: notches in x
+};
+
+struct Session {
+  FlyCamera fly;
+  UiState ui;
+  bool looking = false;
+  std::vector<ScriptedKey> script;
+  std::vector<std::pair<uint64_t, Action>> actions; // every action with its frame
+  std::set<uint64_t> overlayKeyboard, overlayMouse; // frames the overlay holds them
+};
+
+void play(Session& s, const std::vector<InputEvent>& events, uint64_t frames, float seconds) {
+  PolledInput input;
+  std::array<bool, PolledInput::kKeys> held{};
+  for (uint64_t frame = 0; frame < frames; ++frame) {
+    input.mouseDelta = glm::vec2(0.0f);
+    input.scroll = 0.0f;
+    for (const InputEvent& e : events) {
+      if (e.frame != frame) continue;
+      if (e.kind == InputEvent::KeyDown || e.kind == InputEvent::KeyUp)
+        held[size_t(e.key)] = e.kind == InputEvent::KeyDown;
+      if (e.kind == InputEvent::LookDown || e.kind == InputEvent::LookUp)
+        input.lookButton = e.kind == InputEvent::LookDown;
+      if (e.kind == InputEvent::Move) input.mouseDelta += e.value;
+      if (e.kind == InputEvent::Scroll) input.scroll += e.value.x;
+    }
+    for (int key = 0; key < PolledInput::kKeys; ++key) input.setKey(key, held[size_t(key)]);
+    bool keyboard = s.overlayKeyboard.count(frame) > 0, mouse = s.overlayMouse.count(frame) > 0;
+    for (Action a : frameActions(input, keyboard, s.script, frame)) {
+      s.actions.push_back({frame, a});
+      applySwitch(a, s.ui);
+    }
+    flyStep(input, keyboard, mouse, seconds, s.looking, s.fly);
+  }
+}
+
+} // namespace
+
+TEST(ViewerInput, AScriptedSessionMovesTurnsAndSwitchesAsTheLoopDoes) {
+  constexpr float kDt = 0.1f;
+  Session s;
+  s.fly.speed = 2.0f; // 0.2 units per frame
+  s.ui.hasBlend = true;
+  s.ui.mixed = true;
+  s.script = {{19, Action::Surfels}};
+  s.overlayKeyboard = {20};
+  s.overlayMouse = {21, 22, 23};
+  const glm::vec3 start = s.fly.position;
+  using E = InputEvent;
+  std::vector<InputEvent> events = {
+      {0, E::KeyDown, GLFW_KEY_W}, // 0-4: forward (-z)
+      {5, E::KeyUp, GLFW_KEY_W},
+      {5, E::KeyDown, GLFW_KEY_D},
+      {5, E::KeyDown, GLFW_KEY_E}, // 5-9: right, up
+      {10, E::KeyUp, GLFW_KEY_D},
+      {10, E::KeyUp, GLFW_KEY_E},
+      {10, E::LookDown},
+      {10, E::Move, 0, {200, 0}},    // turn right 0.5 rad
+      {11, E::Move, 0, {0, -100}},   // look up 0.25 rad
+      {12, E::Move, 0, {0, -10000}}, // far up: stops short of the pole
+      {13, E::LookUp},
+      {13, E::Move, 0, {300, 0}}, // not looking: no turn
+      {14, E::KeyDown, GLFW_KEY_S},
+      {15, E::KeyUp, GLFW_KEY_S}, // one frame back along the view
+      {15, E::KeyDown, GLFW_KEY_T},
+      {18, E::KeyUp, GLFW_KEY_T}, // held three frames: one switch
+      {16, E::Scroll, 0, {1, 0}}, // speed x 1.25
+      {18, E::KeyDown, GLFW_KEY_ESCAPE},
+      {20, E::KeyDown, GLFW_KEY_W},
+      {20, E::KeyDown, GLFW_KEY_V}, // the overlay has the keyboard
+      {21, E::KeyUp, GLFW_KEY_W},
+      {21, E::LookDown},
+      {22, E::Move, 0, {100, 0}}, // pressed over the overlay: its drag
+  };
+  // Step by step: after frame 4, 9, 10, 11, 12, 13, 14.
+  auto after = [&](uint64_t frames) {
+    Session copy = s;
+    play(copy, events, frames, kDt);
+    return copy;
+  };
+  EXPECT_NEAR(glm::length(after(5).fly.position - (start + glm::vec3(0, 0, -1.0f))), 0.0f, 1e-5f);
+  EXPECT_NEAR(glm::length(after(10).fly.position - (start + glm::vec3(1.0f, 1.0f, -1.0f))), 0.0f, 1e-5f);
+  Session turned = after(11);
+  EXPECT_NEAR(turned.fly.yaw, 200 * kLookRadiansPerPixel, 1e-6f);
+  EXPECT_EQ(turned.fly.pitch, 0.0f);
+  EXPECT_TRUE(turned.looking);
+  EXPECT_NEAR(after(12).fly.pitch, 100 * kLookRadiansPerPixel, 1e-6f);
+  EXPECT_FLOAT_EQ(after(13).fly.pitch, kPitchLimitRadians);
+  Session released = after(14);
+  EXPECT_FALSE(released.looking);
+  EXPECT_NEAR(released.fly.yaw, 200 * kLookRadiansPerPixel, 1e-6f);
+  Session back = after(15);
+  glm::vec3 expectedBack = released.fly.position - forwardOf(released.fly) * (2.0f * kDt);
+  EXPECT_NEAR(glm::length(back.fly.position - expectedBack), 0.0f, 1e-5f);
+
+  play(s, events, 24, kDt);
+  const std::vector<std::pair<uint64_t, Action>> actions = {
+      {15, Action::Transparency}, {18, Action::Close}, {19, Action::Surfels}};
+  EXPECT_EQ(s.actions, actions); // T once while held; V not while the overlay had the keyboard
+  EXPECT_FALSE(s.ui.config.transparency);
+  EXPECT_FALSE(s.ui.config.drawSurfels);
+  EXPECT_TRUE(s.script.empty()); // consumed
+  EXPECT_NEAR(s.fly.speed, 2.0f * kSpeedStepPerNotch, 1e-6f);
+  EXPECT_NEAR(glm::length(s.fly.position - back.fly.position), 0.0f, 1e-5f); // W under the overlay: no move
+  EXPECT_FALSE(s.looking);                                                   // the press began over the overlay
+  EXPECT_NEAR(s.fly.yaw, 200 * kLookRadiansPerPixel, 1e-6f);
 }

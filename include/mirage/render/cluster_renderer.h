@@ -221,9 +221,10 @@ public:
   // (image and ownedClusters stay empty: the image is colorTarget()). Slots are 0..
   // kMaxFramesInFlight - 1; a slot is reused only after its frame completed. Frames must run on
   // one queue in the order recorded: they share GPU scratch, which each frame's first barrier
-  // orders after everything submitted before it. A size change waits for the device to idle
-  // (targets are recreated). Mixed frames may be in flight too: the surfel stage keeps its frame
-  // data and counters per slot as well. Errors (settings) record nothing.
+  // orders after everything submitted before it. A size change recreates the targets and retires
+  // the old ones until the frames using them completed (no device wait). Mixed frames may be in
+  // flight too: the surfel stage keeps its frame data and counters per slot as well. Errors
+  // (settings) record nothing.
   Status record(VkCommandBuffer cmd, const ClusterRenderSettings& settings, uint32_t slot);
   Result<ClusterRenderOutput> collect(uint32_t slot);
   // The colour target of the last recorded frame: VK_FORMAT_R16G16B16A16_SFLOAT, linear (not

@@ -88,6 +88,14 @@ public:
   const gpu::Image& colorTarget() const;
   const Bounds& worldBounds() const { return worldBounds_; }
 
+  // Draw only these triangles of the scene from the next recorded frame on (a view cell's PVS):
+  // sorted global IDs, instance-major over the scene's instances, each instance's mesh triangles
+  // in index order (vis::triangleOffsets). nullptr draws the whole scene again. The next frame
+  // recorded copies the listed triangles' indices on the GPU; the buffers replaced here live until
+  // every slot recorded and not yet collected completed (no device wait). Errors (an ID outside
+  // the scene, unsorted IDs) change nothing.
+  Status setVisibleTriangles(const std::vector<uint32_t>* sortedIds);
+
   struct Impl;
 
 private:

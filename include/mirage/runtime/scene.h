@@ -122,21 +122,19 @@ public:
   // One frame. The config is validated first (validate()).
   Result<Frame> render(const View& view);
 
-  // Frames in flight (docs/runtime.md "Frames in flight"), for cluster-LOD (mixed too) and surfel
-  // scenes and forward scenes without a PVS (canRecord()); the others render through render() only.
+  // Frames in flight (docs/runtime.md "Frames in flight"), for every kind of scene, with a PVS too.
   // record() selects the eye's PVS cell and records the whole frame into the caller's command
   // buffer (nothing is submitted; View::readImage / readLinear are ignored: the image is
   // colorTarget()). The caller submits it on the context's queue with a fence of its own and,
   // once that fence signalled, collect(slot) gives the frame's pass times and counters (no image).
   // Slots are 0..render::kMaxFramesInFlight - 1; a slot is reused only after its frame completed,
   // frames run on one queue in the order recorded. render() uses slot 0: call it only with no
-  // recorded frame in flight. A PVS cell change keeps the replaced cluster PVS buffers alive until
-  // every slot that may read them completed (no device wait); a size change recreates the targets
-  // (the cluster path waits for the device to idle, the forward path retires the old ones).
-  bool canRecord() const;
+  // recorded frame in flight. A PVS cell change keeps the replaced cluster PVS buffers (forward:
+  // visible triangles) alive until every slot that may read them completed (no device wait); a
+  // size change recreates the targets and retires the old ones the same way.
   Status record(VkCommandBuffer cmd, const View& view, uint32_t slot);
   Result<Frame> collect(uint32_t slot);
-  // The colour target of the last recorded frame (canRecord() scenes; else null):
+  // The colour target of the last recorded frame (never null):
   // VK_FORMAT_R16G16B16A16_SFLOAT, linear (not sRGB), alpha straight, View's size (stereo: 2 *
   // width, left eye left). record() leaves it in VK_IMAGE_LAYOUT_GENERAL, its writes visible to a
   // barrier from compute shaders (COMPUTE_SHADER stage, SHADER_STORAGE_WRITE access); the caller transitions it for its
@@ -145,7 +143,7 @@ public:
   const gpu::Image* colorTarget() const;
 
   // With a PVS: makes the view cell holding `eye` current (cluster LOD: uploads its cluster PVS;
-  // forward: restricts the scene to its PVS, an error when the eye is in no cell). True when the
+  // forward: draws only its PVS triangles, an error when the eye is in no cell). True when the
   // cell changed. render() calls it; callers that report the cell call it first.
   Result<bool> selectPvsCell(glm::vec3 eye);
 

@@ -32,6 +32,9 @@ Result<surfels::SurfelCloud> loadSurfelCloud(const std::string& path, Material& 
 
 // A PVS baked for `scene` (same triangle count); else an error naming `pvsPath`.
 Status checkPvsScene(const mirage::Scene& scene, const vis::PvsData& pvs, const std::string& pvsPath);
+// The view cell of `pvs` (loaded from `pvsPath`) holding `eye`; an error naming the file when the
+// eye is in none (the forward path has no culling to fall back on).
+Result<int> pvsCellOf(const vis::PvsData& pvs, const std::string& pvsPath, glm::vec3 eye);
 // The scene restricted to the PVS of the view cell holding `eye` (`pvs` loaded from `pvsPath`, a
 // .mrg from `mirage pvs`, which errors name). Errors: a PVS of another scene, an eye in none of its
 // cells. `cell` receives the cell index.
