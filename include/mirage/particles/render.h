@@ -1,0 +1,86 @@
+#pragma once
+// Drawing an effect (docs/particles.md, "Rendering"): its simulation (CPU pool or GPU compute)
+// feeding the forward renderer's particle billboards (render/particle_draw.h), one batch per
+// system with the system's generated texture sheet; and `mirage particles`: an effect over a scene
+// or a generated ground, rendered after N steps to PNG files.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mirage/core/named_enum.h"
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/gpu/context.h"
+#include "mirage/gpu/query.h"
+#include "mirage/particles/effect.h"
+#include "mirage/render/oit.h"
+#include "mirage/render/particle_draw.h"
+
+namespace mirage::particles {
+
+enum class SimKind { Cpu, Gpu };
+inline constexpr EnumName<SimKind> kSimKindNames[] = {{SimKind::Cpu, "cpu"}, {SimKind::Gpu, "gpu"}};
+
+// Pixels a side of one generated sheet tile.
+constexpr uint32_t kSheetTilePixels = 32;
+
+// Each system's sheet: generateSheet(texture, tiles, kSheetTilePixels, seed) with its alpha rule.
+Result<std::vector<render::ParticleSheet>> effectSheets(const EffectFile& effect);
+
+// An effect simulated and drawn: step() advances it, draw() is what ForwardRenderSettings::particles
+// (or runtime::View::particles) takes, up to date after each step().
+class EffectPlayer {
+public:
+  static Result<std::unique_ptr<EffectPlayer>> create(gpu::Context& context, const EffectFile& effect, SimKind sim,
+                                                      float dt);
+  ~EffectPlayer();
+  void step(uint32_t steps);
+  render::ParticleDraw* draw();
+  uint64_t live();
+  // The live particles' extent (centres grown by half their size); empty without live particles.
+  // GPU: reads the records back (blocking).
+  Bounds bounds();
+  // The render records, system after system (GPU: read back).
+  std::vector<shaderio::RenderParticle> records();
+
+  struct Impl;
+
+private:
+  explicit EffectPlayer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// A flat opaque ground under `bounds` (its lowest point), three times its horizontal extent: the
+// scene of an effect rendered without one.
+Scene groundScene(const Bounds& bounds);
+
+// `mirage particles` (CLI: apps/mirage/cmd_particles.cpp binds these).
+struct ParticleRenderRequest {
+  std::string effect; // .toml
+  std::string scene;  // scene argument (file or gen:); empty: groundScene
+  std::string output = "particles.png";
+  uint32_t frames = 60; // steps before the (first) image
+  float dt = 1.0f / 60.0f;
+  std::string camera; // render::parseCamera; empty: frame the effect (or the scene)
+  std::string path;   // camera path (cams.json or orbit:N): image i after frames + i steps
+  uint32_t every = 0; // > 0 without a path: an image every `every` steps up to `frames`
+  SimKind sim = SimKind::Cpu;
+  uint32_t width = 640, height = 360;
+  render::OitMode oit = render::OitMode::LinkedList;
+};
+// A time step: seconds as a number ("0.0166") or a fraction ("1/60"). Error: anything else.
+Result<float> parseTimeStep(const std::string& text);
+// Checks everything cheap (dt, counts, output extension) before the GPU. Errors name the option.
+Status validate(const ParticleRenderRequest& request);
+
+struct ParticleRenderReport {
+  std::vector<std::string> written; // image paths
+  uint64_t live = 0;                // particles in the last image
+  render::OitStats oit;             // of the last image
+  std::vector<gpu::PassTime> passTimes;
+};
+// Renders and writes the images (numbered stem_0000.png.. with a path or `every`). On an error no
+// image of this call is left behind.
+Result<ParticleRenderReport> renderParticles(gpu::Context& context, const ParticleRenderRequest& request);
+
+} // namespace mirage::particles
