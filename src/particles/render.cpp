@@ -117,6 +117,25 @@ Bounds EffectPlayer::bounds() {
   return b;
 }
 
+Result<std::unique_ptr<EffectPlayer>> playEffect(gpu::Context& context, const std::string& path, uint32_t steps,
+                                                 SimKind sim, float dt) {
+  auto effect = loadEffectFile(path);
+  if (!effect) return effect.error();
+  auto player = EffectPlayer::create(context, *effect, sim, dt);
+  if (!player) return player.error();
+  (*player)->step(steps);
+  return player;
+}
+
+render::Camera clipAround(const render::Camera& camera, const Bounds& scene, const Bounds& effect) {
+  Bounds all = scene;
+  if (!effect.empty()) {
+    all.add(effect.min - effect.extent());
+    all.add(effect.max + effect.extent());
+  }
+  return render::withClipPlanes(camera, all);
+}
+
 Scene groundScene(const Bounds& effectBounds) {
   Bounds b = effectBounds;
   if (b.empty()) b.add(glm::vec3(-1.0f)), b.add(glm::vec3(1.0f));
@@ -201,12 +220,6 @@ Result<ParticleRenderReport> renderParticles(gpu::Context& ctx, const ParticleRe
   if (!scene) scene = groundScene(fxBounds);
   auto renderer = render::ForwardRenderer::create(ctx, *scene);
   if (!renderer) return renderer.error();
-  Bounds all = (*renderer)->worldBounds();
-  // Room for the particles to move on (paths, --every): the effect's extent again on each side.
-  Bounds grown = fxBounds;
-  grown.add(fxBounds.min - fxBounds.extent());
-  grown.add(fxBounds.max + fxBounds.extent());
-  all.add(grown.min), all.add(grown.max);
   float aspect = float(r.width) / float(r.height);
   std::vector<render::Camera> cameras;
   if (!r.path.empty()) {
@@ -230,7 +243,7 @@ Result<ParticleRenderReport> renderParticles(gpu::Context& ctx, const ParticleRe
     render::ForwardRenderSettings fs;
     fs.base.width = r.width;
     fs.base.height = r.height;
-    fs.base.camera = render::withClipPlanes(cameras[std::min<size_t>(i, cameras.size() - 1)], all);
+    fs.base.camera = clipAround(cameras[std::min<size_t>(i, cameras.size() - 1)], (*renderer)->worldBounds(), fxBounds);
     fs.oit = r.oit;
     fs.particles = fx.draw();
     auto out = (*renderer)->render(fs);

@@ -55,4 +55,12 @@ done
 if expect_ok render-every particles "$fire" --frames 6 --every 3 --size 32x32 -o "$tmp/seq.png"; then
   check render-every-files test -f "$tmp/seq_0000.png" -a -f "$tmp/seq_0001.png" -a ! -e "$tmp/seq.png"
 fi
+# mirage render SCENE --particles FX.toml: the effect drawn with a forward scene.
+if expect_ok render-scene-particles render gen:blob:8 --particles "$fire" --particle-frames 10 --size 40x30 \
+  -o "$tmp/scene_fx.png" --json; then
+  check render-scene-particles-size test "$(png_size "$tmp/scene_fx.png")" = 40x30
+  grep -q '"oit_fragments": [1-9]' "$tmp/stdout" || fail "render-scene-particles: no particle fragments"
+fi
+expect_fail render-scene-bad "error: $tmp/typo.toml:[0-9]*: " "$tmp/scene_bad.png" -- render gen:blob:8 \
+  --particles "$tmp/typo.toml" --size 40x30 -o "$tmp/scene_bad.png"
 finish particles

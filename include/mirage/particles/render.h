@@ -13,6 +13,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/query.h"
 #include "mirage/particles/effect.h"
+#include "mirage/render/camera.h"
 #include "mirage/render/oit.h"
 #include "mirage/render/particle_draw.h"
 
@@ -49,6 +50,13 @@ private:
   explicit EffectPlayer(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
+
+// `mirage render SCENE --particles FX.toml`: the effect file loaded and stepped `steps` times.
+Result<std::unique_ptr<EffectPlayer>> playEffect(gpu::Context& context, const std::string& path, uint32_t steps,
+                                                 SimKind sim, float dt);
+// The camera's clip planes around the scene and the effect's particles (theirs derive from the
+// scene alone), with room for the effect to move on.
+render::Camera clipAround(const render::Camera& camera, const Bounds& scene, const Bounds& effect);
 
 // A flat opaque ground under `bounds` (its lowest point), three times its horizontal extent: the
 // scene of an effect rendered without one.
