@@ -31,6 +31,15 @@ for sim in cpu gpu; do
     grep -q '"median_step_ms"' "$tmp/stdout" || fail "bench-$sim: no median_step_ms: $(cat "$tmp/stdout")"
   fi
 done
+# bench --render: simulation and drawing timed together (GPU only).
+if expect_ok bench-render bench particles "$source_dir/examples/particles/fire.toml" --count 2000 --steps 2 --sim gpu \
+  --render --size 64x36 --json; then
+  grep -q '"render_ms"' "$tmp/stdout" || fail "bench-render: no render_ms: $(cat "$tmp/stdout")"
+  grep -q '"msl"' "$tmp/stdout" || fail "bench-render: no msl: $(cat "$tmp/stdout")"
+fi
+expect_fail bench-render-cpu "--render needs --sim gpu" "" -- bench particles "$source_dir/examples/particles/fire.toml" \
+  --count 10 --render
+
 # mirage particles: bad effects and bad options, one line, exit 2, no image left.
 for bad in typo negative module syntax; do
   expect_fail "render-$bad" "error: $tmp/$bad.toml:[0-9]*: " "$tmp/bad_$bad.png" -- particles "$tmp/$bad.toml" \

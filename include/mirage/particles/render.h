@@ -91,4 +91,25 @@ struct ParticleRenderReport {
 // image of this call is left behind.
 Result<ParticleRenderReport> renderParticles(gpu::Context& context, const ParticleRenderRequest& request);
 
+// `mirage bench particles --sim gpu --render`: the effect scaled to `count` particles and filled
+// (as benchGpu), then per timed frame one submission with the simulation step and record output
+// ("simulate") and the forward frame drawing every live particle over a ground ("frame": opaque,
+// blend = list build, composite = resolve), GPU times from timestamp queries, medians over the
+// frames. The camera frames the unscaled effect.
+struct RenderBenchOptions {
+  uint64_t count = 1000000;
+  uint32_t frames = 50;
+  float dt = 1.0f / 60.0f;
+  uint32_t width = 1920, height = 1080;
+  render::OitMode oit = render::OitMode::LinkedList;
+  uint32_t oitNodesPerPixel = 8;
+};
+struct RenderBenchResult {
+  uint64_t live = 0, fillSteps = 0;
+  double simulateMs = 0, frameMs = 0, blendMs = 0, compositeMs = 0, totalMs = 0; // medians
+  render::OitStats oit;                                                          // of the last frame
+};
+Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& effect,
+                                      const RenderBenchOptions& options);
+
 } // namespace mirage::particles
