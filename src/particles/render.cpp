@@ -195,14 +195,21 @@ Status validate(const ParticleRenderRequest& r) {
 
 Result<ParticleRenderReport> renderParticles(gpu::Context& ctx, const ParticleRenderRequest& r) {
   if (Status s = validate(r); !s) return s.error();
+  auto effect = loadEffectFile(r.effect);
+  if (!effect) return effect.error();
+  return renderParticles(ctx, *effect, r);
+}
+
+Result<ParticleRenderReport> renderParticles(gpu::Context& ctx, const EffectFile& effectFile,
+                                             const ParticleRenderRequest& r) {
+  if (Status s = validate(r); !s) return s.error();
   std::optional<render::Camera> fixedCamera;
   if (!r.camera.empty()) {
     auto c = render::parseCamera(r.camera);
     if (!c) return c.error();
     fixedCamera = *c;
   }
-  auto effect = loadEffectFile(r.effect);
-  if (!effect) return effect.error();
+  const EffectFile* effect = &effectFile;
   std::optional<Scene> scene;
   if (!r.scene.empty()) {
     auto loaded = runtime::loadSceneArgument(r.scene);

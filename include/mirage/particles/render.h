@@ -90,6 +90,9 @@ struct ParticleRenderReport {
 // Renders and writes the images (numbered stem_0000.png.. with a path or `every`). On an error no
 // image of this call is left behind.
 Result<ParticleRenderReport> renderParticles(gpu::Context& context, const ParticleRenderRequest& request);
+// The same with the effect already parsed (request.effect unused).
+Result<ParticleRenderReport> renderParticles(gpu::Context& context, const EffectFile& effect,
+                                             const ParticleRenderRequest& request);
 
 // `mirage bench particles --sim gpu --render`: the effect scaled to `count` particles and filled
 // (as benchGpu), then per timed frame one submission with the simulation step and record output
