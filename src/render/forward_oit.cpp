@@ -265,7 +265,10 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
     }
   }
   if (particles) // after the scene's blended geometry: the lists and weights take any order
-    for (uint32_t e = 0; e < eyeCount; ++e) fs.particles->cmdDraw(cmd, fs.oit, cmdSetEye(cmd, slot, e), oit);
+    for (uint32_t e = 0; e < eyeCount; ++e) {
+      fs.particles->cmdDraw(cmd, fs.oit, cmdSetEye(cmd, slot, e), oit);
+      frameStats.drawCalls += fs.particles->batchCount();
+    }
   vkCmdEndRendering(cmd);
   timer.cmdEnd(cmd, blendTime);
   colorToGeneral();
