@@ -118,6 +118,28 @@ TEST_F(ParticleRender, SingleParticleFootprintAndColour) {
   }
 }
 
+// A particle a fraction of a pixel wide is grown to 1.5 pixels with its alpha scaled down: the
+// image holds about its true coverage (area x alpha) instead of nothing (it hits no pixel centre).
+TEST_F(ParticleRender, SubPixelParticlesKeepTheirCoverage) {
+  Scene scene = withAnchor({}, {});
+  auto draw = whiteDraw(context());
+  ASSERT_TRUE(draw);
+  const glm::vec4 color{1.0f, 1.0f, 1.0f, 1.0f};
+  float side = 2.0f * halfExtentPixels(0.04f); // 0.6 px
+  sio::RenderParticle p = particle({0, 0, 0}, 0.04f, color);
+  ParticleDraw::CpuBatch batch{{&p, 1}, 0};
+  draw->setCpuBatches({&batch, 1});
+  ImageF32 img = render(context(), scene, settings(OitMode::LinkedList, draw.get()));
+  ASSERT_EQ(img.width, kSize);
+  double coverage = 0.0; // in pixels: each pixel's share of the colour over the background
+  for (uint32_t y = 0; y < kSize; ++y)
+    for (uint32_t x = 0; x < kSize; ++x) coverage += (at(img, x, y).r - kBackground.r) / (1.0f - kBackground.r);
+  double area = double(side) * side;
+  // The grown square covers 1 to 4 pixel centres for its 2.25 pixels of area.
+  EXPECT_GT(coverage, 0.4 * area);
+  EXPECT_LT(coverage, 2.0 * area);
+}
+
 // An opaque quad at z = 1 over the centre: a particle at z = 0 is hidden there (the image equals
 // the one without particles) and seen around it; at z = 2 it covers the quad too.
 TEST_F(ParticleRender, OpaqueGeometryOccludes) {
