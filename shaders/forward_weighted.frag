@@ -7,6 +7,7 @@
 // forward_weighted_resolve.comp normalizes.
 #include "forward_common.glsl"
 #include "forward_surface.glsl"
+#include "oit_weighted.glsl"
 
 layout(early_fragment_tests) in;
 
@@ -16,7 +17,5 @@ layout(location = 1) out vec4 outReveal;
 void main() {
   vec4 c = shadeForwardSurface();
   float z = 1.0 / gl_FragCoord.w; // view distance along the axis (perspective: w = -z_view)
-  float w = c.a * clamp(10.0 / (1e-5 + pow(z / 5.0, 2.0) + pow(z / 200.0, 6.0)), 1e-2, 3e3);
-  outAccum = vec4(c.rgb * (c.a * w), c.a);
-  outReveal = vec4(c.a * w, 0.0, 0.0, c.a);
+  oitWeighted(c, z, outAccum, outReveal);
 }

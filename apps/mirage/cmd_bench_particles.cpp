@@ -1,5 +1,6 @@
 // mirage bench particles FX.toml --count N --sim cpu|gpu [--steps S]: particle simulation speed of an
-// effect scaled to N particles (mirage/particles/bench.h): ms per step and live particles.
+// effect scaled to N particles (mirage/particles/bench.h): ms per step and live particles; with
+// --render (GPU) the frame drawing them too (mirage/particles/render.h).
 #include <memory>
 
 #include <fmt/format.h>
@@ -10,6 +11,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/particles/bench.h"
 #include "mirage/particles/gpu_simulation.h"
+#include "mirage/particles/render.h"
 #include "render_common.h"
 
 namespace mirage::cli {
@@ -23,11 +25,61 @@ struct BenchParticlesOptions {
   std::string sim = "cpu";
   std::string device;
   bool json = false;
+  bool render = false; // --sim gpu: simulate and draw each frame (particles/render.h)
+  std::string size = "1920x1080";
+  std::string oit = "linked-list";
 };
+
+// --render: simulation + billboards over a ground, GPU times per frame.
+void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::EffectFile& effect) {
+  particles::RenderBenchOptions ro;
+  ro.count = o.count;
+  ro.frames = o.steps;
+  if (auto s = parseSize(o.size, ro.width, ro.height); !s) return fail(s.error());
+  auto oit = render::parseOitMode(o.oit);
+  if (!oit) return fail(oit.error());
+  ro.oit = *oit;
+  auto ctx = openDevice(o.device);
+  if (!ctx) return fail(ctx.error());
+  auto r = particles::benchRender(**ctx, effect, ro);
+  if (!r) return fail(r.error());
+  if (o.json) {
+    nlohmann::json j = {{"bench", "particles"},
+                        {"input", o.input},
+                        {"sim", "gpu"},
+                        {"render", true},
+                        {"device", (*ctx)->caps().name},
+                        {"count", o.count},
+                        {"live", r->live},
+                        {"frames", o.steps},
+                        {"width", ro.width},
+                        {"height", ro.height},
+                        {"oit", o.oit},
+                        {"simulate_ms", r->simulateMs},
+                        {"render_ms", r->frameMs},
+                        {"blend_ms", r->blendMs},
+                        {"composite_ms", r->compositeMs},
+                        {"total_ms", r->totalMs},
+                        {"msl", r->oit.msl},
+                        {"oit_dropped", r->oit.dropped()},
+                        {"oit_fragments", r->oit.fragments}};
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("bench particles {} --render on {}: {} live particles ({} asked), {}x{}, {}, {} timed frames\n", o.input,
+             (*ctx)->caps().name, r->live, o.count, ro.width, ro.height, o.oit, o.steps);
+  fmt::print("  simulate {:9.3f} ms  render {:9.3f} ms (blend {:.3f}, composite {:.3f})  total {:9.3f} ms (medians)\n",
+             r->simulateMs, r->frameMs, r->blendMs, r->compositeMs, r->totalMs);
+  fmt::print("  oit fragments {}  msl {:.3f}  oit_dropped {}\n", r->oit.fragments, r->oit.msl, r->oit.dropped());
+}
 
 void runBenchParticles(const BenchParticlesOptions& o) {
   auto effect = particles::loadEffectFile(o.input);
   if (!effect) return fail(effect.error());
+  if (o.render) {
+    if (o.sim != "gpu") return fail("--render needs --sim gpu");
+    return runBenchParticlesRender(o, *effect);
+  }
   particles::BenchOptions bo;
   bo.count = o.count;
   bo.steps = o.steps;
@@ -86,6 +138,11 @@ void addBenchParticlesCommand(CLI::App& bench) {
       ->capture_default_str();
   b->add_option("--device", o->device, "--sim gpu: Vulkan device name substring or index");
   b->add_flag("--json", o->json, "Print results as JSON");
+  b->add_flag("--render", o->render,
+              "--sim gpu: also draw every live particle each frame (billboards through the transparency lists); "
+              "--steps frames timed");
+  b->add_option("--size", o->size, "--render: image size WxH")->capture_default_str();
+  b->add_option("--oit", o->oit, "--render: linked-list, weighted or sorted")->capture_default_str();
   b->callback([o] { runBenchParticles(*o); });
 }
 

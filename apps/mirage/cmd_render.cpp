@@ -9,6 +9,7 @@
 #include "commands.h"
 #include "lod_render.h"
 #include "mirage/io/image_io.h"
+#include "mirage/particles/render.h"
 #include "mirage/runtime/scene.h"
 #include "render_common.h"
 #include "render_options.h"
@@ -31,7 +32,10 @@ struct RenderOptions {
   runtime::RenderConfig config;
   RenderConfigOptions given;
   CLI::Option* surfelOrder = nullptr;
-  StereoOptions stereo; // cluster LOD and forward scenes
+  StereoOptions stereo;  // cluster LOD and forward scenes
+  std::string particles; // forward scenes: an effect file drawn with the scene
+  uint32_t particleFrames = 60;
+  std::string particleSim = "cpu";
 };
 
 LodRenderRequest lodRequest(const RenderOptions& o) {
@@ -82,6 +86,16 @@ bool renderToFiles(const RenderOptions& o, std::unique_ptr<gpu::Context>& ctx, s
   view.readLinear = !o.exr.empty();
   view.config = o.config;
   view.stereoIpd = o.stereo.ipdOrNone();
+  std::unique_ptr<particles::EffectPlayer> effect;
+  if (!o.particles.empty()) {
+    auto sim = parseNamed(o.particleSim, "--particle-sim", particles::kSimKindNames);
+    if (!sim) return fail(sim.error()), false;
+    auto played = particles::playEffect(*ctx, o.particles, o.particleFrames, *sim, 1.0f / 60.0f);
+    if (!played) return fail(played.error()), false;
+    effect = std::move(*played);
+    view.particles = effect->draw();
+    view.camera = particles::clipAround(view.camera, scene->bounds(), effect->bounds());
+  }
   std::vector<std::vector<gpu::PassTime>> frames;
   for (int i = 0; i < o.repeat; ++i) {
     auto f = scene->render(view);
@@ -183,6 +197,8 @@ void runRender(const RenderOptions& o) {
       return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");
     return runLodRender(lodRequest(o));
   }
+  if (!o.particles.empty() && (o.scene.surfels || *kind != runtime::SceneKind::Forward))
+    return fail("--particles applies to forward scenes (scene files and gen: scenes) only");
   if (o.scene.surfels) {
     if (!o.scene.pvs.empty() || !o.exr.empty() || !o.path.empty())
       return fail("--pvs, --exr and --path do not apply to --surfels");
@@ -217,6 +233,10 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
   o->surfelOrder = bindSceneOptions(*cmd, o->scene, BindMode::Render);
   bindStereo(*cmd, o->stereo);
+  cmd->add_option("--particles", o->particles, "Forward scenes: a particle effect (.toml) drawn with the scene");
+  cmd->add_option("--particle-frames", o->particleFrames, "--particles: simulation steps (1/60 s) before the image")
+      ->capture_default_str();
+  cmd->add_option("--particle-sim", o->particleSim, "--particles: simulation cpu or gpu")->capture_default_str();
   cmd->callback([o] { runRender(*o); });
 }
 

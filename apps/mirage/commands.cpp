@@ -79,6 +79,7 @@ void registerCommands(CLI::App& app) {
   addCompareCommand(app);
   addDemoCommand(app);
   addRenderCommand(app);
+  addParticlesCommand(app);
   addBuildCommand(app);
   addBenchCommand(app);
   addSurfelsCommand(app);

@@ -15,6 +15,13 @@ namespace mirage::render {
 
 constexpr VkFormat kForwardColorFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // linear HDR, converted on readback
 constexpr VkFormat kForwardDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkFormat kForwardAccumFormat =
+    VK_FORMAT_R16G16B16A16_SFLOAT; // both weighted targets: blend + storage guaranteed
+
+// Weighted blending's one state for both targets (no independentBlend needed): colour channels
+// add (ONE, ONE), alpha multiplies by 1 - a (ZERO, ONE_MINUS_SRC_ALPHA), so target 0 gathers
+// (sum of rgb a w, revealage) and target 1 (sum of a w in r). Scene geometry and particles share it.
+VkPipelineColorBlendAttachmentState forwardWeightedBlend();
 
 struct ForwardMeshRange {
   uint32_t firstIndex = 0;

@@ -8,6 +8,7 @@
 
 #include "forward_impl.h"
 #include "mirage/gpu/commands.h"
+#include "mirage/render/particle_draw.h"
 
 namespace mirage::render {
 
@@ -21,12 +22,9 @@ constexpr VkPipelineStageFlags2 kFS = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
 constexpr VkPipelineStageFlags2 kTests =
     VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
 constexpr VkAccessFlags2 kStorageRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-constexpr VkFormat kAccumFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // both weighted targets: blend + storage guaranteed
+} // namespace
 
-// Weighted blending's one state for both targets (no independentBlend needed): colour channels
-// add (ONE, ONE), alpha multiplies by 1 - a (ZERO, ONE_MINUS_SRC_ALPHA), so target 0 gathers
-// (sum of rgb a w, revealage) and target 1 (sum of a w in r).
-VkPipelineColorBlendAttachmentState weightedBlend() {
+VkPipelineColorBlendAttachmentState forwardWeightedBlend() {
   VkPipelineColorBlendAttachmentState b{};
   b.blendEnable = VK_TRUE;
   b.srcColorBlendFactor = VK_BLEND_FACTOR_ONE;
@@ -39,10 +37,9 @@ VkPipelineColorBlendAttachmentState weightedBlend() {
   return b;
 }
 
-} // namespace
-
 void ForwardRenderer::Impl::uploadTransparency(const Scene& scene) {
-  if (blendInstances.empty()) return;
+  // The lists and resolve state exist without blended geometry too: particles (particle_draw.cpp)
+  // may be drawn through them.
   std::vector<sio::GpuInstance> data;
   blendPositions.resize(scene.meshes.size());
   blendIndices.resize(scene.meshes.size());
@@ -52,8 +49,9 @@ void ForwardRenderer::Impl::uploadTransparency(const Scene& scene) {
     if (blendIndices[inst.mesh].empty()) blendPositions[inst.mesh] = m.positions, blendIndices[inst.mesh] = m.indices;
     blendTriangles += m.indices.size() / 3;
   }
-  blendInstanceBuffer =
-      createBufferWithData<sio::GpuInstance>(ctx, data, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "blend instances");
+  if (!data.empty())
+    blendInstanceBuffer =
+        createBufferWithData<sio::GpuInstance>(ctx, data, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "blend instances");
   oitCounters = createBuffer(ctx, sizeof(sio::OitCounters),
                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                  VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
@@ -99,8 +97,8 @@ static void ensurePipelines(ForwardRenderer::Impl& d, OitMode mode) {
     d.resolvePipeline = createComputePipeline(d.ctx, "forward_oit_resolve.comp", d.resolveLayout);
   } else if (mode == OitMode::Weighted && !d.weightedPipeline) {
     g.fragmentShader = "forward_weighted.frag";
-    g.colorFormats = {kAccumFormat, kAccumFormat};
-    g.colorBlends = {weightedBlend(), weightedBlend()};
+    g.colorFormats = {kForwardAccumFormat, kForwardAccumFormat};
+    g.colorBlends = {forwardWeightedBlend(), forwardWeightedBlend()};
     d.weightedPipeline = createGraphicsPipeline(d.ctx, g);
     d.weightedResolvePipeline = createComputePipeline(d.ctx, "forward_weighted_resolve.comp", d.resolveLayout);
   }
@@ -128,7 +126,9 @@ void ForwardRenderer::Impl::ensureOitTargets(uint32_t nodesPerPixel) {
 void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const ForwardRenderSettings& fs, uint32_t slot,
                                                 const glm::mat4& view) {
   slotOit[slot] = false;
-  if (blendInstances.empty()) return;
+  bool particles = fs.particles && fs.particles->batchCount() != 0;
+  if (blendInstances.empty() && !particles) return;
+  if (particles) fs.particles->cmdPrepare(cmd);
   ensurePipelines(*this, fs.oit);
   if (fs.oit == OitMode::LinkedList) {
     ensureOitTargets(fs.oitNodesPerPixel);
@@ -146,8 +146,8 @@ void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const Forwa
       retired.retire(std::move(accum), inFlight());
       retired.retire(std::move(reveal), inFlight());
       VkImageUsageFlags usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT;
-      accum = createImage2D(ctx, colorWidth, height, kAccumFormat, usage, "oit accumulation");
-      reveal = createImage2D(ctx, colorWidth, height, kAccumFormat, usage, "oit revealage");
+      accum = createImage2D(ctx, colorWidth, height, kForwardAccumFormat, usage, "oit accumulation");
+      reveal = createImage2D(ctx, colorWidth, height, kForwardAccumFormat, usage, "oit revealage");
     }
   } else {
     // Every blended triangle by its centroid's view depth (more negative = farther first), ties by
@@ -201,7 +201,8 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
                           kAttachment, VK_IMAGE_LAYOUT_GENERAL});
   };
   GpuTimer& timer = timers[slot];
-  if (blendInstances.empty()) { // the pass is still reported (0 ms), as every frame's report has it
+  bool particles = fs.particles && fs.particles->batchCount() != 0;
+  if (blendInstances.empty() && !particles) { // the pass is still reported (0 ms), as every frame's report has it
     timer.cmdEnd(cmd, timer.cmdBegin(cmd, "blend"));
     return colorToGeneral();
   }
@@ -275,6 +276,11 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
       for (uint32_t i = 0; i < blendInstances.size(); ++i) draw(i, wholeMesh(blendInstances[i].mesh));
     }
   }
+  if (particles) // after the scene's blended geometry: the lists and weights take any order
+    for (uint32_t e = 0; e < eyeCount; ++e) {
+      fs.particles->cmdDraw(cmd, fs.oit, cmdSetEye(cmd, slot, e), oit);
+      frameStats.drawCalls += fs.particles->batchCount();
+    }
   vkCmdEndRendering(cmd);
   timer.cmdEnd(cmd, blendTime);
   colorToGeneral();

@@ -9,7 +9,8 @@ if ! "$mirage" demo --out "$tmp/out" --size 160x90 >"$tmp/stdout" 2>"$tmp/stderr
 fi
 failures=0
 for f in city.glb terrain.glb blob.glb city-overview.png city-close.png terrain-overview.png blob-close.png city-pvs.mrg \
-         blob-lod.mrg blob-lod-tau1.png blob-lod-tau16.png blob-surfels.ply; do
+         blob-lod.mrg blob-lod-tau1.png blob-lod-tau16.png blob-surfels.ply particles_fire.png particles_smoke.png \
+         particles_sparks.png particles_rain.png; do
   [ -s "$tmp/out/$f" ] || { echo "FAIL: missing $f"; failures=$((failures + 1)); }
 done
 grep -q "verified: DAG valid" "$tmp/stdout" || { echo "FAIL: no LOD verification line"; failures=$((failures + 1)); }

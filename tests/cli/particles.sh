@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# `mirage bench particles` (docs/particles.md): a bad effect file gets one line naming file, line
-# and key, exit 2; both simulations run a small effect and report the live particles they hold.
+# `mirage bench particles` and `mirage particles` (docs/particles.md): a bad effect file gets one
+# line naming file, line and key, exit 2, and no image; both simulations run a small effect and
+# report the live particles they hold; rendering writes a PNG of the asked size (numbered frames
+# with --every).
 # Usage: particles.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -29,4 +31,45 @@ for sim in cpu gpu; do
     grep -q '"median_step_ms"' "$tmp/stdout" || fail "bench-$sim: no median_step_ms: $(cat "$tmp/stdout")"
   fi
 done
+# bench --render: simulation and drawing timed together (GPU only).
+if expect_ok bench-render bench particles "$source_dir/examples/particles/fire.toml" --count 2000 --steps 2 --sim gpu \
+  --render --size 64x36 --json; then
+  grep -q '"render_ms"' "$tmp/stdout" || fail "bench-render: no render_ms: $(cat "$tmp/stdout")"
+  grep -q '"msl"' "$tmp/stdout" || fail "bench-render: no msl: $(cat "$tmp/stdout")"
+fi
+expect_fail bench-render-cpu "--render needs --sim gpu" "" -- bench particles "$source_dir/examples/particles/fire.toml" \
+  --count 10 --render
+
+# mirage particles: bad effects and bad options, one line, exit 2, no image left.
+for bad in typo negative module syntax; do
+  expect_fail "render-$bad" "error: $tmp/$bad.toml:[0-9]*: " "$tmp/bad_$bad.png" -- particles "$tmp/$bad.toml" \
+    --frames 2 --size 32x32 -o "$tmp/bad_$bad.png"
+done
+expect_fail render-missing "missing.toml: no such file" "$tmp/missing.png" -- particles "$tmp/missing.toml" \
+  -o "$tmp/missing.png"
+fire="$source_dir/examples/particles/fire.toml"
+expect_fail render-dt "--dt 'fast'" "$tmp/dt.png" -- particles "$fire" --dt fast -o "$tmp/dt.png"
+expect_fail render-sim "--sim" "$tmp/sim.png" -- particles "$fire" --sim quantum -o "$tmp/sim.png"
+expect_fail render-ext "must be a .png\\|png" "$tmp/out.jpg" -- particles "$fire" -o "$tmp/out.jpg"
+expect_fail render-scene "nothing.obj" "$tmp/scene.png" -- particles "$fire" --scene "$tmp/nothing.obj" \
+  -o "$tmp/scene.png"
+
+for sim in cpu gpu; do
+  if expect_ok "render-$sim" particles "$fire" --frames 20 --dt 1/60 --sim "$sim" --size 48x32 \
+    -o "$tmp/fire_$sim.png" --json; then
+    check "render-$sim-size" test "$(png_size "$tmp/fire_$sim.png")" = 48x32
+    grep -q '"live": [1-9]' "$tmp/stdout" || fail "render-$sim: no live particles: $(cat "$tmp/stdout")"
+  fi
+done
+if expect_ok render-every particles "$fire" --frames 6 --every 3 --size 32x32 -o "$tmp/seq.png"; then
+  check render-every-files test -f "$tmp/seq_0000.png" -a -f "$tmp/seq_0001.png" -a ! -e "$tmp/seq.png"
+fi
+# mirage render SCENE --particles FX.toml: the effect drawn with a forward scene.
+if expect_ok render-scene-particles render gen:blob:8 --particles "$fire" --particle-frames 10 --size 40x30 \
+  -o "$tmp/scene_fx.png" --json; then
+  check render-scene-particles-size test "$(png_size "$tmp/scene_fx.png")" = 40x30
+  grep -q '"oit_fragments": [1-9]' "$tmp/stdout" || fail "render-scene-particles: no particle fragments"
+fi
+expect_fail render-scene-bad "error: $tmp/typo.toml:[0-9]*: " "$tmp/scene_bad.png" -- render gen:blob:8 \
+  --particles "$tmp/typo.toml" --size 40x30 -o "$tmp/scene_bad.png"
 finish particles

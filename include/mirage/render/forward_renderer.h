@@ -18,6 +18,8 @@
 
 namespace mirage::render {
 
+class ParticleDraw;
+
 struct RenderSettings {
   uint32_t width = 1920;
   uint32_t height = 1080;
@@ -58,6 +60,8 @@ struct ForwardRenderSettings {
   // Linked lists: the node pool holds this many fragments per target pixel on average (1..64;
   // capped by maxStorageBufferRange); fragments past it are dropped and counted.
   uint32_t oitNodesPerPixel = 8;
+  // Particle billboards drawn with the blended geometry (render/particle_draw.h); null: none.
+  ParticleDraw* particles = nullptr;
 };
 
 class ForwardRenderer {

@@ -61,6 +61,8 @@ struct View {
   // one shared selection (clusters and surfel prefixes), the image (2 * width) x height with the
   // left eye left (docs/render.md, "Stereo").
   std::optional<float> stereoIpd;
+  // Forward scenes: particle billboards drawn with the blended geometry (render/particle_draw.h).
+  render::ParticleDraw* particles = nullptr;
 };
 
 // Surfel renderer figures of a surfel-only frame.

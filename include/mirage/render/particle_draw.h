@@ -1,0 +1,71 @@
+#pragma once
+// Particle billboards in the forward renderer (docs/particles.md, "Rendering"): camera-facing
+// quads (6 vertices from gl_VertexIndex, one instance per shaderio::RenderParticle record, an
+// indirect draw whose instance count is the simulation's live count) textured from a flipbook
+// sheet, drawn inside the transparency pass: in linked-list mode they append to the same per-pixel
+// lists as the blended scene geometry, so both sort together; weighted mode accumulates them;
+// sorted mode blends them "over" after the sorted scene triangles, in record order (not exact).
+// Depth-tested against the opaque scene, never written.
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "mirage/core/image.h"
+#include "mirage/core/result.h"
+#include "mirage/gpu/context.h"
+#include "mirage/gpu/memory.h"
+#include "mirage/render/oit.h"
+#include "mirage/shaderio/particles.h"
+
+namespace mirage::render {
+
+// A flipbook of tilesX x tilesY frames, row-major from the top left (RenderParticle::frame).
+// alphaFromGreyscale: the coverage is the texel's luminance (the colour is the particle's);
+// otherwise colour and alpha multiply the particle's. Sampled as UNORM (linear), with mips.
+struct ParticleSheet {
+  ImageRGBA8 image;
+  uint32_t tilesX = 1, tilesY = 1;
+  bool alphaFromGreyscale = false;
+};
+
+// One draw's records on the GPU: `count` of them, or, with countBuffer, as many as the uint at
+// countBuffer + countOffset holds when the frame runs (at most `capacity`, the records' room).
+struct ParticleBatch {
+  VkDeviceAddress records = 0; // shaderio::RenderParticle[]
+  VkBuffer countBuffer = VK_NULL_HANDLE;
+  VkDeviceSize countOffset = 0;
+  uint32_t count = 0;
+  uint32_t sheet = 0; // index into the sheets given to create()
+};
+
+class ParticleDraw {
+public:
+  // Uploads the sheets (at least one; each image non-empty).
+  static Result<std::unique_ptr<ParticleDraw>> create(gpu::Context& context, std::span<const ParticleSheet> sheets);
+  ~ParticleDraw();
+
+  // The batches the next frames draw (GPU records owned by the caller, alive while frames use them).
+  void setBatches(std::vector<ParticleBatch> batches);
+  // CPU records: copied into a buffer of this object, one batch per span (sheet by index); call
+  // with no frame in flight that draws particles.
+  struct CpuBatch {
+    std::span<const shaderio::RenderParticle> records;
+    uint32_t sheet = 0;
+  };
+  void setCpuBatches(std::span<const CpuBatch> batches);
+  size_t batchCount() const;
+
+  // Used by the forward renderer's transparency pass (forward_oit.cpp). Outside rendering: the
+  // batches' instance counts into the indirect arguments. Inside it, per eye: the billboards,
+  // with the pipeline of `mode` for the forward targets.
+  void cmdPrepare(VkCommandBuffer cmd);
+  void cmdDraw(VkCommandBuffer cmd, OitMode mode, VkDeviceAddress frame, VkDeviceAddress oitLists);
+
+  struct Impl;
+
+private:
+  explicit ParticleDraw(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+} // namespace mirage::render

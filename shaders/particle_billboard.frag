@@ -1,0 +1,10 @@
+#version 460
+// Particle billboards, sorted mode: blended "over" by the pipeline after the sorted scene
+// triangles, in record order.
+#define MIRAGE_PARTICLE_FRAGMENT
+#include "particle_billboard.glsl"
+
+layout(early_fragment_tests) in;
+layout(location = 0) out vec4 outColor;
+
+void main() { outColor = particleColor(); }

@@ -1,0 +1,109 @@
+// `mirage bench particles --render` (mirage/particles/render.h): simulation and billboard
+// rendering of a scaled effect timed together on the GPU.
+#include <algorithm>
+
+#include "mirage/particles/bench.h"
+#include "mirage/particles/gpu_simulation.h"
+#include "mirage/particles/render.h"
+#include "mirage/particles/simulation.h"
+#include "mirage/render/forward_renderer.h"
+
+namespace mirage::particles {
+
+namespace sio = mirage::shaderio;
+
+namespace {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// The unscaled effect's extent after the fill time (CPU, its own small counts): what the camera frames.
+Bounds effectExtent(const EffectFile& effect, float dt, uint64_t steps) {
+  Simulation sim = makeSimulation(effect, dt);
+  for (uint64_t i = 0; i < std::min<uint64_t>(steps, 600); ++i) step(sim);
+  std::vector<sio::RenderParticle> records(liveParticles(sim));
+  writeRenderParticles(sim, records);
+  Bounds b;
+  for (const sio::RenderParticle& r : records)
+    b.add(r.position - glm::vec3(r.size)), b.add(r.position + glm::vec3(r.size));
+  if (b.empty())
+    for (const SystemDef& s : effect.systems) b.add(s.position - 1.0f), b.add(s.position + 1.0f);
+  return b;
+}
+
+} // namespace
+
+Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& effect, const RenderBenchOptions& o) {
+  VkPhysicalDeviceMemoryProperties memory{};
+  vkGetPhysicalDeviceMemoryProperties(context.physicalDevice(), &memory);
+  uint64_t heap = 0;
+  for (uint32_t i = 0; i < memory.memoryHeapCount; ++i)
+    if (memory.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
+      heap = std::max(heap, memory.memoryHeaps[i].size);
+  if (Status s = checkParticleMemory(o.count, kGpuBytesPerParticle, heap / 2, "device memory"); !s) return s.error();
+  EffectFile scaled = scaleEffect(effect, o.count);
+  auto sheets = effectSheets(scaled);
+  if (!sheets) return sheets.error();
+  auto draw = render::ParticleDraw::create(context, *sheets);
+  if (!draw) return draw.error();
+  RenderBenchResult r;
+  r.fillSteps = fillSteps(scaled, o.dt);
+  Bounds extent = effectExtent(effect, o.dt, r.fillSteps);
+  auto renderer = render::ForwardRenderer::create(context, groundScene(extent));
+  if (!renderer) return renderer.error();
+  GpuSimulation sim(context, scaled, o.dt);
+  sim.step(uint32_t(r.fillSteps));
+  std::vector<render::ParticleBatch> batches;
+  for (uint32_t i = 0; i < sim.systemCount(); ++i)
+    batches.push_back({sim.renderBuffer(i).address(), sim.counterBuffer(i).handle(),
+                       offsetof(sio::ParticleCounters, live), scaled.systems[i].maxParticles, i});
+  (*draw)->setBatches(std::move(batches));
+
+  render::ForwardRenderSettings fs;
+  fs.base.width = o.width;
+  fs.base.height = o.height;
+  fs.base.readImage = false;
+  fs.base.camera =
+      clipAround(render::autoCamera(extent, float(o.width) / float(o.height)), (*renderer)->worldBounds(), extent);
+  fs.oit = o.oit;
+  fs.oitNodesPerPixel = o.oitNodesPerPixel;
+  fs.particles = draw->get();
+  gpu::GpuTimer timer(context, 2);
+  std::vector<double> simulate, frame, blend, composite, total;
+  for (uint32_t i = 0; i < o.frames + 1; ++i) { // the first warms the pipelines up, untimed
+    Status recorded = Ok{};
+    context.submitAndWait([&](VkCommandBuffer cmd) {
+      timer.cmdReset(cmd);
+      uint32_t slot = timer.cmdBegin(cmd, "simulate");
+      sim.cmdStep(cmd);
+      sim.cmdWriteRender(cmd);
+      timer.cmdEnd(cmd, slot);
+      recorded = (*renderer)->record(cmd, fs, 0); // its first barrier orders the records before the draw
+    });
+    if (!recorded) return recorded.error();
+    auto out = (*renderer)->collect(0);
+    if (!out) return out.error();
+    if (i == 0) continue;
+    double s = 0, f = 0;
+    for (const gpu::PassTime& t : timer.read()) s = t.milliseconds;
+    for (const gpu::PassTime& t : out->stats.passTimes) {
+      if (t.name == "frame") f = t.milliseconds;
+      if (t.name == "blend") blend.push_back(t.milliseconds);
+      if (t.name == "composite") composite.push_back(t.milliseconds);
+    }
+    simulate.push_back(s), frame.push_back(f), total.push_back(s + f);
+    r.oit = out->stats.oit;
+  }
+  r.live = sim.liveParticles();
+  r.simulateMs = median(simulate);
+  r.frameMs = median(frame);
+  r.blendMs = median(blend);
+  r.compositeMs = median(composite);
+  r.totalMs = median(total);
+  return r;
+}
+
+} // namespace mirage::particles

@@ -1,0 +1,178 @@
+// Particle billboards inside the forward renderer's transparency pass (render/particle_draw.h,
+// docs/particles.md "Rendering"). One indirect draw per batch: 6 vertices, one instance per
+// record, the instance count copied from the simulation's live counter before the pass.
+#include "mirage/render/particle_draw.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "forward_impl.h"
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/descriptors.h"
+#include "mirage/gpu/pipeline.h"
+#include "mirage/shaderio/particle_draw.h"
+#include "render_util.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+struct ParticleDraw::Impl {
+  Context& ctx;
+  std::vector<Image> sheetImages;
+  std::vector<ParticleSheet> sheets; // tiles and flags (images dropped after upload)
+  Unique<VkSampler> sampler;
+  DescriptorSet descriptors;
+  Unique<VkPipelineLayout> layout;
+  Unique<VkPipeline> pipelines[3]; // by OitMode
+  std::vector<ParticleBatch> batches;
+  Buffer cpuRecords; // setCpuBatches' records
+  Buffer indirect;   // VkDrawIndirectCommand per batch
+  uint32_t indirectCapacity = 0;
+  explicit Impl(Context& c) : ctx(c) {}
+  VkPipeline pipeline(OitMode mode);
+};
+
+ParticleDraw::ParticleDraw(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ParticleDraw::~ParticleDraw() = default;
+
+Result<std::unique_ptr<ParticleDraw>> ParticleDraw::create(Context& context, std::span<const ParticleSheet> sheets) {
+  if (sheets.empty()) return Error{"particle draw: no texture sheet"};
+  auto d = std::make_unique<Impl>(context);
+  for (const ParticleSheet& s : sheets) {
+    if (s.image.width == 0 || s.image.height == 0 ||
+        s.image.pixels.size() != size_t(s.image.width) * s.image.height * 4)
+      return Error{"particle draw: an empty or malformed texture sheet"};
+    if (s.tilesX == 0 || s.tilesY == 0) return Error{"particle draw: a texture sheet of zero tiles"};
+    uint32_t mips = mipLevelCount(s.image.width, s.image.height);
+    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ci.imageType = VK_IMAGE_TYPE_2D;
+    ci.format = VK_FORMAT_R8G8B8A8_UNORM; // coverage, not colour: linear
+    ci.extent = {s.image.width, s.image.height, 1};
+    ci.mipLevels = mips;
+    ci.arrayLayers = 1;
+    ci.samples = VK_SAMPLE_COUNT_1_BIT;
+    ci.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    Image img = createImage(context, ci, VK_IMAGE_ASPECT_COLOR_BIT, "particle sheet");
+    uploadTextureRGBA8(context, img, s.image.pixels.data(), s.image.width, s.image.height, mips);
+    d->sheetImages.push_back(std::move(img));
+    d->sheets.push_back({ImageRGBA8{}, s.tilesX, s.tilesY, s.alphaFromGreyscale});
+  }
+  // Clamped: a tile's border texels must not blend with the neighbouring tile's far side.
+  VkSamplerCreateInfo si{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  si.magFilter = si.minFilter = VK_FILTER_LINEAR;
+  si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+  si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  si.maxLod = VK_LOD_CLAMP_NONE;
+  VkSampler sampler;
+  MIRAGE_VK_CHECK(vkCreateSampler(context.device(), &si, nullptr, &sampler));
+  d->sampler = Unique<VkSampler>(context.device(), sampler);
+  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(sheets.size()),
+                                       VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  d->descriptors = createDescriptorSet(context, {&binding, 1});
+  std::vector<VkDescriptorImageInfo> infos;
+  for (const Image& img : d->sheetImages)
+    infos.push_back({d->sampler, img.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
+  writeImageDescriptors(context, d->descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
+  d->layout = createPipelineLayout(context, {d->descriptors.layout.get()}, sizeof(sio::ParticleDrawPush),
+                                   VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+  return std::unique_ptr<ParticleDraw>(new ParticleDraw(std::move(d)));
+}
+
+void ParticleDraw::setBatches(std::vector<ParticleBatch> batches) { impl_->batches = std::move(batches); }
+
+void ParticleDraw::setCpuBatches(std::span<const CpuBatch> batches) {
+  Impl& d = *impl_;
+  size_t total = 0;
+  for (const CpuBatch& b : batches) total += b.records.size();
+  uint64_t bytes = std::max<uint64_t>(total, 1) * sizeof(sio::RenderParticle);
+  if (!d.cpuRecords || d.cpuRecords.size() < bytes)
+    d.cpuRecords =
+        createBuffer(d.ctx, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "particle records");
+  d.batches.clear();
+  size_t at = 0;
+  for (const CpuBatch& b : batches) {
+    if (!b.records.empty())
+      std::memcpy(static_cast<uint8_t*>(d.cpuRecords.mapped()) + at * sizeof(sio::RenderParticle), b.records.data(),
+                  b.records.size_bytes());
+    d.batches.push_back({d.cpuRecords.address() + at * sizeof(sio::RenderParticle), VK_NULL_HANDLE, 0,
+                         uint32_t(b.records.size()), b.sheet});
+    at += b.records.size();
+  }
+}
+
+size_t ParticleDraw::batchCount() const { return impl_->batches.size(); }
+
+void ParticleDraw::cmdPrepare(VkCommandBuffer cmd) {
+  Impl& d = *impl_;
+  if (d.batches.empty()) return;
+  if (d.indirectCapacity < d.batches.size()) {
+    d.indirect = createBuffer(d.ctx, d.batches.size() * sizeof(VkDrawIndirectCommand),
+                              VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                              MemoryUsage::GpuOnly, "particle draw arguments");
+    d.indirectCapacity = uint32_t(d.batches.size());
+  }
+  std::vector<VkDrawIndirectCommand> args;
+  for (const ParticleBatch& b : d.batches) args.push_back({6, b.countBuffer ? 0 : b.count, 0, 0});
+  vkCmdUpdateBuffer(cmd, d.indirect.handle(), 0, args.size() * sizeof(args[0]), args.data());
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  // The live counts of GPU batches, as the simulation left them (its writes ordered by the
+  // frame's first barrier), into instanceCount.
+  for (uint32_t i = 0; i < d.batches.size(); ++i) {
+    if (!d.batches[i].countBuffer) continue;
+    VkBufferCopy copy{d.batches[i].countOffset, i * sizeof(VkDrawIndirectCommand) + 4, 4};
+    vkCmdCopyBuffer(cmd, d.batches[i].countBuffer, d.indirect.handle(), 1, &copy);
+  }
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+}
+
+VkPipeline ParticleDraw::Impl::pipeline(OitMode mode) {
+  Unique<VkPipeline>& p = pipelines[size_t(mode)];
+  if (p) return p;
+  GraphicsPipelineDesc g;
+  g.vertexShader = "particle_billboard.vert";
+  g.layout = layout;
+  g.depthFormat = kForwardDepthFormat;
+  g.depthWrite = false; // tested against the opaque depth; particles never occlude each other
+  if (mode == OitMode::LinkedList) {
+    g.fragmentShader = "particle_billboard_oit.frag"; // no colour output: the lists are the result
+  } else if (mode == OitMode::Weighted) {
+    g.fragmentShader = "particle_billboard_weighted.frag";
+    g.colorFormats = {kForwardAccumFormat, kForwardAccumFormat};
+    g.colorBlends = {forwardWeightedBlend(), forwardWeightedBlend()};
+  } else {
+    g.fragmentShader = "particle_billboard.frag";
+    g.colorFormats = {kForwardColorFormat};
+    g.alphaBlend = true;
+  }
+  p = createGraphicsPipeline(ctx, g);
+  return p;
+}
+
+void ParticleDraw::cmdDraw(VkCommandBuffer cmd, OitMode mode, VkDeviceAddress frame, VkDeviceAddress oitLists) {
+  Impl& d = *impl_;
+  if (d.batches.empty()) return;
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.pipeline(mode));
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE); // rotated billboards may face either way
+  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  for (uint32_t i = 0; i < d.batches.size(); ++i) {
+    const ParticleBatch& b = d.batches[i];
+    const ParticleSheet& s = d.sheets[std::min<size_t>(b.sheet, d.sheets.size() - 1)];
+    sio::ParticleDrawPush push{frame,
+                               b.records,
+                               mode == OitMode::LinkedList ? oitLists : 0,
+                               std::min<uint32_t>(b.sheet, uint32_t(d.sheets.size() - 1)),
+                               s.tilesX,
+                               s.tilesY,
+                               s.alphaFromGreyscale ? MIRAGE_PARTICLE_ALPHA_FROM_GREY : 0u};
+    vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
+                       &push);
+    vkCmdDrawIndirect(cmd, d.indirect.handle(), i * sizeof(VkDrawIndirectCommand), 1, sizeof(VkDrawIndirectCommand));
+  }
+}
+
+} // namespace mirage::render
