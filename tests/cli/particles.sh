@@ -45,7 +45,7 @@ for bad in typo negative module syntax; do
   expect_fail "render-$bad" "error: $tmp/$bad.toml:[0-9]*: " "$tmp/bad_$bad.png" -- particles "$tmp/$bad.toml" \
     --frames 2 --size 32x32 -o "$tmp/bad_$bad.png"
 done
-expect_fail render-missing "missing.toml: no such file" "$tmp/missing.png" -- particles "$tmp/missing.toml" \
+expect_fail render-missing "missing.toml: file not found" "$tmp/missing.png" -- particles "$tmp/missing.toml" \
   -o "$tmp/missing.png"
 fire="$source_dir/examples/particles/fire.toml"
 expect_fail render-dt "--dt 'fast'" "$tmp/dt.png" -- particles "$fire" --dt fast -o "$tmp/dt.png"
