@@ -30,6 +30,14 @@ Status checkParticleMemory(uint64_t count, uint64_t bytesPerParticle, uint64_t a
   return Ok{};
 }
 
+void setStepTimes(std::vector<double> ms, BenchResult& r) {
+  if (ms.empty()) return;
+  r.meanStepMs = std::accumulate(ms.begin(), ms.end(), 0.0) / double(ms.size());
+  std::sort(ms.begin(), ms.end());
+  r.medianStepMs = ms[ms.size() / 2];
+  r.minStepMs = ms.front();
+}
+
 Result<BenchResult> benchCpu(const EffectFile& effect, const BenchOptions& o) {
   uint64_t physical = uint64_t(sysconf(_SC_PHYS_PAGES)) * uint64_t(sysconf(_SC_PAGE_SIZE));
   if (Status s = checkParticleMemory(o.count, kCpuBytesPerParticle, physical / 2, "host memory"); !s) return s.error();
@@ -51,12 +59,7 @@ Result<BenchResult> benchCpu(const EffectFile& effect, const BenchOptions& o) {
   auto t0 = std::chrono::steady_clock::now();
   writeRenderParticles(sim, out);
   r.outputMs = msSince(t0);
-  if (!ms.empty()) {
-    r.meanStepMs = std::accumulate(ms.begin(), ms.end(), 0.0) / double(ms.size());
-    std::sort(ms.begin(), ms.end());
-    r.medianStepMs = ms[ms.size() / 2];
-    r.minStepMs = ms.front();
-  }
+  setStepTimes(ms, r);
   return r;
 }
 

@@ -43,12 +43,7 @@ Result<BenchResult> benchGpu(gpu::Context& context, const EffectFile& effect, co
     timer.cmdEnd(cmd, slot);
   });
   for (const gpu::PassTime& t : timer.read()) r.outputMs = t.milliseconds;
-  if (!ms.empty()) {
-    r.meanStepMs = std::accumulate(ms.begin(), ms.end(), 0.0) / double(ms.size());
-    std::sort(ms.begin(), ms.end());
-    r.medianStepMs = ms[ms.size() / 2];
-    r.minStepMs = ms.front();
-  }
+  setStepTimes(ms, r);
   return r;
 }
 

@@ -4,6 +4,7 @@
 // GPU: timestamp queries around each step's passes (gpu_simulation.h).
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "mirage/core/result.h"
 #include "mirage/particles/effect.h"
@@ -34,6 +35,9 @@ constexpr uint64_t kGpuBytesPerParticle = sizeof(shaderio::Particle) + 8 + sizeo
 // An error when `count` particles at `bytesPerParticle` exceed `available` bytes (`where` names
 // the memory): a bench of an impossible count stops with one line instead of being killed.
 Status checkParticleMemory(uint64_t count, uint64_t bytesPerParticle, uint64_t available, const char* where);
+
+// Mean, median and minimum of the timed steps' milliseconds into r (nothing when none were timed).
+void setStepTimes(std::vector<double> stepMs, BenchResult& r);
 
 // Error: more particles than half the machine's physical memory holds.
 Result<BenchResult> benchCpu(const EffectFile& effect, const BenchOptions& options);
