@@ -9,6 +9,7 @@
 #include <toml++/toml.h>
 
 #include "mirage/core/input_text.h"
+#include "mirage/core/toml_table.h"
 #include "mirage/particles/effect.h"
 
 namespace mirage::particles {
@@ -25,84 +26,14 @@ namespace {
     if (auto module_ = (expr); !module_) return module_.error();                                                       \
   } while (0)
 
-std::optional<double> numberOf(const toml::node& n) {
-  if (n.is_boolean()) return std::nullopt;
-  return n.value<double>(); // integers convert too
-}
-
-// One table being read: its errors name the file, the line and the table.
-struct Table {
-  const toml::table& t;
-  const std::string& file;
-  std::string what; // `system "smoke"`, `system "smoke" shape`
-
-  Error error(const toml::source_region& where, const std::string& problem) const {
-    return Error{fmt::format("{}:{}: {}: {}", file, where.begin.line, what, problem)};
-  }
-  Error error(const std::string& problem) const { return error(t.source(), problem); }
-
-  Status onlyKeys(std::initializer_list<std::string_view> known) const {
-    for (const auto& [key, node] : t) {
-      bool ok = false;
-      for (std::string_view k : known) ok |= key.str() == k;
-      if (!ok) return error(key.source(), fmt::format("unknown key \"{}\"", key.str()));
-    }
-    return Ok{};
-  }
-
-  const toml::node* get(std::string_view key) const { return t.get(key); }
-
-  Status checked(std::string_view key, const toml::node& n, double v, float lo, float hi, float& out) const {
-    if (!std::isfinite(v) || v < lo || v > hi)
-      return error(n.source(), fmt::format("\"{}\" = {} is outside {}..{}", key, v, lo, hi));
-    out = float(v);
-    return Ok{};
-  }
-
-  Status number(std::string_view key, float lo, float hi, float& out) const {
-    const toml::node* n = get(key);
-    if (!n) return Ok{};
-    std::optional<double> v = numberOf(*n);
-    if (!v) return error(n->source(), fmt::format("\"{}\" must be a number", key));
-    return checked(key, *n, *v, lo, hi, out);
-  }
-
-  Status count(std::string_view key, uint32_t lo, uint32_t hi, uint32_t& out) const {
-    const toml::node* n = get(key);
-    if (!n) return Ok{};
-    std::optional<int64_t> v = n->is_integer() ? n->value<int64_t>() : std::nullopt;
-    if (!v) return error(n->source(), fmt::format("\"{}\" must be an integer", key));
-    if (*v < int64_t(lo) || *v > int64_t(hi))
-      return error(n->source(), fmt::format("\"{}\" = {} is outside {}..{}", key, *v, lo, hi));
-    out = uint32_t(*v);
-    return Ok{};
-  }
-
-  // `size` numbers from an array node into out[0..size).
-  Status array(std::string_view key, const toml::node& n, size_t size, float lo, float hi, float* out) const {
-    const toml::array* a = n.as_array();
-    if (!a || a->size() != size)
-      return error(n.source(), fmt::format("\"{}\" must be an array of {} numbers", key, size));
-    for (size_t i = 0; i < size; ++i) {
-      std::optional<double> v = numberOf(*a->get(i));
-      if (!v) return error(n.source(), fmt::format("\"{}\" must be an array of {} numbers", key, size));
-      if (!std::isfinite(*v) || *v < lo || *v > hi)
-        return error(n.source(), fmt::format("\"{}\"[{}] = {} is outside {}..{}", key, i, *v, lo, hi));
-      out[i] = float(*v);
-    }
-    return Ok{};
-  }
-
-  Status numbers(std::string_view key, size_t size, float lo, float hi, float* out) const {
-    const toml::node* n = get(key);
-    return n ? array(key, *n, size, lo, hi, out) : Status(Ok{});
-  }
-
+// One table of an effect file: the shared checks (core/toml_table.h) and the value shapes of
+// effects (random ranges, curves, gradients, modules).
+struct Table : TomlTable {
   // A number (a constant) or [min, max] (a random value per particle).
   Status range(std::string_view key, float lo, float hi, Range& out) const {
     const toml::node* n = get(key);
     if (!n) return Ok{};
-    if (std::optional<double> v = numberOf(*n); v && !n->is_array()) {
+    if (std::optional<double> v = tomlNumber(*n); v && !n->is_array()) {
       MIRAGE_TRY(checked(key, *n, *v, lo, hi, out.min));
       out.max = out.min;
       return Ok{};
@@ -144,36 +75,6 @@ struct Table {
     return Ok{};
   }
 
-  Status boolean(std::string_view key, bool& out) const {
-    const toml::node* n = get(key);
-    if (!n) return Ok{};
-    if (!n->is_boolean()) return error(n->source(), fmt::format("\"{}\" must be true or false", key));
-    out = *n->value<bool>();
-    return Ok{};
-  }
-
-  Status string(std::string_view key, std::string& out) const {
-    const toml::node* n = get(key);
-    if (!n) return Ok{};
-    if (!n->is_string()) return error(n->source(), fmt::format("\"{}\" must be a string", key));
-    out = *n->value<std::string>();
-    return Ok{};
-  }
-
-  Status choice(std::string_view key, std::initializer_list<std::string_view> names, int& index) const {
-    std::string text;
-    MIRAGE_TRY(string(key, text));
-    if (!get(key)) return Ok{};
-    int i = 0;
-    std::string expected;
-    for (std::string_view n : names) {
-      if (text == n) return index = i, Status(Ok{});
-      expected += (i ? ", " : "") + fmt::format("\"{}\"", n);
-      ++i;
-    }
-    return error(get(key)->source(), fmt::format("\"{}\" = \"{}\": expected one of {}", key, text, expected));
-  }
-
   // A table under `key` (a module), or nullptr when absent.
   Result<const toml::table*> module(std::string_view key) const {
     const toml::node* n = get(key);
@@ -207,7 +108,7 @@ struct Parser {
     auto m = s.module("shape");
     if (!m) return m.error();
     if (!*m) return Ok{};
-    Table t{**m, file.name, s.what + " shape"};
+    Table t{{**m, file.name, s.what + " shape"}};
     MIRAGE_TRY(t.onlyKeys({"type", "radius", "radius_thickness", "arc", "angle", "size", "emit_from", "position",
                            "rotation", "scale", "randomize_direction", "randomize_position"}));
     ShapeModule& sh = d.shape;
@@ -259,7 +160,7 @@ struct Parser {
       auto m = s.module(key);
       if (!m) return m.error();
       if (!*m) return Ok{};
-      Table t{**m, file.name, s.what + " " + std::string(key)};
+      Table t{{**m, file.name, s.what + " " + std::string(key)}};
       MIRAGE_TRY(t.onlyKeys(known));
       return body(t);
     };
@@ -302,7 +203,7 @@ struct Parser {
     SystemDef d;
     d.line = uint32_t(tt.source().begin.line);
     d.name = fmt::format("{}", file.systems.size() + 1);
-    Table s{tt, file.name, fmt::format("system {}", d.name)};
+    Table s{{tt, file.name, fmt::format("system {}", d.name)}};
     if (const toml::node* n = s.get("name")) {
       MIRAGE_TRY(s.string("name", d.name));
       if (d.name.empty()) return s.error(n->source(), "\"name\" is empty");
@@ -369,7 +270,7 @@ struct Parser {
   }
 
   Status document(const toml::table& root) {
-    Table top{root, file.name, "top level"};
+    Table top{{root, file.name, "top level"}};
     MIRAGE_TRY(top.onlyKeys({"system"}));
     const toml::node* n = root.get("system");
     if (!n) return top.error("no [[system]]");

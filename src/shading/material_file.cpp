@@ -2,6 +2,7 @@
 // tables below, every number range-checked, every texture decoded. toml++ throws on syntax errors;
 // the exception is caught here and never leaves the library.
 #include "mirage/core/input_text.h"
+#include "mirage/core/toml_table.h"
 #include "mirage/shading/material_file.h"
 
 #include <cmath>
@@ -21,90 +22,7 @@ namespace {
     if (auto status_ = (expr); !status_) return status_.error();                                                       \
   } while (0)
 
-// One table being read: its errors name the file, the line and what the table is.
-struct Table {
-  const toml::table& t;
-  const std::string& file;
-  std::string what; // `material "steel"`, `assign`, `light 2`
-
-  Error error(const toml::source_region& where, const std::string& problem) const {
-    return Error{fmt::format("{}:{}: {}: {}", file, where.begin.line, what, problem)};
-  }
-  Error error(const std::string& problem) const { return error(t.source(), problem); }
-
-  // Every key must be one of `known`: a misspelt key would otherwise be silently ignored.
-  Status onlyKeys(std::initializer_list<std::string_view> known) const {
-    for (const auto& [key, node] : t) {
-      bool ok = false;
-      for (std::string_view k : known) ok |= key.str() == k;
-      if (!ok) return error(key.source(), fmt::format("unknown key \"{}\"", key.str()));
-    }
-    return Ok{};
-  }
-
-  const toml::node* get(std::string_view key) const { return t.get(key); }
-
-  Status number(std::string_view key, float lo, float hi, float& out) const {
-    const toml::node* n = get(key);
-    if (!n) return Ok{};
-    std::optional<double> v = n->value<double>(); // integers convert too
-    if (!v || n->is_boolean()) return error(n->source(), fmt::format("\"{}\" must be a number", key));
-    if (!std::isfinite(*v) || *v < lo || *v > hi)
-      return error(n->source(), fmt::format("\"{}\" = {} is outside {}..{}", key, *v, lo, hi));
-    out = float(*v);
-    return Ok{};
-  }
-
-  // An array of `minSize`..`maxSize` numbers in lo..hi into out[0..].
-  Status numbers(std::string_view key, size_t minSize, size_t maxSize, float lo, float hi, float* out) const {
-    const toml::node* n = get(key);
-    if (!n) return Ok{};
-    const toml::array* a = n->as_array();
-    std::string shape = minSize == maxSize ? fmt::format("{}", minSize) : fmt::format("{} or {}", minSize, maxSize);
-    if (!a || a->size() < minSize || a->size() > maxSize)
-      return error(n->source(), fmt::format("\"{}\" must be an array of {} numbers", key, shape));
-    for (size_t i = 0; i < a->size(); ++i) {
-      std::optional<double> v = (*a)[i].value<double>();
-      if (!v || (*a)[i].is_boolean())
-        return error(n->source(), fmt::format("\"{}\" must be an array of {} numbers", key, shape));
-      if (!std::isfinite(*v) || *v < lo || *v > hi)
-        return error(n->source(), fmt::format("\"{}\"[{}] = {} is outside {}..{}", key, i, *v, lo, hi));
-      out[i] = float(*v);
-    }
-    return Ok{};
-  }
-
-  Status string(std::string_view key, std::string& out, bool required = false) const {
-    const toml::node* n = get(key);
-    if (!n) return required ? error(fmt::format("missing key \"{}\"", key)) : Status(Ok{});
-    if (!n->is_string()) return error(n->source(), fmt::format("\"{}\" must be a string", key));
-    out = *n->value<std::string>();
-    return Ok{};
-  }
-
-  Status boolean(std::string_view key, bool& out) const {
-    const toml::node* n = get(key);
-    if (!n) return Ok{};
-    if (!n->is_boolean()) return error(n->source(), fmt::format("\"{}\" must be true or false", key));
-    out = *n->value<bool>();
-    return Ok{};
-  }
-
-  // A string that must be one of `names`; its position in *index.
-  Status choice(std::string_view key, std::initializer_list<std::string_view> names, int& index) const {
-    std::string text;
-    MIRAGE_TRY(string(key, text));
-    if (!get(key)) return Ok{};
-    int i = 0;
-    std::string expected;
-    for (std::string_view n : names) {
-      if (text == n) return index = i, Status(Ok{});
-      expected += (i ? i + 1 == int(names.size()) ? " or " : ", " : "") + std::string("\"") + std::string(n) + "\"";
-      ++i;
-    }
-    return error(get(key)->source(), fmt::format("\"{}\" = \"{}\": expected {}", key, text, expected));
-  }
-};
+using Table = TomlTable;
 
 // Bounds of the numbers a material file may hold: wide enough for any sensible scene, narrow
 // enough that nothing overflows a float in the shaders.

@@ -135,8 +135,8 @@ TEST(EffectFile, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(errorOf("[[system]]\nlooping = 1\n"), "fx.toml:2: system 1: \"looping\" must be true or false");
   EXPECT_EQ(errorOf("[[system]]\nduration = \"long\"\n"), "fx.toml:2: system 1: \"duration\" must be a number");
   EXPECT_EQ(errorOf("[[system]]\n[system.shape]\ntype = \"torus\"\n"),
-            "fx.toml:3: system 1 shape: \"type\" = \"torus\": expected one of \"sphere\", \"hemisphere\", \"cone\", "
-            "\"circle\", \"box\", \"edge\"");
+            "fx.toml:3: system 1 shape: \"type\" = \"torus\": expected \"sphere\", \"hemisphere\", \"cone\", "
+            "\"circle\", \"box\" or \"edge\"");
   EXPECT_NE(errorOf("[[system]]\nstart_lifetime = [3, 1]\n").find("fx.toml:1: system 1: \"start_lifetime\": min 3"),
             std::string::npos);
   EXPECT_NE(errorOf("[[system]]\nlooping = false\nprewarm = true\n").find("\"prewarm\" needs looping"),
