@@ -34,10 +34,6 @@ void cmdComputeBarrier(VkCommandBuffer cmd) {
 
 uint32_t groupsFor(uint32_t threads) { return (threads + MIRAGE_PARTICLE_GROUP - 1) / MIRAGE_PARTICLE_GROUP; }
 
-// Work groups per dispatch row: Vulkan guarantees 65535 in x; larger pools dispatch several rows
-// (particleIndex in particles_common.glsl).
-constexpr uint32_t kMaxGroupsPerRow = 65535;
-
 } // namespace
 
 GpuSimulation::GpuSimulation(gpu::Context& context, const EffectFile& effect, float dt) : context_(context), dt_(dt) {
@@ -112,8 +108,9 @@ void GpuSimulation::cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const Syst
   p.dt = dt_;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(p), &p);
-  uint32_t groups = groupsFor(threads), rows = (groups + kMaxGroupsPerRow - 1) / kMaxGroupsPerRow;
-  vkCmdDispatch(cmd, std::min(groups, kMaxGroupsPerRow), rows, 1);
+  // Large pools dispatch several rows (particleIndex in particles_common.glsl).
+  gpu::DispatchRows rows = gpu::dispatchRows(groupsFor(threads));
+  vkCmdDispatch(cmd, rows.x, rows.y, 1);
 }
 
 void GpuSimulation::cmdStep(VkCommandBuffer cmd) {

@@ -20,7 +20,7 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr uint32_t kMaxGroups = 65535; // the guaranteed maxComputeWorkGroupCount per dimension
+constexpr uint32_t kMaxGroups = gpu::kMaxDispatchGroups;
 constexpr uint32_t kMaxTilesPerSide = 64;
 
 uint32_t nextPow2(uint32_t v) {

@@ -19,7 +19,7 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr uint32_t kMaxGroups = 65535; // the guaranteed maxComputeWorkGroupCount per dimension
+constexpr uint32_t kMaxGroups = gpu::kMaxDispatchGroups;
 
 float medianOf(std::vector<float> v) {
   auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);

@@ -146,8 +146,8 @@ void cmdBlitTargetToSwapchain(gpu::Context& context, TargetBlit& blit, const gpu
   SrgbPush push{blit.half.address(), blit.packed.address(), pixels, blit.format == VK_FORMAT_B8G8R8A8_UNORM ? 1u : 0u};
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blit.pipeline);
   vkCmdPushConstants(cmd, blit.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  uint32_t groups = (pixels + 255) / 256, x = std::min(groups, 65535u);
-  vkCmdDispatch(cmd, x, (groups + x - 1) / x, 1);
+  gpu::DispatchRows rows = gpu::dispatchRows((pixels + 255) / 256);
+  vkCmdDispatch(cmd, rows.x, rows.y, 1);
   if (w < frame.extent.width || h < frame.extent.height) {
     VkClearColorValue black{};
     VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};

@@ -9,6 +9,20 @@ namespace mirage::gpu {
 
 class Context;
 
+// Work groups a dispatch may have per dimension on every device: the smallest
+// maxComputeWorkGroupCount Vulkan allows. Larger counts split into rows (y) or several dispatches.
+constexpr uint32_t kMaxDispatchGroups = 65535;
+
+// A 1D count of work groups as (x, y) rows with x <= kMaxDispatchGroups; shaders index
+// gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x and skip the last row's excess.
+struct DispatchRows {
+  uint32_t x = 0, y = 0;
+};
+inline DispatchRows dispatchRows(uint32_t groups) {
+  return {groups < kMaxDispatchGroups ? groups : kMaxDispatchGroups,
+          (groups + kMaxDispatchGroups - 1) / kMaxDispatchGroups};
+}
+
 struct ImageBarrier {
   VkImage image = VK_NULL_HANDLE;
   VkPipelineStageFlags2 srcStage = VK_PIPELINE_STAGE_2_NONE;
