@@ -116,6 +116,10 @@ struct ClusterRenderer::Impl {
   // other slots' frames may still read their own (a resize mid-flight).
   gpu::DescriptorSet descriptors[kMaxFramesInFlight];
   gpu::Buffer pvsInstances, pvsClusters; // the camera cell's cluster PVS (setPvs); empty: no PVS culling
+  // A new cell's PVS waiting in host memory (instance offsets, then cluster bits): the next frame
+  // recorded copies it into pvsInstances / pvsClusters before its first barrier, so a cell change
+  // never waits for the GPU.
+  gpu::Buffer pvsStaging;
   gpu::Unique<VkPipelineLayout> layout;
   gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
       rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,

@@ -1,5 +1,8 @@
 // ClusterRenderer: the public API and the per-frame phase list (docs/render.md, "Passes"); the
 // phases themselves live in the files cluster_impl.h lists.
+#include <algorithm>
+#include <cstring>
+
 #include <fmt/format.h>
 
 #include "cluster_impl.h"
@@ -48,14 +51,22 @@ Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
   // those slots complete (no device wait; a cell change happens while frames are in flight).
   d.retired.retire(std::move(d.pvsInstances), d.inFlightSlots());
   d.retired.retire(std::move(d.pvsClusters), d.inFlightSlots());
+  d.retired.retire(std::move(d.pvsStaging), d.inFlightSlots());
   d.pvsInstances = {};
   d.pvsClusters = {};
+  d.pvsStaging = {};
   if (!pvs) return Ok{};
-  constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-  d.pvsInstances = createBufferWithData<uint32_t>(d.ctx, pvs->instanceBitOffset, kStorage, "pvs instances");
-  std::vector<uint32_t> bits = pvs->clusterBits;
-  if (bits.empty()) bits.push_back(0); // every instance culled: the buffer still needs an address
-  d.pvsClusters = createBufferWithData<uint32_t>(d.ctx, bits, kStorage, "pvs cluster bits");
+  constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  // Every instance culled still needs a cluster buffer with an address: one zero word.
+  VkDeviceSize instanceBytes = pvs->instanceBitOffset.size() * 4, clusterBytes = std::max<size_t>(pvs->clusterBits.size(), 1) * 4;
+  d.pvsInstances = createBuffer(d.ctx, instanceBytes, kStorage, MemoryUsage::GpuOnly, "pvs instances");
+  d.pvsClusters = createBuffer(d.ctx, clusterBytes, kStorage, MemoryUsage::GpuOnly, "pvs cluster bits");
+  d.pvsStaging = createBuffer(d.ctx, instanceBytes + clusterBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                              MemoryUsage::Upload, "pvs staging");
+  uint8_t* host = d.pvsStaging.mapped();
+  std::memcpy(host, pvs->instanceBitOffset.data(), instanceBytes);
+  std::memset(host + instanceBytes, 0, clusterBytes);
+  std::memcpy(host + instanceBytes, pvs->clusterBits.data(), pvs->clusterBits.size() * 4);
   return Ok{};
 }
 
@@ -109,6 +120,14 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   sio::ClusterPush p = push();
   timer().cmdReset(cmd);
   uint32_t frameTime = timer().cmdBegin(cmd, "frame");
+  if (pvsStaging) { // a new cell's PVS (setPvs), ordered before its readers by the barrier below
+    VkDeviceSize instanceBytes = pvsInstances.size();
+    VkBufferCopy instances{0, 0, instanceBytes}, clusters{instanceBytes, 0, pvsClusters.size()};
+    vkCmdCopyBuffer(cmd, pvsStaging.handle(), pvsInstances.handle(), 1, &instances);
+    vkCmdCopyBuffer(cmd, pvsStaging.handle(), pvsClusters.handle(), 1, &clusters);
+    retired.retire(std::move(pvsStaging), 1u << currentSlot);
+    pvsStaging = {};
+  }
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
