@@ -1,0 +1,12 @@
+// Shared declarations of the thin client's shaders (render/atlas_client.h, docs/stream-client.md).
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_scalar_block_layout : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+
+#include "mirage/shaderio/forward.h" // MIRAGE_ALPHA_*
+#include "mirage/shaderio/atlas_client.h"
+
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ViewRef { ViewFrame view; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer PatchRef { GpuClientPatch patches[]; };
+
+layout(push_constant, scalar) uniform Push { AtlasClientPush push; };
