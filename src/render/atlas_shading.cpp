@@ -37,10 +37,11 @@ std::vector<uint32_t> atlasMeshFirstVertex(const Scene& scene) {
   return first;
 }
 
-void AtlasHostBuffer::ensure(Context& ctx, VkDeviceSize bytes, MemoryUsage usage, const char* name) {
+void AtlasHostBuffer::ensure(Context& ctx, VkDeviceSize bytes, VkBufferUsageFlags usage, MemoryUsage memory,
+                             const char* name) {
   if (buffer && buffer.size() >= bytes) return;
   VkDeviceSize size = std::max<VkDeviceSize>(bytes, buffer ? buffer.size() * 2 : 4096);
-  buffer = createBuffer(ctx, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, usage, name);
+  buffer = createBuffer(ctx, size, usage, memory, name);
 }
 
 Status AtlasShading::Impl::upload(const Scene& scene) {
@@ -261,8 +262,10 @@ Status AtlasShading::shade(std::span<const sio::GpuAtlasPatch> patches, const At
       for (uint32_t x = 0; x < tilesX; ++x) tiles.push_back({uint32_t(i), x | y << 16});
   }
   if (tiles.empty()) return Ok{};
-  d.patchBuffer.ensure(d.ctx, patches.size_bytes(), MemoryUsage::Upload, "atlas patches");
-  d.tileBuffer.ensure(d.ctx, tiles.size() * sizeof(sio::AtlasTile), MemoryUsage::Upload, "atlas tiles");
+  d.patchBuffer.ensure(d.ctx, patches.size_bytes(), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload,
+                       "atlas patches");
+  d.tileBuffer.ensure(d.ctx, tiles.size() * sizeof(sio::AtlasTile), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                      MemoryUsage::Upload, "atlas tiles");
   std::memcpy(d.patchBuffer.buffer.mapped(), patches.data(), patches.size_bytes());
   std::memcpy(d.tileBuffer.buffer.mapped(), tiles.data(), tiles.size() * sizeof(sio::AtlasTile));
   d.writeFrame(lighting, eye);
@@ -294,6 +297,36 @@ Status AtlasShading::shade(std::span<const sio::GpuAtlasPatch> patches, const At
 ImageRGBA8 AtlasShading::readAtlas() {
   Impl& d = *impl_;
   return ImageRGBA8{d.config.atlasSide, d.config.atlasSide, readbackImage(d.ctx, d.atlas, VK_IMAGE_LAYOUT_GENERAL, 4)};
+}
+
+Result<ImageRGBA8> AtlasShading::readAtlasRegion(uint32_t x, uint32_t y, uint32_t width, uint32_t height) {
+  Impl& d = *impl_;
+  const uint32_t side = d.config.atlasSide;
+  if (width == 0 || height == 0 || uint64_t(x) + width > side || uint64_t(y) + height > side)
+    return Error{
+        fmt::format("atlas region {}x{} at ({}, {}) is empty or leaves the {}-texel atlas", width, height, x, y, side)};
+  VkDeviceSize bytes = VkDeviceSize(width) * height * 4;
+  d.regionBuffer.ensure(d.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "atlas region");
+  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    cmdImageBarrier(cmd, {d.atlas.handle(), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                          VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_GENERAL,
+                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL});
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageOffset = {int32_t(x), int32_t(y), 0};
+    region.imageExtent = {width, height, 1};
+    vkCmdCopyImageToBuffer(cmd, d.atlas.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, d.regionBuffer.buffer.handle(),
+                           1, &region);
+    cmdImageBarrier(cmd,
+                    {d.atlas.handle(), VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL});
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                     VK_ACCESS_2_HOST_READ_BIT);
+  });
+  ImageRGBA8 out{width, height, std::vector<uint8_t>(bytes)};
+  std::memcpy(out.pixels.data(), d.regionBuffer.buffer.mapped(), bytes);
+  return out;
 }
 
 namespace {
@@ -363,9 +396,10 @@ Result<std::vector<glm::u8vec4>> AtlasShading::shadeColours(std::span<const uint
   if (samples.empty()) return std::vector<glm::u8vec4>{};
   if (samples.size() > size_t(65535) * MIRAGE_ATLAS_COLOUR_GROUP)
     return Error{fmt::format("{} colour-only patches exceed one dispatch", samples.size())};
-  d.sampleBuffer.ensure(d.ctx, samples.size() * sizeof(sio::AtlasColourSample), MemoryUsage::Upload,
-                        "atlas colour samples");
-  d.colourBuffer.ensure(d.ctx, samples.size() * 4, MemoryUsage::Readback, "atlas colours");
+  d.sampleBuffer.ensure(d.ctx, samples.size() * sizeof(sio::AtlasColourSample), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                        MemoryUsage::Upload, "atlas colour samples");
+  d.colourBuffer.ensure(d.ctx, samples.size() * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback,
+                        "atlas colours");
   std::memcpy(d.sampleBuffer.buffer.mapped(), samples.data(), samples.size() * sizeof(sio::AtlasColourSample));
   d.writeFrame(lighting, eye);
 

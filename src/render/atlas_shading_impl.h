@@ -26,7 +26,8 @@ struct AtlasMeshRange {
 // A host-visible buffer that grows to what a call needs (shade()'s patches and tiles, colours).
 struct AtlasHostBuffer {
   gpu::Buffer buffer;
-  void ensure(gpu::Context& ctx, VkDeviceSize bytes, gpu::MemoryUsage usage, const char* name);
+  void ensure(gpu::Context& ctx, VkDeviceSize bytes, VkBufferUsageFlags usage, gpu::MemoryUsage memory,
+              const char* name);
 };
 
 struct AtlasShading::Impl {
@@ -67,7 +68,7 @@ struct AtlasShading::Impl {
   gpu::Unique<VkPipelineLayout> computeLayout;
   gpu::Unique<VkPipeline> shadePipeline, colourPipeline;
   gpu::Buffer frame; // FrameData (host-visible)
-  AtlasHostBuffer patchBuffer, tileBuffer, sampleBuffer, colourBuffer;
+  AtlasHostBuffer patchBuffer, tileBuffer, sampleBuffer, colourBuffer, regionBuffer;
 
   explicit Impl(gpu::Context& c) : ctx(c) {}
   Status upload(const Scene& scene);

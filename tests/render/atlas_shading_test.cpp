@@ -1,7 +1,8 @@
 // The atlas shading stage (render/atlas_shading.h) on quads: a flat lit block equals the analytic
 // colour, a lit block equals the forward renderer's pixels at the same surface points, a textured
-// block maps the texture by its corner slots, blocks never write outside themselves, colour-only
-// patches equal the shading at the centroid, bad patches are errors. Validation must stay silent.
+// block maps the texture by its corner slots, blocks never write outside themselves (and read back
+// as a region), colour-only patches equal the shading at the centroid, bad patches are errors. Validation must stay
+// silent.
 #include <cmath>
 #include <cstring>
 
@@ -210,6 +211,14 @@ TEST_F(AtlasShade, BlocksNeverWriteOutsideThemselves) {
         ASSERT_EQ(a[3], 0) << "written outside the blocks at " << x << "," << y;
       }
     }
+  // The dirty rectangle of both blocks reads back as the whole image's texels there.
+  auto region = atlas->readAtlasRegion(8, 8, 24, 8);
+  ASSERT_TRUE(region.ok()) << region.error().message;
+  ASSERT_EQ(region->width, 24u);
+  for (uint32_t y = 0; y < 8; ++y)
+    for (uint32_t x = 0; x < 24; ++x) ASSERT_EQ(std::memcmp(region->at(x, y), after.at(8 + x, 8 + y), 4), 0);
+  EXPECT_FALSE(atlas->readAtlasRegion(120, 0, 16, 8).ok());
+  EXPECT_FALSE(atlas->readAtlasRegion(0, 0, 0, 8).ok());
 }
 
 TEST_F(AtlasShade, ColourOnlyEqualsTheCentroidsShading) {

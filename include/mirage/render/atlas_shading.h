@@ -62,6 +62,9 @@ public:
   Status shade(std::span<const shaderio::GpuAtlasPatch> patches, const AtlasLighting& lighting, glm::vec3 eye);
   // The whole atlas image as shade() left it (zero where nothing was shaded yet).
   ImageRGBA8 readAtlas();
+  // The width x height texels at (x, y) only (the blocks shaded this frame: a dirty rectangle).
+  // Errors: an empty rectangle or one leaving the atlas.
+  Result<ImageRGBA8> readAtlasRegion(uint32_t x, uint32_t y, uint32_t width, uint32_t height);
 
   // Colour-only patches: per global patch id one RGBA8 colour (encoded as the atlas), the shading
   // of the patch's centroid (area-weighted, on the patch triangle nearest to it) with the
