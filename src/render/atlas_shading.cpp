@@ -104,6 +104,12 @@ Status AtlasShading::Impl::upload(const Scene& scene) {
   firstTriangleBuffer =
       createBufferWithData<uint32_t>(ctx, triangleOffsets, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "atlas first triangles");
 
+  // A patch holds at least one triangle, so ids below the triangle count suffice (and bound the
+  // flag buffer).
+  for (size_t t = 0; t < patchOfTriangle.size(); ++t)
+    if (patchOfTriangle[t] >= patchOfTriangle.size())
+      return Error{fmt::format("{}: triangle {} maps to patch {}, beyond the {} patches its triangles allow",
+                               scene.source, t, patchOfTriangle[t], patchOfTriangle.size())};
   // The patch map and its inverse (counting sort: each patch's triangles ascending).
   for (uint32_t p : patchOfTriangle) patchCount = std::max(patchCount, p + 1);
   patchFirst.assign(size_t(patchCount) + 1, 0);

@@ -203,6 +203,9 @@ TEST_F(AtlasVisibility, BadInputIsAnError) {
   auto wrongSize = AtlasShading::create(context(), scene, {0, 0, 0});
   ASSERT_FALSE(wrongSize.ok());
   EXPECT_NE(wrongSize.error().message.find("3 triangles"), std::string::npos) << wrongSize.error().message;
+  auto badId = AtlasShading::create(context(), scene, {0, 7});
+  ASSERT_FALSE(badId.ok());
+  EXPECT_NE(badId.error().message.find("patch 7"), std::string::npos) << badId.error().message;
   auto badSide = AtlasShading::create(context(), scene, {0, 0}, {1000, 16});
   EXPECT_FALSE(badSide.ok());
   auto atlas = AtlasShading::create(context(), scene, {0, 0});

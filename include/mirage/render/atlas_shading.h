@@ -39,7 +39,8 @@ public:
   // lights) and `patchOfTriangle`: global triangle id -> global patch id, global triangle ids
   // instance-major as the PVS's (vis::triangleOffsets). Patch ids are 0..max; an id no triangle
   // names is simply never visible. Errors: a size that does not match the scene's triangles, an
-  // instance naming a missing mesh, a config outside its range.
+  // instance naming a missing mesh, a patch id not below the triangle count, a config outside
+  // its range.
   static Result<std::unique_ptr<AtlasShading>> create(gpu::Context& context, const Scene& scene,
                                                       std::vector<uint32_t> patchOfTriangle,
                                                       const AtlasShadingConfig& config = {});
