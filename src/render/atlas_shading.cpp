@@ -20,19 +20,13 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-// As the forward renderer packs vertex colours (RGBA8 unorm, linear).
-uint32_t packVertexColor(const glm::vec4& c) {
-  glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
-  return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
-}
-
 constexpr uint32_t kSuperblockSide = 1u << MIRAGE_ATLAS_MAX_BLOCK_LOG2;
 
 } // namespace
 
 std::vector<uint32_t> atlasMeshFirstVertex(const Scene& scene) {
   std::vector<uint32_t> first;
-  uint32_t next = 0;
+  uint32_t next = 0; // mergeSceneGeometry's firstVertex, without building the vertices
   for (const Mesh& m : scene.meshes) first.push_back(next), next += uint32_t(m.positions.size());
   return first;
 }
@@ -62,27 +56,16 @@ Status AtlasShading::Impl::upload(const Scene& scene) {
 
   sceneMaterials = scene.materials;
   if (sceneMaterials.empty()) sceneMaterials.push_back(Material{});
-  // Geometry merged as ForwardRenderer::Impl::upload merges it (GpuAtlasPatch::vertices index it).
-  std::vector<sio::GpuVertex> verts;
-  verts.reserve(vertexTotal);
-  for (const Mesh& m : scene.meshes) {
-    meshes.push_back({uint32_t(meshIndices.size()), uint32_t(m.indices.size()), uint32_t(verts.size()),
-                      std::min<uint32_t>(m.material, uint32_t(sceneMaterials.size() - 1))});
-    for (size_t i = 0; i < m.positions.size(); ++i) {
-      sio::GpuVertex v{};
-      v.position = m.positions[i];
-      v.normal = i < m.normals.size() ? m.normals[i] : glm::vec3(0, 1, 0);
-      v.uv = i < m.uv0.size() ? m.uv0[i] : glm::vec2(0.0f);
-      v.tangent = i < m.tangents.size() ? m.tangents[i] : glm::vec4(0.0f);
-      v.color = i < m.colors.size() ? packVertexColor(m.colors[i]) : 0xffffffffu;
-      verts.push_back(v);
-      positions.push_back(v.position);
-    }
-    meshIndices.insert(meshIndices.end(), m.indices.begin(), m.indices.end());
-  }
-  vertexCount = uint32_t(verts.size());
+  // Geometry merged as the forward renderer merges it (GpuAtlasPatch::vertices index it).
+  MergedGeometry merged = mergeSceneGeometry(scene);
+  for (size_t k = 0; k < scene.meshes.size(); ++k)
+    meshes.push_back({merged.firstIndex[k], uint32_t(scene.meshes[k].indices.size()), merged.firstVertex[k],
+                      std::min<uint32_t>(scene.meshes[k].material, uint32_t(sceneMaterials.size() - 1))});
+  for (const sio::GpuVertex& v : merged.vertices) positions.push_back(v.position);
+  meshIndices = std::move(merged.indices);
+  vertexCount = uint32_t(merged.vertices.size());
   vertices = createBufferWithData<sio::GpuVertex>(
-      ctx, verts, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "atlas vertices");
+      ctx, merged.vertices, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "atlas vertices");
   indices = createBufferWithData<uint32_t>(ctx, meshIndices, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, "atlas indices");
 
   materials = uploadMaterials(ctx, sceneMaterials, scene.textures.size(), mapTransforms, "atlas materials");
