@@ -17,50 +17,22 @@ namespace mirage::render {
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 
-namespace {
-
-uint32_t packColor(const glm::vec4& c) {
-  glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
-  return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
-}
-
-} // namespace
-
 sio::GpuInstance makeGpuInstance(const glm::mat4& m) { return {m, glm::transpose(glm::inverse(m))}; }
 
 bool isMirrored(const glm::mat4& m) { return glm::determinant(glm::mat3(m)) < 0.0f; }
 
 void ForwardRenderer::Impl::upload(const Scene& scene) {
   // Geometry: all meshes in one vertex and one index buffer.
-  std::vector<sio::GpuVertex> verts;
-  std::vector<uint32_t> idx;
-  size_t nv = 0, ni = 0;
-  for (const Mesh& m : scene.meshes) nv += m.positions.size(), ni += m.indices.size();
-  verts.reserve(nv);
-  idx.reserve(ni);
-  for (const Mesh& m : scene.meshes) {
-    ForwardMeshRange r;
-    r.firstIndex = uint32_t(idx.size());
-    r.indexCount = uint32_t(m.indices.size());
-    r.vertexOffset = int32_t(verts.size());
-    r.material = m.material;
-    r.bounds = m.bounds;
-    meshes.push_back(r);
-    for (size_t i = 0; i < m.positions.size(); ++i) {
-      sio::GpuVertex v{};
-      v.position = m.positions[i];
-      v.normal = i < m.normals.size() ? m.normals[i] : glm::vec3(0, 1, 0);
-      v.uv = i < m.uv0.size() ? m.uv0[i] : glm::vec2(0.0f);
-      v.tangent = i < m.tangents.size() ? m.tangents[i] : glm::vec4(0.0f);
-      v.color = i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu;
-      verts.push_back(v);
-    }
-    idx.insert(idx.end(), m.indices.begin(), m.indices.end());
+  MergedGeometry merged = mergeSceneGeometry(scene);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const Mesh& m = scene.meshes[k];
+    meshes.push_back(
+        {merged.firstIndex[k], uint32_t(m.indices.size()), int32_t(merged.firstVertex[k]), m.material, m.bounds});
   }
-  vertices = createBufferWithData<sio::GpuVertex>(ctx, verts, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "vertices");
+  vertices = createBufferWithData<sio::GpuVertex>(ctx, merged.vertices, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "vertices");
   // TRANSFER_SRC: a visible set's indices are copied out of it.
   indices = createBufferWithData<uint32_t>(
-      ctx, idx, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "indices");
+      ctx, merged.indices, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "indices");
 
   // Materials, with texture indices into the bindless array. A material referring to a missing
   // texture falls back to the factor alone.

@@ -143,6 +143,36 @@ gpu::Buffer uploadLights(gpu::Context& ctx, const std::vector<PointLight>& light
   return gpu::createBufferWithData<shaderio::GpuPointLight>(ctx, records, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, name);
 }
 
+namespace {
+uint32_t packColor(const glm::vec4& c) {
+  glm::vec4 v = glm::clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
+  return uint32_t(v.r) | uint32_t(v.g) << 8 | uint32_t(v.b) << 16 | uint32_t(v.a) << 24;
+}
+} // namespace
+
+MergedGeometry mergeSceneGeometry(const Scene& scene) {
+  MergedGeometry g;
+  size_t nv = 0, ni = 0;
+  for (const Mesh& m : scene.meshes) nv += m.positions.size(), ni += m.indices.size();
+  g.vertices.reserve(nv);
+  g.indices.reserve(ni);
+  for (const Mesh& m : scene.meshes) {
+    g.firstVertex.push_back(uint32_t(g.vertices.size()));
+    g.firstIndex.push_back(uint32_t(g.indices.size()));
+    for (size_t i = 0; i < m.positions.size(); ++i) {
+      shaderio::GpuVertex v{};
+      v.position = m.positions[i];
+      v.normal = i < m.normals.size() ? m.normals[i] : glm::vec3(0, 1, 0);
+      v.uv = i < m.uv0.size() ? m.uv0[i] : glm::vec2(0.0f);
+      v.tangent = i < m.tangents.size() ? m.tangents[i] : glm::vec4(0.0f);
+      v.color = i < m.colors.size() ? packColor(m.colors[i]) : 0xffffffffu;
+      g.vertices.push_back(v);
+    }
+    g.indices.insert(g.indices.end(), m.indices.begin(), m.indices.end());
+  }
+  return g;
+}
+
 void convertHalfImage(const std::vector<uint8_t>& rgba16f, uint32_t width, uint32_t height, bool keepLinear,
                       RenderOutput& out) {
   const uint16_t* half = reinterpret_cast<const uint16_t*>(rgba16f.data());

@@ -41,6 +41,16 @@ std::vector<shaderio::GpuPointLight> toGpuLights(const std::vector<PointLight>& 
 // shaders read lightCount first).
 gpu::Buffer uploadLights(gpu::Context& ctx, const std::vector<PointLight>& lights, const char* name);
 
+// The scene's meshes merged as the forward renderer and the atlas stages upload them: one vertex
+// list (meshes in scene order; missing normals (0, 1, 0), uvs 0, tangents 0, colours white) and
+// one index list of mesh-local indices; per mesh its first vertex and first index.
+struct MergedGeometry {
+  std::vector<shaderio::GpuVertex> vertices;
+  std::vector<uint32_t> indices;
+  std::vector<uint32_t> firstVertex, firstIndex;
+};
+MergedGeometry mergeSceneGeometry(const Scene& scene);
+
 // RGBA16F pixels read back from a colour target -> 8-bit sRGB (alpha linear) and, when
 // `keepLinear`, the float image.
 void convertHalfImage(const std::vector<uint8_t>& rgba16f, uint32_t width, uint32_t height, bool keepLinear,

@@ -1,0 +1,80 @@
+// The server's atlas stages (render/atlas_shading.h, docs/stream-shading.md): push constants and
+// records shared by C++ and the shaders atlas_visibility.* and atlas_shade/atlas_colour.comp.
+// Scalar block layout through buffer device addresses, as shaderio/forward.h.
+#ifndef MIRAGE_SHADERIO_ATLAS_SHADING_H
+#define MIRAGE_SHADERIO_ATLAS_SHADING_H
+
+#ifdef __cplusplus
+#include <cstdint>
+#include <glm/glm.hpp>
+namespace mirage::shaderio {
+using uint = uint32_t;
+using vec2 = glm::vec2;
+using mat4 = glm::mat4;
+#endif
+
+// Threads of the shading workgroup: one 8 x 8 tile of a block, a thread per texel.
+#define MIRAGE_ATLAS_TILE 8
+// Threads of the colour-only workgroup: a thread per patch.
+#define MIRAGE_ATLAS_COLOUR_GROUP 64
+
+// Push constants of the visibility passes (depth prepass and marking; <= 128 bytes).
+struct AtlasVisibilityPush {
+  mat4 viewProj;
+  uint64_t instanceAddress;      // GpuInstance[] in scene order
+  uint64_t firstTriangleAddress; // uint[] per instance: its first global triangle id
+  uint64_t patchOfTriangleAddress;
+  uint64_t flagsAddress;    // uint[] per global patch: 1 once a marked fragment covered it
+  uint64_t materialAddress; // GpuMaterial[] (the MASK prepass)
+  uint materialIndex;
+  uint pad0;
+};
+
+// One 8 x 8 tile of a patch's block to shade.
+struct AtlasTile {
+  uint patchIndex; // into the shaded GpuAtlasPatch[]
+  uint tile;       // x | y << 16, in tiles inside the block
+};
+
+// Push constants of atlas_shade.comp (one workgroup per AtlasTile).
+struct AtlasShadePush {
+  uint64_t frameAddress;    // FrameData: camera.eye and the lighting (the forward renderer's)
+  uint64_t vertexAddress;   // GpuVertex[]: the scene's merged vertices (forward renderer order)
+  uint64_t instanceAddress; // GpuInstance[] in scene order
+  uint64_t materialAddress; // GpuMaterial[]
+  uint64_t patchAddress;    // GpuAtlasPatch[]
+  uint64_t tileAddress;     // AtlasTile[tileCount]
+  uint tileCount;
+  uint pad0;
+};
+
+// A colour-only patch: the point of one of its triangles where it is shaded (its centroid).
+struct AtlasColourSample {
+  uint vertices[3]; // merged vertex indices of the triangle, in winding order
+  uint instance;
+  uint material;
+  float bary1, bary2; // barycentrics of the point w.r.t. vertices[1], vertices[2]
+  uint pad0;
+};
+
+// Push constants of atlas_colour.comp (a thread per sample).
+struct AtlasColourPush {
+  uint64_t frameAddress;
+  uint64_t vertexAddress;
+  uint64_t instanceAddress;
+  uint64_t materialAddress;
+  uint64_t sampleAddress; // AtlasColourSample[count]
+  uint64_t outputAddress; // uint[count]: RGBA8, sRGB-encoded colour, linear alpha
+  uint count;
+  uint pad0;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(AtlasVisibilityPush) == 112, "AtlasVisibilityPush layout");
+static_assert(sizeof(AtlasTile) == 8, "AtlasTile layout");
+static_assert(sizeof(AtlasShadePush) == 56, "AtlasShadePush layout");
+static_assert(sizeof(AtlasColourSample) == 32, "AtlasColourSample layout");
+static_assert(sizeof(AtlasColourPush) == 56, "AtlasColourPush layout");
+} // namespace mirage::shaderio
+#endif
+#endif
