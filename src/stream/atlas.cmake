@@ -1,0 +1,9 @@
+# mirage_stream_atlas: the CPU side of the shading atlas (patches). No Vulkan. docs/stream-atlas.md.
+add_library(mirage_stream_atlas STATIC
+  ${CMAKE_CURRENT_LIST_DIR}/patches.cpp)
+add_library(mirage::stream_atlas ALIAS mirage_stream_atlas)
+target_include_directories(mirage_stream_atlas PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
+                           $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}> PRIVATE ${CMAKE_CURRENT_LIST_DIR})
+set_target_properties(mirage_stream_atlas PROPERTIES EXPORT_NAME stream_atlas)
+target_link_libraries(mirage_stream_atlas PUBLIC mirage_core)
+mirage_warnings(mirage_stream_atlas)
