@@ -1,6 +1,7 @@
-# mirage_stream_atlas: the CPU side of the shading atlas (patches). No Vulkan. docs/stream-atlas.md.
+# mirage_stream_atlas: the CPU side of the shading atlas (patches, atlas allocator). No Vulkan. docs/stream-atlas.md.
 add_library(mirage_stream_atlas STATIC
-  ${CMAKE_CURRENT_LIST_DIR}/patches.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/patches.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/atlas.cpp)
 add_library(mirage::stream_atlas ALIAS mirage_stream_atlas)
 target_include_directories(mirage_stream_atlas PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
                            $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}> PRIVATE ${CMAKE_CURRENT_LIST_DIR})
