@@ -215,6 +215,23 @@ TEST(VideoCodec, ForcedKeyframeStartsAJoiningDecoder) {
   EXPECT_GE(psnr(asImage(syntheticAtlas(64, 4), 64, 64), asImage(joining->image(), 64, 64)), 30.0);
 }
 
+TEST(VideoCodec, IntraRefreshStreamDecodes) {
+  auto encoder =
+      VideoEncoder::create({.width = 128, .height = 128, .fps = 30, .bitrateKbps = 3000, .intraRefresh = true});
+  ASSERT_TRUE(encoder.ok()) << encoder.error().message;
+  auto decoder = VideoDecoder::create();
+  ASSERT_TRUE(decoder.ok());
+  for (uint32_t frame = 0; frame < 8; ++frame) {
+    std::vector<uint8_t> source = syntheticAtlas(128, frame);
+    auto packet = encoder->encode(source);
+    ASSERT_TRUE(packet.ok()) << packet.error().message;
+    auto got = decoder->decode(packet->data);
+    ASSERT_TRUE(got.ok()) << got.error().message;
+    ASSERT_TRUE(*got) << "frame " << frame;
+    EXPECT_GE(psnr(asImage(source, 128, 128), asImage(decoder->image(), 128, 128)), 35.0) << "frame " << frame;
+  }
+}
+
 TEST(VideoCodec, GarbageAndBadConfigsRejected) {
   EXPECT_FALSE(VideoEncoder::create({.width = 63, .height = 64}).ok());
   EXPECT_FALSE(VideoEncoder::create({.width = 0, .height = 64}).ok());
