@@ -5,8 +5,6 @@
 #include <bit>
 #include <string>
 
-#include "mirage/stream/patches.h"
-
 namespace mirage::stream {
 namespace {
 
@@ -199,6 +197,19 @@ std::vector<std::pair<uint32_t, AtlasPlacement>> AtlasAllocator::placements() co
   std::vector<std::pair<uint32_t, AtlasPlacement>> out;
   out.reserve(held_.size());
   for (const auto& [patch, held] : held_) out.emplace_back(patch, held.block);
+  return out;
+}
+
+shaderio::GpuAtlasPatch gpuAtlasPatch(const Patch& patch, uint32_t meshVertexOffset, uint32_t instance,
+                                      uint32_t material, const AtlasPlacement& block) {
+  shaderio::GpuAtlasPatch out{};
+  for (uint32_t v = 0; v < MIRAGE_ATLAS_MAX_PATCH_VERTICES; ++v) out.vertices[v] = meshVertexOffset + patch.vertices[v];
+  out.instance = instance;
+  out.material = material;
+  out.triangleCount = patch.triangleCount;
+  out.blockX = block.x;
+  out.blockY = block.y;
+  out.blockLog2 = block.log2;
   return out;
 }
 

@@ -185,6 +185,26 @@ TEST(Atlas, FullAtlasDegradesThenGoesColourOnly) {
   expectDisjoint(degrade);
 }
 
+TEST(Atlas, GpuRecordMatchesPlacementAndContract) {
+  AtlasAllocator allocator = makeAllocator({.size = 512});
+  AtlasUpdate update = allocator.update(std::vector<AtlasRequest>{{7, 3, 5}, {8, 2, 4}});
+  ASSERT_EQ(update.placed.size(), 2u);
+  Patch wide;
+  wide.triangleCount = 3;
+  for (uint32_t v = 0; v < 5; ++v) wide.vertices[v] = 10 + v;
+  const AtlasPlacement& block = update.placed[0].block; // patch 7, the wide one
+  ASSERT_TRUE(block.wide);
+  shaderio::GpuAtlasPatch record = gpuAtlasPatch(wide, 1000, 4, 2, block);
+  for (uint32_t v = 0; v < 5; ++v) EXPECT_EQ(record.vertices[v], 1010 + v);
+  EXPECT_EQ(record.instance, 4u);
+  EXPECT_EQ(record.material, 2u);
+  EXPECT_EQ(record.blockX, block.x);
+  EXPECT_EQ(record.blockY, block.y);
+  EXPECT_EQ(record.blockLog2, block.log2);
+  // The shaders size the block from triangleCount and blockLog2 alone: it must be the allocated one.
+  EXPECT_EQ(shaderio::atlasBlockWidth(record.triangleCount, record.blockLog2), block.width());
+}
+
 TEST(Atlas, RejectsBadSizes) {
   EXPECT_FALSE(AtlasAllocator::create({.size = 100}).ok());
   EXPECT_FALSE(AtlasAllocator::create({.size = 64}).ok());

@@ -15,6 +15,7 @@
 
 #include "mirage/core/result.h"
 #include "mirage/shaderio/atlas.h"
+#include "mirage/stream/patches.h"
 
 namespace mirage::stream {
 
@@ -117,5 +118,11 @@ private:
   uint64_t frame_ = 0;
   AtlasStats stats_;
 };
+
+// The shading stage's record of a placed patch (shaderio/atlas.h): slots a..e as merged vertex
+// indices (the patch's mesh-local indices + meshVertexOffset, where the mesh's vertices start in
+// the merged vertex buffer), the instance and material, and the block.
+shaderio::GpuAtlasPatch gpuAtlasPatch(const Patch& patch, uint32_t meshVertexOffset, uint32_t instance,
+                                      uint32_t material, const AtlasPlacement& block);
 
 } // namespace mirage::stream
