@@ -1,0 +1,78 @@
+#pragma once
+// H.264 atlas codec (docs/stream-atlas.md, "Codecs") through libavcodec: libx264 encodes, FFmpeg's
+// h264 decodes; RGBA8 <-> YUV 4:2:0 (full range, BT.709) with libswscale. Low latency: tune
+// zerolatency (no lookahead, no frame threads), no B-frames, one packet out per frame in, the VBV
+// buffer a few frames deep, periodic IDR or intra refresh, and a forced IDR on request.
+//
+// Alpha is not carried: H.264 has no alpha plane, decoded frames come back with alpha 255. Clients
+// take a patch's opacity from its material (base colour alpha and alpha mode), which the geometry
+// stream already names per patch, so the atlas carries only colour.
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mirage/core/result.h"
+
+namespace mirage::stream {
+
+struct VideoConfig {
+  uint32_t width = 0;  // even, > 0
+  uint32_t height = 0; // even, > 0
+  uint32_t fps = 60;
+  uint32_t bitrateKbps = 20000;     // average bitrate target (ABR, capped by the VBV below)
+  uint32_t vbvFrames = 2;           // VBV buffer in frames of the target: a frame's size stays near bitrate / fps
+  uint32_t keyframeInterval = 0;    // frames between IDRs; 0: 4 seconds (fps * 4)
+  bool intraRefresh = false;        // a moving intra column instead of periodic IDRs (steadier frame sizes)
+  std::string preset = "ultrafast"; // x264 preset: ultrafast or veryfast for live use
+};
+
+// One encoded frame: Annex B H.264 (start codes), what the decoder takes.
+struct VideoPacket {
+  std::vector<uint8_t> data;
+  bool keyframe = false;
+};
+
+class VideoEncoder {
+public:
+  // Errors: a bad config (odd or zero size, zero fps or bitrate) or libx264 missing or refusing it.
+  static Result<VideoEncoder> create(const VideoConfig& config);
+  VideoEncoder(VideoEncoder&&) noexcept;
+  VideoEncoder& operator=(VideoEncoder&&) noexcept;
+  ~VideoEncoder();
+
+  // Encodes one RGBA8 frame (width * height * 4 bytes; alpha ignored); forceKeyframe makes it an IDR.
+  Result<VideoPacket> encode(std::span<const uint8_t> rgba, bool forceKeyframe = false);
+  const VideoConfig& config() const;
+
+  struct State;
+
+private:
+  explicit VideoEncoder(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+class VideoDecoder {
+public:
+  static Result<VideoDecoder> create();
+  VideoDecoder(VideoDecoder&&) noexcept;
+  VideoDecoder& operator=(VideoDecoder&&) noexcept;
+  ~VideoDecoder();
+
+  // Feeds one packet; true when a frame came out (then image() holds it, RGBA8, alpha 255), false
+  // when the decoder needs more data (garbage without start codes is consumed this way). An error
+  // for data the decoder rejects or an image larger than 16384 on a side.
+  Result<bool> decode(std::span<const uint8_t> packet);
+  const std::vector<uint8_t>& image() const;
+  uint32_t width() const;
+  uint32_t height() const;
+
+  struct State;
+
+private:
+  explicit VideoDecoder(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+} // namespace mirage::stream
