@@ -283,6 +283,20 @@ Status AtlasShading::shade(std::span<const sio::GpuAtlasPatch> patches, const At
   return Ok{};
 }
 
+void AtlasShading::clearAtlas() {
+  Impl& d = *impl_;
+  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_CLEAR_BIT,
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    VkClearColorValue zero{};
+    VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdClearColorImage(cmd, d.atlas.handle(), VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &range);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  });
+}
+
 ImageRGBA8 AtlasShading::readAtlas() {
   Impl& d = *impl_;
   return ImageRGBA8{d.config.atlasSide, d.config.atlasSide, readbackImage(d.ctx, d.atlas, VK_IMAGE_LAYOUT_GENERAL, 4)};

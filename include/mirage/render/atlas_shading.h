@@ -61,6 +61,9 @@ public:
   // instance or material index outside the scene, a block outside the atlas or of a bad size,
   // more than maxPatches) shade nothing. Synchronous.
   Status shade(std::span<const shaderio::GpuAtlasPatch> patches, const AtlasLighting& lighting, glm::vec3 eye);
+  // Zeroes the whole atlas (a server shading for several clients in turn clears between them, so a
+  // client's atlas holds only its own blocks). Synchronous.
+  void clearAtlas();
   // The whole atlas image as shade() left it (zero where nothing was shaded yet).
   ImageRGBA8 readAtlas();
   // The width x height texels at (x, y) only (the blocks shaded this frame: a dirty rectangle).
