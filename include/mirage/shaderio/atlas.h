@@ -9,7 +9,7 @@
 //
 //   c (0,1) ---- d (1,1)
 //     |  t0 /  t1  | \  t2
-//     |   /        |    \
+//     |   /        |    \ (e below)
 //   a (0,0) ---- b (1,0) ---- e (2,0)
 //
 //   t0 = (a, b, c), t1 = (c, b, d), t2 = (b, e, d): t1 shares edge b-c with t0 and b-d with t2.
