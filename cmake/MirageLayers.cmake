@@ -1,4 +1,4 @@
-# Layer checks at configure time. The CPU-only libraries (mirage_core, _io, _asset, _lod, _shading, _particles_cpu, the
+# Layer checks at configure time. The CPU-only libraries (mirage_core, _io, _asset, _lod, _shading, _particles_cpu, _stream, the
 # surfel reference mirage_surfels_cpu and the CPU GVS++ mirage_visibility_cpu) must stay usable without
 # Vulkan: nothing in their link closure may be mirage_gpu, the shaders or a Vulkan target. Static
 # libraries carry their private links as $<LINK_ONLY:...>, so those count too.
@@ -44,7 +44,7 @@ function(mirage_require_no_vulkan target)
 endfunction()
 
 foreach(target mirage_core mirage_io mirage_asset mirage_lod mirage_surfels_cpu mirage_visibility_cpu mirage_shading
-               mirage_particles_cpu)
+               mirage_particles_cpu mirage_stream)
   if(TARGET ${target})
     mirage_require_no_vulkan(${target})
   endif()
