@@ -63,7 +63,8 @@ public:
   Status start(const ServerConfig& config, ServerEvents events);
   uint16_t port() const;
   // Thread-safe. Queues one message for `client`; false when the client is gone or its queue would
-  // pass maxQueuedBytes: the caller skips or merges (the next frame carries the latest state).
+  // pass maxQueuedBytes: the caller skips or merges (the next frame carries the latest state). A
+  // message larger than maxQueuedBytes is never accepted.
   bool send(ClientId client, std::span<const uint8_t> bytes);
   bool send(ClientId client, const Message& message);
   // Bytes queued for `client` and not yet handed to its socket (0 when gone). At most maxQueuedBytes;
