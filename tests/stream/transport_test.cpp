@@ -94,6 +94,8 @@ public:
     Status started = server.start(config, std::move(events));
     EXPECT_TRUE(started.ok()) << started.error().message;
   }
+  // Before the members the events use are destroyed: stop() reports the clients it disconnects.
+  ~Harness() { server.stop(); }
   std::string url() const { return "ws://127.0.0.1:" + std::to_string(server.port()) + "/"; }
 
   template <class Pred> bool waitFor(Pred pred, std::chrono::milliseconds timeout = 5s) {
@@ -178,6 +180,27 @@ TEST(StreamTransport, HelloWelcomePoseAndFrame) {
   }
   client.close();
   EXPECT_TRUE(h.waitFor([&] { return h.disconnects.size() == 1; }));
+}
+
+TEST(StreamTransport, StopClosesClientsAndReturns) {
+  Harness h;
+  TransportClient a, b;
+  ASSERT_TRUE(a.connect(h.url(), clientConfig()).ok());
+  ASSERT_TRUE(b.connect(h.url(), clientConfig()).ok());
+  auto start = std::chrono::steady_clock::now();
+  h.server.stop();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 2s);
+  {
+    std::lock_guard lock(h.mutex);
+    EXPECT_EQ(h.disconnects.size(), 2u);
+  }
+  Result<Message> gone = a.receive(5s);
+  ASSERT_FALSE(gone.ok());
+  EXPECT_NE(gone.error().message.find("server stopping"), std::string::npos) << gone.error().message;
+  EXPECT_FALSE(a.connected());
+  for (int i = 0; i < 500 && b.connected(); ++i) std::this_thread::sleep_for(10ms);
+  EXPECT_FALSE(b.connected());
+  h.server.stop(); // again: nothing to do
 }
 
 TEST(StreamTransport, WrongTokenIsRefusedWithReason) {
