@@ -1,7 +1,8 @@
 # Layer checks at configure time. The CPU-only libraries (mirage_core, _io, _asset, _lod, _shading, _particles_cpu, the
 # surfel reference mirage_surfels_cpu, the CPU GVS++ mirage_visibility_cpu and the atlas streaming CPU side
-# mirage_stream_atlas) must stay usable without Vulkan: nothing in their link closure may be mirage_gpu, the
-# shaders or a Vulkan target. Static libraries carry their private links as $<LINK_ONLY:...>, so those count too.
+# mirage_stream_net and mirage_stream_atlas) must stay usable without Vulkan: nothing in their link closure may be
+# mirage_gpu, the shaders or a Vulkan target. Static libraries carry their private links as $<LINK_ONLY:...>, so
+# those count too.
 function(_mirage_link_closure target)
   get_property(seen GLOBAL PROPERTY _mirage_link_seen)
   if(target IN_LIST seen)
@@ -44,7 +45,7 @@ function(mirage_require_no_vulkan target)
 endfunction()
 
 foreach(target mirage_core mirage_io mirage_asset mirage_lod mirage_surfels_cpu mirage_visibility_cpu mirage_shading
-               mirage_particles_cpu mirage_stream_atlas)
+               mirage_particles_cpu mirage_stream_net mirage_stream_atlas)
   if(TARGET ${target})
     mirage_require_no_vulkan(${target})
   endif()

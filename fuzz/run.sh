@@ -9,7 +9,9 @@ set -uo pipefail
 build=$1
 shift
 src=$(cd "$(dirname "$0")/.." && pwd)
-targets=${FUZZ_TARGETS:-$(sed -n 's/^set(MIRAGE_FUZZ_TARGETS \(.*\))$/\1/p' "$src/fuzz/CMakeLists.txt")}
+# The list may span several lines of fuzz/CMakeLists.txt.
+targets=${FUZZ_TARGETS:-$(sed -n '/^set(MIRAGE_FUZZ_TARGETS/,/)/p' "$src/fuzz/CMakeLists.txt" | tr -s '\n ' ' ' |
+  sed 's/^set(MIRAGE_FUZZ_TARGETS \([^)]*\)).*/\1/')}
 jobs=${JOBS:-$(nproc)}
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$src/cmake/sanitize/lsan.supp:print_suppressions=0}

@@ -6,6 +6,7 @@
 //                                     which the SCEN of a built asset lacks)
 //   seed_tool meshopt-glb out.glb     a quad in a GLB with EXT_meshopt_compression (attributes with
 //                                     the octahedral filter, triangle indices), which `mirage gen` cannot write
+//   seed_tool stream-messages out_dir one file per stream message type (fuzz_stream_message's input)
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include "fuzz_support.h"
 #include "mirage/asset/scene_chunk.h"
 #include "mirage/io/import.h"
+#include "mirage/stream/protocol.h"
 
 using namespace mirage;
 
@@ -112,12 +114,64 @@ int meshoptGlb(const std::filesystem::path& out) {
   return writeFile(out, glb) ? 0 : 2;
 }
 
+// One of each message type with every optional part present (a Frame with each patch size and a
+// colour-only patch, colours and an atlas payload), and an empty Frame.
+int streamMessages(const std::filesystem::path& dir) {
+  using namespace mirage::stream;
+  std::filesystem::create_directories(dir);
+  Pose pose;
+  pose.sequence = 7;
+  pose.clientTimeUs = 123456;
+  pose.camera.eye = {0.0f, 1.0f, 4.0f};
+  pose.predicted = pose.camera;
+  pose.predicted.eye.x = 0.1f;
+  pose.viewportWidth = 1280;
+  pose.viewportHeight = 720;
+  Welcome welcome;
+  welcome.sessionId = 42;
+  welcome.sceneMin = {-1.0f, -1.0f, -1.0f};
+  welcome.sceneMax = {1.0f, 1.0f, 1.0f};
+  welcome.atlasWidth = welcome.atlasHeight = 1024;
+  welcome.patchCount = 100;
+  welcome.maxMessageBytes = 65536;
+  Frame frame;
+  frame.sequence = 3;
+  frame.poseSequence = 7;
+  frame.removed = {1, 2};
+  for (uint8_t t = 1; t <= 4; ++t) {
+    PatchUpdate p;
+    p.id = 10 + t;
+    p.triangleCount = t == 4 ? 1 : t;
+    p.blockLog2 = t == 4 ? kColourOnlyBlock : uint8_t(t + 1);
+    p.blockX = t == 4 ? 0 : uint16_t(128 * t);
+    for (uint32_t v = 0; v < patchVertexCount(p.triangleCount); ++v) p.positions[v] = {float(v), float(t), 0.5f};
+    frame.updated.push_back(p);
+  }
+  frame.colours = {{14, {200, 100, 50, 255}}};
+  frame.atlas = {AtlasCodec::ZstdTiles, 64, 64, {0x28, 0xb5, 0x2f, 0xfd}};
+  std::vector<std::pair<std::string, Message>> messages = {
+      {"hello", Hello{"token", kCapabilityZstdTiles | kCapabilityH264, 1280, 720, false}},
+      {"welcome", welcome},
+      {"pose", pose},
+      {"frame", frame},
+      {"frame_empty", Frame{}},
+      {"close", Close{CloseCode::BadToken, "wrong token"}}};
+  for (const auto& [name, message] : messages) {
+    std::vector<uint8_t> bytes = encodeMessage(message);
+    if (!writeFile(dir / (name + ".msg"), std::string(bytes.begin(), bytes.end()))) return 2;
+  }
+  return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
   if (argc == 4 && std::strcmp(argv[1], "chunks") == 0) return chunks(argv[2], argv[3]);
   if (argc == 4 && std::strcmp(argv[1], "scen") == 0) return scen(argv[2], argv[3]);
   if (argc == 3 && std::strcmp(argv[1], "meshopt-glb") == 0) return meshoptGlb(argv[2]);
-  std::fprintf(stderr, "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb\n");
+  if (argc == 3 && std::strcmp(argv[1], "stream-messages") == 0) return streamMessages(argv[2]);
+  std::fprintf(
+      stderr,
+      "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb | stream-messages out_dir\n");
   return 2;
 }

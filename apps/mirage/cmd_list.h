@@ -38,6 +38,8 @@ void addGenCommand(CLI::App& app);
 void addSurfelsCommand(CLI::App& app);
 // mirage view SCENE [--camera ...] [--path P --screenshot OUT.png --exit-after-path] (cmd_view.cpp).
 void addViewCommand(CLI::App& app);
+// mirage serve SCENE --token-file F ... / mirage client ws://HOST:PORT --token T ... (cmd_stream.cpp).
+void addStreamCommands(CLI::App& app);
 // mirage pvs / pvs-eval: GVS++ potentially visible sets per view cell (cmd_pvs.cpp).
 void addPvsCommands(CLI::App& app);
 

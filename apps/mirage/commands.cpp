@@ -85,6 +85,7 @@ void registerCommands(CLI::App& app) {
   addSurfelsCommand(app);
   addPvsCommands(app);
   addViewCommand(app);
+  addStreamCommands(app);
 }
 
 } // namespace mirage::cli

@@ -90,8 +90,8 @@ inline uint32_t maxBlockLog2(uint32_t triangleCount) {
 //   L = max(|p(b) - p(a)|, |p(c) - p(a)|, |p(d) - p(c)|, |p(d) - p(b)|, |p(e) - p(b)|,
 //           |p(c) - p(b)| / sqrt(2), |p(d) - p(e)| / sqrt(2))   (the edges of its triangles)
 //   log2 = clamp(ceil(log2(L * 2^bias + 1)), MIRAGE_ATLAS_MIN_BLOCK_LOG2, maxBlockLog2(triangleCount))
-// worldPositions holds slots a..e (patchWorldPositions). bias > 0 asks for more texels per pixel, < 0 fewer. A patch with a vertex at or behind the eye
-// plane (clip w <= 0) gets the largest block: it is as close as a patch can be.
+// worldPositions holds slots a..e (patchWorldPositions). bias > 0 asks for more texels per pixel, < 0 fewer. A patch
+// with a vertex at or behind the eye plane (clip w <= 0) gets the largest block: it is as close as a patch can be.
 uint32_t patchBlockLog2(std::span<const glm::vec3> worldPositions, uint32_t triangleCount, const glm::mat4& viewProj,
                         glm::uvec2 viewport, float bias = 0.0f);
 

@@ -1,0 +1,150 @@
+// mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
+//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--web DIR]: Shading Atlas Streaming.
+// mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]:
+//   the native thin client (docs/stream.md).
+#include <atomic>
+#include <csignal>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "cmd_list.h"
+#include "commands.h"
+#include "mirage/io/image_io.h"
+#include "mirage/stream/client.h"
+#include "mirage/stream/server.h"
+#include "render_common.h"
+
+namespace mirage::cli {
+
+namespace {
+
+std::atomic<bool> gStop{false};
+extern "C" void onStopSignal(int) { gStop.store(true); }
+
+struct ServeCliOptions {
+  stream::StreamSceneOptions scene;
+  stream::ServeOptions serve;
+  std::string tokenFile;
+  std::string codec = "h264";
+  double bitrateMbit = 20.0;
+  std::string web;
+  std::string device;
+  bool quiet = false;
+};
+
+void runServe(ServeCliOptions& o) {
+  if (o.tokenFile.empty()) return fail("--token-file is required: clients authenticate with its token");
+  auto token = stream::readTokenFile(o.tokenFile);
+  if (!token) return fail(token.error());
+  o.serve.transport.token = *token;
+  if (o.codec == "h264")
+    o.serve.codec = stream::AtlasCodec::H264;
+  else if (o.codec == "zstd")
+    o.serve.codec = stream::AtlasCodec::ZstdTiles;
+  else
+    return fail(fmt::format("--codec {}: expected h264 or zstd", o.codec));
+  if (!(o.bitrateMbit > 0.0 && o.bitrateMbit <= 1000.0)) return fail("--bitrate must be in (0, 1000] Mbit/s");
+  o.serve.stream.bitrateKbps = uint32_t(o.bitrateMbit * 1000.0);
+  if (o.serve.transport.certFile.empty() != o.serve.transport.keyFile.empty())
+    return fail("--tls-cert and --tls-key go together");
+  o.serve.transport.staticDir = o.web;
+  auto ctx = openDevice(o.device);
+  if (!ctx) return fail(ctx.error());
+  auto scene = stream::openStreamScene(**ctx, o.scene);
+  if (!scene) return fail(scene.error());
+  size_t patches = (*scene)->patches.patchCount(), triangles = (*scene)->scene.instancedTriangleCount();
+  stream::ServeLog log;
+  if (!o.quiet) log = [](const std::string& line) { fmt::print("{}\n", line), std::fflush(stdout); };
+  auto server = stream::StreamServer::start(**ctx, std::move(*scene), o.serve, log);
+  if (!server) return fail(server.error());
+  if (!o.quiet)
+    fmt::print("serving {} ({} triangles in {} patches) on {}://{}:{}/ from {}\n", o.scene.input, triangles, patches,
+               o.serve.transport.certFile.empty() ? "ws" : "wss", o.serve.transport.host, (*server)->port(),
+               (*ctx)->caps().name),
+        std::fflush(stdout);
+  std::signal(SIGINT, onStopSignal);
+  std::signal(SIGTERM, onStopSignal);
+  Status s = (*server)->run(gStop);
+  if (!s) return fail(s.error());
+  if (!o.quiet) fmt::print("server stopped\n");
+}
+
+struct ClientCliOptions {
+  stream::StreamClientOptions client;
+  std::string path = "orbit:8";
+  std::string record;
+  std::string size = "1280x720";
+  std::string device;
+  std::string codec = "any";
+};
+
+void runClient(ClientCliOptions& o) {
+  if (auto s = parseSize(o.size, o.client.width, o.client.height); !s) return fail(s.error());
+  if (o.codec == "h264")
+    o.client.capabilities = stream::kCapabilityH264;
+  else if (o.codec == "zstd")
+    o.client.capabilities = stream::kCapabilityZstdTiles;
+  else if (o.codec != "any")
+    return fail(fmt::format("--codec {}: expected any, h264 or zstd", o.codec));
+  if (!o.record.empty())
+    if (auto s = checkOutputPath(o.record, {".png"}); !s) return fail(s.error());
+  auto ctx = openDevice(o.device);
+  if (!ctx) return fail(ctx.error());
+  size_t written = 0;
+  uint64_t bytes = 0;
+  double roundTrip = 0;
+  auto sink = [&](const stream::ClientFrameInfo& info, const render::RenderOutput& out) -> Status {
+    bytes += info.frameBytes;
+    roundTrip += info.roundTripMs;
+    if (o.record.empty()) return Ok{};
+    if (auto s = io::writePng(render::pathFrameName(o.record, info.index), out.srgb); !s) return s;
+    ++written;
+    return Ok{};
+  };
+  Status s = stream::runPathClient(**ctx, o.client, o.path, sink);
+  if (!s) return fail(s.error());
+  fmt::print("{} frames from {}: {:.2f} MB, mean round trip {:.1f} ms{}\n", written, o.client.url, bytes / 1e6,
+             written ? roundTrip / double(written) : 0.0, o.record.empty() ? "" : fmt::format(", images {}", o.record));
+}
+
+} // namespace
+
+void addStreamCommands(CLI::App& app) {
+  auto* s = app.add_subcommand("serve", "Serve a scene by Shading Atlas Streaming (docs/stream.md)");
+  auto so = std::make_shared<ServeCliOptions>();
+  s->add_option("input", so->scene.input, "Scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]")->required();
+  s->add_option("--port", so->serve.transport.port, "TCP port (0: any free one)")->capture_default_str();
+  s->add_option("--host", so->serve.transport.host, "Address to listen on (0.0.0.0: every interface)")
+      ->capture_default_str();
+  s->add_option("--token-file", so->tokenFile, "File holding the token clients must send")->required();
+  s->add_option("--tls-cert", so->serve.transport.certFile, "PEM certificate: serve wss:// and https://");
+  s->add_option("--tls-key", so->serve.transport.keyFile, "PEM private key of --tls-cert");
+  s->add_option("--max-clients", so->serve.transport.maxClients, "Connections at once")->capture_default_str();
+  s->add_option("--codec", so->codec, "Atlas codec for clients that decode it: h264 or zstd (lossless)")
+      ->capture_default_str();
+  s->add_option("--bitrate", so->bitrateMbit, "H.264 target, Mbit/s per client")->capture_default_str();
+  s->add_option("--level-bias", so->serve.stream.levelBias,
+                "Atlas texels per pixel: block side x 2^bias (> 0 sharper, more bytes)")
+      ->capture_default_str();
+  s->add_option("--atlas-size", so->scene.atlasSize, "Atlas side in texels (power of two)")->capture_default_str();
+  s->add_option("--materials", so->scene.materials, "Material file (TOML) applied to the scene");
+  s->add_option("--web", so->web, "Directory of the browser client (GET / serves its index.html)");
+  s->add_option("--device", so->device, "GPU index or name substring");
+  s->add_flag("--quiet", so->quiet, "Print nothing but errors");
+  s->callback([so] { runServe(*so); });
+
+  auto* c = app.add_subcommand("client", "Native thin client of mirage serve (docs/stream.md)");
+  auto co = std::make_shared<ClientCliOptions>();
+  c->add_option("url", co->client.url, "ws://HOST:PORT/ or wss://HOST:PORT/")->required();
+  c->add_option("--token", co->client.token, "The server's token")->required();
+  c->add_option("--ca", co->client.caFile, "wss: PEM certificates to trust");
+  c->add_option("--path", co->path, "Camera path: cams.json or orbit:N")->capture_default_str();
+  c->add_option("--record", co->record, "Write OUT_0000.png.. (names as mirage render --path)");
+  c->add_option("--size", co->size, "Viewport WxH")->capture_default_str();
+  c->add_option("--codec", co->codec, "Atlas codecs offered: any, h264 or zstd")->capture_default_str();
+  c->add_option("--device", co->device, "GPU index or name substring");
+  c->callback([co] { runClient(*co); });
+}
+
+} // namespace mirage::cli

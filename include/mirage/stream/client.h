@@ -1,0 +1,50 @@
+#pragma once
+// `mirage client`: the native thin client over the network (docs/stream.md, "Client"). Connects,
+// then along a camera path: sends each pose, applies the frames that come back and renders the
+// path's camera from what it holds.
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "mirage/core/result.h"
+#include "mirage/gpu/context.h"
+#include "mirage/render/camera.h"
+#include "mirage/render/forward_renderer.h"
+#include "mirage/stream/protocol.h"
+
+namespace mirage::stream {
+
+struct StreamClientOptions {
+  std::string url;    // ws://host:port/ or wss://host:port/
+  std::string token;  // the server's shared secret
+  std::string caFile; // wss: certificates to trust (empty: the system's)
+  uint32_t width = 1280, height = 720;
+  uint32_t capabilities = kCapabilityZstdTiles | kCapabilityH264; // the atlas codecs offered
+  std::chrono::milliseconds timeout{10000};                       // connecting, and waiting for each frame
+  uint32_t maxFrameBytes = 256u << 20;                            // largest server message accepted
+};
+
+// Per path camera: what arrived and what was drawn.
+struct ClientFrameInfo {
+  size_t index = 0;         // camera of the path
+  size_t count = 0;         // cameras in the path
+  uint32_t serverFrame = 0; // Frame.sequence applied last
+  uint64_t frameBytes = 0;  // bytes of the frames applied for this camera
+  uint64_t atlasBytes = 0;
+  size_t patchesHeld = 0;
+  double roundTripMs = 0; // pose sent -> its frame applied
+  AtlasCodec codec = AtlasCodec::None;
+};
+
+using ClientFrameSink = std::function<Status(const ClientFrameInfo&, const render::RenderOutput&)>;
+
+// Lock-step along `path` (a camera JSON file, or orbit:N around the bounds the server's Welcome
+// gives): for each camera, sends its pose (current = predicted = the camera), waits for the frame
+// answering it, applies it and renders that camera, then calls `sink`. Errors: connection refused
+// (with the server's reason), a frame that does not decode or apply, no answer within the timeout.
+Status runPathClient(gpu::Context& context, const StreamClientOptions& options, const std::string& path,
+                     const ClientFrameSink& sink);
+
+} // namespace mirage::stream

@@ -1,0 +1,186 @@
+#pragma once
+// The shading atlas streaming wire protocol (docs/stream.md, "Protocol"): versioned binary messages,
+// little-endian, one message per WebSocket binary frame. Every message starts with a 12-byte header
+// (magic "MRGS", uint16 version, uint16 type, uint32 payload length) followed by its payload.
+// Messages are plain structs; encodeMessage writes them, decodeMessage checks every length and count
+// against the bytes left and against DecodeLimits before it reads, so a hostile peer gets a one-line
+// error, never an out-of-bounds read or a huge allocation.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "mirage/core/result.h"
+
+namespace mirage::stream {
+
+inline constexpr std::array<uint8_t, 4> kMessageMagic = {'M', 'R', 'G', 'S'};
+inline constexpr uint16_t kProtocolVersion = 1;
+inline constexpr size_t kMessageHeaderBytes = 12;
+
+enum class MessageType : uint16_t { Hello = 1, Welcome = 2, Pose = 3, Frame = 4, Close = 5 };
+// "Hello", "Welcome", ... ("type N" for a value outside the enum).
+std::string messageTypeName(MessageType type);
+
+// Hello.capabilities bits: the atlas codecs a client can decode.
+enum CodecCapability : uint32_t {
+  kCapabilityZstdTiles = 1u << 0,
+  kCapabilityH264 = 1u << 1,
+  kCapabilityJpegTiles = 1u << 2,
+};
+inline constexpr uint32_t kKnownCapabilities = kCapabilityZstdTiles | kCapabilityH264 | kCapabilityJpegTiles;
+
+// The codec of an atlas payload. None: the frame carries no atlas (geometry or colours only).
+enum class AtlasCodec : uint8_t { None = 0, ZstdTiles = 1, H264 = 2, JpegTiles = 3 };
+inline constexpr uint8_t kAtlasCodecCount = 4;
+
+// How the client blends a patch: opaque patches write depth, blended ones go to the per-pixel lists.
+enum class AlphaMode : uint8_t { Opaque = 0, Mask = 1, Blend = 2 };
+inline constexpr uint8_t kAlphaModeCount = 3;
+
+// Why a peer closes (Close.code). The transport also closes the WebSocket with a matching
+// status code (closeStatusFor in transport.h).
+enum class CloseCode : uint16_t {
+  Normal = 0,       // the peer is done (server stopping, client quitting)
+  BadToken = 1,     // Hello's token is wrong
+  Malformed = 2,    // a message failed to decode
+  OutOfOrder = 3,   // Pose before Hello, a second Hello, a pose sequence not increasing, wrong direction
+  TooLarge = 4,     // a message over the byte limit
+  ServerFull = 5,   // max clients reached
+  HelloTimeout = 6, // no Hello within the handshake timeout
+  Overloaded = 7,   // the peer does not keep up
+  Unsupported = 8,  // no common codec, unknown version
+};
+inline constexpr uint16_t kCloseCodeCount = 9;
+
+// Client -> server, the first message on a connection.
+struct Hello {
+  std::string token;         // the shared secret (compared in constant time)
+  uint32_t capabilities = 0; // CodecCapability bits
+  uint32_t viewportWidth = 0, viewportHeight = 0;
+  bool stereo = false;
+  bool operator==(const Hello&) const = default;
+};
+
+// Server -> client, the answer to an accepted Hello.
+struct Welcome {
+  uint64_t sessionId = 0;
+  glm::vec3 sceneMin{0.0f}, sceneMax{0.0f}; // world-space bounds of the scene
+  uint32_t atlasWidth = 0, atlasHeight = 0; // texels
+  AtlasCodec codec = AtlasCodec::ZstdTiles; // chosen from the client's capabilities
+  uint32_t patchCount = 0;                  // patches in the scene (ids are below it)
+  // Server limits: a client must not exceed them.
+  uint32_t maxMessageBytes = 0; // largest message the server accepts
+  uint32_t maxPoseRate = 0;     // poses per second the server answers (0: no limit)
+  bool operator==(const Welcome&) const = default;
+};
+
+struct Camera {
+  glm::vec3 eye{0.0f}, target{0.0f, 0.0f, -1.0f}, up{0.0f, 1.0f, 0.0f};
+  float fovY = 1.0f; // vertical field of view, radians, in (0, pi)
+  bool operator==(const Camera&) const = default;
+};
+
+// Client -> server, once per client frame (or less often).
+struct Pose {
+  uint32_t sequence = 0;     // strictly increasing per connection
+  uint64_t clientTimeUs = 0; // the client's clock when the pose was taken
+  Camera camera;             // the current view
+  Camera predicted;          // the view the client expects when the answer arrives
+  uint32_t viewportWidth = 0, viewportHeight = 0;
+  bool operator==(const Pose&) const = default;
+};
+
+// Block of a patch that did not fit in the atlas: it is drawn with one colour (Frame.colours).
+inline constexpr uint8_t kColourOnlyBlock = 0xff;
+
+// A patch added to the client's set or changed (moved, new block).
+struct PatchUpdate {
+  uint32_t id = 0;           // global patch id (below Welcome.patchCount)
+  uint8_t triangleCount = 1; // 1..3
+  AlphaMode alpha = AlphaMode::Opaque;
+  // World positions of vertex slots a..e (shaderio/atlas.h); only the first triangleCount + 2 are sent.
+  std::array<glm::vec3, 5> positions{};
+  uint16_t blockX = 0, blockY = 0; // the block's first texel
+  uint8_t blockLog2 = 1;           // MIRAGE_ATLAS_MIN_BLOCK_LOG2..MAX, or kColourOnlyBlock
+  bool operator==(const PatchUpdate&) const = default;
+};
+// Vertex slots a patch of `triangleCount` triangles uses (3, 4 or 5).
+inline uint32_t patchVertexCount(uint32_t triangleCount) { return triangleCount + 2; }
+
+struct PatchColour {
+  uint32_t id = 0;
+  std::array<uint8_t, 4> rgba{};
+  bool operator==(const PatchColour&) const = default;
+};
+
+struct AtlasPayload {
+  AtlasCodec codec = AtlasCodec::None;
+  uint32_t width = 0, height = 0; // texels of the region the bytes encode
+  std::vector<uint8_t> bytes;
+  bool operator==(const AtlasPayload&) const = default;
+};
+
+// Server -> client, the answer to a pose.
+struct Frame {
+  uint32_t sequence = 0;     // frame number, increasing
+  uint32_t poseSequence = 0; // the Pose.sequence this frame was rendered for
+  uint64_t serverTimeUs = 0;
+  std::vector<uint32_t> removed;    // patch ids the client drops
+  std::vector<PatchUpdate> updated; // patches added or changed
+  std::vector<PatchColour> colours; // colours of colour-only patches
+  AtlasPayload atlas;
+  bool operator==(const Frame&) const = default;
+};
+
+// Either way: the sender closes the connection after it.
+struct Close {
+  CloseCode code = CloseCode::Normal;
+  std::string reason; // one line, for logs
+  bool operator==(const Close&) const = default;
+};
+
+using Message = std::variant<Hello, Welcome, Pose, Frame, Close>;
+MessageType messageType(const Message& message);
+
+// What the decoder accepts. A peer's message past any of these is rejected before anything is allocated.
+struct DecodeLimits {
+  uint32_t maxMessageBytes = 64u << 20;   // header included
+  uint32_t maxPatchesPerFrame = 1u << 20; // updated entries
+  uint32_t maxRemovedPerFrame = 1u << 20;
+  uint32_t maxColoursPerFrame = 1u << 20;
+  uint32_t maxTokenBytes = 256;
+  uint32_t maxReasonBytes = 1024;
+  uint32_t maxViewportSide = 16384;
+  uint32_t maxAtlasSide = 16384; // atlas width/height; blocks must lie inside
+};
+
+std::vector<uint8_t> encodeMessage(const Message& message);
+
+struct MessageHeader {
+  MessageType type = MessageType::Hello;
+  uint32_t payloadBytes = 0;
+};
+// The header alone (magic, version, known type, payload length within limits and equal to the bytes
+// after the header). `peer` names the sender in the error: "<peer>: ...".
+Result<MessageHeader> decodeMessageHeader(std::span<const uint8_t> bytes, const DecodeLimits& limits,
+                                          std::string_view peer);
+// One whole message. Errors name the message type and field: "<peer>: Frame: updated[3].triangleCount 4 not in 1..3".
+Result<Message> decodeMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits, std::string_view peer);
+
+// The order rules of one connection, seen from the server: the first message is Hello, only once;
+// then Pose (sequence strictly increasing) or Close. Welcome and Frame never come from a client.
+struct ClientMessageOrder {
+  bool helloSeen = false;
+  bool poseSeen = false;
+  uint32_t lastPoseSequence = 0;
+};
+// Advances `order` by `message` or says (one line, naming `peer`) why it is out of order.
+Status acceptClientMessage(ClientMessageOrder& order, const Message& message, std::string_view peer);
+
+} // namespace mirage::stream

@@ -1,0 +1,110 @@
+// The client's kept state and drawing (client_view.h; docs/stream.md, "Client").
+#include "mirage/stream/client_view.h"
+
+#include <fmt/format.h>
+
+#include "mirage/render/camera.h"
+
+namespace mirage::stream {
+
+Result<std::unique_ptr<StreamView>> StreamView::create(gpu::Context& context, const Welcome& welcome) {
+  std::unique_ptr<StreamView> v(new StreamView());
+  v->welcome_ = welcome;
+  v->bounds_.add(welcome.sceneMin);
+  v->bounds_.add(welcome.sceneMax);
+  render::AtlasClientConfig config;
+  config.atlasWidth = welcome.atlasWidth;
+  config.atlasHeight = welcome.atlasHeight;
+  config.maxPatches = std::max(1u, welcome.patchCount);
+  auto renderer = render::AtlasClientRenderer::create(context, config);
+  if (!renderer) return renderer.error();
+  v->renderer_ = std::move(*renderer);
+  if (welcome.codec == AtlasCodec::ZstdTiles) {
+    v->tiles_.emplace();
+  } else if (welcome.codec == AtlasCodec::H264) {
+    auto video = VideoDecoder::create();
+    if (!video) return video.error();
+    v->video_.emplace(std::move(*video));
+  } else if (welcome.codec != AtlasCodec::None) {
+    return Error{fmt::format("Welcome: atlas codec {} is not supported by this client", int(welcome.codec))};
+  }
+  return v;
+}
+
+namespace {
+
+render::PatchAlpha toPatchAlpha(AlphaMode mode) {
+  return mode == AlphaMode::Blend  ? render::PatchAlpha::Blend
+         : mode == AlphaMode::Mask ? render::PatchAlpha::Mask
+                                   : render::PatchAlpha::Opaque;
+}
+
+uint32_t packColour(const std::array<uint8_t, 4>& c) {
+  return uint32_t(c[0]) | uint32_t(c[1]) << 8 | uint32_t(c[2]) << 16 | uint32_t(c[3]) << 24;
+}
+
+} // namespace
+
+Status StreamView::apply(const Frame& frame) {
+  auto fail = [&](const std::string& what) { return Error{fmt::format("Frame {}: {}", frame.sequence, what)}; };
+  for (uint32_t id : frame.removed) {
+    if (!patches_.erase(id)) return fail(fmt::format("removes patch {}, which the client does not hold", id));
+    if (auto s = renderer_->removePatch(id); !s) return fail(s.error().message);
+  }
+  for (const PatchUpdate& u : frame.updated) {
+    if (u.id >= welcome_.patchCount)
+      return fail(fmt::format("patch {} is past the scene's {} patches", u.id, welcome_.patchCount));
+    render::ClientPatch p;
+    p.triangleCount = u.triangleCount;
+    p.positions = u.positions;
+    p.alpha = toPatchAlpha(u.alpha);
+    p.colorOnly = u.blockLog2 == kColourOnlyBlock;
+    if (!p.colorOnly) {
+      p.blockX = u.blockX;
+      p.blockY = u.blockY;
+      p.blockLog2 = u.blockLog2;
+    }
+    if (auto s = renderer_->setPatch(u.id, p); !s) return fail(s.error().message);
+    patches_[u.id] = p;
+  }
+  for (const PatchColour& c : frame.colours) {
+    auto it = patches_.find(c.id);
+    if (it == patches_.end() || !it->second.colorOnly)
+      return fail(fmt::format("colour for patch {}, which the client does not hold as colour-only", c.id));
+    it->second.color = packColour(c.rgba);
+    if (auto s = renderer_->setPatch(c.id, it->second); !s) return fail(s.error().message);
+  }
+  if (frame.atlas.codec == AtlasCodec::None) return Ok{};
+  if (frame.atlas.codec != welcome_.codec)
+    return fail(
+        fmt::format("atlas codec {} differs from the session's {}", int(frame.atlas.codec), int(welcome_.codec)));
+  if (tiles_) {
+    if (auto s = tiles_->decode(frame.atlas.bytes); !s) return fail(s.error().message);
+    if (tiles_->width() != welcome_.atlasWidth || tiles_->height() != welcome_.atlasHeight)
+      return fail("atlas size differs from Welcome's");
+    ImageRGBA8 image{tiles_->width(), tiles_->height(), tiles_->image()};
+    if (auto s = renderer_->updateAtlas(image); !s) return fail(s.error().message);
+  } else if (video_) {
+    auto out = video_->decode(frame.atlas.bytes);
+    if (!out) return fail(out.error().message);
+    if (*out) {
+      if (video_->width() != welcome_.atlasWidth || video_->height() != welcome_.atlasHeight)
+        return fail("atlas size differs from Welcome's");
+      ImageRGBA8 image{video_->width(), video_->height(), video_->image()};
+      if (auto s = renderer_->updateAtlas(image); !s) return fail(s.error().message);
+    }
+  }
+  return Ok{};
+}
+
+Result<render::RenderOutput> StreamView::render(const render::Camera& camera, uint32_t width, uint32_t height,
+                                                bool readLinear) {
+  render::AtlasClientSettings settings;
+  settings.width = width;
+  settings.height = height;
+  settings.camera = render::withClipPlanes(camera, bounds_);
+  settings.readLinear = readLinear;
+  return renderer_->render(settings);
+}
+
+} // namespace mirage::stream

@@ -1,0 +1,183 @@
+// The stream server's loop (server.h; docs/stream.md, "Server").
+#include "mirage/stream/server.h"
+
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <unordered_map>
+
+#include <fmt/format.h>
+
+namespace mirage::stream {
+
+namespace {
+
+// What the transport's thread hands over. Hellos and disconnects come once per connection (the
+// queue is bounded by the connections the transport admits); poses are kept per client, the
+// latest replacing an unanswered one, so a client sending poses fast costs no memory.
+struct Event {
+  ClientId client = 0;
+  std::optional<Hello> hello; // else a disconnect
+  std::string reason;
+};
+
+} // namespace
+
+struct StreamServer::Impl {
+  gpu::Context& ctx;
+  std::unique_ptr<StreamScene> scene;
+  ServeOptions options;
+  ServeLog log;
+  TransportServer transport;
+
+  std::mutex mutex;
+  std::condition_variable wake;
+  std::deque<Event> events;
+  std::unordered_map<ClientId, Pose> poses;
+
+  struct Client {
+    std::unique_ptr<ClientStream> stream;
+    uint64_t frames = 0, bytes = 0;
+  };
+  std::unordered_map<ClientId, Client> clients;
+
+  Impl(gpu::Context& c, std::unique_ptr<StreamScene> s, const ServeOptions& o, ServeLog l)
+      : ctx(c), scene(std::move(s)), options(o), log(std::move(l)) {}
+
+  void say(const std::string& line) const {
+    if (log) log(line);
+  }
+
+  void push(Event e) {
+    {
+      std::lock_guard lock(mutex);
+      events.push_back(std::move(e));
+    }
+    wake.notify_one();
+  }
+
+  ServerEvents transportEvents() {
+    ServerEvents ev;
+    ev.onMessage = [this](ClientId id, Message&& m) {
+      if (auto* hello = std::get_if<Hello>(&m)) {
+        push({id, std::move(*hello), {}});
+      } else if (auto* pose = std::get_if<Pose>(&m)) {
+        {
+          std::lock_guard lock(mutex);
+          poses[id] = *pose;
+        }
+        wake.notify_one();
+      }
+    };
+    ev.onDisconnect = [this](ClientId id, const std::string& reason) { push({id, std::nullopt, reason}); };
+    ev.onRefused = [this](const std::string& reason) { say(fmt::format("refused: {}", reason)); };
+    return ev;
+  }
+
+  AtlasCodec chooseCodec(uint32_t capabilities) const {
+    bool h264 = capabilities & kCapabilityH264, tiles = capabilities & kCapabilityZstdTiles;
+    if (options.codec == AtlasCodec::H264 && h264) return AtlasCodec::H264;
+    if (tiles) return AtlasCodec::ZstdTiles;
+    if (h264) return AtlasCodec::H264;
+    return AtlasCodec::None;
+  }
+
+  void welcome(ClientId id, const Hello& hello) {
+    AtlasCodec codec = chooseCodec(hello.capabilities);
+    if (codec == AtlasCodec::None) {
+      transport.close(id, CloseCode::Unsupported, "no atlas codec in common (the server sends zstd tiles and H.264)");
+      return;
+    }
+    ClientStreamConfig config = options.stream;
+    config.codec = codec;
+    auto stream = ClientStream::create(*scene, config);
+    if (!stream) {
+      transport.close(id, CloseCode::Unsupported, stream.error().message);
+      return;
+    }
+    Welcome w;
+    w.sessionId = id;
+    w.sceneMin = scene->bounds.min;
+    w.sceneMax = scene->bounds.max;
+    w.atlasWidth = w.atlasHeight = scene->atlasSize;
+    w.codec = codec;
+    w.patchCount = scene->patches.patchCount();
+    w.maxMessageBytes = options.transport.maxMessageBytes;
+    if (!transport.send(id, w)) return;
+    clients[id] = Client{std::move(*stream)};
+    say(fmt::format("client {} joined ({}x{}, {})", id, hello.viewportWidth, hello.viewportHeight,
+                    codec == AtlasCodec::H264 ? "H.264" : "zstd tiles"));
+  }
+
+  Status answer(ClientId id, const Pose& pose) {
+    auto it = clients.find(id);
+    if (it == clients.end()) return Ok{}; // gone, or refused at Hello
+    auto frame = it->second.stream->produceFrame(*scene, pose);
+    if (!frame) return frame.error();
+    std::vector<uint8_t> bytes = encodeMessage(*frame);
+    if (bytes.size() > options.maxFrameBytes || !transport.send(id, bytes)) {
+      transport.close(id, CloseCode::Overloaded, "a frame did not fit the client's queue");
+      clients.erase(it);
+      return Ok{};
+    }
+    it->second.frames++;
+    it->second.bytes += bytes.size();
+    return Ok{};
+  }
+};
+
+StreamServer::StreamServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+StreamServer::~StreamServer() { impl_->transport.stop(); }
+
+Result<std::unique_ptr<StreamServer>> StreamServer::start(gpu::Context& context, std::unique_ptr<StreamScene> scene,
+                                                          const ServeOptions& options, ServeLog log) {
+  auto impl = std::make_unique<Impl>(context, std::move(scene), options, std::move(log));
+  if (auto s = impl->transport.start(options.transport, impl->transportEvents()); !s) return s.error();
+  return std::unique_ptr<StreamServer>(new StreamServer(std::move(impl)));
+}
+
+uint16_t StreamServer::port() const { return impl_->transport.port(); }
+
+Status StreamServer::run(const std::atomic<bool>& stop) {
+  Impl& d = *impl_;
+  Status result = Ok{};
+  while (!stop.load()) {
+    std::deque<Event> events;
+    std::vector<std::pair<ClientId, Pose>> due;
+    {
+      std::unique_lock lock(d.mutex);
+      d.wake.wait_for(lock, std::chrono::milliseconds(5), [&] { return !d.events.empty() || !d.poses.empty(); });
+      events.swap(d.events);
+      // A pose is answered once the client's previous frame has left the queue; until then a newer
+      // pose replaces it.
+      for (auto it = d.poses.begin(); it != d.poses.end();) {
+        if (d.transport.queuedBytes(it->first) == 0) {
+          due.emplace_back(it->first, it->second);
+          it = d.poses.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
+    for (Event& e : events) {
+      if (e.hello) {
+        d.welcome(e.client, *e.hello);
+      } else if (auto it = d.clients.find(e.client); it != d.clients.end()) {
+        d.say(fmt::format("client {} left after {} frames, {:.1f} MB: {}", e.client, it->second.frames,
+                          it->second.bytes / 1e6, e.reason));
+        d.clients.erase(it);
+      }
+    }
+    for (const auto& [id, pose] : due) {
+      if (Status s = d.answer(id, pose); !s) {
+        result = Error{fmt::format("client {}: {}", id, s.error().message)};
+        break;
+      }
+    }
+    if (!result) break;
+  }
+  d.transport.stop();
+  return result;
+}
+
+} // namespace mirage::stream

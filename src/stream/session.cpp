@@ -1,0 +1,251 @@
+// The server's frame production (session.h; docs/stream.md, "Server").
+#include "mirage/stream/session.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "mirage/runtime/scene_argument.h"
+#include "mirage/shading/material_file.h"
+
+namespace mirage::stream {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+uint64_t microsecondsNow() {
+  return uint64_t(
+      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count());
+}
+
+// Largest number of blocks one shade() call takes: the shading stage's buffers are sized by it,
+// larger frames shade in several calls.
+constexpr uint32_t kMaxPatchesPerShade = 1u << 18;
+
+// Bytes of the Frame's geometry entries as encodeMessage writes them (protocol.h): an id per
+// removed patch; per update its fixed fields and the used vertex slots.
+uint64_t updateBytes(const PatchUpdate& u) { return 4 + 1 + 1 + 12ull * patchVertexCount(u.triangleCount) + 2 + 2 + 1; }
+
+} // namespace
+
+Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, const StreamSceneOptions& options) {
+  if (options.atlasSize < 128 || options.atlasSize > 16384 || (options.atlasSize & (options.atlasSize - 1)))
+    return Error{fmt::format("--atlas-size {} must be a power of two in 128..16384", options.atlasSize)};
+  std::optional<shading::MaterialFile> materials;
+  if (!options.materials.empty()) { // read first: a bad material file costs no import
+    auto file = shading::loadMaterialFile(options.materials);
+    if (!file) return file.error();
+    materials = std::move(*file);
+  }
+  auto scene = runtime::loadSceneArgument(options.input);
+  if (!scene) return scene.error();
+  auto s = std::make_unique<StreamScene>();
+  s->scene = std::move(*scene);
+  if (materials)
+    if (auto st = shading::applyMaterials(s->scene, *materials); !st) return st.error();
+  if (s->scene.instancedTriangleCount() == 0) return Error{fmt::format("{}: no triangles to stream", options.input)};
+  s->patches = buildPatchTable(s->scene);
+  std::vector<uint32_t> patchOfTriangle(s->patches.triangleCount());
+  for (uint32_t t = 0; t < patchOfTriangle.size(); ++t) patchOfTriangle[t] = s->patches.patchOfTriangle(t);
+  render::AtlasShadingConfig config;
+  config.atlasSide = options.atlasSize;
+  config.maxPatches = std::min(s->patches.patchCount(), kMaxPatchesPerShade);
+  auto shading = render::AtlasShading::create(context, s->scene, std::move(patchOfTriangle), config);
+  if (!shading) return makeError(options.input, shading.error().message);
+  s->shading = std::move(*shading);
+  s->meshFirstVertex = render::atlasMeshFirstVertex(s->scene);
+  s->bounds = s->scene.worldBounds();
+  s->atlasSize = options.atlasSize;
+  return s;
+}
+
+AlphaMode patchAlphaMode(const StreamScene& scene, uint32_t globalPatch) {
+  PatchRef ref = scene.patches.patchRef(globalPatch);
+  const Mesh& mesh = scene.scene.meshes[scene.patches.instanceMesh[ref.instance]];
+  if (mesh.material >= scene.scene.materials.size()) return AlphaMode::Opaque;
+  switch (scene.scene.materials[mesh.material].alphaMode) {
+  case mirage::AlphaMode::Mask:
+    return AlphaMode::Mask;
+  case mirage::AlphaMode::Blend:
+    return AlphaMode::Blend;
+  default:
+    return AlphaMode::Opaque;
+  }
+}
+
+render::Camera toRenderCamera(const Camera& camera, const Bounds& bounds) {
+  render::Camera c;
+  c.eye = camera.eye;
+  c.target = camera.target;
+  c.up = camera.up;
+  c.fovYDegrees = glm::degrees(camera.fovY);
+  return render::withClipPlanes(c, bounds);
+}
+
+Camera toProtocolCamera(const render::Camera& camera) {
+  return {camera.eye, camera.target, camera.up, glm::radians(camera.fovYDegrees)};
+}
+
+ClientStream::ClientStream(const ClientStreamConfig& config, AtlasAllocator atlas)
+    : config_(config), atlas_(std::move(atlas)) {}
+
+Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& scene, const ClientStreamConfig& config) {
+  AtlasConfig ac;
+  ac.size = scene.atlasSize;
+  auto atlas = AtlasAllocator::create(ac);
+  if (!atlas) return atlas.error();
+  std::unique_ptr<ClientStream> c(new ClientStream(config, std::move(*atlas)));
+  if (config.codec == AtlasCodec::ZstdTiles) {
+    c->tiles_.emplace(scene.atlasSize, scene.atlasSize);
+  } else if (config.codec == AtlasCodec::H264) {
+    VideoConfig vc;
+    vc.width = vc.height = scene.atlasSize;
+    vc.fps = config.fps;
+    vc.bitrateKbps = config.bitrateKbps;
+    auto video = VideoEncoder::create(vc);
+    if (!video) return video.error();
+    c->video_.emplace(std::move(*video));
+  } else {
+    return Error{fmt::format("atlas codec {} is not served", int(config.codec))};
+  }
+  return c;
+}
+
+void ClientStream::requestKeyframe() {
+  keyframe_ = true;
+  if (tiles_) tiles_->requestKeyframe();
+}
+
+Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, StreamFrameStats* stats) {
+  StreamFrameStats st;
+  auto t0 = Clock::now();
+  const uint32_t w = pose.viewportWidth, h = pose.viewportHeight;
+  if (w == 0 || h == 0) return Error{"Pose: empty viewport"};
+  render::Camera cameras[2] = {toRenderCamera(pose.camera, scene.bounds), toRenderCamera(pose.predicted, scene.bounds)};
+  auto visible = scene.shading->visibility(cameras, w, h);
+  if (!visible) return visible.error();
+  st.visibilityMs = msSince(t0);
+  st.visiblePatches = uint32_t(visible->size());
+
+  // Level selection: the larger block either view wants.
+  float bias = config_.levelBias + (config_.codec == AtlasCodec::H264 ? kH264LevelBias : 0.0f);
+  float aspect = float(w) / float(h);
+  glm::mat4 viewProj[2];
+  for (int i = 0; i < 2; ++i) viewProj[i] = cameras[i].projection(aspect) * cameras[i].view();
+  std::vector<AtlasRequest> requests;
+  requests.reserve(visible->size());
+  glm::vec3 world[MIRAGE_ATLAS_MAX_PATCH_VERTICES];
+  for (uint32_t id : *visible) {
+    uint32_t triangles = scene.patches.patch(scene.patches.patchRef(id)).triangleCount;
+    patchWorldPositions(scene.scene, scene.patches, id, world);
+    uint32_t log2 = 0;
+    for (int i = 0; i < 2; ++i)
+      log2 = std::max(log2, patchBlockLog2(world, triangles, viewProj[i], {w, h}, bias));
+    requests.push_back({id, triangles, log2});
+  }
+  atlas_.update(requests);
+
+  // Shading: every visible block, every frame (view-dependent terms follow the eye).
+  auto tShade = Clock::now();
+  std::vector<shaderio::GpuAtlasPatch> blocks;
+  std::vector<uint32_t> colourOnly;
+  blocks.reserve(visible->size());
+  for (uint32_t id : *visible) {
+    std::optional<AtlasPlacement> block = atlas_.placement(id);
+    if (!block) {
+      colourOnly.push_back(id);
+      continue;
+    }
+    PatchRef ref = scene.patches.patchRef(id);
+    uint32_t mesh = scene.patches.instanceMesh[ref.instance];
+    const Patch& patch = scene.patches.patch(ref);
+    blocks.push_back(
+        gpuAtlasPatch(patch, scene.meshFirstVertex[mesh], ref.instance, scene.scene.meshes[mesh].material, *block));
+    st.shadedTexels += uint64_t(block->width()) * block->height();
+  }
+  st.placedPatches = uint32_t(blocks.size());
+  st.colourOnly = uint32_t(colourOnly.size());
+  scene.shading->clearAtlas();
+  for (size_t first = 0; first < blocks.size(); first += kMaxPatchesPerShade) {
+    size_t count = std::min<size_t>(kMaxPatchesPerShade, blocks.size() - first);
+    if (auto s = scene.shading->shade({blocks.data() + first, count}, scene.lighting, cameras[0].eye); !s)
+      return s.error();
+  }
+  std::vector<glm::u8vec4> colours;
+  if (!colourOnly.empty()) {
+    auto c = scene.shading->shadeColours(colourOnly, scene.lighting, cameras[0].eye);
+    if (!c) return c.error();
+    colours = std::move(*c);
+  }
+  ImageRGBA8 atlas = scene.shading->readAtlas();
+  st.shadingMs = msSince(tShade);
+
+  // Encoding.
+  auto tEncode = Clock::now();
+  Frame frame;
+  frame.atlas.codec = config_.codec;
+  frame.atlas.width = atlas.width;
+  frame.atlas.height = atlas.height;
+  if (tiles_) {
+    auto bytes = tiles_->encode(atlas.pixels);
+    if (!bytes) return bytes.error();
+    frame.atlas.bytes = std::move(*bytes);
+  } else {
+    auto packet = video_->encode(atlas.pixels, keyframe_);
+    if (!packet) return packet.error();
+    frame.atlas.bytes = std::move(packet->data);
+  }
+  keyframe_ = false;
+  st.encodeMs = msSince(tEncode);
+  st.atlasBytes = frame.atlas.bytes.size();
+
+  // What the client holds next: the visible patches, each with its block or colour-only.
+  std::unordered_map<uint32_t, Held> next;
+  next.reserve(visible->size());
+  for (uint32_t id : *visible) next[id] = Held{atlas_.placement(id)};
+  for (const auto& [id, held] : held_)
+    if (!next.count(id)) frame.removed.push_back(id);
+  std::sort(frame.removed.begin(), frame.removed.end());
+  for (uint32_t id : *visible) {
+    const Held& now = next[id];
+    auto before = held_.find(id);
+    if (before != held_.end() && before->second.block == now.block) continue;
+    PatchUpdate u;
+    u.id = id;
+    const Patch& patch = scene.patches.patch(scene.patches.patchRef(id));
+    u.triangleCount = uint8_t(patch.triangleCount);
+    u.alpha = patchAlphaMode(scene, id);
+    patchWorldPositions(scene.scene, scene.patches, id, u.positions.data());
+    if (now.block) {
+      u.blockX = uint16_t(now.block->x);
+      u.blockY = uint16_t(now.block->y);
+      u.blockLog2 = uint8_t(now.block->log2);
+    } else {
+      u.blockLog2 = kColourOnlyBlock;
+    }
+    st.geometryBytes += updateBytes(u);
+    frame.updated.push_back(u);
+  }
+  st.geometryBytes += 4ull * frame.removed.size();
+  for (size_t i = 0; i < colourOnly.size(); ++i)
+    frame.colours.push_back({colourOnly[i], {colours[i].r, colours[i].g, colours[i].b, colours[i].a}});
+  st.colourBytes = 8ull * frame.colours.size();
+  held_ = std::move(next);
+
+  frame.sequence = ++sequence_;
+  frame.poseSequence = pose.sequence;
+  frame.serverTimeUs = microsecondsNow();
+  st.addedOrMoved = uint32_t(frame.updated.size());
+  st.removed = uint32_t(frame.removed.size());
+  st.totalMs = msSince(t0);
+  if (stats) *stats = st;
+  return frame;
+}
+
+} // namespace mirage::stream

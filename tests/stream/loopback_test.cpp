@@ -1,0 +1,154 @@
+// Shading Atlas Streaming end to end on loopback: a server and a native client in one process (two
+// Vulkan devices: a queue is not shared between threads), along an orbit, against the forward
+// renderer's image of the same cameras.
+#include <atomic>
+#include <thread>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "gpu_test.h"
+#include "mirage/core/image_metrics.h"
+#include "mirage/runtime/scene.h"
+#include "mirage/stream/client.h"
+#include "mirage/stream/server.h"
+
+namespace mirage {
+namespace {
+
+constexpr uint32_t kWidth = 320, kHeight = 180;
+constexpr char kToken[] = "loopback-secret";
+
+gpu::Context& serverContext() {
+  static std::unique_ptr<gpu::Context> context = [] {
+    gpu::ContextOptions options;
+    options.validation = true;
+    auto r = gpu::Context::create(options);
+    if (!r) std::abort();
+    return std::move(r).value();
+  }();
+  return *context;
+}
+
+// A server on a free port, serving `input` on its own thread until destroyed.
+struct LoopbackServer {
+  std::unique_ptr<stream::StreamServer> server;
+  std::atomic<bool> stop{false};
+  std::thread thread;
+  Status result = Ok{};
+
+  LoopbackServer(const std::string& input, stream::AtlasCodec codec) {
+    stream::StreamSceneOptions so;
+    so.input = input;
+    so.atlasSize = 1024;
+    auto scene = stream::openStreamScene(serverContext(), so);
+    EXPECT_TRUE(scene) << scene.error().message;
+    if (!scene) return;
+    stream::ServeOptions options;
+    options.transport.token = kToken;
+    options.codec = codec;
+    options.stream.bitrateKbps = 20000;
+    auto s = stream::StreamServer::start(serverContext(), std::move(*scene), options);
+    EXPECT_TRUE(s) << s.error().message;
+    if (!s) return;
+    server = std::move(*s);
+    thread = std::thread([this] { result = server->run(stop); });
+  }
+  ~LoopbackServer() {
+    stop = true;
+    if (thread.joinable()) thread.join();
+    EXPECT_TRUE(result) << result.error().message;
+    EXPECT_EQ(serverContext().validationIssues(), 0u);
+  }
+  std::string url() const { return fmt::format("ws://127.0.0.1:{}/", server->port()); }
+};
+
+// The client's frames along orbit:3 and the forward renderer's of the same cameras.
+void expectMatchesLocal(gpu::Context& ctx, const std::string& input, stream::AtlasCodec codec, uint32_t capabilities,
+                        double minSsim) {
+  LoopbackServer server(input, codec);
+  ASSERT_TRUE(server.server);
+  stream::StreamClientOptions options;
+  options.url = server.url();
+  options.token = kToken;
+  options.width = kWidth;
+  options.height = kHeight;
+  options.capabilities = capabilities;
+  std::vector<ImageRGBA8> streamed;
+  std::vector<stream::ClientFrameInfo> infos;
+  Status s = stream::runPathClient(ctx, options, "orbit:3",
+                                   [&](const stream::ClientFrameInfo& info, const render::RenderOutput& out) -> Status {
+                                     streamed.push_back(out.srgb);
+                                     infos.push_back(info);
+                                     return Ok{};
+                                   });
+  ASSERT_TRUE(s) << s.error().message;
+  ASSERT_EQ(streamed.size(), 3u);
+
+  auto local = runtime::Scene::open(ctx, {.input = input});
+  ASSERT_TRUE(local) << local.error().message;
+  auto cameras = render::orbitPath((*local)->bounds(), float(kWidth) / kHeight, 3);
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    runtime::View view;
+    view.camera = cameras[i];
+    view.width = kWidth;
+    view.height = kHeight;
+    auto frame = (*local)->render(view);
+    ASSERT_TRUE(frame) << frame.error().message;
+    double ssim = mirage::ssim(streamed[i], frame->srgb), psnr = mirage::psnr(streamed[i], frame->srgb);
+    EXPECT_GE(ssim, minSsim) << "camera " << i << " PSNR " << psnr;
+    std::printf("camera %zu: SSIM %.4f PSNR %.2f dB, %zu patches, %.1f KB atlas\n", i, ssim, psnr,
+                infos[i].patchesHeld, infos[i].atlasBytes / 1024.0);
+    EXPECT_GT(infos[i].patchesHeld, 0u);
+    EXPECT_EQ(infos[i].codec, codec);
+  }
+}
+
+class StreamLoopback : public test::GpuTest {};
+
+TEST_F(StreamLoopback, LosslessClientMatchesLocalRendering) {
+  expectMatchesLocal(context(), "gen:city:2", stream::AtlasCodec::ZstdTiles, stream::kCapabilityZstdTiles, 0.98);
+}
+
+TEST_F(StreamLoopback, H264ClientMatchesLocalRendering) {
+  expectMatchesLocal(context(), "gen:city:2", stream::AtlasCodec::H264,
+                     stream::kCapabilityH264 | stream::kCapabilityZstdTiles, 0.98);
+}
+
+TEST_F(StreamLoopback, WrongTokenIsRefusedWithItsReason) {
+  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles);
+  ASSERT_TRUE(server.server);
+  stream::StreamClientOptions options;
+  options.url = server.url();
+  options.token = "not-the-token";
+  Status s =
+      stream::runPathClient(context(), options, "orbit:1",
+                            [](const stream::ClientFrameInfo&, const render::RenderOutput&) { return Status(Ok{}); });
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("token"), std::string::npos) << s.error().message;
+}
+
+TEST_F(StreamLoopback, ReconnectGetsAFreshSession) {
+  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles);
+  ASSERT_TRUE(server.server);
+  stream::StreamClientOptions options;
+  options.url = server.url();
+  options.token = kToken;
+  options.width = 160;
+  options.height = 90;
+  options.capabilities = stream::kCapabilityZstdTiles;
+  for (int round = 0; round < 2; ++round) {
+    size_t frames = 0, firstPatches = 0;
+    Status s = stream::runPathClient(context(), options, "orbit:2",
+                                     [&](const stream::ClientFrameInfo& info, const render::RenderOutput&) -> Status {
+                                       if (frames++ == 0) firstPatches = info.patchesHeld;
+                                       return Ok{};
+                                     });
+    ASSERT_TRUE(s) << "round " << round << ": " << s.error().message;
+    EXPECT_EQ(frames, 2u);
+    EXPECT_GT(firstPatches, 0u) << "round " << round;
+  }
+}
+
+} // namespace
+} // namespace mirage
