@@ -405,6 +405,7 @@ void addBenchCommand(CLI::App& app) {
   addBenchSurfelsSamplerCommand(*bench);
   addBenchSurfelPointsCommand(*bench);
   addBenchParticlesCommand(*bench);
+  addBenchStreamCommand(*bench);
 }
 
 } // namespace mirage::cli

@@ -26,6 +26,8 @@ void addBenchSurfelsSamplerCommand(CLI::App& bench);
 void addBenchSurfelPointsCommand(CLI::App& bench);
 // mirage bench particles FX.toml --count N --sim cpu|gpu (cmd_bench_particles.cpp), added under `bench`.
 void addBenchParticlesCommand(CLI::App& bench);
+// mirage bench stream SCENE ... (cmd_bench_stream.cpp), added under `bench`.
+void addBenchStreamCommand(CLI::App& bench);
 // mirage particles FX.toml -o out.png [--scene S] [--frames N] ... (cmd_particles.cpp).
 void addParticlesCommand(CLI::App& app);
 // mirage build INPUT... -o scene.mrg; mirage verify scene.mrg.

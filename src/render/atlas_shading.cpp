@@ -1,6 +1,7 @@
 #include "mirage/render/atlas_shading.h"
 
 #include <algorithm>
+#include <utility>
 #include <array>
 #include <cstring>
 #include <limits>
@@ -268,7 +269,7 @@ Status AtlasShading::shade(std::span<const sio::GpuAtlasPatch> patches, const At
   push.tileAddress = d.tileBuffer.buffer.address();
   push.tileCount = uint32_t(tiles.size());
   VkExtent2D grid = groupGrid(push.tileCount);
-  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+  d.submitTimed("shade", [&](VkCommandBuffer cmd) {
     // Earlier reads of the atlas (copies out) and writes finish before these writes.
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                      VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
@@ -285,7 +286,7 @@ Status AtlasShading::shade(std::span<const sio::GpuAtlasPatch> patches, const At
 
 void AtlasShading::clearAtlas() {
   Impl& d = *impl_;
-  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+  d.submitTimed("clear", [&](VkCommandBuffer cmd) {
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                      VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_CLEAR_BIT,
                      VK_ACCESS_2_TRANSFER_WRITE_BIT);
@@ -296,6 +297,8 @@ void AtlasShading::clearAtlas() {
                      VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   });
 }
+
+std::vector<gpu::PassTime> AtlasShading::takePassTimes() { return std::exchange(impl_->passTimes, {}); }
 
 ImageRGBA8 AtlasShading::readAtlas() {
   Impl& d = *impl_;
@@ -414,7 +417,7 @@ Result<std::vector<glm::u8vec4>> AtlasShading::shadeColours(std::span<const uint
   push.sampleAddress = d.sampleBuffer.buffer.address();
   push.outputAddress = d.colourBuffer.buffer.address();
   push.count = uint32_t(samples.size());
-  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+  d.submitTimed("colours", [&](VkCommandBuffer cmd) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.colourPipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.computeLayout, 0, 1, &d.descriptors.set, 0, nullptr);
     vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);

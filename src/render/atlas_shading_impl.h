@@ -7,6 +7,7 @@
 #include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/memory.h"
 #include "mirage/gpu/pipeline.h"
+#include "mirage/gpu/query.h"
 #include "mirage/render/atlas_shading.h"
 #include "mirage/shaderio/atlas_shading.h"
 #include "mirage/shaderio/forward.h"
@@ -70,7 +71,21 @@ struct AtlasShading::Impl {
   gpu::Buffer frame; // FrameData (host-visible)
   AtlasHostBuffer patchBuffer, tileBuffer, sampleBuffer, colourBuffer, regionBuffer;
 
-  explicit Impl(gpu::Context& c) : ctx(c) {}
+  // GPU time of each submission since the last takePassTimes().
+  gpu::GpuTimer timer;
+  std::vector<gpu::PassTime> passTimes;
+
+  explicit Impl(gpu::Context& c) : ctx(c), timer(c, 2) {}
+  // Records `record` between two timestamps named `name`, submits and waits, keeps the time.
+  template <class F> void submitTimed(const char* name, F&& record) {
+    ctx.submitAndWait([&](VkCommandBuffer cmd) {
+      timer.cmdReset(cmd);
+      uint32_t slot = timer.cmdBegin(cmd, name);
+      record(cmd);
+      timer.cmdEnd(cmd, slot);
+    });
+    for (gpu::PassTime& t : timer.read()) passTimes.push_back(std::move(t));
+  }
   Status upload(const Scene& scene);
   void createPipelines();
   void writeFrame(const AtlasLighting& lighting, glm::vec3 eye);

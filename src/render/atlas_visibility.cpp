@@ -38,7 +38,7 @@ Result<std::vector<uint32_t>> AtlasShading::visibility(std::span<const Camera> c
     (mode == AlphaMode::Blend ? blend : mode == AlphaMode::Mask ? mask : opaque).push_back(i);
   }
 
-  d.ctx.submitAndWait([&](VkCommandBuffer cmd) {
+  d.submitTimed("visibility", [&](VkCommandBuffer cmd) {
     // The cleared flags reach the marking fragments and, for patches none marks, the copy out.
     vkCmdFillBuffer(cmd, d.flags.handle(), 0, VK_WHOLE_SIZE, 0);
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,

@@ -88,9 +88,16 @@ Status StreamView::apply(const Frame& frame) {
     auto out = video_->decode(frame.atlas.bytes);
     if (!out) return fail(out.error().message);
     if (*out) {
-      if (video_->width() != welcome_.atlasWidth || video_->height() != welcome_.atlasHeight)
-        return fail("atlas size differs from Welcome's");
-      ImageRGBA8 image{video_->width(), video_->height(), video_->image()};
+      // Colour alone, or colour on top and alpha below as grey (the server's scene has MASK or
+      // BLEND materials: H.264 carries no alpha plane).
+      uint32_t w = welcome_.atlasWidth, h = welcome_.atlasHeight;
+      bool stacked = video_->height() == 2 * h;
+      if (video_->width() != w || (video_->height() != h && !stacked))
+        return fail(fmt::format("a {}x{} video frame for a {}x{} atlas", video_->width(), video_->height(), w, h));
+      const std::vector<uint8_t>& decoded = video_->image();
+      ImageRGBA8 image{w, h, std::vector<uint8_t>(decoded.begin(), decoded.begin() + size_t(w) * h * 4)};
+      if (stacked)
+        for (size_t i = 0, texels = size_t(w) * h; i < texels; ++i) image.pixels[i * 4 + 3] = decoded[(texels + i) * 4];
       if (auto s = renderer_->updateAtlas(image); !s) return fail(s.error().message);
     }
   }

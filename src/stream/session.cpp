@@ -62,6 +62,7 @@ Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, cons
   s->meshFirstVertex = render::atlasMeshFirstVertex(s->scene);
   s->bounds = s->scene.worldBounds();
   s->atlasSize = options.atlasSize;
+  for (const Material& m : s->scene.materials) s->translucent |= m.alphaMode != mirage::AlphaMode::Opaque;
   return s;
 }
 
@@ -105,7 +106,9 @@ Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& sc
     c->tiles_.emplace(scene.atlasSize, scene.atlasSize);
   } else if (config.codec == AtlasCodec::H264) {
     VideoConfig vc;
-    vc.width = vc.height = scene.atlasSize;
+    vc.width = scene.atlasSize;
+    vc.height = scene.translucent ? 2 * scene.atlasSize : scene.atlasSize;
+    c->stackedAlpha_ = scene.translucent;
     vc.fps = config.fps;
     vc.bitrateKbps = config.bitrateKbps;
     auto video = VideoEncoder::create(vc);
@@ -128,6 +131,7 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   const uint32_t w = pose.viewportWidth, h = pose.viewportHeight;
   if (w == 0 || h == 0) return Error{"Pose: empty viewport"};
   render::Camera cameras[2] = {toRenderCamera(pose.camera, scene.bounds), toRenderCamera(pose.predicted, scene.bounds)};
+  scene.shading->takePassTimes(); // this frame's only
   auto visible = scene.shading->visibility(cameras, w, h);
   if (!visible) return visible.error();
   st.visibilityMs = msSince(t0);
@@ -145,8 +149,7 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
     uint32_t triangles = scene.patches.patch(scene.patches.patchRef(id)).triangleCount;
     patchWorldPositions(scene.scene, scene.patches, id, world);
     uint32_t log2 = 0;
-    for (int i = 0; i < 2; ++i)
-      log2 = std::max(log2, patchBlockLog2(world, triangles, viewProj[i], {w, h}, bias));
+    for (int i = 0; i < 2; ++i) log2 = std::max(log2, patchBlockLog2(world, triangles, viewProj[i], {w, h}, bias));
     requests.push_back({id, triangles, log2});
   }
   atlas_.update(requests);
@@ -185,6 +188,8 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   }
   ImageRGBA8 atlas = scene.shading->readAtlas();
   st.shadingMs = msSince(tShade);
+  for (const gpu::PassTime& t : scene.shading->takePassTimes())
+    (t.name == "visibility" ? st.gpuVisibilityMs : st.gpuShadingMs) += t.milliseconds;
 
   // Encoding.
   auto tEncode = Clock::now();
@@ -197,7 +202,18 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
     if (!bytes) return bytes.error();
     frame.atlas.bytes = std::move(*bytes);
   } else {
-    auto packet = video_->encode(atlas.pixels, keyframe_);
+    if (stackedAlpha_) { // colour on top, alpha below as grey (docs/stream.md, "Codecs")
+      size_t texels = size_t(atlas.width) * atlas.height;
+      stacked_.resize(texels * 8);
+      std::copy(atlas.pixels.begin(), atlas.pixels.end(), stacked_.begin());
+      for (size_t i = 0; i < texels; ++i) {
+        uint8_t a = atlas.pixels[i * 4 + 3];
+        uint8_t* out = &stacked_[(texels + i) * 4];
+        out[0] = out[1] = out[2] = a;
+        out[3] = 255;
+      }
+    }
+    auto packet = video_->encode(stackedAlpha_ ? std::span<const uint8_t>(stacked_) : atlas.pixels, keyframe_);
     if (!packet) return packet.error();
     frame.atlas.bytes = std::move(packet->data);
   }

@@ -14,6 +14,7 @@
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
+#include "mirage/gpu/query.h"
 #include "mirage/render/camera.h"
 #include "mirage/shaderio/atlas.h"
 
@@ -61,6 +62,9 @@ public:
   // instance or material index outside the scene, a block outside the atlas or of a bad size,
   // more than maxPatches) shade nothing. Synchronous.
   Status shade(std::span<const shaderio::GpuAtlasPatch> patches, const AtlasLighting& lighting, glm::vec3 eye);
+  // GPU times (timestamp queries) of the submissions since the last call: "visibility", "clear",
+  // "shade", "colours", one entry per call, in call order.
+  std::vector<gpu::PassTime> takePassTimes();
   // Zeroes the whole atlas (a server shading for several clients in turn clears between them, so a
   // client's atlas holds only its own blocks). Synchronous.
   void clearAtlas();

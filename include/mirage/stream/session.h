@@ -41,6 +41,9 @@ struct StreamScene {
   render::AtlasLighting lighting;
   Bounds bounds;
   uint32_t atlasSize = 0;
+  // Some material is MASK or BLEND: the atlas's alpha matters. H.264 has no alpha plane, so its
+  // frames then stack the alpha below the colour (stackedAlpha in docs/stream.md, "Codecs").
+  bool translucent = false;
 };
 
 // Reads (or generates) the scene, builds its patches and uploads it. Errors name the input.
@@ -79,6 +82,9 @@ struct StreamFrameStats {
   uint64_t colourBytes = 0;
   uint64_t atlasBytes = 0;
   double visibilityMs = 0, shadingMs = 0, encodeMs = 0, totalMs = 0; // wall clock on the server
+  // GPU time (timestamp queries): the visibility passes; clearing, shading the blocks and the
+  // colour-only patches. The atlas readback (a copy to host memory) is in shadingMs only.
+  double gpuVisibilityMs = 0, gpuShadingMs = 0;
 };
 
 class ClientStream {
@@ -104,6 +110,8 @@ private:
   AtlasAllocator atlas_;
   std::optional<TileDeltaEncoder> tiles_;
   std::optional<VideoEncoder> video_;
+  bool stackedAlpha_ = false;   // H.264 frames twice the atlas height: alpha below the colour
+  std::vector<uint8_t> stacked_; // that frame
   bool keyframe_ = true;
   std::unordered_map<uint32_t, Held> held_;
   uint32_t sequence_ = 0;

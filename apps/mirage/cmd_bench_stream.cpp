@@ -1,0 +1,109 @@
+// mirage bench stream SCENE [--path orbit:60] [--size WxH] [--codec h264|zstd] [--bitrate MBIT]
+//   [--clients N] [--latency-frames K] [--no-quality] [--json]: Shading Atlas Streaming measured in
+//   one process (mirage/stream/bench.h).
+#include <memory>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cmd_list.h"
+#include "commands.h"
+#include "mirage/stream/bench.h"
+#include "render_common.h"
+
+namespace mirage::cli {
+
+namespace {
+
+struct BenchStreamOptions {
+  stream::StreamBenchConfig config;
+  std::string size = "1920x1080";
+  std::string codec = "h264";
+  double bitrateMbit = 20.0;
+  bool noQuality = false;
+  std::string device;
+  bool json = false;
+};
+
+void runBenchStream(BenchStreamOptions& o) {
+  stream::StreamBenchConfig& c = o.config;
+  if (auto s = parseSize(o.size, c.width, c.height); !s) return fail(s.error());
+  c.codec = o.codec == "zstd" ? stream::AtlasCodec::ZstdTiles : stream::AtlasCodec::H264;
+  if (!(o.bitrateMbit > 0.0 && o.bitrateMbit <= 1000.0)) return fail("--bitrate must be in (0, 1000] Mbit/s");
+  c.bitrateKbps = uint32_t(o.bitrateMbit * 1000.0);
+  c.quality = !o.noQuality;
+  auto ctx = openDevice(o.device);
+  if (!ctx) return fail(ctx.error());
+  auto report = stream::runStreamBench(**ctx, c);
+  if (!report) return fail(report.error());
+  const auto& r = *report;
+  double gpuVis = 0, gpuShade = 0, encode = 0, texels = 0, visible = 0, atlasKB = 0, geometryKB = 0;
+  for (const auto& f : r.frames) {
+    gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, encode += f.encodeMs, texels += double(f.shadedTexels);
+    visible += f.visiblePatches, atlasKB += f.atlasBytes / 1024.0,
+        geometryKB += (f.geometryBytes + f.colourBytes) / 1024.0;
+  }
+  double n = double(std::max<size_t>(1, r.frames.size()));
+  if (o.json) {
+    nlohmann::json j = {{"scene", c.input},
+                        {"device", r.device},
+                        {"size", o.size},
+                        {"codec", o.codec},
+                        {"bitrate_mbit", o.bitrateMbit},
+                        {"clients", c.clients},
+                        {"latency_frames", c.latencyFrames},
+                        {"frames", r.frames.size()},
+                        {"server_ms", r.meanServerMs},
+                        {"gpu_ms", r.meanGpuMs},
+                        {"gpu_visibility_ms", gpuVis / n},
+                        {"gpu_shading_ms", gpuShade / n},
+                        {"encode_ms", encode / n},
+                        {"shaded_texels", texels / n},
+                        {"visible_patches", visible / n},
+                        {"atlas_kb", atlasKB / n},
+                        {"geometry_kb", geometryKB / n},
+                        {"mbit_s", r.megabitsPerSecond},
+                        {"clients_at_30hz", r.clientsAt30Hz}};
+    if (c.quality) j.update({{"ssim", r.meanSsim}, {"ssim_min", r.minSsim}, {"psnr", r.meanPsnr}});
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print("stream {} on {}: {} frames at {}, {} client(s), {} at {:.0f} Mbit/s, round trip {} frames\n", c.input,
+             r.device, r.frames.size(), o.size, c.clients, o.codec, o.bitrateMbit, c.latencyFrames);
+  fmt::print("  server per client frame: {:.2f} ms wall, GPU {:.3f} ms (visibility {:.3f}, shading {:.3f}), "
+             "encode {:.2f} ms; {:.0f} patches visible, {:.2f} M texels shaded\n",
+             r.meanServerMs, r.meanGpuMs, gpuVis / n, gpuShade / n, encode / n, visible / n, texels / n / 1e6);
+  fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry per frame = {:.1f} Mbit/s at {} Hz\n", atlasKB / n,
+             geometryKB / n, r.megabitsPerSecond, c.fps);
+  if (c.quality)
+    fmt::print("  quality against local rendering: SSIM mean {:.4f} min {:.4f}, PSNR {:.2f} dB\n", r.meanSsim,
+               r.minSsim, r.meanPsnr);
+  fmt::print("  clients one GPU serves at 30 Hz (from the wall time): {:.1f}\n", r.clientsAt30Hz);
+}
+
+} // namespace
+
+void addBenchStreamCommand(CLI::App& bench) {
+  auto* b = bench.add_subcommand("stream", "Shading Atlas Streaming: server cost, bytes and client quality per frame");
+  auto o = std::make_shared<BenchStreamOptions>();
+  stream::StreamBenchConfig& c = o->config;
+  b->add_option("input", c.input, "Scene file or gen:KIND[:SIZE]")->capture_default_str();
+  b->add_option("--materials", c.materials, "Material file (TOML)");
+  b->add_option("--path", c.path, "Camera path: cams.json or orbit:N")->capture_default_str();
+  b->add_option("--size", o->size, "Client viewport WxH")->capture_default_str();
+  b->add_option("--codec", o->codec, "Atlas codec: h264 or zstd")
+      ->check(CLI::IsMember({"h264", "zstd"}))
+      ->capture_default_str();
+  b->add_option("--bitrate", o->bitrateMbit, "H.264 target, Mbit/s")->capture_default_str();
+  b->add_option("--fps", c.fps, "Frames per second the path is played at")->capture_default_str();
+  b->add_option("--clients", c.clients, "Clients served in turn each frame")->capture_default_str();
+  b->add_option("--latency-frames", c.latencyFrames, "Round trip in frames")->capture_default_str();
+  b->add_option("--atlas-size", c.atlasSize, "Atlas side in texels")->capture_default_str();
+  b->add_option("--level-bias", c.levelBias, "Atlas texels per pixel: block side x 2^bias")->capture_default_str();
+  b->add_flag("--no-quality", o->noQuality, "Skip the client's images and their comparison with local rendering");
+  b->add_option("--device", o->device, "Vulkan device name substring or index");
+  b->add_flag("--json", o->json, "Print results as JSON");
+  b->callback([o] { runBenchStream(*o); });
+}
+
+} // namespace mirage::cli

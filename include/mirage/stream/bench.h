@@ -1,0 +1,57 @@
+#pragma once
+// `mirage bench stream` (docs/stream.md, "Measurements"): the server's frame production for N
+// clients and one client's view of it, in one process without the network, along a camera path.
+// Per frame: server time (wall and GPU), atlas texels shaded, bytes by kind; the client's image
+// against the forward renderer's of the same camera (SSIM, PSNR), with a round trip of K frames:
+// the client draws camera i from the frames answering poses up to i - K (each pose predicting the
+// camera it will be shown at: the path's camera i + K, an exact prediction; say so when comparing
+// with systems that predict).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mirage/core/result.h"
+#include "mirage/gpu/context.h"
+#include "mirage/stream/protocol.h"
+
+namespace mirage::stream {
+
+struct StreamBenchConfig {
+  std::string input = "gen:city:4"; // scene file or gen:KIND
+  std::string materials;
+  std::string path = "orbit:60"; // camera JSON or orbit:N
+  uint32_t width = 1920, height = 1080;
+  uint32_t atlasSize = 2048;
+  AtlasCodec codec = AtlasCodec::H264;
+  uint32_t bitrateKbps = 20000;
+  uint32_t fps = 60;          // frames per second the path is played at (bitrates, rate control)
+  uint32_t clients = 1;       // clients served in turn each frame, each along the path from its own offset
+  uint32_t latencyFrames = 0; // round trip, in frames
+  float levelBias = 0.0f;
+  bool quality = true; // client 0 draws every frame and is compared with local rendering
+};
+
+struct StreamBenchFrame {
+  // Server, per client frame (averaged over the clients served that frame).
+  double serverMs = 0, gpuVisibilityMs = 0, gpuShadingMs = 0, encodeMs = 0;
+  uint64_t shadedTexels = 0;
+  uint32_t visiblePatches = 0, colourOnly = 0;
+  // Client 0.
+  uint64_t geometryBytes = 0, colourBytes = 0, atlasBytes = 0;
+  double clientApplyMs = 0, clientRenderMs = 0; // decode + upload; drawing (wall, incl. readback)
+  double ssim = 0, psnr = 0;                    // against the forward renderer (quality on)
+};
+
+struct StreamBenchReport {
+  std::string device;
+  std::vector<StreamBenchFrame> frames;
+  // Means over the frames (the first latencyFrames + 1 frames excluded from quality: nothing has
+  // arrived for them yet).
+  double meanServerMs = 0, meanGpuMs = 0, meanSsim = 0, minSsim = 0, meanPsnr = 0;
+  double megabitsPerSecond = 0; // client 0's bytes at `fps`
+  double clientsAt30Hz = 0;     // 1000 / (30 x mean server wall ms per client frame)
+};
+
+Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& config);
+
+} // namespace mirage::stream

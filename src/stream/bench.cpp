@@ -1,0 +1,147 @@
+// `mirage bench stream` (bench.h; docs/stream.md, "Measurements").
+#include "mirage/stream/bench.h"
+
+#include <algorithm>
+#include <chrono>
+#include <deque>
+
+#include <fmt/format.h>
+
+#include "mirage/core/image_metrics.h"
+#include "mirage/runtime/scene.h"
+#include "mirage/stream/client_view.h"
+#include "mirage/stream/session.h"
+
+namespace mirage::stream {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+Status validate(const StreamBenchConfig& c) {
+  if (c.clients < 1 || c.clients > 64) return Error{"--clients must be in 1..64"};
+  if (c.fps < 1 || c.fps > 1000) return Error{"--fps must be in 1..1000"};
+  if (c.latencyFrames > 600) return Error{"--latency-frames must be in 0..600"};
+  if (c.width < 16 || c.height < 16 || c.width > 16384 || c.height > 16384)
+    return Error{"--size must be 16..16384 a side"};
+  if (c.codec != AtlasCodec::H264 && c.codec != AtlasCodec::ZstdTiles) return Error{"--codec must be h264 or zstd"};
+  return Ok{};
+}
+
+} // namespace
+
+Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& c) {
+  if (auto s = validate(c); !s) return s.error();
+  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize});
+  if (!scene) return scene.error();
+  StreamScene& served = **scene;
+  auto path = render::cameraPathArgument(c.path, served.bounds, float(c.width) / float(c.height));
+  if (!path) return path.error();
+  const std::vector<render::Camera>& cameras = *path;
+  const size_t n = cameras.size();
+  if (n == 0) return Error{fmt::format("{}: no cameras", c.path)};
+
+  ClientStreamConfig cc{c.codec, c.bitrateKbps, c.fps, c.levelBias};
+  std::vector<std::unique_ptr<ClientStream>> clients;
+  for (uint32_t k = 0; k < c.clients; ++k) {
+    auto client = ClientStream::create(served, cc);
+    if (!client) return client.error();
+    clients.push_back(std::move(*client));
+  }
+  Welcome welcome;
+  welcome.sceneMin = served.bounds.min;
+  welcome.sceneMax = served.bounds.max;
+  welcome.atlasWidth = welcome.atlasHeight = served.atlasSize;
+  welcome.codec = c.codec;
+  welcome.patchCount = served.patches.patchCount();
+  auto view = StreamView::create(context, welcome);
+  if (!view) return view.error();
+  std::unique_ptr<runtime::Scene> local;
+  if (c.quality) {
+    runtime::SceneOptions lo;
+    lo.input = c.input;
+    lo.materials = c.materials;
+    auto opened = runtime::Scene::open(context, lo);
+    if (!opened) return opened.error();
+    local = std::move(*opened);
+  }
+
+  StreamBenchReport report;
+  report.device = context.caps().name;
+  // Client 0's frames on their way: each arrives latencyFrames after the pose it answers was sent.
+  std::deque<std::pair<size_t, Frame>> inFlight;
+  std::vector<uint32_t> sequences(c.clients, 0);
+  double qualityFrames = 0;
+  uint64_t bytes = 0;
+  report.minSsim = 1.0;
+  for (size_t i = 0; i < n; ++i) {
+    StreamBenchFrame f;
+    for (uint32_t k = 0; k < c.clients; ++k) {
+      size_t j = (i + size_t(k) * n / c.clients) % n; // each client at its own place on the path
+      Pose pose;
+      pose.sequence = ++sequences[k];
+      pose.camera = toProtocolCamera(cameras[j]);
+      pose.predicted = toProtocolCamera(cameras[std::min(j + c.latencyFrames, n - 1)]);
+      pose.viewportWidth = c.width;
+      pose.viewportHeight = c.height;
+      StreamFrameStats st;
+      auto frame = clients[k]->produceFrame(served, pose, &st);
+      if (!frame) return frame.error();
+      f.serverMs += st.totalMs / c.clients;
+      f.gpuVisibilityMs += st.gpuVisibilityMs / c.clients;
+      f.gpuShadingMs += st.gpuShadingMs / c.clients;
+      f.encodeMs += st.encodeMs / c.clients;
+      f.shadedTexels += st.shadedTexels / c.clients;
+      f.visiblePatches += st.visiblePatches / c.clients;
+      f.colourOnly += st.colourOnly / c.clients;
+      if (k == 0) {
+        f.geometryBytes = st.geometryBytes;
+        f.colourBytes = st.colourBytes;
+        f.atlasBytes = st.atlasBytes;
+        bytes += st.geometryBytes + st.colourBytes + st.atlasBytes;
+        inFlight.emplace_back(i + c.latencyFrames, std::move(*frame));
+      }
+    }
+    auto tApply = Clock::now();
+    while (!inFlight.empty() && inFlight.front().first <= i) {
+      if (auto s = (*view)->apply(inFlight.front().second); !s) return s.error();
+      inFlight.pop_front();
+    }
+    f.clientApplyMs = msSince(tApply);
+    if (c.quality) {
+      auto tRender = Clock::now();
+      auto image = (*view)->render(cameras[i], c.width, c.height);
+      if (!image) return image.error();
+      f.clientRenderMs = msSince(tRender);
+      runtime::View lv;
+      lv.camera = cameras[i];
+      lv.width = c.width;
+      lv.height = c.height;
+      auto reference = local->render(lv);
+      if (!reference) return reference.error();
+      f.ssim = ssim(image->srgb, reference->srgb);
+      f.psnr = psnr(image->srgb, reference->srgb);
+      if (i >= c.latencyFrames) {
+        report.meanSsim += f.ssim;
+        report.meanPsnr += std::min(f.psnr, 99.0);
+        report.minSsim = std::min(report.minSsim, f.ssim);
+        qualityFrames += 1;
+      }
+    }
+    report.meanServerMs += f.serverMs / double(n);
+    report.meanGpuMs += (f.gpuVisibilityMs + f.gpuShadingMs) / double(n);
+    report.frames.push_back(f);
+  }
+  if (qualityFrames > 0) {
+    report.meanSsim /= qualityFrames;
+    report.meanPsnr /= qualityFrames;
+  } else {
+    report.minSsim = 0;
+  }
+  report.megabitsPerSecond = double(bytes) * 8.0 * c.fps / double(n) / 1e6;
+  report.clientsAt30Hz = report.meanServerMs > 0 ? 1000.0 / (30.0 * report.meanServerMs) : 0.0;
+  return report;
+}
+
+} // namespace mirage::stream
