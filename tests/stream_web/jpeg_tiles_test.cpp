@@ -2,6 +2,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
 #include <random>
 
 #include "mirage/core/image_metrics.h"
@@ -51,6 +54,7 @@ TEST(JpegTiles, KeyframeDecodesAbove35dB) {
   Status status = decoder.decode(*payload, "test");
   ASSERT_TRUE(status) << status.error().message;
   double quality = psnr(source, decoded(decoder, w, h));
+  std::printf("200x136 keyframe at quality 90: %zu bytes, %.1f dB\n", payload->size(), quality);
   EXPECT_GE(quality, 35.0);
   EXPECT_LT(payload->size(), size_t(w) * h * 3 / 2); // compressed well below raw RGB
 }
@@ -168,6 +172,33 @@ TEST(JpegTiles, CorruptPayloadsAreRejectedAndLeaveTheImage) {
   Status status = fresh.decode(*lateDelta, "peer");
   ASSERT_FALSE(status);
   EXPECT_NE(status.error().message.find("delta on frame 1"), std::string::npos) << status.error().message;
+}
+
+// Payloads for tests/stream_web/browser_test.py, which decodes them in Chromium (web/test.html?payload)
+// and compares the browser's atlas with this decoder's: the C++ encoder and the JavaScript decoder must
+// agree on the byte layout (JPEG decoders differ only in rounding). Runs only when that script names the output folder.
+TEST(JpegTiles, WritesBrowserFixture) {
+  const char* dir = std::getenv("MIRAGE_JPEG_TILES_FIXTURE");
+  if (!dir) GTEST_SKIP() << "MIRAGE_JPEG_TILES_FIXTURE not set (tests/stream_web/browser_test.py sets it)";
+  const uint32_t w = 200, h = 136;
+  ImageRGBA8 first = atlasImage(w, h, 0.0f);
+  ImageRGBA8 second = first;
+  for (uint32_t y = 40; y < 90; ++y)
+    for (uint32_t x = 70; x < 180; ++x) second.at(x, y)[0] = uint8_t(255 - second.at(x, y)[0]);
+  JpegTileEncoder encoder(w, h);
+  auto key = encoder.encode(first.pixels);
+  auto delta = encoder.encode(second.pixels);
+  ASSERT_TRUE(key && delta);
+  auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
+    std::ofstream out(std::string(dir) + "/" + name, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    ASSERT_TRUE(out.good()) << name;
+  };
+  JpegTileDecoder decoder(w, h);
+  ASSERT_TRUE(decoder.decode(*key, "key") && decoder.decode(*delta, "delta"));
+  write("key.mjt", *key);
+  write("delta.mjt", *delta);
+  write("expected.rgba", decoder.rgba()); // what the reference decoder makes of them
 }
 
 TEST(JpegTiles, WrongImageSizeIsAnError) {
