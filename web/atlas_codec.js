@@ -1,11 +1,12 @@
 // Atlas decoding into a WebGL2 texture: JPEG tiles (include/mirage/stream/jpeg_tiles.h: the byte
-// layout's source) through createImageBitmap, one texSubImage2D per strip; H.264 (Annex B) through
+// layout's source) through createImageBitmap, one texSubImage2D per tile; H.264 (Annex B) through
 // WebCodecs' VideoDecoder, each decoded frame uploaded whole.
 export const JPEG_TILE_SIDE = 32;
-const HEADER_BYTES = 24, STRIP_HEADER_BYTES = 12;
+const HEADER_BYTES = 24, STRIP_HEADER_BYTES = 8;
 
 // Parses a JPEG tiles payload (Uint8Array) without decoding: {width, height, frame, baseFrame,
-// keyframe, strips: [{x, y, width, height, jpeg}]}. Throws an Error of one line.
+// keyframe, strips: [{jpeg, tiles: [{x, y, width, height}]}]}, tile k of a strip at x = 32 k in its
+// JPEG. Throws an Error of one line.
 export function parseJpegTiles(bytes) {
   if (bytes.length < HEADER_BYTES) throw new Error(`JPEG tiles payload of ${bytes.length} bytes, shorter than the 24-byte header`);
   const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
@@ -14,45 +15,50 @@ export function parseJpegTiles(bytes) {
   const width = view.getUint32(4, true), height = view.getUint32(8, true);
   const frame = view.getUint32(12, true), baseFrame = view.getUint32(16, true), stripCount = view.getUint32(20, true);
   if (width === 0 || height === 0 || width > 16384 || height > 16384) throw new Error(`JPEG tiles size ${width}x${height} not in 1..16384`);
-  const columns = Math.ceil(width / JPEG_TILE_SIDE), rows = Math.ceil(height / JPEG_TILE_SIDE);
-  if (stripCount > columns * rows) throw new Error(`JPEG tiles strip count ${stripCount} over the ${columns * rows} tiles`);
+  const columns = Math.ceil(width / JPEG_TILE_SIDE), tileCount = columns * Math.ceil(height / JPEG_TILE_SIDE);
+  if (stripCount > tileCount) throw new Error(`JPEG tiles strip count ${stripCount} over the ${tileCount} tiles`);
   const strips = [];
-  let pos = HEADER_BYTES;
+  let pos = HEADER_BYTES, lastTile = -1;
   for (let s = 0; s < stripCount; ++s) {
     if (bytes.length - pos < STRIP_HEADER_BYTES) throw new Error(`strip ${s}: truncated header`);
-    const first = view.getUint32(pos, true), run = view.getUint16(pos + 4, true);
-    const reserved = view.getUint16(pos + 6, true), length = view.getUint32(pos + 8, true);
+    const count = view.getUint16(pos, true), reserved = view.getUint16(pos + 2, true), length = view.getUint32(pos + 4, true);
     pos += STRIP_HEADER_BYTES;
-    const column = first % columns, row = Math.floor(first / columns);
-    if (first >= columns * rows) throw new Error(`strip ${s}: tile ${first} outside the ${columns}x${rows} tiles`);
-    if (run === 0 || column + run > columns) throw new Error(`strip ${s}: run of ${run} tiles from column ${column} leaves the tile row`);
+    if (count === 0 || count > tileCount) throw new Error(`strip ${s}: ${count} tiles, not in 1..${tileCount}`);
     if (reserved !== 0) throw new Error(`strip ${s}: reserved field ${reserved} not 0`);
+    if (count * 4 > bytes.length - pos) throw new Error(`strip ${s}: truncated tile list`);
+    const tiles = [];
+    for (let k = 0; k < count; ++k, pos += 4) {
+      const tile = view.getUint32(pos, true);
+      if (tile >= tileCount || tile <= lastTile) throw new Error(`strip ${s}: tile ${tile} outside the ${tileCount} tiles or not after tile ${lastTile}`);
+      lastTile = tile;
+      const x = (tile % columns) * JPEG_TILE_SIDE, y = Math.floor(tile / columns) * JPEG_TILE_SIDE;
+      tiles.push({ x, y, width: Math.min(JPEG_TILE_SIDE, width - x), height: Math.min(JPEG_TILE_SIDE, height - y) });
+    }
     if (length > bytes.length - pos) throw new Error(`strip ${s}: JPEG of ${length} bytes, ${bytes.length - pos} left`);
-    const x = column * JPEG_TILE_SIDE, y = row * JPEG_TILE_SIDE;
-    strips.push({ x, y, width: Math.min(run * JPEG_TILE_SIDE, width - x), height: Math.min(JPEG_TILE_SIDE, height - y),
-      jpeg: bytes.subarray(pos, pos + length) });
+    strips.push({ tiles, jpeg: bytes.subarray(pos, pos + length) });
     pos += length;
   }
   if (pos !== bytes.length) throw new Error(`${bytes.length - pos} bytes after the last JPEG tiles strip`);
   return { width, height, frame, baseFrame, keyframe: frame === baseFrame, strips };
 }
 
-// Builds a JPEG tiles payload from strips whose JPEG bytes are already made (the test page's atlas).
+// Builds a JPEG tiles payload from strips {tiles: [tile index], jpeg} whose JPEGs are already made
+// (the test page's atlas).
 export function buildJpegTiles(width, height, frame, baseFrame, strips) {
-  const columns = Math.ceil(width / JPEG_TILE_SIDE);
   let total = HEADER_BYTES;
-  for (const s of strips) total += STRIP_HEADER_BYTES + s.jpeg.length;
+  for (const s of strips) total += STRIP_HEADER_BYTES + 4 * s.tiles.length + s.jpeg.length;
   const out = new Uint8Array(total);
   const view = new DataView(out.buffer);
   out.set([77, 74, 84, 49]); // "MJT1"
   [width, height, frame, baseFrame, strips.length].forEach((v, i) => view.setUint32(4 + 4 * i, v, true));
   let pos = HEADER_BYTES;
   for (const s of strips) {
-    view.setUint32(pos, (s.y / JPEG_TILE_SIDE) * columns + s.x / JPEG_TILE_SIDE, true);
-    view.setUint16(pos + 4, Math.ceil(s.width / JPEG_TILE_SIDE), true);
-    view.setUint32(pos + 8, s.jpeg.length, true);
-    out.set(s.jpeg, pos + STRIP_HEADER_BYTES);
-    pos += STRIP_HEADER_BYTES + s.jpeg.length;
+    view.setUint16(pos, s.tiles.length, true);
+    view.setUint32(pos + 4, s.jpeg.length, true);
+    pos += STRIP_HEADER_BYTES;
+    for (const tile of s.tiles) { view.setUint32(pos, tile, true); pos += 4; }
+    out.set(s.jpeg, pos);
+    pos += s.jpeg.length;
   }
   return out;
 }
@@ -95,11 +101,18 @@ export class AtlasTexture {
     gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
     tiles.strips.forEach((s, i) => {
       const bitmap = bitmaps[i];
-      if (bitmap.width !== s.width || bitmap.height !== s.height)
-        throw new Error(`strip at (${s.x}, ${s.y}) decodes to ${bitmap.width}x${bitmap.height}, expected ${s.width}x${s.height}`);
-      gl.texSubImage2D(gl.TEXTURE_2D, 0, s.x, s.y, gl.RGBA, gl.UNSIGNED_BYTE, bitmap);
-      bitmap.close();
+      if (bitmap.width !== s.tiles.length * JPEG_TILE_SIDE || bitmap.height !== JPEG_TILE_SIDE)
+        throw new Error(`strip ${i} decodes to ${bitmap.width}x${bitmap.height}, expected ${s.tiles.length * JPEG_TILE_SIDE}x${JPEG_TILE_SIDE}`);
     });
+    // Each tile is copied out of its strip: WebGL2 applies UNPACK_SKIP_PIXELS to image sources.
+    tiles.strips.forEach((s, i) => {
+      s.tiles.forEach((t, k) => {
+        gl.pixelStorei(gl.UNPACK_SKIP_PIXELS, k * JPEG_TILE_SIDE);
+        gl.texSubImage2D(gl.TEXTURE_2D, 0, t.x, t.y, t.width, t.height, gl.RGBA, gl.UNSIGNED_BYTE, bitmaps[i]);
+      });
+      bitmaps[i].close();
+    });
+    gl.pixelStorei(gl.UNPACK_SKIP_PIXELS, 0);
     this.frame = tiles.frame;
   }
 

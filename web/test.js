@@ -55,11 +55,14 @@ function frameMessage(sequence, removed, updated, colours, atlasBytes) {
   return out.buffer;
 }
 
-async function jpegOf(canvas, x, y, w, h) {
-  const strip = new OffscreenCanvas(w, h);
-  strip.getContext('2d').drawImage(canvas, x, y, w, h, 0, 0, w, h);
+// One strip: the atlas tiles `tiles` (row-major indices) side by side in one JPEG.
+async function stripOf(canvas, tiles) {
+  const columns = ATLAS_W / 32;
+  const strip = new OffscreenCanvas(32 * tiles.length, 32);
+  const g = strip.getContext('2d');
+  tiles.forEach((t, k) => g.drawImage(canvas, (t % columns) * 32, Math.floor(t / columns) * 32, 32, 32, 32 * k, 0, 32, 32));
   const blob = await strip.convertToBlob({ type: 'image/jpeg', quality: 0.95 });
-  return new Uint8Array(await blob.arrayBuffer());
+  return { tiles, jpeg: new Uint8Array(await blob.arrayBuffer()) };
 }
 
 async function run() {
@@ -75,13 +78,12 @@ async function run() {
   g.fillStyle = 'rgb(0,255,0)'; g.fillRect(0, 16, 32, 16);
   g.fillStyle = 'rgb(0,0,255)'; g.fillRect(32, 0, 32, 32);
   g.fillStyle = 'rgb(255,255,0)'; g.fillRect(64, 0, 32, 32);
-  const key = buildJpegTiles(ATLAS_W, ATLAS_H, 0, 0, [
-    { x: 0, y: 0, width: 128, height: 32, jpeg: await jpegOf(image, 0, 0, 128, 32) },
-    { x: 0, y: 32, width: 128, height: 32, jpeg: await jpegOf(image, 0, 32, 128, 32) },
-  ]);
-  // The delta: tile 0 repainted, its lower half white; patch 2 removed.
+  // Two strips: tiles 0-2 (block 1 spans tiles 1 and 2), then tiles 3-7.
+  const key = buildJpegTiles(ATLAS_W, ATLAS_H, 0, 0, [await stripOf(image, [0, 1, 2]), await stripOf(image, [3, 4, 5, 6, 7])]);
+  // The delta: tile 0 repainted, its lower half white, and tile 2 resent: one strip of two tiles
+  // that are not neighbours (tile 2 comes out of the JPEG at x = 32). Patch 2 removed.
   g.fillStyle = 'rgb(255,255,255)'; g.fillRect(0, 0, 32, 16);
-  const delta = buildJpegTiles(ATLAS_W, ATLAS_H, 1, 0, [{ x: 0, y: 0, width: 32, height: 32, jpeg: await jpegOf(image, 0, 0, 32, 32) }]);
+  const delta = buildJpegTiles(ATLAS_W, ATLAS_H, 1, 0, [await stripOf(image, [0, 2])]);
   const frames = [frameMessage(1, [], keyPatches, keyColours, key), frameMessage(2, [2], [], [], delta)];
 
   const patches = new PatchSet(), renderer = new PatchRenderer(gl), atlas = new AtlasTexture(gl, ATLAS_W, ATLAS_H);

@@ -81,6 +81,10 @@ JpegTileEncoder::JpegTileEncoder(uint32_t width, uint32_t height, JpegTileOption
   options_.maxStripTiles = std::clamp<uint32_t>(options_.maxStripTiles, 1, 0xffff);
 }
 
+int JpegTileEncoder::stbQuality() const {
+  return options_.subsampleChroma ? std::min(options_.quality, 90) : std::max(options_.quality, 91);
+}
+
 Result<std::vector<uint8_t>> JpegTileEncoder::encode(std::span<const uint8_t> rgba) {
   if (rgba.size() != size_t(width_) * height_ * 4)
     return makeError("jpeg tiles", "image of " + std::to_string(rgba.size()) + " bytes, expected " +
@@ -103,36 +107,37 @@ Result<std::vector<uint8_t>> JpegTileEncoder::encode(std::span<const uint8_t> rg
   size_t stripCountAt = out.size();
   putU32(out, 0);
 
+  std::vector<uint32_t> tiles;
+  for (uint32_t t = 0; t < changed.size(); ++t)
+    if (changed[t]) tiles.push_back(t);
   uint32_t strips = 0;
   std::vector<uint8_t> rgb;
-  for (uint32_t row = 0; row < rows; ++row) {
-    for (uint32_t column = 0; column < columns;) {
-      if (!changed[size_t(row) * columns + column]) {
-        ++column;
-        continue;
-      }
-      uint32_t run = 1;
-      while (column + run < columns && run < options_.maxStripTiles && changed[size_t(row) * columns + column + run])
-        ++run;
-      Rect rect = stripRect(column, row, run, width_, height_);
-      rgb.resize(size_t(rect.width) * rect.height * 3);
-      for (uint32_t y = 0; y < rect.height; ++y)
-        for (uint32_t x = 0; x < rect.width; ++x)
-          std::memcpy(&rgb[(size_t(y) * rect.width + x) * 3], &rgba[(size_t(rect.y + y) * width_ + rect.x + x) * 4], 3);
-      putU32(out, row * columns + column);
-      putU16(out, uint16_t(run));
-      putU16(out, 0);
-      size_t lengthAt = out.size();
-      putU32(out, 0);
-      size_t jpegStart = out.size();
-      if (!stbi_write_jpg_to_func(appendBytes, &out, int(rect.width), int(rect.height), 3, rgb.data(),
-                                  options_.quality))
-        return makeError("jpeg tiles", "stb_image_write failed on tile " + std::to_string(row * columns + column));
-      uint32_t jpegBytes = uint32_t(out.size() - jpegStart);
-      for (int i = 0; i < 4; ++i) out[lengthAt + size_t(i)] = uint8_t(jpegBytes >> (8 * i));
-      ++strips;
-      column += run;
+  for (size_t first = 0; first < tiles.size(); first += options_.maxStripTiles) {
+    uint32_t count = uint32_t(std::min<size_t>(options_.maxStripTiles, tiles.size() - first));
+    uint32_t stripWidth = count * kJpegTileSide;
+    rgb.resize(size_t(stripWidth) * kJpegTileSide * 3);
+    for (uint32_t k = 0; k < count; ++k) {
+      uint32_t tile = tiles[first + k];
+      Rect rect = stripRect(tile % columns, tile / columns, 1, width_, height_);
+      // Clipped tiles repeat their edge texels: no hard edge for the DCT to ring on.
+      for (uint32_t y = 0; y < kJpegTileSide; ++y)
+        for (uint32_t x = 0; x < kJpegTileSide; ++x) {
+          uint32_t sx = rect.x + std::min(x, rect.width - 1), sy = rect.y + std::min(y, rect.height - 1);
+          std::memcpy(&rgb[(size_t(y) * stripWidth + k * kJpegTileSide + x) * 3], &rgba[(size_t(sy) * width_ + sx) * 4],
+                      3);
+        }
     }
+    putU16(out, uint16_t(count));
+    putU16(out, 0);
+    size_t lengthAt = out.size();
+    putU32(out, 0);
+    for (uint32_t k = 0; k < count; ++k) putU32(out, tiles[first + k]);
+    size_t jpegStart = out.size();
+    if (!stbi_write_jpg_to_func(appendBytes, &out, int(stripWidth), int(kJpegTileSide), 3, rgb.data(), stbQuality()))
+      return makeError("jpeg tiles", "stb_image_write failed on a strip of " + std::to_string(count) + " tiles");
+    uint32_t jpegBytes = uint32_t(out.size() - jpegStart);
+    for (int i = 0; i < 4; ++i) out[lengthAt + size_t(i)] = uint8_t(jpegBytes >> (8 * i));
+    ++strips;
   }
   for (int i = 0; i < 4; ++i) out[stripCountAt + size_t(i)] = uint8_t(strips >> (8 * i));
 
@@ -158,7 +163,7 @@ Result<JpegTilesHeader> readJpegTilesHeader(std::span<const uint8_t> payload, st
   if (h.stripCount > tiles)
     return makeError(name, "JPEG tiles strip count " + std::to_string(h.stripCount) + " over the " +
                                std::to_string(tiles) + " tiles of the atlas");
-  if (uint64_t(h.stripCount) * kJpegStripHeaderBytes > payload.size() - kJpegTilesHeaderBytes)
+  if (uint64_t(h.stripCount) * (kJpegStripHeaderBytes + 4) > payload.size() - kJpegTilesHeaderBytes)
     return makeError(name, "JPEG tiles strip count " + std::to_string(h.stripCount) + " needs more than the " +
                                std::to_string(payload.size() - kJpegTilesHeaderBytes) + " bytes left");
   return h;
@@ -183,53 +188,65 @@ Status JpegTileDecoder::decode(std::span<const uint8_t> payload, std::string_vie
                                (hasFrame_ ? std::to_string(frame_) : std::string("none")));
 
   struct Strip {
-    Rect rect;
-    std::vector<uint8_t> rgb;
+    std::vector<uint32_t> tiles;
+    std::vector<uint8_t> rgb; // tiles.size() * 32 wide, 32 high
   };
   std::vector<Strip> strips;
-  uint32_t columns = jpegTileColumns(width_), rows = jpegTileRows(height_);
+  uint64_t tileCount = uint64_t(jpegTileColumns(width_)) * jpegTileRows(height_);
+  int64_t lastTile = -1;
   size_t pos = kJpegTilesHeaderBytes;
   for (uint32_t s = 0; s < h.stripCount; ++s) {
     std::string field = "strip " + std::to_string(s);
     if (payload.size() - pos < kJpegStripHeaderBytes) return makeError(name, field + ": truncated header");
-    uint32_t first = getU32(&payload[pos]);
-    uint16_t run = getU16(&payload[pos + 4]), reserved = getU16(&payload[pos + 6]);
-    uint32_t bytes = getU32(&payload[pos + 8]);
+    uint16_t count = getU16(&payload[pos]), reserved = getU16(&payload[pos + 2]);
+    uint32_t bytes = getU32(&payload[pos + 4]);
     pos += kJpegStripHeaderBytes;
-    if (first >= uint64_t(columns) * rows)
-      return makeError(name, field + ": tile " + std::to_string(first) + " outside the " + std::to_string(columns) +
-                                 "x" + std::to_string(rows) + " tiles");
-    if (run == 0 || first % columns + run > columns)
-      return makeError(name, field + ": run of " + std::to_string(run) + " tiles from column " +
-                                 std::to_string(first % columns) + " leaves the tile row");
+    if (count == 0 || count > tileCount)
+      return makeError(name, field + ": " + std::to_string(count) + " tiles, not in 1.." + std::to_string(tileCount));
     if (reserved != 0) return makeError(name, field + ": reserved field " + std::to_string(reserved) + " not 0");
+    if (uint64_t(count) * 4 > payload.size() - pos) return makeError(name, field + ": truncated tile list");
+    Strip strip;
+    for (uint32_t k = 0; k < count; ++k, pos += 4) {
+      uint32_t tile = getU32(&payload[pos]);
+      if (tile >= tileCount || int64_t(tile) <= lastTile)
+        return makeError(name, field + ": tile " + std::to_string(tile) + " outside the " + std::to_string(tileCount) +
+                                   " tiles or not after tile " + std::to_string(lastTile));
+      lastTile = tile;
+      strip.tiles.push_back(tile);
+    }
     if (bytes > payload.size() - pos)
       return makeError(name, field + ": JPEG of " + std::to_string(bytes) + " bytes, " +
                                  std::to_string(payload.size() - pos) + " left");
-    Rect rect = stripRect(first % columns, first / columns, run, width_, height_);
+    uint32_t stripWidth = count * kJpegTileSide;
     int w = 0, hh = 0, channels = 0;
     const auto* jpeg = reinterpret_cast<const stbi_uc*>(&payload[pos]);
     // Size check before decoding: a hostile header must not make stb allocate a huge image.
-    if (!stbi_info_from_memory(jpeg, int(bytes), &w, &hh, &channels) || uint32_t(w) != rect.width ||
-        uint32_t(hh) != rect.height)
-      return makeError(name,
-                       field + ": not a " + std::to_string(rect.width) + "x" + std::to_string(rect.height) + " JPEG");
+    if (!stbi_info_from_memory(jpeg, int(bytes), &w, &hh, &channels) || uint32_t(w) != stripWidth ||
+        uint32_t(hh) != kJpegTileSide)
+      return makeError(name, field + ": not a " + std::to_string(stripWidth) + "x32 JPEG");
     stbi_uc* pixels = stbi_load_from_memory(jpeg, int(bytes), &w, &hh, &channels, 3);
     if (!pixels) return makeError(name, field + ": JPEG does not decode (" + stbi_failure_reason() + ")");
-    strips.push_back({rect, std::vector<uint8_t>(pixels, pixels + size_t(w) * size_t(hh) * 3)});
+    strip.rgb.assign(pixels, pixels + size_t(w) * size_t(hh) * 3);
     stbi_image_free(pixels);
+    strips.push_back(std::move(strip));
     pos += bytes;
   }
   if (pos != payload.size())
     return makeError(name, std::to_string(payload.size() - pos) + " bytes after the last JPEG tiles strip");
 
-  for (const Strip& strip : strips)
-    for (uint32_t y = 0; y < strip.rect.height; ++y)
-      for (uint32_t x = 0; x < strip.rect.width; ++x) {
-        uint8_t* texel = &rgba_[(size_t(strip.rect.y + y) * width_ + strip.rect.x + x) * 4];
-        std::memcpy(texel, &strip.rgb[(size_t(y) * strip.rect.width + x) * 3], 3);
-        texel[3] = 255;
-      }
+  uint32_t columns = jpegTileColumns(width_);
+  for (const Strip& strip : strips) {
+    uint32_t stripWidth = uint32_t(strip.tiles.size()) * kJpegTileSide;
+    for (size_t k = 0; k < strip.tiles.size(); ++k) {
+      Rect rect = stripRect(strip.tiles[k] % columns, strip.tiles[k] / columns, 1, width_, height_);
+      for (uint32_t y = 0; y < rect.height; ++y)
+        for (uint32_t x = 0; x < rect.width; ++x) {
+          uint8_t* texel = &rgba_[(size_t(rect.y + y) * width_ + rect.x + x) * 4];
+          std::memcpy(texel, &strip.rgb[(size_t(y) * stripWidth + k * kJpegTileSide + x) * 3], 3);
+          texel[3] = 255;
+        }
+    }
+  }
   frame_ = h.frame;
   hasFrame_ = true;
   return Ok{};

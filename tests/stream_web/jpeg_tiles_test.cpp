@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -99,10 +100,65 @@ TEST(JpegTiles, DeltaCarriesOnlyChangedTilesAndTracksTheSource) {
   ASSERT_TRUE(status) << status.error().message;
   EXPECT_GE(psnr(second, decoded(decoder, w, h)), 35.0);
   EXPECT_NEAR(double(decoder.rgba()[(size_t(80) * w + 120) * 4 + 1]), 250.0, 8.0);
+
+  // The same change packed: the three tiles (not adjacent) share one strip.
+  JpegTileEncoder packed(w, h);
+  ASSERT_TRUE(packed.encode(first.pixels));
+  auto packedDelta = packed.encode(second.pixels);
+  ASSERT_TRUE(packedDelta);
+  Result<JpegTilesHeader> packedHeader = readJpegTilesHeader(*packedDelta, "packed");
+  ASSERT_TRUE(packedHeader);
+  EXPECT_EQ(packedHeader->stripCount, 1u);
+  EXPECT_LT(packedDelta->size(), delta->size());
+  JpegTileDecoder packedDecoder(w, h);
+  ASSERT_TRUE(packedDecoder.decode(*key, "key"));
+  Status packedStatus = packedDecoder.decode(*packedDelta, "packed");
+  ASSERT_TRUE(packedStatus) << packedStatus.error().message;
+  EXPECT_GE(psnr(second, decoded(packedDecoder, w, h)), 35.0);
+}
+
+// Flat, saturated tiles of unrelated colours, every other one changed: packed strips put unrelated
+// tiles side by side, and no texel (tile edges included) may take colour from its strip neighbour.
+double packedEdgeError(bool subsampleChroma) {
+  const uint32_t w = 256, h = 64;
+  auto paint = [&](uint32_t salt) {
+    ImageRGBA8 img;
+    img.width = w;
+    img.height = h;
+    img.pixels.assign(size_t(w) * h * 4, 255);
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        uint32_t tile = (y / 32) * 8 + x / 32;
+        uint32_t hue = (tile % 2 == 0 ? tile * salt : tile) % 6; // odd tiles never change
+        uint8_t* p = img.at(x, y);
+        p[0] = (hue == 0 || hue == 1 || hue == 5) ? 230 : 20;
+        p[1] = (hue >= 1 && hue <= 3) ? 230 : 20;
+        p[2] = (hue >= 3 && hue <= 5) ? 230 : 20;
+      }
+    return img;
+  };
+  JpegTileEncoder encoder(w, h, {.quality = 90, .subsampleChroma = subsampleChroma});
+  JpegTileDecoder decoder(w, h);
+  ImageRGBA8 first = paint(1), second = paint(5);
+  auto key = encoder.encode(first.pixels);
+  auto delta = encoder.encode(second.pixels);
+  EXPECT_TRUE(key && delta && decoder.decode(*key, "key") && decoder.decode(*delta, "delta"));
+  double worst = 0.0;
+  for (size_t i = 0; i < second.pixels.size(); ++i)
+    if (i % 4 != 3) worst = std::max(worst, std::abs(double(second.pixels[i]) - double(decoder.rgba()[i])));
+  return worst;
+}
+
+TEST(JpegTiles, PackedTilesKeepTheirOwnColours) {
+  double whole = packedEdgeError(false), halved = packedEdgeError(true);
+  std::printf("worst texel error, unrelated tiles packed side by side: %.0f (chroma whole), %.0f (4:2:0)\n", whole,
+              halved);
+  EXPECT_LE(whole, 16.0);
+  EXPECT_GT(halved, whole); // what whole chroma is for
 }
 
 TEST(JpegTiles, StripsCostLessThanSingleTiles) {
-  // Per-JPEG headers (quantization and Huffman tables, ~600 bytes) dominate small tiles; strips of
+  // Per-JPEG headers (quantization and Huffman tables, ~620 bytes) dominate small tiles; strips of
   // 16 tiles amortize them. The measured sizes go to docs/stream-web.md.
   const uint32_t w = 512, h = 256;
   ImageRGBA8 source = atlasImage(w, h, 0.3f);
@@ -147,11 +203,14 @@ TEST(JpegTiles, CorruptPayloadsAreRejectedAndLeaveTheImage) {
   bad[20] = 200; // strip count
   expectRejected(bad, "strip count");
   bad = *payload;
-  bad[24] = 99; // first tile index
+  bad[24] = 9; // tiles in the strip: more than the atlas has
+  expectRejected(bad, "tile count");
+  bad = *payload;
+  bad[32] = 99; // first tile index
   expectRejected(bad, "tile index");
   bad = *payload;
-  bad[28] = 9; // run leaves the row
-  expectRejected(bad, "run");
+  bad[36] = 0; // second tile index not after the first
+  expectRejected(bad, "tile order");
   bad = *payload;
   bad.push_back(0);
   expectRejected(bad, "trailing");

@@ -1,17 +1,20 @@
 #pragma once
 // JPEG tile atlas codec (docs/stream-web.md): the atlas payload a browser decodes without WebCodecs.
 // The atlas is cut into 32x32 tiles; a frame carries only the tiles whose RGB changed since the
-// encoder's previous frame (a keyframe carries all), grouped into strips of consecutive changed
-// tiles of one tile row, each strip one baseline JPEG (stb_image_write), so a browser hands every
-// strip to createImageBitmap and uploads it with one texSubImage2D. Alpha is not carried (like H.264).
+// encoder's previous frame (a keyframe carries all). Changed tiles, wherever they lie, are packed
+// side by side into strips of up to maxStripTiles tiles, each strip one baseline JPEG
+// (stb_image_write): every JPEG repeats ~620 bytes of tables, so one JPEG per tile would cost
+// 4-5x the bytes (measured in docs/stream-web.md). A browser decodes a strip with createImageBitmap
+// and copies each tile out of it with texSubImage2D. Alpha is not carried (like H.264).
 //
 // Payload, little-endian:
 //   header (24 bytes): magic "MJT1", uint32 width, uint32 height, uint32 frame, uint32 baseFrame,
 //                      uint32 stripCount. baseFrame == frame: a keyframe (every tile present);
 //                      else the strips replace tiles of frame baseFrame's image.
-//   per strip (12 bytes + JPEG): uint32 firstTile (row-major tile index), uint16 tileRun (tiles to
-//                      the right, same tile row), uint16 reserved (0), uint32 jpegBytes, the JPEG
-//                      (tileRun * 32 wide, 32 high, both clipped at the atlas edge).
+//   per strip: uint16 tileCount (>= 1), uint16 reserved (0), uint32 jpegBytes, tileCount x uint32
+//              tile index (row-major; strictly increasing over the whole payload), the JPEG:
+//              tileCount * 32 wide, 32 high, tile k at x = 32 k. A tile clipped by the atlas edge
+//              fills its top-left part (the rest repeats its edge texels).
 #include <array>
 #include <cstdint>
 #include <span>
@@ -25,11 +28,18 @@ namespace mirage::stream {
 inline constexpr std::array<uint8_t, 4> kJpegTilesMagic = {'M', 'J', 'T', '1'};
 inline constexpr uint32_t kJpegTileSide = 32;
 inline constexpr size_t kJpegTilesHeaderBytes = 24;
-inline constexpr size_t kJpegStripHeaderBytes = 12;
+inline constexpr size_t kJpegStripHeaderBytes = 8; // before the tile indices
 
 struct JpegTileOptions {
-  int quality = 90; // stb_image_write JPEG quality 1..100 (>= 90: no chroma subsampling)
-  // Longest strip in tiles; 1 sends every tile as its own JPEG (each pays ~600 bytes of headers).
+  int quality = 90; // stb_image_write JPEG quality 1..100
+  // stb_image_write halves chroma (4:2:0) at quality <= 90 and keeps it whole above. A decoder's
+  // chroma upsampling blends across the border of two tiles packed side by side in a strip, which
+  // are unrelated unless neighbours in the atlas; so by default chroma stays whole (the quality
+  // handed to stb is raised to 91 when it is lower). true: 4:2:0, stb's quality capped at 90 (fewer
+  // bytes; texels at tile edges take colour from the tile packed next to them).
+  bool subsampleChroma = false;
+  // Tiles per strip JPEG; 1 sends every tile as its own JPEG. Larger strips amortize the JPEG tables
+  // further but make one createImageBitmap call (and its latency) longer.
   uint32_t maxStripTiles = 16;
 };
 
@@ -51,6 +61,8 @@ public:
   uint32_t frameCount() const { return frame_; }
 
 private:
+  int stbQuality() const;
+
   uint32_t width_, height_;
   JpegTileOptions options_;
   std::vector<uint8_t> previous_; // RGB of the last encoded frame
