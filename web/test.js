@@ -138,5 +138,21 @@ async function runFixture() {
   document.title = 'done 1';
 }
 
-(new URLSearchParams(location.search).get('fixture') === '1' ? runFixture() : run())
+// ?h264=W,H: decodes atlas0.h264, atlas1.h264 (one access unit each) through WebCodecs into a W x H
+// atlas and records the texture.
+async function runH264(size) {
+  const [width, height] = size.split(',').map(Number);
+  const gl = document.getElementById('view').getContext('webgl2');
+  const atlas = new AtlasTexture(gl, width, height);
+  for (let i = 0; i < 2; ++i) {
+    const response = await fetch(`atlas${i}.h264`);
+    if (!response.ok) throw new Error(`atlas${i}.h264: HTTP ${response.status}`);
+    await atlas.applyH264(new Uint8Array(await response.arrayBuffer()), i);
+  }
+  window.mirageFrames = [atlasPng(gl, atlas)];
+  document.title = 'done 1';
+}
+
+const mode = new URLSearchParams(location.search);
+(mode.get('fixture') === '1' ? runFixture() : mode.get('h264') ? runH264(mode.get('h264')) : run())
   .catch((e) => { document.title = `error: ${e.message}`; });

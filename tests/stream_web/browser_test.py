@@ -63,7 +63,7 @@ def check_cxx_payloads(chromium, test_binary):
     site = os.path.join(folder, "site")
     shutil.copytree(os.path.join(SOURCE, "web"), site)
     env = dict(os.environ, MIRAGE_JPEG_TILES_FIXTURE=site)
-    result = subprocess.run([test_binary, "--gtest_filter=JpegTiles.WritesBrowserFixture"], env=env,
+    result = subprocess.run([test_binary, "--gtest_filter=*.WritesBrowserFixture"], env=env,
                             capture_output=True, text=True)
     if result.returncode != 0 or not os.path.exists(os.path.join(site, "key.mjt")):
         print(f"FAIL: {test_binary} did not write the payloads:\n{result.stdout[-2000:]}")
@@ -94,6 +94,35 @@ def check_cxx_payloads(chromium, test_binary):
     print(f"{'ok  ' if ok else 'FAIL'} C++ JPEG tiles (keyframe + delta) in the browser vs the C++ decoder: "
           f"{psnr:.1f} dB, need >= 40")
     return site if ok else None
+
+
+def check_h264(chromium, site):
+    """libx264 Annex B access units -> WebCodecs -> atlas texture, against the encoded image."""
+    if not os.path.exists(os.path.join(site, "atlas0.h264")):
+        print("skip H.264: H264Fixture wrote no stream (libavcodec without libx264)")
+        return True
+    server = browser_client.serve_directory(site)
+    out = os.path.join(os.path.dirname(site), "h264")
+    try:
+        status = browser_client.run(f"http://127.0.0.1:{server.server_address[1]}/test.html?h264=192,128",
+                                    out, chromium, 90, 320, 240, print)
+    finally:
+        server.shutdown()
+    if status != 0:
+        return False
+    width, height, rows = browser_client.read_png(os.path.join(out, "frame_0000.png"))
+    with open(os.path.join(site, "h264_source.rgba"), "rb") as f:
+        source = f.read()
+    if len(source) != width * height * 4:
+        print(f"FAIL: the browser's H.264 atlas is {width}x{height}, the source has {len(source) // 4} texels")
+        return False
+    squared = sum((rows[y][4 * x + c] - source[4 * (y * width + x) + c]) ** 2
+                  for y in range(height) for x in range(width) for c in range(3))
+    psnr = 10 * math.log10(255 * 255 * width * height * 3 / max(squared, 1))
+    ok = psnr >= 35
+    print(f"{'ok  ' if ok else 'FAIL'} H.264 atlas (key + P frame) through WebCodecs vs its source: {psnr:.1f} dB, "
+          f"need >= 35")
+    return ok
 
 
 def srgb_to_linear(c):
@@ -228,7 +257,7 @@ def main():
             print(f"{'ok  ' if ok else 'FAIL'} frame {index} {name}: pixel ({x}, {y}) = {got}, expected {expected}")
     if len(sys.argv) > 1:
         site = check_cxx_payloads(chromium, sys.argv[1])
-        if not site or not check_stream_client(chromium, site):
+        if not site or not check_stream_client(chromium, site) or not check_h264(chromium, site):
             failures += 1
         else:
             shutil.rmtree(os.path.dirname(site), ignore_errors=True)
