@@ -8,19 +8,17 @@ export const PATCH_A = 0, PATCH_B = 1, PATCH_C = 2, PATCH_D = 3, PATCH_E = 4;
 // Protocol: a patch that did not fit in the atlas (drawn with its colour message).
 export const COLOUR_ONLY_BLOCK = 0xff;
 
-export function atlasBlockWidth(triangleCount, blockLog2) {
-  return (triangleCount === 3 ? 2 : 1) << blockLog2;
-}
+export function atlasBlockWidth(triangleCount, blockLog2) { return (triangleCount === 3 ? 2 : 1) << blockLog2; }
 
 // Texel position (texel centres at .5) of vertex slot v inside a block of height 2^blockLog2.
 export function atlasCornerTexel(v, blockLog2) {
   const h = 1 << blockLog2;
   const far = h - 0.5;
-  if (v === PATCH_B) return [far, 0.5];
-  if (v === PATCH_C) return [0.5, far];
-  if (v === PATCH_D) return [far, far];
-  if (v === PATCH_E) return [2 * h - 0.5, 0.5];
-  return [0.5, 0.5];
+  if (v === PATCH_B) return [ far, 0.5 ];
+  if (v === PATCH_C) return [ 0.5, far ];
+  if (v === PATCH_D) return [ far, far ];
+  if (v === PATCH_E) return [ 2 * h - 0.5, 0.5 ];
+  return [ 0.5, 0.5 ];
 }
 
 // Vertex slots of triangle t (0..2): t0 = (a, b, c), t1 = (c, b, d), t2 = (b, e, d).

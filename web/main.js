@@ -3,11 +3,29 @@
 // display's rate from the latest atlas. ?path=<camera JSON>&record=1 replays a fixed camera path:
 // each camera is drawn once its frame has arrived and decoded, its pixels go to
 // window.mirageFrames[i] (a PNG data URL) and document.title says "frame i/N", then "done N".
-import { encodeHello, encodePose, decodeMessage, MessageType, Capability, AtlasCodec, CloseCodeNames } from './protocol.js';
-import { AtlasTexture, h264Supported } from './atlas_codec.js';
-import { PatchSet, PatchRenderer } from './renderer.js';
-import { FlyControls, loadCameraPath, protocolCamera, viewProjection, withClipPlanes, add, sub, scale, normalize } from './camera.js';
-import { startXr, xrAvailable } from './xr.js';
+import {
+  encodeHello,
+  encodePose,
+  decodeMessage,
+  MessageType,
+  Capability,
+  AtlasCodec,
+  CloseCodeNames
+} from './protocol.js';
+import {AtlasTexture, h264Supported} from './atlas_codec.js';
+import {PatchSet, PatchRenderer} from './renderer.js';
+import {
+  FlyControls,
+  loadCameraPath,
+  protocolCamera,
+  viewProjection,
+  withClipPlanes,
+  add,
+  sub,
+  scale,
+  normalize
+} from './camera.js';
+import {startXr, xrAvailable} from './xr.js';
 
 const params = new URLSearchParams(location.search);
 const fragment = new URLSearchParams(location.hash.slice(1));
@@ -34,22 +52,25 @@ function sizeCanvas() {
   const height = Number(param('height')) || (record ? 480 : Math.round(canvas.clientHeight * devicePixelRatio));
   canvas.width = width;
   canvas.height = height;
-  if (record) { canvas.style.width = `${width}px`; canvas.style.height = `${height}px`; }
+  if (record) {
+    canvas.style.width = `${width}px`;
+    canvas.style.height = `${height}px`;
+  }
 }
 
 // The automatic 3/4 view of camera.h (a fixed direction from above-front-right, the bounds framed).
 function autoCamera(min, max, aspect) {
   const center = scale(add(min, max), 0.5);
   const radius = Math.max(0.5 * Math.hypot(...sub(max, min)), 1e-3);
-  const direction = normalize([1, 0.8, 1.4]);
+  const direction = normalize([ 1, 0.8, 1.4 ]);
   const fov = 60;
   const fit = radius / Math.sin(((Math.min(fov, fov * aspect) * Math.PI) / 180) / 2);
-  return { eye: add(center, scale(direction, fit)), target: center, up: [0, 1, 0], fov, znear: 0, zfar: 0 };
+  return {eye : add(center, scale(direction, fit)), target : center, up : [ 0, 1, 0 ], fov, znear : 0, zfar : 0};
 }
 
 async function main() {
   sizeCanvas();
-  const gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: record, xrCompatible: true });
+  const gl = canvas.getContext('webgl2', {antialias : false, preserveDrawingBuffer : record, xrCompatible : true});
   if (!gl) return fail('WebGL2 is not available');
   const renderer = new PatchRenderer(gl);
   const patches = new PatchSet();
@@ -70,15 +91,21 @@ async function main() {
   function sendPose(c) {
     const wire = protocolCamera(withClipPlanes(c, bounds));
     sequence += 1;
-    socket.send(encodePose({ sequence, clientTimeUs: Math.round(performance.now() * 1000), camera: wire, predicted: wire,
-      viewportWidth: canvas.width, viewportHeight: canvas.height }));
+    socket.send(encodePose({
+      sequence,
+      clientTimeUs : Math.round(performance.now() * 1000),
+      camera : wire,
+      predicted : wire,
+      viewportWidth : canvas.width,
+      viewportHeight : canvas.height
+    }));
     return sequence;
   }
 
   function draw(c) {
     const clipped = withClipPlanes(c, bounds);
     renderer.draw(patches, atlas, viewProjection(clipped, canvas.width / canvas.height), clipped.eye,
-      [0, 0, canvas.width, canvas.height]);
+                  [ 0, 0, canvas.width, canvas.height ]);
   }
 
   function requestPathCamera() {
@@ -93,9 +120,12 @@ async function main() {
   // Frames apply strictly in order: each waits for the one before it to be decoded.
   async function onFrame(frame) {
     patches.apply(frame);
-    if (frame.atlas.codec === AtlasCodec.JpegTiles) await atlas.applyJpegTiles(frame.atlas.bytes);
-    else if (frame.atlas.codec === AtlasCodec.H264) await atlas.applyH264(frame.atlas.bytes, frame.sequence);
-    else if (frame.atlas.codec !== AtlasCodec.None) throw new Error(`atlas codec ${frame.atlas.codec} is not decoded here`);
+    if (frame.atlas.codec === AtlasCodec.JpegTiles)
+      await atlas.applyJpegTiles(frame.atlas.bytes);
+    else if (frame.atlas.codec === AtlasCodec.H264)
+      await atlas.applyH264(frame.atlas.bytes, frame.sequence);
+    else if (frame.atlas.codec !== AtlasCodec.None)
+      throw new Error(`atlas codec ${frame.atlas.codec} is not decoded here`);
     answeredPose = Math.max(answeredPose, frame.poseSequence);
     if (path && pending.has(frame.poseSequence)) {
       const index = pending.get(frame.poseSequence);
@@ -110,17 +140,29 @@ async function main() {
 
   socket.onopen = () => {
     say('connected');
-    socket.send(encodeHello({ token: param('token') || '', capabilities, viewportWidth: canvas.width,
-      viewportHeight: canvas.height, stereo: false }));
+    socket.send(encodeHello({
+      token : param('token') || '',
+      capabilities,
+      viewportWidth : canvas.width,
+      viewportHeight : canvas.height,
+      stereo : false
+    }));
   };
-  socket.onclose = (e) => { if (!document.title.startsWith('done')) fail(`connection closed (${e.code} ${e.reason})`); };
+  socket.onclose = (e) => {
+    if (!document.title.startsWith('done')) fail(`connection closed (${e.code} ${e.reason})`);
+  };
   socket.onerror = () => fail('WebSocket error');
   socket.onmessage = (event) => {
     let m;
-    try { m = decodeMessage(event.data); } catch (e) { socket.close(); return fail(`server: ${e.message}`); }
+    try {
+      m = decodeMessage(event.data);
+    } catch (e) {
+      socket.close();
+      return fail(`server: ${e.message}`);
+    }
     if (m.type === MessageType.Welcome) {
       welcome = m;
-      bounds = { min: m.sceneMin, max: m.sceneMax };
+      bounds = {min : m.sceneMin, max : m.sceneMax};
       atlas = new AtlasTexture(gl, m.atlasWidth, m.atlasHeight);
       say(`session ${m.sessionId}: ${m.patchCount} patches, atlas ${m.atlasWidth}x${m.atlasHeight}, codec ${m.codec}`);
       if (path) return requestPathCamera();
@@ -156,10 +198,13 @@ async function main() {
     if (xrAvailable()) {
       const button = document.getElementById('xr');
       button.hidden = false;
-      button.onclick = () => startXr(gl, renderer, patches, () => atlas, (c) => sendPose(c), () => bounds).catch((e) => say(e.message));
+      button.onclick = () =>
+          startXr(gl, renderer, patches, () => atlas, (c) => sendPose(c), () => bounds).catch((e) => say(e.message));
     }
   }
 }
 
-window.addEventListener('resize', () => { if (!record) sizeCanvas(); });
+window.addEventListener('resize', () => {
+  if (!record) sizeCanvas();
+});
 main().catch((e) => fail(e.message));

@@ -4,9 +4,9 @@
 // after them, depth-tested but not written, sorted back to front by patch centroid. That sort is an
 // approximation of the native client's per-pixel linked lists: intersecting or cyclically
 // overlapping transparent patches can blend in the wrong order here.
-import { atlasCornerTexel, atlasTriangleVertex } from './atlas.js';
-import { AlphaMode } from './protocol.js';
-import { sub, dot } from './camera.js';
+import {atlasCornerTexel, atlasTriangleVertex} from './atlas.js';
+import {AlphaMode} from './protocol.js';
+import {sub, dot} from './camera.js';
 
 const VERTEX_SHADER = `#version 300 es
 layout(location = 0) in vec3 position;
@@ -67,7 +67,10 @@ export class PatchSet {
     this.version = 0;
   }
   apply(frame) {
-    for (const id of frame.removed) { this.patches.delete(id); this.colours.delete(id); }
+    for (const id of frame.removed) {
+      this.patches.delete(id);
+      this.colours.delete(id);
+    }
     for (const p of frame.updated) this.patches.set(p.id, p);
     for (const c of frame.colours) this.colours.set(c.id, c.rgba);
     if (frame.removed.length || frame.updated.length || frame.colours.length) ++this.version;
@@ -97,25 +100,26 @@ export class PatchRenderer {
     gl.bindVertexArray(vao);
     gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
     const stride = FLOATS_PER_VERTEX * 4;
-    [[0, 3, 0], [1, 2, 3], [2, 4, 5], [3, 1, 9]].forEach(([location, size, offset]) => {
+    [[ 0, 3, 0 ], [ 1, 2, 3 ], [ 2, 4, 5 ], [ 3, 1, 9 ]].forEach(([ location, size, offset ]) => {
       gl.enableVertexAttribArray(location);
       gl.vertexAttribPointer(location, size, gl.FLOAT, false, stride, offset * 4);
     });
     gl.bindVertexArray(null);
-    return { vao, buffer, count: 0 };
+    return {vao, buffer, count : 0};
   }
 
   // Writes one patch's triangles into `out` at `offset` floats; returns the new offset.
   static writePatch(out, offset, patch, rgba) {
     const colourOnly = patch.colourOnly;
-    const flags = (colourOnly ? 1 : 0) + (patch.alpha === AlphaMode.Mask ? 2 : 0) + (patch.alpha === AlphaMode.Blend ? 4 : 0);
-    const colour = rgba ? rgba.map((v) => v / 255) : [0.5, 0.5, 0.5, 1];
+    const flags =
+        (colourOnly ? 1 : 0) + (patch.alpha === AlphaMode.Mask ? 2 : 0) + (patch.alpha === AlphaMode.Blend ? 4 : 0);
+    const colour = rgba ? rgba.map((v) => v / 255) : [ 0.5, 0.5, 0.5, 1 ];
     for (let t = 0; t < patch.triangleCount; ++t)
       for (let corner = 0; corner < 3; ++corner) {
         const v = atlasTriangleVertex(t, corner);
         const p = patch.positions[v];
-        const texel = colourOnly ? [0, 0] : atlasCornerTexel(v, patch.blockLog2);
-        out.set([p[0], p[1], p[2], patch.blockX + texel[0], patch.blockY + texel[1], ...colour, flags], offset);
+        const texel = colourOnly ? [ 0, 0 ] : atlasCornerTexel(v, patch.blockLog2);
+        out.set([ p[0], p[1], p[2], patch.blockX + texel[0], patch.blockY + texel[1], ...colour, flags ], offset);
         offset += FLOATS_PER_VERTEX;
       }
     return offset;
@@ -142,9 +146,10 @@ export class PatchRenderer {
       for (const p of set.patches.values()) {
         if (p.alpha === AlphaMode.Blend) {
           const n = p.triangleCount + 2;
-          const c = [0, 0, 0];
-          for (let v = 0; v < n; ++v) for (let k = 0; k < 3; ++k) c[k] += p.positions[v][k] / n;
-          this.blendPatches.push({ patch: p, centroid: c });
+          const c = [ 0, 0, 0 ];
+          for (let v = 0; v < n; ++v)
+            for (let k = 0; k < 3; ++k) c[k] += p.positions[v][k] / n;
+          this.blendPatches.push({patch : p, centroid : c});
         } else {
           opaque.push(p);
         }
@@ -163,7 +168,7 @@ export class PatchRenderer {
     }
     gl.useProgram(this.program);
     gl.uniformMatrix4fv(this.viewProjLocation, false, viewProj);
-    gl.uniform2f(this.atlasSizeLocation, ...(atlas ? atlas.size() : [1, 1]));
+    gl.uniform2f(this.atlasSizeLocation, ...(atlas ? atlas.size() : [ 1, 1 ]));
     gl.activeTexture(gl.TEXTURE0);
     gl.bindTexture(gl.TEXTURE_2D, atlas ? atlas.texture : null);
     gl.enable(gl.DEPTH_TEST);
@@ -178,7 +183,10 @@ export class PatchRenderer {
       // Back to front from this eye (far centroids first).
       const key = eye.join(',');
       if (this.sortedFor !== key) {
-        for (const b of this.blendPatches) { const d = sub(b.centroid, eye); b.distance = dot(d, d); }
+        for (const b of this.blendPatches) {
+          const d = sub(b.centroid, eye);
+          b.distance = dot(d, d);
+        }
         this.blendPatches.sort((a, b) => b.distance - a.distance);
         this.upload(this.blend, this.blendPatches.map((b) => b.patch), set.colours);
         this.sortedFor = key;
