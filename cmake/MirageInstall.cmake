@@ -9,7 +9,7 @@ set(MIRAGE_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/Mirage)
 # Installed modules in link order (a library before the ones it uses): static archives are read
 # once, in this order, by linkers that take a flat list (mirage.pc).
 set(mirage_link_order "")
-foreach(module stream stream_net stream_atlas runtime render shading particles particles_cpu visibility visibility_cpu surfels surfels_cpu lod io
+foreach(module stream stream_net stream_atlas stream_web runtime render shading particles particles_cpu visibility visibility_cpu surfels surfels_cpu lod io
                gpu shaders asset core)
   if(TARGET mirage_${module})
     list(APPEND mirage_link_order mirage_${module})

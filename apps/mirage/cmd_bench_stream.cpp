@@ -28,7 +28,9 @@ struct BenchStreamOptions {
 void runBenchStream(BenchStreamOptions& o) {
   stream::StreamBenchConfig& c = o.config;
   if (auto s = parseSize(o.size, c.width, c.height); !s) return fail(s.error());
-  c.codec = o.codec == "zstd" ? stream::AtlasCodec::ZstdTiles : stream::AtlasCodec::H264;
+  c.codec = o.codec == "zstd"   ? stream::AtlasCodec::ZstdTiles
+            : o.codec == "jpeg" ? stream::AtlasCodec::JpegTiles
+                                : stream::AtlasCodec::H264;
   if (!(o.bitrateMbit > 0.0 && o.bitrateMbit <= 1000.0)) return fail("--bitrate must be in (0, 1000] Mbit/s");
   c.bitrateKbps = uint32_t(o.bitrateMbit * 1000.0);
   c.quality = !o.noQuality;
@@ -91,8 +93,8 @@ void addBenchStreamCommand(CLI::App& bench) {
   b->add_option("--materials", c.materials, "Material file (TOML)");
   b->add_option("--path", c.path, "Camera path: cams.json or orbit:N")->capture_default_str();
   b->add_option("--size", o->size, "Client viewport WxH")->capture_default_str();
-  b->add_option("--codec", o->codec, "Atlas codec: h264 or zstd")
-      ->check(CLI::IsMember({"h264", "zstd"}))
+  b->add_option("--codec", o->codec, "Atlas codec: h264, zstd or jpeg")
+      ->check(CLI::IsMember({"h264", "zstd", "jpeg"}))
       ->capture_default_str();
   b->add_option("--bitrate", o->bitrateMbit, "H.264 target, Mbit/s")->capture_default_str();
   b->add_option("--fps", c.fps, "Frames per second the path is played at")->capture_default_str();

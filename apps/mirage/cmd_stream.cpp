@@ -85,8 +85,10 @@ void runClient(ClientCliOptions& o) {
     o.client.capabilities = stream::kCapabilityH264;
   else if (o.codec == "zstd")
     o.client.capabilities = stream::kCapabilityZstdTiles;
+  else if (o.codec == "jpeg")
+    o.client.capabilities = stream::kCapabilityJpegTiles;
   else if (o.codec != "any")
-    return fail(fmt::format("--codec {}: expected any, h264 or zstd", o.codec));
+    return fail(fmt::format("--codec {}: expected any, h264, zstd or jpeg", o.codec));
   if (!o.record.empty())
     if (auto s = checkOutputPath(o.record, {".png"}); !s) return fail(s.error());
   auto ctx = openDevice(o.device);
@@ -142,7 +144,8 @@ void addStreamCommands(CLI::App& app) {
   c->add_option("--path", co->path, "Camera path: cams.json or orbit:N")->capture_default_str();
   c->add_option("--record", co->record, "Write OUT_0000.png.. (names as mirage render --path)");
   c->add_option("--size", co->size, "Viewport WxH")->capture_default_str();
-  c->add_option("--codec", co->codec, "Atlas codecs offered: any, h264 or zstd")->capture_default_str();
+  c->add_option("--codec", co->codec, "Atlas codecs offered: any (zstd, H.264), h264, zstd or jpeg (the browser's)")
+      ->capture_default_str();
   c->add_option("--device", co->device, "GPU index or name substring");
   c->callback([co] { runClient(*co); });
 }

@@ -25,7 +25,8 @@ Status validate(const StreamBenchConfig& c) {
   if (c.latencyFrames > 600) return Error{"--latency-frames must be in 0..600"};
   if (c.width < 16 || c.height < 16 || c.width > 16384 || c.height > 16384)
     return Error{"--size must be 16..16384 a side"};
-  if (c.codec != AtlasCodec::H264 && c.codec != AtlasCodec::ZstdTiles) return Error{"--codec must be h264 or zstd"};
+  if (c.codec != AtlasCodec::H264 && c.codec != AtlasCodec::ZstdTiles && c.codec != AtlasCodec::JpegTiles)
+    return Error{"--codec must be h264, zstd or jpeg"};
   return Ok{};
 }
 

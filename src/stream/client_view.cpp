@@ -25,7 +25,7 @@ Result<std::unique_ptr<StreamView>> StreamView::create(gpu::Context& context, co
     auto video = VideoDecoder::create();
     if (!video) return video.error();
     v->video_.emplace(std::move(*video));
-  } else if (welcome.codec != AtlasCodec::None) {
+  } else if (welcome.codec != AtlasCodec::None && welcome.codec != AtlasCodec::JpegTiles) {
     return Error{fmt::format("Welcome: atlas codec {} is not supported by this client", int(welcome.codec))};
   }
   return v;
@@ -87,21 +87,30 @@ Status StreamView::apply(const Frame& frame) {
   } else if (video_) {
     auto out = video_->decode(frame.atlas.bytes);
     if (!out) return fail(out.error().message);
-    if (*out) {
-      // Colour alone, or colour on top and alpha below as grey (the server's scene has MASK or
-      // BLEND materials: H.264 carries no alpha plane).
-      uint32_t w = welcome_.atlasWidth, h = welcome_.atlasHeight;
-      bool stacked = video_->height() == 2 * h;
-      if (video_->width() != w || (video_->height() != h && !stacked))
-        return fail(fmt::format("a {}x{} video frame for a {}x{} atlas", video_->width(), video_->height(), w, h));
-      const std::vector<uint8_t>& decoded = video_->image();
-      ImageRGBA8 image{w, h, std::vector<uint8_t>(decoded.begin(), decoded.begin() + size_t(w) * h * 4)};
-      if (stacked)
-        for (size_t i = 0, texels = size_t(w) * h; i < texels; ++i) image.pixels[i * 4 + 3] = decoded[(texels + i) * 4];
-      if (auto s = renderer_->updateAtlas(image); !s) return fail(s.error().message);
-    }
+    if (*out)
+      if (auto s = uploadAtlas(video_->image(), video_->width(), video_->height()); !s) return fail(s.error().message);
+  } else if (welcome_.codec == AtlasCodec::JpegTiles) {
+    auto header = readJpegTilesHeader(frame.atlas.bytes, "atlas");
+    if (!header) return fail(header.error().message);
+    if (!jpeg_ || header->keyframe()) jpeg_.emplace(header->width, header->height);
+    if (auto s = jpeg_->decode(frame.atlas.bytes, "atlas"); !s) return fail(s.error().message);
+    if (auto s = uploadAtlas(jpeg_->rgba(), header->width, header->height); !s) return fail(s.error().message);
   }
   return Ok{};
+}
+
+Status StreamView::uploadAtlas(const std::vector<uint8_t>& rgba, uint32_t width, uint32_t height) {
+  // Colour alone, or colour on top and alpha below as grey (a scene with MASK or BLEND materials
+  // sent through a codec without alpha: docs/stream.md, "Stacked alpha").
+  uint32_t w = welcome_.atlasWidth, h = welcome_.atlasHeight;
+  bool stacked = height == 2 * h;
+  if (width != w || (height != h && !stacked))
+    return Error{fmt::format("a {}x{} image for a {}x{} atlas", width, height, w, h)};
+  size_t texels = size_t(w) * h;
+  ImageRGBA8 image{w, h, std::vector<uint8_t>(rgba.begin(), rgba.begin() + std::ptrdiff_t(texels * 4))};
+  if (stacked)
+    for (size_t i = 0; i < texels; ++i) image.pixels[i * 4 + 3] = rgba[(texels + i) * 4];
+  return renderer_->updateAtlas(image);
 }
 
 Result<render::RenderOutput> StreamView::render(const render::Camera& camera, uint32_t width, uint32_t height,

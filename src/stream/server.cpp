@@ -75,17 +75,20 @@ struct StreamServer::Impl {
   }
 
   AtlasCodec chooseCodec(uint32_t capabilities) const {
-    bool h264 = capabilities & kCapabilityH264, tiles = capabilities & kCapabilityZstdTiles;
+    bool h264 = capabilities & kCapabilityH264, tiles = capabilities & kCapabilityZstdTiles,
+         jpeg = capabilities & kCapabilityJpegTiles;
     if (options.codec == AtlasCodec::H264 && h264) return AtlasCodec::H264;
     if (tiles) return AtlasCodec::ZstdTiles;
     if (h264) return AtlasCodec::H264;
+    if (jpeg) return AtlasCodec::JpegTiles; // browsers without WebCodecs
     return AtlasCodec::None;
   }
 
   void welcome(ClientId id, const Hello& hello) {
     AtlasCodec codec = chooseCodec(hello.capabilities);
     if (codec == AtlasCodec::None) {
-      transport.close(id, CloseCode::Unsupported, "no atlas codec in common (the server sends zstd tiles and H.264)");
+      transport.close(id, CloseCode::Unsupported,
+                      "no atlas codec in common (the server sends zstd tiles, H.264 and JPEG tiles)");
       return;
     }
     ClientStreamConfig config = options.stream;
@@ -106,7 +109,9 @@ struct StreamServer::Impl {
     if (!transport.send(id, w)) return;
     clients[id] = Client{std::move(*stream)};
     say(fmt::format("client {} joined ({}x{}, {})", id, hello.viewportWidth, hello.viewportHeight,
-                    codec == AtlasCodec::H264 ? "H.264" : "zstd tiles"));
+                    codec == AtlasCodec::H264        ? "H.264"
+                    : codec == AtlasCodec::JpegTiles ? "JPEG tiles"
+                                                     : "zstd tiles"));
   }
 
   Status answer(ClientId id, const Pose& pose) {

@@ -114,6 +114,9 @@ Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& sc
     auto video = VideoEncoder::create(vc);
     if (!video) return video.error();
     c->video_.emplace(std::move(*video));
+  } else if (config.codec == AtlasCodec::JpegTiles) {
+    c->stackedAlpha_ = scene.translucent;
+    c->jpeg_.emplace(scene.atlasSize, scene.translucent ? 2 * scene.atlasSize : scene.atlasSize);
   } else {
     return Error{fmt::format("atlas codec {} is not served", int(config.codec))};
   }
@@ -123,6 +126,7 @@ Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& sc
 void ClientStream::requestKeyframe() {
   keyframe_ = true;
   if (tiles_) tiles_->requestKeyframe();
+  if (jpeg_) jpeg_->requestKeyframe();
 }
 
 Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, StreamFrameStats* stats) {
@@ -197,26 +201,32 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   frame.atlas.codec = config_.codec;
   frame.atlas.width = atlas.width;
   frame.atlas.height = atlas.height;
+  if (stackedAlpha_) { // colour on top, alpha below as grey (docs/stream.md, "Stacked alpha")
+    size_t texels = size_t(atlas.width) * atlas.height;
+    stacked_.resize(texels * 8);
+    std::copy(atlas.pixels.begin(), atlas.pixels.end(), stacked_.begin());
+    for (size_t i = 0; i < texels; ++i) {
+      uint8_t a = atlas.pixels[i * 4 + 3];
+      uint8_t* out = &stacked_[(texels + i) * 4];
+      out[0] = out[1] = out[2] = a;
+      out[3] = 255;
+    }
+  }
+  std::span<const uint8_t> image = stackedAlpha_ ? std::span<const uint8_t>(stacked_) : atlas.pixels;
   if (tiles_) {
-    auto bytes = tiles_->encode(atlas.pixels);
+    auto bytes = tiles_->encode(image);
+    if (!bytes) return bytes.error();
+    frame.atlas.bytes = std::move(*bytes);
+  } else if (jpeg_) {
+    auto bytes = jpeg_->encode(image);
     if (!bytes) return bytes.error();
     frame.atlas.bytes = std::move(*bytes);
   } else {
-    if (stackedAlpha_) { // colour on top, alpha below as grey (docs/stream.md, "Codecs")
-      size_t texels = size_t(atlas.width) * atlas.height;
-      stacked_.resize(texels * 8);
-      std::copy(atlas.pixels.begin(), atlas.pixels.end(), stacked_.begin());
-      for (size_t i = 0; i < texels; ++i) {
-        uint8_t a = atlas.pixels[i * 4 + 3];
-        uint8_t* out = &stacked_[(texels + i) * 4];
-        out[0] = out[1] = out[2] = a;
-        out[3] = 255;
-      }
-    }
-    auto packet = video_->encode(stackedAlpha_ ? std::span<const uint8_t>(stacked_) : atlas.pixels, keyframe_);
+    auto packet = video_->encode(image, keyframe_);
     if (!packet) return packet.error();
     frame.atlas.bytes = std::move(packet->data);
   }
+  if (stackedAlpha_) frame.atlas.height *= 2;
   keyframe_ = false;
   st.encodeMs = msSince(tEncode);
   st.atlasBytes = frame.atlas.bytes.size();

@@ -10,6 +10,7 @@
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
 #include "mirage/render/atlas_client.h"
+#include "mirage/stream/jpeg_tiles.h"
 #include "mirage/stream/protocol.h"
 #include "mirage/stream/tile_codec.h"
 #include "mirage/stream/video.h"
@@ -34,6 +35,8 @@ public:
   size_t patchCount() const { return patches_.size(); }
   const Welcome& welcome() const { return welcome_; }
   render::AtlasClientRenderer& renderer() { return *renderer_; }
+  // Uploads a decoded image: the atlas, or the atlas with its alpha stacked below (twice the height).
+  Status uploadAtlas(const std::vector<uint8_t>& rgba, uint32_t width, uint32_t height);
 
 private:
   StreamView() = default;
@@ -42,6 +45,7 @@ private:
   std::unique_ptr<render::AtlasClientRenderer> renderer_;
   std::optional<TileDeltaDecoder> tiles_;
   std::optional<VideoDecoder> video_;
+  std::optional<JpegTileDecoder> jpeg_; // made by the first payload (its height says: stacked alpha or not)
   std::unordered_map<uint32_t, render::ClientPatch> patches_;
 };
 

@@ -18,6 +18,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/render/atlas_shading.h"
 #include "mirage/stream/atlas.h"
+#include "mirage/stream/jpeg_tiles.h"
 #include "mirage/stream/patches.h"
 #include "mirage/stream/protocol.h"
 #include "mirage/stream/tile_codec.h"
@@ -41,8 +42,8 @@ struct StreamScene {
   render::AtlasLighting lighting;
   Bounds bounds;
   uint32_t atlasSize = 0;
-  // Some material is MASK or BLEND: the atlas's alpha matters. H.264 has no alpha plane, so its
-  // frames then stack the alpha below the colour (stackedAlpha in docs/stream.md, "Codecs").
+  // Some material is MASK or BLEND: the atlas's alpha matters. H.264 and JPEG carry no alpha, so
+  // their images then stack the alpha below the colour (docs/stream.md, "Stacked alpha").
   bool translucent = false;
 };
 
@@ -57,7 +58,7 @@ render::Camera toRenderCamera(const Camera& camera, const Bounds& bounds);
 Camera toProtocolCamera(const render::Camera& camera);
 
 struct ClientStreamConfig {
-  AtlasCodec codec = AtlasCodec::ZstdTiles; // ZstdTiles (lossless) or H264
+  AtlasCodec codec = AtlasCodec::ZstdTiles; // ZstdTiles (lossless), H264 or JpegTiles (browsers)
   uint32_t bitrateKbps = 20000;             // H264: the rate control's target
   uint32_t fps = 60;                        // H264: the frame rate the rate control assumes
   float levelBias = 0.0f;                   // patchBlockLog2's bias: > 0 more texels per pixel
@@ -110,8 +111,9 @@ private:
   AtlasAllocator atlas_;
   std::optional<TileDeltaEncoder> tiles_;
   std::optional<VideoEncoder> video_;
-  bool stackedAlpha_ = false;   // H.264 frames twice the atlas height: alpha below the colour
-  std::vector<uint8_t> stacked_; // that frame
+  std::optional<JpegTileEncoder> jpeg_;
+  bool stackedAlpha_ = false;    // images twice the atlas height: alpha below the colour
+  std::vector<uint8_t> stacked_; // that image
   bool keyframe_ = true;
   std::unordered_map<uint32_t, Held> held_;
   uint32_t sequence_ = 0;
