@@ -99,6 +99,7 @@ ClientStream::ClientStream(const ClientStreamConfig& config, AtlasAllocator atla
 Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& scene, const ClientStreamConfig& config) {
   AtlasConfig ac;
   ac.size = scene.atlasSize;
+  ac.keepInvisibleFrames = config.keepInvisibleFrames;
   auto atlas = AtlasAllocator::create(ac);
   if (!atlas) return atlas.error();
   std::unique_ptr<ClientStream> c(new ClientStream(config, std::move(*atlas)));
@@ -158,24 +159,24 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   }
   atlas_.update(requests);
 
-  // Shading: every visible block, every frame (view-dependent terms follow the eye).
+  // Shading: every block the client holds (visible, or kept a few frames after it was last seen),
+  // every frame: view-dependent terms follow the eye, and a kept patch may be seen again client-side.
   auto tShade = Clock::now();
+  std::vector<std::pair<uint32_t, AtlasPlacement>> placed = atlas_.placements();
+  std::sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<shaderio::GpuAtlasPatch> blocks;
   std::vector<uint32_t> colourOnly;
-  blocks.reserve(visible->size());
-  for (uint32_t id : *visible) {
-    std::optional<AtlasPlacement> block = atlas_.placement(id);
-    if (!block) {
-      colourOnly.push_back(id);
-      continue;
-    }
+  blocks.reserve(placed.size());
+  for (const auto& [id, block] : placed) {
     PatchRef ref = scene.patches.patchRef(id);
     uint32_t mesh = scene.patches.instanceMesh[ref.instance];
     const Patch& patch = scene.patches.patch(ref);
     blocks.push_back(
-        gpuAtlasPatch(patch, scene.meshFirstVertex[mesh], ref.instance, scene.scene.meshes[mesh].material, *block));
-    st.shadedTexels += uint64_t(block->width()) * block->height();
+        gpuAtlasPatch(patch, scene.meshFirstVertex[mesh], ref.instance, scene.scene.meshes[mesh].material, block));
+    st.shadedTexels += uint64_t(block.width()) * block.height();
   }
+  for (uint32_t id : *visible)
+    if (!atlas_.placement(id)) colourOnly.push_back(id);
   st.placedPatches = uint32_t(blocks.size());
   st.colourOnly = uint32_t(colourOnly.size());
   scene.shading->clearAtlas();
@@ -231,14 +232,19 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   st.encodeMs = msSince(tEncode);
   st.atlasBytes = frame.atlas.bytes.size();
 
-  // What the client holds next: the visible patches, each with its block or colour-only.
+  // What the client holds next: the patches with a block, and the visible ones without (colour-only).
   std::unordered_map<uint32_t, Held> next;
-  next.reserve(visible->size());
-  for (uint32_t id : *visible) next[id] = Held{atlas_.placement(id)};
+  next.reserve(placed.size() + colourOnly.size());
+  for (const auto& [id, block] : placed) next[id] = Held{block};
+  for (uint32_t id : colourOnly) next[id] = Held{};
   for (const auto& [id, held] : held_)
     if (!next.count(id)) frame.removed.push_back(id);
   std::sort(frame.removed.begin(), frame.removed.end());
-  for (uint32_t id : *visible) {
+  std::vector<uint32_t> nextIds;
+  nextIds.reserve(next.size());
+  for (const auto& [id, held] : next) nextIds.push_back(id);
+  std::sort(nextIds.begin(), nextIds.end());
+  for (uint32_t id : nextIds) {
     const Held& now = next[id];
     auto before = held_.find(id);
     if (before != held_.end() && before->second.block == now.block) continue;

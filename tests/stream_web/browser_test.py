@@ -36,7 +36,9 @@ def pixel_of(x, y, z):
 
 
 RED, GREEN, BLUE, YELLOW = (255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 0)
-CYAN, MAGENTA, WHITE, BLACK = (0, 255, 255), (255, 0, 255), (255, 255, 255), (0, 0, 0)
+CYAN, MAGENTA, WHITE = (0, 255, 255), (255, 0, 255), (255, 255, 255)
+# The forward renderer's background (linear 0.02, 0.022, 0.026), as the page clears to it in sRGB.
+BACKGROUND = (39, 41, 45)
 # Green under red (alpha 0.5, farther) under white (alpha 0.5, nearer), blended on sRGB values.
 BLENDED = (191, 191, 128)
 
@@ -47,12 +49,12 @@ COMMON = [
     ("patch 1 triangles 0-1: blue", (0.25, 0.0, 0.0), BLUE),
     ("patch 1 triangle 2 (the wide block's right half): yellow", (0.62, -0.4, 0.0), YELLOW),
     ("blend patches sorted back to front over green", (-1.0, 0.25, 0.5), BLENDED),
-    ("background", (0.0, -1.5, 0.0), BLACK),
+    ("background", (0.0, -1.5, 0.0), BACKGROUND),
 ]
 EXPECTED = [
     COMMON + [("colour-only patch 2: magenta", (1.25, 0.7, 0.0), MAGENTA),
               ("patch 0 below its block's middle row: red", (-1.0, -0.3, 0.0), RED)],
-    COMMON + [("patch 2 removed by the delta frame", (1.25, 0.7, 0.0), BLACK),
+    COMMON + [("patch 2 removed by the delta frame", (1.25, 0.7, 0.0), BACKGROUND),
               ("patch 0's tile repainted white by the delta", (-1.0, -0.3, 0.0), WHITE)],
 ]
 
@@ -197,7 +199,7 @@ def check_stream_client(chromium, site):
             return px, py, tuple(rows[py][4 * px:4 * px + 3])
 
         px, py, got = pixel(1.0, 0.33)
-        colour = (255, 0, 255) if i == 0 else (0, 0, 0)
+        colour = (255, 0, 255) if i == 0 else BACKGROUND
         checks.append((all(abs(g - e) <= TOLERANCE for g, e in zip(got, colour)),
                        f"frame {i}: colour-only patch {'drawn' if i == 0 else 'removed'} at ({px}, {py}): {got}"))
         for wx, wy in [(-0.25, -0.25), (0.2, 0.3)]:

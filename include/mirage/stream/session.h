@@ -62,6 +62,10 @@ struct ClientStreamConfig {
   uint32_t bitrateKbps = 20000;             // H264: the rate control's target
   uint32_t fps = 60;                        // H264: the frame rate the rate control assumes
   float levelBias = 0.0f;                   // patchBlockLog2's bias: > 0 more texels per pixel
+  // Frames a patch stays with the client (and keeps its block, shaded every frame) after it was
+  // last visible. Small patches flicker in and out of the visibility buffer from frame to frame;
+  // without this each flicker costs a removal and a re-send of the patch (docs/stream.md, "Server").
+  uint32_t keepInvisibleFrames = 8;
 };
 
 // H.264 carries colour at half resolution (4:2:0; the encoder averages each 2x2 texel square so no
