@@ -39,6 +39,45 @@ std::vector<ImageRGBA8> streamPath(const stream::StreamClientOptions& options, c
   return images;
 }
 
+TEST(ClientPose, PredictionExtrapolatesEyeAndTargetLinearly) {
+  render::Camera previous, current;
+  previous.eye = {0, 1, 5};
+  previous.target = {0, 1, 0};
+  current.eye = {1, 1, 5}; // 1 unit along +x in 0.1 s
+  current.target = {1, 1, -1};
+  current.fovYDegrees = 50.0f;
+  render::Camera p = stream::extrapolateCamera(previous, current, 0.1, 0.05);
+  EXPECT_NEAR(p.eye.x, 1.5f, 1e-5f);
+  EXPECT_NEAR(p.eye.z, 5.0f, 1e-5f);
+  EXPECT_NEAR(p.target.x, 1.5f, 1e-5f);
+  EXPECT_NEAR(p.target.z, -1.5f, 1e-5f);
+  EXPECT_EQ(p.fovYDegrees, 50.0f);
+  // No step, no round trip measured yet, or no motion: the current camera.
+  EXPECT_EQ(stream::extrapolateCamera(previous, current, 0.0, 0.05).eye, current.eye);
+  EXPECT_EQ(stream::extrapolateCamera(previous, current, 0.1, 0.0).eye, current.eye);
+  EXPECT_EQ(stream::extrapolateCamera(current, current, 0.1, 0.05).eye, current.eye);
+}
+
+TEST(ClientPose, StereoCarriesThePredictedCamerasEyes) {
+  render::Camera current, predicted;
+  current.eye = {0, 0, 5};
+  current.target = {0, 0, 0};
+  predicted.eye = {0, 0, 4};
+  predicted.target = {0, 0, -1};
+  stream::Pose mono = stream::clientPose(7, current, predicted, 64, 32, std::nullopt);
+  EXPECT_EQ(mono.sequence, 7u);
+  EXPECT_EQ(mono.camera.eye, current.eye);
+  EXPECT_EQ(mono.predicted.eye, predicted.eye);
+  EXPECT_EQ(mono.viewportWidth, 64u);
+  EXPECT_EQ(mono.viewportHeight, 32u);
+  stream::Pose stereo = stream::clientPose(8, current, predicted, 64, 32, 0.2f);
+  auto eyes = stream::clientEyes(predicted, 0.2f);
+  EXPECT_EQ(stereo.camera.eye, eyes[0].eye);
+  EXPECT_EQ(stereo.predicted.eye, eyes[1].eye);
+  EXPECT_NEAR(glm::length(stereo.predicted.eye - stereo.camera.eye), 0.2f, 1e-5f);
+  EXPECT_NEAR(stereo.camera.eye.x, -0.1f, 1e-5f); // looking along -z, right is +x: left eye at -x
+}
+
 class StreamStereo : public test::GpuTest {};
 
 TEST_F(StreamStereo, EachHalfEqualsTheMonoStreamOfItsEye) {
