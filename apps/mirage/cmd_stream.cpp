@@ -1,7 +1,8 @@
 // mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
 //   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--web DIR]: Shading Atlas Streaming.
-// mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]:
-//   the native thin client (docs/stream.md).
+// mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]
+//   [--stereo [--ipd M]]: the native thin client (docs/stream.md): a window with a fly camera, or
+//   with --path / --record a camera path without a window.
 #include <atomic>
 #include <csignal>
 #include <memory>
@@ -13,7 +14,9 @@
 #include "mirage/io/image_io.h"
 #include "mirage/stream/client.h"
 #include "mirage/stream/server.h"
+#include "mirage/viewer/stream_window.h"
 #include "render_common.h"
+#include "render_options.h"
 
 namespace mirage::cli {
 
@@ -77,6 +80,11 @@ struct ClientCliOptions {
   std::string size = "1280x720";
   std::string device;
   std::string codec = "any";
+  StereoOptions stereo;
+  std::string present = "fifo";
+  uint32_t frames = 0;
+  uint32_t posesInFlight = 2;
+  CLI::Option* pathOption = nullptr;
 };
 
 void runClient(ClientCliOptions& o) {
@@ -89,6 +97,20 @@ void runClient(ClientCliOptions& o) {
     o.client.capabilities = stream::kCapabilityJpegTiles;
   else if (o.codec != "any")
     return fail(fmt::format("--codec {}: expected any, h264, zstd or jpeg", o.codec));
+  o.client.stereoIpd = o.stereo.ipdOrNone();
+  if (o.client.stereoIpd)
+    if (auto s = render::validateIpd(*o.client.stereoIpd); !s) return fail(s.error());
+  if (o.record.empty() && o.pathOption->count() == 0) { // the window
+    viewer::StreamWindowOptions w;
+    w.client = o.client;
+    w.present = o.present;
+    w.device = o.device;
+    w.maxFrames = o.frames;
+    w.maxPosesInFlight = o.posesInFlight;
+    auto r = viewer::runStreamWindow(w);
+    if (!r) return fail(r.error());
+    return;
+  }
   if (!o.record.empty())
     if (auto s = checkOutputPath(o.record, {".png"}); !s) return fail(s.error());
   auto ctx = openDevice(o.device);
@@ -141,9 +163,17 @@ void addStreamCommands(CLI::App& app) {
   c->add_option("url", co->client.url, "ws://HOST:PORT/ or wss://HOST:PORT/")->required();
   c->add_option("--token", co->client.token, "The server's token")->required();
   c->add_option("--ca", co->client.caFile, "wss: PEM certificates to trust");
-  c->add_option("--path", co->path, "Camera path: cams.json or orbit:N")->capture_default_str();
-  c->add_option("--record", co->record, "Write OUT_0000.png.. (names as mirage render --path)");
-  c->add_option("--size", co->size, "Viewport WxH")->capture_default_str();
+  co->pathOption =
+      c->add_option("--path", co->path, "Camera path without a window: cams.json or orbit:N")->capture_default_str();
+  c->add_option("--record", co->record, "Write the path's frames to OUT_0000.png.. (names as mirage render --path)");
+  c->add_option("--size", co->size, "Viewport WxH (with --stereo: of one eye, images and window 2W x H)")
+      ->capture_default_str();
+  bindStereo(*c, co->stereo);
+  c->add_option("--present", co->present, "Window: fifo|mailbox|immediate")->capture_default_str();
+  c->add_option("--frames", co->frames, "Window: close after N display frames (0: run until closed)");
+  c->add_option("--poses-in-flight", co->posesInFlight, "Window: poses sent and not yet answered, at most")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
   c->add_option("--codec", co->codec, "Atlas codecs offered: any (zstd, H.264), h264, zstd or jpeg (the browser's)")
       ->capture_default_str();
   c->add_option("--device", co->device, "GPU index or name substring");

@@ -2,9 +2,11 @@
 // `mirage client`: the native thin client over the network (docs/stream.md, "Client"). Connects,
 // then along a camera path: sends each pose, applies the frames that come back and renders the
 // path's camera from what it holds.
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +15,7 @@
 #include "mirage/render/camera.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/stream/protocol.h"
+#include "mirage/stream/transport.h"
 
 namespace mirage::stream {
 
@@ -24,6 +27,9 @@ struct StreamClientOptions {
   uint32_t capabilities = kCapabilityZstdTiles | kCapabilityH264; // the atlas codecs offered
   std::chrono::milliseconds timeout{10000};                       // connecting, and waiting for each frame
   uint32_t maxFrameBytes = 256u << 20;                            // largest server message accepted
+  // Both eyes side by side (clientEyes of each camera): the images are
+  // 2 * width x height, width x height per eye (docs/stream.md, "The native client window and stereo").
+  std::optional<float> stereoIpd;
 };
 
 // Per path camera: what arrived and what was drawn.
@@ -40,9 +46,34 @@ struct ClientFrameInfo {
 
 using ClientFrameSink = std::function<Status(const ClientFrameInfo&, const render::RenderOutput&)>;
 
+// The protocol's options of a client: token, codecs, viewport (one eye's), stereo, limits.
+ClientConfig transportConfig(const StreamClientOptions& options);
+
+// The eyes a stereo client draws for `camera`: render::stereoEyes, each with its own clip planes (as
+// the forward renderer's `mirage render --stereo`).
+std::array<render::Camera, 2> clientEyes(const render::Camera& camera, float ipd);
+
+// The Pose of a client frame. Mono: camera = `current`, predicted = `predicted`. Stereo: the server's
+// visibility and level selection take the union of Pose.camera and Pose.predicted, so a stereo pose
+// carries the two eyes of the predicted camera, left as camera and right as predicted: both eyes are
+// covered exactly where the answer is expected to be shown (the current view, already past when the
+// answer arrives, is not sent).
+Pose clientPose(uint32_t sequence, const render::Camera& current, const render::Camera& predicted, uint32_t width,
+                uint32_t height, std::optional<float> stereoIpd);
+
+// Pose prediction: `current` moved on linearly, eye and target alike, by its motion from `previous`
+// (`stepSeconds` earlier) over `aheadSeconds` (the measured round trip). Fov, up and clip planes are
+// the current camera's; no motion (or stepSeconds <= 0) predicts the current camera.
+render::Camera extrapolateCamera(const render::Camera& previous, const render::Camera& current, double stepSeconds,
+                                 double aheadSeconds);
+
+// `left` and `right` (same height) side by side: (left.width + right.width) x height.
+ImageRGBA8 sideBySide(const ImageRGBA8& left, const ImageRGBA8& right);
+
 // Lock-step along `path` (a camera JSON file, or orbit:N around the bounds the server's Welcome
-// gives): for each camera, sends its pose (current = predicted = the camera), waits for the frame
-// answering it, applies it and renders that camera, then calls `sink`. Errors: connection refused
+// gives): for each camera, sends its pose (current = predicted = the camera; clientPose with stereo),
+// waits for the frame answering it, applies it and renders that camera (both eyes side by side with
+// stereo: RenderOutput.srgb only), then calls `sink`. Errors: connection refused
 // (with the server's reason), a frame that does not decode or apply, no answer within the timeout.
 Status runPathClient(gpu::Context& context, const StreamClientOptions& options, const std::string& path,
                      const ClientFrameSink& sink);
