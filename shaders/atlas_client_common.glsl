@@ -1,4 +1,4 @@
-// Shared declarations of the thin client's shaders (render/atlas_client.h, docs/stream-client.md).
+// Shared declarations of the thin client's shaders (render/atlas_client.h, docs/stream.md, "The client's renderer").
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require

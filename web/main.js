@@ -1,4 +1,4 @@
-// The browser thin client (docs/stream-web.md): connects to the page's own host by WebSocket, says
+// The browser thin client (docs/stream.md, "The browser client"): connects to the page's own host by WebSocket, says
 // Hello, keeps the patches each Frame sends, decodes the atlas into a texture and draws at the
 // display's rate from the latest atlas. ?path=<camera JSON>&record=1 replays a fixed camera path:
 // each camera is drawn once its frame has arrived and decoded, its pixels go to

@@ -1,4 +1,4 @@
-// The thin client's renderer, CPU side (docs/stream-client.md): creation, the patch slots (an id ->
+// The thin client's renderer, CPU side (docs/stream.md, "The client's renderer"): creation, the patch slots (an id ->
 // slot map, a free list, the slots changed since the last frame) and the atlas uploads queued for
 // the next frame. Nothing here waits for the device: the next recorded frame uploads the changes.
 #include <algorithm>

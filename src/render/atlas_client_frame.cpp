@@ -1,4 +1,4 @@
-// The thin client's frame (docs/stream-client.md): the queued patch records and atlas texels
+// The thin client's frame (docs/stream.md, "The client's renderer"): the queued patch records and atlas texels
 // uploaded through the slot's staging buffer, opaque and MASK patches with depth, BLEND patches
 // appended to per-pixel linked lists and resolved over the opaque colour by the forward renderer's
 // resolve (forward_oit_resolve.comp, oit_list.glsl).

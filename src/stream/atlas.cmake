@@ -1,5 +1,5 @@
 # mirage_stream_atlas: the CPU side of the shading atlas (patches, atlas allocator, atlas image
-# codecs: lossless zstd tile deltas and H.264 through libavcodec). No Vulkan. docs/stream-atlas.md.
+# codecs: lossless zstd tile deltas and H.264 through libavcodec). No Vulkan. docs/stream.md.
 pkg_check_modules(LIBAV REQUIRED IMPORTED_TARGET libavcodec libavutil libswscale)
 add_library(mirage_stream_atlas STATIC
   ${CMAKE_CURRENT_LIST_DIR}/patches.cpp

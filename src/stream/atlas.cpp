@@ -1,4 +1,4 @@
-// The shading atlas allocator (docs/stream-atlas.md, "Atlas").
+// The shading atlas allocator (docs/stream.md, "Atlas").
 #include "mirage/stream/atlas.h"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Patch building and level selection (docs/stream-atlas.md, "Patches").
+// Patch building and level selection (docs/stream.md, "Patches").
 #include "mirage/stream/patches.h"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Lossless zstd tile-delta atlas codec (docs/stream-atlas.md, "Codecs").
+// Lossless zstd tile-delta atlas codec (docs/stream.md, "Codecs").
 #include "mirage/stream/tile_codec.h"
 
 #include <algorithm>

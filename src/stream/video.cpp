@@ -1,4 +1,4 @@
-// H.264 atlas codec through libavcodec and libswscale (docs/stream-atlas.md, "Codecs").
+// H.264 atlas codec through libavcodec and libswscale (docs/stream.md, "Codecs").
 #include "mirage/stream/video.h"
 
 #include <cstring>

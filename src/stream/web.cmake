@@ -1,4 +1,4 @@
-# Browser client support (docs/stream-web.md): the JPEG tile atlas codec. Its own library so the
+# Browser client support (docs/stream.md, "The browser client"): the JPEG tile atlas codec. Its own library so the
 # stream module's other parts merge without touching these lines.
 mirage_module(stream_web
   ${CMAKE_CURRENT_LIST_DIR}/jpeg_tiles.cpp

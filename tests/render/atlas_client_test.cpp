@@ -1,4 +1,4 @@
-// The thin client's renderer (render/atlas_client.h, docs/stream-client.md) on lavapipe: a patch's
+// The thin client's renderer (render/atlas_client.h, docs/stream.md, "The client's renderer") on lavapipe: a patch's
 // atlas block lands where and how the shared layout (shaderio/atlas.h) says, against a CPU ray cast
 // and bilinear sample of the same atlas; colour-only patches, removal, MASK, BLEND over and behind
 // opaque patches, thousands of patches set, updated and removed between frames, atlas regions

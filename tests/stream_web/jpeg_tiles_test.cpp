@@ -159,7 +159,7 @@ TEST(JpegTiles, PackedTilesKeepTheirOwnColours) {
 
 TEST(JpegTiles, StripsCostLessThanSingleTiles) {
   // Per-JPEG headers (quantization and Huffman tables, ~620 bytes) dominate small tiles; strips of
-  // 16 tiles amortize them. The measured sizes go to docs/stream-web.md.
+  // 16 tiles amortize them. The measured sizes go to docs/stream.md, "The browser client".
   const uint32_t w = 512, h = 256;
   ImageRGBA8 source = atlasImage(w, h, 0.3f);
   JpegTileEncoder single(w, h, {.quality = 90, .maxStripTiles = 1});

@@ -1,5 +1,5 @@
 #pragma once
-// The thin client's renderer of Shading Atlas Streaming (docs/stream-client.md): draws the patches
+// The thin client's renderer of Shading Atlas Streaming (docs/stream.md, "The client's renderer"): draws the patches
 // the server sent (world positions of their vertices, their atlas blocks or one colour each)
 // textured from the latest decoded atlas, at the client's own frame rate. Opaque and MASK patches
 // with a depth buffer (reverse-Z), BLEND patches through the forward renderer's per-pixel linked

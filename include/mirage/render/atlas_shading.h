@@ -1,5 +1,5 @@
 #pragma once
-// Shading Atlas Streaming, the server's GPU stages (docs/stream-shading.md): which patches a
+// Shading Atlas Streaming, the server's GPU stages (docs/stream.md, "The server's GPU stages"): which patches a
 // client's views see (visibility) and the object-space shading of their atlas blocks (shade),
 // with the one material model the forward renderer uses. One per served scene; no networking:
 // the session logic decides which patches get which block and sends the results.

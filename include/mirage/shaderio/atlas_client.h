@@ -1,4 +1,4 @@
-// The thin client's renderer (render/atlas_client.h, docs/stream-client.md): one record per patch
+// The thin client's renderer (render/atlas_client.h, docs/stream.md, "The client's renderer"): one record per patch
 // slot, which the vertex shader expands into the patch's triangles (atlasTriangleVertex) and atlas
 // uvs (atlasCornerTexel), both from shaderio/atlas.h. Written once for C++ and GLSL (scalar layout).
 #ifndef MIRAGE_SHADERIO_ATLAS_CLIENT_H

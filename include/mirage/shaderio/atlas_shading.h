@@ -1,4 +1,4 @@
-// The server's atlas stages (render/atlas_shading.h, docs/stream-shading.md): push constants and
+// The server's atlas stages (render/atlas_shading.h, docs/stream.md, "The server's GPU stages"): push constants and
 // records shared by C++ and the shaders atlas_visibility.* and atlas_shade/atlas_colour.comp.
 // Scalar block layout through buffer device addresses, as shaderio/forward.h.
 #ifndef MIRAGE_SHADERIO_ATLAS_SHADING_H

@@ -1,5 +1,5 @@
 #pragma once
-// The shading atlas allocator (docs/stream-atlas.md, "Atlas"): hands visible patches blocks of a
+// The shading atlas allocator (docs/stream.md, "Atlas"): hands visible patches blocks of a
 // square atlas, frame by frame, keeping a patch's block while it stays visible so that its texels
 // stay put (temporal coherence: unchanged blocks cost the video codec almost nothing).
 //

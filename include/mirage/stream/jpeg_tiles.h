@@ -1,11 +1,12 @@
 #pragma once
-// JPEG tile atlas codec (docs/stream-web.md): the atlas payload a browser decodes without WebCodecs.
+// JPEG tile atlas codec (docs/stream.md, "The browser client"): the atlas payload a browser decodes without WebCodecs.
 // The atlas is cut into 32x32 tiles; a frame carries only the tiles whose RGB changed since the
 // encoder's previous frame (a keyframe carries all). Changed tiles, wherever they lie, are packed
 // side by side into strips of up to maxStripTiles tiles, each strip one baseline JPEG
 // (stb_image_write): every JPEG repeats ~620 bytes of tables, so one JPEG per tile would cost
-// 4-5x the bytes (measured in docs/stream-web.md). A browser decodes a strip with createImageBitmap
-// and copies each tile out of it with texSubImage2D. Alpha is not carried (like H.264).
+// 4-5x the bytes (measured in docs/stream.md, "The browser client"). A browser decodes a strip with createImageBitmap
+// and copies each tile out of it with texSubImage2D. Alpha is not carried (like H.264; the server stacks it below the
+// colour when needed).
 //
 // Payload, little-endian:
 //   header (24 bytes): magic "MJT1", uint32 width, uint32 height, uint32 frame, uint32 baseFrame,

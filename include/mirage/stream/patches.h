@@ -1,5 +1,5 @@
 #pragma once
-// Shading-atlas patches (docs/stream-atlas.md, "Patches"): each mesh's triangles grouped at load
+// Shading-atlas patches (docs/stream.md, "Patches"): each mesh's triangles grouped at load
 // into patches of 1-3 edge-adjacent triangles that share one atlas block, laid out exactly as
 // shaderio/atlas.h says (vertex slots a..e, t0 = (a, b, c), t1 = (c, b, d), t2 = (b, e, d), each
 // keeping its source triangle's winding). Patches are per mesh, shared by the mesh's instances; a

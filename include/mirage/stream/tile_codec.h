@@ -1,5 +1,5 @@
 #pragma once
-// Lossless atlas codec (docs/stream-atlas.md, "Codecs"): the RGBA8 atlas split into 32 x 32 tiles;
+// Lossless atlas codec (docs/stream.md, "Codecs"): the RGBA8 atlas split into 32 x 32 tiles;
 // a frame carries only the tiles that changed since the frame before it (a keyframe carries all),
 // zstd-compressed. Exact, so tests can compare atlases bit for bit; H.264 (video.h) is for real use.
 //

@@ -1,12 +1,11 @@
 #pragma once
-// H.264 atlas codec (docs/stream-atlas.md, "Codecs") through libavcodec: libx264 encodes, FFmpeg's
+// H.264 atlas codec (docs/stream.md, "Codecs") through libavcodec: libx264 encodes, FFmpeg's
 // h264 decodes; RGBA8 <-> YUV 4:2:0 (full range, BT.709) with libswscale. Low latency: tune
 // zerolatency (no lookahead, no frame threads), no B-frames, one packet out per frame in, the VBV
 // buffer a few frames deep, periodic IDR or intra refresh, and a forced IDR on request.
 //
-// Alpha is not carried: H.264 has no alpha plane, decoded frames come back with alpha 255. Clients
-// take a patch's opacity from its material (base colour alpha and alpha mode), which the geometry
-// stream already names per patch, so the atlas carries only colour.
+// Alpha is not carried: H.264 has no alpha plane, decoded frames come back with alpha 255. The
+// stream server stacks an atlas's alpha below its colour when the scene needs it (stream/session.h).
 #include <cstdint>
 #include <memory>
 #include <span>
