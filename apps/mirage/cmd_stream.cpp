@@ -1,8 +1,9 @@
 // mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
 //   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--web DIR]: Shading Atlas Streaming.
 // mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]
-//   [--stereo [--ipd M]]: the native thin client (docs/stream.md): a window with a fly camera, or
-//   with --path / --record a camera path without a window.
+//   [--stereo [--ipd M]] [--latency-ms MS [--jitter-ms J] [--loss P] [--seed S] [--fps F] [--server-ms S]]:
+//   the native thin client (docs/stream.md): a window with a fly camera, or with --path / --record a
+//   camera path without a window; with --latency-ms open loop under a simulated network.
 #include <atomic>
 #include <csignal>
 #include <memory>
@@ -85,7 +86,49 @@ struct ClientCliOptions {
   uint32_t frames = 0;
   uint32_t posesInFlight = 2;
   CLI::Option* pathOption = nullptr;
+  bool simulate = false; // --latency-ms given: open loop under a simulated network
+  stream::SimulatedClientOptions simulation;
 };
+
+// One line per camera of the open-loop client, and the means at the end.
+struct SimulatedReport {
+  size_t frames = 0, lost = 0, withFrames = 0;
+  double roundTrip = 0, inFlight = 0, bytes = 0;
+
+  void add(const stream::ClientFrameInfo& info) {
+    fmt::print("camera {:4}: {} frame(s) arrived{}, {} in flight, {:.1f} KB, server frame {}, {} patches{}\n",
+               info.index, info.framesApplied,
+               info.framesApplied ? fmt::format(" (round trip {:.1f} ms)", info.roundTripMs) : "", info.framesInFlight,
+               info.frameBytes / 1e3, info.serverFrame, info.patchesHeld, info.poseLost ? ", pose lost" : "");
+    ++frames;
+    lost += info.poseLost;
+    inFlight += info.framesInFlight;
+    bytes += double(info.frameBytes);
+    if (info.framesApplied) {
+      ++withFrames;
+      roundTrip += info.roundTripMs;
+    }
+  }
+  void summary(const std::string& url) const {
+    double n = frames ? double(frames) : 1.0;
+    fmt::print("{} cameras from {}: mean round trip {:.1f} ms ({} cameras with a new frame), mean {:.2f} frames in "
+               "flight, mean {:.1f} KB per camera, {} poses lost\n",
+               frames, url, withFrames ? roundTrip / double(withFrames) : 0.0, withFrames, inFlight / n,
+               bytes / n / 1e3, lost);
+  }
+};
+
+void runSimulatedClient(ClientCliOptions& o, gpu::Context& ctx) {
+  SimulatedReport report;
+  auto sink = [&](const stream::ClientFrameInfo& info, const render::RenderOutput& out) -> Status {
+    report.add(info);
+    if (o.record.empty()) return Ok{};
+    return io::writePng(render::pathFrameName(o.record, info.index), out.srgb);
+  };
+  Status s = stream::runSimulatedPathClient(ctx, o.client, o.path, o.simulation, sink);
+  if (!s) return fail(s.error());
+  report.summary(o.client.url);
+}
 
 void runClient(ClientCliOptions& o) {
   if (auto s = parseSize(o.size, o.client.width, o.client.height); !s) return fail(s.error());
@@ -100,7 +143,7 @@ void runClient(ClientCliOptions& o) {
   o.client.stereoIpd = o.stereo.ipdOrNone();
   if (o.client.stereoIpd)
     if (auto s = render::validateIpd(*o.client.stereoIpd); !s) return fail(s.error());
-  if (o.record.empty() && o.pathOption->count() == 0) { // the window
+  if (o.record.empty() && o.pathOption->count() == 0 && !o.simulate) { // the window
     viewer::StreamWindowOptions w;
     w.client = o.client;
     w.present = o.present;
@@ -115,6 +158,7 @@ void runClient(ClientCliOptions& o) {
     if (auto s = checkOutputPath(o.record, {".png"}); !s) return fail(s.error());
   auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
+  if (o.simulate) return runSimulatedClient(o, **ctx);
   size_t written = 0;
   uint64_t bytes = 0;
   double roundTrip = 0;
@@ -177,7 +221,25 @@ void addStreamCommands(CLI::App& app) {
   c->add_option("--codec", co->codec, "Atlas codecs offered: any (zstd, H.264), h264, zstd or jpeg (the browser's)")
       ->capture_default_str();
   c->add_option("--device", co->device, "GPU index or name substring");
-  c->callback([co] { runClient(*co); });
+  auto* latency = c->add_option("--latency-ms", co->simulation.network.roundTripMs,
+                                "Simulated network: round trip in ms (half each way); runs open loop");
+  c->add_option("--jitter-ms", co->simulation.network.jitterMs,
+                "Simulated network: + uniform [0, J) ms per message and direction")
+      ->needs(latency);
+  c->add_option("--loss", co->simulation.network.poseLoss, "Simulated network: probability a pose is lost")
+      ->needs(latency);
+  c->add_option("--seed", co->simulation.network.seed, "Simulated network: seed of jitter and losses")
+      ->needs(latency)
+      ->capture_default_str();
+  c->add_option("--fps", co->simulation.fps, "Simulated network: the client's frame rate (virtual clock)")
+      ->needs(latency)
+      ->capture_default_str();
+  c->add_option("--server-ms", co->simulation.serverMs, "Simulated network: virtual time the server takes per pose")
+      ->needs(latency);
+  c->callback([co, latency] {
+    co->simulate = latency->count() > 0;
+    runClient(*co);
+  });
 }
 
 } // namespace mirage::cli

@@ -110,6 +110,7 @@ Status runPathClient(gpu::Context& context, const StreamClientOptions& options, 
       info.serverFrame = frame->sequence;
       info.atlasBytes += frame->atlas.bytes.size();
       info.frameBytes += encodeMessage(*frame).size();
+      info.framesApplied++;
       if (frame->poseSequence >= pose.sequence) break;
     }
     info.roundTripMs = std::chrono::duration<double, std::milli>(Clock::now() - sent).count();

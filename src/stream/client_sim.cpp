@@ -1,0 +1,148 @@
+// The open-loop client under a simulated network (client.h, net_sim.h; docs/stream.md,
+// "Simulated network").
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "mirage/stream/client.h"
+#include "mirage/stream/client_view.h"
+#include "mirage/stream/session.h"
+#include "mirage/stream/transport.h"
+
+namespace mirage::stream {
+
+namespace {
+
+// The virtual time camera `index` is drawn at, in microseconds.
+uint64_t cameraTimeUs(size_t index, uint32_t fps) { return uint64_t(index) * 1000000u / fps; }
+
+struct PoseOnItsWay {
+  uint64_t arrivalUs = 0; // at the server
+  Pose pose;
+};
+
+struct FrameOnItsWay {
+  Frame frame;
+  uint64_t bytes = 0; // the message as sent
+};
+
+// Hands `pose` to the server and waits for the frame answering it; frames answering earlier poses
+// that come first are returned too, in order.
+Result<std::vector<Frame>> exchange(TransportClient& transport, const Pose& pose, const StreamClientOptions& options) {
+  if (!transport.send(pose)) return Error{fmt::format("{}: connection lost", options.url)};
+  std::vector<Frame> frames;
+  for (;;) {
+    auto message = transport.receive(options.timeout);
+    if (!message) return message.error();
+    if (auto* close = std::get_if<Close>(&*message))
+      return Error{fmt::format("{}: server closed the connection: {}", options.url, close->reason)};
+    auto* frame = std::get_if<Frame>(&*message);
+    if (!frame)
+      return Error{fmt::format("{}: unexpected {} message", options.url, messageTypeName(messageType(*message)))};
+    bool answer = frame->poseSequence >= pose.sequence;
+    frames.push_back(std::move(*frame));
+    if (answer) return frames;
+  }
+}
+
+// Frames the mean round trip (plus the server's time) spans at `fps`: how far ahead the predicted
+// view looks.
+size_t framesAhead(const SimulatedClientOptions& simulation) {
+  double ms = meanRoundTripMs(simulation.network) + simulation.serverMs;
+  return size_t(std::lround(ms * simulation.fps / 1000.0));
+}
+
+Status checkSimulation(const SimulatedClientOptions& simulation) {
+  if (auto s = checkNetSimConfig(simulation.network); !s) return s;
+  if (simulation.fps == 0 || simulation.fps > 1000)
+    return Error{fmt::format("network simulation: client frame rate {} not in 1..1000", simulation.fps)};
+  if (!std::isfinite(simulation.serverMs) || simulation.serverMs < 0.0 || simulation.serverMs > 60000.0)
+    return Error{fmt::format("network simulation: server time {} ms not in [0, 60000]", simulation.serverMs)};
+  return Ok{};
+}
+
+} // namespace
+
+Status runSimulatedPathClient(gpu::Context& context, const StreamClientOptions& options,
+                              const std::string& pathArgument, const SimulatedClientOptions& simulation,
+                              const ClientFrameSink& sink) {
+  if (auto s = checkSimulation(simulation); !s) return s;
+  TransportClient transport;
+  ClientConfig config;
+  config.hello.token = options.token;
+  config.hello.capabilities = options.capabilities;
+  config.hello.viewportWidth = options.width;
+  config.hello.viewportHeight = options.height;
+  config.caFile = options.caFile;
+  config.timeout = options.timeout;
+  config.limits.maxMessageBytes = options.maxFrameBytes;
+  auto welcome = transport.connect(options.url, config);
+  if (!welcome) return welcome.error();
+  auto view = StreamView::create(context, *welcome);
+  if (!view) return view.error();
+  Bounds bounds;
+  bounds.add(welcome->sceneMin);
+  bounds.add(welcome->sceneMax);
+  auto cameras = render::cameraPathArgument(pathArgument, bounds, float(options.width) / float(options.height));
+  if (!cameras) return cameras.error();
+  const std::vector<render::Camera>& path = *cameras;
+
+  NetSim network(simulation.network);
+  DelayLine<PoseOnItsWay> uplink;
+  DelayLine<FrameOnItsWay> downlink;
+  const size_t ahead = framesAhead(simulation);
+  const uint64_t serverUs = uint64_t(std::llround(simulation.serverMs * 1000.0));
+  uint32_t serverFrame = 0;
+  for (size_t i = 0; i < path.size(); ++i) {
+    const uint64_t nowUs = cameraTimeUs(i, simulation.fps);
+    Pose pose;
+    pose.sequence = uint32_t(i + 1); // lost poses leave gaps: the server only needs increasing numbers
+    pose.clientTimeUs = nowUs;
+    pose.camera = toProtocolCamera(path[i]);
+    pose.predicted = toProtocolCamera(path[std::min(i + ahead, path.size() - 1)]);
+    pose.viewportWidth = options.width;
+    pose.viewportHeight = options.height;
+    ClientFrameInfo info;
+    info.index = i;
+    info.count = path.size();
+    info.codec = welcome->codec;
+    info.poseLost = network.losePose();
+    if (!info.poseLost) {
+      uint64_t arrivalUs = network.uplinkArrival(nowUs);
+      uplink.push(arrivalUs, {arrivalUs, pose});
+    }
+
+    // The server answers each pose that has reached it by now; its frame starts down after serverMs.
+    while (auto up = uplink.popArrived(nowUs)) {
+      auto frames = exchange(transport, up->pose, options);
+      if (!frames) return frames.error();
+      for (Frame& frame : *frames) {
+        uint64_t bytes = encodeMessage(frame).size();
+        downlink.push(network.downlinkArrival(up->arrivalUs + serverUs), {std::move(frame), bytes});
+      }
+    }
+    while (auto down = downlink.popArrived(nowUs)) {
+      if (auto s = (*view)->apply(down->frame); !s) {
+        transport.close(CloseCode::Malformed, s.error().message);
+        return Error{fmt::format("{}: {}", options.url, s.error().message)};
+      }
+      serverFrame = down->frame.sequence;
+      info.framesApplied++;
+      info.frameBytes += down->bytes;
+      info.atlasBytes += down->frame.atlas.bytes.size();
+      uint64_t takenUs = cameraTimeUs(down->frame.poseSequence - 1, simulation.fps);
+      info.roundTripMs = double(nowUs - takenUs) / 1000.0;
+    }
+    info.serverFrame = serverFrame;
+    info.framesInFlight = uint32_t(uplink.size() + downlink.size());
+    info.patchesHeld = (*view)->patchCount();
+    auto image = (*view)->render(path[i], options.width, options.height);
+    if (!image) return image.error();
+    if (auto s = sink(info, *image); !s) return s;
+  }
+  transport.close();
+  return Ok{};
+}
+
+} // namespace mirage::stream
