@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
+#include "loopback_server.h"
 #include "mirage/core/image_metrics.h"
 #include "mirage/runtime/scene.h"
 #include "mirage/stream/client.h"
@@ -19,54 +20,13 @@ namespace {
 constexpr uint32_t kWidth = 320, kHeight = 180;
 constexpr char kToken[] = "loopback-secret";
 
-gpu::Context& serverContext() {
-  static std::unique_ptr<gpu::Context> context = [] {
-    gpu::ContextOptions options;
-    options.validation = true;
-    auto r = gpu::Context::create(options);
-    if (!r) std::abort();
-    return std::move(r).value();
-  }();
-  return *context;
-}
-
-// A server on a free port, serving `input` on its own thread until destroyed.
-struct LoopbackServer {
-  std::unique_ptr<stream::StreamServer> server;
-  std::atomic<bool> stop{false};
-  std::thread thread;
-  Status result = Ok{};
-
-  LoopbackServer(const std::string& input, stream::AtlasCodec codec) {
-    stream::StreamSceneOptions so;
-    so.input = input;
-    so.atlasSize = 1024;
-    auto scene = stream::openStreamScene(serverContext(), so);
-    EXPECT_TRUE(scene) << scene.error().message;
-    if (!scene) return;
-    stream::ServeOptions options;
-    options.transport.token = kToken;
-    options.codec = codec;
-    options.stream.bitrateKbps = 20000;
-    auto s = stream::StreamServer::start(serverContext(), std::move(*scene), options);
-    EXPECT_TRUE(s) << s.error().message;
-    if (!s) return;
-    server = std::move(*s);
-    thread = std::thread([this] { result = server->run(stop); });
-  }
-  ~LoopbackServer() {
-    stop = true;
-    if (thread.joinable()) thread.join();
-    EXPECT_TRUE(result) << result.error().message;
-    EXPECT_EQ(serverContext().validationIssues(), 0u);
-  }
-  std::string url() const { return fmt::format("ws://127.0.0.1:{}/", server->port()); }
-};
+// A lossless (or H.264) server of a scene on a free port: test::StreamTestServer (loopback_server.h).
+using LoopbackServer = test::StreamTestServer;
 
 // The client's frames along orbit:3 and the forward renderer's of the same cameras.
 void expectMatchesLocal(gpu::Context& ctx, const std::string& input, stream::AtlasCodec codec, uint32_t capabilities,
                         double minSsim) {
-  LoopbackServer server(input, codec);
+  LoopbackServer server(input, codec, kToken);
   ASSERT_TRUE(server.server);
   stream::StreamClientOptions options;
   options.url = server.url();
@@ -97,8 +57,8 @@ void expectMatchesLocal(gpu::Context& ctx, const std::string& input, stream::Atl
     ASSERT_TRUE(frame) << frame.error().message;
     double ssim = mirage::ssim(streamed[i], frame->srgb), psnr = mirage::psnr(streamed[i], frame->srgb);
     EXPECT_GE(ssim, minSsim) << "camera " << i << " PSNR " << psnr;
-    std::printf("camera %zu: SSIM %.4f PSNR %.2f dB, %zu patches, %.1f KB atlas\n", i, ssim, psnr,
-                infos[i].patchesHeld, infos[i].atlasBytes / 1024.0);
+    std::printf("camera %zu: SSIM %.4f PSNR %.2f dB, %zu patches, %.1f KB atlas\n", i, ssim, psnr, infos[i].patchesHeld,
+                infos[i].atlasBytes / 1024.0);
     EXPECT_GT(infos[i].patchesHeld, 0u);
     EXPECT_EQ(infos[i].codec, codec);
   }
@@ -116,7 +76,7 @@ TEST_F(StreamLoopback, H264ClientMatchesLocalRendering) {
 }
 
 TEST_F(StreamLoopback, WrongTokenIsRefusedWithItsReason) {
-  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles);
+  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles, kToken);
   ASSERT_TRUE(server.server);
   stream::StreamClientOptions options;
   options.url = server.url();
@@ -129,7 +89,7 @@ TEST_F(StreamLoopback, WrongTokenIsRefusedWithItsReason) {
 }
 
 TEST_F(StreamLoopback, ReconnectGetsAFreshSession) {
-  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles);
+  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles, kToken);
   ASSERT_TRUE(server.server);
   stream::StreamClientOptions options;
   options.url = server.url();

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
+#include "loopback_server.h"
 #include "mirage/stream/client.h"
 #include "mirage/stream/server.h"
 
@@ -18,58 +19,19 @@ constexpr uint32_t kWidth = 160, kHeight = 90;
 constexpr char kToken[] = "open-loop-secret";
 constexpr char kScene[] = "gen:city:2";
 
-gpu::Context& serverContext() {
-  static std::unique_ptr<gpu::Context> context = [] {
-    gpu::ContextOptions options;
-    options.validation = true;
-    auto r = gpu::Context::create(options);
-    if (!r) std::abort();
-    return std::move(r).value();
-  }();
-  return *context;
+// A lossless (or H.264) server of a scene on a free port: test::StreamTestServer (loopback_server.h).
+using LoopbackServer = test::StreamTestServer;
+
+stream::StreamClientOptions clientOptions(const LoopbackServer& server) {
+  stream::StreamClientOptions options;
+  options.url = server.url();
+  options.token = kToken;
+  options.width = kWidth;
+  options.height = kHeight;
+  options.capabilities = stream::kCapabilityZstdTiles;
+  options.timeout = std::chrono::milliseconds(20000); // lavapipe on a busy machine; a hang still ends
+  return options;
 }
-
-// A lossless server of kScene on a free port, serving on its own thread until destroyed. Every
-// connection is a fresh session, so runs against one server start alike.
-struct LoopbackServer {
-  std::unique_ptr<stream::StreamServer> server;
-  std::atomic<bool> stop{false};
-  std::thread thread;
-  Status result = Ok{};
-
-  LoopbackServer() {
-    stream::StreamSceneOptions so;
-    so.input = kScene;
-    so.atlasSize = 1024;
-    auto scene = stream::openStreamScene(serverContext(), so);
-    EXPECT_TRUE(scene) << scene.error().message;
-    if (!scene) return;
-    stream::ServeOptions options;
-    options.transport.token = kToken;
-    options.codec = stream::AtlasCodec::ZstdTiles;
-    auto s = stream::StreamServer::start(serverContext(), std::move(*scene), options);
-    EXPECT_TRUE(s) << s.error().message;
-    if (!s) return;
-    server = std::move(*s);
-    thread = std::thread([this] { result = server->run(stop); });
-  }
-  ~LoopbackServer() {
-    stop = true;
-    if (thread.joinable()) thread.join();
-    EXPECT_TRUE(result) << result.error().message;
-    EXPECT_EQ(serverContext().validationIssues(), 0u);
-  }
-  stream::StreamClientOptions clientOptions() const {
-    stream::StreamClientOptions options;
-    options.url = fmt::format("ws://127.0.0.1:{}/", server->port());
-    options.token = kToken;
-    options.width = kWidth;
-    options.height = kHeight;
-    options.capabilities = stream::kCapabilityZstdTiles;
-    options.timeout = std::chrono::milliseconds(20000); // lavapipe on a busy machine; a hang still ends
-    return options;
-  }
-};
 
 struct Run {
   std::vector<stream::ClientFrameInfo> infos;
@@ -85,8 +47,8 @@ Result<Run> runClient(gpu::Context& ctx, const LoopbackServer& server, const std
     run.images.push_back(out.srgb);
     return Ok{};
   };
-  Status s = simulation ? stream::runSimulatedPathClient(ctx, server.clientOptions(), path, *simulation, sink)
-                        : stream::runPathClient(ctx, server.clientOptions(), path, sink);
+  Status s = simulation ? stream::runSimulatedPathClient(ctx, clientOptions(server), path, *simulation, sink)
+                        : stream::runPathClient(ctx, clientOptions(server), path, sink);
   if (!s) return s.error();
   return run;
 }
@@ -101,7 +63,7 @@ bool isUniform(const ImageRGBA8& image) {
 class StreamOpenLoop : public test::GpuTest {};
 
 TEST_F(StreamOpenLoop, WithoutLatencyEqualsLockStep) {
-  LoopbackServer server;
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
   ASSERT_TRUE(server.server);
   auto lockStep = runClient(context(), server, "orbit:3", nullptr);
   ASSERT_TRUE(lockStep) << lockStep.error().message;
@@ -123,7 +85,7 @@ TEST_F(StreamOpenLoop, WithoutLatencyEqualsLockStep) {
 
 // 50 ms round trip at 60 Hz: each frame arrives 3 client frames after its pose.
 TEST_F(StreamOpenLoop, WithLatencyEveryCameraIsDrawnFromTheFramesArrived) {
-  LoopbackServer server;
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
   ASSERT_TRUE(server.server);
   stream::SimulatedClientOptions simulation;
   simulation.network.roundTripMs = 50;
@@ -150,7 +112,7 @@ TEST_F(StreamOpenLoop, WithLatencyEveryCameraIsDrawnFromTheFramesArrived) {
 }
 
 TEST_F(StreamOpenLoop, AllPosesLostLeavesTheFirstFrameAndEnds) {
-  LoopbackServer server;
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
   ASSERT_TRUE(server.server);
   stream::SimulatedClientOptions simulation;
   simulation.network.roundTripMs = 50;
@@ -171,7 +133,7 @@ TEST_F(StreamOpenLoop, AllPosesLostLeavesTheFirstFrameAndEnds) {
 }
 
 TEST_F(StreamOpenLoop, SameSeedSameRun) {
-  LoopbackServer server;
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
   ASSERT_TRUE(server.server);
   stream::SimulatedClientOptions simulation;
   simulation.network.roundTripMs = 30;
