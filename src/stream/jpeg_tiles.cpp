@@ -174,6 +174,49 @@ JpegTileDecoder::JpegTileDecoder(uint32_t width, uint32_t height)
   for (size_t i = 3; i < rgba_.size(); i += 4) rgba_[i] = 255;
 }
 
+namespace {
+
+// Whether every Huffman table (DHT segment) of a JPEG stream declares at most 256 codes. Debian's
+// stb_image writes past its 257-entry size list for a table that declares more (undefined
+// behaviour found by the sanitized corrupt-payload test), so such streams never reach it. Walks
+// every marker segment, the entropy-coded data after each SOS included (a DHT may follow a scan).
+bool jpegHuffmanTablesFit(const uint8_t* data, size_t size) {
+  size_t pos = 2; // after SOI
+  while (pos + 4 <= size) {
+    if (data[pos] != 0xFF) return false;
+    uint8_t marker = data[pos + 1];
+    if (marker == 0xFF) { // fill byte
+      ++pos;
+      continue;
+    }
+    if (marker == 0xD9) return true;                            // EOI
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) { // no length
+      pos += 2;
+      continue;
+    }
+    size_t length = size_t(data[pos + 2]) << 8 | data[pos + 3];
+    if (length < 2 || pos + 2 + length > size) return false;
+    if (marker == 0xC4) {
+      size_t q = pos + 4, end = pos + 2 + length;
+      while (q < end) {
+        if (q + 17 > end) return false;
+        size_t codes = 0;
+        for (size_t i = 1; i <= 16; ++i) codes += data[q + i];
+        if (codes > 256 || q + 17 + codes > end) return false;
+        q += 17 + codes;
+      }
+    }
+    pos += 2 + length;
+    if (marker == 0xDA) // entropy-coded data: up to the next marker that is not a stuffed 0 or RSTn
+      while (pos + 1 < size &&
+             !(data[pos] == 0xFF && data[pos + 1] != 0x00 && !(data[pos + 1] >= 0xD0 && data[pos + 1] <= 0xD7)))
+        ++pos;
+  }
+  return true; // what is left is too short to hold a table: stb reports the truncation
+}
+
+} // namespace
+
 Status JpegTileDecoder::decode(std::span<const uint8_t> payload, std::string_view source) {
   std::string name(source);
   Result<JpegTilesHeader> header = readJpegTilesHeader(payload, source);
@@ -220,6 +263,8 @@ Status JpegTileDecoder::decode(std::span<const uint8_t> payload, std::string_vie
     uint32_t stripWidth = count * kJpegTileSide;
     int w = 0, hh = 0, channels = 0;
     const auto* jpeg = reinterpret_cast<const stbi_uc*>(&payload[pos]);
+    if (!jpegHuffmanTablesFit(&payload[pos], bytes))
+      return makeError(name, field + ": JPEG with a Huffman table of more than 256 codes");
     // Size check before decoding: a hostile header must not make stb allocate a huge image.
     if (!stbi_info_from_memory(jpeg, int(bytes), &w, &hh, &channels) || uint32_t(w) != stripWidth ||
         uint32_t(hh) != kJpegTileSide)
