@@ -70,16 +70,19 @@ ImageRGBA8 lockStepImage(const stream::StreamClientOptions& options, const rende
   return image;
 }
 
-// W held until three server frames arrived, then still until three more (the last answer a pose
-// taken after the camera stopped), then the last frame. A guard ends runaway runs.
+// W held for the first display frames (at most 3, and until three server frames arrived); once three
+// server frames arrived and W is up, still until three more server frames (the last answer a pose taken after the
+// camera stopped), then the last frame. A display-frame bound, not a server-frame one, on the motion: the fly step
+// moves by the frame's wall time, and a slow build (sanitizers) waits seconds for three frames, flying out of the
+// scene. A guard ends runaway runs.
 struct MoveThenSettle {
   uint64_t settledAt = 0;
   bool settled = false;
   bool operator()(uint64_t frame, uint64_t serverFrames, viewer::PolledInput& input) {
     if (frame > 5000) return false;
-    bool moving = serverFrames < 3;
+    bool moving = serverFrames < 3 && frame < 3;
     input.setKey(GLFW_KEY_W, moving);
-    if (!moving && !settled) {
+    if (!moving && !settled && serverFrames >= 3) {
       settled = true;
       settledAt = serverFrames;
     }
