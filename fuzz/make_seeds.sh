@@ -12,10 +12,11 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out"
 cp -r "$src"/fuzz/seeds/. "$out"/
-for t in ply obj gltf scen cdag surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file stream_message; do
+for t in ply obj gltf scen cdag surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file stream_message tile_delta; do
   mkdir -p "$out/$t"
 done
 cp "$src"/examples/particles/*.toml "$out/effect_file/"
+cp "$src"/fuzz/regressions/tile_delta/* "$out/tile_delta/" # lossless atlas frames: keyframes and deltas
 
 q() { "$mirage" "$@" >/dev/null; }
 "$seed_tool" stream-messages "$out/stream_message"

@@ -292,7 +292,7 @@ Result<EffectFile> parseEffectFile(std::string_view text, const std::string& nam
   try {
     root = toml::parse(text, name);
   } catch (const toml::parse_error& e) {
-    return Error{fmt::format("{}:{}: {}", name, e.source().begin.line, e.description())};
+    return tomlParseError(name, e);
   }
   MIRAGE_TRY(p.document(root));
   return std::move(p.file);

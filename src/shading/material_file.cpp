@@ -223,7 +223,7 @@ Result<MaterialFile> parseMaterialFile(std::string_view text, const std::string&
   try {
     root = toml::parse(text, name);
   } catch (const toml::parse_error& e) {
-    return Error{fmt::format("{}:{}: {}", name, e.source().begin.line, e.description())};
+    return tomlParseError(name, e);
   }
   MIRAGE_TRY(p.document(root));
   return std::move(p.file);

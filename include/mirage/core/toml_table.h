@@ -23,6 +23,15 @@ inline std::optional<double> tomlNumber(const toml::node& n) {
   return n.value<double>();
 }
 
+// A TOML syntax error as one line "file:line: description": toml++'s descriptions may quote the
+// offending text, line breaks and control characters included.
+inline Error tomlParseError(const std::string& file, const toml::parse_error& e) {
+  std::string text(e.description());
+  for (char& c : text)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+  return Error{fmt::format("{}:{}: {}", file, e.source().begin.line, text)};
+}
+
 struct TomlTable {
   const toml::table& t;
   const std::string& file;
