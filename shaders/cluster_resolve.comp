@@ -34,8 +34,12 @@ void resolvePixel(ivec2 target) {
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
   uint v1, t, surfelId = 0;
   if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) != 0) {
-    uint id = uint(VisBufferRef(push.visBufferAddress).pixels[uint(target.y) * targetRowPixels(f) + uint(target.x)] &
-                   0xffffffffUL);
+    uint pixel = uint(target.y) * targetRowPixels(f) + uint(target.x);
+    uint64_t visSample = VisBufferRef(push.visBufferAddress).pixels[pixel];
+    // The buffer's last reader this frame: covered pixels back to zero for the next frame's raster
+    // (MIRAGE_FRAME_CLEAR_VIS; uncovered ones are zero already).
+    if ((f.flags & MIRAGE_FRAME_CLEAR_VIS) != 0 && visSample != 0) VisBufferRef(push.visBufferAddress).pixels[pixel] = 0;
+    uint id = uint(visSample & 0xffffffffUL);
     // Mixed scenes: a tagged id is a surfel, shaded where background pixels are.
     if (f.surfelLinkAddress != 0 && (id & MIRAGE_SURFEL_ID_TAG) != 0) {
       surfelId = id & ~MIRAGE_SURFEL_ID_TAG;

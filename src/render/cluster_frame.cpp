@@ -157,6 +157,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
       (plan.hierarchy ? MIRAGE_FRAME_HIERARCHY : 0u) | (plan.pvs ? MIRAGE_FRAME_PVS : 0u) |
       (plan.blend == BlendRaster::Hybrid ? MIRAGE_FRAME_BLEND_HYBRID : 0u) |
       (plan.blend == BlendRaster::Hardware ? MIRAGE_FRAME_BLEND_HARDWARE : 0u) | (plan.dagTree ? MIRAGE_FRAME_DAG : 0u);
+  if (plan.clearsVisibility()) f.flags |= MIRAGE_FRAME_CLEAR_VIS;
   if (cs.foveation) {
     // The gaze ray through the screen point (Vulkan NDC: y down; any depth between the planes).
     glm::vec4 p = f.camera.invViewProj * glm::vec4(2.0f * cs.foveaGaze - 1.0f, 0.5f, 1.0f);

@@ -95,6 +95,11 @@ struct ClusterFramePlan {
   bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
   bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
   bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
+  // The resolve leaves the 64-bit buffer zeroed (MIRAGE_FRAME_CLEAR_VIS): it is the buffer's last
+  // reader of the frame.
+  bool clearsVisibility() const {
+    return bufferTarget && debugView == DebugView::None && !transparency;
+  }
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -144,6 +149,13 @@ struct ClusterRenderer::Impl {
   uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
+  // vis and depth were transitioned out of UNDEFINED since they were made: every frame leaves them
+  // in their read-only layouts, so the buffer backends (which never write them) transition them
+  // once, not per frame.
+  bool visImagesDefined = false;
+  // visBuffer is all zero when the next recorded frame starts (the last recorded frame's resolve
+  // cleared it), so that frame skips the fill. Frames run in the order they were recorded.
+  bool visBufferZero = false;
   // Frames in flight (record/collect): what the CPU writes or reads while other frames run is per
   // slot; everything else is GPU-only scratch shared by the slots (see cmdFrame).
   gpu::Buffer frames[kMaxFramesInFlight];    // ClusterFrame, written by the CPU at record time

@@ -178,6 +178,8 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
                         VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
                             VK_IMAGE_USAGE_TRANSFER_DST_BIT,
                         "visibility depth");
+  visImagesDefined = false;
+  visBufferZero = false;
   layeredVis = {}; // made at the new size on first use
   layeredDepth = {};
   visBuffer =

@@ -149,8 +149,10 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
     if (backend == RasterBackend::Hybrid)
       cmdHardwareList(cmd, p, hybridListMesh() ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
                       /*atomic=*/true);
-    if (pass == 0) cmdImageBarriers(cmd, toRead); // unwritten, but the descriptors must be valid
+    // Unwritten, but the descriptors must be valid: once per image (every path leaves them so).
+    if (pass == 0 && !visImagesDefined) cmdImageBarriers(cmd, toRead);
   }
+  visImagesDefined = true;
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   timer().cmdEnd(cmd, slot);
 }

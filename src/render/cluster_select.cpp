@@ -21,7 +21,9 @@ void ClusterRenderer::Impl::cmdSelect(VkCommandBuffer cmd, const sio::ClusterPus
   // so the two overlap (the frame's opening barrier ordered it after the last frame's readers; the
   // barrier below before the raster writes it). H100: 2500 blobs frame 0.183 -> 0.179 ms, stereo
   // 0.311 -> 0.304 against a fill before the cull's barrier.
-  if (plans[currentSlot].bufferTarget) vkCmdFillBuffer(cmd, visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
+  // Skipped when the last frame's resolve left it zero (MIRAGE_FRAME_CLEAR_VIS).
+  if (plans[currentSlot].bufferTarget && !visBufferZero) vkCmdFillBuffer(cmd, visBuffer.handle(), 0, VK_WHOLE_SIZE, 0);
+  visBufferZero = plans[currentSlot].clearsVisibility();
   timer().cmdEnd(cmd, slot, kCS);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   // LOCALCUT + frustum + cones: a flat pass over every (visible instance, cluster of its level

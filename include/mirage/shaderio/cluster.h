@@ -50,6 +50,11 @@ namespace mirage::shaderio {
 // rows of 2 * viewport.x pixels, this eye's half starting at targetOffsetX; the compute raster
 // draws the right eye too from the left eye's frame (stereoClipDx).
 #define MIRAGE_FRAME_STEREO 8192u
+// The resolve zeroes the covered pixels of the 64-bit visibility buffer after reading them: nothing
+// reads the buffer later in the frame (no blend raster, no debug view), so the next frame starts
+// from a zero buffer without a fill pass (a full-target fill is 16 MB at 1080p, 73 MB in stereo at
+// 2064 x 2208 per eye).
+#define MIRAGE_FRAME_CLEAR_VIS 16384u
 
 // Byte stride of consecutive ClusterFrames in the frame buffer (selection frame, left eye, right
 // eye): shaders step from the left eye's frame to the right eye's by it.
