@@ -11,8 +11,9 @@ float bufferOpaqueDepth(ClusterFrame f, uint x, uint y) {
 }
 
 // A blended fragment already known to lie in front of the opaque surface, pushed onto its pixel's
-// list under the shared pool rule (oit_list.glsl).
+// list under the shared pool rule (oit_list.glsl: past the pool it replaces its pixel's farthest).
 void oitAppend(ClusterFrame f, uint x, uint y, float z, uint id) {
-  uint n = oitAllocate(f.oitCounterAddress, f.oitNodeCapacity);
-  if (n != kOitNoNode) oitLink(f.oitHeadAddress, f.oitNodeAddress, y * targetRowPixels(f) + x, n, z, id);
+  uint pixel = y * targetRowPixels(f) + x;
+  OitSlot s = oitAcquire(f.oitCounterAddress, f.oitHeadAddress, f.oitNodeAddress, f.oitNodeCapacity, pixel, z);
+  if (s.node != kOitNoNode) oitCommit(f.oitHeadAddress, f.oitNodeAddress, pixel, s, z, id, /*payload=*/false);
 }

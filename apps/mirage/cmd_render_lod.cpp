@@ -210,7 +210,7 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
              st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
   if (st.clustersBlend)
     fmt::print("blend ({} raster): {} clusters ({} by hardware)  {} fragments  msl {:.3f}  oit_dropped {}: {} past "
-               "the node pool, {} past 16 layers per pixel\n",
+               "the node pool (the farthest), {} past 16 layers per pixel\n",
                render::toString(st.blendRaster), st.clustersBlend, st.clustersBlendHardware, st.oitFragments, st.msl,
                uint64_t(st.oitPoolOverflow) + st.oitLayersDropped, st.oitPoolOverflow, st.oitLayersDropped);
   if (st.pvs)

@@ -91,6 +91,8 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   if (!(cs.tauPixels > 0.0f)) return Error{fmt::format("--tau {} must be a positive number of pixels", cs.tauPixels)};
   if (!(cs.hybridThreshold >= 0.0f))
     return Error{fmt::format("--hybrid-threshold {} must be a non-negative number of pixels", cs.hybridThreshold)};
+  if (cs.oitNodesPerPixel < 1 || cs.oitNodesPerPixel > 64)
+    return Error{fmt::format("OIT node pool of {} nodes per pixel is outside 1..64", cs.oitNodesPerPixel)};
   ClusterFramePlan p;
   auto resolved = resolveBackend(cs.raster, ctx.caps());
   if (!resolved) return resolved.error();

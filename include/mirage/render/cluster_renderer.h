@@ -129,6 +129,10 @@ struct ClusterRenderSettings {
   // sqrt(triangles)) is below this many pixels go to the compute rasterizer, the rest (and those
   // reaching the near plane) to the hardware path. To be tuned on the H200 (docs/render.md).
   float hybridThreshold = 16.0f;
+  // Transparency node pool (docs/render.md, "Transparency"): blended fragments per pixel on average
+  // (12 bytes each; 1..64), capped by the device's storage-buffer range. Past it, a fragment takes
+  // the place of its pixel's farthest listed one if nearer, else is dropped (counted either way).
+  uint32_t oitNodesPerPixel = 4;
   // Two-pass HZB occlusion culling against this renderer's previous frame (correct on any frame,
   // faster when consecutive frames are alike).
   bool occlusionCulling = false; // off by default: on the H200 it cost more than it saved (docs/render.md)
@@ -183,7 +187,7 @@ struct ClusterStats {
   uint32_t clustersBlend = 0;            // alpha BLEND: drawn into the transparency lists (in clustersDrawn)
   uint32_t clustersBlendHardware = 0;    // of those, drawn by the hardware blend raster
   uint32_t oitFragments = 0;             // blended fragments in front of the opaque depth
-  uint32_t oitPoolOverflow = 0;          // blended fragments beyond the node pool (dropped)
+  uint32_t oitPoolOverflow = 0;          // blended fragments past the node pool (each drops its pixel's farthest)
   uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
   double msl = 0.0;                      // Mean Squared Layers of the transparency lists (render/oit.h)
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
