@@ -1,6 +1,7 @@
 // Appending blended fragments to the per-pixel transparency lists (oit_list.glsl), shared by the compute blend
-// raster (cluster_raster.glsl, MIRAGE_RASTER_BLEND) and the hardware one (cluster_blend_frag.glsl),
-// so both write the same nodes under the same pool rule and the composite cannot tell them apart.
+// raster (cluster_raster.glsl, MIRAGE_RASTER_BLEND), the blend queue (cluster_blend_queue.comp) and the hardware
+// blend raster (cluster_blend_frag.glsl), so all write the same nodes under the same pool rule and the composite
+// cannot tell them apart.
 
 // Nearest opaque depth of pixel (x, y) in the 64-bit visibility buffer (compute, hybrid): its high
 // word; 0 (far) where nothing opaque was drawn. x counts across both eyes in stereo.

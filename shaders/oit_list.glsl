@@ -85,6 +85,24 @@ OitSlot oitAcquire(uint64_t counterAddress, uint64_t headAddress, uint64_t nodeA
   return OitSlot(oitClaimFarthest(headAddress, nodeAddress, capacity, pixel, z), false);
 }
 
+// oitAcquire in two steps, one counter atomic per subgroup for many fragments (the blend queue: 8
+// full-screen layers are 16.6 M fragments at 1080p, which would serialize on the one counter):
+// every invocation of the subgroup calls oitAllocateSubgroup with the subgroup's fragment count
+// (subgroup-uniform control flow) and gets the first node of the subgroup's run; each fragment's
+// node is then that plus its rank in the run, placed by oitSlotOf (past the pool: the farthest rule).
+uint oitAllocateSubgroup(uint64_t counterAddress, uint count) {
+  uint base = 0;
+  if (count != 0) { // uniform over the subgroup
+    if (subgroupElect()) base = atomicAdd(OitCounterRef(counterAddress).counters.nodes, count);
+    base = subgroupBroadcastFirst(base); // the elected invocation is the first active one
+  }
+  return base;
+}
+OitSlot oitSlotOf(uint n, uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel, float z) {
+  if (n < capacity) return OitSlot(n, true);
+  return OitSlot(oitClaimFarthest(headAddress, nodeAddress, capacity, pixel, z), false);
+}
+
 // The fragment written into its slot: a fresh node linked onto the pixel's list, a claimed node
 // rewritten and unlocked. `payload`: the caller wrote data indexed by the node (the forward
 // renderer's colour) that a later replacement of this node must not see land after its own, so a

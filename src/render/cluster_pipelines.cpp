@@ -74,6 +74,8 @@ void ClusterRenderer::Impl::createPipelines() {
     blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
     blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kStereo);
     compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+    // The blend queue takes a triangle's slot and first tile with a 64-bit compare-and-swap.
+    if (caps.int64BufferAtomics) blendQueuePipeline = createComputePipeline(ctx, "cluster_blend_queue.comp", layout);
   }
   indirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false);
   if (caps.meshShader) meshPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/false);
@@ -101,6 +103,12 @@ void ClusterRenderer::Impl::createPipelines() {
     blendCapacity = uint32_t(std::min<uint64_t>(scene.blendInstancedClusters, kMaxVisibleClusters));
     std::vector<sio::VisibleCluster> blendZeros(blendCapacity, sio::VisibleCluster{0, 0});
     blendVisible = createBufferWithData<sio::VisibleCluster>(ctx, blendZeros, kStorage, "blend clusters");
+    if (blendQueuePipeline) {
+      blendQueueCapacity = uint32_t(std::clamp<uint64_t>(uint64_t(blendCapacity) * MIRAGE_CLUSTER_MAX_TRIANGLES * 4, 64,
+                                                         kMaxBlendQueueTriangles));
+      blendQueue = createBuffer(ctx, blendQueueCapacity * uint64_t(sizeof(sio::BlendQueueTriangle)), kStorage,
+                                MemoryUsage::GpuOnly, "blend queue");
+    }
   }
   candidates = createBuffer(ctx, visibleCapacity * uint64_t(sizeof(sio::VisibleCluster)), kStorage,
                             MemoryUsage::GpuOnly, "occlusion candidates");

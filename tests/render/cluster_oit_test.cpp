@@ -1,6 +1,8 @@
 // Transparency on full-screen blended layers (gen:layers, the transparency benchmark) in the
-// cluster-LOD renderer (docs/render.md, "Transparency"): a node pool too small for the layers
-// keeps each pixel's nearest fragments (ClusterOit). Validation stays silent.
+// cluster-LOD renderer (docs/render.md, "Transparency", "Blend rasters"): a node pool too small for
+// the layers keeps each pixel's nearest fragments (ClusterOit); drawn through the blend queue, the
+// layers give exactly the fragments and the image of the per-cluster walk, and the hardware blend
+// raster's, and a full queue falls back to the walk (ClusterBlendQueue). Validation stays silent.
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -80,15 +82,116 @@ ClusterRenderOutput renderFrame(ClusterRenderer& r, const ClusterRenderSettings&
   return out.ok() ? std::move(*out) : ClusterRenderOutput{};
 }
 
+bool identical(const ImageRGBA8& a, const ImageRGBA8& b) {
+  return a.width == b.width && a.height == b.height && a.pixels == b.pixels;
+}
+
+// Compute with the queue (the default threshold), with every blended triangle queued, and without
+// it: the same fragments, the same image, bit for bit; at the default threshold the queue drew
+// `queued` triangles.
+void expectQueueMatchesClusterWalk(ClusterRenderer& r, ClusterRenderSettings s, const std::string& what,
+                                   uint32_t queued) {
+  s.blendRaster = BlendRaster::Compute;
+  s.blendQueuePixels = INFINITY;
+  ClusterRenderOutput walk = renderFrame(r, s);
+  EXPECT_EQ(walk.stats.blendQueueTriangles, 0u) << what;
+  ASSERT_GT(walk.stats.oitFragments, 0u) << what;
+  for (float pixels : {ClusterRenderSettings{}.blendQueuePixels, 0.0f}) {
+    s.blendQueuePixels = pixels;
+    ClusterRenderOutput q = renderFrame(r, s);
+    std::printf("%s, queue over %.0f px: %u triangles queued (%u tiles), %u fragments (walk %u), %u past the pool\n",
+                what.c_str(), pixels, q.stats.blendQueueTriangles, q.stats.blendQueueTiles, q.stats.oitFragments,
+                walk.stats.oitFragments, q.stats.oitPoolOverflow);
+    EXPECT_EQ(q.stats.blendRaster, BlendRaster::Compute);
+    if (pixels > 0.0f) {
+      EXPECT_EQ(q.stats.blendQueueTriangles, queued) << what;
+    } else {
+      EXPECT_GT(q.stats.blendQueueTriangles, 0u) << what;
+    }
+    EXPECT_EQ(q.stats.blendQueueOverflow, 0u) << what;
+    EXPECT_EQ(q.stats.oitFragments, walk.stats.oitFragments) << what;
+    EXPECT_EQ(q.stats.oitPoolOverflow, walk.stats.oitPoolOverflow) << what;
+    EXPECT_TRUE(identical(q.image.srgb, walk.image.srgb)) << what << ", queue over " << pixels << " px";
+    writeOnFailure(q.image.srgb, "queue_" + what + ".png");
+  }
+  writeOnFailure(walk.image.srgb, "walk_" + what + ".png");
+}
+
 } // namespace
 
 class ClusterOit : public test::GpuTest {};
+class ClusterBlendQueue : public test::GpuTest {};
+
+// Three intersecting full-screen layers (6 triangles, each box the whole view) cut by an opaque
+// wall: every opaque backend (buffer and image depth), mono and stereo (the queue keeps each eye's
+// triangles), compute with the queue equals the per-cluster walk exactly, and the hardware and
+// hybrid blend rasters up to their edge rules.
+TEST_F(ClusterBlendQueue, FullScreenLayersTakeTheQueueAndMatchTheClusterWalk) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
+  lod::LodAsset asset = bake(layerScene(3, 3.0f, /*wall=*/true));
+  ASSERT_FALSE(asset.dags.empty());
+  auto renderer = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  ClusterRenderSettings s = layerSettings(96, 64);
+  for (RasterBackend b : availableRasterBackends(context())) {
+    s.raster = b;
+    expectQueueMatchesClusterWalk(**renderer, s, std::string("layers_") + toString(b), 6);
+  }
+  s.raster = RasterBackend::Compute;
+  s.stereoIpd = 0.064f;
+  expectQueueMatchesClusterWalk(**renderer, s, "layers_stereo", 12); // 6 triangles per eye
+  s.stereoIpd.reset();
+  // The default blend raster is compute with the queue; hardware and hybrid agree with it.
+  s.blendRaster = BlendRaster::Auto;
+  ClusterRenderOutput q = renderFrame(**renderer, s);
+  EXPECT_EQ(q.stats.blendRaster, BlendRaster::Compute);
+  EXPECT_EQ(q.stats.blendQueueTriangles, 6u);
+  if (!context().caps().fragmentStoresAndAtomics) return;
+  for (BlendRaster blend : {BlendRaster::Hardware, BlendRaster::Hybrid}) {
+    s.blendRaster = blend;
+    s.hybridThreshold = 0.0f; // hybrid: every blend cluster by hardware, none queued
+    ClusterRenderOutput h = renderFrame(**renderer, s);
+    double p = psnr(q.image.srgb, h.image.srgb);
+    int64_t diff = int64_t(h.stats.oitFragments) - int64_t(q.stats.oitFragments);
+    std::printf("blend %s: %u fragments (queue %u, %+lld), PSNR vs the queue %.2f dB\n", toString(blend),
+                h.stats.oitFragments, q.stats.oitFragments, (long long)diff, p);
+    EXPECT_EQ(h.stats.blendQueueTriangles, 0u);
+    EXPECT_LE(std::abs(diff), int64_t(q.stats.oitFragments / 200 + 4)) << toString(blend); // edge rules only
+    EXPECT_GE(p, 50.0) << toString(blend);
+    writeOnFailure(h.image.srgb, std::string("layers_blend_") + toString(blend) + ".png");
+  }
+}
+
+// A queue that fills: the triangles past it are walked by their cluster's workgroup (counted), and
+// the image and fragments stay those of the walk.
+TEST_F(ClusterBlendQueue, FullQueueFallsBackToTheClusterWalk) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
+  lod::LodAsset asset = bake(layerScene(3, 3.0f, /*wall=*/true));
+  ASSERT_FALSE(asset.dags.empty());
+  auto renderer = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  ClusterRenderSettings s = layerSettings(96, 64);
+  s.raster = RasterBackend::Compute;
+  s.blendRaster = BlendRaster::Compute;
+  s.blendQueuePixels = INFINITY;
+  ClusterRenderOutput walk = renderFrame(**renderer, s);
+  s.blendQueuePixels = ClusterRenderSettings{}.blendQueuePixels;
+  s.blendQueueLimit = 2;
+  ClusterRenderOutput full = renderFrame(**renderer, s);
+  std::printf("queue of 2: %u queued, %u walked by their cluster\n", full.stats.blendQueueTriangles,
+              full.stats.blendQueueOverflow);
+  EXPECT_EQ(full.stats.blendQueueTriangles, 2u);
+  EXPECT_EQ(full.stats.blendQueueOverflow, 4u);
+  EXPECT_EQ(full.stats.oitFragments, walk.stats.oitFragments);
+  EXPECT_TRUE(identical(full.image.srgb, walk.image.srgb));
+  writeOnFailure(full.image.srgb, "queue_full.png");
+}
 
 // Eight parallel full-screen layers, nearer for larger index, over a pool of 2 fragments per pixel:
 // 6 of every 8 fragments are dropped (counted), and the ones kept are each pixel's nearest, so
 // every pixel shows the image of its k nearest layers alone (k the nodes it got; they sum to the
 // pool), rendered with a pool that holds them all. Every blend raster (the overflow rule is the
-// lists' own).
+// lists' own), the compute one with and without the queue.
 TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
   constexpr uint32_t kLayers = 8, kW = 48, kH = 32, kPool = 2;
   Scene scene = layerScene(kLayers, 0.0f, /*wall=*/false);
@@ -110,16 +213,19 @@ TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
     ASSERT_EQ(out.stats.oitPoolOverflow + out.stats.oitLayersDropped, 0u);
     nearest[k] = std::move(out.image.srgb);
   }
-  std::vector<BlendRaster> modes{BlendRaster::Compute};
-  if (context().caps().fragmentStoresAndAtomics) modes.push_back(BlendRaster::Hardware);
+  std::vector<std::pair<BlendRaster, float>> modes{{BlendRaster::Compute, INFINITY}};
+  if (context().caps().int64BufferAtomics)
+    modes.push_back({BlendRaster::Compute, ClusterRenderSettings{}.blendQueuePixels});
+  if (context().caps().fragmentStoresAndAtomics) modes.push_back({BlendRaster::Hardware, INFINITY});
   auto renderer = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  for (BlendRaster blend : modes) {
+  for (auto [blend, queuePixels] : modes) {
     ClusterRenderSettings ts = s;
     ts.oitNodesPerPixel = kPool;
     ts.blendRaster = blend;
+    ts.blendQueuePixels = queuePixels;
     ClusterRenderOutput out = renderFrame(**renderer, ts);
-    std::string what = toString(blend);
+    std::string what = std::string(toString(blend)) + (std::isfinite(queuePixels) ? " + queue" : "");
     EXPECT_EQ(out.stats.oitFragments, kLayers * kW * kH) << what;
     EXPECT_EQ(out.stats.oitPoolOverflow, (kLayers - kPool) * kW * kH) << what;
     // Per pixel the candidate it equals (within one step of rounding): its list's length.
