@@ -1,7 +1,7 @@
 #version 460
 // Indirect arguments of one raster pass (push.rasterList = pass) from the list ends (one thread):
 // the pass draws what was appended since the previous pass. Pass 0 also sizes the occlusion pass
-// over the candidates; pass 2 are the blend lists.
+// over the candidates; pass 2 are the blend lists; MIRAGE_BLEND_QUEUE_ARGS the blend queue.
 #include "cluster_common.glsl"
 
 layout(local_size_x = 1) in;
@@ -15,6 +15,13 @@ uvec3 splitDispatch(uint n, uint perGroup) {
 void main() {
   uint pass = push.rasterList;
   CounterRef c = CounterRef(push.counterAddress);
+  if (pass == MIRAGE_BLEND_QUEUE_ARGS) { // after the compute blend raster: the blend queue's tiles
+    uvec3 d = splitDispatch(uint(c.counters.blendQueueCounts), MIRAGE_BLEND_QUEUE_GROUP_TILES);
+    c.counters.blendQueueArgs[0] = d.x;
+    c.counters.blendQueueArgs[1] = d.y;
+    c.counters.blendQueueArgs[2] = 1;
+    return;
+  }
   // Pass 2: the blend lists (compute, hardware), complete after both selection phases.
   for (uint list = 0; list < 2; ++list) {
     uint first = pass != 1 ? 0 : c.counters.lists[0][list].first + c.counters.lists[0][list].count;

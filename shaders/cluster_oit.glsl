@@ -1,6 +1,7 @@
 // Appending blended fragments to the per-pixel transparency lists (oit_list.glsl), shared by the compute blend
-// raster (cluster_raster.glsl, MIRAGE_RASTER_BLEND) and the hardware one (cluster_blend_frag.glsl),
-// so both write the same nodes under the same pool rule and the composite cannot tell them apart.
+// raster (cluster_raster.glsl, MIRAGE_RASTER_BLEND), the blend queue (cluster_blend_queue.comp) and the hardware
+// blend raster (cluster_blend_frag.glsl), so all write the same nodes under the same pool rule and the composite
+// cannot tell them apart.
 
 // Nearest opaque depth of pixel (x, y) in the 64-bit visibility buffer (compute, hybrid): its high
 // word; 0 (far) where nothing opaque was drawn. x counts across both eyes in stereo.
@@ -11,8 +12,9 @@ float bufferOpaqueDepth(ClusterFrame f, uint x, uint y) {
 }
 
 // A blended fragment already known to lie in front of the opaque surface, pushed onto its pixel's
-// list under the shared pool rule (oit_list.glsl).
+// list under the shared pool rule (oit_list.glsl: past the pool it replaces its pixel's farthest).
 void oitAppend(ClusterFrame f, uint x, uint y, float z, uint id) {
-  uint n = oitAllocate(f.oitCounterAddress, f.oitNodeCapacity);
-  if (n != kOitNoNode) oitLink(f.oitHeadAddress, f.oitNodeAddress, y * targetRowPixels(f) + x, n, z, id);
+  uint pixel = y * targetRowPixels(f) + x;
+  OitSlot s = oitAcquire(f.oitCounterAddress, f.oitHeadAddress, f.oitNodeAddress, f.oitNodeCapacity, pixel, z);
+  if (s.node != kOitNoNode) oitCommit(f.oitHeadAddress, f.oitNodeAddress, pixel, s, z, id, /*payload=*/false);
 }

@@ -29,6 +29,7 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 #include "shading.glsl"
 #include "cluster_surface.glsl"
 #include "cluster_alpha.glsl"
+#include "cluster_raster_edges.glsl"
 
 // Specialization: eyes drawn (1, or 2 for stereo), and the workgroup size, kEyes * threads per eye.
 layout(constant_id = 0) const uint kEyes = 1;
@@ -53,20 +54,7 @@ vec3 toScreen(vec4 clip, vec2 viewport) {
 }
 
 #ifdef MIRAGE_RASTER_BLEND
-#include "cluster_oit.glsl"
-layout(set = 0, binding = 3) uniform sampler2D opaqueDepthImage; // image backends' depth
-
-// Nearest opaque depth of pixel (x, y): the 64-bit buffer's high word (compute, hybrid) or the
-// hardware depth (mesh, indirect); 0 (far) where nothing opaque was drawn.
-float opaqueDepth(ClusterFrame f, uint x, uint y) {
-  if ((f.flags & MIRAGE_FRAME_SOURCE_BUFFER) == 0) return texelFetch(opaqueDepthImage, ivec2(x, y), 0).r;
-  return bufferOpaqueDepth(f, x, y);
-}
-
-// A blended fragment in front of the opaque surface: onto its pixel's list (cluster_oit.glsl).
-void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
-  if (z > opaqueDepth(f, x, y)) oitAppend(f, x, y, z, id);
-}
+#include "cluster_blend_sample.glsl"
 #else
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
   countOverdraw(f, uvec2(x, y));
@@ -115,37 +103,15 @@ struct SampleTarget {
 };
 
 void drawSample(ClusterFrame f, SampleTarget t, uint x, uint y, float z) {
+#ifdef MIRAGE_RASTER_BLEND
+  // The blend queue's test too (cluster_blend_sample.glsl); onto the pixel's list (cluster_oit.glsl).
+  if (blendSampleKept(f, t.fade, t.eyeX, x, y, z)) oitAppend(f, x + t.eyeX, y, z, t.id);
+#else
   if (z < 0.0) return;                              // beyond the far plane
   if (!meshKeepsPixel(t.fade, uvec2(x, y))) return; // the surfels' pixel in the blend band
   if (t.masked && !maskKeeps(FrameRef(t.eyeFrame).frame, t.m, t.tri, vec2(x, y) + 0.5)) return; // below the cutoff
   writeSample(f, x + t.eyeX, y, z, t.id);
-}
-
-// Edge functions on the snapped grid. The vertices sit on the 1/256-pixel grid (toScreen), so as
-// integers on that grid the edge functions are exact, as fixed-function hardware's are: two
-// triangles sharing an edge get exactly opposite values at every sample (the top-left rule then
-// gives each sample to one of them: no cracks, no double blends), and since they are linear the
-// walks step them by integer adds alone (no per-sample products, no rounding). The inside test
-// folds the top-left rule into a bias: w > 0, or w == 0 on a top-left edge, is w + bias >= 0 with
-// bias -1 on the other edges. Three walks by size, each exact in its integer width:
-// - walkSmall (nearly all triangles, queued or not): extent under 63 pixels, 32-bit;
-// - walkLarge (larger queued boxes, near-clipped triangles): coordinates within 2^21 pixels, 64-bit;
-// - walkFloat: the rest (vertices a hair in front of the near plane project millions of pixels
-//   away), float edge functions evaluated from canonically ordered endpoints.
-#define MIRAGE_RASTER_SNAP 256.0
-#define MIRAGE_RASTER_SMALL_EXTENT 63.0     // pixels: 32-bit values stay below 2^30
-#define MIRAGE_RASTER_LARGE_COORD 2097152.0 // pixels (2^21): 64-bit values stay below 2^60
-
-// Top-left rule of an edge with direction d (= v - u, inside on the positive side): a top edge
-// (horizontal, pointing right with y down) or a left edge (pointing up).
-bool topLeft(vec2 d) { return (d.y == 0.0 && d.x > 0.0) || d.y < 0.0; }
-bool topLeft(ivec2 d) { return (d.y == 0 && d.x > 0) || d.y < 0; }
-bool topLeft(i64vec2 d) { return (d.y == 0 && d.x > 0) || d.y < 0; }
-
-// Whether a triangle of (doubled, signed) area `area` is drawn: Vulkan, y down: counter-clockwise
-// (front) has a negative area here.
-bool keepsFacing(float area, bool keepAll, bool mirrored) {
-  return area != 0.0 && (keepAll || (area < 0.0) != mirrored);
+#endif
 }
 
 // Samples (x + 0.5, y + 0.5) of the box lo..hi, 32-bit (extent under MIRAGE_RASTER_SMALL_EXTENT):
@@ -177,40 +143,22 @@ void walkSmall(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 str
   for (uint y = uint(lo.y); y <= uint(hi.y); y += stride.y, w0 += dy) {
     ivec3 w = w0;
     for (uint x = uint(lo.x); x <= uint(hi.x); x += stride.x, w += dx)
-      if ((w.x | w.y | w.z) >= 0) drawSample(f, t, x, y, dot(vec3(w), zw));
+      if ((w.x | w.y | w.z) >= 0) drawSample(f, t, x, y, edgeDepth(vec3(w), zw));
   }
 }
 
 // Samples of the box lo..hi (or lattice + k * stride), 64-bit (coordinates within
 // MIRAGE_RASTER_LARGE_COORD): the tiles and lattices of larger queued triangles and the
-// near-clipped triangles.
+// near-clipped triangles (the blend queue's threads evaluate the same functions per pixel).
 void walkLarge(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 stride, bool keepAll, bool mirrored,
                ClusterFrame f, SampleTarget t) {
   vec2 first = lo + lattice;
-  i64vec2 o = i64vec2((first + 0.5) * MIRAGE_RASTER_SNAP);
-  i64vec2 A = i64vec2(a.xy * MIRAGE_RASTER_SNAP) - o, B = i64vec2(b.xy * MIRAGE_RASTER_SNAP) - o;
-  i64vec2 C = i64vec2(c.xy * MIRAGE_RASTER_SNAP) - o;
-  int64_t area = (B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x);
-  if (!keepsFacing(float(area), keepAll, mirrored)) return;
-  if (area < 0) {
-    i64vec2 tmp = B;
-    B = C;
-    C = tmp;
-    vec3 tz = b;
-    b = c;
-    c = tz;
-    area = -area;
-  }
-  i64vec3 ex = i64vec3(C.x - B.x, A.x - C.x, B.x - A.x), ey = i64vec3(C.y - B.y, A.y - C.y, B.y - A.y);
-  i64vec3 w0 = i64vec3(ey.x * B.x - ex.x * B.y, ey.y * C.x - ex.y * C.y, ey.z * A.x - ex.z * A.y);
-  w0 += i64vec3(topLeft(i64vec2(ex.x, ey.x)) ? 0 : -1, topLeft(i64vec2(ex.y, ey.y)) ? 0 : -1,
-                topLeft(i64vec2(ex.z, ey.z)) ? 0 : -1);
-  i64vec3 dx = -ey * (int64_t(MIRAGE_RASTER_SNAP) * int64_t(stride.x)), dy = ex * (int64_t(MIRAGE_RASTER_SNAP) * int64_t(stride.y));
-  vec3 zw = vec3(a.z, b.z, c.z) / float(area);
-  for (uint y = uint(first.y); y <= uint(hi.y); y += stride.y, w0 += dy) {
-    i64vec3 w = w0;
-    for (uint x = uint(first.x); x <= uint(hi.x); x += stride.x, w += dx)
-      if ((w.x | w.y | w.z) >= 0) drawSample(f, t, x, y, dot(vec3(w), zw));
+  EdgeWalk64 e;
+  if (!edgeSetup64(a, b, c, first, stride, keepAll, mirrored, e)) return;
+  for (uint y = uint(first.y); y <= uint(hi.y); y += stride.y, e.w0 += e.dy) {
+    i64vec3 w = e.w0;
+    for (uint x = uint(first.x); x <= uint(hi.x); x += stride.x, w += e.dx)
+      if (edgeInside(w)) drawSample(f, t, x, y, edgeDepth(vec3(w), e.zw));
   }
 }
 
@@ -251,12 +199,6 @@ void walkFloat(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, bool keepAll, bool mirr
   }
 }
 
-// The pixel box of a triangle's samples (x + 0.5, y + 0.5) on screen; empty when hi < lo.
-void sampleBox(vec3 a, vec3 b, vec3 c, vec2 viewport, out vec2 lo, out vec2 hi) {
-  lo = max(floor(min(a.xy, min(b.xy, c.xy)) - 0.5), vec2(0.0));
-  hi = min(ceil(max(a.xy, max(b.xy, c.xy)) - 0.5), viewport - 1.0);
-}
-
 // Samples lattice + k * stride of the box lo..hi of a queued triangle: 32-bit when the triangle
 // spans under MIRAGE_RASTER_SMALL_EXTENT (64-bit integer arithmetic is emulated: twice the
 // instructions), else 64-bit.
@@ -277,9 +219,35 @@ bool keepsFacingExact(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored) {
   return keepsFacing(float((B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x)), keepAll, mirrored);
 }
 
+#ifdef MIRAGE_RASTER_BLEND
+// The blend queue (docs/render.md, "Blend rasters"): a blended triangle whose box exceeds
+// f.blendQueuePixels goes to one global queue, whose tiles the next dispatch spreads over many
+// workgroups (cluster_blend_queue.comp), instead of keeping this cluster's workgroup walking up to a
+// screenful of pixels while the GPU idles. Its slot and first tile come from one 64-bit
+// compare-and-swap that refuses past the queue's capacity or the tile limit: then false, counted,
+// and the caller walks it in this workgroup as without the queue.
+bool blendEnqueue(ClusterFrame f, vec3 a, vec3 b, vec3 c, vec2 box, SampleTarget t) {
+  uint tiles = uint(ceil(box.x / MIRAGE_BLEND_QUEUE_TILE)) * uint(ceil(box.y / MIRAGE_BLEND_QUEUE_TILE));
+  CounterRef counters = CounterRef(push.counterAddress);
+  uint64_t seen = counters.counters.blendQueueCounts, counts;
+  do { // a stale first read only costs a retry: the swap returns the current value
+    counts = seen;
+    if (uint(counts >> 32) >= f.blendQueueCapacity || uint(counts) > MIRAGE_BLEND_QUEUE_MAX_TILES - tiles) {
+      atomicAdd(counters.counters.blendQueueOverflow, 1);
+      return false;
+    }
+    seen = atomicCompSwap(counters.counters.blendQueueCounts, counts, counts + ((uint64_t(1) << 32) | uint64_t(tiles)));
+  } while (seen != counts);
+  BlendQueueRef(f.blendQueueAddress).triangles[uint(counts >> 32)] =
+      BlendQueueTriangle(a, b, c, t.id, tiles | (t.eyeX != 0 ? MIRAGE_BLEND_QUEUE_EYE : 0u), uint(counts));
+  return true;
+}
+#endif
+
 // One screen-space triangle (snapped vertices) into the 64-bit visibility buffer (or the
 // transparency lists). A box over MIRAGE_RASTER_SHARED_PIXELS goes to the workgroup's queue as
-// `queueEntry` instead (~0u: never).
+// `queueEntry` instead (~0u: never); a blended one over ClusterFrame::blendQueuePixels to the blend
+// queue first.
 void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, ClusterFrame f, SampleTarget t,
                     uint queueEntry) {
   vec2 lo, hi;
@@ -288,6 +256,13 @@ void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, Cluster
   vec2 mn = min(a.xy, min(b.xy, c.xy)), mx = max(a.xy, max(b.xy, c.xy));
   vec2 box = hi - lo + 1.0, extent = mx - mn;
   bool exact64 = max(max(abs(mn.x), abs(mn.y)), max(abs(mx.x), abs(mx.y))) < MIRAGE_RASTER_LARGE_COORD;
+#ifdef MIRAGE_RASTER_BLEND
+  // Near-clipped fan triangles too: the queue keeps the screen corners, not the cluster's triangle.
+  if (exact64 && f.blendQueueAddress != 0 && box.x * box.y > f.blendQueuePixels) {
+    if (!keepsFacingExact(a, b, c, keepAll, mirrored)) return;
+    if (blendEnqueue(f, a, b, c, box, t)) return;
+  }
+#endif
   if (queueEntry != ~0u && exact64 && box.x * box.y > float(MIRAGE_RASTER_SHARED_PIXELS)) {
     if (!keepsFacingExact(a, b, c, keepAll, mirrored)) return;
     bool lattice = box.x * box.y > float(MIRAGE_RASTER_LATTICE_PIXELS);

@@ -2,7 +2,8 @@
 // Linked-list transparency, build (docs/render.md, "Transparency"): each blended fragment in front
 // of the opaque depth (a read-only attachment tested before the shader: early tests, so occluded
 // fragments append nothing) is shaded and pushed onto its pixel's list under the pool rule shared
-// with the cluster renderer (oit_list.glsl). The node's id is its own index, naming its colour.
+// with the cluster renderer (oit_list.glsl). The node's id is its own index + 1 (ids are never 0),
+// naming its colour.
 #include "forward_common.glsl"
 #include "oit_list.glsl"
 #include "forward_surface.glsl"
@@ -15,9 +16,10 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer Oi
 void main() {
   vec4 c = shadeForwardSurface();
   OitLists l = OitListsRef(push.oitAddress).lists;
-  uint n = oitAllocate(l.counterAddress, l.nodeCapacity);
-  if (n == kOitNoNode) return;
-  OitColorRef(l.colorAddress).colors[n] = uvec2(packHalf2x16(c.rg), packHalf2x16(c.ba));
   uvec2 p = uvec2(gl_FragCoord.xy); // the target's pixel: in stereo the eye's half already
-  oitLink(l.headAddress, l.nodeAddress, p.y * l.rowPixels + p.x, n, gl_FragCoord.z, n);
+  uint pixel = p.y * l.rowPixels + p.x;
+  OitSlot s = oitAcquire(l.counterAddress, l.headAddress, l.nodeAddress, l.nodeCapacity, pixel, gl_FragCoord.z);
+  if (s.node == kOitNoNode) return;
+  OitColorRef(l.colorAddress).colors[s.node] = uvec2(packHalf2x16(c.rg), packHalf2x16(c.ba));
+  oitCommit(l.headAddress, l.nodeAddress, pixel, s, gl_FragCoord.z, s.node + 1, /*payload=*/true);
 }

@@ -26,7 +26,7 @@ void main() {
   OitColorRef colors = OitColorRef(l.colorAddress);
   vec3 color = imageLoad(colorImage, ivec2(p)).rgb;
   for (int i = 0; i < list.count; ++i) {
-    uvec2 c = colors.colors[min(uint(oitKeys[i] & 0xffffffffUL), l.nodeCapacity - 1)];
+    uvec2 c = colors.colors[min(max(uint(oitKeys[i] & 0xffffffffUL), 1u) - 1, l.nodeCapacity - 1)]; // id: node + 1
     color = oitBlend(color, vec4(unpackHalf2x16(c.x), unpackHalf2x16(c.y)));
   }
   imageStore(colorImage, ivec2(p), vec4(color, 1.0));

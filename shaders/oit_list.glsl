@@ -1,8 +1,9 @@
 // Per-pixel linked lists of blended fragments (Yang et al. 2010), the one implementation of the
 // forward renderer's and the cluster-LOD renderer's order-independent transparency (docs/render.md,
-// "Transparency"): append under the pool rule, gather the nearest layers sorted, count the
-// frame's Mean Squared Layers. Needs GL_EXT_buffer_reference, scalar block layout and 64-bit ints.
-// An includer may define MIRAGE_OIT_LAYERS (the layer cap, default MIRAGE_OIT_MAX_LAYERS).
+// "Transparency"): append under the pool rule (past the pool, the farthest fragment is the one
+// lost), gather the nearest layers sorted, count the frame's Mean Squared Layers. Needs
+// GL_EXT_buffer_reference, scalar block layout and 64-bit ints. An includer may define
+// MIRAGE_OIT_LAYERS (the layer cap, default MIRAGE_OIT_MAX_LAYERS).
 #extension GL_KHR_shader_subgroup_arithmetic : enable
 #extension GL_KHR_shader_subgroup_ballot : enable
 
@@ -11,20 +12,108 @@
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitNodeRef { OitNode nodes[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitHeadRef { uint heads[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitCounterRef { OitCounters counters; };
+// The same lists read while other invocations append and replace (the overflow walk): coherent, so
+// the reads see other invocations' writes rather than a stale cached copy.
+layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitNodeSharedRef { OitNode nodes[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitHeadSharedRef { uint heads[]; };
 
 const uint kOitNoNode = 0xffffffffu;
+const uint kOitBusy = 0xffffffffu; // a node's id while a fragment replacing it rewrites the node
 
-// The pool rule: a node index from the counter, which counts every attempt so that the excess is
-// known; a fragment past the pool is dropped (kOitNoNode).
-uint oitAllocate(uint64_t counterAddress, uint capacity) {
-  uint n = atomicAdd(OitCounterRef(counterAddress).counters.nodes, 1);
-  return n < capacity ? n : kOitNoNode;
-}
-
-// Node n (from oitAllocate) pushed onto pixel's list.
+// Node n pushed onto pixel's list.
 void oitLink(uint64_t headAddress, uint64_t nodeAddress, uint pixel, uint n, float z, uint id) {
   uint next = atomicExchange(OitHeadRef(headAddress).heads[pixel], n + 1);
   OitNodeRef(nodeAddress).nodes[n] = OitNode(floatBitsToUint(z), id, next);
+}
+
+// The pool overflow rule: a fragment past the pool takes the place of its pixel's farthest listed
+// fragment if that one is farther than itself ("over" shows the farthest least), else it is the
+// one dropped; either way one fragment per attempt past the pool is lost, as OitCounters::nodes
+// counts. The walk (at most MIRAGE_OIT_REPLACE_STEPS nodes from the head) skips nodes not written
+// yet (all zero: oitGather leaves the pool so) and nodes being replaced; the node found is locked by
+// swapping its id for kOitBusy, and if it changed meanwhile the walk restarts (at most
+// MIRAGE_OIT_REPLACE_TRIES walks). Returns the locked node, to be rewritten by oitReplace, or
+// kOitNoNode (nothing farther found: the fragment is dropped). Appends still in flight while the
+// pool fills may hide a node from a walk, so under contention the node replaced may not be the
+// farthest, or a fragment may be dropped while a farther one stays; a pixel that got no node
+// before the pool filled keeps none.
+uint oitClaimFarthest(uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel, float z) {
+  OitNodeSharedRef nodes = OitNodeSharedRef(nodeAddress);
+  for (int attempt = 0; attempt < MIRAGE_OIT_REPLACE_TRIES; ++attempt) {
+    uint node = OitHeadSharedRef(headAddress).heads[pixel];
+    uint victim = kOitNoNode, victimDepth = floatBitsToUint(z), victimId = 0;
+    for (int step = 0; node != 0 && step < MIRAGE_OIT_REPLACE_STEPS; ++step) {
+      uint i = min(node - 1, capacity - 1);
+      uint depthBits = nodes.nodes[i].depthBits, id = nodes.nodes[i].id;
+      node = nodes.nodes[i].next;
+      // Depth bits order like the depths (positive floats); reverse-Z: smaller is farther.
+      if (depthBits != 0 && id != 0 && id != kOitBusy && depthBits < victimDepth) {
+        victim = i;
+        victimDepth = depthBits;
+        victimId = id;
+      }
+    }
+    if (victim == kOitNoNode) return kOitNoNode; // nothing listed lies farther: this fragment is dropped
+    if (atomicCompSwap(nodes.nodes[victim].id, victimId, kOitBusy) != victimId) continue; // taken: walk again
+    memoryBarrierBuffer(); // the depth written by the node's last replacement is visible
+    if (nodes.nodes[victim].depthBits == victimDepth) return victim;
+    atomicExchange(nodes.nodes[victim].id, victimId); // replaced meanwhile (same id): unlock, walk again
+  }
+  return kOitNoNode;
+}
+
+// A node locked by oitClaimFarthest rewritten with this fragment, then unlocked (its id written
+// last, after the depth and the caller's payload).
+void oitReplace(uint64_t nodeAddress, uint node, float z, uint id) {
+  OitNodeSharedRef nodes = OitNodeSharedRef(nodeAddress);
+  nodes.nodes[node].depthBits = floatBitsToUint(z);
+  memoryBarrierBuffer();
+  atomicExchange(nodes.nodes[node].id, id);
+}
+
+// Where a fragment of `pixel` at depth z goes under the pool rule: a fresh node from the counter
+// (which counts every attempt, so the excess is known), or past the pool its pixel's farthest node
+// (oitClaimFarthest); node kOitNoNode: dropped. Write any payload indexed by the node, then oitCommit.
+struct OitSlot {
+  uint node;
+  bool fresh; // a new node, linked by oitCommit; else a listed node, rewritten in place
+};
+OitSlot oitAcquire(uint64_t counterAddress, uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel,
+                   float z) {
+  uint n = atomicAdd(OitCounterRef(counterAddress).counters.nodes, 1);
+  if (n < capacity) return OitSlot(n, true);
+  return OitSlot(oitClaimFarthest(headAddress, nodeAddress, capacity, pixel, z), false);
+}
+
+// oitAcquire in two steps, one counter atomic per subgroup for many fragments (the blend queue: 8
+// full-screen layers are 16.6 M fragments at 1080p, which would serialize on the one counter):
+// every invocation of the subgroup calls oitAllocateSubgroup with the subgroup's fragment count
+// (subgroup-uniform control flow) and gets the first node of the subgroup's run; each fragment's
+// node is then that plus its rank in the run, placed by oitSlotOf (past the pool: the farthest rule).
+uint oitAllocateSubgroup(uint64_t counterAddress, uint count) {
+  uint base = 0;
+  if (count != 0) { // uniform over the subgroup
+    if (subgroupElect()) base = atomicAdd(OitCounterRef(counterAddress).counters.nodes, count);
+    base = subgroupBroadcastFirst(base); // the elected invocation is the first active one
+  }
+  return base;
+}
+OitSlot oitSlotOf(uint n, uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel, float z) {
+  if (n < capacity) return OitSlot(n, true);
+  return OitSlot(oitClaimFarthest(headAddress, nodeAddress, capacity, pixel, z), false);
+}
+
+// The fragment written into its slot: a fresh node linked onto the pixel's list, a claimed node
+// rewritten and unlocked. `payload`: the caller wrote data indexed by the node (the forward
+// renderer's colour) that a later replacement of this node must not see land after its own, so a
+// fresh node is published only once that data is visible.
+void oitCommit(uint64_t headAddress, uint64_t nodeAddress, uint pixel, OitSlot s, float z, uint id, bool payload) {
+  if (s.fresh) {
+    if (payload) memoryBarrierBuffer();
+    oitLink(headAddress, nodeAddress, pixel, s.node, z, id);
+  } else {
+    oitReplace(nodeAddress, s.node, z, id);
+  }
 }
 
 #ifndef MIRAGE_OIT_LAYERS
@@ -43,13 +132,17 @@ struct OitPixel {
 };
 
 // The list starting at `node` (its head) walked once, keeping the nearest MIRAGE_OIT_LAYERS sorted
-// by (depth, id) by insertion. At most `capacity` steps: a corrupt list cannot hang the pass.
+// by (depth, id) by insertion. At most `capacity` steps: a corrupt list cannot hang the pass. Each
+// node read is zeroed, so the pool is all zero again for the next frame's overflow walks
+// (oitClaimFarthest), which must tell a node not written yet from a listed one.
 OitPixel oitGather(uint64_t nodeAddress, uint capacity, uint node) {
   for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = 0;
   OitPixel p = OitPixel(0, 0, 0);
   OitNodeRef nodes = OitNodeRef(nodeAddress);
   for (; node != 0 && p.fragments < capacity; ++p.fragments) {
-    OitNode n = nodes.nodes[min(node - 1, capacity - 1)];
+    uint index = min(node - 1, capacity - 1);
+    OitNode n = nodes.nodes[index];
+    nodes.nodes[index] = OitNode(0u, 0u, 0u);
     node = n.next;
     uint64_t key = (uint64_t(n.depthBits) << 32) | uint64_t(n.id);
     int at;

@@ -15,9 +15,10 @@ void main() {
   vec4 c = particleColor();
   if (c.a < 1.0 / 512.0) return; // below an 8-bit step: no layer
   OitLists l = OitListsRef(push.oitAddress).lists;
-  uint n = oitAllocate(l.counterAddress, l.nodeCapacity);
-  if (n == kOitNoNode) return;
-  OitColorRef(l.colorAddress).colors[n] = uvec2(packHalf2x16(c.rg), packHalf2x16(c.ba));
   uvec2 p = uvec2(gl_FragCoord.xy);
-  oitLink(l.headAddress, l.nodeAddress, p.y * l.rowPixels + p.x, n, gl_FragCoord.z, n);
+  uint pixel = p.y * l.rowPixels + p.x;
+  OitSlot s = oitAcquire(l.counterAddress, l.headAddress, l.nodeAddress, l.nodeCapacity, pixel, gl_FragCoord.z);
+  if (s.node == kOitNoNode) return;
+  OitColorRef(l.colorAddress).colors[s.node] = uvec2(packHalf2x16(c.rg), packHalf2x16(c.ba));
+  oitCommit(l.headAddress, l.nodeAddress, pixel, s, gl_FragCoord.z, s.node + 1, /*payload=*/true);
 }

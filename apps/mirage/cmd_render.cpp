@@ -208,8 +208,8 @@ void runRender(const RenderOptions& o) {
     return fail("--surfel-size, --surfel-raster and --surfel-order need --surfels");
   if (*kind == runtime::SceneKind::ClusterLod) return runLodRender(lodRequest(o));
   if (anyGiven(o.given.clusterLod) || !o.path.empty())
-    return fail("--tau, --raster, --path, --hybrid-threshold, --occlusion, --cones, --selection, --blend-raster, "
-                "--fovea and --debug-view apply to .mrg cluster-LOD assets only");
+    return fail("--tau, --raster, --path, --hybrid-threshold, --blend-queue-pixels, --occlusion, --cones, "
+                "--selection, --blend-raster, --fovea and --debug-view apply to .mrg cluster-LOD assets only");
   runForwardRender(o);
 }
 

@@ -182,6 +182,9 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"blend_raster", render::toString(st.blendRaster)},
           {"stereo_mode", st.stereoMode == render::StereoMode::Auto ? "mono" : render::toString(st.stereoMode)},
           {"clusters_blend_hardware", st.clustersBlendHardware},
+          {"blend_queue_triangles", st.blendQueueTriangles},
+          {"blend_queue_tiles", st.blendQueueTiles},
+          {"blend_queue_overflow", st.blendQueueOverflow},
           {"oit_fragments", st.oitFragments},
           {"oit_pool_overflow", st.oitPoolOverflow},
           {"oit_layers_dropped", st.oitLayersDropped},
@@ -210,9 +213,13 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
              st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
   if (st.clustersBlend)
     fmt::print("blend ({} raster): {} clusters ({} by hardware)  {} fragments  msl {:.3f}  oit_dropped {}: {} past "
-               "the node pool, {} past 16 layers per pixel\n",
+               "the node pool (the farthest), {} past 16 layers per pixel\n",
                render::toString(st.blendRaster), st.clustersBlend, st.clustersBlendHardware, st.oitFragments, st.msl,
                uint64_t(st.oitPoolOverflow) + st.oitLayersDropped, st.oitPoolOverflow, st.oitLayersDropped);
+  if (st.blendQueueTriangles || st.blendQueueOverflow)
+    fmt::print("blend queue: {} large triangles, {} tiles of 8x8 pixels{}\n", st.blendQueueTriangles,
+               st.blendQueueTiles,
+               st.blendQueueOverflow ? fmt::format("  FULL: {} walked by their cluster", st.blendQueueOverflow) : "");
   if (st.pvs)
     fmt::print("cell PVS: {} instances and {} cut clusters culled\n", st.instancesPvsCulled, st.clustersPvsCulled);
   if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)
@@ -345,6 +352,7 @@ void runLodRender(const LodRenderRequest& r) {
     j["device"] = caps.name;
     j["tau_pixels"] = r.config.tauPixels;
     j["hybrid_threshold"] = r.config.hybridThreshold;
+    j["blend_queue_pixels"] = r.config.blendQueuePixels;
     j["width"] = s.view.width;
     j["height"] = s.view.height;
     if (r.stereoIpd) j["stereo_ipd"] = *r.stereoIpd; // the image is 2 * width wide, left|right
@@ -537,6 +545,7 @@ void runLodBench(const LodRenderRequest& r) {
                         {"device", caps.name},
                         {"tau_pixels", config.tauPixels},
                         {"hybrid_threshold", config.hybridThreshold},
+                        {"blend_queue_pixels", config.blendQueuePixels},
                         {"backends", all},
                         {"width", s.view.width},
                         {"height", s.view.height},

@@ -111,6 +111,10 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
                                ".mrg, hybrid raster: clusters whose estimated triangle edge reaches this many pixels "
                                "go to the hardware path")
                     ->capture_default_str());
+  lod.push_back(cmd.add_option("--blend-queue-pixels", c.blendQueuePixels,
+                               ".mrg, compute blend raster: blended triangles whose pixel box exceeds this many pixels "
+                               "are spread over the GPU by the blend queue (inf: off)")
+                    ->capture_default_str());
   lod.push_back(
       cmd.add_option("--occlusion", c.occlusionCulling,
                      bench
@@ -125,9 +129,10 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
                     ->type_name("on|off")
                     ->default_str(onOffName(c.coneCulling)));
   lod.push_back(cmd.add_option("--blend-raster", c.blendRaster,
-                               bench ? ".mrg, alpha BLEND clusters: auto (hybrid), compute, hybrid, hardware, or all "
-                                       "(each, timed as 'blend')"
-                                     : ".mrg, alpha BLEND clusters: auto (hybrid), compute, hybrid or hardware")
+                               bench ? ".mrg, alpha BLEND clusters: auto (compute with the blend queue), compute, "
+                                       "hybrid, hardware, or all (each, timed as 'blend')"
+                                     : ".mrg, alpha BLEND clusters: auto (compute with the blend queue), compute, "
+                                       "hybrid or hardware")
                     ->type_name("NAME")
                     ->transform(enumNames(render::kBlendRasterNames, c.blendRaster, "all",
                                           bench ? &sweeps->allBlendRasters : nullptr))

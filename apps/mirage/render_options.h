@@ -31,8 +31,8 @@ struct BenchSweeps {
 
 // The options bound, so that commands can tell what was given (CLI11 counts, no sentinels).
 struct RenderConfigOptions {
-  std::vector<CLI::Option*> clusterLod; // --tau --raster --hybrid-threshold --occlusion --cones --selection
-                                        // --blend-raster --debug-view --fovea*
+  std::vector<CLI::Option*> clusterLod; // --tau --raster --hybrid-threshold --blend-queue-pixels --occlusion
+                                        // --cones --selection --blend-raster --debug-view --fovea*
   std::vector<CLI::Option*> surfels;    // --surfel-size (--surfel-raster in render)
 };
 bool anyGiven(const std::vector<CLI::Option*>& options);

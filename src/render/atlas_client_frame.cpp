@@ -61,8 +61,10 @@ void AtlasClientRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t n
                           MemoryUsage::GpuOnly, "oit heads");
   oitNodeCapacity = uint32_t(std::min<uint64_t>(
       {pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode), uint64_t(UINT32_MAX) - 1}));
-  oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                          MemoryUsage::GpuOnly, "oit nodes");
+  oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),
+                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                          "oit nodes");
+  oitNodesUnzeroed = true;
   oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
                            "oit colours");
   oitNodesPerPixel = nodesPerPixel;
@@ -209,7 +211,7 @@ void AtlasClientRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, uint32_t sl
   timer.cmdEnd(cmd, blendTime);
   colorToGeneral();
 
-  cmdMemoryBarrier(cmd, kFS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  cmdMemoryBarrier(cmd, kFS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kStorageRW); // the resolve zeroes the nodes
   // The slot's set: its frame is the only one recorded with it, and its previous one completed.
   VkDescriptorImageInfo target{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL};
   writeImageDescriptors(ctx, resolveDescriptors[slot].set, 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&target, 1});
@@ -270,6 +272,10 @@ Status AtlasClientRenderer::record(VkCommandBuffer cmd, const AtlasClientSetting
     std::memcpy(d.oitLists[slot].mapped(), &l, sizeof(l));
     vkCmdFillBuffer(cmd, d.oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
     vkCmdFillBuffer(cmd, d.oitCounters.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (d.oitNodesUnzeroed) { // a new pool; afterwards the resolve leaves it zero (oit_list.glsl)
+      vkCmdFillBuffer(cmd, d.oitNodes.handle(), 0, VK_WHOLE_SIZE, 0);
+      d.oitNodesUnzeroed = false;
+    }
     cmdMemoryBarrier(cmd, kTransfer, VK_ACCESS_2_TRANSFER_WRITE_BIT, kFS | kCS, kStorageRW);
   }
 

@@ -61,6 +61,7 @@ struct AtlasClientRenderer::Impl {
   uint32_t width = 0, height = 0;
   gpu::Buffer oitHeads, oitNodes, oitColors, oitCounters;
   uint32_t oitNodeCapacity = 0, oitNodesPerPixel = 0;
+  bool oitNodesUnzeroed = false; // a new node pool, zeroed by the next frame (oit_list.glsl needs it all zero)
 
   // Per slot: what the CPU writes or reads while other frames run.
   gpu::Buffer frames[kMaxFramesInFlight];      // ViewFrame

@@ -46,14 +46,19 @@ Result<RasterBackend> resolveBackend(RasterBackend requested, const DeviceCapabi
   return requested;
 }
 
-// The blend raster that runs: auto is hybrid whatever the opaque backend, measured on the H200
-// (docs/render.md, "Blend rasters"): the city's large glass at street level takes 15.0 ms by
-// compute, 0.28 hybrid, 0.25 hardware; 2500 AlphaBlendModeTest copies (5000 small clusters) 0.034
-// by compute, 0.39 hardware, and hybrid sends them all to compute. Hardware needs fragment stores
-// and atomics (the list append), else auto falls back to compute.
+// The blend raster that runs. Auto is compute where the blend queue can run (64-bit buffer
+// atomics): with large triangles spread over the GPU by the queue and small ones walked by their
+// cluster's workgroup, no cluster pays the hardware raster's per-cluster mesh-shader set-up or
+// per-fragment shader launch, and no depth copy runs (docs/render.md, "Blend rasters": the
+// commands that measure the three). Without the queue auto is hybrid, as measured on the H200:
+// the city's large glass at street level took 15.0 ms by compute, 0.28 hybrid, 0.25 hardware;
+// 2500 AlphaBlendModeTest copies (5000 small clusters) 0.179 by compute, 0.393 hardware, and
+// hybrid sends them all to compute. Hardware needs fragment stores and atomics (the list append),
+// else auto falls back to compute.
 Result<BlendRaster> resolveBlendRaster(BlendRaster requested, const DeviceCapabilities& caps) {
   bool hardware = caps.fragmentStoresAndAtomics;
-  if (requested == BlendRaster::Auto) return hardware ? BlendRaster::Hybrid : BlendRaster::Compute;
+  if (requested == BlendRaster::Auto)
+    return caps.int64BufferAtomics ? BlendRaster::Compute : hardware ? BlendRaster::Hybrid : BlendRaster::Compute;
   if (requested != BlendRaster::Compute && !hardware)
     return Error{fmt::format("--blend-raster {}: the device has no stores and atomics in fragment shaders",
                              toString(requested))};
@@ -91,6 +96,10 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   if (!(cs.tauPixels > 0.0f)) return Error{fmt::format("--tau {} must be a positive number of pixels", cs.tauPixels)};
   if (!(cs.hybridThreshold >= 0.0f))
     return Error{fmt::format("--hybrid-threshold {} must be a non-negative number of pixels", cs.hybridThreshold)};
+  if (cs.oitNodesPerPixel < 1 || cs.oitNodesPerPixel > 64)
+    return Error{fmt::format("OIT node pool of {} nodes per pixel is outside 1..64", cs.oitNodesPerPixel)};
+  if (!(cs.blendQueuePixels >= 0.0f))
+    return Error{fmt::format("--blend-queue-pixels {} must be a non-negative number of pixels", cs.blendQueuePixels)};
   ClusterFramePlan p;
   auto resolved = resolveBackend(cs.raster, ctx.caps());
   if (!resolved) return resolved.error();
@@ -110,6 +119,9 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     return Error{"reading the clusters that own pixels needs occlusion culling (its history)"};
   p.pvs = cs.pvsCulling && pvsInstances;
   p.transparency = hasBlend() && cs.transparency;
+  // The blend queue serves the compute blend list (all of it, or hybrid's small-triangle clusters).
+  p.blendQueue = p.transparency && blendQueueCapacity > 0 && p.blend != BlendRaster::Hardware &&
+                 std::isfinite(cs.blendQueuePixels) && cs.blendQueueLimit > 0;
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
@@ -246,6 +258,11 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.oitNodeCapacity = oitNodeCapacity;
     f.oitCounterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
   }
+  if (plan.blendQueue) {
+    f.blendQueueAddress = blendQueue.address();
+    f.blendQueueCapacity = std::min(blendQueueCapacity, cs.blendQueueLimit);
+    f.blendQueuePixels = cs.blendQueuePixels;
+  }
   std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
   if (plan.stereo) {
     // The selection frame sees the camera plus half the IPD on each side; each eye frame is the
@@ -299,6 +316,9 @@ ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
   st.clustersBlend = std::min(c.blendClusters, blendCapacity);
   st.clustersBlendHardware = c.blendListEnd[MIRAGE_LIST_DOWN];
   st.blendRaster = plan.blend;
+  st.blendQueueTriangles = uint32_t(c.blendQueueCounts >> 32);
+  st.blendQueueTiles = uint32_t(c.blendQueueCounts);
+  st.blendQueueOverflow = c.blendQueueOverflow;
   OitStats oit = oitStats(c.oit, oitNodeCapacity);
   st.oitFragments = oit.fragments;
   st.oitPoolOverflow = oit.poolOverflow;

@@ -61,9 +61,10 @@ constexpr VkFormat kVisFormat = VK_FORMAT_R32G32_UINT;           // (visible ind
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 // Visible-cluster entries: the instanced cluster count, capped so the buffer stays 32 MiB.
 constexpr uint64_t kMaxVisibleClusters = 4u << 20;
-// Transparency node pool: this many blended fragments per pixel on average (12 bytes each), capped
-// by the device's storage-buffer range; excess fragments are dropped and counted.
-constexpr uint64_t kOitNodesPerPixel = 4;
+// Blend queue entries (48 bytes each): 4 per triangle of the blend clusters (a near-clipped
+// triangle draws as two, stereo draws each eye's), capped at 12 MiB; more large triangles in one
+// frame are walked by their cluster's workgroup (counted).
+constexpr uint64_t kMaxBlendQueueTriangles = 1u << 18;
 constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
 
 // Every pass reaches its buffers through device addresses, which synchronization validation does
@@ -100,6 +101,7 @@ struct ClusterFramePlan {
   bool clearsVisibility() const {
     return bufferTarget && debugView == DebugView::None && !transparency;
   }
+  bool blendQueue = false;   // the compute blend raster queues large triangles (cluster_blend_queue.comp)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -116,6 +118,8 @@ struct ClusterRenderer::Impl {
   gpu::Buffer fade, surfelLink;     // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
   gpu::Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
   gpu::Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
+  gpu::Buffer blendQueue;                       // alpha BLEND: BlendQueueTriangle[blendQueueCapacity]
+  bool oitNodesUnzeroed = false; // a new node pool, zeroed by the next frame (oit_list.glsl needs it all zero)
   // Per slot (identically defined layouts are compatible): material textures, and the slot's
   // frame's visibility image, colour target and depth, written when the slot is recorded while
   // other slots' frames may still read their own (a resize mid-flight).
@@ -128,7 +132,8 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipelineLayout> layout;
   gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
       rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
-      instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, compositePipeline;
+      instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, blendQueuePipeline,
+      compositePipeline;
   gpu::Unique<VkPipeline> rasterStereoPipeline, rasterMaskStereoPipeline, blendRasterStereoPipeline; // both eyes
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
@@ -146,6 +151,8 @@ struct ClusterRenderer::Impl {
   uint32_t colorWidth = 0; // the colour target: width, or 2 * width in stereo (left|right)
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
   uint32_t blendCapacity = 0, oitNodeCapacity = 0; // 0 without BLEND materials: no transparency passes
+  uint32_t blendQueueCapacity = 0;                 // entries of blendQueue (0: no queue on this device)
+  uint32_t oitNodesPerPixel = 0;                   // the pool's size (ClusterRenderSettings::oitNodesPerPixel)
   uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
@@ -175,6 +182,7 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipeline> createVisPipeline(bool mesh, bool atomic, bool overdraw = false, bool multiview = false);
   uint32_t inFlightSlots() const; // slots recorded and not yet collected, as a bit mask
   void ensureTargets(uint32_t w, uint32_t h, uint32_t colorW);
+  void ensureOitPool(uint32_t nodesPerPixel);
   void writeTargetDescriptors(uint32_t slot);
   void ensureMultiview(const ClusterFramePlan& plan);
   shaderio::ClusterPush push() const;
@@ -192,6 +200,7 @@ struct ClusterRenderer::Impl {
   void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, BlendRaster blend, bool meshBlend,
                        bool bufferTarget);
   void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
+  void cmdComputeBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool queue);
   void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri, bool multiview = false);
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
   void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,

@@ -96,28 +96,47 @@ void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::Clu
   vkCmdEndRendering(cmd);
 }
 
+// The compute blend list (cluster_raster_blend.comp, a workgroup per cluster) and, `queue`, the
+// large triangles it queued (cluster_blend_queue.comp over their tiles, sized by cluster_args.comp).
+// barriers: the blend arguments visible; the opaque depth readable (buffer, or the image backends'
+// depth in DEPTH_READ_ONLY). On exit the last dispatch's appends are still to be made visible.
+void ClusterRenderer::Impl::cmdComputeBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool queue) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                    plans[currentSlot].stereo ? blendRasterStereoPipeline : blendRasterPipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0, nullptr);
+  cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
+  vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
+  if (!queue) return;
+  uint32_t slot = timer().cmdBegin(cmd, "blend-q", kCS);
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);                                // the queue complete
+  cmdArgs(cmd, p, MIRAGE_BLEND_QUEUE_ARGS);                                   // its dispatch; cmdArgs leaves it visible
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blendQueuePipeline); // the set stays bound
+  cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
+  vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, blendQueueArgs));
+  timer().cmdEnd(cmd, slot, kCS);
+}
+
 // Alpha BLEND after the resolve (only for scenes with BLEND materials): the blend lists rasterized
 // into per-pixel fragment lists, depth-tested against the opaque depth (the compute list by
-// cluster_raster_blend.comp, the hardware list by cmdHardwareBlend), then the composite sorts and
-// blends each pixel's fragments over the resolved colour. "blend" times both rasters; hybrid adds
-// "blend-cs" and "blend-hw" for each alone, and the buffer backends' depth copy is "blend-z".
+// cmdComputeBlend, the hardware list by cmdHardwareBlend), then the composite sorts and blends each
+// pixel's fragments over the resolved colour. "blend" times both rasters; hybrid, and compute with
+// the blend queue, add "blend-cs" (the compute list, its queue included), "blend-q" (the queue:
+// its arguments and dispatch) and hybrid "blend-hw" (the hardware list); the buffer backends'
+// depth copy is "blend-z".
 // barriers: the resolve's colour, the opaque depth and the blend arguments (cmdArgs pass 2) written;
 // the heads zeroed at the frame start. On exit the colour is in GENERAL with its writes available.
 void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, BlendRaster blend, bool meshBlend,
                                             bool bufferTarget) {
   p.visibleAddress = blendVisible.address(); // ids of the blend passes name blend-list entries
+  bool queue = plans[currentSlot].blendQueue;
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   uint32_t slot = timer().cmdBegin(cmd, "blend");
   if (blend != BlendRaster::Compute) cmdBlendDepth(cmd, p, bufferTarget);
   if (blend != BlendRaster::Hardware) {
-    uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                      plans[currentSlot].stereo ? blendRasterStereoPipeline : blendRasterPipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0,
-                            nullptr);
-    cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
-    vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
-    if (blend == BlendRaster::Hybrid) timer().cmdEnd(cmd, part, kCS);
+    bool timed = blend == BlendRaster::Hybrid || queue;
+    uint32_t part = timed ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
+    cmdComputeBlend(cmd, p, queue);
+    if (timed) timer().cmdEnd(cmd, part, kCS);
   }
   if (blend != BlendRaster::Compute) {
     uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-hw") : 0;

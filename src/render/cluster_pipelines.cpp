@@ -74,6 +74,8 @@ void ClusterRenderer::Impl::createPipelines() {
     blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
     blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kStereo);
     compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+    // The blend queue takes a triangle's slot and first tile with a 64-bit compare-and-swap.
+    if (caps.int64BufferAtomics) blendQueuePipeline = createComputePipeline(ctx, "cluster_blend_queue.comp", layout);
   }
   indirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false);
   if (caps.meshShader) meshPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/false);
@@ -101,6 +103,12 @@ void ClusterRenderer::Impl::createPipelines() {
     blendCapacity = uint32_t(std::min<uint64_t>(scene.blendInstancedClusters, kMaxVisibleClusters));
     std::vector<sio::VisibleCluster> blendZeros(blendCapacity, sio::VisibleCluster{0, 0});
     blendVisible = createBufferWithData<sio::VisibleCluster>(ctx, blendZeros, kStorage, "blend clusters");
+    if (blendQueuePipeline) {
+      blendQueueCapacity = uint32_t(std::clamp<uint64_t>(uint64_t(blendCapacity) * MIRAGE_CLUSTER_MAX_TRIANGLES * 4, 64,
+                                                         kMaxBlendQueueTriangles));
+      blendQueue = createBuffer(ctx, blendQueueCapacity * uint64_t(sizeof(sio::BlendQueueTriangle)), kStorage,
+                                MemoryUsage::GpuOnly, "blend queue");
+    }
   }
   candidates = createBuffer(ctx, visibleCapacity * uint64_t(sizeof(sio::VisibleCluster)), kStorage,
                             MemoryUsage::GpuOnly, "occlusion candidates");
@@ -165,8 +173,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   if (w == width && h == height && colorW == colorWidth) return;
   const uint32_t inFlight = inFlightSlots();
   for (Image* image : {&color, &vis, &depth, &layeredVis, &layeredDepth}) retired.retire(std::move(*image), inFlight);
-  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads, &oitNodes})
-    retired.retire(std::move(*buffer), inFlight);
+  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads}) retired.retire(std::move(*buffer), inFlight);
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                         "color");
   // Visibility targets as wide as the colour target: stereo rasterizes both eyes side by side.
@@ -201,14 +208,26 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
     uint64_t pixels = uint64_t(colorW) * h; // both eyes in stereo
     oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                             MemoryUsage::GpuOnly, "transparency heads");
-    oitNodeCapacity = uint32_t(
-        std::min<uint64_t>(pixels * kOitNodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode)));
-    oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                            MemoryUsage::GpuOnly, "transparency nodes");
   }
+  oitNodesPerPixel = 0; // the pool follows the size (ensureOitPool)
   width = w;
   height = h;
   colorWidth = colorW;
+}
+
+// The transparency node pool for the current size: nodesPerPixel per pixel (both eyes in stereo),
+// capped by what one storage buffer may address. A replaced pool waits for the frames in flight.
+void ClusterRenderer::Impl::ensureOitPool(uint32_t nodesPerPixel) {
+  if (!hasBlend() || (oitNodes && oitNodesPerPixel == nodesPerPixel)) return;
+  retired.retire(std::move(oitNodes), inFlightSlots());
+  uint64_t pixels = uint64_t(colorWidth) * height;
+  oitNodeCapacity = uint32_t(std::min<uint64_t>(
+      {pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode), uint64_t(UINT32_MAX) - 1}));
+  oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),
+                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                          "transparency nodes");
+  oitNodesUnzeroed = true; // cmdFrame zeroes it (the lists' overflow rule tells unwritten nodes by 0)
+  oitNodesPerPixel = nodesPerPixel;
 }
 
 // The slot's previous frame completed (the caller's contract), so its set may be rewritten.

@@ -58,7 +58,8 @@ Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
   if (!pvs) return Ok{};
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   // Every instance culled still needs a cluster buffer with an address: one zero word.
-  VkDeviceSize instanceBytes = pvs->instanceBitOffset.size() * 4, clusterBytes = std::max<size_t>(pvs->clusterBits.size(), 1) * 4;
+  VkDeviceSize instanceBytes = pvs->instanceBitOffset.size() * 4,
+               clusterBytes = std::max<size_t>(pvs->clusterBits.size(), 1) * 4;
   d.pvsInstances = createBuffer(d.ctx, instanceBytes, kStorage, MemoryUsage::GpuOnly, "pvs instances");
   d.pvsClusters = createBuffer(d.ctx, clusterBytes, kStorage, MemoryUsage::GpuOnly, "pvs cluster bits");
   d.pvsStaging = createBuffer(d.ctx, instanceBytes + clusterBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
@@ -90,6 +91,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   // New targets for a new size retire those frames in flight still use (no device wait).
   uint32_t colorW = planned->stereo ? cs.base.width * 2 : cs.base.width; // stereo: left|right
   ensureTargets(cs.base.width, cs.base.height, colorW);
+  ensureOitPool(cs.oitNodesPerPixel);
   writeTargetDescriptors(currentSlot);
   if (planned->multiview) ensureMultiview(*planned);
   if (planned->debugView != DebugView::None && !debugResolvePipeline)
@@ -134,6 +136,10 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hasBlend()) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
+  if (hasBlend() && oitNodesUnzeroed) { // a new pool; afterwards the composite leaves it zero
+    vkCmdFillBuffer(cmd, oitNodes.handle(), 0, VK_WHOLE_SIZE, 0);
+    oitNodesUnzeroed = false;
+  }
   if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdrawCounts.handle(), 0, VK_WHOLE_SIZE, 0);
   if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
     vkCmdFillBuffer(cmd, fade.handle(), 0, VK_WHOLE_SIZE, 0);

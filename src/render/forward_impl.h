@@ -103,7 +103,8 @@ struct ForwardRenderer::Impl {
   // counters copied per slot into readback.
   gpu::Buffer oitHeads, oitNodes, oitColors, oitCounters;
   uint32_t oitNodeCapacity = 0, oitNodesPerPixel = 0;
-  gpu::Image accum, reveal; // weighted: (sum rgb a w, revealage), (sum a w, -, -, -)
+  bool oitNodesUnzeroed = false; // a new node pool, zeroed by the next frame (oit_list.glsl needs it all zero)
+  gpu::Image accum, reveal;      // weighted: (sum rgb a w, revealage), (sum a w, -, -, -)
 
   // The targets, shared by every slot (each frame's first barrier orders it after the earlier
   // ones); colorWidth is both eyes' in stereo.

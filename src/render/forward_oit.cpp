@@ -116,8 +116,10 @@ void ForwardRenderer::Impl::ensureOitTargets(uint32_t nodesPerPixel) {
                           MemoryUsage::GpuOnly, "oit heads");
   oitNodeCapacity = uint32_t(
       std::min<uint64_t>({pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / 12, uint64_t(UINT32_MAX) - 1}));
-  oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                          MemoryUsage::GpuOnly, "oit nodes");
+  oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),
+                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                          "oit nodes");
+  oitNodesUnzeroed = true;
   oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
                            "oit colours");
   oitNodesPerPixel = nodesPerPixel;
@@ -139,6 +141,10 @@ void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const Forwa
     std::memcpy(oitLists[slot].mapped(), &l, sizeof(l));
     vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
     vkCmdFillBuffer(cmd, oitCounters.handle(), 0, VK_WHOLE_SIZE, 0);
+    if (oitNodesUnzeroed) { // a new pool; afterwards the resolve leaves it zero (oit_list.glsl)
+      vkCmdFillBuffer(cmd, oitNodes.handle(), 0, VK_WHOLE_SIZE, 0);
+      oitNodesUnzeroed = false;
+    }
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kFS | kCS, kStorageRW);
     slotOit[slot] = true;
   } else if (fs.oit == OitMode::Weighted) {
@@ -288,7 +294,7 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
 
   // The resolve: per pixel over the opaque colour, in place.
   if (fs.oit == OitMode::LinkedList) {
-    cmdMemoryBarrier(cmd, kFS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    cmdMemoryBarrier(cmd, kFS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kStorageRW); // it zeroes the nodes it reads
   } else {
     ImageBarrier toRead[2];
     for (int i = 0; i < 2; ++i)

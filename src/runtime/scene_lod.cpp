@@ -93,6 +93,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.coneCulling = c.coneCulling;
   rs.transparency = c.transparency;
   rs.hybridThreshold = c.hybridThreshold;
+  rs.blendQueuePixels = c.blendQueuePixels;
   rs.pvsCulling = c.pvsCulling;
   rs.stereoIpd = view.stereoIpd;
   rs.stereoMode = c.stereoMode;

@@ -63,8 +63,8 @@ Status checkOptions(const ViewerOptions& o, runtime::SceneKind kind) {
   if (kind != runtime::SceneKind::ClusterLod) {
     if (o.frameTime) return makeError(o.scene, "--target-ms applies to .mrg cluster-LOD assets only");
     if (o.clusterLodFlags)
-      return makeError(o.scene, "--tau, --raster, --hybrid-threshold, --occlusion, --cones, --selection, "
-                                "--blend-raster and --fovea apply to .mrg cluster-LOD assets only");
+      return makeError(o.scene, "--tau, --raster, --hybrid-threshold, --blend-queue-pixels, --occlusion, --cones, "
+                                "--selection, --blend-raster and --fovea apply to .mrg cluster-LOD assets only");
   }
   if (o.surfelFlags && !o.surfels) return Error{"--surfel-size and --surfel-raster need --surfels"};
   return Ok{};

@@ -90,10 +90,12 @@ if expect_ok pvs-bake pvs gen:city:1 --cell-grid 1x1x1 --cell-region -10,1,-10,1
   expect_fail render-pvs-outside "none of its" "$tmp/p.png" -- render gen:city:1 -o "$tmp/p.png" --size 64x48 --pvs "$tmp/c.mrg" --camera eye=500,500,500,target=0,0,0
   expect_ok render-pvs-inside render gen:city:1 -o "$tmp/p.png" --size 64x48 --pvs "$tmp/c.mrg" --camera eye=0,2,0,target=5,2,0
 fi
-# Blend rasters: a bad name is one clear line; bench --blend-raster all times each one (compute,
-# hybrid, hardware) on a scene with glass, in one run.
+# Blend rasters: a bad name or queue threshold is one clear line (inf turns the queue off); bench
+# --blend-raster all times each one (compute, hybrid, hardware) on a scene with glass, in one run.
 if expect_ok build-city build gen:city:1 -o "$tmp/city.mrg"; then
   expect_fail render-bad-blend-raster "--blend-raster" "$tmp/b.png" -- render "$tmp/city.mrg" -o "$tmp/b.png" --size 32x32 --blend-raster gpu
+  expect_fail render-bad-blend-queue "--blend-queue-pixels" "$tmp/b.png" -- render "$tmp/city.mrg" -o "$tmp/b.png" --size 32x32 --blend-queue-pixels -1
+  expect_ok render-blend-queue-off render "$tmp/city.mrg" -o "$tmp/b.png" --size 32x32 --blend-queue-pixels inf
   if expect_ok bench-blend-all bench render "$tmp/city.mrg" --size 64x36 --frames 2 --raster compute --blend-raster all --camera eye=0,2,0,target=5,2,0; then
     for blend in compute hybrid hardware; do
       grep -q "^blend ($blend raster)" "$tmp/stdout" || { echo "FAIL bench-blend-all: no $blend blend row"; failures=$((failures + 1)); }

@@ -7,6 +7,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -128,11 +129,12 @@ void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
 }
 
 // The hardware and hybrid blend rasters against the compute one (docs/render.md, "Blend rasters"),
-// over each opaque backend: the same blend clusters, the same fragments up to edge and depth-tie
-// rules (the compute raster's canonical edge order and its own depth interpolation against the
-// hardware's top-left rule and interpolator: a sample exactly on an edge, or a pane meeting a wall
-// at equal depth, may fall the other way), hence the same image. `hybridThreshold` is chosen per
-// scene so hybrid really splits (asserted where `expectSplit`).
+// and the compute one with every triangle and with no triangle through the blend queue (exactly
+// the default's fragments and image), over each opaque backend: the same blend clusters, the same fragments up to edge
+// and depth-tie rules (the compute raster's canonical edge order and its own depth interpolation against the hardware's
+// top-left rule and interpolator: a sample exactly on an edge, or a pane meeting a wall at equal depth, may fall the
+// other way), hence the same image. `hybridThreshold` is chosen per scene so hybrid really splits (asserted where
+// `expectSplit`).
 void expectBlendRastersAgree(gpu::Context& ctx, const lod::LodAsset& asset, ClusterRenderSettings s,
                              const std::string& scene, bool expectSplit) {
   if (!ctx.caps().fragmentStoresAndAtomics) GTEST_SKIP() << "no fragment stores: compute blend raster only";
@@ -151,6 +153,27 @@ void expectBlendRastersAgree(gpu::Context& ctx, const lod::LodAsset& asset, Clus
     ASSERT_GT(ref.oitFragments, 0u) << scene;
     EXPECT_EQ(ref.blendRaster, BlendRaster::Compute);
     EXPECT_EQ(ref.clustersBlendHardware, 0u);
+    // The compute blend raster with every blended triangle through the blend queue, and with none:
+    // exactly the fragments and the image of the default (docs/render.md, "Blend rasters").
+    for (float queuePixels : {0.0f, float(INFINITY)}) {
+      if (!ctx.caps().int64BufferAtomics) break;
+      s.blendQueuePixels = queuePixels;
+      auto q = (*renderer)->render(s);
+      ASSERT_TRUE(q.ok()) << q.error().message;
+      std::printf("%s, %s + blend compute, queue over %.0f px: %u triangles queued, %u fragments (default %u)\n",
+                  scene.c_str(), toString(b), queuePixels, q->stats.blendQueueTriangles, q->stats.oitFragments,
+                  ref.oitFragments);
+      if (queuePixels == 0.0f) {
+        EXPECT_GT(q->stats.blendQueueTriangles, 0u) << scene;
+      } else {
+        EXPECT_EQ(q->stats.blendQueueTriangles, 0u) << scene;
+      }
+      EXPECT_EQ(q->stats.oitFragments, ref.oitFragments) << scene << " " << toString(b);
+      EXPECT_TRUE(q->image.srgb.pixels == reference->image.srgb.pixels)
+          << scene << " " << toString(b) << " queue over " << queuePixels << " px";
+      writeOnFailure(q->image.srgb, scene + "_" + toString(b) + "_queue_" + std::to_string(int(queuePixels)) + ".png");
+    }
+    s.blendQueuePixels = ClusterRenderSettings{}.blendQueuePixels;
     for (BlendRaster blend : {BlendRaster::Hybrid, BlendRaster::Hardware}) {
       s.blendRaster = blend;
       auto out = (*renderer)->render(s);

@@ -1,10 +1,14 @@
 // Order-independent transparency in the forward renderer (docs/render.md, "Transparency"): the
 // linked lists against the sorted reference on geometry that sorting whole objects gets wrong
 // (intersecting quads, one self-overlapping mesh), weighted blended OIT within its bound, Mean
-// Squared Layers on stacked full-screen layers, pool overflow counted, a visible set's blended
-// triangles only. Validation stays silent.
+// Squared Layers on stacked full-screen layers, pool overflow counted and keeping the nearest
+// fragments, a visible set's blended triangles only. Validation stays silent.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -208,6 +212,57 @@ TEST_F(ForwardOit, PoolOverflowIsCountedAndNeverHangs) {
   auto bad = (*renderer)->render(s);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message.find("nodes per pixel"), std::string::npos) << bad.error().message;
+}
+
+// Full-screen layers of distinct colours, layer i at z = -0.1 i (layer 0 nearest), listed (and so
+// drawn) farthest first; the k nearest only with `nearest`, and all of them transparent when k = 0.
+Scene colouredLayers(int n, int nearest) {
+  Scene s;
+  s.materials = {blend({1, 1, 1, nearest == 0 ? 0.0f : 0.3f})};
+  for (int i = std::max(nearest, 1) - 1; i >= 0; --i) {
+    float h = float(i) / float(n) * 6.2831853f;
+    glm::vec4 color(0.5f + 0.45f * std::cos(h), 0.5f + 0.45f * std::cos(h - 2.094f),
+                    0.5f + 0.45f * std::cos(h + 2.094f), 1.0f);
+    s.meshes.push_back(makeGrid(50.0f, 0, color, 1, -0.1f * float(i)));
+  }
+  for (uint32_t i = 0; i < s.meshes.size(); ++i) s.instances.push_back({i, glm::mat4(1.0f)});
+  return s;
+}
+
+// The pool's overflow rule (oit_list.glsl): under 5 layers a pool of 2 nodes per pixel keeps each
+// pixel's nearest fragments, the farthest dropped, though the far layers are drawn first (and so
+// take the pool): every pixel equals the image of its k nearest layers alone, the k summing to the
+// pool. The colours stored beside the nodes follow their replacements.
+TEST_F(ForwardOit, PoolOverflowKeepsEachPixelsNearestLayers) {
+  constexpr int kLayers = 5;
+  constexpr uint32_t kPool = 2;
+  ForwardRenderSettings s = settings(OitMode::LinkedList);
+  s.oitNodesPerPixel = 8; // the candidates: nothing dropped
+  std::vector<ImageRGBA8> nearest;
+  for (int k = 0; k <= kLayers; ++k) nearest.push_back(renderOit(context(), colouredLayers(kLayers, k), s).srgb);
+  s.oitNodesPerPixel = kPool;
+  RenderOutput out = renderOit(context(), colouredLayers(kLayers, kLayers), s);
+  EXPECT_EQ(out.stats.oit.poolOverflow, uint64_t(kLayers - kPool) * kSize * kSize);
+  uint32_t unmatched = 0, kept = 0;
+  for (uint32_t y = 0; y < kSize; ++y)
+    for (uint32_t x = 0; x < kSize; ++x) {
+      int best = -1, bestDiff = 1 << 30;
+      for (int k = 0; k <= kLayers; ++k) {
+        int diff = 0;
+        for (int c = 0; c < 3; ++c)
+          diff = std::max(diff, std::abs(int(out.srgb.at(x, y)[c]) - int(nearest[size_t(k)].at(x, y)[c])));
+        if (diff < bestDiff) bestDiff = diff, best = k;
+      }
+      if (bestDiff > 1)
+        ++unmatched;
+      else
+        kept += uint32_t(best);
+    }
+  std::printf("pool of %u under %d layers: %u pixels match no nearest-k image, %u fragments kept\n", kPool, kLayers,
+              unmatched, kept);
+  EXPECT_EQ(unmatched, 0u);
+  EXPECT_EQ(kept, kPool * kSize * kSize);
+  writeOnFailure(out.srgb, "pool_overflow.png");
 }
 
 // Stereo: each eye's fragments land in its half of the lists (the pixel of the shared target).

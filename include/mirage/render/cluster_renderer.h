@@ -9,6 +9,7 @@
 // Every backend writes the same visibility semantics (visible-cluster index + triangle id, nearest
 // depth wins) and one resolve pass shades it with the forward renderer's material model, so all
 // backends give the same image. Passes and data layout: docs/render.md.
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -47,9 +48,9 @@ Result<RasterBackend> parseRasterBackend(std::string_view text);
 // How alpha BLEND clusters are rasterized into the per-pixel transparency lists (docs/render.md,
 // "Blend rasters"). Every choice appends the same nodes, so the composite and the image agree.
 enum class BlendRaster {
-  Auto,     // hybrid (measured on the H200: docs/render.md "Blend rasters"); compute where fragment
-            // shaders cannot store
-  Compute,  // cluster_raster_blend.comp: one thread walks each triangle's pixel box
+  Auto,     // compute where the blend queue runs (64-bit buffer atomics), else hybrid, else compute
+            // (docs/render.md "Blend rasters")
+  Compute,  // cluster_raster_blend.comp: a workgroup per cluster, large triangles through the blend queue
   Hybrid,   // per cluster as the hybrid opaque split (hybridThreshold): large triangles to hardware
   Hardware, // every blend cluster by mesh shaders (indirect draws with --raster indirect or without them)
 };
@@ -129,6 +130,18 @@ struct ClusterRenderSettings {
   // sqrt(triangles)) is below this many pixels go to the compute rasterizer, the rest (and those
   // reaching the near plane) to the hardware path. To be tuned on the H200 (docs/render.md).
   float hybridThreshold = 16.0f;
+  // Compute blend raster: a blended triangle whose pixel box exceeds this many pixels goes to the
+  // blend queue, whose tiles a second dispatch spreads over the whole GPU, instead of being walked
+  // by its cluster's workgroup alone (docs/render.md, "Blend rasters"); +inf: no queue. The queue
+  // needs 64-bit buffer atomics (without them every triangle stays with its workgroup).
+  float blendQueuePixels = 1024.0f;
+  // Transparency node pool (docs/render.md, "Transparency"): blended fragments per pixel on average
+  // (12 bytes each; 1..64), capped by the device's storage-buffer range. Past it, a fragment takes
+  // the place of its pixel's farthest listed one if nearer, else is dropped (counted either way).
+  uint32_t oitNodesPerPixel = 4;
+  // Tests: queue at most this many triangles a frame (the queue's capacity when larger); the rest
+  // are walked by their cluster's workgroup, as when the queue is full.
+  uint32_t blendQueueLimit = UINT32_MAX;
   // Two-pass HZB occlusion culling against this renderer's previous frame (correct on any frame,
   // faster when consecutive frames are alike).
   bool occlusionCulling = false; // off by default: on the H200 it cost more than it saved (docs/render.md)
@@ -182,8 +195,11 @@ struct ClusterStats {
   uint32_t clustersOverflow = 0;         // selected beyond the visible-buffer capacity (dropped)
   uint32_t clustersBlend = 0;            // alpha BLEND: drawn into the transparency lists (in clustersDrawn)
   uint32_t clustersBlendHardware = 0;    // of those, drawn by the hardware blend raster
+  uint32_t blendQueueTriangles = 0;      // blended triangles drawn through the blend queue
+  uint32_t blendQueueTiles = 0;          // their 8 x 8 pixel tiles
+  uint32_t blendQueueOverflow = 0;       // large ones past the queue's capacity (walked by their cluster)
   uint32_t oitFragments = 0;             // blended fragments in front of the opaque depth
-  uint32_t oitPoolOverflow = 0;          // blended fragments beyond the node pool (dropped)
+  uint32_t oitPoolOverflow = 0;          // blended fragments past the node pool (each drops its pixel's farthest)
   uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
   double msl = 0.0;                      // Mean Squared Layers of the transparency lists (render/oit.h)
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters

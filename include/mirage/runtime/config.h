@@ -25,8 +25,9 @@ struct RenderConfig {
   bool transparency = kClusterDefaults.transparency; // alpha BLEND materials drawn (off: opaque and MASK only)
   // How BLEND materials are drawn (--oit): forward scenes every mode, cluster LOD linked lists only.
   render::OitMode oit = kForwardDefaults.oit;
-  float hybridThreshold = kClusterDefaults.hybridThreshold; // pixels
-  bool pvsCulling = kClusterDefaults.pvsCulling;            // cull with the view cell's cluster PVS (if any)
+  float hybridThreshold = kClusterDefaults.hybridThreshold;   // pixels
+  float blendQueuePixels = kClusterDefaults.blendQueuePixels; // pixels; +inf: no blend queue
+  bool pvsCulling = kClusterDefaults.pvsCulling;              // cull with the view cell's cluster PVS (if any)
   // Foveation (--fovea X,Y --fovea-radius DEG): tau grows with eccentricity from the gaze point.
   bool foveation = kClusterDefaults.foveation;
   glm::vec2 foveaGaze = kClusterDefaults.foveaGaze; // normalized screen coordinates, 0..1

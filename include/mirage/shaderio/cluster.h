@@ -77,6 +77,19 @@ namespace mirage::shaderio {
 // both index ClusterFrame::blendVisibleAddress, the compute list from entry 0 up, the hardware
 // list from entry blendCapacity - 1 down (shaders built with MIRAGE_BLEND_LISTS).
 #define MIRAGE_RASTER_BLEND_LIST 4u
+// cluster_args.comp's push.rasterList for the blend queue's dispatch (after the compute blend raster).
+#define MIRAGE_BLEND_QUEUE_ARGS 3u
+// Blend queue (docs/render.md, "Blend rasters"): the compute blend raster sends a triangle whose
+// pixel box exceeds ClusterFrame::blendQueuePixels to one global queue instead of walking it with
+// its cluster's workgroup; a second dispatch spreads the queued triangles' 8 x 8 pixel tiles over
+// many workgroups (cluster_blend_queue.comp), each taking MIRAGE_BLEND_QUEUE_GROUP_TILES
+// consecutive tiles, one thread per pixel.
+#define MIRAGE_BLEND_QUEUE_TILE 8
+#define MIRAGE_BLEND_QUEUE_GROUP_TILES 16 // at most 32: a thread keeps one bit per tile
+// Tiles queued per frame stay below this (the 32-bit tile numbers and their sums cannot wrap);
+// triangles beyond it, or beyond the queue's capacity, are walked by their cluster's workgroup.
+#define MIRAGE_BLEND_QUEUE_MAX_TILES 0x7fffffffu
+#define MIRAGE_BLEND_QUEUE_EYE 0x80000000u // BlendQueueTriangle::tiles: the right eye (stereo)
 // Hierarchical depth levels kept (level 0 is full resolution): enough for 16384 pixels.
 #define MIRAGE_HZB_MAX_LEVELS 15
 
@@ -256,7 +269,22 @@ struct ClusterFrame {
   uint64_t lightAddress; // GpuPointLight[lightCount]
   // Alpha BLEND: ClusterCounters::oit (the OIT nodes' ids are visibility ids, shaderio/oit.h).
   uint64_t oitCounterAddress;
-  uint64_t pad1; // the size stays a multiple of 16, as std430 rounds a struct holding a mat4
+  // Blend queue of large blended triangles (MIRAGE_BLEND_QUEUE_*): BlendQueueTriangle[], 0 when
+  // the frame has no queue (blend rasters other than compute, or no 64-bit buffer atomics).
+  uint64_t blendQueueAddress;
+  uint blendQueueCapacity; // entries usable this frame
+  float blendQueuePixels;  // pixel boxes larger than this are queued
+  uint64_t pad1;           // the size stays a multiple of 16, as std430 rounds a struct holding a mat4
+};
+
+// One queued blended triangle (ClusterFrame::blendQueueAddress), as the compute blend raster would
+// walk it: the snapped screen corners (pixels, on the 1/256 grid) with their depth, its id, and its
+// pixel box's tiles numbered on from the tiles queued before it.
+struct BlendQueueTriangle {
+  vec3 a, b, c;   // x, y: screen position within the eye; z: depth (reverse-Z)
+  uint id;        // visibility id: (blend-list entry + 1) << MIRAGE_CLUSTER_TRIANGLE_BITS | triangle
+  uint tiles;     // 8 x 8 tiles of its sample box | MIRAGE_BLEND_QUEUE_EYE for the right eye
+  uint firstTile; // sum of the tiles of the entries before it (ascending: a tile finds its entry by binary search)
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end
@@ -304,6 +332,13 @@ struct ClusterCounters {
   // vkCmdDrawIndirect of the buffer backends' blend depth copy: (3, 1 if the hardware blend list is
   // non-empty else 0, 0, 0), so frames whose blend clusters all went to compute skip the copy.
   uint blendDepthDraw[4];
+  // Blend queue: queued triangles << 32 | their tiles (one 64-bit word, so a triangle's slot and
+  // first tile come from one compare-and-swap and ascend together), the queue dispatch
+  // (cluster_args.comp pass MIRAGE_BLEND_QUEUE_ARGS), and large triangles that found the queue full
+  // (walked by their cluster's workgroup instead).
+  uint64_t blendQueueCounts;
+  uint blendQueueArgs[3];
+  uint blendQueueOverflow;
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -334,7 +369,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 752, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 768, "ClusterFrame layout");
 static_assert(sizeof(ClusterFrame) <= MIRAGE_CLUSTER_FRAME_STRIDE && MIRAGE_CLUSTER_FRAME_STRIDE % 256 == 0,
               "ClusterFrame stride");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
@@ -342,10 +377,14 @@ static_assert(offsetof(ClusterFrame, nodeAddress) % 8 == 0, "ClusterFrame addres
 static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, overdrawAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, oitCounterAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(offsetof(ClusterFrame, blendQueueAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(sizeof(BlendQueueTriangle) == 48, "BlendQueueTriangle layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 132, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 132 + 24, "ClusterCounters layout");
+static_assert(offsetof(ClusterCounters, blendQueueCounts) % 8 == 0, "64-bit atomic alignment");
+static_assert(offsetof(ClusterCounters, blendQueueArgs) % 4 == 0, "indirect argument offsets");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
               "indirect argument offsets");
 static_assert(sizeof(ClusterPush) == 112, "ClusterPush layout");

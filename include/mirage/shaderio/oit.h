@@ -16,9 +16,17 @@ using uint = uint32_t;
 // The forward renderer's exact mode (--oit sorted) keeps this many instead.
 #define MIRAGE_OIT_SORTED_LAYERS 64
 
-// One blended fragment of a pixel's list: its depth and a 32-bit id (cluster renderer: visibility
-// id, shaded by the resolve; forward renderer: its own node index, naming the colour stored beside
-// it). 0 ends a list.
+// Pool overflow (oit_list.glsl, oitClaimFarthest): a fragment arriving once the pool is full
+// walks at most this many nodes of its pixel's list for one farther than itself to replace, and
+// walks again at most this many times when another fragment took that node first.
+#define MIRAGE_OIT_REPLACE_STEPS 64
+#define MIRAGE_OIT_REPLACE_TRIES 4
+
+// One blended fragment of a pixel's list: its depth and a non-zero 32-bit id (cluster renderer:
+// visibility id, shaded by the resolve; forward renderer: its own node index + 1, naming the colour
+// stored beside it). 0 ends a list. Nodes outside this frame's lists are all zero (the pool is
+// zeroed when made and oitGather zeroes every node it reads), so a zero depth or id also marks a
+// node not written yet.
 struct OitNode {
   uint depthBits; // reverse-Z depth as float bits (larger is nearer)
   uint id;
@@ -28,7 +36,7 @@ struct OitNode {
 // Counters of one frame's lists, zeroed at the frame start. Mean Squared Layers (the seed's
 // transparency cost metric) = squaredLayers / coveredPixels, squaredLayers = hi << 32 | lo.
 struct OitCounters {
-  uint nodes;           // fragments appended (may exceed the pool: the rest dropped)
+  uint nodes;           // fragments appended (may exceed the pool: each one past it drops one fragment)
   uint layersDropped;   // resolve: fragments beyond its layer cap (the farthest of a pixel)
   uint coveredPixels;   // resolve: pixels with a non-empty list
   uint squaredLayersLo; // resolve: sum over pixels of (list length)^2, 64 bits with carry

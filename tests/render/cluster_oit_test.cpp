@@ -1,0 +1,257 @@
+// Transparency on full-screen blended layers (gen:layers, the transparency benchmark) in the
+// cluster-LOD renderer (docs/render.md, "Transparency", "Blend rasters"): a node pool too small for
+// the layers keeps each pixel's nearest fragments (ClusterOit); drawn through the blend queue, the
+// layers give exactly the fragments and the image of the per-cluster walk, and the hardware blend
+// raster's, and a full queue falls back to the walk (ClusterBlendQueue). Validation stays silent.
+#include <gtest/gtest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "gpu_test.h"
+#include "mirage/core/image_metrics.h"
+#include "mirage/io/generate.h"
+#include "mirage/lod/lod_asset.h"
+#include "mirage/render/cluster_renderer.h"
+#include "render/cluster_test_util.h"
+#include "test_scenes.h"
+
+using namespace mirage;
+using namespace mirage::render;
+using mirage::test::availableRasterBackends;
+using mirage::test::writeOnFailure;
+
+namespace {
+
+// gen:layers' stack (hue by layer, quad i nearer for larger i) seen from the benchmark's camera,
+// each quad covering the whole view; `wall`: an opaque quad cutting through the stack at 60
+// degrees, so the blend rasters' opaque depth test keeps part of each layer.
+Scene layerScene(uint32_t layers, float tiltDegrees, bool wall) {
+  io::LayersOptions o;
+  o.layers = layers;
+  o.tiltDegrees = tiltDegrees;
+  Scene s = io::generateLayers(o);
+  if (wall) {
+    Mesh m;
+    m.name = "wall";
+    m.material = uint32_t(s.materials.size());
+    m.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    m.normals.assign(4, glm::vec3(0, 0, 1));
+    m.uv0 = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    m.indices = {0, 1, 2, 0, 2, 3};
+    for (const glm::vec3& p : m.positions) m.bounds.add(p);
+    s.materials.push_back(test::solidMaterial({0.3f, 0.5f, 0.35f, 1.0f}, AlphaMode::Opaque, /*doubleSided=*/true));
+    s.instances.push_back(
+        {uint32_t(s.meshes.size()), glm::rotate(glm::mat4(1.0f), glm::radians(60.0f), glm::vec3(0, 1, 0))});
+    s.meshes.push_back(std::move(m));
+  }
+  return s;
+}
+
+lod::LodAsset bake(const Scene& scene) {
+  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+  EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
+  return baked.ok() ? std::move(*baked) : lod::LodAsset{};
+}
+
+// The benchmark's view (`mirage bench render l8.mrg --camera eye=0,0,0.6,target=0,0,0,fov=60`),
+// with fixed clip planes so that scenes of fewer layers project alike.
+ClusterRenderSettings layerSettings(uint32_t width, uint32_t height) {
+  ClusterRenderSettings s;
+  s.base.width = width;
+  s.base.height = height;
+  s.base.camera.eye = {0.0f, 0.0f, 0.6f};
+  s.base.camera.target = {0.0f, 0.0f, 0.0f};
+  s.base.camera.fovYDegrees = 60.0f;
+  s.base.camera.znear = 0.05f;
+  s.base.camera.zfar = 5.0f;
+  s.base.background = {0.05f, 0.05f, 0.1f, 1};
+  s.tauPixels = 0.5f;
+  return s;
+}
+
+ClusterRenderOutput renderFrame(ClusterRenderer& r, const ClusterRenderSettings& s) {
+  auto out = r.render(s);
+  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
+  return out.ok() ? std::move(*out) : ClusterRenderOutput{};
+}
+
+bool identical(const ImageRGBA8& a, const ImageRGBA8& b) {
+  return a.width == b.width && a.height == b.height && a.pixels == b.pixels;
+}
+
+// Compute with the queue (the default threshold), with every blended triangle queued, and without
+// it: the same fragments, the same image, bit for bit; at the default threshold the queue drew
+// `queued` triangles.
+void expectQueueMatchesClusterWalk(ClusterRenderer& r, ClusterRenderSettings s, const std::string& what,
+                                   uint32_t queued) {
+  s.blendRaster = BlendRaster::Compute;
+  s.blendQueuePixels = INFINITY;
+  ClusterRenderOutput walk = renderFrame(r, s);
+  EXPECT_EQ(walk.stats.blendQueueTriangles, 0u) << what;
+  ASSERT_GT(walk.stats.oitFragments, 0u) << what;
+  for (float pixels : {ClusterRenderSettings{}.blendQueuePixels, 0.0f}) {
+    s.blendQueuePixels = pixels;
+    ClusterRenderOutput q = renderFrame(r, s);
+    std::printf("%s, queue over %.0f px: %u triangles queued (%u tiles), %u fragments (walk %u), %u past the pool\n",
+                what.c_str(), pixels, q.stats.blendQueueTriangles, q.stats.blendQueueTiles, q.stats.oitFragments,
+                walk.stats.oitFragments, q.stats.oitPoolOverflow);
+    EXPECT_EQ(q.stats.blendRaster, BlendRaster::Compute);
+    if (pixels > 0.0f) {
+      EXPECT_EQ(q.stats.blendQueueTriangles, queued) << what;
+    } else {
+      EXPECT_GT(q.stats.blendQueueTriangles, 0u) << what;
+    }
+    EXPECT_EQ(q.stats.blendQueueOverflow, 0u) << what;
+    EXPECT_EQ(q.stats.oitFragments, walk.stats.oitFragments) << what;
+    EXPECT_EQ(q.stats.oitPoolOverflow, walk.stats.oitPoolOverflow) << what;
+    EXPECT_TRUE(identical(q.image.srgb, walk.image.srgb)) << what << ", queue over " << pixels << " px";
+    writeOnFailure(q.image.srgb, "queue_" + what + ".png");
+  }
+  writeOnFailure(walk.image.srgb, "walk_" + what + ".png");
+}
+
+} // namespace
+
+class ClusterOit : public test::GpuTest {};
+class ClusterBlendQueue : public test::GpuTest {};
+
+// Three intersecting full-screen layers (6 triangles, each box the whole view) cut by an opaque
+// wall: every opaque backend (buffer and image depth), mono and stereo (the queue keeps each eye's
+// triangles), compute with the queue equals the per-cluster walk exactly, and the hardware and
+// hybrid blend rasters up to their edge rules.
+TEST_F(ClusterBlendQueue, FullScreenLayersTakeTheQueueAndMatchTheClusterWalk) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
+  lod::LodAsset asset = bake(layerScene(3, 3.0f, /*wall=*/true));
+  ASSERT_FALSE(asset.dags.empty());
+  auto renderer = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  ClusterRenderSettings s = layerSettings(96, 64);
+  for (RasterBackend b : availableRasterBackends(context())) {
+    s.raster = b;
+    expectQueueMatchesClusterWalk(**renderer, s, std::string("layers_") + toString(b), 6);
+  }
+  s.raster = RasterBackend::Compute;
+  s.stereoIpd = 0.064f;
+  expectQueueMatchesClusterWalk(**renderer, s, "layers_stereo", 12); // 6 triangles per eye
+  s.stereoIpd.reset();
+  // The default blend raster is compute with the queue; hardware and hybrid agree with it.
+  s.blendRaster = BlendRaster::Auto;
+  ClusterRenderOutput q = renderFrame(**renderer, s);
+  EXPECT_EQ(q.stats.blendRaster, BlendRaster::Compute);
+  EXPECT_EQ(q.stats.blendQueueTriangles, 6u);
+  if (!context().caps().fragmentStoresAndAtomics) return;
+  for (BlendRaster blend : {BlendRaster::Hardware, BlendRaster::Hybrid}) {
+    s.blendRaster = blend;
+    s.hybridThreshold = 0.0f; // hybrid: every blend cluster by hardware, none queued
+    ClusterRenderOutput h = renderFrame(**renderer, s);
+    double p = psnr(q.image.srgb, h.image.srgb);
+    int64_t diff = int64_t(h.stats.oitFragments) - int64_t(q.stats.oitFragments);
+    std::printf("blend %s: %u fragments (queue %u, %+lld), PSNR vs the queue %.2f dB\n", toString(blend),
+                h.stats.oitFragments, q.stats.oitFragments, (long long)diff, p);
+    EXPECT_EQ(h.stats.blendQueueTriangles, 0u);
+    EXPECT_LE(std::abs(diff), int64_t(q.stats.oitFragments / 200 + 4)) << toString(blend); // edge rules only
+    EXPECT_GE(p, 50.0) << toString(blend);
+    writeOnFailure(h.image.srgb, std::string("layers_blend_") + toString(blend) + ".png");
+  }
+}
+
+// A queue that fills: the triangles past it are walked by their cluster's workgroup (counted), and
+// the image and fragments stay those of the walk.
+TEST_F(ClusterBlendQueue, FullQueueFallsBackToTheClusterWalk) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
+  lod::LodAsset asset = bake(layerScene(3, 3.0f, /*wall=*/true));
+  ASSERT_FALSE(asset.dags.empty());
+  auto renderer = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  ClusterRenderSettings s = layerSettings(96, 64);
+  s.raster = RasterBackend::Compute;
+  s.blendRaster = BlendRaster::Compute;
+  s.blendQueuePixels = INFINITY;
+  ClusterRenderOutput walk = renderFrame(**renderer, s);
+  s.blendQueuePixels = ClusterRenderSettings{}.blendQueuePixels;
+  s.blendQueueLimit = 2;
+  ClusterRenderOutput full = renderFrame(**renderer, s);
+  std::printf("queue of 2: %u queued, %u walked by their cluster\n", full.stats.blendQueueTriangles,
+              full.stats.blendQueueOverflow);
+  EXPECT_EQ(full.stats.blendQueueTriangles, 2u);
+  EXPECT_EQ(full.stats.blendQueueOverflow, 4u);
+  EXPECT_EQ(full.stats.oitFragments, walk.stats.oitFragments);
+  EXPECT_TRUE(identical(full.image.srgb, walk.image.srgb));
+  writeOnFailure(full.image.srgb, "queue_full.png");
+}
+
+// Eight parallel full-screen layers, nearer for larger index, over a pool of 2 fragments per pixel:
+// 6 of every 8 fragments are dropped (counted), and the ones kept are each pixel's nearest, so
+// every pixel shows the image of its k nearest layers alone (k the nodes it got; they sum to the
+// pool), rendered with a pool that holds them all. Every blend raster (the overflow rule is the
+// lists' own), the compute one with and without the queue.
+TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
+  constexpr uint32_t kLayers = 8, kW = 48, kH = 32, kPool = 2;
+  Scene scene = layerScene(kLayers, 0.0f, /*wall=*/false);
+  lod::LodAsset asset = bake(scene);
+  ASSERT_FALSE(asset.dags.empty());
+  ClusterRenderSettings s = layerSettings(kW, kH);
+  s.raster = RasterBackend::Auto;
+  // The candidates: the k nearest layers alone (k = 0: transparency off), nothing dropped.
+  std::vector<ImageRGBA8> nearest(kLayers + 1);
+  for (uint32_t k = 0; k <= kLayers; ++k) {
+    Scene part = scene;
+    part.instances.erase(part.instances.begin(), part.instances.begin() + (kLayers - std::max(k, 1u)));
+    lod::LodAsset partAsset = bake(part);
+    ASSERT_FALSE(partAsset.dags.empty());
+    ClusterRenderSettings ps = s;
+    ps.oitNodesPerPixel = kLayers;
+    ps.transparency = k > 0;
+    ClusterRenderOutput out = test::renderCluster(context(), partAsset, ps);
+    ASSERT_EQ(out.stats.oitPoolOverflow + out.stats.oitLayersDropped, 0u);
+    nearest[k] = std::move(out.image.srgb);
+  }
+  std::vector<std::pair<BlendRaster, float>> modes{{BlendRaster::Compute, INFINITY}};
+  if (context().caps().int64BufferAtomics)
+    modes.push_back({BlendRaster::Compute, ClusterRenderSettings{}.blendQueuePixels});
+  if (context().caps().fragmentStoresAndAtomics) modes.push_back({BlendRaster::Hardware, INFINITY});
+  auto renderer = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  for (auto [blend, queuePixels] : modes) {
+    ClusterRenderSettings ts = s;
+    ts.oitNodesPerPixel = kPool;
+    ts.blendRaster = blend;
+    ts.blendQueuePixels = queuePixels;
+    ClusterRenderOutput out = renderFrame(**renderer, ts);
+    std::string what = std::string(toString(blend)) + (std::isfinite(queuePixels) ? " + queue" : "");
+    EXPECT_EQ(out.stats.oitFragments, kLayers * kW * kH) << what;
+    EXPECT_EQ(out.stats.oitPoolOverflow, (kLayers - kPool) * kW * kH) << what;
+    // Per pixel the candidate it equals (within one step of rounding): its list's length.
+    uint32_t unmatched = 0, kept = 0, histogram[kLayers + 1] = {};
+    for (uint32_t y = 0; y < kH; ++y)
+      for (uint32_t x = 0; x < kW; ++x) {
+        int best = -1, bestDiff = 1 << 30;
+        for (uint32_t k = 0; k <= kLayers; ++k) {
+          int diff = 0;
+          for (int c = 0; c < 3; ++c)
+            diff = std::max(diff, std::abs(int(out.image.srgb.at(x, y)[c]) - int(nearest[k].at(x, y)[c])));
+          if (diff < bestDiff) bestDiff = diff, best = int(k);
+        }
+        if (bestDiff > 1) {
+          ++unmatched;
+          continue;
+        }
+        ++histogram[best];
+        kept += uint32_t(best);
+      }
+    std::printf("%s: pixels by layers kept (nearest k):", what.c_str());
+    for (uint32_t k = 0; k <= kLayers; ++k) std::printf(" %u", histogram[k]);
+    std::printf("; %u pixels match no nearest-k image; %u fragments kept of a pool of %u\n", unmatched, kept,
+                kPool * kW * kH);
+    EXPECT_EQ(unmatched, 0u) << what;
+    EXPECT_EQ(kept, kPool * kW * kH) << what;
+    writeOnFailure(out.image.srgb, "pool_overflow_" + std::string(toString(blend)) + ".png");
+  }
+}
