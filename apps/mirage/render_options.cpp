@@ -192,6 +192,10 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
       ->type_name("NAME")
       ->transform(enumNames(render::kOitModeNames, c.oit))
       ->default_str(render::toString(c.oit));
+  cmd.add_option("--oit-nodes-per-pixel", c.oitNodesPerPixel,
+                 "alpha BLEND, linked lists: fragment pool per target pixel (default 4 for .mrg cluster LOD, 8 "
+                 "forward); past it a fragment replaces its pixel's farthest listed one")
+      ->type_name("N");
   out.surfels.push_back(
       cmd.add_option("--surfel-size", c.surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str());
   if (mode == BindMode::Render) // bench render draws surfels only in mixed scenes (bench surfels: the rest)

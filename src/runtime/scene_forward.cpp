@@ -41,6 +41,7 @@ render::ForwardRenderSettings forwardSettings(const Scene::Impl& s, const View& 
   rs.readLinear = view.readLinear;
   fs.stereoIpd = view.stereoIpd;
   fs.oit = view.config.oit;
+  if (view.config.oitNodesPerPixel) fs.oitNodesPerPixel = *view.config.oitNodesPerPixel;
   fs.particles = view.particles;
   return fs;
 }

@@ -94,6 +94,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.transparency = c.transparency;
   rs.hybridThreshold = c.hybridThreshold;
   rs.blendQueuePixels = c.blendQueuePixels;
+  if (c.oitNodesPerPixel) rs.oitNodesPerPixel = *c.oitNodesPerPixel;
   rs.pvsCulling = c.pvsCulling;
   rs.stereoIpd = view.stereoIpd;
   rs.stereoMode = c.stereoMode;

@@ -96,6 +96,8 @@ if expect_ok build-city build gen:city:1 -o "$tmp/city.mrg"; then
   expect_fail render-bad-blend-raster "--blend-raster" "$tmp/b.png" -- render "$tmp/city.mrg" -o "$tmp/b.png" --size 32x32 --blend-raster gpu
   expect_fail render-bad-blend-queue "--blend-queue-pixels" "$tmp/b.png" -- render "$tmp/city.mrg" -o "$tmp/b.png" --size 32x32 --blend-queue-pixels -1
   expect_ok render-blend-queue-off render "$tmp/city.mrg" -o "$tmp/b.png" --size 32x32 --blend-queue-pixels inf
+  expect_fail render-bad-oit-pool "--oit-nodes-per-pixel" "$tmp/c.png" -- render "$tmp/city.mrg" -o "$tmp/c.png" --size 32x32 --oit-nodes-per-pixel 65
+  expect_ok render-oit-pool render "$tmp/city.mrg" -o "$tmp/b.png" --size 32x32 --oit-nodes-per-pixel 8
   if expect_ok bench-blend-all bench render "$tmp/city.mrg" --size 64x36 --frames 2 --raster compute --blend-raster all --camera eye=0,2,0,target=5,2,0; then
     for blend in compute hybrid hardware; do
       grep -q "^blend ($blend raster)" "$tmp/stdout" || { echo "FAIL bench-blend-all: no $blend blend row"; failures=$((failures + 1)); }

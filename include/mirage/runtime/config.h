@@ -2,6 +2,8 @@
 // Per-frame settings of a runtime::Scene (docs/runtime.md): every knob of the cluster-LOD, forward
 // and surfel renderers that may change from one frame to the next, typed, with the renderers' own
 // defaults. The CLI binds it once (apps/mirage/render_options.cpp), the viewer edits it live.
+#include <optional>
+
 #include "mirage/core/result.h"
 #include "mirage/render/cluster_renderer.h"
 #include "mirage/render/surfel_renderer.h"
@@ -27,7 +29,10 @@ struct RenderConfig {
   render::OitMode oit = kForwardDefaults.oit;
   float hybridThreshold = kClusterDefaults.hybridThreshold;   // pixels
   float blendQueuePixels = kClusterDefaults.blendQueuePixels; // pixels; +inf: no blend queue
-  bool pvsCulling = kClusterDefaults.pvsCulling;              // cull with the view cell's cluster PVS (if any)
+  // Transparency node pool per target pixel (--oit-nodes-per-pixel); unset: each renderer's own
+  // default (cluster LOD ClusterRenderSettings::oitNodesPerPixel, forward ForwardRenderSettings's).
+  std::optional<uint32_t> oitNodesPerPixel;
+  bool pvsCulling = kClusterDefaults.pvsCulling; // cull with the view cell's cluster PVS (if any)
   // Foveation (--fovea X,Y --fovea-radius DEG): tau grows with eccentricity from the gaze point.
   bool foveation = kClusterDefaults.foveation;
   glm::vec2 foveaGaze = kClusterDefaults.foveaGaze; // normalized screen coordinates, 0..1
