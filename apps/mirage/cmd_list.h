@@ -4,6 +4,10 @@
 
 #include <CLI/CLI.hpp>
 
+namespace mirage::stream {
+struct TessellationConfig;
+}
+
 namespace mirage::cli {
 
 // mirage info --devices | FILE [--json]
@@ -42,6 +46,8 @@ void addSurfelsCommand(CLI::App& app);
 void addViewCommand(CLI::App& app);
 // mirage serve SCENE --token-file F ... / mirage client ws://HOST:PORT --token T ... (cmd_stream.cpp).
 void addStreamCommands(CLI::App& app);
+// --max-patch-edge, --max-triangles: the stream scene's tessellation (serve, bench stream; cmd_stream.cpp).
+void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config);
 // mirage pvs / pvs-eval: GVS++ potentially visible sets per view cell (cmd_pvs.cpp).
 void addPvsCommands(CLI::App& app);
 

@@ -34,7 +34,7 @@ Status validate(const StreamBenchConfig& c) {
 
 Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& c) {
   if (auto s = validate(c); !s) return s.error();
-  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize});
+  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize, c.tessellation});
   if (!scene) return scene.error();
   StreamScene& served = **scene;
   auto path = render::cameraPathArgument(c.path, served.bounds, float(c.width) / float(c.height));
@@ -70,6 +70,8 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
 
   StreamBenchReport report;
   report.device = context.caps().name;
+  report.tessellation = served.tessellation;
+  report.patches = served.patches.patchCount();
   // Client 0's frames on their way: each arrives latencyFrames after the pose it answers was sent.
   std::deque<std::pair<size_t, Frame>> inFlight;
   std::vector<uint32_t> sequences(c.clients, 0);

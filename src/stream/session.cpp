@@ -50,6 +50,9 @@ Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, cons
   if (materials)
     if (auto st = shading::applyMaterials(s->scene, *materials); !st) return st.error();
   if (s->scene.instancedTriangleCount() == 0) return Error{fmt::format("{}: no triangles to stream", options.input)};
+  auto tessellation = tessellateScene(s->scene, options.tessellation);
+  if (!tessellation) return makeError(options.input, tessellation.error().message);
+  s->tessellation = *tessellation;
   s->patches = buildPatchTable(s->scene);
   std::vector<uint32_t> patchOfTriangle(s->patches.triangleCount());
   for (uint32_t t = 0; t < patchOfTriangle.size(); ++t) patchOfTriangle[t] = s->patches.patchOfTriangle(t);

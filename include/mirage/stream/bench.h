@@ -13,6 +13,7 @@
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
 #include "mirage/stream/protocol.h"
+#include "mirage/stream/tessellate.h"
 
 namespace mirage::stream {
 
@@ -22,6 +23,7 @@ struct StreamBenchConfig {
   std::string path = "orbit:60"; // camera JSON or orbit:N
   uint32_t width = 1920, height = 1080;
   uint32_t atlasSize = 2048;
+  TessellationConfig tessellation;
   AtlasCodec codec = AtlasCodec::H264;
   uint32_t bitrateKbps = 20000;
   uint32_t fps = 60;          // frames per second the path is played at (bitrates, rate control)
@@ -44,6 +46,8 @@ struct StreamBenchFrame {
 
 struct StreamBenchReport {
   std::string device;
+  TessellationStats tessellation; // the served scene's (instanced triangles before and after)
+  uint32_t patches = 0;           // the served scene's
   std::vector<StreamBenchFrame> frames;
   // Means over the frames (the first latencyFrames + 1 frames excluded from quality: nothing has
   // arrived for them yet).

@@ -21,6 +21,7 @@
 #include "mirage/stream/jpeg_tiles.h"
 #include "mirage/stream/patches.h"
 #include "mirage/stream/protocol.h"
+#include "mirage/stream/tessellate.h"
 #include "mirage/stream/tile_codec.h"
 #include "mirage/stream/video.h"
 
@@ -30,12 +31,15 @@ struct StreamSceneOptions {
   std::string input;         // a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
   std::string materials;     // optional material file (TOML) applied after import
   uint32_t atlasSize = 2048; // atlas side in texels (a power of two, 128..16384)
+  // Large triangles split before patches are built (tessellate.h).
+  TessellationConfig tessellation;
 };
 
 // What every client of a scene shares. The GPU atlas is scratch: each frame produced clears it and
 // shades that client's visible blocks before reading it back, so clients never see each other's.
 struct StreamScene {
-  Scene scene;
+  Scene scene; // tessellated (tessellate.h)
+  TessellationStats tessellation;
   PatchTable patches;
   std::vector<uint32_t> meshFirstVertex; // render::atlasMeshFirstVertex
   std::unique_ptr<render::AtlasShading> shading;
@@ -47,7 +51,8 @@ struct StreamScene {
   bool translucent = false;
 };
 
-// Reads (or generates) the scene, builds its patches and uploads it. Errors name the input.
+// Reads (or generates) the scene, tessellates its large triangles, builds its patches and uploads it.
+// Errors name the input.
 Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, const StreamSceneOptions& options);
 
 // The alpha mode of a global patch's material.

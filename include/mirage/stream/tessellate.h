@@ -17,13 +17,15 @@
 
 namespace mirage::stream {
 
-// The longest patch edge by default: the scene's bounding-box diagonal over this. Derivation
-// (docs/stream.md, "Tessellation"): an edge of L world units seen at distance d on a viewport H
-// pixels high with vertical field of view fov covers L H / (2 d tan(fov / 2)) pixels; the largest
-// block spans 127 texels along it, so one texel per pixel holds down to
-// d = L H / (254 tan(fov / 2)). With L = diagonal / 256 at 1920x1080 and fov 60 degrees that is
-// 2.9 % of the diagonal (Sponza: 1.2 m from a wall).
-constexpr float kPatchEdgeDivisions = 256.0f;
+// The longest patch edge by default: the scene's bounding-box diagonal over this. The rule
+// (docs/stream.md, "Tessellation"): an edge of L world units seen from distance d on a viewport H
+// pixels high with vertical field of view fov covers L H / (2 d tan(fov / 2)) pixels, and the
+// largest block spans 127 texels along it, so one texel per pixel holds down to
+// d_min = L H / (254 tan(fov / 2)). At 1920x1080 and fov 60 degrees, L = diagonal / 64 gives
+// d_min = 11.5 % of the diagonal (Sponza: 4.8 m). Finer defaults cost patches on every scene, also
+// where no view comes close (gen:city:2 holds 2.8x its triangles at diagonal / 64, 8.5x at / 128,
+// 29x at / 256); a scene seen from closer than d_min sets maxPatchEdge from its own d_min.
+constexpr float kPatchEdgeDivisions = 64.0f;
 
 struct TessellationConfig {
   // Longest triangle edge the patches may have, in world units. 0: the scene's bounding-box
