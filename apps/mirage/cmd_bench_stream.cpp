@@ -39,10 +39,11 @@ void runBenchStream(BenchStreamOptions& o) {
   auto report = stream::runStreamBench(**ctx, c);
   if (!report) return fail(report.error());
   const auto& r = *report;
-  double gpuVis = 0, gpuShade = 0, encode = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0;
+  double gpuVis = 0, gpuShade = 0, encode = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0,
+         levelBias = 0;
   for (const auto& f : r.frames) {
     gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, encode += f.encodeMs, texels += double(f.shadedTexels);
-    visible += f.visiblePatches, colourOnly += f.colourOnly, atlasKB += f.atlasBytes / 1024.0,
+    visible += f.visiblePatches, colourOnly += f.colourOnly, levelBias += f.levelBias, atlasKB += f.atlasBytes / 1024.0,
         geometryKB += (f.geometryBytes + f.colourBytes) / 1024.0;
   }
   double n = double(std::max<size_t>(1, r.frames.size()));
@@ -70,6 +71,7 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"shaded_texels", texels / n},
                         {"visible_patches", visible / n},
                         {"colour_only_patches", colourOnly / n},
+                        {"level_bias", levelBias / n},
                         {"atlas_kb", atlasKB / n},
                         {"geometry_kb", geometryKB / n},
                         {"mbit_s", r.megabitsPerSecond},
@@ -83,9 +85,10 @@ void runBenchStream(BenchStreamOptions& o) {
   fmt::print("  scene: {} triangles, {} after tessellation to edges <= {:g}, {} patches\n",
              r.tessellation.trianglesBefore, r.tessellation.trianglesAfter, r.tessellation.maxPatchEdge, r.patches);
   fmt::print("  server per client frame: {:.2f} ms wall, GPU {:.3f} ms (visibility {:.3f}, shading {:.3f}), "
-             "encode {:.2f} ms; {:.0f} patches visible ({:.0f} colour-only: no block), {:.2f} M texels shaded\n",
+             "encode {:.2f} ms; {:.0f} patches visible ({:.0f} colour-only: no block), {:.2f} M texels shaded, "
+             "level bias {:.2f} after fitting the atlas\n",
              r.meanServerMs, r.meanGpuMs, gpuVis / n, gpuShade / n, encode / n, visible / n, colourOnly / n,
-             texels / n / 1e6);
+             texels / n / 1e6, levelBias / n);
   fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry per frame = {:.1f} Mbit/s at {} Hz, {:.3f} bytes per "
              "texel shaded\n",
              atlasKB / n, geometryKB / n, r.megabitsPerSecond, c.fps, bytesPerTexel);
@@ -114,6 +117,7 @@ void addBenchStreamCommand(CLI::App& bench) {
   b->add_option("--latency-frames", c.latencyFrames, "Round trip in frames")->capture_default_str();
   b->add_option("--atlas-size", c.atlasSize, "Atlas side in texels")->capture_default_str();
   b->add_option("--level-bias", c.levelBias, "Atlas texels per pixel: block side x 2^bias")->capture_default_str();
+  b->add_option("--atlas-fill", c.atlasFill, kAtlasFillHelp)->check(CLI::Range(0.0f, 1.0f))->capture_default_str();
   bindTessellation(*b, c.tessellation);
   b->add_flag("--no-quality", o->noQuality, "Skip the client's images and their comparison with local rendering");
   b->add_option("--device", o->device, "Vulkan device name substring or index");

@@ -48,6 +48,10 @@ void addViewCommand(CLI::App& app);
 void addStreamCommands(CLI::App& app);
 // --max-patch-edge, --max-triangles: the stream scene's tessellation (serve, bench stream; cmd_stream.cpp).
 void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config);
+// --atlas-fill's help (serve, bench stream).
+inline constexpr const char* kAtlasFillHelp =
+    "Share of the atlas the visible patches' blocks may want; past it every patch's level bias is lowered "
+    "alike (0: no fitting)";
 // mirage pvs / pvs-eval: GVS++ potentially visible sets per view cell (cmd_pvs.cpp).
 void addPvsCommands(CLI::App& app);
 

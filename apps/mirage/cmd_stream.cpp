@@ -211,6 +211,9 @@ void addStreamCommands(CLI::App& app) {
                 "Atlas texels per pixel: block side x 2^bias (> 0 sharper, more bytes)")
       ->capture_default_str();
   s->add_option("--atlas-size", so->scene.atlasSize, "Atlas side in texels (power of two)")->capture_default_str();
+  s->add_option("--atlas-fill", so->serve.stream.atlasFill, kAtlasFillHelp)
+      ->check(CLI::Range(0.0f, 1.0f))
+      ->capture_default_str();
   s->add_option("--materials", so->scene.materials, "Material file (TOML) applied to the scene");
   bindTessellation(*s, so->scene.tessellation);
   s->add_option("--web", so->web, "Directory of the browser client (GET / serves its index.html)");

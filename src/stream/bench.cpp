@@ -44,6 +44,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
   if (n == 0) return Error{fmt::format("{}: no cameras", c.path)};
 
   ClientStreamConfig cc{c.codec, c.bitrateKbps, c.fps, c.levelBias};
+  cc.atlasFill = c.atlasFill;
   std::vector<std::unique_ptr<ClientStream>> clients;
   for (uint32_t k = 0; k < c.clients; ++k) {
     auto client = ClientStream::create(served, cc);
@@ -102,6 +103,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
         f.geometryBytes = st.geometryBytes;
         f.colourBytes = st.colourBytes;
         f.atlasBytes = st.atlasBytes;
+        f.levelBias = st.levelBias;
         bytes += st.geometryBytes + st.colourBytes + st.atlasBytes;
         inFlight.emplace_back(i + c.latencyFrames, std::move(*frame));
       }

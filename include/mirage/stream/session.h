@@ -71,6 +71,12 @@ struct ClientStreamConfig {
   // last visible. Small patches flicker in and out of the visibility buffer from frame to frame;
   // without this each flicker costs a removal and a re-send of the patch (docs/stream.md, "Server").
   uint32_t keepInvisibleFrames = 8;
+  // Share of the atlas the visible patches' blocks may want. When they would want more, the level
+  // bias is lowered for every patch alike (fitLevelBias, in quarter levels) instead of the largest
+  // patches taking the atlas and the rest getting one colour each. The rest is room for kept
+  // patches, blocks up to one level above their wanted level (the allocator's hysteresis) and
+  // partly used superblocks (docs/stream.md, "Level selection"). 0: no fitting.
+  float atlasFill = 0.5f;
 };
 
 // H.264 carries colour at half resolution (4:2:0; the encoder averages each 2x2 texel square so no
@@ -88,6 +94,7 @@ struct StreamFrameStats {
   uint32_t addedOrMoved = 0;  // PatchUpdates sent
   uint32_t removed = 0;
   uint64_t shadedTexels = 0;  // atlas texels shaded (every visible block, every frame)
+  float levelBias = 0.0f;     // the level bias used, after fitting the atlas (ClientStreamConfig::atlasFill)
   uint64_t geometryBytes = 0; // removed + updated entries as encoded
   uint64_t colourBytes = 0;
   uint64_t atlasBytes = 0;
