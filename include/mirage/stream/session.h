@@ -75,7 +75,7 @@ struct ClientStreamConfig {
   // bias is lowered for every patch alike (fitLevelBias, in quarter levels) instead of the largest
   // patches taking the atlas and the rest getting one colour each. The rest is room for kept
   // patches, blocks up to one level above their wanted level (the allocator's hysteresis) and
-  // partly used superblocks (docs/stream.md, "Level selection"). 0: no fitting.
+  // partly used superblocks (docs/stream.md, "Fitting the atlas"). 0: no fitting.
   float atlasFill = 0.5f;
 };
 
