@@ -1,6 +1,6 @@
 // mirage bench stream SCENE [--path orbit:60] [--size WxH] [--codec h264|zstd] [--bitrate MBIT]
-//   [--clients N] [--latency-frames K] [--no-quality] [--json]: Shading Atlas Streaming measured in
-//   one process (mirage/stream/bench.h).
+//   [--clients N] [--latency-frames K] [--max-patch-edge L] [--no-quality] [--json]: Shading Atlas Streaming measured
+//   in one process (mirage/stream/bench.h).
 #include <memory>
 
 #include <fmt/format.h>
@@ -39,13 +39,16 @@ void runBenchStream(BenchStreamOptions& o) {
   auto report = stream::runStreamBench(**ctx, c);
   if (!report) return fail(report.error());
   const auto& r = *report;
-  double gpuVis = 0, gpuShade = 0, encode = 0, texels = 0, visible = 0, atlasKB = 0, geometryKB = 0;
+  double gpuVis = 0, gpuShade = 0, encode = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0,
+         levelBias = 0;
   for (const auto& f : r.frames) {
     gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, encode += f.encodeMs, texels += double(f.shadedTexels);
-    visible += f.visiblePatches, atlasKB += f.atlasBytes / 1024.0,
+    visible += f.visiblePatches, colourOnly += f.colourOnly, levelBias += f.levelBias, atlasKB += f.atlasBytes / 1024.0,
         geometryKB += (f.geometryBytes + f.colourBytes) / 1024.0;
   }
   double n = double(std::max<size_t>(1, r.frames.size()));
+  // Client 0's bytes (atlas, geometry, colours) per atlas texel the server shaded for it.
+  double bytesPerTexel = texels > 0 ? (atlasKB + geometryKB) * 1024.0 / texels : 0.0;
   if (o.json) {
     nlohmann::json j = {{"scene", c.input},
                         {"device", r.device},
@@ -55,6 +58,11 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"clients", c.clients},
                         {"latency_frames", c.latencyFrames},
                         {"frames", r.frames.size()},
+                        {"triangles_source", r.tessellation.trianglesBefore},
+                        {"triangles", r.tessellation.trianglesAfter},
+                        {"max_patch_edge", r.tessellation.maxPatchEdge},
+                        {"patches", r.patches},
+                        {"bytes_per_texel", bytesPerTexel},
                         {"server_ms", r.meanServerMs},
                         {"gpu_ms", r.meanGpuMs},
                         {"gpu_visibility_ms", gpuVis / n},
@@ -62,6 +70,8 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"encode_ms", encode / n},
                         {"shaded_texels", texels / n},
                         {"visible_patches", visible / n},
+                        {"colour_only_patches", colourOnly / n},
+                        {"level_bias", levelBias / n},
                         {"atlas_kb", atlasKB / n},
                         {"geometry_kb", geometryKB / n},
                         {"mbit_s", r.megabitsPerSecond},
@@ -72,11 +82,16 @@ void runBenchStream(BenchStreamOptions& o) {
   }
   fmt::print("stream {} on {}: {} frames at {}, {} client(s), {} at {:.0f} Mbit/s, round trip {} frames\n", c.input,
              r.device, r.frames.size(), o.size, c.clients, o.codec, o.bitrateMbit, c.latencyFrames);
+  fmt::print("  scene: {} triangles, {} after tessellation to edges <= {:g}, {} patches\n",
+             r.tessellation.trianglesBefore, r.tessellation.trianglesAfter, r.tessellation.maxPatchEdge, r.patches);
   fmt::print("  server per client frame: {:.2f} ms wall, GPU {:.3f} ms (visibility {:.3f}, shading {:.3f}), "
-             "encode {:.2f} ms; {:.0f} patches visible, {:.2f} M texels shaded\n",
-             r.meanServerMs, r.meanGpuMs, gpuVis / n, gpuShade / n, encode / n, visible / n, texels / n / 1e6);
-  fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry per frame = {:.1f} Mbit/s at {} Hz\n", atlasKB / n,
-             geometryKB / n, r.megabitsPerSecond, c.fps);
+             "encode {:.2f} ms; {:.0f} patches visible ({:.0f} colour-only: no block), {:.2f} M texels shaded, "
+             "level bias {:.2f} after fitting the atlas\n",
+             r.meanServerMs, r.meanGpuMs, gpuVis / n, gpuShade / n, encode / n, visible / n, colourOnly / n,
+             texels / n / 1e6, levelBias / n);
+  fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry per frame = {:.1f} Mbit/s at {} Hz, {:.3f} bytes per "
+             "texel shaded\n",
+             atlasKB / n, geometryKB / n, r.megabitsPerSecond, c.fps, bytesPerTexel);
   if (c.quality)
     fmt::print("  quality against local rendering: SSIM mean {:.4f} min {:.4f}, PSNR {:.2f} dB\n", r.meanSsim,
                r.minSsim, r.meanPsnr);
@@ -102,6 +117,8 @@ void addBenchStreamCommand(CLI::App& bench) {
   b->add_option("--latency-frames", c.latencyFrames, "Round trip in frames")->capture_default_str();
   b->add_option("--atlas-size", c.atlasSize, "Atlas side in texels")->capture_default_str();
   b->add_option("--level-bias", c.levelBias, "Atlas texels per pixel: block side x 2^bias")->capture_default_str();
+  b->add_option("--atlas-fill", c.atlasFill, kAtlasFillHelp)->check(CLI::Range(0.0f, 1.0f))->capture_default_str();
+  bindTessellation(*b, c.tessellation);
   b->add_flag("--no-quality", o->noQuality, "Skip the client's images and their comparison with local rendering");
   b->add_option("--device", o->device, "Vulkan device name substring or index");
   b->add_flag("--json", o->json, "Print results as JSON");

@@ -4,6 +4,10 @@
 
 #include <CLI/CLI.hpp>
 
+namespace mirage::stream {
+struct TessellationConfig;
+}
+
 namespace mirage::cli {
 
 // mirage info --devices | FILE [--json]
@@ -42,6 +46,12 @@ void addSurfelsCommand(CLI::App& app);
 void addViewCommand(CLI::App& app);
 // mirage serve SCENE --token-file F ... / mirage client ws://HOST:PORT --token T ... (cmd_stream.cpp).
 void addStreamCommands(CLI::App& app);
+// --max-patch-edge, --max-triangles: the stream scene's tessellation (serve, bench stream; cmd_stream.cpp).
+void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config);
+// --atlas-fill's help (serve, bench stream).
+inline constexpr const char* kAtlasFillHelp =
+    "Share of the atlas the visible patches' blocks may want; past it every patch's level bias is lowered "
+    "alike (0: no fitting)";
 // mirage pvs / pvs-eval: GVS++ potentially visible sets per view cell (cmd_pvs.cpp).
 void addPvsCommands(CLI::App& app);
 

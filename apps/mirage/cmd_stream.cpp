@@ -1,5 +1,6 @@
 // mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
-//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--web DIR]: Shading Atlas Streaming.
+//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--max-patch-edge L] [--web DIR]: Shading Atlas
+//   Streaming.
 // mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]
 //   [--stereo [--ipd M]] [--latency-ms MS [--jitter-ms J] [--loss P] [--seed S] [--fps F] [--server-ms S]]:
 //   the native thin client (docs/stream.md): a window with a fly camera, or with --path / --record a
@@ -58,12 +59,15 @@ void runServe(ServeCliOptions& o) {
   auto scene = stream::openStreamScene(**ctx, o.scene);
   if (!scene) return fail(scene.error());
   size_t patches = (*scene)->patches.patchCount(), triangles = (*scene)->scene.instancedTriangleCount();
+  const stream::TessellationStats& tessellation = (*scene)->tessellation;
   stream::ServeLog log;
   if (!o.quiet) log = [](const std::string& line) { fmt::print("{}\n", line), std::fflush(stdout); };
   auto server = stream::StreamServer::start(**ctx, std::move(*scene), o.serve, log);
   if (!server) return fail(server.error());
   if (!o.quiet)
-    fmt::print("serving {} ({} triangles in {} patches) on {}://{}:{}/ from {}\n", o.scene.input, triangles, patches,
+    fmt::print("serving {} ({} triangles, {} after tessellation to edges <= {:g}, in {} patches) on {}://{}:{}/ from "
+               "{}\n",
+               o.scene.input, tessellation.trianglesBefore, triangles, tessellation.maxPatchEdge, patches,
                o.serve.transport.certFile.empty() ? "ws" : "wss", o.serve.transport.host, (*server)->port(),
                (*ctx)->caps().name),
         std::fflush(stdout);
@@ -178,6 +182,17 @@ void runClient(ClientCliOptions& o) {
 
 } // namespace
 
+void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config) {
+  cmd.add_option("--max-patch-edge", config.maxPatchEdge,
+                 fmt::format("Split triangles to edges of at most this many world units before patches are built "
+                             "(0: the scene's diagonal / {:g}; inf: no tessellation)",
+                             stream::kPatchEdgeDivisions))
+      ->capture_default_str();
+  cmd.add_option("--max-triangles", config.maxTriangles,
+                 "Refuse a scene that tessellation takes past this many triangles")
+      ->capture_default_str();
+}
+
 void addStreamCommands(CLI::App& app) {
   auto* s = app.add_subcommand("serve", "Serve a scene by Shading Atlas Streaming (docs/stream.md)");
   auto so = std::make_shared<ServeCliOptions>();
@@ -196,7 +211,11 @@ void addStreamCommands(CLI::App& app) {
                 "Atlas texels per pixel: block side x 2^bias (> 0 sharper, more bytes)")
       ->capture_default_str();
   s->add_option("--atlas-size", so->scene.atlasSize, "Atlas side in texels (power of two)")->capture_default_str();
+  s->add_option("--atlas-fill", so->serve.stream.atlasFill, kAtlasFillHelp)
+      ->check(CLI::Range(0.0f, 1.0f))
+      ->capture_default_str();
   s->add_option("--materials", so->scene.materials, "Material file (TOML) applied to the scene");
+  bindTessellation(*s, so->scene.tessellation);
   s->add_option("--web", so->web, "Directory of the browser client (GET / serves its index.html)");
   s->add_option("--device", so->device, "GPU index or name substring");
   s->add_flag("--quiet", so->quiet, "Print nothing but errors");

@@ -3,6 +3,7 @@
 pkg_check_modules(LIBAV REQUIRED IMPORTED_TARGET libavcodec libavutil libswscale)
 add_library(mirage_stream_atlas STATIC
   ${CMAKE_CURRENT_LIST_DIR}/patches.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/tessellate.cpp
   ${CMAKE_CURRENT_LIST_DIR}/atlas.cpp
   ${CMAKE_CURRENT_LIST_DIR}/tile_codec.cpp
   ${CMAKE_CURRENT_LIST_DIR}/video.cpp)

@@ -34,7 +34,7 @@ Status validate(const StreamBenchConfig& c) {
 
 Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& c) {
   if (auto s = validate(c); !s) return s.error();
-  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize});
+  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize, c.tessellation});
   if (!scene) return scene.error();
   StreamScene& served = **scene;
   auto path = render::cameraPathArgument(c.path, served.bounds, float(c.width) / float(c.height));
@@ -44,6 +44,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
   if (n == 0) return Error{fmt::format("{}: no cameras", c.path)};
 
   ClientStreamConfig cc{c.codec, c.bitrateKbps, c.fps, c.levelBias};
+  cc.atlasFill = c.atlasFill;
   std::vector<std::unique_ptr<ClientStream>> clients;
   for (uint32_t k = 0; k < c.clients; ++k) {
     auto client = ClientStream::create(served, cc);
@@ -70,6 +71,8 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
 
   StreamBenchReport report;
   report.device = context.caps().name;
+  report.tessellation = served.tessellation;
+  report.patches = served.patches.patchCount();
   // Client 0's frames on their way: each arrives latencyFrames after the pose it answers was sent.
   std::deque<std::pair<size_t, Frame>> inFlight;
   std::vector<uint32_t> sequences(c.clients, 0);
@@ -100,6 +103,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
         f.geometryBytes = st.geometryBytes;
         f.colourBytes = st.colourBytes;
         f.atlasBytes = st.atlasBytes;
+        f.levelBias = st.levelBias;
         bytes += st.geometryBytes + st.colourBytes + st.atlasBytes;
         inFlight.emplace_back(i + c.latencyFrames, std::move(*frame));
       }

@@ -254,14 +254,13 @@ void patchWorldPositions(const Scene& scene, const PatchTable& table, uint32_t g
   }
 }
 
-uint32_t patchBlockLog2(std::span<const glm::vec3> world, uint32_t triangleCount, const glm::mat4& viewProj,
-                        glm::uvec2 viewport, float bias) {
-  uint32_t maxLog2 = maxBlockLog2(triangleCount);
+float patchProjectedLength(std::span<const glm::vec3> world, uint32_t triangleCount, const glm::mat4& viewProj,
+                           glm::uvec2 viewport) {
   uint32_t slots = triangleCount == 1 ? 3u : (triangleCount == 2 ? 4u : 5u);
   glm::vec2 pixel[MIRAGE_ATLAS_MAX_PATCH_VERTICES]{};
   for (uint32_t v = 0; v < slots; ++v) {
     glm::vec4 clip = viewProj * glm::vec4(world[v], 1.0f);
-    if (!(clip.w > 0.0f)) return maxLog2;
+    if (!(clip.w > 0.0f)) return kInfinity;
     pixel[v] = pixelOf(clip, viewport);
   }
   auto edge = [&](uint32_t from, uint32_t to) { return glm::length(pixel[to] - pixel[from]); };
@@ -274,10 +273,41 @@ uint32_t patchBlockLog2(std::span<const glm::vec3> world, uint32_t triangleCount
   if (triangleCount >= 3) {
     length = std::max({length, edge(MIRAGE_PATCH_B, MIRAGE_PATCH_E), edge(MIRAGE_PATCH_E, MIRAGE_PATCH_D) * diagonal});
   }
+  return length;
+}
+
+uint32_t blockLog2ForLength(float length, uint32_t triangleCount, float bias) {
+  uint32_t maxLog2 = maxBlockLog2(triangleCount);
   float texels = length * std::exp2(bias) + 1.0f;
   if (!std::isfinite(texels)) return maxLog2;
   float wanted = std::ceil(std::log2(std::max(texels, 1.0f)));
   return uint32_t(std::clamp(wanted, float(MIRAGE_ATLAS_MIN_BLOCK_LOG2), float(maxLog2)));
+}
+
+uint32_t patchBlockLog2(std::span<const glm::vec3> world, uint32_t triangleCount, const glm::mat4& viewProj,
+                        glm::uvec2 viewport, float bias) {
+  return blockLog2ForLength(patchProjectedLength(world, triangleCount, viewProj, viewport), triangleCount, bias);
+}
+
+float fitLevelBias(std::span<const PatchExtent> patches, float bias, uint64_t budgetTexels) {
+  auto texelsAt = [&](float b) {
+    uint64_t total = 0;
+    for (const PatchExtent& p : patches)
+      total += blockTexels(blockLog2ForLength(p.length, p.triangleCount, b), p.triangleCount);
+    return total;
+  };
+  if (texelsAt(bias) <= budgetTexels) return bias;
+  // Quarter levels down: at k = kLast every finite length L has L 2^(bias - k / 4) <= 1, the smallest level.
+  float longest = 1.0f;
+  for (const PatchExtent& p : patches)
+    if (std::isfinite(p.length)) longest = std::max(longest, p.length);
+  uint32_t last = uint32_t(std::max(0.0f, std::ceil(4.0f * (bias + std::log2(longest))))) + 1;
+  uint32_t lo = 0, hi = last; // texelsAt(bias - lo / 4) > budget; at hi: fits, or the floor
+  while (hi - lo > 1) {
+    uint32_t mid = lo + (hi - lo) / 2;
+    (texelsAt(bias - float(mid) * 0.25f) <= budgetTexels ? hi : lo) = mid;
+  }
+  return bias - float(hi) * 0.25f;
 }
 
 } // namespace mirage::stream

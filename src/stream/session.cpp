@@ -50,6 +50,9 @@ Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, cons
   if (materials)
     if (auto st = shading::applyMaterials(s->scene, *materials); !st) return st.error();
   if (s->scene.instancedTriangleCount() == 0) return Error{fmt::format("{}: no triangles to stream", options.input)};
+  auto tessellation = tessellateScene(s->scene, options.tessellation);
+  if (!tessellation) return makeError(options.input, tessellation.error().message);
+  s->tessellation = *tessellation;
   s->patches = buildPatchTable(s->scene);
   std::vector<uint32_t> patchOfTriangle(s->patches.triangleCount());
   for (uint32_t t = 0; t < patchOfTriangle.size(); ++t) patchOfTriangle[t] = s->patches.patchOfTriangle(t);
@@ -142,21 +145,30 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   st.visibilityMs = msSince(t0);
   st.visiblePatches = uint32_t(visible->size());
 
-  // Level selection: the larger block either view wants.
+  // Level selection: the larger block either view wants, the bias lowered alike for every patch
+  // when their blocks would not fit the atlas share (ClientStreamConfig::atlasFill).
   float bias = config_.levelBias + (config_.codec == AtlasCodec::H264 ? kH264LevelBias : 0.0f);
   float aspect = float(w) / float(h);
   glm::mat4 viewProj[2];
   for (int i = 0; i < 2; ++i) viewProj[i] = cameras[i].projection(aspect) * cameras[i].view();
-  std::vector<AtlasRequest> requests;
-  requests.reserve(visible->size());
+  std::vector<PatchExtent> extents;
+  extents.reserve(visible->size());
   glm::vec3 world[MIRAGE_ATLAS_MAX_PATCH_VERTICES];
   for (uint32_t id : *visible) {
-    uint32_t triangles = scene.patches.patch(scene.patches.patchRef(id)).triangleCount;
+    PatchExtent e{0.0f, scene.patches.patch(scene.patches.patchRef(id)).triangleCount};
     patchWorldPositions(scene.scene, scene.patches, id, world);
-    uint32_t log2 = 0;
-    for (int i = 0; i < 2; ++i) log2 = std::max(log2, patchBlockLog2(world, triangles, viewProj[i], {w, h}, bias));
-    requests.push_back({id, triangles, log2});
+    for (int i = 0; i < 2; ++i)
+      e.length = std::max(e.length, patchProjectedLength(world, e.triangleCount, viewProj[i], {w, h}));
+    extents.push_back(e);
   }
+  if (config_.atlasFill > 0.0f)
+    bias = fitLevelBias(extents, bias, uint64_t(double(config_.atlasFill) * scene.atlasSize * scene.atlasSize));
+  st.levelBias = bias;
+  std::vector<AtlasRequest> requests;
+  requests.reserve(visible->size());
+  for (size_t k = 0; k < extents.size(); ++k)
+    requests.push_back({(*visible)[k], extents[k].triangleCount,
+                        blockLog2ForLength(extents[k].length, extents[k].triangleCount, bias)});
   atlas_.update(requests);
 
   // Shading: every block the client holds (visible, or kept a few frames after it was last seen),

@@ -216,5 +216,51 @@ TEST(Patches, LevelFromProjectedSize) {
   EXPECT_EQ(patchBlockLog2(crossing, 2, viewProj, {1024, 1024}), uint32_t(MIRAGE_ATLAS_MAX_BLOCK_LOG2));
 }
 
+TEST(Patches, LevelStepsAreLengthThenLevel) {
+  glm::mat4 identity(1.0f);
+  glm::uvec2 viewport(1000, 1000);
+  EXPECT_FLOAT_EQ(patchProjectedLength(squarePatch(0.2f), 2, identity, viewport), 100.0f);
+  EXPECT_EQ(blockLog2ForLength(100.0f, 2, 0.0f), 7u);
+  EXPECT_EQ(blockLog2ForLength(25.0f, 2, 1.0f), 6u);
+  EXPECT_EQ(blockLog2ForLength(std::numeric_limits<float>::infinity(), 3, -5.0f),
+            uint32_t(MIRAGE_ATLAS_MAX_BLOCK_LOG2 - 1));
+  EXPECT_EQ(blockTexels(7, 2), 16384u);
+  EXPECT_EQ(blockTexels(6, 3), 8192u);
+}
+
+uint64_t texelsAt(std::span<const PatchExtent> patches, float bias) {
+  uint64_t total = 0;
+  for (const PatchExtent& p : patches)
+    total += blockTexels(blockLog2ForLength(p.length, p.triangleCount, bias), p.triangleCount);
+  return total;
+}
+
+TEST(Patches, FittedBiasKeepsTheBlocksWithinTheBudget) {
+  // 100 pairs of 100 px want 128-texel blocks (1.6 M texels). A budget of 64-texel blocks needs
+  // 100 * 2^b + 1 <= 64: b <= log2(0.63) = -0.67, so the first quarter level that fits is -0.75.
+  std::vector<PatchExtent> same(100, PatchExtent{100.0f, 2});
+  EXPECT_EQ(fitLevelBias(same, 0.0f, 100 * 16384), 0.0f); // fits: unchanged
+  EXPECT_EQ(fitLevelBias(same, 0.0f, 100 * 4096), -0.75f);
+  EXPECT_EQ(fitLevelBias(same, 1.0f, 100 * 4096), -0.75f); // the same bias from a higher start
+
+  // Mixed sizes, shapes and a patch through the eye plane: the result fits and a quarter level more
+  // does not.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> length(0.5f, 400.0f);
+  std::vector<PatchExtent> mixed;
+  for (int i = 0; i < 500; ++i) mixed.push_back({length(rng), uint32_t(1 + i % 3)});
+  mixed.push_back({std::numeric_limits<float>::infinity(), 2});
+  for (uint64_t budget : {uint64_t(3000000), uint64_t(400000), uint64_t(60000)}) {
+    float bias = fitLevelBias(mixed, 1.0f, budget);
+    EXPECT_LE(texelsAt(mixed, bias), budget) << budget;
+    EXPECT_GT(texelsAt(mixed, bias + 0.25f), budget) << budget;
+  }
+  // Nothing fits: every finite patch at the smallest level, the one through the eye plane at the largest.
+  float floor = fitLevelBias(mixed, 1.0f, 0);
+  for (const PatchExtent& p : mixed)
+    EXPECT_EQ(blockLog2ForLength(p.length, p.triangleCount, floor),
+              std::isfinite(p.length) ? uint32_t(MIRAGE_ATLAS_MIN_BLOCK_LOG2) : uint32_t(MIRAGE_ATLAS_MAX_BLOCK_LOG2));
+}
+
 } // namespace
 } // namespace mirage::stream

@@ -13,6 +13,8 @@
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
 #include "mirage/stream/protocol.h"
+#include "mirage/stream/session.h"
+#include "mirage/stream/tessellate.h"
 
 namespace mirage::stream {
 
@@ -22,13 +24,15 @@ struct StreamBenchConfig {
   std::string path = "orbit:60"; // camera JSON or orbit:N
   uint32_t width = 1920, height = 1080;
   uint32_t atlasSize = 2048;
+  TessellationConfig tessellation;
   AtlasCodec codec = AtlasCodec::H264;
   uint32_t bitrateKbps = 20000;
   uint32_t fps = 60;          // frames per second the path is played at (bitrates, rate control)
   uint32_t clients = 1;       // clients served in turn each frame, each along the path from its own offset
   uint32_t latencyFrames = 0; // round trip, in frames
   float levelBias = 0.0f;
-  bool quality = true; // client 0 draws every frame and is compared with local rendering
+  float atlasFill = ClientStreamConfig{}.atlasFill; // share of the atlas level selection fits the blocks to (0: none)
+  bool quality = true;                              // client 0 draws every frame and is compared with local rendering
 };
 
 struct StreamBenchFrame {
@@ -36,6 +40,7 @@ struct StreamBenchFrame {
   double serverMs = 0, gpuVisibilityMs = 0, gpuShadingMs = 0, encodeMs = 0;
   uint64_t shadedTexels = 0;
   uint32_t visiblePatches = 0, colourOnly = 0;
+  float levelBias = 0.0f; // client 0's, after fitting the atlas
   // Client 0.
   uint64_t geometryBytes = 0, colourBytes = 0, atlasBytes = 0;
   double clientApplyMs = 0, clientRenderMs = 0; // decode + upload; drawing (wall, incl. readback)
@@ -44,6 +49,8 @@ struct StreamBenchFrame {
 
 struct StreamBenchReport {
   std::string device;
+  TessellationStats tessellation; // the served scene's (instanced triangles before and after)
+  uint32_t patches = 0;           // the served scene's
   std::vector<StreamBenchFrame> frames;
   // Means over the frames (the first latencyFrames + 1 frames excluded from quality: nothing has
   // arrived for them yet).

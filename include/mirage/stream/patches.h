@@ -95,4 +95,28 @@ inline uint32_t maxBlockLog2(uint32_t triangleCount) {
 uint32_t patchBlockLog2(std::span<const glm::vec3> worldPositions, uint32_t triangleCount, const glm::mat4& viewProj,
                         glm::uvec2 viewport, float bias = 0.0f);
 
+// The two steps of patchBlockLog2: L in pixels (+infinity for a vertex at or behind the eye plane),
+// and the level of a patch whose L is `length`.
+float patchProjectedLength(std::span<const glm::vec3> worldPositions, uint32_t triangleCount, const glm::mat4& viewProj,
+                           glm::uvec2 viewport);
+uint32_t blockLog2ForLength(float length, uint32_t triangleCount, float bias);
+
+// Atlas texels of a block of height 2^log2 for a patch of triangleCount triangles (3: twice as wide).
+inline uint64_t blockTexels(uint32_t log2, uint32_t triangleCount) {
+  return (triangleCount == 3u ? 2ull : 1ull) << (2u * log2);
+}
+
+// A visible patch as level selection sees it: its projected length L (pixels) and its shape.
+struct PatchExtent {
+  float length = 0.0f;
+  uint32_t triangleCount = 1;
+};
+
+// The bias that keeps the blocks the patches want within budgetTexels: `bias` when they fit, else
+// the largest bias - k / 4 (k = 1, 2, ...) whose blocks fit, or the one at which every patch of
+// finite length is at the smallest level when nothing fits. Lowering every patch's bias alike
+// keeps the texel density even across the view when the atlas is too small for one texel per pixel
+// (the allocator would otherwise give the largest patches their blocks and the rest none).
+float fitLevelBias(std::span<const PatchExtent> patches, float bias, uint64_t budgetTexels);
+
 } // namespace mirage::stream

@@ -21,6 +21,7 @@
 #include "mirage/stream/jpeg_tiles.h"
 #include "mirage/stream/patches.h"
 #include "mirage/stream/protocol.h"
+#include "mirage/stream/tessellate.h"
 #include "mirage/stream/tile_codec.h"
 #include "mirage/stream/video.h"
 
@@ -30,12 +31,15 @@ struct StreamSceneOptions {
   std::string input;         // a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
   std::string materials;     // optional material file (TOML) applied after import
   uint32_t atlasSize = 2048; // atlas side in texels (a power of two, 128..16384)
+  // Large triangles split before patches are built (tessellate.h).
+  TessellationConfig tessellation;
 };
 
 // What every client of a scene shares. The GPU atlas is scratch: each frame produced clears it and
 // shades that client's visible blocks before reading it back, so clients never see each other's.
 struct StreamScene {
-  Scene scene;
+  Scene scene; // tessellated (tessellate.h)
+  TessellationStats tessellation;
   PatchTable patches;
   std::vector<uint32_t> meshFirstVertex; // render::atlasMeshFirstVertex
   std::unique_ptr<render::AtlasShading> shading;
@@ -47,7 +51,8 @@ struct StreamScene {
   bool translucent = false;
 };
 
-// Reads (or generates) the scene, builds its patches and uploads it. Errors name the input.
+// Reads (or generates) the scene, tessellates its large triangles, builds its patches and uploads it.
+// Errors name the input.
 Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, const StreamSceneOptions& options);
 
 // The alpha mode of a global patch's material.
@@ -66,6 +71,12 @@ struct ClientStreamConfig {
   // last visible. Small patches flicker in and out of the visibility buffer from frame to frame;
   // without this each flicker costs a removal and a re-send of the patch (docs/stream.md, "Server").
   uint32_t keepInvisibleFrames = 8;
+  // Share of the atlas the visible patches' blocks may want. When they would want more, the level
+  // bias is lowered for every patch alike (fitLevelBias, in quarter levels) instead of the largest
+  // patches taking the atlas and the rest getting one colour each. The rest is room for kept
+  // patches, blocks up to one level above their wanted level (the allocator's hysteresis) and
+  // partly used superblocks (docs/stream.md, "Fitting the atlas"). 0: no fitting.
+  float atlasFill = 0.5f;
 };
 
 // H.264 carries colour at half resolution (4:2:0; the encoder averages each 2x2 texel square so no
@@ -83,6 +94,7 @@ struct StreamFrameStats {
   uint32_t addedOrMoved = 0;  // PatchUpdates sent
   uint32_t removed = 0;
   uint64_t shadedTexels = 0;  // atlas texels shaded (every visible block, every frame)
+  float levelBias = 0.0f;     // the level bias used, after fitting the atlas (ClientStreamConfig::atlasFill)
   uint64_t geometryBytes = 0; // removed + updated entries as encoded
   uint64_t colourBytes = 0;
   uint64_t atlasBytes = 0;
