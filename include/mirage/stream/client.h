@@ -20,6 +20,8 @@
 
 namespace mirage::stream {
 
+class StreamView;
+
 struct StreamClientOptions {
   std::string url;    // ws://host:port/ or wss://host:port/
   std::string token;  // the server's shared secret
@@ -52,6 +54,23 @@ using ClientFrameSink = std::function<Status(const ClientFrameInfo&, const rende
 
 // The protocol's options of a client: token, codecs, viewport (one eye's), stereo, limits.
 ClientConfig transportConfig(const StreamClientOptions& options);
+
+// A frame as it arrived, with the size of its message.
+struct ReceivedFrame {
+  Frame frame;
+  uint64_t bytes = 0;
+};
+
+// Sends `pose` and receives the server's frames up to the one answering it, in order (frames
+// answering earlier poses may come first). Errors: the connection lost or closed by the server (its
+// reason), a message other than a Frame, nothing within options.timeout.
+Result<std::vector<ReceivedFrame>> exchangePose(TransportClient& transport, const Pose& pose,
+                                                const StreamClientOptions& options);
+
+// Applies `received` to `view` and counts it in `info` (frames applied, bytes, last server frame). A
+// frame that does not apply closes the connection (Close Malformed) and is an error naming the URL.
+Status applyReceivedFrame(StreamView& view, TransportClient& transport, const ReceivedFrame& received,
+                          const StreamClientOptions& options, ClientFrameInfo& info);
 
 // The eyes a stereo client draws for `camera`: render::stereoEyes, each with its own clip planes (as
 // the forward renderer's `mirage render --stereo`).
