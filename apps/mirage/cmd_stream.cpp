@@ -1,5 +1,6 @@
 // mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
-//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--web DIR]: Shading Atlas Streaming.
+//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--position-bits B] [--web DIR]: Shading
+//   Atlas Streaming.
 // mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]
 //   [--stereo [--ipd M]] [--latency-ms MS [--jitter-ms J] [--loss P] [--seed S] [--fps F] [--server-ms S]]:
 //   the native thin client (docs/stream.md): a window with a fly camera, or with --path / --record a
@@ -196,6 +197,9 @@ void addStreamCommands(CLI::App& app) {
                 "Atlas texels per pixel: block side x 2^bias (> 0 sharper, more bytes)")
       ->capture_default_str();
   s->add_option("--atlas-size", so->scene.atlasSize, "Atlas side in texels (power of two)")->capture_default_str();
+  s->add_option("--position-bits", so->scene.positionBits,
+                "Bits per axis of the patch position grid over the scene bounds (8..24)")
+      ->capture_default_str();
   s->add_option("--materials", so->scene.materials, "Material file (TOML) applied to the scene");
   s->add_option("--web", so->web, "Directory of the browser client (GET / serves its index.html)");
   s->add_option("--device", so->device, "GPU index or name substring");

@@ -15,7 +15,7 @@ namespace mirage::stream {
 ClientConfig transportConfig(const StreamClientOptions& options) {
   ClientConfig config;
   config.hello.token = options.token;
-  config.hello.capabilities = options.capabilities;
+  config.hello.capabilities = options.capabilities | kCapabilityZstdPatches;
   config.hello.viewportWidth = options.width;
   config.hello.viewportHeight = options.height;
   config.hello.stereo = options.stereoIpd.has_value();

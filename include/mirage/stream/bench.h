@@ -28,7 +28,8 @@ struct StreamBenchConfig {
   uint32_t clients = 1;       // clients served in turn each frame, each along the path from its own offset
   uint32_t latencyFrames = 0; // round trip, in frames
   float levelBias = 0.0f;
-  bool quality = true; // client 0 draws every frame and is compared with local rendering
+  uint32_t positionBits = 20; // StreamSceneOptions::positionBits
+  bool quality = true;        // client 0 draws every frame and is compared with local rendering
 };
 
 struct StreamBenchFrame {
@@ -37,7 +38,10 @@ struct StreamBenchFrame {
   uint64_t shadedTexels = 0;
   uint32_t visiblePatches = 0, colourOnly = 0;
   // Client 0.
-  uint64_t geometryBytes = 0, colourBytes = 0, atlasBytes = 0;
+  // The patch section (removed ids, entries, colours) as sent and before zstd; the atlas payload.
+  uint64_t geometryBytes = 0, geometryRawBytes = 0, atlasBytes = 0;
+  // Entries with positions, block-only entries, removed ids, colours sent.
+  uint32_t geometryEntries = 0, blockOnlyEntries = 0, removed = 0, colours = 0;
   double clientApplyMs = 0, clientRenderMs = 0; // decode + upload; drawing (wall, incl. readback)
   double ssim = 0, psnr = 0;                    // against the forward renderer (quality on)
 };

@@ -27,9 +27,10 @@ struct StreamClientOptions {
   std::string token;  // the server's shared secret
   std::string caFile; // wss: certificates to trust (empty: the system's)
   uint32_t width = 1280, height = 720;
-  uint32_t capabilities = kCapabilityZstdTiles | kCapabilityH264; // the atlas codecs offered
-  std::chrono::milliseconds timeout{10000};                       // connecting, and waiting for each frame
-  uint32_t maxFrameBytes = 256u << 20;                            // largest server message accepted
+  // The atlas codecs offered (the zstd patch section is always: transportConfig adds it).
+  uint32_t capabilities = kCapabilityZstdTiles | kCapabilityH264;
+  std::chrono::milliseconds timeout{10000}; // connecting, and waiting for each frame
+  uint32_t maxFrameBytes = 256u << 20;      // largest server message accepted
   // Both eyes side by side (clientEyes of each camera): the images are
   // 2 * width x height, width x height per eye (docs/stream.md, "The native client window and stereo").
   std::optional<float> stereoIpd;
@@ -52,7 +53,8 @@ struct ClientFrameInfo {
 
 using ClientFrameSink = std::function<Status(const ClientFrameInfo&, const render::RenderOutput&)>;
 
-// The protocol's options of a client: token, codecs, viewport (one eye's), stereo, limits.
+// The protocol's options of a client: token, codecs (with kCapabilityZstdPatches), viewport (one
+// eye's), stereo, limits.
 ClientConfig transportConfig(const StreamClientOptions& options);
 
 // A frame as it arrived, with the size of its message.
