@@ -151,6 +151,8 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   if (!visible) return visible.error();
   st.visibilityMs = msSince(t0);
   st.visiblePatches = uint32_t(visible->size());
+  const uint32_t frameNumber = sequence_ + 1;
+  for (uint32_t id : *visible) lastVisible_[id] = frameNumber;
 
   // Level selection: the larger block either view wants.
   float bias = config_.levelBias + (config_.codec == AtlasCodec::H264 ? kH264LevelBias : 0.0f);
@@ -187,6 +189,13 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   }
   for (uint32_t id : *visible)
     if (!atlas_.placement(id)) colourOnly.push_back(id);
+  // Colour-only patches stay with the client keepInvisibleFrames frames after they were last
+  // visible, as placed ones keep their blocks; they keep the colour last sent.
+  std::vector<uint32_t> keptColourOnly;
+  for (const auto& [id, held] : held_)
+    if (!held.block && !atlas_.placement(id) && lastVisible_[id] != frameNumber &&
+        frameNumber - lastVisible_[id] <= config_.keepInvisibleFrames)
+      keptColourOnly.push_back(id);
   st.placedPatches = uint32_t(blocks.size());
   st.colourOnly = uint32_t(colourOnly.size());
   scene.shading->clearAtlas();
@@ -242,7 +251,7 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   st.encodeMs = msSince(tEncode);
   st.atlasBytes = frame.atlas.bytes.size();
 
-  diffPatches(scene, placed, colourOnly, colours, frame, st);
+  diffPatches(scene, placed, colourOnly, keptColourOnly, colours, frame, st);
   frame.sequence = ++sequence_;
   frame.poseSequence = pose.sequence;
   frame.serverTimeUs = microsecondsNow();
@@ -252,14 +261,15 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
 }
 
 void ClientStream::diffPatches(const StreamScene& scene, const std::vector<std::pair<uint32_t, AtlasPlacement>>& placed,
-                               const std::vector<uint32_t>& colourOnly, const std::vector<glm::u8vec4>& colours,
-                               Frame& frame, StreamFrameStats& st) {
+                               const std::vector<uint32_t>& colourOnly, const std::vector<uint32_t>& keptColourOnly,
+                               const std::vector<glm::u8vec4>& colours, Frame& frame, StreamFrameStats& st) {
   kept_.beginFrame(sequence_ + 1); // the frame this one will be (produceFrame numbers it last)
   // What the client holds next: the patches with a block, and the visible ones without (colour-only).
   std::unordered_map<uint32_t, Held> next;
-  next.reserve(placed.size() + colourOnly.size());
+  next.reserve(placed.size() + colourOnly.size() + keptColourOnly.size());
   for (const auto& [id, block] : placed) next[id] = Held{block, {}};
   for (uint32_t id : colourOnly) next[id] = Held{};
+  for (uint32_t id : keptColourOnly) next[id] = Held{};
   for (const auto& [id, held] : held_)
     if (!next.count(id)) frame.removed.push_back(id);
   std::sort(frame.removed.begin(), frame.removed.end());
@@ -306,7 +316,10 @@ void ClientStream::diffPatches(const StreamScene& scene, const std::vector<std::
     h.colour = rgba;
     frame.colours.push_back({colourOnly[i], rgba});
   }
-  for (uint32_t id : frame.removed) kept_.keep(id, Nothing{});
+  for (uint32_t id : frame.removed) {
+    kept_.keep(id, Nothing{});
+    lastVisible_.erase(id);
+  }
   held_ = std::move(next);
 
   frame.patchCodec = PatchCodec::Raw;

@@ -124,8 +124,8 @@ private:
   // Fills frame's patch section with what changed against what the client holds, and makes the
   // result what it holds (the last step of produceFrame: nothing after it fails).
   void diffPatches(const StreamScene& scene, const std::vector<std::pair<uint32_t, AtlasPlacement>>& placed,
-                   const std::vector<uint32_t>& colourOnly, const std::vector<glm::u8vec4>& colours, Frame& frame,
-                   StreamFrameStats& st);
+                   const std::vector<uint32_t>& colourOnly, const std::vector<uint32_t>& keptColourOnly,
+                   const std::vector<glm::u8vec4>& colours, Frame& frame, StreamFrameStats& st);
 
   // What the client holds of a patch: its block, or colour-only with the colour last sent.
   struct Held {
@@ -142,7 +142,8 @@ private:
   std::vector<uint8_t> stacked_; // that image
   bool keyframe_ = true;
   std::unordered_map<uint32_t, Held> held_;
-  KeptPatches<Nothing> kept_; // the client's kept geometry, mirrored
+  KeptPatches<Nothing> kept_;                          // the client's kept geometry, mirrored
+  std::unordered_map<uint32_t, uint32_t> lastVisible_; // held patch -> the frame it was last visible in
   uint32_t sequence_ = 0;
 };
 
