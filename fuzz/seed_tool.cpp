@@ -114,8 +114,9 @@ int meshoptGlb(const std::filesystem::path& out) {
   return writeFile(out, glb) ? 0 : 2;
 }
 
-// One of each message type with every optional part present (a Frame with each patch size and a
-// colour-only patch, colours and an atlas payload), and an empty Frame.
+// One of each message type with every optional part present (a Frame with each patch size, a
+// colour-only patch, block-only entries, colours and an atlas payload; the same Frame with a zstd
+// patch section), and an empty Frame.
 int streamMessages(const std::filesystem::path& dir) {
   using namespace mirage::stream;
   std::filesystem::create_directories(dir);
@@ -144,16 +145,31 @@ int streamMessages(const std::filesystem::path& dir) {
     p.triangleCount = t == 4 ? 1 : t;
     p.blockLog2 = t == 4 ? kColourOnlyBlock : uint8_t(t + 1);
     p.blockX = t == 4 ? 0 : uint16_t(128 * t);
-    for (uint32_t v = 0; v < patchVertexCount(p.triangleCount); ++v) p.positions[v] = {float(v), float(t), 0.5f};
+    for (uint32_t v = 0; v < patchVertexCount(p.triangleCount); ++v) p.positions[v] = {1000 + 40 * v, 7 * t, 500};
     frame.updated.push_back(p);
   }
-  frame.colours = {{14, {200, 100, 50, 255}}};
+  PatchUpdate moved; // block-only: the client's own geometry at a new block
+  moved.id = 20;
+  moved.triangleCount = 2;
+  moved.geometry = false;
+  moved.blockLog2 = 3;
+  moved.blockX = 64;
+  moved.blockY = 8;
+  frame.updated.push_back(moved);
+  moved.id = 21;
+  moved.blockLog2 = kColourOnlyBlock;
+  moved.blockX = moved.blockY = 0;
+  frame.updated.push_back(moved);
+  frame.colours = {{14, {200, 100, 50, 255}}, {21, {1, 2, 3, 4}}};
+  Frame zstdFrame = frame;
+  zstdFrame.patchCodec = PatchCodec::Zstd;
   frame.atlas = {AtlasCodec::ZstdTiles, 64, 64, {0x28, 0xb5, 0x2f, 0xfd}};
   std::vector<std::pair<std::string, Message>> messages = {
       {"hello", Hello{"token", kCapabilityZstdTiles | kCapabilityH264, 1280, 720, false}},
       {"welcome", welcome},
       {"pose", pose},
       {"frame", frame},
+      {"frame_zstd", zstdFrame},
       {"frame_empty", Frame{}},
       {"close", Close{CloseCode::BadToken, "wrong token"}}};
   for (const auto& [name, message] : messages) {

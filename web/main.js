@@ -10,10 +10,13 @@ import {
   MessageType,
   Capability,
   AtlasCodec,
-  CloseCodeNames
+  CloseCodeNames,
+  inflatePatchSection,
+  zstdPatchesSupported
 } from './protocol.js';
 import {AtlasTexture, h264Supported} from './atlas_codec.js';
-import {PatchSet, PatchRenderer} from './renderer.js';
+import {PatchSet} from './patches.js';
+import {PatchRenderer} from './renderer.js';
 import {
   FlyControls,
   loadCameraPath,
@@ -79,6 +82,7 @@ async function main() {
 
   let capabilities = Capability.JpegTiles;
   if (param('codec') !== 'jpeg' && (await h264Supported())) capabilities |= Capability.H264;
+  if (zstdPatchesSupported()) capabilities |= Capability.ZstdPatches;
   const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
   const socket = new WebSocket(param('ws') || `${scheme}//${location.host}/`);
   socket.binaryType = 'arraybuffer';
@@ -119,6 +123,7 @@ async function main() {
 
   // Frames apply strictly in order: each waits for the one before it to be decoded.
   async function onFrame(frame) {
+    await inflatePatchSection(frame);
     patches.apply(frame);
     if (frame.atlas.codec === AtlasCodec.JpegTiles)
       await atlas.applyJpegTiles(frame.atlas.bytes);
@@ -163,6 +168,7 @@ async function main() {
     if (m.type === MessageType.Welcome) {
       welcome = m;
       bounds = {min : m.sceneMin, max : m.sceneMax};
+      patches.setWelcome(m);
       atlas = new AtlasTexture(gl, m.atlasWidth, m.atlasHeight);
       say(`session ${m.sessionId}: ${m.patchCount} patches, atlas ${m.atlasWidth}x${m.atlasHeight}, codec ${m.codec}`);
       if (path) return requestPathCamera();

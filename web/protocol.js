@@ -1,10 +1,11 @@
 // The stream wire protocol in JavaScript: the byte layout of include/mirage/stream/protocol.h and
-// src/stream/protocol.cpp (the source). Little-endian; every message is one WebSocket binary frame:
-// 12-byte header (magic "MRGS", uint16 version, uint16 type, uint32 payload length), then the payload.
-// Decoding checks every length against the bytes left and throws an Error of one line.
-import {COLOUR_ONLY_BLOCK, ATLAS_MIN_BLOCK_LOG2, ATLAS_MAX_BLOCK_LOG2} from './atlas.js';
+// src/stream/protocol.cpp, patch_section.cpp (the source). Little-endian; every message is one
+// WebSocket binary frame: 12-byte header (magic "MRGS", uint16 version, uint16 type, uint32 payload
+// length), then the payload. Decoding checks every length and count against the bytes left and
+// throws an Error of one line.
+import {COLOUR_ONLY_BLOCK, ATLAS_MIN_BLOCK_LOG2, ATLAS_MAX_BLOCK_LOG2, atlasBlockWidth} from './atlas.js';
 
-export const PROTOCOL_VERSION = 1;
+export const PROTOCOL_VERSION = 2;
 export const MessageType = {
   Hello : 1,
   Welcome : 2,
@@ -15,7 +16,8 @@ export const MessageType = {
 export const Capability = {
   ZstdTiles : 1 << 0,
   H264 : 1 << 1,
-  JpegTiles : 1 << 2
+  JpegTiles : 1 << 2,
+  ZstdPatches : 1 << 3
 };
 export const AtlasCodec = {
   None : 0,
@@ -31,7 +33,16 @@ export const AlphaMode = {
 export const CloseCodeNames = [
   'Normal', 'BadToken', 'Malformed', 'OutOfOrder', 'TooLarge', 'ServerFull', 'HelloTimeout', 'Overloaded', 'Unsupported'
 ];
+export const PatchCodec = {
+  Raw : 0,
+  Zstd : 1
+};
 const HEADER_BYTES = 12;
+const MAX_ATLAS_SIDE = 16384;
+// Positions: grid coordinates below 2^24 (protocol.h kPositionGridBits).
+export const POSITION_GRID_MAX = 2 ** 24 - 1;
+// Largest decompressed patch section accepted (DecodeLimits::maxPatchSectionBytes).
+const MAX_PATCH_SECTION_BYTES = 64 * 1024 * 1024;
 
 class Writer {
   constructor() { this.bytes = []; }
@@ -158,12 +169,25 @@ class Reader {
     this.pos += n;
     return s;
   }
-  count(entryBytes, f) {
-    const n = this.u32(f);
+  // Unsigned LEB128, at most 32 bits, in its shortest form.
+  varint(f) {
+    let value = 0;
+    for (let i = 0;; ++i) {
+      const b = this.u8(f);
+      if (i === 4 && b > 0x0f) throw new Error(`${f} varint longer than 32 bits`);
+      value += (b & 0x7f) * 2 ** (7 * i);
+      if (b & 0x80) continue;
+      if (b === 0 && i > 0) throw new Error(`${f} varint not in its shortest form`);
+      return value;
+    }
+  }
+  checkCount(n, entryBytes, f) {
     if (n * entryBytes > this.left())
       throw new Error(`${f} ${n} entries need ${n * entryBytes} bytes, ${this.left()} left`);
     return n;
   }
+  count(entryBytes, f) { return this.checkCount(this.u32(f), entryBytes, f); }
+  varintCount(entryBytes, f) { return this.checkCount(this.varint(f), entryBytes, f); }
 }
 
 function readWelcome(r) {
@@ -171,6 +195,7 @@ function readWelcome(r) {
   m.sessionId = r.u64('sessionId');
   m.sceneMin = r.vec3('sceneMin');
   m.sceneMax = r.vec3('sceneMax');
+  m.positionStep = r.f32('positionStep');
   m.atlasWidth = r.u32('atlasWidth');
   m.atlasHeight = r.u32('atlasHeight');
   m.codec = r.u8('codec');
@@ -180,27 +205,139 @@ function readWelcome(r) {
   if (m.atlasWidth === 0 || m.atlasHeight === 0 || m.atlasWidth > 16384 || m.atlasHeight > 16384)
     throw new Error(`atlas size ${m.atlasWidth}x${m.atlasHeight} not in 1..16384`);
   if (m.codec < 1 || m.codec > 3) throw new Error(`codec ${m.codec} not a codec id (1..3)`);
+  if (!(m.positionStep > 0)) throw new Error(`positionStep ${m.positionStep} not above 0`);
+  const extent = Math.max(...m.sceneMax.map((v, k) => v - m.sceneMin[k]));
+  if (extent / m.positionStep > POSITION_GRID_MAX)
+    throw new Error(`positionStep ${m.positionStep}: the grid does not span the scene bounds`);
   return m;
 }
 
-function readPatch(r) {
-  const p = {};
-  p.id = r.u32('id');
-  p.triangleCount = r.u8('triangleCount');
-  p.alpha = r.u8('alpha');
-  p.blockLog2 = r.u8('blockLog2');
-  const reserved = r.u8('reserved');
-  p.blockX = r.u16('blockX');
-  p.blockY = r.u16('blockY');
-  if (p.triangleCount < 1 || p.triangleCount > 3) throw new Error(`triangleCount ${p.triangleCount} not in 1..3`);
+// Signed residuals from unsigned varints: 0, 1, 2, 3, ... -> 0, -1, 1, -2, ...
+function unzigzag(z) { return z % 2 === 1 ? -(z + 1) / 2 : z / 2; }
+
+// The grid point slot v is predicted from (patch_section.cpp): a from the previous geometry entry's
+// a, b and c from a, d from b + c - a, e from b + d - c.
+function predict(p, v, previousA) {
+  if (v === 0) return previousA;
+  if (v <= 2) return p[0];
+  if (v === 3) return [ 0, 1, 2 ].map((k) => p[1][k] + p[2][k] - p[0][k]);
+  return [ 0, 1, 2 ].map((k) => p[1][k] + p[3][k] - p[2][k]);
+}
+
+// One entry of the patch section: {id, triangleCount, geometry, alpha, colourOnly, blockLog2,
+// blockX, blockY, positions (grid coordinates; geometry entries only)}.
+function readEntry(r, nextId, state) {
+  const p = {id : nextId('id')};
+  const head = r.u8('head');
+  if (head & 0xc0) throw new Error(`head ${head} has reserved bits set`);
+  p.triangleCount = head & 3;
+  if (p.triangleCount === 0) throw new Error('triangleCount 0 not in 1..3');
+  p.geometry = (head & 0x10) !== 0;
+  p.alpha = (head >> 2) & 3;
   if (p.alpha > 2) throw new Error(`alpha ${p.alpha} not an alpha mode (0..2)`);
-  if (reserved !== 0) throw new Error(`reserved ${reserved} not 0`);
-  p.colourOnly = p.blockLog2 === COLOUR_ONLY_BLOCK;
-  if (!p.colourOnly && (p.blockLog2 < ATLAS_MIN_BLOCK_LOG2 || p.blockLog2 > ATLAS_MAX_BLOCK_LOG2))
-    throw new Error(`blockLog2 ${p.blockLog2} not in 1..7 or 255 (colour-only)`);
+  if (!p.geometry && p.alpha !== 0) throw new Error('alpha set in a block-only entry');
+  p.colourOnly = (head & 0x20) !== 0;
+  p.blockLog2 = COLOUR_ONLY_BLOCK;
+  p.blockX = 0;
+  p.blockY = 0;
+  if (!p.colourOnly) {
+    p.blockLog2 = r.u8('blockLog2');
+    if (p.blockLog2 < ATLAS_MIN_BLOCK_LOG2 || p.blockLog2 > ATLAS_MAX_BLOCK_LOG2)
+      throw new Error(`blockLog2 ${p.blockLog2} not in 1..7`);
+    p.blockX = r.varint('blockX') * 2 ** p.blockLog2;
+    p.blockY = r.varint('blockY') * 2 ** p.blockLog2;
+    const width = atlasBlockWidth(p.triangleCount, p.blockLog2), height = 2 ** p.blockLog2;
+    if (p.blockX + width > MAX_ATLAS_SIDE || p.blockY + height > MAX_ATLAS_SIDE)
+      throw new Error(`blockX block at (${p.blockX}, ${p.blockY}) size ${width}x${height} outside the atlas side ${
+          MAX_ATLAS_SIDE}`);
+  }
+  if (!p.geometry) return p;
   p.positions = [];
-  for (let v = 0; v < p.triangleCount + 2; ++v) p.positions.push(r.vec3(`positions[${v}]`));
+  for (let v = 0; v < p.triangleCount + 2; ++v) {
+    const q = predict(p.positions, v, state.previousA).slice();
+    for (let k = 0; k < 3; ++k) {
+      const f = `positions[${v}].${'xyz'[k]}`;
+      q[k] += unzigzag(r.varint(f));
+      if (q[k] < 0 || q[k] > POSITION_GRID_MAX)
+        throw new Error(`${f} ${q[k]} outside the grid (0..${POSITION_GRID_MAX})`);
+    }
+    p.positions.push(q);
+  }
+  state.previousA = p.positions[0];
   return p;
+}
+
+// The patch section's bytes (decompressed) into frame.removed, frame.updated, frame.colours.
+export function parsePatchSection(bytes, frame) {
+  const r = new Reader(new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength), 0);
+  let next = 0;
+  const nextId = (f) => {
+    const id = next + r.varint(f);
+    if (id > 0xffffffff) throw new Error(`${f} id past 2^32 - 1`);
+    next = id + 1;
+    return id;
+  };
+  let n = r.varintCount(1, 'removed count');
+  frame.removed = new Array(n);
+  for (let i = 0; i < n; ++i) frame.removed[i] = nextId(`removed[${i}]`);
+  n = r.varintCount(2, 'updated count');
+  frame.updated = new Array(n);
+  next = 0;
+  const state = {previousA : [ 0, 0, 0 ]};
+  for (let i = 0; i < n; ++i) {
+    try {
+      frame.updated[i] = readEntry(r, nextId, state);
+    } catch (e) {
+      throw new Error(`updated[${i}].${e.message}`);
+    }
+  }
+  n = r.varintCount(5, 'colours count');
+  frame.colours = new Array(n);
+  next = 0;
+  for (let i = 0; i < n; ++i) {
+    const id = nextId(`colours[${i}].id`);
+    frame.colours[i] = {id, rgba : [ r.u8('rgba'), r.u8('rgba'), r.u8('rgba'), r.u8('rgba') ]};
+  }
+  if (r.left() !== 0) throw new Error(`patches ${r.left()} bytes after the colours`);
+}
+
+// Whether this browser decompresses zstd (DecompressionStream): the page then offers
+// Capability.ZstdPatches.
+export function zstdPatchesSupported() {
+  try {
+    new DecompressionStream('zstd');
+    return true;
+  } catch {
+    return false;
+  }
+}
+
+// A Frame whose patch section came compressed (frame.patchBytes): decompresses it (at most
+// MAX_PATCH_SECTION_BYTES) and parses it into the frame. Frames with a raw section are parsed by
+// decodeMessage already.
+export async function inflatePatchSection(frame) {
+  if (!frame.patchBytes) return;
+  const reader = new Blob([ frame.patchBytes ]).stream().pipeThrough(new DecompressionStream('zstd')).getReader();
+  const chunks = [];
+  let size = 0;
+  for (;;) {
+    const {done, value} = await reader.read();
+    if (done) break;
+    size += value.length;
+    if (size > MAX_PATCH_SECTION_BYTES) {
+      reader.cancel();
+      throw new Error(`patches.bytes zstd content over the limit of ${MAX_PATCH_SECTION_BYTES} bytes`);
+    }
+    chunks.push(value);
+  }
+  const bytes = new Uint8Array(size);
+  let at = 0;
+  for (const c of chunks) {
+    bytes.set(c, at);
+    at += c.length;
+  }
+  delete frame.patchBytes;
+  parsePatchSection(bytes, frame);
 }
 
 function readFrame(r) {
@@ -208,24 +345,16 @@ function readFrame(r) {
   m.sequence = r.u32('sequence');
   m.poseSequence = r.u32('poseSequence');
   m.serverTimeUs = r.u64('serverTimeUs');
-  let n = r.count(4, 'removed count');
-  m.removed = new Array(n);
-  for (let i = 0; i < n; ++i) m.removed[i] = r.u32(`removed[${i}]`);
-  n = r.count(48, 'updated count'); // 12 fixed bytes + at least 3 positions
-  m.updated = new Array(n);
-  for (let i = 0; i < n; ++i) {
-    try {
-      m.updated[i] = readPatch(r);
-    } catch (e) {
-      throw new Error(`updated[${i}].${e.message}`);
-    }
-  }
-  n = r.count(8, 'colours count');
-  m.colours = new Array(n);
-  for (let i = 0; i < n; ++i) {
-    const id = r.u32(`colours[${i}].id`);
-    m.colours[i] = {id, rgba : [ r.u8('rgba'), r.u8('rgba'), r.u8('rgba'), r.u8('rgba') ]};
-  }
+  m.patchCodec = r.u8('patches.codec');
+  const sectionBytes = r.u32('patches.byteCount');
+  r.need(sectionBytes, 'patches.bytes');
+  const section = new Uint8Array(r.view.buffer, r.view.byteOffset + r.pos, sectionBytes);
+  r.pos += sectionBytes;
+  if (m.patchCodec > 1) throw new Error(`patches.codec ${m.patchCodec} not 0 (raw) or 1 (zstd)`);
+  if (m.patchCodec === PatchCodec.Zstd)
+    m.patchBytes = section; // inflatePatchSection
+  else
+    parsePatchSection(section, m);
   const codec = r.u8('atlas.codec');
   const width = r.u32('atlas.width'), height = r.u32('atlas.height');
   const byteCount = r.u32('atlas.byteCount');

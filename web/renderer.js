@@ -58,7 +58,8 @@ void main() {
 // The forward renderer's background (render::RenderSettings::background, linear RGB), encoded as
 // the canvas holds it (sRGB), so empty pixels match `mirage render`.
 const BACKGROUND_LINEAR = [ 0.02, 0.022, 0.026 ];
-const BACKGROUND_SRGB = BACKGROUND_LINEAR.map((c) => (c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055));
+const BACKGROUND_SRGB =
+    BACKGROUND_LINEAR.map((c) => (c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055));
 
 const FLOATS_PER_VERTEX = 10; // position 3, texel 2, colour 4, flags 1
 
@@ -68,24 +69,6 @@ function compile(gl, type, source) {
   gl.compileShader(shader);
   if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) throw new Error(`shader: ${gl.getShaderInfoLog(shader)}`);
   return shader;
-}
-
-// The client's patch set: Frame.removed / updated / colours applied in that order.
-export class PatchSet {
-  constructor() {
-    this.patches = new Map(); // id -> PatchUpdate (protocol.js readPatch)
-    this.colours = new Map(); // id -> [r, g, b, a] bytes
-    this.version = 0;
-  }
-  apply(frame) {
-    for (const id of frame.removed) {
-      this.patches.delete(id);
-      this.colours.delete(id);
-    }
-    for (const p of frame.updated) this.patches.set(p.id, p);
-    for (const c of frame.colours) this.colours.set(c.id, c.rgba);
-    if (frame.removed.length || frame.updated.length || frame.colours.length) ++this.version;
-  }
 }
 
 export class PatchRenderer {

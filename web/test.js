@@ -1,16 +1,24 @@
 // A server-free test of the client: a hard-coded patch set and a generated atlas go through the
 // same code as a served stream (Frame bytes -> decodeMessage -> PatchSet -> JPEG tiles -> WebGL2).
-// Two frames: a keyframe, then a delta that repaints one tile and removes a patch.
+// Two frames: a keyframe, then a delta that repaints one tile and removes a patch. Then the patch
+// state's rules (PatchSet) and the patch section parser against the C++ encoder's exact bytes.
 // ?fixture=1: decodes key.mjt then delta.mjt (written by the C++ JpegTileEncoder next to this page)
 // and records the atlas texture itself, for a comparison with the encoder's source image.
 // tests/stream_web/browser_test.py renders this page with scripts/browser_client.py and checks pixels;
 // the scene below and the expectations there are written together (change both).
-import {decodeMessage} from './protocol.js';
+import {decodeMessage, parsePatchSection} from './protocol.js';
 import {buildJpegTiles, parseJpegTiles, AtlasTexture} from './atlas_codec.js';
-import {PatchSet, PatchRenderer} from './renderer.js';
+import {PatchSet} from './patches.js';
+import {PatchRenderer} from './renderer.js';
 import {viewProjection, withClipPlanes} from './camera.js';
 
 const ATLAS_W = 128, ATLAS_H = 64;
+// The position grid of this scene (a Welcome's sceneMin and positionStep).
+const GRID = {
+  sceneMin : [ -2, -2, -2 ],
+  positionStep : 1 / 1024,
+  patchCount : 100
+};
 
 function quad(x0, x1, y0, y1, z) {
   return [ [ x0, y0, z ], [ x1, y0, z ], [ x0, y1, z ], [ x1, y1, z ] ]; // a, b, c, d
@@ -79,8 +87,53 @@ const keyColours = [
   {id : 5, rgba : [ 255, 0, 0, 128 ]},
 ];
 
-// Frame message bytes, laid out as src/stream/protocol.cpp writes them.
+// Frame message bytes, laid out as src/stream/protocol.cpp and patch_section.cpp write them (a raw
+// patch section). Patches: world positions, quantized on GRID; `geometry: false` makes a block-only
+// entry. atlasBytes null: no atlas.
 function frameMessage(sequence, removed, updated, colours, atlasBytes) {
+  const section = [];
+  const varint = (v) => {
+    for (; v >= 0x80; v = Math.floor(v / 128)) section.push((v % 128) | 0x80);
+    section.push(v);
+  };
+  const zigzag = (v) => (v < 0 ? -2 * v - 1 : 2 * v);
+  let next = 0;
+  const gap = (id) => {
+    const g = id - next;
+    next = id + 1;
+    return g;
+  };
+  varint(removed.length);
+  removed.forEach((id) => varint(gap(id)));
+  varint(updated.length);
+  next = 0;
+  let previousA = [ 0, 0, 0 ];
+  for (const p of updated) {
+    const geometry = p.geometry !== false, colourOnly = p.blockLog2 === 255;
+    varint(gap(p.id));
+    section.push(p.triangleCount | (geometry ? (p.alpha << 2) | 0x10 : 0) | (colourOnly ? 0x20 : 0));
+    if (!colourOnly) {
+      section.push(p.blockLog2);
+      varint(p.blockX >> p.blockLog2);
+      varint(p.blockY >> p.blockLog2);
+    }
+    if (!geometry) continue;
+    const q = p.positions.map((v) => v.map((x, k) => Math.round((x - GRID.sceneMin[k]) / GRID.positionStep)));
+    const at = (v, k) => q[v][k];
+    const predict = [
+      (k) => previousA[k], (k) => at(0, k), (k) => at(0, k), (k) => at(1, k) + at(2, k) - at(0, k),
+      (k) => at(1, k) + at(3, k) - at(2, k)
+    ];
+    q.forEach((v, i) => v.forEach((x, k) => varint(zigzag(x - predict[i](k)))));
+    previousA = q[0];
+  }
+  varint(colours.length);
+  next = 0;
+  for (const c of colours) {
+    varint(gap(c.id));
+    section.push(...c.rgba);
+  }
+
   const bytes = [];
   const u8 = (v) => bytes.push(v & 0xff);
   const u16 = (v) => {
@@ -90,46 +143,109 @@ function frameMessage(sequence, removed, updated, colours, atlasBytes) {
   const u32 = (v) => {
     for (let i = 0; i < 4; ++i) u8(v >>> (8 * i));
   };
-  const f32 = (v) => {
-    const d = new DataView(new ArrayBuffer(4));
-    d.setFloat32(0, v, true);
-    u32(d.getUint32(0, true));
-  };
   [77, 82, 71, 83].forEach(u8);
-  u16(1);
+  u16(2);
   u16(4);
   u32(0);
   u32(sequence);
   u32(sequence);
   u32(0);
   u32(0);
-  u32(removed.length);
-  removed.forEach(u32);
-  u32(updated.length);
-  for (const p of updated) {
-    u32(p.id);
-    u8(p.triangleCount);
-    u8(p.alpha);
-    u8(p.blockLog2);
-    u8(0);
-    u16(p.blockX);
-    u16(p.blockY);
-    p.positions.forEach((v) => v.forEach(f32));
-  }
-  u32(colours.length);
-  for (const c of colours) {
-    u32(c.id);
-    c.rgba.forEach(u8);
-  }
-  u8(3);
-  u32(ATLAS_W);
-  u32(ATLAS_H);
-  u32(atlasBytes.length);
-  const out = new Uint8Array(bytes.length + atlasBytes.length);
+  u8(0); // raw patch section
+  u32(section.length);
+  bytes.push(...section);
+  const atlas = atlasBytes || new Uint8Array(0);
+  u8(atlasBytes ? 3 : 0);
+  u32(atlasBytes ? ATLAS_W : 0);
+  u32(atlasBytes ? ATLAS_H : 0);
+  u32(atlas.length);
+  const out = new Uint8Array(bytes.length + atlas.length);
   out.set(bytes);
-  out.set(atlasBytes, bytes.length);
+  out.set(atlas, bytes.length);
   new DataView(out.buffer).setUint32(8, out.length - 12, true);
   return out.buffer;
+}
+
+// Throws unless f() throws an Error whose message includes `part`.
+function expectThrow(f, part) {
+  try {
+    f();
+  } catch (e) {
+    if (e.message.includes(part)) return;
+    throw new Error(`expected an error with '${part}', got '${e.message}'`);
+  }
+  throw new Error(`expected an error with '${part}', none came`);
+}
+
+function check(ok, what) {
+  if (!ok) throw new Error(what);
+}
+
+// PatchSet's rules, after frames 1 (keyPatches) and 2 (patch 2 removed): the mirror of StreamView's.
+function checkPatchState(patches) {
+  const blockOnly = (id, triangleCount, blockLog2 = 255, blockX = 0) =>
+      ({id, triangleCount, geometry : false, blockLog2, blockX, blockY : 0});
+  const apply = (updated, removed = []) => patches.apply(decodeMessage(frameMessage(9, removed, updated, [], null)));
+  check(patches.kept.has(2) && !patches.patches.has(2), 'patch 2 kept after its removal');
+  apply([ blockOnly(2, 1) ]); // frame 3: back from the kept geometry
+  check(Math.abs(patches.patches.get(2)?.positions[1][0] - keyPatches[2].positions[1][0]) <= GRID.positionStep / 2,
+        'patch 2 back with its positions');
+  apply([ blockOnly(0, 2, 5, 64) ]); // frame 4: patch 0 moved, its geometry held
+  check(patches.patches.get(0).blockX === 64 && patches.patches.get(0).positions[3][1] === 0.5, 'patch 0 moved');
+  expectThrow(() => apply([ blockOnly(42, 1) ]),
+              'block-only entry for patch 42, whose geometry the client does not have');
+  expectThrow(() => apply([ keyPatches[0] ]), 'sends the positions of patch 0, which the client holds');
+  expectThrow(() => apply([ blockOnly(1, 2, 5, 64) ]), 'patch 1 has 3 triangles, the entry says 2');
+  expectThrow(() => apply([], [ 77 ]), 'removes patch 77, which the client does not hold');
+  expectThrow(() => apply([ {...keyPatches[0], id : 100} ]), 'patch 100 is past the scene\'s 100 patches');
+  // The keep window: a removal answers block-only entries for KEPT_GEOMETRY_FRAMES frames.
+  apply([], [ 4 ]);
+  for (let i = 0; i < 255; ++i) apply([]);
+  expectThrow(() => apply([ blockOnly(4, 2) ]), 'block-only entry for patch 4');
+}
+
+// The bytes of StreamPatchSection.ExactLayout (tests/stream/patch_section_test.cpp): the C++ encoder's
+// layout, parsed here.
+function checkExactLayout() {
+  const bytes = new Uint8Array(
+      [ 2, 3, 1, 2, 2, 0x1a, 4, 2, 1, 20, 40, 60, 6, 0, 0, 0, 8, 0, 0, 0, 2, 6, 0x21, 1, 9, 1, 2, 3, 4 ]);
+  const f = {};
+  parsePatchSection(bytes, f);
+  const expected = {
+    removed : [ 3, 5 ],
+    updated : [
+      {
+        id : 2,
+        triangleCount : 2,
+        geometry : true,
+        alpha : 2,
+        colourOnly : false,
+        blockLog2 : 4,
+        blockX : 32,
+        blockY : 16,
+        positions : [ [ 10, 20, 30 ], [ 13, 20, 30 ], [ 10, 24, 30 ], [ 13, 24, 31 ] ]
+      },
+      {
+        id : 9,
+        triangleCount : 1,
+        geometry : false,
+        alpha : 0,
+        colourOnly : true,
+        blockLog2 : 255,
+        blockX : 0,
+        blockY : 0
+      }
+    ],
+    colours : [ {id : 9, rgba : [ 1, 2, 3, 4 ]} ]
+  };
+  check(JSON.stringify(f) === JSON.stringify(expected), `patch section parsed as ${JSON.stringify(f)}`);
+  const bad = bytes.slice();
+  bad[5] = 0x1e; // alpha 3
+  expectThrow(() => parsePatchSection(bad, {}), 'updated[0].alpha 3 not an alpha mode');
+  expectThrow(() => parsePatchSection(new Uint8Array([ 0x80, 0 ]), {}),
+              'removed count varint not in its shortest form');
+  expectThrow(() => parsePatchSection(new Uint8Array([ 9, 1 ]), {}), 'removed count 9 entries need 9 bytes, 1 left');
+  expectThrow(() => parsePatchSection(new Uint8Array([ 0, 0, 0, 0 ]), {}), 'patches 1 bytes after the colours');
 }
 
 // One strip: the atlas tiles `tiles` (row-major indices) side by side in one JPEG.
@@ -172,6 +288,7 @@ async function run() {
   const frames = [ frameMessage(1, [], keyPatches, keyColours, key), frameMessage(2, [ 2 ], [], [], delta) ];
 
   const patches = new PatchSet(), renderer = new PatchRenderer(gl), atlas = new AtlasTexture(gl, ATLAS_W, ATLAS_H);
+  patches.setWelcome(GRID);
   const camera =
       withClipPlanes({eye : [ 0, 0, 3 ], target : [ 0, 0, 0 ], up : [ 0, 1, 0 ], fov : 60, znear : 0, zfar : 0},
                      {min : [ -2, -2, -2 ], max : [ 2, 2, 2 ]});
@@ -195,6 +312,8 @@ async function run() {
     refused = e.message;
   }
   if (!refused.includes('MJT1')) throw new Error(`a corrupt payload was not refused (${refused})`);
+  checkPatchState(patches);
+  checkExactLayout();
   document.title = `done ${frames.length}`;
 }
 

@@ -1,6 +1,6 @@
 // mirage bench stream SCENE [--path orbit:60] [--size WxH] [--codec h264|zstd] [--bitrate MBIT]
-//   [--clients N] [--latency-frames K] [--max-patch-edge L] [--no-quality] [--json]: Shading Atlas Streaming measured
-//   in one process (mirage/stream/bench.h).
+//   [--clients N] [--latency-frames K] [--max-patch-edge L] [--position-bits B] [--no-quality] [--json]: Shading
+//   Atlas Streaming measured in one process (mirage/stream/bench.h).
 #include <memory>
 
 #include <fmt/format.h>
@@ -40,11 +40,14 @@ void runBenchStream(BenchStreamOptions& o) {
   if (!report) return fail(report.error());
   const auto& r = *report;
   double gpuVis = 0, gpuShade = 0, encode = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0,
-         levelBias = 0;
+         levelBias = 0, rawKB = 0;
+  double entries = 0, blockOnly = 0, removed = 0, colours = 0;
   for (const auto& f : r.frames) {
     gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, encode += f.encodeMs, texels += double(f.shadedTexels);
     visible += f.visiblePatches, colourOnly += f.colourOnly, levelBias += f.levelBias, atlasKB += f.atlasBytes / 1024.0,
-        geometryKB += (f.geometryBytes + f.colourBytes) / 1024.0;
+        geometryKB += f.geometryBytes / 1024.0;
+    rawKB += f.geometryRawBytes / 1024.0, entries += f.geometryEntries, blockOnly += f.blockOnlyEntries;
+    removed += f.removed, colours += f.colours;
   }
   double n = double(std::max<size_t>(1, r.frames.size()));
   // Client 0's bytes (atlas, geometry, colours) per atlas texel the server shaded for it.
@@ -74,6 +77,11 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"level_bias", levelBias / n},
                         {"atlas_kb", atlasKB / n},
                         {"geometry_kb", geometryKB / n},
+                        {"geometry_raw_kb", rawKB / n},
+                        {"geometry_entries", entries / n},
+                        {"block_only_entries", blockOnly / n},
+                        {"removed", removed / n},
+                        {"colours", colours / n},
                         {"mbit_s", r.megabitsPerSecond},
                         {"clients_at_30hz", r.clientsAt30Hz}};
     if (c.quality) j.update({{"ssim", r.meanSsim}, {"ssim_min", r.minSsim}, {"psnr", r.meanPsnr}});
@@ -92,6 +100,9 @@ void runBenchStream(BenchStreamOptions& o) {
   fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry per frame = {:.1f} Mbit/s at {} Hz, {:.3f} bytes per "
              "texel shaded\n",
              atlasKB / n, geometryKB / n, r.megabitsPerSecond, c.fps, bytesPerTexel);
+  fmt::print("  geometry per frame: {:.1f} KB before zstd; {:.0f} entries with positions, {:.0f} block-only, "
+             "{:.0f} removed, {:.0f} colours\n",
+             rawKB / n, entries / n, blockOnly / n, removed / n, colours / n);
   if (c.quality)
     fmt::print("  quality against local rendering: SSIM mean {:.4f} min {:.4f}, PSNR {:.2f} dB\n", r.meanSsim,
                r.minSsim, r.meanPsnr);
@@ -119,6 +130,8 @@ void addBenchStreamCommand(CLI::App& bench) {
   b->add_option("--level-bias", c.levelBias, "Atlas texels per pixel: block side x 2^bias")->capture_default_str();
   b->add_option("--atlas-fill", c.atlasFill, kAtlasFillHelp)->check(CLI::Range(0.0f, 1.0f))->capture_default_str();
   bindTessellation(*b, c.tessellation);
+  b->add_option("--position-bits", c.positionBits, "Bits per axis of the patch position grid (8..24)")
+      ->capture_default_str();
   b->add_flag("--no-quality", o->noQuality, "Skip the client's images and their comparison with local rendering");
   b->add_option("--device", o->device, "Vulkan device name substring or index");
   b->add_flag("--json", o->json, "Print results as JSON");

@@ -1,6 +1,6 @@
 // mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
-//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--max-patch-edge L] [--web DIR]: Shading Atlas
-//   Streaming.
+//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--max-patch-edge L] [--position-bits B] [--web DIR]:
+//   Shading Atlas Streaming.
 // mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]
 //   [--stereo [--ipd M]] [--latency-ms MS [--jitter-ms J] [--loss P] [--seed S] [--fps F] [--server-ms S]]:
 //   the native thin client (docs/stream.md): a window with a fly camera, or with --path / --record a
@@ -213,6 +213,9 @@ void addStreamCommands(CLI::App& app) {
   s->add_option("--atlas-size", so->scene.atlasSize, "Atlas side in texels (power of two)")->capture_default_str();
   s->add_option("--atlas-fill", so->serve.stream.atlasFill, kAtlasFillHelp)
       ->check(CLI::Range(0.0f, 1.0f))
+      ->capture_default_str();
+  s->add_option("--position-bits", so->scene.positionBits,
+                "Bits per axis of the patch position grid over the scene bounds (8..24)")
       ->capture_default_str();
   s->add_option("--materials", so->scene.materials, "Material file (TOML) applied to the scene");
   bindTessellation(*s, so->scene.tessellation);

@@ -34,7 +34,7 @@ Status validate(const StreamBenchConfig& c) {
 
 Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& c) {
   if (auto s = validate(c); !s) return s.error();
-  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize, c.tessellation});
+  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize, c.tessellation, c.positionBits});
   if (!scene) return scene.error();
   StreamScene& served = **scene;
   auto path = render::cameraPathArgument(c.path, served.bounds, float(c.width) / float(c.height));
@@ -51,13 +51,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
     if (!client) return client.error();
     clients.push_back(std::move(*client));
   }
-  Welcome welcome;
-  welcome.sceneMin = served.bounds.min;
-  welcome.sceneMax = served.bounds.max;
-  welcome.atlasWidth = welcome.atlasHeight = served.atlasSize;
-  welcome.codec = c.codec;
-  welcome.patchCount = served.patches.patchCount();
-  auto view = StreamView::create(context, welcome);
+  auto view = StreamView::create(context, sceneWelcome(served, c.codec));
   if (!view) return view.error();
   std::unique_ptr<runtime::Scene> local;
   if (c.quality) {
@@ -101,10 +95,14 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
       f.colourOnly += st.colourOnly / c.clients;
       if (k == 0) {
         f.geometryBytes = st.geometryBytes;
-        f.colourBytes = st.colourBytes;
+        f.geometryRawBytes = st.geometryRawBytes;
         f.atlasBytes = st.atlasBytes;
         f.levelBias = st.levelBias;
-        bytes += st.geometryBytes + st.colourBytes + st.atlasBytes;
+        f.geometryEntries = st.addedOrMoved - st.blockOnly;
+        f.blockOnlyEntries = st.blockOnly;
+        f.removed = st.removed;
+        f.colours = st.colours;
+        bytes += st.geometryBytes + st.atlasBytes;
         inFlight.emplace_back(i + c.latencyFrames, std::move(*frame));
       }
     }

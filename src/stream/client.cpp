@@ -15,7 +15,7 @@ namespace mirage::stream {
 ClientConfig transportConfig(const StreamClientOptions& options) {
   ClientConfig config;
   config.hello.token = options.token;
-  config.hello.capabilities = options.capabilities;
+  config.hello.capabilities = options.capabilities | kCapabilityZstdPatches;
   config.hello.viewportWidth = options.width;
   config.hello.viewportHeight = options.height;
   config.hello.stereo = options.stereoIpd.has_value();
@@ -70,6 +70,38 @@ ImageRGBA8 sideBySide(const ImageRGBA8& left, const ImageRGBA8& right) {
   return out;
 }
 
+Result<std::vector<ReceivedFrame>> exchangePose(TransportClient& transport, const Pose& pose,
+                                                const StreamClientOptions& options) {
+  if (!transport.send(pose)) return Error{fmt::format("{}: connection lost", options.url)};
+  std::vector<ReceivedFrame> frames;
+  for (;;) {
+    auto message = transport.receive(options.timeout);
+    if (!message) return message.error();
+    if (auto* close = std::get_if<Close>(&*message))
+      return Error{fmt::format("{}: server closed the connection: {}", options.url, close->reason)};
+    auto* frame = std::get_if<Frame>(&*message);
+    if (!frame)
+      return Error{fmt::format("{}: unexpected {} message", options.url, messageTypeName(messageType(*message)))};
+    uint64_t bytes = encodeMessage(*frame).size();
+    bool answer = frame->poseSequence >= pose.sequence;
+    frames.push_back({std::move(*frame), bytes});
+    if (answer) return frames;
+  }
+}
+
+Status applyReceivedFrame(StreamView& view, TransportClient& transport, const ReceivedFrame& received,
+                          const StreamClientOptions& options, ClientFrameInfo& info) {
+  if (auto s = view.apply(received.frame); !s) {
+    transport.close(CloseCode::Malformed, s.error().message);
+    return Error{fmt::format("{}: {}", options.url, s.error().message)};
+  }
+  info.serverFrame = received.frame.sequence;
+  info.framesApplied++;
+  info.frameBytes += received.bytes;
+  info.atlasBytes += received.frame.atlas.bytes.size();
+  return Ok{};
+}
+
 Status runPathClient(gpu::Context& context, const StreamClientOptions& options, const std::string& pathArgument,
                      const ClientFrameSink& sink) {
   using Clock = std::chrono::steady_clock;
@@ -90,29 +122,14 @@ Status runPathClient(gpu::Context& context, const StreamClientOptions& options, 
   for (size_t i = 0; i < path.size(); ++i) {
     Pose pose = clientPose(++sequence, path[i], path[i], options.width, options.height, options.stereoIpd);
     auto sent = Clock::now();
-    if (!transport.send(pose)) return Error{fmt::format("{}: connection lost", options.url)};
     ClientFrameInfo info;
     info.index = i;
     info.count = path.size();
     info.codec = welcome->codec;
-    for (;;) { // frames answering earlier poses may come first: apply each, stop at this pose's
-      auto message = transport.receive(options.timeout);
-      if (!message) return message.error();
-      if (auto* close = std::get_if<Close>(&*message))
-        return Error{fmt::format("{}: server closed the connection: {}", options.url, close->reason)};
-      auto* frame = std::get_if<Frame>(&*message);
-      if (!frame)
-        return Error{fmt::format("{}: unexpected {} message", options.url, messageTypeName(messageType(*message)))};
-      if (auto s = (*view)->apply(*frame); !s) {
-        transport.close(CloseCode::Malformed, s.error().message);
-        return Error{fmt::format("{}: {}", options.url, s.error().message)};
-      }
-      info.serverFrame = frame->sequence;
-      info.atlasBytes += frame->atlas.bytes.size();
-      info.frameBytes += encodeMessage(*frame).size();
-      info.framesApplied++;
-      if (frame->poseSequence >= pose.sequence) break;
-    }
+    auto frames = exchangePose(transport, pose, options);
+    if (!frames) return frames.error();
+    for (const ReceivedFrame& frame : *frames)
+      if (auto s = applyReceivedFrame(**view, transport, frame, options, info); !s) return s;
     info.roundTripMs = std::chrono::duration<double, std::milli>(Clock::now() - sent).count();
     info.patchesHeld = (*view)->patchCount();
     if (options.stereoIpd) {

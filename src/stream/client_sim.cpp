@@ -22,30 +22,6 @@ struct PoseOnItsWay {
   Pose pose;
 };
 
-struct FrameOnItsWay {
-  Frame frame;
-  uint64_t bytes = 0; // the message as sent
-};
-
-// Hands `pose` to the server and waits for the frame answering it; frames answering earlier poses
-// that come first are returned too, in order.
-Result<std::vector<Frame>> exchange(TransportClient& transport, const Pose& pose, const StreamClientOptions& options) {
-  if (!transport.send(pose)) return Error{fmt::format("{}: connection lost", options.url)};
-  std::vector<Frame> frames;
-  for (;;) {
-    auto message = transport.receive(options.timeout);
-    if (!message) return message.error();
-    if (auto* close = std::get_if<Close>(&*message))
-      return Error{fmt::format("{}: server closed the connection: {}", options.url, close->reason)};
-    auto* frame = std::get_if<Frame>(&*message);
-    if (!frame)
-      return Error{fmt::format("{}: unexpected {} message", options.url, messageTypeName(messageType(*message)))};
-    bool answer = frame->poseSequence >= pose.sequence;
-    frames.push_back(std::move(*frame));
-    if (answer) return frames;
-  }
-}
-
 // Frames the mean round trip (plus the server's time) spans at `fps`: how far ahead the predicted
 // view looks.
 size_t framesAhead(const SimulatedClientOptions& simulation) {
@@ -69,14 +45,8 @@ Status runSimulatedPathClient(gpu::Context& context, const StreamClientOptions& 
                               const ClientFrameSink& sink) {
   if (auto s = checkSimulation(simulation); !s) return s;
   TransportClient transport;
-  ClientConfig config;
-  config.hello.token = options.token;
-  config.hello.capabilities = options.capabilities;
-  config.hello.viewportWidth = options.width;
-  config.hello.viewportHeight = options.height;
-  config.caFile = options.caFile;
-  config.timeout = options.timeout;
-  config.limits.maxMessageBytes = options.maxFrameBytes;
+  ClientConfig config = transportConfig(options);
+  config.hello.stereo = false; // the open loop draws one eye
   auto welcome = transport.connect(options.url, config);
   if (!welcome) return welcome.error();
   auto view = StreamView::create(context, *welcome);
@@ -90,7 +60,7 @@ Status runSimulatedPathClient(gpu::Context& context, const StreamClientOptions& 
 
   NetSim network(simulation.network);
   DelayLine<PoseOnItsWay> uplink;
-  DelayLine<FrameOnItsWay> downlink;
+  DelayLine<ReceivedFrame> downlink;
   const size_t ahead = framesAhead(simulation);
   const uint64_t serverUs = uint64_t(std::llround(simulation.serverMs * 1000.0));
   uint32_t serverFrame = 0;
@@ -115,22 +85,14 @@ Status runSimulatedPathClient(gpu::Context& context, const StreamClientOptions& 
 
     // The server answers each pose that has reached it by now; its frame starts down after serverMs.
     while (auto up = uplink.popArrived(nowUs)) {
-      auto frames = exchange(transport, up->pose, options);
+      auto frames = exchangePose(transport, up->pose, options);
       if (!frames) return frames.error();
-      for (Frame& frame : *frames) {
-        uint64_t bytes = encodeMessage(frame).size();
-        downlink.push(network.downlinkArrival(up->arrivalUs + serverUs), {std::move(frame), bytes});
-      }
+      for (ReceivedFrame& frame : *frames)
+        downlink.push(network.downlinkArrival(up->arrivalUs + serverUs), std::move(frame));
     }
     while (auto down = downlink.popArrived(nowUs)) {
-      if (auto s = (*view)->apply(down->frame); !s) {
-        transport.close(CloseCode::Malformed, s.error().message);
-        return Error{fmt::format("{}: {}", options.url, s.error().message)};
-      }
+      if (auto s = applyReceivedFrame(**view, transport, *down, options, info); !s) return s;
       serverFrame = down->frame.sequence;
-      info.framesApplied++;
-      info.frameBytes += down->bytes;
-      info.atlasBytes += down->frame.atlas.bytes.size();
       uint64_t takenUs = cameraTimeUs(down->frame.poseSequence - 1, simulation.fps);
       info.roundTripMs = double(nowUs - takenUs) / 1000.0;
     }

@@ -47,23 +47,41 @@ uint32_t packColour(const std::array<uint8_t, 4>& c) {
 
 Status StreamView::apply(const Frame& frame) {
   auto fail = [&](const std::string& what) { return Error{fmt::format("Frame {}: {}", frame.sequence, what)}; };
+  kept_.beginFrame(++frames_);
   for (uint32_t id : frame.removed) {
-    if (!patches_.erase(id)) return fail(fmt::format("removes patch {}, which the client does not hold", id));
+    auto it = patches_.find(id);
+    if (it == patches_.end()) return fail(fmt::format("removes patch {}, which the client does not hold", id));
     if (auto s = renderer_->removePatch(id); !s) return fail(s.error().message);
+    kept_.keep(id, it->second);
+    patches_.erase(it);
   }
   for (const PatchUpdate& u : frame.updated) {
     if (u.id >= welcome_.patchCount)
       return fail(fmt::format("patch {} is past the scene's {} patches", u.id, welcome_.patchCount));
     render::ClientPatch p;
-    p.triangleCount = u.triangleCount;
-    p.positions = u.positions;
-    p.alpha = toPatchAlpha(u.alpha);
-    p.colorOnly = u.blockLog2 == kColourOnlyBlock;
-    if (!p.colorOnly) {
-      p.blockX = u.blockX;
-      p.blockY = u.blockY;
-      p.blockLog2 = u.blockLog2;
+    auto held = patches_.find(u.id);
+    if (u.geometry) {
+      if (held != patches_.end())
+        return fail(fmt::format("sends the positions of patch {}, which the client holds", u.id));
+      kept_.take(u.id); // sent again: the kept copy is stale
+      p.triangleCount = u.triangleCount;
+      for (uint32_t v = 0; v < patchVertexCount(u.triangleCount); ++v)
+        p.positions[v] = dequantizePosition(u.positions[v], welcome_.sceneMin, welcome_.positionStep);
+      p.alpha = toPatchAlpha(u.alpha);
+    } else if (held != patches_.end()) {
+      p = held->second;
+    } else if (auto kept = kept_.take(u.id)) {
+      p = *kept;
+    } else {
+      return fail(fmt::format("block-only entry for patch {}, whose geometry the client does not have", u.id));
     }
+    if (p.triangleCount != u.triangleCount)
+      return fail(fmt::format("patch {} has {} triangles, the entry says {}", u.id, p.triangleCount, u.triangleCount));
+    p.colorOnly = u.blockLog2 == kColourOnlyBlock;
+    p.blockX = p.colorOnly ? 0 : u.blockX;
+    p.blockY = p.colorOnly ? 0 : u.blockY;
+    p.blockLog2 = p.colorOnly ? 1 : u.blockLog2;
+    p.color = 0; // a new block or colour-only: its colour (if any) comes in this frame's colours
     if (auto s = renderer_->setPatch(u.id, p); !s) return fail(s.error().message);
     patches_[u.id] = p;
   }

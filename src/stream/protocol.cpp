@@ -1,7 +1,7 @@
-// Encoding and decoding of the stream messages (docs/stream.md, "Protocol"). The decoder reads
-// through a bounds-checked cursor: every read says what it needs before it touches a byte, and every
-// count is checked against the limits and against the bytes left (count x smallest entry) before
-// a vector is sized, so a forged count cannot allocate more than the message itself holds.
+// Encoding and decoding of the stream messages (docs/stream.md, "Protocol"); a Frame's patch section
+// is patch_section.cpp's. The decoder reads through a bounds-checked cursor (wire.h): every read says what it needs
+// before it touches a byte, and every count is checked against the limits and against the bytes left (count x smallest
+// entry) before a vector is sized, so a forged count cannot allocate more than the message itself holds.
 #include "mirage/stream/protocol.h"
 
 #include <bit>
@@ -9,8 +9,10 @@
 #include <cstring>
 #include <numbers>
 
+#include <glm/vector_relational.hpp>
+
 #include "mirage/core/input_text.h"
-#include "mirage/shaderio/atlas.h"
+#include "patch_section.h"
 
 namespace mirage::stream {
 
@@ -34,46 +36,10 @@ MessageType messageType(const Message& message) { return MessageType(uint16_t(me
 
 namespace {
 
+using wire::Reader;
+using wire::Writer;
+
 static_assert(std::variant_size_v<Message> == 5, "MessageType values are the variant index + 1");
-
-// Fixed payload sizes and smallest entry sizes (bytes).
-constexpr size_t kCameraBytes = 10 * 4;
-constexpr size_t kPatchFixedBytes = 4 + 4 + 2 + 2; // id, triangleCount/alpha/blockLog2/reserved, x, y
-constexpr size_t kPatchMinBytes = kPatchFixedBytes + 3 * 12;
-constexpr size_t kColourBytes = 8;
-
-struct Writer {
-  std::vector<uint8_t> out;
-  void u8(uint8_t v) { out.push_back(v); }
-  void u16(uint16_t v) {
-    for (int i = 0; i < 2; ++i) out.push_back(uint8_t(v >> (8 * i)));
-  }
-  void u32(uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(uint8_t(v >> (8 * i)));
-  }
-  void u64(uint64_t v) {
-    for (int i = 0; i < 8; ++i) out.push_back(uint8_t(v >> (8 * i)));
-  }
-  void f32(float v) { u32(std::bit_cast<uint32_t>(v)); }
-  void vec3(const glm::vec3& v) {
-    f32(v.x);
-    f32(v.y);
-    f32(v.z);
-  }
-  void bytes(std::span<const uint8_t> b) { out.insert(out.end(), b.begin(), b.end()); }
-  // Strings longer than a uint16 length can say are cut: the decoder's limits are far below that.
-  void str16(std::string_view s) {
-    size_t n = std::min<size_t>(s.size(), 0xffff);
-    u16(uint16_t(n));
-    out.insert(out.end(), s.begin(), s.begin() + ptrdiff_t(n));
-  }
-  void camera(const Camera& c) {
-    vec3(c.eye);
-    vec3(c.target);
-    vec3(c.up);
-    f32(c.fovY);
-  }
-};
 
 void writePayload(Writer& w, const Hello& m) {
   w.str16(m.token);
@@ -87,6 +53,7 @@ void writePayload(Writer& w, const Welcome& m) {
   w.u64(m.sessionId);
   w.vec3(m.sceneMin);
   w.vec3(m.sceneMax);
+  w.f32(m.positionStep);
   w.u32(m.atlasWidth);
   w.u32(m.atlasHeight);
   w.u8(uint8_t(m.codec));
@@ -108,25 +75,7 @@ void writePayload(Writer& w, const Frame& m) {
   w.u32(m.sequence);
   w.u32(m.poseSequence);
   w.u64(m.serverTimeUs);
-  w.u32(uint32_t(m.removed.size()));
-  for (uint32_t id : m.removed) w.u32(id);
-  w.u32(uint32_t(m.updated.size()));
-  for (const PatchUpdate& p : m.updated) {
-    w.u32(p.id);
-    w.u8(p.triangleCount);
-    w.u8(uint8_t(p.alpha));
-    w.u8(p.blockLog2);
-    w.u8(0); // reserved
-    w.u16(p.blockX);
-    w.u16(p.blockY);
-    uint32_t vertices = std::min<uint32_t>(patchVertexCount(p.triangleCount), 5);
-    for (uint32_t v = 0; v < vertices; ++v) w.vec3(p.positions[v]);
-  }
-  w.u32(uint32_t(m.colours.size()));
-  for (const PatchColour& c : m.colours) {
-    w.u32(c.id);
-    for (uint8_t channel : c.rgba) w.u8(channel);
-  }
+  wire::writePatchSection(w, m);
   w.u8(uint8_t(m.atlas.codec));
   w.u32(m.atlas.width);
   w.u32(m.atlas.height);
@@ -138,92 +87,6 @@ void writePayload(Writer& w, const Close& m) {
   w.u16(uint16_t(m.code));
   w.str16(m.reason);
 }
-
-// A bounds-checked cursor over one payload. A failed read leaves `error` naming the field.
-class Reader {
-public:
-  explicit Reader(std::span<const uint8_t> bytes) : bytes_(bytes) {}
-  std::string error;
-
-  size_t left() const { return bytes_.size() - pos_; }
-  bool need(size_t n, std::string_view field) {
-    if (n <= left()) return true;
-    error =
-        std::string(field) + ": truncated (needs " + std::to_string(n) + " bytes, " + std::to_string(left()) + " left)";
-    return false;
-  }
-  bool u8(uint8_t& v, std::string_view field) {
-    if (!need(1, field)) return false;
-    v = bytes_[pos_++];
-    return true;
-  }
-  bool u16(uint16_t& v, std::string_view field) {
-    if (!need(2, field)) return false;
-    v = uint16_t(bytes_[pos_] | (bytes_[pos_ + 1] << 8));
-    pos_ += 2;
-    return true;
-  }
-  bool u32(uint32_t& v, std::string_view field) {
-    if (!need(4, field)) return false;
-    v = 0;
-    for (int i = 0; i < 4; ++i) v |= uint32_t(bytes_[pos_ + i]) << (8 * i);
-    pos_ += 4;
-    return true;
-  }
-  bool u64(uint64_t& v, std::string_view field) {
-    if (!need(8, field)) return false;
-    v = 0;
-    for (int i = 0; i < 8; ++i) v |= uint64_t(bytes_[pos_ + i]) << (8 * i);
-    pos_ += 8;
-    return true;
-  }
-  // Finite floats only: a NaN or infinity reaching a view matrix or a vertex is never meant.
-  bool f32(float& v, std::string_view field) {
-    uint32_t bits = 0;
-    if (!u32(bits, field)) return false;
-    v = std::bit_cast<float>(bits);
-    if (std::isfinite(v)) return true;
-    error = std::string(field) + ": not a finite number";
-    return false;
-  }
-  bool vec3(glm::vec3& v, std::string_view field) {
-    return f32(v.x, std::string(field) + ".x") && f32(v.y, std::string(field) + ".y") &&
-           f32(v.z, std::string(field) + ".z");
-  }
-  bool str16(std::string& s, uint32_t maxBytes, std::string_view field) {
-    uint16_t n = 0;
-    if (!u16(n, std::string(field) + " length")) return false;
-    if (n > maxBytes)
-      return fail(field, "length " + std::to_string(n) + " over the limit of " + std::to_string(maxBytes));
-    if (!need(n, field)) return false;
-    s.assign(reinterpret_cast<const char*>(bytes_.data() + pos_), n);
-    pos_ += n;
-    return true;
-  }
-  bool bytes(std::vector<uint8_t>& out, size_t n, std::string_view field) {
-    if (!need(n, field)) return false;
-    out.assign(bytes_.begin() + ptrdiff_t(pos_), bytes_.begin() + ptrdiff_t(pos_ + n));
-    pos_ += n;
-    return true;
-  }
-  // A count of entries of at least `entryBytes` each: within `limit` and within the bytes left.
-  bool count(uint32_t& n, uint32_t limit, size_t entryBytes, std::string_view field) {
-    if (!u32(n, field)) return false;
-    if (n > limit) return fail(field, std::to_string(n) + " over the limit of " + std::to_string(limit));
-    if (uint64_t(n) * entryBytes > left())
-      return fail(field, std::to_string(n) + " entries need " + std::to_string(uint64_t(n) * entryBytes) + " bytes, " +
-                             std::to_string(left()) + " left");
-    return true;
-  }
-  bool fail(std::string_view field, const std::string& problem) {
-    error = std::string(field) + " " + problem;
-    return false;
-  }
-
-private:
-  std::span<const uint8_t> bytes_;
-  size_t pos_ = 0;
-};
 
 bool readViewport(Reader& r, uint32_t& width, uint32_t& height, const DecodeLimits& limits) {
   if (!r.u32(width, "viewportWidth") || !r.u32(height, "viewportHeight")) return false;
@@ -249,11 +112,16 @@ bool readPayload(Reader& r, Hello& m, const DecodeLimits& limits) {
 bool readPayload(Reader& r, Welcome& m, const DecodeLimits& limits) {
   uint8_t codec = 0;
   if (!r.u64(m.sessionId, "sessionId") || !r.vec3(m.sceneMin, "sceneMin") || !r.vec3(m.sceneMax, "sceneMax") ||
-      !r.u32(m.atlasWidth, "atlasWidth") || !r.u32(m.atlasHeight, "atlasHeight") || !r.u8(codec, "codec") ||
-      !r.u32(m.patchCount, "patchCount") || !r.u32(m.maxMessageBytes, "maxMessageBytes") ||
-      !r.u32(m.maxPoseRate, "maxPoseRate"))
+      !r.f32(m.positionStep, "positionStep") || !r.u32(m.atlasWidth, "atlasWidth") ||
+      !r.u32(m.atlasHeight, "atlasHeight") || !r.u8(codec, "codec") || !r.u32(m.patchCount, "patchCount") ||
+      !r.u32(m.maxMessageBytes, "maxMessageBytes") || !r.u32(m.maxPoseRate, "maxPoseRate"))
     return false;
   if (glm::any(glm::greaterThan(m.sceneMin, m.sceneMax))) return r.fail("sceneMin", "above sceneMax");
+  if (!(m.positionStep > 0.0f)) return r.fail("positionStep", std::to_string(m.positionStep) + " not above 0");
+  glm::vec3 extent = m.sceneMax - m.sceneMin;
+  double largest = std::max({double(extent.x), double(extent.y), double(extent.z)});
+  if (largest / double(m.positionStep) > double(kPositionGridMax))
+    return r.fail("positionStep", std::to_string(m.positionStep) + ": the grid does not span the scene bounds");
   if (m.atlasWidth == 0 || m.atlasWidth > limits.maxAtlasSide)
     return r.fail("atlasWidth", std::to_string(m.atlasWidth) + " not in 1.." + std::to_string(limits.maxAtlasSide));
   if (m.atlasHeight == 0 || m.atlasHeight > limits.maxAtlasSide)
@@ -282,60 +150,11 @@ bool readPayload(Reader& r, Pose& m, const DecodeLimits& limits) {
          readCamera(r, m.predicted, "predicted") && readViewport(r, m.viewportWidth, m.viewportHeight, limits);
 }
 
-bool readPatch(Reader& r, PatchUpdate& p, const DecodeLimits& limits) {
-  uint8_t alpha = 0, reserved = 0;
-  if (!r.u32(p.id, "id") || !r.u8(p.triangleCount, "triangleCount") || !r.u8(alpha, "alpha") ||
-      !r.u8(p.blockLog2, "blockLog2") || !r.u8(reserved, "reserved") || !r.u16(p.blockX, "blockX") ||
-      !r.u16(p.blockY, "blockY"))
-    return false;
-  if (p.triangleCount < 1 || p.triangleCount > MIRAGE_ATLAS_MAX_PATCH_TRIANGLES)
-    return r.fail("triangleCount", std::to_string(p.triangleCount) + " not in 1..3");
-  if (alpha >= kAlphaModeCount) return r.fail("alpha", std::to_string(alpha) + " not an alpha mode (0..2)");
-  p.alpha = AlphaMode(alpha);
-  if (reserved != 0) return r.fail("reserved", std::to_string(reserved) + " not 0");
-  if (p.blockLog2 == kColourOnlyBlock) {
-    if (p.blockX != 0 || p.blockY != 0) return r.fail("blockX", "not 0 for a colour-only patch");
-  } else {
-    if (p.blockLog2 < MIRAGE_ATLAS_MIN_BLOCK_LOG2 || p.blockLog2 > MIRAGE_ATLAS_MAX_BLOCK_LOG2)
-      return r.fail("blockLog2", std::to_string(p.blockLog2) + " not in 1..7 or 255 (colour-only)");
-    uint32_t width = shaderio::atlasBlockWidth(p.triangleCount, p.blockLog2);
-    uint32_t height = 1u << p.blockLog2;
-    if (p.blockX + width > limits.maxAtlasSide || p.blockY + height > limits.maxAtlasSide)
-      return r.fail("blockX", "block at (" + std::to_string(p.blockX) + ", " + std::to_string(p.blockY) + ") size " +
-                                  std::to_string(width) + "x" + std::to_string(height) + " outside the atlas side " +
-                                  std::to_string(limits.maxAtlasSide));
-  }
-  for (uint32_t v = 0; v < patchVertexCount(p.triangleCount); ++v)
-    if (!r.vec3(p.positions[v], "positions[" + std::to_string(v) + "]")) return false;
-  return true;
-}
-
 bool readPayload(Reader& r, Frame& m, const DecodeLimits& limits) {
   if (!r.u32(m.sequence, "sequence") || !r.u32(m.poseSequence, "poseSequence") ||
       !r.u64(m.serverTimeUs, "serverTimeUs"))
     return false;
-  uint32_t n = 0;
-  if (!r.count(n, limits.maxRemovedPerFrame, 4, "removed count")) return false;
-  m.removed.resize(n);
-  for (uint32_t i = 0; i < n; ++i)
-    if (!r.u32(m.removed[i], "removed[" + std::to_string(i) + "]")) return false;
-  if (!r.count(n, limits.maxPatchesPerFrame, kPatchMinBytes, "updated count")) return false;
-  m.updated.resize(n);
-  for (uint32_t i = 0; i < n; ++i) {
-    if (!readPatch(r, m.updated[i], limits)) {
-      r.error = "updated[" + std::to_string(i) + "]." + r.error;
-      return false;
-    }
-  }
-  if (!r.count(n, limits.maxColoursPerFrame, kColourBytes, "colours count")) return false;
-  m.colours.resize(n);
-  for (uint32_t i = 0; i < n; ++i) {
-    PatchColour& c = m.colours[i];
-    std::string field = "colours[" + std::to_string(i) + "]";
-    if (!r.u32(c.id, field + ".id")) return false;
-    for (uint8_t& channel : c.rgba)
-      if (!r.u8(channel, field + ".rgba")) return false;
-  }
+  if (!wire::readPatchSection(r, m, limits)) return false;
   uint8_t codec = 0;
   uint32_t byteCount = 0;
   if (!r.u8(codec, "atlas.codec") || !r.u32(m.atlas.width, "atlas.width") || !r.u32(m.atlas.height, "atlas.height") ||

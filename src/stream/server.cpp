@@ -93,18 +93,14 @@ struct StreamServer::Impl {
     }
     ClientStreamConfig config = options.stream;
     config.codec = codec;
+    config.zstdPatches = (hello.capabilities & kCapabilityZstdPatches) != 0;
     auto stream = ClientStream::create(*scene, config);
     if (!stream) {
       transport.close(id, CloseCode::Unsupported, stream.error().message);
       return;
     }
-    Welcome w;
+    Welcome w = sceneWelcome(*scene, codec);
     w.sessionId = id;
-    w.sceneMin = scene->bounds.min;
-    w.sceneMax = scene->bounds.max;
-    w.atlasWidth = w.atlasHeight = scene->atlasSize;
-    w.codec = codec;
-    w.patchCount = scene->patches.patchCount();
     w.maxMessageBytes = options.transport.maxMessageBytes;
     if (!transport.send(id, w)) return;
     clients[id] = Client{std::move(*stream)};

@@ -28,15 +28,13 @@ uint64_t microsecondsNow() {
 // larger frames shade in several calls.
 constexpr uint32_t kMaxPatchesPerShade = 1u << 18;
 
-// Bytes of the Frame's geometry entries as encodeMessage writes them (protocol.h): an id per
-// removed patch; per update its fixed fields and the used vertex slots.
-uint64_t updateBytes(const PatchUpdate& u) { return 4 + 1 + 1 + 12ull * patchVertexCount(u.triangleCount) + 2 + 2 + 1; }
-
 } // namespace
 
 Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, const StreamSceneOptions& options) {
   if (options.atlasSize < 128 || options.atlasSize > 16384 || (options.atlasSize & (options.atlasSize - 1)))
     return Error{fmt::format("--atlas-size {} must be a power of two in 128..16384", options.atlasSize)};
+  if (options.positionBits < 8 || options.positionBits > kPositionGridBits)
+    return Error{fmt::format("--position-bits {} must be in 8..{}", options.positionBits, kPositionGridBits)};
   std::optional<shading::MaterialFile> materials;
   if (!options.materials.empty()) { // read first: a bad material file costs no import
     auto file = shading::loadMaterialFile(options.materials);
@@ -65,8 +63,20 @@ Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, cons
   s->meshFirstVertex = render::atlasMeshFirstVertex(s->scene);
   s->bounds = s->scene.worldBounds();
   s->atlasSize = options.atlasSize;
+  s->positionStep = positionGridStep(s->bounds.min, s->bounds.max, options.positionBits);
   for (const Material& m : s->scene.materials) s->translucent |= m.alphaMode != mirage::AlphaMode::Opaque;
   return s;
+}
+
+Welcome sceneWelcome(const StreamScene& scene, AtlasCodec codec) {
+  Welcome w;
+  w.sceneMin = scene.bounds.min;
+  w.sceneMax = scene.bounds.max;
+  w.positionStep = scene.positionStep;
+  w.atlasWidth = w.atlasHeight = scene.atlasSize;
+  w.codec = codec;
+  w.patchCount = scene.patches.patchCount();
+  return w;
 }
 
 AlphaMode patchAlphaMode(const StreamScene& scene, uint32_t globalPatch) {
@@ -144,6 +154,8 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   if (!visible) return visible.error();
   st.visibilityMs = msSince(t0);
   st.visiblePatches = uint32_t(visible->size());
+  const uint32_t frameNumber = sequence_ + 1;
+  for (uint32_t id : *visible) lastVisible_[id] = frameNumber;
 
   // Level selection: the larger block either view wants, the bias lowered alike for every patch
   // when their blocks would not fit the atlas share (ClientStreamConfig::atlasFill).
@@ -189,6 +201,13 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   }
   for (uint32_t id : *visible)
     if (!atlas_.placement(id)) colourOnly.push_back(id);
+  // Colour-only patches stay with the client keepInvisibleFrames frames after they were last
+  // visible, as placed ones keep their blocks; they keep the colour last sent.
+  std::vector<uint32_t> keptColourOnly;
+  for (const auto& [id, held] : held_)
+    if (!held.block && !atlas_.placement(id) && lastVisible_[id] != frameNumber &&
+        frameNumber - lastVisible_[id] <= config_.keepInvisibleFrames)
+      keptColourOnly.push_back(id);
   st.placedPatches = uint32_t(blocks.size());
   st.colourOnly = uint32_t(colourOnly.size());
   scene.shading->clearAtlas();
@@ -244,11 +263,25 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   st.encodeMs = msSince(tEncode);
   st.atlasBytes = frame.atlas.bytes.size();
 
+  diffPatches(scene, placed, colourOnly, keptColourOnly, colours, frame, st);
+  frame.sequence = ++sequence_;
+  frame.poseSequence = pose.sequence;
+  frame.serverTimeUs = microsecondsNow();
+  st.totalMs = msSince(t0);
+  if (stats) *stats = st;
+  return frame;
+}
+
+void ClientStream::diffPatches(const StreamScene& scene, const std::vector<std::pair<uint32_t, AtlasPlacement>>& placed,
+                               const std::vector<uint32_t>& colourOnly, const std::vector<uint32_t>& keptColourOnly,
+                               const std::vector<glm::u8vec4>& colours, Frame& frame, StreamFrameStats& st) {
+  kept_.beginFrame(sequence_ + 1); // the frame this one will be (produceFrame numbers it last)
   // What the client holds next: the patches with a block, and the visible ones without (colour-only).
   std::unordered_map<uint32_t, Held> next;
-  next.reserve(placed.size() + colourOnly.size());
-  for (const auto& [id, block] : placed) next[id] = Held{block};
+  next.reserve(placed.size() + colourOnly.size() + keptColourOnly.size());
+  for (const auto& [id, block] : placed) next[id] = Held{block, {}};
   for (uint32_t id : colourOnly) next[id] = Held{};
+  for (uint32_t id : keptColourOnly) next[id] = Held{};
   for (const auto& [id, held] : held_)
     if (!next.count(id)) frame.removed.push_back(id);
   std::sort(frame.removed.begin(), frame.removed.end());
@@ -257,39 +290,63 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   for (const auto& [id, held] : next) nextIds.push_back(id);
   std::sort(nextIds.begin(), nextIds.end());
   for (uint32_t id : nextIds) {
-    const Held& now = next[id];
+    Held& now = next[id];
     auto before = held_.find(id);
-    if (before != held_.end() && before->second.block == now.block) continue;
+    if (before != held_.end() && before->second.block == now.block) {
+      now.colour = before->second.colour; // unchanged: the client keeps its colour
+      continue;
+    }
     PatchUpdate u;
     u.id = id;
     const Patch& patch = scene.patches.patch(scene.patches.patchRef(id));
     u.triangleCount = uint8_t(patch.triangleCount);
-    u.alpha = patchAlphaMode(scene, id);
-    patchWorldPositions(scene.scene, scene.patches, id, u.positions.data());
+    // The client has the geometry when it holds the patch, or was told to remove it lately.
+    u.geometry = before == held_.end() && !kept_.take(id);
+    if (u.geometry) {
+      u.alpha = patchAlphaMode(scene, id);
+      glm::vec3 world[MIRAGE_ATLAS_MAX_PATCH_VERTICES];
+      patchWorldPositions(scene.scene, scene.patches, id, world);
+      for (uint32_t v = 0; v < patchVertexCount(patch.triangleCount); ++v)
+        u.positions[v] = quantizePosition(world[v], scene.bounds.min, scene.positionStep);
+    } else {
+      st.blockOnly++;
+    }
     if (now.block) {
       u.blockX = uint16_t(now.block->x);
       u.blockY = uint16_t(now.block->y);
       u.blockLog2 = uint8_t(now.block->log2);
     } else {
-      u.blockLog2 = kColourOnlyBlock;
+      u.blockLog2 = kColourOnlyBlock; // the entry clears the client's colour: one follows below
     }
-    st.geometryBytes += updateBytes(u);
     frame.updated.push_back(u);
   }
-  st.geometryBytes += 4ull * frame.removed.size();
-  for (size_t i = 0; i < colourOnly.size(); ++i)
-    frame.colours.push_back({colourOnly[i], {colours[i].r, colours[i].g, colours[i].b, colours[i].a}});
-  st.colourBytes = 8ull * frame.colours.size();
+  // Colours of colour-only patches the client does not have yet (new to it, or changed).
+  for (size_t i = 0; i < colourOnly.size(); ++i) {
+    std::array<uint8_t, 4> rgba = {colours[i].r, colours[i].g, colours[i].b, colours[i].a};
+    Held& h = next[colourOnly[i]];
+    if (h.colour == rgba) continue;
+    h.colour = rgba;
+    frame.colours.push_back({colourOnly[i], rgba});
+  }
+  for (uint32_t id : frame.removed) {
+    kept_.keep(id, Nothing{});
+    lastVisible_.erase(id);
+  }
   held_ = std::move(next);
 
-  frame.sequence = ++sequence_;
-  frame.poseSequence = pose.sequence;
-  frame.serverTimeUs = microsecondsNow();
+  frame.patchCodec = PatchCodec::Raw;
+  st.geometryRawBytes = st.geometryBytes = patchSectionBytes(frame);
+  if (config_.zstdPatches) {
+    frame.patchCodec = PatchCodec::Zstd;
+    st.geometryBytes = patchSectionBytes(frame);
+    if (st.geometryBytes >= st.geometryRawBytes) {
+      frame.patchCodec = PatchCodec::Raw;
+      st.geometryBytes = st.geometryRawBytes;
+    }
+  }
   st.addedOrMoved = uint32_t(frame.updated.size());
   st.removed = uint32_t(frame.removed.size());
-  st.totalMs = msSince(t0);
-  if (stats) *stats = st;
-  return frame;
+  st.colours = uint32_t(frame.colours.size());
 }
 
 } // namespace mirage::stream

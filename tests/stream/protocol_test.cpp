@@ -24,12 +24,26 @@ PatchUpdate patch(uint32_t id, uint8_t triangles, uint8_t log2) {
   p.id = id;
   p.triangleCount = triangles;
   p.alpha = triangles == 2 ? AlphaMode::Blend : AlphaMode::Opaque;
-  for (uint32_t v = 0; v < patchVertexCount(triangles); ++v)
-    p.positions[v] = {float(v), float(id) * 0.5f, -float(v + id)};
+  for (uint32_t v = 0; v < patchVertexCount(triangles); ++v) // far apart and on the grid's edges
+    p.positions[v] = {v * 1000u, id % 1000u * 77u, v == 4 ? kPositionGridMax : kPositionGridMax - v - id % 1000u};
   p.blockLog2 = log2;
   if (log2 != kColourOnlyBlock) {
     p.blockX = uint16_t(128 * id);
     p.blockY = 256;
+  }
+  return p;
+}
+
+// A block-only entry: the client's own geometry of the patch at a new block.
+PatchUpdate blockOnly(uint32_t id, uint8_t triangles, uint8_t log2) {
+  PatchUpdate p;
+  p.id = id;
+  p.triangleCount = triangles;
+  p.geometry = false;
+  p.blockLog2 = log2;
+  if (log2 != kColourOnlyBlock) {
+    p.blockX = uint16_t(64 << log2);
+    p.blockY = uint16_t(3 << log2);
   }
   return p;
 }
@@ -39,9 +53,18 @@ Frame sampleFrame() {
   f.sequence = 77;
   f.poseSequence = 41;
   f.serverTimeUs = 123456789012ull;
-  f.removed = {5, 9, 1000};
-  f.updated = {patch(1, 1, 1), patch(2, 2, 4), patch(3, 3, 7), patch(4, 3, kColourOnlyBlock)};
-  f.colours = {{4, {10, 20, 30, 255}}, {8, {0, 0, 0, 0}}};
+  f.removed = {5, 9, 1000, 0xffffffffu};
+  f.updated = {patch(1, 1, 1),
+               patch(2, 2, 4),
+               patch(3, 3, 7),
+               patch(4, 3, kColourOnlyBlock),
+               blockOnly(6, 2, 5),
+               blockOnly(7, 3, 6),
+               blockOnly(70000, 1, kColourOnlyBlock),
+               patch(0xfffffff0u, 2, 1)};
+  f.updated.back().blockX = 16382; // the last block along the widest atlas
+  f.updated.back().blockY = 0;
+  f.colours = {{4, {10, 20, 30, 255}}, {8, {0, 0, 0, 0}}, {70000, {1, 2, 3, 4}}};
   f.atlas.codec = AtlasCodec::ZstdTiles;
   f.atlas.width = 512;
   f.atlas.height = 256;
@@ -55,6 +78,7 @@ std::vector<Message> sampleMessages() {
   welcome.sessionId = 0x0123456789abcdefull;
   welcome.sceneMin = {-10.0f, -1.0f, -5.5f};
   welcome.sceneMax = {10.0f, 4.0f, 5.5f};
+  welcome.positionStep = positionGridStep(welcome.sceneMin, welcome.sceneMax, 20);
   welcome.atlasWidth = 4096;
   welcome.atlasHeight = 2048;
   welcome.codec = AtlasCodec::H264;
@@ -68,7 +92,9 @@ std::vector<Message> sampleMessages() {
   pose.predicted = camera(0.25f);
   pose.viewportWidth = 1280;
   pose.viewportHeight = 720;
-  return {hello, welcome, pose, sampleFrame(), Close{CloseCode::BadToken, "wrong token"}, Frame{}};
+  Frame zstd = sampleFrame();
+  zstd.patchCodec = PatchCodec::Zstd;
+  return {hello, welcome, pose, sampleFrame(), Close{CloseCode::BadToken, "wrong token"}, Frame{}, zstd};
 }
 
 Result<Message> decode(const std::vector<uint8_t>& bytes, const DecodeLimits& limits = {}) {
@@ -87,9 +113,6 @@ void setU32(std::vector<uint8_t>& bytes, size_t at, uint32_t v) {
 }
 
 void setPayloadLength(std::vector<uint8_t>& bytes) { setU32(bytes, 8, uint32_t(bytes.size() - kMessageHeaderBytes)); }
-
-// Offset of the Frame's removed count (after sequence, poseSequence, serverTimeUs).
-constexpr size_t kRemovedCountAt = kMessageHeaderBytes + 16;
 
 } // namespace
 
@@ -148,8 +171,8 @@ TEST(StreamProtocol, HeaderChecks) {
   badMagic[0] = 'X';
   expectError(decode(badMagic), "magic");
   std::vector<uint8_t> badVersion = bytes;
-  badVersion[4] = 2;
-  expectError(decode(badVersion), "protocol version 2");
+  badVersion[4] = 1; // the float32 positions of version 1
+  expectError(decode(badVersion), "protocol version 1, this build speaks version 2");
   std::vector<uint8_t> badType = bytes;
   badType[6] = 9;
   expectError(decode(badType), "unknown message type 9");
@@ -163,20 +186,16 @@ TEST(StreamProtocol, OversizedMessagesAndCountsAreRejected) {
   small.maxMessageBytes = uint32_t(frame.size() - 1);
   expectError(decode(frame, small), "over the limit");
 
-  std::vector<uint8_t> forged = frame;
-  setU32(forged, kRemovedCountAt, 0xffffffffu);
-  expectError(decode(forged), "Frame: removed count 4294967295 over the limit");
-
-  // Within the limit, but more entries than bytes left: rejected before anything is allocated.
-  setU32(forged, kRemovedCountAt, 1000);
-  expectError(decode(forged), "removed count 1000 entries need 4000 bytes");
-
+  // Counts in the patch section: docs/stream.md's patch section tests (patch_section_test.cpp) forge them.
   DecodeLimits fewPatches;
   fewPatches.maxPatchesPerFrame = 3;
-  expectError(decode(frame, fewPatches), "Frame: updated count 4 over the limit of 3");
+  expectError(decode(frame, fewPatches), "Frame: updated count 8 over the limit of 3");
   DecodeLimits fewColours;
   fewColours.maxColoursPerFrame = 1;
-  expectError(decode(frame, fewColours), "colours count 2 over the limit of 1");
+  expectError(decode(frame, fewColours), "colours count 3 over the limit of 1");
+  DecodeLimits fewRemoved;
+  fewRemoved.maxRemovedPerFrame = 2;
+  expectError(decode(frame, fewRemoved), "Frame: removed count 4 over the limit of 2");
   DecodeLimits shortToken;
   shortToken.maxTokenBytes = 4;
   expectError(decode(encodeMessage(sampleMessages()[0]), shortToken), "Hello: token length 12 over the limit of 4");
@@ -187,14 +206,12 @@ TEST(StreamProtocol, OversizedMessagesAndCountsAreRejected) {
 
 TEST(StreamProtocol, FieldChecksNameTypeAndField) {
   Frame frame = sampleFrame();
-  frame.updated[1].triangleCount = 4;
-  expectError(decode(encodeMessage(frame)), "Frame: updated[1].triangleCount 4 not in 1..3");
+  frame.updated[1].triangleCount = 0;
+  expectError(decode(encodeMessage(frame)), "Frame: updated[1].triangleCount 0 not in 1..3");
   frame = sampleFrame();
   frame.updated[0].blockLog2 = 8;
-  expectError(decode(encodeMessage(frame)), "Frame: updated[0].blockLog2 8");
-  frame = sampleFrame();
-  frame.updated[2].positions[4].y = std::numeric_limits<float>::quiet_NaN();
-  expectError(decode(encodeMessage(frame)), "Frame: updated[2].positions[4].y: not a finite number");
+  frame.updated[0].blockX = frame.updated[0].blockY = 0;
+  expectError(decode(encodeMessage(frame)), "Frame: updated[0].blockLog2 8 not in 1..7");
   frame = sampleFrame();
   frame.atlas.bytes.clear();
   expectError(decode(encodeMessage(frame)), "Frame: atlas.byteCount 0");
@@ -215,6 +232,13 @@ TEST(StreamProtocol, FieldChecksNameTypeAndField) {
   Welcome welcome = std::get<Welcome>(sampleMessages()[1]);
   welcome.codec = AtlasCodec::None;
   expectError(decode(encodeMessage(welcome)), "Welcome: codec 0");
+  welcome = std::get<Welcome>(sampleMessages()[1]);
+  welcome.positionStep = 0.0f;
+  expectError(decode(encodeMessage(welcome)), "Welcome: positionStep 0.000000 not above 0");
+  welcome.positionStep = std::numeric_limits<float>::quiet_NaN();
+  expectError(decode(encodeMessage(welcome)), "Welcome: positionStep: not a finite number");
+  welcome.positionStep = 20.0f / float(kPositionGridMax) * 0.99f; // 20 wide: the grid ends short of it
+  expectError(decode(encodeMessage(welcome)), "the grid does not span the scene bounds");
   std::vector<uint8_t> close = encodeMessage(Close{CloseCode::Normal, ""});
   close[kMessageHeaderBytes] = 200;
   expectError(decode(close), "Close: code 200");

@@ -141,12 +141,15 @@ def linear_to_srgb(c):
 STREAM_CAMERAS = ["eye=0,0,3,target=0,0,0,fov=60", {"eye": [0.3, 0.1, 2.5], "target": [0.3, 0.1, 0], "fov": 60}]
 STREAM_EYES = [(0.0, 0.0, 3.0), (0.3, 0.1, 2.5)]
 ATLAS_W, ATLAS_H = 200, 136  # JpegTiles.WritesBrowserFixture's image
+SCENE_MIN = (-2, -2, -2)
+QUAD_BLOCK_X = (0, 32)  # the quad's block per frame: frame 2 moves it by a block-only entry
 
 
 def check_stream_client(chromium, site):
-    """The served page end to end: Hello (token from the URL fragment, JPEG tiles capability), a Pose
-    per path camera with that camera, Frames with patches, a colour and JPEG tiles (key, then delta
-    plus a removed patch) drawn as the shared atlas layout says."""
+    """The served page end to end: Hello (token from the URL fragment, JPEG tiles capability, zstd patch
+    sections only where the browser decompresses zstd), a Pose per path camera with that camera,
+    Frames with patches, a colour and JPEG tiles (key, then delta plus a removed patch and the quad
+    moved to another block by a block-only entry) drawn as the shared atlas layout says."""
     with open(os.path.join(site, "cams.json"), "w") as f:
         json.dump({"cameras": STREAM_CAMERAS}, f)
     payloads = [open(os.path.join(site, name), "rb").read() for name in ("key.mjt", "delta.mjt")]
@@ -160,12 +163,14 @@ def check_stream_client(chromium, site):
     def script(kind, fields, log):
         log.append((kind, fields))
         if kind == mock_server.HELLO:
-            return [mock_server.welcome((-2, -2, -2), (2, 2, 2), ATLAS_W, ATLAS_H, 2)]
+            return [mock_server.welcome(SCENE_MIN, (2, 2, 2), ATLAS_W, ATLAS_H, 2)]
         sent.append(fields["sequence"])
         atlas = (mock_server.CODEC_JPEG_TILES, ATLAS_W, ATLAS_H, payloads[min(len(sent), 2) - 1])
         if len(sent) == 1:
-            return [mock_server.frame(1, fields["sequence"], [], [quad, triangle], [(1, (255, 0, 255, 255))], atlas)]
-        return [mock_server.frame(len(sent), fields["sequence"], [1], [], [], atlas)]
+            return [mock_server.frame(1, fields["sequence"], [], [quad, triangle], [(1, (255, 0, 255, 255))], atlas,
+                                      SCENE_MIN)]
+        moved = dict(id=0, triangles=2, alpha=0, log2=5, x=QUAD_BLOCK_X[1], y=0, geometry=False)
+        return [mock_server.frame(len(sent), fields["sequence"], [1], [moved], [], atlas, SCENE_MIN)]
 
     server = mock_server.serve(site, script)
     out = os.path.join(os.path.dirname(site), "stream")
@@ -213,12 +218,13 @@ def check_stream_client(chromium, site):
             expected = []
             for c in range(3):
                 def texel(u, v):
-                    return srgb_to_linear(texels[4 * (v * ATLAS_W + u) + c])
+                    return srgb_to_linear(texels[4 * (v * ATLAS_W + QUAD_BLOCK_X[i] + u) + c])
                 linear = ((texel(x0, y0) * (1 - fx) + texel(x0 + 1, y0) * fx) * (1 - fy) +
                           (texel(x0, y0 + 1) * (1 - fx) + texel(x0 + 1, y0 + 1) * fx) * fy)
                 expected.append(round(linear_to_srgb(linear)))
             checks.append((all(abs(g - e) <= 10 for g, e in zip(got, expected)),
-                           f"frame {i}: atlas texel ({tx + 0.5:.2f}, {ty + 0.5:.2f}) at pixel ({px}, {py}): "
+                           f"frame {i}: block ({QUAD_BLOCK_X[i]}, 0) texel ({tx + 0.5:.2f}, {ty + 0.5:.2f}) at pixel "
+                           f"({px}, {py}): "
                            f"{got}, expected {tuple(expected)}"))
     for ok, text in checks:
         print(f"{'ok  ' if ok else 'FAIL'} stream client: {text}")

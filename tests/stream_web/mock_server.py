@@ -17,26 +17,77 @@ CAPABILITY_JPEG_TILES = 1 << 2
 CODEC_NONE, CODEC_JPEG_TILES = 0, 3
 
 
+VERSION = 2
+# The position grid of the mock scene: Welcome.positionStep over scene_min (exact in float32).
+POSITION_STEP = 1 / 1024
+
+
 def message(kind, payload):
-    return HEADER.pack(b"MRGS", 1, kind, len(payload)) + payload
+    return HEADER.pack(b"MRGS", VERSION, kind, len(payload)) + payload
 
 
 def welcome(scene_min, scene_max, atlas_width, atlas_height, patch_count):
-    return message(WELCOME, struct.pack("<Q3f3fIIBIII", 42, *scene_min, *scene_max, atlas_width, atlas_height,
-                                        CODEC_JPEG_TILES, patch_count, 1 << 24, 0))
+    return message(WELCOME, struct.pack("<Q3f3ffIIBIII", 42, *scene_min, *scene_max, POSITION_STEP, atlas_width,
+                                        atlas_height, CODEC_JPEG_TILES, patch_count, 1 << 24, 0))
 
 
-def frame(sequence, pose_sequence, removed, updated, colours, atlas):
-    """updated: dicts id, triangles, alpha, log2, x, y, positions; colours: (id, (r, g, b, a));
-    atlas: (codec, width, height, bytes)."""
-    out = struct.pack("<IIQI", sequence, pose_sequence, 0, len(removed))
-    out += b"".join(struct.pack("<I", i) for i in removed)
-    out += struct.pack("<I", len(updated))
+def varint(v):
+    out = bytearray()
+    while v >= 0x80:
+        out.append(v & 0x7F | 0x80)
+        v >>= 7
+    out.append(v)
+    return bytes(out)
+
+
+def zigzag(v):
+    return -2 * v - 1 if v < 0 else 2 * v
+
+
+def predict(q, slot, k, previous_a):
+    """Grid coordinate k of slot `slot` as predicted (patch_section.cpp): a from the previous geometry
+    entry's a, b and c from a, d = b + c - a, e = b + d - c."""
+    if slot == 0:
+        return previous_a[k]
+    if slot <= 2:
+        return q[0][k]
+    if slot == 3:
+        return q[1][k] + q[2][k] - q[0][k]
+    return q[1][k] + q[3][k] - q[2][k]
+
+
+def frame(sequence, pose_sequence, removed, updated, colours, atlas, scene_min):
+    """A Frame with a raw patch section (src/stream/patch_section.cpp). updated: dicts id, triangles,
+    alpha, log2, x, y and positions (world, quantized on the grid over scene_min), or geometry=False for
+    a block-only entry; ids increasing in each list. colours: (id, (r, g, b, a)); atlas: (codec, width,
+    height, bytes)."""
+    section = bytearray(varint(len(removed)))
+    next_id = 0
+    for i in removed:
+        section += varint(i - next_id)
+        next_id = i + 1
+    section += varint(len(updated))
+    next_id, previous_a = 0, (0, 0, 0)
     for p in updated:
-        out += struct.pack("<IBBBBHH", p["id"], p["triangles"], p["alpha"], p["log2"], 0, p["x"], p["y"])
-        out += b"".join(struct.pack("<3f", *v) for v in p["positions"])
-    out += struct.pack("<I", len(colours))
-    out += b"".join(struct.pack("<I4B", i, *rgba) for i, rgba in colours)
+        geometry, colour_only = p.get("geometry", True), p["log2"] == 255
+        section += varint(p["id"] - next_id)
+        next_id = p["id"] + 1
+        section.append(p["triangles"] | (p["alpha"] << 2 | 0x10 if geometry else 0) | (0x20 if colour_only else 0))
+        if not colour_only:
+            section += bytes([p["log2"]]) + varint(p["x"] >> p["log2"]) + varint(p["y"] >> p["log2"])
+        if not geometry:
+            continue
+        q = [[round((v[k] - scene_min[k]) / POSITION_STEP) for k in range(3)] for v in p["positions"]]
+        for i, v in enumerate(q):
+            for k in range(3):
+                section += varint(zigzag(v[k] - predict(q, i, k, previous_a)))
+        previous_a = q[0]
+    section += varint(len(colours))
+    next_id = 0
+    for i, rgba in colours:
+        section += varint(i - next_id) + bytes(rgba)
+        next_id = i + 1
+    out = struct.pack("<IIQBI", sequence, pose_sequence, 0, 0, len(section)) + section
     codec, width, height, data = atlas
     out += struct.pack("<BIII", codec, width, height, len(data)) + data
     return message(FRAME, out)
@@ -47,7 +98,7 @@ def parse_client_message(data):
     if len(data) < HEADER.size:
         raise ValueError(f"message of {len(data)} bytes")
     magic, version, kind, length = HEADER.unpack_from(data)
-    if magic != b"MRGS" or version != 1 or length != len(data) - HEADER.size:
+    if magic != b"MRGS" or version != VERSION or length != len(data) - HEADER.size:
         raise ValueError(f"bad header {magic!r} version {version} length {length} of {len(data) - HEADER.size}")
     payload = data[HEADER.size:]
     if kind == HELLO:

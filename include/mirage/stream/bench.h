@@ -32,6 +32,7 @@ struct StreamBenchConfig {
   uint32_t latencyFrames = 0; // round trip, in frames
   float levelBias = 0.0f;
   float atlasFill = ClientStreamConfig{}.atlasFill; // share of the atlas level selection fits the blocks to (0: none)
+  uint32_t positionBits = 20;                       // StreamSceneOptions::positionBits
   bool quality = true;                              // client 0 draws every frame and is compared with local rendering
 };
 
@@ -42,7 +43,10 @@ struct StreamBenchFrame {
   uint32_t visiblePatches = 0, colourOnly = 0;
   float levelBias = 0.0f; // client 0's, after fitting the atlas
   // Client 0.
-  uint64_t geometryBytes = 0, colourBytes = 0, atlasBytes = 0;
+  // The patch section (removed ids, entries, colours) as sent and before zstd; the atlas payload.
+  uint64_t geometryBytes = 0, geometryRawBytes = 0, atlasBytes = 0;
+  // Entries with positions, block-only entries, removed ids, colours sent.
+  uint32_t geometryEntries = 0, blockOnlyEntries = 0, removed = 0, colours = 0;
   double clientApplyMs = 0, clientRenderMs = 0; // decode + upload; drawing (wall, incl. readback)
   double ssim = 0, psnr = 0;                    // against the forward renderer (quality on)
 };

@@ -20,14 +20,17 @@
 
 namespace mirage::stream {
 
+class StreamView;
+
 struct StreamClientOptions {
   std::string url;    // ws://host:port/ or wss://host:port/
   std::string token;  // the server's shared secret
   std::string caFile; // wss: certificates to trust (empty: the system's)
   uint32_t width = 1280, height = 720;
-  uint32_t capabilities = kCapabilityZstdTiles | kCapabilityH264; // the atlas codecs offered
-  std::chrono::milliseconds timeout{10000};                       // connecting, and waiting for each frame
-  uint32_t maxFrameBytes = 256u << 20;                            // largest server message accepted
+  // The atlas codecs offered (the zstd patch section is always: transportConfig adds it).
+  uint32_t capabilities = kCapabilityZstdTiles | kCapabilityH264;
+  std::chrono::milliseconds timeout{10000}; // connecting, and waiting for each frame
+  uint32_t maxFrameBytes = 256u << 20;      // largest server message accepted
   // Both eyes side by side (clientEyes of each camera): the images are
   // 2 * width x height, width x height per eye (docs/stream.md, "The native client window and stereo").
   std::optional<float> stereoIpd;
@@ -50,8 +53,26 @@ struct ClientFrameInfo {
 
 using ClientFrameSink = std::function<Status(const ClientFrameInfo&, const render::RenderOutput&)>;
 
-// The protocol's options of a client: token, codecs, viewport (one eye's), stereo, limits.
+// The protocol's options of a client: token, codecs (with kCapabilityZstdPatches), viewport (one
+// eye's), stereo, limits.
 ClientConfig transportConfig(const StreamClientOptions& options);
+
+// A frame as it arrived, with the size of its message.
+struct ReceivedFrame {
+  Frame frame;
+  uint64_t bytes = 0;
+};
+
+// Sends `pose` and receives the server's frames up to the one answering it, in order (frames
+// answering earlier poses may come first). Errors: the connection lost or closed by the server (its
+// reason), a message other than a Frame, nothing within options.timeout.
+Result<std::vector<ReceivedFrame>> exchangePose(TransportClient& transport, const Pose& pose,
+                                                const StreamClientOptions& options);
+
+// Applies `received` to `view` and counts it in `info` (frames applied, bytes, last server frame). A
+// frame that does not apply closes the connection (Close Malformed) and is an error naming the URL.
+Status applyReceivedFrame(StreamView& view, TransportClient& transport, const ReceivedFrame& received,
+                          const StreamClientOptions& options, ClientFrameInfo& info);
 
 // The eyes a stereo client draws for `camera`: render::stereoEyes, each with its own clip planes (as
 // the forward renderer's `mirage render --stereo`).

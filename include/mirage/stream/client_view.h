@@ -11,6 +11,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/render/atlas_client.h"
 #include "mirage/stream/jpeg_tiles.h"
+#include "mirage/stream/kept_patches.h"
 #include "mirage/stream/protocol.h"
 #include "mirage/stream/tile_codec.h"
 #include "mirage/stream/video.h"
@@ -22,9 +23,11 @@ public:
   // The renderer and the decoder for the atlas size and codec `welcome` names.
   static Result<std::unique_ptr<StreamView>> create(gpu::Context& context, const Welcome& welcome);
 
-  // Applies a server frame: removed patches, added or moved ones, colours, the atlas. Errors (a
-  // patch id past the scene's, a colour for a patch the client does not hold, an atlas payload
-  // that does not decode) name the frame; the caller closes the connection (its state may be
+  // Applies the connection's next server frame: removed patches (their geometry kept for
+  // kKeptGeometryFrames frames), added patches and new blocks, colours, the atlas. Errors (a patch id
+  // past the scene's, a removal of a patch not held, positions for a patch held, a block-only entry
+  // for geometry the client does not have, a colour for a patch not held as colour-only, an atlas
+  // payload that does not decode) name the frame; the caller closes the connection (its state may be
   // partly applied).
   Status apply(const Frame& frame);
 
@@ -33,6 +36,7 @@ public:
                                       bool readLinear = false);
 
   size_t patchCount() const { return patches_.size(); }
+  size_t keptCount() const { return kept_.size(); } // removed patches whose geometry is kept
   const Welcome& welcome() const { return welcome_; }
   render::AtlasClientRenderer& renderer() { return *renderer_; }
   // Uploads a decoded image: the atlas, or the atlas with its alpha stacked below (twice the height).
@@ -47,6 +51,8 @@ private:
   std::optional<VideoDecoder> video_;
   std::optional<JpegTileDecoder> jpeg_; // made by the first payload (its height says: stacked alpha or not)
   std::unordered_map<uint32_t, render::ClientPatch> patches_;
+  KeptPatches<render::ClientPatch> kept_;
+  uint32_t frames_ = 0; // frames applied
 };
 
 } // namespace mirage::stream

@@ -4,7 +4,9 @@
 // (magic "MRGS", uint16 version, uint16 type, uint32 payload length) followed by its payload.
 // Messages are plain structs; encodeMessage writes them, decodeMessage checks every length and count
 // against the bytes left and against DecodeLimits before it reads, so a hostile peer gets a one-line
-// error, never an out-of-bounds read or a huge allocation.
+// error, never an out-of-bounds read or a huge allocation. A Frame's patch changes travel in a compact
+// patch section (docs/stream.md, "Patch section"): varints, positions on an integer grid, block-only
+// entries for geometry the client already has, optionally zstd.
 #include <array>
 #include <cstdint>
 #include <span>
@@ -20,20 +22,23 @@
 namespace mirage::stream {
 
 inline constexpr std::array<uint8_t, 4> kMessageMagic = {'M', 'R', 'G', 'S'};
-inline constexpr uint16_t kProtocolVersion = 1;
+inline constexpr uint16_t kProtocolVersion = 2;
 inline constexpr size_t kMessageHeaderBytes = 12;
 
 enum class MessageType : uint16_t { Hello = 1, Welcome = 2, Pose = 3, Frame = 4, Close = 5 };
 // "Hello", "Welcome", ... ("type N" for a value outside the enum).
 std::string messageTypeName(MessageType type);
 
-// Hello.capabilities bits: the atlas codecs a client can decode.
+// Hello.capabilities bits: the atlas codecs a client can decode, and whether it decodes a zstd patch
+// section (Frame.patchCodec; browsers without DecompressionStream("zstd") do not).
 enum CodecCapability : uint32_t {
   kCapabilityZstdTiles = 1u << 0,
   kCapabilityH264 = 1u << 1,
   kCapabilityJpegTiles = 1u << 2,
+  kCapabilityZstdPatches = 1u << 3,
 };
-inline constexpr uint32_t kKnownCapabilities = kCapabilityZstdTiles | kCapabilityH264 | kCapabilityJpegTiles;
+inline constexpr uint32_t kKnownCapabilities =
+    kCapabilityZstdTiles | kCapabilityH264 | kCapabilityJpegTiles | kCapabilityZstdPatches;
 
 // The codec of an atlas payload. None: the frame carries no atlas (geometry or colours only).
 enum class AtlasCodec : uint8_t { None = 0, ZstdTiles = 1, H264 = 2, JpegTiles = 3 };
@@ -67,10 +72,18 @@ struct Hello {
   bool operator==(const Hello&) const = default;
 };
 
+// Patch positions travel as integer coordinates q (each below 2^kPositionGridBits) on a grid: world
+// = sceneMin + q * Welcome.positionStep, per axis. The server rounds to the nearest grid point, so a
+// position is off by at most positionStep / 2 per axis; a vertex shared by two patches lands on the
+// same grid point in both (no cracks).
+inline constexpr uint32_t kPositionGridBits = 24;
+inline constexpr uint32_t kPositionGridMax = (1u << kPositionGridBits) - 1;
+
 // Server -> client, the answer to an accepted Hello.
 struct Welcome {
   uint64_t sessionId = 0;
   glm::vec3 sceneMin{0.0f}, sceneMax{0.0f}; // world-space bounds of the scene
+  float positionStep = 1.0f;                // the position grid's spacing (> 0; the grid covers the bounds)
   uint32_t atlasWidth = 0, atlasHeight = 0; // texels
   AtlasCodec codec = AtlasCodec::ZstdTiles; // chosen from the client's capabilities
   uint32_t patchCount = 0;                  // patches in the scene (ids are below it)
@@ -99,14 +112,24 @@ struct Pose {
 // Block of a patch that did not fit in the atlas: it is drawn with one colour (Frame.colours).
 inline constexpr uint8_t kColourOnlyBlock = 0xff;
 
-// A patch added to the client's set or changed (moved, new block).
+// Frames a client keeps the geometry of a patch it was told to remove: a removal in frame n (the
+// n-th Frame of the connection) may be answered by a block-only entry in frames n .. n + this - 1.
+// Server and client count alike, so the server never refers to geometry the client dropped.
+inline constexpr uint32_t kKeptGeometryFrames = 256;
+
+// A patch added to the client's set or given a new block (docs/stream.md, "Patch section").
 struct PatchUpdate {
   uint32_t id = 0;           // global patch id (below Welcome.patchCount)
   uint8_t triangleCount = 1; // 1..3
+  // True: alpha and positions travel (a patch the client has no geometry of). False: a block-only
+  // entry: the client's own geometry of the patch (held, or kept since its removal) takes the block;
+  // alpha and positions are then Opaque and zero.
+  bool geometry = true;
   AlphaMode alpha = AlphaMode::Opaque;
-  // World positions of vertex slots a..e (shaderio/atlas.h); only the first triangleCount + 2 are sent.
-  std::array<glm::vec3, 5> positions{};
-  uint16_t blockX = 0, blockY = 0; // the block's first texel
+  // Grid coordinates (kPositionGridBits) of vertex slots a..e (shaderio/atlas.h); the first
+  // triangleCount + 2 travel.
+  std::array<glm::uvec3, 5> positions{};
+  uint16_t blockX = 0, blockY = 0; // the block's first texel (a multiple of 2^blockLog2)
   uint8_t blockLog2 = 1;           // MIRAGE_ATLAS_MIN_BLOCK_LOG2..MAX, or kColourOnlyBlock
   bool operator==(const PatchUpdate&) const = default;
 };
@@ -126,14 +149,21 @@ struct AtlasPayload {
   bool operator==(const AtlasPayload&) const = default;
 };
 
-// Server -> client, the answer to a pose.
+// How a Frame's patch section travels: as is, or as one zstd frame (for clients announcing
+// kCapabilityZstdPatches).
+enum class PatchCodec : uint8_t { Raw = 0, Zstd = 1 };
+inline constexpr uint8_t kPatchCodecCount = 2;
+
+// Server -> client, the answer to a pose. The patch section (removed, updated, colours) lists ids in
+// strictly increasing order each (encodeMessage asserts it, the decoder rejects anything else).
 struct Frame {
-  uint32_t sequence = 0;     // frame number, increasing
+  uint32_t sequence = 0;     // frame number: 1, 2, ... on a connection
   uint32_t poseSequence = 0; // the Pose.sequence this frame was rendered for
   uint64_t serverTimeUs = 0;
-  std::vector<uint32_t> removed;    // patch ids the client drops
-  std::vector<PatchUpdate> updated; // patches added or changed
-  std::vector<PatchColour> colours; // colours of colour-only patches
+  PatchCodec patchCodec = PatchCodec::Raw;
+  std::vector<uint32_t> removed;    // patch ids the client drops (it keeps their geometry a while)
+  std::vector<PatchUpdate> updated; // patches added or given a new block
+  std::vector<PatchColour> colours; // colours of colour-only patches that changed
   AtlasPayload atlas;
   bool operator==(const Frame&) const = default;
 };
@@ -154,6 +184,7 @@ struct DecodeLimits {
   uint32_t maxPatchesPerFrame = 1u << 20; // updated entries
   uint32_t maxRemovedPerFrame = 1u << 20;
   uint32_t maxColoursPerFrame = 1u << 20;
+  uint32_t maxPatchSectionBytes = 64u << 20; // a Frame's patch section, decompressed
   uint32_t maxTokenBytes = 256;
   uint32_t maxReasonBytes = 1024;
   uint32_t maxViewportSide = 16384;
@@ -161,6 +192,16 @@ struct DecodeLimits {
 };
 
 std::vector<uint8_t> encodeMessage(const Message& message);
+
+// The bytes a Frame's patch section takes in the message, as `frame.patchCodec` says (compressed
+// when Zstd): what the server compares to choose the codec, and what statistics count.
+size_t patchSectionBytes(const Frame& frame);
+
+// The position grid (Welcome.positionStep): the spacing that spans the largest extent of the bounds
+// with 2^bits - 1 steps (bits 1..kPositionGridBits); quantization and its inverse.
+float positionGridStep(const glm::vec3& sceneMin, const glm::vec3& sceneMax, uint32_t bits);
+glm::uvec3 quantizePosition(const glm::vec3& position, const glm::vec3& sceneMin, float step);
+glm::vec3 dequantizePosition(const glm::uvec3& q, const glm::vec3& sceneMin, float step);
 
 struct MessageHeader {
   MessageType type = MessageType::Hello;

@@ -5,7 +5,8 @@
 // encoder). produceFrame answers one Pose with one Frame:
 //   visibility (current + predicted view) -> level selection -> atlas allocation -> shading of
 //   every visible patch's block -> colours of the patches that did not fit -> atlas encoding ->
-//   the difference to what the client holds (removed, added or moved patches).
+//   the difference to what the client holds (removed, added or moved patches, changed colours) in the
+//   Frame's patch section.
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -19,6 +20,7 @@
 #include "mirage/render/atlas_shading.h"
 #include "mirage/stream/atlas.h"
 #include "mirage/stream/jpeg_tiles.h"
+#include "mirage/stream/kept_patches.h"
 #include "mirage/stream/patches.h"
 #include "mirage/stream/protocol.h"
 #include "mirage/stream/tessellate.h"
@@ -33,6 +35,10 @@ struct StreamSceneOptions {
   uint32_t atlasSize = 2048; // atlas side in texels (a power of two, 128..16384)
   // Large triangles split before patches are built (tessellate.h).
   TessellationConfig tessellation;
+  // Bits per axis of the position grid over the scene bounds (Welcome.positionStep): a position is off
+  // by at most (largest extent) / 2^(bits + 1) per axis. 20 bits: 0.15 mm on the 320 m city, a tenth
+  // of a 1080p pixel (60-degree fov) 2.5 m from the eye (docs/stream.md, "Patch section").
+  uint32_t positionBits = 20;
 };
 
 // What every client of a scene shares. The GPU atlas is scratch: each frame produced clears it and
@@ -46,6 +52,7 @@ struct StreamScene {
   render::AtlasLighting lighting;
   Bounds bounds;
   uint32_t atlasSize = 0;
+  float positionStep = 1.0f; // positionGridStep of the bounds
   // Some material is MASK or BLEND: the atlas's alpha matters. H.264 and JPEG carry no alpha, so
   // their images then stack the alpha below the colour (docs/stream.md, "Stacked alpha").
   bool translucent = false;
@@ -54,6 +61,9 @@ struct StreamScene {
 // Reads (or generates) the scene, tessellates its large triangles, builds its patches and uploads it.
 // Errors name the input.
 Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, const StreamSceneOptions& options);
+
+// The Welcome of a client of `scene` served with `codec` (session id and server limits left 0).
+Welcome sceneWelcome(const StreamScene& scene, AtlasCodec codec);
 
 // The alpha mode of a global patch's material.
 AlphaMode patchAlphaMode(const StreamScene& scene, uint32_t globalPatch);
@@ -77,6 +87,9 @@ struct ClientStreamConfig {
   // patches, blocks up to one level above their wanted level (the allocator's hysteresis) and
   // partly used superblocks (docs/stream.md, "Fitting the atlas"). 0: no fitting.
   float atlasFill = 0.5f;
+  // The client decodes a zstd patch section (Hello's kCapabilityZstdPatches): frames use it when it
+  // is smaller.
+  bool zstdPatches = true;
 };
 
 // H.264 carries colour at half resolution (4:2:0; the encoder averages each 2x2 texel square so no
@@ -92,11 +105,13 @@ struct StreamFrameStats {
   uint32_t placedPatches = 0; // visible with a block
   uint32_t colourOnly = 0;    // visible without one (atlas full)
   uint32_t addedOrMoved = 0;  // PatchUpdates sent
+  uint32_t blockOnly = 0;     // of them without positions (the client's geometry at a new block)
   uint32_t removed = 0;
+  uint32_t colours = 0;       // colours sent (colour-only patches new or changed)
   uint64_t shadedTexels = 0;  // atlas texels shaded (every visible block, every frame)
   float levelBias = 0.0f;     // the level bias used, after fitting the atlas (ClientStreamConfig::atlasFill)
-  uint64_t geometryBytes = 0; // removed + updated entries as encoded
-  uint64_t colourBytes = 0;
+  // The patch section (removed ids, entries, colours) as sent, and before zstd.
+  uint64_t geometryBytes = 0, geometryRawBytes = 0;
   uint64_t atlasBytes = 0;
   double visibilityMs = 0, shadingMs = 0, encodeMs = 0, totalMs = 0; // wall clock on the server
   // GPU time (timestamp queries): the visibility passes; clearing, shading the blocks and the
@@ -118,11 +133,18 @@ public:
 
 private:
   ClientStream(const ClientStreamConfig& config, AtlasAllocator atlas);
+  // Fills frame's patch section with what changed against what the client holds, and makes the
+  // result what it holds (the last step of produceFrame: nothing after it fails).
+  void diffPatches(const StreamScene& scene, const std::vector<std::pair<uint32_t, AtlasPlacement>>& placed,
+                   const std::vector<uint32_t>& colourOnly, const std::vector<uint32_t>& keptColourOnly,
+                   const std::vector<glm::u8vec4>& colours, Frame& frame, StreamFrameStats& st);
 
-  // What the client holds of a patch: its block, or colour-only.
+  // What the client holds of a patch: its block, or colour-only with the colour last sent.
   struct Held {
     std::optional<AtlasPlacement> block;
+    std::optional<std::array<uint8_t, 4>> colour;
   };
+  struct Nothing {}; // what the server keeps of a removed patch: the scene has its geometry
   ClientStreamConfig config_;
   AtlasAllocator atlas_;
   std::optional<TileDeltaEncoder> tiles_;
@@ -132,6 +154,8 @@ private:
   std::vector<uint8_t> stacked_; // that image
   bool keyframe_ = true;
   std::unordered_map<uint32_t, Held> held_;
+  KeptPatches<Nothing> kept_;                          // the client's kept geometry, mirrored
+  std::unordered_map<uint32_t, uint32_t> lastVisible_; // held patch -> the frame it was last visible in
   uint32_t sequence_ = 0;
 };
 
