@@ -72,7 +72,8 @@ public:
     s.countW.resize(nv);
     s.ringU.resize(nv);
     s.ringW.resize(nv);
-    s.ringEnds.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
+    s.endsU.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
+    s.endsW.resize(nt * 6);
     s.cands.resize(nv);
     s.candCost.resize(nv);
     s.q.assign(nv, Quadric{});
@@ -105,7 +106,10 @@ public:
       // u is clean, but the entry was queued unchecked or w's triangles changed since.
       bool tested = checked == kUnchecked || s_.changed[w] > checked;
       if (tested && (gatherRingU(u), !legal(u, w))) {
+        // The cheapest legal candidate instead; w was just refused (nothing changed since).
+        knownIllegal_ = w;
         requeue(u, false);
+        knownIllegal_ = kNil;
         continue;
       }
       // The reported error is the cost with the normal term at collapse time (w's quadrics may
@@ -127,14 +131,16 @@ private:
     std::vector<uint32_t>& count;
     uint32_t& gen;
     uint32_t& size;
+    std::vector<uint32_t>& ends; // the other two corners of each live triangle, as gathered
+    uint32_t& endCount;
     uint32_t uses(uint32_t x) const { return stamp[x] == gen ? count[x] : 0; }
     const uint32_t* begin() const { return list.data(); }
     const uint32_t* end() const { return list.data() + size; }
     void clear() { size = 0, ++gen; }
     void add(uint32_t x, uint32_t n) { stamp[x] = gen, count[x] = n, list[size++] = x; }
   };
-  Ring ringU() { return {s_.ringU, s_.stampU, s_.countU, genU_, sizeU_}; }
-  Ring ringW() { return {s_.ringW, s_.stampW, s_.countW, genW_, sizeW_}; }
+  Ring ringU() { return {s_.ringU, s_.stampU, s_.countU, genU_, sizeU_, s_.endsU, endsU_}; }
+  Ring ringW() { return {s_.ringW, s_.stampW, s_.countW, genW_, sizeW_, s_.endsW, endsW_}; }
 
   template <class F> void forTriangles(uint32_t v, F&& f) {
     for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c])
@@ -229,7 +235,7 @@ private:
     const uint32_t* corners = m_.corners.data();
     const uint8_t* alive = s_.alive.data();
     uint32_t* next = s_.next.data();
-    uint32_t* ends = s_.ringEnds.data();
+    uint32_t* ends = r.ends.data();
     uint32_t n = 0;
     uint32_t* link = &s_.head[v];
     for (uint32_t c = *link; c != kNil; c = *link) {
@@ -254,6 +260,7 @@ private:
       size += seen == 0;
     }
     r.size = size;
+    r.endCount = n;
   }
 
   // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
@@ -282,34 +289,19 @@ private:
   }
 
   // Link condition (no pinched or duplicated triangles) and no folded triangles. ringU is u's ring.
+  // A pure test: the order of its parts only decides how soon a failure is found. Folds (and, with
+  // normals, shading turns) are most of the failures, and they need only u's triangles (the ends
+  // gathered with ringU), so they go before gathering w's ring.
   bool legal(uint32_t u, uint32_t w) {
     Ring ru = ringU(), rw = ringW();
     uint32_t edgeUse = ru.uses(w);
     if (edgeUse == 0 || edgeUse > 2 || s_.head[w] == kNil) return false;
-    gatherRing(w, rw);
-    uint32_t common = 0;
-    for (uint32_t x : rw) common += ru.uses(x) != 0;
-    if (common != edgeUse) return false;
-    // No new edge between two locked vertices: a neighbouring group may create the same chord
-    // (e.g. along a straight border, as a zero-area sliver) and the edge would then join four
-    // triangles. Edges that already exist are fine.
-    if (m_.locked[w])
-      for (uint32_t x : ru)
-        if (x != w && m_.locked[x] && !rw.uses(x)) return false;
-    // One walk over u's triangles (stopping at the first failure) for the rest:
+    const uint32_t* ends = s_.endsU.data();
+    uint32_t n = endsU_;
     glm::dvec3 pu = s_.p[u], pw = s_.p[w];
-    return allTriangles(u, [&](uint32_t t, uint32_t k) {
-      const uint32_t* v = &m_.corners[t * 3];
-      uint32_t a = v[kNextCorner[k]], b = v[kPrevCorner[k]];
-      if (a == w || b == w) return true;
-      // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
-      // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
-      if (rw.uses(a) && rw.uses(b) && !allTriangles(w, [&](uint32_t t2, uint32_t) {
-            const uint32_t* x = &m_.corners[t2 * 3];
-            bool hasA = x[0] == a || x[1] == a || x[2] == a, hasB = x[0] == b || x[1] == b || x[2] == b;
-            return !(hasA && hasB);
-          }))
-        return false;
+    for (uint32_t i = 0; i < n; i += 2) {
+      uint32_t a = ends[i], b = ends[i + 1];
+      if (a == w || b == w) continue;
       glm::dvec3 pa = s_.p[a], pb = s_.p[b];
       glm::dvec3 n0 = glm::cross(pa - pu, pb - pu);
       glm::dvec3 n1 = glm::cross(pa - pw, pb - pw);
@@ -323,8 +315,30 @@ private:
         double f = glm::dot(n1, shading);
         if (f <= 0.0 || f * f < kShadingCos * kShadingCos * glm::dot(n1, n1) * glm::dot(shading, shading)) return false;
       }
-      return true;
-    });
+    }
+    gatherRing(w, rw);
+    uint32_t common = 0;
+    for (uint32_t x : rw) common += ru.uses(x) != 0;
+    if (common != edgeUse) return false;
+    // No new edge between two locked vertices: a neighbouring group may create the same chord
+    // (e.g. along a straight border, as a zero-area sliver) and the edge would then join four
+    // triangles. Edges that already exist are fine.
+    if (m_.locked[w])
+      for (uint32_t x : ru)
+        if (x != w && m_.locked[x] && !rw.uses(x)) return false;
+    // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
+    // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
+    for (uint32_t i = 0; i < n; i += 2) {
+      uint32_t a = ends[i], b = ends[i + 1];
+      if (a == w || b == w || !rw.uses(a) || !rw.uses(b)) continue;
+      if (!allTriangles(w, [&](uint32_t t2, uint32_t) {
+            const uint32_t* x = &m_.corners[t2 * 3];
+            bool hasA = x[0] == a || x[1] == a || x[2] == a, hasB = x[0] == b || x[1] == b || x[2] == b;
+            return !(hasA && hasB);
+          }))
+        return false;
+    }
+    return true;
   }
 
   // The normal term of collapsing u onto w as Σ a·|m_w − n|² less the merged spread (dev · area)
@@ -465,7 +479,7 @@ private:
     }
     s_.scored.clear();
     for (uint32_t w : r)
-      if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
+      if (w != knownIllegal_ && (mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
         s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
@@ -633,8 +647,9 @@ private:
   glm::dvec3 center_;
   double normalWeight2_ = 0.0, orderWeight2_ = 0.0;
   uint32_t ringUOf_ = kNil, ringUClock_ = 0; // whose ring ringU holds, gathered at which clock
-  uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0;
-  bool savedRings_ = false; // evaluate() reads the rings saved by initQuadrics (first evaluation)
+  uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0, endsU_ = 0, endsW_ = 0;
+  uint32_t knownIllegal_ = kNil; // a target legal() just refused for the vertex being re-evaluated
+  bool savedRings_ = false;      // evaluate() reads the rings saved by initQuadrics (first evaluation)
   size_t live_ = 0;
   double maxCost_ = 0.0;
 };

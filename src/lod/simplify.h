@@ -73,7 +73,9 @@ struct SimplifyScratch {
   std::vector<double> selfCost;  // Q_v(p_v): the target's share of a collapse cost, kept up to date
   std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
   std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW;
-  std::vector<uint32_t> ringEnds; // gatherRing's edge ends of one vertex
+  // gatherRing's edge ends of a vertex (the two other corners of each live triangle, in list
+  // order), one buffer per ring: legal() tests u's triangles from endsU without walking them again.
+  std::vector<uint32_t> endsU, endsW;
   struct Fraction {
     double num, den; // a collapse cost num / den
   };
