@@ -191,7 +191,6 @@ private:
         n = len > 0.0f ? n / len : glm::vec3(0.0f);
         s_.nq[v].spread = std::max(deviation(s_.nq[v], glm::dvec3(n)), 0.0);
       }
-    if (normalWeight2_ > 0.0) s_.selfDev.assign(s_.p.size(), 0.0); // at its own normal less its spread
     // Open edges (used by one triangle) get a plane through the edge, perpendicular to the face.
     // Found on each vertex's ring (edge use count 1), once per edge from its lower end.
     // The rings are kept (flat) for the first evaluation of every vertex in run().
@@ -224,8 +223,13 @@ private:
       }
     }
     s_.ringStart[s_.p.size()] = saved;
-    s_.selfCost.resize(s_.p.size());
-    for (uint32_t v = 0; v < s_.p.size(); ++v) s_.selfCost[v] = eval(s_.q[v], s_.p[v]);
+    s_.onto.resize(s_.p.size());
+    for (uint32_t v = 0; v < s_.p.size(); ++v) {
+      SimplifyScratch::Target& t = s_.onto[v];
+      t.p = s_.p[v], t.selfCost = eval(s_.q[v], s_.p[v]), t.weight = s_.q[v].w;
+      // selfDev starts at 0: v's own normal quadric at its own normal less its spread.
+      t.area = normalWeight2_ > 0.0 ? s_.nq[v].a : 0.0, t.selfDev = 0.0;
+    }
   }
 
   // Also unlinks v's dead corners (triangles removed by neighbouring collapses), so later walks
@@ -342,17 +346,19 @@ private:
   }
 
   // The normal term of collapsing u onto w as Σ a·|m_w − n|² less the merged spread (dev · area)
-  // and the area: w's share is cached in selfDev (it changes only when w's quadric grows).
+  // and the area: w's share is cached in onto[w].selfDev (it changes only when w's quadric grows).
   std::pair<double, double> normalDeviation(uint32_t u, uint32_t w) const {
     const NormalQuadric& nu = s_.nq[u];
-    return {s_.selfDev[w] + deviation(nu, glm::dvec3(s_.normal[w])) - nu.spread, nu.a + s_.nq[w].a};
+    const SimplifyScratch::Target& t = s_.onto[w];
+    return {t.selfDev + deviation(nu, glm::dvec3(s_.normal[w])) - nu.spread, nu.a + t.area};
   }
 
   double cost(uint32_t u, uint32_t w, double normalWeight2) const {
-    const Quadric &qu = s_.q[u], &qw = s_.q[w];
-    double weight = qu.w + qw.w;
+    const Quadric& qu = s_.q[u];
+    const SimplifyScratch::Target& t = s_.onto[w];
+    double weight = qu.w + t.weight;
     // (Q_u + Q_w)(p_w) = Q_u(p_w) + Q_w(p_w); the second term only changes when w's quadric grows.
-    double geometric = weight > 0.0 ? std::max(eval(qu, s_.p[w]) + s_.selfCost[w], 0.0) / weight : 0.0;
+    double geometric = weight > 0.0 ? std::max(eval(qu, t.p) + t.selfCost, 0.0) / weight : 0.0;
     if (normalWeight2 <= 0.0) return geometric;
     // Mean squared difference between the original normals merged into u and w and the normal w
     // carries (|m - n|² ≈ angle² for small angles), less the hard edges' own spread, as a distance:
@@ -367,9 +373,10 @@ private:
   // latency).
   using Fraction = SimplifyScratch::Fraction;
   Fraction orderCost(uint32_t u, uint32_t w) const {
-    const Quadric &qu = s_.q[u], &qw = s_.q[w];
-    double weight = qu.w + qw.w;
-    double geometric = weight > 0.0 ? std::max(eval(qu, s_.p[w]) + s_.selfCost[w], 0.0) : 0.0;
+    const Quadric& qu = s_.q[u];
+    const SimplifyScratch::Target& t = s_.onto[w];
+    double weight = qu.w + t.weight;
+    double geometric = weight > 0.0 ? std::max(eval(qu, t.p) + t.selfCost, 0.0) : 0.0;
     if (!(weight > 0.0)) weight = 1.0;
     if (orderWeight2_ <= 0.0) return {geometric, weight};
     auto [dev, area] = normalDeviation(u, w);
@@ -588,10 +595,11 @@ private:
       a = mapped;
     }
     add(s_.q[w], s_.q[u]);
-    s_.selfCost[w] = eval(s_.q[w], s_.p[w]);
+    SimplifyScratch::Target& t = s_.onto[w];
+    t.selfCost = eval(s_.q[w], s_.p[w]), t.weight = s_.q[w].w;
     if (normalWeight2_ > 0.0) {
       add(s_.nq[w], s_.nq[u]);
-      s_.selfDev[w] = deviation(s_.nq[w], glm::dvec3(s_.normal[w])) - s_.nq[w].spread;
+      t.selfDev = deviation(s_.nq[w], glm::dvec3(s_.normal[w])) - s_.nq[w].spread, t.area = s_.nq[w].a;
     }
     // w's corner list becomes its live corners plus u's: dropping dead ones keeps lists short.
     uint32_t first = kNil, last = kNil;
