@@ -10,6 +10,9 @@ namespace {
 
 constexpr uint32_t kNil = ~0u;
 constexpr uint32_t kUnchecked = ~0u; // time[v] of an entry whose legality was not tested yet
+// Room for this many more corners in each vertex's list at set-up: a collapse onto w adds u's
+// surviving corners and drops w's dead ones (about two more per collapse on a closed surface).
+constexpr uint32_t kListSlack = 4;
 // Border planes keep open borders (the mesh's own) from shrinking or drifting. Weight 1 (the
 // face's own plane weight for a square face): 4 kept the bunny's holes' rims at the expense of its
 // surface (LodQuality 1.6 %: 3.57e-4 at 4, 3.52e-4 at 1, groups of 32).
@@ -52,12 +55,21 @@ public:
     s.p.resize(nv);
     // Relative to the group centre so quadric sums stay well conditioned far from the origin.
     for (size_t i = 0; i < nv; ++i) s.p[i] = glm::dvec3(m.positions[i]) - center_;
-    s.head.assign(nv, kNil);
-    s.next.resize(nt * 3);
-    for (uint32_t c = uint32_t(nt * 3); c-- > 0;) {
+    // Corner lists in corner order, each with room to grow by a few collapses in place.
+    s.listSize.assign(nv, 0);
+    for (uint32_t v : m.corners) ++s.listSize[v];
+    s.listStart.resize(nv);
+    s.listCap.resize(nv);
+    uint32_t room = 0;
+    for (size_t v = 0; v < nv; ++v) {
+      s.listStart[v] = room, s.listCap[v] = s.listSize[v] + kListSlack, room += s.listCap[v];
+      s.listSize[v] = 0;
+    }
+    s.lists.reserve(size_t(room) * 2);
+    s.lists.resize(room);
+    for (uint32_t c = 0; c < uint32_t(nt * 3); ++c) {
       uint32_t v = m.corners[c];
-      s.next[c] = s.head[v];
-      s.head[v] = c;
+      s.lists[s.listStart[v] + s.listSize[v]++] = c;
     }
     s.alive.assign(nt, 1);
     live_ = nt;
@@ -66,10 +78,8 @@ public:
     s.heapPos.assign(nv, kNil);
     s.target.assign(nv, kNil);
     s.time.assign(nv, kUnchecked);
-    s.stampU.assign(nv, 0);
-    s.stampW.assign(nv, 0);
-    s.countU.resize(nv);
-    s.countW.resize(nv);
+    s.markU.assign(nv, 0);
+    s.markW.assign(nv, 0);
     s.ringU.resize(nv);
     s.ringW.resize(nv);
     s.endsU.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
@@ -124,33 +134,39 @@ public:
   }
 
 private:
-  // Distinct neighbours of a vertex with their edge use counts, valid while stamp == gen.
+  // Distinct neighbours of a vertex with their edge use counts, valid while mark's stamp == gen.
   struct Ring {
     std::vector<uint32_t>& list; // sized to the vertex count once: no push_back in the hot loops
-    std::vector<uint32_t>& stamp;
-    std::vector<uint32_t>& count;
+    std::vector<uint64_t>& mark; // gen << 32 | count
     uint32_t& gen;
     uint32_t& size;
     std::vector<uint32_t>& ends; // the other two corners of each live triangle, as gathered
     uint32_t& endCount;
-    uint32_t uses(uint32_t x) const { return stamp[x] == gen ? count[x] : 0; }
+    uint32_t uses(uint32_t x) const { return uint32_t(mark[x] >> 32) == gen ? uint32_t(mark[x]) : 0; }
+    uint32_t count(uint32_t x) const { return uint32_t(mark[x]); } // x in the ring
     const uint32_t* begin() const { return list.data(); }
     const uint32_t* end() const { return list.data() + size; }
     void clear() { size = 0, ++gen; }
-    void add(uint32_t x, uint32_t n) { stamp[x] = gen, count[x] = n, list[size++] = x; }
   };
-  Ring ringU() { return {s_.ringU, s_.stampU, s_.countU, genU_, sizeU_, s_.endsU, endsU_}; }
-  Ring ringW() { return {s_.ringW, s_.stampW, s_.countW, genW_, sizeW_, s_.endsW, endsW_}; }
+  Ring ringU() { return {s_.ringU, s_.markU, genU_, sizeU_, s_.endsU, endsU_}; }
+  Ring ringW() { return {s_.ringW, s_.markW, genW_, sizeW_, s_.endsW, endsW_}; }
+
+  const uint32_t* cornersOf(uint32_t v) const { return s_.lists.data() + s_.listStart[v]; }
+  bool hasCorners(uint32_t v) const { return s_.listSize[v] != 0; }
 
   template <class F> void forTriangles(uint32_t v, F&& f) {
-    for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c])
-      if (s_.alive[c / 3]) f(c / 3, c % 3);
+    const uint32_t* list = cornersOf(v);
+    for (uint32_t i = 0, n = s_.listSize[v]; i < n; ++i) {
+      uint32_t c = list[i], t = c / 3;
+      if (s_.alive[t]) f(t, c - t * 3);
+    }
   }
 
   // Like forTriangles, while f returns true; false when f stopped the walk.
   template <class F> bool allTriangles(uint32_t v, F&& f) {
-    for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c]) {
-      uint32_t t = c / 3;
+    const uint32_t* list = cornersOf(v);
+    for (uint32_t i = 0, n = s_.listSize[v]; i < n; ++i) {
+      uint32_t c = list[i], t = c / 3;
       if (s_.alive[t] && !f(t, c - t * 3)) return false;
     }
     return true;
@@ -203,8 +219,8 @@ private:
       gatherRing(a, r);
       s_.ringStart[a] = saved;
       for (uint32_t b : r) {
-        s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count[b];
-        if (b < a || r.count[b] != 1) continue;
+        s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count(b);
+        if (b < a || r.count(b) != 1) continue;
         uint32_t o = kNil;
         forTriangles(a, [&](uint32_t t, uint32_t k) {
           uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
@@ -232,36 +248,37 @@ private:
     }
   }
 
-  // Also unlinks v's dead corners (triangles removed by neighbouring collapses), so later walks
+  // Also drops v's dead corners (triangles removed by neighbouring collapses), so later walks
   // over v's list are shorter; the order of the live corners stays.
   void gatherRing(uint32_t v, Ring r) {
     r.clear();
     const uint32_t* corners = m_.corners.data();
     const uint8_t* alive = s_.alive.data();
-    uint32_t* next = s_.next.data();
     uint32_t* ends = r.ends.data();
-    uint32_t n = 0;
-    uint32_t* link = &s_.head[v];
-    for (uint32_t c = *link; c != kNil; c = *link) {
-      uint32_t t = c / 3, base = t * 3, k = c - base;
-      if (!alive[t]) {
-        *link = next[c];
-        continue;
-      }
+    uint32_t n = 0, live = 0;
+    uint32_t* cl = s_.lists.data() + s_.listStart[v];
+    for (uint32_t i = 0, size = s_.listSize[v]; i < size; ++i) {
+      // Branch-free: a dead triangle's entries are written and then overwritten.
+      uint32_t c = cl[i], t = c / 3, base = t * 3, k = c - base, keep = alive[t];
+      cl[live] = c;
       ends[n] = corners[base + kNextCorner[k]];
       ends[n + 1] = corners[base + kPrevCorner[k]];
-      n += 2;
-      link = &next[c];
+      live += keep, n += keep * 2;
     }
+    s_.listSize[v] = live;
     // Distinct neighbours in first-seen order with their use counts, without a "seen before?"
     // branch per end (a coin flip): stamp and zero every end first, then count.
-    uint32_t *stamp = r.stamp.data(), *count = r.count.data(), *list = r.list.data(), gen = r.gen, size = 0;
-    for (uint32_t i = 0; i < n; ++i) stamp[ends[i]] = gen, count[ends[i]] = 0;
+    uint64_t* mark = r.mark.data();
+    uint32_t* list = r.list.data();
+    uint32_t size = 0;
+    uint64_t stamped = uint64_t(r.gen) << 32;
+    for (uint32_t i = 0; i < n; ++i) mark[ends[i]] = stamped;
     for (uint32_t i = 0; i < n; ++i) {
-      uint32_t x = ends[i], seen = count[x];
-      count[x] = seen + 1;
+      uint32_t x = ends[i];
+      uint64_t m = mark[x];
+      mark[x] = m + 1;
       list[size] = x;
-      size += seen == 0;
+      size += uint32_t(m) == 0;
     }
     r.size = size;
     r.endCount = n;
@@ -284,7 +301,7 @@ private:
     if (m_.locked[u] || r.size == 0) return Targets::kNone;
     uint32_t borderEdges = 0;
     for (uint32_t x : r) {
-      uint32_t n = r.count[x];
+      uint32_t n = r.count(x);
       if (n > 2) return Targets::kNone; // non-manifold edge: keep the vertex
       borderEdges += n == 1;
     }
@@ -299,7 +316,7 @@ private:
   bool legal(uint32_t u, uint32_t w) {
     Ring ru = ringU(), rw = ringW();
     uint32_t edgeUse = ru.uses(w);
-    if (edgeUse == 0 || edgeUse > 2 || s_.head[w] == kNil) return false;
+    if (edgeUse == 0 || edgeUse > 2 || !hasCorners(w)) return false;
     const uint32_t* ends = s_.endsU.data();
     uint32_t n = endsU_;
     glm::dvec3 pu = s_.p[u], pw = s_.p[w];
@@ -470,7 +487,7 @@ private:
   // cheapest legal candidate.
   float evaluate(uint32_t v, bool optimistic) {
     s_.dirty[v] = 0;
-    if (s_.head[v] == kNil || m_.locked[v]) return -1.0f;
+    if (!hasCorners(v) || m_.locked[v]) return -1.0f;
     if (savedRings_) return evaluateSaved(v);
     gatherRingU(v);
     Targets mode = targets(v);
@@ -481,12 +498,12 @@ private:
     if (optimistic) {
       uint32_t n = 0;
       for (uint32_t w : r)
-        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround)) s_.cands[n++] = w;
+        if ((mode == Targets::kAll || r.count(w) == 1) && chordFree(v, w, lockedAround)) s_.cands[n++] = w;
       return queueCheapest(v, n);
     }
     s_.scored.clear();
     for (uint32_t w : r)
-      if (w != knownIllegal_ && (mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
+      if (w != knownIllegal_ && (mode == Targets::kAll || r.count(w) == 1) && chordFree(v, w, lockedAround))
         s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
@@ -562,7 +579,7 @@ private:
   // v's neighbourhood changed: re-evaluate it when its (stale) entry comes up; a vertex without
   // an entry gets one at the current cost level so it is looked at again soon.
   void markDirty(uint32_t v, float c) {
-    if (m_.locked[v] || s_.head[v] == kNil) return;
+    if (m_.locked[v] || !hasCorners(v)) return;
     s_.dirty[v] = 1;
     if (s_.heapPos[v] == kNil) heapUpdate(v, c);
   }
@@ -602,20 +619,25 @@ private:
       t.selfDev = deviation(s_.nq[w], glm::dvec3(s_.normal[w])) - s_.nq[w].spread, t.area = s_.nq[w].a;
     }
     // w's corner list becomes its live corners plus u's: dropping dead ones keeps lists short.
-    uint32_t first = kNil, last = kNil;
-    for (uint32_t c = s_.head[w], n; c != kNil; c = n) {
-      n = s_.next[c];
-      if (!s_.alive[c / 3]) continue;
-      (last == kNil ? first : s_.next[last]) = c;
-      last = c;
+    uint32_t* list = s_.lists.data() + s_.listStart[w];
+    uint32_t live = 0;
+    for (uint32_t i = 0, size = s_.listSize[w]; i < size; ++i) {
+      uint32_t c = list[i];
+      list[live] = c;
+      live += s_.alive[c / 3];
     }
-    for (uint32_t c : kept) {
-      (last == kNil ? first : s_.next[last]) = c;
-      last = c;
+    uint32_t size = live + uint32_t(kept.size());
+    if (size > s_.listCap[w]) {
+      // Out of room: the list moves to the end (u's room is not reused; groups are small).
+      uint32_t start = uint32_t(s_.lists.size());
+      s_.lists.resize(start + size + kListSlack);
+      std::copy_n(s_.lists.data() + s_.listStart[w], live, s_.lists.data() + start);
+      s_.listStart[w] = start, s_.listCap[w] = size + kListSlack;
+      list = s_.lists.data() + start;
     }
-    if (last != kNil) s_.next[last] = kNil;
-    s_.head[w] = first;
-    s_.head[u] = kNil;
+    std::copy(kept.begin(), kept.end(), list + live);
+    s_.listSize[w] = size;
+    s_.listSize[u] = 0;
     ++clock_;
     s_.changed[w] = clock_;
     markDirty(w, queuedCost);

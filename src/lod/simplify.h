@@ -80,7 +80,13 @@ struct SimplifyScratch {
   };
   std::vector<Target> onto;
   std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
-  std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW;
+  // Each vertex's corners (3 t + k), contiguous: lists[listStart[v] ..+ listSize[v]], room for
+  // listCap[v]; a list that outgrows its room moves to the end of `lists`.
+  std::vector<uint32_t> lists, listStart, listSize, listCap;
+  std::vector<uint32_t> changed, ringU, ringW;
+  // Per vertex, its gather stamp (high half) and edge use count (low half) in ringU / ringW: one
+  // load answers "how many triangles on the edge to x".
+  std::vector<uint64_t> markU, markW;
   // gatherRing's edge ends of a vertex (the two other corners of each live triangle, in list
   // order), one buffer per ring: legal() tests u's triangles from endsU without walking them again.
   std::vector<uint32_t> endsU, endsW;
