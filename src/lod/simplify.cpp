@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace mirage::lod::detail {
 
@@ -402,6 +405,64 @@ private:
     dev = std::clamp(dev, 0.0, kMaxNormalDeviation2 * area);
     return {geometric * area + orderWeight2_ * dev * weight, weight * area};
   }
+  // orderCost(u, w) of n candidates into out, two at a time with SSE2: each lane does orderCost's
+  // operations in the same order (no fused multiply-add), so the costs are bit-identical, and the
+  // branches become masks. Most of the simplifier's cost evaluations are these.
+  void orderCosts(uint32_t u, const uint32_t* cands, uint32_t n, Fraction* out) const {
+    uint32_t i = 0;
+#if defined(__SSE2__)
+    const Quadric& q = s_.q[u];
+    const SimplifyScratch::Target* onto = s_.onto.data();
+    const __m128d a00 = _mm_set1_pd(q.a00), a01 = _mm_set1_pd(q.a01), a02 = _mm_set1_pd(q.a02);
+    const __m128d a11 = _mm_set1_pd(q.a11), a12 = _mm_set1_pd(q.a12), a22 = _mm_set1_pd(q.a22);
+    const __m128d b0 = _mm_set1_pd(q.b0), b1 = _mm_set1_pd(q.b1), b2 = _mm_set1_pd(q.b2);
+    const __m128d c = _mm_set1_pd(q.c), qw = _mm_set1_pd(q.w), zero = _mm_setzero_pd(), one = _mm_set1_pd(1.0);
+    const bool normals = orderWeight2_ > 0.0;
+    const NormalQuadric nq = normals ? s_.nq[u] : NormalQuadric{};
+    const glm::vec3* normal = normals ? s_.normal.data() : nullptr;
+    const __m128d na = _mm_set1_pd(nq.a), nbx = _mm_set1_pd(nq.bx), nby = _mm_set1_pd(nq.by);
+    const __m128d nbz = _mm_set1_pd(nq.bz), nc = _mm_set1_pd(nq.c), spread = _mm_set1_pd(nq.spread);
+    const __m128d maxDev = _mm_set1_pd(kMaxNormalDeviation2), orderWeight2 = _mm_set1_pd(orderWeight2_);
+    auto add = [](__m128d x, __m128d y) { return _mm_add_pd(x, y); };
+    auto mul = [](__m128d x, __m128d y) { return _mm_mul_pd(x, y); };
+    auto select = [](__m128d mask, __m128d yes, __m128d no) {
+      return _mm_or_pd(_mm_and_pd(mask, yes), _mm_andnot_pd(mask, no));
+    };
+    for (; i + 2 <= n; i += 2) {
+      const SimplifyScratch::Target &t0 = onto[cands[i]], &t1 = onto[cands[i + 1]];
+      __m128d px = _mm_set_pd(t1.p.x, t0.p.x), py = _mm_set_pd(t1.p.y, t0.p.y), pz = _mm_set_pd(t1.p.z, t0.p.z);
+      // geometric = weight > 0 ? max(Q_u(p_w) + Q_w(p_w), 0) : 0, then weight = 1 if not > 0.
+      __m128d rx = add(add(add(mul(a00, px), mul(a01, py)), mul(a02, pz)), b0);
+      __m128d ry = add(add(add(mul(a01, px), mul(a11, py)), mul(a12, pz)), b1);
+      __m128d rz = add(add(add(mul(a02, px), mul(a12, py)), mul(a22, pz)), b2);
+      __m128d e = add(add(add(mul(rx, px), mul(ry, py)), mul(rz, pz)), c);
+      __m128d geometric = _mm_max_pd(zero, add(e, _mm_set_pd(t1.selfCost, t0.selfCost)));
+      __m128d weight = add(qw, _mm_set_pd(t1.weight, t0.weight));
+      __m128d positive = _mm_cmpgt_pd(weight, zero);
+      geometric = _mm_and_pd(positive, geometric);
+      weight = select(positive, weight, one);
+      __m128d num = geometric, den = weight;
+      if (normals) {
+        // dev = selfDev_w + Σ a|m_w - n|² of u's corners - u's spread; area = a_u + a_w.
+        glm::vec3 m0 = normal[cands[i]], m1 = normal[cands[i + 1]];
+        __m128d mx = _mm_set_pd(m1.x, m0.x), my = _mm_set_pd(m1.y, m0.y), mz = _mm_set_pd(m1.z, m0.z);
+        __m128d mm = add(add(mul(mx, mx), mul(my, my)), mul(mz, mz));
+        __m128d mb = add(add(mul(mx, nbx), mul(my, nby)), mul(mz, nbz));
+        __m128d dev = add(_mm_sub_pd(mul(na, mm), add(mb, mb)), nc);
+        dev = _mm_sub_pd(add(_mm_set_pd(t1.selfDev, t0.selfDev), dev), spread);
+        __m128d area = add(na, _mm_set_pd(t1.area, t0.area));
+        dev = _mm_min_pd(mul(maxDev, area), _mm_max_pd(zero, dev)); // clamp(dev, 0, max · area)
+        __m128d none = _mm_cmple_pd(area, zero);
+        num = select(none, geometric, add(mul(geometric, area), mul(mul(orderWeight2, dev), weight)));
+        den = select(none, weight, mul(weight, area));
+      }
+      _mm_storeu_pd(&out[i].num, _mm_unpacklo_pd(num, den));
+      _mm_storeu_pd(&out[i + 1].num, _mm_unpackhi_pd(num, den));
+    }
+#endif
+    for (; i < n; ++i) out[i] = orderCost(u, cands[i]);
+  }
+
   // The cheapest of the offered candidates (ties to the lower vertex id).
   struct Cheapest {
     Fraction best{std::numeric_limits<double>::max(), 1.0};
@@ -538,7 +599,7 @@ private:
   // overlap, where choosing while evaluating chained each one to the previous comparison.
   float queueCheapest(uint32_t v, uint32_t n) {
     Fraction* costs = s_.candCost.data();
-    for (uint32_t i = 0; i < n; ++i) costs[i] = orderCost(v, s_.cands[i]);
+    orderCosts(v, s_.cands.data(), n, costs);
     Cheapest best;
     for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], s_.cands[i]);
     if (best.w == kNil) return -1.0f;
