@@ -295,23 +295,6 @@ private:
     ringUOf_ = v, ringUClock_ = clock_;
   }
 
-  // Which neighbours u (ringU gathered) may collapse onto: none when u must stay, only those
-  // across a border edge when u is on an open border (it slides along it, so the border keeps its
-  // shape), else all.
-  enum class Targets { kNone, kAll, kBorder };
-  Targets targets(uint32_t u) {
-    Ring r = ringU();
-    if (m_.locked[u] || r.size == 0) return Targets::kNone;
-    uint32_t borderEdges = 0;
-    for (uint32_t x : r) {
-      uint32_t n = r.count(x);
-      if (n > 2) return Targets::kNone; // non-manifold edge: keep the vertex
-      borderEdges += n == 1;
-    }
-    if (borderEdges == 0) return Targets::kAll;
-    return borderEdges == 2 ? Targets::kBorder : Targets::kNone; // several borders meet: a complex vertex
-  }
-
   // Link condition (no pinched or duplicated triangles) and no folded triangles. ringU is u's ring.
   // A pure test: the order of its parts only decides how soon a failure is found. Folds (and, with
   // normals, shading turns) are most of the failures, and they need only u's triangles (the ends
@@ -551,21 +534,12 @@ private:
     if (!hasCorners(v) || m_.locked[v]) return -1.0f;
     if (savedRings_) return evaluateSaved(v);
     gatherRingU(v);
-    Targets mode = targets(v);
-    if (mode == Targets::kNone) return -1.0f;
     Ring r = ringU();
-    uint32_t lockedAround = 0;
-    for (uint32_t w : r) lockedAround += m_.locked[w];
-    if (optimistic) {
-      uint32_t n = 0;
-      for (uint32_t w : r)
-        if ((mode == Targets::kAll || r.count(w) == 1) && chordFree(v, w, lockedAround)) s_.cands[n++] = w;
-      return queueCheapest(v, n);
-    }
+    uint32_t n = candidates(v, r.begin(), r.size, [&](uint32_t i) { return r.count(r.list[i]); });
+    if (optimistic) return queueCheapest(v, n);
     s_.scored.clear();
-    for (uint32_t w : r)
-      if (w != knownIllegal_ && (mode == Targets::kAll || r.count(w) == 1) && chordFree(v, w, lockedAround))
-        s_.scored.push_back({cost(v, w, orderWeight2_), w});
+    for (uint32_t i = 0; i < n; ++i)
+      if (uint32_t w = s_.cands[i]; w != knownIllegal_) s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
@@ -579,19 +553,28 @@ private:
   // candidates in the same order as evaluate(), without copying them into a stamped ring).
   float evaluateSaved(uint32_t v) {
     const uint32_t *nbr = &s_.ringNbr[s_.ringStart[v]], *count = &s_.ringCnt[s_.ringStart[v]];
-    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v], borderEdges = 0;
-    if (size == 0) return -1.0f;
+    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v];
+    return queueCheapest(v, candidates(v, nbr, size, [&](uint32_t i) { return count[i]; }));
+  }
+
+  // v's collapse candidates (into s_.cands, ring order; returns how many) among its distinct
+  // neighbours nbr[0..size), whose edges to v have count(i) triangles: none when v must stay (a
+  // non-manifold edge, or several open borders meet at v), only the neighbours across a border
+  // edge when v is on an open border (it slides along it, so the border keeps its shape), else
+  // all; locked ones that cannot pass legal() go (chordFree).
+  template <class Count> uint32_t candidates(uint32_t v, const uint32_t* nbr, uint32_t size, Count&& count) {
+    uint32_t borderEdges = 0, lockedAround = 0, nonManifold = 0;
     for (uint32_t i = 0; i < size; ++i) {
-      if (count[i] > 2) return -1.0f; // as targets(): non-manifold edge
-      borderEdges += count[i] == 1;
+      uint32_t c = count(i);
+      nonManifold |= c > 2;
+      borderEdges += c == 1;
+      lockedAround += m_.locked[nbr[i]];
     }
-    if (borderEdges != 0 && borderEdges != 2) return -1.0f;
-    uint32_t lockedAround = 0;
-    for (uint32_t i = 0; i < size; ++i) lockedAround += m_.locked[nbr[i]];
+    if (nonManifold || (borderEdges != 0 && borderEdges != 2)) return 0;
     uint32_t n = 0;
     for (uint32_t i = 0; i < size; ++i)
-      if ((borderEdges == 0 || count[i] == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
-    return queueCheapest(v, n);
+      if ((borderEdges == 0 || count(i) == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
+    return n;
   }
 
   // Queues v's cheapest of the n candidates in s_.cands, untested (optimistic); -1 when n is 0.
