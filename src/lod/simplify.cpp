@@ -90,7 +90,12 @@ public:
     s.cands.resize(nv);
     s.candCost.resize(nv);
     s.q.assign(nv, Quadric{});
-    s.heap.clear();
+    // The heap's children groups (4i + 1 .. 4i + 4) start on 32-byte boundaries, so the four
+    // costs a sift compares share a cache line: entry 0 sits 8 bytes before such a boundary.
+    s.heap.resize(nv + 4);
+    heap_ = s.heap.data();
+    while ((reinterpret_cast<uintptr_t>(heap_ + 1) & 31) != 0) ++heap_;
+    heapSize_ = 0;
     double normalScale = double(m.normalWeight) * double(m.normalLength);
     normalWeight2_ = m.normals ? normalScale * normalScale : 0.0;
     orderWeight2_ = normalWeight2_ * kOrderNormalFraction * kOrderNormalFraction;
@@ -102,13 +107,13 @@ public:
     savedRings_ = true;
     for (uint32_t v = 0; v < s_.p.size(); ++v) {
       float c = evaluate(v, true);
-      if (c >= 0.0f) s_.heapPos[v] = uint32_t(s_.heap.size()), s_.heap.push_back({c, v});
+      if (c >= 0.0f) s_.heapPos[v] = heapSize_, heap_[heapSize_++] = {c, v};
     }
     savedRings_ = false;
-    if (s_.heap.size() > 1)
-      for (size_t i = (s_.heap.size() - 2) / 4 + 1; i-- > 0;) siftDown(uint32_t(i));
-    while (live_ > target && !s_.heap.empty()) {
-      uint32_t u = s_.heap[0].v;
+    if (heapSize_ > 1)
+      for (size_t i = (heapSize_ - 2) / 4 + 1; i-- > 0;) siftDown(uint32_t(i));
+    while (live_ > target && heapSize_ != 0) {
+      uint32_t u = heap_[0].v;
       if (s_.dirty[u]) {
         // Lazy re-evaluation: collapses mostly raise costs (quadrics accumulate), so the stale cost
         // is a good lower bound and many dirty vertices are never evaluated again before the target.
@@ -128,7 +133,7 @@ public:
       // The reported error is the cost with the normal term at collapse time (w's quadrics may
       // have grown since the entry was queued).
       maxCost_ = std::max(maxCost_, cost(u, w, normalWeight2_));
-      float queuedCost = s_.heap[0].cost;
+      float queuedCost = heap_[0].cost;
       heapRemove(u);
       collapse(u, w, queuedCost, tested);
     }
@@ -460,37 +465,37 @@ private:
   // Indexed 4-ary min-heap over (cost, vertex): half the depth of a binary heap, one entry per
   // vertex (no stale entries), updated in place.
   void heapSet(uint32_t i, HeapItem item) {
-    s_.heap[i] = item;
+    heap_[i] = item;
     s_.heapPos[item.v] = i;
   }
   void siftUp(uint32_t i) {
-    HeapItem item = s_.heap[i];
+    HeapItem item = heap_[i];
     while (i > 0) {
       uint32_t parent = (i - 1) / 4;
-      if (!(item.cost < s_.heap[parent].cost)) break;
-      heapSet(i, s_.heap[parent]);
+      if (!(item.cost < heap_[parent].cost)) break;
+      heapSet(i, heap_[parent]);
       i = parent;
     }
     heapSet(i, item);
   }
   void siftDown(uint32_t i) {
-    HeapItem item = s_.heap[i];
-    uint32_t n = uint32_t(s_.heap.size());
+    HeapItem item = heap_[i];
+    uint32_t n = heapSize_;
     for (;;) {
       uint32_t first = i * 4 + 1;
       if (first >= n) break;
       uint32_t best = first;
       if (first + 3 < n) {
         // Four children: a branch-free tournament (same pick as the scan: the first lowest).
-        const HeapItem* h = &s_.heap[first];
+        const HeapItem* h = &heap_[first];
         uint32_t a = h[1].cost < h[0].cost ? 1 : 0, b = h[3].cost < h[2].cost ? 3 : 2;
         best = first + (h[b].cost < h[a].cost ? b : a);
       } else {
         for (uint32_t c = first + 1; c < n; ++c)
-          if (s_.heap[c].cost < s_.heap[best].cost) best = c;
+          if (heap_[c].cost < heap_[best].cost) best = c;
       }
-      if (!(s_.heap[best].cost < item.cost)) break;
-      heapSet(i, s_.heap[best]);
+      if (!(heap_[best].cost < item.cost)) break;
+      heapSet(i, heap_[best]);
       i = best;
     }
     heapSet(i, item);
@@ -498,13 +503,13 @@ private:
   void heapUpdate(uint32_t v, float c) {
     uint32_t i = s_.heapPos[v];
     if (i == kNil) {
-      s_.heap.push_back({c, v});
-      s_.heapPos[v] = uint32_t(s_.heap.size() - 1);
-      siftUp(uint32_t(s_.heap.size() - 1));
+      heap_[heapSize_] = {c, v};
+      s_.heapPos[v] = heapSize_;
+      siftUp(heapSize_++);
       return;
     }
-    float old = s_.heap[i].cost;
-    s_.heap[i].cost = c;
+    float old = heap_[i].cost;
+    heap_[i].cost = c;
     if (c < old)
       siftUp(i);
     else
@@ -514,10 +519,9 @@ private:
     uint32_t i = s_.heapPos[v];
     if (i == kNil) return;
     s_.heapPos[v] = kNil;
-    HeapItem last = s_.heap.back();
-    s_.heap.pop_back();
-    if (i == s_.heap.size()) return;
-    float old = s_.heap[i].cost;
+    HeapItem last = heap_[--heapSize_];
+    if (i == heapSize_) return;
+    float old = heap_[i].cost;
     heapSet(i, last);
     if (last.cost < old)
       siftUp(i);
@@ -725,6 +729,8 @@ private:
   uint32_t knownIllegal_ = kNil; // a target legal() just refused for the vertex being re-evaluated
   bool savedRings_ = false;      // evaluate() reads the rings saved by initQuadrics (first evaluation)
   size_t live_ = 0;
+  HeapItem* heap_ = nullptr; // into s_.heap, aligned as described in the constructor
+  uint32_t heapSize_ = 0;
   double maxCost_ = 0.0;
 };
 
