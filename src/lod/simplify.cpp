@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace mirage::lod::detail {
 
@@ -10,6 +13,9 @@ namespace {
 
 constexpr uint32_t kNil = ~0u;
 constexpr uint32_t kUnchecked = ~0u; // time[v] of an entry whose legality was not tested yet
+// Room for this many more corners in each vertex's list at set-up: a collapse onto w adds u's
+// surviving corners and drops w's dead ones (about two more per collapse on a closed surface).
+constexpr uint32_t kListSlack = 4;
 // Border planes keep open borders (the mesh's own) from shrinking or drifting. Weight 1 (the
 // face's own plane weight for a square face): 4 kept the bunny's holes' rims at the expense of its
 // surface (LodQuality 1.6 %: 3.57e-4 at 4, 3.52e-4 at 1, groups of 32).
@@ -52,12 +58,21 @@ public:
     s.p.resize(nv);
     // Relative to the group centre so quadric sums stay well conditioned far from the origin.
     for (size_t i = 0; i < nv; ++i) s.p[i] = glm::dvec3(m.positions[i]) - center_;
-    s.head.assign(nv, kNil);
-    s.next.resize(nt * 3);
-    for (uint32_t c = uint32_t(nt * 3); c-- > 0;) {
+    // Corner lists in corner order, each with room to grow by a few collapses in place.
+    s.listSize.assign(nv, 0);
+    for (uint32_t v : m.corners) ++s.listSize[v];
+    s.listStart.resize(nv);
+    s.listCap.resize(nv);
+    uint32_t room = 0;
+    for (size_t v = 0; v < nv; ++v) {
+      s.listStart[v] = room, s.listCap[v] = s.listSize[v] + kListSlack, room += s.listCap[v];
+      s.listSize[v] = 0;
+    }
+    s.lists.reserve(size_t(room) * 2);
+    s.lists.resize(room);
+    for (uint32_t c = 0; c < uint32_t(nt * 3); ++c) {
       uint32_t v = m.corners[c];
-      s.next[c] = s.head[v];
-      s.head[v] = c;
+      s.lists[s.listStart[v] + s.listSize[v]++] = c;
     }
     s.alive.assign(nt, 1);
     live_ = nt;
@@ -66,17 +81,21 @@ public:
     s.heapPos.assign(nv, kNil);
     s.target.assign(nv, kNil);
     s.time.assign(nv, kUnchecked);
-    s.stampU.assign(nv, 0);
-    s.stampW.assign(nv, 0);
-    s.countU.resize(nv);
-    s.countW.resize(nv);
+    s.markU.assign(nv, 0);
+    s.markW.assign(nv, 0);
     s.ringU.resize(nv);
     s.ringW.resize(nv);
-    s.ringEnds.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
+    s.endsU.resize(nt * 6); // two ends per corner of a vertex (up to three corners per triangle)
+    s.endsW.resize(nt * 6);
     s.cands.resize(nv);
     s.candCost.resize(nv);
     s.q.assign(nv, Quadric{});
-    s.heap.clear();
+    // The heap's children groups (4i + 1 .. 4i + 4) start on 32-byte boundaries, so the four
+    // costs a sift compares share a cache line: entry 0 sits 8 bytes before such a boundary.
+    s.heap.resize(nv + 4);
+    heap_ = s.heap.data();
+    while ((reinterpret_cast<uintptr_t>(heap_ + 1) & 31) != 0) ++heap_;
+    heapSize_ = 0;
     double normalScale = double(m.normalWeight) * double(m.normalLength);
     normalWeight2_ = m.normals ? normalScale * normalScale : 0.0;
     orderWeight2_ = normalWeight2_ * kOrderNormalFraction * kOrderNormalFraction;
@@ -88,13 +107,13 @@ public:
     savedRings_ = true;
     for (uint32_t v = 0; v < s_.p.size(); ++v) {
       float c = evaluate(v, true);
-      if (c >= 0.0f) s_.heapPos[v] = uint32_t(s_.heap.size()), s_.heap.push_back({c, v});
+      if (c >= 0.0f) s_.heapPos[v] = heapSize_, heap_[heapSize_++] = {c, v};
     }
     savedRings_ = false;
-    if (s_.heap.size() > 1)
-      for (size_t i = (s_.heap.size() - 2) / 4 + 1; i-- > 0;) siftDown(uint32_t(i));
-    while (live_ > target && !s_.heap.empty()) {
-      uint32_t u = s_.heap[0].v;
+    if (heapSize_ > 1)
+      for (size_t i = (heapSize_ - 2) / 4 + 1; i-- > 0;) siftDown(uint32_t(i));
+    while (live_ > target && heapSize_ != 0) {
+      uint32_t u = heap_[0].v;
       if (s_.dirty[u]) {
         // Lazy re-evaluation: collapses mostly raise costs (quadrics accumulate), so the stale cost
         // is a good lower bound and many dirty vertices are never evaluated again before the target.
@@ -105,13 +124,16 @@ public:
       // u is clean, but the entry was queued unchecked or w's triangles changed since.
       bool tested = checked == kUnchecked || s_.changed[w] > checked;
       if (tested && (gatherRingU(u), !legal(u, w))) {
+        // The cheapest legal candidate instead; w was just refused (nothing changed since).
+        knownIllegal_ = w;
         requeue(u, false);
+        knownIllegal_ = kNil;
         continue;
       }
       // The reported error is the cost with the normal term at collapse time (w's quadrics may
       // have grown since the entry was queued).
       maxCost_ = std::max(maxCost_, cost(u, w, normalWeight2_));
-      float queuedCost = s_.heap[0].cost;
+      float queuedCost = heap_[0].cost;
       heapRemove(u);
       collapse(u, w, queuedCost, tested);
     }
@@ -120,31 +142,39 @@ public:
   }
 
 private:
-  // Distinct neighbours of a vertex with their edge use counts, valid while stamp == gen.
+  // Distinct neighbours of a vertex with their edge use counts, valid while mark's stamp == gen.
   struct Ring {
     std::vector<uint32_t>& list; // sized to the vertex count once: no push_back in the hot loops
-    std::vector<uint32_t>& stamp;
-    std::vector<uint32_t>& count;
+    std::vector<uint64_t>& mark; // gen << 32 | count
     uint32_t& gen;
     uint32_t& size;
-    uint32_t uses(uint32_t x) const { return stamp[x] == gen ? count[x] : 0; }
+    std::vector<uint32_t>& ends; // the other two corners of each live triangle, as gathered
+    uint32_t& endCount;
+    uint32_t uses(uint32_t x) const { return uint32_t(mark[x] >> 32) == gen ? uint32_t(mark[x]) : 0; }
+    uint32_t count(uint32_t x) const { return uint32_t(mark[x]); } // x in the ring
     const uint32_t* begin() const { return list.data(); }
     const uint32_t* end() const { return list.data() + size; }
     void clear() { size = 0, ++gen; }
-    void add(uint32_t x, uint32_t n) { stamp[x] = gen, count[x] = n, list[size++] = x; }
   };
-  Ring ringU() { return {s_.ringU, s_.stampU, s_.countU, genU_, sizeU_}; }
-  Ring ringW() { return {s_.ringW, s_.stampW, s_.countW, genW_, sizeW_}; }
+  Ring ringU() { return {s_.ringU, s_.markU, genU_, sizeU_, s_.endsU, endsU_}; }
+  Ring ringW() { return {s_.ringW, s_.markW, genW_, sizeW_, s_.endsW, endsW_}; }
+
+  const uint32_t* cornersOf(uint32_t v) const { return s_.lists.data() + s_.listStart[v]; }
+  bool hasCorners(uint32_t v) const { return s_.listSize[v] != 0; }
 
   template <class F> void forTriangles(uint32_t v, F&& f) {
-    for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c])
-      if (s_.alive[c / 3]) f(c / 3, c % 3);
+    const uint32_t* list = cornersOf(v);
+    for (uint32_t i = 0, n = s_.listSize[v]; i < n; ++i) {
+      uint32_t c = list[i], t = c / 3;
+      if (s_.alive[t]) f(t, c - t * 3);
+    }
   }
 
   // Like forTriangles, while f returns true; false when f stopped the walk.
   template <class F> bool allTriangles(uint32_t v, F&& f) {
-    for (uint32_t c = s_.head[v]; c != kNil; c = s_.next[c]) {
-      uint32_t t = c / 3;
+    const uint32_t* list = cornersOf(v);
+    for (uint32_t i = 0, n = s_.listSize[v]; i < n; ++i) {
+      uint32_t c = list[i], t = c / 3;
       if (s_.alive[t] && !f(t, c - t * 3)) return false;
     }
     return true;
@@ -185,7 +215,6 @@ private:
         n = len > 0.0f ? n / len : glm::vec3(0.0f);
         s_.nq[v].spread = std::max(deviation(s_.nq[v], glm::dvec3(n)), 0.0);
       }
-    if (normalWeight2_ > 0.0) s_.selfDev.assign(s_.p.size(), 0.0); // at its own normal less its spread
     // Open edges (used by one triangle) get a plane through the edge, perpendicular to the face.
     // Found on each vertex's ring (edge use count 1), once per edge from its lower end.
     // The rings are kept (flat) for the first evaluation of every vertex in run().
@@ -198,8 +227,8 @@ private:
       gatherRing(a, r);
       s_.ringStart[a] = saved;
       for (uint32_t b : r) {
-        s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count[b];
-        if (b < a || r.count[b] != 1) continue;
+        s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count(b);
+        if (b < a || r.count(b) != 1) continue;
         uint32_t o = kNil;
         forTriangles(a, [&](uint32_t t, uint32_t k) {
           uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
@@ -218,42 +247,49 @@ private:
       }
     }
     s_.ringStart[s_.p.size()] = saved;
-    s_.selfCost.resize(s_.p.size());
-    for (uint32_t v = 0; v < s_.p.size(); ++v) s_.selfCost[v] = eval(s_.q[v], s_.p[v]);
+    s_.onto.resize(s_.p.size());
+    for (uint32_t v = 0; v < s_.p.size(); ++v) {
+      SimplifyScratch::Target& t = s_.onto[v];
+      t.p = s_.p[v], t.selfCost = eval(s_.q[v], s_.p[v]), t.weight = s_.q[v].w;
+      // selfDev starts at 0: v's own normal quadric at its own normal less its spread.
+      t.area = normalWeight2_ > 0.0 ? s_.nq[v].a : 0.0, t.selfDev = 0.0;
+    }
   }
 
-  // Also unlinks v's dead corners (triangles removed by neighbouring collapses), so later walks
+  // Also drops v's dead corners (triangles removed by neighbouring collapses), so later walks
   // over v's list are shorter; the order of the live corners stays.
   void gatherRing(uint32_t v, Ring r) {
     r.clear();
     const uint32_t* corners = m_.corners.data();
     const uint8_t* alive = s_.alive.data();
-    uint32_t* next = s_.next.data();
-    uint32_t* ends = s_.ringEnds.data();
-    uint32_t n = 0;
-    uint32_t* link = &s_.head[v];
-    for (uint32_t c = *link; c != kNil; c = *link) {
-      uint32_t t = c / 3, base = t * 3, k = c - base;
-      if (!alive[t]) {
-        *link = next[c];
-        continue;
-      }
+    uint32_t* ends = r.ends.data();
+    uint32_t n = 0, live = 0;
+    uint32_t* cl = s_.lists.data() + s_.listStart[v];
+    for (uint32_t i = 0, size = s_.listSize[v]; i < size; ++i) {
+      // Branch-free: a dead triangle's entries are written and then overwritten.
+      uint32_t c = cl[i], t = c / 3, base = t * 3, k = c - base, keep = alive[t];
+      cl[live] = c;
       ends[n] = corners[base + kNextCorner[k]];
       ends[n + 1] = corners[base + kPrevCorner[k]];
-      n += 2;
-      link = &next[c];
+      live += keep, n += keep * 2;
     }
+    s_.listSize[v] = live;
     // Distinct neighbours in first-seen order with their use counts, without a "seen before?"
     // branch per end (a coin flip): stamp and zero every end first, then count.
-    uint32_t *stamp = r.stamp.data(), *count = r.count.data(), *list = r.list.data(), gen = r.gen, size = 0;
-    for (uint32_t i = 0; i < n; ++i) stamp[ends[i]] = gen, count[ends[i]] = 0;
+    uint64_t* mark = r.mark.data();
+    uint32_t* list = r.list.data();
+    uint32_t size = 0;
+    uint64_t stamped = uint64_t(r.gen) << 32;
+    for (uint32_t i = 0; i < n; ++i) mark[ends[i]] = stamped;
     for (uint32_t i = 0; i < n; ++i) {
-      uint32_t x = ends[i], seen = count[x];
-      count[x] = seen + 1;
+      uint32_t x = ends[i];
+      uint64_t m = mark[x];
+      mark[x] = m + 1;
       list[size] = x;
-      size += seen == 0;
+      size += uint32_t(m) == 0;
     }
     r.size = size;
+    r.endCount = n;
   }
 
   // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
@@ -264,52 +300,20 @@ private:
     ringUOf_ = v, ringUClock_ = clock_;
   }
 
-  // Which neighbours u (ringU gathered) may collapse onto: none when u must stay, only those
-  // across a border edge when u is on an open border (it slides along it, so the border keeps its
-  // shape), else all.
-  enum class Targets { kNone, kAll, kBorder };
-  Targets targets(uint32_t u) {
-    Ring r = ringU();
-    if (m_.locked[u] || r.size == 0) return Targets::kNone;
-    uint32_t borderEdges = 0;
-    for (uint32_t x : r) {
-      uint32_t n = r.count[x];
-      if (n > 2) return Targets::kNone; // non-manifold edge: keep the vertex
-      borderEdges += n == 1;
-    }
-    if (borderEdges == 0) return Targets::kAll;
-    return borderEdges == 2 ? Targets::kBorder : Targets::kNone; // several borders meet: a complex vertex
-  }
-
   // Link condition (no pinched or duplicated triangles) and no folded triangles. ringU is u's ring.
+  // A pure test: the order of its parts only decides how soon a failure is found. Folds (and, with
+  // normals, shading turns) are most of the failures, and they need only u's triangles (the ends
+  // gathered with ringU), so they go before gathering w's ring.
   bool legal(uint32_t u, uint32_t w) {
     Ring ru = ringU(), rw = ringW();
     uint32_t edgeUse = ru.uses(w);
-    if (edgeUse == 0 || edgeUse > 2 || s_.head[w] == kNil) return false;
-    gatherRing(w, rw);
-    uint32_t common = 0;
-    for (uint32_t x : rw) common += ru.uses(x) != 0;
-    if (common != edgeUse) return false;
-    // No new edge between two locked vertices: a neighbouring group may create the same chord
-    // (e.g. along a straight border, as a zero-area sliver) and the edge would then join four
-    // triangles. Edges that already exist are fine.
-    if (m_.locked[w])
-      for (uint32_t x : ru)
-        if (x != w && m_.locked[x] && !rw.uses(x)) return false;
-    // One walk over u's triangles (stopping at the first failure) for the rest:
+    if (edgeUse == 0 || edgeUse > 2 || !hasCorners(w)) return false;
+    const uint32_t* ends = s_.endsU.data();
+    uint32_t n = endsU_;
     glm::dvec3 pu = s_.p[u], pw = s_.p[w];
-    return allTriangles(u, [&](uint32_t t, uint32_t k) {
-      const uint32_t* v = &m_.corners[t * 3];
-      uint32_t a = v[kNextCorner[k]], b = v[kPrevCorner[k]];
-      if (a == w || b == w) return true;
-      // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
-      // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
-      if (rw.uses(a) && rw.uses(b) && !allTriangles(w, [&](uint32_t t2, uint32_t) {
-            const uint32_t* x = &m_.corners[t2 * 3];
-            bool hasA = x[0] == a || x[1] == a || x[2] == a, hasB = x[0] == b || x[1] == b || x[2] == b;
-            return !(hasA && hasB);
-          }))
-        return false;
+    for (uint32_t i = 0; i < n; i += 2) {
+      uint32_t a = ends[i], b = ends[i + 1];
+      if (a == w || b == w) continue;
       glm::dvec3 pa = s_.p[a], pb = s_.p[b];
       glm::dvec3 n0 = glm::cross(pa - pu, pb - pu);
       glm::dvec3 n1 = glm::cross(pa - pw, pb - pw);
@@ -323,22 +327,46 @@ private:
         double f = glm::dot(n1, shading);
         if (f <= 0.0 || f * f < kShadingCos * kShadingCos * glm::dot(n1, n1) * glm::dot(shading, shading)) return false;
       }
-      return true;
-    });
+    }
+    gatherRing(w, rw);
+    uint32_t common = 0;
+    for (uint32_t x : rw) common += ru.uses(x) != 0;
+    if (common != edgeUse) return false;
+    // No new edge between two locked vertices: a neighbouring group may create the same chord
+    // (e.g. along a straight border, as a zero-area sliver) and the edge would then join four
+    // triangles. Edges that already exist are fine.
+    if (m_.locked[w])
+      for (uint32_t x : ru)
+        if (x != w && m_.locked[x] && !rw.uses(x)) return false;
+    // The edge part of the link condition: a triangle (u, a, b) must not become a copy of an
+    // existing (w, a, b), e.g. a valence-3 vertex over a closed tetrahedron or a folded-over flap.
+    for (uint32_t i = 0; i < n; i += 2) {
+      uint32_t a = ends[i], b = ends[i + 1];
+      if (a == w || b == w || !rw.uses(a) || !rw.uses(b)) continue;
+      if (!allTriangles(w, [&](uint32_t t2, uint32_t) {
+            const uint32_t* x = &m_.corners[t2 * 3];
+            bool hasA = x[0] == a || x[1] == a || x[2] == a, hasB = x[0] == b || x[1] == b || x[2] == b;
+            return !(hasA && hasB);
+          }))
+        return false;
+    }
+    return true;
   }
 
   // The normal term of collapsing u onto w as Σ a·|m_w − n|² less the merged spread (dev · area)
-  // and the area: w's share is cached in selfDev (it changes only when w's quadric grows).
+  // and the area: w's share is cached in onto[w].selfDev (it changes only when w's quadric grows).
   std::pair<double, double> normalDeviation(uint32_t u, uint32_t w) const {
     const NormalQuadric& nu = s_.nq[u];
-    return {s_.selfDev[w] + deviation(nu, glm::dvec3(s_.normal[w])) - nu.spread, nu.a + s_.nq[w].a};
+    const SimplifyScratch::Target& t = s_.onto[w];
+    return {t.selfDev + deviation(nu, glm::dvec3(s_.normal[w])) - nu.spread, nu.a + t.area};
   }
 
   double cost(uint32_t u, uint32_t w, double normalWeight2) const {
-    const Quadric &qu = s_.q[u], &qw = s_.q[w];
-    double weight = qu.w + qw.w;
+    const Quadric& qu = s_.q[u];
+    const SimplifyScratch::Target& t = s_.onto[w];
+    double weight = qu.w + t.weight;
     // (Q_u + Q_w)(p_w) = Q_u(p_w) + Q_w(p_w); the second term only changes when w's quadric grows.
-    double geometric = weight > 0.0 ? std::max(eval(qu, s_.p[w]) + s_.selfCost[w], 0.0) / weight : 0.0;
+    double geometric = weight > 0.0 ? std::max(eval(qu, t.p) + t.selfCost, 0.0) / weight : 0.0;
     if (normalWeight2 <= 0.0) return geometric;
     // Mean squared difference between the original normals merged into u and w and the normal w
     // carries (|m - n|² ≈ angle² for small angles), less the hard edges' own spread, as a distance:
@@ -353,9 +381,10 @@ private:
   // latency).
   using Fraction = SimplifyScratch::Fraction;
   Fraction orderCost(uint32_t u, uint32_t w) const {
-    const Quadric &qu = s_.q[u], &qw = s_.q[w];
-    double weight = qu.w + qw.w;
-    double geometric = weight > 0.0 ? std::max(eval(qu, s_.p[w]) + s_.selfCost[w], 0.0) : 0.0;
+    const Quadric& qu = s_.q[u];
+    const SimplifyScratch::Target& t = s_.onto[w];
+    double weight = qu.w + t.weight;
+    double geometric = weight > 0.0 ? std::max(eval(qu, t.p) + t.selfCost, 0.0) : 0.0;
     if (!(weight > 0.0)) weight = 1.0;
     if (orderWeight2_ <= 0.0) return {geometric, weight};
     auto [dev, area] = normalDeviation(u, w);
@@ -364,6 +393,64 @@ private:
     dev = std::clamp(dev, 0.0, kMaxNormalDeviation2 * area);
     return {geometric * area + orderWeight2_ * dev * weight, weight * area};
   }
+  // orderCost(u, w) of n candidates into out, two at a time with SSE2: each lane does orderCost's
+  // operations in the same order (no fused multiply-add), so the costs are bit-identical, and the
+  // branches become masks. Most of the simplifier's cost evaluations are these.
+  void orderCosts(uint32_t u, const uint32_t* cands, uint32_t n, Fraction* out) const {
+    uint32_t i = 0;
+#if defined(__SSE2__)
+    const Quadric& q = s_.q[u];
+    const SimplifyScratch::Target* onto = s_.onto.data();
+    const __m128d a00 = _mm_set1_pd(q.a00), a01 = _mm_set1_pd(q.a01), a02 = _mm_set1_pd(q.a02);
+    const __m128d a11 = _mm_set1_pd(q.a11), a12 = _mm_set1_pd(q.a12), a22 = _mm_set1_pd(q.a22);
+    const __m128d b0 = _mm_set1_pd(q.b0), b1 = _mm_set1_pd(q.b1), b2 = _mm_set1_pd(q.b2);
+    const __m128d c = _mm_set1_pd(q.c), qw = _mm_set1_pd(q.w), zero = _mm_setzero_pd(), one = _mm_set1_pd(1.0);
+    const bool normals = orderWeight2_ > 0.0;
+    const NormalQuadric nq = normals ? s_.nq[u] : NormalQuadric{};
+    const glm::vec3* normal = normals ? s_.normal.data() : nullptr;
+    const __m128d na = _mm_set1_pd(nq.a), nbx = _mm_set1_pd(nq.bx), nby = _mm_set1_pd(nq.by);
+    const __m128d nbz = _mm_set1_pd(nq.bz), nc = _mm_set1_pd(nq.c), spread = _mm_set1_pd(nq.spread);
+    const __m128d maxDev = _mm_set1_pd(kMaxNormalDeviation2), orderWeight2 = _mm_set1_pd(orderWeight2_);
+    auto add = [](__m128d x, __m128d y) { return _mm_add_pd(x, y); };
+    auto mul = [](__m128d x, __m128d y) { return _mm_mul_pd(x, y); };
+    auto select = [](__m128d mask, __m128d yes, __m128d no) {
+      return _mm_or_pd(_mm_and_pd(mask, yes), _mm_andnot_pd(mask, no));
+    };
+    for (; i + 2 <= n; i += 2) {
+      const SimplifyScratch::Target &t0 = onto[cands[i]], &t1 = onto[cands[i + 1]];
+      __m128d px = _mm_set_pd(t1.p.x, t0.p.x), py = _mm_set_pd(t1.p.y, t0.p.y), pz = _mm_set_pd(t1.p.z, t0.p.z);
+      // geometric = weight > 0 ? max(Q_u(p_w) + Q_w(p_w), 0) : 0, then weight = 1 if not > 0.
+      __m128d rx = add(add(add(mul(a00, px), mul(a01, py)), mul(a02, pz)), b0);
+      __m128d ry = add(add(add(mul(a01, px), mul(a11, py)), mul(a12, pz)), b1);
+      __m128d rz = add(add(add(mul(a02, px), mul(a12, py)), mul(a22, pz)), b2);
+      __m128d e = add(add(add(mul(rx, px), mul(ry, py)), mul(rz, pz)), c);
+      __m128d geometric = _mm_max_pd(zero, add(e, _mm_set_pd(t1.selfCost, t0.selfCost)));
+      __m128d weight = add(qw, _mm_set_pd(t1.weight, t0.weight));
+      __m128d positive = _mm_cmpgt_pd(weight, zero);
+      geometric = _mm_and_pd(positive, geometric);
+      weight = select(positive, weight, one);
+      __m128d num = geometric, den = weight;
+      if (normals) {
+        // dev = selfDev_w + Σ a|m_w - n|² of u's corners - u's spread; area = a_u + a_w.
+        glm::vec3 m0 = normal[cands[i]], m1 = normal[cands[i + 1]];
+        __m128d mx = _mm_set_pd(m1.x, m0.x), my = _mm_set_pd(m1.y, m0.y), mz = _mm_set_pd(m1.z, m0.z);
+        __m128d mm = add(add(mul(mx, mx), mul(my, my)), mul(mz, mz));
+        __m128d mb = add(add(mul(mx, nbx), mul(my, nby)), mul(mz, nbz));
+        __m128d dev = add(_mm_sub_pd(mul(na, mm), add(mb, mb)), nc);
+        dev = _mm_sub_pd(add(_mm_set_pd(t1.selfDev, t0.selfDev), dev), spread);
+        __m128d area = add(na, _mm_set_pd(t1.area, t0.area));
+        dev = _mm_min_pd(mul(maxDev, area), _mm_max_pd(zero, dev)); // clamp(dev, 0, max · area)
+        __m128d none = _mm_cmple_pd(area, zero);
+        num = select(none, geometric, add(mul(geometric, area), mul(mul(orderWeight2, dev), weight)));
+        den = select(none, weight, mul(weight, area));
+      }
+      _mm_storeu_pd(&out[i].num, _mm_unpacklo_pd(num, den));
+      _mm_storeu_pd(&out[i + 1].num, _mm_unpackhi_pd(num, den));
+    }
+#endif
+    for (; i < n; ++i) out[i] = orderCost(u, cands[i]);
+  }
+
   // The cheapest of the offered candidates (ties to the lower vertex id).
   struct Cheapest {
     Fraction best{std::numeric_limits<double>::max(), 1.0};
@@ -378,37 +465,37 @@ private:
   // Indexed 4-ary min-heap over (cost, vertex): half the depth of a binary heap, one entry per
   // vertex (no stale entries), updated in place.
   void heapSet(uint32_t i, HeapItem item) {
-    s_.heap[i] = item;
+    heap_[i] = item;
     s_.heapPos[item.v] = i;
   }
   void siftUp(uint32_t i) {
-    HeapItem item = s_.heap[i];
+    HeapItem item = heap_[i];
     while (i > 0) {
       uint32_t parent = (i - 1) / 4;
-      if (!(item.cost < s_.heap[parent].cost)) break;
-      heapSet(i, s_.heap[parent]);
+      if (!(item.cost < heap_[parent].cost)) break;
+      heapSet(i, heap_[parent]);
       i = parent;
     }
     heapSet(i, item);
   }
   void siftDown(uint32_t i) {
-    HeapItem item = s_.heap[i];
-    uint32_t n = uint32_t(s_.heap.size());
+    HeapItem item = heap_[i];
+    uint32_t n = heapSize_;
     for (;;) {
       uint32_t first = i * 4 + 1;
       if (first >= n) break;
       uint32_t best = first;
       if (first + 3 < n) {
         // Four children: a branch-free tournament (same pick as the scan: the first lowest).
-        const HeapItem* h = &s_.heap[first];
+        const HeapItem* h = &heap_[first];
         uint32_t a = h[1].cost < h[0].cost ? 1 : 0, b = h[3].cost < h[2].cost ? 3 : 2;
         best = first + (h[b].cost < h[a].cost ? b : a);
       } else {
         for (uint32_t c = first + 1; c < n; ++c)
-          if (s_.heap[c].cost < s_.heap[best].cost) best = c;
+          if (heap_[c].cost < heap_[best].cost) best = c;
       }
-      if (!(s_.heap[best].cost < item.cost)) break;
-      heapSet(i, s_.heap[best]);
+      if (!(heap_[best].cost < item.cost)) break;
+      heapSet(i, heap_[best]);
       i = best;
     }
     heapSet(i, item);
@@ -416,13 +503,13 @@ private:
   void heapUpdate(uint32_t v, float c) {
     uint32_t i = s_.heapPos[v];
     if (i == kNil) {
-      s_.heap.push_back({c, v});
-      s_.heapPos[v] = uint32_t(s_.heap.size() - 1);
-      siftUp(uint32_t(s_.heap.size() - 1));
+      heap_[heapSize_] = {c, v};
+      s_.heapPos[v] = heapSize_;
+      siftUp(heapSize_++);
       return;
     }
-    float old = s_.heap[i].cost;
-    s_.heap[i].cost = c;
+    float old = heap_[i].cost;
+    heap_[i].cost = c;
     if (c < old)
       siftUp(i);
     else
@@ -432,10 +519,9 @@ private:
     uint32_t i = s_.heapPos[v];
     if (i == kNil) return;
     s_.heapPos[v] = kNil;
-    HeapItem last = s_.heap.back();
-    s_.heap.pop_back();
-    if (i == s_.heap.size()) return;
-    float old = s_.heap[i].cost;
+    HeapItem last = heap_[--heapSize_];
+    if (i == heapSize_) return;
+    float old = heap_[i].cost;
     heapSet(i, last);
     if (last.cost < old)
       siftUp(i);
@@ -449,24 +535,15 @@ private:
   // cheapest legal candidate.
   float evaluate(uint32_t v, bool optimistic) {
     s_.dirty[v] = 0;
-    if (s_.head[v] == kNil || m_.locked[v]) return -1.0f;
+    if (!hasCorners(v) || m_.locked[v]) return -1.0f;
     if (savedRings_) return evaluateSaved(v);
     gatherRingU(v);
-    Targets mode = targets(v);
-    if (mode == Targets::kNone) return -1.0f;
     Ring r = ringU();
-    uint32_t lockedAround = 0;
-    for (uint32_t w : r) lockedAround += m_.locked[w];
-    if (optimistic) {
-      uint32_t n = 0;
-      for (uint32_t w : r)
-        if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround)) s_.cands[n++] = w;
-      return queueCheapest(v, n);
-    }
+    uint32_t n = candidates(v, r.begin(), r.size, [&](uint32_t i) { return r.count(r.list[i]); });
+    if (optimistic) return queueCheapest(v, n);
     s_.scored.clear();
-    for (uint32_t w : r)
-      if ((mode == Targets::kAll || r.count[w] == 1) && chordFree(v, w, lockedAround))
-        s_.scored.push_back({cost(v, w, orderWeight2_), w});
+    for (uint32_t i = 0; i < n; ++i)
+      if (uint32_t w = s_.cands[i]; w != knownIllegal_) s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
@@ -480,19 +557,28 @@ private:
   // candidates in the same order as evaluate(), without copying them into a stamped ring).
   float evaluateSaved(uint32_t v) {
     const uint32_t *nbr = &s_.ringNbr[s_.ringStart[v]], *count = &s_.ringCnt[s_.ringStart[v]];
-    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v], borderEdges = 0;
-    if (size == 0) return -1.0f;
+    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v];
+    return queueCheapest(v, candidates(v, nbr, size, [&](uint32_t i) { return count[i]; }));
+  }
+
+  // v's collapse candidates (into s_.cands, ring order; returns how many) among its distinct
+  // neighbours nbr[0..size), whose edges to v have count(i) triangles: none when v must stay (a
+  // non-manifold edge, or several open borders meet at v), only the neighbours across a border
+  // edge when v is on an open border (it slides along it, so the border keeps its shape), else
+  // all; locked ones that cannot pass legal() go (chordFree).
+  template <class Count> uint32_t candidates(uint32_t v, const uint32_t* nbr, uint32_t size, Count&& count) {
+    uint32_t borderEdges = 0, lockedAround = 0, nonManifold = 0;
     for (uint32_t i = 0; i < size; ++i) {
-      if (count[i] > 2) return -1.0f; // as targets(): non-manifold edge
-      borderEdges += count[i] == 1;
+      uint32_t c = count(i);
+      nonManifold |= c > 2;
+      borderEdges += c == 1;
+      lockedAround += m_.locked[nbr[i]];
     }
-    if (borderEdges != 0 && borderEdges != 2) return -1.0f;
-    uint32_t lockedAround = 0;
-    for (uint32_t i = 0; i < size; ++i) lockedAround += m_.locked[nbr[i]];
+    if (nonManifold || (borderEdges != 0 && borderEdges != 2)) return 0;
     uint32_t n = 0;
     for (uint32_t i = 0; i < size; ++i)
-      if ((borderEdges == 0 || count[i] == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
-    return queueCheapest(v, n);
+      if ((borderEdges == 0 || count(i) == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
+    return n;
   }
 
   // Queues v's cheapest of the n candidates in s_.cands, untested (optimistic); -1 when n is 0.
@@ -500,7 +586,7 @@ private:
   // overlap, where choosing while evaluating chained each one to the previous comparison.
   float queueCheapest(uint32_t v, uint32_t n) {
     Fraction* costs = s_.candCost.data();
-    for (uint32_t i = 0; i < n; ++i) costs[i] = orderCost(v, s_.cands[i]);
+    orderCosts(v, s_.cands.data(), n, costs);
     Cheapest best;
     for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], s_.cands[i]);
     if (best.w == kNil) return -1.0f;
@@ -541,7 +627,7 @@ private:
   // v's neighbourhood changed: re-evaluate it when its (stale) entry comes up; a vertex without
   // an entry gets one at the current cost level so it is looked at again soon.
   void markDirty(uint32_t v, float c) {
-    if (m_.locked[v] || s_.head[v] == kNil) return;
+    if (m_.locked[v] || !hasCorners(v)) return;
     s_.dirty[v] = 1;
     if (s_.heapPos[v] == kNil) heapUpdate(v, c);
   }
@@ -574,26 +660,32 @@ private:
       a = mapped;
     }
     add(s_.q[w], s_.q[u]);
-    s_.selfCost[w] = eval(s_.q[w], s_.p[w]);
+    SimplifyScratch::Target& t = s_.onto[w];
+    t.selfCost = eval(s_.q[w], s_.p[w]), t.weight = s_.q[w].w;
     if (normalWeight2_ > 0.0) {
       add(s_.nq[w], s_.nq[u]);
-      s_.selfDev[w] = deviation(s_.nq[w], glm::dvec3(s_.normal[w])) - s_.nq[w].spread;
+      t.selfDev = deviation(s_.nq[w], glm::dvec3(s_.normal[w])) - s_.nq[w].spread, t.area = s_.nq[w].a;
     }
     // w's corner list becomes its live corners plus u's: dropping dead ones keeps lists short.
-    uint32_t first = kNil, last = kNil;
-    for (uint32_t c = s_.head[w], n; c != kNil; c = n) {
-      n = s_.next[c];
-      if (!s_.alive[c / 3]) continue;
-      (last == kNil ? first : s_.next[last]) = c;
-      last = c;
+    uint32_t* list = s_.lists.data() + s_.listStart[w];
+    uint32_t live = 0;
+    for (uint32_t i = 0, size = s_.listSize[w]; i < size; ++i) {
+      uint32_t c = list[i];
+      list[live] = c;
+      live += s_.alive[c / 3];
     }
-    for (uint32_t c : kept) {
-      (last == kNil ? first : s_.next[last]) = c;
-      last = c;
+    uint32_t size = live + uint32_t(kept.size());
+    if (size > s_.listCap[w]) {
+      // Out of room: the list moves to the end (u's room is not reused; groups are small).
+      uint32_t start = uint32_t(s_.lists.size());
+      s_.lists.resize(start + size + kListSlack);
+      std::copy_n(s_.lists.data() + s_.listStart[w], live, s_.lists.data() + start);
+      s_.listStart[w] = start, s_.listCap[w] = size + kListSlack;
+      list = s_.lists.data() + start;
     }
-    if (last != kNil) s_.next[last] = kNil;
-    s_.head[w] = first;
-    s_.head[u] = kNil;
+    std::copy(kept.begin(), kept.end(), list + live);
+    s_.listSize[w] = size;
+    s_.listSize[u] = 0;
     ++clock_;
     s_.changed[w] = clock_;
     markDirty(w, queuedCost);
@@ -633,9 +725,12 @@ private:
   glm::dvec3 center_;
   double normalWeight2_ = 0.0, orderWeight2_ = 0.0;
   uint32_t ringUOf_ = kNil, ringUClock_ = 0; // whose ring ringU holds, gathered at which clock
-  uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0;
-  bool savedRings_ = false; // evaluate() reads the rings saved by initQuadrics (first evaluation)
+  uint32_t clock_ = 0, genU_ = 0, genW_ = 0, sizeU_ = 0, sizeW_ = 0, endsU_ = 0, endsW_ = 0;
+  uint32_t knownIllegal_ = kNil; // a target legal() just refused for the vertex being re-evaluated
+  bool savedRings_ = false;      // evaluate() reads the rings saved by initQuadrics (first evaluation)
   size_t live_ = 0;
+  HeapItem* heap_ = nullptr; // into s_.heap, aligned as described in the constructor
+  uint32_t heapSize_ = 0;
   double maxCost_ = 0.0;
 };
 

@@ -69,11 +69,27 @@ struct SimplifyScratch {
   std::vector<Quadric> q;
   std::vector<NormalQuadric> nq;
   std::vector<glm::vec3> normal; // normal a vertex carries (area-weighted over its corners)
-  std::vector<double> selfDev;   // Σ a·|m_v − n|² − spread of v's own normal quadric, kept up to date
-  std::vector<double> selfCost;  // Q_v(p_v): the target's share of a collapse cost, kept up to date
+  // What costing a collapse onto v reads of v, in one cache line (a candidate's data was spread
+  // over six arrays): copies of p, q.w and nq.a, and v's own share of the cost, kept up to date.
+  struct alignas(64) Target {
+    glm::dvec3 p;
+    double selfCost = 0; // Q_v(p_v)
+    double weight = 0;   // q[v].w
+    double area = 0;     // nq[v].a
+    double selfDev = 0;  // Σ a·|m_v − n|² − spread of v's own normal quadric
+  };
+  std::vector<Target> onto;
   std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
-  std::vector<uint32_t> head, next, version, changed, stampU, stampW, countU, countW, ringU, ringW;
-  std::vector<uint32_t> ringEnds; // gatherRing's edge ends of one vertex
+  // Each vertex's corners (3 t + k), contiguous: lists[listStart[v] ..+ listSize[v]], room for
+  // listCap[v]; a list that outgrows its room moves to the end of `lists`.
+  std::vector<uint32_t> lists, listStart, listSize, listCap;
+  std::vector<uint32_t> changed, ringU, ringW;
+  // Per vertex, its gather stamp (high half) and edge use count (low half) in ringU / ringW: one
+  // load answers "how many triangles on the edge to x".
+  std::vector<uint64_t> markU, markW;
+  // gatherRing's edge ends of a vertex (the two other corners of each live triangle, in list
+  // order), one buffer per ring: legal() tests u's triangles from endsU without walking them again.
+  std::vector<uint32_t> endsU, endsW;
   struct Fraction {
     double num, den; // a collapse cost num / den
   };

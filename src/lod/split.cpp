@@ -103,6 +103,16 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
   s.vertLocal.resize(nv);
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
+  // Output through raw pointers, sized for the worst case first (every corner a new cluster
+  // vertex) and trimmed at the end: push_back of 8-bit indices made the compiler reload the
+  // vectors' ends after every store (a char store may alias anything).
+  out.indices.resize(nt * 3);
+  out.vertices.resize(nt * 3);
+  uint8_t* outIndices = out.indices.data();
+  uint32_t* outVertices = out.vertices.data();
+  size_t indexCount = 0, vertexTotal = 0;
+  if (s.points.size() < maxVertices) s.points.resize(maxVertices);
+  glm::vec3* points = s.points.data();
   size_t scan = 0; // every triangle before it is emitted (see firstUnemitted)
   // Candidates: unemitted triangles touching the cluster (deduplicated per cluster by triStamp),
   // with their scores in a parallel array and each triangle's slot in candPos, so picking is a scan
@@ -188,9 +198,9 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       bool joins = vertStamp[v] != cluster;
       if (joins) {
         vertStamp[v] = cluster;
+        points[vertexCount] = s.vertPos[v];
         vertLocal[v] = vertexCount++;
-        out.vertices.push_back(s.global[v]);
-        s.points.push_back(s.vertPos[v]);
+        outVertices[vertexTotal++] = s.global[v];
       }
       uint32_t* list = adjacency + offsets[v];
       uint32_t left = --live[v], kept = 0;
@@ -231,7 +241,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
         }
       }
       list[left] = t;
-      out.indices.push_back(uint8_t(vertLocal[v]));
+      outIndices[indexCount++] = uint8_t(vertLocal[v]);
     }
     ++triangleCount;
   };
@@ -244,10 +254,9 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   uint32_t seed = 0;
   size_t done = 0;
   while (done < nt) {
-    ClusterPiece piece{uint32_t(out.vertices.size()), 0, uint32_t(out.indices.size()), 0};
+    ClusterPiece piece{uint32_t(vertexTotal), 0, uint32_t(indexCount), 0};
     vertexCount = triangleCount = 0;
     candCount = 0;
-    s.points.clear();
     glm::vec3 seedCenter = s.centroids[seed];
     addTriangle(seed);
     while (triangleCount < maxTriangles) {
@@ -279,7 +288,7 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     piece.vertexCount = vertexCount;
     piece.triangleCount = triangleCount;
     out.pieces.push_back(piece);
-    out.bounds.push_back(boundingSphere(s.points.data(), s.points.size()));
+    out.bounds.push_back(boundingSphere(points, vertexCount));
     done += triangleCount;
     ++cluster;
     if (done == nt) break;
@@ -295,6 +304,8 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     }
     if (seed == kNil) seed = uint32_t(firstUnemitted());
   }
+  out.vertices.resize(vertexTotal);
+  out.indices.resize(indexCount); // every triangle was emitted: nt * 3
   return out;
 }
 
