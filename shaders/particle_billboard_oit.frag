@@ -1,7 +1,8 @@
 #version 460
 // Particle billboards, linked-list mode: each fragment in front of the opaque depth appended to
-// its pixel's list exactly as forward_oit.frag appends the scene's blended fragments, so the
-// resolve sorts particles and transparent geometry together. Invisible texels append nothing.
+// its pixel's list exactly as forward_oit.frag appends the scene's blended fragments (or, in the
+// cluster renderer, as its blend rasters do, the id tagged as a stored colour), so the resolve
+// sorts particles and transparent geometry together. Invisible texels append nothing.
 #define MIRAGE_PARTICLE_FRAGMENT
 #include "particle_billboard.glsl"
 #include "oit_list.glsl"
@@ -19,5 +20,5 @@ void main() {
   if (n == kOitNoNode) return;
   OitColorRef(l.colorAddress).colors[n] = uvec2(packHalf2x16(c.rg), packHalf2x16(c.ba));
   uvec2 p = uvec2(gl_FragCoord.xy);
-  oitLink(l.headAddress, l.nodeAddress, p.y * l.rowPixels + p.x, n, gl_FragCoord.z, n);
+  oitLink(l.headAddress, l.nodeAddress, p.y * l.rowPixels + p.x, n, gl_FragCoord.z, n | l.idTag);
 }

@@ -10,6 +10,7 @@
 #include "cluster_impl.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/render/oit.h"
+#include "mirage/render/particle_draw.h"
 #include "mirage/shaderio/debug_view.h"
 #include "mirage/shaderio/lod_error.h"
 
@@ -110,6 +111,7 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     return Error{"reading the clusters that own pixels needs occlusion culling (its history)"};
   p.pvs = cs.pvsCulling && pvsInstances;
   p.transparency = hasBlend() && cs.transparency;
+  p.particles = cs.particles && cs.particles->batchCount() != 0 && cs.debugView == DebugView::None;
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
@@ -237,13 +239,20 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
   f.queueAddress[0] = queues[0].address();
   f.queueAddress[1] = queues[1].address();
   f.queueCapacity = queueCapacity;
-  if (hasBlend()) {
+  if (oitHeads) { // BLEND materials or particles
     f.blendVisibleAddress = blendVisible.address();
     f.oitHeadAddress = oitHeads.address();
     f.oitNodeAddress = oitNodes.address();
     f.blendCapacity = blendCapacity;
     f.oitNodeCapacity = oitNodeCapacity;
     f.oitCounterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
+    f.oitColorAddress = oitColors ? oitColors.address() : oitNodes.address(); // see ClusterFrame
+  }
+  if (plan.particles) { // the billboards' view of the same lists, their ids tagged as stored colours
+    sio::OitLists l{
+        oitHeads.address(), oitNodes.address(),     oitColors.address(), f.oitCounterAddress, colorWidth, height,
+        oitNodeCapacity,    MIRAGE_OIT_COLOR_ID_TAG};
+    std::memcpy(particleLists[currentSlot].mapped(), &l, sizeof(l));
   }
   std::memcpy(frames[currentSlot].mapped(), &f, sizeof(f));
   if (plan.stereo) {

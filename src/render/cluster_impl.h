@@ -7,6 +7,7 @@
 //   cluster_raster.cpp     visibility rasterizers and the resolve (both stereo eyes in one pass)
 //   cluster_occlusion.cpp  HZB build and the pass-2 occlusion cull (history)
 //   cluster_oit.cpp        alpha BLEND: blend rasters and the sorted composite
+//   cluster_particles.cpp  particle billboards into the transparency lists
 //   cluster_renderer.cpp   the public API and the per-frame phase list
 #include <vector>
 
@@ -64,6 +65,9 @@ constexpr uint64_t kMaxVisibleClusters = 4u << 20;
 // Transparency node pool: this many blended fragments per pixel on average (12 bytes each), capped
 // by the device's storage-buffer range; excess fragments are dropped and counted.
 constexpr uint64_t kOitNodesPerPixel = 4;
+// With particle billboards in the lists: as many as the forward renderer's default pool (its
+// particles and the cluster renderer's then fill the same pool).
+constexpr uint64_t kOitNodesPerPixelParticles = 8;
 constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
 
 // Every pass reaches its buffers through device addresses, which synchronization validation does
@@ -95,6 +99,7 @@ struct ClusterFramePlan {
   bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
   bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
   bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
+  bool particles = false;    // particle billboards into the transparency lists (cluster_particles.cpp)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -111,6 +116,11 @@ struct ClusterRenderer::Impl {
   gpu::Buffer fade, surfelLink;     // mixed scenes: per-instance fade, ClusterSurfelLink (created on first use)
   gpu::Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
   gpu::Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
+  // Particles (cluster_particles.cpp), made on the first frame with them: the colour beside each
+  // node of the lists (which then exist without BLEND materials too), and per slot the OitLists the
+  // billboards append through.
+  gpu::Buffer oitColors, particleLists[kMaxFramesInFlight];
+  bool particleOit = false; // the lists carry particles from now on (their pool sized for them)
   // Per slot (identically defined layouts are compatible): material textures, and the slot's
   // frame's visibility image, colour target and depth, written when the slot is recorded while
   // other slots' frames may still read their own (a resize mid-flight).
@@ -177,9 +187,12 @@ struct ClusterRenderer::Impl {
   void cmdBuildHzb(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
   void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
-  void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, BlendRaster blend, bool meshBlend,
-                       bool bufferTarget);
-  void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
+  void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, const ClusterFramePlan& plan, bool blend,
+                       ParticleDraw* particles);
+  void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget, bool always);
+  void createOitLists();   // heads, pool (and particle colours) at the target size
+  void prepareParticles(); // cluster_particles.cpp
+  void cmdParticles(VkCommandBuffer cmd, const shaderio::ClusterPush& p, ParticleDraw& particles);
   void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri, bool multiview = false);
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
   void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,

@@ -165,7 +165,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   if (w == width && h == height && colorW == colorWidth) return;
   const uint32_t inFlight = inFlightSlots();
   for (Image* image : {&color, &vis, &depth, &layeredVis, &layeredDepth}) retired.retire(std::move(*image), inFlight);
-  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads, &oitNodes})
+  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads, &oitNodes, &oitColors})
     retired.retire(std::move(*buffer), inFlight);
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                         "color");
@@ -195,18 +195,27 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   }
   hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
   overdrawCounts = {}; // the overdraw view's counts, made at the new size on first use
-  if (hasBlend()) {
-    uint64_t pixels = uint64_t(colorW) * h; // both eyes in stereo
-    oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                            MemoryUsage::GpuOnly, "transparency heads");
-    oitNodeCapacity = uint32_t(
-        std::min<uint64_t>(pixels * kOitNodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode)));
-    oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                            MemoryUsage::GpuOnly, "transparency nodes");
-  }
   width = w;
   height = h;
   colorWidth = colorW;
+  if (hasBlend() || particleOit) createOitLists();
+}
+
+// The transparency lists at the target size (the caller retired the old ones): heads, the node pool
+// (kOitNodesPerPixel fragments per pixel, more once particles use it) and with particles the colour
+// beside each node.
+void ClusterRenderer::Impl::createOitLists() {
+  uint64_t pixels = uint64_t(colorWidth) * height; // both eyes in stereo
+  oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                          MemoryUsage::GpuOnly, "transparency heads");
+  uint64_t perPixel = particleOit ? kOitNodesPerPixelParticles : kOitNodesPerPixel;
+  oitNodeCapacity =
+      uint32_t(std::min<uint64_t>(pixels * perPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode)));
+  oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                          MemoryUsage::GpuOnly, "transparency nodes");
+  if (particleOit)
+    oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                             MemoryUsage::GpuOnly, "transparency colours");
 }
 
 // The slot's previous frame completed (the caller's contract), so its set may be rewritten.

@@ -116,7 +116,11 @@ struct ForwardRenderer::Impl {
   gpu::Buffer oitReadback[kMaxFramesInFlight];   // OitCounters
   gpu::Buffer sortedIndices[kMaxFramesInFlight]; // sorted mode: blend triangles back to front
   std::vector<SortedRun> sortedRuns[kMaxFramesInFlight];
-  bool slotOit[kMaxFramesInFlight] = {}; // the slot's frame ran the linked lists (counters to read)
+  // Sorted mode with particles: the sorted triangles' view z (float, ascending) and the particle
+  // draw of each gap between them (VkDrawIndirectCommand[blendTriangles + 1], ParticleDraw::cmdSort).
+  gpu::Buffer sortedDepths[kMaxFramesInFlight], sortedGaps[kMaxFramesInFlight];
+  bool slotSortsParticles[kMaxFramesInFlight] = {}; // the slot's frame interleaves particles with triangles
+  bool slotOit[kMaxFramesInFlight] = {};            // the slot's frame ran the linked lists (counters to read)
   std::vector<gpu::GpuTimer> timers;
   std::vector<gpu::PipelineStatsQuery> stats;
   FrameStats slotStats[kMaxFramesInFlight]; // draw counts of the recorded frame

@@ -2,7 +2,7 @@
 # `mirage bench particles` and `mirage particles` (docs/particles.md): a bad effect file gets one
 # line naming file, line and key, exit 2, and no image; both simulations run a small effect and
 # report the live particles they hold; rendering writes a PNG of the asked size (numbered frames
-# with --every).
+# with --every), over a scene file and over a .mrg asset.
 # Usage: particles.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -72,4 +72,12 @@ if expect_ok render-scene-particles render gen:blob:8 --particles "$fire" --part
 fi
 expect_fail render-scene-bad "error: $tmp/typo.toml:[0-9]*: " "$tmp/scene_bad.png" -- render gen:blob:8 \
   --particles "$tmp/typo.toml" --size 40x30 -o "$tmp/scene_bad.png"
+# mirage render ASSET.mrg --particles: the cluster-LOD renderer appends them to its transparency lists.
+if expect_ok build-blob-mrg build gen:blob:4 -o "$tmp/blob.mrg" --quiet; then
+  if expect_ok render-mrg-particles render "$tmp/blob.mrg" --particles "$fire" --particle-frames 10 \
+    --particle-sim gpu --size 40x30 -o "$tmp/mrg_fx.png" --json; then
+    check render-mrg-particles-size test "$(png_size "$tmp/mrg_fx.png")" = 40x30
+    grep -q '"oit_fragments": [1-9]' "$tmp/stdout" || fail "render-mrg-particles: no particle fragments"
+  fi
+fi
 finish particles

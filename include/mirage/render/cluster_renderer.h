@@ -159,6 +159,10 @@ struct ClusterRenderSettings {
   // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
   // occlusion history the resolve writes; needs occlusionCulling) into ownedClusters.
   bool readOwnedClusters = false;
+  // Particle billboards (render/particle_draw.h; docs/render.md, "Particles"), depth-tested against
+  // the opaque depth and appended to the BLEND clusters' per-pixel lists, so the composite sorts
+  // both together; null: none (nor in debug views).
+  ParticleDraw* particles = nullptr;
 };
 
 struct ClusterStats {

@@ -1,14 +1,16 @@
 #pragma once
-// Particle billboards in the forward renderer (docs/particles.md, "Rendering"): camera-facing
-// quads (6 vertices from gl_VertexIndex, one instance per shaderio::RenderParticle record, an
-// indirect draw whose instance count is the simulation's live count) textured from a flipbook
-// sheet, drawn inside the transparency pass: in linked-list mode they append to the same per-pixel
-// lists as the blended scene geometry, so both sort together; weighted mode accumulates them;
-// sorted mode blends them "over" after the sorted scene triangles, in record order (not exact).
-// Depth-tested against the opaque scene, never written.
+// Particle billboards in the forward and cluster-LOD renderers (docs/particles.md, "Rendering"):
+// camera-facing quads (6 vertices from gl_VertexIndex, one instance per shaderio::RenderParticle
+// record, an indirect draw whose instance count is the simulation's live count) textured from a
+// flipbook sheet, drawn inside the transparency pass: in linked-list mode they append to the same
+// per-pixel lists as the blended scene geometry, so both sort together; weighted mode accumulates
+// them; sorted mode sorts them by view depth on the GPU and draws each run between the sorted
+// blended triangles it falls between. Depth-tested against the opaque scene, never written.
 #include <memory>
 #include <span>
 #include <vector>
+
+#include <glm/glm.hpp>
 
 #include "mirage/core/image.h"
 #include "mirage/core/result.h"
@@ -55,11 +57,28 @@ public:
   void setCpuBatches(std::span<const CpuBatch> batches);
   size_t batchCount() const;
 
-  // Used by the forward renderer's transparency pass (forward_oit.cpp). Outside rendering: the
-  // batches' instance counts into the indirect arguments. Inside it, per eye: the billboards,
-  // with the pipeline of `mode` for the forward targets.
+  // Used by the renderers' transparency passes (forward_oit.cpp, cluster_particles.cpp).
+  // Outside rendering: the batches' instance counts into the indirect arguments, the batch table
+  // the compute passes read. barriers: the records written (the frame's first barrier); on exit
+  // the arguments visible to indirect draws and compute shaders.
   void cmdPrepare(VkCommandBuffer cmd);
+  // Inside rendering, per eye (`frame`: the eye's ViewFrame, the first member of FrameData and
+  // ClusterFrame): the billboards, with the pipeline of `mode` (D32 depth, the forward colour
+  // targets). Linked lists append through the OitLists at `oitLists`.
   void cmdDraw(VkCommandBuffer cmd, OitMode mode, VkDeviceAddress frame, VkDeviceAddress oitLists);
+
+  // Sorted mode (OitMode::Sorted): after cmdPrepare, outside rendering, every live record of every
+  // batch sorted on the GPU back to front by its centre's view z under `view`, then split into
+  // triangleCount + 1 gaps by the view z of the blended triangles, ascending (farthest first),
+  // float[triangleCount] at `triangleDepths`: gap g's particles lie between triangle g - 1 and
+  // triangle g. `gapDraws` (STORAGE | INDIRECT | TRANSFER_DST, at least triangleCount + 1
+  // VkDrawIndirectCommand) receives each gap's draw. barriers: on exit the draws and keys visible
+  // to indirect draws and vertex shaders.
+  void cmdSort(VkCommandBuffer cmd, const glm::mat4& view, VkDeviceAddress triangleDepths, uint32_t triangleCount,
+               const gpu::Buffer& gapDraws);
+  // Inside the sorted pass: gap `gap`'s particles, back to front (the sorted pipeline bound here;
+  // the caller rebinds its own afterwards).
+  void cmdDrawGap(VkCommandBuffer cmd, VkDeviceAddress frame, const gpu::Buffer& gapDraws, uint32_t gap);
 
   struct Impl;
 

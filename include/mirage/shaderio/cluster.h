@@ -251,7 +251,10 @@ struct ClusterFrame {
   uint64_t lightAddress; // GpuPointLight[lightCount]
   // Alpha BLEND: ClusterCounters::oit (the OIT nodes' ids are visibility ids, shaderio/oit.h).
   uint64_t oitCounterAddress;
-  uint64_t pad1; // the size stays a multiple of 16, as std430 rounds a struct holding a mat4
+  // Particles (render/particle_draw.h): uvec2[oitNodeCapacity], the colour of each node whose id
+  // carries MIRAGE_OIT_COLOR_ID_TAG. Without particles it names the node pool, as large, so a lane
+  // that loads for an untaken branch (lavapipe) stays inside a buffer.
+  uint64_t oitColorAddress;
 };
 
 // One raster pass's share of a list: entries [first, first + count) counted from the list's end

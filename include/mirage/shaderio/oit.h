@@ -17,8 +17,8 @@ using uint = uint32_t;
 #define MIRAGE_OIT_SORTED_LAYERS 64
 
 // One blended fragment of a pixel's list: its depth and a 32-bit id (cluster renderer: visibility
-// id, shaded by the resolve; forward renderer: its own node index, naming the colour stored beside
-// it). 0 ends a list.
+// id, shaded by the composite, or a particle's node index | MIRAGE_OIT_COLOR_ID_TAG; forward
+// renderer: its own node index, naming the colour stored beside it). 0 ends a list.
 struct OitNode {
   uint depthBits; // reverse-Z depth as float bits (larger is nearer)
   uint id;
@@ -36,7 +36,13 @@ struct OitCounters {
   uint pad0;
 };
 
-// The forward renderer's lists (the cluster renderer keeps the same addresses in ClusterFrame):
+// Marks an id naming a node whose shaded colour is stored beside the pool (OitLists::colorAddress)
+// in lists whose other ids are visibility ids: the cluster renderer's particle fragments. Visibility
+// ids stay below it (blend-list entries + 1 <= 2^22, shifted by the 7 triangle bits).
+#define MIRAGE_OIT_COLOR_ID_TAG 0x80000000u
+
+// Lists of fragments shaded where they are rasterized (the forward renderer's, and the particle
+// billboards' in either renderer; the cluster renderer keeps the same addresses in ClusterFrame):
 // heads per pixel of a rowPixels-wide target, the pool, and beside each node its colour (uvec2:
 // packHalf2x16 of rg, of ba).
 struct OitLists {
@@ -47,7 +53,7 @@ struct OitLists {
   uint rowPixels;          // target width (both eyes in stereo)
   uint height;
   uint nodeCapacity;
-  uint pad0;
+  uint idTag; // OR'd into each appended node's index to make its id: 0 (forward) or MIRAGE_OIT_COLOR_ID_TAG
 };
 
 #ifdef __cplusplus

@@ -1,0 +1,59 @@
+// Particle billboards in the cluster-LOD renderer (docs/render.md, "Particles"): drawn after the
+// blend rasters over the read-only opaque depth, each fragment appended to the transparency lists
+// with its shaded colour beside its node and its id tagged MIRAGE_OIT_COLOR_ID_TAG, so the
+// composite sorts particles and BLEND clusters together per pixel.
+#include "cluster_impl.h"
+#include "mirage/gpu/commands.h"
+#include "mirage/render/particle_draw.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+// The first frame with particles: the lists from then on carry a colour per node (and exist
+// without BLEND materials), with the larger pool; the replaced lists live until the frames in
+// flight that use them completed. Per slot, the OitLists the billboards append through.
+void ClusterRenderer::Impl::prepareParticles() {
+  if (particleOit) return;
+  particleOit = true;
+  for (Buffer* buffer : {&oitHeads, &oitNodes, &oitColors}) retired.retire(std::move(*buffer), inFlightSlots());
+  createOitLists();
+  for (Buffer& lists : particleLists)
+    lists = createBuffer(ctx, sizeof(sio::OitLists), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload,
+                         "particle lists");
+  if (!compositePipeline) compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+}
+
+// The billboards of every batch, per eye with that eye's frame, viewport and scissor (stereo), over
+// the opaque depth as a read-only attachment tested GREATER before the fragment shader runs.
+// barriers: the depth prepared by cmdBlendDepth (DEPTH_READ_ONLY_OPTIMAL, its writes visible to
+// the depth tests), the heads zeroed and the particles' draw arguments written (cmdPrepare). The
+// lists' writes are made visible by the caller's next phase barrier.
+void ClusterRenderer::Impl::cmdParticles(VkCommandBuffer cmd, const sio::ClusterPush& p, ParticleDraw& particles) {
+  uint32_t slot = timer().cmdBegin(cmd, "particles");
+  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAtt.imageView = depth.view();
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
+  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_NONE; // read-only: nothing to store
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.pDepthAttachment = &depthAtt;
+  cmdBeginFullTarget(cmd, ri);
+  uint32_t eyes = plans[currentSlot].stereo ? 2 : 1;
+  for (uint32_t e = 0; e < eyes; ++e) {
+    if (eyes == 2) {
+      VkViewport vp{float(e * width), 0.0f, float(width), float(height), 0.0f, 1.0f};
+      VkRect2D scissor{{int32_t(e * width), 0}, {width, height}};
+      vkCmdSetViewport(cmd, 0, 1, &vp);
+      vkCmdSetScissor(cmd, 0, 1, &scissor);
+    }
+    // The eye's ClusterFrame starts with its ViewFrame, which is all the billboards read.
+    particles.cmdDraw(cmd, OitMode::LinkedList, p.frameAddress + e * kFrameStride,
+                      particleLists[currentSlot].address());
+  }
+  vkCmdEndRendering(cmd);
+  timer().cmdEnd(cmd, slot);
+}
+
+} // namespace mirage::render
