@@ -32,7 +32,7 @@ void main() {
   ParticleViewRef f = ParticleViewRef(push.frameAddress);
   vec2 c = kCorners[gl_VertexIndex];
   vec4 centre = f.camera.view * vec4(p.position, 1.0);
-  float pixels = particlePixels(f.camera, p.size, centre);
+  float pixels = particlePixels(f.camera.proj[1][1], f.camera.viewport.y, p.size, centre.z);
   float grow = pixels > 0.0 && pixels < kMinPixels ? kMinPixels / pixels : 1.0;
   float s = sin(p.rotation), k = cos(p.rotation);
   vec2 offset = vec2(k * c.x - s * c.y, s * c.x + k * c.y) * (0.5 * p.size * grow);

@@ -29,10 +29,11 @@ uint particleBatchIndex(uint64_t batchAddress, uint batchCount, uint g) {
   return b;
 }
 
-// The billboard's edge in pixels at view-space centre `centre` (perspective: |proj[1][1]| / -z
-// scales view units to NDC): what decides between the billboard and the splat.
-float particlePixels(ViewFrame camera, float size, vec4 centre) {
-  return size * abs(camera.proj[1][1]) * 0.5 * camera.viewport.y / max(-centre.z, 1e-6);
+// The billboard's edge in pixels at view z `z` (perspective: |proj[1][1]| / -z scales view units
+// to NDC; proj11 and viewportHeight from the eye's ViewFrame): what decides between the billboard
+// and the splat.
+float particlePixels(float proj11, float viewportHeight, float size, float z) {
+  return size * abs(proj11) * 0.5 * viewportHeight / max(-z, 1e-6);
 }
 
 // View z (negative in front of the eye) as bits whose unsigned order is the float order: the

@@ -36,6 +36,7 @@ struct RenderOptions {
   std::string particles; // an effect file drawn with the scene (forward and cluster-LOD scenes)
   uint32_t particleFrames = 60;
   std::string particleSim = "cpu";
+  bool noSplat = false; // --particles: every particle a billboard
 };
 
 LodRenderRequest lodRequest(const RenderOptions& o) {
@@ -53,7 +54,8 @@ LodRenderRequest lodRequest(const RenderOptions& o) {
                           .stereoIpd = o.stereo.ipdOrNone(),
                           .particles = o.particles,
                           .particleFrames = o.particleFrames,
-                          .particleSim = o.particleSim};
+                          .particleSim = o.particleSim,
+                          .particleSplat = !o.noSplat};
 }
 
 struct Rendered {
@@ -97,6 +99,7 @@ bool renderToFiles(const RenderOptions& o, std::unique_ptr<gpu::Context>& ctx, s
     if (!played) return fail(played.error()), false;
     effect = std::move(*played);
     view.particles = effect->draw();
+    if (o.noSplat) (void)view.particles->setSettings({0.0f}); // billboards only (a valid setting)
     view.camera = particles::clipAround(view.camera, scene->bounds(), effect->bounds());
   }
   std::vector<std::vector<gpu::PassTime>> frames;
@@ -241,6 +244,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--particle-frames", o->particleFrames, "--particles: simulation steps (1/60 s) before the image")
       ->capture_default_str();
   cmd->add_option("--particle-sim", o->particleSim, "--particles: simulation cpu or gpu")->capture_default_str();
+  cmd->add_flag("--no-splat", o->noSplat, "--particles: draw every particle as a billboard (no compute splat)");
   cmd->callback([o] { runRender(*o); });
 }
 

@@ -101,6 +101,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
     if (!played) return fail(played.error()), false;
     s.effect = std::move(*played);
     s.view.particles = s.effect->draw();
+    if (!r.particleSplat) (void)s.view.particles->setSettings({0.0f}); // billboards only (a valid setting)
     Bounds fx = s.effect->bounds();
     s.view.camera = particles::clipAround(s.view.camera, s.scene->bounds(), fx);
     for (render::Camera& c : s.path) c = particles::clipAround(c, s.scene->bounds(), fx);

@@ -37,6 +37,7 @@ struct LodRenderRequest {
   std::string particles;
   uint32_t particleFrames = 60;
   std::string particleSim = "cpu";
+  bool particleSplat = true; // false: every particle a billboard
 };
 
 void runLodRender(const LodRenderRequest& request);

@@ -112,6 +112,7 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   p.pvs = cs.pvsCulling && pvsInstances;
   p.transparency = hasBlend() && cs.transparency;
   p.particles = cs.particles && cs.particles->batchCount() != 0 && cs.debugView == DebugView::None;
+  p.splat = p.particles && cs.particles->splats(OitMode::LinkedList);
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)

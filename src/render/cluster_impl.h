@@ -17,6 +17,7 @@
 #include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/cluster_renderer.h"
+#include "mirage/render/particle_draw.h"
 #include "mirage/shaderio/cluster.h"
 
 namespace mirage::render {
@@ -100,6 +101,7 @@ struct ClusterFramePlan {
   bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
   bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
   bool particles = false;    // particle billboards into the transparency lists (cluster_particles.cpp)
+  bool splat = false;        // small particles splatted (ParticleDraw::splats)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -120,6 +122,7 @@ struct ClusterRenderer::Impl {
   // node of the lists (which then exist without BLEND materials too), and per slot the OitLists the
   // billboards append through.
   gpu::Buffer oitColors, particleLists[kMaxFramesInFlight];
+  gpu::Buffer splatAccum;   // the particle splat's sums (ParticleDraw::splatBytes), made on first use
   bool particleOit = false; // the lists carry particles from now on (their pool sized for them)
   // Per slot (identically defined layouts are compatible): material textures, and the slot's
   // frame's visibility image, colour target and depth, written when the slot is recorded while
@@ -190,9 +193,11 @@ struct ClusterRenderer::Impl {
   void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, const ClusterFramePlan& plan, bool blend,
                        ParticleDraw* particles);
   void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget, bool always);
-  void createOitLists();   // heads, pool (and particle colours) at the target size
-  void prepareParticles(); // cluster_particles.cpp
+  void createOitLists();                          // heads, pool (and particle colours) at the target size
+  void prepareParticles(ParticleDraw& particles); // cluster_particles.cpp
   void cmdParticles(VkCommandBuffer cmd, const shaderio::ClusterPush& p, ParticleDraw& particles);
+  ParticleSplatTarget splatTarget(const shaderio::ClusterPush& p);
+  void cmdSplatResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p, ParticleDraw& particles);
   void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri, bool multiview = false);
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
   void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,

@@ -143,6 +143,7 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST); // stereo: the hardware draws left the right eye's frame pushed
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // both eyes in stereo
   timer().cmdEnd(cmd, slot, kCS);
+  if (plan.splat) cmdSplatResolve(cmd, p, *particles); // the splatted particles over the composite
 }
 
 } // namespace mirage::render

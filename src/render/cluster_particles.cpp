@@ -11,10 +11,19 @@ namespace mirage::render {
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 
-// The first frame with particles: the lists from then on carry a colour per node (and exist
+// A frame with particles. The first: the lists from then on carry a colour per node (and exist
 // without BLEND materials), with the larger pool; the replaced lists live until the frames in
-// flight that use them completed. Per slot, the OitLists the billboards append through.
-void ClusterRenderer::Impl::prepareParticles() {
+// flight that use them completed. Per slot, the OitLists the billboards append through. With the
+// splat, its sums at the target's size (recreated with the targets, or when their format changes).
+void ClusterRenderer::Impl::prepareParticles(ParticleDraw& particles) {
+  if (particles.splats(OitMode::LinkedList)) {
+    uint64_t bytes = particles.splatBytes(uint64_t(colorWidth) * height);
+    if (!splatAccum || splatAccum.size() != bytes) {
+      retired.retire(std::move(splatAccum), inFlightSlots());
+      splatAccum = createBuffer(ctx, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                MemoryUsage::GpuOnly, "particle splat sums");
+    }
+  }
   if (particleOit) return;
   particleOit = true;
   for (Buffer* buffer : {&oitHeads, &oitNodes, &oitColors}) retired.retire(std::move(*buffer), inFlightSlots());
@@ -25,12 +34,45 @@ void ClusterRenderer::Impl::prepareParticles() {
   if (!compositePipeline) compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
 }
 
-// The billboards of every batch, per eye with that eye's frame, viewport and scissor (stereo), over
-// the opaque depth as a read-only attachment tested GREATER before the fragment shader runs.
+// The splat's view of this frame: the eyes' frames (p: the mono frame, or the left eye's in
+// stereo), the side-by-side depth and colour, the sums.
+ParticleSplatTarget ClusterRenderer::Impl::splatTarget(const sio::ClusterPush& p) {
+  ParticleSplatTarget t;
+  t.slot = currentSlot;
+  t.eyes = plans[currentSlot].stereo ? 2 : 1;
+  for (uint32_t e = 0; e < t.eyes; ++e) t.frames[e] = p.frameAddress + e * kFrameStride;
+  t.eyeWidth = width;
+  t.height = height;
+  t.depth = depth.view();
+  t.color = color.view();
+  t.accumulators = &splatAccum;
+  return t;
+}
+
+// After the composite: the splatted particles' sums over the colour (ParticleDraw::cmdSplatResolve
+// orders it after the composite's writes).
+void ClusterRenderer::Impl::cmdSplatResolve(VkCommandBuffer cmd, const sio::ClusterPush& p, ParticleDraw& particles) {
+  uint32_t slot = timer().cmdBegin(cmd, "splat-resolve", kCS);
+  particles.cmdSplatResolve(cmd, splatTarget(p));
+  timer().cmdEnd(cmd, slot, kCS);
+}
+
+// The splat of the small particles, then the billboards of the rest (or of every particle), per eye
+// with that eye's frame, viewport and scissor (stereo), over the opaque depth as a read-only
+// attachment tested GREATER before the fragment shader runs.
 // barriers: the depth prepared by cmdBlendDepth (DEPTH_READ_ONLY_OPTIMAL, its writes visible to
-// the depth tests), the heads zeroed and the particles' draw arguments written (cmdPrepare). The
-// lists' writes are made visible by the caller's next phase barrier.
+// the depth tests and, since the raster, to compute shaders), the heads and sums zeroed and the
+// particles' draw arguments written (cmdPrepare). The lists' writes are made visible by the
+// caller's next phase barrier.
 void ClusterRenderer::Impl::cmdParticles(VkCommandBuffer cmd, const sio::ClusterPush& p, ParticleDraw& particles) {
+  if (plans[currentSlot].splat) { // the small ones into the sums (zeroed at the frame start), the rest listed
+    uint32_t splat = timer().cmdBegin(cmd, "splat", kCS);
+    particles.cmdSplat(cmd, splatTarget(p));
+    timer().cmdEnd(cmd, splat, kCS);
+    // The splat bound its own sets: the renderer's back for the composite.
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0,
+                            nullptr);
+  }
   uint32_t slot = timer().cmdBegin(cmd, "particles");
   VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depthAtt.imageView = depth.view();

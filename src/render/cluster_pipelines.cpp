@@ -165,7 +165,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   if (w == width && h == height && colorW == colorWidth) return;
   const uint32_t inFlight = inFlightSlots();
   for (Image* image : {&color, &vis, &depth, &layeredVis, &layeredDepth}) retired.retire(std::move(*image), inFlight);
-  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads, &oitNodes, &oitColors})
+  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads, &oitNodes, &oitColors, &splatAccum})
     retired.retire(std::move(*buffer), inFlight);
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                         "color");

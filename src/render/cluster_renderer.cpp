@@ -91,7 +91,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   // New targets for a new size retire those frames in flight still use (no device wait).
   uint32_t colorW = planned->stereo ? cs.base.width * 2 : cs.base.width; // stereo: left|right
   ensureTargets(cs.base.width, cs.base.height, colorW);
-  if (planned->particles) prepareParticles(); // the lists (and their colours) before the frame names them
+  if (planned->particles) prepareParticles(*cs.particles); // lists, colours, sums before the frame names them
   writeTargetDescriptors(currentSlot);
   if (planned->multiview) ensureMultiview(*planned);
   if (planned->debugView != DebugView::None && !debugResolvePipeline)
@@ -135,8 +135,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
-  if (oitHeads) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
-  if (plan.particles) cs.particles->cmdPrepare(cmd);                          // their draw arguments (live counts)
+  if (oitHeads) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0);     // empty lists
+  if (plan.particles) cs.particles->cmdPrepare(cmd);                              // their draw arguments (live counts)
+  if (plan.splat) vkCmdFillBuffer(cmd, splatAccum.handle(), 0, VK_WHOLE_SIZE, 0); // the splat's sums
   if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdrawCounts.handle(), 0, VK_WHOLE_SIZE, 0);
   if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
     vkCmdFillBuffer(cmd, fade.handle(), 0, VK_WHOLE_SIZE, 0);

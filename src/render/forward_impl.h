@@ -104,6 +104,7 @@ struct ForwardRenderer::Impl {
   gpu::Buffer oitHeads, oitNodes, oitColors, oitCounters;
   uint32_t oitNodeCapacity = 0, oitNodesPerPixel = 0;
   gpu::Image accum, reveal; // weighted: (sum rgb a w, revealage), (sum a w, -, -, -)
+  gpu::Buffer splatAccum;   // the particle splat's sums (ParticleDraw::splatBytes), made on first use
 
   // The targets, shared by every slot (each frame's first barrier orders it after the earlier
   // ones); colorWidth is both eyes' in stereo.

@@ -137,6 +137,15 @@ void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const Forwa
   bool particles = fs.particles && fs.particles->batchCount() != 0;
   if (blendInstances.empty() && !particles) return;
   if (particles) fs.particles->cmdPrepare(cmd);
+  if (particles && fs.particles->splats(fs.oit)) { // the splat's sums, zeroed (cmdSplat waits for it)
+    uint64_t bytes = fs.particles->splatBytes(uint64_t(colorWidth) * height);
+    if (!splatAccum || splatAccum.size() != bytes) {
+      retired.retire(std::move(splatAccum), inFlight());
+      splatAccum = createBuffer(ctx, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                MemoryUsage::GpuOnly, "particle splat sums");
+    }
+    vkCmdFillBuffer(cmd, splatAccum.handle(), 0, VK_WHOLE_SIZE, 0);
+  }
   ensurePipelines(*this, fs.oit);
   if (fs.oit == OitMode::LinkedList) {
     ensureOitTargets(fs.oitNodesPerPixel);
@@ -222,13 +231,32 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
     timer.cmdEnd(cmd, timer.cmdBegin(cmd, "blend"));
     return colorToGeneral();
   }
-  // The opaque depth, stored by the opaque pass, tested (read-only) by the blended geometry.
-  cmdImageBarrier(cmd, {depth.handle(), kTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests,
-                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT});
+  // The opaque depth, stored by the opaque pass, tested (read-only) by the blended geometry and read
+  // by the particle splat.
+  cmdImageBarrier(cmd, {depth.handle(), kTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests | kCS,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+                        VK_IMAGE_ASPECT_DEPTH_BIT});
+  // Small particles splatted in compute before the pass (their sums resolved after the composite);
+  // the billboards then draw the rest.
+  const bool splat = particles && fs.particles->splats(fs.oit);
+  ParticleSplatTarget splatTarget;
+  if (splat) {
+    splatTarget.slot = slot;
+    splatTarget.eyes = eyeCount;
+    for (uint32_t e = 0; e < eyeCount; ++e) splatTarget.frames[e] = frames[slot].address() + e * sizeof(sio::FrameData);
+    splatTarget.eyeWidth = eyeWidth;
+    splatTarget.height = height;
+    splatTarget.depth = depth.view();
+    splatTarget.color = color.view();
+    splatTarget.accumulators = &splatAccum;
+    uint32_t splatTime = timer.cmdBegin(cmd, "splat", kCS);
+    fs.particles->cmdSplat(cmd, splatTarget);
+    timer.cmdEnd(cmd, splatTime, kCS);
+  }
   VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depthAtt.imageView = depth.view();
-  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
   depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
   depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_NONE; // nothing written
   VkRenderingAttachmentInfo colorAtts[2] = {{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO},
@@ -350,6 +378,11 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
   vkCmdPushConstants(cmd, resolveLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1);
   timer.cmdEnd(cmd, resolveTime, kCS);
+  if (splat) { // the splatted particles over the composited colour
+    uint32_t splatResolveTime = timer.cmdBegin(cmd, "splat-resolve", kCS);
+    fs.particles->cmdSplatResolve(cmd, splatTarget);
+    timer.cmdEnd(cmd, splatResolveTime, kCS);
+  }
   // The colour's writes visible to compute and transfers, as without transparency; the counters
   // to the slot's readback.
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,

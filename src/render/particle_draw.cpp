@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cstring>
 
+#include <fmt/format.h>
+
 #include "forward_impl.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/shaderio/cluster.h"
@@ -54,7 +56,7 @@ Result<std::unique_ptr<ParticleDraw>> ParticleDraw::create(Context& context, std
   MIRAGE_VK_CHECK(vkCreateSampler(context.device(), &si, nullptr, &sampler));
   d->sampler = Unique<VkSampler>(context.device(), sampler);
   VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(sheets.size()),
-                                       VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+                                       VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   d->descriptors = createDescriptorSet(context, {&binding, 1});
   std::vector<VkDescriptorImageInfo> infos;
   for (const Image& img : d->sheetImages)
@@ -70,6 +72,34 @@ Result<std::unique_ptr<ParticleDraw>> ParticleDraw::create(Context& context, std
   d->batchTable = createBuffer(context, d->batchCapacity * sizeof(sio::ParticleBatchInfo), kArgs, MemoryUsage::GpuOnly,
                                "particle batches");
   return std::unique_ptr<ParticleDraw>(new ParticleDraw(std::move(d)));
+}
+
+Status ParticleDraw::setSettings(const ParticleDrawSettings& settings) {
+  if (!(settings.splatBelowPixels >= 0.0f && settings.splatBelowPixels <= MIRAGE_SPLAT_MAX_PIXELS))
+    return Error{fmt::format("particle splat threshold {} px: must be in 0..{}", settings.splatBelowPixels,
+                             MIRAGE_SPLAT_MAX_PIXELS)};
+  const DeviceCapabilities& caps = impl_->ctx.caps();
+  if (settings.atomics == SplatAtomics::Float && !caps.floatBufferAtomicAdd)
+    return Error{"particle splat: the device has no float atomic adds (shaderBufferFloat32AtomicAdd)"};
+  if (settings.atomics == SplatAtomics::Fixed && !caps.int64BufferAtomics)
+    return Error{"particle splat: the device has no 64-bit buffer atomics"};
+  impl_->settings = settings;
+  return Ok{};
+}
+
+const ParticleDrawSettings& ParticleDraw::settings() const { return impl_->settings; }
+
+// The compute passes' layout: the sheets (set 0), per frame slot the target's depth and colour
+// (set 1), and the largest of their push constants.
+void ParticleDraw::Impl::ensureComputeLayout() {
+  if (computeLayout) return;
+  VkDescriptorSetLayoutBinding bindings[] = {
+      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
+  for (DescriptorSet& set : frameSets) set = createDescriptorSet(ctx, bindings);
+  computeLayout = createPipelineLayout(
+      ctx, {descriptors.layout.get(), frameSets[0].layout.get()},
+      uint32_t(std::max(sizeof(sio::ParticleSortPush), sizeof(sio::ParticleSplatPush))), VK_SHADER_STAGE_COMPUTE_BIT);
 }
 
 void ParticleDraw::setBatches(std::vector<ParticleBatch> batches) {
@@ -104,6 +134,7 @@ size_t ParticleDraw::batchCount() const { return impl_->batches.size(); }
 
 void ParticleDraw::cmdPrepare(VkCommandBuffer cmd) {
   Impl& d = *impl_;
+  d.splatRecorded = false; // this frame's cmdDraw draws every record unless cmdSplat runs
   if (d.batches.empty()) return;
   if (d.batchCapacity < d.batches.size()) { // rare: more batches than ever before
     d.batchCapacity = uint32_t(d.batches.size());
@@ -185,6 +216,15 @@ void ParticleDraw::cmdDraw(VkCommandBuffer cmd, OitMode mode, VkDeviceAddress fr
   Impl& d = *impl_;
   if (d.batches.empty()) return;
   d.cmdBindDraw(cmd, mode);
+  if (d.splatRecorded) { // the particles the splat left: one draw over every batch's
+    sio::ParticleDrawPush push = d.drawPush(frame, mode == OitMode::LinkedList ? oitLists : 0);
+    push.recordAddress = d.largeList.address();
+    push.mode = MIRAGE_PARTICLE_DRAW_INDICES;
+    vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
+                       &push);
+    vkCmdDrawIndirect(cmd, d.largeArgs.handle(), 0, 1, sizeof(VkDrawIndirectCommand));
+    return;
+  }
   for (uint32_t i = 0; i < d.batches.size(); ++i) {
     const ParticleBatch& b = d.batches[i];
     const ParticleSheet& s = d.sheetOf(b);

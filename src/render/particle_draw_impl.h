@@ -2,12 +2,14 @@
 // ParticleDraw's state, shared by its files:
 //   particle_draw.cpp  sheets, batches, draw arguments, the billboards
 //   particle_sort.cpp  sorted mode: GPU depth sort of the records, gaps between sorted triangles
+//   particle_splat.cpp the splat of small particles and its resolve
 #include <memory>
 #include <vector>
 
 #include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/radix_sort.h"
+#include "mirage/render/frames_in_flight.h"
 #include "mirage/render/particle_draw.h"
 #include "mirage/shaderio/particle_draw.h"
 
@@ -29,12 +31,25 @@ struct ParticleDraw::Impl {
   uint32_t batchCapacity = 0;
   uint32_t totalRecords = 0; // record slots over the batches (the global numbering's size)
 
-  // Sorted mode (particle_sort.cpp), made on first use: the compute layout, the key and gap passes,
-  // the keys (uint64 per record slot) and their radix sort.
+  ParticleDrawSettings settings;
+
+  // The compute passes' layout (set 0: the sheets, set 1: a frame's depth and colour; the largest
+  // push), made with the first of them.
   gpu::Unique<VkPipelineLayout> computeLayout;
+  // Sorted mode (particle_sort.cpp), made on first use: the key and gap passes, the keys (uint64
+  // per record slot) and their radix sort.
   gpu::Unique<VkPipeline> sortKeysPipeline, sortGapsPipeline;
   gpu::Buffer sortKeys;
   std::unique_ptr<gpu::RadixSort> radix;
+
+  // The splat (particle_splat.cpp), made on first use: its pass and resolve, per frame slot the
+  // set naming the target's depth and colour, the billboards' list (global records) and its draw.
+  gpu::Unique<VkPipeline> splatPipelines[2], splatResolvePipeline; // [fixed point]
+  gpu::Unique<VkSampler> depthSampler;
+  gpu::DescriptorSet frameSets[kMaxFramesInFlight];
+  gpu::Buffer largeList, largeArgs;
+  bool fixedPoint = false;    // the last cmdSplat accumulated in fixed point (settings and device)
+  bool splatRecorded = false; // cmdSplat ran since cmdPrepare: cmdDraw draws the list
 
   explicit Impl(gpu::Context& c) : ctx(c) {}
   VkPipeline pipeline(OitMode mode);
@@ -44,6 +59,7 @@ struct ParticleDraw::Impl {
   shaderio::ParticleDrawPush drawPush(VkDeviceAddress frame, VkDeviceAddress oitLists) const;
   void cmdBindDraw(VkCommandBuffer cmd, OitMode mode);
   void ensureComputeLayout();
+  shaderio::ParticleSplatPush splatPush(const ParticleSplatTarget& t) const;
 };
 
 } // namespace mirage::render

@@ -27,11 +27,6 @@ void cmdDispatchItems(VkCommandBuffer cmd, uint32_t items) {
 
 } // namespace
 
-void ParticleDraw::Impl::ensureComputeLayout() {
-  if (!computeLayout)
-    computeLayout = createPipelineLayout(ctx, {}, sizeof(sio::ParticleSortPush), VK_SHADER_STAGE_COMPUTE_BIT);
-}
-
 // barriers: cmdPrepare's arguments and batch table visible to compute shaders; the records written.
 void ParticleDraw::cmdSort(VkCommandBuffer cmd, const glm::mat4& view, VkDeviceAddress triangleDepths,
                            uint32_t triangleCount, const gpu::Buffer& gapDraws) {

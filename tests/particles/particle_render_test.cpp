@@ -127,6 +127,7 @@ TEST_F(ParticleRender, SubPixelParticlesKeepTheirCoverage) {
   auto draw = whiteDraw(context());
   ASSERT_TRUE(draw);
   const glm::vec4 color{1.0f, 1.0f, 1.0f, 1.0f};
+  ASSERT_TRUE(draw->setSettings({0.0f}).ok()); // billboards only: the grow rule (the splat: particle_splat_test)
   float side = 2.0f * halfExtentPixels(0.04f); // 0.6 px
   sio::RenderParticle p = particle({0, 0, 0}, 0.04f, color);
   ParticleDraw::CpuBatch batch{{&p, 1}, 0};

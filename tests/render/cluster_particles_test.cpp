@@ -88,7 +88,8 @@ sio::RenderParticle particle(glm::vec3 position, float size, glm::vec4 color, fl
   return {position, size, rotation, sio::particlePackColor(color), 0, 0};
 }
 
-// Particles before, between and behind the scene's layers, some overlapping each other.
+// Particles before, between and behind the scene's layers, some overlapping each other, some under
+// two pixels (splatted).
 std::vector<sio::RenderParticle> cloud() {
   std::vector<sio::RenderParticle> p{particle({-0.4f, 0.1f, 0.0f}, 1.2f, {1.0f, 0.2f, 0.1f, 0.8f}),
                                      particle({0.5f, 0.3f, 1.0f}, 0.9f, {0.2f, 0.4f, 1.0f, 0.7f}, 0.3f),
@@ -98,6 +99,11 @@ std::vector<sio::RenderParticle> cloud() {
     float t = float(i) * 0.7f;
     p.push_back(particle({1.2f * std::sin(t), 0.9f * std::cos(1.3f * t), 0.9f * std::sin(2.1f * t)},
                          0.15f + 0.02f * float(i % 5), {0.5f + 0.02f * float(i), 0.8f, 0.3f, 0.6f}));
+  }
+  for (int i = 0; i < 40; ++i) { // and tiny ones, splatted by default (ParticleDrawSettings)
+    float t = float(i) * 1.3f;
+    p.push_back(particle({1.4f * std::sin(t), 1.0f * std::cos(0.7f * t), 1.2f * std::sin(1.7f * t)},
+                         0.02f + 0.001f * float(i), {1.0f, 0.8f, 0.4f, 0.9f}));
   }
   return p;
 }

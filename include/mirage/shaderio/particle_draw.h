@@ -64,7 +64,38 @@ struct ParticleSortPush {
   uint pad0;
 };
 
+// The splat (particle_splat*.comp; docs/particles.md, "Splat"): per target pixel
+// MIRAGE_SPLAT_CHANNELS sums, the weighted blended accumulators of McGuire and Bavoil 2013:
+// premultiplied colour x weight (rgb), alpha x weight, and -log(1 - alpha) (the revealage product
+// as a sum, so that it can be accumulated by atomic adds). Float: float[pixel * 5 + c]; fixed
+// point (without float atomic adds): uint64[pixel * 5 + c] in units of 2^-MIRAGE_SPLAT_FIXED_BITS.
+#define MIRAGE_SPLAT_CHANNELS 5
+#define MIRAGE_SPLAT_FIXED_BITS 32
+// Coverage past this (a splat's alpha is a pixel's share of a particle's) counts as this: the
+// revealage sum stays finite.
+#define MIRAGE_SPLAT_MAX_ALPHA 0.99975
+// Largest splatBelowPixels: a splatted particle touches at most (ceil(it) + 1)^2 pixels.
+#define MIRAGE_SPLAT_MAX_PIXELS 8.0
+
+struct ParticleSplatPush {
+  uint64_t frameAddress[2];  // ViewFrame of each eye (the classification uses eye 0's size)
+  uint64_t batchAddress;     // ParticleBatchInfo[batchCount]
+  uint64_t argsAddress;      // VkDrawIndirectCommand per batch: instanceCount = its live records
+  uint64_t accumAddress;     // the accumulators (float or fixed point, MIRAGE_SPLAT_CHANNELS per pixel)
+  uint64_t largeAddress;     // uint[total]: global records left to the billboards
+  uint64_t largeArgsAddress; // VkDrawIndirectCommand of the billboards' draw: instanceCount counts them
+  uint total;                // record slots over all batches
+  uint batchCount;
+  uint eyes;         // 1, or 2: side by side, eye e's pixels at x + e * eyeWidth
+  uint eyeWidth;     // pixels
+  uint height;       // pixels
+  float belowPixels; // billboard edges under this many pixels are splatted
+  uint fixedPoint;   // 1: the accumulators are fixed point (resolve)
+  uint pad0;
+};
+
 #ifdef __cplusplus
+static_assert(sizeof(ParticleSplatPush) == 88, "ParticleSplatPush layout");
 static_assert(sizeof(ParticleBatchInfo) == 32, "ParticleBatchInfo layout");
 static_assert(sizeof(ParticleDrawPush) == 64, "ParticleDrawPush layout");
 static_assert(sizeof(ParticleSortPush) == 120, "ParticleSortPush layout");
