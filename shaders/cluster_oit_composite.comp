@@ -5,8 +5,12 @@
 // MIRAGE_OIT_MAX_LAYERS kept sorted by (depth, id), and each fragment, shaded with the forward
 // material model (alpha = base-colour alpha), is blended back to front over the resolved opaque
 // colour: c = mix(c, rgb, a), the forward renderer's SRC_ALPHA / ONE_MINUS_SRC_ALPHA. The order
-// comes from the per-pixel sort, so the image does not depend on draw or list order.
-// push.visibleAddress is the blend list here (ids name its entries).
+// comes from the per-pixel sort, so the image does not depend on draw or list order. Particle
+// billboards (render/particle_draw.h) append to the same lists with ids tagged
+// MIRAGE_OIT_COLOR_ID_TAG: their colour, shaded where they were rasterized, is read from beside
+// the pool, so particles and transparent surfaces sort together per pixel.
+// push.visibleAddress is the blend list here (ids name its entries; the opaque list when the scene
+// has no blend clusters: its entry 0 is valid for lanes that load without using it).
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
 
@@ -16,6 +20,7 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 #include "cluster_surface.glsl"
 
 layout(set = 0, binding = 2, rgba16f) uniform image2D colorImage;
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer OitStoredColorRef { uvec2 colors[]; };
 layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
@@ -36,9 +41,18 @@ void main() {
   vec3 color = imageLoad(colorImage, target).rgb;
   for (int i = 0; i < list.count; ++i) {
     uint id = uint(oitKeys[i] & 0xffffffffUL);
-    uint v1 = max(id >> MIRAGE_CLUSTER_TRIANGLE_BITS, 1u);
-    VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v1 - 1];
-    vec4 c = shadeClusterPixel(f, vc, id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u), px);
+    bool stored = (id & MIRAGE_OIT_COLOR_ID_TAG) != 0u;
+    // Indices valid on both sides (lavapipe loads for lanes of the untaken branch too).
+    uint node = min(max(id & ~MIRAGE_OIT_COLOR_ID_TAG, 1u) - 1u, f.oitNodeCapacity - 1u); // id: node + 1 | tag
+    uint v1 = stored ? 1u : max(id >> MIRAGE_CLUSTER_TRIANGLE_BITS, 1u);
+    uint triangle = stored ? 0u : id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
+    vec4 c;
+    if (stored) {
+      uvec2 packed = OitStoredColorRef(f.oitColorAddress).colors[node];
+      c = vec4(unpackHalf2x16(packed.x), unpackHalf2x16(packed.y));
+    } else {
+      c = shadeClusterPixel(f, VisibleRef(push.visibleAddress).visible[v1 - 1], triangle, px);
+    }
     color = oitBlend(color, c);
   }
   imageStore(colorImage, target, vec4(color, 1.0));

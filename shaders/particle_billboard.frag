@@ -1,6 +1,6 @@
 #version 460
-// Particle billboards, sorted mode: blended "over" by the pipeline after the sorted scene
-// triangles, in record order.
+// Particle billboards, sorted mode: blended "over" by the pipeline, each gap of the depth-sorted
+// particles between the sorted blended triangles it falls between (particle_sort.cpp).
 #define MIRAGE_PARTICLE_FRAGMENT
 #include "particle_billboard.glsl"
 

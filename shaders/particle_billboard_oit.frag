@@ -1,7 +1,8 @@
 #version 460
 // Particle billboards, linked-list mode: each fragment in front of the opaque depth appended to
-// its pixel's list exactly as forward_oit.frag appends the scene's blended fragments, so the
-// resolve sorts particles and transparent geometry together. Invisible texels append nothing.
+// its pixel's list exactly as forward_oit.frag appends the scene's blended fragments (or, in the
+// cluster renderer, as its blend rasters do, the id tagged as a stored colour), so the resolve
+// sorts particles and transparent geometry together. Invisible texels append nothing.
 #define MIRAGE_PARTICLE_FRAGMENT
 #include "particle_billboard.glsl"
 #include "oit_list.glsl"
@@ -20,5 +21,5 @@ void main() {
   OitSlot s = oitAcquire(l.counterAddress, l.headAddress, l.nodeAddress, l.nodeCapacity, pixel, gl_FragCoord.z);
   if (s.node == kOitNoNode) return;
   OitColorRef(l.colorAddress).colors[s.node] = uvec2(packHalf2x16(c.rg), packHalf2x16(c.ba));
-  oitCommit(l.headAddress, l.nodeAddress, pixel, s, gl_FragCoord.z, s.node + 1, /*payload=*/true);
+  oitCommit(l.headAddress, l.nodeAddress, pixel, s, gl_FragCoord.z, (s.node + 1) | l.idTag, /*payload=*/true);
 }

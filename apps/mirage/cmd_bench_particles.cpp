@@ -28,6 +28,8 @@ struct BenchParticlesOptions {
   bool render = false; // --sim gpu: simulate and draw each frame (particles/render.h)
   std::string size = "1920x1080";
   std::string oit = "linked-list";
+  std::string camera;   // --render: empty frames the effect
+  bool noSplat = false; // --render: every particle a billboard
 };
 
 // --render: simulation + billboards over a ground, GPU times per frame.
@@ -39,6 +41,8 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
   auto oit = render::parseOitMode(o.oit);
   if (!oit) return fail(oit.error());
   ro.oit = *oit;
+  ro.camera = o.camera;
+  ro.splat = !o.noSplat;
   auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
   auto r = particles::benchRender(**ctx, effect, ro);
@@ -59,6 +63,10 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
                         {"render_ms", r->frameMs},
                         {"blend_ms", r->blendMs},
                         {"composite_ms", r->compositeMs},
+                        {"splat", ro.splat},
+                        {"splat_ms", r->splatMs},
+                        {"splat_resolve_ms", r->splatResolveMs},
+                        {"billboards", r->billboards},
                         {"total_ms", r->totalMs},
                         {"msl", r->oit.msl},
                         {"oit_dropped", r->oit.dropped()},
@@ -68,8 +76,11 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
   }
   fmt::print("bench particles {} --render on {}: {} live particles ({} asked), {}x{}, {}, {} timed frames\n", o.input,
              (*ctx)->caps().name, r->live, o.count, ro.width, ro.height, o.oit, o.steps);
-  fmt::print("  simulate {:9.3f} ms  render {:9.3f} ms (blend {:.3f}, composite {:.3f})  total {:9.3f} ms (medians)\n",
-             r->simulateMs, r->frameMs, r->blendMs, r->compositeMs, r->totalMs);
+  fmt::print("  simulate {:9.3f} ms  render {:9.3f} ms (splat {:.3f}, blend {:.3f}, composite {:.3f}, splat resolve "
+             "{:.3f})  total {:9.3f} ms (medians)\n",
+             r->simulateMs, r->frameMs, r->splatMs, r->blendMs, r->compositeMs, r->splatResolveMs, r->totalMs);
+  fmt::print("  billboards {} of {} live particles ({})\n", r->billboards, r->live,
+             ro.splat ? "the rest splatted" : "splat off");
   fmt::print("  oit fragments {}  msl {:.3f}  oit_dropped {}\n", r->oit.fragments, r->oit.msl, r->oit.dropped());
 }
 
@@ -143,6 +154,8 @@ void addBenchParticlesCommand(CLI::App& bench) {
               "--steps frames timed");
   b->add_option("--size", o->size, "--render: image size WxH")->capture_default_str();
   b->add_option("--oit", o->oit, "--render: linked-list, weighted or sorted")->capture_default_str();
+  b->add_option("--camera", o->camera, "--render: eye=x,y,z,target=x,y,z[,fov=60] (default: frame the effect)");
+  b->add_flag("--no-splat", o->noSplat, "--render: draw every particle as a billboard (no compute splat)");
   b->callback([o] { runBenchParticles(*o); });
 }
 

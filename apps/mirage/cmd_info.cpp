@@ -26,6 +26,7 @@ nlohmann::json capsJson(const gpu::DeviceInfo& d) {
           {"acceleration_structure", c.accelerationStructure},
           {"int64_buffer_atomics", c.int64BufferAtomics},
           {"int64_image_atomics", c.int64ImageAtomics},
+          {"float_buffer_atomic_add", c.floatBufferAtomicAdd},
           {"max_multiview_views", c.maxMultiviewViews},
           {"multiview", c.multiview},
           {"multiview_mesh_shader", c.multiviewMeshShader},
@@ -60,9 +61,9 @@ void printDevices(bool json) {
                gpu::deviceTypeName(c.type), VK_API_VERSION_MAJOR(c.apiVersion), VK_API_VERSION_MINOR(c.apiVersion),
                VK_API_VERSION_PATCH(c.apiVersion), c.driver);
     fmt::print("    mesh shader {}  geometry shader {}  ray tracing pipeline {}  ray query {}  int64 atomics buffer {} "
-               "image {}\n",
+               "image {}  float atomic add {}\n",
                yes(c.meshShader), yes(c.geometryShader), yes(c.rayTracingPipeline), yes(c.rayQuery),
-               yes(c.int64BufferAtomics), yes(c.int64ImageAtomics));
+               yes(c.int64BufferAtomics), yes(c.int64ImageAtomics), yes(c.floatBufferAtomicAdd));
     fmt::print("    multiview {} ({} views, mesh shaders {})  subgroup {}  timestamps {} ({} ns/tick)  pipeline "
                "statistics {}\n",
                yes(c.multiview), c.maxMultiviewViews, yes(c.multiviewMeshShader), c.subgroupSize, yes(c.timestamps),

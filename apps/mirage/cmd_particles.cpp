@@ -1,5 +1,5 @@
 // mirage particles FX.toml [--scene SCENE] [--frames N] [--dt 1/60] [--camera ...|--path P]
-// [--every K] [--sim cpu|gpu] [--size WxH] [--oit MODE] -o out.png: an effect rendered after N
+// [--every K] [--sim cpu|gpu] [--size WxH] [--oit MODE] [--no-splat] -o out.png: an effect rendered after N
 // steps (mirage/particles/render.h).
 #include <memory>
 
@@ -23,6 +23,7 @@ struct ParticlesOptions {
   std::string size = "640x360";
   std::string device;
   bool json = false;
+  bool noSplat = false;
 };
 
 void runParticles(ParticlesOptions& o) {
@@ -37,6 +38,7 @@ void runParticles(ParticlesOptions& o) {
   if (!oit) return fail(oit.error());
   r.oit = *oit;
   if (auto s = parseSize(o.size, r.width, r.height); !s) return fail(s.error());
+  r.splat = !o.noSplat;
   if (auto s = checkOutputPath(r.output, {".png"}); !s) return fail(s.error());
   if (auto s = particles::validate(r); !s) return fail(s.error());
   auto ctx = openDevice(o.device);
@@ -83,6 +85,7 @@ void addParticlesCommand(CLI::App& app) {
   c->add_option("--oit", o->oit, "Transparency: linked-list, weighted or sorted")->capture_default_str();
   c->add_option("--size", o->size, "Image size WxH")->capture_default_str();
   c->add_option("--device", o->device, "Vulkan device name substring or index");
+  c->add_flag("--no-splat", o->noSplat, "Draw every particle as a billboard (no compute splat of small ones)");
   c->add_flag("--json", o->json, "Print the result as JSON");
   c->callback([o] { runParticles(*o); });
 }

@@ -33,9 +33,10 @@ struct RenderOptions {
   RenderConfigOptions given;
   CLI::Option* surfelOrder = nullptr;
   StereoOptions stereo;  // cluster LOD and forward scenes
-  std::string particles; // forward scenes: an effect file drawn with the scene
+  std::string particles; // an effect file drawn with the scene (forward and cluster-LOD scenes)
   uint32_t particleFrames = 60;
   std::string particleSim = "cpu";
+  bool noSplat = false; // --particles: every particle a billboard
 };
 
 LodRenderRequest lodRequest(const RenderOptions& o) {
@@ -50,7 +51,11 @@ LodRenderRequest lodRequest(const RenderOptions& o) {
                           .frames = o.repeat,
                           .stats = o.stats,
                           .json = o.json,
-                          .stereoIpd = o.stereo.ipdOrNone()};
+                          .stereoIpd = o.stereo.ipdOrNone(),
+                          .particles = o.particles,
+                          .particleFrames = o.particleFrames,
+                          .particleSim = o.particleSim,
+                          .particleSplat = !o.noSplat};
 }
 
 struct Rendered {
@@ -94,6 +99,7 @@ bool renderToFiles(const RenderOptions& o, std::unique_ptr<gpu::Context>& ctx, s
     if (!played) return fail(played.error()), false;
     effect = std::move(*played);
     view.particles = effect->draw();
+    if (o.noSplat) (void)view.particles->setSettings({0.0f}); // billboards only (a valid setting)
     view.camera = particles::clipAround(view.camera, scene->bounds(), effect->bounds());
   }
   std::vector<std::vector<gpu::PassTime>> frames;
@@ -197,8 +203,8 @@ void runRender(const RenderOptions& o) {
       return fail("--pvs, --surfel-raster and --surfel-order do not apply to mixed scenes");
     return runLodRender(lodRequest(o));
   }
-  if (!o.particles.empty() && (o.scene.surfels || *kind != runtime::SceneKind::Forward))
-    return fail("--particles applies to forward scenes (scene files and gen: scenes) only");
+  if (!o.particles.empty() && *kind == runtime::SceneKind::Surfels)
+    return fail("--particles applies to scene files, gen: scenes and .mrg cluster-LOD assets, not surfel-only scenes");
   if (o.scene.surfels) {
     if (!o.scene.pvs.empty() || !o.exr.empty() || !o.path.empty())
       return fail("--pvs, --exr and --path do not apply to --surfels");
@@ -233,10 +239,12 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
   o->surfelOrder = bindSceneOptions(*cmd, o->scene, BindMode::Render);
   bindStereo(*cmd, o->stereo);
-  cmd->add_option("--particles", o->particles, "Forward scenes: a particle effect (.toml) drawn with the scene");
+  cmd->add_option("--particles", o->particles,
+                  "A particle effect (.toml) drawn with the scene (not surfel-only scenes)");
   cmd->add_option("--particle-frames", o->particleFrames, "--particles: simulation steps (1/60 s) before the image")
       ->capture_default_str();
   cmd->add_option("--particle-sim", o->particleSim, "--particles: simulation cpu or gpu")->capture_default_str();
+  cmd->add_flag("--no-splat", o->noSplat, "--particles: draw every particle as a billboard (no compute splat)");
   cmd->callback([o] { runRender(*o); });
 }
 

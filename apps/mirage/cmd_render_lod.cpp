@@ -14,6 +14,7 @@
 #include "lod_baselines.h"
 #include "lod_render.h"
 #include "mirage/io/image_io.h"
+#include "mirage/particles/render.h"
 #include "mirage/render/cluster_renderer.h"
 #include "mirage/runtime/frame_time.h"
 #include "mirage/runtime/scene.h"
@@ -28,7 +29,8 @@ struct Session {
   std::unique_ptr<gpu::Context> ctx;
   std::unique_ptr<runtime::Scene> scene;
   runtime::View view;
-  std::vector<render::Camera> path; // --path: frame i uses path[i % size]
+  std::vector<render::Camera> path;                // --path: frame i uses path[i % size]
+  std::unique_ptr<particles::EffectPlayer> effect; // --particles
 };
 
 // Makes the view cell holding `eye` current and, unless `quiet`, says which one it is. Returns
@@ -92,6 +94,18 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   s.view.readLinear = !r.exr.empty();
   s.view.config = r.config;
   s.view.stereoIpd = r.stereoIpd;
+  if (!r.particles.empty()) { // the effect drawn with the scene, inside the clip planes of both
+    auto sim = parseNamed(r.particleSim, "--particle-sim", particles::kSimKindNames);
+    if (!sim) return fail(sim.error()), false;
+    auto played = particles::playEffect(*s.ctx, r.particles, r.particleFrames, *sim, 1.0f / 60.0f);
+    if (!played) return fail(played.error()), false;
+    s.effect = std::move(*played);
+    s.view.particles = s.effect->draw();
+    if (!r.particleSplat) (void)s.view.particles->setSettings({0.0f}); // billboards only (a valid setting)
+    Bounds fx = s.effect->bounds();
+    s.view.camera = particles::clipAround(s.view.camera, s.scene->bounds(), fx);
+    for (render::Camera& c : s.path) c = particles::clipAround(c, s.scene->bounds(), fx);
+  }
   if (const vis::PvsData* pvs = s.scene->pvsData()) {
     if (!needOutput && r.camera.empty() && r.path.empty()) { // bench: views from every cell
       s.path = cellCameras(*pvs);

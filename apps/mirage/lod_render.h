@@ -33,6 +33,11 @@ struct LodRenderRequest {
   // bench --target-ms: each frame's tau from the frame-time controller fed with the previous
   // frames' GPU times; one configuration, each frame reported.
   std::optional<runtime::FrameTimeSettings> frameTime;
+  // render --particles: an effect file stepped particleFrames times (1/60 s) and drawn with the scene.
+  std::string particles;
+  uint32_t particleFrames = 60;
+  std::string particleSim = "cpu";
+  bool particleSplat = true; // false: every particle a billboard
 };
 
 void runLodRender(const LodRenderRequest& request);

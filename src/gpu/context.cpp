@@ -57,9 +57,12 @@ struct FeatureChain {
   VkPhysicalDeviceRayQueryFeaturesKHR rayQuery{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR};
   VkPhysicalDeviceShaderImageAtomicInt64FeaturesEXT imageInt64{
       VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_IMAGE_ATOMIC_INT64_FEATURES_EXT};
+  VkPhysicalDeviceShaderAtomicFloatFeaturesEXT atomicFloat{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_ATOMIC_FLOAT_FEATURES_EXT};
 
   // Link only the structs whose extension the device has; the Vulkan 1.1-1.3 ones always.
-  void link(bool hasMesh, bool hasAccel, bool hasRtPipeline, bool hasRayQuery, bool hasImageInt64) {
+  void link(bool hasMesh, bool hasAccel, bool hasRtPipeline, bool hasRayQuery, bool hasImageInt64,
+            bool hasAtomicFloat) {
     void** next = &core.pNext;
     auto append = [&](auto& s) {
       *next = &s;
@@ -73,6 +76,7 @@ struct FeatureChain {
     if (hasRtPipeline) append(rtPipeline);
     if (hasRayQuery) append(rayQuery);
     if (hasImageInt64) append(imageInt64);
+    if (hasAtomicFloat) append(atomicFloat);
     *next = nullptr;
   }
 };
@@ -85,6 +89,7 @@ struct DeviceProbe {
   std::string whyUnusable;
   std::vector<const char*> extensions;
   bool hasMesh = false, hasAccel = false, hasRtPipeline = false, hasRayQuery = false, hasImageInt64 = false;
+  bool hasAtomicFloat = false;
 };
 
 DeviceProbe probeDevice(VkPhysicalDevice pd) {
@@ -134,9 +139,10 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   p.hasRtPipeline = p.hasAccel && hasExtension(exts, VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
   p.hasRayQuery = p.hasAccel && hasExtension(exts, VK_KHR_RAY_QUERY_EXTENSION_NAME);
   p.hasImageInt64 = hasExtension(exts, VK_EXT_SHADER_IMAGE_ATOMIC_INT64_EXTENSION_NAME);
+  p.hasAtomicFloat = hasExtension(exts, VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
 
   FeatureChain f;
-  f.link(p.hasMesh, p.hasAccel, p.hasRtPipeline, p.hasRayQuery, p.hasImageInt64);
+  f.link(p.hasMesh, p.hasAccel, p.hasRtPipeline, p.hasRayQuery, p.hasImageInt64, p.hasAtomicFloat);
   vkGetPhysicalDeviceFeatures2(pd, &f.core);
   c.meshShader = p.hasMesh && f.mesh.meshShader && f.mesh.taskShader;
   c.multiview = f.v11.multiview;
@@ -150,6 +156,7 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   c.pipelineStatistics = f.core.features.pipelineStatisticsQuery;
   c.fragmentStoresAndAtomics = f.core.features.fragmentStoresAndAtomics;
   c.geometryShader = f.core.features.geometryShader;
+  c.floatBufferAtomicAdd = p.hasAtomicFloat && f.atomicFloat.shaderBufferFloat32AtomicAdd;
 
   if (VK_API_VERSION_MINOR(props.apiVersion) < 3 && VK_API_VERSION_MAJOR(props.apiVersion) == 1)
     p.whyUnusable = "Vulkan 1.3 required";
@@ -167,6 +174,7 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   if (c.rayTracingPipeline) p.extensions.push_back(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
   if (c.rayQuery) p.extensions.push_back(VK_KHR_RAY_QUERY_EXTENSION_NAME);
   if (c.int64ImageAtomics) p.extensions.push_back(VK_EXT_SHADER_IMAGE_ATOMIC_INT64_EXTENSION_NAME);
+  if (c.floatBufferAtomicAdd) p.extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
   return p;
 }
 
@@ -350,10 +358,10 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   // Enable exactly what Mirage uses and the device has.
   FeatureChain want;
   want.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery,
-            p.caps.int64ImageAtomics);
+            p.caps.int64ImageAtomics, p.caps.floatBufferAtomicAdd);
   FeatureChain have;
   have.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery,
-            p.caps.int64ImageAtomics);
+            p.caps.int64ImageAtomics, p.caps.floatBufferAtomicAdd);
   vkGetPhysicalDeviceFeatures2(p.device, &have.core);
   auto& wf = want.core.features;
   auto& hf = have.core.features;
@@ -403,6 +411,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   if (p.caps.rayTracingPipeline) want.rtPipeline.rayTracingPipeline = VK_TRUE;
   if (p.caps.rayQuery) want.rayQuery.rayQuery = VK_TRUE;
   if (p.caps.int64ImageAtomics) want.imageInt64.shaderImageInt64Atomics = VK_TRUE;
+  if (p.caps.floatBufferAtomicAdd) want.atomicFloat.shaderBufferFloat32AtomicAdd = VK_TRUE;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -497,7 +506,8 @@ const char* toString(VkResult r) {
     MIRAGE_CASE(VK_SUCCESS)
     MIRAGE_CASE(VK_NOT_READY)
     MIRAGE_CASE(VK_TIMEOUT)
-    MIRAGE_CASE(VK_INCOMPLETE) MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+    MIRAGE_CASE(VK_INCOMPLETE)
+    MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
         MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
             MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
                 MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)

@@ -219,6 +219,7 @@ Result<ParticleRenderReport> renderParticles(gpu::Context& ctx, const EffectFile
   auto player = EffectPlayer::create(ctx, *effect, r.sim, r.dt);
   if (!player) return player.error();
   EffectPlayer& fx = **player;
+  if (!r.splat) (void)fx.draw()->setSettings({0.0f}); // billboards only (a valid setting)
   uint32_t first = r.every > 0 ? std::min(r.every, std::max(r.frames, 1u)) : r.frames;
   fx.step(first);
   Bounds fxBounds = fx.bounds();

@@ -1,6 +1,7 @@
 // `mirage bench particles --render` (mirage/particles/render.h): simulation and billboard
 // rendering of a scaled effect timed together on the GPU.
 #include <algorithm>
+#include <optional>
 
 #include "mirage/particles/bench.h"
 #include "mirage/particles/gpu_simulation.h"
@@ -37,6 +38,12 @@ Bounds effectExtent(const EffectFile& effect, float dt, uint64_t steps) {
 } // namespace
 
 Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& effect, const RenderBenchOptions& o) {
+  std::optional<render::Camera> fixedCamera;
+  if (!o.camera.empty()) { // before any GPU work
+    auto parsed = render::parseCamera(o.camera);
+    if (!parsed) return parsed.error();
+    fixedCamera = *parsed;
+  }
   VkPhysicalDeviceMemoryProperties memory{};
   vkGetPhysicalDeviceMemoryProperties(context.physicalDevice(), &memory);
   uint64_t heap = 0;
@@ -62,17 +69,18 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
                        offsetof(sio::ParticleCounters, live), scaled.systems[i].maxParticles, i});
   (*draw)->setBatches(std::move(batches));
 
+  if (!o.splat) (void)(*draw)->setSettings({0.0f}); // billboards only (a valid setting)
+  render::Camera camera = fixedCamera ? *fixedCamera : render::autoCamera(extent, float(o.width) / float(o.height));
   render::ForwardRenderSettings fs;
   fs.base.width = o.width;
   fs.base.height = o.height;
   fs.base.readImage = false;
-  fs.base.camera =
-      clipAround(render::autoCamera(extent, float(o.width) / float(o.height)), (*renderer)->worldBounds(), extent);
+  fs.base.camera = clipAround(camera, (*renderer)->worldBounds(), extent);
   fs.oit = o.oit;
   fs.oitNodesPerPixel = o.oitNodesPerPixel;
   fs.particles = draw->get();
   gpu::GpuTimer timer(context, 2);
-  std::vector<double> simulate, frame, blend, composite, total;
+  std::vector<double> simulate, frame, blend, composite, splat, splatResolve, total;
   for (uint32_t i = 0; i < o.frames + 1; ++i) { // the first warms the pipelines up, untimed
     Status recorded = Ok{};
     context.submitAndWait([&](VkCommandBuffer cmd) {
@@ -93,6 +101,8 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
       if (t.name == "frame") f = t.milliseconds;
       if (t.name == "blend") blend.push_back(t.milliseconds);
       if (t.name == "composite") composite.push_back(t.milliseconds);
+      if (t.name == "splat") splat.push_back(t.milliseconds);
+      if (t.name == "splat-resolve") splatResolve.push_back(t.milliseconds);
     }
     simulate.push_back(s), frame.push_back(f), total.push_back(s + f);
     r.oit = out->stats.oit;
@@ -102,7 +112,11 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   r.frameMs = median(frame);
   r.blendMs = median(blend);
   r.compositeMs = median(composite);
+  r.splatMs = median(splat);
+  r.splatResolveMs = median(splatResolve);
   r.totalMs = median(total);
+  r.billboards =
+      (*draw)->splats(o.oit) ? (*draw)->readBillboardCount() : uint32_t(std::min<uint64_t>(r.live, UINT32_MAX));
   return r;
 }
 

@@ -10,6 +10,7 @@
 #include "cluster_impl.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/render/oit.h"
+#include "mirage/render/particle_draw.h"
 #include "mirage/shaderio/debug_view.h"
 #include "mirage/shaderio/lod_error.h"
 
@@ -96,7 +97,7 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   if (!(cs.tauPixels > 0.0f)) return Error{fmt::format("--tau {} must be a positive number of pixels", cs.tauPixels)};
   if (!(cs.hybridThreshold >= 0.0f))
     return Error{fmt::format("--hybrid-threshold {} must be a non-negative number of pixels", cs.hybridThreshold)};
-  if (cs.oitNodesPerPixel < 1 || cs.oitNodesPerPixel > 64)
+  if (cs.oitNodesPerPixel > 64) // 0: the renderer's default
     return Error{fmt::format("OIT node pool of {} nodes per pixel is outside 1..64", cs.oitNodesPerPixel)};
   if (!(cs.blendQueuePixels >= 0.0f))
     return Error{fmt::format("--blend-queue-pixels {} must be a non-negative number of pixels", cs.blendQueuePixels)};
@@ -122,6 +123,8 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   // The blend queue serves the compute blend list (all of it, or hybrid's small-triangle clusters).
   p.blendQueue = p.transparency && blendQueueCapacity > 0 && p.blend != BlendRaster::Hardware &&
                  std::isfinite(cs.blendQueuePixels) && cs.blendQueueLimit > 0;
+  p.particles = cs.particles && cs.particles->batchCount() != 0 && cs.debugView == DebugView::None;
+  p.splat = p.particles && cs.particles->splats(OitMode::LinkedList);
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
@@ -250,13 +253,20 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
   f.queueAddress[0] = queues[0].address();
   f.queueAddress[1] = queues[1].address();
   f.queueCapacity = queueCapacity;
-  if (hasBlend()) {
+  if (oitHeads) { // BLEND materials or particles
     f.blendVisibleAddress = blendVisible.address();
     f.oitHeadAddress = oitHeads.address();
     f.oitNodeAddress = oitNodes.address();
     f.blendCapacity = blendCapacity;
     f.oitNodeCapacity = oitNodeCapacity;
     f.oitCounterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
+    f.oitColorAddress = oitColors ? oitColors.address() : oitNodes.address(); // see ClusterFrame
+  }
+  if (plan.particles) { // the billboards' view of the same lists, their ids tagged as stored colours
+    sio::OitLists l{
+        oitHeads.address(), oitNodes.address(),     oitColors.address(), f.oitCounterAddress, colorWidth, height,
+        oitNodeCapacity,    MIRAGE_OIT_COLOR_ID_TAG};
+    std::memcpy(particleLists[currentSlot].mapped(), &l, sizeof(l));
   }
   if (plan.blendQueue) {
     f.blendQueueAddress = blendQueue.address();

@@ -7,6 +7,7 @@
 //   cluster_raster.cpp     visibility rasterizers and the resolve (both stereo eyes in one pass)
 //   cluster_occlusion.cpp  HZB build and the pass-2 occlusion cull (history)
 //   cluster_oit.cpp        alpha BLEND: blend rasters and the sorted composite
+//   cluster_particles.cpp  particle billboards into the transparency lists
 //   cluster_renderer.cpp   the public API and the per-frame phase list
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/cluster_renderer.h"
+#include "mirage/render/particle_draw.h"
 #include "mirage/shaderio/cluster.h"
 
 namespace mirage::render {
@@ -65,6 +67,12 @@ constexpr uint64_t kMaxVisibleClusters = 4u << 20;
 // triangle draws as two, stereo draws each eye's), capped at 12 MiB; more large triangles in one
 // frame are walked by their cluster's workgroup (counted).
 constexpr uint64_t kMaxBlendQueueTriangles = 1u << 18;
+// Transparency node pool when ClusterRenderSettings::oitNodesPerPixel is 0: this many blended
+// fragments per pixel on average (12 bytes each), capped by the device's storage-buffer range.
+constexpr uint32_t kOitNodesPerPixel = 4;
+// With particle billboards in the lists: as many as the forward renderer's default pool (its
+// particles and the cluster renderer's then fill the same pool).
+constexpr uint32_t kOitNodesPerPixelParticles = 8;
 constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
 
 // Every pass reaches its buffers through device addresses, which synchronization validation does
@@ -97,11 +105,11 @@ struct ClusterFramePlan {
   bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
   bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
   // The resolve leaves the 64-bit buffer zeroed (MIRAGE_FRAME_CLEAR_VIS): it is the buffer's last
-  // reader of the frame.
-  bool clearsVisibility() const {
-    return bufferTarget && debugView == DebugView::None && !transparency;
-  }
-  bool blendQueue = false;   // the compute blend raster queues large triangles (cluster_blend_queue.comp)
+  // reader of the frame (the blend rasters' and particles' depth copy reads it).
+  bool clearsVisibility() const { return bufferTarget && debugView == DebugView::None && !transparency && !particles; }
+  bool blendQueue = false;               // the compute blend raster queues large triangles (cluster_blend_queue.comp)
+  bool particles = false;                // particle billboards into the transparency lists (cluster_particles.cpp)
+  bool splat = false;                    // small particles splatted (ParticleDraw::splats)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -120,6 +128,12 @@ struct ClusterRenderer::Impl {
   gpu::Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
   gpu::Buffer blendQueue;                       // alpha BLEND: BlendQueueTriangle[blendQueueCapacity]
   bool oitNodesUnzeroed = false; // a new node pool, zeroed by the next frame (oit_list.glsl needs it all zero)
+  // Particles (cluster_particles.cpp), made on the first frame with them: the colour beside each
+  // node of the lists (which then exist without BLEND materials too), and per slot the OitLists the
+  // billboards append through.
+  gpu::Buffer oitColors, particleLists[kMaxFramesInFlight];
+  gpu::Buffer splatAccum;   // the particle splat's sums (ParticleDraw::splatBytes), made on first use
+  bool particleOit = false; // the lists carry particles from now on (their pool sized for them)
   // Per slot (identically defined layouts are compatible): material textures, and the slot's
   // frame's visibility image, colour target and depth, written when the slot is recorded while
   // other slots' frames may still read their own (a resize mid-flight).
@@ -152,7 +166,7 @@ struct ClusterRenderer::Impl {
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
   uint32_t blendCapacity = 0, oitNodeCapacity = 0; // 0 without BLEND materials: no transparency passes
   uint32_t blendQueueCapacity = 0;                 // entries of blendQueue (0: no queue on this device)
-  uint32_t oitNodesPerPixel = 0;                   // the pool's size (ClusterRenderSettings::oitNodesPerPixel)
+  uint32_t oitNodesPerPixel = 0;                   // the pool's size (ensureOitPool)
   uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
@@ -182,6 +196,7 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipeline> createVisPipeline(bool mesh, bool atomic, bool overdraw = false, bool multiview = false);
   uint32_t inFlightSlots() const; // slots recorded and not yet collected, as a bit mask
   void ensureTargets(uint32_t w, uint32_t h, uint32_t colorW);
+  void createOitHeads();
   void ensureOitPool(uint32_t nodesPerPixel);
   void writeTargetDescriptors(uint32_t slot);
   void ensureMultiview(const ClusterFramePlan& plan);
@@ -197,10 +212,14 @@ struct ClusterRenderer::Impl {
   void cmdBuildHzb(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
   void cmdOcclusion(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool hierarchy);
   void cmdResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p);
-  void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, BlendRaster blend, bool meshBlend,
-                       bool bufferTarget);
-  void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget);
+  void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, const ClusterFramePlan& plan, bool blend,
+                       ParticleDraw* particles);
+  void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget, bool always);
   void cmdComputeBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool queue);
+  void prepareParticles(ParticleDraw& particles); // cluster_particles.cpp
+  void cmdParticles(VkCommandBuffer cmd, const shaderio::ClusterPush& p, ParticleDraw& particles);
+  ParticleSplatTarget splatTarget(const shaderio::ClusterPush& p);
+  void cmdSplatResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p, ParticleDraw& particles);
   void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri, bool multiview = false);
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
   void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,

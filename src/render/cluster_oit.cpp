@@ -27,10 +27,12 @@ VkPipeline ClusterRenderer::Impl::blendHardwarePipeline(bool mesh) {
 // (where the blend draw and the compute blend raster's descriptor read it). Image backends: the
 // raster's depth as it is. Buffer backends: the 64-bit buffer's depth words copied in by a
 // full-screen pass (cluster_blend_depth.frag; ~1 write per pixel, 0.156 ms at 1080p on the H200),
-// drawn only when the hardware blend list is non-empty (ClusterCounters::blendDepthDraw); the
-// compute blend raster reads the buffer itself, so an unwritten depth image is never read.
+// drawn only when the hardware blend list is non-empty (ClusterCounters::blendDepthDraw) unless
+// `always` (particle billboards test against it too); the compute blend raster reads the buffer
+// itself, so an unwritten depth image is never read.
 // barriers: on entry the opaque raster's writes visible (cmdPhaseBarrier, cmdRasterize's toRead).
-void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::ClusterPush& p, bool bufferTarget) {
+void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::ClusterPush& p, bool bufferTarget,
+                                          bool always) {
   const VkPipelineStageFlags2 kTests =
       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
   if (!bufferTarget) {
@@ -66,8 +68,11 @@ void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::Cluste
   cmdPush(cmd, p, 0);
   // Indirect: no draw when the hardware list is empty (H200, 2500 AlphaBlendModeTest copies under
   // hybrid: the unconditional copy cost 0.156 ms for a list the compute blend raster drew alone).
-  vkCmdDrawIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, blendDepthDraw), 1,
-                    sizeof(VkDrawIndirectCommand));
+  if (always)
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+  else
+    vkCmdDrawIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, blendDepthDraw), 1,
+                      sizeof(VkDrawIndirectCommand));
   vkCmdEndRendering(cmd);
   cmdImageBarrier(cmd, {depth.handle(), kTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests | kCS,
                         VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
@@ -116,40 +121,51 @@ void ClusterRenderer::Impl::cmdComputeBlend(VkCommandBuffer cmd, const sio::Clus
   timer().cmdEnd(cmd, slot, kCS);
 }
 
-// Alpha BLEND after the resolve (only for scenes with BLEND materials): the blend lists rasterized
-// into per-pixel fragment lists, depth-tested against the opaque depth (the compute list by
-// cmdComputeBlend, the hardware list by cmdHardwareBlend), then the composite sorts and blends each
-// pixel's fragments over the resolved colour. "blend" times both rasters; hybrid, and compute with
-// the blend queue, add "blend-cs" (the compute list, its queue included), "blend-q" (the queue:
-// its arguments and dispatch) and hybrid "blend-hw" (the hardware list); the buffer backends'
-// depth copy is "blend-z".
+// Alpha BLEND after the resolve (scenes with BLEND materials, `blendClusters`): the blend lists
+// rasterized into per-pixel fragment lists, depth-tested against the opaque depth (the compute list
+// by cmdComputeBlend, the hardware list by cmdHardwareBlend), and the particle billboards appended
+// to the same lists (cmdParticles); then the composite sorts and blends each pixel's fragments over
+// the resolved colour. "blend" times both rasters; hybrid, and compute with the blend queue, add
+// "blend-cs" (the compute list, its queue included), "blend-q" (the queue: its arguments and
+// dispatch) and hybrid "blend-hw" (the hardware list); the buffer backends' depth copy is "blend-z".
 // barriers: the resolve's colour, the opaque depth and the blend arguments (cmdArgs pass 2) written;
 // the heads zeroed at the frame start. On exit the colour is in GENERAL with its writes available.
-void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, BlendRaster blend, bool meshBlend,
-                                            bool bufferTarget) {
-  p.visibleAddress = blendVisible.address(); // ids of the blend passes name blend-list entries
-  bool queue = plans[currentSlot].blendQueue;
+void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, const ClusterFramePlan& plan,
+                                            bool blendClusters, ParticleDraw* particles) {
+  // Ids of the blend passes name blend-list entries (without BLEND materials the opaque list, whose
+  // entry 0 the composite may load for particle lanes).
+  p.visibleAddress = hasBlend() ? blendVisible.address() : visible.address();
+  BlendRaster blend = plan.blend;
+  bool meshBlend = plan.meshBlend, bufferTarget = plan.bufferTarget;
+  bool queue = blendClusters && plan.blendQueue;
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   uint32_t slot = timer().cmdBegin(cmd, "blend");
-  if (blend != BlendRaster::Compute) cmdBlendDepth(cmd, p, bufferTarget);
-  if (blend != BlendRaster::Hardware) {
+  if ((blendClusters && blend != BlendRaster::Compute) || plan.particles)
+    cmdBlendDepth(cmd, p, bufferTarget, /*always=*/plan.particles);
+  if (blendClusters && blend != BlendRaster::Hardware) {
     bool timed = blend == BlendRaster::Hybrid || queue;
     uint32_t part = timed ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
     cmdComputeBlend(cmd, p, queue);
     if (timed) timer().cmdEnd(cmd, part, kCS);
   }
-  if (blend != BlendRaster::Compute) {
+  if (blendClusters && blend != BlendRaster::Compute) {
     uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-hw") : 0;
     cmdHardwareBlend(cmd, p, meshBlend);
     if (blend == BlendRaster::Hybrid) timer().cmdEnd(cmd, part);
   }
   timer().cmdEnd(cmd, slot);
+  if (plan.particles) {
+    // The blend rasters' appends visible to the billboards' pool-overflow walks (oit_list.glsl).
+    if (blendClusters) cmdPhaseBarrier(cmd, ctx.caps().meshShader);
+    cmdParticles(cmd, p, *particles);
+  }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   slot = timer().cmdBegin(cmd, "composite", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compositePipeline);
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST); // stereo: the hardware draws left the right eye's frame pushed
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // both eyes in stereo
   timer().cmdEnd(cmd, slot, kCS);
+  if (plan.splat) cmdSplatResolve(cmd, p, *particles); // the splatted particles over the composite
 }
 
 } // namespace mirage::render

@@ -173,7 +173,8 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   if (w == width && h == height && colorW == colorWidth) return;
   const uint32_t inFlight = inFlightSlots();
   for (Image* image : {&color, &vis, &depth, &layeredVis, &layeredDepth}) retired.retire(std::move(*image), inFlight);
-  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads}) retired.retire(std::move(*buffer), inFlight);
+  for (Buffer* buffer : {&visBuffer, &hzb, &overdrawCounts, &oitHeads, &splatAccum})
+    retired.retire(std::move(*buffer), inFlight);
   color = createImage2D(ctx, colorW, h, kColorFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                         "color");
   // Visibility targets as wide as the colour target: stereo rasterizes both eyes side by side.
@@ -204,28 +205,39 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   }
   hzb = createBuffer(ctx, floats * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "hzb");
   overdrawCounts = {}; // the overdraw view's counts, made at the new size on first use
-  if (hasBlend()) {
-    uint64_t pixels = uint64_t(colorW) * h; // both eyes in stereo
-    oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                            MemoryUsage::GpuOnly, "transparency heads");
-  }
-  oitNodesPerPixel = 0; // the pool follows the size (ensureOitPool)
   width = w;
   height = h;
   colorWidth = colorW;
+  if (hasBlend() || particleOit) createOitHeads();
+  oitNodesPerPixel = 0; // the pool follows the size (ensureOitPool)
 }
 
-// The transparency node pool for the current size: nodesPerPixel per pixel (both eyes in stereo),
-// capped by what one storage buffer may address. A replaced pool waits for the frames in flight.
+// The transparency lists' heads at the target size (both eyes in stereo; the caller retired the old).
+void ClusterRenderer::Impl::createOitHeads() {
+  oitHeads = createBuffer(ctx, uint64_t(colorWidth) * height * 4,
+                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                          "transparency heads");
+}
+
+// The transparency node pool for the current size: nodesPerPixel per pixel (both eyes in stereo;
+// 0: kOitNodesPerPixel, or kOitNodesPerPixelParticles once particles use the lists), capped by what
+// one storage buffer may address, and with particles the colour beside each node. A replaced pool
+// waits for the frames in flight.
 void ClusterRenderer::Impl::ensureOitPool(uint32_t nodesPerPixel) {
-  if (!hasBlend() || (oitNodes && oitNodesPerPixel == nodesPerPixel)) return;
+  if (!hasBlend() && !particleOit) return;
+  if (nodesPerPixel == 0) nodesPerPixel = particleOit ? kOitNodesPerPixelParticles : kOitNodesPerPixel;
+  if (oitNodes && oitNodesPerPixel == nodesPerPixel) return;
   retired.retire(std::move(oitNodes), inFlightSlots());
+  retired.retire(std::move(oitColors), inFlightSlots());
   uint64_t pixels = uint64_t(colorWidth) * height;
   oitNodeCapacity = uint32_t(std::min<uint64_t>(
       {pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode), uint64_t(UINT32_MAX) - 1}));
   oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),
                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
                           "transparency nodes");
+  if (particleOit)
+    oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                             MemoryUsage::GpuOnly, "transparency colours");
   oitNodesUnzeroed = true; // cmdFrame zeroes it (the lists' overflow rule tells unwritten nodes by 0)
   oitNodesPerPixel = nodesPerPixel;
 }

@@ -181,7 +181,8 @@ void ClusterRenderer::Impl::cmdMultiviewList(VkCommandBuffer cmd, const sio::Clu
                                   VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
   cmdImageBarriers(cmd, toAttachment);
   cmdHardwareList(cmd, p, backend, pass, /*atomic=*/false);
-  bool copyDepth = plans[currentSlot].occlusion || hasBlend(); // its readers (stereo runs blend passes by hasBlend)
+  const ClusterFramePlan& plan = plans[currentSlot]; // the depth's readers (stereo runs blend passes by hasBlend)
+  bool copyDepth = plan.occlusion || hasBlend() || plan.particles;
   // The side-by-side images are overwritten whole: their contents (read by compute shaders: the
   // HZB, or the previous frame's resolve) are dropped.
   ImageBarrier toCopy[] = {{layeredVis.handle(), kColorStage, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, kCopy,

@@ -9,6 +9,7 @@
 #include "render_util.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/shaders.h"
+#include "mirage/render/particle_draw.h"
 
 namespace mirage::render {
 
@@ -91,6 +92,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   // New targets for a new size retire those frames in flight still use (no device wait).
   uint32_t colorW = planned->stereo ? cs.base.width * 2 : cs.base.width; // stereo: left|right
   ensureTargets(cs.base.width, cs.base.height, colorW);
+  if (planned->particles) prepareParticles(*cs.particles); // lists, colours, sums before the frame names them
   ensureOitPool(cs.oitNodesPerPixel);
   writeTargetDescriptors(currentSlot);
   if (planned->multiview) ensureMultiview(*planned);
@@ -135,11 +137,13 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
-  if (hasBlend()) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
-  if (hasBlend() && oitNodesUnzeroed) { // a new pool; afterwards the composite leaves it zero
+  if (oitHeads) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
+  if (oitNodes && oitNodesUnzeroed) { // a new pool; afterwards the composite leaves it zero
     vkCmdFillBuffer(cmd, oitNodes.handle(), 0, VK_WHOLE_SIZE, 0);
     oitNodesUnzeroed = false;
   }
+  if (plan.particles) cs.particles->cmdPrepare(cmd);                              // their draw arguments (live counts)
+  if (plan.splat) vkCmdFillBuffer(cmd, splatAccum.handle(), 0, VK_WHOLE_SIZE, 0); // the splat's sums
   if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdrawCounts.handle(), 0, VK_WHOLE_SIZE, 0);
   if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
     vkCmdFillBuffer(cmd, fade.handle(), 0, VK_WHOLE_SIZE, 0);
@@ -157,6 +161,7 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   }
   cmdArgs(cmd, p, /*pass=*/0); // pass-1 raster arguments (everything without occlusion)
   bool blend = plan.transparency && plan.debugView == DebugView::None; // debug views: opaque surfaces only
+  bool lists = blend || plan.particles;                                // the transparency lists composited
   if (plan.stereo) { // both eyes side by side, each pass once (docs/render.md, "Stereo")
     sio::ClusterPush eyes = p;
     eyes.frameAddress += kFrameStride; // the left eye's frame; the right eye's follows it
@@ -173,7 +178,7 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     }
     if (blend) cmdArgs(cmd, p, /*pass=*/2);
     cmdResolve(cmd, eyes);
-    if (blend) cmdTransparency(cmd, eyes, plan.blend, plan.meshBlend, plan.bufferTarget);
+    if (lists) cmdTransparency(cmd, eyes, plan, blend, cs.particles);
     finishFrame(cmd, plan, frameTime);
     return;
   }
@@ -190,8 +195,8 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   }
   if (blend) cmdArgs(cmd, p, /*pass=*/2); // the blend list is complete after both phases
   cmdResolve(cmd, p);                     // fetch, interpolate, shade; with occlusion: the clusters owning pixels
-  if (blend)                              // blend raster into fragment lists, sorted composite
-    cmdTransparency(cmd, p, plan.blend, plan.meshBlend, plan.bufferTarget);
+  if (lists)                              // blend raster and particles into fragment lists, sorted composite
+    cmdTransparency(cmd, p, plan, blend, cs.particles);
   finishFrame(cmd, plan, frameTime);
 }
 

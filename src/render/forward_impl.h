@@ -105,6 +105,7 @@ struct ForwardRenderer::Impl {
   uint32_t oitNodeCapacity = 0, oitNodesPerPixel = 0;
   bool oitNodesUnzeroed = false; // a new node pool, zeroed by the next frame (oit_list.glsl needs it all zero)
   gpu::Image accum, reveal;      // weighted: (sum rgb a w, revealage), (sum a w, -, -, -)
+  gpu::Buffer splatAccum;        // the particle splat's sums (ParticleDraw::splatBytes), made on first use
 
   // The targets, shared by every slot (each frame's first barrier orders it after the earlier
   // ones); colorWidth is both eyes' in stereo.
@@ -117,7 +118,11 @@ struct ForwardRenderer::Impl {
   gpu::Buffer oitReadback[kMaxFramesInFlight];   // OitCounters
   gpu::Buffer sortedIndices[kMaxFramesInFlight]; // sorted mode: blend triangles back to front
   std::vector<SortedRun> sortedRuns[kMaxFramesInFlight];
-  bool slotOit[kMaxFramesInFlight] = {}; // the slot's frame ran the linked lists (counters to read)
+  // Sorted mode with particles: the sorted triangles' view z (float, ascending) and the particle
+  // draw of each gap between them (VkDrawIndirectCommand[blendTriangles + 1], ParticleDraw::cmdSort).
+  gpu::Buffer sortedDepths[kMaxFramesInFlight], sortedGaps[kMaxFramesInFlight];
+  bool slotSortsParticles[kMaxFramesInFlight] = {}; // the slot's frame interleaves particles with triangles
+  bool slotOit[kMaxFramesInFlight] = {};            // the slot's frame ran the linked lists (counters to read)
   std::vector<gpu::GpuTimer> timers;
   std::vector<gpu::PipelineStatsQuery> stats;
   FrameStats slotStats[kMaxFramesInFlight]; // draw counts of the recorded frame

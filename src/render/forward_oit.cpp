@@ -2,7 +2,8 @@
 // linked lists (build: every blended fragment appended, forward_oit.frag; resolve: sorted per
 // pixel, forward_oit_resolve.comp; the code shared with the cluster composite, oit_list.glsl),
 // weighted blended OIT (accumulate + revealage, forward_weighted_resolve.comp), or the sorted
-// reference (every blended triangle back to front by its centroid's view depth, hardware "over").
+// reference (every blended triangle back to front by its centroid's view depth, hardware "over",
+// with the particles sorted by the same depth drawn between them).
 #include <algorithm>
 #include <cstring>
 
@@ -66,6 +67,12 @@ void ForwardRenderer::Impl::uploadTransparency(const Scene& scene) {
                                   MemoryUsage::Readback, "oit counters readback");
     sortedIndices[i] = createBuffer(ctx, std::max<uint64_t>(blendTriangles, 1) * 3 * sizeof(uint32_t),
                                     VK_BUFFER_USAGE_INDEX_BUFFER_BIT, MemoryUsage::Upload, "sorted blend indices");
+    sortedDepths[i] = createBuffer(ctx, std::max<uint64_t>(blendTriangles, 1) * sizeof(float),
+                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "sorted blend depths");
+    sortedGaps[i] = createBuffer(ctx, (blendTriangles + 1) * sizeof(VkDrawIndirectCommand),
+                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                 MemoryUsage::GpuOnly, "sorted particle gaps");
     resolveDescriptors[i] = createDescriptorSet(ctx, bindings);
   }
 }
@@ -128,9 +135,19 @@ void ForwardRenderer::Impl::ensureOitTargets(uint32_t nodesPerPixel) {
 void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const ForwardRenderSettings& fs, uint32_t slot,
                                                 const glm::mat4& view) {
   slotOit[slot] = false;
+  slotSortsParticles[slot] = false;
   bool particles = fs.particles && fs.particles->batchCount() != 0;
   if (blendInstances.empty() && !particles) return;
   if (particles) fs.particles->cmdPrepare(cmd);
+  if (particles && fs.particles->splats(fs.oit)) { // the splat's sums, zeroed (cmdSplat waits for it)
+    uint64_t bytes = fs.particles->splatBytes(uint64_t(colorWidth) * height);
+    if (!splatAccum || splatAccum.size() != bytes) {
+      retired.retire(std::move(splatAccum), inFlight());
+      splatAccum = createBuffer(ctx, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                MemoryUsage::GpuOnly, "particle splat sums");
+    }
+    vkCmdFillBuffer(cmd, splatAccum.handle(), 0, VK_WHOLE_SIZE, 0);
+  }
   ensurePipelines(*this, fs.oit);
   if (fs.oit == OitMode::LinkedList) {
     ensureOitTargets(fs.oitNodesPerPixel);
@@ -184,14 +201,22 @@ void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const Forwa
       for (uint32_t i = 0; i < blendInstances.size(); ++i) addKeys(i, nullptr);
     std::stable_sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) { return a.z < b.z; });
     auto* out = reinterpret_cast<uint32_t*>(sortedIndices[slot].mapped());
+    auto* depths = reinterpret_cast<float*>(sortedDepths[slot].mapped());
     std::vector<SortedRun>& runs = sortedRuns[slot];
     runs.clear();
     for (size_t k = 0; k < keys.size(); ++k) {
       const std::vector<uint32_t>& idx = blendIndices[blendInstances[keys[k].instance].mesh];
       std::memcpy(out + k * 3, &idx[keys[k].triangle * 3], 3 * sizeof(uint32_t));
+      depths[k] = keys[k].z;
       if (runs.empty() || runs.back().blendInstance != keys[k].instance)
         runs.push_back({keys[k].instance, uint32_t(k * 3), 0});
       runs.back().indexCount += 3;
+    }
+    // The particles sorted by the same view depth on the GPU, each run of them drawn between the
+    // two triangles it falls between (cmdTransparency).
+    if (particles) {
+      fs.particles->cmdSort(cmd, view, sortedDepths[slot].address(), uint32_t(keys.size()), sortedGaps[slot]);
+      slotSortsParticles[slot] = true;
     }
   }
 }
@@ -212,13 +237,32 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
     timer.cmdEnd(cmd, timer.cmdBegin(cmd, "blend"));
     return colorToGeneral();
   }
-  // The opaque depth, stored by the opaque pass, tested (read-only) by the blended geometry.
-  cmdImageBarrier(cmd, {depth.handle(), kTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests,
-                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT});
+  // The opaque depth, stored by the opaque pass, tested (read-only) by the blended geometry and read
+  // by the particle splat.
+  cmdImageBarrier(cmd, {depth.handle(), kTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kTests | kCS,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL,
+                        VK_IMAGE_ASPECT_DEPTH_BIT});
+  // Small particles splatted in compute before the pass (their sums resolved after the composite);
+  // the billboards then draw the rest.
+  const bool splat = particles && fs.particles->splats(fs.oit);
+  ParticleSplatTarget splatTarget;
+  if (splat) {
+    splatTarget.slot = slot;
+    splatTarget.eyes = eyeCount;
+    for (uint32_t e = 0; e < eyeCount; ++e) splatTarget.frames[e] = frames[slot].address() + e * sizeof(sio::FrameData);
+    splatTarget.eyeWidth = eyeWidth;
+    splatTarget.height = height;
+    splatTarget.depth = depth.view();
+    splatTarget.color = color.view();
+    splatTarget.accumulators = &splatAccum;
+    uint32_t splatTime = timer.cmdBegin(cmd, "splat", kCS);
+    fs.particles->cmdSplat(cmd, splatTarget);
+    timer.cmdEnd(cmd, splatTime, kCS);
+  }
   VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depthAtt.imageView = depth.view();
-  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
   depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
   depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_NONE; // nothing written
   VkRenderingAttachmentInfo colorAtts[2] = {{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO},
@@ -264,16 +308,31 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
                          : visible.active          ? visible.indices.handle()
                                                    : indices.handle();
   vkCmdBindIndexBuffer(cmd, indexBuffer, 0, VK_INDEX_TYPE_UINT32);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  auto bindScene = [&] { // again after particle draws, which bind their own
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  };
+  bindScene();
   VkDeviceAddress oit = fs.oit == OitMode::LinkedList ? oitLists[slot].address() : 0;
+  const bool interleave = fs.oit == OitMode::Sorted && slotSortsParticles[slot];
   for (uint32_t e = 0; e < eyeCount; ++e) {
     VkDeviceAddress frame = cmdSetEye(cmd, slot, e);
     auto draw = [&](uint32_t i, const ForwardDrawRange& range) {
       cmdDraw(cmd, frame, blendInstanceBuffer.address(), range, isMirrored(blendInstances[i].transform), i, 1,
               frameStats, oit);
     };
-    if (fs.oit == OitMode::Sorted) {
+    if (interleave) { // gap k's particles, then triangle k: one draw each (the reference, not speed)
+      uint32_t k = 0;
+      for (const SortedRun& run : sortedRuns[slot])
+        for (uint32_t t = 0; t < run.indexCount / 3; ++t, ++k) {
+          fs.particles->cmdDrawGap(cmd, frame, sortedGaps[slot], k);
+          bindScene();
+          draw(run.blendInstance, {blendInstances[run.blendInstance].mesh, run.firstIndex + 3 * t, 3});
+        }
+      fs.particles->cmdDrawGap(cmd, frame, sortedGaps[slot], k); // nearer than every triangle
+      frameStats.drawCalls += k + 1;
+      bindScene();
+    } else if (fs.oit == OitMode::Sorted) {
       for (const SortedRun& run : sortedRuns[slot])
         draw(run.blendInstance, {blendInstances[run.blendInstance].mesh, run.firstIndex, run.indexCount});
     } else if (visible.active) {
@@ -282,7 +341,7 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
       for (uint32_t i = 0; i < blendInstances.size(); ++i) draw(i, wholeMesh(blendInstances[i].mesh));
     }
   }
-  if (particles) // after the scene's blended geometry: the lists and weights take any order
+  if (particles && !interleave) // after the scene's blended geometry: the lists and weights take any order
     for (uint32_t e = 0; e < eyeCount; ++e) {
       fs.particles->cmdDraw(cmd, fs.oit, cmdSetEye(cmd, slot, e), oit);
       frameStats.drawCalls += fs.particles->batchCount();
@@ -325,6 +384,11 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
   vkCmdPushConstants(cmd, resolveLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1);
   timer.cmdEnd(cmd, resolveTime, kCS);
+  if (splat) { // the splatted particles over the composited colour
+    uint32_t splatResolveTime = timer.cmdBegin(cmd, "splat-resolve", kCS);
+    fs.particles->cmdSplatResolve(cmd, splatTarget);
+    timer.cmdEnd(cmd, splatResolveTime, kCS);
+  }
   // The colour's writes visible to compute and transfers, as without transparency; the counters
   // to the slot's readback.
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,

@@ -109,12 +109,15 @@ void ForwardRenderer::Impl::ensureTargets(uint32_t colorW, uint32_t h) {
   retired.retire(std::move(oitHeads), inFlight());
   retired.retire(std::move(oitNodes), inFlight());
   retired.retire(std::move(oitColors), inFlight());
+  retired.retire(std::move(splatAccum), inFlight());
   oitNodeCapacity = oitNodesPerPixel = 0; // the pool follows the size (ensureOitTargets)
   // Storage: the transparency resolves blend into it.
   color = createImage2D(
       ctx, colorW, h, kForwardColorFormat,
       VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_STORAGE_BIT, "color");
-  depth = createImage2D(ctx, colorW, h, kForwardDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth");
+  // Sampled: the particle splat tests against it (particle_draw.h).
+  depth = createImage2D(ctx, colorW, h, kForwardDepthFormat,
+                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, "depth");
   colorWidth = colorW;
   height = h;
 }

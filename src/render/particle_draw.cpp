@@ -1,16 +1,15 @@
-// Particle billboards inside the forward renderer's transparency pass (render/particle_draw.h,
+// Particle billboards inside the renderers' transparency passes (render/particle_draw.h,
 // docs/particles.md "Rendering"). One indirect draw per batch: 6 vertices, one instance per
 // record, the instance count copied from the simulation's live counter before the pass.
-#include "mirage/render/particle_draw.h"
-
 #include <algorithm>
 #include <cstring>
 
+#include <fmt/format.h>
+
 #include "forward_impl.h"
 #include "mirage/gpu/commands.h"
-#include "mirage/gpu/descriptors.h"
-#include "mirage/gpu/pipeline.h"
-#include "mirage/shaderio/particle_draw.h"
+#include "mirage/shaderio/cluster.h"
+#include "particle_draw_impl.h"
 #include "render_util.h"
 
 namespace mirage::render {
@@ -18,21 +17,9 @@ namespace mirage::render {
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 
-struct ParticleDraw::Impl {
-  Context& ctx;
-  std::vector<Image> sheetImages;
-  std::vector<ParticleSheet> sheets; // tiles and flags (images dropped after upload)
-  Unique<VkSampler> sampler;
-  DescriptorSet descriptors;
-  Unique<VkPipelineLayout> layout;
-  Unique<VkPipeline> pipelines[3]; // by OitMode
-  std::vector<ParticleBatch> batches;
-  Buffer cpuRecords; // setCpuBatches' records
-  Buffer indirect;   // VkDrawIndirectCommand per batch
-  uint32_t indirectCapacity = 0;
-  explicit Impl(Context& c) : ctx(c) {}
-  VkPipeline pipeline(OitMode mode);
-};
+// The billboards read the eye's camera from the frame address either renderer passes.
+static_assert(offsetof(sio::FrameData, camera) == 0 && offsetof(sio::ClusterFrame, camera) == 0,
+              "ParticleDrawPush::frameAddress names a ViewFrame");
 
 ParticleDraw::ParticleDraw(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 ParticleDraw::~ParticleDraw() = default;
@@ -69,7 +56,7 @@ Result<std::unique_ptr<ParticleDraw>> ParticleDraw::create(Context& context, std
   MIRAGE_VK_CHECK(vkCreateSampler(context.device(), &si, nullptr, &sampler));
   d->sampler = Unique<VkSampler>(context.device(), sampler);
   VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(sheets.size()),
-                                       VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+                                       VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   d->descriptors = createDescriptorSet(context, {&binding, 1});
   std::vector<VkDescriptorImageInfo> infos;
   for (const Image& img : d->sheetImages)
@@ -77,10 +64,50 @@ Result<std::unique_ptr<ParticleDraw>> ParticleDraw::create(Context& context, std
   writeImageDescriptors(context, d->descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
   d->layout = createPipelineLayout(context, {d->descriptors.layout.get()}, sizeof(sio::ParticleDrawPush),
                                    VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+  d->batchCapacity = 16; // grown by cmdPrepare for more batches
+  constexpr VkBufferUsageFlags kArgs =
+      VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  d->indirect = createBuffer(context, d->batchCapacity * sizeof(VkDrawIndirectCommand), kArgs, MemoryUsage::GpuOnly,
+                             "particle draw arguments");
+  d->batchTable = createBuffer(context, d->batchCapacity * sizeof(sio::ParticleBatchInfo), kArgs, MemoryUsage::GpuOnly,
+                               "particle batches");
   return std::unique_ptr<ParticleDraw>(new ParticleDraw(std::move(d)));
 }
 
-void ParticleDraw::setBatches(std::vector<ParticleBatch> batches) { impl_->batches = std::move(batches); }
+Status ParticleDraw::setSettings(const ParticleDrawSettings& settings) {
+  if (!(settings.splatBelowPixels >= 0.0f && settings.splatBelowPixels <= MIRAGE_SPLAT_MAX_PIXELS))
+    return Error{fmt::format("particle splat threshold {} px: must be in 0..{}", settings.splatBelowPixels,
+                             MIRAGE_SPLAT_MAX_PIXELS)};
+  const DeviceCapabilities& caps = impl_->ctx.caps();
+  if (settings.atomics == SplatAtomics::Float && !caps.floatBufferAtomicAdd)
+    return Error{"particle splat: the device has no float atomic adds (shaderBufferFloat32AtomicAdd)"};
+  if (settings.atomics == SplatAtomics::Fixed && !caps.int64BufferAtomics)
+    return Error{"particle splat: the device has no 64-bit buffer atomics"};
+  impl_->settings = settings;
+  return Ok{};
+}
+
+const ParticleDrawSettings& ParticleDraw::settings() const { return impl_->settings; }
+
+// The compute passes' layout: the sheets (set 0), per frame slot the target's depth and colour
+// (set 1), and the largest of their push constants.
+void ParticleDraw::Impl::ensureComputeLayout() {
+  if (computeLayout) return;
+  VkDescriptorSetLayoutBinding bindings[] = {
+      {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
+  for (DescriptorSet& set : frameSets) set = createDescriptorSet(ctx, bindings);
+  computeLayout = createPipelineLayout(
+      ctx, {descriptors.layout.get(), frameSets[0].layout.get()},
+      uint32_t(std::max(sizeof(sio::ParticleSortPush), sizeof(sio::ParticleSplatPush))), VK_SHADER_STAGE_COMPUTE_BIT);
+}
+
+void ParticleDraw::setBatches(std::vector<ParticleBatch> batches) {
+  impl_->batches = std::move(batches);
+  uint64_t total = 0;
+  for (const ParticleBatch& b : impl_->batches) total += b.count;
+  impl_->totalRecords = uint32_t(std::min<uint64_t>(total, UINT32_MAX));
+}
 
 void ParticleDraw::setCpuBatches(std::span<const CpuBatch> batches) {
   Impl& d = *impl_;
@@ -100,22 +127,36 @@ void ParticleDraw::setCpuBatches(std::span<const CpuBatch> batches) {
                          uint32_t(b.records.size()), b.sheet});
     at += b.records.size();
   }
+  d.totalRecords = uint32_t(total);
 }
 
 size_t ParticleDraw::batchCount() const { return impl_->batches.size(); }
 
 void ParticleDraw::cmdPrepare(VkCommandBuffer cmd) {
   Impl& d = *impl_;
+  d.splatRecorded = false; // this frame's cmdDraw draws every record unless cmdSplat runs
   if (d.batches.empty()) return;
-  if (d.indirectCapacity < d.batches.size()) {
-    d.indirect = createBuffer(d.ctx, d.batches.size() * sizeof(VkDrawIndirectCommand),
-                              VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                              MemoryUsage::GpuOnly, "particle draw arguments");
-    d.indirectCapacity = uint32_t(d.batches.size());
+  if (d.batchCapacity < d.batches.size()) { // rare: more batches than ever before
+    d.batchCapacity = uint32_t(d.batches.size());
+    constexpr VkBufferUsageFlags kArgs =
+        VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    d.indirect = createBuffer(d.ctx, d.batchCapacity * sizeof(VkDrawIndirectCommand), kArgs, MemoryUsage::GpuOnly,
+                              "particle draw arguments");
+    d.batchTable = createBuffer(d.ctx, d.batchCapacity * sizeof(sio::ParticleBatchInfo), kArgs, MemoryUsage::GpuOnly,
+                                "particle batches");
   }
   std::vector<VkDrawIndirectCommand> args;
-  for (const ParticleBatch& b : d.batches) args.push_back({6, b.countBuffer ? 0 : b.count, 0, 0});
+  std::vector<sio::ParticleBatchInfo> table;
+  uint32_t first = 0;
+  for (const ParticleBatch& b : d.batches) {
+    args.push_back({6, b.countBuffer ? 0 : b.count, 0, 0});
+    const ParticleSheet& s = d.sheetOf(b);
+    table.push_back({b.records, first, b.count, std::min<uint32_t>(b.sheet, uint32_t(d.sheets.size() - 1)), s.tilesX,
+                     s.tilesY, s.alphaFromGreyscale ? MIRAGE_PARTICLE_ALPHA_FROM_GREY : 0u});
+    first += b.count;
+  }
   vkCmdUpdateBuffer(cmd, d.indirect.handle(), 0, args.size() * sizeof(args[0]), args.data());
+  vkCmdUpdateBuffer(cmd, d.batchTable.handle(), 0, table.size() * sizeof(table[0]), table.data());
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
   // The live counts of GPU batches, as the simulation left them (its writes ordered by the
@@ -126,7 +167,9 @@ void ParticleDraw::cmdPrepare(VkCommandBuffer cmd) {
     vkCmdCopyBuffer(cmd, d.batches[i].countBuffer, d.indirect.handle(), 1, &copy);
   }
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                   VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+                   VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |
+                       VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
+                   VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
 }
 
 VkPipeline ParticleDraw::Impl::pipeline(OitMode mode) {
@@ -152,23 +195,46 @@ VkPipeline ParticleDraw::Impl::pipeline(OitMode mode) {
   return p;
 }
 
+sio::ParticleDrawPush ParticleDraw::Impl::drawPush(VkDeviceAddress frame, VkDeviceAddress oitLists) const {
+  sio::ParticleDrawPush push{};
+  push.frameAddress = frame;
+  push.oitAddress = oitLists;
+  push.batchAddress = batchTable.address();
+  push.batchCount = uint32_t(batches.size());
+  return push;
+}
+
+// The pipeline of `mode` with the sheets bound, facing state for billboards turned either way.
+void ParticleDraw::Impl::cmdBindDraw(VkCommandBuffer cmd, OitMode mode) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline(mode));
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors.set, 0, nullptr);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE); // rotated billboards may face either way
+  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+}
+
 void ParticleDraw::cmdDraw(VkCommandBuffer cmd, OitMode mode, VkDeviceAddress frame, VkDeviceAddress oitLists) {
   Impl& d = *impl_;
   if (d.batches.empty()) return;
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.pipeline(mode));
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.layout, 0, 1, &d.descriptors.set, 0, nullptr);
-  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE); // rotated billboards may face either way
-  vkCmdSetFrontFace(cmd, VK_FRONT_FACE_COUNTER_CLOCKWISE);
+  d.cmdBindDraw(cmd, mode);
+  if (d.splatRecorded) { // the particles the splat left: one draw over every batch's
+    sio::ParticleDrawPush push = d.drawPush(frame, mode == OitMode::LinkedList ? oitLists : 0);
+    push.recordAddress = d.largeList.address();
+    push.mode = MIRAGE_PARTICLE_DRAW_INDICES;
+    vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
+                       &push);
+    vkCmdDrawIndirect(cmd, d.largeArgs.handle(), 0, 1, sizeof(VkDrawIndirectCommand));
+    return;
+  }
   for (uint32_t i = 0; i < d.batches.size(); ++i) {
     const ParticleBatch& b = d.batches[i];
-    const ParticleSheet& s = d.sheets[std::min<size_t>(b.sheet, d.sheets.size() - 1)];
-    sio::ParticleDrawPush push{frame,
-                               b.records,
-                               mode == OitMode::LinkedList ? oitLists : 0,
-                               std::min<uint32_t>(b.sheet, uint32_t(d.sheets.size() - 1)),
-                               s.tilesX,
-                               s.tilesY,
-                               s.alphaFromGreyscale ? MIRAGE_PARTICLE_ALPHA_FROM_GREY : 0u};
+    const ParticleSheet& s = d.sheetOf(b);
+    sio::ParticleDrawPush push = d.drawPush(frame, mode == OitMode::LinkedList ? oitLists : 0);
+    push.recordAddress = b.records;
+    push.sheet = std::min<uint32_t>(b.sheet, uint32_t(d.sheets.size() - 1));
+    push.tilesX = s.tilesX;
+    push.tilesY = s.tilesY;
+    push.flags = s.alphaFromGreyscale ? MIRAGE_PARTICLE_ALPHA_FROM_GREY : 0u;
+    push.mode = MIRAGE_PARTICLE_DRAW_RECORDS;
     vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
                        &push);
     vkCmdDrawIndirect(cmd, d.indirect.handle(), i * sizeof(VkDrawIndirectCommand), 1, sizeof(VkDrawIndirectCommand));

@@ -102,6 +102,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.foveaGaze = c.foveaGaze;
   rs.foveaRadiusDegrees = c.foveaRadiusDegrees;
   rs.debugView = c.debugView;
+  rs.particles = view.particles;
   if (s.surfels && c.drawSurfels) {
     rs.surfels = s.surfels.get();
     rs.surfelSettings.surfelSize = c.surfelSize;

@@ -2,7 +2,7 @@
 # `mirage bench particles` and `mirage particles` (docs/particles.md): a bad effect file gets one
 # line naming file, line and key, exit 2, and no image; both simulations run a small effect and
 # report the live particles they hold; rendering writes a PNG of the asked size (numbered frames
-# with --every).
+# with --every), over a scene file and over a .mrg asset.
 # Usage: particles.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -36,7 +36,20 @@ if expect_ok bench-render bench particles "$source_dir/examples/particles/fire.t
   --render --size 64x36 --json; then
   grep -q '"render_ms"' "$tmp/stdout" || fail "bench-render: no render_ms: $(cat "$tmp/stdout")"
   grep -q '"msl"' "$tmp/stdout" || fail "bench-render: no msl: $(cat "$tmp/stdout")"
+  grep -q '"splat_ms"' "$tmp/stdout" || fail "bench-render: no splat_ms: $(cat "$tmp/stdout")"
 fi
+# Small sparks seen from afar are splatted (few billboards left); --no-splat draws them all.
+sparks="$source_dir/examples/particles/sparks.toml"
+if expect_ok bench-render-splat bench particles "$sparks" --count 2000 --steps 2 --sim gpu --render --size 96x54 \
+  --camera eye=0,1,40,target=0,1,0 --json; then
+  grep -q '"billboards": [0-9]\{1,2\},' "$tmp/stdout" || fail "bench-render-splat: billboards: $(cat "$tmp/stdout")"
+fi
+if expect_ok bench-render-nosplat bench particles "$sparks" --count 2000 --steps 2 --sim gpu --render --size 96x54 \
+  --camera eye=0,1,40,target=0,1,0 --no-splat --json; then
+  grep -q '"billboards": 2000,' "$tmp/stdout" || fail "bench-render-nosplat: $(cat "$tmp/stdout")"
+fi
+expect_fail bench-render-camera "--camera 'nowhere'" "" -- bench particles "$sparks" --count 10 --sim gpu --render \
+  --camera nowhere
 expect_fail bench-render-cpu "--render needs --sim gpu" "" -- bench particles "$source_dir/examples/particles/fire.toml" \
   --count 10 --render
 
@@ -61,6 +74,7 @@ for sim in cpu gpu; do
     grep -q '"live": [1-9]' "$tmp/stdout" || fail "render-$sim: no live particles: $(cat "$tmp/stdout")"
   fi
 done
+expect_ok render-nosplat particles "$fire" --frames 6 --size 32x32 --no-splat -o "$tmp/nosplat.png"
 if expect_ok render-every particles "$fire" --frames 6 --every 3 --size 32x32 -o "$tmp/seq.png"; then
   check render-every-files test -f "$tmp/seq_0000.png" -a -f "$tmp/seq_0001.png" -a ! -e "$tmp/seq.png"
 fi
@@ -72,4 +86,12 @@ if expect_ok render-scene-particles render gen:blob:8 --particles "$fire" --part
 fi
 expect_fail render-scene-bad "error: $tmp/typo.toml:[0-9]*: " "$tmp/scene_bad.png" -- render gen:blob:8 \
   --particles "$tmp/typo.toml" --size 40x30 -o "$tmp/scene_bad.png"
+# mirage render ASSET.mrg --particles: the cluster-LOD renderer appends them to its transparency lists.
+if expect_ok build-blob-mrg build gen:blob:4 -o "$tmp/blob.mrg" --quiet; then
+  if expect_ok render-mrg-particles render "$tmp/blob.mrg" --particles "$fire" --particle-frames 10 \
+    --particle-sim gpu --size 40x30 -o "$tmp/mrg_fx.png" --json; then
+    check render-mrg-particles-size test "$(png_size "$tmp/mrg_fx.png")" = 40x30
+    grep -q '"oit_fragments": [1-9]' "$tmp/stdout" || fail "render-mrg-particles: no particle fragments"
+  fi
+fi
 finish particles

@@ -46,6 +46,26 @@ Mesh makeQuad(float h, float z, uint32_t material) {
   return m;
 }
 
+Mesh makeGrid(float h, float z, uint32_t material, int n) {
+  Mesh m;
+  m.name = "grid";
+  m.material = material;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      float u = float(x) / float(n), v = float(y) / float(n);
+      m.positions.push_back({(u * 2.0f - 1.0f) * h, (v * 2.0f - 1.0f) * h, z});
+      m.normals.push_back({0, 0, 1});
+      m.uv0.push_back({u, 1.0f - v});
+    }
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + uint32_t(n) + 2, d = a + uint32_t(n) + 1;
+      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+    }
+  finish(m);
+  return m;
+}
+
 Mesh makeSphere(float radius, uint32_t rings, uint32_t segments, uint32_t material) {
   Mesh m;
   m.name = "sphere";

@@ -8,6 +8,8 @@ namespace mirage::test {
 Mesh makeCube(float halfSize = 1.0f, uint32_t material = 0);
 // Quad in the XY plane at z, facing +Z (CCW seen from +Z), UVs 0..1.
 Mesh makeQuad(float halfSize, float z, uint32_t material = 0);
+// The same quad as an n x n grid of quads (2 n^2 triangles): enough for a few clusters when baked.
+Mesh makeGrid(float halfSize, float z, uint32_t material = 0, int n = 12);
 // UV sphere with `rings` x `segments`, smooth normals.
 Mesh makeSphere(float radius, uint32_t rings, uint32_t segments, uint32_t material = 0);
 // One instance per mesh, identity transforms, one material per mesh given.

@@ -75,6 +75,7 @@ struct ParticleRenderRequest {
   SimKind sim = SimKind::Cpu;
   uint32_t width = 640, height = 360;
   render::OitMode oit = render::OitMode::LinkedList;
+  bool splat = true; // small particles splatted (render::ParticleDrawSettings); false: billboards only
 };
 // A time step: seconds as a number ("0.0166") or a fraction ("1/60"). Error: anything else.
 Result<float> parseTimeStep(const std::string& text);
@@ -97,8 +98,9 @@ Result<ParticleRenderReport> renderParticles(gpu::Context& context, const Effect
 // `mirage bench particles --sim gpu --render`: the effect scaled to `count` particles and filled
 // (as benchGpu), then per timed frame one submission with the simulation step and record output
 // ("simulate") and the forward frame drawing every live particle over a ground ("frame": opaque,
-// blend = list build, composite = resolve), GPU times from timestamp queries, medians over the
-// frames. The camera frames the unscaled effect.
+// splat = the small particles' compute splat, blend = list build, composite = resolve,
+// splat-resolve), GPU times from timestamp queries, medians over the frames. The camera frames the
+// unscaled effect unless given.
 struct RenderBenchOptions {
   uint64_t count = 1000000;
   uint32_t frames = 50;
@@ -106,11 +108,15 @@ struct RenderBenchOptions {
   uint32_t width = 1920, height = 1080;
   render::OitMode oit = render::OitMode::LinkedList;
   uint32_t oitNodesPerPixel = 8;
+  bool splat = true;  // false: every particle a billboard
+  std::string camera; // render::parseCamera; empty: frame the unscaled effect
 };
 struct RenderBenchResult {
   uint64_t live = 0, fillSteps = 0;
   double simulateMs = 0, frameMs = 0, blendMs = 0, compositeMs = 0, totalMs = 0; // medians
-  render::OitStats oit;                                                          // of the last frame
+  double splatMs = 0, splatResolveMs = 0;                                        // medians
+  uint32_t billboards = 0; // particles the splat left to billboards in the last frame (all without it)
+  render::OitStats oit;    // of the last frame
 };
 Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& effect,
                                       const RenderBenchOptions& options);

@@ -136,9 +136,10 @@ struct ClusterRenderSettings {
   // needs 64-bit buffer atomics (without them every triangle stays with its workgroup).
   float blendQueuePixels = 1024.0f;
   // Transparency node pool (docs/render.md, "Transparency"): blended fragments per pixel on average
-  // (12 bytes each; 1..64), capped by the device's storage-buffer range. Past it, a fragment takes
-  // the place of its pixel's farthest listed one if nearer, else is dropped (counted either way).
-  uint32_t oitNodesPerPixel = 4;
+  // (12 bytes each; 1..64; 0: 4, or 8 once particles share the lists), capped by the device's
+  // storage-buffer range. Past it, a fragment takes the place of its pixel's farthest listed one if
+  // nearer, else is dropped (counted either way).
+  uint32_t oitNodesPerPixel = 0;
   // Tests: queue at most this many triangles a frame (the queue's capacity when larger); the rest
   // are walked by their cluster's workgroup, as when the queue is full.
   uint32_t blendQueueLimit = UINT32_MAX;
@@ -172,6 +173,10 @@ struct ClusterRenderSettings {
   // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
   // occlusion history the resolve writes; needs occlusionCulling) into ownedClusters.
   bool readOwnedClusters = false;
+  // Particle billboards (render/particle_draw.h; docs/render.md, "Particles"), depth-tested against
+  // the opaque depth and appended to the BLEND clusters' per-pixel lists, so the composite sorts
+  // both together; null: none (nor in debug views).
+  ParticleDraw* particles = nullptr;
 };
 
 struct ClusterStats {

@@ -61,7 +61,8 @@ struct View {
   // one shared selection (clusters and surfel prefixes), the image (2 * width) x height with the
   // left eye left (docs/render.md, "Stereo").
   std::optional<float> stereoIpd;
-  // Forward scenes: particle billboards drawn with the blended geometry (render/particle_draw.h).
+  // Forward and cluster-LOD scenes: particle billboards drawn with the blended geometry, sorted
+  // with it per pixel (render/particle_draw.h). Not in surfel-only scenes.
   render::ParticleDraw* particles = nullptr;
 };
 

@@ -274,7 +274,10 @@ struct ClusterFrame {
   uint64_t blendQueueAddress;
   uint blendQueueCapacity; // entries usable this frame
   float blendQueuePixels;  // pixel boxes larger than this are queued
-  uint64_t pad1;           // the size stays a multiple of 16, as std430 rounds a struct holding a mat4
+  // Particles (render/particle_draw.h): uvec2[oitNodeCapacity], the colour of each node whose id
+  // carries MIRAGE_OIT_COLOR_ID_TAG. Without particles it names the node pool, as large, so a lane
+  // that loads for an untaken branch (lavapipe) stays inside a buffer.
+  uint64_t oitColorAddress;
 };
 
 // One queued blended triangle (ClusterFrame::blendQueueAddress), as the compute blend raster would
@@ -378,6 +381,7 @@ static_assert(offsetof(ClusterFrame, blendVisibleAddress) % 8 == 0, "ClusterFram
 static_assert(offsetof(ClusterFrame, overdrawAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, oitCounterAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendQueueAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(offsetof(ClusterFrame, oitColorAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(sizeof(BlendQueueTriangle) == 48, "BlendQueueTriangle layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");

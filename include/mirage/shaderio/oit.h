@@ -23,10 +23,10 @@ using uint = uint32_t;
 #define MIRAGE_OIT_REPLACE_TRIES 4
 
 // One blended fragment of a pixel's list: its depth and a non-zero 32-bit id (cluster renderer:
-// visibility id, shaded by the resolve; forward renderer: its own node index + 1, naming the colour
-// stored beside it). 0 ends a list. Nodes outside this frame's lists are all zero (the pool is
-// zeroed when made and oitGather zeroes every node it reads), so a zero depth or id also marks a
-// node not written yet.
+// visibility id, shaded by the composite, or a particle's node index + 1 | MIRAGE_OIT_COLOR_ID_TAG;
+// forward renderer: its own node index + 1, naming the colour stored beside it). 0 ends a list. Nodes outside this
+// frame's lists are all zero (the pool is zeroed when made and oitGather zeroes every node it reads), so a zero depth
+// or id also marks a node not written yet.
 struct OitNode {
   uint depthBits; // reverse-Z depth as float bits (larger is nearer)
   uint id;
@@ -44,7 +44,15 @@ struct OitCounters {
   uint pad0;
 };
 
-// The forward renderer's lists (the cluster renderer keeps the same addresses in ClusterFrame):
+// Marks an id naming a node whose shaded colour is stored beside the pool (OitLists::colorAddress)
+// in lists whose other ids are visibility ids: the cluster renderer's particle fragments. Visibility
+// ids stay below it (blend-list entries + 1 <= 2^22, shifted by the 7 triangle bits), and a tagged
+// id stays below the overflow walk's lock value 0xffffffff (oit_list.glsl, kOitBusy): a pool is
+// addressed by one storage buffer, so it holds fewer than 2^32 / 12 nodes.
+#define MIRAGE_OIT_COLOR_ID_TAG 0x80000000u
+
+// Lists of fragments shaded where they are rasterized (the forward renderer's, and the particle
+// billboards' in either renderer; the cluster renderer keeps the same addresses in ClusterFrame):
 // heads per pixel of a rowPixels-wide target, the pool, and beside each node its colour (uvec2:
 // packHalf2x16 of rg, of ba).
 struct OitLists {
@@ -55,13 +63,15 @@ struct OitLists {
   uint rowPixels;          // target width (both eyes in stereo)
   uint height;
   uint nodeCapacity;
-  uint pad0;
+  uint idTag; // OR'd into each appended node's index + 1 to make its id: 0 (forward) or MIRAGE_OIT_COLOR_ID_TAG
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(OitCounters) == 24, "OitCounters layout");
 static_assert(sizeof(OitLists) == 48, "OitLists layout");
+static_assert((MIRAGE_OIT_COLOR_ID_TAG | (UINT32_MAX / sizeof(OitNode) + 1)) < UINT32_MAX,
+              "a tagged node id never equals the overflow walk's lock value");
 } // namespace mirage::shaderio
 #endif
 

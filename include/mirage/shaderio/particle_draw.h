@@ -1,29 +1,104 @@
-// Particle billboards (src/render/particle_draw.cpp, shaders/particle_billboard.*): what the draw
-// pushes, written once for C++ and GLSL.
+// Particle drawing (src/render/particle_draw*.cpp, shaders/particle_*.{vert,frag,comp}): what the
+// billboard draws and the compute passes (sort, splat) push and read, written once for C++ and GLSL.
 #ifndef MIRAGE_SHADERIO_PARTICLE_DRAW_H
 #define MIRAGE_SHADERIO_PARTICLE_DRAW_H
 
 #ifdef __cplusplus
 #include <cstdint>
+#include <glm/glm.hpp>
 namespace mirage::shaderio {
 using uint = uint32_t;
+using mat4 = glm::mat4;
 #endif
 
-// ParticleDrawPush::flags
+// ParticleBatchInfo::flags, ParticleDrawPush::flags
 #define MIRAGE_PARTICLE_ALPHA_FROM_GREY 1u
 
-struct ParticleDrawPush {
-  uint64_t frameAddress;  // FrameData (shaderio/forward.h) of the eye
-  uint64_t recordAddress; // RenderParticle[] (shaderio/particles.h)
-  uint64_t oitAddress;    // OitLists (shaderio/oit.h) in linked-list mode, else 0
-  uint sheet;             // index into the sheet array
+// ParticleDrawPush::mode: what a billboard instance names.
+#define MIRAGE_PARTICLE_DRAW_RECORDS 0u // record gl_InstanceIndex of recordAddress; sheet etc. from the push
+#define MIRAGE_PARTICLE_DRAW_KEYS 1u    // global record uint(uint64 keys[gl_InstanceIndex]) (sorted mode)
+#define MIRAGE_PARTICLE_DRAW_INDICES 2u // global record uint indices[gl_InstanceIndex] (the splat's large ones)
+
+// Workgroup size of the particle compute passes (one thread per record slot).
+#define MIRAGE_PARTICLE_DRAW_GROUP 256
+
+// One batch as the compute passes and the list-driven draws see it: batches' records are numbered
+// globally, batch b's record i being global record first + i (first = the capacities before it).
+struct ParticleBatchInfo {
+  uint64_t records; // RenderParticle[]
+  uint first;       // global index of record 0
+  uint capacity;    // records room (the live count is the batch's draw argument instanceCount)
+  uint sheet;
   uint tilesX;
   uint tilesY;
   uint flags; // MIRAGE_PARTICLE_*
 };
 
+struct ParticleDrawPush {
+  uint64_t frameAddress;  // ViewFrame of the eye (the first member of FrameData and ClusterFrame)
+  uint64_t recordAddress; // RECORDS: RenderParticle[]; KEYS: uint64 keys; INDICES: uint global indices
+  uint64_t oitAddress;    // OitLists (shaderio/oit.h) in linked-list mode, else 0
+  uint64_t batchAddress;  // ParticleBatchInfo[batchCount] (KEYS, INDICES)
+  uint sheet;             // RECORDS: index into the sheet array
+  uint tilesX;
+  uint tilesY;
+  uint flags; // MIRAGE_PARTICLE_*
+  uint mode;  // MIRAGE_PARTICLE_DRAW_*
+  uint batchCount;
+  uint pad0, pad1;
+};
+
+// The sorted mode's compute passes (particle_sort_keys.comp, particle_sort_gaps.comp): keys
+// (view-depth order bits << 32 | global record, ~0 for empty slots) of every record slot, then,
+// after the sort, each sorted key's gap among the blended triangles sorted on the CPU.
+struct ParticleSortPush {
+  mat4 view;             // eye 0's world -> view (the triangles' sort view)
+  uint64_t batchAddress; // ParticleBatchInfo[batchCount]
+  uint64_t argsAddress;  // VkDrawIndirectCommand per batch: instanceCount = its live records
+  uint64_t keyAddress;   // uint64[total]
+  uint64_t depthAddress; // float[triangleCount]: the triangles' view z, ascending (farthest first)
+  uint64_t gapAddress;   // VkDrawIndirectCommand[triangleCount + 1], zeroed: each gap's draw
+  uint total;            // record slots over all batches
+  uint batchCount;
+  uint triangleCount;
+  uint pad0;
+};
+
+// The splat (particle_splat*.comp; docs/particles.md, "Splat"): per target pixel
+// MIRAGE_SPLAT_CHANNELS sums, the weighted blended accumulators of McGuire and Bavoil 2013:
+// premultiplied colour x weight (rgb), alpha x weight, and -log(1 - alpha) (the revealage product
+// as a sum, so that it can be accumulated by atomic adds). Float: float[pixel * 5 + c]; fixed
+// point (without float atomic adds): uint64[pixel * 5 + c] in units of 2^-MIRAGE_SPLAT_FIXED_BITS.
+#define MIRAGE_SPLAT_CHANNELS 5
+#define MIRAGE_SPLAT_FIXED_BITS 32
+// Coverage past this (a splat's alpha is a pixel's share of a particle's) counts as this: the
+// revealage sum stays finite.
+#define MIRAGE_SPLAT_MAX_ALPHA 0.99975
+// Largest splatBelowPixels: a splatted particle touches at most (ceil(it) + 1)^2 pixels.
+#define MIRAGE_SPLAT_MAX_PIXELS 8.0
+
+struct ParticleSplatPush {
+  uint64_t frameAddress[2];  // ViewFrame of each eye (the classification uses eye 0's size)
+  uint64_t batchAddress;     // ParticleBatchInfo[batchCount]
+  uint64_t argsAddress;      // VkDrawIndirectCommand per batch: instanceCount = its live records
+  uint64_t accumAddress;     // the accumulators (float or fixed point, MIRAGE_SPLAT_CHANNELS per pixel)
+  uint64_t largeAddress;     // uint[total]: global records left to the billboards
+  uint64_t largeArgsAddress; // VkDrawIndirectCommand of the billboards' draw: instanceCount counts them
+  uint total;                // record slots over all batches
+  uint batchCount;
+  uint eyes;         // 1, or 2: side by side, eye e's pixels at x + e * eyeWidth
+  uint eyeWidth;     // pixels
+  uint height;       // pixels
+  float belowPixels; // billboard edges under this many pixels are splatted
+  uint fixedPoint;   // 1: the accumulators are fixed point (resolve)
+  uint pad0;
+};
+
 #ifdef __cplusplus
-static_assert(sizeof(ParticleDrawPush) == 40, "ParticleDrawPush layout");
+static_assert(sizeof(ParticleSplatPush) == 88, "ParticleSplatPush layout");
+static_assert(sizeof(ParticleBatchInfo) == 32, "ParticleBatchInfo layout");
+static_assert(sizeof(ParticleDrawPush) == 64, "ParticleDrawPush layout");
+static_assert(sizeof(ParticleSortPush) == 120, "ParticleSortPush layout");
 } // namespace mirage::shaderio
 #endif
 

@@ -1,0 +1,267 @@
+// The splat of small particles (docs/particles.md, "Splat"): a cloud of small particles splatted
+// looks like the same cloud drawn as billboards through weighted blending (float and fixed-point
+// sums alike), the splat conserves coverage (alpha times footprint area, summed over the image),
+// particles behind opaque geometry add nothing, and each stereo half is its eye's mono image.
+// Validation layers silent (lavapipe).
+#include <array>
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "gpu_test.h"
+#include "mirage/core/color.h"
+#include "mirage/core/image_metrics.h"
+#include "mirage/render/camera.h"
+#include "mirage/render/forward_renderer.h"
+#include "mirage/render/particle_draw.h"
+#include "test_scenes.h"
+
+using namespace mirage;
+using namespace mirage::render;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+constexpr uint32_t kSize = 128;
+constexpr float kDistance = 5.0f, kFov = 45.0f;
+
+class ParticleSplat : public test::GpuTest {};
+
+// Pixels across a billboard of edge `size` at view distance `distance`.
+float pixelsOf(float size, float distance) {
+  return size / (2.0f * distance * std::tan(glm::radians(kFov) * 0.5f)) * float(kSize);
+}
+
+ForwardRenderSettings settings(OitMode mode, ParticleDraw* particles, glm::vec4 background) {
+  ForwardRenderSettings s;
+  s.base.width = s.base.height = kSize;
+  s.base.camera.eye = {0, 0, kDistance};
+  s.base.camera.fovYDegrees = kFov;
+  s.base.camera.znear = 0.1f;
+  s.base.camera.zfar = 100.0f;
+  s.base.background = background;
+  s.base.readLinear = true;
+  s.oit = mode;
+  s.particles = particles;
+  return s;
+}
+
+// `meshes` and, out of view, a tiny opaque quad: a scene is never empty.
+Scene withAnchor(std::vector<Mesh> meshes, std::vector<Material> materials) {
+  meshes.push_back(test::makeQuad(0.01f, 0.0f, uint32_t(materials.size())));
+  materials.push_back(test::solidMaterial({1, 1, 1, 1}));
+  Scene s = test::makeScene(std::move(meshes), std::move(materials));
+  s.instances.back().transform = glm::translate(glm::mat4(1.0f), {50.0f, 0.0f, 0.0f});
+  return s;
+}
+
+std::unique_ptr<ParticleDraw> puffDraw(gpu::Context& ctx) {
+  // 2 x 2 tiles of 8 x 8 texels, each a soft dot of its own strength (alpha from greyscale).
+  ParticleSheet sheet{ImageRGBA8{16, 16, {}}, 2, 2, true};
+  for (uint32_t y = 0; y < 16; ++y)
+    for (uint32_t x = 0; x < 16; ++x) {
+      float r = glm::length(glm::vec2(float(x % 8) - 3.5f, float(y % 8) - 3.5f)) / 4.0f;
+      float strength = 0.5f + 0.25f * float((x / 8) + 2 * (y / 8)) / 3.0f;
+      uint8_t v = uint8_t(255.0f * strength * std::clamp(1.3f - r, 0.0f, 1.0f));
+      sheet.image.pixels.insert(sheet.image.pixels.end(), {v, v, v, 255});
+    }
+  auto d = ParticleDraw::create(ctx, {&sheet, 1});
+  EXPECT_TRUE(d.ok()) << (d.ok() ? "" : d.error().message);
+  return d.ok() ? std::move(*d) : nullptr;
+}
+
+sio::RenderParticle particle(glm::vec3 position, float size, glm::vec4 color, uint32_t frame = 0) {
+  return {position, size, 0.0f, sio::particlePackColor(color), frame, 0};
+}
+
+// A deterministic cloud of small particles (0.6 to 1.9 pixels across) in front of the camera.
+std::vector<sio::RenderParticle> smallCloud(uint32_t count) {
+  std::vector<sio::RenderParticle> out;
+  for (uint32_t i = 0; i < count; ++i) {
+    float t = float(i);
+    glm::vec3 p{1.6f * std::sin(t * 1.37f), 1.6f * std::cos(t * 0.91f), 0.8f * std::sin(t * 2.13f)};
+    float pixels = 0.6f + 1.3f * (0.5f + 0.5f * std::sin(t * 0.53f));
+    float size = pixels / pixelsOf(1.0f, kDistance - p.z);
+    glm::vec4 color{0.5f + 0.5f * std::sin(t), 0.6f, 0.5f + 0.5f * std::cos(t * 0.7f),
+                    0.6f + 0.4f * std::fabs(std::sin(t * 0.3f))};
+    out.push_back(particle(p, size, color, i % 4));
+  }
+  return out;
+}
+
+RenderOutput render(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettings& s) {
+  auto r = ForwardRenderer::create(ctx, scene);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
+  if (!r.ok()) return {};
+  auto out = r->get()->render(s);
+  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
+  return out.ok() ? std::move(*out) : RenderOutput{};
+}
+
+// `img` averaged over factor x factor blocks in linear light, as 8-bit sRGB.
+ImageRGBA8 downsample(const ImageF32& img, uint32_t factor) {
+  ImageRGBA8 out{img.width / factor, img.height / factor, {}};
+  for (uint32_t y = 0; y < out.height; ++y)
+    for (uint32_t x = 0; x < out.width; ++x)
+      for (uint32_t c = 0; c < 4; ++c) {
+        float sum = 0.0f;
+        for (uint32_t k = 0; k < factor * factor; ++k)
+          sum += img.pixels[((y * factor + k / factor) * img.width + x * factor + k % factor) * 4 + c];
+        out.pixels.push_back(c == 3 ? 255 : linearToSrgb8(sum / float(factor * factor)));
+      }
+  return out;
+}
+
+std::vector<SplatAtomics> atomicsToTest(const gpu::Context& ctx) {
+  std::vector<SplatAtomics> list;
+  if (ctx.caps().floatBufferAtomicAdd) list.push_back(SplatAtomics::Float);
+  if (ctx.caps().int64BufferAtomics) list.push_back(SplatAtomics::Fixed);
+  return list;
+}
+
+// Small particles over a grey wall: the splat's image against the billboards' (weighted blending,
+// the same order-independent approximation). Sub-pixel billboards hit or miss pixel centres (grown
+// to 1.5 pixels), where the splat spreads their coverage by area: the splat is compared with the
+// billboards drawn at 4 x the resolution and box-filtered (>= 38 dB, the particles 2.4 to 7.6
+// pixels wide there), and with those at its own resolution (>= 30 dB; >= 40 dB over 4 x 4 blocks),
+// each far closer than the wall alone; the float and fixed-point sums within 50 dB of each other;
+// the splat leaves no billboard.
+TEST_F(ParticleSplat, MatchesWeightedBillboardsOnSmallParticles) {
+  if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
+  Scene scene = withAnchor({test::makeQuad(4.0f, -2.0f)}, {test::solidMaterial({0.3f, 0.3f, 0.35f, 1})});
+  auto draw = puffDraw(context());
+  ASSERT_TRUE(draw);
+  std::vector<sio::RenderParticle> cloud = smallCloud(1500);
+  ParticleDraw::CpuBatch batch{cloud, 0};
+  draw->setCpuBatches({&batch, 1});
+  const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
+  ASSERT_TRUE(draw->setSettings({0.0f, SplatAtomics::Auto}).ok()); // billboards only
+  RenderOutput billboards = render(context(), scene, settings(OitMode::Weighted, draw.get(), background));
+  ForwardRenderSettings fine = settings(OitMode::Weighted, draw.get(), background);
+  fine.base.width = fine.base.height = 4 * kSize;
+  ImageRGBA8 reference = downsample(render(context(), scene, fine).linear, 4);
+  RenderOutput bare = render(context(), scene, settings(OitMode::Weighted, nullptr, background));
+  double signal = psnr(reference, bare.srgb);
+  std::vector<ImageRGBA8> splats;
+  for (SplatAtomics atomics : atomicsToTest(context())) {
+    ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics}).ok());
+    RenderOutput splat = render(context(), scene, settings(OitMode::Weighted, draw.get(), background));
+    EXPECT_EQ(draw->readBillboardCount(), 0u) << "every particle is under the threshold";
+    double vsReference = psnr(reference, splat.srgb), vsBillboards = psnr(billboards.srgb, splat.srgb);
+    double blocks = psnr(downsample(billboards.linear, 4), downsample(splat.linear, 4));
+    std::printf("splat (%s) vs 4x billboards %.2f dB (signal %.2f dB), vs billboards %.2f dB (4x4 blocks %.2f dB)\n",
+                atomics == SplatAtomics::Float ? "float" : "fixed", vsReference, signal, vsBillboards, blocks);
+    EXPECT_GE(vsReference, 38.0);
+    EXPECT_GE(vsBillboards, 30.0);
+    EXPECT_GE(blocks, 40.0);
+    splats.push_back(std::move(splat.srgb));
+  }
+  EXPECT_LT(signal, 30.0) << "the particles must show";
+  if (splats.size() == 2) {
+    EXPECT_GE(psnr(splats[0], splats[1]), 50.0) << "float and fixed-point sums";
+  }
+}
+
+// White particles of alpha 0.6 on black, apart from each other: each pixel's colour is its
+// coverage, so the image sums to sum(alpha x footprint area in pixels) (within 0.5 %: the colour
+// target is half float), for footprints of 0.5 to 1.9 pixels at any sub-pixel position, in both
+// transparency modes the splat serves.
+TEST_F(ParticleSplat, ConservesCoverage) {
+  if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
+  Scene scene = withAnchor({}, {});
+  ParticleSheet white{ImageRGBA8{1, 1, {255, 255, 255, 255}}, 1, 1, false};
+  auto draw = ParticleDraw::create(context(), {&white, 1});
+  ASSERT_TRUE(draw.ok());
+  const float kAlpha = 153.0f / 255.0f; // exact in the record's RGBA8
+  std::vector<sio::RenderParticle> grid;
+  double expected = 0.0;
+  for (int y = 0; y < 10; ++y)
+    for (int x = 0; x < 10; ++x) {
+      float pixels = 0.5f + 1.4f * float((x + 3 * y) % 10) / 9.0f;
+      float size = pixels / pixelsOf(1.0f, kDistance);
+      // 10 pixels apart, at sub-pixel offsets that vary with the particle.
+      glm::vec2 at = (glm::vec2(float(x), float(y)) * 10.0f + 15.3f + 0.37f * float(x * y % 7)) / float(kSize);
+      glm::vec2 world = (at * 2.0f - 1.0f) * kDistance * std::tan(glm::radians(kFov) * 0.5f);
+      grid.push_back(particle({world.x, -world.y, 0.0f}, size, {1, 1, 1, kAlpha}));
+      expected += double(kAlpha) * pixels * pixels;
+    }
+  ParticleDraw::CpuBatch batch{grid, 0};
+  (*draw)->setCpuBatches({&batch, 1});
+  for (SplatAtomics atomics : atomicsToTest(context())) {
+    for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted}) {
+      ASSERT_TRUE((*draw)->setSettings({kDefaultSplatPixels, atomics}).ok());
+      RenderOutput out = render(context(), scene, settings(mode, draw->get(), {0, 0, 0, 1}));
+      ASSERT_EQ(out.linear.width, kSize);
+      double sum = 0.0;
+      for (size_t i = 0; i < out.linear.pixels.size(); i += 4) sum += out.linear.pixels[i];
+      std::printf("%s %s: coverage %.4f px^2, expected %.4f\n", atomics == SplatAtomics::Float ? "float" : "fixed",
+                  toString(mode), sum, expected);
+      EXPECT_NEAR(sum, expected, 0.005 * expected);
+    }
+  }
+}
+
+// Small particles behind an opaque quad (z = 1, covering the cloud) change nothing; in front of
+// it (z = 2) they show.
+TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
+  if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
+  Scene scene = withAnchor({test::makeQuad(2.5f, 1.0f)}, {test::solidMaterial({0.2f, 0.7f, 0.3f, 1})});
+  ParticleSheet white{ImageRGBA8{1, 1, {255, 255, 255, 255}}, 1, 1, false};
+  auto draw = ParticleDraw::create(context(), {&white, 1});
+  ASSERT_TRUE(draw.ok());
+  const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
+  RenderOutput bare = render(context(), scene, settings(OitMode::LinkedList, nullptr, background));
+  std::vector<sio::RenderParticle> cloud = smallCloud(600);
+  for (sio::RenderParticle& p : cloud) { // all behind the quad, opaque white, under 2 pixels
+    p.position.z = 0.0f;
+    p.size *= 0.85f;
+    p.color = sio::particlePackColor({1, 1, 1, 1});
+  }
+  ParticleDraw::CpuBatch batch{cloud, 0};
+  (*draw)->setCpuBatches({&batch, 1});
+  RenderOutput behind = render(context(), scene, settings(OitMode::LinkedList, draw->get(), background));
+  EXPECT_EQ((*draw)->readBillboardCount(), 0u);
+  EXPECT_GE(psnr(bare.srgb, behind.srgb), 60.0);
+  for (sio::RenderParticle& p : cloud) p.position.z = 2.0f, p.size *= 0.6f; // in front, as small
+  (*draw)->setCpuBatches({&batch, 1});
+  RenderOutput front = render(context(), scene, settings(OitMode::LinkedList, draw->get(), background));
+  EXPECT_EQ((*draw)->readBillboardCount(), 0u);
+  EXPECT_LT(psnr(bare.srgb, front.srgb), 30.0);
+}
+
+// Stereo: each half of the side-by-side image is the mono image of its eye (stereoEyes), the
+// splat writing each eye's footprints into its half against its half of the depth.
+TEST_F(ParticleSplat, StereoHalvesAreTheEyesMonoImages) {
+  if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
+  Scene scene = withAnchor({test::makeQuad(0.8f, 1.0f), test::makeQuad(4.0f, -2.0f, 1)},
+                           {test::solidMaterial({0.2f, 0.7f, 0.3f, 1}), test::solidMaterial({0.3f, 0.3f, 0.35f, 1})});
+  auto draw = puffDraw(context());
+  ASSERT_TRUE(draw);
+  std::vector<sio::RenderParticle> cloud = smallCloud(800);
+  ParticleDraw::CpuBatch batch{cloud, 0};
+  draw->setCpuBatches({&batch, 1});
+  const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
+  ForwardRenderSettings stereo = settings(OitMode::LinkedList, draw.get(), background);
+  stereo.stereoIpd = 0.4f;
+  RenderOutput both = render(context(), scene, stereo);
+  EXPECT_EQ(draw->readBillboardCount(), 0u);
+  ASSERT_EQ(both.srgb.width, 2 * kSize);
+  std::array<Camera, 2> eyes = stereoEyes(stereo.base.camera, *stereo.stereoIpd);
+  for (uint32_t e = 0; e < 2; ++e) {
+    ForwardRenderSettings mono = settings(OitMode::LinkedList, draw.get(), background);
+    mono.base.camera = eyes[e];
+    RenderOutput one = render(context(), scene, mono);
+    ImageRGBA8 half{kSize, kSize, {}};
+    for (uint32_t y = 0; y < kSize; ++y)
+      half.pixels.insert(half.pixels.end(), both.srgb.pixels.begin() + (y * 2 * kSize + e * kSize) * 4,
+                         both.srgb.pixels.begin() + (y * 2 * kSize + (e + 1) * kSize) * 4);
+    double p = psnr(one.srgb, half);
+    std::printf("eye %u: stereo half vs mono %.2f dB\n", e, p);
+    EXPECT_GE(p, 50.0) << "eye " << e;
+  }
+}
+
+} // namespace
