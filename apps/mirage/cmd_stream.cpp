@@ -88,6 +88,7 @@ struct ClientCliOptions {
   StereoOptions stereo;
   std::string present = "fifo";
   uint32_t frames = 0;
+  uint32_t minServerFrames = 0;
   uint32_t posesInFlight = 2;
   CLI::Option* pathOption = nullptr;
   bool simulate = false; // --latency-ms given: open loop under a simulated network
@@ -153,6 +154,7 @@ void runClient(ClientCliOptions& o) {
     w.present = o.present;
     w.device = o.device;
     w.maxFrames = o.frames;
+    w.minServerFrames = o.minServerFrames;
     w.maxPosesInFlight = o.posesInFlight;
     auto r = viewer::runStreamWindow(w);
     if (!r) return fail(r.error());
@@ -237,6 +239,9 @@ void addStreamCommands(CLI::App& app) {
   bindStereo(*c, co->stereo);
   c->add_option("--present", co->present, "Window: fifo|mailbox|immediate")->capture_default_str();
   c->add_option("--frames", co->frames, "Window: close after N display frames (0: run until closed)");
+  c->add_option("--min-server-frames", co->minServerFrames,
+                "Window with --frames: keep drawing until N server frames are applied too (each within the "
+                "frame timeout)");
   c->add_option("--poses-in-flight", co->posesInFlight, "Window: poses sent and not yet answered, at most")
       ->check(CLI::Range(1, 16))
       ->capture_default_str();

@@ -206,7 +206,7 @@ Result<StreamWindowSummary> runStreamWindow(const StreamWindowOptions& o) {
     const double inputSeconds = presenter.now();
     presenter.pollCompleted();
     PolledInput input = win.input();
-    bool finalFrame = o.maxFrames && frames + 1 >= o.maxFrames;
+    bool finalFrame = o.maxFrames && frames + 1 >= o.maxFrames && figures.framesApplied >= o.minServerFrames;
     if (o.script && !o.script(frames, figures.framesApplied, input)) finalFrame = true;
     auto now = Clock::now();
     float seconds = std::chrono::duration<float>(now - last).count();

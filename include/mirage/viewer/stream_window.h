@@ -23,6 +23,9 @@ struct StreamWindowOptions {
   std::string device;                 // Vulkan device name substring or index
   uint32_t maxPosesInFlight = 2;      // poses sent and not yet answered, at most (1: lock-step)
   uint32_t maxFrames = 0;             // > 0: close after this many display frames
+  // With maxFrames: also wait for this many server frames applied (a slow server, e.g. under
+  // sanitizers, cannot end a smoke run before its first frame; the frame timeout still applies).
+  uint32_t minServerFrames = 0;
   // Tests: edits the window's input of display frame `frame` (server frames applied so far) before
   // the loop reads it; returning false makes this frame the last.
   std::function<bool(uint64_t frame, uint64_t serverFrames, PolledInput& input)> script;
