@@ -150,11 +150,15 @@ void walkSmall(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 str
 // Samples of the box lo..hi (or lattice + k * stride), 64-bit (coordinates within
 // MIRAGE_RASTER_LARGE_COORD): the tiles and lattices of larger queued triangles and the
 // near-clipped triangles (the blend queue's threads evaluate the same functions per pixel).
+// The facing test stays here, between the two set-up helpers, rather than behind edgeSetup64's
+// early return: inlined three times, that return becomes a switch whose phis carry the 64-bit
+// edge values through the kernel (H100, 2500 blobs: stereo raster 0.130 ms against 0.108).
 void walkLarge(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 stride, bool keepAll, bool mirrored,
                ClusterFrame f, SampleTarget t) {
   vec2 first = lo + lattice;
-  EdgeWalk64 e;
-  if (!edgeSetup64(a, b, c, first, stride, keepAll, mirrored, e)) return;
+  EdgeCorners64 k = edgeCorners64(a, b, c, first);
+  if (!keepsFacing(float(k.area), keepAll, mirrored)) return;
+  EdgeWalk64 e = edgeWalk64(k, a, b, c, stride);
   for (uint y = uint(first.y); y <= uint(hi.y); y += stride.y, e.w0 += e.dy) {
     i64vec3 w = e.w0;
     for (uint x = uint(first.x); x <= uint(hi.x); x += stride.x, w += e.dx)

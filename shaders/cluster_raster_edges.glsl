@@ -12,7 +12,7 @@
 // bias -1 on the other edges. Three walks by size, each exact in its integer width:
 // - walkSmall (nearly all triangles, queued or not): extent under 63 pixels, 32-bit;
 // - walkLarge (larger queued boxes, near-clipped triangles) and the blend queue: coordinates
-//   within 2^21 pixels, 64-bit (edgeSetup64);
+//   within 2^21 pixels, 64-bit (edgeCorners64, keepsFacing, edgeWalk64; edgeSetup64 all three);
 // - walkFloat: the rest (vertices a hair in front of the near plane project millions of pixels
 //   away), float edge functions evaluated from canonically ordered endpoints.
 // Exact integers do not depend on where a walk starts, so every walk gives a sample the same
@@ -46,14 +46,24 @@ struct EdgeWalk64 {
   vec3 zw; // the sample's depth is edgeDepth(vec3(w), zw)
 };
 
-// Set-up of a triangle with coordinates within MIRAGE_RASTER_LARGE_COORD, oriented so that inside
-// is positive on all three edges; false when its facing is not drawn (or it has no area).
-bool edgeSetup64(vec3 a, vec3 b, vec3 c, vec2 first, uvec2 stride, bool keepAll, bool mirrored, out EdgeWalk64 e) {
+// A triangle's corners on the snapped grid relative to the sample of pixel `first`, and its doubled
+// signed area there (its facing: keepsFacing).
+struct EdgeCorners64 {
+  i64vec2 a, b, c;
+  int64_t area;
+};
+EdgeCorners64 edgeCorners64(vec3 a, vec3 b, vec3 c, vec2 first) {
   i64vec2 o = i64vec2((first + 0.5) * MIRAGE_RASTER_SNAP);
   i64vec2 A = i64vec2(a.xy * MIRAGE_RASTER_SNAP) - o, B = i64vec2(b.xy * MIRAGE_RASTER_SNAP) - o;
   i64vec2 C = i64vec2(c.xy * MIRAGE_RASTER_SNAP) - o;
-  int64_t area = (B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x);
-  if (!keepsFacing(float(area), keepAll, mirrored)) return false;
+  return EdgeCorners64(A, B, C, (B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x));
+}
+
+// The edge walk of a triangle with corners k (of a drawn facing, nonzero area), oriented so that
+// inside is positive on all three edges.
+EdgeWalk64 edgeWalk64(EdgeCorners64 k, vec3 a, vec3 b, vec3 c, uvec2 stride) {
+  i64vec2 A = k.a, B = k.b, C = k.c;
+  int64_t area = k.area;
   if (area < 0) {
     i64vec2 tmp = B;
     B = C;
@@ -65,12 +75,22 @@ bool edgeSetup64(vec3 a, vec3 b, vec3 c, vec2 first, uvec2 stride, bool keepAll,
   }
   // Edge (u, v) at sample p: (v.x - u.x)(p.y - u.y) - (v.y - u.y)(p.x - u.x).
   i64vec3 ex = i64vec3(C.x - B.x, A.x - C.x, B.x - A.x), ey = i64vec3(C.y - B.y, A.y - C.y, B.y - A.y);
+  EdgeWalk64 e;
   e.w0 = i64vec3(ey.x * B.x - ex.x * B.y, ey.y * C.x - ex.y * C.y, ey.z * A.x - ex.z * A.y);
   e.w0 += i64vec3(topLeft(i64vec2(ex.x, ey.x)) ? 0 : -1, topLeft(i64vec2(ex.y, ey.y)) ? 0 : -1,
                   topLeft(i64vec2(ex.z, ey.z)) ? 0 : -1);
   e.dx = -ey * (int64_t(MIRAGE_RASTER_SNAP) * int64_t(stride.x));
   e.dy = ex * (int64_t(MIRAGE_RASTER_SNAP) * int64_t(stride.y));
   e.zw = vec3(a.z, b.z, c.z) / float(area);
+  return e;
+}
+
+// Set-up of a triangle with coordinates within MIRAGE_RASTER_LARGE_COORD, oriented so that inside
+// is positive on all three edges; false when its facing is not drawn (or it has no area).
+bool edgeSetup64(vec3 a, vec3 b, vec3 c, vec2 first, uvec2 stride, bool keepAll, bool mirrored, out EdgeWalk64 e) {
+  EdgeCorners64 k = edgeCorners64(a, b, c, first);
+  if (!keepsFacing(float(k.area), keepAll, mirrored)) return false;
+  e = edgeWalk64(k, a, b, c, stride);
   return true;
 }
 
