@@ -3,6 +3,8 @@
 // render() calls. Validation (with synchronization validation) must stay silent.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <functional>
 #include <span>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
+#include "mirage/render/particle_draw.h"
 
 using namespace mirage;
 using namespace mirage::render;
@@ -133,18 +136,59 @@ TEST_F(ClusterFrames, ResizeWhileFramesAreInFlightNeitherWaitsNorFreesTargetsInU
   expectFramesInFlightMatchSequential(context(), resize, sizes, /*gateFirstFrame=*/true);
 }
 
+// Particles over the blob: white squares around the centre of `bounds`, some in front of its
+// surface, some hidden by it (the depth copy decides).
+std::unique_ptr<ParticleDraw> sparkDraw(gpu::Context& ctx, const Bounds& bounds) {
+  ParticleSheet white{ImageRGBA8{1, 1, {255, 255, 255, 255}}, 1, 1, false};
+  auto draw = ParticleDraw::create(ctx, {&white, 1});
+  EXPECT_TRUE(draw.ok()) << (draw.ok() ? "" : draw.error().message);
+  if (!draw.ok()) return nullptr;
+  glm::vec3 centre = bounds.center(), extent = bounds.extent();
+  std::vector<shaderio::RenderParticle> sparks; // copied by setCpuBatches
+  for (int i = 0; i < 16; ++i) {
+    float t = float(i) * 0.9f;
+    glm::vec3 p = centre + 0.6f * extent * glm::vec3(std::sin(t), std::cos(1.3f * t), std::sin(2.1f * t));
+    sparks.push_back({p, 0.15f * extent.x, 0.0f, shaderio::particlePackColor({1.0f, 0.9f, 0.6f, 0.7f}), 0, 0});
+  }
+  ParticleDraw::CpuBatch batch{sparks, 0};
+  (*draw)->setCpuBatches({&batch, 1});
+  return std::move(*draw);
+}
+
+// The frame `s` from `renderer` equals it from a new renderer of the same asset, bit for bit;
+// returns the new renderer's stats.
+ClusterStats expectSameAsFresh(gpu::Context& ctx, ClusterRenderer& renderer, const ClusterRenderSettings& s) {
+  auto fresh = ClusterRenderer::create(ctx, test::smallBlobAsset());
+  EXPECT_TRUE(fresh.ok());
+  if (!fresh.ok()) return {};
+  auto expected = (*fresh)->render(s);
+  auto after = renderer.render(s);
+  EXPECT_TRUE(expected.ok() && after.ok());
+  if (!expected.ok() || !after.ok()) return {};
+  EXPECT_GT(expected->stats.trianglesRasterized, 0u);
+  const std::vector<float>&a = after->image.linear.pixels, &b = expected->image.linear.pixels;
+  EXPECT_EQ(a.size(), b.size());
+  size_t differing = 0;
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) differing += a[i] != b[i];
+  EXPECT_EQ(differing, 0u) << "of " << a.size() << " channel values";
+  return expected->stats;
+}
+
 // The buffer backends' 64-bit visibility buffer is cleared by the resolve that reads it
 // (MIRAGE_FRAME_CLEAR_VIS) instead of by a fill at the next frame's start; frames with a debug
-// view leave it for the next frame to fill. Whatever ran before, a frame must equal the same
+// view or particles (their depth copy reads it after the resolve) leave it for the next frame to
+// fill (ClusterFramePlan::clearsVisibility). Whatever ran before, a frame must equal the same
 // frame from a fresh renderer: a close view (covering most pixels) then a debug view then a far
-// one (covering few), each through compute and hybrid, in mono and stereo.
+// one (covering few), each through compute and hybrid, in mono and stereo; and a close view,
+// the same with particles, then the far one.
 TEST_F(ClusterFrames, EveryFrameStartsFromAnEmptyVisibilityBuffer) {
   for (RasterBackend raster : {RasterBackend::Compute, RasterBackend::Hybrid}) {
     for (float ipd : {0.0f, 0.2f}) {
       SCOPED_TRACE(std::string(toString(raster)) + (ipd > 0.0f ? " stereo" : " mono"));
       auto reused = ClusterRenderer::create(context(), test::smallBlobAsset());
-      auto fresh = ClusterRenderer::create(context(), test::smallBlobAsset());
-      ASSERT_TRUE(reused.ok() && fresh.ok());
+      ASSERT_TRUE(reused.ok());
+      auto draw = sparkDraw(context(), (*reused)->worldBounds());
+      ASSERT_TRUE(draw);
       std::vector<ClusterRenderSettings> frames = threeFrames((*reused)->worldBounds());
       for (ClusterRenderSettings& s : frames) {
         s.raster = raster;
@@ -154,16 +198,17 @@ TEST_F(ClusterFrames, EveryFrameStartsFromAnEmptyVisibilityBuffer) {
       ClusterRenderSettings debug = frames[2];
       debug.debugView = DebugView::Clusters;
       debug.stereoIpd.reset(); // debug views are mono
+      ClusterRenderSettings sparks = close;
+      sparks.particles = draw.get();
       for (const ClusterRenderSettings& s : {close, debug, close, far}) ASSERT_TRUE((*reused)->render(s).ok());
-      auto expected = (*fresh)->render(far);
-      auto after = (*reused)->render(far);
-      ASSERT_TRUE(expected.ok() && after.ok());
-      EXPECT_GT(expected->stats.trianglesRasterized, 0u);
-      const std::vector<float>&a = after->image.linear.pixels, &b = expected->image.linear.pixels;
-      ASSERT_EQ(a.size(), b.size());
-      size_t differing = 0;
-      for (size_t i = 0; i < a.size(); ++i) differing += a[i] != b[i];
-      EXPECT_EQ(differing, 0u) << "of " << a.size() << " channel values";
+      expectSameAsFresh(context(), **reused, far);
+      ASSERT_TRUE((*reused)->render(close).ok());
+      {
+        SCOPED_TRACE("particles after a cleared frame");
+        EXPECT_GT(expectSameAsFresh(context(), **reused, sparks).oitFragments, 0u) << "the particles must show";
+      }
+      SCOPED_TRACE("after particles");
+      expectSameAsFresh(context(), **reused, far);
     }
   }
 }
