@@ -221,6 +221,7 @@ struct ClusterRenderer::Impl {
   ParticleSplatTarget splatTarget(const shaderio::ClusterPush& p);
   void cmdSplatResolve(VkCommandBuffer cmd, const shaderio::ClusterPush& p, ParticleDraw& particles);
   void cmdBeginFullTarget(VkCommandBuffer cmd, VkRenderingInfo ri, bool multiview = false);
+  void cmdBeginOverOpaqueDepth(VkCommandBuffer cmd); // cluster_oit.cpp
   void cmdDrawList(VkCommandBuffer cmd, bool mesh, uint32_t pass, uint32_t list);
   void cmdDrawEyes(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh, uint32_t pass, uint32_t list,
                    uint32_t rasterList);

@@ -81,11 +81,11 @@ void ClusterRenderer::Impl::cmdBlendDepth(VkCommandBuffer cmd, const sio::Cluste
   timer().cmdEnd(cmd, slot);
 }
 
-// The hardware blend list (entries from the blend list's end) drawn with no colour output over the
-// read-only opaque depth; its fragment shader appends to the transparency lists.
-// barriers: the blend arguments visible; the depth prepared by cmdBlendDepth.
-void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool mesh) {
-  VkPipeline pipeline = blendHardwarePipeline(mesh);
+// Dynamic rendering over the whole target with no colour attachment and the opaque depth as a
+// read-only depth attachment (DEPTH_READ_ONLY_OPTIMAL, as cmdBlendDepth leaves it): the draws that
+// append to the transparency lists (the hardware blend raster, the particle billboards) test
+// against it before their fragment shaders run and never write it.
+void ClusterRenderer::Impl::cmdBeginOverOpaqueDepth(VkCommandBuffer cmd) {
   VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depthAtt.imageView = depth.view();
   depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
@@ -94,6 +94,14 @@ void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::Clu
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.pDepthAttachment = &depthAtt;
   cmdBeginFullTarget(cmd, ri);
+}
+
+// The hardware blend list (entries from the blend list's end) drawn with no colour output over the
+// read-only opaque depth; its fragment shader appends to the transparency lists.
+// barriers: the blend arguments visible; the depth prepared by cmdBlendDepth.
+void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool mesh) {
+  VkPipeline pipeline = blendHardwarePipeline(mesh);
+  cmdBeginOverOpaqueDepth(cmd);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &descriptors[currentSlot].set, 0,
                           nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);

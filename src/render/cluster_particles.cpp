@@ -75,14 +75,7 @@ void ClusterRenderer::Impl::cmdParticles(VkCommandBuffer cmd, const sio::Cluster
                             nullptr);
   }
   uint32_t slot = timer().cmdBegin(cmd, "particles");
-  VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depthAtt.imageView = depth.view();
-  depthAtt.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
-  depthAtt.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-  depthAtt.storeOp = VK_ATTACHMENT_STORE_OP_NONE; // read-only: nothing to store
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.pDepthAttachment = &depthAtt;
-  cmdBeginFullTarget(cmd, ri);
+  cmdBeginOverOpaqueDepth(cmd);
   uint32_t eyes = plans[currentSlot].stereo ? 2 : 1;
   for (uint32_t e = 0; e < eyes; ++e) {
     if (eyes == 2) {
