@@ -9,8 +9,6 @@
 #include "mirage/shaderio/view.h"
 
 layout(push_constant, scalar) uniform Push { ParticleDrawPush push; };
-// The eye's camera: the first member of the forward renderer's FrameData and of ClusterFrame.
-layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ParticleViewRef { ViewFrame camera; };
 #include "particle_records.glsl"
 
 #ifdef MIRAGE_PARTICLE_FRAGMENT
@@ -24,9 +22,7 @@ layout(location = 3) flat in uvec4 inSheet; // sheet, tilesX, tilesY, flags (MIR
 // coverage its luminance (alpha from greyscale) or its alpha times the particle's.
 vec4 particleColor() {
   uvec2 tiles = inSheet.yz;
-  uint frame = inFrame % (tiles.x * tiles.y);
-  vec2 tile = vec2(frame % tiles.x, frame / tiles.x);
-  vec4 t = texture(sheets[nonuniformEXT(inSheet.x)], (tile + inUv) / vec2(tiles));
+  vec4 t = texture(sheets[nonuniformEXT(inSheet.x)], (particleTile(inFrame, tiles) + inUv) / vec2(tiles));
   return particleShade(inColor, t, inSheet.w);
 }
 #endif

@@ -24,15 +24,14 @@ void main() {
   } else {
     uint g = push.mode == MIRAGE_PARTICLE_DRAW_KEYS ? uint(ParticleKeyRef(push.recordAddress).keys[gl_InstanceIndex])
                                                     : ParticleIndexRef(push.recordAddress).indices[gl_InstanceIndex];
-    ParticleBatchInfo b = ParticleBatchRef(push.batchAddress).batches[particleBatchIndex(push.batchAddress,
-                                                                                         push.batchCount, g)];
-    p = ParticleRecordRef(b.records).records[g - b.first];
-    outSheet = uvec4(b.sheet, b.tilesX, b.tilesY, b.flags);
+    ParticleSlot slot = particleSlot(push.batchAddress, push.batchCount, g);
+    p = particleRecord(slot);
+    outSheet = uvec4(slot.info.sheet, slot.info.tilesX, slot.info.tilesY, slot.info.flags);
   }
   ParticleViewRef f = ParticleViewRef(push.frameAddress);
   vec2 c = kCorners[gl_VertexIndex];
   vec4 centre = f.camera.view * vec4(p.position, 1.0);
-  float pixels = particlePixels(f.camera.proj[1][1], f.camera.viewport.y, p.size, centre.z);
+  float pixels = particlePixels(f, p.size, centre.z);
   float grow = pixels > 0.0 && pixels < kMinPixels ? kMinPixels / pixels : 1.0;
   float s = sin(p.rotation), k = cos(p.rotation);
   vec2 offset = vec2(k * c.x - s * c.y, s * c.x + k * c.y) * (0.5 * p.size * grow);

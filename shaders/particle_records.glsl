@@ -1,7 +1,8 @@
 // Particle records as the billboard draws and the compute passes (sort, splat) read them: the
-// batches' global numbering (ParticleBatchInfo), a record's projected size, the sort key's depth
-// order and the sheet's colour rule, each written once. Needs buffer references, scalar layout and
-// 64-bit integers; shaderio/particle_draw.h, particles.h and view.h included.
+// batches' global numbering (ParticleBatchInfo, particleSlot), the eye's camera, a record's
+// projected size, the sort key's depth order, the sheet tile of a frame and the sheet's colour
+// rule, each written once. Needs buffer references, scalar layout and 64-bit integers;
+// shaderio/particle_draw.h, particles.h and view.h included.
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ParticleRecordRef {
   RenderParticle records[];
@@ -29,11 +30,43 @@ uint particleBatchIndex(uint64_t batchAddress, uint batchCount, uint g) {
   return b;
 }
 
+// Global record g: its batch (index and entry of the batch table) and its index in the batch.
+struct ParticleSlot {
+  uint batch;
+  ParticleBatchInfo info;
+  uint index;
+};
+ParticleSlot particleSlot(uint64_t batchAddress, uint batchCount, uint g) {
+  uint b = particleBatchIndex(batchAddress, batchCount, g);
+  ParticleBatchInfo info = ParticleBatchRef(batchAddress).batches[b];
+  return ParticleSlot(b, info, g - info.first);
+}
+// Whether the slot holds a live particle: below its batch's live count (the instance count of its
+// draw arguments at argsAddress) and its room.
+bool particleLive(ParticleSlot s, uint64_t argsAddress) {
+  return s.index < min(ParticleDrawArgsRef(argsAddress).args[s.batch].instanceCount, s.info.capacity);
+}
+RenderParticle particleRecord(ParticleSlot s) { return ParticleRecordRef(s.info.records).records[s.index]; }
+
+// The eye's camera: the first member of the forward renderer's FrameData and of ClusterFrame.
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ParticleViewRef { ViewFrame camera; };
+
 // The billboard's edge in pixels at view z `z` (perspective: |proj[1][1]| / -z scales view units
 // to NDC; proj11 and viewportHeight from the eye's ViewFrame): what decides between the billboard
 // and the splat.
 float particlePixels(float proj11, float viewportHeight, float size, float z) {
   return size * abs(proj11) * 0.5 * viewportHeight / max(-z, 1e-6);
+}
+// The same from the eye's camera (two members read, not the whole ViewFrame).
+float particlePixels(ParticleViewRef view, float size, float z) {
+  return particlePixels(view.camera.proj[1][1], view.camera.viewport.y, size, z);
+}
+
+// The sheet tile of flipbook frame `frame` (wrapped over the tiles.x x tiles.y tiles, row-major
+// from the top left): its column and row.
+vec2 particleTile(uint frame, uvec2 tiles) {
+  frame %= tiles.x * tiles.y;
+  return vec2(frame % tiles.x, frame / tiles.x);
 }
 
 // View z (negative in front of the eye) as bits whose unsigned order is the float order: the

@@ -19,12 +19,10 @@ void main() {
   uint g = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * MIRAGE_PARTICLE_DRAW_GROUP +
            gl_LocalInvocationID.x;
   if (g >= push.total) return;
-  uint b = particleBatchIndex(push.batchAddress, push.batchCount, g);
-  ParticleBatchInfo batch = ParticleBatchRef(push.batchAddress).batches[b];
-  uint i = g - batch.first;
+  ParticleSlot slot = particleSlot(push.batchAddress, push.batchCount, g);
   uint64_t key = ~0UL;
-  if (i < min(ParticleDrawArgsRef(push.argsAddress).args[b].instanceCount, batch.capacity)) {
-    vec3 position = ParticleRecordRef(batch.records).records[i].position;
+  if (particleLive(slot, push.argsAddress)) {
+    vec3 position = ParticleRecordRef(slot.info.records).records[slot.index].position;
     float z = (push.view * vec4(position, 1.0)).z;
     key = (uint64_t(particleDepthOrder(z)) << 32) | uint64_t(g);
   }

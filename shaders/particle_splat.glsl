@@ -22,7 +22,6 @@ layout(push_constant, scalar) uniform Push { ParticleSplatPush push; };
 #include "particle_records.glsl"
 #include "oit_weighted.glsl"
 
-layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatViewRef { ViewFrame camera; };
 layout(set = 0, binding = 0) uniform sampler2D sheets[];
 layout(set = 1, binding = 0) uniform sampler2D opaqueDepth; // D32, reverse-Z, the whole side-by-side target
 
@@ -34,8 +33,7 @@ void splatAdd(uint index, float value);
 // mip chains of whole tiles), sampled at the tile's centre.
 vec4 tileAverage(ParticleBatchInfo b, uint frame) {
   uvec2 tiles = uvec2(b.tilesX, b.tilesY);
-  frame %= tiles.x * tiles.y;
-  vec2 tile = vec2(frame % tiles.x, frame / tiles.x);
+  vec2 tile = particleTile(frame, tiles);
   vec2 texels = vec2(textureSize(sheets[nonuniformEXT(b.sheet)], 0)) / vec2(tiles);
   float level = log2(max(max(texels.x, texels.y), 1.0));
   return textureLod(sheets[nonuniformEXT(b.sheet)], (tile + 0.5) / vec2(tiles), level);
@@ -45,14 +43,14 @@ vec4 tileAverage(ParticleBatchInfo b, uint frame) {
 // alpha) with its overlap as alpha share.
 // (The camera's members are read one by one: a whole ViewFrame per thread would be 368 bytes.)
 void splatEye(uint eye, vec3 position, float size, vec4 c) {
-  SplatViewRef view = SplatViewRef(push.frameAddress[eye]);
+  ParticleViewRef view = ParticleViewRef(push.frameAddress[eye]);
   vec4 clip = view.camera.viewProj * vec4(position, 1.0);
   if (clip.w <= 0.0) return;
   vec3 ndc = clip.xyz / clip.w;
   if (ndc.z <= 0.0 || ndc.z > 1.0) return; // beyond the far plane or before the near one
   vec2 centre = (ndc.xy * 0.5 + 0.5) * vec2(push.eyeWidth, push.height);
   // The projection's w is the view distance -z (clip.w), as the billboard's centre.z.
-  float half_ = 0.5 * particlePixels(view.camera.proj[1][1], view.camera.viewport.y, size, -clip.w);
+  float half_ = 0.5 * particlePixels(view, size, -clip.w);
   vec2 lo = centre - half_, hi = centre + half_;
   ivec2 first = max(ivec2(floor(lo)), ivec2(0));
   ivec2 last = min(ivec2(ceil(hi)) - 1, ivec2(push.eyeWidth, push.height) - 1);
@@ -81,21 +79,19 @@ void main() {
   uint g = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * MIRAGE_PARTICLE_DRAW_GROUP +
            gl_LocalInvocationID.x;
   if (g >= push.total) return;
-  uint b = particleBatchIndex(push.batchAddress, push.batchCount, g);
-  ParticleBatchInfo batch = ParticleBatchRef(push.batchAddress).batches[b];
-  uint i = g - batch.first;
-  if (i >= min(ParticleDrawArgsRef(push.argsAddress).args[b].instanceCount, batch.capacity)) return;
-  RenderParticle p = ParticleRecordRef(batch.records).records[i];
-  SplatViewRef view = SplatViewRef(push.frameAddress[0]);
+  ParticleSlot slot = particleSlot(push.batchAddress, push.batchCount, g);
+  if (!particleLive(slot, push.argsAddress)) return;
+  RenderParticle p = particleRecord(slot);
+  ParticleViewRef view = ParticleViewRef(push.frameAddress[0]);
   float z = dot(vec4(view.camera.view[0][2], view.camera.view[1][2], view.camera.view[2][2], view.camera.view[3][2]),
                 vec4(p.position, 1.0)); // the view-space z alone
-  if (!(z < 0.0 && particlePixels(view.camera.proj[1][1], view.camera.viewport.y, p.size, z) < push.belowPixels)) {
+  if (!(z < 0.0 && particlePixels(view, p.size, z) < push.belowPixels)) {
     // A billboard: large, or at or behind the eye plane (the billboard's clipping decides).
     uint n = atomicAdd(ParticleDrawArgsRef(push.largeArgsAddress).args[0].instanceCount, 1u);
     ParticleIndexRef(push.largeAddress).indices[n] = g;
     return;
   }
-  vec4 c = particleShade(unpackUnorm4x8(p.color), tileAverage(batch, p.frame), batch.flags);
+  vec4 c = particleShade(unpackUnorm4x8(p.color), tileAverage(slot.info, p.frame), slot.info.flags);
   if (!(c.a > 0.0)) return;
   for (uint e = 0; e < push.eyes; ++e) splatEye(e, p.position, p.size, c);
 }
