@@ -8,12 +8,11 @@
 
 #include <gtest/gtest.h>
 
-#include <glm/gtc/matrix_transform.hpp>
-
 #include "gpu_test.h"
 #include "mirage/core/image_metrics.h"
 #include "mirage/particles/render.h"
 #include "mirage/render/forward_renderer.h"
+#include "particles/particle_test_util.h"
 #include "test_scenes.h"
 
 using namespace mirage;
@@ -23,8 +22,9 @@ namespace sio = mirage::shaderio;
 namespace {
 
 constexpr uint32_t kSize = 64;
-constexpr float kDistance = 5.0f, kFov = 45.0f;
+constexpr float kDistance = test::kParticleDistance, kFov = test::kParticleFov;
 const glm::vec4 kBackground{0.05f, 0.1f, 0.2f, 1.0f};
+using test::withAnchor;
 
 class ParticleRender : public test::GpuTest {};
 
@@ -34,46 +34,15 @@ float halfExtentPixels(float size) {
 }
 
 ForwardRenderSettings settings(OitMode mode, ParticleDraw* particles) {
-  ForwardRenderSettings s;
-  s.base.width = s.base.height = kSize;
-  s.base.camera.eye = {0, 0, kDistance};
-  s.base.camera.fovYDegrees = kFov;
-  s.base.camera.znear = 0.1f;
-  s.base.camera.zfar = 100.0f;
-  s.base.background = kBackground;
-  s.base.readLinear = true;
-  s.oit = mode;
-  s.particles = particles;
-  return s;
-}
-
-// `meshes` (materials one each) and, out of view, a tiny opaque quad: a scene is never empty.
-Scene withAnchor(std::vector<Mesh> meshes, std::vector<Material> materials) {
-  meshes.push_back(test::makeQuad(0.01f, 0.0f, uint32_t(materials.size())));
-  materials.push_back(test::solidMaterial({1, 1, 1, 1}));
-  Scene s = test::makeScene(std::move(meshes), std::move(materials));
-  s.instances.back().transform = glm::translate(glm::mat4(1.0f), {50.0f, 0.0f, 0.0f});
-  return s;
-}
-
-std::unique_ptr<ParticleDraw> whiteDraw(gpu::Context& ctx) {
-  ParticleSheet white{ImageRGBA8{1, 1, {255, 255, 255, 255}}, 1, 1, false};
-  auto d = ParticleDraw::create(ctx, {&white, 1});
-  EXPECT_TRUE(d.ok()) << (d.ok() ? "" : d.error().message);
-  return d.ok() ? std::move(*d) : nullptr;
+  return test::particleView(kSize, mode, particles, kBackground);
 }
 
 sio::RenderParticle particle(glm::vec3 position, float size, glm::vec4 color, float rotation = 0.0f) {
-  return {position, size, rotation, sio::particlePackColor(color), 0, 0};
+  return test::particleRecord(position, size, color, rotation);
 }
 
 ImageF32 render(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettings& s) {
-  auto r = ForwardRenderer::create(ctx, scene);
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
-  if (!r.ok()) return {};
-  auto out = (*r)->render(s);
-  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
-  return out.ok() ? std::move(out->linear) : ImageF32{};
+  return test::renderForward(ctx, scene, s).linear;
 }
 
 glm::vec3 at(const ImageF32& img, uint32_t x, uint32_t y) {
@@ -90,7 +59,7 @@ void expectNear(glm::vec3 got, glm::vec3 want, float tolerance, const char* what
 // exact in each. Turned 45 degrees it is a diamond: a pixel inside the square's corner is empty.
 TEST_F(ParticleRender, SingleParticleFootprintAndColour) {
   Scene scene = withAnchor({}, {});
-  auto draw = whiteDraw(context());
+  auto draw = test::whiteParticleDraw(context());
   ASSERT_TRUE(draw);
   const glm::vec4 color{0.8f, 0.4f, 0.2f, 0.6f};
   float half = halfExtentPixels(1.0f); // 7.7 px
@@ -124,7 +93,7 @@ TEST_F(ParticleRender, SingleParticleFootprintAndColour) {
 // image holds about its true coverage (area x alpha) instead of nothing (it hits no pixel centre).
 TEST_F(ParticleRender, SubPixelParticlesKeepTheirCoverage) {
   Scene scene = withAnchor({}, {});
-  auto draw = whiteDraw(context());
+  auto draw = test::whiteParticleDraw(context());
   ASSERT_TRUE(draw);
   const glm::vec4 color{1.0f, 1.0f, 1.0f, 1.0f};
   ASSERT_TRUE(draw->setSettings({0.0f}).ok()); // billboards only: the grow rule (the splat: particle_splat_test)
@@ -147,7 +116,7 @@ TEST_F(ParticleRender, SubPixelParticlesKeepTheirCoverage) {
 // the one without particles) and seen around it; at z = 2 it covers the quad too.
 TEST_F(ParticleRender, OpaqueGeometryOccludes) {
   Scene scene = withAnchor({test::makeQuad(0.3f, 1.0f)}, {test::solidMaterial({0.2f, 0.9f, 0.2f, 1})});
-  auto draw = whiteDraw(context());
+  auto draw = test::whiteParticleDraw(context());
   ASSERT_TRUE(draw);
   draw->setCpuBatches({});
   ImageF32 bare = render(context(), scene, settings(OitMode::LinkedList, draw.get()));
@@ -175,7 +144,7 @@ TEST_F(ParticleRender, OpaqueGeometryOccludes) {
 TEST_F(ParticleRender, InterleavesWithTransparentGeometry) {
   Material a = test::solidMaterial({0.9f, 0.2f, 0.1f, 0.5f}, AlphaMode::Blend, true);
   Material b = test::solidMaterial({0.1f, 0.3f, 0.9f, 0.4f}, AlphaMode::Blend, true);
-  auto draw = whiteDraw(context());
+  auto draw = test::whiteParticleDraw(context());
   ASSERT_TRUE(draw);
   const glm::vec4 color{0.2f, 0.9f, 0.3f, 0.6f};
   sio::RenderParticle p = particle({0, 0, 0}, 1.0f, color);

@@ -9,14 +9,13 @@
 
 #include <gtest/gtest.h>
 
-#include <glm/gtc/matrix_transform.hpp>
-
 #include "gpu_test.h"
 #include "mirage/core/color.h"
 #include "mirage/core/image_metrics.h"
 #include "mirage/render/camera.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/render/particle_draw.h"
+#include "particles/particle_test_util.h"
 #include "test_scenes.h"
 
 using namespace mirage;
@@ -26,7 +25,8 @@ namespace sio = mirage::shaderio;
 namespace {
 
 constexpr uint32_t kSize = 128;
-constexpr float kDistance = 5.0f, kFov = 45.0f;
+constexpr float kDistance = test::kParticleDistance, kFov = test::kParticleFov;
+using test::withAnchor;
 
 class ParticleSplat : public test::GpuTest {};
 
@@ -36,26 +36,7 @@ float pixelsOf(float size, float distance) {
 }
 
 ForwardRenderSettings settings(OitMode mode, ParticleDraw* particles, glm::vec4 background) {
-  ForwardRenderSettings s;
-  s.base.width = s.base.height = kSize;
-  s.base.camera.eye = {0, 0, kDistance};
-  s.base.camera.fovYDegrees = kFov;
-  s.base.camera.znear = 0.1f;
-  s.base.camera.zfar = 100.0f;
-  s.base.background = background;
-  s.base.readLinear = true;
-  s.oit = mode;
-  s.particles = particles;
-  return s;
-}
-
-// `meshes` and, out of view, a tiny opaque quad: a scene is never empty.
-Scene withAnchor(std::vector<Mesh> meshes, std::vector<Material> materials) {
-  meshes.push_back(test::makeQuad(0.01f, 0.0f, uint32_t(materials.size())));
-  materials.push_back(test::solidMaterial({1, 1, 1, 1}));
-  Scene s = test::makeScene(std::move(meshes), std::move(materials));
-  s.instances.back().transform = glm::translate(glm::mat4(1.0f), {50.0f, 0.0f, 0.0f});
-  return s;
+  return test::particleView(kSize, mode, particles, background);
 }
 
 std::unique_ptr<ParticleDraw> puffDraw(gpu::Context& ctx) {
@@ -74,7 +55,7 @@ std::unique_ptr<ParticleDraw> puffDraw(gpu::Context& ctx) {
 }
 
 sio::RenderParticle particle(glm::vec3 position, float size, glm::vec4 color, uint32_t frame = 0) {
-  return {position, size, 0.0f, sio::particlePackColor(color), frame, 0};
+  return test::particleRecord(position, size, color, 0.0f, frame);
 }
 
 // A deterministic cloud of small particles (0.6 to 1.9 pixels across) in front of the camera.
@@ -93,12 +74,7 @@ std::vector<sio::RenderParticle> smallCloud(uint32_t count) {
 }
 
 RenderOutput render(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettings& s) {
-  auto r = ForwardRenderer::create(ctx, scene);
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
-  if (!r.ok()) return {};
-  auto out = r->get()->render(s);
-  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
-  return out.ok() ? std::move(*out) : RenderOutput{};
+  return test::renderForward(ctx, scene, s);
 }
 
 // `img` averaged over factor x factor blocks in linear light, as 8-bit sRGB.
@@ -172,9 +148,8 @@ TEST_F(ParticleSplat, MatchesWeightedBillboardsOnSmallParticles) {
 TEST_F(ParticleSplat, ConservesCoverage) {
   if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
   Scene scene = withAnchor({}, {});
-  ParticleSheet white{ImageRGBA8{1, 1, {255, 255, 255, 255}}, 1, 1, false};
-  auto draw = ParticleDraw::create(context(), {&white, 1});
-  ASSERT_TRUE(draw.ok());
+  auto draw = test::whiteParticleDraw(context());
+  ASSERT_TRUE(draw);
   const float kAlpha = 153.0f / 255.0f; // exact in the record's RGBA8
   std::vector<sio::RenderParticle> grid;
   double expected = 0.0;
@@ -189,11 +164,11 @@ TEST_F(ParticleSplat, ConservesCoverage) {
       expected += double(kAlpha) * pixels * pixels;
     }
   ParticleDraw::CpuBatch batch{grid, 0};
-  (*draw)->setCpuBatches({&batch, 1});
+  draw->setCpuBatches({&batch, 1});
   for (SplatAtomics atomics : atomicsToTest(context())) {
     for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted}) {
-      ASSERT_TRUE((*draw)->setSettings({kDefaultSplatPixels, atomics}).ok());
-      RenderOutput out = render(context(), scene, settings(mode, draw->get(), {0, 0, 0, 1}));
+      ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics}).ok());
+      RenderOutput out = render(context(), scene, settings(mode, draw.get(), {0, 0, 0, 1}));
       ASSERT_EQ(out.linear.width, kSize);
       double sum = 0.0;
       for (size_t i = 0; i < out.linear.pixels.size(); i += 4) sum += out.linear.pixels[i];
@@ -209,9 +184,8 @@ TEST_F(ParticleSplat, ConservesCoverage) {
 TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
   if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
   Scene scene = withAnchor({test::makeQuad(2.5f, 1.0f)}, {test::solidMaterial({0.2f, 0.7f, 0.3f, 1})});
-  ParticleSheet white{ImageRGBA8{1, 1, {255, 255, 255, 255}}, 1, 1, false};
-  auto draw = ParticleDraw::create(context(), {&white, 1});
-  ASSERT_TRUE(draw.ok());
+  auto draw = test::whiteParticleDraw(context());
+  ASSERT_TRUE(draw);
   const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
   RenderOutput bare = render(context(), scene, settings(OitMode::LinkedList, nullptr, background));
   std::vector<sio::RenderParticle> cloud = smallCloud(600);
@@ -221,14 +195,14 @@ TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
     p.color = sio::particlePackColor({1, 1, 1, 1});
   }
   ParticleDraw::CpuBatch batch{cloud, 0};
-  (*draw)->setCpuBatches({&batch, 1});
-  RenderOutput behind = render(context(), scene, settings(OitMode::LinkedList, draw->get(), background));
-  EXPECT_EQ((*draw)->readBillboardCount(), 0u);
+  draw->setCpuBatches({&batch, 1});
+  RenderOutput behind = render(context(), scene, settings(OitMode::LinkedList, draw.get(), background));
+  EXPECT_EQ(draw->readBillboardCount(), 0u);
   EXPECT_GE(psnr(bare.srgb, behind.srgb), 60.0);
   for (sio::RenderParticle& p : cloud) p.position.z = 2.0f, p.size *= 0.6f; // in front, as small
-  (*draw)->setCpuBatches({&batch, 1});
-  RenderOutput front = render(context(), scene, settings(OitMode::LinkedList, draw->get(), background));
-  EXPECT_EQ((*draw)->readBillboardCount(), 0u);
+  draw->setCpuBatches({&batch, 1});
+  RenderOutput front = render(context(), scene, settings(OitMode::LinkedList, draw.get(), background));
+  EXPECT_EQ(draw->readBillboardCount(), 0u);
   EXPECT_LT(psnr(bare.srgb, front.srgb), 30.0);
 }
 
