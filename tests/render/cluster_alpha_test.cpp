@@ -31,28 +31,6 @@ namespace {
 
 constexpr uint32_t kSize = 192;
 
-// An n x n grid of quads in the XY plane at z, facing +Z, uv 0..1 over the panel: enough
-// triangles for a few clusters, so culling and selection run per cluster.
-Mesh makePanel(float halfSize, float z, uint32_t material, int n = 12) {
-  Mesh m;
-  m.name = "panel";
-  m.material = material;
-  for (int y = 0; y <= n; ++y)
-    for (int x = 0; x <= n; ++x) {
-      float u = float(x) / float(n), v = float(y) / float(n);
-      m.positions.push_back({(u * 2.0f - 1.0f) * halfSize, (v * 2.0f - 1.0f) * halfSize, z});
-      m.normals.push_back({0, 0, 1});
-      m.uv0.push_back({u, 1.0f - v});
-    }
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + uint32_t(n) + 2, d = a + uint32_t(n) + 1;
-      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
-    }
-  for (const glm::vec3& p : m.positions) m.bounds.add(p);
-  return m;
-}
-
 // Wall (opaque, z = -1); masked checker panel (z = 0, double-sided, turned to show its back, so a
 // normal cone would cull it if cones ignored double-sidedness); two blended panels overlapping in
 // the middle (z = 0.6 blue, z = 1.1 yellow). `swapBlend` lists the blended panels the other way
@@ -73,7 +51,8 @@ Scene alphaScene(bool swapBlend) {
     for (uint32_t x = 0; x < 8; ++x)
       checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
   s.textures.push_back(checker);
-  s.meshes = {makePanel(2.5f, -1.0f, 0), makePanel(1.2f, 0.0f, 1), makePanel(0.8f, 0.0f, 2), makePanel(0.8f, 0.0f, 3)};
+  s.meshes = {test::makeGrid(2.5f, -1.0f, 0), test::makeGrid(1.2f, 0.0f, 1), test::makeGrid(0.8f, 0.0f, 2),
+              test::makeGrid(0.8f, 0.0f, 3)};
   glm::mat4 turned = glm::rotate(glm::mat4(1.0f), glm::radians(180.0f), glm::vec3(0, 1, 0));
   Instance blue{2, glm::translate(glm::mat4(1.0f), {-0.45f, 0.1f, 0.6f})};
   Instance yellow{3, glm::translate(glm::mat4(1.0f), {0.45f, -0.1f, 1.1f})};
@@ -350,7 +329,7 @@ TEST_F(ClusterAlpha, CountsFragmentsBeyondTheLimits) {
   for (float halfSize : {0.4f, 10.0f}) {
     Scene s;
     s.materials = {test::solidMaterial({0.9f, 0.3f, 0.2f, 0.2f}, AlphaMode::Blend)};
-    s.meshes = {makePanel(halfSize, 0.0f, 0, 2)};
+    s.meshes = {test::makeGrid(halfSize, 0.0f, 0, 2)};
     for (int i = 0; i < 18; ++i) s.instances.push_back({0, glm::translate(glm::mat4(1.0f), {0, 0, 0.05f * float(i)})});
     lod::LodAsset asset = bake(s);
     ASSERT_FALSE(asset.dags.empty());
@@ -379,7 +358,7 @@ TEST_F(ClusterAlpha, CountsFragmentsBeyondTheLimits) {
 TEST_F(ClusterAlpha, MeanSquaredLayersOfStackedPanels) {
   Scene s;
   s.materials = {test::solidMaterial({0.9f, 0.3f, 0.2f, 0.3f}, AlphaMode::Blend)};
-  s.meshes = {makePanel(10.0f, 0.0f, 0, 2)};
+  s.meshes = {test::makeGrid(10.0f, 0.0f, 0, 2)};
   for (int i = 0; i < 3; ++i) s.instances.push_back({0, glm::translate(glm::mat4(1.0f), {0, 0, 0.05f * float(i)})});
   lod::LodAsset asset = bake(s);
   ASSERT_FALSE(asset.dags.empty());

@@ -28,26 +28,11 @@ namespace {
 
 constexpr uint32_t kSize = 64;
 
-// An n x n grid in the XY plane (z = 0, facing +Z), vertex colour `color`: with n even a vertex
-// column at x = 0, along which the crossing quads below intersect.
+// An n x n grid in the XY plane at z (facing +Z; test::makeGrid), vertex colour `color`: with n
+// even a vertex column at x = 0, along which the crossing quads below intersect.
 Mesh makeGrid(float halfSize, uint32_t material, glm::vec4 color, int n = 4, float z = 0.0f) {
-  Mesh m;
-  m.name = "grid";
-  m.material = material;
-  for (int y = 0; y <= n; ++y)
-    for (int x = 0; x <= n; ++x) {
-      float u = float(x) / float(n), v = float(y) / float(n);
-      m.positions.push_back({(u * 2.0f - 1.0f) * halfSize, (v * 2.0f - 1.0f) * halfSize, z});
-      m.normals.push_back({0, 0, 1});
-      m.uv0.push_back({u, 1.0f - v});
-      m.colors.push_back(color);
-    }
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + uint32_t(n) + 2, d = a + uint32_t(n) + 1;
-      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
-    }
-  for (const glm::vec3& p : m.positions) m.bounds.add(p);
+  Mesh m = test::makeGrid(halfSize, z, material, n);
+  m.colors.assign(m.positions.size(), color);
   return m;
 }
 
