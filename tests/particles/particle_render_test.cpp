@@ -45,6 +45,17 @@ ImageF32 render(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettin
   return test::renderForward(ctx, scene, s).linear;
 }
 
+// `system` as an effect of its own, simulated `steps` steps of 1/60 s; more than 50 particles live.
+std::unique_ptr<particles::EffectPlayer> play(gpu::Context& ctx, const particles::SystemDef& system,
+                                              particles::SimKind sim, uint32_t steps) {
+  auto player = particles::EffectPlayer::create(ctx, {system.name + ".toml", {system}}, sim, 1.0f / 60.0f);
+  EXPECT_TRUE(player.ok()) << (player.ok() ? "" : player.error().message);
+  if (!player.ok()) return nullptr;
+  (*player)->step(steps);
+  EXPECT_GT((*player)->live(), 50u);
+  return std::move(*player);
+}
+
 glm::vec3 at(const ImageF32& img, uint32_t x, uint32_t y) {
   const float* p = &img.pixels[(size_t(y) * img.width + x) * 4];
   return {p[0], p[1], p[2]};
@@ -67,8 +78,7 @@ TEST_F(ParticleRender, SingleParticleFootprintAndColour) {
   for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted, OitMode::Sorted}) {
     SCOPED_TRACE(toString(mode));
     sio::RenderParticle p = particle({0, 0, 0}, 1.0f, color);
-    ParticleDraw::CpuBatch batch{{&p, 1}, 0};
-    draw->setCpuBatches({&batch, 1});
+    test::showParticles(*draw, {&p, 1});
     ImageF32 img = render(context(), scene, settings(mode, draw.get()));
     ASSERT_EQ(img.width, kSize);
     uint32_t c = kSize / 2;
@@ -81,7 +91,7 @@ TEST_F(ParticleRender, SingleParticleFootprintAndColour) {
       expectNear(at(img, c + dx, c + dy), glm::vec3(kBackground), 1e-3f, "outside");
     // Turned: the square's corner region is empty, its edge midpoints' direction reaches further.
     p = particle({0, 0, 0}, 1.0f, color, glm::radians(45.0f));
-    draw->setCpuBatches({&batch, 1});
+    test::showParticles(*draw, {&p, 1});
     img = render(context(), scene, settings(mode, draw.get()));
     uint32_t corner = uint32_t(half * 0.85f);
     expectNear(at(img, c + corner, c + corner), glm::vec3(kBackground), 1e-3f, "rotated corner");
@@ -99,8 +109,7 @@ TEST_F(ParticleRender, SubPixelParticlesKeepTheirCoverage) {
   ASSERT_TRUE(draw->setSettings({0.0f}).ok()); // billboards only: the grow rule (the splat: particle_splat_test)
   float side = 2.0f * halfExtentPixels(0.04f); // 0.6 px
   sio::RenderParticle p = particle({0, 0, 0}, 0.04f, color);
-  ParticleDraw::CpuBatch batch{{&p, 1}, 0};
-  draw->setCpuBatches({&batch, 1});
+  test::showParticles(*draw, {&p, 1});
   ImageF32 img = render(context(), scene, settings(OitMode::LinkedList, draw.get()));
   ASSERT_EQ(img.width, kSize);
   double coverage = 0.0; // in pixels: each pixel's share of the colour over the background
@@ -125,13 +134,12 @@ TEST_F(ParticleRender, OpaqueGeometryOccludes) {
   for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted}) {
     SCOPED_TRACE(toString(mode));
     sio::RenderParticle p = particle({0, 0, 0}, 2.0f, color);
-    ParticleDraw::CpuBatch batch{{&p, 1}, 0};
-    draw->setCpuBatches({&batch, 1});
+    test::showParticles(*draw, {&p, 1});
     ImageF32 behind = render(context(), scene, settings(mode, draw.get()));
     expectNear(at(behind, c, c), at(bare, c, c), 1e-3f, "behind the quad");
     expectNear(at(behind, side, c), glm::mix(glm::vec3(kBackground), glm::vec3(color), color.a), 4e-3f, "beside");
     p.position.z = 2.0f;
-    draw->setCpuBatches({&batch, 1});
+    test::showParticles(*draw, {&p, 1});
     ImageF32 front = render(context(), scene, settings(mode, draw.get()));
     expectNear(at(front, c, c), glm::mix(at(bare, c, c), glm::vec3(color), color.a), 4e-3f, "in front");
   }
@@ -148,7 +156,6 @@ TEST_F(ParticleRender, InterleavesWithTransparentGeometry) {
   ASSERT_TRUE(draw);
   const glm::vec4 color{0.2f, 0.9f, 0.3f, 0.6f};
   sio::RenderParticle p = particle({0, 0, 0}, 1.0f, color);
-  ParticleDraw::CpuBatch batch{{&p, 1}, 0};
   draw->setCpuBatches({});
   ForwardRenderSettings black = settings(OitMode::LinkedList, draw.get());
   black.base.background = {0, 0, 0, 1};
@@ -162,7 +169,7 @@ TEST_F(ParticleRender, InterleavesWithTransparentGeometry) {
   glm::vec3 particleLast = glm::mix(bPre + (1.0f - 0.4f) * behindA, glm::vec3(color), color.a);
   ASSERT_GT(glm::length(expected - particleLast), 0.05f) << "the test cannot tell the orders apart";
 
-  draw->setCpuBatches({&batch, 1});
+  test::showParticles(*draw, {&p, 1});
   Scene both = withAnchor({test::makeQuad(1.0f, -0.5f, 0), test::makeQuad(1.0f, 0.5f, 1)}, {a, b});
   ImageF32 img = render(context(), both, settings(OitMode::LinkedList, draw.get()));
   for (auto [dx, dy] : {std::pair{0, 0}, {3, 2}, {-4, -3}})
@@ -189,15 +196,12 @@ TEST_F(ParticleRender, SortedAgreesWithLinkedListsAroundGlass) {
   s.startColor = {{0.9f, 0.3f, 0.1f, 0.5f}, {0.2f, 0.6f, 1.0f, 0.9f}};
   s.maxParticles = 200;
   s.rateOverTime = 150.0f;
-  particles::EffectFile effect{"cloud.toml", {s}};
   Material glass = test::solidMaterial({0.9f, 0.9f, 0.2f, 0.5f}, AlphaMode::Blend, true);
   Scene scene = withAnchor({test::makeQuad(0.6f, 0.0f, 0), test::makeQuad(3.0f, -2.0f, 1)},
                            {glass, test::solidMaterial({0.4f, 0.4f, 0.4f, 1})});
-  auto player = particles::EffectPlayer::create(context(), effect, particles::SimKind::Gpu, 1.0f / 60.0f);
-  ASSERT_TRUE(player.ok()) << player.error().message;
-  (*player)->step(60);
-  EXPECT_GT((*player)->live(), 50u);
-  ForwardRenderSettings fs = settings(OitMode::LinkedList, (*player)->draw());
+  auto player = play(context(), s, particles::SimKind::Gpu, 60);
+  ASSERT_TRUE(player);
+  ForwardRenderSettings fs = settings(OitMode::LinkedList, player->draw());
   fs.base.camera.eye = {0.3f, 0.5f, 4.0f};
   auto renderer = ForwardRenderer::create(context(), scene);
   ASSERT_TRUE(renderer.ok());
@@ -228,17 +232,14 @@ TEST_F(ParticleRender, CpuAndGpuSimulationsRenderAlike) {
   s.sheet.texture = "puff";
   s.sheet.tilesX = s.sheet.tilesY = 2;
   s.sheet.alphaFromGreyscale = true;
-  particles::EffectFile effect{"burst.toml", {s}};
   Scene scene = withAnchor({test::makeQuad(3.0f, -2.0f)}, {test::solidMaterial({0.4f, 0.4f, 0.4f, 1})});
   auto renderer = ForwardRenderer::create(context(), scene);
   ASSERT_TRUE(renderer.ok());
   ImageRGBA8 images[2];
   for (particles::SimKind sim : {particles::SimKind::Cpu, particles::SimKind::Gpu}) {
-    auto player = particles::EffectPlayer::create(context(), effect, sim, 1.0f / 60.0f);
-    ASSERT_TRUE(player.ok()) << player.error().message;
-    (*player)->step(40);
-    EXPECT_GT((*player)->live(), 50u);
-    ForwardRenderSettings fs = settings(OitMode::LinkedList, (*player)->draw());
+    auto player = play(context(), s, sim, 40);
+    ASSERT_TRUE(player);
+    ForwardRenderSettings fs = settings(OitMode::LinkedList, player->draw());
     fs.base.camera.eye = {0, 0.5f, 4.0f};
     auto out = (*renderer)->render(fs);
     ASSERT_TRUE(out.ok()) << out.error().message;

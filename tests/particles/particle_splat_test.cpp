@@ -111,8 +111,7 @@ TEST_F(ParticleSplat, MatchesWeightedBillboardsOnSmallParticles) {
   auto draw = puffDraw(context());
   ASSERT_TRUE(draw);
   std::vector<sio::RenderParticle> cloud = smallCloud(1500);
-  ParticleDraw::CpuBatch batch{cloud, 0};
-  draw->setCpuBatches({&batch, 1});
+  test::showParticles(*draw, cloud);
   const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
   ASSERT_TRUE(draw->setSettings({0.0f, SplatAtomics::Auto}).ok()); // billboards only
   RenderOutput billboards = render(context(), scene, settings(OitMode::Weighted, draw.get(), background));
@@ -163,8 +162,7 @@ TEST_F(ParticleSplat, ConservesCoverage) {
       grid.push_back(particle({world.x, -world.y, 0.0f}, size, {1, 1, 1, kAlpha}));
       expected += double(kAlpha) * pixels * pixels;
     }
-  ParticleDraw::CpuBatch batch{grid, 0};
-  draw->setCpuBatches({&batch, 1});
+  test::showParticles(*draw, grid);
   for (SplatAtomics atomics : atomicsToTest(context())) {
     for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted}) {
       ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics}).ok());
@@ -194,13 +192,12 @@ TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
     p.size *= 0.85f;
     p.color = sio::particlePackColor({1, 1, 1, 1});
   }
-  ParticleDraw::CpuBatch batch{cloud, 0};
-  draw->setCpuBatches({&batch, 1});
+  test::showParticles(*draw, cloud);
   RenderOutput behind = render(context(), scene, settings(OitMode::LinkedList, draw.get(), background));
   EXPECT_EQ(draw->readBillboardCount(), 0u);
   EXPECT_GE(psnr(bare.srgb, behind.srgb), 60.0);
   for (sio::RenderParticle& p : cloud) p.position.z = 2.0f, p.size *= 0.6f; // in front, as small
-  draw->setCpuBatches({&batch, 1});
+  test::showParticles(*draw, cloud);
   RenderOutput front = render(context(), scene, settings(OitMode::LinkedList, draw.get(), background));
   EXPECT_EQ(draw->readBillboardCount(), 0u);
   EXPECT_LT(psnr(bare.srgb, front.srgb), 30.0);
@@ -215,8 +212,7 @@ TEST_F(ParticleSplat, StereoHalvesAreTheEyesMonoImages) {
   auto draw = puffDraw(context());
   ASSERT_TRUE(draw);
   std::vector<sio::RenderParticle> cloud = smallCloud(800);
-  ParticleDraw::CpuBatch batch{cloud, 0};
-  draw->setCpuBatches({&batch, 1});
+  test::showParticles(*draw, cloud);
   const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
   ForwardRenderSettings stereo = settings(OitMode::LinkedList, draw.get(), background);
   stereo.stereoIpd = 0.4f;

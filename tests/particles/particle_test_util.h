@@ -4,6 +4,7 @@
 // empty, a plain white sheet and particle records.
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -52,6 +53,13 @@ inline std::unique_ptr<render::ParticleDraw> whiteParticleDraw(gpu::Context& ctx
   auto d = render::ParticleDraw::create(ctx, {&white, 1});
   EXPECT_TRUE(d.ok()) << (d.ok() ? "" : d.error().message);
   return d.ok() ? std::move(*d) : nullptr;
+}
+
+// `records` as the draw's one batch (from sheet `sheet`), copied.
+inline void showParticles(render::ParticleDraw& draw, std::span<const shaderio::RenderParticle> records,
+                          uint32_t sheet = 0) {
+  render::ParticleDraw::CpuBatch batch{records, sheet};
+  draw.setCpuBatches({&batch, 1});
 }
 
 inline shaderio::RenderParticle particleRecord(glm::vec3 position, float size, glm::vec4 color, float rotation = 0.0f,

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,14 +39,8 @@ Scene layerScene(uint32_t layers, float tiltDegrees, bool wall) {
   o.tiltDegrees = tiltDegrees;
   Scene s = io::generateLayers(o);
   if (wall) {
-    Mesh m;
+    Mesh m = test::makeQuad(1.0f, 0.0f, uint32_t(s.materials.size()));
     m.name = "wall";
-    m.material = uint32_t(s.materials.size());
-    m.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
-    m.normals.assign(4, glm::vec3(0, 0, 1));
-    m.uv0 = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-    m.indices = {0, 1, 2, 0, 2, 3};
-    for (const glm::vec3& p : m.positions) m.bounds.add(p);
     s.materials.push_back(test::solidMaterial({0.3f, 0.5f, 0.35f, 1.0f}, AlphaMode::Opaque, /*doubleSided=*/true));
     s.instances.push_back(
         {uint32_t(s.meshes.size()), glm::rotate(glm::mat4(1.0f), glm::radians(60.0f), glm::vec3(0, 1, 0))});
@@ -120,37 +115,53 @@ void expectQueueMatchesClusterWalk(ClusterRenderer& r, ClusterRenderSettings s, 
 } // namespace
 
 class ClusterOit : public test::GpuTest {};
-class ClusterBlendQueue : public test::GpuTest {};
+
+// Three intersecting full-screen layers (6 triangles, each box the whole view) cut by an opaque
+// wall, baked, a renderer of them and the benchmark's view at 96 x 64; skipped without 64-bit
+// buffer atomics (no blend queue).
+class ClusterBlendQueue : public test::GpuTest {
+protected:
+  void SetUp() override {
+    test::GpuTest::SetUp();
+    if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
+    asset_ = bake(layerScene(3, 3.0f, /*wall=*/true));
+    ASSERT_FALSE(asset_.dags.empty());
+    auto r = ClusterRenderer::create(context(), asset_);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    renderer_ = std::move(*r);
+  }
+  ClusterRenderer& renderer() { return *renderer_; }
+  static ClusterRenderSettings view() { return layerSettings(96, 64); }
+
+private:
+  lod::LodAsset asset_;
+  std::unique_ptr<ClusterRenderer> renderer_;
+};
 
 // Three intersecting full-screen layers (6 triangles, each box the whole view) cut by an opaque
 // wall: every opaque backend (buffer and image depth), mono and stereo (the queue keeps each eye's
 // triangles), compute with the queue equals the per-cluster walk exactly, and the hardware and
 // hybrid blend rasters up to their edge rules.
 TEST_F(ClusterBlendQueue, FullScreenLayersTakeTheQueueAndMatchTheClusterWalk) {
-  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
-  lod::LodAsset asset = bake(layerScene(3, 3.0f, /*wall=*/true));
-  ASSERT_FALSE(asset.dags.empty());
-  auto renderer = ClusterRenderer::create(context(), asset);
-  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  ClusterRenderSettings s = layerSettings(96, 64);
+  ClusterRenderSettings s = view();
   for (RasterBackend b : availableRasterBackends(context())) {
     s.raster = b;
-    expectQueueMatchesClusterWalk(**renderer, s, std::string("layers_") + toString(b), 6);
+    expectQueueMatchesClusterWalk(renderer(), s, std::string("layers_") + toString(b), 6);
   }
   s.raster = RasterBackend::Compute;
   s.stereoIpd = 0.064f;
-  expectQueueMatchesClusterWalk(**renderer, s, "layers_stereo", 12); // 6 triangles per eye
+  expectQueueMatchesClusterWalk(renderer(), s, "layers_stereo", 12); // 6 triangles per eye
   s.stereoIpd.reset();
   // The default blend raster is compute with the queue; hardware and hybrid agree with it.
   s.blendRaster = BlendRaster::Auto;
-  ClusterRenderOutput q = renderFrame(**renderer, s);
+  ClusterRenderOutput q = renderFrame(renderer(), s);
   EXPECT_EQ(q.stats.blendRaster, BlendRaster::Compute);
   EXPECT_EQ(q.stats.blendQueueTriangles, 6u);
   if (!context().caps().fragmentStoresAndAtomics) return;
   for (BlendRaster blend : {BlendRaster::Hardware, BlendRaster::Hybrid}) {
     s.blendRaster = blend;
     s.hybridThreshold = 0.0f; // hybrid: every blend cluster by hardware, none queued
-    ClusterRenderOutput h = renderFrame(**renderer, s);
+    ClusterRenderOutput h = renderFrame(renderer(), s);
     double p = psnr(q.image.srgb, h.image.srgb);
     int64_t diff = int64_t(h.stats.oitFragments) - int64_t(q.stats.oitFragments);
     std::printf("blend %s: %u fragments (queue %u, %+lld), PSNR vs the queue %.2f dB\n", toString(blend),
@@ -165,19 +176,14 @@ TEST_F(ClusterBlendQueue, FullScreenLayersTakeTheQueueAndMatchTheClusterWalk) {
 // A queue that fills: the triangles past it are walked by their cluster's workgroup (counted), and
 // the image and fragments stay those of the walk.
 TEST_F(ClusterBlendQueue, FullQueueFallsBackToTheClusterWalk) {
-  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
-  lod::LodAsset asset = bake(layerScene(3, 3.0f, /*wall=*/true));
-  ASSERT_FALSE(asset.dags.empty());
-  auto renderer = ClusterRenderer::create(context(), asset);
-  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  ClusterRenderSettings s = layerSettings(96, 64);
+  ClusterRenderSettings s = view();
   s.raster = RasterBackend::Compute;
   s.blendRaster = BlendRaster::Compute;
   s.blendQueuePixels = INFINITY;
-  ClusterRenderOutput walk = renderFrame(**renderer, s);
+  ClusterRenderOutput walk = renderFrame(renderer(), s);
   s.blendQueuePixels = ClusterRenderSettings{}.blendQueuePixels;
   s.blendQueueLimit = 2;
-  ClusterRenderOutput full = renderFrame(**renderer, s);
+  ClusterRenderOutput full = renderFrame(renderer(), s);
   std::printf("queue of 2: %u queued, %u walked by their cluster\n", full.stats.blendQueueTriangles,
               full.stats.blendQueueOverflow);
   EXPECT_EQ(full.stats.blendQueueTriangles, 2u);
