@@ -13,9 +13,7 @@ expect_fail ipd-without-stereo "--ipd" "" -- client ws://127.0.0.1:1/ --token se
 expect_fail ipd-negative "--ipd" "" -- client ws://127.0.0.1:1/ --token secret --stereo --ipd=-1
 
 xrun=()
-if command -v xvfb-run >/dev/null && xvfb-run -a -s "-screen 0 1280x720x24" true 2>/dev/null; then
-  xrun=(xvfb-run -a -s "-screen 0 1280x720x24")
-elif [ -z "${DISPLAY:-}" ]; then
+if ! x_server; then
   echo "skip window tests: no X server (install xvfb)"
   finish "cli client window"
   exit
@@ -27,7 +25,7 @@ printf 'window-token\n' >"$tmp/token"
 MIRAGE_VALIDATION=1 "$mirage" serve gen:blob:1 --port 0 --host 127.0.0.1 --token-file "$tmp/token" --codec zstd \
   --atlas-size 512 >"$tmp/serve.out" 2>"$tmp/serve.err" &
 server=$!
-trap 'kill $server 2>/dev/null; wait $server 2>/dev/null; rm -rf "$tmp"' EXIT
+trap 'kill $server 2>/dev/null; wait $server 2>/dev/null; lib_cleanup' EXIT
 url=""
 for _ in $(seq 1 300); do
   url=$(grep -o 'ws://[0-9.]*:[0-9]*/' "$tmp/serve.out" | head -1)

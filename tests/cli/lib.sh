@@ -5,11 +5,42 @@
 mirage=$1
 source_dir=${2:-}
 tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+xvfb_pid=""
+lib_cleanup() { # the X server of x_server, the scratch folder (a script's own EXIT trap calls it last)
+  if [ -n "$xvfb_pid" ]; then
+    kill "$xvfb_pid" 2>/dev/null
+    wait "$xvfb_pid" 2>/dev/null
+  fi
+  rm -rf "$tmp"
+}
+trap lib_cleanup EXIT
 failures=0
 pass=0
 # Put before the binary on every run (e.g. `timeout 120`, or `env -u DISPLAY` for the viewer).
 mirage_prefix=()
+
+# x_server: an X server for the window tests. A private Xvfb (Debian xvfb) on a display number it
+# picks itself (-displayfd), shared by the script's commands and stopped on exit; DISPLAY names it.
+# Unlike `xvfb-run -a` around each command, scripts run in parallel cannot race for a display
+# number or for xvfb-run's temporary folder, whose failed clean-up replaced the command's exit
+# status. Without Xvfb, the display given; returns 1 when there is neither.
+x_server() {
+  if command -v Xvfb >/dev/null; then
+    Xvfb -displayfd 3 -screen 0 1280x720x24 -nolisten tcp 3>"$tmp/xvfb.display" >"$tmp/xvfb.log" 2>&1 &
+    xvfb_pid=$!
+    for _ in $(seq 1 200); do
+      if grep -qx '[0-9][0-9]*' "$tmp/xvfb.display" 2>/dev/null; then # written once it accepts clients
+        export DISPLAY=":$(head -1 "$tmp/xvfb.display")"
+        return 0
+      fi
+      kill -0 "$xvfb_pid" 2>/dev/null || break
+      sleep 0.1
+    done
+    echo "Xvfb did not start: $(head -c 300 "$tmp/xvfb.log")"
+    return 1
+  fi
+  [ -n "${DISPLAY:-}" ]
+}
 
 fail() { # MESSAGE: count a failure
   echo "FAIL $*"

@@ -35,11 +35,9 @@ expect_fail surfel-size-alone "need --surfels" "" -- view "$tmp/missing.mrg" --s
 printf '[[material]]\nname = "steel"\nroughnes = 0.5\n' >"$tmp/typo.toml"
 expect_fail materials-typo "typo.toml:3: material \"steel\"" "" -- view "$tmp/tri.obj" --materials "$tmp/typo.toml"
 
-# The window tests need an X server: Xvfb through xvfb-run (Debian xvfb), else the display given.
+# The window tests need an X server (lib.sh's x_server: a private Xvfb, else the display given).
 xrun=()
-if command -v xvfb-run >/dev/null && xvfb-run -a -s "-screen 0 1280x720x24" true 2>/dev/null; then
-  xrun=(xvfb-run -a -s "-screen 0 1280x720x24")
-elif [ -z "${DISPLAY:-}" ]; then
+if ! x_server; then
   echo "skip window tests: no X server (install xvfb)"
   finish "cli view"
   exit
