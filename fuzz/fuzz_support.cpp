@@ -86,7 +86,15 @@ namespace mirage::fuzz {
 
 std::filesystem::path writeMrg(const std::string& name, std::span<const Chunk> chunks) {
   asset::AssetWriter w;
-  for (const Chunk& c : chunks) w.addChunk(c.type, c.bytes, /*zstdLevel=*/0);
+  for (const Chunk& c : chunks) {
+    // Bytes that form a whole blocked payload go in as a blocked chunk, so the fuzzer reaches the
+    // container's blocked paths (index checksum, per-block checks) as well as the chunk decoders.
+    Result<asset::BlockTable> table = asset::decodeBlockTable(c.bytes, "fuzz");
+    if (table && table->payloadBytes == c.bytes.size())
+      w.addBlockedChunk(c.type, c.bytes, /*zstdLevel=*/0);
+    else
+      w.addChunk(c.type, c.bytes, /*zstdLevel=*/0);
+  }
   std::filesystem::path path = scratchDir() / name;
   Status st = w.write(path.string());
   if (!st) fail("cannot write " + path.string() + ": " + st.error().message);

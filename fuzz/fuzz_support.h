@@ -48,9 +48,9 @@ struct Chunk {
 };
 
 // A .mrg in the scratch directory holding `chunks` (stored raw: the fuzzer's bytes reach the
-// decoders with valid checksums).
+// decoders with valid checksums; bytes that form a blocked payload as a blocked chunk).
 std::filesystem::path writeMrg(const std::string& name, std::span<const Chunk> chunks);
-// Every chunk of a .mrg, decompressed.
+// Every chunk of a .mrg, decompressed (a blocked chunk: its payload as stored, blocks checked).
 std::vector<Chunk> readMrg(const std::filesystem::path& path);
 // The chunks of a small baked cluster-LOD asset (a 320-triangle blob: SCEN, CDAG, TMAP, META),
 // made once per process: the valid neighbours a fuzzed chunk is placed among.
