@@ -47,15 +47,27 @@ void checkPrefixes(std::span<const uint8_t> data, const Result<surfels::MeshSurf
   }
 }
 
+void checkPayload(std::span<const uint8_t> bytes);
+
 } // namespace
 
+// The input as is, and a blocked input again with its checksums resealed (fuzz_support.h), so
+// mutations reach the block table checks and the surfel records behind the checksums.
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::span<const uint8_t> bytes(data, size);
+  checkPayload(bytes);
+  if (isBlockedInput(bytes)) checkPayload(fuzz::resealBlocks(bytes));
+  return 0;
+}
+
+namespace {
+
+void checkPayload(std::span<const uint8_t> bytes) {
   Result<surfels::MeshSurfels> s = surfels::decodeSurfelChunkWithMesh(bytes, "in.mrg");
   checkPrefixes(bytes, s);
   if (!s) {
     fuzz::checkOneLine(s.error());
-    return 0;
+    return;
   }
   const surfels::SurfelCloud& c = s->cloud;
   for (int i = 0; i < 3; ++i)
@@ -73,5 +85,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       surfels::decodeSurfelChunkWithMesh(surfels::encodeSurfelChunkFlat(c, s->mesh), "flat.mrg");
   fuzz::check(flat && flat->mesh == s->mesh && flat->cloud.size() == c.size() && sameSurfels(flat->cloud, c),
               "SURF flat round trip changes the surfels");
-  return 0;
 }
+
+} // namespace
