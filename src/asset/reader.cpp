@@ -38,6 +38,20 @@ bool readAt(int fd, uint64_t offset, void* out, size_t n) {
   return true;
 }
 
+// A blocked chunk's index from the payload's first bytes: the chunk checksum over exactly
+// indexBytes, the index's own checks, and sizes agreeing with the chunk entry.
+Result<BlockTable> checkedIndex(const ChunkInfo& c, std::span<const uint8_t> start, const std::string& context) {
+  uint64_t hash = detail::hash64(start.first(size_t(c.indexBytes)));
+  if (hash != c.storedHash)
+    return makeError(context,
+                     "block index checksum mismatch (stored " + hex(c.storedHash) + ", computed " + hex(hash) + ")");
+  Result<BlockTable> table = decodeBlockTable(start, context);
+  if (!table) return table.error();
+  if (table->payloadBytes != c.storedBytes || table->indexBytes != c.indexBytes || table->rawBytes != c.rawBytes)
+    return makeError(context, "block index disagrees with the chunk table on its sizes");
+  return table;
+}
+
 } // namespace
 
 std::string FourCC::str() const {
@@ -233,22 +247,19 @@ Result<std::vector<uint8_t>> AssetReader::readStoredChunk(size_t index) const {
     if (!readAt(fd_, c.offset, stored.data(), stored.size()))
       return error(name + ": read failed (file changed since it was opened?)");
     // A blocked chunk's checksum covers its index; the index then vouches for each block.
-    uint64_t hashed = c.blocked ? c.indexBytes : c.storedBytes;
-    uint64_t storedHash = detail::hash64(std::span(stored).first(size_t(hashed)));
-    if (storedHash != c.storedHash)
-      return error(name + (c.blocked ? " block index" : "") + " checksum mismatch (stored " + hex(c.storedHash) +
-                   ", computed " + hex(storedHash) + ")");
     if (c.blocked) {
-      Result<BlockTable> table = decodeBlockTable(stored, chunkContext(index));
+      Result<BlockTable> table = checkedIndex(c, stored, chunkContext(index));
       if (!table) return table.error();
-      if (table->payloadBytes != c.storedBytes || table->indexBytes != c.indexBytes || table->rawBytes != c.rawBytes)
-        return error(name + ": block index disagrees with the chunk table on its sizes");
       for (size_t b = 0; b < table->blocks.size(); ++b) {
         const BlockInfo& info = table->blocks[b];
         std::span<const uint8_t> bytes = std::span(stored).subspan(size_t(info.offset), size_t(info.storedBytes));
         if (Status s = checkStoredBlock(*table, b, bytes, chunkContext(index)); !s) return s.error();
       }
+      return stored;
     }
+    uint64_t storedHash = detail::hash64(stored);
+    if (storedHash != c.storedHash)
+      return error(name + " checksum mismatch (stored " + hex(c.storedHash) + ", computed " + hex(storedHash) + ")");
     return stored;
   } catch (const std::bad_alloc&) {
     return error(name + ": out of memory for " + std::to_string(c.storedBytes) + " bytes");
@@ -267,14 +278,8 @@ Result<BlockTable> AssetReader::readBlockTable(size_t index) const {
     std::vector<uint8_t> bytes(c.indexBytes);
     if (!readAt(fd_, c.offset, bytes.data(), bytes.size()))
       return error(name + ": read failed (file changed since it was opened?)");
-    uint64_t hash = detail::hash64(bytes);
-    if (hash != c.storedHash)
-      return error(name + " block index checksum mismatch (stored " + hex(c.storedHash) + ", computed " + hex(hash) +
-                   ")");
-    Result<BlockTable> table = decodeBlockTable(bytes, chunkContext(index));
+    Result<BlockTable> table = checkedIndex(c, bytes, chunkContext(index));
     if (!table) return table.error();
-    if (table->payloadBytes != c.storedBytes || table->indexBytes != c.indexBytes || table->rawBytes != c.rawBytes)
-      return error(name + ": block index disagrees with the chunk table on its sizes");
     return table;
   } catch (const std::bad_alloc&) {
     return error(name + ": out of memory for " + std::to_string(c.indexBytes) + " bytes");
