@@ -94,7 +94,9 @@ Result<MeshSurfels> decodeFlat(std::span<const uint8_t> bytes, const std::string
   if (bytes.size() < sizeof(h)) return makeError(file, "SURF chunk is shorter than its header");
   std::memcpy(&h, bytes.data(), sizeof(h));
   if (h.version != 1 && h.version != kFlatVersion)
-    return makeError(file, fmt::format("SURF chunk version {} is not supported", h.version));
+    return makeError(file, fmt::format("SURF chunk version {} is not supported (this build reads 1 to {}; rewrite the "
+                                       "file with this build's mirage surfels)",
+                                       h.version, kBlockedVersion));
   size_t headerBytes = sizeof(h) + (h.version >= 2 ? kMeshWords : 0);
   size_t expected = headerBytes + size_t(h.count) * kSurfelRecord;
   if (bytes.size() != expected)
@@ -129,7 +131,8 @@ Result<SurfelPrefix> decodeBlockedPrefix(const asset::BlockPrefix& p, const std:
         context, fmt::format("SURF block index header has {} bytes, not {}", t.header.size(), sizeof(h) + kMeshWords));
   std::memcpy(&h, t.header.data(), sizeof(h));
   if (h.version != kBlockedVersion)
-    return makeError(context, fmt::format("SURF chunk version {} in a blocked payload (this build writes {})",
+    return makeError(context, fmt::format("SURF chunk version {} in a blocked payload is not supported (this build "
+                                          "reads {}; rewrite the file with this build's mirage surfels)",
                                           h.version, kBlockedVersion));
   if (Status s = decodeHeader(h, out.surfels, context); !s) return s.error();
   std::memcpy(&out.surfels.mesh, t.header.data() + sizeof(h), 4);
