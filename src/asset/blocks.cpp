@@ -68,7 +68,8 @@ Result<std::vector<uint8_t>> assembleBlocks(std::span<const uint8_t> header, std
     for (size_t i = 0; i < blocks.size(); ++i) {
       const BlockInfo& b = blocks[i].info;
       if (b.rawBytes > kMaxBlockBytes || b.storedBytes != blocks[i].stored.size() ||
-          (!b.compressed && b.storedBytes != b.rawBytes))
+          (!b.compressed && b.storedBytes != b.rawBytes) ||
+          (b.compressed && (b.storedBytes == 0 || b.storedBytes >= b.rawBytes)))
         return Error{blockName(i) + " is inconsistent (not made by encodeBlock)"};
       entries[i] = BlockEntry{
           end, uint32_t(b.storedBytes), uint32_t(b.rawBytes), b.storedHash, b.rawHash, b.compressed ? kBlockZstd : 0u,
