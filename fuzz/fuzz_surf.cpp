@@ -14,9 +14,11 @@ using namespace mirage;
 namespace {
 
 bool sameSurfels(const surfels::SurfelCloud& prefix, const surfels::SurfelCloud& whole) {
-  return prefix.size() <= whole.size() && prefix.radii.size() == prefix.size() &&
-         std::memcmp(prefix.surfels.data(), whole.surfels.data(), prefix.size() * sizeof(surfels::Surfel)) == 0 &&
-         std::memcmp(prefix.radii.data(), whole.radii.data(), prefix.size() * sizeof(float)) == 0;
+  // memcmp of empty vectors may get null pointers, which it must not.
+  if (prefix.size() > whole.size() || prefix.radii.size() != prefix.size()) return false;
+  return prefix.size() == 0 ||
+         (std::memcmp(prefix.surfels.data(), whole.surfels.data(), prefix.size() * sizeof(surfels::Surfel)) == 0 &&
+          std::memcmp(prefix.radii.data(), whole.radii.data(), prefix.size() * sizeof(float)) == 0);
 }
 
 bool isBlockedInput(std::span<const uint8_t> data) {

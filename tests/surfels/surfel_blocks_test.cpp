@@ -60,9 +60,11 @@ const SurfelCloud& blueCloud() {
 const SurfelBlockConfig kSmallBlocks{256, 1024, 3}; // ends 256, 512, 1024, 2048, 3072, 4000
 
 bool samePrefix(const SurfelCloud& prefix, const SurfelCloud& whole) {
-  return prefix.size() <= whole.size() && prefix.radii.size() == prefix.size() &&
-         std::memcmp(prefix.surfels.data(), whole.surfels.data(), prefix.size() * sizeof(Surfel)) == 0 &&
-         std::memcmp(prefix.radii.data(), whole.radii.data(), prefix.size() * sizeof(float)) == 0;
+  // memcmp of empty vectors may get null pointers, which it must not.
+  if (prefix.size() > whole.size() || prefix.radii.size() != prefix.size()) return false;
+  return prefix.size() == 0 ||
+         (std::memcmp(prefix.surfels.data(), whole.surfels.data(), prefix.size() * sizeof(Surfel)) == 0 &&
+          std::memcmp(prefix.radii.data(), whole.radii.data(), prefix.size() * sizeof(float)) == 0);
 }
 
 // ρ = r_min / r_max of decoded surfels: half the smallest pairwise distance over the radius of N
