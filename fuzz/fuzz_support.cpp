@@ -2,10 +2,12 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <unistd.h>
 
 #include <tbb/global_control.h>
+#include <xxhash.h>
 
 #include "mirage/asset/scene_chunk.h"
 
@@ -84,9 +86,44 @@ void checkImportedScene(const Scene& scene, const std::string& file) {
 
 namespace mirage::fuzz {
 
+std::vector<uint8_t> resealBlocks(std::span<const uint8_t> bytes) {
+  std::vector<uint8_t> out(bytes.begin(), bytes.end());
+  asset::BlockIndexHeader h;
+  if (out.size() < sizeof(h)) return out;
+  std::memcpy(&h, out.data(), sizeof(h));
+  if (h.magic != asset::kBlockMagic) return out;
+  uint64_t entries = std::min<uint64_t>(h.blockCount, (out.size() - sizeof(h)) / sizeof(asset::BlockEntry));
+  for (uint64_t i = 0; i < entries; ++i) {
+    uint8_t* at = out.data() + sizeof(h) + i * sizeof(asset::BlockEntry);
+    asset::BlockEntry e;
+    std::memcpy(&e, at, sizeof(e));
+    if (e.offset > out.size() || e.storedBytes > out.size() - e.offset) continue;
+    e.storedHash = XXH3_64bits(out.data() + e.offset, e.storedBytes);
+    if (!(e.flags & asset::kBlockZstd)) e.rawHash = e.storedHash;
+    std::memcpy(at, &e, sizeof(e));
+  }
+  uint64_t indexBytes = sizeof(h) + uint64_t(h.blockCount) * sizeof(asset::BlockEntry) + h.headerBytes;
+  if (indexBytes <= out.size()) {
+    std::vector<uint8_t> index(out.begin(), out.begin() + std::ptrdiff_t(indexBytes));
+    std::memset(index.data() + offsetof(asset::BlockIndexHeader, indexHash), 0, sizeof(uint64_t));
+    h.indexHash = XXH3_64bits(index.data(), index.size());
+    std::memcpy(out.data(), &h, sizeof(h));
+  }
+  return out;
+}
+
 std::filesystem::path writeMrg(const std::string& name, std::span<const Chunk> chunks) {
   asset::AssetWriter w;
-  for (const Chunk& c : chunks) w.addChunk(c.type, c.bytes, /*zstdLevel=*/0);
+  for (const Chunk& c : chunks) {
+    // Bytes that form a whole blocked payload go in as a blocked chunk, so the fuzzer reaches the
+    // container's blocked paths (index checksum, per-block checks) as well as the chunk decoders.
+    std::vector<uint8_t> bytes = resealBlocks(c.bytes);
+    Result<asset::BlockTable> table = asset::decodeBlockTable(bytes, "fuzz");
+    if (table && table->payloadBytes == bytes.size())
+      w.addBlockedChunk(c.type, std::move(bytes), /*zstdLevel=*/0);
+    else
+      w.addChunk(c.type, c.bytes, /*zstdLevel=*/0);
+  }
   std::filesystem::path path = scratchDir() / name;
   Status st = w.write(path.string());
   if (!st) fail("cannot write " + path.string() + ": " + st.error().message);

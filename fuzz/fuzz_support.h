@@ -47,10 +47,16 @@ struct Chunk {
   std::vector<uint8_t> bytes;
 };
 
+// Bytes that start like a blocked payload (asset/blocks.h) with its checksums recomputed where the
+// bytes allow: the index checksum, each block's stored checksum, and the raw checksum of blocks
+// stored raw (a compressed block's raw checksum stays: the fuzzer's bytes still reach zstd). Other
+// bytes are returned unchanged. Lets fuzzed block tables reach the checks behind the checksums.
+std::vector<uint8_t> resealBlocks(std::span<const uint8_t> bytes);
+
 // A .mrg in the scratch directory holding `chunks` (stored raw: the fuzzer's bytes reach the
-// decoders with valid checksums).
+// decoders with valid checksums; bytes that form a blocked payload, resealed, as a blocked chunk).
 std::filesystem::path writeMrg(const std::string& name, std::span<const Chunk> chunks);
-// Every chunk of a .mrg, decompressed.
+// Every chunk of a .mrg, decompressed (a blocked chunk: its payload as stored, blocks checked).
 std::vector<Chunk> readMrg(const std::filesystem::path& path);
 // The chunks of a small baked cluster-LOD asset (a 320-triangle blob: SCEN, CDAG, TMAP, META),
 // made once per process: the valid neighbours a fuzzed chunk is placed among.

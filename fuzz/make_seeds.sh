@@ -32,6 +32,8 @@ q build gen:blob:2 -o "$tmp/lod.mrg" --quiet
 printf '[[material]]\nname = "m"\nmodel = "blinn-phong"\nglossiness = 0.7\n[[assign]]\nmesh = "*"\nuse = "m"\n[[light]]\nposition = [0, 2, 0]\n' >"$tmp/m.toml"
 q build gen:blob:1 -o "$tmp/lod_materials.mrg" --materials "$tmp/m.toml" --quiet
 q surfels gen:blob:1 -o "$tmp/surfels.mrg" --count 32 --resolution 32 --views 4 --quiet
+# Several SURF blocks (256, 256, 88 surfels): the progressive decoder's multi-block paths.
+q surfels gen:blob:1 -o "$tmp/surfels_blocks.mrg" --count 600 --resolution 32 --views 4 --surfel-blocks 256:256 --quiet
 q surfels gen:blob:1 -o "$out/ply/surfels.ply" --count 32 --resolution 32 --views 4 --quiet
 q pvs gen:blob:1 --cells "$src/fuzz/seeds/cells/boxes.json" -o "$tmp/pvs.mrg" --rays 2000 --budget 20000
 for f in "$tmp"/*.mrg; do

@@ -34,7 +34,7 @@ std::string boundsText(const Bounds& b) {
 // Per chunk type in file order: count, stored and raw bytes, zstd levels used.
 struct ChunkKind {
   std::string type;
-  size_t count = 0;
+  size_t count = 0, blocked = 0; // blocked: index + separately readable blocks
   uint64_t storedBytes = 0, rawBytes = 0;
   int minLevel = 0, maxLevel = 0;
 };
@@ -44,8 +44,9 @@ std::vector<ChunkKind> chunkKinds(const asset::AssetReader& reader) {
   for (const asset::ChunkInfo& c : reader.chunks()) {
     std::string type = c.type.str();
     auto it = std::find_if(kinds.begin(), kinds.end(), [&](const ChunkKind& k) { return k.type == type; });
-    if (it == kinds.end()) it = kinds.insert(kinds.end(), ChunkKind{type, 0, 0, 0, c.zstdLevel, c.zstdLevel});
+    if (it == kinds.end()) it = kinds.insert(kinds.end(), ChunkKind{type, 0, 0, 0, 0, c.zstdLevel, c.zstdLevel});
     ++it->count;
+    it->blocked += c.blocked;
     it->storedBytes += c.storedBytes;
     it->rawBytes += c.rawBytes;
     it->minLevel = std::min(it->minLevel, int(c.zstdLevel));
@@ -139,19 +140,50 @@ bool describeScene(const asset::AssetReader& reader, const std::string& path, nl
   return true;
 }
 
-bool describeSurfels(const std::string& path, nlohmann::json& j, bool json) {
+// How a SURF chunk is laid out: blocks in prefix order (sizes from its block index), or one flat
+// array (files written before blocked chunks: one zstd frame, no progressive reading).
+nlohmann::json surfelLayout(const asset::AssetReader& reader, size_t index, uint64_t surfels) {
+  const asset::ChunkInfo& info = reader.chunks()[index];
+  if (!info.blocked) return {{"layout", "flat"}};
+  auto table = reader.readBlockTable(index); // already read whole by readSurfelMrgAll: cannot fail here
+  if (!table) return {{"layout", "blocked"}};
+  uint64_t largest = 0;
+  for (const asset::BlockInfo& b : table->blocks) largest = std::max(largest, b.storedBytes);
+  nlohmann::json j = {{"layout", "blocked"},
+                      {"blocks", table->blocks.size()},
+                      {"index_bytes", table->indexBytes},
+                      {"max_block_stored_bytes", largest}};
+  if (!table->blocks.empty()) {
+    const asset::BlockInfo& first = table->blocks.front();
+    j["first_block_surfels"] = table->rawBytes ? first.rawBytes * surfels / table->rawBytes : 0;
+    j["first_block_stored_bytes"] = first.storedBytes;
+  }
+  return j;
+}
+
+bool describeSurfels(const asset::AssetReader& reader, const std::string& path, nlohmann::json& j, bool json) {
   auto clouds = surfels::readSurfelMrgAll(path);
   if (!clouds) return fail(clouds.error()), false;
-  uint64_t total = 0;
+  uint64_t total = 0, blocks = 0, indexBytes = 0, firstBytes = 0, largest = 0, firstSurfels = 0;
+  size_t flat = 0, cloud = 0;
   Bounds box;
   nlohmann::json list = nlohmann::json::array();
-  for (const surfels::MeshSurfels& m : *clouds) {
+  for (size_t i = 0; i < reader.chunks().size(); ++i) {
+    if (reader.chunks()[i].type != asset::chunk::Surfels) continue;
+    const surfels::MeshSurfels& m = (*clouds)[cloud++];
     total += m.cloud.size();
     box.add(m.cloud.box);
     nlohmann::json c = boundsJson(m.cloud.box);
     c["surfels"] = m.cloud.size();
     c["mesh"] = m.mesh == surfels::kWholeScene ? nlohmann::json("scene") : nlohmann::json(m.mesh);
     c["reference_mean_spacing"] = m.cloud.referenceMeanSpacing;
+    c.update(surfelLayout(reader, i, m.cloud.size()));
+    flat += c["layout"] == "flat";
+    blocks += c.value("blocks", uint64_t(0));
+    indexBytes += c.value("index_bytes", uint64_t(0));
+    firstBytes += c.value("first_block_stored_bytes", uint64_t(0));
+    firstSurfels += c.value("first_block_surfels", uint64_t(0));
+    largest = std::max(largest, c.value("max_block_stored_bytes", uint64_t(0)));
     list.push_back(c);
   }
   bool wholeScene = clouds->size() == 1 && clouds->front().mesh == surfels::kWholeScene;
@@ -162,6 +194,14 @@ bool describeSurfels(const std::string& path, nlohmann::json& j, bool json) {
   fmt::print("  surfels: {} in {} ({}), box {}\n", grouped(total),
              wholeScene ? "one whole-scene cloud (world space)" : fmt::format("{} clouds", clouds->size()),
              wholeScene ? "render with --surfels" : "one per mesh, object space", boundsText(box));
+  if (flat < clouds->size())
+    fmt::print("  surfel blocks: {} in prefix order (index {} bytes); preview (first block of each cloud) {} surfels "
+               "in {} bytes stored; largest block {} bytes\n",
+               grouped(blocks), grouped(indexBytes), grouped(firstSurfels), grouped(firstBytes), grouped(largest));
+  if (flat > 0)
+    fmt::print("  {} of {} surfel clouds flat (one zstd frame, written before progressive blocks: rewrite with "
+               "mirage surfels to stream them)\n",
+               flat, clouds->size());
   return true;
 }
 
@@ -206,6 +246,7 @@ void infoMrg(const std::string& path, bool json) {
     for (const ChunkKind& k : kinds)
       chunks.push_back({{"type", k.type.substr(1, 4)},
                         {"count", k.count},
+                        {"blocked", k.blocked},
                         {"stored_bytes", k.storedBytes},
                         {"raw_bytes", k.rawBytes},
                         {"zstd_level_min", k.minLevel},
@@ -217,13 +258,14 @@ void infoMrg(const std::string& path, bool json) {
       std::string level = k.maxLevel == 0            ? "raw"
                           : k.minLevel == k.maxLevel ? fmt::format("zstd {}", k.maxLevel)
                                                      : fmt::format("zstd {}..{}", k.minLevel, k.maxLevel);
+      if (k.blocked) level += k.blocked == k.count ? ", blocked" : fmt::format(", {} blocked", k.blocked);
       fmt::print("  {} x{:<4} {:>14} bytes stored ({}), {:>14} raw  {}\n", k.type, k.count, grouped(k.storedBytes),
                  level, grouped(k.rawBytes), chunkMeaning(k.type));
     }
   }
   if (has(asset::chunk::ClusterDag) && !describeLod(path, j, json)) return;
   if (!has(asset::chunk::ClusterDag) && has(asset::chunk::Scene) && !describeScene(*reader, path, j, json)) return;
-  if (has(asset::chunk::Surfels) && !describeSurfels(path, j, json)) return;
+  if (has(asset::chunk::Surfels) && !describeSurfels(*reader, path, j, json)) return;
   if (has(asset::chunk::Visibility) && !describePvs(path, j, json)) return;
   if (json) fmt::print("{}\n", j.dump(2));
 }

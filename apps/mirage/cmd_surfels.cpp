@@ -37,7 +37,9 @@ struct SurfelsOptions {
   OutputFlags flags;                  // --quiet (errors only), --progress (log lines)
   std::string discRaster = "compute"; // one splatter, a comma list or all (timed side by side)
   std::vector<surfels::DiscRaster> discRasters;
-  std::string points = "auto"; // point clouds: "cpu" (exact order), "gpu" (disc capture + GPU sampler), "auto"
+  std::string points = "auto";       // point clouds: "cpu" (exact order), "gpu" (disc capture + GPU sampler), "auto"
+  std::string blocks = "1024:16384"; // --surfel-blocks FIRST:MAX, surfels per SURF block (.mrg)
+  surfels::SurfelBlockConfig blockConfig;
 };
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
@@ -202,6 +204,9 @@ void runSurfels(SurfelsOptions o) {
   }
   if (o.points != "auto" && o.points != "cpu" && o.points != "gpu")
     return fail(fmt::format("--points must be auto, cpu or gpu (got '{}')", o.points));
+  auto blocks = surfels::parseSurfelBlockConfig(o.blocks);
+  if (!blocks) return fail("--surfel-blocks: " + blocks.error().message);
+  o.blockConfig = *blocks;
 
   auto t0 = std::chrono::steady_clock::now();
   io::ImportOptions importOptions;
@@ -262,7 +267,8 @@ void runSurfels(SurfelsOptions o) {
                  sampled->captureSeconds + sampled->samplerSeconds);
     }
     if (clouds.empty()) return fail(o.input + ": scene has no triangles to sample");
-    if (Status w = o.append ? surfels::appendSurfelMrg(o.output, clouds) : surfels::writeSurfelMrg(o.output, clouds);
+    if (Status w = o.append ? surfels::appendSurfelMrg(o.output, clouds, o.blockConfig)
+                            : surfels::writeSurfelMrg(o.output, clouds, o.blockConfig);
         !w)
       return fail(w.error());
     if (say)
@@ -276,8 +282,8 @@ void runSurfels(SurfelsOptions o) {
                                : Result<Sampled>(samplePointsExactly(points, spacingSeconds, o));
   if (!sampled) return fail(sampled.error());
   surfels::SurfelCloud cloud = surfels::buildSurfelCloud(sampled->texels, sampled->order);
-  Status written =
-      o.output.ends_with(".mrg") ? surfels::writeSurfelMrg(o.output, cloud) : surfels::writeSurfelPly(o.output, cloud);
+  Status written = o.output.ends_with(".mrg") ? surfels::writeSurfelMrg(o.output, cloud, o.blockConfig)
+                                              : surfels::writeSurfelPly(o.output, cloud);
   if (!written) return fail(written.error());
   if (!say) return;
   if (pointCloud && !pointsOnGpu)
@@ -331,6 +337,10 @@ void addSurfelsCommand(CLI::App& app) {
   cmd->add_option("--points", o->points,
                   "Point clouds: cpu (exact farthest-point order), gpu (discs into the G-buffers + GPU sampler), "
                   "auto (gpu from 500k points when a GPU is there)")
+      ->capture_default_str();
+  cmd->add_option("--surfel-blocks", o->blocks,
+                  ".mrg: surfels per SURF block, FIRST:MAX (powers of two; blocks double from FIRST to MAX, so any "
+                  "byte prefix decodes to a surfel prefix)")
       ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device name substring or index (or MIRAGE_DEVICE)");
   cmd->callback([o] { runSurfels(*o); });

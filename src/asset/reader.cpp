@@ -14,19 +14,15 @@
 #include <unistd.h>
 
 #include <xxhash.h>
-#include <zstd.h>
 
+#include "codec.h"
 #include "mirage/asset/container.h"
 #include "mirage/core/input_text.h"
 
 namespace mirage::asset {
 namespace {
 
-std::string hex(uint64_t v) {
-  char buf[24];
-  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(v));
-  return buf;
-}
+using detail::hex;
 
 // pread until done; false on error or end of file (the file shrank after open).
 bool readAt(int fd, uint64_t offset, void* out, size_t n) {
@@ -40,6 +36,20 @@ bool readAt(int fd, uint64_t offset, void* out, size_t n) {
     offset += uint64_t(r);
   }
   return true;
+}
+
+// A blocked chunk's index from the payload's first bytes: the chunk checksum over exactly
+// indexBytes, the index's own checks, and sizes agreeing with the chunk entry.
+Result<BlockTable> checkedIndex(const ChunkInfo& c, std::span<const uint8_t> start, const std::string& context) {
+  uint64_t hash = detail::hash64(start.first(size_t(c.indexBytes)));
+  if (hash != c.storedHash)
+    return makeError(context,
+                     "block index checksum mismatch (stored " + hex(c.storedHash) + ", computed " + hex(hash) + ")");
+  Result<BlockTable> table = decodeBlockTable(start, context);
+  if (!table) return table.error();
+  if (table->payloadBytes != c.storedBytes || table->indexBytes != c.indexBytes || table->rawBytes != c.rawBytes)
+    return makeError(context, "block index disagrees with the chunk table on its sizes");
+  return table;
 }
 
 } // namespace
@@ -61,7 +71,7 @@ std::string FourCC::str() const {
 
 AssetReader::AssetReader(AssetReader&& other) noexcept
     : path_(std::move(other.path_)), fd_(std::exchange(other.fd_, -1)), fileBytes_(other.fileBytes_),
-      chunks_(std::move(other.chunks_)) {}
+      version_(other.version_), chunks_(std::move(other.chunks_)) {}
 
 AssetReader& AssetReader::operator=(AssetReader&& other) noexcept {
   if (this != &other) {
@@ -69,6 +79,7 @@ AssetReader& AssetReader::operator=(AssetReader&& other) noexcept {
     path_ = std::move(other.path_);
     fd_ = std::exchange(other.fd_, -1);
     fileBytes_ = other.fileBytes_;
+    version_ = other.version_;
     chunks_ = std::move(other.chunks_);
   }
   return *this;
@@ -101,9 +112,13 @@ Result<AssetReader> AssetReader::open(const std::string& path) {
   // "version 2, this build reads 1" is the useful message for a newer file.
   if (r.fileBytes_ < offsetof(FileHeader, headerBytes) || !readAt(r.fd_, 8, &h.version, sizeof(h.version)))
     return r.error("truncated header (" + std::to_string(r.fileBytes_) + " bytes)");
-  if (h.version != kFormatVersion)
-    return r.error("unsupported .mrg format version " + std::to_string(h.version) + " (this build reads version " +
-                   std::to_string(kFormatVersion) + ")");
+  if (h.version < kMinFormatVersion || h.version > kFormatVersion)
+    return r.error("unsupported .mrg format version " + std::to_string(h.version) + " (this build reads versions " +
+                   std::to_string(kMinFormatVersion) + " to " + std::to_string(kFormatVersion) +
+                   (h.version > kFormatVersion ? "; read it with a newer mirage, or rebuild it with this one's "
+                                                 "mirage build)"
+                                               : "; rebuild it with mirage build)"));
+  r.version_ = h.version;
   if (r.fileBytes_ < sizeof(FileHeader) || !readAt(r.fd_, 0, &h, sizeof(h)))
     return r.error("truncated header (" + std::to_string(r.fileBytes_) + " bytes, need " +
                    std::to_string(sizeof(FileHeader)) + ")");
@@ -137,8 +152,11 @@ Result<AssetReader> AssetReader::open(const std::string& path) {
   for (size_t i = 0; i < table.size(); ++i) {
     const ChunkEntry& e = table[i];
     std::string name = "chunk " + std::to_string(i) + " " + FourCC(e.type).str();
-    if (e.flags & ~kChunkZstd) return r.error(name + " has unknown flags " + hex(e.flags));
-    if (e.reserved0 != 0 || e.reserved1 != 0) return r.error(name + " has non-zero reserved fields");
+    // Version 1 knows no blocked chunks: its readers saw bit 1 as unknown and indexBytes as reserved.
+    uint32_t knownFlags = kChunkZstd | (h.version >= kFirstBlockedVersion ? kChunkBlocked : 0u);
+    if (e.flags & ~knownFlags) return r.error(name + " has unknown flags " + hex(e.flags));
+    bool blocked = e.flags & kChunkBlocked;
+    if (e.reserved0 != 0 || (!blocked && e.indexBytes != 0)) return r.error(name + " has non-zero reserved fields");
     if (e.offset % kPayloadAlignment != 0)
       return r.error(name + " offset " + std::to_string(e.offset) + " is unaligned");
     if (e.offset < tableEnd)
@@ -151,7 +169,13 @@ Result<AssetReader> AssetReader::open(const std::string& path) {
       return r.error(name + " claims " + std::to_string(e.rawBytes) + " uncompressed bytes, over the limit of " +
                      std::to_string(kMaxChunkBytes));
     bool compressed = e.flags & kChunkZstd;
-    if (!compressed && (e.rawBytes != e.storedBytes || e.zstdLevel != 0))
+    if (blocked && (compressed || e.rawHash != 0))
+      return r.error(name + " is blocked but also marked compressed or has a checksum of its raw bytes");
+    // The index is at least its fixed header and lies inside the payload; its own checks run when read.
+    if (blocked && (e.indexBytes < sizeof(BlockIndexHeader) || e.indexBytes > e.storedBytes))
+      return r.error(name + " block index of " + std::to_string(e.indexBytes) + " bytes does not fit its " +
+                     std::to_string(e.storedBytes) + "-byte payload");
+    if (!compressed && !blocked && (e.rawBytes != e.storedBytes || e.zstdLevel != 0))
       return r.error(name + " is stored raw but its sizes differ or it names a zstd level");
     // A zstd frame has a header of at least a few bytes, and the writer only keeps it if smaller.
     if (compressed && (e.storedBytes == 0 || e.storedBytes >= e.rawBytes))
@@ -159,6 +183,8 @@ Result<AssetReader> AssetReader::open(const std::string& path) {
     ChunkInfo c;
     c.type = FourCC(e.type);
     c.compressed = compressed;
+    c.blocked = blocked;
+    c.indexBytes = e.indexBytes;
     c.offset = e.offset;
     c.storedBytes = e.storedBytes;
     c.rawBytes = e.rawBytes;
@@ -197,6 +223,18 @@ Result<std::vector<uint8_t>> AssetReader::readChunk(FourCC type) const {
   return readChunk(*i);
 }
 
+std::string AssetReader::chunkContext(size_t index) const {
+  // Appended piecewise: GCC 12 warns falsely (-Wrestrict) on `" " + string`.
+  std::string context = path_;
+  context += ": chunk ";
+  context += std::to_string(index);
+  if (index < chunks_.size()) {
+    context += ' ';
+    context += chunks_[index].type.str();
+  }
+  return context;
+}
+
 Result<std::vector<uint8_t>> AssetReader::readStoredChunk(size_t index) const {
   if (index >= chunks_.size())
     return error("chunk index " + std::to_string(index) + " out of range (" + std::to_string(chunks_.size()) +
@@ -208,7 +246,18 @@ Result<std::vector<uint8_t>> AssetReader::readStoredChunk(size_t index) const {
     std::vector<uint8_t> stored(c.storedBytes);
     if (!readAt(fd_, c.offset, stored.data(), stored.size()))
       return error(name + ": read failed (file changed since it was opened?)");
-    uint64_t storedHash = XXH3_64bits(stored.data(), stored.size());
+    // A blocked chunk's checksum covers its index; the index then vouches for each block.
+    if (c.blocked) {
+      Result<BlockTable> table = checkedIndex(c, stored, chunkContext(index));
+      if (!table) return table.error();
+      for (size_t b = 0; b < table->blocks.size(); ++b) {
+        const BlockInfo& info = table->blocks[b];
+        std::span<const uint8_t> bytes = std::span(stored).subspan(size_t(info.offset), size_t(info.storedBytes));
+        if (Status s = checkStoredBlock(*table, b, bytes, chunkContext(index)); !s) return s.error();
+      }
+      return stored;
+    }
+    uint64_t storedHash = detail::hash64(stored);
     if (storedHash != c.storedHash)
       return error(name + " checksum mismatch (stored " + hex(c.storedHash) + ", computed " + hex(storedHash) + ")");
     return stored;
@@ -217,32 +266,65 @@ Result<std::vector<uint8_t>> AssetReader::readStoredChunk(size_t index) const {
   }
 }
 
+Result<BlockTable> AssetReader::readBlockTable(size_t index) const {
+  if (index >= chunks_.size())
+    return error("chunk index " + std::to_string(index) + " out of range (" + std::to_string(chunks_.size()) +
+                 " chunks)");
+  const ChunkInfo& c = chunks_[index];
+  std::string name = "chunk " + std::to_string(index) + " " + c.type.str();
+  if (!c.blocked) return error(name + " is not blocked (read it whole with readChunk)");
+  try {
+    // indexBytes <= storedBytes was checked in open(): the read stays inside the file.
+    std::vector<uint8_t> bytes(c.indexBytes);
+    if (!readAt(fd_, c.offset, bytes.data(), bytes.size()))
+      return error(name + ": read failed (file changed since it was opened?)");
+    Result<BlockTable> table = checkedIndex(c, bytes, chunkContext(index));
+    if (!table) return table.error();
+    return table;
+  } catch (const std::bad_alloc&) {
+    return error(name + ": out of memory for " + std::to_string(c.indexBytes) + " bytes");
+  }
+}
+
+Result<std::vector<uint8_t>> AssetReader::readBlock(size_t index, const BlockTable& table, size_t block) const {
+  if (index >= chunks_.size() || !chunks_[index].blocked)
+    return error("chunk index " + std::to_string(index) + " is not a blocked chunk");
+  const ChunkInfo& c = chunks_[index];
+  if (block >= table.blocks.size())
+    return makeError(chunkContext(index), "block " + std::to_string(block) + " out of range (" +
+                                              std::to_string(table.blocks.size()) + " blocks)");
+  const BlockInfo& b = table.blocks[block];
+  // The table came from readBlockTable, so the block lies inside this chunk's payload; checked
+  // again since a caller may pass any table.
+  if (b.offset > c.storedBytes || b.storedBytes > c.storedBytes - b.offset)
+    return makeError(chunkContext(index), "block " + std::to_string(block) + " lies outside the chunk");
+  try {
+    std::vector<uint8_t> stored(b.storedBytes);
+    if (!readAt(fd_, c.offset + b.offset, stored.data(), stored.size()))
+      return makeError(chunkContext(index), "block " + std::to_string(block) +
+                                                ": read failed (file changed since it "
+                                                "was opened?)");
+    return decodeBlock(table, block, stored, chunkContext(index));
+  } catch (const std::bad_alloc&) {
+    return makeError(chunkContext(index), "block " + std::to_string(block) + ": out of memory");
+  }
+}
+
 Result<std::vector<uint8_t>> AssetReader::readChunk(size_t index) const {
   Result<std::vector<uint8_t>> read = readStoredChunk(index);
   if (!read) return read.error();
   const ChunkInfo& c = chunks_[index];
+  if (c.blocked) return read; // checked block by block; decodeBlocks decompresses
   std::string name = "chunk " + std::to_string(index) + " " + c.type.str();
   try {
     std::vector<uint8_t> stored = std::move(*read);
     std::vector<uint8_t> raw;
     if (!c.compressed) {
       raw = std::move(stored);
-    } else {
-      // Ask the frame before allocating: its declared size must be exactly the table's.
-      unsigned long long frameSize = ZSTD_getFrameContentSize(stored.data(), stored.size());
-      if (frameSize == ZSTD_CONTENTSIZE_ERROR || frameSize == ZSTD_CONTENTSIZE_UNKNOWN || frameSize != c.rawBytes)
-        return error(name + ": zstd frame size does not match the table (" + std::to_string(c.rawBytes) + " bytes)");
-      size_t frameBytes = ZSTD_findFrameCompressedSize(stored.data(), stored.size());
-      if (ZSTD_isError(frameBytes) || frameBytes != stored.size())
-        return error(name + ": payload is not exactly one zstd frame");
-      raw.resize(c.rawBytes);
-      size_t n = ZSTD_decompress(raw.data(), raw.size(), stored.data(), stored.size());
-      if (ZSTD_isError(n)) return error(name + ": zstd: " + ZSTD_getErrorName(n));
-      if (n != c.rawBytes)
-        return error(name + ": decompressed to " + std::to_string(n) + " bytes, expected " +
-                     std::to_string(c.rawBytes));
+    } else if (std::string problem = detail::decompressFrame(stored, c.rawBytes, raw); !problem.empty()) {
+      return error(name + ": " + problem);
     }
-    uint64_t rawHash = XXH3_64bits(raw.data(), raw.size());
+    uint64_t rawHash = detail::hash64(raw);
     if (rawHash != c.rawHash)
       return error(name + " uncompressed checksum mismatch (stored " + hex(c.rawHash) + ", computed " + hex(rawHash) +
                    ")");

@@ -279,7 +279,8 @@ std::string sceneMeta(const Scene& s) {
   size_t vertices = 0;
   for (const Mesh& m : s.meshes) vertices += m.vertexCount();
   nlohmann::json j = {{"generator", "mirage"},
-                      {"formatVersion", kFormatVersion},
+                      // No blocked chunk: AssetWriter writes the file as version 1.
+                      {"formatVersion", kMinFormatVersion},
                       {"sceneChunkVersion", kSceneChunkVersion},
                       {"source", s.source},
                       {"meshes", s.meshes.size()},

@@ -4,15 +4,14 @@
 #include <cerrno>
 #include <cstring>
 #include <new>
-#include <thread>
 
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <xxhash.h>
 #include <zstd.h>
 
+#include "codec.h"
 #include "mirage/asset/container.h"
 
 namespace mirage::asset {
@@ -21,26 +20,6 @@ namespace {
 uint64_t alignUp(uint64_t v) { return (v + kPayloadAlignment - 1) / kPayloadAlignment * kPayloadAlignment; }
 
 std::string errnoText(int err) { return std::strerror(err); }
-
-// Compress with zstd; large chunks (cluster DAGs reach gigabytes) use zstd's worker threads,
-// since on one thread compression would dominate the bake's write time.
-Result<std::vector<uint8_t>> compress(std::span<const uint8_t> data, int level) {
-  ZSTD_CCtx* cctx = ZSTD_createCCtx();
-  if (!cctx) return Error{"zstd: cannot create a compression context"};
-  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
-  // The frame must declare its content size: the reader checks it against the table.
-  ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 1);
-  if (data.size() >= (8u << 20)) {
-    int workers = int(std::min(8u, std::max(1u, std::thread::hardware_concurrency())));
-    ZSTD_CCtx_setParameter(cctx, ZSTD_c_nbWorkers, workers); // ignored error: library built without threads
-  }
-  std::vector<uint8_t> out(ZSTD_compressBound(data.size()));
-  size_t n = ZSTD_compress2(cctx, out.data(), out.size(), data.data(), data.size());
-  ZSTD_freeCCtx(cctx);
-  if (ZSTD_isError(n)) return Error{std::string("zstd: ") + ZSTD_getErrorName(n)};
-  out.resize(n);
-  return out;
-}
 
 // write(2) until done: it may write less than asked (signals, pipes, some file systems).
 bool writeAll(int fd, const void* p, size_t n) {
@@ -70,10 +49,10 @@ void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdL
     Pending p;
     p.info.type = type;
     p.info.rawBytes = data.size();
-    p.info.rawHash = XXH3_64bits(data.data(), data.size());
+    p.info.rawHash = detail::hash64(data);
     if (zstdLevel != 0 && !data.empty()) {
       int level = std::clamp(zstdLevel, ZSTD_minCLevel(), ZSTD_maxCLevel());
-      Result<std::vector<uint8_t>> packed = compress(data, level);
+      Result<std::vector<uint8_t>> packed = detail::compressFrame(data, level);
       if (!packed) {
         error_ = Error{"chunk " + type.str() + ": " + packed.error().message};
         return;
@@ -87,7 +66,7 @@ void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdL
     }
     if (!p.info.compressed) p.stored.assign(data.begin(), data.end());
     p.info.storedBytes = p.stored.size();
-    p.info.storedHash = XXH3_64bits(p.stored.data(), p.stored.size());
+    p.info.storedHash = detail::hash64(p.stored);
     chunks_.push_back(std::move(p));
   } catch (const std::bad_alloc&) {
     error_ = Error{"chunk " + type.str() + ": out of memory (" + std::to_string(data.size()) + " bytes)"};
@@ -96,7 +75,10 @@ void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdL
 
 void AssetWriter::addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> stored) {
   if (error_) return;
-  if (stored.size() != info.storedBytes || XXH3_64bits(stored.data(), stored.size()) != info.storedHash) {
+  // A blocked chunk's checksum covers its index (its blocks carry their own).
+  uint64_t hashed = info.blocked ? info.indexBytes : info.storedBytes;
+  if (stored.size() != info.storedBytes || hashed > stored.size() ||
+      detail::hash64(std::span(stored).first(size_t(hashed))) != info.storedHash) {
     error_ = Error{"chunk " + info.type.str() + ": stored bytes do not match their table entry"};
     return;
   }
@@ -104,6 +86,30 @@ void AssetWriter::addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> sto
   p.info = info;
   p.info.offset = 0; // laid out again by write()
   p.stored = std::move(stored);
+  chunks_.push_back(std::move(p));
+}
+
+void AssetWriter::addBlockedChunk(FourCC type, std::vector<uint8_t> payload, int zstdLevel) {
+  if (error_) return;
+  Result<BlockTable> table = decodeBlockTable(payload, "chunk " + type.str());
+  if (!table) {
+    error_ = table.error();
+    return;
+  }
+  Pending p;
+  p.info.type = type;
+  p.info.blocked = true;
+  p.info.storedBytes = payload.size();
+  p.info.rawBytes = table->rawBytes;
+  p.info.indexBytes = table->indexBytes;
+  p.info.storedHash = detail::hash64(std::span(payload).first(size_t(table->indexBytes)));
+  p.info.zstdLevel = std::clamp(zstdLevel, 0, ZSTD_maxCLevel());
+  if (table->payloadBytes != payload.size()) {
+    error_ = Error{"chunk " + type.str() + ": blocked payload is " + std::to_string(payload.size()) +
+                   " bytes, its index says " + std::to_string(table->payloadBytes)};
+    return;
+  }
+  p.stored = std::move(payload);
   chunks_.push_back(std::move(p));
 }
 
@@ -115,7 +121,9 @@ Status AssetWriter::write(const std::string& path,
   // Layout: header, table, then each payload at the next aligned offset (zero padding between).
   FileHeader header{};
   std::memcpy(header.magic, kMagic, sizeof(kMagic));
-  header.version = kFormatVersion;
+  // The lowest version that describes the file: without blocked chunks, older readers read it too.
+  bool anyBlocked = std::any_of(chunks_.begin(), chunks_.end(), [](const Pending& p) { return p.info.blocked; });
+  header.version = anyBlocked ? kFirstBlockedVersion : kMinFormatVersion;
   header.headerBytes = sizeof(FileHeader);
   header.chunkCount = uint32_t(chunks_.size());
   header.tableOffset = alignUp(sizeof(FileHeader));
@@ -126,18 +134,21 @@ Status AssetWriter::write(const std::string& path,
     ChunkEntry& e = table[i];
     e = ChunkEntry{};
     e.type = c.type.code;
-    e.flags = c.compressed ? kChunkZstd : 0;
+    e.flags = c.blocked ? kChunkBlocked : c.compressed ? kChunkZstd : 0;
     e.offset = alignUp(end);
     e.storedBytes = c.storedBytes;
     e.rawBytes = c.rawBytes;
     e.storedHash = c.storedHash;
     e.rawHash = c.rawHash;
     e.zstdLevel = c.zstdLevel;
+    e.indexBytes = c.blocked ? c.indexBytes : 0;
     end = e.offset + e.storedBytes;
   }
   header.fileBytes = end;
-  header.tableHash = XXH3_64bits(table.data(), table.size() * sizeof(ChunkEntry));
-  header.headerHash = XXH3_64bits(&header, offsetof(FileHeader, headerHash));
+  header.tableHash =
+      detail::hash64(std::span(reinterpret_cast<const uint8_t*>(table.data()), table.size() * sizeof(ChunkEntry)));
+  header.headerHash =
+      detail::hash64(std::span(reinterpret_cast<const uint8_t*>(&header), offsetof(FileHeader, headerHash)));
 
   // O_EXCL | O_NOFOLLOW: never write through a symlink or into a file someone else created under
   // the temp name. A stale temp of ours (same pid, earlier crash) is removed first.

@@ -61,11 +61,9 @@ Result<surfels::SurfelCloud> loadSurfelCloud(const std::string& path, Material& 
   if (!reader) return reader.error();
   if (!reader->find(asset::chunk::Surfels))
     return makeError(path, "has no SURF chunk (write one with: mirage surfels INPUT -o FILE.mrg)");
-  auto bytes = reader->readChunk(asset::chunk::Surfels);
-  if (!bytes) return bytes.error();
-  auto cloud = surfels::decodeSurfelChunk(*bytes, path);
-  if (!cloud) return cloud.error();
-  if (cloud->size() == 0) return makeError(path, "SURF chunk holds no surfels");
+  auto m = surfels::readSurfelChunk(*reader, *reader->find(asset::chunk::Surfels));
+  if (!m) return m.error();
+  if (m->cloud.size() == 0) return makeError(path, "SURF chunk holds no surfels");
   if (reader->find(asset::chunk::Scene)) {
     auto sceneBytes = reader->readChunk(asset::chunk::Scene);
     if (!sceneBytes) return sceneBytes.error();
@@ -74,7 +72,7 @@ Result<surfels::SurfelCloud> loadSurfelCloud(const std::string& path, Material& 
     if (!scene->meshes.empty() && scene->meshes[0].material < scene->materials.size())
       material = scene->materials[scene->meshes[0].material];
   }
-  return cloud;
+  return std::move(m->cloud);
 }
 
 Status checkPvsScene(const mirage::Scene& scene, const vis::PvsData& pvs, const std::string& pvsPath) {

@@ -10,26 +10,11 @@
 
 #include <fmt/format.h>
 
-#include "mirage/asset/container.h"
 #include "mirage/core/input_text.h"
 
 namespace mirage::surfels {
 
 namespace {
-
-constexpr uint32_t kChunkVersion = 2; // 2 added the mesh index; 1 is still read
-
-struct SurfelChunkHeader {
-  uint32_t version = kChunkVersion;
-  uint32_t count = 0;
-  uint32_t referenceCount = 0;
-  uint32_t pad = 0;
-  float boxMin[3];
-  float boxMax[3];
-  float referenceMeanSpacing = 0.0f;
-  float referenceMedianSpacing = 0.0f;
-};
-static_assert(sizeof(SurfelChunkHeader) == 48, "SURF chunk header layout");
 
 template <class T> void append(std::vector<uint8_t>& out, const T* data, size_t count) {
   // resize + memcpy rather than insert: GCC 12 warns falsely (-Wstringop-overflow) on the insert.
@@ -204,118 +189,6 @@ Result<SurfelCloud> readSurfelPly(const std::string& path) {
   c.surfels.reserve(count);
   for (size_t v = 0; v < count; ++v) c.surfels.push_back(packSurfel(c.box, positions[v], normals[v], colors[v]));
   return c;
-}
-
-std::vector<uint8_t> encodeSurfelChunk(const SurfelCloud& c, uint32_t mesh) {
-  SurfelChunkHeader h;
-  h.count = uint32_t(c.size());
-  h.referenceCount = c.referenceCount;
-  for (int a = 0; a < 3; ++a) h.boxMin[a] = c.box.min[a], h.boxMax[a] = c.box.max[a];
-  h.referenceMeanSpacing = c.referenceMeanSpacing;
-  h.referenceMedianSpacing = c.referenceMedianSpacing;
-  std::vector<uint8_t> out;
-  append(out, &h, 1);
-  const uint32_t meshWords[2] = {mesh, 0};
-  append(out, meshWords, 2);
-  append(out, c.surfels.data(), c.size());
-  std::vector<float> radii = c.radii;
-  radii.resize(c.size(), 0.0f);
-  append(out, radii.data(), radii.size());
-  return out;
-}
-
-Result<MeshSurfels> decodeSurfelChunkWithMesh(std::span<const uint8_t> bytes, const std::string& file) {
-  SurfelChunkHeader h;
-  if (bytes.size() < sizeof(h)) return makeError(file, "SURF chunk is shorter than its header");
-  std::memcpy(&h, bytes.data(), sizeof(h));
-  if (h.version != 1 && h.version != kChunkVersion)
-    return makeError(file, fmt::format("SURF chunk version {} is not supported", h.version));
-  size_t headerBytes = sizeof(h) + (h.version >= 2 ? 8 : 0);
-  size_t expected = headerBytes + size_t(h.count) * (sizeof(Surfel) + sizeof(float));
-  if (bytes.size() != expected)
-    return makeError(file, fmt::format("SURF chunk has {} bytes, {} surfels need {}", bytes.size(), h.count, expected));
-  // What renderers compute with: the quantization box and the spacings (the surfels themselves are
-  // integers inside the box, any value valid).
-  for (int a = 0; a < 3; ++a)
-    if (!std::isfinite(h.boxMin[a]) || !std::isfinite(h.boxMax[a]) || (h.count > 0 && !(h.boxMin[a] <= h.boxMax[a])))
-      return makeError(file, "SURF chunk has a NaN, infinite or inverted box");
-  if (!std::isfinite(h.referenceMeanSpacing) || !std::isfinite(h.referenceMedianSpacing) ||
-      h.referenceMeanSpacing < 0.0f || h.referenceMedianSpacing < 0.0f || h.referenceCount > h.count)
-    return makeError(file, "SURF chunk has bad reference spacing statistics");
-  MeshSurfels out;
-  if (h.version >= 2) std::memcpy(&out.mesh, bytes.data() + sizeof(h), 4);
-  SurfelCloud& c = out.cloud;
-  c.box.min = {h.boxMin[0], h.boxMin[1], h.boxMin[2]};
-  c.box.max = {h.boxMax[0], h.boxMax[1], h.boxMax[2]};
-  c.referenceCount = h.referenceCount;
-  c.referenceMeanSpacing = h.referenceMeanSpacing;
-  c.referenceMedianSpacing = h.referenceMedianSpacing;
-  c.surfels.resize(h.count);
-  c.radii.resize(h.count);
-  std::memcpy(c.surfels.data(), bytes.data() + headerBytes, h.count * sizeof(Surfel));
-  std::memcpy(c.radii.data(), bytes.data() + headerBytes + h.count * sizeof(Surfel), h.count * sizeof(float));
-  for (size_t i = 0; i < c.radii.size(); ++i)
-    if (!std::isfinite(c.radii[i]) || c.radii[i] < 0.0f)
-      return makeError(file, fmt::format("SURF chunk: radius {} is negative, NaN or infinite", i));
-  return out;
-}
-
-Result<SurfelCloud> decodeSurfelChunk(std::span<const uint8_t> bytes, const std::string& file) {
-  auto r = decodeSurfelChunkWithMesh(bytes, file);
-  if (!r) return r.error();
-  return std::move(r->cloud);
-}
-
-Status writeSurfelMrg(const std::string& path, const SurfelCloud& cloud) {
-  asset::AssetWriter writer;
-  writer.addChunk(asset::chunk::Surfels, encodeSurfelChunk(cloud));
-  return writer.write(path);
-}
-
-Status writeSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds) {
-  asset::AssetWriter writer;
-  for (const MeshSurfels& m : clouds) writer.addChunk(asset::chunk::Surfels, encodeSurfelChunk(m.cloud, m.mesh));
-  return writer.write(path);
-}
-
-Status appendSurfelMrg(const std::string& path, std::span<const MeshSurfels> clouds) {
-  auto reader = asset::AssetReader::open(path);
-  if (!reader) return reader.error();
-  asset::AssetWriter writer;
-  for (size_t i = 0; i < reader->chunks().size(); ++i) {
-    const asset::ChunkInfo& info = reader->chunks()[i];
-    if (info.type == asset::chunk::Surfels) continue;
-    auto stored = reader->readStoredChunk(i);
-    if (!stored) return stored.error();
-    writer.addStoredChunk(info, std::move(*stored));
-  }
-  for (const MeshSurfels& m : clouds) writer.addChunk(asset::chunk::Surfels, encodeSurfelChunk(m.cloud, m.mesh));
-  return writer.write(path);
-}
-
-Result<std::vector<MeshSurfels>> readSurfelMrgAll(const std::string& path) {
-  auto reader = asset::AssetReader::open(path);
-  if (!reader) return reader.error();
-  std::vector<MeshSurfels> out;
-  for (size_t i = 0; i < reader->chunks().size(); ++i) {
-    if (reader->chunks()[i].type != asset::chunk::Surfels) continue;
-    auto bytes = reader->readChunk(i);
-    if (!bytes) return bytes.error();
-    auto m = decodeSurfelChunkWithMesh(*bytes, path);
-    if (!m) return m.error();
-    out.push_back(std::move(*m));
-  }
-  if (out.empty()) return makeError(path, "no SURF chunk");
-  return out;
-}
-
-Result<SurfelCloud> readSurfelMrg(const std::string& path) {
-  auto all = readSurfelMrgAll(path);
-  if (!all) return all.error();
-  if (all->size() != 1)
-    return makeError(
-        path, fmt::format("holds {} surfel clouds (one per mesh); read them with readSurfelMrgAll", all->size()));
-  return std::move(all->front().cloud);
 }
 
 } // namespace mirage::surfels

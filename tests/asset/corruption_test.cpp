@@ -64,11 +64,19 @@ TEST(Corruption, WrongVersionNamesBoth) {
   TempDir dir;
   std::vector<uint8_t> file = smallFile(dir);
   FileHeader h = header(file);
-  h.version = 2;
+  h.version = kFormatVersion + 1;
   setHeader(file, h);
-  EXPECT_TRUE(contains(loadError(dir, file), "unsupported .mrg format version 2 (this build reads version 1)"));
+  std::string newer = "unsupported .mrg format version 3 (this build reads versions 1 to 2; read it with a newer "
+                      "mirage, or rebuild it with this one's mirage build)";
+  EXPECT_TRUE(contains(loadError(dir, file), newer)) << loadError(dir, file);
   reseal(file); // a correctly sealed future file gets the same message
-  EXPECT_TRUE(contains(loadError(dir, file), "version 2 (this build reads version 1)"));
+  EXPECT_TRUE(contains(loadError(dir, file), newer));
+  h.version = 0; // older than any reader knows
+  setHeader(file, h);
+  reseal(file);
+  EXPECT_TRUE(contains(loadError(dir, file), "version 0 (this build reads versions 1 to 2; rebuild it with mirage "
+                                             "build)"))
+      << loadError(dir, file);
 }
 
 TEST(Corruption, TruncatedAtEveryLength) {
@@ -174,7 +182,8 @@ TEST(Corruption, StructuralFieldsBehindTheChecksums) {
       {"reserved header", [](FileHeader& h, ChunkEntry&) { h.flags = 1; }},
       {"unknown flags", [](FileHeader&, ChunkEntry& e) { e.flags |= 0x80; }},
       {"unaligned", [](FileHeader&, ChunkEntry& e) { e.offset += 4; }},
-      {"reserved fields", [](FileHeader&, ChunkEntry& e) { e.reserved1 = 5; }},
+      {"reserved fields", [](FileHeader&, ChunkEntry& e) { e.indexBytes = 5; }},
+      {"unknown flags", [](FileHeader&, ChunkEntry& e) { e.flags = kChunkBlocked; }}, // version 1: not yet a flag
       {"sizes are inconsistent", [](FileHeader&, ChunkEntry& e) { e.rawBytes = e.storedBytes; }},
       {"stored raw", [](FileHeader&, ChunkEntry& e) { e.flags = 0; }},
       {"checksum mismatch", [](FileHeader&, ChunkEntry& e) { e.storedHash ^= 1; }},

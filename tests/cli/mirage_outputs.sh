@@ -41,6 +41,7 @@ fi
 if expect_ok surfels-mrg surfels gen:blob:3 -o "$tmp/s.mrg" --count 100 --resolution 16 --views 3; then
   expect_ok info-surfel-mrg info "$tmp/s.mrg"
   check "info describes a surfel-only .mrg" grep -q "surfels: 100 in one whole-scene cloud" "$tmp/stdout"
+  check "info describes the SURF blocks" grep -q "surfel blocks: 1 in prefix order" "$tmp/stdout"
   expect_ok info-surfel-mrg-json info "$tmp/s.mrg" --json
   check "info --json counts the surfels" grep -q '"total": 100' "$tmp/stdout"
   expect_fail render-surfel-only "render it with --surfels" "$tmp/s.png" -- render "$tmp/s.mrg" -o "$tmp/s.png" --size 32x32

@@ -11,6 +11,8 @@
 #include <sstream>
 #include <sys/wait.h>
 
+#include <nlohmann/json.hpp>
+
 #include "mirage/asset/container.h"
 #include "mirage/surfels/surfel_io.h"
 #include "test_support.h"
@@ -54,6 +56,23 @@ TEST(SurfelCli, WritesPlyAndMrg) {
   auto fromMrg = mirage::surfels::readSurfelMrg(mrg);
   ASSERT_TRUE(fromMrg.ok()) << fromMrg.error().message;
   EXPECT_EQ(fromMrg->radii, cloud->radii); // same settings, same result
+  // Smaller SURF blocks: the same cloud, and `info` describes the blocks (300 = 256 + 44 surfels).
+  std::string small = (dir / "small.mrg").string();
+  CliRun c = runMirage(
+      "surfels gen:blob:4 -o " + small + " --count 300 --resolution 32 --views 6 --surfel-blocks 256:256", dir);
+  ASSERT_EQ(c.code, 0) << c.err;
+  auto fromSmall = mirage::surfels::readSurfelMrg(small);
+  ASSERT_TRUE(fromSmall.ok()) << fromSmall.error().message;
+  EXPECT_EQ(fromSmall->radii, cloud->radii);
+  std::string json = (dir / "info.json").string();
+  ASSERT_EQ(std::system((mirage::test::mirageBinary() + " info " + small + " --json > " + json).c_str()), 0);
+  std::ifstream f(json);
+  nlohmann::json info = nlohmann::json::parse(f);
+  const nlohmann::json& blocks = info["surfels"]["clouds"][0];
+  EXPECT_EQ(blocks["layout"], "blocked");
+  EXPECT_EQ(blocks["blocks"], 2);
+  EXPECT_EQ(blocks["first_block_surfels"], 256);
+  EXPECT_EQ(info["chunks"][0]["blocked"], 1);
 }
 
 TEST(SurfelCli, PerMeshChunksAndPointClouds) {
@@ -104,6 +123,9 @@ TEST(SurfelCli, BadInputsExit2WithOneLineAndWriteNothing) {
         "surfels gen:blob:3 -o " + out + " --disc-raster depth",
         "surfels gen:blob:3 -o " + out + " --disc-raster compute,", // empty choice
         "surfels gen:blob:3 -o " + (dir / "out.mrg").string() + " --per-mesh --disc-raster all",
+        "surfels gen:blob:3 -o " + out + " --surfel-blocks 1000:16384", // not a power of two
+        "surfels gen:blob:3 -o " + out + " --surfel-blocks 4096:1024",  // first above max
+        "surfels gen:blob:3 -o " + out + " --surfel-blocks 1024",
         std::string("bench surfels-sampler gen:blob:3 --disc-raster quad")}) {
     CliRun r = runMirage(args, dir);
     EXPECT_EQ(r.code, 2) << args;

@@ -469,7 +469,7 @@ TEST(SurfelChunks, PerMeshChunksRoundTripAndVersion1StillReads) {
   EXPECT_EQ(readSurfelMrgAll(one)->front().mesh, kWholeScene);
 
   // Version 1 (what earlier builds wrote): the header, then surfels and radii, no mesh word.
-  std::vector<uint8_t> v2 = encodeSurfelChunk(b, 5);
+  std::vector<uint8_t> v2 = encodeSurfelChunkFlat(b, 5);
   std::vector<uint8_t> v1(v2.begin(), v2.begin() + 48);
   v1.insert(v1.end(), v2.begin() + 56, v2.end());
   uint32_t version = 1;

@@ -103,7 +103,7 @@ TEST_F(SurfelReferenceBlob, PlyAndMrgRoundTrips) {
   ASSERT_TRUE(writeSurfelMrg(mrg, cloud).ok());
   auto m = readSurfelMrg(mrg);
   ASSERT_TRUE(m.ok()) << m.error().message;
-  EXPECT_EQ(encodeSurfelChunk(*m), encodeSurfelChunk(cloud));
+  EXPECT_EQ(*encodeSurfelChunk(*m), *encodeSurfelChunk(cloud));
 
   // A truncated PLY is a one-line error, not a crash.
   std::filesystem::resize_file(ply, std::filesystem::file_size(ply) - 10);

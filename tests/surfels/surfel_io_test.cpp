@@ -34,7 +34,7 @@ template <class T> void put(std::vector<uint8_t>& bytes, size_t at, T v) {
 } // namespace
 
 TEST(SurfelIo, ChunkWithNonFiniteOrInconsistentNumbersIsRejected) {
-  std::vector<uint8_t> good = encodeSurfelChunk(smallCloud(), 0);
+  std::vector<uint8_t> good = encodeSurfelChunkFlat(smallCloud(), 0);
   ASSERT_TRUE(decodeSurfelChunkWithMesh(good, "good").ok());
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
   struct Damage {

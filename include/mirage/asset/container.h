@@ -1,8 +1,9 @@
 #pragma once
 // The .mrg asset container: a header, a chunk table and 16-byte-aligned chunk payloads, each
 // payload zstd-compressed (or stored raw when that is not smaller) and checked with XXH3-64 before
-// and after decompression. Byte layout, versioning policy and the reason for every check:
-// docs/asset.md; on-disk structs: format.h.
+// and after decompression, or blocked (blocks.h: an index, then independently compressed and
+// checked blocks that a reader reads one at a time). Byte layout, versioning policy and the reason
+// for every check: docs/asset.md; on-disk structs: format.h.
 //
 // Reserved chunk types (a file may hold several chunks of one type; readers skip unknown types):
 //   'SCEN' scene: meshes, materials, embedded RGBA8 textures, instances (scene_chunk.h)
@@ -18,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "mirage/asset/blocks.h"
 #include "mirage/asset/format.h"
 #include "mirage/core/result.h"
 
@@ -54,12 +56,14 @@ inline constexpr int kDefaultZstdLevel = 3;
 struct ChunkInfo {
   FourCC type;
   bool compressed = false; // zstd frame on disk
+  bool blocked = false;    // block index + blocks (blocks.h); storedHash covers the index only
   uint64_t offset = 0;
   uint64_t storedBytes = 0;
   uint64_t rawBytes = 0;
   uint64_t storedHash = 0;
   uint64_t rawHash = 0;
   int32_t zstdLevel = 0;
+  uint64_t indexBytes = 0; // blocked: the index at the payload's start
 };
 
 // Collects chunks, then writes them in one atomic step. Chunks are compressed when added, so the
@@ -72,6 +76,10 @@ public:
   // A chunk exactly as another file stores it (from AssetReader::readStoredChunk): its bytes, level
   // and checksums are kept, so copying a chunk between files never recompresses it.
   void addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> stored);
+  // A blocked payload (encodeBlocks / assembleBlocks), stored as is; its chunk checksum covers the
+  // index. `zstdLevel` is the level its blocks were compressed with (informational). A payload
+  // whose index does not decode is an error reported by write(). Makes the file version 2.
+  void addBlockedChunk(FourCC type, std::vector<uint8_t> payload, int zstdLevel = kDefaultZstdLevel);
   size_t chunkCount() const { return chunks_.size(); }
 
   // Writes "<path>.tmp-<pid>", fsyncs it and renames it over `path`, so readers see either the
@@ -105,7 +113,7 @@ public:
 
   const std::string& path() const { return path_; }
   uint64_t fileBytes() const { return fileBytes_; }
-  uint32_t version() const { return kFormatVersion; }
+  uint32_t version() const { return version_; } // of this file: kMinFormatVersion..kFormatVersion
   const std::vector<ChunkInfo>& chunks() const { return chunks_; }
   // Index of the first chunk of `type`, if any.
   std::optional<size_t> find(FourCC type) const;
@@ -116,8 +124,18 @@ public:
   // The first chunk of `type`; an error naming the type when there is none.
   Result<std::vector<uint8_t>> readChunk(FourCC type) const;
   // The payload as stored (compressed or not), after checking its stored hash: what
-  // AssetWriter::addStoredChunk copies into another file unchanged.
+  // AssetWriter::addStoredChunk copies into another file unchanged. For a blocked chunk, also what
+  // readChunk returns: the index checked against the chunk checksum and every block against its
+  // stored checksum (decodeBlocks decompresses them and checks their raw checksums).
   Result<std::vector<uint8_t>> readStoredChunk(size_t index) const;
+
+  // Blocked chunks, read piecewise: the index (one read of indexBytes, checked against the chunk
+  // checksum, decoded), then any block by its byte range (checked and decompressed). Errors name the
+  // file, the chunk and the block.
+  Result<BlockTable> readBlockTable(size_t index) const;
+  Result<std::vector<uint8_t>> readBlock(size_t index, const BlockTable& table, size_t block) const;
+  // "<file>: chunk <index> <type>": the context of errors about one chunk.
+  std::string chunkContext(size_t index) const;
 
 private:
   AssetReader() = default;
@@ -126,6 +144,7 @@ private:
   std::string path_;
   int fd_ = -1;
   uint64_t fileBytes_ = 0;
+  uint32_t version_ = kFormatVersion;
   std::vector<ChunkInfo> chunks_;
 };
 
