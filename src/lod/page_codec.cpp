@@ -197,6 +197,11 @@ Result<PageData> decodePage(std::span<const uint8_t> bytes, const PageTable& tab
   if (!std::equal(out.clusterIds.begin(), out.clusterIds.end(), expectedClusters.begin(), expectedClusters.end()))
     return fail("clusters differ from the page table");
   out.clusters.resize(out.clusterIds.size());
+  // Member group of each cluster by the table: the page's groups' members, group after group.
+  std::vector<uint32_t> memberGroup(out.clusters.size(), kNone);
+  size_t next = 0;
+  for (uint32_t g : table.groupsOf(page))
+    for (uint32_t k = 0; k < table.groupClusterCount[g] && next < memberGroup.size(); ++k) memberGroup[next++] = g;
   uint64_t vertexTotal = 0, triangleTotal = 0;
   for (size_t i = 0; i < out.clusters.size(); ++i) {
     Cluster& c = out.clusters[i];
@@ -230,13 +235,13 @@ Result<PageData> decodePage(std::span<const uint8_t> bytes, const PageTable& tab
       if (c.level != groupLevels[size_t(k)] + 1) return fail(name + " is not one level above its generating group");
       c.self = groupBounds[size_t(k)];
     }
+    if (c.group != memberGroup[i]) return fail(name + " is not a member of the group the page table says");
     if (c.group == kNone) {
-      if (page >= table.rootPageCount) return fail(name + " is a root outside the root pages");
       c.parent = c.self;
       c.parent.error = std::numeric_limits<float>::infinity();
     } else {
       int64_t k = record(c.group);
-      if (k < 0 || table.groupPage[c.group] != page) return fail(name + " belongs to a group of another page");
+      if (k < 0) return fail(name + " refers to a group the page does not describe");
       if (c.level > groupLevels[size_t(k)]) return fail(name + " is above its group's level");
       c.parent = groupBounds[size_t(k)];
     }
@@ -290,6 +295,7 @@ std::vector<uint8_t> encodePageTable(const PageTable& t) {
   w.writeVarint(t.groupLevel.size());
   for (size_t g = 0; g < t.groupLevel.size(); ++g) {
     w.writeVarint(t.groupLevel[g]);
+    w.writeVarint(t.groupClusterCount[g]);
     writeBounds(w, t.groupBounds[g]);
   }
   w.writeVarint(t.rootPageCount);
@@ -325,16 +331,21 @@ Result<PageTable> decodePageTable(std::span<const uint8_t> bytes, const std::str
   // count cannot allocate much.
   uint64_t clusterCount = 0, groupCount = 0, rootPages = 0, pageCount = 0;
   if (!r.readCount(clusterCount, r.remaining(), "cluster count") ||
-      !r.readCount(groupCount, r.remaining() / 21, "group count"))
+      !r.readCount(groupCount, r.remaining() / 22, "group count"))
     return r.error();
   t.groupLevel.resize(groupCount);
+  t.groupClusterCount.resize(groupCount);
   t.groupBounds.resize(groupCount);
   for (size_t g = 0; g < groupCount; ++g) {
-    uint64_t level = 0;
-    if (!r.readCount(level, kMaxLevel, "group level") || !readBounds(r, t.groupBounds[g])) return r.error();
+    uint64_t level = 0, members = 0;
+    if (!r.readCount(level, kMaxLevel, "group level") || !r.readCount(members, clusterCount, "group cluster count") ||
+        !readBounds(r, t.groupBounds[g]))
+      return r.error();
+    if (members == 0) return fail("group " + str(g) + " has no clusters");
     if (!finiteSphere(t.groupBounds[g]) || !(t.groupBounds[g].error >= 0.0f))
       return fail("group " + str(g) + " has bad bounds");
     t.groupLevel[g] = uint32_t(level);
+    t.groupClusterCount[g] = uint32_t(members);
   }
   if (!r.readCount(rootPages, r.remaining(), "root page count") ||
       !r.readCount(pageCount, r.remaining() / 6, "page count"))
@@ -374,10 +385,14 @@ Result<PageTable> decodePageTable(std::span<const uint8_t> bytes, const std::str
     if (info.clusterCount == 0 || info.bytes == 0) return fail(name + " is empty");
     if ((p < t.rootPageCount) != (info.groupCount == 0)) return fail(name + " root/group mismatch");
     if (p < t.rootPageCount && info.dependencyCount != 0) return fail(name + " is a root page with dependencies");
+    uint64_t members = 0;
     for (uint32_t g : t.groupsOf(p)) {
       if (g >= groupCount || t.groupPage[g] != kNone) return fail(name + " lists group " + str(g) + " badly");
       t.groupPage[g] = p;
+      members += t.groupClusterCount[g];
     }
+    if (p >= t.rootPageCount && members != info.clusterCount)
+      return fail(name + " has other clusters than its groups' members");
     for (uint32_t c : t.clustersOf(p)) {
       if (c >= clusterCount || t.clusterPage[c] != kNone) return fail(name + " lists cluster " + str(c) + " badly");
       t.clusterPage[c] = p;

@@ -101,6 +101,8 @@ PagedDag buildPages(const ClusterDag& dag, const PageConfig& config) {
   t.groupLevel.resize(dag.groups.size());
   for (size_t g = 0; g < dag.groups.size(); ++g) t.groupLevel[g] = dag.groups[g].level;
   t.groupBounds = ctx.groupBounds;
+  t.groupClusterCount.resize(dag.groups.size());
+  for (size_t g = 0; g < dag.groups.size(); ++g) t.groupClusterCount[g] = dag.groups[g].childCount;
 
   Bounds box;
   for (glm::vec3 p : dag.positions) box.add(p);

@@ -70,6 +70,17 @@ void expectLayout(const ClusterDag& dag, const PagedDag& paged, uint32_t budget,
       EXPECT_GE(t.groupPage[g], t.rootPageCount) << what;
     }
   }
+  for (uint32_t p = t.rootPageCount; p < t.pages.size(); ++p) { // members group after group
+    std::vector<uint32_t> members;
+    for (uint32_t g : t.groupsOf(p)) {
+      const Group& gr = dag.groups[g];
+      EXPECT_EQ(t.groupClusterCount[g], gr.childCount) << what;
+      members.insert(members.end(), dag.groupChildren.begin() + gr.childOffset,
+                     dag.groupChildren.begin() + gr.childOffset + gr.childCount);
+    }
+    std::span<const uint32_t> listed = t.clustersOf(p);
+    EXPECT_TRUE(std::equal(members.begin(), members.end(), listed.begin(), listed.end())) << what << ": page " << p;
+  }
   for (uint32_t p = 0; p < t.pages.size(); ++p) {
     EXPECT_EQ(paged.pages[p].size(), t.pages[p].bytes) << what;
     if (unitsOf(t, p) > 1) {
@@ -225,6 +236,7 @@ void expectPagesDecode(const ClusterDag& dag, const PagedDag& paged, const std::
   EXPECT_EQ(table->groupPage, t.groupPage);
   EXPECT_EQ(table->clusterPage, t.clusterPage);
   EXPECT_EQ(table->groupLevel, t.groupLevel);
+  EXPECT_EQ(table->groupClusterCount, t.groupClusterCount);
   EXPECT_EQ(table->rootPageCount, t.rootPageCount);
   ASSERT_EQ(table->groupBounds.size(), ref->groups.size());
   for (size_t g = 0; g < ref->groups.size(); ++g)

@@ -64,6 +64,9 @@ struct PageTable {
   // member clusters.
   std::vector<uint32_t> groupLevel;
   std::vector<LodBounds> groupBounds;
+  // Per DAG group: its member clusters, consecutive in its page's cluster list (a page lists its
+  // groups' members group after group, in pageGroups order).
+  std::vector<uint32_t> groupClusterCount;
   std::vector<uint32_t> groupPage;
   // Per DAG cluster: the page holding it (derived from pageClusters).
   std::vector<uint32_t> clusterPage;
@@ -92,8 +95,9 @@ struct PagedDag {
 PagedDag buildPages(const ClusterDag& dag, const PageConfig& config = {});
 
 std::vector<uint8_t> encodePageTable(const PageTable& table);
-// Validates every count, range and id (each group in one page, each cluster in one page, root
-// pages without groups, dependencies ascending and below their page); `file` names the source.
+// Validates every count, range and id (each group in one page, each cluster in one page, a page's
+// groups' members adding up to its clusters, root pages without groups, dependencies ascending and
+// below their page); `file` names the source.
 Result<PageTable> decodePageTable(std::span<const uint8_t> bytes, const std::string& file);
 
 // One decoded page: enough to render its clusters without any other page.
@@ -110,7 +114,8 @@ struct PageData {
 };
 
 // Decodes page `page` of `table` with full validation: every count, range and id, and agreement
-// with the table (page number, clusters, groups and their bounds, sizes, grid). Errors name `file`
+// with the table (page number, clusters and their member groups, group levels and bounds, sizes,
+// grid). Errors name `file`
 // and the page.
 Result<PageData> decodePage(std::span<const uint8_t> bytes, const PageTable& table, uint32_t page,
                             const std::string& file);
