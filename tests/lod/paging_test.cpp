@@ -310,7 +310,7 @@ TEST(LodPaging, GeneratedMeshesPageAndCutCleanly) {
         if (budget < 8192) {
           EXPECT_GT(paged.table.pages.size(), 8u) << what;
         }
-        expectResidentCuts(dag, paged.table, mesh, 24, ++seed, what);
+        expectResidentCuts(dag, paged.table, mesh, 16, ++seed, what);
         std::mt19937 rng(seed);
         for (const CutView& v : randomViews(dag, rng, 6)) expectStreamingConverges(dag, paged.table, mesh, v, what);
       }
