@@ -12,7 +12,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out"
 cp -r "$src"/fuzz/seeds/. "$out"/
-for t in ply obj gltf scen cdag surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file stream_message tile_delta; do
+for t in ply obj gltf scen cdag pages surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file stream_message tile_delta; do
   mkdir -p "$out/$t"
 done
 cp "$src"/examples/particles/*.toml "$out/effect_file/"
@@ -36,6 +36,7 @@ q surfels gen:blob:1 -o "$tmp/surfels.mrg" --count 32 --resolution 32 --views 4 
 q surfels gen:blob:1 -o "$tmp/surfels_blocks.mrg" --count 600 --resolution 32 --views 4 --surfel-blocks 256:256 --quiet
 q surfels gen:blob:1 -o "$out/ply/surfels.ply" --count 32 --resolution 32 --views 4 --quiet
 q pvs gen:blob:1 --cells "$src/fuzz/seeds/cells/boxes.json" -o "$tmp/pvs.mrg" --rays 2000 --budget 20000
+"$seed_tool" pages "$tmp/lod.mrg" "$out/pages"
 for f in "$tmp"/*.mrg; do
   cp "$f" "$out/mrg/"
   "$seed_tool" chunks "$f" "$tmp/chunks"

@@ -7,6 +7,8 @@
 //   seed_tool meshopt-glb out.glb     a quad in a GLB with EXT_meshopt_compression (attributes with
 //                                     the octahedral filter, triangle indices), which `mirage gen` cannot write
 //   seed_tool stream-messages out_dir one file per stream message type (fuzz_stream_message's input)
+//   seed_tool pages in.mrg out_dir    the first mesh's DAG paged at 4 KiB: per page the table and the
+//                                     page (fuzz_pages' input)
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -16,6 +18,8 @@
 #include "fuzz_support.h"
 #include "mirage/asset/scene_chunk.h"
 #include "mirage/io/import.h"
+#include "mirage/lod/lod_asset.h"
+#include "mirage/lod/paging.h"
 #include "mirage/stream/protocol.h"
 
 using namespace mirage;
@@ -179,6 +183,26 @@ int streamMessages(const std::filesystem::path& dir) {
   return 0;
 }
 
+int pages(const std::filesystem::path& in, const std::filesystem::path& dir) {
+  Result<lod::LodAsset> asset = lod::loadLodAsset(in.string());
+  if (!asset || asset->dags.empty()) {
+    std::fprintf(stderr, "%s\n", asset ? "no DAG" : asset.error().message.c_str());
+    return 2;
+  }
+  std::filesystem::create_directories(dir);
+  lod::PagedDag paged = lod::buildPages(asset->dags[0], lod::PageConfig{.pageBytes = 4096});
+  std::vector<uint8_t> table = lod::encodePageTable(paged.table);
+  for (uint32_t p = 0; p < paged.pages.size(); ++p) {
+    std::string bytes;
+    put(bytes, uint32_t(table.size()));
+    bytes.append(table.begin(), table.end());
+    put(bytes, p);
+    bytes.append(paged.pages[p].begin(), paged.pages[p].end());
+    if (!writeFile(dir / (in.stem().string() + "-page" + std::to_string(p) + ".pages"), bytes)) return 2;
+  }
+  return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -186,8 +210,8 @@ int main(int argc, char** argv) {
   if (argc == 4 && std::strcmp(argv[1], "scen") == 0) return scen(argv[2], argv[3]);
   if (argc == 3 && std::strcmp(argv[1], "meshopt-glb") == 0) return meshoptGlb(argv[2]);
   if (argc == 3 && std::strcmp(argv[1], "stream-messages") == 0) return streamMessages(argv[2]);
-  std::fprintf(
-      stderr,
-      "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb | stream-messages out_dir\n");
+  if (argc == 4 && std::strcmp(argv[1], "pages") == 0) return pages(argv[2], argv[3]);
+  std::fprintf(stderr, "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb | "
+                       "stream-messages out_dir | pages in.mrg out_dir\n");
   return 2;
 }
