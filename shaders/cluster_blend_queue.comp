@@ -7,9 +7,11 @@
 // one tile. Coverage, depth and the per-sample test are the compute blend raster's own functions
 // (cluster_raster_edges.glsl, cluster_blend_sample.glsl), so a queued triangle gives exactly the
 // fragments its cluster's workgroup would have. Nodes: each thread first tests its pixels of all
-// the workgroup's tiles, then each subgroup takes one run of nodes for all its fragments (one
-// counter atomic: oitAllocateSubgroup) and, tile by tile, its lanes link theirs with
-// atomicExchange on the pixel's head onto consecutive nodes (coalesced node writes).
+// the workgroup's tiles and counts each kept one on its pixel (oitCountFragment: under the pixel's
+// cap or past it), then each subgroup takes one run of nodes for all its fragments under their cap
+// (one counter atomic: oitAllocateSubgroup) and, tile by tile, its lanes link theirs with
+// atomicExchange on the pixel's head onto consecutive nodes (coalesced node writes); fragments past
+// their cap replace their pixel's farthest or are dropped (oitSlotOf).
 // Pushed: the blend list (ids name its entries) and the mono frame, or stereo's left eye frame.
 #include "cluster_common.glsl"
 #include "cluster_raster_edges.glsl"
@@ -72,8 +74,10 @@ void main() {
     else
       last = mid - 1;
   }
-  // Every tile: this thread's pixel tested, kept ones as bits (tile - first).
-  uint kept = 0, entry = firstEntry;
+  // Every tile: this thread's pixel tested, kept ones as bits (tile - first), those under their
+  // pixel's cap too.
+  uint kept = 0, under = 0, entry = firstEntry;
+  uint row = targetRowPixels(f);
   QueuedTriangle t = queuedTriangle(f, queue.triangles[entry]);
   for (uint tile = first; tile < end; ++tile) {
     while (tile - t.firstTile >= t.tiles) t = queuedTriangle(f, queue.triangles[++entry]); // uniform
@@ -81,25 +85,28 @@ void main() {
     float z;
     uvec2 p = tilePixel(t, tile, w, z);
     if (t.drawn && p.x <= uint(t.hi.x) && p.y <= uint(t.hi.y) && edgeInside(w) &&
-        blendSampleKept(f, t.fade, t.eyeX, p.x, p.y, z))
+        blendSampleKept(f, t.fade, t.eyeX, p.x, p.y, z)) {
       kept |= 1u << (tile - first);
+      if (oitCountFragment(f.oitHeadAddress, p.y * row + p.x + t.eyeX) < MIRAGE_OIT_MAX_LAYERS)
+        under |= 1u << (tile - first);
+    }
   }
-  // One run of nodes per subgroup, then tile by tile each kept pixel onto its list.
-  uint node = oitAllocateSubgroup(f.oitCounterAddress, subgroupAdd(uint(bitCount(kept))));
-  uint row = targetRowPixels(f);
+  // One run of nodes per subgroup for its fragments under their cap, then tile by tile each kept
+  // pixel onto its list.
+  uint node = oitAllocateSubgroup(f.oitCounterAddress, subgroupAdd(uint(bitCount(under))));
   entry = firstEntry;
   t = queuedTriangle(f, queue.triangles[entry]);
   for (uint tile = first; tile < end; ++tile) {
     while (tile - t.firstTile >= t.tiles) t = queuedTriangle(f, queue.triangles[++entry]); // uniform
-    bool keep = ((kept >> (tile - first)) & 1u) != 0;
-    uvec4 ballot = subgroupBallot(keep);
+    bool keep = ((kept >> (tile - first)) & 1u) != 0, fresh = ((under >> (tile - first)) & 1u) != 0;
+    uvec4 ballot = subgroupBallot(fresh);
     if (keep) {
       i64vec3 w;
       float z;
       uvec2 p = tilePixel(t, tile, w, z);
       uint pixel = p.y * row + p.x + t.eyeX;
-      OitSlot s = oitSlotOf(node + subgroupBallotExclusiveBitCount(ballot), f.oitHeadAddress, f.oitNodeAddress,
-                            f.oitNodeCapacity, pixel, z);
+      OitSlot s = oitSlotOf(fresh ? node + subgroupBallotExclusiveBitCount(ballot) : kOitNoNode, f.oitHeadAddress,
+                            f.oitNodeAddress, f.oitNodeCapacity, pixel, z);
       if (s.node != kOitNoNode) oitCommit(f.oitHeadAddress, f.oitNodeAddress, pixel, s, z, t.id, /*payload=*/false);
     }
     node += subgroupBallotBitCount(ballot);

@@ -12,7 +12,8 @@ float bufferOpaqueDepth(ClusterFrame f, uint x, uint y) {
 }
 
 // A blended fragment already known to lie in front of the opaque surface, pushed onto its pixel's
-// list under the shared pool rule (oit_list.glsl: past the pool it replaces its pixel's farthest).
+// list under the shared pool rule and per-pixel cap (oit_list.glsl: past either it replaces its
+// pixel's farthest).
 void oitAppend(ClusterFrame f, uint x, uint y, float z, uint id) {
   uint pixel = y * targetRowPixels(f) + x;
   OitSlot s = oitAcquire(f.oitCounterAddress, f.oitHeadAddress, f.oitNodeAddress, f.oitNodeCapacity, pixel, z);

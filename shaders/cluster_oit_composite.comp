@@ -33,10 +33,10 @@ void main() {
   ClusterFrame f = FrameRef(frameAddress).frame;
   ivec2 px = target - ivec2(f.targetOffsetX, 0); // the pixel within the eye
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
-  uint node = UintRef(f.oitHeadAddress).data[uint(target.y) * targetRowPixels(f) + uint(target.x)];
-  if (node == 0) return;
+  OitPixelHead head = OitHeadRef(f.oitHeadAddress).pixels[uint(target.y) * targetRowPixels(f) + uint(target.x)];
+  if (head.fragments == 0) return;
   // The nearest MIRAGE_OIT_MAX_LAYERS keys (depth bits << 32 | id), far to near (oit_list.glsl).
-  OitPixel list = oitGather(f.oitNodeAddress, f.oitNodeCapacity, node);
+  OitPixel list = oitGather(f.oitNodeAddress, f.oitNodeCapacity, head);
   oitCountPixel(f.oitCounterAddress, list);
   vec3 color = imageLoad(colorImage, target).rgb;
   for (int i = 0; i < list.count; ++i) {

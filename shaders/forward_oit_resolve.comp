@@ -19,8 +19,8 @@ void main() {
   uvec2 p = gl_GlobalInvocationID.xy;
   if (p.x >= push.width || p.y >= push.height) return;
   OitLists l = OitListsRef(push.oitAddress).lists;
-  uint head = OitHeadRef(l.headAddress).heads[p.y * l.rowPixels + p.x];
-  if (head == 0) return;
+  OitPixelHead head = OitHeadRef(l.headAddress).pixels[p.y * l.rowPixels + p.x];
+  if (head.fragments == 0) return;
   OitPixel list = oitGather(l.nodeAddress, l.nodeCapacity, head);
   oitCountPixel(l.counterAddress, list);
   OitColorRef colors = OitColorRef(l.colorAddress);

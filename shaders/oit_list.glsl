@@ -1,62 +1,86 @@
 // Per-pixel linked lists of blended fragments (Yang et al. 2010), the one implementation of the
 // forward renderer's and the cluster-LOD renderer's order-independent transparency (docs/render.md,
-// "Transparency"): append under the pool rule (past the pool, the farthest fragment is the one
-// lost), gather the nearest layers sorted, count the frame's Mean Squared Layers. Needs
-// GL_EXT_buffer_reference, scalar block layout and 64-bit ints. An includer may define
-// MIRAGE_OIT_LAYERS (the layer cap, default MIRAGE_OIT_MAX_LAYERS).
+// "Transparency"): append under the pool rule and the per-pixel cap (past either, the farthest
+// fragment of the pixel is the one lost), gather the nearest layers sorted, count the frame's Mean
+// Squared Layers. Needs GL_EXT_buffer_reference, scalar block layout and 64-bit ints. An includer
+// may define MIRAGE_OIT_LAYERS (the layers a gather keeps, default MIRAGE_OIT_MAX_LAYERS).
 #extension GL_KHR_shader_subgroup_arithmetic : enable
 #extension GL_KHR_shader_subgroup_ballot : enable
 
 #include "mirage/shaderio/oit.h"
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitNodeRef { OitNode nodes[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitHeadRef { uint heads[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitHeadRef { OitPixelHead pixels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitCounterRef { OitCounters counters; };
 // The same lists read while other invocations append and replace (the overflow walk): coherent, so
 // the reads see other invocations' writes rather than a stale cached copy.
 layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitNodeSharedRef { OitNode nodes[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitHeadSharedRef { uint heads[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitHeadSharedRef { OitPixelHead pixels[]; };
 
 const uint kOitNoNode = 0xffffffffu;
 const uint kOitBusy = 0xffffffffu; // a node's id while a fragment replacing it rewrites the node
 
+// A fragment of `pixel` counted (every one: MSL, the cap); returns how many came before it.
+uint oitCountFragment(uint64_t headAddress, uint pixel) {
+  return atomicAdd(OitHeadRef(headAddress).pixels[pixel].fragments, 1u);
+}
+
 // Node n pushed onto pixel's list.
 void oitLink(uint64_t headAddress, uint64_t nodeAddress, uint pixel, uint n, float z, uint id) {
-  uint next = atomicExchange(OitHeadRef(headAddress).heads[pixel], n + 1);
+  uint next = atomicExchange(OitHeadRef(headAddress).pixels[pixel].head, n + 1);
   OitNodeRef(nodeAddress).nodes[n] = OitNode(floatBitsToUint(z), id, next);
 }
 
-// The pool overflow rule: a fragment past the pool takes the place of its pixel's farthest listed
-// fragment if that one is farther than itself ("over" shows the farthest least), else it is the
-// one dropped; either way one fragment per attempt past the pool is lost, as OitCounters::nodes
-// counts. The walk (at most MIRAGE_OIT_REPLACE_STEPS nodes from the head) skips nodes not written
-// yet (all zero: oitGather leaves the pool so) and nodes being replaced; the node found is locked by
-// swapping its id for kOitBusy, and if it changed meanwhile the walk restarts (at most
-// MIRAGE_OIT_REPLACE_TRIES walks). Returns the locked node, to be rewritten by oitReplace, or
-// kOitNoNode (nothing farther found: the fragment is dropped). Appends still in flight while the
-// pool fills may hide a node from a walk, so under contention the node replaced may not be the
-// farthest, or a fragment may be dropped while a farther one stays; a pixel that got no node
-// before the pool filled keeps none.
+// The rule past the pool or past the pixel's cap: a fragment takes the place of its pixel's
+// farthest listed fragment if that one is farther than itself ("over" shows the farthest least),
+// else it is the one dropped; either way one fragment per such attempt is lost, as OitCounters
+// counts. First the pixel's floor (OitPixelHead::floorBits): at or beyond it, dropped with one
+// load. Else the walk (at most MIRAGE_OIT_REPLACE_STEPS nodes from the head; the cap keeps a list
+// at most MIRAGE_OIT_MAX_LAYERS long) skips nodes not written yet (all zero: oitGather leaves the
+// pool so) and nodes being replaced; the node found is locked by swapping its id for kOitBusy, and
+// if it changed meanwhile the walk restarts (at most MIRAGE_OIT_REPLACE_TRIES walks). The floor is
+// then raised to the farthest depth still listed (the second farthest seen, or this fragment), or,
+// nothing farther found, to the farthest listed. Returns the locked node, to be rewritten by
+// oitReplace, or kOitNoNode (the fragment is dropped). Appends still in flight may hide a node from
+// a walk (and so from the floor), so under contention the node replaced may not be the farthest,
+// or a fragment may be dropped while a farther one stays; a pixel that got no node before the pool
+// filled keeps none.
 uint oitClaimFarthest(uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel, float z) {
   OitNodeSharedRef nodes = OitNodeSharedRef(nodeAddress);
+  OitHeadSharedRef heads = OitHeadSharedRef(headAddress);
+  uint zBits = floatBitsToUint(z);
+  uint floorBits = heads.pixels[pixel].floorBits;
+  if (zBits <= floorBits) return kOitNoNode; // no farther than the farthest listed: dropped unwalked
   for (int attempt = 0; attempt < MIRAGE_OIT_REPLACE_TRIES; ++attempt) {
-    uint node = OitHeadSharedRef(headAddress).heads[pixel];
-    uint victim = kOitNoNode, victimDepth = floatBitsToUint(z), victimId = 0;
+    uint node = heads.pixels[pixel].head;
+    // The farthest listed node (victim) and the second farthest depth; depth bits order like the
+    // depths (positive floats); reverse-Z: smaller is farther.
+    uint victim = kOitNoNode, victimDepth = 0xffffffffu, victimId = 0, secondDepth = 0xffffffffu;
     for (int step = 0; node != 0 && step < MIRAGE_OIT_REPLACE_STEPS; ++step) {
       uint i = min(node - 1, capacity - 1);
       uint depthBits = nodes.nodes[i].depthBits, id = nodes.nodes[i].id;
       node = nodes.nodes[i].next;
-      // Depth bits order like the depths (positive floats); reverse-Z: smaller is farther.
-      if (depthBits != 0 && id != 0 && id != kOitBusy && depthBits < victimDepth) {
+      if (depthBits == 0 || id == 0 || id == kOitBusy) continue;
+      if (depthBits < victimDepth) {
+        secondDepth = victimDepth;
         victim = i;
         victimDepth = depthBits;
         victimId = id;
+      } else {
+        secondDepth = min(secondDepth, depthBits);
       }
     }
-    if (victim == kOitNoNode) return kOitNoNode; // nothing listed lies farther: this fragment is dropped
+    if (victim == kOitNoNode || victimDepth >= zBits) { // nothing listed lies farther: this fragment is dropped
+      if (victim != kOitNoNode && victimDepth > floorBits) atomicMax(heads.pixels[pixel].floorBits, victimDepth);
+      return kOitNoNode;
+    }
     if (atomicCompSwap(nodes.nodes[victim].id, victimId, kOitBusy) != victimId) continue; // taken: walk again
     memoryBarrierBuffer(); // the depth written by the node's last replacement is visible
-    if (nodes.nodes[victim].depthBits == victimDepth) return victim;
+    if (nodes.nodes[victim].depthBits == victimDepth) {
+      uint listed = min(secondDepth, zBits); // the farthest once this fragment replaced the victim
+      if (listed > floorBits) atomicMax(heads.pixels[pixel].floorBits, listed);
+      return victim;
+    }
     atomicExchange(nodes.nodes[victim].id, victimId); // replaced meanwhile (same id): unlock, walk again
   }
   return kOitNoNode;
@@ -71,25 +95,34 @@ void oitReplace(uint64_t nodeAddress, uint node, float z, uint id) {
   atomicExchange(nodes.nodes[node].id, id);
 }
 
-// Where a fragment of `pixel` at depth z goes under the pool rule: a fresh node from the counter
-// (which counts every attempt, so the excess is known), or past the pool its pixel's farthest node
+// Where a fragment goes: a fresh node (n, from the pool counter) or, past the pool (n >= capacity)
+// or past its pixel's cap (n = kOitNoNode: it asked for none), its pixel's farthest node
 // (oitClaimFarthest); node kOitNoNode: dropped. Write any payload indexed by the node, then oitCommit.
 struct OitSlot {
   uint node;
   bool fresh; // a new node, linked by oitCommit; else a listed node, rewritten in place
 };
-OitSlot oitAcquire(uint64_t counterAddress, uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel,
-                   float z) {
-  uint n = atomicAdd(OitCounterRef(counterAddress).counters.nodes, 1);
+OitSlot oitSlotOf(uint n, uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel, float z) {
   if (n < capacity) return OitSlot(n, true);
   return OitSlot(oitClaimFarthest(headAddress, nodeAddress, capacity, pixel, z), false);
 }
 
-// oitAcquire in two steps, one counter atomic per subgroup for many fragments (the blend queue: 8
+// A fragment of `pixel` at depth z counted, and placed: under its pixel's cap a node from the pool
+// counter (which counts every such attempt, so the excess is known), else oitSlotOf's rule.
+OitSlot oitAcquire(uint64_t counterAddress, uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel,
+                   float z) {
+  uint n = kOitNoNode;
+  if (oitCountFragment(headAddress, pixel) < MIRAGE_OIT_MAX_LAYERS)
+    n = atomicAdd(OitCounterRef(counterAddress).counters.nodes, 1);
+  return oitSlotOf(n, headAddress, nodeAddress, capacity, pixel, z);
+}
+
+// oitAcquire in steps, one counter atomic per subgroup for many fragments (the blend queue: 8
 // full-screen layers are 16.6 M fragments at 1080p, which would serialize on the one counter):
-// every invocation of the subgroup calls oitAllocateSubgroup with the subgroup's fragment count
-// (subgroup-uniform control flow) and gets the first node of the subgroup's run; each fragment's
-// node is then that plus its rank in the run, placed by oitSlotOf (past the pool: the farthest rule).
+// each fragment counted first (oitCountFragment: under the cap or not), then every invocation of
+// the subgroup calls oitAllocateSubgroup with the subgroup's count of fragments under their cap
+// (subgroup-uniform control flow) and gets the first node of the subgroup's run; each such
+// fragment's node is then that plus its rank in the run, the others' kOitNoNode, placed by oitSlotOf.
 uint oitAllocateSubgroup(uint64_t counterAddress, uint count) {
   uint base = 0;
   if (count != 0) { // uniform over the subgroup
@@ -97,10 +130,6 @@ uint oitAllocateSubgroup(uint64_t counterAddress, uint count) {
     base = subgroupBroadcastFirst(base); // the elected invocation is the first active one
   }
   return base;
-}
-OitSlot oitSlotOf(uint n, uint64_t headAddress, uint64_t nodeAddress, uint capacity, uint pixel, float z) {
-  if (n < capacity) return OitSlot(n, true);
-  return OitSlot(oitClaimFarthest(headAddress, nodeAddress, capacity, pixel, z), false);
 }
 
 // The fragment written into its slot: a fresh node linked onto the pixel's list, a claimed node
@@ -126,20 +155,21 @@ void oitCommit(uint64_t headAddress, uint64_t nodeAddress, uint pixel, OitSlot s
 uint64_t oitKeys[MIRAGE_OIT_LAYERS];
 
 struct OitPixel {
-  int count;    // keys kept
-  uint fragments; // in the list
-  uint dropped; // beyond the layer cap: the farthest, which blending "over" shows least
+  int count;      // keys kept
+  uint fragments; // of the pixel this frame (OitPixelHead::fragments), listed or not
+  uint dropped;   // listed beyond the layer cap: the farthest, which blending "over" shows least
 };
 
-// The list starting at `node` (its head) walked once, keeping the nearest MIRAGE_OIT_LAYERS sorted
-// by (depth, id) by insertion. At most `capacity` steps: a corrupt list cannot hang the pass. Each
+// The list of pixel `h` walked once from its head, keeping the nearest MIRAGE_OIT_LAYERS sorted by
+// (depth, id) by insertion. At most `capacity` steps: a corrupt list cannot hang the pass. Each
 // node read is zeroed, so the pool is all zero again for the next frame's overflow walks
 // (oitClaimFarthest), which must tell a node not written yet from a listed one.
-OitPixel oitGather(uint64_t nodeAddress, uint capacity, uint node) {
+OitPixel oitGather(uint64_t nodeAddress, uint capacity, OitPixelHead h) {
   for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = 0;
-  OitPixel p = OitPixel(0, 0, 0);
+  OitPixel p = OitPixel(0, h.fragments, 0);
   OitNodeRef nodes = OitNodeRef(nodeAddress);
-  for (; node != 0 && p.fragments < capacity; ++p.fragments) {
+  uint node = h.head;
+  for (uint steps = 0; node != 0 && steps < capacity; ++steps) {
     uint index = min(node - 1, capacity - 1);
     OitNode n = nodes.nodes[index];
     nodes.nodes[index] = OitNode(0u, 0u, 0u);
@@ -160,20 +190,23 @@ OitPixel oitGather(uint64_t nodeAddress, uint capacity, uint node) {
   return p;
 }
 
-// A resolved pixel's share of the frame's counters (layers dropped, covered pixels, squared list
-// length for Mean Squared Layers), summed over the subgroup first: one atomic per counter and
-// subgroup rather than per pixel. Lists of 4096+ fragments (squares past 24 bits, whose subgroup
-// sum could wrap) add their own 64-bit square. Call from every pixel with a non-empty list.
+// A resolved pixel's share of the frame's counters (listed layers dropped, fragments past the cap,
+// covered pixels, squared fragment count for Mean Squared Layers: the exact count, not the capped
+// list's length), summed over the subgroup first: one atomic per counter and subgroup rather than
+// per pixel. Pixels of 4096+ fragments (squares past 24 bits, whose subgroup sum could wrap) add
+// their own 64-bit square. Call from every pixel with a fragment.
 void oitCountPixel(uint64_t counterAddress, OitPixel p) {
   bool long_ = p.fragments >= 4096u;
   uint square = long_ ? 0u : p.fragments * p.fragments;
   uint squares = subgroupAdd(square);
   uint dropped = subgroupAdd(p.dropped);
+  uint pastCap = subgroupAdd(p.fragments - min(p.fragments, uint(MIRAGE_OIT_MAX_LAYERS)));
   uint covered = subgroupAdd(1u);
   OitCounterRef c = OitCounterRef(counterAddress);
   if (subgroupElect()) {
     atomicAdd(c.counters.coveredPixels, covered);
     if (dropped != 0) atomicAdd(c.counters.layersDropped, dropped);
+    if (pastCap != 0) atomicAdd(c.counters.capDropped, pastCap);
     uint old = atomicAdd(c.counters.squaredLayersLo, squares);
     if (old + squares < old) atomicAdd(c.counters.squaredLayersHi, 1u); // carry
   }

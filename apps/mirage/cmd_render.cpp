@@ -167,9 +167,9 @@ void runForwardRender(const RenderOptions& o) {
     fmt::print("draw calls {}  input primitives {}  fragment invocations {}\n", fw.stats.drawCalls,
                fw.stats.pipeline.inputPrimitives, fw.stats.pipeline.fragmentInvocations);
     const render::OitStats& oit = fw.stats.oit;
-    fmt::print("oit {}: fragments {}  msl {:.3f}  oit_dropped {} (pool {}, layers {})\n",
+    fmt::print("oit {}: fragments {}  msl {:.3f}  oit_dropped {} (pool {}, cap {}, layers {})\n",
                render::toString(view.config.oit), oit.fragments, oit.msl, oit.dropped(), oit.poolOverflow,
-               oit.layersDropped);
+               oit.capDropped, oit.layersDropped);
   }
 }
 

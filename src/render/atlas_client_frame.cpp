@@ -57,8 +57,9 @@ void AtlasClientRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t n
   retired.retire(std::move(oitNodes), inFlight());
   retired.retire(std::move(oitColors), inFlight());
   uint64_t pixels = uint64_t(w) * h;
-  oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                          MemoryUsage::GpuOnly, "oit heads");
+  oitHeads = createBuffer(ctx, pixels * sizeof(sio::OitPixelHead),
+                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                          "oit heads");
   oitNodeCapacity = uint32_t(std::min<uint64_t>(
       {pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode), uint64_t(UINT32_MAX) - 1}));
   oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),

@@ -332,7 +332,7 @@ ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
   OitStats oit = oitStats(c.oit, oitNodeCapacity);
   st.oitFragments = oit.fragments;
   st.oitPoolOverflow = oit.poolOverflow;
-  st.oitLayersDropped = oit.layersDropped;
+  st.oitLayersDropped = oit.capDropped + oit.layersDropped;
   st.msl = oit.msl;
   st.clustersHardware = c.clustersHardware;
   st.trianglesNearClipped = c.trianglesNearClipped;

@@ -214,7 +214,7 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
 
 // The transparency lists' heads at the target size (both eyes in stereo; the caller retired the old).
 void ClusterRenderer::Impl::createOitHeads() {
-  oitHeads = createBuffer(ctx, uint64_t(colorWidth) * height * 4,
+  oitHeads = createBuffer(ctx, uint64_t(colorWidth) * height * sizeof(sio::OitPixelHead),
                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
                           "transparency heads");
 }

@@ -119,8 +119,9 @@ void ForwardRenderer::Impl::ensureOitTargets(uint32_t nodesPerPixel) {
   retired.retire(std::move(oitNodes), inFlight());
   retired.retire(std::move(oitColors), inFlight());
   uint64_t pixels = uint64_t(colorWidth) * height;
-  oitHeads = createBuffer(ctx, pixels * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                          MemoryUsage::GpuOnly, "oit heads");
+  oitHeads = createBuffer(ctx, pixels * sizeof(sio::OitPixelHead),
+                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
+                          "oit heads");
   oitNodeCapacity = uint32_t(
       std::min<uint64_t>({pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / 12, uint64_t(UINT32_MAX) - 1}));
   oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),

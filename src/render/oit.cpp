@@ -8,8 +8,9 @@ Result<OitMode> parseOitMode(std::string_view text) { return parseNamed(text, "-
 
 OitStats oitStats(const shaderio::OitCounters& c, uint32_t nodeCapacity) {
   OitStats s;
-  s.fragments = c.nodes;
+  s.fragments = c.nodes + c.capDropped;
   s.poolOverflow = c.nodes > nodeCapacity ? c.nodes - nodeCapacity : 0;
+  s.capDropped = c.capDropped;
   s.layersDropped = c.layersDropped;
   s.coveredPixels = c.coveredPixels;
   uint64_t squares = uint64_t(c.squaredLayersHi) << 32 | c.squaredLayersLo;

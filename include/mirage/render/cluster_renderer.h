@@ -204,8 +204,10 @@ struct ClusterStats {
   uint32_t blendQueueTiles = 0;          // their 8 x 8 pixel tiles
   uint32_t blendQueueOverflow = 0;       // large ones past the queue's capacity (walked by their cluster)
   uint32_t oitFragments = 0;             // blended fragments in front of the opaque depth
-  uint32_t oitPoolOverflow = 0;          // blended fragments past the node pool (each drops its pixel's farthest)
-  uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped)
+  uint32_t oitPoolOverflow = 0;          // fragments under their pixel's cap past the node pool (each drops its
+                                         // pixel's farthest)
+  uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped):
+                                         // past the per-pixel cap at append, or listed past it at the composite
   double msl = 0.0;                      // Mean Squared Layers of the transparency lists (render/oit.h)
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
   uint32_t instancesPvsCulled = 0;       // cell PVS: instances in the frustum with no visible cluster

@@ -22,13 +22,17 @@ const char* toString(OitMode mode);
 Result<OitMode> parseOitMode(std::string_view text);
 
 // One frame's transparency counters (zero without blended geometry or outside linked-list mode).
+// Every fragment lost is counted once, in one of three parts (dropped()): past the pool, past its
+// pixel's cap (both at append: each loses its pixel's farthest, itself or one it replaces), or
+// listed beyond the resolve's layers (zero while the resolve keeps as many as the cap).
 struct OitStats {
-  uint32_t fragments = 0;     // blended fragments in front of the opaque depth (appended)
-  uint32_t poolOverflow = 0;  // of those, beyond the node pool (dropped as they came)
-  uint32_t layersDropped = 0; // beyond the layer cap of their pixel (its farthest, dropped)
+  uint32_t fragments = 0;     // blended fragments in front of the opaque depth
+  uint32_t poolOverflow = 0;  // of those under their pixel's cap, beyond the node pool
+  uint32_t capDropped = 0;    // past their pixel's MIRAGE_OIT_MAX_LAYERS (took no node)
+  uint32_t layersDropped = 0; // listed beyond the resolve's layer cap of their pixel (its farthest)
   uint32_t coveredPixels = 0; // pixels with at least one fragment
-  double msl = 0.0;           // Mean Squared Layers: squared list length averaged over covered pixels
-  uint64_t dropped() const { return uint64_t(poolOverflow) + layersDropped; }
+  double msl = 0.0;           // Mean Squared Layers: squared fragment count averaged over covered pixels
+  uint64_t dropped() const { return uint64_t(poolOverflow) + capDropped + layersDropped; }
 };
 OitStats oitStats(const shaderio::OitCounters& counters, uint32_t nodeCapacity);
 

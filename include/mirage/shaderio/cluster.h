@@ -239,7 +239,7 @@ struct ClusterFrame {
   // Alpha BLEND (docs/render.md, "Alpha"): the blend clusters' own list, and the per-pixel linked
   // lists of their fragments (head per pixel: node index + 1, 0 = empty). 0 without blend materials.
   uint64_t blendVisibleAddress; // VisibleCluster[]
-  uint64_t oitHeadAddress;      // uint[] per pixel
+  uint64_t oitHeadAddress;      // OitPixelHead[] per pixel
   uint64_t oitNodeAddress;      // OitNode[]
   uint blendCapacity;           // entries of the blend list
   uint oitNodeCapacity;         // nodes in the pool

@@ -16,11 +16,25 @@ using uint = uint32_t;
 // The forward renderer's exact mode (--oit sorted) keeps this many instead.
 #define MIRAGE_OIT_SORTED_LAYERS 64
 
-// Pool overflow (oit_list.glsl, oitClaimFarthest): a fragment arriving once the pool is full
-// walks at most this many nodes of its pixel's list for one farther than itself to replace, and
-// walks again at most this many times when another fragment took that node first.
+// Pool overflow and the per-pixel cap (oit_list.glsl, oitClaimFarthest): a fragment arriving once
+// the pool is full, or once its pixel holds MIRAGE_OIT_MAX_LAYERS, walks at most this many nodes
+// of its pixel's list (which the cap keeps at most MIRAGE_OIT_MAX_LAYERS long) for one farther than
+// itself to replace, and walks again at most this many times when another fragment took that node
+// first.
 #define MIRAGE_OIT_REPLACE_STEPS 64
 #define MIRAGE_OIT_REPLACE_TRIES 4
+
+// One pixel's list (the heads buffer holds one per pixel, zeroed at the frame start). Only the
+// first MIRAGE_OIT_MAX_LAYERS fragments of a pixel take nodes from the pool, so a few pixels under
+// thousands of fragments cannot starve the rest of the screen; later ones replace the farthest
+// listed (the resolve keeps the nearest MIRAGE_OIT_MAX_LAYERS anyway, so where no pixel passes the
+// cap nothing changes). `floorBits` lets most of them go with one load instead of a walk.
+struct OitPixelHead {
+  uint head;      // node index + 1 of the last appended fragment, 0 = empty
+  uint fragments; // every fragment of the pixel this frame (its rank when appended): the cap, MSL
+  uint floorBits; // depth bits no farther than the pixel's farthest listed fragment once it is full
+                  // (raised by atomicMax after a walk): a fragment at or beyond it is dropped unwalked
+};
 
 // One blended fragment of a pixel's list: its depth and a non-zero 32-bit id (cluster renderer:
 // visibility id, shaded by the composite, or a particle's node index + 1 | MIRAGE_OIT_COLOR_ID_TAG;
@@ -34,14 +48,17 @@ struct OitNode {
 };
 
 // Counters of one frame's lists, zeroed at the frame start. Mean Squared Layers (the seed's
-// transparency cost metric) = squaredLayers / coveredPixels, squaredLayers = hi << 32 | lo.
+// transparency cost metric) = squaredLayers / coveredPixels, squaredLayers = hi << 32 | lo. Every
+// fragment either asked the pool for a node (nodes) or came past its pixel's cap (capDropped), so
+// the frame's fragments are nodes + capDropped; each one past the pool or past the cap lost one
+// fragment (itself, or the farthest listed one it replaced).
 struct OitCounters {
-  uint nodes;           // fragments appended (may exceed the pool: each one past it drops one fragment)
-  uint layersDropped;   // resolve: fragments beyond its layer cap (the farthest of a pixel)
-  uint coveredPixels;   // resolve: pixels with a non-empty list
-  uint squaredLayersLo; // resolve: sum over pixels of (list length)^2, 64 bits with carry
+  uint nodes;           // fragments under their pixel's cap that asked for a node (may exceed the pool)
+  uint layersDropped;   // resolve: listed fragments beyond its layer cap (the farthest of a pixel)
+  uint coveredPixels;   // resolve: pixels with at least one fragment
+  uint squaredLayersLo; // resolve: sum over pixels of (fragments)^2, 64 bits with carry
   uint squaredLayersHi;
-  uint pad0;
+  uint capDropped; // resolve: fragments past their pixel's MIRAGE_OIT_MAX_LAYERS (took no node)
 };
 
 // Marks an id naming a node whose shaded colour is stored beside the pool (OitLists::colorAddress)
@@ -56,7 +73,7 @@ struct OitCounters {
 // heads per pixel of a rowPixels-wide target, the pool, and beside each node its colour (uvec2:
 // packHalf2x16 of rg, of ba).
 struct OitLists {
-  uint64_t headAddress;    // uint[] per pixel: node index + 1, 0 = empty
+  uint64_t headAddress;    // OitPixelHead[] per pixel
   uint64_t nodeAddress;    // OitNode[nodeCapacity]
   uint64_t colorAddress;   // uvec2[nodeCapacity]
   uint64_t counterAddress; // OitCounters
@@ -69,6 +86,7 @@ struct OitLists {
 #ifdef __cplusplus
 static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(OitCounters) == 24, "OitCounters layout");
+static_assert(sizeof(OitPixelHead) == 12, "OitPixelHead layout");
 static_assert(sizeof(OitLists) == 48, "OitLists layout");
 static_assert((MIRAGE_OIT_COLOR_ID_TAG | (UINT32_MAX / sizeof(OitNode) + 1)) < UINT32_MAX,
               "a tagged node id never equals the overflow walk's lock value");
