@@ -256,7 +256,8 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const LodWriteOp
   PageConfig pageConfig = options.pages;
   pageConfig.positionBits = options.dag.positionBits;
   for (size_t i = 0; i < a.dags.size() && options.paged; ++i) {
-    // Level 9: the CDAG chunk's level for large meshes, each page compressed on its own.
+    // Level 9, the CDAG chunk's level for large meshes: on the dragon's pages 19 saves 4.4 % (15.40
+    // -> 14.72 MB file) for 1.2 s more write time (one thread).
     auto payload = encodePagedChunk(a.dags[i], pageConfig, 9);
     if (!payload)
       return makeError(path, "mesh " + std::to_string(i) + ": paged cluster DAG: " + payload.error().message);
