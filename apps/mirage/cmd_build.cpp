@@ -111,9 +111,10 @@ void runVerify(const VerifyOptions& o) {
   auto a = lod::loadLodAsset(o.input);
   if (!a) return fail(a.error());
   double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  // A paged file's load read and checked every page (checksums, page decoder, reassembly).
+  // A paged file's load read and checked every page (checksums, page decoder, reassembly); a file
+  // with CDAG chunks is loaded from those.
   uint64_t pagesChecked = 0;
-  if (auto reader = asset::AssetReader::open(o.input))
+  if (auto reader = asset::AssetReader::open(o.input); reader && !reader->find(asset::chunk::ClusterDag))
     if (auto paged = lod::openPagedMeshes(*reader))
       for (const lod::PagedMesh& m : *paged) pagesChecked += m.table.pages.size();
   std::mt19937 rng(o.seed);
