@@ -31,6 +31,8 @@ q build gen:blob:2 -o "$tmp/lod.mrg" --quiet
 # A SCEN with a material file's fields and point lights (build --materials bakes them in).
 printf '[[material]]\nname = "m"\nmodel = "blinn-phong"\nglossiness = 0.7\n[[assign]]\nmesh = "*"\nuse = "m"\n[[light]]\nposition = [0, 2, 0]\n' >"$tmp/m.toml"
 q build gen:blob:1 -o "$tmp/lod_materials.mrg" --materials "$tmp/m.toml" --quiet
+# Paged DAGs (CPAG, several pages): the paged loader, page decoder and reassembly.
+q build gen:blob:2 -o "$tmp/lod_paged.mrg" --page-size 4KB --quiet
 q surfels gen:blob:1 -o "$tmp/surfels.mrg" --count 32 --resolution 32 --views 4 --quiet
 # Several SURF blocks (256, 256, 88 surfels): the progressive decoder's multi-block paths.
 q surfels gen:blob:1 -o "$tmp/surfels_blocks.mrg" --count 600 --resolution 32 --views 4 --surfel-blocks 256:256 --quiet

@@ -14,6 +14,7 @@
 #include "mirage/io/import.h"
 #include "mirage/shading/material_file.h"
 #include "mirage/lod/lod_asset.h"
+#include "mirage/lod/paged_asset.h"
 #include "mirage/surfels/point_cloud.h"
 #include "mirage/surfels/surfel_io.h"
 #include "mirage/visibility/pvs_storage.h"
@@ -59,6 +60,7 @@ const char* chunkMeaning(const std::string& type) {
   if (type == asset::chunk::Scene.str()) return "scene: instances, materials, textures";
   if (type == asset::chunk::Mesh.str()) return "mesh geometry";
   if (type == asset::chunk::ClusterDag.str()) return "cluster-LOD DAG, one per mesh";
+  if (type == asset::chunk::ClusterPages.str()) return "paged cluster-LOD DAG, one per mesh";
   if (type == asset::chunk::SourceMap.str()) return "source triangle -> level-0 cluster map";
   if (type == asset::chunk::Surfels.str()) return "surfel cloud";
   if (type == asset::chunk::Visibility.str()) return "potentially visible sets";
@@ -117,6 +119,36 @@ bool describeLod(const std::string& path, nlohmann::json& j, bool json) {
     printMaterialList(materialList(a->scene, a->scene.source, true));
     fmt::print("  point lights {}\n", a->scene.lights.size());
   }
+  return true;
+}
+
+// Paged DAGs, from their chunk indices alone (describeLod has read and checked every page): pages,
+// root pages, index (page table) bytes, and the stored page sizes.
+bool describePages(const asset::AssetReader& reader, nlohmann::json& j, bool json) {
+  auto meshes = lod::openPagedMeshes(reader);
+  if (!meshes) return fail(meshes.error()), false;
+  uint64_t pages = 0, rootPages = 0, tableBytes = 0;
+  std::vector<uint64_t> sizes;
+  for (const lod::PagedMesh& m : *meshes) {
+    pages += m.table.pages.size();
+    rootPages += m.table.rootPageCount;
+    tableBytes += m.blocks.indexBytes;
+    for (const asset::BlockInfo& b : m.blocks.blocks) sizes.push_back(b.storedBytes);
+  }
+  std::sort(sizes.begin(), sizes.end());
+  uint64_t smallest = sizes.empty() ? 0 : sizes.front(), median = sizes.empty() ? 0 : sizes[sizes.size() / 2],
+           largest = sizes.empty() ? 0 : sizes.back();
+  if (json) {
+    j["pages"] = {{"meshes", meshes->size()},   {"pages", pages},
+                  {"root_pages", rootPages},    {"table_bytes", tableBytes},
+                  {"page_bytes_min", smallest}, {"page_bytes_median", median},
+                  {"page_bytes_max", largest}};
+    return true;
+  }
+  fmt::print("  pages: {} in {} paged meshes ({} root pages, always resident); tables {} bytes; page stored bytes "
+             "min {} median {} max {}\n",
+             grouped(pages), meshes->size(), rootPages, grouped(tableBytes), grouped(smallest), grouped(median),
+             grouped(largest));
   return true;
 }
 
@@ -232,8 +264,9 @@ void infoMrg(const std::string& path, bool json) {
   std::vector<ChunkKind> kinds = chunkKinds(*reader);
   auto has = [&](asset::FourCC t) { return reader->find(t).has_value(); };
   std::vector<std::string> holds;
-  if (has(asset::chunk::ClusterDag)) holds.push_back("cluster-LOD asset");
-  if (!has(asset::chunk::ClusterDag) && has(asset::chunk::Scene)) holds.push_back("scene");
+  bool lodAsset = has(asset::chunk::ClusterDag) || has(asset::chunk::ClusterPages);
+  if (lodAsset) holds.push_back(has(asset::chunk::ClusterDag) ? "cluster-LOD asset" : "paged cluster-LOD asset");
+  if (!lodAsset && has(asset::chunk::Scene)) holds.push_back("scene");
   if (has(asset::chunk::Surfels)) holds.push_back("surfels");
   if (has(asset::chunk::Visibility)) holds.push_back("PVS");
   std::string what = holds.empty() ? "no chunk this build describes" : fmt::format("{}", fmt::join(holds, " + "));
@@ -263,8 +296,9 @@ void infoMrg(const std::string& path, bool json) {
                  level, grouped(k.rawBytes), chunkMeaning(k.type));
     }
   }
-  if (has(asset::chunk::ClusterDag) && !describeLod(path, j, json)) return;
-  if (!has(asset::chunk::ClusterDag) && has(asset::chunk::Scene) && !describeScene(*reader, path, j, json)) return;
+  if (lodAsset && !describeLod(path, j, json)) return;
+  if (has(asset::chunk::ClusterPages) && !describePages(*reader, j, json)) return;
+  if (!lodAsset && has(asset::chunk::Scene) && !describeScene(*reader, path, j, json)) return;
   if (has(asset::chunk::Surfels) && !describeSurfels(*reader, path, j, json)) return;
   if (has(asset::chunk::Visibility) && !describePvs(path, j, json)) return;
   if (json) fmt::print("{}\n", j.dump(2));

@@ -43,7 +43,7 @@ BuildSummary summarize(const lod::LodAsset& a, const std::string& path) {
     if (auto reader = asset::AssetReader::open(path)) {
       s.fileBytes = reader->fileBytes();
       for (const asset::ChunkInfo& c : reader->chunks())
-        if (c.type == asset::chunk::ClusterDag)
+        if (c.type == asset::chunk::ClusterDag || c.type == asset::chunk::ClusterPages)
           s.dagBytes += c.storedBytes;
         else if (c.type == asset::chunk::SourceMap)
           s.sourceMapBytes += c.storedBytes;
@@ -125,8 +125,9 @@ void printSummary(const BuildSummary& s) {
              s.inputTriangles ? 100.0 * double(s.rootTriangles) / double(s.inputTriangles) : 0.0);
   if (s.fileBytes) {
     double n = s.inputTriangles ? double(s.inputTriangles) : 1.0;
-    fmt::print("  geometry (CDAG chunks): {} bytes = {:.2f} bytes per input triangle; whole file {} bytes = {:.2f}\n",
-               s.dagBytes, double(s.dagBytes) / n, s.fileBytes, double(s.fileBytes) / n);
+    fmt::print(
+        "  geometry (CDAG or CPAG chunks): {} bytes = {:.2f} bytes per input triangle; whole file {} bytes = {:.2f}\n",
+        s.dagBytes, double(s.dagBytes) / n, s.fileBytes, double(s.fileBytes) / n);
     fmt::print("  source-triangle map (TMAP chunk, for cluster PVS): {} bytes = {:.2f} bytes per input triangle\n",
                s.sourceMapBytes, double(s.sourceMapBytes) / n);
   }

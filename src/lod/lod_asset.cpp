@@ -12,6 +12,7 @@
 #include "mirage/asset/bytes.h"
 #include "mirage/asset/container.h"
 #include "mirage/asset/scene_chunk.h"
+#include "mirage/lod/paged_asset.h"
 
 namespace mirage::lod {
 
@@ -195,6 +196,15 @@ Result<LodAsset> readLodAsset(const asset::AssetReader& reader, const std::strin
       a.metaJson.assign(bytes->begin(), bytes->end());
     }
   }
+  if (a.dags.empty()) { // a paged file: every page read, checked and reassembled
+    auto paged = openPagedMeshes(reader);
+    if (!paged) return paged.error();
+    for (const PagedMesh& mesh : *paged) {
+      auto dag = readPagedDag(reader, mesh);
+      if (!dag) return dag.error();
+      a.dags.push_back(std::move(dag).value());
+    }
+  }
   if (a.dags.empty()) return makeError(path, "no cluster DAG chunk (not built with mirage build?)");
   if (a.dags.size() != a.scene.meshes.size())
     return makeError(path, std::to_string(a.dags.size()) + " cluster DAGs for " +
@@ -211,10 +221,18 @@ Result<LodAsset> readLodAsset(const asset::AssetReader& reader, const std::strin
 
 // What a reader of the written file gets is what was baked: the same counts and topology
 // (positions moved only within the grid's slack, which decodeDag accounts for).
-std::string readBackDifference(const LodAsset& written, const LodAsset& read) {
+// A paged DAG numbers its vertices anew (reassemblePagedDag): the same clusters, links and indices.
+std::string readBackDifference(const LodAsset& written, const LodAsset& read, bool paged) {
   if (read.dags.size() != written.dags.size()) return "mesh count differs";
   for (size_t i = 0; i < written.dags.size(); ++i) {
     const ClusterDag &a = written.dags[i], &b = read.dags[i];
+    if (paged) {
+      if (a.clusters.size() != b.clusters.size() || a.clusterIndices != b.clusterIndices ||
+          a.groupChildren != b.groupChildren || a.groupParents != b.groupParents || a.roots != b.roots ||
+          a.normals.empty() != b.normals.empty() || a.uv0.empty() != b.uv0.empty())
+        return "mesh " + std::to_string(i) + "'s paged cluster DAG decodes differently";
+      continue;
+    }
     if (a.positions.size() != b.positions.size() || a.vertexPosition != b.vertexPosition ||
         a.clusters.size() != b.clusters.size() || a.clusterVertices != b.clusterVertices ||
         a.clusterIndices != b.clusterIndices || a.groups.size() != b.groups.size() ||
@@ -228,15 +246,25 @@ std::string readBackDifference(const LodAsset& written, const LodAsset& read) {
 
 } // namespace
 
-Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeOptions& options) {
+Status saveLodAsset(const std::string& path, const LodAsset& a, const LodWriteOptions& options) {
   if (a.dags.size() != a.scene.meshes.size()) return makeError(path, "one DAG per mesh required");
   if (Status s = asset::validateScene(a.scene, path); !s) return s;
   asset::AssetWriter w;
   std::vector<uint8_t> sceneBytes = asset::encodeScene(a.scene);
   w.addChunk(asset::chunk::Scene, sceneBytes);
   std::vector<std::vector<uint8_t>> dagBytes(a.dags.size());
-  for (size_t i = 0; i < a.dags.size(); ++i) {
-    dagBytes[i] = encodeDag(a.dags[i], options);
+  PageConfig pageConfig = options.pages;
+  pageConfig.positionBits = options.dag.positionBits;
+  for (size_t i = 0; i < a.dags.size() && options.paged; ++i) {
+    // Level 9, the CDAG chunk's level for large meshes: on the dragon's pages 19 saves 4.4 % (15.40
+    // -> 14.72 MB file) for 1.2 s more write time (one thread).
+    auto payload = encodePagedChunk(a.dags[i], pageConfig, 9);
+    if (!payload)
+      return makeError(path, "mesh " + std::to_string(i) + ": paged cluster DAG: " + payload.error().message);
+    w.addBlockedChunk(asset::chunk::ClusterPages, std::move(payload).value(), 9);
+  }
+  for (size_t i = 0; i < a.dags.size() && !options.paged; ++i) {
+    dagBytes[i] = encodeDag(a.dags[i], options.dag);
     // Measured on the dragon's chunk (13 MB raw): level 3 -> 12.82 B/triangle in 0.06 s, 9 -> 12.19
     // in 0.29 s, 19 -> 11.82 in 4.8 s (2.8 MB/s: ~2 minutes for a 21 M-triangle mesh). Level 19 only
     // where it costs at most about a second; decoding speed is the same.
@@ -256,7 +284,7 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const DagEncodeO
   return w.write(path, [&](const std::string& tempPath) -> Status {
     auto reader = asset::AssetReader::open(tempPath);
     Result<LodAsset> read = reader ? readLodAsset(*reader, path) : Result<LodAsset>(reader.error());
-    std::string problem = read ? readBackDifference(a, *read) : read.error().message;
+    std::string problem = read ? readBackDifference(a, *read, options.paged) : read.error().message;
     if (problem.empty()) return Ok{};
     if (problem.starts_with(path + ": ")) problem.erase(0, path.size() + 2); // named once, in front
     return makeError(path, "the written file does not read back (" + problem + "); nothing written");

@@ -9,6 +9,7 @@
 //   'SCEN' scene: meshes, materials, embedded RGBA8 textures, instances (scene_chunk.h)
 //   'MESH' mesh geometry
 //   'CDAG' cluster DAG (opaque bytes written by the LOD module)
+//   'CPAG' paged cluster DAG (blocked; page table in the index, one block per page: LOD module)
 //   'SURF' surfels
 //   'PVS ' potentially visible sets
 //   'META' JSON metadata (format version, counts; for tools and humans)
@@ -42,7 +43,8 @@ namespace chunk {
 inline constexpr FourCC Scene{"SCEN"};
 inline constexpr FourCC Mesh{"MESH"};
 inline constexpr FourCC ClusterDag{"CDAG"};
-inline constexpr FourCC SourceMap{"TMAP"}; // cluster-LOD asset: source triangle -> level-0 cluster
+inline constexpr FourCC ClusterPages{"CPAG"}; // paged cluster DAG, blocked: block p = page p
+inline constexpr FourCC SourceMap{"TMAP"};    // cluster-LOD asset: source triangle -> level-0 cluster
 inline constexpr FourCC Surfels{"SURF"};
 inline constexpr FourCC Visibility{"PVS "};
 inline constexpr FourCC Meta{"META"};
