@@ -227,6 +227,8 @@ struct ClusterRenderer::Impl {
                    uint32_t rasterList);
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
+  // cluster_oit_composite.comp specialized by the scene's maps and MIRAGE_OIT_COMPOSITE (oitCompositeVariant).
+  void createCompositePipeline();
   bool hasBlend() const { return blendCapacity > 0; }
   // Hybrid's hardware list through mesh shaders (else indirect draws): where the device has them,
   // and with multiview stereo only where they have multiview (cluster_frame.cpp, resolveStereoMode).

@@ -3,10 +3,44 @@
 #include "cluster_impl.h"
 #include "mirage/gpu/commands.h"
 
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string_view>
+
 namespace mirage::render {
 
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
+
+// The composite's variant, MIRAGE_OIT_COMPOSITE_* bits, from the environment variable
+// MIRAGE_OIT_COMPOSITE: comma-separated `registers` (keys sorted in registers), `lean` (derivative
+// rays only for textured materials); unset or `list`: the keys in a local array, full shading. Every
+// variant gives the same image; the choice is for measuring them in one binary (docs/render.md).
+static uint32_t oitCompositeVariant() {
+  const char* env = std::getenv("MIRAGE_OIT_COMPOSITE");
+  uint32_t bits = 0;
+  for (std::string_view rest = env ? env : ""; !rest.empty();) {
+    size_t comma = rest.find(',');
+    std::string_view name = rest.substr(0, comma);
+    rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+    if (name == "registers")
+      bits |= MIRAGE_OIT_COMPOSITE_REGISTERS;
+    else if (name == "lean")
+      bits |= MIRAGE_OIT_COMPOSITE_LEAN;
+    else if (name != "list" && !name.empty())
+      std::fprintf(stderr, "MIRAGE_OIT_COMPOSITE: unknown variant '%.*s' ignored (list, registers, lean)\n",
+                   int(name.size()), name.data());
+  }
+  return bits;
+}
+
+void ClusterRenderer::Impl::createCompositePipeline() {
+  std::vector<uint32_t> specialization = scene.resolveSpecialization; // shading.glsl's maps (constant_id 4)
+  specialization.resize(std::max<size_t>(specialization.size(), 1));
+  specialization[0] = oitCompositeVariant();
+  compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout, specialization);
+}
 
 VkPipeline ClusterRenderer::Impl::blendHardwarePipeline(bool mesh) {
   Unique<VkPipeline>& pipeline = mesh ? blendMeshPipeline : blendIndirectPipeline;

@@ -73,7 +73,7 @@ void ClusterRenderer::Impl::createPipelines() {
   if (scene.blendInstancedClusters > 0) {
     blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
     blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kStereo);
-    compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+    createCompositePipeline();
     // The blend queue takes a triangle's slot and first tile with a 64-bit compare-and-swap.
     if (caps.int64BufferAtomics) blendQueuePipeline = createComputePipeline(ctx, "cluster_blend_queue.comp", layout);
   }
