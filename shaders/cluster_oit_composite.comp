@@ -65,7 +65,7 @@ void main() {
     uint ids[MIRAGE_OIT_MAX_LAYERS];
     [[unroll]] for (int i = 0; i < MIRAGE_OIT_MAX_LAYERS; ++i) ids[i] = uint(keys[i] & 0xffffffffUL);
     // Popped from the front (constant indices: the ids stay in registers); the empty slots come first.
-    for (int k = 0; k < MIRAGE_OIT_MAX_LAYERS; ++k) {
+    [[dont_unroll]] for (int k = 0; k < MIRAGE_OIT_MAX_LAYERS; ++k) { // one shading body, not 16
       uint id = ids[0];
       [[unroll]] for (int i = 0; i < MIRAGE_OIT_MAX_LAYERS - 1; ++i) ids[i] = ids[i + 1];
       ids[MIRAGE_OIT_MAX_LAYERS - 1] = 0u;

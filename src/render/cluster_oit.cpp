@@ -15,9 +15,10 @@ namespace sio = mirage::shaderio;
 
 // The composite's variant, MIRAGE_OIT_COMPOSITE_* bits, from the environment variable
 // MIRAGE_OIT_COMPOSITE: comma-separated `registers` (keys sorted in registers), `lean` (derivative
-// rays only for textured materials); unset or `list`: the keys in a local array, full shading. Every
-// variant gives the same image; the choice is for measuring them in one binary (docs/render.md).
-static uint32_t oitCompositeVariant() {
+// rays only for textured materials), `shaded` (the compute blend rasters shade each fragment and
+// store its colour beside the node); unset or `list`: the keys in a local array, every fragment
+// shaded by the composite. The choice is for measuring them in one binary (docs/render.md).
+uint32_t oitCompositeVariant() {
   const char* env = std::getenv("MIRAGE_OIT_COMPOSITE");
   uint32_t bits = 0;
   for (std::string_view rest = env ? env : ""; !rest.empty();) {
@@ -28,6 +29,8 @@ static uint32_t oitCompositeVariant() {
       bits |= MIRAGE_OIT_COMPOSITE_REGISTERS;
     else if (name == "lean")
       bits |= MIRAGE_OIT_COMPOSITE_LEAN;
+    else if (name == "shaded")
+      bits |= MIRAGE_OIT_COMPOSITE_SHADED;
     else if (name != "list" && !name.empty())
       std::fprintf(stderr, "MIRAGE_OIT_COMPOSITE: unknown variant '%.*s' ignored (list, registers, lean)\n",
                    int(name.size()), name.data());
@@ -38,7 +41,7 @@ static uint32_t oitCompositeVariant() {
 void ClusterRenderer::Impl::createCompositePipeline() {
   std::vector<uint32_t> specialization = scene.resolveSpecialization; // shading.glsl's maps (constant_id 4)
   specialization.resize(std::max<size_t>(specialization.size(), 1));
-  specialization[0] = oitCompositeVariant();
+  specialization[0] = compositeVariant;
   compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout, specialization);
 }
 

@@ -25,6 +25,7 @@ namespace mirage::shaderio {
 // cluster_oit_composite.comp's variant (specialization constant 0; ClusterRenderSettings::oitComposite):
 #define MIRAGE_OIT_COMPOSITE_REGISTERS 1u // the kept keys sorted in registers (min / max network), not a local array
 #define MIRAGE_OIT_COMPOSITE_LEAN 2u      // derivative rays cast only for materials that sample a texture
+#define MIRAGE_OIT_COMPOSITE_SHADED 4u    // the compute blend rasters shade, the colour stored beside the node
 // Mesh/compute-raster dispatches split the visible clusters over x and y: x stays under the
 // guaranteed maxMeshWorkGroupCount / maxComputeWorkGroupCount of 65535.
 #define MIRAGE_CLUSTER_DISPATCH_X 65535
