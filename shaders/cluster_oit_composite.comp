@@ -24,6 +24,9 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 layout(constant_id = 0) const uint kComposite = 0u; // MIRAGE_OIT_COMPOSITE_* bits
 const bool kRegisters = (kComposite & MIRAGE_OIT_COMPOSITE_REGISTERS) != 0u;
 const bool kLean = (kComposite & MIRAGE_OIT_COMPOSITE_LEAN) != 0u;
+// Frames whose fragments all carry a stored colour (particles alone, or the compute blend rasters
+// under MIRAGE_OIT_COMPOSITE_SHADED) take a variant without the shading code: fewer registers.
+const bool kStoredOnly = (kComposite & MIRAGE_OIT_COMPOSITE_STORED) != 0u;
 
 layout(set = 0, binding = 2, rgba16f) uniform image2D colorImage;
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer OitStoredColorRef { uvec2 colors[]; };
@@ -32,7 +35,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // The colour and alpha of the fragment with list id `id` at pixel px (within the eye): a particle's
 // stored colour (tagged id: node + 1 | tag), or triangle (id & 127) of blend-list entry (id >> 7) - 1 shaded.
 vec4 fragmentColor(ClusterFrame f, uint id, ivec2 px) {
-  bool stored = (id & MIRAGE_OIT_COLOR_ID_TAG) != 0u;
+  bool stored = kStoredOnly || (id & MIRAGE_OIT_COLOR_ID_TAG) != 0u;
   // Indices valid on both sides (lavapipe loads for lanes of the untaken branch too).
   uint node = min(max(id & ~MIRAGE_OIT_COLOR_ID_TAG, 1u) - 1u, f.oitNodeCapacity - 1u); // id: node + 1 | tag
   uint v1 = stored ? 1u : max(id >> MIRAGE_CLUSTER_TRIANGLE_BITS, 1u);

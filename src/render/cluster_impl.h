@@ -151,7 +151,7 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
       rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, blendQueuePipeline,
-      compositePipeline;
+      compositePipeline, compositeStoredPipeline; // the latter: created on first use
   gpu::Unique<VkPipeline> rasterStereoPipeline, rasterMaskStereoPipeline, blendRasterStereoPipeline; // both eyes
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
@@ -231,8 +231,9 @@ struct ClusterRenderer::Impl {
                    uint32_t rasterList);
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
-  // cluster_oit_composite.comp specialized by the scene's maps and compositeVariant.
-  void createCompositePipeline();
+  // cluster_oit_composite.comp specialized by the scene's maps and compositeVariant; `stored`: for
+  // frames whose fragments all carry stored colours (MIRAGE_OIT_COMPOSITE_STORED), made on first use.
+  VkPipeline createCompositePipeline(bool stored = false);
   bool hasBlend() const { return blendCapacity > 0; }
   // Hybrid's hardware list through mesh shaders (else indirect draws): where the device has them,
   // and with multiview stereo only where they have multiview (cluster_frame.cpp, resolveStereoMode).

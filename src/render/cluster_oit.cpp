@@ -38,11 +38,15 @@ uint32_t oitCompositeVariant() {
   return bits;
 }
 
-void ClusterRenderer::Impl::createCompositePipeline() {
-  std::vector<uint32_t> specialization = scene.resolveSpecialization; // shading.glsl's maps (constant_id 4)
-  specialization.resize(std::max<size_t>(specialization.size(), 1));
-  specialization[0] = compositeVariant;
-  compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout, specialization);
+VkPipeline ClusterRenderer::Impl::createCompositePipeline(bool stored) {
+  Unique<VkPipeline>& pipeline = stored ? compositeStoredPipeline : compositePipeline;
+  if (!pipeline) {
+    std::vector<uint32_t> specialization = scene.resolveSpecialization; // shading.glsl's maps (constant_id 4)
+    specialization.resize(std::max<size_t>(specialization.size(), 1));
+    specialization[0] = compositeVariant | (stored ? MIRAGE_OIT_COMPOSITE_STORED : 0u);
+    pipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout, specialization);
+  }
+  return pipeline;
 }
 
 VkPipeline ClusterRenderer::Impl::blendHardwarePipeline(bool mesh) {
@@ -206,7 +210,10 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
   }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   slot = timer().cmdBegin(cmd, "composite", kCS);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compositePipeline);
+  // Every fragment a stored colour: particles alone, or shaded by the compute blend rasters.
+  bool stored =
+      !blendClusters || ((compositeVariant & MIRAGE_OIT_COMPOSITE_SHADED) != 0 && blend == BlendRaster::Compute);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, createCompositePipeline(stored));
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST); // stereo: the hardware draws left the right eye's frame pushed
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // both eyes in stereo
   timer().cmdEnd(cmd, slot, kCS);
