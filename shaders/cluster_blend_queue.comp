@@ -13,7 +13,13 @@
 // atomicExchange on the pixel's head onto consecutive nodes (coalesced node writes); fragments past
 // their cap replace their pixel's farthest or are dropped (oitSlotOf).
 // Pushed: the blend list (ids name its entries) and the mono frame, or stereo's left eye frame.
+#extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
+
+layout(set = 0, binding = 0) uniform sampler2D textures[]; // shading under kBlendShaded
+
+#include "shading.glsl"
+#include "cluster_surface.glsl"
 #include "cluster_raster_edges.glsl"
 #include "cluster_blend_sample.glsl"
 
@@ -107,7 +113,7 @@ void main() {
       uint pixel = p.y * row + p.x + t.eyeX;
       OitSlot s = oitSlotOf(fresh ? node + subgroupBallotExclusiveBitCount(ballot) : kOitNoNode, f.oitHeadAddress,
                             f.oitNodeAddress, f.oitNodeCapacity, pixel, z);
-      if (s.node != kOitNoNode) oitCommit(f.oitHeadAddress, f.oitNodeAddress, pixel, s, z, t.id, /*payload=*/false);
+      commitBlendFragment(f, t.eyeX, p, pixel, s, z, t.id);
     }
     node += subgroupBallotBitCount(ballot);
   }

@@ -9,6 +9,8 @@
 // billboards (render/particle_draw.h) append to the same lists with ids tagged
 // MIRAGE_OIT_COLOR_ID_TAG: their colour, shaded where they were rasterized, is read from beside
 // the pool, so particles and transparent surfaces sort together per pixel.
+// The variant is specialization constant 0, MIRAGE_OIT_COMPOSITE_* bits (ClusterRenderSettings::
+// oitComposite): the keys sorted in a local array (0) or in registers, and lean shading.
 // push.visibleAddress is the blend list here (ids name its entries; the opaque list when the scene
 // has no blend clusters: its entry 0 is valid for lanes that load without using it).
 #extension GL_EXT_nonuniform_qualifier : require
@@ -19,9 +21,31 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 #include "shading.glsl"
 #include "cluster_surface.glsl"
 
+layout(constant_id = 0) const uint kComposite = 0u; // MIRAGE_OIT_COMPOSITE_* bits
+const bool kRegisters = (kComposite & MIRAGE_OIT_COMPOSITE_REGISTERS) != 0u;
+const bool kLean = (kComposite & MIRAGE_OIT_COMPOSITE_LEAN) != 0u;
+// Frames whose fragments all carry a stored colour (particles alone, or the compute blend rasters
+// under MIRAGE_OIT_COMPOSITE_SHADED) take a variant without the shading code: fewer registers.
+const bool kStoredOnly = (kComposite & MIRAGE_OIT_COMPOSITE_STORED) != 0u;
+
 layout(set = 0, binding = 2, rgba16f) uniform image2D colorImage;
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer OitStoredColorRef { uvec2 colors[]; };
 layout(local_size_x = 8, local_size_y = 8) in;
+
+// The colour and alpha of the fragment with list id `id` at pixel px (within the eye): a particle's
+// stored colour (tagged id: node + 1 | tag), or triangle (id & 127) of blend-list entry (id >> 7) - 1 shaded.
+vec4 fragmentColor(ClusterFrame f, uint id, ivec2 px) {
+  bool stored = kStoredOnly || (id & MIRAGE_OIT_COLOR_ID_TAG) != 0u;
+  // Indices valid on both sides (lavapipe loads for lanes of the untaken branch too).
+  uint node = min(max(id & ~MIRAGE_OIT_COLOR_ID_TAG, 1u) - 1u, f.oitNodeCapacity - 1u); // id: node + 1 | tag
+  uint v1 = stored ? 1u : max(id >> MIRAGE_CLUSTER_TRIANGLE_BITS, 1u);
+  uint triangle = stored ? 0u : id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
+  if (stored) {
+    uvec2 packed = OitStoredColorRef(f.oitColorAddress).colors[node];
+    return vec4(unpackHalf2x16(packed.x), unpackHalf2x16(packed.y));
+  }
+  return shadeClusterPixel(f, VisibleRef(push.visibleAddress).visible[v1 - 1], triangle, px, kLean);
+}
 
 void main() {
   // Stereo: one dispatch over both eyes, as the resolve (the right half with the right eye's frame).
@@ -35,25 +59,26 @@ void main() {
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
   OitPixelHead head = OitHeadRef(f.oitHeadAddress).pixels[uint(target.y) * targetRowPixels(f) + uint(target.x)];
   if (head.fragments == 0) return;
-  // The nearest MIRAGE_OIT_MAX_LAYERS keys (depth bits << 32 | id), far to near (oit_list.glsl).
-  OitPixel list = oitGather(f.oitNodeAddress, f.oitNodeCapacity, head);
-  oitCountPixel(f.oitCounterAddress, list);
   vec3 color = imageLoad(colorImage, target).rgb;
-  for (int i = 0; i < list.count; ++i) {
-    uint id = uint(oitKeys[i] & 0xffffffffUL);
-    bool stored = (id & MIRAGE_OIT_COLOR_ID_TAG) != 0u;
-    // Indices valid on both sides (lavapipe loads for lanes of the untaken branch too).
-    uint node = min(max(id & ~MIRAGE_OIT_COLOR_ID_TAG, 1u) - 1u, f.oitNodeCapacity - 1u); // id: node + 1 | tag
-    uint v1 = stored ? 1u : max(id >> MIRAGE_CLUSTER_TRIANGLE_BITS, 1u);
-    uint triangle = stored ? 0u : id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
-    vec4 c;
-    if (stored) {
-      uvec2 packed = OitStoredColorRef(f.oitColorAddress).colors[node];
-      c = vec4(unpackHalf2x16(packed.x), unpackHalf2x16(packed.y));
-    } else {
-      c = shadeClusterPixel(f, VisibleRef(push.visibleAddress).visible[v1 - 1], triangle, px);
+  if (kRegisters) {
+    // The nearest MIRAGE_OIT_MAX_LAYERS keys in registers, far to near at the top of keys[].
+    uint64_t keys[MIRAGE_OIT_MAX_LAYERS];
+    OitPixel list = oitGatherRegisters(f.oitNodeAddress, f.oitNodeCapacity, head, keys);
+    oitCountPixel(f.oitCounterAddress, list);
+    uint ids[MIRAGE_OIT_MAX_LAYERS];
+    [[unroll]] for (int i = 0; i < MIRAGE_OIT_MAX_LAYERS; ++i) ids[i] = uint(keys[i] & 0xffffffffUL);
+    // Popped from the front (constant indices: the ids stay in registers); the empty slots come first.
+    [[dont_unroll]] for (int k = 0; k < MIRAGE_OIT_MAX_LAYERS; ++k) { // one shading body, not 16
+      uint id = ids[0];
+      [[unroll]] for (int i = 0; i < MIRAGE_OIT_MAX_LAYERS - 1; ++i) ids[i] = ids[i + 1];
+      ids[MIRAGE_OIT_MAX_LAYERS - 1] = 0u;
+      if (k >= MIRAGE_OIT_MAX_LAYERS - list.count) color = oitBlend(color, fragmentColor(f, id, px));
     }
-    color = oitBlend(color, c);
+  } else {
+    // The nearest MIRAGE_OIT_MAX_LAYERS keys (depth bits << 32 | id), far to near (oit_list.glsl).
+    OitPixel list = oitGather(f.oitNodeAddress, f.oitNodeCapacity, head);
+    oitCountPixel(f.oitCounterAddress, list);
+    for (int i = 0; i < list.count; ++i) color = oitBlend(color, fragmentColor(f, uint(oitKeys[i] & 0xffffffffUL), px));
   }
   imageStore(colorImage, target, vec4(color, 1.0));
 }

@@ -6,6 +6,7 @@
 // may define MIRAGE_OIT_LAYERS (the layers a gather keeps, default MIRAGE_OIT_MAX_LAYERS).
 #extension GL_KHR_shader_subgroup_arithmetic : enable
 #extension GL_KHR_shader_subgroup_ballot : enable
+#extension GL_EXT_control_flow_attributes : enable
 
 #include "mirage/shaderio/oit.h"
 
@@ -160,21 +161,26 @@ struct OitPixel {
   uint dropped;   // listed beyond the layer cap: the farthest, which blending "over" shows least
 };
 
+// One step of a list walk: node `node` (index + 1, non-zero) read and zeroed, so the pool is all
+// zero again for the next frame's overflow walks (oitClaimFarthest), which must tell a node not
+// written yet from a listed one; returns its key depth bits << 32 | id and moves `node` to the next.
+uint64_t oitTakeNode(uint64_t nodeAddress, uint capacity, inout uint node) {
+  uint index = min(node - 1, capacity - 1);
+  OitNode n = OitNodeRef(nodeAddress).nodes[index];
+  OitNodeRef(nodeAddress).nodes[index] = OitNode(0u, 0u, 0u);
+  node = n.next;
+  return (uint64_t(n.depthBits) << 32) | uint64_t(n.id);
+}
+
 // The list of pixel `h` walked once from its head, keeping the nearest MIRAGE_OIT_LAYERS sorted by
 // (depth, id) by insertion. At most `capacity` steps: a corrupt list cannot hang the pass. Each
-// node read is zeroed, so the pool is all zero again for the next frame's overflow walks
-// (oitClaimFarthest), which must tell a node not written yet from a listed one.
+// node read is zeroed (oitTakeNode).
 OitPixel oitGather(uint64_t nodeAddress, uint capacity, OitPixelHead h) {
   for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = 0;
   OitPixel p = OitPixel(0, h.fragments, 0);
-  OitNodeRef nodes = OitNodeRef(nodeAddress);
   uint node = h.head;
   for (uint steps = 0; node != 0 && steps < capacity; ++steps) {
-    uint index = min(node - 1, capacity - 1);
-    OitNode n = nodes.nodes[index];
-    nodes.nodes[index] = OitNode(0u, 0u, 0u);
-    node = n.next;
-    uint64_t key = (uint64_t(n.depthBits) << 32) | uint64_t(n.id);
+    uint64_t key = oitTakeNode(nodeAddress, capacity, node);
     int at;
     if (p.count < MIRAGE_OIT_LAYERS) {
       at = p.count++;
@@ -186,6 +192,26 @@ OitPixel oitGather(uint64_t nodeAddress, uint capacity, OitPixelHead h) {
     }
     for (; at > 0 && oitKeys[at - 1] > key; --at) oitKeys[at] = oitKeys[at - 1]; // insertion sort
     oitKeys[at] = key;
+  }
+  return p;
+}
+
+// oitGather with the keys in registers: every index is a constant once the loops are unrolled, so
+// no array goes to (slow, per-thread) local memory. keys[] ascends with the kept keys at the top,
+// [MIRAGE_OIT_LAYERS - count, MIRAGE_OIT_LAYERS), and 0 below (keys are never 0: ids are not).
+// Each node enters by a merge network of min / max (the largest MIRAGE_OIT_LAYERS of the kept keys
+// and the new one, in order): the same keys kept and dropped as oitGather's insertion.
+OitPixel oitGatherRegisters(uint64_t nodeAddress, uint capacity, OitPixelHead h, out uint64_t keys[MIRAGE_OIT_LAYERS]) {
+  [[unroll]] for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) keys[i] = 0;
+  OitPixel p = OitPixel(0, h.fragments, 0);
+  uint node = h.head;
+  for (uint steps = 0; node != 0 && steps < capacity; ++steps) {
+    uint64_t key = oitTakeNode(nodeAddress, capacity, node);
+    if (p.count < MIRAGE_OIT_LAYERS) ++p.count;
+    else ++p.dropped; // the smallest (farthest) of the kept keys and this one falls out below
+    // i-th smallest of {keys[1..], key}: keys[i + 1] if key is above it, else the larger of keys[i] and key.
+    [[unroll]] for (int i = 0; i < MIRAGE_OIT_LAYERS - 1; ++i) keys[i] = min(keys[i + 1], max(keys[i], key));
+    keys[MIRAGE_OIT_LAYERS - 1] = max(keys[MIRAGE_OIT_LAYERS - 1], key);
   }
   return p;
 }

@@ -23,6 +23,9 @@
 namespace mirage::render {
 
 // Everything uploaded once per asset (docs/render.md, "Data layout").
+// The transparency composite's variant from MIRAGE_OIT_COMPOSITE (cluster_oit.cpp).
+uint32_t oitCompositeVariant();
+
 struct ClusterSceneData {
   gpu::Buffer clusters;                        // GpuCluster[], all meshes' DAGs concatenated
   gpu::Buffer vertices;                        // GpuClusterVertex[], all attribute vertices
@@ -132,8 +135,9 @@ struct ClusterRenderer::Impl {
   // node of the lists (which then exist without BLEND materials too), and per slot the OitLists the
   // billboards append through.
   gpu::Buffer oitColors, particleLists[kMaxFramesInFlight];
-  gpu::Buffer splatAccum;   // the particle splat's sums (ParticleDraw::splatBytes), made on first use
-  bool particleOit = false; // the lists carry particles from now on (their pool sized for them)
+  gpu::Buffer splatAccum;        // the particle splat's sums (ParticleDraw::splatBytes), made on first use
+  uint32_t compositeVariant = 0; // MIRAGE_OIT_COMPOSITE_* bits (oitCompositeVariant), read once at set-up
+  bool particleOit = false;      // the lists carry particles from now on (their pool sized for them)
   // Per slot (identically defined layouts are compatible): material textures, and the slot's
   // frame's visibility image, colour target and depth, written when the slot is recorded while
   // other slots' frames may still read their own (a resize mid-flight).
@@ -147,7 +151,7 @@ struct ClusterRenderer::Impl {
   gpu::Unique<VkPipeline> cullPipeline, selectPipeline, traversePipeline, argsPipeline, rasterPipeline,
       rasterMaskPipeline, meshPipeline, indirectPipeline, meshAtomicPipeline, indirectAtomicPipeline, occlusionPipeline,
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, blendQueuePipeline,
-      compositePipeline;
+      compositePipeline, compositeStoredPipeline; // the latter: created on first use
   gpu::Unique<VkPipeline> rasterStereoPipeline, rasterMaskStereoPipeline, blendRasterStereoPipeline; // both eyes
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
@@ -227,6 +231,9 @@ struct ClusterRenderer::Impl {
                    uint32_t rasterList);
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
+  // cluster_oit_composite.comp specialized by the scene's maps and compositeVariant; `stored`: for
+  // frames whose fragments all carry stored colours (MIRAGE_OIT_COMPOSITE_STORED), made on first use.
+  VkPipeline createCompositePipeline(bool stored = false);
   bool hasBlend() const { return blendCapacity > 0; }
   // Hybrid's hardware list through mesh shaders (else indirect draws): where the device has them,
   // and with multiview stereo only where they have multiview (cluster_frame.cpp, resolveStereoMode).

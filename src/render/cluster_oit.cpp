@@ -3,10 +3,51 @@
 #include "cluster_impl.h"
 #include "mirage/gpu/commands.h"
 
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string_view>
+
 namespace mirage::render {
 
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
+
+// The composite's variant, MIRAGE_OIT_COMPOSITE_* bits, from the environment variable
+// MIRAGE_OIT_COMPOSITE: comma-separated `registers` (keys sorted in registers), `lean` (derivative
+// rays only for textured materials), `shaded` (the compute blend rasters shade each fragment and
+// store its colour beside the node); unset or `list`: the keys in a local array, every fragment
+// shaded by the composite. The choice is for measuring them in one binary (docs/render.md).
+uint32_t oitCompositeVariant() {
+  const char* env = std::getenv("MIRAGE_OIT_COMPOSITE");
+  uint32_t bits = 0;
+  for (std::string_view rest = env ? env : ""; !rest.empty();) {
+    size_t comma = rest.find(',');
+    std::string_view name = rest.substr(0, comma);
+    rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+    if (name == "registers")
+      bits |= MIRAGE_OIT_COMPOSITE_REGISTERS;
+    else if (name == "lean")
+      bits |= MIRAGE_OIT_COMPOSITE_LEAN;
+    else if (name == "shaded")
+      bits |= MIRAGE_OIT_COMPOSITE_SHADED;
+    else if (name != "list" && !name.empty())
+      std::fprintf(stderr, "MIRAGE_OIT_COMPOSITE: unknown variant '%.*s' ignored (list, registers, lean)\n",
+                   int(name.size()), name.data());
+  }
+  return bits;
+}
+
+VkPipeline ClusterRenderer::Impl::createCompositePipeline(bool stored) {
+  Unique<VkPipeline>& pipeline = stored ? compositeStoredPipeline : compositePipeline;
+  if (!pipeline) {
+    std::vector<uint32_t> specialization = scene.resolveSpecialization; // shading.glsl's maps (constant_id 4)
+    specialization.resize(std::max<size_t>(specialization.size(), 1));
+    specialization[0] = compositeVariant | (stored ? MIRAGE_OIT_COMPOSITE_STORED : 0u);
+    pipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout, specialization);
+  }
+  return pipeline;
+}
 
 VkPipeline ClusterRenderer::Impl::blendHardwarePipeline(bool mesh) {
   Unique<VkPipeline>& pipeline = mesh ? blendMeshPipeline : blendIndirectPipeline;
@@ -169,7 +210,10 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
   }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   slot = timer().cmdBegin(cmd, "composite", kCS);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compositePipeline);
+  // Every fragment a stored colour: particles alone, or shaded by the compute blend rasters.
+  bool stored =
+      !blendClusters || ((compositeVariant & MIRAGE_OIT_COMPOSITE_SHADED) != 0 && blend == BlendRaster::Compute);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, createCompositePipeline(stored));
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST); // stereo: the hardware draws left the right eye's frame pushed
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // both eyes in stereo
   timer().cmdEnd(cmd, slot, kCS);

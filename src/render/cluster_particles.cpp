@@ -32,7 +32,8 @@ void ClusterRenderer::Impl::prepareParticles(ParticleDraw& particles) {
   for (Buffer& lists : particleLists)
     lists = createBuffer(ctx, sizeof(sio::OitLists), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload,
                          "particle lists");
-  if (!compositePipeline) compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+  // Particles alone leave only stored colours: the composite without shading (cmdTransparency).
+  createCompositePipeline(/*stored=*/!hasBlend());
 }
 
 // The splat's view of this frame: the eyes' frames (p: the mono frame, or the left eye's in

@@ -70,12 +70,18 @@ void ClusterRenderer::Impl::createPipelines() {
     rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kMono);
     rasterMaskStereoPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kStereo);
   }
+  compositeVariant = oitCompositeVariant();
   if (scene.blendInstancedClusters > 0) {
-    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
-    blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kStereo);
-    compositePipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout);
+    // constant_id 2: the blend rasters shade their fragments (cluster_blend_sample.glsl).
+    uint32_t shaded = (compositeVariant & MIRAGE_OIT_COMPOSITE_SHADED) != 0 ? 1u : 0u;
+    const uint32_t kBlendMono[] = {1, kRasterLanes, shaded}, kBlendStereo[] = {2, 2 * kRasterLanes, shaded};
+    const uint32_t kQueue[] = {0, 0, shaded};
+    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kBlendMono);
+    blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kBlendStereo);
+    createCompositePipeline();
     // The blend queue takes a triangle's slot and first tile with a 64-bit compare-and-swap.
-    if (caps.int64BufferAtomics) blendQueuePipeline = createComputePipeline(ctx, "cluster_blend_queue.comp", layout);
+    if (caps.int64BufferAtomics)
+      blendQueuePipeline = createComputePipeline(ctx, "cluster_blend_queue.comp", layout, kQueue);
   }
   indirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false);
   if (caps.meshShader) meshPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/false);
@@ -235,7 +241,8 @@ void ClusterRenderer::Impl::ensureOitPool(uint32_t nodesPerPixel) {
   oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),
                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
                           "transparency nodes");
-  if (particleOit)
+  // Colours beside the nodes: particles', and blended fragments' when the blend rasters shade them.
+  if (particleOit || (hasBlend() && (compositeVariant & MIRAGE_OIT_COMPOSITE_SHADED) != 0))
     oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                              MemoryUsage::GpuOnly, "transparency colours");
   oitNodesUnzeroed = true; // cmdFrame zeroes it (the lists' overflow rule tells unwritten nodes by 0)

@@ -3,7 +3,8 @@
 // the layers keeps each pixel's nearest fragments, and so does the per-pixel cap past 16 layers,
 // sparing the pool (ClusterOit); drawn through the blend queue, the
 // layers give exactly the fragments and the image of the per-cluster walk, and the hardware blend
-// raster's, and a full queue falls back to the walk (ClusterBlendQueue). Validation stays silent.
+// raster's, and a full queue falls back to the walk (ClusterBlendQueue); the composite's variants
+// (MIRAGE_OIT_COMPOSITE) give the default composite's image (ClusterOit). Validation stays silent.
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -315,5 +317,72 @@ TEST_F(ClusterOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
     // Fragments of one pixel racing past the cap may miss a node still being linked (docs/render.md).
     EXPECT_LE(unmatched, kW * kH / 100u) << what;
     writeOnFailure(out.image.srgb, "cap_" + std::string(toString(blend)) + ".png");
+  }
+}
+
+// The composite's variants (MIRAGE_OIT_COMPOSITE, read when a renderer is made) against the
+// default (keys in a local array, every fragment shaded by the composite): 20 intersecting layers
+// cut by a wall (past the 16-layer cap where the wall is far), compute with the blend queue and
+// the per-cluster walk, mono and stereo. Sorting in registers and lean shading keep the fragments,
+// the counts and the image bit for bit; shading in the blend rasters stores RGBA16F colours (the
+// composite's own arithmetic is float), so its image is compared by PSNR, its counts exactly.
+TEST_F(ClusterOit, CompositeVariantsMatchTheListComposite) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
+  lod::LodAsset asset = bake(layerScene(20, 3.0f, /*wall=*/true));
+  ASSERT_FALSE(asset.dags.empty());
+  struct Case {
+    const char* what;
+    std::optional<float> ipd;
+    float queuePixels;
+  };
+  const Case cases[] = {{"queue", std::nullopt, ClusterRenderSettings{}.blendQueuePixels},
+                        {"walk", std::nullopt, INFINITY},
+                        {"stereo queue", 0.064f, ClusterRenderSettings{}.blendQueuePixels}};
+  auto renderAll = [&](const char* variant) {
+    if (variant)
+      setenv("MIRAGE_OIT_COMPOSITE", variant, 1);
+    else
+      unsetenv("MIRAGE_OIT_COMPOSITE");
+    auto r = ClusterRenderer::create(context(), asset);
+    unsetenv("MIRAGE_OIT_COMPOSITE");
+    std::vector<ClusterRenderOutput> outs;
+    if (!r.ok()) {
+      ADD_FAILURE() << r.error().message;
+      return outs;
+    }
+    for (const Case& c : cases) {
+      ClusterRenderSettings s = layerSettings(64, 48);
+      s.raster = RasterBackend::Compute;
+      s.blendRaster = BlendRaster::Compute;
+      s.blendQueuePixels = c.queuePixels;
+      s.stereoIpd = c.ipd;
+      s.oitNodesPerPixel = 24; // every fragment gets a node: the layer cap drops the farthest
+      outs.push_back(renderFrame(**r, s));
+    }
+    return outs;
+  };
+  std::vector<ClusterRenderOutput> list = renderAll(nullptr);
+  ASSERT_EQ(list.size(), std::size(cases));
+  EXPECT_GT(list[0].stats.oitLayersDropped, 0u);
+  for (const char* variant : {"registers", "lean", "shaded", "registers,lean,shaded"}) {
+    std::vector<ClusterRenderOutput> outs = renderAll(variant);
+    ASSERT_EQ(outs.size(), std::size(cases)) << variant;
+    bool exact = std::string(variant).find("shaded") == std::string::npos;
+    for (size_t i = 0; i < outs.size(); ++i) {
+      const ClusterStats &a = outs[i].stats, &b = list[i].stats;
+      std::string what = std::string(variant) + ", " + cases[i].what;
+      double p = psnr(outs[i].image.srgb, list[i].image.srgb);
+      std::printf("%s: %u fragments, %u past 16 layers, msl %.3f; PSNR vs the list composite %.2f dB\n", what.c_str(),
+                  a.oitFragments, a.oitLayersDropped, a.msl, p);
+      EXPECT_EQ(a.oitFragments, b.oitFragments) << what;
+      EXPECT_EQ(a.oitLayersDropped, b.oitLayersDropped) << what;
+      EXPECT_EQ(a.oitPoolOverflow, b.oitPoolOverflow) << what;
+      EXPECT_EQ(a.msl, b.msl) << what;
+      if (exact)
+        EXPECT_TRUE(identical(outs[i].image.srgb, list[i].image.srgb)) << what;
+      else
+        EXPECT_GE(p, 50.0) << what;
+      writeOnFailure(outs[i].image.srgb, "composite_" + std::string(variant) + "_" + std::to_string(i) + ".png");
+    }
   }
 }

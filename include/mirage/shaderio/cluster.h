@@ -22,6 +22,11 @@ namespace mirage::shaderio {
 // sizes we meet (lavapipe 8, NVIDIA 32).
 #define MIRAGE_CLUSTER_WORKGROUP 64
 #define MIRAGE_RESOLVE_TILE_ROWS 4 // cluster_resolve.comp: 8x8 pixel tiles per workgroup, stacked in y
+// cluster_oit_composite.comp's variant (specialization constant 0; ClusterRenderSettings::oitComposite):
+#define MIRAGE_OIT_COMPOSITE_REGISTERS 1u // the kept keys sorted in registers (min / max network), not a local array
+#define MIRAGE_OIT_COMPOSITE_LEAN 2u      // derivative rays cast only for materials that sample a texture
+#define MIRAGE_OIT_COMPOSITE_SHADED 4u    // the compute blend rasters shade, the colour stored beside the node
+#define MIRAGE_OIT_COMPOSITE_STORED 8u    // set by the renderer: every fragment has a stored colour (no shading code)
 // Mesh/compute-raster dispatches split the visible clusters over x and y: x stays under the
 // guaranteed maxMeshWorkGroupCount / maxComputeWorkGroupCount of 65535.
 #define MIRAGE_CLUSTER_DISPATCH_X 65535
