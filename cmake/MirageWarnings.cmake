@@ -13,6 +13,13 @@ function(mirage_warnings target)
   endif()
 endfunction()
 
+# Code that only drives the libraries (test bodies, the CLI's flag binding and printing) compiles at
+# -O1 in optimized builds: the work it starts runs in the libraries at full optimization, while -O1
+# halves its compile time (gtest and CLI11 templates; the tests and the CLI were half and a fifth of
+# the Release build's compile time on 2 cores). Measured: cmd_build.cpp 65 s at -O3, 34 s at -O1; a
+# test file 29 -> 18 s; the whole test suite's run time the same (205 s either way).
+set(MIRAGE_DRIVER_OPTIMIZATION $<$<CONFIG:Release,RelWithDebInfo,MinSizeRel>:-O1>)
+
 include(GNUInstallDirs) # CMAKE_INSTALL_INCLUDEDIR of the installed targets
 
 # mirage_module(name SOURCES...): a static library with public headers in include/mirage/<name>.
