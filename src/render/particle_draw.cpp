@@ -102,6 +102,12 @@ void ParticleDraw::Impl::ensureComputeLayout() {
       uint32_t(std::max(sizeof(sio::ParticleSortPush), sizeof(sio::ParticleSplatPush))), VK_SHADER_STAGE_COMPUTE_BIT);
 }
 
+void ParticleDraw::Impl::cmdDispatchRecords(VkCommandBuffer cmd) const {
+  uint32_t groups = std::max<uint32_t>((totalRecords + MIRAGE_PARTICLE_DRAW_GROUP - 1) / MIRAGE_PARTICLE_DRAW_GROUP, 1);
+  gpu::DispatchRows rows = gpu::dispatchRows(groups);
+  vkCmdDispatch(cmd, rows.x, rows.y, 1);
+}
+
 void ParticleDraw::setBatches(std::vector<ParticleBatch> batches) {
   impl_->batches = std::move(batches);
   uint64_t total = 0;

@@ -59,6 +59,9 @@ struct ParticleDraw::Impl {
   shaderio::ParticleDrawPush drawPush(VkDeviceAddress frame, VkDeviceAddress oitLists) const;
   void cmdBindDraw(VkCommandBuffer cmd, OitMode mode);
   void ensureComputeLayout();
+  // A compute pass of one thread per record slot (the sort's and the splat's), in rows of
+  // workgroups (gpu::dispatchRows); at least one workgroup, which finds no records.
+  void cmdDispatchRecords(VkCommandBuffer cmd) const;
   shaderio::ParticleSplatPush splatPush(const ParticleSplatTarget& t) const;
 };
 

@@ -18,13 +18,6 @@ namespace {
 constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
 constexpr VkAccessFlags2 kStorageRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
 
-// One thread per item, in rows of at most 65535 workgroups (the x limit Vulkan guarantees).
-void cmdDispatchItems(VkCommandBuffer cmd, uint32_t items) {
-  uint32_t groups = std::max<uint32_t>((items + MIRAGE_PARTICLE_DRAW_GROUP - 1) / MIRAGE_PARTICLE_DRAW_GROUP, 1);
-  uint32_t x = std::min<uint32_t>(groups, 65535);
-  vkCmdDispatch(cmd, x, (groups + x - 1) / x, 1);
-}
-
 } // namespace
 
 // barriers: cmdPrepare's arguments and batch table visible to compute shaders; the records written.
@@ -60,7 +53,7 @@ void ParticleDraw::cmdSort(VkCommandBuffer cmd, const glm::mat4& view, VkDeviceA
   vkCmdFillBuffer(cmd, gapDraws.handle(), 0, VK_WHOLE_SIZE, 0); // every gap empty until a run claims it
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.sortKeysPipeline);
   vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchItems(cmd, d.totalRecords);
+  d.cmdDispatchRecords(cmd);
   // RadixSort::cmdSort waits for the keys (earlier compute writes) itself.
   RadixSortOptions options;
   options.digitMask = digitMaskForIndexBelow(total);
@@ -69,7 +62,7 @@ void ParticleDraw::cmdSort(VkCommandBuffer cmd, const glm::mat4& view, VkDeviceA
                    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, kStorageRW);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.sortGapsPipeline);
   vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchItems(cmd, d.totalRecords);
+  d.cmdDispatchRecords(cmd);
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
                    VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);

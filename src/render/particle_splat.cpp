@@ -97,10 +97,7 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   sio::ParticleSplatPush push = d.splatPush(t);
   vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  uint32_t groups =
-      std::max<uint32_t>((d.totalRecords + MIRAGE_PARTICLE_DRAW_GROUP - 1) / MIRAGE_PARTICLE_DRAW_GROUP, 1);
-  uint32_t x = std::min<uint32_t>(groups, 65535); // rows of at most 65535 workgroups
-  vkCmdDispatch(cmd, x, (groups + x - 1) / x, 1);
+  d.cmdDispatchRecords(cmd);
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT | kCS,
                    VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
