@@ -9,6 +9,7 @@
 
 #include "mirage/stream/kept_patches.h"
 #include "mirage/stream/protocol.h"
+#include "stream/protocol_test_util.h"
 
 using namespace mirage;
 using namespace mirage::stream;
@@ -45,15 +46,8 @@ std::vector<uint8_t> frameWith(const std::vector<uint8_t>& section, uint8_t code
   return m;
 }
 
-Result<Message> decode(const std::vector<uint8_t>& bytes, const DecodeLimits& limits = {}) {
-  return decodeMessage(bytes, limits, "peer");
-}
-
-void expectError(const Result<Message>& result, const std::string& part) {
-  ASSERT_FALSE(result.ok()) << "accepted, expected an error with '" << part << "'";
-  EXPECT_NE(result.error().message.find(part), std::string::npos) << result.error().message;
-  EXPECT_EQ(result.error().message.find('\n'), std::string::npos) << result.error().message;
-}
+using test::decode;
+using test::expectError;
 
 // The patch section of an encoded Frame (no atlas payload): its bytes after the codec and count.
 std::vector<uint8_t> sectionOf(const std::vector<uint8_t>& message) {

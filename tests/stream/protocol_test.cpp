@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "mirage/stream/protocol.h"
+#include "stream/protocol_test_util.h"
 
 using namespace mirage;
 using namespace mirage::stream;
@@ -97,16 +98,8 @@ std::vector<Message> sampleMessages() {
   return {hello, welcome, pose, sampleFrame(), Close{CloseCode::BadToken, "wrong token"}, Frame{}, zstd};
 }
 
-Result<Message> decode(const std::vector<uint8_t>& bytes, const DecodeLimits& limits = {}) {
-  return decodeMessage(bytes, limits, "peer");
-}
-
-void expectError(const Result<Message>& result, const std::string& part) {
-  ASSERT_FALSE(result.ok()) << "accepted, expected an error with '" << part << "'";
-  EXPECT_NE(result.error().message.find(part), std::string::npos) << result.error().message;
-  EXPECT_EQ(result.error().message.find('\n'), std::string::npos) << result.error().message;
-  EXPECT_EQ(result.error().message.rfind("peer: ", 0), 0u) << result.error().message;
-}
+using test::decode;
+using test::expectError;
 
 void setU32(std::vector<uint8_t>& bytes, size_t at, uint32_t v) {
   for (int i = 0; i < 4; ++i) bytes[at + i] = uint8_t(v >> (8 * i));
