@@ -9,10 +9,6 @@
 #include <numeric>
 #include <utility>
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <xxhash.h>
 
 #include "codec.h"
@@ -24,18 +20,10 @@ namespace {
 
 using detail::hex;
 
-// pread until done; false on error or end of file (the file shrank after open).
-bool readAt(int fd, uint64_t offset, void* out, size_t n) {
-  auto* bytes = static_cast<uint8_t*>(out);
-  while (n > 0) {
-    ssize_t r = ::pread(fd, bytes, n, off_t(offset));
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) return false;
-    bytes += r;
-    n -= size_t(r);
-    offset += uint64_t(r);
-  }
-  return true;
+// Exactly n bytes at offset; false when the source cannot give them (open() checked the ranges
+// against the size, so that means an I/O or network error, or a file that shrank).
+bool readAt(const ByteSource& source, uint64_t offset, void* out, size_t n) {
+  return source.read(offset, out, n).empty();
 }
 
 // A blocked chunk's index from the payload's first bytes: the chunk checksum over exactly
@@ -69,48 +57,28 @@ std::string FourCC::str() const {
   return "'" + s + "'";
 }
 
-AssetReader::AssetReader(AssetReader&& other) noexcept
-    : path_(std::move(other.path_)), fd_(std::exchange(other.fd_, -1)), fileBytes_(other.fileBytes_),
-      version_(other.version_), chunks_(std::move(other.chunks_)) {}
+AssetReader::AssetReader(AssetReader&&) noexcept = default;
+AssetReader& AssetReader::operator=(AssetReader&&) noexcept = default;
+AssetReader::~AssetReader() = default;
 
-AssetReader& AssetReader::operator=(AssetReader&& other) noexcept {
-  if (this != &other) {
-    if (fd_ >= 0) ::close(fd_);
-    path_ = std::move(other.path_);
-    fd_ = std::exchange(other.fd_, -1);
-    fileBytes_ = other.fileBytes_;
-    version_ = other.version_;
-    chunks_ = std::move(other.chunks_);
-  }
-  return *this;
-}
+SourceStats AssetReader::sourceStats() const { return source_ ? source_->stats() : SourceStats{}; }
 
-AssetReader::~AssetReader() {
-  if (fd_ >= 0) ::close(fd_);
-}
-
-Result<AssetReader> AssetReader::open(const std::string& path) {
+Result<AssetReader> AssetReader::open(const std::string& path, const SourceOptions& options) {
+  Result<std::unique_ptr<ByteSource>> source = openByteSource(path, options);
+  if (!source) return source.error();
   AssetReader r;
-  r.path_ = path;
-  if (std::string problem = inputFileProblem(path); !problem.empty()) return r.error(problem);
-  // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer forever. It has no
-  // effect on regular files, and anything else is rejected right below.
-  r.fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-  if (r.fd_ < 0) return r.error(std::strerror(errno));
-  struct stat st {};
-  if (::fstat(r.fd_, &st) != 0) return r.error(std::strerror(errno));
-  // Directories and devices have no meaningful size; reading them would fail later or block.
-  if (!S_ISREG(st.st_mode)) return r.error("not a regular file");
-  r.fileBytes_ = uint64_t(st.st_size);
+  r.path_ = isUrl(path) ? escapeInput(path, 200) : path;
+  r.source_ = std::move(*source);
+  r.fileBytes_ = r.source_->size();
 
   // Magic first, so any non-Mirage file gets the plainest possible message.
   FileHeader h{};
-  if (r.fileBytes_ < sizeof(kMagic) || !readAt(r.fd_, 0, h.magic, sizeof(kMagic)) ||
+  if (r.fileBytes_ < sizeof(kMagic) || !readAt(*r.source_, 0, h.magic, sizeof(kMagic)) ||
       std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0)
     return r.error("not a Mirage asset (bad magic)");
   // Version before the checksum: another version may lay the header out differently, and
   // "version 2, this build reads 1" is the useful message for a newer file.
-  if (r.fileBytes_ < offsetof(FileHeader, headerBytes) || !readAt(r.fd_, 8, &h.version, sizeof(h.version)))
+  if (r.fileBytes_ < offsetof(FileHeader, headerBytes) || !readAt(*r.source_, 8, &h.version, sizeof(h.version)))
     return r.error("truncated header (" + std::to_string(r.fileBytes_) + " bytes)");
   if (h.version < kMinFormatVersion || h.version > kFormatVersion)
     return r.error("unsupported .mrg format version " + std::to_string(h.version) + " (this build reads versions " +
@@ -119,7 +87,7 @@ Result<AssetReader> AssetReader::open(const std::string& path) {
                                                  "mirage build)"
                                                : "; rebuild it with mirage build)"));
   r.version_ = h.version;
-  if (r.fileBytes_ < sizeof(FileHeader) || !readAt(r.fd_, 0, &h, sizeof(h)))
+  if (r.fileBytes_ < sizeof(FileHeader) || !readAt(*r.source_, 0, &h, sizeof(h)))
     return r.error("truncated header (" + std::to_string(r.fileBytes_) + " bytes, need " +
                    std::to_string(sizeof(FileHeader)) + ")");
   uint64_t headerHash = XXH3_64bits(&h, offsetof(FileHeader, headerHash));
@@ -143,7 +111,7 @@ Result<AssetReader> AssetReader::open(const std::string& path) {
   uint64_t tableEnd = h.tableOffset + tableBytes;
 
   std::vector<ChunkEntry> table(h.chunkCount);
-  if (!readAt(r.fd_, h.tableOffset, table.data(), tableBytes)) return r.error("cannot read the chunk table");
+  if (!readAt(*r.source_, h.tableOffset, table.data(), tableBytes)) return r.error("cannot read the chunk table");
   uint64_t tableHash = XXH3_64bits(table.data(), tableBytes);
   if (tableHash != h.tableHash)
     return r.error("chunk table checksum mismatch (stored " + hex(h.tableHash) + ", computed " + hex(tableHash) + ")");
@@ -244,7 +212,7 @@ Result<std::vector<uint8_t>> AssetReader::readStoredChunk(size_t index) const {
   try {
     // storedBytes was checked against the file size in open(), so this allocation is bounded.
     std::vector<uint8_t> stored(c.storedBytes);
-    if (!readAt(fd_, c.offset, stored.data(), stored.size()))
+    if (!readAt(*source_, c.offset, stored.data(), stored.size()))
       return error(name + ": read failed (file changed since it was opened?)");
     // A blocked chunk's checksum covers its index; the index then vouches for each block.
     if (c.blocked) {
@@ -276,7 +244,7 @@ Result<BlockTable> AssetReader::readBlockTable(size_t index) const {
   try {
     // indexBytes <= storedBytes was checked in open(): the read stays inside the file.
     std::vector<uint8_t> bytes(c.indexBytes);
-    if (!readAt(fd_, c.offset, bytes.data(), bytes.size()))
+    if (!readAt(*source_, c.offset, bytes.data(), bytes.size()))
       return error(name + ": read failed (file changed since it was opened?)");
     Result<BlockTable> table = checkedIndex(c, bytes, chunkContext(index));
     if (!table) return table.error();
@@ -300,7 +268,7 @@ Result<std::vector<uint8_t>> AssetReader::readBlock(size_t index, const BlockTab
     return makeError(chunkContext(index), "block " + std::to_string(block) + " lies outside the chunk");
   try {
     std::vector<uint8_t> stored(b.storedBytes);
-    if (!readAt(fd_, c.offset + b.offset, stored.data(), stored.size()))
+    if (!readAt(*source_, c.offset + b.offset, stored.data(), stored.size()))
       return makeError(chunkContext(index), "block " + std::to_string(block) +
                                                 ": read failed (file changed since it "
                                                 "was opened?)");

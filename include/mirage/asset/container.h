@@ -15,6 +15,7 @@
 //   'META' JSON metadata (format version, counts; for tools and humans)
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -22,6 +23,7 @@
 
 #include "mirage/asset/blocks.h"
 #include "mirage/asset/format.h"
+#include "mirage/asset/source.h"
 #include "mirage/core/result.h"
 
 namespace mirage::asset {
@@ -105,7 +107,8 @@ private:
 // pread on an open descriptor: readChunk is const and safe to call from several threads.
 class AssetReader {
 public:
-  static Result<AssetReader> open(const std::string& path);
+  // A file path or an http:// / https:// URL (asset/source.h: read by byte ranges).
+  static Result<AssetReader> open(const std::string& path, const SourceOptions& options = {});
 
   AssetReader(AssetReader&& other) noexcept;
   AssetReader& operator=(AssetReader&& other) noexcept;
@@ -114,6 +117,8 @@ public:
   ~AssetReader();
 
   const std::string& path() const { return path_; }
+  // Requests made and bytes received from the file or server since open.
+  SourceStats sourceStats() const;
   uint64_t fileBytes() const { return fileBytes_; }
   uint32_t version() const { return version_; } // of this file: kMinFormatVersion..kFormatVersion
   const std::vector<ChunkInfo>& chunks() const { return chunks_; }
@@ -144,7 +149,7 @@ private:
   Error error(const std::string& problem) const { return makeError(path_, problem); }
 
   std::string path_;
-  int fd_ = -1;
+  std::unique_ptr<ByteSource> source_;
   uint64_t fileBytes_ = 0;
   uint32_t version_ = kFormatVersion;
   std::vector<ChunkInfo> chunks_;
