@@ -144,9 +144,28 @@ void walkSmall(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 str
               topLeft(ivec2(ex.z, ey.z)) ? 0 : -1);
   ivec3 dx = -ey * int(MIRAGE_RASTER_SNAP * stride.x), dy = ex * int(MIRAGE_RASTER_SNAP * stride.y);
   vec3 zw = vec3(a.z, b.z, c.z) / float(area);
+  // Each row walks only the span its edges allow, not the whole box: a sliver's box is mostly
+  // outside it, and a warp waits for its longest walk (H100, 2500 blobs: the box walks were 0.075 of
+  // the raster's 0.09 ms). Edge i is inside from step -w_i / dx_i on (dx_i > 0) or up to step
+  // w_i / -dx_i (dx_i < 0); the float quotients are rounded outwards (floor for the first step, one
+  // more for the last), so the span holds every covered sample and the exact integer test below
+  // still decides each one: the samples drawn are the box walk's.
+  vec3 stepsPerValue = vec3(1.0) / vec3(dx);
+  int steps = lo.x <= hi.x ? int((uint(hi.x) - uint(lo.x)) / stride.x) : -1; // the last step of a row
   for (uint y = uint(lo.y); y <= uint(hi.y); y += stride.y, w0 += dy) {
-    ivec3 w = w0;
-    for (uint x = uint(lo.x); x <= uint(hi.x); x += stride.x, w += dx)
+    int first = 0, last = steps;
+    [[unroll]] for (int i = 0; i < 3; ++i) {
+      float k = float(w0[i]) * stepsPerValue[i]; // -(first step inside) when dx > 0, the last one when dx < 0
+      if (dx[i] > 0)
+        first = max(first, int(floor(-k)));
+      else if (dx[i] < 0)
+        last = min(last, int(floor(-k)) + 1);
+      else if (w0[i] < 0)
+        last = -1; // parallel to the row and outside
+    }
+    ivec3 w = w0 + first * dx;
+    uint x = uint(lo.x) + uint(first) * stride.x;
+    for (int k = first; k <= last; ++k, x += stride.x, w += dx)
       if ((w.x | w.y | w.z) >= 0) drawSample(f, t, x, y, edgeDepth(vec3(w), zw));
   }
 }
