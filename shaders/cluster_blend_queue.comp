@@ -11,15 +11,13 @@
 // cap or past it), then each subgroup takes one run of nodes for all its fragments under their cap
 // (one counter atomic: oitAllocateSubgroup) and, tile by tile, its lanes link theirs with
 // atomicExchange on the pixel's head onto consecutive nodes (coalesced node writes); fragments past
-// their cap replace their pixel's farthest or are dropped (oitSlotOf).
+// their cap replace their pixel's farthest or are dropped (oitSlotOf). Packed storage
+// (MIRAGE_FRAME_OIT_PACKED): each kept pixel is counted or written in the first round
+// (oitPackedFragment), and the second is skipped.
 // Pushed: the blend list (ids name its entries) and the mono frame, or stereo's left eye frame.
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
 
-layout(set = 0, binding = 0) uniform sampler2D textures[]; // shading under kBlendShaded
-
-#include "shading.glsl"
-#include "cluster_surface.glsl"
 #include "cluster_raster_edges.glsl"
 #include "cluster_blend_sample.glsl"
 
@@ -57,8 +55,9 @@ QueuedTriangle queuedTriangle(ClusterFrame f, BlendQueueTriangle q) {
 // edge values there and its depth.
 uvec2 tilePixel(QueuedTriangle t, uint tile, out i64vec3 w, out float z) {
   uint k = tile - t.firstTile;
-  uvec2 local = uvec2(k % t.tilesX, k / t.tilesX) * MIRAGE_BLEND_QUEUE_TILE +
-                uvec2(gl_LocalInvocationIndex % MIRAGE_BLEND_QUEUE_TILE, gl_LocalInvocationIndex / MIRAGE_BLEND_QUEUE_TILE);
+  uvec2 local =
+      uvec2(k % t.tilesX, k / t.tilesX) * MIRAGE_BLEND_QUEUE_TILE +
+      uvec2(gl_LocalInvocationIndex % MIRAGE_BLEND_QUEUE_TILE, gl_LocalInvocationIndex / MIRAGE_BLEND_QUEUE_TILE);
   w = t.edges.w0 + t.edges.dx * int64_t(local.x) + t.edges.dy * int64_t(local.y);
   z = edgeDepth(vec3(w), t.edges.zw);
   return uvec2(t.lo) + local;
@@ -84,6 +83,7 @@ void main() {
   // pixel's cap too.
   uint kept = 0, under = 0, entry = firstEntry;
   uint row = targetRowPixels(f);
+  bool packed = oitPacked(f);
   QueuedTriangle t = queuedTriangle(f, queue.triangles[entry]);
   for (uint tile = first; tile < end; ++tile) {
     while (tile - t.firstTile >= t.tiles) t = queuedTriangle(f, queue.triangles[++entry]); // uniform
@@ -93,10 +93,13 @@ void main() {
     if (t.drawn && p.x <= uint(t.hi.x) && p.y <= uint(t.hi.y) && edgeInside(w) &&
         blendSampleKept(f, t.fade, t.eyeX, p.x, p.y, z)) {
       kept |= 1u << (tile - first);
-      if (oitCountFragment(f.oitHeadAddress, p.y * row + p.x + t.eyeX) < MIRAGE_OIT_MAX_LAYERS)
+      if (packed)
+        oitPackedFragment(f.oitHeadAddress, f.oitNodeAddress, p.y * row + p.x + t.eyeX, z, t.id);
+      else if (oitCountFragment(f.oitHeadAddress, p.y * row + p.x + t.eyeX) < MIRAGE_OIT_MAX_LAYERS)
         under |= 1u << (tile - first);
     }
   }
+  if (packed) return; // uniform
   // One run of nodes per subgroup for its fragments under their cap, then tile by tile each kept
   // pixel onto its list.
   uint node = oitAllocateSubgroup(f.oitCounterAddress, subgroupAdd(uint(bitCount(under))));
@@ -113,7 +116,7 @@ void main() {
       uint pixel = p.y * row + p.x + t.eyeX;
       OitSlot s = oitSlotOf(fresh ? node + subgroupBallotExclusiveBitCount(ballot) : kOitNoNode, f.oitHeadAddress,
                             f.oitNodeAddress, f.oitNodeCapacity, pixel, z);
-      commitBlendFragment(f, t.eyeX, p, pixel, s, z, t.id);
+      if (s.node != kOitNoNode) oitCommit(f.oitHeadAddress, f.oitNodeAddress, pixel, s, z, t.id, /*payload=*/false);
     }
     node += subgroupBallotBitCount(ballot);
   }

@@ -20,24 +20,3 @@ float opaqueDepth(ClusterFrame f, uint x, uint y) {
 bool blendSampleKept(ClusterFrame f, float fade, uint eyeX, uint x, uint y, float z) {
   return z >= 0.0 && meshKeepsPixel(fade, uvec2(x, y)) && z > opaqueDepth(f, x + eyeX, y);
 }
-
-// MIRAGE_OIT_COMPOSITE_SHADED (specialization constant 2 of both compute blend rasters): each kept
-// fragment is shaded where it is rasterized and its colour (RGBA16F) stored beside its node, its id
-// then tagged as a particle's (node + 1 | MIRAGE_OIT_COLOR_ID_TAG), so the composite only sorts and
-// blends. Needs shading.glsl and cluster_surface.glsl (textures[] bound) before this file.
-layout(constant_id = 2) const bool kBlendShaded = false;
-layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer OitColorOutRef { uvec2 colors[]; };
-
-// A kept fragment of pixel p of its eye (target column p.x + eyeX, buffer pixel `pixel`) written
-// into slot s (oitAcquire / oitSlotOf): shaded first under kBlendShaded.
-void commitBlendFragment(ClusterFrame f, uint eyeX, uvec2 p, uint pixel, OitSlot s, float z, uint id) {
-  if (s.node == kOitNoNode) return;
-  if (kBlendShaded) {
-    ClusterFrame eye = FrameRef(push.frameAddress + (eyeX != 0u ? MIRAGE_CLUSTER_FRAME_STRIDE : 0u)).frame;
-    VisibleCluster vc = VisibleRef(push.visibleAddress).visible[(id >> MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u];
-    vec4 c = shadeClusterPixel(eye, vc, id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u), ivec2(p), /*lean=*/true);
-    OitColorOutRef(f.oitColorAddress).colors[s.node] = uvec2(packHalf2x16(c.rg), packHalf2x16(c.ba));
-    id = (s.node + 1u) | MIRAGE_OIT_COLOR_ID_TAG;
-  }
-  oitCommit(f.oitHeadAddress, f.oitNodeAddress, pixel, s, z, id, /*payload=*/kBlendShaded);
-}

@@ -9,8 +9,9 @@
 // billboards (render/particle_draw.h) append to the same lists with ids tagged
 // MIRAGE_OIT_COLOR_ID_TAG: their colour, shaded where they were rasterized, is read from beside
 // the pool, so particles and transparent surfaces sort together per pixel.
-// The variant is specialization constant 0, MIRAGE_OIT_COMPOSITE_* bits (ClusterRenderSettings::
-// oitComposite): the keys sorted in a local array (0) or in registers, and lean shading.
+// Packed storage (MIRAGE_FRAME_OIT_PACKED, shaderio/oit.h): the pixel's range is read instead of
+// its list, the same keys sorted alike. Specialization constant 0: MIRAGE_OIT_COMPOSITE_STORED
+// for frames whose fragments all carry a stored colour (particles alone).
 // push.visibleAddress is the blend list here (ids name its entries; the opaque list when the scene
 // has no blend clusters: its entry 0 is valid for lanes that load without using it).
 #extension GL_EXT_nonuniform_qualifier : require
@@ -21,11 +22,9 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 #include "shading.glsl"
 #include "cluster_surface.glsl"
 
-layout(constant_id = 0) const uint kComposite = 0u; // MIRAGE_OIT_COMPOSITE_* bits
-const bool kRegisters = (kComposite & MIRAGE_OIT_COMPOSITE_REGISTERS) != 0u;
-const bool kLean = (kComposite & MIRAGE_OIT_COMPOSITE_LEAN) != 0u;
-// Frames whose fragments all carry a stored colour (particles alone, or the compute blend rasters
-// under MIRAGE_OIT_COMPOSITE_SHADED) take a variant without the shading code: fewer registers.
+layout(constant_id = 0) const uint kComposite = 0u; // MIRAGE_OIT_COMPOSITE_STORED or 0
+// Frames whose fragments all carry a stored colour (particles alone) take a variant without the
+// shading code: fewer registers.
 const bool kStoredOnly = (kComposite & MIRAGE_OIT_COMPOSITE_STORED) != 0u;
 
 layout(set = 0, binding = 2, rgba16f) uniform image2D colorImage;
@@ -44,7 +43,7 @@ vec4 fragmentColor(ClusterFrame f, uint id, ivec2 px) {
     uvec2 packed = OitStoredColorRef(f.oitColorAddress).colors[node];
     return vec4(unpackHalf2x16(packed.x), unpackHalf2x16(packed.y));
   }
-  return shadeClusterPixel(f, VisibleRef(push.visibleAddress).visible[v1 - 1], triangle, px, kLean);
+  return shadeClusterPixel(f, VisibleRef(push.visibleAddress).visible[v1 - 1], triangle, px);
 }
 
 void main() {
@@ -60,25 +59,10 @@ void main() {
   OitPixelHead head = OitHeadRef(f.oitHeadAddress).pixels[uint(target.y) * targetRowPixels(f) + uint(target.x)];
   if (head.fragments == 0) return;
   vec3 color = imageLoad(colorImage, target).rgb;
-  if (kRegisters) {
-    // The nearest MIRAGE_OIT_MAX_LAYERS keys in registers, far to near at the top of keys[].
-    uint64_t keys[MIRAGE_OIT_MAX_LAYERS];
-    OitPixel list = oitGatherRegisters(f.oitNodeAddress, f.oitNodeCapacity, head, keys);
-    oitCountPixel(f.oitCounterAddress, list);
-    uint ids[MIRAGE_OIT_MAX_LAYERS];
-    [[unroll]] for (int i = 0; i < MIRAGE_OIT_MAX_LAYERS; ++i) ids[i] = uint(keys[i] & 0xffffffffUL);
-    // Popped from the front (constant indices: the ids stay in registers); the empty slots come first.
-    [[dont_unroll]] for (int k = 0; k < MIRAGE_OIT_MAX_LAYERS; ++k) { // one shading body, not 16
-      uint id = ids[0];
-      [[unroll]] for (int i = 0; i < MIRAGE_OIT_MAX_LAYERS - 1; ++i) ids[i] = ids[i + 1];
-      ids[MIRAGE_OIT_MAX_LAYERS - 1] = 0u;
-      if (k >= MIRAGE_OIT_MAX_LAYERS - list.count) color = oitBlend(color, fragmentColor(f, id, px));
-    }
-  } else {
-    // The nearest MIRAGE_OIT_MAX_LAYERS keys (depth bits << 32 | id), far to near (oit_list.glsl).
-    OitPixel list = oitGather(f.oitNodeAddress, f.oitNodeCapacity, head);
-    oitCountPixel(f.oitCounterAddress, list);
-    for (int i = 0; i < list.count; ++i) color = oitBlend(color, fragmentColor(f, uint(oitKeys[i] & 0xffffffffUL), px));
-  }
+  // The nearest MIRAGE_OIT_MAX_LAYERS keys (depth bits << 32 | id), far to near (oit_list.glsl).
+  OitPixel list = (f.flags & MIRAGE_FRAME_OIT_PACKED) != 0u ? oitGatherPacked(f.oitNodeAddress, head)
+                                                            : oitGather(f.oitNodeAddress, f.oitNodeCapacity, head);
+  oitCountPixel(f.oitCounterAddress, list);
+  for (int i = 0; i < list.count; ++i) color = oitBlend(color, fragmentColor(f, uint(oitKeys[i] & 0xffffffffUL), px));
   imageStore(colorImage, target, vec4(color, 1.0));
 }

@@ -105,11 +105,7 @@ struct SampleTarget {
 void drawSample(ClusterFrame f, SampleTarget t, uint x, uint y, float z) {
 #ifdef MIRAGE_RASTER_BLEND
   // The blend queue's test too (cluster_blend_sample.glsl); onto the pixel's list (cluster_oit.glsl).
-  if (blendSampleKept(f, t.fade, t.eyeX, x, y, z)) {
-    uint pixel = y * targetRowPixels(f) + x + t.eyeX;
-    OitSlot s = oitAcquire(f.oitCounterAddress, f.oitHeadAddress, f.oitNodeAddress, f.oitNodeCapacity, pixel, z);
-    commitBlendFragment(f, t.eyeX, uvec2(x, y), pixel, s, z, t.id);
-  }
+  if (blendSampleKept(f, t.fade, t.eyeX, x, y, z)) oitAppend(f, x + t.eyeX, y, z, t.id);
 #else
   if (z < 0.0) return;                              // beyond the far plane
   if (!meshKeepsPixel(t.fade, uvec2(x, y))) return; // the surfels' pixel in the blend band

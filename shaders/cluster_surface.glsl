@@ -60,39 +60,14 @@ ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre) {
   return s;
 }
 
-// Whether material m samples any texture: only then does its shading read the derivatives.
-bool materialSamples(GpuMaterial m) {
-  return hasMap(m.baseColorTexture, MIRAGE_MAP_BASE_COLOR) ||
-         hasMap(m.metallicRoughnessTexture, MIRAGE_MAP_METALLIC_ROUGHNESS) ||
-         hasMap(m.normalTexture, MIRAGE_MAP_NORMAL) || hasMap(m.occlusionTexture, MIRAGE_MAP_OCCLUSION) ||
-         hasMap(m.emissiveTexture, MIRAGE_MAP_EMISSIVE) || hasMap(m.detailAlbedoTexture, MIRAGE_MAP_DETAIL_ALBEDO) ||
-         hasMap(m.detailNormalTexture, MIRAGE_MAP_DETAIL_NORMAL) || hasMap(m.detailMaskTexture, MIRAGE_MAP_DETAIL_MASK);
-}
-
 // Shaded colour (rgb) and coverage (a: 1, or base-colour alpha for BLEND) of triangle t of visible
-// cluster vc at pixel px, as the forward renderer shades it (the transparency composite). `lean`:
-// the rays through the neighbouring pixels (the derivatives) are cast only for a material that
-// samples a texture, after the material is loaded; the colour is the same (the shading reads no
-// derivative otherwise).
-vec4 shadeClusterPixel(ClusterFrame f, VisibleCluster vc, uint t, ivec2 px, bool lean) {
+// cluster vc at pixel px, as the forward renderer shades it (the transparency composite).
+vec4 shadeClusterPixel(ClusterFrame f, VisibleCluster vc, uint t, ivec2 px) {
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
   ClusterTriangle tri = fetchTriangle(c, inst, t);
-  ClusterSurface s;
-  GpuMaterial m;
-  if (lean) {
-    vec2 centre = vec2(px) + 0.5;
-    vec3 h = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre), tri.p0, tri.e1, tri.e2);
-    s.bary = vec3(1.0 - h.y - h.z, h.y, h.z);
-    s.pos = tri.p0 + tri.e1 * h.y + tri.e2 * h.z;
-    s.uv = tri.a.uv * s.bary.x + tri.b.uv * s.bary.y + tri.c.uv * s.bary.z;
-    s.d = SurfaceDerivatives(vec3(0.0), vec3(0.0), vec2(0.0), vec2(0.0));
-    m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
-    if (materialSamples(m)) s = surfaceAt(f, tri, centre);
-  } else {
-    s = surfaceAt(f, tri, vec2(px) + 0.5);
-    m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
-  }
+  ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5);
+  GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;
   vec3 normal = mat3(inst.normalMatrix) * (tri.a.normal * s.bary.x + tri.b.normal * s.bary.y + tri.c.normal * s.bary.z);

@@ -2,21 +2,27 @@
 // forward renderer's and the cluster-LOD renderer's order-independent transparency (docs/render.md,
 // "Transparency"): append under the pool rule and the per-pixel cap (past either, the farthest
 // fragment of the pixel is the one lost), gather the nearest layers sorted, count the frame's Mean
-// Squared Layers. Needs GL_EXT_buffer_reference, scalar block layout and 64-bit ints. An includer
-// may define MIRAGE_OIT_LAYERS (the layers a gather keeps, default MIRAGE_OIT_MAX_LAYERS).
+// Squared Layers; and the packed storage (shaderio/oit.h: each pixel's fragments in one contiguous
+// range, written by a second rasterization). Needs GL_EXT_buffer_reference, scalar block layout and
+// 64-bit ints (the packed writes 64-bit buffer atomics). An includer may define MIRAGE_OIT_LAYERS
+// (the layers a gather keeps, default MIRAGE_OIT_MAX_LAYERS).
 #extension GL_KHR_shader_subgroup_arithmetic : enable
 #extension GL_KHR_shader_subgroup_ballot : enable
 #extension GL_EXT_control_flow_attributes : enable
+#extension GL_EXT_shader_atomic_int64 : enable
 
 #include "mirage/shaderio/oit.h"
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitNodeRef { OitNode nodes[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitHeadRef { OitPixelHead pixels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer OitCounterRef { OitCounters counters; };
+layout(buffer_reference, scalar, buffer_reference_align = 8) buffer OitKeyRef { uint64_t keys[]; };
 // The same lists read while other invocations append and replace (the overflow walk): coherent, so
 // the reads see other invocations' writes rather than a stale cached copy.
 layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitNodeSharedRef { OitNode nodes[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitHeadSharedRef { OitPixelHead pixels[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) coherent buffer OitHeadSharedRef {
+  OitPixelHead pixels[];
+};
 
 const uint kOitNoNode = 0xffffffffu;
 const uint kOitBusy = 0xffffffffu; // a node's id while a fragment replacing it rewrites the node
@@ -146,6 +152,32 @@ void oitCommit(uint64_t headAddress, uint64_t nodeAddress, uint pixel, OitSlot s
   }
 }
 
+// A fragment of `pixel` at depth z in packed storage (shaderio/oit.h), either pass: before the
+// ranges pass (the pixel's state not READY) only counted; after it written into the pixel's range:
+// at the cursor where the range holds every fragment (the same fragments as pass 1, so the cursor
+// stays below the count; the test only guards a range from its neighbours), else by the cascade
+// that keeps the range's keys the nearest so far, sorted nearest first: each slot takes the larger
+// (nearer) of its key and the one arriving, the smaller one moves on to the next slot (atomicMax:
+// the kept set does not depend on the order of arrival).
+void oitPackedFragment(uint64_t headAddress, uint64_t keyAddress, uint pixel, float z, uint id) {
+  OitHeadRef heads = OitHeadRef(headAddress);
+  uint state = heads.pixels[pixel].floorBits;
+  if ((state & MIRAGE_OIT_PACKED_READY) == 0u) { // pass 1
+    atomicAdd(heads.pixels[pixel].fragments, 1u);
+    return;
+  }
+  uint base = heads.pixels[pixel].head;
+  uint64_t key = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
+  OitKeyRef pool = OitKeyRef(keyAddress);
+  if ((state & MIRAGE_OIT_PACKED_NEAREST) == 0u) {
+    uint slot = atomicAdd(heads.pixels[pixel].floorBits, 1u) & MIRAGE_OIT_PACKED_COUNT;
+    if (slot < heads.pixels[pixel].fragments) pool.keys[base + slot] = key;
+    return;
+  }
+  uint slots = state & MIRAGE_OIT_PACKED_COUNT;
+  for (uint i = 0u; i < slots && key != 0ul; ++i) key = min(key, atomicMax(pool.keys[base + i], key));
+}
+
 #ifndef MIRAGE_OIT_LAYERS
 #define MIRAGE_OIT_LAYERS MIRAGE_OIT_MAX_LAYERS
 #endif
@@ -160,6 +192,22 @@ struct OitPixel {
   uint fragments; // of the pixel this frame (OitPixelHead::fragments), listed or not
   uint dropped;   // listed beyond the layer cap: the farthest, which blending "over" shows least
 };
+
+// Key `key` (depth bits << 32 | id) offered to the kept ones in oitKeys: by insertion, the
+// farthest dropped (and counted) once MIRAGE_OIT_LAYERS are kept.
+void oitKeep(inout OitPixel p, uint64_t key) {
+  int at;
+  if (p.count < MIRAGE_OIT_LAYERS) {
+    at = p.count++;
+  } else {
+    ++p.dropped;
+    if (key <= oitKeys[0]) return;                                               // farther than every kept fragment
+    for (int i = 0; i + 1 < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = oitKeys[i + 1]; // drop the farthest
+    at = MIRAGE_OIT_LAYERS - 1;
+  }
+  for (; at > 0 && oitKeys[at - 1] > key; --at) oitKeys[at] = oitKeys[at - 1]; // insertion sort
+  oitKeys[at] = key;
+}
 
 // One step of a list walk: node `node` (index + 1, non-zero) read and zeroed, so the pool is all
 // zero again for the next frame's overflow walks (oitClaimFarthest), which must tell a node not
@@ -179,39 +227,23 @@ OitPixel oitGather(uint64_t nodeAddress, uint capacity, OitPixelHead h) {
   for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = 0;
   OitPixel p = OitPixel(0, h.fragments, 0);
   uint node = h.head;
-  for (uint steps = 0; node != 0 && steps < capacity; ++steps) {
-    uint64_t key = oitTakeNode(nodeAddress, capacity, node);
-    int at;
-    if (p.count < MIRAGE_OIT_LAYERS) {
-      at = p.count++;
-    } else {
-      ++p.dropped;
-      if (key <= oitKeys[0]) continue; // farther than every kept fragment
-      for (int i = 0; i + 1 < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = oitKeys[i + 1]; // drop the farthest
-      at = MIRAGE_OIT_LAYERS - 1;
-    }
-    for (; at > 0 && oitKeys[at - 1] > key; --at) oitKeys[at] = oitKeys[at - 1]; // insertion sort
-    oitKeys[at] = key;
-  }
+  for (uint steps = 0; node != 0 && steps < capacity; ++steps) oitKeep(p, oitTakeNode(nodeAddress, capacity, node));
   return p;
 }
 
-// oitGather with the keys in registers: every index is a constant once the loops are unrolled, so
-// no array goes to (slow, per-thread) local memory. keys[] ascends with the kept keys at the top,
-// [MIRAGE_OIT_LAYERS - count, MIRAGE_OIT_LAYERS), and 0 below (keys are never 0: ids are not).
-// Each node enters by a merge network of min / max (the largest MIRAGE_OIT_LAYERS of the kept keys
-// and the new one, in order): the same keys kept and dropped as oitGather's insertion.
-OitPixel oitGatherRegisters(uint64_t nodeAddress, uint capacity, OitPixelHead h, out uint64_t keys[MIRAGE_OIT_LAYERS]) {
-  [[unroll]] for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) keys[i] = 0;
+// The range of pixel `h` in packed storage (shaderio/oit.h) read, keeping the nearest
+// MIRAGE_OIT_LAYERS sorted as oitGather does: its fragments where it held them all, else its
+// slots (the nearest, by oitPackedFragment's cascade). Independent loads of consecutive keys
+// rather than a chain of dependent ones.
+OitPixel oitGatherPacked(uint64_t keyAddress, OitPixelHead h) {
+  for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = 0;
   OitPixel p = OitPixel(0, h.fragments, 0);
-  uint node = h.head;
-  for (uint steps = 0; node != 0 && steps < capacity; ++steps) {
-    uint64_t key = oitTakeNode(nodeAddress, capacity, node);
-    if (p.count < MIRAGE_OIT_LAYERS) ++p.count;
-    else ++p.dropped; // the smallest (farthest) of the kept keys and this one falls out below
-    // i-th smallest of {keys[1..], key}: keys[i + 1] if key is above it, else the larger of keys[i] and key.
-    [[unroll]] for (int i = 0; i < MIRAGE_OIT_LAYERS - 1; ++i) keys[i] = min(keys[i + 1], max(keys[i], key));
-    keys[MIRAGE_OIT_LAYERS - 1] = max(keys[MIRAGE_OIT_LAYERS - 1], key);
+  uint kept = h.floorBits & MIRAGE_OIT_PACKED_COUNT;
+  uint n = (h.floorBits & MIRAGE_OIT_PACKED_NEAREST) != 0u ? kept : min(kept, h.fragments);
+  OitKeyRef pool = OitKeyRef(keyAddress);
+  for (uint i = 0u; i < n; ++i) {
+    uint64_t key = pool.keys[h.head + i];
+    if (key != 0ul) oitKeep(p, key);
   }
   return p;
 }

@@ -185,10 +185,12 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
   lod.push_back(cmd.add_option("--fovea-radius", c.foveaRadiusDegrees, ".mrg, --fovea: fovea radius in degrees")
                     ->needs(fovea)
                     ->capture_default_str());
-  // Not in clusterLod: forward scenes take it too (cluster LOD ones refuse all but linked-list).
+  // Not in clusterLod: forward scenes take it too (cluster LOD ones take linked-list and packed).
   cmd.add_option("--oit", c.oit,
-                 "alpha BLEND: linked-list (per-pixel sorted lists), weighted (weighted blended, approximate; "
-                 "forward only) or sorted (every blended triangle back to front, the reference; forward only)")
+                 "alpha BLEND: auto (packed for .mrg cluster LOD, linked-list forward), linked-list (per-pixel "
+                 "sorted lists), packed (per-pixel contiguous ranges, two rasterizations; cluster LOD only), "
+                 "weighted (weighted blended, approximate; forward only) or sorted (every blended triangle back "
+                 "to front, the reference; forward only)")
       ->type_name("NAME")
       ->transform(enumNames(render::kOitModeNames, c.oit))
       ->default_str(render::toString(c.oit));

@@ -99,6 +99,9 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     return Error{fmt::format("--hybrid-threshold {} must be a non-negative number of pixels", cs.hybridThreshold)};
   if (cs.oitNodesPerPixel > 64) // 0: the renderer's default
     return Error{fmt::format("OIT node pool of {} nodes per pixel is outside 1..64", cs.oitNodesPerPixel)};
+  if (cs.oit != OitMode::Packed && cs.oit != OitMode::LinkedList)
+    return Error{
+        fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by linked-list or packed", toString(cs.oit))};
   if (!(cs.blendQueuePixels >= 0.0f))
     return Error{fmt::format("--blend-queue-pixels {} must be a non-negative number of pixels", cs.blendQueuePixels)};
   ClusterFramePlan p;
@@ -125,6 +128,8 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
                  std::isfinite(cs.blendQueuePixels) && cs.blendQueueLimit > 0;
   p.particles = cs.particles && cs.particles->batchCount() != 0 && cs.debugView == DebugView::None;
   p.splat = p.particles && cs.particles->splats(OitMode::LinkedList);
+  // Packed storage writes 64-bit keys by atomics; particle billboards append to linked lists.
+  p.packed = p.transparency && cs.oit == OitMode::Packed && !p.particles && ctx.caps().int64BufferAtomics;
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
@@ -173,6 +178,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
       (plan.blend == BlendRaster::Hybrid ? MIRAGE_FRAME_BLEND_HYBRID : 0u) |
       (plan.blend == BlendRaster::Hardware ? MIRAGE_FRAME_BLEND_HARDWARE : 0u) | (plan.dagTree ? MIRAGE_FRAME_DAG : 0u);
   if (plan.clearsVisibility()) f.flags |= MIRAGE_FRAME_CLEAR_VIS;
+  if (plan.packed) f.flags |= MIRAGE_FRAME_OIT_PACKED;
   if (cs.foveation) {
     // The gaze ray through the screen point (Vulkan NDC: y down; any depth between the planes).
     glm::vec4 p = f.camera.invViewProj * glm::vec4(2.0f * cs.foveaGaze - 1.0f, 0.5f, 1.0f);

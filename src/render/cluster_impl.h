@@ -19,12 +19,11 @@
 #include "mirage/render/cluster_renderer.h"
 #include "mirage/render/particle_draw.h"
 #include "mirage/shaderio/cluster.h"
+#include "render_util.h"
 
 namespace mirage::render {
 
 // Everything uploaded once per asset (docs/render.md, "Data layout").
-// The transparency composite's variant from MIRAGE_OIT_COMPOSITE (cluster_oit.cpp).
-uint32_t oitCompositeVariant();
 
 struct ClusterSceneData {
   gpu::Buffer clusters;                        // GpuCluster[], all meshes' DAGs concatenated
@@ -76,7 +75,6 @@ constexpr uint32_t kOitNodesPerPixel = 4;
 // With particle billboards in the lists: as many as the forward renderer's default pool (its
 // particles and the cluster renderer's then fill the same pool).
 constexpr uint32_t kOitNodesPerPixelParticles = 8;
-constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
 
 // Every pass reaches its buffers through device addresses, which synchronization validation does
 // not track, so each phase boundary is one conservative global barrier: whatever compute, fragment
@@ -113,6 +111,7 @@ struct ClusterFramePlan {
   bool blendQueue = false;               // the compute blend raster queues large triangles (cluster_blend_queue.comp)
   bool particles = false;                // particle billboards into the transparency lists (cluster_particles.cpp)
   bool splat = false;                    // small particles splatted (ParticleDraw::splats)
+  bool packed = false;                   // transparency in packed storage (MIRAGE_FRAME_OIT_PACKED)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -130,14 +129,20 @@ struct ClusterRenderer::Impl {
   gpu::Buffer traversal, queues[2]; // hierarchical selection: counters / indirect arguments, node queues
   gpu::Buffer blendVisible, oitHeads, oitNodes; // alpha BLEND: own cluster list, per-pixel fragment lists
   gpu::Buffer blendQueue;                       // alpha BLEND: BlendQueueTriangle[blendQueueCapacity]
-  bool oitNodesUnzeroed = false; // a new node pool, zeroed by the next frame (oit_list.glsl needs it all zero)
+  // The node pool is not all zero (new, or packed frames wrote keys): the next linked-list frame
+  // zeroes it (the lists' overflow rule tells unwritten nodes by 0; packed frames need no zeros).
+  bool oitNodesUnzeroed = false;
+  // Packed storage's ranges pass (oit_ranges.comp, its own push constants): per-block histograms
+  // and first slots (OitRangesScratch), sized with the heads.
+  gpu::Buffer oitRangesScratch;
+  gpu::Unique<VkPipelineLayout> oitRangesLayout;
+  gpu::Unique<VkPipeline> oitRangesPipeline;
   // Particles (cluster_particles.cpp), made on the first frame with them: the colour beside each
   // node of the lists (which then exist without BLEND materials too), and per slot the OitLists the
   // billboards append through.
   gpu::Buffer oitColors, particleLists[kMaxFramesInFlight];
-  gpu::Buffer splatAccum;        // the particle splat's sums (ParticleDraw::splatBytes), made on first use
-  uint32_t compositeVariant = 0; // MIRAGE_OIT_COMPOSITE_* bits (oitCompositeVariant), read once at set-up
-  bool particleOit = false;      // the lists carry particles from now on (their pool sized for them)
+  gpu::Buffer splatAccum;   // the particle splat's sums (ParticleDraw::splatBytes), made on first use
+  bool particleOit = false; // the lists carry particles from now on (their pool sized for them)
   // Per slot (identically defined layouts are compatible): material textures, and the slot's
   // frame's visibility image, colour target and depth, written when the slot is recorded while
   // other slots' frames may still read their own (a resize mid-flight).
@@ -219,7 +224,9 @@ struct ClusterRenderer::Impl {
   void cmdTransparency(VkCommandBuffer cmd, shaderio::ClusterPush p, const ClusterFramePlan& plan, bool blend,
                        ParticleDraw* particles);
   void cmdBlendDepth(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool bufferTarget, bool always);
-  void cmdComputeBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool queue);
+  void cmdComputeBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool queue, bool timed);
+  void cmdBlendRasters(VkCommandBuffer cmd, const shaderio::ClusterPush& p, const ClusterFramePlan& plan, bool timed);
+  void cmdOitRanges(VkCommandBuffer cmd, const ClusterFramePlan& plan);
   void prepareParticles(ParticleDraw& particles); // cluster_particles.cpp
   void cmdParticles(VkCommandBuffer cmd, const shaderio::ClusterPush& p, ParticleDraw& particles);
   ParticleSplatTarget splatTarget(const shaderio::ClusterPush& p);
@@ -231,7 +238,7 @@ struct ClusterRenderer::Impl {
                    uint32_t rasterList);
   void cmdHardwareBlend(VkCommandBuffer cmd, const shaderio::ClusterPush& p, bool mesh);
   VkPipeline blendHardwarePipeline(bool mesh);
-  // cluster_oit_composite.comp specialized by the scene's maps and compositeVariant; `stored`: for
+  // cluster_oit_composite.comp specialized by the scene's maps; `stored`: for
   // frames whose fragments all carry stored colours (MIRAGE_OIT_COMPOSITE_STORED), made on first use.
   VkPipeline createCompositePipeline(bool stored = false);
   bool hasBlend() const { return blendCapacity > 0; }

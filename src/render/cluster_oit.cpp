@@ -4,46 +4,18 @@
 #include "mirage/gpu/commands.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
-#include <string_view>
 
 namespace mirage::render {
 
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 
-// The composite's variant, MIRAGE_OIT_COMPOSITE_* bits, from the environment variable
-// MIRAGE_OIT_COMPOSITE: comma-separated `registers` (keys sorted in registers), `lean` (derivative
-// rays only for textured materials), `shaded` (the compute blend rasters shade each fragment and
-// store its colour beside the node); unset or `list`: the keys in a local array, every fragment
-// shaded by the composite. The choice is for measuring them in one binary (docs/render.md).
-uint32_t oitCompositeVariant() {
-  const char* env = std::getenv("MIRAGE_OIT_COMPOSITE");
-  uint32_t bits = 0;
-  for (std::string_view rest = env ? env : ""; !rest.empty();) {
-    size_t comma = rest.find(',');
-    std::string_view name = rest.substr(0, comma);
-    rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
-    if (name == "registers")
-      bits |= MIRAGE_OIT_COMPOSITE_REGISTERS;
-    else if (name == "lean")
-      bits |= MIRAGE_OIT_COMPOSITE_LEAN;
-    else if (name == "shaded")
-      bits |= MIRAGE_OIT_COMPOSITE_SHADED;
-    else if (name != "list" && !name.empty())
-      std::fprintf(stderr, "MIRAGE_OIT_COMPOSITE: unknown variant '%.*s' ignored (list, registers, lean)\n",
-                   int(name.size()), name.data());
-  }
-  return bits;
-}
-
 VkPipeline ClusterRenderer::Impl::createCompositePipeline(bool stored) {
   Unique<VkPipeline>& pipeline = stored ? compositeStoredPipeline : compositePipeline;
   if (!pipeline) {
     std::vector<uint32_t> specialization = scene.resolveSpecialization; // shading.glsl's maps (constant_id 4)
     specialization.resize(std::max<size_t>(specialization.size(), 1));
-    specialization[0] = compositeVariant | (stored ? MIRAGE_OIT_COMPOSITE_STORED : 0u);
+    specialization[0] = stored ? MIRAGE_OIT_COMPOSITE_STORED : 0u;
     pipeline = createComputePipeline(ctx, "cluster_oit_composite.comp", layout, specialization);
   }
   return pipeline;
@@ -151,30 +123,85 @@ void ClusterRenderer::Impl::cmdHardwareBlend(VkCommandBuffer cmd, const sio::Clu
 }
 
 // The compute blend list (cluster_raster_blend.comp, a workgroup per cluster) and, `queue`, the
-// large triangles it queued (cluster_blend_queue.comp over their tiles, sized by cluster_args.comp).
+// large triangles it queued (cluster_blend_queue.comp over their tiles, sized by cluster_args.comp),
+// timed as "blend-q" when `timed`.
 // barriers: the blend arguments visible; the opaque depth readable (buffer, or the image backends'
 // depth in DEPTH_READ_ONLY). On exit the last dispatch's appends are still to be made visible.
-void ClusterRenderer::Impl::cmdComputeBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool queue) {
+void ClusterRenderer::Impl::cmdComputeBlend(VkCommandBuffer cmd, const sio::ClusterPush& p, bool queue, bool timed) {
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
                     plans[currentSlot].stereo ? blendRasterStereoPipeline : blendRasterPipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptors[currentSlot].set, 0, nullptr);
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
   vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(2, MIRAGE_LIST_UP));
   if (!queue) return;
-  uint32_t slot = timer().cmdBegin(cmd, "blend-q", kCS);
+  uint32_t slot = timed ? timer().cmdBegin(cmd, "blend-q", kCS) : 0;
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);                                // the queue complete
   cmdArgs(cmd, p, MIRAGE_BLEND_QUEUE_ARGS);                                   // its dispatch; cmdArgs leaves it visible
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, blendQueuePipeline); // the set stays bound
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST);
   vkCmdDispatchIndirect(cmd, counters.handle(), offsetof(sio::ClusterCounters, blendQueueArgs));
+  if (timed) timer().cmdEnd(cmd, slot, kCS);
+}
+
+// The blend lists rasterized into the transparency storage: the compute list (cmdComputeBlend) and
+// the hardware list (cmdHardwareBlend), the parts timed ("blend-cs", "blend-q", "blend-hw") when
+// `timed`. barriers: as cmdComputeBlend and cmdHardwareBlend (cmdBlendDepth recorded before).
+void ClusterRenderer::Impl::cmdBlendRasters(VkCommandBuffer cmd, const sio::ClusterPush& p,
+                                            const ClusterFramePlan& plan, bool timed) {
+  BlendRaster blend = plan.blend;
+  bool queue = plan.blendQueue;
+  if (blend != BlendRaster::Hardware) {
+    bool split = timed && (blend == BlendRaster::Hybrid || queue);
+    uint32_t part = split ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
+    cmdComputeBlend(cmd, p, queue, timed);
+    if (split) timer().cmdEnd(cmd, part, kCS);
+  }
+  if (blend != BlendRaster::Compute) {
+    bool split = timed && blend == BlendRaster::Hybrid;
+    uint32_t part = split ? timer().cmdBegin(cmd, "blend-hw") : 0;
+    cmdHardwareBlend(cmd, p, plan.meshBlend);
+    if (split) timer().cmdEnd(cmd, part);
+  }
+}
+
+// Packed storage between its two rasterizations (oit_ranges.comp): every pixel's range from the
+// counts of pass 1, then the blend queue emptied so pass 2 queues its large triangles afresh (the
+// same fragments, whichever path draws them). Timed as "oit-ranges".
+// barriers: on entry pass 1's counts visible (cmdPhaseBarrier); on exit the ranges visible to pass 2.
+void ClusterRenderer::Impl::cmdOitRanges(VkCommandBuffer cmd, const ClusterFramePlan& plan) {
+  uint32_t slot = timer().cmdBegin(cmd, "oit-ranges", kCS);
+  sio::OitRangesPush rp{};
+  rp.headAddress = oitHeads.address();
+  rp.keyAddress = oitNodes.address();
+  rp.scratchAddress = oitRangesScratch.address();
+  rp.counterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
+  rp.pixels = colorWidth * height;
+  rp.capacity = oitNodeCapacity;
+  uint32_t blocks = (rp.pixels + MIRAGE_OIT_RANGE_BLOCK - 1) / MIRAGE_OIT_RANGE_BLOCK;
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, oitRangesPipeline);
+  for (uint32_t stage = 0; stage < 3; ++stage) {
+    rp.stage = stage;
+    vkCmdPushConstants(cmd, oitRangesLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(rp), &rp);
+    vkCmdDispatch(cmd, stage == 1 ? 1 : blocks, 1, 1);
+    cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kStorageRW);
+  }
+  // The queue's counts, arguments and overflow (adjacent) zeroed as at the frame start.
+  if (plan.blendQueue)
+    vkCmdFillBuffer(cmd, counters.handle(), offsetof(sio::ClusterCounters, blendQueueCounts),
+                    offsetof(sio::ClusterCounters, blendQueueOverflow) + sizeof(uint32_t) -
+                        offsetof(sio::ClusterCounters, blendQueueCounts),
+                    0);
   timer().cmdEnd(cmd, slot, kCS);
+  cmdPhaseBarrier(cmd, ctx.caps().meshShader);
 }
 
 // Alpha BLEND after the resolve (scenes with BLEND materials, `blendClusters`): the blend lists
-// rasterized into per-pixel fragment lists, depth-tested against the opaque depth (the compute list
+// rasterized into the transparency storage, depth-tested against the opaque depth (the compute list
 // by cmdComputeBlend, the hardware list by cmdHardwareBlend), and the particle billboards appended
 // to the same lists (cmdParticles); then the composite sorts and blends each pixel's fragments over
-// the resolved colour. "blend" times both rasters; hybrid, and compute with the blend queue, add
+// the resolved colour. Linked lists: one rasterization ("blend"). Packed storage (plan.packed): the
+// rasterization counts ("blend"), the ranges pass ("oit-ranges") places each pixel's range, a second
+// rasterization writes ("blend-write"). Hybrid, and compute with the blend queue, split "blend" into
 // "blend-cs" (the compute list, its queue included), "blend-q" (the queue: its arguments and
 // dispatch) and hybrid "blend-hw" (the hardware list); the buffer backends' depth copy is "blend-z".
 // barriers: the resolve's colour, the opaque depth and the blend arguments (cmdArgs pass 2) written;
@@ -184,25 +211,19 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
   // Ids of the blend passes name blend-list entries (without BLEND materials the opaque list, whose
   // entry 0 the composite may load for particle lanes).
   p.visibleAddress = hasBlend() ? blendVisible.address() : visible.address();
-  BlendRaster blend = plan.blend;
-  bool meshBlend = plan.meshBlend, bufferTarget = plan.bufferTarget;
-  bool queue = blendClusters && plan.blendQueue;
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   uint32_t slot = timer().cmdBegin(cmd, "blend");
-  if ((blendClusters && blend != BlendRaster::Compute) || plan.particles)
-    cmdBlendDepth(cmd, p, bufferTarget, /*always=*/plan.particles);
-  if (blendClusters && blend != BlendRaster::Hardware) {
-    bool timed = blend == BlendRaster::Hybrid || queue;
-    uint32_t part = timed ? timer().cmdBegin(cmd, "blend-cs", kCS) : 0;
-    cmdComputeBlend(cmd, p, queue);
-    if (timed) timer().cmdEnd(cmd, part, kCS);
-  }
-  if (blendClusters && blend != BlendRaster::Compute) {
-    uint32_t part = blend == BlendRaster::Hybrid ? timer().cmdBegin(cmd, "blend-hw") : 0;
-    cmdHardwareBlend(cmd, p, meshBlend);
-    if (blend == BlendRaster::Hybrid) timer().cmdEnd(cmd, part);
-  }
+  if ((blendClusters && plan.blend != BlendRaster::Compute) || plan.particles)
+    cmdBlendDepth(cmd, p, plan.bufferTarget, /*always=*/plan.particles);
+  if (blendClusters) cmdBlendRasters(cmd, p, plan, /*timed=*/true);
   timer().cmdEnd(cmd, slot);
+  if (plan.packed && blendClusters) {
+    cmdPhaseBarrier(cmd, ctx.caps().meshShader); // the counts complete
+    cmdOitRanges(cmd, plan);
+    slot = timer().cmdBegin(cmd, "blend-write");
+    cmdBlendRasters(cmd, p, plan, /*timed=*/false);
+    timer().cmdEnd(cmd, slot);
+  }
   if (plan.particles) {
     // The blend rasters' appends visible to the billboards' pool-overflow walks (oit_list.glsl).
     if (blendClusters) cmdPhaseBarrier(cmd, ctx.caps().meshShader);
@@ -210,10 +231,8 @@ void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPus
   }
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
   slot = timer().cmdBegin(cmd, "composite", kCS);
-  // Every fragment a stored colour: particles alone, or shaded by the compute blend rasters.
-  bool stored =
-      !blendClusters || ((compositeVariant & MIRAGE_OIT_COMPOSITE_SHADED) != 0 && blend == BlendRaster::Compute);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, createCompositePipeline(stored));
+  // Every fragment a stored colour: particles alone.
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, createCompositePipeline(/*stored=*/!blendClusters));
   cmdPush(cmd, p, MIRAGE_RASTER_BLEND_LIST); // stereo: the hardware draws left the right eye's frame pushed
   vkCmdDispatch(cmd, (colorWidth + 7) / 8, (height + 7) / 8, 1); // both eyes in stereo
   timer().cmdEnd(cmd, slot, kCS);

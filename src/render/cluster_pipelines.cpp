@@ -70,18 +70,17 @@ void ClusterRenderer::Impl::createPipelines() {
     rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kMono);
     rasterMaskStereoPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kStereo);
   }
-  compositeVariant = oitCompositeVariant();
   if (scene.blendInstancedClusters > 0) {
-    // constant_id 2: the blend rasters shade their fragments (cluster_blend_sample.glsl).
-    uint32_t shaded = (compositeVariant & MIRAGE_OIT_COMPOSITE_SHADED) != 0 ? 1u : 0u;
-    const uint32_t kBlendMono[] = {1, kRasterLanes, shaded}, kBlendStereo[] = {2, 2 * kRasterLanes, shaded};
-    const uint32_t kQueue[] = {0, 0, shaded};
-    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kBlendMono);
-    blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kBlendStereo);
+    blendRasterPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kMono);
+    blendRasterStereoPipeline = createComputePipeline(ctx, "cluster_raster_blend.comp", layout, kStereo);
     createCompositePipeline();
-    // The blend queue takes a triangle's slot and first tile with a 64-bit compare-and-swap.
-    if (caps.int64BufferAtomics)
-      blendQueuePipeline = createComputePipeline(ctx, "cluster_blend_queue.comp", layout, kQueue);
+    // The blend queue takes a triangle's slot and first tile with a 64-bit compare-and-swap; packed
+    // transparency keeps a pixel's nearest by 64-bit maxima.
+    if (caps.int64BufferAtomics) {
+      blendQueuePipeline = createComputePipeline(ctx, "cluster_blend_queue.comp", layout);
+      oitRangesLayout = createPipelineLayout(ctx, {}, sizeof(sio::OitRangesPush), VK_SHADER_STAGE_COMPUTE_BIT);
+      oitRangesPipeline = createComputePipeline(ctx, "oit_ranges.comp", oitRangesLayout);
+    }
   }
   indirectPipeline = createVisPipeline(/*mesh=*/false, /*atomic=*/false);
   if (caps.meshShader) meshPipeline = createVisPipeline(/*mesh=*/true, /*atomic=*/false);
@@ -220,9 +219,16 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
 
 // The transparency lists' heads at the target size (both eyes in stereo; the caller retired the old).
 void ClusterRenderer::Impl::createOitHeads() {
-  oitHeads = createBuffer(ctx, uint64_t(colorWidth) * height * sizeof(sio::OitPixelHead),
+  uint64_t pixels = uint64_t(colorWidth) * height;
+  oitHeads = createBuffer(ctx, pixels * sizeof(sio::OitPixelHead),
                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
                           "transparency heads");
+  if (!oitRangesPipeline) return;
+  uint64_t blocks = (pixels + MIRAGE_OIT_RANGE_BLOCK - 1) / MIRAGE_OIT_RANGE_BLOCK;
+  retired.retire(std::move(oitRangesScratch), inFlightSlots());
+  oitRangesScratch =
+      createBuffer(ctx, sizeof(sio::OitRangesScratch) + blocks * (MIRAGE_OIT_MAX_LAYERS + 1 + 2) * sizeof(uint32_t),
+                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly, "transparency ranges scratch");
 }
 
 // The transparency node pool for the current size: nodesPerPixel per pixel (both eyes in stereo;
@@ -241,8 +247,8 @@ void ClusterRenderer::Impl::ensureOitPool(uint32_t nodesPerPixel) {
   oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),
                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
                           "transparency nodes");
-  // Colours beside the nodes: particles', and blended fragments' when the blend rasters shade them.
-  if (particleOit || (hasBlend() && (compositeVariant & MIRAGE_OIT_COMPOSITE_SHADED) != 0))
+  // Colours beside the nodes: particles'.
+  if (particleOit)
     oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                              MemoryUsage::GpuOnly, "transparency colours");
   oitNodesUnzeroed = true; // cmdFrame zeroes it (the lists' overflow rule tells unwritten nodes by 0)

@@ -138,7 +138,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
   vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
   if (oitHeads) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
-  if (oitNodes && oitNodesUnzeroed) { // a new pool; afterwards the composite leaves it zero
+  if (plan.packed) {
+    oitNodesUnzeroed = true;                 // its keys stay in the pool
+  } else if (oitNodes && oitNodesUnzeroed) { // lists: afterwards the composite leaves the pool zero
     vkCmdFillBuffer(cmd, oitNodes.handle(), 0, VK_WHOLE_SIZE, 0);
     oitNodesUnzeroed = false;
   }

@@ -10,6 +10,7 @@
 #include "forward_impl.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/render/particle_draw.h"
+#include "render_util.h"
 
 namespace mirage::render {
 
@@ -18,11 +19,9 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
 constexpr VkPipelineStageFlags2 kFS = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
 constexpr VkPipelineStageFlags2 kTests =
     VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-constexpr VkAccessFlags2 kStorageRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
 } // namespace
 
 VkPipelineColorBlendAttachmentState forwardWeightedBlend() {

@@ -177,6 +177,8 @@ Status checkSettings(const ForwardRenderSettings& fs) {
     return Error{fmt::format("render size {}x{} is outside 1..{}", s.width, s.height, kMaxRenderDimension)};
   if (fs.oitNodesPerPixel < 1 || fs.oitNodesPerPixel > 64)
     return Error{fmt::format("OIT node pool of {} nodes per pixel is outside 1..64", fs.oitNodesPerPixel)};
+  if (fs.oit == OitMode::Auto || fs.oit == OitMode::Packed)
+    return Error{fmt::format("--oit {}: the forward renderer draws linked-list, weighted or sorted", toString(fs.oit))};
   if (!fs.stereoIpd) return Ok{};
   if (Status st = validateIpd(*fs.stereoIpd); !st) return st.error();
   if (uint64_t(s.width) * 2 > kMaxRenderDimension)

@@ -7,18 +7,12 @@
 
 #include "mirage/gpu/commands.h"
 #include "particle_draw_impl.h"
+#include "render_util.h"
 
 namespace mirage::render {
 
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
-
-namespace {
-
-constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-constexpr VkAccessFlags2 kStorageRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-
-} // namespace
 
 // barriers: cmdPrepare's arguments and batch table visible to compute shaders; the records written.
 void ParticleDraw::cmdSort(VkCommandBuffer cmd, const glm::mat4& view, VkDeviceAddress triangleDepths,

@@ -16,9 +16,6 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-constexpr VkAccessFlags2 kStorageRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-
 // The accumulation that runs: float adds where asked or available, else fixed point.
 bool useFixedPoint(const ParticleDrawSettings& s, const DeviceCapabilities& caps) {
   if (s.atomics == SplatAtomics::Fixed) return true;

@@ -15,6 +15,10 @@
 
 namespace mirage::render {
 
+// Synchronization2 shorthands of the compute passes' barriers.
+constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+constexpr VkAccessFlags2 kStorageRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+
 // Linear filtering with repeat and trilinear mips (material textures), or nearest with clamp
 // (integer targets such as the visibility image).
 gpu::Unique<VkSampler> makeSampler(gpu::Context& ctx, VkFilter filter);

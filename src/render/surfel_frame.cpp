@@ -18,9 +18,6 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr VkAccessFlags2 kShaderRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-
 // SurfelRenderFrame::flags of the settings both paths share (the caller adds the source).
 uint32_t frameFlags(const SurfelRenderSettings& ss) {
   uint32_t merge = ss.merge == SurfelMerge::On     ? MIRAGE_SURFEL_MERGE_ALL
@@ -113,7 +110,7 @@ void SurfelRenderer::Impl::cmdPrefix(VkCommandBuffer cmd, const sio::SurfelRende
   vkCmdPushConstants(cmd, layout, kSurfelPushStages, 0, sizeof(p), &p);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, prefixPipeline);
   vkCmdDispatch(cmd, (instanceCount + MIRAGE_SURFEL_INSTANCE_WORKGROUP - 1) / MIRAGE_SURFEL_INSTANCE_WORKGROUP, 1, 1);
-  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kShaderRW);
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kStorageRW);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scanPipeline);
   vkCmdDispatch(cmd, 1, 1, 1);
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
@@ -228,7 +225,7 @@ void SurfelRenderer::Impl::cmdFrame(VkCommandBuffer cmd) {
   // Shaders reach these buffers through addresses, which synchronization validation does not
   // track: make the clears visible to every later reader directly.
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                   kCS | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, kShaderRW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+                   kCS | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, kStorageRW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
   cmdPrefix(cmd, p, t);   // cull, k per instance (stereo: once, from the nearer eye), ids, batches, dispatch
   cmdSplat(cmd, plan, t); // visibility: (depth, surfel id) per pixel (stereo: both eyes, each surfel loaded once)
   cmdResolve(cmd, p);     // fetch and shade (stereo: both halves)

@@ -69,10 +69,14 @@ Status checkConfig(const RenderConfig& c, SceneKind kind) {
   if (c.debugView != render::DebugView::None && kind != SceneKind::ClusterLod)
     return Error{
         fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one", toString(kind))};
-  if (c.oit != render::OitMode::LinkedList && kind == SceneKind::ClusterLod)
+  using render::OitMode;
+  bool lists = c.oit == OitMode::Auto || c.oit == OitMode::LinkedList;
+  if (kind == SceneKind::ClusterLod && !lists && c.oit != OitMode::Packed)
+    return Error{fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by linked-list or packed",
+                             render::toString(c.oit))};
+  if (kind != SceneKind::ClusterLod && c.oit == OitMode::Packed)
     return Error{
-        fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by linked lists only (--oit linked-list)",
-                    render::toString(c.oit))};
+        fmt::format("--oit packed needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one", toString(kind))};
   return Ok{};
 }
 

@@ -40,7 +40,7 @@ render::ForwardRenderSettings forwardSettings(const Scene::Impl& s, const View& 
   rs.readImage = view.readImage;
   rs.readLinear = view.readLinear;
   fs.stereoIpd = view.stereoIpd;
-  fs.oit = view.config.oit;
+  if (view.config.oit != render::OitMode::Auto) fs.oit = view.config.oit;
   if (view.config.oitNodesPerPixel) fs.oitNodesPerPixel = *view.config.oitNodesPerPixel;
   fs.particles = view.particles;
   return fs;

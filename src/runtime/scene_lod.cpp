@@ -95,6 +95,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.hybridThreshold = c.hybridThreshold;
   rs.blendQueuePixels = c.blendQueuePixels;
   if (c.oitNodesPerPixel) rs.oitNodesPerPixel = *c.oitNodesPerPixel;
+  if (c.oit != render::OitMode::Auto) rs.oit = c.oit;
   rs.pvsCulling = c.pvsCulling;
   rs.stereoIpd = view.stereoIpd;
   rs.stereoMode = c.stereoMode;

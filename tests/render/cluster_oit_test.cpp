@@ -3,8 +3,8 @@
 // the layers keeps each pixel's nearest fragments, and so does the per-pixel cap past 16 layers,
 // sparing the pool (ClusterOit); drawn through the blend queue, the
 // layers give exactly the fragments and the image of the per-cluster walk, and the hardware blend
-// raster's, and a full queue falls back to the walk (ClusterBlendQueue); the composite's variants
-// (MIRAGE_OIT_COMPOSITE) give the default composite's image (ClusterOit). Validation stays silent.
+// raster's, and a full queue falls back to the walk (ClusterBlendQueue); packed storage keeps the
+// linked lists' fragments, counts and image (ClusterOit). Validation stays silent.
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -78,6 +78,12 @@ ClusterRenderOutput renderFrame(ClusterRenderer& r, const ClusterRenderSettings&
   auto out = r.render(s);
   EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
   return out.ok() ? std::move(*out) : ClusterRenderOutput{};
+}
+
+// Both storages where the device has packed storage's 64-bit atomics, else the linked lists.
+std::vector<OitMode> oitModes(gpu::Context& ctx) {
+  if (!ctx.caps().int64BufferAtomics) return {OitMode::LinkedList};
+  return {OitMode::LinkedList, OitMode::Packed};
 }
 
 bool identical(const ImageRGBA8& a, const ImageRGBA8& b) {
@@ -228,44 +234,51 @@ TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
   if (context().caps().fragmentStoresAndAtomics) modes.push_back({BlendRaster::Hardware, INFINITY});
   auto renderer = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  for (auto [blend, queuePixels] : modes) {
-    ClusterRenderSettings ts = s;
-    ts.oitNodesPerPixel = kPool;
-    ts.blendRaster = blend;
-    ts.blendQueuePixels = queuePixels;
-    ClusterRenderOutput out = renderFrame(**renderer, ts);
-    std::string what = std::string(toString(blend)) + (std::isfinite(queuePixels) ? " + queue" : "");
-    EXPECT_EQ(out.stats.oitFragments, kLayers * kW * kH) << what;
-    EXPECT_EQ(out.stats.oitPoolOverflow, (kLayers - kPool) * kW * kH) << what;
-    // Per pixel the candidate it equals (within one step of rounding): its list's length.
-    uint32_t unmatched = 0, kept = 0, histogram[kLayers + 1] = {};
-    for (uint32_t y = 0; y < kH; ++y)
-      for (uint32_t x = 0; x < kW; ++x) {
-        int best = -1, bestDiff = 1 << 30;
-        for (uint32_t k = 0; k <= kLayers; ++k) {
-          int diff = 0;
-          for (int c = 0; c < 3; ++c)
-            diff = std::max(diff, std::abs(int(out.image.srgb.at(x, y)[c]) - int(nearest[k].at(x, y)[c])));
-          if (diff < bestDiff) bestDiff = diff, best = int(k);
+  for (OitMode oit : oitModes(context()))
+    for (auto [blend, queuePixels] : modes) {
+      ClusterRenderSettings ts = s;
+      ts.oitNodesPerPixel = kPool;
+      ts.blendRaster = blend;
+      ts.blendQueuePixels = queuePixels;
+      ts.oit = oit;
+      ClusterRenderOutput out = renderFrame(**renderer, ts);
+      std::string what =
+          std::string(toString(oit)) + ", " + toString(blend) + (std::isfinite(queuePixels) ? " + queue" : "");
+      EXPECT_EQ(out.stats.oitFragments, kLayers * kW * kH) << what;
+      EXPECT_EQ(out.stats.oitPoolOverflow, (kLayers - kPool) * kW * kH) << what;
+      // Per pixel the candidate it equals (within one step of rounding): its list's length.
+      uint32_t unmatched = 0, kept = 0, histogram[kLayers + 1] = {};
+      for (uint32_t y = 0; y < kH; ++y)
+        for (uint32_t x = 0; x < kW; ++x) {
+          int best = -1, bestDiff = 1 << 30;
+          for (uint32_t k = 0; k <= kLayers; ++k) {
+            int diff = 0;
+            for (int c = 0; c < 3; ++c)
+              diff = std::max(diff, std::abs(int(out.image.srgb.at(x, y)[c]) - int(nearest[k].at(x, y)[c])));
+            if (diff < bestDiff) bestDiff = diff, best = int(k);
+          }
+          if (bestDiff > 1) {
+            ++unmatched;
+            continue;
+          }
+          ++histogram[best];
+          kept += uint32_t(best);
         }
-        if (bestDiff > 1) {
-          ++unmatched;
-          continue;
-        }
-        ++histogram[best];
-        kept += uint32_t(best);
+      std::printf("%s: pixels by layers kept (nearest k):", what.c_str());
+      for (uint32_t k = 0; k <= kLayers; ++k) std::printf(" %u", histogram[k]);
+      std::printf("; %u pixels match no nearest-k image; %u fragments kept of a pool of %u\n", unmatched, kept,
+                  kPool * kW * kH);
+      // Fragments of one pixel racing past the pool may miss a node still being linked (the
+      // replacement rule is approximate under contention, docs/render.md), which the threads of a
+      // loaded machine can produce: a few pixels may keep another set; dropping on arrival fails all.
+      EXPECT_LE(unmatched, kW * kH / 100u) << what;
+      EXPECT_LE(std::abs(int64_t(kept) - int64_t(kPool * kW * kH)), int64_t(kPool * kW * kH / 100u)) << what;
+      if (oit == OitMode::Packed) { // the cap that fits the pool: every pixel its nearest kPool, exactly
+        EXPECT_EQ(unmatched, 0u) << what;
+        EXPECT_EQ(histogram[kPool], kW * kH) << what;
       }
-    std::printf("%s: pixels by layers kept (nearest k):", what.c_str());
-    for (uint32_t k = 0; k <= kLayers; ++k) std::printf(" %u", histogram[k]);
-    std::printf("; %u pixels match no nearest-k image; %u fragments kept of a pool of %u\n", unmatched, kept,
-                kPool * kW * kH);
-    // Fragments of one pixel racing past the pool may miss a node still being linked (the
-    // replacement rule is approximate under contention, docs/render.md), which the threads of a
-    // loaded machine can produce: a few pixels may keep another set; dropping on arrival fails all.
-    EXPECT_LE(unmatched, kW * kH / 100u) << what;
-    EXPECT_LE(std::abs(int64_t(kept) - int64_t(kPool * kW * kH)), int64_t(kPool * kW * kH / 100u)) << what;
-    writeOnFailure(out.image.srgb, "pool_overflow_" + std::string(toString(blend)) + ".png");
-  }
+      writeOnFailure(out.image.srgb, "pool_overflow_" + std::string(toString(oit)) + "_" + toString(blend) + ".png");
+    }
 }
 
 // gen:layers:20 over a pool of 16 nodes per pixel: the per-pixel cap (oit_list.glsl) lets only the
@@ -292,97 +305,96 @@ TEST_F(ClusterOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
   if (context().caps().fragmentStoresAndAtomics) modes.push_back({BlendRaster::Hardware, INFINITY});
   auto renderer = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  for (auto [blend, queuePixels] : modes) {
-    ClusterRenderSettings ts = s;
-    ts.blendRaster = blend;
-    ts.blendQueuePixels = queuePixels;
-    ClusterRenderOutput out = renderFrame(**renderer, ts);
-    std::string what = std::string(toString(blend)) + (std::isfinite(queuePixels) ? " + queue" : "");
-    if (std::isfinite(queuePixels)) {
-      EXPECT_GT(out.stats.blendQueueTriangles, 0u) << what;
+  for (OitMode oit : oitModes(context()))
+    for (auto [blend, queuePixels] : modes) {
+      ClusterRenderSettings ts = s;
+      ts.blendRaster = blend;
+      ts.blendQueuePixels = queuePixels;
+      ts.oit = oit;
+      ClusterRenderOutput out = renderFrame(**renderer, ts);
+      std::string what =
+          std::string(toString(oit)) + ", " + toString(blend) + (std::isfinite(queuePixels) ? " + queue" : "");
+      if (std::isfinite(queuePixels)) {
+        EXPECT_GT(out.stats.blendQueueTriangles, 0u) << what;
+      }
+      EXPECT_EQ(out.stats.oitFragments, kLayers * kW * kH) << what;
+      EXPECT_EQ(out.stats.oitPoolOverflow, 0u) << what;
+      EXPECT_EQ(out.stats.oitLayersDropped, (kLayers - kCap) * kW * kH) << what;
+      EXPECT_DOUBLE_EQ(out.stats.msl, double(kLayers * kLayers)) << what;
+      uint32_t unmatched = 0;
+      for (uint32_t y = 0; y < kH; ++y)
+        for (uint32_t x = 0; x < kW; ++x)
+          for (int c = 0; c < 3; ++c)
+            if (std::abs(int(out.image.srgb.at(x, y)[c]) - int(nearest.image.srgb.at(x, y)[c])) > 1) {
+              ++unmatched;
+              break;
+            }
+      std::printf("%s: %u of %u pixels differ from the nearest %u layers\n", what.c_str(), unmatched, kW * kH, kCap);
+      // Fragments of one pixel racing past the cap may miss a node still being linked (docs/render.md).
+      EXPECT_LE(unmatched, kW * kH / 100u) << what;
+      if (oit == OitMode::Packed) { // the cascade keeps the nearest exactly
+      EXPECT_EQ(unmatched, 0u) << what;
     }
-    EXPECT_EQ(out.stats.oitFragments, kLayers * kW * kH) << what;
-    EXPECT_EQ(out.stats.oitPoolOverflow, 0u) << what;
-    EXPECT_EQ(out.stats.oitLayersDropped, (kLayers - kCap) * kW * kH) << what;
-    EXPECT_DOUBLE_EQ(out.stats.msl, double(kLayers * kLayers)) << what;
-    uint32_t unmatched = 0;
-    for (uint32_t y = 0; y < kH; ++y)
-      for (uint32_t x = 0; x < kW; ++x)
-        for (int c = 0; c < 3; ++c)
-          if (std::abs(int(out.image.srgb.at(x, y)[c]) - int(nearest.image.srgb.at(x, y)[c])) > 1) {
-            ++unmatched;
-            break;
-          }
-    std::printf("%s: %u of %u pixels differ from the nearest %u layers\n", what.c_str(), unmatched, kW * kH, kCap);
-    // Fragments of one pixel racing past the cap may miss a node still being linked (docs/render.md).
-    EXPECT_LE(unmatched, kW * kH / 100u) << what;
-    writeOnFailure(out.image.srgb, "cap_" + std::string(toString(blend)) + ".png");
-  }
+      writeOnFailure(out.image.srgb, "cap_" + std::string(toString(oit)) + "_" + toString(blend) + ".png");
+    }
 }
 
-// The composite's variants (MIRAGE_OIT_COMPOSITE, read when a renderer is made) against the
-// default (keys in a local array, every fragment shaded by the composite): 20 intersecting layers
-// cut by a wall (past the 16-layer cap where the wall is far), compute with the blend queue and
-// the per-cluster walk, mono and stereo. Sorting in registers and lean shading keep the fragments,
-// the counts and the image bit for bit; shading in the blend rasters stores RGBA16F colours (the
-// composite's own arithmetic is float), so its image is compared by PSNR, its counts exactly.
-TEST_F(ClusterOit, CompositeVariantsMatchTheListComposite) {
-  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
-  lod::LodAsset asset = bake(layerScene(20, 3.0f, /*wall=*/true));
-  ASSERT_FALSE(asset.dags.empty());
+// Packed storage against the linked lists on intersecting layers (tilted 3 degrees, so each pair
+// of layers crosses) cut by an opaque wall: 8 layers (under the 16-layer cap: the same keys in
+// every pixel, so the same image bit for bit) and 20 (past the cap where the wall is far: the
+// lists keep each pixel's nearest 16 up to their replacement races, packed storage exactly), with
+// the blend queue and the per-cluster walk, mono and stereo, and the hardware blend raster: the
+// same fragments, cap drops, pool overflow and Mean Squared Layers.
+TEST_F(ClusterOit, PackedStorageMatchesTheLinkedLists) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no packed storage";
   struct Case {
     const char* what;
     std::optional<float> ipd;
     float queuePixels;
+    BlendRaster blend;
   };
-  const Case cases[] = {{"queue", std::nullopt, ClusterRenderSettings{}.blendQueuePixels},
-                        {"walk", std::nullopt, INFINITY},
-                        {"stereo queue", 0.064f, ClusterRenderSettings{}.blendQueuePixels}};
-  auto renderAll = [&](const char* variant) {
-    if (variant)
-      setenv("MIRAGE_OIT_COMPOSITE", variant, 1);
-    else
-      unsetenv("MIRAGE_OIT_COMPOSITE");
+  std::vector<Case> cases{{"queue", std::nullopt, ClusterRenderSettings{}.blendQueuePixels, BlendRaster::Compute},
+                          {"walk", std::nullopt, INFINITY, BlendRaster::Compute},
+                          {"stereo queue", 0.064f, ClusterRenderSettings{}.blendQueuePixels, BlendRaster::Compute}};
+  if (context().caps().fragmentStoresAndAtomics)
+    cases.push_back({"hardware", std::nullopt, INFINITY, BlendRaster::Hardware});
+  for (uint32_t layers : {8u, 20u}) {
+    lod::LodAsset asset = bake(layerScene(layers, 3.0f, /*wall=*/true));
+    ASSERT_FALSE(asset.dags.empty());
     auto r = ClusterRenderer::create(context(), asset);
-    unsetenv("MIRAGE_OIT_COMPOSITE");
-    std::vector<ClusterRenderOutput> outs;
-    if (!r.ok()) {
-      ADD_FAILURE() << r.error().message;
-      return outs;
-    }
+    ASSERT_TRUE(r.ok()) << r.error().message;
     for (const Case& c : cases) {
       ClusterRenderSettings s = layerSettings(64, 48);
       s.raster = RasterBackend::Compute;
-      s.blendRaster = BlendRaster::Compute;
+      s.blendRaster = c.blend;
       s.blendQueuePixels = c.queuePixels;
       s.stereoIpd = c.ipd;
-      s.oitNodesPerPixel = 24; // every fragment gets a node: the layer cap drops the farthest
-      outs.push_back(renderFrame(**r, s));
-    }
-    return outs;
-  };
-  std::vector<ClusterRenderOutput> list = renderAll(nullptr);
-  ASSERT_EQ(list.size(), std::size(cases));
-  EXPECT_GT(list[0].stats.oitLayersDropped, 0u);
-  for (const char* variant : {"registers", "lean", "shaded", "registers,lean,shaded"}) {
-    std::vector<ClusterRenderOutput> outs = renderAll(variant);
-    ASSERT_EQ(outs.size(), std::size(cases)) << variant;
-    bool exact = std::string(variant).find("shaded") == std::string::npos;
-    for (size_t i = 0; i < outs.size(); ++i) {
-      const ClusterStats &a = outs[i].stats, &b = list[i].stats;
-      std::string what = std::string(variant) + ", " + cases[i].what;
-      double p = psnr(outs[i].image.srgb, list[i].image.srgb);
-      std::printf("%s: %u fragments, %u past 16 layers, msl %.3f; PSNR vs the list composite %.2f dB\n", what.c_str(),
-                  a.oitFragments, a.oitLayersDropped, a.msl, p);
+      s.oitNodesPerPixel = 24; // every fragment under the cap gets a node
+      s.oit = OitMode::LinkedList;
+      ClusterRenderOutput list = renderFrame(**r, s);
+      s.oit = OitMode::Packed;
+      ClusterRenderOutput packed = renderFrame(**r, s);
+      const ClusterStats &a = packed.stats, &b = list.stats;
+      std::string what = std::to_string(layers) + " layers, " + c.what;
+      double p = psnr(packed.image.srgb, list.image.srgb);
+      bool same = identical(packed.image.srgb, list.image.srgb);
+      std::printf("%s: %u fragments, %u past 16 layers, msl %.3f; %s the lists' image (PSNR %.2f dB)\n", what.c_str(),
+                  a.oitFragments, a.oitLayersDropped, a.msl, same ? "equal to" : "differs from", p);
+      EXPECT_GT(a.oitFragments, 0u) << what;
       EXPECT_EQ(a.oitFragments, b.oitFragments) << what;
       EXPECT_EQ(a.oitLayersDropped, b.oitLayersDropped) << what;
-      EXPECT_EQ(a.oitPoolOverflow, b.oitPoolOverflow) << what;
+      EXPECT_EQ(a.oitPoolOverflow, 0u) << what;
+      EXPECT_EQ(b.oitPoolOverflow, 0u) << what;
       EXPECT_EQ(a.msl, b.msl) << what;
-      if (exact)
-        EXPECT_TRUE(identical(outs[i].image.srgb, list[i].image.srgb)) << what;
-      else
+      if (layers <= MIRAGE_OIT_MAX_LAYERS) {
+        EXPECT_EQ(a.oitLayersDropped, 0u) << what;
+        EXPECT_TRUE(same) << what;
+      } else {
+        EXPECT_GT(a.oitLayersDropped, 0u) << what;
         EXPECT_GE(p, 50.0) << what;
-      writeOnFailure(outs[i].image.srgb, "composite_" + std::string(variant) + "_" + std::to_string(i) + ".png");
+      }
+      writeOnFailure(packed.image.srgb, "packed_" + std::to_string(layers) + "_" + c.what + ".png");
+      writeOnFailure(list.image.srgb, "lists_" + std::to_string(layers) + "_" + c.what + ".png");
     }
   }
 }

@@ -25,6 +25,7 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/render/frames_in_flight.h"
+#include "mirage/render/oit.h"
 #include "mirage/render/surfel_renderer.h"
 
 namespace mirage::render {
@@ -140,6 +141,9 @@ struct ClusterRenderSettings {
   // storage-buffer range. Past it, a fragment takes the place of its pixel's farthest listed one if
   // nearer, else is dropped (counted either way).
   uint32_t oitNodesPerPixel = 0;
+  // How the fragments are stored (render/oit.h): Packed (per-pixel ranges, two rasterizations) or
+  // LinkedList; frames that draw particle billboards take the linked lists (Packed is then ignored).
+  OitMode oit = OitMode::Packed;
   // Tests: queue at most this many triangles a frame (the queue's capacity when larger); the rest
   // are walked by their cluster's workgroup, as when the queue is full.
   uint32_t blendQueueLimit = UINT32_MAX;

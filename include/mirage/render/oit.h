@@ -11,14 +11,22 @@
 namespace mirage::render {
 
 enum class OitMode {
+  Auto,       // the renderer's default: packed for cluster LOD, linked lists for the forward renderer
   LinkedList, // per-pixel linked lists, nearest MIRAGE_OIT_MAX_LAYERS sorted per pixel (both renderers)
-  Weighted,   // weighted blended OIT (McGuire and Bavoil 2013): approximate, no lists (forward)
-  Sorted,     // the exact reference: every blended triangle sorted back to front on the CPU (forward)
+  // Per-pixel contiguous ranges (cluster LOD): the blend rasters run twice, counting then writing
+  // each pixel's fragments into its range of a pool of 64-bit keys sized by a scan over the pixels;
+  // the same fragments kept and the same image as the linked lists (shaderio/oit.h).
+  Packed,
+  Weighted, // weighted blended OIT (McGuire and Bavoil 2013): approximate, no lists (forward)
+  Sorted,   // the exact reference: every blended triangle sorted back to front on the CPU (forward)
 };
-inline constexpr EnumName<OitMode> kOitModeNames[] = {
-    {OitMode::LinkedList, "linked-list"}, {OitMode::Weighted, "weighted"}, {OitMode::Sorted, "sorted"}};
+inline constexpr EnumName<OitMode> kOitModeNames[] = {{OitMode::Auto, "auto"},
+                                                      {OitMode::LinkedList, "linked-list"},
+                                                      {OitMode::Packed, "packed"},
+                                                      {OitMode::Weighted, "weighted"},
+                                                      {OitMode::Sorted, "sorted"}};
 const char* toString(OitMode mode);
-// "linked-list", "weighted" or "sorted"; anything else is an error naming the choices.
+// "auto", "linked-list", "packed", "weighted" or "sorted"; anything else is an error naming the choices.
 Result<OitMode> parseOitMode(std::string_view text);
 
 // One frame's transparency counters (zero without blended geometry or outside linked-list mode).
@@ -26,8 +34,11 @@ Result<OitMode> parseOitMode(std::string_view text);
 // pixel's cap (both at append: each loses its pixel's farthest, itself or one it replaces), or
 // listed beyond the resolve's layers (zero while the resolve keeps as many as the cap).
 struct OitStats {
-  uint32_t fragments = 0;     // blended fragments in front of the opaque depth
-  uint32_t poolOverflow = 0;  // of those under their pixel's cap, beyond the node pool
+  uint32_t fragments = 0; // blended fragments in front of the opaque depth
+  // Of those under their pixel's cap, beyond the node pool (packed: the pool then holds exactly
+  // the nearest it can, each pixel losing its farthest; fragments - capDropped is the pool that
+  // would have kept them all).
+  uint32_t poolOverflow = 0;
   uint32_t capDropped = 0;    // past their pixel's MIRAGE_OIT_MAX_LAYERS (took no node)
   uint32_t layersDropped = 0; // listed beyond the resolve's layer cap of their pixel (its farthest)
   uint32_t coveredPixels = 0; // pixels with at least one fragment

@@ -25,8 +25,9 @@ struct RenderConfig {
   bool occlusionCulling = kClusterDefaults.occlusionCulling;
   bool coneCulling = kClusterDefaults.coneCulling;
   bool transparency = kClusterDefaults.transparency; // alpha BLEND materials drawn (off: opaque and MASK only)
-  // How BLEND materials are drawn (--oit): forward scenes every mode, cluster LOD linked lists only.
-  render::OitMode oit = kForwardDefaults.oit;
+  // How BLEND materials are drawn (--oit): auto (each renderer's default), forward scenes
+  // linked-list, weighted or sorted, cluster LOD linked-list or packed.
+  render::OitMode oit = render::OitMode::Auto;
   float hybridThreshold = kClusterDefaults.hybridThreshold;   // pixels
   float blendQueuePixels = kClusterDefaults.blendQueuePixels; // pixels; +inf: no blend queue
   // Transparency node pool per target pixel (--oit-nodes-per-pixel); unset: each renderer's own

@@ -22,11 +22,9 @@ namespace mirage::shaderio {
 // sizes we meet (lavapipe 8, NVIDIA 32).
 #define MIRAGE_CLUSTER_WORKGROUP 64
 #define MIRAGE_RESOLVE_TILE_ROWS 4 // cluster_resolve.comp: 8x8 pixel tiles per workgroup, stacked in y
-// cluster_oit_composite.comp's variant (specialization constant 0; ClusterRenderSettings::oitComposite):
-#define MIRAGE_OIT_COMPOSITE_REGISTERS 1u // the kept keys sorted in registers (min / max network), not a local array
-#define MIRAGE_OIT_COMPOSITE_LEAN 2u      // derivative rays cast only for materials that sample a texture
-#define MIRAGE_OIT_COMPOSITE_SHADED 4u    // the compute blend rasters shade, the colour stored beside the node
-#define MIRAGE_OIT_COMPOSITE_STORED 8u    // set by the renderer: every fragment has a stored colour (no shading code)
+// cluster_oit_composite.comp's specialization constant 0: every fragment of the frame has a stored
+// colour (particles alone), so the variant carries no shading code.
+#define MIRAGE_OIT_COMPOSITE_STORED 1u
 // Mesh/compute-raster dispatches split the visible clusters over x and y: x stays under the
 // guaranteed maxMeshWorkGroupCount / maxComputeWorkGroupCount of 65535.
 #define MIRAGE_CLUSTER_DISPATCH_X 65535
@@ -60,6 +58,9 @@ namespace mirage::shaderio {
 // from a zero buffer without a fill pass (a full-target fill is 16 MB at 1080p, 73 MB in stereo at
 // 2064 x 2208 per eye).
 #define MIRAGE_FRAME_CLEAR_VIS 16384u
+// Transparency in packed storage (shaderio/oit.h; --oit packed): the blend rasters run twice,
+// counting then writing each pixel's fragments into its range, oitNodeAddress names 64-bit keys.
+#define MIRAGE_FRAME_OIT_PACKED 32768u
 
 // Byte stride of consecutive ClusterFrames in the frame buffer (selection frame, left eye, right
 // eye): shaders step from the left eye's frame to the right eye's by it.
@@ -245,9 +246,9 @@ struct ClusterFrame {
   // lists of their fragments (head per pixel: node index + 1, 0 = empty). 0 without blend materials.
   uint64_t blendVisibleAddress; // VisibleCluster[]
   uint64_t oitHeadAddress;      // OitPixelHead[] per pixel
-  uint64_t oitNodeAddress;      // OitNode[]
+  uint64_t oitNodeAddress;      // OitNode[], or (MIRAGE_FRAME_OIT_PACKED) uint64_t keys
   uint blendCapacity;           // entries of the blend list
-  uint oitNodeCapacity;         // nodes in the pool
+  uint oitNodeCapacity;         // nodes (or keys) in the pool
   // Cluster PVS of the camera's view cell (MIRAGE_FRAME_PVS; lod/cluster_pvs.h): per instance the
   // first bit of its clusters in the bit array, or MIRAGE_PVS_INSTANCE_CULLED.
   uint64_t pvsInstanceAddress; // uint[] per instance

@@ -61,6 +61,47 @@ struct OitCounters {
   uint capDropped; // resolve: fragments past their pixel's MIRAGE_OIT_MAX_LAYERS (took no node)
 };
 
+// Packed storage (--oit packed; oit_list.glsl, oit_ranges.comp): each pixel's fragments in one
+// contiguous range of a pool of 64-bit keys (depth bits << 32 | id), in two rasterizations. Pass 1
+// counts every fragment on its pixel (OitPixelHead::fragments); the ranges pass (a scan over the
+// pixels) gives each pixel `slots` keys from `head` on and sets `floorBits` to the pixel's state:
+// MIRAGE_OIT_PACKED_READY | a cursor from 0 where it has a slot for each fragment (at most
+// MIRAGE_OIT_MAX_LAYERS), or READY | NEAREST | slots where it has fewer (past the cap, or the pool
+// short): its slots, zeroed by the ranges pass, then keep the nearest of its fragments by a cascade
+// of 64-bit atomicMax. Pass 2 writes each fragment into its pixel's range.
+#define MIRAGE_OIT_PACKED_READY 0x80000000u   // the ranges are set: a fragment writes (pass 2)
+#define MIRAGE_OIT_PACKED_NEAREST 0x40000000u // fewer slots than fragments: the nearest kept
+#define MIRAGE_OIT_PACKED_COUNT 0x3fffffffu   // the cursor, or (NEAREST) the slots
+// Pixels per workgroup of the ranges pass (256 threads, 8 consecutive pixels each).
+#define MIRAGE_OIT_RANGE_BLOCK 2048u
+
+// The ranges pass (oit_ranges.comp), push.stage 0: each block's histogram of its pixels' counts
+// (clamped at MIRAGE_OIT_MAX_LAYERS); 1 (one workgroup): the per-pixel cap that fits the pool,
+// each block's first slot; 2: each pixel's range and state. The scratch holds per block
+// MIRAGE_OIT_MAX_LAYERS + 1 counts then its first slot and its count of pixels given one slot
+// more than the cap (OitRangesScratch after the blocks' histograms).
+struct OitRangesPush {
+  uint64_t headAddress;    // OitPixelHead[pixels]
+  uint64_t keyAddress;     // uint64_t[capacity]
+  uint64_t scratchAddress; // OitRangesScratch, then per block uint[MIRAGE_OIT_MAX_LAYERS + 1], uvec2 offsets
+  uint64_t counterAddress; // OitCounters: `nodes` set to the fragments under their pixel's cap
+  uint pixels;
+  uint capacity; // keys in the pool
+  uint stage;
+  uint pad;
+};
+
+// What stage 1 decides for the whole frame: the per-pixel cap that fits the pool (every pixel
+// keeps its nearest min(fragments, cap), MIRAGE_OIT_MAX_LAYERS when the pool holds all), and how
+// many pixels over it (in pixel order) keep one fragment more, so the kept total is the pool's
+// size exactly when it is short.
+struct OitRangesScratch {
+  uint cap;
+  uint extra;
+  uint blocks;
+  uint pad;
+};
+
 // Marks an id naming a node whose shaded colour is stored beside the pool (OitLists::colorAddress)
 // in lists whose other ids are visibility ids: the cluster renderer's particle fragments. Visibility
 // ids stay below it (blend-list entries + 1 <= 2^22, shifted by the 7 triangle bits), and a tagged
@@ -88,6 +129,8 @@ static_assert(sizeof(OitNode) == 12, "OitNode layout");
 static_assert(sizeof(OitCounters) == 24, "OitCounters layout");
 static_assert(sizeof(OitPixelHead) == 12, "OitPixelHead layout");
 static_assert(sizeof(OitLists) == 48, "OitLists layout");
+static_assert(sizeof(OitRangesPush) == 48, "OitRangesPush layout");
+static_assert(sizeof(OitRangesScratch) == 16, "OitRangesScratch layout");
 static_assert((MIRAGE_OIT_COLOR_ID_TAG | (UINT32_MAX / sizeof(OitNode) + 1)) < UINT32_MAX,
               "a tagged node id never equals the overflow walk's lock value");
 } // namespace mirage::shaderio
