@@ -63,7 +63,9 @@ void main() {
         uint l = base + k;
         GpuClusterLevel level = batch[k];
         bool tooFine = !isinf(level.maxParentError) && level.maxParentError * nearScale * 1.001 <= f.tau;
-        bool tooCoarse = level.minSelfError > 0.0 && level.minSelfError * farScale * 0.999 > tauMax;
+        // With residency a coarse cluster is drawn where its children's page is missing.
+        bool tooCoarse = (f.flags & MIRAGE_FRAME_RESIDENCY) == 0 && level.minSelfError > 0.0 &&
+                         level.minSelfError * farScale * 0.999 > tauMax;
         if (l >= mesh.levelCount || tooFine || tooCoarse) continue;
         if (!found) {
           first = l;

@@ -5,6 +5,9 @@
 #include "cluster_common.glsl"
 
 #include "mirage/shaderio/lod_error.h"
+#include "mirage/shaderio/lod_paging.h"
+
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ClusterPageRef { uvec2 pages[]; };
 
 // A cluster's (or node's) object-space sphere and error projected to pixels for instance `inst`
 // (projectedSphereError, shared with the CPU).
@@ -19,6 +22,11 @@ float tauAt(vec4 sphere, GpuClusterInstance inst, ClusterFrame f) {
   if ((f.flags & MIRAGE_FRAME_FOVEA) == 0) return f.tau;
   vec3 c = (inst.model * vec4(sphere.xyz, 1.0)).xyz;
   return f.tau * fovealTauScale(c, sphere.w * inst.maxScale, f.camera.eye.xyz, f.fovea.xyz, f.fovea.w, f.foveaSlope);
+}
+
+// An object-space sphere of instance `inst` in world space.
+vec4 instanceSphere(GpuClusterInstance inst, vec4 sphere) {
+  return vec4((inst.model * vec4(sphere.xyz, 1.0)).xyz, sphere.w * inst.maxScale);
 }
 
 // Normal-cone test in object space (exact for any transform with a positive determinant: facing
@@ -45,8 +53,28 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
   uint ci = mesh.clusterOffset + meshLocal;
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[ci];
   ClusterFrame f = FrameRef(push.frameAddress).frame;
-  bool onCut = projectedError(c.selfSphere, c.selfError, inst, f) <= tauAt(c.selfSphere, inst, f) &&
-               projectedError(c.parentSphere, c.parentError, inst, f) > tauAt(c.parentSphere, inst, f);
+  float selfTau = tauAt(c.selfSphere, inst, f), parentTau = tauAt(c.parentSphere, inst, f);
+  float selfError = projectedError(c.selfSphere, c.selfError, inst, f);
+  float parentError = projectedError(c.parentSphere, c.parentError, inst, f);
+  bool onCut = selfError <= selfTau && parentError > parentTau;
+  if ((f.flags & MIRAGE_FRAME_RESIDENCY) != 0) {
+    // Residency (docs/render.md, "Residency"): only resident clusters, by the residency-aware cut;
+    // feedback for the pages of this view's frustum: the cluster's own page when its member group
+    // is above the threshold (the cut uses it), its child page when it asks for it.
+    uvec2 pages = ClusterPageRef(f.clusterPageAddress).pages[ci];
+    UintRef slots = UintRef(f.pageSlotAddress);
+    if (slots.data[pages.x] == MIRAGE_PAGE_NONE) return;
+    bool childrenResident = pages.y != MIRAGE_PAGE_NONE && slots.data[pages.y] != MIRAGE_PAGE_NONE;
+    bool selfWithin = selfError <= selfTau, parentAbove = parentError > parentTau;
+    bool frustum = (f.flags & MIRAGE_FRAME_FRUSTUM_CULL) == 0;
+    UintRef feedback = UintRef(f.pageFeedbackAddress);
+    if (parentAbove && (frustum || sphereVisible(instanceSphere(inst, c.parentSphere))))
+      atomicMax(feedback.data[pages.x], floatBitsToUint(pageRequestPriority(parentError, parentTau)));
+    if (pages.y != MIRAGE_PAGE_NONE && residentCutRequests(selfWithin, parentAbove, childrenResident) &&
+        (frustum || sphereVisible(instanceSphere(inst, c.selfSphere))))
+      atomicMax(feedback.data[pages.y], floatBitsToUint(pageRequestPriority(selfError, selfTau)));
+    onCut = residentCutDraws(selfWithin, parentAbove, childrenResident);
+  }
   if (!onCut) return;
   if (!pvsClusterVisible(f, instanceIndex, meshLocal)) { // hidden from every point of the camera's cell
     atomicAdd(counters.counters.clustersPvsCulled, 1);

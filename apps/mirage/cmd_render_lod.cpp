@@ -170,6 +170,36 @@ bool renderFrames(Session& s, int frames, Timed& out, double warmupMs = 0.0) {
       s, frames, out, [](const runtime::Frame&, size_t) { return true; }, warmupMs);
 }
 
+nlohmann::json residencyJson(const render::ResidencyStats& r) {
+  return {{"requested", r.requested},
+          {"uploaded", r.uploaded},
+          {"evicted", r.evicted},
+          {"unfit", r.unfit},
+          {"resident_bytes", r.residentBytes},
+          {"resident_pages", r.residentPages}};
+}
+
+// GPU residency (--gpu-budget): the last frame's figures; with a converged render the frames it took.
+void addResidencyJson(nlohmann::json& j, const runtime::Frame& f) {
+  const render::ResidencyStats& r = f.cluster->residency;
+  if (!r.enabled) return;
+  j["gpu_budget"] = r.budgetBytes;
+  j["resident_bytes"] = r.residentBytes;
+  j["resident_pages"] = r.residentPages;
+  j["pages"] = r.pages;
+  j["pool_bytes"] = r.poolBytes;
+  j["slot_bytes"] = r.slotBytes;
+  j["pages_requested"] = r.requested;
+  j["pages_uploaded"] = r.uploaded;
+  j["pages_evicted"] = r.evicted;
+  if (!f.residency) return;
+  j["frames_to_converge"] = f.residency->framesToConverge;
+  j["residency_converged"] = f.residency->converged;
+  nlohmann::json frames = nlohmann::json::array();
+  for (const render::ResidencyStats& s : f.residency->frames) frames.push_back(residencyJson(s));
+  j["residency_frames"] = frames;
+}
+
 nlohmann::json statsJson(const render::ClusterStats& st) {
   return {{"raster", render::toString(st.raster)},
           {"selection", render::toString(st.selection)},
@@ -236,6 +266,11 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
                st.blendQueueOverflow ? fmt::format("  FULL: {} walked by their cluster", st.blendQueueOverflow) : "");
   if (st.pvs)
     fmt::print("cell PVS: {} instances and {} cut clusters culled\n", st.instancesPvsCulled, st.clustersPvsCulled);
+  if (st.residency.enabled)
+    fmt::print("residency: {} of {} pages resident, {} of {} bytes (slots of {} bytes); this frame {} requested, {} "
+               "uploaded, {} evicted\n",
+               st.residency.residentPages, st.residency.pages, st.residency.residentBytes, st.residency.budgetBytes,
+               st.residency.slotBytes, st.residency.requested, st.residency.uploaded, st.residency.evicted);
   if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)
     fmt::print("surfels: {} instances ({} in the blend band)  surfels splatted {}\n", st.surfels.visibleInstances,
                st.surfels.fadingInstances, st.surfels.surfelsSplatted);
@@ -361,6 +396,7 @@ void runLodRender(const LodRenderRequest& r) {
   const runtime::SceneInfo& info = s.scene->info();
   if (r.json) {
     nlohmann::json j = statsJson(*t.last.cluster);
+    addResidencyJson(j, t.last);
     j["input"] = r.scene.input;
     j["output"] = r.output;
     j["device"] = caps.name;
@@ -394,6 +430,9 @@ void runLodRender(const LodRenderRequest& r) {
              caps.name, r.output);
   if (r.stats) {
     fmt::print("load {:.3f} s\n", info.loadSeconds);
+    if (t.last.residency)
+      fmt::print("residency {} after {} frames\n", t.last.residency->converged ? "converged" : "NOT converged",
+                 t.last.residency->framesToConverge);
     printStats(*t.last.cluster, t.times, t.frames > 1);
   }
 }
@@ -480,6 +519,7 @@ void runLodBench(const LodRenderRequest& r) {
           double stereoRatio = frameMilliseconds(t.times) / std::max(frameMilliseconds(mono.times), 1e-9);
           if (r.json) {
             nlohmann::json j = statsJson(*t.last.cluster);
+            addResidencyJson(j, t.last);
             for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
             j["gpu_ms_max_frame"] = t.maxFrameMs;
             if (r.stereoIpd) {

@@ -36,6 +36,7 @@ void addViewCommand(CLI::App& app) {
   cmd->add_option("--pvs", o.pvs, ".mrg: cull with the PVS (from mirage pvs) of the camera's view cell");
   cmd->add_flag("--surfels", o.surfels, ".mrg: draw its per-mesh SURF chunks far away (mixed scene)");
   bindMaterials(*cmd, o.materials);
+  bindGpuBudget(*cmd, o.gpuBudget);
   cmd->add_option("--path", o.path, "Camera path (cameras.json or orbit:N), replayed one camera per frame");
   cmd->add_option("--screenshot", o.screenshot, "With --path: write OUT_0000.png ... as mirage render --path does");
   cmd->add_flag("--exit-after-path", o.exitAfterPath, "Close once the path was shown (tests, measurements)");

@@ -64,8 +64,17 @@ void bindMaterials(CLI::App& cmd, std::string& materials) {
       ->type_name("FILE.toml");
 }
 
+void bindGpuBudget(CLI::App& cmd, uint64_t& budget) {
+  cmd.add_option("--gpu-budget", budget,
+                 "Paged .mrg (mirage build --paged): GPU residency, page geometry within SIZE bytes (e.g. 64MB, "
+                 "1GB; docs/render.md \"Residency\")")
+      ->type_name("SIZE")
+      ->transform(CLI::AsSizeValue(false));
+}
+
 CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode mode) {
   bindMaterials(cmd, o.materials);
+  bindGpuBudget(cmd, o.gpuBudget);
   if (mode == BindMode::Bench) {
     cmd.add_option("--pvs", o.pvs,
                    ".mrg: PVS from mirage pvs of the asset's source scene: every frame timed with and without the "

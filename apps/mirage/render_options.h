@@ -44,6 +44,8 @@ CLI::Option* bindSceneOptions(CLI::App& command, runtime::SceneOptions& options,
 // --materials FILE.toml alone (SceneOptions::materials): bindSceneOptions binds it, and view, whose
 // other scene options differ.
 void bindMaterials(CLI::App& command, std::string& materials);
+// --gpu-budget SIZE (64MB, 1GB; SceneOptions::gpuBudget): bindSceneOptions binds it, and view.
+void bindGpuBudget(CLI::App& command, uint64_t& budget);
 
 // --stereo [--ipd D] (render, bench render; cluster LOD scenes): runtime::View::stereoIpd.
 struct StereoOptions {

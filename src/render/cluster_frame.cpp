@@ -154,9 +154,15 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     p.multiview = *mode == StereoMode::Multiview;
   }
   p.surfels = cs.surfels;
+  // GPU residency runs with the flat selection (docs/render.md, "Residency"); the traversals assume
+  // every cluster present.
+  if (residency && cs.selection != SelectionMode::Auto && cs.selection != SelectionMode::Flat)
+    return Error{fmt::format("--selection {} needs every page resident: use --selection flat (or auto) with "
+                             "--gpu-budget",
+                             toString(cs.selection))};
   p.dagTree = cs.selection == SelectionMode::Dag;
-  p.hierarchy = p.dagTree || cs.selection == SelectionMode::Hierarchy ||
-                (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances);
+  p.hierarchy = !residency && (p.dagTree || cs.selection == SelectionMode::Hierarchy ||
+                               (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances));
   return p;
 }
 
@@ -179,6 +185,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
       (plan.blend == BlendRaster::Hardware ? MIRAGE_FRAME_BLEND_HARDWARE : 0u) | (plan.dagTree ? MIRAGE_FRAME_DAG : 0u);
   if (plan.clearsVisibility()) f.flags |= MIRAGE_FRAME_CLEAR_VIS;
   if (plan.packed) f.flags |= MIRAGE_FRAME_OIT_PACKED;
+  if (residency) packResidency(f);
   if (cs.foveation) {
     // The gaze ray through the screen point (Vulkan NDC: y down; any depth between the planes).
     glm::vec4 p = f.camera.invViewProj * glm::vec4(2.0f * cs.foveaGaze - 1.0f, 0.5f, 1.0f);

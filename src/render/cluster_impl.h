@@ -8,7 +8,9 @@
 //   cluster_occlusion.cpp  HZB build and the pass-2 occlusion cull (history)
 //   cluster_oit.cpp        alpha BLEND: blend rasters and the sorted composite
 //   cluster_particles.cpp  particle billboards into the transparency lists
+//   cluster_residency.cpp  GPU residency of paged DAGs: page pool, uploads, feedback (cluster_residency.h)
 //   cluster_renderer.cpp   the public API and the per-frame phase list
+#include <memory>
 #include <vector>
 
 #include "mirage/gpu/deletion_queue.h"
@@ -57,8 +59,13 @@ struct ClusterSceneData {
   Bounds worldBounds;
 };
 
-// Uploads `asset`; errors for clusters beyond the mesh-shader limits or an empty scene.
-Result<ClusterSceneData> uploadClusterScene(gpu::Context& ctx, const lod::LodAsset& asset);
+// Uploads `asset`; errors for clusters beyond the mesh-shader limits or an empty scene. With
+// `records` (GPU residency) the geometry (vertices, vertex ids, indices) is left to the page pool,
+// the cluster records' offsets are zero (slot 0) until their page loads, and they are returned there.
+Result<ClusterSceneData> uploadClusterScene(gpu::Context& ctx, const lod::LodAsset& asset,
+                                            std::vector<shaderio::GpuCluster>* records = nullptr);
+
+struct ClusterResidency; // cluster_residency.h
 
 constexpr VkFormat kColorFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // as the forward renderer
 constexpr VkFormat kVisFormat = VK_FORMAT_R32G32_UINT;           // (visible index + 1, triangle)
@@ -195,10 +202,10 @@ struct ClusterRenderer::Impl {
   bool recorded[kMaxFramesInFlight] = {};
   gpu::DeletionQueue retired; // replaced PVS buffers and targets that recorded, uncollected slots may still use
   uint32_t currentSlot = 0;   // the slot being recorded
+  std::unique_ptr<ClusterResidency> residency; // GPU residency of paged DAGs (null: every DAG uploaded whole)
 
-  Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)) {
-    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) timers.emplace_back(c, 48);
-  }
+  Impl(gpu::Context& c, ClusterSceneData s);
+  ~Impl();
   gpu::GpuTimer& timer() { return timers[currentSlot]; }
   void createDescriptors(); // cluster_pipelines.cpp
   void createPipelines();
@@ -258,6 +265,14 @@ struct ClusterRenderer::Impl {
   Status prepareFrame(const ClusterRenderSettings& cs, uint32_t slot);
   void cmdFrame(VkCommandBuffer cmd, const ClusterRenderSettings& cs);
   void finishFrame(VkCommandBuffer cmd, const ClusterFramePlan& plan, uint32_t frameTime);
+
+  // cluster_residency.cpp: the manager's step and the uploads staged (prepareFrame), recorded after
+  // the frame's first barrier, the feedback copied out in finishFrame and read back by collect.
+  Status prepareResidency();
+  void cmdResidencyUpload(VkCommandBuffer cmd);
+  void cmdResidencyFeedback(VkCommandBuffer cmd);
+  void packResidency(shaderio::ClusterFrame& f) const;
+  ResidencyStats collectResidency(uint32_t slot);
 };
 
 } // namespace mirage::render

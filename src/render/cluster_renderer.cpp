@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "cluster_impl.h"
+#include "cluster_residency.h"
 #include "render_util.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/shaders.h"
@@ -72,10 +73,29 @@ Status ClusterRenderer::setPvs(const lod::ClusterPvs* pvs) {
   return Ok{};
 }
 
+ClusterRenderer::Impl::Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene(std::move(s)) {
+  for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) timers.emplace_back(c, 48);
+}
+ClusterRenderer::Impl::~Impl() = default;
+
 Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& context, const lod::LodAsset& asset) {
-  auto data = uploadClusterScene(context, asset);
+  return create(context, asset, ClusterResidencySettings{});
+}
+
+Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& context, const lod::LodAsset& asset,
+                                                                 const ClusterResidencySettings& residency) {
+  bool resident = residency.budgetBytes > 0;
+  std::vector<sio::GpuCluster> records;
+  auto data = uploadClusterScene(context, asset, resident ? &records : nullptr);
   if (!data) return data.error();
+  std::unique_ptr<ClusterResidency> r;
+  if (resident) {
+    auto made = createClusterResidency(context, asset, residency, *data, std::move(records));
+    if (!made) return made.error();
+    r = std::move(*made);
+  }
   auto impl = std::make_unique<Impl>(context, std::move(*data));
+  impl->residency = std::move(r);
   impl->createDescriptors();
   impl->createPipelines();
   return std::unique_ptr<ClusterRenderer>(new ClusterRenderer(std::move(impl)));
@@ -88,6 +108,8 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   retired.completed(frameSlot); // a slot is recorded again only after its previous frame completed
   plans[currentSlot] = *planned;
   recorded[currentSlot] = false;
+  if (residency)
+    if (Status st = prepareResidency(); !st) return st;
   traversalDepth = planned->dagTree ? scene.dagDepth : scene.lodDepth;
   // New targets for a new size retire those frames in flight still use (no device wait).
   uint32_t colorW = planned->stereo ? cs.base.width * 2 : cs.base.width; // stereo: left|right
@@ -136,6 +158,7 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
+  if (residency) cmdResidencyUpload(cmd); // this frame's pages, a cleared feedback
   if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
   if (oitHeads) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
   if (plan.packed) {
@@ -215,6 +238,7 @@ void ClusterRenderer::Impl::finishFrame(VkCommandBuffer cmd, const ClusterFrameP
     VkBufferCopy traversalRegion{0, sizeof(sio::ClusterCounters), sizeof(sio::ClusterTraversal)};
     vkCmdCopyBuffer(cmd, traversal.handle(), readbacks[currentSlot].handle(), 1, &traversalRegion);
   }
+  if (residency) cmdResidencyFeedback(cmd);
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
   recorded[currentSlot] = true;
@@ -239,6 +263,7 @@ Result<ClusterRenderOutput> ClusterRenderer::collect(uint32_t slot) {
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = out.stats.trianglesRasterized;
   if (d.plans[slot].surfels) out.stats.surfels = d.plans[slot].surfels->stageStats(slot);
+  if (d.residency) out.stats.residency = d.collectResidency(slot);
   d.recorded[slot] = false;
   d.retired.completed(slot);
   return out;

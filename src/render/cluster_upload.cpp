@@ -232,7 +232,8 @@ uint32_t buildDagTree(const sio::GpuCluster* clusters, const lod::ClusterDag& da
 
 } // namespace
 
-Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& asset) {
+Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& asset,
+                                            std::vector<sio::GpuCluster>* records) {
   const Scene& scene = asset.scene;
   if (asset.dags.size() != scene.meshes.size())
     return Error{fmt::format("{}: {} DAGs for {} meshes", scene.source, asset.dags.size(), scene.meshes.size())};
@@ -367,10 +368,15 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   for (auto& m : meshes) m.material = std::min<uint32_t>(m.material, uint32_t(mats.size() - 1));
 
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  if (records) { // residency: the pool holds the geometry (cluster_residency.cpp)
+    for (sio::GpuCluster& c : clusters) c.vertexOffset = c.triangleOffset = 0;
+    *records = clusters;
+  } else {
+    d.vertices = createBufferWithData<sio::GpuClusterVertex>(ctx, vertices, kStorage, "cluster vertices");
+    d.clusterVertices = createBufferWithData<uint32_t>(ctx, clusterVertices, kStorage, "cluster vertex ids");
+    d.indices = createBufferWithData<uint32_t>(ctx, packed, kStorage, "cluster local indices");
+  }
   d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kStorage, "cluster table");
-  d.vertices = createBufferWithData<sio::GpuClusterVertex>(ctx, vertices, kStorage, "cluster vertices");
-  d.clusterVertices = createBufferWithData<uint32_t>(ctx, clusterVertices, kStorage, "cluster vertex ids");
-  d.indices = createBufferWithData<uint32_t>(ctx, packed, kStorage, "cluster local indices");
   d.meshes = createBufferWithData<sio::GpuClusterMesh>(ctx, meshes, kStorage, "cluster meshes");
   d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
   d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");

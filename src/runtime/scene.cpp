@@ -52,6 +52,9 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
     if (!file) return file.error();
     impl->materials = std::move(*file);
   }
+  if (options.gpuBudget > 0 && *kind != SceneKind::ClusterLod)
+    return Error{fmt::format("{}: --gpu-budget needs a paged cluster-LOD .mrg (mirage build --paged), not a {} scene",
+                             options.input, toString(*kind))};
   Status opened = *kind == SceneKind::ClusterLod ? openClusterLod(*impl)
                   : *kind == SceneKind::Forward  ? openForward(*impl)
                                                  : openSurfels(*impl);

@@ -1,10 +1,13 @@
 #pragma once
 // runtime::Scene's state, shared by the files of each path (scene.cpp dispatches).
 #include <memory>
+#include <optional>
 #include <vector>
 
+#include "mirage/asset/container.h"
 #include "mirage/lod/cluster_pvs.h"
 #include "mirage/lod/lod_asset.h"
+#include "mirage/lod/paged_asset.h"
 #include "mirage/runtime/scene.h"
 #include "mirage/shading/material_file.h"
 #include "mirage/surfels/surfel_io.h"
@@ -25,6 +28,9 @@ struct Scene::Impl {
   // ClusterLod: the asset, its renderer, the mixed scene's per-mesh clouds (kept alive for the
   // surfel renderer) and the current cell's cluster PVS.
   lod::LodAsset asset;
+  // GPU residency (options.gpuBudget): the file, open for its pages, and its paged meshes.
+  std::optional<asset::AssetReader> pageReader;
+  std::vector<lod::PagedMesh> pagedMeshes;
   std::unique_ptr<render::ClusterRenderer> cluster;
   std::vector<surfels::MeshSurfels> meshClouds;
   lod::ClusterPvs clusterPvs;

@@ -58,7 +58,23 @@ Status openClusterLod(Scene::Impl& s) {
     if (auto st = shading::applyMaterials(s.asset.scene, s.materials); !st) return st;
   repeatOnGrid(s.asset.scene, s.options.grid * s.options.grid); // the seed's benchmark scenes
   s.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  auto renderer = render::ClusterRenderer::create(s.ctx, s.asset);
+  render::ClusterResidencySettings residency;
+  if (s.options.gpuBudget > 0) { // pages read from the file as the GPU asks (docs/render.md, "Residency")
+    auto reader = asset::AssetReader::open(s.options.input);
+    if (!reader) return reader.error();
+    s.pageReader = std::move(*reader);
+    auto meshes = lod::openPagedMeshes(*s.pageReader);
+    if (!meshes) return meshes.error();
+    s.pagedMeshes = std::move(*meshes);
+    if (s.pagedMeshes.size() != s.asset.dags.size())
+      return makeError(s.options.input, "--gpu-budget needs a paged asset (mirage build --paged)");
+    residency.budgetBytes = s.options.gpuBudget;
+    for (const lod::PagedMesh& m : s.pagedMeshes) residency.tables.push_back(&m.table);
+    residency.pages = [&s](uint32_t mesh, uint32_t page) {
+      return lod::readPage(*s.pageReader, s.pagedMeshes[mesh], page);
+    };
+  }
+  auto renderer = render::ClusterRenderer::create(s.ctx, s.asset, residency);
   if (!renderer) return renderer.error();
   s.cluster = std::move(*renderer);
   s.bounds = s.cluster->worldBounds();
@@ -130,6 +146,13 @@ Frame clusterFrame(Scene::Impl& s, render::ClusterRenderOutput& o, int pvsCell) 
 
 Result<Frame> renderClusterLod(Scene::Impl& s, const View& view) {
   if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
+  if (s.cluster->hasResidency() && view.readImage) { // an image to keep: the converged residency's
+    auto c = s.cluster->renderConverged(clusterSettings(s, view));
+    if (!c) return c.error();
+    Frame f = clusterFrame(s, c->output, s.pvsState.cell);
+    f.residency = Frame::Residency{c->framesToConverge, c->converged, std::move(c->frames)};
+    return f;
+  }
   auto o = s.cluster->render(clusterSettings(s, view));
   if (!o) return o.error();
   return clusterFrame(s, *o, s.pvsState.cell);

@@ -13,6 +13,7 @@ runtime::SceneOptions runtimeOptions(const SceneOptions& o) {
   r.pvs = o.pvs;
   r.surfels = o.surfels;
   r.materials = o.materials;
+  r.gpuBudget = o.gpuBudget;
   return r;
 }
 

@@ -20,10 +20,11 @@
 namespace mirage::viewer {
 
 struct SceneOptions {
-  std::string path;      // .mrg, a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
-  std::string pvs;       // .mrg: a triangle PVS (mirage pvs) of the scene the asset was built from
-  bool surfels = false;  // .mrg: its SURF chunks (alone, or far from the meshes)
-  std::string materials; // material file (TOML): runtime::SceneOptions::materials
+  std::string path;       // .mrg, a scene file (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]
+  std::string pvs;        // .mrg: a triangle PVS (mirage pvs) of the scene the asset was built from
+  bool surfels = false;   // .mrg: its SURF chunks (alone, or far from the meshes)
+  std::string materials;  // material file (TOML): runtime::SceneOptions::materials
+  uint64_t gpuBudget = 0; // runtime::SceneOptions::gpuBudget
 };
 
 // What the overlay changes between frames: the runtime's per-frame settings, its defaults.

@@ -10,6 +10,7 @@
 // depth wins) and one resolve pass shades it with the forward renderer's material model, so all
 // backends give the same image. Passes and data layout: docs/render.md.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -183,6 +184,38 @@ struct ClusterRenderSettings {
   ParticleDraw* particles = nullptr;
 };
 
+// GPU residency of paged DAGs (docs/render.md, "Residency"): the clusters' geometry lives in a
+// pool of fixed-size page slots within a byte budget; the selection draws the residency-aware cut
+// of the resident pages and writes page feedback, from which lod::ResidencyManager picks the pages
+// to upload (a bounded number per frame, through a staging buffer in the frame's command buffer)
+// and to evict.
+struct ResidencyStats {
+  bool enabled = false;
+  uint64_t budgetBytes = 0;   // the budget asked for
+  uint64_t slotBytes = 0;     // one pool slot: the largest page's vertices, vertex ids and indices
+  uint64_t poolBytes = 0;     // the pool as allocated: slots * slotBytes (<= budget) + index padding
+  uint64_t residentBytes = 0; // resident pages * slotBytes (<= budget), after this frame's uploads
+  uint32_t pages = 0;         // pages of every mesh
+  uint32_t slots = 0;
+  uint32_t residentPages = 0;
+  uint32_t requested = 0; // missing pages this frame's selection asked for
+  uint32_t uploaded = 0;  // pages this frame uploaded (from the last collected frame's feedback)
+  uint32_t evicted = 0;   // pages this frame evicted
+  uint32_t unfit = 0;     // requests this frame left for later (no room or no uploads left)
+  bool stepped = false;   // this frame acted on feedback (false for the first frame)
+};
+
+// Where a renderer with residency reads pages: page `page` of mesh `mesh`, decoded
+// (lod::readPage of the asset's file, or decodePage of built pages).
+using PageSource = std::function<Result<lod::PageData>(uint32_t mesh, uint32_t page)>;
+
+struct ClusterResidencySettings {
+  uint64_t budgetBytes = 0;                  // 0: no residency (every DAG uploaded whole)
+  std::vector<const lod::PageTable*> tables; // per mesh of the asset: its page table (the DAG's)
+  PageSource pages;
+  uint32_t maxUploadsPerFrame = 32; // pages uploaded per frame at most (dependencies included)
+};
+
 struct ClusterStats {
   uint32_t instancesVisible = 0;         // inside the frustum with a level range (minus occlusion-culled late ones)
   uint32_t clustersTested = 0;           // (instance, cluster) pairs the selection pass looked at
@@ -223,6 +256,7 @@ struct ClusterStats {
   StereoMode stereoMode = StereoMode::Auto;           // stereo: the mode that ran (Auto: mono frame)
   SurfelStageStats surfels;                           // mixed scenes: instances drawn (partly) as surfels
   SelectionMode selection = SelectionMode::Hierarchy; // the mode that ran (Auto resolved)
+  ResidencyStats residency;                           // GPU residency (enabled: the renderer has it)
 };
 
 struct ClusterRenderOutput {
@@ -236,11 +270,29 @@ public:
   // Uploads every DAG, the instances, materials and textures. Refuses clusters larger than the
   // mesh-shader limits (MIRAGE_CLUSTER_MAX_TRIANGLES / _VERTICES) with a clear error.
   static Result<std::unique_ptr<ClusterRenderer>> create(gpu::Context& context, const lod::LodAsset& asset);
+  // With GPU residency (residency.budgetBytes > 0): the asset's DAGs give the cluster records,
+  // their pages come from residency.pages as the feedback asks. Errors: a budget below the root
+  // pages' slots, tables that do not match the DAGs.
+  static Result<std::unique_ptr<ClusterRenderer>> create(gpu::Context& context, const lod::LodAsset& asset,
+                                                         const ClusterResidencySettings& residency);
   ~ClusterRenderer();
 
   // One frame, synchronously: record + submit and wait + collect, then the owned clusters and the
   // image read back as the settings ask.
   Result<ClusterRenderOutput> render(const ClusterRenderSettings& settings);
+
+  // GPU residency: frames (synchronous, no image read back but the last) until one uploads and
+  // evicts nothing, then that frame again with the settings' readback: its image is the
+  // converged one. Without residency: render(). framesToConverge counts the frames before the
+  // stable one; `frames` holds each frame's residency figures (the last one's too).
+  struct Converged {
+    ClusterRenderOutput output;
+    uint32_t framesToConverge = 0;
+    bool converged = false; // false: maxFrames ran out
+    std::vector<ResidencyStats> frames;
+  };
+  Result<Converged> renderConverged(const ClusterRenderSettings& settings, uint32_t maxFrames = 256);
+  bool hasResidency() const;
 
   // Frames in flight. record() writes `slot`'s frame data and records the whole frame into the
   // caller's command buffer (nothing is submitted); the caller submits it with a fence of its own

@@ -37,6 +37,9 @@ struct SceneOptions {
   std::string materials;
   // Surfels: the order the clouds are uploaded in (fixed at open: the renderer stores it).
   render::SurfelOrder surfelOrder = render::kDefaultSurfelOrder;
+  // Cluster LOD of a paged .mrg (mirage build --paged): GPU residency within this many bytes of
+  // page geometry (docs/render.md, "Residency"); 0: every DAG uploaded whole.
+  uint64_t gpuBudget = 0;
 };
 
 // What open() chose from the input's contents.
@@ -92,6 +95,14 @@ struct Frame {
   std::optional<render::ClusterStats> cluster; // SceneKind::ClusterLod
   std::optional<ForwardFrameStats> forward;    // SceneKind::Forward
   std::optional<SurfelFrameStats> surfels;     // SceneKind::Surfels
+  // GPU residency (SceneOptions::gpuBudget) of a frame read back (View::readImage): the frames
+  // rendered until the residency was stable, this one last (ClusterRenderer::renderConverged).
+  struct Residency {
+    uint32_t framesToConverge = 0;
+    bool converged = false;
+    std::vector<render::ResidencyStats> frames;
+  };
+  std::optional<Residency> residency;
 };
 
 // Figures for reports.

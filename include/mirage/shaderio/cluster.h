@@ -61,10 +61,14 @@ namespace mirage::shaderio {
 // Transparency in packed storage (shaderio/oit.h; --oit packed): the blend rasters run twice,
 // counting then writing each pixel's fragments into its range, oitNodeAddress names 64-bit keys.
 #define MIRAGE_FRAME_OIT_PACKED 32768u
+// GPU residency (ClusterFrame::pageSlotAddress): the selection draws resident clusters by the
+// residency-aware cut (shaderio/lod_paging.h) and writes page feedback; the cull pass keeps the
+// levels coarser than the cut (they are drawn where finer pages are missing).
+#define MIRAGE_FRAME_RESIDENCY 65536u
 
 // Byte stride of consecutive ClusterFrames in the frame buffer (selection frame, left eye, right
 // eye): shaders step from the left eye's frame to the right eye's by it.
-#define MIRAGE_CLUSTER_FRAME_STRIDE 768
+#define MIRAGE_CLUSTER_FRAME_STRIDE 1024
 // ClusterFrame::pvsInstanceAddress entry of an instance outside the cell's PVS.
 #define MIRAGE_PVS_INSTANCE_CULLED 0xffffffffu
 
@@ -284,6 +288,13 @@ struct ClusterFrame {
   // carries MIRAGE_OIT_COLOR_ID_TAG. Without particles it names the node pool, as large, so a lane
   // that loads for an untaken branch (lavapipe) stays inside a buffer.
   uint64_t oitColorAddress;
+  // GPU residency of paged DAGs (MIRAGE_FRAME_RESIDENCY; docs/render.md, "Residency"), 0 without:
+  // per global cluster uvec2(its page, its child page or MIRAGE_PAGE_NONE), pages numbered over
+  // every mesh; per page its pool slot (MIRAGE_PAGE_NONE: not resident); per page the feedback the
+  // selection writes, atomicMax of pageRequestPriority's float bits (shaderio/lod_paging.h).
+  uint64_t clusterPageAddress;
+  uint64_t pageSlotAddress;
+  uint64_t pageFeedbackAddress;
 };
 
 // One queued blended triangle (ClusterFrame::blendQueueAddress), as the compute blend raster would
@@ -378,7 +389,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 768, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 792, "ClusterFrame layout");
 static_assert(sizeof(ClusterFrame) <= MIRAGE_CLUSTER_FRAME_STRIDE && MIRAGE_CLUSTER_FRAME_STRIDE % 256 == 0,
               "ClusterFrame stride");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
@@ -388,6 +399,7 @@ static_assert(offsetof(ClusterFrame, overdrawAddress) % 8 == 0, "ClusterFrame ad
 static_assert(offsetof(ClusterFrame, oitCounterAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendQueueAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, oitColorAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(offsetof(ClusterFrame, clusterPageAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(sizeof(BlendQueueTriangle) == 48, "BlendQueueTriangle layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");

@@ -21,6 +21,7 @@ struct ViewerOptions {
   std::string pvs;                // .mrg: triangle PVS, culls with the camera's view cell
   bool surfels = false;           // .mrg: per-mesh surfels far away
   std::string materials;          // material file (TOML) applied to the scene (docs/shading.md)
+  uint64_t gpuBudget = 0;         // paged .mrg: GPU residency budget in bytes (runtime::SceneOptions::gpuBudget)
   std::string path;               // camera path (cameras.json or orbit:N): replayed, one camera per frame
   std::string screenshot;         // with --path: OUT.png -> OUT_0000.png ... (the image without overlay)
   bool exitAfterPath = false;     // close after the path (needs --path)

@@ -1,0 +1,171 @@
+// The residency manager of paged cluster DAGs (docs/lod.md, "Residency").
+#include "mirage/lod/residency.h"
+
+#include <algorithm>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "mirage/shaderio/lod_paging.h"
+
+namespace mirage::lod {
+
+ResidencyManager::ResidencyManager(ResidencyGraph graph, const ResidencyConfig& config)
+    : graph_(std::move(graph)), config_(config) {
+  uint32_t n = graph_.pageCount();
+  resident_.assign(n, 0);
+  residentDependents_.assign(n, 0);
+  lastUsed_.assign(n, 0);
+  usePriority_.assign(n, 0.0f);
+}
+
+Result<ResidencyManager> ResidencyManager::create(ResidencyGraph graph, const ResidencyConfig& config) {
+  uint64_t rootBytes = 0;
+  for (uint32_t p = 0; p < graph.pageCount(); ++p)
+    if (graph.root[p]) rootBytes += graph.bytes[p];
+  if (rootBytes > config.budgetBytes)
+    return Error{fmt::format("a GPU budget of {} bytes is below the root pages' {} bytes (always resident)",
+                             config.budgetBytes, rootBytes)};
+  ResidencyManager m(std::move(graph), config);
+  for (uint32_t p = 0; p < m.graph_.pageCount(); ++p)
+    if (m.graph_.root[p]) m.load(p, std::numeric_limits<float>::infinity());
+  return m;
+}
+
+void ResidencyManager::load(uint32_t page, float priority) {
+  resident_[page] = 1;
+  residentBytes_ += graph_.bytes[page];
+  ++residentPages_;
+  for (uint32_t d : graph_.dependenciesOf(page)) ++residentDependents_[d];
+  lastUsed_[page] = frame_;
+  usePriority_[page] = priority;
+}
+
+void ResidencyManager::evict(uint32_t page) {
+  resident_[page] = 0;
+  residentBytes_ -= graph_.bytes[page];
+  --residentPages_;
+  for (uint32_t d : graph_.dependenciesOf(page)) --residentDependents_[d];
+}
+
+std::vector<uint32_t> ResidencyManager::plan(uint64_t need, float priority, const std::vector<uint8_t>& kept) const {
+  // Evictions are simulated on copies of the dependents counts: evicting a page may free its
+  // dependencies for eviction.
+  std::vector<uint32_t> dependents = residentDependents_;
+  std::vector<uint8_t> gone(resident_.size(), 0);
+  std::vector<uint32_t> out;
+  uint64_t freed = 0;
+  while (freed < need) {
+    // The best candidate: unused in the last feedback before used, least recently used first,
+    // then the lowest priority, then the finest (highest) page.
+    uint32_t best = ~0u;
+    auto better = [&](uint32_t a, uint32_t b) {
+      bool usedA = lastUsed_[a] == frame_, usedB = lastUsed_[b] == frame_;
+      if (usedA != usedB) return !usedA;
+      if (lastUsed_[a] != lastUsed_[b]) return lastUsed_[a] < lastUsed_[b];
+      if (usePriority_[a] != usePriority_[b]) return usePriority_[a] < usePriority_[b];
+      return a > b;
+    };
+    for (uint32_t p = 0; p < resident_.size(); ++p) {
+      if (!resident_[p] || gone[p] || graph_.root[p] || kept[p] || dependents[p] != 0) continue;
+      if (lastUsed_[p] == frame_ && usePriority_[p] >= priority) continue; // as needed as the request
+      if (best == ~0u || better(p, best)) best = p;
+    }
+    if (best == ~0u) return {};
+    gone[best] = 1;
+    for (uint32_t d : graph_.dependenciesOf(best)) --dependents[d];
+    freed += graph_.bytes[best];
+    out.push_back(best);
+  }
+  return out;
+}
+
+ResidencyStep ResidencyManager::step(std::span<const float> feedback) {
+  ++frame_;
+  ResidencyStep out;
+  std::vector<std::pair<float, uint32_t>> requests;
+  for (uint32_t p = 0; p < graph_.pageCount() && p < feedback.size(); ++p) {
+    if (!(feedback[p] > 0.0f)) continue;
+    if (resident_[p]) {
+      lastUsed_[p] = frame_;
+      usePriority_[p] = feedback[p];
+    } else {
+      requests.push_back({feedback[p], p});
+    }
+  }
+  out.requested = uint32_t(requests.size());
+  std::stable_sort(requests.begin(), requests.end(), [](auto& a, auto& b) { return a.first > b.first; });
+  std::vector<uint8_t> kept(graph_.pageCount(), 0);
+  std::vector<uint32_t> closure, stack;
+  for (auto [priority, page] : requests) {
+    if (resident_[page]) continue; // loaded as a dependency of an earlier request
+    // The request's dependency closure: what it keeps, and the missing pages to load (ascending
+    // within a mesh: dependencies have lower page numbers).
+    std::fill(kept.begin(), kept.end(), 0);
+    closure.clear();
+    stack.assign(1, page);
+    kept[page] = 1;
+    while (!stack.empty()) {
+      uint32_t p = stack.back();
+      stack.pop_back();
+      if (!resident_[p]) closure.push_back(p);
+      for (uint32_t d : graph_.dependenciesOf(p))
+        if (!kept[d]) kept[d] = 1, stack.push_back(d);
+    }
+    if (out.loaded.size() + closure.size() > config_.maxLoadsPerStep) {
+      ++out.unfit; // no uploads left this step: asked again next frame
+      continue;
+    }
+    std::sort(closure.begin(), closure.end());
+    uint64_t bytes = 0;
+    for (uint32_t p : closure) bytes += graph_.bytes[p];
+    uint64_t free = config_.budgetBytes - residentBytes_;
+    if (bytes > free) {
+      // Pages loaded this step are kept too (lastUsed = this frame, the request's priority).
+      std::vector<uint32_t> victims = plan(bytes - free, priority, kept);
+      if (victims.empty()) {
+        ++out.unfit;
+        continue;
+      }
+      for (uint32_t v : victims) evict(v);
+      out.evicted.insert(out.evicted.end(), victims.begin(), victims.end());
+    }
+    for (uint32_t p : closure) load(p, priority);
+    out.loaded.insert(out.loaded.end(), closure.begin(), closure.end());
+  }
+  return out;
+}
+
+bool ResidencyManager::consistent() const {
+  uint64_t bytes = 0;
+  for (uint32_t p = 0; p < graph_.pageCount(); ++p) {
+    if (graph_.root[p] && !resident_[p]) return false;
+    if (!resident_[p]) continue;
+    bytes += graph_.bytes[p];
+    for (uint32_t d : graph_.dependenciesOf(p))
+      if (!resident_[d]) return false;
+  }
+  return bytes == residentBytes_ && bytes <= config_.budgetBytes;
+}
+
+std::vector<float> residencyFeedback(const ClusterDag& dag, const PageTable& table, std::span<const uint8_t> resident,
+                                     const CutView& view) {
+  std::vector<float> out(table.pages.size(), 0.0f);
+  for (uint32_t c = 0; c < dag.clusters.size(); ++c) {
+    uint32_t page = table.clusterPage[c];
+    if (!resident[page]) continue;
+    const Cluster& cl = dag.clusters[c];
+    uint32_t childPage = table.childPage(cl.generatingGroup);
+    float self = cl.generatingGroup == kNone ? 0.0f : projectedError(table.groupBounds[cl.generatingGroup], view);
+    float parent =
+        cl.group == kNone ? std::numeric_limits<float>::infinity() : projectedError(table.groupBounds[cl.group], view);
+    bool selfWithin = self <= view.tau, parentAbove = parent > view.tau;
+    bool childrenResident = childPage != kNone && resident[childPage];
+    if (parentAbove) out[page] = std::max(out[page], shaderio::pageRequestPriority(parent, view.tau));
+    if (childPage != kNone && shaderio::residentCutRequests(selfWithin, parentAbove, childrenResident))
+      out[childPage] = std::max(out[childPage], shaderio::pageRequestPriority(self, view.tau));
+  }
+  return out;
+}
+
+} // namespace mirage::lod
