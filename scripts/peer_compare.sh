@@ -36,21 +36,27 @@ echo "== one-thread build, $mesh_rel, $pairs alternated rounds (seconds: wall an
 # Each round runs Mirage's default build, the peer, then Mirage's geometric build (--normal-weight 0:
 # positions only, as the peer). Wall = the bake span (Mirage) / clodBuild (peer); CPU = the process
 # CPU of the same span (MIRAGE_LOD_PROFILE's phases / the driver's clodBuild cpu), which other
-# processes on a loaded machine inflate less than the wall time.
+# processes on a loaded machine inflate less than the wall time. The peer's driver welds the mesh
+# by position before it starts its clock; Mirage's span starts with its own weld + clean (vertices
+# deduplicated, degenerate and duplicate triangles removed), so the CPU is also given without that
+# phase ("from welded input"): the span the peer's figure covers.
 mirage_run() {
   local out
   out=$(MIRAGE_LOD_PROFILE=1 "$root/build/mirage" bench build "$mesh" --threads 1 --json "$@" 2>&1)
-  printf '%s %s\n' "$(echo "$out" | sed -n 's/^  "seconds": *\([0-9.e+-]*\).*/\1/p' | head -1 | awk '{printf "%.3f", $1}')" \
-    "$(echo "$out" | grep 'lod wall seconds' | grep -o '([0-9.]*)' | tr -d '()' | awk '{s += $1} END {printf "%.3f", s}')"
+  local phases
+  phases=$(echo "$out" | grep 'lod wall seconds' | grep -o '([0-9.]*)' | tr -d '()')
+  printf '%s %s %s\n' "$(echo "$out" | sed -n 's/^  "seconds": *\([0-9.e+-]*\).*/\1/p' | head -1 | awk '{printf "%.3f", $1}')" \
+    "$(echo "$phases" | awk '{s += $1} END {printf "%.3f", s}')" \
+    "$(echo "$phases" | awk 'NR > 1 {s += $1} END {printf "%.3f", s}')" # without the first phase, weld+clean
 }
 peer_run() {
   "$peer_out/clod" "$mesh" | awk '/clodBuild cpu/ {c = $3} / input triangles in / {for (i = 1; i < NF; ++i) if ($i == "in") w = $(i + 1)} END {print w, c}'
 }
-md_w=() md_c=() mg_w=() mg_c=() p_w=() p_c=()
+md_w=() md_c=() md_x=() mg_w=() mg_c=() mg_x=() p_w=() p_c=()
 for ((i = 0; i < pairs; ++i)); do
-  read -r w c < <(mirage_run); md_w+=("$w") md_c+=("$c")
+  read -r w c x < <(mirage_run); md_w+=("$w") md_c+=("$c") md_x+=("$x")
   read -r w c < <(peer_run); p_w+=("$w") p_c+=("$c")
-  read -r w c < <(mirage_run --normal-weight 0); mg_w+=("$w") mg_c+=("$c")
+  read -r w c x < <(mirage_run --normal-weight 0); mg_w+=("$w") mg_c+=("$c") mg_x+=("$x")
 done
 median() { printf '%s\n' "$@" | sort -g | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}'; }
 row() { # name, walls (count n), cpus
@@ -61,10 +67,13 @@ row() { # name, walls (count n), cpus
 row "mirage (default)" "$pairs" "${md_w[@]}" "${md_c[@]}"
 row "mirage (--normal-weight 0)" "$pairs" "${mg_w[@]}" "${mg_c[@]}"
 row "clusterlod" "$pairs" "${p_w[@]}" "${p_c[@]}"
+echo "mirage cpu from welded input (without weld+clean): default ${md_x[*]}  median $(median "${md_x[@]}");" \
+  "geometric ${mg_x[*]}  median $(median "${mg_x[@]}")"
 for kind in default geometric; do
-  if [[ $kind == default ]]; then mw=("${md_w[@]}") mc=("${md_c[@]}"); else mw=("${mg_w[@]}") mc=("${mg_c[@]}"); fi
-  awk -v pw="$(median "${p_w[@]}")" -v mw="$(median "${mw[@]}")" -v pc="$(median "${p_c[@]}")" -v mc="$(median "${mc[@]}")" -v k="$kind" \
-    'BEGIN { if (mw > 0 && mc > 0) printf "clusterlod / mirage (%s): wall %.2fx, cpu %.2fx (medians)\n", k, pw / mw, pc / mc }'
+  if [[ $kind == default ]]; then mw=("${md_w[@]}") mc=("${md_c[@]}") mx=("${md_x[@]}"); else mw=("${mg_w[@]}") mc=("${mg_c[@]}") mx=("${mg_x[@]}"); fi
+  awk -v pw="$(median "${p_w[@]}")" -v mw="$(median "${mw[@]}")" -v pc="$(median "${p_c[@]}")" -v mc="$(median "${mc[@]}")" \
+    -v mx="$(median "${mx[@]}")" -v k="$kind" \
+    'BEGIN { if (mw > 0 && mc > 0 && mx > 0) printf "clusterlod / mirage (%s): wall %.2fx, cpu %.2fx; cpu from welded input as the peer %.2fx (medians)\n", k, pw / mw, pc / mc, pc / mx }'
 done
 
 echo "== LodQuality: symmetric surface distance of the DAG cut at 25 / 6.2 / 1.6 % of the triangles"
