@@ -3,6 +3,7 @@
 //   particle_draw.cpp  sheets, batches, draw arguments, the billboards
 //   particle_sort.cpp  sorted mode: GPU depth sort of the records, gaps between sorted triangles
 //   particle_splat.cpp the splat of small particles and its resolve
+#include <iterator>
 #include <memory>
 #include <vector>
 
@@ -22,7 +23,7 @@ struct ParticleDraw::Impl {
   gpu::Unique<VkSampler> sampler;
   gpu::DescriptorSet descriptors;
   gpu::Unique<VkPipelineLayout> layout;
-  gpu::Unique<VkPipeline> pipelines[3]; // by OitMode
+  gpu::Unique<VkPipeline> pipelines[std::size(kOitModeNames)]; // by OitMode (linked lists, weighted, sorted used)
   std::vector<ParticleBatch> batches;
   gpu::Buffer cpuRecords; // setCpuBatches' records
   // Per batch, written by cmdPrepare: its VkDrawIndirectCommand (instanceCount = live records) and
