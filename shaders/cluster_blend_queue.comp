@@ -12,8 +12,8 @@
 // (one counter atomic: oitAllocateSubgroup) and, tile by tile, its lanes link theirs with
 // atomicExchange on the pixel's head onto consecutive nodes (coalesced node writes); fragments past
 // their cap replace their pixel's farthest or are dropped (oitSlotOf). Packed storage
-// (MIRAGE_FRAME_OIT_PACKED): packedTiles, each memory step issued for all of a thread's pixels at
-// once.
+// (MIRAGE_FRAME_OIT_PACKED): each kept pixel is counted or written in the first round
+// (oitPackedFragment), and the second is skipped.
 // Pushed: the blend list (ids name its entries) and the mono frame, or stereo's left eye frame.
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
@@ -63,76 +63,6 @@ uvec2 tilePixel(QueuedTriangle t, uint tile, out i64vec3 w, out float z) {
   return uvec2(t.lo) + local;
 }
 
-// Packed storage (MIRAGE_FRAME_OIT_PACKED): this thread's pixels of the workgroup's tiles
-// [first, end) from entry `entry` on, counted (pass 1) or written (pass 2) as oitPackedFragment
-// does, but each memory step is issued for all of them before any result is waited on: first the
-// coverage (no memory but the uniform entries), then every pixel's opaque depth, then pass 1's
-// counts (results unused), or pass 2's pixel heads, then their cursors (atomicAdd), then the key
-// stores. A thread's pixels are distinct (one per tile), so nothing orders them, and it waits on
-// one memory round trip per step instead of one per step and fragment (16 fragments a thread: the
-// rasterization is latency-bound, not bandwidth-bound). The same fragments, counts and keys.
-void packedTiles(ClusterFrame f, BlendQueueRef queue, uint entry, uint first, uint end) {
-  const uint kTiles = MIRAGE_BLEND_QUEUE_GROUP_TILES;
-  uvec2 at[kTiles]; // target column and row
-  float depth[kTiles];
-  uint id[kTiles];
-  [[unroll]] for (uint k = 0u; k < kTiles; ++k) at[k] = uvec2(0u); // lavapipe: any lane loads
-  uint open = 0u;
-  QueuedTriangle t = queuedTriangle(f, queue.triangles[entry]);
-  for (uint tile = first; tile < end; ++tile) {
-    while (tile - t.firstTile >= t.tiles) t = queuedTriangle(f, queue.triangles[++entry]); // uniform
-    i64vec3 w;
-    float z;
-    uvec2 p = tilePixel(t, tile, w, z);
-    if (t.drawn && p.x <= uint(t.hi.x) && p.y <= uint(t.hi.y) && edgeInside(w) &&
-        blendSampleOpen(t.fade, p.x, p.y, z)) {
-      uint k = tile - first;
-      open |= 1u << k;
-      at[k] = uvec2(p.x + t.eyeX, p.y);
-      depth[k] = z;
-      id[k] = t.id;
-    }
-  }
-  float opaque[kTiles];
-  [[unroll]] for (uint k = 0u; k < kTiles; ++k)
-    opaque[k] = ((open >> k) & 1u) != 0u ? opaqueDepth(f, at[k].x, at[k].y) : 0.0;
-  uint kept = 0u, row = targetRowPixels(f);
-  uint pixel[kTiles];
-  [[unroll]] for (uint k = 0u; k < kTiles; ++k) {
-    if (((open >> k) & 1u) != 0u && depth[k] > opaque[k]) kept |= 1u << k;
-    pixel[k] = at[k].y * row + at[k].x;
-  }
-  OitHeadRef heads = OitHeadRef(f.oitHeadAddress);
-  if (!oitPackedWritePass(f.oitCounterAddress)) { // uniform
-    [[unroll]] for (uint k = 0u; k < kTiles; ++k)
-      if (((kept >> k) & 1u) != 0u) atomicAdd(heads.pixels[pixel[k]].fragments, 1u);
-    return;
-  }
-  OitPixelHead h[kTiles];
-  [[unroll]] for (uint k = 0u; k < kTiles; ++k) {
-    h[k] = OitPixelHead(0u, 0u, 0u);
-    if (((kept >> k) & 1u) != 0u) {
-      h[k].head = heads.pixels[pixel[k]].head;
-      h[k].fragments = heads.pixels[pixel[k]].fragments;
-      h[k].floorBits = heads.pixels[pixel[k]].floorBits;
-    }
-  }
-  uint slot[kTiles];
-  [[unroll]] for (uint k = 0u; k < kTiles; ++k) {
-    slot[k] = 0u;
-    if (((kept >> k) & 1u) != 0u && (h[k].floorBits & MIRAGE_OIT_PACKED_NEAREST) == 0u)
-      slot[k] = atomicAdd(heads.pixels[pixel[k]].floorBits, 1u) & MIRAGE_OIT_PACKED_COUNT;
-  }
-  [[unroll]] for (uint k = 0u; k < kTiles; ++k) {
-    if (((kept >> k) & 1u) == 0u) continue;
-    uint64_t key = (uint64_t(floatBitsToUint(depth[k])) << 32) | uint64_t(id[k]);
-    if ((h[k].floorBits & MIRAGE_OIT_PACKED_NEAREST) != 0u)
-      oitPackedKeepNearest(f.oitNodeAddress, h[k].head, h[k].floorBits & MIRAGE_OIT_PACKED_COUNT, key);
-    else if (slot[k] < h[k].fragments)
-      OitKeyRef(f.oitNodeAddress).keys[h[k].head + slot[k]] = key;
-  }
-}
-
 void main() {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
   uint64_t counts = CounterRef(push.counterAddress).counters.blendQueueCounts;
@@ -149,14 +79,11 @@ void main() {
     else
       last = mid - 1;
   }
-  if (oitPacked(f)) { // uniform
-    packedTiles(f, queue, firstEntry, first, end);
-    return;
-  }
   // Every tile: this thread's pixel tested, kept ones as bits (tile - first), those under their
   // pixel's cap too.
   uint kept = 0, under = 0, entry = firstEntry;
   uint row = targetRowPixels(f);
+  bool packed = oitPacked(f);
   QueuedTriangle t = queuedTriangle(f, queue.triangles[entry]);
   for (uint tile = first; tile < end; ++tile) {
     while (tile - t.firstTile >= t.tiles) t = queuedTriangle(f, queue.triangles[++entry]); // uniform
@@ -166,10 +93,13 @@ void main() {
     if (t.drawn && p.x <= uint(t.hi.x) && p.y <= uint(t.hi.y) && edgeInside(w) &&
         blendSampleKept(f, t.fade, t.eyeX, p.x, p.y, z)) {
       kept |= 1u << (tile - first);
-      if (oitCountFragment(f.oitHeadAddress, p.y * row + p.x + t.eyeX) < MIRAGE_OIT_MAX_LAYERS)
+      if (packed)
+        oitPackedFragment(f.oitHeadAddress, f.oitNodeAddress, p.y * row + p.x + t.eyeX, z, t.id);
+      else if (oitCountFragment(f.oitHeadAddress, p.y * row + p.x + t.eyeX) < MIRAGE_OIT_MAX_LAYERS)
         under |= 1u << (tile - first);
     }
   }
+  if (packed) return; // uniform
   // One run of nodes per subgroup for its fragments under their cap, then tile by tile each kept
   // pixel onto its list.
   uint node = oitAllocateSubgroup(f.oitCounterAddress, subgroupAdd(uint(bitCount(under))));

@@ -17,9 +17,6 @@ float opaqueDepth(ClusterFrame f, uint x, uint y) {
 // `fade` is a blended fragment: before the far plane, kept from the surfels' dither in the fade
 // band, in front of the opaque surface. The eye's pixel is column x + eyeX of the target (stereo's
 // right half). Blended clusters are never alpha-tested: their alpha blends in the composite.
-// blendSampleKept in two steps (the blend queue's packed storage issues every pixel's opaque-depth
-// load before it waits on one): the tests that need no memory, then the opaque depth.
-bool blendSampleOpen(float fade, uint x, uint y, float z) { return z >= 0.0 && meshKeepsPixel(fade, uvec2(x, y)); }
 bool blendSampleKept(ClusterFrame f, float fade, uint eyeX, uint x, uint y, float z) {
-  return blendSampleOpen(fade, x, y, z) && z > opaqueDepth(f, x + eyeX, y);
+  return z >= 0.0 && meshKeepsPixel(fade, uvec2(x, y)) && z > opaqueDepth(f, x + eyeX, y);
 }

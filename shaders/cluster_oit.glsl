@@ -20,7 +20,7 @@ bool oitPacked(ClusterFrame f) { return (f.flags & MIRAGE_FRAME_OIT_PACKED) != 0
 void oitAppend(ClusterFrame f, uint x, uint y, float z, uint id) {
   uint pixel = y * targetRowPixels(f) + x;
   if (oitPacked(f)) {
-    oitPackedFragment(f.oitHeadAddress, f.oitNodeAddress, oitPackedWritePass(f.oitCounterAddress), pixel, z, id);
+    oitPackedFragment(f.oitHeadAddress, f.oitNodeAddress, pixel, z, id);
     return;
   }
   OitSlot s = oitAcquire(f.oitCounterAddress, f.oitHeadAddress, f.oitNodeAddress, f.oitNodeCapacity, pixel, z);

@@ -152,40 +152,30 @@ void oitCommit(uint64_t headAddress, uint64_t nodeAddress, uint pixel, OitSlot s
   }
 }
 
-// Packed storage (shaderio/oit.h): which of the two rasterizations runs, the same for the whole
-// frame. The ranges pass sets OitCounters::nodes (zeroed at the frame start) to the frame's
-// fragments under their cap, non-zero once pass 1 counted any (a frame that counted none has none
-// to write), so one uniform load, rather than a load of each fragment's pixel state, tells pass 2.
-bool oitPackedWritePass(uint64_t counterAddress) { return OitCounterRef(counterAddress).counters.nodes != 0u; }
-
-// Pass 2, a pixel whose range holds fewer slots than fragments (MIRAGE_OIT_PACKED_NEAREST): the
-// cascade that keeps the range's keys the nearest so far, sorted nearest first: each slot takes the
-// larger (nearer) of its key and the one arriving, the smaller one moves on to the next slot
-// (atomicMax: the kept set does not depend on the order of arrival).
-void oitPackedKeepNearest(uint64_t keyAddress, uint base, uint slots, uint64_t key) {
-  OitKeyRef pool = OitKeyRef(keyAddress);
-  for (uint i = 0u; i < slots && key != 0ul; ++i) key = min(key, atomicMax(pool.keys[base + i], key));
-}
-
-// A fragment of `pixel` at depth z in packed storage (shaderio/oit.h), either pass (`write`:
-// oitPackedWritePass): pass 1 only counts it; pass 2 writes it into the pixel's range: at the
-// cursor where the range holds every fragment (the same fragments as pass 1, so the cursor stays
-// below the count; the test only guards a range from its neighbours), else by oitPackedKeepNearest.
-void oitPackedFragment(uint64_t headAddress, uint64_t keyAddress, bool write, uint pixel, float z, uint id) {
+// A fragment of `pixel` at depth z in packed storage (shaderio/oit.h), either pass: before the
+// ranges pass (the pixel's state not READY) only counted; after it written into the pixel's range:
+// at the cursor where the range holds every fragment (the same fragments as pass 1, so the cursor
+// stays below the count; the test only guards a range from its neighbours), else by the cascade
+// that keeps the range's keys the nearest so far, sorted nearest first: each slot takes the larger
+// (nearer) of its key and the one arriving, the smaller one moves on to the next slot (atomicMax:
+// the kept set does not depend on the order of arrival).
+void oitPackedFragment(uint64_t headAddress, uint64_t keyAddress, uint pixel, float z, uint id) {
   OitHeadRef heads = OitHeadRef(headAddress);
-  if (!write) {
+  uint state = heads.pixels[pixel].floorBits;
+  if ((state & MIRAGE_OIT_PACKED_READY) == 0u) { // pass 1
     atomicAdd(heads.pixels[pixel].fragments, 1u);
     return;
   }
-  uint state = heads.pixels[pixel].floorBits;
   uint base = heads.pixels[pixel].head;
   uint64_t key = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
+  OitKeyRef pool = OitKeyRef(keyAddress);
   if ((state & MIRAGE_OIT_PACKED_NEAREST) == 0u) {
     uint slot = atomicAdd(heads.pixels[pixel].floorBits, 1u) & MIRAGE_OIT_PACKED_COUNT;
-    if (slot < heads.pixels[pixel].fragments) OitKeyRef(keyAddress).keys[base + slot] = key;
+    if (slot < heads.pixels[pixel].fragments) pool.keys[base + slot] = key;
     return;
   }
-  oitPackedKeepNearest(keyAddress, base, state & MIRAGE_OIT_PACKED_COUNT, key);
+  uint slots = state & MIRAGE_OIT_PACKED_COUNT;
+  for (uint i = 0u; i < slots && key != 0ul; ++i) key = min(key, atomicMax(pool.keys[base + i], key));
 }
 
 #ifndef MIRAGE_OIT_LAYERS

@@ -69,7 +69,7 @@ struct OitCounters {
 // MIRAGE_OIT_MAX_LAYERS), or READY | NEAREST | slots where it has fewer (past the cap, or the pool
 // short): its slots, zeroed by the ranges pass, then keep the nearest of its fragments by a cascade
 // of 64-bit atomicMax. Pass 2 writes each fragment into its pixel's range.
-#define MIRAGE_OIT_PACKED_READY 0x80000000u   // the ranges are set (pass 2; oitPackedWritePass tells it)
+#define MIRAGE_OIT_PACKED_READY 0x80000000u   // the ranges are set: a fragment writes (pass 2)
 #define MIRAGE_OIT_PACKED_NEAREST 0x40000000u // fewer slots than fragments: the nearest kept
 #define MIRAGE_OIT_PACKED_COUNT 0x3fffffffu   // the cursor, or (NEAREST) the slots
 // Pixels per workgroup of the ranges pass (256 threads, 8 consecutive pixels each).
