@@ -172,11 +172,16 @@ bool renderFrames(Session& s, int frames, Timed& out, double warmupMs = 0.0) {
 
 nlohmann::json residencyJson(const render::ResidencyStats& r) {
   return {{"requested", r.requested},
+          {"loaded", r.loaded},
           {"uploaded", r.uploaded},
           {"evicted", r.evicted},
           {"unfit", r.unfit},
+          {"pending", r.pending},
           {"resident_bytes", r.residentBytes},
-          {"resident_pages", r.residentPages}};
+          {"geometry_bytes", r.geometryBytes},
+          {"resident_pages", r.residentPages},
+          {"drawn_pages", r.drawnPages},
+          {"bytes_read", r.bytesRead}};
 }
 
 // GPU residency (--gpu-budget): the last frame's figures; with a converged render the frames it took.
@@ -188,7 +193,9 @@ void addResidencyJson(nlohmann::json& j, const runtime::Frame& f) {
   j["resident_pages"] = r.residentPages;
   j["pages"] = r.pages;
   j["pool_bytes"] = r.poolBytes;
-  j["slot_bytes"] = r.slotBytes;
+  j["unit_bytes"] = r.unitBytes;
+  j["geometry_bytes"] = r.geometryBytes;
+  j["bytes_read"] = r.bytesRead;
   j["pages_requested"] = r.requested;
   j["pages_uploaded"] = r.uploaded;
   j["pages_evicted"] = r.evicted;
@@ -267,10 +274,11 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
   if (st.pvs)
     fmt::print("cell PVS: {} instances and {} cut clusters culled\n", st.instancesPvsCulled, st.clustersPvsCulled);
   if (st.residency.enabled)
-    fmt::print("residency: {} of {} pages resident, {} of {} bytes (slots of {} bytes); this frame {} requested, {} "
-               "uploaded, {} evicted\n",
+    fmt::print("residency: {} of {} pages resident, {} of {} bytes ({} of geometry, units of {} bytes), {} bytes "
+               "read; this frame {} requested, {} loaded, {} uploaded, {} evicted, {} pending\n",
                st.residency.residentPages, st.residency.pages, st.residency.residentBytes, st.residency.budgetBytes,
-               st.residency.slotBytes, st.residency.requested, st.residency.uploaded, st.residency.evicted);
+               st.residency.geometryBytes, st.residency.unitBytes, st.residency.bytesRead, st.residency.requested,
+               st.residency.loaded, st.residency.uploaded, st.residency.evicted, st.residency.pending);
   if (st.surfels.visibleInstances || st.surfels.surfelsSplatted)
     fmt::print("surfels: {} instances ({} in the blend band)  surfels splatted {}\n", st.surfels.visibleInstances,
                st.surfels.fadingInstances, st.surfels.surfelsSplatted);

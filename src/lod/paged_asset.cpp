@@ -1,16 +1,19 @@
 // The 'CPAG' chunk: a paged cluster DAG stored as a blocked chunk (docs/lod.md, "Paged chunk").
 // Index header: u32 version, the page table (varint length + encodePageTable bytes), u64 input
-// triangles, per group the simplifier's error (varint count + f32 each), the root list (ids) and
-// the level statistics. Block p: page p's bytes (decodePage).
+// triangles, per group the simplifier's error (varint count + f32 each), the root list (ids), the
+// level statistics, the decoded positions' box (2 x vec3, min > max when empty) and per page its
+// vertex-id count (varints). Block p: page p's bytes (decodePage).
 #include "mirage/lod/paged_asset.h"
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 
 #include "codec_common.h"
 #include "mirage/asset/bytes.h"
 #include "mirage/asset/container.h"
+#include "mirage/asset/scene_chunk.h"
 #include "mirage/lod/verify.h"
 
 namespace mirage::lod {
@@ -76,6 +79,19 @@ Result<std::vector<uint8_t>> encodePagedChunk(const ClusterDag& dag, const PageC
     w.write(l.clusters), w.write(l.triangles), w.write(l.meanFill), w.write(l.groups), w.write(l.stuckGroups);
     w.write(l.meanEdgeAge), w.write(l.seconds);
   }
+  // The box of the positions as every page decodes them (the grid the pages were encoded on).
+  detail::PositionGrid grid{paged.table.positionBits, paged.table.gridOrigin, paged.table.gridStep};
+  std::vector<uint8_t> used(dag.positions.size(), 0);
+  for (uint32_t v : dag.clusterVertices) used[dag.vertexPosition[v]] = 1;
+  Bounds box;
+  for (size_t i = 0; i < used.size(); ++i)
+    if (used[i]) box.add(detail::unpackPosition(grid, detail::packPosition(grid, dag.positions[i])));
+  w.write(box.min), w.write(box.max);
+  for (uint32_t p = 0; p < paged.table.pages.size(); ++p) {
+    uint64_t ids = 0;
+    for (uint32_t c : paged.table.clustersOf(p)) ids += dag.clusters[c].vertexCount;
+    w.writeVarint(ids);
+  }
   std::vector<uint8_t> header = w.take();
   std::vector<std::span<const uint8_t>> blocks(paged.pages.begin(), paged.pages.end());
   return asset::encodeBlocks(header, blocks, zstdLevel);
@@ -112,6 +128,21 @@ Result<PagedMesh> decodePagedHeader(std::span<const uint8_t> header, const std::
     if (!r.read(l.clusters) || !r.read(l.triangles) || !r.read(l.meanFill) || !r.read(l.groups) ||
         !r.read(l.stuckGroups) || !r.read(l.meanEdgeAge) || !r.read(l.seconds))
       return r.error();
+  Bounds& box = m.rest.positionBounds;
+  if (!r.read(box.min) || !r.read(box.max)) return r.error();
+  auto finite = [](glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+  if (!box.empty() && (!finite(box.min) || !finite(box.max) || glm::any(glm::greaterThan(box.min, box.max))))
+    return makeError(context, "bad position bounds");
+  m.rest.pageClusterVertices.resize(m.table.pages.size());
+  for (uint32_t p = 0; p < m.table.pages.size(); ++p) {
+    uint64_t ids = 0;
+    if (!r.readVarint(ids)) return r.error();
+    // A cluster holds at most 255 vertices (8-bit local indices), each used by a triangle.
+    if (ids > uint64_t(m.table.pages[p].triangleCount) * 3 || ids < m.table.pages[p].vertexCount)
+      return makeError(context, "page " + str(p) + ": " + str(ids) + " vertex ids for " +
+                                    str(m.table.pages[p].vertexCount) + " vertices");
+    m.rest.pageClusterVertices[p] = uint32_t(ids);
+  }
   if (Status s = r.finish(); !s) return s.error();
   return m;
 }
@@ -142,6 +173,38 @@ Result<PageData> readPage(const asset::AssetReader& reader, const PagedMesh& mes
   auto bytes = reader.readBlock(mesh.chunk, mesh.blocks, page);
   if (!bytes) return Error{bytes.error().message + " (page " + str(page) + ")"};
   return decodePage(*bytes, mesh.table, page, context);
+}
+
+Result<PagedLodAsset> openPagedLodAsset(const std::string& path, const asset::SourceOptions& options) {
+  auto reader = asset::AssetReader::open(path, options);
+  if (!reader) return reader.error();
+  PagedLodAsset a;
+  a.reader = std::make_unique<asset::AssetReader>(std::move(reader).value());
+  auto sceneBytes = a.reader->readChunk(asset::chunk::Scene);
+  if (!sceneBytes) return sceneBytes.error();
+  auto scene = asset::decodeScene(*sceneBytes, path);
+  if (!scene) return scene.error();
+  a.scene = std::move(scene).value();
+  if (auto meta = a.reader->find(asset::chunk::Meta)) {
+    auto bytes = a.reader->readChunk(*meta);
+    if (!bytes) return bytes.error();
+    a.metaJson.assign(bytes->begin(), bytes->end());
+  }
+  auto meshes = openPagedMeshes(*a.reader);
+  if (!meshes) return meshes.error();
+  a.meshes = std::move(meshes).value();
+  if (a.meshes.empty()) return makeError(path, "needs a paged asset (mirage build --paged): no 'CPAG' chunk");
+  if (a.meshes.size() != a.scene.meshes.size())
+    return makeError(path, str(a.meshes.size()) + " paged cluster DAGs for " + str(a.scene.meshes.size()) + " meshes");
+  for (const PagedMesh& mesh : a.meshes) {
+    std::vector<PageData>& roots = a.rootPages.emplace_back();
+    for (uint32_t p = 0; p < mesh.table.rootPageCount; ++p) {
+      auto page = readPage(*a.reader, mesh, p);
+      if (!page) return page.error();
+      roots.push_back(std::move(page).value());
+    }
+  }
+  return a;
 }
 
 Result<ClusterDag> reassemblePagedDag(const PageTable& table, const PagedDagRest& rest, std::span<const PageData> pages,

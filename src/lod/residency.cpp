@@ -2,6 +2,7 @@
 #include "mirage/lod/residency.h"
 
 #include <algorithm>
+#include <cassert>
 #include <limits>
 
 #include <fmt/format.h>
@@ -39,6 +40,12 @@ void ResidencyManager::load(uint32_t page, float priority) {
   for (uint32_t d : graph_.dependenciesOf(page)) ++residentDependents_[d];
   lastUsed_[page] = frame_;
   usePriority_[page] = priority;
+}
+
+void ResidencyManager::setPageBytes(uint32_t page, uint64_t bytes) {
+  assert(!resident_[page] || bytes <= graph_.bytes[page]);
+  if (resident_[page]) residentBytes_ = residentBytes_ - graph_.bytes[page] + bytes;
+  graph_.bytes[page] = bytes;
 }
 
 void ResidencyManager::evict(uint32_t page) {

@@ -11,6 +11,7 @@
 //   cluster_residency.cpp  GPU residency of paged DAGs: page pool, uploads, feedback (cluster_residency.h)
 //   cluster_renderer.cpp   the public API and the per-frame phase list
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "mirage/gpu/deletion_queue.h"
@@ -59,11 +60,17 @@ struct ClusterSceneData {
   Bounds worldBounds;
 };
 
-// Uploads `asset`; errors for clusters beyond the mesh-shader limits or an empty scene. With
-// `records` (GPU residency) the geometry (vertices, vertex ids, indices) is left to the page pool,
-// the cluster records' offsets are zero (slot 0) until their page loads, and they are returned there.
-Result<ClusterSceneData> uploadClusterScene(gpu::Context& ctx, const lod::LodAsset& asset,
-                                            std::vector<shaderio::GpuCluster>* records = nullptr);
+// Uploads `asset`; errors for clusters beyond the mesh-shader limits or an empty scene.
+Result<ClusterSceneData> uploadClusterScene(gpu::Context& ctx, const lod::LodAsset& asset);
+// The per-scene part of both uploads: the mesh table (`meshes`, one per scene mesh, object-space
+// `meshBounds`), instances, materials, textures, lights and samplers. Errors: no instances.
+Status uploadClusterInstances(gpu::Context& ctx, const Scene& scene, std::vector<shaderio::GpuClusterMesh> meshes,
+                              const std::vector<Bounds>& meshBounds, ClusterSceneData& d);
+// One cluster's record (offsets as the cluster has them: the caller rebases them) and normal cone
+// (meshoptimizer; cutoff 1, never culled, for degenerate clusters) from its vertex positions in
+// its own order and its 8-bit local indices. Written once for both uploads and the page pool.
+shaderio::GpuCluster clusterRecord(const lod::Cluster& c, uint32_t mesh);
+shaderio::GpuClusterCone clusterCone(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices);
 
 struct ClusterResidency; // cluster_residency.h
 

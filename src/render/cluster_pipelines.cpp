@@ -293,9 +293,11 @@ sio::ClusterPush ClusterRenderer::Impl::push() const {
   sio::ClusterPush p{};
   p.frameAddress = frames[currentSlot].address();
   p.clusterAddress = scene.clusters.address();
+  // With residency one page pool holds the vertices, vertex ids and index words alike
+  // (cluster_residency.cpp): the three addresses name it.
   p.vertexAddress = scene.vertices.address();
-  p.clusterVertexAddress = scene.clusterVertices.address();
-  p.indexAddress = scene.indices.address();
+  p.clusterVertexAddress = scene.clusterVertices ? scene.clusterVertices.address() : p.vertexAddress;
+  p.indexAddress = scene.indices ? scene.indices.address() : p.vertexAddress;
   p.meshAddress = scene.meshes.address();
   p.instanceAddress = scene.instances.address();
   p.materialAddress = scene.materials.address();

@@ -79,23 +79,22 @@ ClusterRenderer::Impl::Impl(gpu::Context& c, ClusterSceneData s) : ctx(c), scene
 ClusterRenderer::Impl::~Impl() = default;
 
 Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& context, const lod::LodAsset& asset) {
-  return create(context, asset, ClusterResidencySettings{});
+  auto data = uploadClusterScene(context, asset);
+  if (!data) return data.error();
+  auto impl = std::make_unique<Impl>(context, std::move(*data));
+  impl->createDescriptors();
+  impl->createPipelines();
+  return std::unique_ptr<ClusterRenderer>(new ClusterRenderer(std::move(impl)));
 }
 
-Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& context, const lod::LodAsset& asset,
+Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& context, const lod::PagedLodAsset& asset,
                                                                  const ClusterResidencySettings& residency) {
-  bool resident = residency.budgetBytes > 0;
-  std::vector<sio::GpuCluster> records;
-  auto data = uploadClusterScene(context, asset, resident ? &records : nullptr);
+  auto data = uploadPagedClusterScene(context, asset);
   if (!data) return data.error();
-  std::unique_ptr<ClusterResidency> r;
-  if (resident) {
-    auto made = createClusterResidency(context, asset, residency, *data, std::move(records));
-    if (!made) return made.error();
-    r = std::move(*made);
-  }
+  auto r = createClusterResidency(context, asset, residency, *data);
+  if (!r) return r.error();
   auto impl = std::make_unique<Impl>(context, std::move(*data));
-  impl->residency = std::move(r);
+  impl->residency = std::move(*r);
   impl->createDescriptors();
   impl->createPipelines();
   return std::unique_ptr<ClusterRenderer>(new ClusterRenderer(std::move(impl)));

@@ -1,9 +1,11 @@
 // GPU residency of paged DAGs (docs/render.md, "Residency"): the page pool and its tables, the
-// uploads each frame records, the feedback each frame reads back, and the manager between them.
+// reads, uploads and publication each frame records, the feedback each frame reads back, and the
+// manager between them.
 #include "cluster_residency.h"
 
 #include <algorithm>
 #include <cstring>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -15,183 +17,251 @@ namespace mirage::render {
 
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
+using PageState = ClusterResidency::PageState;
 
-Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, const lod::LodAsset& asset,
+Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, const lod::PagedLodAsset& asset,
                                                                  const ClusterResidencySettings& settings,
-                                                                 ClusterSceneData& scene,
-                                                                 std::vector<sio::GpuCluster> records) {
-  const std::string& file = asset.scene.source;
-  if (settings.tables.size() != asset.dags.size())
-    return Error{fmt::format("{}: --gpu-budget needs a paged asset (mirage build --paged): {} page tables for {} "
-                             "meshes",
-                             file, settings.tables.size(), asset.dags.size())};
-  if (!settings.pages) return Error{file + ": residency without a page source"};
-  // Slot sizes: the largest page's vertices, vertex ids (its clusters' vertex counts) and triangles.
-  uint32_t slotVertices = 1, slotClusterVertices = 1, slotTriangles = 4;
+                                                                 ClusterSceneData& scene) {
+  const std::string& file = asset.reader->path();
   std::vector<uint32_t> pageMesh, pageLocal, meshClusterOffset;
+  std::vector<const lod::PageTable*> tables;
   uint32_t clusterBase = 0;
-  for (uint32_t m = 0; m < asset.dags.size(); ++m) {
-    const lod::PageTable& t = *settings.tables[m];
-    const lod::ClusterDag& dag = asset.dags[m];
-    if (t.clusterPage.size() != dag.clusters.size())
-      return Error{fmt::format("{}: mesh {}: page table of {} clusters for a DAG of {}", file, m, t.clusterPage.size(),
-                               dag.clusters.size())};
+  for (uint32_t m = 0; m < asset.meshes.size(); ++m) {
+    const lod::PageTable& t = asset.meshes[m].table;
+    tables.push_back(&t);
     meshClusterOffset.push_back(clusterBase);
-    clusterBase += uint32_t(dag.clusters.size());
-    for (uint32_t p = 0; p < t.pages.size(); ++p) {
-      uint32_t ids = 0;
-      for (uint32_t c : t.clustersOf(p)) ids += dag.clusters[c].vertexCount;
-      slotVertices = std::max(slotVertices, t.pages[p].vertexCount);
-      slotClusterVertices = std::max(slotClusterVertices, ids);
-      slotTriangles = std::max(slotTriangles, (t.pages[p].triangleCount + 3) / 4 * 4);
-      pageMesh.push_back(m);
-      pageLocal.push_back(p);
-    }
+    clusterBase += uint32_t(t.clusterPage.size());
+    for (uint32_t p = 0; p < t.pages.size(); ++p) pageMesh.push_back(m), pageLocal.push_back(p);
   }
-  uint64_t slotBytes =
-      uint64_t(slotVertices) * sizeof(sio::GpuClusterVertex) + uint64_t(slotClusterVertices) * 4 + slotTriangles * 3ull;
-  lod::ResidencyGraph graph = lod::residencyGraph(std::span<const lod::PageTable* const>(settings.tables),
-                                                  [&](uint32_t, uint32_t) { return slotBytes; });
-  lod::ResidencyConfig config{settings.budgetBytes, std::max(settings.maxUploadsPerFrame, 1u)};
+  // Costs: the root pages' exact units (they are here), the others' bound from the table (exact
+  // once read: ClusterResidency::arrive).
+  auto pageBytes = [&](uint32_t m, uint32_t p) -> uint64_t {
+    const lod::PageTable& t = asset.meshes[m].table;
+    if (p < t.rootPageCount) return uint64_t(layoutPage(asset.rootPages[m][p], nullptr, nullptr)) * kPoolUnitBytes;
+    const lod::PageInfo& info = t.pages[p];
+    return uint64_t(poolUnitsBound(info.vertexCount, asset.meshes[m].rest.pageClusterVertices[p], info.triangleCount,
+                                   info.clusterCount)) *
+           kPoolUnitBytes;
+  };
+  uint32_t units = uint32_t(std::min<uint64_t>(settings.budgetBytes / kPoolUnitBytes, UINT32_MAX / 2));
+  lod::ResidencyGraph graph = lod::residencyGraph(std::span<const lod::PageTable* const>(tables), pageBytes);
+  lod::ResidencyConfig config{uint64_t(units) * kPoolUnitBytes, std::max(settings.maxUploadsPerFrame, 1u)};
   auto manager = lod::ResidencyManager::create(std::move(graph), config);
   if (!manager)
     return Error{
-        fmt::format("{}: --gpu-budget: {} (pages take slots of {} bytes)", file, manager.error().message, slotBytes)};
+        fmt::format("{}: --gpu-budget: {} (pool units of {} bytes)", file, manager.error().message, kPoolUnitBytes)};
   auto r = std::make_unique<ClusterResidency>(std::move(*manager));
-  r->source = settings.pages;
+  r->asset = &asset;
   r->pageMesh = std::move(pageMesh);
   r->pageLocal = std::move(pageLocal);
   r->meshClusterOffset = std::move(meshClusterOffset);
-  r->slotVertices = slotVertices, r->slotClusterVertices = slotClusterVertices, r->slotTriangles = slotTriangles;
-  r->slotBytes = slotBytes;
   r->budgetBytes = settings.budgetBytes;
-  r->slots = uint32_t(std::min<uint64_t>(settings.budgetBytes / slotBytes, r->pageMesh.size()));
+  r->units = units;
+  for (uint32_t u = units; u-- > 0;) r->freeUnits.push_back(u);
   uint32_t pages = uint32_t(r->pageMesh.size());
-  r->pageSlot.assign(pages, MIRAGE_PAGE_NONE);
-  for (uint32_t s = r->slots; s-- > 0;) r->freeSlots.push_back(s);
-  r->records = std::move(records);
+  r->pageUnits.resize(pages);
+  r->state.assign(pages, PageState::Absent);
+  r->reading.assign(pages, 0);
+  r->drawn.assign(pages, MIRAGE_PAGE_NONE);
+  r->geometry.assign(pages, 0);
 
-  // Per cluster: (page, child page), numbered over every mesh.
+  // Per cluster: (page, child page), numbered over every mesh; the child page is written when the
+  // cluster's page loads (only a page knows its clusters' generating groups).
   std::vector<uint32_t> clusterPages;
-  clusterPages.reserve(r->records.size() * 2);
-  for (uint32_t m = 0; m < asset.dags.size(); ++m) {
-    const lod::PageTable& t = *settings.tables[m];
+  clusterPages.reserve(size_t(clusterBase) * 2);
+  for (uint32_t m = 0; m < asset.meshes.size(); ++m) {
     uint32_t base = r->manager.graph().pageOffset[m];
-    for (const lod::Cluster& c : asset.dags[m].clusters) {
-      uint32_t child = t.childPage(c.generatingGroup);
-      clusterPages.push_back(base + t.clusterPage[&c - asset.dags[m].clusters.data()]);
-      clusterPages.push_back(child == lod::kNone ? MIRAGE_PAGE_NONE : base + child);
-    }
+    for (uint32_t page : asset.meshes[m].table.clusterPage)
+      clusterPages.push_back(base + page), clusterPages.push_back(MIRAGE_PAGE_NONE);
   }
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   constexpr VkBufferUsageFlags kCopied = kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-  r->clusterPages = createBufferWithData<uint32_t>(ctx, clusterPages, kStorage, "residency cluster pages");
-  r->pageSlots = createBufferWithData<uint32_t>(ctx, r->pageSlot, kStorage, "residency page slots");
+  r->clusterPages = createBufferWithData<uint32_t>(ctx, clusterPages, kCopied, "residency cluster pages");
+  r->pageSlots = createBufferWithData<uint32_t>(ctx, r->drawn, kCopied, "residency drawn pages");
   r->feedback = createBuffer(ctx, pages * 4ull, kCopied, MemoryUsage::GpuOnly, "residency feedback");
   for (ClusterResidency::Slot& s : r->frame)
     s.readback = createBuffer(ctx, pages * 4ull, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback,
                               "residency feedback readback");
-  // The pool takes the place of the scene's geometry: the push constants name it as they would.
-  scene.vertices = createBuffer(ctx, std::max<uint64_t>(r->slots, 1) * slotVertices * sizeof(sio::GpuClusterVertex),
-                                kCopied, MemoryUsage::GpuOnly, "residency pool vertices");
-  scene.clusterVertices = createBuffer(ctx, std::max<uint64_t>(r->slots, 1) * slotClusterVertices * 4ull, kCopied,
-                                       MemoryUsage::GpuOnly, "residency pool vertex ids");
-  // Padding of one full cluster past the last slot, as uploadClusterScene pads the index array.
-  scene.indices =
-      createBuffer(ctx, (std::max<uint64_t>(r->slots, 1) * slotTriangles + MIRAGE_CLUSTER_MAX_TRIANGLES) * 3, kCopied,
-                   MemoryUsage::GpuOnly, "residency pool indices");
+  // The pool takes the place of the scene's geometry (vertices, vertex ids and index words alike),
+  // with one full cluster of index padding past its end, as uploadClusterScene pads the index array.
+  scene.vertices = createBuffer(ctx, uint64_t(std::max(units, 1u)) * kPoolUnitBytes + MIRAGE_CLUSTER_MAX_TRIANGLES * 3,
+                                kCopied, MemoryUsage::GpuOnly, "residency page pool");
+  lod::PageStreamConfig streamConfig;
+  streamConfig.maxInFlight = std::max(settings.maxReadsInFlight, 1u);
+  r->stream = std::make_unique<lod::PageStream>(*asset.reader, asset.meshes, streamConfig);
   return r;
 }
 
-// The manager acts on the last collected feedback; its uploads are staged for this slot's frame.
-Status ClusterRenderer::Impl::prepareResidency() {
-  ClusterResidency& r = *residency;
-  ClusterResidency::Slot& slot = r.frame[currentSlot];
-  for (auto* v : {&slot.vertices, &slot.clusterVertices, &slot.indices, &slot.records, &slot.table}) v->clear();
-  slot.stats = {};
-  lod::ResidencyStep step;
-  bool first = !r.rootsStaged;
-  r.rootsStaged = true;
-  if (r.haveFeedback) {
-    step = r.manager.step(r.feedbackHost);
-    r.haveFeedback = false;
-    slot.stats.stepped = true;
-  } else if (first) {
-    // The first frame uploads the root pages the manager made resident at creation.
-    for (uint32_t p = 0; p < r.pageMesh.size(); ++p)
-      if (r.manager.isResident(p)) step.loaded.push_back(p);
-  }
-  for (uint32_t p : step.evicted) {
-    r.freeSlots.push_back(r.pageSlot[p]);
-    r.pageSlot[p] = MIRAGE_PAGE_NONE;
-  }
-  // Staging: per page its vertices, vertex ids and index words, then every record and the table.
+namespace {
+
+// The staging bytes of one frame slot, appended region by region.
+struct StagingBytes {
   std::vector<uint8_t> bytes;
-  auto append = [&](const void* data, size_t size) {
+  VkDeviceSize append(const void* data, size_t size) {
     size_t at = bytes.size();
     bytes.resize(at + size);
     std::memcpy(bytes.data() + at, data, size);
     return VkDeviceSize(at);
-  };
-  for (uint32_t p : step.loaded) {
-    uint32_t mesh = r.pageMesh[p];
-    auto page = r.source(mesh, r.pageLocal[p]);
-    if (!page) return page.error();
-    if (r.freeSlots.empty()) return Error{"residency: no free page slot (the manager exceeded the pool)"};
-    uint32_t s = r.freeSlots.back();
-    r.freeSlots.pop_back();
-    r.pageSlot[p] = s;
-    std::vector<sio::GpuClusterVertex> vertices(page->positions.size());
-    for (size_t v = 0; v < vertices.size(); ++v) {
-      vertices[v].position = page->positions[v];
-      vertices[v].normal = v < page->normals.size() ? page->normals[v] : glm::vec3(0, 1, 0);
-      vertices[v].uv = v < page->uv0.size() ? page->uv0[v] : glm::vec2(0.0f);
-    }
-    uint32_t vertexBase = s * r.slotVertices, idBase = s * r.slotClusterVertices, triangleBase = s * r.slotTriangles;
-    std::vector<uint32_t> ids(page->clusterVertices.size());
-    for (size_t i = 0; i < ids.size(); ++i) ids[i] = vertexBase + page->clusterVertices[i];
-    std::vector<uint32_t> words((page->clusterIndices.size() + 3) / 4, 0u);
-    for (size_t i = 0; i < page->clusterIndices.size(); ++i)
-      words[i / 4] |= uint32_t(page->clusterIndices[i]) << (8 * (i % 4));
-    if (vertices.size() > r.slotVertices || ids.size() > r.slotClusterVertices ||
-        page->clusterIndices.size() > r.slotTriangles * 3ull)
-      return Error{fmt::format("residency: page {} of mesh {} is larger than its table says", r.pageLocal[p], mesh)};
-    slot.vertices.push_back({append(vertices.data(), vertices.size() * sizeof(vertices[0])),
-                             VkDeviceSize(vertexBase) * sizeof(sio::GpuClusterVertex),
-                             vertices.size() * sizeof(vertices[0])});
-    slot.clusterVertices.push_back({append(ids.data(), ids.size() * 4), VkDeviceSize(idBase) * 4, ids.size() * 4});
-    if (!words.empty())
-      slot.indices.push_back(
-          {append(words.data(), words.size() * 4), VkDeviceSize(triangleBase) * 3, words.size() * 4});
-    for (size_t i = 0; i < page->clusterIds.size(); ++i) {
-      uint32_t g = r.meshClusterOffset[mesh] + page->clusterIds[i];
-      sio::GpuCluster& rec = r.records[g];
-      rec.vertexOffset = idBase + page->clusters[i].vertexOffset;
-      rec.triangleOffset = triangleBase + page->clusters[i].triangleOffset;
-      slot.records.push_back({append(&rec, sizeof(rec)), VkDeviceSize(g) * sizeof(rec), sizeof(rec)});
-    }
   }
-  if (!step.loaded.empty() || !step.evicted.empty())
-    slot.table.push_back({append(r.pageSlot.data(), r.pageSlot.size() * 4), 0, r.pageSlot.size() * 4});
-  if (!bytes.empty()) {
-    if (!slot.staging || slot.staging.size() < bytes.size()) // this slot's last frame completed
-      slot.staging = createBuffer(ctx, std::max<size_t>(bytes.size(), slot.staging ? slot.staging.size() * 2 : 0),
-                                  VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency staging");
-    std::memcpy(slot.staging.mapped(), bytes.data(), bytes.size());
+};
+
+// Units for `page`: `count` from the free stack (the manager's budget guarantees them).
+bool takeUnits(ClusterResidency& r, uint32_t page, uint32_t count) {
+  if (r.freeUnits.size() < count) return false;
+  r.pageUnits[page].assign(r.freeUnits.end() - count, r.freeUnits.end());
+  r.freeUnits.resize(r.freeUnits.size() - count);
+  return true;
+}
+
+void releaseUnits(ClusterResidency& r, uint32_t page, size_t keep = 0) {
+  std::vector<uint32_t>& units = r.pageUnits[page];
+  r.freeUnits.insert(r.freeUnits.end(), units.begin() + ptrdiff_t(keep), units.end());
+  units.resize(keep);
+}
+
+// A reserved page's bytes arrived: laid out in its units (the spare ones freed, its cost made
+// exact), its clusters' records, cones and child pages staged.
+Status uploadPage(ClusterResidency& r, uint32_t page, const lod::PageData& data, StagingBytes& staging,
+                  ClusterResidency::Slot& slot) {
+  uint32_t mesh = r.pageMesh[page];
+  const lod::PagedMesh& pm = r.asset->meshes[mesh];
+  const std::string& file = r.asset->reader->path();
+  uint32_t need = layoutPage(data, nullptr, nullptr);
+  if (data.clusterVertices.size() != pm.rest.pageClusterVertices[r.pageLocal[page]] || need > r.pageUnits[page].size())
+    return Error{fmt::format("{}: mesh {} page {}: {} vertex ids in {} pool units, the index says {} ids", file, mesh,
+                             r.pageLocal[page], data.clusterVertices.size(), need,
+                             pm.rest.pageClusterVertices[r.pageLocal[page]])};
+  releaseUnits(r, page, need);
+  r.manager.setPageBytes(page, uint64_t(need) * kPoolUnitBytes);
+  PagePacking packed;
+  layoutPage(data, r.pageUnits[page].data(), &packed);
+  for (uint32_t k = 0; k < packed.unitFill.size(); ++k)
+    slot.pool.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
+                         VkDeviceSize(r.pageUnits[page][k]) * kPoolUnitBytes, packed.unitFill[k]});
+  const lod::PageTable& t = pm.table;
+  uint32_t pageBase = r.manager.graph().pageOffset[mesh];
+  for (size_t i = 0; i < data.clusterIds.size(); ++i) {
+    const lod::Cluster& c = data.clusters[i];
+    uint32_t g = r.meshClusterOffset[mesh] + data.clusterIds[i];
+    sio::GpuCluster rec = clusterRecord(c, mesh);
+    rec.vertexOffset = packed.vertexOffset[i];
+    rec.triangleOffset = packed.triangleOffset[i];
+    slot.records.push_back({staging.append(&rec, sizeof(rec)), VkDeviceSize(g) * sizeof(rec), sizeof(rec)});
+    std::vector<glm::vec3> positions(c.vertexCount);
+    for (uint32_t v = 0; v < c.vertexCount; ++v)
+      positions[v] = data.positions[data.clusterVertices[c.vertexOffset + v]];
+    sio::GpuClusterCone cone = clusterCone(
+        positions, {data.clusterIndices.data() + size_t(c.triangleOffset) * 3, size_t(c.triangleCount) * 3});
+    slot.cones.push_back({staging.append(&cone, sizeof(cone)), VkDeviceSize(g) * sizeof(cone), sizeof(cone)});
+    uint32_t child = t.childPage(c.generatingGroup);
+    uint32_t pages[2] = {page, child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child};
+    slot.clusterPages.push_back({staging.append(pages, sizeof(pages)), VkDeviceSize(g) * sizeof(pages), sizeof(pages)});
   }
-  slot.resident.assign(r.manager.resident().begin(), r.manager.resident().end());
+  r.state[page] = PageState::Uploaded;
+  r.geometry[page] = packed.geometryBytes;
+  r.geometryBytes += packed.geometryBytes;
+  return Ok{};
+}
+
+} // namespace
+
+// Arrived pages are uploaded, the manager acts on the last collected feedback (its loads reserve
+// units and queue reads, its evictions free units), and pages whose dependencies are drawn are
+// drawn from this frame on. Nothing here waits for I/O.
+Status ClusterRenderer::Impl::prepareResidency() {
+  ClusterResidency& r = *residency;
+  ClusterResidency::Slot& slot = r.frame[currentSlot];
+  for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table}) v->clear();
+  slot.stats = {};
   ResidencyStats& st = slot.stats;
+  StagingBytes staging;
+  // (1) The root pages, resident since creation, in the first frame.
+  if (!r.rootsStaged) {
+    r.rootsStaged = true;
+    for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
+      if (!r.manager.isResident(p)) continue;
+      uint32_t units = uint32_t(r.manager.graph().bytes[p] / kPoolUnitBytes);
+      if (!takeUnits(r, p, units)) return Error{"residency: the root pages do not fit the pool"};
+      r.state[p] = PageState::Reserved;
+      if (Status s = uploadPage(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]], staging, slot); !s) return s;
+      ++st.uploaded;
+    }
+  }
+  // (2) Pages read since the last frame: uploaded if still reserved (an evicted one is dropped).
+  auto arrived = r.stream->take();
+  if (!arrived) return arrived.error();
+  for (lod::StreamedPage& a : *arrived) {
+    uint32_t p = r.manager.graph().pageOffset[a.mesh] + a.page;
+    r.reading[p] = 0;
+    if (r.state[p] != PageState::Reserved) continue;
+    if (Status s = uploadPage(r, p, a.data, staging, slot); !s) return s;
+    ++st.uploaded;
+  }
+  // (3) The manager's step: evictions free units and stop drawing; loads reserve units and queue reads.
+  if (r.haveFeedback) {
+    lod::ResidencyStep step = r.manager.step(r.feedbackHost);
+    r.haveFeedback = false;
+    st.stepped = true;
+    for (uint32_t p : step.evicted) {
+      if (r.state[p] == PageState::Uploaded) r.geometryBytes -= r.geometry[p];
+      r.state[p] = PageState::Absent;
+      r.drawn[p] = MIRAGE_PAGE_NONE;
+      releaseUnits(r, p);
+    }
+    for (uint32_t p : step.loaded) {
+      uint32_t units = uint32_t(r.manager.graph().bytes[p] / kPoolUnitBytes);
+      if (!takeUnits(r, p, units)) return Error{"residency: no free pool units (the manager exceeded the pool)"};
+      r.state[p] = PageState::Reserved;
+      r.toRead.push_back(p);
+    }
+    st.loaded = uint32_t(step.loaded.size());
+    st.evicted = uint32_t(step.evicted.size());
+    st.unfit = step.unfit;
+  }
+  // (4) Reads, as far as the stream has room (pages evicted before their read are skipped).
+  while (!r.toRead.empty()) {
+    uint32_t p = r.toRead.front();
+    if (r.state[p] == PageState::Reserved && !r.reading[p]) {
+      if (!r.stream->request(r.pageMesh[p], r.pageLocal[p])) break;
+      r.reading[p] = 1;
+    }
+    r.toRead.pop_front();
+  }
+  // (5) Drawn: uploaded pages whose dependencies are drawn (a mesh's dependencies come before
+  // it in page order, so one ascending pass settles every chain).
+  bool tableChanged = st.evicted > 0;
+  for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
+    if (r.state[p] != PageState::Uploaded || r.drawn[p] != MIRAGE_PAGE_NONE) continue;
+    bool ready = true;
+    for (uint32_t d : r.manager.graph().dependenciesOf(p)) ready = ready && r.drawn[d] != MIRAGE_PAGE_NONE;
+    if (!ready) continue;
+    r.drawn[p] = r.pageUnits[p].front();
+    tableChanged = true;
+  }
+  if (tableChanged) slot.table.push_back({staging.append(r.drawn.data(), r.drawn.size() * 4), 0, r.drawn.size() * 4});
+  if (!staging.bytes.empty()) {
+    if (!slot.staging || slot.staging.size() < staging.bytes.size()) // this slot's last frame completed
+      slot.staging =
+          createBuffer(ctx, std::max<size_t>(staging.bytes.size(), slot.staging ? slot.staging.size() * 2 : 0),
+                       VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency staging");
+    std::memcpy(slot.staging.mapped(), staging.bytes.data(), staging.bytes.size());
+  }
+  slot.resident.resize(r.drawn.size());
+  for (size_t p = 0; p < r.drawn.size(); ++p) slot.resident[p] = r.drawn[p] != MIRAGE_PAGE_NONE;
   st.enabled = true;
   st.budgetBytes = r.budgetBytes;
-  st.slotBytes = r.slotBytes;
-  st.slots = r.slots;
-  st.poolBytes = uint64_t(r.slots) * r.slotBytes + MIRAGE_CLUSTER_MAX_TRIANGLES * 3;
+  st.unitBytes = kPoolUnitBytes;
+  st.units = r.units;
+  st.poolBytes = uint64_t(r.units) * kPoolUnitBytes + MIRAGE_CLUSTER_MAX_TRIANGLES * 3;
   st.pages = uint32_t(r.pageMesh.size());
   st.residentPages = r.manager.residentPages();
   st.residentBytes = r.manager.residentBytes();
-  st.uploaded = uint32_t(step.loaded.size()); // the first frame: the root pages
-  st.evicted = uint32_t(step.evicted.size());
-  st.unfit = step.unfit;
+  st.geometryBytes = r.geometryBytes;
+  st.bytesRead = r.stream->storedBytes();
+  for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
+    st.drawnPages += r.drawn[p] != MIRAGE_PAGE_NONE;
+    st.pending += r.state[p] == PageState::Reserved;
+  }
   return Ok{};
 }
 
@@ -201,8 +271,7 @@ void ClusterRenderer::Impl::cmdResidencyUpload(VkCommandBuffer cmd) {
   ClusterResidency& r = *residency;
   ClusterResidency::Slot& slot = r.frame[currentSlot];
   if (r.poolUnzeroed) {
-    for (const Buffer* b : {&scene.vertices, &scene.clusterVertices, &scene.indices})
-      vkCmdFillBuffer(cmd, b->handle(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, scene.vertices.handle(), 0, VK_WHOLE_SIZE, 0);
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
     r.poolUnzeroed = false;
@@ -211,10 +280,10 @@ void ClusterRenderer::Impl::cmdResidencyUpload(VkCommandBuffer cmd) {
     if (!regions.empty())
       vkCmdCopyBuffer(cmd, slot.staging.handle(), dst.handle(), uint32_t(regions.size()), regions.data());
   };
-  copy(slot.vertices, scene.vertices);
-  copy(slot.clusterVertices, scene.clusterVertices);
-  copy(slot.indices, scene.indices);
+  copy(slot.pool, scene.vertices);
   copy(slot.records, scene.clusters);
+  copy(slot.cones, scene.cones);
+  copy(slot.clusterPages, r.clusterPages);
   copy(slot.table, r.pageSlots);
   vkCmdFillBuffer(cmd, r.feedback.handle(), 0, VK_WHOLE_SIZE, 0);
 }
@@ -268,11 +337,14 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
     if (!o) return o.error();
     const ResidencyStats& st = o->stats.residency;
     out.frames.push_back(st);
-    if (st.stepped && st.uploaded == 0 && st.evicted == 0) {
+    bool quietFrame = st.stepped && st.loaded == 0 && st.uploaded == 0 && st.evicted == 0;
+    if (quietFrame && st.pending == 0) {
       out.framesToConverge = frame;
       out.converged = true;
       break;
     }
+    // Only waiting for reads: wait for the next page instead of spinning frames.
+    if (quietFrame) impl_->residency->stream->waitForArrival(std::chrono::milliseconds(1000));
   }
   if (!out.converged) out.framesToConverge = maxFrames;
   auto o = render(settings); // the stable residency again, read back as asked

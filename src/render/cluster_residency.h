@@ -1,10 +1,15 @@
 #pragma once
-// GPU residency of the cluster renderer (docs/render.md, "Residency"): the page pool, the tables
-// the selection reads, the per-slot staging and feedback readback, and the CPU manager deciding
-// what they hold (lod/residency.h). Private to the renderer (cluster_residency.cpp).
+// GPU residency of the cluster renderer (docs/render.md, "Residency"): the page pool and its unit
+// allocator, the tables the selection reads, the background page reads, the per-slot staging and
+// feedback readback, and the CPU manager deciding what they hold (lod/residency.h). Private to the
+// renderer (cluster_page_pool.cpp: scene tables and page layout; cluster_residency.cpp: frames).
+#include <deque>
+#include <memory>
 #include <vector>
 
 #include "mirage/gpu/memory.h"
+#include "mirage/lod/page_stream.h"
+#include "mirage/lod/paged_asset.h"
 #include "mirage/lod/residency.h"
 #include "mirage/render/cluster_renderer.h"
 #include "mirage/render/frames_in_flight.h"
@@ -14,28 +19,64 @@ namespace mirage::render {
 
 struct ClusterSceneData;
 
+// The pool's allocation unit. A page takes whole units, any free ones (its vertices fill units in
+// order, then each cluster's vertex ids and indices sit whole within one unit), so the pool never
+// fragments and a page wastes at most its last unit's tail plus under one cluster per unit (5.7 %).
+// A multiple of 32 (vertices) and of 3 (a cluster's indices start on a triangle: offsets in
+// triangles) and 4 (vertex ids); 24 KiB against the dragon's pages of 100-200 KiB in the pool: a
+// few percent lost to tails, while slots sized for the largest page lost 40 %.
+inline constexpr uint32_t kPoolUnitBytes = 24 * 1024;
+
+// One page laid out in pool units: unit k's contents at k * kPoolUnitBytes of `bytes`, its used
+// length in unitFill[k]; per cluster (in page order) the record's offsets into the pool.
+struct PagePacking {
+  std::vector<uint8_t> bytes;
+  std::vector<uint32_t> unitFill;
+  std::vector<uint32_t> vertexOffset, triangleOffset;
+  uint64_t geometryBytes = 0; // vertices, vertex ids and indices
+};
+// Lays `page` out in pool units. Without `units`, only counts; with them (the pool units to use, at
+// least as many as the count), fills `out`. Returns the units it takes.
+uint32_t layoutPage(const lod::PageData& page, const uint32_t* units, PagePacking* out);
+// The most units a page of these counts can take (from the page table, before it is read).
+uint32_t poolUnitsBound(uint32_t vertices, uint32_t vertexIds, uint32_t triangles, uint32_t clusters);
+
+// The cluster renderer's scene from a paged asset's tables: the cluster records as far as the
+// table knows them (member group bounds, level, mesh; the rest when the page loads), cones that
+// never cull until then, the level table, mesh spheres and bounds from the index. No geometry: the
+// page pool takes its place (createClusterResidency).
+Result<ClusterSceneData> uploadPagedClusterScene(gpu::Context& ctx, const lod::PagedLodAsset& asset);
+
 struct ClusterResidency {
+  enum class PageState : uint8_t {
+    Absent,   // not resident
+    Reserved, // resident for the manager, units held, bytes not arrived
+    Uploaded, // bytes in the pool (this or an earlier frame); drawn once its dependencies are
+  };
   lod::ResidencyManager manager;
-  PageSource source;
+  const lod::PagedLodAsset* asset = nullptr;
+  std::unique_ptr<lod::PageStream> stream;
   std::vector<uint32_t> pageMesh, pageLocal; // per global page: its mesh and its page in the mesh
   std::vector<uint32_t> meshClusterOffset;   // per mesh: its first global cluster
-  // One pool slot: vertices, vertex ids and triangles (a multiple of 4: slots start on index words).
-  uint32_t slotVertices = 0, slotClusterVertices = 0, slotTriangles = 0;
-  uint64_t slotBytes = 0;
-  uint32_t slots = 0;
   uint64_t budgetBytes = 0;
-  std::vector<uint32_t> pageSlot;            // per global page: its slot, MIRAGE_PAGE_NONE when not resident
-  std::vector<uint32_t> freeSlots;           // a stack
-  std::vector<shaderio::GpuCluster> records; // every cluster's record; offsets set when its page loads
+  uint32_t units = 0;
+  std::vector<uint32_t> freeUnits;              // a stack
+  std::vector<std::vector<uint32_t>> pageUnits; // per page: the units it holds
+  std::vector<PageState> state;
+  std::vector<uint8_t> reading;   // per page: a read asked for and not yet arrived
+  std::vector<uint32_t> drawn;    // per page: its first unit while drawn (the GPU table), else MIRAGE_PAGE_NONE
+  std::vector<uint64_t> geometry; // per page: its geometry bytes once uploaded
+  uint64_t geometryBytes = 0;
+  std::deque<uint32_t> toRead; // reserved pages whose read waits for room in the stream
   gpu::Buffer clusterPages, pageSlots, feedback;
   bool rootsStaged = false; // the first recorded frame uploads the root pages
-  bool poolUnzeroed = true; // the first frame zeroes the pool (records of missing pages point at slot 0)
+  bool poolUnzeroed = true; // the first frame zeroes the pool (records of missing pages point at unit 0)
 
   // Per frame slot: the staging of its uploads and their copies (recorded by cmdUpload), its
-  // feedback readback, the resident pages when it was recorded, and its figures.
+  // feedback readback, the drawn pages when it was recorded, and its figures.
   struct Slot {
     gpu::Buffer staging, readback;
-    std::vector<VkBufferCopy> vertices, clusterVertices, indices, records, table;
+    std::vector<VkBufferCopy> pool, records, cones, clusterPages, table;
     std::vector<uint8_t> resident;
     ResidencyStats stats;
   } frame[kMaxFramesInFlight];
@@ -45,12 +86,11 @@ struct ClusterResidency {
   ClusterResidency(lod::ResidencyManager m) : manager(std::move(m)) {}
 };
 
-// Builds the residency of `asset` into `scene` (whose vertices, vertex ids and indices become the
-// pool): slot sizes from the tables and the DAGs, the manager with the root pages resident (their
-// uploads happen in the first frame), the GPU tables.
-Result<std::unique_ptr<ClusterResidency>> createClusterResidency(gpu::Context& ctx, const lod::LodAsset& asset,
+// Builds the residency of `asset` into `scene` (whose vertices become the pool): page costs from
+// the tables (the root pages' exact), the manager with the root pages resident (their uploads
+// happen in the first frame), the GPU tables, the page stream.
+Result<std::unique_ptr<ClusterResidency>> createClusterResidency(gpu::Context& ctx, const lod::PagedLodAsset& asset,
                                                                  const ClusterResidencySettings& settings,
-                                                                 ClusterSceneData& scene,
-                                                                 std::vector<shaderio::GpuCluster> records);
+                                                                 ClusterSceneData& scene);
 
 } // namespace mirage::render

@@ -22,23 +22,6 @@ namespace {
 
 glm::vec4 sphere(const lod::LodBounds& b) { return {b.center, b.radius}; }
 
-// Normal cone of one cluster's triangles (object space) from meshoptimizer; degenerate clusters
-// get a cutoff of 1 (never culled).
-sio::GpuClusterCone clusterCone(const lod::ClusterDag& dag, const lod::Cluster& c) {
-  std::vector<glm::vec3> positions(c.vertexCount);
-  for (uint32_t v = 0; v < c.vertexCount; ++v)
-    positions[v] = dag.positions[dag.vertexPosition[dag.clusterVertices[c.vertexOffset + v]]];
-  std::vector<uint32_t> indices(size_t(c.triangleCount) * 3);
-  for (size_t i = 0; i < indices.size(); ++i) indices[i] = dag.clusterIndices[size_t(c.triangleOffset) * 3 + i];
-  meshopt_Bounds b = meshopt_computeClusterBounds(indices.data(), indices.size(), &positions[0].x, positions.size(),
-                                                  sizeof(glm::vec3));
-  sio::GpuClusterCone cone{};
-  cone.axisCutoff = {b.cone_axis[0], b.cone_axis[1], b.cone_axis[2], b.cone_cutoff};
-  cone.apex = {b.cone_apex[0], b.cone_apex[1], b.cone_apex[2], 0.0f};
-  if (!(glm::length(glm::vec3(cone.axisCutoff)) > 0.5f)) cone.axisCutoff.w = 1.0f;
-  return cone;
-}
-
 // Smallest-effort sphere around spheres: the centre of their boxes, the farthest reach, padded so
 // float rounding on the GPU never puts an enclosed sphere's nearest point before the parent's.
 glm::vec4 encloseSpheres(const std::vector<glm::vec4>& spheres) {
@@ -232,8 +215,34 @@ uint32_t buildDagTree(const sio::GpuCluster* clusters, const lod::ClusterDag& da
 
 } // namespace
 
-Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& asset,
-                                            std::vector<sio::GpuCluster>* records) {
+sio::GpuClusterCone clusterCone(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices) {
+  std::vector<uint32_t> indices(localIndices.begin(), localIndices.end());
+  meshopt_Bounds b = meshopt_computeClusterBounds(indices.data(), indices.size(), &positions[0].x, positions.size(),
+                                                  sizeof(glm::vec3));
+  sio::GpuClusterCone cone{};
+  cone.axisCutoff = {b.cone_axis[0], b.cone_axis[1], b.cone_axis[2], b.cone_cutoff};
+  cone.apex = {b.cone_apex[0], b.cone_apex[1], b.cone_apex[2], 0.0f};
+  if (!(glm::length(glm::vec3(cone.axisCutoff)) > 0.5f)) cone.axisCutoff.w = 1.0f;
+  return cone;
+}
+
+sio::GpuCluster clusterRecord(const lod::Cluster& c, uint32_t mesh) {
+  sio::GpuCluster g{};
+  g.selfSphere = sphere(c.self);
+  g.parentSphere = sphere(c.parent);
+  g.boundsSphere = sphere(c.bounds);
+  g.selfError = c.self.error;
+  g.parentError = c.group == lod::kNone ? std::numeric_limits<float>::infinity() : c.parent.error;
+  g.vertexOffset = c.vertexOffset;
+  g.triangleOffset = c.triangleOffset;
+  g.vertexCount = c.vertexCount;
+  g.triangleCount = c.triangleCount;
+  g.mesh = mesh;
+  g.level = c.level;
+  return g;
+}
+
+Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& asset) {
   const Scene& scene = asset.scene;
   if (asset.dags.size() != scene.meshes.size())
     return Error{fmt::format("{}: {} DAGs for {} meshes", scene.source, asset.dags.size(), scene.meshes.size())};
@@ -276,20 +285,16 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
                                  scene.source, scene.meshes[m].name, c.triangleCount, c.vertexCount,
                                  MIRAGE_CLUSTER_MAX_TRIANGLES, MIRAGE_CLUSTER_MAX_VERTICES,
                                  MIRAGE_CLUSTER_MAX_TRIANGLES)};
-      sio::GpuCluster g{};
-      g.selfSphere = sphere(c.self);
-      g.parentSphere = sphere(c.parent);
-      g.boundsSphere = sphere(c.bounds);
-      g.selfError = c.self.error;
-      g.parentError = c.group == lod::kNone ? std::numeric_limits<float>::infinity() : c.parent.error;
-      g.vertexOffset = clusterVertexBase + c.vertexOffset;
-      g.triangleOffset = triangleBase + c.triangleOffset;
-      g.vertexCount = c.vertexCount;
-      g.triangleCount = c.triangleCount;
-      g.mesh = uint32_t(m);
-      g.level = c.level;
+      sio::GpuCluster g = clusterRecord(c, uint32_t(m));
+      g.vertexOffset += clusterVertexBase;
+      g.triangleOffset += triangleBase;
       clusters.push_back(g);
-      cones.push_back(clusterCone(dag, c));
+      // The cone from the cluster's own vertices (as a page gives them, cluster_residency.cpp).
+      std::vector<glm::vec3> positions(c.vertexCount);
+      for (uint32_t v = 0; v < c.vertexCount; ++v)
+        positions[v] = dag.positions[dag.vertexPosition[dag.clusterVertices[c.vertexOffset + v]]];
+      cones.push_back(
+          clusterCone(positions, {&dag.clusterIndices[size_t(c.triangleOffset) * 3], size_t(c.triangleCount) * 3}));
     }
     // Level table and reach (see GpuClusterMesh): clusters come ordered by level from the builder.
     gm.levelOffset = uint32_t(levels.size());
@@ -335,6 +340,22 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   std::vector<uint32_t> packed((indexBytes.size() + 3) / 4, 0u);
   for (size_t i = 0; i < indexBytes.size(); ++i) packed[i / 4] |= uint32_t(indexBytes[i]) << (8 * (i % 4));
 
+  if (Status st = uploadClusterInstances(ctx, scene, meshes, meshBounds, d); !st) return st.error();
+  constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  d.vertices = createBufferWithData<sio::GpuClusterVertex>(ctx, vertices, kStorage, "cluster vertices");
+  d.clusterVertices = createBufferWithData<uint32_t>(ctx, clusterVertices, kStorage, "cluster vertex ids");
+  d.indices = createBufferWithData<uint32_t>(ctx, packed, kStorage, "cluster local indices");
+  d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kStorage, "cluster table");
+  d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
+  d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
+  d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, lodNodes, kStorage, "cluster LOD BVH");
+  d.leafClusters = createBufferWithData<uint32_t>(ctx, leafClusters, kStorage, "cluster LOD BVH leaves");
+  d.clusterCount = uint32_t(clusters.size());
+  return d;
+}
+
+Status uploadClusterInstances(Context& ctx, const Scene& scene, std::vector<sio::GpuClusterMesh> meshes,
+                              const std::vector<Bounds>& meshBounds, ClusterSceneData& d) {
   std::vector<Material> mats = scene.materials;
   if (mats.empty()) mats.push_back(Material{});
 
@@ -368,31 +389,17 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   for (auto& m : meshes) m.material = std::min<uint32_t>(m.material, uint32_t(mats.size() - 1));
 
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-  if (records) { // residency: the pool holds the geometry (cluster_residency.cpp)
-    for (sio::GpuCluster& c : clusters) c.vertexOffset = c.triangleOffset = 0;
-    *records = clusters;
-  } else {
-    d.vertices = createBufferWithData<sio::GpuClusterVertex>(ctx, vertices, kStorage, "cluster vertices");
-    d.clusterVertices = createBufferWithData<uint32_t>(ctx, clusterVertices, kStorage, "cluster vertex ids");
-    d.indices = createBufferWithData<uint32_t>(ctx, packed, kStorage, "cluster local indices");
-  }
-  d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kStorage, "cluster table");
   d.meshes = createBufferWithData<sio::GpuClusterMesh>(ctx, meshes, kStorage, "cluster meshes");
-  d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
   d.instances = createBufferWithData<sio::GpuClusterInstance>(ctx, instances, kStorage, "cluster instances");
   d.materials = uploadMaterials(ctx, mats, scene.textures.size(), d.mapTransforms, "cluster materials");
   d.resolveSpecialization = materialMapSpecialization(mats, scene.textures.size());
-  d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
-  d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, lodNodes, kStorage, "cluster LOD BVH");
-  d.leafClusters = createBufferWithData<uint32_t>(ctx, leafClusters, kStorage, "cluster LOD BVH leaves");
   d.lights = uploadLights(ctx, scene.lights, "cluster point lights");
   d.lightCount = uint32_t(scene.lights.size());
   d.textures = uploadTextures(ctx, scene);
   d.sampler = makeSampler(ctx, VK_FILTER_LINEAR);
   d.nearestSampler = makeSampler(ctx, VK_FILTER_NEAREST);
-  d.clusterCount = uint32_t(clusters.size());
   d.instanceCount = uint32_t(instances.size());
-  return d;
+  return Ok{};
 }
 
 } // namespace mirage::render

@@ -28,9 +28,9 @@ struct Scene::Impl {
   // ClusterLod: the asset, its renderer, the mixed scene's per-mesh clouds (kept alive for the
   // surfel renderer) and the current cell's cluster PVS.
   lod::LodAsset asset;
-  // GPU residency (options.gpuBudget): the file, open for its pages, and its paged meshes.
-  std::optional<asset::AssetReader> pageReader;
-  std::vector<lod::PagedMesh> pagedMeshes;
+  // GPU residency (options.gpuBudget): the paged asset's index, root pages and reader, from which
+  // the renderer reads every other page on demand (asset.dags stays empty; asset.scene is its scene).
+  std::optional<lod::PagedLodAsset> paged;
   std::unique_ptr<render::ClusterRenderer> cluster;
   std::vector<surfels::MeshSurfels> meshClouds;
   lod::ClusterPvs clusterPvs;

@@ -49,37 +49,53 @@ Status openMixedSurfels(Scene::Impl& s) {
 
 } // namespace
 
-Status openClusterLod(Scene::Impl& s) {
-  auto t0 = std::chrono::steady_clock::now();
-  auto asset = lod::loadLodAsset(s.options.input);
-  if (!asset) return asset.error();
-  s.asset = std::move(*asset);
+namespace {
+
+// GPU residency: only the scene, the paged meshes' indices and their root pages are read now; the
+// renderer reads every other page as its feedback asks (docs/render.md, "Residency").
+Status openPagedClusterLod(Scene::Impl& s, std::chrono::steady_clock::time_point t0) {
+  auto paged = lod::openPagedLodAsset(s.options.input);
+  if (!paged) return paged.error();
+  s.paged = std::move(*paged);
+  mirage::Scene& scene = s.paged->scene;
   if (!s.options.materials.empty())
-    if (auto st = shading::applyMaterials(s.asset.scene, s.materials); !st) return st;
-  repeatOnGrid(s.asset.scene, s.options.grid * s.options.grid); // the seed's benchmark scenes
+    if (auto st = shading::applyMaterials(scene, s.materials); !st) return st;
+  repeatOnGrid(scene, s.options.grid * s.options.grid);
   s.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   render::ClusterResidencySettings residency;
-  if (s.options.gpuBudget > 0) { // pages read from the file as the GPU asks (docs/render.md, "Residency")
-    auto reader = asset::AssetReader::open(s.options.input);
-    if (!reader) return reader.error();
-    s.pageReader = std::move(*reader);
-    auto meshes = lod::openPagedMeshes(*s.pageReader);
-    if (!meshes) return meshes.error();
-    s.pagedMeshes = std::move(*meshes);
-    if (s.pagedMeshes.size() != s.asset.dags.size())
-      return makeError(s.options.input, "--gpu-budget needs a paged asset (mirage build --paged)");
-    residency.budgetBytes = s.options.gpuBudget;
-    for (const lod::PagedMesh& m : s.pagedMeshes) residency.tables.push_back(&m.table);
-    residency.pages = [&s](uint32_t mesh, uint32_t page) {
-      return lod::readPage(*s.pageReader, s.pagedMeshes[mesh], page);
-    };
-  }
-  auto renderer = render::ClusterRenderer::create(s.ctx, s.asset, residency);
+  residency.budgetBytes = s.options.gpuBudget;
+  auto renderer = render::ClusterRenderer::create(s.ctx, *s.paged, residency);
   if (!renderer) return renderer.error();
   s.cluster = std::move(*renderer);
+  for (const Instance& inst : scene.instances)
+    if (inst.mesh < s.paged->meshes.size()) s.info.sourceTriangles += s.paged->meshes[inst.mesh].rest.inputTriangles;
+  // The renderer read the scene at creation; the mixed-scene and info paths read it from here.
+  s.asset.scene = std::move(scene);
+  s.asset.metaJson = s.paged->metaJson;
+  return Ok{};
+}
+
+} // namespace
+
+Status openClusterLod(Scene::Impl& s) {
+  auto t0 = std::chrono::steady_clock::now();
+  if (s.options.gpuBudget > 0) {
+    if (auto st = openPagedClusterLod(s, t0); !st) return st;
+  } else {
+    auto asset = lod::loadLodAsset(s.options.input);
+    if (!asset) return asset.error();
+    s.asset = std::move(*asset);
+    if (!s.options.materials.empty())
+      if (auto st = shading::applyMaterials(s.asset.scene, s.materials); !st) return st;
+    repeatOnGrid(s.asset.scene, s.options.grid * s.options.grid); // the seed's benchmark scenes
+    s.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    auto renderer = render::ClusterRenderer::create(s.ctx, s.asset);
+    if (!renderer) return renderer.error();
+    s.cluster = std::move(*renderer);
+    for (const Instance& inst : s.asset.scene.instances)
+      if (inst.mesh < s.asset.dags.size()) s.info.sourceTriangles += s.asset.dags[inst.mesh].inputTriangles;
+  }
   s.bounds = s.cluster->worldBounds();
-  for (const Instance& inst : s.asset.scene.instances)
-    if (inst.mesh < s.asset.dags.size()) s.info.sourceTriangles += s.asset.dags[inst.mesh].inputTriangles;
   s.info.instances = s.asset.scene.instances.size();
   s.info.clusters = s.cluster->clusterCount();
   s.info.blendMaterials = std::any_of(s.asset.scene.materials.begin(), s.asset.scene.materials.end(),

@@ -5,29 +5,36 @@
 // order and a load order. A reader fetches the chunk indices up front (one read each), then any
 // page by number; every page is checked (block checksums, then decodePage against the table).
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "mirage/asset/blocks.h"
+#include "mirage/asset/container.h"
 #include "mirage/core/result.h"
 #include "mirage/lod/cluster_dag.h"
 #include "mirage/lod/paging.h"
 
-namespace mirage::asset {
-class AssetReader;
-}
-
 namespace mirage::lod {
 
-inline constexpr uint32_t kPagedChunkVersion = 1;
+// Version 2 added the positions' box and the pages' vertex-id counts (what a renderer sizes and
+// frames before any page arrives); version 1 files are refused (rebuild them).
+inline constexpr uint32_t kPagedChunkVersion = 2;
 
-// What a DAG holds beyond its pages and page table (reassemblePagedDag restores it).
+// What a DAG holds beyond its pages and page table (reassemblePagedDag restores the DAG fields),
+// and what a reader that loads pages on demand needs up front.
 struct PagedDagRest {
   uint64_t inputTriangles = 0;
   std::vector<float> groupSimplifyError; // per group
   std::vector<uint32_t> roots;           // the DAG's root list, in its order
   std::vector<LevelStats> levels;
+  // The box of every decoded position a cluster uses (the bounds a renderer of the whole DAG
+  // computes), so a renderer frames and culls the mesh before its pages arrive.
+  Bounds positionBounds;
+  // Per page: its clusters' vertex counts summed (the vertex ids it holds), so the GPU memory a page
+  // takes is known before it is read.
+  std::vector<uint32_t> pageClusterVertices;
 };
 
 // The blocked payload of one mesh's 'CPAG' chunk: buildPages(dag, config), the table and the rest
@@ -50,6 +57,20 @@ Result<std::vector<PagedMesh>> openPagedMeshes(const asset::AssetReader& reader)
 // Page `page` of `mesh`: its block (checksums, decompression), then decodePage against the table.
 // Errors name the file, the chunk and the page.
 Result<PageData> readPage(const asset::AssetReader& reader, const PagedMesh& mesh, uint32_t page);
+
+// A paged .mrg opened for on-demand pages (GPU residency, docs/render.md "Residency"): the scene,
+// the META chunk, every mesh's index (table and rest) and root pages, and the reader for the rest;
+// no other page is read. Memory: the tables and the root pages.
+struct PagedLodAsset {
+  Scene scene;                                  // meshes keep name, material and bounds, no geometry
+  std::string metaJson;                         // build settings and statistics as written
+  std::vector<PagedMesh> meshes;                // one per scene mesh
+  std::vector<std::vector<PageData>> rootPages; // per mesh: its pages [0, rootPageCount)
+  std::unique_ptr<asset::AssetReader> reader;   // open for the pages (a file or a URL)
+};
+// `path` is a file or an http(s) URL; errors for a file that is not paged ("needs a paged asset
+// (mirage build --paged)"), one without a 'CPAG' chunk per mesh, and any bad index or root page.
+Result<PagedLodAsset> openPagedLodAsset(const std::string& path, const asset::SourceOptions& options = {});
 
 // The DAG from its table, rest and every page (pages[p] = page p): equal to decodeDag of the same
 // DAG's CDAG chunk except for the numbering of vertices (dagDifference): attribute vertices are the

@@ -77,6 +77,10 @@ public:
   // One frame's feedback (per page, 0 = nothing): uses of resident pages, requests for missing ones.
   ResidencyStep step(std::span<const float> feedback);
 
+  // Sets what `page` takes while resident: a cost first estimated from the page table and exact once
+  // the page is read. A resident page's cost may only shrink (the budget keeps holding).
+  void setPageBytes(uint32_t page, uint64_t bytes);
+
   const ResidencyGraph& graph() const { return graph_; }
   const ResidencyConfig& config() const { return config_; }
   std::span<const uint8_t> resident() const { return resident_; }

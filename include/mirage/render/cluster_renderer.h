@@ -24,6 +24,7 @@
 #include "mirage/gpu/memory.h"
 #include "mirage/lod/cluster_pvs.h"
 #include "mirage/lod/lod_asset.h"
+#include "mirage/lod/paged_asset.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/render/frames_in_flight.h"
 #include "mirage/render/oit.h"
@@ -185,35 +186,37 @@ struct ClusterRenderSettings {
 };
 
 // GPU residency of paged DAGs (docs/render.md, "Residency"): the clusters' geometry lives in a
-// pool of fixed-size page slots within a byte budget; the selection draws the residency-aware cut
-// of the resident pages and writes page feedback, from which lod::ResidencyManager picks the pages
-// to upload (a bounded number per frame, through a staging buffer in the frame's command buffer)
-// and to evict.
+// pool of fixed-size units within a byte budget; the selection draws the residency-aware cut of the
+// resident pages and writes page feedback, from which lod::ResidencyManager picks the pages to
+// load (a bounded number per frame) and to evict. A loaded page's units are reserved at once, its
+// bytes read on a background thread (lod::PageStream, from the file or URL), uploaded through a
+// staging buffer in the frame's command buffer when they arrive, and drawn once its dependencies
+// are drawn too; no frame waits for I/O.
 struct ResidencyStats {
   bool enabled = false;
   uint64_t budgetBytes = 0;   // the budget asked for
-  uint64_t slotBytes = 0;     // one pool slot: the largest page's vertices, vertex ids and indices
-  uint64_t poolBytes = 0;     // the pool as allocated: slots * slotBytes (<= budget) + index padding
-  uint64_t residentBytes = 0; // resident pages * slotBytes (<= budget), after this frame's uploads
+  uint64_t unitBytes = 0;     // one pool unit (kPoolUnitBytes)
+  uint64_t poolBytes = 0;     // the pool as allocated: units * unitBytes (<= budget) + index padding
+  uint64_t residentBytes = 0; // the units resident pages hold (<= budget), after this frame's step
+  uint64_t geometryBytes = 0; // the bytes those pages' vertices, vertex ids and indices take in them
+  uint64_t bytesRead = 0;     // page bytes read from the file or URL so far (as stored)
   uint32_t pages = 0;         // pages of every mesh
-  uint32_t slots = 0;
-  uint32_t residentPages = 0;
-  uint32_t requested = 0; // missing pages this frame's selection asked for
-  uint32_t uploaded = 0;  // pages this frame uploaded (from the last collected frame's feedback)
-  uint32_t evicted = 0;   // pages this frame evicted
-  uint32_t unfit = 0;     // requests this frame left for later (no room or no uploads left)
-  bool stepped = false;   // this frame acted on feedback (false for the first frame)
+  uint32_t units = 0;
+  uint32_t residentPages = 0; // pages holding units (reserved or uploaded)
+  uint32_t drawnPages = 0;    // resident pages the selection draws (uploaded, dependencies drawn)
+  uint32_t pending = 0;       // resident pages whose bytes have not arrived yet
+  uint32_t requested = 0;     // missing pages this frame's selection asked for
+  uint32_t loaded = 0;        // pages this frame's step made resident (their reads asked for)
+  uint32_t uploaded = 0;      // pages this frame uploaded (bytes arrived)
+  uint32_t evicted = 0;       // pages this frame evicted
+  uint32_t unfit = 0;         // requests this frame left for later (no room or no loads left)
+  bool stepped = false;       // this frame acted on feedback (false for the first frame)
 };
 
-// Where a renderer with residency reads pages: page `page` of mesh `mesh`, decoded
-// (lod::readPage of the asset's file, or decodePage of built pages).
-using PageSource = std::function<Result<lod::PageData>(uint32_t mesh, uint32_t page)>;
-
 struct ClusterResidencySettings {
-  uint64_t budgetBytes = 0;                  // 0: no residency (every DAG uploaded whole)
-  std::vector<const lod::PageTable*> tables; // per mesh of the asset: its page table (the DAG's)
-  PageSource pages;
-  uint32_t maxUploadsPerFrame = 32; // pages uploaded per frame at most (dependencies included)
+  uint64_t budgetBytes = 0;         // pool bytes for page geometry (> 0)
+  uint32_t maxUploadsPerFrame = 32; // pages made resident per frame at most (dependencies included)
+  uint32_t maxReadsInFlight = 8;    // lod::PageStreamConfig::maxInFlight
 };
 
 struct ClusterStats {
@@ -270,10 +273,12 @@ public:
   // Uploads every DAG, the instances, materials and textures. Refuses clusters larger than the
   // mesh-shader limits (MIRAGE_CLUSTER_MAX_TRIANGLES / _VERTICES) with a clear error.
   static Result<std::unique_ptr<ClusterRenderer>> create(gpu::Context& context, const lod::LodAsset& asset);
-  // With GPU residency (residency.budgetBytes > 0): the asset's DAGs give the cluster records,
-  // their pages come from residency.pages as the feedback asks. Errors: a budget below the root
-  // pages' slots, tables that do not match the DAGs.
-  static Result<std::unique_ptr<ClusterRenderer>> create(gpu::Context& context, const lod::LodAsset& asset,
+  // With GPU residency of a paged asset opened for on-demand pages: the tables give the cluster
+  // records, the root pages are uploaded by the first frame, every other page is read as the
+  // feedback asks. `asset` must outlive the renderer (its reader serves the pages). Errors: a
+  // budget below the root pages, a page that does not match its table (when it arrives: that
+  // frame's error).
+  static Result<std::unique_ptr<ClusterRenderer>> create(gpu::Context& context, const lod::PagedLodAsset& asset,
                                                          const ClusterResidencySettings& residency);
   ~ClusterRenderer();
 
@@ -281,8 +286,9 @@ public:
   // image read back as the settings ask.
   Result<ClusterRenderOutput> render(const ClusterRenderSettings& settings);
 
-  // GPU residency: frames (synchronous, no image read back but the last) until one uploads and
-  // evicts nothing, then that frame again with the settings' readback: its image is the
+  // GPU residency: frames (synchronous, no image read back but the last) until one loads, uploads
+  // and evicts nothing with no read pending (between frames that only wait for reads, it waits for
+  // the next page to arrive), then that frame again with the settings' readback: its image is the
   // converged one. Without residency: render(). framesToConverge counts the frames before the
   // stable one; `frames` holds each frame's residency figures (the last one's too).
   struct Converged {

@@ -1,0 +1,80 @@
+// The background page reader of paged cluster DAGs (page_stream.h).
+#include "mirage/lod/page_stream.h"
+
+namespace mirage::lod {
+
+PageStream::PageStream(const asset::AssetReader& reader, std::span<const PagedMesh> meshes,
+                       const PageStreamConfig& config)
+    : reader_(reader), meshes_(meshes), config_(config), thread_([this] { run(); }) {}
+
+PageStream::~PageStream() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();
+}
+
+bool PageStream::request(uint32_t mesh, uint32_t page) {
+  {
+    std::lock_guard lock(mutex_);
+    if (inFlight_ >= config_.maxInFlight || error_) return false;
+    queue_.push_back({mesh, page});
+    ++inFlight_;
+  }
+  wake_.notify_one();
+  return true;
+}
+
+Result<std::vector<StreamedPage>> PageStream::take() {
+  std::lock_guard lock(mutex_);
+  if (error_) return *error_;
+  std::vector<StreamedPage> out = std::move(done_);
+  done_.clear();
+  inFlight_ -= uint32_t(out.size());
+  return out;
+}
+
+bool PageStream::waitForArrival(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  return arrived_.wait_for(lock, timeout, [&] { return !done_.empty() || error_.has_value(); });
+}
+
+uint32_t PageStream::inFlight() const {
+  std::lock_guard lock(mutex_);
+  return inFlight_;
+}
+
+uint64_t PageStream::storedBytes() const {
+  std::lock_guard lock(mutex_);
+  return storedBytes_;
+}
+
+void PageStream::run() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    wake_.wait(lock, [&] { return stop_ || (!queue_.empty() && !error_); });
+    if (stop_) return;
+    auto [mesh, page] = queue_.front();
+    queue_.pop_front();
+    lock.unlock();
+    // Read, checksums, decompression and decoding happen here, off the caller's thread.
+    Result<PageData> data = mesh < meshes_.size()
+                                ? readPage(reader_, meshes_[mesh], page)
+                                : Result<PageData>(makeError(reader_.path(), "page of mesh " + std::to_string(mesh) +
+                                                                                 " requested (no such mesh)"));
+    uint64_t stored =
+        data && page < meshes_[mesh].blocks.blocks.size() ? meshes_[mesh].blocks.blocks[page].storedBytes : 0;
+    lock.lock();
+    if (!data) {
+      error_ = data.error();
+    } else {
+      storedBytes_ += stored;
+      done_.push_back({mesh, page, std::move(data).value(), stored});
+    }
+    arrived_.notify_all();
+  }
+}
+
+} // namespace mirage::lod

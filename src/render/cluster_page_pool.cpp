@@ -1,0 +1,182 @@
+// The cluster renderer's side of paged assets (docs/render.md, "Residency"): the scene tables made
+// from the page tables alone, and the layout of a page in the pool's units.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "cluster_impl.h"
+#include "cluster_residency.h"
+#include "mirage/gpu/commands.h"
+
+namespace mirage::render {
+
+using namespace mirage::gpu;
+namespace sio = mirage::shaderio;
+
+namespace {
+
+constexpr uint32_t kUnit = kPoolUnitBytes;
+static_assert(kUnit % sizeof(sio::GpuClusterVertex) == 0 && kUnit % 3 == 0 && kUnit % 4 == 0);
+// The largest cluster's vertex ids and indices with their alignment: what a unit's tail may lose.
+constexpr uint32_t kMaxClusterItem = 4 * MIRAGE_CLUSTER_MAX_VERTICES + 3 * MIRAGE_CLUSTER_MAX_TRIANGLES + 6;
+
+uint32_t alignUp(uint32_t v, uint32_t a) { return (v + a - 1) / a * a; }
+
+} // namespace
+
+uint32_t poolUnitsBound(uint32_t vertices, uint32_t vertexIds, uint32_t triangles, uint32_t clusters) {
+  // Every unit but the last is filled to within one cluster item (vertices fill theirs whole).
+  uint64_t content = uint64_t(vertices) * sizeof(sio::GpuClusterVertex) + uint64_t(vertexIds) * 4 +
+                     uint64_t(triangles) * 3 + uint64_t(clusters) * 6;
+  return uint32_t(content / (kUnit - kMaxClusterItem) + 1);
+}
+
+uint32_t layoutPage(const lod::PageData& page, const uint32_t* units, PagePacking* out) {
+  uint32_t k = 0, off = 0;
+  std::vector<uint32_t> vertexId; // page vertex -> pool vertex
+  auto at = [&](uint32_t unit, uint32_t o) { return out->bytes.data() + size_t(unit) * kUnit + o; };
+  auto fill = [&](uint32_t unit, uint32_t end) {
+    if (out->unitFill.size() <= unit) out->unitFill.resize(unit + 1, 0);
+    out->unitFill[unit] = std::max(out->unitFill[unit], end);
+  };
+  if (out) {
+    out->bytes.assign(size_t(layoutPage(page, nullptr, nullptr)) * kUnit, 0);
+    out->unitFill.clear();
+    out->vertexOffset.clear();
+    out->triangleOffset.clear();
+    vertexId.resize(page.positions.size());
+    out->geometryBytes = page.positions.size() * sizeof(sio::GpuClusterVertex) + page.clusterVertices.size() * 4 +
+                         page.clusterIndices.size();
+  }
+  // Vertices first, in page order, filling units whole.
+  for (size_t v = 0; v < page.positions.size(); ++v) {
+    if (off + sizeof(sio::GpuClusterVertex) > kUnit) ++k, off = 0;
+    if (out) {
+      sio::GpuClusterVertex g{};
+      g.position = page.positions[v];
+      g.normal = v < page.normals.size() ? page.normals[v] : glm::vec3(0, 1, 0);
+      g.uv = v < page.uv0.size() ? page.uv0[v] : glm::vec2(0.0f);
+      std::memcpy(at(k, off), &g, sizeof(g));
+      vertexId[v] = uint32_t((uint64_t(units[k]) * kUnit + off) / sizeof(g));
+      fill(k, off + uint32_t(sizeof(g)));
+    }
+    off += uint32_t(sizeof(sio::GpuClusterVertex));
+  }
+  // Then per cluster its vertex ids (4-byte aligned) and indices (on a triangle boundary), whole in one unit.
+  for (const lod::Cluster& c : page.clusters) {
+    uint32_t ids = alignUp(off, 4), tris = alignUp(ids + 4u * c.vertexCount, 3);
+    if (tris + 3u * c.triangleCount > kUnit) {
+      ++k;
+      ids = 0, tris = alignUp(4u * c.vertexCount, 3);
+    }
+    off = tris + 3u * c.triangleCount;
+    if (!out) continue;
+    uint64_t base = uint64_t(units[k]) * kUnit;
+    for (uint32_t j = 0; j < c.vertexCount; ++j) {
+      uint32_t id = vertexId[page.clusterVertices[c.vertexOffset + j]];
+      std::memcpy(at(k, ids + 4 * j), &id, 4);
+    }
+    std::memcpy(at(k, tris), page.clusterIndices.data() + size_t(c.triangleOffset) * 3, size_t(c.triangleCount) * 3);
+    out->vertexOffset.push_back(uint32_t((base + ids) / 4));
+    out->triangleOffset.push_back(uint32_t((base + tris) / 3));
+    fill(k, off);
+  }
+  return k + 1;
+}
+
+Result<ClusterSceneData> uploadPagedClusterScene(Context& ctx, const lod::PagedLodAsset& asset) {
+  const Scene& scene = asset.scene;
+  const std::string& file = asset.reader ? asset.reader->path() : scene.source;
+  ClusterSceneData d;
+  std::vector<sio::GpuCluster> clusters;
+  std::vector<sio::GpuClusterMesh> meshes;
+  std::vector<sio::GpuClusterLevel> levels;
+  std::vector<Bounds> meshBounds;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  for (uint32_t m = 0; m < asset.meshes.size(); ++m) {
+    const lod::PageTable& t = asset.meshes[m].table;
+    const lod::PagedDagRest& rest = asset.meshes[m].rest;
+    uint32_t count = uint32_t(t.clusterPage.size()), base = uint32_t(clusters.size());
+    // Per cluster: its member group (kNone for roots), from the pages' group lists.
+    std::vector<uint32_t> memberGroup(count, lod::kNone);
+    for (uint32_t p = 0; p < t.pages.size(); ++p) {
+      std::span<const uint32_t> ids = t.clustersOf(p);
+      uint32_t at = 0;
+      for (uint32_t g : t.groupsOf(p))
+        for (uint32_t i = 0; i < t.groupClusterCount[g]; ++i) memberGroup[ids[at++]] = g;
+    }
+    // Levels: clusters come ordered by level, the level statistics count them.
+    sio::GpuClusterMesh gm{};
+    gm.clusterOffset = base;
+    gm.clusterCount = count;
+    gm.material = scene.meshes[m].material;
+    gm.levelOffset = uint32_t(levels.size());
+    uint32_t first = 0;
+    for (uint32_t l = 0; l < rest.levels.size(); ++l) {
+      uint32_t n = rest.levels[l].clusters;
+      if (n == 0) continue;
+      if (uint64_t(first) + n > count)
+        return Error{fmt::format("{}: mesh {}: level statistics count more clusters than the page table", file, m)};
+      sio::GpuClusterLevel level{first, n, kInf, 0.0f};
+      for (uint32_t c = first; c < first + n; ++c) {
+        uint32_t g = memberGroup[c];
+        level.maxParentError = std::max(level.maxParentError, g == lod::kNone ? kInf : t.groupBounds[g].error);
+        sio::GpuCluster rec{};
+        rec.parentSphere =
+            g == lod::kNone ? glm::vec4(0.0f) : glm::vec4(t.groupBounds[g].center, t.groupBounds[g].radius);
+        rec.parentError = g == lod::kNone ? kInf : t.groupBounds[g].error;
+        rec.mesh = m;
+        rec.level = l;
+        clusters.push_back(rec);
+      }
+      // Self errors: level 0's are 0, level l's those of the groups of level l - 1 (which made them).
+      if (l == 0) level.minSelfError = 0.0f;
+      for (uint32_t g = 0; g < t.groupLevel.size() && l > 0; ++g)
+        if (t.groupLevel[g] + 1 == l) level.minSelfError = std::min(level.minSelfError, t.groupBounds[g].error);
+      if (std::isinf(level.minSelfError)) level.minSelfError = 0.0f;
+      levels.push_back(level);
+      first += n;
+    }
+    if (first != count)
+      return Error{
+          fmt::format("{}: mesh {}: level statistics count {} clusters, the page table {}", file, m, first, count)};
+    gm.levelCount = uint32_t(levels.size()) - gm.levelOffset;
+    // Sphere from the positions' box (the whole DAG's), reach over every LOD sphere: the groups'
+    // (parents of their members, selves of what they made, enclosing level 0's own spheres) and
+    // the root clusters' (root pages).
+    const Bounds& box = rest.positionBounds;
+    gm.sphere = glm::vec4(box.empty() ? glm::vec3(0.0f) : box.center(), box.radius());
+    glm::vec3 centre(gm.sphere);
+    for (const lod::LodBounds& b : t.groupBounds)
+      gm.reach = std::max(gm.reach, glm::length(b.center - centre) + b.radius);
+    for (const lod::PageData& page : asset.rootPages[m])
+      for (const lod::Cluster& c : page.clusters)
+        for (const lod::LodBounds* b : {&c.self, &c.parent, &c.bounds})
+          gm.reach = std::max(gm.reach, glm::length(b->center - centre) + b->radius);
+    d.maxMeshClusters = std::max(d.maxMeshClusters, count);
+    meshes.push_back(gm);
+    meshBounds.push_back(box);
+  }
+  if (clusters.empty()) return Error{file + ": the asset has no clusters"};
+  if (Status st = uploadClusterInstances(ctx, scene, meshes, meshBounds, d); !st) return st.error();
+  constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  constexpr VkBufferUsageFlags kCopied = kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  std::vector<sio::GpuClusterCone> cones(clusters.size());
+  for (sio::GpuClusterCone& c : cones) c.axisCutoff.w = 1.0f; // never culled until the page loads
+  d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kCopied, "cluster table");
+  d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kCopied, "cluster cones");
+  d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
+  // The hierarchical selections are refused with residency: one node, never traversed.
+  std::vector<sio::GpuLodNode> node(1);
+  std::vector<uint32_t> leaf(1, 0);
+  d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, node, kStorage, "cluster LOD BVH (unused)");
+  d.leafClusters = createBufferWithData<uint32_t>(ctx, leaf, kStorage, "cluster LOD BVH leaves (unused)");
+  d.maxMeshNodes = 1;
+  d.clusterCount = uint32_t(clusters.size());
+  return d;
+}
+
+} // namespace mirage::render
