@@ -70,11 +70,6 @@ size_t tiedHits(const std::vector<vis::Hit>& a, const std::vector<vis::Hit>& b) 
   return n;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
 void runBenchRays(const BenchRaysOptions& o) {
   if (o.backend != "all" && o.backend != "embree" && o.backend != "vulkan" && o.backend != "compute")
     return fail("--backend must be embree, vulkan, compute or all");

@@ -28,10 +28,6 @@ struct BenchPointsOptions {
   std::string device;
 };
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 void printPrefixes(const surfels::GBufferTexels* cpuTexels, const surfels::SampleOrder* cpu,
                    const surfels::GBufferTexels& gpuTexels, const surfels::SampleOrder& gpu) {
   fmt::print("{:>8} {:>9} {:>12} {:>9} {:>12}\n", "prefix", "cpu rho", "cpu coverage", "gpu rho", "gpu coverage");

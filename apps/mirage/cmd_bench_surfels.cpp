@@ -50,11 +50,6 @@ std::vector<uint64_t> samplerLikeKeys(uint32_t n, uint32_t texels) {
   return keys;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 void runBenchSort(const BenchSortOptions& o) {
   if (o.repeat < 1 || o.repeat > 1000) return fail("--repeat must be in 1..1000");
   for (uint32_t n : o.counts)

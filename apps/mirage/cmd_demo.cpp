@@ -47,10 +47,6 @@ struct DemoScene {
   uint64_t sizeParameter; // blocks / grid resolution / subdivisions: small enough for lavapipe
 };
 
-double secondsSince(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
-
 // The pipeline on the blob: bake a cluster-LOD asset, verify it, render it GPU-driven at two
 // thresholds, and sample progressive blue-noise surfels from it.
 bool runPipelineDemo(gpu::Context& ctx, const DemoOptions& o, uint32_t width, uint32_t height) {

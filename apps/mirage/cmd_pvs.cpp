@@ -54,10 +54,6 @@ Status resolveConfig(PvsOptions& o) {
   return Ok{};
 }
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 std::string countText(double n) {
   if (n < 1e4) return fmt::format("{:.0f}", n);
   if (n < 1e6) return fmt::format("{:.1f} k", n * 1e-3);

@@ -110,7 +110,7 @@ bool open(const SurfelRenderRequest& r, const std::vector<render::SurfelOrder>& 
   return true;
 }
 
-struct Timed {
+struct SurfelTimed {
   std::vector<gpu::PassTime> times; // medians over the timed frames
   render::SurfelRenderOutput last;
   size_t frames = 0;
@@ -119,10 +119,10 @@ struct Timed {
 // `frames` frames of every renderer (same settings, same view), interleaved frame by frame so a
 // clock or thermal drift during the run affects every order alike; out[i] for renderer i. Before
 // them, untimed frames of the first renderer for `warmupMs` (the GPU's clock, kBenchWarmupMs).
-bool renderFrames(SurfelSession& s, int frames, std::vector<Timed>& out, double warmupMs = 0.0) {
+bool renderFrames(SurfelSession& s, int frames, std::vector<SurfelTimed>& out, double warmupMs = 0.0) {
   size_t n = s.renderers.size();
   std::vector<std::vector<std::vector<gpu::PassTime>>> all(n);
-  out.assign(n, Timed{});
+  out.assign(n, SurfelTimed{});
   for (auto start = std::chrono::steady_clock::now();
        n > 0 && std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() < warmupMs;)
     if (auto o = s.renderers[0]->render(s.settings); !o) return fail(o.error()), false;
@@ -257,11 +257,11 @@ void runSurfelBench(const SurfelRenderRequest& r) {
           s.settings.backfaceCulling = cull;
           s.settings.merge = merge;
           s.settings.orientedDiscs = oriented;
-          std::vector<Timed> timed;
+          std::vector<SurfelTimed> timed;
           if (!renderFrames(s, r.frames, timed, r.warmupMs)) return;
           double baseSplatMs = 0.0, baseFrameMs = 0.0;
           for (size_t o = 0; o < timed.size(); ++o) {
-            const Timed& t = timed[o];
+            const SurfelTimed& t = timed[o];
             const char* order = render::toString((*orders)[o]);
             double splatMs = passMs(t.times, "splat"), frameMs = passMs(t.times, "frame");
             double surfels = double(t.last.surfelsSplatted);

@@ -42,10 +42,6 @@ struct SurfelsOptions {
   surfels::SurfelBlockConfig blockConfig;
 };
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // One sampled cloud with what the report prints about it.
 struct Sampled {
   surfels::GBufferTexels texels;

@@ -1,6 +1,9 @@
 #pragma once
 // Each subcommand lives in its own cmd_*.cpp and registers itself here.
+#include <algorithm>
+#include <chrono>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -28,5 +31,15 @@ struct OutputFlags {
   ProgressMode progressMode() const { return mirage::progressMode(quiet, progressLines); }
 };
 void addOutputFlags(CLI::App* cmd, OutputFlags& flags);
+
+// Wall seconds since t0 (the timings the subcommands print).
+inline double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+// The median of v (the upper middle one of an even count); 0 for none.
+inline double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
 
 } // namespace mirage::cli
