@@ -74,7 +74,7 @@ Result<std::vector<uint8_t>> encodePagedChunk(const ClusterDag& dag, const PageC
   w.writeVarint(dag.levels.size());
   for (const LevelStats& l : dag.levels) {
     w.write(l.clusters), w.write(l.triangles), w.write(l.meanFill), w.write(l.groups), w.write(l.stuckGroups);
-    w.write(l.meanEdgeAge), w.write(l.seconds);
+    w.write(l.meanEdgeAge), w.write(0.0f); // LevelStats::seconds: timings stay out of the file
   }
   std::vector<uint8_t> header = w.take();
   std::vector<std::span<const uint8_t>> blocks(paged.pages.begin(), paged.pages.end());

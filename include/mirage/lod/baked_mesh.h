@@ -1,0 +1,21 @@
+#pragma once
+// A BakedMesh (lod_asset.h) as bytes, every field bit for bit: how a distributed bake carries a
+// mesh's result from the process that built it to the one that writes the .mrg, and how its
+// journal keeps it for a resumed bake (docs/bake.md). Not a file format of its own: only the same
+// build of Mirage reads what it wrote (the journal's header checks that, src/bake/journal.cpp).
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mirage/core/result.h"
+#include "mirage/lod/lod_asset.h"
+
+namespace mirage::lod {
+
+std::vector<uint8_t> encodeBakedMesh(const BakedMesh& mesh);
+// `where` names the source in errors. Checks that the bytes are complete and the DAG's arrays
+// agree in size (checkDagStructure is the verifier's job).
+Result<BakedMesh> decodeBakedMesh(std::span<const uint8_t> bytes, const std::string& where);
+
+} // namespace mirage::lod
