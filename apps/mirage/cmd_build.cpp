@@ -47,9 +47,9 @@ nlohmann::json ranksJson(const bake::ScheduleReport& r) {
   return ranks;
 }
 
-// Every rank runs the whole command: the checks and the import on each (they agree before the bake
-// starts), the meshes spread over all, and rank 0 writes and prints. Errors print once, on rank 0;
-// every rank exits 2.
+// Every rank runs the command: the checks on each, the import on rank 0 (all agree on its outcome
+// before the bake starts), the meshes spread over all, and rank 0 writes and prints. Errors print
+// once, on rank 0; every rank exits 2.
 void runBuild(const BuildOptions& o) {
   auto world = bake::World::join();
   if (!world) return fail(world.error());
@@ -68,9 +68,10 @@ void runBuild(const BuildOptions& o) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
   };
   shading::MaterialFile materials;
-  Result<Scene> scene = Error{};
+  Result<Scene> scene = Scene{};
   Status loaded = [&]() -> Status {
-    if (!o.materials.empty()) { // read first: a bad material file costs no import
+    if (!world->root()) return Ok{}; // rank 0 sends each rank the meshes it bakes
+    if (!o.materials.empty()) {      // read first: a bad material file costs no import
       auto file = shading::loadMaterialFile(o.materials);
       if (!file) return file.error();
       materials = std::move(*file);
@@ -98,7 +99,10 @@ void runBuild(const BuildOptions& o) {
   if (!baked) return failAll(baked.error());
   double buildSeconds = secondsSince(t1);
   auto t2 = std::chrono::steady_clock::now();
-  Status written = world->root() ? lod::saveLodAsset(o.output, *baked, o.write) : Status(Ok{});
+  // Rank 0 writes with --threads, or all the host's cores: the other ranks wait meanwhile.
+  lod::LodWriteOptions write = o.write;
+  write.threads = o.config.threads;
+  Status written = world->root() ? lod::saveLodAsset(o.output, *baked, write) : Status(Ok{});
   if (Status all = world->agree(written); !all) return failAll(all.error());
   bake::removeJournal(*world, {.journal = run.journal});
   double writeSeconds = secondsSince(t2), wallSeconds = secondsSince(t0);

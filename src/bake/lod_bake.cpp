@@ -43,16 +43,19 @@ Result<lod::LodAsset> bakeLodAsset(const World& world, const Scene& scene, lod::
                                    ScheduleReport* report, const UnitProgress& progress) {
   if (config.threads == 0 && world.size() > 1) config.threads = world.threadShare();
   UnitPlan plan;
-  for (const Mesh& m : scene.meshes) plan.costs.push_back(m.triangleCount());
-  plan.fingerprint = lodFingerprint(scene, config);
-  plan.journal = run.journal;
-  plan.resume = run.resume;
-  auto bake = [&](uint32_t unit) -> Result<std::vector<uint8_t>> {
-    auto mesh = lod::bakeLodMesh(scene, unit, config);
+  if (world.root()) {
+    for (const Mesh& m : scene.meshes) plan.costs.push_back(m.triangleCount());
+    plan.fingerprint = lodFingerprint(scene, config);
+    plan.journal = run.journal;
+    plan.resume = run.resume;
+  }
+  auto input = [&](uint32_t unit) { return lod::encodeMeshUnit(scene, unit); };
+  auto bake = [&](uint32_t, std::span<const uint8_t> in) -> Result<std::vector<uint8_t>> {
+    auto mesh = lod::bakeMeshUnit(in, config);
     if (!mesh) return mesh.error();
     return lod::encodeBakedMesh(*mesh);
   };
-  auto units = runUnits(world, plan, bake, report, progress);
+  auto units = runUnits(world, plan, input, bake, report, progress);
   if (!units) return units.error();
   if (!world.root()) return lod::LodAsset{};
   std::vector<lod::BakedMesh> meshes;

@@ -46,7 +46,7 @@ Status work(const World& world, const UnitBaker& bake) {
     if (e.tag == kStop) return Ok{};
     uint32_t unit = get<uint32_t>(message, 0);
     auto t0 = Clock::now();
-    auto baked = bake(unit);
+    auto baked = bake(unit, std::span<const uint8_t>(message).subspan(4));
     std::vector<uint8_t> reply;
     put(reply, unit);
     if (!baked) {
@@ -66,8 +66,9 @@ Status work(const World& world, const UnitBaker& bake) {
 // Rank 0: the queue, its own baking thread, the journal and the gathered bytes.
 class Coordinator {
 public:
-  Coordinator(const World& world, const UnitPlan& plan, const UnitBaker& bake, const UnitProgress& progress)
-      : world_(world), plan_(plan), bake_(bake), progress_(progress), results_(plan.costs.size()),
+  Coordinator(const World& world, const UnitPlan& plan, const UnitInput& input, const UnitBaker& bake,
+              const UnitProgress& progress)
+      : world_(world), plan_(plan), input_(input), bake_(bake), progress_(progress), results_(plan.costs.size()),
         done_(plan.costs.size()) {
     report_.ranks.resize(size_t(world.size()));
     totalCost_ = std::accumulate(plan.costs.begin(), plan.costs.end(), uint64_t(0));
@@ -96,6 +97,10 @@ public:
         if (auto unit = take()) {
           std::vector<uint8_t> assign;
           put(assign, *unit);
+          if (input_) {
+            std::vector<uint8_t> in = input_(*unit);
+            assign.insert(assign.end(), in.begin(), in.end());
+          }
           world_.send(e->source, kAssign, assign);
         } else {
           world_.send(e->source, kStop, {});
@@ -174,7 +179,8 @@ private:
   void bakeLocally() {
     while (auto unit = take()) {
       auto t0 = Clock::now();
-      LocalResult r{*unit, bake_(*unit), 0.0};
+      std::vector<uint8_t> in = input_ ? input_(*unit) : std::vector<uint8_t>();
+      LocalResult r{*unit, bake_(*unit, in), 0.0};
       r.seconds = secondsSince(t0);
       std::lock_guard lock(mutex_);
       localDone_.push_back(std::move(r));
@@ -211,6 +217,7 @@ private:
 
   const World& world_;
   const UnitPlan& plan_;
+  const UnitInput& input_;
   const UnitBaker& bake_;
   const UnitProgress& progress_;
   std::vector<std::vector<uint8_t>> results_;
@@ -230,14 +237,15 @@ private:
 
 } // namespace
 
-Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitBaker& bake,
-                                                   ScheduleReport* report, const UnitProgress& progress) {
+Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitInput& input,
+                                                   const UnitBaker& bake, ScheduleReport* report,
+                                                   const UnitProgress& progress) {
   if (!world.root()) {
     Status mine = work(world, bake);
     if (Status all = world.agree(mine); !all) return all.error();
     return std::vector<std::vector<uint8_t>>{};
   }
-  Coordinator c(world, plan, bake, progress);
+  Coordinator c(world, plan, input, bake, progress);
   Status mine = c.run();
   if (Status all = world.agree(mine); !all) return all.error();
   if (report) *report = std::move(c.report());

@@ -70,4 +70,27 @@ Result<BakedMesh> decodeBakedMesh(std::span<const uint8_t> bytes, const std::str
   return mesh;
 }
 
+std::vector<uint8_t> encodeMeshUnit(const Scene& scene, size_t mesh) {
+  const Mesh& m = scene.meshes[mesh];
+  asset::ByteWriter w;
+  w.reserve(m.positions.size() * 12 + m.normals.size() * 12 + m.uv0.size() * 8 + m.indices.size() * 4 + 256);
+  w.writeString(meshWhere(scene, mesh));
+  w.writeString(m.name);
+  w.writeArray(std::span<const glm::vec3>(m.positions));
+  w.writeArray(std::span<const glm::vec3>(m.normals));
+  w.writeArray(std::span<const glm::vec2>(m.uv0));
+  w.writeArray(std::span<const uint32_t>(m.indices));
+  return w.take();
+}
+
+Result<BakedMesh> bakeMeshUnit(std::span<const uint8_t> unit, const BuildConfig& config) {
+  asset::ByteReader r(unit, "mesh unit");
+  std::string where;
+  Mesh m;
+  r.readString(where), r.readString(m.name);
+  r.readArray(m.positions), r.readArray(m.normals), r.readArray(m.uv0), r.readArray(m.indices);
+  if (Status s = r.finish(); !s) return s.error();
+  return bakeLodMesh(m, where, config);
+}
+
 } // namespace mirage::lod

@@ -8,7 +8,7 @@
 
 #include <unistd.h>
 
-#include <atomic>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -113,8 +113,8 @@ TEST(Scheduler, ResumeBakesOnlyMissingUnits) {
   std::vector<uint32_t> baked;
   bake::ScheduleReport report;
   auto out = bake::runUnits(
-      alone, plan,
-      [&](uint32_t u) -> Result<std::vector<uint8_t>> {
+      alone, plan, {},
+      [&](uint32_t u, std::span<const uint8_t>) -> Result<std::vector<uint8_t>> {
         baked.push_back(u);
         return unitBytes(u);
       },
@@ -136,8 +136,16 @@ TEST(Distributed, EveryUnitOnceInUnitOrder) {
   bake::UnitPlan plan;
   for (uint32_t u = 0; u < 40; ++u) plan.costs.push_back(u % 7);
   bake::ScheduleReport report;
-  auto out = bake::runUnits(
-      w, plan, [](uint32_t u) -> Result<std::vector<uint8_t>> { return unitBytes(u); }, &report);
+  // Each unit's input (made on rank 0) is its expected bytes reversed: the baker turns it back.
+  auto input = [](uint32_t u) {
+    std::vector<uint8_t> b = unitBytes(u);
+    std::reverse(b.begin(), b.end());
+    return b;
+  };
+  auto bake = [](uint32_t, std::span<const uint8_t> in) -> Result<std::vector<uint8_t>> {
+    return std::vector<uint8_t>(in.rbegin(), in.rend());
+  };
+  auto out = bake::runUnits(w, plan, input, bake, &report);
   ASSERT_TRUE(out.ok()) << out.error().message;
   if (!w.root()) {
     EXPECT_TRUE(out->empty());
@@ -156,7 +164,7 @@ TEST(Distributed, UnitErrorReachesEveryRank) {
   const bake::World& w = world();
   fs::path dir = scratch("error"); // each rank names its own; only rank 0's journal is written
   bake::UnitPlan plan{std::vector<uint64_t>(24, 1), 3, (dir / "j").string(), false};
-  auto out = bake::runUnits(w, plan, [](uint32_t u) -> Result<std::vector<uint8_t>> {
+  auto out = bake::runUnits(w, plan, {}, [](uint32_t u, std::span<const uint8_t>) -> Result<std::vector<uint8_t>> {
     if (u == 17) return Error{"scene.obj: mesh 17: broken"};
     return unitBytes(u);
   });
@@ -173,7 +181,8 @@ TEST(Distributed, LodBakeEqualsSingleProcessBake) {
   ASSERT_GT(scene->meshes.size(), 3u);
   lod::BuildConfig config;
   config.clusterTriangles = 64;
-  auto distributed = bake::bakeLodAsset(w, *scene, config, {});
+  // Only rank 0 has the scene: it sends every other rank the meshes it bakes.
+  auto distributed = bake::bakeLodAsset(w, w.root() ? *scene : Scene{}, config, {});
   ASSERT_TRUE(distributed.ok()) << distributed.error().message;
   if (!w.root()) return;
   config.threads = 1; // a DAG does not depend on the thread count

@@ -22,9 +22,10 @@ inline std::string journalPath(const std::string& output) { return output + ".jo
 // build settings (threads excepted: the DAG does not depend on them).
 uint64_t lodFingerprint(const Scene& scene, const lod::BuildConfig& config);
 
-// Collective: every rank passes the same scene and config. Rank 0 gets the asset; other ranks an
-// empty one. config.threads is each rank's own (World::threadShare when the caller leaves it 0
-// in a world of several).
+// Collective: every rank passes the same config; only rank 0 needs the scene (it sends each rank
+// the meshes it bakes: the others pass an empty Scene and import nothing). Rank 0 gets the asset;
+// other ranks an empty one. config.threads is each rank's own (World::threadShare when the caller
+// leaves it 0 in a world of several).
 Result<lod::LodAsset> bakeLodAsset(const World& world, const Scene& scene, lod::BuildConfig config, const BakeRun& run,
                                    ScheduleReport* report = nullptr, const UnitProgress& progress = {});
 

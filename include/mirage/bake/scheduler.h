@@ -26,9 +26,13 @@ struct UnitPlan {
   bool resume = false; // take the units the journal holds instead of baking them again
 };
 
-// Bakes one unit, on whichever rank it was given to; the bytes must not depend on the rank or its
-// thread count. Called from one thread at a time per process.
-using UnitBaker = std::function<Result<std::vector<uint8_t>>(uint32_t unit)>;
+// What a unit needs, made on rank 0 and sent with it (e.g. the mesh to bake), so the other ranks need
+// not import the scene; empty when every rank has what it needs. Called from two threads at once
+// (rank 0's own baking thread and its coordinating one): it must only read shared data.
+using UnitInput = std::function<std::vector<uint8_t>(uint32_t unit)>;
+// Bakes one unit from its input, on whichever rank it was given to; the bytes must not depend on the
+// rank or its thread count. Called from one thread at a time per process.
+using UnitBaker = std::function<Result<std::vector<uint8_t>>(uint32_t unit, std::span<const uint8_t> input)>;
 // On rank 0: (units done, unit count, cost done, total cost), resumed units counted as done.
 using UnitProgress = std::function<void(size_t, size_t, uint64_t, uint64_t)>;
 
@@ -43,13 +47,15 @@ struct ScheduleReport {
   double seconds = 0.0;          // wall time of runUnits on rank 0
 };
 
-// Collective: every rank calls it with the same plan. Rank 0 gets every unit's bytes in unit order
+// Collective: every rank calls it; the plan and `input` matter on rank 0 only (the others may pass
+// an empty plan and no input). Rank 0 gets every unit's bytes in unit order
 // (and the report); other ranks get an empty vector. Any unit's error (or the journal's) stops the
 // handing out, and every rank gets that error; the journal is deleted then, as nothing would
 // resume differently. After success the journal stays until the caller removes it (removeJournal)
 // once the output is written.
-Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitBaker& bake,
-                                                   ScheduleReport* report = nullptr, const UnitProgress& progress = {});
+Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitInput& input,
+                                                   const UnitBaker& bake, ScheduleReport* report = nullptr,
+                                                   const UnitProgress& progress = {});
 
 // Rank 0, after the output is written: the journal is no longer needed.
 void removeJournal(const World& world, const UnitPlan& plan);

@@ -18,4 +18,9 @@ std::vector<uint8_t> encodeBakedMesh(const BakedMesh& mesh);
 // agree in size (checkDagStructure is the verifier's job).
 Result<BakedMesh> decodeBakedMesh(std::span<const uint8_t> bytes, const std::string& where);
 
+// What bakeLodMesh reads of a scene's mesh (its name in errors, positions, normals, uvs, indices),
+// as bytes sent to the process that bakes it; bakeMeshUnit bakes from them.
+std::vector<uint8_t> encodeMeshUnit(const Scene& scene, size_t mesh);
+Result<BakedMesh> bakeMeshUnit(std::span<const uint8_t> unit, const BuildConfig& config);
+
 } // namespace mirage::lod

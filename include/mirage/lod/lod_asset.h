@@ -47,7 +47,9 @@ struct BakedMesh {
   ClusterDag dag;
   std::vector<uint32_t> sourceClusters; // LodAsset::sourceClusters of this mesh
 };
-Result<BakedMesh> bakeLodMesh(const Scene& scene, size_t mesh, const BuildConfig& config);
+// `where` names the mesh in errors (meshWhere: "scene.glb: mesh 3 'door'").
+Result<BakedMesh> bakeLodMesh(const Mesh& mesh, const std::string& where, const BuildConfig& config);
+std::string meshWhere(const Scene& scene, size_t mesh);
 // The asset of `scene` from one BakedMesh per scene mesh, in mesh order (bakeLodAsset's result).
 LodAsset assembleLodAsset(const Scene& scene, const BuildConfig& config, std::vector<BakedMesh> meshes);
 
@@ -59,6 +61,9 @@ struct LodWriteOptions {
   // reader that loads pages on demand gains from them. `mirage build --paged`, `--page-size BYTES`.
   bool paged = false;
   PageConfig pages; // page budget (pageBytes); positionBits is taken from `dag`
+  // Threads encoding and compressing the meshes' chunks, one mesh each (0 = all cores). The bytes
+  // do not depend on it.
+  uint32_t threads = 0;
 };
 
 Status saveLodAsset(const std::string& path, const LodAsset& asset, const LodWriteOptions& options = {});
