@@ -1,6 +1,7 @@
 #include "mirage/lod/baked_mesh.h"
 
 #include "mirage/asset/bytes.h"
+#include "mirage/lod/verify.h"
 
 namespace mirage::lod {
 
@@ -67,6 +68,10 @@ Result<BakedMesh> decodeBakedMesh(std::span<const uint8_t> bytes, const std::str
                        (d.uv0.empty() || d.uv0.size() == d.vertexPosition.size());
   if (!attributesFit || d.clusters.empty() || d.clusterIndices.size() % 3)
     return makeError(where, "baked mesh arrays do not fit together");
+  if (Status s = checkDagStructure(d); !s) return makeError(where, "baked mesh: " + s.error().message);
+  for (uint32_t c : mesh.sourceClusters)
+    if (c != kNone && (c >= d.clusters.size() || d.clusters[c].level != 0))
+      return makeError(where, "baked mesh: source map names a bad cluster");
   return mesh;
 }
 

@@ -3,7 +3,8 @@
 # one process writes (cmp) and reports ranks and per-rank units (every mesh exactly once); a bake
 # killed mid-way (one process alone, then one rank of four) continues with --resume to the same
 # bytes; bad input under mpirun prints one error line, every rank exits non-zero, and neither an
-# output nor a journal is left. Without mpirun (or in a build without MPI) the single-process parts run.
+# output nor a journal is left. `surfels --per-mesh` on 4 ranks (lavapipe each) writes the bytes one
+# process writes. Without mpirun (or in a build without MPI) the single-process parts run.
 # Usage: mpi_bake.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -109,6 +110,18 @@ assert units == list(range(24)), units"
     resumed_ok mpi "$tmp/killed.mrg"
   else
     fail "mpi-resume: exit non-zero: $(head -c 600 "$tmp/stderr")"
+  fi
+
+  # Surfels per mesh, small clouds: one process, then 4 ranks sampling on their own devices.
+  surfel_args=(surfels gen:city:2 --per-mesh --count 300 --resolution 64 --views 4 --quiet)
+  if expect_ok surfels-one "${surfel_args[@]}" -o "$tmp/surfels1.mrg"; then
+    if "${mpi[@]}" "$mirage" "${surfel_args[@]}" -o "$tmp/surfels4.mrg" >"$tmp/stdout" 2>"$tmp/stderr"; then
+      pass=$((pass + 1))
+      check surfels-mpi-same-bytes cmp "$tmp/surfels1.mrg" "$tmp/surfels4.mrg"
+      check surfels-no-journal test ! -e "$tmp/surfels4.mrg.journal"
+    else
+      fail "surfels-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
+    fi
   fi
 
   # Bad input: each rank's exit status recorded; one error line in all.

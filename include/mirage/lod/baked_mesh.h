@@ -14,8 +14,9 @@
 namespace mirage::lod {
 
 std::vector<uint8_t> encodeBakedMesh(const BakedMesh& mesh);
-// `where` names the source in errors. Checks that the bytes are complete and the DAG's arrays
-// agree in size (checkDagStructure is the verifier's job).
+// `where` names the source in errors. Checks that the bytes are complete, the DAG's structure
+// (checkDagStructure, linear time) and the source map's cluster ids, so that nothing read from a
+// journal reaches the encoders out of range.
 Result<BakedMesh> decodeBakedMesh(std::span<const uint8_t> bytes, const std::string& where);
 
 // What bakeLodMesh reads of a scene's mesh (its name in errors, positions, normals, uvs, indices),
