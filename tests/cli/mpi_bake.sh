@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The distributed bake (docs/bake.md): `mpirun -np 4 --oversubscribe mirage build` writes the bytes
 # one process writes (cmp) and reports ranks and per-rank units (every mesh exactly once); a bake
-# killed mid-way (one process alone, then one rank of four) continues with --resume to the same
-# bytes; bad input under mpirun prints one error line, every rank exits non-zero, and neither an
+# killed mid-way (one process alone; a worker rank of four; rank 0 of four) continues with --resume
+# to the same bytes; bad input under mpirun prints one error line, every rank exits non-zero, and neither an
 # output nor a journal is left. `surfels --per-mesh` on 4 ranks (lavapipe each) writes the bytes one
 # process writes. Without mpirun (or in a build without MPI) the single-process parts run.
 # Usage: mpi_bake.sh MIRAGE_BINARY SOURCE_DIR
@@ -45,16 +45,19 @@ kill_mid_bake() {
 }
 
 itself() { echo "$1"; }
-# A rank other than 0 among mpirun's children (Open MPI names each rank in its environment).
-some_worker() {
+# rank_matching MPIRUN_PID PATTERN: the first of mpirun's children whose rank (Open MPI names it in
+# the process's environment) matches PATTERN.
+rank_matching() {
   local pid
   for pid in $(ps -o pid= --ppid "$1"); do
-    if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx 'OMPI_COMM_WORLD_RANK=[1-9][0-9]*'; then
+    if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "OMPI_COMM_WORLD_RANK=$2"; then
       echo "$pid"
       return
     fi
   done
 }
+some_worker() { rank_matching "$1" '[1-9][0-9]*'; } # a rank that bakes what rank 0 hands it
+coordinator() { rank_matching "$1" 0; }              # rank 0: the queue and the journal
 
 # resumed_ok NAME OUTPUT: the last run resumed at least one mesh and wrote the reference's bytes.
 resumed_ok() {
@@ -103,14 +106,17 @@ assert units == list(range(24)), units"
     fail "mpi-build: exit non-zero: $(head -c 600 "$tmp/stderr")"
   fi
 
-  kill_mid_bake mpi-kill some_worker "$tmp/killed.mrg" "${mpi[@]}" "$mirage" build "${inputs[@]}" -o "$tmp/killed.mrg" \
-    --threads 1
-  if "${mpi[@]}" "$mirage" build "${inputs[@]}" -o "$tmp/killed.mrg" --resume --json >"$tmp/stdout" 2>"$tmp/stderr"; then
-    pass=$((pass + 1))
-    resumed_ok mpi "$tmp/killed.mrg"
-  else
-    fail "mpi-resume: exit non-zero: $(head -c 600 "$tmp/stderr")"
-  fi
+  # A worker killed (mpirun then ends the job), and rank 0 killed (the journal may be cut mid-entry).
+  for victim in some_worker coordinator; do
+    kill_mid_bake "mpi-kill-$victim" $victim "$tmp/$victim.mrg" "${mpi[@]}" "$mirage" build "${inputs[@]}" \
+      -o "$tmp/$victim.mrg" --threads 1
+    if "${mpi[@]}" "$mirage" build "${inputs[@]}" -o "$tmp/$victim.mrg" --resume --json >"$tmp/stdout" 2>"$tmp/stderr"; then
+      pass=$((pass + 1))
+      resumed_ok "mpi-$victim" "$tmp/$victim.mrg"
+    else
+      fail "mpi-resume-$victim: exit non-zero: $(head -c 600 "$tmp/stderr")"
+    fi
+  done
 
   # Surfels per mesh, small clouds: one process, then 4 ranks sampling on their own devices.
   surfel_args=(surfels gen:city:2 --per-mesh --count 300 --resolution 64 --views 4 --quiet)
