@@ -1,5 +1,7 @@
 #include "mirage/bake/world.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <cassert>
 #include <chrono>
@@ -88,7 +90,13 @@ World::~World() {
 
 unsigned World::threadShare() const {
   unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  return std::max(1u, cores / unsigned(std::max(1, localSize_)));
+  unsigned share = std::max(1u, cores / unsigned(std::max(1, localSize_)));
+  // A launcher may bind the rank to fewer cores (Open MPI binds each of at most two ranks to one
+  // core by default): more threads than those would only take turns.
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) == 0) share = std::min(share, unsigned(std::max(1, CPU_COUNT(&set))));
+  return share;
 }
 
 Status World::agree(const Status& local) const {

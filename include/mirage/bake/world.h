@@ -37,7 +37,8 @@ public:
   // the host's cores.
   int localRank() const { return localRank_; }
   int localSize() const { return localSize_; }
-  // Worker threads for this process: the host's hardware threads over the ranks on it, at least 1.
+  // Worker threads for this process: the host's hardware threads over the ranks on it, at most the
+  // cores the process is bound to, at least 1.
   unsigned threadShare() const;
 
   // Collective: every rank passes its own status; every rank gets Ok, or the error of the lowest
