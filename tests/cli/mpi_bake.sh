@@ -3,8 +3,8 @@
 # one process writes (cmp) and reports ranks and per-rank units (every mesh exactly once); a bake
 # killed mid-way (one process alone; a worker rank of four; rank 0 of four) continues with --resume
 # to the same bytes; bad input under mpirun prints one error line, every rank exits non-zero, and neither an
-# output nor a journal is left. `surfels --per-mesh` on 4 ranks (lavapipe each) writes the bytes one
-# process writes. Without mpirun (or in a build without MPI) the single-process parts run.
+# output nor a journal is left. `surfels --per-mesh` on 4 ranks (lavapipe each) and `pvs` (8 cells,
+# Embree on each rank) write the bytes one process writes. Without mpirun (or in a build without MPI) the single-process parts run.
 # Usage: mpi_bake.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -127,6 +127,20 @@ assert units == list(range(24)), units"
       check surfels-no-journal test ! -e "$tmp/surfels4.mrg.journal"
     else
       fail "surfels-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
+    fi
+  fi
+
+  # PVS: 8 view cells spread over 4 ranks, each with the scene and its own Embree backend.
+  pvs_args=(pvs gen:city:2 --cell-grid 4x1x2 --budget 200000 --rays 50000 --backend embree --json)
+  if expect_ok pvs-one "${pvs_args[@]}" -o "$tmp/pvs1.mrg"; then
+    if "${mpi[@]}" "$mirage" "${pvs_args[@]}" -o "$tmp/pvs4.mrg" >"$tmp/stdout" 2>"$tmp/stderr"; then
+      pass=$((pass + 1))
+      check pvs-mpi-same-bytes cmp "$tmp/pvs1.mrg" "$tmp/pvs4.mrg"
+      check pvs-mpi-json python3 -c "
+import json; j = json.load(open('$tmp/stdout'))
+assert j['ranks'] == 4 and sorted(u for r in j['per_rank'] for u in r['units']) == list(range(8)), j['per_rank']"
+    else
+      fail "pvs-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
     fi
   fi
 
