@@ -45,7 +45,7 @@ function(mirage_require_no_vulkan target)
 endfunction()
 
 foreach(target mirage_core mirage_io mirage_asset mirage_lod mirage_surfels_cpu mirage_visibility_cpu mirage_shading
-               mirage_particles_cpu mirage_stream_net mirage_stream_atlas mirage_stream_web)
+               mirage_particles_cpu mirage_stream_net mirage_stream_atlas mirage_stream_web mirage_bake)
   if(TARGET ${target})
     mirage_require_no_vulkan(${target})
   endif()

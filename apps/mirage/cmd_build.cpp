@@ -1,5 +1,6 @@
 // mirage build INPUT... -o scene.mrg [--materials mats.toml]: bake cluster-LOD DAGs into a .mrg
 // asset, with a material file's materials and point lights applied (stored in the SCEN chunk).
+// Under mpirun the meshes are spread over the ranks (docs/bake.md); --resume continues a bake that died.
 // mirage verify scene.mrg: structural checks and random-cut watertightness of every DAG.
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include "commands.h"
 #include "lod_common.h"
 #include "mirage/asset/container.h"
+#include "mirage/bake/lod_bake.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/paged_asset.h"
 #include "mirage/lod/verify.h"
@@ -32,36 +34,57 @@ struct BuildOptions {
   std::string materials; // material file applied before the bake (docs/shading.md)
   lod::BuildConfig config;
   lod::LodWriteOptions write;
+  bool resume = false; // continue from the journal beside the output (docs/bake.md)
   bool quiet = false;
   bool json = false;
 };
 
+// The per-rank JSON of a bake spread over ranks (docs/bake.md).
+nlohmann::json ranksJson(const bake::ScheduleReport& r) {
+  nlohmann::json ranks = nlohmann::json::array();
+  for (size_t i = 0; i < r.ranks.size(); ++i)
+    ranks.push_back({{"rank", i}, {"units", r.ranks[i].units}, {"busy_seconds", r.ranks[i].busySeconds}});
+  return ranks;
+}
+
+// Every rank runs the command: the checks on each, the import on rank 0 (all agree on its outcome
+// before the bake starts), the meshes spread over all, and rank 0 writes and prints. Errors print
+// once, on rank 0; every rank exits 2.
 void runBuild(const BuildOptions& o) {
-  if (auto s = checkOutputPath(o.output, {".mrg"}); !s) return fail(s.error());
+  auto world = bake::World::join();
+  if (!world) return fail(world.error());
+  auto failAll = [&](const Error& e) { return world->root() ? fail(e) : setExitCode(2); };
+  if (auto s = checkOutputPath(o.output, {".mrg"}); !s) return failAll(s.error());
   if (o.config.clusterTriangles < 4 || o.config.clusterTriangles > lod::kMaxClusterTriangles ||
       o.config.clusterTriangles % 4)
-    return fail(fmt::format("--cluster-triangles must be a multiple of 4 in 4..{} (the renderer's limit)",
-                            lod::kMaxClusterTriangles));
-  if (o.config.groupClusters < 2 || o.config.groupClusters > 64) return fail("--group-clusters must be in 2..64");
+    return failAll(Error{fmt::format("--cluster-triangles must be a multiple of 4 in 4..{} (the renderer's limit)",
+                                     lod::kMaxClusterTriangles)});
+  if (o.config.groupClusters < 2 || o.config.groupClusters > 64)
+    return failAll(Error{"--group-clusters must be in 2..64"});
   if (o.write.pages.pageBytes < 4096 || o.write.pages.pageBytes > (16u << 20))
-    return fail("--page-size must be in 4KB..16MB");
+    return failAll(Error{"--page-size must be in 4KB..16MB"});
   auto t0 = std::chrono::steady_clock::now();
   auto secondsSince = [](std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
   };
   shading::MaterialFile materials;
-  if (!o.materials.empty()) { // read first: a bad material file costs no import
-    auto loaded = shading::loadMaterialFile(o.materials);
-    if (!loaded) return fail(loaded.error());
-    materials = std::move(*loaded);
-  }
-  auto scene = loadScenes(o.inputs);
-  if (!scene) return fail(scene.error());
-  if (!o.materials.empty())
-    if (auto st = shading::applyMaterials(*scene, materials); !st) return fail(st.error());
+  Result<Scene> scene = Scene{};
+  Status loaded = [&]() -> Status {
+    if (!world->root()) return Ok{}; // rank 0 sends each rank the meshes it bakes
+    if (!o.materials.empty()) {      // read first: a bad material file costs no import
+      auto file = shading::loadMaterialFile(o.materials);
+      if (!file) return file.error();
+      materials = std::move(*file);
+    }
+    scene = loadScenes(o.inputs);
+    if (!scene) return scene.error();
+    if (!o.materials.empty()) return shading::applyMaterials(*scene, materials);
+    return Ok{};
+  }();
+  if (Status all = world->agree(loaded); !all) return failAll(all.error());
   double importSeconds = secondsSince(t0);
 
-  bool showProgress = !o.quiet && isatty(STDERR_FILENO);
+  bool showProgress = world->root() && !o.quiet && isatty(STDERR_FILENO);
   auto progress = [&](size_t meshes, size_t meshCount, uint64_t done, uint64_t total) {
     if (!showProgress) return;
     int width = 40, filled = total ? int(double(done) / double(total) * width) : width;
@@ -70,13 +93,20 @@ void runBuild(const BuildOptions& o) {
     if (meshes == meshCount) std::fprintf(stderr, "\n");
   };
   auto t1 = std::chrono::steady_clock::now();
-  auto baked = lod::bakeLodAsset(*scene, o.config, progress);
-  if (!baked) return fail(baked.error());
+  bake::BakeRun run{bake::journalPath(o.output), o.resume};
+  bake::ScheduleReport report;
+  auto baked = bake::bakeLodAsset(*world, *scene, o.config, run, &report, progress);
+  if (!baked) return failAll(baked.error());
   double buildSeconds = secondsSince(t1);
   auto t2 = std::chrono::steady_clock::now();
-  if (auto s = lod::saveLodAsset(o.output, *baked, o.write); !s) return fail(s.error());
+  // Rank 0 writes with --threads, or all the host's cores: the other ranks wait meanwhile.
+  lod::LodWriteOptions write = o.write;
+  write.threads = o.config.threads;
+  Status written = world->root() ? lod::saveLodAsset(o.output, *baked, write) : Status(Ok{});
+  if (Status all = world->agree(written); !all) return failAll(all.error());
+  bake::removeJournal(*world, {.journal = run.journal});
   double writeSeconds = secondsSince(t2), wallSeconds = secondsSince(t0);
-  if (o.quiet) return; // errors only
+  if (o.quiet || !world->root()) return; // errors only; rank 0 speaks for the job
   uint64_t triangles = scene->meshTriangleCount();
   BuildSummary summary = summarize(*baked, o.output);
   if (o.json) {
@@ -87,13 +117,18 @@ void runBuild(const BuildOptions& o) {
     j["write_seconds"] = writeSeconds; // encode, compress, write, read back
     j["wall_seconds"] = wallSeconds;
     j["input_triangles_per_second"] = double(triangles) / buildSeconds;
+    j["ranks"] = world->size();
+    j["resumed_units"] = report.resumedUnits;
+    j["per_rank"] = ranksJson(report);
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("built {}: {} meshes, {} instances in {:.2f} s wall (import {:.2f} s, bake {:.2f} s at {:.2f} M "
-             "triangles/s, write {:.2f} s)\n",
-             o.output, scene->meshes.size(), scene->instances.size(), wallSeconds, importSeconds, buildSeconds,
-             double(triangles) / buildSeconds * 1e-6, writeSeconds);
+  std::string ranks = world->size() > 1 ? fmt::format(" on {} ranks", world->size()) : "";
+  std::string resumed = report.resumedUnits ? fmt::format(", {} meshes resumed", report.resumedUnits) : "";
+  fmt::print("built {}: {} meshes, {} instances in {:.2f} s wall{} (import {:.2f} s, bake {:.2f} s at {:.2f} M "
+             "triangles/s{}, write {:.2f} s)\n",
+             o.output, scene->meshes.size(), scene->instances.size(), wallSeconds, ranks, importSeconds, buildSeconds,
+             double(triangles) / buildSeconds * 1e-6, resumed, writeSeconds);
   printSummary(summary);
 }
 
@@ -166,6 +201,9 @@ void runVerify(const VerifyOptions& o) {
 
 void addBuildCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("build", "Bake cluster-LOD DAGs of every mesh into a .mrg asset");
+  cmd->footer("Distributed: mpirun -np N mirage build ... spreads the meshes over N processes (one .mrg, the same "
+              "bytes as one process gives); finished meshes are kept in OUTPUT.journal until the output is written, "
+              "and --resume continues from it after a rank or the job died. docs/bake.md.");
   auto o = std::make_shared<BuildOptions>();
   cmd->add_option("inputs", o->inputs, "Scene files (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]")->required();
   cmd->add_option("-o,--output", o->output, "Output .mrg")->required();
@@ -184,7 +222,11 @@ void addBuildCommand(CLI::App& app) {
       ->transform(CLI::AsSizeValue(false))
       ->each([o](const std::string&) { o->write.paged = true; })
       ->capture_default_str();
-  cmd->add_option("--threads", o->config.threads, "Worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--threads", o->config.threads,
+                  "Worker threads per process (0 = all cores; under mpirun the host's cores over its ranks)")
+      ->capture_default_str();
+  cmd->add_flag("--resume", o->resume,
+                "Continue a bake that died: keep the meshes finished in OUTPUT.journal, bake the rest");
   cmd->add_flag("--quiet", o->quiet, "Print nothing but errors");
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->callback([o] { runBuild(*o); });

@@ -17,6 +17,8 @@
 #include "mirage/visibility/pvs_eval.h"
 #include "mirage/visibility/pvs_plot.h"
 #include "mirage/visibility/pvs_storage.h"
+#include "mirage/bake/pvs_bake.h"
+#include "mirage/bake/surfel_bake.h"
 #include "render_common.h"
 
 namespace mirage::cli {
@@ -29,7 +31,8 @@ struct PvsOptions {
   vis::GvsConfig gvs;
   int threads = 0;
   bool json = false, noPackets = false, noDiff = false;
-  OutputFlags flags; // --quiet, --progress
+  bool resume = false; // pvs: continue from the journal beside the output
+  OutputFlags flags;   // --quiet, --progress
   // pvs-eval only
   vis::EvalConfig eval{.resolution = 1000, .haltonViewpoints = 4};
   uint64_t bruteRays = 0;
@@ -174,24 +177,33 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads) {
   return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(threads));
 }
 
+// The per-rank JSON of a bake spread over ranks (docs/bake.md).
+nlohmann::json ranksJson(const bake::ScheduleReport& r) {
+  nlohmann::json ranks = nlohmann::json::array();
+  for (size_t i = 0; i < r.ranks.size(); ++i)
+    ranks.push_back({{"rank", i}, {"units", r.ranks[i].units}, {"busy_seconds", r.ranks[i].busySeconds}});
+  return ranks;
+}
+
+// Every rank runs the command: checks, scene and ray backend on each (the cells trace through the
+// whole scene; a device per local rank), the cells spread over all (docs/bake.md), rank 0 writes
+// and prints. Errors print once, on rank 0; every rank exits 2.
 void runPvs(PvsOptions o) {
-  if (auto s = resolveConfig(o); !s) return fail(s.error());
-  if (auto s = checkOutputPath(o.output, {".mrg"}); !s) return fail(s.error());
+  auto world = bake::World::join();
+  if (!world) return fail(world.error());
+  auto failAll = [&](const Error& e) { return world->root() ? fail(e) : setExitCode(2); };
+  if (auto s = resolveConfig(o); !s) return failAll(s.error());
+  if (auto s = checkOutputPath(o.output, {".mrg"}); !s) return failAll(s.error());
+  if (world->size() > 1 && o.threads == 0) o.threads = int(world->threadShare());
+  if (o.rays.device.empty()) o.rays.device = bake::deviceForRank(*world);
   auto threads = limitThreads(o.threads);
   auto p = prepare(o);
-  if (!p) return fail(p.error());
-  vis::PvsData data;
-  data.sceneTriangles = p->backend->triangleCount();
-  data.cells = p->cells;
-  nlohmann::json cellsJson = nlohmann::json::array();
-  uint64_t rays = 0;
-  double traceSeconds = 0, totalSeconds = 0;
-  vis::PvsStats phases; // summed over cells: where the time goes
-  bool generated = false;
-  Progress reporter(o.flags.progressMode());
+  if (Status all = world->agree(p ? Status(Ok{}) : Status(p.error())); !all) return failAll(all.error());
+  Progress reporter(world->root() ? o.flags.progressMode() : ProgressMode::None);
   CellProgress progress{reporter, p->cells.size()};
   const char* methodName = o.method == "gvs" ? "GVS++" : o.method == "rand" ? "RAND" : "RASTER";
-  for (size_t i = 0; i < p->cells.size(); ++i) {
+  // One cell on this rank (on rank 0 its baking thread, the only one printing progress).
+  auto bakeCell = [&](uint32_t i) {
     progress.cell = i;
     progress.begin(methodName, o.method == "rand" && !o.gvs.rayBudget ? o.gvs.randomRays : o.gvs.rayBudget);
     vis::BakeOptions bake{.progress = progress.bake()};
@@ -208,6 +220,30 @@ void runPvs(PvsOptions o) {
                                             {})
                            : vis::computeCellPvs(*p->backend, p->scene, p->cells[i], cfg, bake);
     reporter.end(fmt::format("{} triangles, {} rays", pvs.triangles.size(), countText(double(pvs.stats.rays))));
+    return pvs;
+  };
+  std::string settings =
+      fmt::format("{} {} {} {}", o.method, o.rasterSize, p->backend->name(), vis::gvsConfigToJson(o.gvs));
+  uint64_t fingerprint = bake::pvsFingerprint(settings, p->cells, p->backend->triangleCount());
+  bake::BakeRun run{bake::journalPath(o.output), o.resume};
+  bake::ScheduleReport report;
+  auto baked = bake::bakeCellPvs(*world, p->cells.size(), fingerprint, bakeCell, run, &report);
+  if (!baked) return failAll(baked.error());
+  if (!world->root()) { // rank 0 writes; every rank learns how that went
+    if (Status all = world->agree(Ok{}); !all) setExitCode(2);
+    return;
+  }
+
+  vis::PvsData data;
+  data.sceneTriangles = p->backend->triangleCount();
+  data.cells = p->cells;
+  nlohmann::json cellsJson = nlohmann::json::array();
+  uint64_t rays = 0;
+  double traceSeconds = 0, totalSeconds = 0;
+  vis::PvsStats phases; // summed over cells: where the time goes
+  bool generated = false;
+  for (size_t i = 0; i < baked->size(); ++i) {
+    vis::CellPvs& pvs = (*baked)[i];
     phases.randomSeconds += pvs.stats.randomSeconds;
     phases.randomTraceSeconds += pvs.stats.randomTraceSeconds;
     phases.absSeconds += pvs.stats.absSeconds;
@@ -240,7 +276,9 @@ void runPvs(PvsOptions o) {
     data.triangles.push_back(std::move(pvs.triangles));
   }
   vis::PvsEncodeStats es;
-  if (auto s = vis::savePvs(o.output, data, o.input, {.differences = !o.noDiff}, &es); !s) return fail(s.error());
+  Status written = vis::savePvs(o.output, data, o.input, {.differences = !o.noDiff}, &es);
+  if (Status all = world->agree(written); !all) return fail(all.error());
+  bake::removeJournal(*world, {.journal = run.journal});
   // Load time: decode every cell back from the file, as a renderer would at start-up.
   auto t0 = std::chrono::steady_clock::now();
   auto back = vis::loadPvs(o.output);
@@ -262,7 +300,10 @@ void runPvs(PvsOptions o) {
       {"random_rays_generated_on_device", generated},
       {"pvs_bytes", es.totalBytes},
       {"difference_cells", es.differenceCells},
-      {"load_seconds", loadSeconds}};
+      {"load_seconds", loadSeconds},
+      {"ranks", world->size()},
+      {"resumed_units", report.resumedUnits},
+      {"per_rank", ranksJson(report)}};
   if (o.json) return fmt::print("{}\n", j.dump(2));
   if (o.flags.quiet) return;
   fmt::print("{}: {} triangles, {} cells, {} on {} (BVH {:.2f} s)\n", o.input, data.sceneTriangles, data.cells.size(),
@@ -507,6 +548,10 @@ void addPvsCommands(CLI::App& app) {
   pvs->add_option("--method", o->method,
                   "gvs (GVS++), rand (random rays only) or raster (ID cube maps at Halton points in the cell)")
       ->capture_default_str();
+  pvs->add_flag("--resume", o->resume,
+                "Continue a bake that died: keep the cells finished in OUTPUT.journal, bake the rest (docs/bake.md)");
+  pvs->footer("Distributed: mpirun -np N mirage pvs ... spreads the cells over N processes, each with the scene and "
+              "its own ray backend (a GPU per local rank); one .mrg, the same bytes as one process. docs/bake.md.");
   pvs->callback([o] { runPvs(*o); });
 
   auto e = std::make_shared<PvsOptions>();

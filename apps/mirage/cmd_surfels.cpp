@@ -1,5 +1,5 @@
-// mirage surfels INPUT -o out.ply|out.mrg: progressive blue-noise surfels of a scene or a point cloud
-// (issue 5); --per-mesh: one cloud per mesh.
+// mirage surfels INPUT -o out.ply|out.mrg: progressive blue-noise surfels of a scene or a point cloud;
+// --per-mesh: one cloud per mesh, spread over the ranks under mpirun (docs/bake.md).
 #include <chrono>
 #include <cstdio>
 #include <span>
@@ -9,6 +9,7 @@
 #include "cmd_list.h"
 #include "commands.h"
 #include "mirage/asset/container.h"
+#include "mirage/bake/surfel_bake.h"
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/gpu_sampler.h"
 #include "mirage/surfels/point_cloud.h"
@@ -32,6 +33,7 @@ struct SurfelsOptions {
   float threshold = 0.75f;
   bool reference = false;
   bool perMesh = false;
+  bool resume = false; // --per-mesh: continue from the journal beside the output
   bool append = false; // add the SURF chunks to the existing .mrg at -o (its other chunks kept)
   bool bitonicSort = false;
   OutputFlags flags;                  // --quiet (errors only), --progress (log lines)
@@ -157,24 +159,78 @@ void printReport(const Sampled& s, const surfels::SurfelCloud& cloud, bool refer
   }
 }
 
-// The scene reduced to mesh `index` alone, in its object space (identity instance), with only the
-// material and base colour texture it uses.
-Scene meshScene(const Scene& scene, uint32_t index) {
-  Scene sub;
-  sub.source = fmt::format("{} mesh {}", scene.source, index);
-  sub.meshes.push_back(scene.meshes[index]);
-  sub.meshes[0].material = 0;
-  const Mesh& m = scene.meshes[index];
-  Material material = m.material < scene.materials.size() ? scene.materials[m.material] : Material{};
-  int32_t texture = material.baseColorTexture;
-  material.baseColorTexture = -1;
-  if (texture >= 0 && size_t(texture) < scene.textures.size()) {
-    sub.textures.push_back(scene.textures[texture]);
-    material.baseColorTexture = 0;
+// --per-mesh: one unit per mesh, spread over the ranks under mpirun (docs/bake.md). Every rank runs
+// this; the import on rank 0, each rank samples on its own device, rank 0 writes and prints.
+void runSurfelsPerMesh(const SurfelsOptions& o) {
+  auto world = bake::World::join();
+  if (!world) return fail(world.error());
+  auto failAll = [&](const Error& e) { return world->root() ? fail(e) : setExitCode(2); };
+  auto t0 = std::chrono::steady_clock::now();
+  Result<Scene> scene = Scene{};
+  Status loaded = [&]() -> Status {
+    if (!world->root()) return Ok{}; // rank 0 sends each rank the meshes it samples
+    if (o.append)
+      if (auto r = asset::AssetReader::open(o.output); !r) return r.error();
+    io::ImportOptions importOptions;
+    importOptions.allowPointClouds = true;
+    scene = loadSceneArgument(o.input, importOptions);
+    if (!scene) return scene.error();
+    if (surfels::isPointCloud(*scene)) return Error{o.input + ": --per-mesh needs a mesh scene, not a point cloud"};
+    return Ok{};
+  }();
+  if (Status all = world->agree(loaded); !all) return failAll(all.error());
+  double importSeconds = secondsSince(t0);
+  auto ctx = openDevice(o.device.empty() ? bake::deviceForRank(*world) : o.device);
+  Status opened = ctx ? Status(Ok{}) : Status(ctx.error());
+  if (ctx)
+    if (std::string why = surfels::discRasterUnsupported(**ctx, o.discRasters[0]); !why.empty()) opened = Error{why};
+  if (Status all = world->agree(opened); !all) return failAll(all.error());
+  bool say = !o.flags.quiet && world->root();
+  if (say) fmt::print("import {:.3f} s\n", importSeconds);
+
+  bake::SurfelBakeConfig config;
+  config.capture.resolution = o.resolution;
+  config.capture.views = o.views;
+  config.capture.layers = o.layers;
+  config.sampler.count = o.count;
+  config.sampler.threshold = o.threshold;
+  config.sampler.bitonicSort = o.bitonicSort;
+  config.sampler.discRaster = o.discRasters[0];
+  Progress progress(world->root() ? o.flags.progressMode() : ProgressMode::None);
+  bool begun = false;
+  auto onUnit = [&](size_t done, size_t count, uint64_t, uint64_t) {
+    if (!begun) progress.begin("sampling meshes", count), begun = true;
+    progress.update(done, count, fmt::format("mesh {}/{}", done, count));
+  };
+  bake::BakeRun run{bake::journalPath(o.output), o.resume};
+  bake::ScheduleReport report;
+  auto t1 = std::chrono::steady_clock::now();
+  auto baked = bake::bakeSurfelsPerMesh(*world, **ctx, *scene, config, run, &report, onUnit);
+  if (begun) progress.end();
+  if (!baked) return failAll(baked.error());
+  double bakeSeconds = secondsSince(t1);
+  Status written = Ok{};
+  if (world->root()) {
+    std::vector<surfels::MeshSurfels> clouds;
+    for (const bake::MeshCloud& c : *baked) clouds.push_back(c.surfels);
+    written = o.append ? surfels::appendSurfelMrg(o.output, clouds, o.blockConfig)
+                       : surfels::writeSurfelMrg(o.output, clouds, o.blockConfig);
   }
-  sub.materials.push_back(material);
-  sub.instances.push_back({0, glm::mat4(1.0f)});
-  return sub;
+  if (Status all = world->agree(written); !all) return failAll(all.error());
+  bake::removeJournal(*world, {.journal = run.journal});
+  if (!say) return;
+  for (const bake::MeshCloud& c : *baked) {
+    uint32_t i = c.surfels.mesh;
+    fmt::print("mesh {:>4} {:<24} {:>8} surfels from {:>9} texels, rho {:.3f}, coverage {:.4f}, {:.3f} s\n", i,
+               scene->meshes[i].name.substr(0, 24), c.surfels.cloud.size(), c.texels, c.rho, c.coverage, c.seconds);
+  }
+  std::string ranks;
+  for (size_t r = 0; r < report.ranks.size() && world->size() > 1; ++r)
+    ranks += fmt::format("{}rank {}: {} meshes", r ? ", " : " (", r, report.ranks[r].units.size());
+  if (!ranks.empty()) ranks += ")";
+  std::string resumed = report.resumedUnits ? fmt::format(", {} resumed", report.resumedUnits) : "";
+  fmt::print("surfels {} -> {}: {} SURF chunks (one per mesh, object space) on {} in {:.2f} s on {} rank(s){}{}\n",
+             o.input, o.output, baked->size(), (*ctx)->caps().name, bakeSeconds, world->size(), ranks, resumed);
 }
 
 void runSurfels(SurfelsOptions o) {
@@ -195,14 +251,16 @@ void runSurfels(SurfelsOptions o) {
   if (o.append && !o.perMesh)
     return fail("--append adds per-mesh SURF chunks to a baked .mrg: give --per-mesh (mirage build INPUT -o A.mrg; "
                 "mirage surfels INPUT --per-mesh --append -o A.mrg)");
-  if (o.append) {
-    if (auto r = asset::AssetReader::open(o.output); !r) return fail(r.error());
-  }
+  if (o.resume && !o.perMesh) return fail("--resume continues a --per-mesh bake (docs/bake.md)");
   if (o.points != "auto" && o.points != "cpu" && o.points != "gpu")
     return fail(fmt::format("--points must be auto, cpu or gpu (got '{}')", o.points));
   auto blocks = surfels::parseSurfelBlockConfig(o.blocks);
   if (!blocks) return fail("--surfel-blocks: " + blocks.error().message);
   o.blockConfig = *blocks;
+  if (o.perMesh) return runSurfelsPerMesh(o);
+  if (o.append) {
+    if (auto r = asset::AssetReader::open(o.output); !r) return fail(r.error());
+  }
 
   auto t0 = std::chrono::steady_clock::now();
   io::ImportOptions importOptions;
@@ -211,7 +269,6 @@ void runSurfels(SurfelsOptions o) {
   if (!scene) return fail(scene.error());
   double importSeconds = secondsSince(t0);
   bool pointCloud = surfels::isPointCloud(*scene);
-  if (pointCloud && o.perMesh) return fail(o.input + ": --per-mesh needs a mesh scene, not a point cloud");
   // Point clouds: the spacing pass first (both paths need it), then the path (--points).
   surfels::ScanPoints points;
   double spacingSeconds = 0.0;
@@ -247,31 +304,6 @@ void runSurfels(SurfelsOptions o) {
                                      : std::string("the CPU (point cloud: exact farthest-point order)");
   bool say = !o.flags.quiet; // --quiet: nothing but errors
   if (say) fmt::print("import {:.3f} s\n", importSeconds);
-
-  if (o.perMesh) {
-    std::vector<surfels::MeshSurfels> clouds;
-    for (uint32_t i = 0; i < scene->meshes.size(); ++i) {
-      if (scene->meshes[i].indices.empty()) continue;
-      auto sampled = sampleScene(ctx.get(), meshScene(*scene, i), o);
-      if (!sampled) return fail(sampled.error());
-      clouds.push_back({i, surfels::buildSurfelCloud(sampled->texels, sampled->order)});
-      const surfels::SurfelCloud& c = clouds.back().cloud;
-      if (!say) continue;
-      surfels::PrefixQuality q = surfels::measurePrefix(sampled->texels, sampled->order, uint32_t(c.size()));
-      fmt::print("mesh {:>4} {:<24} {:>8} surfels from {:>9} texels, rho {:.3f}, coverage {:.4f}, {:.3f} s\n", i,
-                 scene->meshes[i].name.substr(0, 24), c.size(), sampled->texels.size(), q.rho, q.coverage,
-                 sampled->captureSeconds + sampled->samplerSeconds);
-    }
-    if (clouds.empty()) return fail(o.input + ": scene has no triangles to sample");
-    if (Status w = o.append ? surfels::appendSurfelMrg(o.output, clouds, o.blockConfig)
-                            : surfels::writeSurfelMrg(o.output, clouds, o.blockConfig);
-        !w)
-      return fail(w.error());
-    if (say)
-      fmt::print("surfels {} -> {}: {} SURF chunks (one per mesh, object space) on {}\n", o.input, o.output,
-                 clouds.size(), device);
-    return;
-  }
 
   auto sampled = !pointCloud   ? sampleScene(ctx.get(), *scene, o)
                  : pointsOnGpu ? sampleScene(ctx.get(), *scene, o, &points, spacingSeconds)
@@ -322,7 +354,11 @@ void addSurfelsCommand(CLI::App& app) {
   cmd->add_flag(
       "--append", o->append,
       "--per-mesh: add the SURF chunks to the existing .mrg at -o (e.g. from mirage build), keeping its DAGs");
-  cmd->add_flag("--per-mesh", o->perMesh, "One cloud per mesh in object space (one SURF chunk each; .mrg only)");
+  cmd->add_flag("--per-mesh", o->perMesh,
+                "One cloud per mesh in object space (one SURF chunk each; .mrg only); under mpirun the meshes are "
+                "spread over the ranks, one GPU per local rank (docs/bake.md)");
+  cmd->add_flag("--resume", o->resume,
+                "--per-mesh: continue a bake that died from OUTPUT.journal (the meshes it finished are kept)");
   addOutputFlags(cmd, o->flags);
   cmd->add_flag("--bitonic-sort", o->bitonicSort, "Sort candidates with the old bitonic sort (timing comparison)");
   cmd->add_option("--disc-raster", o->discRaster,

@@ -43,20 +43,16 @@ std::string parentDir(const std::string& path) {
 
 } // namespace
 
-void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel) {
-  if (error_) return;
+Result<StoredChunk> storeChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel) {
   try {
-    Pending p;
+    StoredChunk p;
     p.info.type = type;
     p.info.rawBytes = data.size();
     p.info.rawHash = detail::hash64(data);
     if (zstdLevel != 0 && !data.empty()) {
       int level = std::clamp(zstdLevel, ZSTD_minCLevel(), ZSTD_maxCLevel());
       Result<std::vector<uint8_t>> packed = detail::compressFrame(data, level);
-      if (!packed) {
-        error_ = Error{"chunk " + type.str() + ": " + packed.error().message};
-        return;
-      }
+      if (!packed) return Error{"chunk " + type.str() + ": " + packed.error().message};
       // Stored raw when compression does not help: the reader then skips decompression entirely.
       if (packed->size() < data.size()) {
         p.stored = std::move(*packed);
@@ -67,10 +63,20 @@ void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdL
     if (!p.info.compressed) p.stored.assign(data.begin(), data.end());
     p.info.storedBytes = p.stored.size();
     p.info.storedHash = detail::hash64(p.stored);
-    chunks_.push_back(std::move(p));
+    return p;
   } catch (const std::bad_alloc&) {
-    error_ = Error{"chunk " + type.str() + ": out of memory (" + std::to_string(data.size()) + " bytes)"};
+    return Error{"chunk " + type.str() + ": out of memory (" + std::to_string(data.size()) + " bytes)"};
   }
+}
+
+void AssetWriter::addChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel) {
+  if (error_) return;
+  Result<StoredChunk> p = storeChunk(type, data, zstdLevel);
+  if (!p) {
+    error_ = p.error();
+    return;
+  }
+  chunks_.push_back(Pending{p->info, std::move(p->stored)});
 }
 
 void AssetWriter::addStoredChunk(const ChunkInfo& info, std::vector<uint8_t> stored) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <chrono>
 
 #include <nlohmann/json.hpp>
@@ -29,8 +30,7 @@ nlohmann::json statsJson(const LodAsset& a) {
                         {"mean_fill", l.meanFill},
                         {"groups", l.groups},
                         {"stuck_groups", l.stuckGroups},
-                        {"mean_edge_age", l.meanEdgeAge},
-                        {"seconds", l.seconds}});
+                        {"mean_edge_age", l.meanEdgeAge}}); // no timings: a bake writes the same bytes every time
     meshes.push_back({{"name", a.scene.meshes[i].name},
                       {"input_triangles", d.inputTriangles},
                       {"clusters", d.clusters.size()},
@@ -131,7 +131,22 @@ std::vector<uint32_t> sourceTriangleClusters(const Mesh& mesh, const ClusterDag&
   return out;
 }
 
-Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, const BuildProgress& progress) {
+std::string meshWhere(const Scene& scene, size_t mesh) {
+  return scene.source + ": mesh " + std::to_string(mesh) + " '" + scene.meshes[mesh].name + "'";
+}
+
+Result<BakedMesh> bakeLodMesh(const Mesh& mesh, const std::string& where, const BuildConfig& config) {
+  // The builder knows where each source triangle went (sourceTriangleClusters recomputes the
+  // same map by sorting triangle keys: 9 % of the bake's instructions on the dragon).
+  BakedMesh out;
+  auto dag = buildClusterDag(mesh, config, &out.sourceClusters);
+  if (!dag) return Error{where + ": " + dag.error().message};
+  out.dag = std::move(dag).value();
+  return out;
+}
+
+LodAsset assembleLodAsset(const Scene& scene, const BuildConfig& config, std::vector<BakedMesh> meshes) {
+  assert(meshes.size() == scene.meshes.size());
   LodAsset out;
   // Geometry lives in the DAGs; the scene chunk keeps what the renderer needs beside them. Built
   // without copying the meshes' arrays (a serial 20 MB copy on the dragon, then freed).
@@ -142,19 +157,9 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
   out.scene.lights = scene.lights;
   for (const Mesh& m : scene.meshes)
     out.scene.meshes.push_back(Mesh{m.name, {}, {}, {}, {}, {}, {}, m.material, m.bounds});
-  uint64_t total = scene.meshTriangleCount(), done = 0;
-  for (size_t i = 0; i < scene.meshes.size(); ++i) {
-    const Mesh& mesh = scene.meshes[i];
-    // The builder knows where each source triangle went (sourceTriangleClusters recomputes the
-    // same map by sorting triangle keys: 9 % of the bake's instructions on the dragon).
-    std::vector<uint32_t> sourceMap;
-    auto dag = buildClusterDag(mesh, config, &sourceMap);
-    if (!dag)
-      return Error{scene.source + ": mesh " + std::to_string(i) + " '" + mesh.name + "': " + dag.error().message};
-    out.sourceClusters.push_back(std::move(sourceMap));
-    out.dags.push_back(std::move(dag).value());
-    done += mesh.triangleCount();
-    if (progress) progress(i + 1, scene.meshes.size(), done, total);
+  for (BakedMesh& m : meshes) {
+    out.dags.push_back(std::move(m.dag));
+    out.sourceClusters.push_back(std::move(m.sourceClusters));
   }
   nlohmann::json meta = {{"format", "mirage cluster LOD"},
                          {"dag_codec_version", kDagCodecVersion},
@@ -170,6 +175,19 @@ Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, con
                          {"meshes", statsJson(out)}};
   out.metaJson = meta.dump();
   return out;
+}
+
+Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, const BuildProgress& progress) {
+  std::vector<BakedMesh> meshes;
+  uint64_t total = scene.meshTriangleCount(), done = 0;
+  for (size_t i = 0; i < scene.meshes.size(); ++i) {
+    auto baked = bakeLodMesh(scene.meshes[i], meshWhere(scene, i), config);
+    if (!baked) return baked.error();
+    meshes.push_back(std::move(baked).value());
+    done += scene.meshes[i].triangleCount();
+    if (progress) progress(i + 1, scene.meshes.size(), done, total);
+  }
+  return assembleLodAsset(scene, config, std::move(meshes));
 }
 
 namespace {
@@ -252,24 +270,35 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const LodWriteOp
   asset::AssetWriter w;
   std::vector<uint8_t> sceneBytes = asset::encodeScene(a.scene);
   w.addChunk(asset::chunk::Scene, sceneBytes);
-  std::vector<std::vector<uint8_t>> dagBytes(a.dags.size());
   PageConfig pageConfig = options.pages;
   pageConfig.positionBits = options.dag.positionBits;
-  for (size_t i = 0; i < a.dags.size() && options.paged; ++i) {
-    // Level 9, the CDAG chunk's level for large meshes: on the dragon's pages 19 saves 4.4 % (15.40
-    // -> 14.72 MB file) for 1.2 s more write time (one thread).
-    auto payload = encodePagedChunk(a.dags[i], pageConfig, 9);
-    if (!payload)
-      return makeError(path, "mesh " + std::to_string(i) + ": paged cluster DAG: " + payload.error().message);
-    w.addBlockedChunk(asset::chunk::ClusterPages, std::move(payload).value(), 9);
-  }
-  for (size_t i = 0; i < a.dags.size() && !options.paged; ++i) {
-    dagBytes[i] = encodeDag(a.dags[i], options.dag);
-    // Measured on the dragon's chunk (13 MB raw): level 3 -> 12.82 B/triangle in 0.06 s, 9 -> 12.19
-    // in 0.29 s, 19 -> 11.82 in 4.8 s (2.8 MB/s: ~2 minutes for a 21 M-triangle mesh). Level 19 only
-    // where it costs at most about a second; decoding speed is the same.
-    int level = dagBytes[i].size() <= (4u << 20) ? 19 : 9;
-    w.addChunk(asset::chunk::ClusterDag, dagBytes[i], level);
+  // Each mesh's chunk encoded and compressed on its own thread (zstd at level 19 is most of the
+  // write: 16 terrains of 72 k triangles, 9 of 12 s), then added in mesh order: the same bytes.
+  std::vector<Result<asset::StoredChunk>> dagChunks(a.dags.size(), Error{});
+  std::vector<Result<std::vector<uint8_t>>> pagedChunks(a.dags.size(), Error{});
+  tbb::task_arena arena(options.threads ? int(options.threads) : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), a.dags.size(), [&](size_t i) {
+      // Level 9, the CDAG chunk's level for large meshes: on the dragon's pages 19 saves 4.4 % (15.40
+      // -> 14.72 MB file) for 1.2 s more write time (one thread).
+      if (options.paged) return void(pagedChunks[i] = encodePagedChunk(a.dags[i], pageConfig, 9));
+      std::vector<uint8_t> bytes = encodeDag(a.dags[i], options.dag);
+      // Measured on the dragon's chunk (13 MB raw): level 3 -> 12.82 B/triangle in 0.06 s, 9 -> 12.19
+      // in 0.29 s, 19 -> 11.82 in 4.8 s (2.8 MB/s: ~2 minutes for a 21 M-triangle mesh). Level 19
+      // only where it costs at most about a second; decoding speed is the same.
+      int level = bytes.size() <= (4u << 20) ? 19 : 9;
+      dagChunks[i] = asset::storeChunk(asset::chunk::ClusterDag, bytes, level);
+    });
+  });
+  for (size_t i = 0; i < a.dags.size(); ++i) {
+    if (options.paged) {
+      if (!pagedChunks[i])
+        return makeError(path, "mesh " + std::to_string(i) + ": paged cluster DAG: " + pagedChunks[i].error().message);
+      w.addBlockedChunk(asset::chunk::ClusterPages, std::move(pagedChunks[i]).value(), 9);
+    } else {
+      if (!dagChunks[i]) return makeError(path, dagChunks[i].error().message);
+      w.addStoredChunk(dagChunks[i]->info, std::move(dagChunks[i]->stored));
+    }
   }
   std::vector<uint8_t> mapBytes;
   if (!a.sourceClusters.empty()) {

@@ -77,7 +77,7 @@ Result<std::vector<uint8_t>> encodePagedChunk(const ClusterDag& dag, const PageC
   w.writeVarint(dag.levels.size());
   for (const LevelStats& l : dag.levels) {
     w.write(l.clusters), w.write(l.triangles), w.write(l.meanFill), w.write(l.groups), w.write(l.stuckGroups);
-    w.write(l.meanEdgeAge), w.write(l.seconds);
+    w.write(l.meanEdgeAge), w.write(0.0f); // LevelStats::seconds: timings stay out of the file
   }
   // The box of the positions as every page decodes them (the grid the pages were encoded on).
   detail::PositionGrid grid{paged.table.positionBits, paged.table.gridOrigin, paged.table.gridStep};

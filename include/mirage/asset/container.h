@@ -70,6 +70,14 @@ struct ChunkInfo {
   uint64_t indexBytes = 0; // blocked: the index at the payload's start
 };
 
+// A chunk compressed as AssetWriter::addChunk stores it, made without a writer (so on several
+// threads at once) and handed to addStoredChunk: the file gets the bytes addChunk would give.
+struct StoredChunk {
+  ChunkInfo info;
+  std::vector<uint8_t> stored;
+};
+Result<StoredChunk> storeChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel = kDefaultZstdLevel);
+
 // Collects chunks, then writes them in one atomic step. Chunks are compressed when added, so the
 // writer holds only the compressed bytes.
 class AssetWriter {

@@ -38,8 +38,20 @@ std::vector<uint32_t> sourceTriangleClusters(const Mesh& mesh, const ClusterDag&
 using BuildProgress = std::function<void(size_t, size_t, uint64_t, uint64_t)>;
 
 // Builds a DAG for every mesh of `scene` (instances are kept as instances: each unique mesh is
-// baked once). Errors name the mesh.
+// baked once). Errors name the mesh. The same as bakeLodMesh on every mesh, then assembleLodAsset.
 Result<LodAsset> bakeLodAsset(const Scene& scene, const BuildConfig& config, const BuildProgress& progress = {});
+
+// One mesh's share of a bake, independent of every other mesh and of config.threads (bit for bit):
+// the work unit of a distributed bake (docs/bake.md), carried between processes by baked_mesh.h.
+struct BakedMesh {
+  ClusterDag dag;
+  std::vector<uint32_t> sourceClusters; // LodAsset::sourceClusters of this mesh
+};
+// `where` names the mesh in errors (meshWhere: "scene.glb: mesh 3 'door'").
+Result<BakedMesh> bakeLodMesh(const Mesh& mesh, const std::string& where, const BuildConfig& config);
+std::string meshWhere(const Scene& scene, size_t mesh);
+// The asset of `scene` from one BakedMesh per scene mesh, in mesh order (bakeLodAsset's result).
+LodAsset assembleLodAsset(const Scene& scene, const BuildConfig& config, std::vector<BakedMesh> meshes);
 
 struct LodWriteOptions {
   DagEncodeOptions dag; // positionBits also sets the pages' grid (the same grid either way)
@@ -49,6 +61,9 @@ struct LodWriteOptions {
   // reader that loads pages on demand gains from them. `mirage build --paged`, `--page-size BYTES`.
   bool paged = false;
   PageConfig pages; // page budget (pageBytes); positionBits is taken from `dag`
+  // Threads encoding and compressing the meshes' chunks, one mesh each (0 = all cores). The bytes
+  // do not depend on it.
+  uint32_t threads = 0;
 };
 
 Status saveLodAsset(const std::string& path, const LodAsset& asset, const LodWriteOptions& options = {});
