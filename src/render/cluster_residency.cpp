@@ -337,7 +337,9 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
     if (!o) return o.error();
     const ResidencyStats& st = o->stats.residency;
     out.frames.push_back(st);
-    bool quietFrame = st.stepped && st.loaded == 0 && st.uploaded == 0 && st.evicted == 0;
+    // The first frame steps on the feedback of whatever was drawn before (another camera, say):
+    // only a later frame, stepping on this view's feedback, can tell that the view is complete.
+    bool quietFrame = frame > 0 && st.stepped && st.loaded == 0 && st.uploaded == 0 && st.evicted == 0;
     if (quietFrame && st.pending == 0) {
       out.framesToConverge = frame;
       out.converged = true;

@@ -286,10 +286,10 @@ public:
   // image read back as the settings ask.
   Result<ClusterRenderOutput> render(const ClusterRenderSettings& settings);
 
-  // GPU residency: frames (synchronous, no image read back but the last) until one loads, uploads
-  // and evicts nothing with no read pending (between frames that only wait for reads, it waits for
-  // the next page to arrive), then that frame again with the settings' readback: its image is the
-  // converged one. Without residency: render(). framesToConverge counts the frames before the
+  // GPU residency: frames (synchronous, no image read back but the last) until one after the first
+  // (which steps on the feedback of what was drawn before) loads, uploads and evicts nothing with no
+  // read pending (between frames that only wait for reads, it waits for the next page to arrive),
+  // then that frame again with the settings' readback: its image is the converged one. Without residency: render(). framesToConverge counts the frames before the
   // stable one; `frames` holds each frame's residency figures (the last one's too).
   struct Converged {
     ClusterRenderOutput output;
