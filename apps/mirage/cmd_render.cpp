@@ -28,7 +28,8 @@ struct RenderOptions {
   int repeat = 1;
   bool stats = false;
   bool json = false;
-  std::string path; // .mrg only: camera path (cameras.json or orbit:N), one image per camera
+  std::string progressJson; // .mrg with --gpu-budget: the frames until convergence (lod_progress.h)
+  std::string path;         // .mrg only: camera path (cameras.json or orbit:N), one image per camera
   runtime::RenderConfig config;
   RenderConfigOptions given;
   CLI::Option* surfelOrder = nullptr;
@@ -51,6 +52,7 @@ LodRenderRequest lodRequest(const RenderOptions& o) {
                           .frames = o.repeat,
                           .stats = o.stats,
                           .json = o.json,
+                          .progressJson = o.progressJson,
                           .stereoIpd = o.stereo.ipdOrNone(),
                           .particles = o.particles,
                           .particleFrames = o.particleFrames,
@@ -235,6 +237,10 @@ void addRenderCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--stats", o->stats, "Print GPU pass times and pipeline statistics");
   cmd->add_flag("--json", o->json, "Print results as JSON");
+  cmd->add_option("--progress-json", o->progressJson,
+                  "Paged .mrg with --gpu-budget: write FILE.json with every frame until the residency converged "
+                  "(seconds, bytes received, PSNR against the converged image)")
+      ->type_name("FILE.json");
   o->given = bindRenderConfig(*cmd, o->config, BindMode::Render);
   cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
   o->surfelOrder = bindSceneOptions(*cmd, o->scene, BindMode::Render);

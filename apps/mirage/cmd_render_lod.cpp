@@ -12,6 +12,7 @@
 
 #include "commands.h"
 #include "lod_baselines.h"
+#include "lod_progress.h"
 #include "lod_render.h"
 #include "mirage/io/image_io.h"
 #include "mirage/particles/render.h"
@@ -31,6 +32,7 @@ struct Session {
   runtime::View view;
   std::vector<render::Camera> path;                // --path: frame i uses path[i % size]
   std::unique_ptr<particles::EffectPlayer> effect; // --particles
+  std::chrono::steady_clock::time_point opened;    // just before the scene was opened
 };
 
 // Makes the view cell holding `eye` current and, unless `quiet`, says which one it is. Returns
@@ -79,6 +81,7 @@ bool open(const LodRenderRequest& r, bool needOutput, Session& s) {
   auto ctx = openDevice(r.device);
   if (!ctx) return fail(ctx.error()), false;
   s.ctx = std::move(*ctx);
+  s.opened = std::chrono::steady_clock::now();
   auto scene = runtime::Scene::open(*s.ctx, r.scene);
   if (!scene) return fail(scene.error()), false;
   s.scene = std::move(*scene);
@@ -181,7 +184,8 @@ nlohmann::json residencyJson(const render::ResidencyStats& r) {
           {"geometry_bytes", r.geometryBytes},
           {"resident_pages", r.residentPages},
           {"drawn_pages", r.drawnPages},
-          {"bytes_read", r.bytesRead}};
+          {"bytes_read", r.bytesRead},
+          {"bytes_received", r.bytesReceived}};
 }
 
 // GPU residency (--gpu-budget): the last frame's figures; with a converged render the frames it took.
@@ -195,6 +199,7 @@ void addResidencyJson(nlohmann::json& j, const runtime::Frame& f) {
   j["pool_bytes"] = r.poolBytes;
   j["unit_bytes"] = r.unitBytes;
   j["geometry_bytes"] = r.geometryBytes;
+  j["bytes_received"] = r.bytesReceived;
   j["bytes_read"] = r.bytesRead;
   j["pages_requested"] = r.requested;
   j["pages_uploaded"] = r.uploaded;
@@ -371,8 +376,14 @@ void runFrameTimeBench(Session& s, const LodRenderRequest& r) {
 
 void runLodRender(const LodRenderRequest& r) {
   if (r.frames < 1 || r.frames > 10000) return fail("--repeat must be in 1..10000");
+  if (!r.progressJson.empty()) {
+    if (r.scene.gpuBudget == 0) return fail("--progress-json needs --gpu-budget (a paged .mrg streamed in)");
+    if (r.frames != 1 || !r.path.empty()) return fail("--progress-json records one image: no --repeat or --path");
+    if (auto st = checkOutputPath(r.progressJson, {".json"}); !st) return fail(st.error());
+  }
   Session s;
   if (!open(r, /*needOutput=*/true, s)) return;
+  s.view.readEveryFrame = !r.progressJson.empty();
   Timed t;
   if (!s.path.empty()) {
     // One image per camera (plus a warm-up); on any error the images already written are removed.
@@ -395,6 +406,12 @@ void runLodRender(const LodRenderRequest& r) {
     return;
   }
   if (!renderFrames(s, r.frames, t)) return;
+  if (!r.progressJson.empty()) {
+    if (!t.last.residency) return fail(r.scene.input + ": no streamed frames to report (needs a paged .mrg)");
+    auto st = writeProgressJson(r.progressJson, r.scene.input, r.scene.source.bandwidthBitsPerSecond, *t.last.residency,
+                                s.opened);
+    if (!st) return fail(st.error());
+  }
   if (auto st = io::writePng(r.output, t.last.srgb); !st) return fail(st.error());
   if (!r.exr.empty()) {
     auto st = r.exr.ends_with(".pfm") ? io::writePfm(r.exr, t.last.linear) : io::writeExr(r.exr, t.last.linear);

@@ -37,6 +37,7 @@ void addViewCommand(CLI::App& app) {
   cmd->add_flag("--surfels", o.surfels, ".mrg: draw its per-mesh SURF chunks far away (mixed scene)");
   bindMaterials(*cmd, o.materials);
   bindGpuBudget(*cmd, o.gpuBudget);
+  bindBandwidth(*cmd, o.bandwidth);
   cmd->add_option("--path", o.path, "Camera path (cameras.json or orbit:N), replayed one camera per frame");
   cmd->add_option("--screenshot", o.screenshot, "With --path: write OUT_0000.png ... as mirage render --path does");
   cmd->add_flag("--exit-after-path", o.exitAfterPath, "Close once the path was shown (tests, measurements)");

@@ -27,6 +27,7 @@ struct LodRenderRequest {
   double warmupMs = 0.0; // bench: the warm-up frame repeats for this long (GPU clock)
   bool stats = false;
   bool json = false;
+  std::string progressJson; // render: per-frame progress until convergence (lod_progress.h)
   bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
   // --stereo --ipd: both eyes side by side; bench: also one eye mono in the same run (the ratio).
   std::optional<float> stereoIpd;

@@ -72,9 +72,25 @@ void bindGpuBudget(CLI::App& cmd, uint64_t& budget) {
       ->transform(CLI::AsSizeValue(false));
 }
 
+void bindBandwidth(CLI::App& cmd, uint64_t& bitsPerSecond) {
+  cmd.add_option("--bandwidth", bitsPerSecond,
+                 ".mrg file or URL: receive at most RATE (e.g. 20Mbit, 500kbit, 1Gbit), a simulated link; with "
+                 "--gpu-budget the pages stream in while frames run (docs/render.md \"Residency\")")
+      ->type_name("RATE")
+      ->transform(CLI::Validator(
+          [](std::string& text) -> std::string {
+            auto rate = asset::parseBandwidth(text);
+            if (!rate) return rate.error().message;
+            text = std::to_string(*rate);
+            return "";
+          },
+          ""));
+}
+
 CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode mode) {
   bindMaterials(cmd, o.materials);
   bindGpuBudget(cmd, o.gpuBudget);
+  bindBandwidth(cmd, o.source.bandwidthBitsPerSecond);
   if (mode == BindMode::Bench) {
     cmd.add_option("--pvs", o.pvs,
                    ".mrg: PVS from mirage pvs of the asset's source scene: every frame timed with and without the "

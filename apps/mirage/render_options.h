@@ -46,6 +46,9 @@ CLI::Option* bindSceneOptions(CLI::App& command, runtime::SceneOptions& options,
 void bindMaterials(CLI::App& command, std::string& materials);
 // --gpu-budget SIZE (64MB, 1GB; SceneOptions::gpuBudget): bindSceneOptions binds it, and view.
 void bindGpuBudget(CLI::App& command, uint64_t& budget);
+// --bandwidth RATE (20Mbit; asset::parseBandwidth): the .mrg's reads, file or URL, within RATE bits
+// per second (SceneOptions::source); bindSceneOptions binds it, and view.
+void bindBandwidth(CLI::App& command, uint64_t& bitsPerSecond);
 
 // --stereo [--ipd D] (render, bench render; cluster LOD scenes): runtime::View::stereoIpd.
 struct StereoOptions {

@@ -4,7 +4,12 @@
 #include <atomic>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <thread>
+#include <utility>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -40,13 +45,52 @@ public:
       n -= size_t(r);
       offset += uint64_t(r);
     }
+    pace();
     return {};
   }
 
 private:
+  // With a rate limit: returns once the bytes read since open fit the rate, so the file arrives as
+  // over a link of that speed (on average; a read is not split).
+  void pace() const {
+    if (bitsPerSecond_ == 0) return;
+    double due = double(bytes_.load(std::memory_order_relaxed)) * 8.0 / double(bitsPerSecond_);
+    std::this_thread::sleep_until(
+        opened_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(due)));
+  }
+
   int fd_;
   uint64_t size_;
+  uint64_t bitsPerSecond_;
+  std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
   mutable std::atomic<uint64_t> requests_{0}, bytes_{0};
+};
+
+// A source whose reads return no sooner than a link of `bitsPerSecond` would have delivered the
+// bytes received since open: the average rate stays within the limit for any pattern of reads. (libcurl's
+// receive limit alone paces within a transfer; a page's range request of a few KiB ends before it
+// takes effect.)
+class PacedSource final : public ByteSource {
+public:
+  PacedSource(std::unique_ptr<ByteSource> inner, uint64_t bitsPerSecond)
+      : inner_(std::move(inner)), bitsPerSecond_(bitsPerSecond) {}
+
+  uint64_t size() const override { return inner_->size(); }
+  SourceStats stats() const override { return inner_->stats(); }
+
+  std::string read(uint64_t offset, void* out, size_t n) const override {
+    std::string problem = inner_->read(offset, out, n);
+    // What the source received (a URL's probe and read-ahead too), not only what was asked for.
+    double due = double(inner_->stats().bytes) * 8.0 / double(bitsPerSecond_);
+    std::this_thread::sleep_until(
+        opened_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(due)));
+    return problem;
+  }
+
+private:
+  std::unique_ptr<ByteSource> inner_;
+  uint64_t bitsPerSecond_;
+  std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
 };
 
 Result<std::unique_ptr<ByteSource>> openFile(const std::string& path) {
@@ -82,8 +126,24 @@ bool isUrl(std::string_view s) {
 }
 
 Result<std::unique_ptr<ByteSource>> openByteSource(const std::string& pathOrUrl, const SourceOptions& options) {
-  if (isUrl(pathOrUrl)) return detail::openHttp(pathOrUrl, options);
-  return openFile(pathOrUrl);
+  auto source = isUrl(pathOrUrl) ? detail::openHttp(pathOrUrl, options) : openFile(pathOrUrl);
+  if (!source || options.bandwidthBitsPerSecond == 0) return source;
+  return std::unique_ptr<ByteSource>(new PacedSource(std::move(*source), options.bandwidthBitsPerSecond));
+}
+
+Result<uint64_t> parseBandwidth(std::string_view text) {
+  auto bad = [&] {
+    return Error{"bandwidth '" + std::string(text) + "': expected a rate like 500kbit, 20Mbit or 1Gbit"};
+  };
+  std::string s(text);
+  char* end = nullptr;
+  double value = std::strtod(s.c_str(), &end);
+  if (end == s.c_str() || !std::isfinite(value) || !(value > 0.0)) return bad();
+  std::string unit(end);
+  for (char& c : unit) c = char(std::tolower(static_cast<unsigned char>(c)));
+  double scale = unit == "bit" ? 1.0 : unit == "kbit" ? 1e3 : unit == "mbit" ? 1e6 : unit == "gbit" ? 1e9 : 0.0;
+  if (scale == 0.0 || value * scale < 1.0 || value * scale > 1e15) return bad();
+  return uint64_t(std::llround(value * scale));
 }
 
 } // namespace mirage::asset

@@ -320,8 +320,8 @@ Status saveLodAsset(const std::string& path, const LodAsset& a, const LodWriteOp
   });
 }
 
-Result<LodAsset> loadLodAsset(const std::string& path) {
-  auto reader = asset::AssetReader::open(path);
+Result<LodAsset> loadLodAsset(const std::string& path, const asset::SourceOptions& options) {
+  auto reader = asset::AssetReader::open(path, options);
   if (!reader) return reader.error();
   return readLodAsset(*reader, path);
 }

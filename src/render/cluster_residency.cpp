@@ -258,6 +258,7 @@ Status ClusterRenderer::Impl::prepareResidency() {
   st.residentBytes = r.manager.residentBytes();
   st.geometryBytes = r.geometryBytes;
   st.bytesRead = r.stream->storedBytes();
+  st.bytesReceived = r.stream->receivedBytes();
   for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
     st.drawnPages += r.drawn[p] != MIRAGE_PAGE_NONE;
     st.pending += r.state[p] == PageState::Reserved;
@@ -319,7 +320,7 @@ ResidencyStats ClusterRenderer::Impl::collectResidency(uint32_t frameSlot) {
 bool ClusterRenderer::hasResidency() const { return impl_->residency != nullptr; }
 
 Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const ClusterRenderSettings& settings,
-                                                                    uint32_t maxFrames) {
+                                                                    uint32_t maxFrames, bool readEveryFrame) {
   Converged out;
   if (!impl_->residency) {
     auto o = render(settings);
@@ -329,15 +330,19 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
     return out;
   }
   ClusterRenderSettings quiet = settings;
-  quiet.base.readImage = false;
+  quiet.base.readImage = readEveryFrame && settings.base.readImage;
   quiet.base.readLinear = false;
   quiet.readOwnedClusters = false;
   for (uint32_t frame = 0; frame < maxFrames; ++frame) {
     auto o = render(quiet);
     if (!o) return o.error();
+    out.frameEnds.push_back(std::chrono::steady_clock::now());
+    if (quiet.base.readImage) out.frameImages.push_back(std::move(o->image.srgb));
     const ResidencyStats& st = o->stats.residency;
     out.frames.push_back(st);
-    bool quietFrame = st.stepped && st.loaded == 0 && st.uploaded == 0 && st.evicted == 0;
+    // The first frame steps on the feedback of whatever was drawn before (another camera, say):
+    // only a later frame, stepping on this view's feedback, can tell that the view is complete.
+    bool quietFrame = frame > 0 && st.stepped && st.loaded == 0 && st.uploaded == 0 && st.evicted == 0;
     if (quietFrame && st.pending == 0) {
       out.framesToConverge = frame;
       out.converged = true;
@@ -349,7 +354,9 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
   if (!out.converged) out.framesToConverge = maxFrames;
   auto o = render(settings); // the stable residency again, read back as asked
   if (!o) return o.error();
+  out.frameEnds.push_back(std::chrono::steady_clock::now());
   out.frames.push_back(o->stats.residency);
+  if (quiet.base.readImage) out.frameImages.push_back(o->image.srgb);
   out.output = std::move(*o);
   return out;
 }

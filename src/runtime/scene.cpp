@@ -55,6 +55,10 @@ Result<std::unique_ptr<Scene>> Scene::open(gpu::Context& context, const SceneOpt
   if (options.gpuBudget > 0 && *kind != SceneKind::ClusterLod)
     return Error{fmt::format("{}: --gpu-budget needs a paged cluster-LOD .mrg (mirage build --paged), not a {} scene",
                              options.input, toString(*kind))};
+  // The cluster PVS maps source triangles to clusters through the whole DAGs, which the
+  // out-of-core path never holds.
+  if (options.gpuBudget > 0 && !options.pvs.empty())
+    return Error{"--pvs does not apply with --gpu-budget (the cluster PVS needs the whole DAGs): give one of them"};
   Status opened = *kind == SceneKind::ClusterLod ? openClusterLod(*impl)
                   : *kind == SceneKind::Forward  ? openForward(*impl)
                                                  : openSurfels(*impl);

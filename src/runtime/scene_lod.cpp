@@ -54,7 +54,7 @@ namespace {
 // GPU residency: only the scene, the paged meshes' indices and their root pages are read now; the
 // renderer reads every other page as its feedback asks (docs/render.md, "Residency").
 Status openPagedClusterLod(Scene::Impl& s, std::chrono::steady_clock::time_point t0) {
-  auto paged = lod::openPagedLodAsset(s.options.input);
+  auto paged = lod::openPagedLodAsset(s.options.input, s.options.source);
   if (!paged) return paged.error();
   s.paged = std::move(*paged);
   mirage::Scene& scene = s.paged->scene;
@@ -82,7 +82,7 @@ Status openClusterLod(Scene::Impl& s) {
   if (s.options.gpuBudget > 0) {
     if (auto st = openPagedClusterLod(s, t0); !st) return st;
   } else {
-    auto asset = lod::loadLodAsset(s.options.input);
+    auto asset = lod::loadLodAsset(s.options.input, s.options.source);
     if (!asset) return asset.error();
     s.asset = std::move(*asset);
     if (!s.options.materials.empty())
@@ -163,10 +163,11 @@ Frame clusterFrame(Scene::Impl& s, render::ClusterRenderOutput& o, int pvsCell) 
 Result<Frame> renderClusterLod(Scene::Impl& s, const View& view) {
   if (auto cell = selectPvsCell(s, view.camera.eye); !cell) return cell.error();
   if (s.cluster->hasResidency() && view.readImage) { // an image to keep: the converged residency's
-    auto c = s.cluster->renderConverged(clusterSettings(s, view));
+    auto c = s.cluster->renderConverged(clusterSettings(s, view), 256, view.readEveryFrame);
     if (!c) return c.error();
     Frame f = clusterFrame(s, c->output, s.pvsState.cell);
-    f.residency = Frame::Residency{c->framesToConverge, c->converged, std::move(c->frames)};
+    f.residency = Frame::Residency{c->framesToConverge, c->converged, std::move(c->frames), std::move(c->frameEnds),
+                                   std::move(c->frameImages)};
     return f;
   }
   auto o = s.cluster->render(clusterSettings(s, view));

@@ -14,6 +14,7 @@ runtime::SceneOptions runtimeOptions(const SceneOptions& o) {
   r.surfels = o.surfels;
   r.materials = o.materials;
   r.gpuBudget = o.gpuBudget;
+  r.source.bandwidthBitsPerSecond = o.bandwidth;
   return r;
 }
 

@@ -25,6 +25,7 @@ struct SceneOptions {
   bool surfels = false;   // .mrg: its SURF chunks (alone, or far from the meshes)
   std::string materials;  // material file (TOML): runtime::SceneOptions::materials
   uint64_t gpuBudget = 0; // runtime::SceneOptions::gpuBudget
+  uint64_t bandwidth = 0; // bits per second: runtime::SceneOptions::source
 };
 
 // What the overlay changes between frames: the runtime's per-frame settings, its defaults.

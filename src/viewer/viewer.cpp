@@ -92,8 +92,12 @@ Status runViewer(const ViewerOptions& o) {
   }
   auto script = parseKeyScript(o.keys);
   if (!script) return script.error();
-  const SceneOptions sceneOptions{
-      .path = o.scene, .pvs = o.pvs, .surfels = o.surfels, .materials = o.materials, .gpuBudget = o.gpuBudget};
+  const SceneOptions sceneOptions{.path = o.scene,
+                                  .pvs = o.pvs,
+                                  .surfels = o.surfels,
+                                  .materials = o.materials,
+                                  .gpuBudget = o.gpuBudget,
+                                  .bandwidth = o.bandwidth};
   auto kind = SceneView::check(sceneOptions);
   if (!kind) return kind.error();
   if (auto st = checkOptions(o, *kind); !st) return st;

@@ -9,69 +9,8 @@
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
 
-nginx_bin=$(command -v nginx || echo /usr/sbin/nginx)
-if [ ! -x "$nginx_bin" ]; then
-  echo "SKIP http_source: nginx not installed (scripts/setup installs nginx-light)"
-  exit 0
-fi
-
-server_pids=()
-stop_servers() {
-  for pid in "${server_pids[@]}"; do kill "$pid" 2>/dev/null && wait "$pid" 2>/dev/null; done
-  lib_cleanup
-}
-trap stop_servers EXIT
-
-# The workers may run as another user (nginx started by root drops to nobody): the served folder
-# and files are readable by all.
 www=$tmp/www
-mkdir -p "$www" "$tmp/nginx"
-chmod 755 "$tmp" "$www"
-
-# nginx on a free local port: ports are tried until one binds (the config names every path nginx
-# writes, so it needs no root and leaves nothing outside $tmp).
-port=""
-for _ in $(seq 1 20); do
-  try=$((20000 + RANDOM % 20000))
-  cat >"$tmp/nginx/nginx.conf" <<EOF
-daemon off;
-worker_processes 1;
-pid $tmp/nginx/nginx.pid;
-error_log $tmp/nginx/error.log;
-events { worker_connections 64; }
-http {
-  access_log off;
-  client_body_temp_path $tmp/nginx/body;
-  proxy_temp_path $tmp/nginx/proxy;
-  fastcgi_temp_path $tmp/nginx/fastcgi;
-  uwsgi_temp_path $tmp/nginx/uwsgi;
-  scgi_temp_path $tmp/nginx/scgi;
-  default_type application/octet-stream;
-  server { listen 127.0.0.1:$try; root $www; }
-}
-EOF
-  "$nginx_bin" -e "$tmp/nginx/error.log" -p "$tmp/nginx" -c "$tmp/nginx/nginx.conf" 2>>"$tmp/nginx/start.log" &
-  pid=$!
-  for _ in $(seq 1 50); do
-    if python3 -c "import socket; socket.create_connection(('127.0.0.1', $try), 0.2)" 2>/dev/null; then
-      port=$try
-      break
-    fi
-    kill -0 "$pid" 2>/dev/null || break
-    sleep 0.1
-  done
-  if [ -n "$port" ]; then
-    server_pids+=("$pid")
-    break
-  fi
-  kill "$pid" 2>/dev/null
-  wait "$pid" 2>/dev/null
-done
-if [ -z "$port" ]; then
-  echo "FAIL nginx did not start: $(tail -c 400 "$tmp/nginx/error.log" "$tmp/nginx/start.log" 2>/dev/null)"
-  exit 1
-fi
-url=http://127.0.0.1:$port
+start_nginx "$www" || exit 0
 
 if expect_ok build-plain build gen:blob:4 -o "$www/plain.mrg" --quiet &&
    expect_ok build-paged build gen:blob:5 -o "$www/paged.mrg" --quiet --page-size 16KB; then
@@ -110,7 +49,7 @@ PY
     render "$url/flipped.mrg" -o "$tmp/y.png"
 
   # A server without ranges: a file within the first read (64 KiB) still loads, a larger one is refused.
-  noranges=$((port + 1))
+  noranges=$((${url##*:} + 1))
   (cd "$www" && exec python3 -m http.server "$noranges" --bind 127.0.0.1 >/dev/null 2>&1) &
   server_pids+=("$!")
   for _ in $(seq 1 50); do

@@ -6,11 +6,13 @@ mirage=$1
 source_dir=${2:-}
 tmp=$(mktemp -d)
 xvfb_pid=""
-lib_cleanup() { # the X server of x_server, the scratch folder (a script's own EXIT trap calls it last)
+server_pids=() # servers a script started (start_nginx, or its own): stopped on exit
+lib_cleanup() { # the X server of x_server, the servers, the scratch folder (a script's own EXIT trap calls it last)
   if [ -n "$xvfb_pid" ]; then
     kill "$xvfb_pid" 2>/dev/null
     wait "$xvfb_pid" 2>/dev/null
   fi
+  for pid in "${server_pids[@]}"; do kill "$pid" 2>/dev/null && wait "$pid" 2>/dev/null; done
   rm -rf "$tmp"
 }
 trap lib_cleanup EXIT
@@ -40,6 +42,67 @@ x_server() {
     return 1
   fi
   [ -n "${DISPLAY:-}" ]
+}
+
+# start_nginx WWW: a real web server for the HTTP tests (Debian's nginx-light, which serves byte
+# ranges) holding the folder WWW (made readable by all), on a free local port; sets $url
+# (http://127.0.0.1:PORT) and stops on exit. Returns 1 with a SKIP line when nginx is not installed;
+# exits the script with a FAIL line when it does not start.
+start_nginx() {
+  local www=$1 nginx_bin
+  nginx_bin=$(command -v nginx || echo /usr/sbin/nginx)
+  if [ ! -x "$nginx_bin" ]; then
+    echo "SKIP $(basename "$0" .sh): nginx not installed (scripts/setup installs nginx-light)"
+    return 1
+  fi
+  # The workers may run as another user (nginx started by root drops to nobody): the served folder
+  # and files are readable by all.
+  mkdir -p "$www" "$tmp/nginx"
+  chmod 755 "$tmp" "$www"
+  # Ports are tried until one binds (the config names every path nginx writes, so it needs no root
+  # and leaves nothing outside $tmp).
+  local port="" try pid
+  for _ in $(seq 1 20); do
+    try=$((20000 + RANDOM % 20000))
+    cat >"$tmp/nginx/nginx.conf" <<EOF
+daemon off;
+worker_processes 1;
+pid $tmp/nginx/nginx.pid;
+error_log $tmp/nginx/error.log;
+events { worker_connections 64; }
+http {
+  access_log off;
+  client_body_temp_path $tmp/nginx/body;
+  proxy_temp_path $tmp/nginx/proxy;
+  fastcgi_temp_path $tmp/nginx/fastcgi;
+  uwsgi_temp_path $tmp/nginx/uwsgi;
+  scgi_temp_path $tmp/nginx/scgi;
+  default_type application/octet-stream;
+  server { listen 127.0.0.1:$try; root $www; }
+}
+EOF
+    "$nginx_bin" -e "$tmp/nginx/error.log" -p "$tmp/nginx" -c "$tmp/nginx/nginx.conf" 2>>"$tmp/nginx/start.log" &
+    pid=$!
+    for _ in $(seq 1 50); do
+      if python3 -c "import socket; socket.create_connection(('127.0.0.1', $try), 0.2)" 2>/dev/null; then
+        port=$try
+        break
+      fi
+      kill -0 "$pid" 2>/dev/null || break
+      sleep 0.1
+    done
+    if [ -n "$port" ]; then
+      server_pids+=("$pid")
+      break
+    fi
+    kill "$pid" 2>/dev/null
+    wait "$pid" 2>/dev/null
+  done
+  if [ -z "$port" ]; then
+    echo "FAIL nginx did not start: $(tail -c 400 "$tmp/nginx/error.log" "$tmp/nginx/start.log" 2>/dev/null)"
+    exit 1
+  fi
+  url=http://127.0.0.1:$port
 }
 
 fail() { # MESSAGE: count a failure

@@ -2,7 +2,7 @@
 # GPU residency through the CLI: `render --gpu-budget` of a paged file renders until the residency
 # is stable; with room for the view's pages the image is the unbudgeted one, with a tiny budget the
 # image stays complete (coarser) and the resident bytes within the budget; --json reports the
-# residency keys. Bad budgets fail with one line and write nothing.
+# residency keys. Bad budgets, and --pvs with a budget, fail with one line and write nothing.
 # Usage: residency.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -56,6 +56,11 @@ assert len(a) > 500, len(a)
 assert len(a ^ b) < 0.1 * len(a), (len(a), len(b), len(a ^ b))"
   expect_fail render-budget-below-roots "below the root pages" "$tmp/x.png" -- render "$tmp/paged.mrg" -o "$tmp/x.png" --gpu-budget 1KB
   expect_fail render-budget-not-paged "paged" "$tmp/x.png" -- render "$tmp/plain.mrg" -o "$tmp/x.png" --gpu-budget 1MB
+  # Checked before anything is read: the PVS file need not exist.
+  expect_fail render-budget-pvs "--pvs does not apply with --gpu-budget" "$tmp/x.png" -- \
+    render "$tmp/paged.mrg" -o "$tmp/x.png" --gpu-budget 2MB --pvs "$tmp/pvs.mrg"
+  expect_fail bench-budget-pvs "--pvs does not apply with --gpu-budget" "" -- \
+    bench render "$tmp/paged.mrg" --gpu-budget 2MB --pvs "$tmp/pvs.mrg" --frames 2
   expect_fail render-budget-hierarchy "--selection" "$tmp/x.png" -- render "$tmp/paged.mrg" -o "$tmp/x.png" --gpu-budget 2MB --selection hierarchy
 fi
 

@@ -6,9 +6,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <vector>
+
+#include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu_test.h"
 #include "mirage/core/image_metrics.h"
+#include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/paged_asset.h"
 #include "mirage/render/cluster_renderer.h"
@@ -24,31 +29,65 @@ constexpr uint32_t kSize = 160;
 
 class ClusterResidency : public test::GpuTest {};
 
-// The geometric-error blob written paged with small pages (many of them), its unbudgeted
-// reference (the DAG reassembled from the same pages) and the on-demand asset.
+// A scene written paged with small pages (many of them), its unbudgeted reference (the DAG
+// reassembled from the same pages) and the on-demand asset.
 struct PagedBlob {
   std::string path;
   lod::LodAsset whole;
   uint64_t geometryBytes = 0; // every page's vertices, vertex ids and indices: the whole asset
 };
+PagedBlob writePaged(const std::string& name, const lod::LodAsset& asset) {
+  PagedBlob out;
+  out.path = (test::tempDir("residency" + name) / (name + ".mrg")).string();
+  lod::LodWriteOptions o;
+  o.paged = true;
+  o.pages.pageBytes = 8 * 1024;
+  if (!lod::saveLodAsset(out.path, asset, o).ok()) std::abort();
+  auto whole = lod::loadLodAsset(out.path);
+  if (!whole) std::abort();
+  out.whole = std::move(*whole);
+  auto paged = lod::openPagedLodAsset(out.path);
+  if (!paged) std::abort();
+  for (const lod::PagedMesh& m : paged->meshes)
+    for (uint32_t p = 0; p < m.table.pages.size(); ++p)
+      out.geometryBytes += m.table.pages[p].vertexCount * 32ull + m.rest.pageClusterVertices[p] * 4ull +
+                           m.table.pages[p].triangleCount * 3ull;
+  return out;
+}
+
+// The geometric-error blob.
 const PagedBlob& pagedBlob() {
+  static PagedBlob b = writePaged("blob", test::blobAsset());
+  return b;
+}
+
+// Two different blobs (noise seeds 1 and 2, 20480 triangles each) `kPairGap` radii apart along x:
+// a close view of one sees nothing of the other, so two stops need disjoint page sets.
+constexpr float kPairGap = 8.0f;
+const PagedBlob& pagedPair() {
   static PagedBlob b = [] {
-    PagedBlob out;
-    out.path = (test::tempDir("residencyblob") / "blob.mrg").string();
-    lod::LodWriteOptions o;
-    o.paged = true;
-    o.pages.pageBytes = 8 * 1024;
-    if (!lod::saveLodAsset(out.path, test::blobAsset(), o).ok()) std::abort();
-    auto whole = lod::loadLodAsset(out.path);
-    if (!whole) std::abort();
-    out.whole = std::move(*whole);
-    auto paged = lod::openPagedLodAsset(out.path);
-    if (!paged) std::abort();
-    for (const lod::PagedMesh& m : paged->meshes)
-      for (uint32_t p = 0; p < m.table.pages.size(); ++p)
-        out.geometryBytes += m.table.pages[p].vertexCount * 32ull + m.rest.pageClusterVertices[p] * 4ull +
-                             m.table.pages[p].triangleCount * 3ull;
-    return out;
+    Scene scene;
+    for (uint32_t seed : {1u, 2u}) {
+      io::BlobOptions o;
+      o.subdivisions = 5;
+      o.seed = seed;
+      Scene blob = io::generateBlob(o);
+      if (scene.materials.empty()) scene.materials = blob.materials;
+      Mesh m = std::move(blob.meshes[0]);
+      m.name = "blob" + std::to_string(seed);
+      m.material = 0;
+      scene.meshes.push_back(std::move(m));
+      Instance inst;
+      inst.mesh = uint32_t(scene.meshes.size() - 1);
+      inst.transform = glm::translate(glm::mat4(1.0f), glm::vec3((seed == 1 ? -0.5f : 0.5f) * kPairGap, 0, 0));
+      scene.instances.push_back(inst);
+    }
+    scene.source = "generated:pair";
+    lod::BuildConfig config;
+    config.normalWeight = 0.0f; // the geometric error: close views need fine pages, far ones coarse
+    auto baked = lod::bakeLodAsset(scene, config);
+    if (!baked) std::abort();
+    return writePaged("pair", *baked);
   }();
   return b;
 }
@@ -64,10 +103,9 @@ ClusterRenderSettings viewSettings(const Camera& cam) {
 
 Camera overview() { return autoCamera(pagedBlob().whole.scene.worldBounds(), 1.0f); }
 
-// A view of the blob from direction `dir` at `distance` radii, aimed `aim` radii from its centre
-// towards the eye, with a vertical field of view of `fov` degrees.
-Camera closeView(glm::vec3 dir, float distance, float aim, float fov) {
-  Bounds b = pagedBlob().whole.scene.worldBounds();
+// A view of the box `b` from direction `dir` at `distance` radii, aimed `aim` radii from its
+// centre towards the eye, with a vertical field of view of `fov` degrees.
+Camera closeViewOf(const Bounds& b, glm::vec3 dir, float distance, float aim, float fov) {
   Camera c;
   c.target = b.center() + glm::normalize(dir) * (aim * b.radius());
   c.eye = b.center() + glm::normalize(dir) * (distance * b.radius());
@@ -75,14 +113,17 @@ Camera closeView(glm::vec3 dir, float distance, float aim, float fov) {
   if (std::abs(glm::normalize(dir).y) > 0.9f) c.up = {0, 0, 1};
   return c;
 }
+Camera closeView(glm::vec3 dir, float distance, float aim, float fov) {
+  return closeViewOf(pagedBlob().whole.scene.worldBounds(), dir, distance, aim, fov);
+}
 
 struct Opened {
   lod::PagedLodAsset asset;
   std::unique_ptr<ClusterRenderer> renderer;
 };
-Opened openBudgeted(gpu::Context& ctx, uint64_t budget) {
+Opened openBudgeted(gpu::Context& ctx, uint64_t budget, const PagedBlob& blob = pagedBlob()) {
   Opened o;
-  auto paged = lod::openPagedLodAsset(pagedBlob().path);
+  auto paged = lod::openPagedLodAsset(blob.path);
   EXPECT_TRUE(paged.ok()) << (paged.ok() ? "" : paged.error().message);
   o.asset = std::move(*paged);
   ClusterResidencySettings rs;
@@ -93,8 +134,8 @@ Opened openBudgeted(gpu::Context& ctx, uint64_t budget) {
   return o;
 }
 
-ImageRGBA8 unbudgeted(gpu::Context& ctx, const ClusterRenderSettings& s) {
-  return test::renderCluster(ctx, pagedBlob().whole, s).image.srgb;
+ImageRGBA8 unbudgeted(gpu::Context& ctx, const ClusterRenderSettings& s, const PagedBlob& blob = pagedBlob()) {
+  return test::renderCluster(ctx, blob.whole, s).image.srgb;
 }
 
 ClusterRenderer::Converged converge(ClusterRenderer& r, const ClusterRenderSettings& s, uint64_t budget) {
@@ -116,8 +157,8 @@ void expectSameImage(const ImageRGBA8& a, const ImageRGBA8& b, const std::string
 }
 
 // What the view needs, from a renderer with room for everything.
-uint64_t viewBytes(gpu::Context& ctx, const ClusterRenderSettings& s) {
-  Opened o = openBudgeted(ctx, 64ull << 20);
+uint64_t viewBytes(gpu::Context& ctx, const ClusterRenderSettings& s, const PagedBlob& blob = pagedBlob()) {
+  Opened o = openBudgeted(ctx, 64ull << 20, blob);
   return converge(*o.renderer, s, 64ull << 20).output.stats.residency.residentBytes;
 }
 
@@ -168,34 +209,45 @@ TEST_F(ClusterResidency, TinyBudgetIsCompleteAndCrackFree) {
   test::writeOnFailure(tiny, "residency_tiny.png");
 }
 
-// Close views of opposite sides with room for one view's pages at a time: moving evicts, coming
-// back reloads, and every stop converges to the unbudgeted image. Disabled: on this 20 k-triangle
-// blob every close view needs nearly every page (both views 1.1 MB, one 1.0 MB, the reservations'
-// headroom on top), so no budget separates them; it needs a scene of two meshes apart.
-TEST_F(ClusterResidency, DISABLED_MovingCameraEvictsAndReloads) {
+// Close views of two blobs far apart with room for one view's pages at a time: moving from one to
+// the other evicts, coming back reloads, and every stop converges to the unbudgeted image.
+TEST_F(ClusterResidency, MovingCameraEvictsAndReloads) {
+  const PagedBlob& pair = pagedPair();
+  const Scene& scene = pair.whole.scene;
   std::vector<Camera> stops;
-  for (float side : {1.0f, -1.0f, 1.0f}) stops.push_back(closeView({side, 0.2f, 0.0f}, 1.15f, 0.0f, 15.0f));
-  uint64_t budget = 0;
-  for (size_t i = 0; i < 2; ++i) budget = std::max(budget, viewBytes(context(), viewSettings(stops[i])));
+  for (uint32_t i : {0u, 1u, 0u}) {
+    const Instance& inst = scene.instances[i];
+    Bounds b = scene.meshes[inst.mesh].bounds;
+    glm::vec3 shift(inst.transform[3]);
+    stops.push_back(closeViewOf(Bounds{b.min + shift, b.max + shift}, {0.3f, 0.2f, 1.0f}, 1.6f, 0.8f, 60.0f));
+  }
+  // A fine threshold: each stop needs its blob's finest pages, well beyond the root pages.
+  auto settings = [&](size_t i) {
+    ClusterRenderSettings s = viewSettings(stops[i]);
+    s.tauPixels = 0.25f;
+    return s;
+  };
+  uint64_t viewA = viewBytes(context(), settings(0), pair);
+  uint64_t viewB = viewBytes(context(), settings(1), pair);
   // Headroom for the reservations of pages not read yet (their table bound, above their exact size).
-  budget += 4 * 24 * 1024;
+  uint64_t budget = std::max(viewA, viewB) + 4 * 24 * 1024;
   uint64_t both = 0; // both views' pages at once
   {
-    Opened all = openBudgeted(context(), 64ull << 20);
+    Opened all = openBudgeted(context(), 64ull << 20, pair);
     for (size_t i = 0; i < 2; ++i)
-      both = converge(*all.renderer, viewSettings(stops[i]), 64ull << 20).output.stats.residency.residentBytes;
+      both = converge(*all.renderer, settings(i), 64ull << 20).output.stats.residency.residentBytes;
   }
   ASSERT_GT(both, budget) << "the budget must not hold both views";
-  Opened o = openBudgeted(context(), budget);
+  Opened o = openBudgeted(context(), budget, pair);
   uint32_t evicted = 0, loadedBack = 0;
   for (size_t i = 0; i < stops.size(); ++i) {
-    ClusterRenderSettings s = viewSettings(stops[i]);
+    ClusterRenderSettings s = settings(i);
     auto c = converge(*o.renderer, s, budget);
     for (const ResidencyStats& f : c.frames) {
       evicted += i > 0 ? f.evicted : 0;
       loadedBack += i == 2 ? f.loaded : 0;
     }
-    expectSameImage(c.output.image.srgb, unbudgeted(context(), s), "residency_stop" + std::to_string(i));
+    expectSameImage(c.output.image.srgb, unbudgeted(context(), s, pair), "residency_stop" + std::to_string(i));
   }
   EXPECT_GT(evicted, 0u) << "the second view needs pages the first one's evicted";
   EXPECT_GT(loadedBack, 0u) << "coming back reloads evicted pages";

@@ -14,7 +14,9 @@
 namespace mirage::asset {
 
 struct SourceOptions {
-  // Receive speed limit in bits per second (0: none), to simulate a link (`--bandwidth 20Mbit`).
+  // Receive speed limit in bits per second (0: none), to simulate a link (`--bandwidth 20Mbit`):
+  // every read, file or URL, returns no sooner than the link would have delivered the bytes read
+  // since open (a URL's transfers also through libcurl's receive limit).
   uint64_t bandwidthBitsPerSecond = 0;
   // A remote read that makes no progress for this long fails (never a hang); connecting too.
   uint32_t timeoutSeconds = 30;
@@ -35,6 +37,11 @@ public:
   virtual std::string read(uint64_t offset, void* out, size_t n) const = 0;
   virtual SourceStats stats() const = 0;
 };
+
+// A link rate as the CLI takes it: a positive number and bit, kbit, Mbit or Gbit (decimal units,
+// as links are rated; case-insensitive), e.g. "20Mbit", "1.5Gbit": bits per second. The error
+// names the text and the expected form.
+Result<uint64_t> parseBandwidth(std::string_view text);
 
 // "http://..." or "https://..." (case-insensitive scheme).
 bool isUrl(std::string_view pathOrUrl);

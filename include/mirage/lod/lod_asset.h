@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mirage/asset/source.h"
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/lod/cluster_dag.h"
@@ -70,7 +71,7 @@ Status saveLodAsset(const std::string& path, const LodAsset& asset, const LodWri
 // Validates the container, every chunk, and that there is one DAG per mesh: a 'CDAG' chunk per
 // mesh or, in a paged file without CDAG chunks, a 'CPAG' chunk per mesh, every page read and
 // checked and the DAG reassembled (reassemblePagedDag).
-Result<LodAsset> loadLodAsset(const std::string& path);
+Result<LodAsset> loadLodAsset(const std::string& path, const asset::SourceOptions& options = {});
 
 // The mesh the DAG's level-0 clusters cover (cleaned input, positions as stored): the reference
 // for cut checks on a loaded asset.

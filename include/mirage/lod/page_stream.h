@@ -53,6 +53,9 @@ public:
   bool waitForArrival(std::chrono::milliseconds timeout);
   uint32_t inFlight() const;    // asked for and not yet taken
   uint64_t storedBytes() const; // block bytes read so far
+  // Bytes the reader's source delivered since it was opened (asset::SourceStats): the index and
+  // root pages read at open, the pages, and anything else read through the same reader.
+  uint64_t receivedBytes() const { return reader_.sourceStats().bytes; }
   uint32_t capacity() const { return config_.maxInFlight; }
 
 private:

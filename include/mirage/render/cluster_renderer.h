@@ -9,6 +9,7 @@
 // Every backend writes the same visibility semantics (visible-cluster index + triangle id, nearest
 // depth wins) and one resolve pass shades it with the forward renderer's material model, so all
 // backends give the same image. Passes and data layout: docs/render.md.
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -200,6 +201,7 @@ struct ResidencyStats {
   uint64_t residentBytes = 0; // the units resident pages hold (<= budget), after this frame's step
   uint64_t geometryBytes = 0; // the bytes those pages' vertices, vertex ids and indices take in them
   uint64_t bytesRead = 0;     // page bytes read from the file or URL so far (as stored)
+  uint64_t bytesReceived = 0; // bytes the file or URL delivered since it was opened (index and root pages too)
   uint32_t pages = 0;         // pages of every mesh
   uint32_t units = 0;
   uint32_t residentPages = 0; // pages holding units (reserved or uploaded)
@@ -286,18 +288,23 @@ public:
   // image read back as the settings ask.
   Result<ClusterRenderOutput> render(const ClusterRenderSettings& settings);
 
-  // GPU residency: frames (synchronous, no image read back but the last) until one loads, uploads
-  // and evicts nothing with no read pending (between frames that only wait for reads, it waits for
-  // the next page to arrive), then that frame again with the settings' readback: its image is the
-  // converged one. Without residency: render(). framesToConverge counts the frames before the
+  // GPU residency: frames (synchronous, no image read back but the last) until one after the first
+  // (which steps on the feedback of what was drawn before) loads, uploads and evicts nothing with no
+  // read pending (between frames that only wait for reads, it waits for the next page to arrive),
+  // then that frame again with the settings' readback: its image is the converged one. Without residency: render(). framesToConverge counts the frames before the
   // stable one; `frames` holds each frame's residency figures (the last one's too).
+  // `readEveryFrame`: every frame is read back as the settings ask and its sRGB image kept (the
+  // progressive start: what a viewer would have shown while the pages streamed in).
   struct Converged {
     ClusterRenderOutput output;
     uint32_t framesToConverge = 0;
     bool converged = false; // false: maxFrames ran out
     std::vector<ResidencyStats> frames;
+    std::vector<std::chrono::steady_clock::time_point> frameEnds; // each frame's end (collected)
+    std::vector<ImageRGBA8> frameImages;                          // readEveryFrame: each frame's image
   };
-  Result<Converged> renderConverged(const ClusterRenderSettings& settings, uint32_t maxFrames = 256);
+  Result<Converged> renderConverged(const ClusterRenderSettings& settings, uint32_t maxFrames = 256,
+                                    bool readEveryFrame = false);
   bool hasResidency() const;
 
   // Frames in flight. record() writes `slot`'s frame data and records the whole frame into the

@@ -4,12 +4,14 @@
 //   PVS cell (re-uploads the cell's cluster PVS when the eye changes cell) -> cluster LOD near ->
 //   surfels far -> transparency -> resolve.
 // Headless: the CLI writes its frames to files, the viewer presents them.
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "mirage/asset/source.h"
 #include "mirage/core/image.h"
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
@@ -40,6 +42,9 @@ struct SceneOptions {
   // Cluster LOD of a paged .mrg (mirage build --paged): GPU residency within this many bytes of
   // page geometry (docs/render.md, "Residency"); 0: every DAG uploaded whole.
   uint64_t gpuBudget = 0;
+  // Cluster LOD: how the .mrg (file or URL) is read; `bandwidthBitsPerSecond` simulates a link
+  // (`--bandwidth`), for the whole load or, with a budget, the on-demand pages too.
+  asset::SourceOptions source;
 };
 
 // What open() chose from the input's contents.
@@ -60,6 +65,9 @@ struct View {
   RenderConfig config;
   bool readImage = true;   // false: no readback (benchmarks; the GPU stays busy)
   bool readLinear = false; // also the linear float image (EXR, metrics)
+  // GPU residency with readImage: every frame until convergence read back and kept
+  // (Frame::Residency::images; ClusterRenderer::renderConverged's readEveryFrame).
+  bool readEveryFrame = false;
   // Stereo (cluster LOD, mixed and surfel scenes): the eyes are render::stereoEyes(camera, ipd),
   // one shared selection (clusters and surfel prefixes), the image (2 * width) x height with the
   // left eye left (docs/render.md, "Stereo").
@@ -101,6 +109,8 @@ struct Frame {
     uint32_t framesToConverge = 0;
     bool converged = false;
     std::vector<render::ResidencyStats> frames;
+    std::vector<std::chrono::steady_clock::time_point> frameEnds; // each frame's end
+    std::vector<ImageRGBA8> images;                               // View::readEveryFrame: each frame's image
   };
   std::optional<Residency> residency;
 };

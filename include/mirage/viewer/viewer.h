@@ -22,6 +22,7 @@ struct ViewerOptions {
   bool surfels = false;           // .mrg: per-mesh surfels far away
   std::string materials;          // material file (TOML) applied to the scene (docs/shading.md)
   uint64_t gpuBudget = 0;         // paged .mrg: GPU residency budget in bytes (runtime::SceneOptions::gpuBudget)
+  uint64_t bandwidth = 0;         // .mrg file or URL: receive limit in bits per second (0: none)
   std::string path;               // camera path (cameras.json or orbit:N): replayed, one camera per frame
   std::string screenshot;         // with --path: OUT.png -> OUT_0000.png ... (the image without overlay)
   bool exitAfterPath = false;     // close after the path (needs --path)
