@@ -45,24 +45,12 @@ public:
       n -= size_t(r);
       offset += uint64_t(r);
     }
-    pace();
     return {};
   }
 
 private:
-  // With a rate limit: returns once the bytes read since open fit the rate, so the file arrives as
-  // over a link of that speed (on average; a read is not split).
-  void pace() const {
-    if (bitsPerSecond_ == 0) return;
-    double due = double(bytes_.load(std::memory_order_relaxed)) * 8.0 / double(bitsPerSecond_);
-    std::this_thread::sleep_until(
-        opened_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(due)));
-  }
-
   int fd_;
   uint64_t size_;
-  uint64_t bitsPerSecond_;
-  std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
   mutable std::atomic<uint64_t> requests_{0}, bytes_{0};
 };
 
