@@ -6,7 +6,6 @@
 
 #include <chrono>
 #include <filesystem>
-#include <fstream>
 
 #include "lod_meshes.h"
 #include "mirage/lod/lod_asset.h"
@@ -124,15 +123,7 @@ TEST(LodPageStream, DamagedPageIsOneLine) {
     const asset::BlockInfo& b = mesh.blocks.blocks[page];
     at = paged->reader->chunks()[mesh.chunk].offset + b.offset + b.storedBytes / 2;
   }
-  {
-    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
-    f.seekg(std::streamoff(at));
-    char c = 0;
-    f.read(&c, 1);
-    c = char(c ^ 0x10);
-    f.seekp(std::streamoff(at));
-    f.write(&c, 1);
-  }
+  test::flipByte(path, at);
   auto paged = lod::openPagedLodAsset(path.string());
   ASSERT_TRUE(paged.ok()) << "the indices and root pages are intact: " << paged.error().message;
   lod::PageStream stream(*paged->reader, paged->meshes);

@@ -6,7 +6,6 @@
 
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 
 #include "lod_meshes.h"
 #include "mirage/asset/container.h"
@@ -52,16 +51,6 @@ PagedFile writePaged(const std::string& name) {
   Status s = lod::saveLodAsset(f.path.string(), f.asset, pagedOptions());
   EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message);
   return f;
-}
-
-void flipByte(const std::filesystem::path& path, uint64_t at) {
-  std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
-  f.seekg(std::streamoff(at));
-  char c = 0;
-  f.read(&c, 1);
-  c = char(c ^ 0x10);
-  f.seekp(std::streamoff(at));
-  f.write(&c, 1);
 }
 
 bool mentions(const std::string& message, const std::string& what) { return message.find(what) != std::string::npos; }
@@ -143,7 +132,7 @@ TEST(LodPagedAsset, FlippedPageByteIsRejected) {
   }
   uint32_t page = uint32_t(mesh.table.pages.size() / 2);
   const asset::BlockInfo& b = mesh.blocks.blocks[page];
-  flipByte(f.path, chunkOffset + b.offset + b.storedBytes / 2);
+  test::flipByte(f.path, chunkOffset + b.offset + b.storedBytes / 2);
   auto reader = asset::AssetReader::open(file);
   ASSERT_TRUE(reader.ok()) << "the container's structure is intact: " << reader.error().message;
   auto meshes = lod::openPagedMeshes(*reader);
@@ -177,7 +166,7 @@ TEST(LodPagedAsset, DamagedIndexAndTruncatedFileAreRejected) {
   }
   auto damaged = f.path.parent_path() / "index.mrg";
   std::filesystem::copy_file(f.path, damaged);
-  flipByte(damaged, indexAt + indexBytes - 3); // inside the page table
+  test::flipByte(damaged, indexAt + indexBytes - 3); // inside the page table
   auto reader = asset::AssetReader::open(damaged.string());
   ASSERT_TRUE(reader.ok());
   auto meshes = lod::openPagedMeshes(*reader);

@@ -1,6 +1,7 @@
 #include "test_support.h"
 
 #include <cstdlib>
+#include <fstream>
 #include <unistd.h>
 #include <system_error>
 
@@ -32,6 +33,16 @@ std::filesystem::path tempDir(const std::string& name) {
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p;
+}
+
+void flipByte(const std::filesystem::path& path, uint64_t at) {
+  std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+  f.seekg(std::streamoff(at));
+  char c = 0;
+  f.read(&c, 1);
+  c = char(c ^ 0x10);
+  f.seekp(std::streamoff(at));
+  f.write(&c, 1);
 }
 
 ImageRGBA8 stereoHalf(const ImageRGBA8& sideBySide, uint32_t eye) {

@@ -16,6 +16,8 @@ std::filesystem::path sharedFile(const std::string& relative);
 std::string mirageBinary();
 // A fresh, empty temporary directory for this test, removed at process exit.
 std::filesystem::path tempDir(const std::string& name);
+// Flips bit 4 of the byte at `at` in the file, in place (damaged-file tests).
+void flipByte(const std::filesystem::path& path, uint64_t at);
 // One eye's half (0 left, 1 right) of a side-by-side stereo image.
 ImageRGBA8 stereoHalf(const ImageRGBA8& sideBySide, uint32_t eye);
 
