@@ -121,7 +121,7 @@ Result<std::unique_ptr<ByteSource>> openByteSource(const std::string& pathOrUrl,
 
 Result<uint64_t> parseBandwidth(std::string_view text) {
   auto bad = [&] {
-    return Error{"bandwidth '" + std::string(text) + "': expected a rate like 500kbit, 20Mbit or 1Gbit"};
+    return Error{"bandwidth " + quoteInput(text) + ": expected a rate like 500kbit, 20Mbit or 1Gbit"};
   };
   std::string s(text);
   char* end = nullptr;
