@@ -4,6 +4,8 @@
 // dispatch (y: instances up to 65535, x: the widest range), so the cluster pass skips off-screen
 // instances and levels far from the cut.
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #include "cluster_common.glsl"
 #include "cluster_traversal.glsl"
 #include "mirage/shaderio/lod_error.h"
@@ -95,12 +97,21 @@ void main() {
     VisibleInstanceRef(f.lateInstanceAddress).entries[late] = entry;
     return;
   }
-  uint slot = atomicAdd(counters.counters.visibleInstances, 1);
-  atomicAdd(counters.counters.earlyInstances, 1);
-  // Selection workgroup rows: one per visible instance up to the dispatch limit; past it, each row
-  // loops over several instances (cluster_select.comp).
-  if (slot < MIRAGE_CLUSTER_DISPATCH_X) atomicAdd(counters.counters.selectArgs[1], 1);
-  atomicMax(counters.counters.selectArgs[0], groups);
+  // One lane per subgroup appends for all of its lanes here (a slot each, in lane order) and
+  // counts them: the counters share a cache line, and per-lane atomics on it serialize.
+  uvec4 lanes = subgroupBallot(true);
+  uint n = subgroupBallotBitCount(lanes), base = 0;
+  uint widest = subgroupMax(groups);
+  if (subgroupElect()) {
+    base = atomicAdd(counters.counters.visibleInstances, n);
+    atomicAdd(counters.counters.earlyInstances, n);
+    // Selection workgroup rows: one per visible instance up to the dispatch limit; past it, each
+    // row loops over several instances (cluster_select.comp).
+    if (base < MIRAGE_CLUSTER_DISPATCH_X)
+      atomicAdd(counters.counters.selectArgs[1], min(n, MIRAGE_CLUSTER_DISPATCH_X - base));
+    atomicMax(counters.counters.selectArgs[0], widest);
+  }
+  uint slot = subgroupBroadcastFirst(base) + subgroupBallotExclusiveBitCount(lanes);
   VisibleInstanceRef(push.visibleInstanceAddress).entries[slot] = entry;
   // Hierarchical selection: the traversal starts at this instance's level roots.
   if ((f.flags & MIRAGE_FRAME_HIERARCHY) != 0) queueLevelRoots(0, slot, entry.levels);

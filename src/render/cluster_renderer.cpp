@@ -153,27 +153,44 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     retired.retire(std::move(pvsStaging), 1u << currentSlot);
     pvsStaging = {};
   }
+  // The counters are zeroed before the opening barrier, which then also orders the clear before
+  // their users: one barrier less on the frame's chain of dependent steps (H100: each costs a few
+  // us). The last frame's readback copy of them is ordered before the clear by finishFrame's final
+  // barrier (transfer stages in its second scope).
+  vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                    VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
-  vkCmdFillBuffer(cmd, counters.handle(), 0, VK_WHOLE_SIZE, 0);
-  if (residency) cmdResidencyUpload(cmd); // this frame's pages, a cleared feedback
-  if (hierarchy) vkCmdFillBuffer(cmd, traversal.handle(), 0, VK_WHOLE_SIZE, 0);
-  if (oitHeads) vkCmdFillBuffer(cmd, oitHeads.handle(), 0, VK_WHOLE_SIZE, 0); // empty lists
+  // The other clears and uploads wait for the last frame's readers of their buffers (the opening
+  // barrier); the phase barrier after them runs only if there are any.
+  bool cleared = false;
+  auto clear = [&](const Buffer& b) {
+    vkCmdFillBuffer(cmd, b.handle(), 0, VK_WHOLE_SIZE, 0);
+    cleared = true;
+  };
+  if (residency) { // this frame's pages, a cleared feedback
+    cmdResidencyUpload(cmd);
+    cleared = true;
+  }
+  if (hierarchy) clear(traversal);
+  if (oitHeads) clear(oitHeads); // empty lists
   if (plan.packed) {
     oitNodesUnzeroed = true;                 // its keys stay in the pool
   } else if (oitNodes && oitNodesUnzeroed) { // lists: afterwards the composite leaves the pool zero
-    vkCmdFillBuffer(cmd, oitNodes.handle(), 0, VK_WHOLE_SIZE, 0);
+    clear(oitNodes);
     oitNodesUnzeroed = false;
   }
-  if (plan.particles) cs.particles->cmdPrepare(cmd);                              // their draw arguments (live counts)
-  if (plan.splat) vkCmdFillBuffer(cmd, splatAccum.handle(), 0, VK_WHOLE_SIZE, 0); // the splat's sums
-  if (plan.debugView == DebugView::Overdraw) vkCmdFillBuffer(cmd, overdrawCounts.handle(), 0, VK_WHOLE_SIZE, 0);
+  if (plan.particles) { // their draw arguments (live counts)
+    cs.particles->cmdPrepare(cmd);
+    cleared = true;
+  }
+  if (plan.splat) clear(splatAccum); // the splat's sums
+  if (plan.debugView == DebugView::Overdraw) clear(overdrawCounts);
   if (cs.surfels) { // instances without a cloud keep fade 0: meshes only
-    vkCmdFillBuffer(cmd, fade.handle(), 0, VK_WHOLE_SIZE, 0);
+    clear(fade);
     cs.surfels->stageCmdClear(cmd);
   }
-  cmdPhaseBarrier(cmd, mesh);
+  if (cleared) cmdPhaseBarrier(cmd, mesh);
   if (cs.surfels) { // k and the fade per instance first: the mesh passes read the fade
     cs.surfels->stageCmdPrefix(cmd, timer());
     cmdPhaseBarrier(cmd, mesh);
@@ -183,7 +200,9 @@ void ClusterRenderer::Impl::cmdFrame(VkCommandBuffer cmd, const ClusterRenderSet
     vkCmdFillBuffer(cmd, history.handle(), 0, VK_WHOLE_SIZE, 0);
     cmdPhaseBarrier(cmd, mesh);
   }
-  cmdArgs(cmd, p, /*pass=*/0); // pass-1 raster arguments (everything without occlusion)
+  // Pass-1 raster arguments (everything without occlusion): the flat selection's last workgroup
+  // writes them itself unless occlusion culling runs (cluster_select.comp).
+  if (hierarchy || occlusion) cmdArgs(cmd, p, /*pass=*/0);
   bool blend = plan.transparency && plan.debugView == DebugView::None; // debug views: opaque surfaces only
   bool lists = blend || plan.particles;                                // the transparency lists composited
   if (plan.stereo) { // both eyes side by side, each pass once (docs/render.md, "Stereo")
@@ -238,8 +257,10 @@ void ClusterRenderer::Impl::finishFrame(VkCommandBuffer cmd, const ClusterFrameP
     vkCmdCopyBuffer(cmd, traversal.handle(), readbacks[currentSlot].handle(), 1, &traversalRegion);
   }
   if (residency) cmdResidencyFeedback(cmd);
+  // The host reads the copies; the next frame's counter clear (before its opening barrier) waits
+  // for the copy that reads them.
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                   VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+                   VK_PIPELINE_STAGE_2_HOST_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_HOST_READ_BIT);
   recorded[currentSlot] = true;
 }
 

@@ -359,6 +359,7 @@ struct ClusterCounters {
   uint64_t blendQueueCounts;
   uint blendQueueArgs[3];
   uint blendQueueOverflow;
+  uint selectDone; // flat selection without occlusion: workgroups done (the last writes pass 1's arguments)
 };
 
 // Push constants of every cluster pipeline: addresses of all the arrays (<= 128 bytes).
@@ -404,7 +405,7 @@ static_assert(sizeof(BlendQueueTriangle) == 48, "BlendQueueTriangle layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 132 + 24, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 132 + 28 + 4 /* tail padding */, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, blendQueueCounts) % 8 == 0, "64-bit atomic alignment");
 static_assert(offsetof(ClusterCounters, blendQueueArgs) % 4 == 0, "indirect argument offsets");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,
