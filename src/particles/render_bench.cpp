@@ -69,7 +69,10 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
                        offsetof(sio::ParticleCounters, live), scaled.systems[i].maxParticles, i});
   (*draw)->setBatches(std::move(batches));
 
-  if (!o.splat) (void)(*draw)->setSettings({0.0f}); // billboards only (a valid setting)
+  render::ParticleDrawSettings drawSettings;
+  drawSettings.splatMethod = o.splatMethod;
+  if (!o.splat) drawSettings.splatBelowPixels = 0.0f; // billboards only
+  if (Status s = (*draw)->setSettings(drawSettings); !s) return s.error();
   render::Camera camera = fixedCamera ? *fixedCamera : render::autoCamera(extent, float(o.width) / float(o.height));
   render::ForwardRenderSettings fs;
   fs.base.width = o.width;
@@ -117,6 +120,7 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   r.totalMs = median(total);
   r.billboards =
       (*draw)->splats(o.oit) ? (*draw)->readBillboardCount() : uint32_t(std::min<uint64_t>(r.live, UINT32_MAX));
+  r.splatBinned = (*draw)->splats(o.oit) && (*draw)->splatsBinned();
   return r;
 }
 

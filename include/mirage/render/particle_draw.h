@@ -46,6 +46,11 @@ struct ParticleBatch {
 // them (shaderBufferFloat32AtomicAdd), else 64-bit fixed point (shaderBufferInt64Atomics).
 enum class SplatAtomics { Auto, Float, Fixed };
 
+// How the splat gathers each pixel's sums (docs/particles.md, "Splat"): binned by screen tiles
+// (per tile, shared-memory sums written once; needs shaderSharedFloat32AtomicAdd), or every
+// covered pixel's sums added by global atomics per particle. Auto: binned where the device can.
+enum class SplatMethod { Auto, Binned, Atomic };
+
 // Particles whose billboard would be narrower than this many pixels are splatted by default: their
 // footprint then touches at most 3 x 3 pixels (a splat thread's whole work).
 inline constexpr float kDefaultSplatPixels = 2.0f;
@@ -56,6 +61,11 @@ struct ParticleDrawSettings {
   // billboard. At most MIRAGE_SPLAT_MAX_PIXELS. The sorted mode never splats.
   float splatBelowPixels = kDefaultSplatPixels;
   SplatAtomics atomics = SplatAtomics::Auto;
+  SplatMethod splatMethod = SplatMethod::Auto;
+  // Binned: entries (a splat's footprint on one tile of one eye) the tile lists hold; those past it
+  // are added by global atomics, so the image does not depend on it. 0: MIRAGE_SPLAT_ENTRIES_PER_RECORD
+  // per record slot and eye (32 bytes each).
+  uint32_t splatEntryRoom = 0;
 };
 
 // Where a frame's splat writes, given by the renderer recording it.
@@ -117,6 +127,8 @@ public:
   void cmdSplatResolve(VkCommandBuffer cmd, const ParticleSplatTarget& target);
   // Benchmarks and tests: particles the last splat pass left to billboards (blocking readback).
   uint32_t readBillboardCount();
+  // Whether frames splat binned by screen tiles (settings and device; splats() aside).
+  bool splatsBinned() const;
 
   // Sorted mode (OitMode::Sorted): after cmdPrepare, outside rendering, every live record of every
   // batch sorted on the GPU back to front by its centre's view z under `view`, then split into
