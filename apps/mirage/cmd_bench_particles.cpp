@@ -31,6 +31,7 @@ struct BenchParticlesOptions {
   std::string camera;               // --render: empty frames the effect
   bool noSplat = false;             // --render: every particle a billboard
   std::string splatMethod = "auto"; // --render: binned, atomic or auto (binned where the device can)
+  bool separateOutput = false;      // --render: the render records by their own pass after the step
 };
 
 // --render: simulation + billboards over a ground, GPU times per frame.
@@ -44,6 +45,7 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
   ro.oit = *oit;
   ro.camera = o.camera;
   ro.splat = !o.noSplat;
+  ro.fusedOutput = !o.separateOutput;
   ro.splatMethod = o.splatMethod == "binned"   ? render::SplatMethod::Binned
                    : o.splatMethod == "atomic" ? render::SplatMethod::Atomic
                                                : render::SplatMethod::Auto;
@@ -71,6 +73,7 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
                         {"splat_method", !ro.splat        ? "none"
                                          : r->splatBinned ? "binned"
                                                           : "atomic"},
+                        {"fused_output", ro.fusedOutput},
                         {"splat_ms", r->splatMs},
                         {"splat_resolve_ms", r->splatResolveMs},
                         {"billboards", r->billboards},
@@ -169,6 +172,8 @@ void addBenchParticlesCommand(CLI::App& bench) {
                 "--render: the splat's sums binned by screen tiles (shared memory) or by global atomics per pixel")
       ->check(CLI::IsMember({"auto", "binned", "atomic"}))
       ->capture_default_str();
+  b->add_flag("--separate-output", o->separateOutput,
+              "--render: write the render records by a pass of their own after the step (not by the step itself)");
   b->callback([o] { runBenchParticles(*o); });
 }
 

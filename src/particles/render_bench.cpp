@@ -89,8 +89,12 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
     context.submitAndWait([&](VkCommandBuffer cmd) {
       timer.cmdReset(cmd);
       uint32_t slot = timer.cmdBegin(cmd, "simulate");
-      sim.cmdStep(cmd);
-      sim.cmdWriteRender(cmd);
+      if (o.fusedOutput) {
+        sim.cmdStep(cmd, /*writeRender=*/true);
+      } else {
+        sim.cmdStep(cmd);
+        sim.cmdWriteRender(cmd);
+      }
       timer.cmdEnd(cmd, slot);
       recorded = (*renderer)->record(cmd, fs, 0); // its first barrier orders the records before the draw
     });

@@ -110,7 +110,8 @@ struct RenderBenchOptions {
   uint32_t oitNodesPerPixel = 8;
   bool splat = true;                                           // false: every particle a billboard
   render::SplatMethod splatMethod = render::SplatMethod::Auto; // binned by screen tiles, or global atomics
-  std::string camera;                                          // render::parseCamera; empty: frame the unscaled effect
+  bool fusedOutput = true; // the step writes the render records (false: a separate output pass after it)
+  std::string camera;      // render::parseCamera; empty: frame the unscaled effect
 };
 struct RenderBenchResult {
   uint64_t live = 0, fillSteps = 0;
