@@ -142,18 +142,22 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
 
   const bool binned = useBins(d.settings, d.ctx.caps());
   if (binned) {
-    // The bins: per tile of either eye a count, a first entry and a first chunk, and the header.
+    // The bins: per tile of either eye a count, a first entry and a first chunk, and the header;
+    // made for at least two eyes of 4096 x 4096 (1.6 MB), so that no usual resize replaces them
+    // under a frame in flight.
     uint64_t tiles = uint64_t(t.eyes) * tilesAcross(t.eyeWidth) * tilesAcross(t.height);
     uint64_t binBytes = (MIRAGE_SPLAT_BIN_HEADER + 3 * tiles + 2) * 4;
+    uint64_t minTiles = 2 * uint64_t(tilesAcross(4096)) * tilesAcross(4096);
     if (!d.bins || d.bins.size() < binBytes)
-      d.bins = createBuffer(d.ctx, binBytes,
+      d.bins = createBuffer(d.ctx, std::max(binBytes, (MIRAGE_SPLAT_BIN_HEADER + 3 * minTiles + 2) * 4),
                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                             MemoryUsage::GpuOnly, "particle splat bins");
-    // The entries: the setting's room, or a default per record slot and eye, within one buffer's range.
+    // The entries: the setting's room, or a default per record slot (either eye count: grown only
+    // with the records, which grow with no frame in flight), within one buffer's range.
     uint64_t room = d.settings.splatEntryRoom
                         ? d.settings.splatEntryRoom
-                        : uint64_t(std::max(d.totalRecords, 1u)) * t.eyes * MIRAGE_SPLAT_ENTRIES_PER_RECORD;
+                        : uint64_t(std::max(d.totalRecords, 1u)) * MIRAGE_SPLAT_ENTRIES_PER_RECORD;
     room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / sizeof(sio::ParticleSplatEntry), UINT32_MAX});
     if (!d.entries || d.entries.size() < room * sizeof(sio::ParticleSplatEntry))
       d.entries = createBuffer(d.ctx, room * sizeof(sio::ParticleSplatEntry), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,

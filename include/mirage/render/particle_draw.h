@@ -64,7 +64,7 @@ struct ParticleDrawSettings {
   SplatMethod splatMethod = SplatMethod::Auto;
   // Binned: entries (a splat's footprint on one tile of one eye) the tile lists hold; those past it
   // are added by global atomics, so the image does not depend on it. 0: MIRAGE_SPLAT_ENTRIES_PER_RECORD
-  // per record slot and eye (32 bytes each).
+  // per record slot (32 bytes each). A larger room: with no frame in flight.
   uint32_t splatEntryRoom = 0;
 };
 

@@ -86,9 +86,10 @@ struct ParticleSortPush {
 // Entries per tile-pass workgroup: a hot tile's list is split over this many workgroups, each
 // adding its sums to the tile's pixels (a tile of one chunk stores them).
 #define MIRAGE_SPLAT_CHUNK 2048
-// Default entry room per record slot and eye (ParticleDrawSettings::splatEntryRoom): a footprint
-// of at most 2 px overlaps 1.27 tiles of 16 px on average (4 at most); entries past the room are
-// splatted directly with the global atomics, so the image does not depend on it.
+// Default entry room per record slot (ParticleDrawSettings::splatEntryRoom): a footprint of at
+// most 2 px overlaps 1.27 tiles of 16 px on average (4 at most), per eye; entries past the room
+// (some of a stereo frame's) are splatted directly with the global atomics, so the image does not
+// depend on it.
 #define MIRAGE_SPLAT_ENTRIES_PER_RECORD 2
 // The bins buffer: uint[MIRAGE_SPLAT_BIN_HEADER + 3 tiles + 2]: the header (the tile pass's
 // VkDispatchIndirectCommand, then its chunks and the entries listed), per tile its count (the
