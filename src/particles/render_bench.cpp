@@ -50,7 +50,10 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   for (uint32_t i = 0; i < memory.memoryHeapCount; ++i)
     if (memory.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
       heap = std::max(heap, memory.memoryHeaps[i].size);
-  if (Status s = checkParticleMemory(o.count, kGpuBytesPerParticle, heap / 2, "device memory"); !s) return s.error();
+  if (Status s =
+          checkParticleMemory(o.count, kGpuBytesPerParticle + render::kSplatBytesPerRecord, heap / 2, "device memory");
+      !s)
+    return s.error();
   EffectFile scaled = scaleEffect(effect, o.count);
   auto sheets = effectSheets(scaled);
   if (!sheets) return sheets.error();

@@ -19,6 +19,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/memory.h"
 #include "mirage/render/oit.h"
+#include "mirage/shaderio/particle_draw.h"
 #include "mirage/shaderio/particles.h"
 
 namespace mirage::render {
@@ -67,6 +68,11 @@ struct ParticleDrawSettings {
   // per record slot (32 bytes each). A larger room: with no frame in flight.
   uint32_t splatEntryRoom = 0;
 };
+
+// Device bytes the splat takes per record slot beyond the renderer's per-pixel sums: the billboard
+// list's index and the binned splat's default entry room.
+inline constexpr uint64_t kSplatBytesPerRecord =
+    4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * sizeof(shaderio::ParticleSplatEntry);
 
 // Where a frame's splat writes, given by the renderer recording it.
 struct ParticleSplatTarget {
