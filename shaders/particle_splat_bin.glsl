@@ -11,9 +11,8 @@
 layout(local_size_x = MIRAGE_PARTICLE_DRAW_GROUP) in;
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SplatBinsRef { uint v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 16) writeonly buffer SplatEntriesRef {
-  ParticleSplatEntry e[];
-};
+// ParticleSplatEntry[] as two 16-byte words each (two 128-bit stores).
+layout(buffer_reference, std430, buffer_reference_align = 16) writeonly buffer SplatEntryWordsRef { uvec4 v[]; };
 
 // atomicAdd(bins[index], 1) for each calling invocation, its previous value returned. Where many
 // invocations of the subgroup hit one counter (a dense cloud on a few tiles), they take one
@@ -54,8 +53,9 @@ void main() {
         if (count) continue;
         uint slot = bins.v[MIRAGE_SPLAT_BIN_HEADER + tiles + tile] + at;
         if (slot < push.entryRoom) {
-          SplatEntriesRef(push.entryAddress).e[slot] = ParticleSplatEntry(
-              f.lo.x, f.lo.y, f.hi.x, f.hi.y, f.depth, f.weight, packUnorm2x16(c.rg), packUnorm2x16(c.ba));
+          SplatEntryWordsRef w = SplatEntryWordsRef(push.entryAddress);
+          w.v[2u * slot] = floatBitsToUint(vec4(f.lo, f.hi));
+          w.v[2u * slot + 1u] = uvec4(floatBitsToUint(vec2(f.depth, f.weight)), packUnorm2x16(c.rg), packUnorm2x16(c.ba));
         } else { // past the room: this tile's pixels of the footprint, directly
           ivec2 origin = ivec2(tx, ty) * MIRAGE_SPLAT_TILE;
           splatDirect(e, f, c, max(f.first, origin), min(f.last, origin + MIRAGE_SPLAT_TILE - 1));

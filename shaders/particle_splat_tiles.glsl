@@ -11,9 +11,8 @@
 layout(local_size_x = SPLAT_TILE_PIXELS) in;
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatBinsRef { uint v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 16) readonly buffer SplatEntriesRef {
-  ParticleSplatEntry e[];
-};
+// ParticleSplatEntry[] as two 16-byte words each (two 128-bit loads).
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer SplatEntryWordsRef { uvec4 v[]; };
 
 shared float sums[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS]; // pixel-major
 shared float depths[SPLAT_TILE_PIXELS];
@@ -49,20 +48,22 @@ void main() {
   for (uint c = 0u; c < MIRAGE_SPLAT_CHANNELS; ++c) sums[i * MIRAGE_SPLAT_CHANNELS + c] = 0.0;
   barrier();
 
-  SplatEntriesRef entries = SplatEntriesRef(push.entryAddress);
+  SplatEntryWordsRef entries = SplatEntryWordsRef(push.entryAddress);
   for (uint k = begin + i; k < end; k += SPLAT_TILE_PIXELS) {
-    ParticleSplatEntry s = entries.e[k];
-    vec2 flo = vec2(s.loX, s.loY), fhi = vec2(s.hiX, s.hiY);
-    vec4 color = vec4(unpackUnorm2x16(s.colorRG), unpackUnorm2x16(s.colorBA));
+    vec4 footprint = uintBitsToFloat(entries.v[2u * k]);
+    uvec4 rest = entries.v[2u * k + 1u];
+    vec2 flo = footprint.xy, fhi = footprint.zw;
+    float depth = uintBitsToFloat(rest.x), weight = uintBitsToFloat(rest.y);
+    vec4 color = vec4(unpackUnorm2x16(rest.z), unpackUnorm2x16(rest.w));
     ivec2 first = max(ivec2(floor(flo)), origin), to = min(ivec2(ceil(fhi)) - 1, last);
     for (int y = first.y; y <= to.y; ++y)
       for (int x = first.x; x <= to.x; ++x) {
         float a = splatCoverage(flo, fhi, color.a, x, y);
         if (!(a > 0.0)) continue;
         uint p = uint(y - origin.y) * MIRAGE_SPLAT_TILE + uint(x - origin.x);
-        if (s.depth <= depths[p]) continue; // behind the opaque surface
+        if (depth <= depths[p]) continue; // behind the opaque surface
         float logReveal;
-        vec4 add = splatSums(color.rgb, a, s.weight, logReveal);
+        vec4 add = splatSums(color.rgb, a, weight, logReveal);
         uint base = p * MIRAGE_SPLAT_CHANNELS;
         atomicAdd(sums[base + 0u], add.x);
         atomicAdd(sums[base + 1u], add.y);

@@ -207,9 +207,9 @@ TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
 // pixel: the same image up to float summation order (>= 50 dB, 8-bit sRGB), for float and
 // fixed-point sums, on a cloud with a hot pixel (4000 particles on one spot at the image centre,
 // a corner of four 16-pixel tiles, so each of those tiles lists more than one chunk of entries),
-// another on one pixel inside a tile, and particles straddling tile borders; with the default
-// entry room and with a room of 300 entries (the rest added directly by global atomics). Every
-// particle is splatted, the hot spot shows, and stereo halves match as in mono.
+// another on one pixel inside a tile, and particles straddling tile borders; with a room that lists
+// every entry, the default room and a room of 300 entries (the rest added directly by global
+// atomics), in mono and stereo. Every particle is splatted and the hot spot shows.
 TEST_F(ParticleSplat, BinnedEqualsAtomicSplat) {
   if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
   if (!context().caps().floatSharedAtomicAdd) GTEST_SKIP() << "no shared float atomic adds";
@@ -251,7 +251,7 @@ TEST_F(ParticleSplat, BinnedEqualsAtomicSplat) {
         size_t hot = (64 * kSize + 64) * 4;
         EXPECT_GT(std::abs(int(atomic.srgb.pixels[hot]) - int(bare.srgb.pixels[hot])), 40) << "the hot spot shows";
       }
-      for (uint32_t room : {0u, 300u}) {
+      for (uint32_t room : {100000u, 0u, 300u}) {
         ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics, SplatMethod::Binned, room}).ok());
         EXPECT_TRUE(draw->splatsBinned());
         RenderOutput binned = render(context(), scene, s);

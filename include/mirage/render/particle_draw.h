@@ -36,7 +36,7 @@ struct ParticleSheet {
 // One draw's records on the GPU: `count` of them, or, with countBuffer, as many as the uint at
 // countBuffer + countOffset holds when the frame runs (at most `capacity`, the records' room).
 struct ParticleBatch {
-  VkDeviceAddress records = 0; // shaderio::RenderParticle[]
+  VkDeviceAddress records = 0; // shaderio::RenderParticle[], 16-byte aligned
   VkBuffer countBuffer = VK_NULL_HANDLE;
   VkDeviceSize countOffset = 0;
   uint32_t count = 0;
