@@ -46,7 +46,14 @@ ParticleSlot particleSlot(uint64_t batchAddress, uint batchCount, uint g) {
 bool particleLive(ParticleSlot s, uint64_t argsAddress) {
   return s.index < min(ParticleDrawArgsRef(argsAddress).args[s.batch].instanceCount, s.info.capacity);
 }
-RenderParticle particleRecord(ParticleSlot s) { return ParticleRecordRef(s.info.records).records[s.index]; }
+// Read as two 16-byte words (the records are 16-byte aligned: ParticleBatch): two 128-bit loads,
+// where the scalar layout's 4-byte alignment makes a load per member.
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer ParticleRecordWordsRef { uvec4 v[]; };
+RenderParticle particleRecord(ParticleSlot s) {
+  ParticleRecordWordsRef w = ParticleRecordWordsRef(s.info.records);
+  uvec4 a = w.v[2u * s.index], b = w.v[2u * s.index + 1u];
+  return RenderParticle(uintBitsToFloat(a.xyz), uintBitsToFloat(a.w), uintBitsToFloat(b.x), b.y, b.z, b.w);
+}
 
 // The eye's camera: the first member of the forward renderer's FrameData and of ClusterFrame.
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ParticleViewRef { ViewFrame camera; };

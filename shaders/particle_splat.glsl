@@ -1,14 +1,18 @@
-// The particle splat (docs/particles.md, "Splat"; src/render/particle_splat.cpp): one thread per
-// record slot of every batch. A live particle whose billboard would be under push.belowPixels wide
-// (eye 0; every eye sees the same view depth) is splatted: its square footprint (edge = that width,
-// centred on the projected centre, rotation ignored) covers each pixel by the overlap area, and the
-// pixel accumulates the particle's colour with alpha = particle alpha x overlap, weighted as the
+// The particle splat (docs/particles.md, "Splat"; src/render/particle_splat.cpp), what its passes
+// share. A live particle whose billboard would be under push.belowPixels wide (eye 0; every eye
+// sees the same view depth) is splatted: its square footprint (edge = that width, centred on the
+// projected centre, rotation ignored) covers each pixel by the overlap area, and the pixel
+// accumulates the particle's colour with alpha = particle alpha x overlap, weighted as the
 // weighted blended transparency weights a fragment (oit_weighted.glsl), where the particle lies in
 // front of the opaque depth. The colour is the sheet tile's average (its mip level of one texel per
 // tile) through the billboards' colour rule. Coverage is conserved: the overlaps sum to the
 // footprint's area, as the billboards' grown sub-pixel squares keep theirs. Larger particles are
-// appended to the billboards' list. The includer defines splatAdd(index, value) (float or fixed
-// point atomics).
+// appended to the billboards' list. The passes: particle_splat_atomic.glsl (every pixel's sums by
+// global atomics), or binned by screen tiles (particle_splat_bin.glsl, particle_splat_scan.comp,
+// particle_splat_tiles.glsl). The sums file included first (particle_splat_sums_*.glsl) defines
+// splatAdd and splatStore on the accumulators (float or fixed point).
+#ifndef MIRAGE_PARTICLE_SPLAT_GLSL
+#define MIRAGE_PARTICLE_SPLAT_GLSL
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -25,9 +29,8 @@ layout(push_constant, scalar) uniform Push { ParticleSplatPush push; };
 layout(set = 0, binding = 0) uniform sampler2D sheets[];
 layout(set = 1, binding = 0) uniform sampler2D opaqueDepth; // D32, reverse-Z, the whole side-by-side target
 
-layout(local_size_x = MIRAGE_PARTICLE_DRAW_GROUP) in;
-
-void splatAdd(uint index, float value);
+void splatAdd(uint index, float value);   // accumulator `index` += value (atomic)
+void splatStore(uint index, float value); // accumulator `index` = value (its only writer)
 
 // The sheet tile's average texel: the level where the tile is one texel (the sheets are box-filtered
 // mip chains of whole tiles), sampled at the tile's centre.
@@ -39,59 +42,101 @@ vec4 tileAverage(ParticleBatchInfo b, uint frame) {
   return textureLod(sheets[nonuniformEXT(b.sheet)], (tile + 0.5) / vec2(tiles), level);
 }
 
-// One eye's footprint: each covered pixel in front of the opaque surface accumulates c (straight
-// alpha) with its overlap as alpha share.
-// (The camera's members are read one by one: a whole ViewFrame per thread would be 368 bytes.)
-void splatEye(uint eye, vec3 position, float size, vec4 c) {
-  ParticleViewRef view = ParticleViewRef(push.frameAddress[eye]);
-  vec4 clip = view.camera.viewProj * vec4(position, 1.0);
-  if (clip.w <= 0.0) return;
-  vec3 ndc = clip.xyz / clip.w;
-  if (ndc.z <= 0.0 || ndc.z > 1.0) return; // beyond the far plane or before the near one
-  vec2 centre = (ndc.xy * 0.5 + 0.5) * vec2(push.eyeWidth, push.height);
-  // The projection's w is the view distance -z (clip.w), as the billboard's centre.z.
-  float half_ = 0.5 * particlePixels(view, size, -clip.w);
-  vec2 lo = centre - half_, hi = centre + half_;
-  ivec2 first = max(ivec2(floor(lo)), ivec2(0));
-  ivec2 last = min(ivec2(ceil(hi)) - 1, ivec2(push.eyeWidth, push.height) - 1);
-  uint row = push.eyes * push.eyeWidth;
-  for (int y = first.y; y <= last.y; ++y) {
-    float oy = min(hi.y, float(y + 1)) - max(lo.y, float(y));
-    for (int x = first.x; x <= last.x; ++x) {
-      float ox = min(hi.x, float(x + 1)) - max(lo.x, float(x));
-      float a = c.a * ox * oy;
-      if (!(a > 0.0)) continue;
-      uint px = uint(x) + eye * push.eyeWidth;
-      if (ndc.z <= texelFetch(opaqueDepth, ivec2(px, y), 0).r) continue; // behind (reverse-Z: GREATER passes)
-      vec4 accum, reveal;
-      oitWeighted(vec4(c.rgb, a), clip.w, accum, reveal); // the view distance, as 1 / gl_FragCoord.w
-      uint base = (uint(y) * row + px) * MIRAGE_SPLAT_CHANNELS;
-      splatAdd(base + 0u, accum.r);
-      splatAdd(base + 1u, accum.g);
-      splatAdd(base + 2u, accum.b);
-      splatAdd(base + 3u, reveal.r);
-      splatAdd(base + 4u, -log(1.0 - min(a, MIRAGE_SPLAT_MAX_ALPHA)));
-    }
-  }
-}
-
-void main() {
-  uint g = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * MIRAGE_PARTICLE_DRAW_GROUP +
-           gl_LocalInvocationID.x;
-  if (g >= push.total) return;
+// Global record g as the splat sees it: nothing (an empty slot, or no coverage), a billboard
+// (appended to the billboards' list when `list`), or a splat of position, size and colour c
+// (straight alpha).
+#define SPLAT_NONE 0u
+#define SPLAT_BILLBOARD 1u
+#define SPLAT_SPLAT 2u
+uint splatClassify(uint g, bool list, out vec3 position, out float size, out vec4 c) {
+  position = vec3(0.0), size = 0.0, c = vec4(0.0);
+  if (g >= push.total) return SPLAT_NONE;
   ParticleSlot slot = particleSlot(push.batchAddress, push.batchCount, g);
-  if (!particleLive(slot, push.argsAddress)) return;
+  if (!particleLive(slot, push.argsAddress)) return SPLAT_NONE;
   RenderParticle p = particleRecord(slot);
   ParticleViewRef view = ParticleViewRef(push.frameAddress[0]);
   float z = dot(vec4(view.camera.view[0][2], view.camera.view[1][2], view.camera.view[2][2], view.camera.view[3][2]),
                 vec4(p.position, 1.0)); // the view-space z alone
   if (!(z < 0.0 && particlePixels(view, p.size, z) < push.belowPixels)) {
     // A billboard: large, or at or behind the eye plane (the billboard's clipping decides).
-    uint n = atomicAdd(ParticleDrawArgsRef(push.largeArgsAddress).args[0].instanceCount, 1u);
-    ParticleIndexRef(push.largeAddress).indices[n] = g;
-    return;
+    if (list) {
+      uint n = atomicAdd(ParticleDrawArgsRef(push.largeArgsAddress).args[0].instanceCount, 1u);
+      ParticleIndexRef(push.largeAddress).indices[n] = g;
+    }
+    return SPLAT_BILLBOARD;
   }
-  vec4 c = particleShade(unpackUnorm4x8(p.color), tileAverage(slot.info, p.frame), slot.info.flags);
-  if (!(c.a > 0.0)) return;
-  for (uint e = 0; e < push.eyes; ++e) splatEye(e, p.position, p.size, c);
+  c = particleShade(unpackUnorm4x8(p.color), tileAverage(slot.info, p.frame), slot.info.flags);
+  position = p.position, size = p.size;
+  return c.a > 0.0 ? SPLAT_SPLAT : SPLAT_NONE;
 }
+
+// A splat as one eye sees it: its footprint lo..hi in the eye's pixels, its NDC depth, the weight
+// factor of its view distance, and the pixels it may touch (first..last, inside the eye).
+struct SplatFootprint {
+  vec2 lo, hi;
+  float depth, weight;
+  ivec2 first, last;
+};
+// False where the eye does not see it (behind the eye, before the near or beyond the far plane).
+// (The camera's members are read one by one: a whole ViewFrame per thread would be 368 bytes.)
+bool splatFootprint(uint eye, vec3 position, float size, out SplatFootprint f) {
+  ParticleViewRef view = ParticleViewRef(push.frameAddress[eye]);
+  vec4 clip = view.camera.viewProj * vec4(position, 1.0);
+  f.lo = f.hi = vec2(0.0), f.depth = f.weight = 0.0, f.first = ivec2(0), f.last = ivec2(-1);
+  if (clip.w <= 0.0) return false;
+  vec3 ndc = clip.xyz / clip.w;
+  if (ndc.z <= 0.0 || ndc.z > 1.0) return false; // beyond the far plane or before the near one
+  vec2 centre = (ndc.xy * 0.5 + 0.5) * vec2(push.eyeWidth, push.height);
+  // The projection's w is the view distance -z (clip.w), as the billboard's centre.z.
+  float half_ = 0.5 * particlePixels(view, size, -clip.w);
+  f.lo = centre - half_, f.hi = centre + half_;
+  f.depth = ndc.z;
+  f.weight = oitWeightedFactor(clip.w); // the view distance, as 1 / gl_FragCoord.w
+  f.first = max(ivec2(floor(f.lo)), ivec2(0));
+  f.last = min(ivec2(ceil(f.hi)) - 1, ivec2(push.eyeWidth, push.height) - 1);
+  return true;
+}
+
+// Alpha of pixel (x, y) (eye pixels) under footprint lo..hi of a colour of alpha `alpha`: its
+// share of the pixel's area.
+float splatCoverage(vec2 lo, vec2 hi, float alpha, int x, int y) {
+  float oy = min(hi.y, float(y + 1)) - max(lo.y, float(y));
+  float ox = min(hi.x, float(x + 1)) - max(lo.x, float(x));
+  return alpha * ox * oy;
+}
+// The five sums a pixel takes from colour rgb at alpha a (> 0) and weight factor `weight`:
+// weighted premultiplied colour (xyz), weighted alpha (w), as oitWeighted; and -log(1 - a).
+vec4 splatSums(vec3 rgb, float a, float weight, out float logReveal) {
+  float w = a * weight;
+  logReveal = -log(1.0 - min(a, MIRAGE_SPLAT_MAX_ALPHA));
+  return vec4(rgb * (a * w), a * w);
+}
+// The accumulators' first index of target pixel (px, y) (px over both eyes).
+uint splatBase(uint px, uint y) { return (y * push.eyes * push.eyeWidth + px) * MIRAGE_SPLAT_CHANNELS; }
+
+// Footprint f of eye `eye` added to the accumulators by global atomics, over the pixels of
+// first..last (inside the footprint's own) in front of the opaque depth.
+void splatDirect(uint eye, SplatFootprint f, vec4 c, ivec2 first, ivec2 last) {
+  for (int y = first.y; y <= last.y; ++y)
+    for (int x = first.x; x <= last.x; ++x) {
+      float a = splatCoverage(f.lo, f.hi, c.a, x, y);
+      if (!(a > 0.0)) continue;
+      uint px = uint(x) + eye * push.eyeWidth;
+      if (f.depth <= texelFetch(opaqueDepth, ivec2(px, y), 0).r) continue; // behind (reverse-Z: GREATER passes)
+      float logReveal;
+      vec4 sums = splatSums(c.rgb, a, f.weight, logReveal);
+      uint base = splatBase(px, uint(y));
+      splatAdd(base + 0u, sums.x);
+      splatAdd(base + 1u, sums.y);
+      splatAdd(base + 2u, sums.z);
+      splatAdd(base + 3u, sums.w);
+      splatAdd(base + 4u, logReveal);
+    }
+}
+
+// The invocation's record over a dispatch of rows of workgroups (cmdDispatchRecords).
+uint splatRecordIndex() {
+  return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * MIRAGE_PARTICLE_DRAW_GROUP +
+         gl_LocalInvocationID.x;
+}
+#endif

@@ -1,14 +1,4 @@
 #version 460
-// The particle splat with 64-bit integer atomics, where float atomic adds are missing: each sum in
-// fixed point of MIRAGE_SPLAT_FIXED_BITS fraction bits (particle_splat.glsl). 2^32 units per unit:
-// a weight of 10^-2 x an alpha of 10^-3 still spans some 43 000 units, and 2^31 units of headroom
-// hold a million full-weight layers.
-#extension GL_EXT_shader_atomic_int64 : require
-#include "particle_splat.glsl"
-
-layout(buffer_reference, scalar, buffer_reference_align = 8) buffer SplatFixedRef { uint64_t v[]; };
-
-void splatAdd(uint index, float value) {
-  uint64_t units = uint64_t(value * exp2(float(MIRAGE_SPLAT_FIXED_BITS)) + 0.5);
-  if (units != 0UL) atomicAdd(SplatFixedRef(push.accumAddress).v[index], units);
-}
+// The particle splat by global 64-bit fixed-point atomic adds (particle_splat_atomic.glsl).
+#include "particle_splat_sums_fixed.glsl"
+#include "particle_splat_atomic.glsl"

@@ -1,8 +1,4 @@
 #version 460
-// The particle splat with float atomic adds (shaderBufferFloat32AtomicAdd): particle_splat.glsl.
-#extension GL_EXT_shader_atomic_float : require
-#include "particle_splat.glsl"
-
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SplatFloatRef { float v[]; };
-
-void splatAdd(uint index, float value) { atomicAdd(SplatFloatRef(push.accumAddress).v[index], value); }
+// The particle splat by global float atomic adds (particle_splat_atomic.glsl).
+#include "particle_splat_sums_float.glsl"
+#include "particle_splat_atomic.glsl"

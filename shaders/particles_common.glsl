@@ -9,10 +9,11 @@ layout(local_size_x = MIRAGE_PARTICLE_GROUP) in;
 layout(push_constant, scalar) uniform Push { ParticlePush push; };
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ParamsRef { ParticleParams p; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer ParticlesRef { Particle v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer UintRef { uint v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CountersRef { ParticleCounters c; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer RenderRef { RenderParticle v[]; };
+// Particle[] and RenderParticle[] as 16-byte words (48 and 32 bytes a record): one 128-bit access
+// per word, where the scalar layout's 4-byte alignment makes a load or store per member.
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer WordsRef { uvec4 v[]; };
 
 // The invocation's index over a dispatch of up to 65535 x N groups (cmdPass splits large counts
 // into rows: 65535 is the smallest maxComputeWorkGroupCount[0] Vulkan allows).
@@ -20,18 +21,48 @@ uint particleIndex() {
   return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * MIRAGE_PARTICLE_GROUP + gl_LocalInvocationID.x;
 }
 
+Particle particleLoad(uint slot) {
+  WordsRef w = WordsRef(push.particles);
+  uvec4 a = w.v[3u * slot], b = w.v[3u * slot + 1u], c = w.v[3u * slot + 2u];
+  return Particle(uintBitsToFloat(a.xyz), uintBitsToFloat(a.w), uintBitsToFloat(b.xyz), uintBitsToFloat(b.w),
+                  uintBitsToFloat(c.xyz), c.w);
+}
+// The words a step changes (position, age, velocity; lifetime rides along): 32 of the 48 bytes.
+void particleStoreMotion(uint slot, Particle p) {
+  WordsRef w = WordsRef(push.particles);
+  w.v[3u * slot] = uvec4(floatBitsToUint(p.position), floatBitsToUint(p.age));
+  w.v[3u * slot + 1u] = uvec4(floatBitsToUint(p.velocity), floatBitsToUint(p.lifetime));
+}
+void particleStore(uint slot, Particle p) {
+  particleStoreMotion(slot, p);
+  WordsRef(push.particles).v[3u * slot + 2u] = uvec4(floatBitsToUint(p.acceleration), p.id);
+}
+void renderStore(uint index, RenderParticle r) {
+  WordsRef w = WordsRef(push.render);
+  w.v[2u * index] = uvec4(floatBitsToUint(r.position), floatBitsToUint(r.size));
+  w.v[2u * index + 1u] = uvec4(floatBitsToUint(r.rotation), r.color, r.frame, r.id);
+}
+
 // A slot of a buffer appended to for each invocation with `take` (the render records: counter
-// `live`; else the dead stack: `deadCount`), one counter atomic per subgroup, its lanes taking
-// consecutive slots (their writes coalesce): a pool's particles appending one by one would
-// serialize millions of atomics on one address. Call in subgroup-uniform control flow; the result
-// is meaningful where `take`.
+// `live`; else the dead stack: `deadCount`), one counter atomic per workgroup: the subgroups'
+// counts gather in shared memory (a ballot and one shared atomic each), one invocation adds the
+// workgroup's total, and each lane takes its subgroup's base + its rank (consecutive slots: the
+// writes coalesce). A pool's particles appending one by one, or even per subgroup, would serialize
+// millions (hundreds of thousands) of atomics on one address. Call in workgroup-uniform control
+// flow (it has barriers); the result is meaningful where `take`.
+shared uint appendCount, appendBase;
 uint particleAppend(bool live, bool take) {
+  if (gl_LocalInvocationIndex == 0u) appendCount = 0u;
+  barrier();
   uvec4 ballot = subgroupBallot(take);
   uint count = subgroupBallotBitCount(ballot), base = 0u;
-  if (count != 0u) { // uniform over the subgroup
+  if (count != 0u && subgroupElect()) base = atomicAdd(appendCount, count);
+  base = subgroupBroadcastFirst(base); // the elected invocation is the first active one
+  barrier();
+  if (gl_LocalInvocationIndex == 0u && appendCount != 0u) {
     CountersRef counters = CountersRef(push.counters);
-    if (subgroupElect()) base = live ? atomicAdd(counters.c.live, count) : atomicAdd(counters.c.deadCount, count);
-    base = subgroupBroadcastFirst(base); // the elected invocation is the first active one
+    appendBase = live ? atomicAdd(counters.c.live, appendCount) : atomicAdd(counters.c.deadCount, appendCount);
   }
-  return base + subgroupBallotExclusiveBitCount(ballot);
+  barrier();
+  return appendBase + base + subgroupBallotExclusiveBitCount(ballot);
 }

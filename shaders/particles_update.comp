@@ -1,18 +1,21 @@
 #version 460
 // Particle pass 1/3 of a step: every live slot ages and takes one semi-implicit Euler step
 // (particleStep, the CPU's formula); a particle that dies frees its slot onto the dead stack (one
-// counter atomic per subgroup: particleAppend).
+// counter atomic per workgroup: particleAppend). With push.writeRender, a survivor's render record
+// is appended too (particleRender of its new state, as the output pass would write it), so a
+// frame reads each particle once.
 #include "particles_common.glsl"
 
 void main() {
   uint slot = particleIndex();
   UintRef alive = UintRef(push.alive);
-  bool dies = false;
+  bool dies = false, lives = false;
+  Particle p;
   if (slot < push.capacity && alive.v[slot] != 0u) {
-    ParticlesRef particles = ParticlesRef(push.particles);
-    Particle p = particles.v[slot];
+    p = particleLoad(slot);
     if (particleStep(p, push.dt)) {
-      particles.v[slot] = p;
+      particleStoreMotion(slot, p);
+      lives = true;
     } else {
       alive.v[slot] = 0u;
       dies = true;
@@ -20,4 +23,7 @@ void main() {
   }
   uint top = particleAppend(/*live=*/false, dies); // every invocation
   if (dies) UintRef(push.dead).v[top] = slot;
+  if (push.writeRender == 0u) return; // uniform
+  uint index = particleAppend(/*live=*/true, lives);
+  if (lives) renderStore(index, particleRender(ParamsRef(push.params).p, p));
 }

@@ -28,8 +28,10 @@ struct BenchParticlesOptions {
   bool render = false; // --sim gpu: simulate and draw each frame (particles/render.h)
   std::string size = "1920x1080";
   std::string oit = "linked-list";
-  std::string camera;   // --render: empty frames the effect
-  bool noSplat = false; // --render: every particle a billboard
+  std::string camera;               // --render: empty frames the effect
+  bool noSplat = false;             // --render: every particle a billboard
+  std::string splatMethod = "auto"; // --render: binned, atomic or auto (binned where the device can)
+  bool separateOutput = false;      // --render: the render records by their own pass after the step
 };
 
 // --render: simulation + billboards over a ground, GPU times per frame.
@@ -43,6 +45,10 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
   ro.oit = *oit;
   ro.camera = o.camera;
   ro.splat = !o.noSplat;
+  ro.fusedOutput = !o.separateOutput;
+  ro.splatMethod = o.splatMethod == "binned"   ? render::SplatMethod::Binned
+                   : o.splatMethod == "atomic" ? render::SplatMethod::Atomic
+                                               : render::SplatMethod::Auto;
   auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
   auto r = particles::benchRender(**ctx, effect, ro);
@@ -64,6 +70,10 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
                         {"blend_ms", r->blendMs},
                         {"composite_ms", r->compositeMs},
                         {"splat", ro.splat},
+                        {"splat_method", !ro.splat        ? "none"
+                                         : r->splatBinned ? "binned"
+                                                          : "atomic"},
+                        {"fused_output", ro.fusedOutput},
                         {"splat_ms", r->splatMs},
                         {"splat_resolve_ms", r->splatResolveMs},
                         {"billboards", r->billboards},
@@ -80,7 +90,9 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
              "{:.3f})  total {:9.3f} ms (medians)\n",
              r->simulateMs, r->frameMs, r->splatMs, r->blendMs, r->compositeMs, r->splatResolveMs, r->totalMs);
   fmt::print("  billboards {} of {} live particles ({})\n", r->billboards, r->live,
-             ro.splat ? "the rest splatted" : "splat off");
+             !ro.splat        ? "splat off"
+             : r->splatBinned ? "the rest splatted, binned"
+                              : "the rest splatted, atomics");
   fmt::print("  oit fragments {}  msl {:.3f}  oit_dropped {}\n", r->oit.fragments, r->oit.msl, r->oit.dropped());
 }
 
@@ -156,6 +168,12 @@ void addBenchParticlesCommand(CLI::App& bench) {
   b->add_option("--oit", o->oit, "--render: linked-list, weighted or sorted")->capture_default_str();
   b->add_option("--camera", o->camera, "--render: eye=x,y,z,target=x,y,z[,fov=60] (default: frame the effect)");
   b->add_flag("--no-splat", o->noSplat, "--render: draw every particle as a billboard (no compute splat)");
+  b->add_option("--splat-method", o->splatMethod,
+                "--render: the splat's sums binned by screen tiles (shared memory) or by global atomics per pixel")
+      ->check(CLI::IsMember({"auto", "binned", "atomic"}))
+      ->capture_default_str();
+  b->add_flag("--separate-output", o->separateOutput,
+              "--render: write the render records by a pass of their own after the step (not by the step itself)");
   b->callback([o] { runBenchParticles(*o); });
 }
 

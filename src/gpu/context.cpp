@@ -157,6 +157,7 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   c.fragmentStoresAndAtomics = f.core.features.fragmentStoresAndAtomics;
   c.geometryShader = f.core.features.geometryShader;
   c.floatBufferAtomicAdd = p.hasAtomicFloat && f.atomicFloat.shaderBufferFloat32AtomicAdd;
+  c.floatSharedAtomicAdd = p.hasAtomicFloat && f.atomicFloat.shaderSharedFloat32AtomicAdd;
 
   if (VK_API_VERSION_MINOR(props.apiVersion) < 3 && VK_API_VERSION_MAJOR(props.apiVersion) == 1)
     p.whyUnusable = "Vulkan 1.3 required";
@@ -174,7 +175,8 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
   if (c.rayTracingPipeline) p.extensions.push_back(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
   if (c.rayQuery) p.extensions.push_back(VK_KHR_RAY_QUERY_EXTENSION_NAME);
   if (c.int64ImageAtomics) p.extensions.push_back(VK_EXT_SHADER_IMAGE_ATOMIC_INT64_EXTENSION_NAME);
-  if (c.floatBufferAtomicAdd) p.extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
+  if (c.floatBufferAtomicAdd || c.floatSharedAtomicAdd)
+    p.extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
   return p;
 }
 
@@ -358,10 +360,10 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   // Enable exactly what Mirage uses and the device has.
   FeatureChain want;
   want.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery,
-            p.caps.int64ImageAtomics, p.caps.floatBufferAtomicAdd);
+            p.caps.int64ImageAtomics, p.caps.floatBufferAtomicAdd || p.caps.floatSharedAtomicAdd);
   FeatureChain have;
   have.link(p.caps.meshShader, p.caps.accelerationStructure, p.caps.rayTracingPipeline, p.caps.rayQuery,
-            p.caps.int64ImageAtomics, p.caps.floatBufferAtomicAdd);
+            p.caps.int64ImageAtomics, p.caps.floatBufferAtomicAdd || p.caps.floatSharedAtomicAdd);
   vkGetPhysicalDeviceFeatures2(p.device, &have.core);
   auto& wf = want.core.features;
   auto& hf = have.core.features;
@@ -412,6 +414,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   if (p.caps.rayQuery) want.rayQuery.rayQuery = VK_TRUE;
   if (p.caps.int64ImageAtomics) want.imageInt64.shaderImageInt64Atomics = VK_TRUE;
   if (p.caps.floatBufferAtomicAdd) want.atomicFloat.shaderBufferFloat32AtomicAdd = VK_TRUE;
+  if (p.caps.floatSharedAtomicAdd) want.atomicFloat.shaderSharedFloat32AtomicAdd = VK_TRUE;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

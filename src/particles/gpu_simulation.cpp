@@ -93,8 +93,8 @@ GpuSimulation::GpuSimulation(gpu::Context& context, const EffectFile& effect, fl
 
 GpuSimulation::~GpuSimulation() = default;
 
-void GpuSimulation::cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const System& s, uint32_t threads,
-                            uint32_t emit) {
+void GpuSimulation::cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const System& s, uint32_t threads, uint32_t emit,
+                            bool writeRender) {
   if (threads == 0) return;
   sio::ParticlePush p{};
   p.params = s.params.address();
@@ -106,6 +106,7 @@ void GpuSimulation::cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const Syst
   p.capacity = s.capacity;
   p.emit = emit;
   p.dt = dt_;
+  p.writeRender = writeRender ? 1u : 0u;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(p), &p);
   // Large pools dispatch several rows (particleIndex in particles_common.glsl).
@@ -113,14 +114,18 @@ void GpuSimulation::cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const Syst
   vkCmdDispatch(cmd, rows.x, rows.y, 1);
 }
 
-void GpuSimulation::cmdStep(VkCommandBuffer cmd) {
+void GpuSimulation::cmdStep(VkCommandBuffer cmd, bool writeRender) {
   // Each phase for every system, then one barrier: independent systems overlap on the GPU.
   cmdComputeBarrier(cmd);
-  for (auto& s : systems_) cmdPass(cmd, update_, *s, s->capacity, 0);
+  if (writeRender) { // the records' counter, zeroed before update and emit append to it
+    for (auto& s : systems_) vkCmdFillBuffer(cmd, s->counters.handle(), offsetof(sio::ParticleCounters, live), 4, 0);
+    cmdComputeBarrier(cmd);
+  }
+  for (auto& s : systems_) cmdPass(cmd, update_, *s, s->capacity, 0, writeRender);
   cmdComputeBarrier(cmd);
   for (auto& s : systems_) {
     uint32_t emit = emitRequest(s->def, s->step, dt_);
-    cmdPass(cmd, emit_, *s, emit, emit);
+    cmdPass(cmd, emit_, *s, emit, emit, writeRender);
   }
   cmdComputeBarrier(cmd);
   for (auto& s : systems_) {

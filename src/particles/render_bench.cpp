@@ -50,7 +50,10 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   for (uint32_t i = 0; i < memory.memoryHeapCount; ++i)
     if (memory.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
       heap = std::max(heap, memory.memoryHeaps[i].size);
-  if (Status s = checkParticleMemory(o.count, kGpuBytesPerParticle, heap / 2, "device memory"); !s) return s.error();
+  if (Status s =
+          checkParticleMemory(o.count, kGpuBytesPerParticle + render::kSplatBytesPerRecord, heap / 2, "device memory");
+      !s)
+    return s.error();
   EffectFile scaled = scaleEffect(effect, o.count);
   auto sheets = effectSheets(scaled);
   if (!sheets) return sheets.error();
@@ -69,7 +72,10 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
                        offsetof(sio::ParticleCounters, live), scaled.systems[i].maxParticles, i});
   (*draw)->setBatches(std::move(batches));
 
-  if (!o.splat) (void)(*draw)->setSettings({0.0f}); // billboards only (a valid setting)
+  render::ParticleDrawSettings drawSettings;
+  drawSettings.splatMethod = o.splatMethod;
+  if (!o.splat) drawSettings.splatBelowPixels = 0.0f; // billboards only
+  if (Status s = (*draw)->setSettings(drawSettings); !s) return s.error();
   render::Camera camera = fixedCamera ? *fixedCamera : render::autoCamera(extent, float(o.width) / float(o.height));
   render::ForwardRenderSettings fs;
   fs.base.width = o.width;
@@ -86,8 +92,12 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
     context.submitAndWait([&](VkCommandBuffer cmd) {
       timer.cmdReset(cmd);
       uint32_t slot = timer.cmdBegin(cmd, "simulate");
-      sim.cmdStep(cmd);
-      sim.cmdWriteRender(cmd);
+      if (o.fusedOutput) {
+        sim.cmdStep(cmd, /*writeRender=*/true);
+      } else {
+        sim.cmdStep(cmd);
+        sim.cmdWriteRender(cmd);
+      }
       timer.cmdEnd(cmd, slot);
       recorded = (*renderer)->record(cmd, fs, 0); // its first barrier orders the records before the draw
     });
@@ -117,6 +127,7 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   r.totalMs = median(total);
   r.billboards =
       (*draw)->splats(o.oit) ? (*draw)->readBillboardCount() : uint32_t(std::min<uint64_t>(r.live, UINT32_MAX));
+  r.splatBinned = (*draw)->splats(o.oit) && (*draw)->splatsBinned();
   return r;
 }
 

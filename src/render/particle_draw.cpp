@@ -83,6 +83,8 @@ Status ParticleDraw::setSettings(const ParticleDrawSettings& settings) {
     return Error{"particle splat: the device has no float atomic adds (shaderBufferFloat32AtomicAdd)"};
   if (settings.atomics == SplatAtomics::Fixed && !caps.int64BufferAtomics)
     return Error{"particle splat: the device has no 64-bit buffer atomics"};
+  if (settings.splatMethod == SplatMethod::Binned && !caps.floatSharedAtomicAdd)
+    return Error{"particle splat: binning needs shared float atomic adds (shaderSharedFloat32AtomicAdd)"};
   impl_->settings = settings;
   return Ok{};
 }

@@ -49,6 +49,11 @@ struct ParticleDraw::Impl {
   gpu::Unique<VkSampler> depthSampler;
   gpu::DescriptorSet frameSets[kMaxFramesInFlight];
   gpu::Buffer largeList, largeArgs;
+  // Binned (made on first use): count/scatter, scan and tile passes, the bins (sized by the
+  // target's tiles) and the entries (sized by the records).
+  gpu::Unique<VkPipeline> binPipelines[2], tilePipelines[2], scanPipeline; // [fixed point]
+  gpu::Buffer bins, entries;
+  uint32_t entryRoom = 0;
   bool fixedPoint = false;    // the last cmdSplat accumulated in fixed point (settings and device)
   bool splatRecorded = false; // cmdSplat ran since cmdPrepare: cmdDraw draws the list
 
@@ -64,6 +69,8 @@ struct ParticleDraw::Impl {
   // workgroups (gpu::dispatchRows); at least one workgroup, which finds no records.
   void cmdDispatchRecords(VkCommandBuffer cmd) const;
   shaderio::ParticleSplatPush splatPush(const ParticleSplatTarget& t) const;
+  // The binned splat's passes (count, scan, scatter, tiles) with `push` bound to the compute layout.
+  void cmdSplatBinned(VkCommandBuffer cmd, shaderio::ParticleSplatPush push);
 };
 
 } // namespace mirage::render

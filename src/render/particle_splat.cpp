@@ -1,7 +1,11 @@
 // The splat of small particles (render/particle_draw.h, docs/particles.md "Splat"): one compute
 // thread per record slot; a particle under the threshold adds its coverage to the weighted blended
 // sums of the pixels its footprint overlaps (particle_splat.glsl), a larger one is listed for the
-// billboards. After the transparency composite the sums are resolved over the colour.
+// billboards. Binned (where shared float atomics exist): the splats counted per screen tile, the
+// counts scanned, the splats scattered into their tiles' lists, and one workgroup per chunk of a
+// tile's list sums them in shared memory and writes the tile once; otherwise each pixel's sums
+// take global atomics per particle. After the transparency composite the sums are resolved over
+// the colour.
 #include <algorithm>
 #include <cstring>
 
@@ -23,7 +27,19 @@ bool useFixedPoint(const ParticleDrawSettings& s, const DeviceCapabilities& caps
   return !caps.floatBufferAtomicAdd;
 }
 
+bool useBins(const ParticleDrawSettings& s, const DeviceCapabilities& caps) {
+  return s.splatMethod != SplatMethod::Atomic && caps.floatSharedAtomicAdd;
+}
+
+uint32_t tilesAcross(uint32_t pixels) { return (pixels + MIRAGE_SPLAT_TILE - 1) / MIRAGE_SPLAT_TILE; }
+
+void cmdComputeToCompute(VkCommandBuffer cmd) {
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kStorageRW);
+}
+
 } // namespace
+
+bool ParticleDraw::splatsBinned() const { return useBins(impl_->settings, impl_->ctx.caps()); }
 
 bool ParticleDraw::splats(OitMode mode) const {
   const Impl& d = *impl_;
@@ -53,7 +69,45 @@ sio::ParticleSplatPush ParticleDraw::Impl::splatPush(const ParticleSplatTarget& 
   p.height = t.height;
   p.belowPixels = settings.splatBelowPixels;
   p.fixedPoint = fixedPoint ? 1u : 0u;
+  p.binAddress = bins ? bins.address() : 0;
+  p.entryAddress = entries ? entries.address() : 0;
+  p.entryRoom = entryRoom;
+  p.tilesX = tilesAcross(t.eyeWidth);
+  p.tilesY = tilesAcross(t.height);
   return p;
+}
+
+// barriers: the classification's inputs as cmdSplat's; on exit the sums' writes are the tile
+// pass's (cmdSplat's closing barrier covers them).
+void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatPush push) {
+  int fixed = fixedPoint ? 1 : 0;
+  if (!binPipelines[fixed]) {
+    binPipelines[fixed] = createComputePipeline(
+        ctx, fixedPoint ? "particle_splat_bin_fixed.comp" : "particle_splat_bin_float.comp", computeLayout);
+    tilePipelines[fixed] = createComputePipeline(
+        ctx, fixedPoint ? "particle_splat_tiles_fixed.comp" : "particle_splat_tiles_float.comp", computeLayout);
+  }
+  if (!scanPipeline) scanPipeline = createComputePipeline(ctx, "particle_splat_scan.comp", computeLayout);
+  // Count: every splat's entries per tile (the counts zeroed by cmdSplat).
+  push.phase = MIRAGE_SPLAT_PHASE_COUNT;
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
+  vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  cmdDispatchRecords(cmd);
+  cmdComputeToCompute(cmd);
+  // Scan: the tiles' first entries and chunks, the cursors zeroed, the tile pass's dispatch.
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scanPipeline);
+  vkCmdDispatch(cmd, 1, 1, 1);
+  cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                   kStorageRW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+  // Scatter: the entries into their tiles' lists (past the room: added directly).
+  push.phase = MIRAGE_SPLAT_PHASE_SCATTER;
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
+  vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  cmdDispatchRecords(cmd);
+  cmdComputeToCompute(cmd);
+  // Tiles: one workgroup per chunk of a tile's list, its sums written once.
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tilePipelines[fixed]);
+  vkCmdDispatchIndirect(cmd, bins.handle(), 0);
 }
 
 // barriers: see particle_draw.h; the accumulators zeroed by a transfer, the depth in
@@ -86,15 +140,44 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
   writeImageDescriptors(d.ctx, set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
   writeImageDescriptors(d.ctx, set, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
 
+  const bool binned = useBins(d.settings, d.ctx.caps());
+  if (binned) {
+    // The bins: per tile of either eye a count, a first entry and a first chunk, and the header;
+    // made for at least two eyes of 4096 x 4096 (1.6 MB), so that no usual resize replaces them
+    // under a frame in flight.
+    uint64_t tiles = uint64_t(t.eyes) * tilesAcross(t.eyeWidth) * tilesAcross(t.height);
+    uint64_t binBytes = (MIRAGE_SPLAT_BIN_HEADER + 3 * tiles + 2) * 4;
+    uint64_t minTiles = 2 * uint64_t(tilesAcross(4096)) * tilesAcross(4096);
+    if (!d.bins || d.bins.size() < binBytes)
+      d.bins = createBuffer(d.ctx, std::max(binBytes, (MIRAGE_SPLAT_BIN_HEADER + 3 * minTiles + 2) * 4),
+                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                            MemoryUsage::GpuOnly, "particle splat bins");
+    // The entries: the setting's room, or a default per record slot (either eye count: grown only
+    // with the records, which grow with no frame in flight), within one buffer's range.
+    uint64_t room = d.settings.splatEntryRoom
+                        ? d.settings.splatEntryRoom
+                        : uint64_t(std::max(d.totalRecords, 1u)) * MIRAGE_SPLAT_ENTRIES_PER_RECORD;
+    room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / sizeof(sio::ParticleSplatEntry), UINT32_MAX});
+    if (!d.entries || d.entries.size() < room * sizeof(sio::ParticleSplatEntry))
+      d.entries = createBuffer(d.ctx, room * sizeof(sio::ParticleSplatEntry), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                               MemoryUsage::GpuOnly, "particle splat entries");
+    d.entryRoom = uint32_t(room);
+    vkCmdFillBuffer(cmd, d.bins.handle(), 0, binBytes, 0);
+  }
   VkDrawIndirectCommand empty{6, 0, 0, 0};
   vkCmdUpdateBuffer(cmd, d.largeArgs.handle(), 0, sizeof(empty), &empty);
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, kStorageRW);
   VkDescriptorSet sets[] = {d.descriptors.set, set};
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.computeLayout, 0, 2, sets, 0, nullptr);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   sio::ParticleSplatPush push = d.splatPush(t);
-  vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  d.cmdDispatchRecords(cmd);
+  if (binned) {
+    d.cmdSplatBinned(cmd, push);
+  } else {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+    vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    d.cmdDispatchRecords(cmd);
+  }
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT | kCS,
                    VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);

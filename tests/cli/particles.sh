@@ -48,6 +48,18 @@ if expect_ok bench-render-nosplat bench particles "$sparks" --count 2000 --steps
   --camera eye=0,1,40,target=0,1,0 --no-splat --json; then
   grep -q '"billboards": 2000,' "$tmp/stdout" || fail "bench-render-nosplat: $(cat "$tmp/stdout")"
 fi
+# The splat binned by screen tiles and by per-pixel atomics leave the same billboards; the JSON
+# names the one that ran (binned wherever the device has shared float atomic adds, as lavapipe).
+for method in binned atomic; do
+  if expect_ok "bench-render-$method" bench particles "$sparks" --count 2000 --steps 2 --sim gpu --render \
+    --size 96x54 --camera eye=0,1,40,target=0,1,0 --splat-method "$method" --separate-output --json; then
+    grep -q "\"splat_method\": \"$method\"" "$tmp/stdout" || fail "bench-render-$method: $(cat "$tmp/stdout")"
+    grep -q '"fused_output": false' "$tmp/stdout" || fail "bench-render-$method: fused: $(cat "$tmp/stdout")"
+    grep -q '"billboards": [0-9]\{1,2\},' "$tmp/stdout" || fail "bench-render-$method: billboards: $(cat "$tmp/stdout")"
+  fi
+done
+expect_fail bench-render-method "--splat-method" "" -- bench particles "$sparks" --count 10 --sim gpu --render \
+  --splat-method quantum
 expect_fail bench-render-camera "--camera 'nowhere'" "" -- bench particles "$sparks" --count 10 --sim gpu --render \
   --camera nowhere
 expect_fail bench-render-cpu "--render needs --sim gpu" "" -- bench particles "$source_dir/examples/particles/fire.toml" \

@@ -107,6 +107,41 @@ TEST_F(GpuParticles, MatchesCpuParticleForParticle) {
   EXPECT_LE(frameDiffers, cpuRecords.size() / 100);
 }
 
+// A step that writes the render records itself (update and emission appending them) leaves the
+// records, and their count, that the output pass leaves after a plain step: twin simulations, one
+// of each, matched by id, within float precision (the same formulas in different passes).
+TEST_F(GpuParticles, StepWritingRecordsMatchesTheOutputPass) {
+  EffectFile fx;
+  fx.systems = {everyModule(), everyModule()};
+  fx.systems[1].name = "second";
+  fx.systems[1].seed += 7;
+  GpuSimulation fused(test::gpuContext(), fx, kDt), separate(test::gpuContext(), fx, kDt);
+  fused.step(60);
+  separate.step(60);
+  test::gpuContext().submitAndWait([&](VkCommandBuffer cmd) { fused.cmdStep(cmd, /*writeRender=*/true); });
+  test::gpuContext().submitAndWait([&](VkCommandBuffer cmd) {
+    separate.cmdStep(cmd);
+    separate.cmdWriteRender(cmd);
+  });
+  ASSERT_EQ(fused.liveParticles(), separate.liveParticles());
+  std::vector<sio::RenderParticle> a = fused.readRender(), b = separate.readRender();
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 200u);
+  auto byId = [](const sio::RenderParticle& x, const sio::RenderParticle& y) {
+    return x.id != y.id ? x.id < y.id : x.position.x < y.position.x; // two systems share ids
+  };
+  std::sort(a.begin(), a.end(), byId);
+  std::sort(b.begin(), b.end(), byId);
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].id, b[i].id);
+    EXPECT_LT(relative(a[i].position, b[i].position), 1e-6f);
+    EXPECT_NEAR(a[i].size, b[i].size, 1e-6f * (1.0f + b[i].size));
+    EXPECT_NEAR(a[i].rotation, b[i].rotation, 1e-6f * (1.0f + std::abs(b[i].rotation)));
+    glm::vec4 ca = glm::unpackUnorm4x8(a[i].color), cb = glm::unpackUnorm4x8(b[i].color);
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(ca[k], cb[k], 1.5f / 255.0f);
+  }
+}
+
 // Two GPU runs hold the same particles bit for bit (slots may differ: the dead stack fills in any
 // order, so compare by spawn index).
 TEST_F(GpuParticles, DeterministicBySpawnIndex) {

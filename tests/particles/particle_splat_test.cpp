@@ -203,6 +203,67 @@ TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
   EXPECT_LT(psnr(bare.srgb, front.srgb), 30.0);
 }
 
+// The binned splat (screen tiles, shared-memory sums) against the splat by global atomics per
+// pixel: the same image up to float summation order (>= 50 dB, 8-bit sRGB), for float and
+// fixed-point sums, on a cloud with a hot pixel (4000 particles on one spot at the image centre,
+// a corner of four 16-pixel tiles, so each of those tiles lists more than one chunk of entries),
+// another on one pixel inside a tile, and particles straddling tile borders; with a room that lists
+// every entry, the default room and a room of 300 entries (the rest added directly by global
+// atomics), in mono and stereo. Every particle is splatted and the hot spot shows.
+TEST_F(ParticleSplat, BinnedEqualsAtomicSplat) {
+  if (atomicsToTest(context()).empty()) GTEST_SKIP() << "no float or 64-bit buffer atomics";
+  if (!context().caps().floatSharedAtomicAdd) GTEST_SKIP() << "no shared float atomic adds";
+  Scene scene = withAnchor({test::makeQuad(4.0f, -2.0f)}, {test::solidMaterial({0.3f, 0.3f, 0.35f, 1})});
+  auto draw = puffDraw(context());
+  ASSERT_TRUE(draw);
+  // World position of image pixel coordinate `at` (pixels from the top left) at z = 0.
+  auto worldAt = [](glm::vec2 at) {
+    glm::vec2 w = (at / float(kSize) * 2.0f - 1.0f) * kDistance * std::tan(glm::radians(kFov) * 0.5f);
+    return glm::vec3(w.x, -w.y, 0.0f);
+  };
+  std::vector<sio::RenderParticle> cloud = smallCloud(1500);
+  const float onePixel = 1.0f / pixelsOf(1.0f, kDistance);
+  for (uint32_t i = 0; i < 4000; ++i) // the hot spot: on the corner of four tiles
+    cloud.push_back(particle(worldAt(glm::vec2(64.0f)), (1.0f + 0.8f * float(i % 5) / 4.0f) * onePixel,
+                             {0.9f, 0.5f + 0.1f * float(i % 4), 0.2f, 0.05f + 0.1f * float(i % 3)}, i % 4));
+  for (uint32_t i = 0; i < 500; ++i) // inside one pixel of one tile
+    cloud.push_back(particle(worldAt(glm::vec2(40.5f)), 0.7f * onePixel, {0.2f, 0.9f, 0.4f, 0.3f}, i % 4));
+  for (uint32_t i = 0; i < 400; ++i) { // along the borders x = 32 and y = 96, at sub-pixel offsets
+    float along = 4.0f + 0.3f * float(i);
+    float off = 0.25f * float(i % 7) - 0.75f;
+    glm::vec2 at = i % 2 ? glm::vec2(32.0f + off, along) : glm::vec2(along, 96.0f + off);
+    cloud.push_back(particle(worldAt(at), (0.8f + 0.15f * float(i % 8)) * onePixel,
+                             {0.3f, 0.4f, 0.95f, 0.5f + 0.05f * float(i % 9)}, i % 4));
+  }
+  test::showParticles(*draw, cloud);
+  const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
+  RenderOutput bare = render(context(), scene, settings(OitMode::LinkedList, nullptr, background));
+  for (SplatAtomics atomics : atomicsToTest(context())) {
+    const char* name = atomics == SplatAtomics::Float ? "float" : "fixed";
+    for (bool stereo : {false, true}) {
+      ForwardRenderSettings s = settings(OitMode::LinkedList, draw.get(), background);
+      if (stereo) s.stereoIpd = 0.3f;
+      ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics, SplatMethod::Atomic}).ok());
+      RenderOutput atomic = render(context(), scene, s);
+      EXPECT_EQ(draw->readBillboardCount(), 0u);
+      if (!stereo) {
+        EXPECT_LT(psnr(bare.srgb, atomic.srgb), 30.0) << "the particles must show";
+        size_t hot = (64 * kSize + 64) * 4;
+        EXPECT_GT(std::abs(int(atomic.srgb.pixels[hot]) - int(bare.srgb.pixels[hot])), 40) << "the hot spot shows";
+      }
+      for (uint32_t room : {100000u, 0u, 300u}) {
+        ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics, SplatMethod::Binned, room}).ok());
+        EXPECT_TRUE(draw->splatsBinned());
+        RenderOutput binned = render(context(), scene, s);
+        EXPECT_EQ(draw->readBillboardCount(), 0u);
+        double p = psnr(atomic.srgb, binned.srgb);
+        std::printf("%s%s, room %u: binned vs atomic splat %.2f dB\n", name, stereo ? " stereo" : "", room, p);
+        EXPECT_GE(p, 50.0) << name << (stereo ? " stereo" : "") << " room " << room;
+      }
+    }
+  }
+}
+
 // Stereo: each half of the side-by-side image is the mono image of its eye (stereoEyes), the
 // splat writing each eye's footprints into its half against its half of the depth.
 TEST_F(ParticleSplat, StereoHalvesAreTheEyesMonoImages) {

@@ -27,6 +27,7 @@ struct DeviceCapabilities {
   bool int64ImageAtomics = false;        // VK_EXT_shader_image_atomic_int64
   bool fragmentStoresAndAtomics = false; // storage writes from fragment shaders (hybrid raster)
   bool floatBufferAtomicAdd = false;     // VK_EXT_shader_atomic_float shaderBufferFloat32AtomicAdd (particle splat)
+  bool floatSharedAtomicAdd = false;     // VK_EXT_shader_atomic_float shaderSharedFloat32AtomicAdd (binned splat)
   bool pipelineStatistics = false;
   uint32_t maxMultiviewViews = 0;
   bool multiview = false;           // VK_KHR_multiview (core 1.1 feature): one pass renders several views

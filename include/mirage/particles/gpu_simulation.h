@@ -30,8 +30,11 @@ public:
   GpuSimulation& operator=(const GpuSimulation&) = delete;
 
   // Records one step of every system (update, emit, finish with barriers between); the caller
-  // submits. Barriers: waits for earlier compute and transfer writes.
-  void cmdStep(VkCommandBuffer cmd);
+  // submits. Barriers: waits for earlier compute and transfer writes. With writeRender, the step
+  // also leaves the render records and their count, as cmdWriteRender after it would (in another
+  // order): the update appends each survivor's, the emission each spawn's, so a frame that steps
+  // once and draws reads each particle once.
+  void cmdStep(VkCommandBuffer cmd, bool writeRender = false);
   // Records the output pass: each system's RenderParticle records at the start of renderBuffer(i)
   // and their count in counters field `live` (counterBuffer(i), offset 12: an indirect draw's
   // instance count). The caller adds a barrier before reading them.
@@ -51,7 +54,8 @@ public:
 
 private:
   struct System;
-  void cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const System& s, uint32_t threads, uint32_t emit);
+  void cmdPass(VkCommandBuffer cmd, VkPipeline pipeline, const System& s, uint32_t threads, uint32_t emit,
+               bool writeRender = false);
   gpu::Context& context_;
   float dt_;
   uint64_t step_ = 0;

@@ -108,15 +108,18 @@ struct RenderBenchOptions {
   uint32_t width = 1920, height = 1080;
   render::OitMode oit = render::OitMode::LinkedList;
   uint32_t oitNodesPerPixel = 8;
-  bool splat = true;  // false: every particle a billboard
-  std::string camera; // render::parseCamera; empty: frame the unscaled effect
+  bool splat = true;                                           // false: every particle a billboard
+  render::SplatMethod splatMethod = render::SplatMethod::Auto; // binned by screen tiles, or global atomics
+  bool fusedOutput = true; // the step writes the render records (false: a separate output pass after it)
+  std::string camera;      // render::parseCamera; empty: frame the unscaled effect
 };
 struct RenderBenchResult {
   uint64_t live = 0, fillSteps = 0;
   double simulateMs = 0, frameMs = 0, blendMs = 0, compositeMs = 0, totalMs = 0; // medians
   double splatMs = 0, splatResolveMs = 0;                                        // medians
-  uint32_t billboards = 0; // particles the splat left to billboards in the last frame (all without it)
-  render::OitStats oit;    // of the last frame
+  uint32_t billboards = 0;  // particles the splat left to billboards in the last frame (all without it)
+  bool splatBinned = false; // the splat ran binned by screen tiles
+  render::OitStats oit;     // of the last frame
 };
 Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& effect,
                                       const RenderBenchOptions& options);

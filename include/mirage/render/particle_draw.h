@@ -19,6 +19,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/memory.h"
 #include "mirage/render/oit.h"
+#include "mirage/shaderio/particle_draw.h"
 #include "mirage/shaderio/particles.h"
 
 namespace mirage::render {
@@ -35,7 +36,7 @@ struct ParticleSheet {
 // One draw's records on the GPU: `count` of them, or, with countBuffer, as many as the uint at
 // countBuffer + countOffset holds when the frame runs (at most `capacity`, the records' room).
 struct ParticleBatch {
-  VkDeviceAddress records = 0; // shaderio::RenderParticle[]
+  VkDeviceAddress records = 0; // shaderio::RenderParticle[], 16-byte aligned
   VkBuffer countBuffer = VK_NULL_HANDLE;
   VkDeviceSize countOffset = 0;
   uint32_t count = 0;
@@ -45,6 +46,11 @@ struct ParticleBatch {
 // How the splat accumulates (docs/particles.md, "Splat"): float atomic adds where the device has
 // them (shaderBufferFloat32AtomicAdd), else 64-bit fixed point (shaderBufferInt64Atomics).
 enum class SplatAtomics { Auto, Float, Fixed };
+
+// How the splat gathers each pixel's sums (docs/particles.md, "Splat"): binned by screen tiles
+// (per tile, shared-memory sums written once; needs shaderSharedFloat32AtomicAdd), or every
+// covered pixel's sums added by global atomics per particle. Auto: binned where the device can.
+enum class SplatMethod { Auto, Binned, Atomic };
 
 // Particles whose billboard would be narrower than this many pixels are splatted by default: their
 // footprint then touches at most 3 x 3 pixels (a splat thread's whole work).
@@ -56,7 +62,17 @@ struct ParticleDrawSettings {
   // billboard. At most MIRAGE_SPLAT_MAX_PIXELS. The sorted mode never splats.
   float splatBelowPixels = kDefaultSplatPixels;
   SplatAtomics atomics = SplatAtomics::Auto;
+  SplatMethod splatMethod = SplatMethod::Auto;
+  // Binned: entries (a splat's footprint on one tile of one eye) the tile lists hold; those past it
+  // are added by global atomics, so the image does not depend on it. 0: MIRAGE_SPLAT_ENTRIES_PER_RECORD
+  // per record slot (32 bytes each). A larger room: with no frame in flight.
+  uint32_t splatEntryRoom = 0;
 };
+
+// Device bytes the splat takes per record slot beyond the renderer's per-pixel sums: the billboard
+// list's index and the binned splat's default entry room.
+inline constexpr uint64_t kSplatBytesPerRecord =
+    4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * sizeof(shaderio::ParticleSplatEntry);
 
 // Where a frame's splat writes, given by the renderer recording it.
 struct ParticleSplatTarget {
@@ -117,6 +133,8 @@ public:
   void cmdSplatResolve(VkCommandBuffer cmd, const ParticleSplatTarget& target);
   // Benchmarks and tests: particles the last splat pass left to billboards (blocking readback).
   uint32_t readBillboardCount();
+  // Whether frames splat binned by screen tiles (settings and device; splats() aside).
+  bool splatsBinned() const;
 
   // Sorted mode (OitMode::Sorted): after cmdPrepare, outside rendering, every live record of every
   // batch sorted on the GPU back to front by its centre's view z under `view`, then split into

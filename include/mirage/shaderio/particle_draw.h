@@ -77,6 +77,41 @@ struct ParticleSortPush {
 // Largest splatBelowPixels: a splatted particle touches at most (ceil(it) + 1)^2 pixels.
 #define MIRAGE_SPLAT_MAX_PIXELS 8.0
 
+// The binned splat (particle_splat_bin.glsl, particle_splat_scan.comp, particle_splat_tiles.glsl):
+// the target cut into square tiles per eye; the particles counted per tile, the counts scanned,
+// each particle's entries (one per tile its footprint overlaps, per eye) scattered into its tiles'
+// lists, then one workgroup per chunk of a tile's list sums them in shared memory and writes the
+// tile's pixels once. Tile edge in pixels: a tile-pass workgroup has an invocation per pixel.
+#define MIRAGE_SPLAT_TILE 16
+// Entries per tile-pass workgroup: a hot tile's list is split over this many workgroups, each
+// adding its sums to the tile's pixels (a tile of one chunk stores them).
+#define MIRAGE_SPLAT_CHUNK 2048
+// Default entry room per record slot (ParticleDrawSettings::splatEntryRoom): a footprint of at
+// most 2 px overlaps 1.27 tiles of 16 px on average (4 at most), per eye; entries past the room
+// (some of a stereo frame's) are splatted directly with the global atomics, so the image does not
+// depend on it.
+#define MIRAGE_SPLAT_ENTRIES_PER_RECORD 2
+// The bins buffer: uint[MIRAGE_SPLAT_BIN_HEADER + 3 tiles + 2]: the header (the tile pass's
+// VkDispatchIndirectCommand, then its chunks and the entries listed), per tile its count (the
+// scatter's cursor after the scan), per tile + 1 its first entry, per tile + 1 its first chunk.
+#define MIRAGE_SPLAT_BIN_HEADER 8
+#define MIRAGE_SPLAT_BIN_CHUNKS 3  // header word: chunks over all tiles (tile-pass workgroups)
+#define MIRAGE_SPLAT_BIN_ENTRIES 4 // header word: entries over all tiles (may exceed the room)
+// ParticleSplatPush::phase of particle_splat_bin*.comp.
+#define MIRAGE_SPLAT_PHASE_COUNT 0u   // classify, list the billboards, count the entries per tile
+#define MIRAGE_SPLAT_PHASE_SCATTER 1u // write the entries into their tiles' lists
+
+// One splatted particle as one tile's list holds it: its footprint in the eye's pixels (lo, hi),
+// its NDC depth (tested against the opaque depth), the weighted blended weight of its distance
+// (oitWeightedFactor) and its colour (straight alpha, unorm16 x 4).
+struct ParticleSplatEntry {
+  float loX, loY, hiX, hiY;
+  float depth;
+  float weight;
+  uint colorRG; // packUnorm2x16
+  uint colorBA;
+};
+
 struct ParticleSplatPush {
   uint64_t frameAddress[2];  // ViewFrame of each eye (the classification uses eye 0's size)
   uint64_t batchAddress;     // ParticleBatchInfo[batchCount]
@@ -86,16 +121,23 @@ struct ParticleSplatPush {
   uint64_t largeArgsAddress; // VkDrawIndirectCommand of the billboards' draw: instanceCount counts them
   uint total;                // record slots over all batches
   uint batchCount;
-  uint eyes;         // 1, or 2: side by side, eye e's pixels at x + e * eyeWidth
-  uint eyeWidth;     // pixels
-  uint height;       // pixels
-  float belowPixels; // billboard edges under this many pixels are splatted
-  uint fixedPoint;   // 1: the accumulators are fixed point (resolve)
+  uint eyes;             // 1, or 2: side by side, eye e's pixels at x + e * eyeWidth
+  uint eyeWidth;         // pixels
+  uint height;           // pixels
+  float belowPixels;     // billboard edges under this many pixels are splatted
+  uint fixedPoint;       // 1: the accumulators are fixed point (resolve, tile pass)
+  uint phase;            // binned: MIRAGE_SPLAT_PHASE_*
+  uint64_t binAddress;   // binned: the bins (uint[], MIRAGE_SPLAT_BIN_HEADER)
+  uint64_t entryAddress; // binned: ParticleSplatEntry[entryRoom], listed by tile
+  uint entryRoom;        // binned: entries the lists hold
+  uint tilesX;           // binned: tiles per eye across (tile t = (eye * tilesY + y) * tilesX + x)
+  uint tilesY;
   uint pad0;
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(ParticleSplatPush) == 88, "ParticleSplatPush layout");
+static_assert(sizeof(ParticleSplatPush) == 120, "ParticleSplatPush layout");
+static_assert(sizeof(ParticleSplatEntry) == 32, "ParticleSplatEntry layout");
 static_assert(sizeof(ParticleBatchInfo) == 32, "ParticleBatchInfo layout");
 static_assert(sizeof(ParticleDrawPush) == 64, "ParticleDrawPush layout");
 static_assert(sizeof(ParticleSortPush) == 120, "ParticleSortPush layout");

@@ -165,7 +165,7 @@ struct ParticlePush {
   uint capacity;
   uint emit; // particles this step asks for (emitRequest); fewer when the pool is full
   float dt;
-  uint pad;
+  uint writeRender; // 1: update and emit also append the render records (counter live zeroed before)
 };
 
 // Counters of a GPU pool.

@@ -1,0 +1,84 @@
+// The binned splat's tile pass (particle_splat.glsl; after the scatter): one workgroup per chunk
+// of a tile's list (indirect, the scan's rows), an invocation per tile pixel. The tile's opaque
+// depth is read once into shared memory; each invocation takes entries of the chunk and adds
+// their pixels' five sums to shared sums (shared float atomics: no global atomic per pixel and
+// particle); then each pixel's sums are written once: stored where this workgroup is the tile's
+// only writer (a list of one chunk, wholly within the room), else added (global atomics). Included
+// after a sums file.
+#extension GL_EXT_shader_atomic_float : require
+
+#define SPLAT_TILE_PIXELS (MIRAGE_SPLAT_TILE * MIRAGE_SPLAT_TILE)
+layout(local_size_x = SPLAT_TILE_PIXELS) in;
+
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatBinsRef { uint v[]; };
+// ParticleSplatEntry[] as two 16-byte words each (two 128-bit loads).
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer SplatEntryWordsRef { uvec4 v[]; };
+
+shared float sums[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS]; // pixel-major
+shared float depths[SPLAT_TILE_PIXELS];
+
+void main() {
+  SplatBinsRef bins = SplatBinsRef(push.binAddress);
+  uint tiles = push.eyes * push.tilesX * push.tilesY;
+  uint starts = MIRAGE_SPLAT_BIN_HEADER + tiles, chunks = starts + tiles + 1u;
+  uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+  if (group >= bins.v[MIRAGE_SPLAT_BIN_CHUNKS]) return; // the last row's spare workgroups
+  // The tile: the last whose first chunk is at or before this one.
+  uint lo = 0u, hi = tiles;
+  while (hi - lo > 1u) {
+    uint mid = (lo + hi) / 2u;
+    if (bins.v[chunks + mid] <= group) lo = mid;
+    else hi = mid;
+  }
+  uint tile = lo;
+  uint tileBegin = bins.v[starts + tile], tileEnd = bins.v[starts + tile + 1u];
+  uint begin = tileBegin + (group - bins.v[chunks + tile]) * MIRAGE_SPLAT_CHUNK;
+  uint end = min(min(begin + MIRAGE_SPLAT_CHUNK, tileEnd), push.entryRoom);
+  bool alone = tileEnd - tileBegin <= MIRAGE_SPLAT_CHUNK && tileEnd <= push.entryRoom;
+
+  uint eye = tile / (push.tilesX * push.tilesY), inEye = tile % (push.tilesX * push.tilesY);
+  ivec2 origin = ivec2(inEye % push.tilesX, inEye / push.tilesX) * MIRAGE_SPLAT_TILE;
+  ivec2 last = min(origin + MIRAGE_SPLAT_TILE - 1, ivec2(push.eyeWidth, push.height) - 1);
+  uint i = gl_LocalInvocationID.x;
+  ivec2 pixel = origin + ivec2(i % MIRAGE_SPLAT_TILE, i / MIRAGE_SPLAT_TILE);
+  bool inside = all(lessThanEqual(pixel, last));
+  uint px = uint(pixel.x) + eye * push.eyeWidth;
+  // Outside the target nothing passes (reverse-Z: the footprint's depth must be GREATER).
+  depths[i] = inside ? texelFetch(opaqueDepth, ivec2(px, pixel.y), 0).r : 2.0;
+  for (uint c = 0u; c < MIRAGE_SPLAT_CHANNELS; ++c) sums[i * MIRAGE_SPLAT_CHANNELS + c] = 0.0;
+  barrier();
+
+  SplatEntryWordsRef entries = SplatEntryWordsRef(push.entryAddress);
+  for (uint k = begin + i; k < end; k += SPLAT_TILE_PIXELS) {
+    vec4 footprint = uintBitsToFloat(entries.v[2u * k]);
+    uvec4 rest = entries.v[2u * k + 1u];
+    vec2 flo = footprint.xy, fhi = footprint.zw;
+    float depth = uintBitsToFloat(rest.x), weight = uintBitsToFloat(rest.y);
+    vec4 color = vec4(unpackUnorm2x16(rest.z), unpackUnorm2x16(rest.w));
+    ivec2 first = max(ivec2(floor(flo)), origin), to = min(ivec2(ceil(fhi)) - 1, last);
+    for (int y = first.y; y <= to.y; ++y)
+      for (int x = first.x; x <= to.x; ++x) {
+        float a = splatCoverage(flo, fhi, color.a, x, y);
+        if (!(a > 0.0)) continue;
+        uint p = uint(y - origin.y) * MIRAGE_SPLAT_TILE + uint(x - origin.x);
+        if (depth <= depths[p]) continue; // behind the opaque surface
+        float logReveal;
+        vec4 add = splatSums(color.rgb, a, weight, logReveal);
+        uint base = p * MIRAGE_SPLAT_CHANNELS;
+        atomicAdd(sums[base + 0u], add.x);
+        atomicAdd(sums[base + 1u], add.y);
+        atomicAdd(sums[base + 2u], add.z);
+        atomicAdd(sums[base + 3u], add.w);
+        atomicAdd(sums[base + 4u], logReveal);
+      }
+  }
+  barrier();
+
+  if (!inside || !(sums[i * MIRAGE_SPLAT_CHANNELS + 4u] > 0.0)) return; // nothing splatted here
+  uint base = splatBase(px, uint(pixel.y));
+  for (uint c = 0u; c < MIRAGE_SPLAT_CHANNELS; ++c) {
+    float v = sums[i * MIRAGE_SPLAT_CHANNELS + c];
+    if (alone) splatStore(base + c, v);
+    else splatAdd(base + c, v);
+  }
+}
