@@ -27,8 +27,10 @@ bool useFixedPoint(const ParticleDrawSettings& s, const DeviceCapabilities& caps
   return !caps.floatBufferAtomicAdd;
 }
 
+// Auto takes the per-pixel atomics: on an H100, 10 M rain at 1080p splats in 4.33 ms by them and in
+// 6.48 ms binned (same run), so the bins are asked for by name until they win.
 bool useBins(const ParticleDrawSettings& s, const DeviceCapabilities& caps) {
-  return s.splatMethod != SplatMethod::Atomic && caps.floatSharedAtomicAdd;
+  return s.splatMethod == SplatMethod::Binned && caps.floatSharedAtomicAdd;
 }
 
 uint32_t tilesAcross(uint32_t pixels) { return (pixels + MIRAGE_SPLAT_TILE - 1) / MIRAGE_SPLAT_TILE; }

@@ -49,7 +49,7 @@ if expect_ok bench-render-nosplat bench particles "$sparks" --count 2000 --steps
   grep -q '"billboards": 2000,' "$tmp/stdout" || fail "bench-render-nosplat: $(cat "$tmp/stdout")"
 fi
 # The splat binned by screen tiles and by per-pixel atomics leave the same billboards; the JSON
-# names the one that ran (binned wherever the device has shared float atomic adds, as lavapipe).
+# names the one that ran.
 for method in binned atomic; do
   if expect_ok "bench-render-$method" bench particles "$sparks" --count 2000 --steps 2 --sim gpu --render \
     --size 96x54 --camera eye=0,1,40,target=0,1,0 --splat-method "$method" --separate-output --json; then

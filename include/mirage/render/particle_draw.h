@@ -49,7 +49,7 @@ enum class SplatAtomics { Auto, Float, Fixed };
 
 // How the splat gathers each pixel's sums (docs/particles.md, "Splat"): binned by screen tiles
 // (per tile, shared-memory sums written once; needs shaderSharedFloat32AtomicAdd), or every
-// covered pixel's sums added by global atomics per particle. Auto: binned where the device can.
+// covered pixel's sums added by global atomics per particle. Auto: the atomics (faster on an H100).
 enum class SplatMethod { Auto, Binned, Atomic };
 
 // Particles whose billboard would be narrower than this many pixels are splatted by default: their
