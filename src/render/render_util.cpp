@@ -116,8 +116,11 @@ static_assert(MIRAGE_MATERIAL_MAPS == kMaterialMapCount && MIRAGE_MAP_BASE_COLOR
 std::vector<uint32_t> materialMapSpecialization(const std::vector<Material>& materials, size_t textureCount) {
   std::vector<uint32_t> values(MIRAGE_SPEC_MATERIAL_MAPS + 1, 0u);
   uint32_t mask = ~0u;
+  // Specialized by default: absent maps compile away (H100, 2500 untextured blobs: resolve 0.036 ->
+  // 0.032 ms, stereo 0.132 -> 0.118, same run). MIRAGE_SPECIALIZE_MAPS=0 keeps every map's branch,
+  // one pipeline for any material, to compare.
   const char* env = std::getenv("MIRAGE_SPECIALIZE_MAPS");
-  if (env && std::string_view(env) == "1") {
+  if (!env || std::string_view(env) != "0") {
     mask = 0;
     for (const Material& m : materials) {
       const int32_t maps[kMaterialMapCount] = {m.baseColorTexture,    m.metallicRoughnessTexture, m.normalTexture,

@@ -1,6 +1,6 @@
-// Optional maps specialized (MIRAGE_SPECIALIZE_MAPS=1: shading.glsl's kMaterialMaps holds only the
-// scene's maps, absent ones compile away) shade exactly as the default pipeline that decides every
-// map per material, in the cluster-LOD resolve (docs/shading.md, "Optional maps").
+// Optional maps specialized (the default: shading.glsl's kMaterialMaps holds only the scene's maps,
+// absent ones compile away) shade exactly as the pipeline that decides every map per material
+// (MIRAGE_SPECIALIZE_MAPS=0), in the cluster-LOD resolve (docs/shading.md, "Optional maps").
 #include <cstdlib>
 
 #include <gtest/gtest.h>
@@ -20,7 +20,7 @@ namespace {
 
 // The cluster renderer's image of `p`, with the resolve specialized or not.
 ImageRGBA8 clusterImage(gpu::Context& ctx, const Plane& p, bool specialize) {
-  if (specialize) setenv("MIRAGE_SPECIALIZE_MAPS", "1", 1);
+  if (!specialize) setenv("MIRAGE_SPECIALIZE_MAPS", "0", 1);
   auto baked = lod::bakeLodAsset(p.scene, lod::BuildConfig{});
   EXPECT_TRUE(baked.ok());
   auto r = ClusterRenderer::create(ctx, *baked);
