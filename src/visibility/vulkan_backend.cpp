@@ -14,7 +14,7 @@
 #include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/gpu/query.h"
-#include "mirage/shaderio/rays.h"
+#include "mirage/shaderio/gvs_explore.h"
 #include "mirage/visibility/vulkan_backend.h"
 #include "ray_bvh.h"
 
@@ -25,6 +25,9 @@ namespace {
 using namespace gpu;
 static_assert(sizeof(shaderio::RtRay) == sizeof(Ray) && sizeof(shaderio::RtHit) == sizeof(Hit));
 static_assert(offsetof(Ray, tfar) == offsetof(shaderio::RtRay, tfar) && offsetof(Hit, flags) == 8);
+static_assert(sizeof(ExploreRaySource::BorderItem) == sizeof(shaderio::RtBorderItem) &&
+              sizeof(ExploreRaySource::ReverseItem) == sizeof(shaderio::RtReverseItem) &&
+              sizeof(Discontinuity) == sizeof(shaderio::RtDiscontinuity));
 static_assert(kHitNew == MIRAGE_RT_HIT_NEW && kHitMissing == MIRAGE_RT_HIT_MISSING &&
               kHitSeeThroughNew == MIRAGE_RT_HIT_SEE_THROUGH_NEW && kNoHit == MIRAGE_RT_NO_HIT);
 
@@ -96,7 +99,7 @@ class VulkanBackend final : public VulkanRayBackend {
 public:
   VulkanBackend(Context& context, const VulkanRayOptions& options)
       : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
-        compact_(options.compactRays), timer_(context, 3) {}
+        compact_(options.compactRays), explore_(options.exploreOnDevice), timer_(context, 3) {}
   ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
 
   std::string_view name() const override { return name_; }
@@ -113,6 +116,7 @@ public:
   void traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed, TriangleSet* record) override;
   bool traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
                      std::vector<FirstHit>& out) override;
+  bool traceExploreRays(const ExploreRaySource& source, TriangleSet& record, ExploreResult& out) override;
 
 private:
   Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
@@ -127,11 +131,16 @@ private:
   void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
               size_t stagedRays = 0, size_t rayBytes = sizeof(Ray));
   void collectNew(TriangleSet* record);
+  // After a claiming launch (cell or exploration rays): first insertions into `record`, and a
+  // FirstHit (offset by `firstRay`) for each that was some ray's closest or see-through hit.
+  void collectClaims(TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out);
+  void uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets);
 
   Context& ctx_;
   size_t batch_;
   bool staged_;  // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
   bool compact_; // trace(): 24-byte rays where the interval is [0, inf) (VulkanRayOptions::compactRays)
+  bool explore_; // traceExploreRays (VulkanRayOptions::exploreOnDevice)
   bool instanced_ = false;
   bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
   bool persistent_ = false; // compute: persistent threads
@@ -158,6 +167,9 @@ private:
   // and the cell description (RtCellSource).
   Buffer before_, firstRay_, firstRayReadback_, cellSource_;
   DeviceSet record_, require_;
+  // Exploration rays: world-space corners per global ID (empty: the backend does not make them),
+  // the items of a launch, its RtExploreSource, the discontinuities and (tests) the rays made.
+  Buffer worldTriangles_, exploreItems_, exploreSource_, discontinuities_, exploreRays_;
   bool firstRayValid_ = false; // firstRay_ holds ~0u for every triangle outside the record set
   GpuTimer timer_;
   RayTiming timing_;
@@ -229,6 +241,9 @@ VkAccelerationStructureGeometryKHR triangles(VkDeviceAddress vertices, uint32_t 
 
 // Auto takes the compute traversal up to this many flattened triangles (48 B each plus nodes: ~5 GB).
 constexpr uint64_t kAutoComputeMaxTriangles = uint64_t(1) << 26;
+// Exploration rays on the device need every triangle's world-space corners (36 B each: 2.4 GB at
+// this count); beyond it the host makes them.
+constexpr uint64_t kMaxExploreTriangles = uint64_t(1) << 26;
 
 Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options) {
   const DeviceCapabilities& caps = ctx_.caps();
@@ -293,8 +308,26 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   cellSource_ = createBuffer(ctx_, sizeof(shaderio::RtCellSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                              MemoryUsage::Upload, "rt cell source");
   firstRayValid_ = false;
+  exploreSource_ = createBuffer(ctx_, sizeof(shaderio::RtExploreSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                MemoryUsage::Upload, "rt explore source");
+  if (explore_ && triangles_ > 0 && triangles_ <= kMaxExploreTriangles) uploadWorldTriangles(scene, offsets);
   buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Ok{};
+}
+
+void VulkanBackend::uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets) {
+  // The corners as worldTriangle computes them, so host and device border rays agree.
+  std::vector<glm::vec3> corners(triangles_ * 3);
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const Instance& inst = scene.instances[i];
+    const Mesh& mesh = scene.meshes[inst.mesh];
+    for (size_t t = 0; t < offsets[i + 1] - offsets[i]; ++t)
+      for (size_t k = 0; k < 3; ++k)
+        corners[(offsets[i] + t) * 3 + k] =
+            glm::vec3(inst.transform * glm::vec4(mesh.positions[mesh.indices[t * 3 + k]], 1.0f));
+  }
+  worldTriangles_ = createBufferWithData(ctx_, std::span<const glm::vec3>(corners), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                         "rt world triangles");
 }
 
 void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets) {
@@ -683,8 +716,6 @@ bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, Tri
   for (size_t f = 0; f < source.faces.size(); ++f)
     src.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f, source.faces[f].edgeV, 0.0f};
   RayTiming total;
-  const auto* firstRay = reinterpret_cast<const uint32_t*>(firstRayReadback_.mapped());
-  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
   for (size_t done = 0; done < count;) {
     // Launches of up to 2^30 rays (the smallest maxRayDispatchInvocationCount the spec allows).
     const uint32_t n = uint32_t(std::min<size_t>(count - done, size_t(1) << 30));
@@ -698,20 +729,102 @@ bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, Tri
     push.cell = cellSource_.address();
     launch(push, prepareSet(record_, &record), false, true);
     firstRayValid_ = true;
-    shaderio::RtCounters c;
-    std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
-    for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) {
-      const uint32_t id = ids[k];
-      record.insert(id);
-      // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
-      if (firstRay[id] != ~0u) out.push_back({id, uint32_t(done) + firstRay[id]});
-    }
-    record_.count = record.count();
+    collectClaims(record, uint32_t(done), out);
     total.gpuMilliseconds += timing_.gpuMilliseconds;
     total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     done += n;
   }
   timing_ = total;
+  return true;
+}
+
+void VulkanBackend::collectClaims(TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out) {
+  const auto* first = reinterpret_cast<const uint32_t*>(firstRayReadback_.mapped());
+  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
+  shaderio::RtCounters c;
+  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
+  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) {
+    const uint32_t id = ids[k];
+    record.insert(id);
+    // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
+    if (first[id] != ~0u) out.push_back({id, firstRay + first[id]});
+  }
+  record_.count = record.count();
+}
+
+bool VulkanBackend::traceExploreRays(const ExploreRaySource& source, TriangleSet& record, ExploreResult& out) {
+  const bool border = source.kind == ExploreRaySource::Kind::Border;
+  const size_t items = border ? source.border.size() : source.reverse.size();
+  const size_t count = items * source.raysPerItem;
+  if (!worldTriangles_ || source.raysPerItem == 0 || count >= (size_t(1) << 30) ||
+      (!border && (source.edges.empty() || source.edges.size() > MIRAGE_RT_MAX_CELL_EDGES || source.faces.empty() ||
+                   source.faces.size() > MIRAGE_RT_MAX_CELL_FACES || source.cdf.size() != source.faces.size())))
+    return false;
+  auto t0 = std::chrono::steady_clock::now();
+  const size_t itemBytes = std::max<size_t>(1, items) * sizeof(shaderio::RtBorderItem);
+  ensureCapacity(exploreItems_, itemBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt explore items");
+  if (border)
+    std::memcpy(exploreItems_.mapped(), source.border.data(), items * sizeof(shaderio::RtBorderItem));
+  else
+    std::memcpy(exploreItems_.mapped(), source.reverse.data(), items * sizeof(shaderio::RtReverseItem));
+  shaderio::RtExploreSource src{};
+  src.cell.before = before_.address();
+  src.cell.firstRay = firstRay_.address();
+  src.cell.faceCount = uint32_t(source.faces.size());
+  for (size_t f = 0; f < source.faces.size(); ++f)
+    src.cell.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f, source.faces[f].edgeV,
+                         0.0f};
+  src.items = exploreItems_.address();
+  src.triangles = worldTriangles_.address();
+  if (border) {
+    ensureCapacity(discontinuities_, std::max<size_t>(1, count) * sizeof(shaderio::RtDiscontinuity),
+                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt discontinuities");
+    src.discontinuities = discontinuities_.address();
+  }
+  if (out.rays) {
+    ensureCapacity(exploreRays_, std::max<size_t>(1, count) * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                   MemoryUsage::Readback, "rt explore rays");
+    src.rays = exploreRays_.address();
+  }
+  src.firstSeed = source.firstSeed;
+  src.raysPerItem = source.raysPerItem;
+  src.absEdgeSamples = source.absEdgeSamples;
+  src.absDeltaTriangle = source.absDeltaTriangle;
+  src.absDeltaAbsolute = source.absDeltaAbsolute;
+  src.rsDeltaRelative = source.rsDeltaRelative;
+  src.rsEdgeSamples = source.rsEdgeSamples;
+  src.rsAreaSamples = source.rsAreaSamples;
+  src.edgeCount = uint32_t(source.edges.size());
+  for (size_t e = 0; e < source.edges.size(); ++e) {
+    // The length as the host's edgePoint measures it.
+    const float length = glm::length(source.edges[e][1] - source.edges[e][0]);
+    src.edges[e] = {source.edges[e][0], length, source.edges[e][1], 0.0f};
+    src.edgeLength += length;
+  }
+  src.rsOffset0 = source.rsOffset[0];
+  src.rsOffset1 = source.rsOffset[1];
+  src.rsOffset2 = source.rsOffset[2];
+  std::memcpy(exploreSource_.mapped(), &src, sizeof(src)); // the previous launch has completed
+  shaderio::RtTracePush push{};
+  push.record = record_.bits.address();
+  push.count = uint32_t(count);
+  push.mode = border ? MIRAGE_RT_MODE_BORDER : MIRAGE_RT_MODE_REVERSE;
+  push.cell = exploreSource_.address();
+  launch(push, prepareSet(record_, &record), false, true);
+  firstRayValid_ = true;
+  collectClaims(record, 0, out.firstHits);
+  shaderio::RtCounters c;
+  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
+  out.traced = c.traced;
+  if (border) {
+    const auto* d = reinterpret_cast<const Discontinuity*>(discontinuities_.mapped());
+    out.discontinuities.assign(d, d + std::min<size_t>(c.discontinuities, count));
+  }
+  if (out.rays) {
+    const auto* r = reinterpret_cast<const Ray*>(exploreRays_.mapped());
+    out.rays->assign(r, r + count);
+  }
+  timing_.wallMilliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return true;
 }
 

@@ -61,8 +61,8 @@ struct RtSlot {
 struct RtCounters {
   uint newCount;  // IDs appended to newIds (first insertions into the record set)
   uint nextBatch; // compute traversal, persistent threads: rays handed out so far
-  uint pad1;
-  uint pad2;
+  uint discontinuities; // MODE_BORDER: RtDiscontinuity records appended (gvs_explore.h)
+  uint traced;          // MODE_BORDER, MODE_REVERSE: rays not skipped
 };
 
 // One cell face: corner + u·edgeU + v·edgeV, picked when its cumulative area fraction exceeds the
