@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <queue>
 #include <type_traits>
 
 #include <tbb/blocked_range.h>
@@ -12,6 +11,7 @@
 
 #include "explore_rays.h"
 #include "mirage/visibility/gvs.h"
+#include "run_queue.h"
 #include "sampling.h"
 
 namespace mirage::vis {
@@ -59,7 +59,7 @@ template <class T> struct LowerValue {
 
 // One exploration phase's work list and its record of how well queued value turned into gain.
 template <class T> struct Explorer {
-  std::priority_queue<Queued<T>, std::vector<Queued<T>>, LowerValue<T>> queue;
+  detail::RunQueue<Queued<T>, LowerValue<T>> queue;
   std::vector<Queued<T>> staged; // the next chunk, taken off the queue to price it
   size_t raysPerItem = 1;
   size_t chunkRays = 1; // rays of the next chunk: small while the phase's rate is still being learnt
@@ -74,9 +74,9 @@ template <class T> struct Explorer {
   // more valuable work may have been queued since) and returns the gain per ray expected of it;
   // negative when nothing is pending.
   double stage(size_t items) {
-    for (auto& q : staged) queue.push(std::move(q));
-    staged.clear();
+    queue.pushRun(std::exchange(staged, {})); // popped in order: a sorted run
     double value = 0.0;
+    staged.reserve(std::min(items, queue.size()));
     while (staged.size() < items && !queue.empty()) {
       staged.push_back(queue.top());
       value += staged.back().value;
