@@ -63,8 +63,7 @@ float wrapUnit(float v) { return v >= 1.0f ? v - 1.0f : v; }
 // RS origin j of the seed with sequence index `seed`: evenly along the cell's edges (shifted per
 // seed so seeds differ), then randomized Halton points on its surface (RandomizedHalton<3>).
 glm::vec3 reverseOrigin(const ExploreRaySource& s, float total, uint64_t seed, uint32_t j) {
-  if (j < s.rsEdgeSamples)
-    return edgePoint(s, total, (float(j) + radicalInverse(seed, 2)) / float(s.rsEdgeSamples));
+  if (j < s.rsEdgeSamples) return edgePoint(s, total, (float(j) + radicalInverse(seed, 2)) / float(s.rsEdgeSamples));
   const uint64_t h = seed * s.rsAreaSamples + (j - s.rsEdgeSamples) + 1;
   const float select = wrapUnit(radicalInverse<2>(h) + s.rsOffset[0]);
   const float u = wrapUnit(radicalInverse<3>(h) + s.rsOffset[1]);

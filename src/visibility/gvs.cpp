@@ -405,14 +405,13 @@ private:
       deviceExplore_ = false; // the backend cannot: make the rays here from now on
       return false;
     }
+    result_.stats.generatedExploreRays = true;
     const double seconds = secondsSince(t0);
     result_.stats.traceSeconds += seconds;
     *phaseTrace_ += seconds;
     traced = explored_.traced;
     result_.stats.rays += traced;
-    auto byRay = [](const auto& a, const auto& b) {
-      return a.ray != b.ray ? a.ray < b.ray : a.triangle < b.triangle;
-    };
+    auto byRay = [](const auto& a, const auto& b) { return a.ray != b.ray ? a.ray < b.ray : a.triangle < b.triangle; };
     std::sort(explored_.firstHits.begin(), explored_.firstHits.end(), byRay);
     for (const FirstHit& f : explored_.firstHits)
       gain += discover(f.triangle, detail::exploreRay(scene_, offsets_, src, f.ray));

@@ -772,8 +772,8 @@ bool VulkanBackend::traceExploreRays(const ExploreRaySource& source, TriangleSet
   src.cell.firstRay = firstRay_.address();
   src.cell.faceCount = uint32_t(source.faces.size());
   for (size_t f = 0; f < source.faces.size(); ++f)
-    src.cell.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f, source.faces[f].edgeV,
-                         0.0f};
+    src.cell.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f,
+                         source.faces[f].edgeV,  0.0f};
   src.items = exploreItems_.address();
   src.triangles = worldTriangles_.address();
   if (border) {

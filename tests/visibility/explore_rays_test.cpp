@@ -128,9 +128,8 @@ TEST_P(ExploreRays, DeviceRaysAreTheHostFormulas) {
   TriangleSet record(vk->triangleCount());
   ASSERT_TRUE(vk->traceExploreRays(src, record, abs));
   expectSameRays(hostRays, deviceRays, scale, "ABS");
-  EXPECT_EQ(abs.traced, size_t(std::count_if(deviceRays.begin(), deviceRays.end(), [](const Ray& r) {
-              return r.tfar >= 0.0f;
-            })));
+  EXPECT_EQ(abs.traced,
+            size_t(std::count_if(deviceRays.begin(), deviceRays.end(), [](const Ray& r) { return r.tfar >= 0.0f; })));
   EXPECT_FALSE(abs.firstHits.empty());
   for (const FirstHit& f : abs.firstHits) EXPECT_TRUE(record.contains(f.triangle));
 

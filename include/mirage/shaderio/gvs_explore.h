@@ -61,16 +61,16 @@ struct RtCellEdge {
 };
 
 struct RtExploreSource {
-  RtCellSource cell;       // before, firstRay (claims) and the faces (RS area points); firstIndex unused
-  uint64_t items;          // RtBorderItem[] or RtReverseItem[]
+  RtCellSource cell;        // before, firstRay (claims) and the faces (RS area points); firstIndex unused
+  uint64_t items;           // RtBorderItem[] or RtReverseItem[]
   uint64_t discontinuities; // MODE_BORDER: RtDiscontinuity[count], appended (RtCounters::discontinuities)
-  uint64_t triangles;      // vec3[3] per global triangle ID, world space
-  uint64_t rays;           // optional RtRay[count]: the generated rays (tfar < 0: skipped), for tests
-  uint64_t firstSeed;      // MODE_REVERSE: sequence index of item 0 (edge shift, Halton points)
+  uint64_t triangles;       // vec3[3] per global triangle ID, world space
+  uint64_t rays;            // optional RtRay[count]: the generated rays (tfar < 0: skipped), for tests
+  uint64_t firstSeed;       // MODE_REVERSE: sequence index of item 0 (edge shift, Halton points)
   uint raysPerItem;
   uint absEdgeSamples;
-  float absDeltaTriangle;   // border enlargement: this fraction of the longest edge ...
-  float absDeltaAbsolute;   // ... plus this (absDeltaScene times the scene diagonal)
+  float absDeltaTriangle; // border enlargement: this fraction of the longest edge ...
+  float absDeltaAbsolute; // ... plus this (absDeltaScene times the scene diagonal)
   float rsDeltaRelative;
   uint rsEdgeSamples;
   uint rsAreaSamples;

@@ -59,8 +59,8 @@ struct RtSlot {
 };
 
 struct RtCounters {
-  uint newCount;  // IDs appended to newIds (first insertions into the record set)
-  uint nextBatch; // compute traversal, persistent threads: rays handed out so far
+  uint newCount;        // IDs appended to newIds (first insertions into the record set)
+  uint nextBatch;       // compute traversal, persistent threads: rays handed out so far
   uint discontinuities; // MODE_BORDER: RtDiscontinuity records appended (gvs_explore.h)
   uint traced;          // MODE_BORDER, MODE_REVERSE: rays not skipped
 };

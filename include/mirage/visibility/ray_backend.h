@@ -157,7 +157,7 @@ struct Discontinuity {
 };
 
 struct ExploreResult {
-  std::vector<FirstHit> firstHits; // as traceCellRays: (triangle, lowest ray), no particular order
+  std::vector<FirstHit> firstHits;            // as traceCellRays: (triangle, lowest ray), no particular order
   std::vector<Discontinuity> discontinuities; // Kind::Border, no particular order
   uint64_t traced = 0;                        // rays not skipped
   std::vector<Ray>* rays = nullptr;           // if set: every slot's ray (tfar < 0: skipped), for tests
