@@ -165,7 +165,11 @@ private:
   Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
   // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
   // and the cell description (RtCellSource).
+  // firstRayReadback_ holds the entries of the launch's new triangles only, in newIds order
+  // (vis_first_rays.comp).
   Buffer before_, firstRay_, firstRayReadback_, cellSource_;
+  Unique<VkPipelineLayout> gatherLayout_;
+  Unique<VkPipeline> gatherPipeline_;
   DeviceSet record_, require_;
   // Exploration rays: world-space corners per global ID (empty: the backend does not make them),
   // the items of a launch, its RtExploreSource, the discontinuities and (tests) the rays made.
@@ -303,8 +307,10 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt first ray");
-  firstRayReadback_ =
-      createBuffer(ctx_, rayBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "rt first ray readback");
+  firstRayReadback_ = createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                   MemoryUsage::Readback, "rt first rays of new triangles");
+  gatherLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtGatherPush), VK_SHADER_STAGE_COMPUTE_BIT);
+  gatherPipeline_ = createComputePipeline(ctx_, "vis_first_rays.comp", gatherLayout_);
   cellSource_ = createBuffer(ctx_, sizeof(shaderio::RtCellSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                              MemoryUsage::Upload, "rt cell source");
   firstRayValid_ = false;
@@ -594,6 +600,16 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
         vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
     }
     timer_.cmdEnd(cmd, slot, stage);
+    if (cellMode) {
+      // The lowest ray of each new triangle, gathered into host-visible memory.
+      cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+      shaderio::RtGatherPush gather{newIds_.address(),           counters_.address(),      firstRay_.address(),
+                                    firstRayReadback_.address(), uint32_t(triangles_ + 1), 0};
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gatherPipeline_);
+      vkCmdPushConstants(cmd, gatherLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gather), &gather);
+      vkCmdDispatch(cmd, MIRAGE_RT_GATHER_GROUPS, 1, 1);
+    }
     cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                      VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
@@ -604,11 +620,7 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
       vkCmdCopyBuffer(cmd, hitsDevice_.handle(), hits_.handle(), 1, &bytes);
       timer_.cmdEnd(cmd, readback, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
     }
-    if (cellMode) {
-      VkBufferCopy all{0, 0, firstRay_.size()};
-      vkCmdCopyBuffer(cmd, firstRay_.handle(), firstRayReadback_.handle(), 1, &all);
-    }
-    cmdMemoryBarrier(cmd, stage | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+    cmdMemoryBarrier(cmd, stage | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
   });
@@ -747,7 +759,7 @@ void VulkanBackend::collectClaims(TriangleSet& record, uint32_t firstRay, std::v
     const uint32_t id = ids[k];
     record.insert(id);
     // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
-    if (first[id] != ~0u) out.push_back({id, firstRay + first[id]});
+    if (first[k] != ~0u) out.push_back({id, firstRay + first[k]});
   }
   record_.count = record.count();
 }
