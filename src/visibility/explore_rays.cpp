@@ -119,15 +119,19 @@ void makeExploreRays(const Scene& scene, std::span<const uint64_t> offsets, cons
 Ray exploreRay(const Scene& scene, std::span<const uint64_t> offsets, const ExploreRaySource& s, size_t slot) {
   const size_t q = slot / s.raysPerItem;
   const uint32_t k = uint32_t(slot % s.raysPerItem);
+  // No skip tests: a slot the device traced keeps its origin even where the host's rounding would
+  // have skipped it (a shadow test on its threshold).
+  auto aimed = [](glm::vec3 origin, glm::vec3 target) {
+    glm::vec3 d = target - origin;
+    return Ray{.origin = origin, .dir = glm::dot(d, d) > 0.0f ? glm::normalize(d) : glm::vec3(0, 0, 1)};
+  };
   if (s.kind == ExploreRaySource::Kind::Border) {
     const auto& item = s.border[q];
     Border b(worldTriangle(scene, offsets, item.triangle), s);
-    return b.degenerate ? kSkipped : towards(item.origin, b.point(k, s.absEdgeSamples));
+    return b.degenerate ? Ray{.origin = item.origin} : aimed(item.origin, b.point(k, s.absEdgeSamples));
   }
   const auto& item = s.reverse[q];
-  std::array<glm::vec3, 3> occ{};
-  if (item.occluder != kNoHit) occ = worldTriangle(scene, offsets, item.occluder);
-  return reverseRay(item, occ, reverseOrigin(s, edgeLength(s), s.firstSeed + q, k));
+  return aimed(reverseOrigin(s, edgeLength(s), s.firstSeed + q, k), item.target);
 }
 
 } // namespace mirage::vis::detail

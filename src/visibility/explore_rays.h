@@ -17,7 +17,8 @@ namespace mirage::vis::detail {
 void makeExploreRays(const Scene& scene, std::span<const uint64_t> offsets, const ExploreRaySource& source,
                      std::span<Ray> rays, std::span<glm::vec3> targets);
 
-// The ray of one slot (as makeExploreRays makes it), e.g. to rebuild a discovering ray.
+// The ray of one slot (as makeExploreRays makes it, but never skipped), to rebuild a discovering
+// ray: its origin seeds border sampling.
 Ray exploreRay(const Scene& scene, std::span<const uint64_t> offsets, const ExploreRaySource& source, size_t slot);
 
 } // namespace mirage::vis::detail
