@@ -9,14 +9,8 @@
 
 #include <fmt/format.h>
 
-#include "mirage/gpu/commands.h"
-#include "mirage/gpu/context.h"
-#include "mirage/gpu/descriptors.h"
-#include "mirage/gpu/pipeline.h"
-#include "mirage/gpu/query.h"
-#include "mirage/shaderio/gvs_explore.h"
-#include "mirage/visibility/vulkan_backend.h"
 #include "ray_bvh.h"
+#include "vulkan_backend_impl.h"
 
 namespace mirage::vis {
 
@@ -46,22 +40,6 @@ void cmdAfterEarlierSubmissions(VkCommandBuffer cmd) {
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
 }
-
-struct Accel {
-  Buffer storage;
-  Unique<VkAccelerationStructureKHR> handle;
-  VkDeviceAddress address = 0;
-};
-
-// A device copy of a host TriangleSet, uploaded again only when the host set changed other than
-// through this backend's own insertions (which are mirrored on both sides).
-struct DeviceSet {
-  const TriangleSet* host = nullptr;
-  uint64_t generation = 0;
-  size_t count = 0;
-  Buffer bits;    // GpuOnly: atomicOr target
-  Buffer staging; // Upload
-};
 
 bool seeThroughMesh(const Scene& scene, const Mesh& mesh) {
   return mesh.material < scene.materials.size() && scene.materials[mesh.material].alphaMode != AlphaMode::Opaque;
@@ -95,89 +73,9 @@ void packCompact(std::span<const Ray> rays, float* out) {
   }
 }
 
-class VulkanBackend final : public VulkanRayBackend {
-public:
-  VulkanBackend(Context& context, const VulkanRayOptions& options)
-      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
-        compact_(options.compactRays), explore_(options.exploreOnDevice), timer_(context, 3) {}
-  ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
+} // namespace
 
-  std::string_view name() const override { return name_; }
-  size_t triangleCount() const override { return triangles_; }
-  size_t preferredBatchRays() const override { return batch_; }
-  RayTiming lastTiming() const override { return timing_; }
-  double buildSeconds() const override { return buildSeconds_; }
-  RayBvhStats bvhStats() const override { return bvhStats_; }
-  void setStagedRays(bool staged) override { staged_ = staged; }
-  void setCompactRays(bool compact) override { compact_ = compact; }
-
-  Status build(const Scene& scene, const VulkanRayOptions& options);
-  void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
-  void traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed, TriangleSet* record) override;
-  bool traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
-                     std::vector<FirstHit>& out) override;
-  bool traceExploreRays(const ExploreRaySource& source, TriangleSet& record, ExploreResult& out) override;
-
-private:
-  Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
-                   std::span<const uint32_t> primitives, const char* name);
-  void buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets);
-  void createPipeline();
-  Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
-  void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
-  bool prepareSet(DeviceSet& set, const TriangleSet* host);
-  // stagedRays > 0: copy that many rays (rayBytes each) into raysDevice_ first and their hits out
-  // of hitsDevice_ after.
-  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
-              size_t stagedRays = 0, size_t rayBytes = sizeof(Ray));
-  void collectNew(TriangleSet* record);
-  // After a claiming launch (cell or exploration rays): first insertions into `record`, and a
-  // FirstHit (offset by `firstRay`) for each that was some ray's closest or see-through hit.
-  void collectClaims(TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out);
-  void uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets);
-
-  Context& ctx_;
-  size_t batch_;
-  bool staged_;  // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
-  bool compact_; // trace(): 24-byte rays where the interval is [0, inf) (VulkanRayOptions::compactRays)
-  bool explore_; // traceExploreRays (VulkanRayOptions::exploreOnDevice)
-  bool instanced_ = false;
-  bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
-  bool persistent_ = false; // compute: persistent threads
-  std::string name_; // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-postpone][-persistent]
-  size_t triangles_ = 0;
-  double buildSeconds_ = 0.0;
-  Buffer vertices_, indices_, transforms_, instances_, slots_;
-  std::vector<Accel> blas_;
-  Accel tlas_;
-  DescriptorSet descriptors_;
-  Unique<VkPipelineLayout> layout_;
-  Unique<VkPipeline> pipeline_;
-  Buffer sbt_;
-  VkStridedDeviceAddressRegionKHR raygenRegion_{}, missRegion_{}, hitRegion_{}, callableRegion_{};
-  // Compute traversal: RtBvhNode[] and RtBvhTriangle[] (ray_bvh.h), its pipeline.
-  Buffer bvhNodes_, bvhTriangles_;
-  Unique<VkPipelineLayout> computeLayout_;
-  Unique<VkPipeline> computePipeline_;
-  bool bvhEmpty_ = true;
-  RayBvhStats bvhStats_;
-  Buffer rays_, hits_, newIds_, counters_, countersReadback_;
-  Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
-  // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
-  // and the cell description (RtCellSource).
-  // firstRayReadback_ holds the entries of the launch's new triangles only, in newIds order
-  // (vis_first_rays.comp).
-  Buffer before_, firstRay_, firstRayReadback_, cellSource_;
-  Unique<VkPipelineLayout> gatherLayout_;
-  Unique<VkPipeline> gatherPipeline_;
-  DeviceSet record_, require_;
-  // Exploration rays: world-space corners per global ID (empty: the backend does not make them),
-  // the items of a launch, its RtExploreSource, the discontinuities and (tests) the rays made.
-  Buffer worldTriangles_, exploreItems_, exploreSource_, discontinuities_, exploreRays_;
-  bool firstRayValid_ = false; // firstRay_ holds ~0u for every triangle outside the record set
-  GpuTimer timer_;
-  RayTiming timing_;
-};
+namespace detail {
 
 Accel VulkanBackend::buildAccel(VkAccelerationStructureTypeKHR type,
                                 std::span<const VkAccelerationStructureGeometryKHR> geometries,
@@ -225,6 +123,8 @@ Accel VulkanBackend::buildAccel(VkAccelerationStructureTypeKHR type,
   return a;
 }
 
+namespace {
+
 VkAccelerationStructureGeometryKHR triangles(VkDeviceAddress vertices, uint32_t maxVertex, VkDeviceAddress indices,
                                              VkDeviceAddress transform, bool seeThrough) {
   VkAccelerationStructureGeometryKHR g{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
@@ -245,9 +145,8 @@ VkAccelerationStructureGeometryKHR triangles(VkDeviceAddress vertices, uint32_t 
 
 // Auto takes the compute traversal up to this many flattened triangles (48 B each plus nodes: ~5 GB).
 constexpr uint64_t kAutoComputeMaxTriangles = uint64_t(1) << 26;
-// Exploration rays on the device need every triangle's world-space corners (36 B each: 2.4 GB at
-// this count); beyond it the host makes them.
-constexpr uint64_t kMaxExploreTriangles = uint64_t(1) << 26;
+
+} // namespace
 
 Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options) {
   const DeviceCapabilities& caps = ctx_.caps();
@@ -319,21 +218,6 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   if (explore_ && triangles_ > 0 && triangles_ <= kMaxExploreTriangles) uploadWorldTriangles(scene, offsets);
   buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Ok{};
-}
-
-void VulkanBackend::uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets) {
-  // The corners as worldTriangle computes them, so host and device border rays agree.
-  std::vector<glm::vec3> corners(triangles_ * 3);
-  for (size_t i = 0; i < scene.instances.size(); ++i) {
-    const Instance& inst = scene.instances[i];
-    const Mesh& mesh = scene.meshes[inst.mesh];
-    for (size_t t = 0; t < offsets[i + 1] - offsets[i]; ++t)
-      for (size_t k = 0; k < 3; ++k)
-        corners[(offsets[i] + t) * 3 + k] =
-            glm::vec3(inst.transform * glm::vec4(mesh.positions[mesh.indices[t * 3 + k]], 1.0f));
-  }
-  worldTriangles_ = createBufferWithData(ctx_, std::span<const glm::vec3>(corners), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                         "rt world triangles");
 }
 
 void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets) {
@@ -711,136 +595,7 @@ void VulkanBackend::traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t 
   timing_ = total;
 }
 
-bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
-                                  std::vector<FirstHit>& out) {
-  if (source.faces.empty() || source.faces.size() > MIRAGE_RT_MAX_CELL_FACES ||
-      source.cdf.size() != source.faces.size())
-    return false;
-  shaderio::RtCellSource src{};
-  src.before = before_.address();
-  src.firstRay = firstRay_.address();
-  src.faceCount = uint32_t(source.faces.size());
-  src.offset0 = source.offset[0];
-  src.offset1 = source.offset[1];
-  src.offset2 = source.offset[2];
-  src.offset3 = source.offset[3];
-  src.offset4 = source.offset[4];
-  for (size_t f = 0; f < source.faces.size(); ++f)
-    src.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f, source.faces[f].edgeV, 0.0f};
-  RayTiming total;
-  for (size_t done = 0; done < count;) {
-    // Launches of up to 2^30 rays (the smallest maxRayDispatchInvocationCount the spec allows).
-    const uint32_t n = uint32_t(std::min<size_t>(count - done, size_t(1) << 30));
-    auto t0 = std::chrono::steady_clock::now();
-    src.firstIndex = source.firstIndex + done;
-    std::memcpy(cellSource_.mapped(), &src, sizeof(src)); // the previous launch has completed
-    shaderio::RtTracePush push{};
-    push.record = record_.bits.address();
-    push.count = n;
-    push.mode = MIRAGE_RT_MODE_CELL;
-    push.cell = cellSource_.address();
-    launch(push, prepareSet(record_, &record), false, true);
-    firstRayValid_ = true;
-    collectClaims(record, uint32_t(done), out);
-    total.gpuMilliseconds += timing_.gpuMilliseconds;
-    total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    done += n;
-  }
-  timing_ = total;
-  return true;
-}
-
-void VulkanBackend::collectClaims(TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out) {
-  const auto* first = reinterpret_cast<const uint32_t*>(firstRayReadback_.mapped());
-  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
-  shaderio::RtCounters c;
-  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
-  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) {
-    const uint32_t id = ids[k];
-    record.insert(id);
-    // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
-    if (first[k] != ~0u) out.push_back({id, firstRay + first[k]});
-  }
-  record_.count = record.count();
-}
-
-bool VulkanBackend::traceExploreRays(const ExploreRaySource& source, TriangleSet& record, ExploreResult& out) {
-  const bool border = source.kind == ExploreRaySource::Kind::Border;
-  const size_t items = border ? source.border.size() : source.reverse.size();
-  const size_t count = items * source.raysPerItem;
-  if (!worldTriangles_ || source.raysPerItem == 0 || count >= (size_t(1) << 30) ||
-      (!border && (source.edges.empty() || source.edges.size() > MIRAGE_RT_MAX_CELL_EDGES || source.faces.empty() ||
-                   source.faces.size() > MIRAGE_RT_MAX_CELL_FACES || source.cdf.size() != source.faces.size())))
-    return false;
-  auto t0 = std::chrono::steady_clock::now();
-  const size_t itemBytes = std::max<size_t>(1, items) * sizeof(shaderio::RtBorderItem);
-  ensureCapacity(exploreItems_, itemBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt explore items");
-  if (border)
-    std::memcpy(exploreItems_.mapped(), source.border.data(), items * sizeof(shaderio::RtBorderItem));
-  else
-    std::memcpy(exploreItems_.mapped(), source.reverse.data(), items * sizeof(shaderio::RtReverseItem));
-  shaderio::RtExploreSource src{};
-  src.cell.before = before_.address();
-  src.cell.firstRay = firstRay_.address();
-  src.cell.faceCount = uint32_t(source.faces.size());
-  for (size_t f = 0; f < source.faces.size(); ++f)
-    src.cell.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f,
-                         source.faces[f].edgeV,  0.0f};
-  src.items = exploreItems_.address();
-  src.triangles = worldTriangles_.address();
-  if (border) {
-    ensureCapacity(discontinuities_, std::max<size_t>(1, count) * sizeof(shaderio::RtDiscontinuity),
-                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt discontinuities");
-    src.discontinuities = discontinuities_.address();
-  }
-  if (out.rays) {
-    ensureCapacity(exploreRays_, std::max<size_t>(1, count) * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                   MemoryUsage::Readback, "rt explore rays");
-    src.rays = exploreRays_.address();
-  }
-  src.firstSeed = source.firstSeed;
-  src.raysPerItem = source.raysPerItem;
-  src.absEdgeSamples = source.absEdgeSamples;
-  src.absDeltaTriangle = source.absDeltaTriangle;
-  src.absDeltaAbsolute = source.absDeltaAbsolute;
-  src.rsDeltaRelative = source.rsDeltaRelative;
-  src.rsEdgeSamples = source.rsEdgeSamples;
-  src.rsAreaSamples = source.rsAreaSamples;
-  src.edgeCount = uint32_t(source.edges.size());
-  for (size_t e = 0; e < source.edges.size(); ++e) {
-    // The length as the host's edgePoint measures it.
-    const float length = glm::length(source.edges[e][1] - source.edges[e][0]);
-    src.edges[e] = {source.edges[e][0], length, source.edges[e][1], 0.0f};
-    src.edgeLength += length;
-  }
-  src.rsOffset0 = source.rsOffset[0];
-  src.rsOffset1 = source.rsOffset[1];
-  src.rsOffset2 = source.rsOffset[2];
-  std::memcpy(exploreSource_.mapped(), &src, sizeof(src)); // the previous launch has completed
-  shaderio::RtTracePush push{};
-  push.record = record_.bits.address();
-  push.count = uint32_t(count);
-  push.mode = border ? MIRAGE_RT_MODE_BORDER : MIRAGE_RT_MODE_REVERSE;
-  push.cell = exploreSource_.address();
-  launch(push, prepareSet(record_, &record), false, true);
-  firstRayValid_ = true;
-  collectClaims(record, 0, out.firstHits);
-  shaderio::RtCounters c;
-  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
-  out.traced = c.traced;
-  if (border) {
-    const auto* d = reinterpret_cast<const Discontinuity*>(discontinuities_.mapped());
-    out.discontinuities.assign(d, d + std::min<size_t>(c.discontinuities, count));
-  }
-  if (out.rays) {
-    const auto* r = reinterpret_cast<const Ray*>(exploreRays_.mapped());
-    out.rays->assign(r, r + count);
-  }
-  timing_.wallMilliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  return true;
-}
-
-} // namespace
+} // namespace detail
 
 Result<TraversalWork> countTraversalWork(const Scene& scene, std::span<const Ray> rays, uint32_t bvhWidth) {
   if (bvhWidth != 4 && bvhWidth != 8) return Error{"traversal work: the BVH width must be 4 or 8"};
@@ -871,7 +626,7 @@ Result<TraversalWork> countTraversalWork(const Scene& scene, std::span<const Ray
 
 Result<std::unique_ptr<VulkanRayBackend>> createVulkanBackend(gpu::Context& context, const Scene& scene,
                                                               const VulkanRayOptions& options) {
-  auto backend = std::make_unique<VulkanBackend>(context, options);
+  auto backend = std::make_unique<detail::VulkanBackend>(context, options);
   if (auto ok = backend->build(scene, options); !ok) return ok.error();
   return std::unique_ptr<VulkanRayBackend>(std::move(backend));
 }
