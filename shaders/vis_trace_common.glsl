@@ -149,14 +149,10 @@ bool insert(uint id) {
 
 bool exploreMode() { return push.mode == MIRAGE_RT_MODE_BORDER || push.mode == MIRAGE_RT_MODE_REVERSE; }
 
-// MODE_BORDER / MODE_REVERSE: what loadRay decided besides the ray, for finishRay.
-bool exploreSkipped = false;
-vec3 exploreTarget = vec3(0.0);
-
 // A ray the host sampler would not have made: an inverted interval, which every traversal treats
-// as a miss (validRay).
+// as a miss (validRay). Exploration rays that are made are valid, so a skipped slot is one whose ray
+// fails validRay (nothing is kept alive across the traversal for it).
 RtRay skippedRay() {
-  exploreSkipped = true;
   RtRay r;
   r.origin = vec3(0.0);
   r.tnear = 1.0;
@@ -175,7 +171,6 @@ RtRay exploreRay(vec3 origin, vec3 target) {
   r.dir = normalize(d);
   r.tfar = 1.0 / 0.0;
   if (!validRay(r)) return skippedRay();
-  exploreTarget = target;
   return r;
 }
 
@@ -183,18 +178,25 @@ vec3 worldCorner(uint triangle, uint corner) {
   return RtVec3Ref(RtExploreSourceRef(push.cell).s.triangles).v[3u * triangle + corner];
 }
 
-// ABS ray `index`: border point index % raysPerItem of item index / raysPerItem (gvs_explore.h).
-RtRay borderRay(uint index) {
+// ABS slot `index`: border point index % raysPerItem of item index / raysPerItem (gvs_explore.h);
+// false for a degenerate triangle (no border to follow).
+bool borderTarget(uint index, out vec3 origin, out vec3 target) {
   RtExploreSourceRef src = RtExploreSourceRef(push.cell);
   uint per = src.s.raysPerItem;
   RtBorderItem item = RtBorderItemRef(src.s.items).v[index / per];
+  origin = item.origin;
   vec3 v0 = worldCorner(item.triangle, 0u), v1 = worldCorner(item.triangle, 1u), v2 = worldCorner(item.triangle, 2u);
   vec3 n = cross(v1 - v0, v2 - v0);
-  if (dot(n, n) < 1e-30) return skippedRay(); // degenerate: no border to follow
+  if (dot(n, n) < 1e-30) return false;
   vec3 en0 = absEdgeNormal(v0, v1, v2, n), en1 = absEdgeNormal(v1, v2, v0, n), en2 = absEdgeNormal(v2, v0, v1, n);
   float delta = absDelta(v0, v1, v2, src.s.absDeltaTriangle, src.s.absDeltaAbsolute);
-  vec3 p = absPoint(v0, v1, v2, en0, en1, en2, delta, index % per, src.s.absEdgeSamples);
-  return exploreRay(item.origin, p);
+  target = absPoint(v0, v1, v2, en0, en1, en2, delta, index % per, src.s.absEdgeSamples);
+  return true;
+}
+
+RtRay borderRay(uint index) {
+  vec3 origin, target;
+  return borderTarget(index, origin, target) ? exploreRay(origin, target) : skippedRay();
 }
 
 // Point `s` (0..1) along the cell's edges, by length (the host's edgePoint).
@@ -237,7 +239,6 @@ RtRay reverseRay(uint index) {
 RtRay loadRay(uint index) {
   if (push.mode == MIRAGE_RT_MODE_GENERATED) return generatedRay(index);
   if (push.mode == MIRAGE_RT_MODE_CELL) return cellRay(index);
-  exploreSkipped = false;
   if (push.mode == MIRAGE_RT_MODE_BORDER) return borderRay(index);
   if (push.mode == MIRAGE_RT_MODE_REVERSE) return reverseRay(index);
   RtRay ray;
@@ -277,20 +278,24 @@ void countTraced(bool traced) {
 
 // MODE_BORDER / MODE_REVERSE after the hit: the count, the generated ray (tests), and for ABS the
 // discontinuity test (missed, or hit nearer than the target by more than rsDeltaRelative).
+// The border point is made again here rather than kept through the traversal (registers).
 void finishExplore(uint index, RtRay ray, RtHit hit) {
   RtExploreSourceRef src = RtExploreSourceRef(push.cell);
-  countTraced(!exploreSkipped);
+  bool skipped = !validRay(ray);
+  countTraced(!skipped);
   if (src.s.rays != 0ul) {
     RtRay out_ = ray;
-    if (exploreSkipped) out_.tfar = -1.0;
+    if (skipped) out_.tfar = -1.0;
     RtRayRef(src.s.rays).v[index] = out_;
   }
-  if (exploreSkipped || push.mode != MIRAGE_RT_MODE_BORDER) return;
-  float dist = length(exploreTarget - ray.origin);
+  if (skipped || push.mode != MIRAGE_RT_MODE_BORDER) return;
+  vec3 origin, target;
+  borderTarget(index, origin, target);
+  float dist = length(target - ray.origin);
   if (hit.triangle != MIRAGE_RT_NO_HIT && hit.t >= dist * (1.0 - src.s.rsDeltaRelative)) return;
   uint slot = atomicAdd(RtCountersRef(push.counters).c.discontinuities, 1u);
   RtDiscontinuity d;
-  d.target = exploreTarget;
+  d.target = target;
   d.occluder = hit.triangle;
   d.ray = index;
   RtDiscontinuityRef(src.s.discontinuities).v[slot] = d;
