@@ -417,9 +417,14 @@ private:
       gain += discover(f.triangle, detail::exploreRay(scene_, offsets_, src, f.ray));
     checkpoint();
     if (discontinuities) {
-      *discontinuities = std::move(explored_.discontinuities);
-      std::sort(discontinuities->begin(), discontinuities->end(),
-                [](const Discontinuity& a, const Discontinuity& b) { return a.ray < b.ray; });
+      // In ray order (at most one per ray): placed by ray index, which costs less than sorting the
+      // hundreds of thousands a border chunk can meet.
+      const auto& found = explored_.discontinuities;
+      slotOf_.assign(slots, ~0u);
+      for (size_t k = 0; k < found.size(); ++k) slotOf_[found[k].ray] = uint32_t(k);
+      discontinuities->clear();
+      for (uint32_t k : slotOf_)
+        if (k != ~0u) discontinuities->push_back(found[k]);
     }
     return true;
   }
@@ -533,6 +538,7 @@ private:
   std::vector<ExploreRaySource::ReverseItem> reverseItems_;
   ExploreResult explored_;
   std::vector<Discontinuity> discontinuities_;
+  std::vector<uint32_t> slotOf_; // the discontinuity of each slot of a border chunk (~0u: none)
   bool traceable_ = true;
   std::vector<FirstHit> firstHits_;
   double* phaseTrace_ = nullptr; // the current phase's share of the trace time
