@@ -61,6 +61,7 @@ template <class T> struct LowerValue {
 template <class T> struct Explorer {
   detail::RunQueue<Queued<T>, LowerValue<T>> queue;
   std::vector<Queued<T>> staged; // the next chunk, taken off the queue to price it
+  double stagedValue = 0.0;      // its queued value
   size_t raysPerItem = 1;
   size_t chunkRays = 1; // rays of the next chunk: small while the phase's rate is still being learnt
   // Gain found per unit of queued value (running mean of the last chunks); unknown until the
@@ -74,17 +75,24 @@ template <class T> struct Explorer {
   // more valuable work may have been queued since) and returns the gain per ray expected of it;
   // negative when nothing is pending.
   double stage(size_t items) {
-    queue.pushRun(std::exchange(staged, {})); // popped in order: a sorted run
-    double value = 0.0;
-    staged.reserve(std::min(items, queue.size()));
-    while (staged.size() < items && !queue.empty()) {
-      staged.push_back(queue.top());
-      value += staged.back().value;
-      queue.pop();
+    // The chunk staged before is still the top `items` when it has that many (or all there are)
+    // and nothing queued since ranks above its last item: kept as it is (the common case while
+    // the other phases run), so steps cost no re-staging.
+    const bool unchanged = !staged.empty() && (staged.size() == items || (staged.size() < items && queue.empty())) &&
+                           (queue.empty() || LowerValue<T>()(queue.top(), staged.back()));
+    if (!unchanged) {
+      queue.pushRun(std::exchange(staged, {})); // popped in order: a sorted run
+      stagedValue = 0.0;
+      staged.reserve(std::min(items, queue.size()));
+      while (staged.size() < items && !queue.empty()) {
+        staged.push_back(queue.top());
+        stagedValue += staged.back().value;
+        queue.pop();
+      }
     }
     if (staged.empty()) return -1.0;
     if (!tried) return std::numeric_limits<double>::infinity();
-    return gainPerValue * value / double(staged.size() * raysPerItem);
+    return gainPerValue * stagedValue / double(staged.size() * raysPerItem);
   }
   void record(double value, double gain, size_t stepRays) {
     chunkRays = std::min(stepRays, chunkRays * 2);
