@@ -6,7 +6,7 @@
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
-#include "mirage/shaderio/rays.h"
+#include "mirage/shaderio/gvs_explore.h"
 
 layout(push_constant, scalar) uniform Push { RtTracePush push; };
 
@@ -93,6 +93,15 @@ float radicalInverse(uint64_t index, uint base) {
 
 float wrapUnit(float v) { return v >= 1.0 ? v - 1.0 : v; }
 
+// A point on the cell's surface: `select` picks the face by area, (u, v) the point on it
+// (SurfaceSampler::point in sampling.h).
+vec3 cellSurfacePoint(float select, float u, float v) {
+  RtCellSourceRef src = RtCellSourceRef(push.cell);
+  uint face = 0u;
+  while (face + 1u < src.s.faceCount && select >= src.s.faces[face].cdf) ++face;
+  return src.s.faces[face].corner + src.s.faces[face].edgeU * u + src.s.faces[face].edgeV * v;
+}
+
 // GVS++ random ray `index` of a cell: the same map as the host sampler (sampling.h).
 RtRay cellRay(uint index) {
   RtCellSourceRef src = RtCellSourceRef(push.cell);
@@ -102,10 +111,8 @@ RtRay cellRay(uint index) {
   float v = wrapUnit(radicalInverse(h, 5u) + src.s.offset2);
   float du = wrapUnit(radicalInverse(h, 7u) + src.s.offset3);
   float dv = wrapUnit(radicalInverse(h, 11u) + src.s.offset4);
-  uint face = 0u;
-  while (face + 1u < src.s.faceCount && select >= src.s.faces[face].cdf) ++face;
   RtRay r;
-  r.origin = src.s.faces[face].corner + src.s.faces[face].edgeU * u + src.s.faces[face].edgeV * v;
+  r.origin = cellSurfacePoint(select, u, v);
   float z = 1.0 - 2.0 * du;
   float s = sqrt(max(0.0, 1.0 - z * z));
   float phi = 6.28318530718 * dv;
@@ -140,9 +147,100 @@ bool insert(uint id) {
   return true;
 }
 
+bool exploreMode() { return push.mode == MIRAGE_RT_MODE_BORDER || push.mode == MIRAGE_RT_MODE_REVERSE; }
+
+// A ray the host sampler would not have made: an inverted interval, which every traversal treats
+// as a miss (validRay). Exploration rays that are made are valid, so a skipped slot is one whose ray
+// fails validRay (nothing is kept alive across the traversal for it).
+RtRay skippedRay() {
+  RtRay r;
+  r.origin = vec3(0.0);
+  r.tnear = 1.0;
+  r.dir = vec3(0.0, 0.0, 1.0);
+  r.tfar = 0.0;
+  return r;
+}
+
+// The exploration ray from `origin` towards `target`, or skipped where the host drops it.
+RtRay exploreRay(vec3 origin, vec3 target) {
+  vec3 d = target - origin;
+  if (dot(d, d) < 1e-30) return skippedRay();
+  RtRay r;
+  r.origin = origin;
+  r.tnear = 0.0;
+  r.dir = normalize(d);
+  r.tfar = 1.0 / 0.0;
+  if (!validRay(r)) return skippedRay();
+  return r;
+}
+
+vec3 worldCorner(uint triangle, uint corner) {
+  return RtVec3Ref(RtExploreSourceRef(push.cell).s.triangles).v[3u * triangle + corner];
+}
+
+// ABS slot `index`: border point index % raysPerItem of item index / raysPerItem (gvs_explore.h);
+// false for a degenerate triangle (no border to follow).
+bool borderTarget(uint index, out vec3 origin, out vec3 target) {
+  RtExploreSourceRef src = RtExploreSourceRef(push.cell);
+  uint per = src.s.raysPerItem;
+  RtBorderItem item = RtBorderItemRef(src.s.items).v[index / per];
+  origin = item.origin;
+  vec3 v0 = worldCorner(item.triangle, 0u), v1 = worldCorner(item.triangle, 1u), v2 = worldCorner(item.triangle, 2u);
+  vec3 n = cross(v1 - v0, v2 - v0);
+  if (dot(n, n) < 1e-30) return false;
+  vec3 en0 = absEdgeNormal(v0, v1, v2, n), en1 = absEdgeNormal(v1, v2, v0, n), en2 = absEdgeNormal(v2, v0, v1, n);
+  float delta = absDelta(v0, v1, v2, src.s.absDeltaTriangle, src.s.absDeltaAbsolute);
+  target = absPoint(v0, v1, v2, en0, en1, en2, delta, index % per, src.s.absEdgeSamples);
+  return true;
+}
+
+RtRay borderRay(uint index) {
+  vec3 origin, target;
+  return borderTarget(index, origin, target) ? exploreRay(origin, target) : skippedRay();
+}
+
+// Point `s` (0..1) along the cell's edges, by length (the host's edgePoint).
+vec3 cellEdgePoint(float s) {
+  RtExploreSourceRef src = RtExploreSourceRef(push.cell);
+  float at = s * src.s.edgeLength;
+  for (uint e = 0u; e < src.s.edgeCount; ++e) {
+    float len = src.s.edges[e].len;
+    if (at <= len) return mix(src.s.edges[e].a, src.s.edges[e].b, len > 0.0 ? at / len : 0.0);
+    at -= len;
+  }
+  return src.s.edges[src.s.edgeCount - 1u].b;
+}
+
+// RS ray `index`: origin index % raysPerItem of seed index / raysPerItem, aimed at its target.
+RtRay reverseRay(uint index) {
+  RtExploreSourceRef src = RtExploreSourceRef(push.cell);
+  uint per = src.s.raysPerItem, j = index % per;
+  RtReverseItem item = RtReverseItemRef(src.s.items).v[index / per];
+  uint64_t seed = src.s.firstSeed + uint64_t(index / per);
+  vec3 o;
+  if (j < src.s.rsEdgeSamples) { // evenly along the edges, shifted per seed
+    o = cellEdgePoint((float(j) + radicalInverse(seed, 2u)) / float(src.s.rsEdgeSamples));
+  } else { // Halton points on the surface (RandomizedHalton<3>: index + 1)
+    uint64_t h = seed * uint64_t(src.s.rsAreaSamples) + uint64_t(j - src.s.rsEdgeSamples) + 1UL;
+    o = cellSurfacePoint(wrapUnit(radicalInverse(h, 2u) + src.s.rsOffset0),
+                         wrapUnit(radicalInverse(h, 3u) + src.s.rsOffset1),
+                         wrapUnit(radicalInverse(h, 5u) + src.s.rsOffset2));
+  }
+  vec3 d = item.target - o;
+  if (dot(d, d) < 1e-30) return skippedRay();
+  // Inside the occluder's shadow on the cell: the occluder blocks this origin too.
+  if (item.occluder != MIRAGE_RT_NO_HIT &&
+      segmentHitsTriangle(item.target, o - item.target, worldCorner(item.occluder, 0u), worldCorner(item.occluder, 1u),
+                          worldCorner(item.occluder, 2u)))
+    return skippedRay();
+  return exploreRay(o, item.target);
+}
+
 RtRay loadRay(uint index) {
   if (push.mode == MIRAGE_RT_MODE_GENERATED) return generatedRay(index);
   if (push.mode == MIRAGE_RT_MODE_CELL) return cellRay(index);
+  if (push.mode == MIRAGE_RT_MODE_BORDER) return borderRay(index);
+  if (push.mode == MIRAGE_RT_MODE_REVERSE) return reverseRay(index);
   RtRay ray;
   if (push.mode == MIRAGE_RT_MODE_COMPACT) { // 24 bytes: origin, direction; [0, inf)
     RtVec2Ref rays = RtVec2Ref(push.rays);
@@ -162,6 +260,45 @@ RtRay loadRay(uint index) {
   ray.dir = b.xyz;
   ray.tfar = b.w;
   return ray;
+}
+
+// Counts the rays an exploration launch traced (not skipped): one atomic per subgroup where the
+// stage has subgroup ballots (the compute traversal), else one per ray.
+void countTraced(bool traced) {
+#ifdef MIRAGE_RT_SUBGROUP_COUNT
+  uvec4 lanes = subgroupBallot(traced);
+  if (subgroupElect()) {
+    uint n = subgroupBallotBitCount(lanes);
+    if (n > 0u) atomicAdd(RtCountersRef(push.counters).c.traced, n);
+  }
+#else
+  if (traced) atomicAdd(RtCountersRef(push.counters).c.traced, 1u);
+#endif
+}
+
+// MODE_BORDER / MODE_REVERSE after the hit: the count, the generated ray (tests), and for ABS the
+// discontinuity test (missed, or hit nearer than the target by more than rsDeltaRelative).
+// The border point is made again here rather than kept through the traversal (registers).
+void finishExplore(uint index, RtRay ray, RtHit hit) {
+  RtExploreSourceRef src = RtExploreSourceRef(push.cell);
+  bool skipped = !validRay(ray);
+  countTraced(!skipped);
+  if (src.s.rays != 0ul) {
+    RtRay out_ = ray;
+    if (skipped) out_.tfar = -1.0;
+    RtRayRef(src.s.rays).v[index] = out_;
+  }
+  if (skipped || push.mode != MIRAGE_RT_MODE_BORDER) return;
+  vec3 origin, target;
+  borderTarget(index, origin, target);
+  float dist = length(target - ray.origin);
+  if (hit.triangle != MIRAGE_RT_NO_HIT && hit.t >= dist * (1.0 - src.s.rsDeltaRelative)) return;
+  uint slot = atomicAdd(RtCountersRef(push.counters).c.discontinuities, 1u);
+  RtDiscontinuity d;
+  d.target = target;
+  d.occluder = hit.triangle;
+  d.ray = index;
+  RtDiscontinuityRef(src.s.discontinuities).v[slot] = d;
 }
 
 // Everything after the traversal: the closest hit and the see-through candidates in front of it
@@ -196,10 +333,11 @@ void finishRay(uint index, RtRay ray, Payload payload) {
     }
   }
   if (nearestNew) hit.flags |= MIRAGE_RT_HIT_SEE_THROUGH_NEW;
-  if (push.mode == MIRAGE_RT_MODE_CELL) {
+  if (push.mode == MIRAGE_RT_MODE_CELL || exploreMode()) {
     if (hit.triangle != MIRAGE_RT_NO_HIT) claim(hit.triangle, index);
     if (hit.seeThrough != MIRAGE_RT_NO_HIT) claim(hit.seeThrough, index);
   }
+  if (exploreMode()) finishExplore(index, ray, hit);
   if (push.hits != 0ul) // one 16-byte store, not four 4-byte ones into host-visible memory
     RtUVec4Ref(push.hits).v[index] = uvec4(hit.triangle, floatBitsToUint(hit.t), hit.flags, hit.seeThrough);
 }

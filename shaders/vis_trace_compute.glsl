@@ -10,6 +10,7 @@
 // (MIRAGE_RT_BVH8: compressed 8-wide nodes, RtBvh8Node; its traversal is vis_trace_bvh8.glsl).
 #extension GL_KHR_shader_subgroup_vote : require
 #extension GL_KHR_shader_subgroup_ballot : require
+#define MIRAGE_RT_SUBGROUP_COUNT // countTraced: one atomic per subgroup
 #include "vis_trace_common.glsl"
 
 layout(local_size_x = MIRAGE_RT_COMPUTE_GROUP) in;

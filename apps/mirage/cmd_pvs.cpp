@@ -241,7 +241,7 @@ void runPvs(PvsOptions o) {
   uint64_t rays = 0;
   double traceSeconds = 0, totalSeconds = 0;
   vis::PvsStats phases; // summed over cells: where the time goes
-  bool generated = false;
+  bool generated = false, exploreGenerated = false;
   for (size_t i = 0; i < baked->size(); ++i) {
     vis::CellPvs& pvs = (*baked)[i];
     phases.randomSeconds += pvs.stats.randomSeconds;
@@ -254,6 +254,7 @@ void runPvs(PvsOptions o) {
     phases.absRays += pvs.stats.absRays;
     phases.rsRays += pvs.stats.rsRays;
     generated = generated || pvs.stats.generatedRandomRays;
+    exploreGenerated = exploreGenerated || pvs.stats.generatedExploreRays;
     rays += pvs.stats.rays;
     totalSeconds += pvs.stats.seconds;
     traceSeconds += pvs.stats.traceSeconds;
@@ -298,6 +299,7 @@ void runPvs(PvsOptions o) {
       {"backend", std::string(p->backend->name())},
       {"bvh_build_seconds", p->buildSeconds},
       {"random_rays_generated_on_device", generated},
+      {"explore_rays_generated_on_device", exploreGenerated},
       {"pvs_bytes", es.totalBytes},
       {"difference_cells", es.differenceCells},
       {"load_seconds", loadSeconds},
@@ -322,10 +324,14 @@ void runPvs(PvsOptions o) {
     fmt::print("  {:7} {:12} rays  {:7.2f} s  (trace {:7.2f} s, host {:7.2f} s)  {:8.2f} Mrays/s in trace\n", name, n,
                all, trace, all - trace, trace > 0 ? double(n) / trace * 1e-6 : 0.0);
   };
-  fmt::print("phases ({}):\n", generated ? "random rays made on the device" : "random rays made on the host");
+  fmt::print("phases (random rays made on the {}, border and reverse rays on the {}):\n", generated ? "device" : "host",
+             exploreGenerated ? "device" : "host");
   phase("random", phases.randomRays, phases.randomSeconds, phases.randomTraceSeconds);
   phase("border", phases.absRays, phases.absSeconds, phases.absTraceSeconds);
   phase("reverse", phases.rsRays, phases.rsSeconds, phases.rsTraceSeconds);
+  // The schedule between the phases: pricing and staging the queued work, checkpoints.
+  fmt::print("  {:7} {:12}       {:7.2f} s\n", "other", "",
+             totalSeconds - phases.randomSeconds - phases.absSeconds - phases.rsSeconds);
   fmt::print("{} -> {} bytes ({} difference cells), load {:.2f} ms\n", o.output, es.totalBytes, es.differenceCells,
              loadSeconds * 1e3);
 }
@@ -531,6 +537,8 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
                   "compute-bvh8, compute-bvh8-persistent, compute-bvh8-postpone")
       ->capture_default_str();
   cmd->add_option("--device", o.rays.device, "Vulkan device name substring or index (--backend vulkan|compute)");
+  cmd->add_flag("--host-exploration", o.rays.hostExploration,
+                "Vulkan: make the GVS++ border and reverse rays on the host and upload them (for comparison)");
   cmd->add_flag("--no-packets", o.noPackets, "Trace evaluation views ray by ray (rtcIntersect1), not in packets of 16");
   cmd->add_flag("--json", o.json, "Print results as JSON");
   addOutputFlags(cmd, o.flags);

@@ -24,7 +24,8 @@ Status checkRayBackendChoice(const RayBackendChoice& c) {
 }
 
 Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& backend, const std::string& geometry,
-                                                             bool packets, const Scene& scene, gpu::Context* context) {
+                                                             bool packets, const Scene& scene, gpu::Context* context,
+                                                             bool hostExploration) {
   const ComputeVariant* variant = findComputeVariant(backend);
   if (backend == "vulkan" || variant) {
     if (!context) return Error{"vulkan: no device"};
@@ -39,6 +40,7 @@ Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& 
     vo.geometry = geometry == "flatten"    ? vis::VulkanRayOptions::Geometry::Flatten
                   : geometry == "instance" ? vis::VulkanRayOptions::Geometry::Instance
                                            : vis::VulkanRayOptions::Geometry::Auto;
+    vo.exploreOnDevice = !hostExploration;
     auto b = vis::createVulkanBackend(*context, scene, vo);
     if (!b) return b.error();
     return std::unique_ptr<vis::RayBackend>(std::move(*b));
@@ -68,7 +70,8 @@ Result<OpenedRayBackend> openRayBackend(const RayBackendChoice& choice, const Sc
     if (backend == "embree") out.context.reset();
   }
   auto t0 = std::chrono::steady_clock::now();
-  auto b = openNamedRayBackend(backend, choice.geometry, choice.packets, scene, out.context.get());
+  auto b =
+      openNamedRayBackend(backend, choice.geometry, choice.packets, scene, out.context.get(), choice.hostExploration);
   if (!b) return b.error();
   out.backend = std::move(*b);
   out.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

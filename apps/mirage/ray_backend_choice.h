@@ -19,6 +19,9 @@ struct RayBackendChoice {
   std::string geometry = "auto";
   std::string device;
   bool packets = true; // Embree: packets of 16 for coherent traces
+  // Vulkan: GVS++ border and reverse rays made on the host and uploaded, instead of in the shader
+  // that traces them (VulkanRayOptions::exploreOnDevice), to compare the two.
+  bool hostExploration = false;
 };
 
 // The Vulkan compute traversal's variants by name: --backend values and `bench rays` labels, so
@@ -54,6 +57,7 @@ Result<OpenedRayBackend> openRayBackend(const RayBackendChoice& choice, const Sc
 // Opens the backend named `backend` ("embree", "vulkan" or a compute variant); `context` is reused
 // when set.
 Result<std::unique_ptr<vis::RayBackend>> openNamedRayBackend(const std::string& backend, const std::string& geometry,
-                                                             bool packets, const Scene& scene, gpu::Context* context);
+                                                             bool packets, const Scene& scene, gpu::Context* context,
+                                                             bool hostExploration = false);
 
 } // namespace mirage::cli

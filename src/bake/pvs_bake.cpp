@@ -19,7 +19,8 @@ std::vector<uint8_t> encodeCellPvs(const vis::CellPvs& pvs) {
   w.write(s.rays), w.write(s.randomRays), w.write(s.absRays), w.write(s.rsRays), w.write(s.discontinuities);
   w.write(s.iterations), w.write(s.seconds), w.write(s.traceSeconds), w.write(s.randomSeconds);
   w.write(s.randomTraceSeconds), w.write(s.absSeconds), w.write(s.absTraceSeconds), w.write(s.rsSeconds);
-  w.write(s.rsTraceSeconds), w.write(uint8_t(s.generatedRandomRays));
+  // Which rays the backend made: bit 0 random, bit 1 border and reverse.
+  w.write(s.rsTraceSeconds), w.write(uint8_t(uint8_t(s.generatedRandomRays) | uint8_t(s.generatedExploreRays) << 1));
   return w.take();
 }
 
@@ -36,7 +37,8 @@ Result<vis::CellPvs> decodeCellPvs(std::span<const uint8_t> bytes, const std::st
   r.read(s.rsTraceSeconds), r.read(generated);
   if (Status st = r.finish(); !st) return st.error();
   if (magic != kCellPvsMagic) return makeError(where, "not a cell's PVS");
-  s.generatedRandomRays = generated != 0;
+  s.generatedRandomRays = (generated & 1) != 0;
+  s.generatedExploreRays = (generated & 2) != 0;
   return pvs;
 }
 

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <queue>
+#include <type_traits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "explore_rays.h"
 #include "mirage/visibility/gvs.h"
+#include "run_queue.h"
 #include "sampling.h"
 
 namespace mirage::vis {
@@ -42,23 +44,6 @@ struct RsSeed {
   uint32_t occluder;
 };
 
-// Möller-Trumbore: does the segment origin → origin + dir (t in (0, 1)) cross the triangle?
-bool segmentHitsTriangle(glm::vec3 o, glm::vec3 d, const std::array<glm::vec3, 3>& tri) {
-  glm::vec3 e1 = tri[1] - tri[0], e2 = tri[2] - tri[0];
-  glm::vec3 p = glm::cross(d, e2);
-  float det = glm::dot(e1, p);
-  if (std::abs(det) < 1e-20f) return false;
-  float inv = 1.0f / det;
-  glm::vec3 s = o - tri[0];
-  float u = glm::dot(s, p) * inv;
-  if (u < 0.0f || u > 1.0f) return false;
-  glm::vec3 q = glm::cross(s, e1);
-  float v = glm::dot(d, q) * inv;
-  if (v < 0.0f || u + v > 1.0f) return false;
-  float t = glm::dot(e2, q) * inv;
-  return t > 1e-4f && t < 1.0f - 1e-4f;
-}
-
 // Queued exploration work, highest expected gain first (ties: first queued first, so bakes are
 // reproducible). `value` is the gain this item is expected to bring, in the units of discoveryValue.
 template <class T> struct Queued {
@@ -74,8 +59,9 @@ template <class T> struct LowerValue {
 
 // One exploration phase's work list and its record of how well queued value turned into gain.
 template <class T> struct Explorer {
-  std::priority_queue<Queued<T>, std::vector<Queued<T>>, LowerValue<T>> queue;
+  detail::RunQueue<Queued<T>, LowerValue<T>> queue;
   std::vector<Queued<T>> staged; // the next chunk, taken off the queue to price it
+  double stagedValue = 0.0;      // its queued value
   size_t raysPerItem = 1;
   size_t chunkRays = 1; // rays of the next chunk: small while the phase's rate is still being learnt
   // Gain found per unit of queued value (running mean of the last chunks); unknown until the
@@ -89,17 +75,24 @@ template <class T> struct Explorer {
   // more valuable work may have been queued since) and returns the gain per ray expected of it;
   // negative when nothing is pending.
   double stage(size_t items) {
-    for (auto& q : staged) queue.push(std::move(q));
-    staged.clear();
-    double value = 0.0;
-    while (staged.size() < items && !queue.empty()) {
-      staged.push_back(queue.top());
-      value += staged.back().value;
-      queue.pop();
+    // The chunk staged before is still the top `items` when it has that many (or all there are)
+    // and nothing queued since ranks above its last item: kept as it is (the common case while
+    // the other phases run), so steps cost no re-staging.
+    const bool unchanged = !staged.empty() && (staged.size() == items || (staged.size() < items && queue.empty())) &&
+                           (queue.empty() || LowerValue<T>()(queue.top(), staged.back()));
+    if (!unchanged) {
+      queue.pushRun(std::exchange(staged, {})); // popped in order: a sorted run
+      stagedValue = 0.0;
+      staged.reserve(std::min(items, queue.size()));
+      while (staged.size() < items && !queue.empty()) {
+        staged.push_back(queue.top());
+        stagedValue += staged.back().value;
+        queue.pop();
+      }
     }
     if (staged.empty()) return -1.0;
     if (!tried) return std::numeric_limits<double>::infinity();
-    return gainPerValue * value / double(staged.size() * raysPerItem);
+    return gainPerValue * stagedValue / double(staged.size() * raysPerItem);
   }
   void record(double value, double gain, size_t stepRays) {
     chunkRays = std::min(stepRays, chunkRays * 2);
@@ -137,10 +130,7 @@ public:
     Bounds b = scene.worldBounds();
     sceneDiagonal_ = b.empty() ? 0.0f : glm::length(b.extent());
     if (!std::isfinite(sceneDiagonal_)) sceneDiagonal_ = 0.0f;
-    for (const auto& e : cell.edges()) {
-      edges_.push_back(e);
-      edgeLength_ += glm::length(e[1] - e[0]);
-    }
+    for (const auto& e : cell.edges()) edges_.push_back(e);
     probes_ = cell.corners();
     probes_.push_back(cell.position);
     // A cell whose surface points are not traceable rays' origins gives an empty PVS: no ray from
@@ -377,48 +367,107 @@ private:
     result_.stats.randomSeconds += secondsSince(t0);
   }
 
-  // The 9-vertex border polygon of `tri` enlarged by delta, sampled: its 9 vertices plus
-  // `edgeSamples` points inside each of its 3 long edges (the ones parallel to the triangle's).
-  static void borderPoints(const std::array<glm::vec3, 3>& tri, float delta, uint32_t edgeSamples,
-                           std::vector<glm::vec3>& out) {
-    glm::vec3 n = glm::cross(tri[1] - tri[0], tri[2] - tri[0]);
-    if (glm::dot(n, n) < 1e-30f) return; // degenerate: no border to follow
-    glm::vec3 en[3];                     // outward in-plane normal of edge i → i+1
-    for (int i = 0; i < 3; ++i) {
-      glm::vec3 p = tri[size_t(i)], q = tri[size_t((i + 1) % 3)], r = tri[size_t((i + 2) % 3)];
-      glm::vec3 e = glm::normalize(glm::cross(q - p, n));
-      en[i] = glm::dot(e, r - p) > 0.0f ? -e : e;
+  // The chunk's exploration rays as the backend takes them: ABS around discoveries (the
+  // border-polygon formulas of shaderio/gvs_explore.h) or RS from the cell towards discontinuities.
+  template <class Item> ExploreRaySource exploreSource(const std::vector<Queued<Item>>& items) {
+    ExploreRaySource src;
+    src.edges = edges_;
+    src.faces = surface_.faces;
+    src.cdf = surface_.cdf;
+    if constexpr (std::is_same_v<Item, Discovery>) {
+      src.kind = ExploreRaySource::Kind::Border;
+      borderItems_.clear();
+      for (const auto& q : items) borderItems_.push_back({q.item.origin, q.item.triangle});
+      src.border = borderItems_;
+      src.raysPerItem = uint32_t(border_.raysPerItem);
+    } else {
+      src.kind = ExploreRaySource::Kind::Reverse;
+      reverseItems_.clear();
+      for (const auto& q : items) reverseItems_.push_back({q.item.target, q.item.occluder});
+      src.reverse = reverseItems_;
+      src.raysPerItem = uint32_t(reverse_.raysPerItem);
     }
-    for (int i = 0; i < 3; ++i) {
-      glm::vec3 v = tri[size_t(i)];
-      glm::vec3 prev = en[(i + 2) % 3], next = en[i];
-      out.push_back(v + delta * prev);
-      out.push_back(v + delta * glm::normalize(prev + next));
-      glm::vec3 a = v + delta * next, b = tri[size_t((i + 1) % 3)] + delta * next;
-      out.push_back(a);
-      for (uint32_t s = 0; s < edgeSamples; ++s) out.push_back(glm::mix(a, b, float(s + 1) / float(edgeSamples + 1)));
-    }
+    src.absEdgeSamples = cfg_.absEdgeSamples;
+    src.absDeltaTriangle = cfg_.absDeltaTriangle;
+    src.absDeltaAbsolute = cfg_.absDeltaScene * sceneDiagonal_;
+    src.rsDeltaRelative = cfg_.rsDeltaRelative;
+    src.rsEdgeSamples = cfg_.rsEdgeSamples;
+    src.rsAreaSamples = cfg_.rsAreaSamples;
+    src.rsOffset = rsHalton_.offsets();
+    src.firstSeed = rsIndex_;
+    return src;
   }
 
-  // Rays are generated in parallel into fixed slots (one block per queued item); unused slots get
-  // tfar < 0 and are squeezed out before tracing, so every traced ray is a real sample. `owner_`
-  // (the item a ray belongs to) and `targets` move along.
-  void compact(std::vector<glm::vec3>* targets) {
+  // The chunk traced by the backend where it makes the rays: only discoveries and discontinuities
+  // come back (sorted by ray: the order the host path credits them in, so bakes are reproducible).
+  // False when the backend cannot, or the budget would cut the chunk (the host path cuts it ray by
+  // ray); then the host makes the rays.
+  bool exploreOnBackend(const ExploreRaySource& src, double& gain, uint64_t& traced,
+                        std::vector<Discontinuity>* discontinuities) {
+    const size_t slots = (src.border.size() + src.reverse.size()) * src.raysPerItem;
+    if (!deviceExplore_ || (cfg_.rayBudget != 0 && result_.stats.rays + slots > cfg_.rayBudget)) return false;
+    explored_.firstHits.clear();
+    explored_.discontinuities.clear();
+    auto t0 = std::chrono::steady_clock::now();
+    if (!backend_.traceExploreRays(src, found_, explored_)) {
+      deviceExplore_ = false; // the backend cannot: make the rays here from now on
+      return false;
+    }
+    result_.stats.generatedExploreRays = true;
+    const double seconds = secondsSince(t0);
+    result_.stats.traceSeconds += seconds;
+    *phaseTrace_ += seconds;
+    traced = explored_.traced;
+    result_.stats.rays += traced;
+    auto byRay = [](const auto& a, const auto& b) { return a.ray != b.ray ? a.ray < b.ray : a.triangle < b.triangle; };
+    std::sort(explored_.firstHits.begin(), explored_.firstHits.end(), byRay);
+    for (const FirstHit& f : explored_.firstHits)
+      gain += discover(f.triangle, detail::exploreRay(scene_, offsets_, src, f.ray));
+    checkpoint();
+    if (discontinuities) {
+      // In ray order (at most one per ray): placed by ray index, which costs less than sorting the
+      // hundreds of thousands a border chunk can meet.
+      const auto& found = explored_.discontinuities;
+      slotOf_.assign(slots, ~0u);
+      for (size_t k = 0; k < found.size(); ++k) slotOf_[found[k].ray] = uint32_t(k);
+      discontinuities->clear();
+      for (uint32_t k : slotOf_)
+        if (k != ~0u) discontinuities->push_back(found[k]);
+    }
+    return true;
+  }
+
+  // The chunk's rays made here into fixed slots (one block per item), the skipped ones squeezed
+  // out, so every traced ray is a real sample; `owner_` (the item a ray belongs to) and, for ABS,
+  // `targets_` move along.
+  void makeRays(const ExploreRaySource& src) {
+    const size_t slots = (src.border.size() + src.reverse.size()) * src.raysPerItem;
+    const bool border = src.kind == ExploreRaySource::Kind::Border;
+    rays_.resize(slots);
+    targets_.resize(border ? slots : 0);
+    detail::makeExploreRays(scene_, offsets_, src, rays_, targets_);
     size_t out = 0;
-    for (size_t i = 0; i < rays_.size(); ++i) {
+    owner_.resize(slots);
+    for (size_t i = 0; i < slots; ++i) {
       if (rays_[i].tfar < 0.0f) continue;
       rays_[out] = rays_[i];
-      owner_[out] = owner_[i];
-      if (targets) (*targets)[out] = (*targets)[i];
+      owner_[out] = uint32_t(i / src.raysPerItem);
+      if (border) targets_[out] = targets_[i];
       ++out;
     }
     rays_.resize(out);
     owner_.resize(out);
-    if (targets) targets->resize(out);
+    if (border) targets_.resize(out);
   }
 
-  // ABS on the staged chunk of discoveries; the discontinuities its rays meet are queued for RS,
-  // each worth what the triangle whose border it lies on was.
+  // A discontinuity found by ABS: queued for RS, worth what the triangle whose border it lies on was.
+  void queueSeed(float value, glm::vec3 target, uint32_t occluder) {
+    ++result_.stats.discontinuities;
+    if (cfg_.reverseSampling && cfg_.rsEdgeSamples + cfg_.rsAreaSamples > 0)
+      reverse_.queue.push({value, order_++, RsSeed{target, occluder}});
+  }
+
+  // ABS on the staged chunk of discoveries; the discontinuities its rays meet are queued for RS.
   void borderStep() {
     auto t0 = std::chrono::steady_clock::now();
     phaseTrace_ = &result_.stats.absTraceSeconds;
@@ -426,58 +475,26 @@ private:
     border_.staged.clear();
     double value = 0.0;
     for (const auto& q : items) value += q.value;
-    const size_t perTriangle = border_.raysPerItem;
-    rays_.assign(items.size() * perTriangle, Ray{.tfar = -1.0f});
-    owner_.resize(rays_.size());
-    targets_.resize(rays_.size());
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, items.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
-      std::vector<glm::vec3> pts;
-      for (size_t q = r.begin(); q < r.end(); ++q) {
-        const Discovery& d = items[q].item;
-        auto tri = worldTriangle(scene_, offsets_, d.triangle);
-        float longest =
-            std::max({glm::length(tri[1] - tri[0]), glm::length(tri[2] - tri[1]), glm::length(tri[0] - tri[2])});
-        float delta = cfg_.absDeltaTriangle * longest + cfg_.absDeltaScene * sceneDiagonal_;
-        pts.clear();
-        borderPoints(tri, delta, cfg_.absEdgeSamples, pts);
-        size_t slot = q * perTriangle;
-        for (glm::vec3 p : pts) {
-          glm::vec3 dir = p - d.origin;
-          if (glm::dot(dir, dir) < 1e-30f) continue;
-          Ray ray{.origin = d.origin, .dir = glm::normalize(dir)};
-          if (!validRay(ray)) continue; // never hand a backend a NaN or far-out ray
-          owner_[slot] = uint32_t(q);
-          rays_[slot] = ray;
-          targets_[slot++] = p;
-        }
+    const ExploreRaySource src = exploreSource(items);
+    double gain = 0.0;
+    uint64_t traced = 0;
+    if (exploreOnBackend(src, gain, traced, &discontinuities_)) {
+      for (const Discontinuity& d : discontinuities_)
+        queueSeed(items[d.ray / src.raysPerItem].value, d.target, d.occluder);
+    } else {
+      makeRays(src);
+      traced = budgetClamp(rays_.size());
+      hits_.resize(rays_.size());
+      gain = traceAndCollect(size_t(traced));
+      for (size_t i = 0; i < traced; ++i) {
+        float dist = glm::length(targets_[i] - rays_[i].origin);
+        if (hits_[i].triangle != kNoHit && hits_[i].t >= dist * (1.0f - cfg_.rsDeltaRelative)) continue;
+        queueSeed(items[owner_[i]].value, targets_[i], hits_[i].triangle);
       }
-    });
-    compact(&targets_);
-    const size_t n = size_t(budgetClamp(rays_.size()));
-    hits_.resize(rays_.size());
-    const double gain = traceAndCollect(n);
-    result_.stats.absRays += n;
-    uint64_t seeds = 0;
-    for (size_t i = 0; i < n; ++i) {
-      float dist = glm::length(targets_[i] - rays_[i].origin);
-      if (hits_[i].triangle != kNoHit && hits_[i].t >= dist * (1.0f - cfg_.rsDeltaRelative)) continue;
-      ++seeds;
-      if (cfg_.reverseSampling && cfg_.rsEdgeSamples + cfg_.rsAreaSamples > 0)
-        reverse_.queue.push({items[owner_[i]].value, order_++, RsSeed{targets_[i], hits_[i].triangle}});
     }
-    result_.stats.discontinuities += seeds;
+    result_.stats.absRays += traced;
     border_.record(value, gain, step_);
     result_.stats.absSeconds += secondsSince(t0);
-  }
-
-  glm::vec3 edgePoint(float s) const {
-    float at = s * edgeLength_;
-    for (const auto& e : edges_) {
-      float len = glm::length(e[1] - e[0]);
-      if (at <= len) return glm::mix(e[0], e[1], len > 0.0f ? at / len : 0.0f);
-      at -= len;
-    }
-    return edges_.back()[1];
   }
 
   // RS on the staged chunk of seeds: origins spread over the cell, aimed at each seed's target.
@@ -488,43 +505,17 @@ private:
     reverse_.staged.clear();
     double value = 0.0;
     for (const auto& q : items) value += q.value;
-    const size_t perSeed = size_t(cfg_.rsEdgeSamples) + cfg_.rsAreaSamples;
-    rays_.assign(items.size() * perSeed, Ray{.tfar = -1.0f});
-    owner_.resize(rays_.size());
-    const uint64_t base = rsIndex_;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, items.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t s = r.begin(); s < r.end(); ++s) {
-        const RsSeed& seed = items[s].item;
-        const uint64_t index = base + s;
-        std::array<glm::vec3, 3> occ{};
-        if (seed.occluder != kNoHit) occ = worldTriangle(scene_, offsets_, seed.occluder);
-        size_t slot = s * perSeed;
-        auto emit = [&](glm::vec3 o) {
-          glm::vec3 d = seed.target - o;
-          if (glm::dot(d, d) < 1e-30f) return;
-          // Inside the occluder's shadow on the cell: the occluder blocks this origin too.
-          if (seed.occluder != kNoHit && segmentHitsTriangle(seed.target, o - seed.target, occ)) return;
-          Ray ray{.origin = o, .dir = glm::normalize(d)};
-          if (!validRay(ray)) return;
-          owner_[slot] = uint32_t(s);
-          rays_[slot++] = ray;
-        };
-        // Edge origins evenly spread along the cell's edges, shifted per seed so seeds differ.
-        float shift = detail::radicalInverse(index, 2);
-        for (uint32_t j = 0; j < cfg_.rsEdgeSamples; ++j)
-          emit(edgePoint((float(j) + shift) / float(cfg_.rsEdgeSamples)));
-        for (uint32_t j = 0; j < cfg_.rsAreaSamples; ++j) {
-          auto h = rsHalton_(index * cfg_.rsAreaSamples + j);
-          emit(surface_.point(h[0], h[1], h[2]));
-        }
-      }
-    });
+    const ExploreRaySource src = exploreSource(items);
+    double gain = 0.0;
+    uint64_t traced = 0;
+    if (!exploreOnBackend(src, gain, traced, nullptr)) {
+      makeRays(src);
+      traced = budgetClamp(rays_.size());
+      hits_.resize(rays_.size());
+      gain = traceAndCollect(size_t(traced));
+    }
     rsIndex_ += items.size();
-    compact(nullptr);
-    const size_t n = size_t(budgetClamp(rays_.size()));
-    hits_.resize(rays_.size());
-    const double gain = traceAndCollect(n);
-    result_.stats.rsRays += n;
+    result_.stats.rsRays += traced;
     reverse_.record(value, gain, step_);
     result_.stats.rsSeconds += secondsSince(t0);
   }
@@ -549,18 +540,23 @@ private:
   Explorer<RsSeed> reverse_;
   double randomYield_ = 0.0; // value found per ray by the last random step
   size_t nextCheckpoint_ = 0;
-  bool generate_ = true; // try the backend's own random rays (traceCellRays) first
+  bool generate_ = true;      // try the backend's own random rays (traceCellRays) first
+  bool deviceExplore_ = true; // and its own ABS and RS rays (traceExploreRays)
+  std::vector<ExploreRaySource::BorderItem> borderItems_;
+  std::vector<ExploreRaySource::ReverseItem> reverseItems_;
+  ExploreResult explored_;
+  std::vector<Discontinuity> discontinuities_;
+  std::vector<uint32_t> slotOf_; // the discontinuity of each slot of a border chunk (~0u: none)
   bool traceable_ = true;
   std::vector<FirstHit> firstHits_;
   double* phaseTrace_ = nullptr; // the current phase's share of the trace time
   float sceneDiagonal_ = 1.0f;
   std::vector<std::array<glm::vec3, 2>> edges_;
   std::vector<glm::vec3> probes_; // where discoveryValue looks from: the cell's corners and centre
-  float edgeLength_ = 0.0f;
   std::vector<Ray> rays_;
   std::vector<Hit> hits_;
   std::vector<uint32_t> owner_;    // the queued item each ray of a step belongs to
-  std::vector<glm::vec3> targets_; // the border point each ABS ray aims at
+  std::vector<glm::vec3> targets_; // the border point each ABS ray aims at (host-made rays)
   std::vector<uint64_t> before_;   // found_ before the current batch, plus the batch's claims
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
   CellPvs result_;

@@ -9,14 +9,8 @@
 
 #include <fmt/format.h>
 
-#include "mirage/gpu/commands.h"
-#include "mirage/gpu/context.h"
-#include "mirage/gpu/descriptors.h"
-#include "mirage/gpu/pipeline.h"
-#include "mirage/gpu/query.h"
-#include "mirage/shaderio/rays.h"
-#include "mirage/visibility/vulkan_backend.h"
 #include "ray_bvh.h"
+#include "vulkan_backend_impl.h"
 
 namespace mirage::vis {
 
@@ -25,6 +19,9 @@ namespace {
 using namespace gpu;
 static_assert(sizeof(shaderio::RtRay) == sizeof(Ray) && sizeof(shaderio::RtHit) == sizeof(Hit));
 static_assert(offsetof(Ray, tfar) == offsetof(shaderio::RtRay, tfar) && offsetof(Hit, flags) == 8);
+static_assert(sizeof(ExploreRaySource::BorderItem) == sizeof(shaderio::RtBorderItem) &&
+              sizeof(ExploreRaySource::ReverseItem) == sizeof(shaderio::RtReverseItem) &&
+              sizeof(Discontinuity) == sizeof(shaderio::RtDiscontinuity));
 static_assert(kHitNew == MIRAGE_RT_HIT_NEW && kHitMissing == MIRAGE_RT_HIT_MISSING &&
               kHitSeeThroughNew == MIRAGE_RT_HIT_SEE_THROUGH_NEW && kNoHit == MIRAGE_RT_NO_HIT);
 
@@ -43,22 +40,6 @@ void cmdAfterEarlierSubmissions(VkCommandBuffer cmd) {
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
 }
-
-struct Accel {
-  Buffer storage;
-  Unique<VkAccelerationStructureKHR> handle;
-  VkDeviceAddress address = 0;
-};
-
-// A device copy of a host TriangleSet, uploaded again only when the host set changed other than
-// through this backend's own insertions (which are mirrored on both sides).
-struct DeviceSet {
-  const TriangleSet* host = nullptr;
-  uint64_t generation = 0;
-  size_t count = 0;
-  Buffer bits;    // GpuOnly: atomicOr target
-  Buffer staging; // Upload
-};
 
 bool seeThroughMesh(const Scene& scene, const Mesh& mesh) {
   return mesh.material < scene.materials.size() && scene.materials[mesh.material].alphaMode != AlphaMode::Opaque;
@@ -92,76 +73,9 @@ void packCompact(std::span<const Ray> rays, float* out) {
   }
 }
 
-class VulkanBackend final : public VulkanRayBackend {
-public:
-  VulkanBackend(Context& context, const VulkanRayOptions& options)
-      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
-        compact_(options.compactRays), timer_(context, 3) {}
-  ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
+} // namespace
 
-  std::string_view name() const override { return name_; }
-  size_t triangleCount() const override { return triangles_; }
-  size_t preferredBatchRays() const override { return batch_; }
-  RayTiming lastTiming() const override { return timing_; }
-  double buildSeconds() const override { return buildSeconds_; }
-  RayBvhStats bvhStats() const override { return bvhStats_; }
-  void setStagedRays(bool staged) override { staged_ = staged; }
-  void setCompactRays(bool compact) override { compact_ = compact; }
-
-  Status build(const Scene& scene, const VulkanRayOptions& options);
-  void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
-  void traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed, TriangleSet* record) override;
-  bool traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
-                     std::vector<FirstHit>& out) override;
-
-private:
-  Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
-                   std::span<const uint32_t> primitives, const char* name);
-  void buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets);
-  void createPipeline();
-  Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
-  void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
-  bool prepareSet(DeviceSet& set, const TriangleSet* host);
-  // stagedRays > 0: copy that many rays (rayBytes each) into raysDevice_ first and their hits out
-  // of hitsDevice_ after.
-  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
-              size_t stagedRays = 0, size_t rayBytes = sizeof(Ray));
-  void collectNew(TriangleSet* record);
-
-  Context& ctx_;
-  size_t batch_;
-  bool staged_;  // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
-  bool compact_; // trace(): 24-byte rays where the interval is [0, inf) (VulkanRayOptions::compactRays)
-  bool instanced_ = false;
-  bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
-  bool persistent_ = false; // compute: persistent threads
-  std::string name_; // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-postpone][-persistent]
-  size_t triangles_ = 0;
-  double buildSeconds_ = 0.0;
-  Buffer vertices_, indices_, transforms_, instances_, slots_;
-  std::vector<Accel> blas_;
-  Accel tlas_;
-  DescriptorSet descriptors_;
-  Unique<VkPipelineLayout> layout_;
-  Unique<VkPipeline> pipeline_;
-  Buffer sbt_;
-  VkStridedDeviceAddressRegionKHR raygenRegion_{}, missRegion_{}, hitRegion_{}, callableRegion_{};
-  // Compute traversal: RtBvhNode[] and RtBvhTriangle[] (ray_bvh.h), its pipeline.
-  Buffer bvhNodes_, bvhTriangles_;
-  Unique<VkPipelineLayout> computeLayout_;
-  Unique<VkPipeline> computePipeline_;
-  bool bvhEmpty_ = true;
-  RayBvhStats bvhStats_;
-  Buffer rays_, hits_, newIds_, counters_, countersReadback_;
-  Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
-  // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
-  // and the cell description (RtCellSource).
-  Buffer before_, firstRay_, firstRayReadback_, cellSource_;
-  DeviceSet record_, require_;
-  bool firstRayValid_ = false; // firstRay_ holds ~0u for every triangle outside the record set
-  GpuTimer timer_;
-  RayTiming timing_;
-};
+namespace detail {
 
 Accel VulkanBackend::buildAccel(VkAccelerationStructureTypeKHR type,
                                 std::span<const VkAccelerationStructureGeometryKHR> geometries,
@@ -209,6 +123,8 @@ Accel VulkanBackend::buildAccel(VkAccelerationStructureTypeKHR type,
   return a;
 }
 
+namespace {
+
 VkAccelerationStructureGeometryKHR triangles(VkDeviceAddress vertices, uint32_t maxVertex, VkDeviceAddress indices,
                                              VkDeviceAddress transform, bool seeThrough) {
   VkAccelerationStructureGeometryKHR g{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
@@ -229,6 +145,8 @@ VkAccelerationStructureGeometryKHR triangles(VkDeviceAddress vertices, uint32_t 
 
 // Auto takes the compute traversal up to this many flattened triangles (48 B each plus nodes: ~5 GB).
 constexpr uint64_t kAutoComputeMaxTriangles = uint64_t(1) << 26;
+
+} // namespace
 
 Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options) {
   const DeviceCapabilities& caps = ctx_.caps();
@@ -288,11 +206,16 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt first ray");
-  firstRayReadback_ =
-      createBuffer(ctx_, rayBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "rt first ray readback");
+  firstRayReadback_ = createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                   MemoryUsage::Readback, "rt first rays of new triangles");
+  gatherLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtGatherPush), VK_SHADER_STAGE_COMPUTE_BIT);
+  gatherPipeline_ = createComputePipeline(ctx_, "vis_first_rays.comp", gatherLayout_);
   cellSource_ = createBuffer(ctx_, sizeof(shaderio::RtCellSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                              MemoryUsage::Upload, "rt cell source");
   firstRayValid_ = false;
+  exploreSource_ = createBuffer(ctx_, sizeof(shaderio::RtExploreSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                MemoryUsage::Upload, "rt explore source");
+  if (explore_ && triangles_ > 0 && triangles_ <= kMaxExploreTriangles) uploadWorldTriangles(scene, offsets);
   buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Ok{};
 }
@@ -561,6 +484,16 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
         vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
     }
     timer_.cmdEnd(cmd, slot, stage);
+    if (cellMode) {
+      // The lowest ray of each new triangle, gathered into host-visible memory.
+      cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+      shaderio::RtGatherPush gather{newIds_.address(),           counters_.address(),      firstRay_.address(),
+                                    firstRayReadback_.address(), uint32_t(triangles_ + 1), 0};
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gatherPipeline_);
+      vkCmdPushConstants(cmd, gatherLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gather), &gather);
+      vkCmdDispatch(cmd, MIRAGE_RT_GATHER_GROUPS, 1, 1);
+    }
     cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                      VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
@@ -571,11 +504,7 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
       vkCmdCopyBuffer(cmd, hitsDevice_.handle(), hits_.handle(), 1, &bytes);
       timer_.cmdEnd(cmd, readback, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
     }
-    if (cellMode) {
-      VkBufferCopy all{0, 0, firstRay_.size()};
-      vkCmdCopyBuffer(cmd, firstRay_.handle(), firstRayReadback_.handle(), 1, &all);
-    }
-    cmdMemoryBarrier(cmd, stage | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+    cmdMemoryBarrier(cmd, stage | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
   });
@@ -666,56 +595,7 @@ void VulkanBackend::traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t 
   timing_ = total;
 }
 
-bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
-                                  std::vector<FirstHit>& out) {
-  if (source.faces.empty() || source.faces.size() > MIRAGE_RT_MAX_CELL_FACES ||
-      source.cdf.size() != source.faces.size())
-    return false;
-  shaderio::RtCellSource src{};
-  src.before = before_.address();
-  src.firstRay = firstRay_.address();
-  src.faceCount = uint32_t(source.faces.size());
-  src.offset0 = source.offset[0];
-  src.offset1 = source.offset[1];
-  src.offset2 = source.offset[2];
-  src.offset3 = source.offset[3];
-  src.offset4 = source.offset[4];
-  for (size_t f = 0; f < source.faces.size(); ++f)
-    src.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f, source.faces[f].edgeV, 0.0f};
-  RayTiming total;
-  const auto* firstRay = reinterpret_cast<const uint32_t*>(firstRayReadback_.mapped());
-  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
-  for (size_t done = 0; done < count;) {
-    // Launches of up to 2^30 rays (the smallest maxRayDispatchInvocationCount the spec allows).
-    const uint32_t n = uint32_t(std::min<size_t>(count - done, size_t(1) << 30));
-    auto t0 = std::chrono::steady_clock::now();
-    src.firstIndex = source.firstIndex + done;
-    std::memcpy(cellSource_.mapped(), &src, sizeof(src)); // the previous launch has completed
-    shaderio::RtTracePush push{};
-    push.record = record_.bits.address();
-    push.count = n;
-    push.mode = MIRAGE_RT_MODE_CELL;
-    push.cell = cellSource_.address();
-    launch(push, prepareSet(record_, &record), false, true);
-    firstRayValid_ = true;
-    shaderio::RtCounters c;
-    std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
-    for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) {
-      const uint32_t id = ids[k];
-      record.insert(id);
-      // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
-      if (firstRay[id] != ~0u) out.push_back({id, uint32_t(done) + firstRay[id]});
-    }
-    record_.count = record.count();
-    total.gpuMilliseconds += timing_.gpuMilliseconds;
-    total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    done += n;
-  }
-  timing_ = total;
-  return true;
-}
-
-} // namespace
+} // namespace detail
 
 Result<TraversalWork> countTraversalWork(const Scene& scene, std::span<const Ray> rays, uint32_t bvhWidth) {
   if (bvhWidth != 4 && bvhWidth != 8) return Error{"traversal work: the BVH width must be 4 or 8"};
@@ -746,7 +626,7 @@ Result<TraversalWork> countTraversalWork(const Scene& scene, std::span<const Ray
 
 Result<std::unique_ptr<VulkanRayBackend>> createVulkanBackend(gpu::Context& context, const Scene& scene,
                                                               const VulkanRayOptions& options) {
-  auto backend = std::make_unique<VulkanBackend>(context, options);
+  auto backend = std::make_unique<detail::VulkanBackend>(context, options);
   if (auto ok = backend->build(scene, options); !ok) return ok.error();
   return std::unique_ptr<VulkanRayBackend>(std::move(backend));
 }

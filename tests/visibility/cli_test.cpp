@@ -92,24 +92,30 @@ TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
   ASSERT_TRUE(fs::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
   fs::path dir = mirage::test::tempDir("pvs_cli_compute");
   write(dir / "ok.json", R"({"cells": [{"type": "box", "position": [0,1.7,-38], "size": [4,2,4]}]})");
-  std::vector<uint32_t> sets[2];
-  const char* backends[2] = {"embree", "compute"};
-  for (int b = 0; b < 2; ++b) {
-    fs::path out = dir / (std::string(backends[b]) + ".mrg");
+  // Embree; compute with border and reverse rays made on the device (the default) and on the host.
+  std::vector<uint32_t> sets[3];
+  const char* backends[3] = {"embree", "compute", "compute --host-exploration"};
+  for (int b = 0; b < 3; ++b) {
+    fs::path out = dir / ("bake" + std::to_string(b) + ".mrg");
     CliRun r = runMirage("pvs gen:city:1 --cells " + (dir / "ok.json").string() + " -o " + out.string() +
-                             " --rays 20000 --abs-edge 10 --seed 3 --backend " + backends[b],
+                             " --rays 20000 --abs-edge 10 --seed 3 --json --backend " + backends[b],
                          dir);
     ASSERT_EQ(r.code, 0) << r.err;
+    std::ifstream in(dir / "stdout.txt");
+    auto json = nlohmann::json::parse(std::string((std::istreambuf_iterator<char>(in)), {}));
+    EXPECT_EQ(json["explore_rays_generated_on_device"].get<bool>(), b == 1) << backends[b];
     auto pvs = mirage::vis::loadPvs(out.string());
     ASSERT_TRUE(pvs.ok()) << pvs.error().message;
     sets[b] = pvs->triangles[0];
   }
-  std::vector<uint32_t> both;
-  std::set_intersection(sets[0].begin(), sets[0].end(), sets[1].begin(), sets[1].end(), std::back_inserter(both));
-  std::printf("city:1 cell: Embree %zu triangles, compute %zu, shared %zu\n", sets[0].size(), sets[1].size(),
-              both.size());
-  EXPECT_NEAR(double(sets[1].size()), double(sets[0].size()), 0.1 * double(sets[0].size()));
-  EXPECT_GE(double(both.size()), 0.9 * double(sets[0].size()));
+  for (int b = 1; b < 3; ++b) {
+    std::vector<uint32_t> both;
+    std::set_intersection(sets[0].begin(), sets[0].end(), sets[b].begin(), sets[b].end(), std::back_inserter(both));
+    std::printf("city:1 cell: Embree %zu triangles, %s %zu, shared %zu\n", sets[0].size(), backends[b], sets[b].size(),
+                both.size());
+    EXPECT_NEAR(double(sets[b].size()), double(sets[0].size()), 0.1 * double(sets[0].size()));
+    EXPECT_GE(double(both.size()), 0.9 * double(sets[0].size()));
+  }
 
   CliRun r = runMirage("bench rays gen:city:1 --rays 20000 --repeat 1 --backend all --json --work 20000", dir);
   ASSERT_EQ(r.code, 0) << r.err;

@@ -59,10 +59,10 @@ struct RtSlot {
 };
 
 struct RtCounters {
-  uint newCount;  // IDs appended to newIds (first insertions into the record set)
-  uint nextBatch; // compute traversal, persistent threads: rays handed out so far
-  uint pad1;
-  uint pad2;
+  uint newCount;        // IDs appended to newIds (first insertions into the record set)
+  uint nextBatch;       // compute traversal, persistent threads: rays handed out so far
+  uint discontinuities; // MODE_BORDER: RtDiscontinuity records appended (gvs_explore.h)
+  uint traced;          // MODE_BORDER, MODE_REVERSE: rays not skipped
 };
 
 // One cell face: corner + u·edgeU + v·edgeV, picked when its cumulative area fraction exceeds the
@@ -197,6 +197,20 @@ struct RtTracePush {
   uint64_t bvhTriangles; // compute traversal: RtBvhTriangle[]
 };
 
+// vis_first_rays.comp, after a claiming launch (MODE_CELL, MODE_BORDER, MODE_REVERSE): gathered[k] =
+// firstRay[newIds[k]] for the launch's first insertions, so the host reads 4 bytes per new triangle
+// instead of the whole per-triangle array.
+#define MIRAGE_RT_GATHER_GROUP 64u
+#define MIRAGE_RT_GATHER_GROUPS 256u // a grid-stride loop: the count is known on the device only
+struct RtGatherPush {
+  uint64_t newIds;   // uint[]: RtTracePush::newIds
+  uint64_t counters; // RtCounters: newCount
+  uint64_t firstRay; // uint per triangle
+  uint64_t gathered; // uint[newCapacity]
+  uint newCapacity;
+  uint pad0;
+};
+
 #ifndef __cplusplus
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtSlotRef { RtSlot v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer RtCountersRef { RtCounters c; };
@@ -216,6 +230,7 @@ static_assert(sizeof(RtSlot) == 8, "RtSlot layout");
 static_assert(sizeof(RtCounters) == 16, "RtCounters layout");
 static_assert(sizeof(RtCellFace) == 48, "RtCellFace layout");
 static_assert(sizeof(RtCellSource) == 48 + 48 * MIRAGE_RT_MAX_CELL_FACES, "RtCellSource layout");
+static_assert(sizeof(RtGatherPush) == 40, "RtGatherPush layout");
 static_assert(sizeof(RtBvhNode) == 64, "RtBvhNode layout");
 static_assert(sizeof(RtBvhTriangle) == 48, "RtBvhTriangle layout");
 static_assert(sizeof(RtBvh4Node) == 112, "RtBvh4Node layout");

@@ -84,7 +84,8 @@ struct PvsStats {
   double randomSeconds = 0.0, randomTraceSeconds = 0.0;
   double absSeconds = 0.0, absTraceSeconds = 0.0; // ABS ray making, tracing, discontinuity tests
   double rsSeconds = 0.0, rsTraceSeconds = 0.0;
-  bool generatedRandomRays = false; // the backend made the random rays (traceCellRays)
+  bool generatedRandomRays = false;  // the backend made the random rays (traceCellRays)
+  bool generatedExploreRays = false; // and the ABS and RS rays (traceExploreRays)
 };
 
 // The PVS as it stood when the bake had traced `rays` rays (for plots of size and error against

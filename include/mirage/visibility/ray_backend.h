@@ -117,6 +117,52 @@ struct FirstHit {
   uint32_t ray;
 };
 
+// GVS++ exploration rays for backends that make them where they are traced: adaptive border
+// sampling (ABS) around discoveries, or reverse sampling (RS) from the cell towards
+// discontinuities. Ray i of a call belongs to item i / raysPerItem, and is the ray the host
+// sampler (gvs.cpp) makes in that item's slot i % raysPerItem with the formulas of
+// shaderio/gvs_explore.h; slots the host leaves empty are skipped.
+struct ExploreRaySource {
+  enum class Kind { Border, Reverse } kind = Kind::Border;
+  struct BorderItem {
+    glm::vec3 origin; // of the ray that found `triangle`
+    uint32_t triangle;
+  };
+  struct ReverseItem {
+    glm::vec3 target;  // the border point an ABS ray aimed at
+    uint32_t occluder; // what it hit nearer, or kNoHit
+  };
+  std::span<const BorderItem> border;   // Kind::Border
+  std::span<const ReverseItem> reverse; // Kind::Reverse
+  uint32_t raysPerItem = 1;
+  // ABS: edge samples, border enlargement (relative to the longest edge, plus absolute), and the
+  // discontinuity threshold (relative to the target's distance).
+  uint32_t absEdgeSamples = 0;
+  float absDeltaTriangle = 0.0f, absDeltaAbsolute = 0.0f, rsDeltaRelative = 0.0f;
+  // RS: origins along the cell's edges, then Halton points on its faces (offsets: the RS
+  // sequence's Cranley-Patterson rotation); item k is sequence index firstSeed + k.
+  uint32_t rsEdgeSamples = 0, rsAreaSamples = 0;
+  std::span<const std::array<glm::vec3, 2>> edges;
+  std::span<const CellFace> faces;
+  std::span<const float> cdf;
+  std::array<float, 3> rsOffset{};
+  uint64_t firstSeed = 0;
+};
+
+// An ABS ray that met a discontinuity: its target, what it hit (or kNoHit), its index in the call.
+struct Discontinuity {
+  glm::vec3 target;
+  uint32_t occluder;
+  uint32_t ray;
+};
+
+struct ExploreResult {
+  std::vector<FirstHit> firstHits;            // as traceCellRays: (triangle, lowest ray), no particular order
+  std::vector<Discontinuity> discontinuities; // Kind::Border, no particular order
+  uint64_t traced = 0;                        // rays not skipped
+  std::vector<Ray>* rays = nullptr;           // if set: every slot's ray (tfar < 0: skipped), for tests
+};
+
 class RayBackend {
 public:
   virtual ~RayBackend() = default;
@@ -135,6 +181,12 @@ public:
   // backend cannot; the caller then makes the rays itself.
   virtual bool traceCellRays(const CellRaySource& /*source*/, size_t /*count*/, TriangleSet& /*record*/,
                              std::vector<FirstHit>& /*out*/) {
+    return false;
+  }
+  // Traces the exploration rays of `source` (all items' slots) without per-ray traffic: every
+  // triangle seen goes into `record`, first discoveries and (ABS) discontinuities come back. False
+  // (nothing traced) when the backend cannot; the caller then makes the rays itself.
+  virtual bool traceExploreRays(const ExploreRaySource& /*source*/, TriangleSet& /*record*/, ExploreResult& /*out*/) {
     return false;
   }
 };

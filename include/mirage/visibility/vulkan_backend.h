@@ -60,6 +60,11 @@ struct VulkanRayOptions {
   // (origin, direction) pairs instead of 32-byte rays: rays in host memory are read across PCIe,
   // which caps the trace at its bandwidth over the bytes per ray (docs/visibility.md).
   bool compactRays = true;
+  // GVS++ adaptive border and reverse sampling rays made in the shader that traces them
+  // (traceExploreRays): the host sends the queued items (16 bytes each, instead of 40 to 129 rays)
+  // and reads back discoveries and discontinuities, not hits. Needs 36 bytes of device memory per
+  // triangle (up to 2^26 triangles). Off: the host makes the rays (docs/visibility.md).
+  bool exploreOnDevice = true;
   // Rays per launch: 2 M rays are 64 MiB of rays and 32 MiB of hits, few enough submissions that
   // their fixed cost stays small beside the trace on a large GPU.
   size_t batchRays = size_t(1) << 21;

@@ -1,0 +1,128 @@
+#pragma once
+// The Vulkan ray backend's class (private to vulkan_backend.cpp, which builds it and traces host
+// rays, and vulkan_gvs_rays.cpp, where it makes the GVS++ rays of a cell: random, border, reverse).
+#include <string>
+#include <vector>
+
+#include "mirage/gpu/commands.h"
+#include "mirage/gpu/context.h"
+#include "mirage/gpu/descriptors.h"
+#include "mirage/gpu/pipeline.h"
+#include "mirage/gpu/query.h"
+#include "mirage/shaderio/gvs_explore.h"
+#include "mirage/visibility/vulkan_backend.h"
+
+namespace mirage::vis::detail {
+
+using gpu::Buffer;
+using gpu::Context;
+using gpu::DescriptorSet;
+using gpu::GpuTimer;
+using gpu::MemoryUsage;
+using gpu::Unique;
+
+// Exploration rays on the device need every triangle's world-space corners (36 B each: 2.4 GB at
+// this count); beyond it the host makes them.
+constexpr uint64_t kMaxExploreTriangles = uint64_t(1) << 26;
+
+struct Accel {
+  Buffer storage;
+  Unique<VkAccelerationStructureKHR> handle;
+  VkDeviceAddress address = 0;
+};
+
+// A device copy of a host TriangleSet, uploaded again only when the host set changed other than
+// through this backend's own insertions (which are mirrored on both sides).
+struct DeviceSet {
+  const TriangleSet* host = nullptr;
+  uint64_t generation = 0;
+  size_t count = 0;
+  Buffer bits;    // GpuOnly: atomicOr target
+  Buffer staging; // Upload
+};
+
+class VulkanBackend final : public VulkanRayBackend {
+public:
+  VulkanBackend(Context& context, const VulkanRayOptions& options)
+      : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
+        compact_(options.compactRays), explore_(options.exploreOnDevice), timer_(context, 3) {}
+  ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
+
+  std::string_view name() const override { return name_; }
+  size_t triangleCount() const override { return triangles_; }
+  size_t preferredBatchRays() const override { return batch_; }
+  RayTiming lastTiming() const override { return timing_; }
+  double buildSeconds() const override { return buildSeconds_; }
+  RayBvhStats bvhStats() const override { return bvhStats_; }
+  void setStagedRays(bool staged) override { staged_ = staged; }
+  void setCompactRays(bool compact) override { compact_ = compact; }
+
+  Status build(const Scene& scene, const VulkanRayOptions& options);
+  void trace(std::span<const Ray> rays, std::span<Hit> hits, const TraceSets& sets) override;
+  void traceGenerated(glm::vec3 boxMin, glm::vec3 boxMax, uint64_t count, uint32_t seed, TriangleSet* record) override;
+  bool traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
+                     std::vector<FirstHit>& out) override;
+  bool traceExploreRays(const ExploreRaySource& source, TriangleSet& record, ExploreResult& out) override;
+
+private:
+  Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
+                   std::span<const uint32_t> primitives, const char* name);
+  void buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets);
+  void createPipeline();
+  Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
+  void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
+  bool prepareSet(DeviceSet& set, const TriangleSet* host);
+  // stagedRays > 0: copy that many rays (rayBytes each) into raysDevice_ first and their hits out
+  // of hitsDevice_ after.
+  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
+              size_t stagedRays = 0, size_t rayBytes = sizeof(Ray));
+  void collectNew(TriangleSet* record);
+  // After a claiming launch (cell or exploration rays): first insertions into `record`, and a
+  // FirstHit (offset by `firstRay`) for each that was some ray's closest or see-through hit.
+  void collectClaims(TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out);
+  void uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets);
+
+  Context& ctx_;
+  size_t batch_;
+  bool staged_;  // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
+  bool compact_; // trace(): 24-byte rays where the interval is [0, inf) (VulkanRayOptions::compactRays)
+  bool explore_; // traceExploreRays (VulkanRayOptions::exploreOnDevice)
+  bool instanced_ = false;
+  bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
+  bool persistent_ = false; // compute: persistent threads
+  std::string name_; // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-postpone][-persistent]
+  size_t triangles_ = 0;
+  double buildSeconds_ = 0.0;
+  Buffer vertices_, indices_, transforms_, instances_, slots_;
+  std::vector<Accel> blas_;
+  Accel tlas_;
+  DescriptorSet descriptors_;
+  Unique<VkPipelineLayout> layout_;
+  Unique<VkPipeline> pipeline_;
+  Buffer sbt_;
+  VkStridedDeviceAddressRegionKHR raygenRegion_{}, missRegion_{}, hitRegion_{}, callableRegion_{};
+  // Compute traversal: RtBvhNode[] and RtBvhTriangle[] (ray_bvh.h), its pipeline.
+  Buffer bvhNodes_, bvhTriangles_;
+  Unique<VkPipelineLayout> computeLayout_;
+  Unique<VkPipeline> computePipeline_;
+  bool bvhEmpty_ = true;
+  RayBvhStats bvhStats_;
+  Buffer rays_, hits_, newIds_, counters_, countersReadback_;
+  Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
+  // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
+  // and the cell description (RtCellSource).
+  // firstRayReadback_ holds the entries of the launch's new triangles only, in newIds order
+  // (vis_first_rays.comp).
+  Buffer before_, firstRay_, firstRayReadback_, cellSource_;
+  Unique<VkPipelineLayout> gatherLayout_;
+  Unique<VkPipeline> gatherPipeline_;
+  DeviceSet record_, require_;
+  // Exploration rays: world-space corners per global ID (empty: the backend does not make them),
+  // the items of a launch, its RtExploreSource, the discontinuities and (tests) the rays made.
+  Buffer worldTriangles_, exploreItems_, exploreSource_, discontinuities_, exploreRays_;
+  bool firstRayValid_ = false; // firstRay_ holds ~0u for every triangle outside the record set
+  GpuTimer timer_;
+  RayTiming timing_;
+};
+
+} // namespace mirage::vis::detail

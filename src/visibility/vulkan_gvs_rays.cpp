@@ -1,0 +1,157 @@
+// The Vulkan ray backend's GVS++ ray sources (vulkan_backend_impl.h): random rays of a cell
+// (MODE_CELL) and border and reverse rays (MODE_BORDER / MODE_REVERSE, shaderio/gvs_explore.h),
+// made in the shader that traces them; only discoveries and discontinuities come back.
+#include <chrono>
+#include <cstring>
+
+#include "vulkan_backend_impl.h"
+
+namespace mirage::vis::detail {
+
+using namespace gpu;
+
+void VulkanBackend::uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets) {
+  // The corners as worldTriangle computes them, so host and device border rays agree.
+  std::vector<glm::vec3> corners(triangles_ * 3);
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const Instance& inst = scene.instances[i];
+    const Mesh& mesh = scene.meshes[inst.mesh];
+    for (size_t t = 0; t < offsets[i + 1] - offsets[i]; ++t)
+      for (size_t k = 0; k < 3; ++k)
+        corners[(offsets[i] + t) * 3 + k] =
+            glm::vec3(inst.transform * glm::vec4(mesh.positions[mesh.indices[t * 3 + k]], 1.0f));
+  }
+  worldTriangles_ = createBufferWithData(ctx_, std::span<const glm::vec3>(corners), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                         "rt world triangles");
+}
+
+bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
+                                  std::vector<FirstHit>& out) {
+  if (source.faces.empty() || source.faces.size() > MIRAGE_RT_MAX_CELL_FACES ||
+      source.cdf.size() != source.faces.size())
+    return false;
+  shaderio::RtCellSource src{};
+  src.before = before_.address();
+  src.firstRay = firstRay_.address();
+  src.faceCount = uint32_t(source.faces.size());
+  src.offset0 = source.offset[0];
+  src.offset1 = source.offset[1];
+  src.offset2 = source.offset[2];
+  src.offset3 = source.offset[3];
+  src.offset4 = source.offset[4];
+  for (size_t f = 0; f < source.faces.size(); ++f)
+    src.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f, source.faces[f].edgeV, 0.0f};
+  RayTiming total;
+  for (size_t done = 0; done < count;) {
+    // Launches of up to 2^30 rays (the smallest maxRayDispatchInvocationCount the spec allows).
+    const uint32_t n = uint32_t(std::min<size_t>(count - done, size_t(1) << 30));
+    auto t0 = std::chrono::steady_clock::now();
+    src.firstIndex = source.firstIndex + done;
+    std::memcpy(cellSource_.mapped(), &src, sizeof(src)); // the previous launch has completed
+    shaderio::RtTracePush push{};
+    push.record = record_.bits.address();
+    push.count = n;
+    push.mode = MIRAGE_RT_MODE_CELL;
+    push.cell = cellSource_.address();
+    launch(push, prepareSet(record_, &record), false, true);
+    firstRayValid_ = true;
+    collectClaims(record, uint32_t(done), out);
+    total.gpuMilliseconds += timing_.gpuMilliseconds;
+    total.wallMilliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    done += n;
+  }
+  timing_ = total;
+  return true;
+}
+
+void VulkanBackend::collectClaims(TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out) {
+  const auto* first = reinterpret_cast<const uint32_t*>(firstRayReadback_.mapped());
+  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
+  shaderio::RtCounters c;
+  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
+  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) {
+    const uint32_t id = ids[k];
+    record.insert(id);
+    // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
+    if (first[k] != ~0u) out.push_back({id, firstRay + first[k]});
+  }
+  record_.count = record.count();
+}
+
+bool VulkanBackend::traceExploreRays(const ExploreRaySource& source, TriangleSet& record, ExploreResult& out) {
+  const bool border = source.kind == ExploreRaySource::Kind::Border;
+  const size_t items = border ? source.border.size() : source.reverse.size();
+  const size_t count = items * source.raysPerItem;
+  if (!worldTriangles_ || source.raysPerItem == 0 || count >= (size_t(1) << 30) ||
+      (!border && (source.edges.empty() || source.edges.size() > MIRAGE_RT_MAX_CELL_EDGES || source.faces.empty() ||
+                   source.faces.size() > MIRAGE_RT_MAX_CELL_FACES || source.cdf.size() != source.faces.size())))
+    return false;
+  auto t0 = std::chrono::steady_clock::now();
+  const size_t itemBytes = std::max<size_t>(1, items) * sizeof(shaderio::RtBorderItem);
+  ensureCapacity(exploreItems_, itemBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt explore items");
+  if (border)
+    std::memcpy(exploreItems_.mapped(), source.border.data(), items * sizeof(shaderio::RtBorderItem));
+  else
+    std::memcpy(exploreItems_.mapped(), source.reverse.data(), items * sizeof(shaderio::RtReverseItem));
+  shaderio::RtExploreSource src{};
+  src.cell.before = before_.address();
+  src.cell.firstRay = firstRay_.address();
+  src.cell.faceCount = uint32_t(source.faces.size());
+  for (size_t f = 0; f < source.faces.size(); ++f)
+    src.cell.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f,
+                         source.faces[f].edgeV,  0.0f};
+  src.items = exploreItems_.address();
+  src.triangles = worldTriangles_.address();
+  if (border) {
+    ensureCapacity(discontinuities_, std::max<size_t>(1, count) * sizeof(shaderio::RtDiscontinuity),
+                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt discontinuities");
+    src.discontinuities = discontinuities_.address();
+  }
+  if (out.rays) {
+    ensureCapacity(exploreRays_, std::max<size_t>(1, count) * sizeof(Ray), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                   MemoryUsage::Readback, "rt explore rays");
+    src.rays = exploreRays_.address();
+  }
+  src.firstSeed = source.firstSeed;
+  src.raysPerItem = source.raysPerItem;
+  src.absEdgeSamples = source.absEdgeSamples;
+  src.absDeltaTriangle = source.absDeltaTriangle;
+  src.absDeltaAbsolute = source.absDeltaAbsolute;
+  src.rsDeltaRelative = source.rsDeltaRelative;
+  src.rsEdgeSamples = source.rsEdgeSamples;
+  src.rsAreaSamples = source.rsAreaSamples;
+  src.edgeCount = uint32_t(source.edges.size());
+  for (size_t e = 0; e < source.edges.size(); ++e) {
+    // The length as the host's edgePoint measures it.
+    const float length = glm::length(source.edges[e][1] - source.edges[e][0]);
+    src.edges[e] = {source.edges[e][0], length, source.edges[e][1], 0.0f};
+    src.edgeLength += length;
+  }
+  src.rsOffset0 = source.rsOffset[0];
+  src.rsOffset1 = source.rsOffset[1];
+  src.rsOffset2 = source.rsOffset[2];
+  std::memcpy(exploreSource_.mapped(), &src, sizeof(src)); // the previous launch has completed
+  shaderio::RtTracePush push{};
+  push.record = record_.bits.address();
+  push.count = uint32_t(count);
+  push.mode = border ? MIRAGE_RT_MODE_BORDER : MIRAGE_RT_MODE_REVERSE;
+  push.cell = exploreSource_.address();
+  launch(push, prepareSet(record_, &record), false, true);
+  firstRayValid_ = true;
+  collectClaims(record, 0, out.firstHits);
+  shaderio::RtCounters c;
+  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
+  out.traced = c.traced;
+  if (border) {
+    const auto* d = reinterpret_cast<const Discontinuity*>(discontinuities_.mapped());
+    out.discontinuities.assign(d, d + std::min<size_t>(c.discontinuities, count));
+  }
+  if (out.rays) {
+    const auto* r = reinterpret_cast<const Ray*>(exploreRays_.mapped());
+    out.rays->assign(r, r + count);
+  }
+  timing_.wallMilliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return true;
+}
+
+} // namespace mirage::vis::detail
