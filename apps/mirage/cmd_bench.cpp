@@ -188,19 +188,6 @@ void runBenchImport(const BenchImportOptions& o) {
              o.input, double(bytes) / 1e6, triangles, median, seconds.front(), o.repeat, mbps);
 }
 
-// Resident memory from /proc/self/status (kB fields): current and peak ("high water mark").
-uint64_t procStatusBytes(const char* field) {
-  std::FILE* f = std::fopen("/proc/self/status", "r");
-  if (!f) return 0;
-  char line[256];
-  uint64_t kb = 0;
-  size_t n = std::strlen(field);
-  while (std::fgets(line, sizeof line, f))
-    if (std::strncmp(line, field, n) == 0) kb = std::strtoull(line + n + 1, nullptr, 10);
-  std::fclose(f);
-  return kb * 1024;
-}
-
 struct BenchBuildOptions {
   std::vector<std::string> inputs;
   uint32_t threads = 0;
