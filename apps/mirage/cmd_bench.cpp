@@ -354,7 +354,10 @@ void addBenchCommand(CLI::App& app) {
   bindStereo(*r, o->stereo);
   o->targetMs = bindFrameTimeTarget(*r, o->frameTime);
   r->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
-  r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
+  r->add_option(
+      "--path", o->path,
+      ".mrg: camera path (cameras.json, orbit:N or fly:N), each camera timed once; with --gpu-budget each camera is "
+      "a cut: time to the first full-quality frame, then --frames frames timed there");
   r->add_flag("--baselines", o->baselines,
               ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");
   r->callback([o] { runBenchRender(*o); });
