@@ -11,9 +11,11 @@ source "$(dirname "$0")/lib.sh" "$@"
 
 many=gen:many:6x3000
 if expect_ok build-1 build "$many" --paged --page-size 16KB -o "$tmp/a.mrg" --threads 1 --json &&
+   expect_ok build-2x1 build "$many" --paged --page-size 16KB -o "$tmp/c.mrg" --threads 2 --meshes-in-flight 1 &&
    expect_ok build-2 build "$many" --paged --page-size 16KB -o "$tmp/b.mrg" --threads 2 --meshes-in-flight 3 \
      --reorder-window 3 --json; then
   check same-bytes cmp -s "$tmp/a.mrg" "$tmp/b.mrg"
+  check same-bytes-two-threads-per-mesh cmp -s "$tmp/a.mrg" "$tmp/c.mrg"
   check build-json python3 -c "
 import json
 j = json.load(open('$tmp/stdout'))
