@@ -89,6 +89,11 @@ void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const 
                         {"peak_meshes_waiting", report.peakMeshesWaiting},
                         {"build_seconds", report.bakeSeconds},
                         {"finish_seconds", report.finishSeconds},
+                        {"mesh_seconds_summed",
+                         {{"make", report.makeSeconds},
+                          {"bake", report.meshBakeSeconds},
+                          {"encode", report.encodeSeconds},
+                          {"read_back", report.readBackSeconds}}},
                         {"wall_seconds", wallSeconds},
                         {"input_triangles_per_second", double(report.inputTriangles) / report.bakeSeconds},
                         {"peak_rss_bytes", peakRss}};
@@ -288,7 +293,7 @@ void addBuildCommand(CLI::App& app) {
                   "Worker threads per process (0 = all cores; under mpirun the host's cores over its ranks)")
       ->capture_default_str();
   cmd->add_option("--meshes-in-flight", o->stream.meshesInFlight,
-                  "gen:many: meshes baked at once, each on threads / N (0 = a quarter of the threads)")
+                  "gen:many: meshes baked at once, each on threads / N (0 = half the threads)")
       ->capture_default_str();
   cmd->add_option("--reorder-window", o->stream.reorderWindow,
                   "gen:many: finished meshes that may wait for their turn to be written (0 = 2 x in flight)")

@@ -32,17 +32,28 @@ struct EncodedMesh {
   nlohmann::json stats;              // its META entry
   Bounds bounds;
   uint64_t triangles = 0, clusters = 0, pages = 0;
+  double seconds[4] = {}; // make, bake, encode, read back
 };
+
+double since(std::chrono::steady_clock::time_point& t) { // seconds since t; t becomes now
+  auto now = std::chrono::steady_clock::now();
+  double s = std::chrono::duration<double>(now - t).count();
+  t = now;
+  return s;
+}
 
 // Generate, bake, encode and check one mesh on the calling thread's arena.
 Result<EncodedMesh> bakeOne(const MeshSource& source, uint32_t index, const BuildConfig& config,
                             const LodWriteOptions& write, const std::string& path) {
+  auto t = std::chrono::steady_clock::now();
+  EncodedMesh out;
   auto mesh = source.mesh(index);
   if (!mesh) return mesh.error();
+  out.seconds[0] = since(t);
   std::string where = meshWhere(source.layout, index);
   auto baked = bakeLodMesh(*mesh, where, config);
   if (!baked) return baked.error();
-  EncodedMesh out;
+  out.seconds[1] = since(t);
   out.bounds = mesh->bounds;
   out.triangles = mesh->triangleCount();
   *mesh = Mesh{}; // the input goes before the encoding's buffers arrive
@@ -61,6 +72,7 @@ Result<EncodedMesh> bakeOne(const MeshSource& source, uint32_t index, const Buil
     if (!payload)
       return makeError(path, "mesh " + std::to_string(index) + ": paged cluster DAG: " + payload.error().message);
     out.pagedPayload = std::move(*payload);
+    out.seconds[2] = since(t);
     read = decodePagedChunk(out.pagedPayload, where);
     if (auto blocks = asset::decodeBlockTable(out.pagedPayload, where)) out.pages = blocks->blocks.size();
   } else {
@@ -69,12 +81,14 @@ Result<EncodedMesh> bakeOne(const MeshSource& source, uint32_t index, const Buil
     auto chunk = asset::storeChunk(asset::chunk::ClusterDag, bytes, level);
     if (!chunk) return makeError(path, chunk.error().message);
     out.dagChunk = std::move(*chunk);
+    out.seconds[2] = since(t);
     read = decodeDag(bytes, where);
   }
   if (!read)
     return makeError(path, "the written file does not read back (" + read.error().message + "); nothing written");
   if (std::string d = dagReadBackDifference(dag, *read, write.paged); !d.empty())
     return makeError(path, "the written file does not read back (" + where + ": " + d + "); nothing written");
+  out.seconds[3] = since(t);
   return out;
 }
 
@@ -99,7 +113,7 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   if (meshCount + 3 > asset::kMaxChunks)
     return makeError(path, "too many meshes for one file (" + std::to_string(meshCount) + ")");
   uint32_t threads = config.threads ? config.threads : uint32_t(tbb::this_task_arena::max_concurrency());
-  uint32_t inFlight = options.meshesInFlight ? options.meshesInFlight : std::max(1u, threads / 4);
+  uint32_t inFlight = options.meshesInFlight ? options.meshesInFlight : std::max(1u, threads / 2);
   inFlight = std::min(inFlight, meshCount);
   uint32_t window = std::max(inFlight, options.reorderWindow ? options.reorderWindow : 2 * inFlight);
   BuildConfig meshConfig = config;
@@ -175,6 +189,8 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
     scene.meshes.push_back(Mesh{layoutMesh.name, {}, {}, {}, {}, {}, {}, layoutMesh.material, e.bounds});
     stats.push_back(std::move(e.stats));
     r.inputTriangles += e.triangles, r.clusters += e.clusters, r.pages += e.pages;
+    r.makeSeconds += e.seconds[0], r.meshBakeSeconds += e.seconds[1];
+    r.encodeSeconds += e.seconds[2], r.readBackSeconds += e.seconds[3];
     std::lock_guard lock(m);
     if (!status && !error) error = status.error();
     if (!spoolOk && !error) error = makeError(path, "cannot write " + spool.path);

@@ -29,8 +29,9 @@ struct MeshSource {
 
 struct StreamBakeOptions {
   // Meshes made, baked and encoded at once, each on threads / meshesInFlight of the build's threads
-  // (at least 1); 0: a quarter of the threads, at least 1. Memory: about this many meshes' bakes
-  // (~120 B per input triangle each, docs/lod.md "Measurements").
+  // (at least 1); 0: half the threads, at least 1 (a mesh's encoding and read-back run on one
+  // thread, so two threads per mesh keep the cores busy). Memory: about this many meshes' bakes
+  // (about 150-250 B per input triangle each, docs/lod.md "Streaming bake").
   uint32_t meshesInFlight = 0;
   // A mesh starts only when it is fewer than this many ahead of the next mesh to write, so at most
   // this many finished meshes wait, encoded, for their turn; 0: 2 × meshesInFlight (≥ meshesInFlight).
@@ -48,7 +49,10 @@ struct StreamBakeReport {
   // mesh and DAG), and encoded meshes waiting for their turn.
   uint32_t peakMeshesInFlight = 0;
   uint32_t peakMeshesWaiting = 0;
-  double bakeSeconds = 0;   // from the first mesh to the last mesh's chunk written
+  double bakeSeconds = 0; // from the first mesh to the last mesh's chunk written
+  // Wall seconds of each step summed over the meshes (each ran on threadsPerMesh threads): making
+  // the mesh, its DAG (bakeLodMesh), encoding its chunk, reading the chunk back.
+  double makeSeconds = 0, meshBakeSeconds = 0, encodeSeconds = 0, readBackSeconds = 0;
   double finishSeconds = 0; // the source map, scene and META chunks, the read-back check, rename
 };
 
