@@ -23,8 +23,8 @@ namespace mirage::lod {
 struct PageStreamConfig {
   // Pages asked for and not yet taken (queued, being read, or read): bounds the stream's memory to
   // this many decoded pages (the dragon's: about 0.3 MB each) and the requests a fast view change
-  // can pile up. 8 keeps an HTTP link busy (one request after another on one connection) while the
-  // renderer uploads at most 32 pages a frame.
+  // can pile up. 8 keeps an HTTP link busy (one request after another on one connection); the
+  // renderer asks for 32 (ClusterResidencySettings::maxReadsInFlight), a frame's uploads.
   uint32_t maxInFlight = 8;
   // Threads reading, checking and decoding pages at once (pages decode independently; an HTTP
   // source serialises its requests on its connection, the decoding still overlaps). A camera cut

@@ -218,7 +218,8 @@ struct ResidencyStats {
 struct ClusterResidencySettings {
   uint64_t budgetBytes = 0;         // pool bytes for page geometry (> 0)
   uint32_t maxUploadsPerFrame = 32; // pages made resident per frame at most (dependencies included)
-  uint32_t maxReadsInFlight = 8;    // lod::PageStreamConfig::maxInFlight
+  uint32_t maxReadsInFlight = 32;   // lod::PageStreamConfig::maxInFlight: a frame's uploads' worth, so a
+                                    // camera cut is not paced at 8 pages a frame (decoded pages: ~0.3 MB each)
 };
 
 struct ClusterStats {
