@@ -8,6 +8,7 @@
 #include "mirage/io/mesh_utils.h"
 #include "mirage/lod/cluster_dag.h"
 #include "mirage/lod/dag_codec.h"
+#include "mirage/lod/residency.h"
 
 using namespace mirage;
 
@@ -67,5 +68,44 @@ void BM_DagEncodeDecode(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * int64_t(m.triangleCount()));
 }
 BENCHMARK(BM_DagEncodeDecode)->Unit(benchmark::kMillisecond);
+
+// One residency step at gen:many:512x2000000's scale: 512 meshes of 150 pages (page p depends on
+// page p / 2, page 0 the root), 200 KB each, a budget of 10 000 pages kept full, and a camera cut's
+// feedback: 300 missing pages asked for, 2 000 resident ones used.
+void BM_ResidencyStepAtScale(benchmark::State& state) {
+  const uint32_t meshes = 512, perMesh = 150;
+  lod::ResidencyGraph g;
+  g.dependencyOffset.push_back(0);
+  for (uint32_t m = 0; m < meshes; ++m) {
+    g.pageOffset.push_back(m * perMesh);
+    for (uint32_t p = 0; p < perMesh; ++p) {
+      g.bytes.push_back(200 * 1024);
+      g.root.push_back(p == 0);
+      if (p > 0) g.dependencies.push_back(m * perMesh + p / 2);
+      g.dependencyOffset.push_back(uint32_t(g.dependencies.size()));
+    }
+  }
+  auto manager = lod::ResidencyManager::create(g, {.budgetBytes = 10000ull * 200 * 1024, .maxLoadsPerStep = 32});
+  std::mt19937 rng(1);
+  std::vector<float> feedback(g.pageCount());
+  auto cut = [&] {
+    std::fill(feedback.begin(), feedback.end(), 0.0f);
+    uint32_t asked = 0, used = 0;
+    while (asked < 300 || used < 2000) {
+      uint32_t p = uint32_t(rng() % g.pageCount());
+      bool resident = manager->isResident(p);
+      if (resident ? used++ < 2000 : asked++ < 300) feedback[p] = 1.0f + float(rng() % 1000);
+    }
+  };
+  for (int i = 0; i < 2000; ++i) cut(), manager->step(feedback); // fill the budget
+  for (auto _ : state) {
+    state.PauseTiming();
+    cut();
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(manager->step(feedback).loaded.size());
+  }
+  state.counters["resident_pages"] = manager->residentPages();
+}
+BENCHMARK(BM_ResidencyStepAtScale)->Unit(benchmark::kMillisecond);
 
 } // namespace

@@ -188,19 +188,6 @@ void runBenchImport(const BenchImportOptions& o) {
              o.input, double(bytes) / 1e6, triangles, median, seconds.front(), o.repeat, mbps);
 }
 
-// Resident memory from /proc/self/status (kB fields): current and peak ("high water mark").
-uint64_t procStatusBytes(const char* field) {
-  std::FILE* f = std::fopen("/proc/self/status", "r");
-  if (!f) return 0;
-  char line[256];
-  uint64_t kb = 0;
-  size_t n = std::strlen(field);
-  while (std::fgets(line, sizeof line, f))
-    if (std::strncmp(line, field, n) == 0) kb = std::strtoull(line + n + 1, nullptr, 10);
-  std::fclose(f);
-  return kb * 1024;
-}
-
 struct BenchBuildOptions {
   std::vector<std::string> inputs;
   uint32_t threads = 0;
@@ -367,7 +354,10 @@ void addBenchCommand(CLI::App& app) {
   bindStereo(*r, o->stereo);
   o->targetMs = bindFrameTimeTarget(*r, o->frameTime);
   r->add_option("--camera", o->camera, "eye=x,y,z,target=x,y,z[,fov=60][,up=x,y,z]; default: auto 3/4 view");
-  r->add_option("--path", o->path, ".mrg: camera path (cameras.json or orbit:N), each camera timed once");
+  r->add_option(
+      "--path", o->path,
+      ".mrg: camera path (cameras.json, orbit:N or fly:N), each camera timed once; with --gpu-budget each camera is "
+      "a cut: time to the first full-quality frame, then --frames frames timed there");
   r->add_flag("--baselines", o->baselines,
               ".mrg: also full-resolution brute force and a discrete LOD chain (forward renderer, same camera)");
   r->callback([o] { runBenchRender(*o); });

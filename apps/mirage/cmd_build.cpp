@@ -19,6 +19,9 @@
 #include "mirage/bake/lod_bake.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/paged_asset.h"
+#include "mirage/lod/stream_bake.h"
+#include "mirage/io/generate.h"
+#include "mirage/runtime/scene_argument.h"
 #include "mirage/lod/verify.h"
 #include "mirage/shading/material_file.h"
 #include "render_common.h"
@@ -34,7 +37,8 @@ struct BuildOptions {
   std::string materials; // material file applied before the bake (docs/shading.md)
   lod::BuildConfig config;
   lod::LodWriteOptions write;
-  bool resume = false; // continue from the journal beside the output (docs/bake.md)
+  lod::StreamBakeOptions stream; // gen:many: meshes made and baked a few at a time (lod/stream_bake.h)
+  bool resume = false;           // continue from the journal beside the output (docs/bake.md)
   bool quiet = false;
   bool json = false;
 };
@@ -45,6 +49,64 @@ nlohmann::json ranksJson(const bake::ScheduleReport& r) {
   for (size_t i = 0; i < r.ranks.size(); ++i)
     ranks.push_back({{"rank", i}, {"units", r.ranks[i].units}, {"busy_seconds", r.ranks[i].busySeconds}});
   return ranks;
+}
+
+// gen:many: each mesh generated when a worker bakes it, chunks written as their turn comes, so the
+// memory stays that of a few meshes whatever the scene's size (lod/stream_bake.h). One process.
+void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const bake::World& world) {
+  if (world.size() > 1) return world.root() ? fail("gen:many bakes in one process (no mpirun)") : setExitCode(2);
+  if (o.inputs.size() != 1) return fail("gen:many is baked alone (one input)");
+  if (o.resume) return fail("--resume does not apply to gen:many (it keeps no journal)");
+  if (!o.materials.empty()) return fail("--materials does not apply to gen:many");
+  lod::MeshSource source;
+  source.layout = io::generateManyLayout(many);
+  source.mesh = [&many](uint32_t i) -> Result<Mesh> { return io::generateManyMesh(many, i); };
+  bool showProgress = !o.quiet && isatty(STDERR_FILENO);
+  auto progress = [&](size_t meshes, size_t meshCount, uint64_t, uint64_t) {
+    if (!showProgress) return;
+    std::fprintf(stderr, "\rbuilding mesh %zu/%zu", meshes, meshCount);
+    if (meshes == meshCount) std::fprintf(stderr, "\n");
+  };
+  lod::StreamBakeReport report;
+  auto t0 = std::chrono::steady_clock::now();
+  if (Status s = lod::bakeLodFile(source, o.output, o.config, o.write, o.stream, &report, progress); !s)
+    return fail(s.error());
+  double wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  uint64_t peakRss = procStatusBytes("VmHWM:");
+  if (o.quiet) return;
+  if (o.json) {
+    nlohmann::json j = {{"output", o.output},
+                        {"streamed", true},
+                        {"meshes", report.meshes},
+                        {"input_triangles", report.inputTriangles},
+                        {"clusters", report.clusters},
+                        {"pages", report.pages},
+                        {"file_bytes", report.fileBytes},
+                        {"meshes_in_flight", report.meshesInFlight},
+                        {"reorder_window", report.reorderWindow},
+                        {"threads_per_mesh", report.threadsPerMesh},
+                        {"peak_meshes_in_flight", report.peakMeshesInFlight},
+                        {"peak_meshes_waiting", report.peakMeshesWaiting},
+                        {"build_seconds", report.bakeSeconds},
+                        {"finish_seconds", report.finishSeconds},
+                        {"mesh_seconds_summed",
+                         {{"make", report.makeSeconds},
+                          {"bake", report.meshBakeSeconds},
+                          {"encode", report.encodeSeconds},
+                          {"read_back", report.readBackSeconds}}},
+                        {"wall_seconds", wallSeconds},
+                        {"input_triangles_per_second", double(report.inputTriangles) / report.bakeSeconds},
+                        {"peak_rss_bytes", peakRss}};
+    fmt::print("{}\n", j.dump(2));
+    return;
+  }
+  fmt::print(
+      "built {} (streamed): {} meshes, {} input triangles, {} clusters{} in {:.2f} s wall (bake and write {:.2f} s "
+      "at {:.2f} M triangles/s, finish {:.2f} s); {} meshes in flight x {} threads, peak RSS {:.1f} MB, {} bytes\n",
+      o.output, report.meshes, report.inputTriangles, report.clusters,
+      o.write.paged ? fmt::format(", {} pages", report.pages) : "", wallSeconds, report.bakeSeconds,
+      double(report.inputTriangles) / report.bakeSeconds * 1e-6, report.finishSeconds, report.meshesInFlight,
+      report.threadsPerMesh, double(peakRss) / 1e6, report.fileBytes);
 }
 
 // Every rank runs the command: the checks on each, the import on rank 0 (all agree on its outcome
@@ -63,6 +125,11 @@ void runBuild(const BuildOptions& o) {
     return failAll(Error{"--group-clusters must be in 2..64"});
   if (o.write.pages.pageBytes < 4096 || o.write.pages.pageBytes > (16u << 20))
     return failAll(Error{"--page-size must be in 4KB..16MB"});
+  if (o.inputs.size() >= 1)
+    if (auto many = runtime::manySceneArgument(o.inputs[0])) {
+      if (!*many) return failAll(many->error());
+      return runStreamedBuild(o, **many, *world);
+    }
   auto t0 = std::chrono::steady_clock::now();
   auto secondsSince = [](std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -224,6 +291,12 @@ void addBuildCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--threads", o->config.threads,
                   "Worker threads per process (0 = all cores; under mpirun the host's cores over its ranks)")
+      ->capture_default_str();
+  cmd->add_option("--meshes-in-flight", o->stream.meshesInFlight,
+                  "gen:many: meshes baked at once, each on threads / N (0 = half the threads)")
+      ->capture_default_str();
+  cmd->add_option("--reorder-window", o->stream.reorderWindow,
+                  "gen:many: finished meshes that may wait for their turn to be written (0 = 2 x in flight)")
       ->capture_default_str();
   cmd->add_flag("--resume", o->resume,
                 "Continue a bake that died: keep the meshes finished in OUTPUT.journal, bake the rest");

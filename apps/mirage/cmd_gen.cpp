@@ -25,7 +25,20 @@ struct GenArgs {
   std::string mesh;       // grid: the scene (file or gen:KIND...) repeated; points: the surface sampled
   uint32_t instances = 0; // grid: number of copies
   uint64_t points = 0;    // points: how many
+  uint64_t triangles = 0; // many: triangles per mesh (0 = the default)
 };
+
+// `gen many`: --size meshes of --triangles each (io::ManyOptions), written whole.
+Result<Scene> manyScene(const GenArgs& args) {
+  auto o = io::parseManySize(std::to_string(args.size), args.seed);
+  if (!o) return o.error();
+  if (args.triangles) {
+    auto t = io::parseManySize(fmt::format("{}x{}", o->count, args.triangles), args.seed);
+    if (!t) return t.error();
+    o = t;
+  }
+  return io::generateMany(*o);
+}
 
 // `gen grid`: the seed's benchmark scenes (e.g. 2500 copies of a 1M-triangle mesh) as a file, so
 // `mirage build grid.glb` bakes the mesh once and keeps the copies as instances.
@@ -64,11 +77,13 @@ void runGen(const GenArgs& args) {
   if (args.kind != "grid" && args.kind != "points" && !args.mesh.empty())
     return fail("--mesh belongs to `gen grid` and `gen points`");
   if (args.kind != "points" && args.points) return fail("--points belongs to `gen points`");
+  if (args.kind != "many" && args.triangles) return fail("--triangles belongs to `gen many`");
   if (args.kind == "points" && out.extension() != ".ply")
     return fail(makeError(args.output, "gen points writes a .ply"));
   double surfaceArea = 0.0;
   Result<Scene> scene = args.kind == "grid"     ? gridScene(args)
                         : args.kind == "points" ? pointsScene(args, surfaceArea)
+                        : args.kind == "many"   ? manyScene(args)
                                                 : io::generateScene(args.kind, args.seed, args.size);
   if (!scene) return fail(scene.error());
   double genSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -95,14 +110,17 @@ void addGenCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("gen", "Generate a procedural scene (deterministic per seed) as GLB");
   cmd->add_option("kind", args->kind,
                   "city | terrain | blob | layers (stacked blended quads) | grid (copies of --mesh) | points (a scan "
-                  "of --mesh: PLY point cloud)")
+                  "of --mesh: PLY point cloud) | many (distinct blobs on a grid; bake gen:many:COUNTxTRIANGLES "
+                  "directly to keep the memory of a few meshes)")
       ->required();
   cmd->add_option("-o,--output", args->output, "Output .glb (scene with instances) or .ply (binary, instances baked)")
       ->required();
   cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
-  cmd->add_option("--size", args->size,
-                  "city: blocks per side (default 4); terrain: vertices per side (default 1024); "
-                  "blob: subdivision levels (default 8); layers: quads (default 8); 0 = default");
+  cmd->add_option(
+      "--size", args->size,
+      "city: blocks per side (default 4); terrain: vertices per side (default 1024); "
+      "blob: subdivision levels (default 8); layers: quads (default 8); many: meshes (default 16); 0 = default");
+  cmd->add_option("--triangles", args->triangles, "many: triangles per mesh (default 100000)");
   cmd->add_option("--mesh", args->mesh,
                   "grid: scene file or gen:KIND[:SIZE[:SEED]] to repeat; points: the surface to sample");
   cmd->add_option("--points", args->points, "points: number of points (uniform over the surface)");

@@ -242,7 +242,7 @@ void addRenderCommand(CLI::App& app) {
                   "(seconds, bytes received, PSNR against the converged image)")
       ->type_name("FILE.json");
   o->given = bindRenderConfig(*cmd, o->config, BindMode::Render);
-  cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json or orbit:N; writes OUT_0000.png ...");
+  cmd->add_option("--path", o->path, ".mrg: camera path, cameras.json, orbit:N or fly:N; writes OUT_0000.png ...");
   o->surfelOrder = bindSceneOptions(*cmd, o->scene, BindMode::Render);
   bindStereo(*cmd, o->stereo);
   cmd->add_option("--particles", o->particles,

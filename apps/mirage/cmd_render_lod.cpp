@@ -475,6 +475,14 @@ void runLodBench(const LodRenderRequest& r) {
   if (!open(r, /*needOutput=*/false, s)) return;
   s.view.readImage = false; // no CPU gaps between timed frames (they lower the GPU clock)
   if (r.frameTime) return runFrameTimeBench(s, r);
+  if (r.scene.gpuBudget > 0 && !s.path.empty()) { // camera cuts: one configuration
+    if (r.sweeps.allBlendRasters || r.sweeps.allSelections || r.sweeps.bothOcclusion || r.baselines || r.stereoIpd ||
+        r.scene.pvs.size())
+      return fail("--gpu-budget with --path times camera cuts in one configuration: no all/both sweeps, --baselines "
+                  "or --stereo");
+    if (r.sweeps.allRasters) s.view.config.raster = render::RasterBackend::Auto;
+    return runCutBench(*s.ctx, *s.scene, s.view, s.path, r);
+  }
   // On a path every camera is timed once (after a warm-up), whatever --frames says.
   int frames = s.path.empty() ? r.frames : int(s.path.size()) + 1;
   const auto& caps = s.ctx->caps();

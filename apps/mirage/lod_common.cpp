@@ -1,5 +1,9 @@
 #include "lod_common.h"
 
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
 #include <fmt/format.h>
 
 #include "mirage/asset/container.h"
@@ -131,6 +135,18 @@ void printSummary(const BuildSummary& s) {
     fmt::print("  source-triangle map (TMAP chunk, for cluster PVS): {} bytes = {:.2f} bytes per input triangle\n",
                s.sourceMapBytes, double(s.sourceMapBytes) / n);
   }
+}
+
+uint64_t procStatusBytes(const char* field) {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f) return 0;
+  char line[256];
+  uint64_t kb = 0;
+  size_t n = std::strlen(field);
+  while (std::fgets(line, sizeof line, f))
+    if (std::strncmp(line, field, n) == 0) kb = std::strtoull(line + n + 1, nullptr, 10);
+  std::fclose(f);
+  return kb * 1024;
 }
 
 } // namespace mirage::cli

@@ -40,6 +40,9 @@ struct BuildSummary {
 BuildSummary summarize(const lod::LodAsset& asset, const std::string& path);
 nlohmann::json summaryJson(const BuildSummary& s);
 void printSummary(const BuildSummary& s);
+// Resident memory of this process from /proc/self/status ("VmRSS:" now, "VmHWM:" the peak), 0
+// where there is none.
+uint64_t procStatusBytes(const char* field);
 // 102822 -> "102,822".
 std::string grouped(uint64_t n);
 

@@ -28,7 +28,7 @@ struct LodRenderRequest {
   bool stats = false;
   bool json = false;
   std::string progressJson; // render: per-frame progress until convergence (lod_progress.h)
-  bool baselines = false; // bench: also brute force and a discrete LOD chain (forward renderer)
+  bool baselines = false;   // bench: also brute force and a discrete LOD chain (forward renderer)
   // --stereo --ipd: both eyes side by side; bench: also one eye mono in the same run (the ratio).
   std::optional<float> stereoIpd;
   // bench --target-ms: each frame's tau from the frame-time controller fed with the previous
@@ -42,6 +42,11 @@ struct LodRenderRequest {
 };
 
 void runLodRender(const LodRenderRequest& request);
+// bench render with --gpu-budget and --path (lod_cuts.cpp): every camera a cut; per camera the time
+// to the first full-quality frame and the GPU frame time at the converged residency. `view` holds
+// size and configuration; `path` the cameras.
+void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, const std::vector<render::Camera>& path,
+                 const LodRenderRequest& request);
 void runLodBench(const LodRenderRequest& request);
 
 } // namespace mirage::cli

@@ -17,11 +17,12 @@
 namespace mirage::asset {
 namespace {
 
-uint64_t alignUp(uint64_t v) { return (v + kPayloadAlignment - 1) / kPayloadAlignment * kPayloadAlignment; }
-
 std::string errnoText(int err) { return std::strerror(err); }
 
-// write(2) until done: it may write less than asked (signals, pipes, some file systems).
+} // namespace
+
+namespace detail {
+
 bool writeAll(int fd, const void* p, size_t n) {
   const auto* bytes = static_cast<const uint8_t*>(p);
   while (n > 0) {
@@ -35,13 +36,45 @@ bool writeAll(int fd, const void* p, size_t n) {
   return true;
 }
 
-std::string parentDir(const std::string& path) {
+void syncParentDir(const std::string& path) {
   size_t slash = path.find_last_of('/');
-  if (slash == std::string::npos) return ".";
-  return slash == 0 ? "/" : path.substr(0, slash);
+  std::string dirPath = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  int dir = ::open(dirPath.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
 }
 
-} // namespace
+ChunkEntry chunkEntry(const ChunkInfo& c, uint64_t offset) {
+  ChunkEntry e{};
+  e.type = c.type.code;
+  e.flags = c.blocked ? kChunkBlocked : c.compressed ? kChunkZstd : 0;
+  e.offset = offset;
+  e.storedBytes = c.storedBytes;
+  e.rawBytes = c.rawBytes;
+  e.storedHash = c.storedHash;
+  e.rawHash = c.rawHash;
+  e.zstdLevel = c.zstdLevel;
+  e.indexBytes = c.blocked ? c.indexBytes : 0;
+  return e;
+}
+
+FileHeader fileHeader(std::span<const ChunkEntry> table, bool anyBlocked, uint64_t fileBytes) {
+  FileHeader header{};
+  std::memcpy(header.magic, kMagic, sizeof(kMagic));
+  // The lowest version that describes the file: without blocked chunks, older readers read it too.
+  header.version = anyBlocked ? kFirstBlockedVersion : kMinFormatVersion;
+  header.headerBytes = sizeof(FileHeader);
+  header.chunkCount = uint32_t(table.size());
+  header.tableOffset = alignUp(sizeof(FileHeader));
+  header.fileBytes = fileBytes;
+  header.tableHash = hash64(std::span(reinterpret_cast<const uint8_t*>(table.data()), table.size_bytes()));
+  header.headerHash = hash64(std::span(reinterpret_cast<const uint8_t*>(&header), offsetof(FileHeader, headerHash)));
+  return header;
+}
+
+} // namespace detail
 
 Result<StoredChunk> storeChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel) {
   try {
@@ -125,36 +158,14 @@ Status AssetWriter::write(const std::string& path,
   if (chunks_.size() > kMaxChunks) return makeError(path, "too many chunks (" + std::to_string(chunks_.size()) + ")");
 
   // Layout: header, table, then each payload at the next aligned offset (zero padding between).
-  FileHeader header{};
-  std::memcpy(header.magic, kMagic, sizeof(kMagic));
-  // The lowest version that describes the file: without blocked chunks, older readers read it too.
   bool anyBlocked = std::any_of(chunks_.begin(), chunks_.end(), [](const Pending& p) { return p.info.blocked; });
-  header.version = anyBlocked ? kFirstBlockedVersion : kMinFormatVersion;
-  header.headerBytes = sizeof(FileHeader);
-  header.chunkCount = uint32_t(chunks_.size());
-  header.tableOffset = alignUp(sizeof(FileHeader));
   std::vector<ChunkEntry> table(chunks_.size());
-  uint64_t end = header.tableOffset + table.size() * sizeof(ChunkEntry);
+  uint64_t end = detail::alignUp(sizeof(FileHeader)) + table.size() * sizeof(ChunkEntry);
   for (size_t i = 0; i < chunks_.size(); ++i) {
-    const ChunkInfo& c = chunks_[i].info;
-    ChunkEntry& e = table[i];
-    e = ChunkEntry{};
-    e.type = c.type.code;
-    e.flags = c.blocked ? kChunkBlocked : c.compressed ? kChunkZstd : 0;
-    e.offset = alignUp(end);
-    e.storedBytes = c.storedBytes;
-    e.rawBytes = c.rawBytes;
-    e.storedHash = c.storedHash;
-    e.rawHash = c.rawHash;
-    e.zstdLevel = c.zstdLevel;
-    e.indexBytes = c.blocked ? c.indexBytes : 0;
-    end = e.offset + e.storedBytes;
+    table[i] = detail::chunkEntry(chunks_[i].info, detail::alignUp(end));
+    end = table[i].offset + table[i].storedBytes;
   }
-  header.fileBytes = end;
-  header.tableHash =
-      detail::hash64(std::span(reinterpret_cast<const uint8_t*>(table.data()), table.size() * sizeof(ChunkEntry)));
-  header.headerHash =
-      detail::hash64(std::span(reinterpret_cast<const uint8_t*>(&header), offsetof(FileHeader, headerHash)));
+  FileHeader header = detail::fileHeader(table, anyBlocked, end);
 
   // O_EXCL | O_NOFOLLOW: never write through a symlink or into a file someone else created under
   // the temp name. A stale temp of ours (same pid, earlier crash) is removed first.
@@ -173,17 +184,17 @@ Status AssetWriter::write(const std::string& path,
   static const uint8_t zeros[kPayloadAlignment] = {};
   uint64_t at = 0;
   auto pad = [&](uint64_t to) { // zero padding up to an aligned offset
-    bool ok = writeAll(fd, zeros, size_t(to - at));
+    bool ok = detail::writeAll(fd, zeros, size_t(to - at));
     at = to;
     return ok;
   };
-  if (!writeAll(fd, &header, sizeof(header))) return fail("write failed");
+  if (!detail::writeAll(fd, &header, sizeof(header))) return fail("write failed");
   at = sizeof(header);
-  if (!pad(header.tableOffset) || !writeAll(fd, table.data(), table.size() * sizeof(ChunkEntry)))
+  if (!pad(header.tableOffset) || !detail::writeAll(fd, table.data(), table.size() * sizeof(ChunkEntry)))
     return fail("write failed");
   at += table.size() * sizeof(ChunkEntry);
   for (size_t i = 0; i < chunks_.size(); ++i) {
-    if (!pad(table[i].offset) || !writeAll(fd, chunks_[i].stored.data(), chunks_[i].stored.size()))
+    if (!pad(table[i].offset) || !detail::writeAll(fd, chunks_[i].stored.data(), chunks_[i].stored.size()))
       return fail("write failed");
     at += chunks_[i].stored.size();
   }
@@ -200,11 +211,7 @@ Status AssetWriter::write(const std::string& path,
   }
   if (::rename(tmp.c_str(), path.c_str()) != 0) return fail("cannot rename " + tmp + " to the output");
   // Persist the rename itself; best effort (some file systems refuse fsync on directories).
-  int dir = ::open(parentDir(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir >= 0) {
-    ::fsync(dir);
-    ::close(dir);
-  }
+  detail::syncParentDir(path);
   return Ok{};
 }
 

@@ -1,5 +1,5 @@
 // Blob: an icosphere displaced along its normals by 3D fBm. Built as 20 triangular face grids of
-// n = 2^s segments per edge that share their edge and corner vertices, which gives exactly the
+// n segments per edge (2^s, or any n) that share their edge and corner vertices, which gives exactly the
 // subdivided-icosahedron topology (closed, 2-manifold, 10n²+2 vertices, 20n² triangles) without a
 // hash map of edge midpoints, so s = 10 (21M triangles) stays fast and lean.
 #include <algorithm>
@@ -37,8 +37,9 @@ const std::array<std::array<uint32_t, 3>, 20> kIcoFaces = {
 } // namespace
 
 Scene generateBlob(const BlobOptions& options) {
-  const uint32_t s = std::min<uint32_t>(options.subdivisions, 11);
-  const uint32_t n = 1u << s; // segments per icosahedron edge
+  // Segments per icosahedron edge: 2^subdivisions, or any count (a triangle budget between powers).
+  const uint32_t n = options.segments ? std::clamp<uint32_t>(options.segments, 1, 8192)
+                                      : 1u << std::min<uint32_t>(options.subdivisions, 11);
   const size_t edgeVerts = n - 1, faceVerts = size_t(n - 1) * (n - 2) / 2;
   const size_t vertexCount = 12 + 30 * edgeVerts + 20 * faceVerts;
 

@@ -46,7 +46,12 @@ Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeP
     }
     return generateLayers(o);
   }
-  return makeError(where, "unknown scene kind (expected city, terrain, blob or layers)");
+  if (kind == "many") {
+    auto o = parseManySize(std::to_string(sizeParameter), seed);
+    if (!o) return o.error();
+    return generateMany(*o);
+  }
+  return makeError(where, "unknown scene kind (expected city, terrain, blob, layers or many)");
 }
 
 } // namespace mirage::io

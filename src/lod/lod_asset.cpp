@@ -14,50 +14,15 @@
 #include "mirage/asset/container.h"
 #include "mirage/asset/scene_chunk.h"
 #include "mirage/lod/paged_asset.h"
+#include "asset_parts.h"
 
 namespace mirage::lod {
 
 namespace {
 
-nlohmann::json statsJson(const LodAsset& a) {
-  nlohmann::json meshes = nlohmann::json::array();
-  for (size_t i = 0; i < a.dags.size(); ++i) {
-    const ClusterDag& d = a.dags[i];
-    nlohmann::json levels = nlohmann::json::array();
-    for (const LevelStats& l : d.levels)
-      levels.push_back({{"clusters", l.clusters},
-                        {"triangles", l.triangles},
-                        {"mean_fill", l.meanFill},
-                        {"groups", l.groups},
-                        {"stuck_groups", l.stuckGroups},
-                        {"mean_edge_age", l.meanEdgeAge}}); // no timings: a bake writes the same bytes every time
-    meshes.push_back({{"name", a.scene.meshes[i].name},
-                      {"input_triangles", d.inputTriangles},
-                      {"clusters", d.clusters.size()},
-                      {"groups", d.groups.size()},
-                      {"root_clusters", d.roots.size()},
-                      {"root_triangles", d.rootTriangles()},
-                      {"levels", levels}});
-  }
-  return meshes;
-}
-
-// 'TMAP': u32 version, varint mesh count, per mesh: varint triangles, then per triangle
-// zigzag(cluster + 1 - previous) as a varint (neighbouring source triangles mostly share a cluster,
-// and the container's zstd takes the rest).
 std::vector<uint8_t> encodeSourceMaps(const std::vector<std::vector<uint32_t>>& maps) {
-  asset::ByteWriter w;
-  w.write(kSourceMapVersion);
-  w.writeVarint(maps.size());
-  for (const std::vector<uint32_t>& map : maps) {
-    w.writeVarint(map.size());
-    int64_t prev = 0;
-    for (uint32_t c : map) {
-      int64_t v = int64_t(uint32_t(c + 1)), d = v - prev; // kNone + 1 wraps to 0
-      w.writeVarint((uint64_t(d) << 1) ^ uint64_t(d >> 63));
-      prev = v;
-    }
-  }
+  asset::ByteWriter w = sourceMapHeader(maps.size());
+  for (const std::vector<uint32_t>& map : maps) writeSourceMap(w, map);
   return w.take();
 }
 
@@ -96,6 +61,60 @@ Result<std::vector<std::vector<uint32_t>>> decodeSourceMaps(std::span<const uint
 }
 
 } // namespace
+
+nlohmann::json meshStatsJson(const std::string& name, const ClusterDag& d) {
+  nlohmann::json levels = nlohmann::json::array();
+  for (const LevelStats& l : d.levels)
+    levels.push_back({{"clusters", l.clusters},
+                      {"triangles", l.triangles},
+                      {"mean_fill", l.meanFill},
+                      {"groups", l.groups},
+                      {"stuck_groups", l.stuckGroups},
+                      {"mean_edge_age", l.meanEdgeAge}}); // no timings: a bake writes the same bytes every time
+  return {{"name", name},
+          {"input_triangles", d.inputTriangles},
+          {"clusters", d.clusters.size()},
+          {"groups", d.groups.size()},
+          {"root_clusters", d.roots.size()},
+          {"root_triangles", d.rootTriangles()},
+          {"levels", levels}};
+}
+
+std::string lodMetaJson(const std::string& source, const BuildConfig& config, nlohmann::json meshes) {
+  nlohmann::json meta = {{"format", "mirage cluster LOD"},
+                         {"dag_codec_version", kDagCodecVersion},
+                         {"source", source},
+                         {"config",
+                          {{"cluster_triangles", config.clusterTriangles},
+                           {"cluster_vertices", config.clusterVertices},
+                           {"group_clusters", config.groupClusters},
+                           {"coarse_groups_from_level", config.coarseGroupsFromLevel},
+                           {"coarser_groups_from_level", config.coarserGroupsFromLevel},
+                           {"stuck_ratio", config.stuckRatio},
+                           {"normal_weight", config.normalWeight}}},
+                         {"meshes", std::move(meshes)}};
+  return meta.dump();
+}
+
+// 'TMAP': u32 version, varint mesh count, per mesh: varint triangles, then per triangle
+// zigzag(cluster + 1 - previous) as a varint (neighbouring source triangles mostly share a cluster,
+// and the container's zstd takes the rest).
+asset::ByteWriter sourceMapHeader(size_t meshCount) {
+  asset::ByteWriter w;
+  w.write(kSourceMapVersion);
+  w.writeVarint(meshCount);
+  return w;
+}
+
+void writeSourceMap(asset::ByteWriter& w, std::span<const uint32_t> map) {
+  w.writeVarint(map.size());
+  int64_t prev = 0;
+  for (uint32_t c : map) {
+    int64_t v = int64_t(uint32_t(c + 1)), d = v - prev; // kNone + 1 wraps to 0
+    w.writeVarint((uint64_t(d) << 1) ^ uint64_t(d >> 63));
+    prev = v;
+  }
+}
 
 std::vector<uint32_t> sourceTriangleClusters(const Mesh& mesh, const ClusterDag& dag) {
   using Key = std::array<uint32_t, 3>;
@@ -161,19 +180,9 @@ LodAsset assembleLodAsset(const Scene& scene, const BuildConfig& config, std::ve
     out.dags.push_back(std::move(m.dag));
     out.sourceClusters.push_back(std::move(m.sourceClusters));
   }
-  nlohmann::json meta = {{"format", "mirage cluster LOD"},
-                         {"dag_codec_version", kDagCodecVersion},
-                         {"source", scene.source},
-                         {"config",
-                          {{"cluster_triangles", config.clusterTriangles},
-                           {"cluster_vertices", config.clusterVertices},
-                           {"group_clusters", config.groupClusters},
-                           {"coarse_groups_from_level", config.coarseGroupsFromLevel},
-                           {"coarser_groups_from_level", config.coarserGroupsFromLevel},
-                           {"stuck_ratio", config.stuckRatio},
-                           {"normal_weight", config.normalWeight}}},
-                         {"meshes", statsJson(out)}};
-  out.metaJson = meta.dump();
+  nlohmann::json stats = nlohmann::json::array();
+  for (size_t i = 0; i < out.dags.size(); ++i) stats.push_back(meshStatsJson(out.scene.meshes[i].name, out.dags[i]));
+  out.metaJson = lodMetaJson(scene.source, config, std::move(stats));
   return out;
 }
 
@@ -237,27 +246,35 @@ Result<LodAsset> readLodAsset(const asset::AssetReader& reader, const std::strin
   return a;
 }
 
+} // namespace
+
+std::string dagReadBackDifference(const ClusterDag& a, const ClusterDag& b, bool paged) {
+  if (paged) {
+    if (a.clusters.size() != b.clusters.size() || a.clusterIndices != b.clusterIndices ||
+        a.groupChildren != b.groupChildren || a.groupParents != b.groupParents || a.roots != b.roots ||
+        a.normals.empty() != b.normals.empty() || a.uv0.empty() != b.uv0.empty())
+      return "paged cluster DAG decodes differently";
+    return {};
+  }
+  if (a.positions.size() != b.positions.size() || a.vertexPosition != b.vertexPosition ||
+      a.clusters.size() != b.clusters.size() || a.clusterVertices != b.clusterVertices ||
+      a.clusterIndices != b.clusterIndices || a.groups.size() != b.groups.size() ||
+      a.groupChildren != b.groupChildren || a.groupParents != b.groupParents || a.roots != b.roots ||
+      a.normals.size() != b.normals.size() || a.uv0 != b.uv0)
+    return "cluster DAG decodes differently";
+  return {};
+}
+
+namespace {
+
 // What a reader of the written file gets is what was baked: the same counts and topology
 // (positions moved only within the grid's slack, which decodeDag accounts for).
 // A paged DAG numbers its vertices anew (reassemblePagedDag): the same clusters, links and indices.
 std::string readBackDifference(const LodAsset& written, const LodAsset& read, bool paged) {
   if (read.dags.size() != written.dags.size()) return "mesh count differs";
-  for (size_t i = 0; i < written.dags.size(); ++i) {
-    const ClusterDag &a = written.dags[i], &b = read.dags[i];
-    if (paged) {
-      if (a.clusters.size() != b.clusters.size() || a.clusterIndices != b.clusterIndices ||
-          a.groupChildren != b.groupChildren || a.groupParents != b.groupParents || a.roots != b.roots ||
-          a.normals.empty() != b.normals.empty() || a.uv0.empty() != b.uv0.empty())
-        return "mesh " + std::to_string(i) + "'s paged cluster DAG decodes differently";
-      continue;
-    }
-    if (a.positions.size() != b.positions.size() || a.vertexPosition != b.vertexPosition ||
-        a.clusters.size() != b.clusters.size() || a.clusterVertices != b.clusterVertices ||
-        a.clusterIndices != b.clusterIndices || a.groups.size() != b.groups.size() ||
-        a.groupChildren != b.groupChildren || a.groupParents != b.groupParents || a.roots != b.roots ||
-        a.normals.size() != b.normals.size() || a.uv0 != b.uv0)
-      return "mesh " + std::to_string(i) + "'s cluster DAG decodes differently";
-  }
+  for (size_t i = 0; i < written.dags.size(); ++i)
+    if (std::string d = dagReadBackDifference(written.dags[i], read.dags[i], paged); !d.empty())
+      return "mesh " + std::to_string(i) + "'s " + d;
   if (read.sourceClusters != written.sourceClusters) return "source-triangle maps differ";
   return {};
 }

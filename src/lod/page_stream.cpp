@@ -1,11 +1,15 @@
 // The background page reader of paged cluster DAGs (page_stream.h).
 #include "mirage/lod/page_stream.h"
 
+#include <algorithm>
+
 namespace mirage::lod {
 
 PageStream::PageStream(const asset::AssetReader& reader, std::span<const PagedMesh> meshes,
                        const PageStreamConfig& config)
-    : reader_(reader), meshes_(meshes), config_(config), thread_([this] { run(); }) {}
+    : reader_(reader), meshes_(meshes), config_(config) {
+  for (uint32_t t = 0; t < std::max(config_.threads, 1u); ++t) threads_.emplace_back([this] { run(); });
+}
 
 PageStream::~PageStream() {
   {
@@ -13,14 +17,14 @@ PageStream::~PageStream() {
     stop_ = true;
   }
   wake_.notify_all();
-  thread_.join();
+  for (std::thread& t : threads_) t.join();
 }
 
 bool PageStream::request(uint32_t mesh, uint32_t page) {
   {
     std::lock_guard lock(mutex_);
     if (inFlight_ >= config_.maxInFlight || error_) return false;
-    queue_.push_back({mesh, page});
+    queue_.push_back({mesh, page, nextSequence_++});
     ++inFlight_;
   }
   wake_.notify_one();
@@ -56,7 +60,7 @@ void PageStream::run() {
   for (;;) {
     wake_.wait(lock, [&] { return stop_ || (!queue_.empty() && !error_); });
     if (stop_) return;
-    auto [mesh, page] = queue_.front();
+    auto [mesh, page, sequence] = queue_.front();
     queue_.pop_front();
     lock.unlock();
     // Read, checksums, decompression and decoding happen here, off the caller's thread.
@@ -68,10 +72,13 @@ void PageStream::run() {
         data && page < meshes_[mesh].blocks.blocks.size() ? meshes_[mesh].blocks.blocks[page].storedBytes : 0;
     lock.lock();
     if (!data) {
-      error_ = data.error();
+      if (!error_) error_ = data.error();
     } else {
       storedBytes_ += stored;
-      done_.push_back({mesh, page, std::move(data).value(), stored});
+      ready_.emplace(sequence, StreamedPage{mesh, page, std::move(data).value(), stored});
+      // Handed over in the order asked for: a page read early waits for the ones before it.
+      for (auto it = ready_.begin(); it != ready_.end() && it->first == nextDone_; it = ready_.erase(it), ++nextDone_)
+        done_.push_back(std::move(it->second));
     }
     arrived_.notify_all();
   }

@@ -175,6 +175,25 @@ Result<PageData> readPage(const asset::AssetReader& reader, const PagedMesh& mes
   return decodePage(*bytes, mesh.table, page, context);
 }
 
+Result<ClusterDag> decodePagedChunk(std::span<const uint8_t> payload, const std::string& context) {
+  auto blocks = asset::decodeBlockTable(payload, context);
+  if (!blocks) return blocks.error();
+  auto mesh = decodePagedHeader(blocks->header, context);
+  if (!mesh) return mesh.error();
+  if (blocks->blocks.size() != mesh->table.pages.size())
+    return makeError(context, str(blocks->blocks.size()) + " blocks for " + str(mesh->table.pages.size()) + " pages");
+  std::vector<PageData> pages;
+  for (uint32_t p = 0; p < blocks->blocks.size(); ++p) {
+    const asset::BlockInfo& b = blocks->blocks[p];
+    auto raw = asset::decodeBlock(*blocks, p, payload.subspan(size_t(b.offset), size_t(b.storedBytes)), context);
+    if (!raw) return raw.error();
+    auto page = decodePage(*raw, mesh->table, p, context);
+    if (!page) return page.error();
+    pages.push_back(std::move(page).value());
+  }
+  return reassemblePagedDag(mesh->table, mesh->rest, pages, context);
+}
+
 Result<PagedLodAsset> openPagedLodAsset(const std::string& path, const asset::SourceOptions& options) {
   auto reader = asset::AssetReader::open(path, options);
   if (!reader) return reader.error();

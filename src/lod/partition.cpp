@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <mutex>
 
 #include <metis.h>
 
@@ -23,6 +24,12 @@ bool bisect(std::vector<idx_t>& xadj, std::vector<idx_t>& adjncy, std::vector<id
   options[METIS_OPTION_NUMBERING] = 0;
   idx_t ncon = 1, nparts = 2, objval = 0;
   real_t shares[2] = {leftShare, real_t(1) - leftShare};
+  // METIS seeds and draws from the C library's one rand() state and keeps its error-handling
+  // setjmp buffers in globals: builds running at once (the streaming bake bakes several meshes
+  // concurrently) would interleave their draws and change each other's partitions. One call at a
+  // time in the process keeps every build's result its own.
+  static std::mutex metisCalls;
+  std::lock_guard lock(metisCalls);
   return METIS_PartGraphRecursive(&n, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr, weights.data(), &nparts,
                                   shares, nullptr, options, &objval, part.data()) == METIS_OK;
 }

@@ -18,6 +18,9 @@ ResidencyManager::ResidencyManager(ResidencyGraph graph, const ResidencyConfig& 
   residentDependents_.assign(n, 0);
   lastUsed_.assign(n, 0);
   usePriority_.assign(n, 0.0f);
+  residentAt_.assign(n, 0);
+  keptStamp_.assign(n, 0);
+  goneStamp_.assign(n, 0);
 }
 
 Result<ResidencyManager> ResidencyManager::create(ResidencyGraph graph, const ResidencyConfig& config) {
@@ -35,6 +38,8 @@ Result<ResidencyManager> ResidencyManager::create(ResidencyGraph graph, const Re
 
 void ResidencyManager::load(uint32_t page, float priority) {
   resident_[page] = 1;
+  residentAt_[page] = uint32_t(residentList_.size());
+  residentList_.push_back(page);
   residentBytes_ += graph_.bytes[page];
   ++residentPages_;
   for (uint32_t d : graph_.dependenciesOf(page)) ++residentDependents_[d];
@@ -50,37 +55,52 @@ void ResidencyManager::setPageBytes(uint32_t page, uint64_t bytes) {
 
 void ResidencyManager::evict(uint32_t page) {
   resident_[page] = 0;
+  uint32_t at = residentAt_[page], last = residentList_.back();
+  residentList_[at] = last, residentAt_[last] = at;
+  residentList_.pop_back();
   residentBytes_ -= graph_.bytes[page];
   --residentPages_;
   for (uint32_t d : graph_.dependenciesOf(page)) --residentDependents_[d];
 }
 
-std::vector<uint32_t> ResidencyManager::plan(uint64_t need, float priority, const std::vector<uint8_t>& kept) const {
-  // Evictions are simulated on copies of the dependents counts: evicting a page may free its
-  // dependencies for eviction.
-  std::vector<uint32_t> dependents = residentDependents_;
-  std::vector<uint8_t> gone(resident_.size(), 0);
+std::vector<uint32_t> ResidencyManager::plan(uint64_t need, float priority, std::span<const Candidate> candidates) {
+  if (++planStamp_ == 0) {
+    std::fill(goneStamp_.begin(), goneStamp_.end(), 0);
+    planStamp_ = 1;
+  }
+  // Evictions are simulated: evicting a page may free its dependencies for eviction. The few pages
+  // whose resident dependents the simulated victims reduce keep their count here.
+  std::vector<std::pair<uint32_t, uint32_t>> freedDependents; // (page, dependents simulated gone)
+  auto dependentsLeft = [&](uint32_t p) {
+    uint32_t n = residentDependents_[p];
+    for (auto [q, c] : freedDependents)
+      if (q == p) n -= c;
+    return n;
+  };
   std::vector<uint32_t> out;
   uint64_t freed = 0;
   while (freed < need) {
-    // The best candidate: unused in the last feedback before used, least recently used first,
-    // then the lowest priority, then the finest (highest) page.
+    // The first eligible candidate in eviction order is the best one. Once the used pages reach the
+    // request's priority, every later one is as needed as the request (sorted by priority).
     uint32_t best = ~0u;
-    auto better = [&](uint32_t a, uint32_t b) {
-      bool usedA = lastUsed_[a] == frame_, usedB = lastUsed_[b] == frame_;
-      if (usedA != usedB) return !usedA;
-      if (lastUsed_[a] != lastUsed_[b]) return lastUsed_[a] < lastUsed_[b];
-      if (usePriority_[a] != usePriority_[b]) return usePriority_[a] < usePriority_[b];
-      return a > b;
-    };
-    for (uint32_t p = 0; p < resident_.size(); ++p) {
-      if (!resident_[p] || gone[p] || graph_.root[p] || kept[p] || dependents[p] != 0) continue;
-      if (lastUsed_[p] == frame_ && usePriority_[p] >= priority) continue; // as needed as the request
-      if (best == ~0u || better(p, best)) best = p;
+    for (const Candidate& c : candidates) {
+      if (c.used && c.priority >= priority) break;
+      uint32_t p = c.page;
+      if (!resident_[p] || keptStamp_[p] == stamp_ || goneStamp_[p] == planStamp_) continue;
+      if (lastUsed_[p] == frame_ && usePriority_[p] >= priority) continue; // loaded again this step
+      if (residentDependents_[p] != 0 && (freedDependents.empty() || dependentsLeft(p) != 0)) continue;
+      best = p;
+      break;
     }
     if (best == ~0u) return {};
-    gone[best] = 1;
-    for (uint32_t d : graph_.dependenciesOf(best)) --dependents[d];
+    goneStamp_[best] = planStamp_;
+    for (uint32_t d : graph_.dependenciesOf(best)) {
+      auto it = std::find_if(freedDependents.begin(), freedDependents.end(), [&](auto& e) { return e.first == d; });
+      if (it == freedDependents.end())
+        freedDependents.push_back({d, 1});
+      else
+        ++it->second;
+    }
     freed += graph_.bytes[best];
     out.push_back(best);
   }
@@ -102,22 +122,29 @@ ResidencyStep ResidencyManager::step(std::span<const float> feedback) {
   }
   out.requested = uint32_t(requests.size());
   std::stable_sort(requests.begin(), requests.end(), [](auto& a, auto& b) { return a.first > b.first; });
-  std::vector<uint8_t> kept(graph_.pageCount(), 0);
   std::vector<uint32_t> closure, stack;
+  // Eviction candidates: the resident pages other than roots when the first eviction is planned.
+  // Pages loaded later in this step are never victims of it (their priority is at least that of
+  // every later request, which come in descending order).
+  std::vector<Candidate> candidates;
+  bool haveCandidates = false;
   for (auto [priority, page] : requests) {
     if (resident_[page]) continue; // loaded as a dependency of an earlier request
     // The request's dependency closure: what it keeps, and the missing pages to load (ascending
     // within a mesh: dependencies have lower page numbers).
-    std::fill(kept.begin(), kept.end(), 0);
+    if (++stamp_ == 0) { // wrapped: clear once in four billion requests
+      std::fill(keptStamp_.begin(), keptStamp_.end(), 0);
+      stamp_ = 1;
+    }
     closure.clear();
     stack.assign(1, page);
-    kept[page] = 1;
+    keptStamp_[page] = stamp_;
     while (!stack.empty()) {
       uint32_t p = stack.back();
       stack.pop_back();
       if (!resident_[p]) closure.push_back(p);
       for (uint32_t d : graph_.dependenciesOf(p))
-        if (!kept[d]) kept[d] = 1, stack.push_back(d);
+        if (keptStamp_[d] != stamp_) keptStamp_[d] = stamp_, stack.push_back(d);
     }
     if (out.loaded.size() + closure.size() > config_.maxLoadsPerStep) {
       ++out.unfit; // no uploads left this step: asked again next frame
@@ -129,7 +156,18 @@ ResidencyStep ResidencyManager::step(std::span<const float> feedback) {
     uint64_t free = config_.budgetBytes - residentBytes_;
     if (bytes > free) {
       // Pages loaded this step are kept too (lastUsed = this frame, the request's priority).
-      std::vector<uint32_t> victims = plan(bytes - free, priority, kept);
+      if (!haveCandidates) { // eviction order: unused first, least recently used, lowest priority, finest
+        for (uint32_t p : residentList_)
+          if (!graph_.root[p]) candidates.push_back({p, lastUsed_[p] == frame_, usePriority_[p]});
+        std::sort(candidates.begin(), candidates.end(), [&](const Candidate& a, const Candidate& b) {
+          if (a.used != b.used) return !a.used;
+          if (lastUsed_[a.page] != lastUsed_[b.page]) return lastUsed_[a.page] < lastUsed_[b.page];
+          if (a.priority != b.priority) return a.priority < b.priority;
+          return a.page > b.page;
+        });
+        haveCandidates = true;
+      }
+      std::vector<uint32_t> victims = plan(bytes - free, priority, candidates);
       if (victims.empty()) {
         ++out.unfit;
         continue;

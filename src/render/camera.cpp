@@ -355,14 +355,36 @@ std::vector<Camera> orbitPath(const Bounds& bounds, float aspect, uint32_t count
   return out;
 }
 
+std::vector<Camera> flyPath(const Bounds& bounds, float aspect, uint32_t count) {
+  (void)aspect; // the field of view is fixed; the width follows the aspect
+  glm::vec3 centre = bounds.empty() ? glm::vec3(0.0f) : bounds.center();
+  glm::vec3 extent = bounds.empty() ? glm::vec3(1.0f) : glm::max(bounds.extent(), glm::vec3(1e-6f));
+  float across = std::max(extent.x, extent.z);
+  float height = (bounds.empty() ? 0.5f : bounds.max.y) + 0.03f * across;
+  float rx = 0.35f * extent.x, rz = 0.35f * extent.z;
+  const float pitch = 15.0f * 3.14159265f / 180.0f; // looking down: the ground ahead, the far rows above
+  std::vector<Camera> out;
+  for (uint32_t i = 0; i < count; ++i) {
+    float a = 2.0f * 3.14159265f * float(i) / float(std::max(count, 1u));
+    Camera c;
+    c.eye = glm::vec3(centre.x + rx * std::cos(a), height, centre.z + rz * std::sin(a));
+    glm::vec3 ahead = glm::normalize(glm::vec3(-rx * std::sin(a), 0.0f, rz * std::cos(a))); // counter-clockwise
+    c.target = c.eye + ahead * std::cos(pitch) - glm::vec3(0.0f, std::sin(pitch), 0.0f);
+    c.fovYDegrees = 60.0f;
+    out.push_back(c);
+  }
+  return out;
+}
+
 Result<std::vector<Camera>> cameraPathArgument(const std::string& argument, const Bounds& bounds, float aspect) {
-  if (argument.starts_with("orbit:")) {
+  for (std::string_view kind : {"orbit:", "fly:"}) {
+    if (!argument.starts_with(kind)) continue;
     uint32_t n = 0;
-    std::string_view digits = std::string_view(argument).substr(6);
+    std::string_view digits = std::string_view(argument).substr(kind.size());
     auto r = std::from_chars(digits.data(), digits.data() + digits.size(), n);
     if (r.ec != std::errc() || r.ptr != digits.data() + digits.size() || n < 1 || n > 100000)
-      return Error{fmt::format("--path '{}': orbit:N needs N in 1..100000", argument)};
-    return orbitPath(bounds, aspect, n);
+      return Error{fmt::format("--path '{}': {}N needs N in 1..100000", argument, kind)};
+    return kind == "orbit:" ? orbitPath(bounds, aspect, n) : flyPath(bounds, aspect, n);
   }
   return loadCameraPath(argument);
 }

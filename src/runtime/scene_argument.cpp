@@ -15,8 +15,28 @@
 
 namespace mirage::runtime {
 
+std::optional<Result<io::ManyOptions>> manySceneArgument(const std::string& argument) {
+  if (!argument.starts_with("gen:many")) return std::nullopt;
+  std::string_view rest = std::string_view(argument).substr(8);
+  if (!rest.empty() && rest[0] != ':') return std::nullopt; // another kind ("gen:manyfold"): not ours
+  if (!rest.empty()) rest.remove_prefix(1);
+  size_t colon = rest.find(':');
+  uint32_t seed = 1;
+  if (colon != std::string_view::npos) {
+    std::string_view s = rest.substr(colon + 1);
+    auto r = std::from_chars(s.data(), s.data() + s.size(), seed);
+    if (r.ec != std::errc() || r.ptr != s.data() + s.size() || s.empty())
+      return Result<io::ManyOptions>(Error{fmt::format("{}: expected gen:many[:COUNT[xTRIANGLES][:SEED]]", argument)});
+  }
+  return io::parseManySize(rest.substr(0, colon), seed);
+}
+
 Result<mirage::Scene> loadSceneArgument(const std::string& argument, const io::ImportOptions& options) {
   if (!argument.starts_with("gen:")) return io::importScene(argument, options);
+  if (auto many = manySceneArgument(argument)) {
+    if (!*many) return many->error();
+    return io::generateMany(**many);
+  }
   // gen:KIND[:SIZE[:SEED]]
   std::vector<std::string> parts;
   size_t start = 4;

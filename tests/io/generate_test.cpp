@@ -221,3 +221,40 @@ TEST(Generate, SceneByName) {
   EXPECT_FALSE(io::generateScene("terrain", 1, 1).ok());
   EXPECT_FALSE(io::generateScene("city", 1, 100000).ok());
 }
+
+// gen:many: each mesh made alone equals the same mesh of the whole scene (what a streaming bake
+// relies on), the meshes are distinct variants of about the asked size, and the layout places one
+// instance per mesh without geometry.
+TEST(Generate, ManyMeshesAreMadeAloneAndDistinct) {
+  io::ManyOptions o;
+  o.count = 5;
+  o.triangles = 2000; // n = 10: 2000 triangles exactly
+  o.seed = 3;
+  Scene whole = io::generateMany(o);
+  Scene layout = io::generateManyLayout(o);
+  ASSERT_EQ(whole.meshes.size(), 5u);
+  ASSERT_EQ(layout.instances.size(), 5u);
+  for (uint32_t i = 0; i < o.count; ++i) {
+    EXPECT_TRUE(layout.meshes[i].positions.empty());
+    EXPECT_EQ(layout.meshes[i].name, whole.meshes[i].name);
+    EXPECT_EQ(layout.instances[i].mesh, i);
+    Mesh alone = io::generateManyMesh(o, i);
+    EXPECT_EQ(alone.positions, whole.meshes[i].positions);
+    EXPECT_EQ(alone.indices, whole.meshes[i].indices);
+    EXPECT_EQ(alone.triangleCount(), 2000u);
+    if (i > 0) {
+      EXPECT_NE(alone.positions, whole.meshes[0].positions) << "mesh " << i << " repeats mesh 0";
+    }
+  }
+  auto parsed = io::parseManySize("512x2000000", 9);
+  ASSERT_TRUE(parsed.ok());
+  EXPECT_EQ(parsed->count, 512u);
+  EXPECT_EQ(parsed->triangles, 2000000u);
+  EXPECT_EQ(parsed->seed, 9u);
+  EXPECT_FALSE(io::parseManySize("0x5", 1).ok());
+  EXPECT_FALSE(io::parseManySize("12y", 1).ok());
+  // Any segment count gives the closed 20 n² icosphere the blob is (n = 316: 1 997 120 triangles).
+  io::BlobOptions b;
+  b.segments = 7;
+  EXPECT_EQ(io::generateBlob(b).meshes[0].triangleCount(), 20u * 49u);
+}

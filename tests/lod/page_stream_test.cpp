@@ -1,7 +1,7 @@
 // On-demand pages of a paged .mrg (docs/render.md, "Residency"): openPagedLodAsset reads only the
 // indices and root pages, the index's box and vertex-id counts match the DAG, lod::PageStream reads
-// every page on its thread equal to readPage, keeps at most its capacity asked for, and reports a
-// damaged page as one line naming file, chunk and page.
+// every page on its threads equal to readPage, in the order asked for, keeps at most its capacity asked for, and
+// reports a damaged page as one line naming file, chunk and page.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -109,6 +109,26 @@ TEST(LodPageStream, StreamsEveryPageAsReadPage) {
   }
   EXPECT_EQ(stream.storedBytes(), stored);
   EXPECT_EQ(stream.inFlight(), 0u);
+}
+
+// Several threads read at once; the pages still come out in the order asked for (here descending).
+TEST(LodPageStream, ThreadsHandPagesOverInTheOrderAsked) {
+  auto path = writePagedBlob("streamorder");
+  auto paged = lod::openPagedLodAsset(path.string());
+  ASSERT_TRUE(paged.ok()) << paged.error().message;
+  uint32_t count = uint32_t(paged->meshes[0].table.pages.size());
+  for (uint32_t threads : {1u, 3u, 8u}) {
+    lod::PageStream stream(*paged->reader, paged->meshes, {.maxInFlight = count, .threads = threads});
+    for (uint32_t p = count; p-- > 0;) ASSERT_TRUE(stream.request(0, p));
+    std::vector<uint32_t> order;
+    while (order.size() < count) {
+      stream.waitForArrival(std::chrono::milliseconds(5000));
+      auto arrived = stream.take();
+      ASSERT_TRUE(arrived.ok()) << arrived.error().message;
+      for (const lod::StreamedPage& page : *arrived) order.push_back(page.page);
+    }
+    for (uint32_t i = 0; i < count; ++i) EXPECT_EQ(order[i], count - 1 - i) << threads << " threads";
+  }
 }
 
 TEST(LodPageStream, DamagedPageIsOneLine) {

@@ -308,5 +308,20 @@ TEST(Camera, PathFromJsonAndOrbit) {
   EXPECT_FALSE(cameraPathArgument("orbit:0", b, 1.5f).ok());
   EXPECT_FALSE(cameraPathArgument("orbit:x", b, 1.5f).ok());
   EXPECT_EQ(cameraPathArgument("orbit:3", b, 1.5f)->size(), 3u);
+  // fly:N: above the top, inside the footprint, looking ahead along the loop and 15 degrees down.
+  auto fly = cameraPathArgument("fly:6", b, 1.5f);
+  ASSERT_TRUE(fly.ok());
+  ASSERT_EQ(fly->size(), 6u);
+  for (size_t i = 0; i < fly->size(); ++i) {
+    const Camera& c = (*fly)[i];
+    EXPECT_GT(c.eye.y, b.max.y);
+    EXPECT_LT(std::abs(c.eye.x), 1.0f);
+    EXPECT_LT(std::abs(c.eye.z), 2.0f);
+    glm::vec3 d = glm::normalize(c.target - c.eye);
+    EXPECT_NEAR(std::asin(-d.y), glm::radians(15.0f), 1e-4f);
+    glm::vec3 next = (*fly)[(i + 1) % fly->size()].eye - c.eye; // heading towards the next eye
+    EXPECT_GT(glm::dot(glm::normalize(glm::vec2(d.x, d.z)), glm::normalize(glm::vec2(next.x, next.z))), 0.5f);
+  }
+  EXPECT_FALSE(cameraPathArgument("fly:0", b, 1.5f).ok());
   std::filesystem::remove_all(dir);
 }

@@ -110,6 +110,46 @@ private:
   std::optional<Error> error_; // first addChunk failure, reported by write()
 };
 
+// Writes chunks to the file as they are added, for outputs larger than memory: the layout of
+// AssetWriter (header, table, payloads at aligned offsets in the order added) with the table
+// reserved for up to `maxChunks` entries and written, with the header, by finish(); the same temp
+// file, fsync, optional read-back check and rename, so a failed or abandoned write (the destructor)
+// leaves nothing at `path`. Holds one chunk's bytes at a time (addChunkFromFile: none).
+class AssetStreamWriter {
+public:
+  static Result<AssetStreamWriter> create(const std::string& path, uint32_t maxChunks);
+  AssetStreamWriter(AssetStreamWriter&& other) noexcept;
+  AssetStreamWriter& operator=(AssetStreamWriter&& other) noexcept;
+  AssetStreamWriter(const AssetStreamWriter&) = delete;
+  AssetStreamWriter& operator=(const AssetStreamWriter&) = delete;
+  ~AssetStreamWriter(); // removes the temp file unless finish() published it
+
+  // As AssetWriter's adds; errors name the output. After an error every call fails.
+  Status addChunk(FourCC type, std::span<const uint8_t> data, int zstdLevel = kDefaultZstdLevel);
+  Status addStoredChunk(const StoredChunk& chunk);
+  Status addBlockedChunk(FourCC type, std::span<const uint8_t> payload, int zstdLevel = kDefaultZstdLevel);
+  // A chunk whose raw bytes are the whole file `rawPath` (spooled while other chunks were written),
+  // compressed as one zstd frame a piece at a time (raw when that is not smaller).
+  Status addChunkFromFile(FourCC type, const std::string& rawPath, int zstdLevel = kDefaultZstdLevel);
+  uint64_t bytesWritten() const { return at_; }
+  size_t chunkCount() const { return table_.size(); }
+  // Table and header, fsync, `check` on the temp file (as AssetWriter::write), rename.
+  Status finish(const std::function<Status(const std::string& tempPath)>& check = {});
+
+private:
+  AssetStreamWriter() = default;
+  Status append(const ChunkInfo& info, std::span<const uint8_t> stored);
+  Status padTo(uint64_t offset);
+  Status failed(const std::string& problem);
+  std::string path_, tmp_;
+  int fd_ = -1;
+  uint32_t maxChunks_ = 0;
+  uint64_t at_ = 0;
+  std::vector<ChunkEntry> table_;
+  bool anyBlocked_ = false;
+  std::optional<Error> error_;
+};
+
 // Reads a validated .mrg file. open() checks the whole structure (magic, version, header and table
 // checksums, bounds, overlaps, sizes) so that readChunk only has payload checks left. Reads use
 // pread on an open descriptor: readChunk is const and safe to call from several threads.

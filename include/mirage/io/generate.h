@@ -32,6 +32,7 @@ struct TerrainOptions {
 
 struct BlobOptions {
   uint32_t subdivisions = 8; // icosphere subdivision levels: 20·4^s triangles, 10·4^s+2 vertices (0..11)
+  uint32_t segments = 0;     // segments per icosahedron edge n (20·n² triangles, 1..8192); 0: 2^subdivisions
   float radius = 1.0f;       // radius of the undisplaced sphere
   float amplitude = 0.25f;   // displacement along the normal, relative to the radius
   float frequency = 2.0f;    // noise frequency on the unit sphere (lowest octave)
@@ -49,6 +50,28 @@ struct LayersOptions {
   float alpha = 0.3f;
 };
 
+// Many distinct meshes (`gen:many:COUNTxTRIANGLES[:SEED]`): `count` blob variants of about
+// `triangles` triangles each (seed, amplitude, frequency and octaves vary per mesh), one instance
+// each, scattered with jitter, scale and rotation over a square grid on the ground (y = 0), so a
+// camera flying over them sees near and far meshes. Made mesh by mesh: the layout alone (no
+// geometry) and any mesh on its own, so a bake can generate each mesh when it bakes it and a
+// scene of billions of triangles never exists in memory at once (lod/stream_bake.h).
+struct ManyOptions {
+  uint32_t count = 16;         // distinct meshes (1..65536)
+  uint64_t triangles = 100000; // triangles per mesh, about: 20·n² with n = round(sqrt(triangles / 20)) (20..1.3e9)
+  uint32_t seed = 1;           // drives every mesh's variant and the layout
+  float spacing = 4.0f;        // grid step in metres (blob radius ≈ 1 before scaling)
+};
+// The scene without geometry: materials, instances, one mesh per variant with its name and
+// material (no vertices, bounds empty). Meshes are generateManyMesh(options, i).
+Scene generateManyLayout(const ManyOptions& options);
+// Mesh `index` of the layout, with its geometry and bounds (thread-safe, any order).
+Mesh generateManyMesh(const ManyOptions& options, uint32_t index);
+// The whole scene: the layout with every mesh generated (small scenes and tests).
+Scene generateMany(const ManyOptions& options);
+// "COUNT" or "COUNTxTRIANGLES" (the SIZE of gen:many); `seed` as given. Errors: syntax, ranges.
+Result<ManyOptions> parseManySize(std::string_view size, uint32_t seed);
+
 Scene generateCity(const CityOptions& options);
 Scene generateLayers(const LayersOptions& options);
 Scene generateTerrain(const TerrainOptions& options);
@@ -61,8 +84,9 @@ Scene generateBlob(const BlobOptions& options);
 // surfaceArea (optional) receives the sampled surface's area (what a sampler's A should approach).
 Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t seed, double* surfaceArea = nullptr);
 
-// kind is "city", "terrain", "blob" or "layers"; sizeParameter is blocks / resolution /
-// subdivisions / layers (0 = the default). Unknown kinds and out-of-range sizes are errors.
+// kind is "city", "terrain", "blob", "layers" or "many"; sizeParameter is blocks / resolution /
+// subdivisions / layers / mesh count (0 = the default; gen:many's triangles: parseManySize). Unknown kinds and
+// out-of-range sizes are errors.
 Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeParameter);
 
 } // namespace mirage::io

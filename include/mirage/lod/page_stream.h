@@ -1,5 +1,5 @@
 #pragma once
-// Pages of paged cluster DAGs read on demand on a background thread (docs/render.md, "Residency"):
+// Pages of paged cluster DAGs read on demand on background threads (docs/render.md, "Residency"):
 // the caller asks for pages and takes them once read, checked and decoded; it never waits for I/O.
 // The reader is a file or a URL (asset/source.h), so the same code streams from a web server.
 // Memory is bounded: at most `maxInFlight` pages are queued, being read or arrived and not yet taken.
@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <span>
@@ -22,9 +23,13 @@ namespace mirage::lod {
 struct PageStreamConfig {
   // Pages asked for and not yet taken (queued, being read, or read): bounds the stream's memory to
   // this many decoded pages (the dragon's: about 0.3 MB each) and the requests a fast view change
-  // can pile up. 8 keeps an HTTP link busy (one request after another on one connection) while the
-  // renderer uploads at most 32 pages a frame.
+  // can pile up. 8 keeps an HTTP link busy (one request after another on one connection); the
+  // renderer asks for 32 (ClusterResidencySettings::maxReadsInFlight), a frame's uploads.
   uint32_t maxInFlight = 8;
+  // Threads reading, checking and decoding pages at once (pages decode independently; an HTTP
+  // source serialises its requests on its connection, the decoding still overlaps). A camera cut
+  // asks for many pages at once, and one thread decodes about 100 MB/s of stored pages.
+  uint32_t threads = 4;
 };
 
 // One page read and decoded: mesh m's page p, and the bytes its block took in the file.
@@ -66,13 +71,19 @@ private:
   PageStreamConfig config_;
   mutable std::mutex mutex_;
   std::condition_variable wake_, arrived_;
-  std::deque<std::pair<uint32_t, uint32_t>> queue_; // (mesh, page) not yet read
-  std::vector<StreamedPage> done_;                  // read, not yet taken
+  struct Request {
+    uint32_t mesh, page;
+    uint64_t sequence; // the order asked for: pages are handed over in it
+  };
+  std::deque<Request> queue_;                // not yet read
+  std::map<uint64_t, StreamedPage> ready_;   // read ahead of an earlier page still being read
+  std::vector<StreamedPage> done_;           // read, in order, not yet taken
+  uint64_t nextSequence_ = 0, nextDone_ = 0; // the next request's number; the next page to hand over
   uint32_t inFlight_ = 0;
   uint64_t storedBytes_ = 0;
   std::optional<Error> error_;
   bool stop_ = false;
-  std::thread thread_; // last: started once everything above exists
+  std::vector<std::thread> threads_; // last: started once everything above exists
 };
 
 } // namespace mirage::lod

@@ -78,6 +78,9 @@ Result<PagedLodAsset> openPagedLodAsset(const std::string& path, const asset::So
 // numbered by first use in cluster order. Checked with checkDagStructure.
 Result<ClusterDag> reassemblePagedDag(const PageTable& table, const PagedDagRest& rest, std::span<const PageData> pages,
                                       const std::string& context);
+// The DAG of one 'CPAG' payload in memory (encodePagedChunk's bytes): every block checked and
+// decoded, every page against the table, then reassemblePagedDag. Errors start with `context`.
+Result<ClusterDag> decodePagedChunk(std::span<const uint8_t> payload, const std::string& context);
 // readPage for every page, then reassemblePagedDag.
 Result<ClusterDag> readPagedDag(const asset::AssetReader& reader, const PagedMesh& mesh);
 

@@ -95,10 +95,18 @@ private:
   ResidencyManager(ResidencyGraph graph, const ResidencyConfig& config);
   void load(uint32_t page, float priority);
   void evict(uint32_t page);
+  // An eviction candidate as the step found it: the order plan() walks is fixed when the step's
+  // first eviction is planned (unused before used, least recently used, lowest priority, finest).
+  struct Candidate {
+    uint32_t page;
+    bool used;      // in the feedback of this step (lastUsed_ == frame_) when sorted
+    float priority; // usePriority_ when sorted
+  };
   // Pages to evict (in order) so that `need` more bytes fit, for a request of `priority`; empty
-  // when they cannot be found. `kept` pages (the request's dependency closure) stay.
-  std::vector<uint32_t> plan(uint64_t need, float priority, const std::vector<uint8_t>& kept) const;
-
+  // when they cannot be found. Walks `candidates` (the step's resident pages other than roots, in
+  // eviction order) and keeps the pages with keptStamp_ == stamp_ (the request's dependency
+  // closure): its cost does not grow with the scene's pages (scenes have 100 000 and more).
+  std::vector<uint32_t> plan(uint64_t need, float priority, std::span<const Candidate> candidates);
   ResidencyGraph graph_;
   ResidencyConfig config_;
   std::vector<uint8_t> resident_;
@@ -108,6 +116,12 @@ private:
   uint64_t residentBytes_ = 0;
   uint32_t residentPages_ = 0;
   uint64_t frame_ = 0;
+  // The resident pages in no particular order, and each one's place in it (swap-removed on evict).
+  std::vector<uint32_t> residentList_, residentAt_;
+  // Per page: the request whose dependency closure holds it, and the plan that chose it (stamps, so
+  // nothing is cleared per request).
+  std::vector<uint32_t> keptStamp_, goneStamp_;
+  uint32_t stamp_ = 0, planStamp_ = 0;
 };
 
 // The CPU reference of the GPU selection's feedback for one mesh under `view` (no frustum): per

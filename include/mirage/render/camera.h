@@ -92,7 +92,14 @@ std::string pathFrameName(const std::string& output, size_t index);
 // elevation, one full turn: a deterministic path for benchmarks and temporal tests.
 std::vector<Camera> orbitPath(const Bounds& bounds, float aspect, uint32_t count);
 
-// "orbit:N" -> orbitPath, anything else a JSON file (loadCameraPath).
+// `count` cameras flying over the scene (a fly-through of a wide scene such as gen:many): eyes on a
+// horizontal ellipse at 0.35 of the bounds' extent around its centre, 3 % of the larger horizontal
+// extent above the top, each looking ahead along the ellipse (counter-clockwise) and 15° down, so a
+// view holds meshes just below and rows of them out to the far side; 60° field of view. Each
+// camera is a cut from the one before (benchmarks time how long the residency takes to catch up).
+std::vector<Camera> flyPath(const Bounds& bounds, float aspect, uint32_t count);
+
+// "orbit:N" -> orbitPath, "fly:N" -> flyPath, anything else a JSON file (loadCameraPath).
 Result<std::vector<Camera>> cameraPathArgument(const std::string& argument, const Bounds& bounds, float aspect);
 
 } // namespace mirage::render

@@ -190,7 +190,7 @@ struct ClusterRenderSettings {
 // pool of fixed-size units within a byte budget; the selection draws the residency-aware cut of the
 // resident pages and writes page feedback, from which lod::ResidencyManager picks the pages to
 // load (a bounded number per frame) and to evict. A loaded page's units are reserved at once, its
-// bytes read on a background thread (lod::PageStream, from the file or URL), uploaded through a
+// bytes read on background threads (lod::PageStream, from the file or URL), uploaded through a
 // staging buffer in the frame's command buffer when they arrive, and drawn once its dependencies
 // are drawn too; no frame waits for I/O.
 struct ResidencyStats {
@@ -218,7 +218,8 @@ struct ResidencyStats {
 struct ClusterResidencySettings {
   uint64_t budgetBytes = 0;         // pool bytes for page geometry (> 0)
   uint32_t maxUploadsPerFrame = 32; // pages made resident per frame at most (dependencies included)
-  uint32_t maxReadsInFlight = 8;    // lod::PageStreamConfig::maxInFlight
+  uint32_t maxReadsInFlight = 32;   // lod::PageStreamConfig::maxInFlight: a frame's uploads' worth, so a
+                                    // camera cut is not paced at 8 pages a frame (decoded pages: ~0.3 MB each)
 };
 
 struct ClusterStats {

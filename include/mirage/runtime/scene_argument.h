@@ -2,12 +2,14 @@
 // Inputs of the runtime: scene arguments (files and generated scenes), what a .mrg holds, surfel
 // clouds, and the PVS helpers the forward path and `bench pvs` share.
 #include <array>
+#include <optional>
 #include <string>
 
 #include <glm/glm.hpp>
 
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
+#include "mirage/io/generate.h"
 #include "mirage/io/import.h"
 #include "mirage/render/camera.h"
 #include "mirage/surfels/surfel.h"
@@ -18,6 +20,10 @@ namespace mirage::runtime {
 // A scene file, or "gen:KIND[:SIZE[:SEED]]" for a procedural scene made in memory (no file needed,
 // which is how benchmarks run on machines without the data set).
 Result<mirage::Scene> loadSceneArgument(const std::string& argument, const io::ImportOptions& options = {});
+// "gen:many[:COUNT[xTRIANGLES][:SEED]]" (io::ManyOptions): the options, or an error naming the
+// argument; nullopt for any other argument. A bake generates such a scene mesh by mesh
+// (lod/stream_bake.h) instead of loading it whole.
+std::optional<Result<io::ManyOptions>> manySceneArgument(const std::string& argument);
 
 bool isMrgPath(const std::string& input);
 // Which kinds of chunk a .mrg holds (all false when it cannot be opened: the loader reports why).

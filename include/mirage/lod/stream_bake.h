@@ -1,0 +1,69 @@
+#pragma once
+// A cluster-LOD bake whose memory does not grow with the scene (docs/lod.md, "Streaming bake"):
+// meshes are made on demand (generated or read one at a time), baked a bounded number at once,
+// and each mesh's chunk is written to the output as soon as the meshes before it are, so the
+// process holds about meshesInFlight meshes being baked plus reorderWindow encoded chunks, never
+// the scene. The file holds the chunks saveLodAsset writes for the same scene (the same contents:
+// every CPAG/CDAG chunk's stored bytes, the TMAP, SCEN and META payloads), with the scene chunk
+// after the meshes (their bounds are known once they are made); bytes independent of the thread
+// count and of the order meshes finish in.
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "mirage/core/result.h"
+#include "mirage/core/scene.h"
+#include "mirage/lod/cluster_dag.h"
+#include "mirage/lod/lod_asset.h"
+
+namespace mirage::lod {
+
+// A scene whose meshes are made one at a time.
+struct MeshSource {
+  // Materials, textures, instances, lights; one mesh per DAG with its name and material (geometry
+  // and bounds come from `mesh`).
+  Scene layout;
+  // Mesh i with its geometry and bounds; called from several threads at once, for distinct i.
+  std::function<Result<Mesh>(uint32_t)> mesh;
+};
+
+struct StreamBakeOptions {
+  // Meshes made, baked and encoded at once, each on threads / meshesInFlight of the build's threads
+  // (at least 1); 0: half the threads, at least 1 (a mesh's encoding and read-back run on one
+  // thread, so two threads per mesh keep the cores busy). Memory: about this many meshes' bakes
+  // (about 150-250 B per input triangle each, docs/lod.md "Streaming bake").
+  uint32_t meshesInFlight = 0;
+  // A mesh starts only when it is fewer than this many ahead of the next mesh to write, so at most
+  // this many finished meshes wait, encoded, for their turn; 0: 2 × meshesInFlight (≥ meshesInFlight).
+  uint32_t reorderWindow = 0;
+};
+
+struct StreamBakeReport {
+  uint32_t meshes = 0;
+  uint64_t inputTriangles = 0;
+  uint64_t clusters = 0;
+  uint64_t pages = 0; // paged: pages over every mesh
+  uint64_t fileBytes = 0;
+  uint32_t meshesInFlight = 0, reorderWindow = 0, threadsPerMesh = 0; // as run
+  // The counters the bound rests on: meshes made and not yet encoded at any time (each holds its
+  // mesh and DAG), and encoded meshes waiting for their turn.
+  uint32_t peakMeshesInFlight = 0;
+  uint32_t peakMeshesWaiting = 0;
+  double bakeSeconds = 0; // from the first mesh to the last mesh's chunk written
+  // Wall seconds of each step summed over the meshes (each ran on threadsPerMesh threads): making
+  // the mesh, its DAG (bakeLodMesh), encoding its chunk, reading the chunk back.
+  double makeSeconds = 0, meshBakeSeconds = 0, encodeSeconds = 0, readBackSeconds = 0;
+  double finishSeconds = 0; // the source map, scene and META chunks, the read-back check, rename
+};
+
+// Bakes every mesh of `source` into `path` (config.threads: all the bake's threads, 0 = all cores;
+// write.threads is not used: each mesh's chunk is encoded by the threads that baked it). The
+// source-triangle map is spooled to "<path>.tmap-<pid>" beside the output and compressed into it
+// at the end. Before the rename the file is opened again and every paged mesh's index read (pages
+// were checked by the encoder; a full read would load the scene). Errors name the mesh or the
+// output; nothing is left at `path` (or beside it) on failure.
+Status bakeLodFile(const MeshSource& source, const std::string& path, const BuildConfig& config,
+                   const LodWriteOptions& write, const StreamBakeOptions& options = {},
+                   StreamBakeReport* report = nullptr, const BuildProgress& progress = {});
+
+} // namespace mirage::lod

@@ -1,0 +1,242 @@
+// bakeLodFile: meshes made, baked and encoded by a few workers at once (each on its share of the
+// threads), their chunks written in mesh order by the calling thread as soon as their turn comes.
+#include "mirage/lod/stream_bake.h"
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include <tbb/task_arena.h>
+#include <unistd.h>
+
+#include "asset_parts.h"
+#include "mirage/asset/container.h"
+#include "mirage/asset/scene_chunk.h"
+#include "mirage/lod/dag_codec.h"
+#include "mirage/lod/paged_asset.h"
+
+namespace mirage::lod {
+
+namespace {
+
+// One mesh, baked and encoded: what the writer needs, nothing of the DAG.
+struct EncodedMesh {
+  asset::StoredChunk dagChunk;       // not paged: the CDAG chunk as stored
+  std::vector<uint8_t> pagedPayload; // paged: the CPAG payload
+  std::vector<uint8_t> sourceMap;    // its TMAP section
+  nlohmann::json stats;              // its META entry
+  Bounds bounds;
+  uint64_t triangles = 0, clusters = 0, pages = 0;
+  double seconds[4] = {}; // make, bake, encode, read back
+};
+
+double since(std::chrono::steady_clock::time_point& t) { // seconds since t; t becomes now
+  auto now = std::chrono::steady_clock::now();
+  double s = std::chrono::duration<double>(now - t).count();
+  t = now;
+  return s;
+}
+
+// Generate, bake, encode and check one mesh on the calling thread's arena.
+Result<EncodedMesh> bakeOne(const MeshSource& source, uint32_t index, const BuildConfig& config,
+                            const LodWriteOptions& write, const std::string& path) {
+  auto t = std::chrono::steady_clock::now();
+  EncodedMesh out;
+  auto mesh = source.mesh(index);
+  if (!mesh) return mesh.error();
+  out.seconds[0] = since(t);
+  std::string where = meshWhere(source.layout, index);
+  auto baked = bakeLodMesh(*mesh, where, config);
+  if (!baked) return baked.error();
+  out.seconds[1] = since(t);
+  out.bounds = mesh->bounds;
+  out.triangles = mesh->triangleCount();
+  *mesh = Mesh{}; // the input goes before the encoding's buffers arrive
+  const ClusterDag& dag = baked->dag;
+  out.clusters = dag.clusters.size();
+  out.stats = meshStatsJson(source.layout.meshes[index].name, dag);
+  asset::ByteWriter map;
+  writeSourceMap(map, baked->sourceClusters);
+  out.sourceMap = map.take();
+  // What saveLodAsset writes for this mesh, read back before it goes to the file.
+  Result<ClusterDag> read = Error{};
+  if (write.paged) {
+    PageConfig pages = write.pages;
+    pages.positionBits = write.dag.positionBits;
+    auto payload = encodePagedChunk(dag, pages, 9);
+    if (!payload)
+      return makeError(path, "mesh " + std::to_string(index) + ": paged cluster DAG: " + payload.error().message);
+    out.pagedPayload = std::move(*payload);
+    out.seconds[2] = since(t);
+    read = decodePagedChunk(out.pagedPayload, where);
+    if (auto blocks = asset::decodeBlockTable(out.pagedPayload, where)) out.pages = blocks->blocks.size();
+  } else {
+    std::vector<uint8_t> bytes = encodeDag(dag, write.dag);
+    int level = bytes.size() <= (4u << 20) ? 19 : 9; // saveLodAsset's choice
+    auto chunk = asset::storeChunk(asset::chunk::ClusterDag, bytes, level);
+    if (!chunk) return makeError(path, chunk.error().message);
+    out.dagChunk = std::move(*chunk);
+    out.seconds[2] = since(t);
+    read = decodeDag(bytes, where);
+  }
+  if (!read)
+    return makeError(path, "the written file does not read back (" + read.error().message + "); nothing written");
+  if (std::string d = dagReadBackDifference(dag, *read, write.paged); !d.empty())
+    return makeError(path, "the written file does not read back (" + where + ": " + d + "); nothing written");
+  out.seconds[3] = since(t);
+  return out;
+}
+
+// Removes the spool file when the bake ends, however it ends.
+struct SpoolFile {
+  std::string path;
+  std::FILE* file = nullptr;
+  ~SpoolFile() {
+    if (file) std::fclose(file);
+    if (!path.empty()) std::remove(path.c_str());
+  }
+};
+
+} // namespace
+
+Status bakeLodFile(const MeshSource& source, const std::string& path, const BuildConfig& config,
+                   const LodWriteOptions& write, const StreamBakeOptions& options, StreamBakeReport* report,
+                   const BuildProgress& progress) {
+  auto t0 = std::chrono::steady_clock::now();
+  const uint32_t meshCount = uint32_t(source.layout.meshes.size());
+  if (meshCount == 0) return makeError(path, "the scene has no meshes");
+  if (meshCount + 3 > asset::kMaxChunks)
+    return makeError(path, "too many meshes for one file (" + std::to_string(meshCount) + ")");
+  uint32_t threads = config.threads ? config.threads : uint32_t(tbb::this_task_arena::max_concurrency());
+  uint32_t inFlight = options.meshesInFlight ? options.meshesInFlight : std::max(1u, threads / 2);
+  inFlight = std::min(inFlight, meshCount);
+  uint32_t window = std::max(inFlight, options.reorderWindow ? options.reorderWindow : 2 * inFlight);
+  BuildConfig meshConfig = config;
+  meshConfig.threads = std::max(1u, threads / inFlight);
+  StreamBakeReport r;
+  r.meshes = meshCount, r.meshesInFlight = inFlight, r.reorderWindow = window, r.threadsPerMesh = meshConfig.threads;
+
+  // Chunks: one per mesh, the source map, the scene, META.
+  auto writer = asset::AssetStreamWriter::create(path, meshCount + 3);
+  if (!writer) return writer.error();
+  SpoolFile spool{path + ".tmap-" + std::to_string(::getpid())};
+  spool.file = std::fopen(spool.path.c_str(), "wb");
+  if (!spool.file) return makeError(path, "cannot create " + spool.path);
+  asset::ByteWriter mapHeader = sourceMapHeader(meshCount);
+  bool spoolOk = std::fwrite(mapHeader.data().data(), 1, mapHeader.size(), spool.file) == mapHeader.size();
+
+  // Workers take meshes in order while they are fewer than `window` ahead of the writer; each
+  // finished mesh waits in `done` until the writer (this thread) reaches it.
+  std::mutex m;
+  std::condition_variable cv;
+  uint32_t next = 0, written = 0, busy = 0;
+  std::map<uint32_t, EncodedMesh> done;
+  std::optional<Error> error;
+  auto work = [&] {
+    tbb::task_arena arena(int(meshConfig.threads));
+    while (true) {
+      uint32_t i;
+      {
+        std::unique_lock lock(m);
+        cv.wait(lock, [&] { return error || next >= meshCount || next < written + window; });
+        if (error || next >= meshCount) return;
+        i = next++;
+        r.peakMeshesInFlight = std::max(r.peakMeshesInFlight, ++busy);
+      }
+      Result<EncodedMesh> e = Error{};
+      arena.execute([&] { e = bakeOne(source, i, meshConfig, write, path); });
+      std::lock_guard lock(m);
+      --busy;
+      if (!e) {
+        if (!error) error = e.error();
+      } else {
+        done.emplace(i, std::move(e).value());
+        r.peakMeshesWaiting = std::max(r.peakMeshesWaiting, uint32_t(done.size()));
+      }
+      cv.notify_all();
+    }
+  };
+  std::vector<std::thread> workers;
+  for (uint32_t w = 0; w < inFlight; ++w) workers.emplace_back(work);
+
+  Scene scene; // the layout with every mesh's bounds: the SCEN chunk (no geometry)
+  scene.source = source.layout.source;
+  scene.materials = source.layout.materials;
+  scene.textures = source.layout.textures;
+  scene.instances = source.layout.instances;
+  scene.lights = source.layout.lights;
+  nlohmann::json stats = nlohmann::json::array();
+  Status status = Ok{};
+  while (written < meshCount) {
+    EncodedMesh e;
+    {
+      std::unique_lock lock(m);
+      cv.wait(lock, [&] { return error || done.count(written); });
+      if (error) break;
+      auto it = done.find(written);
+      e = std::move(it->second);
+      done.erase(it);
+    }
+    status = write.paged ? writer->addBlockedChunk(asset::chunk::ClusterPages, e.pagedPayload, 9)
+                         : writer->addStoredChunk(e.dagChunk);
+    spoolOk = spoolOk && std::fwrite(e.sourceMap.data(), 1, e.sourceMap.size(), spool.file) == e.sourceMap.size();
+    const Mesh& layoutMesh = source.layout.meshes[written];
+    scene.meshes.push_back(Mesh{layoutMesh.name, {}, {}, {}, {}, {}, {}, layoutMesh.material, e.bounds});
+    stats.push_back(std::move(e.stats));
+    r.inputTriangles += e.triangles, r.clusters += e.clusters, r.pages += e.pages;
+    r.makeSeconds += e.seconds[0], r.meshBakeSeconds += e.seconds[1];
+    r.encodeSeconds += e.seconds[2], r.readBackSeconds += e.seconds[3];
+    std::lock_guard lock(m);
+    if (!status && !error) error = status.error();
+    if (!spoolOk && !error) error = makeError(path, "cannot write " + spool.path);
+    if (error) break;
+    ++written;
+    cv.notify_all();
+    if (progress) progress(written, meshCount, written, meshCount);
+  }
+  {
+    std::lock_guard lock(m);
+    if (written < meshCount && !error) error = makeError(path, "bake stopped");
+    cv.notify_all();
+  }
+  for (std::thread& t : workers) t.join();
+  if (error) return *error;
+  r.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  auto t1 = std::chrono::steady_clock::now();
+  if (std::fclose(std::exchange(spool.file, nullptr)) != 0) return makeError(path, "cannot write " + spool.path);
+  if (Status s = writer->addChunkFromFile(asset::chunk::SourceMap, spool.path); !s) return s;
+  std::remove(spool.path.c_str());
+  spool.path.clear();
+  if (Status s = asset::validateScene(scene, path); !s) return s;
+  if (Status s = writer->addChunk(asset::chunk::Scene, asset::encodeScene(scene)); !s) return s;
+  std::string meta = lodMetaJson(source.layout.source, config, std::move(stats));
+  if (Status s =
+          writer->addChunk(asset::chunk::Meta, std::span(reinterpret_cast<const uint8_t*>(meta.data()), meta.size()));
+      !s)
+    return s;
+  r.fileBytes = writer->bytesWritten();
+  // The container and every paged mesh's index read back (each mesh's pages were read back above).
+  Status finished = writer->finish([&](const std::string& tempPath) -> Status {
+    auto reader = asset::AssetReader::open(tempPath);
+    if (!reader) return makeError(path, "the written file does not read back (" + reader.error().message + ")");
+    if (write.paged) {
+      auto meshes = openPagedMeshes(*reader);
+      if (!meshes || meshes->size() != meshCount)
+        return makeError(path, "the written file does not read back (" +
+                                   (meshes ? std::string("mesh count differs") : meshes.error().message) + ")");
+    }
+    return Ok{};
+  });
+  if (!finished) return finished;
+  r.finishSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  if (report) *report = r;
+  return Ok{};
+}
+
+} // namespace mirage::lod

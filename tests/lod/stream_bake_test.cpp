@@ -1,0 +1,188 @@
+// The streaming bake (lod/stream_bake.h): meshes made on demand, a bounded number baked at once, each
+// chunk written as its turn comes. The file holds the chunks saveLodAsset writes for the same scene,
+// its bytes do not depend on threads, meshes in flight or the order meshes finish in, the counters
+// the memory bound rests on stay within their limits, a failing mesh leaves nothing behind, and a
+// residency reader of the file reads only indices and root pages.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "mirage/asset/container.h"
+#include "mirage/io/generate.h"
+#include "mirage/lod/lod_asset.h"
+#include "mirage/lod/paged_asset.h"
+#include "mirage/lod/stream_bake.h"
+#include "test_support.h"
+
+using namespace mirage;
+
+namespace {
+
+io::ManyOptions smallMany() {
+  io::ManyOptions o;
+  o.count = 6;
+  o.triangles = 3000;
+  o.seed = 7;
+  return o;
+}
+
+lod::MeshSource manySource(const io::ManyOptions& o) {
+  lod::MeshSource s;
+  s.layout = io::generateManyLayout(o);
+  s.mesh = [o](uint32_t i) -> Result<Mesh> { return io::generateManyMesh(o, i); };
+  return s;
+}
+
+lod::LodWriteOptions paged() {
+  lod::LodWriteOptions w;
+  w.paged = true;
+  w.pages.pageBytes = 16 * 1024; // several pages per mesh
+  return w;
+}
+
+std::vector<uint8_t> fileBytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+std::string bakeFile(const std::filesystem::path& path, const lod::MeshSource& source, const lod::LodWriteOptions& w,
+                     uint32_t threads, lod::StreamBakeOptions options, lod::StreamBakeReport* report = nullptr) {
+  lod::BuildConfig config;
+  config.threads = threads;
+  Status s = lod::bakeLodFile(source, path.string(), config, w, options, report);
+  return s.ok() ? "" : s.error().message;
+}
+
+// Every chunk of `streamed` holds what the same-type chunk of `whole` holds: mesh chunks as stored
+// (so the same pages and blocks), the others decompressed.
+void expectSameChunks(const std::string& streamed, const std::string& whole) {
+  auto a = asset::AssetReader::open(streamed), b = asset::AssetReader::open(whole);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->chunks().size(), b->chunks().size());
+  for (asset::FourCC type : {asset::chunk::ClusterPages, asset::chunk::ClusterDag}) {
+    std::vector<size_t> ia, ib;
+    for (size_t i = 0; i < a->chunks().size(); ++i) {
+      if (a->chunks()[i].type == type) ia.push_back(i);
+      if (b->chunks()[i].type == type) ib.push_back(i);
+    }
+    ASSERT_EQ(ia.size(), ib.size());
+    for (size_t k = 0; k < ia.size(); ++k)
+      EXPECT_EQ(a->readStoredChunk(ia[k]).value(), b->readStoredChunk(ib[k]).value()) << "mesh " << k;
+  }
+  for (asset::FourCC type : {asset::chunk::SourceMap, asset::chunk::Scene, asset::chunk::Meta}) {
+    auto x = a->readChunk(type), y = b->readChunk(type);
+    ASSERT_TRUE(x.ok() && y.ok()) << type.str();
+    EXPECT_TRUE(*x == *y) << type.str();
+  }
+}
+
+} // namespace
+
+TEST(StreamBake, SameChunksAsTheWholeAssetWriter) {
+  auto dir = test::tempDir("stream_bake_same");
+  io::ManyOptions o = smallMany();
+  auto baked = lod::bakeLodAsset(io::generateMany(o), {});
+  ASSERT_TRUE(baked.ok());
+  for (bool isPaged : {true, false}) {
+    lod::LodWriteOptions w = isPaged ? paged() : lod::LodWriteOptions{};
+    std::string name = isPaged ? "paged" : "flat";
+    ASSERT_TRUE(lod::saveLodAsset((dir / (name + "_whole.mrg")).string(), *baked, w).ok());
+    ASSERT_EQ(bakeFile(dir / (name + "_streamed.mrg"), manySource(o), w, 2, {}), "");
+    expectSameChunks((dir / (name + "_streamed.mrg")).string(), (dir / (name + "_whole.mrg")).string());
+    // And it loads as the same asset (the scene chunk after the meshes changes nothing for readers).
+    auto loaded = lod::loadLodAsset((dir / (name + "_streamed.mrg")).string());
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    EXPECT_EQ(loaded->dags.size(), o.count);
+    EXPECT_EQ(loaded->sourceClusters, baked->sourceClusters);
+  }
+}
+
+// Threads, meshes in flight, the window and the order meshes finish in (mesh 0 made last) leave the
+// bytes unchanged; the counters stay within their bounds, and no mesh is made more than the window
+// ahead of the writer (seen by the source itself, against the progress callback).
+TEST(StreamBake, BytesDoNotDependOnThreadsOrOrderAndMemoryStaysBounded) {
+  auto dir = test::tempDir("stream_bake_threads");
+  // Meshes large enough that concurrent bakes partition at the same time (METIS's shared state).
+  io::ManyOptions o = smallMany();
+  o.count = 8;
+  o.triangles = 8000; // n = 20
+  ASSERT_EQ(bakeFile(dir / "one.mrg", manySource(o), paged(), 1, {.meshesInFlight = 1, .reorderWindow = 1}), "");
+  std::vector<uint8_t> reference = fileBytes(dir / "one.mrg");
+  ASSERT_FALSE(reference.empty());
+  struct Run {
+    uint32_t threads, inFlight, window;
+  };
+  // Two threads per mesh; one each, two and four at once; more workers than threads.
+  for (Run run : {Run{2, 1, 0}, Run{2, 2, 0}, Run{2, 4, 4}, Run{1, 3, 5}}) {
+    std::atomic<uint32_t> written{0}, live{0}, peakLive{0}, aheadViolations{0};
+    lod::MeshSource source = manySource(o);
+    uint32_t window = std::max(run.inFlight, run.window ? run.window : 2 * run.inFlight);
+    source.mesh = [&, o](uint32_t i) -> Result<Mesh> {
+      if (i >= written.load() + window) ++aheadViolations;
+      uint32_t now = ++live;
+      for (uint32_t p = peakLive.load(); now > p && !peakLive.compare_exchange_weak(p, now);) {
+      }
+      if (i == 0) std::this_thread::sleep_for(std::chrono::milliseconds(50)); // the others finish first
+      Mesh m = io::generateManyMesh(o, i);
+      --live;
+      return m;
+    };
+    lod::StreamBakeReport report;
+    lod::BuildConfig config;
+    config.threads = run.threads;
+    Status s = lod::bakeLodFile(source, (dir / "many.mrg").string(), config, paged(),
+                                {.meshesInFlight = run.inFlight, .reorderWindow = run.window}, &report,
+                                [&](size_t done, size_t, uint64_t, uint64_t) { written = uint32_t(done); });
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    EXPECT_EQ(fileBytes(dir / "many.mrg"), reference) << run.threads << " threads, " << run.inFlight << " in flight";
+    EXPECT_EQ(report.meshesInFlight, run.inFlight);
+    EXPECT_EQ(report.reorderWindow, window);
+    EXPECT_LE(report.peakMeshesInFlight, run.inFlight);
+    EXPECT_LE(report.peakMeshesWaiting, window);
+    EXPECT_LE(peakLive.load(), run.inFlight);
+    EXPECT_EQ(aheadViolations.load(), 0u);
+    EXPECT_EQ(report.meshes, o.count);
+    EXPECT_EQ(report.inputTriangles, uint64_t(o.count) * 20 * 20 * 20);
+  }
+}
+
+TEST(StreamBake, AFailingMeshLeavesNothing) {
+  auto dir = test::tempDir("stream_bake_fail");
+  lod::MeshSource source = manySource(smallMany());
+  source.mesh = [o = smallMany()](uint32_t i) -> Result<Mesh> {
+    if (i == 3) return Error{"mesh 3: cannot be made"};
+    return io::generateManyMesh(o, i);
+  };
+  std::string message = bakeFile(dir / "x.mrg", source, paged(), 2, {.meshesInFlight = 2});
+  EXPECT_NE(message.find("mesh 3: cannot be made"), std::string::npos) << message;
+  EXPECT_TRUE(std::filesystem::is_empty(dir)) << "output, temp or spool file left";
+}
+
+// A residency reader (openPagedLodAsset) reads the container's table, the scene and META chunks,
+// every mesh's index and its root pages: no other page.
+TEST(StreamBake, ResidencyOpenReadsOnlyIndicesAndRootPages) {
+  auto dir = test::tempDir("stream_bake_open");
+  auto path = dir / "many.mrg";
+  ASSERT_EQ(bakeFile(path, manySource(smallMany()), paged(), 2, {}), "");
+  auto opened = lod::openPagedLodAsset(path.string());
+  ASSERT_TRUE(opened.ok()) << opened.error().message;
+  uint64_t expected = sizeof(asset::FileHeader) + opened->reader->chunks().size() * sizeof(asset::ChunkEntry);
+  uint64_t allPages = 0, rootPages = 0;
+  for (const asset::ChunkInfo& c : opened->reader->chunks())
+    if (c.type == asset::chunk::Scene || c.type == asset::chunk::Meta) expected += c.storedBytes;
+  for (const lod::PagedMesh& m : opened->meshes) {
+    expected += m.blocks.indexBytes;
+    for (uint32_t p = 0; p < m.blocks.blocks.size(); ++p) {
+      allPages += m.blocks.blocks[p].storedBytes;
+      if (p < m.table.rootPageCount) expected += m.blocks.blocks[p].storedBytes, ++rootPages;
+    }
+  }
+  uint64_t received = opened->reader->sourceStats().bytes;
+  EXPECT_LE(received, expected + 64 * opened->meshes.size()) << "read beyond indices and root pages";
+  EXPECT_LT(received, allPages / 2);
+  EXPECT_EQ(rootPages, opened->meshes.size());
+}
