@@ -143,13 +143,66 @@ bool hardwareCluster(vec4 worldSphere, uint triangles, ClusterFrame f) {
   return diameter >= f.hybridThreshold * sqrt(float(max(triangles, 1u)));
 }
 
-// A cluster to draw in the current pass: into the hardware list (hybrid, large triangles) or the
-// up list, counted. False when the lists are full.
-bool emitCluster(VisibleCluster vc, vec4 worldSphere, uint triangles, ClusterFrame f) {
-  bool hardware = (f.flags & MIRAGE_FRAME_HYBRID) != 0 && hardwareCluster(worldSphere, triangles, f);
-  if (!appendVisible(hardware ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP, vc)) return false;
+// The compute raster's walks (cluster_raster.glsl), which the lean test below must predict: a
+// triangle whose sample box exceeds MIRAGE_RASTER_SHARED_PIXELS goes to its workgroup's queue, one
+// spanning MIRAGE_RASTER_SMALL_EXTENT or more takes a 64-bit walk (cluster_raster_edges.glsl).
+#define MIRAGE_RASTER_SHARED_PIXELS 128
+#define MIRAGE_RASTER_SMALL_EXTENT 63.0 // pixels: 32-bit edge values stay below 2^30
+
+// Lean raster (MIRAGE_FRAME_LEAN_RASTER; docs/render.md, "Lean raster"): true when the general
+// compute raster would walk every triangle of cluster c drawn by `inst` with its own thread's
+// 32-bit walk: the cluster is not alpha-masked, its bounding sphere lies wholly beyond the near
+// plane (no clipping), and a bound on any triangle's screen extent keeps every sample box within
+// MIRAGE_RASTER_SHARED_PIXELS (not queued) and every extent under MIRAGE_RASTER_SMALL_EXTENT.
+// The bound, in object space (exact for any affine model matrix): with clip rows X, W of
+// viewProj * model, two points p, q of the sphere with d = q - p project to ndc x that differ by
+// (X.xyz - n W.xyz) . d / W_q, n = X_p / W_p; so by at most |X.xyz - n W.xyz| maxEdge / Wmin, Wmin
+// the sphere's smallest W, the norm largest at one end of n's range over the sphere (it is
+// convex in n). y alike. A box spans fewer than extent + 3 pixels (sampleBox rounds outwards).
+// Stereo draws from the left eye's frame; the right eye's clip x is shifted by stereoClipDx.
+float leanNdcSpan(vec4 row, vec4 rw, vec3 o, float r, float wmin, float wmax, float shift) {
+  float c = dot(row.xyz, o) + row.w, reach = length(row.xyz) * r;
+  float lo = c - reach + min(shift, 0.0), hi = c + reach + max(shift, 0.0);
+  float nlo = min(lo / wmin, lo / wmax), nhi = max(hi / wmin, hi / wmax); // wmin > 0
+  return max(length(row.xyz - nlo * rw.xyz), length(row.xyz - nhi * rw.xyz)) / wmin;
+}
+bool leanRasterCluster(GpuCluster c, GpuClusterInstance inst, ClusterFrame f) {
+  if ((inst.flags & MIRAGE_INSTANCE_ALPHA_MASK) != 0) return false; // the mask kernel's
+  bool stereo = (f.flags & MIRAGE_FRAME_STEREO) != 0;
+  uint64_t eyeFrame = push.frameAddress + (stereo ? MIRAGE_CLUSTER_FRAME_STRIDE : 0);
+  mat4 vp = FrameRef(eyeFrame).frame.camera.viewProj;
+  vec2 viewport = FrameRef(eyeFrame).frame.camera.viewport;
+  float clipDx = stereo ? FrameRef(eyeFrame).frame.stereoClipDx : 0.0;
+  // Rows x, y, z, w of viewProj * model.
+  vec4 rx = vec4(vp[0][0], vp[1][0], vp[2][0], vp[3][0]) * inst.model;
+  vec4 ry = vec4(vp[0][1], vp[1][1], vp[2][1], vp[3][1]) * inst.model;
+  vec4 rz = vec4(vp[0][2], vp[1][2], vp[2][2], vp[3][2]) * inst.model;
+  vec4 rw = vec4(vp[0][3], vp[1][3], vp[2][3], vp[3][3]) * inst.model;
+  vec3 o = c.boundsSphere.xyz;
+  float r = c.boundsSphere.w * 1.001; // the sphere's float rounding
+  float wc = dot(rw.xyz, o) + rw.w, wr = length(rw.xyz) * r;
+  // The near distance w - z (cluster_raster.glsl's nearDistance) is linear: positive over the
+  // whole sphere, with a margin far above the raster's float rounding of w - z.
+  vec4 rn = rw - rz;
+  if (!(dot(rn.xyz, o) + rn.w - length(rn.xyz) * r > 1e-3 * (abs(wc) + wr))) return false;
+  float wmin = wc - wr, wmax = wc + wr;
+  if (!(wmin > 0.0)) return false;
+  vec2 span = vec2(leanNdcSpan(rx, rw, o, r, wmin, wmax, clipDx), leanNdcSpan(ry, rw, o, r, wmin, wmax, 0.0));
+  vec2 extent = 0.5 * viewport * span * c.maxEdge;
+  extent = extent * 1.001 + 1.0 / 128.0; // float rounding; snapping moves each corner up to 1/512 px
+  vec2 box = extent + 3.0;
+  return box.x * box.y <= float(MIRAGE_RASTER_SHARED_PIXELS) && max(extent.x, extent.y) < MIRAGE_RASTER_SMALL_EXTENT;
+}
+
+// A cluster to draw in the current pass (instance `inst`, world sphere `worldSphere`): into the
+// hardware list (hybrid, large triangles), the lean list (compute, leanRasterCluster) or the up
+// list, counted. False when the lists are full.
+bool emitCluster(VisibleCluster vc, vec4 worldSphere, GpuCluster c, GpuClusterInstance inst, ClusterFrame f) {
+  bool hardware = (f.flags & MIRAGE_FRAME_HYBRID) != 0 && hardwareCluster(worldSphere, c.triangleCount, f);
+  bool lean = (f.flags & MIRAGE_FRAME_LEAN_RASTER) != 0 && leanRasterCluster(c, inst, f);
+  if (!appendVisible(hardware || lean ? MIRAGE_LIST_DOWN : MIRAGE_LIST_UP, vc)) return false;
   CounterRef counters = CounterRef(push.counterAddress);
-  atomicAdd(counters.counters.trianglesSelected, triangles);
+  atomicAdd(counters.counters.trianglesSelected, c.triangleCount);
   if (hardware) atomicAdd(counters.counters.clustersHardware, 1);
   return true;
 }

@@ -25,5 +25,5 @@ void main() {
     atomicAdd(counters.counters.clustersOcclusionCulled, 1);
     return;
   }
-  emitCluster(vc, s, c.triangleCount, f);
+  emitCluster(vc, s, c, inst, f);
 }

@@ -19,6 +19,11 @@
 // threads draw the left eye, the others the right, so a thread walks as
 // many triangles as in mono (the pass is bound by that serial walk, not by the vertex transform).
 // Near-plane clipping is per eye for free: the near distance w - z is the same in both eyes.
+// Lean kernel (cluster_raster_lean.comp, MIRAGE_RASTER_LEAN): the clusters the selection proved
+// need nothing but the per-thread 32-bit walk (leanRasterCluster in cluster_common.glsl: not
+// masked, wholly beyond the near plane, every triangle's box unqueued and its extent small) are
+// drawn by that walk alone, with no queue, clipping, 64-bit or float walk, nor their registers
+// and shared memory; it writes exactly the samples and values the general kernel would.
 #extension GL_EXT_nonuniform_qualifier : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_atomic_int64 : require
@@ -35,7 +40,9 @@ layout(set = 0, binding = 0) uniform sampler2D textures[];
 layout(constant_id = 0) const uint kEyes = 1;
 layout(local_size_x_id = 1) in;
 
+#ifndef MIRAGE_RASTER_LEAN
 shared vec4 clipPos[MIRAGE_CLUSTER_MAX_VERTICES]; // clip space (only read for near-crossing triangles)
+#endif
 shared vec3 screen[MIRAGE_CLUSTER_MAX_VERTICES];  // pixels x, y; depth z/w
 // Stereo: the right eye's pixel x. One element in the mono kernels, whose shared memory (and so
 // workgroups per SM: the raster is latency-bound) stays as it was.
@@ -79,7 +86,8 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 //   per eye), each thread one pixel of every block.
 // Queued triangles spanning under MIRAGE_RASTER_SMALL_EXTENT still walk 32-bit values
 // (walkQueued): 64-bit integer arithmetic is emulated, twice the instructions or more.
-#define MIRAGE_RASTER_SHARED_PIXELS 128 // boxes over this many pixels are queued
+// Boxes over MIRAGE_RASTER_SHARED_PIXELS (cluster_common.glsl) are queued.
+#ifndef MIRAGE_RASTER_LEAN
 #define MIRAGE_RASTER_TILE 8.0
 #define MIRAGE_RASTER_LATTICE_PIXELS 512
 #define MIRAGE_RASTER_LATTICE 8                 // lattice width; its height is the eye's threads / 8
@@ -87,6 +95,7 @@ void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
 shared uint queuedTriangles[MIRAGE_CLUSTER_MAX_TRIANGLES * kEyes];
 shared uint queuedFirstTile[MIRAGE_CLUSTER_MAX_TRIANGLES * kEyes];
 shared uint64_t queuedCounts;
+#endif
 
 // What a covered sample of one triangle writes, and where (constant over the triangle's walk).
 // `masked`: a constant per kernel, so the opaque one carries no alpha code; masked samples pass
@@ -166,6 +175,7 @@ void walkSmall(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 str
   }
 }
 
+#ifndef MIRAGE_RASTER_LEAN
 // Samples of the box lo..hi (or lattice + k * stride), 64-bit (coordinates within
 // MIRAGE_RASTER_LARGE_COORD): the tiles and lattices of larger queued triangles and the
 // near-clipped triangles (the blend queue's threads evaluate the same functions per pixel).
@@ -303,6 +313,8 @@ void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, Cluster
     walkFloat(a, b, c, lo, hi, keepAll, mirrored, f, t);
 }
 
+#endif // !MIRAGE_RASTER_LEAN
+
 // Triangle t's corners: their indices into the cluster's shared vertices, and their snapped screen
 // positions as eye `eye` sees them (the right eye keeps its own x).
 uvec3 triangleCorners(GpuCluster c, uint t) {
@@ -334,6 +346,28 @@ SampleTarget sampleTarget(uint v, uint t, uint eye, float fade, bool masked, Gpu
   return target;
 }
 
+#ifdef MIRAGE_RASTER_LEAN
+// The cluster's triangles (vertices already in shared memory), one per thread per round, each by
+// the per-thread walk rasterTriangle would give it (the selection proved it unclipped, unqueued
+// and under MIRAGE_RASTER_SMALL_EXTENT).
+void rasterClusterLean(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f, float fade) {
+  bool keepAll = (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 || (inst.flags & MIRAGE_INSTANCE_DOUBLE_SIDED) != 0;
+  bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
+  GpuMaterial m; // unread: lean clusters are never masked
+  const uint lanes = gl_WorkGroupSize.x / kEyes;
+  uint eye = kEyes == 2 ? gl_LocalInvocationIndex / lanes : 0;
+  uint lane = kEyes == 2 ? gl_LocalInvocationIndex % lanes : gl_LocalInvocationIndex;
+  for (uint t = lane; t < c.triangleCount; t += lanes) {
+    vec3 a, b, d;
+    eyeScreen(triangleCorners(c, t), eye, a, b, d);
+    vec2 lo, hi;
+    sampleBox(a, b, d, f.camera.viewport, lo, hi);
+    if (hi.x < lo.x || hi.y < lo.y) continue; // off screen (or no sample centre inside)
+    walkSmall(a, b, d, lo, hi, vec2(0.0), uvec2(1), keepAll, mirrored, f,
+              sampleTarget(v, t, eye, fade, false, c, inst, m, f));
+  }
+}
+#else
 // The cluster's triangles (vertices already in shared memory), one per thread per round.
 void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f, float fade, bool masked) {
   bool keepAll = (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) != 0 || (inst.flags & MIRAGE_INSTANCE_DOUBLE_SIDED) != 0;
@@ -423,6 +457,7 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     walkQueued(s0, s1, s2, lo, hi, lattice, latticeStride, keepAll, mirrored, f, target);
   }
 }
+#endif // MIRAGE_RASTER_LEAN
 
 void main() {
   uint v = rasterEntry(gl_WorkGroupID.y * MIRAGE_CLUSTER_DISPATCH_X + gl_WorkGroupID.x);
@@ -436,23 +471,31 @@ void main() {
   // skips the other's clusters at this uniform test. Blended clusters are never alpha-tested
   // (their alpha blends in the composite).
   bool masked = (inst.flags & MIRAGE_INSTANCE_ALPHA_MASK) != 0;
-#if defined(MIRAGE_RASTER_MASK)
+#if defined(MIRAGE_RASTER_LEAN)
+  // Never masked (leanRasterCluster): nothing to skip.
+#elif defined(MIRAGE_RASTER_MASK)
   if (!masked) return;
 #elif !defined(MIRAGE_RASTER_BLEND)
   if (masked) return;
 #endif
   visRowPixels = uint(f.camera.viewport.x) * kEyes;
+#ifndef MIRAGE_RASTER_LEAN
   if (gl_LocalInvocationIndex == 0) queuedCounts = 0; // published by the barrier after the vertices
+#endif
   mat4 mvp = f.camera.viewProj * inst.model;
   for (uint i = gl_LocalInvocationIndex; i < c.vertexCount; i += gl_WorkGroupSize.x) {
     uint id = UintRef(push.clusterVertexAddress).data[c.vertexOffset + i];
     vec4 clip = mvp * vec4(VertexRef(push.vertexAddress).vertices[id].position, 1.0);
+#ifndef MIRAGE_RASTER_LEAN
     clipPos[i] = clip;
+#endif
     screen[i] = toScreen(clip, f.camera.viewport);
     if (kEyes == 2) screenRightX[i] = toScreen(clip + vec4(f.stereoClipDx, 0.0, 0.0, 0.0), f.camera.viewport).x;
   }
   barrier();
-#if defined(MIRAGE_RASTER_MASK)
+#if defined(MIRAGE_RASTER_LEAN)
+  rasterClusterLean(v, c, inst, f, instanceFade(vc.instance));
+#elif defined(MIRAGE_RASTER_MASK)
   rasterCluster(v, c, inst, f, instanceFade(vc.instance), true);
 #else
   rasterCluster(v, c, inst, f, instanceFade(vc.instance), false);

@@ -17,8 +17,9 @@
 //   away), float edge functions evaluated from canonically ordered endpoints.
 // Exact integers do not depend on where a walk starts, so every walk gives a sample the same
 // values, and the same depth: edgeDepth(vec3(w), zw) with zw from the same area.
+// MIRAGE_RASTER_SMALL_EXTENT (63 pixels: 32-bit values stay below 2^30) is in cluster_common.glsl,
+// whose lean-raster test predicts the walks.
 #define MIRAGE_RASTER_SNAP 256.0
-#define MIRAGE_RASTER_SMALL_EXTENT 63.0     // pixels: 32-bit values stay below 2^30
 #define MIRAGE_RASTER_LARGE_COORD 2097152.0 // pixels (2^21): 64-bit values stay below 2^60
 
 // Top-left rule of an edge with direction d (= v - u, inside on the positive side): a top edge

@@ -123,7 +123,7 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
       atomicAdd(counters.counters.clustersOcclusionCulled, 1);
       return;
     }
-    emitCluster(vc, s, c.triangleCount, f);
+    emitCluster(vc, s, c, inst, f);
     return;
   }
   // Two-pass occlusion: clusters drawn and unoccluded last frame are drawn now (pass 1); the rest
@@ -136,7 +136,7 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
       atomicAdd(counters.counters.clustersOverflow, 1); // dropped, like visible-list overflow
     return;
   }
-  if (emitCluster(vc, s, c.triangleCount, f) && (f.flags & MIRAGE_FRAME_OCCLUSION) != 0)
+  if (emitCluster(vc, s, c, inst, f) && (f.flags & MIRAGE_FRAME_OCCLUSION) != 0)
     atomicAdd(counters.counters.clustersPass1, 1);
 }
 

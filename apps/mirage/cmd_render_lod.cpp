@@ -231,6 +231,7 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"history_kept", st.historyKept},
           {"clusters_drawn", st.clustersDrawn},
           {"clusters_hardware", st.clustersHardware},
+          {"clusters_lean", st.clustersLean},
           {"triangles_near_clipped", st.trianglesNearClipped},
           {"clusters_overflow", st.clustersOverflow},
           {"triangles_rasterized", st.trianglesRasterized},
@@ -265,8 +266,8 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
                "tested {} clusters, culled {}; {} clusters own pixels\n",
                st.clustersPass1, st.instancesLate, st.instancesOcclusionCulled, st.clustersOcclusionTested,
                st.clustersOcclusionCulled, st.historyKept);
-  fmt::print("clusters drawn {} ({} by hardware)  triangles rasterized {}  near-clipped {}\n", st.clustersDrawn,
-             st.clustersHardware, st.trianglesRasterized, st.trianglesNearClipped);
+  fmt::print("clusters drawn {} ({} by hardware, {} by the lean raster)  triangles rasterized {}  near-clipped {}\n",
+             st.clustersDrawn, st.clustersHardware, st.clustersLean, st.trianglesRasterized, st.trianglesNearClipped);
   if (st.clustersBlend)
     fmt::print("blend ({} raster): {} clusters ({} by hardware)  {} fragments  msl {:.3f}  oit_dropped {}: {} past "
                "the node pool (the farthest), {} past 16 layers per pixel\n",
@@ -466,7 +467,8 @@ void runLodBench(const LodRenderRequest& r) {
   if (r.frames < 2 || r.frames > 100000) return fail("--frames must be in 2..100000");
   if (r.frameTime) {
     if (auto st = runtime::validate(*r.frameTime); !st) return fail(st.error());
-    if (r.sweeps.allBlendRasters || r.sweeps.allSelections || r.sweeps.bothOcclusion || r.baselines)
+    if (r.sweeps.allBlendRasters || r.sweeps.allSelections || r.sweeps.bothOcclusion || r.sweeps.bothLean ||
+        r.baselines)
       return fail("--target-ms times one configuration: no all/both sweeps and no --baselines");
   }
   std::vector<render::RasterBackend> backends;
@@ -507,6 +509,9 @@ void runLodBench(const LodRenderRequest& r) {
   std::vector<bool> occlusionModes;
   if (r.sweeps.bothOcclusion || config.occlusionCulling) occlusionModes.push_back(true);
   if (r.sweeps.bothOcclusion || !config.occlusionCulling) occlusionModes.push_back(false);
+  std::vector<bool> leanModes;
+  if (r.sweeps.bothLean || config.leanRaster) leanModes.push_back(true);
+  if (r.sweeps.bothLean || !config.leanRaster) leanModes.push_back(false);
   std::vector<render::SelectionMode> selections{config.selection};
   if (r.sweeps.allSelections)
     selections = {render::SelectionMode::Flat, render::SelectionMode::Hierarchy, render::SelectionMode::Dag};
@@ -525,79 +530,87 @@ void runLodBench(const LodRenderRequest& r) {
   for (render::RasterBackend b : backends)
     for (render::BlendRaster blend : blends)
       for (bool occlusion : occlusionModes)
-        for (render::SelectionMode selection : selections) {
-          config.raster = b;
-          config.blendRaster = blend;
-          config.occlusionCulling = occlusion;
-          config.selection = selection;
-          config.pvsCulling = true;
-          Timed t; // the untimed warm-up frame fills the occlusion history for this view
-          if (!renderFrames(s, frames, t, r.warmupMs)) return;
-          bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
-          // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
-          Timed off;
-          if (withPvs) {
-            config.pvsCulling = false;
-            if (!renderFrames(s, frames, off, r.warmupMs)) return;
+        for (render::SelectionMode selection : selections)
+          for (bool lean : leanModes) {
+            // --lean-raster both: the switch is the compute raster's (one run for the other backends).
+            if (leanModes.size() > 1 && !lean && b != render::RasterBackend::Compute) continue;
+            config.leanRaster = lean;
+            config.raster = b;
+            config.blendRaster = blend;
+            config.occlusionCulling = occlusion;
+            config.selection = selection;
             config.pvsCulling = true;
-          }
-          // --stereo: the same frames mono, one eye's size, in this run (same clocks, same cameras).
-          Timed mono;
-          if (r.stereoIpd) {
-            s.view.stereoIpd.reset();
-            bool ok = renderFrames(s, frames, mono, r.warmupMs);
-            s.view.stereoIpd = r.stereoIpd;
-            if (!ok) return;
-          }
-          double stereoRatio = frameMilliseconds(t.times) / std::max(frameMilliseconds(mono.times), 1e-9);
-          if (r.json) {
-            nlohmann::json j = statsJson(*t.last.cluster);
-            addResidencyJson(j, t.last);
-            for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
-            j["gpu_ms_max_frame"] = t.maxFrameMs;
-            if (r.stereoIpd) {
-              j["stereo_ipd"] = *r.stereoIpd;
-              j["mono"] = {{"gpu_ms_frame", frameMilliseconds(mono.times)}, {"triangles_mean", mono.meanTriangles}};
-              j["stereo_over_mono"] = stereoRatio;
-            }
+            Timed t; // the untimed warm-up frame fills the occlusion history for this view
+            if (!renderFrames(s, frames, t, r.warmupMs)) return;
+            bestLodMs = std::min(bestLodMs, frameMilliseconds(t.times));
+            // --pvs: the same frames again without the PVS, in this run (same clocks, same cameras).
+            Timed off;
             if (withPvs) {
-              j["triangles_mean"] = t.meanTriangles;
-              j["pvs_frames_outside_cells"] = t.framesOutsideCells;
-              j["without_pvs"] = {{"gpu_ms_frame", frameMilliseconds(off.times)},
-                                  {"gpu_ms_max_frame", off.maxFrameMs},
-                                  {"triangles_mean", off.meanTriangles}};
-              for (const auto& p : off.times) j["without_pvs"]["gpu_ms"][p.name] = p.milliseconds;
+              config.pvsCulling = false;
+              if (!renderFrames(s, frames, off, r.warmupMs)) return;
+              config.pvsCulling = true;
             }
-            all.push_back(j);
-            continue;
+            // --stereo: the same frames mono, one eye's size, in this run (same clocks, same cameras).
+            Timed mono;
+            if (r.stereoIpd) {
+              s.view.stereoIpd.reset();
+              bool ok = renderFrames(s, frames, mono, r.warmupMs);
+              s.view.stereoIpd = r.stereoIpd;
+              if (!ok) return;
+            }
+            double stereoRatio = frameMilliseconds(t.times) / std::max(frameMilliseconds(mono.times), 1e-9);
+            if (r.json) {
+              nlohmann::json j = statsJson(*t.last.cluster);
+              j["lean_raster"] = lean && b == render::RasterBackend::Compute;
+              addResidencyJson(j, t.last);
+              for (const auto& p : t.times) j["gpu_ms"][p.name] = p.milliseconds;
+              j["gpu_ms_max_frame"] = t.maxFrameMs;
+              if (r.stereoIpd) {
+                j["stereo_ipd"] = *r.stereoIpd;
+                j["mono"] = {{"gpu_ms_frame", frameMilliseconds(mono.times)}, {"triangles_mean", mono.meanTriangles}};
+                j["stereo_over_mono"] = stereoRatio;
+              }
+              if (withPvs) {
+                j["triangles_mean"] = t.meanTriangles;
+                j["pvs_frames_outside_cells"] = t.framesOutsideCells;
+                j["without_pvs"] = {{"gpu_ms_frame", frameMilliseconds(off.times)},
+                                    {"gpu_ms_max_frame", off.maxFrameMs},
+                                    {"triangles_mean", off.meanTriangles}};
+                for (const auto& p : off.times) j["without_pvs"]["gpu_ms"][p.name] = p.milliseconds;
+              }
+              all.push_back(j);
+              continue;
+            }
+            fmt::print("-- {}{}{}, occlusion {}{}{}\n", render::toString(b),
+                       b == render::RasterBackend::Compute && leanModes.size() > 1
+                           ? fmt::format(", lean raster {}", lean ? "on" : "off")
+                           : "",
+                       t.last.cluster->clustersBlend || blends.size() > 1
+                           ? fmt::format(", blend {}", render::toString(t.last.cluster->blendRaster))
+                           : "",
+                       occlusion ? "on" : "off",
+                       selections.size() > 1 ? fmt::format(", selection {}", render::toString(selection)) : "",
+                       withPvs ? ", cell PVS on" : "");
+            printStats(*t.last.cluster, t.times, true);
+            if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
+            if (r.stereoIpd)
+              fmt::print("stereo (ipd {}, {}): both eyes {:.3f} ms, {:.0f} triangles; mono one eye {:.3f} ms, {:.0f} "
+                         "triangles; stereo/mono {:.2f}x\n",
+                         *r.stereoIpd, render::toString(t.last.cluster->stereoMode), frameMilliseconds(t.times),
+                         t.meanTriangles, frameMilliseconds(mono.times), mono.meanTriangles, stereoRatio);
+            if (withPvs) {
+              double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
+              fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
+                         "culled by the PVS per frame{}\n",
+                         on, t.meanTriangles, t.meanPvsInstances, t.meanPvsClusters,
+                         t.framesOutsideCells
+                             ? fmt::format(" ({} frames outside every cell: not culled)", t.framesOutsideCells)
+                             : "");
+              fmt::print("PVS off: frame {:.3f} ms (median), {:.0f} triangles\n", without, off.meanTriangles);
+              fmt::print("PVS speed-up {:.2f}x, triangles {:.1f}% of the unculled frame\n",
+                         without / std::max(on, 1e-9), 100.0 * t.meanTriangles / std::max(off.meanTriangles, 1.0));
+            }
           }
-          fmt::print("-- {}{}, occlusion {}{}{}\n", render::toString(b),
-                     t.last.cluster->clustersBlend || blends.size() > 1
-                         ? fmt::format(", blend {}", render::toString(t.last.cluster->blendRaster))
-                         : "",
-                     occlusion ? "on" : "off",
-                     selections.size() > 1 ? fmt::format(", selection {}", render::toString(selection)) : "",
-                     withPvs ? ", cell PVS on" : "");
-          printStats(*t.last.cluster, t.times, true);
-          if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
-          if (r.stereoIpd)
-            fmt::print("stereo (ipd {}, {}): both eyes {:.3f} ms, {:.0f} triangles; mono one eye {:.3f} ms, {:.0f} "
-                       "triangles; stereo/mono {:.2f}x\n",
-                       *r.stereoIpd, render::toString(t.last.cluster->stereoMode), frameMilliseconds(t.times),
-                       t.meanTriangles, frameMilliseconds(mono.times), mono.meanTriangles, stereoRatio);
-          if (withPvs) {
-            double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
-            fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
-                       "culled by the PVS per frame{}\n",
-                       on, t.meanTriangles, t.meanPvsInstances, t.meanPvsClusters,
-                       t.framesOutsideCells
-                           ? fmt::format(" ({} frames outside every cell: not culled)", t.framesOutsideCells)
-                           : "");
-            fmt::print("PVS off: frame {:.3f} ms (median), {:.0f} triangles\n", without, off.meanTriangles);
-            fmt::print("PVS speed-up {:.2f}x, triangles {:.1f}% of the unculled frame\n", without / std::max(on, 1e-9),
-                       100.0 * t.meanTriangles / std::max(off.meanTriangles, 1.0));
-          }
-        }
   nlohmann::json baselines = nlohmann::json::array();
   if (r.baselines) {
     // Brute force at full resolution can take seconds per frame on big grids: few frames.

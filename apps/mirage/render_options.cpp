@@ -136,6 +136,14 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
                                ".mrg, hybrid raster: clusters whose estimated triangle edge reaches this many pixels "
                                "go to the hardware path")
                     ->capture_default_str());
+  lod.push_back(cmd.add_option("--lean-raster", c.leanRaster,
+                               bench ? ".mrg, compute raster: small clusters by the lean kernel on|off|both "
+                                       "(docs/render.md, \"Lean raster\"; same image)"
+                                     : ".mrg, compute raster: small clusters by the lean kernel on|off "
+                                       "(docs/render.md, \"Lean raster\"; same image)")
+                    ->transform(onOff(bench ? &sweeps->bothLean : nullptr))
+                    ->type_name(bench ? "on|off|both" : "on|off")
+                    ->default_str(onOffName(c.leanRaster)));
   lod.push_back(cmd.add_option("--blend-queue-pixels", c.blendQueuePixels,
                                ".mrg, compute blend raster: blended triangles whose pixel box exceeds this many pixels "
                                "are spread over the GPU by the blend queue (inf: off)")

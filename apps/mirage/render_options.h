@@ -27,12 +27,13 @@ struct BenchSweeps {
   bool allBlendRasters = false;
   bool allSelections = false;
   bool bothOcclusion = false;
+  bool bothLean = false; // --lean-raster both
 };
 
 // The options bound, so that commands can tell what was given (CLI11 counts, no sentinels).
 struct RenderConfigOptions {
-  std::vector<CLI::Option*> clusterLod; // --tau --raster --hybrid-threshold --blend-queue-pixels --occlusion
-                                        // --cones --selection --blend-raster --debug-view --fovea*
+  std::vector<CLI::Option*> clusterLod; // --tau --raster --hybrid-threshold --lean-raster --blend-queue-pixels
+                                        // --occlusion --cones --selection --blend-raster --debug-view --fovea*
   std::vector<CLI::Option*> surfels;    // --surfel-size (--surfel-raster in render)
 };
 bool anyGiven(const std::vector<CLI::Option*>& options);

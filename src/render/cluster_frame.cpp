@@ -114,6 +114,11 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   // The hardware blend raster: mesh shaders where the device has them, unless indirect was asked for.
   p.meshBlend = ctx.caps().meshShader && p.backend != RasterBackend::Indirect;
   p.bufferTarget = p.backend == RasterBackend::Compute || p.backend == RasterBackend::Hybrid;
+  p.lean = p.backend == RasterBackend::Compute && cs.leanRaster; // hybrid's down list is the hardware one
+  if (cs.readVisibility && !p.bufferTarget)
+    return Error{
+        fmt::format("reading the visibility buffer needs --raster compute or hybrid, not {}", toString(p.backend))};
+  p.readVisibility = cs.readVisibility;
   if (cs.surfels && !p.bufferTarget)
     return Error{fmt::format("mesh + surfel scenes share the 64-bit visibility buffer: --raster {} cannot draw "
                              "them (use compute or hybrid)",
@@ -184,6 +189,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
       (plan.blend == BlendRaster::Hybrid ? MIRAGE_FRAME_BLEND_HYBRID : 0u) |
       (plan.blend == BlendRaster::Hardware ? MIRAGE_FRAME_BLEND_HARDWARE : 0u) | (plan.dagTree ? MIRAGE_FRAME_DAG : 0u);
   if (plan.clearsVisibility()) f.flags |= MIRAGE_FRAME_CLEAR_VIS;
+  if (plan.lean) f.flags |= MIRAGE_FRAME_LEAN_RASTER;
   if (plan.packed) f.flags |= MIRAGE_FRAME_OIT_PACKED;
   if (residency) packResidency(f);
   if (cs.foveation) {
@@ -348,6 +354,7 @@ ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
   st.oitLayersDropped = oit.capDropped + oit.layersDropped;
   st.msl = oit.msl;
   st.clustersHardware = c.clustersHardware;
+  st.clustersLean = plan.lean ? c.listEnd[MIRAGE_LIST_DOWN] : 0; // the compute backend's down list is the lean one
   st.trianglesNearClipped = c.trianglesNearClipped;
   st.clustersOverflow = c.clustersOverflow;
   st.trianglesRasterized = c.trianglesSelected;

@@ -68,9 +68,11 @@ Status uploadClusterInstances(gpu::Context& ctx, const Scene& scene, std::vector
                               const std::vector<Bounds>& meshBounds, ClusterSceneData& d);
 // One cluster's record (offsets as the cluster has them: the caller rebases them) and normal cone
 // (meshoptimizer; cutoff 1, never culled, for degenerate clusters) from its vertex positions in
-// its own order and its 8-bit local indices. Written once for both uploads and the page pool.
+// its own order and its 8-bit local indices, and its longest triangle edge (GpuCluster::maxEdge,
+// rounded up) from the same. Written once for both uploads and the page pool.
 shaderio::GpuCluster clusterRecord(const lod::Cluster& c, uint32_t mesh);
 shaderio::GpuClusterCone clusterCone(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices);
+float clusterMaxEdge(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices);
 
 struct ClusterResidency; // cluster_residency.h
 
@@ -112,20 +114,24 @@ struct ClusterFramePlan {
   BlendRaster blend = BlendRaster::Compute;    // Compute for scenes without BLEND materials
   bool meshBlend = false;                      // the hardware blend raster uses mesh shaders (else indirect draws)
   bool bufferTarget = false;                   // visibility in the 64-bit buffer (compute, hybrid), else the image
-  bool occlusion = false;                      // two-pass HZB occlusion culling runs
-  bool pvs = false;                            // the cell's cluster PVS culls
-  bool dagTree = false;                        // hierarchical selection over the DAG's group tree
-  bool hierarchy = false;                      // hierarchical selection (LOD BVH or DAG tree), else the flat pass
-  bool stereo = false;                         // two eyes side by side (ClusterRenderSettings::stereoIpd)
+  bool lean = false;         // compute: the lean raster draws the down list (MIRAGE_FRAME_LEAN_RASTER)
+  bool occlusion = false;    // two-pass HZB occlusion culling runs
+  bool pvs = false;          // the cell's cluster PVS culls
+  bool dagTree = false;      // hierarchical selection over the DAG's group tree
+  bool hierarchy = false;    // hierarchical selection (LOD BVH or DAG tree), else the flat pass
+  bool stereo = false;       // two eyes side by side (ClusterRenderSettings::stereoIpd)
   bool multiview = false;    // stereo: the hardware rasters draw both eyes by multiview (docs/render.md, "Stereo")
   bool transparency = false; // BLEND clusters rasterized and composited (scene has them, asked for)
   // The resolve leaves the 64-bit buffer zeroed (MIRAGE_FRAME_CLEAR_VIS): it is the buffer's last
   // reader of the frame (the blend rasters' and particles' depth copy reads it).
-  bool clearsVisibility() const { return bufferTarget && debugView == DebugView::None && !transparency && !particles; }
-  bool blendQueue = false;               // the compute blend raster queues large triangles (cluster_blend_queue.comp)
-  bool particles = false;                // particle billboards into the transparency lists (cluster_particles.cpp)
-  bool splat = false;                    // small particles splatted (ParticleDraw::splats)
-  bool packed = false;                   // transparency in packed storage (MIRAGE_FRAME_OIT_PACKED)
+  bool clearsVisibility() const {
+    return bufferTarget && debugView == DebugView::None && !transparency && !particles && !readVisibility;
+  }
+  bool readVisibility = false; // the buffer is read back after the frame (ClusterRenderSettings::readVisibility)
+  bool blendQueue = false;     // the compute blend raster queues large triangles (cluster_blend_queue.comp)
+  bool particles = false;      // particle billboards into the transparency lists (cluster_particles.cpp)
+  bool splat = false;          // small particles splatted (ParticleDraw::splats)
+  bool packed = false;         // transparency in packed storage (MIRAGE_FRAME_OIT_PACKED)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -172,6 +178,7 @@ struct ClusterRenderer::Impl {
       instanceOcclusionPipeline, hzbPipeline, resolvePipeline, blendRasterPipeline, blendQueuePipeline,
       compositePipeline, compositeStoredPipeline; // the latter: created on first use
   gpu::Unique<VkPipeline> rasterStereoPipeline, rasterMaskStereoPipeline, blendRasterStereoPipeline; // both eyes
+  gpu::Unique<VkPipeline> rasterLeanPipeline, rasterLeanStereoPipeline; // cluster_raster_lean.comp, mono / stereo
   // Hardware blend raster, created on first use: mesh / indirect, and the buffer backends' depth copy.
   gpu::Unique<VkPipeline> blendMeshPipeline, blendIndirectPipeline, blendDepthPipeline;
   // Debug views, created on first use: the debug resolve, the image backends' overdraw-counting

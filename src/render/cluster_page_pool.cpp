@@ -130,6 +130,7 @@ Result<ClusterSceneData> uploadPagedClusterScene(Context& ctx, const lod::PagedL
         rec.parentError = g == lod::kNone ? kInf : t.groupBounds[g].error;
         rec.mesh = m;
         rec.level = l;
+        rec.maxEdge = kInf; // measured when its page loads (cluster_residency.cpp)
         clusters.push_back(rec);
       }
       // Self errors: level 0's are 0, level l's those of the groups of level l - 1 (which made them).

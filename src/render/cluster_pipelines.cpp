@@ -65,6 +65,8 @@ void ClusterRenderer::Impl::createPipelines() {
   if (computeRaster) {
     rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kMono);
     rasterStereoPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kStereo);
+    rasterLeanPipeline = createComputePipeline(ctx, "cluster_raster_lean.comp", layout, kMono);
+    rasterLeanStereoPipeline = createComputePipeline(ctx, "cluster_raster_lean.comp", layout, kStereo);
   }
   if (computeRaster && scene.hasMask) {
     rasterMaskPipeline = createComputePipeline(ctx, "cluster_raster_mask.comp", layout, kMono);
@@ -103,7 +105,8 @@ void ClusterRenderer::Impl::createPipelines() {
   // Zeroed once: entry 0 is then always a valid (instance, cluster) pair, which the resolve reads
   // for background pixels too (see cluster_resolve.comp).
   std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
-  visible = createBufferWithData<sio::VisibleCluster>(ctx, zeros, kStorage, "visible clusters");
+  visible = createBufferWithData<sio::VisibleCluster>(ctx, zeros, kStorage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                                      "visible clusters"); // SRC: readVisibility
   if (scene.blendInstancedClusters > 0) { // zeroed: entry 0 is valid for every lane (as `visible`)
     blendCapacity = uint32_t(std::min<uint64_t>(scene.blendInstancedClusters, kMaxVisibleClusters));
     std::vector<sio::VisibleCluster> blendZeros(blendCapacity, sio::VisibleCluster{0, 0});
@@ -195,9 +198,10 @@ void ClusterRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t color
   visBufferZero = false;
   layeredVis = {}; // made at the new size on first use
   layeredDepth = {};
-  visBuffer =
-      createBuffer(ctx, uint64_t(colorW) * h * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                   MemoryUsage::GpuOnly, "visibility64");
+  visBuffer = createBuffer(ctx, uint64_t(colorW) * h * 8,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT, // SRC: readVisibility
+                           MemoryUsage::GpuOnly, "visibility64");
   // HZB levels 1.. down to 1x1 (at least level 1) in one float buffer; level 0 would be the depth
   // itself, which the level-1 build reads directly.
   uint64_t floats = 0;

@@ -146,6 +146,13 @@ void ClusterRenderer::Impl::cmdRasterize(VkCommandBuffer cmd, const sio::Cluster
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterMaskStereoPipeline : rasterMaskPipeline);
       vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_UP));
     }
+    // The lean list (small unclipped clusters, the per-thread walk alone), with no barrier after
+    // the kernels above: they all only take 64-bit atomic maxima of the buffer.
+    if (plans[currentSlot].lean) {
+      cmdPush(cmd, p, pass * 2 + MIRAGE_LIST_DOWN);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stereo ? rasterLeanStereoPipeline : rasterLeanPipeline);
+      vkCmdDispatchIndirect(cmd, counters.handle(), dispatchArgsOffset(pass, MIRAGE_LIST_DOWN));
+    }
     if (backend == RasterBackend::Hybrid)
       cmdHardwareList(cmd, p, hybridListMesh() ? RasterBackend::Mesh : RasterBackend::Indirect, pass,
                       /*atomic=*/true);

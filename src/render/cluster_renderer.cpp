@@ -309,6 +309,24 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
       for (uint32_t k = 0; k < d.scene.instanceClusters[i]; ++k)
         if ((words[(base + k) / 32] >> ((base + k) % 32)) & 1u) out.ownedClusters.emplace_back(i, k);
   }
+  if (cs.readVisibility) {
+    std::vector<uint8_t> pixels = readbackBuffer(d.ctx, d.visBuffer, size_t(d.colorWidth) * d.height * 8);
+    std::vector<uint8_t> listBytes = readbackBuffer(d.ctx, d.visible, size_t(d.visibleCapacity) * 8);
+    std::vector<sio::VisibleCluster> list(d.visibleCapacity);
+    std::memcpy(list.data(), listBytes.data(), listBytes.size());
+    out.visibility.resize(size_t(d.colorWidth) * d.height);
+    for (size_t i = 0; i < out.visibility.size(); ++i) {
+      uint64_t value;
+      std::memcpy(&value, pixels.data() + i * 8, 8);
+      uint32_t id = uint32_t(value), entry = id >> MIRAGE_CLUSTER_TRIANGLE_BITS;
+      VisibilitySample& v = out.visibility[i];
+      v.depthBits = uint32_t(value >> 32);
+      if (entry == 0 || entry > list.size() || (id & MIRAGE_SURFEL_ID_TAG) != 0) continue;
+      v.instance = list[entry - 1].instance;
+      v.cluster = list[entry - 1].cluster;
+      v.triangle = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
+    }
+  }
   if (!s.readImage) return out;
   std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
   convertHalfImage(img, d.colorWidth, s.height, s.readLinear, out.image);

@@ -143,15 +143,17 @@ Status uploadPage(ClusterResidency& r, uint32_t page, const lod::PageData& data,
   for (size_t i = 0; i < data.clusterIds.size(); ++i) {
     const lod::Cluster& c = data.clusters[i];
     uint32_t g = r.meshClusterOffset[mesh] + data.clusterIds[i];
-    sio::GpuCluster rec = clusterRecord(c, mesh);
-    rec.vertexOffset = packed.vertexOffset[i];
-    rec.triangleOffset = packed.triangleOffset[i];
-    slot.records.push_back({staging.append(&rec, sizeof(rec)), VkDeviceSize(g) * sizeof(rec), sizeof(rec)});
     std::vector<glm::vec3> positions(c.vertexCount);
     for (uint32_t v = 0; v < c.vertexCount; ++v)
       positions[v] = data.positions[data.clusterVertices[c.vertexOffset + v]];
-    sio::GpuClusterCone cone = clusterCone(
-        positions, {data.clusterIndices.data() + size_t(c.triangleOffset) * 3, size_t(c.triangleCount) * 3});
+    std::span<const uint8_t> local{data.clusterIndices.data() + size_t(c.triangleOffset) * 3,
+                                   size_t(c.triangleCount) * 3};
+    sio::GpuCluster rec = clusterRecord(c, mesh);
+    rec.vertexOffset = packed.vertexOffset[i];
+    rec.triangleOffset = packed.triangleOffset[i];
+    rec.maxEdge = clusterMaxEdge(positions, local);
+    slot.records.push_back({staging.append(&rec, sizeof(rec)), VkDeviceSize(g) * sizeof(rec), sizeof(rec)});
+    sio::GpuClusterCone cone = clusterCone(positions, local);
     slot.cones.push_back({staging.append(&cone, sizeof(cone)), VkDeviceSize(g) * sizeof(cone), sizeof(cone)});
     uint32_t child = t.childPage(c.generatingGroup);
     uint32_t pages[2] = {page, child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child};

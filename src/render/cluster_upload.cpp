@@ -226,6 +226,17 @@ sio::GpuClusterCone clusterCone(std::span<const glm::vec3> positions, std::span<
   return cone;
 }
 
+float clusterMaxEdge(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices) {
+  double longest = 0.0;
+  for (size_t t = 0; t + 2 < localIndices.size(); t += 3)
+    for (int k = 0; k < 3; ++k) {
+      glm::dvec3 a(positions[localIndices[t + k]]), b(positions[localIndices[t + (k + 1) % 3]]);
+      longest = std::max(longest, glm::length(a - b));
+    }
+  float f = float(longest);
+  return double(f) < longest ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
 sio::GpuCluster clusterRecord(const lod::Cluster& c, uint32_t mesh) {
   sio::GpuCluster g{};
   g.selfSphere = sphere(c.self);
@@ -239,6 +250,7 @@ sio::GpuCluster clusterRecord(const lod::Cluster& c, uint32_t mesh) {
   g.triangleCount = c.triangleCount;
   g.mesh = mesh;
   g.level = c.level;
+  g.maxEdge = std::numeric_limits<float>::infinity(); // the callers measure it from the vertices
   return g;
 }
 
@@ -285,16 +297,18 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
                                  scene.source, scene.meshes[m].name, c.triangleCount, c.vertexCount,
                                  MIRAGE_CLUSTER_MAX_TRIANGLES, MIRAGE_CLUSTER_MAX_VERTICES,
                                  MIRAGE_CLUSTER_MAX_TRIANGLES)};
-      sio::GpuCluster g = clusterRecord(c, uint32_t(m));
-      g.vertexOffset += clusterVertexBase;
-      g.triangleOffset += triangleBase;
-      clusters.push_back(g);
-      // The cone from the cluster's own vertices (as a page gives them, cluster_residency.cpp).
+      // The cone and longest edge from the cluster's own vertices (as a page gives them,
+      // cluster_residency.cpp).
       std::vector<glm::vec3> positions(c.vertexCount);
       for (uint32_t v = 0; v < c.vertexCount; ++v)
         positions[v] = dag.positions[dag.vertexPosition[dag.clusterVertices[c.vertexOffset + v]]];
-      cones.push_back(
-          clusterCone(positions, {&dag.clusterIndices[size_t(c.triangleOffset) * 3], size_t(c.triangleCount) * 3}));
+      std::span<const uint8_t> local{&dag.clusterIndices[size_t(c.triangleOffset) * 3], size_t(c.triangleCount) * 3};
+      sio::GpuCluster g = clusterRecord(c, uint32_t(m));
+      g.vertexOffset += clusterVertexBase;
+      g.triangleOffset += triangleBase;
+      g.maxEdge = clusterMaxEdge(positions, local);
+      clusters.push_back(g);
+      cones.push_back(clusterCone(positions, local));
     }
     // Level table and reach (see GpuClusterMesh): clusters come ordered by level from the builder.
     gm.levelOffset = uint32_t(levels.size());

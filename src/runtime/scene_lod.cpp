@@ -125,6 +125,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.coneCulling = c.coneCulling;
   rs.transparency = c.transparency;
   rs.hybridThreshold = c.hybridThreshold;
+  rs.leanRaster = c.leanRaster;
   rs.blendQueuePixels = c.blendQueuePixels;
   if (c.oitNodesPerPixel) rs.oitNodesPerPixel = *c.oitNodesPerPixel;
   if (c.oit != render::OitMode::Auto) rs.oit = c.oit;

@@ -72,6 +72,10 @@ if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   if expect_ok bench-occlusion-both bench render "$tmp/blob.mrg" --size 32x32 --frames 2 --raster indirect --occlusion both --json; then
     [ "$(grep -c '"occlusion": \(true\|false\)' "$tmp/stdout")" -eq 2 ] || { echo "FAIL bench-occlusion-both: expected 2 runs"; failures=$((failures + 1)); }
   fi
+  expect_fail render-lean-both "--lean-raster" "$tmp/flags.png" -- render "$tmp/blob.mrg" -o "$tmp/flags.png" --size 32x32 --lean-raster both
+  if expect_ok bench-lean-both bench render "$tmp/blob.mrg" --size 32x32 --frames 2 --raster compute --lean-raster both --json; then
+    [ "$(grep -c '"lean_raster": \(true\|false\)' "$tmp/stdout")" -eq 2 ] || { echo "FAIL bench-lean-both: expected 2 runs"; failures=$((failures + 1)); }
+  fi
 fi
 expect_fail build-missing "missing.ply" "$tmp/m.mrg" -- build "$tmp/missing.ply" -o "$tmp/m.mrg"
 expect_fail build-bad-ext "out.glb" "$tmp/out.glb" -- build "$tmp/range.obj" -o "$tmp/out.glb"

@@ -134,6 +134,10 @@ struct ClusterRenderSettings {
   // sqrt(triangles)) is below this many pixels go to the compute rasterizer, the rest (and those
   // reaching the near plane) to the hardware path. To be tuned on the H200 (docs/render.md).
   float hybridThreshold = 16.0f;
+  // Compute raster: clusters whose every triangle provably takes the per-thread 32-bit walk (small
+  // on screen, beyond the near plane, not masked) are drawn by a kernel with that walk alone
+  // (docs/render.md, "Lean raster"); off: the general kernel draws them. Same image either way.
+  bool leanRaster = true;
   // Compute blend raster: a blended triangle whose pixel box exceeds this many pixels goes to the
   // blend queue, whose tiles a second dispatch spreads over the whole GPU, instead of being walked
   // by its cluster's workgroup alone (docs/render.md, "Blend rasters"); +inf: no queue. The queue
@@ -180,6 +184,8 @@ struct ClusterRenderSettings {
   // Tests: read back which (instance, mesh-local cluster) pairs own a pixel of this frame (the
   // occlusion history the resolve writes; needs occlusionCulling) into ownedClusters.
   bool readOwnedClusters = false;
+  // Tests: read back the 64-bit visibility buffer (compute and hybrid backends) into `visibility`.
+  bool readVisibility = false;
   // Particle billboards (render/particle_draw.h; docs/render.md, "Particles"), depth-tested against
   // the opaque depth and appended to the BLEND clusters' per-pixel lists, so the composite sorts
   // both together; null: none (nor in debug views).
@@ -239,6 +245,7 @@ struct ClusterStats {
   uint32_t historyKept = 0;              // occlusion: clusters owning a pixel (next frame's pass 1)
   uint32_t clustersDrawn = 0;            // rasterized (both passes, both lists)
   uint32_t clustersHardware = 0;         // hybrid: drawn by the mesh/indirect path
+  uint32_t clustersLean = 0;             // compute: drawn by the lean raster (ClusterRenderSettings::leanRaster)
   uint32_t trianglesNearClipped = 0;     // compute raster: triangles clipped at the near plane
   uint32_t clustersOverflow = 0;         // selected beyond the visible-buffer capacity (dropped)
   uint32_t clustersBlend = 0;            // alpha BLEND: drawn into the transparency lists (in clustersDrawn)
@@ -265,10 +272,22 @@ struct ClusterStats {
   ResidencyStats residency;                           // GPU residency (enabled: the renderer has it)
 };
 
+// One pixel of the 64-bit visibility buffer (ClusterRenderSettings::readVisibility): the nearest
+// sample's depth bits and what drew it, decoded through the visible list (so it does not depend on
+// the list entry a cluster happened to get); instance and cluster ~0u where nothing (or a surfel) is.
+struct VisibilitySample {
+  uint32_t depthBits = 0;
+  uint32_t instance = UINT32_MAX;
+  uint32_t cluster = UINT32_MAX; // global cluster id
+  uint32_t triangle = 0;
+  bool operator==(const VisibilitySample&) const = default;
+};
+
 struct ClusterRenderOutput {
   RenderOutput image; // srgb (+ linear), pass times in image.stats.passTimes
   ClusterStats stats;
   std::vector<std::pair<uint32_t, uint32_t>> ownedClusters; // readOwnedClusters: (instance, mesh-local cluster)
+  std::vector<VisibilitySample> visibility; // readVisibility: the target's pixels, row by row (stereo: both eyes)
 };
 
 class ClusterRenderer {
@@ -292,10 +311,10 @@ public:
   // GPU residency: frames (synchronous, no image read back but the last) until one after the first
   // (which steps on the feedback of what was drawn before) loads, uploads and evicts nothing with no
   // read pending (between frames that only wait for reads, it waits for the next page to arrive),
-  // then that frame again with the settings' readback: its image is the converged one. Without residency: render(). framesToConverge counts the frames before the
-  // stable one; `frames` holds each frame's residency figures (the last one's too).
-  // `readEveryFrame`: every frame is read back as the settings ask and its sRGB image kept (the
-  // progressive start: what a viewer would have shown while the pages streamed in).
+  // then that frame again with the settings' readback: its image is the converged one. Without residency: render().
+  // framesToConverge counts the frames before the stable one; `frames` holds each frame's residency figures (the last
+  // one's too). `readEveryFrame`: every frame is read back as the settings ask and its sRGB image kept (the progressive
+  // start: what a viewer would have shown while the pages streamed in).
   struct Converged {
     ClusterRenderOutput output;
     uint32_t framesToConverge = 0;

@@ -29,6 +29,7 @@ struct RenderConfig {
   // linked-list, weighted or sorted, cluster LOD linked-list or packed.
   render::OitMode oit = render::OitMode::Auto;
   float hybridThreshold = kClusterDefaults.hybridThreshold;   // pixels
+  bool leanRaster = kClusterDefaults.leanRaster;              // compute raster: small clusters by the lean kernel
   float blendQueuePixels = kClusterDefaults.blendQueuePixels; // pixels; +inf: no blend queue
   // Transparency node pool per target pixel (--oit-nodes-per-pixel); unset: each renderer's own
   // default (cluster LOD ClusterRenderSettings::oitNodesPerPixel, forward ForwardRenderSettings's).

@@ -65,6 +65,10 @@ namespace mirage::shaderio {
 // residency-aware cut (shaderio/lod_paging.h) and writes page feedback; the cull pass keeps the
 // levels coarser than the cut (they are drawn where finer pages are missing).
 #define MIRAGE_FRAME_RESIDENCY 65536u
+// Lean compute raster (docs/render.md, "Lean raster"): the selection sends clusters whose every
+// triangle provably takes the per-thread 32-bit walk (leanRasterCluster) to the down list, which
+// the compute backend leaves unused, and a kernel with that walk alone draws them.
+#define MIRAGE_FRAME_LEAN_RASTER 131072u
 
 // Byte stride of consecutive ClusterFrames in the frame buffer (selection frame, left eye, right
 // eye): shaders step from the left eye's frame to the right eye's by it.
@@ -79,7 +83,8 @@ namespace mirage::shaderio {
 #define MIRAGE_LOD_NODE_WIDTH 8
 
 // Visible-cluster lists: the compute (or only) list grows up from entry 0, the hardware list of the
-// hybrid backend grows down from the last entry, so one buffer and one id space serve both.
+// hybrid backend (the lean list of the compute backend, MIRAGE_FRAME_LEAN_RASTER) grows down from
+// the last entry, so one buffer and one id space serve both.
 #define MIRAGE_LIST_UP 0u
 #define MIRAGE_LIST_DOWN 1u
 // push.rasterList of the blend rasters: ClusterCounters::lists[2][UP] holds the compute blend
@@ -116,6 +121,9 @@ struct GpuCluster {
   uint triangleCount;
   uint mesh;
   uint level;
+  // Longest triangle edge in object space (the lean raster's bound on a triangle's screen extent);
+  // +inf where unknown (a page not loaded yet), which keeps the cluster on the general raster.
+  float maxEdge;
 };
 
 // One attribute vertex (every DAG level reuses the input's vertices).
@@ -382,7 +390,7 @@ struct ClusterPush {
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(GpuCluster) == 80, "GpuCluster layout");
+static_assert(sizeof(GpuCluster) == 84, "GpuCluster layout");
 static_assert(sizeof(GpuClusterVertex) == 32, "GpuClusterVertex layout");
 static_assert(sizeof(GpuClusterMesh) == 48, "GpuClusterMesh layout");
 static_assert(sizeof(GpuClusterLevel) == 16, "GpuClusterLevel layout");
