@@ -213,4 +213,17 @@ std::vector<float> residencyFeedback(const ClusterDag& dag, const PageTable& tab
   return out;
 }
 
+std::vector<float> prefetchFeedback(const PageTable& table, const CutView& view) {
+  std::vector<uint8_t> roots(table.pages.size(), 0);
+  std::fill(roots.begin(), roots.begin() + std::min<size_t>(table.rootPageCount, roots.size()), 1);
+  std::vector<float> out(table.pages.size(), 0.0f);
+  for (const PageRequest& r : wantedPages(table, roots, view)) out[r.page] = r.priority;
+  return out;
+}
+
+void mergeFeedback(std::span<float> feedback, std::span<const float> prefetch, uint32_t offset) {
+  for (size_t p = 0; p < prefetch.size() && offset + p < feedback.size(); ++p)
+    feedback[offset + p] = std::max(feedback[offset + p], prefetch[p]);
+}
+
 } // namespace mirage::lod
