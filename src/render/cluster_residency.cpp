@@ -59,7 +59,17 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
   r->meshClusterOffset = std::move(meshClusterOffset);
   r->budgetBytes = settings.budgetBytes;
   r->prefetch = settings.prefetch;
-  if (r->prefetch) r->instances = asset.scene.instances;
+  if (r->prefetch) {
+    r->instances = asset.scene.instances;
+    for (const lod::PagedMesh& pm : asset.meshes) { // a sphere holding every group's LOD sphere
+      const Bounds& box = pm.rest.positionBounds;
+      glm::vec3 centre = box.empty() ? glm::vec3(0.0f) : box.center();
+      float reach = 0.0f;
+      for (const lod::LodBounds& b : pm.table.groupBounds)
+        reach = std::max(reach, glm::length(b.center - centre) + b.radius);
+      r->meshReach.push_back(glm::vec4(centre, reach));
+    }
+  }
   r->units = units;
   for (uint32_t u = units; u-- > 0;) r->freeUnits.push_back(u);
   uint32_t pages = uint32_t(r->pageMesh.size());
@@ -178,6 +188,12 @@ void computePrefetch(ClusterResidency& r, const sio::ViewFrame& v, float tau) {
     if (inst.mesh >= r.asset->meshes.size()) continue;
     float scale = maxAxisScale(inst.transform);
     if (!(scale > 0.0f)) continue;
+    glm::vec4 sphere = r.meshReach[inst.mesh];
+    glm::vec3 centre(inst.transform * glm::vec4(glm::vec3(sphere), 1.0f));
+    bool outside = false;
+    for (const glm::vec4& plane : v.planes)
+      outside = outside || glm::dot(plane, glm::vec4(centre, 1.0f)) < -sphere.w * scale;
+    if (outside) continue; // no group of it in view
     glm::mat4 toObject = glm::inverse(inst.transform);
     lod::CutView cv;
     cv.eye = glm::vec3(toObject * glm::vec4(glm::vec3(v.eye), 1.0f));
