@@ -136,6 +136,7 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
                         {"tau_pixels", view.config.tauPixels},
                         {"raster", render::toString(view.config.raster)},
                         {"gpu_budget", r.scene.gpuBudget},
+                        {"prefetch", r.scene.prefetch},
                         {"source_triangles", info.sourceTriangles},
                         {"instances", info.instances},
                         {"clusters", info.clusters},

@@ -90,6 +90,12 @@ void bindBandwidth(CLI::App& cmd, uint64_t& bitsPerSecond) {
 CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode mode) {
   bindMaterials(cmd, o.materials);
   bindGpuBudget(cmd, o.gpuBudget);
+  cmd.add_option("--prefetch", o.prefetch,
+                 "With --gpu-budget: a new view asks for the pages of every level of its cut at once, not one "
+                 "level per frame round trip, on|off (docs/render.md \"Residency\"; same converged image)")
+      ->transform(onOff(nullptr))
+      ->type_name("on|off")
+      ->default_str(onOffName(o.prefetch));
   bindBandwidth(cmd, o.source.bandwidthBitsPerSecond);
   if (mode == BindMode::Bench) {
     cmd.add_option("--pvs", o.pvs,

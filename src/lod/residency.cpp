@@ -213,4 +213,32 @@ std::vector<float> residencyFeedback(const ClusterDag& dag, const PageTable& tab
   return out;
 }
 
+std::vector<float> prefetchFeedback(const PageTable& table, const CutView& view, std::span<const glm::vec4> planes,
+                                    float radiusScale) {
+  // wantedPages with the root pages resident, groups outside the planes left out.
+  std::vector<float> out(table.pages.size(), 0.0f);
+  for (uint32_t g = 0; g < table.groupBounds.size() && g < table.groupPage.size(); ++g) {
+    const LodBounds& b = table.groupBounds[g];
+    bool outside = false;
+    for (const glm::vec4& plane : planes)
+      outside = outside || glm::dot(plane, glm::vec4(b.center, 1.0f)) < -b.radius * radiusScale;
+    if (outside) continue;
+    float e = projectedError(b, view);
+    if (e > view.tau) {
+      float& p = out[table.groupPage[g]];
+      p = std::max(p, shaderio::pageRequestPriority(e, view.tau));
+    }
+  }
+  for (uint32_t p = uint32_t(table.pages.size()); p-- > 0;) // dependencies have lower indices
+    if (out[p] > 0.0f)
+      for (uint32_t d : table.dependenciesOf(p)) out[d] = std::max(out[d], out[p]);
+  for (uint32_t p = 0; p < table.rootPageCount && p < out.size(); ++p) out[p] = 0.0f;
+  return out;
+}
+
+void mergeFeedback(std::span<float> feedback, std::span<const float> prefetch, uint32_t offset) {
+  for (size_t p = 0; p < prefetch.size() && offset + p < feedback.size(); ++p)
+    feedback[offset + p] = std::max(feedback[offset + p], prefetch[p]);
+}
+
 } // namespace mirage::lod

@@ -282,7 +282,7 @@ struct ClusterRenderer::Impl {
 
   // cluster_residency.cpp: the manager's step and the uploads staged (prepareFrame), recorded after
   // the frame's first barrier, the feedback copied out in finishFrame and read back by collect.
-  Status prepareResidency();
+  Status prepareResidency(const ClusterRenderSettings& cs);
   void cmdResidencyUpload(VkCommandBuffer cmd);
   void cmdResidencyFeedback(VkCommandBuffer cmd);
   void packResidency(shaderio::ClusterFrame& f) const;

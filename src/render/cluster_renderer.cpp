@@ -108,7 +108,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   plans[currentSlot] = *planned;
   recorded[currentSlot] = false;
   if (residency)
-    if (Status st = prepareResidency(); !st) return st;
+    if (Status st = prepareResidency(cs); !st) return st;
   traversalDepth = planned->dagTree ? scene.dagDepth : scene.lodDepth;
   // New targets for a new size retire those frames in flight still use (no device wait).
   uint32_t colorW = planned->stereo ? cs.base.width * 2 : cs.base.width; // stereo: left|right

@@ -10,7 +10,9 @@
 #include <fmt/format.h>
 
 #include "cluster_impl.h"
+#include "mirage/core/scene.h"
 #include "mirage/gpu/commands.h"
+#include "mirage/render/camera.h"
 #include "mirage/shaderio/lod_paging.h"
 
 namespace mirage::render {
@@ -56,6 +58,18 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
   r->pageLocal = std::move(pageLocal);
   r->meshClusterOffset = std::move(meshClusterOffset);
   r->budgetBytes = settings.budgetBytes;
+  r->prefetch = settings.prefetch;
+  if (r->prefetch) {
+    r->instances = asset.scene.instances;
+    for (const lod::PagedMesh& pm : asset.meshes) { // a sphere holding every group's LOD sphere
+      const Bounds& box = pm.rest.positionBounds;
+      glm::vec3 centre = box.empty() ? glm::vec3(0.0f) : box.center();
+      float reach = 0.0f;
+      for (const lod::LodBounds& b : pm.table.groupBounds)
+        reach = std::max(reach, glm::length(b.center - centre) + b.radius);
+      r->meshReach.push_back(glm::vec4(centre, reach));
+    }
+  }
   r->units = units;
   for (uint32_t u = units; u-- > 0;) r->freeUnits.push_back(u);
   uint32_t pages = uint32_t(r->pageMesh.size());
@@ -165,12 +179,40 @@ Status uploadPage(ClusterResidency& r, uint32_t page, const lod::PageData& data,
   return Ok{};
 }
 
+// The view's prefetch (lod::prefetchFeedback) of every instance, numbered as one; the selection's
+// projection in each instance's object space (exact for uniform scales, the eye and near distance
+// divided out), the frustum's side and near planes carried there.
+void computePrefetch(ClusterResidency& r, const sio::ViewFrame& v, float tau) {
+  r.prefetchHost.assign(r.pageMesh.size(), 0.0f);
+  for (const Instance& inst : r.instances) {
+    if (inst.mesh >= r.asset->meshes.size()) continue;
+    float scale = maxAxisScale(inst.transform);
+    if (!(scale > 0.0f)) continue;
+    glm::vec4 sphere = r.meshReach[inst.mesh];
+    glm::vec3 centre(inst.transform * glm::vec4(glm::vec3(sphere), 1.0f));
+    bool outside = false;
+    for (const glm::vec4& plane : v.planes)
+      outside = outside || glm::dot(plane, glm::vec4(centre, 1.0f)) < -sphere.w * scale;
+    if (outside) continue; // no group of it in view
+    glm::mat4 toObject = glm::inverse(inst.transform);
+    lod::CutView cv;
+    cv.eye = glm::vec3(toObject * glm::vec4(glm::vec3(v.eye), 1.0f));
+    cv.znear = v.znear / scale;
+    cv.pixelScale = v.pixelScale;
+    cv.tau = tau;
+    glm::vec4 planes[5];
+    for (int i = 0; i < 5; ++i) planes[i] = glm::transpose(inst.transform) * v.planes[i];
+    std::vector<float> wanted = lod::prefetchFeedback(r.asset->meshes[inst.mesh].table, cv, planes, scale);
+    lod::mergeFeedback(r.prefetchHost, wanted, r.manager.graph().pageOffset[inst.mesh]);
+  }
+}
+
 } // namespace
 
 // Arrived pages are uploaded, the manager acts on the last collected feedback (its loads reserve
 // units and queue reads, its evictions free units), and pages whose dependencies are drawn are
 // drawn from this frame on. Nothing here waits for I/O.
-Status ClusterRenderer::Impl::prepareResidency() {
+Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) {
   ClusterResidency& r = *residency;
   ClusterResidency::Slot& slot = r.frame[currentSlot];
   for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table}) v->clear();
@@ -200,6 +242,16 @@ Status ClusterRenderer::Impl::prepareResidency() {
     ++st.uploaded;
   }
   // (3) The manager's step: evictions free units and stop drawing; loads reserve units and queue reads.
+  if (r.haveFeedback && r.prefetch) {
+    sio::ViewFrame v = viewFrame(withClipPlanes(cs.base.camera, scene.worldBounds), cs.base.width, cs.base.height);
+    glm::vec3 target(float(cs.base.width), float(cs.base.height), cs.tauPixels);
+    if (r.prefetchHost.empty() || v.viewProj != r.prefetchViewProj || target != r.prefetchTarget) {
+      computePrefetch(r, v, cs.tauPixels);
+      r.prefetchViewProj = v.viewProj;
+      r.prefetchTarget = target;
+    }
+    lod::mergeFeedback(r.feedbackHost, r.prefetchHost);
+  }
   if (r.haveFeedback) {
     lod::ResidencyStep step = r.manager.step(r.feedbackHost);
     r.haveFeedback = false;

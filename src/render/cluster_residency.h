@@ -81,6 +81,14 @@ struct ClusterResidency {
     ResidencyStats stats;
   } frame[kMaxFramesInFlight];
   std::vector<float> feedbackHost; // the last collected frame's feedback, not yet acted on
+  // Prefetch (ClusterResidencySettings::prefetch): per page, the wanted priority of the view it was
+  // computed for (recomputed when the view-projection, size or tau change).
+  bool prefetch = true;
+  std::vector<Instance> instances;  // the scene's, as the renderer read them at creation
+  std::vector<glm::vec4> meshReach; // per mesh: a sphere (centre, radius) holding its groups' LOD spheres
+  std::vector<float> prefetchHost;
+  glm::mat4 prefetchViewProj{0.0f};
+  glm::vec3 prefetchTarget{0.0f}; // viewport width, height, tau
   bool haveFeedback = false;
 
   ClusterResidency(lod::ResidencyManager m) : manager(std::move(m)) {}

@@ -64,6 +64,7 @@ Status openPagedClusterLod(Scene::Impl& s, std::chrono::steady_clock::time_point
   s.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   render::ClusterResidencySettings residency;
   residency.budgetBytes = s.options.gpuBudget;
+  residency.prefetch = s.options.prefetch;
   auto renderer = render::ClusterRenderer::create(s.ctx, *s.paged, residency);
   if (!renderer) return renderer.error();
   s.cluster = std::move(*renderer);

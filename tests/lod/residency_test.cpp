@@ -70,14 +70,18 @@ uint64_t rootBytes(const PageTable& t) {
 
 // Streams under `view` until a step changes nothing; checks budget and closure after every step and
 // that every cut on the way is watertight. Returns the steps taken.
-uint32_t stream(const Paged& p, ResidencyManager& m, const CutView& view, uint32_t maxSteps = 200) {
+// With `prefetch`, the view's prefetchFeedback is merged into every step's feedback.
+uint32_t stream(const Paged& p, ResidencyManager& m, const CutView& view, uint32_t maxSteps = 200,
+                bool prefetch = false) {
   const PageTable& t = p.paged.table;
   for (uint32_t step = 0; step < maxSteps; ++step) {
     std::vector<uint8_t> resident(m.resident().begin(), m.resident().end());
     ResidentCut cut = selectResidentCut(p.dag, t, resident, view);
     Status s = verifyCut(p.dag, cut.clusters, p.mesh);
     EXPECT_TRUE(s.ok()) << "step " << step << ": " << (s.ok() ? "" : s.error().message);
-    ResidencyStep st = m.step(residencyFeedback(p.dag, t, resident, view));
+    std::vector<float> feedback = residencyFeedback(p.dag, t, resident, view);
+    if (prefetch) mergeFeedback(feedback, prefetchFeedback(t, view));
+    ResidencyStep st = m.step(feedback);
     EXPECT_TRUE(m.consistent()) << "step " << step;
     EXPECT_LE(m.residentBytes(), m.config().budgetBytes);
     EXPECT_TRUE(residencyClosed(t, m.resident()));
@@ -230,4 +234,34 @@ TEST(LodResidency, UploadsPerStepAreBounded) {
   std::vector<uint8_t> roots(t.pages.size(), 0);
   std::fill(roots.begin(), roots.begin() + t.rootPageCount, 1);
   EXPECT_GE(steps, uint32_t(wantedPages(t, roots, v).size() / 2));
+}
+
+// A camera cut (a far view, then a near one from the other side): the feedback asks for a level's
+// pages only once the level above is resident, one round per level; with the view's prefetch merged
+// in, the pages of every level are asked for together, so the cut converges in fewer rounds, within
+// the budget and closed after every round (stream checks), to the same full cut. With a budget that
+// only just holds the near view, prefetch converges too.
+TEST(LodResidency, PrefetchConvergesACameraCutInFewerRounds) {
+  Paged p = makePaged(5, 4096);
+  const PageTable& t = p.paged.table;
+  CutView far = cameraView(p.dag, 40.0f, {1, 0.2f, 0.1f}), near = cameraView(p.dag, 1.05f, {-1, -0.2f, -0.1f});
+  far.tau = 16.0f; // the far view holds little more than the roots
+  std::vector<uint8_t> roots(t.pages.size(), 0), all(t.pages.size(), 1);
+  std::fill(roots.begin(), roots.begin() + t.rootPageCount, 1);
+  uint64_t need = rootBytes(t) + bytesOf(t, wantedPages(t, roots, near));
+  std::vector<uint32_t> full = selectResidentCut(p.dag, t, all, near).clusters;
+  for (uint64_t budget : {uint64_t(1) << 40, need}) {
+    uint32_t rounds[2] = {0, 0};
+    for (bool prefetch : {false, true}) {
+      auto m = ResidencyManager::create(graphOf(t), {budget, 32});
+      ASSERT_TRUE(m.ok());
+      stream(p, *m, far, 200, prefetch);
+      rounds[prefetch] = stream(p, *m, near, 200, prefetch);
+      std::vector<uint8_t> resident(m->resident().begin(), m->resident().end());
+      EXPECT_TRUE(wantedPages(t, resident, near).empty()) << "prefetch " << prefetch << " budget " << budget;
+      EXPECT_EQ(selectResidentCut(p.dag, t, resident, near).clusters, full) << "prefetch " << prefetch;
+    }
+    EXPECT_LT(rounds[1], rounds[0]) << "budget " << budget;
+    EXPECT_GE(rounds[0], 3u) << "the cut needs several levels";
+  }
 }

@@ -131,4 +131,19 @@ private:
 std::vector<float> residencyFeedback(const ClusterDag& dag, const PageTable& table, std::span<const uint8_t> resident,
                                      const CutView& view);
 
+// Prefetch: per page of `table`, the priority wantedPages gives it under `view` with nothing but
+// the root pages resident (0 for a page the full cut does not need; roots are left to the
+// feedback). Merged into a frame's feedback (mergeFeedback), a step asks for the pages of every
+// level the view needs at once, each after its dependencies (priorities descend along them),
+// instead of one level per round trip; the resident pages it needs count as used. The full cut
+// needs no other page, so what converges is the same cut. With `planes` (object space, inside:
+// dot(plane, (x, 1)) >= 0, world-unit distances for a transformed mesh), a group whose sphere,
+// radius times `radiusScale` (the instance's largest axis scale), lies wholly outside one is not
+// wanted (the selection culls it).
+std::vector<float> prefetchFeedback(const PageTable& table, const CutView& view, std::span<const glm::vec4> planes = {},
+                                    float radiusScale = 1.0f);
+// feedback[offset + p] = max(feedback[offset + p], prefetch[p]): one mesh's prefetch into the
+// feedback of pages numbered as one (ResidencyGraph::pageOffset).
+void mergeFeedback(std::span<float> feedback, std::span<const float> prefetch, uint32_t offset = 0);
+
 } // namespace mirage::lod

@@ -226,6 +226,10 @@ struct ClusterResidencySettings {
   uint32_t maxUploadsPerFrame = 32; // pages made resident per frame at most (dependencies included)
   uint32_t maxReadsInFlight = 32;   // lod::PageStreamConfig::maxInFlight: a frame's uploads' worth, so a
                                     // camera cut is not paced at 8 pages a frame (decoded pages: ~0.3 MB each)
+  // Prefetch (docs/render.md, "Residency"): when the view changes, the pages every level of its full
+  // cut needs (lod::prefetchFeedback per instance, frustum-culled) join each frame's feedback, so a
+  // camera cut asks for all its levels at once instead of one level per frame round trip.
+  bool prefetch = true;
 };
 
 struct ClusterStats {

@@ -42,6 +42,8 @@ struct SceneOptions {
   // Cluster LOD of a paged .mrg (mirage build --paged): GPU residency within this many bytes of
   // page geometry (docs/render.md, "Residency"); 0: every DAG uploaded whole.
   uint64_t gpuBudget = 0;
+  // With a budget: prefetch every level of a new view's cut (render::ClusterResidencySettings::prefetch).
+  bool prefetch = true;
   // Cluster LOD: how the .mrg (file or URL) is read; `bandwidthBitsPerSecond` simulates a link
   // (`--bandwidth`), for the whole load or, with a budget, the on-demand pages too.
   asset::SourceOptions source;
