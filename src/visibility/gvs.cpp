@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numbers>
 #include <type_traits>
@@ -68,6 +69,7 @@ template <class T> struct Explorer {
   // phase ran once, and then the phase is tried first (optimism: its rate can only be learnt).
   double gainPerValue = 0.0;
   bool tried = false;
+  std::vector<Queued<T>> extra_, merged_; // stage(): what comes off the queue, the chunk merged with it
 
   bool pending() const { return !queue.empty() || !staged.empty(); }
   size_t size() const { return queue.size() + staged.size(); }
@@ -81,14 +83,33 @@ template <class T> struct Explorer {
     const bool unchanged = !staged.empty() && (staged.size() == items || (staged.size() < items && queue.empty())) &&
                            (queue.empty() || LowerValue<T>()(queue.top(), staged.back()));
     if (!unchanged) {
-      queue.pushRun(std::exchange(staged, {})); // popped in order: a sorted run
-      stagedValue = 0.0;
-      staged.reserve(std::min(items, queue.size()));
-      while (staged.size() < items && !queue.empty()) {
-        staged.push_back(queue.top());
-        stagedValue += staged.back().value;
+      // The top `items` of the staged chunk and the queue together, as handing the chunk back and
+      // popping `items` would give them: only what ranks among them comes off the queue (most
+      // often the few queued since), merged into the chunk, whose cut-off tail goes back as a run.
+      LowerValue<T> lower;
+      const auto better = [&](const Queued<T>& a, const Queued<T>& b) { return lower(b, a); };
+      extra_.clear();
+      while (!queue.empty()) {
+        const Queued<T>& top = queue.top();
+        const size_t above = size_t(
+            std::partition_point(staged.begin(), staged.end(), [&](const Queued<T>& s) { return better(s, top); }) -
+            staged.begin());
+        if (above + extra_.size() >= items) break;
+        extra_.push_back(top);
         queue.pop();
       }
+      if (!extra_.empty()) {
+        merged_.clear();
+        merged_.reserve(staged.size() + extra_.size());
+        std::merge(staged.begin(), staged.end(), extra_.begin(), extra_.end(), std::back_inserter(merged_), better);
+        std::swap(staged, merged_);
+      }
+      if (staged.size() > items) {
+        queue.pushRun(std::vector<Queued<T>>(staged.begin() + ptrdiff_t(items), staged.end()));
+        staged.resize(items);
+      }
+      stagedValue = 0.0;
+      for (const auto& q : staged) stagedValue += q.value;
     }
     if (staged.empty()) return -1.0;
     if (!tried) return std::numeric_limits<double>::infinity();
@@ -424,17 +445,36 @@ private:
     for (const FirstHit& f : explored_.firstHits)
       gain += discover(f.triangle, detail::exploreRay(scene_, offsets_, src, f.ray));
     checkpoint();
-    if (discontinuities) {
-      // In ray order (at most one per ray): placed by ray index, which costs less than sorting the
-      // hundreds of thousands a border chunk can meet.
-      const auto& found = explored_.discontinuities;
-      slotOf_.assign(slots, ~0u);
-      for (size_t k = 0; k < found.size(); ++k) slotOf_[found[k].ray] = uint32_t(k);
-      discontinuities->clear();
-      for (uint32_t k : slotOf_)
-        if (k != ~0u) discontinuities->push_back(found[k]);
-    }
+    if (discontinuities) inRayOrder(explored_.discontinuities, slots, *discontinuities);
     return true;
+  }
+
+  // `found` (at most one per ray, rays below `slots`) in ray order: placed by ray index, which
+  // costs less than sorting the hundreds of thousands a border chunk can meet, on all cores (each
+  // block of slots is compacted to where the blocks before it end: the same order on any number).
+  void inRayOrder(const std::vector<Discontinuity>& found, size_t slots, std::vector<Discontinuity>& out) {
+    constexpr size_t kBlock = size_t(1) << 15;
+    const size_t blocks = (slots + kBlock - 1) / kBlock;
+    slotOf_.resize(slots);
+    blockStart_.assign(blocks + 1, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, slots, kBlock), [&](const tbb::blocked_range<size_t>& r) {
+      std::fill(slotOf_.begin() + ptrdiff_t(r.begin()), slotOf_.begin() + ptrdiff_t(r.end()), ~0u);
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, found.size(), kBlock), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t k = r.begin(); k < r.end(); ++k) slotOf_[found[k].ray] = uint32_t(k); // rays are distinct
+    });
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      const size_t end = std::min(slots, (b + 1) * kBlock);
+      blockStart_[b + 1] = size_t(std::count_if(slotOf_.begin() + ptrdiff_t(b * kBlock),
+                                                slotOf_.begin() + ptrdiff_t(end), [](uint32_t k) { return k != ~0u; }));
+    });
+    for (size_t b = 0; b < blocks; ++b) blockStart_[b + 1] += blockStart_[b];
+    out.resize(blockStart_[blocks]);
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      size_t o = blockStart_[b];
+      for (size_t i = b * kBlock; i < std::min(slots, (b + 1) * kBlock); ++i)
+        if (slotOf_[i] != ~0u) out[o++] = found[slotOf_[i]];
+    });
   }
 
   // The chunk's rays made here into fixed slots (one block per item), the skipped ones squeezed
@@ -479,8 +519,22 @@ private:
     double gain = 0.0;
     uint64_t traced = 0;
     if (exploreOnBackend(src, gain, traced, &discontinuities_)) {
-      for (const Discontinuity& d : discontinuities_)
-        queueSeed(items[d.ray / src.raysPerItem].value, d.target, d.occluder);
+      // The seeds as queueSeed would queue them one by one, made on all cores and queued as one
+      // run: in ray order they are in priority order already (the chunk's items are, and the
+      // insertion order grows with the ray), so the queue need not check or sort them.
+      result_.stats.discontinuities += discontinuities_.size();
+      if (cfg_.reverseSampling && cfg_.rsEdgeSamples + cfg_.rsAreaSamples > 0) {
+        std::vector<Queued<RsSeed>> run(discontinuities_.size());
+        const uint64_t first = order_;
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, run.size(), 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t k = r.begin(); k < r.end(); ++k) {
+            const Discontinuity& d = discontinuities_[k];
+            run[k] = {items[d.ray / src.raysPerItem].value, first + k, RsSeed{d.target, d.occluder}};
+          }
+        });
+        order_ += run.size();
+        reverse_.queue.pushRun(std::move(run));
+      }
     } else {
       makeRays(src);
       traced = budgetClamp(rays_.size());
@@ -546,7 +600,8 @@ private:
   std::vector<ExploreRaySource::ReverseItem> reverseItems_;
   ExploreResult explored_;
   std::vector<Discontinuity> discontinuities_;
-  std::vector<uint32_t> slotOf_; // the discontinuity of each slot of a border chunk (~0u: none)
+  std::vector<uint32_t> slotOf_;   // the discontinuity of each slot of a border chunk (~0u: none)
+  std::vector<size_t> blockStart_; // inRayOrder: where each block of slots goes in its output
   bool traceable_ = true;
   std::vector<FirstHit> firstHits_;
   double* phaseTrace_ = nullptr; // the current phase's share of the trace time

@@ -35,16 +35,17 @@ public:
   }
   void pop() {
     seal();
-    std::pop_heap(heap_.begin(), heap_.end(), heapOrder());
-    Run& r = runs_[heap_.back()];
+    Run& r = runs_[heap_.front()];
     --size_;
-    if (++r.head < r.items.size()) {
-      std::push_heap(heap_.begin(), heap_.end(), heapOrder());
-    } else {
+    if (++r.head == r.items.size()) {
       std::vector<T>().swap(r.items); // release the exhausted run
-      free_.push_back(heap_.back());
+      free_.push_back(heap_.front());
+      heap_.front() = heap_.back();
       heap_.pop_back();
     }
+    // Only the top run's head changed: one sift down, which ends at once while that run still
+    // leads (a chunk taken off one run costs two comparisons an item, not two heap updates).
+    siftDown();
   }
 
 private:
@@ -69,6 +70,19 @@ private:
     runs_[index] = {std::move(items), 0};
     heap_.push_back(index);
     std::push_heap(heap_.begin(), heap_.end(), heapOrder());
+  }
+  // Restores the heap order (std::push_heap's: no parent ranks below a child) from the root down.
+  void siftDown() {
+    auto lower = heapOrder();
+    const size_t n = heap_.size();
+    for (size_t i = 0;;) {
+      size_t child = 2 * i + 1;
+      if (child >= n) return;
+      if (child + 1 < n && lower(heap_[child], heap_[child + 1])) ++child;
+      if (!lower(heap_[i], heap_[child])) return;
+      std::swap(heap_[i], heap_[child]);
+      i = child;
+    }
   }
   void seal() {
     if (unsorted_.empty()) return;

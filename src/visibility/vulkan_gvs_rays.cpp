@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cstring>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "vulkan_backend_impl.h"
 
 namespace mirage::vis::detail {
@@ -143,8 +146,14 @@ bool VulkanBackend::traceExploreRays(const ExploreRaySource& source, TriangleSet
   std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
   out.traced = c.traced;
   if (border) {
+    // Up to a discontinuity per ray (tens of MB): copied out on all cores.
     const auto* d = reinterpret_cast<const Discontinuity*>(discontinuities_.mapped());
-    out.discontinuities.assign(d, d + std::min<size_t>(c.discontinuities, count));
+    out.discontinuities.resize(std::min<size_t>(c.discontinuities, count));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, out.discontinuities.size(), size_t(1) << 15),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        std::memcpy(out.discontinuities.data() + r.begin(), d + r.begin(),
+                                    r.size() * sizeof(Discontinuity));
+                      });
   }
   if (out.rays) {
     const auto* r = reinterpret_cast<const Ray*>(exploreRays_.mapped());
