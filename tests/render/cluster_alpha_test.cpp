@@ -43,14 +43,7 @@ Scene alphaScene(bool swapBlend) {
                  test::solidMaterial({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
   s.materials[1].alphaCutoff = 0.5f;
   s.materials[1].baseColorTexture = 0;
-  // 8 x 8 checker: alpha 255 / 0 (colour white), as a glTF MASK cut-out.
-  Texture checker;
-  checker.name = "checker";
-  checker.width = checker.height = 8;
-  for (uint32_t y = 0; y < 8; ++y)
-    for (uint32_t x = 0; x < 8; ++x)
-      checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
-  s.textures.push_back(checker);
+  s.textures.push_back(test::checkerCutout());
   s.meshes = {test::makeGrid(2.5f, -1.0f, 0), test::makeGrid(1.2f, 0.0f, 1), test::makeGrid(0.8f, 0.0f, 2),
               test::makeGrid(0.8f, 0.0f, 3)};
   glm::mat4 turned = glm::rotate(glm::mat4(1.0f), glm::radians(180.0f), glm::vec3(0, 1, 0));

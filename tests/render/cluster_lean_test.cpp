@@ -53,13 +53,7 @@ Scene leanScene() {
                  test::solidMaterial({0.9f, 0.2f, 0.2f, 1.0f}, AlphaMode::Mask, /*doubleSided=*/true)};
   s.materials[2].alphaCutoff = 0.5f;
   s.materials[2].baseColorTexture = 0;
-  Texture checker;
-  checker.name = "checker";
-  checker.width = checker.height = 8;
-  for (uint32_t y = 0; y < 8; ++y)
-    for (uint32_t x = 0; x < 8; ++x)
-      checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
-  s.textures = {checker};
+  s.textures = {test::checkerCutout()};
   s.meshes = {blob, test::makeGrid(6.0f, 0.0f, 1, 16), test::makeGrid(0.8f, 0.0f, 2)};
   auto at = [](glm::vec3 p) { return glm::translate(glm::mat4(1.0f), p); };
   glm::mat4 floor = at({0.0f, -1.0f, 0.0f}) * glm::rotate(glm::mat4(1.0f), glm::radians(-90.0f), {1, 0, 0});

@@ -78,13 +78,7 @@ const lod::LodAsset& maskedBlendedAsset() {
                        test::solidMaterial({0.9f, 0.8f, 0.1f, 0.4f}, AlphaMode::Blend)};
     scene.materials[1].alphaCutoff = 0.5f;
     scene.materials[1].baseColorTexture = 0;
-    Texture checker; // 8 x 8, alpha 255 / 0
-    checker.name = "checker";
-    checker.width = checker.height = 8;
-    for (uint32_t y = 0; y < 8; ++y)
-      for (uint32_t x = 0; x < 8; ++x)
-        checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
-    scene.textures.push_back(checker);
+    scene.textures.push_back(test::checkerCutout());
     scene.meshes = {panel(2.5f, -1.0f, 0), panel(1.2f, 0.0f, 1), panel(0.8f, 0.0f, 2), panel(0.8f, 0.0f, 3)};
     scene.instances = {{0, glm::mat4(1.0f)},
                        {1, glm::mat4(1.0f)},

@@ -110,4 +110,14 @@ Material solidMaterial(glm::vec4 color, AlphaMode mode, bool doubleSided) {
   return m;
 }
 
+Texture checkerCutout() {
+  Texture checker;
+  checker.name = "checker";
+  checker.width = checker.height = 8;
+  for (uint32_t y = 0; y < 8; ++y)
+    for (uint32_t x = 0; x < 8; ++x)
+      checker.rgba8.insert(checker.rgba8.end(), {255, 255, 255, uint8_t((x + y) % 2 ? 0 : 255)});
+  return checker;
+}
+
 } // namespace mirage::test

@@ -15,5 +15,7 @@ Mesh makeSphere(float radius, uint32_t rings, uint32_t segments, uint32_t materi
 // One instance per mesh, identity transforms, one material per mesh given.
 Scene makeScene(std::vector<Mesh> meshes, std::vector<Material> materials);
 Material solidMaterial(glm::vec4 color, AlphaMode mode = AlphaMode::Opaque, bool doubleSided = false);
+// 8 x 8 checker named "checker": white, alpha 255 / 0 alternating (a glTF MASK cut-out).
+Texture checkerCutout();
 
 } // namespace mirage::test

@@ -9,7 +9,6 @@
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
-#include "mirage/io/generate.h"
 #include "mirage/visibility/gvs.h"
 #include "mirage/visibility/pvs_eval.h"
 #include "mirage/visibility/vulkan_backend.h"
@@ -42,19 +41,6 @@ protected:
   }
 };
 
-Scene city() {
-  auto scene = io::generateScene("city", 4, 1);
-  EXPECT_TRUE(scene.ok());
-  return std::move(*scene);
-}
-
-ViewCell streetCell() {
-  ViewCell cell;
-  cell.position = {0.0f, 1.7f, -38.0f};
-  cell.size = {4.0f, 2.0f, 4.0f};
-  return cell;
-}
-
 // Slot by slot: skipped on both, or the same origin and direction within float tolerance (the
 // shader's normalize, sqrt and Halton digits round differently). A few slots may be decided
 // differently where a shadow test or a degenerate check sits on its threshold.
@@ -83,8 +69,8 @@ void expectSameRays(const std::vector<Ray>& host, const std::vector<Ray>& device
 // ABS and RS rays read back from the shader equal the host sampler's (makeExploreRays), and the
 // discontinuities the shader reports are those the host's test finds on the device's hits.
 TEST_P(ExploreRays, DeviceRaysAreTheHostFormulas) {
-  Scene scene = city();
-  ViewCell cell = streetCell();
+  Scene scene = test::cityScene(1);
+  ViewCell cell = test::streetCell();
   auto vk = vulkan(scene);
   ASSERT_TRUE(vk);
   const std::vector<uint64_t> offsets = triangleOffsets(scene);
@@ -193,8 +179,8 @@ TEST_P(ExploreRays, DeviceRaysAreTheHostFormulas) {
 // The same bake with the rays made on the device and on the host: equal quality (pixel error within
 // the noise of a change of seed), the device bake reproducible.
 TEST_P(ExploreRays, DeviceExplorationBakesAsWellAsTheHost) {
-  Scene scene = city();
-  ViewCell cell = streetCell();
+  Scene scene = test::cityScene(1);
+  ViewCell cell = test::streetCell();
   auto device = vulkan(scene, true);
   auto host = vulkan(scene, false);
   ASSERT_TRUE(device && host);

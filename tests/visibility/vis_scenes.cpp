@@ -1,5 +1,8 @@
 #include "vis_scenes.h"
 
+#include <gtest/gtest.h>
+
+#include "mirage/io/generate.h"
 #include "mirage/visibility/ray_backend.h"
 
 namespace mirage::test {
@@ -113,6 +116,19 @@ std::vector<uint32_t> meshTriangles(const Scene& scene, const std::string& name)
     if (scene.meshes[scene.instances[i].mesh].name == name)
       for (uint64_t t = offsets[i]; t < offsets[i + 1]; ++t) out.push_back(uint32_t(t));
   return out;
+}
+
+Scene cityScene(uint32_t blocks) {
+  auto scene = io::generateScene("city", 4, blocks);
+  EXPECT_TRUE(scene.ok());
+  return std::move(*scene);
+}
+
+vis::ViewCell streetCell() {
+  vis::ViewCell cell;
+  cell.position = {0.0f, 1.7f, -38.0f};
+  cell.size = {4.0f, 2.0f, 4.0f};
+  return cell;
 }
 
 } // namespace mirage::test

@@ -22,6 +22,10 @@ VisScene roomWithWindow();
 // See-through materials: glass panes ("front", Blend material; 20×20 at z = 1, 2 and 3), an opaque
 // "wall" (z = 5) and a pane "behind" it (z = 7); `cell` sits at z = -1 in front of them.
 VisScene glassPanes();
+// The generated city (`gen:city`, seed 4) of `blocks` blocks, and a 4 x 2 x 4 view cell over its
+// street at z = -38 (eye height 1.7).
+Scene cityScene(uint32_t blocks);
+vis::ViewCell streetCell();
 // Triangles of mesh `name` as global IDs (each mesh has one identity instance in these scenes).
 std::vector<uint32_t> meshTriangles(const Scene& scene, const std::string& name);
 

@@ -11,7 +11,6 @@
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
-#include "mirage/io/generate.h"
 #include "mirage/visibility/gvs.h"
 #include "mirage/visibility/vulkan_backend.h"
 #include "vis_scenes.h"
@@ -101,30 +100,17 @@ Agreement compare(const std::vector<Hit>& a, const std::vector<Hit>& b) {
   return g;
 }
 
-Scene cityScene(uint32_t blocks) {
-  auto scene = io::generateScene("city", 4, blocks);
-  EXPECT_TRUE(scene.ok());
-  return std::move(*scene);
-}
-
-ViewCell streetCell() {
-  ViewCell cell;
-  cell.position = {0.0f, 1.7f, -38.0f};
-  cell.size = {4.0f, 2.0f, 4.0f};
-  return cell;
-}
-
 } // namespace
 
 TEST_P(VulkanRays, SameHitsAsEmbreeOnRandomRays) {
   auto wall = test::wallWithHole();
   auto room = test::roomWithWindow();
-  Scene city = cityScene(1);
+  Scene city = test::cityScene(1);
   struct Case {
     const char* name;
     const Scene* scene;
     ViewCell cell;
-  } cases[] = {{"wall", &wall.scene, wall.cell}, {"room", &room.scene, room.cell}, {"city", &city, streetCell()}};
+  } cases[] = {{"wall", &wall.scene, wall.cell}, {"room", &room.scene, room.cell}, {"city", &city, test::streetCell()}};
   for (const Case& c : cases) {
     for (auto g : {VulkanRayOptions::Geometry::Flatten, VulkanRayOptions::Geometry::Instance}) {
       if (GetParam().traversal == Traversal::Compute && g == VulkanRayOptions::Geometry::Instance)
@@ -180,7 +166,7 @@ TEST_P(VulkanRays, SameHitsAsEmbreeOnRandomRays) {
 }
 
 TEST_P(VulkanRays, RequireAndPvsOnlyTracesMatchEmbree) {
-  Scene city = cityScene(1);
+  Scene city = test::cityScene(1);
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
   auto cpu = embree(city, EmbreeOptions::Geometry::Auto);
@@ -189,7 +175,7 @@ TEST_P(VulkanRays, RequireAndPvsOnlyTracesMatchEmbree) {
   std::vector<uint32_t> ids;
   for (uint32_t i = 0; i < cpu->triangleCount(); i += 3) ids.push_back(i);
   require.assign(ids);
-  std::vector<Ray> rays = randomRays(city.worldBounds(), streetCell(), 10'000, 9);
+  std::vector<Ray> rays = randomRays(city.worldBounds(), test::streetCell(), 10'000, 9);
   for (bool only : {false, true}) {
     SCOPED_TRACE(only ? "PVS-only" : "full scene");
     std::vector<Hit> a(rays.size()), b(rays.size());
@@ -237,8 +223,8 @@ TEST_P(VulkanRays, GvsBakesAgreeWithEmbree) {
     EXPECT_EQ(has("hidden"), 0u);
     EXPECT_GT(has("backdrop"), 0u);
   }
-  Scene city = cityScene(1);
-  ViewCell cell = streetCell();
+  Scene city = test::cityScene(1);
+  ViewCell cell = test::streetCell();
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
   auto cpu = embree(city, EmbreeOptions::Geometry::Auto);
@@ -270,8 +256,8 @@ TEST_P(VulkanRays, GvsBakesAgreeWithEmbree) {
 // The raygen shader's cell rays are the host sampler's rays: traced through trace() with the
 // host's lowest-ray crediting, they give the same discoveries as traceCellRays.
 TEST_P(VulkanRays, CellRaysMatchHostMadeRays) {
-  Scene city = cityScene(1);
-  ViewCell cell = streetCell();
+  Scene city = test::cityScene(1);
+  ViewCell cell = test::streetCell();
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
   detail::RandomizedHalton<5> halton(5);
@@ -329,15 +315,15 @@ TEST_P(VulkanRays, CellRaysMatchHostMadeRays) {
 }
 
 TEST_P(VulkanRays, GeneratedBakesAreReproducible) {
-  Scene city = cityScene(1);
+  Scene city = test::cityScene(1);
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
   GvsConfig cfg;
   cfg.randomRays = 5'000;
   cfg.absEdgeSamples = 4;
   cfg.seed = 9;
-  CellPvs a = computeCellPvs(*vk, city, streetCell(), cfg);
-  CellPvs b = computeCellPvs(*vk, city, streetCell(), cfg);
+  CellPvs a = computeCellPvs(*vk, city, test::streetCell(), cfg);
+  CellPvs b = computeCellPvs(*vk, city, test::streetCell(), cfg);
   EXPECT_TRUE(a.stats.generatedRandomRays);
   EXPECT_GT(a.triangles.size(), 100u);
   EXPECT_EQ(a.triangles, b.triangles);
@@ -416,8 +402,8 @@ TEST_P(VulkanRays, SeeThroughTrianglesCountOnlyInFrontOfTheWall) {
 // Rays with the interval [0, inf) (every GVS++ ray) travel as 24-byte (origin, direction) pairs;
 // they hit exactly what the same rays sent as 32-byte rays hit, in every traversal.
 TEST_P(VulkanRays, CompactRaysHitWhatFullRaysHit) {
-  Scene city = cityScene(1);
-  std::vector<Ray> rays = randomRays(city.worldBounds(), streetCell(), 10'000, 13);
+  Scene city = test::cityScene(1);
+  std::vector<Ray> rays = randomRays(city.worldBounds(), test::streetCell(), 10'000, 13);
   for (Ray& r : rays) r = Ray{.origin = r.origin, .dir = r.dir}; // the default interval
   auto vk = vulkan(city, VulkanRayOptions::Geometry::Auto);
   ASSERT_TRUE(vk);
@@ -443,8 +429,8 @@ TEST_P(VulkanRays, CompactRaysHitWhatFullRaysHit) {
 TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
   if (GetParam().traversal != Traversal::Compute || GetParam().bvhWidth != 4)
     GTEST_SKIP() << "compute traversal options";
-  Scene city = cityScene(1);
-  std::vector<Ray> rays = randomRays(city.worldBounds(), streetCell(), 20'000, 7);
+  Scene city = test::cityScene(1);
+  std::vector<Ray> rays = randomRays(city.worldBounds(), test::streetCell(), 20'000, 7);
   auto run = [&](VulkanRayOptions o, TriangleSet& record) {
     o.traversal = Traversal::Compute;
     o.batchRays = 4096;
@@ -505,8 +491,8 @@ TEST_P(VulkanRays, ComputeVariantsTraceTheSameHits) {
 class VulkanBvh8 : public test::GpuTest {};
 
 TEST_F(VulkanBvh8, BakesTheSamePvsAsTheFourWideTraversal) {
-  Scene city = cityScene(1);
-  ViewCell cell = streetCell();
+  Scene city = test::cityScene(1);
+  ViewCell cell = test::streetCell();
   auto backend = [&](uint32_t width) {
     auto b = createVulkanBackend(context(), city, {.traversal = Traversal::Compute, .bvhWidth = width});
     EXPECT_TRUE(b.ok()) << b.error().message;
@@ -596,7 +582,7 @@ void checkBvh(const Scene& city, bool splits, uint32_t width) {
 } // namespace
 
 TEST(ComputeBvh, LeavesCoverEveryTriangleWithinTheirBoxes) {
-  Scene city = cityScene(1);
+  Scene city = test::cityScene(1);
   for (bool splits : {false, true})
     for (uint32_t width : {2u, 4u}) {
       SCOPED_TRACE(std::string(splits ? "spatial splits" : "binned SAH") + ", width " + std::to_string(width));
