@@ -86,6 +86,19 @@ std::vector<OitMode> oitModes(gpu::Context& ctx) {
   return {OitMode::LinkedList, OitMode::Packed};
 }
 
+// The blend rasters a device can run, as (raster, blend-queue threshold): compute without the
+// queue, compute queueing boxes over `queuePixels` (64-bit atomics), hardware (fragment stores).
+using BlendMode = std::pair<BlendRaster, float>;
+std::vector<BlendMode> blendModes(gpu::Context& ctx, float queuePixels) {
+  std::vector<BlendMode> modes{{BlendRaster::Compute, INFINITY}};
+  if (ctx.caps().int64BufferAtomics) modes.push_back({BlendRaster::Compute, queuePixels});
+  if (ctx.caps().fragmentStoresAndAtomics) modes.push_back({BlendRaster::Hardware, INFINITY});
+  return modes;
+}
+std::string modeName(OitMode oit, BlendMode m) {
+  return std::string(toString(oit)) + ", " + toString(m.first) + (std::isfinite(m.second) ? " + queue" : "");
+}
+
 bool identical(const ImageRGBA8& a, const ImageRGBA8& b) {
   return a.width == b.width && a.height == b.height && a.pixels == b.pixels;
 }
@@ -228,10 +241,7 @@ TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
     ASSERT_EQ(out.stats.oitPoolOverflow + out.stats.oitLayersDropped, 0u);
     nearest[k] = std::move(out.image.srgb);
   }
-  std::vector<std::pair<BlendRaster, float>> modes{{BlendRaster::Compute, INFINITY}};
-  if (context().caps().int64BufferAtomics)
-    modes.push_back({BlendRaster::Compute, ClusterRenderSettings{}.blendQueuePixels});
-  if (context().caps().fragmentStoresAndAtomics) modes.push_back({BlendRaster::Hardware, INFINITY});
+  std::vector<BlendMode> modes = blendModes(context(), ClusterRenderSettings{}.blendQueuePixels);
   auto renderer = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   for (OitMode oit : oitModes(context()))
@@ -242,8 +252,7 @@ TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
       ts.blendQueuePixels = queuePixels;
       ts.oit = oit;
       ClusterRenderOutput out = renderFrame(**renderer, ts);
-      std::string what =
-          std::string(toString(oit)) + ", " + toString(blend) + (std::isfinite(queuePixels) ? " + queue" : "");
+      std::string what = modeName(oit, {blend, queuePixels});
       EXPECT_EQ(out.stats.oitFragments, kLayers * kW * kH) << what;
       EXPECT_EQ(out.stats.oitPoolOverflow, (kLayers - kPool) * kW * kH) << what;
       // Per pixel the candidate it equals (within one step of rounding): its list's length.
@@ -300,9 +309,7 @@ TEST_F(ClusterOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
   ASSERT_EQ(nearest.stats.oitPoolOverflow + nearest.stats.oitLayersDropped, 0u);
   lod::LodAsset asset = bake(scene);
   ASSERT_FALSE(asset.dags.empty());
-  std::vector<std::pair<BlendRaster, float>> modes{{BlendRaster::Compute, INFINITY}};
-  if (context().caps().int64BufferAtomics) modes.push_back({BlendRaster::Compute, 0.0f});
-  if (context().caps().fragmentStoresAndAtomics) modes.push_back({BlendRaster::Hardware, INFINITY});
+  std::vector<BlendMode> modes = blendModes(context(), 0.0f);
   auto renderer = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   for (OitMode oit : oitModes(context()))
@@ -312,8 +319,7 @@ TEST_F(ClusterOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
       ts.blendQueuePixels = queuePixels;
       ts.oit = oit;
       ClusterRenderOutput out = renderFrame(**renderer, ts);
-      std::string what =
-          std::string(toString(oit)) + ", " + toString(blend) + (std::isfinite(queuePixels) ? " + queue" : "");
+      std::string what = modeName(oit, {blend, queuePixels});
       if (std::isfinite(queuePixels)) {
         EXPECT_GT(out.stats.blendQueueTriangles, 0u) << what;
       }
@@ -333,8 +339,8 @@ TEST_F(ClusterOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
       // Fragments of one pixel racing past the cap may miss a node still being linked (docs/render.md).
       EXPECT_LE(unmatched, kW * kH / 100u) << what;
       if (oit == OitMode::Packed) { // the cascade keeps the nearest exactly
-      EXPECT_EQ(unmatched, 0u) << what;
-    }
+        EXPECT_EQ(unmatched, 0u) << what;
+      }
       writeOnFailure(out.image.srgb, "cap_" + std::string(toString(oit)) + "_" + toString(blend) + ".png");
     }
 }
