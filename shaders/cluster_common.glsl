@@ -143,9 +143,10 @@ bool hardwareCluster(vec4 worldSphere, uint triangles, ClusterFrame f) {
   return diameter >= f.hybridThreshold * sqrt(float(max(triangles, 1u)));
 }
 
-// The compute raster's walks (cluster_raster.glsl), which the lean test below must predict: a
-// triangle whose sample box exceeds MIRAGE_RASTER_SHARED_PIXELS goes to its workgroup's queue, one
-// spanning MIRAGE_RASTER_SMALL_EXTENT or more takes a 64-bit walk (cluster_raster_edges.glsl).
+// The compute raster's walks (cluster_raster.glsl): a triangle whose sample box exceeds
+// MIRAGE_RASTER_SHARED_PIXELS goes to its workgroup's queue, one spanning MIRAGE_RASTER_SMALL_EXTENT
+// or more takes a 64-bit walk (cluster_raster_edges.glsl); the lean test below keeps its clusters
+// under the latter.
 #define MIRAGE_RASTER_SHARED_PIXELS 128
 #define MIRAGE_RASTER_SMALL_EXTENT 63.0 // pixels: 32-bit edge values stay below 2^30
 // The lean kernel walks every triangle on its own thread whatever its box (no queue): correct for
