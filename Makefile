@@ -14,9 +14,12 @@ FUZZ_SEED ?= 1
 # Left out of the sanitized run to keep CI on two cores in time: the large GPU renders (lavapipe is
 # not instrumented; the Mirage code around them runs the same paths as the small GPU tests), the
 # real-data scans (the longest plain tests, 25-110 s each), timed checks (sanitizers slow them), the
-# demo (70 s sanitized: the pipeline its parts' tests already cover) and the install test (it builds
-# an example against the installed prefix; no Mirage code runs differently).
-SANITIZE_SKIP ?= ClusterAlpha\.|ClusterRender\.|SurfelRender\.|MixedRender\.|Golden\.|RealData|BunnyScan|ClusterDag\.Bunny|DamagedHelmet|DragonFullResolution|LodBench|LodQuality|IsFast|cli\.demo|cli\.install
+# demo (70 s sanitized: the pipeline its parts' tests already cover), the install test (it builds
+# an example against the installed prefix; no Mirage code runs differently), and the quality
+# comparisons on large inputs, 25-45 s each sanitized, whose code the small tests of the same suites
+# run (brute-force GVS, surfel sampler quality, the second viewer and client window, particles over
+# a blended panel, the dragon's root).
+SANITIZE_SKIP ?= ClusterAlpha\.|ClusterRender\.|SurfelRender\.|MixedRender\.|Golden\.|RealData|BunnyScan|ClusterDag\.Bunny|ClusterDag\.Dragon|DamagedHelmet|DragonFullResolution|LodBench|LodQuality|IsFast|cli\.demo|cli\.install|Gvs\.CityBlockAgainstBruteForce|SurfelGpuSampler\.MatchesTheReferenceQuality|SurfelInputs\.PointCloudGpuCapture|ClusterParticles\.InterleaveWithBlendedPanel|cli\.view|cli\.client_window|cli\.surfel_render
 export ASAN_OPTIONS ?= detect_leaks=1
 export LSAN_OPTIONS ?= suppressions=$(CURDIR)/cmake/sanitize/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS ?= print_stacktrace=1:halt_on_error=1

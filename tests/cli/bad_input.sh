@@ -45,7 +45,7 @@ if expect_ok build-blob build "$tmp/blob.glb" -o "$tmp/blob.mrg" --quiet; then
   head -c 200 "$tmp/blob.mrg" >"$tmp/short.mrg"
   expect_fail verify-truncated "short.mrg" "" -- verify "$tmp/short.mrg"
   cp "$tmp/blob.mrg" "$tmp/flipped.mrg"
-  printf '\xff' | dd of="$tmp/flipped.mrg" bs=1 seek=300 conv=notrunc 2>/dev/null
+  flip_byte "$tmp/flipped.mrg" 300
   expect_fail verify-flipped "flipped.mrg" "" -- verify "$tmp/flipped.mrg"
   expect_fail verify-not-mrg "blob.glb" "" -- verify "$tmp/blob.glb"
   # The seed's baselines beside the cluster-LOD renderer, in one run.

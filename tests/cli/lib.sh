@@ -110,6 +110,14 @@ fail() { # MESSAGE: count a failure
   failures=$((failures + 1))
 }
 
+# flip_byte FILE OFFSET: inverts every bit of one byte in place. Inverting, not writing a fixed value,
+# always changes the file: the byte may hold any value (a checksum of content that names a temp path).
+flip_byte() {
+  local byte
+  byte=$(od -An -tu1 -j"$2" -N1 "$1")
+  printf "\\$(printf '%03o' $((255 - byte)))" | dd of="$1" bs=1 seek="$2" conv=notrunc 2>/dev/null
+}
+
 run_mirage() { # ARGS...: the binary's exit status; its stdout and stderr in $tmp/stdout, $tmp/stderr
   "${mirage_prefix[@]}" "$mirage" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
 }

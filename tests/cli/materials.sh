@@ -75,8 +75,7 @@ if expect_ok build-baked build gen:blob:2 -o "$tmp/baked.mrg" --materials "$tmp/
   # the chunk's checksum rejects the file with one line naming it.
   cp "$tmp/baked.mrg" "$tmp/corrupt.mrg"
   at=$(($(od -An -tu8 -j72 -N8 "$tmp/corrupt.mrg") + 20))
-  byte=$(od -An -tu1 -j"$at" -N1 "$tmp/corrupt.mrg")
-  printf "\\$(printf '%03o' $(((byte + 1) % 256)))" | dd of="$tmp/corrupt.mrg" bs=1 seek="$at" conv=notrunc 2>/dev/null
+  flip_byte "$tmp/corrupt.mrg" "$at"
   expect_fail render-corrupt-scen "corrupt.mrg: chunk 0 .SCEN. checksum mismatch" "$tmp/corrupt.png" -- render "$tmp/corrupt.mrg" -o "$tmp/corrupt.png" \
     --size 48x32
   expect_fail info-corrupt-scen "corrupt.mrg" "" -- info "$tmp/corrupt.mrg"
