@@ -27,6 +27,7 @@ namespace {
 
 struct PvsOptions {
   std::string input, cells, grid, region, output, method = "gvs";
+  uint32_t streetCells = 0; // --cell-streets: cells per street of a gen:city input
   RayBackendChoice rays;
   vis::GvsConfig gvs;
   int threads = 0;
@@ -106,11 +107,31 @@ Result<Bounds> parseRegion(const std::string& text) {
   return b;
 }
 
-// Cells from --cells or --cell-grid. A file is read before the scene loads (cheap errors first);
-// a grid needs the scene's bounds unless --cell-region is given.
+// Cells along every street of a gen:city input (io::cityStreetCells).
+Result<std::vector<vis::ViewCell>> streetCells(const PvsOptions& o) {
+  auto gen = runtime::parseGenArgument(o.input);
+  if (!gen || gen->kind != "city")
+    return Error{"--cell-streets needs a gen:city[:BLOCKS[:SEED]] input, not " + o.input};
+  auto city = io::cityOptions(gen->seed, gen->size);
+  if (!city) return city.error();
+  std::vector<vis::ViewCell> cells;
+  for (const Bounds& b : io::cityStreetCells(*city, o.streetCells)) {
+    vis::ViewCell c;
+    c.shape = vis::CellShape::Box;
+    c.position = b.center();
+    c.size = b.extent();
+    cells.push_back(c);
+  }
+  return cells;
+}
+
+// Cells from --cells, --cell-grid or --cell-streets. A file is read before the scene loads (cheap
+// errors first); a grid needs the scene's bounds unless --cell-region is given.
 Result<std::vector<vis::ViewCell>> cellsFromOptions(const PvsOptions& o, const Scene* scene) {
-  if (o.cells.empty() == o.grid.empty()) return Error{"give exactly one of --cells FILE and --cell-grid NXxNYxNZ"};
+  if (int(!o.cells.empty()) + int(!o.grid.empty()) + int(o.streetCells > 0) != 1)
+    return Error{"give exactly one of --cells FILE, --cell-grid NXxNYxNZ and --cell-streets N"};
   if (!o.cells.empty()) return vis::loadViewCells(o.cells);
+  if (o.streetCells > 0) return streetCells(o);
   auto counts = vis::parseGridCounts(o.grid);
   if (!counts) return counts.error();
   Bounds region;
@@ -513,6 +534,9 @@ void addCommon(CLI::App* cmd, PvsOptions& o) {
   cmd->add_option("--cells", o.cells, "View cells as JSON (docs/visibility.md)");
   cmd->add_option("--cell-grid", o.grid, "NXxNYxNZ cells tiling --cell-region (default: the scene bounds)");
   cmd->add_option("--cell-region", o.region, "x0,y0,z0,x1,y1,z1 for --cell-grid (flat in y: rectangles)");
+  cmd->add_option("--cell-streets", o.streetCells,
+                  "gen:city input: N cells along every street, 4 x 2 x 4 m at eye height (a walk through the city)")
+      ->check(CLI::Range(1u, 100000u));
   cmd->add_option("--config", o.config, "GVS++ parameters as JSON (docs/visibility.md); flags override it");
   // Each sampling flag remembers how to copy itself over a --config file's value.
 #define MIRAGE_GVS_FLAG(flag, field, help)                                                                             \

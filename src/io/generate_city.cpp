@@ -204,6 +204,41 @@ Texture pavingTexture(uint32_t seed) {
 
 } // namespace
 
+// The street layout generateCity builds on: blocks of lots, streets between them and a street's
+// width of ground around the grid, centred on the origin.
+struct StreetGrid {
+  uint32_t blocks;
+  float pitch, extent, origin;
+  explicit StreetGrid(const CityOptions& options) {
+    blocks = std::clamp<uint32_t>(options.blocks, 1, 256);
+    const float blockSize = float(std::clamp<uint32_t>(options.lotsPerBlockSide, 1, 8)) * kLot;
+    pitch = blockSize + kStreet;
+    extent = float(blocks) * pitch - kStreet;
+    origin = -0.5f * extent;
+  }
+  // Centre line of street i (0..blocks): before block i, the first and last around the grid.
+  float street(uint32_t i) const { return origin + float(i) * pitch - 0.5f * kStreet; }
+};
+
+std::vector<Bounds> cityStreetCells(const CityOptions& options, uint32_t perStreet) {
+  const StreetGrid g(options);
+  const float half = 2.0f, lo = 0.7f, hi = 2.7f;
+  const float from = g.street(0), to = g.street(g.blocks); // the streets around the grid meet there
+  std::vector<Bounds> cells;
+  cells.reserve(size_t(g.blocks + 1) * 2 * perStreet);
+  for (int axis = 0; axis < 2; ++axis)
+    for (uint32_t i = 0; i <= g.blocks; ++i)
+      for (uint32_t k = 0; k < perStreet; ++k) {
+        float along = from + (to - from) * (float(k) + 0.5f) / float(perStreet), across = g.street(i);
+        glm::vec3 c = axis == 0 ? glm::vec3(along, 0.0f, across) : glm::vec3(across, 0.0f, along);
+        Bounds b;
+        b.add({c.x - half, lo, c.z - half});
+        b.add({c.x + half, hi, c.z + half});
+        cells.push_back(b);
+      }
+  return cells;
+}
+
 Scene generateCity(const CityOptions& options) {
   const uint32_t blocks = std::clamp<uint32_t>(options.blocks, 1, 256);
   const uint32_t lots = std::clamp<uint32_t>(options.lotsPerBlockSide, 1, 8);
@@ -227,8 +262,8 @@ Scene generateCity(const CityOptions& options) {
   scene.materials[kPlaster] = material("plaster", {0.8f, 0.78f, 0.72f, 1}, 0.9f);
   scene.textures.push_back(pavingTexture(options.seed));
 
-  const float blockSize = lots * kLot, pitch = blockSize + kStreet, extent = blocks * pitch - kStreet;
-  const float origin = -0.5f * extent; // centre the grid on the world origin
+  const StreetGrid grid(options);
+  const float blockSize = lots * kLot, pitch = grid.pitch, extent = grid.extent, origin = grid.origin;
 
   // Ground: asphalt under everything, with a street's width of margin.
   {

@@ -5,6 +5,17 @@
 
 namespace mirage::io {
 
+Result<CityOptions> cityOptions(uint32_t seed, uint64_t sizeParameter) {
+  CityOptions o;
+  o.seed = seed;
+  if (sizeParameter != 0) {
+    if (sizeParameter > 256)
+      return makeError("generate city", "blocks " + std::to_string(sizeParameter) + " out of range (1..256)");
+    o.blocks = uint32_t(sizeParameter);
+  }
+  return o;
+}
+
 Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeParameter) {
   const std::string where = "generate " + std::string(kind);
   auto outOfRange = [&](const char* what, uint64_t lo, uint64_t hi) {
@@ -12,13 +23,9 @@ Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeP
                                 std::to_string(lo) + ".." + std::to_string(hi) + ")");
   };
   if (kind == "city") {
-    CityOptions o;
-    o.seed = seed;
-    if (sizeParameter != 0) {
-      if (sizeParameter > 256) return outOfRange("blocks", 1, 256);
-      o.blocks = uint32_t(sizeParameter);
-    }
-    return generateCity(o);
+    auto o = cityOptions(seed, sizeParameter);
+    if (!o) return o.error();
+    return generateCity(*o);
   }
   if (kind == "terrain") {
     TerrainOptions o;

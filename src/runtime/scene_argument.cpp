@@ -31,12 +31,7 @@ std::optional<Result<io::ManyOptions>> manySceneArgument(const std::string& argu
   return io::parseManySize(rest.substr(0, colon), seed);
 }
 
-Result<mirage::Scene> loadSceneArgument(const std::string& argument, const io::ImportOptions& options) {
-  if (!argument.starts_with("gen:")) return io::importScene(argument, options);
-  if (auto many = manySceneArgument(argument)) {
-    if (!*many) return many->error();
-    return io::generateMany(**many);
-  }
+Result<GenArgument> parseGenArgument(const std::string& argument) {
   // gen:KIND[:SIZE[:SEED]]
   std::vector<std::string> parts;
   size_t start = 4;
@@ -46,16 +41,27 @@ Result<mirage::Scene> loadSceneArgument(const std::string& argument, const io::I
     if (colon == std::string::npos) break;
     start = colon + 1;
   }
-  uint64_t size = 0;
-  uint32_t seed = 1;
-  auto number = [](const std::string& s, auto& out) {
-    auto r = std::from_chars(s.data(), s.data() + s.size(), out);
+  GenArgument out;
+  auto number = [](const std::string& s, auto& value) {
+    auto r = std::from_chars(s.data(), s.data() + s.size(), value);
     return r.ec == std::errc() && r.ptr == s.data() + s.size();
   };
-  if (parts.size() > 3 || (parts.size() > 1 && !number(parts[1], size)) ||
-      (parts.size() > 2 && !number(parts[2], seed)))
+  if (!argument.starts_with("gen:") || parts.size() > 3 || (parts.size() > 1 && !number(parts[1], out.size)) ||
+      (parts.size() > 2 && !number(parts[2], out.seed)))
     return Error{fmt::format("{}: expected gen:KIND[:SIZE[:SEED]]", argument)};
-  return io::generateScene(parts[0], seed, size);
+  out.kind = parts[0];
+  return out;
+}
+
+Result<mirage::Scene> loadSceneArgument(const std::string& argument, const io::ImportOptions& options) {
+  if (!argument.starts_with("gen:")) return io::importScene(argument, options);
+  if (auto many = manySceneArgument(argument)) {
+    if (!*many) return many->error();
+    return io::generateMany(**many);
+  }
+  auto gen = parseGenArgument(argument);
+  if (!gen) return gen.error();
+  return io::generateScene(gen->kind, gen->seed, gen->size);
 }
 
 bool isMrgPath(const std::string& input) { return input.size() > 4 && input.ends_with(".mrg"); }

@@ -197,6 +197,40 @@ TEST(Generate, CityInstancesSharedMeshes) {
   EXPECT_LT(io::generateCity(o).meshTriangleCount(), scene.meshTriangleCount());
 }
 
+// Street cells lie on the streets: inside the ground, above the sidewalk slabs and clear of every
+// building (no instance's world box reaches into a cell), 2 (blocks + 1) streets of N cells each,
+// half of them running along x and half along z.
+TEST(Generate, CityStreetCellsLieOnTheStreets) {
+  for (uint32_t blocks : {1u, 3u})
+    for (uint32_t lots : {1u, 2u}) {
+      io::CityOptions o;
+      o.blocks = blocks;
+      o.lotsPerBlockSide = lots;
+      Scene scene = io::generateCity(o);
+      const uint32_t perStreet = 7;
+      std::vector<Bounds> cells = io::cityStreetCells(o, perStreet);
+      ASSERT_EQ(cells.size(), size_t(2) * (blocks + 1) * perStreet);
+      EXPECT_TRUE(io::cityStreetCells(o, 0).empty());
+      Bounds ground = scene.meshes[0].bounds;
+      std::set<float> alongX, alongZ; // the streets' fixed coordinate
+      for (size_t i = 0; i < cells.size(); ++i) {
+        const Bounds& c = cells[i];
+        EXPECT_GE(c.min.x, ground.min.x);
+        EXPECT_LE(c.max.z, ground.max.z);
+        EXPECT_NEAR(c.extent().y, 2.0f, 1e-5f);
+        (i < cells.size() / 2 ? alongX : alongZ).insert(i < cells.size() / 2 ? c.center().z : c.center().x);
+        for (const Instance& inst : scene.instances) {
+          Bounds b = transformBounds(scene.meshes[inst.mesh].bounds, inst.transform);
+          bool overlaps = glm::all(glm::lessThan(b.min, c.max)) && glm::all(glm::lessThan(c.min, b.max));
+          ASSERT_FALSE(overlaps) << "cell " << i << " meets mesh " << scene.meshes[inst.mesh].name << " (blocks "
+                                 << blocks << ", lots " << lots << ")";
+        }
+      }
+      EXPECT_EQ(alongX.size(), blocks + 1);
+      EXPECT_EQ(alongZ.size(), blocks + 1);
+    }
+}
+
 TEST(Generate, CityScalesWithBlocks) {
   io::CityOptions small, large;
   small.blocks = 1;

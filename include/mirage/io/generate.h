@@ -4,6 +4,7 @@
 // (one big open mesh) and a displaced icosphere "blob" (one big closed manifold mesh).
 #include <cstdint>
 #include <string_view>
+#include <vector>
 
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
@@ -73,6 +74,10 @@ Scene generateMany(const ManyOptions& options);
 Result<ManyOptions> parseManySize(std::string_view size, uint32_t seed);
 
 Scene generateCity(const CityOptions& options);
+// View cells of a walk through every street of generateCity(options): the 2 (blocks + 1) street
+// centre lines (between and around the blocks, along x and along z), `perStreet` boxes evenly spaced
+// on each, 4 m across and along the street at eye height (y 0.7..2.7 m). Empty for perStreet 0.
+std::vector<Bounds> cityStreetCells(const CityOptions& options, uint32_t perStreet);
 Scene generateLayers(const LayersOptions& options);
 Scene generateTerrain(const TerrainOptions& options);
 Scene generateBlob(const BlobOptions& options);
@@ -88,5 +93,7 @@ Result<Scene> samplePointCloud(const Scene& source, uint64_t count, uint32_t see
 // subdivisions / layers / mesh count (0 = the default; gen:many's triangles: parseManySize). Unknown kinds and
 // out-of-range sizes are errors.
 Result<Scene> generateScene(std::string_view kind, uint32_t seed, uint64_t sizeParameter);
+// The options generateScene("city", seed, sizeParameter) generates with (blocks 1..256; 0 = default).
+Result<CityOptions> cityOptions(uint32_t seed, uint64_t sizeParameter);
 
 } // namespace mirage::io

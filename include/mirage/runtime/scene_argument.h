@@ -25,6 +25,14 @@ Result<mirage::Scene> loadSceneArgument(const std::string& argument, const io::I
 // (lod/stream_bake.h) instead of loading it whole.
 std::optional<Result<io::ManyOptions>> manySceneArgument(const std::string& argument);
 
+// "gen:KIND[:SIZE[:SEED]]" taken apart (io::generateScene's arguments; SIZE 0 when absent, SEED 1).
+struct GenArgument {
+  std::string kind;
+  uint64_t size = 0;
+  uint32_t seed = 1;
+};
+Result<GenArgument> parseGenArgument(const std::string& argument);
+
 bool isMrgPath(const std::string& input);
 // Which kinds of chunk a .mrg holds (all false when it cannot be opened: the loader reports why).
 struct MrgContents {
