@@ -21,6 +21,21 @@ using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 using PageState = ClusterResidency::PageState;
 
+ResidencyTimes& ResidencyTimes::operator+=(const ResidencyTimes& o) {
+  takeMs += o.takeMs, uploadMs += o.uploadMs, prefetchMs += o.prefetchMs, stepMs += o.stepMs;
+  requestMs += o.requestMs, publishMs += o.publishMs, setupMs += o.setupMs, submitMs += o.submitMs;
+  collectMs += o.collectMs, readbackMs += o.readbackMs, readWaitMs += o.readWaitMs, decodeMs += o.decodeMs;
+  return *this;
+}
+
+PhaseClock::PhaseClock() : last(std::chrono::steady_clock::now()) {}
+double PhaseClock::lap() {
+  auto now = std::chrono::steady_clock::now();
+  double ms = std::chrono::duration<double, std::milli>(now - last).count();
+  last = now;
+  return ms;
+}
+
 Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, const lod::PagedLodAsset& asset,
                                                                  const ClusterResidencySettings& settings,
                                                                  ClusterSceneData& scene) {
@@ -218,6 +233,8 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table}) v->clear();
   slot.stats = {};
   ResidencyStats& st = slot.stats;
+  ResidencyTimes& times = st.times;
+  PhaseClock clock;
   StagingBytes staging;
   // (1) The root pages, resident since creation, in the first frame.
   if (!r.rootsStaged) {
@@ -232,23 +249,35 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     }
   }
   // (2) Pages read since the last frame: uploaded if still reserved (an evicted one is dropped).
+  times.uploadMs += clock.lap();
   auto arrived = r.stream->take();
   if (!arrived) return arrived.error();
+  times.takeMs += clock.lap();
   for (lod::StreamedPage& a : *arrived) {
+    times.decodeMs += a.seconds * 1e3;
     uint32_t p = r.manager.graph().pageOffset[a.mesh] + a.page;
     r.reading[p] = 0;
     if (r.state[p] != PageState::Reserved) continue;
     if (Status s = uploadPage(r, p, a.data, staging, slot); !s) return s;
     ++st.uploaded;
   }
+  times.uploadMs += clock.lap();
   // (3) The manager's step: evictions free units and stop drawing; loads reserve units and queue reads.
+  r.cutPending = r.cutPending || cs.cameraCut;
   if (r.haveFeedback && r.prefetch) {
-    sio::ViewFrame v = viewFrame(withClipPlanes(cs.base.camera, scene.worldBounds), cs.base.width, cs.base.height);
+    // Computed again only on a cut (or a new size or tau): between cuts the feedback follows the
+    // camera's small steps, and the last prefetch (a view close to this one) still joins it.
     glm::vec3 target(float(cs.base.width), float(cs.base.height), cs.tauPixels);
-    if (r.prefetchHost.empty() || v.viewProj != r.prefetchViewProj || target != r.prefetchTarget) {
+    if (r.prefetchHost.empty() || r.cutPending || target != r.prefetchTarget ||
+        isCameraCut(r.prefetchCamera, cs.base.camera, scene.worldBounds)) {
+      times.stepMs += clock.lap();
+      sio::ViewFrame v = viewFrame(withClipPlanes(cs.base.camera, scene.worldBounds), cs.base.width, cs.base.height);
       computePrefetch(r, v, cs.tauPixels);
-      r.prefetchViewProj = v.viewProj;
+      r.prefetchCamera = cs.base.camera;
       r.prefetchTarget = target;
+      r.cutPending = false;
+      st.prefetched = true;
+      times.prefetchMs += clock.lap();
     }
     lod::mergeFeedback(r.feedbackHost, r.prefetchHost);
   }
@@ -272,6 +301,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     st.evicted = uint32_t(step.evicted.size());
     st.unfit = step.unfit;
   }
+  times.stepMs += clock.lap();
   // (4) Reads, as far as the stream has room (pages evicted before their read are skipped).
   while (!r.toRead.empty()) {
     uint32_t p = r.toRead.front();
@@ -281,6 +311,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     }
     r.toRead.pop_front();
   }
+  times.requestMs += clock.lap();
   // (5) Drawn: uploaded pages whose dependencies are drawn (a mesh's dependencies come before
   // it in page order, so one ascending pass settles every chain).
   bool tableChanged = st.evicted > 0;
@@ -317,6 +348,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     st.drawnPages += r.drawn[p] != MIRAGE_PAGE_NONE;
     st.pending += r.state[p] == PageState::Reserved;
   }
+  times.publishMs += clock.lap();
   return Ok{};
 }
 
@@ -362,12 +394,14 @@ void ClusterRenderer::Impl::packResidency(sio::ClusterFrame& f) const {
 ResidencyStats ClusterRenderer::Impl::collectResidency(uint32_t frameSlot) {
   ClusterResidency& r = *residency;
   ClusterResidency::Slot& slot = r.frame[frameSlot];
+  PhaseClock clock;
   uint32_t pages = uint32_t(r.pageMesh.size());
   r.feedbackHost.resize(pages);
   std::memcpy(r.feedbackHost.data(), slot.readback.mapped(), pages * 4ull);
   r.haveFeedback = true;
   ResidencyStats st = slot.stats;
   for (uint32_t p = 0; p < pages; ++p) st.requested += r.feedbackHost[p] > 0.0f && !slot.resident[p];
+  st.times.collectMs += clock.lap();
   return st;
 }
 
@@ -387,11 +421,14 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
   quiet.base.readImage = readEveryFrame && settings.base.readImage;
   quiet.base.readLinear = false;
   quiet.readOwnedClusters = false;
+  double waitedMs = 0; // waiting for a read before the next frame: that frame's
   for (uint32_t frame = 0; frame < maxFrames; ++frame) {
     auto o = render(quiet);
     if (!o) return o.error();
+    o->stats.residency.times.readWaitMs += std::exchange(waitedMs, 0.0);
     out.frameEnds.push_back(std::chrono::steady_clock::now());
     if (quiet.base.readImage) out.frameImages.push_back(std::move(o->image.srgb));
+    quiet.cameraCut = false; // the cut is this call's first frame only
     const ResidencyStats& st = o->stats.residency;
     out.frames.push_back(st);
     // The first frame steps on the feedback of whatever was drawn before (another camera, say):
@@ -403,10 +440,16 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
       break;
     }
     // Only waiting for reads: wait for the next page instead of spinning frames.
-    if (quietFrame) impl_->residency->stream->waitForArrival(std::chrono::milliseconds(1000));
+    if (quietFrame) {
+      PhaseClock clock;
+      impl_->residency->stream->waitForArrival(std::chrono::milliseconds(1000));
+      waitedMs = clock.lap();
+    }
   }
   if (!out.converged) out.framesToConverge = maxFrames;
-  auto o = render(settings); // the stable residency again, read back as asked
+  ClusterRenderSettings last = settings; // the stable residency again, read back as asked
+  last.cameraCut = false;
+  auto o = render(last);
   if (!o) return o.error();
   out.frameEnds.push_back(std::chrono::steady_clock::now());
   out.frames.push_back(o->stats.residency);

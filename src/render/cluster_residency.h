@@ -3,6 +3,7 @@
 // allocator, the tables the selection reads, the background page reads, the per-slot staging and
 // feedback readback, and the CPU manager deciding what they hold (lod/residency.h). Private to the
 // renderer (cluster_page_pool.cpp: scene tables and page layout; cluster_residency.cpp: frames).
+#include <chrono>
 #include <deque>
 #include <memory>
 #include <vector>
@@ -18,6 +19,13 @@
 namespace mirage::render {
 
 struct ClusterSceneData;
+
+// Milliseconds between laps (ResidencyTimes' phases).
+struct PhaseClock {
+  std::chrono::steady_clock::time_point last;
+  PhaseClock();
+  double lap(); // since construction or the last lap
+};
 
 // The pool's allocation unit. A page takes whole units, any free ones (its vertices fill units in
 // order, then each cluster's vertex ids and indices sit whole within one unit), so the pool never
@@ -82,13 +90,15 @@ struct ClusterResidency {
   } frame[kMaxFramesInFlight];
   std::vector<float> feedbackHost; // the last collected frame's feedback, not yet acted on
   // Prefetch (ClusterResidencySettings::prefetch): per page, the wanted priority of the view it was
-  // computed for (recomputed when the view-projection, size or tau change).
+  // computed for, computed again on a camera cut from that view (isCameraCut, or the settings'
+  // cameraCut) or with a new size or tau.
   bool prefetch = true;
   std::vector<Instance> instances;  // the scene's, as the renderer read them at creation
   std::vector<glm::vec4> meshReach; // per mesh: a sphere (centre, radius) holding its groups' LOD spheres
   std::vector<float> prefetchHost;
-  glm::mat4 prefetchViewProj{0.0f};
+  Camera prefetchCamera;          // the view the prefetch is for
   glm::vec3 prefetchTarget{0.0f}; // viewport width, height, tau
+  bool cutPending = false;        // a frame said cameraCut before the prefetch could be computed
   bool haveFeedback = false;
 
   ClusterResidency(lod::ResidencyManager m) : manager(std::move(m)) {}

@@ -37,6 +37,7 @@ struct StreamedPage {
   uint32_t mesh = 0, page = 0;
   PageData data;
   uint64_t storedBytes = 0;
+  double seconds = 0; // the reader thread's time on it: read, checksums, decompression, decoding
 };
 
 class PageStream {
