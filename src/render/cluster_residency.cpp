@@ -117,8 +117,48 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
                                 kCopied, MemoryUsage::GpuOnly, "residency page pool");
   lod::PageStreamConfig streamConfig;
   streamConfig.maxInFlight = std::max(settings.maxReadsInFlight, 1u);
+  // Each page's upload is laid out on the reader thread that decoded it (the decoded page dropped).
+  streamConfig.prepare = [meshes = &asset.meshes, pageOffset = r->manager.graph().pageOffset,
+                          clusterOffset = r->meshClusterOffset](lod::StreamedPage& sp) {
+    if (sp.mesh >= meshes->size() || sp.page >= (*meshes)[sp.mesh].table.pages.size()) return;
+    sp.prepared =
+        preparePage(sp.data, (*meshes)[sp.mesh].table, sp.mesh, sp.page, pageOffset[sp.mesh], clusterOffset[sp.mesh]);
+    sp.data = {};
+  };
   r->stream = std::make_unique<lod::PageStream>(*asset.reader, asset.meshes, streamConfig);
   return r;
+}
+
+PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table, uint32_t mesh, uint32_t page,
+                         uint32_t pageBase, uint32_t clusterBase) {
+  PreparedPage out;
+  out.units = layoutPage(data, nullptr, nullptr);
+  std::vector<uint32_t> local(out.units);
+  for (uint32_t k = 0; k < out.units; ++k) local[k] = k;
+  layoutPage(data, local.data(), &out.packed);
+  out.clusterVertices = data.clusterVertices.size();
+  size_t n = data.clusterIds.size();
+  out.ids.reserve(n), out.records.reserve(n), out.cones.reserve(n), out.childPages.reserve(2 * n);
+  std::vector<glm::vec3> positions;
+  for (size_t i = 0; i < n; ++i) {
+    const lod::Cluster& c = data.clusters[i];
+    positions.resize(c.vertexCount);
+    for (uint32_t v = 0; v < c.vertexCount; ++v)
+      positions[v] = data.positions[data.clusterVertices[c.vertexOffset + v]];
+    std::span<const uint8_t> indices{data.clusterIndices.data() + size_t(c.triangleOffset) * 3,
+                                     size_t(c.triangleCount) * 3};
+    sio::GpuCluster rec = clusterRecord(c, mesh);
+    rec.vertexOffset = out.packed.vertexOffset[i];
+    rec.triangleOffset = out.packed.triangleOffset[i];
+    rec.maxEdge = clusterMaxEdge(positions, indices);
+    out.ids.push_back(clusterBase + data.clusterIds[i]);
+    out.records.push_back(rec);
+    out.cones.push_back(clusterCone(positions, indices));
+    uint32_t child = table.childPage(c.generatingGroup);
+    out.childPages.push_back(pageBase + page);
+    out.childPages.push_back(child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child);
+  }
+  return out;
 }
 
 namespace {
@@ -148,45 +188,58 @@ void releaseUnits(ClusterResidency& r, uint32_t page, size_t keep = 0) {
   units.resize(keep);
 }
 
-// A reserved page's bytes arrived: laid out in its units (the spare ones freed, its cost made
-// exact), its clusters' records, cones and child pages staged.
-Status uploadPage(ClusterResidency& r, uint32_t page, const lod::PageData& data, StagingBytes& staging,
+// preparePage on this thread (the root pages).
+PreparedPage prepareHere(const ClusterResidency& r, uint32_t page, const lod::PageData& data) {
+  uint32_t mesh = r.pageMesh[page];
+  return preparePage(data, r.asset->meshes[mesh].table, mesh, r.pageLocal[page], r.manager.graph().pageOffset[mesh],
+                     r.meshClusterOffset[mesh]);
+}
+
+// A reserved page's upload is ready (preparePage, on a reader thread or here): its spare units
+// freed, its cost made exact, its bytes staged for the units it holds with their vertex ids and its
+// records' offsets moved there, its records, cones and child pages staged.
+Status uploadPage(ClusterResidency& r, uint32_t page, const PreparedPage& prep, StagingBytes& staging,
                   ClusterResidency::Slot& slot) {
   uint32_t mesh = r.pageMesh[page];
   const lod::PagedMesh& pm = r.asset->meshes[mesh];
-  const std::string& file = r.asset->reader->path();
-  uint32_t need = layoutPage(data, nullptr, nullptr);
-  if (data.clusterVertices.size() != pm.rest.pageClusterVertices[r.pageLocal[page]] || need > r.pageUnits[page].size())
-    return Error{fmt::format("{}: mesh {} page {}: {} vertex ids in {} pool units, the index says {} ids", file, mesh,
-                             r.pageLocal[page], data.clusterVertices.size(), need,
-                             pm.rest.pageClusterVertices[r.pageLocal[page]])};
-  releaseUnits(r, page, need);
-  r.manager.setPageBytes(page, uint64_t(need) * kPoolUnitBytes);
-  PagePacking packed;
-  layoutPage(data, r.pageUnits[page].data(), &packed);
-  for (uint32_t k = 0; k < packed.unitFill.size(); ++k)
-    slot.pool.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
-                         VkDeviceSize(r.pageUnits[page][k]) * kPoolUnitBytes, packed.unitFill[k]});
-  const lod::PageTable& t = pm.table;
-  uint32_t pageBase = r.manager.graph().pageOffset[mesh];
-  for (size_t i = 0; i < data.clusterIds.size(); ++i) {
-    const lod::Cluster& c = data.clusters[i];
-    uint32_t g = r.meshClusterOffset[mesh] + data.clusterIds[i];
-    std::vector<glm::vec3> positions(c.vertexCount);
-    for (uint32_t v = 0; v < c.vertexCount; ++v)
-      positions[v] = data.positions[data.clusterVertices[c.vertexOffset + v]];
-    std::span<const uint8_t> local{data.clusterIndices.data() + size_t(c.triangleOffset) * 3,
-                                   size_t(c.triangleCount) * 3};
-    sio::GpuCluster rec = clusterRecord(c, mesh);
-    rec.vertexOffset = packed.vertexOffset[i];
-    rec.triangleOffset = packed.triangleOffset[i];
-    rec.maxEdge = clusterMaxEdge(positions, local);
+  uint32_t expected = pm.rest.pageClusterVertices[r.pageLocal[page]];
+  if (prep.clusterVertices != expected || prep.units > r.pageUnits[page].size())
+    return Error{fmt::format("{}: mesh {} page {}: {} vertex ids in {} pool units, the index says {} ids",
+                             r.asset->reader->path(), mesh, r.pageLocal[page], prep.clusterVertices, prep.units,
+                             expected)};
+  releaseUnits(r, page, prep.units);
+  r.manager.setPageBytes(page, uint64_t(prep.units) * kPoolUnitBytes);
+  const std::vector<uint32_t>& units = r.pageUnits[page];
+  const PagePacking& packed = prep.packed;
+  std::vector<VkDeviceSize> unitAt(packed.unitFill.size());
+  for (uint32_t k = 0; k < packed.unitFill.size(); ++k) {
+    unitAt[k] = staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]);
+    slot.pool.push_back({unitAt[k], VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
+  }
+  // Local to pool: a byte at (unit k, offset o) moves to unit units[k]; vertex v of the page sits in
+  // unit v / kUnitVertices, so its id becomes units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices.
+  constexpr uint32_t kUnitVertices = kPoolUnitBytes / sizeof(sio::GpuClusterVertex);
+  static_assert(kPoolUnitBytes % sizeof(sio::GpuClusterVertex) == 0, "vertex units hold whole vertices");
+  auto pooled = [&](uint64_t localByte) { // a local byte offset in the pool
+    return uint64_t(units[localByte / kPoolUnitBytes]) * kPoolUnitBytes + localByte % kPoolUnitBytes;
+  };
+  for (size_t i = 0; i < prep.ids.size(); ++i) {
+    sio::GpuCluster rec = prep.records[i];
+    uint64_t idsByte = uint64_t(rec.vertexOffset) * 4;
+    uint8_t* ids = staging.bytes.data() + unitAt[idsByte / kPoolUnitBytes] + idsByte % kPoolUnitBytes;
+    for (uint32_t j = 0; j < rec.vertexCount; ++j) {
+      uint32_t v;
+      std::memcpy(&v, ids + 4 * j, 4);
+      v = units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices;
+      std::memcpy(ids + 4 * j, &v, 4);
+    }
+    rec.vertexOffset = uint32_t(pooled(idsByte) / 4);
+    rec.triangleOffset = uint32_t(pooled(uint64_t(rec.triangleOffset) * 3) / 3);
+    uint32_t g = prep.ids[i];
     slot.records.push_back({staging.append(&rec, sizeof(rec)), VkDeviceSize(g) * sizeof(rec), sizeof(rec)});
-    sio::GpuClusterCone cone = clusterCone(positions, local);
-    slot.cones.push_back({staging.append(&cone, sizeof(cone)), VkDeviceSize(g) * sizeof(cone), sizeof(cone)});
-    uint32_t child = t.childPage(c.generatingGroup);
-    uint32_t pages[2] = {page, child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child};
-    slot.clusterPages.push_back({staging.append(pages, sizeof(pages)), VkDeviceSize(g) * sizeof(pages), sizeof(pages)});
+    slot.cones.push_back({staging.append(&prep.cones[i], sizeof(prep.cones[i])),
+                          VkDeviceSize(g) * sizeof(prep.cones[i]), sizeof(prep.cones[i])});
+    slot.clusterPages.push_back({staging.append(&prep.childPages[2 * i], 8), VkDeviceSize(g) * 8, 8});
   }
   r.state[page] = PageState::Uploaded;
   r.geometry[page] = packed.geometryBytes;
@@ -244,7 +297,10 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
       uint32_t units = uint32_t(r.manager.graph().bytes[p] / kPoolUnitBytes);
       if (!takeUnits(r, p, units)) return Error{"residency: the root pages do not fit the pool"};
       r.state[p] = PageState::Reserved;
-      if (Status s = uploadPage(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]], staging, slot); !s) return s;
+      if (Status s =
+              uploadPage(r, p, prepareHere(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]]), staging, slot);
+          !s)
+        return s;
       ++st.uploaded;
     }
   }
@@ -254,11 +310,12 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   if (!arrived) return arrived.error();
   times.takeMs += clock.lap();
   for (lod::StreamedPage& a : *arrived) {
-    times.decodeMs += a.seconds * 1e3;
+    times.decodeMs += (a.seconds + a.prepareSeconds) * 1e3;
     uint32_t p = r.manager.graph().pageOffset[a.mesh] + a.page;
     r.reading[p] = 0;
     if (r.state[p] != PageState::Reserved) continue;
-    if (Status s = uploadPage(r, p, a.data, staging, slot); !s) return s;
+    const PreparedPage* prep = std::any_cast<PreparedPage>(&a.prepared);
+    if (Status s = uploadPage(r, p, prep ? *prep : prepareHere(r, p, a.data), staging, slot); !s) return s;
     ++st.uploaded;
   }
   times.uploadMs += clock.lap();

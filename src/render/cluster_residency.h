@@ -49,6 +49,22 @@ uint32_t layoutPage(const lod::PageData& page, const uint32_t* units, PagePackin
 // The most units a page of these counts can take (from the page table, before it is read).
 uint32_t poolUnitsBound(uint32_t vertices, uint32_t vertexIds, uint32_t triangles, uint32_t clusters);
 
+// A page's upload made ready without its pool units (on a reader thread: PageStreamConfig::prepare):
+// laid out in units 0..n-1, so its vertex ids and record offsets are local; the upload moves them
+// to the units the page holds (a vertex unit holds kPoolUnitBytes / 32 vertices exactly).
+struct PreparedPage {
+  PagePacking packed;
+  uint32_t units = 0;                        // units it takes
+  size_t clusterVertices = 0;                // vertex ids (the index's count, checked at upload)
+  std::vector<uint32_t> ids;                 // per cluster: its number over every mesh
+  std::vector<shaderio::GpuCluster> records; // offsets local
+  std::vector<shaderio::GpuClusterCone> cones;
+  std::vector<uint32_t> childPages; // per cluster: (global page, global child page or MIRAGE_PAGE_NONE)
+};
+// `page` of mesh `mesh` (its first page `pageBase`, its first cluster `clusterBase` over every mesh).
+PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table, uint32_t mesh, uint32_t page,
+                         uint32_t pageBase, uint32_t clusterBase);
+
 // The cluster renderer's scene from a paged asset's tables: the cluster records as far as the
 // table knows them (member group bounds, level, mesh; the rest when the page loads), cones that
 // never cull until then, the level table, mesh spheres and bounds from the index. No geometry: the
