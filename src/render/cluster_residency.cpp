@@ -117,6 +117,9 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
                                 kCopied, MemoryUsage::GpuOnly, "residency page pool");
   lod::PageStreamConfig streamConfig;
   streamConfig.maxInFlight = std::max(settings.maxReadsInFlight, 1u);
+  // Readers: 4 at least (a page's read may wait on a disk or a link rather than a core), up to the
+  // cores the render thread and the driver leave, 12 at most.
+  streamConfig.threads = std::clamp(std::thread::hardware_concurrency(), 6u, 14u) - 2u;
   // Each page's upload is laid out on the reader thread that decoded it (the decoded page dropped).
   streamConfig.prepare = [meshes = &asset.meshes, pageOffset = r->manager.graph().pageOffset,
                           clusterOffset = r->meshClusterOffset](lod::StreamedPage& sp) {

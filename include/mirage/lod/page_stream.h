@@ -32,7 +32,8 @@ struct PageStreamConfig {
   uint32_t maxInFlight = 8;
   // Threads reading, checking and decoding pages at once (pages decode independently; an HTTP
   // source serialises its requests on its connection, the decoding still overlaps). A camera cut
-  // asks for many pages at once, and one thread decodes about 100 MB/s of stored pages.
+  // asks for many pages at once, and one thread decodes about 100 MB/s of stored pages. The
+  // renderer takes the cores it leaves (docs/render.md, "Residency").
   uint32_t threads = 4;
   // Optional: run on the reader thread after a page decoded, before it is handed over (the
   // renderer lays its upload out there, off its own thread); it may fill StreamedPage::prepared
