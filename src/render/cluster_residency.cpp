@@ -4,6 +4,7 @@
 #include "cluster_residency.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cstring>
 #include <thread>
 
@@ -166,16 +167,25 @@ PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table,
 
 namespace {
 
-// The staging bytes of one frame slot, appended region by region.
+// The staging bytes of one frame slot, appended region by region straight into its mapped upload
+// buffer (sized for the frame first: stagingBound).
 struct StagingBytes {
-  std::vector<uint8_t> bytes;
-  VkDeviceSize append(const void* data, size_t size) {
-    size_t at = bytes.size();
-    bytes.resize(at + size);
-    std::memcpy(bytes.data() + at, data, size);
-    return VkDeviceSize(at);
+  uint8_t* base = nullptr;
+  size_t size = 0, capacity = 0;
+  VkDeviceSize append(const void* data, size_t n) {
+    assert(size + n <= capacity);
+    std::memcpy(base + size, data, n);
+    size += n;
+    return VkDeviceSize(size - n);
   }
 };
+
+// The staging bytes a prepared page's upload takes.
+size_t stagingBytes(const PreparedPage& prep) {
+  size_t bytes = prep.ids.size() * (sizeof(sio::GpuCluster) + sizeof(sio::GpuClusterCone) + 8);
+  for (uint32_t fill : prep.packed.unitFill) bytes += fill;
+  return bytes;
+}
 
 // Units for `page`: `count` from the free stack (the manager's budget guarantees them).
 bool takeUnits(ClusterResidency& r, uint32_t page, uint32_t count) {
@@ -201,7 +211,7 @@ PreparedPage prepareHere(const ClusterResidency& r, uint32_t page, const lod::Pa
 // A reserved page's upload is ready (preparePage, on a reader thread or here): its spare units
 // freed, its cost made exact, its bytes staged for the units it holds with their vertex ids and its
 // records' offsets moved there, its records, cones and child pages staged.
-Status uploadPage(ClusterResidency& r, uint32_t page, const PreparedPage& prep, StagingBytes& staging,
+Status uploadPage(ClusterResidency& r, uint32_t page, PreparedPage& prep, StagingBytes& staging,
                   ClusterResidency::Slot& slot) {
   uint32_t mesh = r.pageMesh[page];
   const lod::PagedMesh& pm = r.asset->meshes[mesh];
@@ -213,12 +223,7 @@ Status uploadPage(ClusterResidency& r, uint32_t page, const PreparedPage& prep, 
   releaseUnits(r, page, prep.units);
   r.manager.setPageBytes(page, uint64_t(prep.units) * kPoolUnitBytes);
   const std::vector<uint32_t>& units = r.pageUnits[page];
-  const PagePacking& packed = prep.packed;
-  std::vector<VkDeviceSize> unitAt(packed.unitFill.size());
-  for (uint32_t k = 0; k < packed.unitFill.size(); ++k) {
-    unitAt[k] = staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]);
-    slot.pool.push_back({unitAt[k], VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
-  }
+  PagePacking& packed = prep.packed;
   // Local to pool: a byte at (unit k, offset o) moves to unit units[k]; vertex v of the page sits in
   // unit v / kUnitVertices, so its id becomes units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices.
   constexpr uint32_t kUnitVertices = kPoolUnitBytes / sizeof(sio::GpuClusterVertex);
@@ -226,16 +231,21 @@ Status uploadPage(ClusterResidency& r, uint32_t page, const PreparedPage& prep, 
   auto pooled = [&](uint64_t localByte) { // a local byte offset in the pool
     return uint64_t(units[localByte / kPoolUnitBytes]) * kPoolUnitBytes + localByte % kPoolUnitBytes;
   };
-  for (size_t i = 0; i < prep.ids.size(); ++i) {
-    sio::GpuCluster rec = prep.records[i];
-    uint64_t idsByte = uint64_t(rec.vertexOffset) * 4;
-    uint8_t* ids = staging.bytes.data() + unitAt[idsByte / kPoolUnitBytes] + idsByte % kPoolUnitBytes;
+  for (const sio::GpuCluster& rec : prep.records) { // the vertex ids, in the page's own bytes
+    uint8_t* ids = packed.bytes.data() + size_t(rec.vertexOffset) * 4;
     for (uint32_t j = 0; j < rec.vertexCount; ++j) {
       uint32_t v;
       std::memcpy(&v, ids + 4 * j, 4);
       v = units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices;
       std::memcpy(ids + 4 * j, &v, 4);
     }
+  }
+  for (uint32_t k = 0; k < packed.unitFill.size(); ++k)
+    slot.pool.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
+                         VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
+  for (size_t i = 0; i < prep.ids.size(); ++i) {
+    sio::GpuCluster rec = prep.records[i];
+    uint64_t idsByte = uint64_t(rec.vertexOffset) * 4;
     rec.vertexOffset = uint32_t(pooled(idsByte) / 4);
     rec.triangleOffset = uint32_t(pooled(uint64_t(rec.triangleOffset) * 3) / 3);
     uint32_t g = prep.ids[i];
@@ -291,8 +301,14 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   ResidencyStats& st = slot.stats;
   ResidencyTimes& times = st.times;
   PhaseClock clock;
-  StagingBytes staging;
-  // (1) The root pages, resident since creation, in the first frame.
+  auto arrived = r.stream->take();
+  if (!arrived) return arrived.error();
+  times.takeMs += clock.lap();
+  // This frame's uploads: (1) the root pages, resident since creation, in the first frame; (2) the
+  // pages read since the last frame if still reserved (an evicted one is dropped). The staging
+  // buffer is sized for them and the drawn-page table first, then written in place.
+  std::deque<PreparedPage> preparedHere; // pages the stream did not prepare (the roots)
+  std::vector<std::pair<uint32_t, PreparedPage*>> uploads;
   if (!r.rootsStaged) {
     r.rootsStaged = true;
     for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
@@ -300,25 +316,27 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
       uint32_t units = uint32_t(r.manager.graph().bytes[p] / kPoolUnitBytes);
       if (!takeUnits(r, p, units)) return Error{"residency: the root pages do not fit the pool"};
       r.state[p] = PageState::Reserved;
-      if (Status s =
-              uploadPage(r, p, prepareHere(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]]), staging, slot);
-          !s)
-        return s;
-      ++st.uploaded;
+      preparedHere.push_back(prepareHere(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]]));
+      uploads.push_back({p, &preparedHere.back()});
     }
   }
-  // (2) Pages read since the last frame: uploaded if still reserved (an evicted one is dropped).
-  times.uploadMs += clock.lap();
-  auto arrived = r.stream->take();
-  if (!arrived) return arrived.error();
-  times.takeMs += clock.lap();
   for (lod::StreamedPage& a : *arrived) {
     times.decodeMs += (a.seconds + a.prepareSeconds) * 1e3;
     uint32_t p = r.manager.graph().pageOffset[a.mesh] + a.page;
     r.reading[p] = 0;
     if (r.state[p] != PageState::Reserved) continue;
-    const PreparedPage* prep = std::any_cast<PreparedPage>(&a.prepared);
-    if (Status s = uploadPage(r, p, prep ? *prep : prepareHere(r, p, a.data), staging, slot); !s) return s;
+    PreparedPage* prep = std::any_cast<PreparedPage>(&a.prepared);
+    if (!prep) prep = &preparedHere.emplace_back(prepareHere(r, p, a.data));
+    uploads.push_back({p, prep});
+  }
+  size_t bound = r.drawn.size() * 4;
+  for (auto& [p, prep] : uploads) bound += stagingBytes(*prep);
+  if (!slot.staging || slot.staging.size() < bound) // this slot's last frame completed
+    slot.staging = createBuffer(ctx, std::max<size_t>(bound, slot.staging ? slot.staging.size() * 2 : 0),
+                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency staging");
+  StagingBytes staging{slot.staging.mapped(), 0, slot.staging.size()};
+  for (auto& [p, prep] : uploads) {
+    if (Status s = uploadPage(r, p, *prep, staging, slot); !s) return s;
     ++st.uploaded;
   }
   times.uploadMs += clock.lap();
@@ -384,13 +402,6 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     tableChanged = true;
   }
   if (tableChanged) slot.table.push_back({staging.append(r.drawn.data(), r.drawn.size() * 4), 0, r.drawn.size() * 4});
-  if (!staging.bytes.empty()) {
-    if (!slot.staging || slot.staging.size() < staging.bytes.size()) // this slot's last frame completed
-      slot.staging =
-          createBuffer(ctx, std::max<size_t>(staging.bytes.size(), slot.staging ? slot.staging.size() * 2 : 0),
-                       VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency staging");
-    std::memcpy(slot.staging.mapped(), staging.bytes.data(), staging.bytes.size());
-  }
   slot.resident.resize(r.drawn.size());
   for (size_t p = 0; p < r.drawn.size(); ++p) slot.resident[p] = r.drawn[p] != MIRAGE_PAGE_NONE;
   st.enabled = true;

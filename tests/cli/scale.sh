@@ -3,8 +3,8 @@
 # to the same bytes with 1 or 2 threads and any meshes in flight, reports its bounded counters and
 # peak RSS in --json; the file renders, and along a fly:N path with a GPU budget each camera's
 # converged image is the unbudgeted one (files and, through scripts/serve_ranges.py, a URL);
-# `bench render --gpu-budget --path fly:N --json` reports every camera cut and its CPU phases. Bad gen:many sizes fail
-# with one line and write nothing.
+# `bench render --gpu-budget --path fly:N --json` reports every camera cut and its CPU phases. Bad
+# gen:many sizes fail with one line and write nothing.
 # Usage: scale.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"

@@ -207,17 +207,17 @@ struct ClusterRenderSettings {
 // "Residency", "Where a converging frame's time goes").
 struct ResidencyTimes {
   double takeMs = 0;     // arrived pages taken from the stream
-  double uploadMs = 0;   // arrived pages laid out in their pool units, records, cones and child pages staged
+  double uploadMs = 0;   // arrived pages moved to their pool units and staged (records, cones, child pages too)
   double prefetchMs = 0; // the view's prefetch computed (0 when the last one still holds)
   double stepMs = 0;     // feedback merged with the prefetch, the manager's step, units freed and reserved
   double requestMs = 0;  // reads queued on the stream
-  double publishMs = 0;  // pages made drawn, the staging bytes copied to the upload buffer, figures
+  double publishMs = 0;  // pages made drawn, the drawn-page table staged, figures
   double setupMs = 0;    // the rest of the frame's preparation (plan, targets, descriptors, frame data)
   double submitMs = 0;   // render(): recording, submit and wait for the frame's fence (the GPU's time in it)
   double collectMs = 0;  // the feedback read back and counted
   double readbackMs = 0; // render(): the image (or other buffers) read back
   double readWaitMs = 0; // renderConverged: waiting for a read before this frame (nothing else to do)
-  double decodeMs = 0;   // reader threads, not this one: reading, checking and decoding the pages taken
+  double decodeMs = 0;   // reader threads, not this one: reading, checking, decoding, laying out the pages taken
   double renderThreadMs() const {
     return takeMs + uploadMs + prefetchMs + stepMs + requestMs + publishMs + setupMs + submitMs + collectMs +
            readbackMs + readWaitMs;
