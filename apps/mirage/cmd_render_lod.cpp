@@ -188,7 +188,8 @@ nlohmann::json residencyTimesJson(const render::ResidencyTimes& t, std::optional
                       {"readback_ms", t.readbackMs},
                       {"read_wait_ms", t.readWaitMs},
                       {"render_thread_ms", t.renderThreadMs()},
-                      {"decode_threads_ms", t.decodeMs}};
+                      {"decode_threads_ms", t.decodeMs},
+                      {"layout_threads_ms", t.layoutMs}};
   if (wallMs) j["other_ms"] = *wallMs - t.renderThreadMs();
   return j;
 }
@@ -196,9 +197,9 @@ nlohmann::json residencyTimesJson(const render::ResidencyTimes& t, std::optional
 std::string residencyTimesText(const render::ResidencyTimes& t) {
   return fmt::format("take {:.2f}, upload {:.2f}, prefetch {:.2f}, step {:.2f}, request {:.2f}, publish {:.2f}, "
                      "setup {:.2f}, submit+wait {:.2f}, collect {:.2f}, readback {:.2f}, read wait {:.2f} ms; "
-                     "decoding {:.2f} ms on the reader threads",
+                     "reading and decoding {:.2f} ms, layout {:.2f} ms on the reader threads",
                      t.takeMs, t.uploadMs, t.prefetchMs, t.stepMs, t.requestMs, t.publishMs, t.setupMs, t.submitMs,
-                     t.collectMs, t.readbackMs, t.readWaitMs, t.decodeMs);
+                     t.collectMs, t.readbackMs, t.readWaitMs, t.decodeMs, t.layoutMs);
 }
 
 namespace {

@@ -26,6 +26,7 @@ ResidencyTimes& ResidencyTimes::operator+=(const ResidencyTimes& o) {
   takeMs += o.takeMs, uploadMs += o.uploadMs, prefetchMs += o.prefetchMs, stepMs += o.stepMs;
   requestMs += o.requestMs, publishMs += o.publishMs, setupMs += o.setupMs, submitMs += o.submitMs;
   collectMs += o.collectMs, readbackMs += o.readbackMs, readWaitMs += o.readWaitMs, decodeMs += o.decodeMs;
+  layoutMs += o.layoutMs;
   return *this;
 }
 
@@ -321,7 +322,8 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     }
   }
   for (lod::StreamedPage& a : *arrived) {
-    times.decodeMs += (a.seconds + a.prepareSeconds) * 1e3;
+    times.decodeMs += a.seconds * 1e3;
+    times.layoutMs += a.prepareSeconds * 1e3;
     uint32_t p = r.manager.graph().pageOffset[a.mesh] + a.page;
     r.reading[p] = 0;
     if (r.state[p] != PageState::Reserved) continue;

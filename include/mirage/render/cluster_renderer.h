@@ -217,7 +217,8 @@ struct ResidencyTimes {
   double collectMs = 0;  // the feedback read back and counted
   double readbackMs = 0; // render(): the image (or other buffers) read back
   double readWaitMs = 0; // renderConverged: waiting for a read before this frame (nothing else to do)
-  double decodeMs = 0;   // reader threads, not this one: reading, checking, decoding, laying out the pages taken
+  double decodeMs = 0;   // reader threads, not this one: reading, checking and decoding the pages taken
+  double layoutMs = 0;   // reader threads: laying the uploads of the pages taken out
   double renderThreadMs() const {
     return takeMs + uploadMs + prefetchMs + stepMs + requestMs + publishMs + setupMs + submitMs + collectMs +
            readbackMs + readWaitMs;
