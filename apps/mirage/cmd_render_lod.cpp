@@ -173,6 +173,37 @@ bool renderFrames(Session& s, int frames, Timed& out, double warmupMs = 0.0) {
       s, frames, out, [](const runtime::Frame&, size_t) { return true; }, warmupMs);
 }
 
+} // namespace
+
+nlohmann::json residencyTimesJson(const render::ResidencyTimes& t, std::optional<double> wallMs) {
+  nlohmann::json j = {{"take_ms", t.takeMs},
+                      {"upload_ms", t.uploadMs},
+                      {"prefetch_ms", t.prefetchMs},
+                      {"step_ms", t.stepMs},
+                      {"request_ms", t.requestMs},
+                      {"publish_ms", t.publishMs},
+                      {"setup_ms", t.setupMs},
+                      {"submit_wait_ms", t.submitMs},
+                      {"collect_ms", t.collectMs},
+                      {"readback_ms", t.readbackMs},
+                      {"read_wait_ms", t.readWaitMs},
+                      {"render_thread_ms", t.renderThreadMs()},
+                      {"decode_threads_ms", t.decodeMs},
+                      {"layout_threads_ms", t.layoutMs}};
+  if (wallMs) j["other_ms"] = *wallMs - t.renderThreadMs();
+  return j;
+}
+
+std::string residencyTimesText(const render::ResidencyTimes& t) {
+  return fmt::format("take {:.2f}, upload {:.2f}, prefetch {:.2f}, step {:.2f}, request {:.2f}, publish {:.2f}, "
+                     "setup {:.2f}, submit+wait {:.2f}, collect {:.2f}, readback {:.2f}, read wait {:.2f} ms; "
+                     "reading and decoding {:.2f} ms, layout {:.2f} ms on the reader threads",
+                     t.takeMs, t.uploadMs, t.prefetchMs, t.stepMs, t.requestMs, t.publishMs, t.setupMs, t.submitMs,
+                     t.collectMs, t.readbackMs, t.readWaitMs, t.decodeMs, t.layoutMs);
+}
+
+namespace {
+
 nlohmann::json residencyJson(const render::ResidencyStats& r) {
   return {{"requested", r.requested},
           {"loaded", r.loaded},
@@ -185,7 +216,8 @@ nlohmann::json residencyJson(const render::ResidencyStats& r) {
           {"resident_pages", r.residentPages},
           {"drawn_pages", r.drawnPages},
           {"bytes_read", r.bytesRead},
-          {"bytes_received", r.bytesReceived}};
+          {"bytes_received", r.bytesReceived},
+          {"cpu_ms", residencyTimesJson(r.times)}};
 }
 
 // GPU residency (--gpu-budget): the last frame's figures; with a converged render the frames it took.
@@ -207,6 +239,9 @@ void addResidencyJson(nlohmann::json& j, const runtime::Frame& f) {
   if (!f.residency) return;
   j["frames_to_converge"] = f.residency->framesToConverge;
   j["residency_converged"] = f.residency->converged;
+  render::ResidencyTimes sum; // every frame of the converged render, the final one too
+  for (const render::ResidencyStats& s : f.residency->frames) sum += s.times;
+  j["residency_cpu_ms"] = residencyTimesJson(sum);
   nlohmann::json frames = nlohmann::json::array();
   for (const render::ResidencyStats& s : f.residency->frames) frames.push_back(residencyJson(s));
   j["residency_frames"] = frames;
@@ -456,9 +491,13 @@ void runLodRender(const LodRenderRequest& r) {
              caps.name, r.output);
   if (r.stats) {
     fmt::print("load {:.3f} s\n", info.loadSeconds);
-    if (t.last.residency)
-      fmt::print("residency {} after {} frames\n", t.last.residency->converged ? "converged" : "NOT converged",
-                 t.last.residency->framesToConverge);
+    if (t.last.residency) {
+      render::ResidencyTimes sum;
+      for (const render::ResidencyStats& f : t.last.residency->frames) sum += f.times;
+      fmt::print("residency {} after {} frames; CPU time of its {} frames: {}\n",
+                 t.last.residency->converged ? "converged" : "NOT converged", t.last.residency->framesToConverge,
+                 t.last.residency->frames.size(), residencyTimesText(sum));
+    }
     printStats(*t.last.cluster, t.times, t.frames > 1);
   }
 }

@@ -34,6 +34,7 @@ struct CutRow {
   uint32_t pagesLoaded = 0, pagesEvicted = 0;
   uint32_t pagesMissing = 0; // pages the converged view still asks for (0: the budget held the full cut)
   uint64_t residentBytes = 0;
+  render::ResidencyTimes times; // CPU time by phase, summed over the frames to full quality
 };
 
 } // namespace
@@ -63,6 +64,7 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
     runtime::View cut = view;
     cut.camera = path[c];
     cut.readImage = true;
+    cut.cameraCut = true; // whatever the path's spacing
     auto t0 = Clock::now();
     auto f = scene.render(cut);
     if (!f) return fail(f.error());
@@ -77,6 +79,7 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
       row.wallMsMaxConverging =
           std::max(row.wallMsMaxConverging, seconds(i ? res.frameEnds[i - 1] : t0, res.frameEnds[i]) * 1e3);
     for (const render::ResidencyStats& s : res.frames) row.pagesLoaded += s.loaded, row.pagesEvicted += s.evicted;
+    for (uint32_t i = 0; i < k && i < res.frames.size(); ++i) row.times += res.frames[i].times;
     const render::ResidencyStats& last = f->cluster->residency;
     row.bytesRead = last.bytesRead - readBefore;
     readBefore = last.bytesRead;
@@ -112,6 +115,9 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
   // What stays on the GPU whatever the budget: per cluster its record, cone and page number.
   uint64_t tableBytes =
       info.clusters * (sizeof(shaderio::GpuCluster) + sizeof(shaderio::GpuClusterCone) + sizeof(uint32_t));
+  render::ResidencyTimes total;
+  double totalMs = 0;
+  for (const CutRow& x : rows) total += x.times, totalMs += x.secondsToFullQuality * 1e3;
   if (r.json) {
     nlohmann::json cams = nlohmann::json::array();
     for (const CutRow& x : rows)
@@ -127,7 +133,8 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
                       {"pages_loaded", x.pagesLoaded},
                       {"pages_evicted", x.pagesEvicted},
                       {"pages_missing", x.pagesMissing},
-                      {"resident_bytes", x.residentBytes}});
+                      {"resident_bytes", x.residentBytes},
+                      {"cpu_ms", residencyTimesJson(x.times, x.secondsToFullQuality * 1e3)}});
     nlohmann::json j = {{"bench", "render_lod_cuts"},
                         {"input", r.scene.input},
                         {"device", ctx.caps().name},
@@ -149,7 +156,8 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
                         {"worst_gpu_ms_frame", worstGpu},
                         {"worst_fps", worstGpu > 0 ? 1e3 / worstGpu : 0.0},
                         {"worst_seconds_to_full_quality", worstCut},
-                        {"worst_wall_ms_frame_converging", worstWall}};
+                        {"worst_wall_ms_frame_converging", worstWall},
+                        {"cpu_ms", residencyTimesJson(total, totalMs)}};
     fmt::print("{}\n", j.dump(2));
     return;
   }
@@ -168,6 +176,10 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
                x.converged ? (x.pagesMissing ? fmt::format(" ({} pages over the budget)", x.pagesMissing) : "")
                            : " NOT converged",
                x.gpuMsMedian, x.gpuMsMax, x.triangles);
+  if (r.stats)
+    for (const CutRow& x : rows)
+      fmt::print("camera {:3} until full quality: {}; {:.2f} ms elsewhere\n", x.camera, residencyTimesText(x.times),
+                 x.secondsToFullQuality * 1e3 - x.times.renderThreadMs());
   fmt::print("worst: gpu frame {:.3f} ms ({:.0f} fps), full quality {:.3f} s after a cut, slowest frame while "
              "converging {:.2f} ms wall{}{}\n",
              worstGpu, worstGpu > 0 ? 1e3 / worstGpu : 0.0, worstCut, worstWall,

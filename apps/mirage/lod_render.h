@@ -4,6 +4,8 @@
 #include <optional>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "mirage/runtime/scene.h"
 #include "render_options.h"
 
@@ -42,6 +44,10 @@ struct LodRenderRequest {
 };
 
 void runLodRender(const LodRenderRequest& request);
+// Residency frames' CPU time by phase (render::ResidencyTimes), milliseconds; with the frames' wall
+// time, `other_ms` is what no phase holds.
+nlohmann::json residencyTimesJson(const render::ResidencyTimes& t, std::optional<double> wallMs = std::nullopt);
+std::string residencyTimesText(const render::ResidencyTimes& t);
 // bench render with --gpu-budget and --path (lod_cuts.cpp): every camera a cut; per camera the time
 // to the first full-quality frame and the GPU frame time at the converged residency. `view` holds
 // size and configuration; `path` the cameras.

@@ -64,18 +64,29 @@ void PageStream::run() {
     queue_.pop_front();
     lock.unlock();
     // Read, checksums, decompression and decoding happen here, off the caller's thread.
+    auto start = std::chrono::steady_clock::now();
     Result<PageData> data = mesh < meshes_.size()
                                 ? readPage(reader_, meshes_[mesh], page)
                                 : Result<PageData>(makeError(reader_.path(), "page of mesh " + std::to_string(mesh) +
                                                                                  " requested (no such mesh)"));
     uint64_t stored =
         data && page < meshes_[mesh].blocks.blocks.size() ? meshes_[mesh].blocks.blocks[page].storedBytes : 0;
+    auto decoded = std::chrono::steady_clock::now();
+    std::optional<StreamedPage> done;
+    if (data) {
+      done = StreamedPage{mesh, page, std::move(data).value(), stored};
+      done->seconds = std::chrono::duration<double>(decoded - start).count();
+      if (config_.prepare) {
+        config_.prepare(*done);
+        done->prepareSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - decoded).count();
+      }
+    }
     lock.lock();
     if (!data) {
       if (!error_) error_ = data.error();
     } else {
       storedBytes_ += stored;
-      ready_.emplace(sequence, StreamedPage{mesh, page, std::move(data).value(), stored});
+      ready_.emplace(sequence, std::move(*done));
       // Handed over in the order asked for: a page read early waits for the ones before it.
       for (auto it = ready_.begin(); it != ready_.end() && it->first == nextDone_; it = ready_.erase(it), ++nextDone_)
         done_.push_back(std::move(it->second));

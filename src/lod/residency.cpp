@@ -130,6 +130,10 @@ ResidencyStep ResidencyManager::step(std::span<const float> feedback) {
   bool haveCandidates = false;
   for (auto [priority, page] : requests) {
     if (resident_[page]) continue; // loaded as a dependency of an earlier request
+    if (out.loaded.size() >= config_.maxLoadsPerStep) {
+      ++out.unfit; // no uploads left this step (its closure holds the page itself): asked again next frame
+      continue;
+    }
     // The request's dependency closure: what it keeps, and the missing pages to load (ascending
     // within a mesh: dependencies have lower page numbers).
     if (++stamp_ == 0) { // wrapped: clear once in four billion requests

@@ -355,6 +355,21 @@ std::vector<Camera> orbitPath(const Bounds& bounds, float aspect, uint32_t count
   return out;
 }
 
+bool isCameraCut(const Camera& from, const Camera& to, const Bounds& bounds) {
+  if (from.fovYDegrees != to.fovYDegrees || from.znear != to.znear || from.zfar != to.zfar) return true;
+  float diagonal = bounds.empty() ? 0.0f : glm::length(bounds.extent());
+  if (!(glm::length(to.eye - from.eye) <= kCutMoveFraction * diagonal)) return true;
+  // The view direction and the right vector (roll); a degenerate camera is always a cut.
+  auto axes = [](const Camera& c) {
+    glm::vec3 forward = c.target - c.eye, right = glm::cross(forward, c.up);
+    return std::pair(forward / glm::length(forward), right / glm::length(right));
+  };
+  auto [f0, r0] = axes(from);
+  auto [f1, r1] = axes(to);
+  float cosTurn = std::cos(glm::radians(kCutTurnDegrees));
+  return !(glm::dot(f0, f1) >= cosTurn && glm::dot(r0, r1) >= cosTurn);
+}
+
 std::vector<Camera> flyPath(const Bounds& bounds, float aspect, uint32_t count) {
   (void)aspect; // the field of view is fixed; the width follows the aspect
   glm::vec3 centre = bounds.empty() ? glm::vec3(0.0f) : bounds.center();

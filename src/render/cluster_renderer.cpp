@@ -294,11 +294,18 @@ const gpu::Image& ClusterRenderer::colorTarget() const { return impl_->color; }
 Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings& cs) {
   const RenderSettings& s = cs.base;
   Impl& d = *impl_;
+  PhaseClock clock;
   if (Status st = d.prepareFrame(cs, 0); !st) return st.error();
+  double prepareMs = clock.lap();
   d.ctx.submitAndWait([&](VkCommandBuffer cmd) { d.cmdFrame(cmd, cs); });
+  double submitMs = clock.lap();
   auto collected = collect(0);
   if (!collected) return collected.error();
   ClusterRenderOutput out = std::move(*collected);
+  ResidencyTimes& times = out.stats.residency.times; // residency frames: where the time went
+  times.setupMs = std::max(prepareMs - (times.renderThreadMs() - times.collectMs), 0.0);
+  times.submitMs = submitMs;
+  times.collectMs = clock.lap();
 
   if (cs.readOwnedClusters) {
     // The resolve set bit (historyOffset + cluster) of every cluster owning a pixel this frame.
@@ -327,9 +334,11 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
       v.triangle = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
     }
   }
-  if (!s.readImage) return out;
-  std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
-  convertHalfImage(img, d.colorWidth, s.height, s.readLinear, out.image);
+  if (s.readImage) {
+    std::vector<uint8_t> img = readbackImage(d.ctx, d.color, VK_IMAGE_LAYOUT_GENERAL, 8);
+    convertHalfImage(img, d.colorWidth, s.height, s.readLinear, out.image);
+  }
+  times.readbackMs = clock.lap();
   return out;
 }
 

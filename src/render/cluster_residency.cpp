@@ -4,6 +4,7 @@
 #include "cluster_residency.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cstring>
 #include <thread>
 
@@ -20,6 +21,22 @@ namespace mirage::render {
 using namespace mirage::gpu;
 namespace sio = mirage::shaderio;
 using PageState = ClusterResidency::PageState;
+
+ResidencyTimes& ResidencyTimes::operator+=(const ResidencyTimes& o) {
+  takeMs += o.takeMs, uploadMs += o.uploadMs, prefetchMs += o.prefetchMs, stepMs += o.stepMs;
+  requestMs += o.requestMs, publishMs += o.publishMs, setupMs += o.setupMs, submitMs += o.submitMs;
+  collectMs += o.collectMs, readbackMs += o.readbackMs, readWaitMs += o.readWaitMs, decodeMs += o.decodeMs;
+  layoutMs += o.layoutMs;
+  return *this;
+}
+
+PhaseClock::PhaseClock() : last(std::chrono::steady_clock::now()) {}
+double PhaseClock::lap() {
+  auto now = std::chrono::steady_clock::now();
+  double ms = std::chrono::duration<double, std::milli>(now - last).count();
+  last = now;
+  return ms;
+}
 
 Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, const lod::PagedLodAsset& asset,
                                                                  const ClusterResidencySettings& settings,
@@ -102,22 +119,74 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
                                 kCopied, MemoryUsage::GpuOnly, "residency page pool");
   lod::PageStreamConfig streamConfig;
   streamConfig.maxInFlight = std::max(settings.maxReadsInFlight, 1u);
+  // Readers: 4 at least (a page's read may wait on a disk or a link rather than a core), up to the
+  // cores the render thread and the driver leave, 12 at most.
+  streamConfig.threads = std::clamp(std::thread::hardware_concurrency(), 6u, 14u) - 2u;
+  // Each page's upload is laid out on the reader thread that decoded it (the decoded page dropped).
+  streamConfig.prepare = [meshes = &asset.meshes, pageOffset = r->manager.graph().pageOffset,
+                          clusterOffset = r->meshClusterOffset](lod::StreamedPage& sp) {
+    if (sp.mesh >= meshes->size() || sp.page >= (*meshes)[sp.mesh].table.pages.size()) return;
+    sp.prepared =
+        preparePage(sp.data, (*meshes)[sp.mesh].table, sp.mesh, sp.page, pageOffset[sp.mesh], clusterOffset[sp.mesh]);
+    sp.data = {};
+  };
   r->stream = std::make_unique<lod::PageStream>(*asset.reader, asset.meshes, streamConfig);
   return r;
 }
 
+PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table, uint32_t mesh, uint32_t page,
+                         uint32_t pageBase, uint32_t clusterBase) {
+  PreparedPage out;
+  out.units = layoutPage(data, nullptr, nullptr);
+  std::vector<uint32_t> local(out.units);
+  for (uint32_t k = 0; k < out.units; ++k) local[k] = k;
+  layoutPage(data, local.data(), &out.packed);
+  out.clusterVertices = data.clusterVertices.size();
+  size_t n = data.clusterIds.size();
+  out.ids.reserve(n), out.records.reserve(n), out.cones.reserve(n), out.childPages.reserve(2 * n);
+  std::vector<glm::vec3> positions;
+  for (size_t i = 0; i < n; ++i) {
+    const lod::Cluster& c = data.clusters[i];
+    positions.resize(c.vertexCount);
+    for (uint32_t v = 0; v < c.vertexCount; ++v)
+      positions[v] = data.positions[data.clusterVertices[c.vertexOffset + v]];
+    std::span<const uint8_t> indices{data.clusterIndices.data() + size_t(c.triangleOffset) * 3,
+                                     size_t(c.triangleCount) * 3};
+    sio::GpuCluster rec = clusterRecord(c, mesh);
+    rec.vertexOffset = out.packed.vertexOffset[i];
+    rec.triangleOffset = out.packed.triangleOffset[i];
+    rec.maxEdge = clusterMaxEdge(positions, indices);
+    out.ids.push_back(clusterBase + data.clusterIds[i]);
+    out.records.push_back(rec);
+    out.cones.push_back(clusterCone(positions, indices));
+    uint32_t child = table.childPage(c.generatingGroup);
+    out.childPages.push_back(pageBase + page);
+    out.childPages.push_back(child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child);
+  }
+  return out;
+}
+
 namespace {
 
-// The staging bytes of one frame slot, appended region by region.
+// The staging bytes of one frame slot, appended region by region straight into its mapped upload
+// buffer (sized for the frame first: stagingBound).
 struct StagingBytes {
-  std::vector<uint8_t> bytes;
-  VkDeviceSize append(const void* data, size_t size) {
-    size_t at = bytes.size();
-    bytes.resize(at + size);
-    std::memcpy(bytes.data() + at, data, size);
-    return VkDeviceSize(at);
+  uint8_t* base = nullptr;
+  size_t size = 0, capacity = 0;
+  VkDeviceSize append(const void* data, size_t n) {
+    assert(size + n <= capacity);
+    std::memcpy(base + size, data, n);
+    size += n;
+    return VkDeviceSize(size - n);
   }
 };
+
+// The staging bytes a prepared page's upload takes.
+size_t stagingBytes(const PreparedPage& prep) {
+  size_t bytes = prep.ids.size() * (sizeof(sio::GpuCluster) + sizeof(sio::GpuClusterCone) + 8);
+  for (uint32_t fill : prep.packed.unitFill) bytes += fill;
+  return bytes;
+}
 
 // Units for `page`: `count` from the free stack (the manager's budget guarantees them).
 bool takeUnits(ClusterResidency& r, uint32_t page, uint32_t count) {
@@ -133,45 +202,58 @@ void releaseUnits(ClusterResidency& r, uint32_t page, size_t keep = 0) {
   units.resize(keep);
 }
 
-// A reserved page's bytes arrived: laid out in its units (the spare ones freed, its cost made
-// exact), its clusters' records, cones and child pages staged.
-Status uploadPage(ClusterResidency& r, uint32_t page, const lod::PageData& data, StagingBytes& staging,
+// preparePage on this thread (the root pages).
+PreparedPage prepareHere(const ClusterResidency& r, uint32_t page, const lod::PageData& data) {
+  uint32_t mesh = r.pageMesh[page];
+  return preparePage(data, r.asset->meshes[mesh].table, mesh, r.pageLocal[page], r.manager.graph().pageOffset[mesh],
+                     r.meshClusterOffset[mesh]);
+}
+
+// A reserved page's upload is ready (preparePage, on a reader thread or here): its spare units
+// freed, its cost made exact, its bytes staged for the units it holds with their vertex ids and its
+// records' offsets moved there, its records, cones and child pages staged.
+Status uploadPage(ClusterResidency& r, uint32_t page, PreparedPage& prep, StagingBytes& staging,
                   ClusterResidency::Slot& slot) {
   uint32_t mesh = r.pageMesh[page];
   const lod::PagedMesh& pm = r.asset->meshes[mesh];
-  const std::string& file = r.asset->reader->path();
-  uint32_t need = layoutPage(data, nullptr, nullptr);
-  if (data.clusterVertices.size() != pm.rest.pageClusterVertices[r.pageLocal[page]] || need > r.pageUnits[page].size())
-    return Error{fmt::format("{}: mesh {} page {}: {} vertex ids in {} pool units, the index says {} ids", file, mesh,
-                             r.pageLocal[page], data.clusterVertices.size(), need,
-                             pm.rest.pageClusterVertices[r.pageLocal[page]])};
-  releaseUnits(r, page, need);
-  r.manager.setPageBytes(page, uint64_t(need) * kPoolUnitBytes);
-  PagePacking packed;
-  layoutPage(data, r.pageUnits[page].data(), &packed);
+  uint32_t expected = pm.rest.pageClusterVertices[r.pageLocal[page]];
+  if (prep.clusterVertices != expected || prep.units > r.pageUnits[page].size())
+    return Error{fmt::format("{}: mesh {} page {}: {} vertex ids in {} pool units, the index says {} ids",
+                             r.asset->reader->path(), mesh, r.pageLocal[page], prep.clusterVertices, prep.units,
+                             expected)};
+  releaseUnits(r, page, prep.units);
+  r.manager.setPageBytes(page, uint64_t(prep.units) * kPoolUnitBytes);
+  const std::vector<uint32_t>& units = r.pageUnits[page];
+  PagePacking& packed = prep.packed;
+  // Local to pool: a byte at (unit k, offset o) moves to unit units[k]; vertex v of the page sits in
+  // unit v / kUnitVertices, so its id becomes units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices.
+  constexpr uint32_t kUnitVertices = kPoolUnitBytes / sizeof(sio::GpuClusterVertex);
+  static_assert(kPoolUnitBytes % sizeof(sio::GpuClusterVertex) == 0, "vertex units hold whole vertices");
+  auto pooled = [&](uint64_t localByte) { // a local byte offset in the pool
+    return uint64_t(units[localByte / kPoolUnitBytes]) * kPoolUnitBytes + localByte % kPoolUnitBytes;
+  };
+  for (const sio::GpuCluster& rec : prep.records) { // the vertex ids, in the page's own bytes
+    uint8_t* ids = packed.bytes.data() + size_t(rec.vertexOffset) * 4;
+    for (uint32_t j = 0; j < rec.vertexCount; ++j) {
+      uint32_t v;
+      std::memcpy(&v, ids + 4 * j, 4);
+      v = units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices;
+      std::memcpy(ids + 4 * j, &v, 4);
+    }
+  }
   for (uint32_t k = 0; k < packed.unitFill.size(); ++k)
     slot.pool.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
-                         VkDeviceSize(r.pageUnits[page][k]) * kPoolUnitBytes, packed.unitFill[k]});
-  const lod::PageTable& t = pm.table;
-  uint32_t pageBase = r.manager.graph().pageOffset[mesh];
-  for (size_t i = 0; i < data.clusterIds.size(); ++i) {
-    const lod::Cluster& c = data.clusters[i];
-    uint32_t g = r.meshClusterOffset[mesh] + data.clusterIds[i];
-    std::vector<glm::vec3> positions(c.vertexCount);
-    for (uint32_t v = 0; v < c.vertexCount; ++v)
-      positions[v] = data.positions[data.clusterVertices[c.vertexOffset + v]];
-    std::span<const uint8_t> local{data.clusterIndices.data() + size_t(c.triangleOffset) * 3,
-                                   size_t(c.triangleCount) * 3};
-    sio::GpuCluster rec = clusterRecord(c, mesh);
-    rec.vertexOffset = packed.vertexOffset[i];
-    rec.triangleOffset = packed.triangleOffset[i];
-    rec.maxEdge = clusterMaxEdge(positions, local);
+                         VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
+  for (size_t i = 0; i < prep.ids.size(); ++i) {
+    sio::GpuCluster rec = prep.records[i];
+    uint64_t idsByte = uint64_t(rec.vertexOffset) * 4;
+    rec.vertexOffset = uint32_t(pooled(idsByte) / 4);
+    rec.triangleOffset = uint32_t(pooled(uint64_t(rec.triangleOffset) * 3) / 3);
+    uint32_t g = prep.ids[i];
     slot.records.push_back({staging.append(&rec, sizeof(rec)), VkDeviceSize(g) * sizeof(rec), sizeof(rec)});
-    sio::GpuClusterCone cone = clusterCone(positions, local);
-    slot.cones.push_back({staging.append(&cone, sizeof(cone)), VkDeviceSize(g) * sizeof(cone), sizeof(cone)});
-    uint32_t child = t.childPage(c.generatingGroup);
-    uint32_t pages[2] = {page, child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child};
-    slot.clusterPages.push_back({staging.append(pages, sizeof(pages)), VkDeviceSize(g) * sizeof(pages), sizeof(pages)});
+    slot.cones.push_back({staging.append(&prep.cones[i], sizeof(prep.cones[i])),
+                          VkDeviceSize(g) * sizeof(prep.cones[i]), sizeof(prep.cones[i])});
+    slot.clusterPages.push_back({staging.append(&prep.childPages[2 * i], 8), VkDeviceSize(g) * 8, 8});
   }
   r.state[page] = PageState::Uploaded;
   r.geometry[page] = packed.geometryBytes;
@@ -218,8 +300,16 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table}) v->clear();
   slot.stats = {};
   ResidencyStats& st = slot.stats;
-  StagingBytes staging;
-  // (1) The root pages, resident since creation, in the first frame.
+  ResidencyTimes& times = st.times;
+  PhaseClock clock;
+  auto arrived = r.stream->take();
+  if (!arrived) return arrived.error();
+  times.takeMs += clock.lap();
+  // This frame's uploads: (1) the root pages, resident since creation, in the first frame; (2) the
+  // pages read since the last frame if still reserved (an evicted one is dropped). The staging
+  // buffer is sized for them and the drawn-page table first, then written in place.
+  std::deque<PreparedPage> preparedHere; // pages the stream did not prepare (the roots)
+  std::vector<std::pair<uint32_t, PreparedPage*>> uploads;
   if (!r.rootsStaged) {
     r.rootsStaged = true;
     for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
@@ -227,28 +317,47 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
       uint32_t units = uint32_t(r.manager.graph().bytes[p] / kPoolUnitBytes);
       if (!takeUnits(r, p, units)) return Error{"residency: the root pages do not fit the pool"};
       r.state[p] = PageState::Reserved;
-      if (Status s = uploadPage(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]], staging, slot); !s) return s;
-      ++st.uploaded;
+      preparedHere.push_back(prepareHere(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]]));
+      uploads.push_back({p, &preparedHere.back()});
     }
   }
-  // (2) Pages read since the last frame: uploaded if still reserved (an evicted one is dropped).
-  auto arrived = r.stream->take();
-  if (!arrived) return arrived.error();
   for (lod::StreamedPage& a : *arrived) {
+    times.decodeMs += a.seconds * 1e3;
+    times.layoutMs += a.prepareSeconds * 1e3;
     uint32_t p = r.manager.graph().pageOffset[a.mesh] + a.page;
     r.reading[p] = 0;
     if (r.state[p] != PageState::Reserved) continue;
-    if (Status s = uploadPage(r, p, a.data, staging, slot); !s) return s;
+    PreparedPage* prep = std::any_cast<PreparedPage>(&a.prepared);
+    if (!prep) prep = &preparedHere.emplace_back(prepareHere(r, p, a.data));
+    uploads.push_back({p, prep});
+  }
+  size_t bound = r.drawn.size() * 4;
+  for (auto& [p, prep] : uploads) bound += stagingBytes(*prep);
+  if (!slot.staging || slot.staging.size() < bound) // this slot's last frame completed
+    slot.staging = createBuffer(ctx, std::max<size_t>(bound, slot.staging ? slot.staging.size() * 2 : 0),
+                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency staging");
+  StagingBytes staging{slot.staging.mapped(), 0, slot.staging.size()};
+  for (auto& [p, prep] : uploads) {
+    if (Status s = uploadPage(r, p, *prep, staging, slot); !s) return s;
     ++st.uploaded;
   }
+  times.uploadMs += clock.lap();
   // (3) The manager's step: evictions free units and stop drawing; loads reserve units and queue reads.
+  r.cutPending = r.cutPending || cs.cameraCut;
   if (r.haveFeedback && r.prefetch) {
-    sio::ViewFrame v = viewFrame(withClipPlanes(cs.base.camera, scene.worldBounds), cs.base.width, cs.base.height);
+    // Computed again only on a cut (or a new size or tau): between cuts the feedback follows the
+    // camera's small steps, and the last prefetch (a view close to this one) still joins it.
     glm::vec3 target(float(cs.base.width), float(cs.base.height), cs.tauPixels);
-    if (r.prefetchHost.empty() || v.viewProj != r.prefetchViewProj || target != r.prefetchTarget) {
+    if (r.prefetchHost.empty() || r.cutPending || target != r.prefetchTarget ||
+        isCameraCut(r.prefetchCamera, cs.base.camera, scene.worldBounds)) {
+      times.stepMs += clock.lap();
+      sio::ViewFrame v = viewFrame(withClipPlanes(cs.base.camera, scene.worldBounds), cs.base.width, cs.base.height);
       computePrefetch(r, v, cs.tauPixels);
-      r.prefetchViewProj = v.viewProj;
+      r.prefetchCamera = cs.base.camera;
       r.prefetchTarget = target;
+      r.cutPending = false;
+      st.prefetched = true;
+      times.prefetchMs += clock.lap();
     }
     lod::mergeFeedback(r.feedbackHost, r.prefetchHost);
   }
@@ -272,6 +381,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     st.evicted = uint32_t(step.evicted.size());
     st.unfit = step.unfit;
   }
+  times.stepMs += clock.lap();
   // (4) Reads, as far as the stream has room (pages evicted before their read are skipped).
   while (!r.toRead.empty()) {
     uint32_t p = r.toRead.front();
@@ -281,6 +391,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     }
     r.toRead.pop_front();
   }
+  times.requestMs += clock.lap();
   // (5) Drawn: uploaded pages whose dependencies are drawn (a mesh's dependencies come before
   // it in page order, so one ascending pass settles every chain).
   bool tableChanged = st.evicted > 0;
@@ -293,13 +404,6 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     tableChanged = true;
   }
   if (tableChanged) slot.table.push_back({staging.append(r.drawn.data(), r.drawn.size() * 4), 0, r.drawn.size() * 4});
-  if (!staging.bytes.empty()) {
-    if (!slot.staging || slot.staging.size() < staging.bytes.size()) // this slot's last frame completed
-      slot.staging =
-          createBuffer(ctx, std::max<size_t>(staging.bytes.size(), slot.staging ? slot.staging.size() * 2 : 0),
-                       VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency staging");
-    std::memcpy(slot.staging.mapped(), staging.bytes.data(), staging.bytes.size());
-  }
   slot.resident.resize(r.drawn.size());
   for (size_t p = 0; p < r.drawn.size(); ++p) slot.resident[p] = r.drawn[p] != MIRAGE_PAGE_NONE;
   st.enabled = true;
@@ -317,6 +421,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     st.drawnPages += r.drawn[p] != MIRAGE_PAGE_NONE;
     st.pending += r.state[p] == PageState::Reserved;
   }
+  times.publishMs += clock.lap();
   return Ok{};
 }
 
@@ -362,12 +467,14 @@ void ClusterRenderer::Impl::packResidency(sio::ClusterFrame& f) const {
 ResidencyStats ClusterRenderer::Impl::collectResidency(uint32_t frameSlot) {
   ClusterResidency& r = *residency;
   ClusterResidency::Slot& slot = r.frame[frameSlot];
+  PhaseClock clock;
   uint32_t pages = uint32_t(r.pageMesh.size());
   r.feedbackHost.resize(pages);
   std::memcpy(r.feedbackHost.data(), slot.readback.mapped(), pages * 4ull);
   r.haveFeedback = true;
   ResidencyStats st = slot.stats;
   for (uint32_t p = 0; p < pages; ++p) st.requested += r.feedbackHost[p] > 0.0f && !slot.resident[p];
+  st.times.collectMs += clock.lap();
   return st;
 }
 
@@ -387,11 +494,14 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
   quiet.base.readImage = readEveryFrame && settings.base.readImage;
   quiet.base.readLinear = false;
   quiet.readOwnedClusters = false;
+  double waitedMs = 0; // waiting for a read before the next frame: that frame's
   for (uint32_t frame = 0; frame < maxFrames; ++frame) {
     auto o = render(quiet);
     if (!o) return o.error();
+    o->stats.residency.times.readWaitMs += std::exchange(waitedMs, 0.0);
     out.frameEnds.push_back(std::chrono::steady_clock::now());
     if (quiet.base.readImage) out.frameImages.push_back(std::move(o->image.srgb));
+    quiet.cameraCut = false; // the cut is this call's first frame only
     const ResidencyStats& st = o->stats.residency;
     out.frames.push_back(st);
     // The first frame steps on the feedback of whatever was drawn before (another camera, say):
@@ -403,10 +513,16 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
       break;
     }
     // Only waiting for reads: wait for the next page instead of spinning frames.
-    if (quietFrame) impl_->residency->stream->waitForArrival(std::chrono::milliseconds(1000));
+    if (quietFrame) {
+      PhaseClock clock;
+      impl_->residency->stream->waitForArrival(std::chrono::milliseconds(1000));
+      waitedMs = clock.lap();
+    }
   }
   if (!out.converged) out.framesToConverge = maxFrames;
-  auto o = render(settings); // the stable residency again, read back as asked
+  ClusterRenderSettings last = settings; // the stable residency again, read back as asked
+  last.cameraCut = false;
+  auto o = render(last);
   if (!o) return o.error();
   out.frameEnds.push_back(std::chrono::steady_clock::now());
   out.frames.push_back(o->stats.residency);

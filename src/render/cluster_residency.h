@@ -3,6 +3,7 @@
 // allocator, the tables the selection reads, the background page reads, the per-slot staging and
 // feedback readback, and the CPU manager deciding what they hold (lod/residency.h). Private to the
 // renderer (cluster_page_pool.cpp: scene tables and page layout; cluster_residency.cpp: frames).
+#include <chrono>
 #include <deque>
 #include <memory>
 #include <vector>
@@ -18,6 +19,13 @@
 namespace mirage::render {
 
 struct ClusterSceneData;
+
+// Milliseconds between laps (ResidencyTimes' phases).
+struct PhaseClock {
+  std::chrono::steady_clock::time_point last;
+  PhaseClock();
+  double lap(); // since construction or the last lap
+};
 
 // The pool's allocation unit. A page takes whole units, any free ones (its vertices fill units in
 // order, then each cluster's vertex ids and indices sit whole within one unit), so the pool never
@@ -40,6 +48,22 @@ struct PagePacking {
 uint32_t layoutPage(const lod::PageData& page, const uint32_t* units, PagePacking* out);
 // The most units a page of these counts can take (from the page table, before it is read).
 uint32_t poolUnitsBound(uint32_t vertices, uint32_t vertexIds, uint32_t triangles, uint32_t clusters);
+
+// A page's upload made ready without its pool units (on a reader thread: PageStreamConfig::prepare):
+// laid out in units 0..n-1, so its vertex ids and record offsets are local; the upload moves them
+// to the units the page holds (a vertex unit holds kPoolUnitBytes / 32 vertices exactly).
+struct PreparedPage {
+  PagePacking packed;
+  uint32_t units = 0;                        // units it takes
+  size_t clusterVertices = 0;                // vertex ids (the index's count, checked at upload)
+  std::vector<uint32_t> ids;                 // per cluster: its number over every mesh
+  std::vector<shaderio::GpuCluster> records; // offsets local
+  std::vector<shaderio::GpuClusterCone> cones;
+  std::vector<uint32_t> childPages; // per cluster: (global page, global child page or MIRAGE_PAGE_NONE)
+};
+// `page` of mesh `mesh` (its first page `pageBase`, its first cluster `clusterBase` over every mesh).
+PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table, uint32_t mesh, uint32_t page,
+                         uint32_t pageBase, uint32_t clusterBase);
 
 // The cluster renderer's scene from a paged asset's tables: the cluster records as far as the
 // table knows them (member group bounds, level, mesh; the rest when the page loads), cones that
@@ -82,13 +106,15 @@ struct ClusterResidency {
   } frame[kMaxFramesInFlight];
   std::vector<float> feedbackHost; // the last collected frame's feedback, not yet acted on
   // Prefetch (ClusterResidencySettings::prefetch): per page, the wanted priority of the view it was
-  // computed for (recomputed when the view-projection, size or tau change).
+  // computed for, computed again on a camera cut from that view (isCameraCut, or the settings'
+  // cameraCut) or with a new size or tau.
   bool prefetch = true;
   std::vector<Instance> instances;  // the scene's, as the renderer read them at creation
   std::vector<glm::vec4> meshReach; // per mesh: a sphere (centre, radius) holding its groups' LOD spheres
   std::vector<float> prefetchHost;
-  glm::mat4 prefetchViewProj{0.0f};
+  Camera prefetchCamera;          // the view the prefetch is for
   glm::vec3 prefetchTarget{0.0f}; // viewport width, height, tau
+  bool cutPending = false;        // a frame said cameraCut before the prefetch could be computed
   bool haveFeedback = false;
 
   ClusterResidency(lod::ResidencyManager m) : manager(std::move(m)) {}

@@ -227,12 +227,15 @@ sio::GpuClusterCone clusterCone(std::span<const glm::vec3> positions, std::span<
 }
 
 float clusterMaxEdge(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices) {
-  double longest = 0.0;
+  // One square root: the correctly rounded root is monotonic, so the root of the largest square is
+  // the largest root, bit for bit.
+  double longestSquared = 0.0;
   for (size_t t = 0; t + 2 < localIndices.size(); t += 3)
     for (int k = 0; k < 3; ++k) {
-      glm::dvec3 a(positions[localIndices[t + k]]), b(positions[localIndices[t + (k + 1) % 3]]);
-      longest = std::max(longest, glm::length(a - b));
+      glm::dvec3 d = glm::dvec3(positions[localIndices[t + k]]) - glm::dvec3(positions[localIndices[t + (k + 1) % 3]]);
+      longestSquared = std::max(longestSquared, glm::dot(d, d));
     }
+  double longest = std::sqrt(longestSquared);
   float f = float(longest);
   return double(f) < longest ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
 }

@@ -118,6 +118,7 @@ render::ClusterRenderSettings clusterSettings(Scene::Impl& s, const View& view) 
   rs.base.camera = view.camera;
   rs.base.readImage = view.readImage;
   rs.base.readLinear = view.readLinear;
+  rs.cameraCut = view.cameraCut;
   rs.tauPixels = c.tauPixels;
   rs.raster = c.raster;
   rs.blendRaster = c.blendRaster;

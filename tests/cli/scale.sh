@@ -3,8 +3,8 @@
 # to the same bytes with 1 or 2 threads and any meshes in flight, reports its bounded counters and
 # peak RSS in --json; the file renders, and along a fly:N path with a GPU budget each camera's
 # converged image is the unbudgeted one (files and, through scripts/serve_ranges.py, a URL);
-# `bench render --gpu-budget --path fly:N --json` reports every camera cut. Bad gen:many sizes fail
-# with one line and write nothing.
+# `bench render --gpu-budget --path fly:N --json` reports every camera cut and its CPU phases. Bad
+# gen:many sizes fail with one line and write nothing.
 # Usage: scale.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -43,6 +43,9 @@ assert j['unconverged_cameras'] == 0 and j['cameras_over_budget'] == 0, j
 for c in j['cameras']:
     assert c['converged'] and c['frames_to_full_quality'] >= 1 and c['seconds_to_full_quality'] > 0, c
     assert c['gpu_ms_frame'] > 0 and c['triangles'] > 0 and c['resident_bytes'] <= 16 << 20, c
+    t = c['cpu_ms']  # the phases are disjoint intervals of the frames to full quality
+    assert t['submit_wait_ms'] > 0 and t['upload_ms'] > 0 and t['decode_threads_ms'] > 0, t
+    assert all(v >= 0 for k, v in t.items() if k != 'other_ms') and t['other_ms'] > -1e-3, t
 assert j['cameras'][0]['bytes_read'] > 0 and j['worst_gpu_ms_frame'] > 0, j"
 
   # The same over HTTP: byte ranges from the repository's own server (no nginx needed).

@@ -1,11 +1,15 @@
 // On-demand pages of a paged .mrg (docs/render.md, "Residency"): openPagedLodAsset reads only the
 // indices and root pages, the index's box and vertex-id counts match the DAG, lod::PageStream reads
-// every page on its threads equal to readPage, in the order asked for, keeps at most its capacity asked for, and
-// reports a damaged page as one line naming file, chunk and page.
+// every page on its threads equal to readPage, in the order asked for, keeps at most its capacity asked for, runs
+// its prepare hook on its threads, and reports a damaged page as one line naming file, chunk and page.
 #include <gtest/gtest.h>
 
+#include <any>
+#include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <thread>
+#include <utility>
 
 #include "lod_meshes.h"
 #include "mirage/lod/lod_asset.h"
@@ -129,6 +133,43 @@ TEST(LodPageStream, ThreadsHandPagesOverInTheOrderAsked) {
     }
     for (uint32_t i = 0; i < count; ++i) EXPECT_EQ(order[i], count - 1 - i) << threads << " threads";
   }
+}
+
+// The prepare hook runs on the reader threads (never the caller's), once per page, before the
+// page is handed over with what it made; pages still come in the order asked for.
+TEST(LodPageStream, PrepareRunsOnTheReaderThreads) {
+  auto path = writePagedBlob("streamprepare");
+  auto paged = lod::openPagedLodAsset(path.string());
+  ASSERT_TRUE(paged.ok()) << paged.error().message;
+  const lod::PagedMesh& mesh = paged->meshes[0];
+  uint32_t count = uint32_t(mesh.table.pages.size());
+  std::thread::id caller = std::this_thread::get_id();
+  std::atomic<uint32_t> onCaller{0};
+  lod::PageStreamConfig config{.maxInFlight = count, .threads = 3};
+  config.prepare = [&](lod::StreamedPage& sp) {
+    onCaller += std::this_thread::get_id() == caller;
+    sp.prepared = std::pair(sp.page, sp.data.clusterIds.size()); // what the page held
+    sp.data = {};
+  };
+  lod::PageStream stream(*paged->reader, paged->meshes, config);
+  for (uint32_t p = 0; p < count; ++p) ASSERT_TRUE(stream.request(0, p));
+  std::vector<uint32_t> order;
+  while (order.size() < count) {
+    stream.waitForArrival(std::chrono::milliseconds(5000));
+    auto arrived = stream.take();
+    ASSERT_TRUE(arrived.ok()) << arrived.error().message;
+    for (const lod::StreamedPage& page : *arrived) {
+      auto made = std::any_cast<std::pair<uint32_t, size_t>>(&page.prepared);
+      ASSERT_NE(made, nullptr);
+      EXPECT_EQ(made->first, page.page);
+      EXPECT_EQ(made->second, mesh.table.clustersOf(page.page).size());
+      EXPECT_TRUE(page.data.clusterIds.empty()) << "the hook released the decoded page";
+      EXPECT_GE(page.prepareSeconds, 0.0);
+      order.push_back(page.page);
+    }
+  }
+  for (uint32_t i = 0; i < count; ++i) EXPECT_EQ(order[i], i);
+  EXPECT_EQ(onCaller, 0u);
 }
 
 TEST(LodPageStream, DamagedPageIsOneLine) {

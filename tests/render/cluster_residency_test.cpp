@@ -1,8 +1,9 @@
 // GPU residency of a paged asset read on demand (docs/render.md, "Residency"), on lavapipe with
 // validation: with room for the view's pages the converged image is the unbudgeted one, a tiny
 // budget gives a complete, crack-free coarser image, no frame's resident bytes exceed the budget,
-// a moving camera evicts and reloads pages while each stop converges to the unbudgeted image, and
-// prefetch brings a camera cut to full quality in fewer frames, to the same image.
+// a moving camera evicts and reloads pages while each stop converges to the unbudgeted image,
+// prefetch brings a camera cut to full quality in fewer frames, to the same image, and is computed
+// again on cuts only.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -276,4 +277,54 @@ TEST_F(ClusterResidency, PrefetchConvergesACutInFewerFrames) {
   EXPECT_GE(frames[0], 3u) << "the cut needs several levels";
   expectSameImage(images[1], images[0], "residency_prefetch");
   expectSameImage(images[1], unbudgeted(context(), to), "residency_prefetch_full");
+}
+
+// The prefetch is computed again on a camera cut only (render::isCameraCut from the view it was
+// last computed for, or the settings' cameraCut) or for a new tau: not for steps of a moving camera
+// that stay within the cut's bounds together, and a view reached by such steps still converges to
+// the unbudgeted image (the feedback refines what the older prefetch did not ask for).
+TEST_F(ClusterResidency, PrefetchIsComputedAgainOnCutsOnly) {
+  uint64_t budget = 64ull << 20;
+  Opened o = openBudgeted(context(), budget);
+  const Bounds& bounds = pagedBlob().whole.scene.worldBounds();
+  float diagonal = glm::length(bounds.extent());
+  Camera a = closeView({0.3f, 0.2f, 1.0f}, 1.6f, 0.8f, 60.0f);
+  auto stepped = [&](const Camera& c, float fraction, float degrees) {
+    Camera s = c;
+    glm::vec3 shift = glm::normalize(glm::cross(c.target - c.eye, c.up)) * (fraction * diagonal);
+    glm::vec3 ahead(glm::rotate(glm::mat4(1.0f), glm::radians(degrees), c.up) * glm::vec4(c.target - c.eye, 0.0f));
+    s.eye += shift;
+    s.target = s.eye + ahead;
+    return s;
+  };
+  auto prefetched = [&](const Camera& cam, bool cut = false, float tau = 1.0f) {
+    ClusterRenderSettings s = viewSettings(cam);
+    s.cameraCut = cut;
+    s.tauPixels = tau;
+    auto out = o.renderer->render(s);
+    EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
+    return out.ok() && out->stats.residency.prefetched;
+  };
+  EXPECT_FALSE(prefetched(a)) << "the first frame has no feedback to step on";
+  EXPECT_TRUE(prefetched(a)) << "the first view's prefetch";
+  EXPECT_FALSE(prefetched(a));
+  Camera c = a;
+  for (int i = 0; i < 3; ++i) { // 1.5 % of the diagonal and 6 degrees from the prefetch's view
+    c = stepped(c, 0.005f, 2.0f);
+    EXPECT_FALSE(prefetched(c)) << "step " << i;
+  }
+  c = stepped(c, 0.01f, 0.0f); // 2.5 %: far enough from where the prefetch was computed
+  EXPECT_TRUE(prefetched(c));
+  EXPECT_FALSE(prefetched(c));
+  EXPECT_TRUE(prefetched(c, /*cut=*/true)) << "the caller's cut";
+  EXPECT_FALSE(prefetched(c));
+  EXPECT_TRUE(prefetched(c, false, 0.5f)) << "a new tau";
+  EXPECT_TRUE(prefetched(overview(), false, 0.5f)) << "a jump";
+
+  // Converged at a, then steps away (no cut): the stepped view's image is the unbudgeted one.
+  converge(*o.renderer, viewSettings(a), budget);
+  ClusterRenderSettings near = viewSettings(stepped(a, 0.015f, 8.0f));
+  auto done = converge(*o.renderer, near, budget);
+  for (const ResidencyStats& f : done.frames) EXPECT_FALSE(f.prefetched) << "a step is no cut";
+  expectSameImage(done.output.image.srgb, unbudgeted(context(), near), "residency_steps");
 }

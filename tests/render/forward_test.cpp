@@ -325,3 +325,43 @@ TEST(Camera, PathFromJsonAndOrbit) {
   EXPECT_FALSE(cameraPathArgument("fly:0", b, 1.5f).ok());
   std::filesystem::remove_all(dir);
 }
+
+// A cut is a jump relative to the scene: steps of a moving camera below 2 % of the diagonal and
+// turns below 10 degrees (together too) are not; a larger move, turn, roll or a new field of view
+// is, and so is a degenerate camera.
+TEST(Camera, CutIsAJumpNotAStep) {
+  Bounds b;
+  b.add({-50, 0, -50});
+  b.add({50, 10, 50});
+  float diagonal = glm::length(b.extent());
+  Camera from;
+  from.eye = {0, 5, 0};
+  from.target = {0, 5, -1};
+  auto turned = [&](float degrees, glm::vec3 axis) {
+    Camera c = from;
+    c.target = c.eye + glm::vec3(glm::rotate(glm::mat4(1.0f), glm::radians(degrees), axis) * glm::vec4(0, 0, -1, 0));
+    return c;
+  };
+  Camera step = from;
+  step.eye += glm::vec3(0.015f * diagonal, 0, 0);
+  step.target += glm::vec3(0.015f * diagonal, 0, 0);
+  EXPECT_FALSE(isCameraCut(from, from, b));
+  EXPECT_FALSE(isCameraCut(from, step, b));
+  EXPECT_FALSE(isCameraCut(from, turned(8.0f, {0, 1, 0}), b));
+  EXPECT_FALSE(isCameraCut(from, turned(-8.0f, {1, 0, 0}), b));
+  Camera jump = from;
+  jump.eye += glm::vec3(0, 0, 0.03f * diagonal);
+  jump.target += glm::vec3(0, 0, 0.03f * diagonal);
+  EXPECT_TRUE(isCameraCut(from, jump, b));
+  EXPECT_TRUE(isCameraCut(from, turned(12.0f, {0, 1, 0}), b));
+  EXPECT_TRUE(isCameraCut(from, turned(12.0f, {1, 0, 0}), b));
+  Camera rolled = from;
+  rolled.up = glm::vec3(glm::rotate(glm::mat4(1.0f), glm::radians(12.0f), glm::vec3(0, 0, 1)) * glm::vec4(0, 1, 0, 0));
+  EXPECT_TRUE(isCameraCut(from, rolled, b));
+  Camera zoomed = from;
+  zoomed.fovYDegrees = 50.0f;
+  EXPECT_TRUE(isCameraCut(from, zoomed, b));
+  Camera degenerate = from;
+  degenerate.target = degenerate.eye;
+  EXPECT_TRUE(isCameraCut(from, degenerate, b));
+}

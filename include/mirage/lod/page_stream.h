@@ -3,10 +3,12 @@
 // the caller asks for pages and takes them once read, checked and decoded; it never waits for I/O.
 // The reader is a file or a URL (asset/source.h), so the same code streams from a web server.
 // Memory is bounded: at most `maxInFlight` pages are queued, being read or arrived and not yet taken.
+#include <any>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -20,6 +22,8 @@
 
 namespace mirage::lod {
 
+struct StreamedPage;
+
 struct PageStreamConfig {
   // Pages asked for and not yet taken (queued, being read, or read): bounds the stream's memory to
   // this many decoded pages (the dragon's: about 0.3 MB each) and the requests a fast view change
@@ -28,8 +32,13 @@ struct PageStreamConfig {
   uint32_t maxInFlight = 8;
   // Threads reading, checking and decoding pages at once (pages decode independently; an HTTP
   // source serialises its requests on its connection, the decoding still overlaps). A camera cut
-  // asks for many pages at once, and one thread decodes about 100 MB/s of stored pages.
+  // asks for many pages at once, and one thread decodes about 100 MB/s of stored pages. The
+  // renderer takes the cores it leaves (docs/render.md, "Residency").
   uint32_t threads = 4;
+  // Optional: run on the reader thread after a page decoded, before it is handed over (the
+  // renderer lays its upload out there, off its own thread); it may fill StreamedPage::prepared
+  // and release `data`. It must be safe to call from several threads at once.
+  std::function<void(StreamedPage&)> prepare;
 };
 
 // One page read and decoded: mesh m's page p, and the bytes its block took in the file.
@@ -37,6 +46,9 @@ struct StreamedPage {
   uint32_t mesh = 0, page = 0;
   PageData data;
   uint64_t storedBytes = 0;
+  double seconds = 0;        // the reader thread's time on it: read, checksums, decompression, decoding
+  double prepareSeconds = 0; // and in PageStreamConfig::prepare
+  std::any prepared;         // what PageStreamConfig::prepare made of it
 };
 
 class PageStream {

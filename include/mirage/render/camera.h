@@ -43,6 +43,15 @@ Camera autoCamera(const Bounds& bounds, float aspect, float fovYDegrees = 60.0f)
 // Fill znear/zfar when zero, from the bounds seen by this camera (near plane never behind the eye).
 Camera withClipPlanes(Camera camera, const Bounds& bounds);
 
+// A camera cut: `to` is no small step from `from` in a scene with these bounds. The eye moved more
+// than kCutMoveFraction of the bounds' diagonal, the view direction or the right vector turned by
+// more than kCutTurnDegrees, or the field of view or clip planes changed. The GPU residency
+// computes its prefetch again only on a cut from the view it last computed it for, so a camera
+// moving smoothly pays it once per that much motion, not every frame (docs/render.md, "Residency").
+inline constexpr float kCutMoveFraction = 0.02f; // 2 % of the scene: a viewer's step is far below
+inline constexpr float kCutTurnDegrees = 10.0f;  // a sixth of a 60-degree view
+bool isCameraCut(const Camera& from, const Camera& to, const Bounds& bounds);
+
 // Default interpupillary distance for --stereo, in scene units (metres): 64 mm, a typical adult.
 constexpr float kDefaultIpd = 0.064f;
 

@@ -129,7 +129,10 @@ struct ClusterRenderSettings {
   BlendRaster blendRaster = BlendRaster::Auto; // BLEND clusters (scenes with blend materials only)
   bool frustumCulling = true;                  // instances and clusters outside the view are skipped
   bool flagBackFaces = false;                  // debug: draw back faces in magenta (crack tests)
-  DebugView debugView = DebugView::None;       // debug: colour pixels by cluster, level, density or overdraw
+  // GPU residency: this frame's camera is a cut (a jump, not a step), whatever isCameraCut says of
+  // it: the prefetch is computed again for it. Set it on the cut's frame only.
+  bool cameraCut = false;
+  DebugView debugView = DebugView::None; // debug: colour pixels by cluster, level, density or overdraw
   // Hybrid: clusters whose estimated triangle edge (projected bounding-sphere diameter /
   // sqrt(triangles)) is below this many pixels go to the compute rasterizer, the rest (and those
   // reaching the near plane) to the hardware path. To be tuned on the H200 (docs/render.md).
@@ -199,6 +202,30 @@ struct ClusterRenderSettings {
 // bytes read on background threads (lod::PageStream, from the file or URL), uploaded through a
 // staging buffer in the frame's command buffer when they arrive, and drawn once its dependencies
 // are drawn too; no frame waits for I/O.
+// CPU milliseconds of one residency frame by phase, on the thread that prepares it (render() or
+// record()) unless named otherwise; a camera cut's wall time is spent in these (docs/render.md,
+// "Residency", "Where a converging frame's time goes").
+struct ResidencyTimes {
+  double takeMs = 0;     // arrived pages taken from the stream
+  double uploadMs = 0;   // arrived pages moved to their pool units and staged (records, cones, child pages too)
+  double prefetchMs = 0; // the view's prefetch computed (0 when the last one still holds)
+  double stepMs = 0;     // feedback merged with the prefetch, the manager's step, units freed and reserved
+  double requestMs = 0;  // reads queued on the stream
+  double publishMs = 0;  // pages made drawn, the drawn-page table staged, figures
+  double setupMs = 0;    // the rest of the frame's preparation (plan, targets, descriptors, frame data)
+  double submitMs = 0;   // render(): recording, submit and wait for the frame's fence (the GPU's time in it)
+  double collectMs = 0;  // the feedback read back and counted
+  double readbackMs = 0; // render(): the image (or other buffers) read back
+  double readWaitMs = 0; // renderConverged: waiting for a read before this frame (nothing else to do)
+  double decodeMs = 0;   // reader threads, not this one: reading, checking and decoding the pages taken
+  double layoutMs = 0;   // reader threads: laying the uploads of the pages taken out
+  double renderThreadMs() const {
+    return takeMs + uploadMs + prefetchMs + stepMs + requestMs + publishMs + setupMs + submitMs + collectMs +
+           readbackMs + readWaitMs;
+  }
+  ResidencyTimes& operator+=(const ResidencyTimes& o);
+};
+
 struct ResidencyStats {
   bool enabled = false;
   uint64_t budgetBytes = 0;   // the budget asked for
@@ -219,6 +246,8 @@ struct ResidencyStats {
   uint32_t evicted = 0;       // pages this frame evicted
   uint32_t unfit = 0;         // requests this frame left for later (no room or no loads left)
   bool stepped = false;       // this frame acted on feedback (false for the first frame)
+  bool prefetched = false;    // this frame computed the view's prefetch (a camera cut, a new size or tau)
+  ResidencyTimes times;       // where the frame's CPU time went
 };
 
 struct ClusterResidencySettings {

@@ -70,6 +70,9 @@ struct View {
   // GPU residency with readImage: every frame until convergence read back and kept
   // (Frame::Residency::images; ClusterRenderer::renderConverged's readEveryFrame).
   bool readEveryFrame = false;
+  // GPU residency: this view is a camera cut (render::ClusterRenderSettings::cameraCut); set it on
+  // the cut's frame only. Without it a cut is told from the camera's motion (render::isCameraCut).
+  bool cameraCut = false;
   // Stereo (cluster LOD, mixed and surfel scenes): the eyes are render::stereoEyes(camera, ipd),
   // one shared selection (clusters and surfel prefixes), the image (2 * width) x height with the
   // left eye left (docs/render.md, "Stereo").
