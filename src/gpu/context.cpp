@@ -480,17 +480,23 @@ VkCommandBuffer Context::beginOneShot() {
 }
 
 void Context::endOneShotAndWait(VkCommandBuffer cmd) {
+  endOneShotAndSubmit(cmd, fence_);
+  MIRAGE_VK_CHECK(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
+  MIRAGE_VK_CHECK(vkResetFences(device_, 1, &fence_));
+  vkFreeCommandBuffers(device_, commandPool_, 1, &cmd);
+}
+
+void Context::endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence) {
   MIRAGE_VK_CHECK(vkEndCommandBuffer(cmd));
   VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
   cbi.commandBuffer = cmd;
   VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
   si.commandBufferInfoCount = 1;
   si.pCommandBufferInfos = &cbi;
-  MIRAGE_VK_CHECK(vkQueueSubmit2(queue_, 1, &si, fence_));
-  MIRAGE_VK_CHECK(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
-  MIRAGE_VK_CHECK(vkResetFences(device_, 1, &fence_));
-  vkFreeCommandBuffers(device_, commandPool_, 1, &cmd);
+  MIRAGE_VK_CHECK(vkQueueSubmit2(queue_, 1, &si, fence));
 }
+
+void Context::freeOneShot(VkCommandBuffer cmd) { vkFreeCommandBuffers(device_, commandPool_, 1, &cmd); }
 
 void Context::setDebugName(VkObjectType type, uint64_t handle, const char* name) const {
   if (!vkSetDebugUtilsObjectNameEXT) return;
@@ -510,13 +516,14 @@ const char* toString(VkResult r) {
     MIRAGE_CASE(VK_NOT_READY)
     MIRAGE_CASE(VK_TIMEOUT)
     MIRAGE_CASE(VK_INCOMPLETE)
-    MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
-        MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
-            MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
-                MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
-                    MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
-                        MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
-                            MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
+    MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
+    MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY) MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED)
+        MIRAGE_CASE(VK_ERROR_DEVICE_LOST) MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED)
+            MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT)
+                MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER)
+                    MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS) MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED)
+                        MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL) MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY)
+                            MIRAGE_CASE(VK_ERROR_UNKNOWN)
 #undef MIRAGE_CASE
                                 default : return "VkResult(?)";
   }

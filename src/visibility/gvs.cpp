@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <iterator>
 #include <limits>
 #include <numbers>
@@ -89,11 +90,22 @@ template <class T> struct Explorer {
       LowerValue<T> lower;
       const auto better = [&](const Queued<T>& a, const Queued<T>& b) { return lower(b, a); };
       extra_.clear();
+      // How many staged items rank above the queue's top: never fewer as the top gets worse, so
+      // each search gallops on from the last answer (a chunk of new seeds that outranks a staged
+      // chunk of 50 k costs a few comparisons an item, not a binary search of the chunk).
+      size_t above = 0;
+      const auto isAbove = [&](size_t i, const Queued<T>& top) { return better(staged[i], top); };
       while (!queue.empty()) {
         const Queued<T>& top = queue.top();
-        const size_t above = size_t(
-            std::partition_point(staged.begin(), staged.end(), [&](const Queued<T>& s) { return better(s, top); }) -
-            staged.begin());
+        size_t step = 1;
+        while (above + step <= staged.size() && isAbove(above + step - 1, top)) {
+          above += step;
+          step *= 2;
+        }
+        const auto end = staged.begin() + ptrdiff_t(std::min(staged.size(), above + step - 1));
+        above = size_t(std::partition_point(staged.begin() + ptrdiff_t(above), end,
+                                            [&](const Queued<T>& s) { return better(s, top); }) -
+                       staged.begin());
         if (above + extra_.size() >= items) break;
         extra_.push_back(top);
         queue.pop();
@@ -161,11 +173,14 @@ public:
     border_.raysPerItem = 9 + 3 * size_t(cfg_.absEdgeSamples);
     reverse_.raysPerItem = std::max<size_t>(1, size_t(cfg_.rsEdgeSamples) + cfg_.rsAreaSamples);
     border_.chunkRays = reverse_.chunkRays = std::max<size_t>(1, step_ / kFirstChunkDivisor);
+    queue_ = backend.maxQueued() >= 2;
+    overlap_ = cfg_.rayBudget == 0 && options_.checkpointRays.empty();
   }
 
   CellPvs run() {
     auto t0 = std::chrono::steady_clock::now();
     if (traceable_) schedule();
+    flush();
     result_.triangles = found_.sorted();
     result_.stats.seconds = secondsSince(t0);
     return std::move(result_);
@@ -191,8 +206,11 @@ private:
     uint32_t stable = 0;
     bool draining = false;
     while (budgetLeft()) {
-      const bool pending = border_.pending() || reverse_.pending();
-      if (draining && !pending) {
+      if (draining && !border_.pending() && !reverse_.pending()) {
+        if (!inFlight_.empty()) { // what the steps in flight found may be more to explore
+          flush();
+          continue;
+        }
         if (found_.count() - iterationStart < cfg_.minNewTriangles) return;
         draining = false; // exploring the rest found enough to go on
         stable = 0;
@@ -200,6 +218,8 @@ private:
       const Step step = choose(draining);
       if (step == Step::Random) {
         if (result_.stats.randomRays >= iterationEnd) {
+          // Triangles count once their step is in: a step in flight counts for the next iteration.
+          const bool pending = border_.pending() || reverse_.pending() || !inFlight_.empty();
           if (result_.stats.iterations > 0) {
             stable = found_.count() - iterationStart < cfg_.minNewTriangles ? stable + 1 : 0;
             iterationStart = found_.count();
@@ -323,37 +343,115 @@ private:
     return gain;
   }
 
-  // Random rays made by the backend where they are traced: only first discoveries come back, and
-  // the host rebuilds the discovering ray from its Halton index (the same map, in float on both
-  // sides: the origin agrees to rounding, which ABS does not notice).
-  bool generatedRandomBatch(uint64_t base, size_t n, double& gain) {
-    CellRaySource source{surface_.faces, surface_.cdf, halton_.offsets(), base};
-    firstHits_.clear();
+  // A step queued on the backend (submitCellRays / submitExploreRays) whose results are not in.
+  struct InFlight {
+    Step step = Step::Random;
+    uint64_t base = 0;                          // random: Halton index of the first ray
+    size_t rays = 0;                            // random: rays
+    std::vector<Queued<Discovery>> discoveries; // border: the chunk
+    std::vector<Queued<RsSeed>> seeds;          // reverse: the chunk
+    std::vector<ExploreRaySource::BorderItem> borderItems;
+    std::vector<ExploreRaySource::ReverseItem> reverseItems;
+    ExploreRaySource src; // exploration: the chunk's rays (spans into the vectors above)
+    double value = 0.0;   // exploration: the chunk's queued value
+  };
+
+  // Steps go to the backend's queue where it has one: while the device traces a step, the host
+  // takes in the one before and chooses the next, so host work and tracing overlap. A step is
+  // chosen with the results of all steps but the one in flight: the same choices whatever the
+  // device's speed (bakes stay reproducible), and the same with a budget or checkpoints, where
+  // the step in flight is taken in before the next is sized (exact ray counts, the same cut).
+  // After a step was queued (begun at t0, handed to the backend at s0), the step before it comes in.
+  using Clock = std::chrono::steady_clock;
+  void submitted(Clock::time_point t0, Clock::time_point s0, double& phaseSeconds, double& phaseTraceSeconds) {
+    const double inBackend = secondsSince(s0);
+    result_.stats.traceSeconds += inBackend;
+    phaseTraceSeconds += inBackend;
+    phaseSeconds += secondsSince(t0);
+    while (inFlight_.size() > 1) finishOldest();
+  }
+  void flush() {
+    while (!inFlight_.empty()) finishOldest();
+  }
+  // Before a step is sized: in a bake with a budget or checkpoints, the steps in flight come in
+  // first. False when the budget is spent.
+  bool readyToSize() {
+    if (!overlap_) flush();
+    return budgetLeft();
+  }
+
+  void finishOldest() {
+    InFlight f = std::move(inFlight_.front());
+    inFlight_.pop_front();
     auto t0 = std::chrono::steady_clock::now();
-    if (!backend_.traceCellRays(source, n, found_, firstHits_)) return false;
-    const double traced = secondsSince(t0);
-    result_.stats.traceSeconds += traced;
-    *phaseTrace_ += traced;
-    result_.stats.rays += n;
-    result_.stats.generatedRandomRays = true;
+    backend_.collect(found_, explored_);
+    const double waited = secondsSince(t0);
+    result_.stats.traceSeconds += waited;
+    result_.stats.rays += explored_.traced;
     // Atomics append in scheduling order: sort to the order the host path credits them in.
-    std::sort(firstHits_.begin(), firstHits_.end(), [](const FirstHit& a, const FirstHit& b) {
+    auto byRay = [](const FirstHit& a, const FirstHit& b) {
       return a.ray != b.ray ? a.ray < b.ray : a.triangle < b.triangle;
-    });
-    for (const FirstHit& f : firstHits_) {
-      auto h = halton_(base + f.ray);
-      Ray ray{};
-      ray.origin = surface_.point(h[0], h[1], h[2]);
-      ray.dir = detail::sphereDirection(h[3], h[4]);
-      gain += discover(f.triangle, ray);
+    };
+    std::sort(explored_.firstHits.begin(), explored_.firstHits.end(), byRay);
+    double gain = 0.0;
+    if (f.step == Step::Random) {
+      result_.stats.randomTraceSeconds += waited;
+      // The discovering ray rebuilt from its Halton index (the same map, in float on both sides:
+      // the origin agrees to rounding, which ABS does not notice).
+      for (const FirstHit& h : explored_.firstHits) {
+        auto p = halton_(f.base + h.ray);
+        Ray ray{};
+        ray.origin = surface_.point(p[0], p[1], p[2]);
+        ray.dir = detail::sphereDirection(p[3], p[4]);
+        gain += discover(h.triangle, ray);
+      }
+      checkpoint();
+      randomYield_ = f.rays ? gain / double(f.rays) : 0.0;
+      result_.stats.randomSeconds += secondsSince(t0);
+      return;
     }
+    for (const FirstHit& h : explored_.firstHits)
+      gain += discover(h.triangle, detail::exploreRay(scene_, offsets_, f.src, h.ray));
     checkpoint();
-    return true;
+    if (f.step == Step::Border) {
+      result_.stats.absTraceSeconds += waited;
+      result_.stats.absRays += explored_.traced;
+      queueSeeds(f);
+      border_.record(f.value, gain, step_);
+      result_.stats.absSeconds += secondsSince(t0);
+    } else {
+      result_.stats.rsTraceSeconds += waited;
+      result_.stats.rsRays += explored_.traced;
+      reverse_.record(f.value, gain, step_);
+      result_.stats.rsSeconds += secondsSince(t0);
+    }
+  }
+
+  // The discontinuities of a border chunk traced on the device, queued for RS: the seeds as
+  // queueSeed would queue them one by one, made on all cores and queued as one run: in ray order
+  // they are in priority order already (the chunk's items are, and the insertion order grows with
+  // the ray), so the queue need not check or sort them.
+  void queueSeeds(const InFlight& f) {
+    const size_t slots = f.discoveries.size() * f.src.raysPerItem;
+    inRayOrder(explored_.discontinuities, slots, discontinuities_);
+    result_.stats.discontinuities += discontinuities_.size();
+    if (!cfg_.reverseSampling || cfg_.rsEdgeSamples + cfg_.rsAreaSamples == 0) return;
+    std::vector<Queued<RsSeed>> run(discontinuities_.size());
+    const uint64_t first = order_;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, run.size(), 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t k = r.begin(); k < r.end(); ++k) {
+        const Discontinuity& d = discontinuities_[k];
+        run[k] = {f.discoveries[d.ray / f.src.raysPerItem].value, first + k, RsSeed{d.target, d.occluder}};
+      }
+    });
+    order_ += run.size();
+    reverse_.queue.pushRun(std::move(run));
   }
 
   // `n` rays of the cell's one randomized Halton sequence (the same rays for the same seed as the
   // RAND baseline's, so the two differ only in what GVS++ does besides).
   void randomStep(uint64_t count) {
+    if (!readyToSize()) return;
     auto t0 = std::chrono::steady_clock::now();
     phaseTrace_ = &result_.stats.randomTraceSeconds;
     size_t n = size_t(budgetClamp(count));
@@ -363,25 +461,34 @@ private:
     if (!cfg_.adaptiveBorder && nextCheckpoint_ < options_.checkpointRays.size() &&
         options_.checkpointRays[nextCheckpoint_] > result_.stats.rays)
       n = size_t(std::min<uint64_t>(n, options_.checkpointRays[nextCheckpoint_] - result_.stats.rays));
-    double gain = 0.0;
-    // Generated rays cost no per-ray traffic: the backend makes them where it traces them.
-    if (!(generate_ && generatedRandomBatch(haltonIndex_, n, gain))) {
-      generate_ = false; // the backend cannot: make the rays here from now on
-      rays_.resize(n);
-      hits_.resize(n);
-      const uint64_t base = haltonIndex_;
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
-        auto cursor = halton_.cursor(base + r.begin());
-        for (size_t i = r.begin(); i < r.end(); ++i, cursor.next()) {
-          auto h = cursor();
-          Ray& ray = rays_[i];
-          ray = Ray{};
-          ray.origin = surface_.point(h[0], h[1], h[2]);
-          ray.dir = detail::sphereDirection(h[3], h[4]);
-        }
-      });
-      gain = traceAndCollect(n);
+    // Generated rays cost no per-ray traffic: the backend makes them where it traces them, and
+    // only first discoveries come back.
+    const auto s0 = std::chrono::steady_clock::now();
+    if (generate_ && queue_ &&
+        backend_.submitCellRays({surface_.faces, surface_.cdf, halton_.offsets(), haltonIndex_}, n, found_)) {
+      result_.stats.generatedRandomRays = true;
+      inFlight_.push_back({.step = Step::Random, .base = haltonIndex_, .rays = n});
+      haltonIndex_ += n;
+      result_.stats.randomRays += n;
+      submitted(t0, s0, result_.stats.randomSeconds, result_.stats.randomTraceSeconds);
+      return;
     }
+    generate_ = false; // the backend cannot: make the rays here from now on
+    flush();
+    rays_.resize(n);
+    hits_.resize(n);
+    const uint64_t base = haltonIndex_;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      auto cursor = halton_.cursor(base + r.begin());
+      for (size_t i = r.begin(); i < r.end(); ++i, cursor.next()) {
+        auto h = cursor();
+        Ray& ray = rays_[i];
+        ray = Ray{};
+        ray.origin = surface_.point(h[0], h[1], h[2]);
+        ray.dir = detail::sphereDirection(h[3], h[4]);
+      }
+    });
+    const double gain = traceAndCollect(n);
     haltonIndex_ += n;
     result_.stats.randomRays += n;
     randomYield_ = n ? gain / double(n) : 0.0;
@@ -390,24 +497,31 @@ private:
 
   // The chunk's exploration rays as the backend takes them: ABS around discoveries (the
   // border-polygon formulas of shaderio/gvs_explore.h) or RS from the cell towards discontinuities.
-  template <class Item> ExploreRaySource exploreSource(const std::vector<Queued<Item>>& items) {
+  ExploreRaySource exploreSource(const std::vector<Queued<Discovery>>& items,
+                                 std::vector<ExploreRaySource::BorderItem>& out) {
+    ExploreRaySource src = exploreSource();
+    src.kind = ExploreRaySource::Kind::Border;
+    out.clear();
+    for (const auto& q : items) out.push_back({q.item.origin, q.item.triangle});
+    src.border = out;
+    src.raysPerItem = uint32_t(border_.raysPerItem);
+    return src;
+  }
+  ExploreRaySource exploreSource(const std::vector<Queued<RsSeed>>& items,
+                                 std::vector<ExploreRaySource::ReverseItem>& out) {
+    ExploreRaySource src = exploreSource();
+    src.kind = ExploreRaySource::Kind::Reverse;
+    out.clear();
+    for (const auto& q : items) out.push_back({q.item.target, q.item.occluder});
+    src.reverse = out;
+    src.raysPerItem = uint32_t(reverse_.raysPerItem);
+    return src;
+  }
+  ExploreRaySource exploreSource() const {
     ExploreRaySource src;
     src.edges = edges_;
     src.faces = surface_.faces;
     src.cdf = surface_.cdf;
-    if constexpr (std::is_same_v<Item, Discovery>) {
-      src.kind = ExploreRaySource::Kind::Border;
-      borderItems_.clear();
-      for (const auto& q : items) borderItems_.push_back({q.item.origin, q.item.triangle});
-      src.border = borderItems_;
-      src.raysPerItem = uint32_t(border_.raysPerItem);
-    } else {
-      src.kind = ExploreRaySource::Kind::Reverse;
-      reverseItems_.clear();
-      for (const auto& q : items) reverseItems_.push_back({q.item.target, q.item.occluder});
-      src.reverse = reverseItems_;
-      src.raysPerItem = uint32_t(reverse_.raysPerItem);
-    }
     src.absEdgeSamples = cfg_.absEdgeSamples;
     src.absDeltaTriangle = cfg_.absDeltaTriangle;
     src.absDeltaAbsolute = cfg_.absDeltaScene * sceneDiagonal_;
@@ -419,33 +533,19 @@ private:
     return src;
   }
 
-  // The chunk traced by the backend where it makes the rays: only discoveries and discontinuities
-  // come back (sorted by ray: the order the host path credits them in, so bakes are reproducible).
-  // False when the backend cannot, or the budget would cut the chunk (the host path cuts it ray by
-  // ray); then the host makes the rays.
-  bool exploreOnBackend(const ExploreRaySource& src, double& gain, uint64_t& traced,
-                        std::vector<Discontinuity>* discontinuities) {
-    const size_t slots = (src.border.size() + src.reverse.size()) * src.raysPerItem;
-    if (!deviceExplore_ || (cfg_.rayBudget != 0 && result_.stats.rays + slots > cfg_.rayBudget)) return false;
-    explored_.firstHits.clear();
-    explored_.discontinuities.clear();
-    auto t0 = std::chrono::steady_clock::now();
-    if (!backend_.traceExploreRays(src, found_, explored_)) {
+  // The chunk queued where the backend makes its rays: only discoveries and discontinuities come
+  // back (finishOldest). False when the backend cannot, or the budget would cut the chunk (the
+  // host path cuts it ray by ray); then the host makes the rays.
+  bool submitExplore(InFlight&& f) {
+    const size_t slots = (f.src.border.size() + f.src.reverse.size()) * f.src.raysPerItem;
+    if (!queue_ || !deviceExplore_ || (cfg_.rayBudget != 0 && result_.stats.rays + slots > cfg_.rayBudget))
+      return false;
+    if (!backend_.submitExploreRays(f.src, found_)) {
       deviceExplore_ = false; // the backend cannot: make the rays here from now on
       return false;
     }
     result_.stats.generatedExploreRays = true;
-    const double seconds = secondsSince(t0);
-    result_.stats.traceSeconds += seconds;
-    *phaseTrace_ += seconds;
-    traced = explored_.traced;
-    result_.stats.rays += traced;
-    auto byRay = [](const auto& a, const auto& b) { return a.ray != b.ray ? a.ray < b.ray : a.triangle < b.triangle; };
-    std::sort(explored_.firstHits.begin(), explored_.firstHits.end(), byRay);
-    for (const FirstHit& f : explored_.firstHits)
-      gain += discover(f.triangle, detail::exploreRay(scene_, offsets_, src, f.ray));
-    checkpoint();
-    if (discontinuities) inRayOrder(explored_.discontinuities, slots, *discontinuities);
+    inFlight_.push_back(std::move(f));
     return true;
   }
 
@@ -509,68 +609,60 @@ private:
 
   // ABS on the staged chunk of discoveries; the discontinuities its rays meet are queued for RS.
   void borderStep() {
+    if (!readyToSize()) return;
     auto t0 = std::chrono::steady_clock::now();
     phaseTrace_ = &result_.stats.absTraceSeconds;
-    std::vector<Queued<Discovery>> items = std::move(border_.staged);
+    InFlight f{.step = Step::Border};
+    f.discoveries = std::move(border_.staged);
     border_.staged.clear();
-    double value = 0.0;
-    for (const auto& q : items) value += q.value;
-    const ExploreRaySource src = exploreSource(items);
-    double gain = 0.0;
-    uint64_t traced = 0;
-    if (exploreOnBackend(src, gain, traced, &discontinuities_)) {
-      // The seeds as queueSeed would queue them one by one, made on all cores and queued as one
-      // run: in ray order they are in priority order already (the chunk's items are, and the
-      // insertion order grows with the ray), so the queue need not check or sort them.
-      result_.stats.discontinuities += discontinuities_.size();
-      if (cfg_.reverseSampling && cfg_.rsEdgeSamples + cfg_.rsAreaSamples > 0) {
-        std::vector<Queued<RsSeed>> run(discontinuities_.size());
-        const uint64_t first = order_;
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, run.size(), 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t k = r.begin(); k < r.end(); ++k) {
-            const Discontinuity& d = discontinuities_[k];
-            run[k] = {items[d.ray / src.raysPerItem].value, first + k, RsSeed{d.target, d.occluder}};
-          }
-        });
-        order_ += run.size();
-        reverse_.queue.pushRun(std::move(run));
-      }
-    } else {
-      makeRays(src);
-      traced = budgetClamp(rays_.size());
-      hits_.resize(rays_.size());
-      gain = traceAndCollect(size_t(traced));
-      for (size_t i = 0; i < traced; ++i) {
-        float dist = glm::length(targets_[i] - rays_[i].origin);
-        if (hits_[i].triangle != kNoHit && hits_[i].t >= dist * (1.0f - cfg_.rsDeltaRelative)) continue;
-        queueSeed(items[owner_[i]].value, targets_[i], hits_[i].triangle);
-      }
+    for (const auto& q : f.discoveries) f.value += q.value;
+    f.src = exploreSource(f.discoveries, f.borderItems);
+    const auto s0 = std::chrono::steady_clock::now();
+    if (submitExplore(std::move(f))) {
+      submitted(t0, s0, result_.stats.absSeconds, result_.stats.absTraceSeconds);
+      return;
+    }
+    flush();
+    const std::vector<Queued<Discovery>>& items = f.discoveries; // not moved from: submitExplore failed
+    makeRays(f.src);
+    const uint64_t traced = budgetClamp(rays_.size());
+    hits_.resize(rays_.size());
+    const double gain = traceAndCollect(size_t(traced));
+    for (size_t i = 0; i < traced; ++i) {
+      float dist = glm::length(targets_[i] - rays_[i].origin);
+      if (hits_[i].triangle != kNoHit && hits_[i].t >= dist * (1.0f - cfg_.rsDeltaRelative)) continue;
+      queueSeed(items[owner_[i]].value, targets_[i], hits_[i].triangle);
     }
     result_.stats.absRays += traced;
-    border_.record(value, gain, step_);
+    border_.record(f.value, gain, step_);
     result_.stats.absSeconds += secondsSince(t0);
   }
 
   // RS on the staged chunk of seeds: origins spread over the cell, aimed at each seed's target.
   void reverseStep() {
+    if (!readyToSize()) return;
     auto t0 = std::chrono::steady_clock::now();
     phaseTrace_ = &result_.stats.rsTraceSeconds;
-    std::vector<Queued<RsSeed>> items = std::move(reverse_.staged);
+    InFlight f{.step = Step::Reverse};
+    f.seeds = std::move(reverse_.staged);
     reverse_.staged.clear();
-    double value = 0.0;
-    for (const auto& q : items) value += q.value;
-    const ExploreRaySource src = exploreSource(items);
-    double gain = 0.0;
-    uint64_t traced = 0;
-    if (!exploreOnBackend(src, gain, traced, nullptr)) {
-      makeRays(src);
-      traced = budgetClamp(rays_.size());
-      hits_.resize(rays_.size());
-      gain = traceAndCollect(size_t(traced));
+    for (const auto& q : f.seeds) f.value += q.value;
+    f.src = exploreSource(f.seeds, f.reverseItems);
+    const size_t items = f.seeds.size();
+    const auto s0 = std::chrono::steady_clock::now();
+    if (submitExplore(std::move(f))) {
+      rsIndex_ += items;
+      submitted(t0, s0, result_.stats.rsSeconds, result_.stats.rsTraceSeconds);
+      return;
     }
-    rsIndex_ += items.size();
+    flush();
+    makeRays(f.src);
+    const uint64_t traced = budgetClamp(rays_.size());
+    hits_.resize(rays_.size());
+    const double gain = traceAndCollect(size_t(traced));
+    rsIndex_ += items;
     result_.stats.rsRays += traced;
-    reverse_.record(value, gain, step_);
+    reverse_.record(f.value, gain, step_);
     result_.stats.rsSeconds += secondsSince(t0);
   }
 
@@ -594,16 +686,16 @@ private:
   Explorer<RsSeed> reverse_;
   double randomYield_ = 0.0; // value found per ray by the last random step
   size_t nextCheckpoint_ = 0;
-  bool generate_ = true;      // try the backend's own random rays (traceCellRays) first
-  bool deviceExplore_ = true; // and its own ABS and RS rays (traceExploreRays)
-  std::vector<ExploreRaySource::BorderItem> borderItems_;
-  std::vector<ExploreRaySource::ReverseItem> reverseItems_;
+  bool generate_ = true;      // try the backend's own random rays (submitCellRays) first
+  bool deviceExplore_ = true; // and its own ABS and RS rays (submitExploreRays)
+  bool queue_ = false;        // the backend queues traces (maxQueued)
+  bool overlap_ = true;       // no budget or checkpoints: the next step is queued before the last is in
+  std::deque<InFlight> inFlight_;
   ExploreResult explored_;
   std::vector<Discontinuity> discontinuities_;
   std::vector<uint32_t> slotOf_;   // the discontinuity of each slot of a border chunk (~0u: none)
   std::vector<size_t> blockStart_; // inRayOrder: where each block of slots goes in its output
   bool traceable_ = true;
-  std::vector<FirstHit> firstHits_;
   double* phaseTrace_ = nullptr; // the current phase's share of the trace time
   float sceneDiagonal_ = 1.0f;
   std::vector<std::array<glm::vec3, 2>> edges_;

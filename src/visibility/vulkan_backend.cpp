@@ -2,6 +2,7 @@
 // shader binding table, or the compute traversal's BVH (ray_bvh.h) and pipeline; launches over
 // host-visible ray and hit buffers.
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cstring>
 #include <limits>
@@ -191,14 +192,27 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
                            MemoryUsage::GpuOnly, "rt set");
     s->staging = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "rt set staging");
   }
-  newIds_ =
-      createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt new ids");
+  // The counters are reset at the start of every launch and copied out at its end: launches run
+  // in order, so one copy serves them all.
   counters_ = createBuffer(ctx_, sizeof(shaderio::RtCounters),
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt counters");
-  countersReadback_ = createBuffer(ctx_, sizeof(shaderio::RtCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                   MemoryUsage::Readback, "rt counters readback");
+  for (Launch& L : launches_) {
+    L.newIds = createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback,
+                            "rt new ids");
+    L.counters = createBuffer(ctx_, sizeof(shaderio::RtCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                              MemoryUsage::Readback, "rt counters readback");
+    L.firstRays = createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback,
+                               "rt first rays of new triangles");
+    L.source = createBuffer(ctx_, std::max(sizeof(shaderio::RtCellSource), sizeof(shaderio::RtExploreSource)),
+                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt ray source");
+    L.timer = std::make_unique<GpuTimer>(ctx_, 3);
+    VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    VkFence fence;
+    MIRAGE_VK_CHECK(vkCreateFence(ctx_.device(), &fi, nullptr, &fence));
+    L.done = Unique<VkFence>(ctx_.device(), fence);
+  }
   before_ = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                          MemoryUsage::GpuOnly, "rt set before launch");
   const size_t rayBytes = std::max<size_t>(triangles_, 1) * 4;
@@ -206,15 +220,9 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt first ray");
-  firstRayReadback_ = createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                   MemoryUsage::Readback, "rt first rays of new triangles");
   gatherLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtGatherPush), VK_SHADER_STAGE_COMPUTE_BIT);
   gatherPipeline_ = createComputePipeline(ctx_, "vis_first_rays.comp", gatherLayout_);
-  cellSource_ = createBuffer(ctx_, sizeof(shaderio::RtCellSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                             MemoryUsage::Upload, "rt cell source");
   firstRayValid_ = false;
-  exploreSource_ = createBuffer(ctx_, sizeof(shaderio::RtExploreSource), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                MemoryUsage::Upload, "rt explore source");
   if (explore_ && triangles_ > 0 && triangles_ <= kMaxExploreTriangles) uploadWorldTriangles(scene, offsets);
   buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Ok{};
@@ -426,12 +434,11 @@ bool VulkanBackend::prepareSet(DeviceSet& set, const TriangleSet* host) {
   return true;
 }
 
-void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode,
-                           size_t stagedRays, size_t rayBytes) {
-  auto t0 = std::chrono::steady_clock::now();
+void VulkanBackend::cmdLaunch(VkCommandBuffer cmd, Launch& L, shaderio::RtTracePush push, bool uploadRecord,
+                              bool uploadRequire, bool cellMode, size_t stagedRays, size_t rayBytes) {
   push.slots = slots_.address();
   push.counters = counters_.address();
-  push.newIds = newIds_.address();
+  push.newIds = L.newIds.address();
   push.newCapacity = uint32_t(triangles_ + 1);
   push.bvhNodes = compute_ && !bvhEmpty_ ? bvhNodes_.address() : 0;
   push.bvhTriangles = compute_ && !bvhEmpty_ ? bvhTriangles_.address() : 0;
@@ -440,86 +447,97 @@ void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool u
   const uint32_t height = (push.count + width - 1) / std::max(width, 1u);
   const VkPipelineStageFlags2 stage =
       compute_ ? VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR;
+  GpuTimer& timer = *L.timer;
   // barriers: earlier launches' writes to the sets and counters are complete before the copies.
+  timer.cmdReset(cmd);
+  cmdAfterEarlierSubmissions(cmd);
+  VkBufferCopy whole{0, 0, record_.bits.size()};
+  if (uploadRecord) vkCmdCopyBuffer(cmd, record_.staging.handle(), record_.bits.handle(), 1, &whole);
+  if (uploadRequire) vkCmdCopyBuffer(cmd, require_.staging.handle(), require_.bits.handle(), 1, &whole);
+  vkCmdFillBuffer(cmd, counters_.handle(), 0, VK_WHOLE_SIZE, 0);
+  if (stagedRays > 0) {
+    uint32_t upload = timer.cmdBegin(cmd, "upload", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+    VkBufferCopy bytes{0, 0, stagedRays * rayBytes};
+    vkCmdCopyBuffer(cmd, rays_.handle(), raysDevice_.handle(), 1, &bytes);
+    timer.cmdEnd(cmd, upload, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+  }
+  if (cellMode) {
+    // A replaced record set may have cleared triangles whose firstRay entries are still set.
+    if (uploadRecord || !firstRayValid_) vkCmdFillBuffer(cmd, firstRay_.handle(), 0, VK_WHOLE_SIZE, ~0u);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    vkCmdCopyBuffer(cmd, record_.bits.handle(), before_.handle(), 1, &whole);
+  }
+  cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, stage,
+                   VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  uint32_t slot = 0;
+  if (compute_) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, computePipeline_);
+    vkCmdPushConstants(cmd, computeLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    slot = timer.cmdBegin(cmd, "trace", stage);
+    // One thread per ray in rows of MIRAGE_RT_LAUNCH_WIDTH, or a resident grid that loops.
+    const uint32_t groupsX = (width + MIRAGE_RT_COMPUTE_GROUP - 1) / MIRAGE_RT_COMPUTE_GROUP;
+    if (push.count > 0 && persistent_)
+      vkCmdDispatch(cmd, std::min(groupsX * height, kPersistentGroups), 1, 1);
+    else if (push.count > 0)
+      vkCmdDispatch(cmd, groupsX, height, 1);
+  } else {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, pipeline_);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, layout_, 0, 1, &descriptors_.set, 0, nullptr);
+    vkCmdPushConstants(cmd, layout_, kRtStages, 0, sizeof(push), &push);
+    slot = timer.cmdBegin(cmd, "trace", stage);
+    if (push.count > 0)
+      vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
+  }
+  timer.cmdEnd(cmd, slot, stage);
+  if (cellMode) {
+    // The lowest ray of each new triangle, gathered into host-visible memory.
+    cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    shaderio::RtGatherPush gather{L.newIds.address(),    counters_.address(),      firstRay_.address(),
+                                  L.firstRays.address(), uint32_t(triangles_ + 1), 0};
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gatherPipeline_);
+    vkCmdPushConstants(cmd, gatherLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gather), &gather);
+    vkCmdDispatch(cmd, MIRAGE_RT_GATHER_GROUPS, 1, 1);
+  }
+  cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                   VK_ACCESS_2_TRANSFER_READ_BIT);
+  VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
+  vkCmdCopyBuffer(cmd, counters_.handle(), L.counters.handle(), 1, &counters);
+  if (stagedRays > 0) {
+    uint32_t readback = timer.cmdBegin(cmd, "readback", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+    VkBufferCopy bytes{0, 0, stagedRays * sizeof(Hit)};
+    vkCmdCopyBuffer(cmd, hitsDevice_.handle(), hits_.handle(), 1, &bytes);
+    timer.cmdEnd(cmd, readback, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
+  }
+  cmdMemoryBarrier(cmd, stage | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                   VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                   VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void VulkanBackend::launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, size_t stagedRays,
+                           size_t rayBytes) {
+  assert(queued_ == 0);
+  auto t0 = std::chrono::steady_clock::now();
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
-    timer_.cmdReset(cmd);
-    cmdAfterEarlierSubmissions(cmd);
-    VkBufferCopy whole{0, 0, record_.bits.size()};
-    if (uploadRecord) vkCmdCopyBuffer(cmd, record_.staging.handle(), record_.bits.handle(), 1, &whole);
-    if (uploadRequire) vkCmdCopyBuffer(cmd, require_.staging.handle(), require_.bits.handle(), 1, &whole);
-    vkCmdFillBuffer(cmd, counters_.handle(), 0, VK_WHOLE_SIZE, 0);
-    if (stagedRays > 0) {
-      uint32_t upload = timer_.cmdBegin(cmd, "upload", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
-      VkBufferCopy bytes{0, 0, stagedRays * rayBytes};
-      vkCmdCopyBuffer(cmd, rays_.handle(), raysDevice_.handle(), 1, &bytes);
-      timer_.cmdEnd(cmd, upload, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
-    }
-    if (cellMode) {
-      // A replaced record set may have cleared triangles whose firstRay entries are still set.
-      if (uploadRecord || !firstRayValid_) vkCmdFillBuffer(cmd, firstRay_.handle(), 0, VK_WHOLE_SIZE, ~0u);
-      cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-      vkCmdCopyBuffer(cmd, record_.bits.handle(), before_.handle(), 1, &whole);
-    }
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, stage,
-                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-    uint32_t slot = 0;
-    if (compute_) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, computePipeline_);
-      vkCmdPushConstants(cmd, computeLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-      slot = timer_.cmdBegin(cmd, "trace", stage);
-      // One thread per ray in rows of MIRAGE_RT_LAUNCH_WIDTH, or a resident grid that loops.
-      const uint32_t groupsX = (width + MIRAGE_RT_COMPUTE_GROUP - 1) / MIRAGE_RT_COMPUTE_GROUP;
-      if (push.count > 0 && persistent_)
-        vkCmdDispatch(cmd, std::min(groupsX * height, kPersistentGroups), 1, 1);
-      else if (push.count > 0)
-        vkCmdDispatch(cmd, groupsX, height, 1);
-    } else {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, pipeline_);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, layout_, 0, 1, &descriptors_.set, 0,
-                              nullptr);
-      vkCmdPushConstants(cmd, layout_, kRtStages, 0, sizeof(push), &push);
-      slot = timer_.cmdBegin(cmd, "trace", stage);
-      if (push.count > 0)
-        vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
-    }
-    timer_.cmdEnd(cmd, slot, stage);
-    if (cellMode) {
-      // The lowest ray of each new triangle, gathered into host-visible memory.
-      cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-      shaderio::RtGatherPush gather{newIds_.address(),           counters_.address(),      firstRay_.address(),
-                                    firstRayReadback_.address(), uint32_t(triangles_ + 1), 0};
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gatherPipeline_);
-      vkCmdPushConstants(cmd, gatherLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gather), &gather);
-      vkCmdDispatch(cmd, MIRAGE_RT_GATHER_GROUPS, 1, 1);
-    }
-    cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                     VK_ACCESS_2_TRANSFER_READ_BIT);
-    VkBufferCopy counters{0, 0, sizeof(shaderio::RtCounters)};
-    vkCmdCopyBuffer(cmd, counters_.handle(), countersReadback_.handle(), 1, &counters);
-    if (stagedRays > 0) {
-      uint32_t readback = timer_.cmdBegin(cmd, "readback", VK_PIPELINE_STAGE_2_TRANSFER_BIT);
-      VkBufferCopy bytes{0, 0, stagedRays * sizeof(Hit)};
-      vkCmdCopyBuffer(cmd, hitsDevice_.handle(), hits_.handle(), 1, &bytes);
-      timer_.cmdEnd(cmd, readback, VK_PIPELINE_STAGE_2_TRANSFER_BIT);
-    }
-    cmdMemoryBarrier(cmd, stage | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                     VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+    cmdLaunch(cmd, launches_[0], push, uploadRecord, uploadRequire, false, stagedRays, rayBytes);
   });
-  timing_ = {};
-  for (const PassTime& pass : timer_.read())
-    (pass.name == "trace" ? timing_.gpuMilliseconds : timing_.copyMilliseconds) += pass.milliseconds;
+  readTiming(launches_[0]);
   timing_.wallMilliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void VulkanBackend::readTiming(const Launch& L) {
+  timing_ = {};
+  for (const PassTime& pass : L.timer->read())
+    (pass.name == "trace" ? timing_.gpuMilliseconds : timing_.copyMilliseconds) += pass.milliseconds;
 }
 
 // First insertions made on the device go into the host set too, so both stay equal.
 void VulkanBackend::collectNew(TriangleSet* record) {
   if (!record) return;
   shaderio::RtCounters c;
-  std::memcpy(&c, countersReadback_.mapped(), sizeof(c));
-  const auto* ids = reinterpret_cast<const uint32_t*>(newIds_.mapped());
+  std::memcpy(&c, launches_[0].counters.mapped(), sizeof(c));
+  const auto* ids = reinterpret_cast<const uint32_t*>(launches_[0].newIds.mapped());
   for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) record->insert(ids[k]);
   record_.count = record->count();
 }
@@ -561,7 +579,7 @@ void VulkanBackend::trace(std::span<const Ray> rays, std::span<Hit> hits, const 
     push.onlyRequired = sets.onlyRequired && sets.require ? 1u : 0u;
     bool uploadRecord = prepareSet(record_, sets.record);
     bool uploadRequire = prepareSet(require_, sets.require);
-    launch(push, uploadRecord, uploadRequire, false, staged_ ? count : 0, rayBytes);
+    launch(push, uploadRecord, uploadRequire, staged_ ? count : 0, rayBytes);
     std::memcpy(hits.data() + begin, hits_.mapped(), count * sizeof(Hit));
     collectNew(sets.record);
     total.gpuMilliseconds += timing_.gpuMilliseconds;

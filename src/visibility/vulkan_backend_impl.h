@@ -1,6 +1,8 @@
 #pragma once
 // The Vulkan ray backend's class (private to vulkan_backend.cpp, which builds it and traces host
 // rays, and vulkan_gvs_rays.cpp, where it makes the GVS++ rays of a cell: random, border, reverse).
+#include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,12 +43,34 @@ struct DeviceSet {
   Buffer staging; // Upload
 };
 
+// What one launch writes for the host, and its submission: two of them, so the host reads one
+// launch's results while the device runs the next (submitCellRays / submitExploreRays).
+struct Launch {
+  Buffer newIds;          // first insertions into the record set (RtTracePush::newIds)
+  Buffer counters;        // RtCounters, read back
+  Buffer firstRays;       // claiming launches: the lowest ray of each new triangle, in newIds order
+  Buffer source;          // RtCellSource or RtExploreSource
+  Buffer items;           // exploration: RtBorderItem[] or RtReverseItem[]
+  Buffer discontinuities; // border rays: RtDiscontinuity[]
+  std::unique_ptr<GpuTimer> timer;
+  Unique<VkFence> done;
+  VkCommandBuffer cmd = VK_NULL_HANDLE; // while queued
+  // What was queued: the mode (MIRAGE_RT_MODE_*), its slots, the index of its first ray.
+  uint32_t mode = 0;
+  size_t count = 0;
+  uint32_t firstRay = 0;
+};
+
 class VulkanBackend final : public VulkanRayBackend {
 public:
   VulkanBackend(Context& context, const VulkanRayOptions& options)
       : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
-        compact_(options.compactRays), explore_(options.exploreOnDevice), timer_(context, 3) {}
-  ~VulkanBackend() override { vkDeviceWaitIdle(ctx_.device()); }
+        compact_(options.compactRays), explore_(options.exploreOnDevice) {}
+  ~VulkanBackend() override {
+    vkDeviceWaitIdle(ctx_.device());
+    for (Launch& L : launches_)
+      if (L.cmd) ctx_.freeOneShot(L.cmd);
+  }
 
   std::string_view name() const override { return name_; }
   size_t triangleCount() const override { return triangles_; }
@@ -63,6 +87,10 @@ public:
   bool traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
                      std::vector<FirstHit>& out) override;
   bool traceExploreRays(const ExploreRaySource& source, TriangleSet& record, ExploreResult& out) override;
+  size_t maxQueued() const override { return launches_.size(); }
+  bool submitCellRays(const CellRaySource& source, size_t count, TriangleSet& record) override;
+  bool submitExploreRays(const ExploreRaySource& source, TriangleSet& record) override;
+  void collect(TriangleSet& record, ExploreResult& out) override;
 
 private:
   Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
@@ -72,14 +100,22 @@ private:
   Status buildCompute(const Scene& scene, const VulkanRayOptions& options);
   void ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory, const char* name);
   bool prepareSet(DeviceSet& set, const TriangleSet* host);
-  // stagedRays > 0: copy that many rays (rayBytes each) into raysDevice_ first and their hits out
-  // of hitsDevice_ after.
-  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, bool cellMode = false,
-              size_t stagedRays = 0, size_t rayBytes = sizeof(Ray));
+  // A launch of `push` into `L`'s outputs. stagedRays > 0: copy that many rays (rayBytes each)
+  // into raysDevice_ first and their hits out of hitsDevice_ after. cellMode: a claiming launch
+  // (cell or exploration rays: the record set's copy `before_`, firstRay_, the gather pass).
+  void cmdLaunch(VkCommandBuffer cmd, Launch& L, shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire,
+                 bool cellMode, size_t stagedRays, size_t rayBytes);
+  // Submitted and waited for, into launches_[0] (nothing may be queued).
+  void launch(shaderio::RtTracePush push, bool uploadRecord, bool uploadRequire, size_t stagedRays = 0,
+              size_t rayBytes = sizeof(Ray));
+  // A claiming launch queued into the next free Launch; false when none is free.
+  bool submitClaiming(shaderio::RtTracePush push, TriangleSet& record, uint32_t firstRay, size_t count);
+  Launch& nextLaunch() { return launches_[(oldest_ + queued_) % launches_.size()]; }
+  void readTiming(const Launch& L);
   void collectNew(TriangleSet* record);
   // After a claiming launch (cell or exploration rays): first insertions into `record`, and a
   // FirstHit (offset by `firstRay`) for each that was some ray's closest or see-through hit.
-  void collectClaims(TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out);
+  void collectClaims(const Launch& L, TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out);
   void uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets);
 
   Context& ctx_;
@@ -107,21 +143,22 @@ private:
   Unique<VkPipeline> computePipeline_;
   bool bvhEmpty_ = true;
   RayBvhStats bvhStats_;
-  Buffer rays_, hits_, newIds_, counters_, countersReadback_;
+  Buffer rays_, hits_, counters_;
   Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
-  // MODE_CELL: the record set as the launch began, the lowest ray per triangle, its read-back copy
-  // and the cell description (RtCellSource).
-  // firstRayReadback_ holds the entries of the launch's new triangles only, in newIds order
-  // (vis_first_rays.comp).
-  Buffer before_, firstRay_, firstRayReadback_, cellSource_;
+  // Claiming launches: the record set as the launch began and the lowest ray per triangle (the
+  // entries of a launch's new triangles are gathered into its Launch::firstRays, in newIds order:
+  // vis_first_rays.comp).
+  Buffer before_, firstRay_;
   Unique<VkPipelineLayout> gatherLayout_;
   Unique<VkPipeline> gatherPipeline_;
   DeviceSet record_, require_;
-  // Exploration rays: world-space corners per global ID (empty: the backend does not make them),
-  // the items of a launch, its RtExploreSource, the discontinuities and (tests) the rays made.
-  Buffer worldTriangles_, exploreItems_, exploreSource_, discontinuities_, exploreRays_;
-  bool firstRayValid_ = false; // firstRay_ holds ~0u for every triangle outside the record set
-  GpuTimer timer_;
+  // Exploration rays: world-space corners per global ID (empty: the backend does not make them)
+  // and (tests, traceExploreRays) the rays made.
+  Buffer worldTriangles_, exploreRays_;
+  bool keepExploreRays_ = false; // the next exploration launch writes exploreRays_
+  bool firstRayValid_ = false;   // firstRay_ holds ~0u for every triangle outside the record set
+  std::array<Launch, 2> launches_;
+  size_t oldest_ = 0, queued_ = 0; // launches_[oldest_] is the oldest of `queued_` queued launches
   RayTiming timing_;
 };
 

@@ -4,6 +4,7 @@
 // of equal quality (pixel error) to the host-made rays. On both traversals; lavapipe, small counts.
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -216,6 +217,124 @@ TEST_P(ExploreRays, DeviceExplorationBakesAsWellAsTheHost) {
   const double noise = std::abs(eh - eh4);
   EXPECT_LE(ed, std::max(eh, eh4) + noise + 0.1);
   EXPECT_NEAR(double(d.triangles.size()), double(h.triangles.size()), 0.05 * double(h.triangles.size()));
+}
+
+// Launches queued back to back (a bake keeps one in flight while it takes in the one before) find
+// exactly what the same synchronous calls find in that order: each sees the set the ones before it
+// left, and each reads back into its own buffers.
+TEST_P(ExploreRays, QueuedTracesFindWhatSynchronousCallsFind) {
+  Scene scene = test::cityScene(1);
+  ViewCell cell = test::streetCell();
+  auto vk = vulkan(scene);
+  ASSERT_TRUE(vk);
+  ASSERT_EQ(vk->maxQueued(), 2u);
+  const float scale = glm::length(scene.worldBounds().extent());
+  detail::RandomizedHalton<5> halton(7);
+  detail::SurfaceSampler surface(cell);
+  const size_t n = 20'000;
+  CellRaySource a{surface.faces, surface.cdf, halton.offsets(), 0}, b = a;
+  b.firstIndex = n;
+  // A border chunk around what some other random rays find first.
+  std::vector<Ray> random(2000);
+  for (size_t i = 0; i < random.size(); ++i) {
+    auto h = halton(2 * n + i);
+    random[i].origin = surface.point(h[0], h[1], h[2]);
+    random[i].dir = detail::sphereDirection(h[3], h[4]);
+  }
+  std::vector<Hit> hits(random.size());
+  TriangleSet seen(vk->triangleCount());
+  vk->trace(random, hits, {.record = &seen});
+  std::vector<ExploreRaySource::BorderItem> items;
+  std::set<uint32_t> taken;
+  for (size_t i = 0; i < random.size() && items.size() < 200; ++i)
+    if (hits[i].triangle != kNoHit && taken.insert(hits[i].triangle).second)
+      items.push_back({random[i].origin, hits[i].triangle});
+  ASSERT_GT(items.size(), 50u);
+  ExploreRaySource border;
+  border.border = items;
+  border.raysPerItem = 9 + 3 * 6;
+  border.absEdgeSamples = 6;
+  border.absDeltaTriangle = 1e-3f;
+  border.absDeltaAbsolute = 1e-5f * scale;
+  border.rsDeltaRelative = 0.02f;
+
+  // Synchronous: random rays A, the border chunk, random rays B.
+  TriangleSet syncSet(vk->triangleCount());
+  std::vector<ExploreResult> sync(3);
+  ASSERT_TRUE(vk->traceCellRays(a, n, syncSet, sync[0].firstHits));
+  ASSERT_TRUE(vk->traceExploreRays(border, syncSet, sync[1]));
+  ASSERT_TRUE(vk->traceCellRays(b, n, syncSet, sync[2].firstHits));
+  // Queued: at most two at once, collected in order.
+  TriangleSet queuedSet(vk->triangleCount());
+  std::vector<ExploreResult> queued(3);
+  ASSERT_TRUE(vk->submitCellRays(a, n, queuedSet));
+  ASSERT_TRUE(vk->submitExploreRays(border, queuedSet));
+  EXPECT_FALSE(vk->submitCellRays(b, n, queuedSet)); // the queue is full
+  vk->collect(queuedSet, queued[0]);
+  ASSERT_TRUE(vk->submitCellRays(b, n, queuedSet));
+  vk->collect(queuedSet, queued[1]);
+  vk->collect(queuedSet, queued[2]);
+
+  auto byRay = [](const auto& x, const auto& y) { return x.ray != y.ray ? x.ray < y.ray : x.triangle < y.triangle; };
+  for (size_t k = 0; k < 3; ++k) {
+    for (ExploreResult* r : {&sync[k], &queued[k]}) {
+      std::sort(r->firstHits.begin(), r->firstHits.end(), byRay);
+      std::sort(r->discontinuities.begin(), r->discontinuities.end(),
+                [](const Discontinuity& x, const Discontinuity& y) { return x.ray < y.ray; });
+    }
+    EXPECT_FALSE(queued[k].firstHits.empty()) << "launch " << k;
+    ASSERT_EQ(queued[k].firstHits.size(), sync[k].firstHits.size()) << "launch " << k;
+    for (size_t i = 0; i < sync[k].firstHits.size(); ++i) {
+      EXPECT_EQ(queued[k].firstHits[i].triangle, sync[k].firstHits[i].triangle);
+      EXPECT_EQ(queued[k].firstHits[i].ray, sync[k].firstHits[i].ray);
+    }
+    ASSERT_EQ(queued[k].discontinuities.size(), sync[k].discontinuities.size()) << "launch " << k;
+    for (size_t i = 0; i < sync[k].discontinuities.size(); ++i) {
+      EXPECT_EQ(queued[k].discontinuities[i].ray, sync[k].discontinuities[i].ray);
+      EXPECT_EQ(queued[k].discontinuities[i].occluder, sync[k].discontinuities[i].occluder);
+    }
+  }
+  EXPECT_EQ(queued[0].traced, n);
+  EXPECT_EQ(queued[1].traced, sync[1].traced);
+  EXPECT_FALSE(queued[1].discontinuities.empty());
+  EXPECT_EQ(queuedSet.sorted(), syncSet.sorted());
+}
+
+// With a step in flight, a bake with checkpoints or a budget takes the step in before sizing the
+// next, on exact counts, but chooses as the unlimited bake does: the same bake, cut where asked.
+TEST_P(ExploreRays, QueuedBakesCutTheSameBake) {
+  Scene scene = test::cityScene(1);
+  ViewCell cell = test::streetCell();
+  auto vk = vulkan(scene);
+  ASSERT_TRUE(vk);
+  GvsConfig cfg;
+  cfg.randomRays = 10'000;
+  cfg.absEdgeSamples = 6;
+  cfg.rsEdgeSamples = 4;
+  cfg.rsAreaSamples = 4;
+  cfg.seed = 5;
+  CellPvs plain = computeCellPvs(*vk, scene, cell, cfg);
+  CellPvs full = computeCellPvs(*vk, scene, cell, cfg, {.checkpointRays = {60'000, 150'000}});
+  EXPECT_TRUE(plain.stats.generatedExploreRays);
+  EXPECT_GT(plain.stats.rsRays, 0u);
+  EXPECT_EQ(full.triangles, plain.triangles);
+  EXPECT_EQ(full.stats.rays, plain.stats.rays);
+  EXPECT_EQ(full.stats.absRays, plain.stats.absRays);
+  EXPECT_EQ(full.stats.rsRays, plain.stats.rsRays);
+  ASSERT_EQ(full.checkpoints.size(), 2u);
+  for (const PvsCheckpoint& c : full.checkpoints) {
+    GvsConfig cut = cfg;
+    cut.rayBudget = c.rays;
+    CellPvs part = computeCellPvs(*vk, scene, cell, cut);
+    EXPECT_EQ(part.stats.rays, c.rays);
+    // The chunk that reaches the budget is made on the host (cut ray by ray), whose rays agree
+    // with the device's to float rounding: a grazing ray may find another triangle.
+    std::vector<uint32_t> both;
+    std::set_intersection(part.triangles.begin(), part.triangles.end(), c.triangles.begin(), c.triangles.end(),
+                          std::back_inserter(both));
+    EXPECT_GE(double(both.size()), 0.99 * double(c.triangles.size()));
+    EXPECT_NEAR(double(part.triangles.size()), double(c.triangles.size()), 0.01 * double(c.triangles.size()));
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Traversals, ExploreRays, ::testing::Values(Traversal::Pipeline, Traversal::Compute),

@@ -88,6 +88,10 @@ public:
   }
   VkCommandBuffer beginOneShot();
   void endOneShotAndWait(VkCommandBuffer cmd);
+  // A one-shot command buffer ended and submitted without waiting: `fence` (unsignalled) signals
+  // when it completed; then freeOneShot(cmd) gives it back.
+  void endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence);
+  void freeOneShot(VkCommandBuffer cmd);
 
   void setDebugName(VkObjectType type, uint64_t handle, const char* name) const;
 

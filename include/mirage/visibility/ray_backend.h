@@ -189,6 +189,20 @@ public:
   virtual bool traceExploreRays(const ExploreRaySource& /*source*/, TriangleSet& /*record*/, ExploreResult& /*out*/) {
     return false;
   }
+  // Queued forms of traceCellRays and traceExploreRays, for backends that trace on a device:
+  // submit...() queues the trace and returns at once (false, nothing queued, when the backend
+  // cannot); collect() waits for the oldest queued trace and gives what the synchronous call would
+  // have (for cell rays: firstHits, and traced = count). Queued traces run in submission order,
+  // each seeing `record` as the ones before it left it, so a sequence of them finds what the same
+  // synchronous calls find; the host meanwhile works on what came back. At most maxQueued() (0:
+  // the backend queues nothing) at once, all with the same `record`; the sources' spans need not
+  // outlive the submission.
+  virtual size_t maxQueued() const { return 0; }
+  virtual bool submitCellRays(const CellRaySource& /*source*/, size_t /*count*/, TriangleSet& /*record*/) {
+    return false;
+  }
+  virtual bool submitExploreRays(const ExploreRaySource& /*source*/, TriangleSet& /*record*/) { return false; }
+  virtual void collect(TriangleSet& /*record*/, ExploreResult& /*out*/) {}
 };
 
 // First global triangle ID of each instance (size instances + 1; the last entry is the total).
