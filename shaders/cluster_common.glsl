@@ -1,5 +1,7 @@
 // Shared declarations of the cluster-LOD shaders: every array through a buffer device address in
 // ClusterPush (include/mirage/shaderio/cluster.h), and helpers to fetch a cluster's triangles.
+#ifndef MIRAGE_CLUSTER_COMMON_GLSL
+#define MIRAGE_CLUSTER_COMMON_GLSL
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -282,3 +284,4 @@ void countOverdraw(ClusterFrame f, uvec2 p) {
 }
 
 #include "cluster_fade.glsl"
+#endif // MIRAGE_CLUSTER_COMMON_GLSL

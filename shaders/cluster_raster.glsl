@@ -1,6 +1,7 @@
 // Body of the compute software rasterizers (cluster_raster.comp: opaque clusters, and
 // cluster_raster_mask.comp, MIRAGE_RASTER_MASK: masked ones, into the 64-bit visibility buffer;
-// cluster_raster_blend.comp, MIRAGE_RASTER_BLEND: blended clusters into the transparency lists).
+// cluster_raster_blend.comp, MIRAGE_RASTER_BLEND: blended clusters into the transparency lists;
+// atlas_visibility_mark*.comp, MIRAGE_RASTER_MARK: the streaming server's marking of visible patches).
 // One workgroup of 128 threads per eye per visible cluster (the renderer's kRasterLanes: one round
 // of triangles per thread, and the driver fits the kernel in 64 registers, where 64 threads per
 // eye took 79: on an H100, 2500 blobs raster 0.130 -> 0.092 ms, 2500 dragons 0.290 -> 0.220);
@@ -60,8 +61,14 @@ vec3 toScreen(vec4 clip, vec2 viewport) {
   return vec3(round(px * 256.0) / 256.0, ndc.z);
 }
 
-#ifdef MIRAGE_RASTER_BLEND
+#if defined(MIRAGE_RASTER_BLEND)
 #include "cluster_blend_sample.glsl"
+#elif defined(MIRAGE_RASTER_MARK)
+// The atlas's marking rasters (atlas_visibility_mark.glsl, which defines markSample): each covered
+// sample is tested against the depth the opaque raster left in the 64-bit buffer, which they only read.
+void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
+  markSample(VisBufferRef(push.visBufferAddress).pixels[y * visRowPixels + x], z, id);
+}
 #else
 void writeSample(ClusterFrame f, uint x, uint y, float z, uint id) {
   countOverdraw(f, uvec2(x, y));

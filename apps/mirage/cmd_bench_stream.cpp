@@ -1,6 +1,6 @@
 // mirage bench stream SCENE [--path orbit:60] [--size WxH] [--codec h264|zstd] [--bitrate MBIT]
-//   [--clients N] [--latency-frames K] [--max-patch-edge L] [--position-bits B] [--no-quality] [--json]: Shading
-//   Atlas Streaming measured in one process (mirage/stream/bench.h).
+//   [--clients N] [--latency-frames K] [--max-patch-edge L] [--position-bits B] [--visibility M] [--no-quality]
+//   [--json]: Shading Atlas Streaming measured in one process (mirage/stream/bench.h).
 #include <memory>
 
 #include <fmt/format.h>
@@ -55,6 +55,7 @@ void runBenchStream(BenchStreamOptions& o) {
   if (o.json) {
     nlohmann::json j = {{"scene", c.input},
                         {"device", r.device},
+                        {"visibility", nameOf(render::kAtlasVisibilityMethodNames, r.visibility)},
                         {"size", o.size},
                         {"codec", o.codec},
                         {"bitrate_mbit", o.bitrateMbit},
@@ -88,8 +89,10 @@ void runBenchStream(BenchStreamOptions& o) {
     fmt::print("{}\n", j.dump(2));
     return;
   }
-  fmt::print("stream {} on {}: {} frames at {}, {} client(s), {} at {:.0f} Mbit/s, round trip {} frames\n", c.input,
-             r.device, r.frames.size(), o.size, c.clients, o.codec, o.bitrateMbit, c.latencyFrames);
+  fmt::print("stream {} on {}: {} frames at {}, {} client(s), {} at {:.0f} Mbit/s, round trip {} frames, {} "
+             "visibility\n",
+             c.input, r.device, r.frames.size(), o.size, c.clients, o.codec, o.bitrateMbit, c.latencyFrames,
+             nameOf(render::kAtlasVisibilityMethodNames, r.visibility));
   fmt::print("  scene: {} triangles, {} after tessellation to edges <= {:g}, {} patches\n",
              r.tessellation.trianglesBefore, r.tessellation.trianglesAfter, r.tessellation.maxPatchEdge, r.patches);
   fmt::print("  server per client frame: {:.2f} ms wall, GPU {:.3f} ms (visibility {:.3f}, shading {:.3f}), "
@@ -130,6 +133,7 @@ void addBenchStreamCommand(CLI::App& bench) {
   b->add_option("--level-bias", c.levelBias, "Atlas texels per pixel: block side x 2^bias")->capture_default_str();
   b->add_option("--atlas-fill", c.atlasFill, kAtlasFillHelp)->check(CLI::Range(0.0f, 1.0f))->capture_default_str();
   bindTessellation(*b, c.tessellation);
+  bindVisibility(*b, c.visibility);
   b->add_option("--position-bits", c.positionBits, "Bits per axis of the patch position grid (8..24)")
       ->capture_default_str();
   b->add_flag("--no-quality", o->noQuality, "Skip the client's images and their comparison with local rendering");

@@ -7,6 +7,9 @@
 namespace mirage::stream {
 struct TessellationConfig;
 }
+namespace mirage::render {
+enum class AtlasVisibilityMethod;
+}
 
 namespace mirage::cli {
 
@@ -48,6 +51,8 @@ void addViewCommand(CLI::App& app);
 void addStreamCommands(CLI::App& app);
 // --max-patch-edge, --max-triangles: the stream scene's tessellation (serve, bench stream; cmd_stream.cpp).
 void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config);
+// --visibility auto|compute|hardware (serve, bench stream): how the server finds visible patches.
+void bindVisibility(CLI::App& cmd, render::AtlasVisibilityMethod& method);
 // --atlas-fill's help (serve, bench stream).
 inline constexpr const char* kAtlasFillHelp =
     "Share of the atlas the visible patches' blocks may want; past it every patch's level bias is lowered "

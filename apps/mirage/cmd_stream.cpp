@@ -1,5 +1,6 @@
 // mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
-//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--max-patch-edge L] [--position-bits B] [--web DIR]:
+//   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--max-patch-edge L] [--position-bits B]
+//   [--visibility auto|compute|hardware] [--web DIR]:
 //   Shading Atlas Streaming.
 // mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]
 //   [--stereo [--ipd M]] [--latency-ms MS [--jitter-ms J] [--loss P] [--seed S] [--fps F] [--server-ms S]]:
@@ -195,6 +196,18 @@ void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config) {
       ->capture_default_str();
 }
 
+void bindVisibility(CLI::App& cmd, render::AtlasVisibilityMethod& method) {
+  cmd.add_option_function<std::string>(
+         "--visibility",
+         [&method](const std::string& text) {
+           method = parseNamed(text, "--visibility", render::kAtlasVisibilityMethodNames).value();
+         },
+         "How the server finds the visible patches: auto (compute where the GPU has 64-bit atomics), compute "
+         "(compute raster) or hardware (depth prepass and marking draws)")
+      ->check(CLI::IsMember({"auto", "compute", "hardware"}))
+      ->default_str("auto");
+}
+
 void addStreamCommands(CLI::App& app) {
   auto* s = app.add_subcommand("serve", "Serve a scene by Shading Atlas Streaming (docs/stream.md)");
   auto so = std::make_shared<ServeCliOptions>();
@@ -213,6 +226,7 @@ void addStreamCommands(CLI::App& app) {
                 "Atlas texels per pixel: block side x 2^bias (> 0 sharper, more bytes)")
       ->capture_default_str();
   s->add_option("--atlas-size", so->scene.atlasSize, "Atlas side in texels (power of two)")->capture_default_str();
+  bindVisibility(*s, so->scene.visibility);
   s->add_option("--atlas-fill", so->serve.stream.atlasFill, kAtlasFillHelp)
       ->check(CLI::Range(0.0f, 1.0f))
       ->capture_default_str();

@@ -138,6 +138,7 @@ Status AtlasShading::Impl::upload(const Scene& scene) {
   writeImageDescriptors(ctx, descriptors.set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, infos);
   VkDescriptorImageInfo atlasInfo{VK_NULL_HANDLE, atlas.view(), VK_IMAGE_LAYOUT_GENERAL};
   writeImageDescriptors(ctx, descriptors.set, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&atlasInfo, 1});
+  if (visibilityMethod == AtlasVisibilityMethod::Compute) uploadClusters(scene, merged.firstVertex, merged.vertices);
   return Ok{};
 }
 
@@ -153,6 +154,7 @@ void AtlasShading::Impl::createPipelines() {
                   {2, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(sio::GpuVertex, color)}};
   d.depthFormat = kAtlasDepthFormat;
   d.depthCompare = VK_COMPARE_OP_GREATER; // reverse-Z
+  if (visibilityMethod == AtlasVisibilityMethod::Compute) createComputeVisibilityPipelines();
   prepassOpaque = createGraphicsPipeline(ctx, d);
   d.fragmentShader = "atlas_visibility_mask.frag";
   prepassMask = createGraphicsPipeline(ctx, d);
@@ -194,8 +196,14 @@ Result<std::unique_ptr<AtlasShading>> AtlasShading::create(Context& context, con
     return Error{fmt::format("atlas side {} is not a multiple of {} in {}..{}", config.atlasSide, kSuperblockSide,
                              kSuperblockSide, kMaxRenderDimension)};
   if (config.maxPatches == 0) return Error{"atlas shading: maxPatches must be at least 1"};
+  bool computeSupported = Impl::computeVisibilitySupported(context);
+  if (config.visibility == AtlasVisibilityMethod::Compute && !computeSupported)
+    return Error{"atlas shading: compute visibility needs 64-bit buffer and shared atomics, which this device lacks"};
   auto impl = std::make_unique<Impl>(context);
   impl->config = config;
+  impl->visibilityMethod = config.visibility == AtlasVisibilityMethod::Hardware || !computeSupported
+                               ? AtlasVisibilityMethod::Hardware
+                               : AtlasVisibilityMethod::Compute;
   impl->patchOfTriangle = std::move(patchOfTriangle);
   if (Status st = impl->upload(scene); !st) return st.error();
   impl->createPipelines();
@@ -204,6 +212,7 @@ Result<std::unique_ptr<AtlasShading>> AtlasShading::create(Context& context, con
 
 uint32_t AtlasShading::patchCount() const { return impl_->patchCount; }
 uint32_t AtlasShading::atlasSide() const { return impl_->config.atlasSide; }
+AtlasVisibilityMethod AtlasShading::visibilityMethod() const { return impl_->visibilityMethod; }
 
 namespace {
 

@@ -1,7 +1,9 @@
 #pragma once
 // AtlasShading's state, shared by its files:
 //   atlas_shading.cpp     upload, the shading stage, colour-only patches, readback
-//   atlas_visibility.cpp  the visibility stage (depth prepass + marking pass per camera)
+//   atlas_visibility.cpp  the visibility stage: its checks, the hardware method (depth prepass +
+//                         marking pass per camera)
+//   atlas_visibility_compute.cpp  the compute method (the cluster renderer's compute raster)
 #include <vector>
 
 #include "mirage/gpu/descriptors.h"
@@ -64,6 +66,23 @@ struct AtlasShading::Impl {
   uint32_t depthWidth = 0, depthHeight = 0;
   gpu::Unique<VkPipelineLayout> visibilityLayout;
   gpu::Unique<VkPipeline> prepassOpaque, prepassMask, markEqual, markInFront;
+  // Compute visibility (atlas_visibility_compute.cpp): the scene as clusters of at most
+  // MIRAGE_CLUSTER_MAX_TRIANGLES consecutive mesh triangles in the cluster renderer's records, one
+  // fixed visible list of every (instance, cluster): opaque and MASK entries (the depth raster's
+  // list), then BLEND ones (the marking rasters take the whole list).
+  AtlasVisibilityMethod visibilityMethod = AtlasVisibilityMethod::Hardware;
+  struct ComputeVisibility {
+    gpu::Buffer vertices, clusterVertices, indices, clusters, meshes, instances; // ClusterPush's arrays
+    gpu::Buffer visible, entryTriangles, counters, tables;
+    gpu::Buffer frames;                  // ClusterFrame per camera (host-written), MIRAGE_CLUSTER_FRAME_STRIDE apart
+    gpu::Buffer visBuffer;               // uint64_t per pixel and camera
+    gpu::Buffer patchBits, bitsReadback; // a bit per patch
+    uint32_t opaqueEntries = 0, blendEntries = 0;
+    bool hasMask = false;
+    uint32_t visWidth = 0, visHeight = 0;
+    gpu::Unique<VkPipelineLayout> rasterLayout;
+    gpu::Unique<VkPipeline> raster, rasterMask, mark, markMask;
+  } cv;
   // Shading.
   gpu::Image atlas;
   gpu::Unique<VkPipelineLayout> computeLayout;
@@ -92,6 +111,13 @@ struct AtlasShading::Impl {
   uint32_t instanceMaterial(uint32_t instance) const { return meshes[instances[instance].mesh].material; }
   // atlas_visibility.cpp
   void ensureDepth(uint32_t width, uint32_t height);
+  std::vector<uint32_t> visibilityHardware(std::span<const Camera> cameras, uint32_t width, uint32_t height);
+  // atlas_visibility_compute.cpp
+  static bool computeVisibilitySupported(const gpu::Context& ctx);
+  void uploadClusters(const Scene& scene, const std::vector<uint32_t>& firstVertex,
+                      const std::vector<shaderio::GpuVertex>& merged);
+  void createComputeVisibilityPipelines();
+  std::vector<uint32_t> visibilityCompute(std::span<const Camera> cameras, uint32_t width, uint32_t height);
 };
 
 } // namespace mirage::render

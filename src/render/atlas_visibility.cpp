@@ -1,5 +1,6 @@
-// The visibility stage: per camera a depth prepass of opaque and MASK geometry, then a marking
-// pass whose fragments (early depth tests) flag their triangle's patch; the flags are read back.
+// The visibility stage's checks, and its hardware method: per camera a depth prepass of opaque and
+// MASK geometry, then a marking pass whose fragments (early depth tests) flag their triangle's
+// patch; the flags are read back.
 #include <cstring>
 
 #include <fmt/format.h>
@@ -29,6 +30,13 @@ Result<std::vector<uint32_t>> AtlasShading::visibility(std::span<const Camera> c
   if (width == 0 || height == 0 || width > kMaxRenderDimension || height > kMaxRenderDimension)
     return Error{fmt::format("atlas visibility size {}x{} is outside 1..{}", width, height, kMaxRenderDimension)};
   if (d.patchCount == 0) return std::vector<uint32_t>{};
+  if (d.visibilityMethod == AtlasVisibilityMethod::Compute) return d.visibilityCompute(cameras, width, height);
+  return d.visibilityHardware(cameras, width, height);
+}
+
+std::vector<uint32_t> AtlasShading::Impl::visibilityHardware(std::span<const Camera> cameras, uint32_t width,
+                                                             uint32_t height) {
+  Impl& d = *this;
   d.ensureDepth(width, height);
 
   // Instances by pass: opaque (prepass), MASK (prepass with the cutoff), BLEND (marking only).
@@ -111,11 +119,11 @@ Result<std::vector<uint32_t>> AtlasShading::visibility(std::span<const Camera> c
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                      VK_ACCESS_2_HOST_READ_BIT);
   });
-  std::vector<uint32_t> flags(d.patchCount);
-  std::memcpy(flags.data(), d.flagsReadback.mapped(), flags.size() * 4);
+  std::vector<uint32_t> marked(d.patchCount);
+  std::memcpy(marked.data(), d.flagsReadback.mapped(), marked.size() * 4);
   std::vector<uint32_t> visible;
   for (uint32_t p = 0; p < d.patchCount; ++p)
-    if (flags[p]) visible.push_back(p);
+    if (marked[p]) visible.push_back(p);
   return visible;
 }
 

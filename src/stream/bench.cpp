@@ -34,7 +34,8 @@ Status validate(const StreamBenchConfig& c) {
 
 Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& c) {
   if (auto s = validate(c); !s) return s.error();
-  auto scene = openStreamScene(context, {c.input, c.materials, c.atlasSize, c.tessellation, c.positionBits});
+  auto scene =
+      openStreamScene(context, {c.input, c.materials, c.atlasSize, c.tessellation, c.positionBits, c.visibility});
   if (!scene) return scene.error();
   StreamScene& served = **scene;
   auto path = render::cameraPathArgument(c.path, served.bounds, float(c.width) / float(c.height));
@@ -65,6 +66,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
 
   StreamBenchReport report;
   report.device = context.caps().name;
+  report.visibility = served.shading->visibilityMethod();
   report.tessellation = served.tessellation;
   report.patches = served.patches.patchCount();
   // Client 0's frames on their way: each arrives latencyFrames after the pose it answers was sent.

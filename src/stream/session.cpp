@@ -57,6 +57,7 @@ Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, cons
   render::AtlasShadingConfig config;
   config.atlasSide = options.atlasSize;
   config.maxPatches = std::min(s->patches.patchCount(), kMaxPatchesPerShade);
+  config.visibility = options.visibility;
   auto shading = render::AtlasShading::create(context, s->scene, std::move(patchOfTriangle), config);
   if (!shading) return makeError(options.input, shading.error().message);
   s->shading = std::move(*shading);

@@ -1,15 +1,19 @@
-// The atlas visibility stage (render/atlas_shading.h) on hand-made scenes against a CPU ray cast:
-// occlusion, MASK cut-outs, transparency in front of and behind a wall, two cameras, bad input.
-// Validation must stay silent.
+// The atlas visibility stage (render/atlas_shading.h), both methods (compute raster, hardware
+// passes), on hand-made scenes against a CPU ray cast: occlusion, MASK cut-outs, transparency in
+// front of and behind a wall, two cameras, bad input; and the two methods against each other on a
+// city. Validation must stay silent.
 #include <algorithm>
 #include <cmath>
+#include <ostream>
 #include <set>
+#include <string>
 
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu_test.h"
+#include "mirage/io/generate.h"
 #include "mirage/render/atlas_shading.h"
 #include "test_scenes.h"
 
@@ -125,15 +129,48 @@ Mesh translated(Mesh m, glm::vec3 offset) {
 
 } // namespace
 
-class AtlasVisibility : public GpuTest {};
+namespace mirage::render {
+// The method's name in test names (ctest lists the parameter).
+void PrintTo(AtlasVisibilityMethod method, std::ostream* os) { *os << nameOf(kAtlasVisibilityMethodNames, method); }
+} // namespace mirage::render
 
-TEST_F(AtlasVisibility, BoxBehindWallIsHiddenBoxBesideIsNot) {
+class AtlasVisibility : public GpuTest, public ::testing::WithParamInterface<AtlasVisibilityMethod> {
+protected:
+  // The method under test; false (the test skips) where the device lacks the compute raster's atomics.
+  bool method(AtlasShadingConfig& config) {
+    config.visibility = GetParam();
+    return GetParam() != AtlasVisibilityMethod::Compute ||
+           (context().caps().int64BufferAtomics && context().caps().int64SharedAtomics);
+  }
+  Result<std::unique_ptr<AtlasShading>> create(const Scene& scene, std::vector<uint32_t> patchOf,
+                                               AtlasShadingConfig config = {}) {
+    if (!method(config)) return Error{"no compute raster on this device"};
+    auto atlas = AtlasShading::create(context(), scene, std::move(patchOf), config);
+    if (atlas.ok()) {
+      EXPECT_EQ(atlas.value()->visibilityMethod(), GetParam());
+    }
+    return atlas;
+  }
+  void SetUp() override {
+    GpuTest::SetUp();
+    AtlasShadingConfig config;
+    if (!method(config)) GTEST_SKIP() << "no 64-bit buffer and shared atomics: no compute visibility";
+  }
+};
+
+INSTANTIATE_TEST_SUITE_P(Methods, AtlasVisibility,
+                         ::testing::Values(AtlasVisibilityMethod::Compute, AtlasVisibilityMethod::Hardware),
+                         [](const ::testing::TestParamInfo<AtlasVisibilityMethod>& p) {
+                           return std::string(p.param == AtlasVisibilityMethod::Compute ? "Compute" : "Hardware");
+                         });
+
+TEST_P(AtlasVisibility, BoxBehindWallIsHiddenBoxBesideIsNot) {
   // Wall z = 0 (half size 1), a box behind it, a box beside it (its +Z and -X faces face the eye).
   Scene scene = test::makeScene({test::makeQuad(1.0f, 0.0f), translated(test::makeCube(0.5f), {0, 0, -2}),
                                  translated(test::makeCube(0.5f), {2.5f, 0, 0})},
                                 {test::solidMaterial({0.8f, 0.8f, 0.8f, 1})});
   std::vector<uint32_t> patchOf = pairPatches(scene); // wall 0, hidden box 1..6, side box 7..12
-  auto atlas = AtlasShading::create(context(), scene, patchOf);
+  auto atlas = create(scene, patchOf);
   ASSERT_TRUE(atlas.ok()) << atlas.error().message;
   EXPECT_EQ(atlas.value()->patchCount(), 13u);
   Camera cam = camera({0, 0, 5});
@@ -150,7 +187,7 @@ TEST_F(AtlasVisibility, BoxBehindWallIsHiddenBoxBesideIsNot) {
   expectMatchesRayCast(*vis, rayCastPixels(scene, patchOf, cam, 96, 72));
 }
 
-TEST_F(AtlasVisibility, TransparencyCountsOnlyInFrontOfOpaque) {
+TEST_P(AtlasVisibility, TransparencyCountsOnlyInFrontOfOpaque) {
   // An opaque wall at z = 0; a BLEND quad in front of it (z = 1) and one behind it (z = -1); a MASK
   // quad whose every texel is cut away in front of a box face: the box stays visible, the MASK not.
   Material wall = test::solidMaterial({0.5f, 0.5f, 0.5f, 1});
@@ -162,7 +199,7 @@ TEST_F(AtlasVisibility, TransparencyCountsOnlyInFrontOfOpaque) {
                                  translated(test::makeCube(0.3f), {1.8f, 0, 0.5f})},
                                 {wall, glass, cutAway});
   std::vector<uint32_t> patchOf = pairPatches(scene); // wall 0, glass front 1, glass behind 2, mask 3, box 4..9
-  auto atlas = AtlasShading::create(context(), scene, patchOf);
+  auto atlas = create(scene, patchOf);
   ASSERT_TRUE(atlas.ok()) << atlas.error().message;
   Camera cam = camera({0.5f, 0, 6}, {0.5f, 0, 0});
   auto vis = atlas.value()->visibility({&cam, 1}, 128, 64);
@@ -176,14 +213,14 @@ TEST_F(AtlasVisibility, TransparencyCountsOnlyInFrontOfOpaque) {
   expectMatchesRayCast(*vis, rayCastPixels(scene, patchOf, cam, 128, 64));
 }
 
-TEST_F(AtlasVisibility, TwoCamerasSeeTheUnion) {
+TEST_P(AtlasVisibility, TwoCamerasSeeTheUnion) {
   // Boxes around the origin; the current view sees one side, the predicted view another.
   Scene scene =
       test::makeScene({translated(test::makeCube(0.4f), {-1.5f, 0, 0}), translated(test::makeCube(0.4f), {1.5f, 0, 0}),
                        translated(test::makeCube(0.4f), {0, 0, -1.5f}), test::makeSphere(0.6f, 8, 12)},
                       {test::solidMaterial({0.6f, 0.6f, 0.6f, 1})});
   std::vector<uint32_t> patchOf = pairPatches(scene);
-  auto atlas = AtlasShading::create(context(), scene, patchOf);
+  auto atlas = create(scene, patchOf);
   ASSERT_TRUE(atlas.ok()) << atlas.error().message;
   Camera views[2] = {camera({0, 1, 5}), camera({5, 1, 0.5f})};
   auto a = atlas.value()->visibility({&views[0], 1}, 64, 64);
@@ -198,19 +235,78 @@ TEST_F(AtlasVisibility, TwoCamerasSeeTheUnion) {
   expectMatchesRayCast(*b, rayCastPixels(scene, patchOf, views[1], 64, 64));
 }
 
-TEST_F(AtlasVisibility, BadInputIsAnError) {
+TEST_P(AtlasVisibility, BadInputIsAnError) {
   Scene scene = test::makeScene({test::makeQuad(1.0f, 0.0f)}, {});
-  auto wrongSize = AtlasShading::create(context(), scene, {0, 0, 0});
+  auto wrongSize = create(scene, {0, 0, 0});
   ASSERT_FALSE(wrongSize.ok());
   EXPECT_NE(wrongSize.error().message.find("3 triangles"), std::string::npos) << wrongSize.error().message;
-  auto badId = AtlasShading::create(context(), scene, {0, 7});
+  auto badId = create(scene, {0, 7});
   ASSERT_FALSE(badId.ok());
   EXPECT_NE(badId.error().message.find("patch 7"), std::string::npos) << badId.error().message;
-  auto badSide = AtlasShading::create(context(), scene, {0, 0}, {1000, 16});
+  auto badSide = create(scene, {0, 0}, {1000, 16});
   EXPECT_FALSE(badSide.ok());
-  auto atlas = AtlasShading::create(context(), scene, {0, 0});
+  auto atlas = create(scene, {0, 0});
   ASSERT_TRUE(atlas.ok());
   EXPECT_FALSE(atlas.value()->visibility({}, 64, 64).ok());
   Camera cam = camera({0, 0, 5});
   EXPECT_FALSE(atlas.value()->visibility({&cam, 1}, 0, 64).ok());
+}
+
+// The compute method marks every patch the hardware passes mark on a city (opaque walls and
+// interiors standing on the sidewalk's plane, glass, a ground under everything): from above, along
+// a street (the near plane cuts the ground), and both at once. It may add a few: surfaces that tie
+// with the nearest one within MIRAGE_ATLAS_DEPTH_TOLERANCE (the interior floors on the sidewalk's
+// plane), which the client's rasterizer may show. Skipped where the device lacks the compute
+// raster's atomics.
+class AtlasVisibilityMethods : public GpuTest {};
+
+TEST_F(AtlasVisibilityMethods, ComputeMarksTheHardwarePatchesOnACity) {
+  if (!context().caps().int64BufferAtomics || !context().caps().int64SharedAtomics)
+    GTEST_SKIP() << "no 64-bit buffer and shared atomics: no compute visibility";
+  Scene scene = io::generateScene("city", 1, 1).value();
+  std::vector<uint32_t> patchOf = pairPatches(scene);
+  AtlasShadingConfig config;
+  config.visibility = AtlasVisibilityMethod::Compute;
+  auto compute = AtlasShading::create(context(), scene, patchOf, config);
+  config.visibility = AtlasVisibilityMethod::Hardware;
+  auto hardware = AtlasShading::create(context(), scene, patchOf, config);
+  ASSERT_TRUE(compute.ok() && hardware.ok());
+  Bounds b = scene.worldBounds();
+  glm::vec3 centre = b.center(), extent = b.max - b.min;
+  Camera above = camera(centre + glm::vec3(0.7f, 0.5f, 0.9f) * extent, centre);
+  Camera street = camera(glm::vec3(centre.x, 1.7f, b.min.z + 1.0f), glm::vec3(centre.x, 1.7f, b.max.z));
+  Camera views[] = {above, street};
+  for (std::span<const Camera> cams :
+       {std::span<const Camera>(&views[0], 1), std::span<const Camera>(&views[1], 1), std::span<const Camera>(views)}) {
+    auto c = compute.value()->visibility(cams, 160, 90);
+    auto h = hardware.value()->visibility(cams, 160, 90);
+    ASSERT_TRUE(c.ok() && h.ok());
+    EXPECT_GT(h->size(), 100u);
+    std::vector<uint32_t> onlyCompute, onlyHardware;
+    std::set_difference(c->begin(), c->end(), h->begin(), h->end(), std::back_inserter(onlyCompute));
+    std::set_difference(h->begin(), h->end(), c->begin(), c->end(), std::back_inserter(onlyHardware));
+    EXPECT_TRUE(onlyHardware.empty()) << cams.size() << " camera(s): " << onlyHardware.size()
+                                      << " hardware patches not marked by compute, of " << h->size();
+    EXPECT_LE(onlyCompute.size(), h->size() / 50) << cams.size() << " camera(s): " << onlyCompute.size()
+                                                  << " compute patches the hardware does not mark, of " << h->size();
+  }
+}
+
+// The compute method's depth tolerance: a quad coplanar with a wall and inside it counts (either
+// rasterizer may round it in front), one 1 % of the distance behind the wall does not.
+TEST_F(AtlasVisibilityMethods, ComputeCountsTiesNotSurfacesBehind) {
+  if (!context().caps().int64BufferAtomics || !context().caps().int64SharedAtomics)
+    GTEST_SKIP() << "no 64-bit buffer and shared atomics: no compute visibility";
+  Scene scene = test::makeScene({test::makeQuad(1.0f, 0.0f), translated(test::makeQuad(0.3f, 0.0f), {-0.4f, 0, 0}),
+                                 translated(test::makeQuad(0.3f, -0.05f), {0.4f, 0, 0})},
+                                {test::solidMaterial({0.8f, 0.8f, 0.8f, 1})});
+  std::vector<uint32_t> patchOf = pairPatches(scene); // wall 0, coplanar quad 1, quad behind 2
+  AtlasShadingConfig config;
+  config.visibility = AtlasVisibilityMethod::Compute;
+  auto atlas = AtlasShading::create(context(), scene, patchOf, config);
+  ASSERT_TRUE(atlas.ok()) << atlas.error().message;
+  Camera cam = camera({0, 0, 5});
+  auto vis = atlas.value()->visibility({&cam, 1}, 96, 72);
+  ASSERT_TRUE(vis.ok()) << vis.error().message;
+  EXPECT_EQ(*vis, (std::vector<uint32_t>{0, 1}));
 }

@@ -11,6 +11,7 @@
 #include <glm/glm.hpp>
 
 #include "mirage/core/image.h"
+#include "mirage/core/named_enum.h"
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
@@ -20,9 +21,23 @@
 
 namespace mirage::render {
 
+// How visibility() finds the patches (docs/stream.md, "Visibility stage").
+enum class AtlasVisibilityMethod {
+  Auto,     // Compute where the device has 64-bit buffer and shared atomics, else Hardware
+  Compute,  // the cluster renderer's compute raster: a depth raster into a 64-bit buffer, then
+            // marking rasters (a few dispatches a frame); also marks surfaces that tie with the
+            // nearest within MIRAGE_ATLAS_DEPTH_TOLERANCE (shaderio/atlas_shading.h)
+  Hardware, // per camera a depth prepass and a marking pass, a draw per instance each
+};
+inline constexpr EnumName<AtlasVisibilityMethod> kAtlasVisibilityMethodNames[] = {
+    {AtlasVisibilityMethod::Auto, "auto"},
+    {AtlasVisibilityMethod::Compute, "compute"},
+    {AtlasVisibilityMethod::Hardware, "hardware"}};
+
 struct AtlasShadingConfig {
   uint32_t atlasSide = 2048;   // texels; a multiple of the superblock side (128), at most 16384
   uint32_t maxPatches = 65536; // blocks shade() accepts per call (its buffers are sized by it)
+  AtlasVisibilityMethod visibility = AtlasVisibilityMethod::Auto;
 };
 
 // The forward renderer's key light and ambient (RenderSettings' defaults); the scene's point
@@ -41,7 +56,7 @@ public:
   // instance-major as the PVS's (vis::triangleOffsets). Patch ids are 0..max; an id no triangle
   // names is simply never visible. Errors: a size that does not match the scene's triangles, an
   // instance naming a missing mesh, a patch id not below the triangle count, a config outside
-  // its range.
+  // its range, Compute visibility where the device lacks its atomics.
   static Result<std::unique_ptr<AtlasShading>> create(gpu::Context& context, const Scene& scene,
                                                       std::vector<uint32_t> patchOfTriangle,
                                                       const AtlasShadingConfig& config = {});
@@ -49,11 +64,13 @@ public:
 
   uint32_t patchCount() const; // max patch id + 1
   uint32_t atlasSide() const;
+  AtlasVisibilityMethod visibilityMethod() const; // Compute or Hardware (Auto resolved)
 
   // The global patch ids (sorted) that any of `cameras` (1-2: the current and the predicted view)
-  // sees in a width x height image: opaque and MASK patches with a pixel in front, BLEND patches
-  // with a pixel not behind opaque/MASK geometry. Clip planes are derived from the scene where the
-  // camera leaves them zero, as the forward renderer does. Synchronous (submits and waits).
+  // sees in a width x height image: opaque and MASK patches with a pixel in front (Compute: or
+  // tying with the front one), BLEND patches with a pixel not behind opaque/MASK geometry. Clip
+  // planes are derived from the scene where the camera leaves them zero, as the forward renderer
+  // does. Synchronous (submits and waits); GPU time in takePassTimes() as "visibility".
   Result<std::vector<uint32_t>> visibility(std::span<const Camera> cameras, uint32_t width, uint32_t height);
 
   // Shades each patch's block of the atlas (its other texels keep their contents): RGBA8, colour

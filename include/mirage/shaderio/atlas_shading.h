@@ -30,6 +30,24 @@ struct AtlasVisibilityPush {
   uint pad0;
 };
 
+// The compute visibility (docs/stream.md, "Visibility stage"): the cluster renderer's compute
+// raster draws the scene, cut into clusters of consecutive mesh triangles, into a 64-bit visibility
+// buffer; marking rasters walk every cluster again and set the bits of the patches whose samples
+// are not behind that nearest depth, less MIRAGE_ATLAS_DEPTH_TOLERANCE of it
+// (atlas_visibility_mark*.comp). Visibility ids are the raster's ((list entry + 1) <<
+// MIRAGE_CLUSTER_TRIANGLE_BITS | triangle): a list entry's triangle t is global triangle
+// entryTriangle[entry] + t.
+struct AtlasVisibilityTables {
+  uint64_t entryTriangleAddress;   // uint[] per visible-list entry: the global id of its cluster's triangle 0
+  uint64_t patchOfTriangleAddress; // uint[] per global triangle
+  uint64_t patchBitsAddress;       // uint[]: bit p set once patch p is seen
+};
+
+// Share of the nearest (reverse-Z) depth a sample may lie behind it and still mark its patch: a
+// surface meeting or coplanar with the nearest one within 0.05 % of the distance (5 cm at 100 m),
+// where another rasterizer's rounding (the client's) may show it instead.
+#define MIRAGE_ATLAS_DEPTH_TOLERANCE (1.0 / 2048.0)
+
 // One 8 x 8 tile of a patch's block to shade.
 struct AtlasTile {
   uint patchIndex; // into the shaded GpuAtlasPatch[]
@@ -71,6 +89,7 @@ struct AtlasColourPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(AtlasVisibilityPush) == 112, "AtlasVisibilityPush layout");
+static_assert(sizeof(AtlasVisibilityTables) == 24, "AtlasVisibilityTables layout");
 static_assert(sizeof(AtlasTile) == 8, "AtlasTile layout");
 static_assert(sizeof(AtlasShadePush) == 56, "AtlasShadePush layout");
 static_assert(sizeof(AtlasColourSample) == 32, "AtlasColourSample layout");

@@ -33,7 +33,8 @@ struct StreamBenchConfig {
   float levelBias = 0.0f;
   float atlasFill = ClientStreamConfig{}.atlasFill; // share of the atlas level selection fits the blocks to (0: none)
   uint32_t positionBits = 20;                       // StreamSceneOptions::positionBits
-  bool quality = true;                              // client 0 draws every frame and is compared with local rendering
+  render::AtlasVisibilityMethod visibility = render::AtlasVisibilityMethod::Auto; // StreamSceneOptions::visibility
+  bool quality = true; // client 0 draws every frame and is compared with local rendering
 };
 
 struct StreamBenchFrame {
@@ -53,6 +54,7 @@ struct StreamBenchFrame {
 
 struct StreamBenchReport {
   std::string device;
+  render::AtlasVisibilityMethod visibility = render::AtlasVisibilityMethod::Hardware; // the method that ran
   TessellationStats tessellation; // the served scene's (instanced triangles before and after)
   uint32_t patches = 0;           // the served scene's
   std::vector<StreamBenchFrame> frames;

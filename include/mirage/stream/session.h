@@ -39,6 +39,8 @@ struct StreamSceneOptions {
   // by at most (largest extent) / 2^(bits + 1) per axis. 20 bits: 0.15 mm on the 320 m city, a tenth
   // of a 1080p pixel (60-degree fov) 2.5 m from the eye (docs/stream.md, "Patch section").
   uint32_t positionBits = 20;
+  // How the server finds the visible patches (render/atlas_shading.h; docs/stream.md, "Visibility stage").
+  render::AtlasVisibilityMethod visibility = render::AtlasVisibilityMethod::Auto;
 };
 
 // What every client of a scene shares. The GPU atlas is scratch: each frame produced clears it and
