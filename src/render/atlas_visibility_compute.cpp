@@ -17,6 +17,7 @@
 #include <glm/gtc/matrix_inverse.hpp>
 
 #include "atlas_shading_impl.h"
+#include "cluster_impl.h"
 #include "forward_impl.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/shaderio/cluster.h"
@@ -28,21 +29,13 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-// The cluster renderer's raster workgroup (its kRasterLanes) and mono specialization.
-constexpr uint32_t kRasterLanes = 128;
-constexpr uint32_t kMono[] = {1, kRasterLanes};
-
-constexpr VkPipelineStageFlags2 kCS = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-constexpr VkAccessFlags2 kRW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+// The cluster renderer's mono raster specialization.
+constexpr uint32_t kMono[] = {1, kClusterRasterLanes};
 
 // Workgroups for `count` in x, spilling into y past 65535 (the raster's MIRAGE_CLUSTER_DISPATCH_X).
 VkExtent2D groups(uint32_t count) {
   uint32_t x = std::min<uint32_t>(count, MIRAGE_CLUSTER_DISPATCH_X);
   return {x, x == 0 ? 0 : (count + x - 1) / x};
-}
-
-float maxAxisScale(const glm::mat4& m) {
-  return std::max({glm::length(glm::vec3(m[0])), glm::length(glm::vec3(m[1])), glm::length(glm::vec3(m[2]))});
 }
 
 } // namespace
@@ -125,10 +118,7 @@ void AtlasShading::Impl::uploadClusters(const Scene& scene, const std::vector<ui
     gi.normalMatrix = glm::inverseTranspose(inst.transform);
     gi.mesh = inst.mesh;
     gi.maxScale = maxAxisScale(inst.transform);
-    gi.flags = (m.doubleSided ? MIRAGE_INSTANCE_DOUBLE_SIDED : 0u) |
-               (isMirrored(inst.transform) ? MIRAGE_INSTANCE_MIRRORED : 0u) |
-               (m.alphaMode == AlphaMode::Mask ? MIRAGE_INSTANCE_ALPHA_MASK : 0u) |
-               (m.alphaMode == AlphaMode::Blend ? MIRAGE_INSTANCE_ALPHA_BLEND : 0u);
+    gi.flags = clusterInstanceFlags(m, inst.transform);
     instanceData.push_back(gi);
     cv.hasMask |= m.alphaMode == AlphaMode::Mask;
     bool isBlend = m.alphaMode == AlphaMode::Blend;
@@ -215,7 +205,7 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
     // copy read them: write after read, ordered by its wait).
     vkCmdFillBuffer(cmd, cv.patchBits.handle(), 0, VkDeviceSize(words) * 4, 0);
     vkCmdFillBuffer(cmd, cv.visBuffer.handle(), 0, cameras.size() * pixels * 8, 0);
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, kRW);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, kStorageRW);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cv.rasterLayout, 0, 1, &descriptors.set, 0, nullptr);
     // Each camera's samples into its own part of the buffer: the dispatches of both cameras overlap.
     auto rasterPass = [&](VkPipeline pipeline, uint32_t list, uint32_t entries) {
@@ -233,8 +223,8 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
     const uint32_t all = cv.opaqueEntries + cv.blendEntries;
     rasterPass(cv.raster, 0, cv.opaqueEntries);
     rasterPass(cv.rasterMask, 0, cv.opaqueEntries); // the MASK entries of the same list (the opaque kernel skips them)
-    cmdMemoryBarrier(cmd, kCS, kRW, kCS, kRW);      // the nearest depths are final
-    rasterPass(cv.mark, 1, all);                    // read the buffer, set bits
+    cmdMemoryBarrier(cmd, kCS, kStorageRW, kCS, kStorageRW); // the nearest depths are final
+    rasterPass(cv.mark, 1, all);                             // read the buffer, set bits
     rasterPass(cv.markMask, 1, all);
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
                      VK_ACCESS_2_TRANSFER_READ_BIT);

@@ -74,6 +74,16 @@ shaderio::GpuCluster clusterRecord(const lod::Cluster& c, uint32_t mesh);
 shaderio::GpuClusterCone clusterCone(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices);
 float clusterMaxEdge(std::span<const glm::vec3> positions, std::span<const uint8_t> localIndices);
 
+// A GpuClusterInstance's flags from its material and transform: double-sided, mirrored (negative
+// determinant: the winding flips) and the alpha mode (the rasterizers branch on them per cluster,
+// so opaque clusters never touch the alpha code; docs/render.md, "Alpha").
+uint32_t clusterInstanceFlags(const Material& material, const glm::mat4& model);
+
+// Threads per eye of the compute rasterizers (cluster_raster.glsl's specialization): 128, one round
+// over a cluster's triangles (measured on an H100 against 32, 64 and 256: 64 threads took 79
+// registers, 128 take 64, so more warps hide the walks' latency). Stereo uses twice as many.
+constexpr uint32_t kClusterRasterLanes = 128;
+
 struct ClusterResidency; // cluster_residency.h
 
 constexpr VkFormat kColorFormat = VK_FORMAT_R16G16B16A16_SFLOAT; // as the forward renderer

@@ -55,12 +55,9 @@ void ClusterRenderer::Impl::createPipelines() {
   instanceOcclusionPipeline = createComputePipeline(ctx, "cluster_instance_occlusion.comp", layout);
   hzbPipeline = createComputePipeline(ctx, "cluster_hzb.comp", layout);
   resolvePipeline = createComputePipeline(ctx, "cluster_resolve.comp", layout, scene.resolveSpecialization);
-  // Compute rasterizers (cluster_raster.glsl), specialized by eyes and workgroup size: 128 threads
-  // per eye (one round over a cluster's triangles; measured on an H100 against 32, 64 and 256:
-  // 64 threads took 79 registers, 128 take 64, so more warps hide the walks' latency); stereo
-  // draws both eyes with twice the threads.
-  constexpr uint32_t kRasterLanes = 128;
-  const uint32_t kMono[] = {1, kRasterLanes}, kStereo[] = {2, 2 * kRasterLanes};
+  // Compute rasterizers (cluster_raster.glsl), specialized by eyes and workgroup size
+  // (kClusterRasterLanes per eye; stereo draws both eyes with twice the threads).
+  const uint32_t kMono[] = {1, kClusterRasterLanes}, kStereo[] = {2, 2 * kClusterRasterLanes};
   bool computeRaster = caps.int64BufferAtomics && caps.int64SharedAtomics; // cluster_frame.cpp's condition
   if (computeRaster) {
     rasterPipeline = createComputePipeline(ctx, "cluster_raster.comp", layout, kMono);

@@ -371,6 +371,13 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   return d;
 }
 
+uint32_t clusterInstanceFlags(const Material& material, const glm::mat4& model) {
+  return (material.doubleSided ? MIRAGE_INSTANCE_DOUBLE_SIDED : 0u) |
+         (glm::determinant(glm::mat3(model)) < 0.0f ? MIRAGE_INSTANCE_MIRRORED : 0u) |
+         (material.alphaMode == AlphaMode::Mask ? MIRAGE_INSTANCE_ALPHA_MASK : 0u) |
+         (material.alphaMode == AlphaMode::Blend ? MIRAGE_INSTANCE_ALPHA_BLEND : 0u);
+}
+
 Status uploadClusterInstances(Context& ctx, const Scene& scene, std::vector<sio::GpuClusterMesh> meshes,
                               const std::vector<Bounds>& meshBounds, ClusterSceneData& d) {
   std::vector<Material> mats = scene.materials;
@@ -389,12 +396,7 @@ Status uploadClusterInstances(Context& ctx, const Scene& scene, std::vector<sio:
     g.mesh = inst.mesh;
     // Bits past 2^32 wrap: the renderer turns occlusion culling off for such scenes.
     g.historyOffset = uint32_t(d.instancedClusters);
-    // Alpha modes as instance flags (the material is per mesh): the rasterizers branch on them per
-    // cluster, so opaque clusters never touch the alpha code (docs/render.md, "Alpha").
-    g.flags = (mat.doubleSided ? MIRAGE_INSTANCE_DOUBLE_SIDED : 0u) |
-              (glm::determinant(glm::mat3(inst.transform)) < 0.0f ? MIRAGE_INSTANCE_MIRRORED : 0u) |
-              (mat.alphaMode == AlphaMode::Mask ? MIRAGE_INSTANCE_ALPHA_MASK : 0u) |
-              (mat.alphaMode == AlphaMode::Blend ? MIRAGE_INSTANCE_ALPHA_BLEND : 0u);
+    g.flags = clusterInstanceFlags(mat, inst.transform); // alpha modes per instance (the material is per mesh)
     instances.push_back(g);
     d.instancedClusters += meshes[inst.mesh].clusterCount;
     if (mat.alphaMode == AlphaMode::Blend) d.blendInstancedClusters += meshes[inst.mesh].clusterCount;
