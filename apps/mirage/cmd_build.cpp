@@ -17,6 +17,7 @@
 #include "lod_common.h"
 #include "mirage/asset/container.h"
 #include "mirage/bake/lod_bake.h"
+#include "mirage/bake/lod_stream_bake.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/paged_asset.h"
 #include "mirage/lod/stream_bake.h"
@@ -52,9 +53,9 @@ nlohmann::json ranksJson(const bake::ScheduleReport& r) {
 }
 
 // gen:many: each mesh generated when a worker bakes it, chunks written as their turn comes, so the
-// memory stays that of a few meshes whatever the scene's size (lod/stream_bake.h). One process.
+// memory stays that of a few meshes whatever the scene's size (lod/stream_bake.h). Under mpirun every
+// rank generates and bakes the meshes rank 0 hands it (bake/lod_stream_bake.h).
 void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const bake::World& world) {
-  if (world.size() > 1) return world.root() ? fail("gen:many bakes in one process (no mpirun)") : setExitCode(2);
   if (o.inputs.size() != 1) return fail("gen:many is baked alone (one input)");
   if (o.resume) return fail("--resume does not apply to gen:many (it keeps no journal)");
   if (!o.materials.empty()) return fail("--materials does not apply to gen:many");
@@ -68,15 +69,19 @@ void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const 
     if (meshes == meshCount) std::fprintf(stderr, "\n");
   };
   lod::StreamBakeReport report;
+  bake::ScheduleReport ranks;
   auto t0 = std::chrono::steady_clock::now();
-  if (Status s = lod::bakeLodFile(source, o.output, o.config, o.write, o.stream, &report, progress); !s)
-    return fail(s.error());
+  if (Status s = bake::bakeLodFile(world, source, o.output, o.config, o.write, o.stream, &report, &ranks, progress); !s)
+    return world.root() ? fail(s.error()) : setExitCode(2);
+  if (!world.root()) return;
   double wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   uint64_t peakRss = procStatusBytes("VmHWM:");
   if (o.quiet) return;
   if (o.json) {
     nlohmann::json j = {{"output", o.output},
                         {"streamed", true},
+                        {"ranks", world.size()},
+                        {"per_rank", ranksJson(ranks)},
                         {"meshes", report.meshes},
                         {"input_triangles", report.inputTriangles},
                         {"clusters", report.clusters},

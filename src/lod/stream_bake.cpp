@@ -92,6 +92,46 @@ Result<EncodedMesh> bakeOne(const MeshSource& source, uint32_t index, const Buil
   return out;
 }
 
+// An EncodedMesh as bytes between processes (bakeStreamMesh, RemoteMeshBakers): every field, the
+// stats as CBOR (their numbers keep their types, so META's text is the one-process text).
+std::vector<uint8_t> encodeMesh(const EncodedMesh& e) {
+  asset::ByteWriter w;
+  const asset::ChunkInfo& c = e.dagChunk.info;
+  w.write(c.type.code), w.write(uint8_t(c.compressed)), w.write(uint8_t(c.blocked));
+  w.write(c.offset), w.write(c.storedBytes), w.write(c.rawBytes), w.write(c.storedHash), w.write(c.rawHash);
+  w.write(c.zstdLevel), w.write(c.indexBytes);
+  w.writeArray(std::span<const uint8_t>(e.dagChunk.stored));
+  w.writeArray(std::span<const uint8_t>(e.pagedPayload));
+  w.writeArray(std::span<const uint8_t>(e.sourceMap));
+  std::vector<uint8_t> stats = nlohmann::json::to_cbor(e.stats);
+  w.writeArray(std::span<const uint8_t>(stats));
+  w.write(e.bounds.min), w.write(e.bounds.max);
+  w.write(e.triangles), w.write(e.clusters), w.write(e.pages);
+  for (double s : e.seconds) w.write(s);
+  return w.take();
+}
+
+Result<EncodedMesh> decodeMesh(std::span<const uint8_t> bytes, const std::string& where) {
+  asset::ByteReader r(bytes, where);
+  EncodedMesh e;
+  asset::ChunkInfo& c = e.dagChunk.info;
+  uint8_t compressed = 0, blocked = 0;
+  std::vector<uint8_t> stats;
+  r.read(c.type.code), r.read(compressed), r.read(blocked);
+  r.read(c.offset), r.read(c.storedBytes), r.read(c.rawBytes), r.read(c.storedHash), r.read(c.rawHash);
+  r.read(c.zstdLevel), r.read(c.indexBytes);
+  r.readArray(e.dagChunk.stored), r.readArray(e.pagedPayload), r.readArray(e.sourceMap), r.readArray(stats);
+  r.read(e.bounds.min), r.read(e.bounds.max);
+  r.read(e.triangles), r.read(e.clusters), r.read(e.pages);
+  for (double& s : e.seconds) r.read(s);
+  if (r.ok() && r.remaining() != 0) r.fail("trailing bytes");
+  if (!r.ok()) return r.error();
+  c.compressed = compressed != 0, c.blocked = blocked != 0;
+  e.stats = nlohmann::json::from_cbor(stats, true, false);
+  if (e.stats.is_discarded()) return makeError(where, "mesh statistics do not decode");
+  return e;
+}
+
 // Removes the spool file when the bake ends, however it ends.
 struct SpoolFile {
   std::string path;
@@ -104,9 +144,17 @@ struct SpoolFile {
 
 } // namespace
 
+Result<std::vector<uint8_t>> bakeStreamMesh(const MeshSource& source, uint32_t index, const BuildConfig& config,
+                                            const LodWriteOptions& write, const std::string& path) {
+  if (index >= source.layout.meshes.size()) return makeError(path, "no mesh " + std::to_string(index));
+  auto e = bakeOne(source, index, config, write, path);
+  if (!e) return e.error();
+  return encodeMesh(*e);
+}
+
 Status bakeLodFile(const MeshSource& source, const std::string& path, const BuildConfig& config,
                    const LodWriteOptions& write, const StreamBakeOptions& options, StreamBakeReport* report,
-                   const BuildProgress& progress) {
+                   const BuildProgress& progress, const RemoteMeshBakers* remote, std::vector<uint32_t>* localMeshes) {
   auto t0 = std::chrono::steady_clock::now();
   const uint32_t meshCount = uint32_t(source.layout.meshes.size());
   if (meshCount == 0) return makeError(path, "the scene has no meshes");
@@ -147,6 +195,7 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
         if (error || next >= meshCount) return;
         i = next++;
         r.peakMeshesInFlight = std::max(r.peakMeshesInFlight, ++busy);
+        if (localMeshes) localMeshes->push_back(i);
       }
       Result<EncodedMesh> e = Error{};
       arena.execute([&] { e = bakeOne(source, i, meshConfig, write, path); });
@@ -171,12 +220,40 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   scene.instances = source.layout.instances;
   scene.lights = source.layout.lights;
   nlohmann::json stats = nlohmann::json::array();
+  // Remote workers take meshes under the same window and deliver them into `done` (pumped by this
+  // thread between writes, at least every millisecond while it waits).
+  RemoteMeshBakers::Take take = [&]() -> std::optional<uint32_t> {
+    std::lock_guard lock(m);
+    if (error || next >= meshCount || next >= written + window) return std::nullopt;
+    return next++;
+  };
+  RemoteMeshBakers::Deliver deliver = [&](uint32_t i, Result<std::vector<uint8_t>> bytes) {
+    Result<EncodedMesh> e =
+        bytes ? decodeMesh(*bytes, meshWhere(source.layout, i)) : Result<EncodedMesh>(bytes.error());
+    std::lock_guard lock(m);
+    if (!e) {
+      if (!error) error = e.error();
+    } else if (i < meshCount && i >= written && !done.count(i)) {
+      done.emplace(i, std::move(e).value());
+      r.peakMeshesWaiting = std::max(r.peakMeshesWaiting, uint32_t(done.size()));
+    } else if (!error) {
+      error = makeError(path, "mesh " + std::to_string(i) + " delivered twice");
+    }
+    cv.notify_all();
+  };
   Status status = Ok{};
   while (written < meshCount) {
     EncodedMesh e;
     {
       std::unique_lock lock(m);
-      cv.wait(lock, [&] { return error || done.count(written); });
+      auto ready = [&] { return error || done.count(written); };
+      while (remote && !ready()) {
+        lock.unlock();
+        remote->pump(take, deliver);
+        lock.lock();
+        cv.wait_for(lock, std::chrono::milliseconds(1), ready);
+      }
+      cv.wait(lock, ready);
       if (error) break;
       auto it = done.find(written);
       e = std::move(it->second);

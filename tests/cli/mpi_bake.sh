@@ -4,7 +4,7 @@
 # killed mid-way (one process alone; a worker rank of four; rank 0 of four) continues with --resume
 # to the same bytes; bad input under mpirun prints one error line, every rank exits non-zero, and neither an
 # output nor a journal is left. `surfels --per-mesh` on 4 ranks (lavapipe each) and `pvs` (8 cells,
-# Embree on each rank) write the bytes one process writes. Without mpirun (or in a build without MPI) the single-process parts run.
+# Embree on each rank) and the streaming `build gen:many` write the bytes one process writes. Without mpirun (or in a build without MPI) the single-process parts run.
 # Usage: mpi_bake.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -141,6 +141,21 @@ import json; j = json.load(open('$tmp/stdout'))
 assert j['ranks'] == 4 and sorted(u for r in j['per_rank'] for u in r['units']) == list(range(8)), j['per_rank']"
     else
       fail "pvs-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
+    fi
+  fi
+
+  # The streaming gen:many bake: rank 0 writes, every rank generates and bakes the meshes it is
+  # handed; the same bytes as one process, every mesh baked exactly once.
+  many_args=(build gen:many:10x3000 --paged --meshes-in-flight 1)
+  if expect_ok many-one "${many_args[@]}" -o "$tmp/many1.mrg" --quiet; then
+    if "${mpi[@]}" "$mirage" "${many_args[@]}" -o "$tmp/many4.mrg" --json >"$tmp/stdout" 2>"$tmp/stderr"; then
+      pass=$((pass + 1))
+      check many-mpi-same-bytes cmp "$tmp/many1.mrg" "$tmp/many4.mrg"
+      check many-mpi-json python3 -c "
+import json; j = json.load(open('$tmp/stdout'))
+assert j['ranks'] == 4 and sorted(u for r in j['per_rank'] for u in r['units']) == list(range(10)), j['per_rank']"
+    else
+      fail "many-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
     fi
   fi
 

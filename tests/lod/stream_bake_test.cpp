@@ -2,13 +2,15 @@
 // chunk written as its turn comes. The file holds the chunks saveLodAsset writes for the same scene,
 // its bytes do not depend on threads, meshes in flight or the order meshes finish in, the counters
 // the memory bound rests on stay within their limits, a failing mesh leaves nothing behind, and a
-// residency reader of the file reads only indices and root pages.
+// residency reader of the file reads only indices and root pages; meshes baked elsewhere (remote
+// bakers) keep the bytes.
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <numeric>
 #include <thread>
 
 #include "mirage/asset/container.h"
@@ -159,6 +161,63 @@ TEST(StreamBake, AFailingMeshLeavesNothing) {
   };
   std::string message = bakeFile(dir / "x.mrg", source, paged(), 2, {.meshesInFlight = 2});
   EXPECT_NE(message.find("mesh 3: cannot be made"), std::string::npos) << message;
+  EXPECT_TRUE(std::filesystem::is_empty(dir)) << "output, temp or spool file left";
+}
+
+// Remote bakers (what bake::bakeLodFile makes of other MPI ranks): a fake one bakes the meshes it
+// takes on its own thread with bakeStreamMesh and delivers them late and out of order. Flat and paged
+// files keep the one-process bytes; every mesh is baked once, here or there; a remote error stops
+// the bake and leaves nothing.
+TEST(StreamBake, RemoteBakersKeepTheBytes) {
+  auto dir = test::tempDir("stream_bake_remote");
+  io::ManyOptions o = smallMany();
+  lod::MeshSource source = manySource(o);
+  for (bool isPaged : {true, false}) {
+    lod::LodWriteOptions w = isPaged ? paged() : lod::LodWriteOptions{};
+    ASSERT_EQ(bakeFile(dir / "one.mrg", source, w, 1, {.meshesInFlight = 1}), "");
+    std::vector<uint8_t> reference = fileBytes(dir / "one.mrg");
+    lod::BuildConfig config;
+    config.threads = 1;
+    // The remote side: up to three meshes at once, each finished after the one taken after it.
+    std::vector<std::pair<uint32_t, Result<std::vector<uint8_t>>>> held;
+    std::vector<uint32_t> remoteMeshes;
+    lod::RemoteMeshBakers remote{
+        [&](const lod::RemoteMeshBakers::Take& take, const lod::RemoteMeshBakers::Deliver& deliver) {
+          while (held.size() < 3) {
+            std::optional<uint32_t> mesh = take();
+            if (!mesh) break;
+            remoteMeshes.push_back(*mesh);
+            held.emplace_back(*mesh, lod::bakeStreamMesh(source, *mesh, config, w, (dir / "two.mrg").string()));
+          }
+          if (!held.empty()) {
+            deliver(held.back().first, std::move(held.back().second));
+            held.pop_back();
+          }
+        }};
+    std::vector<uint32_t> localMeshes;
+    Status s = lod::bakeLodFile(source, (dir / "two.mrg").string(), config, w, {.meshesInFlight = 1}, nullptr, {},
+                                &remote, &localMeshes);
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    EXPECT_EQ(fileBytes(dir / "two.mrg"), reference) << (isPaged ? "paged" : "flat");
+    EXPECT_FALSE(remoteMeshes.empty());
+    std::vector<uint32_t> all = localMeshes;
+    all.insert(all.end(), remoteMeshes.begin(), remoteMeshes.end());
+    std::sort(all.begin(), all.end());
+    std::vector<uint32_t> each(o.count);
+    std::iota(each.begin(), each.end(), 0u);
+    EXPECT_EQ(all, each);
+  }
+  std::filesystem::remove(dir / "one.mrg");
+  std::filesystem::remove(dir / "two.mrg");
+  lod::RemoteMeshBakers failing{
+      [](const lod::RemoteMeshBakers::Take& take, const lod::RemoteMeshBakers::Deliver& deliver) {
+        if (std::optional<uint32_t> mesh = take()) deliver(*mesh, Error{"rank 1: mesh cannot be baked"});
+      }};
+  lod::BuildConfig config;
+  Status s =
+      lod::bakeLodFile(source, (dir / "x.mrg").string(), config, paged(), {.meshesInFlight = 1}, nullptr, {}, &failing);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("rank 1: mesh cannot be baked"), std::string::npos) << s.error().message;
   EXPECT_TRUE(std::filesystem::is_empty(dir)) << "output, temp or spool file left";
 }
 

@@ -9,7 +9,10 @@
 // count and of the order meshes finish in.
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
@@ -56,14 +59,34 @@ struct StreamBakeReport {
   double finishSeconds = 0; // the source map, scene and META chunks, the read-back check, rename
 };
 
+// Meshes baked by other processes of the same bake (bake::bakeLodFile spreads a streaming bake
+// over MPI ranks through this; the lod module knows nothing of MPI). The writing thread calls pump
+// between writes, never holding a lock: it hands meshes to idle remote workers through `take`
+// (nullopt: none may start now, the reorder window is full or every mesh is taken) and returns what
+// they finished through `deliver`, as bakeStreamMesh's bytes or the error. pump must not block long.
+struct RemoteMeshBakers {
+  using Take = std::function<std::optional<uint32_t>()>;
+  using Deliver = std::function<void(uint32_t mesh, Result<std::vector<uint8_t>> bytes)>;
+  std::function<void(const Take& take, const Deliver& deliver)> pump;
+};
+
+// Mesh `index` of a streaming bake made, baked, encoded and read back as bakeLodFile's own workers
+// do it (config.threads: this mesh's threads), as bytes for the process that writes the file. The
+// bytes do not depend on the process or its thread count.
+Result<std::vector<uint8_t>> bakeStreamMesh(const MeshSource& source, uint32_t index, const BuildConfig& config,
+                                            const LodWriteOptions& write, const std::string& path);
+
 // Bakes every mesh of `source` into `path` (config.threads: all the bake's threads, 0 = all cores;
 // write.threads is not used: each mesh's chunk is encoded by the threads that baked it). The
 // source-triangle map is spooled to "<path>.tmap-<pid>" beside the output and compressed into it
 // at the end. Before the rename the file is opened again and every paged mesh's index read (pages
 // were checked by the encoder; a full read would load the scene). Errors name the mesh or the
-// output; nothing is left at `path` (or beside it) on failure.
+// output; nothing is left at `path` (or beside it) on failure. `remote`: other processes bake some
+// of the meshes (their chunks are written in turn like the local ones; the bytes stay the same);
+// `localMeshes` gets the meshes this process baked itself.
 Status bakeLodFile(const MeshSource& source, const std::string& path, const BuildConfig& config,
                    const LodWriteOptions& write, const StreamBakeOptions& options = {},
-                   StreamBakeReport* report = nullptr, const BuildProgress& progress = {});
+                   StreamBakeReport* report = nullptr, const BuildProgress& progress = {},
+                   const RemoteMeshBakers* remote = nullptr, std::vector<uint32_t>* localMeshes = nullptr);
 
 } // namespace mirage::lod

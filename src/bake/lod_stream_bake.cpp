@@ -1,0 +1,209 @@
+// The streaming LOD bake over ranks: rank 0 runs lod::bakeLodFile with RemoteMeshBakers that hand
+// mesh numbers to the other ranks' worker pools and take their encoded meshes back. Every MPI call
+// is on each process's main thread (World is initialized MPI_THREAD_FUNNELED).
+#include "mirage/bake/lod_stream_bake.h"
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <cstring>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include <tbb/task_arena.h>
+
+namespace mirage::bake {
+
+namespace {
+
+// A worker rank says Ready (with how many meshes it bakes at once), then answers each Assign with a
+// Result or a Failure; rank 0 ends with Stop, and the worker answers Stopped once nothing of it is
+// left in flight (so no message stays unreceived when the ranks agree on the outcome).
+enum Tag : int { kReady = 11, kAssign = 12, kResult = 13, kFailure = 14, kStop = 15, kStopped = 16 };
+
+using Clock = std::chrono::steady_clock;
+
+std::vector<uint8_t> numberBytes(uint32_t n) {
+  std::vector<uint8_t> b(4);
+  std::memcpy(b.data(), &n, 4);
+  return b;
+}
+uint32_t numberOf(std::span<const uint8_t> b) {
+  uint32_t n = ~0u;
+  if (b.size() >= 4) std::memcpy(&n, b.data(), 4);
+  return n;
+}
+
+struct Share {
+  uint32_t inFlight = 1;
+  lod::BuildConfig meshConfig;
+};
+
+// How one process spreads its threads over meshes: lod::bakeLodFile's rule.
+Share shareOf(const World& world, const lod::BuildConfig& config, const lod::StreamBakeOptions& options) {
+  uint32_t threads = config.threads ? config.threads : (world.size() > 1 ? world.threadShare() : 0);
+  if (threads == 0) threads = uint32_t(tbb::this_task_arena::max_concurrency());
+  Share s;
+  s.inFlight = options.meshesInFlight ? options.meshesInFlight : std::max(1u, threads / 2);
+  s.meshConfig = config;
+  s.meshConfig.threads = std::max(1u, threads / s.inFlight);
+  return s;
+}
+
+// A rank other than 0: a pool of inFlight bakers fed by the main thread, which alone talks to rank 0.
+Status work(const World& world, const lod::MeshSource& source, const std::string& path, const lod::BuildConfig& config,
+            const lod::LodWriteOptions& write, const lod::StreamBakeOptions& options) {
+  Share share = shareOf(world, config, options);
+  std::mutex m;
+  std::condition_variable cv;
+  std::deque<uint32_t> queue;
+  std::deque<std::pair<uint32_t, Result<std::vector<uint8_t>>>> finished;
+  bool stopping = false;
+  uint32_t busy = 0;
+  auto baker = [&] {
+    tbb::task_arena arena(int(share.meshConfig.threads));
+    for (;;) {
+      uint32_t mesh;
+      {
+        std::unique_lock lock(m);
+        cv.wait(lock, [&] { return stopping || !queue.empty(); });
+        if (stopping) return;
+        mesh = queue.front();
+        queue.pop_front();
+        ++busy;
+      }
+      Result<std::vector<uint8_t>> bytes = Error{};
+      arena.execute([&] { bytes = lod::bakeStreamMesh(source, mesh, share.meshConfig, write, path); });
+      std::lock_guard lock(m);
+      --busy;
+      finished.emplace_back(mesh, std::move(bytes));
+      cv.notify_all();
+    }
+  };
+  std::vector<std::thread> bakers;
+  for (uint32_t i = 0; i < share.inFlight; ++i) bakers.emplace_back(baker);
+  world.send(0, kReady, numberBytes(share.inFlight));
+  bool stopped = false;
+  for (;;) {
+    bool active = false;
+    while (auto e = world.poll()) {
+      active = true;
+      std::vector<uint8_t> message = world.receive(*e);
+      std::lock_guard lock(m);
+      if (e->tag == kAssign && !stopping) queue.push_back(numberOf(message));
+      if (e->tag == kStop) stopping = true, stopped = true, queue.clear();
+      cv.notify_all();
+    }
+    std::unique_lock lock(m);
+    while (!finished.empty()) {
+      active = true;
+      auto [mesh, bytes] = std::move(finished.front());
+      finished.pop_front();
+      lock.unlock();
+      std::vector<uint8_t> reply = numberBytes(mesh);
+      if (bytes) {
+        reply.insert(reply.end(), bytes->begin(), bytes->end());
+        bytes->clear();
+        bytes->shrink_to_fit();
+        world.send(0, kResult, reply);
+      } else {
+        const std::string& text = bytes.error().message;
+        reply.insert(reply.end(), text.begin(), text.end());
+        world.send(0, kFailure, reply);
+      }
+      lock.lock();
+    }
+    if (stopped && busy == 0 && finished.empty()) break;
+    if (!active) cv.wait_for(lock, std::chrono::milliseconds(1));
+  }
+  for (std::thread& t : bakers) t.join();
+  world.send(0, kStopped, {});
+  return Ok{}; // a mesh's error went to rank 0, which reports it for every rank
+}
+
+// Rank 0's side of the other ranks: their free places and which meshes each baked.
+class RemoteRanks {
+public:
+  explicit RemoteRanks(const World& world) : world_(world), free_(size_t(world.size()), 0), units_(world.size()) {}
+
+  void pump(const lod::RemoteMeshBakers::Take& take, const lod::RemoteMeshBakers::Deliver& deliver) {
+    while (auto e = world_.poll()) {
+      std::vector<uint8_t> message = world_.receive(*e);
+      uint32_t mesh = numberOf(message);
+      if (e->tag == kReady) {
+        free_[size_t(e->source)] = mesh;
+      } else if (e->tag == kResult || e->tag == kFailure) {
+        ++free_[size_t(e->source)];
+        units_[size_t(e->source)].push_back(mesh);
+        if (e->tag == kResult)
+          deliver(mesh, std::vector<uint8_t>(message.begin() + 4, message.end()));
+        else
+          deliver(mesh, Error{std::string(message.begin() + 4, message.end())});
+      }
+    }
+    for (int r = 1; r < world_.size(); ++r)
+      while (free_[size_t(r)] > 0) {
+        std::optional<uint32_t> mesh = take();
+        if (!mesh) return;
+        --free_[size_t(r)];
+        world_.send(r, kAssign, numberBytes(*mesh));
+      }
+  }
+
+  // Every worker told to stop; what they still send is dropped until each says Stopped.
+  void stop() {
+    for (int r = 1; r < world_.size(); ++r) world_.send(r, kStop, {});
+    for (int left = world_.size() - 1; left > 0;) {
+      auto e = world_.poll();
+      if (!e) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        continue;
+      }
+      world_.receive(*e);
+      left -= e->tag == kStopped;
+    }
+  }
+
+  std::vector<std::vector<uint32_t>>& units() { return units_; }
+
+private:
+  const World& world_;
+  std::vector<uint32_t> free_;
+  std::vector<std::vector<uint32_t>> units_;
+};
+
+} // namespace
+
+Status bakeLodFile(const World& world, const lod::MeshSource& source, const std::string& path, lod::BuildConfig config,
+                   const lod::LodWriteOptions& write, const lod::StreamBakeOptions& options,
+                   lod::StreamBakeReport* report, ScheduleReport* ranks, const lod::BuildProgress& progress) {
+  if (world.size() == 1) {
+    std::vector<uint32_t> local;
+    auto t0 = Clock::now();
+    Status s = lod::bakeLodFile(source, path, config, write, options, report, progress, nullptr, &local);
+    if (s && ranks) {
+      ranks->ranks.assign(1, RankReport{local, 0.0});
+      ranks->seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    return s;
+  }
+  if (config.threads == 0) config.threads = world.threadShare();
+  if (!world.root()) return world.agree(work(world, source, path, config, write, options));
+  RemoteRanks remote(world);
+  lod::RemoteMeshBakers bakers{[&](const auto& take, const auto& deliver) { remote.pump(take, deliver); }};
+  std::vector<uint32_t> local;
+  auto t0 = Clock::now();
+  Status mine = lod::bakeLodFile(source, path, config, write, options, report, progress, &bakers, &local);
+  remote.stop();
+  if (Status all = world.agree(mine); !all) return all;
+  if (ranks) {
+    ranks->ranks.assign(size_t(world.size()), RankReport{});
+    ranks->ranks[0].units = std::move(local);
+    for (int r = 1; r < world.size(); ++r) ranks->ranks[size_t(r)].units = std::move(remote.units()[size_t(r)]);
+    ranks->seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  }
+  return Ok{};
+}
+
+} // namespace mirage::bake
