@@ -24,7 +24,7 @@ struct PvsData {
 };
 
 struct PvsEncodeOptions {
-  bool differences = true; // try a difference against one of the previous `searchWindow` full cells
+  bool differences = true; // a difference against the previous `searchWindow` full cell with the fewest changes
   uint32_t searchWindow = 8;
   int zstdLevel = 19; // written once, loaded often: spend the time on the smallest encoding
 };
