@@ -607,6 +607,7 @@ void runLodBench(const LodRenderRequest& r) {
               if (r.stereoIpd) {
                 j["stereo_ipd"] = *r.stereoIpd;
                 j["mono"] = {{"gpu_ms_frame", frameMilliseconds(mono.times)}, {"triangles_mean", mono.meanTriangles}};
+                for (const auto& p : mono.times) j["mono"]["gpu_ms"][p.name] = p.milliseconds; // pass by pass
                 j["stereo_over_mono"] = stereoRatio;
               }
               if (withPvs) {
@@ -632,11 +633,15 @@ void runLodBench(const LodRenderRequest& r) {
                        withPvs ? ", cell PVS on" : "");
             printStats(*t.last.cluster, t.times, true);
             if (!s.path.empty()) fmt::print("path {} cameras: slowest frame {:.3f} ms\n", s.path.size(), t.maxFrameMs);
-            if (r.stereoIpd)
+            if (r.stereoIpd) {
               fmt::print("stereo (ipd {}, {}): both eyes {:.3f} ms, {:.0f} triangles; mono one eye {:.3f} ms, {:.0f} "
                          "triangles; stereo/mono {:.2f}x\n",
                          *r.stereoIpd, render::toString(t.last.cluster->stereoMode), frameMilliseconds(t.times),
                          t.meanTriangles, frameMilliseconds(mono.times), mono.meanTriangles, stereoRatio);
+              std::string passes; // the mono frame pass by pass, beside the stereo ones printed above
+              for (const auto& p : mono.times) passes += fmt::format(" {} {:.3f}", p.name, p.milliseconds);
+              fmt::print("mono passes (ms, median):{}\n", passes);
+            }
             if (withPvs) {
               double on = frameMilliseconds(t.times), without = frameMilliseconds(off.times);
               fmt::print("PVS on : frame {:.3f} ms (median), {:.0f} triangles, {:.1f} instances + {:.1f} cut clusters "
