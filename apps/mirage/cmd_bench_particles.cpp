@@ -30,7 +30,7 @@ struct BenchParticlesOptions {
   std::string oit = "linked-list";
   std::string camera;               // --render: empty frames the effect
   bool noSplat = false;             // --render: every particle a billboard
-  std::string splatMethod = "auto"; // --render: binned, atomic or auto (binned where the device can)
+  std::string splatMethod = "auto"; // --render: binned, atomic or auto (binned)
   bool separateOutput = false;      // --render: the render records by their own pass after the step
 };
 

@@ -65,9 +65,10 @@ struct ParticleDraw::Impl {
   shaderio::ParticleDrawPush drawPush(VkDeviceAddress frame, VkDeviceAddress oitLists) const;
   void cmdBindDraw(VkCommandBuffer cmd, OitMode mode);
   void ensureComputeLayout();
-  // A compute pass of one thread per record slot (the sort's and the splat's), in rows of
-  // workgroups (gpu::dispatchRows); at least one workgroup, which finds no records.
-  void cmdDispatchRecords(VkCommandBuffer cmd) const;
+  // A compute pass over the record slots (the sort's and the splat's), `perThread` slots per
+  // thread of MIRAGE_PARTICLE_DRAW_GROUP, in rows of workgroups (gpu::dispatchRows); at least one
+  // workgroup, which finds no records.
+  void cmdDispatchRecords(VkCommandBuffer cmd, uint32_t perThread = 1) const;
   shaderio::ParticleSplatPush splatPush(const ParticleSplatTarget& t) const;
   // The binned splat's passes (count, scan, scatter, tiles) with `push` bound to the compute layout.
   void cmdSplatBinned(VkCommandBuffer cmd, shaderio::ParticleSplatPush push);

@@ -1,12 +1,12 @@
 // The splat of small particles (render/particle_draw.h, docs/particles.md "Splat"): one compute
 // thread per record slot; a particle under the threshold adds its coverage to the weighted blended
 // sums of the pixels its footprint overlaps (particle_splat.glsl), a larger one is listed for the
-// billboards. Binned (where shared float atomics exist): the splats counted per screen tile, the
-// counts scanned, the splats scattered into their tiles' lists, and one workgroup per chunk of a
-// tile's list sums them in shared memory and writes the tile once; otherwise each pixel's sums
-// take global atomics per particle. After the transparency composite the sums are resolved over
-// the colour.
+// billboards. Binned: the splats counted per screen tile, the counts scanned, the splats scattered
+// into their tiles' lists, and one workgroup per chunk of a tile's list sums them in shared memory
+// and writes the tile once; otherwise each pixel's sums take global atomics per particle. After the transparency
+// composite the sums are resolved over the colour.
 #include <algorithm>
+#include <bit>
 #include <cstring>
 
 #include "mirage/gpu/commands.h"
@@ -27,11 +27,11 @@ bool useFixedPoint(const ParticleDrawSettings& s, const DeviceCapabilities& caps
   return !caps.floatBufferAtomicAdd;
 }
 
-// Auto takes the per-pixel atomics: on an H100, 10 M rain at 1080p splats in 4.33 ms by them and in
-// 6.48 ms binned (same run), so the bins are asked for by name until they win.
-bool useBins(const ParticleDrawSettings& s, const DeviceCapabilities& caps) {
-  return s.splatMethod == SplatMethod::Binned && caps.floatSharedAtomicAdd;
-}
+// Auto takes the bins: the per-pixel atomics are bound by the rate of global atomics (on an H100,
+// 200 M float atomic adds to distinct addresses of an L2-resident buffer take 2.3 ms by
+// themselves, 10 M particles of 1 px times 4 pixels times 5 sums), where the bins take one shared
+// 32-bit atomic per sum and word and a global atomic per workgroup and tile.
+bool useBins(const ParticleDrawSettings& s) { return s.splatMethod != SplatMethod::Atomic; }
 
 uint32_t tilesAcross(uint32_t pixels) { return (pixels + MIRAGE_SPLAT_TILE - 1) / MIRAGE_SPLAT_TILE; }
 
@@ -41,7 +41,7 @@ void cmdComputeToCompute(VkCommandBuffer cmd) {
 
 } // namespace
 
-bool ParticleDraw::splatsBinned() const { return useBins(impl_->settings, impl_->ctx.caps()); }
+bool ParticleDraw::splatsBinned() const { return useBins(impl_->settings); }
 
 bool ParticleDraw::splats(OitMode mode) const {
   const Impl& d = *impl_;
@@ -76,6 +76,8 @@ sio::ParticleSplatPush ParticleDraw::Impl::splatPush(const ParticleSplatTarget& 
   p.entryRoom = entryRoom;
   p.tilesX = tilesAcross(t.eyeWidth);
   p.tilesY = tilesAcross(t.height);
+  p.binSlotBits =
+      settings.splatBinSlots ? uint32_t(std::countr_zero(settings.splatBinSlots)) : MIRAGE_SPLAT_BIN_SLOT_BITS;
   return p;
 }
 
@@ -94,7 +96,7 @@ void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatP
   push.phase = MIRAGE_SPLAT_PHASE_COUNT;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
   vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchRecords(cmd);
+  cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS);
   cmdComputeToCompute(cmd);
   // Scan: the tiles' first entries and chunks, the cursors zeroed, the tile pass's dispatch.
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scanPipeline);
@@ -105,7 +107,7 @@ void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatP
   push.phase = MIRAGE_SPLAT_PHASE_SCATTER;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
   vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchRecords(cmd);
+  cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS);
   cmdComputeToCompute(cmd);
   // Tiles: one workgroup per chunk of a tile's list, its sums written once.
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tilePipelines[fixed]);
@@ -142,7 +144,7 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
   writeImageDescriptors(d.ctx, set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
   writeImageDescriptors(d.ctx, set, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
 
-  const bool binned = useBins(d.settings, d.ctx.caps());
+  const bool binned = useBins(d.settings);
   if (binned) {
     // The bins: per tile of either eye a count, a first entry and a first chunk, and the header;
     // made for at least two eyes of 4096 x 4096 (1.6 MB), so that no usual resize replaces them

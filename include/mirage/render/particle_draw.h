@@ -48,8 +48,8 @@ struct ParticleBatch {
 enum class SplatAtomics { Auto, Float, Fixed };
 
 // How the splat gathers each pixel's sums (docs/particles.md, "Splat"): binned by screen tiles
-// (per tile, shared-memory sums written once; needs shaderSharedFloat32AtomicAdd), or every
-// covered pixel's sums added by global atomics per particle. Auto: the atomics (faster on an H100).
+// (per tile, shared-memory sums written once), or every covered pixel's sums added by global
+// atomics per particle. Auto: binned.
 enum class SplatMethod { Auto, Binned, Atomic };
 
 // Particles whose billboard would be narrower than this many pixels are splatted by default: their
@@ -67,6 +67,10 @@ struct ParticleDrawSettings {
   // are added by global atomics, so the image does not depend on it. 0: MIRAGE_SPLAT_ENTRIES_PER_RECORD
   // per record slot (32 bytes each). A larger room: with no frame in flight.
   uint32_t splatEntryRoom = 0;
+  // Binned: slots of the table in which a count or scatter workgroup counts its entries per tile
+  // (a power of two, at most MIRAGE_SPLAT_BIN_SLOTS); a tile finding no free slot takes global
+  // atomics per entry, so the image does not depend on it. 0: MIRAGE_SPLAT_BIN_SLOTS.
+  uint32_t splatBinSlots = 0;
 };
 
 // Device bytes the splat takes per record slot beyond the renderer's per-pixel sums: the billboard

@@ -86,6 +86,18 @@ struct ParticleSortPush {
 // Entries per tile-pass workgroup: a hot tile's list is split over this many workgroups, each
 // adding its sums to the tile's pixels (a tile of one chunk stores them).
 #define MIRAGE_SPLAT_CHUNK 2048
+// Record slots per invocation of the count and scatter passes (a workgroup takes
+// MIRAGE_PARTICLE_DRAW_GROUP times this many): a workgroup counts its entries per tile in shared
+// memory and takes one global atomic per tile it touches, not one per entry (an effect on a few
+// hundred tiles made every tile counter a hot spot: 12.7 M same-address atomics a pass at 10 M).
+#define MIRAGE_SPLAT_BIN_RECORDS 16
+// The count and scatter passes' shared table of the tiles a workgroup touches (open addressing,
+// a power of two; ParticleDrawSettings::splatBinSlots may use fewer) and the slots an entry
+// probes: a tile that finds none of its probes free is counted and placed by global atomics per
+// entry instead.
+#define MIRAGE_SPLAT_BIN_SLOTS 2048
+#define MIRAGE_SPLAT_BIN_SLOT_BITS 11
+#define MIRAGE_SPLAT_BIN_PROBES 8
 // Default entry room per record slot (ParticleDrawSettings::splatEntryRoom): a footprint of at
 // most 2 px overlaps 1.27 tiles of 16 px on average (4 at most), per eye; entries past the room
 // (some of a stereo frame's) are splatted directly with the global atomics, so the image does not
@@ -132,12 +144,13 @@ struct ParticleSplatPush {
   uint entryRoom;        // binned: entries the lists hold
   uint tilesX;           // binned: tiles per eye across (tile t = (eye * tilesY + y) * tilesX + x)
   uint tilesY;
-  uint pad0;
+  uint binSlotBits; // binned: log2 of the count and scatter passes' table slots in use
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(ParticleSplatPush) == 120, "ParticleSplatPush layout");
 static_assert(sizeof(ParticleSplatEntry) == 32, "ParticleSplatEntry layout");
+static_assert((1u << MIRAGE_SPLAT_BIN_SLOT_BITS) == MIRAGE_SPLAT_BIN_SLOTS, "bin slots: a power of two");
 static_assert(sizeof(ParticleBatchInfo) == 32, "ParticleBatchInfo layout");
 static_assert(sizeof(ParticleDrawPush) == 64, "ParticleDrawPush layout");
 static_assert(sizeof(ParticleSortPush) == 120, "ParticleSortPush layout");
