@@ -70,8 +70,9 @@ struct ParticleDraw::Impl {
   // workgroup, which finds no records.
   void cmdDispatchRecords(VkCommandBuffer cmd, uint32_t perThread = 1) const;
   shaderio::ParticleSplatPush splatPush(const ParticleSplatTarget& t) const;
-  // The binned splat's passes (count, scan, scatter, tiles) with `push` bound to the compute layout.
-  void cmdSplatBinned(VkCommandBuffer cmd, shaderio::ParticleSplatPush push);
+  // The binned splat's passes (count, scan, scatter, tiles) with `push` bound to the compute layout,
+  // each timed by `timer` where given.
+  void cmdSplatBinned(VkCommandBuffer cmd, shaderio::ParticleSplatPush push, gpu::GpuTimer* timer);
 };
 
 } // namespace mirage::render

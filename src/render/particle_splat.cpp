@@ -83,7 +83,13 @@ sio::ParticleSplatPush ParticleDraw::Impl::splatPush(const ParticleSplatTarget& 
 
 // barriers: the classification's inputs as cmdSplat's; on exit the sums' writes are the tile
 // pass's (cmdSplat's closing barrier covers them).
-void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatPush push) {
+void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatPush push, gpu::GpuTimer* timer) {
+  // Each pass inside `name`'s timestamps where a timer is given.
+  auto timed = [&](const char* name, auto&& record) {
+    uint32_t slot = timer ? timer->cmdBegin(cmd, name, kCS) : UINT32_MAX;
+    record();
+    if (timer) timer->cmdEnd(cmd, slot, kCS);
+  };
   int fixed = fixedPoint ? 1 : 0;
   if (!binPipelines[fixed]) {
     binPipelines[fixed] = createComputePipeline(
@@ -96,22 +102,22 @@ void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatP
   push.phase = MIRAGE_SPLAT_PHASE_COUNT;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
   vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS);
+  timed("splat-count", [&] { cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS); });
   cmdComputeToCompute(cmd);
   // Scan: the tiles' first entries and chunks, the cursors zeroed, the tile pass's dispatch.
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scanPipeline);
-  vkCmdDispatch(cmd, 1, 1, 1);
+  timed("splat-scan", [&] { vkCmdDispatch(cmd, 1, 1, 1); });
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                    kStorageRW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
   // Scatter: the entries into their tiles' lists (past the room: added directly).
   push.phase = MIRAGE_SPLAT_PHASE_SCATTER;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
   vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS);
+  timed("splat-scatter", [&] { cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS); });
   cmdComputeToCompute(cmd);
   // Tiles: one workgroup per chunk of a tile's list, its sums written once.
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tilePipelines[fixed]);
-  vkCmdDispatchIndirect(cmd, bins.handle(), 0);
+  timed("splat-tiles", [&] { vkCmdDispatchIndirect(cmd, bins.handle(), 0); });
 }
 
 // barriers: see particle_draw.h; the accumulators zeroed by a transfer, the depth in
@@ -176,7 +182,7 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.computeLayout, 0, 2, sets, 0, nullptr);
   sio::ParticleSplatPush push = d.splatPush(t);
   if (binned) {
-    d.cmdSplatBinned(cmd, push);
+    d.cmdSplatBinned(cmd, push, t.timer);
   } else {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);

@@ -18,6 +18,7 @@
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/memory.h"
+#include "mirage/gpu/query.h"
 #include "mirage/render/oit.h"
 #include "mirage/shaderio/particle_draw.h"
 #include "mirage/shaderio/particles.h"
@@ -87,6 +88,7 @@ struct ParticleSplatTarget {
   VkImageView depth = VK_NULL_HANDLE;        // the opaque depth (D32, reverse-Z), DEPTH_READ_ONLY_OPTIMAL
   VkImageView color = VK_NULL_HANDLE;        // the colour target (RGBA16F), GENERAL: the resolve blends into it
   const gpu::Buffer* accumulators = nullptr; // splatBytes(pixels) bytes, zeroed before cmdSplat
+  gpu::GpuTimer* timer = nullptr;            // set: the binned passes timed apart (splat-count .. splat-tiles)
 };
 
 class ParticleDraw {
