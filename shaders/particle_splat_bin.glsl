@@ -4,8 +4,9 @@
 // - MIRAGE_SPLAT_PHASE_COUNT: billboards listed; each splat's entries (one per eye and tile its
 //   footprint's pixels overlap) counted per tile;
 // - MIRAGE_SPLAT_PHASE_SCATTER (after particle_splat_scan.comp): each entry written into its
-//   tile's list at the tile's first entry + a cursor; an entry past the room is splatted into
-//   that tile's pixels directly (global atomics), so the room never changes the image.
+//   tile's list (the record and eye, MIRAGE_SPLAT_ENTRY) at the tile's first entry + a cursor; an
+//   entry past the room is splatted into that tile's pixels directly (global atomics), so the
+//   room never changes the image.
 // Both count the workgroup's entries per tile in a shared table first, and a tile's counter takes
 // one global atomic per workgroup: the scatter then reserves the workgroup's run of each tile's
 // list at once and places its entries by shared cursors (recounting its records: classifying again
@@ -16,8 +17,7 @@
 layout(local_size_x = MIRAGE_PARTICLE_DRAW_GROUP) in;
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SplatBinsRef { uint v[]; };
-// ParticleSplatEntry[] as two 16-byte words each (two 128-bit stores).
-layout(buffer_reference, std430, buffer_reference_align = 16) writeonly buffer SplatEntryWordsRef { uvec4 v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer SplatEntryRef { uint v[]; };
 
 #define SPLAT_NO_SLOT 0xffffffffu
 shared uint slotTile[MIRAGE_SPLAT_BIN_SLOTS];  // the tile a slot counts, or SPLAT_NO_SLOT
@@ -86,9 +86,7 @@ void binRecord(uint g, uint loop) {
                                        : bins.v[MIRAGE_SPLAT_BIN_HEADER + tiles + tile] +
                                              binAdd(MIRAGE_SPLAT_BIN_HEADER + tile); // the cursor
         if (slot < push.entryRoom) {
-          SplatEntryWordsRef w = SplatEntryWordsRef(push.entryAddress);
-          w.v[2u * slot] = floatBitsToUint(vec4(f.lo, f.hi));
-          w.v[2u * slot + 1u] = uvec4(floatBitsToUint(vec2(f.depth, f.weight)), packUnorm2x16(c.rg), packUnorm2x16(c.ba));
+          SplatEntryRef(push.entryAddress).v[slot] = MIRAGE_SPLAT_ENTRY(g, e);
         } else { // past the room: this tile's pixels of the footprint, directly
           ivec2 origin = ivec2(tx, ty) * MIRAGE_SPLAT_TILE;
           splatDirect(e, f, c, max(f.first, origin), min(f.last, origin + MIRAGE_SPLAT_TILE - 1));

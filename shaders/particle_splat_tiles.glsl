@@ -1,7 +1,8 @@
 // The binned splat's tile pass (particle_splat.glsl; after the scatter): one workgroup per chunk
 // of a tile's list (indirect, the scan's rows), an invocation per tile pixel. The tile's opaque
-// depth is read once into shared memory; each invocation takes entries of the chunk and adds
-// their pixels' five sums to shared sums, in the fixed point of the fixed accumulators (2^-32
+// depth is read once into shared memory; each invocation takes entries of the chunk, classifies
+// each entry's record again for its eye (its footprint, depth, weight and colour, as the atomic
+// splat computes them), and adds their pixels' five sums to shared sums, in the fixed point of the fixed accumulators (2^-32
 // units) as two 32-bit words with the carry carried by hand: 32-bit integer adds are the shared
 // atomics the hardware has (float and 64-bit ones are compare-and-swap loops, 4.7 and 7.4 times
 // slower on an H100), and integer sums are exact in any order. Then each pixel's sums are written
@@ -11,8 +12,7 @@
 layout(local_size_x = SPLAT_TILE_PIXELS) in;
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatBinsRef { uint v[]; };
-// ParticleSplatEntry[] as two 16-byte words each (two 128-bit loads).
-layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer SplatEntryWordsRef { uvec4 v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatEntryRef { uint v[]; };
 
 shared uint sumsLow[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS];  // pixel-major, the units' low words
 shared uint sumsHigh[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS]; // and high words
@@ -60,14 +60,19 @@ void main() {
   }
   barrier();
 
-  SplatEntryWordsRef entries = SplatEntryWordsRef(push.entryAddress);
+  SplatEntryRef entries = SplatEntryRef(push.entryAddress);
   for (uint k = begin + i; k < end; k += SPLAT_TILE_PIXELS) {
-    vec4 footprint = uintBitsToFloat(entries.v[2u * k]);
-    uvec4 rest = entries.v[2u * k + 1u];
-    vec2 flo = footprint.xy, fhi = footprint.zw;
-    float depth = uintBitsToFloat(rest.x), weight = uintBitsToFloat(rest.y);
-    vec4 color = vec4(unpackUnorm2x16(rest.z), unpackUnorm2x16(rest.w));
-    ivec2 first = max(ivec2(floor(flo)), origin), to = min(ivec2(ceil(fhi)) - 1, last);
+    uint entry = entries.v[k];
+    vec3 position;
+    float size;
+    vec4 color;
+    SplatFootprint f;
+    if (splatClassify(entry >> 1u, /*list=*/false, position, size, color) != SPLAT_SPLAT ||
+        !splatFootprint(entry & 1u, position, size, f))
+      continue; // (listed as a splat: never)
+    vec2 flo = f.lo, fhi = f.hi;
+    float depth = f.depth, weight = f.weight;
+    ivec2 first = max(f.first, origin), to = min(f.last, last);
     for (int y = first.y; y <= to.y; ++y)
       for (int x = first.x; x <= to.x; ++x) {
         float a = splatCoverage(flo, fhi, color.a, x, y);

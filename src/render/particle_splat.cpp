@@ -168,10 +168,10 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
     uint64_t room = d.settings.splatEntryRoom
                         ? d.settings.splatEntryRoom
                         : uint64_t(std::max(d.totalRecords, 1u)) * MIRAGE_SPLAT_ENTRIES_PER_RECORD;
-    room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / sizeof(sio::ParticleSplatEntry), UINT32_MAX});
-    if (!d.entries || d.entries.size() < room * sizeof(sio::ParticleSplatEntry))
-      d.entries = createBuffer(d.ctx, room * sizeof(sio::ParticleSplatEntry), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                               MemoryUsage::GpuOnly, "particle splat entries");
+    room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / 4, UINT32_MAX});
+    if (!d.entries || d.entries.size() < room * 4)
+      d.entries = createBuffer(d.ctx, room * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
+                               "particle splat entries");
     d.entryRoom = uint32_t(room);
     vkCmdFillBuffer(cmd, d.bins.handle(), 0, binBytes, 0);
   }
