@@ -7,11 +7,11 @@
 //   tile's list (the record and eye, MIRAGE_SPLAT_ENTRY) at the tile's first entry + a cursor; an
 //   entry past the room is splatted into that tile's pixels directly (global atomics), so the
 //   room never changes the image.
-// Both count the workgroup's entries per tile in a shared table first, and a tile's counter takes
-// one global atomic per workgroup: the scatter then reserves the workgroup's run of each tile's
-// list at once and places its entries by shared cursors (recounting its records: classifying again
-// costs less than the memory to keep what the first loop found). Tiles that find no free slot in
-// the table take the global atomics per entry (binAdd). Included after a sums file.
+// The count counts the workgroup's entries per tile in a shared table, and a tile's counter takes
+// one global atomic per workgroup; the table is kept (push.tableAddress, 16 KB per workgroup), and
+// the scatter's workgroup of the same records loads it, reserves its run of each tile's list at
+// once and places its entries by shared cursors. Tiles that find no free slot in the table take
+// the global atomics per entry (binAdd). Included after a sums file.
 #extension GL_KHR_shader_subgroup_ballot : require
 
 layout(local_size_x = MIRAGE_PARTICLE_DRAW_GROUP) in;
@@ -45,7 +45,7 @@ uint binAdd(uint index) {
 
 // The table's slot of `tile`, taken for it where `insert` finds a free one among its probes;
 // SPLAT_NO_SLOT where every probe holds another tile. Tiles only ever enter the table, so every
-// entry of one tile finds the same answer, in either loop.
+// entry of one tile finds the same answer, in either pass (the scatter looks the count's table up).
 uint binSlot(uint tile, bool insert) {
   uint slots = 1u << push.binSlotBits;
   uint s = push.binSlotBits == 0u ? 0u : (tile * 0x9E3779B1u) >> (32u - push.binSlotBits); // Fibonacci hashing
@@ -58,8 +58,7 @@ uint binSlot(uint tile, bool insert) {
 }
 
 #define SPLAT_LOOP_COUNT 0u // count pass: count in the table (or globally past it)
-#define SPLAT_LOOP_TALLY 1u // scatter, first loop: count in the table only
-#define SPLAT_LOOP_WRITE 2u // scatter, second loop: write each entry at its place
+#define SPLAT_LOOP_WRITE 1u // scatter: write each entry at its place
 
 // Global record g's entries, as `loop` does with them.
 void binRecord(uint g, uint loop) {
@@ -76,10 +75,10 @@ void binRecord(uint g, uint loop) {
     for (int ty = t0.y; ty <= t1.y; ++ty)
       for (int tx = t0.x; tx <= t1.x; ++tx) {
         uint tile = (e * push.tilesY + uint(ty)) * push.tilesX + uint(tx);
-        uint s = binSlot(tile, /*insert=*/loop != SPLAT_LOOP_WRITE);
-        if (loop != SPLAT_LOOP_WRITE) {
+        uint s = binSlot(tile, /*insert=*/loop == SPLAT_LOOP_COUNT);
+        if (loop == SPLAT_LOOP_COUNT) {
           if (s != SPLAT_NO_SLOT) atomicAdd(slotCount[s], 1u);
-          else if (loop == SPLAT_LOOP_COUNT) binAdd(MIRAGE_SPLAT_BIN_HEADER + tile);
+          else binAdd(MIRAGE_SPLAT_BIN_HEADER + tile);
           continue;
         }
         uint slot = s != SPLAT_NO_SLOT ? atomicAdd(slotCount[s], 1u)
@@ -95,26 +94,39 @@ void binRecord(uint g, uint loop) {
   }
 }
 
+// A workgroup's table as the count leaves it for the scatter: per slot (tile, count).
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer SplatTableRef { uvec2 slots[]; };
+
 void main() {
   uint i = gl_LocalInvocationID.x;
-  for (uint s = i; s < MIRAGE_SPLAT_BIN_SLOTS; s += MIRAGE_PARTICLE_DRAW_GROUP) {
-    slotTile[s] = SPLAT_NO_SLOT;
-    slotCount[s] = 0u;
-  }
-  barrier();
-  // The workgroup's records, consecutive per step (the record reads coalesce).
   uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+  // The workgroup's records, consecutive per step (the record reads coalesce).
   uint first = group * (MIRAGE_PARTICLE_DRAW_GROUP * MIRAGE_SPLAT_BIN_RECORDS) + i;
   bool count = push.phase == MIRAGE_SPLAT_PHASE_COUNT;
-  for (uint k = 0u; k < MIRAGE_SPLAT_BIN_RECORDS; ++k)
-    binRecord(first + k * MIRAGE_PARTICLE_DRAW_GROUP, count ? SPLAT_LOOP_COUNT : SPLAT_LOOP_TALLY);
+  SplatTableRef table = SplatTableRef(push.tableAddress + uint64_t(group) * (MIRAGE_SPLAT_BIN_SLOTS * 8u));
+  if (count) { // the entries counted per tile in the table
+    for (uint s = i; s < MIRAGE_SPLAT_BIN_SLOTS; s += MIRAGE_PARTICLE_DRAW_GROUP) {
+      slotTile[s] = SPLAT_NO_SLOT;
+      slotCount[s] = 0u;
+    }
+    barrier();
+    for (uint k = 0u; k < MIRAGE_SPLAT_BIN_RECORDS; ++k) binRecord(first + k * MIRAGE_PARTICLE_DRAW_GROUP, SPLAT_LOOP_COUNT);
+  } else { // the table as the count left it (the same records, the same entries)
+    for (uint s = i; s < MIRAGE_SPLAT_BIN_SLOTS; s += MIRAGE_PARTICLE_DRAW_GROUP) {
+      uvec2 slot = table.slots[s];
+      slotTile[s] = slot.x;
+      slotCount[s] = slot.y;
+    }
+  }
   barrier();
-  // Each tile of the table: its count added to the tile's (count), or its run of the tile's list
-  // reserved, the slot's count becoming the run's first index (scatter).
+  // Each tile of the table: its count added to the tile's and the table kept for the scatter
+  // (count), or its run of the tile's list reserved, the slot's count becoming the run's first
+  // index (scatter).
   SplatBinsRef bins = SplatBinsRef(push.binAddress);
   uint tiles = push.eyes * push.tilesX * push.tilesY;
   for (uint s = i; s < MIRAGE_SPLAT_BIN_SLOTS; s += MIRAGE_PARTICLE_DRAW_GROUP) {
     uint tile = slotTile[s], n = slotCount[s];
+    if (count) table.slots[s] = uvec2(tile, n);
     if (tile == SPLAT_NO_SLOT || n == 0u) continue;
     uint at = atomicAdd(bins.v[MIRAGE_SPLAT_BIN_HEADER + tile], n);
     if (!count) slotCount[s] = bins.v[MIRAGE_SPLAT_BIN_HEADER + tiles + tile] + at;

@@ -50,9 +50,9 @@ struct ParticleDraw::Impl {
   gpu::DescriptorSet frameSets[kMaxFramesInFlight];
   gpu::Buffer largeList, largeArgs;
   // Binned (made on first use): count/scatter, scan and tile passes, the bins (sized by the
-  // target's tiles) and the entries (sized by the records).
+  // target's tiles), the entries and the count workgroups' tables (sized by the records).
   gpu::Unique<VkPipeline> binPipelines[2], tilePipelines[2], scanPipeline; // [fixed point]
-  gpu::Buffer bins, entries;
+  gpu::Buffer bins, entries, tables;
   uint32_t entryRoom = 0;
   bool fixedPoint = false;    // the last cmdSplat accumulated in fixed point (settings and device)
   bool splatRecorded = false; // cmdSplat ran since cmdPrepare: cmdDraw draws the list

@@ -33,6 +33,9 @@ bool useFixedPoint(const ParticleDrawSettings& s, const DeviceCapabilities& caps
 // 32-bit atomic per sum and word and a global atomic per workgroup and tile.
 bool useBins(const ParticleDrawSettings& s) { return s.splatMethod != SplatMethod::Atomic; }
 
+constexpr uint64_t kRecordsPerBinGroup = uint64_t(MIRAGE_PARTICLE_DRAW_GROUP) * MIRAGE_SPLAT_BIN_RECORDS;
+constexpr uint64_t kBinTableBytes = MIRAGE_SPLAT_BIN_SLOTS * 8; // uvec2 per slot
+
 uint32_t tilesAcross(uint32_t pixels) { return (pixels + MIRAGE_SPLAT_TILE - 1) / MIRAGE_SPLAT_TILE; }
 
 void cmdComputeToCompute(VkCommandBuffer cmd) {
@@ -74,6 +77,7 @@ sio::ParticleSplatPush ParticleDraw::Impl::splatPush(const ParticleSplatTarget& 
   p.binAddress = bins ? bins.address() : 0;
   p.entryAddress = entries ? entries.address() : 0;
   p.entryRoom = entryRoom;
+  p.tableAddress = tables ? tables.address() : 0;
   p.tilesX = tilesAcross(t.eyeWidth);
   p.tilesY = tilesAcross(t.height);
   p.binSlotBits =
@@ -173,6 +177,11 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
       d.entries = createBuffer(d.ctx, room * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
                                "particle splat entries");
     d.entryRoom = uint32_t(room);
+    // Per count workgroup its tile table, which its scatter workgroup reads instead of counting again.
+    uint64_t groups = (uint64_t(std::max(d.totalRecords, 1u)) + kRecordsPerBinGroup - 1) / kRecordsPerBinGroup;
+    if (!d.tables || d.tables.size() < groups * kBinTableBytes)
+      d.tables = createBuffer(d.ctx, groups * kBinTableBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
+                              "particle splat bin tables");
     vkCmdFillBuffer(cmd, d.bins.handle(), 0, binBytes, 0);
   }
   VkDrawIndirectCommand empty{6, 0, 0, 0};

@@ -75,8 +75,10 @@ struct ParticleDrawSettings {
 };
 
 // Device bytes the splat takes per record slot beyond the renderer's per-pixel sums: the billboard
-// list's index and the binned splat's default entry room.
-inline constexpr uint64_t kSplatBytesPerRecord = 4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * 4;
+// list's index, the binned splat's default entry room and its workgroups' tile tables.
+inline constexpr uint64_t kSplatBytesPerRecord =
+    4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * 4 +
+    MIRAGE_SPLAT_BIN_SLOTS * 8 / (MIRAGE_PARTICLE_DRAW_GROUP * MIRAGE_SPLAT_BIN_RECORDS);
 
 // Where a frame's splat writes, given by the renderer recording it.
 struct ParticleSplatTarget {

@@ -138,11 +138,12 @@ struct ParticleSplatPush {
   uint entryRoom;        // binned: entries the lists hold
   uint tilesX;           // binned: tiles per eye across (tile t = (eye * tilesY + y) * tilesX + x)
   uint tilesY;
-  uint binSlotBits; // binned: log2 of the count and scatter passes' table slots in use
+  uint binSlotBits;      // binned: log2 of the count and scatter passes' table slots in use
+  uint64_t tableAddress; // binned: each count workgroup's table for its scatter (MIRAGE_SPLAT_BIN_SLOTS uvec2)
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(ParticleSplatPush) == 120, "ParticleSplatPush layout");
+static_assert(sizeof(ParticleSplatPush) == 128, "ParticleSplatPush layout: the guaranteed push constant size");
 static_assert((1u << MIRAGE_SPLAT_BIN_SLOT_BITS) == MIRAGE_SPLAT_BIN_SLOTS, "bin slots: a power of two");
 static_assert(sizeof(ParticleBatchInfo) == 32, "ParticleBatchInfo layout");
 static_assert(sizeof(ParticleDrawPush) == 64, "ParticleDrawPush layout");
