@@ -10,7 +10,7 @@
 // appended to the billboards' list. The passes: particle_splat_atomic.glsl (every pixel's sums by
 // global atomics), or binned by screen tiles (particle_splat_bin.glsl, particle_splat_scan.comp,
 // particle_splat_tiles.glsl). The sums file included first (particle_splat_sums_*.glsl) defines
-// splatAdd and splatStore on the accumulators (float or fixed point).
+// splatAdd and splatStore (and their fixed-point twins) on the accumulators (float or fixed point).
 #ifndef MIRAGE_PARTICLE_SPLAT_GLSL
 #define MIRAGE_PARTICLE_SPLAT_GLSL
 #extension GL_EXT_buffer_reference : require
@@ -31,6 +31,13 @@ layout(set = 1, binding = 0) uniform sampler2D opaqueDepth; // D32, reverse-Z, t
 
 void splatAdd(uint index, float value);   // accumulator `index` += value (atomic)
 void splatStore(uint index, float value); // accumulator `index` = value (its only writer)
+// The same for a sum in units of 2^-MIRAGE_SPLAT_FIXED_BITS (splatUnits).
+void splatAddUnits(uint index, uint64_t units);
+void splatStoreUnits(uint index, uint64_t units);
+
+// A sum's value in fixed point: units of 2^-MIRAGE_SPLAT_FIXED_BITS (the fixed accumulators, the
+// binned splat's shared sums), rounded.
+uint64_t splatUnits(float value) { return uint64_t(value * exp2(float(MIRAGE_SPLAT_FIXED_BITS)) + 0.5); }
 
 // The sheet tile's average texel: the level where the tile is one texel (the sheets are box-filtered
 // mip chains of whole tiles), sampled at the tile's centre.

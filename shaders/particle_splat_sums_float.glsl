@@ -6,3 +6,8 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SplatFloatRe
 
 void splatAdd(uint index, float value) { atomicAdd(SplatFloatRef(push.accumAddress).v[index], value); }
 void splatStore(uint index, float value) { SplatFloatRef(push.accumAddress).v[index] = value; }
+float splatFromUnits(uint64_t units) { return float(units) * exp2(-float(MIRAGE_SPLAT_FIXED_BITS)); }
+void splatAddUnits(uint index, uint64_t units) {
+  if (units != 0UL) splatAdd(index, splatFromUnits(units));
+}
+void splatStoreUnits(uint index, uint64_t units) { splatStore(index, splatFromUnits(units)); }

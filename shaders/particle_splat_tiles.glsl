@@ -1,21 +1,30 @@
 // The binned splat's tile pass (particle_splat.glsl; after the scatter): one workgroup per chunk
 // of a tile's list (indirect, the scan's rows), an invocation per tile pixel. The tile's opaque
-// depth is read once into shared memory; each invocation takes entries of the chunk and adds
-// their pixels' five sums to shared sums (shared float atomics: no global atomic per pixel and
-// particle); then each pixel's sums are written once: stored where this workgroup is the tile's
-// only writer (a list of one chunk, wholly within the room), else added (global atomics). Included
-// after a sums file.
-#extension GL_EXT_shader_atomic_float : require
-
+// depth is read once into shared memory; each invocation takes entries of the chunk, classifies
+// each entry's record again for its eye (its footprint, depth, weight and colour, as the atomic
+// splat computes them), and adds their pixels' five sums to shared sums, in the fixed point of the fixed accumulators (2^-32
+// units) as two 32-bit words with the carry carried by hand: 32-bit integer adds are the shared
+// atomics the hardware has (float and 64-bit ones are compare-and-swap loops, 4.7 and 7.4 times
+// slower on an H100), and integer sums are exact in any order. Then each pixel's sums are written
+// once: stored where this workgroup is the tile's only writer (a list of one chunk, wholly within
+// the room), else added (global atomics). Included after a sums file.
 #define SPLAT_TILE_PIXELS (MIRAGE_SPLAT_TILE * MIRAGE_SPLAT_TILE)
 layout(local_size_x = SPLAT_TILE_PIXELS) in;
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatBinsRef { uint v[]; };
-// ParticleSplatEntry[] as two 16-byte words each (two 128-bit loads).
-layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer SplatEntryWordsRef { uvec4 v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatEntryRef { uint v[]; };
 
-shared float sums[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS]; // pixel-major
+shared uint sumsLow[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS];  // pixel-major, the units' low words
+shared uint sumsHigh[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS]; // and high words
 shared float depths[SPLAT_TILE_PIXELS];
+
+// Shared sum `index` += value, in units.
+void sharedAdd(uint index, float value) {
+  uvec2 words = unpackUint2x32(splatUnits(value));
+  uint before = atomicAdd(sumsLow[index], words.x);
+  if (before + words.x < before) ++words.y; // the low word wrapped
+  if (words.y != 0u) atomicAdd(sumsHigh[index], words.y);
+}
 
 void main() {
   SplatBinsRef bins = SplatBinsRef(push.binAddress);
@@ -45,17 +54,25 @@ void main() {
   uint px = uint(pixel.x) + eye * push.eyeWidth;
   // Outside the target nothing passes (reverse-Z: the footprint's depth must be GREATER).
   depths[i] = inside ? texelFetch(opaqueDepth, ivec2(px, pixel.y), 0).r : 2.0;
-  for (uint c = 0u; c < MIRAGE_SPLAT_CHANNELS; ++c) sums[i * MIRAGE_SPLAT_CHANNELS + c] = 0.0;
+  for (uint c = 0u; c < MIRAGE_SPLAT_CHANNELS; ++c) {
+    sumsLow[i * MIRAGE_SPLAT_CHANNELS + c] = 0u;
+    sumsHigh[i * MIRAGE_SPLAT_CHANNELS + c] = 0u;
+  }
   barrier();
 
-  SplatEntryWordsRef entries = SplatEntryWordsRef(push.entryAddress);
+  SplatEntryRef entries = SplatEntryRef(push.entryAddress);
   for (uint k = begin + i; k < end; k += SPLAT_TILE_PIXELS) {
-    vec4 footprint = uintBitsToFloat(entries.v[2u * k]);
-    uvec4 rest = entries.v[2u * k + 1u];
-    vec2 flo = footprint.xy, fhi = footprint.zw;
-    float depth = uintBitsToFloat(rest.x), weight = uintBitsToFloat(rest.y);
-    vec4 color = vec4(unpackUnorm2x16(rest.z), unpackUnorm2x16(rest.w));
-    ivec2 first = max(ivec2(floor(flo)), origin), to = min(ivec2(ceil(fhi)) - 1, last);
+    uint entry = entries.v[k];
+    vec3 position;
+    float size;
+    vec4 color;
+    SplatFootprint f;
+    if (splatClassify(entry >> 1u, /*list=*/false, position, size, color) != SPLAT_SPLAT ||
+        !splatFootprint(entry & 1u, position, size, f))
+      continue; // (listed as a splat: never)
+    vec2 flo = f.lo, fhi = f.hi;
+    float depth = f.depth, weight = f.weight;
+    ivec2 first = max(f.first, origin), to = min(f.last, last);
     for (int y = first.y; y <= to.y; ++y)
       for (int x = first.x; x <= to.x; ++x) {
         float a = splatCoverage(flo, fhi, color.a, x, y);
@@ -65,20 +82,21 @@ void main() {
         float logReveal;
         vec4 add = splatSums(color.rgb, a, weight, logReveal);
         uint base = p * MIRAGE_SPLAT_CHANNELS;
-        atomicAdd(sums[base + 0u], add.x);
-        atomicAdd(sums[base + 1u], add.y);
-        atomicAdd(sums[base + 2u], add.z);
-        atomicAdd(sums[base + 3u], add.w);
-        atomicAdd(sums[base + 4u], logReveal);
+        sharedAdd(base + 0u, add.x);
+        sharedAdd(base + 1u, add.y);
+        sharedAdd(base + 2u, add.z);
+        sharedAdd(base + 3u, add.w);
+        sharedAdd(base + 4u, logReveal);
       }
   }
   barrier();
 
-  if (!inside || !(sums[i * MIRAGE_SPLAT_CHANNELS + 4u] > 0.0)) return; // nothing splatted here
+  uint own = i * MIRAGE_SPLAT_CHANNELS;
+  if (!inside || (sumsLow[own + 4u] | sumsHigh[own + 4u]) == 0u) return; // nothing splatted here
   uint base = splatBase(px, uint(pixel.y));
   for (uint c = 0u; c < MIRAGE_SPLAT_CHANNELS; ++c) {
-    float v = sums[i * MIRAGE_SPLAT_CHANNELS + c];
-    if (alone) splatStore(base + c, v);
-    else splatAdd(base + c, v);
+    uint64_t units = packUint2x32(uvec2(sumsLow[own + c], sumsHigh[own + c]));
+    if (alone) splatStoreUnits(base + c, units);
+    else splatAddUnits(base + c, units);
   }
 }

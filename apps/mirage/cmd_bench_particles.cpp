@@ -30,7 +30,7 @@ struct BenchParticlesOptions {
   std::string oit = "linked-list";
   std::string camera;               // --render: empty frames the effect
   bool noSplat = false;             // --render: every particle a billboard
-  std::string splatMethod = "auto"; // --render: binned, atomic or auto (binned where the device can)
+  std::string splatMethod = "auto"; // --render: binned, atomic or auto (binned)
   bool separateOutput = false;      // --render: the render records by their own pass after the step
 };
 
@@ -76,6 +76,10 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
                         {"fused_output", ro.fusedOutput},
                         {"splat_ms", r->splatMs},
                         {"splat_resolve_ms", r->splatResolveMs},
+                        {"splat_count_ms", r->splatCountMs},
+                        {"splat_scan_ms", r->splatScanMs},
+                        {"splat_scatter_ms", r->splatScatterMs},
+                        {"splat_tiles_ms", r->splatTilesMs},
                         {"billboards", r->billboards},
                         {"total_ms", r->totalMs},
                         {"msl", r->oit.msl},
@@ -89,6 +93,9 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
   fmt::print("  simulate {:9.3f} ms  render {:9.3f} ms (splat {:.3f}, blend {:.3f}, composite {:.3f}, splat resolve "
              "{:.3f})  total {:9.3f} ms (medians)\n",
              r->simulateMs, r->frameMs, r->splatMs, r->blendMs, r->compositeMs, r->splatResolveMs, r->totalMs);
+  if (r->splatBinned)
+    fmt::print("  splat passes: count {:.3f}, scan {:.3f}, scatter {:.3f}, tiles {:.3f} ms (medians)\n",
+               r->splatCountMs, r->splatScanMs, r->splatScatterMs, r->splatTilesMs);
   fmt::print("  billboards {} of {} live particles ({})\n", r->billboards, r->live,
              !ro.splat        ? "splat off"
              : r->splatBinned ? "the rest splatted, binned"

@@ -87,6 +87,7 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   fs.particles = draw->get();
   gpu::GpuTimer timer(context, 2);
   std::vector<double> simulate, frame, blend, composite, splat, splatResolve, total;
+  std::vector<double> splatCount, splatScan, splatScatter, splatTiles;
   for (uint32_t i = 0; i < o.frames + 1; ++i) { // the first warms the pipelines up, untimed
     Status recorded = Ok{};
     context.submitAndWait([&](VkCommandBuffer cmd) {
@@ -113,6 +114,10 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
       if (t.name == "composite") composite.push_back(t.milliseconds);
       if (t.name == "splat") splat.push_back(t.milliseconds);
       if (t.name == "splat-resolve") splatResolve.push_back(t.milliseconds);
+      if (t.name == "splat-count") splatCount.push_back(t.milliseconds);
+      if (t.name == "splat-scan") splatScan.push_back(t.milliseconds);
+      if (t.name == "splat-scatter") splatScatter.push_back(t.milliseconds);
+      if (t.name == "splat-tiles") splatTiles.push_back(t.milliseconds);
     }
     simulate.push_back(s), frame.push_back(f), total.push_back(s + f);
     r.oit = out->stats.oit;
@@ -124,6 +129,10 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   r.compositeMs = median(composite);
   r.splatMs = median(splat);
   r.splatResolveMs = median(splatResolve);
+  r.splatCountMs = median(splatCount);
+  r.splatScanMs = median(splatScan);
+  r.splatScatterMs = median(splatScatter);
+  r.splatTilesMs = median(splatTiles);
   r.totalMs = median(total);
   r.billboards =
       (*draw)->splats(o.oit) ? (*draw)->readBillboardCount() : uint32_t(std::min<uint64_t>(r.live, UINT32_MAX));

@@ -48,6 +48,7 @@ ParticleSplatTarget ClusterRenderer::Impl::splatTarget(const sio::ClusterPush& p
   t.depth = depth.view();
   t.color = color.view();
   t.accumulators = &splatAccum;
+  t.timer = &timer();
   return t;
 }
 

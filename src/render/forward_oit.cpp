@@ -256,6 +256,7 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
     splatTarget.depth = depth.view();
     splatTarget.color = color.view();
     splatTarget.accumulators = &splatAccum;
+    splatTarget.timer = &timer;
     uint32_t splatTime = timer.cmdBegin(cmd, "splat", kCS);
     fs.particles->cmdSplat(cmd, splatTarget);
     timer.cmdEnd(cmd, splatTime, kCS);

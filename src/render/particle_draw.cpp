@@ -78,13 +78,14 @@ Status ParticleDraw::setSettings(const ParticleDrawSettings& settings) {
   if (!(settings.splatBelowPixels >= 0.0f && settings.splatBelowPixels <= MIRAGE_SPLAT_MAX_PIXELS))
     return Error{fmt::format("particle splat threshold {} px: must be in 0..{}", settings.splatBelowPixels,
                              MIRAGE_SPLAT_MAX_PIXELS)};
+  if (uint32_t n = settings.splatBinSlots; n > MIRAGE_SPLAT_BIN_SLOTS || (n & (n - 1)) != 0)
+    return Error{
+        fmt::format("particle splat bin slots {}: must be a power of two of at most {}", n, MIRAGE_SPLAT_BIN_SLOTS)};
   const DeviceCapabilities& caps = impl_->ctx.caps();
   if (settings.atomics == SplatAtomics::Float && !caps.floatBufferAtomicAdd)
     return Error{"particle splat: the device has no float atomic adds (shaderBufferFloat32AtomicAdd)"};
   if (settings.atomics == SplatAtomics::Fixed && !caps.int64BufferAtomics)
     return Error{"particle splat: the device has no 64-bit buffer atomics"};
-  if (settings.splatMethod == SplatMethod::Binned && !caps.floatSharedAtomicAdd)
-    return Error{"particle splat: binning needs shared float atomic adds (shaderSharedFloat32AtomicAdd)"};
   impl_->settings = settings;
   return Ok{};
 }
@@ -104,8 +105,9 @@ void ParticleDraw::Impl::ensureComputeLayout() {
       uint32_t(std::max(sizeof(sio::ParticleSortPush), sizeof(sio::ParticleSplatPush))), VK_SHADER_STAGE_COMPUTE_BIT);
 }
 
-void ParticleDraw::Impl::cmdDispatchRecords(VkCommandBuffer cmd) const {
-  uint32_t groups = std::max<uint32_t>((totalRecords + MIRAGE_PARTICLE_DRAW_GROUP - 1) / MIRAGE_PARTICLE_DRAW_GROUP, 1);
+void ParticleDraw::Impl::cmdDispatchRecords(VkCommandBuffer cmd, uint32_t perThread) const {
+  uint64_t perGroup = uint64_t(MIRAGE_PARTICLE_DRAW_GROUP) * perThread;
+  uint32_t groups = std::max<uint32_t>(uint32_t((totalRecords + perGroup - 1) / perGroup), 1);
   gpu::DispatchRows rows = gpu::dispatchRows(groups);
   vkCmdDispatch(cmd, rows.x, rows.y, 1);
 }

@@ -50,9 +50,9 @@ struct ParticleDraw::Impl {
   gpu::DescriptorSet frameSets[kMaxFramesInFlight];
   gpu::Buffer largeList, largeArgs;
   // Binned (made on first use): count/scatter, scan and tile passes, the bins (sized by the
-  // target's tiles) and the entries (sized by the records).
+  // target's tiles), the entries and the count workgroups' tables (sized by the records).
   gpu::Unique<VkPipeline> binPipelines[2], tilePipelines[2], scanPipeline; // [fixed point]
-  gpu::Buffer bins, entries;
+  gpu::Buffer bins, entries, tables;
   uint32_t entryRoom = 0;
   bool fixedPoint = false;    // the last cmdSplat accumulated in fixed point (settings and device)
   bool splatRecorded = false; // cmdSplat ran since cmdPrepare: cmdDraw draws the list
@@ -65,12 +65,14 @@ struct ParticleDraw::Impl {
   shaderio::ParticleDrawPush drawPush(VkDeviceAddress frame, VkDeviceAddress oitLists) const;
   void cmdBindDraw(VkCommandBuffer cmd, OitMode mode);
   void ensureComputeLayout();
-  // A compute pass of one thread per record slot (the sort's and the splat's), in rows of
-  // workgroups (gpu::dispatchRows); at least one workgroup, which finds no records.
-  void cmdDispatchRecords(VkCommandBuffer cmd) const;
+  // A compute pass over the record slots (the sort's and the splat's), `perThread` slots per
+  // thread of MIRAGE_PARTICLE_DRAW_GROUP, in rows of workgroups (gpu::dispatchRows); at least one
+  // workgroup, which finds no records.
+  void cmdDispatchRecords(VkCommandBuffer cmd, uint32_t perThread = 1) const;
   shaderio::ParticleSplatPush splatPush(const ParticleSplatTarget& t) const;
-  // The binned splat's passes (count, scan, scatter, tiles) with `push` bound to the compute layout.
-  void cmdSplatBinned(VkCommandBuffer cmd, shaderio::ParticleSplatPush push);
+  // The binned splat's passes (count, scan, scatter, tiles) with `push` bound to the compute layout,
+  // each timed by `timer` where given.
+  void cmdSplatBinned(VkCommandBuffer cmd, shaderio::ParticleSplatPush push, gpu::GpuTimer* timer);
 };
 
 } // namespace mirage::render

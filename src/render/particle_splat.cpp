@@ -1,12 +1,12 @@
 // The splat of small particles (render/particle_draw.h, docs/particles.md "Splat"): one compute
 // thread per record slot; a particle under the threshold adds its coverage to the weighted blended
 // sums of the pixels its footprint overlaps (particle_splat.glsl), a larger one is listed for the
-// billboards. Binned (where shared float atomics exist): the splats counted per screen tile, the
-// counts scanned, the splats scattered into their tiles' lists, and one workgroup per chunk of a
-// tile's list sums them in shared memory and writes the tile once; otherwise each pixel's sums
-// take global atomics per particle. After the transparency composite the sums are resolved over
-// the colour.
+// billboards. Binned: the splats counted per screen tile, the counts scanned, the splats scattered
+// into their tiles' lists, and one workgroup per chunk of a tile's list sums them in shared memory
+// and writes the tile once; otherwise each pixel's sums take global atomics per particle. After the transparency
+// composite the sums are resolved over the colour.
 #include <algorithm>
+#include <bit>
 #include <cstring>
 
 #include "mirage/gpu/commands.h"
@@ -27,11 +27,14 @@ bool useFixedPoint(const ParticleDrawSettings& s, const DeviceCapabilities& caps
   return !caps.floatBufferAtomicAdd;
 }
 
-// Auto takes the per-pixel atomics: on an H100, 10 M rain at 1080p splats in 4.33 ms by them and in
-// 6.48 ms binned (same run), so the bins are asked for by name until they win.
-bool useBins(const ParticleDrawSettings& s, const DeviceCapabilities& caps) {
-  return s.splatMethod == SplatMethod::Binned && caps.floatSharedAtomicAdd;
-}
+// Auto takes the bins: the per-pixel atomics are bound by the rate of global atomics (on an H100,
+// 200 M float atomic adds to distinct addresses of an L2-resident buffer take 2.3 ms by
+// themselves, 10 M particles of 1 px times 4 pixels times 5 sums), where the bins take one shared
+// 32-bit atomic per sum and word and a global atomic per workgroup and tile.
+bool useBins(const ParticleDrawSettings& s) { return s.splatMethod != SplatMethod::Atomic; }
+
+constexpr uint64_t kRecordsPerBinGroup = uint64_t(MIRAGE_PARTICLE_DRAW_GROUP) * MIRAGE_SPLAT_BIN_RECORDS;
+constexpr uint64_t kBinTableBytes = MIRAGE_SPLAT_BIN_SLOTS * 8; // uvec2 per slot
 
 uint32_t tilesAcross(uint32_t pixels) { return (pixels + MIRAGE_SPLAT_TILE - 1) / MIRAGE_SPLAT_TILE; }
 
@@ -41,7 +44,7 @@ void cmdComputeToCompute(VkCommandBuffer cmd) {
 
 } // namespace
 
-bool ParticleDraw::splatsBinned() const { return useBins(impl_->settings, impl_->ctx.caps()); }
+bool ParticleDraw::splatsBinned() const { return useBins(impl_->settings); }
 
 bool ParticleDraw::splats(OitMode mode) const {
   const Impl& d = *impl_;
@@ -74,14 +77,23 @@ sio::ParticleSplatPush ParticleDraw::Impl::splatPush(const ParticleSplatTarget& 
   p.binAddress = bins ? bins.address() : 0;
   p.entryAddress = entries ? entries.address() : 0;
   p.entryRoom = entryRoom;
+  p.tableAddress = tables ? tables.address() : 0;
   p.tilesX = tilesAcross(t.eyeWidth);
   p.tilesY = tilesAcross(t.height);
+  p.binSlotBits =
+      settings.splatBinSlots ? uint32_t(std::countr_zero(settings.splatBinSlots)) : MIRAGE_SPLAT_BIN_SLOT_BITS;
   return p;
 }
 
 // barriers: the classification's inputs as cmdSplat's; on exit the sums' writes are the tile
 // pass's (cmdSplat's closing barrier covers them).
-void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatPush push) {
+void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatPush push, gpu::GpuTimer* timer) {
+  // Each pass inside `name`'s timestamps where a timer is given.
+  auto timed = [&](const char* name, auto&& record) {
+    uint32_t slot = timer ? timer->cmdBegin(cmd, name, kCS) : UINT32_MAX;
+    record();
+    if (timer) timer->cmdEnd(cmd, slot, kCS);
+  };
   int fixed = fixedPoint ? 1 : 0;
   if (!binPipelines[fixed]) {
     binPipelines[fixed] = createComputePipeline(
@@ -94,22 +106,22 @@ void ParticleDraw::Impl::cmdSplatBinned(VkCommandBuffer cmd, sio::ParticleSplatP
   push.phase = MIRAGE_SPLAT_PHASE_COUNT;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
   vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchRecords(cmd);
+  timed("splat-count", [&] { cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS); });
   cmdComputeToCompute(cmd);
   // Scan: the tiles' first entries and chunks, the cursors zeroed, the tile pass's dispatch.
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scanPipeline);
-  vkCmdDispatch(cmd, 1, 1, 1);
+  timed("splat-scan", [&] { vkCmdDispatch(cmd, 1, 1, 1); });
   cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                    kStorageRW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
   // Scatter: the entries into their tiles' lists (past the room: added directly).
   push.phase = MIRAGE_SPLAT_PHASE_SCATTER;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binPipelines[fixed]);
   vkCmdPushConstants(cmd, computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-  cmdDispatchRecords(cmd);
+  timed("splat-scatter", [&] { cmdDispatchRecords(cmd, MIRAGE_SPLAT_BIN_RECORDS); });
   cmdComputeToCompute(cmd);
   // Tiles: one workgroup per chunk of a tile's list, its sums written once.
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tilePipelines[fixed]);
-  vkCmdDispatchIndirect(cmd, bins.handle(), 0);
+  timed("splat-tiles", [&] { vkCmdDispatchIndirect(cmd, bins.handle(), 0); });
 }
 
 // barriers: see particle_draw.h; the accumulators zeroed by a transfer, the depth in
@@ -142,7 +154,7 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
   writeImageDescriptors(d.ctx, set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, {&depthInfo, 1});
   writeImageDescriptors(d.ctx, set, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {&colorInfo, 1});
 
-  const bool binned = useBins(d.settings, d.ctx.caps());
+  const bool binned = useBins(d.settings);
   if (binned) {
     // The bins: per tile of either eye a count, a first entry and a first chunk, and the header;
     // made for at least two eyes of 4096 x 4096 (1.6 MB), so that no usual resize replaces them
@@ -160,11 +172,16 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
     uint64_t room = d.settings.splatEntryRoom
                         ? d.settings.splatEntryRoom
                         : uint64_t(std::max(d.totalRecords, 1u)) * MIRAGE_SPLAT_ENTRIES_PER_RECORD;
-    room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / sizeof(sio::ParticleSplatEntry), UINT32_MAX});
-    if (!d.entries || d.entries.size() < room * sizeof(sio::ParticleSplatEntry))
-      d.entries = createBuffer(d.ctx, room * sizeof(sio::ParticleSplatEntry), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                               MemoryUsage::GpuOnly, "particle splat entries");
+    room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / 4, UINT32_MAX});
+    if (!d.entries || d.entries.size() < room * 4)
+      d.entries = createBuffer(d.ctx, room * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
+                               "particle splat entries");
     d.entryRoom = uint32_t(room);
+    // Per count workgroup its tile table, which its scatter workgroup reads instead of counting again.
+    uint64_t groups = (uint64_t(std::max(d.totalRecords, 1u)) + kRecordsPerBinGroup - 1) / kRecordsPerBinGroup;
+    if (!d.tables || d.tables.size() < groups * kBinTableBytes)
+      d.tables = createBuffer(d.ctx, groups * kBinTableBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
+                              "particle splat bin tables");
     vkCmdFillBuffer(cmd, d.bins.handle(), 0, binBytes, 0);
   }
   VkDrawIndirectCommand empty{6, 0, 0, 0};
@@ -174,7 +191,7 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.computeLayout, 0, 2, sets, 0, nullptr);
   sio::ParticleSplatPush push = d.splatPush(t);
   if (binned) {
-    d.cmdSplatBinned(cmd, push);
+    d.cmdSplatBinned(cmd, push, t.timer);
   } else {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);

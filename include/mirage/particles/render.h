@@ -98,9 +98,9 @@ Result<ParticleRenderReport> renderParticles(gpu::Context& context, const Effect
 // `mirage bench particles --sim gpu --render`: the effect scaled to `count` particles and filled
 // (as benchGpu), then per timed frame one submission with the simulation step and record output
 // ("simulate") and the forward frame drawing every live particle over a ground ("frame": opaque,
-// splat = the small particles' compute splat, blend = list build, composite = resolve,
-// splat-resolve), GPU times from timestamp queries, medians over the frames. The camera frames the
-// unscaled effect unless given.
+// splat = the small particles' compute splat (binned: its count, scan, scatter and tile passes
+// too), blend = list build, composite = resolve, splat-resolve), GPU times from timestamp queries, medians over the
+// frames. The camera frames the unscaled effect unless given.
 struct RenderBenchOptions {
   uint64_t count = 1000000;
   uint32_t frames = 50;
@@ -117,6 +117,8 @@ struct RenderBenchResult {
   uint64_t live = 0, fillSteps = 0;
   double simulateMs = 0, frameMs = 0, blendMs = 0, compositeMs = 0, totalMs = 0; // medians
   double splatMs = 0, splatResolveMs = 0;                                        // medians
+  // Binned: the splat's passes apart (medians; splat-count, splat-scan, splat-scatter, splat-tiles).
+  double splatCountMs = 0, splatScanMs = 0, splatScatterMs = 0, splatTilesMs = 0;
   uint32_t billboards = 0;  // particles the splat left to billboards in the last frame (all without it)
   bool splatBinned = false; // the splat ran binned by screen tiles
   render::OitStats oit;     // of the last frame

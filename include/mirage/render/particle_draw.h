@@ -18,6 +18,7 @@
 #include "mirage/core/result.h"
 #include "mirage/gpu/context.h"
 #include "mirage/gpu/memory.h"
+#include "mirage/gpu/query.h"
 #include "mirage/render/oit.h"
 #include "mirage/shaderio/particle_draw.h"
 #include "mirage/shaderio/particles.h"
@@ -48,8 +49,8 @@ struct ParticleBatch {
 enum class SplatAtomics { Auto, Float, Fixed };
 
 // How the splat gathers each pixel's sums (docs/particles.md, "Splat"): binned by screen tiles
-// (per tile, shared-memory sums written once; needs shaderSharedFloat32AtomicAdd), or every
-// covered pixel's sums added by global atomics per particle. Auto: the atomics (faster on an H100).
+// (per tile, shared-memory sums written once), or every covered pixel's sums added by global
+// atomics per particle. Auto: binned.
 enum class SplatMethod { Auto, Binned, Atomic };
 
 // Particles whose billboard would be narrower than this many pixels are splatted by default: their
@@ -65,14 +66,19 @@ struct ParticleDrawSettings {
   SplatMethod splatMethod = SplatMethod::Auto;
   // Binned: entries (a splat's footprint on one tile of one eye) the tile lists hold; those past it
   // are added by global atomics, so the image does not depend on it. 0: MIRAGE_SPLAT_ENTRIES_PER_RECORD
-  // per record slot (32 bytes each). A larger room: with no frame in flight.
+  // per record slot (4 bytes each). A larger room: with no frame in flight.
   uint32_t splatEntryRoom = 0;
+  // Binned: slots of the table in which a count or scatter workgroup counts its entries per tile
+  // (a power of two, at most MIRAGE_SPLAT_BIN_SLOTS); a tile finding no free slot takes global
+  // atomics per entry, so the image does not depend on it. 0: MIRAGE_SPLAT_BIN_SLOTS.
+  uint32_t splatBinSlots = 0;
 };
 
 // Device bytes the splat takes per record slot beyond the renderer's per-pixel sums: the billboard
-// list's index and the binned splat's default entry room.
+// list's index, the binned splat's default entry room and its workgroups' tile tables.
 inline constexpr uint64_t kSplatBytesPerRecord =
-    4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * sizeof(shaderio::ParticleSplatEntry);
+    4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * 4 +
+    MIRAGE_SPLAT_BIN_SLOTS * 8 / (MIRAGE_PARTICLE_DRAW_GROUP * MIRAGE_SPLAT_BIN_RECORDS);
 
 // Where a frame's splat writes, given by the renderer recording it.
 struct ParticleSplatTarget {
@@ -83,6 +89,7 @@ struct ParticleSplatTarget {
   VkImageView depth = VK_NULL_HANDLE;        // the opaque depth (D32, reverse-Z), DEPTH_READ_ONLY_OPTIMAL
   VkImageView color = VK_NULL_HANDLE;        // the colour target (RGBA16F), GENERAL: the resolve blends into it
   const gpu::Buffer* accumulators = nullptr; // splatBytes(pixels) bytes, zeroed before cmdSplat
+  gpu::GpuTimer* timer = nullptr;            // set: the binned passes timed apart (splat-count .. splat-tiles)
 };
 
 class ParticleDraw {

@@ -86,11 +86,23 @@ struct ParticleSortPush {
 // Entries per tile-pass workgroup: a hot tile's list is split over this many workgroups, each
 // adding its sums to the tile's pixels (a tile of one chunk stores them).
 #define MIRAGE_SPLAT_CHUNK 2048
+// Record slots per invocation of the count and scatter passes (a workgroup takes
+// MIRAGE_PARTICLE_DRAW_GROUP times this many): a workgroup counts its entries per tile in shared
+// memory and takes one global atomic per tile it touches, not one per entry (an effect on a few
+// hundred tiles made every tile counter a hot spot: 12.7 M same-address atomics a pass at 10 M).
+#define MIRAGE_SPLAT_BIN_RECORDS 16
+// The count and scatter passes' shared table of the tiles a workgroup touches (open addressing,
+// a power of two; ParticleDrawSettings::splatBinSlots may use fewer) and the slots an entry
+// probes: a tile that finds none of its probes free is counted and placed by global atomics per
+// entry instead.
+#define MIRAGE_SPLAT_BIN_SLOTS 2048
+#define MIRAGE_SPLAT_BIN_SLOT_BITS 11
+#define MIRAGE_SPLAT_BIN_PROBES 8
 // Default entry room per record slot (ParticleDrawSettings::splatEntryRoom): a footprint of at
-// most 2 px overlaps 1.27 tiles of 16 px on average (4 at most), per eye; entries past the room
-// (some of a stereo frame's) are splatted directly with the global atomics, so the image does not
-// depend on it.
-#define MIRAGE_SPLAT_ENTRIES_PER_RECORD 2
+// most 2 px overlaps 1.27 tiles of 16 px on average (4 at most), per eye, so a stereo frame's
+// ~2.5 fit too; entries past the room are splatted directly with the global atomics, so the image
+// does not depend on it.
+#define MIRAGE_SPLAT_ENTRIES_PER_RECORD 3
 // The bins buffer: uint[MIRAGE_SPLAT_BIN_HEADER + 3 tiles + 2]: the header (the tile pass's
 // VkDispatchIndirectCommand, then its chunks and the entries listed), per tile its count (the
 // scatter's cursor after the scan), per tile + 1 its first entry, per tile + 1 its first chunk.
@@ -101,16 +113,10 @@ struct ParticleSortPush {
 #define MIRAGE_SPLAT_PHASE_COUNT 0u   // classify, list the billboards, count the entries per tile
 #define MIRAGE_SPLAT_PHASE_SCATTER 1u // write the entries into their tiles' lists
 
-// One splatted particle as one tile's list holds it: its footprint in the eye's pixels (lo, hi),
-// its NDC depth (tested against the opaque depth), the weighted blended weight of its distance
-// (oitWeightedFactor) and its colour (straight alpha, unorm16 x 4).
-struct ParticleSplatEntry {
-  float loX, loY, hiX, hiY;
-  float depth;
-  float weight;
-  uint colorRG; // packUnorm2x16
-  uint colorBA;
-};
+// One splatted particle as one tile's list holds it: global record g seen by eye e, as g * 2 + e
+// (the tile pass classifies the record again: 4 bytes per entry written and read, where the
+// footprint, depth, weight and colour took 32; record slots below 2^31).
+#define MIRAGE_SPLAT_ENTRY(g, eye) ((g)*2u + (eye))
 
 struct ParticleSplatPush {
   uint64_t frameAddress[2];  // ViewFrame of each eye (the classification uses eye 0's size)
@@ -128,16 +134,17 @@ struct ParticleSplatPush {
   uint fixedPoint;       // 1: the accumulators are fixed point (resolve, tile pass)
   uint phase;            // binned: MIRAGE_SPLAT_PHASE_*
   uint64_t binAddress;   // binned: the bins (uint[], MIRAGE_SPLAT_BIN_HEADER)
-  uint64_t entryAddress; // binned: ParticleSplatEntry[entryRoom], listed by tile
+  uint64_t entryAddress; // binned: uint[entryRoom] (MIRAGE_SPLAT_ENTRY), listed by tile
   uint entryRoom;        // binned: entries the lists hold
   uint tilesX;           // binned: tiles per eye across (tile t = (eye * tilesY + y) * tilesX + x)
   uint tilesY;
-  uint pad0;
+  uint binSlotBits;      // binned: log2 of the count and scatter passes' table slots in use
+  uint64_t tableAddress; // binned: each count workgroup's table for its scatter (MIRAGE_SPLAT_BIN_SLOTS uvec2)
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(ParticleSplatPush) == 120, "ParticleSplatPush layout");
-static_assert(sizeof(ParticleSplatEntry) == 32, "ParticleSplatEntry layout");
+static_assert(sizeof(ParticleSplatPush) == 128, "ParticleSplatPush layout: the guaranteed push constant size");
+static_assert((1u << MIRAGE_SPLAT_BIN_SLOT_BITS) == MIRAGE_SPLAT_BIN_SLOTS, "bin slots: a power of two");
 static_assert(sizeof(ParticleBatchInfo) == 32, "ParticleBatchInfo layout");
 static_assert(sizeof(ParticleDrawPush) == 64, "ParticleDrawPush layout");
 static_assert(sizeof(ParticleSortPush) == 120, "ParticleSortPush layout");
