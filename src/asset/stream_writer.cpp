@@ -53,6 +53,7 @@ Result<AssetStreamWriter> AssetStreamWriter::create(const std::string& path, uin
   w.maxChunks_ = maxChunks;
   w.tmp_ = path + ".tmp-" + std::to_string(::getpid());
   ::unlink(w.tmp_.c_str()); // a stale temp of ours (same pid, earlier crash)
+  w.tmpGuard_ = TempFileGuard(w.tmp_);
   w.fd_ = ::open(w.tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
   if (w.fd_ < 0) return makeError(path, "cannot create " + w.tmp_ + ": " + errnoText(errno));
   // Header and the reserved table are written by finish(); the first payload follows them.
@@ -71,6 +72,7 @@ AssetStreamWriter& AssetStreamWriter::operator=(AssetStreamWriter&& o) noexcept 
     ::unlink(tmp_.c_str());
   }
   path_ = std::move(o.path_), tmp_ = std::move(o.tmp_);
+  tmpGuard_ = std::move(o.tmpGuard_);
   fd_ = std::exchange(o.fd_, -1);
   maxChunks_ = o.maxChunks_, at_ = o.at_;
   table_ = std::move(o.table_);
@@ -242,6 +244,7 @@ Status AssetStreamWriter::finish(const std::function<Status(const std::string& t
     ::unlink(tmp_.c_str());
     return failed("cannot rename " + tmp_ + " to the output: " + errnoText(err));
   }
+  tmpGuard_.release();
   detail::syncParentDir(path_);
   return Ok{};
 }

@@ -12,6 +12,7 @@
 #include <zstd.h>
 
 #include "codec.h"
+#include "mirage/core/temp_files.h"
 #include "mirage/asset/container.h"
 
 namespace mirage::asset {
@@ -171,6 +172,7 @@ Status AssetWriter::write(const std::string& path,
   // the temp name. A stale temp of ours (same pid, earlier crash) is removed first.
   std::string tmp = path + ".tmp-" + std::to_string(::getpid());
   ::unlink(tmp.c_str());
+  TempFileGuard guard(tmp); // removed if a signal stops the process before the rename
   int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
   if (fd < 0) return makeError(path, "cannot create " + tmp + ": " + errnoText(errno));
 

@@ -17,6 +17,7 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
+#include "mirage/core/temp_files.h"
 #include "mirage/core/input_text.h"
 
 namespace mirage::io {
@@ -74,6 +75,7 @@ Status writeFileAtomic(const std::filesystem::path& path, const void* data, size
 Status writeFileAtomic(const std::filesystem::path& path, std::span<const std::span<const uint8_t>> parts) {
   std::filesystem::path tmp = path;
   tmp += ".tmp-" + std::to_string(::getpid());
+  TempFileGuard guard(tmp.string()); // removed if a signal stops the process before the rename
   FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) return makeError(name(path), std::string("cannot create: ") + std::strerror(errno));
   bool written = true;

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "asset_parts.h"
+#include "mirage/core/temp_files.h"
 #include "mirage/asset/container.h"
 #include "mirage/asset/scene_chunk.h"
 #include "mirage/lod/dag_codec.h"
@@ -135,6 +136,7 @@ Result<EncodedMesh> decodeMesh(std::span<const uint8_t> bytes, const std::string
 // Removes the spool file when the bake ends, however it ends.
 struct SpoolFile {
   std::string path;
+  TempFileGuard guard{path}; // and when a signal stops the process
   std::FILE* file = nullptr;
   ~SpoolFile() {
     if (file) std::fclose(file);

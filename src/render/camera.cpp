@@ -1,4 +1,5 @@
 #include "mirage/render/camera.h"
+#include "mirage/core/temp_files.h"
 #include "mirage/core/input_text.h"
 #include "mirage/shaderio/lod_error.h"
 
@@ -317,6 +318,7 @@ Status writeCameraPath(const std::filesystem::path& path, const std::vector<Came
   std::string text = j.dump(1) + "\n";
   std::filesystem::path tmp = path;
   tmp += ".tmp";
+  TempFileGuard guard(tmp.string()); // removed if a signal stops the process before the rename
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out || !out.write(text.data(), std::streamsize(text.size())) || !out.flush()) {

@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include "mirage/core/temp_files.h"
 #include "mirage/core/input_text.h"
 
 namespace mirage::surfels {
@@ -47,6 +48,7 @@ Status writeSurfelPly(const std::string& path, const SurfelCloud& c) {
     append(body, &r, 1);
   }
   std::string tmp = fmt::format("{}.tmp-{}", path, getpid());
+  TempFileGuard guard(tmp); // removed if a signal stops the process before the rename
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     f.write(header.data(), std::streamsize(header.size()));

@@ -25,6 +25,7 @@
 #include "mirage/asset/format.h"
 #include "mirage/asset/source.h"
 #include "mirage/core/result.h"
+#include "mirage/core/temp_files.h"
 
 namespace mirage::asset {
 
@@ -142,6 +143,7 @@ private:
   Status padTo(uint64_t offset);
   Status failed(const std::string& problem);
   std::string path_, tmp_;
+  TempFileGuard tmpGuard_; // tmp_ goes if a signal stops the process before finish()
   int fd_ = -1;
   uint32_t maxChunks_ = 0;
   uint64_t at_ = 0;
