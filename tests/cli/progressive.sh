@@ -57,11 +57,9 @@ if expect_ok build-paged build gen:blob:5 -o "$tmp/paged.mrg" --quiet --page-siz
     check progress-http-same-image cmp -s "$tmp/http.png" "$tmp/converged.png"
     expect_ok progress-http-limited render "$url/paged.mrg" -o "$tmp/http-limited.png" "${args[@]}" \
       --bandwidth 4Mbit --progress-json "$tmp/http-limited.json"
+    # The limit is checked as a rate (progress_ok): comparing the two runs' wall times failed on a
+    # loaded machine (sanitized, 3.50 s unlimited against 3.32 s limited).
     progress_ok progress-http-limited-json "$tmp/http-limited.json" 4000000
-    check progress-http-limited-slower python3 -c "
-import json
-a = json.load(open('$tmp/http.json')); b = json.load(open('$tmp/http-limited.json'))
-assert b['converged_seconds'] > a['converged_seconds'], (a['converged_seconds'], b['converged_seconds'])"
   fi
 fi
 
