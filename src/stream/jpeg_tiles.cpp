@@ -23,8 +23,10 @@
 #pragma GCC diagnostic ignored "-Wold-style-cast"
 #pragma GCC diagnostic ignored "-Wcast-qual"
 #pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
+#if !defined(__clang__) // GCC's own groups: clang warns about groups it does not know
 #pragma GCC diagnostic ignored "-Wuseless-cast"
 #pragma GCC diagnostic ignored "-Wduplicated-branches"
+#endif
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #endif
 #include <stb/stb_image.h>
