@@ -3,7 +3,6 @@
 // is on each process's main thread (World is initialized MPI_THREAD_FUNNELED).
 #include "mirage/bake/lod_stream_bake.h"
 
-#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <cstring>
@@ -35,26 +34,13 @@ uint32_t numberOf(std::span<const uint8_t> b) {
   return n;
 }
 
-struct Share {
-  uint32_t inFlight = 1;
-  lod::BuildConfig meshConfig;
-};
-
-// How one process spreads its threads over meshes: lod::bakeLodFile's rule.
-Share shareOf(const World& world, const lod::BuildConfig& config, const lod::StreamBakeOptions& options) {
-  uint32_t threads = config.threads ? config.threads : (world.size() > 1 ? world.threadShare() : 0);
-  if (threads == 0) threads = uint32_t(tbb::this_task_arena::max_concurrency());
-  Share s;
-  s.inFlight = options.meshesInFlight ? options.meshesInFlight : std::max(1u, threads / 2);
-  s.meshConfig = config;
-  s.meshConfig.threads = std::max(1u, threads / s.inFlight);
-  return s;
-}
-
-// A rank other than 0: a pool of inFlight bakers fed by the main thread, which alone talks to rank 0.
+// A rank other than 0: a pool of bakers (lod::streamShare, as rank 0's own) fed by the main thread,
+// which alone talks to rank 0.
 Status work(const World& world, const lod::MeshSource& source, const std::string& path, const lod::BuildConfig& config,
             const lod::LodWriteOptions& write, const lod::StreamBakeOptions& options) {
-  Share share = shareOf(world, config, options);
+  const lod::StreamShare share = lod::streamShare(config, options, uint32_t(source.layout.meshes.size()));
+  lod::BuildConfig meshConfig = config;
+  meshConfig.threads = share.threadsPerMesh;
   std::mutex m;
   std::condition_variable cv;
   std::deque<uint32_t> queue;
@@ -62,7 +48,7 @@ Status work(const World& world, const lod::MeshSource& source, const std::string
   bool stopping = false;
   uint32_t busy = 0;
   auto baker = [&] {
-    tbb::task_arena arena(int(share.meshConfig.threads));
+    tbb::task_arena arena(int(meshConfig.threads));
     for (;;) {
       uint32_t mesh;
       {
@@ -74,7 +60,7 @@ Status work(const World& world, const lod::MeshSource& source, const std::string
         ++busy;
       }
       Result<std::vector<uint8_t>> bytes = Error{};
-      arena.execute([&] { bytes = lod::bakeStreamMesh(source, mesh, share.meshConfig, write, path); });
+      arena.execute([&] { bytes = lod::bakeStreamMesh(source, mesh, meshConfig, write, path); });
       std::lock_guard lock(m);
       --busy;
       finished.emplace_back(mesh, std::move(bytes));
@@ -82,8 +68,8 @@ Status work(const World& world, const lod::MeshSource& source, const std::string
     }
   };
   std::vector<std::thread> bakers;
-  for (uint32_t i = 0; i < share.inFlight; ++i) bakers.emplace_back(baker);
-  world.send(0, kReady, numberBytes(share.inFlight));
+  for (uint32_t i = 0; i < share.meshesInFlight; ++i) bakers.emplace_back(baker);
+  world.send(0, kReady, numberBytes(share.meshesInFlight));
   bool stopped = false;
   for (;;) {
     bool active = false;

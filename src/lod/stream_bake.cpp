@@ -146,6 +146,15 @@ struct SpoolFile {
 
 } // namespace
 
+StreamShare streamShare(const BuildConfig& config, const StreamBakeOptions& options, uint32_t meshCount) {
+  uint32_t threads = config.threads ? config.threads : uint32_t(tbb::this_task_arena::max_concurrency());
+  StreamShare s;
+  s.meshesInFlight = options.meshesInFlight ? options.meshesInFlight : std::max(1u, threads / 2);
+  s.meshesInFlight = std::max(1u, std::min(s.meshesInFlight, meshCount));
+  s.threadsPerMesh = std::max(1u, threads / s.meshesInFlight);
+  return s;
+}
+
 Result<std::vector<uint8_t>> bakeStreamMesh(const MeshSource& source, uint32_t index, const BuildConfig& config,
                                             const LodWriteOptions& write, const std::string& path) {
   if (index >= source.layout.meshes.size()) return makeError(path, "no mesh " + std::to_string(index));
@@ -162,12 +171,11 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   if (meshCount == 0) return makeError(path, "the scene has no meshes");
   if (meshCount + 3 > asset::kMaxChunks)
     return makeError(path, "too many meshes for one file (" + std::to_string(meshCount) + ")");
-  uint32_t threads = config.threads ? config.threads : uint32_t(tbb::this_task_arena::max_concurrency());
-  uint32_t inFlight = options.meshesInFlight ? options.meshesInFlight : std::max(1u, threads / 2);
-  inFlight = std::min(inFlight, meshCount);
+  const StreamShare share = streamShare(config, options, meshCount);
+  const uint32_t inFlight = share.meshesInFlight;
   uint32_t window = std::max(inFlight, options.reorderWindow ? options.reorderWindow : 2 * inFlight);
   BuildConfig meshConfig = config;
-  meshConfig.threads = std::max(1u, threads / inFlight);
+  meshConfig.threads = share.threadsPerMesh;
   StreamBakeReport r;
   r.meshes = meshCount, r.meshesInFlight = inFlight, r.reorderWindow = window, r.threadsPerMesh = meshConfig.threads;
 

@@ -59,6 +59,15 @@ struct StreamBakeReport {
   double finishSeconds = 0; // the source map, scene and META chunks, the read-back check, rename
 };
 
+// How one process of a streaming bake spreads its threads (config.threads, 0 = all cores) over the
+// meshes it bakes at once: options.meshesInFlight, or half the threads (at least 1), at most
+// meshCount; each mesh gets threads / meshes in flight (at least 1).
+struct StreamShare {
+  uint32_t meshesInFlight = 1;
+  uint32_t threadsPerMesh = 1;
+};
+StreamShare streamShare(const BuildConfig& config, const StreamBakeOptions& options, uint32_t meshCount);
+
 // Meshes baked by other processes of the same bake (bake::bakeLodFile spreads a streaming bake
 // over MPI ranks through this; the lod module knows nothing of MPI). The writing thread calls pump
 // between writes, never holding a lock: it hands meshes to idle remote workers through `take`
