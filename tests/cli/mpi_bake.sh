@@ -94,17 +94,27 @@ if ! command -v mpirun >/dev/null; then
 elif "${mpi[@]}" "$mirage" build gen:blob:2 -o "$tmp/probe.mrg" --quiet 2>&1 | grep -q "built without MPI"; then
   echo "mirage built without MPI: the distributed parts are skipped"
 else
-  if "${mpi[@]}" "$mirage" build "${inputs[@]}" -o "$tmp/mpi.mrg" --json >"$tmp/stdout" 2>"$tmp/stderr"; then
+  # mpi_matches NAME REFERENCE OUTPUT UNITS ARGS...: `mirage ARGS -o OUTPUT` on the ranks exits 0 and
+  # writes REFERENCE's bytes; with UNITS > 0 (ARGS has --json) its JSON names the 4 ranks and every
+  # unit 0..UNITS-1 baked exactly once.
+  mpi_matches() {
+    local name=$1 reference=$2 output=$3 units=$4
+    shift 4
+    if ! "${mpi[@]}" "$mirage" "$@" -o "$output" >"$tmp/stdout" 2>"$tmp/stderr"; then
+      fail "$name: exit non-zero: $(head -c 600 "$tmp/stderr")"
+      return 1
+    fi
     pass=$((pass + 1))
-    check mpi-same-bytes cmp "$tmp/reference.mrg" "$tmp/mpi.mrg"
-    check mpi-json python3 -c "
+    check "$name-same-bytes" cmp "$reference" "$output"
+    [ "$units" -gt 0 ] || return 0
+    check "$name-json" python3 -c "
 import json; j = json.load(open('$tmp/stdout'))
 assert j['ranks'] == 4 and len(j['per_rank']) == 4, j
 units = sorted(u for r in j['per_rank'] for u in r['units'])
-assert units == list(range(24)), units"
-  else
-    fail "mpi-build: exit non-zero: $(head -c 600 "$tmp/stderr")"
-  fi
+assert units == list(range($units)), units"
+  }
+
+  mpi_matches mpi-build "$tmp/reference.mrg" "$tmp/mpi.mrg" 24 build "${inputs[@]}" --json
 
   # A worker killed (mpirun then ends the job), and rank 0 killed (the journal may be cut mid-entry).
   for victim in some_worker coordinator; do
@@ -121,42 +131,21 @@ assert units == list(range(24)), units"
   # Surfels per mesh, small clouds: one process, then 4 ranks sampling on their own devices.
   surfel_args=(surfels gen:city:2 --per-mesh --count 300 --resolution 64 --views 4 --quiet)
   if expect_ok surfels-one "${surfel_args[@]}" -o "$tmp/surfels1.mrg"; then
-    if "${mpi[@]}" "$mirage" "${surfel_args[@]}" -o "$tmp/surfels4.mrg" >"$tmp/stdout" 2>"$tmp/stderr"; then
-      pass=$((pass + 1))
-      check surfels-mpi-same-bytes cmp "$tmp/surfels1.mrg" "$tmp/surfels4.mrg"
+    mpi_matches surfels-mpi "$tmp/surfels1.mrg" "$tmp/surfels4.mrg" 0 "${surfel_args[@]}" &&
       check surfels-no-journal test ! -e "$tmp/surfels4.mrg.journal"
-    else
-      fail "surfels-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
-    fi
   fi
 
   # PVS: 8 view cells spread over 4 ranks, each with the scene and its own Embree backend.
   pvs_args=(pvs gen:city:2 --cell-grid 4x1x2 --budget 200000 --rays 50000 --backend embree --json)
   if expect_ok pvs-one "${pvs_args[@]}" -o "$tmp/pvs1.mrg"; then
-    if "${mpi[@]}" "$mirage" "${pvs_args[@]}" -o "$tmp/pvs4.mrg" >"$tmp/stdout" 2>"$tmp/stderr"; then
-      pass=$((pass + 1))
-      check pvs-mpi-same-bytes cmp "$tmp/pvs1.mrg" "$tmp/pvs4.mrg"
-      check pvs-mpi-json python3 -c "
-import json; j = json.load(open('$tmp/stdout'))
-assert j['ranks'] == 4 and sorted(u for r in j['per_rank'] for u in r['units']) == list(range(8)), j['per_rank']"
-    else
-      fail "pvs-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
-    fi
+    mpi_matches pvs-mpi "$tmp/pvs1.mrg" "$tmp/pvs4.mrg" 8 "${pvs_args[@]}"
   fi
 
   # The streaming gen:many bake: rank 0 writes, every rank generates and bakes the meshes it is
   # handed; the same bytes as one process, every mesh baked exactly once.
   many_args=(build gen:many:10x3000 --paged --meshes-in-flight 1)
   if expect_ok many-one "${many_args[@]}" -o "$tmp/many1.mrg" --quiet; then
-    if "${mpi[@]}" "$mirage" "${many_args[@]}" -o "$tmp/many4.mrg" --json >"$tmp/stdout" 2>"$tmp/stderr"; then
-      pass=$((pass + 1))
-      check many-mpi-same-bytes cmp "$tmp/many1.mrg" "$tmp/many4.mrg"
-      check many-mpi-json python3 -c "
-import json; j = json.load(open('$tmp/stdout'))
-assert j['ranks'] == 4 and sorted(u for r in j['per_rank'] for u in r['units']) == list(range(10)), j['per_rank']"
-    else
-      fail "many-mpi: exit non-zero: $(head -c 600 "$tmp/stderr")"
-    fi
+    mpi_matches many-mpi "$tmp/many1.mrg" "$tmp/many4.mrg" 10 "${many_args[@]}" --json
   fi
 
   # Bad input: each rank's exit status recorded; one error line in all.
