@@ -34,7 +34,8 @@ bool useFixedPoint(const ParticleDrawSettings& s, const DeviceCapabilities& caps
 bool useBins(const ParticleDrawSettings& s) { return s.splatMethod != SplatMethod::Atomic; }
 
 constexpr uint64_t kRecordsPerBinGroup = uint64_t(MIRAGE_PARTICLE_DRAW_GROUP) * MIRAGE_SPLAT_BIN_RECORDS;
-constexpr uint64_t kBinTableBytes = MIRAGE_SPLAT_BIN_SLOTS * 8; // uvec2 per slot
+constexpr uint64_t kBinTableBytes = MIRAGE_SPLAT_BIN_SLOTS * sizeof(glm::uvec2); // a uvec2 per slot
+constexpr uint64_t kEntryBytes = sizeof(uint32_t); // MIRAGE_SPLAT_ENTRY: a record and its eye in one uint
 
 uint32_t tilesAcross(uint32_t pixels) { return (pixels + MIRAGE_SPLAT_TILE - 1) / MIRAGE_SPLAT_TILE; }
 
@@ -172,9 +173,9 @@ void ParticleDraw::cmdSplat(VkCommandBuffer cmd, const ParticleSplatTarget& t) {
     uint64_t room = d.settings.splatEntryRoom
                         ? d.settings.splatEntryRoom
                         : uint64_t(std::max(d.totalRecords, 1u)) * MIRAGE_SPLAT_ENTRIES_PER_RECORD;
-    room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / 4, UINT32_MAX});
-    if (!d.entries || d.entries.size() < room * 4)
-      d.entries = createBuffer(d.ctx, room * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
+    room = std::min<uint64_t>({room, d.ctx.caps().maxStorageBufferRange / kEntryBytes, UINT32_MAX});
+    if (!d.entries || d.entries.size() < room * kEntryBytes)
+      d.entries = createBuffer(d.ctx, room * kEntryBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::GpuOnly,
                                "particle splat entries");
     d.entryRoom = uint32_t(room);
     // Per count workgroup its tile table, which its scatter workgroup reads instead of counting again.
