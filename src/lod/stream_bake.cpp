@@ -195,13 +195,15 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   uint32_t next = 0, written = 0, busy = 0;
   std::map<uint32_t, EncodedMesh> done;
   std::optional<Error> error;
+  // Under m: the next mesh may start (local worker or remote), within the window of the writer.
+  auto withinWindow = [&] { return next < written + window; };
   auto work = [&] {
     tbb::task_arena arena(int(meshConfig.threads));
     while (true) {
       uint32_t i;
       {
         std::unique_lock lock(m);
-        cv.wait(lock, [&] { return error || next >= meshCount || next < written + window; });
+        cv.wait(lock, [&] { return error || next >= meshCount || withinWindow(); });
         if (error || next >= meshCount) return;
         i = next++;
         r.peakMeshesInFlight = std::max(r.peakMeshesInFlight, ++busy);
@@ -234,7 +236,7 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   // thread between writes, at least every millisecond while it waits).
   RemoteMeshBakers::Take take = [&]() -> std::optional<uint32_t> {
     std::lock_guard lock(m);
-    if (error || next >= meshCount || next >= written + window) return std::nullopt;
+    if (error || next >= meshCount || !withinWindow()) return std::nullopt;
     return next++;
   };
   RemoteMeshBakers::Deliver deliver = [&](uint32_t i, Result<std::vector<uint8_t>> bytes) {
