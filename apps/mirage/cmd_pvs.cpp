@@ -31,6 +31,7 @@ struct PvsOptions {
   RayBackendChoice rays;
   vis::GvsConfig gvs;
   int threads = 0;
+  uint32_t lanes = 0; // pvs: --cells-in-flight (0: the backend's preferredLanes)
   bool json = false, noPackets = false, noDiff = false;
   bool resume = false; // pvs: continue from the journal beside the output
   OutputFlags flags;   // --quiet, --progress
@@ -223,33 +224,55 @@ void runPvs(PvsOptions o) {
   Progress reporter(world->root() ? o.flags.progressMode() : ProgressMode::None);
   CellProgress progress{reporter, p->cells.size()};
   const char* methodName = o.method == "gvs" ? "GVS++" : o.method == "rand" ? "RAND" : "RASTER";
-  // One cell on this rank (on rank 0 its baking thread, the only one printing progress).
-  auto bakeCell = [&](uint32_t i) {
-    progress.cell = i;
-    progress.begin(methodName, o.method == "rand" && !o.gvs.rayBudget ? o.gvs.randomRays : o.gvs.rayBudget);
-    vis::BakeOptions bake{.progress = progress.bake()};
+  // Cells baked at once on this rank: lanes of the backend, each on its own thread.
+  std::vector<std::unique_ptr<vis::RayBackend>> siblings;
+  std::vector<vis::RayBackend*> lanes{p->backend};
+  for (size_t want = o.lanes ? o.lanes : p->backend->preferredLanes(); lanes.size() < want;) {
+    siblings.push_back(p->backend->sibling());
+    if (!siblings.back()) break; // the backend has one lane
+    lanes.push_back(siblings.back().get());
+  }
+  // In-cell progress with one lane (on rank 0 its baking thread, the only one printing); with more,
+  // the cells done.
+  const bool cellProgress = lanes.size() == 1;
+  // One cell on this rank, on `backend`.
+  auto bakeCell = [&](vis::RayBackend& backend, uint32_t i) {
+    if (cellProgress) {
+      progress.cell = i;
+      progress.begin(methodName, o.method == "rand" && !o.gvs.rayBudget ? o.gvs.randomRays : o.gvs.rayBudget);
+    }
+    vis::BakeOptions bake{.progress = cellProgress ? progress.bake() : nullptr};
     // RAND spends --budget rays (or --rays when no budget is given) on random sampling alone.
     vis::GvsConfig cfg = o.method == "gvs"
                              ? o.gvs
                              : vis::randomOnlyConfig(o.gvs.rayBudget ? o.gvs.rayBudget : o.gvs.randomRays, o.gvs.seed);
     // RASTER spends --budget pixels (or --rays) on cube maps of --raster-size².
     vis::CellPvs pvs = o.method == "raster"
-                           ? vis::rasterPvs(*p->backend, p->cells[i],
+                           ? vis::rasterPvs(backend, p->cells[i],
                                             {.resolution = o.rasterSize,
                                              .pixelBudget = o.gvs.rayBudget ? o.gvs.rayBudget : o.gvs.randomRays,
                                              .seed = o.gvs.seed},
                                             {})
-                           : vis::computeCellPvs(*p->backend, p->scene, p->cells[i], cfg, bake);
-    reporter.end(fmt::format("{} triangles, {} rays", pvs.triangles.size(), countText(double(pvs.stats.rays))));
+                           : vis::computeCellPvs(backend, p->scene, p->cells[i], cfg, bake);
+    if (cellProgress)
+      reporter.end(fmt::format("{} triangles, {} rays", pvs.triangles.size(), countText(double(pvs.stats.rays))));
     return pvs;
   };
+  std::vector<bake::CellBaker> bakers;
+  for (vis::RayBackend* lane : lanes) bakers.push_back([&bakeCell, lane](uint32_t i) { return bakeCell(*lane, i); });
+  bake::UnitProgress cellsDone;
+  if (!cellProgress && world->root()) {
+    reporter.begin(fmt::format("{} cells", methodName), p->cells.size());
+    cellsDone = [&](size_t done, size_t total, uint64_t, uint64_t) { reporter.update(done, total); };
+  }
   std::string settings =
       fmt::format("{} {} {} {}", o.method, o.rasterSize, p->backend->name(), vis::gvsConfigToJson(o.gvs));
   uint64_t fingerprint = bake::pvsFingerprint(settings, p->cells, p->backend->triangleCount());
   bake::BakeRun run{bake::journalPath(o.output), o.resume};
   bake::ScheduleReport report;
-  auto baked = bake::bakeCellPvs(*world, p->cells.size(), fingerprint, bakeCell, run, &report);
+  auto baked = bake::bakeCellPvs(*world, p->cells.size(), fingerprint, bakers, run, &report, cellsDone);
   if (!baked) return failAll(baked.error());
+  if (cellsDone) reporter.end();
   if (!world->root()) { // rank 0 writes; every rank learns how that went
     if (Status all = world->agree(Ok{}); !all) setExitCode(2);
     return;
@@ -583,6 +606,11 @@ void addPvsCommands(CLI::App& app) {
   pvs->add_flag("--no-diff", o->noDiff, "Store every cell in full (no differences against neighbours)");
   pvs->add_option("--method", o->method,
                   "gvs (GVS++), rand (random rays only) or raster (ID cube maps at Halton points in the cell)")
+      ->capture_default_str();
+  pvs->add_option("--cells-in-flight", o->lanes,
+                  "View cells baked at once per process, each on its own lane of the Vulkan ray backend (0: 2 on "
+                  "a GPU, 1 on a CPU device and with Embree)")
+      ->check(CLI::Range(0u, 16u))
       ->capture_default_str();
   pvs->add_flag("--resume", o->resume,
                 "Continue a bake that died: keep the cells finished in OUTPUT.journal, bake the rest (docs/bake.md)");

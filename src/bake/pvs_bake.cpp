@@ -54,8 +54,8 @@ uint64_t pvsFingerprint(const std::string& settings, const std::vector<vis::View
 }
 
 Result<std::vector<vis::CellPvs>> bakeCellPvs(const World& world, size_t cells, uint64_t fingerprint,
-                                              const CellBaker& bake, const BakeRun& run, ScheduleReport* report,
-                                              const UnitProgress& progress) {
+                                              std::span<const CellBaker> bakers, const BakeRun& run,
+                                              ScheduleReport* report, const UnitProgress& progress) {
   UnitPlan plan;
   if (world.root()) {
     plan.costs.assign(cells, 1); // unknown until baked: the queue balances them anyway
@@ -63,13 +63,15 @@ Result<std::vector<vis::CellPvs>> bakeCellPvs(const World& world, size_t cells, 
     plan.journal = run.journal;
     plan.resume = run.resume;
   }
-  auto unit = [&](uint32_t cell, std::span<const uint8_t>) -> Result<std::vector<uint8_t>> {
-    return encodeCellPvs(bake(cell));
-  };
-  auto units = runUnits(world, plan, {}, unit, report, progress);
-  if (!units) return units.error();
+  std::vector<UnitBaker> units;
+  for (const CellBaker& bake : bakers)
+    units.push_back([&bake](uint32_t cell, std::span<const uint8_t>) -> Result<std::vector<uint8_t>> {
+      return encodeCellPvs(bake(cell));
+    });
+  auto baked = runUnits(world, plan, {}, units, report, progress);
+  if (!baked) return baked.error();
   std::vector<vis::CellPvs> out;
-  for (const std::vector<uint8_t>& bytes : *units) {
+  for (const std::vector<uint8_t>& bytes : *baked) {
     auto pvs = decodeCellPvs(bytes, run.journal.empty() ? "cell PVS" : run.journal);
     if (!pvs) return pvs.error();
     out.push_back(std::move(pvs).value());

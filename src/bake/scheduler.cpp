@@ -18,9 +18,10 @@ namespace mirage::bake {
 
 namespace {
 
-// Messages between rank 0 and the others. A worker says Ready once, then answers each Assign with a
-// Result or a Failure; rank 0 answers each with the next Assign, or Stop when no unit is left (or a
-// unit failed).
+// Messages between rank 0 and the others. A worker says Ready once (with its lane count), then
+// answers each Assign with a Result or a Failure; rank 0 answers each request (every lane of the
+// Ready, every Result and Failure) with the next Assign, or Stop when no unit is left (or a unit
+// failed).
 enum Tag : int { kReady = 1, kResult = 2, kFailure = 3, kAssign = 4, kStop = 5 };
 
 using Clock = std::chrono::steady_clock;
@@ -37,38 +38,88 @@ template <class T> T get(std::span<const uint8_t> in, size_t at) {
   return v;
 }
 
-// A worker rank: asks for units until told to stop.
-Status work(const World& world, const UnitBaker& bake) {
-  world.send(0, kReady, {});
-  for (;;) {
-    Envelope e = world.wait(0);
-    std::vector<uint8_t> message = world.receive(e);
-    if (e.tag == kStop) return Ok{};
-    uint32_t unit = get<uint32_t>(message, 0);
-    auto t0 = Clock::now();
-    auto baked = bake(unit, std::span<const uint8_t>(message).subspan(4));
-    std::vector<uint8_t> reply;
-    put(reply, unit);
-    if (!baked) {
-      reply.insert(reply.end(), baked.error().message.begin(), baked.error().message.end());
-      world.send(0, kFailure, reply);
-      continue; // rank 0 answers Stop
-    }
-    put(reply, secondsSince(t0));
-    reply.reserve(reply.size() + baked->size());
-    reply.insert(reply.end(), baked->begin(), baked->end());
-    baked->clear();
-    baked->shrink_to_fit();
-    world.send(0, kResult, reply);
+// A unit baked, as the reply to rank 0 says it: Result (unit, seconds, bytes) or Failure (unit, message).
+std::pair<int, std::vector<uint8_t>> bakeAssigned(const UnitBaker& bake, std::span<const uint8_t> assign) {
+  uint32_t unit = get<uint32_t>(assign, 0);
+  auto t0 = Clock::now();
+  auto baked = bake(unit, assign.subspan(std::min<size_t>(4, assign.size())));
+  std::vector<uint8_t> reply;
+  put(reply, unit);
+  if (!baked) {
+    reply.insert(reply.end(), baked.error().message.begin(), baked.error().message.end());
+    return {kFailure, std::move(reply)}; // rank 0 answers Stop
   }
+  put(reply, secondsSince(t0));
+  reply.reserve(reply.size() + baked->size());
+  reply.insert(reply.end(), baked->begin(), baked->end());
+  return {kResult, std::move(reply)};
 }
 
-// Rank 0: the queue, its own baking thread, the journal and the gathered bytes.
+// A worker rank: one thread per baker (lane), each baking the units it is handed until told to
+// stop. Ready says how many lanes ask; rank 0 answers each request (the lanes of Ready, then
+// every Result or Failure) with an Assign or a Stop, so once every lane got its Stop, every result
+// has been sent. Only this thread talks to the other ranks.
+Status work(const World& world, std::span<const UnitBaker> bakers) {
+  const uint32_t lanes = uint32_t(bakers.size());
+  std::vector<uint8_t> ready;
+  put(ready, lanes);
+  world.send(0, kReady, ready);
+  std::mutex mutex;
+  std::condition_variable wake;
+  std::deque<std::optional<std::vector<uint8_t>>> assigned; // nullopt: a lane stops
+  std::deque<std::pair<int, std::vector<uint8_t>>> replies;
+  std::vector<std::thread> threads;
+  for (uint32_t lane = 0; lane < lanes; ++lane)
+    threads.emplace_back([&, lane] {
+      for (;;) {
+        std::optional<std::vector<uint8_t>> assign;
+        {
+          std::unique_lock lock(mutex);
+          wake.wait(lock, [&] { return !assigned.empty(); });
+          assign = std::move(assigned.front());
+          assigned.pop_front();
+        }
+        if (!assign) return;
+        auto reply = bakeAssigned(bakers[lane], *assign);
+        std::lock_guard lock(mutex);
+        replies.push_back(std::move(reply));
+        wake.notify_all();
+      }
+    });
+  for (uint32_t stops = 0; stops < lanes;) {
+    std::unique_lock lock(mutex);
+    while (!replies.empty()) {
+      auto reply = std::move(replies.front());
+      replies.pop_front();
+      lock.unlock();
+      world.send(0, reply.first, reply.second);
+      lock.lock();
+    }
+    lock.unlock();
+    if (auto e = world.poll()) {
+      std::vector<uint8_t> message = world.receive(*e);
+      lock.lock();
+      if (e->tag == kStop)
+        assigned.push_back(std::nullopt), ++stops;
+      else
+        assigned.push_back(std::move(message));
+      wake.notify_all();
+      continue;
+    }
+    // Woken at once by a lane's reply; rank 0's messages are polled every millisecond.
+    lock.lock();
+    if (replies.empty()) wake.wait_for(lock, std::chrono::milliseconds(1));
+  }
+  for (std::thread& t : threads) t.join();
+  return Ok{};
+}
+
+// Rank 0: the queue, its own baking threads (one per lane), the journal and the gathered bytes.
 class Coordinator {
 public:
-  Coordinator(const World& world, const UnitPlan& plan, const UnitInput& input, const UnitBaker& bake,
+  Coordinator(const World& world, const UnitPlan& plan, const UnitInput& input, std::span<const UnitBaker> bakers,
               const UnitProgress& progress)
-      : world_(world), plan_(plan), input_(input), bake_(bake), progress_(progress), results_(plan.costs.size()),
+      : world_(world), plan_(plan), input_(input), bakers_(bakers), progress_(progress), results_(plan.costs.size()),
         done_(plan.costs.size()) {
     report_.ranks.resize(size_t(world.size()));
     totalCost_ = std::accumulate(plan.costs.begin(), plan.costs.end(), uint64_t(0));
@@ -86,25 +137,29 @@ public:
     queue_.assign(order.begin(), order.end());
     if (progress_) progress_(doneUnits_, results_.size(), doneCost_, totalCost_);
 
-    std::thread local([this] { bakeLocally(); });
-    int remoteLeft = world_.size() - 1; // workers not yet told to stop
+    std::vector<std::thread> local;
+    for (const UnitBaker& bake : bakers_) local.emplace_back([this, &bake] { bakeLocally(bake); });
+    // Workers that have not said Ready yet, and requests of the others not answered by a Stop.
+    int unannounced = world_.size() - 1, open = 0;
     for (;;) {
       bool busy = false;
       while (auto e = world_.poll()) { // workers' messages
         busy = true;
-        serveWorker(*e);
-        if (e->tag != kResult && e->tag != kFailure && e->tag != kReady) continue;
-        if (auto unit = take()) {
-          std::vector<uint8_t> assign;
-          put(assign, *unit);
-          if (input_) {
-            std::vector<uint8_t> in = input_(*unit);
-            assign.insert(assign.end(), in.begin(), in.end());
+        uint32_t requests = serveWorker(*e);
+        if (e->tag == kReady) --unannounced, open += int(requests);
+        for (uint32_t r = 0; r < requests; ++r) {
+          if (auto unit = take()) {
+            std::vector<uint8_t> assign;
+            put(assign, *unit);
+            if (input_) {
+              std::vector<uint8_t> in = input_(*unit);
+              assign.insert(assign.end(), in.begin(), in.end());
+            }
+            world_.send(e->source, kAssign, assign);
+          } else {
+            world_.send(e->source, kStop, {});
+            --open;
           }
-          world_.send(e->source, kAssign, assign);
-        } else {
-          world_.send(e->source, kStop, {});
-          --remoteLeft;
         }
       }
       std::unique_lock lock(mutex_);
@@ -119,11 +174,11 @@ public:
           fail(r.bytes.error());
         lock.lock();
       }
-      if (localFinished_ && remoteLeft == 0) break;
+      if (localFinished_ == bakers_.size() && unannounced == 0 && open == 0) break;
       // Woken at once by the local thread; remote messages are polled every millisecond.
       if (!busy) wake_.wait_for(lock, std::chrono::milliseconds(1));
     }
-    local.join();
+    for (std::thread& t : local) t.join();
     report_.seconds = secondsSince(t0);
     if (failure_) {
       if (journal_) journal_->remove();
@@ -176,24 +231,26 @@ private:
     if (!failure_) failure_ = e; // the first error is the one reported
   }
 
-  void bakeLocally() {
+  void bakeLocally(const UnitBaker& bake) {
     while (auto unit = take()) {
       auto t0 = Clock::now();
       std::vector<uint8_t> in = input_ ? input_(*unit) : std::vector<uint8_t>();
-      LocalResult r{*unit, bake_(*unit, in), 0.0};
+      LocalResult r{*unit, bake(*unit, in), 0.0};
       r.seconds = secondsSince(t0);
       std::lock_guard lock(mutex_);
       localDone_.push_back(std::move(r));
       wake_.notify_one();
     }
     std::lock_guard lock(mutex_);
-    localFinished_ = true;
+    ++localFinished_;
     wake_.notify_one();
   }
 
-  void serveWorker(const Envelope& e) {
+  // Takes in a worker's message; returns the requests it makes (the lanes of a Ready, else one).
+  uint32_t serveWorker(const Envelope& e) {
     std::vector<uint8_t> message = world_.receive(e);
     uint32_t unit = get<uint32_t>(message, 0);
+    if (e.tag == kReady) return std::max<uint32_t>(1, unit); // the worker's lanes
     if (e.tag == kFailure) {
       fail(Error{std::string(message.begin() + 4, message.end())});
     } else if (e.tag == kResult) {
@@ -201,6 +258,7 @@ private:
       message.erase(message.begin(), message.begin() + 12);
       accept(e.source, unit, std::move(message), seconds);
     }
+    return e.tag == kResult || e.tag == kFailure ? 1 : 0;
   }
 
   void accept(int rank, uint32_t unit, std::vector<uint8_t> bytes, double seconds) {
@@ -218,7 +276,7 @@ private:
   const World& world_;
   const UnitPlan& plan_;
   const UnitInput& input_;
-  const UnitBaker& bake_;
+  std::span<const UnitBaker> bakers_;
   const UnitProgress& progress_;
   std::vector<std::vector<uint8_t>> results_;
   std::vector<bool> done_;
@@ -231,25 +289,32 @@ private:
   std::condition_variable wake_;
   std::deque<uint32_t> queue_;
   std::deque<LocalResult> localDone_;
-  bool localFinished_ = false;
+  size_t localFinished_ = 0; // local baking threads done
   std::optional<Error> failure_;
 };
 
 } // namespace
 
 Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitInput& input,
-                                                   const UnitBaker& bake, ScheduleReport* report,
+                                                   std::span<const UnitBaker> bakers, ScheduleReport* report,
                                                    const UnitProgress& progress) {
+  if (bakers.empty()) return Error{"bake: no baker"};
   if (!world.root()) {
-    Status mine = work(world, bake);
+    Status mine = work(world, bakers);
     if (Status all = world.agree(mine); !all) return all.error();
     return std::vector<std::vector<uint8_t>>{};
   }
-  Coordinator c(world, plan, input, bake, progress);
+  Coordinator c(world, plan, input, bakers, progress);
   Status mine = c.run();
   if (Status all = world.agree(mine); !all) return all.error();
   if (report) *report = std::move(c.report());
   return c.takeResults();
+}
+
+Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitInput& input,
+                                                   const UnitBaker& bake, ScheduleReport* report,
+                                                   const UnitProgress& progress) {
+  return runUnits(world, plan, input, std::span<const UnitBaker>(&bake, 1), report, progress);
 }
 
 void removeJournal(const World& world, const UnitPlan& plan) {

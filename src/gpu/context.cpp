@@ -444,12 +444,6 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   volkLoadDevice(ctx->device_);
   vkGetDeviceQueue(ctx->device_, p.queueFamily, 0, &ctx->queue_);
 
-  VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  pi.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT | VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-  pi.queueFamilyIndex = p.queueFamily;
-  MIRAGE_VK_CHECK(vkCreateCommandPool(ctx->device_, &pi, nullptr, &ctx->commandPool_));
-  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-  MIRAGE_VK_CHECK(vkCreateFence(ctx->device_, &fi, nullptr, &ctx->fence_));
   ctx->allocator_ = std::make_unique<Allocator>(*ctx);
   return ctx;
 }
@@ -458,8 +452,7 @@ Context::~Context() {
   if (device_) {
     vkDeviceWaitIdle(device_);
     allocator_.reset();
-    vkDestroyFence(device_, fence_, nullptr);
-    vkDestroyCommandPool(device_, commandPool_, nullptr);
+    for (auto& [thread, pool] : commandPools_) vkDestroyCommandPool(device_, pool, nullptr);
     vkDestroyDevice(device_, nullptr);
   }
   if (messenger_) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
@@ -467,12 +460,26 @@ Context::~Context() {
 }
 
 VkCommandBuffer Context::beginOneShot() {
-  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  ai.commandPool = commandPool_;
-  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  ai.commandBufferCount = 1;
   VkCommandBuffer cmd;
-  MIRAGE_VK_CHECK(vkAllocateCommandBuffers(device_, &ai, &cmd));
+  {
+    std::lock_guard lock(oneShotMutex_);
+    auto mine = std::find_if(commandPools_.begin(), commandPools_.end(),
+                             [](const auto& p) { return p.first == std::this_thread::get_id(); });
+    if (mine == commandPools_.end()) {
+      VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+      pi.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT | VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+      pi.queueFamilyIndex = queueFamily_;
+      VkCommandPool pool;
+      MIRAGE_VK_CHECK(vkCreateCommandPool(device_, &pi, nullptr, &pool));
+      mine = commandPools_.insert(commandPools_.end(), {std::this_thread::get_id(), pool});
+    }
+    VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    ai.commandPool = mine->second;
+    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    ai.commandBufferCount = 1;
+    MIRAGE_VK_CHECK(vkAllocateCommandBuffers(device_, &ai, &cmd));
+    oneShotPool_[cmd] = mine->second;
+  }
   VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   MIRAGE_VK_CHECK(vkBeginCommandBuffer(cmd, &bi));
@@ -480,10 +487,14 @@ VkCommandBuffer Context::beginOneShot() {
 }
 
 void Context::endOneShotAndWait(VkCommandBuffer cmd) {
-  endOneShotAndSubmit(cmd, fence_);
-  MIRAGE_VK_CHECK(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
-  MIRAGE_VK_CHECK(vkResetFences(device_, 1, &fence_));
-  vkFreeCommandBuffers(device_, commandPool_, 1, &cmd);
+  // A fence per call: threads wait on their own submissions only.
+  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VkFence fence;
+  MIRAGE_VK_CHECK(vkCreateFence(device_, &fi, nullptr, &fence));
+  endOneShotAndSubmit(cmd, fence);
+  MIRAGE_VK_CHECK(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX));
+  vkDestroyFence(device_, fence, nullptr);
+  freeOneShot(cmd);
 }
 
 void Context::endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence) {
@@ -493,10 +504,17 @@ void Context::endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence) {
   VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
   si.commandBufferInfoCount = 1;
   si.pCommandBufferInfos = &cbi;
+  std::lock_guard lock(oneShotMutex_);
   MIRAGE_VK_CHECK(vkQueueSubmit2(queue_, 1, &si, fence));
 }
 
-void Context::freeOneShot(VkCommandBuffer cmd) { vkFreeCommandBuffers(device_, commandPool_, 1, &cmd); }
+void Context::freeOneShot(VkCommandBuffer cmd) {
+  std::lock_guard lock(oneShotMutex_);
+  auto it = oneShotPool_.find(cmd);
+  if (it == oneShotPool_.end()) return;
+  vkFreeCommandBuffers(device_, it->second, 1, &cmd);
+  oneShotPool_.erase(it);
+}
 
 void Context::setDebugName(VkObjectType type, uint64_t handle, const char* name) const {
   if (!vkSetDebugUtilsObjectNameEXT) return;
@@ -517,15 +535,15 @@ const char* toString(VkResult r) {
     MIRAGE_CASE(VK_TIMEOUT)
     MIRAGE_CASE(VK_INCOMPLETE)
     MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
-    MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY) MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED)
-        MIRAGE_CASE(VK_ERROR_DEVICE_LOST) MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED)
-            MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT)
-                MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER)
-                    MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS) MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED)
-                        MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL) MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY)
-                            MIRAGE_CASE(VK_ERROR_UNKNOWN)
+    MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+    MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
+        MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
+            MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
+                MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
+                    MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
+                        MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
 #undef MIRAGE_CASE
-                                default : return "VkResult(?)";
+                            default : return "VkResult(?)";
   }
 }
 

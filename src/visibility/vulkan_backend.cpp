@@ -153,37 +153,47 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   const DeviceCapabilities& caps = ctx_.caps();
   auto t0 = std::chrono::steady_clock::now();
   std::vector<uint64_t> offsets = triangleOffsets(scene);
-  triangles_ = offsets.back();
+  sh_->triangles = offsets.back();
   // Auto: the compute traversal where the pipeline is missing or emulated (a GPU that offers the
   // pipeline but no ray queries has no RT cores: the H200 traced 1.25 G rays/s in compute vs 0.62
   // through its pipeline, docs/visibility.md), unless flattening the instances would not fit.
   bool softwareRt = !caps.rayTracingPipeline || (!caps.rayQuery && caps.type != VK_PHYSICAL_DEVICE_TYPE_CPU);
-  compute_ = options.traversal == VulkanRayOptions::Traversal::Compute ||
-             (options.traversal == VulkanRayOptions::Traversal::Auto && softwareRt &&
-              (triangles_ <= kAutoComputeMaxTriangles || !caps.rayTracingPipeline));
-  persistent_ = options.persistentThreads;
-  if (!compute_ && !caps.rayTracingPipeline)
+  sh_->compute = options.traversal == VulkanRayOptions::Traversal::Compute ||
+                 (options.traversal == VulkanRayOptions::Traversal::Auto && softwareRt &&
+                  (sh_->triangles <= kAutoComputeMaxTriangles || !caps.rayTracingPipeline));
+  sh_->persistent = options.persistentThreads;
+  if (!sh_->compute && !caps.rayTracingPipeline)
     return Error{fmt::format("vulkan: {} has no ray-tracing pipeline (VK_KHR_ray_tracing_pipeline)", caps.name)};
-  if (triangles_ >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
-  if (compute_) {
-    name_ = std::string("vulkan-compute") +
-            (options.bvhWidth == 4   ? ""
-             : options.bvhWidth == 8 ? "-bvh8"
-                                     : "-bvh2") +
-            (options.sharedStack && options.bvhWidth == 2 ? "-shared-stack" : "") +
-            (options.postponeTriangles && options.bvhWidth == 8 ? "-postpone" : "") +
-            (persistent_ ? "-persistent" : "");
+  if (sh_->triangles >= kNoHit) return makeError(scene.source, "more than 4 G triangles: PVS IDs are 32-bit");
+  if (sh_->compute) {
+    sh_->name = std::string("vulkan-compute") +
+                (options.bvhWidth == 4   ? ""
+                 : options.bvhWidth == 8 ? "-bvh8"
+                                         : "-bvh2") +
+                (options.sharedStack && options.bvhWidth == 2 ? "-shared-stack" : "") +
+                (options.postponeTriangles && options.bvhWidth == 8 ? "-postpone" : "") +
+                (sh_->persistent ? "-persistent" : "");
     if (auto ok = buildCompute(scene, options); !ok) return ok;
   } else {
-    instanced_ = options.geometry == VulkanRayOptions::Geometry::Instance ||
-                 (options.geometry == VulkanRayOptions::Geometry::Auto && triangles_ >= 4 * scene.meshTriangleCount());
-    name_ = instanced_ ? "vulkan-instanced" : "vulkan";
+    sh_->instanced =
+        options.geometry == VulkanRayOptions::Geometry::Instance ||
+        (options.geometry == VulkanRayOptions::Geometry::Auto && sh_->triangles >= 4 * scene.meshTriangleCount());
+    sh_->name = sh_->instanced ? "vulkan-instanced" : "vulkan";
     buildAccelerationStructures(scene, offsets);
     createPipeline();
   }
 
-  // Bit sets, the list of first insertions and the counters exist once for the whole backend.
-  const size_t setBytes = (triangles_ + 63) / 64 * 8;
+  sh_->gatherLayout = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtGatherPush), VK_SHADER_STAGE_COMPUTE_BIT);
+  sh_->gatherPipeline = createComputePipeline(ctx_, "vis_first_rays.comp", sh_->gatherLayout);
+  createLane();
+  if (explore_ && sh_->triangles > 0 && sh_->triangles <= kMaxExploreTriangles) uploadWorldTriangles(scene, offsets);
+  sh_->buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return Ok{};
+}
+
+void VulkanBackend::createLane() {
+  // Bit sets, the list of first insertions and the counters exist once per lane.
+  const size_t setBytes = (sh_->triangles + 63) / 64 * 8;
   for (DeviceSet* s : {&record_, &require_}) {
     // TRANSFER_SRC: the record set is copied to `before_` at the start of cell-ray launches.
     s->bits = createBuffer(ctx_, setBytes,
@@ -199,12 +209,12 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt counters");
   for (Launch& L : launches_) {
-    L.newIds = createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback,
+    L.newIds = createBuffer(ctx_, (sh_->triangles + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback,
                             "rt new ids");
     L.counters = createBuffer(ctx_, sizeof(shaderio::RtCounters), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                               MemoryUsage::Readback, "rt counters readback");
-    L.firstRays = createBuffer(ctx_, (triangles_ + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback,
-                               "rt first rays of new triangles");
+    L.firstRays = createBuffer(ctx_, (sh_->triangles + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                               MemoryUsage::Readback, "rt first rays of new triangles");
     L.source = createBuffer(ctx_, std::max(sizeof(shaderio::RtCellSource), sizeof(shaderio::RtExploreSource)),
                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "rt ray source");
     L.timer = std::make_unique<GpuTimer>(ctx_, 3);
@@ -215,18 +225,15 @@ Status VulkanBackend::build(const Scene& scene, const VulkanRayOptions& options)
   }
   before_ = createBuffer(ctx_, setBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                          MemoryUsage::GpuOnly, "rt set before launch");
-  const size_t rayBytes = std::max<size_t>(triangles_, 1) * 4;
+  const size_t rayBytes = std::max<size_t>(sh_->triangles, 1) * 4;
   firstRay_ = createBuffer(ctx_, rayBytes,
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUsage::GpuOnly, "rt first ray");
-  gatherLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtGatherPush), VK_SHADER_STAGE_COMPUTE_BIT);
-  gatherPipeline_ = createComputePipeline(ctx_, "vis_first_rays.comp", gatherLayout_);
   firstRayValid_ = false;
-  if (explore_ && triangles_ > 0 && triangles_ <= kMaxExploreTriangles) uploadWorldTriangles(scene, offsets);
-  buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return Ok{};
 }
+
+std::unique_ptr<RayBackend> VulkanBackend::sibling() { return std::make_unique<VulkanBackend>(*this, sh_); }
 
 void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<const uint64_t> offsets) {
   // Every mesh's vertices and indices once, in two buffers; flattened scenes transform them at
@@ -242,25 +249,25 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
   }
   const VkBufferUsageFlags input =
       VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-  vertices_ = createBufferWithData(ctx_, std::span<const glm::vec3>(positions), input, "rt vertices");
-  indices_ = createBufferWithData(ctx_, std::span<const uint32_t>(indices), input, "rt indices");
+  sh_->vertices = createBufferWithData(ctx_, std::span<const glm::vec3>(positions), input, "rt vertices");
+  sh_->indices = createBufferWithData(ctx_, std::span<const uint32_t>(indices), input, "rt indices");
   auto meshGeometry = [&](uint32_t mesh, VkDeviceAddress transform) {
     const Mesh& m = scene.meshes[mesh];
-    return triangles(vertices_.address() + vertexBase[mesh] * sizeof(glm::vec3),
+    return triangles(sh_->vertices.address() + vertexBase[mesh] * sizeof(glm::vec3),
                      uint32_t(std::max<size_t>(m.positions.size(), 1) - 1),
-                     indices_.address() + indexBase[mesh] * sizeof(uint32_t), transform, seeThroughMesh(scene, m));
+                     sh_->indices.address() + indexBase[mesh] * sizeof(uint32_t), transform, seeThroughMesh(scene, m));
   };
 
   std::vector<shaderio::RtSlot> slots;
   std::vector<VkAccelerationStructureInstanceKHR> instances;
-  if (instanced_) {
+  if (sh_->instanced) {
     std::vector<uint32_t> blasOf(scene.meshes.size(), UINT32_MAX);
     for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
       uint32_t n = uint32_t(scene.meshes[m].triangleCount());
       if (n == 0) continue;
       VkAccelerationStructureGeometryKHR g = meshGeometry(m, 0);
-      blasOf[m] = uint32_t(blas_.size());
-      blas_.push_back(buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, {&g, 1}, {&n, 1}, "rt blas"));
+      blasOf[m] = uint32_t(sh_->blas.size());
+      sh_->blas.push_back(buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, {&g, 1}, {&n, 1}, "rt blas"));
     }
     for (size_t i = 0; i < scene.instances.size(); ++i) {
       const Instance& inst = scene.instances[i];
@@ -269,7 +276,7 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
       vi.transform = toVk(inst.transform);
       vi.mask = 0xff;
       vi.flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR;
-      vi.accelerationStructureReference = blas_[blasOf[inst.mesh]].address;
+      vi.accelerationStructureReference = sh_->blas[blasOf[inst.mesh]].address;
       instances.push_back(vi);
       slots.push_back({uint32_t(offsets[i]), seeThroughMesh(scene, scene.meshes[inst.mesh]) ? 1u : 0u});
     }
@@ -281,35 +288,36 @@ void VulkanBackend::buildAccelerationStructures(const Scene& scene, std::span<co
       transforms.push_back(toVk(scene.instances[i].transform));
       used.push_back(i);
     }
-    transforms_ = createBufferWithData(ctx_, std::span<const VkTransformMatrixKHR>(transforms), input, "rt transforms");
+    sh_->transforms =
+        createBufferWithData(ctx_, std::span<const VkTransformMatrixKHR>(transforms), input, "rt transforms");
     std::vector<VkAccelerationStructureGeometryKHR> geometries;
     std::vector<uint32_t> counts;
     for (size_t k = 0; k < used.size(); ++k) {
       const Instance& inst = scene.instances[used[k]];
-      geometries.push_back(meshGeometry(inst.mesh, transforms_.address() + k * sizeof(VkTransformMatrixKHR)));
+      geometries.push_back(meshGeometry(inst.mesh, sh_->transforms.address() + k * sizeof(VkTransformMatrixKHR)));
       counts.push_back(uint32_t(scene.meshes[inst.mesh].triangleCount()));
       slots.push_back({uint32_t(offsets[used[k]]), seeThroughMesh(scene, scene.meshes[inst.mesh]) ? 1u : 0u});
     }
     if (!geometries.empty()) {
-      blas_.push_back(buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, geometries, counts, "rt blas"));
+      sh_->blas.push_back(buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, geometries, counts, "rt blas"));
       VkAccelerationStructureInstanceKHR vi{};
       vi.transform = toVk(glm::mat4(1.0f));
       vi.mask = 0xff;
       vi.flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR;
-      vi.accelerationStructureReference = blas_[0].address;
+      vi.accelerationStructureReference = sh_->blas[0].address;
       instances.push_back(vi);
     }
   }
-  instances_ =
+  sh_->instances =
       createBufferWithData(ctx_, std::span<const VkAccelerationStructureInstanceKHR>(instances), input, "rt instances");
-  slots_ = createBufferWithData(ctx_, std::span<const shaderio::RtSlot>(slots), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                "rt slots");
+  sh_->slots = createBufferWithData(ctx_, std::span<const shaderio::RtSlot>(slots), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                    "rt slots");
   VkAccelerationStructureGeometryKHR top{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
   top.geometryType = VK_GEOMETRY_TYPE_INSTANCES_KHR;
   top.geometry.instances.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR;
-  top.geometry.instances.data.deviceAddress = instances_.address();
+  top.geometry.instances.data.deviceAddress = sh_->instances.address();
   uint32_t instanceCount = uint32_t(instances.size());
-  tlas_ = buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, {&top, 1}, {&instanceCount, 1}, "rt tlas");
+  sh_->tlas = buildAccel(VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, {&top, 1}, {&instanceCount, 1}, "rt tlas");
 }
 
 Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& options) {
@@ -319,45 +327,45 @@ Status VulkanBackend::buildCompute(const Scene& scene, const VulkanRayOptions& o
   auto bvh = detail::buildRayBvh(
       scene, {.spatialSplits = options.spatialSplits, .maxLeafSize = options.bvhLeafSize, .width = options.bvhWidth});
   if (!bvh) return bvh.error();
-  bvhNodes_ = compressed ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh8Node>(bvh->nodes8),
-                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
-              : wide     ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
-                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
-                         : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
-                                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
-  bvhTriangles_ = createBufferWithData(ctx_, std::span<const shaderio::RtBvhTriangle>(bvh->triangles),
-                                       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh triangles");
-  bvhEmpty_ = bvh->nodes.empty() && bvh->nodes4.empty() && bvh->nodes8.empty();
-  bvhStats_ = {bvh->buildSeconds,
-               compressed ? bvh->nodes8.size()
-               : wide     ? bvh->nodes4.size()
-                          : bvh->nodes.size(),
-               bvh->triangles.size(), bvh->depth};
-  computeLayout_ = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
+  sh_->bvhNodes = compressed ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh8Node>(bvh->nodes8),
+                                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+                  : wide     ? createBufferWithData(ctx_, std::span<const shaderio::RtBvh4Node>(bvh->nodes4),
+                                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes")
+                             : createBufferWithData(ctx_, std::span<const shaderio::RtBvhNode>(bvh->nodes),
+                                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh nodes");
+  sh_->bvhTriangles = createBufferWithData(ctx_, std::span<const shaderio::RtBvhTriangle>(bvh->triangles),
+                                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt bvh triangles");
+  sh_->bvhEmpty = bvh->nodes.empty() && bvh->nodes4.empty() && bvh->nodes8.empty();
+  sh_->bvhStats = {bvh->buildSeconds,
+                   compressed ? bvh->nodes8.size()
+                   : wide     ? bvh->nodes4.size()
+                              : bvh->nodes.size(),
+                   bvh->triangles.size(), bvh->depth};
+  sh_->computeLayout = createPipelineLayout(ctx_, {}, sizeof(shaderio::RtTracePush), VK_SHADER_STAGE_COMPUTE_BIT);
   const char* shader = compressed ? (options.postponeTriangles ? "vis_trace_bvh8_postpone.comp" : "vis_trace_bvh8.comp")
                        : wide     ? "vis_trace_bvh4.comp"
                        : options.sharedStack ? "vis_trace_shared_stack.comp"
                                              : "vis_trace.comp";
-  computePipeline_ = createComputePipeline(ctx_, shader, computeLayout_);
+  sh_->computePipeline = createComputePipeline(ctx_, shader, sh_->computeLayout);
   return Ok{};
 }
 
 void VulkanBackend::createPipeline() {
   VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1,
                                        VK_SHADER_STAGE_RAYGEN_BIT_KHR, nullptr};
-  descriptors_ = createDescriptorSet(ctx_, {&binding, 1});
-  VkAccelerationStructureKHR tlas = tlas_.handle.get();
+  sh_->descriptors = createDescriptorSet(ctx_, {&binding, 1});
+  VkAccelerationStructureKHR tlas = sh_->tlas.handle.get();
   VkWriteDescriptorSetAccelerationStructureKHR asWrite{
       VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR};
   asWrite.accelerationStructureCount = 1;
   asWrite.pAccelerationStructures = &tlas;
   VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, &asWrite};
-  w.dstSet = descriptors_.set;
+  w.dstSet = sh_->descriptors.set;
   w.dstBinding = 0;
   w.descriptorCount = 1;
   w.descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
   vkUpdateDescriptorSets(ctx_.device(), 1, &w, 0, nullptr);
-  layout_ = createPipelineLayout(ctx_, {descriptors_.layout.get()}, sizeof(shaderio::RtTracePush), kRtStages);
+  sh_->layout = createPipelineLayout(ctx_, {sh_->descriptors.layout.get()}, sizeof(shaderio::RtTracePush), kRtStages);
 
   Unique<VkShaderModule> modules[4] = {
       createShaderModule(ctx_, "vis_trace.rgen"), createShaderModule(ctx_, "vis_trace.rmiss"),
@@ -388,11 +396,11 @@ void VulkanBackend::createPipeline() {
   ci.groupCount = 3;
   ci.pGroups = groups;
   ci.maxPipelineRayRecursionDepth = 1;
-  ci.layout = layout_;
+  ci.layout = sh_->layout;
   VkPipeline pipeline;
   MIRAGE_VK_CHECK(
       vkCreateRayTracingPipelinesKHR(ctx_.device(), VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
-  pipeline_ = Unique<VkPipeline>(ctx_.device(), pipeline);
+  sh_->pipeline = Unique<VkPipeline>(ctx_.device(), pipeline);
 
   // Shader binding table: each region starts at the base alignment and holds one record.
   VkPhysicalDeviceRayTracingPipelinePropertiesKHR rt{
@@ -403,15 +411,17 @@ void VulkanBackend::createPipeline() {
   const VkDeviceSize stride = alignUp(handleSize, rt.shaderGroupHandleAlignment);
   const VkDeviceSize region = alignUp(stride, rt.shaderGroupBaseAlignment);
   std::vector<uint8_t> handles(3 * handleSize);
-  MIRAGE_VK_CHECK(vkGetRayTracingShaderGroupHandlesKHR(ctx_.device(), pipeline_, 0, 3, handles.size(), handles.data()));
-  sbt_ = createBuffer(ctx_, 3 * region + rt.shaderGroupBaseAlignment, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR,
-                      MemoryUsage::Upload, "rt sbt");
-  const VkDeviceAddress base = alignUp(sbt_.address(), rt.shaderGroupBaseAlignment);
+  MIRAGE_VK_CHECK(
+      vkGetRayTracingShaderGroupHandlesKHR(ctx_.device(), sh_->pipeline, 0, 3, handles.size(), handles.data()));
+  sh_->sbt = createBuffer(ctx_, 3 * region + rt.shaderGroupBaseAlignment, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR,
+                          MemoryUsage::Upload, "rt sbt");
+  const VkDeviceAddress base = alignUp(sh_->sbt.address(), rt.shaderGroupBaseAlignment);
   for (int g = 0; g < 3; ++g)
-    std::memcpy(sbt_.mapped() + (base - sbt_.address()) + g * region, handles.data() + g * handleSize, handleSize);
-  raygenRegion_ = {base, region, region};
-  missRegion_ = {base + region, stride, stride};
-  hitRegion_ = {base + 2 * region, stride, stride};
+    std::memcpy(sh_->sbt.mapped() + (base - sh_->sbt.address()) + g * region, handles.data() + g * handleSize,
+                handleSize);
+  sh_->raygenRegion = {base, region, region};
+  sh_->missRegion = {base + region, stride, stride};
+  sh_->hitRegion = {base + 2 * region, stride, stride};
 }
 
 void VulkanBackend::ensureCapacity(Buffer& buffer, size_t bytes, VkBufferUsageFlags usage, MemoryUsage memory,
@@ -436,17 +446,17 @@ bool VulkanBackend::prepareSet(DeviceSet& set, const TriangleSet* host) {
 
 void VulkanBackend::cmdLaunch(VkCommandBuffer cmd, Launch& L, shaderio::RtTracePush push, bool uploadRecord,
                               bool uploadRequire, bool cellMode, size_t stagedRays, size_t rayBytes) {
-  push.slots = slots_.address();
+  push.slots = sh_->slots.address();
   push.counters = counters_.address();
   push.newIds = L.newIds.address();
-  push.newCapacity = uint32_t(triangles_ + 1);
-  push.bvhNodes = compute_ && !bvhEmpty_ ? bvhNodes_.address() : 0;
-  push.bvhTriangles = compute_ && !bvhEmpty_ ? bvhTriangles_.address() : 0;
-  push.persistent = compute_ && persistent_ ? 1u : 0u;
+  push.newCapacity = uint32_t(sh_->triangles + 1);
+  push.bvhNodes = sh_->compute && !sh_->bvhEmpty ? sh_->bvhNodes.address() : 0;
+  push.bvhTriangles = sh_->compute && !sh_->bvhEmpty ? sh_->bvhTriangles.address() : 0;
+  push.persistent = sh_->compute && sh_->persistent ? 1u : 0u;
   const uint32_t width = std::min(push.count, MIRAGE_RT_LAUNCH_WIDTH);
   const uint32_t height = (push.count + width - 1) / std::max(width, 1u);
   const VkPipelineStageFlags2 stage =
-      compute_ ? VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR;
+      sh_->compute ? VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR;
   GpuTimer& timer = *L.timer;
   // barriers: earlier launches' writes to the sets and counters are complete before the copies.
   timer.cmdReset(cmd);
@@ -471,33 +481,35 @@ void VulkanBackend::cmdLaunch(VkCommandBuffer cmd, Launch& L, shaderio::RtTraceP
   cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, stage,
                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   uint32_t slot = 0;
-  if (compute_) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, computePipeline_);
-    vkCmdPushConstants(cmd, computeLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  if (sh_->compute) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sh_->computePipeline);
+    vkCmdPushConstants(cmd, sh_->computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
     slot = timer.cmdBegin(cmd, "trace", stage);
     // One thread per ray in rows of MIRAGE_RT_LAUNCH_WIDTH, or a resident grid that loops.
     const uint32_t groupsX = (width + MIRAGE_RT_COMPUTE_GROUP - 1) / MIRAGE_RT_COMPUTE_GROUP;
-    if (push.count > 0 && persistent_)
+    if (push.count > 0 && sh_->persistent)
       vkCmdDispatch(cmd, std::min(groupsX * height, kPersistentGroups), 1, 1);
     else if (push.count > 0)
       vkCmdDispatch(cmd, groupsX, height, 1);
   } else {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, pipeline_);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, layout_, 0, 1, &descriptors_.set, 0, nullptr);
-    vkCmdPushConstants(cmd, layout_, kRtStages, 0, sizeof(push), &push);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, sh_->pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, sh_->layout, 0, 1, &sh_->descriptors.set, 0,
+                            nullptr);
+    vkCmdPushConstants(cmd, sh_->layout, kRtStages, 0, sizeof(push), &push);
     slot = timer.cmdBegin(cmd, "trace", stage);
     if (push.count > 0)
-      vkCmdTraceRaysKHR(cmd, &raygenRegion_, &missRegion_, &hitRegion_, &callableRegion_, width, height, 1);
+      vkCmdTraceRaysKHR(cmd, &sh_->raygenRegion, &sh_->missRegion, &sh_->hitRegion, &sh_->callableRegion, width, height,
+                        1);
   }
   timer.cmdEnd(cmd, slot, stage);
   if (cellMode) {
     // The lowest ray of each new triangle, gathered into host-visible memory.
     cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    shaderio::RtGatherPush gather{L.newIds.address(),    counters_.address(),      firstRay_.address(),
-                                  L.firstRays.address(), uint32_t(triangles_ + 1), 0};
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gatherPipeline_);
-    vkCmdPushConstants(cmd, gatherLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gather), &gather);
+    shaderio::RtGatherPush gather{L.newIds.address(),    counters_.address(),          firstRay_.address(),
+                                  L.firstRays.address(), uint32_t(sh_->triangles + 1), 0};
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sh_->gatherPipeline);
+    vkCmdPushConstants(cmd, sh_->gatherLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gather), &gather);
     vkCmdDispatch(cmd, MIRAGE_RT_GATHER_GROUPS, 1, 1);
   }
   cmdMemoryBarrier(cmd, stage, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
@@ -538,7 +550,7 @@ void VulkanBackend::collectNew(TriangleSet* record) {
   shaderio::RtCounters c;
   std::memcpy(&c, launches_[0].counters.mapped(), sizeof(c));
   const auto* ids = reinterpret_cast<const uint32_t*>(launches_[0].newIds.mapped());
-  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) record->insert(ids[k]);
+  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(sh_->triangles + 1)); ++k) record->insert(ids[k]);
   record_.count = record->count();
 }
 

@@ -61,23 +61,63 @@ struct Launch {
   uint32_t firstRay = 0;
 };
 
+// What every lane of a backend shares (VulkanBackend::sibling): the scene on the device (BVH or
+// acceleration structures, world-space corners), the pipelines and the backend's description.
+// Read-only once built.
+struct DeviceScene {
+  size_t triangles = 0;
+  double buildSeconds = 0.0;
+  bool instanced = false;
+  bool compute = false;    // the compute traversal instead of the ray-tracing pipeline
+  bool persistent = false; // compute: persistent threads
+  std::string name; // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-postpone][-persistent]
+  Buffer vertices, indices, transforms, instances, slots;
+  std::vector<Accel> blas;
+  Accel tlas;
+  DescriptorSet descriptors;
+  Unique<VkPipelineLayout> layout;
+  Unique<VkPipeline> pipeline;
+  Buffer sbt;
+  VkStridedDeviceAddressRegionKHR raygenRegion{}, missRegion{}, hitRegion{}, callableRegion{};
+  // Compute traversal: RtBvhNode[] and RtBvhTriangle[] (ray_bvh.h), its pipeline.
+  Buffer bvhNodes, bvhTriangles;
+  Unique<VkPipelineLayout> computeLayout;
+  Unique<VkPipeline> computePipeline;
+  bool bvhEmpty = true;
+  RayBvhStats bvhStats;
+  // The gather of claiming launches' first rays (vis_first_rays.comp).
+  Unique<VkPipelineLayout> gatherLayout;
+  Unique<VkPipeline> gatherPipeline;
+  Buffer worldTriangles; // exploration rays: corners per global ID (empty: the backend does not make them)
+};
+
 class VulkanBackend final : public VulkanRayBackend {
 public:
   VulkanBackend(Context& context, const VulkanRayOptions& options)
       : ctx_(context), batch_(std::max<size_t>(1, options.batchRays)), staged_(options.stagedRays),
         compact_(options.compactRays), explore_(options.exploreOnDevice) {}
+  // A lane of `first`'s (sibling()): its settings and scene, its own sets and launches.
+  VulkanBackend(const VulkanBackend& first, std::shared_ptr<DeviceScene> scene)
+      : ctx_(first.ctx_), sh_(std::move(scene)), batch_(first.batch_), staged_(first.staged_), compact_(first.compact_),
+        explore_(first.explore_) {
+    createLane();
+  }
   ~VulkanBackend() override {
-    vkDeviceWaitIdle(ctx_.device());
+    // This lane's queued launches only: other lanes may still be tracing.
     for (Launch& L : launches_)
-      if (L.cmd) ctx_.freeOneShot(L.cmd);
+      if (L.cmd) {
+        const VkFence done = L.done.get();
+        vkWaitForFences(ctx_.device(), 1, &done, VK_TRUE, UINT64_MAX);
+        ctx_.freeOneShot(L.cmd);
+      }
   }
 
-  std::string_view name() const override { return name_; }
-  size_t triangleCount() const override { return triangles_; }
+  std::string_view name() const override { return sh_->name; }
+  size_t triangleCount() const override { return sh_->triangles; }
   size_t preferredBatchRays() const override { return batch_; }
   RayTiming lastTiming() const override { return timing_; }
-  double buildSeconds() const override { return buildSeconds_; }
-  RayBvhStats bvhStats() const override { return bvhStats_; }
+  double buildSeconds() const override { return sh_->buildSeconds; }
+  RayBvhStats bvhStats() const override { return sh_->bvhStats; }
   void setStagedRays(bool staged) override { staged_ = staged; }
   void setCompactRays(bool compact) override { compact_ = compact; }
 
@@ -91,6 +131,8 @@ public:
   bool submitCellRays(const CellRaySource& source, size_t count, TriangleSet& record) override;
   bool submitExploreRays(const ExploreRaySource& source, TriangleSet& record) override;
   void collect(TriangleSet& record, ExploreResult& out) override;
+  std::unique_ptr<RayBackend> sibling() override;
+  size_t preferredLanes() const override { return ctx_.caps().type == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1 : 2; }
 
 private:
   Accel buildAccel(VkAccelerationStructureTypeKHR type, std::span<const VkAccelerationStructureGeometryKHR> geometries,
@@ -117,44 +159,23 @@ private:
   // FirstHit (offset by `firstRay`) for each that was some ray's closest or see-through hit.
   void collectClaims(const Launch& L, TriangleSet& record, uint32_t firstRay, std::vector<FirstHit>& out);
   void uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets);
+  // This lane's sets, launches and first-ray buffers (build, and every sibling).
+  void createLane();
 
   Context& ctx_;
+  std::shared_ptr<DeviceScene> sh_ = std::make_shared<DeviceScene>();
   size_t batch_;
   bool staged_;  // trace(): rays and hits through device-local copies (VulkanRayOptions::stagedRays)
   bool compact_; // trace(): 24-byte rays where the interval is [0, inf) (VulkanRayOptions::compactRays)
   bool explore_; // traceExploreRays (VulkanRayOptions::exploreOnDevice)
-  bool instanced_ = false;
-  bool compute_ = false;    // the compute traversal instead of the ray-tracing pipeline
-  bool persistent_ = false; // compute: persistent threads
-  std::string name_; // vulkan, vulkan-instanced, vulkan-compute[-bvh2|-bvh8][-shared-stack][-postpone][-persistent]
-  size_t triangles_ = 0;
-  double buildSeconds_ = 0.0;
-  Buffer vertices_, indices_, transforms_, instances_, slots_;
-  std::vector<Accel> blas_;
-  Accel tlas_;
-  DescriptorSet descriptors_;
-  Unique<VkPipelineLayout> layout_;
-  Unique<VkPipeline> pipeline_;
-  Buffer sbt_;
-  VkStridedDeviceAddressRegionKHR raygenRegion_{}, missRegion_{}, hitRegion_{}, callableRegion_{};
-  // Compute traversal: RtBvhNode[] and RtBvhTriangle[] (ray_bvh.h), its pipeline.
-  Buffer bvhNodes_, bvhTriangles_;
-  Unique<VkPipelineLayout> computeLayout_;
-  Unique<VkPipeline> computePipeline_;
-  bool bvhEmpty_ = true;
-  RayBvhStats bvhStats_;
   Buffer rays_, hits_, counters_;
   Buffer raysDevice_, hitsDevice_; // staged traces: device-local copies of rays_ and hits_
   // Claiming launches: the record set as the launch began and the lowest ray per triangle (the
   // entries of a launch's new triangles are gathered into its Launch::firstRays, in newIds order:
   // vis_first_rays.comp).
   Buffer before_, firstRay_;
-  Unique<VkPipelineLayout> gatherLayout_;
-  Unique<VkPipeline> gatherPipeline_;
   DeviceSet record_, require_;
-  // Exploration rays: world-space corners per global ID (empty: the backend does not make them)
-  // and (tests, traceExploreRays) the rays made.
-  Buffer worldTriangles_, exploreRays_;
+  Buffer exploreRays_;           // tests (traceExploreRays): the exploration rays made
   bool keepExploreRays_ = false; // the next exploration launch writes exploreRays_
   bool firstRayValid_ = false;   // firstRay_ holds ~0u for every triangle outside the record set
   std::array<Launch, 2> launches_;

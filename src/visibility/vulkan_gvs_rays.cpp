@@ -18,7 +18,7 @@ using namespace gpu;
 
 void VulkanBackend::uploadWorldTriangles(const Scene& scene, std::span<const uint64_t> offsets) {
   // The corners as worldTriangle computes them, so host and device border rays agree.
-  std::vector<glm::vec3> corners(triangles_ * 3);
+  std::vector<glm::vec3> corners(sh_->triangles * 3);
   for (size_t i = 0; i < scene.instances.size(); ++i) {
     const Instance& inst = scene.instances[i];
     const Mesh& mesh = scene.meshes[inst.mesh];
@@ -27,8 +27,8 @@ void VulkanBackend::uploadWorldTriangles(const Scene& scene, std::span<const uin
         corners[(offsets[i] + t) * 3 + k] =
             glm::vec3(inst.transform * glm::vec4(mesh.positions[mesh.indices[t * 3 + k]], 1.0f));
   }
-  worldTriangles_ = createBufferWithData(ctx_, std::span<const glm::vec3>(corners), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                         "rt world triangles");
+  sh_->worldTriangles = createBufferWithData(ctx_, std::span<const glm::vec3>(corners),
+                                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "rt world triangles");
 }
 
 bool VulkanBackend::traceCellRays(const CellRaySource& source, size_t count, TriangleSet& record,
@@ -132,7 +132,7 @@ void VulkanBackend::collectClaims(const Launch& L, TriangleSet& record, uint32_t
   const auto* ids = reinterpret_cast<const uint32_t*>(L.newIds.mapped());
   shaderio::RtCounters c;
   std::memcpy(&c, L.counters.mapped(), sizeof(c));
-  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(triangles_ + 1)); ++k) {
+  for (uint32_t k = 0; k < std::min<uint32_t>(c.newCount, uint32_t(sh_->triangles + 1)); ++k) {
     const uint32_t id = ids[k];
     record.insert(id);
     // Recorded but neither the closest nor the nearest see-through hit of any ray: no discovery.
@@ -162,7 +162,7 @@ bool VulkanBackend::submitExploreRays(const ExploreRaySource& source, TriangleSe
   const bool border = source.kind == ExploreRaySource::Kind::Border;
   const size_t items = border ? source.border.size() : source.reverse.size();
   const size_t count = items * source.raysPerItem;
-  if (!worldTriangles_ || source.raysPerItem == 0 || count >= (size_t(1) << 30) || queued_ == launches_.size() ||
+  if (!sh_->worldTriangles || source.raysPerItem == 0 || count >= (size_t(1) << 30) || queued_ == launches_.size() ||
       (!border && (source.edges.empty() || source.edges.size() > MIRAGE_RT_MAX_CELL_EDGES || source.faces.empty() ||
                    source.faces.size() > MIRAGE_RT_MAX_CELL_FACES || source.cdf.size() != source.faces.size())))
     return false;
@@ -181,7 +181,7 @@ bool VulkanBackend::submitExploreRays(const ExploreRaySource& source, TriangleSe
     src.cell.faces[f] = {source.faces[f].corner, source.cdf[f], source.faces[f].edgeU, 0.0f,
                          source.faces[f].edgeV,  0.0f};
   src.items = L.items.address();
-  src.triangles = worldTriangles_.address();
+  src.triangles = sh_->worldTriangles.address();
   if (border) {
     ensureCapacity(L.discontinuities, std::max<size_t>(1, count) * sizeof(shaderio::RtDiscontinuity),
                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "rt discontinuities");

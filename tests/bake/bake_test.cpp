@@ -9,8 +9,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "mirage/bake/journal.h"
 #include "mirage/bake/lod_bake.h"
@@ -160,6 +163,35 @@ TEST(Distributed, EveryUnitOnceInUnitOrder) {
   for (uint32_t u = 0; u < 40; ++u) EXPECT_EQ(count[u], 1) << "unit " << u;
 }
 
+// Lanes: three bakers per rank, each on its own thread (runUnits with a span of bakers): every unit
+// once, in unit order, and the lanes of each rank really bake at the same time.
+TEST(Distributed, LanesBakeAtOnceEveryUnitOnce) {
+  const bake::World& w = world();
+  bake::UnitPlan plan;
+  for (uint32_t u = 0; u < 30; ++u) plan.costs.push_back(1 + u % 4);
+  std::atomic<int> active{0}, most{0};
+  auto bake = [&](uint32_t u, std::span<const uint8_t>) -> Result<std::vector<uint8_t>> {
+    int now = ++active;
+    for (int seen = most.load(); now > seen && !most.compare_exchange_weak(seen, now);) {
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5)); // long enough for the other lanes to start
+    --active;
+    return unitBytes(u);
+  };
+  std::vector<bake::UnitBaker> lanes(3, bake);
+  bake::ScheduleReport report;
+  auto out = bake::runUnits(w, plan, {}, lanes, &report);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  EXPECT_GE(most.load(), 2); // on this rank
+  if (!w.root()) return;
+  ASSERT_EQ(out->size(), 30u);
+  for (uint32_t u = 0; u < 30; ++u) EXPECT_EQ((*out)[u], unitBytes(u));
+  std::vector<int> count(30);
+  for (const bake::RankReport& r : report.ranks)
+    for (uint32_t u : r.units) ++count[u];
+  for (uint32_t u = 0; u < 30; ++u) EXPECT_EQ(count[u], 1) << "unit " << u;
+}
+
 TEST(Distributed, UnitErrorReachesEveryRank) {
   const bake::World& w = world();
   fs::path dir = scratch("error"); // each rank names its own; only rank 0's journal is written
@@ -171,6 +203,15 @@ TEST(Distributed, UnitErrorReachesEveryRank) {
   ASSERT_FALSE(out.ok());
   EXPECT_EQ(out.error().message, "scene.obj: mesh 17: broken");
   EXPECT_FALSE(fs::exists(plan.journal)); // nothing to resume from a bake that cannot succeed
+  // The same with two lanes per rank: the error stops every lane of every rank.
+  bake::UnitBaker failing = [](uint32_t u, std::span<const uint8_t>) -> Result<std::vector<uint8_t>> {
+    if (u == 5) return Error{"scene.obj: mesh 5: broken"};
+    return unitBytes(u);
+  };
+  std::vector<bake::UnitBaker> lanes(2, failing);
+  auto laned = bake::runUnits(w, plan, {}, lanes);
+  ASSERT_FALSE(laned.ok());
+  EXPECT_EQ(laned.error().message, "scene.obj: mesh 5: broken");
   fs::remove_all(dir);
 }
 

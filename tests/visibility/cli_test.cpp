@@ -88,6 +88,33 @@ TEST(PvsCli, BakesAndLoadsBack) {
 
 // --backend compute bakes what Embree bakes (within sampling noise: tie-breaking sends the samplers
 // down different paths), and bench rays times every traversal on the same rays.
+// Cells in flight: three cells on three lanes of the compute backend, each on its own thread, write
+// the bytes one lane writes (the lane count never reaches the file).
+TEST(PvsCli, CellsInFlightWriteTheSameBytes) {
+  ASSERT_TRUE(fs::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
+  fs::path dir = mirage::test::tempDir("pvs_cli_lanes");
+  std::string bytes[2];
+  for (int lanes : {1, 3}) {
+    fs::path out = dir / ("lanes" + std::to_string(lanes) + ".mrg");
+    CliRun r = runMirage("pvs gen:city:1 --cell-grid 1x1x3 --cell-region -2,0.7,-12,2,2.7,0 --rays 20000 --budget "
+                         "150000 --backend compute --json --cells-in-flight " +
+                             std::to_string(lanes) + " -o " + out.string(),
+                         dir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::ifstream json(dir / "stdout.txt");
+    auto j = nlohmann::json::parse(std::string((std::istreambuf_iterator<char>(json)), {}));
+    std::vector<uint32_t> units = j["per_rank"][0]["units"].get<std::vector<uint32_t>>();
+    std::sort(units.begin(), units.end());
+    EXPECT_EQ(units, (std::vector<uint32_t>{0, 1, 2}));
+    std::ifstream in(out, std::ios::binary);
+    bytes[lanes == 3] = std::string((std::istreambuf_iterator<char>(in)), {});
+  }
+  EXPECT_FALSE(bytes[0].empty());
+  EXPECT_TRUE(bytes[0] == bytes[1]) << "three lanes wrote other bytes than one";
+  EXPECT_NE(runMirage("pvs gen:city:1 --cell-grid 1x1x1 --cells-in-flight 17 -o " + (dir / "x.mrg").string(), dir).code,
+            0);
+}
+
 TEST(PvsCli, ComputeTraversalBakesLikeEmbreeAndBenches) {
   ASSERT_TRUE(fs::exists(mirage::test::mirageBinary())) << mirage::test::mirageBinary();
   fs::path dir = mirage::test::tempDir("pvs_cli_compute");

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <iterator>
 #include <set>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -335,6 +336,44 @@ TEST_P(ExploreRays, QueuedBakesCutTheSameBake) {
     EXPECT_GE(double(both.size()), 0.99 * double(c.triangles.size()));
     EXPECT_NEAR(double(part.triangles.size()), double(c.triangles.size()), 0.01 * double(c.triangles.size()));
   }
+}
+
+// Lanes (RayBackend::sibling): cells baked at once on two threads, each on its own lane over the
+// scene built once, find exactly what one lane finds baking them one after the other (a lane's
+// sets, first rays and launches are its own; the device's queue and command pools are shared).
+TEST_P(ExploreRays, LanesBakeCellsAtOnceAsOneLaneDoes) {
+  Scene scene = test::cityScene(1);
+  std::vector<ViewCell> cells = {test::streetCell(), test::streetCell(), test::streetCell()};
+  cells[1].position.z += 6.0f;
+  cells[2].position = {-2.0f, 1.7f, -20.0f};
+  auto vk = vulkan(scene);
+  ASSERT_TRUE(vk);
+  std::unique_ptr<RayBackend> lane = vk->sibling();
+  ASSERT_TRUE(lane);
+  EXPECT_EQ(lane->name(), vk->name());
+  EXPECT_EQ(lane->triangleCount(), vk->triangleCount());
+  GvsConfig cfg;
+  cfg.randomRays = 10'000;
+  cfg.absEdgeSamples = 6;
+  cfg.rsEdgeSamples = 4;
+  cfg.rsAreaSamples = 4;
+  cfg.rayBudget = 120'000;
+  std::vector<CellPvs> alone;
+  for (const ViewCell& c : cells) alone.push_back(computeCellPvs(*vk, scene, c, cfg));
+  // Lane 0 takes cells 0 and 2, lane 1 cell 1, at the same time.
+  std::vector<CellPvs> lanes(cells.size());
+  std::thread other([&] { lanes[1] = computeCellPvs(*lane, scene, cells[1], cfg); });
+  lanes[0] = computeCellPvs(*vk, scene, cells[0], cfg);
+  lanes[2] = computeCellPvs(*vk, scene, cells[2], cfg);
+  other.join();
+  for (size_t i = 0; i < cells.size(); ++i) {
+    EXPECT_TRUE(lanes[i].stats.generatedExploreRays);
+    EXPECT_EQ(lanes[i].triangles, alone[i].triangles) << "cell " << i;
+    EXPECT_EQ(lanes[i].stats.rays, alone[i].stats.rays) << "cell " << i;
+    EXPECT_EQ(lanes[i].stats.absRays, alone[i].stats.absRays) << "cell " << i;
+    EXPECT_EQ(lanes[i].stats.rsRays, alone[i].stats.rsRays) << "cell " << i;
+  }
+  EXPECT_NE(alone[0].triangles, alone[2].triangles); // the cells see different things
 }
 
 INSTANTIATE_TEST_SUITE_P(Traversals, ExploreRays, ::testing::Values(Traversal::Pipeline, Traversal::Compute),

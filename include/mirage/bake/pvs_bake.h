@@ -4,6 +4,7 @@
 // gathers the cells' PVS in cell order: the PvsData the single-process bake gives (a cell's PVS does
 // not depend on the thread count). docs/bake.md.
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -21,10 +22,11 @@ using CellBaker = std::function<vis::CellPvs(uint32_t cell)>;
 // cells and the scene's triangle count.
 uint64_t pvsFingerprint(const std::string& settings, const std::vector<vis::ViewCell>& cells, uint64_t sceneTriangles);
 
-// Collective: every rank passes the same cell count and its own baker. Rank 0 gets one CellPvs per
+// Collective: every rank passes the same cell count and its own bakers, one per lane (cells baked at
+// once on this rank, each on its own thread: RayBackend::sibling). Rank 0 gets one CellPvs per
 // cell (sorted triangles and statistics; no witnesses or checkpoints), the others an empty vector.
 Result<std::vector<vis::CellPvs>> bakeCellPvs(const World& world, size_t cells, uint64_t fingerprint,
-                                              const CellBaker& bake, const BakeRun& run,
+                                              std::span<const CellBaker> bakers, const BakeRun& run,
                                               ScheduleReport* report = nullptr, const UnitProgress& progress = {});
 
 } // namespace mirage::bake

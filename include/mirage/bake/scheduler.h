@@ -1,7 +1,7 @@
 #pragma once
 // Work units of a bake spread over the ranks of a World: rank 0 plans (which units remain, the
 // largest first), hands one unit at a time to whichever rank asks (a dynamic queue: uneven units
-// balance themselves), bakes units itself on a second thread, keeps the journal, and gathers every
+// balance themselves), bakes units itself on threads of its own, keeps the journal, and gathers every
 // unit's bytes. What a unit is (a mesh, a view cell, a surfel object) is the caller's: the scheduler
 // sees numbers and bytes. docs/bake.md.
 #include <cstdint>
@@ -27,8 +27,8 @@ struct UnitPlan {
 };
 
 // What a unit needs, made on rank 0 and sent with it (e.g. the mesh to bake), so the other ranks need
-// not import the scene; empty when every rank has what it needs. Called from two threads at once
-// (rank 0's own baking thread and its coordinating one): it must only read shared data.
+// not import the scene; empty when every rank has what it needs. Called from several threads at once
+// (rank 0's own baking threads and its coordinating one): it must only read shared data.
 using UnitInput = std::function<std::vector<uint8_t>(uint32_t unit)>;
 // Bakes one unit from its input, on whichever rank it was given to; the bytes must not depend on the
 // rank or its thread count. Called from one thread at a time per process.
@@ -55,6 +55,14 @@ struct ScheduleReport {
 // once the output is written.
 Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitInput& input,
                                                    const UnitBaker& bake, ScheduleReport* report = nullptr,
+                                                   const UnitProgress& progress = {});
+
+// As above with several bakers per rank (lanes), one thread each: a rank bakes up to
+// bakers.size() units at once (e.g. two view cells on one GPU, so the device traces one while the
+// host works on the other's results). Every baker must give the same bytes for a unit; each is
+// called from its own thread only.
+Result<std::vector<std::vector<uint8_t>>> runUnits(const World& world, const UnitPlan& plan, const UnitInput& input,
+                                                   std::span<const UnitBaker> bakers, ScheduleReport* report = nullptr,
                                                    const UnitProgress& progress = {});
 
 // Rank 0, after the output is written: the journal is no longer needed.

@@ -2,7 +2,10 @@
 // Vulkan instance + device: device choice, the features Mirage uses, validation-layer capture.
 #include <atomic>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include "mirage/core/result.h"
@@ -80,6 +83,10 @@ public:
   const std::vector<std::string>& validationMessages() const { return validationMessages_; }
   void recordValidationMessage(std::string message);
 
+  // One-shot command buffers may be recorded and submitted from several threads at once (the lanes
+  // of a ray backend, one per thread): each thread records from its own command pool and the
+  // submissions to the queue are serialized here. Other users of queue() submit from one thread
+  // while no lane runs.
   // Run `record` in a one-shot command buffer on the queue and wait for it.
   template <class F> void submitAndWait(F&& record) {
     VkCommandBuffer cmd = beginOneShot();
@@ -104,8 +111,10 @@ private:
   VkDevice device_ = VK_NULL_HANDLE;
   VkQueue queue_ = VK_NULL_HANDLE;
   uint32_t queueFamily_ = 0;
-  VkCommandPool commandPool_ = VK_NULL_HANDLE;
-  VkFence fence_ = VK_NULL_HANDLE;
+  // One-shot command buffers: a pool per recording thread, the pool of each buffer out, the queue.
+  std::mutex oneShotMutex_;
+  std::vector<std::pair<std::thread::id, VkCommandPool>> commandPools_;
+  std::unordered_map<VkCommandBuffer, VkCommandPool> oneShotPool_;
   std::unique_ptr<Allocator> allocator_;
   VkPhysicalDeviceProperties properties_{};
   DeviceCapabilities caps_;
