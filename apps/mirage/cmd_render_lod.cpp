@@ -211,6 +211,7 @@ nlohmann::json residencyJson(const render::ResidencyStats& r) {
           {"evicted", r.evicted},
           {"unfit", r.unfit},
           {"pending", r.pending},
+          {"in_transit", r.inTransit},
           {"resident_bytes", r.residentBytes},
           {"geometry_bytes", r.geometryBytes},
           {"resident_pages", r.residentPages},

@@ -96,6 +96,14 @@ CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode 
       ->transform(onOff(nullptr))
       ->type_name("on|off")
       ->default_str(onOffName(o.prefetch));
+  cmd.add_option("--uploads", o.uploads,
+                 "With --gpu-budget: page geometry to the GPU on the transfer queue (copy engines, beside the "
+                 "frames; a later frame moves it into the pool), inside the frame that draws it first, or auto "
+                 "(transfer where the device has a transfer queue): auto|frame|transfer (docs/render.md "
+                 "\"Residency\")")
+      ->transform(enumNames(render::kUploadsNames, o.uploads))
+      ->type_name("auto|frame|transfer")
+      ->default_str("auto");
   bindBandwidth(cmd, o.source.bandwidthBitsPerSecond);
   if (mode == BindMode::Bench) {
     cmd.add_option("--pvs", o.pvs,

@@ -85,7 +85,8 @@ struct DeviceProbe {
   VkPhysicalDevice device = VK_NULL_HANDLE;
   DeviceCapabilities caps;
   uint32_t queueFamily = UINT32_MAX;
-  bool usable = false; // Vulkan 1.3 with dynamic rendering, synchronization2, buffer device address
+  uint32_t transferFamily = UINT32_MAX; // a family with transfers only (a copy engine), if any
+  bool usable = false;                  // Vulkan 1.3 with dynamic rendering, synchronization2, buffer device address
   std::string whyUnusable;
   std::vector<const char*> extensions;
   bool hasMesh = false, hasAccel = false, hasRtPipeline = false, hasRayQuery = false, hasImageInt64 = false;
@@ -131,6 +132,12 @@ DeviceProbe probeDevice(VkPhysicalDevice pd) {
       break;
     }
   }
+  for (uint32_t i = 0; i < nq; ++i)
+    if ((families[i].queueFlags & VK_QUEUE_TRANSFER_BIT) &&
+        !(families[i].queueFlags & (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT)) && families[i].queueCount > 0) {
+      p.transferFamily = i;
+      break;
+    }
 
   auto exts = deviceExtensions(pd);
   p.hasMesh = hasExtension(exts, VK_EXT_MESH_SHADER_EXTENSION_NAME);
@@ -417,14 +424,17 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   if (p.caps.floatSharedAtomicAdd) want.atomicFloat.shaderSharedFloat32AtomicAdd = VK_TRUE;
 
   float priority = 1.0f;
-  VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-  qi.queueFamilyIndex = p.queueFamily;
-  qi.queueCount = 1;
-  qi.pQueuePriorities = &priority;
+  VkDeviceQueueCreateInfo qi[2] = {{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO},
+                                   {VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO}};
+  qi[0].queueFamilyIndex = p.queueFamily;
+  qi[0].queueCount = 1;
+  qi[0].pQueuePriorities = &priority;
+  qi[1] = qi[0];
+  qi[1].queueFamilyIndex = p.transferFamily; // the copy engine's queue, where there is one
   VkDeviceCreateInfo di{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   di.pNext = &want.core;
-  di.queueCreateInfoCount = 1;
-  di.pQueueCreateInfos = &qi;
+  di.queueCreateInfoCount = p.transferFamily == UINT32_MAX ? 1 : 2;
+  di.pQueueCreateInfos = qi;
   // MIRAGE_PIPELINE_STATS=1: the driver's statistics of every pipeline (registers, shared memory,
   // ...) on stderr as it is created (pipeline.cpp), where VK_KHR_pipeline_executable_properties exists.
   VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executableInfo{
@@ -443,6 +453,10 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   if (r != VK_SUCCESS) return Error{fmt::format("vulkan: vkCreateDevice failed on {} ({})", p.caps.name, toString(r))};
   volkLoadDevice(ctx->device_);
   vkGetDeviceQueue(ctx->device_, p.queueFamily, 0, &ctx->queue_);
+  if (p.transferFamily != UINT32_MAX) {
+    ctx->transferFamily_ = p.transferFamily;
+    vkGetDeviceQueue(ctx->device_, p.transferFamily, 0, &ctx->transferQueue_);
+  }
 
   ctx->allocator_ = std::make_unique<Allocator>(*ctx);
   return ctx;
@@ -452,33 +466,40 @@ Context::~Context() {
   if (device_) {
     vkDeviceWaitIdle(device_);
     allocator_.reset();
-    for (auto& [thread, pool] : commandPools_) vkDestroyCommandPool(device_, pool, nullptr);
+    for (const CommandPool& p : commandPools_) vkDestroyCommandPool(device_, p.pool, nullptr);
     vkDestroyDevice(device_, nullptr);
   }
   if (messenger_) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
   if (instance_) vkDestroyInstance(instance_, nullptr);
 }
 
-VkCommandBuffer Context::beginOneShot() {
+VkCommandBuffer Context::beginOneShot() { return beginCommands(queueFamily_); }
+
+VkCommandBuffer Context::beginTransferCommands() {
+  return beginCommands(transferQueue_ ? transferFamily_ : queueFamily_);
+}
+
+VkCommandBuffer Context::beginCommands(uint32_t family) {
   VkCommandBuffer cmd;
   {
     std::lock_guard lock(oneShotMutex_);
-    auto mine = std::find_if(commandPools_.begin(), commandPools_.end(),
-                             [](const auto& p) { return p.first == std::this_thread::get_id(); });
+    auto mine = std::find_if(commandPools_.begin(), commandPools_.end(), [&](const CommandPool& p) {
+      return p.thread == std::this_thread::get_id() && p.family == family;
+    });
     if (mine == commandPools_.end()) {
       VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
       pi.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT | VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-      pi.queueFamilyIndex = queueFamily_;
+      pi.queueFamilyIndex = family;
       VkCommandPool pool;
       MIRAGE_VK_CHECK(vkCreateCommandPool(device_, &pi, nullptr, &pool));
-      mine = commandPools_.insert(commandPools_.end(), {std::this_thread::get_id(), pool});
+      mine = commandPools_.insert(commandPools_.end(), {std::this_thread::get_id(), family, pool});
     }
     VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-    ai.commandPool = mine->second;
+    ai.commandPool = mine->pool;
     ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
     ai.commandBufferCount = 1;
     MIRAGE_VK_CHECK(vkAllocateCommandBuffers(device_, &ai, &cmd));
-    oneShotPool_[cmd] = mine->second;
+    oneShotPool_[cmd] = mine->pool;
   }
   VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
@@ -506,6 +527,17 @@ void Context::endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence) {
   si.pCommandBufferInfos = &cbi;
   std::lock_guard lock(oneShotMutex_);
   MIRAGE_VK_CHECK(vkQueueSubmit2(queue_, 1, &si, fence));
+}
+
+void Context::submitTransfer(VkCommandBuffer cmd, VkFence fence) {
+  MIRAGE_VK_CHECK(vkEndCommandBuffer(cmd));
+  VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+  cbi.commandBuffer = cmd;
+  VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  si.commandBufferInfoCount = 1;
+  si.pCommandBufferInfos = &cbi;
+  std::lock_guard lock(oneShotMutex_);
+  MIRAGE_VK_CHECK(vkQueueSubmit2(transferQueue_ ? transferQueue_ : queue_, 1, &si, fence));
 }
 
 void Context::freeOneShot(VkCommandBuffer cmd) {
@@ -536,14 +568,14 @@ const char* toString(VkResult r) {
     MIRAGE_CASE(VK_INCOMPLETE)
     MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
     MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
-    MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED) MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
-        MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
-            MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
-                MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
-                    MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
-                        MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
+    MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED)
+    MIRAGE_CASE(VK_ERROR_DEVICE_LOST) MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
+        MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
+            MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
+                MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)
+                    MIRAGE_CASE(VK_ERROR_OUT_OF_POOL_MEMORY) MIRAGE_CASE(VK_ERROR_UNKNOWN)
 #undef MIRAGE_CASE
-                            default : return "VkResult(?)";
+                        default : return "VkResult(?)";
   }
 }
 

@@ -163,10 +163,21 @@ void Buffer::release() {
 
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory,
                     const char* name) {
+  return createBuffer(context, size, usage, memory, name, false);
+}
+
+Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory, const char* name,
+                    bool withTransferQueue) {
   Buffer b;
   VkBufferCreateInfo ci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
   ci.size = std::max<VkDeviceSize>(size, 4);
   ci.usage = usage | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
+  const uint32_t families[2] = {context.queueFamily(), context.transferFamily()};
+  if (withTransferQueue && context.transferQueue()) {
+    ci.sharingMode = VK_SHARING_MODE_CONCURRENT;
+    ci.queueFamilyIndexCount = 2;
+    ci.pQueueFamilyIndices = families;
+  }
   VkBuffer handle;
   MIRAGE_VK_CHECK(vkCreateBuffer(context.device(), &ci, nullptr, &handle));
   b.buffer_ = Unique<VkBuffer>(context.device(), handle);

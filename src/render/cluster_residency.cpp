@@ -95,6 +95,11 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
   r->reading.assign(pages, 0);
   r->drawn.assign(pages, MIRAGE_PAGE_NONE);
   r->geometry.assign(pages, 0);
+  r->transit.assign(pages, 0);
+  r->ctx = &ctx;
+  using Uploads = ClusterResidencySettings::Uploads;
+  r->transferUploads =
+      settings.uploads == Uploads::Transfer || (settings.uploads == Uploads::Auto && ctx.transferQueue());
 
   // Per cluster: (page, child page), numbered over every mesh; the child page is written when the
   // cluster's page loads (only a page knows its clusters' generating groups).
@@ -181,13 +186,6 @@ struct StagingBytes {
   }
 };
 
-// The staging bytes a prepared page's upload takes.
-size_t stagingBytes(const PreparedPage& prep) {
-  size_t bytes = prep.ids.size() * (sizeof(sio::GpuCluster) + sizeof(sio::GpuClusterCone) + 8);
-  for (uint32_t fill : prep.packed.unitFill) bytes += fill;
-  return bytes;
-}
-
 // Units for `page`: `count` from the free stack (the manager's budget guarantees them).
 bool takeUnits(ClusterResidency& r, uint32_t page, uint32_t count) {
   if (r.freeUnits.size() < count) return false;
@@ -210,10 +208,8 @@ PreparedPage prepareHere(const ClusterResidency& r, uint32_t page, const lod::Pa
 }
 
 // A reserved page's upload is ready (preparePage, on a reader thread or here): its spare units
-// freed, its cost made exact, its bytes staged for the units it holds with their vertex ids and its
-// records' offsets moved there, its records, cones and child pages staged.
-Status uploadPage(ClusterResidency& r, uint32_t page, PreparedPage& prep, StagingBytes& staging,
-                  ClusterResidency::Slot& slot) {
+// freed, its cost made exact, its vertex ids moved to the units it holds (in its bytes).
+Status placePage(ClusterResidency& r, uint32_t page, PreparedPage& prep) {
   uint32_t mesh = r.pageMesh[page];
   const lod::PagedMesh& pm = r.asset->meshes[mesh];
   uint32_t expected = pm.rest.pageClusterVertices[r.pageLocal[page]];
@@ -224,16 +220,12 @@ Status uploadPage(ClusterResidency& r, uint32_t page, PreparedPage& prep, Stagin
   releaseUnits(r, page, prep.units);
   r.manager.setPageBytes(page, uint64_t(prep.units) * kPoolUnitBytes);
   const std::vector<uint32_t>& units = r.pageUnits[page];
-  PagePacking& packed = prep.packed;
-  // Local to pool: a byte at (unit k, offset o) moves to unit units[k]; vertex v of the page sits in
-  // unit v / kUnitVertices, so its id becomes units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices.
+  // Local to pool: vertex v of the page sits in unit v / kUnitVertices, so its id becomes
+  // units[v / kUnitVertices] * kUnitVertices + v % kUnitVertices.
   constexpr uint32_t kUnitVertices = kPoolUnitBytes / sizeof(sio::GpuClusterVertex);
   static_assert(kPoolUnitBytes % sizeof(sio::GpuClusterVertex) == 0, "vertex units hold whole vertices");
-  auto pooled = [&](uint64_t localByte) { // a local byte offset in the pool
-    return uint64_t(units[localByte / kPoolUnitBytes]) * kPoolUnitBytes + localByte % kPoolUnitBytes;
-  };
   for (const sio::GpuCluster& rec : prep.records) { // the vertex ids, in the page's own bytes
-    uint8_t* ids = packed.bytes.data() + size_t(rec.vertexOffset) * 4;
+    uint8_t* ids = prep.packed.bytes.data() + size_t(rec.vertexOffset) * 4;
     for (uint32_t j = 0; j < rec.vertexCount; ++j) {
       uint32_t v;
       std::memcpy(&v, ids + 4 * j, 4);
@@ -241,9 +233,26 @@ Status uploadPage(ClusterResidency& r, uint32_t page, PreparedPage& prep, Stagin
       std::memcpy(ids + 4 * j, &v, 4);
     }
   }
+  return Ok{};
+}
+
+// A placed page's unit bytes staged, each copy to the pool unit it goes to.
+void stagePoolBytes(const PreparedPage& prep, const std::vector<uint32_t>& units, StagingBytes& staging,
+                    std::vector<VkBufferCopy>& copies) {
+  const PagePacking& packed = prep.packed;
   for (uint32_t k = 0; k < packed.unitFill.size(); ++k)
-    slot.pool.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
-                         VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
+    copies.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
+                      VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
+}
+
+// A placed page's records (offsets moved to its units), cones and child pages staged; the page is
+// uploaded once the frame's copies run.
+void stagePageTables(ClusterResidency& r, uint32_t page, const PreparedPage& prep, StagingBytes& staging,
+                     ClusterResidency::Slot& slot) {
+  const std::vector<uint32_t>& units = r.pageUnits[page];
+  auto pooled = [&](uint64_t localByte) { // a local byte offset in the pool
+    return uint64_t(units[localByte / kPoolUnitBytes]) * kPoolUnitBytes + localByte % kPoolUnitBytes;
+  };
   for (size_t i = 0; i < prep.ids.size(); ++i) {
     sio::GpuCluster rec = prep.records[i];
     uint64_t idsByte = uint64_t(rec.vertexOffset) * 4;
@@ -256,10 +265,133 @@ Status uploadPage(ClusterResidency& r, uint32_t page, PreparedPage& prep, Stagin
     slot.clusterPages.push_back({staging.append(&prep.childPages[2 * i], 8), VkDeviceSize(g) * 8, 8});
   }
   r.state[page] = PageState::Uploaded;
-  r.geometry[page] = packed.geometryBytes;
-  r.geometryBytes += packed.geometryBytes;
-  return Ok{};
+  r.geometry[page] = prep.packed.geometryBytes;
+  r.geometryBytes += prep.packed.geometryBytes;
 }
+
+// The staging bytes of a page's pool bytes (stagePoolBytes).
+size_t poolBytes(const PreparedPage& prep) {
+  size_t bytes = 0;
+  for (uint32_t fill : prep.packed.unitFill) bytes += fill;
+  return bytes;
+}
+
+// The staging bytes of a page's tables (stagePageTables).
+size_t tableBytes(const PreparedPage& prep) {
+  return prep.ids.size() * (sizeof(sio::GpuCluster) + sizeof(sio::GpuClusterCone) + 8);
+}
+
+using TransferBatch = ClusterResidency::TransferBatch;
+
+// A batch entry's page still waits for it: not evicted, not staged again since, the same units.
+bool waitsFor(const ClusterResidency& r, const TransferBatch::Entry& entry) {
+  return r.state[entry.page] == PageState::Reserved && r.pageUnits[entry.page] == entry.units;
+}
+
+// Frees the batches the slot's last frame copied from (it completed: the slot is being reused);
+// then takes in every batch the transfer queue finished (a fence check, no wait). Returns the
+// table bytes their waiting pages will stage (the slot's staging is sized first).
+size_t arrivedBatches(ClusterResidency& r, uint32_t slotIndex, std::vector<TransferBatch*>& arrived) {
+  size_t bytes = 0;
+  for (uint32_t b = 0; b < r.batches.size(); ++b) {
+    TransferBatch& batch = *r.batches[b];
+    if (batch.state == TransferBatch::State::Consumed && batch.slot == slotIndex)
+      batch.state = TransferBatch::State::Free;
+    if (batch.state != TransferBatch::State::Copying) continue;
+    VkFence done = batch.done.get();
+    if (vkWaitForFences(r.ctx->device(), 1, &done, VK_TRUE, 0) != VK_SUCCESS) continue;
+    MIRAGE_VK_CHECK(vkResetFences(r.ctx->device(), 1, &done));
+    r.ctx->freeOneShot(std::exchange(batch.cmd, VK_NULL_HANDLE));
+    batch.state = TransferBatch::State::Consumed;
+    batch.slot = slotIndex;
+    for (TransferBatch::Entry& entry : batch.entries) {
+      if (r.transit[entry.page] != b + 1) { // staged again since (a later batch has it)
+        entry.units.clear();
+        continue;
+      }
+      r.transit[entry.page] = 0;
+      if (waitsFor(r, entry)) bytes += tableBytes(entry.prep);
+    }
+    arrived.push_back(&batch);
+  }
+  return bytes;
+}
+
+// The waiting pages of an arrived batch: copies from its device buffer, tables staged, uploaded.
+uint32_t uploadArrived(ClusterResidency& r, TransferBatch& batch, StagingBytes& staging, ClusterResidency::Slot& slot) {
+  uint32_t uploaded = 0;
+  std::vector<VkBufferCopy> copies;
+  for (TransferBatch::Entry& entry : batch.entries) {
+    if (entry.units.empty() || !waitsFor(r, entry)) continue;
+    copies.insert(copies.end(), entry.pool.begin(), entry.pool.end());
+    stagePageTables(r, entry.page, entry.prep, staging, slot);
+    ++uploaded;
+  }
+  if (!copies.empty()) slot.fromDevice.push_back({&batch.device, std::move(copies)});
+  batch.entries.clear();
+  return uploaded;
+}
+
+// Placed pages' pool bytes in a free batch (made or grown as needed), sent on the transfer queue;
+// their tables wait for the batch to arrive.
+void sendBatch(ClusterResidency& r, std::vector<std::pair<uint32_t, PreparedPage*>>& pages) {
+  size_t bytes = 0;
+  for (auto& [p, prep] : pages) bytes += poolBytes(*prep);
+  uint32_t b = 0;
+  while (b < r.batches.size() && r.batches[b]->state != TransferBatch::State::Free) ++b;
+  if (b == r.batches.size()) {
+    auto batch = std::make_unique<TransferBatch>();
+    VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    VkFence fence;
+    MIRAGE_VK_CHECK(vkCreateFence(r.ctx->device(), &fi, nullptr, &fence));
+    batch->done = gpu::Unique<VkFence>(r.ctx->device(), fence);
+    r.batches.push_back(std::move(batch));
+  }
+  TransferBatch& batch = *r.batches[b];
+  if (!batch.host || batch.host.size() < bytes) {
+    size_t size = std::max<size_t>(bytes, batch.host ? batch.host.size() * 2 : 0);
+    batch.host =
+        createBuffer(*r.ctx, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency transfer staging");
+    batch.device = createBuffer(*r.ctx, size, VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                MemoryUsage::GpuOnly, "residency transfer pages", /*withTransferQueue=*/true);
+  }
+  StagingBytes staging{batch.host.mapped(), 0, batch.host.size()};
+  for (auto& [p, prep] : pages) {
+    TransferBatch::Entry& entry = batch.entries.emplace_back();
+    entry.page = p;
+    entry.units = r.pageUnits[p];
+    stagePoolBytes(*prep, entry.units, staging, entry.pool);
+    entry.prep = std::move(*prep);
+    entry.prep.packed.bytes = {}; // on their way
+    r.transit[p] = b + 1;
+  }
+  batch.cmd = r.ctx->beginTransferCommands();
+  VkBufferCopy all{0, 0, std::max<VkDeviceSize>(staging.size, 4)};
+  vkCmdCopyBuffer(batch.cmd, batch.host.handle(), batch.device.handle(), 1, &all);
+  r.ctx->submitTransfer(batch.cmd, batch.done.get());
+  batch.state = TransferBatch::State::Copying;
+}
+
+} // namespace
+
+void ClusterResidency::waitForTransfers() const {
+  for (const std::unique_ptr<TransferBatch>& b : batches)
+    if (b->state == TransferBatch::State::Copying) {
+      VkFence done = b->done.get();
+      vkWaitForFences(ctx->device(), 1, &done, VK_TRUE, UINT64_MAX);
+    }
+}
+
+ClusterResidency::~ClusterResidency() {
+  for (const std::unique_ptr<TransferBatch>& b : batches)
+    if (b->cmd) {
+      VkFence done = b->done.get();
+      vkWaitForFences(ctx->device(), 1, &done, VK_TRUE, UINT64_MAX);
+      ctx->freeOneShot(b->cmd);
+    }
+}
+
+namespace {
 
 // The view's prefetch (lod::prefetchFeedback) of every instance, numbered as one; the selection's
 // projection in each instance's object space (exact for uniform scales, the eye and near distance
@@ -298,6 +430,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   ClusterResidency& r = *residency;
   ClusterResidency::Slot& slot = r.frame[currentSlot];
   for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table}) v->clear();
+  slot.fromDevice.clear();
   slot.stats = {};
   ResidencyStats& st = slot.stats;
   ResidencyTimes& times = st.times;
@@ -310,6 +443,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   // buffer is sized for them and the drawn-page table first, then written in place.
   std::deque<PreparedPage> preparedHere; // pages the stream did not prepare (the roots)
   std::vector<std::pair<uint32_t, PreparedPage*>> uploads;
+  size_t roots = 0; // the first `roots` of `uploads`
   if (!r.rootsStaged) {
     r.rootsStaged = true;
     for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
@@ -320,6 +454,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
       preparedHere.push_back(prepareHere(r, p, r.asset->rootPages[r.pageMesh[p]][r.pageLocal[p]]));
       uploads.push_back({p, &preparedHere.back()});
     }
+    roots = uploads.size();
   }
   for (lod::StreamedPage& a : *arrived) {
     times.decodeMs += a.seconds * 1e3;
@@ -331,14 +466,30 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     if (!prep) prep = &preparedHere.emplace_back(prepareHere(r, p, a.data));
     uploads.push_back({p, prep});
   }
+  // Placed first (spare units freed, vertex ids moved to the units held). With transfer uploads
+  // the streamed pages go on the transfer queue now and reach the pool in a later frame (the roots
+  // go in this frame, so the first frame draws the whole scene); the batches that arrived since the
+  // last frame are taken in first, so a page is never both sent and taken in by one frame.
+  for (auto& [p, prep] : uploads)
+    if (Status s = placePage(r, p, *prep); !s) return s;
+  std::vector<std::pair<uint32_t, PreparedPage*>> sent;
+  if (r.transferUploads) {
+    sent.assign(uploads.begin() + ptrdiff_t(roots), uploads.end());
+    uploads.resize(roots);
+  }
+  std::vector<TransferBatch*> batchesIn;
   size_t bound = r.drawn.size() * 4;
-  for (auto& [p, prep] : uploads) bound += stagingBytes(*prep);
+  if (r.transferUploads) bound += arrivedBatches(r, currentSlot, batchesIn);
+  if (!sent.empty()) sendBatch(r, sent);
+  for (auto& [p, prep] : uploads) bound += tableBytes(*prep) + poolBytes(*prep);
   if (!slot.staging || slot.staging.size() < bound) // this slot's last frame completed
     slot.staging = createBuffer(ctx, std::max<size_t>(bound, slot.staging ? slot.staging.size() * 2 : 0),
                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency staging");
   StagingBytes staging{slot.staging.mapped(), 0, slot.staging.size()};
+  for (TransferBatch* batch : batchesIn) st.uploaded += uploadArrived(r, *batch, staging, slot);
   for (auto& [p, prep] : uploads) {
-    if (Status s = uploadPage(r, p, *prep, staging, slot); !s) return s;
+    stagePoolBytes(*prep, r.pageUnits[p], staging, slot.pool);
+    stagePageTables(r, p, *prep, staging, slot);
     ++st.uploaded;
   }
   times.uploadMs += clock.lap();
@@ -420,6 +571,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
     st.drawnPages += r.drawn[p] != MIRAGE_PAGE_NONE;
     st.pending += r.state[p] == PageState::Reserved;
+    st.inTransit += r.state[p] == PageState::Reserved && r.transit[p] != 0;
   }
   times.publishMs += clock.lap();
   return Ok{};
@@ -441,6 +593,8 @@ void ClusterRenderer::Impl::cmdResidencyUpload(VkCommandBuffer cmd) {
       vkCmdCopyBuffer(cmd, slot.staging.handle(), dst.handle(), uint32_t(regions.size()), regions.data());
   };
   copy(slot.pool, scene.vertices);
+  for (const auto& [from, regions] : slot.fromDevice) // transfer uploads that arrived (fence seen)
+    vkCmdCopyBuffer(cmd, from->handle(), scene.vertices.handle(), uint32_t(regions.size()), regions.data());
   copy(slot.records, scene.clusters);
   copy(slot.cones, scene.cones);
   copy(slot.clusterPages, r.clusterPages);
@@ -480,6 +634,14 @@ ResidencyStats ClusterRenderer::Impl::collectResidency(uint32_t frameSlot) {
 
 bool ClusterRenderer::hasResidency() const { return impl_->residency != nullptr; }
 
+namespace {
+double frameGpuMs(const std::vector<gpu::PassTime>& passes) {
+  for (const gpu::PassTime& t : passes)
+    if (t.name == "frame") return t.milliseconds;
+  return 0.0;
+}
+} // namespace
+
 Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const ClusterRenderSettings& settings,
                                                                     uint32_t maxFrames, bool readEveryFrame) {
   Converged out;
@@ -500,6 +662,7 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
     if (!o) return o.error();
     o->stats.residency.times.readWaitMs += std::exchange(waitedMs, 0.0);
     out.frameEnds.push_back(std::chrono::steady_clock::now());
+    out.frameGpuMs.push_back(frameGpuMs(o->image.stats.passTimes));
     if (quiet.base.readImage) out.frameImages.push_back(std::move(o->image.srgb));
     quiet.cameraCut = false; // the cut is this call's first frame only
     const ResidencyStats& st = o->stats.residency;
@@ -512,10 +675,13 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
       out.converged = true;
       break;
     }
-    // Only waiting for reads: wait for the next page instead of spinning frames.
+    // Only waiting for reads or transfers: wait for the next page (or batch) instead of spinning.
     if (quietFrame) {
       PhaseClock clock;
-      impl_->residency->stream->waitForArrival(std::chrono::milliseconds(1000));
+      if (st.inTransit > 0)
+        impl_->residency->waitForTransfers();
+      else
+        impl_->residency->stream->waitForArrival(std::chrono::milliseconds(1000));
       waitedMs = clock.lap();
     }
   }
@@ -525,6 +691,7 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
   auto o = render(last);
   if (!o) return o.error();
   out.frameEnds.push_back(std::chrono::steady_clock::now());
+  out.frameGpuMs.push_back(frameGpuMs(o->image.stats.passTimes));
   out.frames.push_back(o->stats.residency);
   if (quiet.base.readImage) out.frameImages.push_back(o->image.srgb);
   out.output = std::move(*o);

@@ -101,10 +101,33 @@ struct ClusterResidency {
   struct Slot {
     gpu::Buffer staging, readback;
     std::vector<VkBufferCopy> pool, records, cones, clusterPages, table;
+    // Transfer uploads: per consumed batch, its copies from its device buffer into the pool.
+    std::vector<std::pair<const gpu::Buffer*, std::vector<VkBufferCopy>>> fromDevice;
     std::vector<uint8_t> resident;
     ResidencyStats stats;
   } frame[kMaxFramesInFlight];
   std::vector<float> feedbackHost; // the last collected frame's feedback, not yet acted on
+  // Async uploads (ClusterResidencySettings::Uploads::Transfer): a frame's arrived pages, their
+  // pool bytes in one host buffer copied on the transfer queue into `device`; a later frame whose
+  // fence check finds it done moves each page still waiting for it (same units) into the pool.
+  struct TransferBatch {
+    struct Entry {
+      uint32_t page = 0;
+      std::vector<uint32_t> units;    // the page's units when staged (vertex ids point there)
+      std::vector<VkBufferCopy> pool; // from `device` into the pool
+      PreparedPage prep;              // records, cones, child pages (bytes dropped)
+    };
+    gpu::Buffer host, device;
+    gpu::Unique<VkFence> done;
+    VkCommandBuffer cmd = VK_NULL_HANDLE; // while on the transfer queue
+    std::vector<Entry> entries;
+    enum class State : uint8_t { Free, Copying, Consumed } state = State::Free;
+    uint32_t slot = 0; // Consumed: the frame slot that copies from `device` (free once it is reused)
+  };
+  gpu::Context* ctx = nullptr;
+  bool transferUploads = false;
+  std::vector<std::unique_ptr<TransferBatch>> batches;
+  std::vector<uint32_t> transit; // per page: its batch + 1 while its bytes are on the transfer queue, else 0
   // Prefetch (ClusterResidencySettings::prefetch): per page, the wanted priority of the view it was
   // computed for, computed again on a camera cut from that view (isCameraCut, or the settings'
   // cameraCut) or with a new size or tau.
@@ -118,6 +141,8 @@ struct ClusterResidency {
   bool haveFeedback = false;
 
   ClusterResidency(lod::ResidencyManager m) : manager(std::move(m)) {}
+  ~ClusterResidency();           // waits for batches still on the transfer queue
+  void waitForTransfers() const; // every batch on the transfer queue done (renderConverged's idle wait)
 };
 
 // Builds the residency of `asset` into `scene` (whose vertices become the pool): page costs from

@@ -65,6 +65,7 @@ Status openPagedClusterLod(Scene::Impl& s, std::chrono::steady_clock::time_point
   render::ClusterResidencySettings residency;
   residency.budgetBytes = s.options.gpuBudget;
   residency.prefetch = s.options.prefetch;
+  residency.uploads = s.options.uploads;
   auto renderer = render::ClusterRenderer::create(s.ctx, *s.paged, residency);
   if (!renderer) return renderer.error();
   s.cluster = std::move(*renderer);
@@ -169,8 +170,9 @@ Result<Frame> renderClusterLod(Scene::Impl& s, const View& view) {
     auto c = s.cluster->renderConverged(clusterSettings(s, view), 256, view.readEveryFrame);
     if (!c) return c.error();
     Frame f = clusterFrame(s, c->output, s.pvsState.cell);
-    f.residency = Frame::Residency{c->framesToConverge, c->converged, std::move(c->frames), std::move(c->frameEnds),
-                                   std::move(c->frameImages)};
+    f.residency = Frame::Residency{c->framesToConverge,      c->converged,
+                                   std::move(c->frames),     std::move(c->frameEnds),
+                                   std::move(c->frameGpuMs), std::move(c->frameImages)};
     return f;
   }
   auto o = s.cluster->render(clusterSettings(s, view));

@@ -123,7 +123,8 @@ struct Opened {
   lod::PagedLodAsset asset;
   std::unique_ptr<ClusterRenderer> renderer;
 };
-Opened openBudgeted(gpu::Context& ctx, uint64_t budget, const PagedBlob& blob = pagedBlob(), bool prefetch = true) {
+Opened openBudgeted(gpu::Context& ctx, uint64_t budget, const PagedBlob& blob = pagedBlob(), bool prefetch = true,
+                    ClusterResidencySettings::Uploads uploads = ClusterResidencySettings::Uploads::Auto) {
   Opened o;
   auto paged = lod::openPagedLodAsset(blob.path);
   EXPECT_TRUE(paged.ok()) << (paged.ok() ? "" : paged.error().message);
@@ -131,6 +132,7 @@ Opened openBudgeted(gpu::Context& ctx, uint64_t budget, const PagedBlob& blob = 
   ClusterResidencySettings rs;
   rs.budgetBytes = budget;
   rs.prefetch = prefetch;
+  rs.uploads = uploads;
   auto r = ClusterRenderer::create(ctx, o.asset, rs);
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
   if (r.ok()) o.renderer = std::move(*r);
@@ -254,6 +256,41 @@ TEST_F(ClusterResidency, MovingCameraEvictsAndReloads) {
   }
   EXPECT_GT(evicted, 0u) << "the second view needs pages the first one's evicted";
   EXPECT_GT(loadedBack, 0u) << "coming back reloads evicted pages";
+}
+
+// Pages through the transfer queue (on lavapipe, which has none, its submissions go to the one
+// queue, apart from the frames): each page reaches the pool a frame after its batch went out, and
+// every stop of the moving camera converges to the image the in-frame uploads give, bit for bit,
+// within the budget, with pages evicted and loaded back on the way.
+TEST_F(ClusterResidency, TransferUploadsConvergeToTheFrameUploadsImages) {
+  using Uploads = ClusterResidencySettings::Uploads;
+  const PagedBlob& pair = pagedPair();
+  const Scene& scene = pair.whole.scene;
+  std::vector<ClusterRenderSettings> stops;
+  for (uint32_t i : {0u, 1u, 0u}) {
+    const Instance& inst = scene.instances[i];
+    Bounds b = scene.meshes[inst.mesh].bounds;
+    glm::vec3 shift(inst.transform[3]);
+    stops.push_back(
+        viewSettings(closeViewOf(Bounds{b.min + shift, b.max + shift}, {0.3f, 0.2f, 1.0f}, 1.6f, 0.8f, 60.0f)));
+    stops.back().tauPixels = 0.25f;
+  }
+  uint64_t budget =
+      std::max(viewBytes(context(), stops[0], pair), viewBytes(context(), stops[1], pair)) + 4 * 24 * 1024;
+  Opened frame = openBudgeted(context(), budget, pair, true, Uploads::Frame);
+  Opened transfer = openBudgeted(context(), budget, pair, true, Uploads::Transfer);
+  uint32_t inTransit = 0, evicted = 0;
+  for (size_t i = 0; i < stops.size(); ++i) {
+    auto a = converge(*frame.renderer, stops[i], budget);
+    auto b = converge(*transfer.renderer, stops[i], budget);
+    for (const ResidencyStats& f : b.frames) inTransit += f.inTransit, evicted += f.evicted;
+    for (const ResidencyStats& f : a.frames) EXPECT_EQ(f.inTransit, 0u);
+    EXPECT_EQ(b.output.stats.residency.drawnPages, a.output.stats.residency.drawnPages) << "stop " << i;
+    EXPECT_TRUE(b.output.image.srgb.pixels == a.output.image.srgb.pixels) << "stop " << i;
+    test::writeOnFailure(b.output.image.srgb, "residency_transfer" + std::to_string(i) + ".png");
+  }
+  EXPECT_GT(inTransit, 0u) << "no page went through the transfer queue";
+  EXPECT_GT(evicted, 0u);
 }
 
 // A camera cut from the overview to a close view at a fine threshold: the feedback asks for one

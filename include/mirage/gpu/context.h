@@ -71,6 +71,14 @@ public:
   VkDevice device() const { return device_; }
   VkQueue queue() const { return queue_; }
   uint32_t queueFamily() const { return queueFamily_; }
+  // A queue of a transfer-only family (the copy engines; NVIDIA has one, lavapipe none): copies
+  // there run beside the graphics queue's work. Null, and the family UINT32_MAX, where missing.
+  VkQueue transferQueue() const { return transferQueue_; }
+  uint32_t transferFamily() const { return transferFamily_; }
+  // A one-shot command buffer for the transfer queue (or queue() where there is none), begun; ended
+  // and submitted by submitTransfer (`fence`, unsignalled, signals), given back by freeOneShot.
+  VkCommandBuffer beginTransferCommands();
+  void submitTransfer(VkCommandBuffer cmd, VkFence fence);
   const DeviceCapabilities& caps() const { return caps_; }
   const VkPhysicalDeviceProperties& properties() const { return properties_; }
   Allocator& allocator() { return *allocator_; }
@@ -111,9 +119,17 @@ private:
   VkDevice device_ = VK_NULL_HANDLE;
   VkQueue queue_ = VK_NULL_HANDLE;
   uint32_t queueFamily_ = 0;
+  VkQueue transferQueue_ = VK_NULL_HANDLE;
+  uint32_t transferFamily_ = UINT32_MAX;
   // One-shot command buffers: a pool per recording thread, the pool of each buffer out, the queue.
+  struct CommandPool {
+    std::thread::id thread;
+    uint32_t family = 0;
+    VkCommandPool pool = VK_NULL_HANDLE;
+  };
+  VkCommandBuffer beginCommands(uint32_t family);
   std::mutex oneShotMutex_;
-  std::vector<std::pair<std::thread::id, VkCommandPool>> commandPools_;
+  std::vector<CommandPool> commandPools_;
   std::unordered_map<VkCommandBuffer, VkCommandPool> oneShotPool_;
   std::unique_ptr<Allocator> allocator_;
   VkPhysicalDeviceProperties properties_{};

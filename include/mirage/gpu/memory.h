@@ -75,7 +75,7 @@ public:
   explicit operator bool() const { return bool(buffer_); }
 
 private:
-  friend Buffer createBuffer(Context&, VkDeviceSize, VkBufferUsageFlags, MemoryUsage, const char*);
+  friend Buffer createBuffer(Context&, VkDeviceSize, VkBufferUsageFlags, MemoryUsage, const char*, bool);
   void release();
   Allocator* allocator_ = nullptr;
   Allocation allocation_;
@@ -111,6 +111,10 @@ private:
 // Every buffer gets SHADER_DEVICE_ADDRESS usage so shaders can reach it through a pointer.
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory,
                     const char* name);
+// withTransferQueue: shared by the queue and the transfer queue (Context::transferQueue) without
+// ownership transfers (VK_SHARING_MODE_CONCURRENT), where the device has a transfer queue.
+Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory, const char* name,
+                    bool withTransferQueue);
 // A 2D image (array layers allowed) with a view of all its mips and layers.
 Image createImage(Context& context, const VkImageCreateInfo& info, VkImageAspectFlags aspect, const char* name);
 // Convenience: a 2D image of one mip and layer.

@@ -243,6 +243,7 @@ struct ResidencyStats {
   uint32_t requested = 0;     // missing pages this frame's selection asked for
   uint32_t loaded = 0;        // pages this frame's step made resident (their reads asked for)
   uint32_t uploaded = 0;      // pages this frame uploaded (bytes arrived)
+  uint32_t inTransit = 0;     // pending pages whose bytes are on the transfer queue (async uploads)
   uint32_t evicted = 0;       // pages this frame evicted
   uint32_t unfit = 0;         // requests this frame left for later (no room or no loads left)
   bool stepped = false;       // this frame acted on feedback (false for the first frame)
@@ -259,7 +260,18 @@ struct ClusterResidencySettings {
   // cut needs (lod::prefetchFeedback per instance, frustum-culled) join each frame's feedback, so a
   // camera cut asks for all its levels at once instead of one level per frame round trip.
   bool prefetch = true;
+  // Where a page's geometry goes to the GPU (docs/render.md, "Residency"): Transfer copies it on
+  // the transfer queue (the copy engines, beside the frames' work) into device memory as soon as
+  // it is read, and a later frame moves it into the pool with a device copy; Frame copies it from
+  // host memory inside the frame that draws it first. Auto: Transfer where the device has a
+  // transfer queue (gpu::Context::transferQueue), else Frame. Transfer without one uses the queue.
+  enum class Uploads : uint8_t { Auto, Frame, Transfer };
+  Uploads uploads = Uploads::Auto;
 };
+inline constexpr EnumName<ClusterResidencySettings::Uploads> kUploadsNames[] = {
+    {ClusterResidencySettings::Uploads::Auto, "auto"},
+    {ClusterResidencySettings::Uploads::Frame, "frame"},
+    {ClusterResidencySettings::Uploads::Transfer, "transfer"}};
 
 struct ClusterStats {
   uint32_t instancesVisible = 0;         // inside the frustum with a level range (minus occlusion-culled late ones)
@@ -354,6 +366,7 @@ public:
     bool converged = false; // false: maxFrames ran out
     std::vector<ResidencyStats> frames;
     std::vector<std::chrono::steady_clock::time_point> frameEnds; // each frame's end (collected)
+    std::vector<double> frameGpuMs;                               // each frame's GPU time (its "frame" pass)
     std::vector<ImageRGBA8> frameImages;                          // readEveryFrame: each frame's image
   };
   Result<Converged> renderConverged(const ClusterRenderSettings& settings, uint32_t maxFrames = 256,

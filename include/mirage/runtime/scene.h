@@ -44,6 +44,8 @@ struct SceneOptions {
   uint64_t gpuBudget = 0;
   // With a budget: prefetch every level of a new view's cut (render::ClusterResidencySettings::prefetch).
   bool prefetch = true;
+  // With a budget: where page geometry goes to the GPU (render::ClusterResidencySettings::uploads).
+  render::ClusterResidencySettings::Uploads uploads = render::ClusterResidencySettings::Uploads::Auto;
   // Cluster LOD: how the .mrg (file or URL) is read; `bandwidthBitsPerSecond` simulates a link
   // (`--bandwidth`), for the whole load or, with a budget, the on-demand pages too.
   asset::SourceOptions source;
@@ -115,6 +117,7 @@ struct Frame {
     bool converged = false;
     std::vector<render::ResidencyStats> frames;
     std::vector<std::chrono::steady_clock::time_point> frameEnds; // each frame's end
+    std::vector<double> frameGpuMs;                               // each frame's GPU time
     std::vector<ImageRGBA8> images;                               // View::readEveryFrame: each frame's image
   };
   std::optional<Residency> residency;
