@@ -227,18 +227,18 @@ namespace {
 
 // A resumable bake of `source` into `path` that continues `records` (checked first) and keeps the
 // new records; with `stopAt`, it stops when mesh stopAt is written (its bytes durable, its record
-// not kept), as a process killed there leaves it. Returns "" or the error.
+// not kept, or kept with `recordLast`), as a process killed there leaves it. Returns "" or the error.
 std::string bakeResumable(const std::filesystem::path& path, const lod::MeshSource& source,
                           const lod::LodWriteOptions& w, std::vector<std::vector<uint8_t>>& records,
                           std::optional<uint32_t> stopAt, lod::StreamBakeReport* report = nullptr,
-                          std::vector<uint32_t>* localMeshes = nullptr) {
+                          std::vector<uint32_t>* localMeshes = nullptr, bool recordLast = false) {
   auto resume = lod::checkStreamResume(path.string(), uint32_t(source.layout.meshes.size()), records);
   if (!resume) return resume.error().message;
   lod::StreamJournal journal{std::move(resume).value(), [&](uint32_t mesh, std::span<const uint8_t> record) -> Status {
-                               if (mesh == stopAt) return Error{"stopped"};
+                               if (mesh == stopAt && !recordLast) return Error{"stopped"};
                                EXPECT_EQ(mesh, records.size());
                                records.emplace_back(record.begin(), record.end());
-                               return Ok{};
+                               return mesh == stopAt ? Status(Error{"stopped"}) : Status(Ok{});
                              }};
   lod::BuildConfig config;
   config.threads = 2;
@@ -296,6 +296,28 @@ TEST(StreamBake, ResumedAfterStopsToTheSameBytes) {
     std::filesystem::remove(path);
     EXPECT_TRUE(std::filesystem::is_empty(dir)) << "partial output or spool left";
   }
+}
+
+// Stopped after every mesh was recorded (killed while writing the last chunks): the continued bake
+// makes no mesh, only the TMAP, SCEN and META chunks, and writes the uninterrupted bytes.
+TEST(StreamBake, ResumedWithEveryMeshRecorded) {
+  auto dir = test::tempDir("stream_bake_resume_all");
+  io::ManyOptions o = smallMany();
+  ASSERT_EQ(bakeFile(dir / "whole.mrg", manySource(o), paged(), 1, {.meshesInFlight = 1}), "");
+  const auto path = dir / "out.mrg";
+  std::vector<std::vector<uint8_t>> records;
+  EXPECT_EQ(bakeResumable(path, manySource(o), paged(), records, o.count - 1, nullptr, nullptr, true), "stopped");
+  ASSERT_EQ(records.size(), o.count);
+  appendBytes(lod::streamPartialPath(path.string()), 500); // a TMAP chunk cut short
+  lod::MeshSource none = manySource(o);
+  none.mesh = [](uint32_t i) -> Result<Mesh> { return Error{"mesh " + std::to_string(i) + " made again"}; };
+  lod::StreamBakeReport report;
+  ASSERT_EQ(bakeResumable(path, none, paged(), records, std::nullopt, &report), "");
+  EXPECT_EQ(report.resumedMeshes, o.count);
+  EXPECT_EQ(fileBytes(path), fileBytes(dir / "whole.mrg"));
+  std::filesystem::remove(dir / "whole.mrg");
+  std::filesystem::remove(path);
+  EXPECT_TRUE(std::filesystem::is_empty(dir));
 }
 
 // What does not match the records is refused with one line naming the file and the mesh, and
