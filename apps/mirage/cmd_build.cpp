@@ -54,14 +54,15 @@ nlohmann::json ranksJson(const bake::ScheduleReport& r) {
 
 // gen:many: each mesh generated when a worker bakes it, chunks written as their turn comes, so the
 // memory stays that of a few meshes whatever the scene's size (lod/stream_bake.h). Under mpirun every
-// rank generates and bakes the meshes rank 0 hands it (bake/lod_stream_bake.h).
+// rank generates and bakes the meshes rank 0 hands it (bake/lod_stream_bake.h). --resume keeps the
+// partial output and a journal of the meshes written, and continues them (docs/bake.md).
 void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const bake::World& world) {
   if (o.inputs.size() != 1) return fail("gen:many is baked alone (one input)");
-  if (o.resume) return fail("--resume does not apply to gen:many (it keeps no journal)");
   if (!o.materials.empty()) return fail("--materials does not apply to gen:many");
   lod::MeshSource source;
   source.layout = io::generateManyLayout(many);
   source.mesh = [&many](uint32_t i) -> Result<Mesh> { return io::generateManyMesh(many, i); };
+  source.key = fmt::format("gen:many:{}x{}:{}", many.count, many.triangles, many.seed);
   bool showProgress = !o.quiet && isatty(STDERR_FILENO);
   auto progress = [&](size_t meshes, size_t meshCount, uint64_t, uint64_t) {
     if (!showProgress) return;
@@ -71,7 +72,10 @@ void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const 
   lod::StreamBakeReport report;
   bake::ScheduleReport ranks;
   auto t0 = std::chrono::steady_clock::now();
-  if (Status s = bake::bakeLodFile(world, source, o.output, o.config, o.write, o.stream, &report, &ranks, progress); !s)
+  bake::BakeRun run{bake::journalPath(o.output), o.resume};
+  if (Status s =
+          bake::bakeLodFile(world, source, o.output, o.config, o.write, o.stream, &report, &ranks, progress, run);
+      !s)
     return world.root() ? fail(s.error()) : setExitCode(2);
   if (!world.root()) return;
   double wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -83,6 +87,7 @@ void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const 
                         {"ranks", world.size()},
                         {"per_rank", ranksJson(ranks)},
                         {"meshes", report.meshes},
+                        {"resumed_units", report.resumedMeshes},
                         {"input_triangles", report.inputTriangles},
                         {"clusters", report.clusters},
                         {"pages", report.pages},
@@ -106,12 +111,12 @@ void runStreamedBuild(const BuildOptions& o, const io::ManyOptions& many, const 
     return;
   }
   fmt::print(
-      "built {} (streamed): {} meshes, {} input triangles, {} clusters{} in {:.2f} s wall (bake and write {:.2f} s "
+      "built {} (streamed): {} meshes{}, {} input triangles, {} clusters{} in {:.2f} s wall (bake and write {:.2f} s "
       "at {:.2f} M triangles/s, finish {:.2f} s); {} meshes in flight x {} threads, peak RSS {:.1f} MB, {} bytes\n",
-      o.output, report.meshes, report.inputTriangles, report.clusters,
-      o.write.paged ? fmt::format(", {} pages", report.pages) : "", wallSeconds, report.bakeSeconds,
-      double(report.inputTriangles) / report.bakeSeconds * 1e-6, report.finishSeconds, report.meshesInFlight,
-      report.threadsPerMesh, double(peakRss) / 1e6, report.fileBytes);
+      o.output, report.meshes, report.resumedMeshes ? fmt::format(" ({} resumed)", report.resumedMeshes) : "",
+      report.inputTriangles, report.clusters, o.write.paged ? fmt::format(", {} pages", report.pages) : "", wallSeconds,
+      report.bakeSeconds, double(report.inputTriangles) / report.bakeSeconds * 1e-6, report.finishSeconds,
+      report.meshesInFlight, report.threadsPerMesh, double(peakRss) / 1e6, report.fileBytes);
 }
 
 // Every rank runs the command: the checks on each, the import on rank 0 (all agree on its outcome
@@ -275,7 +280,10 @@ void addBuildCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("build", "Bake cluster-LOD DAGs of every mesh into a .mrg asset");
   cmd->footer("Distributed: mpirun -np N mirage build ... spreads the meshes over N processes (one .mrg, the same "
               "bytes as one process gives); finished meshes are kept in OUTPUT.journal until the output is written, "
-              "and --resume continues from it after a rank or the job died. docs/bake.md.");
+              "and --resume continues from it after a rank or the job died. gen:many journals only with --resume: "
+              "it then keeps OUTPUT.partial and OUTPUT.tmap beside the journal, and a signal (Ctrl-C, a batch "
+              "walltime's SIGTERM) leaves them for the next --resume; without it a signal leaves nothing. "
+              "docs/bake.md.");
   auto o = std::make_shared<BuildOptions>();
   cmd->add_option("inputs", o->inputs, "Scene files (.gltf .glb .obj .ply) or gen:KIND[:SIZE[:SEED]]")->required();
   cmd->add_option("-o,--output", o->output, "Output .mrg")->required();
@@ -304,7 +312,8 @@ void addBuildCommand(CLI::App& app) {
                   "gen:many: finished meshes that may wait for their turn to be written (0 = 2 x in flight)")
       ->capture_default_str();
   cmd->add_flag("--resume", o->resume,
-                "Continue a bake that died: keep the meshes finished in OUTPUT.journal, bake the rest");
+                "Continue a bake that died: keep the meshes finished in OUTPUT.journal, bake the rest (gen:many: "
+                "also makes the bake resumable)");
   cmd->add_flag("--quiet", o->quiet, "Print nothing but errors");
   cmd->add_flag("--json", o->json, "Print results as JSON");
   cmd->callback([o] { runBuild(*o); });

@@ -46,21 +46,75 @@ bool readAll(int fd, void* p, size_t n) {
 
 } // namespace
 
-Result<AssetStreamWriter> AssetStreamWriter::create(const std::string& path, uint32_t maxChunks) {
+uint64_t AssetStreamWriter::payloadStart(uint32_t maxChunks) {
+  return detail::alignUp(sizeof(FileHeader)) + uint64_t(maxChunks) * sizeof(ChunkEntry);
+}
+
+Result<AssetStreamWriter> AssetStreamWriter::open(const std::string& path, const std::string& temp, bool resumable,
+                                                  uint32_t maxChunks) {
   if (maxChunks > kMaxChunks) return makeError(path, "too many chunks (" + std::to_string(maxChunks) + ")");
   AssetStreamWriter w;
   w.path_ = path;
   w.maxChunks_ = maxChunks;
-  w.tmp_ = path + ".tmp-" + std::to_string(::getpid());
-  ::unlink(w.tmp_.c_str()); // a stale temp of ours (same pid, earlier crash)
-  w.tmpGuard_ = TempFileGuard(w.tmp_);
-  w.fd_ = ::open(w.tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  w.tmp_ = temp;
+  w.resumable_ = resumable;
+  ::unlink(w.tmp_.c_str()); // a stale temp of ours (same pid, earlier crash), or an earlier partial write
+  if (!resumable) w.tmpGuard_ = TempFileGuard(w.tmp_);
+  w.fd_ = ::open(w.tmp_.c_str(), O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
   if (w.fd_ < 0) return makeError(path, "cannot create " + w.tmp_ + ": " + errnoText(errno));
   // Header and the reserved table are written by finish(); the first payload follows them.
   w.at_ = 0;
-  if (Status s = w.padTo(detail::alignUp(sizeof(FileHeader)) + uint64_t(maxChunks) * sizeof(ChunkEntry)); !s)
-    return s.error();
+  if (Status s = w.padTo(payloadStart(maxChunks)); !s) return s.error();
+  w.marked_ = w.at_;
   return w;
+}
+
+Result<AssetStreamWriter> AssetStreamWriter::create(const std::string& path, uint32_t maxChunks) {
+  return open(path, path + ".tmp-" + std::to_string(::getpid()), false, maxChunks);
+}
+
+Result<AssetStreamWriter> AssetStreamWriter::createResumable(const std::string& path, const std::string& partial,
+                                                             uint32_t maxChunks) {
+  return open(path, partial, true, maxChunks);
+}
+
+Result<AssetStreamWriter> AssetStreamWriter::resume(const std::string& path, const std::string& partial,
+                                                    uint32_t maxChunks, std::span<const ChunkEntry> table,
+                                                    uint64_t end) {
+  if (maxChunks > kMaxChunks) return makeError(path, "too many chunks (" + std::to_string(maxChunks) + ")");
+  if (table.size() > maxChunks || end < payloadStart(maxChunks))
+    return makeError(partial, "cannot be continued: its chunks do not fit the reserved table");
+  AssetStreamWriter w;
+  w.path_ = path;
+  w.maxChunks_ = maxChunks;
+  w.tmp_ = partial;
+  w.resumable_ = true;
+  w.fd_ = ::open(w.tmp_.c_str(), O_RDWR | O_NOFOLLOW | O_CLOEXEC);
+  if (w.fd_ < 0) return makeError(partial, "cannot continue the partial output: " + errnoText(errno));
+  struct stat st {};
+  if (::fstat(w.fd_, &st) != 0 || uint64_t(st.st_size) < end)
+    return makeError(partial, "shorter than its record (" + std::to_string(end) + " bytes)");
+  // The header and table region back to zeros (a write killed in finish() may have written them).
+  std::vector<uint8_t> zeros(size_t(payloadStart(maxChunks)));
+  if (::ftruncate(w.fd_, off_t(end)) != 0 || ::pwrite(w.fd_, zeros.data(), zeros.size(), 0) != ssize_t(zeros.size()) ||
+      ::lseek(w.fd_, off_t(end), SEEK_SET) < 0)
+    return makeError(partial, "cannot continue the partial output: " + errnoText(errno));
+  w.table_.assign(table.begin(), table.end());
+  for (const ChunkEntry& e : table) w.anyBlocked_ = w.anyBlocked_ || (e.flags & kChunkBlocked);
+  w.at_ = w.marked_ = end;
+  return w;
+}
+
+Result<FileMark> AssetStreamWriter::checkpoint() {
+  if (error_) return *error_;
+  if (fd_ < 0) return failed("written already").error();
+  auto mark = markFile(fd_, tmp_, marked_, at_);
+  if (!mark) {
+    error_ = mark.error();
+    return *error_;
+  }
+  marked_ = at_;
+  return mark;
 }
 
 AssetStreamWriter::AssetStreamWriter(AssetStreamWriter&& o) noexcept { *this = std::move(o); }
@@ -69,12 +123,13 @@ AssetStreamWriter& AssetStreamWriter::operator=(AssetStreamWriter&& o) noexcept 
   if (this == &o) return *this;
   if (fd_ >= 0) {
     ::close(fd_);
-    ::unlink(tmp_.c_str());
+    if (!resumable_) ::unlink(tmp_.c_str());
   }
   path_ = std::move(o.path_), tmp_ = std::move(o.tmp_);
   tmpGuard_ = std::move(o.tmpGuard_);
   fd_ = std::exchange(o.fd_, -1);
-  maxChunks_ = o.maxChunks_, at_ = o.at_;
+  resumable_ = o.resumable_;
+  maxChunks_ = o.maxChunks_, at_ = o.at_, marked_ = o.marked_;
   table_ = std::move(o.table_);
   anyBlocked_ = o.anyBlocked_;
   error_ = std::move(o.error_);
@@ -84,7 +139,7 @@ AssetStreamWriter& AssetStreamWriter::operator=(AssetStreamWriter&& o) noexcept 
 AssetStreamWriter::~AssetStreamWriter() {
   if (fd_ < 0) return;
   ::close(fd_);
-  ::unlink(tmp_.c_str());
+  if (!resumable_) ::unlink(tmp_.c_str());
 }
 
 Status AssetStreamWriter::failed(const std::string& problem) {

@@ -1,28 +1,9 @@
 #include "mirage/bake/lod_bake.h"
 
-#include <xxhash.h>
-
+#include "hasher.h"
 #include "mirage/lod/baked_mesh.h"
 
 namespace mirage::bake {
-
-namespace {
-
-struct Hasher {
-  Hasher() : state(XXH3_createState()) { XXH3_64bits_reset(state); }
-  ~Hasher() { XXH3_freeState(state); }
-  Hasher(const Hasher&) = delete;
-  Hasher& operator=(const Hasher&) = delete;
-  template <class T> void add(std::span<const T> values) {
-    uint64_t n = values.size();
-    XXH3_64bits_update(state, &n, sizeof n);
-    XXH3_64bits_update(state, values.data(), values.size_bytes());
-  }
-  template <class T> void add(const T& value) { add(std::span<const T>(&value, 1)); }
-  XXH3_state_t* state;
-};
-
-} // namespace
 
 uint64_t lodFingerprint(const Scene& scene, const lod::BuildConfig& config) {
   Hasher h;
@@ -36,7 +17,7 @@ uint64_t lodFingerprint(const Scene& scene, const lod::BuildConfig& config) {
     h.add(std::span<const glm::vec3>(m.positions)), h.add(std::span<const glm::vec3>(m.normals));
     h.add(std::span<const glm::vec2>(m.uv0)), h.add(std::span<const uint32_t>(m.indices));
   }
-  return XXH3_64bits_digest(h.state);
+  return h.digest();
 }
 
 Result<lod::LodAsset> bakeLodAsset(const World& world, const Scene& scene, lod::BuildConfig config, const BakeRun& run,

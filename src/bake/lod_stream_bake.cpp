@@ -8,9 +8,17 @@
 #include <cstring>
 #include <deque>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <tbb/task_arena.h>
+#include <unistd.h>
+
+#include "hasher.h"
+#include "mirage/bake/journal.h"
+#include "mirage/lod/dag_codec.h"
+#include "mirage/lod/paged_asset.h"
+#include "mirage/lod/paging.h"
 
 namespace mirage::bake {
 
@@ -159,19 +167,100 @@ private:
   std::vector<std::vector<uint32_t>> units_;
 };
 
+// Rank 0's side of a resumable bake: the journal, continued after the meshes it records (checked
+// against the partial output and spool by lod::checkStreamResume), and what the lod bake resumes.
+struct ResumableBake {
+  Journal journal;
+  lod::StreamResume resume;
+};
+
+Result<ResumableBake> openResumable(const lod::MeshSource& source, const std::string& path,
+                                    const lod::BuildConfig& config, const lod::LodWriteOptions& write,
+                                    const BakeRun& run) {
+  if (source.key.empty()) return makeError(path, "this scene's bake cannot be resumed");
+  const uint32_t meshCount = uint32_t(source.layout.meshes.size());
+  const uint64_t print = streamFingerprint(source, config, write);
+  auto read = readJournal(run.journal, print, meshCount);
+  if (!read) return read.error();
+  std::vector<std::vector<uint8_t>> records;
+  for (JournalEntry& e : read->entries) {
+    if (e.unit != records.size()) // meshes are written, so journaled, in order
+      return makeError(run.journal, "damaged bake journal (mesh " + std::to_string(e.unit) + " recorded after mesh " +
+                                        std::to_string(records.size()) + " was not): remove it and bake again");
+    records.push_back(std::move(e.bytes));
+  }
+  auto resume = lod::checkStreamResume(path, meshCount, records);
+  if (!resume) return resume.error();
+  auto journal = Journal::open(run.journal, print, meshCount, read->validBytes);
+  if (!journal) return journal.error();
+  return ResumableBake{std::move(journal).value(), std::move(resume).value()};
+}
+
+// Rank 0, after the bake: a resumable bake's files go once the output is written or the bake failed
+// with an error (a kill never gets here); a bake without resume removes an earlier one's at the end.
+void closeRun(const Status& baked, const std::string& path, const BakeRun& run,
+              std::optional<ResumableBake>& resumable) {
+  if (resumable) {
+    resumable->journal.remove();
+    if (!baked) lod::removeStreamFiles(path);
+  } else if (baked && !run.journal.empty()) {
+    ::unlink(run.journal.c_str());
+    lod::removeStreamFiles(path);
+  }
+}
+
 } // namespace
+
+uint64_t streamFingerprint(const lod::MeshSource& source, const lod::BuildConfig& config,
+                           const lod::LodWriteOptions& write) {
+  Hasher h;
+  h.add(std::span<const char>(std::string_view("mirage build gen:many: stream journal")));
+  h.add(lod::kStreamRecordVersion), h.add(lod::kDagCodecVersion), h.add(lod::kPagedChunkVersion);
+  h.add(lod::kPageCodecVersion);
+  h.add(std::span<const char>(source.key));
+  h.add(config.clusterTriangles), h.add(config.clusterVertices), h.add(config.groupClusters);
+  h.add(config.coarseGroupsFromLevel), h.add(config.coarserGroupsFromLevel), h.add(config.stuckRatio);
+  h.add(config.normalWeight), h.add(config.rootClusters), h.add(config.maxLevels);
+  h.add(uint8_t(write.paged)), h.add(write.dag.positionBits), h.add(write.pages.pageBytes);
+  h.add(uint64_t(source.layout.meshes.size()));
+  for (const Mesh& m : source.layout.meshes) h.add(std::span<const char>(m.name));
+  return h.digest();
+}
 
 Status bakeLodFile(const World& world, const lod::MeshSource& source, const std::string& path, lod::BuildConfig config,
                    const lod::LodWriteOptions& write, const lod::StreamBakeOptions& options,
-                   lod::StreamBakeReport* report, ScheduleReport* ranks, const lod::BuildProgress& progress) {
+                   lod::StreamBakeReport* report, ScheduleReport* ranks, const lod::BuildProgress& progress,
+                   const BakeRun& run) {
+  // Rank 0 opens the journal first: a refused one stops the bake before any rank bakes.
+  std::optional<ResumableBake> resumable;
+  lod::StreamJournal journal;
+  Status opened = Ok{};
+  if (world.root() && run.resume && !run.journal.empty()) {
+    auto r = openResumable(source, path, config, write, run);
+    if (r) {
+      resumable.emplace(std::move(r).value());
+      journal.resume = std::move(resumable->resume);
+      journal.commit = [&](uint32_t mesh, std::span<const uint8_t> record) {
+        return resumable->journal.append(mesh, record);
+      };
+    } else {
+      opened = r.error();
+    }
+  }
+  const lod::StreamJournal* resume = resumable ? &journal : nullptr;
+  lod::StreamBakeReport mesh;
   if (world.size() == 1) {
     std::vector<uint32_t> local;
     auto t0 = Clock::now();
-    Status s = lod::bakeLodFile(source, path, config, write, options, report, progress, nullptr, &local);
+    if (!opened) return opened;
+    Status s = lod::bakeLodFile(source, path, config, write, options, &mesh, progress, nullptr, &local, resume);
+    closeRun(s, path, run, resumable);
     if (s && ranks) {
       ranks->ranks.assign(1, RankReport{local, 0.0});
+      ranks->resumedUnits = mesh.resumedMeshes;
       ranks->seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     }
+    if (s && report) *report = mesh;
     return s;
   }
   if (config.threads == 0) config.threads = world.threadShare();
@@ -180,13 +269,18 @@ Status bakeLodFile(const World& world, const lod::MeshSource& source, const std:
   lod::RemoteMeshBakers bakers{[&](const auto& take, const auto& deliver) { remote.pump(take, deliver); }};
   std::vector<uint32_t> local;
   auto t0 = Clock::now();
-  Status mine = lod::bakeLodFile(source, path, config, write, options, report, progress, &bakers, &local);
+  Status mine = opened
+                    ? lod::bakeLodFile(source, path, config, write, options, &mesh, progress, &bakers, &local, resume)
+                    : opened;
   remote.stop();
+  if (opened) closeRun(mine, path, run, resumable);
   if (Status all = world.agree(mine); !all) return all;
+  if (report) *report = mesh;
   if (ranks) {
     ranks->ranks.assign(size_t(world.size()), RankReport{});
     ranks->ranks[0].units = std::move(local);
     for (int r = 1; r < world.size(); ++r) ranks->ranks[size_t(r)].units = std::move(remote.units()[size_t(r)]);
+    ranks->resumedUnits = mesh.resumedMeshes;
     ranks->seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   }
   return Ok{};

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "asset_parts.h"
+#include "stream_resume.h"
 #include "mirage/core/temp_files.h"
 #include "mirage/asset/container.h"
 #include "mirage/asset/scene_chunk.h"
@@ -133,16 +134,73 @@ Result<EncodedMesh> decodeMesh(std::span<const uint8_t> bytes, const std::string
   return e;
 }
 
-// Removes the spool file when the bake ends, however it ends.
+// The TMAP sections in mesh order. Removed when the bake ends, however it ends (a signal too),
+// unless resumable: then kept for a later process (its owner removes it).
 struct SpoolFile {
-  std::string path;
-  TempFileGuard guard{path}; // and when a signal stops the process
-  std::FILE* file = nullptr;
+  SpoolFile(std::string p, bool resumable) : path(std::move(p)), keep(resumable) {
+    if (!keep) guard = TempFileGuard(path);
+  }
+  SpoolFile(const SpoolFile&) = delete;
+  SpoolFile& operator=(const SpoolFile&) = delete;
   ~SpoolFile() {
     if (file) std::fclose(file);
-    if (!path.empty()) std::remove(path.c_str());
+    if (!keep && !path.empty()) std::remove(path.c_str());
   }
+  bool write(std::span<const uint8_t> bytes) {
+    bytes_ += bytes.size();
+    return std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
+  }
+  // Durable up to here: the mark of the sections since the previous one.
+  Result<asset::FileMark> mark() {
+    if (std::fflush(file) != 0) return makeError(path, "cannot write");
+    auto m = asset::markFile(::fileno(file), path, marked_, bytes_);
+    if (m) marked_ = bytes_;
+    return m;
+  }
+  // Continues after `end`, the last mark (whose bytes were checked), cutting off what follows.
+  bool resume(uint64_t end) {
+    if (::truncate(path.c_str(), off_t(end)) != 0) return false;
+    file = std::fopen(path.c_str(), "a+b"); // read too: marks read back what was written
+    bytes_ = marked_ = end;
+    return file != nullptr;
+  }
+
+  std::string path;
+  bool keep = false;
+  TempFileGuard guard; // while not resumable: removed when a signal stops the process
+  std::FILE* file = nullptr;
+
+private:
+  uint64_t bytes_ = 0, marked_ = 0;
 };
+
+// The writer: of a bake without a journal, of a new resumable one, or of one continued after the
+// meshes it resumes.
+Result<asset::AssetStreamWriter> openWriter(const std::string& path, uint32_t chunks, const StreamJournal* journal) {
+  if (!journal) return asset::AssetStreamWriter::create(path, chunks);
+  const std::vector<StreamMeshRecord>& resumed = journal->resume.meshes;
+  if (resumed.empty()) return asset::AssetStreamWriter::createResumable(path, streamPartialPath(path), chunks);
+  std::vector<asset::ChunkEntry> table;
+  for (const StreamMeshRecord& m : resumed) table.push_back(m.chunk);
+  return asset::AssetStreamWriter::resume(path, streamPartialPath(path), chunks, table, resumed.back().file.end);
+}
+
+// A resumable bake's mesh `i`, just written: the partial output and spool made durable, then its
+// record handed to the journal.
+Status commit(const StreamJournal& journal, uint32_t i, asset::AssetStreamWriter& writer, SpoolFile& spool,
+              const EncodedMesh& e) {
+  StreamMeshRecord record;
+  auto spoolMark = spool.mark();
+  if (!spoolMark) return spoolMark.error();
+  auto fileMark = writer.checkpoint();
+  if (!fileMark) return fileMark.error();
+  record.chunk = writer.table().back();
+  record.file = *fileMark, record.spool = *spoolMark;
+  record.bounds = e.bounds;
+  record.stats = nlohmann::json::to_cbor(e.stats);
+  record.triangles = e.triangles, record.clusters = e.clusters, record.pages = e.pages;
+  return journal.commit(i, encodeStreamRecord(record));
+}
 
 } // namespace
 
@@ -165,11 +223,12 @@ Result<std::vector<uint8_t>> bakeStreamMesh(const MeshSource& source, uint32_t i
 
 Status bakeLodFile(const MeshSource& source, const std::string& path, const BuildConfig& config,
                    const LodWriteOptions& write, const StreamBakeOptions& options, StreamBakeReport* report,
-                   const BuildProgress& progress, const RemoteMeshBakers* remote, std::vector<uint32_t>* localMeshes) {
+                   const BuildProgress& progress, const RemoteMeshBakers* remote, std::vector<uint32_t>* localMeshes,
+                   const StreamJournal* journal) {
   auto t0 = std::chrono::steady_clock::now();
   const uint32_t meshCount = uint32_t(source.layout.meshes.size());
   if (meshCount == 0) return makeError(path, "the scene has no meshes");
-  if (meshCount + 3 > asset::kMaxChunks)
+  if (streamChunkCount(meshCount) > asset::kMaxChunks)
     return makeError(path, "too many meshes for one file (" + std::to_string(meshCount) + ")");
   const StreamShare share = streamShare(config, options, meshCount);
   const uint32_t inFlight = share.meshesInFlight;
@@ -179,20 +238,48 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   StreamBakeReport r;
   r.meshes = meshCount, r.meshesInFlight = inFlight, r.reorderWindow = window, r.threadsPerMesh = meshConfig.threads;
 
-  // Chunks: one per mesh, the source map, the scene, META.
-  auto writer = asset::AssetStreamWriter::create(path, meshCount + 3);
+  const std::vector<StreamMeshRecord> noMeshes;
+  const std::vector<StreamMeshRecord>& resumed = journal ? journal->resume.meshes : noMeshes;
+  if (resumed.size() > meshCount) return makeError(path, "more meshes resumed than the scene has");
+  r.resumedMeshes = uint32_t(resumed.size());
+  auto writer = openWriter(path, streamChunkCount(meshCount), journal);
   if (!writer) return writer.error();
-  SpoolFile spool{path + ".tmap-" + std::to_string(::getpid())};
-  spool.file = std::fopen(spool.path.c_str(), "wb");
-  if (!spool.file) return makeError(path, "cannot create " + spool.path);
-  asset::ByteWriter mapHeader = sourceMapHeader(meshCount);
-  bool spoolOk = std::fwrite(mapHeader.data().data(), 1, mapHeader.size(), spool.file) == mapHeader.size();
+  SpoolFile spool(journal ? streamSpoolPath(path) : path + ".tmap-" + std::to_string(::getpid()), journal != nullptr);
+  bool spoolOk = true;
+  if (!resumed.empty()) {
+    if (!spool.resume(resumed.back().spool.end)) return makeError(path, "cannot continue " + spool.path);
+  } else {
+    spool.file = std::fopen(spool.path.c_str(), journal ? "w+b" : "wb");
+    if (!spool.file) return makeError(path, "cannot create " + spool.path);
+    spoolOk = spool.write(sourceMapHeader(meshCount).data());
+  }
 
+  Scene scene; // the layout with every mesh's bounds: the SCEN chunk (no geometry)
+  scene.source = source.layout.source;
+  scene.materials = source.layout.materials;
+  scene.textures = source.layout.textures;
+  scene.instances = source.layout.instances;
+  scene.lights = source.layout.lights;
+  nlohmann::json stats = nlohmann::json::array();
+  auto addMesh = [&](uint32_t i, const Bounds& bounds, nlohmann::json meshStats, uint64_t triangles, uint64_t clusters,
+                     uint64_t pages) {
+    const Mesh& layoutMesh = source.layout.meshes[i];
+    scene.meshes.push_back(Mesh{layoutMesh.name, {}, {}, {}, {}, {}, {}, layoutMesh.material, bounds});
+    stats.push_back(std::move(meshStats));
+    r.inputTriangles += triangles, r.clusters += clusters, r.pages += pages;
+  };
+  for (uint32_t i = 0; i < r.resumedMeshes; ++i) {
+    const StreamMeshRecord& e = resumed[i];
+    nlohmann::json meshStats = nlohmann::json::from_cbor(e.stats, true, false);
+    if (meshStats.is_discarded()) return makeError(path, "mesh " + std::to_string(i) + ": statistics do not decode");
+    addMesh(i, e.bounds, std::move(meshStats), e.triangles, e.clusters, e.pages);
+  }
+  if (progress && r.resumedMeshes) progress(r.resumedMeshes, meshCount, r.resumedMeshes, meshCount);
   // Workers take meshes in order while they are fewer than `window` ahead of the writer; each
   // finished mesh waits in `done` until the writer (this thread) reaches it.
   std::mutex m;
   std::condition_variable cv;
-  uint32_t next = 0, written = 0, busy = 0;
+  uint32_t next = r.resumedMeshes, written = r.resumedMeshes, busy = 0; // resumed meshes: not baked again
   std::map<uint32_t, EncodedMesh> done;
   std::optional<Error> error;
   // Under m: the next mesh may start (local worker or remote), within the window of the writer.
@@ -225,13 +312,6 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   std::vector<std::thread> workers;
   for (uint32_t w = 0; w < inFlight; ++w) workers.emplace_back(work);
 
-  Scene scene; // the layout with every mesh's bounds: the SCEN chunk (no geometry)
-  scene.source = source.layout.source;
-  scene.materials = source.layout.materials;
-  scene.textures = source.layout.textures;
-  scene.instances = source.layout.instances;
-  scene.lights = source.layout.lights;
-  nlohmann::json stats = nlohmann::json::array();
   // Remote workers take meshes under the same window and deliver them into `done` (pumped by this
   // thread between writes, at least every millisecond while it waits).
   RemoteMeshBakers::Take take = [&]() -> std::optional<uint32_t> {
@@ -273,11 +353,9 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
     }
     status = write.paged ? writer->addBlockedChunk(asset::chunk::ClusterPages, e.pagedPayload, 9)
                          : writer->addStoredChunk(e.dagChunk);
-    spoolOk = spoolOk && std::fwrite(e.sourceMap.data(), 1, e.sourceMap.size(), spool.file) == e.sourceMap.size();
-    const Mesh& layoutMesh = source.layout.meshes[written];
-    scene.meshes.push_back(Mesh{layoutMesh.name, {}, {}, {}, {}, {}, {}, layoutMesh.material, e.bounds});
-    stats.push_back(std::move(e.stats));
-    r.inputTriangles += e.triangles, r.clusters += e.clusters, r.pages += e.pages;
+    spoolOk = spoolOk && spool.write(e.sourceMap);
+    if (journal && status && spoolOk) status = commit(*journal, written, *writer, spool, e);
+    addMesh(written, e.bounds, std::move(e.stats), e.triangles, e.clusters, e.pages);
     r.makeSeconds += e.seconds[0], r.meshBakeSeconds += e.seconds[1];
     r.encodeSeconds += e.seconds[2], r.readBackSeconds += e.seconds[3];
     std::lock_guard lock(m);
@@ -300,8 +378,10 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   auto t1 = std::chrono::steady_clock::now();
   if (std::fclose(std::exchange(spool.file, nullptr)) != 0) return makeError(path, "cannot write " + spool.path);
   if (Status s = writer->addChunkFromFile(asset::chunk::SourceMap, spool.path); !s) return s;
-  std::remove(spool.path.c_str());
-  spool.path.clear();
+  if (!journal) { // resumable: kept until the output is in place (a kill before that resumes from it)
+    std::remove(spool.path.c_str());
+    spool.path.clear();
+  }
   if (Status s = asset::validateScene(scene, path); !s) return s;
   if (Status s = writer->addChunk(asset::chunk::Scene, asset::encodeScene(scene)); !s) return s;
   std::string meta = lodMetaJson(source.layout.source, config, std::move(stats));
@@ -323,6 +403,7 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
     return Ok{};
   });
   if (!finished) return finished;
+  if (journal) std::remove(spool.path.c_str());
   r.finishSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   if (report) *report = r;
   return Ok{};

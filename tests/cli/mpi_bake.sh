@@ -2,9 +2,12 @@
 # The distributed bake (docs/bake.md): `mpirun -np 4 --oversubscribe mirage build` writes the bytes
 # one process writes (cmp) and reports ranks and per-rank units (every mesh exactly once); a bake
 # killed mid-way (one process alone; a worker rank of four; rank 0 of four) continues with --resume
-# to the same bytes; bad input under mpirun prints one error line, every rank exits non-zero, and neither an
-# output nor a journal is left. `surfels --per-mesh` on 4 ranks (lavapipe each) and `pvs` (8 cells,
-# Embree on each rank) and the streaming `build gen:many` write the bytes one process writes. Without mpirun (or in a build without MPI) the single-process parts run.
+# to the same bytes; bad input under mpirun prints one error line, every rank exits non-zero, and
+# neither an output nor a journal is left. `surfels --per-mesh` on 4 ranks (lavapipe each) and `pvs`
+# (8 cells, Embree on each rank) and the streaming `build gen:many` write the bytes one process
+# writes. The streaming build with --resume killed the same ways (one process; a worker and rank 0
+# of two) resumes to the uninterrupted bytes, baking no resumed mesh again, and refuses another
+# bake's journal. Without mpirun (or in a build without MPI) the single-process parts run.
 # Usage: mpi_bake.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -59,14 +62,19 @@ rank_matching() {
 some_worker() { rank_matching "$1" '[1-9][0-9]*'; } # a rank that bakes what rank 0 hands it
 coordinator() { rank_matching "$1" 0; }              # rank 0: the queue and the journal
 
-# resumed_ok NAME OUTPUT: the last run resumed at least one mesh and wrote the reference's bytes.
+# resumed_ok NAME OUTPUT [REFERENCE]: the last run resumed at least one mesh, no rank baked a resumed
+# mesh again (gen:many resumes meshes 0..K-1) and every other mesh once, and it wrote the
+# reference's bytes (reference.mrg by default); neither the journal nor a partial output is left.
 resumed_ok() {
   check "$1-resumed" python3 -c "
 import json; j = json.load(open('$tmp/stdout'))
 assert 1 <= j['resumed_units'] <= j['meshes'], j['resumed_units']
+if j.get('streamed'):
+    units = sorted(u for r in j['per_rank'] for u in r['units'])
+    assert units == list(range(j['resumed_units'], j['meshes'])), units
 print('$1: resumed', j['resumed_units'], 'of', j['meshes'], 'meshes')"
-  check "$1-same-bytes" cmp "$tmp/reference.mrg" "$2"
-  check "$1-journal-removed" test ! -e "$2.journal"
+  check "$1-same-bytes" cmp "${3:-$tmp/reference.mrg}" "$2"
+  check "$1-journal-removed" test ! -e "$2.journal" -a ! -e "$2.partial" -a ! -e "$2.tmap"
 }
 
 # One process: the reference, its journal removed after the write, and a killed bake resumed.
@@ -87,6 +95,22 @@ assert sorted(j['per_rank'][0]['units']) == list(range(24)), j['per_rank']"
   also_fixed="other.mrg.journal" expect_fail other-journal "journal of another bake" "" -- \
     build "${inputs[@]}" -o "$tmp/other.mrg" --normal-weight 3 --resume
   check other-no-output test ! -e "$tmp/other.mrg"
+fi
+
+# The streaming gen:many build with --resume (its partial output and spool kept beside the journal):
+# killed mid-bake, resumed to the uninterrupted bytes; another bake's journal refused and left as it is.
+stream_args=(build gen:many:16x40000 --paged --threads 1)
+if expect_ok stream-reference "${stream_args[@]}" -o "$tmp/stream-reference.mrg" --quiet; then
+  kill_mid_bake stream-single itself "$tmp/stream.mrg" "$mirage" "${stream_args[@]}" -o "$tmp/stream.mrg" --resume
+  check stream-single-partial-kept test -s "$tmp/stream.mrg.partial" -a -s "$tmp/stream.mrg.tmap"
+  expect_ok stream-single-resume "${stream_args[@]}" -o "$tmp/stream.mrg" --resume --json &&
+    resumed_ok stream-single "$tmp/stream.mrg" "$tmp/stream-reference.mrg"
+  kill_mid_bake stream-other itself "$tmp/stream-other.mrg" "$mirage" "${stream_args[@]}" \
+    -o "$tmp/stream-other.mrg" --resume
+  also_fixed="stream-other.mrg.journal: journal of another bake" expect_fail stream-other-journal \
+    "journal of another bake" "" -- "${stream_args[@]}" -o "$tmp/stream-other.mrg" --normal-weight 3 --resume
+  check stream-other-left-as-it-is test -s "$tmp/stream-other.mrg.partial" -a -s "$tmp/stream-other.mrg.journal"
+  check stream-other-no-output test ! -e "$tmp/stream-other.mrg"
 fi
 
 if ! command -v mpirun >/dev/null; then
@@ -147,6 +171,22 @@ assert units == list(range($units)), units"
   if expect_ok many-one "${many_args[@]}" -o "$tmp/many1.mrg" --quiet; then
     mpi_matches many-mpi "$tmp/many1.mrg" "$tmp/many4.mrg" 10 "${many_args[@]}" --json
   fi
+
+  # The streaming build with --resume on 2 ranks: a worker killed (mpirun ends the job with SIGTERM,
+  # which leaves rank 0's partial output), and rank 0 killed mid-write; each resumed on 2 ranks to the
+  # one-process bytes, no rank baking a resumed mesh again.
+  mpi2=(mpirun -np 2 --oversubscribe)
+  for victim in some_worker coordinator; do
+    [ -e "$tmp/stream-reference.mrg" ] || break
+    out="$tmp/stream-$victim.mrg"
+    kill_mid_bake "stream-mpi-kill-$victim" $victim "$out" "${mpi2[@]}" "$mirage" "${stream_args[@]}" -o "$out" --resume
+    if "${mpi2[@]}" "$mirage" "${stream_args[@]}" -o "$out" --resume --json >"$tmp/stdout" 2>"$tmp/stderr"; then
+      pass=$((pass + 1))
+      resumed_ok "stream-mpi-$victim" "$out" "$tmp/stream-reference.mrg"
+    else
+      fail "stream-mpi-resume-$victim: exit non-zero: $(head -c 600 "$tmp/stderr")"
+    fi
+  done
 
   # Bad input: each rank's exit status recorded; one error line in all.
   for bad in "missing-file:$tmp/missing.obj" "bad-option:gen:blob:2 --cluster-triangles 6"; do

@@ -3,7 +3,8 @@
 // its bytes do not depend on threads, meshes in flight or the order meshes finish in, the counters
 // the memory bound rests on stay within their limits, a failing mesh leaves nothing behind, and a
 // residency reader of the file reads only indices and root pages; meshes baked elsewhere (remote
-// bakers) keep the bytes.
+// bakers) keep the bytes; a resumable bake stopped mid-way continues to the same bytes, and refuses
+// files that do not match its records.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -11,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numeric>
+#include <optional>
 #include <thread>
 
 #include "mirage/asset/container.h"
@@ -219,6 +221,157 @@ TEST(StreamBake, RemoteBakersKeepTheBytes) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("rank 1: mesh cannot be baked"), std::string::npos) << s.error().message;
   EXPECT_TRUE(std::filesystem::is_empty(dir)) << "output, temp or spool file left";
+}
+
+namespace {
+
+// A resumable bake of `source` into `path` that continues `records` (checked first) and keeps the
+// new records; with `stopAt`, it stops when mesh stopAt is written (its bytes durable, its record
+// not kept, or kept with `recordLast`), as a process killed there leaves it. Returns "" or the error.
+std::string bakeResumable(const std::filesystem::path& path, const lod::MeshSource& source,
+                          const lod::LodWriteOptions& w, std::vector<std::vector<uint8_t>>& records,
+                          std::optional<uint32_t> stopAt, lod::StreamBakeReport* report = nullptr,
+                          std::vector<uint32_t>* localMeshes = nullptr, bool recordLast = false) {
+  auto resume = lod::checkStreamResume(path.string(), uint32_t(source.layout.meshes.size()), records);
+  if (!resume) return resume.error().message;
+  lod::StreamJournal journal{std::move(resume).value(), [&](uint32_t mesh, std::span<const uint8_t> record) -> Status {
+                               if (mesh == stopAt && !recordLast) return Error{"stopped"};
+                               EXPECT_EQ(mesh, records.size());
+                               records.emplace_back(record.begin(), record.end());
+                               return mesh == stopAt ? Status(Error{"stopped"}) : Status(Ok{});
+                             }};
+  lod::BuildConfig config;
+  config.threads = 2;
+  Status s = lod::bakeLodFile(source, path.string(), config, w, {.meshesInFlight = 2}, report, {}, nullptr, localMeshes,
+                              &journal);
+  return s.ok() ? "" : s.error().message;
+}
+
+void appendBytes(const std::filesystem::path& p, size_t n) { // what a process killed mid-write leaves
+  std::ofstream(p, std::ios::binary | std::ios::app) << std::string(n, '\x5a');
+}
+
+} // namespace
+
+// A resumable bake stopped after K meshes (the meshes after K baked or in flight, mesh K's bytes
+// written but not recorded, then bytes of a half-written mesh) continues, twice, to the bytes of an
+// uninterrupted bake, flat and paged; the continued bake makes no mesh it resumed, and leaves only the
+// output behind.
+TEST(StreamBake, ResumedAfterStopsToTheSameBytes) {
+  auto dir = test::tempDir("stream_bake_resume");
+  io::ManyOptions o = smallMany();
+  for (bool isPaged : {true, false}) {
+    lod::LodWriteOptions w = isPaged ? paged() : lod::LodWriteOptions{};
+    SCOPED_TRACE(isPaged ? "paged" : "flat");
+    ASSERT_EQ(bakeFile(dir / "whole.mrg", manySource(o), w, 1, {.meshesInFlight = 1}), "");
+    const auto path = dir / "out.mrg";
+    std::vector<std::vector<uint8_t>> records;
+    EXPECT_EQ(bakeResumable(path, manySource(o), w, records, 2), "stopped");
+    ASSERT_EQ(records.size(), 2u);
+    EXPECT_FALSE(std::filesystem::exists(path));
+    ASSERT_TRUE(std::filesystem::exists(lod::streamPartialPath(path.string())));
+    appendBytes(lod::streamPartialPath(path.string()), 3000);
+    appendBytes(lod::streamSpoolPath(path.string()), 17);
+    EXPECT_EQ(bakeResumable(path, manySource(o), w, records, 4), "stopped");
+    ASSERT_EQ(records.size(), 4u);
+
+    std::atomic<uint32_t> lowestMade{~0u};
+    lod::MeshSource source = manySource(o);
+    source.mesh = [&, o](uint32_t i) -> Result<Mesh> {
+      for (uint32_t l = lowestMade.load(); i < l && !lowestMade.compare_exchange_weak(l, i);) {
+      }
+      return io::generateManyMesh(o, i);
+    };
+    lod::StreamBakeReport report;
+    std::vector<uint32_t> local;
+    ASSERT_EQ(bakeResumable(path, source, w, records, std::nullopt, &report, &local), "");
+    EXPECT_EQ(fileBytes(path), fileBytes(dir / "whole.mrg"));
+    EXPECT_EQ(records.size(), o.count);
+    EXPECT_EQ(report.resumedMeshes, 4u);
+    EXPECT_EQ(lowestMade.load(), 4u);
+    EXPECT_EQ(local.size(), o.count - 4);
+    EXPECT_EQ(report.meshes, o.count);
+    EXPECT_EQ(report.inputTriangles, uint64_t(o.count) * 12 * 12 * 20); // every mesh of the file
+    std::filesystem::remove(dir / "whole.mrg");
+    std::filesystem::remove(path);
+    EXPECT_TRUE(std::filesystem::is_empty(dir)) << "partial output or spool left";
+  }
+}
+
+// Stopped after every mesh was recorded (killed while writing the last chunks): the continued bake
+// makes no mesh, only the TMAP, SCEN and META chunks, and writes the uninterrupted bytes.
+TEST(StreamBake, ResumedWithEveryMeshRecorded) {
+  auto dir = test::tempDir("stream_bake_resume_all");
+  io::ManyOptions o = smallMany();
+  ASSERT_EQ(bakeFile(dir / "whole.mrg", manySource(o), paged(), 1, {.meshesInFlight = 1}), "");
+  const auto path = dir / "out.mrg";
+  std::vector<std::vector<uint8_t>> records;
+  EXPECT_EQ(bakeResumable(path, manySource(o), paged(), records, o.count - 1, nullptr, nullptr, true), "stopped");
+  ASSERT_EQ(records.size(), o.count);
+  appendBytes(lod::streamPartialPath(path.string()), 500); // a TMAP chunk cut short
+  lod::MeshSource none = manySource(o);
+  none.mesh = [](uint32_t i) -> Result<Mesh> { return Error{"mesh " + std::to_string(i) + " made again"}; };
+  lod::StreamBakeReport report;
+  ASSERT_EQ(bakeResumable(path, none, paged(), records, std::nullopt, &report), "");
+  EXPECT_EQ(report.resumedMeshes, o.count);
+  EXPECT_EQ(fileBytes(path), fileBytes(dir / "whole.mrg"));
+  std::filesystem::remove(dir / "whole.mrg");
+  std::filesystem::remove(path);
+  EXPECT_TRUE(std::filesystem::is_empty(dir));
+}
+
+// What does not match the records is refused with one line naming the file and the mesh, and
+// nothing is changed: a byte of the partial output or spool flipped, a file missing, a record cut
+// short. A bake that fails keeps its files for its owner (bake::bakeLodFile removes them).
+TEST(StreamBake, ResumeRefusesWhatDoesNotMatchItsRecords) {
+  auto dir = test::tempDir("stream_bake_resume_damaged");
+  io::ManyOptions o = smallMany();
+  const auto path = dir / "out.mrg";
+  const std::string partial = lod::streamPartialPath(path.string()), spool = lod::streamSpoolPath(path.string());
+  std::vector<std::vector<uint8_t>> records;
+  EXPECT_EQ(bakeResumable(path, manySource(o), paged(), records, 3), "stopped");
+  ASSERT_EQ(records.size(), 3u);
+  auto refused = [&](const std::vector<std::vector<uint8_t>>& r) {
+    auto resume = lod::checkStreamResume(path.string(), o.count, r);
+    return resume ? std::string() : resume.error().message;
+  };
+  EXPECT_EQ(refused(records), "");
+  const std::vector<uint8_t> partialBytes = fileBytes(partial), spoolBytes = fileBytes(spool);
+  uint64_t mesh1 = lod::checkStreamResume(path.string(), o.count, records)->meshes[1].file.end - 10; // its chunk
+  test::flipByte(partial, mesh1);
+  std::string message = refused(records);
+  EXPECT_NE(message.find(partial + ": mesh 1's bytes differ from the journal"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+  test::flipByte(partial, mesh1);
+  uint64_t map2 = lod::checkStreamResume(path.string(), o.count, records)->meshes[2].spool.end - 1; // its TMAP
+  test::flipByte(spool, map2);
+  message = refused(records);
+  EXPECT_NE(message.find(spool + ": mesh 2's bytes differ"), std::string::npos) << message;
+  test::flipByte(spool, map2);
+  EXPECT_EQ(fileBytes(partial), partialBytes); // checking changed nothing
+  EXPECT_EQ(fileBytes(spool), spoolBytes);
+
+  std::vector<std::vector<uint8_t>> cut = records;
+  cut[1].pop_back();
+  message = refused(cut);
+  EXPECT_NE(message.find("damaged bake journal"), std::string::npos) << message;
+  std::filesystem::rename(partial, dir / "kept");
+  message = refused(records);
+  EXPECT_NE(message.find(partial + ": missing"), std::string::npos) << message;
+  std::filesystem::rename(dir / "kept", partial);
+  EXPECT_EQ(refused({}), ""); // no records: a new bake, whatever is there
+
+  // A mesh that cannot be made stops the bake; the files stay for the journal's owner.
+  lod::MeshSource failing = manySource(o);
+  failing.mesh = [o](uint32_t i) -> Result<Mesh> {
+    if (i == 4) return Error{"mesh 4: cannot be made"};
+    return io::generateManyMesh(o, i);
+  };
+  message = bakeResumable(path, failing, paged(), records, std::nullopt);
+  EXPECT_NE(message.find("mesh 4: cannot be made"), std::string::npos) << message;
+  EXPECT_TRUE(std::filesystem::exists(partial) && std::filesystem::exists(spool));
+  lod::removeStreamFiles(path.string());
+  EXPECT_TRUE(std::filesystem::is_empty(dir));
 }
 
 // A residency reader (openPagedLodAsset) reads the container's table, the scene and META chunks,

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "mirage/asset/blocks.h"
+#include "mirage/asset/file_marks.h"
 #include "mirage/asset/format.h"
 #include "mirage/asset/source.h"
 #include "mirage/core/result.h"
@@ -116,9 +117,26 @@ private:
 // reserved for up to `maxChunks` entries and written, with the header, by finish(); the same temp
 // file, fsync, optional read-back check and rename, so a failed or abandoned write (the destructor)
 // leaves nothing at `path`. Holds one chunk's bytes at a time (addChunkFromFile: none).
+//
+// Resumable (createResumable, resume): the temp file has a fixed name that a later process finds,
+// and neither a signal nor the destructor removes it (its owner does, with the record of its
+// checkpoints); checkpoint() makes the bytes so far durable and marks them, and resume() continues
+// the file after its last mark, so a bake killed mid-way loses only what followed that mark.
 class AssetStreamWriter {
 public:
   static Result<AssetStreamWriter> create(const std::string& path, uint32_t maxChunks);
+  // A new resumable write whose temp file is `partial` (replaced if there).
+  static Result<AssetStreamWriter> createResumable(const std::string& path, const std::string& partial,
+                                                   uint32_t maxChunks);
+  // Continues the resumable write in `partial` at `end`, the end of its last checkpoint (whose bytes
+  // the caller checked: matchingFileMarks), with `table` the entries of the chunks added before it.
+  // What follows `end` (a chunk cut short, or the last chunks and table of a write killed in
+  // finish) is cut off; the bytes before it stay as they are.
+  static Result<AssetStreamWriter> resume(const std::string& path, const std::string& partial, uint32_t maxChunks,
+                                          std::span<const ChunkEntry> table, uint64_t end);
+  // Where the first payload goes: the header and the table reserved for maxChunks entries come
+  // first (written by finish), so checkpoints cover the bytes from here on.
+  static uint64_t payloadStart(uint32_t maxChunks);
   AssetStreamWriter(AssetStreamWriter&& other) noexcept;
   AssetStreamWriter& operator=(AssetStreamWriter&& other) noexcept;
   AssetStreamWriter(const AssetStreamWriter&) = delete;
@@ -134,6 +152,10 @@ public:
   Status addChunkFromFile(FourCC type, const std::string& rawPath, int zstdLevel = kDefaultZstdLevel);
   uint64_t bytesWritten() const { return at_; }
   size_t chunkCount() const { return table_.size(); }
+  std::span<const ChunkEntry> table() const { return table_; } // the entries of the chunks added
+  // fdatasync, then the mark of the bytes written since the previous checkpoint (the first: since
+  // payloadStart). The caller records it (and the table) only now that the bytes are durable.
+  Result<FileMark> checkpoint();
   // Table and header, fsync, `check` on the temp file (as AssetWriter::write), rename.
   Status finish(const std::function<Status(const std::string& tempPath)>& check = {});
 
@@ -142,11 +164,15 @@ private:
   Status append(const ChunkInfo& info, std::span<const uint8_t> stored);
   Status padTo(uint64_t offset);
   Status failed(const std::string& problem);
+  static Result<AssetStreamWriter> open(const std::string& path, const std::string& temp, bool resumable,
+                                        uint32_t maxChunks);
   std::string path_, tmp_;
-  TempFileGuard tmpGuard_; // tmp_ goes if a signal stops the process before finish()
+  TempFileGuard tmpGuard_; // tmp_ goes if a signal stops the process before finish() (unless resumable)
   int fd_ = -1;
+  bool resumable_ = false; // tmp_ is kept when the writer is dropped
   uint32_t maxChunks_ = 0;
   uint64_t at_ = 0;
+  uint64_t marked_ = 0; // end of the last checkpoint
   std::vector<ChunkEntry> table_;
   bool anyBlocked_ = false;
   std::optional<Error> error_;

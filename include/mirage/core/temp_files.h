@@ -2,9 +2,11 @@
 // Files a process writes before publishing them (an output before its atomic rename, a spool beside
 // it): removed when the process is stopped by SIGINT, SIGTERM or SIGHUP first, so an interrupted
 // `mirage build` (Ctrl-C, or mpirun ending a job whose rank failed) leaves nothing beside its
-// output. The handler is installed on first use for each of those signals whose disposition is
-// still the default (a server's own clean-shutdown handler is left alone); it unlinks the
-// registered paths (async-signal-safe: fixed buffers, unlink) and dies of the same signal.
+// output (a resumable write, `mirage build gen:many --resume`, registers nothing: its partial
+// output stays for the next --resume, docs/bake.md). The handler is installed on first use for
+// each of those signals whose disposition is still the default (a server's own clean-shutdown
+// handler is left alone); it unlinks the registered paths (async-signal-safe: fixed buffers,
+// unlink) and dies of the same signal.
 #include <string>
 
 namespace mirage {

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "mirage/asset/file_marks.h"
+#include "mirage/asset/format.h"
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/lod/cluster_dag.h"
@@ -28,6 +30,9 @@ struct MeshSource {
   Scene layout;
   // Mesh i with its geometry and bounds; called from several threads at once, for distinct i.
   std::function<Result<Mesh>(uint32_t)> mesh;
+  // What `mesh` makes, as text (e.g. "gen:many:64x100000:1"): with the mesh names and the settings,
+  // what identifies a resumable bake (bake::streamFingerprint). "" = unknown: it cannot be resumed.
+  std::string key;
 };
 
 struct StreamBakeOptions {
@@ -43,9 +48,10 @@ struct StreamBakeOptions {
 
 struct StreamBakeReport {
   uint32_t meshes = 0;
-  uint64_t inputTriangles = 0;
+  uint32_t resumedMeshes = 0;  // written by an earlier process (StreamJournal): not baked here
+  uint64_t inputTriangles = 0; // these three over every mesh of the file, resumed ones included
   uint64_t clusters = 0;
-  uint64_t pages = 0; // paged: pages over every mesh
+  uint64_t pages = 0; // paged: pages
   uint64_t fileBytes = 0;
   uint32_t meshesInFlight = 0, reorderWindow = 0, threadsPerMesh = 0; // as run
   // The counters the bound rests on: meshes made and not yet encoded at any time (each holds its
@@ -85,6 +91,46 @@ struct RemoteMeshBakers {
 Result<std::vector<uint8_t>> bakeStreamMesh(const MeshSource& source, uint32_t index, const BuildConfig& config,
                                             const LodWriteOptions& write, const std::string& path);
 
+// A resumable bake (docs/bake.md, "Journal and --resume"). Its partial output and TMAP spool have
+// fixed names beside the output, so a later process finds them; after each mesh is written, both are
+// made durable (fdatasync) and only then is the mesh's record handed to `commit`, which keeps it
+// (bake::bakeLodFile: in the journal). A bake killed at any point (a signal, a dead rank, a host
+// crash) continues from the recorded meshes: their bytes checked, whatever follows them cut off.
+inline std::string streamPartialPath(const std::string& path) { return path + ".partial"; }
+inline std::string streamSpoolPath(const std::string& path) { return path + ".tmap"; }
+// Removes both (the bake is written, or failed for good).
+void removeStreamFiles(const std::string& path);
+// Changes with the record's layout (part of bake::streamFingerprint: an older journal is another bake's).
+inline constexpr uint32_t kStreamRecordVersion = 1;
+
+// One mesh a resumable bake wrote, as its record tells.
+struct StreamMeshRecord {
+  asset::ChunkEntry chunk{};   // its chunk's table entry
+  asset::FileMark file, spool; // the partial output and the spool up to this mesh's end
+  Bounds bounds;               // for the scene chunk
+  std::vector<uint8_t> stats;  // its META entry as CBOR (numbers keep their types)
+  uint64_t triangles = 0, clusters = 0, pages = 0;
+};
+
+// The meshes 0..K-1 an earlier process of the same bake wrote, checked.
+struct StreamResume {
+  std::vector<StreamMeshRecord> meshes;
+};
+
+// Decodes `records` (mesh i's at i, as `commit` got them) and checks each mesh's bytes in the
+// partial output and spool of the bake to `path`; no records: a new bake. Changes nothing. Errors,
+// one line: a record that does not decode, a partial output or spool missing, or one whose bytes
+// differ from a mesh's record (naming the mesh).
+Result<StreamResume> checkStreamResume(const std::string& path, uint32_t meshCount,
+                                       std::span<const std::vector<uint8_t>> records);
+
+struct StreamJournal {
+  StreamResume resume; // the meshes written before (checkStreamResume); empty: a new bake
+  // Mesh i's record, once its chunk and TMAP section are durable, in mesh order; an error stops the
+  // bake with that error.
+  std::function<Status(uint32_t mesh, std::span<const uint8_t> record)> commit;
+};
+
 // Bakes every mesh of `source` into `path` (config.threads: all the bake's threads, 0 = all cores;
 // write.threads is not used: each mesh's chunk is encoded by the threads that baked it). The
 // source-triangle map is spooled to "<path>.tmap-<pid>" beside the output and compressed into it
@@ -92,10 +138,13 @@ Result<std::vector<uint8_t>> bakeStreamMesh(const MeshSource& source, uint32_t i
 // were checked by the encoder; a full read would load the scene). Errors name the mesh or the
 // output; nothing is left at `path` (or beside it) on failure. `remote`: other processes bake some
 // of the meshes (their chunks are written in turn like the local ones; the bytes stay the same);
-// `localMeshes` gets the meshes this process baked itself.
+// `localMeshes` gets the meshes this process baked itself. `journal`: a resumable bake, which starts
+// after journal->resume's meshes (no process bakes them again) and whose partial output and spool
+// are left as they are on an error (their owner removes them, or keeps them to resume).
 Status bakeLodFile(const MeshSource& source, const std::string& path, const BuildConfig& config,
                    const LodWriteOptions& write, const StreamBakeOptions& options = {},
                    StreamBakeReport* report = nullptr, const BuildProgress& progress = {},
-                   const RemoteMeshBakers* remote = nullptr, std::vector<uint32_t>* localMeshes = nullptr);
+                   const RemoteMeshBakers* remote = nullptr, std::vector<uint32_t>* localMeshes = nullptr,
+                   const StreamJournal* journal = nullptr);
 
 } // namespace mirage::lod
