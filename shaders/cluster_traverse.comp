@@ -7,7 +7,10 @@
 //            (phase 0) or the late-instance HZB test (phase 1);
 //   depth d: one thread per node queued by depth d - 1 (uvec2(row, node) in queue d & 1).
 // A node that passes the error bound and the frustum queues its children, or, as a leaf, runs the
-// flat pass's per-cluster selection on its clusters. push.rasterList = phase | depth << 1.
+// flat pass's per-cluster selection on its clusters (selectCluster: with GPU residency the
+// resident cut and the page feedback too, whose every draw and request needs a parent error above
+// tau and a sphere the node holds, so the nodes skipped lose neither). push.rasterList = phase |
+// depth << 1.
 #include "cluster_select.glsl" // includes cluster_common.glsl
 #include "cluster_traversal.glsl"
 

@@ -159,15 +159,10 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     p.multiview = *mode == StereoMode::Multiview;
   }
   p.surfels = cs.surfels;
-  // GPU residency runs with the flat selection (docs/render.md, "Residency"); the traversals assume
-  // every cluster present.
-  if (residency && cs.selection != SelectionMode::Auto && cs.selection != SelectionMode::Flat)
-    return Error{fmt::format("--selection {} needs every page resident: use --selection flat (or auto) with "
-                             "--gpu-budget",
-                             toString(cs.selection))};
+  // With GPU residency too: every selection draws the resident cut (docs/render.md, "Residency").
   p.dagTree = cs.selection == SelectionMode::Dag;
-  p.hierarchy = !residency && (p.dagTree || cs.selection == SelectionMode::Hierarchy ||
-                               (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances));
+  p.hierarchy = p.dagTree || cs.selection == SelectionMode::Hierarchy ||
+                (cs.selection == SelectionMode::Auto && scene.instanceCount >= kHierarchyInstances);
   return p;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Private state of ClusterRenderer, shared by its source files (docs/render.md, "Files"):
 //   cluster_upload.cpp     scene data, set-up time
+//   cluster_lod_tree.cpp   the LOD BVH and DAG group tree (cluster_lod_tree.h), grown as pages arrive
 //   cluster_pipelines.cpp  pipelines, descriptors, per-size targets and per-scene buffers
 //   cluster_frame.cpp      settings -> frame plan, ClusterFrame packing, counters -> stats
 //   cluster_select.cpp     selection: instance cull, flat pass, LOD BVH / DAG traversal, raster args

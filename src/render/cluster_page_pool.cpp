@@ -25,6 +25,33 @@ constexpr uint32_t kMaxClusterItem = 4 * MIRAGE_CLUSTER_MAX_VERTICES + 3 * MIRAG
 
 uint32_t alignUp(uint32_t v, uint32_t a) { return (v + a - 1) / a * a; }
 
+// The DAG group tree's owner of each group (LodTreeMesh::groupOwner) from the table alone, which
+// does not say which group made a cluster (its page does): a group's outputs are members of groups
+// in its own page or in the pages it depends on (buildPages: a page depends on the pages of its
+// groups' outputs), or roots there. Of those groups, of a higher level and no smaller error, the
+// smallest whose sphere holds the group's (the whole DAG's owner, the member group of the group's
+// first output, is one of them), else the one the group's sphere sticks out of least; the root node
+// where there is none.
+std::vector<uint32_t> pagedGroupOwners(const lod::PageTable& t) {
+  std::vector<uint32_t> owner(t.groupLevel.size(), lod::kNone);
+  for (uint32_t g = 0; g < owner.size(); ++g) {
+    const lod::LodBounds& b = t.groupBounds[g];
+    float bestExcess = std::numeric_limits<float>::infinity(), bestRadius = bestExcess;
+    auto consider = [&](uint32_t page) {
+      for (uint32_t h : t.groupsOf(page)) {
+        const lod::LodBounds& o = t.groupBounds[h];
+        if (t.groupLevel[h] <= t.groupLevel[g] || o.error < b.error) continue;
+        float excess = std::max(0.0f, glm::length(o.center - b.center) + b.radius - o.radius);
+        if (excess < bestExcess || (excess == bestExcess && o.radius < bestRadius))
+          owner[g] = h, bestExcess = excess, bestRadius = o.radius;
+      }
+    };
+    consider(t.groupPage[g]);
+    for (uint32_t d : t.dependenciesOf(t.groupPage[g])) consider(d);
+  }
+  return owner;
+}
+
 } // namespace
 
 uint32_t poolUnitsBound(uint32_t vertices, uint32_t vertexIds, uint32_t triangles, uint32_t clusters) {
@@ -87,33 +114,73 @@ uint32_t layoutPage(const lod::PageData& page, const uint32_t* units, PagePackin
   return k + 1;
 }
 
-Result<ClusterSceneData> uploadPagedClusterScene(Context& ctx, const lod::PagedLodAsset& asset) {
+namespace {
+
+// One paged mesh's trees (LodTreeMesh from the table; its records and levels the last of `out`'s).
+// The root pages (here) give their clusters' self and culling spheres; the other clusters' arrive
+// with their pages, and the bounds above them grow then (growTrees).
+Status appendPagedTrees(const lod::PagedLodAsset& asset, uint32_t m, std::span<const uint32_t> memberGroup,
+                        std::span<const uint32_t> memberOffset, std::span<const uint32_t> groupMembers,
+                        sio::GpuClusterMesh& gm, PagedSceneTables& out, const std::string& file) {
+  const lod::PageTable& t = asset.meshes[m].table;
+  std::vector<uint8_t> spheresKnown(gm.clusterCount, 0);
+  for (const lod::PageData& page : asset.rootPages[m])
+    for (size_t i = 0; i < page.clusters.size(); ++i) {
+      sio::GpuCluster full = clusterRecord(page.clusters[i], m);
+      sio::GpuCluster& rec = out.clusters[gm.clusterOffset + page.clusterIds[i]];
+      rec.selfSphere = full.selfSphere;
+      rec.boundsSphere = full.boundsSphere;
+      spheresKnown[page.clusterIds[i]] = 1;
+    }
+  std::vector<uint32_t> roots;
+  for (uint32_t c = 0; c < gm.clusterCount; ++c)
+    if (memberGroup[c] == lod::kNone) roots.push_back(c);
+  std::vector<uint32_t> owners = pagedGroupOwners(t);
+  LodTreeMesh tree;
+  tree.clusters = std::span(out.clusters).subspan(gm.clusterOffset, gm.clusterCount);
+  tree.spheresKnown = spheresKnown;
+  tree.memberGroup = memberGroup;
+  tree.levels = std::span(out.levels).subspan(gm.levelOffset, gm.levelCount);
+  tree.groupLevel = t.groupLevel;
+  tree.memberOffset = memberOffset;
+  tree.groupMembers = groupMembers;
+  tree.groupOwner = owners;
+  tree.roots = roots;
+  return appendLodTrees(tree, gm, out.trees, fmt::format("{}: mesh {}", file, m));
+}
+
+} // namespace
+
+Result<PagedSceneTables> pagedSceneTables(const lod::PagedLodAsset& asset) {
   const Scene& scene = asset.scene;
   const std::string& file = asset.reader ? asset.reader->path() : scene.source;
-  ClusterSceneData d;
-  std::vector<sio::GpuCluster> clusters;
-  std::vector<sio::GpuClusterMesh> meshes;
-  std::vector<sio::GpuClusterLevel> levels;
-  std::vector<Bounds> meshBounds;
+  PagedSceneTables out;
+  out.trees.growable = true;
   constexpr float kInf = std::numeric_limits<float>::infinity();
   for (uint32_t m = 0; m < asset.meshes.size(); ++m) {
     const lod::PageTable& t = asset.meshes[m].table;
     const lod::PagedDagRest& rest = asset.meshes[m].rest;
-    uint32_t count = uint32_t(t.clusterPage.size()), base = uint32_t(clusters.size());
-    // Per cluster: its member group (kNone for roots), from the pages' group lists.
+    uint32_t count = uint32_t(t.clusterPage.size()), base = uint32_t(out.clusters.size());
+    // Per group its members, per cluster its member group (kNone for roots), from the pages' group
+    // lists (a page lists its groups' members group after group).
+    std::vector<uint32_t> memberOffset(t.groupLevel.size() + 1, 0), groupMembers(count);
     std::vector<uint32_t> memberGroup(count, lod::kNone);
+    for (uint32_t g = 0; g < t.groupLevel.size(); ++g) memberOffset[g + 1] = memberOffset[g] + t.groupClusterCount[g];
     for (uint32_t p = 0; p < t.pages.size(); ++p) {
       std::span<const uint32_t> ids = t.clustersOf(p);
       uint32_t at = 0;
       for (uint32_t g : t.groupsOf(p))
-        for (uint32_t i = 0; i < t.groupClusterCount[g]; ++i) memberGroup[ids[at++]] = g;
+        for (uint32_t i = 0; i < t.groupClusterCount[g]; ++i, ++at) {
+          memberGroup[ids[at]] = g;
+          groupMembers[memberOffset[g] + i] = ids[at];
+        }
     }
     // Levels: clusters come ordered by level, the level statistics count them.
     sio::GpuClusterMesh gm{};
     gm.clusterOffset = base;
     gm.clusterCount = count;
     gm.material = scene.meshes[m].material;
-    gm.levelOffset = uint32_t(levels.size());
+    gm.levelOffset = uint32_t(out.levels.size());
     uint32_t first = 0;
     for (uint32_t l = 0; l < rest.levels.size(); ++l) {
       uint32_t n = rest.levels[l].clusters;
@@ -131,20 +198,22 @@ Result<ClusterSceneData> uploadPagedClusterScene(Context& ctx, const lod::PagedL
         rec.mesh = m;
         rec.level = l;
         rec.maxEdge = kInf; // measured when its page loads (cluster_residency.cpp)
-        clusters.push_back(rec);
+        out.clusters.push_back(rec);
       }
       // Self errors: level 0's are 0, level l's those of the groups of level l - 1 (which made them).
       if (l == 0) level.minSelfError = 0.0f;
       for (uint32_t g = 0; g < t.groupLevel.size() && l > 0; ++g)
         if (t.groupLevel[g] + 1 == l) level.minSelfError = std::min(level.minSelfError, t.groupBounds[g].error);
       if (std::isinf(level.minSelfError)) level.minSelfError = 0.0f;
-      levels.push_back(level);
+      out.levels.push_back(level);
       first += n;
     }
     if (first != count)
       return Error{
           fmt::format("{}: mesh {}: level statistics count {} clusters, the page table {}", file, m, first, count)};
-    gm.levelCount = uint32_t(levels.size()) - gm.levelOffset;
+    gm.levelCount = uint32_t(out.levels.size()) - gm.levelOffset;
+    if (Status st = appendPagedTrees(asset, m, memberGroup, memberOffset, groupMembers, gm, out, file); !st)
+      return st.error();
     // Sphere from the positions' box (the whole DAG's), reach over every LOD sphere: the groups'
     // (parents of their members, selves of what they made, enclosing level 0's own spheres) and
     // the root clusters' (root pages).
@@ -157,27 +226,34 @@ Result<ClusterSceneData> uploadPagedClusterScene(Context& ctx, const lod::PagedL
       for (const lod::Cluster& c : page.clusters)
         for (const lod::LodBounds* b : {&c.self, &c.parent, &c.bounds})
           gm.reach = std::max(gm.reach, glm::length(b->center - centre) + b->radius);
-    d.maxMeshClusters = std::max(d.maxMeshClusters, count);
-    meshes.push_back(gm);
-    meshBounds.push_back(box);
+    out.maxMeshClusters = std::max(out.maxMeshClusters, count);
+    out.meshes.push_back(gm);
+    out.meshBounds.push_back(box);
   }
-  if (clusters.empty()) return Error{file + ": the asset has no clusters"};
-  if (Status st = uploadClusterInstances(ctx, scene, meshes, meshBounds, d); !st) return st.error();
+  if (out.clusters.empty()) return Error{file + ": the asset has no clusters"};
+  return out;
+}
+
+Result<PagedClusterScene> uploadPagedClusterScene(Context& ctx, const lod::PagedLodAsset& asset) {
+  auto tables = pagedSceneTables(asset);
+  if (!tables) return tables.error();
+  PagedClusterScene out;
+  ClusterSceneData& d = out.scene;
+  if (Status st = uploadClusterInstances(ctx, asset.scene, tables->meshes, tables->meshBounds, d); !st)
+    return st.error();
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   constexpr VkBufferUsageFlags kCopied = kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  std::vector<sio::GpuClusterCone> cones(clusters.size());
+  std::vector<sio::GpuClusterCone> cones(tables->clusters.size());
   for (sio::GpuClusterCone& c : cones) c.axisCutoff.w = 1.0f; // never culled until the page loads
-  d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kCopied, "cluster table");
+  d.clusters = createBufferWithData<sio::GpuCluster>(ctx, tables->clusters, kCopied, "cluster table");
   d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kCopied, "cluster cones");
-  d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
-  // The hierarchical selections are refused with residency: one node, never traversed.
-  std::vector<sio::GpuLodNode> node(1);
-  std::vector<uint32_t> leaf(1, 0);
-  d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, node, kStorage, "cluster LOD BVH (unused)");
-  d.leafClusters = createBufferWithData<uint32_t>(ctx, leaf, kStorage, "cluster LOD BVH leaves (unused)");
-  d.maxMeshNodes = 1;
-  d.clusterCount = uint32_t(clusters.size());
-  return d;
+  d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, tables->levels, kStorage, "cluster levels");
+  uploadLodTrees(ctx, tables->trees, kCopied, d); // grown as pages arrive
+  d.clusterCount = uint32_t(tables->clusters.size());
+  d.maxMeshClusters = tables->maxMeshClusters;
+  out.trees = std::move(tables->trees);
+  out.trees.leafClusters = {}; // on the GPU; growing needs the nodes alone
+  return out;
 }
 
 } // namespace mirage::render

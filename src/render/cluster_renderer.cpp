@@ -93,7 +93,7 @@ Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& contex
   if (!data) return data.error();
   auto r = createClusterResidency(context, asset, residency, *data);
   if (!r) return r.error();
-  auto impl = std::make_unique<Impl>(context, std::move(*data));
+  auto impl = std::make_unique<Impl>(context, std::move(data->scene));
   impl->residency = std::move(*r);
   impl->createDescriptors();
   impl->createPipelines();

@@ -40,8 +40,9 @@ double PhaseClock::lap() {
 
 Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, const lod::PagedLodAsset& asset,
                                                                  const ClusterResidencySettings& settings,
-                                                                 ClusterSceneData& scene) {
+                                                                 PagedClusterScene& paged) {
   const std::string& file = asset.reader->path();
+  ClusterSceneData& scene = paged.scene;
   std::vector<uint32_t> pageMesh, pageLocal, meshClusterOffset;
   std::vector<const lod::PageTable*> tables;
   uint32_t clusterBase = 0;
@@ -71,6 +72,7 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
         fmt::format("{}: --gpu-budget: {} (pool units of {} bytes)", file, manager.error().message, kPoolUnitBytes)};
   auto r = std::make_unique<ClusterResidency>(std::move(*manager));
   r->asset = &asset;
+  r->trees = std::move(paged.trees);
   r->pageMesh = std::move(pageMesh);
   r->pageLocal = std::move(pageLocal);
   r->meshClusterOffset = std::move(meshClusterOffset);
@@ -169,6 +171,15 @@ PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table,
     out.childPages.push_back(child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child);
   }
   return out;
+}
+
+void growTrees(LodTrees& trees, const PreparedPage& prep, std::vector<uint32_t>& grown) {
+  for (size_t i = 0; i < prep.ids.size(); ++i)
+    for (uint32_t tree = 0; tree < 2; ++tree) {
+      uint32_t leaf = trees.clusterLeaf[2 * size_t(prep.ids[i]) + tree];
+      growLodLeaf(trees, leaf, prep.records[i].selfSphere, grown);
+      growLodLeaf(trees, leaf, prep.records[i].boundsSphere, grown);
+    }
 }
 
 namespace {
@@ -429,7 +440,7 @@ void computePrefetch(ClusterResidency& r, const sio::ViewFrame& v, float tau) {
 Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) {
   ClusterResidency& r = *residency;
   ClusterResidency::Slot& slot = r.frame[currentSlot];
-  for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table}) v->clear();
+  for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table, &slot.nodes}) v->clear();
   slot.fromDevice.clear();
   slot.stats = {};
   ResidencyStats& st = slot.stats;
@@ -466,6 +477,12 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     if (!prep) prep = &preparedHere.emplace_back(prepareHere(r, p, a.data));
     uploads.push_back({p, prep});
   }
+  // The trees' bounds grow by the arriving pages' spheres (their nodes staged below; bounds only
+  // grow, so growing them before a page's bytes reach the pool is safe).
+  std::vector<uint32_t> grown;
+  for (auto& [p, prep] : uploads) growTrees(r.trees, *prep, grown);
+  std::sort(grown.begin(), grown.end());
+  grown.erase(std::unique(grown.begin(), grown.end()), grown.end());
   // Placed first (spare units freed, vertex ids moved to the units held). With transfer uploads
   // the streamed pages go on the transfer queue now and reach the pool in a later frame (the roots
   // go in this frame, so the first frame draws the whole scene); the batches that arrived since the
@@ -478,7 +495,7 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     uploads.resize(roots);
   }
   std::vector<TransferBatch*> batchesIn;
-  size_t bound = r.drawn.size() * 4;
+  size_t bound = r.drawn.size() * 4 + grown.size() * sizeof(sio::GpuLodNode);
   if (r.transferUploads) bound += arrivedBatches(r, currentSlot, batchesIn);
   if (!sent.empty()) sendBatch(r, sent);
   for (auto& [p, prep] : uploads) bound += tableBytes(*prep) + poolBytes(*prep);
@@ -492,6 +509,9 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     stagePageTables(r, p, *prep, staging, slot);
     ++st.uploaded;
   }
+  for (uint32_t n : grown)
+    slot.nodes.push_back({staging.append(&r.trees.nodes[n], sizeof(sio::GpuLodNode)),
+                          VkDeviceSize(n) * sizeof(sio::GpuLodNode), sizeof(sio::GpuLodNode)});
   times.uploadMs += clock.lap();
   // (3) The manager's step: evictions free units and stop drawing; loads reserve units and queue reads.
   r.cutPending = r.cutPending || cs.cameraCut;
@@ -599,6 +619,7 @@ void ClusterRenderer::Impl::cmdResidencyUpload(VkCommandBuffer cmd) {
   copy(slot.cones, scene.cones);
   copy(slot.clusterPages, r.clusterPages);
   copy(slot.table, r.pageSlots);
+  copy(slot.nodes, scene.lodNodes);
   vkCmdFillBuffer(cmd, r.feedback.handle(), 0, VK_WHOLE_SIZE, 0);
 }
 

@@ -8,6 +8,8 @@
 #include <memory>
 #include <vector>
 
+#include "cluster_impl.h"
+#include "cluster_lod_tree.h"
 #include "mirage/gpu/memory.h"
 #include "mirage/lod/page_stream.h"
 #include "mirage/lod/paged_asset.h"
@@ -17,8 +19,6 @@
 #include "mirage/shaderio/cluster.h"
 
 namespace mirage::render {
-
-struct ClusterSceneData;
 
 // Milliseconds between laps (ResidencyTimes' phases).
 struct PhaseClock {
@@ -65,11 +65,33 @@ struct PreparedPage {
 PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table, uint32_t mesh, uint32_t page,
                          uint32_t pageBase, uint32_t clusterBase);
 
-// The cluster renderer's scene from a paged asset's tables: the cluster records as far as the
-// table knows them (member group bounds, level, mesh; the rest when the page loads), cones that
-// never cull until then, the level table, mesh spheres and bounds from the index. No geometry: the
-// page pool takes its place (createClusterResidency).
-Result<ClusterSceneData> uploadPagedClusterScene(gpu::Context& ctx, const lod::PagedLodAsset& asset);
+// The leaves of a prepared page's clusters in both trees, and the nodes above them, grown to hold
+// the clusters' self and culling spheres (the tables give only their parent spheres); the nodes
+// that changed are appended to `grown`. A page that arrives again changes nothing.
+void growTrees(LodTrees& trees, const PreparedPage& prep, std::vector<uint32_t>& grown);
+
+// The cluster renderer's tables of a paged asset from its page tables alone: the cluster records
+// as far as the tables know them (member group bounds, level, mesh; the root pages' spheres; the
+// rest when the page loads), the level table, mesh spheres and bounds from the index, and the
+// hierarchical selections' trees (their leaves without the spheres of pages not loaded).
+struct PagedSceneTables {
+  std::vector<shaderio::GpuCluster> clusters;
+  std::vector<shaderio::GpuClusterMesh> meshes;
+  std::vector<shaderio::GpuClusterLevel> levels;
+  std::vector<Bounds> meshBounds;
+  LodTrees trees;
+  uint32_t maxMeshClusters = 0;
+};
+Result<PagedSceneTables> pagedSceneTables(const lod::PagedLodAsset& asset);
+
+// The cluster renderer's scene from those tables, uploaded, with cones that never cull until their
+// page loads; the residency keeps the trees' host copy to grow them as pages arrive. No geometry:
+// the page pool takes its place (createClusterResidency).
+struct PagedClusterScene {
+  ClusterSceneData scene;
+  LodTrees trees;
+};
+Result<PagedClusterScene> uploadPagedClusterScene(gpu::Context& ctx, const lod::PagedLodAsset& asset);
 
 struct ClusterResidency {
   enum class PageState : uint8_t {
@@ -93,6 +115,9 @@ struct ClusterResidency {
   uint64_t geometryBytes = 0;
   std::deque<uint32_t> toRead; // reserved pages whose read waits for room in the stream
   gpu::Buffer clusterPages, pageSlots, feedback;
+  // The LOD BVH and DAG tree as uploaded (ClusterSceneData::lodNodes): an arriving page's self and
+  // culling spheres grow its clusters' leaves and the nodes above, which the frame uploads too.
+  LodTrees trees;
   bool rootsStaged = false; // the first recorded frame uploads the root pages
   bool poolUnzeroed = true; // the first frame zeroes the pool (records of missing pages point at unit 0)
 
@@ -100,7 +125,7 @@ struct ClusterResidency {
   // feedback readback, the drawn pages when it was recorded, and its figures.
   struct Slot {
     gpu::Buffer staging, readback;
-    std::vector<VkBufferCopy> pool, records, cones, clusterPages, table;
+    std::vector<VkBufferCopy> pool, records, cones, clusterPages, table, nodes;
     // Transfer uploads: per consumed batch, its copies from its device buffer into the pool.
     std::vector<std::pair<const gpu::Buffer*, std::vector<VkBufferCopy>>> fromDevice;
     std::vector<uint8_t> resident;
@@ -145,11 +170,11 @@ struct ClusterResidency {
   void waitForTransfers() const; // every batch on the transfer queue done (renderConverged's idle wait)
 };
 
-// Builds the residency of `asset` into `scene` (whose vertices become the pool): page costs from
-// the tables (the root pages' exact), the manager with the root pages resident (their uploads
-// happen in the first frame), the GPU tables, the page stream.
+// Builds the residency of `asset` into `paged.scene` (whose vertices become the pool; the trees
+// move to the residency): page costs from the tables (the root pages' exact), the manager with the
+// root pages resident (their uploads happen in the first frame), the GPU tables, the page stream.
 Result<std::unique_ptr<ClusterResidency>> createClusterResidency(gpu::Context& ctx, const lod::PagedLodAsset& asset,
                                                                  const ClusterResidencySettings& settings,
-                                                                 ClusterSceneData& scene);
+                                                                 PagedClusterScene& paged);
 
 } // namespace mirage::render

@@ -9,6 +9,7 @@
 #include <meshoptimizer.h>
 
 #include "cluster_impl.h"
+#include "cluster_lod_tree.h"
 #include "render_util.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/context.h"
@@ -22,195 +23,30 @@ namespace {
 
 glm::vec4 sphere(const lod::LodBounds& b) { return {b.center, b.radius}; }
 
-// Smallest-effort sphere around spheres: the centre of their boxes, the farthest reach, padded so
-// float rounding on the GPU never puts an enclosed sphere's nearest point before the parent's.
-glm::vec4 encloseSpheres(const std::vector<glm::vec4>& spheres) {
-  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-  for (const glm::vec4& s : spheres) {
-    lo = glm::min(lo, glm::vec3(s) - s.w);
-    hi = glm::max(hi, glm::vec3(s) + s.w);
+// The trees of a whole DAG (its records the last of `clusters`, its levels the last of `levels`):
+// every sphere known, each group owned by the member group of its first output (none for a root).
+Status appendDagTrees(const lod::ClusterDag& dag, const std::vector<sio::GpuCluster>& clusters,
+                      const std::vector<sio::GpuClusterLevel>& levels, sio::GpuClusterMesh& gm, LodTrees& trees,
+                      const std::string& context) {
+  std::vector<uint32_t> memberGroup, groupLevel, memberOffset{0}, groupMembers, groupOwner;
+  for (const lod::Cluster& c : dag.clusters) memberGroup.push_back(c.group);
+  for (const lod::Group& g : dag.groups) {
+    groupLevel.push_back(g.level);
+    groupMembers.insert(groupMembers.end(), dag.groupChildren.begin() + g.childOffset,
+                        dag.groupChildren.begin() + g.childOffset + g.childCount);
+    memberOffset.push_back(uint32_t(groupMembers.size()));
+    groupOwner.push_back(dag.clusters[dag.groupParents[g.parentOffset]].group);
   }
-  glm::vec3 c = 0.5f * (lo + hi);
-  float r = 0.0f;
-  for (const glm::vec4& s : spheres) r = std::max(r, glm::length(glm::vec3(s) - c) + s.w);
-  float magnitude = std::max({std::abs(c.x), std::abs(c.y), std::abs(c.z), r});
-  return {c, r + 1e-5f * r + 1e-6f * magnitude};
-}
-
-// Build-time BVH node: a leaf (a member group's clusters of one level) or up to
-// MIRAGE_LOD_NODE_WIDTH children.
-struct LodBuildNode {
-  glm::vec4 sphere{0.0f};
-  float maxParentError = 0.0f;
-  std::vector<uint32_t> clusters; // leaf: mesh-local cluster ids
-  std::vector<uint32_t> children; // inner: build-node ids
-};
-
-// Splits `items` (build-node ids) into at most MIRAGE_LOD_NODE_WIDTH spatially coherent parts:
-// the largest part is halved at the median of its centres' longest axis until there are enough.
-std::vector<std::vector<uint32_t>> splitItems(const std::vector<LodBuildNode>& nodes, std::vector<uint32_t> items) {
-  std::vector<std::vector<uint32_t>> parts{std::move(items)};
-  while (parts.size() < MIRAGE_LOD_NODE_WIDTH) {
-    auto largest =
-        std::max_element(parts.begin(), parts.end(), [](const auto& a, const auto& b) { return a.size() < b.size(); });
-    if (largest->size() < 2) break;
-    std::vector<uint32_t> part = std::move(*largest);
-    parts.erase(largest);
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (uint32_t i : part)
-      lo = glm::min(lo, glm::vec3(nodes[i].sphere)), hi = glm::max(hi, glm::vec3(nodes[i].sphere));
-    glm::vec3 extent = hi - lo;
-    int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
-    auto mid = part.begin() + part.size() / 2;
-    std::nth_element(part.begin(), mid, part.end(),
-                     [&](uint32_t a, uint32_t b) { return nodes[a].sphere[axis] < nodes[b].sphere[axis]; });
-    parts.emplace_back(part.begin(), mid);
-    parts.emplace_back(mid, part.end());
-  }
-  return parts;
-}
-
-// A leaf over `members` (mesh-local clusters sharing a member group): its sphere encloses their
-// parent and culling spheres, its error bound is their largest parent error. Returns its id.
-uint32_t appendLeafNode(std::vector<LodBuildNode>& nodes, const sio::GpuCluster* clusters,
-                        std::vector<uint32_t> members) {
-  LodBuildNode leaf;
-  std::vector<glm::vec4> spheres;
-  for (uint32_t c : members) {
-    leaf.maxParentError = std::max(leaf.maxParentError, clusters[c].parentError);
-    spheres.push_back(clusters[c].parentSphere), spheres.push_back(clusters[c].boundsSphere);
-  }
-  leaf.sphere = encloseSpheres(spheres);
-  leaf.clusters = std::move(members);
-  nodes.push_back(std::move(leaf));
-  return uint32_t(nodes.size() - 1);
-}
-
-// An inner node over existing `children`: its sphere encloses theirs, its error bound is their
-// largest. Returns its build-node id.
-uint32_t appendInnerNode(std::vector<LodBuildNode>& nodes, std::vector<uint32_t> children) {
-  LodBuildNode node;
-  std::vector<glm::vec4> spheres;
-  for (uint32_t c : children) {
-    spheres.push_back(nodes[c].sphere);
-    node.maxParentError = std::max(node.maxParentError, nodes[c].maxParentError);
-  }
-  node.sphere = encloseSpheres(spheres);
-  node.children = std::move(children);
-  nodes.push_back(std::move(node));
-  return uint32_t(nodes.size() - 1);
-}
-
-// An inner node over `items`, built top-down; returns its build-node id.
-uint32_t buildLodSubtree(std::vector<LodBuildNode>& nodes, std::vector<uint32_t> items) {
-  if (items.size() == 1) return items[0];
-  std::vector<uint32_t> children;
-  for (std::vector<uint32_t>& part : splitItems(nodes, std::move(items)))
-    children.push_back(buildLodSubtree(nodes, std::move(part)));
-  return appendInnerNode(nodes, std::move(children));
-}
-
-// Breadth-first layout of build nodes into GpuLodNodes: `roots` first, then each node's children
-// in one contiguous run (child offsets relative to the first root). Returns the deepest node's
-// depth below the roots.
-uint32_t layoutLodNodes(const std::vector<LodBuildNode>& nodes, const std::vector<uint32_t>& roots,
-                        std::vector<sio::GpuLodNode>& out, std::vector<uint32_t>& leafClusters) {
-  uint32_t base = uint32_t(out.size());
-  std::vector<std::pair<uint32_t, uint32_t>> queue; // (build node, depth), in output order
-  for (uint32_t r : roots) queue.push_back({r, 0});
-  out.resize(base + roots.size());
-  uint32_t maxDepth = 0;
-  for (size_t q = 0; q < queue.size(); ++q) {
-    auto [id, depth] = queue[q];
-    const LodBuildNode& n = nodes[id];
-    maxDepth = std::max(maxDepth, depth);
-    sio::GpuLodNode g{};
-    g.sphere = n.sphere;
-    g.maxParentError = n.maxParentError;
-    if (n.children.empty()) {
-      g.leaf = 1;
-      g.childOffset = uint32_t(leafClusters.size());
-      g.childCount = uint32_t(n.clusters.size());
-      leafClusters.insert(leafClusters.end(), n.clusters.begin(), n.clusters.end());
-    } else {
-      g.childOffset = uint32_t(out.size()) - base;
-      g.childCount = uint32_t(n.children.size());
-      out.resize(out.size() + n.children.size());
-      for (uint32_t c : n.children) queue.push_back({c, depth + 1});
-    }
-    out[base + q] = g;
-  }
-  return maxDepth;
-}
-
-// The LOD BVH of one mesh (see GpuLodNode): per level of `levels` (the mesh's level table) one leaf
-// per member group (roots: one leaf), a BVH over them, and the roots stored first in level order,
-// every node's children contiguous. Appends to `out` / `leafClusters`; returns the deepest node's
-// depth below its level root.
-uint32_t buildLodBvh(const sio::GpuCluster* clusters, const lod::ClusterDag& dag,
-                     const std::vector<sio::GpuClusterLevel>& levels, std::vector<sio::GpuLodNode>& out,
-                     std::vector<uint32_t>& leafClusters) {
-  std::vector<LodBuildNode> nodes;
-  std::vector<uint32_t> roots;
-  for (const sio::GpuClusterLevel& level : levels) {
-    std::vector<std::pair<uint32_t, uint32_t>> byGroup; // (member group, cluster), roots as kNone
-    for (uint32_t i = level.firstCluster; i < level.firstCluster + level.clusterCount; ++i)
-      byGroup.push_back({dag.clusters[i].group, i});
-    std::sort(byGroup.begin(), byGroup.end());
-    std::vector<uint32_t> leaves, members;
-    for (size_t i = 0; i < byGroup.size(); ++i) {
-      members.push_back(byGroup[i].second);
-      if (i + 1 == byGroup.size() || byGroup[i + 1].first != byGroup[i].first) {
-        leaves.push_back(appendLeafNode(nodes, clusters, members));
-        members.clear();
-      }
-    }
-    roots.push_back(buildLodSubtree(nodes, std::move(leaves)));
-  }
-  return layoutLodNodes(nodes, roots, out, leafClusters);
-}
-
-// The DAG traversal's group tree (--selection dag, after the dissertation's DAG-TRAVERSE), in the
-// same node format: one node per group, entered when the group's projected error exceeds tau
-// (LOCALCUT's parent test of its member clusters). A group's node has a leaf with its member
-// clusters and, as further children, the groups whose FIRST parent cluster is one of its members:
-// the DAG gives a group several parents, the tree hangs it under exactly one, so the traversal
-// visits it once without deduplication. That parent is entered whenever the child must be: group g
-// holds child group s's first output p, so g's error >= p's self error = s's error and g's sphere
-// encloses s's (monotonic errors, nested spheres: lod/verify.h), hence projected(g) >= projected(s).
-// The root node holds the DAG roots (error +inf) and the groups whose first output is a root.
-// Spheres enclose everything beneath, so frustum culling stays conservative. Returns the depth.
-uint32_t buildDagTree(const sio::GpuCluster* clusters, const lod::ClusterDag& dag, std::vector<sio::GpuLodNode>& out,
-                      std::vector<uint32_t>& leafClusters) {
-  std::vector<LodBuildNode> nodes;
-  // Children of each group's node (index = group; the root's at dag.groups.size()): groups owned.
-  std::vector<std::vector<uint32_t>> owned(dag.groups.size() + 1);
-  for (uint32_t g = 0; g < dag.groups.size(); ++g) {
-    uint32_t firstParent = dag.groupParents[dag.groups[g].parentOffset];
-    uint32_t owner = dag.clusters[firstParent].group;
-    owned[owner == lod::kNone ? dag.groups.size() : owner].push_back(g);
-  }
-  // Bottom-up: an owned group's parents are one level up, so ascending levels build children first.
-  std::vector<uint32_t> order(dag.groups.size());
-  for (uint32_t g = 0; g < order.size(); ++g) order[g] = g;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](uint32_t a, uint32_t b) { return dag.groups[a].level < dag.groups[b].level; });
-  std::vector<uint32_t> groupNode(dag.groups.size() + 1, lod::kNone);
-  auto addGroupNode = [&](uint32_t leaf, const std::vector<uint32_t>& ownedGroups) {
-    if (ownedGroups.empty()) return leaf;
-    std::vector<uint32_t> children{leaf};
-    for (uint32_t g : ownedGroups) children.push_back(groupNode[g]);
-    return appendInnerNode(nodes, std::move(children));
-  };
-  for (uint32_t g : order) {
-    const lod::Group& group = dag.groups[g];
-    const uint32_t* members = &dag.groupChildren[group.childOffset];
-    uint32_t leaf = appendLeafNode(nodes, clusters, {members, members + group.childCount});
-    groupNode[g] = addGroupNode(leaf, owned[g]);
-  }
-  uint32_t rootLeaf = appendLeafNode(nodes, clusters, dag.roots);
-  uint32_t root = addGroupNode(rootLeaf, owned[dag.groups.size()]);
-  return layoutLodNodes(nodes, {root}, out, leafClusters);
+  LodTreeMesh mesh;
+  mesh.clusters = std::span(clusters).subspan(gm.clusterOffset, gm.clusterCount);
+  mesh.memberGroup = memberGroup;
+  mesh.levels = std::span(levels).subspan(gm.levelOffset, gm.levelCount);
+  mesh.groupLevel = groupLevel;
+  mesh.memberOffset = memberOffset;
+  mesh.groupMembers = groupMembers;
+  mesh.groupOwner = groupOwner;
+  mesh.roots = dag.roots;
+  return appendLodTrees(mesh, gm, trees, context);
 }
 
 } // namespace
@@ -269,8 +105,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   std::vector<uint8_t> indexBytes;
   std::vector<sio::GpuClusterMesh> meshes;
   std::vector<sio::GpuClusterLevel> levels;
-  std::vector<sio::GpuLodNode> lodNodes;
-  std::vector<uint32_t> leafClusters;
+  LodTrees trees;
   std::vector<Bounds> meshBounds;
   for (size_t m = 0; m < asset.dags.size(); ++m) {
     const lod::ClusterDag& dag = asset.dags[m];
@@ -331,20 +166,10 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
         gm.reach = std::max(gm.reach, glm::length(b->center - centre) + b->radius);
     }
     gm.levelCount = uint32_t(levels.size()) - gm.levelOffset;
-    gm.nodeOffset = uint32_t(lodNodes.size());
-    std::vector<sio::GpuClusterLevel> meshLevels(levels.begin() + gm.levelOffset, levels.end());
-    uint32_t depth = buildLodBvh(&clusters[gm.clusterOffset], dag, meshLevels, lodNodes, leafClusters);
-    if (depth >= MIRAGE_LOD_MAX_DEPTH)
-      return Error{fmt::format("{}: mesh '{}': LOD BVH of depth {} (at most {})", scene.source, scene.meshes[m].name,
-                               depth, MIRAGE_LOD_MAX_DEPTH - 1)};
-    d.lodDepth = std::max(d.lodDepth, depth);
-    gm.dagNodeOffset = uint32_t(lodNodes.size());
-    uint32_t dagDepth = buildDagTree(&clusters[gm.clusterOffset], dag, lodNodes, leafClusters);
-    if (dagDepth >= MIRAGE_LOD_MAX_DEPTH)
-      return Error{fmt::format("{}: mesh '{}': DAG group tree of depth {} (at most {})", scene.source,
-                               scene.meshes[m].name, dagDepth, MIRAGE_LOD_MAX_DEPTH - 1)};
-    d.dagDepth = std::max(d.dagDepth, dagDepth);
-    d.maxMeshNodes = std::max(d.maxMeshNodes, uint32_t(lodNodes.size()) - gm.nodeOffset);
+    if (Status st = appendDagTrees(dag, clusters, levels, gm, trees,
+                                   fmt::format("{}: mesh '{}'", scene.source, scene.meshes[m].name));
+        !st)
+      return st.error();
     d.maxMeshClusters = std::max(d.maxMeshClusters, gm.clusterCount);
     meshes.push_back(gm);
     meshBounds.push_back(bounds);
@@ -365,8 +190,7 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kStorage, "cluster table");
   d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
   d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
-  d.lodNodes = createBufferWithData<sio::GpuLodNode>(ctx, lodNodes, kStorage, "cluster LOD BVH");
-  d.leafClusters = createBufferWithData<uint32_t>(ctx, leafClusters, kStorage, "cluster LOD BVH leaves");
+  uploadLodTrees(ctx, trees, kStorage, d);
   d.clusterCount = uint32_t(clusters.size());
   return d;
 }

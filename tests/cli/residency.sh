@@ -2,7 +2,8 @@
 # GPU residency through the CLI: `render --gpu-budget` of a paged file renders until the residency
 # is stable; with room for the view's pages the image is the unbudgeted one, with a tiny budget the
 # image stays complete (coarser) and the resident bytes within the budget; --json reports the
-# residency keys. Bad budgets, and --pvs with a budget, fail with one line and write nothing.
+# residency keys; --selection hierarchy and dag give the flat selection's image. Bad budgets, and
+# --pvs with a budget, fail with one line and write nothing.
 # Usage: residency.sh MIRAGE_BINARY SOURCE_DIR
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
@@ -61,7 +62,17 @@ assert len(a ^ b) < 0.1 * len(a), (len(a), len(b), len(a ^ b))"
     render "$tmp/paged.mrg" -o "$tmp/x.png" --gpu-budget 2MB --pvs "$tmp/pvs.mrg"
   expect_fail bench-budget-pvs "--pvs does not apply with --gpu-budget" "" -- \
     bench render "$tmp/paged.mrg" --gpu-budget 2MB --pvs "$tmp/pvs.mrg" --frames 2
-  expect_fail render-budget-hierarchy "--selection" "$tmp/x.png" -- render "$tmp/paged.mrg" -o "$tmp/x.png" --gpu-budget 2MB --selection hierarchy
+  # The hierarchical selections draw the flat one's resident cut: the same image.
+  for sel in hierarchy dag; do
+    expect_ok "render-budget-$sel" render "$tmp/paged.mrg" -o "$tmp/$sel.png" --size 96x72 --gpu-budget 2MB \
+      --selection "$sel" --json
+    check "render-budget-$sel-json" python3 -c "
+import json
+j = json.load(open('$tmp/stdout'))
+assert j['selection'] == '$sel' and j['residency_converged'], j
+assert all(f['resident_bytes'] <= j['gpu_budget'] for f in j['residency_frames']), j"
+    check "render-budget-$sel-same-image" cmp -s "$tmp/budget.png" "$tmp/$sel.png"
+  done
 fi
 
 finish residency

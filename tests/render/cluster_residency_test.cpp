@@ -3,11 +3,15 @@
 // budget gives a complete, crack-free coarser image, no frame's resident bytes exceed the budget,
 // a moving camera evicts and reloads pages while each stop converges to the unbudgeted image,
 // prefetch brings a camera cut to full quality in fewer frames, to the same image, and is computed
-// again on cuts only.
+// again on cuts only. The hierarchical selections (LOD BVH, DAG tree) draw the flat pass's
+// resident cut and ask for the same pages, and auto picks the hierarchy for many instances.
 #include <gtest/gtest.h>
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -60,6 +64,26 @@ PagedBlob writePaged(const std::string& name, const lod::LodAsset& asset) {
 // The geometric-error blob.
 const PagedBlob& pagedBlob() {
   static PagedBlob b = writePaged("blob", test::blobAsset());
+  return b;
+}
+
+// A blob of small groups (4 clusters: groups' spheres the traversal can frustum-cull) whose
+// clusters above level 0 have culling spheres of 4 times their radius, sticking out of their
+// member groups' spheres (the page tables' bounds): the hierarchical selections' trees must grow
+// to hold them as their pages arrive, or they cull nodes of clusters the flat pass draws.
+const PagedBlob& pagedWideBlob() {
+  static PagedBlob b = [] {
+    io::BlobOptions o;
+    o.subdivisions = 5;
+    lod::BuildConfig config;
+    config.normalWeight = 0.0f;
+    config.groupClusters = 4;
+    auto asset = lod::bakeLodAsset(io::generateBlob(o), config);
+    if (!asset) std::abort();
+    for (lod::Cluster& c : asset->dags[0].clusters)
+      if (c.level > 0) c.bounds.radius *= 4.0f;
+    return writePaged("wide", *asset);
+  }();
   return b;
 }
 
@@ -182,17 +206,21 @@ TEST_F(ClusterResidency, ConvergedImageEqualsUnbudgeted) {
 }
 
 // Root pages and a few units: coarser, but every pixel the full image covers (within a
-// silhouette's width) is covered, and no back face shows through a crack.
-TEST_F(ClusterResidency, TinyBudgetIsCompleteAndCrackFree) {
+// silhouette's width) is covered, and no back face shows through a crack, with every selection
+// (the traversals' leaves draw resident ancestors where the cut's pages are missing).
+void expectTinyBudgetCompleteAndCrackFree(gpu::Context& ctx, SelectionMode selection) {
+  SCOPED_TRACE(toString(selection));
   ClusterRenderSettings s = viewSettings(overview());
+  s.selection = selection;
   s.flagBackFaces = true;
   s.base.background = {0, 1, 0, 1};
   uint64_t budget = 4 * 24 * 1024;
-  Opened o = openBudgeted(context(), budget);
+  Opened o = openBudgeted(ctx, budget);
   auto c = converge(*o.renderer, s, budget);
+  EXPECT_EQ(c.output.stats.selection, selection);
   EXPECT_LT(c.output.stats.residency.residentPages, c.output.stats.residency.pages / 2);
   const ImageRGBA8& tiny = c.output.image.srgb;
-  ImageRGBA8 full = unbudgeted(context(), s);
+  ImageRGBA8 full = unbudgeted(ctx, s);
   auto covered = [](const ImageRGBA8& img, uint32_t x, uint32_t y) {
     const uint8_t* p = img.at(x, y);
     return !(p[0] == 0 && p[1] == 255 && p[2] == 0);
@@ -211,12 +239,18 @@ TEST_F(ClusterResidency, TinyBudgetIsCompleteAndCrackFree) {
   EXPECT_GT(a, 1000u);
   EXPECT_LT(double(differ), 0.1 * double(a)) << "coverage against the unbudgeted image";
   EXPECT_EQ(interiorFlagged, 0u) << "a crack shows a back face";
-  test::writeOnFailure(tiny, "residency_tiny.png");
+  test::writeOnFailure(tiny, std::string("residency_tiny_") + toString(selection) + ".png");
+}
+
+TEST_F(ClusterResidency, TinyBudgetIsCompleteAndCrackFree) {
+  for (SelectionMode selection : {SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag})
+    expectTinyBudgetCompleteAndCrackFree(context(), selection);
 }
 
 // Close views of two blobs far apart with room for one view's pages at a time: moving from one to
 // the other evicts, coming back reloads, and every stop converges to the unbudgeted image.
-TEST_F(ClusterResidency, MovingCameraEvictsAndReloads) {
+void expectMovingCameraEvictsAndReloads(gpu::Context& ctx, SelectionMode selection) {
+  SCOPED_TRACE(toString(selection));
   const PagedBlob& pair = pagedPair();
   const Scene& scene = pair.whole.scene;
   std::vector<Camera> stops;
@@ -230,32 +264,45 @@ TEST_F(ClusterResidency, MovingCameraEvictsAndReloads) {
   auto settings = [&](size_t i) {
     ClusterRenderSettings s = viewSettings(stops[i]);
     s.tauPixels = 0.25f;
+    s.selection = selection;
     return s;
   };
-  uint64_t viewA = viewBytes(context(), settings(0), pair);
-  uint64_t viewB = viewBytes(context(), settings(1), pair);
+  uint64_t viewA = viewBytes(ctx, settings(0), pair);
+  uint64_t viewB = viewBytes(ctx, settings(1), pair);
   // Headroom for the reservations of pages not read yet (their table bound, above their exact size).
   uint64_t budget = std::max(viewA, viewB) + 4 * 24 * 1024;
   uint64_t both = 0; // both views' pages at once
   {
-    Opened all = openBudgeted(context(), 64ull << 20, pair);
+    Opened all = openBudgeted(ctx, 64ull << 20, pair);
     for (size_t i = 0; i < 2; ++i)
       both = converge(*all.renderer, settings(i), 64ull << 20).output.stats.residency.residentBytes;
   }
   ASSERT_GT(both, budget) << "the budget must not hold both views";
-  Opened o = openBudgeted(context(), budget, pair);
+  Opened o = openBudgeted(ctx, budget, pair);
   uint32_t evicted = 0, loadedBack = 0;
   for (size_t i = 0; i < stops.size(); ++i) {
     ClusterRenderSettings s = settings(i);
     auto c = converge(*o.renderer, s, budget);
+    EXPECT_EQ(c.output.stats.selection, selection);
     for (const ResidencyStats& f : c.frames) {
       evicted += i > 0 ? f.evicted : 0;
       loadedBack += i == 2 ? f.loaded : 0;
     }
-    expectSameImage(c.output.image.srgb, unbudgeted(context(), s, pair), "residency_stop" + std::to_string(i));
+    expectSameImage(c.output.image.srgb, unbudgeted(ctx, s, pair),
+                    fmt::format("residency_{}_stop{}", toString(selection), i));
   }
   EXPECT_GT(evicted, 0u) << "the second view needs pages the first one's evicted";
   EXPECT_GT(loadedBack, 0u) << "coming back reloads evicted pages";
+}
+
+TEST_F(ClusterResidency, MovingCameraEvictsAndReloads) {
+  expectMovingCameraEvictsAndReloads(context(), SelectionMode::Flat);
+}
+
+// The same with the LOD BVH: its bounds grown by the pages that arrived hold them after their
+// eviction and reload too.
+TEST_F(ClusterResidency, MovingCameraEvictsAndReloadsWithTheHierarchy) {
+  expectMovingCameraEvictsAndReloads(context(), SelectionMode::Hierarchy);
 }
 
 // Pages through the transfer queue (on lavapipe, which has none, its submissions go to the one
@@ -364,4 +411,154 @@ TEST_F(ClusterResidency, PrefetchIsComputedAgainOnCutsOnly) {
   auto done = converge(*o.renderer, near, budget);
   for (const ResidencyStats& f : done.frames) EXPECT_FALSE(f.prefetched) << "a step is no cut";
   expectSameImage(done.output.image.srgb, unbudgeted(context(), near), "residency_steps");
+}
+
+namespace {
+
+// The (instance, cluster) pairs owning a pixel of the visibility buffer read back.
+std::set<std::pair<uint32_t, uint32_t>> visibleClusters(const ClusterRenderOutput& out) {
+  std::set<std::pair<uint32_t, uint32_t>> set;
+  for (const VisibilitySample& v : out.visibility)
+    if (v.instance != UINT32_MAX) set.insert({v.instance, v.cluster});
+  return set;
+}
+
+// Frame `b` selected and drew what frame `a` did: the counts, the clusters owning pixels and the
+// image (identical but for ties between equal depths).
+void expectSameCut(const ClusterRenderOutput& a, const ClusterRenderOutput& b, const std::string& name) {
+  EXPECT_EQ(a.stats.clustersSelected, b.stats.clustersSelected);
+  EXPECT_EQ(a.stats.clustersFrustumCulled, b.stats.clustersFrustumCulled);
+  EXPECT_EQ(a.stats.clustersBackfaceCulled, b.stats.clustersBackfaceCulled);
+  EXPECT_EQ(a.stats.clustersDrawn, b.stats.clustersDrawn);
+  EXPECT_EQ(a.stats.trianglesRasterized, b.stats.trianglesRasterized);
+  EXPECT_EQ(b.stats.clustersOverflow, 0u);
+  std::set<std::pair<uint32_t, uint32_t>> va = visibleClusters(a), vb = visibleClusters(b);
+  EXPECT_GT(va.size(), 0u);
+  EXPECT_TRUE(va == vb) << va.size() << " clusters own pixels against " << vb.size();
+  expectSameImage(b.image.srgb, a.image.srgb, name);
+}
+
+} // namespace
+
+// Under a budget below the asset, the LOD BVH and the DAG tree converge to the flat selection's
+// cut (the same clusters selected, frustum- and cone-culled and owning pixels) and image, which is
+// the unbudgeted one, within the budget in every frame, from a close view partly out of the
+// frustum. Their leaves ask for the same pages: the first frame (the root pages alone drawn,
+// prefetch off, so every request is the selection's) asks for as many missing pages, and the next
+// frame's step loads as many.
+TEST_F(ClusterResidency, HierarchyAndDagConvergeToTheFlatCut) {
+  gpu::Context& ctx = context();
+  const PagedBlob& blob = pagedBlob();
+  ClusterRenderSettings s = viewSettings(closeView({0.3f, 0.2f, 1.0f}, 1.4f, 0.9f, 30.0f));
+  s.readVisibility = true;
+  uint64_t need = viewBytes(ctx, s, blob);
+  uint64_t budget = need + 24 * 1024;
+  ASSERT_LT(budget, blob.geometryBytes) << "the budget must be below the asset";
+  ClusterRenderOutput flat, full = test::renderCluster(ctx, blob.whole, s);
+  uint32_t flatRequested = 0, flatLoaded = 0;
+  for (SelectionMode selection : {SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag}) {
+    SCOPED_TRACE(toString(selection));
+    s.selection = selection;
+    Opened o = openBudgeted(ctx, budget, blob);
+    auto c = converge(*o.renderer, s, budget);
+    EXPECT_EQ(c.output.stats.selection, selection);
+    EXPECT_LT(c.output.stats.residency.residentPages, c.output.stats.residency.pages);
+    expectSameImage(c.output.image.srgb, full.image.srgb, fmt::format("residency_{}_full", toString(selection)));
+    Opened first = openBudgeted(ctx, budget, blob, /*prefetch=*/false);
+    auto f0 = first.renderer->render(s);
+    auto f1 = first.renderer->render(s);
+    ASSERT_TRUE(f0.ok() && f1.ok());
+    if (selection == SelectionMode::Flat) {
+      flat = std::move(c.output);
+      flatRequested = f0->stats.residency.requested;
+      flatLoaded = f1->stats.residency.loaded;
+      EXPECT_GT(flatRequested, 0u);
+      EXPECT_GT(flatLoaded, 0u);
+      continue;
+    }
+    expectSameCut(flat, c.output, fmt::format("residency_{}_flat", toString(selection)));
+    EXPECT_GT(c.output.stats.nodesTested, 0u);
+    EXPECT_EQ(f0->stats.residency.requested, flatRequested);
+    EXPECT_EQ(f1->stats.residency.loaded, flatLoaded);
+  }
+}
+
+// Pages loaded for a view of the whole blob stay resident when the camera turns to look past its
+// side, where clusters whose culling spheres stick out of their groups' are on the cut outside the
+// view (the page tables' bounds do not hold them: the trees grew when their pages arrived). There
+// every selection draws the same cut: without the grown bounds the traversals would cull the
+// nodes of clusters the flat pass keeps.
+TEST_F(ClusterResidency, TraversalsHoldTheSpheresOfArrivedPages) {
+  const PagedBlob& blob = pagedWideBlob();
+  const Bounds& b = blob.whole.scene.worldBounds();
+  Camera whole;
+  whole.eye = b.center() + glm::vec3(0.0f, 0.0f, 4.0f * b.radius());
+  whole.target = b.center();
+  whole.fovYDegrees = 40.0f;
+  Camera side = whole; // the blob's left part (x below about a third of its radius) out of view
+  side.target = b.center() + glm::vec3(1.2f * b.radius(), 0.0f, 0.0f);
+  side.fovYDegrees = 25.0f;
+  uint64_t budget = 64ull << 20;
+  ClusterRenderOutput flat;
+  for (SelectionMode selection : {SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag}) {
+    SCOPED_TRACE(toString(selection));
+    Opened o = openBudgeted(context(), budget, blob);
+    ClusterRenderSettings s = viewSettings(whole);
+    s.tauPixels = 0.25f;
+    s.selection = selection;
+    converge(*o.renderer, s, budget);
+    s.base.camera = side;
+    s.readVisibility = true;
+    auto c = converge(*o.renderer, s, budget);
+    EXPECT_EQ(c.output.stats.selection, selection);
+    if (selection == SelectionMode::Flat) {
+      flat = std::move(c.output);
+      continue;
+    }
+    expectSameCut(flat, c.output, fmt::format("residency_arrived_{}", toString(selection)));
+  }
+}
+
+// Auto picks the LOD BVH from kHierarchyInstances instances under a budget too: a grid of that many
+// small blobs seen from low over one corner (near copies need fine pages, far ones the roots)
+// converges to the flat selection's cut and image, which are the unbudgeted ones.
+TEST_F(ClusterResidency, AutoPicksTheHierarchyForManyInstances) {
+  static PagedBlob grid = [] {
+    io::BlobOptions o;
+    o.subdivisions = 5;
+    lod::BuildConfig config;
+    config.normalWeight = 0.0f;
+    auto baked = lod::bakeLodAsset(io::generateBlob(o), config);
+    if (!baked) std::abort();
+    uint32_t side = 128, rows = (kHierarchyInstances + side - 1) / side;
+    baked->scene.instances.clear();
+    for (uint32_t i = 0; i < side * rows; ++i)
+      baked->scene.instances.push_back(
+          {0, glm::translate(glm::mat4(1.0f), glm::vec3(3.0f * float(i % side), 0.0f, 3.0f * float(i / side)))});
+    return writePaged("grid", *baked);
+  }();
+  ASSERT_GE(grid.whole.scene.instances.size(), kHierarchyInstances);
+  Camera cam;
+  cam.eye = {-1.2f, 1.4f, -1.2f};
+  cam.target = {8.0f, 0.0f, 8.0f};
+  cam.fovYDegrees = 60.0f;
+  ClusterRenderSettings s = viewSettings(cam);
+  s.readVisibility = true;
+  uint64_t budget = viewBytes(context(), s, grid) + 24 * 1024;
+  ClusterRenderOutput full = test::renderCluster(context(), grid.whole, s);
+  ClusterRenderOutput flat;
+  for (SelectionMode selection : {SelectionMode::Flat, SelectionMode::Auto}) {
+    SCOPED_TRACE(toString(selection));
+    s.selection = selection;
+    Opened o = openBudgeted(context(), budget, grid);
+    auto c = converge(*o.renderer, s, budget);
+    EXPECT_LT(c.output.stats.residency.residentPages, c.output.stats.residency.pages);
+    if (selection == SelectionMode::Flat) {
+      expectSameCut(full, c.output, "residency_grid_flat");
+      flat = std::move(c.output);
+      continue;
+    }
+    EXPECT_EQ(c.output.stats.selection, SelectionMode::Hierarchy);
+    expectSameCut(flat, c.output, "residency_grid_auto");
+  }
 }

@@ -171,16 +171,18 @@ struct VisibleInstance {
 
 // One node of a mesh's LOD BVH (vk_lod_clusters style): per DAG level a BVH over the level's
 // member groups (the group a cluster is a child of; the level's roots form one more leaf), built at
-// upload (cluster_upload.cpp). A leaf lists its clusters, which share the group's parent sphere and
+// upload (cluster_lod_tree.cpp). A leaf lists its clusters, which share the group's parent sphere and
 // error. The traversal (cluster_traverse.comp) enters a node only when
 //   projected(sphere, maxParentError) > tau  (and, with frustum culling, the sphere is in view):
 // the sphere encloses every parent sphere beneath, so it is nearer than any of them and the bound is
 // >= every cluster's projected parent error; a node failing it has only clusters whose parent is
-// already fine enough (LOCALCUT's `tau < parent` fails), so skipping it loses no cut cluster. The
-// sphere also encloses the clusters' culling spheres, so the frustum test is conservative too.
-// Visited leaves are groups above the cut: the work follows the cut, not the mesh size.
+// already fine enough (LOCALCUT's `tau < parent` fails; with residency every draw and page request
+// needs it too), so skipping it loses no cut cluster. The sphere also encloses the clusters' culling
+// and self spheres (the frustum tests of a draw and of a page request), so the frustum test is
+// conservative too; with residency those of a cluster join when its page arrives. Visited leaves
+// are groups above the cut: the work follows the cut, not the mesh size.
 struct GpuLodNode {
-  vec4 sphere;          // object space, encloses parent spheres and cluster bounds beneath
+  vec4 sphere;          // object space, encloses the parent, self and culling spheres beneath
   float maxParentError; // largest parent error beneath (+inf with a root cluster beneath)
   uint childOffset;     // inner: first child node (mesh-relative); leaf: first entry in the leaf-cluster list
   uint childCount;      // inner: <= MIRAGE_LOD_NODE_WIDTH children (group tree: any); leaf: its clusters
