@@ -11,10 +11,12 @@
 // the pool, so particles and transparent surfaces sort together per pixel.
 // Packed storage (MIRAGE_FRAME_OIT_PACKED, shaderio/oit.h): the pixel's range is read instead of
 // its list, by wide independent loads into registers, and sorted there by a sorting network
-// (oitSortedRange): the same keys in the same order. Either way the sorted keys wait in shared
-// memory (one column per thread) while the fragments are shaded in a loop, so the loop indexes no
-// private array (local memory on NVIDIA) and keeps no 16 keys live in registers beside the
-// shading. The rays of the pixel, the same for all its fragments, are found once.
+// (oitSortedRange): the same keys in the same order; in fixed slots (ClusterFrame::oitFixedSlots)
+// pixel p's keys are at p * oitFixedSlots unless the ranges pass placed them after all. Either way
+// the sorted keys wait in shared memory (one column per thread) while the fragments are shaded in
+// a loop, so the loop indexes no private array (local memory on NVIDIA) and keeps no 16 keys live
+// in registers beside the shading. The rays of the pixel, the same for all its fragments, are
+// found once.
 // Specialization constant 0: MIRAGE_OIT_COMPOSITE_STORED for frames whose fragments all carry a
 // stored colour (particles alone).
 // push.visibleAddress is the blend list here (ids name its entries; the opaque list when the scene
@@ -64,18 +66,27 @@ void main() {
   ClusterFrame f = FrameRef(frameAddress).frame;
   ivec2 px = target - ivec2(f.targetOffsetX, 0); // the pixel within the eye
   if (px.x >= int(f.camera.viewport.x) || px.y >= int(f.camera.viewport.y)) return;
-  OitPixelHead head = OitHeadRef(f.oitHeadAddress).pixels[uint(target.y) * targetRowPixels(f) + uint(target.x)];
+  uint pixel = uint(target.y) * targetRowPixels(f) + uint(target.x);
+  OitPixelHead head = OitHeadRef(f.oitHeadAddress).pixels[pixel];
   if (head.fragments == 0) return;
   vec3 color = imageLoad(colorImage, target).rgb;
   // The nearest MIRAGE_OIT_MAX_LAYERS keys (depth bits << 32 | id), far to near (oit_list.glsl).
   uint lane = gl_LocalInvocationIndex;
   OitPixel list;
+  bool fixedSlots = false; // the pixel's keys in its fixed slots, counted by no earlier pass
   if ((f.flags & MIRAGE_FRAME_OIT_PACKED) != 0u) {
     // The range holds at most MIRAGE_OIT_MAX_LAYERS keys: its fragments, or its slots (NEAREST).
+    // Fixed slots (unless the ranges were placed after all): every fragment, at most oitFixedSlots.
+    fixedSlots = f.oitFixedSlots != 0u && (head.floorBits & MIRAGE_OIT_PACKED_READY) == 0u;
     uint slots = head.floorBits & MIRAGE_OIT_PACKED_COUNT;
     uint n = (head.floorBits & MIRAGE_OIT_PACKED_NEAREST) != 0u ? slots : min(slots, head.fragments);
+    uint base = head.head;
+    if (fixedSlots) {
+      n = min(head.fragments, f.oitFixedSlots);
+      base = pixel * f.oitFixedSlots;
+    }
     uint64_t keys[OIT_SORT_KEYS];
-    list = OitPixel(int(oitSortedRange(f.oitNodeAddress, head.head, min(n, OIT_SORT_KEYS), keys)), head.fragments, 0u);
+    list = OitPixel(int(oitSortedRange(f.oitNodeAddress, base, min(n, OIT_SORT_KEYS), keys)), head.fragments, 0u);
     [[unroll]] for (int i = 0; i < OIT_SORT_KEYS; ++i)
       if (i < list.count) sortedKeys[i][lane] = keys[i];
   } else {
@@ -83,7 +94,7 @@ void main() {
     [[unroll]] for (int i = 0; i < OIT_SORT_KEYS; ++i)
       if (i < list.count) sortedKeys[i][lane] = oitKeys[i];
   }
-  oitCountPixel(f.oitCounterAddress, list);
+  oitCountPixel(f.oitCounterAddress, list, /*requests=*/fixedSlots);
   PixelRays rays = pixelRays(f, vec2(px) + 0.5);
   for (int i = 0; i < list.count; ++i)
     color = oitBlend(color, fragmentColor(f, uint(sortedKeys[i][lane] & 0xffffffffUL), rays));

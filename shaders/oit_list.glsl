@@ -178,6 +178,22 @@ void oitPackedFragment(uint64_t headAddress, uint64_t keyAddress, uint pixel, fl
   for (uint i = 0u; i < slots && key != 0ul; ++i) key = min(key, atomicMax(pool.keys[base + i], key));
 }
 
+// A fragment of `pixel` in fixed slots, the first rasterization (shaderio/oit.h,
+// MIRAGE_OIT_FIXED_*): counted on its pixel, and written into slot pixel * slots + its rank (the
+// pixel's fragments before it) while that is under `slots`. The first one past them marks the
+// frame (once per pixel at most; a cached read spares most of the atomics), whose fragments the
+// ranges pass and the second rasterization then place again as packed storage.
+void oitFixedFragment(uint64_t headAddress, uint64_t keyAddress, uint64_t counterAddress, uint slots, uint pixel,
+                      float z, uint id) {
+  uint rank = atomicAdd(OitHeadRef(headAddress).pixels[pixel].fragments, 1u);
+  if (rank < slots) {
+    OitKeyRef(keyAddress).keys[pixel * slots + rank] = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
+  } else if (rank == slots) {
+    OitCounterRef c = OitCounterRef(counterAddress);
+    if ((c.counters.fixedState & MIRAGE_OIT_FIXED_OVER) == 0u) atomicOr(c.counters.fixedState, MIRAGE_OIT_FIXED_OVER);
+  }
+}
+
 #ifndef MIRAGE_OIT_LAYERS
 #define MIRAGE_OIT_LAYERS MIRAGE_OIT_MAX_LAYERS
 #endif
@@ -308,17 +324,21 @@ uint oitSortedRange(uint64_t keyAddress, uint base, uint n, out uint64_t k[OIT_S
 // covered pixels, squared fragment count for Mean Squared Layers: the exact count, not the capped
 // list's length), summed over the subgroup first: one atomic per counter and subgroup rather than
 // per pixel. Pixels of 4096+ fragments (squares past 24 bits, whose subgroup sum could wrap) add
-// their own 64-bit square. Call from every pixel with a fragment.
-void oitCountPixel(uint64_t counterAddress, OitPixel p) {
+// their own 64-bit square. `requests`: the pixel's fragments under the cap are added to
+// OitCounters::nodes too (fixed slots: no append or ranges pass counted them). Call from every
+// pixel with a fragment.
+void oitCountPixel(uint64_t counterAddress, OitPixel p, bool requests) {
   bool long_ = p.fragments >= 4096u;
   uint square = long_ ? 0u : p.fragments * p.fragments;
   uint squares = subgroupAdd(square);
   uint dropped = subgroupAdd(p.dropped);
   uint pastCap = subgroupAdd(p.fragments - min(p.fragments, uint(MIRAGE_OIT_MAX_LAYERS)));
   uint covered = subgroupAdd(1u);
+  uint nodes = subgroupAdd(requests ? min(p.fragments, uint(MIRAGE_OIT_MAX_LAYERS)) : 0u);
   OitCounterRef c = OitCounterRef(counterAddress);
   if (subgroupElect()) {
     atomicAdd(c.counters.coveredPixels, covered);
+    if (nodes != 0) atomicAdd(c.counters.nodes, nodes);
     if (dropped != 0) atomicAdd(c.counters.layersDropped, dropped);
     if (pastCap != 0) atomicAdd(c.counters.capDropped, pastCap);
     uint old = atomicAdd(c.counters.squaredLayersLo, squares);
