@@ -34,7 +34,8 @@ bool oitBeginBlendPass(ClusterFrame f) {
 // rasterization, else counted or written into its range.
 void oitPackedAppend(ClusterFrame f, uint pixel, float z, uint id) {
   if (f.oitFixedSlots != 0u && (oitFixedState & MIRAGE_OIT_FIXED_SECOND) == 0u)
-    oitFixedFragment(f.oitHeadAddress, f.oitNodeAddress, f.oitCounterAddress, f.oitFixedSlots, pixel, z, id);
+    oitFixedFragment(f.oitHeadAddress, f.oitNodeAddress, f.oitCounterAddress, f.oitFixedSlots, f.oitFixedStride,
+                     pixel, z, id);
   else
     oitPackedFragment(f.oitHeadAddress, f.oitNodeAddress, pixel, z, id);
 }

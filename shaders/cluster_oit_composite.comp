@@ -12,7 +12,8 @@
 // Packed storage (MIRAGE_FRAME_OIT_PACKED, shaderio/oit.h): the pixel's range is read instead of
 // its list, by wide independent loads into registers, and sorted there by a sorting network
 // (oitSortedRange): the same keys in the same order; in fixed slots (ClusterFrame::oitFixedSlots)
-// pixel p's keys are at p * oitFixedSlots unless the ranges pass placed them after all. Either way
+// pixel p's slot i is at i * oitFixedStride + p (oitSortedSlots) unless the ranges pass placed its
+// keys after all. Either way
 // the sorted keys wait in shared memory (one column per thread) while the fragments are shaded in
 // a loop, so the loop indexes no private array (local memory on NVIDIA) and keeps no 16 keys live
 // in registers beside the shading. The rays of the pixel, the same for all its fragments, are
@@ -80,13 +81,11 @@ void main() {
     fixedSlots = f.oitFixedSlots != 0u && (head.floorBits & MIRAGE_OIT_PACKED_READY) == 0u;
     uint slots = head.floorBits & MIRAGE_OIT_PACKED_COUNT;
     uint n = (head.floorBits & MIRAGE_OIT_PACKED_NEAREST) != 0u ? slots : min(slots, head.fragments);
-    uint base = head.head;
-    if (fixedSlots) {
-      n = min(head.fragments, f.oitFixedSlots);
-      base = pixel * f.oitFixedSlots;
-    }
     uint64_t keys[OIT_SORT_KEYS];
-    list = OitPixel(int(oitSortedRange(f.oitNodeAddress, base, min(n, OIT_SORT_KEYS), keys)), head.fragments, 0u);
+    uint kept = fixedSlots ? oitSortedSlots(f.oitNodeAddress, pixel, f.oitFixedStride,
+                                            min(head.fragments, min(f.oitFixedSlots, OIT_SORT_KEYS)), keys)
+                           : oitSortedRange(f.oitNodeAddress, head.head, min(n, OIT_SORT_KEYS), keys);
+    list = OitPixel(int(kept), head.fragments, 0u);
     [[unroll]] for (int i = 0; i < OIT_SORT_KEYS; ++i)
       if (i < list.count) sortedKeys[i][lane] = keys[i];
   } else {

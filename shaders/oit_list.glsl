@@ -179,15 +179,15 @@ void oitPackedFragment(uint64_t headAddress, uint64_t keyAddress, uint pixel, fl
 }
 
 // A fragment of `pixel` in fixed slots, the first rasterization (shaderio/oit.h,
-// MIRAGE_OIT_FIXED_*): counted on its pixel, and written into slot pixel * slots + its rank (the
-// pixel's fragments before it) while that is under `slots`. The first one past them marks the
-// frame (once per pixel at most; a cached read spares most of the atomics), whose fragments the
-// ranges pass and the second rasterization then place again as packed storage.
-void oitFixedFragment(uint64_t headAddress, uint64_t keyAddress, uint64_t counterAddress, uint slots, uint pixel,
-                      float z, uint id) {
+// MIRAGE_OIT_FIXED_*): counted on its pixel, and written into its slot rank * stride + pixel (its
+// rank: the pixel's fragments before it) while the rank is under `slots`. The first one past them
+// marks the frame (once per pixel at most; a cached read spares most of the atomics), whose
+// fragments the ranges pass and the second rasterization then place again as packed storage.
+void oitFixedFragment(uint64_t headAddress, uint64_t keyAddress, uint64_t counterAddress, uint slots, uint stride,
+                      uint pixel, float z, uint id) {
   uint rank = atomicAdd(OitHeadRef(headAddress).pixels[pixel].fragments, 1u);
   if (rank < slots) {
-    OitKeyRef(keyAddress).keys[pixel * slots + rank] = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
+    OitKeyRef(keyAddress).keys[rank * stride + pixel] = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
   } else if (rank == slots) {
     OitCounterRef c = OitCounterRef(counterAddress);
     if ((c.counters.fixedState & MIRAGE_OIT_FIXED_OVER) == 0u) atomicOr(c.counters.fixedState, MIRAGE_OIT_FIXED_OVER);
@@ -294,6 +294,19 @@ void oitSortKeys(inout uint64_t k[OIT_SORT_KEYS], uint n) {
   OIT_CX(k, 13, 14)
 }
 
+// k[0, n) as read (0: a slot never written), the rest anything: keys never written and every slot
+// past n made kOitNoKey, then sorted (oitSortKeys); returns the keys kept.
+uint oitKeepSorted(inout uint64_t k[OIT_SORT_KEYS], uint n) {
+  uint kept = 0u;
+  [[unroll]] for (uint i = 0u; i < OIT_SORT_KEYS; ++i) {
+    bool valid = i < n && k[i] != 0ul;
+    k[i] = valid ? k[i] : kOitNoKey;
+    kept += valid ? 1u : 0u;
+  }
+  oitSortKeys(k, n);
+  return kept;
+}
+
 // Keys [base, base + n) of the pool (n <= OIT_SORT_KEYS) into k, sorted ascending (far to near),
 // the rest kOitNoKey; keys never written (0) are left out as oitKeep leaves them. Returns the keys
 // kept. The loads are independent 16-byte pairs from the even slot at or below base (an odd base
@@ -309,15 +322,20 @@ uint oitSortedRange(uint64_t keyAddress, uint base, uint n, out uint64_t k[OIT_S
     a[2u * j] = pair.x;
     a[2u * j + 1u] = pair.y;
   }
-  uint kept = 0u;
+  [[unroll]] for (uint i = 0u; i < OIT_SORT_KEYS; ++i) k[i] = odd != 0u ? a[i + 1u] : a[i];
+  return oitKeepSorted(k, n);
+}
+
+// The keys of `pixel` in fixed slots (shaderio/oit.h, MIRAGE_OIT_FIXED_*): slot i at
+// i * stride + pixel (i < n <= OIT_SORT_KEYS), sorted and returned as oitSortedRange does. The
+// loads are independent, and a warp's neighbouring pixels read neighbouring words (coalesced).
+uint oitSortedSlots(uint64_t keyAddress, uint pixel, uint stride, uint n, out uint64_t k[OIT_SORT_KEYS]) {
+  OitKeyRef pool = OitKeyRef(keyAddress);
   [[unroll]] for (uint i = 0u; i < OIT_SORT_KEYS; ++i) {
-    uint64_t key = odd != 0u ? a[i + 1u] : a[i];
-    bool valid = i < n && key != 0ul;
-    k[i] = valid ? key : kOitNoKey;
-    kept += valid ? 1u : 0u;
+    k[i] = 0ul;
+    if (i < n) k[i] = pool.keys[i * stride + pixel];
   }
-  oitSortKeys(k, n);
-  return kept;
+  return oitKeepSorted(k, n);
 }
 
 // A resolved pixel's share of the frame's counters (listed layers dropped, fragments past the cap,

@@ -283,6 +283,7 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.blendCapacity = blendCapacity;
     f.oitNodeCapacity = oitNodeCapacity;
     f.oitFixedSlots = plan.oitFixedSlots;
+    f.oitFixedStride = colorWidth * height;
     f.oitCounterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
     f.oitColorAddress = oitColors ? oitColors.address() : oitNodes.address(); // see ClusterFrame
   }

@@ -263,9 +263,10 @@ struct ClusterFrame {
   uint blendCapacity;           // entries of the blend list
   uint oitNodeCapacity;         // nodes (or keys) in the pool
   // Packed storage in fixed slots (--oit fixed; shaderio/oit.h, MIRAGE_OIT_FIXED_*): keys per pixel
-  // of the first rasterization, pixel p's at p * oitFixedSlots; 0: counted ranges or lists.
+  // of the first rasterization (0: counted ranges or lists), pixel p's slot i at
+  // i * oitFixedStride + p, the stride the target's pixels (both eyes in stereo).
   uint oitFixedSlots;
-  uint oitPad;
+  uint oitFixedStride;
   // Cluster PVS of the camera's view cell (MIRAGE_FRAME_PVS; lod/cluster_pvs.h): per instance the
   // first bit of its clusters in the bit array, or MIRAGE_PVS_INSTANCE_CULLED.
   uint64_t pvsInstanceAddress; // uint[] per instance

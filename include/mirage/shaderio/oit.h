@@ -80,7 +80,9 @@ struct OitCounters {
 
 // Packed storage in fixed slots (--oit fixed; ClusterFrame::oitFixedSlots = K, the pool's keys per
 // pixel, at most MIRAGE_OIT_MAX_LAYERS): one rasterization counts each fragment on its pixel and
-// writes it into slot pixel * K + its rank, no count pass and no ranges. A pixel whose fragments
+// writes it into slot r = its rank, at r * pixels + pixel (slot-major: a warp's neighbouring
+// pixels of one layer write, and the composite reads, neighbouring words), no count pass and no
+// ranges. A pixel whose fragments
 // outnumber K (the first past them sets MIRAGE_OIT_FIXED_OVER) would lose some that the counted
 // ranges keep, so then, and only then, the ranges pass and the second rasterization run as for
 // packed storage and place every fragment again (the same keys kept, the same image). Both are
