@@ -12,7 +12,11 @@ void main() {
   uint pass = push.rasterList;
   CounterRef c = CounterRef(push.counterAddress);
   if (pass == MIRAGE_BLEND_QUEUE_ARGS) { // after the compute blend raster: the blend queue's tiles
-    uvec3 d = splitDispatch(uint(c.counters.blendQueueCounts), MIRAGE_BLEND_QUEUE_GROUP_TILES);
+    // None in the second rasterization of a fixed-slot frame that redoes nothing (shaderio/oit.h):
+    // its compute blend raster returned at once, and the queue still holds the first one's.
+    uint state = c.counters.oit.fixedState;
+    bool idle = (state & MIRAGE_OIT_FIXED_SECOND) != 0u && (state & MIRAGE_OIT_FIXED_OVER) == 0u;
+    uvec3 d = splitDispatch(idle ? 0u : uint(c.counters.blendQueueCounts), MIRAGE_BLEND_QUEUE_GROUP_TILES);
     c.counters.blendQueueArgs[0] = d.x;
     c.counters.blendQueueArgs[1] = d.y;
     c.counters.blendQueueArgs[2] = 1;

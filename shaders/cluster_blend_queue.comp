@@ -13,7 +13,7 @@
 // atomicExchange on the pixel's head onto consecutive nodes (coalesced node writes); fragments past
 // their cap replace their pixel's farthest or are dropped (oitSlotOf). Packed storage
 // (MIRAGE_FRAME_OIT_PACKED): each kept pixel is counted or written in the first round
-// (oitPackedFragment), and the second is skipped.
+// (oitPackedAppend: its range, or its fixed slots), and the second is skipped.
 // Pushed: the blend list (ids name its entries) and the mono frame, or stereo's left eye frame.
 #extension GL_EXT_nonuniform_qualifier : require
 #include "cluster_common.glsl"
@@ -65,6 +65,7 @@ uvec2 tilePixel(QueuedTriangle t, uint tile, out i64vec3 w, out float z) {
 
 void main() {
   ClusterFrame f = FrameRef(push.frameAddress).frame;
+  if (!oitBeginBlendPass(f)) return; // uniform (cluster_args.comp dispatches none of these workgroups then)
   uint64_t counts = CounterRef(push.counterAddress).counters.blendQueueCounts;
   uint entries = uint(counts >> 32), tiles = uint(counts);
   uint first = (gl_WorkGroupID.y * MIRAGE_CLUSTER_DISPATCH_X + gl_WorkGroupID.x) * MIRAGE_BLEND_QUEUE_GROUP_TILES;
@@ -94,7 +95,7 @@ void main() {
         blendSampleKept(f, t.fade, t.eyeX, p.x, p.y, z)) {
       kept |= 1u << (tile - first);
       if (packed)
-        oitPackedFragment(f.oitHeadAddress, f.oitNodeAddress, p.y * row + p.x + t.eyeX, z, t.id);
+        oitPackedAppend(f, p.y * row + p.x + t.eyeX, z, t.id);
       else if (oitCountFragment(f.oitHeadAddress, p.y * row + p.x + t.eyeX) < MIRAGE_OIT_MAX_LAYERS)
         under |= 1u << (tile - first);
     }

@@ -470,6 +470,9 @@ void main() {
   uint v = rasterEntry(gl_WorkGroupID.y * MIRAGE_CLUSTER_DISPATCH_X + gl_WorkGroupID.x);
   if (v == ~0u) return; // uniform over the workgroup
   ClusterFrame f = FrameRef(push.frameAddress).frame;
+#ifdef MIRAGE_RASTER_BLEND
+  if (!oitBeginBlendPass(f)) return; // uniform: a fixed-slot frame's second rasterization with nothing to redo
+#endif
   VisibleCluster vc = VisibleRef(push.visibleAddress).visible[v];
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];

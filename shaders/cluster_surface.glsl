@@ -44,11 +44,20 @@ struct ClusterSurface {
   SurfaceDerivatives d;
 };
 
-// The surface point of `tri` under the pixel centre `centre`, with per-pixel derivatives.
-ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre) {
-  vec3 h = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre), tri.p0, tri.e1, tri.e2);
-  vec3 hx = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(1, 0)), tri.p0, tri.e1, tri.e2);
-  vec3 hy = rayTriangle(f.camera.eye.xyz, pixelRay(f, centre + vec2(0, 1)), tri.p0, tri.e1, tri.e2);
+// The rays from the eye through a pixel centre and through the centres one pixel right and down:
+// what surfaceOnRays needs of the pixel, the same for every triangle under it.
+struct PixelRays {
+  vec3 centre, right, down;
+};
+PixelRays pixelRays(ClusterFrame f, vec2 centre) {
+  return PixelRays(pixelRay(f, centre), pixelRay(f, centre + vec2(1, 0)), pixelRay(f, centre + vec2(0, 1)));
+}
+
+// The surface point of `tri` on a pixel's rays from the eye, with per-pixel derivatives.
+ClusterSurface surfaceOnRays(vec3 eye, ClusterTriangle tri, PixelRays r) {
+  vec3 h = rayTriangle(eye, r.centre, tri.p0, tri.e1, tri.e2);
+  vec3 hx = rayTriangle(eye, r.right, tri.p0, tri.e1, tri.e2);
+  vec3 hy = rayTriangle(eye, r.down, tri.p0, tri.e1, tri.e2);
   ClusterSurface s;
   s.bary = vec3(1.0 - h.y - h.z, h.y, h.z);
   s.pos = tri.p0 + tri.e1 * h.y + tri.e2 * h.z;
@@ -60,13 +69,19 @@ ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre) {
   return s;
 }
 
+// The surface point of `tri` under the pixel centre `centre`, with per-pixel derivatives.
+ClusterSurface surfaceAt(ClusterFrame f, ClusterTriangle tri, vec2 centre) {
+  return surfaceOnRays(f.camera.eye.xyz, tri, pixelRays(f, centre));
+}
+
 // Shaded colour (rgb) and coverage (a: 1, or base-colour alpha for BLEND) of triangle t of visible
-// cluster vc at pixel px, as the forward renderer shades it (the transparency composite).
-vec4 shadeClusterPixel(ClusterFrame f, VisibleCluster vc, uint t, ivec2 px) {
+// cluster vc on the rays of a pixel (pixelRays), as the forward renderer shades it (the
+// transparency composite, which finds the rays once per pixel for all its fragments).
+vec4 shadeClusterPixel(ClusterFrame f, VisibleCluster vc, uint t, PixelRays rays) {
   GpuCluster c = ClusterRef(push.clusterAddress).clusters[vc.cluster];
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
   ClusterTriangle tri = fetchTriangle(c, inst, t);
-  ClusterSurface s = surfaceAt(f, tri, vec2(px) + 0.5);
+  ClusterSurface s = surfaceOnRays(f.camera.eye.xyz, tri, rays);
   GpuMaterial m = MaterialRef(push.materialAddress).materials[MeshRef(push.meshAddress).meshes[inst.mesh].material];
   bool mirrored = (inst.flags & MIRAGE_INSTANCE_MIRRORED) != 0;
   bool front = (dot(cross(tri.e1, tri.e2), f.camera.eye.xyz - s.pos) > 0.0) != mirrored;

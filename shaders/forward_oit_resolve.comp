@@ -22,7 +22,7 @@ void main() {
   OitPixelHead head = OitHeadRef(l.headAddress).pixels[p.y * l.rowPixels + p.x];
   if (head.fragments == 0) return;
   OitPixel list = oitGather(l.nodeAddress, l.nodeCapacity, head);
-  oitCountPixel(l.counterAddress, list);
+  oitCountPixel(l.counterAddress, list, /*requests=*/false);
   OitColorRef colors = OitColorRef(l.colorAddress);
   vec3 color = imageLoad(colorImage, ivec2(p)).rgb;
   for (int i = 0; i < list.count; ++i) {

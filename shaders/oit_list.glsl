@@ -178,6 +178,22 @@ void oitPackedFragment(uint64_t headAddress, uint64_t keyAddress, uint pixel, fl
   for (uint i = 0u; i < slots && key != 0ul; ++i) key = min(key, atomicMax(pool.keys[base + i], key));
 }
 
+// A fragment of `pixel` in fixed slots, the first rasterization (shaderio/oit.h,
+// MIRAGE_OIT_FIXED_*): counted on its pixel, and written into its slot rank * stride + pixel (its
+// rank: the pixel's fragments before it) while the rank is under `slots`. The first one past them
+// marks the frame (once per pixel at most; a cached read spares most of the atomics), whose
+// fragments the ranges pass and the second rasterization then place again as packed storage.
+void oitFixedFragment(uint64_t headAddress, uint64_t keyAddress, uint64_t counterAddress, uint slots, uint stride,
+                      uint pixel, float z, uint id) {
+  uint rank = atomicAdd(OitHeadRef(headAddress).pixels[pixel].fragments, 1u);
+  if (rank < slots) {
+    OitKeyRef(keyAddress).keys[rank * stride + pixel] = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(id);
+  } else if (rank == slots) {
+    OitCounterRef c = OitCounterRef(counterAddress);
+    if ((c.counters.fixedState & MIRAGE_OIT_FIXED_OVER) == 0u) atomicOr(c.counters.fixedState, MIRAGE_OIT_FIXED_OVER);
+  }
+}
+
 #ifndef MIRAGE_OIT_LAYERS
 #define MIRAGE_OIT_LAYERS MIRAGE_OIT_MAX_LAYERS
 #endif
@@ -231,38 +247,116 @@ OitPixel oitGather(uint64_t nodeAddress, uint capacity, OitPixelHead h) {
   return p;
 }
 
-// The range of pixel `h` in packed storage (shaderio/oit.h) read, keeping the nearest
-// MIRAGE_OIT_LAYERS sorted as oitGather does: its fragments where it held them all, else its
-// slots (the nearest, by oitPackedFragment's cascade). Independent loads of consecutive keys
-// rather than a chain of dependent ones.
-OitPixel oitGatherPacked(uint64_t keyAddress, OitPixelHead h) {
-  for (int i = 0; i < MIRAGE_OIT_LAYERS; ++i) oitKeys[i] = 0;
-  OitPixel p = OitPixel(0, h.fragments, 0);
-  uint kept = h.floorBits & MIRAGE_OIT_PACKED_COUNT;
-  uint n = (h.floorBits & MIRAGE_OIT_PACKED_NEAREST) != 0u ? kept : min(kept, h.fragments);
-  OitKeyRef pool = OitKeyRef(keyAddress);
-  for (uint i = 0u; i < n; ++i) {
-    uint64_t key = pool.keys[h.head + i];
-    if (key != 0ul) oitKeep(p, key);
+// Packed storage's keys sorted in registers (the composite; docs/render.md, "Packed storage"): a
+// pixel holds at most MIRAGE_OIT_MAX_LAYERS keys in one range, so they are loaded by wide
+// independent loads into an array indexed by constants only (a dynamically indexed array becomes
+// local memory on NVIDIA) and sorted by Batcher's odd-even merge network (Knuth, TAOCP 5.3.4) for
+// 4, 8 or 16 keys, whichever holds the range: the same order as oitKeep's insertion sort.
+#define OIT_SORT_KEYS 16 // MIRAGE_OIT_MAX_LAYERS: a range's keys at most
+#if MIRAGE_OIT_MAX_LAYERS != OIT_SORT_KEYS
+#error "the sorting networks below are written for 16 keys"
+#endif
+const uint64_t kOitNoKey = 0xffffffffffffffffUL; // padding: sorts after every key (depth bits <= 1.0f's)
+
+layout(buffer_reference, scalar, buffer_reference_align = 16) readonly buffer OitKeyPairRef { u64vec2 pairs[]; };
+
+// Keys k[i] and k[j], i < j constants, put in order.
+#define OIT_CX(k, i, j)                                                                                        \
+  {                                                                                                            \
+    uint64_t lo_ = min(k[i], k[j]);                                                                            \
+    k[j] = max(k[i], k[j]);                                                                                    \
+    k[i] = lo_;                                                                                                \
   }
-  return p;
+// Keys o..o+3 sorted (5 exchanges).
+#define OIT_SORT4(k, o)                                                                                        \
+  OIT_CX(k, o, o + 1) OIT_CX(k, o + 2, o + 3) OIT_CX(k, o, o + 2) OIT_CX(k, o + 1, o + 3) OIT_CX(k, o + 1, o + 2)
+// Keys o..o+7, each half sorted, merged (9 exchanges).
+#define OIT_MERGE8(k, o)                                                                                       \
+  OIT_CX(k, o, o + 4) OIT_CX(k, o + 1, o + 5) OIT_CX(k, o + 2, o + 6) OIT_CX(k, o + 3, o + 7)                  \
+  OIT_CX(k, o + 2, o + 4) OIT_CX(k, o + 3, o + 5) OIT_CX(k, o + 1, o + 2) OIT_CX(k, o + 3, o + 4)              \
+  OIT_CX(k, o + 5, o + 6)
+
+// k[0, 16) sorted ascending (far to near), given that k[n, 16) hold kOitNoKey: the 4-key network
+// (5 exchanges) when n <= 4, the 8-key one (19) when n <= 8, else the 16-key one (63).
+void oitSortKeys(inout uint64_t k[OIT_SORT_KEYS], uint n) {
+  OIT_SORT4(k, 0)
+  if (n <= 4u) return;
+  OIT_SORT4(k, 4)
+  OIT_MERGE8(k, 0)
+  if (n <= 8u) return;
+  OIT_SORT4(k, 8)
+  OIT_SORT4(k, 12)
+  OIT_MERGE8(k, 8)
+  OIT_CX(k, 0, 8) OIT_CX(k, 1, 9) OIT_CX(k, 2, 10) OIT_CX(k, 3, 11) OIT_CX(k, 4, 12) OIT_CX(k, 5, 13)
+  OIT_CX(k, 6, 14) OIT_CX(k, 7, 15) OIT_CX(k, 4, 8) OIT_CX(k, 5, 9) OIT_CX(k, 6, 10) OIT_CX(k, 7, 11)
+  OIT_CX(k, 2, 4) OIT_CX(k, 3, 5) OIT_CX(k, 6, 8) OIT_CX(k, 7, 9) OIT_CX(k, 10, 12) OIT_CX(k, 11, 13)
+  OIT_CX(k, 1, 2) OIT_CX(k, 3, 4) OIT_CX(k, 5, 6) OIT_CX(k, 7, 8) OIT_CX(k, 9, 10) OIT_CX(k, 11, 12)
+  OIT_CX(k, 13, 14)
+}
+
+// k[0, n) as read (0: a slot never written), the rest anything: keys never written and every slot
+// past n made kOitNoKey, then sorted (oitSortKeys); returns the keys kept.
+uint oitKeepSorted(inout uint64_t k[OIT_SORT_KEYS], uint n) {
+  uint kept = 0u;
+  [[unroll]] for (uint i = 0u; i < OIT_SORT_KEYS; ++i) {
+    bool valid = i < n && k[i] != 0ul;
+    k[i] = valid ? k[i] : kOitNoKey;
+    kept += valid ? 1u : 0u;
+  }
+  oitSortKeys(k, n);
+  return kept;
+}
+
+// Keys [base, base + n) of the pool (n <= OIT_SORT_KEYS) into k, sorted ascending (far to near),
+// the rest kOitNoKey; keys never written (0) are left out as oitKeep leaves them. Returns the keys
+// kept. The loads are independent 16-byte pairs from the even slot at or below base (an odd base
+// reads one slot before its range, and one past it at most: inside the pool's buffer, which holds
+// 12 bytes per key).
+uint oitSortedRange(uint64_t keyAddress, uint base, uint n, out uint64_t k[OIT_SORT_KEYS]) {
+  OitKeyPairRef pool = OitKeyPairRef(keyAddress);
+  uint odd = base & 1u, first = base >> 1;
+  uint64_t a[OIT_SORT_KEYS + 2];
+  [[unroll]] for (uint j = 0u; j < OIT_SORT_KEYS / 2u + 1u; ++j) {
+    u64vec2 pair = u64vec2(0ul);
+    if (2u * j < n + odd) pair = pool.pairs[first + j];
+    a[2u * j] = pair.x;
+    a[2u * j + 1u] = pair.y;
+  }
+  [[unroll]] for (uint i = 0u; i < OIT_SORT_KEYS; ++i) k[i] = odd != 0u ? a[i + 1u] : a[i];
+  return oitKeepSorted(k, n);
+}
+
+// The keys of `pixel` in fixed slots (shaderio/oit.h, MIRAGE_OIT_FIXED_*): slot i at
+// i * stride + pixel (i < n <= OIT_SORT_KEYS), sorted and returned as oitSortedRange does. The
+// loads are independent, and a warp's neighbouring pixels read neighbouring words (coalesced).
+uint oitSortedSlots(uint64_t keyAddress, uint pixel, uint stride, uint n, out uint64_t k[OIT_SORT_KEYS]) {
+  OitKeyRef pool = OitKeyRef(keyAddress);
+  [[unroll]] for (uint i = 0u; i < OIT_SORT_KEYS; ++i) {
+    k[i] = 0ul;
+    if (i < n) k[i] = pool.keys[i * stride + pixel];
+  }
+  return oitKeepSorted(k, n);
 }
 
 // A resolved pixel's share of the frame's counters (listed layers dropped, fragments past the cap,
 // covered pixels, squared fragment count for Mean Squared Layers: the exact count, not the capped
 // list's length), summed over the subgroup first: one atomic per counter and subgroup rather than
 // per pixel. Pixels of 4096+ fragments (squares past 24 bits, whose subgroup sum could wrap) add
-// their own 64-bit square. Call from every pixel with a fragment.
-void oitCountPixel(uint64_t counterAddress, OitPixel p) {
+// their own 64-bit square. `requests`: the pixel's fragments under the cap are added to
+// OitCounters::nodes too (fixed slots: no append or ranges pass counted them). Call from every
+// pixel with a fragment.
+void oitCountPixel(uint64_t counterAddress, OitPixel p, bool requests) {
   bool long_ = p.fragments >= 4096u;
   uint square = long_ ? 0u : p.fragments * p.fragments;
   uint squares = subgroupAdd(square);
   uint dropped = subgroupAdd(p.dropped);
   uint pastCap = subgroupAdd(p.fragments - min(p.fragments, uint(MIRAGE_OIT_MAX_LAYERS)));
   uint covered = subgroupAdd(1u);
+  uint nodes = subgroupAdd(requests ? min(p.fragments, uint(MIRAGE_OIT_MAX_LAYERS)) : 0u);
   OitCounterRef c = OitCounterRef(counterAddress);
   if (subgroupElect()) {
     atomicAdd(c.counters.coveredPixels, covered);
+    if (nodes != 0) atomicAdd(c.counters.nodes, nodes);
     if (dropped != 0) atomicAdd(c.counters.layersDropped, dropped);
     if (pastCap != 0) atomicAdd(c.counters.capDropped, pastCap);
     uint old = atomicAdd(c.counters.squaredLayersLo, squares);

@@ -12,6 +12,10 @@
 // 2. one workgroup per block: the scan within the block (8 consecutive pixels per thread), each
 //    pixel's head (first slot) and state; a pixel with fewer slots than fragments has its slots
 //    zeroed for the cascade of 64-bit maxima that keeps its nearest (oitPackedFragment).
+// Stage 1 also zeroes the blend queue's counters for the second rasterization. After a fixed-slot
+// rasterization (push.fixedSlots; shaderio/oit.h, MIRAGE_OIT_FIXED_*) stage 1 marks the first
+// rasterization complete, and every stage returns at once unless a pixel had more fragments than
+// its slots: then the counts it made are placed as ranges as after a count pass.
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -23,6 +27,9 @@ layout(push_constant, scalar) uniform Push { OitRangesPush push; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer HeadRef { OitPixelHead pixels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer KeyRef { uint64_t keys[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CounterRef { OitCounters counters; };
+layout(buffer_reference, scalar, buffer_reference_align = 8) buffer QueueCounterRef {
+  uint words[MIRAGE_OIT_QUEUE_WORDS];
+};
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer ScratchRef {
   OitRangesScratch frame;
   uint words[]; // per block: MIRAGE_OIT_MAX_LAYERS + 1 counts, then (at kOffsets) uvec2 first slots
@@ -65,6 +72,14 @@ void main() {
   ScratchRef scratch = ScratchRef(push.scratchAddress);
   HeadRef heads = HeadRef(push.headAddress);
   uint tid = gl_LocalInvocationID.x, block = gl_WorkGroupID.x;
+  if (push.fixedSlots != 0u) { // after fixed slots: ranges only where some pixel had more fragments
+    CounterRef counters = CounterRef(push.counterAddress);
+    uint fixedState = counters.counters.fixedState; // uniform: the first rasterization is complete
+    if (push.stage == 1u && tid == 0u) counters.counters.fixedState = fixedState | MIRAGE_OIT_FIXED_SECOND;
+    if ((fixedState & MIRAGE_OIT_FIXED_OVER) == 0u) return;
+  }
+  if (push.stage == 1u && push.queueAddress != 0ul && tid < MIRAGE_OIT_QUEUE_WORDS)
+    QueueCounterRef(push.queueAddress).words[tid] = 0u; // the second rasterization queues afresh
   if (push.stage == 0u) {
     if (tid < kBins) bins[tid] = 0u;
     barrier();

@@ -283,6 +283,8 @@ nlohmann::json statsJson(const render::ClusterStats& st) {
           {"oit_layers_dropped", st.oitLayersDropped},
           {"oit_dropped", uint64_t(st.oitPoolOverflow) + st.oitLayersDropped},
           {"msl", st.msl},
+          {"oit_fixed_slots", st.oitFixedSlots},
+          {"oit_fixed_redone", st.oitFixedRedone},
           {"pvs", st.pvs},
           {"instances_pvs_culled", st.instancesPvsCulled},
           {"clusters_pvs_culled", st.clustersPvsCulled},
@@ -309,6 +311,9 @@ void printStats(const render::ClusterStats& st, const std::vector<gpu::PassTime>
                "the node pool (the farthest), {} past 16 layers per pixel\n",
                render::toString(st.blendRaster), st.clustersBlend, st.clustersBlendHardware, st.oitFragments, st.msl,
                uint64_t(st.oitPoolOverflow) + st.oitLayersDropped, st.oitPoolOverflow, st.oitLayersDropped);
+  if (st.oitFixedSlots)
+    fmt::print("transparency in {} fixed slots per pixel{}\n", st.oitFixedSlots,
+               st.oitFixedRedone ? ": a pixel had more fragments, placed again as packed ranges" : "");
   if (st.blendQueueTriangles || st.blendQueueOverflow)
     fmt::print("blend queue: {} large triangles, {} tiles of 8x8 pixels{}\n", st.blendQueueTriangles,
                st.blendQueueTiles,

@@ -232,18 +232,21 @@ RenderConfigOptions bindRenderConfig(CLI::App& cmd, runtime::RenderConfig& c, Bi
   lod.push_back(cmd.add_option("--fovea-radius", c.foveaRadiusDegrees, ".mrg, --fovea: fovea radius in degrees")
                     ->needs(fovea)
                     ->capture_default_str());
-  // Not in clusterLod: forward scenes take it too (cluster LOD ones take linked-list and packed).
+  // Not in clusterLod: forward scenes take it too (cluster LOD ones take linked-list, packed and fixed).
   cmd.add_option("--oit", c.oit,
-                 "alpha BLEND: auto (packed for .mrg cluster LOD, linked-list forward), linked-list (per-pixel "
+                 "alpha BLEND: auto (fixed for .mrg cluster LOD, linked-list forward), linked-list (per-pixel "
                  "sorted lists), packed (per-pixel contiguous ranges, two rasterizations; cluster LOD only), "
-                 "weighted (weighted blended, approximate; forward only) or sorted (every blended triangle back "
-                 "to front, the reference; forward only)")
+                 "fixed (packed storage in fixed slots per pixel, one rasterization unless a pixel outnumbers "
+                 "its slots; the same image as packed; cluster LOD only), weighted (weighted blended, "
+                 "approximate; forward only) or sorted (every blended triangle back to front, the reference; "
+                 "forward only)")
       ->type_name("NAME")
       ->transform(enumNames(render::kOitModeNames, c.oit))
       ->default_str(render::toString(c.oit));
   cmd.add_option("--oit-nodes-per-pixel", c.oitNodesPerPixel,
                  "alpha BLEND, linked lists: fragment pool per target pixel (default 4 for .mrg cluster LOD, 8 "
-                 "forward); past it a fragment replaces its pixel's farthest listed one")
+                 "forward); past it a fragment replaces its pixel's farthest listed one (packed, fixed: the "
+                 "nearest are kept; fixed: the slots per pixel, at most 16)")
       ->type_name("N");
   out.surfels.push_back(
       cmd.add_option("--surfel-size", c.surfelSize, "--surfels: surfel diameter in pixels")->capture_default_str());

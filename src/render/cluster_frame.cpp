@@ -99,9 +99,9 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
     return Error{fmt::format("--hybrid-threshold {} must be a non-negative number of pixels", cs.hybridThreshold)};
   if (cs.oitNodesPerPixel > 64) // 0: the renderer's default
     return Error{fmt::format("OIT node pool of {} nodes per pixel is outside 1..64", cs.oitNodesPerPixel)};
-  if (cs.oit != OitMode::Packed && cs.oit != OitMode::LinkedList)
-    return Error{
-        fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by linked-list or packed", toString(cs.oit))};
+  if (cs.oit != OitMode::Fixed && cs.oit != OitMode::Packed && cs.oit != OitMode::LinkedList)
+    return Error{fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by fixed, packed or linked-list",
+                             toString(cs.oit))};
   if (!(cs.blendQueuePixels >= 0.0f))
     return Error{fmt::format("--blend-queue-pixels {} must be a non-negative number of pixels", cs.blendQueuePixels)};
   ClusterFramePlan p;
@@ -134,7 +134,11 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
   p.particles = cs.particles && cs.particles->batchCount() != 0 && cs.debugView == DebugView::None;
   p.splat = p.particles && cs.particles->splats(OitMode::LinkedList);
   // Packed storage writes 64-bit keys by atomics; particle billboards append to linked lists.
-  p.packed = p.transparency && cs.oit == OitMode::Packed && !p.particles && ctx.caps().int64BufferAtomics;
+  p.packed = p.transparency && (cs.oit == OitMode::Packed || cs.oit == OitMode::Fixed) && !p.particles &&
+             ctx.caps().int64BufferAtomics;
+  // Fixed slots: with the compute blend raster alone, whose second rasterization (and blend queue)
+  // can stand idle when nothing is to be placed again (shaderio/oit.h, MIRAGE_OIT_FIXED_*).
+  p.fixed = p.packed && cs.oit == OitMode::Fixed && p.blend == BlendRaster::Compute;
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)
@@ -273,6 +277,8 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
     f.oitNodeAddress = oitNodes.address();
     f.blendCapacity = blendCapacity;
     f.oitNodeCapacity = oitNodeCapacity;
+    f.oitFixedSlots = plan.oitFixedSlots;
+    f.oitFixedStride = colorWidth * height;
     f.oitCounterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
     f.oitColorAddress = oitColors ? oitColors.address() : oitNodes.address(); // see ClusterFrame
   }
@@ -348,6 +354,8 @@ ClusterStats ClusterRenderer::Impl::readStats(uint32_t frameSlot) const {
   st.oitPoolOverflow = oit.poolOverflow;
   st.oitLayersDropped = oit.capDropped + oit.layersDropped;
   st.msl = oit.msl;
+  st.oitFixedSlots = plan.oitFixedSlots;
+  st.oitFixedRedone = (c.oit.fixedState & MIRAGE_OIT_FIXED_OVER) != 0;
   st.clustersHardware = c.clustersHardware;
   st.clustersLean = plan.lean ? c.listEnd[MIRAGE_LIST_DOWN] : 0; // the compute backend's down list is the lean one
   st.trianglesNearClipped = c.trianglesNearClipped;

@@ -143,6 +143,8 @@ struct ClusterFramePlan {
   bool particles = false;      // particle billboards into the transparency lists (cluster_particles.cpp)
   bool splat = false;          // small particles splatted (ParticleDraw::splats)
   bool packed = false;         // transparency in packed storage (MIRAGE_FRAME_OIT_PACKED)
+  bool fixed = false;          // packed storage in fixed slots (--oit fixed, the compute blend raster)
+  uint32_t oitFixedSlots = 0;  // fixed: the slots per pixel (set once the pool is made: fixedSlotsFor)
   DebugView debugView = DebugView::None; // the debug resolve runs instead of the shading one
   SurfelRenderer* surfels = nullptr;     // mixed frames: the surfel stage (its counters in its slot's readback)
 };
@@ -239,6 +241,9 @@ struct ClusterRenderer::Impl {
   void ensureTargets(uint32_t w, uint32_t h, uint32_t colorW);
   void createOitHeads();
   void ensureOitPool(uint32_t nodesPerPixel);
+  // Fixed slots per pixel of a frame in fixed slots (plan.fixed): the pool's keys per target pixel,
+  // at most MIRAGE_OIT_MAX_LAYERS; 0 otherwise (counted ranges or lists). cluster_oit.cpp.
+  uint32_t fixedSlotsFor(const ClusterFramePlan& plan) const;
   void writeTargetDescriptors(uint32_t slot);
   void ensureMultiview(const ClusterFramePlan& plan);
   shaderio::ClusterPush push() const;

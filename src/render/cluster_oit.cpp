@@ -164,9 +164,22 @@ void ClusterRenderer::Impl::cmdBlendRasters(VkCommandBuffer cmd, const sio::Clus
   }
 }
 
+// The blend queue's counts, arguments and overflow, adjacent, zeroed by the ranges pass as at the frame start.
+static_assert(offsetof(sio::ClusterCounters, blendQueueOverflow) + sizeof(uint32_t) -
+                      offsetof(sio::ClusterCounters, blendQueueCounts) ==
+                  MIRAGE_OIT_QUEUE_WORDS * sizeof(uint32_t),
+              "the blend queue's counters between the rasterizations");
+
+uint32_t ClusterRenderer::Impl::fixedSlotsFor(const ClusterFramePlan& plan) const {
+  if (!plan.fixed || !oitNodes) return 0;
+  return std::min<uint32_t>(MIRAGE_OIT_MAX_LAYERS, oitNodeCapacity / (colorWidth * height));
+}
+
 // Packed storage between its two rasterizations (oit_ranges.comp): every pixel's range from the
-// counts of pass 1, then the blend queue emptied so pass 2 queues its large triangles afresh (the
-// same fragments, whichever path draws them). Timed as "oit-ranges".
+// counts of pass 1, and the blend queue emptied so pass 2 queues its large triangles afresh (the
+// same fragments, whichever path draws them). After a rasterization into fixed slots
+// (plan.oitFixedSlots) the pass runs only where a pixel outnumbered its slots (decided on the GPU:
+// its three dispatches return at once otherwise). Timed as "oit-ranges".
 // barriers: on entry pass 1's counts visible (cmdPhaseBarrier); on exit the ranges visible to pass 2.
 void ClusterRenderer::Impl::cmdOitRanges(VkCommandBuffer cmd, const ClusterFramePlan& plan) {
   uint32_t slot = timer().cmdBegin(cmd, "oit-ranges", kCS);
@@ -175,8 +188,10 @@ void ClusterRenderer::Impl::cmdOitRanges(VkCommandBuffer cmd, const ClusterFrame
   rp.keyAddress = oitNodes.address();
   rp.scratchAddress = oitRangesScratch.address();
   rp.counterAddress = counters.address() + offsetof(sio::ClusterCounters, oit);
+  rp.queueAddress = plan.blendQueue ? counters.address() + offsetof(sio::ClusterCounters, blendQueueCounts) : 0;
   rp.pixels = colorWidth * height;
   rp.capacity = oitNodeCapacity;
+  rp.fixedSlots = plan.oitFixedSlots;
   uint32_t blocks = (rp.pixels + MIRAGE_OIT_RANGE_BLOCK - 1) / MIRAGE_OIT_RANGE_BLOCK;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, oitRangesPipeline);
   for (uint32_t stage = 0; stage < 3; ++stage) {
@@ -185,12 +200,6 @@ void ClusterRenderer::Impl::cmdOitRanges(VkCommandBuffer cmd, const ClusterFrame
     vkCmdDispatch(cmd, stage == 1 ? 1 : blocks, 1, 1);
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCS, kStorageRW);
   }
-  // The queue's counts, arguments and overflow (adjacent) zeroed as at the frame start.
-  if (plan.blendQueue)
-    vkCmdFillBuffer(cmd, counters.handle(), offsetof(sio::ClusterCounters, blendQueueCounts),
-                    offsetof(sio::ClusterCounters, blendQueueOverflow) + sizeof(uint32_t) -
-                        offsetof(sio::ClusterCounters, blendQueueCounts),
-                    0);
   timer().cmdEnd(cmd, slot, kCS);
   cmdPhaseBarrier(cmd, ctx.caps().meshShader);
 }
@@ -201,9 +210,11 @@ void ClusterRenderer::Impl::cmdOitRanges(VkCommandBuffer cmd, const ClusterFrame
 // to the same lists (cmdParticles); then the composite sorts and blends each pixel's fragments over
 // the resolved colour. Linked lists: one rasterization ("blend"). Packed storage (plan.packed): the
 // rasterization counts ("blend"), the ranges pass ("oit-ranges") places each pixel's range, a second
-// rasterization writes ("blend-write"). Hybrid, and compute with the blend queue, split "blend" into
-// "blend-cs" (the compute list, its queue included), "blend-q" (the queue: its arguments and
-// dispatch) and hybrid "blend-hw" (the hardware list); the buffer backends' depth copy is "blend-z".
+// rasterization writes ("blend-write"). In fixed slots (plan.oitFixedSlots) the first rasterization
+// writes too, and the other two, recorded alike, idle unless a pixel outnumbered its slots. Hybrid,
+// and compute with the blend queue, split "blend" into "blend-cs" (the compute list, its queue
+// included), "blend-q" (the queue: its arguments and dispatch) and hybrid "blend-hw" (the hardware
+// list); the buffer backends' depth copy is "blend-z".
 // barriers: the resolve's colour, the opaque depth and the blend arguments (cmdArgs pass 2) written;
 // the heads zeroed at the frame start. On exit the colour is in GENERAL with its writes available.
 void ClusterRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, sio::ClusterPush p, const ClusterFramePlan& plan,

@@ -1,5 +1,6 @@
 // ClusterRenderer set-up: descriptors, pipelines, per-scene buffers and per-size targets.
 #include <algorithm>
+#include <cassert>
 
 #include "cluster_impl.h"
 #include "render_util.h"
@@ -248,6 +249,7 @@ void ClusterRenderer::Impl::ensureOitPool(uint32_t nodesPerPixel) {
   oitNodes = createBuffer(ctx, uint64_t(oitNodeCapacity) * sizeof(sio::OitNode),
                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
                           "transparency nodes");
+  assert(oitNodes.address() % 16 == 0); // the composite reads packed keys in 16-byte pairs (oitSortedRange)
   // Colours beside the nodes: particles'.
   if (particleOit)
     oitColors = createBuffer(ctx, uint64_t(oitNodeCapacity) * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,

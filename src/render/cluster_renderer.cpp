@@ -115,6 +115,7 @@ Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint
   ensureTargets(cs.base.width, cs.base.height, colorW);
   if (planned->particles) prepareParticles(*cs.particles); // lists, colours, sums before the frame names them
   ensureOitPool(cs.oitNodesPerPixel);
+  plans[currentSlot].oitFixedSlots = planned->oitFixedSlots = fixedSlotsFor(*planned); // the pool is known now
   writeTargetDescriptors(currentSlot);
   if (planned->multiview) ensureMultiview(*planned);
   if (planned->debugView != DebugView::None && !debugResolvePipeline)

@@ -78,12 +78,13 @@ Status checkConfig(const RenderConfig& c, SceneKind kind) {
         fmt::format("--debug-view needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one", toString(kind))};
   using render::OitMode;
   bool lists = c.oit == OitMode::Auto || c.oit == OitMode::LinkedList;
-  if (kind == SceneKind::ClusterLod && !lists && c.oit != OitMode::Packed)
-    return Error{fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by linked-list or packed",
+  bool packed = c.oit == OitMode::Packed || c.oit == OitMode::Fixed;
+  if (kind == SceneKind::ClusterLod && !lists && !packed)
+    return Error{fmt::format("--oit {}: cluster LOD scenes draw BLEND materials by fixed, packed or linked-list",
                              render::toString(c.oit))};
-  if (kind != SceneKind::ClusterLod && c.oit == OitMode::Packed)
-    return Error{
-        fmt::format("--oit packed needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one", toString(kind))};
+  if (kind != SceneKind::ClusterLod && packed)
+    return Error{fmt::format("--oit {} needs a cluster LOD scene (.mrg with cluster DAGs), not a {} one",
+                             render::toString(c.oit), toString(kind))};
   return Ok{};
 }
 

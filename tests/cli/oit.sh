@@ -35,5 +35,11 @@ if expect_ok gen-layers gen layers --size 3 -o "$tmp/layers.glb" &&
   expect_ok render-mrg-lists render "$tmp/layers.mrg" --oit linked-list --size 32x24 -o "$tmp/m.png" --json &&
     { grep -q '"msl"' "$tmp/stdout" && grep -q '"oit_dropped"' "$tmp/stdout" || fail "render-mrg-lists: no msl / oit_dropped"; }
   expect_fail mrg-weighted "--oit weighted" "$tmp/bad.png" -- render "$tmp/layers.mrg" --oit weighted --size 32x24 -o "$tmp/bad.png"
+  # Fixed slots: the pool's 8 keys per pixel, reported, and the image of packed storage's ranges.
+  expect_ok render-mrg-packed render "$tmp/layers.mrg" --oit packed --oit-nodes-per-pixel 8 --size 32x24 -o "$tmp/p.png"
+  expect_ok render-mrg-fixed render "$tmp/layers.mrg" --oit fixed --oit-nodes-per-pixel 8 --size 32x24 -o "$tmp/f.png" \
+    --json && { grep -q '"oit_fixed_slots"' "$tmp/stdout" || fail "render-mrg-fixed: no oit_fixed_slots"; }
+  check render-mrg-fixed-image cmp -s "$tmp/p.png" "$tmp/f.png"
 fi
+expect_fail fixed-forward "--oit fixed" "$tmp/bad.png" -- render gen:layers:2 --oit fixed --size 32x24 -o "$tmp/bad.png"
 finish oit

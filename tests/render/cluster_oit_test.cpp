@@ -4,7 +4,9 @@
 // sparing the pool (ClusterOit); drawn through the blend queue, the
 // layers give exactly the fragments and the image of the per-cluster walk, and the hardware blend
 // raster's, and a full queue falls back to the walk (ClusterBlendQueue); packed storage keeps the
-// linked lists' fragments, counts and image (ClusterOit). Validation stays silent.
+// linked lists' fragments, counts and image, and so does packed storage in fixed slots, whether
+// every pixel's fragments fit its slots or the frame places them again as ranges (ClusterOit).
+// Validation stays silent.
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -80,10 +82,10 @@ ClusterRenderOutput renderFrame(ClusterRenderer& r, const ClusterRenderSettings&
   return out.ok() ? std::move(*out) : ClusterRenderOutput{};
 }
 
-// Both storages where the device has packed storage's 64-bit atomics, else the linked lists.
+// Every storage where the device has packed storage's 64-bit atomics, else the linked lists.
 std::vector<OitMode> oitModes(gpu::Context& ctx) {
   if (!ctx.caps().int64BufferAtomics) return {OitMode::LinkedList};
-  return {OitMode::LinkedList, OitMode::Packed};
+  return {OitMode::LinkedList, OitMode::Packed, OitMode::Fixed};
 }
 
 // The blend rasters a device can run, as (raster, blend-queue threshold): compute without the
@@ -101,6 +103,23 @@ std::string modeName(OitMode oit, BlendMode m) {
 
 bool identical(const ImageRGBA8& a, const ImageRGBA8& b) {
   return a.width == b.width && a.height == b.height && a.pixels == b.pixels;
+}
+
+// Packed storage in fixed slots against counted ranges (`ranges`): the same image bit for bit and
+// the same counters (the fixed slots' stats are made from other counters: the composite's).
+void expectFixedMatchesRanges(const ClusterRenderOutput& fixed, const ClusterRenderOutput& ranges,
+                              const std::string& what) {
+  const ClusterStats &a = fixed.stats, &b = ranges.stats;
+  EXPECT_TRUE(identical(fixed.image.srgb, ranges.image.srgb)) << what;
+  EXPECT_EQ(a.oitFragments, b.oitFragments) << what;
+  EXPECT_EQ(a.oitPoolOverflow, b.oitPoolOverflow) << what;
+  EXPECT_EQ(a.oitLayersDropped, b.oitLayersDropped) << what;
+  EXPECT_EQ(a.msl, b.msl) << what;
+  EXPECT_EQ(a.blendQueueTriangles, b.blendQueueTriangles) << what; // the second raster's queue, or the first's
+  EXPECT_EQ(a.blendQueueTiles, b.blendQueueTiles) << what;
+  EXPECT_EQ(b.oitFixedSlots, 0u) << what;
+  writeOnFailure(fixed.image.srgb, "fixed_" + what + ".png");
+  writeOnFailure(ranges.image.srgb, "ranges_" + what + ".png");
 }
 
 // Compute with the queue (the default threshold), with every blended triangle queued, and without
@@ -282,7 +301,7 @@ TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
       // loaded machine can produce: a few pixels may keep another set; dropping on arrival fails all.
       EXPECT_LE(unmatched, kW * kH / 100u) << what;
       EXPECT_LE(std::abs(int64_t(kept) - int64_t(kPool * kW * kH)), int64_t(kPool * kW * kH / 100u)) << what;
-      if (oit == OitMode::Packed) { // the cap that fits the pool: every pixel its nearest kPool, exactly
+      if (oit != OitMode::LinkedList) { // the cap that fits the pool: every pixel its nearest kPool, exactly
         EXPECT_EQ(unmatched, 0u) << what;
         EXPECT_EQ(histogram[kPool], kW * kH) << what;
       }
@@ -338,7 +357,7 @@ TEST_F(ClusterOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
       std::printf("%s: %u of %u pixels differ from the nearest %u layers\n", what.c_str(), unmatched, kW * kH, kCap);
       // Fragments of one pixel racing past the cap may miss a node still being linked (docs/render.md).
       EXPECT_LE(unmatched, kW * kH / 100u) << what;
-      if (oit == OitMode::Packed) { // the cascade keeps the nearest exactly
+      if (oit != OitMode::LinkedList) { // the cascade keeps the nearest exactly
         EXPECT_EQ(unmatched, 0u) << what;
       }
       writeOnFailure(out.image.srgb, "cap_" + std::string(toString(oit)) + "_" + toString(blend) + ".png");
@@ -382,6 +401,11 @@ TEST_F(ClusterOit, PackedStorageMatchesTheLinkedLists) {
       ClusterRenderOutput packed = renderFrame(**r, s);
       const ClusterStats &a = packed.stats, &b = list.stats;
       std::string what = std::to_string(layers) + " layers, " + c.what;
+      s.oit = OitMode::Fixed; // 16 slots per pixel, placed again as ranges where the 20 layers pass them
+      ClusterRenderOutput fixed = renderFrame(**r, s);
+      EXPECT_EQ(fixed.stats.oitFixedSlots, c.blend == BlendRaster::Compute ? 16u : 0u) << what;
+      EXPECT_EQ(fixed.stats.oitFixedRedone, fixed.stats.oitFixedSlots != 0 && layers > 16) << what;
+      expectFixedMatchesRanges(fixed, packed, what);
       double p = psnr(packed.image.srgb, list.image.srgb);
       bool same = identical(packed.image.srgb, list.image.srgb);
       std::printf("%s: %u fragments, %u past 16 layers, msl %.3f; %s the lists' image (PSNR %.2f dB)\n", what.c_str(),
@@ -401,6 +425,59 @@ TEST_F(ClusterOit, PackedStorageMatchesTheLinkedLists) {
       }
       writeOnFailure(packed.image.srgb, "packed_" + std::to_string(layers) + "_" + c.what + ".png");
       writeOnFailure(list.image.srgb, "lists_" + std::to_string(layers) + "_" + c.what + ".png");
+    }
+  }
+}
+
+// Packed storage in fixed slots against counted ranges on intersecting layers cut by an opaque
+// wall (pixels with 0 to N fragments): pools whose slots hold every pixel's fragments (one
+// rasterization), and pools or caps that some pixel outnumbers (the fragments placed again as
+// ranges: the second rasterization, its blend queue), short pools among them; through the blend
+// queue and the per-cluster walk, mono and stereo, frames of either kind in turn on one renderer.
+// The same image bit for bit and the same counters every time.
+TEST_F(ClusterOit, FixedSlotsMatchPackedRanges) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no packed storage";
+  struct Case {
+    uint32_t layers, nodesPerPixel;
+    bool redone; // some pixel has more fragments than the slots
+  };
+  // 8 layers: at most 8 fragments a pixel, about 4 on average (fewer beside the wall), so a pool of
+  // 6 holds them all though some pixels outnumber 6 slots (kept by the ranges, not by fixed slots
+  // alone); 20: past the 16-layer cap.
+  const Case cases[] = {{8, 8, false},  {8, 6, true},   {8, 4, true}, {8, 2, true},
+                        {8, 64, false}, {20, 16, true}, {20, 5, true}};
+  for (uint32_t layers : {8u, 20u}) {
+    lod::LodAsset asset = bake(layerScene(layers, 3.0f, /*wall=*/true));
+    ASSERT_FALSE(asset.dags.empty());
+    auto r = ClusterRenderer::create(context(), asset);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    for (const Case& c : cases) {
+      if (c.layers != layers) continue;
+      for (float queuePixels : {ClusterRenderSettings{}.blendQueuePixels, INFINITY})
+        for (bool stereo : {false, true}) {
+          ClusterRenderSettings s = layerSettings(64, 48);
+          s.raster = RasterBackend::Compute;
+          s.blendRaster = BlendRaster::Compute;
+          s.blendQueuePixels = queuePixels;
+          if (stereo) s.stereoIpd = 0.064f;
+          s.oitNodesPerPixel = c.nodesPerPixel;
+          std::string what = std::to_string(layers) + "_layers_pool_" + std::to_string(c.nodesPerPixel) +
+                             (std::isfinite(queuePixels) ? "_queue" : "_walk") + (stereo ? "_stereo" : "");
+          s.oit = OitMode::Fixed;
+          ClusterRenderOutput fixed = renderFrame(**r, s);
+          s.oit = OitMode::Packed;
+          ClusterRenderOutput ranges = renderFrame(**r, s);
+          std::printf("%s: %u fixed slots per pixel%s; %u fragments, %u past the pool, %u past 16 layers\n",
+                      what.c_str(), fixed.stats.oitFixedSlots, fixed.stats.oitFixedRedone ? ", placed again" : "",
+                      fixed.stats.oitFragments, fixed.stats.oitPoolOverflow, fixed.stats.oitLayersDropped);
+          EXPECT_EQ(fixed.stats.oitFixedSlots, std::min(c.nodesPerPixel, uint32_t(MIRAGE_OIT_MAX_LAYERS))) << what;
+          EXPECT_EQ(fixed.stats.oitFixedRedone, c.redone) << what;
+          EXPECT_GT(fixed.stats.oitFragments, 0u) << what;
+          if (layers == 8 && c.nodesPerPixel == 6) {
+            EXPECT_EQ(fixed.stats.oitPoolOverflow, 0u) << what;
+          }
+          expectFixedMatchesRanges(fixed, ranges, what);
+        }
     }
   }
 }

@@ -151,9 +151,12 @@ struct ClusterRenderSettings {
   // storage-buffer range. Past it, a fragment takes the place of its pixel's farthest listed one if
   // nearer, else is dropped (counted either way).
   uint32_t oitNodesPerPixel = 0;
-  // How the fragments are stored (render/oit.h): Packed (per-pixel ranges, two rasterizations) or
-  // LinkedList; frames that draw particle billboards take the linked lists (Packed is then ignored).
-  OitMode oit = OitMode::Packed;
+  // How the fragments are stored (render/oit.h): Fixed (fixed slots per pixel, one rasterization,
+  // placed again as Packed's ranges where a pixel outnumbers its slots), Packed (per-pixel ranges,
+  // two rasterizations) or LinkedList; frames that draw particle billboards take the linked lists
+  // (Fixed and Packed are then ignored). Fixed stores as Packed with the hybrid and hardware blend
+  // rasters.
+  OitMode oit = OitMode::Fixed;
   // Tests: queue at most this many triangles a frame (the queue's capacity when larger); the rest
   // are walked by their cluster's workgroup, as when the queue is full.
   uint32_t blendQueueLimit = UINT32_MAX;
@@ -304,6 +307,9 @@ struct ClusterStats {
   uint32_t oitLayersDropped = 0;         // fragments beyond MIRAGE_OIT_MAX_LAYERS of a pixel (farthest dropped):
                                          // past the per-pixel cap at append, or listed past it at the composite
   double msl = 0.0;                      // Mean Squared Layers of the transparency lists (render/oit.h)
+  uint32_t oitFixedSlots = 0;            // --oit fixed: keys per pixel of the fixed slots (0: not used)
+  bool oitFixedRedone = false;           // a pixel outnumbered its fixed slots: the fragments placed again as
+                                         // packed ranges (a second rasterization)
   uint64_t trianglesRasterized = 0;      // triangles of the drawn clusters
   uint32_t instancesPvsCulled = 0;       // cell PVS: instances in the frustum with no visible cluster
   uint32_t clustersPvsCulled = 0;        // cell PVS: clusters on the cut outside the cluster PVS

@@ -11,22 +11,24 @@
 namespace mirage::render {
 
 enum class OitMode {
-  Auto,       // the renderer's default: packed for cluster LOD, linked lists for the forward renderer
+  Auto,       // the renderer's default: fixed for cluster LOD, linked lists for the forward renderer
   LinkedList, // per-pixel linked lists, nearest MIRAGE_OIT_MAX_LAYERS sorted per pixel (both renderers)
   // Per-pixel contiguous ranges (cluster LOD): the blend rasters run twice, counting then writing
   // each pixel's fragments into its range of a pool of 64-bit keys sized by a scan over the pixels;
   // the same fragments kept and the same image as the linked lists (shaderio/oit.h).
   Packed,
+  // Packed storage in fixed slots (cluster LOD's default): each pixel the pool's keys per pixel (at
+  // most 16), one rasterization writing each fragment at its rank; where some pixel has more
+  // fragments than its slots, the frame continues as Packed (the same keys kept, the same image).
+  Fixed,
   Weighted, // weighted blended OIT (McGuire and Bavoil 2013): approximate, no lists (forward)
   Sorted,   // the exact reference: every blended triangle sorted back to front on the CPU (forward)
 };
-inline constexpr EnumName<OitMode> kOitModeNames[] = {{OitMode::Auto, "auto"},
-                                                      {OitMode::LinkedList, "linked-list"},
-                                                      {OitMode::Packed, "packed"},
-                                                      {OitMode::Weighted, "weighted"},
-                                                      {OitMode::Sorted, "sorted"}};
+inline constexpr EnumName<OitMode> kOitModeNames[] = {
+    {OitMode::Auto, "auto"},   {OitMode::LinkedList, "linked-list"}, {OitMode::Packed, "packed"},
+    {OitMode::Fixed, "fixed"}, {OitMode::Weighted, "weighted"},      {OitMode::Sorted, "sorted"}};
 const char* toString(OitMode mode);
-// "auto", "linked-list", "packed", "weighted" or "sorted"; anything else is an error naming the choices.
+// "auto", "linked-list", "packed", "fixed", "weighted" or "sorted"; anything else is an error naming the choices.
 Result<OitMode> parseOitMode(std::string_view text);
 
 // One frame's transparency counters (zero without blended geometry or outside linked-list mode).

@@ -58,8 +58,9 @@ namespace mirage::shaderio {
 // from a zero buffer without a fill pass (a full-target fill is 16 MB at 1080p, 73 MB in stereo at
 // 2064 x 2208 per eye).
 #define MIRAGE_FRAME_CLEAR_VIS 16384u
-// Transparency in packed storage (shaderio/oit.h; --oit packed): the blend rasters run twice,
-// counting then writing each pixel's fragments into its range, oitNodeAddress names 64-bit keys.
+// Transparency in packed storage (shaderio/oit.h; --oit packed or fixed): the blend rasters run
+// twice, counting then writing each pixel's fragments into its range (or once, into fixed slots:
+// ClusterFrame::oitFixedSlots), oitNodeAddress names 64-bit keys.
 #define MIRAGE_FRAME_OIT_PACKED 32768u
 // GPU residency (ClusterFrame::pageSlotAddress): the selection draws resident clusters by the
 // residency-aware cut (shaderio/lod_paging.h) and writes page feedback; the cull pass keeps the
@@ -263,6 +264,11 @@ struct ClusterFrame {
   uint64_t oitNodeAddress;      // OitNode[], or (MIRAGE_FRAME_OIT_PACKED) uint64_t keys
   uint blendCapacity;           // entries of the blend list
   uint oitNodeCapacity;         // nodes (or keys) in the pool
+  // Packed storage in fixed slots (--oit fixed; shaderio/oit.h, MIRAGE_OIT_FIXED_*): keys per pixel
+  // of the first rasterization (0: counted ranges or lists), pixel p's slot i at
+  // i * oitFixedStride + p, the stride the target's pixels (both eyes in stereo).
+  uint oitFixedSlots;
+  uint oitFixedStride;
   // Cluster PVS of the camera's view cell (MIRAGE_FRAME_PVS; lod/cluster_pvs.h): per instance the
   // first bit of its clusters in the bit array, or MIRAGE_PVS_INSTANCE_CULLED.
   uint64_t pvsInstanceAddress; // uint[] per instance
@@ -400,7 +406,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 792, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 800, "ClusterFrame layout");
 static_assert(sizeof(ClusterFrame) <= MIRAGE_CLUSTER_FRAME_STRIDE && MIRAGE_CLUSTER_FRAME_STRIDE % 256 == 0,
               "ClusterFrame stride");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
@@ -415,7 +421,7 @@ static_assert(sizeof(BlendQueueTriangle) == 48, "BlendQueueTriangle layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
 static_assert(sizeof(ClusterListArgs) == 48, "ClusterListArgs layout");
-static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 132 + 28 + 4 /* tail padding */, "ClusterCounters layout");
+static_assert(sizeof(ClusterCounters) == 16 + 36 + 6 * 48 + 140 + 28 + 4 /* tail padding */, "ClusterCounters layout");
 static_assert(offsetof(ClusterCounters, blendQueueCounts) % 8 == 0, "64-bit atomic alignment");
 static_assert(offsetof(ClusterCounters, blendQueueArgs) % 4 == 0, "indirect argument offsets");
 static_assert(offsetof(ClusterCounters, lists) % 4 == 0 && offsetof(ClusterListArgs, draw) == 16,

@@ -59,6 +59,9 @@ struct OitCounters {
   uint squaredLayersLo; // resolve: sum over pixels of (fragments)^2, 64 bits with carry
   uint squaredLayersHi;
   uint capDropped; // resolve: fragments past their pixel's MIRAGE_OIT_MAX_LAYERS (took no node)
+  // Packed storage in fixed slots (ClusterFrame::oitFixedSlots): MIRAGE_OIT_FIXED_* bits.
+  uint fixedState;
+  uint pad;
 };
 
 // Packed storage (--oit packed; oit_list.glsl, oit_ranges.comp): each pixel's fragments in one
@@ -75,6 +78,21 @@ struct OitCounters {
 // Pixels per workgroup of the ranges pass (256 threads, 8 consecutive pixels each).
 #define MIRAGE_OIT_RANGE_BLOCK 2048u
 
+// Packed storage in fixed slots (--oit fixed; ClusterFrame::oitFixedSlots = K, the pool's keys per
+// pixel, at most MIRAGE_OIT_MAX_LAYERS): one rasterization counts each fragment on its pixel and
+// writes it into slot r = its rank, at r * pixels + pixel (slot-major: a warp's neighbouring
+// pixels of one layer write, and the composite reads, neighbouring words), no count pass and no
+// ranges. A pixel whose fragments
+// outnumber K (the first past them sets MIRAGE_OIT_FIXED_OVER) would lose some that the counted
+// ranges keep, so then, and only then, the ranges pass and the second rasterization run as for
+// packed storage and place every fragment again (the same keys kept, the same image). Both are
+// recorded every frame; the ranges pass's stage 1 sets MIRAGE_OIT_FIXED_SECOND, and the ranges
+// stages, the second compute blend raster and the blend queue's second dispatch do nothing
+// without MIRAGE_OIT_FIXED_OVER. The composite reads a pixel in fixed slots where its state is
+// not MIRAGE_OIT_PACKED_READY.
+#define MIRAGE_OIT_FIXED_OVER 1u   // some pixel has more fragments than its fixed slots
+#define MIRAGE_OIT_FIXED_SECOND 2u // the first rasterization is complete
+
 // The ranges pass (oit_ranges.comp), push.stage 0: each block's histogram of its pixels' counts
 // (clamped at MIRAGE_OIT_MAX_LAYERS); 1 (one workgroup): the per-pixel cap that fits the pool,
 // each block's first slot; 2: each pixel's range and state. The scratch holds per block
@@ -85,11 +103,17 @@ struct OitRangesPush {
   uint64_t keyAddress;     // uint64_t[capacity]
   uint64_t scratchAddress; // OitRangesScratch, then per block uint[MIRAGE_OIT_MAX_LAYERS + 1], uvec2 offsets
   uint64_t counterAddress; // OitCounters: `nodes` set to the fragments under their pixel's cap
+  // The blend queue's counters (MIRAGE_OIT_QUEUE_WORDS words), zeroed by stage 1 so the second
+  // rasterization queues its large triangles afresh; 0 without a blend queue.
+  uint64_t queueAddress;
   uint pixels;
   uint capacity; // keys in the pool
   uint stage;
-  uint pad;
+  uint fixedSlots; // fixed slots per pixel of the first rasterization (MIRAGE_OIT_FIXED_*), 0: counted ranges
 };
+// 32-bit words of the blend queue's counters zeroed between the rasterizations (ClusterCounters:
+// blendQueueCounts, blendQueueArgs, blendQueueOverflow).
+#define MIRAGE_OIT_QUEUE_WORDS 6u
 
 // What stage 1 decides for the whole frame: the per-pixel cap that fits the pool (every pixel
 // keeps its nearest min(fragments, cap), MIRAGE_OIT_MAX_LAYERS when the pool holds all), and how
@@ -126,10 +150,10 @@ struct OitLists {
 
 #ifdef __cplusplus
 static_assert(sizeof(OitNode) == 12, "OitNode layout");
-static_assert(sizeof(OitCounters) == 24, "OitCounters layout");
+static_assert(sizeof(OitCounters) == 32, "OitCounters layout");
 static_assert(sizeof(OitPixelHead) == 12, "OitPixelHead layout");
 static_assert(sizeof(OitLists) == 48, "OitLists layout");
-static_assert(sizeof(OitRangesPush) == 48, "OitRangesPush layout");
+static_assert(sizeof(OitRangesPush) == 56, "OitRangesPush layout");
 static_assert(sizeof(OitRangesScratch) == 16, "OitRangesScratch layout");
 static_assert((MIRAGE_OIT_COLOR_ID_TAG | (UINT32_MAX / sizeof(OitNode) + 1)) < UINT32_MAX,
               "a tagged node id never equals the overflow walk's lock value");
