@@ -138,7 +138,7 @@ Result<ClusterFramePlan> ClusterRenderer::Impl::plan(const ClusterRenderSettings
              ctx.caps().int64BufferAtomics;
   // Fixed slots: with the compute blend raster alone, whose second rasterization (and blend queue)
   // can stand idle when nothing is to be placed again (shaderio/oit.h, MIRAGE_OIT_FIXED_*).
-  p.fixed = p.packed && cs.oit == OitMode::Fixed && p.blend == BlendRaster::Compute;
+  p.fixed = p.packed && cs.oit == OitMode::Fixed && p.blend == BlendRaster::Compute && oitPackedFrames == 0;
   if (cs.stereoIpd) { // docs/render.md, "Stereo": what the shared selection cannot serve yet
     if (Status st = validateIpd(*cs.stereoIpd); !st) return st.error();
     if (uint64_t(s.width) * 2 > kMaxRenderDimension)

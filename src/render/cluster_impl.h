@@ -102,6 +102,9 @@ constexpr uint32_t kOitNodesPerPixel = 4;
 // With particle billboards in the lists: as many as the forward renderer's default pool (its
 // particles and the cluster renderer's then fill the same pool).
 constexpr uint32_t kOitNodesPerPixelParticles = 8;
+// Frames stored as Packed after one whose pixels outnumbered their fixed slots (oitPackedFrames):
+// a scene deeper than the pool's slots pays the wasted stores once in this many frames.
+constexpr uint32_t kOitPackedFramesAfterOverflow = 30;
 
 // Every pass reaches its buffers through device addresses, which synchronization validation does
 // not track, so each phase boundary is one conservative global barrier: whatever compute, fragment
@@ -208,9 +211,14 @@ struct ClusterRenderer::Impl {
   uint32_t colorWidth = 0; // the colour target: width, or 2 * width in stereo (left|right)
   uint32_t width = 0, height = 0, visibleCapacity = 0, hzbLevels = 0, queueCapacity = 0;
   uint32_t blendCapacity = 0, oitNodeCapacity = 0; // 0 without BLEND materials: no transparency passes
-  uint32_t blendQueueCapacity = 0;                 // entries of blendQueue (0: no queue on this device)
-  uint32_t oitNodesPerPixel = 0;                   // the pool's size (ensureOitPool)
-  uint32_t traversalDepth = 0; // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
+  // Fixed slots that a frame's pixels outnumbered leave that frame's first rasterization's stores
+  // wasted: the next this-many frames store as Packed (the same image) and then try again; a new
+  // pool, size, eye count or blend queue setting tries at once (oitFixedKey).
+  uint32_t oitPackedFrames = 0;
+  uint64_t oitFixedKey = 0;
+  uint32_t blendQueueCapacity = 0; // entries of blendQueue (0: no queue on this device)
+  uint32_t oitNodesPerPixel = 0;   // the pool's size (ensureOitPool)
+  uint32_t traversalDepth = 0;     // deepest node of the tree this frame traverses (LOD BVH or DAG group tree)
   uint32_t hzbOffset[MIRAGE_HZB_MAX_LEVELS] = {};
   bool historyUsable = false; // the history bitmask fits (instance offsets below 2^32, buffer range)
   // vis and depth were transitioned out of UNDEFINED since they were made: every frame leaves them

@@ -243,6 +243,7 @@ void ClusterRenderer::Impl::ensureOitPool(uint32_t nodesPerPixel) {
   if (oitNodes && oitNodesPerPixel == nodesPerPixel) return;
   retired.retire(std::move(oitNodes), inFlightSlots());
   retired.retire(std::move(oitColors), inFlightSlots());
+  oitPackedFrames = 0; // another pool: fixed slots may fit again
   uint64_t pixels = uint64_t(colorWidth) * height;
   oitNodeCapacity = uint32_t(std::min<uint64_t>(
       {pixels * nodesPerPixel, ctx.caps().maxStorageBufferRange / sizeof(sio::OitNode), uint64_t(UINT32_MAX) - 1}));

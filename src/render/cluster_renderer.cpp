@@ -1,6 +1,7 @@
 // ClusterRenderer: the public API and the per-frame phase list (docs/render.md, "Passes"); the
 // phases themselves live in the files cluster_impl.h lists.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include <fmt/format.h>
@@ -101,10 +102,15 @@ Result<std::unique_ptr<ClusterRenderer>> ClusterRenderer::create(Context& contex
 }
 
 Status ClusterRenderer::Impl::prepareFrame(const ClusterRenderSettings& cs, uint32_t frameSlot) {
+  const uint64_t fixedKey = uint64_t(cs.base.width) | uint64_t(cs.base.height) << 16 |
+                            uint64_t(cs.oitNodesPerPixel) << 32 | uint64_t(cs.stereoIpd.has_value()) << 40 |
+                            uint64_t(std::isfinite(cs.blendQueuePixels)) << 41;
+  if (fixedKey != oitFixedKey) oitFixedKey = fixedKey, oitPackedFrames = 0;
   auto planned = plan(cs);
   if (!planned) return planned.error();
   currentSlot = frameSlot;
   retired.completed(frameSlot); // a slot is recorded again only after its previous frame completed
+  if (oitPackedFrames > 0) --oitPackedFrames;
   plans[currentSlot] = *planned;
   recorded[currentSlot] = false;
   if (residency)
@@ -281,6 +287,7 @@ Result<ClusterRenderOutput> ClusterRenderer::collect(uint32_t slot) {
   ClusterRenderOutput out;
   out.image.stats.passTimes = d.timers[slot].read();
   out.stats = d.readStats(slot);
+  if (out.stats.oitFixedRedone) d.oitPackedFrames = kOitPackedFramesAfterOverflow;
   out.image.stats.drawCalls = 1;
   out.image.stats.trianglesSubmitted = out.stats.trianglesRasterized;
   if (d.plans[slot].surfels) out.stats.surfels = d.plans[slot].surfels->stageStats(slot);

@@ -435,6 +435,38 @@ TEST_F(ClusterOit, PackedStorageMatchesTheLinkedLists) {
 // ranges: the second rasterization, its blend queue), short pools among them; through the blend
 // queue and the per-cluster walk, mono and stereo, frames of either kind in turn on one renderer.
 // The same image bit for bit and the same counters every time.
+// Fixed slots a frame's pixels outnumbered: the next frames store as Packed (no first
+// rasterization's stores wasted), with the same image, and fixed slots are tried again after
+// kOitPackedFramesAfterOverflow frames or at once with another pool.
+TEST_F(ClusterOit, OutnumberedFixedSlotsStoreAsPackedForAWhile) {
+  if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no packed storage";
+  lod::LodAsset asset = bake(layerScene(8, 3.0f, /*wall=*/true));
+  auto r = ClusterRenderer::create(context(), asset);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ClusterRenderSettings s = layerSettings(64, 48);
+  s.raster = RasterBackend::Compute;
+  s.blendRaster = BlendRaster::Compute;
+  s.oit = OitMode::Fixed;
+  s.oitNodesPerPixel = 4; // some pixels hold 8 fragments (and the pool drops some: packed drops the same)
+  ClusterRenderOutput first = renderFrame(**r, s);
+  EXPECT_EQ(first.stats.oitFixedSlots, 4u);
+  EXPECT_TRUE(first.stats.oitFixedRedone);
+  uint32_t packedFrames = 0;
+  for (int i = 0; i < 40; ++i) {
+    ClusterRenderOutput next = renderFrame(**r, s);
+    if (next.stats.oitFixedSlots != 0) break;
+    ++packedFrames;
+    EXPECT_EQ(next.image.srgb.pixels, first.image.srgb.pixels) << "frame " << i;
+    EXPECT_EQ(next.stats.oitFragments, first.stats.oitFragments);
+  }
+  EXPECT_EQ(packedFrames, 30u) << "frames stored as Packed after the overflow";
+  renderFrame(**r, s);    // fixed slots again: overflows again
+  s.oitNodesPerPixel = 8; // another pool: tried at once, and it fits
+  ClusterRenderOutput fits = renderFrame(**r, s);
+  EXPECT_EQ(fits.stats.oitFixedSlots, 8u);
+  EXPECT_FALSE(fits.stats.oitFixedRedone);
+}
+
 TEST_F(ClusterOit, FixedSlotsMatchPackedRanges) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no packed storage";
   struct Case {
