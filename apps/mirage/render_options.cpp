@@ -99,7 +99,7 @@ CLI::Option* bindSceneOptions(CLI::App& cmd, runtime::SceneOptions& o, BindMode 
   cmd.add_option("--uploads", o.uploads,
                  "With --gpu-budget: page geometry to the GPU on the transfer queue (copy engines, beside the "
                  "frames; a later frame moves it into the pool), inside the frame that draws it first, or auto "
-                 "(transfer where the device has a transfer queue): auto|frame|transfer (docs/render.md "
+                 "(frame: the transfer queue measured no faster): auto|frame|transfer (docs/render.md "
                  "\"Residency\")")
       ->transform(enumNames(render::kUploadsNames, o.uploads))
       ->type_name("auto|frame|transfer")

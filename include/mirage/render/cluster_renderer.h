@@ -266,8 +266,8 @@ struct ClusterResidencySettings {
   // Where a page's geometry goes to the GPU (docs/render.md, "Residency"): Transfer copies it on
   // the transfer queue (the copy engines, beside the frames' work) into device memory as soon as
   // it is read, and a later frame moves it into the pool with a device copy; Frame copies it from
-  // host memory inside the frame that draws it first. Auto: Transfer where the device has a
-  // transfer queue (gpu::Context::transferQueue), else Frame. Transfer without one uses the queue.
+  // host memory inside the frame that draws it first. Auto: Frame (the transfer queue measured no
+  // faster: docs/render.md). Transfer without a transfer queue (gpu::Context) uses the queue.
   enum class Uploads : uint8_t { Auto, Frame, Transfer };
   Uploads uploads = Uploads::Auto;
 };
