@@ -85,6 +85,7 @@ void runBenchParticlesRender(const BenchParticlesOptions& o, const particles::Ef
                         {"msl", r->oit.msl},
                         {"oit_dropped", r->oit.dropped()},
                         {"oit_fragments", r->oit.fragments}};
+    for (const auto& [name, ms] : r->passMs) j["gpu_ms"][name] = ms;
     fmt::print("{}\n", j.dump(2));
     return;
   }

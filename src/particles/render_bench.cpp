@@ -88,7 +88,8 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   gpu::GpuTimer timer(context, 2);
   std::vector<double> simulate, frame, blend, composite, splat, splatResolve, total;
   std::vector<double> splatCount, splatScan, splatScatter, splatTiles;
-  for (uint32_t i = 0; i < o.frames + 1; ++i) { // the first warms the pipelines up, untimed
+  std::vector<std::pair<std::string, std::vector<double>>> passes; // every pass, in first-run order
+  for (uint32_t i = 0; i < o.frames + 1; ++i) {                    // the first warms the pipelines up, untimed
     Status recorded = Ok{};
     context.submitAndWait([&](VkCommandBuffer cmd) {
       timer.cmdReset(cmd);
@@ -109,6 +110,9 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
     double s = 0, f = 0;
     for (const gpu::PassTime& t : timer.read()) s = t.milliseconds;
     for (const gpu::PassTime& t : out->stats.passTimes) {
+      auto pass = std::find_if(passes.begin(), passes.end(), [&](const auto& p) { return p.first == t.name; });
+      if (pass == passes.end()) pass = passes.insert(passes.end(), {t.name, {}});
+      pass->second.push_back(t.milliseconds);
       if (t.name == "frame") f = t.milliseconds;
       if (t.name == "blend") blend.push_back(t.milliseconds);
       if (t.name == "composite") composite.push_back(t.milliseconds);
@@ -134,6 +138,7 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   r.splatScatterMs = median(splatScatter);
   r.splatTilesMs = median(splatTiles);
   r.totalMs = median(total);
+  for (auto& [name, ms] : passes) r.passMs.push_back({name, median(ms)});
   r.billboards =
       (*draw)->splats(o.oit) ? (*draw)->readBillboardCount() : uint32_t(std::min<uint64_t>(r.live, UINT32_MAX));
   r.splatBinned = (*draw)->splats(o.oit) && (*draw)->splatsBinned();

@@ -122,6 +122,9 @@ struct RenderBenchResult {
   uint32_t billboards = 0;  // particles the splat left to billboards in the last frame (all without it)
   bool splatBinned = false; // the splat ran binned by screen tiles
   render::OitStats oit;     // of the last frame
+  // Every pass of the frame the renderer timed (its "frame" and the splat's included), medians in
+  // the order they first ran: where the rest of the frame goes.
+  std::vector<std::pair<std::string, double>> passMs;
 };
 Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& effect,
                                       const RenderBenchOptions& options);
