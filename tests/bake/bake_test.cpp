@@ -164,7 +164,7 @@ TEST(Distributed, EveryUnitOnceInUnitOrder) {
 }
 
 // Lanes: three bakers per rank, each on its own thread (runUnits with a span of bakers): every unit
-// once, in unit order, and the lanes of each rank really bake at the same time.
+// once, in unit order, and (in a world of one) the lanes really bake at the same time.
 TEST(Distributed, LanesBakeAtOnceEveryUnitOnce) {
   const bake::World& w = world();
   bake::UnitPlan plan;
@@ -182,7 +182,11 @@ TEST(Distributed, LanesBakeAtOnceEveryUnitOnce) {
   bake::ScheduleReport report;
   auto out = bake::runUnits(w, plan, {}, lanes, &report);
   ASSERT_TRUE(out.ok()) << out.error().message;
-  EXPECT_GE(most.load(), 2); // on this rank
+  // Alone, this rank has every unit for its three lanes (under mpirun another rank's lanes may take
+  // them all).
+  if (w.size() == 1) {
+    EXPECT_GE(most.load(), 2);
+  }
   if (!w.root()) return;
   ASSERT_EQ(out->size(), 30u);
   for (uint32_t u = 0; u < 30; ++u) EXPECT_EQ((*out)[u], unitBytes(u));
