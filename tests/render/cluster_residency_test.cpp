@@ -332,7 +332,6 @@ TEST_F(ClusterResidency, TransferUploadsConvergeToTheFrameUploadsImages) {
     auto b = converge(*transfer.renderer, stops[i], budget);
     for (const ResidencyStats& f : b.frames) inTransit += f.inTransit, evicted += f.evicted;
     for (const ResidencyStats& f : a.frames) EXPECT_EQ(f.inTransit, 0u);
-    EXPECT_EQ(b.output.stats.residency.drawnPages, a.output.stats.residency.drawnPages) << "stop " << i;
     EXPECT_TRUE(b.output.image.srgb.pixels == a.output.image.srgb.pixels) << "stop " << i;
     test::writeOnFailure(b.output.image.srgb, "residency_transfer" + std::to_string(i) + ".png");
   }
