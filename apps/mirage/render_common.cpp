@@ -51,10 +51,6 @@ std::vector<gpu::PassTime> medianPassTimes(const std::vector<std::vector<gpu::Pa
   return out;
 }
 
-double frameMilliseconds(const std::vector<gpu::PassTime>& times) {
-  for (const auto& t : times)
-    if (t.name == "frame") return t.milliseconds;
-  return 0.0;
-}
+double frameMilliseconds(const std::vector<gpu::PassTime>& times) { return gpu::passMilliseconds(times, "frame"); }
 
 } // namespace mirage::cli

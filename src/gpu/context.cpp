@@ -518,7 +518,7 @@ void Context::endOneShotAndWait(VkCommandBuffer cmd) {
   freeOneShot(cmd);
 }
 
-void Context::endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence) {
+void Context::endAndSubmit(VkQueue queue, VkCommandBuffer cmd, VkFence fence) {
   MIRAGE_VK_CHECK(vkEndCommandBuffer(cmd));
   VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
   cbi.commandBuffer = cmd;
@@ -526,18 +526,13 @@ void Context::endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence) {
   si.commandBufferInfoCount = 1;
   si.pCommandBufferInfos = &cbi;
   std::lock_guard lock(oneShotMutex_);
-  MIRAGE_VK_CHECK(vkQueueSubmit2(queue_, 1, &si, fence));
+  MIRAGE_VK_CHECK(vkQueueSubmit2(queue, 1, &si, fence));
 }
 
+void Context::endOneShotAndSubmit(VkCommandBuffer cmd, VkFence fence) { endAndSubmit(queue_, cmd, fence); }
+
 void Context::submitTransfer(VkCommandBuffer cmd, VkFence fence) {
-  MIRAGE_VK_CHECK(vkEndCommandBuffer(cmd));
-  VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
-  cbi.commandBuffer = cmd;
-  VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
-  si.commandBufferInfoCount = 1;
-  si.pCommandBufferInfos = &cbi;
-  std::lock_guard lock(oneShotMutex_);
-  MIRAGE_VK_CHECK(vkQueueSubmit2(transferQueue_ ? transferQueue_ : queue_, 1, &si, fence));
+  endAndSubmit(transferQueue_ ? transferQueue_ : queue_, cmd, fence);
 }
 
 void Context::freeOneShot(VkCommandBuffer cmd) {
@@ -569,7 +564,8 @@ const char* toString(VkResult r) {
     MIRAGE_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
     MIRAGE_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
     MIRAGE_CASE(VK_ERROR_INITIALIZATION_FAILED)
-    MIRAGE_CASE(VK_ERROR_DEVICE_LOST) MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
+    MIRAGE_CASE(VK_ERROR_DEVICE_LOST)
+    MIRAGE_CASE(VK_ERROR_MEMORY_MAP_FAILED) MIRAGE_CASE(VK_ERROR_LAYER_NOT_PRESENT)
         MIRAGE_CASE(VK_ERROR_EXTENSION_NOT_PRESENT) MIRAGE_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
             MIRAGE_CASE(VK_ERROR_INCOMPATIBLE_DRIVER) MIRAGE_CASE(VK_ERROR_TOO_MANY_OBJECTS)
                 MIRAGE_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED) MIRAGE_CASE(VK_ERROR_FRAGMENTED_POOL)

@@ -4,6 +4,12 @@
 
 namespace mirage::gpu {
 
+double passMilliseconds(const std::vector<PassTime>& times, std::string_view name, double missing) {
+  for (const PassTime& t : times)
+    if (t.name == name) return t.milliseconds;
+  return missing;
+}
+
 GpuTimer::GpuTimer(Context& context, uint32_t maxPasses)
     : context_(context), maxPasses_(maxPasses), supported_(context.caps().timestamps) {
   if (!supported_) return;

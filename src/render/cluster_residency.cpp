@@ -656,14 +656,6 @@ ResidencyStats ClusterRenderer::Impl::collectResidency(uint32_t frameSlot) {
 
 bool ClusterRenderer::hasResidency() const { return impl_->residency != nullptr; }
 
-namespace {
-double frameGpuMs(const std::vector<gpu::PassTime>& passes) {
-  for (const gpu::PassTime& t : passes)
-    if (t.name == "frame") return t.milliseconds;
-  return 0.0;
-}
-} // namespace
-
 Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const ClusterRenderSettings& settings,
                                                                     uint32_t maxFrames, bool readEveryFrame) {
   Converged out;
@@ -684,7 +676,7 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
     if (!o) return o.error();
     o->stats.residency.times.readWaitMs += std::exchange(waitedMs, 0.0);
     out.frameEnds.push_back(std::chrono::steady_clock::now());
-    out.frameGpuMs.push_back(frameGpuMs(o->image.stats.passTimes));
+    out.frameGpuMs.push_back(gpu::passMilliseconds(o->image.stats.passTimes, "frame"));
     if (quiet.base.readImage) out.frameImages.push_back(std::move(o->image.srgb));
     quiet.cameraCut = false; // the cut is this call's first frame only
     const ResidencyStats& st = o->stats.residency;
@@ -713,7 +705,7 @@ Result<ClusterRenderer::Converged> ClusterRenderer::renderConverged(const Cluste
   auto o = render(last);
   if (!o) return o.error();
   out.frameEnds.push_back(std::chrono::steady_clock::now());
-  out.frameGpuMs.push_back(frameGpuMs(o->image.stats.passTimes));
+  out.frameGpuMs.push_back(gpu::passMilliseconds(o->image.stats.passTimes, "frame"));
   out.frames.push_back(o->stats.residency);
   if (quiet.base.readImage) out.frameImages.push_back(o->image.srgb);
   out.output = std::move(*o);

@@ -37,11 +37,7 @@ struct ImGuiSession {
 using Clock = std::chrono::steady_clock;
 
 // The renderer's "frame" pass of a frame's stats; negative without timestamp queries.
-inline double gpuFrameMs(const FrameStats& stats) {
-  for (const gpu::PassTime& t : stats.passTimes)
-    if (t.name == "frame") return t.milliseconds;
-  return -1.0;
-}
+inline double gpuFrameMs(const FrameStats& stats) { return gpu::passMilliseconds(stats.passTimes, "frame", -1.0); }
 
 // Everything the loop owns on the GPU side, destroyed after the device went idle.
 struct Presenter {

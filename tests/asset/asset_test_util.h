@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <random>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -48,6 +49,14 @@ public:
 private:
   fs::path path_;
 };
+
+// `n` bytes of a seeded generator, each one of `symbols` values (fewer: more compressible).
+inline std::vector<uint8_t> randomBytes(size_t n, uint32_t seed, uint32_t symbols = 256) {
+  std::mt19937 rng(seed);
+  std::vector<uint8_t> v(n);
+  for (auto& b : v) b = uint8_t(rng() % symbols);
+  return v;
+}
 
 inline std::vector<uint8_t> readBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -15,16 +15,7 @@ using namespace mirage;
 using namespace mirage::asset;
 using namespace mirage::asset::test;
 
-namespace {
-
-std::vector<uint8_t> randomBytes(size_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::vector<uint8_t> v(n);
-  for (auto& b : v) b = uint8_t(rng());
-  return v;
-}
-
-} // namespace
+namespace {} // namespace
 
 TEST(Container, RoundTripsChunksRawAndCompressed) {
   TempDir dir;

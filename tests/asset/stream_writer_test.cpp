@@ -14,17 +14,11 @@ using namespace mirage::asset::test;
 
 namespace {
 
-std::vector<uint8_t> randomBytes(size_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::vector<uint8_t> v(n);
-  for (auto& b : v) b = uint8_t(rng() % 7); // compressible: zstd frames and raw chunks both occur
-  return v;
-}
+// Compressible: zstd frames and raw chunks both occur.
+std::vector<uint8_t> someBytes(size_t n, uint32_t seed) { return randomBytes(n, seed, 7); }
 
 // Chunks of odd sizes (padding between them), compressed and not.
-std::vector<std::vector<uint8_t>> payloads() {
-  return {randomBytes(1001, 1), randomBytes(37, 2), randomBytes(5003, 3)};
-}
+std::vector<std::vector<uint8_t>> payloads() { return {someBytes(1001, 1), someBytes(37, 2), someBytes(5003, 3)}; }
 constexpr uint32_t kChunks = 5;
 
 Status addAll(AssetStreamWriter& w, const std::vector<std::vector<uint8_t>>& chunks, size_t from, size_t to) {
@@ -42,7 +36,7 @@ TEST(StreamWriter, ResumedWriteHasTheUninterruptedBytes) {
     auto w = AssetStreamWriter::create(dir.file("whole.mrg"), kChunks);
     ASSERT_TRUE(w.ok());
     ASSERT_TRUE(addAll(*w, chunks, 0, 3).ok());
-    ASSERT_TRUE(w->addChunk(chunk::Meta, randomBytes(64, 4)).ok());
+    ASSERT_TRUE(w->addChunk(chunk::Meta, someBytes(64, 4)).ok());
     ASSERT_TRUE(w->finish().ok());
   }
   const std::string out = dir.file("a.mrg"), partial = dir.file("a.mrg.partial");
@@ -73,7 +67,7 @@ TEST(StreamWriter, ResumedWriteHasTheUninterruptedBytes) {
   auto w = AssetStreamWriter::resume(out, partial, kChunks, table, marks.back().end);
   ASSERT_TRUE(w.ok()) << w.error().message;
   ASSERT_TRUE(addAll(*w, chunks, 2, 3).ok());
-  ASSERT_TRUE(w->addChunk(chunk::Meta, randomBytes(64, 4)).ok());
+  ASSERT_TRUE(w->addChunk(chunk::Meta, someBytes(64, 4)).ok());
   ASSERT_TRUE(w->finish().ok());
   EXPECT_EQ(readBytes(out), readBytes(dir.file("whole.mrg")));
   EXPECT_FALSE(fs::exists(partial)); // renamed into place

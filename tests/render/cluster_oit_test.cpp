@@ -153,6 +153,15 @@ void expectQueueMatchesClusterWalk(ClusterRenderer& r, ClusterRenderSettings s, 
   writeOnFailure(walk.image.srgb, "walk_" + what + ".png");
 }
 
+// A renderer of `layers` stacked layers cut by a wall (layerScene), baked; null on failure.
+std::unique_ptr<ClusterRenderer> wallLayerRenderer(gpu::Context& ctx, uint32_t layers) {
+  lod::LodAsset asset = bake(layerScene(layers, 3.0f, /*wall=*/true));
+  EXPECT_FALSE(asset.dags.empty());
+  auto r = ClusterRenderer::create(ctx, asset);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
+  return r.ok() ? std::move(*r) : nullptr;
+}
+
 } // namespace
 
 class ClusterOit : public test::GpuTest {};
@@ -384,10 +393,8 @@ TEST_F(ClusterOit, PackedStorageMatchesTheLinkedLists) {
   if (context().caps().fragmentStoresAndAtomics)
     cases.push_back({"hardware", std::nullopt, INFINITY, BlendRaster::Hardware});
   for (uint32_t layers : {8u, 20u}) {
-    lod::LodAsset asset = bake(layerScene(layers, 3.0f, /*wall=*/true));
-    ASSERT_FALSE(asset.dags.empty());
-    auto r = ClusterRenderer::create(context(), asset);
-    ASSERT_TRUE(r.ok()) << r.error().message;
+    auto r = wallLayerRenderer(context(), layers);
+    ASSERT_TRUE(r);
     for (const Case& c : cases) {
       ClusterRenderSettings s = layerSettings(64, 48);
       s.raster = RasterBackend::Compute;
@@ -396,13 +403,13 @@ TEST_F(ClusterOit, PackedStorageMatchesTheLinkedLists) {
       s.stereoIpd = c.ipd;
       s.oitNodesPerPixel = 24; // every fragment under the cap gets a node
       s.oit = OitMode::LinkedList;
-      ClusterRenderOutput list = renderFrame(**r, s);
+      ClusterRenderOutput list = renderFrame(*r, s);
       s.oit = OitMode::Packed;
-      ClusterRenderOutput packed = renderFrame(**r, s);
+      ClusterRenderOutput packed = renderFrame(*r, s);
       const ClusterStats &a = packed.stats, &b = list.stats;
       std::string what = std::to_string(layers) + " layers, " + c.what;
       s.oit = OitMode::Fixed; // 16 slots per pixel, placed again as ranges where the 20 layers pass them
-      ClusterRenderOutput fixed = renderFrame(**r, s);
+      ClusterRenderOutput fixed = renderFrame(*r, s);
       EXPECT_EQ(fixed.stats.oitFixedSlots, c.blend == BlendRaster::Compute ? 16u : 0u) << what;
       EXPECT_EQ(fixed.stats.oitFixedRedone, fixed.stats.oitFixedSlots != 0 && layers > 16) << what;
       expectFixedMatchesRanges(fixed, packed, what);
@@ -440,29 +447,28 @@ TEST_F(ClusterOit, PackedStorageMatchesTheLinkedLists) {
 // kOitPackedFramesAfterOverflow frames or at once with another pool.
 TEST_F(ClusterOit, OutnumberedFixedSlotsStoreAsPackedForAWhile) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no packed storage";
-  lod::LodAsset asset = bake(layerScene(8, 3.0f, /*wall=*/true));
-  auto r = ClusterRenderer::create(context(), asset);
-  ASSERT_TRUE(r.ok()) << r.error().message;
+  auto r = wallLayerRenderer(context(), 8);
+  ASSERT_TRUE(r);
   ClusterRenderSettings s = layerSettings(64, 48);
   s.raster = RasterBackend::Compute;
   s.blendRaster = BlendRaster::Compute;
   s.oit = OitMode::Fixed;
   s.oitNodesPerPixel = 4; // some pixels hold 8 fragments (and the pool drops some: packed drops the same)
-  ClusterRenderOutput first = renderFrame(**r, s);
+  ClusterRenderOutput first = renderFrame(*r, s);
   EXPECT_EQ(first.stats.oitFixedSlots, 4u);
   EXPECT_TRUE(first.stats.oitFixedRedone);
   uint32_t packedFrames = 0;
   for (int i = 0; i < 40; ++i) {
-    ClusterRenderOutput next = renderFrame(**r, s);
+    ClusterRenderOutput next = renderFrame(*r, s);
     if (next.stats.oitFixedSlots != 0) break;
     ++packedFrames;
     EXPECT_EQ(next.image.srgb.pixels, first.image.srgb.pixels) << "frame " << i;
     EXPECT_EQ(next.stats.oitFragments, first.stats.oitFragments);
   }
   EXPECT_EQ(packedFrames, 30u) << "frames stored as Packed after the overflow";
-  renderFrame(**r, s);    // fixed slots again: overflows again
+  renderFrame(*r, s);     // fixed slots again: overflows again
   s.oitNodesPerPixel = 8; // another pool: tried at once, and it fits
-  ClusterRenderOutput fits = renderFrame(**r, s);
+  ClusterRenderOutput fits = renderFrame(*r, s);
   EXPECT_EQ(fits.stats.oitFixedSlots, 8u);
   EXPECT_FALSE(fits.stats.oitFixedRedone);
 }
@@ -479,10 +485,8 @@ TEST_F(ClusterOit, FixedSlotsMatchPackedRanges) {
   const Case cases[] = {{8, 8, false},  {8, 6, true},   {8, 4, true}, {8, 2, true},
                         {8, 64, false}, {20, 16, true}, {20, 5, true}};
   for (uint32_t layers : {8u, 20u}) {
-    lod::LodAsset asset = bake(layerScene(layers, 3.0f, /*wall=*/true));
-    ASSERT_FALSE(asset.dags.empty());
-    auto r = ClusterRenderer::create(context(), asset);
-    ASSERT_TRUE(r.ok()) << r.error().message;
+    auto r = wallLayerRenderer(context(), layers);
+    ASSERT_TRUE(r);
     for (const Case& c : cases) {
       if (c.layers != layers) continue;
       for (float queuePixels : {ClusterRenderSettings{}.blendQueuePixels, INFINITY})
@@ -496,9 +500,9 @@ TEST_F(ClusterOit, FixedSlotsMatchPackedRanges) {
           std::string what = std::to_string(layers) + "_layers_pool_" + std::to_string(c.nodesPerPixel) +
                              (std::isfinite(queuePixels) ? "_queue" : "_walk") + (stereo ? "_stereo" : "");
           s.oit = OitMode::Fixed;
-          ClusterRenderOutput fixed = renderFrame(**r, s);
+          ClusterRenderOutput fixed = renderFrame(*r, s);
           s.oit = OitMode::Packed;
-          ClusterRenderOutput ranges = renderFrame(**r, s);
+          ClusterRenderOutput ranges = renderFrame(*r, s);
           std::printf("%s: %u fixed slots per pixel%s; %u fragments, %u past the pool, %u past 16 layers\n",
                       what.c_str(), fixed.stats.oitFixedSlots, fixed.stats.oitFixedRedone ? ", placed again" : "",
                       fixed.stats.oitFragments, fixed.stats.oitPoolOverflow, fixed.stats.oitLayersDropped);

@@ -247,12 +247,11 @@ TEST_F(ClusterResidency, TinyBudgetIsCompleteAndCrackFree) {
     expectTinyBudgetCompleteAndCrackFree(context(), selection);
 }
 
-// Close views of two blobs far apart with room for one view's pages at a time: moving from one to
-// the other evicts, coming back reloads, and every stop converges to the unbudgeted image.
-void expectMovingCameraEvictsAndReloads(gpu::Context& ctx, SelectionMode selection) {
-  SCOPED_TRACE(toString(selection));
-  const PagedBlob& pair = pagedPair();
-  const Scene& scene = pair.whole.scene;
+namespace {
+
+// Close views of the pair's first blob, its second, then its first again.
+std::vector<Camera> pairStops() {
+  const Scene& scene = pagedPair().whole.scene;
   std::vector<Camera> stops;
   for (uint32_t i : {0u, 1u, 0u}) {
     const Instance& inst = scene.instances[i];
@@ -260,6 +259,17 @@ void expectMovingCameraEvictsAndReloads(gpu::Context& ctx, SelectionMode selecti
     glm::vec3 shift(inst.transform[3]);
     stops.push_back(closeViewOf(Bounds{b.min + shift, b.max + shift}, {0.3f, 0.2f, 1.0f}, 1.6f, 0.8f, 60.0f));
   }
+  return stops;
+}
+
+} // namespace
+
+// Close views of two blobs far apart with room for one view's pages at a time: moving from one to
+// the other evicts, coming back reloads, and every stop converges to the unbudgeted image.
+void expectMovingCameraEvictsAndReloads(gpu::Context& ctx, SelectionMode selection) {
+  SCOPED_TRACE(toString(selection));
+  const PagedBlob& pair = pagedPair();
+  std::vector<Camera> stops = pairStops();
   // A fine threshold: each stop needs its blob's finest pages, well beyond the root pages.
   auto settings = [&](size_t i) {
     ClusterRenderSettings s = viewSettings(stops[i]);
@@ -312,14 +322,9 @@ TEST_F(ClusterResidency, MovingCameraEvictsAndReloadsWithTheHierarchy) {
 TEST_F(ClusterResidency, TransferUploadsConvergeToTheFrameUploadsImages) {
   using Uploads = ClusterResidencySettings::Uploads;
   const PagedBlob& pair = pagedPair();
-  const Scene& scene = pair.whole.scene;
   std::vector<ClusterRenderSettings> stops;
-  for (uint32_t i : {0u, 1u, 0u}) {
-    const Instance& inst = scene.instances[i];
-    Bounds b = scene.meshes[inst.mesh].bounds;
-    glm::vec3 shift(inst.transform[3]);
-    stops.push_back(
-        viewSettings(closeViewOf(Bounds{b.min + shift, b.max + shift}, {0.3f, 0.2f, 1.0f}, 1.6f, 0.8f, 60.0f)));
+  for (const Camera& c : pairStops()) {
+    stops.push_back(viewSettings(c));
     stops.back().tauPixels = 0.25f;
   }
   uint64_t budget =

@@ -128,6 +128,7 @@ private:
     VkCommandPool pool = VK_NULL_HANDLE;
   };
   VkCommandBuffer beginCommands(uint32_t family);
+  void endAndSubmit(VkQueue queue, VkCommandBuffer cmd, VkFence fence); // ends `cmd`, submits it alone
   std::mutex oneShotMutex_;
   std::vector<CommandPool> commandPools_;
   std::unordered_map<VkCommandBuffer, VkCommandPool> oneShotPool_;

@@ -1,6 +1,7 @@
 #pragma once
 // GPU timing from timestamp queries (per-pass times) and pipeline-statistics queries.
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mirage/gpu/vk.h"
@@ -13,6 +14,8 @@ struct PassTime {
   std::string name;
   double milliseconds = 0.0;
 };
+// The time of the pass named `name` (e.g. a renderer's "frame"), or `missing` when none ran.
+double passMilliseconds(const std::vector<PassTime>& times, std::string_view name, double missing = 0.0);
 
 // Pairs of timestamps around named passes. Reset with cmdReset at the start of a command buffer,
 // then cmdBegin/cmdEnd around each pass; read() after the submission completed.
