@@ -49,13 +49,21 @@ vec4 tileAverage(ParticleBatchInfo b, uint frame) {
   return textureLod(sheets[nonuniformEXT(b.sheet)], (tile + 0.5) / vec2(tiles), level);
 }
 
-// Global record g as the splat sees it: nothing (an empty slot, or no coverage), a billboard
-// (appended to the billboards' list when `list`), or a splat of position, size and colour c
-// (straight alpha).
+// A splat's colour as a tile list's entry stores it (splatPack): 10 bits a colour channel, 16
+// alpha. Every path sums the colour rounded so.
+vec4 splatRoundColor(vec4 c) {
+  c = clamp(c, 0.0, 1.0);
+  return vec4(round(c.rgb * 1023.0) / 1023.0, round(c.a * 65535.0) / 65535.0);
+}
+
+// Global record g as the splat sees it: nothing (an empty slot), a billboard (appended to the
+// billboards' list when `list`), or a splat of position, size and, with `shade`, colour c
+// (straight alpha, rounded as a tile list's entry keeps it). The class does not depend on the
+// colour (a splat of alpha 0 adds nothing), so that the binned count needs no sheet lookup.
 #define SPLAT_NONE 0u
 #define SPLAT_BILLBOARD 1u
 #define SPLAT_SPLAT 2u
-uint splatClassify(uint g, bool list, out vec3 position, out float size, out vec4 c) {
+uint splatClassify(uint g, bool list, bool shade, out vec3 position, out float size, out vec4 c) {
   position = vec3(0.0), size = 0.0, c = vec4(0.0);
   if (g >= push.total) return SPLAT_NONE;
   ParticleSlot slot = particleSlot(push.batchAddress, push.batchCount, g);
@@ -72,18 +80,35 @@ uint splatClassify(uint g, bool list, out vec3 position, out float size, out vec
     }
     return SPLAT_BILLBOARD;
   }
-  c = particleShade(unpackUnorm4x8(p.color), tileAverage(slot.info, p.frame), slot.info.flags);
+  if (shade)
+    c = splatRoundColor(particleShade(unpackUnorm4x8(p.color), tileAverage(slot.info, p.frame), slot.info.flags));
   position = p.position, size = p.size;
-  return c.a > 0.0 ? SPLAT_SPLAT : SPLAT_NONE;
+  return SPLAT_SPLAT;
 }
 
 // A splat as one eye sees it: its footprint lo..hi in the eye's pixels, its NDC depth, the weight
-// factor of its view distance, and the pixels it may touch (first..last, inside the eye).
+// factor of its view distance, and the pixels it may touch (first..last, inside the eye). Corner
+// and edge lie on the grid of MIRAGE_SPLAT_SUBPIXELS, as a tile list's entry stores them
+// (splatPack), so that every path sums the same footprint.
 struct SplatFootprint {
   vec2 lo, hi;
   float depth, weight;
   ivec2 first, last;
 };
+// The weight factor at NDC depth `depth` of the eye: its view distance w solved from
+// depth = (P22 z + P32) / (P23 z + P33), w = P23 z + P33 (perspective: -z; orthographic: 1). A tile
+// list's entry keeps the depth alone.
+float splatWeight(ParticleViewRef view, float depth) {
+  float p22 = view.camera.proj[2][2], p32 = view.camera.proj[3][2];
+  float p23 = view.camera.proj[2][3], p33 = view.camera.proj[3][3];
+  float z = (p32 - depth * p33) / (depth * p23 - p22);
+  return oitWeightedFactor(p23 * z + p33); // the view distance, as 1 / gl_FragCoord.w
+}
+// The pixels footprint lo..hi may touch, inside the eye.
+void splatPixels(inout SplatFootprint f) {
+  f.first = max(ivec2(floor(f.lo)), ivec2(0));
+  f.last = min(ivec2(ceil(f.hi)) - 1, ivec2(push.eyeWidth, push.height) - 1);
+}
 // False where the eye does not see it (behind the eye, before the near or beyond the far plane).
 // (The camera's members are read one by one: a whole ViewFrame per thread would be 368 bytes.)
 bool splatFootprint(uint eye, vec3 position, float size, out SplatFootprint f) {
@@ -95,13 +120,35 @@ bool splatFootprint(uint eye, vec3 position, float size, out SplatFootprint f) {
   if (ndc.z <= 0.0 || ndc.z > 1.0) return false; // beyond the far plane or before the near one
   vec2 centre = (ndc.xy * 0.5 + 0.5) * vec2(push.eyeWidth, push.height);
   // The projection's w is the view distance -z (clip.w), as the billboard's centre.z.
-  float half_ = 0.5 * particlePixels(view, size, -clip.w);
-  f.lo = centre - half_, f.hi = centre + half_;
+  float edge = particlePixels(view, size, -clip.w);
+  vec2 corner = round((centre - 0.5 * edge) * MIRAGE_SPLAT_SUBPIXELS); // whole units of the grid
+  float edgeUnits = round(edge * MIRAGE_SPLAT_SUBPIXELS);
+  f.lo = corner / MIRAGE_SPLAT_SUBPIXELS, f.hi = (corner + edgeUnits) / MIRAGE_SPLAT_SUBPIXELS;
   f.depth = ndc.z;
-  f.weight = oitWeightedFactor(clip.w); // the view distance, as 1 / gl_FragCoord.w
-  f.first = max(ivec2(floor(f.lo)), ivec2(0));
-  f.last = min(ivec2(ceil(f.hi)) - 1, ivec2(push.eyeWidth, push.height) - 1);
+  f.weight = splatWeight(view, f.depth);
+  splatPixels(f);
   return true;
+}
+
+// Footprint f with colour c (rounded: splatRoundColor) as the list of the tile at `origin` (eye
+// pixels) holds it: MIRAGE_SPLAT_ENTRY_WORDS words (shaderio/particle_draw.h).
+uvec4 splatPack(SplatFootprint f, vec4 c, ivec2 origin) {
+  ivec2 corner = ivec2(f.lo * MIRAGE_SPLAT_SUBPIXELS) - origin * int(MIRAGE_SPLAT_SUBPIXELS) + 32768;
+  uint edge = uint(round((f.hi.x - f.lo.x) * MIRAGE_SPLAT_SUBPIXELS));
+  uvec3 rgb = uvec3(round(c.rgb * 1023.0));
+  return uvec4(uint(corner.x) | (uint(corner.y) << 16u), edge | (uint(round(c.a * 65535.0)) << 16u), floatBitsToUint(f.depth),
+               rgb.r | (rgb.g << 10u) | (rgb.b << 20u));
+}
+// The footprint (its pixels inside the eye) and colour of entry e of the list of the tile at
+// `origin` of eye `eye`: those splatPack took.
+void splatUnpack(uvec4 e, uint eye, ivec2 origin, out SplatFootprint f, out vec4 c) {
+  vec2 corner = vec2(ivec2(e.x & 0xffffu, e.x >> 16u) - 32768 + origin * int(MIRAGE_SPLAT_SUBPIXELS));
+  float edgeUnits = float(e.y & 0xffffu);
+  f.lo = corner / MIRAGE_SPLAT_SUBPIXELS, f.hi = (corner + edgeUnits) / MIRAGE_SPLAT_SUBPIXELS;
+  f.depth = uintBitsToFloat(e.z);
+  f.weight = splatWeight(ParticleViewRef(push.frameAddress[eye]), f.depth);
+  splatPixels(f);
+  c = vec4(vec3(e.w & 1023u, (e.w >> 10u) & 1023u, e.w >> 20u) / 1023.0, float(e.y >> 16u) / 65535.0);
 }
 
 // Alpha of pixel (x, y) (eye pixels) under footprint lo..hi of a colour of alpha `alpha`: its

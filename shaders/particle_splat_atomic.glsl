@@ -6,7 +6,7 @@ void main() {
   vec3 position;
   float size;
   vec4 c;
-  if (splatClassify(splatRecordIndex(), /*list=*/true, position, size, c) != SPLAT_SPLAT) return;
+  if (splatClassify(splatRecordIndex(), /*list=*/true, /*shade=*/true, position, size, c) != SPLAT_SPLAT) return;
   for (uint e = 0; e < push.eyes; ++e) {
     SplatFootprint f;
     if (splatFootprint(e, position, size, f)) splatDirect(e, f, c, f.first, f.last);

@@ -4,8 +4,8 @@
 // - MIRAGE_SPLAT_PHASE_COUNT: billboards listed; each splat's entries (one per eye and tile its
 //   footprint's pixels overlap) counted per tile;
 // - MIRAGE_SPLAT_PHASE_SCATTER (after particle_splat_scan.comp): each entry written into its
-//   tile's list (the record and eye, MIRAGE_SPLAT_ENTRY) at the tile's first entry + a cursor; an
-//   entry past the room is splatted into that tile's pixels directly (global atomics), so the
+//   tile's list (the footprint, depth and colour: splatPack) at the tile's first entry + a cursor;
+//   an entry past the room is splatted into that tile's pixels directly (global atomics), so the
 //   room never changes the image.
 // The count counts the workgroup's entries per tile in a shared table, and a tile's counter takes
 // one global atomic per workgroup; the table is kept (push.tableAddress, 16 KB per workgroup), and
@@ -17,7 +17,7 @@
 layout(local_size_x = MIRAGE_PARTICLE_DRAW_GROUP) in;
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SplatBinsRef { uint v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer SplatEntryRef { uint v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) writeonly buffer SplatEntryRef { uvec4 v[]; };
 
 #define SPLAT_NO_SLOT 0xffffffffu
 shared uint slotTile[MIRAGE_SPLAT_BIN_SLOTS];  // the tile a slot counts, or SPLAT_NO_SLOT
@@ -65,7 +65,7 @@ void binRecord(uint g, uint loop) {
   vec3 position;
   float size;
   vec4 c;
-  if (splatClassify(g, /*list=*/loop == SPLAT_LOOP_COUNT, position, size, c) != SPLAT_SPLAT) return;
+  if (splatClassify(g, /*list=*/loop == SPLAT_LOOP_COUNT, /*shade=*/loop == SPLAT_LOOP_WRITE, position, size, c) != SPLAT_SPLAT) return;
   uint tiles = push.eyes * push.tilesX * push.tilesY;
   SplatBinsRef bins = SplatBinsRef(push.binAddress);
   for (uint e = 0; e < push.eyes; ++e) {
@@ -84,12 +84,9 @@ void binRecord(uint g, uint loop) {
         uint slot = s != SPLAT_NO_SLOT ? atomicAdd(slotCount[s], 1u)
                                        : bins.v[MIRAGE_SPLAT_BIN_HEADER + tiles + tile] +
                                              binAdd(MIRAGE_SPLAT_BIN_HEADER + tile); // the cursor
-        if (slot < push.entryRoom) {
-          SplatEntryRef(push.entryAddress).v[slot] = MIRAGE_SPLAT_ENTRY(g, e);
-        } else { // past the room: this tile's pixels of the footprint, directly
-          ivec2 origin = ivec2(tx, ty) * MIRAGE_SPLAT_TILE;
-          splatDirect(e, f, c, max(f.first, origin), min(f.last, origin + MIRAGE_SPLAT_TILE - 1));
-        }
+        ivec2 origin = ivec2(tx, ty) * MIRAGE_SPLAT_TILE;
+        if (slot < push.entryRoom) SplatEntryRef(push.entryAddress).v[slot] = splatPack(f, c, origin);
+        else splatDirect(e, f, c, max(f.first, origin), min(f.last, origin + MIRAGE_SPLAT_TILE - 1)); // past the room
       }
   }
 }

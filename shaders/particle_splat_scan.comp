@@ -12,7 +12,7 @@
 layout(push_constant, scalar) uniform Push { ParticleSplatPush push; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer SplatBinsRef { uint v[]; };
 
-#define GROUP 256
+#define GROUP 1024 // the most a workgroup may hold: the fewest tiles per invocation (each reads its run in turn)
 layout(local_size_x = GROUP) in;
 shared uvec2 partial[GROUP]; // (entries, chunks) of each invocation's run of tiles, then their prefix
 

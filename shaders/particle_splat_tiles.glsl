@@ -1,8 +1,8 @@
 // The binned splat's tile pass (particle_splat.glsl; after the scatter): one workgroup per chunk
 // of a tile's list (indirect, the scan's rows), an invocation per tile pixel. The tile's opaque
-// depth is read once into shared memory; each invocation takes entries of the chunk, classifies
-// each entry's record again for its eye (its footprint, depth, weight and colour, as the atomic
-// splat computes them), and adds their pixels' five sums to shared sums, in the fixed point of the fixed accumulators (2^-32
+// depth is read once into shared memory; each invocation takes entries of the chunk (in list
+// order: the footprint, depth and colour the scatter packed, the sums the atomic splat would add),
+// and adds their pixels' five sums to shared sums, in the fixed point of the fixed accumulators (2^-32
 // units) as two 32-bit words with the carry carried by hand: 32-bit integer adds are the shared
 // atomics the hardware has (float and 64-bit ones are compare-and-swap loops, 4.7 and 7.4 times
 // slower on an H100), and integer sums are exact in any order. Then each pixel's sums are written
@@ -12,7 +12,7 @@
 layout(local_size_x = SPLAT_TILE_PIXELS) in;
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatBinsRef { uint v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer SplatEntryRef { uint v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer SplatEntryRef { uvec4 v[]; };
 
 shared uint sumsLow[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS];  // pixel-major, the units' low words
 shared uint sumsHigh[SPLAT_TILE_PIXELS * MIRAGE_SPLAT_CHANNELS]; // and high words
@@ -62,14 +62,9 @@ void main() {
 
   SplatEntryRef entries = SplatEntryRef(push.entryAddress);
   for (uint k = begin + i; k < end; k += SPLAT_TILE_PIXELS) {
-    uint entry = entries.v[k];
-    vec3 position;
-    float size;
-    vec4 color;
     SplatFootprint f;
-    if (splatClassify(entry >> 1u, /*list=*/false, position, size, color) != SPLAT_SPLAT ||
-        !splatFootprint(entry & 1u, position, size, f))
-      continue; // (listed as a splat: never)
+    vec4 color;
+    splatUnpack(entries.v[k], eye, origin, f, color);
     vec2 flo = f.lo, fhi = f.hi;
     float depth = f.depth, weight = f.weight;
     ivec2 first = max(f.first, origin), to = min(f.last, last);

@@ -66,3 +66,29 @@ uint particleAppend(bool live, bool take) {
   barrier();
   return appendBase + base + subgroupBallotExclusiveBitCount(ballot);
 }
+
+// particleAppend of the dead stack (`dead`) and of the render records (`live`) at once: one set of
+// barriers for both (the update pass takes both). Returns (dead stack slot, record slot).
+shared uint appendCounts[2], appendBases[2];
+uvec2 particleAppendBoth(bool dead, bool live) {
+  if (gl_LocalInvocationIndex == 0u) appendCounts[0] = appendCounts[1] = 0u;
+  barrier();
+  uvec4 deadBallot = subgroupBallot(dead), liveBallot = subgroupBallot(live);
+  uint deadCount = subgroupBallotBitCount(deadBallot), liveCount = subgroupBallotBitCount(liveBallot);
+  uint deadBase = 0u, liveBase = 0u;
+  if (subgroupElect()) {
+    if (deadCount != 0u) deadBase = atomicAdd(appendCounts[0], deadCount);
+    if (liveCount != 0u) liveBase = atomicAdd(appendCounts[1], liveCount);
+  }
+  deadBase = subgroupBroadcastFirst(deadBase); // the elected invocation is the first active one
+  liveBase = subgroupBroadcastFirst(liveBase);
+  barrier();
+  if (gl_LocalInvocationIndex == 0u) {
+    CountersRef counters = CountersRef(push.counters);
+    if (appendCounts[0] != 0u) appendBases[0] = atomicAdd(counters.c.deadCount, appendCounts[0]);
+    if (appendCounts[1] != 0u) appendBases[1] = atomicAdd(counters.c.live, appendCounts[1]);
+  }
+  barrier();
+  return uvec2(appendBases[0] + deadBase + subgroupBallotExclusiveBitCount(deadBallot),
+               appendBases[1] + liveBase + subgroupBallotExclusiveBitCount(liveBallot));
+}

@@ -2,8 +2,8 @@
 // Particle pass 1/3 of a step: every live slot ages and takes one semi-implicit Euler step
 // (particleStep, the CPU's formula); a particle that dies frees its slot onto the dead stack (one
 // counter atomic per workgroup: particleAppend). With push.writeRender, a survivor's render record
-// is appended too (particleRender of its new state, as the output pass would write it), so a
-// frame reads each particle once.
+// is appended too (particleRender of its new state, as the output pass would write it; both
+// appends in one: particleAppendBoth), so a frame reads each particle once.
 #include "particles_common.glsl"
 
 void main() {
@@ -21,9 +21,12 @@ void main() {
       dies = true;
     }
   }
-  uint top = particleAppend(/*live=*/false, dies); // every invocation
-  if (dies) UintRef(push.dead).v[top] = slot;
-  if (push.writeRender == 0u) return; // uniform
-  uint index = particleAppend(/*live=*/true, lives);
-  if (lives) renderStore(index, particleRender(ParamsRef(push.params).p, p));
+  if (push.writeRender == 0u) { // uniform
+    uint top = particleAppend(/*live=*/false, dies); // every invocation
+    if (dies) UintRef(push.dead).v[top] = slot;
+    return;
+  }
+  uvec2 at = particleAppendBoth(dies, lives); // every invocation
+  if (dies) UintRef(push.dead).v[at.x] = slot;
+  if (lives) renderStore(at.y, particleRender(ParamsRef(push.params).p, p));
 }

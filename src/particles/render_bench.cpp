@@ -85,7 +85,7 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
   fs.oit = o.oit;
   fs.oitNodesPerPixel = o.oitNodesPerPixel;
   fs.particles = draw->get();
-  gpu::GpuTimer timer(context, 2);
+  gpu::GpuTimer timer(context, 2); // "total" around "simulate"
   std::vector<double> simulate, frame, blend, composite, splat, splatResolve, total;
   std::vector<double> splatCount, splatScan, splatScatter, splatTiles;
   std::vector<std::pair<std::string, std::vector<double>>> passes; // every pass, in first-run order
@@ -93,6 +93,8 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
     Status recorded = Ok{};
     context.submitAndWait([&](VkCommandBuffer cmd) {
       timer.cmdReset(cmd);
+      // The whole GPU time from the step's start to the frame's end, gaps between passes included.
+      uint32_t span = timer.cmdBegin(cmd, "total");
       uint32_t slot = timer.cmdBegin(cmd, "simulate");
       if (o.fusedOutput) {
         sim.cmdStep(cmd, /*writeRender=*/true);
@@ -102,13 +104,14 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
       }
       timer.cmdEnd(cmd, slot);
       recorded = (*renderer)->record(cmd, fs, 0); // its first barrier orders the records before the draw
+      timer.cmdEnd(cmd, span);
     });
     if (!recorded) return recorded.error();
     auto out = (*renderer)->collect(0);
     if (!out) return out.error();
     if (i == 0) continue;
-    double s = 0, f = 0;
-    for (const gpu::PassTime& t : timer.read()) s = t.milliseconds;
+    std::vector<gpu::PassTime> stepTimes = timer.read();
+    double s = gpu::passMilliseconds(stepTimes, "simulate"), f = 0;
     for (const gpu::PassTime& t : out->stats.passTimes) {
       auto pass = std::find_if(passes.begin(), passes.end(), [&](const auto& p) { return p.first == t.name; });
       if (pass == passes.end()) pass = passes.insert(passes.end(), {t.name, {}});
@@ -123,7 +126,7 @@ Result<RenderBenchResult> benchRender(gpu::Context& context, const EffectFile& e
       if (t.name == "splat-scatter") splatScatter.push_back(t.milliseconds);
       if (t.name == "splat-tiles") splatTiles.push_back(t.milliseconds);
     }
-    simulate.push_back(s), frame.push_back(f), total.push_back(s + f);
+    simulate.push_back(s), frame.push_back(f), total.push_back(gpu::passMilliseconds(stepTimes, "total"));
     r.oit = out->stats.oit;
   }
   r.live = sim.liveParticles();

@@ -35,7 +35,7 @@ bool useBins(const ParticleDrawSettings& s) { return s.splatMethod != SplatMetho
 
 constexpr uint64_t kRecordsPerBinGroup = uint64_t(MIRAGE_PARTICLE_DRAW_GROUP) * MIRAGE_SPLAT_BIN_RECORDS;
 constexpr uint64_t kBinTableBytes = MIRAGE_SPLAT_BIN_SLOTS * sizeof(glm::uvec2); // a uvec2 per slot
-constexpr uint64_t kEntryBytes = sizeof(uint32_t); // MIRAGE_SPLAT_ENTRY: a record and its eye in one uint
+constexpr uint64_t kEntryBytes = MIRAGE_SPLAT_ENTRY_BYTES;
 
 uint32_t tilesAcross(uint32_t pixels) { return (pixels + MIRAGE_SPLAT_TILE - 1) / MIRAGE_SPLAT_TILE; }
 

@@ -115,8 +115,10 @@ struct RenderBenchOptions {
 };
 struct RenderBenchResult {
   uint64_t live = 0, fillSteps = 0;
-  double simulateMs = 0, frameMs = 0, blendMs = 0, compositeMs = 0, totalMs = 0; // medians
-  double splatMs = 0, splatResolveMs = 0;                                        // medians
+  // Medians; total: one span from the step's start to the frame's end (more than simulate + frame
+  // by what runs between them, the renderer's clears).
+  double simulateMs = 0, frameMs = 0, blendMs = 0, compositeMs = 0, totalMs = 0;
+  double splatMs = 0, splatResolveMs = 0; // medians
   // Binned: the splat's passes apart (medians; splat-count, splat-scan, splat-scatter, splat-tiles).
   double splatCountMs = 0, splatScanMs = 0, splatScatterMs = 0, splatTilesMs = 0;
   uint32_t billboards = 0;  // particles the splat left to billboards in the last frame (all without it)

@@ -66,7 +66,7 @@ struct ParticleDrawSettings {
   SplatMethod splatMethod = SplatMethod::Auto;
   // Binned: entries (a splat's footprint on one tile of one eye) the tile lists hold; those past it
   // are added by global atomics, so the image does not depend on it. 0: MIRAGE_SPLAT_ENTRIES_PER_RECORD
-  // per record slot (4 bytes each). A larger room: with no frame in flight.
+  // per record slot (MIRAGE_SPLAT_ENTRY_BYTES each). A larger room: with no frame in flight.
   uint32_t splatEntryRoom = 0;
   // Binned: slots of the table in which a count or scatter workgroup counts its entries per tile
   // (a power of two, at most MIRAGE_SPLAT_BIN_SLOTS); a tile finding no free slot takes global
@@ -77,7 +77,7 @@ struct ParticleDrawSettings {
 // Device bytes the splat takes per record slot beyond the renderer's per-pixel sums: the billboard
 // list's index, the binned splat's default entry room and its workgroups' tile tables.
 inline constexpr uint64_t kSplatBytesPerRecord =
-    4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * 4 +
+    4 + MIRAGE_SPLAT_ENTRIES_PER_RECORD * MIRAGE_SPLAT_ENTRY_BYTES +
     MIRAGE_SPLAT_BIN_SLOTS * 8 / (MIRAGE_PARTICLE_DRAW_GROUP * MIRAGE_SPLAT_BIN_RECORDS);
 
 // Where a frame's splat writes, given by the renderer recording it.

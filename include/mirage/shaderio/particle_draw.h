@@ -113,10 +113,15 @@ struct ParticleSortPush {
 #define MIRAGE_SPLAT_PHASE_COUNT 0u   // classify, list the billboards, count the entries per tile
 #define MIRAGE_SPLAT_PHASE_SCATTER 1u // write the entries into their tiles' lists
 
-// One splatted particle as one tile's list holds it: global record g seen by eye e, as g * 2 + e
-// (the tile pass classifies the record again: 4 bytes per entry written and read, where the
-// footprint, depth, weight and colour took 32; record slots below 2^31).
-#define MIRAGE_SPLAT_ENTRY(g, eye) ((g)*2u + (eye))
+// One splatted particle as one tile's list holds it (splatPack in particle_splat.glsl), 16 bytes:
+// the footprint's corner relative to the tile (x and y, 16 bits each, in 1/MIRAGE_SPLAT_SUBPIXELS
+// px offset by 2^15), its edge (16 bits, the same unit) and alpha (16-bit unorm), its NDC depth
+// (float; the weight follows from it) and colour (10-bit unorm r, g, b). The tile pass reads its
+// list in order instead of classifying each particle's record again (a gather of 32 bytes, its
+// batch, the sheet and the camera per entry). The corner and edge stay on this grid and the colour
+// so rounded in every path, so that the binned and the atomic splat sum the same values.
+#define MIRAGE_SPLAT_ENTRY_BYTES 16
+#define MIRAGE_SPLAT_SUBPIXELS 1024.0
 
 struct ParticleSplatPush {
   uint64_t frameAddress[2];  // ViewFrame of each eye (the classification uses eye 0's size)
@@ -134,7 +139,7 @@ struct ParticleSplatPush {
   uint fixedPoint;       // 1: the accumulators are fixed point (resolve, tile pass)
   uint phase;            // binned: MIRAGE_SPLAT_PHASE_*
   uint64_t binAddress;   // binned: the bins (uint[], MIRAGE_SPLAT_BIN_HEADER)
-  uint64_t entryAddress; // binned: uint[entryRoom] (MIRAGE_SPLAT_ENTRY), listed by tile
+  uint64_t entryAddress; // binned: uvec4[entryRoom] (MIRAGE_SPLAT_ENTRY_BYTES each), listed by tile
   uint entryRoom;        // binned: entries the lists hold
   uint tilesX;           // binned: tiles per eye across (tile t = (eye * tilesY + y) * tilesX + x)
   uint tilesY;

@@ -34,7 +34,12 @@ using mat3 = glm::mat3;
 #define MIRAGE_INOUT(T) T&
 #define MIRAGE_OUT(T) T&
 #define MIRAGE_IN(T) const T&
+#define MIRAGE_UNROLL
 #else
+#extension GL_EXT_control_flow_attributes : require
+// Unrolled by the shader compiler (spirv-opt's -O): loops over constant bounds index arrays with
+// constants, which stay in registers.
+#define MIRAGE_UNROLL [[unroll]]
 #define MIRAGE_SHARED
 #define MIRAGE_INOUT(T) inout T
 #define MIRAGE_OUT(T) out T
@@ -310,34 +315,44 @@ MIRAGE_SHARED bool particleStep(MIRAGE_INOUT(Particle) p, float dt) {
 
 // ---- Render record ----
 
-// A piecewise linear curve of (t, value) keys at t (clamped to the first and last key).
+// A piecewise linear curve of (t, value) keys at t (clamped to the first and last key). The key
+// loops run over all MIRAGE_PARTICLE_KEYS with the count as a condition, not as the bound: unrolled,
+// every index is a constant, so a shader keeps the keys in registers. (With the count as the bound,
+// a GPU thread copied the parameters' key arrays into local memory to index them, 384 bytes per
+// particle and step.)
 MIRAGE_SHARED float particleCurve(MIRAGE_IN(ParticleParams) e, float t) {
-  if (e.sizeKeyCount == 0u) return 1.0f;
+  uint n = e.sizeKeyCount;
+  if (n == 0u) return 1.0f;
   if (t <= e.sizeKeys[0].x) return e.sizeKeys[0].y;
-  for (uint i = 1u; i < e.sizeKeyCount; ++i)
-    if (t < e.sizeKeys[i].x) {
-      vec2 a = e.sizeKeys[i - 1u];
-      vec2 b = e.sizeKeys[i];
-      return mix(a.y, b.y, (t - a.x) / max(b.x - a.x, 1e-9f));
-    }
-  return e.sizeKeys[e.sizeKeyCount - 1u].y;
+  float v = e.sizeKeys[0].y; // the segment holding t, else the last key
+  bool found = false;
+  MIRAGE_UNROLL for (uint i = 1u; i < MIRAGE_PARTICLE_KEYS; ++i) {
+    if (i >= n || found) continue;
+    vec2 a = e.sizeKeys[i - 1u];
+    vec2 b = e.sizeKeys[i];
+    found = t < b.x;
+    v = found ? mix(a.y, b.y, (t - a.x) / max(b.x - a.x, 1e-9f)) : b.y;
+  }
+  return v;
 }
 
 MIRAGE_SHARED vec4 particleGradient(MIRAGE_IN(ParticleParams) e, bool speed, float t) {
   uint n = speed ? e.speedKeyCount : e.colorKeyCount;
   if (n == 0u) return vec4(1.0f);
   float t0 = speed ? e.speedTimes[0] : e.colorTimes[0];
-  if (t <= t0) return speed ? e.speedColors[0] : e.colorKeys[0];
-  for (uint i = 1u; i < n; ++i) {
+  vec4 v = speed ? e.speedColors[0] : e.colorKeys[0]; // the segment holding t, else the last key
+  if (t <= t0) return v;
+  bool found = false;
+  MIRAGE_UNROLL for (uint i = 1u; i < MIRAGE_PARTICLE_KEYS; ++i) {
+    if (i >= n || found) continue;
+    float ta = speed ? e.speedTimes[i - 1u] : e.colorTimes[i - 1u];
     float ti = speed ? e.speedTimes[i] : e.colorTimes[i];
-    if (t < ti) {
-      float ta = speed ? e.speedTimes[i - 1u] : e.colorTimes[i - 1u];
-      vec4 a = speed ? e.speedColors[i - 1u] : e.colorKeys[i - 1u];
-      vec4 b = speed ? e.speedColors[i] : e.colorKeys[i];
-      return mix(a, b, (t - ta) / max(ti - ta, 1e-9f));
-    }
+    vec4 a = speed ? e.speedColors[i - 1u] : e.colorKeys[i - 1u];
+    vec4 b = speed ? e.speedColors[i] : e.colorKeys[i];
+    found = t < ti;
+    v = found ? mix(a, b, (t - ta) / max(ti - ta, 1e-9f)) : b;
   }
-  return speed ? e.speedColors[n - 1u] : e.colorKeys[n - 1u];
+  return v;
 }
 
 // Size, rotation, colour and sheet frame of a live particle at its age t = age / lifetime:
