@@ -9,6 +9,7 @@
 #include "mirage/gpu/descriptors.h"
 #include "mirage/gpu/pipeline.h"
 #include "mirage/render/forward_renderer.h"
+#include "mirage/render/particle_draw.h"
 #include "mirage/shaderio/forward.h"
 
 namespace mirage::render {
@@ -98,7 +99,15 @@ struct ForwardRenderer::Impl {
   uint64_t blendTriangles = 0; // over all blend instances
   gpu::Unique<VkPipeline> sortedPipeline, appendPipeline, weightedPipeline, resolvePipeline, weightedResolvePipeline;
   gpu::Unique<VkPipelineLayout> resolveLayout;
-  gpu::DescriptorSet resolveDescriptors[kMaxFramesInFlight]; // per slot: written when its frame is recorded
+  // Per slot: written at the start of its frame's recording (before any bind), the colour at binding
+  // 0 and the weighted targets at 1 and 2 (writeResolveSet).
+  gpu::DescriptorSet resolveDescriptors[kMaxFramesInFlight];
+  // The targets' clears (forward_renderer.cpp, "Clears"): the colour (and the weighted targets) by
+  // compute stores through the resolve sets, the depth copied from a zeroed buffer.
+  gpu::Unique<VkPipelineLayout> clearLayout;
+  gpu::Unique<VkPipeline> clearPipeline, weightedClearPipeline;
+  gpu::Buffer depthZeros;       // colorWidth x height floats of 0 (reverse-Z far), made with the targets
+  bool depthZerosUnset = false; // a new buffer, zeroed by the next frame
   // Linked lists: heads and pool shared by the slots (each frame's first barrier orders it), the
   // counters copied per slot into readback.
   gpu::Buffer oitHeads, oitNodes, oitColors, oitCounters;
@@ -154,7 +163,19 @@ struct ForwardRenderer::Impl {
     return mask;
   }
 
+  // The slot's resolve set: the colour, and the weighted targets with fs.oit weighted.
+  void writeResolveSet(uint32_t slot, OitMode oit);
+  // The colour to `background` and the depth to far, both left in attachment layouts with the
+  // clears visible to the opaque pass (targets in any layout before).
+  void cmdClearTargets(VkCommandBuffer cmd, uint32_t slot, const glm::vec4& background);
+  // The pass of the resolve set's compute clears: clearLayout and the given pipeline bound.
+  void cmdClearDispatch(VkCommandBuffer cmd, uint32_t slot, VkPipeline pipeline, const glm::vec4& value);
+
   // forward_oit.cpp
+  // Whether the frame splats particles (fs.particles with records, in a mode that splats), and
+  // where: the slot's eyes, targets and timer.
+  bool splatsParticles(const ForwardRenderSettings& fs) const;
+  ParticleSplatTarget splatTarget(uint32_t slot, uint32_t eyeCount);
   void uploadTransparency(const Scene& scene);
   void ensureOitTargets(uint32_t nodesPerPixel);
   // Before the frame's render passes: zeroes the lists, writes the slot's OitLists and (sorted) its

@@ -132,6 +132,24 @@ void ForwardRenderer::Impl::ensureOitTargets(uint32_t nodesPerPixel) {
   oitNodesPerPixel = nodesPerPixel;
 }
 
+bool ForwardRenderer::Impl::splatsParticles(const ForwardRenderSettings& fs) const {
+  return fs.particles && fs.particles->batchCount() != 0 && fs.particles->splats(fs.oit);
+}
+
+ParticleSplatTarget ForwardRenderer::Impl::splatTarget(uint32_t slot, uint32_t eyeCount) {
+  ParticleSplatTarget t;
+  t.slot = slot;
+  t.eyes = eyeCount;
+  for (uint32_t e = 0; e < eyeCount; ++e) t.frames[e] = frames[slot].address() + e * sizeof(sio::FrameData);
+  t.eyeWidth = eyeWidth;
+  t.height = height;
+  t.depth = depth.view();
+  t.color = color.view();
+  t.accumulators = &splatAccum;
+  t.timer = &timers[slot];
+  return t;
+}
+
 void ForwardRenderer::Impl::prepareTransparency(VkCommandBuffer cmd, const ForwardRenderSettings& fs, uint32_t slot,
                                                 const glm::mat4& view) {
   slotOit[slot] = false;
@@ -245,20 +263,12 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
                         VK_IMAGE_ASPECT_DEPTH_BIT});
   // Small particles splatted in compute before the pass (their sums resolved after the composite);
   // the billboards then draw the rest.
-  const bool splat = particles && fs.particles->splats(fs.oit);
-  ParticleSplatTarget splatTarget;
+  const bool splat = splatsParticles(fs);
+  ParticleSplatTarget splatAt;
   if (splat) {
-    splatTarget.slot = slot;
-    splatTarget.eyes = eyeCount;
-    for (uint32_t e = 0; e < eyeCount; ++e) splatTarget.frames[e] = frames[slot].address() + e * sizeof(sio::FrameData);
-    splatTarget.eyeWidth = eyeWidth;
-    splatTarget.height = height;
-    splatTarget.depth = depth.view();
-    splatTarget.color = color.view();
-    splatTarget.accumulators = &splatAccum;
-    splatTarget.timer = &timer;
+    splatAt = splatTarget(slot, eyeCount);
     uint32_t splatTime = timer.cmdBegin(cmd, "splat", kCS);
-    fs.particles->cmdSplat(cmd, splatTarget);
+    fs.particles->cmdSplat(cmd, splatAt);
     timer.cmdEnd(cmd, splatTime, kCS);
   }
   VkRenderingAttachmentInfo depthAtt{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
@@ -282,17 +292,29 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
     ri.colorAttachmentCount = 1;
     pipeline = sortedPipeline;
   } else if (fs.oit == OitMode::Weighted) {
-    ImageBarrier toAttachment[2];
+    // Sums 0, revealage 1 (nothing covers): stored by compute (cmdClearTargets says why), loaded.
+    ImageBarrier toClear[2], toAttachment[2];
     for (int i = 0; i < 2; ++i) {
       const Image& target = i == 0 ? accum : reveal;
-      toAttachment[i] = {target.handle(),           kCS,        0, kColorOut, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                         VK_IMAGE_LAYOUT_UNDEFINED, kAttachment};
+      toClear[i] = {
+          target.handle(),        kCS, 0, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+          VK_IMAGE_LAYOUT_GENERAL};
+      toAttachment[i] = {target.handle(),
+                         kCS,
+                         VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                         kColorOut,
+                         VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                         VK_IMAGE_LAYOUT_GENERAL,
+                         kAttachment};
       colorAtts[i].imageView = target.view();
       colorAtts[i].imageLayout = kAttachment;
-      colorAtts[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      colorAtts[i].loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
       colorAtts[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      colorAtts[i].clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}}; // sums 0, revealage 1 (nothing covers)
     }
+    cmdImageBarriers(cmd, toClear);
+    if (!weightedClearPipeline)
+      weightedClearPipeline = createComputePipeline(ctx, "forward_weighted_clear.comp", clearLayout);
+    cmdClearDispatch(cmd, slot, weightedClearPipeline, glm::vec4(0.0f, 0.0f, 0.0f, 1.0f));
     cmdImageBarriers(cmd, toAttachment);
     ri.colorAttachmentCount = 2;
     pipeline = weightedPipeline;
@@ -367,15 +389,7 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
                    VK_IMAGE_LAYOUT_GENERAL};
     cmdImageBarriers(cmd, toRead);
   }
-  // The slot's set: its frame is the only one recorded with it, and its previous one completed.
-  VkDescriptorImageInfo images[3] = {{VK_NULL_HANDLE, color.view(), VK_IMAGE_LAYOUT_GENERAL}, {}, {}};
-  writeImageDescriptors(ctx, resolveDescriptors[slot].set, 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {images, 1});
-  if (fs.oit == OitMode::Weighted) {
-    images[1] = {VK_NULL_HANDLE, accum.view(), VK_IMAGE_LAYOUT_GENERAL};
-    images[2] = {VK_NULL_HANDLE, reveal.view(), VK_IMAGE_LAYOUT_GENERAL};
-    writeImageDescriptors(ctx, resolveDescriptors[slot].set, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {images + 1, 1});
-    writeImageDescriptors(ctx, resolveDescriptors[slot].set, 2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, {images + 2, 1});
-  }
+  // The slot's set: written at the start of the frame (writeResolveSet).
   uint32_t resolveTime = timer.cmdBegin(cmd, "composite", kCS);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
                     fs.oit == OitMode::LinkedList ? resolvePipeline : weightedResolvePipeline);
@@ -387,7 +401,7 @@ void ForwardRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, const ForwardRe
   timer.cmdEnd(cmd, resolveTime, kCS);
   if (splat) { // the splatted particles over the composited colour
     uint32_t splatResolveTime = timer.cmdBegin(cmd, "splat-resolve", kCS);
-    fs.particles->cmdSplatResolve(cmd, splatTarget);
+    fs.particles->cmdSplatResolve(cmd, splatAt);
     timer.cmdEnd(cmd, splatResolveTime, kCS);
   }
   // The colour's writes visible to compute and transfers, as without transparency; the counters

@@ -128,6 +128,15 @@ struct ForwardResolvePush {
   uint height;
 };
 
+// Push constants of the forward targets' compute clears (forward_clear.comp,
+// forward_weighted_clear.comp; the resolves' descriptor sets).
+struct ForwardClearPush {
+  vec4 value;
+  uint width; // target pixels (both eyes in stereo)
+  uint height;
+  uint pad0, pad1;
+};
+
 #ifdef __cplusplus
 static_assert(sizeof(GpuVertex) == 52, "GpuVertex layout");
 static_assert(sizeof(FrameData) == 432, "FrameData layout");
@@ -137,6 +146,7 @@ static_assert(sizeof(GpuMaterial) == 120, "GpuMaterial layout");
 static_assert(sizeof(GpuMapTransform) == 24, "GpuMapTransform layout");
 static_assert(sizeof(ForwardPush) == 40, "ForwardPush layout");
 static_assert(sizeof(ForwardResolvePush) == 16, "ForwardResolvePush layout");
+static_assert(sizeof(ForwardClearPush) == 32, "ForwardClearPush layout");
 } // namespace mirage::shaderio
 #endif
 
