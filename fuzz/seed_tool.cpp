@@ -9,6 +9,9 @@
 //   seed_tool stream-messages out_dir one file per stream message type (fuzz_stream_message's input)
 //   seed_tool pages in.mrg out_dir    the first mesh's DAG paged at 4 KiB: per page the table and the
 //                                     page (fuzz_pages' input)
+//   seed_tool stream-journal journal_dir
+//                                     the journal of a resumable streaming bake (flat and paged) killed
+//                                     after two of three meshes (fuzz_journal's input)
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -17,6 +20,9 @@
 
 #include "fuzz_support.h"
 #include "mirage/asset/scene_chunk.h"
+#include "mirage/bake/journal.h"
+#include "mirage/bake/lod_stream_bake.h"
+#include "mirage/io/generate.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/paging.h"
@@ -203,6 +209,48 @@ int pages(const std::filesystem::path& in, const std::filesystem::path& dir) {
   return 0;
 }
 
+std::string fileBytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// The journal of a bake killed after two meshes.
+int streamJournal(const std::filesystem::path& journalDir) {
+  std::filesystem::create_directories(journalDir);
+  const io::ManyOptions many{.count = 3, .triangles = 400, .seed = 5};
+  lod::MeshSource source;
+  source.layout = io::generateManyLayout(many);
+  source.mesh = [many](uint32_t i) -> Result<Mesh> { return io::generateManyMesh(many, i); };
+  source.key = "gen:many:3x400:5";
+  lod::BuildConfig config;
+  config.threads = 1;
+  for (bool paged : {false, true}) {
+    const std::string name = paged ? "paged" : "flat";
+    lod::LodWriteOptions write;
+    write.paged = paged;
+    write.pages.pageBytes = 4096;
+    const std::string out = (fuzz::scratchDir() / (name + ".mrg")).string(), journalPath = bake::journalPath(out);
+    auto journal = bake::Journal::open(journalPath, bake::streamFingerprint(source, config, write), many.count, 0);
+    if (!journal) {
+      std::fprintf(stderr, "%s\n", journal.error().message.c_str());
+      return 2;
+    }
+    constexpr uint32_t killedAt = 2;
+    lod::StreamJournal stream{{}, [&](uint32_t mesh, std::span<const uint8_t> record) -> Status {
+                                if (mesh == killedAt) return Error{"killed"};
+                                return journal->append(mesh, record);
+                              }};
+    Status baked = lod::bakeLodFile(source, out, config, write, {}, nullptr, {}, nullptr, nullptr, &stream);
+    if (baked || baked.error().message != "killed") {
+      std::fprintf(stderr, "the bake was not stopped at mesh %u\n", killedAt);
+      return 2;
+    }
+    if (!writeFile(journalDir / (name + ".journal"), fileBytes(journalPath))) return 2;
+    lod::removeStreamFiles(out);
+  }
+  return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -211,7 +259,8 @@ int main(int argc, char** argv) {
   if (argc == 3 && std::strcmp(argv[1], "meshopt-glb") == 0) return meshoptGlb(argv[2]);
   if (argc == 3 && std::strcmp(argv[1], "stream-messages") == 0) return streamMessages(argv[2]);
   if (argc == 4 && std::strcmp(argv[1], "pages") == 0) return pages(argv[2], argv[3]);
+  if (argc == 3 && std::strcmp(argv[1], "stream-journal") == 0) return streamJournal(argv[2]);
   std::fprintf(stderr, "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb | "
-                       "stream-messages out_dir | pages in.mrg out_dir\n");
+                       "stream-messages out_dir | pages in.mrg out_dir | stream-journal journal_dir\n");
   return 2;
 }
