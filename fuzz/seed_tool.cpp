@@ -9,9 +9,11 @@
 //   seed_tool stream-messages out_dir one file per stream message type (fuzz_stream_message's input)
 //   seed_tool pages in.mrg out_dir    the first mesh's DAG paged at 4 KiB: per page the table and the
 //                                     page (fuzz_pages' input)
-//   seed_tool stream-journal journal_dir
-//                                     the journal of a resumable streaming bake (flat and paged) killed
-//                                     after two of three meshes (fuzz_journal's input)
+//   seed_tool stream-journal journal_dir resume_dir
+//                                     what a resumable streaming bake (flat and paged) killed after two
+//                                     of three meshes leaves: its journal (fuzz_journal's input), and
+//                                     the journal's records with the partial output and the spool
+//                                     (fuzz_stream_resume's input)
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -214,9 +216,10 @@ std::string fileBytes(const std::filesystem::path& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-// The journal of a bake killed after two meshes.
-int streamJournal(const std::filesystem::path& journalDir) {
+// The bake's journal and the stream_resume input made of it and the files beside the output.
+int streamJournal(const std::filesystem::path& journalDir, const std::filesystem::path& resumeDir) {
   std::filesystem::create_directories(journalDir);
+  std::filesystem::create_directories(resumeDir);
   const io::ManyOptions many{.count = 3, .triangles = 400, .seed = 5};
   lod::MeshSource source;
   source.layout = io::generateManyLayout(many);
@@ -245,7 +248,26 @@ int streamJournal(const std::filesystem::path& journalDir) {
       std::fprintf(stderr, "the bake was not stopped at mesh %u\n", killedAt);
       return 2;
     }
-    if (!writeFile(journalDir / (name + ".journal"), fileBytes(journalPath))) return 2;
+    const std::string journalBytes = fileBytes(journalPath);
+    if (!writeFile(journalDir / (name + ".journal"), journalBytes)) return 2;
+    auto read = bake::readJournal(journalPath, bake::streamFingerprint(source, config, write), many.count);
+    if (!read || read->entries.size() != killedAt) {
+      std::fprintf(stderr, "the journal does not read back\n");
+      return 2;
+    }
+    std::string resume; // fuzz_stream_resume's layout
+    put(resume, many.count);
+    put(resume, uint32_t(read->entries.size()));
+    for (const bake::JournalEntry& e : read->entries) {
+      put(resume, uint32_t(e.bytes.size()));
+      resume.append(e.bytes.begin(), e.bytes.end());
+    }
+    for (const std::string& file : {lod::streamPartialPath(out), lod::streamSpoolPath(out)}) {
+      const std::string bytes = fileBytes(file);
+      put(resume, uint32_t(bytes.size()));
+      resume += bytes;
+    }
+    if (!writeFile(resumeDir / (name + ".resume"), resume)) return 2;
     lod::removeStreamFiles(out);
   }
   return 0;
@@ -259,8 +281,8 @@ int main(int argc, char** argv) {
   if (argc == 3 && std::strcmp(argv[1], "meshopt-glb") == 0) return meshoptGlb(argv[2]);
   if (argc == 3 && std::strcmp(argv[1], "stream-messages") == 0) return streamMessages(argv[2]);
   if (argc == 4 && std::strcmp(argv[1], "pages") == 0) return pages(argv[2], argv[3]);
-  if (argc == 3 && std::strcmp(argv[1], "stream-journal") == 0) return streamJournal(argv[2]);
+  if (argc == 4 && std::strcmp(argv[1], "stream-journal") == 0) return streamJournal(argv[2], argv[3]);
   std::fprintf(stderr, "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb | "
-                       "stream-messages out_dir | pages in.mrg out_dir | stream-journal journal_dir\n");
+                       "stream-messages out_dir | pages in.mrg out_dir | stream-journal journal_dir resume_dir\n");
   return 2;
 }
