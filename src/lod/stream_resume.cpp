@@ -97,8 +97,10 @@ Result<StreamResume> checkStreamResume(const std::string& path, uint32_t meshCou
     std::string where = path + ": the journal's record of mesh " + std::to_string(i);
     auto m = decodeStreamRecord(records[i], where);
     if (!m) return makeError(path, "damaged bake journal (" + m.error().message + "): remove it and bake again");
-    // Each chunk lies after the previous mesh's and ends this mesh's bytes; the spool grows.
-    if (m->chunk.offset < fileEnd || m->chunk.offset + m->chunk.storedBytes != m->file.end || m->spool.end < spoolEnd)
+    // Each chunk lies after the previous mesh's and ends this mesh's bytes (compared without
+    // overflow: a damaged offset and size must not wrap to the end); the spool grows.
+    if (m->chunk.offset < fileEnd || m->chunk.offset > m->file.end ||
+        m->file.end - m->chunk.offset != m->chunk.storedBytes || m->spool.end < spoolEnd)
       return makeError(path, "damaged bake journal (" + where +
                                  " does not follow the one before): remove it and "
                                  "bake again");

@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstddef>
 #include <filesystem>
 #include <fstream>
 #include <numeric>
@@ -377,7 +378,8 @@ TEST(StreamBake, ResumeRefusesWhatDoesNotMatchItsRecords) {
 
 // Damaged records are refused with one line, never a crash: statistics (a record's last field, a
 // varint length and CBOR) nesting 200000 deep, on which nlohmann's CBOR reader recursed off the
-// stack, or announcing 2^60 elements, on which it threw.
+// stack, or announcing 2^60 elements, on which it threw; a chunk offset and size both moved by 2^63,
+// whose sum wraps to the mesh's recorded end.
 TEST(StreamBake, ResumeRefusesDamagedRecords) {
   auto dir = test::tempDir("stream_bake_resume_records");
   io::ManyOptions o = smallMany();
@@ -411,6 +413,11 @@ TEST(StreamBake, ResumeRefusesDamagedRecords) {
     std::string message = refused(damaged);
     EXPECT_NE(message.find("mesh 1: mesh statistics do not decode"), std::string::npos) << message;
   }
+  std::vector<std::vector<uint8_t>> wrapped = records; // the chunk entry comes first
+  for (size_t field : {offsetof(asset::ChunkEntry, offset), offsetof(asset::ChunkEntry, storedBytes)})
+    wrapped[1][field + 7] ^= 0x80;
+  std::string message = refused(wrapped);
+  EXPECT_NE(message.find("mesh 1 does not follow the one before"), std::string::npos) << message;
   lod::removeStreamFiles(path.string());
   EXPECT_TRUE(std::filesystem::is_empty(dir));
 }
