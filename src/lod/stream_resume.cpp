@@ -94,7 +94,7 @@ Result<StreamResume> checkStreamResume(const std::string& path, uint32_t meshCou
   std::vector<asset::FileMark> fileMarks, spoolMarks;
   uint64_t fileEnd = asset::AssetStreamWriter::payloadStart(streamChunkCount(meshCount)), spoolEnd = 0;
   for (size_t i = 0; i < records.size(); ++i) {
-    std::string where = path + ": the journal's record of mesh " + std::to_string(i);
+    std::string where = "the journal's record of mesh " + std::to_string(i); // the message names path once
     auto m = decodeStreamRecord(records[i], where);
     if (!m) return makeError(path, "damaged bake journal (" + m.error().message + "): remove it and bake again");
     // Each chunk lies after the previous mesh's and ends this mesh's bytes (compared without
