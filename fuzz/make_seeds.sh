@@ -12,7 +12,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out"
 cp -r "$src"/fuzz/seeds/. "$out"/
-for t in ply obj gltf scen cdag pages surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file stream_message tile_delta; do
+for t in ply obj gltf scen cdag pages surf pvs tmap meta mrg cells gvs_config camera_path material_file effect_file stream_message tile_delta journal stream_resume; do
   mkdir -p "$out/$t"
 done
 cp "$src"/examples/particles/*.toml "$out/effect_file/"
@@ -20,6 +20,7 @@ cp "$src"/fuzz/regressions/tile_delta/* "$out/tile_delta/" # lossless atlas fram
 
 q() { "$mirage" "$@" >/dev/null; }
 "$seed_tool" stream-messages "$out/stream_message"
+"$seed_tool" stream-journal "$out/journal" "$out/stream_resume"
 q gen blob --size 1 -o "$out/gltf/blob1.glb"
 q gen terrain --size 6 -o "$out/gltf/terrain6.glb"
 "$seed_tool" meshopt-glb "$out/gltf/meshopt.glb"

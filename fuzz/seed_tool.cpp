@@ -9,6 +9,11 @@
 //   seed_tool stream-messages out_dir one file per stream message type (fuzz_stream_message's input)
 //   seed_tool pages in.mrg out_dir    the first mesh's DAG paged at 4 KiB: per page the table and the
 //                                     page (fuzz_pages' input)
+//   seed_tool stream-journal journal_dir resume_dir
+//                                     what a resumable streaming bake (flat and paged) killed after two
+//                                     of three meshes leaves: its journal (fuzz_journal's input), and
+//                                     the journal's records with the partial output and the spool
+//                                     (fuzz_stream_resume's input)
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -17,6 +22,9 @@
 
 #include "fuzz_support.h"
 #include "mirage/asset/scene_chunk.h"
+#include "mirage/bake/journal.h"
+#include "mirage/bake/lod_stream_bake.h"
+#include "mirage/io/generate.h"
 #include "mirage/io/import.h"
 #include "mirage/lod/lod_asset.h"
 #include "mirage/lod/paging.h"
@@ -203,6 +211,68 @@ int pages(const std::filesystem::path& in, const std::filesystem::path& dir) {
   return 0;
 }
 
+std::string fileBytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// The bake's journal and the stream_resume input made of it and the files beside the output.
+int streamJournal(const std::filesystem::path& journalDir, const std::filesystem::path& resumeDir) {
+  std::filesystem::create_directories(journalDir);
+  std::filesystem::create_directories(resumeDir);
+  const io::ManyOptions many{.count = 3, .triangles = 400, .seed = 5};
+  lod::MeshSource source;
+  source.layout = io::generateManyLayout(many);
+  source.mesh = [many](uint32_t i) -> Result<Mesh> { return io::generateManyMesh(many, i); };
+  source.key = "gen:many:3x400:5";
+  lod::BuildConfig config;
+  config.threads = 1;
+  for (bool paged : {false, true}) {
+    const std::string name = paged ? "paged" : "flat";
+    lod::LodWriteOptions write;
+    write.paged = paged;
+    write.pages.pageBytes = 4096;
+    const std::string out = (fuzz::scratchDir() / (name + ".mrg")).string(), journalPath = bake::journalPath(out);
+    auto journal = bake::Journal::open(journalPath, bake::streamFingerprint(source, config, write), many.count, 0);
+    if (!journal) {
+      std::fprintf(stderr, "%s\n", journal.error().message.c_str());
+      return 2;
+    }
+    constexpr uint32_t killedAt = 2;
+    lod::StreamJournal stream{{}, [&](uint32_t mesh, std::span<const uint8_t> record) -> Status {
+                                if (mesh == killedAt) return Error{"killed"};
+                                return journal->append(mesh, record);
+                              }};
+    Status baked = lod::bakeLodFile(source, out, config, write, {}, nullptr, {}, nullptr, nullptr, &stream);
+    if (baked || baked.error().message != "killed") {
+      std::fprintf(stderr, "the bake was not stopped at mesh %u\n", killedAt);
+      return 2;
+    }
+    const std::string journalBytes = fileBytes(journalPath);
+    if (!writeFile(journalDir / (name + ".journal"), journalBytes)) return 2;
+    auto read = bake::readJournal(journalPath, bake::streamFingerprint(source, config, write), many.count);
+    if (!read || read->entries.size() != killedAt) {
+      std::fprintf(stderr, "the journal does not read back\n");
+      return 2;
+    }
+    std::string resume; // fuzz_stream_resume's layout
+    put(resume, many.count);
+    put(resume, uint32_t(read->entries.size()));
+    for (const bake::JournalEntry& e : read->entries) {
+      put(resume, uint32_t(e.bytes.size()));
+      resume.append(e.bytes.begin(), e.bytes.end());
+    }
+    for (const std::string& file : {lod::streamPartialPath(out), lod::streamSpoolPath(out)}) {
+      const std::string bytes = fileBytes(file);
+      put(resume, uint32_t(bytes.size()));
+      resume += bytes;
+    }
+    if (!writeFile(resumeDir / (name + ".resume"), resume)) return 2;
+    lod::removeStreamFiles(out);
+  }
+  return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -211,7 +281,8 @@ int main(int argc, char** argv) {
   if (argc == 3 && std::strcmp(argv[1], "meshopt-glb") == 0) return meshoptGlb(argv[2]);
   if (argc == 3 && std::strcmp(argv[1], "stream-messages") == 0) return streamMessages(argv[2]);
   if (argc == 4 && std::strcmp(argv[1], "pages") == 0) return pages(argv[2], argv[3]);
+  if (argc == 4 && std::strcmp(argv[1], "stream-journal") == 0) return streamJournal(argv[2], argv[3]);
   std::fprintf(stderr, "usage: seed_tool chunks in.mrg out_dir | scen in out.SCEN | meshopt-glb out.glb | "
-                       "stream-messages out_dir | pages in.mrg out_dir\n");
+                       "stream-messages out_dir | pages in.mrg out_dir | stream-journal journal_dir resume_dir\n");
   return 2;
 }

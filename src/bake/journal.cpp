@@ -34,10 +34,15 @@ Status writeAll(int fd, const uint8_t* p, size_t n, const std::string& path) {
 } // namespace
 
 Result<JournalContents> readJournal(const std::string& path, uint64_t fingerprint, uint32_t units) {
-  JournalContents out;
   std::ifstream in(path, std::ios::binary);
-  if (!in) return out;
+  if (!in) return JournalContents{};
   std::vector<uint8_t> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return parseJournal(data, path, fingerprint, units);
+}
+
+Result<JournalContents> parseJournal(std::span<const uint8_t> data, const std::string& path, uint64_t fingerprint,
+                                     uint32_t units) {
+  JournalContents out;
   asset::ByteReader r(data, path);
   uint32_t magic = 0, version = 0, count = 0;
   uint64_t print = 0;

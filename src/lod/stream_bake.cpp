@@ -129,7 +129,7 @@ Result<EncodedMesh> decodeMesh(std::span<const uint8_t> bytes, const std::string
   if (r.ok() && r.remaining() != 0) r.fail("trailing bytes");
   if (!r.ok()) return r.error();
   c.compressed = compressed != 0, c.blocked = blocked != 0;
-  e.stats = nlohmann::json::from_cbor(stats, true, false);
+  e.stats = decodeStats(stats);
   if (e.stats.is_discarded()) return makeError(where, "mesh statistics do not decode");
   return e;
 }
@@ -270,7 +270,7 @@ Status bakeLodFile(const MeshSource& source, const std::string& path, const Buil
   };
   for (uint32_t i = 0; i < r.resumedMeshes; ++i) {
     const StreamMeshRecord& e = resumed[i];
-    nlohmann::json meshStats = nlohmann::json::from_cbor(e.stats, true, false);
+    nlohmann::json meshStats = decodeStats(e.stats);
     if (meshStats.is_discarded()) return makeError(path, "mesh " + std::to_string(i) + ": statistics do not decode");
     addMesh(i, e.bounds, std::move(meshStats), e.triangles, e.clusters, e.pages);
   }

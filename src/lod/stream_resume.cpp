@@ -15,6 +15,35 @@ namespace mirage::lod {
 
 namespace {
 
+// nlohmann's DOM builder with the limits of decodeStats (its CBOR reader recurses once per level
+// and stops when a callback returns false).
+class LimitedSax {
+public:
+  LimitedSax(nlohmann::json& out, size_t bytes) : dom_(out, false), bytes_(bytes) {}
+  bool null() { return dom_.null(); }
+  bool boolean(bool v) { return dom_.boolean(v); }
+  bool number_integer(nlohmann::json::number_integer_t v) { return dom_.number_integer(v); }
+  bool number_unsigned(nlohmann::json::number_unsigned_t v) { return dom_.number_unsigned(v); }
+  bool number_float(nlohmann::json::number_float_t v, const std::string& s) { return dom_.number_float(v, s); }
+  bool string(nlohmann::json::string_t& v) { return dom_.string(v); }
+  bool binary(nlohmann::json::binary_t& v) { return dom_.binary(v); }
+  bool key(nlohmann::json::string_t& v) { return dom_.key(v); }
+  // Each element takes a byte at least; size_t(-1): indefinite length.
+  bool start_object(size_t n) { return enter(n) && dom_.start_object(n); }
+  bool start_array(size_t n) { return enter(n) && dom_.start_array(n); }
+  bool end_object() { return --depth_, dom_.end_object(); }
+  bool end_array() { return --depth_, dom_.end_array(); }
+  bool parse_error(size_t at, const std::string& token, const nlohmann::detail::exception& e) {
+    return dom_.parse_error(at, token, e);
+  }
+
+private:
+  bool enter(size_t n) { return ++depth_ <= kMaxStatsDepth && (n == size_t(-1) || n <= bytes_); }
+  nlohmann::detail::json_sax_dom_parser<nlohmann::json> dom_;
+  size_t bytes_;
+  uint32_t depth_ = 0;
+};
+
 Result<StreamMeshRecord> decodeStreamRecord(std::span<const uint8_t> bytes, const std::string& where) {
   asset::ByteReader r(bytes, where);
   StreamMeshRecord m;
@@ -24,12 +53,19 @@ Result<StreamMeshRecord> decodeStreamRecord(std::span<const uint8_t> bytes, cons
   r.read(m.triangles), r.read(m.clusters), r.read(m.pages);
   r.readArray(m.stats);
   if (Status s = r.finish(); !s) return s.error();
-  if (nlohmann::json::from_cbor(m.stats, true, false).is_discarded())
-    return makeError(where, "mesh statistics do not decode");
+  if (decodeStats(m.stats).is_discarded()) return makeError(where, "mesh statistics do not decode");
   return m;
 }
 
 } // namespace
+
+nlohmann::json decodeStats(std::span<const uint8_t> cbor) {
+  nlohmann::json out;
+  LimitedSax sax(out, cbor.size());
+  if (!nlohmann::json::sax_parse(cbor, &sax, nlohmann::json::input_format_t::cbor, /*strict=*/true))
+    return nlohmann::json(nlohmann::json::value_t::discarded);
+  return out;
+}
 
 std::vector<uint8_t> encodeStreamRecord(const StreamMeshRecord& m) {
   asset::ByteWriter w;
@@ -58,11 +94,13 @@ Result<StreamResume> checkStreamResume(const std::string& path, uint32_t meshCou
   std::vector<asset::FileMark> fileMarks, spoolMarks;
   uint64_t fileEnd = asset::AssetStreamWriter::payloadStart(streamChunkCount(meshCount)), spoolEnd = 0;
   for (size_t i = 0; i < records.size(); ++i) {
-    std::string where = path + ": the journal's record of mesh " + std::to_string(i);
+    std::string where = "the journal's record of mesh " + std::to_string(i); // the message names path once
     auto m = decodeStreamRecord(records[i], where);
     if (!m) return makeError(path, "damaged bake journal (" + m.error().message + "): remove it and bake again");
-    // Each chunk lies after the previous mesh's and ends this mesh's bytes; the spool grows.
-    if (m->chunk.offset < fileEnd || m->chunk.offset + m->chunk.storedBytes != m->file.end || m->spool.end < spoolEnd)
+    // Each chunk lies after the previous mesh's and ends this mesh's bytes (compared without
+    // overflow: a damaged offset and size must not wrap to the end); the spool grows.
+    if (m->chunk.offset < fileEnd || m->chunk.offset > m->file.end ||
+        m->file.end - m->chunk.offset != m->chunk.storedBytes || m->spool.end < spoolEnd)
       return makeError(path, "damaged bake journal (" + where +
                                  " does not follow the one before): remove it and "
                                  "bake again");

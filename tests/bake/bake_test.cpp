@@ -99,7 +99,9 @@ TEST(Journal, RoundTripTornEntryAndOtherBakes) {
   auto damaged = bake::readJournal(path, 42, 5);
   ASSERT_FALSE(damaged.ok());
   EXPECT_NE(damaged.error().message.find("damaged"), std::string::npos);
+  EXPECT_EQ(bake::parseJournal(bytes, path, 42, 5).error().message, damaged.error().message); // the file's bytes
   EXPECT_TRUE(bake::readJournal((dir / "missing").string(), 1, 1)->entries.empty());
+  EXPECT_FALSE(bake::parseJournal({}, path, 1, 1).ok()); // an empty file is not a journal
   fs::remove_all(dir);
 }
 

@@ -4,17 +4,19 @@
 // the memory bound rests on stay within their limits, a failing mesh leaves nothing behind, and a
 // residency reader of the file reads only indices and root pages; meshes baked elsewhere (remote
 // bakers) keep the bytes; a resumable bake stopped mid-way continues to the same bytes, and refuses
-// files that do not match its records.
+// files that do not match its records and damaged records.
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstddef>
 #include <filesystem>
 #include <fstream>
 #include <numeric>
 #include <optional>
 #include <thread>
 
+#include "mirage/asset/bytes.h"
 #include "mirage/asset/container.h"
 #include "mirage/io/generate.h"
 #include "mirage/lod/lod_asset.h"
@@ -370,6 +372,52 @@ TEST(StreamBake, ResumeRefusesWhatDoesNotMatchItsRecords) {
   message = bakeResumable(path, failing, paged(), records, std::nullopt);
   EXPECT_NE(message.find("mesh 4: cannot be made"), std::string::npos) << message;
   EXPECT_TRUE(std::filesystem::exists(partial) && std::filesystem::exists(spool));
+  lod::removeStreamFiles(path.string());
+  EXPECT_TRUE(std::filesystem::is_empty(dir));
+}
+
+// Damaged records are refused with one line, never a crash: statistics (a record's last field, a
+// varint length and CBOR) nesting 200000 deep, on which nlohmann's CBOR reader recursed off the
+// stack, or announcing 2^60 elements, on which it threw; a chunk offset and size both moved by 2^63,
+// whose sum wraps to the mesh's recorded end.
+TEST(StreamBake, ResumeRefusesDamagedRecords) {
+  auto dir = test::tempDir("stream_bake_resume_records");
+  io::ManyOptions o = smallMany();
+  o.count = 3;
+  o.triangles = 500;
+  const auto path = dir / "out.mrg";
+  std::vector<std::vector<uint8_t>> records;
+  EXPECT_EQ(bakeResumable(path, manySource(o), lod::LodWriteOptions{}, records, 2), "stopped");
+  ASSERT_EQ(records.size(), 2u);
+  auto checked = lod::checkStreamResume(path.string(), o.count, records);
+  ASSERT_TRUE(checked.ok()) << checked.error().message;
+  auto refused = [&](const std::vector<std::vector<uint8_t>>& r) {
+    auto resume = lod::checkStreamResume(path.string(), o.count, r);
+    if (resume) return std::string();
+    EXPECT_EQ(resume.error().message.find('\n'), std::string::npos);
+    return resume.error().message;
+  };
+
+  const size_t statsBytes = checked->meshes[1].stats.size();
+  asset::ByteWriter statsLength;
+  statsLength.writeVarint(statsBytes);
+  std::vector<uint8_t> deep(200000, 0x81); // arrays of one element, nested
+  deep.push_back(0);
+  const std::vector<uint8_t> huge = {0x9b, 0x0f, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff}; // an array of 2^60 - 1
+  for (const std::vector<uint8_t>& stats : {deep, huge}) {
+    std::vector<std::vector<uint8_t>> damaged = records;
+    damaged[1].resize(damaged[1].size() - statsBytes - statsLength.size());
+    asset::ByteWriter w;
+    w.writeArray(std::span<const uint8_t>(stats));
+    damaged[1].insert(damaged[1].end(), w.data().begin(), w.data().end());
+    std::string message = refused(damaged);
+    EXPECT_NE(message.find("mesh 1: mesh statistics do not decode"), std::string::npos) << message;
+  }
+  std::vector<std::vector<uint8_t>> wrapped = records; // the chunk entry comes first
+  for (size_t field : {offsetof(asset::ChunkEntry, offset), offsetof(asset::ChunkEntry, storedBytes)})
+    wrapped[1][field + 7] ^= 0x80;
+  std::string message = refused(wrapped);
+  EXPECT_NE(message.find("mesh 1 does not follow the one before"), std::string::npos) << message;
   lod::removeStreamFiles(path.string());
   EXPECT_TRUE(std::filesystem::is_empty(dir));
 }

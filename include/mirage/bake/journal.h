@@ -29,6 +29,10 @@ struct JournalContents {
 // The journal at `path` of the bake with this fingerprint and unit count. A missing file is an
 // empty journal. Errors: not a journal, or one of another bake (other inputs or settings).
 Result<JournalContents> readJournal(const std::string& path, uint64_t fingerprint, uint32_t units);
+// What readJournal makes of a journal's bytes (`path` names them in errors); an empty span is not a
+// journal (a missing file is readJournal's case).
+Result<JournalContents> parseJournal(std::span<const uint8_t> bytes, const std::string& path, uint64_t fingerprint,
+                                     uint32_t units);
 
 class Journal {
 public:
