@@ -103,11 +103,11 @@ struct ForwardRenderer::Impl {
   // 0 and the weighted targets at 1 and 2 (writeResolveSet).
   gpu::DescriptorSet resolveDescriptors[kMaxFramesInFlight];
   // The targets' clears (forward_renderer.cpp, "Clears"): the colour (and the weighted targets) by
-  // compute stores through the resolve sets, the depth copied from a zeroed buffer.
+  // compute stores through the resolve sets, the depth copied from an image of far depth.
   gpu::Unique<VkPipelineLayout> clearLayout;
   gpu::Unique<VkPipeline> clearPipeline, weightedClearPipeline;
-  gpu::Buffer depthZeros;       // colorWidth x height floats of 0 (reverse-Z far), made with the targets
-  bool depthZerosUnset = false; // a new buffer, zeroed by the next frame
+  gpu::Image depthFar;        // the depth's size, all 0 (reverse-Z far), in TRANSFER_SRC_OPTIMAL once set
+  bool depthFarUnset = false; // made with the targets, cleared by the next frame
   // Linked lists: heads and pool shared by the slots (each frame's first barrier orders it), the
   // counters copied per slot into readback.
   gpu::Buffer oitHeads, oitNodes, oitColors, oitCounters;

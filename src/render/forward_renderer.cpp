@@ -121,11 +121,11 @@ void ForwardRenderer::Impl::ensureTargets(uint32_t colorW, uint32_t h) {
                         VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
                             VK_IMAGE_USAGE_TRANSFER_DST_BIT,
                         "depth");
-  retired.retire(std::move(depthZeros), inFlight());
-  depthZeros = createBuffer(ctx, uint64_t(colorW) * h * sizeof(float),
-                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::GpuOnly,
-                            "depth clear");
-  depthZerosUnset = true;
+  retired.retire(std::move(depthFar), inFlight());
+  depthFar = createImage2D(
+      ctx, colorW, h, kForwardDepthFormat, // (sampled: createImage2D makes a view)
+      VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, "depth far");
+  depthFarUnset = true;
   colorWidth = colorW;
   height = h;
 }
@@ -152,7 +152,8 @@ void ForwardRenderer::Impl::cmdClearDispatch(VkCommandBuffer cmd, uint32_t slot,
 
 // Clears. The render pass's clear and vkCmdClear*Image run at the fixed-function rate, slow on
 // GPUs built for compute: on an H100 a 1920x1080 RGBA16F clear took 0.30 ms and a D32 one 0.15 ms,
-// where a compute store of the colour and a copy of zeros into the depth run at memory speed.
+// where a compute store of the colour and a copy of an image of far depth take 0.04 ms together
+// (a copy from a buffer of zeros: 0.13 ms).
 void ForwardRenderer::Impl::cmdClearTargets(VkCommandBuffer cmd, uint32_t slot, const glm::vec4& background) {
   if (!clearPipeline) {
     if (!clearLayout)
@@ -160,11 +161,20 @@ void ForwardRenderer::Impl::cmdClearTargets(VkCommandBuffer cmd, uint32_t slot, 
                                          VK_SHADER_STAGE_COMPUTE_BIT);
     clearPipeline = createComputePipeline(ctx, "forward_clear.comp", clearLayout);
   }
-  if (depthZerosUnset) {
-    vkCmdFillBuffer(cmd, depthZeros.handle(), 0, VK_WHOLE_SIZE, 0); // 0.0f: reverse-Z far
-    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    depthZerosUnset = false;
+  if (depthFarUnset) { // once per target size: a clear at the slow rate, copied every frame after
+    ImageBarrier toDst[] = {{depthFar.handle(), VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_CLEAR_BIT,
+                             VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
+    cmdImageBarriers(cmd, toDst);
+    VkClearDepthStencilValue far{0.0f, 0}; // reverse-Z
+    VkImageSubresourceRange range{VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
+    vkCmdClearDepthStencilImage(cmd, depthFar.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &far, 1, &range);
+    ImageBarrier toSrc[] = {{depthFar.handle(), VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                             VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                             VK_IMAGE_ASPECT_DEPTH_BIT}};
+    cmdImageBarriers(cmd, toSrc);
+    depthFarUnset = false;
   }
   ImageBarrier toClear[] = {{color.handle(), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0, kCS,
                              VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL},
@@ -173,10 +183,11 @@ void ForwardRenderer::Impl::cmdClearTargets(VkCommandBuffer cmd, uint32_t slot, 
                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_ASPECT_DEPTH_BIT}};
   cmdImageBarriers(cmd, toClear);
   cmdClearDispatch(cmd, slot, clearPipeline, background);
-  VkBufferImageCopy region{};
-  region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, 1};
-  region.imageExtent = {colorWidth, height, 1};
-  vkCmdCopyBufferToImage(cmd, depthZeros.handle(), depth.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  VkImageCopy region{};
+  region.srcSubresource = region.dstSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, 1};
+  region.extent = {colorWidth, height, 1};
+  vkCmdCopyImage(cmd, depthFar.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, depth.handle(),
+                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
   const VkPipelineStageFlags2 kTests =
       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
   ImageBarrier toAttachment[] = {
