@@ -240,6 +240,9 @@ inline void expectSameScene(const Scene& a, const Scene& b) {
   }
 }
 
+// Whether `part` occurs in `s` (error messages name what they refuse).
+inline bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
 // An error is one line naming the file.
 inline void expectOneLineError(const std::string& message, const std::string& file) {
   EXPECT_EQ(message.rfind(file + ": ", 0), 0u) << message;

@@ -17,8 +17,6 @@ using namespace mirage::asset::test;
 
 namespace {
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
-
 // Blocks of every kind: empty, compressible (stored as zstd), random (stored raw), one byte.
 std::vector<std::vector<uint8_t>> sampleBlocks() {
   std::mt19937 rng(7);

@@ -46,8 +46,6 @@ std::vector<bool> paddingMask(const std::vector<uint8_t>& file) {
   return pad;
 }
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
-
 } // namespace
 
 TEST(Corruption, WrongMagic) {
