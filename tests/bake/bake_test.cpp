@@ -6,8 +6,6 @@
 // `mpirun -np 4` (bake.mpi) when Mirage is built with MPI; alone they run in a world of one.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -20,6 +18,7 @@
 #include "mirage/bake/scheduler.h"
 #include "mirage/io/generate.h"
 #include "mirage/lod/baked_mesh.h"
+#include "bake_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -27,41 +26,16 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// One world per process (MPI is initialized once), finalized at exit.
-const bake::World& world() {
-  static bake::World w = [] {
-    auto joined = bake::World::join();
-    if (!joined) {
-      std::fprintf(stderr, "%s\n", joined.error().message.c_str());
-      std::abort();
-    }
-    return std::move(joined).value();
-  }();
-  return w;
-}
-
-// A scratch folder per test; with several ranks rank 0 names it for all (they share the host).
-fs::path scratch(const std::string& name) {
-  fs::path p = fs::temp_directory_path() / ("mirage_bake_test_" + std::to_string(::getpid()) + "_" + name);
-  fs::create_directories(p);
-  return p;
-}
-
 std::vector<uint8_t> unitBytes(uint32_t unit) { // distinct sizes and contents per unit
   std::vector<uint8_t> b(100 + unit * 37);
   for (size_t i = 0; i < b.size(); ++i) b[i] = uint8_t(i * 31 + unit * 7);
   return b;
 }
 
-std::vector<uint8_t> fileBytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 } // namespace
 
 TEST(Journal, RoundTripTornEntryAndOtherBakes) {
-  fs::path dir = scratch("journal");
+  fs::path dir = test::tempDir("journal");
   std::string path = (dir / "a.journal").string();
   {
     auto j = bake::Journal::open(path, 42, 5, 0);
@@ -92,7 +66,7 @@ TEST(Journal, RoundTripTornEntryAndOtherBakes) {
 
   EXPECT_FALSE(bake::readJournal(path, 43, 5).ok()); // another fingerprint
   EXPECT_FALSE(bake::readJournal(path, 42, 6).ok()); // another unit count
-  auto bytes = fileBytes(path);
+  auto bytes = test::fileBytes(path);
   bytes[bytes.size() - 3] ^= 1; // damaged inside the last entry's bytes
   std::ofstream(path, std::ios::binary)
       .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
@@ -106,7 +80,7 @@ TEST(Journal, RoundTripTornEntryAndOtherBakes) {
 }
 
 TEST(Scheduler, ResumeBakesOnlyMissingUnits) {
-  fs::path dir = scratch("resume");
+  fs::path dir = test::tempDir("resume");
   bake::World alone = std::move(bake::World::join()).value(); // no MPI launcher: a world of one
   ASSERT_EQ(alone.size(), 1);
   bake::UnitPlan plan{{5, 1, 9, 2, 7, 3}, 7, (dir / "j").string(), false};
@@ -137,7 +111,7 @@ TEST(Scheduler, ResumeBakesOnlyMissingUnits) {
 }
 
 TEST(Distributed, EveryUnitOnceInUnitOrder) {
-  const bake::World& w = world();
+  const bake::World& w = test::world();
   bake::UnitPlan plan;
   for (uint32_t u = 0; u < 40; ++u) plan.costs.push_back(u % 7);
   bake::ScheduleReport report;
@@ -168,7 +142,7 @@ TEST(Distributed, EveryUnitOnceInUnitOrder) {
 // Lanes: three bakers per rank, each on its own thread (runUnits with a span of bakers): every unit
 // once, in unit order, and (in a world of one) the lanes really bake at the same time.
 TEST(Distributed, LanesBakeAtOnceEveryUnitOnce) {
-  const bake::World& w = world();
+  const bake::World& w = test::world();
   bake::UnitPlan plan;
   for (uint32_t u = 0; u < 30; ++u) plan.costs.push_back(1 + u % 4);
   std::atomic<int> active{0}, most{0};
@@ -199,8 +173,8 @@ TEST(Distributed, LanesBakeAtOnceEveryUnitOnce) {
 }
 
 TEST(Distributed, UnitErrorReachesEveryRank) {
-  const bake::World& w = world();
-  fs::path dir = scratch("error"); // each rank names its own; only rank 0's journal is written
+  const bake::World& w = test::world();
+  fs::path dir = test::tempDir("error"); // each rank names its own; only rank 0's journal is written
   bake::UnitPlan plan{std::vector<uint64_t>(24, 1), 3, (dir / "j").string(), false};
   auto out = bake::runUnits(w, plan, {}, [](uint32_t u, std::span<const uint8_t>) -> Result<std::vector<uint8_t>> {
     if (u == 17) return Error{"scene.obj: mesh 17: broken"};
@@ -222,7 +196,7 @@ TEST(Distributed, UnitErrorReachesEveryRank) {
 }
 
 TEST(Distributed, LodBakeEqualsSingleProcessBake) {
-  const bake::World& w = world();
+  const bake::World& w = test::world();
   auto scene = io::generateScene("city", 3, 2);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   ASSERT_GT(scene->meshes.size(), 3u);
@@ -235,10 +209,10 @@ TEST(Distributed, LodBakeEqualsSingleProcessBake) {
   config.threads = 1; // a DAG does not depend on the thread count
   auto single = lod::bakeLodAsset(*scene, config);
   ASSERT_TRUE(single.ok());
-  fs::path dir = scratch("lod");
+  fs::path dir = test::tempDir("lod");
   ASSERT_TRUE(lod::saveLodAsset((dir / "a.mrg").string(), *distributed).ok());
   ASSERT_TRUE(lod::saveLodAsset((dir / "b.mrg").string(), *single).ok());
-  EXPECT_EQ(fileBytes(dir / "a.mrg"), fileBytes(dir / "b.mrg"));
+  EXPECT_EQ(test::fileBytes(dir / "a.mrg"), test::fileBytes(dir / "b.mrg"));
   // The unit's bytes carry every field exactly (timings included).
   for (size_t m = 0; m < single->dags.size(); ++m) {
     lod::BakedMesh mesh{single->dags[m], single->sourceClusters[m]};

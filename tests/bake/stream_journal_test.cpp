@@ -7,8 +7,6 @@
 // Distributed.StreamBakeResumesOnEveryRank also runs on 4 ranks (bake.mpi).
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 
@@ -16,6 +14,7 @@
 #include "mirage/bake/lod_bake.h"
 #include "mirage/bake/lod_stream_bake.h"
 #include "mirage/io/generate.h"
+#include "bake_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -45,19 +44,6 @@ lod::BuildConfig config(float normalWeight = 12.0f) {
   c.threads = 2;
   c.normalWeight = normalWeight;
   return c;
-}
-
-std::vector<uint8_t> bytesOf(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-// A scratch folder per test and process (under mpirun only rank 0's is written).
-fs::path scratch(const std::string& name) {
-  fs::path p = fs::temp_directory_path() / ("mirage_stream_journal_" + std::to_string(::getpid()) + "_" + name);
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
 }
 
 // What a process killed after writing mesh `killedAt` (its record not yet journaled) leaves: the
@@ -91,29 +77,23 @@ std::vector<std::string> leftBeside(const fs::path& out) {
   return left;
 }
 
-// The process's world: of one, unless under mpirun (where only the Distributed.* tests run).
-const bake::World& world() {
-  static bake::World w = std::move(bake::World::join()).value();
-  return w;
-}
-
 } // namespace
 
 TEST(StreamJournal, KilledBakeResumesToTheSameBytes) {
-  fs::path dir = scratch("resume");
+  fs::path dir = test::tempDir("stream_resume");
   for (bool isPaged : {true, false}) {
     SCOPED_TRACE(isPaged ? "paged" : "flat");
     lod::LodWriteOptions w = isPaged ? paged() : lod::LodWriteOptions{};
     // The reference, uninterrupted and not resumable.
-    ASSERT_TRUE(bake::bakeLodFile(world(), source(), (dir / "whole.mrg").string(), config(), w, {}).ok());
+    ASSERT_TRUE(bake::bakeLodFile(test::world(), source(), (dir / "whole.mrg").string(), config(), w, {}).ok());
     fs::path out = dir / "out.mrg";
     killedBake(out, w, 3);
     lod::StreamBakeReport report;
     bake::ScheduleReport ranks;
-    Status s = bake::bakeLodFile(world(), source(), out.string(), config(), w, {}, &report, &ranks, {},
+    Status s = bake::bakeLodFile(test::world(), source(), out.string(), config(), w, {}, &report, &ranks, {},
                                  {bake::journalPath(out.string()), true});
     ASSERT_TRUE(s.ok()) << s.error().message;
-    EXPECT_EQ(bytesOf(out), bytesOf(dir / "whole.mrg"));
+    EXPECT_EQ(test::fileBytes(out), test::fileBytes(dir / "whole.mrg"));
     EXPECT_EQ(report.resumedMeshes, 3u);
     EXPECT_EQ(ranks.resumedUnits, 3u);
     EXPECT_EQ(ranks.ranks[0].units.size(), kMany.count - 3);
@@ -121,11 +101,11 @@ TEST(StreamJournal, KilledBakeResumesToTheSameBytes) {
     EXPECT_TRUE(leftBeside(out).empty());
     // --resume with nothing to resume: a new bake, journaled, with the same bytes.
     fs::remove(out);
-    ASSERT_TRUE(bake::bakeLodFile(world(), source(), out.string(), config(), w, {}, &report, nullptr, {},
+    ASSERT_TRUE(bake::bakeLodFile(test::world(), source(), out.string(), config(), w, {}, &report, nullptr, {},
                                   {bake::journalPath(out.string()), true})
                     .ok());
     EXPECT_EQ(report.resumedMeshes, 0u);
-    EXPECT_EQ(bytesOf(out), bytesOf(dir / "whole.mrg"));
+    EXPECT_EQ(test::fileBytes(out), test::fileBytes(dir / "whole.mrg"));
     EXPECT_TRUE(leftBeside(out).empty());
     fs::remove(out);
   }
@@ -133,21 +113,21 @@ TEST(StreamJournal, KilledBakeResumesToTheSameBytes) {
 }
 
 TEST(StreamJournal, OtherOrDamagedJournalsAreRefused) {
-  fs::path dir = scratch("refused");
+  fs::path dir = test::tempDir("stream_refused");
   fs::path out = dir / "out.mrg";
   const std::string journal = bake::journalPath(out.string()), partial = lod::streamPartialPath(out.string());
   killedBake(out, paged(), 3);
-  const std::vector<uint8_t> journalBytes = bytesOf(journal), partialBytes = bytesOf(partial);
+  const std::vector<uint8_t> journalBytes = test::fileBytes(journal), partialBytes = test::fileBytes(partial);
   bake::BakeRun resume{journal, true};
   auto refusal = [&](const lod::MeshSource& s, const lod::BuildConfig& c, const lod::LodWriteOptions& w) {
-    const std::vector<uint8_t> journalBefore = bytesOf(journal), partialBefore = bytesOf(partial);
-    Status st = bake::bakeLodFile(world(), s, out.string(), c, w, {}, nullptr, nullptr, {}, resume);
+    const std::vector<uint8_t> journalBefore = test::fileBytes(journal), partialBefore = test::fileBytes(partial);
+    Status st = bake::bakeLodFile(test::world(), s, out.string(), c, w, {}, nullptr, nullptr, {}, resume);
     EXPECT_FALSE(st.ok());
     std::string message = st.ok() ? "" : st.error().message;
     EXPECT_EQ(message.find('\n'), std::string::npos) << message;
     EXPECT_FALSE(fs::exists(out));
-    EXPECT_EQ(bytesOf(journal), journalBefore) << "a refused journal is left as it is";
-    EXPECT_EQ(bytesOf(partial), partialBefore);
+    EXPECT_EQ(test::fileBytes(journal), journalBefore) << "a refused journal is left as it is";
+    EXPECT_EQ(test::fileBytes(partial), partialBefore);
     return message;
   };
   // Other settings, another scene, other write options.
@@ -176,16 +156,17 @@ TEST(StreamJournal, OtherOrDamagedJournalsAreRefused) {
     auto whole = bake::Journal::open(journal, bake::lodFingerprint(io::generateMany(kMany), config()), kMany.count, 0);
     ASSERT_TRUE(whole.ok() && whole->append(0, std::vector<uint8_t>{1, 2, 3}).ok());
   }
-  Status st = bake::bakeLodFile(world(), source(), out.string(), config(), paged(), {}, nullptr, nullptr, {}, resume);
+  Status st =
+      bake::bakeLodFile(test::world(), source(), out.string(), config(), paged(), {}, nullptr, nullptr, {}, resume);
   ASSERT_FALSE(st.ok());
   EXPECT_NE(st.error().message.find("journal of another bake"), std::string::npos) << st.error().message;
   fs::rename(dir / "saved", journal);
-  EXPECT_EQ(bytesOf(partial), partialBytes);
+  EXPECT_EQ(test::fileBytes(partial), partialBytes);
 
   // Without --resume: the bake runs and, once written, removes the earlier bake's files.
-  ASSERT_TRUE(
-      bake::bakeLodFile(world(), source(), out.string(), config(), paged(), {}, nullptr, nullptr, {}, {journal, false})
-          .ok());
+  ASSERT_TRUE(bake::bakeLodFile(test::world(), source(), out.string(), config(), paged(), {}, nullptr, nullptr, {},
+                                {journal, false})
+                  .ok());
   EXPECT_TRUE(leftBeside(out).empty());
   fs::remove(out);
 
@@ -196,7 +177,8 @@ TEST(StreamJournal, OtherOrDamagedJournalsAreRefused) {
     if (i == 4) return Error{"mesh 4: cannot be made"};
     return io::generateManyMesh(kMany, i);
   };
-  Status s = bake::bakeLodFile(world(), failing, out.string(), config(), paged(), {}, nullptr, nullptr, {}, resume);
+  Status s =
+      bake::bakeLodFile(test::world(), failing, out.string(), config(), paged(), {}, nullptr, nullptr, {}, resume);
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("mesh 4: cannot be made"), std::string::npos) << s.error().message;
   EXPECT_TRUE(leftBeside(out).empty());
@@ -207,8 +189,8 @@ TEST(StreamJournal, OtherOrDamagedJournalsAreRefused) {
 // Collective: rank 0 holds a killed bake's files; every rank resumes it, no rank bakes a resumed mesh,
 // every other mesh is baked once, and rank 0 writes the uninterrupted bytes.
 TEST(Distributed, StreamBakeResumesOnEveryRank) {
-  const bake::World& w = world();
-  fs::path dir = scratch("ranks"); // each rank names its own; only rank 0's is written
+  const bake::World& w = test::world();
+  fs::path dir = test::tempDir("stream_ranks"); // each rank names its own; only rank 0's is written
   fs::path out = dir / "out.mrg";
   if (w.root()) {
     EXPECT_TRUE(lod::bakeLodFile(source(), (dir / "whole.mrg").string(), config(), paged()).ok());
@@ -221,7 +203,7 @@ TEST(Distributed, StreamBakeResumesOnEveryRank) {
                                {}, {bake::journalPath(out.string()), true});
   ASSERT_TRUE(s.ok()) << s.error().message;
   if (w.root()) {
-    EXPECT_EQ(bytesOf(out), bytesOf(dir / "whole.mrg"));
+    EXPECT_EQ(test::fileBytes(out), test::fileBytes(dir / "whole.mrg"));
     EXPECT_EQ(ranks.resumedUnits, 2u);
     std::vector<int> baked(kMany.count);
     for (const bake::RankReport& r : ranks.ranks)

@@ -35,6 +35,11 @@ std::filesystem::path tempDir(const std::string& name) {
   return p;
 }
 
+std::vector<uint8_t> fileBytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 void flipByte(const std::filesystem::path& path, uint64_t at) {
   std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
   f.seekg(std::streamoff(at));

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "mirage/core/image.h"
 
@@ -16,6 +17,8 @@ std::filesystem::path sharedFile(const std::string& relative);
 std::string mirageBinary();
 // A fresh, empty temporary directory for this test, removed at process exit.
 std::filesystem::path tempDir(const std::string& name);
+// The bytes of a file (empty when it cannot be read).
+std::vector<uint8_t> fileBytes(const std::filesystem::path& path);
 // Flips bit 4 of the byte at `at` in the file, in place (damaged-file tests).
 void flipByte(const std::filesystem::path& path, uint64_t at);
 // One eye's half (0 left, 1 right) of a side-by-side stereo image.
