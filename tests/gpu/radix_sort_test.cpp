@@ -16,8 +16,6 @@ using namespace mirage;
 using namespace mirage::gpu;
 using mirage::test::GpuTest;
 
-namespace {
-
 class RadixSortTest : public GpuTest {
 protected:
   std::vector<uint64_t> sortOnGpu(const std::vector<uint64_t>& keys, const RadixSortOptions& options) {
@@ -37,6 +35,8 @@ protected:
     return out;
   }
 };
+
+namespace {
 
 // What the GPU must produce: a stable sort on the selected digits only.
 std::vector<uint64_t> expectedOrder(std::vector<uint64_t> keys, const RadixSortOptions& o) {

@@ -255,8 +255,6 @@ TEST(ClusterDag, ThreadCountDoesNotChangeTheResult) {
 } // namespace mirage::lod
 
 namespace mirage::lod {
-namespace {
-
 // The verifiers must catch broken DAGs and cuts, or the tests above prove nothing.
 class BrokenDag : public ::testing::Test {
 protected:
@@ -271,6 +269,8 @@ protected:
   Mesh mesh;
   ClusterDag dag;
 };
+
+namespace {
 
 TEST_F(BrokenDag, MissingClusterIsACrack) {
   std::vector<uint32_t> cut = selectCut(dag, 0.0f);

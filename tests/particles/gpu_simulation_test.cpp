@@ -16,7 +16,11 @@ namespace {
 
 constexpr float kDt = 1.0f / 60.0f;
 
+} // namespace
+
 class GpuParticles : public test::GpuTest {};
+
+namespace {
 
 // Every module on: random force and velocity, rotation, size and colour curves, colour over
 // speed, a texture sheet row picked at random, a rotated emitter with a transformed cone.

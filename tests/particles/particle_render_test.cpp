@@ -26,7 +26,11 @@ constexpr float kDistance = test::kParticleDistance, kFov = test::kParticleFov;
 const glm::vec4 kBackground{0.05f, 0.1f, 0.2f, 1.0f};
 using test::withAnchor;
 
+} // namespace
+
 class ParticleRender : public test::GpuTest {};
+
+namespace {
 
 // Pixels from the centre to a billboard edge of `size` world units at the view distance.
 float halfExtentPixels(float size) {

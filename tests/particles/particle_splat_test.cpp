@@ -29,7 +29,11 @@ constexpr uint32_t kSize = 128;
 constexpr float kDistance = test::kParticleDistance, kFov = test::kParticleFov;
 using test::withAnchor;
 
+} // namespace
+
 class ParticleSplat : public test::GpuTest {};
+
+namespace {
 
 // Pixels across a billboard of edge `size` at view distance `distance`.
 float pixelsOf(float size, float distance) {

@@ -178,7 +178,11 @@ void expectPatchMatchesCpu(gpu::Context& ctx, const ClientPatch& p) {
   EXPECT_GE(psnr, 40.0) << inside << " pixels compared";
 }
 
+} // namespace
+
 class AtlasClientTest : public test::GpuTest {};
+
+namespace {
 
 TEST_F(AtlasClientTest, QuadBlockRendersItsTexelsInPlace) {
   ClientPatch p = quad(1.0f, 0.0f, 0);

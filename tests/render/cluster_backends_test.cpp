@@ -21,11 +21,7 @@ using mirage::test::blobAsset;
 using mirage::test::settingsFor;
 using mirage::test::writeOnFailure;
 
-namespace {
-
 class ClusterBackends : public test::GpuTest {};
-
-} // namespace
 
 TEST_F(ClusterBackends, BackendsGiveTheSameImage) {
   const lod::LodAsset& asset = blobAsset();

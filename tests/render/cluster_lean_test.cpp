@@ -26,8 +26,6 @@ using namespace mirage;
 using namespace mirage::render;
 using mirage::test::writeOnFailure;
 
-namespace {
-
 class ClusterRenderLean : public test::GpuTest {
 protected:
   void SetUp() override {
@@ -36,6 +34,8 @@ protected:
     if (!caps.int64BufferAtomics || !caps.int64SharedAtomics) GTEST_SKIP() << "no compute raster on this device";
   }
 };
+
+namespace {
 
 constexpr uint32_t kMaskedInstance = 5; // the checker panel (leanScene's instance order)
 

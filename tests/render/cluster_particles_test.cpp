@@ -28,7 +28,11 @@ namespace {
 constexpr uint32_t kSize = 128;
 const glm::vec4 kBackground{0.05f, 0.05f, 0.1f, 1.0f};
 
+} // namespace
+
 class ClusterParticles : public test::GpuTest {};
+
+namespace {
 
 // An opaque wall (z = -1) and, unless `glass` is false, a blended panel (z = 0.5) in front of
 // its left half.

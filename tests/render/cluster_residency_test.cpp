@@ -33,7 +33,11 @@ namespace {
 
 constexpr uint32_t kSize = 160;
 
+} // namespace
+
 class ClusterResidency : public test::GpuTest {};
+
+namespace {
 
 // A scene written paged with small pages (many of them), its unbudgeted reference (the DAG
 // reassembled from the same pages) and the on-demand asset.

@@ -42,7 +42,11 @@ ImageRGBA8 foveaPixels(const ImageRGBA8& image, float fovYDegrees, float degrees
   return out;
 }
 
+} // namespace
+
 class RuntimeFoveation : public test::GpuTest {};
+
+namespace {
 
 TEST_F(RuntimeFoveation, FewerTrianglesSameFovea) {
   auto opened = runtime::Scene::open(test::gpuContext(), {.input = gridMrg(), .grid = 4});

@@ -25,7 +25,11 @@ namespace {
 
 constexpr uint32_t kWidth = 64, kHeight = 48;
 
+} // namespace
+
 class RuntimeFrames : public GpuTest {};
+
+namespace {
 
 // A city, its automatic camera and a PVS saved to `dir`/pvs.mrg with two cells: cell 0 at the
 // camera sees every triangle, cell 1 beside it the triangles `cell1` lists (global IDs by instance

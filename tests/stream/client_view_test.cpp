@@ -79,7 +79,11 @@ ImageRGBA8 draw(StreamView& view) {
   return out ? out->srgb : ImageRGBA8{};
 }
 
+} // namespace
+
 class StreamViewState : public test::GpuTest {};
+
+namespace {
 
 TEST_F(StreamViewState, BlockOnlyEntriesReuseHeldAndKeptGeometry) {
   Welcome w = testWelcome();

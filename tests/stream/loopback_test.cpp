@@ -64,7 +64,11 @@ void expectMatchesLocal(gpu::Context& ctx, const std::string& input, stream::Atl
   }
 }
 
+} // namespace
+
 class StreamLoopback : public test::GpuTest {};
+
+namespace {
 
 TEST_F(StreamLoopback, LosslessClientMatchesLocalRendering) {
   expectMatchesLocal(context(), "gen:city:2", stream::AtlasCodec::ZstdTiles, stream::kCapabilityZstdTiles, 0.98);

@@ -60,7 +60,11 @@ bool isUniform(const ImageRGBA8& image) {
   return true;
 }
 
+} // namespace
+
 class StreamOpenLoop : public test::GpuTest {};
+
+namespace {
 
 TEST_F(StreamOpenLoop, WithoutLatencyEqualsLockStep) {
   LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);

@@ -78,7 +78,11 @@ TEST(ClientPose, StereoCarriesThePredictedCamerasEyes) {
   EXPECT_NEAR(stereo.camera.eye.x, -0.1f, 1e-5f); // looking along -z, right is +x: left eye at -x
 }
 
+} // namespace
+
 class StreamStereo : public test::GpuTest {};
+
+namespace {
 
 TEST_F(StreamStereo, EachHalfEqualsTheMonoStreamOfItsEye) {
   test::StreamTestServer server("gen:city:2", stream::AtlasCodec::ZstdTiles, kToken);

@@ -13,9 +13,9 @@
 #include "test_support.h"
 
 namespace mirage {
-namespace {
-
 class StreamTessellation : public test::GpuTest {};
+
+namespace {
 
 // A 10 x 10 quad (z = 0, facing +z) with a 1024^2 texture of random 8-texel cells: 102 texels per
 // unit, about twice the pixels per unit the cameras below see.

@@ -95,7 +95,11 @@ bool haveDisplay() {
   return display && *display;
 }
 
+} // namespace
+
 class StreamWindow : public test::GpuTest {};
+
+namespace {
 
 TEST_F(StreamWindow, DrawsTheFramesThatArriveWhileTheCameraFlies) {
   if (!haveDisplay()) GTEST_SKIP() << "no X server (DISPLAY unset)";

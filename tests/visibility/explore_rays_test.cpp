@@ -21,8 +21,6 @@
 using namespace mirage;
 using namespace mirage::vis;
 
-namespace {
-
 using Traversal = VulkanRayOptions::Traversal;
 
 class ExploreRays : public test::GpuTest, public ::testing::WithParamInterface<Traversal> {
@@ -42,6 +40,8 @@ protected:
     return b.ok() ? std::move(*b) : nullptr;
   }
 };
+
+namespace {
 
 // Slot by slot: skipped on both, or the same origin and direction within float tolerance (the
 // shader's normalize, sqrt and Halton digits round differently). A few slots may be decided

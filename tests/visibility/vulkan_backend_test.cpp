@@ -20,8 +20,6 @@
 using namespace mirage;
 using namespace mirage::vis;
 
-namespace {
-
 using Traversal = VulkanRayOptions::Traversal;
 
 // The ray-tracing pipeline, or the compute traversal over 4-wide or 8-wide (compressed) nodes.
@@ -51,6 +49,8 @@ protected:
     return b.ok() ? std::move(*b) : nullptr;
   }
 };
+
+namespace {
 
 std::unique_ptr<RayBackend> embree(const Scene& scene, EmbreeOptions::Geometry g) {
   auto b = createEmbreeBackend(scene, {.geometry = g});
