@@ -14,7 +14,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // Loads a GLB with tinygltf directly (independent of Mirage's importer).
-tinygltf::Model load(const fs::path& p) {
+tinygltf::Model loadWithTinygltf(const fs::path& p) {
   tinygltf::TinyGLTF loader;
   tinygltf::Model model;
   std::string err, warn;
@@ -77,7 +77,7 @@ TEST(GltfWrite, CityRoundTripsThroughTinygltf) {
   o.blocks = 2;
   Scene scene = io::generateCity(o);
   ASSERT_TRUE(io::writeGlb(scene, dir / "city.glb").ok());
-  tinygltf::Model model = load(dir / "city.glb");
+  tinygltf::Model model = loadWithTinygltf(dir / "city.glb");
   expectMatches(scene, model);
   // Triangles as a renderer counts them: sum over nodes of their mesh's index count / 3.
   size_t triangles = 0;
@@ -103,7 +103,7 @@ TEST(GltfWrite, BlobRoundTripsThroughTinygltf) {
   o.subdivisions = 4;
   Scene scene = io::generateBlob(o);
   ASSERT_TRUE(io::writeGlb(scene, dir / "blob.glb").ok());
-  tinygltf::Model model = load(dir / "blob.glb");
+  tinygltf::Model model = loadWithTinygltf(dir / "blob.glb");
   expectMatches(scene, model);
   EXPECT_EQ(model.accessors[model.meshes[0].primitives[0].indices].count / 3, 5120u);
   EXPECT_EQ(model.asset.version, "2.0");
@@ -126,7 +126,7 @@ TEST(GltfWrite, MaskMaterialAndEmptyMesh) {
   scene.meshes.push_back(Mesh{}); // no triangles: no glTF mesh, its node stays empty
   scene.instances = {{0, glm::mat4(1.0f)}, {1, glm::mat4(2.0f)}};
   ASSERT_TRUE(io::writeGlb(scene, dir / "m.glb").ok());
-  tinygltf::Model model = load(dir / "m.glb");
+  tinygltf::Model model = loadWithTinygltf(dir / "m.glb");
   ASSERT_EQ(model.meshes.size(), 1u);
   EXPECT_EQ(model.nodes[1].mesh, -1);
   EXPECT_EQ(model.materials[0].alphaMode, "MASK");

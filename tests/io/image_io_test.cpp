@@ -14,11 +14,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::vector<uint8_t> slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 void spit(const fs::path& p, const std::vector<uint8_t>& bytes) {
   std::ofstream out(p, std::ios::binary);
   out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
@@ -100,7 +95,7 @@ TEST(ImageIo, ExrByteLayout) {
   const uint32_t w = 3, h = 2;
   ImageF32 img = floatImage(w, h);
   ASSERT_TRUE(io::writeExr(dir / "a.exr", img).ok());
-  std::vector<uint8_t> b = slurp(dir / "a.exr");
+  std::vector<uint8_t> b = test::fileBytes(dir / "a.exr");
   ASSERT_GT(b.size(), 8u);
   EXPECT_EQ(std::vector<uint8_t>(b.begin(), b.begin() + 8), (std::vector<uint8_t>{0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0}));
   // First attribute: channels, chlist, 4 channels x (2 + 16) bytes + terminator.
@@ -132,7 +127,7 @@ TEST(ImageIo, ExrReaderRejectsOtherFiles) {
   spit(dir / "a.exr", {1, 2, 3, 4, 5, 6, 7, 8, 9});
   EXPECT_FALSE(io::readExr(dir / "a.exr").ok());
   ASSERT_TRUE(io::writeExr(dir / "b.exr", floatImage(4, 4)).ok());
-  std::vector<uint8_t> b = slurp(dir / "b.exr");
+  std::vector<uint8_t> b = test::fileBytes(dir / "b.exr");
   b.resize(b.size() - 10);
   spit(dir / "b.exr", b);
   Result<ImageF32> r = io::readExr(dir / "b.exr");
@@ -144,7 +139,7 @@ TEST(ImageIo, PfmIsBottomUpRgb) {
   fs::path dir = test::tempDir("pfm");
   ImageF32 img = floatImage(3, 2);
   ASSERT_TRUE(io::writePfm(dir / "a.pfm", img).ok());
-  std::vector<uint8_t> b = slurp(dir / "a.pfm");
+  std::vector<uint8_t> b = test::fileBytes(dir / "a.pfm");
   const std::string header = "PF\n3 2\n-1.0\n";
   ASSERT_EQ(b.size(), header.size() + 3 * 2 * 12);
   EXPECT_EQ(std::string(b.begin(), b.begin() + header.size()), header);

@@ -10,7 +10,7 @@ using namespace mirage;
 
 namespace {
 
-Scene load(const std::filesystem::path& p, io::ImportOptions opt = {}) {
+Scene importChecked(const std::filesystem::path& p, io::ImportOptions opt = {}) {
   auto r = io::importScene(p, opt);
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
   if (!r.ok()) return {};
@@ -58,14 +58,14 @@ TEST(ImportData, TriangleCountsMatchReadme) {
   for (const Count& c : kCounts) {
     SCOPED_TRACE(c.file);
     MIRAGE_REQUIRE_DATA(path, c.file);
-    Scene s = load(path, opt);
+    Scene s = importChecked(path, opt);
     EXPECT_EQ(s.instancedTriangleCount(), c.triangles);
   }
 }
 
 TEST(ImportData, DragonFullResolution) {
   MIRAGE_REQUIRE_DATA(path, "stanford-dragon/dragon_vrip.ply");
-  Scene s = load(path);
+  Scene s = importChecked(path);
   EXPECT_EQ(s.instancedTriangleCount(), 871414u);
   ASSERT_EQ(s.meshes.size(), 1u);
   EXPECT_LE(s.meshes[0].vertexCount(), 437645u); // welding may only merge
@@ -75,7 +75,7 @@ TEST(ImportData, HorseKeepsFileNormals) {
   MIRAGE_REQUIRE_DATA(path, "cyberware-horse/horse.ply");
   io::ImportOptions opt;
   opt.weld = false;
-  Scene s = load(path, opt);
+  Scene s = importChecked(path, opt);
   ASSERT_EQ(s.meshes.size(), 1u);
   EXPECT_EQ(s.meshes[0].vertexCount(), 48485u);
   // The file stores unnormalised (area-weighted) normals; the importer keeps their direction at unit length.
@@ -86,7 +86,7 @@ TEST(ImportData, HorseKeepsFileNormals) {
 
 TEST(ImportData, AlphaBlendModes) {
   MIRAGE_REQUIRE_DATA(path, "khronos-alpha-blend-mode-test/glTF/AlphaBlendModeTest.gltf");
-  Scene s = load(path);
+  Scene s = importChecked(path);
   int opaque = 0, blend = 0, mask = 0;
   bool explicitCutoff = false;
   for (const Material& m : s.materials) {
@@ -103,7 +103,7 @@ TEST(ImportData, AlphaBlendModes) {
 
 TEST(ImportData, FlightHelmetLensesBlend) {
   MIRAGE_REQUIRE_DATA(path, "khronos-flight-helmet/glTF/FlightHelmet.gltf");
-  Scene s = load(path);
+  Scene s = importChecked(path);
   EXPECT_EQ(s.materials.size(), 6u);
   bool lensesBlend = false;
   for (const Material& m : s.materials)
@@ -122,7 +122,7 @@ TEST(ImportData, FlightHelmetLensesBlend) {
 
 TEST(ImportData, DamagedHelmetHasAllTextures) {
   MIRAGE_REQUIRE_DATA(path, "khronos-damaged-helmet/DamagedHelmet.glb");
-  Scene s = load(path);
+  Scene s = importChecked(path);
   ASSERT_EQ(s.materials.size(), 1u);
   const Material& m = s.materials[0];
   for (int t :
@@ -145,7 +145,7 @@ TEST(ImportData, MeshoptMatchesPlain) {
   MIRAGE_REQUIRE_DATA(packedPath, "dream-apartment/dream-apartment.meshopt.glb");
   io::ImportOptions opt;
   opt.weld = false; // compare vertex for vertex
-  Scene plain = load(plainPath, opt), packed = load(packedPath, opt);
+  Scene plain = importChecked(plainPath, opt), packed = importChecked(packedPath, opt);
   ASSERT_EQ(plain.meshes.size(), packed.meshes.size());
   EXPECT_EQ(plain.instancedTriangleCount(), 177934u);
   EXPECT_EQ(packed.instancedTriangleCount(), plain.instancedTriangleCount());

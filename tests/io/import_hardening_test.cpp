@@ -10,18 +10,17 @@
 #include "mirage/core/input_text.h"
 #include "mirage/io/image_io.h"
 #include "mirage/io/import.h"
+#include "import_test_util.h"
 #include "support/test_support.h"
 
 using namespace mirage;
 
 namespace {
 
-std::filesystem::path writeFile(const std::filesystem::path& p, const std::string& bytes) {
-  std::ofstream(p, std::ios::binary) << bytes;
-  return p;
-}
+using test::writeFile;
 
-void expectError(const Result<Scene>& r, const std::filesystem::path& file, const std::string& phrase) {
+// The import failed with one printable line that begins with the file's name and holds `phrase`.
+void expectCleanError(const Result<Scene>& r, const std::filesystem::path& file, const std::string& phrase) {
   ASSERT_FALSE(r.ok()) << "expected an error containing '" << phrase << "'";
   const std::string& msg = r.error().message;
   EXPECT_EQ(msg.rfind(file.string() + ": ", 0), 0u) << msg;
@@ -98,16 +97,16 @@ TEST(ImportHardening, InputPathsHaveOneWording) {
   auto dir = test::tempDir("input_paths");
   for (const char* name : {"d.glb", "d.gltf", "d.obj", "d.ply", "scans"}) {
     std::filesystem::create_directory(dir / name);
-    expectError(io::importScene(dir / name), dir / name, "is a directory, not a regular file");
+    expectCleanError(io::importScene(dir / name), dir / name, "is a directory, not a regular file");
   }
-  expectError(io::importPly(dir / "d.ply"), dir / "d.ply", "is a directory, not a regular file");
-  expectError(io::importGltf(dir / "d.glb"), dir / "d.glb", "is a directory, not a regular file");
-  expectError(io::importObj(dir / "d.obj"), dir / "d.obj", "is a directory, not a regular file");
+  expectCleanError(io::importPly(dir / "d.ply"), dir / "d.ply", "is a directory, not a regular file");
+  expectCleanError(io::importGltf(dir / "d.glb"), dir / "d.glb", "is a directory, not a regular file");
+  expectCleanError(io::importObj(dir / "d.obj"), dir / "d.obj", "is a directory, not a regular file");
   ASSERT_EQ(::mkfifo((dir / "f.ply").c_str(), 0600), 0);
-  expectError(io::importScene(dir / "f.ply"), dir / "f.ply", "is a FIFO (named pipe), not a regular file");
-  expectError(io::importPly(dir / "f.ply"), dir / "f.ply", "is a FIFO (named pipe), not a regular file");
-  expectError(io::importScene(dir / "missing.ply"), dir / "missing.ply", "file not found");
-  expectError(io::importScene(dir / "missing"), dir / "missing", "file not found");
+  expectCleanError(io::importScene(dir / "f.ply"), dir / "f.ply", "is a FIFO (named pipe), not a regular file");
+  expectCleanError(io::importPly(dir / "f.ply"), dir / "f.ply", "is a FIFO (named pipe), not a regular file");
+  expectCleanError(io::importScene(dir / "missing.ply"), dir / "missing.ply", "file not found");
+  expectCleanError(io::importScene(dir / "missing"), dir / "missing", "file not found");
   // Image inputs (compare, reference images) use the same words.
   std::filesystem::create_directory(dir / "d.png");
   auto png = io::readPng(dir / "d.png");
@@ -118,11 +117,11 @@ TEST(ImportHardening, InputPathsHaveOneWording) {
 TEST(ImportHardening, EmptyAndTruncatedGlb) {
   auto dir = test::tempDir("empty_glb");
   auto empty = writeFile(dir / "empty.glb", "");
-  expectError(io::importScene(empty), empty, "empty file (0 bytes)");
+  expectCleanError(io::importScene(empty), empty, "empty file (0 bytes)");
   for (const char* name : {"empty.gltf", "empty.obj", "empty.ply"}) // one wording for every format
-    expectError(io::importScene(writeFile(dir / name, "")), dir / name, "empty file (0 bytes)");
+    expectCleanError(io::importScene(writeFile(dir / name, "")), dir / name, "empty file (0 bytes)");
   auto shortGlb = writeFile(dir / "short.glb", std::string("glTF\x02\0\0\0", 8));
-  expectError(io::importScene(shortGlb), shortGlb, "truncated GLB");
+  expectCleanError(io::importScene(shortGlb), shortGlb, "truncated GLB");
 }
 
 // F3-F5: the constraints the meshoptimizer decoders assert on are errors first.
@@ -143,7 +142,7 @@ TEST(ImportHardening, MeshoptConstraintsCheckedBeforeDecoding) {
   };
   for (const Case& c : cases) {
     auto path = writeFile(dir / c.name, c.bytes);
-    expectError(io::importScene(path), path, c.phrase);
+    expectCleanError(io::importScene(path), path, c.phrase);
   }
 }
 
@@ -154,7 +153,7 @@ TEST(ImportHardening, BufferViewPastItsBuffer) {
                      R"("bufferViews":[{"buffer":0,"byteOffset":100,"byteLength":50}],)"
                      R"("images":[{"bufferView":0,"mimeType":"image/png"}]})";
   auto path = writeFile(dir / "img.glb", glb(json, std::string(200, '\0')));
-  expectError(io::importScene(path), path, "bufferView 0 (bytes 100..150) runs past buffer 0 (1 bytes)");
+  expectCleanError(io::importScene(path), path, "bufferView 0 (bytes 100..150) runs past buffer 0 (1 bytes)");
 }
 
 TEST(ImportHardening, BufferUrisMustNameFilesThatHoldThem) {
@@ -168,26 +167,26 @@ TEST(ImportHardening, BufferUrisMustNameFilesThatHoldThem) {
     return t;
   };
   auto dot = writeFile(dir / "dot.gltf", replace(R"("uri":"tri.bin")", R"("uri":".")"));
-  expectError(io::importScene(dot), dot, "buffer 0 '.': is a directory, not a regular file");
+  expectCleanError(io::importScene(dot), dot, "buffer 0 '.': is a directory, not a regular file");
   auto missing = writeFile(dir / "missing.gltf", replace(R"("uri":"tri.bin")", R"("uri":"nowhere.bin")"));
-  expectError(io::importScene(missing), missing, "buffer 0 'nowhere.bin': file not found");
+  expectCleanError(io::importScene(missing), missing, "buffer 0 'nowhere.bin': file not found");
   auto longer = writeFile(dir / "longer.gltf",
                           replace(R"("uri":"tri.bin","byteLength":36)", R"("uri":"tri.bin","byteLength":360)"));
-  expectError(io::importScene(longer), longer, "the file holds 36 bytes, byteLength says 360");
+  expectCleanError(io::importScene(longer), longer, "the file holds 36 bytes, byteLength says 360");
   // A byteLength that is no integer: the parser's own words, on one line.
   auto bad = writeFile(dir / "bad.gltf",
                        replace(R"("uri":"tri.bin","byteLength":36)", R"("uri":"tri.bin","byteLength":"36")"));
-  expectError(io::importScene(bad), bad, "byteLength");
+  expectCleanError(io::importScene(bad), bad, "byteLength");
 }
 
 // Missing images are errors in glTF as in OBJ (one policy: what a scene names must be there).
 TEST(ImportHardening, GltfMissingImageRejected) {
   auto dir = test::tempDir("gltf_missing_image");
   auto path = triangleGltf(dir, "img.gltf", R"(,"images":[{"uri":"gone.png"}])");
-  expectError(io::importScene(path), path, "image 0 'gone.png': file not found");
+  expectCleanError(io::importScene(path), path, "image 0 'gone.png': file not found");
   writeFile(dir / "bad.png", "\x89PNG\r\n\x1a\ngarbage");
   auto corrupt = triangleGltf(dir, "corrupt.gltf", R"(,"images":[{"uri":"bad.png"}])");
-  expectError(io::importScene(corrupt), corrupt, "image 0: cannot decode image");
+  expectCleanError(io::importScene(corrupt), corrupt, "image 0: cannot decode image");
   io::ImportOptions noTextures;
   noTextures.loadTextures = false;
   EXPECT_TRUE(io::importScene(path, noTextures).ok());
@@ -203,7 +202,7 @@ TEST(ImportHardening, DeepNodeChainIsNotACycle) {
   };
   EXPECT_TRUE(io::importScene(triangleGltf(dir, "ok.gltf", "", chain(1024))).ok());
   auto deep = triangleGltf(dir, "deep.gltf", "", chain(1025));
-  expectError(io::importScene(deep), deep, "node hierarchy deeper than 1024 levels");
+  expectCleanError(io::importScene(deep), deep, "node hierarchy deeper than 1024 levels");
   auto cycle = triangleGltf(dir, "cycle.gltf", "", R"([{"children":[1]},{"children":[0],"mesh":0}])");
   auto r = io::importScene(cycle);
   ASSERT_FALSE(r.ok());
@@ -214,23 +213,23 @@ TEST(ImportHardening, DeepNodeChainIsNotACycle) {
 TEST(ImportHardening, NonFiniteTransformsAndFactorsRejected) {
   auto dir = test::tempDir("nonfinite");
   auto huge = triangleGltf(dir, "huge.gltf", "", R"([{"mesh":0,"matrix":[1e308,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}])");
-  expectError(io::importScene(huge), huge, "placed by a NaN or infinite transform");
+  expectCleanError(io::importScene(huge), huge, "placed by a NaN or infinite transform");
   auto far = triangleGltf(dir, "far.gltf", "", R"([{"mesh":0,"scale":[1e38,1e38,1e38],"translation":[3e38,0,0]}])");
-  expectError(io::importScene(far), far, "placed beyond float range");
+  expectCleanError(io::importScene(far), far, "placed beyond float range");
   auto factor = triangleGltf(dir, "factor.gltf", R"(,"materials":[{"name":"m","emissiveFactor":[1,1e39,0]}])");
   // A material only matters once a mesh uses it: point the primitive at it.
   std::string text((std::istreambuf_iterator<char>(std::ifstream(factor).rdbuf())), {});
   text.replace(text.find(R"({"POSITION":0})"), 14, R"({"POSITION":0},"material":0)");
   writeFile(factor, text);
-  expectError(io::importScene(factor), factor, "material 0 'm': a factor is NaN or infinite");
+  expectCleanError(io::importScene(factor), factor, "material 0 'm': a factor is NaN or infinite");
 
   writeFile(dir / "nan.mtl", "newmtl red\nKd nan 0 0\n");
   auto obj = writeFile(dir / "nan.obj", "mtllib nan.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n");
-  expectError(io::importScene(obj), obj, "material 0 'red': a factor is NaN or infinite");
+  expectCleanError(io::importScene(obj), obj, "material 0 'red': a factor is NaN or infinite");
   auto normal = writeFile(dir / "nrm.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 nan\nf 1//1 2//1 3//1\n");
-  expectError(io::importScene(normal), normal, "has a non-finite normal");
+  expectCleanError(io::importScene(normal), normal, "has a non-finite normal");
   auto uv = writeFile(dir / "uv.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt inf 0\nf 1/1 2/1 3/1\n");
-  expectError(io::importScene(uv), uv, "has a non-finite texture coordinate");
+  expectCleanError(io::importScene(uv), uv, "has a non-finite texture coordinate");
 }
 
 // OBJ follows glTF: files the scene names must exist and decode.
@@ -238,25 +237,25 @@ TEST(ImportHardening, ObjMissingMtlAndBadTexturesRejected) {
   auto dir = test::tempDir("obj_files");
   const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl m\nf 1/1 2/1 3/1\n";
   auto noMtl = writeFile(dir / "nomtl.obj", "mtllib none.mtl\n" + tri);
-  expectError(io::importScene(noMtl), noMtl, "mtllib 'none.mtl': file not found");
+  expectCleanError(io::importScene(noMtl), noMtl, "mtllib 'none.mtl': file not found");
   // Several files on one mtllib line: each must exist.
   writeFile(dir / "a.mtl", "newmtl m\nKd 1 0 0\n");
   writeFile(dir / "b c.mtl", "newmtl m\nKd 0 1 0\n");
   auto two = writeFile(dir / "two.obj", "mtllib a.mtl none.mtl\n" + tri);
-  expectError(io::importScene(two), two, "mtllib 'none.mtl': file not found");
+  expectCleanError(io::importScene(two), two, "mtllib 'none.mtl': file not found");
   auto spaced = io::importScene(writeFile(dir / "spaced.obj", "mtllib b c.mtl\n" + tri)); // one name with a space
   ASSERT_TRUE(spaced.ok()) << spaced.error().message;
   EXPECT_EQ(spaced->materials[0].baseColorFactor.g, 1.0f);
   writeFile(dir / "missing.mtl", "newmtl m\nmap_Kd gone.png\n");
   auto missing = writeFile(dir / "missing.obj", "mtllib missing.mtl\n" + tri);
-  expectError(io::importScene(missing), missing, "material 'm' map_Kd 'gone.png': file not found");
+  expectCleanError(io::importScene(missing), missing, "material 'm' map_Kd 'gone.png': file not found");
   io::ImportOptions noTextures;
   noTextures.loadTextures = false;
   EXPECT_TRUE(io::importScene(missing, noTextures).ok());
   writeFile(dir / "corrupt.png", "\x89PNG\r\n\x1a\ngarbage");
   writeFile(dir / "corrupt.mtl", "newmtl m\nmap_Kd corrupt.png\n");
   auto corrupt = writeFile(dir / "corrupt.obj", "mtllib corrupt.mtl\n" + tri);
-  expectError(io::importScene(corrupt), corrupt, "map_Kd 'corrupt.png': cannot decode image");
+  expectCleanError(io::importScene(corrupt), corrupt, "map_Kd 'corrupt.png': cannot decode image");
   // A PNG header claiming 20000 x 1 pixels (stb reads no further than the header to learn the size).
   std::string png = "\x89PNG\r\n\x1a\n";
   png += std::string("\0\0\0\x0dIHDR", 8);
@@ -265,7 +264,7 @@ TEST(ImportHardening, ObjMissingMtlAndBadTexturesRejected) {
   writeFile(dir / "huge.png", png);
   writeFile(dir / "huge.mtl", "newmtl m\nmap_Kd huge.png\n");
   auto huge = writeFile(dir / "huge.obj", "mtllib huge.mtl\n" + tri);
-  expectError(io::importScene(huge), huge, "image is 20000x1, over the 16384-pixel limit per side");
+  expectCleanError(io::importScene(huge), huge, "image is 20000x1, over the 16384-pixel limit per side");
 }
 
 // Names from the input (a glTF mesh name here) are escaped in messages.
@@ -276,7 +275,7 @@ TEST(ImportHardening, MessagesEscapeInputNames) {
   text.replace(text.find(R"({"attributes":{"POSITION":0}})"), 29, R"({"attributes":{}})");
   text.replace(text.find(R"("meshes":[{)"), 11, R"("meshes":[{"name":"\u001b[31mred\nline",)");
   writeFile(path, text);
-  expectError(io::importScene(path), path, "mesh '\\x1b[31mred\\x0aline': primitive without POSITION");
+  expectCleanError(io::importScene(path), path, "mesh '\\x1b[31mred\\x0aline': primitive without POSITION");
 }
 
 // The importer reproducers of the fuzzing campaign: one clean error each.
@@ -294,5 +293,5 @@ TEST(ImportHardening, FuzzRegressions) {
       {"cube_nanmtl.obj", "a factor is NaN or infinite"},
       {"suzanne_hugematrix.gltf", "transform"},
   };
-  for (const Case& c : cases) expectError(io::importScene(dir / c.file), dir / c.file, c.phrase);
+  for (const Case& c : cases) expectCleanError(io::importScene(dir / c.file), dir / c.file, c.phrase);
 }

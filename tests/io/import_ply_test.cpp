@@ -19,13 +19,9 @@ using namespace mirage;
 
 namespace {
 
-std::filesystem::path writeFile(const std::filesystem::path& p, const std::string& bytes) {
-  std::ofstream(p, std::ios::binary) << bytes;
-  return p;
-}
-
 using test::expectError;
 using test::put;
+using test::writeFile;
 
 io::ImportOptions raw() {
   io::ImportOptions o;

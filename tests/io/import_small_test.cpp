@@ -24,13 +24,9 @@ using namespace mirage;
 
 namespace {
 
-std::filesystem::path writeFile(const std::filesystem::path& p, const std::string& bytes) {
-  std::ofstream(p, std::ios::binary) << bytes;
-  return p;
-}
-
 using test::expectError;
 using test::put;
+using test::writeFile;
 
 // A binary PLY: a unit quad as one 4-gon, with an extra per-vertex property and an extra element to skip.
 std::string quadPly(bool bigEndian, bool truncate = false) {

@@ -1,10 +1,12 @@
 #pragma once
-// Helpers shared by the importer tests: binary bytes into a string, and the one-line error check.
+// Helpers shared by the importer tests: binary bytes into a string, input files written, and the
+// one-line error check.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "mirage/core/result.h"
@@ -18,6 +20,12 @@ template <class T> void put(std::string& s, T v, bool bigEndian = false) {
   std::memcpy(b, &v, sizeof(T));
   if (bigEndian) std::reverse(b, b + sizeof(T));
   s.append(b, sizeof(T));
+}
+
+// Writes `bytes` to `p` (a test input), returning `p`.
+inline std::filesystem::path writeFile(const std::filesystem::path& p, const std::string& bytes) {
+  std::ofstream(p, std::ios::binary) << bytes;
+  return p;
 }
 
 // Error must name the file, mention the problem, and be one line.
