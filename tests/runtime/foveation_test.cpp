@@ -16,7 +16,7 @@ using namespace mirage;
 
 namespace {
 
-constexpr uint32_t kWidth = 160, kHeight = 120;
+constexpr uint32_t kFoveationWidth = 160, kFoveationHeight = 120;
 
 const std::string& gridMrg() {
   static const std::string path = [] {
@@ -53,9 +53,9 @@ TEST_F(RuntimeFoveation, FewerTrianglesSameFovea) {
   ASSERT_TRUE(opened.ok()) << opened.error().message;
   runtime::Scene& scene = **opened;
   runtime::View view;
-  view.width = kWidth;
-  view.height = kHeight;
-  view.camera = render::autoCamera(scene.bounds(), float(kWidth) / float(kHeight));
+  view.width = kFoveationWidth;
+  view.height = kFoveationHeight;
+  view.camera = render::autoCamera(scene.bounds(), float(kFoveationWidth) / float(kFoveationHeight));
   view.config.tauPixels = 2.0f;
   view.config.selection = render::SelectionMode::Flat;
   auto full = scene.render(view);

@@ -15,17 +15,14 @@
 #include "mirage/runtime/scene_argument.h"
 #include "mirage/visibility/pvs_storage.h"
 #include "mirage/visibility/ray_backend.h"
+#include "runtime/runtime_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
 using mirage::test::GpuTest;
+using test::kViewHeight;
+using test::kViewWidth;
 namespace fs = std::filesystem;
-
-namespace {
-
-constexpr uint32_t kWidth = 64, kHeight = 48;
-
-} // namespace
 
 class RuntimeFrames : public GpuTest {};
 
@@ -36,7 +33,7 @@ namespace {
 // offsets).
 struct CityPvs {
   mirage::Scene city = io::generateScene("city", 1, 1).value();
-  render::Camera base = render::autoCamera(city.worldBounds(), float(kWidth) / float(kHeight));
+  render::Camera base = render::autoCamera(city.worldBounds(), float(kViewWidth) / float(kViewHeight));
   glm::vec3 step = glm::normalize(glm::cross(base.target - base.eye, glm::vec3(0, 1, 0))) * 2.0f;
   std::vector<uint64_t> offsets = vis::triangleOffsets(city);
   vis::PvsData pvs;
@@ -57,8 +54,8 @@ struct CityPvs {
   std::vector<runtime::View> views(std::span<const int> cells) const {
     std::vector<runtime::View> out(cells.size());
     for (size_t i = 0; i < cells.size(); ++i) {
-      out[i].width = kWidth;
-      out[i].height = kHeight;
+      out[i].width = kViewWidth;
+      out[i].height = kViewHeight;
       out[i].camera = base;
       out[i].camera.eye = pvs.cells[size_t(cells[i])].position + glm::vec3(0.0f, 0.1f * float(i % 3), 0.0f);
       out[i].camera.target = base.target + (out[i].camera.eye - base.eye);
@@ -84,7 +81,8 @@ std::vector<runtime::Frame> renderEach(runtime::Scene& scene, std::span<const ru
 // collected frames for the path's own counters.
 std::vector<runtime::Frame> recordAndCollect(runtime::Scene& scene, std::span<const runtime::View> views,
                                              std::span<const runtime::Frame> expected, bool gateFirstFrame) {
-  const VkExtent2D sizes[render::kMaxFramesInFlight] = {{kWidth, kHeight}, {kWidth, kHeight}, {kWidth, kHeight}};
+  const VkExtent2D sizes[render::kMaxFramesInFlight] = {
+      {kViewWidth, kViewHeight}, {kViewWidth, kViewHeight}, {kViewWidth, kViewHeight}};
   std::vector<std::vector<uint16_t>> pixels = test::recordFramesInFlight(
       test::gpuContext(), sizes,
       [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
@@ -156,11 +154,11 @@ TEST_F(RuntimeFrames, ForwardScenesRecordFramesInFlight) {
   auto sequential = runtime::Scene::open(test::gpuContext(), options);
   auto inFlight = runtime::Scene::open(test::gpuContext(), options);
   ASSERT_TRUE(sequential.ok() && inFlight.ok());
-  render::Camera base = render::autoCamera((*sequential)->bounds(), float(kWidth) / float(kHeight));
+  render::Camera base = render::autoCamera((*sequential)->bounds(), float(kViewWidth) / float(kViewHeight));
   std::vector<runtime::View> views(render::kMaxFramesInFlight);
   for (uint32_t i = 0; i < views.size(); ++i) {
-    views[i].width = kWidth;
-    views[i].height = kHeight;
+    views[i].width = kViewWidth;
+    views[i].height = kViewHeight;
     views[i].camera = base;
     views[i].camera.eye = glm::mix(base.target, base.eye, 1.0f - 0.2f * float(i));
     views[i].readLinear = true;
@@ -213,8 +211,8 @@ TEST_F(RuntimeFrames, ForwardScenesWithAPvsRecordFramesInFlight) {
     auto renderer = render::ForwardRenderer::create(test::gpuContext(), *restricted);
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
     render::RenderSettings rs;
-    rs.width = kWidth;
-    rs.height = kHeight;
+    rs.width = kViewWidth;
+    rs.height = kViewHeight;
     rs.camera = render::withClipPlanes(views[size_t(cell)].camera, c.city.worldBounds());
     rs.readLinear = true;
     auto direct = (*renderer)->render(rs);

@@ -1,5 +1,5 @@
-// Shared by the runtime tests: a small blob .mrg baked once per test process, and the View of a
-// scene from its automatic camera.
+// Shared by the runtime tests: the size of their views, a small blob .mrg baked once per test
+// process, and the View of a scene from its automatic camera.
 #pragma once
 
 #include <cstdlib>
@@ -12,6 +12,9 @@
 #include "test_support.h"
 
 namespace mirage::test {
+
+// The views the runtime tests draw: small, as lavapipe renders them on the CPU.
+inline constexpr uint32_t kViewWidth = 64, kViewHeight = 48;
 
 // gen:blob:3 baked with the default build and saved as a .mrg (one per process).
 inline const std::filesystem::path& blobMrg() {

@@ -12,13 +12,9 @@
 
 using namespace mirage;
 using mirage::test::blobMrg;
+using test::kViewHeight;
+using test::kViewWidth;
 namespace fs = std::filesystem;
-
-namespace {
-
-constexpr uint32_t kWidth = 64, kHeight = 48;
-
-} // namespace
 
 class RuntimeDebugView : public test::GpuTest {};
 
@@ -27,7 +23,7 @@ class RuntimeDebugView : public test::GpuTest {};
 TEST_F(RuntimeDebugView, SwitchesPerFrameOnOneScene) {
   auto s = runtime::Scene::open(context(), {.input = blobMrg().string()});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = test::viewOf(**s, kWidth, kHeight);
+  runtime::View view = test::viewOf(**s, kViewWidth, kViewHeight);
   auto shaded = (*s)->render(view);
   ASSERT_TRUE(shaded.ok()) << shaded.error().message;
   for (render::DebugView v :
@@ -47,7 +43,7 @@ TEST_F(RuntimeDebugView, SwitchesPerFrameOnOneScene) {
 TEST_F(RuntimeDebugView, OtherSceneKindsRefuseIt) {
   auto s = runtime::Scene::open(context(), {.input = "gen:blob:3"});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = test::viewOf(**s, kWidth, kHeight);
+  runtime::View view = test::viewOf(**s, kViewWidth, kViewHeight);
   view.config.debugView = render::DebugView::Lod;
   auto f = (*s)->render(view);
   ASSERT_FALSE(f.ok());

@@ -17,11 +17,11 @@
 
 using namespace mirage;
 using mirage::test::blobMrg;
+using test::kViewHeight;
+using test::kViewWidth;
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr uint32_t kWidth = 64, kHeight = 48;
 
 // A surfel-only .mrg of the blob (one per process).
 const fs::path& surfelMrg() {
@@ -45,13 +45,13 @@ class RuntimeStereo : public test::GpuTest {};
 TEST_F(RuntimeStereo, ClusterLodRendersBothEyesSideBySide) {
   auto s = runtime::Scene::open(context(), {.input = blobMrg().string()});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = test::viewOf(**s, kWidth, kHeight);
+  runtime::View view = test::viewOf(**s, kViewWidth, kViewHeight);
   view.stereoIpd = 0.3f;
   auto stereo = (*s)->render(view);
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-  ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
-  ASSERT_EQ(stereo->srgb.height, kHeight);
-  runtime::View left = test::viewOf(**s, kWidth, kHeight);
+  ASSERT_EQ(stereo->srgb.width, 2 * kViewWidth);
+  ASSERT_EQ(stereo->srgb.height, kViewHeight);
+  runtime::View left = test::viewOf(**s, kViewWidth, kViewHeight);
   left.camera = render::stereoEyes(view.camera, *view.stereoIpd)[0];
   auto mono = (*s)->render(left);
   ASSERT_TRUE(mono.ok()) << mono.error().message;
@@ -63,14 +63,14 @@ TEST_F(RuntimeStereo, ForwardRendersBothEyesSideBySide) {
   auto s = runtime::Scene::open(context(), {.input = "gen:blob:3"});
   ASSERT_TRUE(s.ok()) << s.error().message;
   ASSERT_EQ((*s)->kind(), runtime::SceneKind::Forward);
-  runtime::View view = test::viewOf(**s, kWidth, kHeight);
+  runtime::View view = test::viewOf(**s, kViewWidth, kViewHeight);
   view.stereoIpd = 0.3f;
   auto stereo = (*s)->render(view);
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-  ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
-  ASSERT_EQ(stereo->srgb.height, kHeight);
+  ASSERT_EQ(stereo->srgb.width, 2 * kViewWidth);
+  ASSERT_EQ(stereo->srgb.height, kViewHeight);
   for (uint32_t e = 0; e < 2; ++e) {
-    runtime::View eye = test::viewOf(**s, kWidth, kHeight);
+    runtime::View eye = test::viewOf(**s, kViewWidth, kViewHeight);
     eye.camera = render::stereoEyes(view.camera, *view.stereoIpd)[e];
     auto mono = (*s)->render(eye);
     ASSERT_TRUE(mono.ok()) << mono.error().message;
@@ -82,20 +82,20 @@ TEST_F(RuntimeStereo, SurfelSceneRendersAndRecordsBothEyes) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "surfel stereo needs 64-bit buffer atomics";
   auto s = runtime::Scene::open(context(), {.input = surfelMrg().string(), .surfels = true});
   ASSERT_TRUE(s.ok()) << s.error().message;
-  runtime::View view = test::viewOf(**s, kWidth, kHeight);
+  runtime::View view = test::viewOf(**s, kViewWidth, kViewHeight);
   view.stereoIpd = 0.3f;
   view.readLinear = true;
   auto stereo = (*s)->render(view);
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-  ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
-  runtime::View left = test::viewOf(**s, kWidth, kHeight);
+  ASSERT_EQ(stereo->srgb.width, 2 * kViewWidth);
+  runtime::View left = test::viewOf(**s, kViewWidth, kViewHeight);
   left.camera = render::stereoEyes(view.camera, *view.stereoIpd)[0];
   auto mono = (*s)->render(left);
   ASSERT_TRUE(mono.ok()) << mono.error().message;
   EXPECT_GE(psnr(test::stereoHalf(stereo->srgb, 0), mono->srgb), 45.0);
   // The same frame recorded into two slots in flight: the same image.
   std::vector<std::vector<uint16_t>> pixels =
-      test::recordFramesInFlight(test::gpuContext(), 2, 2 * kWidth, kHeight,
+      test::recordFramesInFlight(test::gpuContext(), 2, 2 * kViewWidth, kViewHeight,
                                  [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
                                    if (Status st = (*s)->record(cmd, view, slot); !st) return st;
                                    color = (*s)->colorTarget();

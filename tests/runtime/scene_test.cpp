@@ -19,11 +19,11 @@
 
 using namespace mirage;
 using mirage::test::GpuTest;
+using test::kViewHeight;
+using test::kViewWidth;
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr uint32_t kWidth = 64, kHeight = 48;
 
 // A small blob baked to a .mrg once for every test here (with its source scene).
 struct BlobFixture {
@@ -90,11 +90,11 @@ TEST_F(RuntimeScene, SceneFilesAndGeneratedScenesOpenAsForward) {
   ASSERT_TRUE(o);
   EXPECT_EQ(o->kind(), runtime::SceneKind::Forward);
   EXPECT_EQ(o->info().sourceTriangles, 1u);
-  auto f = o->render(test::viewOf(*o, kWidth, kHeight));
+  auto f = o->render(test::viewOf(*o, kViewWidth, kViewHeight));
   ASSERT_TRUE(f.ok()) << f.error().message;
   ASSERT_TRUE(f->forward.has_value());
   EXPECT_EQ(f->forward->triangles, 1u);
-  EXPECT_EQ(f->srgb.width, kWidth);
+  EXPECT_EQ(f->srgb.width, kViewWidth);
 }
 
 TEST_F(RuntimeScene, SurfelOnlyFileOpensAsSurfels) {
@@ -113,7 +113,7 @@ TEST_F(RuntimeScene, SurfelOnlyFileOpensAsSurfels) {
   ASSERT_TRUE(s);
   EXPECT_EQ(s->kind(), runtime::SceneKind::Surfels);
   EXPECT_EQ(s->info().surfels, cloud.size());
-  auto f = s->render(test::viewOf(*s, kWidth, kHeight));
+  auto f = s->render(test::viewOf(*s, kViewWidth, kViewHeight));
   ASSERT_TRUE(f.ok()) << f.error().message;
   ASSERT_TRUE(f->surfels.has_value());
   EXPECT_EQ(f->surfels->visibleInstances, 1u);
@@ -138,7 +138,7 @@ TEST_F(RuntimeScene, BadInputIsOneLineNamingTheFile) {
   // render() validates the view's config before drawing.
   auto s = openOk({.input = blob().mrg.string()});
   ASSERT_TRUE(s);
-  runtime::View view = test::viewOf(*s, kWidth, kHeight);
+  runtime::View view = test::viewOf(*s, kViewWidth, kViewHeight);
   view.config.tauPixels = -1.0f;
   auto f = s->render(view);
   ASSERT_FALSE(f.ok());
@@ -146,7 +146,7 @@ TEST_F(RuntimeScene, BadInputIsOneLineNamingTheFile) {
 }
 
 TEST(RuntimeConfig, ValidateNamesTheFlag) {
-  EXPECT_TRUE(runtime::validate({}).ok());
+  EXPECT_TRUE(runtime::validate(runtime::RenderConfig{}).ok());
   runtime::RenderConfig c;
   c.tauPixels = 0.0f;
   EXPECT_NE(runtime::validate(c).error().message.find("--tau"), std::string::npos);
@@ -166,7 +166,7 @@ TEST(RuntimeConfig, ValidateNamesTheFlag) {
 TEST_F(RuntimeScene, FrameEqualsTheRendererCalledDirectly) {
   auto s = openOk({.input = blob().mrg.string()});
   ASSERT_TRUE(s);
-  runtime::View view = test::viewOf(*s, kWidth, kHeight);
+  runtime::View view = test::viewOf(*s, kViewWidth, kViewHeight);
   view.config.tauPixels = 2.0f;
   view.config.raster = render::RasterBackend::Indirect;
   auto f = s->render(view);
@@ -177,8 +177,8 @@ TEST_F(RuntimeScene, FrameEqualsTheRendererCalledDirectly) {
   auto direct = render::ClusterRenderer::create(context(), *loaded);
   ASSERT_TRUE(direct.ok()) << direct.error().message;
   render::ClusterRenderSettings rs;
-  rs.base.width = kWidth;
-  rs.base.height = kHeight;
+  rs.base.width = kViewWidth;
+  rs.base.height = kViewHeight;
   rs.base.camera = view.camera;
   rs.tauPixels = 2.0f;
   rs.raster = render::RasterBackend::Indirect;
@@ -197,8 +197,8 @@ TEST_F(RuntimeScene, FrameEqualsTheRendererCalledDirectly) {
   auto fw = render::ForwardRenderer::create(context(), blob().scene);
   ASSERT_TRUE(fw.ok());
   render::RenderSettings frs;
-  frs.width = kWidth;
-  frs.height = kHeight;
+  frs.width = kViewWidth;
+  frs.height = kViewHeight;
   frs.camera = view.camera;
   auto fd = (*fw)->render(frs);
   ASSERT_TRUE(fd.ok());
@@ -214,7 +214,7 @@ TEST_F(RuntimeScene, PvsCellSwitchCullsWhatThePvsSays) {
   fs::path mrg = dir / "city.mrg", pvsPath = dir / "pvs.mrg";
   ASSERT_TRUE(lod::saveLodAsset(mrg.string(), lod::bakeLodAsset(city, {}).value()).ok());
   ASSERT_GT(city.instances.size(), 2u);
-  render::Camera base = render::autoCamera(city.worldBounds(), float(kWidth) / float(kHeight));
+  render::Camera base = render::autoCamera(city.worldBounds(), float(kViewWidth) / float(kViewHeight));
   glm::vec3 step = glm::normalize(glm::cross(base.target - base.eye, glm::vec3(0, 1, 0))) * 2.0f;
   vis::PvsData pvs;
   pvs.sceneTriangles = city.instancedTriangleCount();
@@ -230,7 +230,7 @@ TEST_F(RuntimeScene, PvsCellSwitchCullsWhatThePvsSays) {
   auto s = openOk({.input = mrg.string(), .pvs = pvsPath.string()});
   ASSERT_TRUE(s);
   ASSERT_NE(s->pvsData(), nullptr);
-  runtime::View view = test::viewOf(*s, kWidth, kHeight);
+  runtime::View view = test::viewOf(*s, kViewWidth, kViewHeight);
   auto render = [&](glm::vec3 eye, bool culling) {
     view.camera = base;
     view.camera.eye = eye;
@@ -293,7 +293,7 @@ TEST_F(RuntimeScene, MixedSceneSurfelsSwitchOff) {
   ASSERT_TRUE(surfels::appendSurfelMrg(mrg.string(), std::span(&cloud, 1)).ok());
   auto s = openOk({.input = mrg.string(), .surfels = true});
   ASSERT_TRUE(s);
-  runtime::View view = test::viewOf(*s, kWidth, kHeight);
+  runtime::View view = test::viewOf(*s, kViewWidth, kViewHeight);
   view.config.raster = render::RasterBackend::Compute; // mesh + surfel frames share the 64-bit buffer
   glm::vec3 centre = s->bounds().center();
   view.camera.eye = centre + (view.camera.eye - centre) * 40.0f; // far: surfels replace the meshes
