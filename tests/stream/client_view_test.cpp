@@ -7,10 +7,8 @@
 #include "mirage/core/image_metrics.h"
 #include "mirage/stream/client_view.h"
 
-namespace mirage {
+namespace mirage::stream {
 namespace {
-
-using namespace stream;
 
 Welcome testWelcome() {
   Welcome w;
@@ -35,7 +33,7 @@ PatchUpdate quad(const Welcome& w, uint32_t id, float x, float z, uint8_t log2, 
   return p;
 }
 
-PatchUpdate blockOnly(PatchUpdate p, uint8_t log2, uint16_t blockX) {
+PatchUpdate blockOnlyOf(PatchUpdate p, uint8_t log2, uint16_t blockX) {
   p.geometry = false;
   p.positions = {};
   p.alpha = stream::AlphaMode::Opaque;
@@ -104,11 +102,11 @@ TEST_F(StreamViewState, BlockOnlyEntriesReuseHeldAndKeptGeometry) {
   ASSERT_TRUE((*view)->apply(frameOf({}, {a, b}, {{2, {255, 0, 255, 255}}})));
   ImageRGBA8 first = draw(**view);
   EXPECT_LT(psnr(first, expected), 30.0) << "red and magenta differ from green and yellow";
-  ASSERT_TRUE((*view)->apply(frameOf({2}, {blockOnly(a, 5, 32)})));
+  ASSERT_TRUE((*view)->apply(frameOf({2}, {blockOnlyOf(a, 5, 32)})));
   EXPECT_EQ((*view)->patchCount(), 1u);
   EXPECT_EQ((*view)->keptCount(), 1u);
   for (int i = 0; i < 10; ++i) ASSERT_TRUE((*view)->apply(frameOf({}, {})));
-  ASSERT_TRUE((*view)->apply(frameOf({}, {blockOnly(b, kColourOnlyBlock, 0)}, {{2, {255, 255, 0, 255}}})));
+  ASSERT_TRUE((*view)->apply(frameOf({}, {blockOnlyOf(b, kColourOnlyBlock, 0)}, {{2, {255, 255, 0, 255}}})));
   EXPECT_EQ((*view)->patchCount(), 2u);
   EXPECT_EQ((*view)->keptCount(), 0u);
   ImageRGBA8 state = draw(**view);
@@ -128,14 +126,14 @@ TEST_F(StreamViewState, FramesReferringToMissingGeometryAreErrors) {
     EXPECT_NE(s.error().message.find(part), std::string::npos) << s.error().message;
   };
   auto v = fresh();
-  expectError(v->apply(frameOf({}, {blockOnly(a, 5, 32)})),
+  expectError(v->apply(frameOf({}, {blockOnlyOf(a, 5, 32)})),
               "block-only entry for patch 1, whose geometry the client does not have");
   v = fresh();
   ASSERT_TRUE(v->apply(frameOf({}, {a})));
   expectError(v->apply(frameOf({}, {a})), "sends the positions of patch 1, which the client holds");
   v = fresh();
   ASSERT_TRUE(v->apply(frameOf({}, {a})));
-  PatchUpdate wrong = blockOnly(a, 5, 32);
+  PatchUpdate wrong = blockOnlyOf(a, 5, 32);
   wrong.triangleCount = 3;
   expectError(v->apply(frameOf({}, {wrong})), "patch 1 has 2 triangles, the entry says 3");
   expectError(v->apply(frameOf({7}, {})), "removes patch 7, which the client does not hold");
@@ -150,7 +148,7 @@ TEST_F(StreamViewState, FramesReferringToMissingGeometryAreErrors) {
     ASSERT_TRUE(v->apply(frameOf({}, {a})));
     ASSERT_TRUE(v->apply(frameOf({1}, {}))); // frame 2
     for (uint32_t f = 3; f < 2 + lastFrame; ++f) ASSERT_TRUE(v->apply(frameOf({}, {})));
-    Status back = v->apply(frameOf({}, {blockOnly(a, 5, 0)})); // frame 2 + lastFrame
+    Status back = v->apply(frameOf({}, {blockOnlyOf(a, 5, 0)})); // frame 2 + lastFrame
     if (lastFrame < kKeptGeometryFrames)
       EXPECT_TRUE(back) << back.error().message;
     else
@@ -159,4 +157,4 @@ TEST_F(StreamViewState, FramesReferringToMissingGeometryAreErrors) {
 }
 
 } // namespace
-} // namespace mirage
+} // namespace mirage::stream

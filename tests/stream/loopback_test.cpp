@@ -17,8 +17,7 @@
 namespace mirage {
 namespace {
 
-constexpr uint32_t kWidth = 320, kHeight = 180;
-constexpr char kToken[] = "loopback-secret";
+constexpr uint32_t kLoopbackWidth = 320, kLoopbackHeight = 180;
 
 // A lossless (or H.264) server of a scene on a free port: test::StreamTestServer (loopback_server.h).
 using LoopbackServer = test::StreamTestServer;
@@ -26,13 +25,13 @@ using LoopbackServer = test::StreamTestServer;
 // The client's frames along orbit:3 and the forward renderer's of the same cameras.
 void expectMatchesLocal(gpu::Context& ctx, const std::string& input, stream::AtlasCodec codec, uint32_t capabilities,
                         double minSsim) {
-  LoopbackServer server(input, codec, kToken);
+  LoopbackServer server(input, codec, test::kStreamToken);
   ASSERT_TRUE(server.server);
   stream::StreamClientOptions options;
   options.url = server.url();
-  options.token = kToken;
-  options.width = kWidth;
-  options.height = kHeight;
+  options.token = test::kStreamToken;
+  options.width = kLoopbackWidth;
+  options.height = kLoopbackHeight;
   options.capabilities = capabilities;
   std::vector<ImageRGBA8> streamed;
   std::vector<stream::ClientFrameInfo> infos;
@@ -47,12 +46,12 @@ void expectMatchesLocal(gpu::Context& ctx, const std::string& input, stream::Atl
 
   auto local = runtime::Scene::open(ctx, {.input = input});
   ASSERT_TRUE(local) << local.error().message;
-  auto cameras = render::orbitPath((*local)->bounds(), float(kWidth) / kHeight, 3);
+  auto cameras = render::orbitPath((*local)->bounds(), float(kLoopbackWidth) / kLoopbackHeight, 3);
   for (size_t i = 0; i < cameras.size(); ++i) {
     runtime::View view;
     view.camera = cameras[i];
-    view.width = kWidth;
-    view.height = kHeight;
+    view.width = kLoopbackWidth;
+    view.height = kLoopbackHeight;
     auto frame = (*local)->render(view);
     ASSERT_TRUE(frame) << frame.error().message;
     double ssim = mirage::ssim(streamed[i], frame->srgb), psnr = mirage::psnr(streamed[i], frame->srgb);
@@ -80,7 +79,7 @@ TEST_F(StreamLoopback, H264ClientMatchesLocalRendering) {
 }
 
 TEST_F(StreamLoopback, WrongTokenIsRefusedWithItsReason) {
-  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles, kToken);
+  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles, test::kStreamToken);
   ASSERT_TRUE(server.server);
   stream::StreamClientOptions options;
   options.url = server.url();
@@ -93,11 +92,11 @@ TEST_F(StreamLoopback, WrongTokenIsRefusedWithItsReason) {
 }
 
 TEST_F(StreamLoopback, ReconnectGetsAFreshSession) {
-  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles, kToken);
+  LoopbackServer server("gen:blob:1", stream::AtlasCodec::ZstdTiles, test::kStreamToken);
   ASSERT_TRUE(server.server);
   stream::StreamClientOptions options;
   options.url = server.url();
-  options.token = kToken;
+  options.token = test::kStreamToken;
   options.width = 160;
   options.height = 90;
   options.capabilities = stream::kCapabilityZstdTiles;

@@ -15,8 +15,7 @@
 namespace mirage {
 namespace {
 
-constexpr uint32_t kWidth = 160, kHeight = 90;
-constexpr char kToken[] = "open-loop-secret";
+constexpr uint32_t kOpenLoopWidth = 160, kOpenLoopHeight = 90;
 constexpr char kScene[] = "gen:city:2";
 
 // A lossless (or H.264) server of a scene on a free port: test::StreamTestServer (loopback_server.h).
@@ -25,9 +24,9 @@ using LoopbackServer = test::StreamTestServer;
 stream::StreamClientOptions clientOptions(const LoopbackServer& server) {
   stream::StreamClientOptions options;
   options.url = server.url();
-  options.token = kToken;
-  options.width = kWidth;
-  options.height = kHeight;
+  options.token = test::kStreamToken;
+  options.width = kOpenLoopWidth;
+  options.height = kOpenLoopHeight;
   options.capabilities = stream::kCapabilityZstdTiles;
   options.timeout = std::chrono::milliseconds(20000); // lavapipe on a busy machine; a hang still ends
   return options;
@@ -67,7 +66,7 @@ class StreamOpenLoop : public test::GpuTest {};
 namespace {
 
 TEST_F(StreamOpenLoop, WithoutLatencyEqualsLockStep) {
-  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, test::kStreamToken);
   ASSERT_TRUE(server.server);
   auto lockStep = runClient(context(), server, "orbit:3", nullptr);
   ASSERT_TRUE(lockStep) << lockStep.error().message;
@@ -89,7 +88,7 @@ TEST_F(StreamOpenLoop, WithoutLatencyEqualsLockStep) {
 
 // 50 ms round trip at 60 Hz: each frame arrives 3 client frames after its pose.
 TEST_F(StreamOpenLoop, WithLatencyEveryCameraIsDrawnFromTheFramesArrived) {
-  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, test::kStreamToken);
   ASSERT_TRUE(server.server);
   stream::SimulatedClientOptions simulation;
   simulation.network.roundTripMs = 50;
@@ -116,7 +115,7 @@ TEST_F(StreamOpenLoop, WithLatencyEveryCameraIsDrawnFromTheFramesArrived) {
 }
 
 TEST_F(StreamOpenLoop, AllPosesLostLeavesTheFirstFrameAndEnds) {
-  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, test::kStreamToken);
   ASSERT_TRUE(server.server);
   stream::SimulatedClientOptions simulation;
   simulation.network.roundTripMs = 50;
@@ -137,7 +136,7 @@ TEST_F(StreamOpenLoop, AllPosesLostLeavesTheFirstFrameAndEnds) {
 }
 
 TEST_F(StreamOpenLoop, SameSeedSameRun) {
-  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, kToken);
+  LoopbackServer server(kScene, stream::AtlasCodec::ZstdTiles, test::kStreamToken);
   ASSERT_TRUE(server.server);
   stream::SimulatedClientOptions simulation;
   simulation.network.roundTripMs = 30;
@@ -168,7 +167,7 @@ TEST_F(StreamOpenLoop, SameSeedSameRun) {
 TEST_F(StreamOpenLoop, BadNetworkConfigurationIsRefusedBeforeConnecting) {
   stream::StreamClientOptions options;
   options.url = "ws://127.0.0.1:1/"; // nothing listens: a connection attempt would fail differently
-  options.token = kToken;
+  options.token = test::kStreamToken;
   stream::SimulatedClientOptions simulation;
   simulation.network.poseLoss = 2.0;
   Status s = stream::runSimulatedPathClient(

@@ -80,7 +80,7 @@ TEST(StreamPatchSection, ExactLayout) {
   PatchUpdate quad; // 2 triangles, blend, block log2 4 at (32, 16)
   quad.id = 2;
   quad.triangleCount = 2;
-  quad.alpha = AlphaMode::Blend;
+  quad.alpha = stream::AlphaMode::Blend;
   quad.positions = {glm::uvec3(10, 20, 30), glm::uvec3(13, 20, 30), glm::uvec3(10, 24, 30), glm::uvec3(13, 24, 31)};
   quad.blockLog2 = 4;
   quad.blockX = 32;

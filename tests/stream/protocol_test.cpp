@@ -24,7 +24,7 @@ PatchUpdate patch(uint32_t id, uint8_t triangles, uint8_t log2) {
   PatchUpdate p;
   p.id = id;
   p.triangleCount = triangles;
-  p.alpha = triangles == 2 ? AlphaMode::Blend : AlphaMode::Opaque;
+  p.alpha = triangles == 2 ? stream::AlphaMode::Blend : stream::AlphaMode::Opaque;
   for (uint32_t v = 0; v < patchVertexCount(triangles); ++v) // far apart and on the grid's edges
     p.positions[v] = {v * 1000u, id % 1000u * 77u, v == 4 ? kPositionGridMax : kPositionGridMax - v - id % 1000u};
   p.blockLog2 = log2;
@@ -36,7 +36,7 @@ PatchUpdate patch(uint32_t id, uint8_t triangles, uint8_t log2) {
 }
 
 // A block-only entry: the client's own geometry of the patch at a new block.
-PatchUpdate blockOnly(uint32_t id, uint8_t triangles, uint8_t log2) {
+PatchUpdate blockOnlyPatch(uint32_t id, uint8_t triangles, uint8_t log2) {
   PatchUpdate p;
   p.id = id;
   p.triangleCount = triangles;
@@ -59,9 +59,9 @@ Frame sampleFrame() {
                patch(2, 2, 4),
                patch(3, 3, 7),
                patch(4, 3, kColourOnlyBlock),
-               blockOnly(6, 2, 5),
-               blockOnly(7, 3, 6),
-               blockOnly(70000, 1, kColourOnlyBlock),
+               blockOnlyPatch(6, 2, 5),
+               blockOnlyPatch(7, 3, 6),
+               blockOnlyPatch(70000, 1, kColourOnlyBlock),
                patch(0xfffffff0u, 2, 1)};
   f.updated.back().blockX = 16382; // the last block along the widest atlas
   f.updated.back().blockY = 0;

@@ -18,8 +18,7 @@
 namespace mirage {
 namespace {
 
-constexpr uint32_t kWidth = 160, kHeight = 90;
-constexpr char kToken[] = "stereo-secret";
+constexpr uint32_t kStereoWidth = 160, kStereoHeight = 90;
 constexpr float kIpd = 0.5f; // gen:city:2 spans tens of units: a visible parallax
 
 ImageRGBA8 half(const ImageRGBA8& image, uint32_t x0, uint32_t width) {
@@ -85,13 +84,13 @@ class StreamStereo : public test::GpuTest {};
 namespace {
 
 TEST_F(StreamStereo, EachHalfEqualsTheMonoStreamOfItsEye) {
-  test::StreamTestServer server("gen:city:2", stream::AtlasCodec::ZstdTiles, kToken);
+  test::StreamTestServer server("gen:city:2", stream::AtlasCodec::ZstdTiles, test::kStreamToken);
   ASSERT_TRUE(server.server);
   stream::StreamClientOptions options;
   options.url = server.url();
-  options.token = kToken;
-  options.width = kWidth;
-  options.height = kHeight;
+  options.token = test::kStreamToken;
+  options.width = kStereoWidth;
+  options.height = kStereoHeight;
   options.capabilities = stream::kCapabilityZstdTiles;
   options.timeout = std::chrono::milliseconds(60000);
 
@@ -104,7 +103,7 @@ TEST_F(StreamStereo, EachHalfEqualsTheMonoStreamOfItsEye) {
     bounds.add(welcome->sceneMin);
     bounds.add(welcome->sceneMax);
   }
-  std::vector<render::Camera> centres = render::orbitPath(bounds, float(kWidth) / kHeight, 2);
+  std::vector<render::Camera> centres = render::orbitPath(bounds, float(kStereoWidth) / kStereoHeight, 2);
   std::vector<render::Camera> lefts, rights;
   for (const render::Camera& c : centres) {
     auto eyes = stream::clientEyes(c, kIpd);
@@ -127,9 +126,9 @@ TEST_F(StreamStereo, EachHalfEqualsTheMonoStreamOfItsEye) {
   ASSERT_EQ(right.size(), 2u);
   ASSERT_EQ(pairs.size(), 2u);
   for (size_t i = 0; i < pairs.size(); ++i) {
-    ASSERT_EQ(pairs[i].width, 2 * kWidth);
-    ASSERT_EQ(pairs[i].height, kHeight);
-    ImageRGBA8 l = half(pairs[i], 0, kWidth), r = half(pairs[i], kWidth, kWidth);
+    ASSERT_EQ(pairs[i].width, 2 * kStereoWidth);
+    ASSERT_EQ(pairs[i].height, kStereoHeight);
+    ImageRGBA8 l = half(pairs[i], 0, kStereoWidth), r = half(pairs[i], kStereoWidth, kStereoWidth);
     double pl = psnr(l, left[i]), pr = psnr(r, right[i]), between = psnr(l, r);
     std::printf("camera %zu: left %.2f dB, right %.2f dB, left vs right %.2f dB\n", i, pl, pr, between);
     EXPECT_GE(pl, 40.0) << "camera " << i;

@@ -19,6 +19,7 @@
 
 #include "mirage/stream/transport.h"
 #include "stream/transport_ws.h"
+#include "test_support.h"
 
 using namespace mirage;
 using namespace mirage::stream;
@@ -26,15 +27,7 @@ using namespace std::chrono_literals;
 
 namespace {
 
-constexpr const char* kToken = "correct horse battery staple";
-
-std::filesystem::path tempDir(const std::string& name) {
-  std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("mirage_stream_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+constexpr const char* kTransportToken = "correct horse battery staple";
 
 void writeFile(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
@@ -67,7 +60,7 @@ Frame frame(uint32_t sequence, size_t atlasBytes) {
 class Harness {
 public:
   explicit Harness(ServerConfig config = {}) {
-    if (config.token.empty()) config.token = kToken;
+    if (config.token.empty()) config.token = kTransportToken;
     ServerEvents events;
     events.onMessage = [this](ClientId id, Message&& message) {
       if (std::holds_alternative<Hello>(message)) {
@@ -120,7 +113,7 @@ public:
   std::vector<std::string> refusals;
 };
 
-ClientConfig clientConfig(const std::string& token = kToken) {
+ClientConfig clientConfig(const std::string& token = kTransportToken) {
   ClientConfig config;
   config.hello = Hello{token, kCapabilityZstdTiles, 640, 480, false};
   config.timeout = 5s;
@@ -393,7 +386,7 @@ std::pair<int, std::string> httpGet(uint16_t port, const std::string& target) {
 } // namespace
 
 TEST(StreamTransport, StaticFilesAndTraversal) {
-  std::filesystem::path root = tempDir("http");
+  std::filesystem::path root = test::tempDir("http");
   std::filesystem::create_directories(root / "www" / "lib");
   writeFile(root / "www" / "index.html", "<p>atlas client</p>");
   writeFile(root / "www" / "client.js", "export const x = 1;");
@@ -461,7 +454,7 @@ void makeSelfSignedCertificate(const std::filesystem::path& certFile, const std:
 } // namespace
 
 TEST(StreamTransport, TlsRoundTrip) {
-  std::filesystem::path dir = tempDir("tls");
+  std::filesystem::path dir = test::tempDir("tls");
   makeSelfSignedCertificate(dir / "cert.pem", dir / "key.pem");
   ServerConfig config;
   config.certFile = (dir / "cert.pem").string();
@@ -490,7 +483,7 @@ TEST(StreamTransport, StartErrors) {
   TransportServer noToken;
   EXPECT_FALSE(noToken.start(ServerConfig{}, {}).ok());
   ServerConfig missingCert;
-  missingCert.token = kToken;
+  missingCert.token = kTransportToken;
   missingCert.certFile = "/nonexistent/cert.pem";
   missingCert.keyFile = "/nonexistent/key.pem";
   TransportServer tls;
@@ -505,7 +498,7 @@ TEST(StreamTransport, StartErrors) {
 }
 
 TEST(StreamTransport, TokenFile) {
-  std::filesystem::path dir = tempDir("token");
+  std::filesystem::path dir = test::tempDir("token");
   writeFile(dir / "token", "  s3cret-token\n\n");
   Result<std::string> token = readTokenFile(dir / "token");
   ASSERT_TRUE(token.ok()) << token.error().message;

@@ -16,6 +16,9 @@
 
 namespace mirage::test {
 
+// The token the test servers ask of their clients.
+inline constexpr char kStreamToken[] = "stream-test-secret";
+
 inline gpu::Context& streamServerContext() {
   static std::unique_ptr<gpu::Context> context = [] {
     gpu::ContextOptions options;
