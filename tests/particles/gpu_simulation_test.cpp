@@ -7,16 +7,11 @@
 #include "gpu_test.h"
 #include "mirage/particles/gpu_simulation.h"
 #include "mirage/particles/simulation.h"
+#include "particles/particle_test_util.h"
 
 using namespace mirage;
 using namespace mirage::particles;
 namespace sio = mirage::shaderio;
-
-namespace {
-
-constexpr float kDt = 1.0f / 60.0f;
-
-} // namespace
 
 class GpuParticles : public test::GpuTest {};
 
@@ -68,8 +63,8 @@ float relative(glm::vec3 a, glm::vec3 b) { return glm::length(a - b) / (1.0f + g
 TEST_F(GpuParticles, MatchesCpuParticleForParticle) {
   EffectFile fx;
   fx.systems = {everyModule()};
-  Simulation cpu = makeSimulation(fx, kDt);
-  GpuSimulation gpu(test::gpuContext(), fx, kDt);
+  Simulation cpu = makeSimulation(fx, test::kStepSeconds);
+  GpuSimulation gpu(test::gpuContext(), fx, test::kStepSeconds);
   for (int i = 0; i < 90; ++i) step(cpu);
   gpu.step(90);
   ASSERT_EQ(gpu.liveParticles(), liveParticles(cpu));
@@ -119,7 +114,7 @@ TEST_F(GpuParticles, StepWritingRecordsMatchesTheOutputPass) {
   fx.systems = {everyModule(), everyModule()};
   fx.systems[1].name = "second";
   fx.systems[1].seed += 7;
-  GpuSimulation fused(test::gpuContext(), fx, kDt), separate(test::gpuContext(), fx, kDt);
+  GpuSimulation fused(test::gpuContext(), fx, test::kStepSeconds), separate(test::gpuContext(), fx, test::kStepSeconds);
   fused.step(60);
   separate.step(60);
   test::gpuContext().submitAndWait([&](VkCommandBuffer cmd) { fused.cmdStep(cmd, /*writeRender=*/true); });
@@ -152,7 +147,7 @@ TEST_F(GpuParticles, DeterministicBySpawnIndex) {
   EffectFile fx;
   fx.systems = {everyModule()};
   auto run = [&] {
-    GpuSimulation gpu(test::gpuContext(), fx, kDt);
+    GpuSimulation gpu(test::gpuContext(), fx, test::kStepSeconds);
     gpu.step(75);
     std::vector<sio::Particle> particles = gpu.readParticles(0);
     std::sort(particles.begin(), particles.end(),
@@ -179,8 +174,8 @@ TEST_F(GpuParticles, LiveCountsWithPrewarmFullPoolAndSeveralSystems) {
   c.startDelay = 0.5f;
   c.looping = false;
   fx.systems = {a, b, c};
-  Simulation cpu = makeSimulation(fx, kDt);
-  GpuSimulation gpu(test::gpuContext(), fx, kDt);
+  Simulation cpu = makeSimulation(fx, test::kStepSeconds);
+  GpuSimulation gpu(test::gpuContext(), fx, test::kStepSeconds);
   ASSERT_EQ(gpu.liveParticles(), liveParticles(cpu)); // after prewarm
   for (int round = 0; round < 3; ++round) {
     for (int i = 0; i < 30; ++i) step(cpu);

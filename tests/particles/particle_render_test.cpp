@@ -21,8 +21,7 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr uint32_t kSize = 64;
-constexpr float kDistance = test::kParticleDistance, kFov = test::kParticleFov;
+constexpr uint32_t kRenderSize = 64;
 const glm::vec4 kBackground{0.05f, 0.1f, 0.2f, 1.0f};
 using test::withAnchor;
 
@@ -34,25 +33,22 @@ namespace {
 
 // Pixels from the centre to a billboard edge of `size` world units at the view distance.
 float halfExtentPixels(float size) {
-  return 0.5f * size / (kDistance * std::tan(glm::radians(kFov) * 0.5f)) * (0.5f * float(kSize));
+  return 0.5f * size / (test::kParticleDistance * std::tan(glm::radians(test::kParticleFov) * 0.5f)) *
+         (0.5f * float(kRenderSize));
 }
 
-ForwardRenderSettings settings(OitMode mode, ParticleDraw* particles) {
-  return test::particleView(kSize, mode, particles, kBackground);
+ForwardRenderSettings renderView(OitMode mode, ParticleDraw* particles) {
+  return test::particleView(kRenderSize, mode, particles, kBackground);
 }
 
-sio::RenderParticle particle(glm::vec3 position, float size, glm::vec4 color, float rotation = 0.0f) {
-  return test::particleRecord(position, size, color, rotation);
-}
-
-ImageF32 render(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettings& s) {
+ImageF32 renderLinear(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettings& s) {
   return test::renderForward(ctx, scene, s).linear;
 }
 
 // `system` as an effect of its own, simulated `steps` steps of 1/60 s; more than 50 particles live.
 std::unique_ptr<particles::EffectPlayer> play(gpu::Context& ctx, const particles::SystemDef& system,
                                               particles::SimKind sim, uint32_t steps) {
-  auto player = particles::EffectPlayer::create(ctx, {system.name + ".toml", {system}}, sim, 1.0f / 60.0f);
+  auto player = particles::EffectPlayer::create(ctx, {system.name + ".toml", {system}}, sim, test::kStepSeconds);
   EXPECT_TRUE(player.ok()) << (player.ok() ? "" : player.error().message);
   if (!player.ok()) return nullptr;
   (*player)->step(steps);
@@ -60,7 +56,7 @@ std::unique_ptr<particles::EffectPlayer> play(gpu::Context& ctx, const particles
   return std::move(*player);
 }
 
-glm::vec3 at(const ImageF32& img, uint32_t x, uint32_t y) {
+glm::vec3 rgbAt(const ImageF32& img, uint32_t x, uint32_t y) {
   const float* p = &img.pixels[(size_t(y) * img.width + x) * 4];
   return {p[0], p[1], p[2]};
 }
@@ -81,25 +77,25 @@ TEST_F(ParticleRender, SingleParticleFootprintAndColour) {
   glm::vec3 expected = glm::mix(glm::vec3(kBackground), glm::vec3(color), color.a);
   for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted, OitMode::Sorted}) {
     SCOPED_TRACE(toString(mode));
-    sio::RenderParticle p = particle({0, 0, 0}, 1.0f, color);
+    sio::RenderParticle p = test::particleRecord({0, 0, 0}, 1.0f, color);
     test::showParticles(*draw, {&p, 1});
-    ImageF32 img = render(context(), scene, settings(mode, draw.get()));
-    ASSERT_EQ(img.width, kSize);
-    uint32_t c = kSize / 2;
+    ImageF32 img = renderLinear(context(), scene, renderView(mode, draw.get()));
+    ASSERT_EQ(img.width, kRenderSize);
+    uint32_t c = kRenderSize / 2;
     uint32_t inside = uint32_t(std::floor(half)) - 1, outside = uint32_t(std::ceil(half)) + 1;
     for (auto [dx, dy] :
          {std::pair{0, 0}, {int(inside), 0}, {-int(inside), 0}, {0, int(inside)}, {0, -int(inside) - 1}})
-      expectNear(at(img, c + dx, c + dy), expected, 4e-3f, "inside");
+      expectNear(rgbAt(img, c + dx, c + dy), expected, 4e-3f, "inside");
     for (auto [dx, dy] :
          {std::pair{int(outside), 0}, {-int(outside) - 1, 0}, {0, int(outside)}, {0, -int(outside) - 1}})
-      expectNear(at(img, c + dx, c + dy), glm::vec3(kBackground), 1e-3f, "outside");
+      expectNear(rgbAt(img, c + dx, c + dy), glm::vec3(kBackground), 1e-3f, "outside");
     // Turned: the square's corner region is empty, its edge midpoints' direction reaches further.
-    p = particle({0, 0, 0}, 1.0f, color, glm::radians(45.0f));
+    p = test::particleRecord({0, 0, 0}, 1.0f, color, glm::radians(45.0f));
     test::showParticles(*draw, {&p, 1});
-    img = render(context(), scene, settings(mode, draw.get()));
+    img = renderLinear(context(), scene, renderView(mode, draw.get()));
     uint32_t corner = uint32_t(half * 0.85f);
-    expectNear(at(img, c + corner, c + corner), glm::vec3(kBackground), 1e-3f, "rotated corner");
-    expectNear(at(img, c + uint32_t(half * 1.2f), c), expected, 4e-3f, "rotated tip");
+    expectNear(rgbAt(img, c + corner, c + corner), glm::vec3(kBackground), 1e-3f, "rotated corner");
+    expectNear(rgbAt(img, c + uint32_t(half * 1.2f), c), expected, 4e-3f, "rotated tip");
   }
 }
 
@@ -112,13 +108,14 @@ TEST_F(ParticleRender, SubPixelParticlesKeepTheirCoverage) {
   const glm::vec4 color{1.0f, 1.0f, 1.0f, 1.0f};
   ASSERT_TRUE(draw->setSettings({0.0f}).ok()); // billboards only: the grow rule (the splat: particle_splat_test)
   float side = 2.0f * halfExtentPixels(0.04f); // 0.6 px
-  sio::RenderParticle p = particle({0, 0, 0}, 0.04f, color);
+  sio::RenderParticle p = test::particleRecord({0, 0, 0}, 0.04f, color);
   test::showParticles(*draw, {&p, 1});
-  ImageF32 img = render(context(), scene, settings(OitMode::LinkedList, draw.get()));
-  ASSERT_EQ(img.width, kSize);
+  ImageF32 img = renderLinear(context(), scene, renderView(OitMode::LinkedList, draw.get()));
+  ASSERT_EQ(img.width, kRenderSize);
   double coverage = 0.0; // in pixels: each pixel's share of the colour over the background
-  for (uint32_t y = 0; y < kSize; ++y)
-    for (uint32_t x = 0; x < kSize; ++x) coverage += (at(img, x, y).r - kBackground.r) / (1.0f - kBackground.r);
+  for (uint32_t y = 0; y < kRenderSize; ++y)
+    for (uint32_t x = 0; x < kRenderSize; ++x)
+      coverage += (rgbAt(img, x, y).r - kBackground.r) / (1.0f - kBackground.r);
   double area = double(side) * side;
   // The grown square covers 1 to 4 pixel centres for its 2.25 pixels of area.
   EXPECT_GT(coverage, 0.4 * area);
@@ -132,20 +129,20 @@ TEST_F(ParticleRender, OpaqueGeometryOccludes) {
   auto draw = test::whiteParticleDraw(context());
   ASSERT_TRUE(draw);
   draw->setCpuBatches({});
-  ImageF32 bare = render(context(), scene, settings(OitMode::LinkedList, draw.get()));
+  ImageF32 bare = renderLinear(context(), scene, renderView(OitMode::LinkedList, draw.get()));
   const glm::vec4 color{1.0f, 0.1f, 0.1f, 0.7f};
-  uint32_t c = kSize / 2, side = c + uint32_t(halfExtentPixels(1.6f) * 0.8f);
+  uint32_t c = kRenderSize / 2, side = c + uint32_t(halfExtentPixels(1.6f) * 0.8f);
   for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted}) {
     SCOPED_TRACE(toString(mode));
-    sio::RenderParticle p = particle({0, 0, 0}, 2.0f, color);
+    sio::RenderParticle p = test::particleRecord({0, 0, 0}, 2.0f, color);
     test::showParticles(*draw, {&p, 1});
-    ImageF32 behind = render(context(), scene, settings(mode, draw.get()));
-    expectNear(at(behind, c, c), at(bare, c, c), 1e-3f, "behind the quad");
-    expectNear(at(behind, side, c), glm::mix(glm::vec3(kBackground), glm::vec3(color), color.a), 4e-3f, "beside");
+    ImageF32 behind = renderLinear(context(), scene, renderView(mode, draw.get()));
+    expectNear(rgbAt(behind, c, c), rgbAt(bare, c, c), 1e-3f, "behind the quad");
+    expectNear(rgbAt(behind, side, c), glm::mix(glm::vec3(kBackground), glm::vec3(color), color.a), 4e-3f, "beside");
     p.position.z = 2.0f;
     test::showParticles(*draw, {&p, 1});
-    ImageF32 front = render(context(), scene, settings(mode, draw.get()));
-    expectNear(at(front, c, c), glm::mix(at(bare, c, c), glm::vec3(color), color.a), 4e-3f, "in front");
+    ImageF32 front = renderLinear(context(), scene, renderView(mode, draw.get()));
+    expectNear(rgbAt(front, c, c), glm::mix(rgbAt(bare, c, c), glm::vec3(color), color.a), 4e-3f, "in front");
   }
 }
 
@@ -159,13 +156,13 @@ TEST_F(ParticleRender, InterleavesWithTransparentGeometry) {
   auto draw = test::whiteParticleDraw(context());
   ASSERT_TRUE(draw);
   const glm::vec4 color{0.2f, 0.9f, 0.3f, 0.6f};
-  sio::RenderParticle p = particle({0, 0, 0}, 1.0f, color);
+  sio::RenderParticle p = test::particleRecord({0, 0, 0}, 1.0f, color);
   draw->setCpuBatches({});
-  ForwardRenderSettings black = settings(OitMode::LinkedList, draw.get());
+  ForwardRenderSettings black = renderView(OitMode::LinkedList, draw.get());
   black.base.background = {0, 0, 0, 1};
-  uint32_t c = kSize / 2;
-  glm::vec3 aPre = at(render(context(), withAnchor({test::makeQuad(1.0f, -0.5f)}, {a}), black), c, c);
-  glm::vec3 bPre = at(render(context(), withAnchor({test::makeQuad(1.0f, 0.5f)}, {b}), black), c, c);
+  uint32_t c = kRenderSize / 2;
+  glm::vec3 aPre = rgbAt(renderLinear(context(), withAnchor({test::makeQuad(1.0f, -0.5f)}, {a}), black), c, c);
+  glm::vec3 bPre = rgbAt(renderLinear(context(), withAnchor({test::makeQuad(1.0f, 0.5f)}, {b}), black), c, c);
   glm::vec3 bg(kBackground);
   glm::vec3 behindA = aPre + (1.0f - 0.5f) * bg;
   glm::vec3 withP = glm::vec3(color) * color.a + (1.0f - color.a) * behindA;
@@ -175,16 +172,16 @@ TEST_F(ParticleRender, InterleavesWithTransparentGeometry) {
 
   test::showParticles(*draw, {&p, 1});
   Scene both = withAnchor({test::makeQuad(1.0f, -0.5f, 0), test::makeQuad(1.0f, 0.5f, 1)}, {a, b});
-  ImageF32 img = render(context(), both, settings(OitMode::LinkedList, draw.get()));
+  ImageF32 img = renderLinear(context(), both, renderView(OitMode::LinkedList, draw.get()));
   for (auto [dx, dy] : {std::pair{0, 0}, {3, 2}, {-4, -3}})
-    expectNear(at(img, c + dx, c + dy), expected, 5e-3f, "lists");
+    expectNear(rgbAt(img, c + dx, c + dy), expected, 5e-3f, "lists");
   // The sorted reference sorts the particle between the quads' triangles (B's in front of it).
-  ImageF32 sorted = render(context(), both, settings(OitMode::Sorted, draw.get()));
+  ImageF32 sorted = renderLinear(context(), both, renderView(OitMode::Sorted, draw.get()));
   for (auto [dx, dy] : {std::pair{0, 0}, {3, 2}, {-4, -3}})
-    expectNear(at(sorted, c + dx, c + dy), expected, 5e-3f, "sorted");
+    expectNear(rgbAt(sorted, c + dx, c + dy), expected, 5e-3f, "sorted");
   // Weighted blending approximates the order: within its error on three layers.
-  ImageF32 weighted = render(context(), both, settings(OitMode::Weighted, draw.get()));
-  expectNear(at(weighted, c, c), expected, 0.15f, "weighted");
+  ImageF32 weighted = renderLinear(context(), both, renderView(OitMode::Weighted, draw.get()));
+  expectNear(rgbAt(weighted, c, c), expected, 0.15f, "weighted");
 }
 
 // A GPU-simulated cloud of overlapping particles around a glass quad, in front of and behind it:
@@ -205,7 +202,7 @@ TEST_F(ParticleRender, SortedAgreesWithLinkedListsAroundGlass) {
                            {glass, test::solidMaterial({0.4f, 0.4f, 0.4f, 1})});
   auto player = play(context(), s, particles::SimKind::Gpu, 60);
   ASSERT_TRUE(player);
-  ForwardRenderSettings fs = settings(OitMode::LinkedList, player->draw());
+  ForwardRenderSettings fs = renderView(OitMode::LinkedList, player->draw());
   fs.base.camera.eye = {0.3f, 0.5f, 4.0f};
   auto renderer = ForwardRenderer::create(context(), scene);
   ASSERT_TRUE(renderer.ok());
@@ -243,7 +240,7 @@ TEST_F(ParticleRender, CpuAndGpuSimulationsRenderAlike) {
   for (particles::SimKind sim : {particles::SimKind::Cpu, particles::SimKind::Gpu}) {
     auto player = play(context(), s, sim, 40);
     ASSERT_TRUE(player);
-    ForwardRenderSettings fs = settings(OitMode::LinkedList, player->draw());
+    ForwardRenderSettings fs = renderView(OitMode::LinkedList, player->draw());
     fs.base.camera.eye = {0, 0.5f, 4.0f};
     auto out = (*renderer)->render(fs);
     ASSERT_TRUE(out.ok()) << out.error().message;
@@ -251,7 +248,7 @@ TEST_F(ParticleRender, CpuAndGpuSimulationsRenderAlike) {
   }
   EXPECT_GE(psnr(images[0], images[1]), 40.0);
   // Not trivially equal: the particles are there (differs from the bare scene).
-  auto bare = (*renderer)->render(settings(OitMode::LinkedList, nullptr));
+  auto bare = (*renderer)->render(renderView(OitMode::LinkedList, nullptr));
   ASSERT_TRUE(bare.ok());
   EXPECT_LT(psnr(images[0], bare->srgb), 35.0);
 }

@@ -25,8 +25,7 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr uint32_t kSize = 128;
-constexpr float kDistance = test::kParticleDistance, kFov = test::kParticleFov;
+constexpr uint32_t kSplatSize = 128;
 using test::withAnchor;
 
 } // namespace
@@ -37,11 +36,11 @@ namespace {
 
 // Pixels across a billboard of edge `size` at view distance `distance`.
 float pixelsOf(float size, float distance) {
-  return size / (2.0f * distance * std::tan(glm::radians(kFov) * 0.5f)) * float(kSize);
+  return size / (2.0f * distance * std::tan(glm::radians(test::kParticleFov) * 0.5f)) * float(kSplatSize);
 }
 
-ForwardRenderSettings settings(OitMode mode, ParticleDraw* particles, glm::vec4 background) {
-  return test::particleView(kSize, mode, particles, background);
+ForwardRenderSettings splatView(OitMode mode, ParticleDraw* particles, glm::vec4 background) {
+  return test::particleView(kSplatSize, mode, particles, background);
 }
 
 std::unique_ptr<ParticleDraw> puffDraw(gpu::Context& ctx) {
@@ -59,7 +58,8 @@ std::unique_ptr<ParticleDraw> puffDraw(gpu::Context& ctx) {
   return d.ok() ? std::move(*d) : nullptr;
 }
 
-sio::RenderParticle particle(glm::vec3 position, float size, glm::vec4 color, uint32_t frame = 0) {
+// An unrotated particle showing tile `frame` of its sheet.
+sio::RenderParticle tileParticle(glm::vec3 position, float size, glm::vec4 color, uint32_t frame = 0) {
   return test::particleRecord(position, size, color, 0.0f, frame);
 }
 
@@ -70,16 +70,12 @@ std::vector<sio::RenderParticle> smallCloud(uint32_t count) {
     float t = float(i);
     glm::vec3 p{1.6f * std::sin(t * 1.37f), 1.6f * std::cos(t * 0.91f), 0.8f * std::sin(t * 2.13f)};
     float pixels = 0.6f + 1.3f * (0.5f + 0.5f * std::sin(t * 0.53f));
-    float size = pixels / pixelsOf(1.0f, kDistance - p.z);
+    float size = pixels / pixelsOf(1.0f, test::kParticleDistance - p.z);
     glm::vec4 color{0.5f + 0.5f * std::sin(t), 0.6f, 0.5f + 0.5f * std::cos(t * 0.7f),
                     0.6f + 0.4f * std::fabs(std::sin(t * 0.3f))};
-    out.push_back(particle(p, size, color, i % 4));
+    out.push_back(tileParticle(p, size, color, i % 4));
   }
   return out;
-}
-
-RenderOutput render(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettings& s) {
-  return test::renderForward(ctx, scene, s);
 }
 
 // `img` averaged over factor x factor blocks in linear light, as 8-bit sRGB.
@@ -119,16 +115,16 @@ TEST_F(ParticleSplat, MatchesWeightedBillboardsOnSmallParticles) {
   test::showParticles(*draw, cloud);
   const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
   ASSERT_TRUE(draw->setSettings({0.0f, SplatAtomics::Auto}).ok()); // billboards only
-  RenderOutput billboards = render(context(), scene, settings(OitMode::Weighted, draw.get(), background));
-  ForwardRenderSettings fine = settings(OitMode::Weighted, draw.get(), background);
-  fine.base.width = fine.base.height = 4 * kSize;
-  ImageRGBA8 reference = downsample(render(context(), scene, fine).linear, 4);
-  RenderOutput bare = render(context(), scene, settings(OitMode::Weighted, nullptr, background));
+  RenderOutput billboards = test::renderForward(context(), scene, splatView(OitMode::Weighted, draw.get(), background));
+  ForwardRenderSettings fine = splatView(OitMode::Weighted, draw.get(), background);
+  fine.base.width = fine.base.height = 4 * kSplatSize;
+  ImageRGBA8 reference = downsample(test::renderForward(context(), scene, fine).linear, 4);
+  RenderOutput bare = test::renderForward(context(), scene, splatView(OitMode::Weighted, nullptr, background));
   double signal = psnr(reference, bare.srgb);
   std::vector<ImageRGBA8> splats;
   for (SplatAtomics atomics : atomicsToTest(context())) {
     ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics}).ok());
-    RenderOutput splat = render(context(), scene, settings(OitMode::Weighted, draw.get(), background));
+    RenderOutput splat = test::renderForward(context(), scene, splatView(OitMode::Weighted, draw.get(), background));
     EXPECT_EQ(draw->readBillboardCount(), 0u) << "every particle is under the threshold";
     double vsReference = psnr(reference, splat.srgb), vsBillboards = psnr(billboards.srgb, splat.srgb);
     double blocks = psnr(downsample(billboards.linear, 4), downsample(splat.linear, 4));
@@ -160,19 +156,20 @@ TEST_F(ParticleSplat, ConservesCoverage) {
   for (int y = 0; y < 10; ++y)
     for (int x = 0; x < 10; ++x) {
       float pixels = 0.5f + 1.4f * float((x + 3 * y) % 10) / 9.0f;
-      float size = pixels / pixelsOf(1.0f, kDistance);
+      float size = pixels / pixelsOf(1.0f, test::kParticleDistance);
       // 10 pixels apart, at sub-pixel offsets that vary with the particle.
-      glm::vec2 at = (glm::vec2(float(x), float(y)) * 10.0f + 15.3f + 0.37f * float(x * y % 7)) / float(kSize);
-      glm::vec2 world = (at * 2.0f - 1.0f) * kDistance * std::tan(glm::radians(kFov) * 0.5f);
-      grid.push_back(particle({world.x, -world.y, 0.0f}, size, {1, 1, 1, kAlpha}));
+      glm::vec2 at = (glm::vec2(float(x), float(y)) * 10.0f + 15.3f + 0.37f * float(x * y % 7)) / float(kSplatSize);
+      glm::vec2 world =
+          (at * 2.0f - 1.0f) * test::kParticleDistance * std::tan(glm::radians(test::kParticleFov) * 0.5f);
+      grid.push_back(tileParticle({world.x, -world.y, 0.0f}, size, {1, 1, 1, kAlpha}));
       expected += double(kAlpha) * pixels * pixels;
     }
   test::showParticles(*draw, grid);
   for (SplatAtomics atomics : atomicsToTest(context())) {
     for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted}) {
       ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics}).ok());
-      RenderOutput out = render(context(), scene, settings(mode, draw.get(), {0, 0, 0, 1}));
-      ASSERT_EQ(out.linear.width, kSize);
+      RenderOutput out = test::renderForward(context(), scene, splatView(mode, draw.get(), {0, 0, 0, 1}));
+      ASSERT_EQ(out.linear.width, kSplatSize);
       double sum = 0.0;
       for (size_t i = 0; i < out.linear.pixels.size(); i += 4) sum += out.linear.pixels[i];
       std::printf("%s %s: coverage %.4f px^2, expected %.4f\n", atomics == SplatAtomics::Float ? "float" : "fixed",
@@ -190,7 +187,7 @@ TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
   auto draw = test::whiteParticleDraw(context());
   ASSERT_TRUE(draw);
   const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
-  RenderOutput bare = render(context(), scene, settings(OitMode::LinkedList, nullptr, background));
+  RenderOutput bare = test::renderForward(context(), scene, splatView(OitMode::LinkedList, nullptr, background));
   std::vector<sio::RenderParticle> cloud = smallCloud(600);
   for (sio::RenderParticle& p : cloud) { // all behind the quad, opaque white, under 2 pixels
     p.position.z = 0.0f;
@@ -198,12 +195,12 @@ TEST_F(ParticleSplat, RespectsTheOpaqueDepth) {
     p.color = sio::particlePackColor({1, 1, 1, 1});
   }
   test::showParticles(*draw, cloud);
-  RenderOutput behind = render(context(), scene, settings(OitMode::LinkedList, draw.get(), background));
+  RenderOutput behind = test::renderForward(context(), scene, splatView(OitMode::LinkedList, draw.get(), background));
   EXPECT_EQ(draw->readBillboardCount(), 0u);
   EXPECT_GE(psnr(bare.srgb, behind.srgb), 60.0);
   for (sio::RenderParticle& p : cloud) p.position.z = 2.0f, p.size *= 0.6f; // in front, as small
   test::showParticles(*draw, cloud);
-  RenderOutput front = render(context(), scene, settings(OitMode::LinkedList, draw.get(), background));
+  RenderOutput front = test::renderForward(context(), scene, splatView(OitMode::LinkedList, draw.get(), background));
   EXPECT_EQ(draw->readBillboardCount(), 0u);
   EXPECT_LT(psnr(bare.srgb, front.srgb), 30.0);
 }
@@ -224,43 +221,44 @@ TEST_F(ParticleSplat, BinnedEqualsAtomicSplat) {
   ASSERT_TRUE(draw);
   // World position of image pixel coordinate `at` (pixels from the top left) at z = 0.
   auto worldAt = [](glm::vec2 at) {
-    glm::vec2 w = (at / float(kSize) * 2.0f - 1.0f) * kDistance * std::tan(glm::radians(kFov) * 0.5f);
+    glm::vec2 w = (at / float(kSplatSize) * 2.0f - 1.0f) * test::kParticleDistance *
+                  std::tan(glm::radians(test::kParticleFov) * 0.5f);
     return glm::vec3(w.x, -w.y, 0.0f);
   };
   std::vector<sio::RenderParticle> cloud = smallCloud(1500);
-  const float onePixel = 1.0f / pixelsOf(1.0f, kDistance);
+  const float onePixel = 1.0f / pixelsOf(1.0f, test::kParticleDistance);
   for (uint32_t i = 0; i < 4000; ++i) // the hot spot: on the corner of four tiles
-    cloud.push_back(particle(worldAt(glm::vec2(64.0f)), (1.0f + 0.8f * float(i % 5) / 4.0f) * onePixel,
-                             {0.9f, 0.5f + 0.1f * float(i % 4), 0.2f, 0.05f + 0.1f * float(i % 3)}, i % 4));
+    cloud.push_back(tileParticle(worldAt(glm::vec2(64.0f)), (1.0f + 0.8f * float(i % 5) / 4.0f) * onePixel,
+                                 {0.9f, 0.5f + 0.1f * float(i % 4), 0.2f, 0.05f + 0.1f * float(i % 3)}, i % 4));
   for (uint32_t i = 0; i < 500; ++i) // inside one pixel of one tile
-    cloud.push_back(particle(worldAt(glm::vec2(40.5f)), 0.7f * onePixel, {0.2f, 0.9f, 0.4f, 0.3f}, i % 4));
+    cloud.push_back(tileParticle(worldAt(glm::vec2(40.5f)), 0.7f * onePixel, {0.2f, 0.9f, 0.4f, 0.3f}, i % 4));
   for (uint32_t i = 0; i < 400; ++i) { // along the borders x = 32 and y = 96, at sub-pixel offsets
     float along = 4.0f + 0.3f * float(i);
     float off = 0.25f * float(i % 7) - 0.75f;
     glm::vec2 at = i % 2 ? glm::vec2(32.0f + off, along) : glm::vec2(along, 96.0f + off);
-    cloud.push_back(particle(worldAt(at), (0.8f + 0.15f * float(i % 8)) * onePixel,
-                             {0.3f, 0.4f, 0.95f, 0.5f + 0.05f * float(i % 9)}, i % 4));
+    cloud.push_back(tileParticle(worldAt(at), (0.8f + 0.15f * float(i % 8)) * onePixel,
+                                 {0.3f, 0.4f, 0.95f, 0.5f + 0.05f * float(i % 9)}, i % 4));
   }
   test::showParticles(*draw, cloud);
   const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
-  RenderOutput bare = render(context(), scene, settings(OitMode::LinkedList, nullptr, background));
+  RenderOutput bare = test::renderForward(context(), scene, splatView(OitMode::LinkedList, nullptr, background));
   for (SplatAtomics atomics : atomicsToTest(context())) {
     const char* name = atomics == SplatAtomics::Float ? "float" : "fixed";
     for (bool stereo : {false, true}) {
-      ForwardRenderSettings s = settings(OitMode::LinkedList, draw.get(), background);
+      ForwardRenderSettings s = splatView(OitMode::LinkedList, draw.get(), background);
       if (stereo) s.stereoIpd = 0.3f;
       ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics, SplatMethod::Atomic}).ok());
-      RenderOutput atomic = render(context(), scene, s);
+      RenderOutput atomic = test::renderForward(context(), scene, s);
       EXPECT_EQ(draw->readBillboardCount(), 0u);
       if (!stereo) {
         EXPECT_LT(psnr(bare.srgb, atomic.srgb), 30.0) << "the particles must show";
-        size_t hot = (64 * kSize + 64) * 4;
+        size_t hot = (64 * kSplatSize + 64) * 4;
         EXPECT_GT(std::abs(int(atomic.srgb.pixels[hot]) - int(bare.srgb.pixels[hot])), 40) << "the hot spot shows";
       }
       for (auto [room, slots] : {std::pair{100000u, 0u}, {0u, 0u}, {300u, 0u}, {0u, 4u}, {300u, 4u}}) {
         ASSERT_TRUE(draw->setSettings({kDefaultSplatPixels, atomics, SplatMethod::Binned, room, slots}).ok());
         EXPECT_TRUE(draw->splatsBinned());
-        RenderOutput binned = render(context(), scene, s);
+        RenderOutput binned = test::renderForward(context(), scene, s);
         EXPECT_EQ(draw->readBillboardCount(), 0u);
         double p = psnr(atomic.srgb, binned.srgb);
         std::printf("%s%s, room %u, slots %u: binned vs atomic splat %.2f dB\n", name, stereo ? " stereo" : "", room,
@@ -282,20 +280,20 @@ TEST_F(ParticleSplat, StereoHalvesAreTheEyesMonoImages) {
   std::vector<sio::RenderParticle> cloud = smallCloud(800);
   test::showParticles(*draw, cloud);
   const glm::vec4 background{0.05f, 0.05f, 0.1f, 1};
-  ForwardRenderSettings stereo = settings(OitMode::LinkedList, draw.get(), background);
+  ForwardRenderSettings stereo = splatView(OitMode::LinkedList, draw.get(), background);
   stereo.stereoIpd = 0.4f;
-  RenderOutput both = render(context(), scene, stereo);
+  RenderOutput both = test::renderForward(context(), scene, stereo);
   EXPECT_EQ(draw->readBillboardCount(), 0u);
-  ASSERT_EQ(both.srgb.width, 2 * kSize);
+  ASSERT_EQ(both.srgb.width, 2 * kSplatSize);
   std::array<Camera, 2> eyes = stereoEyes(stereo.base.camera, *stereo.stereoIpd);
   for (uint32_t e = 0; e < 2; ++e) {
-    ForwardRenderSettings mono = settings(OitMode::LinkedList, draw.get(), background);
+    ForwardRenderSettings mono = splatView(OitMode::LinkedList, draw.get(), background);
     mono.base.camera = eyes[e];
-    RenderOutput one = render(context(), scene, mono);
-    ImageRGBA8 half{kSize, kSize, {}};
-    for (uint32_t y = 0; y < kSize; ++y)
-      half.pixels.insert(half.pixels.end(), both.srgb.pixels.begin() + (y * 2 * kSize + e * kSize) * 4,
-                         both.srgb.pixels.begin() + (y * 2 * kSize + (e + 1) * kSize) * 4);
+    RenderOutput one = test::renderForward(context(), scene, mono);
+    ImageRGBA8 half{kSplatSize, kSplatSize, {}};
+    for (uint32_t y = 0; y < kSplatSize; ++y)
+      half.pixels.insert(half.pixels.end(), both.srgb.pixels.begin() + (y * 2 * kSplatSize + e * kSplatSize) * 4,
+                         both.srgb.pixels.begin() + (y * 2 * kSplatSize + (e + 1) * kSplatSize) * 4);
     double p = psnr(one.srgb, half);
     std::printf("eye %u: stereo half vs mono %.2f dB\n", e, p);
     EXPECT_GE(p, 50.0) << "eye " << e;

@@ -1,7 +1,7 @@
 #pragma once
-// Set-up shared by the particle rendering tests (particle_render_test.cpp, particle_splat_test.cpp):
-// the forward renderer's view of the origin from (0, 0, kParticleDistance), scenes that are never
-// empty, a plain white sheet and particle records.
+// Set-up shared by the particle tests: the simulation step, and for the rendering tests
+// (particle_render_test.cpp, particle_splat_test.cpp) the forward renderer's view of the origin from
+// (0, 0, kParticleDistance), scenes that are never empty, a plain white sheet and particle records.
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -18,6 +18,9 @@
 #include "test_scenes.h"
 
 namespace mirage::test {
+
+// The simulation step: one frame at 60 Hz.
+inline constexpr float kStepSeconds = 1.0f / 60.0f;
 
 // The camera's distance from the origin (looking down -z) and its vertical field of view.
 inline constexpr float kParticleDistance = 5.0f, kParticleFov = 45.0f;

@@ -9,14 +9,13 @@
 
 #include "mirage/particles/sheet.h"
 #include "mirage/particles/simulation.h"
+#include "particles/particle_test_util.h"
 
 using namespace mirage;
 using namespace mirage::particles;
 namespace sio = mirage::shaderio;
 
 namespace {
-
-constexpr float kDt = 1.0f / 60.0f;
 
 // A point emitter (an edge of length 0) sending particles up at `speed`, living `lifetime` s.
 SystemDef pointSystem(float speed, float lifetime) {
@@ -32,7 +31,7 @@ SystemDef pointSystem(float speed, float lifetime) {
 }
 
 void run(ParticlePool& pool, int steps) {
-  for (int i = 0; i < steps; ++i) stepPool(pool, kDt);
+  for (int i = 0; i < steps; ++i) stepPool(pool, test::kStepSeconds);
 }
 
 // The first particle emitted (spawn index 0).
@@ -47,12 +46,12 @@ TEST(ParticleSim, ConstantVelocity) {
   SystemDef s = pointSystem(2.0f, 100.0f);
   s.velocityOverLifetime.min = s.velocityOverLifetime.max = glm::vec3(0.5f, 0.0f, 0.0f);
   s.position = {1.0f, 2.0f, 3.0f};
-  ParticlePool pool = makePool(s, kDt);
+  ParticlePool pool = makePool(s, test::kStepSeconds);
   run(pool, 120);
   const sio::Particle& p = oldest(pool);
   ASSERT_EQ(p.id, 0u);
   float t = p.age;
-  EXPECT_NEAR(t, 119 * kDt, 1e-4f); // emitted at the end of step 0, aged by the 119 steps after it
+  EXPECT_NEAR(t, 119 * test::kStepSeconds, 1e-4f); // emitted at the end of step 0, aged by the 119 steps after it
   glm::vec3 expected = s.position + glm::vec3(0.5f, 2.0f, 0.0f) * t;
   EXPECT_NEAR(glm::length(p.position - expected), 0.0f, 1e-4f);
   EXPECT_EQ(p.velocity, glm::vec3(0.5f, 2.0f, 0.0f)); // start velocity + velocity over lifetime, no acceleration
@@ -61,12 +60,12 @@ TEST(ParticleSim, ConstantVelocity) {
 TEST(ParticleSim, GravityFollowsSemiImplicitEuler) {
   SystemDef s = pointSystem(3.0f, 100.0f);
   s.gravityModifier = 1.0f;
-  ParticlePool pool = makePool(s, kDt);
+  ParticlePool pool = makePool(s, test::kStepSeconds);
   run(pool, 61);
   const sio::Particle& p = oldest(pool);
-  int m = int(std::lround(p.age / kDt));
+  int m = int(std::lround(p.age / test::kStepSeconds));
   ASSERT_EQ(m, 60);
-  double g = -kGravity, dt = kDt;
+  double g = -kGravity, dt = test::kStepSeconds;
   // v_m = v0 + g m dt, x_m = v0 m dt + g dt^2 m (m + 1) / 2.
   EXPECT_NEAR(p.velocity.y, 3.0 + g * m * dt, 1e-4);
   EXPECT_NEAR(p.position.y, 3.0 * m * dt + g * dt * dt * m * (m + 1) / 2.0, 1e-4);
@@ -78,14 +77,14 @@ TEST(ParticleSim, GravityFollowsSemiImplicitEuler) {
 TEST(ParticleSim, ForceAccelerates) {
   SystemDef s = pointSystem(0.0f, 100.0f);
   s.forceOverLifetime.min = s.forceOverLifetime.max = glm::vec3(0.0f, 0.0f, 2.0f);
-  ParticlePool pool = makePool(s, kDt);
+  ParticlePool pool = makePool(s, test::kStepSeconds);
   run(pool, 31);
   const sio::Particle& p = oldest(pool);
-  EXPECT_NEAR(p.velocity.z, 2.0f * 30 * kDt, 1e-5f);
+  EXPECT_NEAR(p.velocity.z, 2.0f * 30 * test::kStepSeconds, 1e-5f);
   // A random force stays within its range: velocity / age per axis.
   s.forceOverLifetime.min = glm::vec3(-1.0f, 0.0f, 1.0f);
   s.forceOverLifetime.max = glm::vec3(1.0f, 0.0f, 3.0f);
-  ParticlePool random = makePool(s, kDt);
+  ParticlePool random = makePool(s, test::kStepSeconds);
   run(random, 31);
   for (uint32_t i = 0; i < random.live; ++i) {
     const sio::Particle& q = random.instances[i];
@@ -152,8 +151,8 @@ TEST(ParticleSim, RotationAndSheetFrame) {
 }
 
 uint64_t liveAfter(const SystemDef& s, double seconds) {
-  ParticlePool pool = makePool(s, kDt);
-  run(pool, int(std::lround(seconds / kDt)));
+  ParticlePool pool = makePool(s, test::kStepSeconds);
+  run(pool, int(std::lround(seconds / test::kStepSeconds)));
   return pool.live;
 }
 
@@ -171,7 +170,7 @@ TEST(ParticleSim, EmissionCounts) {
   EXPECT_EQ(liveAfter(s, 1.0), 50u);
   s.startDelay = 0.0f;
   s.prewarm = true; // one whole cycle has run before the first step
-  EXPECT_EQ(makePool(s, kDt).live, 200u);
+  EXPECT_EQ(makePool(s, test::kStepSeconds).live, 200u);
   EXPECT_EQ(liveAfter(s, 1.0), 300u);
 }
 
@@ -187,11 +186,11 @@ TEST(ParticleSim, MaxParticlesAndNoAllocationAfterWarmUp) {
   SystemDef s = pointSystem(1.0f, 0.7f);
   s.rateOverTime = 3000.0f;
   s.maxParticles = 1000;
-  ParticlePool pool = makePool(s, kDt);
+  ParticlePool pool = makePool(s, test::kStepSeconds);
   const void* buffers[] = {pool.instances.data(), pool.dead.data(), pool.chunkDead.data()};
   size_t capacities[] = {pool.instances.capacity(), pool.dead.capacity(), pool.chunkDead.capacity()};
   for (int i = 0; i < 200; ++i) {
-    stepPool(pool, kDt);
+    stepPool(pool, test::kStepSeconds);
     ASSERT_LE(pool.live, 1000u);
     ASSERT_EQ(pool.instances.size(), 1000u);
   }
@@ -206,7 +205,7 @@ TEST(ParticleSim, MaxParticlesAndNoAllocationAfterWarmUp) {
 }
 
 std::vector<sio::RenderParticle> runEffect(const EffectFile& fx, int steps) {
-  Simulation sim = makeSimulation(fx, kDt);
+  Simulation sim = makeSimulation(fx, test::kStepSeconds);
   for (int i = 0; i < steps; ++i) step(sim);
   std::vector<sio::RenderParticle> out(liveParticles(sim));
   EXPECT_EQ(writeRenderParticles(sim, out), out.size());
@@ -240,8 +239,8 @@ TEST(ParticleSim, DeterministicAcrossRunsAndThreadCounts) {
 
 TEST(ParticleSim, ScaledEffectFillsItsPools) {
   EffectFile fx = scaleEffect(example("fire.toml"), 5000);
-  Simulation sim = makeSimulation(fx, kDt);
-  for (uint64_t i = 0; i < fillSteps(fx, kDt); ++i) step(sim);
+  Simulation sim = makeSimulation(fx, test::kStepSeconds);
+  for (uint64_t i = 0; i < fillSteps(fx, test::kStepSeconds); ++i) step(sim);
   EXPECT_EQ(liveParticles(sim), 5000u);
 }
 
