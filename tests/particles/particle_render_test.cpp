@@ -56,11 +56,6 @@ std::unique_ptr<particles::EffectPlayer> play(gpu::Context& ctx, const particles
   return std::move(*player);
 }
 
-glm::vec3 rgbAt(const ImageF32& img, uint32_t x, uint32_t y) {
-  const float* p = &img.pixels[(size_t(y) * img.width + x) * 4];
-  return {p[0], p[1], p[2]};
-}
-
 void expectNear(glm::vec3 got, glm::vec3 want, float tolerance, const char* what) {
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], tolerance) << what << " channel " << c;
 }
@@ -85,17 +80,17 @@ TEST_F(ParticleRender, SingleParticleFootprintAndColour) {
     uint32_t inside = uint32_t(std::floor(half)) - 1, outside = uint32_t(std::ceil(half)) + 1;
     for (auto [dx, dy] :
          {std::pair{0, 0}, {int(inside), 0}, {-int(inside), 0}, {0, int(inside)}, {0, -int(inside) - 1}})
-      expectNear(rgbAt(img, c + dx, c + dy), expected, 4e-3f, "inside");
+      expectNear(test::linearRgbAt(img, c + dx, c + dy), expected, 4e-3f, "inside");
     for (auto [dx, dy] :
          {std::pair{int(outside), 0}, {-int(outside) - 1, 0}, {0, int(outside)}, {0, -int(outside) - 1}})
-      expectNear(rgbAt(img, c + dx, c + dy), glm::vec3(kBackground), 1e-3f, "outside");
+      expectNear(test::linearRgbAt(img, c + dx, c + dy), glm::vec3(kBackground), 1e-3f, "outside");
     // Turned: the square's corner region is empty, its edge midpoints' direction reaches further.
     p = test::particleRecord({0, 0, 0}, 1.0f, color, glm::radians(45.0f));
     test::showParticles(*draw, {&p, 1});
     img = renderLinear(context(), scene, renderView(mode, draw.get()));
     uint32_t corner = uint32_t(half * 0.85f);
-    expectNear(rgbAt(img, c + corner, c + corner), glm::vec3(kBackground), 1e-3f, "rotated corner");
-    expectNear(rgbAt(img, c + uint32_t(half * 1.2f), c), expected, 4e-3f, "rotated tip");
+    expectNear(test::linearRgbAt(img, c + corner, c + corner), glm::vec3(kBackground), 1e-3f, "rotated corner");
+    expectNear(test::linearRgbAt(img, c + uint32_t(half * 1.2f), c), expected, 4e-3f, "rotated tip");
   }
 }
 
@@ -115,7 +110,7 @@ TEST_F(ParticleRender, SubPixelParticlesKeepTheirCoverage) {
   double coverage = 0.0; // in pixels: each pixel's share of the colour over the background
   for (uint32_t y = 0; y < kRenderSize; ++y)
     for (uint32_t x = 0; x < kRenderSize; ++x)
-      coverage += (rgbAt(img, x, y).r - kBackground.r) / (1.0f - kBackground.r);
+      coverage += (test::linearRgbAt(img, x, y).r - kBackground.r) / (1.0f - kBackground.r);
   double area = double(side) * side;
   // The grown square covers 1 to 4 pixel centres for its 2.25 pixels of area.
   EXPECT_GT(coverage, 0.4 * area);
@@ -137,12 +132,14 @@ TEST_F(ParticleRender, OpaqueGeometryOccludes) {
     sio::RenderParticle p = test::particleRecord({0, 0, 0}, 2.0f, color);
     test::showParticles(*draw, {&p, 1});
     ImageF32 behind = renderLinear(context(), scene, renderView(mode, draw.get()));
-    expectNear(rgbAt(behind, c, c), rgbAt(bare, c, c), 1e-3f, "behind the quad");
-    expectNear(rgbAt(behind, side, c), glm::mix(glm::vec3(kBackground), glm::vec3(color), color.a), 4e-3f, "beside");
+    expectNear(test::linearRgbAt(behind, c, c), test::linearRgbAt(bare, c, c), 1e-3f, "behind the quad");
+    expectNear(test::linearRgbAt(behind, side, c), glm::mix(glm::vec3(kBackground), glm::vec3(color), color.a), 4e-3f,
+               "beside");
     p.position.z = 2.0f;
     test::showParticles(*draw, {&p, 1});
     ImageF32 front = renderLinear(context(), scene, renderView(mode, draw.get()));
-    expectNear(rgbAt(front, c, c), glm::mix(rgbAt(bare, c, c), glm::vec3(color), color.a), 4e-3f, "in front");
+    expectNear(test::linearRgbAt(front, c, c), glm::mix(test::linearRgbAt(bare, c, c), glm::vec3(color), color.a),
+               4e-3f, "in front");
   }
 }
 
@@ -161,8 +158,10 @@ TEST_F(ParticleRender, InterleavesWithTransparentGeometry) {
   ForwardRenderSettings black = renderView(OitMode::LinkedList, draw.get());
   black.base.background = {0, 0, 0, 1};
   uint32_t c = kRenderSize / 2;
-  glm::vec3 aPre = rgbAt(renderLinear(context(), withAnchor({test::makeQuad(1.0f, -0.5f)}, {a}), black), c, c);
-  glm::vec3 bPre = rgbAt(renderLinear(context(), withAnchor({test::makeQuad(1.0f, 0.5f)}, {b}), black), c, c);
+  glm::vec3 aPre =
+      test::linearRgbAt(renderLinear(context(), withAnchor({test::makeQuad(1.0f, -0.5f)}, {a}), black), c, c);
+  glm::vec3 bPre =
+      test::linearRgbAt(renderLinear(context(), withAnchor({test::makeQuad(1.0f, 0.5f)}, {b}), black), c, c);
   glm::vec3 bg(kBackground);
   glm::vec3 behindA = aPre + (1.0f - 0.5f) * bg;
   glm::vec3 withP = glm::vec3(color) * color.a + (1.0f - color.a) * behindA;
@@ -174,14 +173,14 @@ TEST_F(ParticleRender, InterleavesWithTransparentGeometry) {
   Scene both = withAnchor({test::makeQuad(1.0f, -0.5f, 0), test::makeQuad(1.0f, 0.5f, 1)}, {a, b});
   ImageF32 img = renderLinear(context(), both, renderView(OitMode::LinkedList, draw.get()));
   for (auto [dx, dy] : {std::pair{0, 0}, {3, 2}, {-4, -3}})
-    expectNear(rgbAt(img, c + dx, c + dy), expected, 5e-3f, "lists");
+    expectNear(test::linearRgbAt(img, c + dx, c + dy), expected, 5e-3f, "lists");
   // The sorted reference sorts the particle between the quads' triangles (B's in front of it).
   ImageF32 sorted = renderLinear(context(), both, renderView(OitMode::Sorted, draw.get()));
   for (auto [dx, dy] : {std::pair{0, 0}, {3, 2}, {-4, -3}})
-    expectNear(rgbAt(sorted, c + dx, c + dy), expected, 5e-3f, "sorted");
+    expectNear(test::linearRgbAt(sorted, c + dx, c + dy), expected, 5e-3f, "sorted");
   // Weighted blending approximates the order: within its error on three layers.
   ImageF32 weighted = renderLinear(context(), both, renderView(OitMode::Weighted, draw.get()));
-  expectNear(rgbAt(weighted, c, c), expected, 0.15f, "weighted");
+  expectNear(test::linearRgbAt(weighted, c, c), expected, 0.15f, "weighted");
 }
 
 // A GPU-simulated cloud of overlapping particles around a glass quad, in front of and behind it:

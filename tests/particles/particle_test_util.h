@@ -15,6 +15,7 @@
 #include "mirage/gpu/context.h"
 #include "mirage/render/forward_renderer.h"
 #include "mirage/render/particle_draw.h"
+#include "render/render_test_util.h" // renderForward
 #include "test_scenes.h"
 
 namespace mirage::test {
@@ -68,17 +69,6 @@ inline void showParticles(render::ParticleDraw& draw, std::span<const shaderio::
 inline shaderio::RenderParticle particleRecord(glm::vec3 position, float size, glm::vec4 color, float rotation = 0.0f,
                                                uint32_t frame = 0) {
   return {position, size, rotation, shaderio::particlePackColor(color), frame, 0};
-}
-
-// One frame of `scene` by a fresh forward renderer; a failure fails the test (and returns nothing).
-inline render::RenderOutput renderForward(gpu::Context& ctx, const Scene& scene,
-                                          const render::ForwardRenderSettings& s) {
-  auto r = render::ForwardRenderer::create(ctx, scene);
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
-  if (!r.ok()) return {};
-  auto out = (*r)->render(s);
-  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
-  return out.ok() ? std::move(*out) : render::RenderOutput{};
 }
 
 } // namespace mirage::test

@@ -26,10 +26,11 @@ using namespace mirage;
 using namespace mirage::render;
 using mirage::test::availableRasterBackends;
 using mirage::test::renderCluster;
+using mirage::test::writeOnFailure;
 
 namespace {
 
-constexpr uint32_t kSize = 192;
+constexpr uint32_t kAlphaSize = 192;
 
 // Wall (opaque, z = -1); masked checker panel (z = 0, double-sided, turned to show its back, so a
 // normal cone would cull it if cones ignored double-sidedness); two blended panels overlapping in
@@ -60,15 +61,9 @@ Scene alphaScene(bool swapBlend) {
   return s;
 }
 
-lod::LodAsset bake(const Scene& scene) {
-  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
-  EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
-  return baked.ok() ? std::move(*baked) : lod::LodAsset{};
-}
-
-ClusterRenderSettings settings(RasterBackend raster) {
+ClusterRenderSettings alphaSettings(RasterBackend raster) {
   ClusterRenderSettings s;
-  s.base.width = s.base.height = kSize;
+  s.base.width = s.base.height = kAlphaSize;
   s.base.camera.eye = {0.3f, 0.4f, 6.0f};
   s.base.camera.target = {0.0f, 0.0f, 0.0f};
   s.base.camera.fovYDegrees = 45.0f;
@@ -79,25 +74,15 @@ ClusterRenderSettings settings(RasterBackend raster) {
   return s;
 }
 
-ImageRGBA8 renderForward(gpu::Context& ctx, const Scene& scene, const RenderSettings& s) {
-  auto fwd = ForwardRenderer::create(ctx, scene);
-  EXPECT_TRUE(fwd.ok());
-  auto out = (*fwd)->render(s);
-  EXPECT_TRUE(out.ok());
-  return std::move(out->srgb);
+// The forward renderer's image of `scene`.
+ImageRGBA8 forwardImage(gpu::Context& ctx, const Scene& scene, const RenderSettings& s) {
+  return test::renderForward(ctx, scene, {.base = s}).srgb;
 }
 
 bool hasPass(const ClusterRenderOutput& out, const char* name) {
   for (const auto& t : out.image.stats.passTimes)
     if (t.name == name) return true;
   return false;
-}
-
-void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
-  if (!::testing::Test::HasFailure()) return;
-  static const std::filesystem::path dir = test::tempDir("cluster_alpha");
-  auto path = dir / name;
-  if (io::writePng(path, img)) std::fprintf(stderr, "wrote %s\n", path.string().c_str());
 }
 
 // The hardware and hybrid blend rasters against the compute one (docs/render.md, "Blend rasters"),
@@ -182,9 +167,9 @@ class ClusterAlpha : public test::GpuTest {};
 // Blend rasters on the panel scene (two overlapping blended panels over an opaque wall and a
 // masked panel; similar triangle sizes, so hybrid's split is asserted on the city below).
 TEST_F(ClusterAlpha, HardwareBlendRasterMatchesCompute) {
-  lod::LodAsset asset = bake(alphaScene(false));
+  lod::LodAsset asset = test::bakeScene(alphaScene(false));
   ASSERT_FALSE(asset.dags.empty());
-  expectBlendRastersAgree(context(), asset, settings(RasterBackend::Auto), "panels", /*expectSplit=*/false);
+  expectBlendRastersAgree(context(), asset, alphaSettings(RasterBackend::Auto), "panels", /*expectSplit=*/false);
 }
 
 // Khronos AlphaBlendModeTest (textured BLEND quads over opaque and masked ones).
@@ -192,9 +177,9 @@ TEST_F(ClusterAlpha, HardwareBlendRasterMatchesComputeOnKhronosAlphaBlendModeTes
   MIRAGE_REQUIRE_DATA(path, "khronos-alpha-blend-mode-test/glTF/AlphaBlendModeTest.gltf");
   auto scene = io::importScene(path);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  lod::LodAsset asset = bake(*scene);
+  lod::LodAsset asset = test::bakeScene(*scene);
   ASSERT_FALSE(asset.dags.empty());
-  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  ClusterRenderSettings s = alphaSettings(RasterBackend::Auto);
   s.base.width = 240;
   s.base.height = 135;
   s.base.camera = autoCamera(asset.scene.worldBounds(), 240.0f / 135.0f);
@@ -212,9 +197,9 @@ TEST_F(ClusterAlpha, HardwareBlendRasterMatchesComputeOnCity) {
   o.minFloors = 2;
   o.maxFloors = 4;
   o.interiors = false;
-  lod::LodAsset asset = bake(io::generateCity(o));
+  lod::LodAsset asset = test::bakeScene(io::generateCity(o));
   ASSERT_FALSE(asset.dags.empty());
-  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  ClusterRenderSettings s = alphaSettings(RasterBackend::Auto);
   s.base.width = 256;
   s.base.height = 160;
   s.base.camera.eye = {21.0f, 1.7f, -50.0f}; // in a street, looking down it past three blocks
@@ -228,21 +213,21 @@ TEST_F(ClusterAlpha, HardwareBlendRasterMatchesComputeOnCity) {
 // panels tint what lies behind them, sorted per pixel), far from the image with either alpha mode
 // ignored; blended clusters are drawn into the transparency lists, none dropped.
 TEST_F(ClusterAlpha, MaskAndBlendMatchForward) {
-  lod::LodAsset asset = bake(alphaScene(false));
+  lod::LodAsset asset = test::bakeScene(alphaScene(false));
   ASSERT_FALSE(asset.dags.empty());
   Scene reference = lod::levelZeroScene(asset);
-  ImageRGBA8 fwd = renderForward(context(), reference, settings(RasterBackend::Auto).base);
+  ImageRGBA8 fwd = forwardImage(context(), reference, alphaSettings(RasterBackend::Auto).base);
   // Mask ignored (opaque) and blend ignored (opaque): both must be visibly wrong.
   Scene maskOpaque = reference, blendOpaque = reference;
   maskOpaque.materials[1].alphaMode = AlphaMode::Opaque;
   blendOpaque.materials[2].alphaMode = blendOpaque.materials[3].alphaMode = AlphaMode::Opaque;
-  double maskIgnored = psnr(fwd, renderForward(context(), maskOpaque, settings(RasterBackend::Auto).base));
-  double blendIgnored = psnr(fwd, renderForward(context(), blendOpaque, settings(RasterBackend::Auto).base));
+  double maskIgnored = psnr(fwd, forwardImage(context(), maskOpaque, alphaSettings(RasterBackend::Auto).base));
+  double blendIgnored = psnr(fwd, forwardImage(context(), blendOpaque, alphaSettings(RasterBackend::Auto).base));
   std::printf("forward vs mask ignored %.1f dB, vs blend ignored %.1f dB\n", maskIgnored, blendIgnored);
   EXPECT_LT(maskIgnored, 30.0);
   EXPECT_LT(blendIgnored, 30.0);
   for (RasterBackend b : availableRasterBackends(context())) {
-    ClusterRenderSettings s = settings(b);
+    ClusterRenderSettings s = alphaSettings(b);
     if (b == RasterBackend::Hybrid) s.hybridThreshold = 0.0f; // every cluster through the fragment atomics
     ClusterRenderOutput out = renderCluster(context(), asset, s);
     double p = psnr(fwd, out.image.srgb);
@@ -262,11 +247,11 @@ TEST_F(ClusterAlpha, MaskAndBlendMatchForward) {
 // The blended panels listed in the other order: the same image (the composite sorts per pixel),
 // on every backend; and the masked, double-sided panel seen from behind is not cone-culled.
 TEST_F(ClusterAlpha, BlendIsIndependentOfOrder) {
-  lod::LodAsset a = bake(alphaScene(false)), b = bake(alphaScene(true));
+  lod::LodAsset a = test::bakeScene(alphaScene(false)), b = test::bakeScene(alphaScene(true));
   ASSERT_FALSE(a.dags.empty() || b.dags.empty());
   for (RasterBackend backend : availableRasterBackends(context())) {
-    ClusterRenderOutput outA = renderCluster(context(), a, settings(backend));
-    ClusterRenderOutput outB = renderCluster(context(), b, settings(backend));
+    ClusterRenderOutput outA = renderCluster(context(), a, alphaSettings(backend));
+    ClusterRenderOutput outB = renderCluster(context(), b, alphaSettings(backend));
     double p = psnr(outA.image.srgb, outB.image.srgb);
     std::printf("%s: order swapped PSNR %.2f dB, %u cone-culled\n", toString(backend), p,
                 outA.stats.clustersBackfaceCulled);
@@ -283,12 +268,12 @@ TEST_F(ClusterAlpha, BlendIsIndependentOfOrder) {
 // renderer's back-face culling drops their triangles.
 TEST_F(ClusterAlpha, MaskedDoubleSidedIsNotConeCulled) {
   Scene scene = alphaScene(false);
-  lod::LodAsset asset = bake(scene);
+  lod::LodAsset asset = test::bakeScene(scene);
   scene.materials[1].doubleSided = false;
-  lod::LodAsset singleSided = bake(scene);
+  lod::LodAsset singleSided = test::bakeScene(scene);
   ASSERT_FALSE(asset.dags.empty() || singleSided.dags.empty());
-  ClusterRenderOutput both = renderCluster(context(), asset, settings(RasterBackend::Auto));
-  ClusterRenderOutput one = renderCluster(context(), singleSided, settings(RasterBackend::Auto));
+  ClusterRenderOutput both = renderCluster(context(), asset, alphaSettings(RasterBackend::Auto));
+  ClusterRenderOutput one = renderCluster(context(), singleSided, alphaSettings(RasterBackend::Auto));
   EXPECT_EQ(both.stats.clustersBackfaceCulled, 0u);
   EXPECT_GT(one.stats.clustersBackfaceCulled, 0u);
   EXPECT_LT(psnr(both.image.srgb, one.image.srgb), 30.0); // the panel is gone
@@ -298,11 +283,11 @@ TEST_F(ClusterAlpha, MaskedDoubleSidedIsNotConeCulled) {
 // HZB-tested in phase 2) and a masked occluder: the image equals the one without occlusion.
 TEST_F(ClusterAlpha, OcclusionKeepsAlphaImage) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
-  lod::LodAsset asset = bake(alphaScene(false));
+  lod::LodAsset asset = test::bakeScene(alphaScene(false));
   ASSERT_FALSE(asset.dags.empty());
   auto r = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(r.ok()) << r.error().message;
-  ClusterRenderSettings s = settings(RasterBackend::Compute);
+  ClusterRenderSettings s = alphaSettings(RasterBackend::Compute);
   auto off = (*r)->render(s);
   ASSERT_TRUE(off.ok());
   s.occlusionCulling = true;
@@ -324,9 +309,9 @@ TEST_F(ClusterAlpha, CountsFragmentsBeyondTheLimits) {
     s.materials = {test::solidMaterial({0.9f, 0.3f, 0.2f, 0.2f}, AlphaMode::Blend)};
     s.meshes = {test::makeGrid(halfSize, 0.0f, 0, 2)};
     for (int i = 0; i < 18; ++i) s.instances.push_back({0, glm::translate(glm::mat4(1.0f), {0, 0, 0.05f * float(i)})});
-    lod::LodAsset asset = bake(s);
+    lod::LodAsset asset = test::bakeScene(s);
     ASSERT_FALSE(asset.dags.empty());
-    ClusterRenderSettings cs = settings(RasterBackend::Compute);
+    ClusterRenderSettings cs = alphaSettings(RasterBackend::Compute);
     cs.base.camera.eye = {0.0f, 0.0f, 6.0f}; // on the axis: the panels' projections nest
     cs.base.width = cs.base.height = 48;
     ClusterRenderOutput out = renderCluster(context(), asset, cs);
@@ -355,16 +340,16 @@ TEST_F(ClusterAlpha, MeanSquaredLayersOfStackedPanels) {
   s.materials = {test::solidMaterial({0.9f, 0.3f, 0.2f, 0.3f}, AlphaMode::Blend)};
   s.meshes = {test::makeGrid(10.0f, 0.0f, 0, 2)};
   for (int i = 0; i < 3; ++i) s.instances.push_back({0, glm::translate(glm::mat4(1.0f), {0, 0, 0.05f * float(i)})});
-  lod::LodAsset asset = bake(s);
+  lod::LodAsset asset = test::bakeScene(s);
   ASSERT_FALSE(asset.dags.empty());
-  ClusterRenderSettings cs = settings(RasterBackend::Auto);
+  ClusterRenderSettings cs = alphaSettings(RasterBackend::Auto);
   cs.base.camera.eye = {0.0f, 0.0f, 6.0f};
   cs.base.width = cs.base.height = 48;
   ClusterRenderOutput out = renderCluster(context(), asset, cs);
   EXPECT_EQ(out.stats.oitFragments, 3u * 48 * 48);
   EXPECT_EQ(out.stats.oitPoolOverflow + out.stats.oitLayersDropped, 0u);
   EXPECT_DOUBLE_EQ(out.stats.msl, 9.0);
-  double p = psnr(renderForward(context(), s, cs.base), out.image.srgb);
+  double p = psnr(forwardImage(context(), s, cs.base), out.image.srgb);
   std::printf("3 stacked panels: msl %.3f, PSNR vs forward linked lists %.2f dB\n", out.stats.msl, p);
   EXPECT_GE(p, 45.0);
 }
@@ -375,18 +360,18 @@ TEST_F(ClusterAlpha, KhronosAlphaBlendModeTestMatchesForward) {
   MIRAGE_REQUIRE_DATA(path, "khronos-alpha-blend-mode-test/glTF/AlphaBlendModeTest.gltf");
   auto scene = io::importScene(path);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  lod::LodAsset asset = bake(*scene);
+  lod::LodAsset asset = test::bakeScene(*scene);
   ASSERT_FALSE(asset.dags.empty());
   Scene reference = lod::levelZeroScene(asset);
-  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  ClusterRenderSettings s = alphaSettings(RasterBackend::Auto);
   s.base.width = 240;
   s.base.height = 135;
   s.base.camera = autoCamera(reference.worldBounds(), 240.0f / 135.0f);
   s.tauPixels = 0.01f;
-  ImageRGBA8 fwd = renderForward(context(), reference, s.base);
+  ImageRGBA8 fwd = forwardImage(context(), reference, s.base);
   Scene ignored = reference; // what the cluster renderer drew before: every material opaque
   for (Material& m : ignored.materials) m.alphaMode = AlphaMode::Opaque;
-  double ignoredPsnr = psnr(fwd, renderForward(context(), ignored, s.base));
+  double ignoredPsnr = psnr(fwd, forwardImage(context(), ignored, s.base));
   std::printf("AlphaBlendModeTest with alpha ignored: %.2f dB\n", ignoredPsnr);
   EXPECT_LT(ignoredPsnr, 30.0);
   for (RasterBackend b : availableRasterBackends(context())) {
@@ -408,10 +393,10 @@ TEST_F(ClusterAlpha, KhronosAlphaBlendModeTestMatchesForward) {
 TEST_F(ClusterAlpha, OpaqueScenesRunNoTransparencyPass) {
   Scene s = alphaScene(false);
   for (Material& m : s.materials) m.alphaMode = AlphaMode::Opaque;
-  lod::LodAsset asset = bake(s);
+  lod::LodAsset asset = test::bakeScene(s);
   ASSERT_FALSE(asset.dags.empty());
   for (RasterBackend b : availableRasterBackends(context())) {
-    ClusterRenderOutput out = renderCluster(context(), asset, settings(b));
+    ClusterRenderOutput out = renderCluster(context(), asset, alphaSettings(b));
     EXPECT_FALSE(hasPass(out, "blend") || hasPass(out, "composite")) << toString(b);
     EXPECT_EQ(out.stats.clustersBlend, 0u);
     EXPECT_EQ(out.stats.oitFragments, 0u);
@@ -421,14 +406,14 @@ TEST_F(ClusterAlpha, OpaqueScenesRunNoTransparencyPass) {
 // Transparency off (the viewer's switch): the blend raster and composite do not run, and the image
 // is the scene without its blended panels (forward renderer), not the image with them.
 TEST_F(ClusterAlpha, TransparencyOffDrawsTheSceneWithoutItsBlendedPanels) {
-  lod::LodAsset asset = bake(alphaScene(false));
+  lod::LodAsset asset = test::bakeScene(alphaScene(false));
   ASSERT_FALSE(asset.dags.empty());
   Scene withoutBlend = lod::levelZeroScene(asset);
   withoutBlend.instances.resize(2); // the wall and the masked panel
-  ImageRGBA8 fwd = renderForward(context(), withoutBlend, settings(RasterBackend::Auto).base);
+  ImageRGBA8 fwd = forwardImage(context(), withoutBlend, alphaSettings(RasterBackend::Auto).base);
   auto renderer = ClusterRenderer::create(context(), asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  ClusterRenderSettings s = settings(RasterBackend::Auto);
+  ClusterRenderSettings s = alphaSettings(RasterBackend::Auto);
   auto on = (*renderer)->render(s);
   s.transparency = false;
   auto off = (*renderer)->render(s);

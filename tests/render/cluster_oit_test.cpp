@@ -54,12 +54,6 @@ Scene layerScene(uint32_t layers, float tiltDegrees, bool wall) {
   return s;
 }
 
-lod::LodAsset bake(const Scene& scene) {
-  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
-  EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
-  return baked.ok() ? std::move(*baked) : lod::LodAsset{};
-}
-
 // The benchmark's view (`mirage bench render l8.mrg --camera eye=0,0,0.6,target=0,0,0,fov=60`),
 // with fixed clip planes so that scenes of fewer layers project alike.
 ClusterRenderSettings layerSettings(uint32_t width, uint32_t height) {
@@ -155,7 +149,7 @@ void expectQueueMatchesClusterWalk(ClusterRenderer& r, ClusterRenderSettings s, 
 
 // A renderer of `layers` stacked layers cut by a wall (layerScene), baked; null on failure.
 std::unique_ptr<ClusterRenderer> wallLayerRenderer(gpu::Context& ctx, uint32_t layers) {
-  lod::LodAsset asset = bake(layerScene(layers, 3.0f, /*wall=*/true));
+  lod::LodAsset asset = test::bakeScene(layerScene(layers, 3.0f, /*wall=*/true));
   EXPECT_FALSE(asset.dags.empty());
   auto r = ClusterRenderer::create(ctx, asset);
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
@@ -174,7 +168,7 @@ protected:
   void SetUp() override {
     test::GpuTest::SetUp();
     if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics: no blend queue";
-    asset_ = bake(layerScene(3, 3.0f, /*wall=*/true));
+    asset_ = test::bakeScene(layerScene(3, 3.0f, /*wall=*/true));
     ASSERT_FALSE(asset_.dags.empty());
     auto r = ClusterRenderer::create(context(), asset_);
     ASSERT_TRUE(r.ok()) << r.error().message;
@@ -251,7 +245,7 @@ TEST_F(ClusterBlendQueue, FullQueueFallsBackToTheClusterWalk) {
 TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
   constexpr uint32_t kLayers = 8, kW = 48, kH = 32, kPool = 2;
   Scene scene = layerScene(kLayers, 0.0f, /*wall=*/false);
-  lod::LodAsset asset = bake(scene);
+  lod::LodAsset asset = test::bakeScene(scene);
   ASSERT_FALSE(asset.dags.empty());
   ClusterRenderSettings s = layerSettings(kW, kH);
   s.raster = RasterBackend::Auto;
@@ -260,7 +254,7 @@ TEST_F(ClusterOit, PoolOverflowKeepsEachPixelsNearestLayers) {
   for (uint32_t k = 0; k <= kLayers; ++k) {
     Scene part = scene;
     part.instances.erase(part.instances.begin(), part.instances.begin() + (kLayers - std::max(k, 1u)));
-    lod::LodAsset partAsset = bake(part);
+    lod::LodAsset partAsset = test::bakeScene(part);
     ASSERT_FALSE(partAsset.dags.empty());
     ClusterRenderSettings ps = s;
     ps.oitNodesPerPixel = kLayers;
@@ -331,11 +325,11 @@ TEST_F(ClusterOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
   ClusterRenderSettings s = layerSettings(kW, kH);
   s.raster = RasterBackend::Auto;
   s.oitNodesPerPixel = kCap;
-  lod::LodAsset partAsset = bake(part);
+  lod::LodAsset partAsset = test::bakeScene(part);
   ASSERT_FALSE(partAsset.dags.empty());
   ClusterRenderOutput nearest = test::renderCluster(context(), partAsset, s);
   ASSERT_EQ(nearest.stats.oitPoolOverflow + nearest.stats.oitLayersDropped, 0u);
-  lod::LodAsset asset = bake(scene);
+  lod::LodAsset asset = test::bakeScene(scene);
   ASSERT_FALSE(asset.dags.empty());
   std::vector<BlendMode> modes = blendModes(context(), 0.0f);
   auto renderer = ClusterRenderer::create(context(), asset);

@@ -16,6 +16,7 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/cluster_renderer.h"
 #include "mirage/render/particle_draw.h"
+#include "particles/particle_test_util.h"
 #include "render/cluster_test_util.h"
 #include "test_scenes.h"
 
@@ -25,8 +26,8 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr uint32_t kSize = 128;
-const glm::vec4 kBackground{0.05f, 0.05f, 0.1f, 1.0f};
+constexpr uint32_t kParticleViewSize = 128;
+const glm::vec4 kParticleViewBackground{0.05f, 0.05f, 0.1f, 1.0f};
 
 } // namespace
 
@@ -46,26 +47,20 @@ Scene wallScene(bool glass) {
   return s;
 }
 
-lod::LodAsset bake(const Scene& scene) {
-  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
-  EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
-  return baked.ok() ? std::move(*baked) : lod::LodAsset{};
-}
-
 RenderSettings base() {
   RenderSettings s;
-  s.width = s.height = kSize;
+  s.width = s.height = kParticleViewSize;
   s.camera.eye = {0.3f, 0.4f, 6.0f};
   s.camera.target = {0.0f, 0.0f, 0.0f};
   s.camera.fovYDegrees = 45.0f;
   s.camera.znear = 0.5f; // both renderers with the same clip planes (the same depth values)
   s.camera.zfar = 20.0f;
-  s.background = kBackground;
+  s.background = kParticleViewBackground;
   s.readLinear = true;
   return s;
 }
 
-ClusterRenderSettings clusterSettings(RasterBackend raster, ParticleDraw* particles) {
+ClusterRenderSettings particleClusterSettings(RasterBackend raster, ParticleDraw* particles) {
   ClusterRenderSettings s;
   s.base = base();
   s.tauPixels = 0.5f;
@@ -88,37 +83,24 @@ std::unique_ptr<ParticleDraw> spriteDraw(gpu::Context& ctx) {
   return d.ok() ? std::move(*d) : nullptr;
 }
 
-sio::RenderParticle particle(glm::vec3 position, float size, glm::vec4 color, float rotation = 0.0f) {
-  return {position, size, rotation, sio::particlePackColor(color), 0, 0};
-}
-
 // Particles before, between and behind the scene's layers, some overlapping each other, some under
 // two pixels (splatted).
 std::vector<sio::RenderParticle> cloud() {
-  std::vector<sio::RenderParticle> p{particle({-0.4f, 0.1f, 0.0f}, 1.2f, {1.0f, 0.2f, 0.1f, 0.8f}),
-                                     particle({0.5f, 0.3f, 1.0f}, 0.9f, {0.2f, 0.4f, 1.0f, 0.7f}, 0.3f),
-                                     particle({0.2f, -0.4f, 0.8f}, 1.0f, {0.9f, 0.9f, 0.9f, 0.5f}, 1.1f),
-                                     particle({-0.8f, -0.5f, -1.6f}, 1.0f, {1.0f, 1.0f, 0.0f, 1.0f})};
+  std::vector<sio::RenderParticle> p{test::particleRecord({-0.4f, 0.1f, 0.0f}, 1.2f, {1.0f, 0.2f, 0.1f, 0.8f}),
+                                     test::particleRecord({0.5f, 0.3f, 1.0f}, 0.9f, {0.2f, 0.4f, 1.0f, 0.7f}, 0.3f),
+                                     test::particleRecord({0.2f, -0.4f, 0.8f}, 1.0f, {0.9f, 0.9f, 0.9f, 0.5f}, 1.1f),
+                                     test::particleRecord({-0.8f, -0.5f, -1.6f}, 1.0f, {1.0f, 1.0f, 0.0f, 1.0f})};
   for (int i = 0; i < 24; ++i) { // small ones around the panel, in front of and behind it
     float t = float(i) * 0.7f;
-    p.push_back(particle({1.2f * std::sin(t), 0.9f * std::cos(1.3f * t), 0.9f * std::sin(2.1f * t)},
-                         0.15f + 0.02f * float(i % 5), {0.5f + 0.02f * float(i), 0.8f, 0.3f, 0.6f}));
+    p.push_back(test::particleRecord({1.2f * std::sin(t), 0.9f * std::cos(1.3f * t), 0.9f * std::sin(2.1f * t)},
+                                     0.15f + 0.02f * float(i % 5), {0.5f + 0.02f * float(i), 0.8f, 0.3f, 0.6f}));
   }
   for (int i = 0; i < 40; ++i) { // and tiny ones, splatted by default (ParticleDrawSettings)
     float t = float(i) * 1.3f;
-    p.push_back(particle({1.4f * std::sin(t), 1.0f * std::cos(0.7f * t), 1.2f * std::sin(1.7f * t)},
-                         0.02f + 0.001f * float(i), {1.0f, 0.8f, 0.4f, 0.9f}));
+    p.push_back(test::particleRecord({1.4f * std::sin(t), 1.0f * std::cos(0.7f * t), 1.2f * std::sin(1.7f * t)},
+                                     0.02f + 0.001f * float(i), {1.0f, 0.8f, 0.4f, 0.9f}));
   }
   return p;
-}
-
-ImageRGBA8 renderForward(gpu::Context& ctx, const Scene& scene, ForwardRenderSettings s) {
-  auto r = ForwardRenderer::create(ctx, scene);
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
-  if (!r.ok()) return {};
-  auto out = (*r)->render(s);
-  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
-  return out.ok() ? std::move(out->srgb) : ImageRGBA8{};
 }
 
 // Where world point p lands in the image (pixel column, row).
@@ -126,19 +108,14 @@ glm::uvec2 pixelOf(glm::vec3 p) {
   Camera c = base().camera;
   glm::vec4 clip = c.projection(1.0f) * c.view() * glm::vec4(p, 1.0f);
   glm::vec2 ndc = glm::vec2(clip) / clip.w;
-  return glm::uvec2((ndc * 0.5f + 0.5f) * float(kSize));
-}
-
-glm::vec3 at(const ImageF32& img, uint32_t x, uint32_t y) {
-  const float* p = &img.pixels[(size_t(y) * img.width + x) * 4];
-  return {p[0], p[1], p[2]};
+  return glm::uvec2((ndc * 0.5f + 0.5f) * float(kParticleViewSize));
 }
 
 // Every backend, mono and stereo: the forward renderer's image of the same meshes (level 0 of the
 // baked asset) and particles, which sorts them with the glass per pixel too; far from the image
 // without particles.
 TEST_F(ClusterParticles, MatchForwardOnEveryBackend) {
-  lod::LodAsset asset = bake(wallScene(true));
+  lod::LodAsset asset = test::bakeScene(wallScene(true));
   ASSERT_FALSE(asset.dags.empty());
   Scene reference = lod::levelZeroScene(asset);
   auto draw = spriteDraw(context());
@@ -150,9 +127,9 @@ TEST_F(ClusterParticles, MatchForwardOnEveryBackend) {
     SCOPED_TRACE(stereo ? "stereo" : "mono");
     ForwardRenderSettings fs{base(), {}, OitMode::LinkedList, 8, draw.get()};
     if (stereo) fs.stereoIpd = 0.3f;
-    ImageRGBA8 fwd = renderForward(context(), reference, fs);
+    ImageRGBA8 fwd = test::renderForward(context(), reference, fs).srgb;
     fs.particles = nullptr;
-    double bare = psnr(fwd, renderForward(context(), reference, fs));
+    double bare = psnr(fwd, test::renderForward(context(), reference, fs).srgb);
     EXPECT_LT(bare, 30.0) << "the particles must show";
     const gpu::DeviceCapabilities& caps = context().caps();
     for (RasterBackend b : test::availableRasterBackends(context()))
@@ -162,7 +139,7 @@ TEST_F(ClusterParticles, MatchForwardOnEveryBackend) {
         if (multiview && (!stereo || !caps.multiview || b == RasterBackend::Compute || b == RasterBackend::Hybrid ||
                           (b == RasterBackend::Mesh && !caps.multiviewMeshShader)))
           continue;
-        ClusterRenderSettings s = clusterSettings(b, draw.get());
+        ClusterRenderSettings s = particleClusterSettings(b, draw.get());
         if (stereo) s.stereoIpd = 0.3f;
         s.stereoMode = mode;
         ClusterRenderOutput out = test::renderCluster(context(), asset, s);
@@ -180,22 +157,22 @@ TEST_F(ClusterParticles, MatchForwardOnEveryBackend) {
 // A particle wholly behind the wall changes nothing; the same particle in front does. Also
 // without BLEND materials (the lists then exist for the particles alone).
 TEST_F(ClusterParticles, HiddenBehindOpaqueGeometry) {
-  lod::LodAsset asset = bake(wallScene(false));
+  lod::LodAsset asset = test::bakeScene(wallScene(false));
   auto draw = spriteDraw(context());
   ASSERT_TRUE(draw);
   for (RasterBackend b : test::availableRasterBackends(context())) {
     SCOPED_TRACE(toString(b));
     draw->setCpuBatches({});
-    ImageRGBA8 bare = test::renderCluster(context(), asset, clusterSettings(b, draw.get())).image.srgb;
-    sio::RenderParticle p = particle({0.0f, 0.0f, -1.8f}, 1.5f, {1.0f, 0.1f, 0.1f, 1.0f});
+    ImageRGBA8 bare = test::renderCluster(context(), asset, particleClusterSettings(b, draw.get())).image.srgb;
+    sio::RenderParticle p = test::particleRecord({0.0f, 0.0f, -1.8f}, 1.5f, {1.0f, 0.1f, 0.1f, 1.0f});
     ParticleDraw::CpuBatch batch{{&p, 1}, 0};
     draw->setCpuBatches({&batch, 1});
-    ClusterRenderOutput behind = test::renderCluster(context(), asset, clusterSettings(b, draw.get()));
+    ClusterRenderOutput behind = test::renderCluster(context(), asset, particleClusterSettings(b, draw.get()));
     EXPECT_EQ(behind.stats.oitFragments, 0u);
     EXPECT_GE(psnr(bare, behind.image.srgb), 60.0);
     p.position.z = 0.0f;
     draw->setCpuBatches({&batch, 1});
-    ClusterRenderOutput front = test::renderCluster(context(), asset, clusterSettings(b, draw.get()));
+    ClusterRenderOutput front = test::renderCluster(context(), asset, particleClusterSettings(b, draw.get()));
     EXPECT_GT(front.stats.oitFragments, 0u);
     EXPECT_LT(psnr(bare, front.image.srgb), 30.0);
   }
@@ -205,7 +182,7 @@ TEST_F(ClusterParticles, HiddenBehindOpaqueGeometry) {
 // is "over" of the layers in depth order, each layer's colour measured from the renders of the
 // wall alone and the wall with the glass (the glass's alpha is its material's 0.4).
 TEST_F(ClusterParticles, InterleaveWithBlendedPanel) {
-  lod::LodAsset bare = bake(wallScene(false)), glass = bake(wallScene(true));
+  lod::LodAsset bare = test::bakeScene(wallScene(false)), glass = test::bakeScene(wallScene(true));
   ParticleSheet white{ImageRGBA8{1, 1, {255, 255, 255, 255}}, 1, 1, false};
   auto draw = ParticleDraw::create(context(), {&white, 1});
   ASSERT_TRUE(draw.ok());
@@ -214,21 +191,21 @@ TEST_F(ClusterParticles, InterleaveWithBlendedPanel) {
   for (RasterBackend b : test::availableRasterBackends(context())) {
     SCOPED_TRACE(toString(b));
     (*draw)->setCpuBatches({});
-    ImageF32 wall = test::renderCluster(context(), bare, clusterSettings(b, draw->get())).image.linear;
-    ImageF32 withGlass = test::renderCluster(context(), glass, clusterSettings(b, draw->get())).image.linear;
+    ImageF32 wall = test::renderCluster(context(), bare, particleClusterSettings(b, draw->get())).image.linear;
+    ImageF32 withGlass = test::renderCluster(context(), glass, particleClusterSettings(b, draw->get())).image.linear;
     glm::uvec2 c = pixelOf({-0.5f, 0.0f, 0.5f}); // the glass's centre; pixels around it
     for (float z : {0.0f, 1.0f}) {
-      sio::RenderParticle p = particle({-0.5f, 0.0f, z}, 1.0f, color);
+      sio::RenderParticle p = test::particleRecord({-0.5f, 0.0f, z}, 1.0f, color);
       ParticleDraw::CpuBatch batch{{&p, 1}, 0};
       (*draw)->setCpuBatches({&batch, 1});
-      ImageF32 img = test::renderCluster(context(), glass, clusterSettings(b, draw->get())).image.linear;
+      ImageF32 img = test::renderCluster(context(), glass, particleClusterSettings(b, draw->get())).image.linear;
       for (auto [x, y] : {std::pair{c.x, c.y}, {c.x - 5, c.y - 4}, {c.x + 6, c.y + 5}}) {
-        glm::vec3 w = at(wall, x, y), g = at(withGlass, x, y);
+        glm::vec3 w = test::linearRgbAt(wall, x, y), g = test::linearRgbAt(withGlass, x, y);
         glm::vec3 glassColor = (g - (1.0f - glassAlpha) * w) / glassAlpha;
         glm::vec3 behind = glm::mix(glm::mix(w, glm::vec3(color), color.a), glassColor, glassAlpha);
         glm::vec3 front = glm::mix(g, glm::vec3(color), color.a);
         ASSERT_GT(glm::length(behind - front), 0.05f) << "the test cannot tell the orders apart";
-        glm::vec3 want = z < 0.5f ? behind : front, got = at(img, x, y);
+        glm::vec3 want = z < 0.5f ? behind : front, got = test::linearRgbAt(img, x, y);
         for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[k], want[k], 5e-3f) << (z < 0.5f ? "behind" : "front") << " " << k;
       }
     }

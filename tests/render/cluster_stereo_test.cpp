@@ -29,7 +29,7 @@ using namespace mirage::render;
 
 namespace {
 
-constexpr uint32_t kWidth = 80, kHeight = 64;
+constexpr uint32_t kClusterStereoWidth = 80, kClusterStereoHeight = 64;
 
 // A 3 x 3 grid of blobs: instances near the frustum sides, so that the two eyes see different
 // instances (the union of the frusta matters) at different distances (so does the nearer eye).
@@ -91,12 +91,6 @@ const lod::LodAsset& maskedBlendedAsset() {
   return asset;
 }
 
-int passCount(const ClusterRenderOutput& out, const std::string& name) {
-  int n = 0;
-  for (const auto& t : out.image.stats.passTimes) n += t.name == name;
-  return n;
-}
-
 // Each half of a stereo render of `camera` against a mono render of that eye (PSNR >= 45 dB).
 void expectHalvesMatchMono(ClusterRenderer& renderer, const ClusterRenderOutput& stereo,
                            const std::array<Camera, 2>& eyes, const ClusterRenderSettings& monoBase) {
@@ -112,11 +106,11 @@ void expectHalvesMatchMono(ClusterRenderer& renderer, const ClusterRenderOutput&
   }
 }
 
-ClusterRenderSettings settings(const Camera& camera, RasterBackend backend, SelectionMode selection) {
+ClusterRenderSettings stereoSettings(const Camera& camera, RasterBackend backend, SelectionMode selection) {
   ClusterRenderSettings s;
   s.selection = selection;
-  s.base.width = kWidth;
-  s.base.height = kHeight;
+  s.base.width = kClusterStereoWidth;
+  s.base.height = kClusterStereoHeight;
   s.base.camera = camera;
   s.base.background = {0.1f, 0.2f, 0.3f, 1.0f};
   s.raster = backend;
@@ -157,7 +151,7 @@ TEST_F(ClusterStereo, EachHalfMatchesAMonoRenderOfThatEye) {
   auto renderer = ClusterRenderer::create(ctx, gridAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   const Bounds& bounds = (*renderer)->worldBounds();
-  Camera camera = autoCamera(bounds, float(kWidth) / kHeight);
+  Camera camera = autoCamera(bounds, float(kClusterStereoWidth) / kClusterStereoHeight);
   camera.eye = glm::mix(camera.target, camera.eye, 0.6f); // close: the grid's sides leave the frame
   // A wide baseline so that the eyes' images differ visibly (a real IPD on this small scene would not).
   float ipd = 0.15f * glm::length(bounds.max - bounds.min);
@@ -169,20 +163,20 @@ TEST_F(ClusterStereo, EachHalfMatchesAMonoRenderOfThatEye) {
   runs.emplace_back(runs.back().first, SelectionMode::Dag);
   for (auto [backend, selection] : runs) {
     SCOPED_TRACE(std::string(toString(backend)) + " " + toString(selection));
-    ClusterRenderSettings s = settings(camera, backend, selection);
+    ClusterRenderSettings s = stereoSettings(camera, backend, selection);
     s.stereoIpd = ipd;
     auto stereo = (*renderer)->render(s);
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-    ASSERT_EQ(stereo->image.srgb.width, 2 * kWidth);
-    ASSERT_EQ(stereo->image.srgb.height, kHeight);
+    ASSERT_EQ(stereo->image.srgb.width, 2 * kClusterStereoWidth);
+    ASSERT_EQ(stereo->image.srgb.height, kClusterStereoHeight);
     ImageRGBA8 halves[2] = {test::stereoHalf(stereo->image.srgb, 0), test::stereoHalf(stereo->image.srgb, 1)};
     EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
     // Both eyes in one raster pass and one resolve pass.
-    EXPECT_EQ(passCount(*stereo, "raster"), 1);
-    EXPECT_EQ(passCount(*stereo, "resolve"), 1);
+    EXPECT_EQ(test::passCount(stereo->image.stats.passTimes, "raster"), 1);
+    EXPECT_EQ(test::passCount(stereo->image.stats.passTimes, "resolve"), 1);
     uint64_t monoTriangles[2] = {};
     for (uint32_t e = 0; e < 2; ++e) {
-      auto mono = (*renderer)->render(settings(eyes[e], backend, selection));
+      auto mono = (*renderer)->render(stereoSettings(eyes[e], backend, selection));
       ASSERT_TRUE(mono.ok()) << mono.error().message;
       monoTriangles[e] = mono->stats.trianglesRasterized;
       double db = psnr(halves[e], mono->image.srgb);
@@ -199,7 +193,7 @@ TEST_F(ClusterStereo, RefusesWhatTheSharedSelectionCannotServe) {
   auto renderer = ClusterRenderer::create(ctx, gridAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   ClusterRenderSettings s =
-      settings(autoCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Auto, SelectionMode::Auto);
+      stereoSettings(autoCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Auto, SelectionMode::Auto);
   s.stereoIpd = -1.0f;
   auto bad = (*renderer)->render(s);
   ASSERT_FALSE(bad.ok());
@@ -235,7 +229,7 @@ TEST_F(ClusterStereo, OcclusionKeepsWhatOnlyOneEyeSees) {
     SCOPED_TRACE(toString(backend));
     auto renderer = ClusterRenderer::create(ctx, *baked);
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    ClusterRenderSettings s = stereoSettings(camera, backend, SelectionMode::Flat);
     s.base.width = 256;
     s.base.height = 192;
     s.occlusionCulling = true;
@@ -265,7 +259,7 @@ TEST_F(ClusterStereo, OcclusionCullingKeepsEachEyeImage) {
   float ipd = 0.6f;
   for (RasterBackend backend : test::availableRasterBackends(ctx)) {
     SCOPED_TRACE(toString(backend));
-    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    ClusterRenderSettings s = stereoSettings(camera, backend, SelectionMode::Flat);
     s.occlusionCulling = true;
     s.stereoIpd = ipd;
     for (int frame = 0; frame < 2; ++frame) {
@@ -295,7 +289,7 @@ TEST_F(ClusterStereo, NearPlaneCrossingTrianglesMatchPerEye) {
   float ipd = 0.3f;
   for (RasterBackend backend : test::availableRasterBackends(ctx)) {
     SCOPED_TRACE(toString(backend));
-    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    ClusterRenderSettings s = stereoSettings(camera, backend, SelectionMode::Flat);
     s.stereoIpd = ipd;
     auto stereo = (*renderer)->render(s);
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
@@ -326,7 +320,7 @@ TEST_F(ClusterStereo, MaskedAndBlendedMatchPerEye) {
   runs.emplace_back(RasterBackend::Indirect, BlendRaster::Hardware);
   for (auto [backend, blend] : runs) {
     SCOPED_TRACE(std::string(toString(backend)) + " blend " + toString(blend));
-    ClusterRenderSettings s = settings(camera, backend, SelectionMode::Flat);
+    ClusterRenderSettings s = stereoSettings(camera, backend, SelectionMode::Flat);
     s.tauPixels = 0.5f;
     s.blendRaster = blend;
     s.stereoIpd = ipd;
@@ -372,7 +366,7 @@ TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
                    (c.asset == &gridAsset() ? " grid" : " masked+blended"));
       auto renderer = ClusterRenderer::create(ctx, *c.asset);
       ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-      ClusterRenderSettings s = settings(c.camera, backend, SelectionMode::Flat);
+      ClusterRenderSettings s = stereoSettings(c.camera, backend, SelectionMode::Flat);
       s.stereoIpd = c.ipd;
       s.occlusionCulling = c.occlusion;
       s.blendRaster = ctx.caps().fragmentStoresAndAtomics ? BlendRaster::Hardware : BlendRaster::Compute;
@@ -395,7 +389,9 @@ TEST_F(ClusterStereo, MultiviewMatchesViewportsAndEachEye) {
       EXPECT_LT(psnr(test::stereoHalf(multiview, 0), test::stereoHalf(multiview, 1)), 30.0)
           << "the eyes see the same image";
       // The image backends copy the layers side by side once per pass; hybrid's fragments write the buffer.
-      EXPECT_EQ(passCount(out[0], "layer-copy"), backend == RasterBackend::Hybrid ? 0 : c.occlusion ? 2 : 1);
+      EXPECT_EQ(test::passCount(out[0].image.stats.passTimes, "layer-copy"), backend == RasterBackend::Hybrid ? 0
+                                                                             : c.occlusion                    ? 2
+                                                                                                              : 1);
       // Plausible pass times: lavapipe can resolve the copy's begin timestamp after its end, which
       // must not wrap around to ~1.8e13 ms.
       for (const auto& t : out[0].image.stats.passTimes) EXPECT_LT(t.milliseconds, 1e6) << t.name;
@@ -413,7 +409,7 @@ TEST_F(ClusterStereo, MultiviewRefusedWhereItCannotRun) {
   auto renderer = ClusterRenderer::create(ctx, gridAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   ClusterRenderSettings s =
-      settings(autoCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Indirect, SelectionMode::Flat);
+      stereoSettings(autoCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Indirect, SelectionMode::Flat);
   auto mono = (*renderer)->render(s);
   ASSERT_TRUE(mono.ok()) << mono.error().message;
   EXPECT_EQ(mono->stats.stereoMode, StereoMode::Auto);

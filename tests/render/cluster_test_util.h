@@ -1,5 +1,5 @@
 #pragma once
-// Helpers shared by the cluster renderer's test files.
+// Helpers shared by the cluster renderer's test files (and render_test_util.h's).
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -15,6 +15,7 @@
 #include "mirage/lod/lod_asset.h"
 #include "mirage/render/camera.h"
 #include "mirage/render/cluster_renderer.h"
+#include "render/render_test_util.h"
 #include "test_support.h"
 
 namespace mirage::test {
@@ -89,12 +90,11 @@ inline render::ClusterRenderSettings settingsFor(const Bounds& bounds, float tau
   return s;
 }
 
-// The image as a PNG in the process's temporary directory when the test has failed.
-inline void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
-  if (!::testing::Test::HasFailure()) return;
-  static const std::filesystem::path dir = tempDir("cluster"); // one per process: tempDir empties it
-  auto path = dir / name;
-  if (io::writePng(path, img)) std::fprintf(stderr, "wrote %s\n", path.string().c_str());
+// `scene` baked with the default build; a failure fails the test (and returns an empty asset).
+inline lod::LodAsset bakeScene(const Scene& scene) {
+  auto baked = lod::bakeLodAsset(scene, lod::BuildConfig{});
+  EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
+  return baked.ok() ? std::move(*baked) : lod::LodAsset{};
 }
 
 } // namespace mirage::test

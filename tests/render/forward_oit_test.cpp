@@ -20,6 +20,7 @@
 #include "mirage/io/image_io.h"
 #include "mirage/render/forward_renderer.h"
 #include "test_scenes.h"
+#include "render/render_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -27,7 +28,7 @@ using namespace mirage::render;
 
 namespace {
 
-constexpr uint32_t kSize = 64;
+constexpr uint32_t kOitSize = 64;
 
 // An n x n grid in the XY plane at z (facing +Z; test::makeGrid), vertex colour `color`: with n
 // even a vertex column at x = 0, along which the crossing quads below intersect.
@@ -84,9 +85,9 @@ Scene stackedLayers(int n) {
   return s;
 }
 
-ForwardRenderSettings settings(OitMode mode) {
+ForwardRenderSettings oitSettings(OitMode mode) {
   ForwardRenderSettings s;
-  s.base.width = s.base.height = kSize;
+  s.base.width = s.base.height = kOitSize;
   s.base.camera.eye = {0.4f, 0.3f, 5.0f};
   s.base.camera.target = {0, 0, 0};
   s.base.camera.fovYDegrees = 45.0f;
@@ -95,28 +96,12 @@ ForwardRenderSettings settings(OitMode mode) {
   return s;
 }
 
-RenderOutput renderOit(gpu::Context& ctx, const Scene& scene, const ForwardRenderSettings& s) {
-  auto renderer = ForwardRenderer::create(ctx, scene);
-  EXPECT_TRUE(renderer.ok()) << (renderer.ok() ? "" : renderer.error().message);
-  if (!renderer.ok()) return {};
-  auto out = (*renderer)->render(s);
-  EXPECT_TRUE(out.ok()) << (out.ok() ? "" : out.error().message);
-  return out.ok() ? std::move(*out) : RenderOutput{};
-}
-
-void writeOnFailure(const ImageRGBA8& img, const std::string& name) {
-  if (!::testing::Test::HasFailure()) return;
-  static const std::filesystem::path dir = test::tempDir("forward_oit");
-  auto path = dir / name;
-  if (io::writePng(path, img)) std::fprintf(stderr, "wrote %s\n", path.string().c_str());
-}
-
 // Linked lists equal the sorted reference; the reference depends on the order (a back-to-front
 // "over" of the objects in either order differs from it), so the lists did sort per pixel.
 void expectListsMatchSorted(gpu::Context& ctx, const Scene& scene, const std::string& name, double weightedBound) {
-  RenderOutput sorted = renderOit(ctx, scene, settings(OitMode::Sorted));
-  RenderOutput lists = renderOit(ctx, scene, settings(OitMode::LinkedList));
-  RenderOutput weighted = renderOit(ctx, scene, settings(OitMode::Weighted));
+  RenderOutput sorted = test::renderForward(ctx, scene, oitSettings(OitMode::Sorted));
+  RenderOutput lists = test::renderForward(ctx, scene, oitSettings(OitMode::LinkedList));
+  RenderOutput weighted = test::renderForward(ctx, scene, oitSettings(OitMode::Weighted));
   double pLists = psnr(sorted.srgb, lists.srgb), pWeighted = psnr(sorted.srgb, weighted.srgb);
   std::printf("%s: linked list vs sorted %.2f dB, weighted vs sorted %.2f dB; %u fragments, msl %.3f\n", name.c_str(),
               pLists, pWeighted, lists.stats.oit.fragments, lists.stats.oit.msl);
@@ -126,9 +111,9 @@ void expectListsMatchSorted(gpu::Context& ctx, const Scene& scene, const std::st
   EXPECT_GT(lists.stats.oit.fragments, 0u);
   EXPECT_EQ(lists.stats.oit.dropped(), 0u);
   EXPECT_EQ(sorted.stats.oit.fragments, 0u); // counters belong to the linked lists
-  writeOnFailure(sorted.srgb, name + "_sorted.png");
-  writeOnFailure(lists.srgb, name + "_lists.png");
-  writeOnFailure(weighted.srgb, name + "_weighted.png");
+  test::writeOnFailure(sorted.srgb, name + "_sorted.png");
+  test::writeOnFailure(lists.srgb, name + "_lists.png");
+  test::writeOnFailure(weighted.srgb, name + "_weighted.png");
 }
 
 } // namespace
@@ -149,7 +134,8 @@ TEST_F(ForwardOit, ImageIndependentOfSceneOrder) {
   Scene a = crossingQuads(), b = a;
   std::swap(b.instances[1], b.instances[2]);
   for (OitMode mode : {OitMode::LinkedList, OitMode::Sorted, OitMode::Weighted}) {
-    double p = psnr(renderOit(context(), a, settings(mode)).srgb, renderOit(context(), b, settings(mode)).srgb);
+    double p = psnr(test::renderForward(context(), a, oitSettings(mode)).srgb,
+                    test::renderForward(context(), b, oitSettings(mode)).srgb);
     EXPECT_GE(p, 50.0) << toString(mode);
   }
 }
@@ -158,19 +144,19 @@ TEST_F(ForwardOit, ImageIndependentOfSceneOrder) {
 TEST_F(ForwardOit, WeightedIsExactForOneLayer) {
   Scene one = crossingQuads();
   one.instances.pop_back();
-  double p = psnr(renderOit(context(), one, settings(OitMode::Sorted)).srgb,
-                  renderOit(context(), one, settings(OitMode::Weighted)).srgb);
+  double p = psnr(test::renderForward(context(), one, oitSettings(OitMode::Sorted)).srgb,
+                  test::renderForward(context(), one, oitSettings(OitMode::Weighted)).srgb);
   EXPECT_GE(p, 45.0);
 }
 
 // N layers over every pixel: every pixel gets N fragments, so MSL = N^2; past the 16-layer cap the
 // farthest N - 16 of each pixel are dropped and counted (MSL counts every fragment, listed or not).
 TEST_F(ForwardOit, MeanSquaredLayersOfStackedLayers) {
-  const uint64_t pixels = uint64_t(kSize) * kSize;
-  ForwardRenderSettings s = settings(OitMode::LinkedList);
+  const uint64_t pixels = uint64_t(kOitSize) * kOitSize;
+  ForwardRenderSettings s = oitSettings(OitMode::LinkedList);
   s.oitNodesPerPixel = 32; // every fragment fits
   for (int n : {1, 5, 20}) {
-    RenderOutput out = renderOit(context(), stackedLayers(n), s);
+    RenderOutput out = test::renderForward(context(), stackedLayers(n), s);
     const OitStats& st = out.stats.oit;
     EXPECT_EQ(st.coveredPixels, pixels) << n;
     EXPECT_EQ(st.fragments, uint64_t(n) * pixels) << n;
@@ -184,10 +170,10 @@ TEST_F(ForwardOit, MeanSquaredLayersOfStackedLayers) {
 // A pool of 2 nodes per pixel under 5 layers: the excess is counted as dropped, the frame
 // completes, and the image is still the layers' colour over the background (fewer of them).
 TEST_F(ForwardOit, PoolOverflowIsCountedAndNeverHangs) {
-  const uint64_t pixels = uint64_t(kSize) * kSize;
-  ForwardRenderSettings s = settings(OitMode::LinkedList);
+  const uint64_t pixels = uint64_t(kOitSize) * kOitSize;
+  ForwardRenderSettings s = oitSettings(OitMode::LinkedList);
   s.oitNodesPerPixel = 2;
-  RenderOutput out = renderOit(context(), stackedLayers(5), s);
+  RenderOutput out = test::renderForward(context(), stackedLayers(5), s);
   const OitStats& st = out.stats.oit;
   EXPECT_EQ(st.fragments, 5 * pixels);
   EXPECT_EQ(st.poolOverflow, 3 * pixels);
@@ -223,16 +209,17 @@ Scene colouredLayers(int n, int nearest) {
 TEST_F(ForwardOit, PoolOverflowKeepsEachPixelsNearestLayers) {
   constexpr int kLayers = 5;
   constexpr uint32_t kPool = 2;
-  ForwardRenderSettings s = settings(OitMode::LinkedList);
+  ForwardRenderSettings s = oitSettings(OitMode::LinkedList);
   s.oitNodesPerPixel = 8; // the candidates: nothing dropped
   std::vector<ImageRGBA8> nearest;
-  for (int k = 0; k <= kLayers; ++k) nearest.push_back(renderOit(context(), colouredLayers(kLayers, k), s).srgb);
+  for (int k = 0; k <= kLayers; ++k)
+    nearest.push_back(test::renderForward(context(), colouredLayers(kLayers, k), s).srgb);
   s.oitNodesPerPixel = kPool;
-  RenderOutput out = renderOit(context(), colouredLayers(kLayers, kLayers), s);
-  EXPECT_EQ(out.stats.oit.poolOverflow, uint64_t(kLayers - kPool) * kSize * kSize);
+  RenderOutput out = test::renderForward(context(), colouredLayers(kLayers, kLayers), s);
+  EXPECT_EQ(out.stats.oit.poolOverflow, uint64_t(kLayers - kPool) * kOitSize * kOitSize);
   uint32_t unmatched = 0, kept = 0;
-  for (uint32_t y = 0; y < kSize; ++y)
-    for (uint32_t x = 0; x < kSize; ++x) {
+  for (uint32_t y = 0; y < kOitSize; ++y)
+    for (uint32_t x = 0; x < kOitSize; ++x) {
       int best = -1, bestDiff = 1 << 30;
       for (int k = 0; k <= kLayers; ++k) {
         int diff = 0;
@@ -250,9 +237,10 @@ TEST_F(ForwardOit, PoolOverflowKeepsEachPixelsNearestLayers) {
   // Fragments of one pixel racing past the pool may miss a node still being linked (the
   // replacement rule is approximate under contention, docs/render.md), which the threads of a
   // loaded machine can produce: a few pixels may keep another set; dropping on arrival fails all.
-  EXPECT_LE(unmatched, kSize * kSize / 100u);
-  EXPECT_LE(std::abs(int64_t(kept) - int64_t(kPool * kSize * kSize)), int64_t(kPool * kSize * kSize / 100u));
-  writeOnFailure(out.srgb, "pool_overflow.png");
+  EXPECT_LE(unmatched, kOitSize * kOitSize / 100u);
+  EXPECT_LE(std::abs(int64_t(kept) - int64_t(kPool * kOitSize * kOitSize)),
+            int64_t(kPool * kOitSize * kOitSize / 100u));
+  test::writeOnFailure(out.srgb, "pool_overflow.png");
 }
 
 // A hot region: 40 layers over the left half of the view (listed in a shuffled depth order), 2
@@ -263,7 +251,7 @@ TEST_F(ForwardOit, PoolOverflowKeepsEachPixelsNearestLayers) {
 // 14 nearest of the stack alone. MSL counts every fragment: (42^2 + 2^2) / 2 per pixel.
 TEST_F(ForwardOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
   constexpr int kHot = 40, kFull = 2, kKept = MIRAGE_OIT_MAX_LAYERS - kFull;
-  const uint64_t pixels = uint64_t(kSize) * kSize;
+  const uint64_t pixels = uint64_t(kOitSize) * kOitSize;
   auto scene = [](int hotLayers) {
     Scene s;
     for (int i = 0; i < kHot + kFull; ++i) {
@@ -285,13 +273,13 @@ TEST_F(ForwardOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
     }
     return s;
   };
-  ForwardRenderSettings s = settings(OitMode::LinkedList);
+  ForwardRenderSettings s = oitSettings(OitMode::LinkedList);
   s.base.camera.eye = {0.0f, 0.0f, 5.0f};
   s.oitNodesPerPixel = 32; // the reference: nothing dropped
-  RenderOutput nearest = renderOit(context(), scene(kKept), s);
+  RenderOutput nearest = test::renderForward(context(), scene(kKept), s);
   ASSERT_EQ(nearest.stats.oit.dropped(), 0u);
   s.oitNodesPerPixel = 10;
-  RenderOutput out = renderOit(context(), scene(kHot), s);
+  RenderOutput out = test::renderForward(context(), scene(kHot), s);
   const OitStats& st = out.stats.oit;
   const uint64_t hot = pixels / 2;
   EXPECT_EQ(st.coveredPixels, pixels);
@@ -301,28 +289,28 @@ TEST_F(ForwardOit, PerPixelCapKeepsTheNearestAndSparesThePool) {
   EXPECT_EQ(st.layersDropped, 0u);
   EXPECT_DOUBLE_EQ(st.msl, double((kHot + kFull) * (kHot + kFull) + kFull * kFull) / 2.0);
   uint32_t unmatched[2] = {};
-  for (uint32_t y = 0; y < kSize; ++y)
-    for (uint32_t x = 0; x < kSize; ++x) {
+  for (uint32_t y = 0; y < kOitSize; ++y)
+    for (uint32_t x = 0; x < kOitSize; ++x) {
       int diff = 0;
       for (int c = 0; c < 3; ++c)
         diff = std::max(diff, std::abs(int(out.srgb.at(x, y)[c]) - int(nearest.srgb.at(x, y)[c])));
-      if (diff > 1) ++unmatched[x < kSize / 2 ? 0 : 1];
+      if (diff > 1) ++unmatched[x < kOitSize / 2 ? 0 : 1];
     }
   std::printf("hot half: %u of %llu pixels differ from their nearest 16; other half: %u\n", unmatched[0],
               (unsigned long long)hot, unmatched[1]);
   // Fragments of one pixel racing past the cap may miss a node still being linked (docs/render.md).
   EXPECT_LE(unmatched[0], uint32_t(hot / 100));
   EXPECT_EQ(unmatched[1], 0u); // the pool was not starved: every layer of the other half kept
-  writeOnFailure(out.srgb, "cap.png");
-  writeOnFailure(nearest.srgb, "cap_nearest.png");
+  test::writeOnFailure(out.srgb, "cap.png");
+  test::writeOnFailure(nearest.srgb, "cap_nearest.png");
 }
 
 // Stereo: each eye's fragments land in its half of the lists (the pixel of the shared target).
 TEST_F(ForwardOit, StereoCountsBothEyes) {
-  const uint64_t pixels = uint64_t(kSize) * kSize;
-  ForwardRenderSettings s = settings(OitMode::LinkedList);
+  const uint64_t pixels = uint64_t(kOitSize) * kOitSize;
+  ForwardRenderSettings s = oitSettings(OitMode::LinkedList);
   s.stereoIpd = 0.064f;
-  RenderOutput out = renderOit(context(), stackedLayers(3), s);
+  RenderOutput out = test::renderForward(context(), stackedLayers(3), s);
   EXPECT_EQ(out.stats.oit.coveredPixels, 2 * pixels);
   EXPECT_DOUBLE_EQ(out.stats.oit.msl, 9.0);
 }
@@ -350,14 +338,14 @@ TEST_F(ForwardOit, VisibleTrianglesDrawOnlyListedBlendedTriangles) {
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   ASSERT_TRUE((*renderer)->setVisibleTriangles(&ids).ok());
   for (OitMode mode : {OitMode::LinkedList, OitMode::Weighted, OitMode::Sorted}) {
-    auto listed = (*renderer)->render(settings(mode));
+    auto listed = (*renderer)->render(oitSettings(mode));
     ASSERT_TRUE(listed.ok()) << listed.error().message;
-    RenderOutput expected = renderOit(context(), cut, settings(mode));
-    RenderOutput full = renderOit(context(), scene, settings(mode));
+    RenderOutput expected = test::renderForward(context(), cut, oitSettings(mode));
+    RenderOutput full = test::renderForward(context(), scene, oitSettings(mode));
     EXPECT_EQ(listed->stats.trianglesSubmitted, ids.size()) << toString(mode);
     EXPECT_EQ(listed->stats.oit.fragments, expected.stats.oit.fragments) << toString(mode);
     EXPECT_GE(psnr(expected.srgb, listed->srgb), 60.0) << toString(mode);
     EXPECT_LT(psnr(full.srgb, listed->srgb), 40.0) << toString(mode) << ": the unlisted triangles were drawn";
-    writeOnFailure(listed->srgb, std::string("visible_") + toString(mode) + ".png");
+    test::writeOnFailure(listed->srgb, std::string("visible_") + toString(mode) + ".png");
   }
 }
