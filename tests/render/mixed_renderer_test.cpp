@@ -24,6 +24,8 @@
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/reference.h"
 #include "mirage/shaderio/lod_error.h"
+#include "render/render_test_util.h"
+#include "render/surfel_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -32,88 +34,42 @@ using mirage::test::GpuTest;
 
 namespace {
 
-constexpr uint32_t kSize = 192;
-constexpr float kSurfelSize = 2.0f;
+constexpr uint32_t kMixedSize = 192;
+constexpr float kMixedSurfelSize = 2.0f;
 constexpr float kBand = 0.5f;
-const glm::vec4 kMagenta{1.0f, 0.0f, 1.0f, 1.0f}; // background no shading of the blob produces
 
-struct Object {
-  Scene scene;
-  lod::LodAsset asset; // a single instance of mesh 0
-  surfels::SurfelCloud cloud;
-};
-
-const Object& object() {
-  static Object o = [] {
-    Object out;
-    out.scene = io::generateScene("blob", 1, 5).value();
-    auto baked = lod::bakeLodAsset(out.scene, lod::BuildConfig{});
+// The object: blob:5 and its 20k-surfel cloud, and the blob's LOD asset (baked in memory).
+const test::SurfelBlob& mixedBlob() { return test::denseSurfelBlob(); }
+const lod::LodAsset& mixedBlobAsset() {
+  static const lod::LodAsset asset = [] {
+    auto baked = lod::bakeLodAsset(mixedBlob().scene, lod::BuildConfig{});
     if (!baked) std::abort();
-    out.asset = std::move(*baked);
-    surfels::CaptureConfig config;
-    config.resolution = 128;
-    surfels::GBufferTexels texels = surfels::captureGBuffer(test::gpuContext(), out.scene, config).value().texels;
-    out.cloud = surfels::buildSurfelCloud(texels, surfels::farthestPointReference(texels, 20000));
-    return out;
+    return std::move(*baked);
   }();
-  return o;
+  return asset;
 }
-
-// The asset with copies of mesh 0 at `transforms`, and the surfel scene placing its cloud on each.
-lod::LodAsset placedAsset(const std::vector<glm::mat4>& transforms) {
-  lod::LodAsset a = object().asset;
-  a.scene.instances.clear();
-  for (const glm::mat4& t : transforms) a.scene.instances.push_back({0, t});
-  return a;
-}
-SurfelScene placedSurfels(const std::vector<glm::mat4>& transforms) {
-  const Object& o = object();
-  SurfelScene s;
-  s.clouds.push_back({&o.cloud, o.scene.materials[o.scene.meshes[0].material]});
-  for (uint32_t i = 0; i < transforms.size(); ++i) s.instances.push_back({0, transforms[i], i});
-  return s;
-}
-
-float cloudP() {
-  const surfels::SurfelCloud& c = object().cloud;
-  return float(c.referenceCount) * c.referenceMeanSpacing * c.referenceMeanSpacing;
-}
-glm::vec4 cloudSphere() {
-  const Bounds& b = object().cloud.box;
-  return glm::vec4(b.center(), 0.5f * glm::length(b.extent()));
-}
-float pixelScale(const Camera& c) { return shaderio::projectionScale(c.projection(1.0f)[1][1], float(kSize)); }
 
 // The auto view's direction, with the eye where the reference depth (eye to the nearest point of
 // the cloud's sphere) is `depthFactor` × the switch distance.
-Camera cameraAt(float depthFactor) {
-  Camera c = autoCamera(object().scene.worldBounds(), 1.0f);
-  glm::vec4 s = cloudSphere();
-  float d = surfelSwitchDistance(cloudP(), uint32_t(object().cloud.size()), pixelScale(c), kSurfelSize);
-  c.target = glm::vec3(s);
-  c.eye = c.target + glm::normalize(c.eye - c.target) * (s.w + depthFactor * d);
-  c.znear = c.zfar = 0.0f;
-  return c;
+Camera mixedCameraAt(float depthFactor) {
+  return test::cameraAtSwitchDepth(mixedBlob(), depthFactor, float(kMixedSize), kMixedSurfelSize);
 }
+
+float pixelScale(const Camera& c) { return shaderio::projectionScale(c.projection(1.0f)[1][1], float(kMixedSize)); }
 
 // Hybrid with threshold 0 sends every cluster to the hardware path (its fragment shader applies the
 // dither); Auto resolves to compute or hybrid wherever 64-bit atomics exist.
-ClusterRenderSettings clusterSettings(const Camera& camera, RasterBackend raster = RasterBackend::Auto) {
+ClusterRenderSettings mixedSettings(const Camera& camera, RasterBackend raster = RasterBackend::Auto) {
   ClusterRenderSettings s;
   s.raster = raster;
   if (raster == RasterBackend::Hybrid) s.hybridThreshold = 0.0f;
-  s.base.width = s.base.height = kSize;
+  s.base.width = s.base.height = kMixedSize;
   s.base.camera = camera;
-  s.base.background = kMagenta;
+  s.base.background = test::kMagenta;
   s.occlusionCulling = false; // per-frame counts without history
-  s.surfelSettings.surfelSize = kSurfelSize;
+  s.surfelSettings.surfelSize = kMixedSurfelSize;
   s.surfelSettings.fadeBand = kBand;
   return s;
-}
-
-bool isBackground(const ImageRGBA8& img, size_t pixel) {
-  const uint8_t* p = &img.pixels[pixel * 4];
-  return p[0] == 255 && p[1] == 0 && p[2] == 255;
 }
 
 struct Renderers {
@@ -122,20 +78,20 @@ struct Renderers {
 };
 Renderers makeRenderers(const std::vector<glm::mat4>& transforms) {
   Renderers r;
-  r.clusters = ClusterRenderer::create(test::gpuContext(), placedAsset(transforms)).value();
-  r.surfels = SurfelRenderer::create(test::gpuContext(), placedSurfels(transforms)).value();
+  r.clusters = ClusterRenderer::create(test::gpuContext(), test::placedAsset(mixedBlobAsset(), transforms)).value();
+  r.surfels = SurfelRenderer::create(test::gpuContext(), mixedBlob().placed(transforms, /*linked=*/true)).value();
   return r;
 }
 
 ClusterRenderOutput renderMixed(Renderers& r, const Camera& camera, RasterBackend raster = RasterBackend::Auto) {
-  ClusterRenderSettings s = clusterSettings(camera, raster);
+  ClusterRenderSettings s = mixedSettings(camera, raster);
   s.surfels = r.surfels.get();
   auto out = r.clusters->render(s);
   EXPECT_TRUE(out.ok()) << out.error().message;
   return std::move(*out);
 }
 ClusterRenderOutput renderMeshOnly(Renderers& r, const Camera& camera, RasterBackend raster = RasterBackend::Auto) {
-  auto out = r.clusters->render(clusterSettings(camera, raster));
+  auto out = r.clusters->render(mixedSettings(camera, raster));
   EXPECT_TRUE(out.ok()) << out.error().message;
   return std::move(*out);
 }
@@ -157,7 +113,7 @@ TEST_F(MixedRender, BandIsHoleFree) {
   for (RasterBackend raster : {RasterBackend::Compute, RasterBackend::Hybrid})
     for (float factor : {1.1f, 1.25f, 1.4f}) {
       SCOPED_TRACE(toString(raster));
-      Camera cam = cameraAt(factor);
+      Camera cam = mixedCameraAt(factor);
       ClusterRenderOutput mesh = renderMeshOnly(r, cam, raster);
       ClusterRenderOutput mixed = renderMixed(r, cam, raster);
       if (raster == RasterBackend::Hybrid) {
@@ -167,10 +123,10 @@ TEST_F(MixedRender, BandIsHoleFree) {
       EXPECT_EQ(mixed.stats.instancesVisible, 1u) << factor; // the mesh draws its share too
       EXPECT_GT(mixed.stats.trianglesRasterized, 0u);
       size_t inside = 0, holes = 0, changed = 0;
-      for (size_t i = 0; i < size_t(kSize) * kSize; ++i)
-        if (!isBackground(mesh.image.srgb, i)) {
+      for (size_t i = 0; i < size_t(kMixedSize) * kMixedSize; ++i)
+        if (!test::isMagenta(mesh.image.srgb, i)) {
           ++inside;
-          holes += isBackground(mixed.image.srgb, i);
+          holes += test::isMagenta(mixed.image.srgb, i);
           const uint8_t* a = &mesh.image.srgb.pixels[i * 4];
           changed += !std::equal(a, a + 3, &mixed.image.srgb.pixels[i * 4]);
         }
@@ -192,14 +148,14 @@ TEST_F(MixedRender, BandIsHoleFree) {
 // Beyond the band the mixed frame is the surfel-only frame; before it, the mesh-only frame.
 TEST_F(MixedRender, FarIsSurfelsNearIsMesh) {
   Renderers r = makeRenderers({glm::mat4(1.0f)});
-  Camera far = cameraAt(2.0f), near = cameraAt(0.8f);
+  Camera far = mixedCameraAt(2.0f), near = mixedCameraAt(0.8f);
 
   ClusterRenderOutput mixedFar = renderMixed(r, far);
   EXPECT_EQ(mixedFar.stats.instancesVisible, 0u); // fade 1: the cull pass drops the mesh
   EXPECT_EQ(mixedFar.stats.surfels.visibleInstances, 1u);
   SurfelRenderSettings ss;
-  ss.base = clusterSettings(far).base;
-  ss.surfelSize = kSurfelSize;
+  ss.base = mixedSettings(far).base;
+  ss.surfelSize = kMixedSurfelSize;
   ImageRGBA8 surfelOnly = r.surfels->render(ss).value().image.srgb;
   double farSsim = ssim(mixedFar.image.srgb, surfelOnly);
   RecordProperty("far_ssim", std::to_string(farSsim));
@@ -215,10 +171,10 @@ TEST_F(MixedRender, FarIsSurfelsNearIsMesh) {
 // A row of copies at increasing distance: meshes for the near ones, surfels for the far ones, both
 // inside the band; the counts follow the fade formula per copy.
 TEST_F(MixedRender, RowOfCopiesSwitchesWithDistance) {
-  Camera base = cameraAt(1.0f);
+  Camera base = mixedCameraAt(1.0f);
   glm::vec3 forward = glm::normalize(base.target - base.eye);
-  float dSwitch = surfelSwitchDistance(cloudP(), uint32_t(object().cloud.size()), pixelScale(base), kSurfelSize);
-  glm::vec4 s = cloudSphere();
+  float dSwitch = mixedBlob().switchDistance(pixelScale(base), kMixedSurfelSize);
+  glm::vec4 s = mixedBlob().sphere();
   std::vector<glm::mat4> transforms;
   uint32_t meshExpected = 0, surfelExpected = 0, fadingExpected = 0;
   for (float factor : {0.5f, 0.8f, 1.2f, 1.3f, 1.8f, 2.5f, 4.0f}) {

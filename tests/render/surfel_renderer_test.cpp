@@ -23,6 +23,8 @@
 #include "mirage/surfels/capture.h"
 #include "mirage/surfels/reference.h"
 #include "mirage/shaderio/lod_error.h"
+#include "render/render_test_util.h"
+#include "render/surfel_test_util.h"
 #include "test_support.h"
 
 using namespace mirage;
@@ -31,71 +33,41 @@ using mirage::test::GpuTest;
 
 namespace {
 
-constexpr uint32_t kSurfels = 20000;
-constexpr uint32_t kSize = 256;
-const glm::vec4 kMagenta{1.0f, 0.0f, 1.0f, 1.0f}; // background no shading can produce on the blob
+constexpr uint32_t kSurfelViewSize = 256;
 
-struct Blob {
-  Scene scene;
-  surfels::SurfelCloud cloud;
-};
-
-const Blob& blob() {
-  static Blob b = [] {
-    Blob out;
-    out.scene = io::generateScene("blob", 1, 5).value();
-    surfels::CaptureConfig config;
-    config.resolution = 128;
-    surfels::GBufferTexels texels = surfels::captureGBuffer(test::gpuContext(), out.scene, config).value().texels;
-    out.cloud = surfels::buildSurfelCloud(texels, surfels::farthestPointReference(texels, kSurfels));
-    return out;
-  }();
-  return b;
-}
-
-SurfelScene surfelScene(const std::vector<glm::mat4>& transforms) {
-  SurfelScene s;
-  const Blob& b = blob();
-  s.clouds.push_back({&b.cloud, b.scene.materials[b.scene.meshes[0].material]});
-  for (const glm::mat4& t : transforms) s.instances.push_back({0, t});
-  return s;
-}
+// The cloud: blob:5 at 128² × 16 views, 20k surfels.
+const test::SurfelBlob& surfelBlob() { return test::denseSurfelBlob(); }
 
 // The auto view of the blob, moved back along its view direction by `factor`.
-Camera blobCamera(float factor) {
-  Camera c = autoCamera(blob().scene.worldBounds(), 1.0f);
+Camera surfelBlobCamera(float factor) {
+  Camera c = autoCamera(surfelBlob().scene.worldBounds(), 1.0f);
   c.eye = c.target + (c.eye - c.target) * factor;
   c.znear = c.zfar = 0.0f; // derived again for the new eye
   return c;
 }
 
-RenderSettings baseSettings(const Camera& camera) {
+RenderSettings blobViewSettings(const Camera& camera) {
   RenderSettings s;
-  s.width = s.height = kSize;
+  s.width = s.height = kSurfelViewSize;
   s.camera = camera;
-  s.background = kMagenta;
+  s.background = test::kMagenta;
   return s;
 }
 
-bool isBackground(const ImageRGBA8& img, size_t pixel) {
-  const uint8_t* p = &img.pixels[pixel * 4];
-  return p[0] == 255 && p[1] == 0 && p[2] == 255;
-}
-
 ImageRGBA8 renderMesh(GpuTest&, const Camera& camera) {
-  auto fwd = ForwardRenderer::create(test::gpuContext(), blob().scene);
+  auto fwd = ForwardRenderer::create(test::gpuContext(), surfelBlob().scene);
   EXPECT_TRUE(fwd.ok());
-  return (*fwd)->render(baseSettings(camera)).value().srgb;
+  return (*fwd)->render(blobViewSettings(camera)).value().srgb;
 }
 
 SurfelRenderOutput renderSurfels(const Camera& camera, SurfelRaster raster, float size = 2.0f,
                                  SurfelOrder order = kDefaultSurfelOrder, bool allSurfels = false,
                                  SurfelMerge merge = SurfelRenderSettings{}.merge,
                                  bool orientedDiscs = SurfelRenderSettings{}.orientedDiscs) {
-  auto r = SurfelRenderer::create(test::gpuContext(), surfelScene({glm::mat4(1.0f)}), order);
+  auto r = SurfelRenderer::create(test::gpuContext(), surfelBlob().placed({glm::mat4(1.0f)}, /*linked=*/false), order);
   EXPECT_TRUE(r.ok()) << r.error().message;
   SurfelRenderSettings s;
-  s.base = baseSettings(camera);
+  s.base = blobViewSettings(camera);
   s.raster = raster;
   s.surfelSize = size;
   s.allSurfels = allSurfels;
@@ -113,7 +85,7 @@ ImageRGBA8 crop(const ImageRGBA8& img, const ImageRGBA8& mask) {
   uint32_t x0 = img.width, y0 = img.height, x1 = 0, y1 = 0;
   for (uint32_t y = 0; y < img.height; ++y)
     for (uint32_t x = 0; x < img.width; ++x)
-      if (!isBackground(mask, size_t(y) * img.width + x))
+      if (!test::isMagenta(mask, size_t(y) * img.width + x))
         x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
   x0 = x0 >= 2 ? x0 - 2 : 0, y0 = y0 >= 2 ? y0 - 2 : 0;
   x1 = std::min(x1 + 3, img.width), y1 = std::min(y1 + 3, img.height);
@@ -128,9 +100,9 @@ ImageRGBA8 crop(const ImageRGBA8& img, const ImageRGBA8& mask) {
 double holeFraction(const ImageRGBA8& mesh, const ImageRGBA8& surfels) {
   size_t inside = 0, holes = 0;
   for (size_t i = 0; i < size_t(mesh.width) * mesh.height; ++i)
-    if (!isBackground(mesh, i)) {
+    if (!test::isMagenta(mesh, i)) {
       ++inside;
-      holes += isBackground(surfels, i);
+      holes += test::isMagenta(surfels, i);
     }
   return inside ? double(holes) / double(inside) : 1.0;
 }
@@ -144,7 +116,7 @@ SurfelRaster computeOrRaster() {
 class SurfelRender : public GpuTest {};
 
 TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
-  const surfels::SurfelCloud& cloud = blob().cloud;
+  const surfels::SurfelCloud& cloud = surfelBlob().cloud;
   // Copies along -z at growing distances (scaled 1 and 2: P scales with the square), and one far
   // off to the side, outside the frustum.
   std::vector<glm::mat4> transforms;
@@ -155,7 +127,7 @@ TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
   }
   transforms.push_back(glm::translate(glm::mat4(1.0f), glm::vec3(500.0f, 0.0f, 0.0f)));
   for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
-    auto r = SurfelRenderer::create(context(), surfelScene(transforms), order);
+    auto r = SurfelRenderer::create(context(), surfelBlob().placed(transforms, /*linked=*/false), order);
     ASSERT_TRUE(r.ok()) << r.error().message;
     uint32_t n = uint32_t(cloud.size());
     // The coherent order draws k rounded up to its block's end.
@@ -165,14 +137,14 @@ TEST_F(SurfelRender, PrefixLengthMatchesTheCpuFormula) {
     cam.eye = {0.0f, 0.5f, 6.0f};
     cam.target = {0.0f, 0.0f, -20.0f};
     SurfelRenderSettings s;
-    s.base = baseSettings(cam);
+    s.base = blobViewSettings(cam);
     s.readInstanceStates = true;
     for (float size : {1.0f, 2.0f, 4.0f}) {
       s.surfelSize = size;
       auto out = (*r)->render(s);
       ASSERT_TRUE(out.ok()) << out.error().message;
       Camera clipped = withClipPlanes(cam, (*r)->worldBounds());
-      float pixelScale = shaderio::projectionScale(clipped.projection(1.0f)[1][1], float(kSize));
+      float pixelScale = shaderio::projectionScale(clipped.projection(1.0f)[1][1], float(kSurfelViewSize));
       float P0 = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
       uint32_t below = 0;
       uint64_t sum = 0;
@@ -203,15 +175,15 @@ TEST_F(SurfelRender, HoleFreeOverTheMeshSilhouette) {
   // Near (k clamped to N: surfels grow to the cloud's own spacing) and far (k < N: s-pixel surfels).
   for (float factor : {1.0f, 3.0f})
     for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
-      Camera cam = blobCamera(factor);
+      Camera cam = surfelBlobCamera(factor);
       ImageRGBA8 mesh = renderMesh(*this, cam);
       SurfelRenderOutput out = renderSurfels(cam, computeOrRaster(), 2.0f, order);
       double holes = holeFraction(mesh, out.image.srgb);
       std::printf("%s order, distance x%.0f: k %u of %zu, holes %.4f%%\n", toString(order), factor, out.prefix[0],
-                  blob().cloud.size(), 100.0 * holes);
+                  surfelBlob().cloud.size(), 100.0 * holes);
       EXPECT_LE(holes, 0.01) << toString(order) << " factor " << factor;
       if (factor > 1.0f) {
-        EXPECT_LT(out.prefix[0], blob().cloud.size());
+        EXPECT_LT(out.prefix[0], surfelBlob().cloud.size());
       }
     }
 }
@@ -225,18 +197,20 @@ TEST_F(SurfelRender, CloseToTheMeshAtDistance) {
   // 0.02 slack for driver rounding).
   for (float factor : {2.0f, 4.0f})
     for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
-      Camera cam = blobCamera(factor);
+      Camera cam = surfelBlobCamera(factor);
       ImageRGBA8 mesh = renderMesh(*this, cam);
       SurfelRenderOutput out = renderSurfels(cam, computeOrRaster(), 2.0f, order);
-      auto fwd = ForwardRenderer::create(context(), blob().scene);
+      auto fwd = ForwardRenderer::create(context(), surfelBlob().scene);
       ASSERT_TRUE(fwd.ok());
-      RenderSettings half = baseSettings(cam);
-      half.width = half.height = kSize / 2;
+      RenderSettings half = blobViewSettings(cam);
+      half.width = half.height = kSurfelViewSize / 2;
       ImageRGBA8 low = (*fwd)->render(half).value().srgb,
-                 up{kSize, kSize, std::vector<uint8_t>(size_t(kSize) * kSize * 4)};
-      for (uint32_t y = 0; y < kSize; ++y)
-        for (uint32_t x = 0; x < kSize; ++x)
-          std::copy_n(&low.pixels[(size_t(y / 2) * low.width + x / 2) * 4], 4, &up.pixels[(size_t(y) * kSize + x) * 4]);
+                 up{kSurfelViewSize, kSurfelViewSize,
+                    std::vector<uint8_t>(size_t(kSurfelViewSize) * kSurfelViewSize * 4)};
+      for (uint32_t y = 0; y < kSurfelViewSize; ++y)
+        for (uint32_t x = 0; x < kSurfelViewSize; ++x)
+          std::copy_n(&low.pixels[(size_t(y / 2) * low.width + x / 2) * 4], 4,
+                      &up.pixels[(size_t(y) * kSurfelViewSize + x) * 4]);
       double ssim = mirage::ssim(crop(out.image.srgb, mesh), crop(mesh, mesh));
       double psnr = mirage::psnr(crop(out.image.srgb, mesh), crop(mesh, mesh));
       double yardstick = mirage::ssim(crop(up, mesh), crop(mesh, mesh));
@@ -254,7 +228,7 @@ TEST_F(SurfelRender, CloseToTheMeshAtDistance) {
 TEST_F(SurfelRender, ComputeSplatAndRasterFallbackAgree) {
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
   for (float factor : {1.0f, 3.0f}) {
-    Camera cam = blobCamera(factor);
+    Camera cam = surfelBlobCamera(factor);
     SurfelRenderOutput a = renderSurfels(cam, SurfelRaster::Compute);
     SurfelRenderOutput b = renderSurfels(cam, SurfelRaster::Raster);
     EXPECT_EQ(a.prefix, b.prefix);
@@ -272,12 +246,12 @@ TEST_F(SurfelRender, ComputeSplatAndRasterFallbackAgree) {
 }
 
 TEST_F(SurfelRender, MeshFadeSwitchesAtTheDocumentedDistance) {
-  const surfels::SurfelCloud& cloud = blob().cloud;
-  auto r = SurfelRenderer::create(context(), surfelScene({glm::mat4(1.0f)}));
+  const surfels::SurfelCloud& cloud = surfelBlob().cloud;
+  auto r = SurfelRenderer::create(context(), surfelBlob().placed({glm::mat4(1.0f)}, /*linked=*/false));
   ASSERT_TRUE(r.ok());
   float P = float(cloud.referenceCount) * cloud.referenceMeanSpacing * cloud.referenceMeanSpacing;
-  Camera probe = withClipPlanes(blobCamera(1.0f), (*r)->worldBounds());
-  float pixelScale = shaderio::projectionScale(probe.projection(1.0f)[1][1], float(kSize));
+  Camera probe = withClipPlanes(surfelBlobCamera(1.0f), (*r)->worldBounds());
+  float pixelScale = shaderio::projectionScale(probe.projection(1.0f)[1][1], float(kSurfelViewSize));
   float switchDistance = surfelSwitchDistance(P, uint32_t(cloud.size()), pixelScale, 2.0f);
   SurfelRenderSettings s;
   s.readInstanceStates = true;
@@ -289,7 +263,7 @@ TEST_F(SurfelRender, MeshFadeSwitchesAtTheDocumentedDistance) {
     Camera cam;
     cam.target = cloud.box.center();
     cam.eye = cam.target + glm::vec3(0.0f, 0.0f, at * switchDistance + radius);
-    s.base = baseSettings(cam);
+    s.base = blobViewSettings(cam);
     auto out = (*r)->render(s);
     ASSERT_TRUE(out.ok());
     float expected = std::clamp((out->distance[0] - switchDistance) / (0.5f * switchDistance), 0.0f, 1.0f);
@@ -318,21 +292,21 @@ TEST_F(SurfelRender, InstancesResolveToTheirOwnSurfels) {
   cam.znear = 0.1f;
   cam.zfar = 100.0f;
   SurfelRenderSettings s;
-  s.base = baseSettings(cam);
+  s.base = blobViewSettings(cam);
   s.raster = computeOrRaster();
   s.readInstanceStates = true;
-  auto all = SurfelRenderer::create(context(), surfelScene(transforms));
+  auto all = SurfelRenderer::create(context(), surfelBlob().placed(transforms, /*linked=*/false));
   ASSERT_TRUE(all.ok());
   SurfelRenderOutput joint = (*all)->render(s).value();
   size_t compared = 0, differing = 0;
   for (size_t i = 0; i < transforms.size(); ++i) {
     EXPECT_GT(joint.prefix[i], 2u * MIRAGE_SURFEL_BATCH);
-    auto one = SurfelRenderer::create(context(), surfelScene({transforms[i]}));
+    auto one = SurfelRenderer::create(context(), surfelBlob().placed({transforms[i]}, /*linked=*/false));
     ASSERT_TRUE(one.ok());
     SurfelRenderOutput alone = (*one)->render(s).value();
     EXPECT_EQ(alone.prefix[0], joint.prefix[i]);
-    for (size_t p = 0; p < size_t(kSize) * kSize; ++p) {
-      if (isBackground(alone.image.srgb, p)) continue;
+    for (size_t p = 0; p < size_t(kSurfelViewSize) * kSurfelViewSize; ++p) {
+      if (test::isMagenta(alone.image.srgb, p)) continue;
       ++compared;
       differing += !std::equal(&alone.image.srgb.pixels[p * 4], &alone.image.srgb.pixels[p * 4 + 4],
                                &joint.image.srgb.pixels[p * 4]);
@@ -350,11 +324,11 @@ TEST_F(SurfelRender, BackFaceCullingKeepsTheImageAndDropsHiddenSurfels) {
   // empty, as the mesh with back-face culling shows; unculled, the inside is covered.
   glm::mat4 model = glm::rotate(glm::mat4(1.0f), 0.7f, glm::normalize(glm::vec3(0.3f, 1.0f, 0.2f))) *
                     glm::scale(glm::mat4(1.0f), glm::vec3(1.5f, 0.8f, 1.2f));
-  auto r = SurfelRenderer::create(context(), surfelScene({model}));
+  auto r = SurfelRenderer::create(context(), surfelBlob().placed({model}, /*linked=*/false));
   ASSERT_TRUE(r.ok());
   auto render = [&](const Camera& cam, bool cull) {
     SurfelRenderSettings s;
-    s.base = baseSettings(cam);
+    s.base = blobViewSettings(cam);
     s.raster = computeOrRaster();
     s.readInstanceStates = true;
     s.backfaceCulling = cull;
@@ -364,7 +338,7 @@ TEST_F(SurfelRender, BackFaceCullingKeepsTheImageAndDropsHiddenSurfels) {
     return size_t(std::count_if(o.idBuffer.begin(), o.idBuffer.end(), [](uint32_t id) { return id != 0; }));
   };
   for (float factor : {1.0f, 3.0f}) {
-    Camera cam = blobCamera(factor);
+    Camera cam = surfelBlobCamera(factor);
     SurfelRenderOutput on = render(cam, true), off = render(cam, false);
     size_t same = 0;
     for (size_t i = 0; i < on.idBuffer.size(); ++i) same += on.idBuffer[i] != 0 && on.idBuffer[i] == off.idBuffer[i];
@@ -382,19 +356,20 @@ TEST_F(SurfelRender, BackFaceCullingKeepsTheImageAndDropsHiddenSurfels) {
   inside.znear = 0.01f;
   inside.zfar = 100.0f;
   SurfelRenderOutput on = render(inside, true), off = render(inside, false);
-  std::printf("inside: covered %zu culled / %zu unculled of %u\n", covered(on), covered(off), kSize * kSize);
-  EXPECT_GE(covered(off), size_t(kSize) * kSize * 99 / 100);
-  EXPECT_LE(covered(on), size_t(kSize) * kSize / 20);
+  std::printf("inside: covered %zu culled / %zu unculled of %u\n", covered(on), covered(off),
+              kSurfelViewSize * kSurfelViewSize);
+  EXPECT_GE(covered(off), size_t(kSurfelViewSize) * kSurfelViewSize * 99 / 100);
+  EXPECT_LE(covered(on), size_t(kSurfelViewSize) * kSurfelViewSize / 20);
 }
 
 TEST_F(SurfelRender, RejectsBadSettings) {
-  auto r = SurfelRenderer::create(context(), surfelScene({glm::mat4(1.0f)}));
+  auto r = SurfelRenderer::create(context(), surfelBlob().placed({glm::mat4(1.0f)}, /*linked=*/false));
   ASSERT_TRUE(r.ok());
   SurfelRenderSettings s;
-  s.base = baseSettings(blobCamera(1.0f));
+  s.base = blobViewSettings(surfelBlobCamera(1.0f));
   s.surfelSize = 0.0f;
   EXPECT_FALSE((*r)->render(s).ok());
-  SurfelScene bad = surfelScene({glm::mat4(1.0f)});
+  SurfelScene bad = surfelBlob().placed({glm::mat4(1.0f)}, /*linked=*/false);
   bad.instances[0].cloud = 3;
   EXPECT_FALSE(SurfelRenderer::create(context(), bad).ok());
   EXPECT_FALSE(SurfelRenderer::create(context(), SurfelScene{}).ok());
@@ -466,13 +441,13 @@ TEST_F(SurfelRender, CoherentOrderDrawsTheBlueImageWhenEverySurfelIsDrawn) {
   // id, which the orders number differently). Adaptive prefix: the coherent k is the blue k rounded
   // up to its block.
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
-  uint32_t n = uint32_t(blob().cloud.size());
+  uint32_t n = uint32_t(surfelBlob().cloud.size());
   for (float factor : {1.0f, 3.0f}) {
-    Camera cam = blobCamera(factor);
+    Camera cam = surfelBlobCamera(factor);
     SurfelRenderOutput blue = renderSurfels(cam, SurfelRaster::Compute, 1.0f, SurfelOrder::Blue, true);
     SurfelRenderOutput blueK = renderSurfels(cam, SurfelRaster::Compute, 2.0f, SurfelOrder::Blue);
     for (SurfelOrder order : {SurfelOrder::Coherent, SurfelOrder::Coherent256}) {
-      std::vector<uint32_t> at = coherentSurfelOrder(blob().cloud, coherentMinBlock(order));
+      std::vector<uint32_t> at = coherentSurfelOrder(surfelBlob().cloud, coherentMinBlock(order));
       SurfelRenderOutput coherent = renderSurfels(cam, SurfelRaster::Compute, 1.0f, order, true);
       ASSERT_EQ(blue.prefix, coherent.prefix);
       ASSERT_EQ(blue.depthBits.size(), coherent.depthBits.size());
@@ -507,7 +482,7 @@ TEST_F(SurfelRender, SubgroupMergeWritesTheSameVisibilityBuffer) {
   for (SurfelOrder order : {SurfelOrder::Blue, SurfelOrder::Coherent})
     for (float size : {1.0f, 2.0f})
       for (bool all : {true, false}) {
-        Camera cam = blobCamera(all ? 1.0f : 3.0f);
+        Camera cam = surfelBlobCamera(all ? 1.0f : 3.0f);
         SurfelRenderOutput plain = renderSurfels(cam, SurfelRaster::Compute, size, order, all, SurfelMerge::Off);
         SurfelRenderOutput merged = renderSurfels(cam, SurfelRaster::Compute, size, order, all, SurfelMerge::On);
         EXPECT_EQ(plain.mergedInstances, 0u);
@@ -530,14 +505,14 @@ TEST_F(SurfelRender, AutoMergeTakesTheInstancesWhoseSurfelsAreDenseOnScreen) {
   // adaptive prefixes stay plain, 1-pixel ones and far clouds drawn whole merge. The image stays the
   // plain splat's, bit for bit.
   if (!context().caps().int64BufferAtomics) GTEST_SKIP() << "no 64-bit buffer atomics";
-  const surfels::SurfelCloud& cloud = blob().cloud;
+  const surfels::SurfelCloud& cloud = surfelBlob().cloud;
   struct View {
     float factor, size;
     bool all;
   };
   bool sawMerged = false, sawPlain = false;
   for (View v : {View{1, 2, false}, View{4, 2, false}, View{4, 1, false}, View{8, 2, true}, View{16, 2, true}}) {
-    Camera cam = blobCamera(v.factor);
+    Camera cam = surfelBlobCamera(v.factor);
     SurfelRenderOutput plain =
         renderSurfels(cam, SurfelRaster::Compute, v.size, kDefaultSurfelOrder, v.all, SurfelMerge::Off);
     SurfelRenderOutput autoMerge =
@@ -545,7 +520,7 @@ TEST_F(SurfelRender, AutoMergeTakesTheInstancesWhoseSurfelsAreDenseOnScreen) {
     ASSERT_EQ(autoMerge.prefix.size(), 1u);
     uint32_t k = autoMerge.prefix[0];
     ASSERT_GT(k, 0u);
-    float pixelScale = shaderio::projectionScale(cam.projection(1.0f)[1][1], float(kSize));
+    float pixelScale = shaderio::projectionScale(cam.projection(1.0f)[1][1], float(kSurfelViewSize));
     float radiusPx = cloud.radii[k - 1] * pixelScale / autoMerge.distance[0];
     std::printf("factor %.0f, size %.0f, %s: k %u of %zu, disc radius %.3f px, merged %u\n", v.factor, v.size,
                 v.all ? "all" : "adaptive", k, cloud.size(), radiusPx, unsigned(autoMerge.merged[0]));
@@ -566,11 +541,12 @@ TEST_F(SurfelRender, OrientedDiscsBloatTheSilhouetteLessAndStayHoleFree) {
   // about a radius; discs in the tangent plane are edge-on there, so the surfel pixels outside the
   // mesh's own mask must drop clearly, with no holes inside it (both splat paths, which must agree).
   for (float factor : {0.6f, 1.0f}) {
-    Camera cam = blobCamera(factor);
+    Camera cam = surfelBlobCamera(factor);
     ImageRGBA8 mesh = renderMesh(*this, cam);
     auto outside = [&](const ImageRGBA8& img) {
       size_t n = 0;
-      for (size_t i = 0; i < size_t(kSize) * kSize; ++i) n += isBackground(mesh, i) && !isBackground(img, i);
+      for (size_t i = 0; i < size_t(kSurfelViewSize) * kSurfelViewSize; ++i)
+        n += test::isMagenta(mesh, i) && !test::isMagenta(img, i);
       return n;
     };
     for (SurfelRaster raster : {SurfelRaster::Compute, SurfelRaster::Raster}) {

@@ -15,6 +15,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu_test.h"
+#include "render/render_test_util.h"
+#include "render/surfel_test_util.h"
 #include "test_support.h"
 #include "mirage/core/image_metrics.h"
 #include "mirage/io/generate.h"
@@ -31,73 +33,36 @@ using namespace mirage::render;
 
 namespace {
 
-constexpr uint32_t kWidth = 96, kHeight = 80;
-constexpr float kSurfelSize = 2.0f;
+constexpr uint32_t kStereoWidth = 96, kStereoHeight = 80;
+constexpr float kStereoSurfelSize = 2.0f;
 
-struct Object {
-  Scene scene;
-  lod::LodAsset asset;
-  surfels::SurfelCloud cloud;
-};
-
-const Object& object() {
-  static Object o = [] {
-    Object out;
-    out.scene = io::generateScene("blob", 1, 4).value();
-    auto baked = lod::bakeLodAsset(out.scene, lod::BuildConfig{});
+// The object: blob:4 and its 6000-surfel cloud, and the blob's LOD asset (baked in memory).
+const test::SurfelBlob& stereoBlob() { return test::smallSurfelBlob(); }
+const lod::LodAsset& stereoBlobAsset() {
+  static const lod::LodAsset asset = [] {
+    auto baked = lod::bakeLodAsset(stereoBlob().scene, lod::BuildConfig{});
     if (!baked) std::abort();
-    out.asset = std::move(*baked);
-    surfels::CaptureConfig config;
-    config.resolution = 64;
-    surfels::GBufferTexels texels = surfels::captureGBuffer(test::gpuContext(), out.scene, config).value().texels;
-    out.cloud = surfels::buildSurfelCloud(texels, surfels::farthestPointReference(texels, 6000));
-    return out;
+    return std::move(*baked);
   }();
-  return o;
-}
-
-glm::vec4 cloudSphere() {
-  const Bounds& b = object().cloud.box;
-  return glm::vec4(b.center(), 0.5f * glm::length(b.extent()));
-}
-
-SurfelScene surfelScene(const std::vector<glm::mat4>& transforms, bool linked) {
-  const Object& o = object();
-  SurfelScene s;
-  s.clouds.push_back({&o.cloud, o.scene.materials[o.scene.meshes[0].material]});
-  for (uint32_t i = 0; i < transforms.size(); ++i) s.instances.push_back({0, transforms[i], linked ? i : UINT32_MAX});
-  return s;
-}
-
-lod::LodAsset placedAsset(const std::vector<glm::mat4>& transforms) {
-  lod::LodAsset a = object().asset;
-  a.scene.instances.clear();
-  for (const glm::mat4& t : transforms) a.scene.instances.push_back({0, t});
-  return a;
+  return asset;
 }
 
 // Three copies side by side, in front of a camera looking at the middle one: the outer copies are
 // nearer to one eye than to the other, so the prefix selection from the nearer eye matters.
 std::vector<glm::mat4> threeCopies() {
-  float step = 2.5f * cloudSphere().w;
+  float step = 2.5f * stereoBlob().sphere().w;
   std::vector<glm::mat4> t;
   for (int i = -1; i <= 1; ++i) t.push_back(glm::translate(glm::mat4(1.0f), {i * step, 0.0f, 0.0f}));
   return t;
 }
 
-RenderSettings baseSettings(const Camera& camera) {
+RenderSettings stereoViewSettings(const Camera& camera) {
   RenderSettings s;
-  s.width = kWidth;
-  s.height = kHeight;
+  s.width = kStereoWidth;
+  s.height = kStereoHeight;
   s.camera = camera;
   s.background = {0.1f, 0.2f, 0.3f, 1.0f};
   return s;
-}
-
-int passCount(const std::vector<gpu::PassTime>& times, const std::string& name) {
-  int n = 0;
-  for (const auto& t : times) n += t.name == name;
-  return n;
 }
 
 } // namespace
@@ -113,12 +78,12 @@ protected:
 // Copies straight ahead at growing depth (each as far from both eyes, so the nearer eye's prefix
 // is each eye's own), a wide baseline so that the halves differ.
 TEST_F(SurfelStereo, EachHalfMatchesAMonoRenderOfThatEye) {
-  glm::vec4 sphere = cloudSphere();
+  glm::vec4 sphere = stereoBlob().sphere();
   float r = sphere.w;
   std::vector<glm::mat4> copies;
   for (glm::vec3 at : {glm::vec3(0.0f), glm::vec3(0.0f, 1.2f * r, -4.0f * r), glm::vec3(0.0f, -1.5f * r, -8.0f * r)})
     copies.push_back(glm::translate(glm::mat4(1.0f), at - glm::vec3(sphere)));
-  auto renderer = SurfelRenderer::create(context(), surfelScene(copies, false));
+  auto renderer = SurfelRenderer::create(context(), stereoBlob().placed(copies, /*linked=*/false));
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   Camera camera;
   camera.eye = {0.0f, 0.0f, 4.0f * r};
@@ -128,18 +93,18 @@ TEST_F(SurfelStereo, EachHalfMatchesAMonoRenderOfThatEye) {
   for (SurfelMerge merge : {SurfelMerge::Off, SurfelMerge::On}) {
     SCOPED_TRACE(toString(merge));
     SurfelRenderSettings s;
-    s.base = baseSettings(camera);
-    s.surfelSize = kSurfelSize;
+    s.base = stereoViewSettings(camera);
+    s.surfelSize = kStereoSurfelSize;
     s.merge = merge;
     s.stereoIpd = ipd;
     auto stereo = (*renderer)->render(s);
     ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-    ASSERT_EQ(stereo->image.srgb.width, 2 * kWidth);
-    ASSERT_EQ(stereo->image.srgb.height, kHeight);
+    ASSERT_EQ(stereo->image.srgb.width, 2 * kStereoWidth);
+    ASSERT_EQ(stereo->image.srgb.height, kStereoHeight);
     // One pass each: one prefix selection, one splat over both eyes, one resolve.
-    EXPECT_EQ(passCount(stereo->image.stats.passTimes, "prefix"), 1);
-    EXPECT_EQ(passCount(stereo->image.stats.passTimes, "splat"), 1);
-    EXPECT_EQ(passCount(stereo->image.stats.passTimes, "resolve"), 1);
+    EXPECT_EQ(test::passCount(stereo->image.stats.passTimes, "prefix"), 1);
+    EXPECT_EQ(test::passCount(stereo->image.stats.passTimes, "splat"), 1);
+    EXPECT_EQ(test::passCount(stereo->image.stats.passTimes, "resolve"), 1);
     ImageRGBA8 halves[2] = {test::stereoHalf(stereo->image.srgb, 0), test::stereoHalf(stereo->image.srgb, 1)};
     EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
     for (uint32_t e = 0; e < 2; ++e) {
@@ -159,14 +124,14 @@ TEST_F(SurfelStereo, EachHalfMatchesAMonoRenderOfThatEye) {
 // every copy has one in both eyes).
 TEST_F(SurfelStereo, OnePrefixSelectionFromTheNearerEye) {
   std::vector<glm::mat4> copies = threeCopies();
-  auto renderer = SurfelRenderer::create(context(), surfelScene(copies, false));
+  auto renderer = SurfelRenderer::create(context(), stereoBlob().placed(copies, /*linked=*/false));
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   const Bounds& bounds = (*renderer)->worldBounds();
-  Camera camera = autoCamera(bounds, float(kWidth) / kHeight);
+  Camera camera = autoCamera(bounds, float(kStereoWidth) / kStereoHeight);
   camera.eye = glm::mix(camera.target, camera.eye, 0.7f);
   SurfelRenderSettings s;
-  s.base = baseSettings(camera);
-  s.surfelSize = kSurfelSize;
+  s.base = stereoViewSettings(camera);
+  s.surfelSize = kStereoSurfelSize;
   s.frustumCulling = false;
   s.readInstanceStates = true;
   s.stereoIpd = 0.1f * glm::length(bounds.max - bounds.min);
@@ -190,14 +155,14 @@ TEST_F(SurfelStereo, OnePrefixSelectionFromTheNearerEye) {
   }
   EXPECT_TRUE(eyesDiffer) << "the eyes' prefixes are all equal: the test cannot tell the nearer eye";
   // Both eyes' visibility ids in the 2W x H buffer.
-  EXPECT_EQ(stereo->idBuffer.size(), size_t(2 * kWidth) * kHeight);
+  EXPECT_EQ(stereo->idBuffer.size(), size_t(2 * kStereoWidth) * kStereoHeight);
 }
 
 TEST_F(SurfelStereo, RefusesTheRasterFallbackAndBadIpd) {
-  auto renderer = SurfelRenderer::create(context(), surfelScene({glm::mat4(1.0f)}, false));
+  auto renderer = SurfelRenderer::create(context(), stereoBlob().placed({glm::mat4(1.0f)}, /*linked=*/false));
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   SurfelRenderSettings s;
-  s.base = baseSettings(autoCamera((*renderer)->worldBounds(), 1.0f));
+  s.base = stereoViewSettings(autoCamera((*renderer)->worldBounds(), 1.0f));
   s.stereoIpd = 0.064f;
   s.raster = SurfelRaster::Raster;
   auto raster = (*renderer)->render(s);
@@ -212,30 +177,19 @@ TEST_F(SurfelStereo, RefusesTheRasterFallbackAndBadIpd) {
 
 // The auto view's direction towards the cloud's sphere, the eye where the reference depth is
 // `depthFactor` x the mesh/surfel switch distance for a target `height` pixels high.
-Camera cameraAt(float depthFactor, float height) {
-  const surfels::SurfelCloud& c = object().cloud;
-  Camera cam = autoCamera(object().scene.worldBounds(), 1.0f);
-  float P = float(c.referenceCount) * c.referenceMeanSpacing * c.referenceMeanSpacing;
-  float pixelScale = shaderio::projectionScale(cam.projection(1.0f)[1][1], height);
-  float d = surfelSwitchDistance(P, uint32_t(c.size()), pixelScale, kSurfelSize);
-  glm::vec4 s = cloudSphere();
-  cam.target = glm::vec3(s);
-  cam.eye = cam.target + glm::normalize(cam.eye - cam.target) * (s.w + depthFactor * d);
-  cam.znear = cam.zfar = 0.0f;
-  return cam;
+Camera stereoCameraAt(float depthFactor, float height) {
+  return test::cameraAtSwitchDepth(stereoBlob(), depthFactor, height, kStereoSurfelSize);
 }
 
 // Mixed frames: a row of copies straight ahead at growing distance (meshes near, both in the
 // band, surfels far; the eyes see each copy at the same distance, so the nearer eye's choices are
 // each eye's own), compute raster.
 TEST_F(SurfelStereo, MixedFrameHalvesMatchMonoRendersOfEachEye) {
-  const Object& o = object();
-  Camera base = autoCamera(o.scene.worldBounds(), float(kWidth) / kHeight);
-  glm::vec4 s = cloudSphere();
-  const surfels::SurfelCloud& c = o.cloud;
-  float P = float(c.referenceCount) * c.referenceMeanSpacing * c.referenceMeanSpacing;
-  float pixelScale = shaderio::projectionScale(base.projection(1.0f)[1][1], float(kHeight));
-  float dSwitch = surfelSwitchDistance(P, uint32_t(c.size()), pixelScale, kSurfelSize);
+  const test::SurfelBlob& o = stereoBlob();
+  Camera base = autoCamera(o.scene.worldBounds(), float(kStereoWidth) / kStereoHeight);
+  glm::vec4 s = o.sphere();
+  float pixelScale = shaderio::projectionScale(base.projection(1.0f)[1][1], float(kStereoHeight));
+  float dSwitch = o.switchDistance(pixelScale, kStereoSurfelSize);
   glm::vec3 forward = glm::normalize(base.target - base.eye);
   base.target = base.eye + forward;
   base.znear = base.zfar = 0.0f;
@@ -244,22 +198,22 @@ TEST_F(SurfelStereo, MixedFrameHalvesMatchMonoRendersOfEachEye) {
     glm::vec3 centre = base.eye + forward * (s.w + factor * dSwitch) + glm::vec3(0.0f, 0.3f * s.w * factor, 0.0f);
     transforms.push_back(glm::translate(glm::mat4(1.0f), centre - glm::vec3(s)));
   }
-  auto clusters = ClusterRenderer::create(context(), placedAsset(transforms));
-  auto surfels = SurfelRenderer::create(context(), surfelScene(transforms, true));
+  auto clusters = ClusterRenderer::create(context(), test::placedAsset(stereoBlobAsset(), transforms));
+  auto surfels = SurfelRenderer::create(context(), stereoBlob().placed(transforms, /*linked=*/true));
   ASSERT_TRUE(clusters.ok() && surfels.ok());
   ClusterRenderSettings cs;
-  cs.base = baseSettings(base);
+  cs.base = stereoViewSettings(base);
   cs.raster = RasterBackend::Compute;
   cs.surfels = surfels->get();
-  cs.surfelSettings.surfelSize = kSurfelSize;
+  cs.surfelSettings.surfelSize = kStereoSurfelSize;
   float ipd = 0.5f * s.w;
   cs.stereoIpd = ipd;
   auto stereo = (*clusters)->render(cs);
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-  ASSERT_EQ(stereo->image.srgb.width, 2 * kWidth);
+  ASSERT_EQ(stereo->image.srgb.width, 2 * kStereoWidth);
   EXPECT_GT(stereo->stats.surfels.visibleInstances, 0u);
   EXPECT_GT(stereo->stats.instancesVisible, 0u);
-  EXPECT_EQ(passCount(stereo->image.stats.passTimes, "splat"), 1);
+  EXPECT_EQ(test::passCount(stereo->image.stats.passTimes, "splat"), 1);
   auto eyes = stereoEyes(base, ipd);
   for (uint32_t e = 0; e < 2; ++e) {
     ClusterRenderSettings m = cs;
@@ -285,17 +239,17 @@ protected:
 TEST_F(SurfelFrames, ThreeFramesInFlightMatchSequentialRenders) {
   static_assert(kMaxFramesInFlight == 3);
   std::vector<glm::mat4> copies = threeCopies();
-  auto sequential = SurfelRenderer::create(context(), surfelScene(copies, false));
-  auto inFlight = SurfelRenderer::create(context(), surfelScene(copies, false));
+  auto sequential = SurfelRenderer::create(context(), stereoBlob().placed(copies, /*linked=*/false));
+  auto inFlight = SurfelRenderer::create(context(), stereoBlob().placed(copies, /*linked=*/false));
   ASSERT_TRUE(sequential.ok() && inFlight.ok());
   Camera far = autoCamera((*sequential)->worldBounds(), 1.0f);
   Camera close = far;
   close.eye = glm::mix(far.target, far.eye, 0.6f);
   std::vector<SurfelRenderSettings> frames(3);
   for (uint32_t i = 0; i < 3; ++i) {
-    frames[i].base = baseSettings(i == 1 ? close : far);
+    frames[i].base = stereoViewSettings(i == 1 ? close : far);
     frames[i].base.readLinear = true;
-    frames[i].surfelSize = i == 2 ? 3.0f : kSurfelSize;
+    frames[i].surfelSize = i == 2 ? 3.0f : kStereoSurfelSize;
   }
   frames[2].stereoIpd = 0.05f * glm::length((*sequential)->worldBounds().extent()); // twice as wide
   std::vector<SurfelRenderOutput> expected;
@@ -310,16 +264,17 @@ TEST_F(SurfelFrames, ThreeFramesInFlightMatchSequentialRenders) {
   std::vector<std::vector<uint16_t>> pixels[2];
   for (uint32_t pass = 0; pass < 2; ++pass) {
     uint32_t frameCount = pass == 0 ? 3 : 1;
-    uint32_t w = pass == 0 ? kWidth : 2 * kWidth;
-    pixels[pass] = test::recordFramesInFlight(
-        context(), frameCount, w, kHeight, [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
-          // Pass 0: three mono-sized frames (the stereo one in slot 2 is read as its left W columns);
-          // pass 1: the stereo frame alone, whole.
-          const SurfelRenderSettings& s = pass == 0 ? frames[slot] : frames[2];
-          if (Status st = (*inFlight)->record(cmd, s, slot); !st) return st;
-          color = &(*inFlight)->colorTarget();
-          return Ok{};
-        });
+    uint32_t w = pass == 0 ? kStereoWidth : 2 * kStereoWidth;
+    pixels[pass] =
+        test::recordFramesInFlight(context(), frameCount, w, kStereoHeight,
+                                   [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
+                                     // Pass 0: three mono-sized frames (the stereo one in slot 2 is read as its left W
+                                     // columns); pass 1: the stereo frame alone, whole.
+                                     const SurfelRenderSettings& s = pass == 0 ? frames[slot] : frames[2];
+                                     if (Status st = (*inFlight)->record(cmd, s, slot); !st) return st;
+                                     color = &(*inFlight)->colorTarget();
+                                     return Ok{};
+                                   });
     ASSERT_EQ(pixels[pass].size(), size_t(frameCount));
     for (uint32_t i = 0; i < frameCount; ++i) {
       SCOPED_TRACE(std::to_string(pass) + " " + std::to_string(i));
@@ -331,10 +286,10 @@ TEST_F(SurfelFrames, ThreeFramesInFlightMatchSequentialRenders) {
       EXPECT_FALSE(out->image.stats.passTimes.empty());
       std::vector<float> linear = want.image.linear.pixels;
       if (pass == 0 && i == 2) { // the left eye's columns of the stereo image
-        uint32_t stride = 2 * kWidth * 4;
+        uint32_t stride = 2 * kStereoWidth * 4;
         std::vector<float> left;
-        for (uint32_t y = 0; y < kHeight; ++y)
-          left.insert(left.end(), linear.begin() + y * stride, linear.begin() + y * stride + kWidth * 4);
+        for (uint32_t y = 0; y < kStereoHeight; ++y)
+          left.insert(left.end(), linear.begin() + y * stride, linear.begin() + y * stride + kStereoWidth * 4);
         linear = std::move(left);
       }
       EXPECT_EQ(test::differingChannels(pixels[pass][i], linear), 0u) << "of " << linear.size() << " channel values";
@@ -351,19 +306,19 @@ TEST_F(SurfelFrames, ThreeFramesInFlightMatchSequentialRenders) {
 // slot; images and both renderers' counters match sequential render() calls.
 TEST_F(SurfelFrames, MixedFramesInFlightMatchSequentialRenders) {
   std::vector<glm::mat4> copies = threeCopies();
-  auto clusters = ClusterRenderer::create(context(), placedAsset(copies));
-  auto surfels = SurfelRenderer::create(context(), surfelScene(copies, true));
+  auto clusters = ClusterRenderer::create(context(), test::placedAsset(stereoBlobAsset(), copies));
+  auto surfels = SurfelRenderer::create(context(), stereoBlob().placed(copies, /*linked=*/true));
   ASSERT_TRUE(clusters.ok() && surfels.ok());
   // The middle copy in the band (fading), beyond it, and between (switch distances: docs/render.md).
   const float depthFactors[3] = {1.3f, 2.5f, 1.8f};
   std::vector<ClusterRenderSettings> frames(3);
   for (uint32_t i = 0; i < 3; ++i) {
-    frames[i].base = baseSettings(cameraAt(depthFactors[i], float(kHeight)));
-    frames[i].base.width = frames[i].base.height = kHeight;
+    frames[i].base = stereoViewSettings(stereoCameraAt(depthFactors[i], float(kStereoHeight)));
+    frames[i].base.width = frames[i].base.height = kStereoHeight;
     frames[i].base.readLinear = true;
     frames[i].raster = RasterBackend::Compute;
     frames[i].surfels = surfels->get();
-    frames[i].surfelSettings.surfelSize = i == 2 ? 3.0f : kSurfelSize;
+    frames[i].surfelSettings.surfelSize = i == 2 ? 3.0f : kStereoSurfelSize;
   }
   std::vector<ClusterRenderOutput> expected;
   for (const ClusterRenderSettings& s : frames) {
@@ -373,12 +328,13 @@ TEST_F(SurfelFrames, MixedFramesInFlightMatchSequentialRenders) {
   }
   EXPECT_NE(expected[0].stats.surfels.surfelsSplatted, expected[1].stats.surfels.surfelsSplatted);
   EXPECT_GT(expected[0].stats.surfels.visibleInstances, 0u);
-  std::vector<std::vector<uint16_t>> pixels = test::recordFramesInFlight(
-      context(), 3, kHeight, kHeight, [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
-        if (Status st = (*clusters)->record(cmd, frames[slot], slot); !st) return st;
-        color = &(*clusters)->colorTarget();
-        return Ok{};
-      });
+  std::vector<std::vector<uint16_t>> pixels =
+      test::recordFramesInFlight(context(), 3, kStereoHeight, kStereoHeight,
+                                 [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
+                                   if (Status st = (*clusters)->record(cmd, frames[slot], slot); !st) return st;
+                                   color = &(*clusters)->colorTarget();
+                                   return Ok{};
+                                 });
   ASSERT_EQ(pixels.size(), 3u);
   for (uint32_t i = 0; i < 3; ++i) {
     SCOPED_TRACE(i);
