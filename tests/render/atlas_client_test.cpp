@@ -22,8 +22,8 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr uint32_t kSize = 64;  // rendered image
-constexpr uint32_t kAtlas = 64; // atlas texels
+constexpr uint32_t kClientViewSize = 64; // rendered image
+constexpr uint32_t kAtlas = 64;          // atlas texels
 
 Camera frontCamera(float distance = 3.0f) {
   Camera c;
@@ -35,9 +35,9 @@ Camera frontCamera(float distance = 3.0f) {
   return c;
 }
 
-AtlasClientSettings settings(Camera camera = frontCamera()) {
+AtlasClientSettings clientSettings(Camera camera = frontCamera()) {
   AtlasClientSettings s;
-  s.width = s.height = kSize;
+  s.width = s.height = kClientViewSize;
   s.camera = camera;
   return s;
 }
@@ -69,8 +69,9 @@ ClientPatch quad(float halfSize, float z, uint32_t color, PatchAlpha alpha = Pat
 
 // The pixel's ray (through its centre) meets the plane z = 0 at this point.
 glm::vec2 pixelOnPlane(const Camera& camera, uint32_t px, uint32_t py) {
-  sio::ViewFrame f = viewFrame(camera, kSize, kSize);
-  glm::vec2 ndc{(float(px) + 0.5f) / float(kSize) * 2.0f - 1.0f, (float(py) + 0.5f) / float(kSize) * 2.0f - 1.0f};
+  sio::ViewFrame f = viewFrame(camera, kClientViewSize, kClientViewSize);
+  glm::vec2 ndc{(float(px) + 0.5f) / float(kClientViewSize) * 2.0f - 1.0f,
+                (float(py) + 0.5f) / float(kClientViewSize) * 2.0f - 1.0f};
   glm::vec4 nearP = f.invViewProj * glm::vec4(ndc, 1.0f, 1.0f), farP = f.invViewProj * glm::vec4(ndc, 0.5f, 1.0f);
   glm::vec3 a = glm::vec3(nearP) / nearP.w, b = glm::vec3(farP) / farP.w;
   float t = a.z / (a.z - b.z);
@@ -148,13 +149,14 @@ void expectPatchMatchesCpu(gpu::Context& ctx, const ClientPatch& p) {
   ASSERT_TRUE(client->updateAtlas(atlas));
   ASSERT_TRUE(client->setPatch(7, p));
   Camera cam = frontCamera();
-  auto out = client->render(settings(cam));
+  auto out = client->render(clientSettings(cam));
   ASSERT_TRUE(out) << out.error().message;
-  const float pixel = 2.0f * 3.0f * std::tan(glm::radians(30.0f)) / float(kSize); // world size of a pixel at z = 0
+  const float pixel =
+      2.0f * 3.0f * std::tan(glm::radians(30.0f)) / float(kClientViewSize); // world size of a pixel at z = 0
   double squared = 0.0;
   uint32_t inside = 0, outside = 0;
-  for (uint32_t y = 0; y < kSize; ++y)
-    for (uint32_t x = 0; x < kSize; ++x) {
+  for (uint32_t y = 0; y < kClientViewSize; ++y)
+    for (uint32_t x = 0; x < kClientViewSize; ++x) {
       glm::vec2 q = pixelOnPlane(cam, x, y);
       int hits = 0;
       for (int dy = -1; dy <= 1; ++dy)
@@ -207,7 +209,7 @@ TEST_F(AtlasClientTest, ColorOnlyPatchesTakeTheirColourAndRemovalRemovesThem) {
   ASSERT_TRUE(client->setPatch(1, quad(0.5f, 0.0f, red, PatchAlpha::Opaque, {-0.8f, 0.0f})));
   ASSERT_TRUE(client->setPatch(2, quad(0.5f, 0.0f, masked, PatchAlpha::Mask, {0.8f, 0.0f}))); // alpha 0: cut
   EXPECT_EQ(client->patchCount(), 2u);
-  auto out = client->render(settings());
+  auto out = client->render(clientSettings());
   ASSERT_TRUE(out) << out.error().message;
   // x = -0.8 is about pixel 17, x = 0.8 pixel 46 (pixel 32 is x = 0), x = 0 the gap between them.
   expectPixel(*out, 17, 32, decode(red));
@@ -218,7 +220,7 @@ TEST_F(AtlasClientTest, ColorOnlyPatchesTakeTheirColourAndRemovalRemovesThem) {
   ASSERT_TRUE(client->setPatch(2, quad(0.5f, 0.0f, masked | 0xff000000u, PatchAlpha::Mask, {0.8f, 0.0f})));
   ASSERT_TRUE(client->removePatch(1));
   EXPECT_EQ(client->patchCount(), 1u);
-  out = client->render(settings());
+  out = client->render(clientSettings());
   ASSERT_TRUE(out) << out.error().message;
   expectPixel(*out, 17, 32, background());
   expectPixel(*out, 46, 32, decode(masked));
@@ -232,14 +234,14 @@ TEST_F(AtlasClientTest, BlendPatchCompositesOverOpaqueInFrontAndIsHiddenBehind) 
   float a = 128.0f / 255.0f;
   ASSERT_TRUE(client->setPatch(10, quad(0.6f, 0.0f, green)));
   ASSERT_TRUE(client->setPatch(11, quad(1.3f, 0.5f, glass, PatchAlpha::Blend))); // in front, wider
-  auto out = client->render(settings());
+  auto out = client->render(clientSettings());
   ASSERT_TRUE(out) << out.error().message;
   expectPixel(*out, 32, 32, glm::mix(decode(green), decode(glass), a), 2);
   expectPixel(*out, 32, 14, glm::mix(background(), decode(glass), a), 2); // beyond the opaque quad
   EXPECT_GT(out->stats.oit.fragments, 0u);
 
   ASSERT_TRUE(client->setPatch(11, quad(1.3f, -0.5f, glass, PatchAlpha::Blend))); // now behind it
-  out = client->render(settings());
+  out = client->render(clientSettings());
   ASSERT_TRUE(out) << out.error().message;
   expectPixel(*out, 32, 32, decode(green));
   // Beyond the opaque quad the glass still shows (wider than it, and farther: 3.5 vs 3 away).
@@ -265,11 +267,11 @@ TEST_F(AtlasClientTest, ThousandsOfPatchesUpdateBetweenFrames) {
   Camera cam = frontCamera(2.5f);
   // The frame's pixels well inside one cell: that cell's colour, or the background when absent.
   auto check = [&](const std::function<std::optional<uint32_t>(uint32_t)>& expected) {
-    auto out = client->render(settings(cam));
+    auto out = client->render(clientSettings(cam));
     ASSERT_TRUE(out) << out.error().message;
     uint32_t checked = 0;
-    for (uint32_t y = 0; y < kSize; ++y)
-      for (uint32_t x = 0; x < kSize; ++x) {
+    for (uint32_t y = 0; y < kClientViewSize; ++y)
+      for (uint32_t x = 0; x < kClientViewSize; ++x) {
         glm::vec2 q = (pixelOnPlane(cam, x, y) + 1.0f) * 0.5f * float(kCells);
         glm::vec2 f = glm::fract(q);
         if (q.x < 0.0f || q.y < 0.0f || q.x >= kCells || q.y >= kCells || glm::any(glm::lessThan(f, glm::vec2(0.3f))) ||
@@ -312,7 +314,7 @@ TEST_F(AtlasClientTest, AtlasRegionsApplyInOrder) {
   std::vector<uint8_t> all = solid(8, 8, blue), corner = solid(4, 4, yellow);
   ASSERT_TRUE(client->updateAtlasRegion(32, 32, 8, 8, all.data()));
   ASSERT_TRUE(client->updateAtlasRegion(32, 32, 4, 4, corner.data())); // texels (0..3, 0..3): around vertex a
-  auto out = client->render(settings());
+  auto out = client->render(clientSettings());
   ASSERT_TRUE(out) << out.error().message;
   // Vertex a is the bottom left on screen (world -1, -1); d the top right.
   expectPixel(*out, 17, 46, decode(yellow));
@@ -320,7 +322,7 @@ TEST_F(AtlasClientTest, AtlasRegionsApplyInOrder) {
   // An untouched atlas is black: a patch on a block never uploaded.
   p.blockX = 0, p.blockY = 0;
   ASSERT_TRUE(client->setPatch(3, p));
-  out = client->render(settings());
+  out = client->render(clientSettings());
   ASSERT_TRUE(out) << out.error().message;
   expectPixel(*out, 32, 32, glm::vec3(0.0f));
 }
@@ -331,19 +333,20 @@ TEST_F(AtlasClientTest, FramesInFlightEachShowTheirPatches) {
   auto client = makeClient(context());
   ASSERT_TRUE(client);
   const uint32_t colors[3] = {rgba(200, 30, 30), rgba(30, 200, 30), rgba(30, 30, 200)};
-  const VkExtent2D sizes[3] = {{kSize, kSize}, {kSize, kSize}, {kSize, kSize}};
+  const VkExtent2D sizes[3] = {
+      {kClientViewSize, kClientViewSize}, {kClientViewSize, kClientViewSize}, {kClientViewSize, kClientViewSize}};
   auto pixels = test::recordFramesInFlight(
       context(), sizes,
       [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
         if (Status st = client->setPatch(5, quad(0.5f, 0.0f, colors[slot])); !st) return st;
-        if (Status st = client->record(cmd, settings(), slot); !st) return st;
+        if (Status st = client->record(cmd, clientSettings(), slot); !st) return st;
         color = &client->colorTarget();
         return Ok{};
       },
       /*gateFirstFrame=*/true);
   ASSERT_EQ(pixels.size(), 3u);
   for (uint32_t slot = 0; slot < 3; ++slot) {
-    const uint16_t* px = &pixels[slot][(size_t(32) * kSize + 32) * 4];
+    const uint16_t* px = &pixels[slot][(size_t(32) * kClientViewSize + 32) * 4];
     glm::vec3 expected = decode(colors[slot]);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(glm::unpackHalf1x16(px[c]), expected[c], 0.01f) << "slot " << slot;
     auto stats = client->collect(slot);
@@ -379,11 +382,11 @@ TEST_F(AtlasClientTest, BadInputIsAnErrorThatChangesNothing) {
   std::vector<uint8_t> texels(16 * 16 * 4);
   EXPECT_FALSE(client->updateAtlasRegion(60, 0, 16, 16, texels.data()));
   EXPECT_FALSE(client->updateAtlasRegion(0, 0, 0, 16, texels.data()));
-  AtlasClientSettings s = settings();
+  AtlasClientSettings s = clientSettings();
   s.width = 0;
   EXPECT_FALSE(client->render(s));
   EXPECT_FALSE(client->collect(0));
-  auto out = client->render(settings()); // nothing was set: the background only
+  auto out = client->render(clientSettings()); // nothing was set: the background only
   ASSERT_TRUE(out) << out.error().message;
   expectPixel(*out, 32, 32, background());
 }

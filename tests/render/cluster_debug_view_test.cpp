@@ -31,30 +31,32 @@ namespace sio = mirage::shaderio;
 
 namespace {
 
-constexpr uint32_t kWidth = 96, kHeight = 72;
-using Rgb = std::array<int, 3>;
+constexpr uint32_t kDebugWidth = 96, kDebugHeight = 72;
+using DisplayRgb = std::array<int, 3>;
 
 // The ramps hold display values: the PNG (sRGB) pixel is the value * 255 (half-float rounding: +-2).
-Rgb display(glm::vec3 c) {
+DisplayRgb display(glm::vec3 c) {
   return {int(std::lround(c.x * 255)), int(std::lround(c.y * 255)), int(std::lround(c.z * 255))};
 }
-Rgb pixel(const ImageRGBA8& image, uint32_t x, uint32_t y) {
+DisplayRgb displayPixel(const ImageRGBA8& image, uint32_t x, uint32_t y) {
   const uint8_t* p = image.at(x, y);
   return {p[0], p[1], p[2]};
 }
-int distance(Rgb a, Rgb b) { return std::max({std::abs(a[0] - b[0]), std::abs(a[1] - b[1]), std::abs(a[2] - b[2])}); }
+int distance(DisplayRgb a, DisplayRgb b) {
+  return std::max({std::abs(a[0] - b[0]), std::abs(a[1] - b[1]), std::abs(a[2] - b[2])});
+}
 constexpr int kTolerance = 2;
-const Rgb kBackground{0, 0, 0}; // no ramp colour is black
+const DisplayRgb kDebugBackground{0, 0, 0}; // no ramp colour is black
 
 // The step ramp's index of colour `c` (LOD level, overdraw - 1), or -1 when it is none of them.
-int stepOf(Rgb c) {
+int stepOf(DisplayRgb c) {
   for (uint32_t i = 0; i < 10; ++i)
     if (distance(c, display(sio::debugStepColor(i))) <= kTolerance) return int(i);
   return -1;
 }
 
 // log2(triangles per pixel) whose density colour is nearest to `c`.
-float densityLog2Of(Rgb c) {
+float densityLog2Of(DisplayRgb c) {
   float best = 0, bestDistance = 1e9f;
   for (float l = MIRAGE_DEBUG_DENSITY_LOG2_MIN; l <= MIRAGE_DEBUG_DENSITY_LOG2_MAX; l += 1.0f / 64.0f) {
     float d = float(distance(c, display(sio::debugDensityColor(std::exp2(l)))));
@@ -63,10 +65,10 @@ float densityLog2Of(Rgb c) {
   return best;
 }
 
-ClusterRenderSettings settings(const Camera& camera, RasterBackend backend, DebugView view) {
+ClusterRenderSettings debugSettings(const Camera& camera, RasterBackend backend, DebugView view) {
   ClusterRenderSettings s;
-  s.base.width = kWidth;
-  s.base.height = kHeight;
+  s.base.width = kDebugWidth;
+  s.base.height = kDebugHeight;
   s.base.camera = camera;
   s.base.background = {0, 0, 0, 1};
   s.raster = backend;
@@ -75,8 +77,8 @@ ClusterRenderSettings settings(const Camera& camera, RasterBackend backend, Debu
 }
 
 // The blob's auto camera moved to `factor` times its distance from the centre.
-Camera blobCamera(const Bounds& bounds, float factor) {
-  Camera c = autoCamera(bounds, float(kWidth) / kHeight);
+Camera blobCameraAtDistance(const Bounds& bounds, float factor) {
+  Camera c = autoCamera(bounds, float(kDebugWidth) / kDebugHeight);
   c.eye = c.target + (c.eye - c.target) * factor;
   c.znear = c.zfar = 0.0f; // derived from the scene for the new distance
   return c;
@@ -85,7 +87,7 @@ Camera blobCamera(const Bounds& bounds, float factor) {
 template <typename F> void forEachCovered(const ImageRGBA8& image, F f) {
   for (uint32_t y = 0; y < image.height; ++y)
     for (uint32_t x = 0; x < image.width; ++x)
-      if (distance(pixel(image, x, y), kBackground) > kTolerance) f(pixel(image, x, y));
+      if (distance(displayPixel(image, x, y), kDebugBackground) > kTolerance) f(displayPixel(image, x, y));
 }
 
 } // namespace
@@ -109,7 +111,7 @@ TEST(DebugViewRamps, StepsAndDensityHalvesAreDistinct) {
   EXPECT_EQ(display(sio::debugStepColor(9)), display(sio::debugStepColor(40)));
   // 1 triangle per pixel is marked: the ramp jumps there (green just below, yellow at 1).
   EXPECT_GT(distance(display(sio::debugDensityColor(0.999f)), display(sio::debugDensityColor(1.0f))), 100);
-  EXPECT_EQ(display(sio::debugDensityColor(1.0f)), (Rgb{255, 255, 0}));
+  EXPECT_EQ(display(sio::debugDensityColor(1.0f)), (DisplayRgb{255, 255, 0}));
 }
 
 class ClusterDebugView : public test::GpuTest {};
@@ -123,23 +125,23 @@ TEST_F(ClusterDebugView, ClustersViewColoursEachPixelByItsOwnCluster) {
   ASSERT_EQ(asset.dags.size(), 1u); // mesh-local cluster ids are the global ones
   auto renderer = ClusterRenderer::create(ctx, asset);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  Camera camera = blobCamera((*renderer)->worldBounds(), 0.8f);
+  Camera camera = blobCameraAtDistance((*renderer)->worldBounds(), 0.8f);
   for (RasterBackend backend : test::availableRasterBackends(ctx)) {
     SCOPED_TRACE(toString(backend));
-    ClusterRenderSettings s = settings(camera, backend, DebugView::Clusters);
+    ClusterRenderSettings s = debugSettings(camera, backend, DebugView::Clusters);
     s.occlusionCulling = true; // its history names the clusters owning pixels
     s.readOwnedClusters = true;
     auto out = (*renderer)->render(s);
     ASSERT_TRUE(out.ok()) << out.error().message;
     ASSERT_GT(out->ownedClusters.size(), 8u);
-    std::vector<Rgb> owned;
+    std::vector<DisplayRgb> owned;
     for (auto [instance, cluster] : out->ownedClusters)
       owned.push_back(display(sio::debugClusterColor(instance, cluster)));
     for (size_t i = 0; i < owned.size(); ++i)
       for (size_t j = i + 1; j < owned.size(); ++j) ASSERT_GT(distance(owned[i], owned[j]), 0);
     std::vector<bool> seen(owned.size(), false);
     uint64_t covered = 0, unmatched = 0;
-    forEachCovered(out->image.srgb, [&](Rgb c) {
+    forEachCovered(out->image.srgb, [&](DisplayRgb c) {
       ++covered;
       size_t nearest = 0;
       for (size_t i = 1; i < owned.size(); ++i)
@@ -149,7 +151,7 @@ TEST_F(ClusterDebugView, ClustersViewColoursEachPixelByItsOwnCluster) {
       else
         seen[nearest] = true;
     });
-    EXPECT_GT(covered, uint64_t(kWidth * kHeight / 8));
+    EXPECT_GT(covered, uint64_t(kDebugWidth * kDebugHeight / 8));
     EXPECT_EQ(unmatched, 0u);
     EXPECT_EQ(std::count(seen.begin(), seen.end(), false), 0);
   }
@@ -164,12 +166,12 @@ TEST_F(ClusterDebugView, LodViewShowsCoarserLevelsFarAway) {
   double meanLevel[2] = {};
   float factors[2] = {1.0f, 6.0f};
   for (int i = 0; i < 2; ++i) {
-    ClusterRenderSettings s =
-        settings(blobCamera((*renderer)->worldBounds(), factors[i]), RasterBackend::Auto, DebugView::Lod);
+    ClusterRenderSettings s = debugSettings(blobCameraAtDistance((*renderer)->worldBounds(), factors[i]),
+                                            RasterBackend::Auto, DebugView::Lod);
     auto out = (*renderer)->render(s);
     ASSERT_TRUE(out.ok()) << out.error().message;
     uint64_t n = 0, sum = 0, unknown = 0;
-    forEachCovered(out->image.srgb, [&](Rgb c) {
+    forEachCovered(out->image.srgb, [&](DisplayRgb c) {
       int level = stepOf(c);
       if (level < 0 || uint32_t(level) >= levels)
         ++unknown;
@@ -193,13 +195,13 @@ TEST_F(ClusterDebugView, DensityGrowsWithDistanceForTheSameTriangles) {
   float median[2] = {};
   float factors[2] = {1.0f, 3.0f};
   for (int i = 0; i < 2; ++i) {
-    ClusterRenderSettings s =
-        settings(blobCamera((*renderer)->worldBounds(), factors[i]), RasterBackend::Auto, DebugView::Density);
+    ClusterRenderSettings s = debugSettings(blobCameraAtDistance((*renderer)->worldBounds(), factors[i]),
+                                            RasterBackend::Auto, DebugView::Density);
     s.tauPixels = 1e-4f;
     auto out = (*renderer)->render(s);
     ASSERT_TRUE(out.ok()) << out.error().message;
     std::vector<float> values;
-    forEachCovered(out->image.srgb, [&](Rgb c) { values.push_back(densityLog2Of(c)); });
+    forEachCovered(out->image.srgb, [&](DisplayRgb c) { values.push_back(densityLog2Of(c)); });
     ASSERT_GT(values.size(), 20u);
     std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
     median[i] = values[values.size() / 2];
@@ -232,9 +234,9 @@ Mesh square(float halfSize, float z, int n = 4) {
 
 // Pixel of world point p in a frame of `camera` (as the renderer sets it up).
 glm::uvec2 project(const Camera& camera, const Bounds& bounds, glm::vec3 p) {
-  sio::ViewFrame f = viewFrame(withClipPlanes(camera, bounds), kWidth, kHeight);
+  sio::ViewFrame f = viewFrame(withClipPlanes(camera, bounds), kDebugWidth, kDebugHeight);
   glm::vec4 q = f.viewProj * glm::vec4(p, 1.0f);
-  glm::vec2 px = (glm::vec2(q) / q.w * 0.5f + 0.5f) * glm::vec2(kWidth, kHeight);
+  glm::vec2 px = (glm::vec2(q) / q.w * 0.5f + 0.5f) * glm::vec2(kDebugWidth, kDebugHeight);
   return glm::uvec2(px);
 }
 
@@ -265,16 +267,16 @@ TEST_F(ClusterDebugView, OverdrawCountsEverySampleBeforeTheDepthTest) {
   glm::uvec2 onlyB = project(camera, bounds, {1.8f, 0.1f, -1.0f});
   for (RasterBackend backend : test::availableRasterBackends(ctx)) {
     SCOPED_TRACE(toString(backend));
-    auto out = (*renderer)->render(settings(camera, backend, DebugView::Overdraw));
+    auto out = (*renderer)->render(debugSettings(camera, backend, DebugView::Overdraw));
     ASSERT_TRUE(out.ok()) << out.error().message;
     const ImageRGBA8& image = out->image.srgb;
-    EXPECT_EQ(stepOf(pixel(image, both.x, both.y)), 1) << "2 samples";
-    EXPECT_EQ(stepOf(pixel(image, onlyA.x, onlyA.y)), 0) << "1 sample";
-    EXPECT_EQ(stepOf(pixel(image, onlyB.x, onlyB.y)), 0) << "1 sample";
-    EXPECT_EQ(pixel(image, 0, 0), kBackground);
+    EXPECT_EQ(stepOf(displayPixel(image, both.x, both.y)), 1) << "2 samples";
+    EXPECT_EQ(stepOf(displayPixel(image, onlyA.x, onlyA.y)), 0) << "1 sample";
+    EXPECT_EQ(stepOf(displayPixel(image, onlyB.x, onlyB.y)), 0) << "1 sample";
+    EXPECT_EQ(displayPixel(image, 0, 0), kDebugBackground);
     // Shared edges inside a square are drawn once (top-left rule): no pixel counts 3 or more.
     uint64_t twos = 0;
-    forEachCovered(image, [&](Rgb c) {
+    forEachCovered(image, [&](DisplayRgb c) {
       int step = stepOf(c);
       EXPECT_TRUE(step == 0 || step == 1) << step;
       twos += step == 1;
@@ -292,7 +294,7 @@ TEST_F(ClusterDebugView, StereoHalvesAreEachEyesMonoView) {
   auto renderer = ClusterRenderer::create(ctx, test::smallBlobAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   const Bounds& bounds = (*renderer)->worldBounds();
-  Camera camera = blobCamera(bounds, 0.8f);
+  Camera camera = blobCameraAtDistance(bounds, 0.8f);
   float ipd = 0.15f * glm::length(bounds.max - bounds.min); // the eyes' images differ visibly
   auto eyes = stereoEyes(camera, ipd);
   int backends = 0;
@@ -301,28 +303,30 @@ TEST_F(ClusterDebugView, StereoHalvesAreEachEyesMonoView) {
     ++backends;
     for (DebugView view : {DebugView::Clusters, DebugView::Lod, DebugView::Density, DebugView::Overdraw}) {
       SCOPED_TRACE(std::string(toString(backend)) + " " + toString(view));
-      ClusterRenderSettings s = settings(camera, backend, view);
+      ClusterRenderSettings s = debugSettings(camera, backend, view);
       s.tauPixels = 1e-4f;
       s.stereoIpd = ipd;
       auto stereo = (*renderer)->render(s);
       ASSERT_TRUE(stereo.ok()) << stereo.error().message;
       const ImageRGBA8& both = stereo->image.srgb;
-      ASSERT_EQ(both.width, 2 * kWidth);
-      ASSERT_EQ(both.height, kHeight);
+      ASSERT_EQ(both.width, 2 * kDebugWidth);
+      ASSERT_EQ(both.height, kDebugHeight);
       uint64_t eyeDiffers = 0;
-      for (uint32_t y = 0; y < kHeight; ++y)
-        for (uint32_t x = 0; x < kWidth; ++x) eyeDiffers += pixel(both, x, y) != pixel(both, x + kWidth, y);
-      EXPECT_GT(eyeDiffers, uint64_t(kWidth * kHeight / 20)) << "the eyes see the same image";
+      for (uint32_t y = 0; y < kDebugHeight; ++y)
+        for (uint32_t x = 0; x < kDebugWidth; ++x)
+          eyeDiffers += displayPixel(both, x, y) != displayPixel(both, x + kDebugWidth, y);
+      EXPECT_GT(eyeDiffers, uint64_t(kDebugWidth * kDebugHeight / 20)) << "the eyes see the same image";
       for (uint32_t e = 0; e < 2; ++e) {
-        ClusterRenderSettings m = settings(eyes[e], backend, view);
+        ClusterRenderSettings m = debugSettings(eyes[e], backend, view);
         m.tauPixels = 1e-4f;
         auto mono = (*renderer)->render(m);
         ASSERT_TRUE(mono.ok()) << mono.error().message;
         uint64_t covered = 0, coverageDiffers = 0, colourDiffers = 0;
-        for (uint32_t y = 0; y < kHeight; ++y)
-          for (uint32_t x = 0; x < kWidth; ++x) {
-            Rgb a = pixel(both, x + e * kWidth, y), b = pixel(mono->image.srgb, x, y);
-            bool coveredA = distance(a, kBackground) > kTolerance, coveredB = distance(b, kBackground) > kTolerance;
+        for (uint32_t y = 0; y < kDebugHeight; ++y)
+          for (uint32_t x = 0; x < kDebugWidth; ++x) {
+            DisplayRgb a = displayPixel(both, x + e * kDebugWidth, y), b = displayPixel(mono->image.srgb, x, y);
+            bool coveredA = distance(a, kDebugBackground) > kTolerance,
+                 coveredB = distance(b, kDebugBackground) > kTolerance;
             if (coveredA != coveredB) {
               ++coverageDiffers;
             } else if (coveredA) {
@@ -330,7 +334,7 @@ TEST_F(ClusterDebugView, StereoHalvesAreEachEyesMonoView) {
               colourDiffers += a != b;
             }
           }
-        EXPECT_GT(covered, uint64_t(kWidth * kHeight / 8)) << "eye " << e;
+        EXPECT_GT(covered, uint64_t(kDebugWidth * kDebugHeight / 8)) << "eye " << e;
         EXPECT_EQ(colourDiffers, 0u) << "eye " << e;
         // Each eye's samples land as in its mono raster: the same coverage, to a silhouette pixel.
         EXPECT_LE(coverageDiffers, view == DebugView::Overdraw ? 0u : 2u) << "eye " << e;
@@ -344,8 +348,8 @@ TEST_F(ClusterDebugView, StereoOnTheImageBackendsRefusedInOneLine) {
   gpu::Context& ctx = context();
   auto renderer = ClusterRenderer::create(ctx, test::smallBlobAsset());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  ClusterRenderSettings s =
-      settings(blobCamera((*renderer)->worldBounds(), 1.0f), RasterBackend::Indirect, DebugView::Clusters);
+  ClusterRenderSettings s = debugSettings(blobCameraAtDistance((*renderer)->worldBounds(), 1.0f),
+                                          RasterBackend::Indirect, DebugView::Clusters);
   s.stereoIpd = 0.064f;
   auto out = (*renderer)->render(s);
   ASSERT_FALSE(out.ok());

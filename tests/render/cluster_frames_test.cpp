@@ -21,7 +21,7 @@ using namespace mirage::render;
 
 namespace {
 
-constexpr uint32_t kSize = 96;
+constexpr uint32_t kClusterFramesSize = 96;
 
 // Three different frames: camera, LOD threshold and selection mode (the hierarchical ones read
 // their traversal counters back too), so a slot mixing up another's data shows.
@@ -37,7 +37,7 @@ std::vector<ClusterRenderSettings> threeFrames(const Bounds& bounds) {
   const SelectionMode modes[3] = {SelectionMode::Flat, SelectionMode::Hierarchy, SelectionMode::Dag};
   for (int i = 0; i < 3; ++i) {
     ClusterRenderSettings s;
-    s.base.width = s.base.height = kSize;
+    s.base.width = s.base.height = kClusterFramesSize;
     s.base.camera = cams[i];
     s.base.background = {0, 0, 0, 1};
     s.base.readLinear = true;
@@ -113,7 +113,9 @@ class ClusterFrames : public test::GpuTest {};
 
 TEST_F(ClusterFrames, ThreeFramesInFlightMatchSequentialRenders) {
   static_assert(kMaxFramesInFlight == 3);
-  const VkExtent2D sizes[] = {{kSize, kSize}, {kSize, kSize}, {kSize, kSize}};
+  const VkExtent2D sizes[] = {{kClusterFramesSize, kClusterFramesSize},
+                              {kClusterFramesSize, kClusterFramesSize},
+                              {kClusterFramesSize, kClusterFramesSize}};
   expectFramesInFlightMatchSequential(
       context(), [](std::vector<ClusterRenderSettings>&) {}, sizes, false);
 }
@@ -132,7 +134,7 @@ TEST_F(ClusterFrames, ResizeWhileFramesAreInFlightNeitherWaitsNorFreesTargetsInU
     frames[2].base.width = 80;
     frames[2].base.height = 64;
   };
-  const VkExtent2D sizes[] = {{kSize, kSize}, {2 * 64, 80}, {80, 64}};
+  const VkExtent2D sizes[] = {{kClusterFramesSize, kClusterFramesSize}, {2 * 64, 80}, {80, 64}};
   expectFramesInFlightMatchSequential(context(), resize, sizes, /*gateFirstFrame=*/true);
 }
 

@@ -29,13 +29,13 @@
 using namespace mirage;
 using namespace mirage::render;
 using mirage::test::availableRasterBackends;
+using mirage::test::kClusterTestSize;
 using mirage::test::renderCluster;
 
 using mirage::test::blobAsset;
 using mirage::test::defaultBlobAsset;
 using mirage::test::settingsFor;
 using mirage::test::writeOnFailure;
-constexpr uint32_t kSize = mirage::test::kClusterTestSize;
 
 class ClusterRender : public test::GpuTest {};
 
@@ -47,7 +47,7 @@ struct CpuCut {
   uint32_t eyeInside = 0;
 };
 CpuCut cpuCut(const lod::ClusterDag& dag, const Camera& cam, float tau) {
-  float pixelScale = shaderio::projectionScale(cam.projection(1.0f)[1][1], float(kSize));
+  float pixelScale = shaderio::projectionScale(cam.projection(1.0f)[1][1], float(kClusterTestSize));
   CpuCut cut;
   auto projected = [&](const lod::LodBounds& b, bool root) {
     if (root) return std::numeric_limits<float>::infinity();
@@ -276,7 +276,7 @@ double expectSupersampledQuarterPixel(gpu::Context& ctx, const Scene& scene, con
   EXPECT_TRUE(fwd.ok());
   if (!fwd.ok()) return 0.0;
   ClusterRenderSettings s = settingsFor(scene.worldBounds(), 1.0f, RasterBackend::Compute);
-  s.base.width = s.base.height = kSize * kSamples;
+  s.base.width = s.base.height = kClusterTestSize * kSamples;
   auto a = (*fwd)->render(s.base);
   EXPECT_TRUE(a.ok());
   if (!a.ok()) return 0.0;

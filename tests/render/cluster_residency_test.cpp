@@ -31,9 +31,14 @@ using namespace mirage::render;
 
 namespace {
 
-constexpr uint32_t kSize = 160;
+constexpr uint32_t kResidencySize = 160;
 
 } // namespace
+
+// The fixture has the name of render::ClusterResidency (src/render/cluster_residency.h, which
+// another file of this test binary includes, beside `using namespace mirage::render`): the tests
+// live in a namespace of their own, where TEST_F finds the fixture first.
+namespace cluster_residency_test {
 
 class ClusterResidency : public test::GpuTest {};
 
@@ -124,7 +129,7 @@ const PagedBlob& pagedPair() {
 
 ClusterRenderSettings viewSettings(const Camera& cam) {
   ClusterRenderSettings s;
-  s.base.width = s.base.height = kSize;
+  s.base.width = s.base.height = kResidencySize;
   s.base.camera = cam;
   s.base.background = {0, 0, 0, 1};
   s.raster = RasterBackend::Compute;
@@ -230,8 +235,8 @@ void expectTinyBudgetCompleteAndCrackFree(gpu::Context& ctx, SelectionMode selec
     return !(p[0] == 0 && p[1] == 255 && p[2] == 0);
   };
   size_t a = 0, differ = 0, interiorFlagged = 0;
-  for (uint32_t y = 1; y + 1 < kSize; ++y)
-    for (uint32_t x = 1; x + 1 < kSize; ++x) {
+  for (uint32_t y = 1; y + 1 < kResidencySize; ++y)
+    for (uint32_t x = 1; x + 1 < kResidencySize; ++x) {
       a += covered(full, x, y);
       differ += covered(full, x, y) != covered(tiny, x, y);
       const uint8_t* p = tiny.at(x, y);
@@ -570,3 +575,5 @@ TEST_F(ClusterResidency, AutoPicksTheHierarchyForManyInstances) {
     expectSameCut(flat, c.output, "residency_grid_auto");
   }
 }
+
+} // namespace cluster_residency_test

@@ -21,7 +21,7 @@ using namespace mirage::render;
 
 namespace {
 
-constexpr uint32_t kWidth = 80, kHeight = 64;
+constexpr uint32_t kForwardFramesWidth = 80, kForwardFramesHeight = 64;
 
 // A cube, a sphere beside it and a half-transparent quad in front of both: the eyes see them at
 // different places, the blended quad over different surfaces.
@@ -43,10 +43,10 @@ Camera stereoCamera() {
   return c;
 }
 
-RenderSettings settings(const Camera& camera) {
+RenderSettings framesSettings(const Camera& camera) {
   RenderSettings s;
-  s.width = kWidth;
-  s.height = kHeight;
+  s.width = kForwardFramesWidth;
+  s.height = kForwardFramesHeight;
   s.camera = camera;
   s.background = {0.1f, 0.2f, 0.3f, 1.0f};
   return s;
@@ -60,17 +60,17 @@ TEST_F(ForwardFrames, EachStereoHalfMatchesAMonoRenderOfThatEye) {
   auto renderer = ForwardRenderer::create(context(), stereoScene());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   float ipd = 0.8f; // wide, so that the halves differ visibly
-  ForwardRenderSettings s{settings(stereoCamera()), ipd};
+  ForwardRenderSettings s{framesSettings(stereoCamera()), ipd};
   auto stereo = (*renderer)->render(s);
   ASSERT_TRUE(stereo.ok()) << stereo.error().message;
-  ASSERT_EQ(stereo->srgb.width, 2 * kWidth);
-  ASSERT_EQ(stereo->srgb.height, kHeight);
+  ASSERT_EQ(stereo->srgb.width, 2 * kForwardFramesWidth);
+  ASSERT_EQ(stereo->srgb.height, kForwardFramesHeight);
   ImageRGBA8 halves[2] = {test::stereoHalf(stereo->srgb, 0), test::stereoHalf(stereo->srgb, 1)};
   EXPECT_LT(psnr(halves[0], halves[1]), 30.0) << "the eyes see the same image";
   auto eyes = stereoEyes(stereoCamera(), ipd);
   uint64_t monoDraws = 0;
   for (uint32_t e = 0; e < 2; ++e) {
-    auto mono = (*renderer)->render(settings(eyes[e]));
+    auto mono = (*renderer)->render(framesSettings(eyes[e]));
     ASSERT_TRUE(mono.ok()) << mono.error().message;
     EXPECT_GE(psnr(halves[e], mono->srgb), 45.0) << "eye " << e;
     monoDraws += mono->stats.drawCalls;
@@ -81,10 +81,10 @@ TEST_F(ForwardFrames, EachStereoHalfMatchesAMonoRenderOfThatEye) {
 TEST_F(ForwardFrames, StereoSettingsRefusedInOneLine) {
   auto renderer = ForwardRenderer::create(context(), stereoScene());
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  auto bad = (*renderer)->render(ForwardRenderSettings{settings(stereoCamera()), -0.1f});
+  auto bad = (*renderer)->render(ForwardRenderSettings{framesSettings(stereoCamera()), -0.1f});
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message.find("--ipd"), std::string::npos) << bad.error().message;
-  RenderSettings wide = settings(stereoCamera());
+  RenderSettings wide = framesSettings(stereoCamera());
   wide.width = kMaxRenderDimension / 2 + 1;
   auto tooWide = (*renderer)->render(ForwardRenderSettings{wide, 0.064f});
   ASSERT_FALSE(tooWide.ok());
@@ -104,10 +104,10 @@ TEST_F(ForwardFrames, ThreeFramesInFlightMatchSequentialRenders) {
   side.eye = {-4.0f, 2.0f, 3.0f};
   Camera close = stereoCamera();
   close.eye = glm::mix(close.target, close.eye, 0.6f);
-  frames[0].base = settings(stereoCamera());
-  frames[1].base = settings(close);
+  frames[0].base = framesSettings(stereoCamera());
+  frames[1].base = framesSettings(close);
   frames[1].stereoIpd = 0.5f;
-  frames[2].base = settings(side);
+  frames[2].base = framesSettings(side);
   std::vector<RenderOutput> expected;
   for (ForwardRenderSettings& f : frames) {
     f.base.readLinear = true;
@@ -115,16 +115,16 @@ TEST_F(ForwardFrames, ThreeFramesInFlightMatchSequentialRenders) {
     ASSERT_TRUE(out.ok()) << out.error().message;
     expected.push_back(std::move(*out));
   }
-  // The helper copies kWidth x kHeight: the stereo frame's left eye.
+  // The helper copies kForwardFramesWidth x kForwardFramesHeight: the stereo frame's left eye.
   std::vector<float> left;
-  for (uint32_t y = 0; y < kHeight; ++y) {
-    const float* row = &expected[1].linear.pixels[size_t(y) * 2 * kWidth * 4];
-    left.insert(left.end(), row, row + kWidth * 4);
+  for (uint32_t y = 0; y < kForwardFramesHeight; ++y) {
+    const float* row = &expected[1].linear.pixels[size_t(y) * 2 * kForwardFramesWidth * 4];
+    left.insert(left.end(), row, row + kForwardFramesWidth * 4);
   }
   expected[1].linear.pixels = left;
 
   std::vector<std::vector<uint16_t>> pixels =
-      test::recordFramesInFlight(ctx, kMaxFramesInFlight, kWidth, kHeight,
+      test::recordFramesInFlight(ctx, kMaxFramesInFlight, kForwardFramesWidth, kForwardFramesHeight,
                                  [&](VkCommandBuffer cmd, uint32_t slot, const gpu::Image*& color) -> Status {
                                    if (Status st = (*inFlight)->record(cmd, frames[slot], slot); !st) return st;
                                    color = &(*inFlight)->colorTarget();
@@ -152,7 +152,7 @@ TEST_F(ForwardFrames, VisibleTrianglesRestrictTheDrawsAndBadListsAreRefused) {
   Scene scene = stereoScene();
   auto renderer = ForwardRenderer::create(context(), scene);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  RenderSettings s = settings(stereoCamera());
+  RenderSettings s = framesSettings(stereoCamera());
   s.readLinear = true;
   auto full = (*renderer)->render(s);
   ASSERT_TRUE(full.ok()) << full.error().message;

@@ -19,16 +19,16 @@ using mirage::test::GpuTest;
 
 namespace {
 
-struct Rgb {
+struct PixelRgb {
   int r, g, b;
 };
-Rgb pixel(const ImageRGBA8& img, uint32_t x, uint32_t y) {
+PixelRgb pixelRgb(const ImageRGBA8& img, uint32_t x, uint32_t y) {
   const uint8_t* p = img.at(x, y);
   return {p[0], p[1], p[2]};
 }
 // Tests clear to black; every lit surface has ambient light, so it is never this dark.
 bool isBackground(const ImageRGBA8& img, uint32_t x, uint32_t y) {
-  Rgb p = pixel(img, x, y);
+  PixelRgb p = pixelRgb(img, x, y);
   return p.r <= 2 && p.g <= 2 && p.b <= 2;
 }
 
@@ -61,7 +61,7 @@ TEST_F(Forward, CubeCoversCentreNotCorners) {
   RenderSettings s = frontView();
   RenderOutput out = renderScene(context(), scene, s);
   ASSERT_EQ(out.srgb.width, 128u);
-  Rgb c = pixel(out.srgb, 64, 48);
+  PixelRgb c = pixelRgb(out.srgb, 64, 48);
   EXPECT_GT(c.r, 120);
   EXPECT_LT(c.g, c.r / 2);
   EXPECT_TRUE(isBackground(out.srgb, 0, 0));
@@ -93,7 +93,7 @@ TEST_F(Forward, MirroredInstanceStillShowsFrontFaces) {
   scene.instances[0].transform = glm::scale(glm::mat4(1.0f), glm::vec3(-1, 1, 1)); // det < 0
   RenderSettings s = frontView();
   RenderOutput out = renderScene(context(), scene, s);
-  EXPECT_GT(pixel(out.srgb, 64, 48).g, 120); // culling the wrong side would show the (unlit) back faces or nothing
+  EXPECT_GT(pixelRgb(out.srgb, 64, 48).g, 120); // culling the wrong side would show the (unlit) back faces or nothing
 }
 
 TEST_F(Forward, ReverseZNearestSurfaceWins) {
@@ -102,10 +102,10 @@ TEST_F(Forward, ReverseZNearestSurfaceWins) {
                                 {test::solidMaterial({1, 0, 0, 1}), test::solidMaterial({0, 0, 1, 1})});
   RenderSettings s = frontView();
   RenderOutput out = renderScene(context(), scene, s);
-  Rgb centre = pixel(out.srgb, 64, 48);
+  PixelRgb centre = pixelRgb(out.srgb, 64, 48);
   EXPECT_GT(centre.r, 150);
   EXPECT_LT(centre.b, 60);
-  Rgb side = pixel(out.srgb, 64 + 30, 48); // outside the red quad, on the blue one
+  PixelRgb side = pixelRgb(out.srgb, 64 + 30, 48); // outside the red quad, on the blue one
   EXPECT_GT(side.b, 150);
   EXPECT_LT(side.r, 60);
 }

@@ -9,36 +9,35 @@
 
 #include "mirage/shaderio/lod_error.h"
 
-using namespace mirage::shaderio;
-
+namespace mirage::shaderio {
 namespace {
 
 constexpr float kDegree = glm::pi<float>() / 180.0f;
 const glm::vec3 kEye{0.0f}, kGaze{0.0f, 0.0f, -1.0f};
 
 // A point sphere at `degrees` from the gaze, 10 units away.
-glm::vec3 at(float degrees) {
+glm::vec3 sphereAt(float degrees) {
   return 10.0f * glm::vec3(std::sin(degrees * kDegree), 0.0f, -std::cos(degrees * kDegree));
 }
 
 TEST(Foveation, OneInsideTheFoveaLinearOutside) {
   float r = 5.0f * kDegree, slope = foveaSlope(r);
-  EXPECT_FLOAT_EQ(fovealTauScale(at(0.0f), 0.0f, kEye, kGaze, r, slope), 1.0f);
-  EXPECT_FLOAT_EQ(fovealTauScale(at(4.9f), 0.0f, kEye, kGaze, r, slope), 1.0f);
+  EXPECT_FLOAT_EQ(fovealTauScale(sphereAt(0.0f), 0.0f, kEye, kGaze, r, slope), 1.0f);
+  EXPECT_FLOAT_EQ(fovealTauScale(sphereAt(4.9f), 0.0f, kEye, kGaze, r, slope), 1.0f);
   // Linear in degrees beyond the fovea: MAR(e) / MAR(r) of MAR = 1/48 deg + 0.022 e.
   for (float e : {10.0f, 20.0f, 40.0f}) {
     float mar = (1.0f / 48.0f + 0.022f * e) / (1.0f / 48.0f + 0.022f * 5.0f);
-    EXPECT_NEAR(fovealTauScale(at(e), 0.0f, kEye, kGaze, r, slope), mar, 1e-3f * mar) << e;
+    EXPECT_NEAR(fovealTauScale(sphereAt(e), 0.0f, kEye, kGaze, r, slope), mar, 1e-3f * mar) << e;
   }
   // The sphere's nearest point counts: a sphere reaching into the fovea is foveal.
   float d = 10.0f, reach = d * std::sin(12.0f * kDegree);
-  EXPECT_FLOAT_EQ(fovealTauScale(at(15.0f), reach, kEye, kGaze, r, slope), 1.0f);
+  EXPECT_FLOAT_EQ(fovealTauScale(sphereAt(15.0f), reach, kEye, kGaze, r, slope), 1.0f);
   // The eye inside the sphere: foveal.
-  EXPECT_FLOAT_EQ(fovealTauScale(at(60.0f), 11.0f, kEye, kGaze, r, slope), 1.0f);
+  EXPECT_FLOAT_EQ(fovealTauScale(sphereAt(60.0f), 11.0f, kEye, kGaze, r, slope), 1.0f);
   // Behind the viewer: the largest factor, finite.
-  float behind = fovealTauScale(at(180.0f), 0.0f, kEye, kGaze, r, slope);
+  float behind = fovealTauScale(sphereAt(180.0f), 0.0f, kEye, kGaze, r, slope);
   EXPECT_TRUE(std::isfinite(behind));
-  EXPECT_GT(behind, fovealTauScale(at(90.0f), 0.0f, kEye, kGaze, r, slope));
+  EXPECT_GT(behind, fovealTauScale(sphereAt(90.0f), 0.0f, kEye, kGaze, r, slope));
 }
 
 TEST(Foveation, AContainingSphereNeverGetsALargerFactor) {
@@ -65,3 +64,5 @@ TEST(Foveation, SlopeFollowsTheFoveaRadius) {
 }
 
 } // namespace
+
+} // namespace mirage::shaderio

@@ -34,7 +34,7 @@ struct CityFixture {
   vis::ViewCell cell;
 };
 
-const CityFixture& city() {
+const CityFixture& cityFixture() {
   static const CityFixture f = [] {
     CityFixture c;
     c.scene = io::generateScene("city", 1, 2).value();
@@ -57,7 +57,7 @@ std::array<uint32_t, 3> weldedTriple(const lod::ClusterDag& dag, uint32_t a, uin
 // Every non-degenerate source triangle maps to a level-0 cluster that holds a triangle over the same
 // three welded positions; the map survives save and load.
 TEST(ClusterPvs, SourceMapFindsEveryTriangleInItsLevelZeroCluster) {
-  const CityFixture& f = city();
+  const CityFixture& f = cityFixture();
   ASSERT_EQ(f.asset.sourceClusters.size(), f.scene.meshes.size());
   uint64_t mapped = 0, degenerate = 0;
   for (size_t m = 0; m < f.scene.meshes.size(); ++m) {
@@ -96,7 +96,7 @@ TEST(ClusterPvs, SourceMapFindsEveryTriangleInItsLevelZeroCluster) {
 // The set is exactly the closure: a level-0 cluster iff one of its source triangles is listed, a
 // coarser one iff a child of its generating group is in; instances without one are culled.
 TEST(ClusterPvs, IsTheClosureOfTheTrianglePvsOverTheDag) {
-  const CityFixture& f = city();
+  const CityFixture& f = cityFixture();
   std::vector<uint64_t> offsets = vis::triangleOffsets(f.scene);
   std::mt19937 rng(7);
   std::vector<uint32_t> ids;
@@ -150,7 +150,7 @@ class ClusterPvsRender : public test::GpuTest {};
 // PVS's own pixel error), fewer clusters and triangles are drawn, and every cluster that owns a
 // pixel in the unculled frame is in the cluster PVS. Flat and hierarchical selection alike.
 TEST_F(ClusterPvsRender, CulledImageMatchesAndOwnedClustersAreInThePvs) {
-  const CityFixture& f = city();
+  const CityFixture& f = cityFixture();
   auto backend = vis::createEmbreeBackend(f.scene);
   ASSERT_TRUE(backend.ok()) << backend.error().message;
   vis::GvsConfig config;
@@ -234,7 +234,7 @@ TEST_F(ClusterPvsRender, CulledImageMatchesAndOwnedClustersAreInThePvs) {
 // exit 2 and no image; the right one culls from inside its cell and says which cell it used.
 TEST(ClusterPvsCli, RendersWithThePvsAndRejectsAnotherScenes) {
   ASSERT_TRUE(fs::exists(test::mirageBinary())) << test::mirageBinary();
-  const CityFixture& f = city();
+  const CityFixture& f = cityFixture();
   fs::path dir = test::tempDir("cluster_pvs_cli");
   fs::path asset = dir / "city.mrg", good = dir / "good_pvs.mrg", other = dir / "other_pvs.mrg";
   ASSERT_TRUE(lod::saveLodAsset(asset.string(), f.asset).ok());

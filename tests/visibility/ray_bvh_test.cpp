@@ -18,7 +18,7 @@ using namespace mirage::vis;
 
 namespace {
 
-Scene city(uint32_t blocks) {
+Scene cityScene(uint32_t blocks) {
   auto scene = io::generateScene("city", 4, blocks);
   EXPECT_TRUE(scene.ok());
   return std::move(*scene);
@@ -96,7 +96,7 @@ struct Checker {
 } // namespace
 
 TEST(ComputeBvh8, QuantizedBoxesContainTheirChildrenAndEveryTriangleOnce) {
-  Scene scene = city(1);
+  Scene scene = cityScene(1);
   auto bvh = detail::buildRayBvh(scene, {.width = 8});
   ASSERT_TRUE(bvh.ok()) << bvh.error().message;
   EXPECT_TRUE(bvh->nodes.empty() && bvh->nodes4.empty());
@@ -122,7 +122,7 @@ TEST(ComputeBvh8, QuantizedBoxesContainTheirChildrenAndEveryTriangleOnce) {
 // Spatial splits clip references: boxes then hold the clipped parts, so only the structure and
 // the replica's hits are checked; a scene of one triangle is a root with one leaf slot.
 TEST(ComputeBvh8, SpatialSplitsAndASingleTriangle) {
-  Scene scene = city(1);
+  Scene scene = cityScene(1);
   auto split = detail::buildRayBvh(scene, {.spatialSplits = true, .width = 8});
   ASSERT_TRUE(split.ok());
   EXPECT_GT(split->triangles.size(), triangleOffsets(scene).back()); // some references split
@@ -146,7 +146,7 @@ TEST(ComputeBvh8, SpatialSplitsAndASingleTriangle) {
 // The replica of the shaders' traversals (4- and 8-wide, with and without spatial splits) finds
 // Embree's closest triangle, ties at the same depth aside, with the GPU tests' tolerances.
 TEST(ComputeBvh8, CpuReplicaFindsEmbreesClosestHits) {
-  Scene scene = city(1);
+  Scene scene = cityScene(1);
   auto embree = createEmbreeBackend(scene, {.geometry = EmbreeOptions::Geometry::Flatten});
   ASSERT_TRUE(embree.ok());
   const Bounds box = scene.worldBounds();
