@@ -50,11 +50,6 @@ lod::LodWriteOptions paged() {
   return w;
 }
 
-std::vector<uint8_t> fileBytes(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
 std::string bakeFile(const std::filesystem::path& path, const lod::MeshSource& source, const lod::LodWriteOptions& w,
                      uint32_t threads, lod::StreamBakeOptions options, lod::StreamBakeReport* report = nullptr) {
   lod::BuildConfig config;
@@ -117,7 +112,7 @@ TEST(StreamBake, BytesDoNotDependOnThreadsOrOrderAndMemoryStaysBounded) {
   o.count = 8;
   o.triangles = 8000; // n = 20
   ASSERT_EQ(bakeFile(dir / "one.mrg", manySource(o), paged(), 1, {.meshesInFlight = 1, .reorderWindow = 1}), "");
-  std::vector<uint8_t> reference = fileBytes(dir / "one.mrg");
+  std::vector<uint8_t> reference = test::fileBytes(dir / "one.mrg");
   ASSERT_FALSE(reference.empty());
   struct Run {
     uint32_t threads, inFlight, window;
@@ -144,7 +139,8 @@ TEST(StreamBake, BytesDoNotDependOnThreadsOrOrderAndMemoryStaysBounded) {
                                 {.meshesInFlight = run.inFlight, .reorderWindow = run.window}, &report,
                                 [&](size_t done, size_t, uint64_t, uint64_t) { written = uint32_t(done); });
     ASSERT_TRUE(s.ok()) << s.error().message;
-    EXPECT_EQ(fileBytes(dir / "many.mrg"), reference) << run.threads << " threads, " << run.inFlight << " in flight";
+    EXPECT_EQ(test::fileBytes(dir / "many.mrg"), reference)
+        << run.threads << " threads, " << run.inFlight << " in flight";
     EXPECT_EQ(report.meshesInFlight, run.inFlight);
     EXPECT_EQ(report.reorderWindow, window);
     EXPECT_LE(report.peakMeshesInFlight, run.inFlight);
@@ -179,7 +175,7 @@ TEST(StreamBake, RemoteBakersKeepTheBytes) {
   for (bool isPaged : {true, false}) {
     lod::LodWriteOptions w = isPaged ? paged() : lod::LodWriteOptions{};
     ASSERT_EQ(bakeFile(dir / "one.mrg", source, w, 1, {.meshesInFlight = 1}), "");
-    std::vector<uint8_t> reference = fileBytes(dir / "one.mrg");
+    std::vector<uint8_t> reference = test::fileBytes(dir / "one.mrg");
     lod::BuildConfig config;
     config.threads = 1;
     // The remote side: up to three meshes at once, each finished after the one taken after it.
@@ -202,7 +198,7 @@ TEST(StreamBake, RemoteBakersKeepTheBytes) {
     Status s = lod::bakeLodFile(source, (dir / "two.mrg").string(), config, w, {.meshesInFlight = 1}, nullptr, {},
                                 &remote, &localMeshes);
     ASSERT_TRUE(s.ok()) << s.error().message;
-    EXPECT_EQ(fileBytes(dir / "two.mrg"), reference) << (isPaged ? "paged" : "flat");
+    EXPECT_EQ(test::fileBytes(dir / "two.mrg"), reference) << (isPaged ? "paged" : "flat");
     EXPECT_FALSE(remoteMeshes.empty());
     std::vector<uint32_t> all = localMeshes;
     all.insert(all.end(), remoteMeshes.begin(), remoteMeshes.end());
@@ -287,7 +283,7 @@ TEST(StreamBake, ResumedAfterStopsToTheSameBytes) {
     lod::StreamBakeReport report;
     std::vector<uint32_t> local;
     ASSERT_EQ(bakeResumable(path, source, w, records, std::nullopt, &report, &local), "");
-    EXPECT_EQ(fileBytes(path), fileBytes(dir / "whole.mrg"));
+    EXPECT_EQ(test::fileBytes(path), test::fileBytes(dir / "whole.mrg"));
     EXPECT_EQ(records.size(), o.count);
     EXPECT_EQ(report.resumedMeshes, 4u);
     EXPECT_EQ(lowestMade.load(), 4u);
@@ -316,7 +312,7 @@ TEST(StreamBake, ResumedWithEveryMeshRecorded) {
   lod::StreamBakeReport report;
   ASSERT_EQ(bakeResumable(path, none, paged(), records, std::nullopt, &report), "");
   EXPECT_EQ(report.resumedMeshes, o.count);
-  EXPECT_EQ(fileBytes(path), fileBytes(dir / "whole.mrg"));
+  EXPECT_EQ(test::fileBytes(path), test::fileBytes(dir / "whole.mrg"));
   std::filesystem::remove(dir / "whole.mrg");
   std::filesystem::remove(path);
   EXPECT_TRUE(std::filesystem::is_empty(dir));
@@ -338,7 +334,7 @@ TEST(StreamBake, ResumeRefusesWhatDoesNotMatchItsRecords) {
     return resume ? std::string() : resume.error().message;
   };
   EXPECT_EQ(refused(records), "");
-  const std::vector<uint8_t> partialBytes = fileBytes(partial), spoolBytes = fileBytes(spool);
+  const std::vector<uint8_t> partialBytes = test::fileBytes(partial), spoolBytes = test::fileBytes(spool);
   uint64_t mesh1 = lod::checkStreamResume(path.string(), o.count, records)->meshes[1].file.end - 10; // its chunk
   test::flipByte(partial, mesh1);
   std::string message = refused(records);
@@ -350,8 +346,8 @@ TEST(StreamBake, ResumeRefusesWhatDoesNotMatchItsRecords) {
   message = refused(records);
   EXPECT_NE(message.find(spool + ": mesh 2's bytes differ"), std::string::npos) << message;
   test::flipByte(spool, map2);
-  EXPECT_EQ(fileBytes(partial), partialBytes); // checking changed nothing
-  EXPECT_EQ(fileBytes(spool), spoolBytes);
+  EXPECT_EQ(test::fileBytes(partial), partialBytes); // checking changed nothing
+  EXPECT_EQ(test::fileBytes(spool), spoolBytes);
 
   std::vector<std::vector<uint8_t>> cut = records;
   cut[1].pop_back();
