@@ -131,7 +131,7 @@ bool splatFootprint(uint eye, vec3 position, float size, out SplatFootprint f) {
 }
 
 // Footprint f with colour c (rounded: splatRoundColor) as the list of the tile at `origin` (eye
-// pixels) holds it: MIRAGE_SPLAT_ENTRY_WORDS words (shaderio/particle_draw.h).
+// pixels) holds it: MIRAGE_SPLAT_ENTRY_BYTES (shaderio/particle_draw.h).
 uvec4 splatPack(SplatFootprint f, vec4 c, ivec2 origin) {
   ivec2 corner = ivec2(f.lo * MIRAGE_SPLAT_SUBPIXELS) - origin * int(MIRAGE_SPLAT_SUBPIXELS) + 32768;
   uint edge = uint(round((f.hi.x - f.lo.x) * MIRAGE_SPLAT_SUBPIXELS));

@@ -43,32 +43,14 @@ void renderStore(uint index, RenderParticle r) {
   w.v[2u * index + 1u] = uvec4(floatBitsToUint(r.rotation), r.color, r.frame, r.id);
 }
 
-// A slot of a buffer appended to for each invocation with `take` (the render records: counter
-// `live`; else the dead stack: `deadCount`), one counter atomic per workgroup: the subgroups'
+// Slots of the dead stack (each invocation with `dead`, counter deadCount) and of the render records
+// (each with `live`, counter live), one counter atomic per workgroup and counter: the subgroups'
 // counts gather in shared memory (a ballot and one shared atomic each), one invocation adds the
-// workgroup's total, and each lane takes its subgroup's base + its rank (consecutive slots: the
+// workgroup's totals, and each lane takes its subgroup's base + its rank (consecutive slots: the
 // writes coalesce). A pool's particles appending one by one, or even per subgroup, would serialize
-// millions (hundreds of thousands) of atomics on one address. Call in workgroup-uniform control
-// flow (it has barriers); the result is meaningful where `take`.
-shared uint appendCount, appendBase;
-uint particleAppend(bool live, bool take) {
-  if (gl_LocalInvocationIndex == 0u) appendCount = 0u;
-  barrier();
-  uvec4 ballot = subgroupBallot(take);
-  uint count = subgroupBallotBitCount(ballot), base = 0u;
-  if (count != 0u && subgroupElect()) base = atomicAdd(appendCount, count);
-  base = subgroupBroadcastFirst(base); // the elected invocation is the first active one
-  barrier();
-  if (gl_LocalInvocationIndex == 0u && appendCount != 0u) {
-    CountersRef counters = CountersRef(push.counters);
-    appendBase = live ? atomicAdd(counters.c.live, appendCount) : atomicAdd(counters.c.deadCount, appendCount);
-  }
-  barrier();
-  return appendBase + base + subgroupBallotExclusiveBitCount(ballot);
-}
-
-// particleAppend of the dead stack (`dead`) and of the render records (`live`) at once: one set of
-// barriers for both (the update pass takes both). Returns (dead stack slot, record slot).
+// millions (hundreds of thousands) of atomics on one address. The update pass takes both at once.
+// Call in workgroup-uniform control flow (it has barriers); each result is meaningful where its
+// flag is set. Returns (dead stack slot, record slot).
 shared uint appendCounts[2], appendBases[2];
 uvec2 particleAppendBoth(bool dead, bool live) {
   if (gl_LocalInvocationIndex == 0u) appendCounts[0] = appendCounts[1] = 0u;
@@ -91,4 +73,10 @@ uvec2 particleAppendBoth(bool dead, bool live) {
   barrier();
   return uvec2(appendBases[0] + deadBase + subgroupBallotExclusiveBitCount(deadBallot),
                appendBases[1] + liveBase + subgroupBallotExclusiveBitCount(liveBallot));
+}
+
+// One of them: a record slot (`live`) or a dead stack slot, for each invocation with `take`.
+uint particleAppend(bool live, bool take) {
+  uvec2 at = particleAppendBoth(!live && take, live && take);
+  return live ? at.y : at.x;
 }

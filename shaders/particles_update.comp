@@ -21,12 +21,8 @@ void main() {
       dies = true;
     }
   }
-  if (push.writeRender == 0u) { // uniform
-    uint top = particleAppend(/*live=*/false, dies); // every invocation
-    if (dies) UintRef(push.dead).v[top] = slot;
-    return;
-  }
-  uvec2 at = particleAppendBoth(dies, lives); // every invocation
+  bool record = lives && push.writeRender != 0u;
+  uvec2 at = particleAppendBoth(dies, record); // every invocation
   if (dies) UintRef(push.dead).v[at.x] = slot;
-  if (lives) renderStore(at.y, particleRender(ParamsRef(push.params).p, p));
+  if (record) renderStore(at.y, particleRender(ParamsRef(push.params).p, p));
 }

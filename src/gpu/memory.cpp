@@ -232,6 +232,15 @@ Image createImage(Context& context, const VkImageCreateInfo& info, VkImageAspect
   img.allocator_ = &context.allocator();
   img.allocation_ = img.allocator_->allocate(req, MemoryUsage::GpuOnly, true);
   MIRAGE_VK_CHECK(vkBindImageMemory(context.device(), handle, img.allocation_.memory, img.allocation_.offset));
+  img.format_ = info.format;
+  img.extent_ = info.extent;
+  if (name) context.setDebugName(VK_OBJECT_TYPE_IMAGE, uint64_t(handle), name);
+  // A view only where the usage allows one (an image used only by copies and clears has none).
+  constexpr VkImageUsageFlags kViewUsage =
+      VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+      VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_INPUT_ATTACHMENT_BIT |
+      VK_IMAGE_USAGE_TRANSIENT_ATTACHMENT_BIT;
+  if (!(info.usage & kViewUsage)) return img;
   VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
   vi.image = handle;
   vi.viewType = info.arrayLayers > 1 ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
@@ -240,9 +249,6 @@ Image createImage(Context& context, const VkImageCreateInfo& info, VkImageAspect
   VkImageView view;
   MIRAGE_VK_CHECK(vkCreateImageView(context.device(), &vi, nullptr, &view));
   img.view_ = Unique<VkImageView>(context.device(), view);
-  img.format_ = info.format;
-  img.extent_ = info.extent;
-  if (name) context.setDebugName(VK_OBJECT_TYPE_IMAGE, uint64_t(handle), name);
   return img;
 }
 

@@ -122,9 +122,8 @@ void ForwardRenderer::Impl::ensureTargets(uint32_t colorW, uint32_t h) {
                             VK_IMAGE_USAGE_TRANSFER_DST_BIT,
                         "depth");
   retired.retire(std::move(depthFar), inFlight());
-  depthFar = createImage2D(
-      ctx, colorW, h, kForwardDepthFormat, // (sampled: createImage2D makes a view)
-      VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, "depth far");
+  depthFar = createImage2D(ctx, colorW, h, kForwardDepthFormat,
+                           VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, "depth far");
   depthFarUnset = true;
   colorWidth = colorW;
   height = h;
@@ -155,10 +154,9 @@ void ForwardRenderer::Impl::cmdClearDispatch(VkCommandBuffer cmd, uint32_t slot,
 // where a compute store of the colour and a copy of an image of far depth take 0.04 ms together
 // (a copy from a buffer of zeros: 0.13 ms).
 void ForwardRenderer::Impl::cmdClearTargets(VkCommandBuffer cmd, uint32_t slot, const glm::vec4& background) {
-  if (!clearPipeline) {
-    if (!clearLayout)
-      clearLayout = createPipelineLayout(ctx, {resolveDescriptors[0].layout.get()}, sizeof(sio::ForwardClearPush),
-                                         VK_SHADER_STAGE_COMPUTE_BIT);
+  if (!clearPipeline) { // with its layout, which the weighted targets' clear shares
+    clearLayout = createPipelineLayout(ctx, {resolveDescriptors[0].layout.get()}, sizeof(sio::ForwardClearPush),
+                                       VK_SHADER_STAGE_COMPUTE_BIT);
     clearPipeline = createComputePipeline(ctx, "forward_clear.comp", clearLayout);
   }
   if (depthFarUnset) { // once per target size: a clear at the slow rate, copied every frame after

@@ -115,7 +115,8 @@ Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usag
 // ownership transfers (VK_SHARING_MODE_CONCURRENT), where the device has a transfer queue.
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUsage memory, const char* name,
                     bool withTransferQueue);
-// A 2D image (array layers allowed) with a view of all its mips and layers.
+// A 2D image (array layers allowed) with a view of all its mips and layers (none where the usage
+// allows no view: copies and clears only).
 Image createImage(Context& context, const VkImageCreateInfo& info, VkImageAspectFlags aspect, const char* name);
 // Convenience: a 2D image of one mip and layer.
 Image createImage2D(Context& context, uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage,

@@ -37,7 +37,7 @@ using mat3 = glm::mat3;
 #define MIRAGE_UNROLL
 #else
 #extension GL_EXT_control_flow_attributes : require
-// Unrolled by the shader compiler (spirv-opt's -O): loops over constant bounds index arrays with
+// An unroll hint for the driver's compiler: loops over constant bounds then index arrays with
 // constants, which stay in registers.
 #define MIRAGE_UNROLL [[unroll]]
 #define MIRAGE_SHARED
