@@ -33,10 +33,45 @@ void atlasSetPatchBit(AtlasVisibilityTables tables, uint patchId) {
   if ((bits.bits[patchId >> 5] & bit) == 0) atomicOr(bits.bits[patchId >> 5], bit);
 }
 
-void markSample(uint64_t nearest, float z, uint id) {
-  if (z < uintBitsToFloat(uint(nearest >> 32)) * (1.0 - MIRAGE_ATLAS_DEPTH_TOLERANCE)) return; // behind it
+// A triangle's walk needs one sample that counts: its patch is looked up once, before the walk
+// (sampleTarget), a triangle whose patch is already marked walks nothing, and the walk stops at the
+// first sample that marks it (MIRAGE_RASTER_WALK_DONE in cluster_raster.glsl). Only hidden
+// triangles, and visible ones up to their first counting sample, read the buffer.
+bool markWalkDone; // this invocation's current walk
+
+bool atlasPatchBitSet(AtlasVisibilityTables tables, uint patchId) {
+  return (AtlasBitsRef(tables.patchBitsAddress).bits[patchId >> 5] & (1u << (patchId & 31u))) != 0;
+}
+
+// The patch of raster id `id`, and whether its walk is already done.
+uint markWalkBegin(uint id) {
   AtlasVisibilityTables tables = AtlasTablesRef(push.visibleInstanceAddress).t;
-  atlasSetPatchBit(tables, atlasPatchOfId(tables, id));
+  uint patchId = atlasPatchOfId(tables, id);
+  markWalkDone = atlasPatchBitSet(tables, patchId);
+  return patchId;
+}
+
+// Whether every sample of triangle a b c (screen x, y, reverse-Z depth) in box lo..hi lies behind
+// the depth tiles it touches less the tolerance, so that none marks: the tiles' depth is at most any
+// pixel's nearest, and a sample's depth at most its nearest corner's (with a margin for the
+// interpolation's rounding). Larger boxes are not tested.
+bool markTriangleHidden(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, ClusterFrame f) {
+  uvec2 first = uvec2(lo) / MIRAGE_ATLAS_DEPTH_TILE, last = uvec2(hi) / MIRAGE_ATLAS_DEPTH_TILE;
+  if ((last.x - first.x + 1) * (last.y - first.y + 1) > MIRAGE_ATLAS_DEPTH_TILES_TESTED) return false;
+  uvec2 size = uvec2(f.camera.viewport);
+  uint tilesX = (size.x + MIRAGE_ATLAS_DEPTH_TILE - 1) / MIRAGE_ATLAS_DEPTH_TILE;
+  AtlasUintRef tiles = AtlasUintRef(push.visBufferAddress + uint64_t(size.x) * size.y * 8u);
+  float nearest = max(a.z, max(b.z, c.z)) * (1.0 + 1.0 / 65536.0);
+  for (uint y = first.y; y <= last.y; ++y)
+    for (uint x = first.x; x <= last.x; ++x)
+      if (nearest >= uintBitsToFloat(tiles.data[y * tilesX + x]) * (1.0 - MIRAGE_ATLAS_DEPTH_TOLERANCE)) return false;
+  return true;
+}
+
+void markSample(uint64_t nearest, float z, uint patchId) {
+  if (z < uintBitsToFloat(uint(nearest >> 32)) * (1.0 - MIRAGE_ATLAS_DEPTH_TOLERANCE)) return; // behind it
+  atlasSetPatchBit(AtlasTablesRef(push.visibleInstanceAddress).t, patchId);
+  markWalkDone = true;
 }
 
 #include "cluster_raster.glsl"

@@ -61,6 +61,15 @@ vec3 toScreen(vec4 clip, vec2 viewport) {
   return vec3(round(px * 256.0) / 256.0, ndc.z);
 }
 
+// A walk ends early where its triangle can add nothing more: the marking rasters stop once the
+// triangle's patch is marked (markWalkDone, atlas_visibility_mark.glsl); the others walk every sample.
+#ifdef MIRAGE_RASTER_MARK
+#define MIRAGE_RASTER_WALK_DONE \
+  if (markWalkDone) return;
+#else
+#define MIRAGE_RASTER_WALK_DONE
+#endif
+
 #if defined(MIRAGE_RASTER_BLEND)
 #include "cluster_blend_sample.glsl"
 #elif defined(MIRAGE_RASTER_MARK)
@@ -134,6 +143,7 @@ void drawSample(ClusterFrame f, SampleTarget t, uint x, uint y, float z) {
 // every sample, or (lattice walks) the samples lattice + k * stride.
 void walkSmall(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 stride, bool keepAll, bool mirrored,
                ClusterFrame f, SampleTarget t) {
+  MIRAGE_RASTER_WALK_DONE
   lo += lattice;
   vec2 o = (lo + 0.5) * MIRAGE_RASTER_SNAP; // the first sample: grid coordinates relative to it
   ivec2 A = ivec2(a.xy * MIRAGE_RASTER_SNAP - o), B = ivec2(b.xy * MIRAGE_RASTER_SNAP - o);
@@ -178,7 +188,10 @@ void walkSmall(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 str
     ivec3 w = w0 + first * dx;
     uint x = uint(lo.x) + uint(first) * stride.x;
     for (int k = first; k <= last; ++k, x += stride.x, w += dx)
-      if ((w.x | w.y | w.z) >= 0) drawSample(f, t, x, y, edgeDepth(vec3(w), zw));
+      if ((w.x | w.y | w.z) >= 0) {
+        drawSample(f, t, x, y, edgeDepth(vec3(w), zw));
+        MIRAGE_RASTER_WALK_DONE
+      }
   }
 }
 
@@ -191,6 +204,7 @@ void walkSmall(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 str
 // edge values through the kernel (H100, 2500 blobs: stereo raster 0.130 ms against 0.108).
 void walkLarge(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 stride, bool keepAll, bool mirrored,
                ClusterFrame f, SampleTarget t) {
+  MIRAGE_RASTER_WALK_DONE
   vec2 first = lo + lattice;
   EdgeCorners64 k = edgeCorners64(a, b, c, first);
   if (!keepsFacing(float(k.area), keepAll, mirrored)) return;
@@ -198,7 +212,10 @@ void walkLarge(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, vec2 lattice, uvec2 str
   for (uint y = uint(first.y); y <= uint(hi.y); y += stride.y, e.w0 += e.dy) {
     i64vec3 w = e.w0;
     for (uint x = uint(first.x); x <= uint(hi.x); x += stride.x, w += e.dx)
-      if (edgeInside(w)) drawSample(f, t, x, y, edgeDepth(vec3(w), e.zw));
+      if (edgeInside(w)) {
+        drawSample(f, t, x, y, edgeDepth(vec3(w), e.zw));
+        MIRAGE_RASTER_WALK_DONE
+      }
   }
 }
 
@@ -218,6 +235,7 @@ float edgeAt(Edge e, vec2 p) { return e.sign * edge(e.u, e.v, p); }
 
 // Every sample of the box lo..hi in floats: triangles reaching beyond MIRAGE_RASTER_LARGE_COORD.
 void walkFloat(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, bool keepAll, bool mirrored, ClusterFrame f, SampleTarget t) {
+  MIRAGE_RASTER_WALK_DONE
   float area = edge(a.xy, b.xy, c.xy);
   if (!keepsFacing(area, keepAll, mirrored)) return;
   if (area < 0.0) {
@@ -235,6 +253,7 @@ void walkFloat(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, bool keepAll, bool mirr
       if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
       if ((w0 == 0.0 && !tl0) || (w1 == 0.0 && !tl1) || (w2 == 0.0 && !tl2)) continue;
       drawSample(f, t, uint(x), uint(y), (w0 * a.z + w1 * b.z + w2 * c.z) / area);
+      MIRAGE_RASTER_WALK_DONE
     }
   }
 }
@@ -290,9 +309,13 @@ bool blendEnqueue(ClusterFrame f, vec3 a, vec3 b, vec3 c, vec2 box, SampleTarget
 // queue first.
 void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, ClusterFrame f, SampleTarget t,
                     uint queueEntry) {
+  MIRAGE_RASTER_WALK_DONE // a marked patch's triangle takes no queue slot either
   vec2 lo, hi;
   sampleBox(a, b, c, f.camera.viewport, lo, hi);
   if (hi.x < lo.x || hi.y < lo.y) return; // off screen (or no sample centre inside)
+#ifdef MIRAGE_RASTER_MARK
+  if (markTriangleHidden(a, b, c, lo, hi, f)) return;
+#endif
   vec2 mn = min(a.xy, min(b.xy, c.xy)), mx = max(a.xy, max(b.xy, c.xy));
   vec2 box = hi - lo + 1.0, extent = mx - mn;
   bool exact64 = max(max(abs(mn.x), abs(mn.y)), max(abs(mx.x), abs(mx.y))) < MIRAGE_RASTER_LARGE_COORD;
@@ -350,6 +373,9 @@ SampleTarget sampleTarget(uint v, uint t, uint eye, float fade, bool masked, Gpu
   target.m = m;
   target.eyeFrame = push.frameAddress + eye * MIRAGE_CLUSTER_FRAME_STRIDE;
   target.eyeX = eye * uint(f.camera.viewport.x);
+#ifdef MIRAGE_RASTER_MARK
+  target.id = markWalkBegin(target.id); // the walk's samples mark this patch
+#endif
   return target;
 }
 

@@ -50,6 +50,9 @@ void runBenchStream(BenchStreamOptions& o) {
     removed += f.removed, colours += f.colours;
   }
   double n = double(std::max<size_t>(1, r.frames.size()));
+  std::map<std::string, double> passes; // mean GPU time of each pass per client frame
+  for (const auto& f : r.frames)
+    for (const auto& [name, ms] : f.gpuPasses) passes[name] += ms / n;
   // Client 0's bytes (atlas, geometry, colours) per atlas texel the server shaded for it.
   double bytesPerTexel = texels > 0 ? (atlasKB + geometryKB) * 1024.0 / texels : 0.0;
   if (o.json) {
@@ -71,6 +74,7 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"gpu_ms", r.meanGpuMs},
                         {"gpu_visibility_ms", gpuVis / n},
                         {"gpu_shading_ms", gpuShade / n},
+                        {"gpu_passes", passes},
                         {"encode_ms", encode / n},
                         {"shaded_texels", texels / n},
                         {"visible_patches", visible / n},

@@ -74,19 +74,20 @@ struct AtlasShading::Impl {
   struct ComputeVisibility {
     gpu::Buffer vertices, clusterVertices, indices, clusters, meshes, instances; // ClusterPush's arrays
     gpu::Buffer visible, entryTriangles, counters, tables;
-    gpu::Buffer frames;                  // ClusterFrame per camera (host-written), MIRAGE_CLUSTER_FRAME_STRIDE apart
-    gpu::Buffer visBuffer;               // uint64_t per pixel and camera
+    gpu::Buffer frames;    // ClusterFrame per camera (host-written), MIRAGE_CLUSTER_FRAME_STRIDE apart
+    gpu::Buffer visBuffer; // per camera: uint64_t per pixel, then the depth tiles (visPartBytes apart)
+    VkDeviceSize visPartBytes = 0;
     gpu::Buffer patchBits, bitsReadback; // a bit per patch
     uint32_t opaqueEntries = 0, blendEntries = 0;
     bool hasMask = false;
     uint32_t visWidth = 0, visHeight = 0;
-    gpu::Unique<VkPipelineLayout> rasterLayout;
-    gpu::Unique<VkPipeline> raster, rasterMask, mark, markMask;
+    gpu::Unique<VkPipelineLayout> rasterLayout, tilesLayout;
+    gpu::Unique<VkPipeline> raster, rasterMask, mark, markMask, tiles;
   } cv;
   // Shading.
   gpu::Image atlas;
   gpu::Unique<VkPipelineLayout> computeLayout;
-  gpu::Unique<VkPipeline> shadePipeline, colourPipeline;
+  gpu::Unique<VkPipeline> shadePipeline, colourPipeline, clearPipeline;
   gpu::Buffer frame; // FrameData (host-visible)
   AtlasHostBuffer patchBuffer, tileBuffer, sampleBuffer, colourBuffer, regionBuffer;
 
@@ -94,7 +95,7 @@ struct AtlasShading::Impl {
   gpu::GpuTimer timer;
   std::vector<gpu::PassTime> passTimes;
 
-  explicit Impl(gpu::Context& c) : ctx(c), timer(c, 2) {}
+  explicit Impl(gpu::Context& c) : ctx(c), timer(c, 8) {}
   // Records `record` between two timestamps named `name`, submits and waits, keeps the time.
   template <class F> void submitTimed(const char* name, F&& record) {
     ctx.submitAndWait([&](VkCommandBuffer cmd) {

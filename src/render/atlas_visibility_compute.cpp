@@ -167,15 +167,21 @@ void AtlasShading::Impl::createComputeVisibilityPipelines() {
   cv.raster = createComputePipeline(ctx, "cluster_raster.comp", cv.rasterLayout, kMono);
   if (cv.hasMask) cv.rasterMask = createComputePipeline(ctx, "cluster_raster_mask.comp", cv.rasterLayout, kMono);
   cv.mark = createComputePipeline(ctx, "atlas_visibility_mark.comp", cv.rasterLayout, kMono);
+  cv.tilesLayout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::AtlasDepthTilesPush),
+                                        VK_SHADER_STAGE_COMPUTE_BIT);
+  cv.tiles = createComputePipeline(ctx, "atlas_visibility_tiles.comp", cv.tilesLayout);
   if (cv.hasMask) cv.markMask = createComputePipeline(ctx, "atlas_visibility_mark_mask.comp", cv.rasterLayout, kMono);
 }
 
 std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Camera> cameras, uint32_t width,
                                                             uint32_t height) {
   const VkDeviceSize pixels = VkDeviceSize(width) * height;
+  const uint32_t tilesX = (width + MIRAGE_ATLAS_DEPTH_TILE - 1) / MIRAGE_ATLAS_DEPTH_TILE;
+  const uint32_t tilesY = (height + MIRAGE_ATLAS_DEPTH_TILE - 1) / MIRAGE_ATLAS_DEPTH_TILE;
   if (!cv.visBuffer || width != cv.visWidth || height != cv.visHeight) {
+    cv.visPartBytes = pixels * 8 + (VkDeviceSize(tilesX) * tilesY * 4 + 7) / 8 * 8;
     cv.visBuffer =
-        createBuffer(ctx, 2 * pixels * 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        createBuffer(ctx, 2 * cv.visPartBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                      MemoryUsage::GpuOnly, "atlas visibility buffer");
     cv.visWidth = width;
     cv.visHeight = height;
@@ -203,9 +209,11 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
   submitTimed("visibility", [&](VkCommandBuffer cmd) {
     // The bits and the cameras' parts of the buffer start at zero (the previous call's rasters and
     // copy read them: write after read, ordered by its wait).
+    uint32_t part = timer.cmdBegin(cmd, "visibility.clear");
     vkCmdFillBuffer(cmd, cv.patchBits.handle(), 0, VkDeviceSize(words) * 4, 0);
-    vkCmdFillBuffer(cmd, cv.visBuffer.handle(), 0, cameras.size() * pixels * 8, 0);
+    vkCmdFillBuffer(cmd, cv.visBuffer.handle(), 0, cameras.size() * cv.visPartBytes, 0);
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, kStorageRW);
+    timer.cmdEnd(cmd, part);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cv.rasterLayout, 0, 1, &descriptors.set, 0, nullptr);
     // Each camera's samples into its own part of the buffer: the dispatches of both cameras overlap.
     auto rasterPass = [&](VkPipeline pipeline, uint32_t list, uint32_t entries) {
@@ -213,7 +221,7 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
       for (size_t e = 0; e < cameras.size(); ++e) {
         push.frameAddress = cv.frames.address() + e * MIRAGE_CLUSTER_FRAME_STRIDE;
-        push.visBufferAddress = cv.visBuffer.address() + e * pixels * 8;
+        push.visBufferAddress = cv.visBuffer.address() + e * cv.visPartBytes;
         push.rasterList = list * 2 + MIRAGE_LIST_UP;
         vkCmdPushConstants(cmd, cv.rasterLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
         VkExtent2D g = groups(entries);
@@ -221,11 +229,24 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
       }
     };
     const uint32_t all = cv.opaqueEntries + cv.blendEntries;
+    part = timer.cmdBegin(cmd, "visibility.depth");
     rasterPass(cv.raster, 0, cv.opaqueEntries);
     rasterPass(cv.rasterMask, 0, cv.opaqueEntries); // the MASK entries of the same list (the opaque kernel skips them)
     cmdMemoryBarrier(cmd, kCS, kStorageRW, kCS, kStorageRW); // the nearest depths are final
-    rasterPass(cv.mark, 1, all);                             // read the buffer, set bits
+    timer.cmdEnd(cmd, part);
+    part = timer.cmdBegin(cmd, "visibility.tiles");
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cv.tiles);
+    for (size_t e = 0; e < cameras.size(); ++e) {
+      sio::AtlasDepthTilesPush tp{cv.visBuffer.address() + e * cv.visPartBytes, width, height};
+      vkCmdPushConstants(cmd, cv.tilesLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(tp), &tp);
+      vkCmdDispatch(cmd, tilesX, tilesY, 1);
+    }
+    cmdMemoryBarrier(cmd, kCS, kStorageRW, kCS, kStorageRW); // the tiles are final
+    timer.cmdEnd(cmd, part);
+    part = timer.cmdBegin(cmd, "visibility.mark");
+    rasterPass(cv.mark, 1, all); // read the buffer, set bits
     rasterPass(cv.markMask, 1, all);
+    timer.cmdEnd(cmd, part);
     cmdMemoryBarrier(cmd, kCS, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
                      VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy region{0, 0, VkDeviceSize(words) * 4};

@@ -91,6 +91,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
       f.serverMs += st.totalMs / c.clients;
       f.gpuVisibilityMs += st.gpuVisibilityMs / c.clients;
       f.gpuShadingMs += st.gpuShadingMs / c.clients;
+      for (const gpu::PassTime& t : st.gpuPasses) f.gpuPasses[t.name] += t.milliseconds / c.clients;
       f.encodeMs += st.encodeMs / c.clients;
       f.shadedTexels += st.shadedTexels / c.clients;
       f.visiblePatches += st.visiblePatches / c.clients;

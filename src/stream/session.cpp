@@ -225,8 +225,10 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
   }
   ImageRGBA8 atlas = scene.shading->readAtlas();
   st.shadingMs = msSince(tShade);
-  for (const gpu::PassTime& t : scene.shading->takePassTimes())
-    (t.name == "visibility" ? st.gpuVisibilityMs : st.gpuShadingMs) += t.milliseconds;
+  st.gpuPasses = scene.shading->takePassTimes();
+  for (const gpu::PassTime& t : st.gpuPasses)
+    if (t.name.find('.') == std::string::npos) // a stage's parts are inside its own time
+      (t.name == "visibility" ? st.gpuVisibilityMs : st.gpuShadingMs) += t.milliseconds;
 
   // Encoding.
   auto tEncode = Clock::now();

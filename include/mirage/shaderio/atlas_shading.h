@@ -48,6 +48,21 @@ struct AtlasVisibilityTables {
 // where another rasterizer's rounding (the client's) may show it instead.
 #define MIRAGE_ATLAS_DEPTH_TOLERANCE (1.0 / 2048.0)
 
+// Depth tiles of the marking rasters: after the depth raster, each camera's farthest nearest depth
+// per MIRAGE_ATLAS_DEPTH_TILE^2 pixels (the smallest reverse-Z value; 0 where a pixel saw nothing),
+// stored as float bits after that camera's pixels in the 64-bit buffer (atlas_visibility_tiles.comp).
+// A marking triangle whose nearest corner lies behind every tile its box touches, less the
+// tolerance, has no sample that counts and is not walked (atlas_visibility_mark.glsl).
+#define MIRAGE_ATLAS_DEPTH_TILE 8
+// Boxes over this many tiles are walked without the test (the walk stops at its first counting sample).
+#define MIRAGE_ATLAS_DEPTH_TILES_TESTED 16
+
+struct AtlasDepthTilesPush {
+  uint64_t visBufferAddress; // one camera's pixels (uint64_t each), its tiles (uint each) after them
+  uint width;
+  uint height;
+};
+
 // One 8 x 8 tile of a patch's block to shade.
 struct AtlasTile {
   uint patchIndex; // into the shaded GpuAtlasPatch[]

@@ -7,6 +7,7 @@
 // camera it will be shown at: the path's camera i + K, an exact prediction; say so when comparing
 // with systems that predict).
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,7 @@ struct StreamBenchConfig {
 struct StreamBenchFrame {
   // Server, per client frame (averaged over the clients served that frame).
   double serverMs = 0, gpuVisibilityMs = 0, gpuShadingMs = 0, encodeMs = 0;
+  std::map<std::string, double> gpuPasses; // StreamFrameStats::gpuPasses by name, summed within a frame
   uint64_t shadedTexels = 0;
   uint32_t visiblePatches = 0, colourOnly = 0;
   float levelBias = 0.0f; // client 0's, after fitting the atlas

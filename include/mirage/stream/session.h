@@ -109,9 +109,9 @@ struct StreamFrameStats {
   uint32_t addedOrMoved = 0;  // PatchUpdates sent
   uint32_t blockOnly = 0;     // of them without positions (the client's geometry at a new block)
   uint32_t removed = 0;
-  uint32_t colours = 0;       // colours sent (colour-only patches new or changed)
-  uint64_t shadedTexels = 0;  // atlas texels shaded (every visible block, every frame)
-  float levelBias = 0.0f;     // the level bias used, after fitting the atlas (ClientStreamConfig::atlasFill)
+  uint32_t colours = 0;      // colours sent (colour-only patches new or changed)
+  uint64_t shadedTexels = 0; // atlas texels shaded (every visible block, every frame)
+  float levelBias = 0.0f;    // the level bias used, after fitting the atlas (ClientStreamConfig::atlasFill)
   // The patch section (removed ids, entries, colours) as sent, and before zstd.
   uint64_t geometryBytes = 0, geometryRawBytes = 0;
   uint64_t atlasBytes = 0;
@@ -119,6 +119,8 @@ struct StreamFrameStats {
   // GPU time (timestamp queries): the visibility passes; clearing, shading the blocks and the
   // colour-only patches. The atlas readback (a copy to host memory) is in shadingMs only.
   double gpuVisibilityMs = 0, gpuShadingMs = 0;
+  // Every timed pass: the stages above and their parts, named "stage.part" (e.g. "visibility.mark").
+  std::vector<gpu::PassTime> gpuPasses;
 };
 
 class ClientStream {
