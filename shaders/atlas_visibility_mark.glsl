@@ -51,13 +51,11 @@ uint markWalkBegin(uint id) {
   return patchId;
 }
 
-// Whether every sample of triangle a b c (screen x, y, reverse-Z depth) in box lo..hi lies behind
-// the depth tiles it touches less the tolerance, so that none marks: the tiles' depth is at most any
-// pixel's nearest, and a sample's depth at most its nearest corner's (with a margin for the
-// interpolation's rounding). Larger boxes are not tested.
-bool markTriangleHidden(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, ClusterFrame f) {
-  uvec2 first = uvec2(lo) / MIRAGE_ATLAS_DEPTH_TILE, last = uvec2(hi) / MIRAGE_ATLAS_DEPTH_TILE;
-  if ((last.x - first.x + 1) * (last.y - first.y + 1) > MIRAGE_ATLAS_DEPTH_TILES_TESTED) return false;
+// Whether every sample of triangle a b c (screen x, y, reverse-Z depth) in depth tiles first..last
+// lies behind those tiles less the tolerance, so that none marks: a tile's depth is at most any of
+// its pixels' nearest, and a sample's depth at most its nearest corner's (with a margin for the
+// interpolation's rounding).
+bool markTilesHidden(vec3 a, vec3 b, vec3 c, uvec2 first, uvec2 last, ClusterFrame f) {
   uvec2 size = uvec2(f.camera.viewport);
   uint tilesX = (size.x + MIRAGE_ATLAS_DEPTH_TILE - 1) / MIRAGE_ATLAS_DEPTH_TILE;
   AtlasUintRef tiles = AtlasUintRef(push.visBufferAddress + uint64_t(size.x) * size.y * 8u);
@@ -66,6 +64,30 @@ bool markTriangleHidden(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, ClusterFrame f
     for (uint x = first.x; x <= last.x; ++x)
       if (nearest >= uintBitsToFloat(tiles.data[y * tilesX + x]) * (1.0 - MIRAGE_ATLAS_DEPTH_TOLERANCE)) return false;
   return true;
+}
+
+// The same over the depth tiles of box lo..hi, when there are few of them. Larger boxes are queued
+// (cluster_raster.glsl) and tested tile by tile as the workgroup walks them (markQueuedTile).
+bool markTriangleHidden(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, ClusterFrame f) {
+  uvec2 first = uvec2(lo) / MIRAGE_ATLAS_DEPTH_TILE, last = uvec2(hi) / MIRAGE_ATLAS_DEPTH_TILE;
+  if ((last.x - first.x + 1) * (last.y - first.y + 1) > MIRAGE_ATLAS_DEPTH_TILES_TESTED) return false;
+  return markTilesHidden(a, b, c, first, last, f);
+}
+
+// A queued triangle's box in depth tiles: how many across and down (its raster tiles are these).
+uvec2 markTileCount(vec2 lo, vec2 hi) {
+  return uvec2(hi) / MIRAGE_ATLAS_DEPTH_TILE - uvec2(lo) / MIRAGE_ATLAS_DEPTH_TILE + 1u;
+}
+// Queued tile `tile` of box lo..hi: its samples' box (in tileLo..tileHi), or false when the walk
+// can skip it (its patch is marked, or the triangle lies behind the tile).
+bool markQueuedTile(vec3 a, vec3 b, vec3 c, vec2 lo, vec2 hi, uint tile, ClusterFrame f, out vec2 tileLo,
+                    out vec2 tileHi) {
+  uvec2 first = uvec2(lo) / MIRAGE_ATLAS_DEPTH_TILE;
+  uint across = markTileCount(lo, hi).x;
+  uvec2 t = first + uvec2(tile % across, tile / across);
+  tileLo = max(vec2(t * MIRAGE_ATLAS_DEPTH_TILE), lo);
+  tileHi = min(vec2(t * MIRAGE_ATLAS_DEPTH_TILE + (MIRAGE_ATLAS_DEPTH_TILE - 1)), hi);
+  return !markWalkDone && !markTilesHidden(a, b, c, t, t, f);
 }
 
 void markSample(uint64_t nearest, float z, uint patchId) {

@@ -328,8 +328,14 @@ void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, Cluster
 #endif
   if (queueEntry != ~0u && exact64 && box.x * box.y > float(MIRAGE_RASTER_SHARED_PIXELS)) {
     if (!keepsFacingExact(a, b, c, keepAll, mirrored)) return;
+#ifdef MIRAGE_RASTER_MARK
+    // Marking: every queued box in the depth tiles' grid, tested tile by tile (markQueuedTile).
+    bool lattice = false;
+    uvec2 tiles = markTileCount(lo, hi);
+#else
     bool lattice = box.x * box.y > float(MIRAGE_RASTER_LATTICE_PIXELS);
     uvec2 tiles = lattice ? uvec2(0) : uvec2(ceil(box / MIRAGE_RASTER_TILE));
+#endif
     uint64_t counts = atomicAdd(queuedCounts, (uint64_t(1) << 32) | uint64_t(tiles.x * tiles.y));
     queuedTriangles[uint(counts >> 32)] = queueEntry | (lattice ? MIRAGE_RASTER_QUEUE_LATTICE : 0u);
     queuedFirstTile[uint(counts >> 32)] = uint(counts);
@@ -467,10 +473,16 @@ void rasterCluster(uint v, GpuCluster c, GpuClusterInstance inst, ClusterFrame f
     SampleTarget target = sampleTarget(v, t, tileEye, fade, masked, c, inst, m, f);
     vec2 lo, hi;
     sampleBox(s0, s1, s2, f.camera.viewport, lo, hi);
+#ifdef MIRAGE_RASTER_MARK
+    vec2 tileLo, tileHi;
+    if (markQueuedTile(s0, s1, s2, lo, hi, tile, f, tileLo, tileHi))
+      walkQueued(s0, s1, s2, tileLo, tileHi, vec2(0.0), uvec2(1), keepAll, mirrored, f, target);
+#else
     uint tilesX = uint(ceil((hi.x - lo.x + 1.0) / MIRAGE_RASTER_TILE));
     vec2 tileLo = lo + vec2(tile % tilesX, tile / tilesX) * MIRAGE_RASTER_TILE;
     walkQueued(s0, s1, s2, tileLo, min(tileLo + (MIRAGE_RASTER_TILE - 1.0), hi), vec2(0.0), uvec2(1), keepAll, mirrored,
                f, target);
+#endif
   }
   // The largest boxes, each over its eye's threads as a lattice (neighbouring threads write
   // neighbouring pixels: the atomics of a warp share cache lines).
