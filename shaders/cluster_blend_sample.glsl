@@ -4,7 +4,6 @@
 #include "cluster_oit.glsl"
 
 layout(set = 0, binding = 3) uniform sampler2D opaqueDepthImage; // image backends' depth
-layout(buffer_reference, scalar, buffer_reference_align = 4) buffer BlendQueueRef { BlendQueueTriangle triangles[]; };
 
 // Nearest opaque depth of pixel (x, y): the 64-bit buffer's high word (compute, hybrid) or the
 // hardware depth (mesh, indirect); 0 (far) where nothing opaque was drawn.

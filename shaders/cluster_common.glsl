@@ -20,6 +20,8 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer VisibleInsta
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer LevelRef { GpuClusterLevel levels[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CounterRef { ClusterCounters counters; };
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer VisBufferRef { uint64_t pixels[]; };
+// The global queue of large triangles (the blend rasters', and the atlas server's depth raster's).
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer BlendQueueRef { BlendQueueTriangle triangles[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ConeRef { GpuClusterCone cones[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer FloatRef { float data[]; };
 

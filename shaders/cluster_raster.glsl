@@ -278,8 +278,9 @@ bool keepsFacingExact(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored) {
   return keepsFacing(float((B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x)), keepAll, mirrored);
 }
 
-#ifdef MIRAGE_RASTER_BLEND
-// The blend queue (docs/render.md, "Blend rasters"): a blended triangle whose box exceeds
+#if defined(MIRAGE_RASTER_BLEND) || defined(MIRAGE_RASTER_DEPTH_QUEUE)
+// The blend queue (docs/render.md, "Blend rasters"; the atlas server's depth raster queues its large
+// opaque triangles the same way: atlas_visibility_depth.comp): a blended triangle whose box exceeds
 // f.blendQueuePixels goes to one global queue, whose tiles the next dispatch spreads over many
 // workgroups (cluster_blend_queue.comp), instead of keeping this cluster's workgroup walking up to a
 // screenful of pixels while the GPU idles. Its slot and first tile come from one 64-bit
@@ -319,7 +320,7 @@ void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, Cluster
   vec2 mn = min(a.xy, min(b.xy, c.xy)), mx = max(a.xy, max(b.xy, c.xy));
   vec2 box = hi - lo + 1.0, extent = mx - mn;
   bool exact64 = max(max(abs(mn.x), abs(mn.y)), max(abs(mx.x), abs(mx.y))) < MIRAGE_RASTER_LARGE_COORD;
-#ifdef MIRAGE_RASTER_BLEND
+#if defined(MIRAGE_RASTER_BLEND) || defined(MIRAGE_RASTER_DEPTH_QUEUE)
   // Near-clipped fan triangles too: the queue keeps the screen corners, not the cluster's triangle.
   if (exact64 && f.blendQueueAddress != 0 && box.x * box.y > f.blendQueuePixels) {
     if (!keepsFacingExact(a, b, c, keepAll, mirrored)) return;

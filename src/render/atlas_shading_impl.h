@@ -73,7 +73,9 @@ struct AtlasShading::Impl {
   AtlasVisibilityMethod visibilityMethod = AtlasVisibilityMethod::Hardware;
   struct ComputeVisibility {
     gpu::Buffer vertices, clusterVertices, indices, clusters, meshes, instances; // ClusterPush's arrays
-    gpu::Buffer visible, entryTriangles, counters, tables;
+    gpu::Buffer visible, entryTriangles, tables;
+    gpu::Buffer counters;   // ClusterCounters per camera (the raster lists, the depth queue's counts)
+    gpu::Buffer depthQueue; // BlendQueueTriangle[kAtlasDepthQueueCapacity] per camera
     gpu::Buffer frames;    // ClusterFrame per camera (host-written), MIRAGE_CLUSTER_FRAME_STRIDE apart
     gpu::Buffer visBuffer; // per camera: uint64_t per pixel, then the depth tiles (visPartBytes apart)
     VkDeviceSize visPartBytes = 0;
@@ -82,7 +84,7 @@ struct AtlasShading::Impl {
     bool hasMask = false;
     uint32_t visWidth = 0, visHeight = 0;
     gpu::Unique<VkPipelineLayout> rasterLayout, tilesLayout;
-    gpu::Unique<VkPipeline> raster, rasterMask, mark, markMask, tiles;
+    gpu::Unique<VkPipeline> raster, rasterMask, mark, markMask, tiles, queueArgs, depthQueuePass;
   } cv;
   // Shading.
   gpu::Image atlas;

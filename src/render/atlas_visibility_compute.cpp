@@ -31,6 +31,11 @@ namespace {
 
 // The cluster renderer's mono raster specialization.
 constexpr uint32_t kMono[] = {1, kClusterRasterLanes};
+// The depth raster's global queue (atlas_visibility_depth.comp): opaque triangles whose pixel box
+// exceeds kAtlasDepthQueuePixels, at most kAtlasDepthQueueCapacity per camera (past it they are
+// walked by their cluster's workgroup, as without the queue).
+constexpr uint32_t kAtlasDepthQueueCapacity = 16384;
+constexpr float kAtlasDepthQueuePixels = 1024.0f;
 
 // Workgroups for `count` in x, spilling into y past 65535 (the raster's MIRAGE_CLUSTER_DISPATCH_X).
 VkExtent2D groups(uint32_t count) {
@@ -148,7 +153,13 @@ void AtlasShading::Impl::uploadClusters(const Scene& scene, const std::vector<ui
   counters.lists[0][MIRAGE_LIST_UP].count = cv.opaqueEntries;
   counters.lists[1][MIRAGE_LIST_UP].first = 0;
   counters.lists[1][MIRAGE_LIST_UP].count = cv.opaqueEntries + cv.blendEntries;
-  cv.counters = createBufferWithData<sio::ClusterCounters>(ctx, {&counters, 1}, kStorage, "atlas raster counters");
+  const sio::ClusterCounters perCamera[2] = {counters, counters};
+  cv.counters = createBufferWithData<sio::ClusterCounters>(ctx, perCamera,
+                                                           kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                                               VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+                                                           "atlas raster counters");
+  cv.depthQueue = createBuffer(ctx, 2 * VkDeviceSize(kAtlasDepthQueueCapacity) * sizeof(sio::BlendQueueTriangle),
+                               kStorage, MemoryUsage::GpuOnly, "atlas depth queue");
   uint32_t words = (patchCount + 31) / 32;
   cv.patchBits = createBuffer(ctx, std::max<VkDeviceSize>(VkDeviceSize(words) * 4, 4),
                               kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
@@ -164,7 +175,9 @@ void AtlasShading::Impl::uploadClusters(const Scene& scene, const std::vector<ui
 void AtlasShading::Impl::createComputeVisibilityPipelines() {
   cv.rasterLayout =
       createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::ClusterPush), VK_SHADER_STAGE_COMPUTE_BIT);
-  cv.raster = createComputePipeline(ctx, "cluster_raster.comp", cv.rasterLayout, kMono);
+  cv.raster = createComputePipeline(ctx, "atlas_visibility_depth.comp", cv.rasterLayout, kMono);
+  cv.queueArgs = createComputePipeline(ctx, "cluster_args.comp", cv.rasterLayout);
+  cv.depthQueuePass = createComputePipeline(ctx, "atlas_visibility_depth_queue.comp", cv.rasterLayout);
   if (cv.hasMask) cv.rasterMask = createComputePipeline(ctx, "cluster_raster_mask.comp", cv.rasterLayout, kMono);
   cv.mark = createComputePipeline(ctx, "atlas_visibility_mark.comp", cv.rasterLayout, kMono);
   cv.tilesLayout = createPipelineLayout(ctx, {descriptors.layout.get()}, sizeof(sio::AtlasDepthTilesPush),
@@ -191,6 +204,9 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
     f.camera = viewFrame(withClipPlanes(cameras[e], worldBounds), width, height);
     f.visibleCapacity = cv.opaqueEntries + cv.blendEntries;
     f.instanceCount = uint32_t(instances.size());
+    f.blendQueueAddress = cv.depthQueue.address() + e * kAtlasDepthQueueCapacity * sizeof(sio::BlendQueueTriangle);
+    f.blendQueueCapacity = kAtlasDepthQueueCapacity;
+    f.blendQueuePixels = kAtlasDepthQueuePixels;
     std::memcpy(static_cast<uint8_t*>(cv.frames.mapped()) + e * MIRAGE_CLUSTER_FRAME_STRIDE, &f, sizeof(f));
   }
   sio::ClusterPush push{};
@@ -203,7 +219,6 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
   push.materialAddress = materials.address();
   push.visibleInstanceAddress = cv.tables.address(); // the marking rasters' tables (atlas_visibility_mark.glsl)
   push.visibleAddress = cv.visible.address();
-  push.counterAddress = cv.counters.address();
   const uint32_t words = (patchCount + 31) / 32;
 
   submitTimed("visibility", [&](VkCommandBuffer cmd) {
@@ -212,6 +227,10 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
     uint32_t part = timer.cmdBegin(cmd, "visibility.clear");
     vkCmdFillBuffer(cmd, cv.patchBits.handle(), 0, VkDeviceSize(words) * 4, 0);
     vkCmdFillBuffer(cmd, cv.visBuffer.handle(), 0, cameras.size() * cv.visPartBytes, 0);
+    for (size_t e = 0; e < cameras.size(); ++e) // the depth queue starts empty
+      vkCmdFillBuffer(cmd, cv.counters.handle(),
+                      e * sizeof(sio::ClusterCounters) + offsetof(sio::ClusterCounters, blendQueueCounts),
+                      sizeof(uint64_t), 0);
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCS, kStorageRW);
     timer.cmdEnd(cmd, part);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, cv.rasterLayout, 0, 1, &descriptors.set, 0, nullptr);
@@ -222,6 +241,7 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
       for (size_t e = 0; e < cameras.size(); ++e) {
         push.frameAddress = cv.frames.address() + e * MIRAGE_CLUSTER_FRAME_STRIDE;
         push.visBufferAddress = cv.visBuffer.address() + e * cv.visPartBytes;
+        push.counterAddress = cv.counters.address() + e * sizeof(sio::ClusterCounters);
         push.rasterList = list * 2 + MIRAGE_LIST_UP;
         vkCmdPushConstants(cmd, cv.rasterLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
         VkExtent2D g = groups(entries);
@@ -232,6 +252,26 @@ std::vector<uint32_t> AtlasShading::Impl::visibilityCompute(std::span<const Came
     part = timer.cmdBegin(cmd, "visibility.depth");
     rasterPass(cv.raster, 0, cv.opaqueEntries);
     rasterPass(cv.rasterMask, 0, cv.opaqueEntries); // the MASK entries of the same list (the opaque kernel skips them)
+    // The opaque raster's queued large triangles, their tiles over many workgroups.
+    cmdMemoryBarrier(cmd, kCS, kStorageRW, kCS, kStorageRW);
+    auto perCamera = [&](VkPipeline pipeline, auto&& dispatch) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+      for (size_t e = 0; e < cameras.size(); ++e) {
+        push.frameAddress = cv.frames.address() + e * MIRAGE_CLUSTER_FRAME_STRIDE;
+        push.visBufferAddress = cv.visBuffer.address() + e * cv.visPartBytes;
+        push.counterAddress = cv.counters.address() + e * sizeof(sio::ClusterCounters);
+        push.rasterList = MIRAGE_BLEND_QUEUE_ARGS;
+        vkCmdPushConstants(cmd, cv.rasterLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+        dispatch(e);
+      }
+    };
+    perCamera(cv.queueArgs, [&](size_t) { vkCmdDispatch(cmd, 1, 1, 1); });
+    cmdMemoryBarrier(cmd, kCS, kStorageRW, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | kCS,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | kStorageRW);
+    perCamera(cv.depthQueuePass, [&](size_t e) {
+      vkCmdDispatchIndirect(cmd, cv.counters.handle(),
+                            e * sizeof(sio::ClusterCounters) + offsetof(sio::ClusterCounters, blendQueueArgs));
+    });
     cmdMemoryBarrier(cmd, kCS, kStorageRW, kCS, kStorageRW); // the nearest depths are final
     timer.cmdEnd(cmd, part);
     part = timer.cmdBegin(cmd, "visibility.tiles");
