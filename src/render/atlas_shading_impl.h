@@ -86,7 +86,7 @@ struct AtlasShading::Impl {
   // Shading.
   gpu::Image atlas;
   gpu::Unique<VkPipelineLayout> computeLayout;
-  gpu::Unique<VkPipeline> shadePipeline, colourPipeline;
+  gpu::Unique<VkPipeline> shadePipeline, colourPipeline, yuvPipeline;
   gpu::Buffer frame; // FrameData (host-visible)
   AtlasHostBuffer patchBuffer, tileBuffer, sampleBuffer, colourBuffer, regionBuffer;
 
