@@ -235,7 +235,8 @@ TEST(VideoCodec, IntraRefreshStreamDecodes) {
 
 TEST(VideoCodec, I420EntryEncodesAsTheRgbaEntry) {
   // The server hands the encoder YUV planes converted on the GPU; given swscale's planes, the
-  // stream is the one the RGBA entry makes.
+  // stream is the one the RGBA entry makes. One thread: with slice threads x264's rate control
+  // depends on their timing, and two runs differ (measured: 2 threads, 512 x 1024).
   VideoConfig config{.width = 128, .height = 64, .fps = 30, .bitrateKbps = 2000, .threads = 1};
   auto fromRgba = VideoEncoder::create(config);
   auto fromI420 = VideoEncoder::create(config);
