@@ -1,6 +1,7 @@
 // mirage bench stream SCENE [--path orbit:60] [--size WxH] [--codec h264|zstd] [--bitrate MBIT]
-//   [--clients N] [--latency-frames K] [--max-patch-edge L] [--position-bits B] [--visibility M] [--no-quality]
-//   [--json]: Shading Atlas Streaming measured in one process (mirage/stream/bench.h).
+//   [--clients N] [--encode-workers W] [--encoder-threads T] [--latency-frames K] [--max-patch-edge L]
+//   [--position-bits B] [--visibility M] [--no-quality] [--json]: Shading Atlas Streaming measured in one
+//   process (mirage/stream/bench.h).
 #include <memory>
 
 #include <fmt/format.h>
@@ -39,11 +40,14 @@ void runBenchStream(BenchStreamOptions& o) {
   auto report = stream::runStreamBench(**ctx, c);
   if (!report) return fail(report.error());
   const auto& r = *report;
-  double gpuVis = 0, gpuShade = 0, encode = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0,
+  double gpuVis = 0, gpuShade = 0, gpuConvert = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0,
          levelBias = 0, rawKB = 0;
+  double visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0;
   double entries = 0, blockOnly = 0, removed = 0, colours = 0;
   for (const auto& f : r.frames) {
-    gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, encode += f.encodeMs, texels += double(f.shadedTexels);
+    gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, gpuConvert += f.gpuConvertMs;
+    visibilityMs += f.visibilityMs, shadingMs += f.shadingMs, readbackMs += f.readbackMs, encodeMs += f.encodeMs,
+        patchesMs += f.patchesMs, texels += double(f.shadedTexels);
     visible += f.visiblePatches, colourOnly += f.colourOnly, levelBias += f.levelBias, atlasKB += f.atlasBytes / 1024.0,
         geometryKB += f.geometryBytes / 1024.0;
     rawKB += f.geometryRawBytes / 1024.0, entries += f.geometryEntries, blockOnly += f.blockOnlyEntries;
@@ -63,6 +67,8 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"codec", o.codec},
                         {"bitrate_mbit", o.bitrateMbit},
                         {"clients", c.clients},
+                        {"encode_workers", r.encodeWorkers},
+                        {"encoder_threads", c.encoderThreads},
                         {"latency_frames", c.latencyFrames},
                         {"frames", r.frames.size()},
                         {"triangles_source", r.tessellation.trianglesBefore},
@@ -75,7 +81,12 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"gpu_visibility_ms", gpuVis / n},
                         {"gpu_shading_ms", gpuShade / n},
                         {"gpu_passes", passes},
-                        {"encode_ms", encode / n},
+                        {"gpu_convert_ms", gpuConvert / n},
+                        {"visibility_ms", visibilityMs / n},
+                        {"shading_ms", shadingMs / n},
+                        {"readback_ms", readbackMs / n},
+                        {"encode_ms", encodeMs / n},
+                        {"patches_ms", patchesMs / n},
                         {"shaded_texels", texels / n},
                         {"visible_patches", visible / n},
                         {"colour_only_patches", colourOnly / n},
@@ -88,6 +99,8 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"removed", removed / n},
                         {"colours", colours / n},
                         {"mbit_s", r.megabitsPerSecond},
+                        {"server_seconds", r.serverSeconds},
+                        {"frames_per_second", r.framesPerSecond},
                         {"clients_at_30hz", r.clientsAt30Hz}};
     if (c.quality) j.update({{"ssim", r.meanSsim}, {"ssim_min", r.minSsim}, {"psnr", r.meanPsnr}});
     fmt::print("{}\n", j.dump(2));
@@ -99,11 +112,12 @@ void runBenchStream(BenchStreamOptions& o) {
              nameOf(render::kAtlasVisibilityMethodNames, r.visibility));
   fmt::print("  scene: {} triangles, {} after tessellation to edges <= {:g}, {} patches\n",
              r.tessellation.trianglesBefore, r.tessellation.trianglesAfter, r.tessellation.maxPatchEdge, r.patches);
-  fmt::print("  server per client frame: {:.2f} ms wall, GPU {:.3f} ms (visibility {:.3f}, shading {:.3f}), "
-             "encode {:.2f} ms; {:.0f} patches visible ({:.0f} colour-only: no block), {:.2f} M texels shaded, "
-             "level bias {:.2f} after fitting the atlas\n",
-             r.meanServerMs, r.meanGpuMs, gpuVis / n, gpuShade / n, encode / n, visible / n, colourOnly / n,
-             texels / n / 1e6, levelBias / n);
+  fmt::print("  server per client frame: {:.2f} ms wall (visibility {:.2f}, shading {:.2f}, readback {:.2f}, "
+             "encode {:.2f}, patches {:.2f}), GPU {:.3f} ms (visibility {:.3f}, shading {:.3f}, YUV {:.3f}); "
+             "{:.0f} patches visible ({:.0f} colour-only: no block), {:.2f} M texels shaded, level bias {:.2f} after "
+             "fitting the atlas\n",
+             r.meanServerMs, visibilityMs / n, shadingMs / n, readbackMs / n, encodeMs / n, patchesMs / n, r.meanGpuMs,
+             gpuVis / n, gpuShade / n, gpuConvert / n, visible / n, colourOnly / n, texels / n / 1e6, levelBias / n);
   fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry per frame = {:.1f} Mbit/s at {} Hz, {:.3f} bytes per "
              "texel shaded\n",
              atlasKB / n, geometryKB / n, r.megabitsPerSecond, c.fps, bytesPerTexel);
@@ -113,7 +127,8 @@ void runBenchStream(BenchStreamOptions& o) {
   if (c.quality)
     fmt::print("  quality against local rendering: SSIM mean {:.4f} min {:.4f}, PSNR {:.2f} dB\n", r.meanSsim,
                r.minSsim, r.meanPsnr);
-  fmt::print("  clients one GPU serves at 30 Hz (from the wall time): {:.1f}\n", r.clientsAt30Hz);
+  fmt::print("  server throughput: {:.1f} client frames/s ({} clients, {} encode workers): {:.2f} clients at 30 Hz\n",
+             r.framesPerSecond, c.clients, r.encodeWorkers, r.clientsAt30Hz);
 }
 
 } // namespace
@@ -131,7 +146,9 @@ void addBenchStreamCommand(CLI::App& bench) {
       ->capture_default_str();
   b->add_option("--bitrate", o->bitrateMbit, "H.264 target, Mbit/s")->capture_default_str();
   b->add_option("--fps", c.fps, "Frames per second the path is played at")->capture_default_str();
-  b->add_option("--clients", c.clients, "Clients served in turn each frame")->capture_default_str();
+  b->add_option("--clients", c.clients, "Clients served at once (throughput: with --no-quality)")
+      ->capture_default_str();
+  bindEncoding(*b, c.encodeWorkers, c.encoderThreads);
   b->add_option("--latency-frames", c.latencyFrames, "Round trip in frames")->capture_default_str();
   b->add_option("--atlas-size", c.atlasSize, "Atlas side in texels")->capture_default_str();
   b->add_option("--level-bias", c.levelBias, "Atlas texels per pixel: block side x 2^bias")->capture_default_str();

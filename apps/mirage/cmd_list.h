@@ -53,6 +53,8 @@ void addStreamCommands(CLI::App& app);
 void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config);
 // --visibility auto|compute|hardware (serve, bench stream): how the server finds visible patches.
 void bindVisibility(CLI::App& cmd, render::AtlasVisibilityMethod& method);
+// --encode-workers, --encoder-threads (serve, bench stream): the frame workers, x264's slice threads.
+void bindEncoding(CLI::App& cmd, uint32_t& workers, uint32_t& threads);
 // --atlas-fill's help (serve, bench stream).
 inline constexpr const char* kAtlasFillHelp =
     "Share of the atlas the visible patches' blocks may want; past it every patch's level bias is lowered "

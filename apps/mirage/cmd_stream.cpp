@@ -208,6 +208,17 @@ void bindVisibility(CLI::App& cmd, render::AtlasVisibilityMethod& method) {
       ->default_str("auto");
 }
 
+void bindEncoding(CLI::App& cmd, uint32_t& workers, uint32_t& threads) {
+  cmd.add_option("--encode-workers", workers,
+                 "Threads encoding frames while the GPU prepares the next client's (0: a quarter of the "
+                 "processors, 2..8)")
+      ->check(CLI::Range(0u, 64u))
+      ->capture_default_str();
+  cmd.add_option("--encoder-threads", threads, "H.264: slice threads of each client's encoder (0: x264 picks)")
+      ->check(CLI::Range(0u, 128u))
+      ->capture_default_str();
+}
+
 void addStreamCommands(CLI::App& app) {
   auto* s = app.add_subcommand("serve", "Serve a scene by Shading Atlas Streaming (docs/stream.md)");
   auto so = std::make_shared<ServeCliOptions>();
@@ -226,6 +237,7 @@ void addStreamCommands(CLI::App& app) {
                 "Atlas texels per pixel: block side x 2^bias (> 0 sharper, more bytes)")
       ->capture_default_str();
   s->add_option("--atlas-size", so->scene.atlasSize, "Atlas side in texels (power of two)")->capture_default_str();
+  bindEncoding(*s, so->serve.encodeWorkers, so->serve.stream.encoderThreads);
   bindVisibility(*s, so->scene.visibility);
   s->add_option("--atlas-fill", so->serve.stream.atlasFill, kAtlasFillHelp)
       ->check(CLI::Range(0.0f, 1.0f))

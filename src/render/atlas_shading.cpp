@@ -22,6 +22,9 @@ namespace sio = mirage::shaderio;
 namespace {
 
 constexpr uint32_t kSuperblockSide = 1u << MIRAGE_ATLAS_MAX_BLOCK_LOG2;
+// convertAtlasYuv's grid covers every atlas side exactly (a side is a multiple of the superblock).
+static_assert(kSuperblockSide % (MIRAGE_ATLAS_YUV_RUN * MIRAGE_ATLAS_YUV_GROUP) == 0 &&
+              kSuperblockSide % (2 * MIRAGE_ATLAS_YUV_GROUP) == 0);
 
 } // namespace
 
@@ -167,12 +170,14 @@ void AtlasShading::Impl::createPipelines() {
   d.depthCompare = VK_COMPARE_OP_GREATER_OR_EQUAL;
   markInFront = createGraphicsPipeline(ctx, d);
 
-  uint32_t pushBytes = uint32_t(std::max(sizeof(sio::AtlasShadePush), sizeof(sio::AtlasColourPush)));
+  uint32_t pushBytes =
+      uint32_t(std::max({sizeof(sio::AtlasShadePush), sizeof(sio::AtlasColourPush), sizeof(sio::AtlasYuvPush)}));
   computeLayout = createPipelineLayout(ctx, {descriptors.layout.get()}, pushBytes, VK_SHADER_STAGE_COMPUTE_BIT);
   std::vector<uint32_t> spec = materialMapSpecialization(sceneMaterials, textures.size());
   shadePipeline = createComputePipeline(ctx, "atlas_shade.comp", computeLayout, spec);
   colourPipeline = createComputePipeline(ctx, "atlas_colour.comp", computeLayout, spec);
   clearPipeline = createComputePipeline(ctx, "atlas_clear.comp", computeLayout);
+  yuvPipeline = createComputePipeline(ctx, "atlas_yuv.comp", computeLayout);
 }
 
 void AtlasShading::Impl::writeFrame(const AtlasLighting& lighting, glm::vec3 eye) {
@@ -313,8 +318,41 @@ void AtlasShading::clearAtlas() {
 std::vector<gpu::PassTime> AtlasShading::takePassTimes() { return std::exchange(impl_->passTimes, {}); }
 
 ImageRGBA8 AtlasShading::readAtlas() {
+  const uint32_t side = impl_->config.atlasSide;
+  return std::move(*readAtlasRegion(0, 0, side, side)); // the whole atlas: never out of range
+}
+
+AtlasYuvImage AtlasShading::createYuvImage(bool stackedAlpha) {
   Impl& d = *impl_;
-  return ImageRGBA8{d.config.atlasSide, d.config.atlasSide, readbackImage(d.ctx, d.atlas, VK_IMAGE_LAYOUT_GENERAL, 4)};
+  AtlasYuvImage image;
+  image.side = d.config.atlasSide;
+  image.stackedAlpha = stackedAlpha;
+  image.buffer =
+      createBuffer(d.ctx, image.i420().size(), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Readback, "atlas yuv");
+  return image;
+}
+
+Status AtlasShading::convertAtlasYuv(AtlasYuvImage& image) {
+  Impl& d = *impl_;
+  const uint32_t side = d.config.atlasSide;
+  if (image.side != side || !image.buffer || image.buffer.size() < image.i420().size())
+    return Error{fmt::format("a YUV image of a {}-texel atlas given to convert the {}-texel atlas", image.side, side)};
+  sio::AtlasYuvPush push{image.buffer.address(), side, image.stackedAlpha ? 1u : 0u};
+  // A thread per MIRAGE_ATLAS_YUV_RUN x 2 texels; the side is a multiple of the superblock (128).
+  const uint32_t groupsX = side / (MIRAGE_ATLAS_YUV_RUN * MIRAGE_ATLAS_YUV_GROUP);
+  const uint32_t groupsY = side / (2 * MIRAGE_ATLAS_YUV_GROUP);
+  d.submitTimed("yuv", [&](VkCommandBuffer cmd) {
+    // barriers: the atlas's last clear or shading finished before it is read; the host reads after.
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.yuvPipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.computeLayout, 0, 1, &d.descriptors.set, 0, nullptr);
+    vkCmdPushConstants(cmd, d.computeLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    vkCmdDispatch(cmd, groupsX, groupsY, 1);
+    cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+  });
+  return Ok{};
 }
 
 Result<ImageRGBA8> AtlasShading::readAtlasRegion(uint32_t x, uint32_t y, uint32_t width, uint32_t height) {

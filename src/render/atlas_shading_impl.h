@@ -89,7 +89,7 @@ struct AtlasShading::Impl {
   // Shading.
   gpu::Image atlas;
   gpu::Unique<VkPipelineLayout> computeLayout;
-  gpu::Unique<VkPipeline> shadePipeline, colourPipeline, clearPipeline;
+  gpu::Unique<VkPipeline> shadePipeline, colourPipeline, clearPipeline, yuvPipeline;
   gpu::Buffer frame; // FrameData (host-visible)
   AtlasHostBuffer patchBuffer, tileBuffer, sampleBuffer, colourBuffer, regionBuffer;
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
+#include <future>
 
 #include <fmt/format.h>
 
@@ -11,6 +12,8 @@
 #include "mirage/runtime/scene.h"
 #include "mirage/stream/client_view.h"
 #include "mirage/stream/session.h"
+
+#include "frame_workers.h"
 
 namespace mirage::stream {
 
@@ -21,6 +24,8 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 
 Status validate(const StreamBenchConfig& c) {
   if (c.clients < 1 || c.clients > 64) return Error{"--clients must be in 1..64"};
+  if (c.encodeWorkers > 64) return Error{"--encode-workers must be in 0..64"};
+  if (c.encoderThreads > 128) return Error{"--encoder-threads must be in 0..128"};
   if (c.fps < 1 || c.fps > 1000) return Error{"--fps must be in 1..1000"};
   if (c.latencyFrames > 600) return Error{"--latency-frames must be in 0..600"};
   if (c.width < 16 || c.height < 16 || c.width > 16384 || c.height > 16384)
@@ -46,16 +51,19 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
 
   ClientStreamConfig cc{c.codec, c.bitrateKbps, c.fps, c.levelBias};
   cc.atlasFill = c.atlasFill;
+  cc.encoderThreads = c.encoderThreads;
   std::vector<std::unique_ptr<ClientStream>> clients;
   for (uint32_t k = 0; k < c.clients; ++k) {
     auto client = ClientStream::create(served, cc);
     if (!client) return client.error();
     clients.push_back(std::move(*client));
   }
-  auto view = StreamView::create(context, sceneWelcome(served, c.codec));
-  if (!view) return view.error();
+  std::unique_ptr<StreamView> view;
   std::unique_ptr<runtime::Scene> local;
   if (c.quality) {
+    auto created = StreamView::create(context, sceneWelcome(served, c.codec));
+    if (!created) return created.error();
+    view = std::move(*created);
     runtime::SceneOptions lo;
     lo.input = c.input;
     lo.materials = c.materials;
@@ -69,75 +77,118 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
   report.visibility = served.shading->visibilityMethod();
   report.tessellation = served.tessellation;
   report.patches = served.patches.patchCount();
+  report.encodeWorkers = frameWorkerCount(c.encodeWorkers);
+  report.frames.resize(n);
   // Client 0's frames on their way: each arrives latencyFrames after the pose it answers was sent.
-  std::deque<std::pair<size_t, Frame>> inFlight;
-  std::vector<uint32_t> sequences(c.clients, 0);
-  double qualityFrames = 0;
+  std::deque<std::pair<size_t, Frame>> arriving;
   uint64_t bytes = 0;
+  // A client frame being finished on a worker, and the path step it answers.
+  struct Finished {
+    Result<Frame> frame;
+    StreamFrameStats stats;
+  };
+  std::vector<std::future<Finished>> inFlight(c.clients);
+  std::vector<size_t> stepOf(c.clients, 0);
+  // Declared after everything its jobs use: an early return joins the workers first.
+  FrameWorkers workers(report.encodeWorkers);
+  auto collect = [&](uint32_t k) -> Status {
+    Finished done = inFlight[k].get();
+    if (!done.frame) return done.frame.error();
+    const StreamFrameStats& st = done.stats;
+    StreamBenchFrame& f = report.frames[stepOf[k]];
+    const double share = 1.0 / c.clients;
+    f.serverMs += st.totalMs * share;
+    f.visibilityMs += st.visibilityMs * share;
+    f.shadingMs += st.shadingMs * share;
+    f.readbackMs += st.readbackMs * share;
+    f.encodeMs += st.encodeMs * share;
+    f.patchesMs += st.patchesMs * share;
+    f.gpuVisibilityMs += st.gpuVisibilityMs * share;
+    f.gpuShadingMs += st.gpuShadingMs * share;
+    f.gpuConvertMs += st.gpuConvertMs * share;
+    for (const gpu::PassTime& t : st.gpuPasses) f.gpuPasses[t.name] += t.milliseconds * share;
+    f.shadedTexels += st.shadedTexels / c.clients;
+    f.visiblePatches += st.visiblePatches / c.clients;
+    f.colourOnly += st.colourOnly / c.clients;
+    if (k == 0) {
+      f.geometryBytes = st.geometryBytes;
+      f.geometryRawBytes = st.geometryRawBytes;
+      f.atlasBytes = st.atlasBytes;
+      f.levelBias = st.levelBias;
+      f.geometryEntries = st.addedOrMoved - st.blockOnly;
+      f.blockOnlyEntries = st.blockOnly;
+      f.removed = st.removed;
+      f.colours = st.colours;
+      bytes += st.geometryBytes + st.atlasBytes;
+      if (c.quality) arriving.emplace_back(stepOf[k] + c.latencyFrames, std::move(*done.frame));
+    }
+    return Ok{};
+  };
+  auto drain = [&]() -> Status {
+    for (uint32_t k = 0; k < c.clients; ++k)
+      if (inFlight[k].valid())
+        if (Status s = collect(k); !s) return s;
+    return Ok{};
+  };
+
+  double qualityFrames = 0;
   report.minSsim = 1.0;
+  auto running = Clock::now(); // the server's clock runs from here, stopped while client 0 draws
   for (size_t i = 0; i < n; ++i) {
-    StreamBenchFrame f;
     for (uint32_t k = 0; k < c.clients; ++k) {
+      // One frame in flight per client, as the server answers a pose once the last frame is out.
+      if (inFlight[k].valid())
+        if (Status s = collect(k); !s) return s.error();
       size_t j = (i + size_t(k) * n / c.clients) % n; // each client at its own place on the path
       Pose pose;
-      pose.sequence = ++sequences[k];
+      pose.sequence = uint32_t(i + 1);
       pose.camera = toProtocolCamera(cameras[j]);
       pose.predicted = toProtocolCamera(cameras[std::min(j + c.latencyFrames, n - 1)]);
       pose.viewportWidth = c.width;
       pose.viewportHeight = c.height;
-      StreamFrameStats st;
-      auto frame = clients[k]->produceFrame(served, pose, &st);
-      if (!frame) return frame.error();
-      f.serverMs += st.totalMs / c.clients;
-      f.gpuVisibilityMs += st.gpuVisibilityMs / c.clients;
-      f.gpuShadingMs += st.gpuShadingMs / c.clients;
-      for (const gpu::PassTime& t : st.gpuPasses) f.gpuPasses[t.name] += t.milliseconds / c.clients;
-      f.encodeMs += st.encodeMs / c.clients;
-      f.shadedTexels += st.shadedTexels / c.clients;
-      f.visiblePatches += st.visiblePatches / c.clients;
-      f.colourOnly += st.colourOnly / c.clients;
-      if (k == 0) {
-        f.geometryBytes = st.geometryBytes;
-        f.geometryRawBytes = st.geometryRawBytes;
-        f.atlasBytes = st.atlasBytes;
-        f.levelBias = st.levelBias;
-        f.geometryEntries = st.addedOrMoved - st.blockOnly;
-        f.blockOnlyEntries = st.blockOnly;
-        f.removed = st.removed;
-        f.colours = st.colours;
-        bytes += st.geometryBytes + st.atlasBytes;
-        inFlight.emplace_back(i + c.latencyFrames, std::move(*frame));
-      }
+      if (Status s = clients[k]->prepareFrame(served, pose); !s) return s.error();
+      stepOf[k] = i;
+      inFlight[k] = workers.submit([&served, client = clients[k].get()] {
+        Finished done{Error{"not finished"}, {}};
+        done.frame = client->finishFrame(served, &done.stats);
+        return done;
+      });
     }
+    if (!c.quality) continue;
+    if (Status s = drain(); !s) return s.error(); // client 0's frame of this step is drawn now
+    report.serverSeconds += std::chrono::duration<double>(Clock::now() - running).count();
+    StreamBenchFrame& f = report.frames[i];
     auto tApply = Clock::now();
-    while (!inFlight.empty() && inFlight.front().first <= i) {
-      if (auto s = (*view)->apply(inFlight.front().second); !s) return s.error();
-      inFlight.pop_front();
+    while (!arriving.empty() && arriving.front().first <= i) {
+      if (auto s = view->apply(arriving.front().second); !s) return s.error();
+      arriving.pop_front();
     }
     f.clientApplyMs = msSince(tApply);
-    if (c.quality) {
-      auto tRender = Clock::now();
-      auto image = (*view)->render(cameras[i], c.width, c.height);
-      if (!image) return image.error();
-      f.clientRenderMs = msSince(tRender);
-      runtime::View lv;
-      lv.camera = cameras[i];
-      lv.width = c.width;
-      lv.height = c.height;
-      auto reference = local->render(lv);
-      if (!reference) return reference.error();
-      f.ssim = ssim(image->srgb, reference->srgb);
-      f.psnr = psnr(image->srgb, reference->srgb);
-      if (i >= c.latencyFrames) {
-        report.meanSsim += f.ssim;
-        report.meanPsnr += std::min(f.psnr, 99.0);
-        report.minSsim = std::min(report.minSsim, f.ssim);
-        qualityFrames += 1;
-      }
+    auto tRender = Clock::now();
+    auto image = view->render(cameras[i], c.width, c.height);
+    if (!image) return image.error();
+    f.clientRenderMs = msSince(tRender);
+    runtime::View lv;
+    lv.camera = cameras[i];
+    lv.width = c.width;
+    lv.height = c.height;
+    auto reference = local->render(lv);
+    if (!reference) return reference.error();
+    f.ssim = ssim(image->srgb, reference->srgb);
+    f.psnr = psnr(image->srgb, reference->srgb);
+    if (i >= c.latencyFrames) {
+      report.meanSsim += f.ssim;
+      report.meanPsnr += std::min(f.psnr, 99.0);
+      report.minSsim = std::min(report.minSsim, f.ssim);
+      qualityFrames += 1;
     }
+    running = Clock::now();
+  }
+  if (Status s = drain(); !s) return s.error();
+  if (!c.quality) report.serverSeconds = std::chrono::duration<double>(Clock::now() - running).count();
+  for (const StreamBenchFrame& f : report.frames) {
     report.meanServerMs += f.serverMs / double(n);
-    report.meanGpuMs += (f.gpuVisibilityMs + f.gpuShadingMs) / double(n);
-    report.frames.push_back(f);
+    report.meanGpuMs += (f.gpuVisibilityMs + f.gpuShadingMs + f.gpuConvertMs) / double(n);
   }
   if (qualityFrames > 0) {
     report.meanSsim /= qualityFrames;
@@ -146,7 +197,8 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
     report.minSsim = 0;
   }
   report.megabitsPerSecond = double(bytes) * 8.0 * c.fps / double(n) / 1e6;
-  report.clientsAt30Hz = report.meanServerMs > 0 ? 1000.0 / (30.0 * report.meanServerMs) : 0.0;
+  report.framesPerSecond = report.serverSeconds > 0 ? double(n) * c.clients / report.serverSeconds : 0.0;
+  report.clientsAt30Hz = report.framesPerSecond / 30.0;
   return report;
 }
 

@@ -8,6 +8,8 @@
 
 #include <fmt/format.h>
 
+#include "frame_workers.h"
+
 namespace mirage::stream {
 
 namespace {
@@ -34,15 +36,28 @@ struct StreamServer::Impl {
   std::condition_variable wake;
   std::deque<Event> events;
   std::unordered_map<ClientId, Pose> poses;
+  bool changed = false; // a pose arrived or a frame was finished since the loop last looked
+  // What a worker did with a frame: sent it (bytes), found it too large for the client's queue, or
+  // failed to make it (the encoder: serving stops, as for a GPU stage). Guarded by mutex until the
+  // loop takes it.
+  struct Finished {
+    std::optional<Error> error;
+    bool sent = false;
+    size_t bytes = 0;
+  };
+  std::unordered_map<ClientId, Finished> finished;
 
   struct Client {
     std::unique_ptr<ClientStream> stream;
     uint64_t frames = 0, bytes = 0;
+    bool inFlight = false; // a worker finishes this client's frame (until the loop takes it)
   };
   std::unordered_map<ClientId, Client> clients;
+  // Declared after clients: joined before the streams its jobs use are destroyed.
+  FrameWorkers workers;
 
   Impl(gpu::Context& c, std::unique_ptr<StreamScene> s, const ServeOptions& o, ServeLog l)
-      : ctx(c), scene(std::move(s)), options(o), log(std::move(l)) {}
+      : ctx(c), scene(std::move(s)), options(o), log(std::move(l)), workers(frameWorkerCount(o.encodeWorkers)) {}
 
   void say(const std::string& line) const {
     if (log) log(line);
@@ -65,6 +80,7 @@ struct StreamServer::Impl {
         {
           std::lock_guard lock(mutex);
           poses[id] = *pose;
+          changed = true;
         }
         wake.notify_one();
       }
@@ -110,20 +126,68 @@ struct StreamServer::Impl {
                                                      : "zstd tiles"));
   }
 
+  // The GPU half of the frame answering `pose` here; the rest (encoding, the patch section,
+  // sending) on a worker. Errors: a GPU stage failing.
   Status answer(ClientId id, const Pose& pose) {
     auto it = clients.find(id);
     if (it == clients.end()) return Ok{}; // gone, or refused at Hello
-    auto frame = it->second.stream->produceFrame(*scene, pose);
-    if (!frame) return frame.error();
-    std::vector<uint8_t> bytes = encodeMessage(*frame);
-    if (bytes.size() > options.maxFrameBytes || !transport.send(id, bytes)) {
-      transport.close(id, CloseCode::Overloaded, "a frame did not fit the client's queue");
-      clients.erase(it);
-      return Ok{};
-    }
-    it->second.frames++;
-    it->second.bytes += bytes.size();
+    ClientStream* stream = it->second.stream.get();
+    if (Status s = stream->prepareFrame(*scene, pose); !s) return s;
+    it->second.inFlight = true;
+    (void)workers.submit([this, id, stream] {
+      Finished done;
+      auto frame = stream->finishFrame(*scene);
+      if (!frame) {
+        done.error = frame.error();
+      } else {
+        std::vector<uint8_t> bytes = encodeMessage(*frame);
+        done.bytes = bytes.size();
+        done.sent = bytes.size() <= options.maxFrameBytes && transport.send(id, bytes);
+      }
+      {
+        std::lock_guard lock(mutex);
+        finished[id] = std::move(done);
+        changed = true;
+      }
+      wake.notify_all();
+    });
     return Ok{};
+  }
+
+  // Waits until the workers finished the frames in flight of client `id` (nullopt: of every client).
+  void waitFinished(std::optional<ClientId> id) {
+    auto pending = [&] {
+      for (const auto& [cid, c] : clients)
+        if (c.inFlight && (!id || cid == *id) && !finished.count(cid)) return true;
+      return false;
+    };
+    std::unique_lock lock(mutex);
+    wake.wait(lock, [&] { return !pending(); });
+  }
+
+  // Takes the frames the workers finished. Errors: a frame that could not be made (serving stops).
+  Status collect() {
+    std::unordered_map<ClientId, Finished> done;
+    {
+      std::lock_guard lock(mutex);
+      done.swap(finished);
+    }
+    Status result = Ok{};
+    for (auto& [id, f] : done) {
+      auto it = clients.find(id);
+      if (it == clients.end()) continue;
+      it->second.inFlight = false;
+      if (f.error) {
+        result = Error{fmt::format("client {}: {}", id, f.error->message)};
+      } else if (!f.sent) {
+        transport.close(id, CloseCode::Overloaded, "a frame did not fit the client's queue");
+        clients.erase(it);
+      } else {
+        it->second.frames++;
+        it->second.bytes += f.bytes;
+      }
+    }
+    return result;
   }
 };
 
@@ -142,31 +206,43 @@ uint16_t StreamServer::port() const { return impl_->transport.port(); }
 Status StreamServer::run(const std::atomic<bool>& stop) {
   Impl& d = *impl_;
   Status result = Ok{};
-  while (!stop.load()) {
+  bool waiting = false; // a pose waits for its client's queue to drain, which no event announces
+  while (!stop.load() && result) {
     std::deque<Event> events;
     std::vector<std::pair<ClientId, Pose>> due;
     {
       std::unique_lock lock(d.mutex);
-      d.wake.wait_for(lock, std::chrono::milliseconds(5), [&] { return !d.events.empty() || !d.poses.empty(); });
+      d.wake.wait_for(lock, std::chrono::milliseconds(waiting ? 1 : 5), [&] { return !d.events.empty() || d.changed; });
+      d.changed = false;
       events.swap(d.events);
-      // A pose is answered once the client's previous frame has left the queue; until then a newer
-      // pose replaces it.
-      for (auto it = d.poses.begin(); it != d.poses.end();) {
-        if (d.transport.queuedBytes(it->first) == 0) {
-          due.emplace_back(it->first, it->second);
-          it = d.poses.erase(it);
-        } else {
-          ++it;
-        }
-      }
     }
+    result = d.collect();
+    if (!result) break;
     for (Event& e : events) {
       if (e.hello) {
         d.welcome(e.client, *e.hello);
       } else if (auto it = d.clients.find(e.client); it != d.clients.end()) {
+        if (it->second.inFlight) d.waitFinished(e.client); // its worker uses the stream
         d.say(fmt::format("client {} left after {} frames, {:.1f} MB: {}", e.client, it->second.frames,
                           it->second.bytes / 1e6, e.reason));
         d.clients.erase(it);
+      }
+    }
+    {
+      // A pose is answered once the client's previous frame is finished and has left the queue;
+      // until then a newer pose replaces it.
+      std::lock_guard lock(d.mutex);
+      waiting = false;
+      for (auto it = d.poses.begin(); it != d.poses.end();) {
+        auto client = d.clients.find(it->first);
+        bool busy = client != d.clients.end() && client->second.inFlight;
+        if (!busy && d.transport.queuedBytes(it->first) == 0) {
+          due.emplace_back(it->first, it->second);
+          it = d.poses.erase(it);
+        } else {
+          waiting = waiting || !busy;
+          ++it;
+        }
       }
     }
     for (const auto& [id, pose] : due) {
@@ -175,8 +251,9 @@ Status StreamServer::run(const std::atomic<bool>& stop) {
         break;
       }
     }
-    if (!result) break;
   }
+  d.waitFinished(std::nullopt);
+  if (Status s = d.collect(); result && !s) result = s;
   d.transport.stop();
   return result;
 }

@@ -126,9 +126,11 @@ Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& sc
     c->stackedAlpha_ = scene.translucent;
     vc.fps = config.fps;
     vc.bitrateKbps = config.bitrateKbps;
+    vc.threads = config.encoderThreads;
     auto video = VideoEncoder::create(vc);
     if (!video) return video.error();
     c->video_.emplace(std::move(*video));
+    c->yuv_ = scene.shading->createYuvImage(scene.translucent);
   } else if (config.codec == AtlasCodec::JpegTiles) {
     c->stackedAlpha_ = scene.translucent;
     c->jpeg_.emplace(scene.atlasSize, scene.translucent ? 2 * scene.atlasSize : scene.atlasSize);
@@ -145,7 +147,15 @@ void ClientStream::requestKeyframe() {
 }
 
 Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, StreamFrameStats* stats) {
-  StreamFrameStats st;
+  if (Status s = prepareFrame(scene, pose); !s) return s.error();
+  return finishFrame(scene, stats);
+}
+
+Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
+  prepared_.reset();
+  Prepared p;
+  StreamFrameStats& st = p.stats;
+  p.poseSequence = pose.sequence;
   auto t0 = Clock::now();
   const uint32_t w = pose.viewportWidth, h = pose.viewportHeight;
   if (w == 0 || h == 0) return Error{"Pose: empty viewport"};
@@ -160,6 +170,7 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
 
   // Level selection: the larger block either view wants, the bias lowered alike for every patch
   // when their blocks would not fit the atlas share (ClientStreamConfig::atlasFill).
+  auto tShade = Clock::now();
   float bias = config_.levelBias + (config_.codec == AtlasCodec::H264 ? kH264LevelBias : 0.0f);
   float aspect = float(w) / float(h);
   glm::mat4 viewProj[2];
@@ -186,13 +197,11 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
 
   // Shading: every block the client holds (visible, or kept a few frames after it was last seen),
   // every frame: view-dependent terms follow the eye, and a kept patch may be seen again client-side.
-  auto tShade = Clock::now();
-  std::vector<std::pair<uint32_t, AtlasPlacement>> placed = atlas_.placements();
-  std::sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  p.placed = atlas_.placements();
+  std::sort(p.placed.begin(), p.placed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<shaderio::GpuAtlasPatch> blocks;
-  std::vector<uint32_t> colourOnly;
-  blocks.reserve(placed.size());
-  for (const auto& [id, block] : placed) {
+  blocks.reserve(p.placed.size());
+  for (const auto& [id, block] : p.placed) {
     PatchRef ref = scene.patches.patchRef(id);
     uint32_t mesh = scene.patches.instanceMesh[ref.instance];
     const Patch& patch = scene.patches.patch(ref);
@@ -201,76 +210,90 @@ Result<Frame> ClientStream::produceFrame(StreamScene& scene, const Pose& pose, S
     st.shadedTexels += uint64_t(block.width()) * block.height();
   }
   for (uint32_t id : *visible)
-    if (!atlas_.placement(id)) colourOnly.push_back(id);
+    if (!atlas_.placement(id)) p.colourOnly.push_back(id);
   // Colour-only patches stay with the client keepInvisibleFrames frames after they were last
   // visible, as placed ones keep their blocks; they keep the colour last sent.
-  std::vector<uint32_t> keptColourOnly;
   for (const auto& [id, held] : held_)
     if (!held.block && !atlas_.placement(id) && lastVisible_[id] != frameNumber &&
         frameNumber - lastVisible_[id] <= config_.keepInvisibleFrames)
-      keptColourOnly.push_back(id);
+      p.keptColourOnly.push_back(id);
   st.placedPatches = uint32_t(blocks.size());
-  st.colourOnly = uint32_t(colourOnly.size());
+  st.colourOnly = uint32_t(p.colourOnly.size());
   scene.shading->clearAtlas();
   for (size_t first = 0; first < blocks.size(); first += kMaxPatchesPerShade) {
     size_t count = std::min<size_t>(kMaxPatchesPerShade, blocks.size() - first);
     if (auto s = scene.shading->shade({blocks.data() + first, count}, scene.lighting, cameras[0].eye); !s)
       return s.error();
   }
-  std::vector<glm::u8vec4> colours;
-  if (!colourOnly.empty()) {
-    auto c = scene.shading->shadeColours(colourOnly, scene.lighting, cameras[0].eye);
+  if (!p.colourOnly.empty()) {
+    auto c = scene.shading->shadeColours(p.colourOnly, scene.lighting, cameras[0].eye);
     if (!c) return c.error();
-    colours = std::move(*c);
+    p.colours = std::move(*c);
   }
-  ImageRGBA8 atlas = scene.shading->readAtlas();
   st.shadingMs = msSince(tShade);
+
+  // The atlas read back into this client's memory: the next client's shading overwrites the GPU's.
+  auto tRead = Clock::now();
+  if (video_) {
+    if (Status s = scene.shading->convertAtlasYuv(yuv_); !s) return s.error();
+  } else {
+    p.atlas = scene.shading->readAtlas();
+  }
+  st.readbackMs = msSince(tRead);
   st.gpuPasses = scene.shading->takePassTimes();
   for (const gpu::PassTime& t : st.gpuPasses)
     if (t.name.find('.') == std::string::npos) // a stage's parts are inside its own time
-      (t.name == "visibility" ? st.gpuVisibilityMs : st.gpuShadingMs) += t.milliseconds;
+      (t.name == "visibility" ? st.gpuVisibilityMs
+       : t.name == "yuv"      ? st.gpuConvertMs
+                              : st.gpuShadingMs) += t.milliseconds;
+  st.totalMs = msSince(t0);
+  prepared_ = std::move(p);
+  return Ok{};
+}
 
-  // Encoding.
+Result<Frame> ClientStream::finishFrame(const StreamScene& scene, StreamFrameStats* stats) {
+  if (!prepared_) return Error{"finishFrame: no frame prepared"};
+  Prepared p = std::move(*prepared_);
+  prepared_.reset();
+  StreamFrameStats& st = p.stats;
   auto tEncode = Clock::now();
   Frame frame;
   frame.atlas.codec = config_.codec;
-  frame.atlas.width = atlas.width;
-  frame.atlas.height = atlas.height;
-  if (stackedAlpha_) { // colour on top, alpha below as grey (docs/stream.md, "Stacked alpha")
-    size_t texels = size_t(atlas.width) * atlas.height;
-    stacked_.resize(texels * 8);
-    std::copy(atlas.pixels.begin(), atlas.pixels.end(), stacked_.begin());
-    for (size_t i = 0; i < texels; ++i) {
-      uint8_t a = atlas.pixels[i * 4 + 3];
-      uint8_t* out = &stacked_[(texels + i) * 4];
-      out[0] = out[1] = out[2] = a;
-      out[3] = 255;
-    }
-  }
-  std::span<const uint8_t> image = stackedAlpha_ ? std::span<const uint8_t>(stacked_) : atlas.pixels;
-  if (tiles_) {
-    auto bytes = tiles_->encode(image);
-    if (!bytes) return bytes.error();
-    frame.atlas.bytes = std::move(*bytes);
-  } else if (jpeg_) {
-    auto bytes = jpeg_->encode(image);
-    if (!bytes) return bytes.error();
-    frame.atlas.bytes = std::move(*bytes);
-  } else {
-    auto packet = video_->encode(image, keyframe_);
+  frame.atlas.width = scene.atlasSize;
+  frame.atlas.height = stackedAlpha_ ? 2 * scene.atlasSize : scene.atlasSize;
+  if (video_) {
+    auto packet = video_->encodeI420(yuv_.i420(), keyframe_);
     if (!packet) return packet.error();
     frame.atlas.bytes = std::move(packet->data);
+  } else {
+    std::span<const uint8_t> image = p.atlas.pixels;
+    if (stackedAlpha_) { // colour on top, alpha below as grey (docs/stream.md, "Stacked alpha")
+      size_t texels = size_t(p.atlas.width) * p.atlas.height;
+      stacked_.resize(texels * 8);
+      std::copy(p.atlas.pixels.begin(), p.atlas.pixels.end(), stacked_.begin());
+      for (size_t i = 0; i < texels; ++i) {
+        uint8_t a = p.atlas.pixels[i * 4 + 3];
+        uint8_t* out = &stacked_[(texels + i) * 4];
+        out[0] = out[1] = out[2] = a;
+        out[3] = 255;
+      }
+      image = stacked_;
+    }
+    auto bytes = tiles_ ? tiles_->encode(image) : jpeg_->encode(image);
+    if (!bytes) return bytes.error();
+    frame.atlas.bytes = std::move(*bytes);
   }
-  if (stackedAlpha_) frame.atlas.height *= 2;
   keyframe_ = false;
   st.encodeMs = msSince(tEncode);
   st.atlasBytes = frame.atlas.bytes.size();
 
-  diffPatches(scene, placed, colourOnly, keptColourOnly, colours, frame, st);
+  auto tPatches = Clock::now();
+  diffPatches(scene, p.placed, p.colourOnly, p.keptColourOnly, p.colours, frame, st);
   frame.sequence = ++sequence_;
-  frame.poseSequence = pose.sequence;
+  frame.poseSequence = p.poseSequence;
   frame.serverTimeUs = microsecondsNow();
-  st.totalMs = msSince(t0);
+  st.patchesMs = msSince(tPatches);
+  st.totalMs += msSince(tEncode);
   if (stats) *stats = st;
   return frame;
 }

@@ -61,7 +61,39 @@ void setFullRange709(SwsContext* sws) {
   sws_setColorspaceDetails(sws, coefficients, 1, coefficients, 1, 0, 1 << 16, 1 << 16);
 }
 
+// RGBA8 -> YUV420P as the encoder takes it (kSwsToYuvFlags, full-range BT.709); null if libswscale
+// lacks it.
+SwsPtr rgbaToYuvContext(uint32_t width, uint32_t height) {
+  SwsPtr sws(sws_getContext(int(width), int(height), AV_PIX_FMT_RGBA, int(width), int(height), AV_PIX_FMT_YUV420P,
+                            kSwsToYuvFlags, nullptr, nullptr, nullptr));
+  if (sws) setFullRange709(sws.get());
+  return sws;
+}
+
+std::string sizeText(uint32_t width, uint32_t height) { return std::to_string(width) + "x" + std::to_string(height); }
+
+// I420: the three planes back to back, rows without padding.
+size_t i420Bytes(uint32_t width, uint32_t height) { return size_t(width) * height * 3 / 2; }
+
 } // namespace
+
+Result<std::vector<uint8_t>> rgbaToI420(std::span<const uint8_t> rgba, uint32_t width, uint32_t height) {
+  if (width == 0 || height == 0 || width % 2 || height % 2 || width > kMaxVideoSide || height > kMaxVideoSide)
+    return Error{"rgbaToI420: size " + sizeText(width, height) + " must be even and in [2, 16384]"};
+  if (rgba.size() != size_t(width) * height * 4)
+    return Error{"rgbaToI420: image of " + std::to_string(rgba.size()) + " bytes, expected " + sizeText(width, height) +
+                 " RGBA8"};
+  SwsPtr sws = rgbaToYuvContext(width, height);
+  if (!sws) return Error{"rgbaToI420: libswscale has no RGBA -> YUV420P conversion"};
+  std::vector<uint8_t> out(i420Bytes(width, height));
+  const size_t lumaBytes = size_t(width) * height;
+  uint8_t* planes[3] = {out.data(), out.data() + lumaBytes, out.data() + lumaBytes + lumaBytes / 4};
+  const int strides[3] = {int(width), int(width / 2), int(width / 2)};
+  const uint8_t* source[1] = {rgba.data()};
+  const int sourceStride[1] = {int(width * 4)};
+  sws_scale(sws.get(), source, sourceStride, 0, int(height), planes, strides);
+  return out;
+}
 
 struct VideoEncoder::State {
   VideoConfig config;
@@ -114,7 +146,9 @@ Result<VideoEncoder> VideoEncoder::create(const VideoConfig& config) {
   c->rc_buffer_size = int(bitrate * config.vbvFrames / config.fps);
   c->max_b_frames = 0;
   c->gop_size = int(config.keyframeInterval ? config.keyframeInterval : config.fps * 4);
-  c->thread_count = 0; // x264 picks; zerolatency makes them slice threads (no frame delay)
+  // zerolatency makes them slice threads (libavcodec's libx264 leaves x264's thread type alone
+  // unless thread_type is set): every frame is cut into one slice per thread, no frame delay.
+  c->thread_count = int(config.threads);
   av_opt_set(c->priv_data, "preset", config.preset.c_str(), 0);
   av_opt_set(c->priv_data, "tune", "zerolatency", 0);
   av_opt_set_int(c->priv_data, "forced-idr", 1, 0); // a forced keyframe is an IDR: a joining client can start there
@@ -131,10 +165,8 @@ Result<VideoEncoder> VideoEncoder::create(const VideoConfig& config) {
   frame->colorspace = AVCOL_SPC_BT709;
   if (int status = av_frame_get_buffer(frame, 0); status < 0) return encoderError(avError(status));
 
-  state->toYuv.reset(sws_getContext(c->width, c->height, AV_PIX_FMT_RGBA, c->width, c->height, AV_PIX_FMT_YUV420P,
-                                    kSwsToYuvFlags, nullptr, nullptr, nullptr));
+  state->toYuv = rgbaToYuvContext(config.width, config.height);
   if (!state->toYuv) return encoderError("libswscale has no RGBA -> YUV420P conversion");
-  setFullRange709(state->toYuv.get());
   return VideoEncoder(std::move(state));
 }
 
@@ -142,13 +174,34 @@ Result<VideoPacket> VideoEncoder::encode(std::span<const uint8_t> rgba, bool for
   State& s = *state_;
   if (rgba.size() != size_t(s.config.width) * s.config.height * 4) {
     return encoderError("image of " + std::to_string(rgba.size()) + " bytes, expected " +
-                        std::to_string(s.config.width) + "x" + std::to_string(s.config.height) + " RGBA8");
+                        sizeText(s.config.width, s.config.height) + " RGBA8");
   }
   AVFrame* frame = s.frame.get();
   if (int status = av_frame_make_writable(frame); status < 0) return encoderError(avError(status));
   const uint8_t* source[1] = {rgba.data()};
   const int sourceStride[1] = {int(s.config.width * 4)};
   sws_scale(s.toYuv.get(), source, sourceStride, 0, int(s.config.height), frame->data, frame->linesize);
+  return encodeFrame(forceKeyframe);
+}
+
+Result<VideoPacket> VideoEncoder::encodeI420(std::span<const uint8_t> i420, bool forceKeyframe) {
+  State& s = *state_;
+  const uint32_t w = s.config.width, h = s.config.height;
+  if (i420.size() != i420Bytes(w, h)) {
+    return encoderError("image of " + std::to_string(i420.size()) + " bytes, expected " + sizeText(w, h) + " I420");
+  }
+  AVFrame* frame = s.frame.get();
+  if (int status = av_frame_make_writable(frame); status < 0) return encoderError(avError(status));
+  const size_t lumaBytes = size_t(w) * h;
+  const uint8_t* planes[4] = {i420.data(), i420.data() + lumaBytes, i420.data() + lumaBytes + lumaBytes / 4, nullptr};
+  const int strides[4] = {int(w), int(w / 2), int(w / 2), 0};
+  av_image_copy(frame->data, frame->linesize, planes, strides, AV_PIX_FMT_YUV420P, int(w), int(h));
+  return encodeFrame(forceKeyframe);
+}
+
+Result<VideoPacket> VideoEncoder::encodeFrame(bool forceKeyframe) {
+  State& s = *state_;
+  AVFrame* frame = s.frame.get();
   frame->pts = s.pts++;
   frame->pict_type = forceKeyframe ? AV_PICTURE_TYPE_I : AV_PICTURE_TYPE_NONE;
 

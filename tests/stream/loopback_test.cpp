@@ -13,6 +13,7 @@
 #include "mirage/runtime/scene.h"
 #include "mirage/stream/client.h"
 #include "mirage/stream/server.h"
+#include "mirage/stream/video.h"
 
 namespace mirage {
 namespace {
@@ -110,6 +111,60 @@ TEST_F(StreamLoopback, ReconnectGetsAFreshSession) {
     ASSERT_TRUE(s) << "round " << round << ": " << s.error().message;
     EXPECT_EQ(frames, 2u);
     EXPECT_GT(firstPatches, 0u) << "round " << round;
+  }
+}
+
+TEST_F(StreamLoopback, ClientsAtOnceEachGetTheirFrames) {
+  // Three H.264 clients with a pose out each at the same time: the server prepares them in turn on
+  // the GPU while workers encode; each frame answers its client's pose and decodes at the atlas
+  // size (stacked alpha: twice its height). A fourth client leaves with its frame being made.
+  LoopbackServer server("gen:city:2", stream::AtlasCodec::H264, test::kStreamToken, 512);
+  ASSERT_TRUE(server.server);
+  stream::StreamClientOptions options;
+  options.url = server.url();
+  options.token = test::kStreamToken;
+  options.width = 160;
+  options.height = 90;
+  options.capabilities = stream::kCapabilityH264;
+  options.timeout = std::chrono::milliseconds(60000);
+  stream::ClientConfig config = stream::transportConfig(options);
+  constexpr size_t kClients = 3;
+  std::vector<std::unique_ptr<stream::TransportClient>> clients;
+  std::vector<stream::VideoDecoder> decoders;
+  Bounds bounds;
+  for (size_t k = 0; k < kClients + 1; ++k) {
+    clients.push_back(std::make_unique<stream::TransportClient>());
+    auto welcome = clients.back()->connect(options.url, config);
+    ASSERT_TRUE(welcome) << welcome.error().message;
+    bounds = Bounds{welcome->sceneMin, welcome->sceneMax};
+    auto decoder = stream::VideoDecoder::create();
+    ASSERT_TRUE(decoder);
+    decoders.push_back(std::move(*decoder));
+  }
+  auto cameras = render::orbitPath(bounds, 16.0f / 9.0f, 6);
+  for (uint32_t round = 1; round <= 2; ++round) {
+    for (size_t k = 0; k < (round == 1 ? kClients + 1 : kClients); ++k) {
+      stream::Pose pose;
+      pose.sequence = round;
+      pose.camera = pose.predicted = stream::toProtocolCamera(cameras[(k + round) % cameras.size()]);
+      pose.viewportWidth = options.width;
+      pose.viewportHeight = options.height;
+      ASSERT_TRUE(clients[k]->send(pose));
+    }
+    if (round == 1) clients[kClients]->close(); // gone before (or while) its frame is made
+    for (size_t k = 0; k < kClients; ++k) {
+      auto message = clients[k]->receive(std::chrono::milliseconds(60000));
+      ASSERT_TRUE(message) << "client " << k << ": " << message.error().message;
+      auto* frame = std::get_if<stream::Frame>(&*message);
+      ASSERT_TRUE(frame) << "client " << k;
+      EXPECT_EQ(frame->poseSequence, round);
+      EXPECT_EQ(frame->sequence, round);
+      auto decoded = decoders[k].decode(frame->atlas.bytes);
+      ASSERT_TRUE(decoded) << decoded.error().message;
+      EXPECT_TRUE(*decoded) << "client " << k << " round " << round;
+      EXPECT_EQ(decoders[k].width(), 512u);
+      EXPECT_EQ(decoders[k].height(), 1024u);
+    }
   }
 }
 

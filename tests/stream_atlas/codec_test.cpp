@@ -1,5 +1,6 @@
 // Atlas codecs: the zstd tile-delta codec is bit-exact, sends only changed tiles and rejects damaged
-// payloads; the H.264 codec keeps a synthetic atlas above 35 dB near its bitrate target and
+// payloads; the H.264 codec keeps a synthetic atlas above 35 dB near its bitrate target, takes YUV
+// planes as it takes RGBA, cuts frames into one slice per thread without holding any back, and
 // survives garbage.
 #include <gtest/gtest.h>
 
@@ -230,6 +231,61 @@ TEST(VideoCodec, IntraRefreshStreamDecodes) {
     ASSERT_TRUE(*got) << "frame " << frame;
     EXPECT_GE(psnr(asImage(source, 128, 128), asImage(decoder->image(), 128, 128)), 35.0) << "frame " << frame;
   }
+}
+
+TEST(VideoCodec, I420EntryEncodesAsTheRgbaEntry) {
+  // The server hands the encoder YUV planes converted on the GPU; given swscale's planes, the
+  // stream is the one the RGBA entry makes. One thread: with slice threads x264's rate control
+  // depends on their timing, and two runs differ (measured: 2 threads, 512 x 1024).
+  VideoConfig config{.width = 128, .height = 64, .fps = 30, .bitrateKbps = 2000, .threads = 1};
+  auto fromRgba = VideoEncoder::create(config);
+  auto fromI420 = VideoEncoder::create(config);
+  ASSERT_TRUE(fromRgba.ok() && fromI420.ok());
+  for (uint32_t frame = 0; frame < 4; ++frame) {
+    std::vector<uint8_t> rgba = syntheticAtlas(128, frame);
+    rgba.resize(size_t(128) * 64 * 4); // the top half: a 128 x 64 image
+    auto planes = rgbaToI420(rgba, 128, 64);
+    ASSERT_TRUE(planes.ok()) << planes.error().message;
+    ASSERT_EQ(planes->size(), size_t(128) * 64 * 3 / 2);
+    auto a = fromRgba->encode(rgba, frame == 2);
+    auto b = fromI420->encodeI420(*planes, frame == 2);
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_EQ(a->data, b->data) << "frame " << frame;
+    EXPECT_EQ(a->keyframe, b->keyframe);
+  }
+  EXPECT_FALSE(fromI420->encodeI420(std::vector<uint8_t>(128 * 64 * 4)).ok()) << "RGBA bytes given as I420";
+  EXPECT_FALSE(rgbaToI420(std::vector<uint8_t>(15), 2, 2).ok()) << "a byte short";
+  EXPECT_FALSE(rgbaToI420(std::vector<uint8_t>(3 * 2 * 4), 3, 2).ok()) << "odd width";
+}
+
+// The slices of an Annex B access unit (NAL types 1 and 5).
+uint32_t sliceCount(const std::vector<uint8_t>& annexB) {
+  uint32_t slices = 0;
+  for (size_t i = 0; i + 3 < annexB.size(); ++i)
+    if (annexB[i] == 0 && annexB[i + 1] == 0 && annexB[i + 2] == 1) {
+      uint8_t type = annexB[i + 3] & 0x1f;
+      slices += type == 1 || type == 5;
+      i += 2;
+    }
+  return slices;
+}
+
+TEST(VideoCodec, ThreadsAreSlicesNotFrameDelay) {
+  // zerolatency's slice threads: every frame is one slice per thread and comes out at once
+  // (frame threads would hold threads - 1 frames back). 256 rows: 16 macroblock rows, x264's
+  // limit of 4 rows per slice thread allows 4.
+  auto encoder = VideoEncoder::create({.width = 256, .height = 256, .fps = 30, .bitrateKbps = 4000, .threads = 4});
+  ASSERT_TRUE(encoder.ok()) << encoder.error().message;
+  for (uint32_t frame = 0; frame < 3; ++frame) {
+    auto packet = encoder->encode(syntheticAtlas(256, frame));
+    ASSERT_TRUE(packet.ok()) << packet.error().message;
+    EXPECT_EQ(sliceCount(packet->data), 4u) << "frame " << frame;
+  }
+  auto single = VideoEncoder::create({.width = 256, .height = 256, .threads = 1});
+  ASSERT_TRUE(single.ok());
+  auto packet = single->encode(syntheticAtlas(256, 0));
+  ASSERT_TRUE(packet.ok());
+  EXPECT_EQ(sliceCount(packet->data), 1u);
 }
 
 TEST(VideoCodec, GarbageAndBadConfigsRejected) {

@@ -15,9 +15,11 @@
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
+#include "mirage/gpu/memory.h"
 #include "mirage/gpu/query.h"
 #include "mirage/render/camera.h"
 #include "mirage/shaderio/atlas.h"
+#include "mirage/shaderio/atlas_shading.h"
 
 namespace mirage::render {
 
@@ -47,6 +49,19 @@ struct AtlasLighting {
   float lightIntensity = 2.6f;
   glm::vec3 skyAmbient{0.32f, 0.34f, 0.38f};
   glm::vec3 groundAmbient{0.12f, 0.11f, 0.10f};
+};
+
+// The atlas as YUV 4:2:0 in host memory (AtlasShading::convertAtlasYuv; the layout and the
+// conversion: shaderio/atlas_shading.h, "AtlasYuvPush"). A server keeps one per H.264 client, so
+// that client's frame can be encoded while the atlas is shaded for the next.
+struct AtlasYuvImage {
+  uint32_t side = 0;         // the atlas side: luma width
+  bool stackedAlpha = false; // twice the atlas height, the alpha below the colour
+  gpu::Buffer buffer;        // host-visible, coherent: the I420 planes
+
+  uint32_t height() const { return shaderio::atlasYuvHeight(side, stackedAlpha); }
+  // Y (side x height), U, V (side/2 x height/2), back to back.
+  std::span<const uint8_t> i420() const { return {buffer.mapped(), shaderio::atlasYuvBytes(side, stackedAlpha)}; }
 };
 
 class AtlasShading {
@@ -87,6 +102,12 @@ public:
   void clearAtlas();
   // The whole atlas image as shade() left it (zero where nothing was shaded yet).
   ImageRGBA8 readAtlas();
+  // A YUV image of this atlas for convertAtlasYuv (stackedAlpha: the alpha below the colour).
+  AtlasYuvImage createYuvImage(bool stackedAlpha);
+  // Converts the atlas as shade() left it into `image` (one compute pass, written straight to host
+  // memory: 1.5 bytes a texel where readAtlas reads 4). Synchronous; GPU time in takePassTimes()
+  // as "yuv". Errors: an image made for another atlas side.
+  Status convertAtlasYuv(AtlasYuvImage& image);
   // The width x height texels at (x, y) only (the blocks shaded this frame: a dirty rectangle).
   // Errors: an empty rectangle or one leaving the atlas.
   Result<ImageRGBA8> readAtlasRegion(uint32_t x, uint32_t y, uint32_t width, uint32_t height);

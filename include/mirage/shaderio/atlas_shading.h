@@ -1,5 +1,5 @@
 // The server's atlas stages (render/atlas_shading.h, docs/stream.md, "The server's GPU stages"): push constants and
-// records shared by C++ and the shaders atlas_visibility.* and atlas_shade/atlas_colour.comp.
+// records shared by C++ and the shaders atlas_visibility.*, atlas_shade/atlas_colour.comp and atlas_yuv.comp.
 // Scalar block layout through buffer device addresses, as shaderio/forward.h.
 #ifndef MIRAGE_SHADERIO_ATLAS_SHADING_H
 #define MIRAGE_SHADERIO_ATLAS_SHADING_H
@@ -102,7 +102,51 @@ struct AtlasColourPush {
   uint pad0;
 };
 
+// The atlas as the H.264 encoder takes it (atlas_yuv.comp; docs/stream.md, "Codecs"): YUV 4:2:0,
+// 8 bits a sample, full-range BT.709 of the atlas's sRGB-encoded bytes as they are (what libswscale
+// makes of them: the CPU path, video.h's rgbaToI420, within 1 a sample). Luma per texel; chroma the
+// mean of each 2 x 2 texel quad (swscale's area filter: blocks are >= 2 x 2 and aligned, so no
+// chroma sample mixes two blocks). With stacked alpha the image is twice the atlas height, the
+// alpha below the colour as grey: Y = alpha, U = V = 128.
+// I420 layout, planes back to back, no padding: Y (side x height), U, V (side/2 x height/2).
+// A thread converts MIRAGE_ATLAS_YUV_RUN texels of two rows: two luma runs and one chroma run of
+// each plane, whole 32-bit words (the side is a multiple of 128).
+#define MIRAGE_ATLAS_YUV_RUN 8
+#define MIRAGE_ATLAS_YUV_GROUP 8 // workgroup: 8 x 8 threads
+// BT.709 luma weights of R and B (G's is 1 - KR - KB); chroma (B - Y) / (2 (1 - KB)) + 128 and
+// (R - Y) / (2 (1 - KR)) + 128, full range (no 16..235 scaling).
+#define MIRAGE_BT709_KR 0.2126
+#define MIRAGE_BT709_KB 0.0722
+
+// Push constants of atlas_yuv.comp (a thread per 8 x 2 texels of the atlas).
+struct AtlasYuvPush {
+  uint64_t outputAddress; // uint[]: the I420 planes, atlasYuvBytes
+  uint side;              // atlas side in texels
+  uint stackedAlpha;      // 1: the image is 2 x side high, the alpha below the colour
+};
+
 #ifdef __cplusplus
+#define MIRAGE_YUV_SHARED inline
+#else
+#define MIRAGE_YUV_SHARED
+#endif
+// Luma rows of the converted image.
+MIRAGE_YUV_SHARED uint atlasYuvHeight(uint side, uint stackedAlpha) { return stackedAlpha != 0u ? 2u * side : side; }
+// Byte offsets of the U and V planes.
+MIRAGE_YUV_SHARED uint atlasYuvUOffset(uint side, uint stackedAlpha) {
+  return side * atlasYuvHeight(side, stackedAlpha);
+}
+MIRAGE_YUV_SHARED uint atlasYuvVOffset(uint side, uint stackedAlpha) {
+  return atlasYuvUOffset(side, stackedAlpha) + (side / 2u) * (atlasYuvHeight(side, stackedAlpha) / 2u);
+}
+// The image's bytes: 1.5 a luma sample.
+MIRAGE_YUV_SHARED uint atlasYuvBytes(uint side, uint stackedAlpha) {
+  return atlasYuvVOffset(side, stackedAlpha) + (side / 2u) * (atlasYuvHeight(side, stackedAlpha) / 2u);
+}
+#undef MIRAGE_YUV_SHARED
+
+#ifdef __cplusplus
+static_assert(sizeof(AtlasYuvPush) == 16, "AtlasYuvPush layout");
 static_assert(sizeof(AtlasVisibilityPush) == 112, "AtlasVisibilityPush layout");
 static_assert(sizeof(AtlasVisibilityTables) == 24, "AtlasVisibilityTables layout");
 static_assert(sizeof(AtlasTile) == 8, "AtlasTile layout");

@@ -1,8 +1,11 @@
 #pragma once
 // `mirage bench stream` (docs/stream.md, "Measurements"): the server's frame production for N
 // clients and one client's view of it, in one process without the network, along a camera path.
-// Per frame: server time (wall and GPU), atlas texels shaded, bytes by kind; the client's image
-// against the forward renderer's of the same camera (SSIM, PSNR), with a round trip of K frames:
+// The N clients are served as the server serves them: this thread runs each client's GPU stages in
+// turn, worker threads encode (frame_workers.h), one frame in flight per client; their throughput
+// (client frames per second of the server's wall time) gives the clients one GPU serves at 30 Hz.
+// Per frame: server time (wall per stage, and GPU), atlas texels shaded, bytes by kind; the client's
+// image against the forward renderer's of the same camera (SSIM, PSNR), with a round trip of K frames:
 // the client draws camera i from the frames answering poses up to i - K (each pose predicting the
 // camera it will be shown at: the path's camera i + K, an exact prediction; say so when comparing
 // with systems that predict).
@@ -28,19 +31,26 @@ struct StreamBenchConfig {
   TessellationConfig tessellation;
   AtlasCodec codec = AtlasCodec::H264;
   uint32_t bitrateKbps = 20000;
-  uint32_t fps = 60;          // frames per second the path is played at (bitrates, rate control)
-  uint32_t clients = 1;       // clients served in turn each frame, each along the path from its own offset
-  uint32_t latencyFrames = 0; // round trip, in frames
+  uint32_t fps = 60;           // frames per second the path is played at (bitrates, rate control)
+  uint32_t clients = 1;        // clients served at once, each along the path from its own offset
+  uint32_t encodeWorkers = 0;  // threads encoding while the GPU prepares the next client (0: frameWorkerCount's)
+  uint32_t encoderThreads = 0; // H.264: x264's slice threads per encoder (0: x264 picks)
+  uint32_t latencyFrames = 0;  // round trip, in frames
   float levelBias = 0.0f;
   float atlasFill = ClientStreamConfig{}.atlasFill; // share of the atlas level selection fits the blocks to (0: none)
   uint32_t positionBits = 20;                       // StreamSceneOptions::positionBits
   render::AtlasVisibilityMethod visibility = render::AtlasVisibilityMethod::Auto; // StreamSceneOptions::visibility
-  bool quality = true; // client 0 draws every frame and is compared with local rendering
+  // Client 0 draws every frame and is compared with local rendering. The clock of the throughput
+  // stops meanwhile, but every client's frame of a path step is finished before client 0 draws:
+  // measure throughput without (nothing then waits on the pipeline but its own rule).
+  bool quality = true;
 };
 
 struct StreamBenchFrame {
-  // Server, per client frame (averaged over the clients served that frame).
-  double serverMs = 0, gpuVisibilityMs = 0, gpuShadingMs = 0, encodeMs = 0;
+  // Server, per client frame (averaged over the clients served that frame): wall time of the
+  // frame's work (StreamFrameStats::totalMs) and of its stages, GPU time.
+  double serverMs = 0, visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0;
+  double gpuVisibilityMs = 0, gpuShadingMs = 0, gpuConvertMs = 0;
   std::map<std::string, double> gpuPasses; // StreamFrameStats::gpuPasses by name, summed within a frame
   uint64_t shadedTexels = 0;
   uint32_t visiblePatches = 0, colourOnly = 0;
@@ -64,7 +74,10 @@ struct StreamBenchReport {
   // arrived for them yet).
   double meanServerMs = 0, meanGpuMs = 0, meanSsim = 0, minSsim = 0, meanPsnr = 0;
   double megabitsPerSecond = 0; // client 0's bytes at `fps`
-  double clientsAt30Hz = 0;     // 1000 / (30 x mean server wall ms per client frame)
+  uint32_t encodeWorkers = 0;   // the workers that ran
+  double serverSeconds = 0;     // wall time of the server's work (client 0's drawing and comparing excluded)
+  double framesPerSecond = 0;   // client frames of all clients / serverSeconds
+  double clientsAt30Hz = 0;     // framesPerSecond / 30
 };
 
 Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& config);

@@ -21,6 +21,9 @@ struct ServeOptions {
   ClientStreamConfig stream;           // bitrate, level bias (codec chosen per client)
   // Largest frame message sent (the client's decode limit must take it).
   uint32_t maxFrameBytes = 256u << 20;
+  // Threads encoding frames while the GPU prepares the next client's (0: frame_workers.h's default,
+  // a quarter of the processors within 2..8).
+  uint32_t encodeWorkers = 0;
 };
 
 // One line per event (connections, refusals, per-second figures); empty: silent.

@@ -2,11 +2,12 @@
 // Shading Atlas Streaming, the server's work without the network (docs/stream.md, "Server"):
 // StreamScene is what every client of one scene shares (the scene, its patches, the GPU stages);
 // ClientStream is one client's state (its atlas allocation, the patches it holds, its atlas
-// encoder). produceFrame answers one Pose with one Frame:
-//   visibility (current + predicted view) -> level selection -> atlas allocation -> shading of
-//   every visible patch's block -> colours of the patches that did not fit -> atlas encoding ->
-//   the difference to what the client holds (removed, added or moved patches, changed colours) in the
-//   Frame's patch section.
+// encoder). produceFrame answers one Pose with one Frame, in two halves:
+//   prepareFrame (the GPU's): visibility (current + predicted view) -> level selection -> atlas
+//   allocation -> shading of every visible patch's block -> colours of the patches that did not
+//   fit -> the atlas read back (H.264: converted to YUV 4:2:0 on the GPU first)
+//   finishFrame (the CPU's): atlas encoding -> the difference to what the client holds (removed,
+//   added or moved patches, changed colours) in the Frame's patch section.
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -92,6 +93,7 @@ struct ClientStreamConfig {
   // The client decodes a zstd patch section (Hello's kCapabilityZstdPatches): frames use it when it
   // is smaller.
   bool zstdPatches = true;
+  uint32_t encoderThreads = 0; // H264: x264's slice threads (VideoConfig::threads; 0: x264 picks)
 };
 
 // H.264 carries colour at half resolution (4:2:0; the encoder averages each 2x2 texel square so no
@@ -115,10 +117,14 @@ struct StreamFrameStats {
   // The patch section (removed ids, entries, colours) as sent, and before zstd.
   uint64_t geometryBytes = 0, geometryRawBytes = 0;
   uint64_t atlasBytes = 0;
-  double visibilityMs = 0, shadingMs = 0, encodeMs = 0, totalMs = 0; // wall clock on the server
+  // Wall clock on the server: visibility; level selection, allocation and shading (blocks and
+  // colour-only patches); the atlas read back (H.264: its conversion to YUV and the planes read back;
+  // tile codecs: the RGBA8 image); the atlas codec (tile codecs: with stacking the alpha); the patch
+  // section. totalMs: prepareFrame's and finishFrame's wall time (not the wait between them).
+  double visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0, totalMs = 0;
   // GPU time (timestamp queries): the visibility passes; clearing, shading the blocks and the
-  // colour-only patches. The atlas readback (a copy to host memory) is in shadingMs only.
-  double gpuVisibilityMs = 0, gpuShadingMs = 0;
+  // colour-only patches; the YUV conversion (H.264).
+  double gpuVisibilityMs = 0, gpuShadingMs = 0, gpuConvertMs = 0;
   // Every timed pass: the stages above and their parts, named "stage.part" (e.g. "visibility.mark").
   std::vector<gpu::PassTime> gpuPasses;
 };
@@ -128,9 +134,17 @@ public:
   // Errors: a codec other than ZstdTiles or H264, an encoder that cannot start.
   static Result<std::unique_ptr<ClientStream>> create(const StreamScene& scene, const ClientStreamConfig& config);
 
-  // The Frame answering `pose`. Errors (a GPU stage or the encoder failing) leave the client's
-  // state as it was: the next frame starts from what the client holds.
+  // The Frame answering `pose`: prepareFrame then finishFrame. Errors (a GPU stage or the encoder
+  // failing) leave what the client holds as it was: the next frame starts from there.
   Result<Frame> produceFrame(StreamScene& scene, const Pose& pose, StreamFrameStats* stats = nullptr);
+  // The GPU half: needs the scene's GPU stages to itself (one thread prepares, for every client).
+  // The atlas it reads back is this client's (its YUV image or RGBA copy), so the GPU may go on to
+  // the next client while this one finishes. Errors: an empty viewport, a GPU stage failing.
+  Status prepareFrame(StreamScene& scene, const Pose& pose);
+  // The CPU half, on any thread (no GPU; the scene is only read): encodes the atlas prepareFrame
+  // read back and writes the patch section. Each prepareFrame is followed by one finishFrame before
+  // the next. Errors: nothing prepared, the encoder failing.
+  Result<Frame> finishFrame(const StreamScene& scene, StreamFrameStats* stats = nullptr);
   // The next atlas payload carries the whole atlas (a client that lost frames).
   void requestKeyframe();
   const ClientStreamConfig& config() const { return config_; }
@@ -149,13 +163,24 @@ private:
     std::optional<std::array<uint8_t, 4>> colour;
   };
   struct Nothing {}; // what the server keeps of a removed patch: the scene has its geometry
+  // What prepareFrame leaves for finishFrame.
+  struct Prepared {
+    uint32_t poseSequence = 0;
+    std::vector<std::pair<uint32_t, AtlasPlacement>> placed; // by id
+    std::vector<uint32_t> colourOnly, keptColourOnly;
+    std::vector<glm::u8vec4> colours; // of colourOnly
+    ImageRGBA8 atlas;                 // tile codecs: the atlas read back (H.264: yuv_)
+    StreamFrameStats stats;
+  };
   ClientStreamConfig config_;
   AtlasAllocator atlas_;
   std::optional<TileDeltaEncoder> tiles_;
   std::optional<VideoEncoder> video_;
   std::optional<JpegTileEncoder> jpeg_;
   bool stackedAlpha_ = false;    // images twice the atlas height: alpha below the colour
-  std::vector<uint8_t> stacked_; // that image
+  render::AtlasYuvImage yuv_;    // H.264: the atlas as the encoder takes it (stacked alpha included)
+  std::vector<uint8_t> stacked_; // JPEG tiles with stacked alpha: that image
+  std::optional<Prepared> prepared_;
   bool keyframe_ = true;
   std::unordered_map<uint32_t, Held> held_;
   KeptPatches<Nothing> kept_;                          // the client's kept geometry, mirrored
