@@ -278,6 +278,11 @@ bool keepsFacingExact(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored) {
   return keepsFacing(float((B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x)), keepAll, mirrored);
 }
 
+#ifdef MIRAGE_RASTER_DEPTH_QUEUE
+// Share of its box a triangle must cover to go to the depth raster's queue (a screen-filling quad's
+// halves cover half of theirs).
+const float kDepthQueueCover = 0.25;
+#endif
 #if defined(MIRAGE_RASTER_BLEND) || defined(MIRAGE_RASTER_DEPTH_QUEUE)
 // The blend queue (docs/render.md, "Blend rasters"; the atlas server's depth raster queues its large
 // opaque triangles the same way: atlas_visibility_depth.comp): a blended triangle whose box exceeds
@@ -322,7 +327,15 @@ void rasterTriangle(vec3 a, vec3 b, vec3 c, bool keepAll, bool mirrored, Cluster
   bool exact64 = max(max(abs(mn.x), abs(mn.y)), max(abs(mx.x), abs(mx.y))) < MIRAGE_RASTER_LARGE_COORD;
 #if defined(MIRAGE_RASTER_BLEND) || defined(MIRAGE_RASTER_DEPTH_QUEUE)
   // Near-clipped fan triangles too: the queue keeps the screen corners, not the cluster's triangle.
-  if (exact64 && f.blendQueueAddress != 0 && box.x * box.y > f.blendQueuePixels) {
+  bool queueIt = exact64 && f.blendQueueAddress != 0 && box.x * box.y > f.blendQueuePixels;
+#ifdef MIRAGE_RASTER_DEPTH_QUEUE
+  // The queue tests every pixel of a box, the workgroup's walk only each row's span: slivers (long
+  // thin triangles, a box mostly empty) stay here (on an H100, queued slivers took the untessellated
+  // Sponza's depth raster from 1.6 to 75 ms).
+  queueIt = queueIt && abs((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x)) >=
+                           2.0 * kDepthQueueCover * box.x * box.y;
+#endif
+  if (queueIt) {
     if (!keepsFacingExact(a, b, c, keepAll, mirrored)) return;
     if (blendEnqueue(f, a, b, c, box, t)) return;
   }

@@ -104,8 +104,8 @@ public:
   ImageRGBA8 readAtlas();
   // A YUV image of this atlas for convertAtlasYuv (stackedAlpha: the alpha below the colour).
   AtlasYuvImage createYuvImage(bool stackedAlpha);
-  // Converts the atlas as shade() left it into `image` (one compute pass, written straight to host
-  // memory: 1.5 bytes a texel where readAtlas reads 4). Synchronous; GPU time in takePassTimes()
+  // Converts the atlas as shade() left it into `image` (one compute pass into device memory, then a
+  // copy to the host: 1.5 bytes a texel where readAtlas reads 4; the copy is the pass "yuv.copy"). Synchronous; GPU time in takePassTimes()
   // as "yuv". Errors: an image made for another atlas side.
   Status convertAtlasYuv(AtlasYuvImage& image);
   // The width x height texels at (x, y) only (the blocks shaded this frame: a dirty rectangle).
