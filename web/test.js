@@ -144,7 +144,7 @@ function frameMessage(sequence, removed, updated, colours, atlasBytes) {
     for (let i = 0; i < 4; ++i) u8(v >>> (8 * i));
   };
   [77, 82, 71, 83].forEach(u8);
-  u16(2);
+  u16(3);
   u16(4);
   u32(0);
   u32(sequence);
@@ -154,6 +154,9 @@ function frameMessage(sequence, removed, updated, colours, atlasBytes) {
   u8(0); // raw patch section
   u32(section.length);
   bytes.push(...section);
+  u8(0); // raw particle section: no looks, no particles
+  u32(2);
+  bytes.push(0, 0);
   const atlas = atlasBytes || new Uint8Array(0);
   u8(atlasBytes ? 3 : 0);
   u32(atlasBytes ? ATLAS_W : 0);

@@ -6,7 +6,8 @@
 
 namespace mirage::stream {
 struct TessellationConfig;
-}
+enum class ParticlePatches;
+} // namespace mirage::stream
 namespace mirage::render {
 enum class AtlasVisibilityMethod;
 }
@@ -53,6 +54,8 @@ void addStreamCommands(CLI::App& app);
 void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config);
 // --visibility auto|compute|hardware (serve, bench stream): how the server finds visible patches.
 void bindVisibility(CLI::App& cmd, render::AtlasVisibilityMethod& method);
+// --particles FX.toml, --particle-patches merged|each (serve, bench stream): a streamed particle effect.
+void bindParticles(CLI::App& cmd, std::string& effect, stream::ParticlePatches& patches);
 // --atlas-fill's help (serve, bench stream).
 inline constexpr const char* kAtlasFillHelp =
     "Share of the atlas the visible patches' blocks may want; past it every patch's level bias is lowered "

@@ -91,6 +91,19 @@ MIRAGE_ATLAS_SHARED uint atlasTexelTriangle(uvec2 texel, uint triangleCount, uin
   return 1u;
 }
 
+// A streamed particle look's block (docs/stream.md, "Particles"): square, h = 2^blockLog2 texels
+// a side, holding its sheet tile edge to edge: texel (i, j) is the tile's average over
+// [i / h, (i + 1) / h) x [j / h, (j + 1) / h) of its uv ((0, 0) at the tile's top left), a box
+// filter's mip level. A point of the tile samples the block here: clamped to the outer texel
+// centres, so a bilinear tap never leaves the block (the outer half texel repeats the edge texel)
+// and blocks need no gutter.
+MIRAGE_ATLAS_SHARED vec2 atlasParticleTexel(vec2 tileUv, uint blockLog2) {
+  float h = float(1u << blockLog2);
+  vec2 t = tileUv * h;
+  return vec2(t.x < 0.5f ? 0.5f : (t.x > h - 0.5f ? h - 0.5f : t.x),
+              t.y < 0.5f ? 0.5f : (t.y > h - 0.5f ? h - 0.5f : t.y));
+}
+
 #ifdef __cplusplus
 static_assert(sizeof(GpuAtlasPatch) == 48);
 } // namespace mirage::shaderio
