@@ -313,9 +313,9 @@ function halfToFloat(h) {
 }
 
 // The particle section's bytes (decompressed) into frame.looks ({id, blockLog2, blockX, blockY,
-// rgba}; blockLog2 COLOUR_ONLY_BLOCK: rgba is the look's colour), frame.particleOrigin,
-// frame.particleStep and frame.particles ({look, position (world), size, rotation (radians),
-// rgba}), with particle_section.cpp's checks.
+// rgba}: a 2^(log2 + 1) x 2^log2 block, level 0 and its mips; blockLog2 COLOUR_ONLY_BLOCK: rgba is
+// the look's colour), frame.particleOrigin, frame.particleStep and frame.particles ({look, position
+// (world), size, rotation (radians), rgba}), with particle_section.cpp's checks.
 export function parseParticleSection(bytes, frame) {
   const r = new Reader(new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength), 0);
   let n = r.varintCount(4, 'looks count');
@@ -335,9 +335,9 @@ export function parseParticleSection(bytes, frame) {
       const side = 2 ** l.blockLog2;
       l.blockX = r.varint(`${f}.blockX`) * side;
       l.blockY = r.varint(`${f}.blockY`) * side;
-      if (l.blockX + side > MAX_ATLAS_SIDE || l.blockY + side > MAX_ATLAS_SIDE)
-        throw new Error(`${f}.blockX block at (${l.blockX}, ${l.blockY}) size ${side} outside the atlas side ${
-            MAX_ATLAS_SIDE}`);
+      if (l.blockX + 2 * side > MAX_ATLAS_SIDE || l.blockY + side > MAX_ATLAS_SIDE) // level 0 and its mips
+        throw new Error(`${f}.blockX block at (${l.blockX}, ${l.blockY}) size ${2 * side}x${
+            side} outside the atlas side ${MAX_ATLAS_SIDE}`);
     }
     frame.looks[i] = l;
   }
@@ -355,15 +355,15 @@ export function parseParticleSection(bytes, frame) {
   for (let i = 0; i < n; ++i) frame.particles[i] = {look : r.varint(field('look', i)), position : [ 0, 0, 0 ]};
   for (let k = 0; k < 3; ++k)
     for (let i = 0; i < n; ++i)
-      frame.particles[i].position[k] = frame.particleOrigin[k] + r.u16(field('position', i)) * frame.particleStep;
+      frame.particles[i].position[k] = // float32 arithmetic, as particlePosition (protocol.h)
+          Math.fround(frame.particleOrigin[k] + Math.fround(r.u16(field('position', i)) * frame.particleStep));
   for (let i = 0; i < n; ++i) {
     const h = r.u16(field('size', i));
     if ((h & 0x8000) || (h & 0x7c00) === 0x7c00) throw new Error(`${field('size', i)} not a finite non-negative half`);
     frame.particles[i].size = halfToFloat(h);
   }
   for (let i = 0; i < n; ++i) frame.particles[i].rotation = r.u16(field('rotation', i)) * (2 * Math.PI / 65536);
-  for (let i = 0; i < n; ++i)
-    frame.particles[i].rgba = [ 0, 1, 2, 3 ].map(() => r.u8(field('rgba', i)));
+  for (let i = 0; i < n; ++i) frame.particles[i].rgba = [ 0, 1, 2, 3 ].map(() => r.u8(field('rgba', i)));
   const used = new Set(frame.particles.map((p) => p.look));
   for (let i = 0; i < frame.looks.length; ++i)
     if (!used.has(frame.looks[i].id))

@@ -208,8 +208,8 @@ Status AtlasClientRenderer::setParticles(std::span<const ClientParticle> particl
         return Error{fmt::format("particle {}: block log2 {} outside {}..{}", i, p.blockLog2,
                                  MIRAGE_ATLAS_MIN_BLOCK_LOG2, MIRAGE_ATLAS_MAX_BLOCK_LOG2)};
       uint64_t side = 1u << p.blockLog2;
-      if (p.blockX + side > d.config.atlasWidth || p.blockY + side > d.config.atlasHeight)
-        return Error{fmt::format("particle {}: block {}x{} at ({}, {}) is outside the {}x{} atlas", i, side, side,
+      if (p.blockX + 2 * side > d.config.atlasWidth || p.blockY + side > d.config.atlasHeight)
+        return Error{fmt::format("particle {}: block {}x{} at ({}, {}) is outside the {}x{} atlas", i, 2 * side, side,
                                  p.blockX, p.blockY, d.config.atlasWidth, d.config.atlasHeight)};
       g.block = p.blockX | p.blockY << 16;
       g.blockLog2 = p.blockLog2;

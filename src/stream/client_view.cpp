@@ -127,9 +127,9 @@ Status StreamView::applyParticles(const Frame& frame) {
     } else {
       look.blockX = l.blockX, look.blockY = l.blockY, look.blockLog2 = l.blockLog2;
       uint64_t side = 1u << l.blockLog2;
-      if (l.blockX + side > welcome_.atlasWidth || l.blockY + side > welcome_.atlasHeight)
-        return Error{fmt::format("look {}: block {}x{} at ({}, {}) outside the {}x{} atlas", l.id, side, side, l.blockX,
-                                 l.blockY, welcome_.atlasWidth, welcome_.atlasHeight)};
+      if (l.blockX + 2 * side > welcome_.atlasWidth || l.blockY + side > welcome_.atlasHeight)
+        return Error{fmt::format("look {}: block {}x{} at ({}, {}) outside the {}x{} atlas", l.id, 2 * side, side,
+                                 l.blockX, l.blockY, welcome_.atlasWidth, welcome_.atlasHeight)};
     }
     looks_[l.id] = look;
   }

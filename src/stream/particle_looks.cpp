@@ -102,12 +102,19 @@ std::array<uint8_t, 4> ParticleLooks::colour(uint32_t look) const {
   return {t[0], t[1], t[2], t[3]};
 }
 
-void ParticleLooks::write(uint32_t look, const AtlasPlacement& block, ImageRGBA8& atlas) const {
-  assert(!block.wide && block.log2 >= MIRAGE_ATLAS_MIN_BLOCK_LOG2 && block.log2 <= kParticleMaxBlockLog2);
+uint64_t ParticleLooks::write(uint32_t look, const AtlasPlacement& block, ImageRGBA8& atlas) const {
+  assert(block.wide && block.log2 >= MIRAGE_ATLAS_MIN_BLOCK_LOG2 && block.log2 <= kParticleMaxBlockLog2);
   assert(block.x + block.width() <= atlas.width && block.y + block.height() <= atlas.height);
-  std::span<const uint8_t> t = texels(look, block.log2);
-  const uint32_t h = block.height();
-  for (uint32_t j = 0; j < h; ++j) std::memcpy(atlas.at(block.x, block.y + j), t.data() + size_t(j) * h * 4, h * 4);
+  uint64_t written = 0;
+  for (uint32_t k = 0; k <= block.log2; ++k) {
+    const uint32_t side = block.height() >> k;
+    std::span<const uint8_t> t = texels(look, block.log2 - k);
+    uint32_t x = block.x + shaderio::atlasParticleLevelOffset(k, block.log2);
+    for (uint32_t j = 0; j < side; ++j)
+      std::memcpy(atlas.at(x, block.y + j), t.data() + size_t(j) * side * 4, size_t(side) * 4);
+    written += uint64_t(side) * side;
+  }
+  return written;
 }
 
 std::vector<VisibleParticle> visibleParticles(std::span<const shaderio::RenderParticle> records,

@@ -74,9 +74,9 @@ bool readLook(Reader& r, ParticleLook& l, uint64_t& next, const DecodeLimits& li
   uint32_t bx = 0, by = 0;
   if (!r.varint(bx, "blockX") || !r.varint(by, "blockY")) return false;
   uint64_t x = uint64_t(bx) << l.blockLog2, y = uint64_t(by) << l.blockLog2, side = 1u << l.blockLog2;
-  if (x + side > limits.maxAtlasSide || y + side > limits.maxAtlasSide)
+  if (x + 2 * side > limits.maxAtlasSide || y + side > limits.maxAtlasSide) // wide: level 0 and its mips
     return r.fail("blockX", "block at (" + std::to_string(x) + ", " + std::to_string(y) + ") size " +
-                                std::to_string(side) + " outside the atlas side " +
+                                std::to_string(2 * side) + "x" + std::to_string(side) + " outside the atlas side " +
                                 std::to_string(limits.maxAtlasSide));
   l.blockX = uint16_t(x);
   l.blockY = uint16_t(y);

@@ -73,12 +73,13 @@ void ClientParticles::prepare(const ParticleLooks& looks, uint32_t frame, std::s
 }
 
 void ClientParticles::appendRequests(uint32_t firstId, float bias, std::vector<AtlasRequest>& requests) const {
-  for (const Used& u : used_) requests.push_back({firstId + u.id, 2, particleBlockLog2(u.pixels, bias)});
+  for (const Used& u : used_) requests.push_back({firstId + u.id, 3, particleBlockLog2(u.pixels, bias)});
 }
 
 void ClientParticles::appendExtents(float bias, std::vector<PatchExtent>& extents) const {
-  // A block stops at kParticleMaxBlockLog2: fitting counts it at most that large.
-  for (const Used& u : used_) extents.push_back({std::min(u.pixels, particleCapLength(bias)), 2});
+  // A block stops at kParticleMaxBlockLog2: fitting counts it at most that large, and wide (its
+  // level 0 and the mip chain beside it).
+  for (const Used& u : used_) extents.push_back({std::min(u.pixels, particleCapLength(bias)), 3});
 }
 
 void ClientParticles::shade(const ParticleLooks& looks, const AtlasAllocator& allocator, uint32_t firstId,
@@ -91,8 +92,7 @@ void ClientParticles::shade(const ParticleLooks& looks, const AtlasAllocator& al
       stats.colourOnly++;
       continue;
     }
-    looks.write(u.texture, *block, atlas);
-    stats.texels += uint64_t(block->width()) * block->height();
+    stats.texels += looks.write(u.texture, *block, atlas);
   }
 }
 

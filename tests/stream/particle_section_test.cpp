@@ -131,9 +131,9 @@ TEST(StreamParticleSection, Rules) {
   expectError(decode(particleFrameWith(section(look({4, 8, 0, 0}), oneParticle(4)))), "looks[0].blockLog2 8");
   DecodeLimits small;
   small.maxAtlasSide = 256;
-  ASSERT_TRUE(decode(particleFrameWith(section(look({4, 7, 1, 1}), oneParticle(4))), small).ok());
-  expectError(decode(particleFrameWith(section(look({4, 7, 2, 1}), oneParticle(4))), small),
-              "looks[0].blockX block at (256, 128) size 128 outside the atlas side 256");
+  ASSERT_TRUE(decode(particleFrameWith(section(look({4, 7, 0, 1}), oneParticle(4))), small).ok()) << "wide: 256";
+  expectError(decode(particleFrameWith(section(look({4, 7, 1, 1}), oneParticle(4))), small),
+              "looks[0].blockX block at (128, 128) size 256x128 outside the atlas side 256");
   expectError(decode(particleFrameWith({1, 4, 255, 1, 2})), "looks[0].rgba: truncated");
   // Ids: strictly increasing (gaps), within 32 bits.
   std::vector<uint8_t> ids = {2, 0xff, 0xff, 0xff, 0xff, 0x0f, 255, 1, 1, 1, 1, 0, 255, 1, 1, 1, 1};

@@ -112,7 +112,7 @@ TEST_F(StreamParticles, MergedShadesOneBlockPerVisibleLook) {
       for (uint32_t look : used) EXPECT_TRUE(sent.count(look) || held[m].count(look)) << "look " << look;
       held[m] = used;
       EXPECT_GT(st.texels, 0u);
-      EXPECT_LE(st.texels, uint64_t(st.looks) << (2 * kParticleMaxBlockLog2));
+      EXPECT_LE(st.texels, uint64_t(st.looks) * 1365) << "a block of 32 and its mips, at most";
     }
     // Texture merging: one block per look of the 16; one per particle otherwise.
     EXPECT_LE(stats[0].particles.looks, 16u);
@@ -239,7 +239,9 @@ TEST_F(StreamParticles, ClientRefusesParticlesOfLooksItDoesNotHold) {
   v = fresh();
   Frame outside = f;
   outside.looks[0].blockX = 128; // inside the protocol's limit, outside this atlas
-  expectError(v->apply(outside), "look 3: block 16x16 at (128, 0) outside the 128x128 atlas");
+  expectError(v->apply(outside), "look 3: block 32x16 at (128, 0) outside the 128x128 atlas");
+  outside.looks[0].blockX = 112; // level 0 inside, its mips beside it not
+  expectError(fresh()->apply(outside), "look 3: block 32x16 at (112, 0) outside");
 }
 
 // A server streaming particles to two clients: one that sends garbage is closed, the other goes on

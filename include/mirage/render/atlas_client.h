@@ -44,14 +44,15 @@ struct ClientPatch {
 
 // One streamed particle as the client draws it (docs/stream.md, "Particles"): a camera-facing
 // billboard (as the renderers' particle billboards) textured from its look's block of the atlas
-// (shaderio/atlas.h, atlasParticleTexel) or the look's one colour, times the particle's colour.
+// (shaderio/atlas.h: the tile's mip chain, the level its pixel's footprint picks, as a mipmapped
+// fetch picks it) or the look's one colour, times the particle's colour.
 struct ClientParticle {
   glm::vec3 position{0.0f};                       // world space, the billboard's centre
   float size = 0.0f;                              // the billboard's edge, world units
   float rotation = 0.0f;                          // radians about the view axis
   uint32_t color = 0;                             // RGBA8 (r in the low byte), linear, straight alpha
   bool colorOnly = false;                         // the look has no block: lookColor instead
-  uint32_t blockX = 0, blockY = 0, blockLog2 = 1; // the look's square block
+  uint32_t blockX = 0, blockY = 0, blockLog2 = 1; // the look's block: 2^(blockLog2 + 1) x 2^blockLog2
   uint32_t lookColor = 0;                         // colorOnly: RGBA8, sRGB rgb like the atlas, linear alpha
 };
 

@@ -35,7 +35,8 @@ struct GpuClientPatch {
 };
 
 // A streamed particle (docs/stream.md, "Particles"): a camera-facing billboard (particle_quad.glsl)
-// textured from its look's block (atlasParticleTexel) times its colour.
+// textured from its look's block (atlasParticleLevelTexel: the mip level its pixel's footprint picks)
+// times its colour.
 struct GpuClientParticle {
   vec3 position;  // world space, the billboard's centre
   float size;     // the billboard's edge, world units

@@ -37,9 +37,10 @@ static_assert((1u << kParticleMaxBlockLog2) == particles::kSheetTilePixels, "a l
 
 // The looks of an effect: every tile of every system's sheet, systems with the same generated sheet
 // and alpha rule sharing theirs. Particles are unlit (the renderers draw sheet texel x particle
-// colour), so a look's block is shaded once, at load: per level its tile's box-filtered mip
-// (shaderio/atlas.h, atlasParticleTexel) as the factor the client multiplies a particle's colour
-// by: the texel, or with alpha_from_greyscale white with the texel's luminance as alpha.
+// colour), so a look is shaded once, at load: its tile's box-filtered mips as the factor the client
+// multiplies a particle's colour by (the texel, or with alpha_from_greyscale white with the
+// texel's luminance as alpha); a block holds the mip chain from its level down (shaderio/atlas.h,
+// atlasParticleLevelOffset).
 class ParticleLooks {
 public:
   // Errors: a sheet that does not generate (names the effect and system).
@@ -56,9 +57,10 @@ public:
   // The look's one colour (level 0, the tile's average): what a particle of a look without a block
   // is drawn with.
   std::array<uint8_t, 4> colour(uint32_t look) const;
-  // The look's texels written at `block` (square, log2 in MIRAGE_ATLAS_MIN_BLOCK_LOG2..
-  // kParticleMaxBlockLog2, inside `atlas`).
-  void write(uint32_t look, const AtlasPlacement& block, ImageRGBA8& atlas) const;
+  // The look's mip chain written into `block` (wide, log2 in MIRAGE_ATLAS_MIN_BLOCK_LOG2..
+  // kParticleMaxBlockLog2, inside `atlas`): levels 0..log2 of the block, 2^(log2 - k) texels a
+  // side. Returns the texels written (4/3 of level 0's, less a third of a texel).
+  uint64_t write(uint32_t look, const AtlasPlacement& block, ImageRGBA8& atlas) const;
 
 private:
   std::vector<uint32_t> systemFirst_, systemTiles_; // per system: its sheet's first look, tile count
@@ -89,8 +91,8 @@ std::vector<VisibleParticle> visibleParticles(std::span<const shaderio::RenderPa
 // The edge in pixels beyond which a look's block would pass kParticleMaxBlockLog2 at `bias`
 // (blockLog2ForLength): level fitting counts a particle block at most this long.
 float particleCapLength(float bias);
-// A look's block level for a billboard edge of `pixels`: blockLog2ForLength of a square block,
-// capped at kParticleMaxBlockLog2.
+// A look's block level for a billboard edge of `pixels`: blockLog2ForLength of a square block
+// (the mip chain beside it makes the block wide), capped at kParticleMaxBlockLog2.
 uint32_t particleBlockLog2(float pixels, float bias);
 
 } // namespace mirage::stream

@@ -41,8 +41,8 @@ public:
   // the billboard edge in pixels its block is sized for (merged: the largest of the look's
   // particles, its master; each: the particle's own).
   void prepare(const ParticleLooks& looks, uint32_t frame, std::span<const ParticleView> views);
-  // The used looks as atlas requests (ids firstId + look, square blocks up to
-  // kParticleMaxBlockLog2) and as extents for level fitting.
+  // The used looks as atlas requests (ids firstId + look; wide blocks, level 0 up to
+  // kParticleMaxBlockLog2 and its mip chain beside it) and as extents for level fitting.
   void appendRequests(uint32_t firstId, float bias, std::vector<AtlasRequest>& requests) const;
   void appendExtents(float bias, std::vector<PatchExtent>& extents) const;
   // After the allocator's update: every used look's texels written into `atlas` at its block.

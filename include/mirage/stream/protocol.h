@@ -155,9 +155,9 @@ struct AtlasPayload {
 enum class PatchCodec : uint8_t { Raw = 0, Zstd = 1 };
 inline constexpr uint8_t kPatchCodecCount = 2;
 
-// A particle look's atlas block, sent when it changed (docs/stream.md, "Particle section"): a square
-// block holding the look's texture (shaderio/atlas.h, atlasParticleTexel), or when blockLog2 is
-// kColourOnlyBlock one colour (sRGB rgb, linear alpha, as the atlas) for the look.
+// A particle look's atlas block, sent when it changed (docs/stream.md, "Particle section"): a wide
+// block (2h x h) holding the look's texture and its mips (shaderio/atlas.h, atlasParticleLevelTexel),
+// or when blockLog2 is kColourOnlyBlock one colour (sRGB rgb, linear alpha, as the atlas).
 struct ParticleLook {
   uint32_t id = 0;                 // look id (server-chosen; the client keeps what its particles use)
   uint16_t blockX = 0, blockY = 0; // the block's first texel (a multiple of 2^blockLog2)
