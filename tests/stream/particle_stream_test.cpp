@@ -200,6 +200,57 @@ TEST_F(StreamParticles, EachClientMatchesLocalRendering) {
   expectClientMatchesLocal(context(), ParticlePatches::Each, 0.995);
 }
 
+// A particle of a look with a block shows the block's texels times its colour, one of a colour-only
+// look the look's colour times its colour, at the particle's place on screen.
+TEST_F(StreamParticles, ClientDrawsBlockAndColourOnlyLooks) {
+  Welcome w;
+  w.sceneMin = glm::vec3(-1.0f);
+  w.sceneMax = glm::vec3(1.0f);
+  w.positionStep = positionGridStep(w.sceneMin, w.sceneMax, 16);
+  w.atlasWidth = w.atlasHeight = 128;
+  w.codec = AtlasCodec::ZstdTiles;
+  w.patchCount = 10;
+  auto view = StreamView::create(context(), w);
+  ASSERT_TRUE(view) << view.error().message;
+  // Look 1's block (16 high at (32, 0)): level 0 and its mips all blue, the rest of the atlas black.
+  ImageRGBA8 atlas{128, 128, std::vector<uint8_t>(128 * 128 * 4, 0)};
+  for (uint32_t y = 0; y < 16; ++y)
+    for (uint32_t x = 32; x < 64; ++x) atlas.at(x, y)[2] = atlas.at(x, y)[3] = 255;
+  ASSERT_TRUE((*view)->renderer().updateAtlas(atlas));
+  Frame f;
+  f.sequence = 1;
+  f.looks = {{1, 32, 0, 4, {}}, {2, 0, 0, kColourOnlyBlock, {255, 0, 0, 255}}};
+  glm::vec3 origin(-1.0f);
+  float step = 1.0f / 1024.0f;
+  f.particleOrigin = origin;
+  f.particleStep = step;
+  f.particles = {quantizeParticle({-0.5f, 0.0f, 0.0f}, 0.6f, 0.3f, 0xff00ffffu, 1, origin, step), // yellow x blue
+                 quantizeParticle({0.5f, 0.0f, 0.0f}, 0.6f, 0.0f, 0xffffffffu, 2, origin, step)}; // white x red
+  ASSERT_TRUE((*view)->apply(f));
+  render::Camera camera;
+  camera.eye = {0.0f, 0.0f, 3.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  camera.fovYDegrees = 60.0f;
+  auto out = (*view)->render(camera, 96, 64);
+  ASSERT_TRUE(out) << out.error().message;
+  // x = -0.5 and 0.5 at depth 3, fov 60, 96 x 64: pixels 48 -+ 0.5 / (3 tan 30 * 1.5) * 48 = 48 -+ 9.2.
+  const uint8_t* a = out->srgb.at(38, 32);
+  const uint8_t* b = out->srgb.at(57, 32);
+  const uint8_t* between = out->srgb.at(48, 32);
+  EXPECT_LE(a[0] + a[1], 6) << "yellow x blue: black";
+  EXPECT_LE(a[2], 6) << "yellow x blue: black";
+  EXPECT_GE(b[0], 250) << "white x red: red";
+  EXPECT_LE(b[1] + b[2], 6);
+  EXPECT_NEAR(between[0], 39, 6) << "the background between them";
+  f.particles[0].rgba = {255, 255, 255, 255}; // white x blue
+  f.looks.clear();
+  f.sequence = 2;
+  ASSERT_TRUE((*view)->apply(f));
+  out = (*view)->render(camera, 96, 64);
+  ASSERT_TRUE(out) << out.error().message;
+  EXPECT_GE(out->srgb.at(38, 32)[2], 250) << "white x blue: blue, from the look held";
+}
+
 TEST_F(StreamParticles, ClientRefusesParticlesOfLooksItDoesNotHold) {
   Welcome w;
   w.sceneMin = glm::vec3(-1.0f);
