@@ -127,8 +127,8 @@ int meshoptGlb(const std::filesystem::path& out) {
 }
 
 // One of each message type with every optional part present (a Frame with each patch size, a
-// colour-only patch, block-only entries, colours and an atlas payload; the same Frame with a zstd
-// patch section), and an empty Frame.
+// colour-only patch, block-only entries, colours, particle looks and particles and an atlas payload;
+// the same Frame with zstd patch and particle sections), and an empty Frame.
 int streamMessages(const std::filesystem::path& dir) {
   using namespace mirage::stream;
   std::filesystem::create_directories(dir);
@@ -173,8 +173,16 @@ int streamMessages(const std::filesystem::path& dir) {
   moved.blockX = moved.blockY = 0;
   frame.updated.push_back(moved);
   frame.colours = {{14, {200, 100, 50, 255}}, {21, {1, 2, 3, 4}}};
+  // Particles: a look with a block, a colour-only look, and a particle of a look held before.
+  frame.looks = {{2, 32, 32, 5, {}}, {9, 0, 0, kColourOnlyBlock, {50, 60, 70, 80}}};
+  frame.particleOrigin = {-1.0f, 0.0f, 2.0f};
+  frame.particleStep = 1e-3f;
+  frame.particles = {quantizeParticle({-0.5f, 1.0f, 2.5f}, 0.8f, 1.0f, 0x80ffffffu, 2, frame.particleOrigin, 1e-3f),
+                     quantizeParticle({0.5f, 2.0f, 3.0f}, 1.5f, -2.0f, 0x40a0c0e0u, 9, frame.particleOrigin, 1e-3f),
+                     quantizeParticle({0.0f, 3.0f, 2.0f}, 0.1f, 0.0f, 0x10101010u, 4, frame.particleOrigin, 1e-3f)};
   Frame zstdFrame = frame;
   zstdFrame.patchCodec = PatchCodec::Zstd;
+  zstdFrame.particleCodec = PatchCodec::Zstd;
   frame.atlas = {AtlasCodec::ZstdTiles, 64, 64, {0x28, 0xb5, 0x2f, 0xfd}};
   std::vector<std::pair<std::string, Message>> messages = {
       {"hello", Hello{"token", kCapabilityZstdTiles | kCapabilityH264, 1280, 720, false}},

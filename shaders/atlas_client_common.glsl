@@ -10,3 +10,9 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer Vie
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer PatchRef { GpuClientPatch patches[]; };
 
 layout(push_constant, scalar) uniform Push { AtlasClientPush push; };
+
+// An RGBA8 colour as the atlas holds it (sRGB rgb, linear alpha; r in the low byte) in linear.
+vec4 decodeAtlasColor(uint rgba8) {
+  vec4 c = unpackUnorm4x8(rgba8);
+  return vec4(mix(c.rgb / 12.92, pow((c.rgb + 0.055) / 1.055, vec3(2.4)), greaterThan(c.rgb, vec3(0.04045))), c.a);
+}

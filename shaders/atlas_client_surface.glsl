@@ -7,15 +7,10 @@ layout(location = 0) in vec2 inUv;
 layout(location = 1) flat in uint inFlags;
 layout(location = 2) flat in uint inColor;
 
-vec3 srgbToLinear(vec3 c) {
-  return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), greaterThan(c, vec3(0.04045)));
-}
-
 vec4 clientSurface() {
   vec4 c;
   if ((inFlags & MIRAGE_CLIENT_COLOR_ONLY) != 0u) {
-    vec4 encoded = unpackUnorm4x8(inColor);
-    c = vec4(srgbToLinear(encoded.rgb), encoded.a);
+    c = decodeAtlasColor(inColor);
   } else {
     c = texture(atlas, inUv);
   }

@@ -2,19 +2,15 @@
 // Particle billboards (docs/particles.md, "Rendering"): instance = one RenderParticle record (of the
 // pushed batch, or named by a list of global records: the sorted keys, the splat's large
 // particles), vertex = one of the quad's two triangles' corners (gl_VertexIndex 0..5, no vertex
-// buffer). The quad lies in the view plane at the particle's view-space centre, edge `size` world
-// units, turned by `rotation` about the view axis: camera-facing for any camera. A particle smaller
-// than kMinPixels on screen is drawn kMinPixels wide with its alpha scaled by the area ratio, so
-// sub-pixel sparks and drops keep their average coverage instead of vanishing between pixel centres.
+// buffer), placed by particle_quad.glsl: camera-facing for any camera, sub-pixel particles grown
+// with their alpha scaled by the area ratio.
 #include "particle_billboard.glsl"
+#include "particle_quad.glsl"
 
 layout(location = 0) out vec2 outUv;
 layout(location = 1) flat out vec4 outColor;
 layout(location = 2) flat out uint outFrame;
 layout(location = 3) flat out uvec4 outSheet;
-
-const float kMinPixels = 1.5;
-const vec2 kCorners[6] = vec2[](vec2(-1, -1), vec2(1, -1), vec2(1, 1), vec2(-1, -1), vec2(1, 1), vec2(-1, 1));
 
 void main() {
   RenderParticle p;
@@ -29,15 +25,11 @@ void main() {
     outSheet = uvec4(slot.info.sheet, slot.info.tilesX, slot.info.tilesY, slot.info.flags);
   }
   ParticleViewRef f = ParticleViewRef(push.frameAddress);
-  vec2 c = kCorners[gl_VertexIndex];
-  vec4 centre = f.camera.view * vec4(p.position, 1.0);
-  float pixels = particlePixels(f, p.size, centre.z);
-  float grow = pixels > 0.0 && pixels < kMinPixels ? kMinPixels / pixels : 1.0;
-  float s = sin(p.rotation), k = cos(p.rotation);
-  vec2 offset = vec2(k * c.x - s * c.y, s * c.x + k * c.y) * (0.5 * p.size * grow);
-  gl_Position = f.camera.proj * vec4(centre.xy + offset, centre.zw);
-  outUv = vec2(0.5 + 0.5 * c.x, 0.5 - 0.5 * c.y); // view +Y up = the tile's top row
+  ParticleCorner q = particleQuadCorner(f.camera.view, f.camera.proj, f.camera.viewport.y, p.position, p.size,
+                                        p.rotation, uint(gl_VertexIndex));
+  gl_Position = q.clip;
+  outUv = q.uv;
   outColor = unpackUnorm4x8(p.color); // r in the low byte, as particlePackColor
-  outColor.a /= grow * grow;          // the same coverage over the grown area
+  outColor.a /= q.grow * q.grow;      // the same coverage over the grown area
   outFrame = p.frame;
 }

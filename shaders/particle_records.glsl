@@ -58,15 +58,11 @@ RenderParticle particleRecord(ParticleSlot s) {
 // The eye's camera: the first member of the forward renderer's FrameData and of ClusterFrame.
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ParticleViewRef { ViewFrame camera; };
 
-// The billboard's edge in pixels at view z `z` (perspective: |proj[1][1]| / -z scales view units
-// to NDC; proj11 and viewportHeight from the eye's ViewFrame): what decides between the billboard
-// and the splat.
-float particlePixels(float proj11, float viewportHeight, float size, float z) {
-  return size * abs(proj11) * 0.5 * viewportHeight / max(-z, 1e-6);
-}
-// The same from the eye's camera (two members read, not the whole ViewFrame).
+// The billboard's edge in pixels at view z `z` from the eye's camera (particleEdgePixels of
+// shaderio/particles.h; two members of the ViewFrame read, not all of it): what decides between the
+// billboard and the splat.
 float particlePixels(ParticleViewRef view, float size, float z) {
-  return particlePixels(view.camera.proj[1][1], view.camera.viewport.y, size, z);
+  return particleEdgePixels(view.camera.proj[1][1], view.camera.viewport.y, size, z);
 }
 
 // The sheet tile of flipbook frame `frame` (wrapped over the tiles.x x tiles.y tiles, row-major

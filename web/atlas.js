@@ -27,6 +27,13 @@ export function atlasTriangleVertex(t, corner) {
   return (packed >> (4 * corner)) & 0xf;
 }
 
+// A streamed particle look's block is 2h x h: level 0 (h texels a side) at its left, its mips side
+// by side right of it; the x offset of level k (shaderio/atlas.h atlasParticleLevelOffset).
+export function atlasParticleLevelOffset(level, blockLog2) {
+  const h = 1 << blockLog2;
+  return level === 0 ? 0 : 2 * h - (h >> (level - 1));
+}
+
 // The triangle of the patch that texel (i, j) of its block is shaded as.
 export function atlasTexelTriangle(i, j, triangleCount, blockLog2) {
   const h = 1 << blockLog2;

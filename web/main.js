@@ -22,6 +22,7 @@ import {
   loadCameraPath,
   protocolCamera,
   viewProjection,
+  lookAt,
   withClipPlanes,
   add,
   sub,
@@ -109,7 +110,7 @@ async function main() {
   function draw(c) {
     const clipped = withClipPlanes(c, bounds);
     renderer.draw(patches, atlas, viewProjection(clipped, canvas.width / canvas.height), clipped.eye,
-                  [ 0, 0, canvas.width, canvas.height ]);
+                  [ 0, 0, canvas.width, canvas.height ], true, lookAt(clipped.eye, clipped.target, clipped.up));
   }
 
   function requestPathCamera() {
@@ -125,6 +126,11 @@ async function main() {
   async function onFrame(frame) {
     await inflatePatchSection(frame);
     patches.apply(frame);
+    for (const p of patches.particles) // the clip planes take in every particle (as StreamView's)
+      for (let k = 0; k < 3; ++k) {
+        bounds.min[k] = Math.min(bounds.min[k], p.position[k] - p.size);
+        bounds.max[k] = Math.max(bounds.max[k], p.position[k] + p.size);
+      }
     if (frame.atlas.codec === AtlasCodec.JpegTiles)
       await atlas.applyJpegTiles(frame.atlas.bytes);
     else if (frame.atlas.codec === AtlasCodec.H264)
@@ -167,7 +173,7 @@ async function main() {
     }
     if (m.type === MessageType.Welcome) {
       welcome = m;
-      bounds = {min : m.sceneMin, max : m.sceneMax};
+      bounds = {min : [...m.sceneMin ], max : [...m.sceneMax ]}; // copies: particles grow them
       patches.setWelcome(m);
       atlas = new AtlasTexture(gl, m.atlasWidth, m.atlasHeight);
       say(`session ${m.sessionId}: ${m.patchCount} patches, atlas ${m.atlasWidth}x${m.atlasHeight}, codec ${m.codec}`);

@@ -1,7 +1,8 @@
 // The client's patch state (mirrors stream::StreamView, src/stream/client_view.cpp, and
 // include/mirage/stream/kept_patches.h): the patches held, their colours, and the geometry of
-// patches removed in the last KEPT_GEOMETRY_FRAMES frames, which block-only entries bring back.
-// A frame that refers to geometry the client does not have throws (the page reports it).
+// patches removed in the last KEPT_GEOMETRY_FRAMES frames, which block-only entries bring back;
+// the particles of the last frame and the looks they use (docs/stream.md, "Particles").
+// A frame that refers to geometry or a look the client does not have throws (the page reports it).
 
 // protocol.h kKeptGeometryFrames: a removal in frame n answers block-only entries through frame
 // n + KEPT_GEOMETRY_FRAMES - 1 (frames counted from 1 on the connection).
@@ -20,6 +21,8 @@ export class PatchSet {
     this.colours = new Map(); // id -> [r, g, b, a] bytes
     this.kept = new Map();    // id -> {patch, frame removed}
     this.removals = [];       // [{frame, ids}], oldest first
+    this.looks = new Map();   // particle look id -> {blockLog2, blockX, blockY, rgba} (blockLog2 255: rgba)
+    this.particles = [];      // the last frame's: {look (its entry), position (world), size, rotation, rgba}
     this.frames = 0;          // frames applied
     this.version = 0;
     this.sceneMin = [ 0, 0, 0 ];
@@ -34,7 +37,7 @@ export class PatchSet {
     this.patchCount = welcome.patchCount;
   }
 
-  // Frame.removed, updated and colours (decoded, patch section inflated), in that order.
+  // Frame.removed, updated, colours, looks and particles (decoded, sections inflated), in that order.
   apply(frame) {
     const n = ++this.frames;
     while (this.removals.length && this.removals[0].frame + KEPT_GEOMETRY_FRAMES <= n) {
@@ -90,5 +93,20 @@ export class PatchSet {
       this.colours.set(c.id, c.rgba);
     }
     if (frame.removed.length || frame.updated.length || frame.colours.length) ++this.version;
+    this.applyParticles(frame);
+  }
+
+  // The frame's looks set, its particles each with its look (held after the looks: else an
+  // error); the looks no particle of the frame used are dropped.
+  applyParticles(frame) {
+    for (const l of frame.looks || []) this.looks.set(l.id, l);
+    const used = new Map();
+    this.particles = (frame.particles || []).map((p, i) => {
+      const look = this.looks.get(p.look);
+      if (!look) throw new Error(`particle ${i} of look ${p.look}, which the client does not hold`);
+      used.set(p.look, look);
+      return {...p, look};
+    });
+    this.looks = used;
   }
 }

@@ -1,11 +1,12 @@
 // The stream wire protocol in JavaScript: the byte layout of include/mirage/stream/protocol.h and
-// src/stream/protocol.cpp, patch_section.cpp (the source). Little-endian; every message is one
+// src/stream/protocol.cpp, patch_section.cpp, particle_section.cpp (the source). Little-endian; every message is one
 // WebSocket binary frame: 12-byte header (magic "MRGS", uint16 version, uint16 type, uint32 payload
 // length), then the payload. Decoding checks every length and count against the bytes left and
 // throws an Error of one line.
 import {COLOUR_ONLY_BLOCK, ATLAS_MIN_BLOCK_LOG2, ATLAS_MAX_BLOCK_LOG2, atlasBlockWidth} from './atlas.js';
 
-export const PROTOCOL_VERSION = 2;
+// 3: Frame carries a particle section (docs/stream.md, "Particle section").
+export const PROTOCOL_VERSION = 3;
 export const MessageType = {
   Hello : 1,
   Welcome : 2,
@@ -41,8 +42,10 @@ const HEADER_BYTES = 12;
 const MAX_ATLAS_SIDE = 16384;
 // Positions: grid coordinates below 2^24 (protocol.h kPositionGridBits).
 export const POSITION_GRID_MAX = 2 ** 24 - 1;
-// Largest decompressed patch section accepted (DecodeLimits::maxPatchSectionBytes).
+// Largest decompressed patch or particle section accepted (DecodeLimits::maxPatchSectionBytes).
 const MAX_PATCH_SECTION_BYTES = 64 * 1024 * 1024;
+// Particle positions: 16-bit grid coordinates (protocol.h kParticleGridMax).
+export const PARTICLE_GRID_MAX = 0xffff;
 
 class Writer {
   constructor() { this.bytes = []; }
@@ -301,6 +304,73 @@ export function parsePatchSection(bytes, frame) {
   if (r.left() !== 0) throw new Error(`patches ${r.left()} bytes after the colours`);
 }
 
+// An IEEE half (16 bits) as a number.
+function halfToFloat(h) {
+  const exponent = (h >> 10) & 0x1f, mantissa = h & 0x3ff, sign = h & 0x8000 ? -1 : 1;
+  if (exponent === 0) return sign * mantissa * 2 ** -24;
+  if (exponent === 31) return mantissa ? NaN : sign * Infinity;
+  return sign * (1 + mantissa / 1024) * 2 ** (exponent - 15);
+}
+
+// The particle section's bytes (decompressed) into frame.looks ({id, blockLog2, blockX, blockY,
+// rgba}: a 2^(log2 + 1) x 2^log2 block, level 0 and its mips; blockLog2 COLOUR_ONLY_BLOCK: rgba is
+// the look's colour), frame.particleOrigin, frame.particleStep and frame.particles ({look, position
+// (world), size, rotation (radians), rgba}), with particle_section.cpp's checks.
+export function parseParticleSection(bytes, frame) {
+  const r = new Reader(new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength), 0);
+  let n = r.varintCount(4, 'looks count');
+  frame.looks = new Array(n);
+  let next = 0;
+  for (let i = 0; i < n; ++i) {
+    const f = `looks[${i}]`;
+    const id = next + r.varint(`${f}.id`);
+    if (id > 0xffffffff) throw new Error(`${f}.id past 2^32 - 1`);
+    next = id + 1;
+    const l = {id, blockLog2 : r.u8(`${f}.blockLog2`), blockX : 0, blockY : 0, rgba : [ 0, 0, 0, 0 ]};
+    if (l.blockLog2 === COLOUR_ONLY_BLOCK) {
+      for (let c = 0; c < 4; ++c) l.rgba[c] = r.u8(`${f}.rgba`);
+    } else {
+      if (l.blockLog2 < ATLAS_MIN_BLOCK_LOG2 || l.blockLog2 > ATLAS_MAX_BLOCK_LOG2)
+        throw new Error(`${f}.blockLog2 ${l.blockLog2} not in 1..7 or 255 (colour-only)`);
+      const side = 2 ** l.blockLog2;
+      l.blockX = r.varint(`${f}.blockX`) * side;
+      l.blockY = r.varint(`${f}.blockY`) * side;
+      if (l.blockX + 2 * side > MAX_ATLAS_SIDE || l.blockY + side > MAX_ATLAS_SIDE) // level 0 and its mips
+        throw new Error(`${f}.blockX block at (${l.blockX}, ${l.blockY}) size ${2 * side}x${
+            side} outside the atlas side ${MAX_ATLAS_SIDE}`);
+    }
+    frame.looks[i] = l;
+  }
+  n = r.varintCount(15, 'particles count');
+  frame.particles = new Array(n);
+  frame.particleOrigin = [ 0, 0, 0 ];
+  frame.particleStep = 1;
+  if (n > 0) {
+    frame.particleOrigin = r.vec3('particles.origin');
+    frame.particleStep = r.f32('particles.step');
+    if (!(frame.particleStep > 0)) throw new Error(`particles.step ${frame.particleStep} not above 0`);
+    r.checkCount(n, 15, 'particles count');
+  }
+  const field = (what, i) => `particles[${i}].${what}`;
+  for (let i = 0; i < n; ++i) frame.particles[i] = {look : r.varint(field('look', i)), position : [ 0, 0, 0 ]};
+  for (let k = 0; k < 3; ++k)
+    for (let i = 0; i < n; ++i)
+      frame.particles[i].position[k] = // float32 arithmetic, as particlePosition (protocol.h)
+          Math.fround(frame.particleOrigin[k] + Math.fround(r.u16(field('position', i)) * frame.particleStep));
+  for (let i = 0; i < n; ++i) {
+    const h = r.u16(field('size', i));
+    if ((h & 0x8000) || (h & 0x7c00) === 0x7c00) throw new Error(`${field('size', i)} not a finite non-negative half`);
+    frame.particles[i].size = halfToFloat(h);
+  }
+  for (let i = 0; i < n; ++i) frame.particles[i].rotation = r.u16(field('rotation', i)) * (2 * Math.PI / 65536);
+  for (let i = 0; i < n; ++i) frame.particles[i].rgba = [ 0, 1, 2, 3 ].map(() => r.u8(field('rgba', i)));
+  const used = new Set(frame.particles.map((p) => p.look));
+  for (let i = 0; i < frame.looks.length; ++i)
+    if (!used.has(frame.looks[i].id))
+      throw new Error(`looks[${i}] look ${frame.looks[i].id} is used by no particle of the frame`);
+  if (r.left() !== 0) throw new Error(`particles ${r.left()} bytes after the colours`);
+}
+
 // Whether this browser decompresses zstd (DecompressionStream): the page then offers
 // Capability.ZstdPatches.
 export function zstdPatchesSupported() {
@@ -312,12 +382,9 @@ export function zstdPatchesSupported() {
   }
 }
 
-// A Frame whose patch section came compressed (frame.patchBytes): decompresses it (at most
-// MAX_PATCH_SECTION_BYTES) and parses it into the frame. Frames with a raw section are parsed by
-// decodeMessage already.
-export async function inflatePatchSection(frame) {
-  if (!frame.patchBytes) return;
-  const reader = new Blob([ frame.patchBytes ]).stream().pipeThrough(new DecompressionStream('zstd')).getReader();
+// zstd bytes decompressed (at most MAX_PATCH_SECTION_BYTES) by DecompressionStream.
+async function inflate(packed, name) {
+  const reader = new Blob([ packed ]).stream().pipeThrough(new DecompressionStream('zstd')).getReader();
   const chunks = [];
   let size = 0;
   for (;;) {
@@ -326,7 +393,7 @@ export async function inflatePatchSection(frame) {
     size += value.length;
     if (size > MAX_PATCH_SECTION_BYTES) {
       reader.cancel();
-      throw new Error(`patches.bytes zstd content over the limit of ${MAX_PATCH_SECTION_BYTES} bytes`);
+      throw new Error(`${name}.bytes zstd content over the limit of ${MAX_PATCH_SECTION_BYTES} bytes`);
     }
     chunks.push(value);
   }
@@ -336,8 +403,33 @@ export async function inflatePatchSection(frame) {
     bytes.set(c, at);
     at += c.length;
   }
-  delete frame.patchBytes;
-  parsePatchSection(bytes, frame);
+  return bytes;
+}
+
+// A Frame whose patch or particle section came compressed (frame.patchBytes, frame.particleBytes):
+// decompresses and parses them into the frame. Raw sections are parsed by decodeMessage already.
+export async function inflatePatchSection(frame) {
+  if (frame.patchBytes) {
+    const bytes = await inflate(frame.patchBytes, 'patches');
+    delete frame.patchBytes;
+    parsePatchSection(bytes, frame);
+  }
+  if (frame.particleBytes) {
+    const bytes = await inflate(frame.particleBytes, 'particles');
+    delete frame.particleBytes;
+    parseParticleSection(bytes, frame);
+  }
+}
+
+// A section's framing (codec byte, byte count, bytes): [codec, the bytes in place].
+function readSection(r, name) {
+  const codec = r.u8(`${name}.codec`);
+  const byteCount = r.u32(`${name}.byteCount`);
+  r.need(byteCount, `${name}.bytes`);
+  const bytes = new Uint8Array(r.view.buffer, r.view.byteOffset + r.pos, byteCount);
+  r.pos += byteCount;
+  if (codec > 1) throw new Error(`${name}.codec ${codec} not 0 (raw) or 1 (zstd)`);
+  return [ codec, bytes ];
 }
 
 function readFrame(r) {
@@ -345,16 +437,17 @@ function readFrame(r) {
   m.sequence = r.u32('sequence');
   m.poseSequence = r.u32('poseSequence');
   m.serverTimeUs = r.u64('serverTimeUs');
-  m.patchCodec = r.u8('patches.codec');
-  const sectionBytes = r.u32('patches.byteCount');
-  r.need(sectionBytes, 'patches.bytes');
-  const section = new Uint8Array(r.view.buffer, r.view.byteOffset + r.pos, sectionBytes);
-  r.pos += sectionBytes;
-  if (m.patchCodec > 1) throw new Error(`patches.codec ${m.patchCodec} not 0 (raw) or 1 (zstd)`);
+  let section;
+  [m.patchCodec, section] = readSection(r, 'patches');
   if (m.patchCodec === PatchCodec.Zstd)
     m.patchBytes = section; // inflatePatchSection
   else
     parsePatchSection(section, m);
+  [m.particleCodec, section] = readSection(r, 'particles');
+  if (m.particleCodec === PatchCodec.Zstd)
+    m.particleBytes = section; // inflatePatchSection
+  else
+    parseParticleSection(section, m);
   const codec = r.u8('atlas.codec');
   const width = r.u32('atlas.width'), height = r.u32('atlas.height');
   const byteCount = r.u32('atlas.byteCount');

@@ -3,8 +3,10 @@
 // colour when it did not fit in the atlas. Opaque and mask patches first with depth; blend patches
 // after them, depth-tested but not written, sorted back to front by patch centroid. That sort is an
 // approximation of the native client's per-pixel linked lists: intersecting or cyclically
-// overlapping transparent patches can blend in the wrong order here.
+// overlapping transparent patches can blend in the wrong order here. Then the particles
+// (particles.js), sorted among themselves.
 import {atlasCornerTexel, atlasTriangleVertex} from './atlas.js';
+import {ParticleRenderer} from './particles.js';
 import {AlphaMode} from './protocol.js';
 import {sub, dot} from './camera.js';
 
@@ -87,6 +89,7 @@ export class PatchRenderer {
     this.blend = this.makeBatch();
     this.builtVersion = -1;
     this.blendPatches = [];
+    this.particles = new ParticleRenderer(gl);
   }
 
   makeBatch() {
@@ -132,8 +135,9 @@ export class PatchRenderer {
     batch.count = triangles * 3;
   }
 
-  // Draws the patch set into the bound framebuffer's `viewport` ([x, y, w, h]). `eye` sorts blend patches.
-  draw(set, atlas, viewProj, eye, viewport, clear = true) {
+  // Draws the patch set into the bound framebuffer's `viewport` ([x, y, w, h]). `eye` sorts blend
+  // patches. With `view` (the camera's world -> view matrix) the set's particles too (particles.js).
+  draw(set, atlas, viewProj, eye, viewport, clear = true, view = null) {
     const gl = this.gl;
     if (this.builtVersion !== set.version) {
       const opaque = [];
@@ -196,6 +200,7 @@ export class PatchRenderer {
       gl.disable(gl.BLEND);
     }
     gl.bindVertexArray(null);
+    if (view) this.particles.draw(set, atlas, viewProj, view, eye, viewport[3]);
     gl.disable(gl.SCISSOR_TEST);
   }
 }

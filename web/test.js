@@ -1,16 +1,18 @@
-// A server-free test of the client: a hard-coded patch set and a generated atlas go through the
-// same code as a served stream (Frame bytes -> decodeMessage -> PatchSet -> JPEG tiles -> WebGL2).
-// Two frames: a keyframe, then a delta that repaints one tile and removes a patch. Then the patch
-// state's rules (PatchSet) and the patch section parser against the C++ encoder's exact bytes.
+// A server-free test of the client: a hard-coded patch set, particles and a generated atlas go
+// through the same code as a served stream (Frame bytes -> decodeMessage -> PatchSet -> JPEG tiles
+// -> WebGL2). Two frames: a keyframe with two particles (a look with a block, a colour-only look),
+// then a delta that repaints one tile, removes a patch and keeps one particle of the look the
+// client holds. Then the patch state's rules (PatchSet) and the patch and particle section parsers
+// against the C++ encoder's exact bytes.
 // ?fixture=1: decodes key.mjt then delta.mjt (written by the C++ JpegTileEncoder next to this page)
 // and records the atlas texture itself, for a comparison with the encoder's source image.
 // tests/stream_web/browser_test.py renders this page with scripts/browser_client.py and checks pixels;
 // the scene below and the expectations there are written together (change both).
-import {decodeMessage, parsePatchSection} from './protocol.js';
+import {decodeMessage, parsePatchSection, parseParticleSection} from './protocol.js';
 import {buildJpegTiles, parseJpegTiles, AtlasTexture} from './atlas_codec.js';
 import {PatchSet} from './patches.js';
 import {PatchRenderer} from './renderer.js';
-import {viewProjection, withClipPlanes} from './camera.js';
+import {lookAt, viewProjection, withClipPlanes} from './camera.js';
 
 const ATLAS_W = 128, ATLAS_H = 64;
 // The position grid of this scene (a Welcome's sceneMin and positionStep).
@@ -87,10 +89,85 @@ const keyColours = [
   {id : 5, rgba : [ 255, 0, 0, 128 ]},
 ];
 
+// Particles: look 7 with a block (the atlas's 32 x 16 at (0, 32): level 0 orange above its middle
+// row, purple below), colour-only look 8 (green); in frame 1 a white particle of look 7 (rotation
+// 0: the tile's top row up) and a half-transparent one of look 8, in frame 2 the first alone (its
+// look held: no entry).
+const LOOK_BLOCK = {
+  id : 7,
+  blockLog2 : 4,
+  blockX : 0,
+  blockY : 32
+};
+const LOOK_COLOUR = {
+  id : 8,
+  blockLog2 : 255,
+  rgba : [ 0, 255, 0, 255 ]
+};
+const PARTICLE_A = {
+  look : 7,
+  position : [ 1.2, -0.9, 0.5 ],
+  size : 0.4,
+  rotation : 0,
+  rgba : [ 255, 255, 255, 255 ]
+};
+const PARTICLE_B = {
+  look : 8,
+  position : [ -1.5, 1.0, 0.5 ],
+  size : 0.3,
+  rotation : 0.5,
+  rgba : [ 255, 255, 255, 128 ]
+};
+
+// An IEEE half of v (normal numbers, rounded; tiny ones 0).
+function toHalf(v) {
+  const b = new Uint32Array(new Float32Array([ v ]).buffer)[0];
+  const e = ((b >>> 23) & 0xff) - 127 + 15;
+  return e <= 0 ? 0 : ((b >>> 16) & 0x8000) | ((e << 10) + Math.round((b & 0x7fffff) / 8192));
+}
+
+// A raw particle section (particle_section.cpp): the looks, then the particles in columns on the
+// grid of GRID (origin sceneMin, step positionStep).
+function particleSection(looks, particles) {
+  const out = [];
+  const varint = (v) => {
+    for (; v >= 0x80; v = Math.floor(v / 128)) out.push((v % 128) | 0x80);
+    out.push(v);
+  };
+  const u16 = (v) => out.push(v & 0xff, (v >>> 8) & 0xff);
+  varint(looks.length);
+  let next = 0;
+  for (const l of looks) {
+    varint(l.id - next);
+    next = l.id + 1;
+    out.push(l.blockLog2);
+    if (l.blockLog2 === 255) {
+      out.push(...l.rgba);
+    } else {
+      varint(l.blockX >> l.blockLog2);
+      varint(l.blockY >> l.blockLog2);
+    }
+  }
+  varint(particles.length);
+  if (!particles.length) return out;
+  const f32 = new Uint8Array(new Float32Array([...GRID.sceneMin, GRID.positionStep ]).buffer);
+  out.push(...f32);
+  particles.forEach((p) => varint(p.look));
+  for (let k = 0; k < 3; ++k)
+    particles.forEach((p) => u16(Math.round((p.position[k] - GRID.sceneMin[k]) / GRID.positionStep)));
+  particles.forEach((p) => u16(toHalf(p.size)));
+  particles.forEach((p) => u16(Math.round(p.rotation / (2 * Math.PI) * 65536) & 0xffff));
+  particles.forEach((p) => out.push(...p.rgba));
+  return out;
+}
+
 // Frame message bytes, laid out as src/stream/protocol.cpp and patch_section.cpp write them (a raw
 // patch section). Patches: world positions, quantized on GRID; `geometry: false` makes a block-only
-// entry. atlasBytes null: no atlas.
-function frameMessage(sequence, removed, updated, colours, atlasBytes) {
+// entry. atlasBytes null: no atlas. `particles`: {looks, particles} of a raw particle section.
+function frameMessage(sequence, removed, updated, colours, atlasBytes, particles = {
+  looks : [],
+  particles : []
+}) {
   const section = [];
   const varint = (v) => {
     for (; v >= 0x80; v = Math.floor(v / 128)) section.push((v % 128) | 0x80);
@@ -144,7 +221,7 @@ function frameMessage(sequence, removed, updated, colours, atlasBytes) {
     for (let i = 0; i < 4; ++i) u8(v >>> (8 * i));
   };
   [77, 82, 71, 83].forEach(u8);
-  u16(2);
+  u16(3);
   u16(4);
   u32(0);
   u32(sequence);
@@ -154,6 +231,10 @@ function frameMessage(sequence, removed, updated, colours, atlasBytes) {
   u8(0); // raw patch section
   u32(section.length);
   bytes.push(...section);
+  const particleBytes = particleSection(particles.looks, particles.particles);
+  u8(0); // raw particle section
+  u32(particleBytes.length);
+  bytes.push(...particleBytes);
   const atlas = atlasBytes || new Uint8Array(0);
   u8(atlasBytes ? 3 : 0);
   u32(atlasBytes ? ATLAS_W : 0);
@@ -202,6 +283,15 @@ function checkPatchState(patches) {
   apply([], [ 4 ]);
   for (let i = 0; i < 255; ++i) apply([]);
   expectThrow(() => apply([ blockOnly(4, 2) ]), 'block-only entry for patch 4');
+
+  // Particles: a look held from the frame before serves without an entry; one no particle used is
+  // dropped; a particle of a look the client does not hold is an error.
+  const frameOf = (looks, particles) => decodeMessage(frameMessage(9, [], [], [], null, {looks, particles}));
+  patches.apply(frameOf([ LOOK_BLOCK, LOOK_COLOUR ], [ PARTICLE_A, PARTICLE_B ]));
+  check(patches.looks.size === 2 && patches.particles.length === 2, 'two looks, two particles');
+  patches.apply(frameOf([], [ PARTICLE_B ]));
+  check(patches.looks.size === 1 && patches.particles[0].look.rgba[1] === 255, 'look 8 held, look 7 dropped');
+  expectThrow(() => patches.apply(frameOf([], [ PARTICLE_A ])), 'particle 0 of look 7, which the client does not hold');
 }
 
 // The bytes of StreamPatchSection.ExactLayout (tests/stream/patch_section_test.cpp): the C++ encoder's
@@ -248,6 +338,38 @@ function checkExactLayout() {
   expectThrow(() => parsePatchSection(new Uint8Array([ 0, 0, 0, 0 ]), {}), 'patches 1 bytes after the colours');
 }
 
+// The bytes of StreamParticleSection.ExactLayout (tests/stream/particle_section_test.cpp).
+function checkParticleLayout() {
+  const bytes = new Uint8Array([
+    2, 2, 3,    2,    1, 2,    255, 1,    2, 3, 4,  2,  0,  0,  0x80, 0x3f, 0, 0, 0, 0x40,
+    0, 0, 0x40, 0x40, 0, 0,    0,   0x3f, 2, 5, 1,  0,  0,  1,  2,    0,    0, 0, 3, 0,
+    7, 0, 0,    0x3c, 0, 0x38, 0,   0x40, 0, 0, 10, 20, 30, 40, 5,    6,    7, 8
+  ]);
+  const f = {};
+  parseParticleSection(bytes, f);
+  const expected = {
+    looks : [
+      {id : 2, blockLog2 : 3, blockX : 16, blockY : 8, rgba : [ 0, 0, 0, 0 ]},
+      {id : 5, blockLog2 : 255, blockX : 0, blockY : 0, rgba : [ 1, 2, 3, 4 ]}
+    ],
+    particles : [
+      {look : 2, position : [ 1.5, 3, 4.5 ], size : 1, rotation : Math.PI / 2, rgba : [ 10, 20, 30, 40 ]},
+      {look : 5, position : [ 129, 2, 6.5 ], size : 0.5, rotation : 0, rgba : [ 5, 6, 7, 8 ]}
+    ],
+    particleOrigin : [ 1, 2, 3 ],
+    particleStep : 0.5
+  };
+  check(JSON.stringify(f) === JSON.stringify(expected), `particle section parsed as ${JSON.stringify(f)}`);
+  const unused = bytes.slice();
+  unused[28] = 5; // the first particle of look 5 too: look 2 unused
+  expectThrow(() => parseParticleSection(unused, {}), 'looks[0] look 2 is used by no particle of the frame');
+  const negative = bytes.slice();
+  negative[43] = 0xbc; // the first size: -1
+  expectThrow(() => parseParticleSection(negative, {}), 'particles[0].size not a finite non-negative half');
+  expectThrow(() => parseParticleSection(new Uint8Array([ 0, 9, 1 ]), {}),
+              'particles count 9 entries need 135 bytes, 1 left');
+}
+
 // One strip: the atlas tiles `tiles` (row-major indices) side by side in one JPEG.
 async function stripOf(canvas, tiles) {
   const columns = ATLAS_W / 32;
@@ -277,6 +399,11 @@ async function run() {
   g.fillRect(32, 0, 32, 32);
   g.fillStyle = 'rgb(255,255,0)';
   g.fillRect(64, 0, 32, 32);
+  // Look 7's block (32 x 16 at 0, 32): orange rows above its middle, purple below.
+  g.fillStyle = 'rgb(255,128,0)';
+  g.fillRect(0, 32, 32, 8);
+  g.fillStyle = 'rgb(128,0,255)';
+  g.fillRect(0, 40, 32, 8);
   // Two strips: tiles 0-2 (block 1 spans tiles 1 and 2), then tiles 3-7.
   const key = buildJpegTiles(ATLAS_W, ATLAS_H, 0, 0,
                              [ await stripOf(image, [ 0, 1, 2 ]), await stripOf(image, [ 3, 4, 5, 6, 7 ]) ]);
@@ -285,7 +412,11 @@ async function run() {
   g.fillStyle = 'rgb(255,255,255)';
   g.fillRect(0, 0, 32, 16);
   const delta = buildJpegTiles(ATLAS_W, ATLAS_H, 1, 0, [ await stripOf(image, [ 0, 2 ]) ]);
-  const frames = [ frameMessage(1, [], keyPatches, keyColours, key), frameMessage(2, [ 2 ], [], [], delta) ];
+  const frames = [
+    frameMessage(1, [], keyPatches, keyColours, key,
+                 {looks : [ LOOK_BLOCK, LOOK_COLOUR ], particles : [ PARTICLE_A, PARTICLE_B ]}),
+    frameMessage(2, [ 2 ], [], [], delta, {looks : [], particles : [ PARTICLE_A ]})
+  ];
 
   const patches = new PatchSet(), renderer = new PatchRenderer(gl), atlas = new AtlasTexture(gl, ATLAS_W, ATLAS_H);
   patches.setWelcome(GRID);
@@ -298,7 +429,7 @@ async function run() {
     patches.apply(m);
     await atlas.applyJpegTiles(m.atlas.bytes);
     renderer.draw(patches, atlas, viewProjection(camera, canvas.width / canvas.height), camera.eye,
-                  [ 0, 0, canvas.width, canvas.height ]);
+                  [ 0, 0, canvas.width, canvas.height ], true, lookAt(camera.eye, camera.target, camera.up));
     window.mirageFrames.push(canvas.toDataURL('image/png'));
     document.title = `frame ${i + 1}/${frames.length}`;
   }
@@ -314,6 +445,7 @@ async function run() {
   if (!refused.includes('MJT1')) throw new Error(`a corrupt payload was not refused (${refused})`);
   checkPatchState(patches);
   checkExactLayout();
+  checkParticleLayout();
   document.title = `done ${frames.length}`;
 }
 

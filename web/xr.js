@@ -29,7 +29,8 @@ export async function startXr(gl, renderer, patches, atlas, sendPose, bounds) {
       const vp = layer.getViewport(view);
       const viewProj = multiply(view.projectionMatrix, view.transform.inverse.matrix);
       const p = view.transform.position;
-      renderer.draw(patches, atlas(), viewProj, [ p.x, p.y, p.z ], [ vp.x, vp.y, vp.width, vp.height ], false);
+      renderer.draw(patches, atlas(), viewProj, [ p.x, p.y, p.z ], [ vp.x, vp.y, vp.width, vp.height ], false,
+                    view.transform.inverse.matrix);
     }
   };
   session.requestAnimationFrame(onFrame);

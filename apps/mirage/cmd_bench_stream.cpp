@@ -1,7 +1,7 @@
 // mirage bench stream SCENE [--path orbit:60] [--size WxH] [--codec h264|zstd] [--bitrate MBIT]
 //   [--clients N] [--encode-workers W] [--encoder-threads T] [--latency-frames K] [--max-patch-edge L]
-//   [--position-bits B] [--visibility M] [--no-quality] [--json]: Shading Atlas Streaming measured in one
-//   process (mirage/stream/bench.h).
+//   [--position-bits B] [--visibility M] [--particles FX.toml [--particle-patches merged|each]] [--no-quality]
+//   [--json]: Shading Atlas Streaming measured in one process (mirage/stream/bench.h).
 #include <memory>
 
 #include <fmt/format.h>
@@ -44,7 +44,11 @@ void runBenchStream(BenchStreamOptions& o) {
          levelBias = 0, rawKB = 0;
   double visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0;
   double entries = 0, blockOnly = 0, removed = 0, colours = 0;
+  double particles = 0, looks = 0, lookColourOnly = 0, particleTexels = 0, particleKB = 0, particleRawKB = 0;
   for (const auto& f : r.frames) {
+    particles += f.particles.visible, looks += f.particles.looks, lookColourOnly += f.particles.colourOnly;
+    particleTexels += double(f.particles.texels), particleKB += f.particleBytes / 1024.0;
+    particleRawKB += f.particleRawBytes / 1024.0;
     gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, gpuConvert += f.gpuConvertMs;
     visibilityMs += f.visibilityMs, shadingMs += f.shadingMs, readbackMs += f.readbackMs, encodeMs += f.encodeMs,
         patchesMs += f.patchesMs, texels += double(f.shadedTexels);
@@ -57,8 +61,8 @@ void runBenchStream(BenchStreamOptions& o) {
   std::map<std::string, double> passes; // mean GPU time of each pass per client frame
   for (const auto& f : r.frames)
     for (const auto& [name, ms] : f.gpuPasses) passes[name] += ms / n;
-  // Client 0's bytes (atlas, geometry, colours) per atlas texel the server shaded for it.
-  double bytesPerTexel = texels > 0 ? (atlasKB + geometryKB) * 1024.0 / texels : 0.0;
+  // Client 0's bytes (atlas, geometry, colours, particles) per atlas texel the server shaded for it.
+  double bytesPerTexel = texels > 0 ? (atlasKB + geometryKB + particleKB) * 1024.0 / texels : 0.0;
   if (o.json) {
     nlohmann::json j = {{"scene", c.input},
                         {"device", r.device},
@@ -102,6 +106,15 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"server_seconds", r.serverSeconds},
                         {"frames_per_second", r.framesPerSecond},
                         {"clients_at_30hz", r.clientsAt30Hz}};
+    if (!c.particles.empty())
+      j.update({{"particles", c.particles},
+                {"particle_patches", nameOf(stream::kParticlePatchesNames, c.particlePatches)},
+                {"visible_particles", particles / n},
+                {"particle_looks", looks / n},
+                {"particle_colour_only_looks", lookColourOnly / n},
+                {"particle_texels", particleTexels / n},
+                {"particle_kb", particleKB / n},
+                {"particle_raw_kb", particleRawKB / n}});
     if (c.quality) j.update({{"ssim", r.meanSsim}, {"ssim_min", r.minSsim}, {"psnr", r.meanPsnr}});
     fmt::print("{}\n", j.dump(2));
     return;
@@ -118,12 +131,17 @@ void runBenchStream(BenchStreamOptions& o) {
              "fitting the atlas\n",
              r.meanServerMs, visibilityMs / n, shadingMs / n, readbackMs / n, encodeMs / n, patchesMs / n, r.meanGpuMs,
              gpuVis / n, gpuShade / n, gpuConvert / n, visible / n, colourOnly / n, texels / n / 1e6, levelBias / n);
-  fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry per frame = {:.1f} Mbit/s at {} Hz, {:.3f} bytes per "
-             "texel shaded\n",
-             atlasKB / n, geometryKB / n, r.megabitsPerSecond, c.fps, bytesPerTexel);
+  fmt::print("  client 0: {:.1f} KB atlas + {:.1f} KB geometry + {:.1f} KB particles per frame = {:.1f} Mbit/s at {} "
+             "Hz, {:.3f} bytes per texel shaded\n",
+             atlasKB / n, geometryKB / n, particleKB / n, r.megabitsPerSecond, c.fps, bytesPerTexel);
   fmt::print("  geometry per frame: {:.1f} KB before zstd; {:.0f} entries with positions, {:.0f} block-only, "
              "{:.0f} removed, {:.0f} colours\n",
              rawKB / n, entries / n, blockOnly / n, removed / n, colours / n);
+  if (!c.particles.empty())
+    fmt::print("  particles ({}, {} patches) per frame: {:.0f} visible, {:.0f} looks with blocks asked for ({:.0f} "
+               "without: one colour), {:.0f} texels shaded, {:.1f} KB ({:.1f} KB before zstd)\n",
+               c.particles, nameOf(stream::kParticlePatchesNames, c.particlePatches), particles / n, looks / n,
+               lookColourOnly / n, particleTexels / n, particleKB / n, particleRawKB / n);
   if (c.quality)
     fmt::print("  quality against local rendering: SSIM mean {:.4f} min {:.4f}, PSNR {:.2f} dB\n", r.meanSsim,
                r.minSsim, r.meanPsnr);
@@ -157,6 +175,7 @@ void addBenchStreamCommand(CLI::App& bench) {
   bindVisibility(*b, c.visibility);
   b->add_option("--position-bits", c.positionBits, "Bits per axis of the patch position grid (8..24)")
       ->capture_default_str();
+  bindParticles(*b, c.particles, c.particlePatches);
   b->add_flag("--no-quality", o->noQuality, "Skip the client's images and their comparison with local rendering");
   b->add_option("--device", o->device, "Vulkan device name substring or index");
   b->add_flag("--json", o->json, "Print results as JSON");

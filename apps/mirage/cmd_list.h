@@ -6,7 +6,8 @@
 
 namespace mirage::stream {
 struct TessellationConfig;
-}
+enum class ParticlePatches;
+} // namespace mirage::stream
 namespace mirage::render {
 enum class AtlasVisibilityMethod;
 }
@@ -55,6 +56,8 @@ void bindTessellation(CLI::App& cmd, stream::TessellationConfig& config);
 void bindVisibility(CLI::App& cmd, render::AtlasVisibilityMethod& method);
 // --encode-workers, --encoder-threads (serve, bench stream): the frame workers, x264's slice threads.
 void bindEncoding(CLI::App& cmd, uint32_t& workers, uint32_t& threads);
+// --particles FX.toml, --particle-patches merged|each (serve, bench stream): a streamed particle effect.
+void bindParticles(CLI::App& cmd, std::string& effect, stream::ParticlePatches& patches);
 // --atlas-fill's help (serve, bench stream).
 inline constexpr const char* kAtlasFillHelp =
     "Share of the atlas the visible patches' blocks may want; past it every patch's level bias is lowered "

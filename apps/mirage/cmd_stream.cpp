@@ -1,6 +1,6 @@
 // mirage serve SCENE [--port 7000] [--token-file F] [--tls-cert C --tls-key K] [--max-clients N]
 //   [--codec h264|zstd] [--bitrate MBIT] [--atlas-size N] [--max-patch-edge L] [--position-bits B]
-//   [--visibility auto|compute|hardware] [--web DIR]:
+//   [--visibility auto|compute|hardware] [--particles FX.toml [--particle-patches merged|each]] [--web DIR]:
 //   Shading Atlas Streaming.
 // mirage client ws://HOST:PORT [--token T] [--path cams.json] [--record OUT.png] [--size WxH]
 //   [--stereo [--ipd M]] [--latency-ms MS [--jitter-ms J] [--loss P] [--seed S] [--fps F] [--server-ms S]]:
@@ -219,6 +219,19 @@ void bindEncoding(CLI::App& cmd, uint32_t& workers, uint32_t& threads) {
       ->capture_default_str();
 }
 
+void bindParticles(CLI::App& cmd, std::string& effect, stream::ParticlePatches& patches) {
+  cmd.add_option("--particles", effect, "A particle effect (.toml) streamed with the scene (docs/particles.md)");
+  cmd.add_option_function<std::string>(
+         "--particle-patches",
+         [&patches](const std::string& text) {
+           patches = parseNamed(text, "--particle-patches", stream::kParticlePatchesNames).value();
+         },
+         "--particles: atlas blocks per look of the texture sheets (merged: texture merging) or per visible "
+         "particle (each)")
+      ->check(CLI::IsMember({"merged", "each"}))
+      ->default_str("merged");
+}
+
 void addStreamCommands(CLI::App& app) {
   auto* s = app.add_subcommand("serve", "Serve a scene by Shading Atlas Streaming (docs/stream.md)");
   auto so = std::make_shared<ServeCliOptions>();
@@ -247,6 +260,7 @@ void addStreamCommands(CLI::App& app) {
       ->capture_default_str();
   s->add_option("--materials", so->scene.materials, "Material file (TOML) applied to the scene");
   bindTessellation(*s, so->scene.tessellation);
+  bindParticles(*s, so->scene.particles, so->serve.stream.particlePatches);
   s->add_option("--web", so->web, "Directory of the browser client (GET / serves its index.html)");
   s->add_option("--device", so->device, "GPU index or name substring");
   s->add_flag("--quiet", so->quiet, "Print nothing but errors");

@@ -25,8 +25,8 @@ namespace sio = mirage::shaderio;
 Result<std::vector<render::ParticleSheet>> effectSheets(const EffectFile& effect) {
   std::vector<render::ParticleSheet> out;
   for (const SystemDef& s : effect.systems) {
-    auto image = generateSheet(s.sheet.texture, s.sheet.tilesX, s.sheet.tilesY, kSheetTilePixels);
-    if (!image) return makeError(effect.name, fmt::format("system \"{}\": {}", s.name, image.error().message));
+    auto image = systemSheet(s);
+    if (!image) return makeError(effect.name, image.error().message);
     out.push_back({std::move(*image), s.sheet.tilesX, s.sheet.tilesY, s.sheet.alphaFromGreyscale});
   }
   return out;

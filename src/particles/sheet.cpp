@@ -99,4 +99,10 @@ Result<ImageRGBA8> generateSheet(std::string_view kind, uint32_t tilesX, uint32_
   return image;
 }
 
+Result<ImageRGBA8> systemSheet(const SystemDef& system) {
+  auto image = generateSheet(system.sheet.texture, system.sheet.tilesX, system.sheet.tilesY, kSheetTilePixels);
+  if (!image) return Error{fmt::format("system \"{}\": {}", system.name, image.error().message)};
+  return image;
+}
+
 } // namespace mirage::particles

@@ -100,6 +100,9 @@ void AtlasClientRenderer::Impl::createResources() {
   d.colorFormats = {};
   d.depthWrite = false; // blended patches test against the opaque depth, do not occlude each other
   appendPipeline = createGraphicsPipeline(ctx, d);
+  d.vertexShader = "atlas_client_particle.vert"; // the particles join the same lists
+  d.fragmentShader = "atlas_client_particle.frag";
+  particlePipeline = createGraphicsPipeline(ctx, d);
 
   // The forward renderer's resolve, as is: binding 0 the colour target, the lists by address.
   VkDescriptorSetLayoutBinding colorBinding{0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT,
@@ -189,6 +192,39 @@ Status AtlasClientRenderer::removePatch(uint32_t id) {
 }
 
 size_t AtlasClientRenderer::patchCount() const { return impl_->slotOf.size(); }
+
+Status AtlasClientRenderer::setParticles(std::span<const ClientParticle> particles) {
+  Impl& d = *impl_;
+  std::vector<sio::GpuClientParticle> records;
+  records.reserve(particles.size());
+  for (size_t i = 0; i < particles.size(); ++i) {
+    const ClientParticle& p = particles[i];
+    if (!std::isfinite(p.position.x) || !std::isfinite(p.position.y) || !std::isfinite(p.position.z) ||
+        !std::isfinite(p.size) || !std::isfinite(p.rotation))
+      return Error{fmt::format("particle {}: a position, size or rotation that is not finite", i)};
+    sio::GpuClientParticle g{p.position, p.size, p.rotation, p.color, p.lookColor, 0};
+    if (!p.colorOnly) {
+      if (p.blockLog2 < MIRAGE_ATLAS_MIN_BLOCK_LOG2 || p.blockLog2 > MIRAGE_ATLAS_MAX_BLOCK_LOG2)
+        return Error{fmt::format("particle {}: block log2 {} outside {}..{}", i, p.blockLog2,
+                                 MIRAGE_ATLAS_MIN_BLOCK_LOG2, MIRAGE_ATLAS_MAX_BLOCK_LOG2)};
+      uint64_t side = 1u << p.blockLog2;
+      if (p.blockX + 2 * side > d.config.atlasWidth || p.blockY + side > d.config.atlasHeight)
+        return Error{fmt::format("particle {}: block {}x{} at ({}, {}) is outside the {}x{} atlas", i, 2 * side, side,
+                                 p.blockX, p.blockY, d.config.atlasWidth, d.config.atlasHeight)};
+      g.block = p.blockX | p.blockY << 16;
+      g.blockLog2 = p.blockLog2;
+    }
+    records.push_back(g);
+  }
+  d.particles = std::move(records);
+  for (const ClientParticle& p : particles) { // clip planes (never shrink)
+    d.bounds.add(p.position - glm::vec3(p.size));
+    d.bounds.add(p.position + glm::vec3(p.size));
+  }
+  return Ok{};
+}
+
+size_t AtlasClientRenderer::particleCount() const { return impl_->particles.size(); }
 
 Status AtlasClientRenderer::updateAtlas(const ImageRGBA8& image) {
   Impl& d = *impl_;

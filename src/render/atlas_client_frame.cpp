@@ -1,7 +1,7 @@
 // The thin client's frame (docs/stream.md, "The client's renderer"): the queued patch records and atlas texels
-// uploaded through the slot's staging buffer, opaque and MASK patches with depth, BLEND patches
-// appended to per-pixel linked lists and resolved over the opaque colour by the forward renderer's
-// resolve (forward_oit_resolve.comp, oit_list.glsl).
+// uploaded through the slot's staging buffer, opaque and MASK patches with depth, BLEND patches and
+// particle billboards appended to per-pixel linked lists and resolved over the opaque colour by the
+// forward renderer's resolve (forward_oit_resolve.comp, oit_list.glsl).
 #include <algorithm>
 #include <cstring>
 
@@ -50,7 +50,7 @@ void AtlasClientRenderer::Impl::ensureTargets(uint32_t w, uint32_t h, uint32_t n
     height = h;
     oitNodesPerPixel = 0; // the pool follows the size
   }
-  if (blendPatches == 0 || (oitHeads && oitNodesPerPixel == nodesPerPixel)) return;
+  if (!transparent() || (oitHeads && oitNodesPerPixel == nodesPerPixel)) return;
   retired.retire(std::move(oitHeads), inFlight());
   retired.retire(std::move(oitNodes), inFlight());
   retired.retire(std::move(oitColors), inFlight());
@@ -157,11 +157,11 @@ void AtlasClientRenderer::Impl::cmdUpload(VkCommandBuffer cmd, uint32_t slot) {
                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
 }
 
-void AtlasClientRenderer::Impl::cmdBindDraw(VkCommandBuffer cmd, VkDeviceAddress frame, uint32_t alphaModes,
-                                            VkDeviceAddress oit) {
+void AtlasClientRenderer::Impl::cmdBindDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress records,
+                                            uint32_t alphaModes, VkDeviceAddress oit) {
   sio::AtlasClientPush push{};
   push.frameAddress = frame;
-  push.patchAddress = patches.address();
+  push.patchAddress = records;
   push.oitAddress = oit;
   push.atlasSize = glm::vec2(float(config.atlasWidth), float(config.atlasHeight));
   push.alphaModes = alphaModes;
@@ -174,8 +174,8 @@ void AtlasClientRenderer::Impl::cmdBindDraw(VkCommandBuffer cmd, VkDeviceAddress
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &atlasDescriptors.set, 0, nullptr);
 }
 
-// After the opaque pass (colour and depth in attachment layouts, depth stored): BLEND patches into
-// the lists, resolved over the colour in place; the colour ends in GENERAL either way.
+// After the opaque pass (colour and depth in attachment layouts, depth stored): BLEND patches and
+// particles into the lists, resolved over the colour in place; the colour ends in GENERAL either way.
 void AtlasClientRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, uint32_t slot, VkDeviceAddress frame,
                                                 FrameStats& stats) {
   auto colorToGeneral = [&] {
@@ -202,10 +202,18 @@ void AtlasClientRenderer::Impl::cmdTransparency(VkCommandBuffer cmd, uint32_t sl
   ri.pDepthAttachment = &depthAtt;
   uint32_t blendTime = timer.cmdBegin(cmd, "blend");
   vkCmdBeginRendering(cmd, &ri);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, appendPipeline);
-  cmdBindDraw(cmd, frame, kBlendModes, oitLists[slot].address());
-  vkCmdDraw(cmd, uint32_t(slots.size()) * MIRAGE_CLIENT_SLOT_VERTICES, 1, 0, 0);
-  stats.drawCalls++;
+  if (blendPatches != 0) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, appendPipeline);
+    cmdBindDraw(cmd, frame, patches.address(), kBlendModes, oitLists[slot].address());
+    vkCmdDraw(cmd, uint32_t(slots.size()) * MIRAGE_CLIENT_SLOT_VERTICES, 1, 0, 0);
+    stats.drawCalls++;
+  }
+  if (!particles.empty()) { // one instance per particle, six vertices (two triangles) each
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, particlePipeline);
+    cmdBindDraw(cmd, frame, particleRecords[slot].address(), 0, oitLists[slot].address());
+    vkCmdDraw(cmd, 6, uint32_t(particles.size()), 0, 0);
+    stats.drawCalls++;
+  }
   vkCmdEndRendering(cmd);
   timer.cmdEnd(cmd, blendTime);
   colorToGeneral();
@@ -258,7 +266,15 @@ Status AtlasClientRenderer::record(VkCommandBuffer cmd, const AtlasClientSetting
   d.cmdUpload(cmd, slot);
   timer.cmdEnd(cmd, uploadTime);
 
-  d.slotOit[slot] = d.blendPatches != 0;
+  d.slotOit[slot] = d.transparent();
+  if (!d.particles.empty()) { // the slot's previous frame completed: its records may be replaced
+    uint64_t bytes = d.particles.size() * sizeof(sio::GpuClientParticle);
+    if (d.particleRecords[slot].size() < bytes)
+      d.particleRecords[slot] =
+          createBuffer(d.ctx, std::max<uint64_t>(bytes, d.particleRecords[slot].size() * 2),
+                       VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUsage::Upload, "client particles");
+    std::memcpy(d.particleRecords[slot].mapped(), d.particles.data(), bytes);
+  }
   if (d.slotOit[slot]) {
     sio::OitLists l{d.oitHeads.address(),
                     d.oitNodes.address(),
@@ -307,7 +323,7 @@ Status AtlasClientRenderer::record(VkCommandBuffer cmd, const AtlasClientSetting
   vkCmdBeginRendering(cmd, &ri);
   if (!d.slots.empty()) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, d.opaquePipeline);
-    d.cmdBindDraw(cmd, frame, kOpaqueModes, 0);
+    d.cmdBindDraw(cmd, frame, d.patches.address(), kOpaqueModes, 0);
     vkCmdDraw(cmd, uint32_t(d.slots.size()) * MIRAGE_CLIENT_SLOT_VERTICES, 1, 0, 0);
     stats.drawCalls++;
   }

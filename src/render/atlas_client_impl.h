@@ -1,7 +1,8 @@
 #pragma once
 // AtlasClientRenderer's state, shared by its files:
 //   atlas_client.cpp        creation, patch slots, atlas uploads (the CPU side of the next frame)
-//   atlas_client_frame.cpp  the frame: uploads recorded, opaque pass, linked-list transparency
+//   atlas_client_frame.cpp  the frame: uploads recorded, opaque pass, linked-list transparency (BLEND
+//                           patches and particles)
 #include <unordered_map>
 #include <vector>
 
@@ -43,6 +44,8 @@ struct AtlasClientRenderer::Impl {
   uint64_t patchTriangles = 0; // over every patch set
   Bounds bounds;               // of every patch ever set (clip planes; never shrinks)
   gpu::Buffer patches;         // GpuClientPatch[config.maxPatches], device-local
+  // Particles: the records every frame draws, copied per frame slot into particleRecords[slot].
+  std::vector<shaderio::GpuClientParticle> particles;
 
   // The atlas and the uploads the next frame records.
   gpu::Image atlas;
@@ -53,7 +56,7 @@ struct AtlasClientRenderer::Impl {
   gpu::DescriptorSet atlasDescriptors;
 
   gpu::Unique<VkPipelineLayout> layout, resolveLayout;
-  gpu::Unique<VkPipeline> opaquePipeline, appendPipeline, resolvePipeline;
+  gpu::Unique<VkPipeline> opaquePipeline, appendPipeline, particlePipeline, resolvePipeline;
 
   // The targets and the lists, shared by the slots (each frame's first barrier orders it after the
   // earlier ones).
@@ -64,10 +67,11 @@ struct AtlasClientRenderer::Impl {
   bool oitNodesUnzeroed = false; // a new node pool, zeroed by the next frame (oit_list.glsl needs it all zero)
 
   // Per slot: what the CPU writes or reads while other frames run.
-  gpu::Buffer frames[kMaxFramesInFlight];      // ViewFrame
-  gpu::Buffer staging[kMaxFramesInFlight];     // the frame's patch records and atlas texels
-  gpu::Buffer oitLists[kMaxFramesInFlight];    // OitLists
-  gpu::Buffer oitReadback[kMaxFramesInFlight]; // OitCounters
+  gpu::Buffer frames[kMaxFramesInFlight];          // ViewFrame
+  gpu::Buffer staging[kMaxFramesInFlight];         // the frame's patch records and atlas texels
+  gpu::Buffer particleRecords[kMaxFramesInFlight]; // the frame's GpuClientParticle[] (host-visible)
+  gpu::Buffer oitLists[kMaxFramesInFlight];        // OitLists
+  gpu::Buffer oitReadback[kMaxFramesInFlight];     // OitCounters
   gpu::DescriptorSet resolveDescriptors[kMaxFramesInFlight];
   std::vector<gpu::GpuTimer> timers;
   FrameStats slotStats[kMaxFramesInFlight];
@@ -93,8 +97,13 @@ struct AtlasClientRenderer::Impl {
   // The pending patch records and atlas texels into the slot's staging buffer and from there to the
   // patch buffer and the atlas (after the frame's first barrier), made visible to the draws.
   void cmdUpload(VkCommandBuffer cmd, uint32_t slot);
+  // Whether frames draw through the linked lists: some BLEND patch or particle.
+  bool transparent() const { return blendPatches != 0 || !particles.empty(); }
   void cmdTransparency(VkCommandBuffer cmd, uint32_t slot, VkDeviceAddress frame, FrameStats& stats);
-  void cmdBindDraw(VkCommandBuffer cmd, VkDeviceAddress frame, uint32_t alphaModes, VkDeviceAddress oit);
+  // The draws' push constants (`records`: the patch slots, or the particle draw's records), culling,
+  // viewport and atlas.
+  void cmdBindDraw(VkCommandBuffer cmd, VkDeviceAddress frame, VkDeviceAddress records, uint32_t alphaModes,
+                   VkDeviceAddress oit);
 };
 
 } // namespace mirage::render

@@ -327,9 +327,8 @@ AtlasYuvImage AtlasShading::createYuvImage(bool stackedAlpha) {
   AtlasYuvImage image;
   image.side = d.config.atlasSide;
   image.stackedAlpha = stackedAlpha;
-  image.buffer =
-      createBuffer(d.ctx, shaderio::atlasYuvBytes(image.side, stackedAlpha), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                   MemoryUsage::Readback, "atlas yuv");
+  image.buffer = createBuffer(d.ctx, shaderio::atlasYuvBytes(image.side, stackedAlpha),
+                              VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback, "atlas yuv");
   return image;
 }
 
@@ -363,6 +362,44 @@ Status AtlasShading::convertAtlasYuv(AtlasYuvImage& image) {
     d.timer.cmdEnd(cmd, copy);
     cmdMemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                      VK_ACCESS_2_HOST_READ_BIT);
+  });
+  return Ok{};
+}
+
+Status AtlasShading::writeAtlasRegions(std::span<const AtlasRegionWrite> writes) {
+  Impl& d = *impl_;
+  const uint32_t side = d.config.atlasSide;
+  VkDeviceSize bytes = 0;
+  std::vector<VkBufferImageCopy> regions;
+  for (const AtlasRegionWrite& w : writes) {
+    if (!w.image || w.image->width == 0 || w.image->height == 0 || uint64_t(w.x) + w.image->width > side ||
+        uint64_t(w.y) + w.image->height > side ||
+        w.image->pixels.size() != size_t(w.image->width) * w.image->height * 4)
+      return Error{fmt::format("atlas write at ({}, {}) is empty or leaves the {}-texel atlas", w.x, w.y, side)};
+    VkBufferImageCopy r{};
+    r.bufferOffset = bytes;
+    r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    r.imageOffset = {int32_t(w.x), int32_t(w.y), 0};
+    r.imageExtent = {w.image->width, w.image->height, 1};
+    regions.push_back(r);
+    bytes += w.image->pixels.size();
+  }
+  if (regions.empty()) return Ok{};
+  d.uploadBuffer.ensure(d.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "atlas uploads");
+  for (size_t i = 0; i < writes.size(); ++i)
+    std::memcpy(d.uploadBuffer.buffer.mapped() + regions[i].bufferOffset, writes[i].image->pixels.data(),
+                writes[i].image->pixels.size());
+  d.submitTimed("upload", [&](VkCommandBuffer cmd) {
+    cmdImageBarrier(cmd,
+                    {d.atlas.handle(), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL});
+    vkCmdCopyBufferToImage(cmd, d.uploadBuffer.buffer.handle(), d.atlas.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                           uint32_t(regions.size()), regions.data());
+    cmdImageBarrier(cmd,
+                    {d.atlas.handle(), VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL});
   });
   return Ok{};
 }

@@ -92,6 +92,7 @@ struct AtlasShading::Impl {
   gpu::Unique<VkPipeline> shadePipeline, colourPipeline, clearPipeline, yuvPipeline;
   gpu::Buffer frame; // FrameData (host-visible)
   AtlasHostBuffer patchBuffer, tileBuffer, sampleBuffer, colourBuffer, regionBuffer;
+  AtlasHostBuffer uploadBuffer; // writeAtlasRegions' texels
   AtlasHostBuffer yuvScratch; // device-local: the YUV pass's output before its copy to the host
 
   // GPU time of each submission since the last takePassTimes().

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "mirage/core/image_metrics.h"
+#include "mirage/particles/render.h"
 #include "mirage/runtime/scene.h"
 #include "mirage/stream/client_view.h"
 #include "mirage/stream/session.h"
@@ -39,8 +40,8 @@ Status validate(const StreamBenchConfig& c) {
 
 Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenchConfig& c) {
   if (auto s = validate(c); !s) return s.error();
-  auto scene =
-      openStreamScene(context, {c.input, c.materials, c.atlasSize, c.tessellation, c.positionBits, c.visibility});
+  auto scene = openStreamScene(
+      context, {c.input, c.materials, c.atlasSize, c.tessellation, c.positionBits, c.visibility, c.particles});
   if (!scene) return scene.error();
   StreamScene& served = **scene;
   auto path = render::cameraPathArgument(c.path, served.bounds, float(c.width) / float(c.height));
@@ -52,6 +53,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
   ClientStreamConfig cc{c.codec, c.bitrateKbps, c.fps, c.levelBias};
   cc.atlasFill = c.atlasFill;
   cc.encoderThreads = c.encoderThreads;
+  cc.particlePatches = c.particlePatches;
   std::vector<std::unique_ptr<ClientStream>> clients;
   for (uint32_t k = 0; k < c.clients; ++k) {
     auto client = ClientStream::create(served, cc);
@@ -70,6 +72,16 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
     auto opened = runtime::Scene::open(context, lo);
     if (!opened) return opened.error();
     local = std::move(*opened);
+  }
+  // The effect as `mirage render --particles` draws it (CPU simulation, billboards: the client's).
+  std::unique_ptr<particles::EffectPlayer> effect;
+  uint32_t effectSteps = 0, effectTaken = 0; // the last frame client 0 applied; the steps the player took
+  if (c.quality && served.effect) {
+    auto player =
+        particles::EffectPlayer::create(context, *served.effect, particles::SimKind::Cpu, kStreamParticleStep);
+    if (!player) return player.error();
+    effect = std::move(*player);
+    if (auto s = effect->draw()->setSettings({/*splatBelowPixels=*/0.0f}); !s) return s.error();
   }
 
   StreamBenchReport report;
@@ -119,7 +131,10 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
       f.blockOnlyEntries = st.blockOnly;
       f.removed = st.removed;
       f.colours = st.colours;
-      bytes += st.geometryBytes + st.atlasBytes;
+      f.particles = st.particles;
+      f.particleBytes = st.particleBytes;
+      f.particleRawBytes = st.particleRawBytes;
+      bytes += st.geometryBytes + st.particleBytes + st.atlasBytes;
       if (c.quality) arriving.emplace_back(stepOf[k] + c.latencyFrames, std::move(*done.frame));
     }
     return Ok{};
@@ -161,6 +176,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
     auto tApply = Clock::now();
     while (!arriving.empty() && arriving.front().first <= i) {
       if (auto s = view->apply(arriving.front().second); !s) return s.error();
+      effectSteps = arriving.front().second.sequence;
       arriving.pop_front();
     }
     f.clientApplyMs = msSince(tApply);
@@ -170,6 +186,12 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
     f.clientRenderMs = msSince(tRender);
     runtime::View lv;
     lv.camera = cameras[i];
+    if (effect) {
+      effect->step(effectSteps - effectTaken);
+      effectTaken = effectSteps;
+      lv.particles = effect->draw();
+      lv.camera = particles::clipAround(cameras[i], local->bounds(), effect->bounds());
+    }
     lv.width = c.width;
     lv.height = c.height;
     auto reference = local->render(lv);

@@ -132,6 +132,7 @@ Status runPathClient(gpu::Context& context, const StreamClientOptions& options, 
       if (auto s = applyReceivedFrame(**view, transport, frame, options, info); !s) return s;
     info.roundTripMs = std::chrono::duration<double, std::milli>(Clock::now() - sent).count();
     info.patchesHeld = (*view)->patchCount();
+    info.particlesHeld = (*view)->particleCount();
     if (options.stereoIpd) {
       auto eyes = clientEyes(path[i], *options.stereoIpd);
       auto left = (*view)->render(eyes[0], options.width, options.height);

@@ -99,6 +99,7 @@ Status runSimulatedPathClient(gpu::Context& context, const StreamClientOptions& 
     info.serverFrame = serverFrame;
     info.framesInFlight = uint32_t(uplink.size() + downlink.size());
     info.patchesHeld = (*view)->patchCount();
+    info.particlesHeld = (*view)->particleCount();
     auto image = (*view)->render(path[i], options.width, options.height);
     if (!image) return image.error();
     if (auto s = sink(info, *image); !s) return s;

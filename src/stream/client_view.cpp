@@ -92,6 +92,7 @@ Status StreamView::apply(const Frame& frame) {
     it->second.color = packColour(c.rgba);
     if (auto s = renderer_->setPatch(c.id, it->second); !s) return fail(s.error().message);
   }
+  if (auto s = applyParticles(frame); !s) return fail(s.error().message);
   if (frame.atlas.codec == AtlasCodec::None) return Ok{};
   if (frame.atlas.codec != welcome_.codec)
     return fail(
@@ -114,6 +115,47 @@ Status StreamView::apply(const Frame& frame) {
     if (auto s = jpeg_->decode(frame.atlas.bytes, "atlas"); !s) return fail(s.error().message);
     if (auto s = uploadAtlas(jpeg_->rgba(), header->width, header->height); !s) return fail(s.error().message);
   }
+  return Ok{};
+}
+
+Status StreamView::applyParticles(const Frame& frame) {
+  for (const ParticleLook& l : frame.looks) {
+    Look look;
+    look.colorOnly = l.blockLog2 == kColourOnlyBlock;
+    if (look.colorOnly) {
+      look.color = packColour(l.rgba);
+    } else {
+      look.blockX = l.blockX, look.blockY = l.blockY, look.blockLog2 = l.blockLog2;
+      uint64_t side = 1u << l.blockLog2;
+      if (l.blockX + 2 * side > welcome_.atlasWidth || l.blockY + side > welcome_.atlasHeight)
+        return Error{fmt::format("look {}: block {}x{} at ({}, {}) outside the {}x{} atlas", l.id, 2 * side, side,
+                                 l.blockX, l.blockY, welcome_.atlasWidth, welcome_.atlasHeight)};
+    }
+    looks_[l.id] = look;
+  }
+  std::unordered_map<uint32_t, Look> used;
+  std::vector<render::ClientParticle> particles;
+  particles.reserve(frame.particles.size());
+  for (size_t i = 0; i < frame.particles.size(); ++i) {
+    const StreamParticle& p = frame.particles[i];
+    auto look = looks_.find(p.look);
+    if (look == looks_.end())
+      return Error{fmt::format("particle {} of look {}, which the client does not hold", i, p.look)};
+    used.emplace(p.look, look->second);
+    render::ClientParticle c;
+    c.position = particlePosition(p, frame.particleOrigin, frame.particleStep);
+    c.size = particleSize(p.size);
+    c.rotation = particleRotation(p.rotation);
+    c.color = packColour(p.rgba);
+    c.colorOnly = look->second.colorOnly;
+    c.blockX = look->second.blockX, c.blockY = look->second.blockY, c.blockLog2 = look->second.blockLog2;
+    c.lookColor = look->second.color;
+    particles.push_back(c);
+    bounds_.add(c.position - glm::vec3(c.size)); // the clip planes take every particle in
+    bounds_.add(c.position + glm::vec3(c.size));
+  }
+  if (auto s = renderer_->setParticles(particles); !s) return s;
+  looks_ = std::move(used); // what a later frame's particles may refer to without an entry
   return Ok{};
 }
 

@@ -206,46 +206,60 @@ bool readSection(Reader& r, Frame& m, const DecodeLimits& limits) {
 
 } // namespace
 
-void writePatchSection(Writer& w, const Frame& frame) {
-  std::vector<uint8_t> raw = rawSection(frame);
-  w.u8(uint8_t(frame.patchCodec));
-  if (frame.patchCodec == PatchCodec::Zstd) raw = compress(raw);
+void writeSection(Writer& w, PatchCodec codec, std::vector<uint8_t> raw) {
+  w.u8(uint8_t(codec));
+  if (codec == PatchCodec::Zstd) raw = compress(raw);
   w.u32(uint32_t(raw.size()));
   w.bytes(raw);
 }
 
-bool readPatchSection(Reader& r, Frame& frame, const DecodeLimits& limits) {
+bool readSectionContent(Reader& r, const std::string& name, PatchCodec& codecOut, std::vector<uint8_t>& storage,
+                        std::span<const uint8_t>& content, const DecodeLimits& limits) {
   uint8_t codec = 0;
   uint32_t byteCount = 0;
   std::span<const uint8_t> bytes;
-  if (!r.u8(codec, "patches.codec") || !r.u32(byteCount, "patches.byteCount") ||
-      !r.view(bytes, byteCount, "patches.bytes"))
+  if (!r.u8(codec, name + ".codec") || !r.u32(byteCount, name + ".byteCount") ||
+      !r.view(bytes, byteCount, name + ".bytes"))
     return false;
-  if (codec >= kPatchCodecCount) return r.fail("patches.codec", std::to_string(codec) + " not 0 (raw) or 1 (zstd)");
-  frame.patchCodec = PatchCodec(codec);
-  std::vector<uint8_t> content;
-  if (frame.patchCodec == PatchCodec::Zstd) {
+  if (codec >= kPatchCodecCount) return r.fail(name + ".codec", std::to_string(codec) + " not 0 (raw) or 1 (zstd)");
+  codecOut = PatchCodec(codec);
+  if (codecOut == PatchCodec::Zstd) {
     unsigned long long size = ZSTD_getFrameContentSize(bytes.data(), bytes.size());
-    if (size == ZSTD_CONTENTSIZE_ERROR) return r.fail("patches.bytes", "not a zstd frame");
-    if (size == ZSTD_CONTENTSIZE_UNKNOWN) return r.fail("patches.bytes", "zstd frame without its content size");
+    if (size == ZSTD_CONTENTSIZE_ERROR) return r.fail(name + ".bytes", "not a zstd frame");
+    if (size == ZSTD_CONTENTSIZE_UNKNOWN) return r.fail(name + ".bytes", "zstd frame without its content size");
     if (size > limits.maxPatchSectionBytes)
-      return r.fail("patches.bytes", "zstd content of " + std::to_string(size) + " bytes over the limit of " +
+      return r.fail(name + ".bytes", "zstd content of " + std::to_string(size) + " bytes over the limit of " +
                                          std::to_string(limits.maxPatchSectionBytes));
     size_t frameBytes = ZSTD_findFrameCompressedSize(bytes.data(), bytes.size());
     if (ZSTD_isError(frameBytes) || frameBytes != bytes.size())
-      return r.fail("patches.bytes", "not exactly one zstd frame");
-    content.resize(size_t(size));
-    size_t got = ZSTD_decompress(content.data(), content.size(), bytes.data(), bytes.size());
-    if (ZSTD_isError(got)) return r.fail("patches.bytes", std::string("corrupt zstd data: ") + ZSTD_getErrorName(got));
-    if (got != content.size())
-      return r.fail("patches.bytes",
+      return r.fail(name + ".bytes", "not exactly one zstd frame");
+    storage.resize(size_t(size));
+    size_t got = ZSTD_decompress(storage.data(), storage.size(), bytes.data(), bytes.size());
+    if (ZSTD_isError(got)) return r.fail(name + ".bytes", std::string("corrupt zstd data: ") + ZSTD_getErrorName(got));
+    if (got != storage.size())
+      return r.fail(name + ".bytes",
                     "zstd frame of " + std::to_string(got) + " bytes, its header says " + std::to_string(size));
-    bytes = content;
+    content = storage;
   } else if (byteCount > limits.maxPatchSectionBytes) {
-    return r.fail("patches.byteCount",
+    return r.fail(name + ".byteCount",
                   std::to_string(byteCount) + " over the limit of " + std::to_string(limits.maxPatchSectionBytes));
+  } else {
+    content = bytes;
   }
-  Reader section(bytes);
+  return true;
+}
+
+size_t sectionBytes(PatchCodec codec, std::vector<uint8_t> raw) {
+  return codec == PatchCodec::Zstd ? compress(raw).size() : raw.size();
+}
+
+void writePatchSection(Writer& w, const Frame& frame) { writeSection(w, frame.patchCodec, rawSection(frame)); }
+
+bool readPatchSection(Reader& r, Frame& frame, const DecodeLimits& limits) {
+  std::vector<uint8_t> storage;
+  std::span<const uint8_t> content;
+  if (!readSectionContent(r, "patches", frame.patchCodec, storage, content, limits)) return false;
+  Reader section(content);
   if (readSection(section, frame, limits)) return true;
   r.error = section.error;
   return false;
@@ -253,10 +267,7 @@ bool readPatchSection(Reader& r, Frame& frame, const DecodeLimits& limits) {
 
 } // namespace wire
 
-size_t patchSectionBytes(const Frame& frame) {
-  std::vector<uint8_t> raw = wire::rawSection(frame);
-  return frame.patchCodec == PatchCodec::Zstd ? wire::compress(raw).size() : raw.size();
-}
+size_t patchSectionBytes(const Frame& frame) { return wire::sectionBytes(frame.patchCodec, wire::rawSection(frame)); }
 
 float positionGridStep(const glm::vec3& sceneMin, const glm::vec3& sceneMax, uint32_t bits) {
   assert(bits >= 1 && bits <= kPositionGridBits);

@@ -1,7 +1,8 @@
 // Encoding and decoding of the stream messages (docs/stream.md, "Protocol"); a Frame's patch section
-// is patch_section.cpp's. The decoder reads through a bounds-checked cursor (wire.h): every read says what it needs
-// before it touches a byte, and every count is checked against the limits and against the bytes left (count x smallest
-// entry) before a vector is sized, so a forged count cannot allocate more than the message itself holds.
+// is patch_section.cpp's, its particle section particle_section.cpp's. The decoder reads through a bounds-checked
+// cursor (wire.h): every read says what it needs before it touches a byte, and every count is checked against the
+// limits and against the bytes left (count x smallest entry) before a vector is sized, so a forged count cannot
+// allocate more than the message itself holds.
 #include "mirage/stream/protocol.h"
 
 #include <bit>
@@ -76,6 +77,7 @@ void writePayload(Writer& w, const Frame& m) {
   w.u32(m.poseSequence);
   w.u64(m.serverTimeUs);
   wire::writePatchSection(w, m);
+  wire::writeParticleSection(w, m);
   w.u8(uint8_t(m.atlas.codec));
   w.u32(m.atlas.width);
   w.u32(m.atlas.height);
@@ -154,7 +156,7 @@ bool readPayload(Reader& r, Frame& m, const DecodeLimits& limits) {
   if (!r.u32(m.sequence, "sequence") || !r.u32(m.poseSequence, "poseSequence") ||
       !r.u64(m.serverTimeUs, "serverTimeUs"))
     return false;
-  if (!wire::readPatchSection(r, m, limits)) return false;
+  if (!wire::readPatchSection(r, m, limits) || !wire::readParticleSection(r, m, limits)) return false;
   uint8_t codec = 0;
   uint32_t byteCount = 0;
   if (!r.u8(codec, "atlas.codec") || !r.u32(m.atlas.width, "atlas.width") || !r.u32(m.atlas.height, "atlas.height") ||

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "mirage/particles/effect.h"
 #include "mirage/runtime/scene_argument.h"
 #include "mirage/shading/material_file.h"
 
@@ -35,6 +36,12 @@ Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, cons
     return Error{fmt::format("--atlas-size {} must be a power of two in 128..16384", options.atlasSize)};
   if (options.positionBits < 8 || options.positionBits > kPositionGridBits)
     return Error{fmt::format("--position-bits {} must be in 8..{}", options.positionBits, kPositionGridBits)};
+  std::optional<particles::EffectFile> effect;
+  if (!options.particles.empty()) { // read first too
+    auto file = particles::loadEffectFile(options.particles);
+    if (!file) return file.error();
+    effect = std::move(*file);
+  }
   std::optional<shading::MaterialFile> materials;
   if (!options.materials.empty()) { // read first: a bad material file costs no import
     auto file = shading::loadMaterialFile(options.materials);
@@ -66,6 +73,13 @@ Result<std::unique_ptr<StreamScene>> openStreamScene(gpu::Context& context, cons
   s->atlasSize = options.atlasSize;
   s->positionStep = positionGridStep(s->bounds.min, s->bounds.max, options.positionBits);
   for (const Material& m : s->scene.materials) s->translucent |= m.alphaMode != mirage::AlphaMode::Opaque;
+  if (effect) {
+    auto looks = ParticleLooks::build(*effect);
+    if (!looks) return looks.error();
+    s->looks = std::move(*looks);
+    s->effect = std::move(effect);
+    s->translucent = true; // particle looks carry coverage in their alpha
+  }
   return s;
 }
 
@@ -137,6 +151,7 @@ Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& sc
   } else {
     return Error{fmt::format("atlas codec {} is not served", int(config.codec))};
   }
+  if (scene.effect) c->particles_ = std::make_unique<ClientParticles>(*scene.effect, config.particlePatches);
   return c;
 }
 
@@ -168,11 +183,19 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
   const uint32_t frameNumber = sequence_ + 1;
   for (uint32_t id : *visible) lastVisible_[id] = frameNumber;
 
+  // Particles: the simulation at this frame, the particles either view sees, their looks.
+  const float aspect = float(w) / float(h);
+  const uint32_t firstLook = scene.patches.patchCount(); // look l's atlas id: firstLook + l
+  if (particles_) {
+    ParticleView views[2];
+    for (int i = 0; i < 2; ++i) views[i] = {cameras[i].view(), cameras[i].projection(aspect), float(h)};
+    particles_->prepare(*scene.looks, frameNumber, views);
+  }
+
   // Level selection: the larger block either view wants, the bias lowered alike for every patch
-  // when their blocks would not fit the atlas share (ClientStreamConfig::atlasFill).
+  // (and particle look) when their blocks would not fit the atlas share (ClientStreamConfig::atlasFill).
   auto tShade = Clock::now();
   float bias = config_.levelBias + (config_.codec == AtlasCodec::H264 ? kH264LevelBias : 0.0f);
-  float aspect = float(w) / float(h);
   glm::mat4 viewProj[2];
   for (int i = 0; i < 2; ++i) viewProj[i] = cameras[i].projection(aspect) * cameras[i].view();
   std::vector<PatchExtent> extents;
@@ -185,19 +208,22 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
       e.length = std::max(e.length, patchProjectedLength(world, e.triangleCount, viewProj[i], {w, h}));
     extents.push_back(e);
   }
+  if (particles_) particles_->appendExtents(bias, extents);
   if (config_.atlasFill > 0.0f)
     bias = fitLevelBias(extents, bias, uint64_t(double(config_.atlasFill) * scene.atlasSize * scene.atlasSize));
   st.levelBias = bias;
   std::vector<AtlasRequest> requests;
-  requests.reserve(visible->size());
-  for (size_t k = 0; k < extents.size(); ++k)
+  requests.reserve(extents.size());
+  for (size_t k = 0; k < visible->size(); ++k)
     requests.push_back({(*visible)[k], extents[k].triangleCount,
                         blockLog2ForLength(extents[k].length, extents[k].triangleCount, bias)});
+  if (particles_) particles_->appendRequests(firstLook, bias, requests);
   atlas_.update(requests);
 
   // Shading: every block the client holds (visible, or kept a few frames after it was last seen),
   // every frame: view-dependent terms follow the eye, and a kept patch may be seen again client-side.
   p.placed = atlas_.placements();
+  std::erase_if(p.placed, [&](const auto& e) { return e.first >= firstLook; }); // particle looks: below
   std::sort(p.placed.begin(), p.placed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<shaderio::GpuAtlasPatch> blocks;
   blocks.reserve(p.placed.size());
@@ -229,6 +255,10 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
     auto c = scene.shading->shadeColours(p.colourOnly, scene.lighting, cameras[0].eye);
     if (!c) return c.error();
     p.colours = std::move(*c);
+  }
+  if (particles_) { // unlit: the looks' texels, shaded at load, copied into their blocks
+    if (Status s = particles_->shade(*scene.looks, atlas_, firstLook, *scene.shading, st.particles); !s) return s;
+    st.shadedTexels += st.particles.texels;
   }
   st.shadingMs = msSince(tShade);
 
@@ -289,6 +319,17 @@ Result<Frame> ClientStream::finishFrame(const StreamScene& scene, StreamFrameSta
 
   auto tPatches = Clock::now();
   diffPatches(scene, p.placed, p.colourOnly, p.keptColourOnly, p.colours, frame, st);
+  if (particles_) particles_->diff(*scene.looks, atlas_, scene.patches.patchCount(), frame);
+  frame.particleCodec = PatchCodec::Raw;
+  st.particleRawBytes = st.particleBytes = particleSectionBytes(frame);
+  if (config_.zstdPatches && !frame.particles.empty()) {
+    frame.particleCodec = PatchCodec::Zstd;
+    st.particleBytes = particleSectionBytes(frame);
+    if (st.particleBytes >= st.particleRawBytes) {
+      frame.particleCodec = PatchCodec::Raw;
+      st.particleBytes = st.particleRawBytes;
+    }
+  }
   frame.sequence = ++sequence_;
   frame.poseSequence = p.poseSequence;
   frame.serverTimeUs = microsecondsNow();

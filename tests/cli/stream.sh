@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # mirage serve / mirage client (docs/stream.md) as a user runs them: a server on a free port with a
 # token file; the native client records a camera path (one PNG per camera, matching `mirage render`
-# of the same camera); a wrong token, a missing token file, a bad codec and a bad visibility method
-# are one-line errors (exit 2); SIGTERM stops the server cleanly (exit 0); the browser client (web/)
+# of the same camera); a wrong token, a missing token file, a bad codec, a bad visibility method, a
+# missing particle effect and a bad --particle-patches are one-line errors (exit 2); SIGTERM stops the server cleanly (exit 0); the browser client (web/)
 # in headless Chromium against the same server matches `mirage render` too (skipped without chromium).
 # Usage: stream.sh MIRAGE_BINARY SOURCE_DIR
 set -u
@@ -16,6 +16,10 @@ printf '["%s", "%s"]\n' "${cameras[0]}" "${cameras[1]}" >"$tmp/cams.json"
 expect_fail serve-no-token-file "missing: file not found" "" -- serve gen:city:2 --token-file "$tmp/missing" --port 0
 expect_fail serve-bad-codec "--codec" "" -- serve gen:city:2 --token-file "$tmp/token" --codec vp9 --port 0
 expect_fail serve-bad-visibility "--visibility" "" -- serve gen:city:2 --token-file "$tmp/token" --visibility gpu --port 0
+expect_fail serve-missing-particles "fx.toml: file not found" "" -- serve gen:city:2 --token-file "$tmp/token" \
+  --particles "$tmp/fx.toml" --port 0
+expect_fail bench-bad-particle-patches "--particle-patches" "" -- bench stream gen:city:2 --particles "$tmp/fx.toml" \
+  --particle-patches all
 expect_fail client-bad-codec "--codec" "$tmp/bad.png" -- client ws://127.0.0.1:9/ --token x --codec vp9 --record "$tmp/bad.png"
 
 # The browser client's files and the camera path, served by the server itself.

@@ -37,7 +37,8 @@ std::vector<uint8_t> frameWith(const std::vector<uint8_t>& section, uint8_t code
   m.push_back(codec);
   u32(uint32_t(section.size()));
   m.insert(m.end(), section.begin(), section.end());
-  m.push_back(0); // atlas codec none, size 0 x 0, no bytes
+  m.insert(m.end(), {0, 2, 0, 0, 0, 0, 0}); // the particle section: raw, 2 bytes, no looks, no particles
+  m.push_back(0);                           // atlas codec none, size 0 x 0, no bytes
   u32(0);
   u32(0);
   u32(0);
@@ -49,10 +50,11 @@ std::vector<uint8_t> frameWith(const std::vector<uint8_t>& section, uint8_t code
 using test::decode;
 using test::expectError;
 
-// The patch section of an encoded Frame (no atlas payload): its bytes after the codec and count.
+// The patch section of an encoded Frame (no particles, no atlas payload): its bytes after the codec
+// and count, before the empty particle section (7 bytes) and the atlas fields (13).
 std::vector<uint8_t> sectionOf(const std::vector<uint8_t>& message) {
   size_t at = kMessageHeaderBytes + 16 + 1 + 4;
-  return {message.begin() + ptrdiff_t(at), message.end() - 13};
+  return {message.begin() + ptrdiff_t(at), message.end() - 20};
 }
 
 // A wall of `n` quads of `side` grid steps in a row, as a server sends a new wall: geometry entries.

@@ -66,6 +66,14 @@ Frame sampleFrame() {
   f.updated.back().blockX = 16382; // the last block along the widest atlas
   f.updated.back().blockY = 0;
   f.colours = {{4, {10, 20, 30, 255}}, {8, {0, 0, 0, 0}}, {70000, {1, 2, 3, 4}}};
+  // Particles: a look with a block, a colour-only one, and particles of those and of a look the
+  // client holds from an earlier frame.
+  f.looks = {{3, 64, 32, 5, {}}, {200, 0, 0, kColourOnlyBlock, {9, 8, 7, 6}}};
+  f.particleOrigin = {-2.0f, 0.5f, 3.0f};
+  f.particleStep = 1e-4f;
+  f.particles = {{3, {0, 1, 2}, 0x3c00, 0, {255, 128, 0, 200}},
+                 {200, {65535, 40000, 7}, 0x7bff, 65535, {1, 2, 3, 4}},
+                 {7, {10, 20, 30}, 0, 16384, {0, 0, 0, 0}}};
   f.atlas.codec = AtlasCodec::ZstdTiles;
   f.atlas.width = 512;
   f.atlas.height = 256;
@@ -95,6 +103,7 @@ std::vector<Message> sampleMessages() {
   pose.viewportHeight = 720;
   Frame zstd = sampleFrame();
   zstd.patchCodec = PatchCodec::Zstd;
+  zstd.particleCodec = PatchCodec::Zstd;
   return {hello, welcome, pose, sampleFrame(), Close{CloseCode::BadToken, "wrong token"}, Frame{}, zstd};
 }
 
@@ -165,7 +174,7 @@ TEST(StreamProtocol, HeaderChecks) {
   expectError(decode(badMagic), "magic");
   std::vector<uint8_t> badVersion = bytes;
   badVersion[4] = 1; // the float32 positions of version 1
-  expectError(decode(badVersion), "protocol version 1, this build speaks version 2");
+  expectError(decode(badVersion), "protocol version 1, this build speaks version 3");
   std::vector<uint8_t> badType = bytes;
   badType[6] = 9;
   expectError(decode(badType), "unknown message type 9");

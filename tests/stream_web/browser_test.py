@@ -2,7 +2,8 @@
 """web/test.html in headless Chromium (scripts/browser_client.py), its two frames checked pixel by
 pixel against the scene web/test.js draws: atlas orientation (block rows upward), the wide block's
 third triangle, colour-only patches, depth between patches, back-to-front blending of two
-transparent patches, a JPEG tiles delta and a removed patch. With the path of test_stream_web as its
+transparent patches, a JPEG tiles delta and a removed patch, particles (a look's block the right way
+up, a colour-only look half transparent, a look held into the next frame). With the path of test_stream_web as its
 argument it also has the C++ JpegTileEncoder write a keyframe and a delta (JpegTiles.WritesBrowserFixture),
 decodes them in the browser (web/test.html?fixture=1) and requires the browser's atlas to match the
 C++ decoder's (>= 40 dB PSNR: JPEG decoders differ in rounding only; a layout slip costs far more).
@@ -41,6 +42,9 @@ CYAN, MAGENTA, WHITE = (0, 255, 255), (255, 0, 255), (255, 255, 255)
 BACKGROUND = (39, 41, 45)
 # Green under red (alpha 0.5, farther) under white (alpha 0.5, nearer), blended on sRGB values.
 BLENDED = (191, 191, 128)
+ORANGE, PURPLE = (255, 128, 0), (128, 0, 255)
+# Particle B: its colour-only look's green at alpha 128/255 over the background, on sRGB values.
+HALF_GREEN = (19, 148, 22)
 
 COMMON = [
     ("patch 0 above its block's middle row: green", (-0.6, 0.3, 0.0), GREEN),
@@ -50,12 +54,17 @@ COMMON = [
     ("patch 1 triangle 2 (the wide block's right half): yellow", (0.62, -0.4, 0.0), YELLOW),
     ("blend patches sorted back to front over green", (-1.0, 0.25, 0.5), BLENDED),
     ("background", (0.0, -1.5, 0.0), BACKGROUND),
+    ("particle A above its centre: its look's block's upper rows, orange", (1.2, -0.8, 0.5), ORANGE),
+    ("particle A below its centre: purple", (1.2, -1.0, 0.5), PURPLE),
+    ("beside particle A: background", (1.5, -0.9, 0.5), BACKGROUND),
 ]
 EXPECTED = [
     COMMON + [("colour-only patch 2: magenta", (1.25, 0.7, 0.0), MAGENTA),
-              ("patch 0 below its block's middle row: red", (-1.0, -0.3, 0.0), RED)],
+              ("patch 0 below its block's middle row: red", (-1.0, -0.3, 0.0), RED),
+              ("particle B of a colour-only look, half transparent", (-1.5, 1.0, 0.5), HALF_GREEN)],
     COMMON + [("patch 2 removed by the delta frame", (1.25, 0.7, 0.0), BACKGROUND),
-              ("patch 0's tile repainted white by the delta", (-1.0, -0.3, 0.0), WHITE)],
+              ("patch 0's tile repainted white by the delta", (-1.0, -0.3, 0.0), WHITE),
+              ("particle B gone in the second frame", (-1.5, 1.0, 0.5), BACKGROUND)],
 ]
 
 

@@ -17,7 +17,7 @@ CAPABILITY_JPEG_TILES = 1 << 2
 CODEC_NONE, CODEC_JPEG_TILES = 0, 3
 
 
-VERSION = 2
+VERSION = 3
 # The position grid of the mock scene: Welcome.positionStep over scene_min (exact in float32).
 POSITION_STEP = 1 / 1024
 
@@ -88,6 +88,7 @@ def frame(sequence, pose_sequence, removed, updated, colours, atlas, scene_min):
         section += varint(i - next_id) + bytes(rgba)
         next_id = i + 1
     out = struct.pack("<IIQBI", sequence, pose_sequence, 0, 0, len(section)) + section
+    out += struct.pack("<BI", 0, 2) + bytes([0, 0])  # the particle section: raw, no looks, no particles
     codec, width, height, data = atlas
     out += struct.pack("<BIII", codec, width, height, len(data)) + data
     return message(FRAME, out)

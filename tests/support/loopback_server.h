@@ -36,11 +36,13 @@ struct StreamTestServer {
   std::thread thread;
   Status result = Ok{};
 
+  // `particles`: an effect file streamed with the scene (empty: none).
   StreamTestServer(const std::string& input, stream::AtlasCodec codec, const std::string& token,
-                   uint32_t atlasSize = 1024) {
+                   uint32_t atlasSize = 1024, const std::string& particles = "") {
     stream::StreamSceneOptions so;
     so.input = input;
     so.atlasSize = atlasSize;
+    so.particles = particles;
     auto scene = stream::openStreamScene(streamServerContext(), so);
     EXPECT_TRUE(scene) << scene.error().message;
     if (!scene) return;

@@ -22,10 +22,7 @@ namespace mirage::particles {
 enum class SimKind { Cpu, Gpu };
 inline constexpr EnumName<SimKind> kSimKindNames[] = {{SimKind::Cpu, "cpu"}, {SimKind::Gpu, "gpu"}};
 
-// Pixels a side of one generated sheet tile.
-constexpr uint32_t kSheetTilePixels = 32;
-
-// Each system's sheet: generateSheet(texture, tiles, kSheetTilePixels, seed) with its alpha rule.
+// Each system's sheet (systemSheet, particles/sheet.h) with its alpha rule.
 Result<std::vector<render::ParticleSheet>> effectSheets(const EffectFile& effect);
 
 // An effect simulated and drawn: step() advances it, draw() is what ForwardRenderSettings::particles

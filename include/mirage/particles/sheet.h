@@ -8,6 +8,7 @@
 
 #include "mirage/core/image.h"
 #include "mirage/core/result.h"
+#include "mirage/particles/effect.h"
 
 namespace mirage::particles {
 
@@ -17,5 +18,11 @@ namespace mirage::particles {
 // Error: an unknown kind, zero tiles or a sheet over 4096 pixels a side.
 Result<ImageRGBA8> generateSheet(std::string_view kind, uint32_t tilesX, uint32_t tilesY, uint32_t tileSize,
                                  uint32_t seed = 1);
+
+// Pixels a side of one generated sheet tile.
+inline constexpr uint32_t kSheetTilePixels = 32;
+// A system's sheet, as every renderer draws it: generateSheet(texture, tiles, kSheetTilePixels).
+// Errors name the system.
+Result<ImageRGBA8> systemSheet(const SystemDef& system);
 
 } // namespace mirage::particles

@@ -3,11 +3,12 @@
 // the server sent (world positions of their vertices, their atlas blocks or one colour each)
 // textured from the latest decoded atlas, at the client's own frame rate. Opaque and MASK patches
 // with a depth buffer (reverse-Z), BLEND patches through the forward renderer's per-pixel linked
-// lists (render/oit.h) over the opaque colour. No networking or decoding: it takes patch records and
-// decoded RGBA8.
+// lists (render/oit.h) over the opaque colour, with the streamed particles' billboards. No networking or
+// decoding: it takes patch and particle records and decoded RGBA8.
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
 
 #include <glm/glm.hpp>
 
@@ -41,6 +42,20 @@ struct ClientPatch {
   uint32_t color = 0; // colorOnly: RGBA8 as r | g << 8 | b << 16 | a << 24, sRGB rgb like the atlas, linear alpha
 };
 
+// One streamed particle as the client draws it (docs/stream.md, "Particles"): a camera-facing
+// billboard (as the renderers' particle billboards) textured from its look's block of the atlas
+// (shaderio/atlas.h: the tile's mip chain, the level its pixel's footprint picks, as a mipmapped
+// fetch picks it) or the look's one colour, times the particle's colour.
+struct ClientParticle {
+  glm::vec3 position{0.0f};                       // world space, the billboard's centre
+  float size = 0.0f;                              // the billboard's edge, world units
+  float rotation = 0.0f;                          // radians about the view axis
+  uint32_t color = 0;                             // RGBA8 (r in the low byte), linear, straight alpha
+  bool colorOnly = false;                         // the look has no block: lookColor instead
+  uint32_t blockX = 0, blockY = 0, blockLog2 = 1; // the look's block: 2^(blockLog2 + 1) x 2^blockLog2
+  uint32_t lookColor = 0;                         // colorOnly: RGBA8, sRGB rgb like the atlas, linear alpha
+};
+
 struct AtlasClientSettings {
   uint32_t width = 1280;
   uint32_t height = 720;
@@ -64,6 +79,12 @@ public:
   // Patch `id` drawn no more from the next frame on; its slot is reused. An unknown id is an error.
   Status removePatch(uint32_t id);
   size_t patchCount() const;
+  // The particles the next recorded frames draw (replacing the last call's), in the transparency
+  // pass with the BLEND patches: each fragment appended to its pixel's linked list, depth-tested
+  // against the opaque patches. Errors (a block outside the atlas or of a bad size, a value that is
+  // not finite) change nothing.
+  Status setParticles(std::span<const ClientParticle> particles);
+  size_t particleCount() const;
 
   // The whole atlas (atlasWidth x atlasHeight RGBA8, sRGB rgb) or a rectangle of it, uploaded by
   // the next recorded frame before it draws; later uploads of the same texels win. Errors (size,

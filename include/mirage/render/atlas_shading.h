@@ -54,6 +54,12 @@ struct AtlasLighting {
 // The atlas as YUV 4:2:0 in host memory (AtlasShading::convertAtlasYuv; the layout and the
 // conversion: shaderio/atlas_shading.h, "AtlasYuvPush"). A server keeps one per H.264 client, so
 // that client's frame can be encoded while the atlas is shaded for the next.
+// Texels written into the atlas from the host (AtlasShading::writeAtlasRegions): `image` at (x, y).
+struct AtlasRegionWrite {
+  uint32_t x = 0, y = 0;
+  const ImageRGBA8* image = nullptr;
+};
+
 struct AtlasYuvImage {
   uint32_t side = 0;         // the atlas side: luma width
   bool stackedAlpha = false; // twice the atlas height, the alpha below the colour
@@ -105,9 +111,13 @@ public:
   // A YUV image of this atlas for convertAtlasYuv (stackedAlpha: the alpha below the colour).
   AtlasYuvImage createYuvImage(bool stackedAlpha);
   // Converts the atlas as shade() left it into `image` (one compute pass into device memory, then a
-  // copy to the host: 1.5 bytes a texel where readAtlas reads 4; the copy is the pass "yuv.copy"). Synchronous; GPU time in takePassTimes()
-  // as "yuv". Errors: an image made for another atlas side.
+  // copy to the host: 1.5 bytes a texel where readAtlas reads 4; the copy is the pass "yuv.copy"). Synchronous; GPU
+  // time in takePassTimes() as "yuv". Errors: an image made for another atlas side.
   Status convertAtlasYuv(AtlasYuvImage& image);
+  // Host texels into the atlas (texels shaded elsewhere: streamed particles' looks), after the
+  // shading of this frame and before its read-back. Synchronous; GPU time as "upload". Errors: a
+  // region leaving the atlas or without texels.
+  Status writeAtlasRegions(std::span<const AtlasRegionWrite> writes);
   // The width x height texels at (x, y) only (the blocks shaded this frame: a dirty rectangle).
   // Errors: an empty rectangle or one leaving the atlas.
   Result<ImageRGBA8> readAtlasRegion(uint32_t x, uint32_t y, uint32_t width, uint32_t height);

@@ -91,6 +91,32 @@ MIRAGE_ATLAS_SHARED uint atlasTexelTriangle(uvec2 texel, uint triangleCount, uin
   return 1u;
 }
 
+// A streamed particle look's block (docs/stream.md, "Particles"): wide, 2h x h texels (h =
+// 2^blockLog2), holding its sheet tile's mip chain: level k, (h >> k) texels a side, at
+// atlasParticleLevelOffset (level 0 at the block's left, levels 1, 2, ... side by side right of it,
+// on the top row). Each level holds the tile edge to edge: its texel (i, j) is the tile's average
+// over [i / s, (i + 1) / s) x [j / s, (j + 1) / s) of its uv ((0, 0) at the tile's top left), s the
+// level's side, a box filter's mip. A point of the tile samples level k at atlasParticleLevelTexel:
+// clamped to the level's outer texel centres, so a bilinear tap never leaves the level (the outer
+// half texel repeats the edge texel) and blocks need no gutter. A client picks the level from the
+// footprint of its pixel on the tile, as a mipmapped texture fetch does: particles of one look far
+// smaller on screen than the one its block was sized for read the coarser levels instead of
+// aliasing the finest.
+MIRAGE_ATLAS_SHARED uint atlasParticleLevelOffset(uint level, uint blockLog2) {
+  uint h = 1u << blockLog2;
+  return level == 0u ? 0u : 2u * h - (h >> (level - 1u));
+}
+
+// Texel position (texel units, texel centres at .5) inside the block of tile point `tileUv` in
+// level `level` (0..blockLog2).
+MIRAGE_ATLAS_SHARED vec2 atlasParticleLevelTexel(vec2 tileUv, uint blockLog2, uint level) {
+  float s = float((1u << blockLog2) >> level);
+  vec2 t = tileUv * s;
+  t.x = t.x < 0.5f ? 0.5f : (t.x > s - 0.5f ? s - 0.5f : t.x);
+  t.y = t.y < 0.5f ? 0.5f : (t.y > s - 0.5f ? s - 0.5f : t.y);
+  return vec2(float(atlasParticleLevelOffset(level, blockLog2)) + t.x, t.y);
+}
+
 #ifdef __cplusplus
 static_assert(sizeof(GpuAtlasPatch) == 48);
 } // namespace mirage::shaderio

@@ -34,10 +34,22 @@ struct GpuClientPatch {
   uint color; // colour-only patches: RGBA8, sRGB rgb (as the atlas texels), linear alpha
 };
 
+// A streamed particle (docs/stream.md, "Particles"): a camera-facing billboard (particle_quad.glsl)
+// textured from its look's block (atlasParticleLevelTexel: the mip level its pixel's footprint picks)
+// times its colour.
+struct GpuClientParticle {
+  vec3 position;  // world space, the billboard's centre
+  float size;     // the billboard's edge, world units
+  float rotation; // radians about the view axis
+  uint color;     // the particle's colour: RGBA8, r in the low byte, linear, straight alpha
+  uint block;     // the look's block, x | y << 16 (texels); blockLog2 0: the look's colour (RGBA8, sRGB rgb)
+  uint blockLog2; // 1..7, or 0: no block (the look is one colour)
+};
+
 // Push constants of the client's draws.
 struct AtlasClientPush {
   uint64_t frameAddress; // ViewFrame
-  uint64_t patchAddress; // GpuClientPatch[slots]
+  uint64_t patchAddress; // GpuClientPatch[slots]; the particle draw: GpuClientParticle[instances]
   uint64_t oitAddress;   // OitLists (shaderio/oit.h) of the blend pass, else 0
   vec2 atlasSize;        // texels (uv = texel position / atlasSize)
   uint alphaModes;       // bit (1 << MIRAGE_ALPHA_*) per mode this draw rasterizes
@@ -46,6 +58,7 @@ struct AtlasClientPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(GpuClientPatch) == 84, "GpuClientPatch layout");
+static_assert(sizeof(GpuClientParticle) == 32, "GpuClientParticle layout");
 static_assert(sizeof(AtlasClientPush) == 40, "AtlasClientPush layout");
 } // namespace mirage::shaderio
 #endif

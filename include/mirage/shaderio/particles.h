@@ -387,6 +387,22 @@ MIRAGE_SHARED RenderParticle particleRender(MIRAGE_IN(ParticleParams) e, MIRAGE_
   return r;
 }
 
+// A billboard's edge in pixels at view z `z` (negative in front of the eye): |proj[1][1]| / -z
+// scales view units to NDC, half the viewport height NDC to pixels. What decides between billboard
+// and splat (particle_records.glsl), and a streamed particle's atlas level (stream/particle_looks.h).
+MIRAGE_SHARED float particleEdgePixels(float proj11, float viewportHeight, float size, float z) {
+  return size * abs(proj11) * 0.5f * viewportHeight / max(-z, 1e-6f);
+}
+
+// Billboards narrower than this many pixels are drawn this wide with their alpha divided by the
+// area ratio, so sub-pixel sparks and drops keep their average coverage instead of vanishing
+// between pixel centres.
+#define MIRAGE_PARTICLE_MIN_PIXELS 1.5f
+// The factor a billboard of `pixels` edge pixels grows by (1 at and above the minimum).
+MIRAGE_SHARED float particleGrow(float pixels) {
+  return pixels > 0.0f && pixels < MIRAGE_PARTICLE_MIN_PIXELS ? MIRAGE_PARTICLE_MIN_PIXELS / pixels : 1.0f;
+}
+
 #ifdef __cplusplus
 } // namespace mirage::shaderio
 #endif

@@ -44,6 +44,11 @@ struct StreamBenchConfig {
   // stops meanwhile, but every client's frame of a path step is finished before client 0 draws:
   // measure throughput without (nothing then waits on the pipeline but its own rule).
   bool quality = true;
+  // A particle effect streamed with the scene (StreamSceneOptions::particles) and how its looks get
+  // blocks. The local rendering draws the same effect at the step of the frame the client drew
+  // last (frame n: n steps), every particle a billboard as the client draws them.
+  std::string particles;
+  ParticlePatches particlePatches = ParticlePatches::Merged;
 };
 
 struct StreamBenchFrame {
@@ -54,10 +59,12 @@ struct StreamBenchFrame {
   std::map<std::string, double> gpuPasses; // StreamFrameStats::gpuPasses by name, summed within a frame
   uint64_t shadedTexels = 0;
   uint32_t visiblePatches = 0, colourOnly = 0;
-  float levelBias = 0.0f; // client 0's, after fitting the atlas
+  ParticleFrameStats particles; // client 0's
+  float levelBias = 0.0f;       // client 0's, after fitting the atlas
   // Client 0.
   // The patch section (removed ids, entries, colours) as sent and before zstd; the atlas payload.
   uint64_t geometryBytes = 0, geometryRawBytes = 0, atlasBytes = 0;
+  uint64_t particleBytes = 0, particleRawBytes = 0; // the particle section as sent, and before zstd
   // Entries with positions, block-only entries, removed ids, colours sent.
   uint32_t geometryEntries = 0, blockOnlyEntries = 0, removed = 0, colours = 0;
   double clientApplyMs = 0, clientRenderMs = 0; // decode + upload; drawing (wall, incl. readback)

@@ -44,7 +44,8 @@ struct ClientFrameInfo {
   uint64_t frameBytes = 0;  // bytes of the frames applied for this camera
   uint64_t atlasBytes = 0;
   size_t patchesHeld = 0;
-  double roundTripMs = 0; // pose sent -> its frame applied (the latest frame applied for this camera)
+  size_t particlesHeld = 0; // the particles of the frame applied last
+  double roundTripMs = 0;   // pose sent -> its frame applied (the latest frame applied for this camera)
   AtlasCodec codec = AtlasCodec::None;
   uint32_t framesApplied = 0;  // frames applied for this camera (open loop: 0 while none arrived)
   uint32_t framesInFlight = 0; // open loop: poses delivered or on their way whose frames have not arrived

@@ -22,7 +22,8 @@
 namespace mirage::stream {
 
 inline constexpr std::array<uint8_t, 4> kMessageMagic = {'M', 'R', 'G', 'S'};
-inline constexpr uint16_t kProtocolVersion = 2;
+// 3: Frame carries a particle section after the patch section (docs/stream.md, "Particle section").
+inline constexpr uint16_t kProtocolVersion = 3;
 inline constexpr size_t kMessageHeaderBytes = 12;
 
 enum class MessageType : uint16_t { Hello = 1, Welcome = 2, Pose = 3, Frame = 4, Close = 5 };
@@ -154,6 +155,32 @@ struct AtlasPayload {
 enum class PatchCodec : uint8_t { Raw = 0, Zstd = 1 };
 inline constexpr uint8_t kPatchCodecCount = 2;
 
+// A particle look's atlas block, sent when it changed (docs/stream.md, "Particle section"): a wide
+// block (2h x h) holding the look's texture and its mips (shaderio/atlas.h, atlasParticleLevelTexel),
+// or when blockLog2 is kColourOnlyBlock one colour (sRGB rgb, linear alpha, as the atlas).
+struct ParticleLook {
+  uint32_t id = 0;                 // look id (server-chosen; the client keeps what its particles use)
+  uint16_t blockX = 0, blockY = 0; // the block's first texel (a multiple of 2^blockLog2)
+  uint8_t blockLog2 = 1;           // MIRAGE_ATLAS_MIN_BLOCK_LOG2..MAX, or kColourOnlyBlock
+  std::array<uint8_t, 4> rgba{};   // colour-only looks; zero otherwise
+  bool operator==(const ParticleLook&) const = default;
+};
+
+// Particle positions travel on a 16-bit grid per axis over the frame's particles: world = origin +
+// q x step (Frame.particleOrigin, particleStep).
+inline constexpr uint32_t kParticleGridMax = 0xffff;
+
+// One visible particle, quantized (quantizeParticle): a camera-facing billboard the client draws
+// with its look's block times its colour.
+struct StreamParticle {
+  uint32_t look = 0;                  // a look the client holds after this frame's looks
+  std::array<uint16_t, 3> position{}; // grid coordinates
+  uint16_t size = 0;                  // billboard edge, world units, IEEE half (finite, not negative)
+  uint16_t rotation = 0;              // about the view axis: rotation x 2 pi / 65536 radians
+  std::array<uint8_t, 4> rgba{};      // the particle's colour (linear, straight alpha), r first
+  bool operator==(const StreamParticle&) const = default;
+};
+
 // Server -> client, the answer to a pose. The patch section (removed, updated, colours) lists ids in
 // strictly increasing order each (encodeMessage asserts it, the decoder rejects anything else).
 struct Frame {
@@ -164,6 +191,14 @@ struct Frame {
   std::vector<uint32_t> removed;    // patch ids the client drops (it keeps their geometry a while)
   std::vector<PatchUpdate> updated; // patches added or given a new block
   std::vector<PatchColour> colours; // colours of colour-only patches that changed
+  // The particle section: the looks whose block (or colour) the client does not have yet, ids
+  // strictly increasing, each used by a particle; every visible particle (none: origin and step
+  // do not travel).
+  PatchCodec particleCodec = PatchCodec::Raw;
+  std::vector<ParticleLook> looks;
+  glm::vec3 particleOrigin{0.0f}; // the particle grid (finite)
+  float particleStep = 1.0f;      // > 0, finite
+  std::vector<StreamParticle> particles;
   AtlasPayload atlas;
   bool operator==(const Frame&) const = default;
 };
@@ -184,7 +219,9 @@ struct DecodeLimits {
   uint32_t maxPatchesPerFrame = 1u << 20; // updated entries
   uint32_t maxRemovedPerFrame = 1u << 20;
   uint32_t maxColoursPerFrame = 1u << 20;
-  uint32_t maxPatchSectionBytes = 64u << 20; // a Frame's patch section, decompressed
+  uint32_t maxPatchSectionBytes = 64u << 20; // a Frame's patch or particle section, decompressed
+  uint32_t maxParticlesPerFrame = 1u << 22;
+  uint32_t maxLooksPerFrame = 1u << 22;
   uint32_t maxTokenBytes = 256;
   uint32_t maxReasonBytes = 1024;
   uint32_t maxViewportSide = 16384;
@@ -196,12 +233,23 @@ std::vector<uint8_t> encodeMessage(const Message& message);
 // The bytes a Frame's patch section takes in the message, as `frame.patchCodec` says (compressed
 // when Zstd): what the server compares to choose the codec, and what statistics count.
 size_t patchSectionBytes(const Frame& frame);
+// The same for the particle section (frame.particleCodec).
+size_t particleSectionBytes(const Frame& frame);
 
 // The position grid (Welcome.positionStep): the spacing that spans the largest extent of the bounds
 // with 2^bits - 1 steps (bits 1..kPositionGridBits); quantization and its inverse.
 float positionGridStep(const glm::vec3& sceneMin, const glm::vec3& sceneMax, uint32_t bits);
 glm::uvec3 quantizePosition(const glm::vec3& position, const glm::vec3& sceneMin, float step);
 glm::vec3 dequantizePosition(const glm::uvec3& q, const glm::vec3& sceneMin, float step);
+
+// The particle grid spanning [min, max] (the frame's particle centres) with kParticleGridMax steps
+// per axis of the largest extent; a particle's wire form on it and back.
+float particleGridStep(const glm::vec3& min, const glm::vec3& max);
+StreamParticle quantizeParticle(const glm::vec3& position, float size, float rotation, uint32_t rgba, uint32_t look,
+                                const glm::vec3& origin, float step);
+glm::vec3 particlePosition(const StreamParticle& particle, const glm::vec3& origin, float step);
+float particleSize(uint16_t size);
+float particleRotation(uint16_t rotation);
 
 struct MessageHeader {
   MessageType type = MessageType::Hello;

@@ -7,7 +7,9 @@
 //   allocation -> shading of every visible patch's block -> colours of the patches that did not
 //   fit -> the atlas read back (H.264: converted to YUV 4:2:0 on the GPU first)
 //   finishFrame (the CPU's): atlas encoding -> the difference to what the client holds (removed,
-//   added or moved patches, changed colours) in the Frame's patch section.
+//   added or moved patches, changed colours) in the Frame's patch section. A scene served with a
+//   particle effect also streams its particles (particle_session.h): their looks take atlas blocks
+//   beside the patches, and the Frame's particle section carries the visible particles.
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -22,6 +24,7 @@
 #include "mirage/stream/atlas.h"
 #include "mirage/stream/jpeg_tiles.h"
 #include "mirage/stream/kept_patches.h"
+#include "mirage/stream/particle_session.h"
 #include "mirage/stream/patches.h"
 #include "mirage/stream/protocol.h"
 #include "mirage/stream/tessellate.h"
@@ -42,6 +45,9 @@ struct StreamSceneOptions {
   uint32_t positionBits = 20;
   // How the server finds the visible patches (render/atlas_shading.h; docs/stream.md, "Visibility stage").
   render::AtlasVisibilityMethod visibility = render::AtlasVisibilityMethod::Auto;
+  // A particle effect (.toml, docs/particles.md) streamed with the scene: every client's frames
+  // carry its particles (docs/stream.md, "Particles"). Empty: none.
+  std::string particles;
 };
 
 // What every client of a scene shares. The GPU atlas is scratch: each frame produced clears it and
@@ -59,6 +65,9 @@ struct StreamScene {
   // Some material is MASK or BLEND: the atlas's alpha matters. H.264 and JPEG carry no alpha, so
   // their images then stack the alpha below the colour (docs/stream.md, "Stacked alpha").
   bool translucent = false;
+  // The particle effect and its looks (StreamSceneOptions::particles); each client simulates it.
+  std::optional<particles::EffectFile> effect;
+  std::optional<ParticleLooks> looks;
 };
 
 // Reads (or generates) the scene, tessellates its large triangles, builds its patches and uploads it.
@@ -94,6 +103,8 @@ struct ClientStreamConfig {
   // is smaller.
   bool zstdPatches = true;
   uint32_t encoderThreads = 0; // H264: x264's slice threads (VideoConfig::threads; 0: x264 picks)
+  // Atlas blocks of streamed particles: one per look (texture merging) or one per visible particle.
+  ParticlePatches particlePatches = ParticlePatches::Merged;
 };
 
 // H.264 carries colour at half resolution (4:2:0; the encoder averages each 2x2 texel square so no
@@ -111,11 +122,13 @@ struct StreamFrameStats {
   uint32_t addedOrMoved = 0;  // PatchUpdates sent
   uint32_t blockOnly = 0;     // of them without positions (the client's geometry at a new block)
   uint32_t removed = 0;
-  uint32_t colours = 0;      // colours sent (colour-only patches new or changed)
-  uint64_t shadedTexels = 0; // atlas texels shaded (every visible block, every frame)
-  float levelBias = 0.0f;    // the level bias used, after fitting the atlas (ClientStreamConfig::atlasFill)
+  uint32_t colours = 0;         // colours sent (colour-only patches new or changed)
+  uint64_t shadedTexels = 0;    // atlas texels shaded (every visible block, every frame; particles' included)
+  ParticleFrameStats particles; // particles visible, looks used, texels shaded for them
+  float levelBias = 0.0f;       // the level bias used, after fitting the atlas (ClientStreamConfig::atlasFill)
   // The patch section (removed ids, entries, colours) as sent, and before zstd.
   uint64_t geometryBytes = 0, geometryRawBytes = 0;
+  uint64_t particleBytes = 0, particleRawBytes = 0; // the particle section as sent, and before zstd
   uint64_t atlasBytes = 0;
   // Wall clock on the server: visibility; level selection, allocation and shading (blocks and
   // colour-only patches); the atlas read back (H.264: its conversion to YUV and the planes read back;
@@ -182,6 +195,7 @@ private:
   std::vector<uint8_t> stacked_; // JPEG tiles with stacked alpha: that image
   std::optional<Prepared> prepared_;
   bool keyframe_ = true;
+  std::unique_ptr<ClientParticles> particles_; // with an effect
   std::unordered_map<uint32_t, Held> held_;
   KeptPatches<Nothing> kept_;                          // the client's kept geometry, mirrored
   std::unordered_map<uint32_t, uint32_t> lastVisible_; // held patch -> the frame it was last visible in
