@@ -1,7 +1,8 @@
 // Body of the compute software rasterizers (cluster_raster.comp: opaque clusters, and
 // cluster_raster_mask.comp, MIRAGE_RASTER_MASK: masked ones, into the 64-bit visibility buffer;
 // cluster_raster_blend.comp, MIRAGE_RASTER_BLEND: blended clusters into the transparency lists;
-// atlas_visibility_mark*.comp, MIRAGE_RASTER_MARK: the streaming server's marking of visible patches).
+// atlas_visibility_mark*.comp, MIRAGE_RASTER_MARK: the streaming server's marking of visible patches;
+// atlas_visibility_depth.comp, MIRAGE_RASTER_DEPTH_QUEUE: its depth raster, large triangles queued).
 // One workgroup of 128 threads per eye per visible cluster (the renderer's kRasterLanes: one round
 // of triangles per thread, and the driver fits the kernel in 64 registers, where 64 threads per
 // eye took 79: on an H100, 2500 blobs raster 0.130 -> 0.092 ms, 2500 dragons 0.290 -> 0.220);
