@@ -89,7 +89,7 @@ public:
     s.endsW.resize(nt * 6);
     s.cands.resize(nv);
     s.candCost.resize(nv);
-    s.q.assign(nv, Quadric{});
+    s.q.resize(nv);
     // The heap's children groups (4i + 1 .. 4i + 4) start on 32-byte boundaries, so the four
     // costs a sift compares share a cache line: entry 0 sits 8 bytes before such a boundary.
     s.heap.resize(nv + 4);
@@ -180,79 +180,122 @@ private:
     return true;
   }
 
+  // Quadrics, normal quadrics and rings in one pass over the vertices: each vertex sums its
+  // triangles' plane quadrics (computed once per triangle) and its corners' normal terms in
+  // registers, walking its corner list, which is in triangle order, so the sums are the ones a
+  // scatter over the triangles gives, bit for bit (the scatter's read-modify-writes of 17 doubles
+  // per corner were most of the set-up).
   void initQuadrics() {
-    size_t nt = s_.alive.size();
-    const std::vector<uint32_t>& corners = m_.corners;
-    if (normalWeight2_ > 0.0) {
-      s_.nq.assign(s_.p.size(), NormalQuadric{});
-      s_.normal.assign(s_.p.size(), glm::vec3(0.0f));
-    }
+    size_t nt = s_.alive.size(), nv = s_.p.size();
+    const uint32_t* corners = m_.corners.data();
+    const bool normals = normalWeight2_ > 0.0;
+    s_.triQ.resize(nt);
+    s_.triLen.resize(nt);
     for (uint32_t t = 0; t < nt; ++t) {
       const uint32_t* v = &corners[t * 3];
-      // Attribute ids are the input's (scattered over the whole normal array): fetch ahead.
-      if (normalWeight2_ > 0.0 && t + 8 < nt)
+      // Attribute ids are the input's (scattered over the whole normal array): fetch ahead, so the
+      // vertex pass finds them in cache.
+      if (normals && t + 8 < nt)
         for (int k = 0; k < 3; ++k) __builtin_prefetch(&m_.normals[m_.attributes[(t + 8) * 3 + k]]);
       glm::dvec3 a = s_.p[v[0]], b = s_.p[v[1]], c = s_.p[v[2]];
       glm::dvec3 n = glm::cross(b - a, c - a);
       double len = glm::length(n);
+      s_.triLen[t] = len; // <= 0: degenerate, no plane and no normal term
       if (len <= 0.0) continue;
       n /= len;
-      Quadric q = planeQuadric(n, -glm::dot(n, a), len * 0.5);
-      for (int k = 0; k < 3; ++k) add(s_.q[v[k]], q);
-      if (normalWeight2_ > 0.0) {
-        double area = len * (0.5 / 3.0);
-        for (int k = 0; k < 3; ++k) {
-          glm::dvec3 vn = glm::dvec3(m_.normals[m_.attributes[t * 3 + k]]);
-          add(s_.nq[v[k]], {area, area * vn.x, area * vn.y, area * vn.z, area * glm::dot(vn, vn)});
-          s_.normal[v[k]] += glm::vec3(vn * area);
-        }
-      }
+      s_.triQ[t] = planeQuadric(n, -glm::dot(n, a), len * 0.5);
     }
-    if (normalWeight2_ > 0.0)
-      for (size_t v = 0; v < s_.normal.size(); ++v) {
-        glm::vec3& n = s_.normal[v];
-        float len = glm::length(n);
-        n = len > 0.0f ? n / len : glm::vec3(0.0f);
-        s_.nq[v].spread = std::max(deviation(s_.nq[v], glm::dvec3(n)), 0.0);
-      }
-    // Open edges (used by one triangle) get a plane through the edge, perpendicular to the face.
-    // Found on each vertex's ring (edge use count 1), once per edge from its lower end.
-    // The rings are kept (flat) for the first evaluation of every vertex in run().
-    Ring r = ringW();
-    s_.ringStart.resize(s_.p.size() + 1);
+    if (normals) {
+      s_.nq.resize(nv);
+      s_.normal.resize(nv);
+    }
+    // The rings are kept (flat) for the first evaluation of every vertex in run(); open edges (used
+    // by one triangle) are found on them, once per edge from its lower end, and get their planes
+    // after every vertex has its triangles' (the order of a scatter over triangles, then edges).
+    s_.ringStart.resize(nv + 1);
     s_.ringNbr.resize(nt * 6); // a ring has at most two entries per corner
     s_.ringCnt.resize(nt * 6);
+    s_.openEdges.clear();
+    const Quadric* triQ = s_.triQ.data();
+    const double* triLen = s_.triLen.data();
+    const uint32_t* attributes = m_.attributes.data();
+    const glm::vec3* inputNormals = m_.normals;
+    uint32_t* ends = s_.endsW.data();
+    uint64_t* mark = s_.markW.data();
     uint32_t saved = 0;
-    for (uint32_t a = 0; a < s_.p.size(); ++a) {
-      gatherRing(a, r);
-      s_.ringStart[a] = saved;
-      for (uint32_t b : r) {
-        s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count(b);
-        if (b < a || r.count(b) != 1) continue;
-        uint32_t o = kNil;
-        forTriangles(a, [&](uint32_t t, uint32_t k) {
-          uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
-          if (x == b || y == b) o = x == b ? y : x;
-        });
-        glm::dvec3 e = s_.p[b] - s_.p[a];
-        glm::dvec3 fn = glm::cross(e, s_.p[o] - s_.p[a]);
-        glm::dvec3 n = glm::cross(e, fn);
-        double len = glm::length(n);
-        if (len > 0.0) {
-          n /= len;
-          Quadric q = planeQuadric(n, -glm::dot(n, s_.p[a]), glm::dot(e, e) * kBorderWeight);
-          add(s_.q[a], q);
-          add(s_.q[b], q);
+    for (uint32_t a = 0; a < nv; ++a) {
+      const uint32_t* cl = cornersOf(a);
+      uint32_t size = s_.listSize[a], n = 0;
+      Quadric q;
+      NormalQuadric nq;
+      glm::vec3 normal(0.0f);
+      for (uint32_t i = 0; i < size; ++i) {
+        uint32_t c = cl[i], t = c / 3, base = t * 3, k = c - base;
+        ends[n] = corners[base + kNextCorner[k]];
+        ends[n + 1] = corners[base + kPrevCorner[k]];
+        n += 2;
+        if (triLen[t] > 0.0) add(q, triQ[t]);
+      }
+      s_.q[a] = q;
+      if (normals) {
+        // A second walk: with the plane sums' registers free, the normal sums stay in registers.
+        for (uint32_t i = 0; i < size; ++i) {
+          uint32_t c = cl[i];
+          double len = triLen[c / 3];
+          if (len <= 0.0) continue;
+          double area = len * (0.5 / 3.0);
+          glm::dvec3 vn = glm::dvec3(inputNormals[attributes[c]]);
+          add(nq, {area, area * vn.x, area * vn.y, area * vn.z, area * glm::dot(vn, vn)});
+          normal += glm::vec3(vn * area);
         }
+        float nlen = glm::length(normal);
+        normal = nlen > 0.0f ? normal / nlen : glm::vec3(0.0f);
+        nq.spread = std::max(deviation(nq, glm::dvec3(normal)), 0.0);
+        s_.nq[a] = nq, s_.normal[a] = normal;
+      }
+      // Distinct neighbours in first-seen order with their edge use counts (as gatherRing).
+      uint64_t stamped = uint64_t(++genW_) << 32;
+      for (uint32_t i = 0; i < n; ++i) mark[ends[i]] = stamped;
+      s_.ringStart[a] = saved;
+      uint32_t* nbr = s_.ringNbr.data();
+      for (uint32_t i = 0; i < n; ++i) {
+        uint32_t x = ends[i];
+        uint64_t m = mark[x];
+        mark[x] = m + 1;
+        nbr[saved] = x;
+        saved += uint32_t(m) == 0;
+      }
+      for (uint32_t j = s_.ringStart[a]; j < saved; ++j) {
+        uint32_t b = nbr[j], count = uint32_t(mark[b]);
+        s_.ringCnt[j] = count;
+        if (b > a && count == 1) s_.openEdges.push_back({a, b});
       }
     }
-    s_.ringStart[s_.p.size()] = saved;
-    s_.onto.resize(s_.p.size());
-    for (uint32_t v = 0; v < s_.p.size(); ++v) {
+    s_.ringStart[nv] = saved;
+    sizeW_ = 0; // ringW holds no vertex's ring now
+    for (auto [a, b] : s_.openEdges) {
+      uint32_t o = kNil;
+      forTriangles(a, [&](uint32_t t, uint32_t k) {
+        uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
+        if (x == b || y == b) o = x == b ? y : x;
+      });
+      glm::dvec3 e = s_.p[b] - s_.p[a];
+      glm::dvec3 fn = glm::cross(e, s_.p[o] - s_.p[a]);
+      glm::dvec3 n = glm::cross(e, fn);
+      double len = glm::length(n);
+      if (len > 0.0) {
+        n /= len;
+        Quadric q = planeQuadric(n, -glm::dot(n, s_.p[a]), glm::dot(e, e) * kBorderWeight);
+        add(s_.q[a], q);
+        add(s_.q[b], q);
+      }
+    }
+    s_.onto.resize(nv);
+    for (uint32_t v = 0; v < nv; ++v) {
       SimplifyScratch::Target& t = s_.onto[v];
       t.p = s_.p[v], t.selfCost = eval(s_.q[v], s_.p[v]), t.weight = s_.q[v].w;
       // selfDev starts at 0: v's own normal quadric at its own normal less its spread.
-      t.area = normalWeight2_ > 0.0 ? s_.nq[v].a : 0.0, t.selfDev = 0.0;
+      t.area = normals ? s_.nq[v].a : 0.0, t.selfDev = 0.0;
     }
   }
 
