@@ -582,11 +582,13 @@ private:
     if (savedRings_) return evaluateSaved(v);
     gatherRingU(v);
     Ring r = ringU();
-    uint32_t n = candidates(v, r.begin(), r.size, [&](uint32_t i) { return r.count(r.list[i]); });
-    if (optimistic) return queueCheapest(v, n);
+    uint32_t n = 0;
+    const uint32_t* cands = candidates(
+        v, r.begin(), r.size, [&](uint32_t i) { return r.count(r.list[i]); }, n);
+    if (optimistic) return queueCheapest(v, cands, n);
     s_.scored.clear();
     for (uint32_t i = 0; i < n; ++i)
-      if (uint32_t w = s_.cands[i]; w != knownIllegal_) s_.scored.push_back({cost(v, w, orderWeight2_), w});
+      if (uint32_t w = cands[i]; w != knownIllegal_) s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
@@ -600,16 +602,20 @@ private:
   // candidates in the same order as evaluate(), without copying them into a stamped ring).
   float evaluateSaved(uint32_t v) {
     const uint32_t *nbr = &s_.ringNbr[s_.ringStart[v]], *count = &s_.ringCnt[s_.ringStart[v]];
-    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v];
-    return queueCheapest(v, candidates(v, nbr, size, [&](uint32_t i) { return count[i]; }));
+    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v], n = 0;
+    const uint32_t* cands = candidates(
+        v, nbr, size, [&](uint32_t i) { return count[i]; }, n);
+    return queueCheapest(v, cands, n);
   }
 
-  // v's collapse candidates (into s_.cands, ring order; returns how many) among its distinct
-  // neighbours nbr[0..size), whose edges to v have count(i) triangles: none when v must stay (a
-  // non-manifold edge, or several open borders meet at v), only the neighbours across a border
-  // edge when v is on an open border (it slides along it, so the border keeps its shape), else
-  // all; locked ones that cannot pass legal() go (chordFree).
-  template <class Count> uint32_t candidates(uint32_t v, const uint32_t* nbr, uint32_t size, Count&& count) {
+  // v's collapse candidates in ring order (n of them: nbr itself when every neighbour is one, the
+  // common case, else copied into s_.cands) among its distinct neighbours nbr[0..size), whose
+  // edges to v have count(i) triangles: none when v must stay (a non-manifold edge, or several
+  // open borders meet at v), only the neighbours across a border edge when v is on an open border
+  // (it slides along it, so the border keeps its shape), else all; locked ones that cannot pass
+  // legal() go (chordFree).
+  template <class Count>
+  const uint32_t* candidates(uint32_t v, const uint32_t* nbr, uint32_t size, Count&& count, uint32_t& n) {
     uint32_t borderEdges = 0, lockedAround = 0, nonManifold = 0;
     for (uint32_t i = 0; i < size; ++i) {
       uint32_t c = count(i);
@@ -617,21 +623,25 @@ private:
       borderEdges += c == 1;
       lockedAround += m_.locked[nbr[i]];
     }
-    if (nonManifold || (borderEdges != 0 && borderEdges != 2)) return 0;
-    uint32_t n = 0;
+    n = 0;
+    if (nonManifold || (borderEdges != 0 && borderEdges != 2)) return nbr;
+    if (borderEdges == 0 && lockedAround == 0) {
+      n = size;
+      return nbr;
+    }
     for (uint32_t i = 0; i < size; ++i)
       if ((borderEdges == 0 || count(i) == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
-    return n;
+    return s_.cands.data();
   }
 
-  // Queues v's cheapest of the n candidates in s_.cands, untested (optimistic); -1 when n is 0.
+  // Queues v's cheapest of the n candidates, untested (optimistic); -1 when n is 0.
   // All costs first, then the choice: the cost evaluations are independent of each other and
   // overlap, where choosing while evaluating chained each one to the previous comparison.
-  float queueCheapest(uint32_t v, uint32_t n) {
+  float queueCheapest(uint32_t v, const uint32_t* cands, uint32_t n) {
     Fraction* costs = s_.candCost.data();
-    orderCosts(v, s_.cands.data(), n, costs);
+    orderCosts(v, cands, n, costs);
     Cheapest best;
-    for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], s_.cands[i]);
+    for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], cands[i]);
     if (best.w == kNil) return -1.0f;
     s_.target[v] = best.w, s_.time[v] = kUnchecked;
     return best.cost();
