@@ -80,8 +80,7 @@ struct SimplifyScratch {
   };
   std::vector<Target> onto;
   std::vector<uint32_t> ringStart, ringNbr, ringCnt;    // rings at setup, reused by the first evaluation
-  std::vector<Quadric> triQ;                            // per triangle at setup: its plane quadric,
-  std::vector<double> triLen;                           // twice its area (<= 0: degenerate)
+  std::vector<double> triLen;                           // per triangle at setup: twice its area (<= 0: degenerate)
   std::vector<std::pair<uint32_t, uint32_t>> openEdges; // open edges (a < b) at setup, in ring order
   // Each vertex's corners (3 t + k), contiguous: lists[listStart[v] ..+ listSize[v]], room for
   // listCap[v]; a list that outgrows its room moves to the end of `lists`.
