@@ -6,6 +6,9 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h> // AVX in functions compiled for it, picked when the CPU has it
+#endif
 
 namespace mirage::lod::detail {
 
@@ -47,6 +50,18 @@ void add(NormalQuadric& q, const NormalQuadric& o) {
 double deviation(const NormalQuadric& q, glm::dvec3 m) {
   return q.a * glm::dot(m, m) - 2.0 * (m.x * q.bx + m.y * q.by + m.z * q.bz) + q.c;
 }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx"), always_inline)) inline __m256d avxAdd(__m256d x, __m256d y) {
+  return _mm256_add_pd(x, y);
+}
+__attribute__((target("avx"), always_inline)) inline __m256d avxMul(__m256d x, __m256d y) {
+  return _mm256_mul_pd(x, y);
+}
+__attribute__((target("avx"), always_inline)) inline __m256d avxSelect(__m256d mask, __m256d yes, __m256d no) {
+  return _mm256_or_pd(_mm256_and_pd(mask, yes), _mm256_andnot_pd(mask, no));
+}
+#endif
 
 class Simplifier {
 public:
@@ -208,7 +223,7 @@ private:
     }
     if (normals) {
       s_.nq.resize(nv);
-      s_.normal.resize(nv);
+      s_.normal.resize(nv + 1); // one spare: orderCostsAvx loads each normal as four floats
     }
     // The rings are kept (flat) for the first evaluation of every vertex in run(); open edges (used
     // by one triangle) are found on them, once per edge from its lower end, and get their planes
@@ -432,10 +447,14 @@ private:
     dev = std::clamp(dev, 0.0, kMaxNormalDeviation2 * area);
     return {geometric * area + orderWeight2_ * dev * weight, weight * area};
   }
-  // orderCost(u, w) of n candidates into out, two at a time with SSE2: each lane does orderCost's
-  // operations in the same order (no fused multiply-add), so the costs are bit-identical, and the
-  // branches become masks. Most of the simplifier's cost evaluations are these.
+  // orderCost(u, w) of n candidates into out, two at a time with SSE2 (four with AVX where the CPU
+  // has it): each lane does orderCost's operations in the same order (no fused multiply-add), so
+  // the costs are bit-identical, and the branches become masks. Most of the simplifier's cost
+  // evaluations are these.
   void orderCosts(uint32_t u, const uint32_t* cands, uint32_t n, Fraction* out) const {
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (n >= 4 && hasAvx()) return orderCostsAvx(u, cands, n, out);
+#endif
     uint32_t i = 0;
 #if defined(__SSE2__)
     const Quadric& q = s_.q[u];
@@ -489,6 +508,84 @@ private:
 #endif
     for (; i < n; ++i) out[i] = orderCost(u, cands[i]);
   }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+  static bool hasAvx() {
+    static const bool avx = [] {
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx");
+    }();
+    return avx;
+  }
+
+  // orderCosts four at a time (n >= 4; the last block ends at n, recomputing a few costs): the
+  // SSE2 loop's operations, lane by lane, so the same bits. The candidates' records are loaded
+  // whole and transposed.
+  __attribute__((target("avx"))) void orderCostsAvx(uint32_t u, const uint32_t* cands, uint32_t n,
+                                                    Fraction* out) const {
+    const Quadric& q = s_.q[u];
+    const SimplifyScratch::Target* onto = s_.onto.data();
+    const __m256d a00 = _mm256_set1_pd(q.a00), a01 = _mm256_set1_pd(q.a01), a02 = _mm256_set1_pd(q.a02);
+    const __m256d a11 = _mm256_set1_pd(q.a11), a12 = _mm256_set1_pd(q.a12), a22 = _mm256_set1_pd(q.a22);
+    const __m256d b0 = _mm256_set1_pd(q.b0), b1 = _mm256_set1_pd(q.b1), b2 = _mm256_set1_pd(q.b2);
+    const __m256d c = _mm256_set1_pd(q.c), qw = _mm256_set1_pd(q.w), zero = _mm256_setzero_pd();
+    const __m256d one = _mm256_set1_pd(1.0);
+    const bool normals = orderWeight2_ > 0.0;
+    const NormalQuadric nq = normals ? s_.nq[u] : NormalQuadric{};
+    const glm::vec3* normal = normals ? s_.normal.data() : nullptr;
+    const __m256d na = _mm256_set1_pd(nq.a), nbx = _mm256_set1_pd(nq.bx), nby = _mm256_set1_pd(nq.by);
+    const __m256d nbz = _mm256_set1_pd(nq.bz), nc = _mm256_set1_pd(nq.c), spread = _mm256_set1_pd(nq.spread);
+    const __m256d maxDev = _mm256_set1_pd(kMaxNormalDeviation2), orderWeight2 = _mm256_set1_pd(orderWeight2_);
+    for (uint32_t i = 0; i < n; i += 4) {
+      uint32_t at = std::min(i, n - 4), w[4] = {cands[at], cands[at + 1], cands[at + 2], cands[at + 3]};
+      const SimplifyScratch::Target *t0 = &onto[w[0]], *t1 = &onto[w[1]], *t2 = &onto[w[2]], *t3 = &onto[w[3]];
+      // Records (p.x, p.y, p.z, selfCost | weight, area, selfDev, -) transposed into lanes.
+      __m256d l0 = _mm256_load_pd(&t0->p.x), l1 = _mm256_load_pd(&t1->p.x);
+      __m256d l2 = _mm256_load_pd(&t2->p.x), l3 = _mm256_load_pd(&t3->p.x);
+      __m256d lo01 = _mm256_unpacklo_pd(l0, l1), hi01 = _mm256_unpackhi_pd(l0, l1);
+      __m256d lo23 = _mm256_unpacklo_pd(l2, l3), hi23 = _mm256_unpackhi_pd(l2, l3);
+      __m256d px = _mm256_permute2f128_pd(lo01, lo23, 0x20), pz = _mm256_permute2f128_pd(lo01, lo23, 0x31);
+      __m256d py = _mm256_permute2f128_pd(hi01, hi23, 0x20), selfCost = _mm256_permute2f128_pd(hi01, hi23, 0x31);
+      __m256d u0 = _mm256_load_pd(&t0->weight), u1 = _mm256_load_pd(&t1->weight);
+      __m256d u2 = _mm256_load_pd(&t2->weight), u3 = _mm256_load_pd(&t3->weight);
+      __m256d ulo01 = _mm256_unpacklo_pd(u0, u1), uhi01 = _mm256_unpackhi_pd(u0, u1);
+      __m256d ulo23 = _mm256_unpacklo_pd(u2, u3), uhi23 = _mm256_unpackhi_pd(u2, u3);
+      __m256d tw = _mm256_permute2f128_pd(ulo01, ulo23, 0x20), selfDev = _mm256_permute2f128_pd(ulo01, ulo23, 0x31);
+      __m256d tarea = _mm256_permute2f128_pd(uhi01, uhi23, 0x20);
+      // geometric = weight > 0 ? max(Q_u(p_w) + Q_w(p_w), 0) : 0, then weight = 1 if not > 0.
+      __m256d rx = avxAdd(avxAdd(avxAdd(avxMul(a00, px), avxMul(a01, py)), avxMul(a02, pz)), b0);
+      __m256d ry = avxAdd(avxAdd(avxAdd(avxMul(a01, px), avxMul(a11, py)), avxMul(a12, pz)), b1);
+      __m256d rz = avxAdd(avxAdd(avxAdd(avxMul(a02, px), avxMul(a12, py)), avxMul(a22, pz)), b2);
+      __m256d e = avxAdd(avxAdd(avxAdd(avxMul(rx, px), avxMul(ry, py)), avxMul(rz, pz)), c);
+      __m256d geometric = _mm256_max_pd(zero, avxAdd(e, selfCost));
+      __m256d weight = avxAdd(qw, tw);
+      __m256d positive = _mm256_cmp_pd(weight, zero, _CMP_GT_OQ);
+      geometric = _mm256_and_pd(positive, geometric);
+      weight = avxSelect(positive, weight, one);
+      __m256d num = geometric, den = weight;
+      if (normals) {
+        // Each normal loaded as four floats (the array has one spare entry), transposed.
+        __m128 m0 = _mm_loadu_ps(&normal[w[0]].x), m1 = _mm_loadu_ps(&normal[w[1]].x);
+        __m128 m2 = _mm_loadu_ps(&normal[w[2]].x), m3 = _mm_loadu_ps(&normal[w[3]].x);
+        _MM_TRANSPOSE4_PS(m0, m1, m2, m3);
+        __m256d mx = _mm256_cvtps_pd(m0), my = _mm256_cvtps_pd(m1), mz = _mm256_cvtps_pd(m2);
+        __m256d mm = avxAdd(avxAdd(avxMul(mx, mx), avxMul(my, my)), avxMul(mz, mz));
+        __m256d mb = avxAdd(avxAdd(avxMul(mx, nbx), avxMul(my, nby)), avxMul(mz, nbz));
+        __m256d dev = avxAdd(_mm256_sub_pd(avxMul(na, mm), avxAdd(mb, mb)), nc);
+        dev = _mm256_sub_pd(avxAdd(selfDev, dev), spread);
+        __m256d area = avxAdd(na, tarea);
+        dev = _mm256_min_pd(avxMul(maxDev, area), _mm256_max_pd(zero, dev)); // clamp(dev, 0, max · area)
+        __m256d none = _mm256_cmp_pd(area, zero, _CMP_LE_OQ);
+        num = avxSelect(none, geometric, avxAdd(avxMul(geometric, area), avxMul(avxMul(orderWeight2, dev), weight)));
+        den = avxSelect(none, weight, avxMul(weight, area));
+      }
+      // (num, den) pairs in candidate order.
+      __m256d lo = _mm256_unpacklo_pd(num, den), hi = _mm256_unpackhi_pd(num, den);
+      _mm256_storeu_pd(&out[at].num, _mm256_permute2f128_pd(lo, hi, 0x20));
+      _mm256_storeu_pd(&out[at + 2].num, _mm256_permute2f128_pd(lo, hi, 0x31));
+    }
+  }
+#endif
 
   // The cheapest of the offered candidates (ties to the lower vertex id).
   struct Cheapest {
