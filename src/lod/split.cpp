@@ -145,12 +145,17 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // separate arrays cost a cache line each.
   s.tri.resize(nt);
   SplitScratch::TriState* tri = s.tri.data();
+  uint32_t anyRepeated = 0, maxLive = 0;
   for (size_t t = 0; t < nt; ++t) {
     const uint32_t* v = &s.corners[t * 3];
     tri[t].stamp = kNil;
     tri[t].parts = v[0] == v[1] || v[1] == v[2] || v[0] == v[2] ? kRepeated : 0;
+    anyRepeated |= tri[t].parts;
   }
-  for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
+  for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v], maxLive = std::max(maxLive, s.live[v]);
+  // No triangle to rescore from scratch and live sums that stay below the score's 12 bits: a
+  // live sum dropping by one lowers the score by one.
+  const bool plainScores = anyRepeated == 0 && maxLive * 3 <= 0xfff;
   s.vertLocal.resize(nv);
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
   // Output through raw pointers, sized for the worst case first (every corner a new cluster
@@ -275,8 +280,18 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
           }
           candScore[ts.candPos] = partsScore(ts);
         }
+      } else if (delta == 0 && plainScores) {
+        // The corner was in the cluster already, so every triangle around it is a candidate, and
+        // only their live sums drop by one: so do their scores (the sums' low bits).
+        for (uint32_t i = 0; i <= left; ++i) {
+          uint32_t n = list[i];
+          if (n == t) continue;
+          list[kept++] = n;
+          SplitScratch::TriState& ts = tri[n];
+          --ts.liveSum;
+          --candScore[ts.candPos];
+        }
       } else {
-        // The corner was in the cluster already: every triangle around it is a candidate.
         for (uint32_t i = 0; i <= left; ++i) {
           uint32_t n = list[i];
           if (n == t) continue;
