@@ -265,17 +265,9 @@ private:
         s_.nq[a] = nq, s_.normal[a] = normal;
       }
       // Distinct neighbours in first-seen order with their edge use counts (as gatherRing).
-      uint64_t stamped = uint64_t(++genW_) << 32;
-      for (uint32_t i = 0; i < n; ++i) mark[ends[i]] = stamped;
       s_.ringStart[a] = saved;
       uint32_t* nbr = s_.ringNbr.data();
-      for (uint32_t i = 0; i < n; ++i) {
-        uint32_t x = ends[i];
-        uint64_t m = mark[x];
-        mark[x] = m + 1;
-        nbr[saved] = x;
-        saved += uint32_t(m) == 0;
-      }
+      saved += distinctEnds(ends, n, mark, uint64_t(++genW_) << 32, nbr + saved);
       for (uint32_t j = s_.ringStart[a]; j < saved; ++j) {
         uint32_t b = nbr[j], count = uint32_t(mark[b]);
         s_.ringCnt[j] = count;
@@ -328,22 +320,29 @@ private:
       live += keep, n += keep * 2;
     }
     s_.listSize[v] = live;
-    // Distinct neighbours in first-seen order with their use counts, without a "seen before?"
-    // branch per end (a coin flip): stamp and zero every end first, then count.
-    uint64_t* mark = r.mark.data();
-    uint32_t* list = r.list.data();
+    // Distinct neighbours in first-seen order with their use counts.
+    r.size = distinctEnds(ends, n, r.mark.data(), uint64_t(r.gen) << 32, r.list.data());
+    r.endCount = n;
+  }
+
+  // The distinct ends among ends[0..n) (n even: two per triangle) into list, in first-seen order,
+  // with mark[x] = stamped | uses of x; returns how many. Without a "seen before?" branch per end
+  // (a coin flip): stamp and zero every end first, then count. Two ends a step.
+  static uint32_t distinctEnds(const uint32_t* ends, uint32_t n, uint64_t* mark, uint64_t stamped, uint32_t* list) {
+    for (uint32_t i = 0; i < n; i += 2) mark[ends[i]] = stamped, mark[ends[i + 1]] = stamped;
     uint32_t size = 0;
-    uint64_t stamped = uint64_t(r.gen) << 32;
-    for (uint32_t i = 0; i < n; ++i) mark[ends[i]] = stamped;
-    for (uint32_t i = 0; i < n; ++i) {
-      uint32_t x = ends[i];
+    for (uint32_t i = 0; i < n; i += 2) {
+      uint32_t x = ends[i], y = ends[i + 1];
       uint64_t m = mark[x];
       mark[x] = m + 1;
       list[size] = x;
       size += uint32_t(m) == 0;
+      m = mark[y];
+      mark[y] = m + 1;
+      list[size] = y;
+      size += uint32_t(m) == 0;
     }
-    r.size = size;
-    r.endCount = n;
+    return size;
   }
 
   // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
