@@ -501,6 +501,16 @@ private:
   // another group touches it: decided per group, so a group can start before the others are known.
   void countTouches(const std::vector<uint32_t>& active, bool count) {
     StageTimer timer(kOwners);
+    if (!count) {
+      // Clearing: one sequential fill when the entries are many (the scattered stores through
+      // vertexPosition cost more than writing every position's slot: 2 ms a level on the dragon).
+      size_t entries = 0;
+      for (uint32_t c : active) entries += dag_.clusters[c].vertexCount;
+      if (entries * 8 >= touches_.size()) {
+        std::fill(touches_.begin(), touches_.end(), 0u);
+        return;
+      }
+    }
     tbb::parallel_for(size_t(0), active.size(), [&](size_t i) {
       const Cluster& cl = dag_.clusters[active[i]];
       for (uint32_t v = 0; v < cl.vertexCount; ++v) {
@@ -521,39 +531,56 @@ private:
     size_t corners = 0;
     for (uint32_t c : w.children) corners += size_t(dag_.clusters[c].triangleCount) * 3;
     attrs.resize(corners);
-    uint32_t* out = attrs.data();
-    for (uint32_t c : w.children) {
-      forTriangles(c, [&](uint32_t a, uint32_t b, uint32_t d) { out[0] = a, out[1] = b, out[2] = d, out += 3; });
-      // Nested spheres: the group's sphere encloses every child's LOD sphere.
-      const LodBounds& self = dag_.clusters[c].self;
-      w.bounds = c == w.children[0] ? self : mergeSpheres(w.bounds, self);
-    }
+    sm.corners.resize(corners);
     // Compact local positions through a flat per-thread map (reset afterwards) instead of sorting:
-    // sort + binary search was 10 % of the build.
+    // sort + binary search was 10 % of the build. Numbered in corner order; each cluster vertex's
+    // position is looked up once (its corners name it by 8-bit index), not once per corner: those
+    // lookups are scattered over the whole mesh.
     SplitScratch& scratch = splitScratch_.local();
     std::vector<uint32_t>& localOf = scratch.localOfPosition;
     if (localOf.size() < dag_.positions.size()) localOf.resize(dag_.positions.size(), kNone);
-    sm.corners.resize(attrs.size());
     std::vector<uint32_t>& unique = scratch.global;
     unique.clear();
-    for (size_t i = 0; i < attrs.size(); ++i) {
-      // Scattered reads on large meshes (vertex ids are not spatial): fetch ahead.
-      if (i + 32 < attrs.size()) __builtin_prefetch(&dag_.vertexPosition[attrs[i + 32]]);
-      if (i + 16 < attrs.size()) __builtin_prefetch(&localOf[dag_.vertexPosition[attrs[i + 16]]]);
-      uint32_t p = dag_.vertexPosition[attrs[i]];
-      uint32_t& l = localOf[p];
-      if (l == kNone) l = uint32_t(unique.size()), unique.push_back(p);
-      sm.corners[i] = l;
-    }
     // The group's own vertex entries per position (see countTouches): fewer than all of them means
     // another group touches the position, which is then locked.
     std::vector<uint32_t>& own = gs.ownTouches;
-    own.assign(unique.size(), 0);
+    own.clear();
+    gs.unnamed.clear();
+    uint32_t vertexPos[256], vertexLocal[256]; // per cluster vertex: welded position, local id
+    uint32_t* outAttr = attrs.data();
+    uint32_t* outCorner = sm.corners.data();
     for (uint32_t c : w.children) {
       const Cluster& cl = dag_.clusters[c];
+      const uint32_t* verts = &dag_.clusterVertices[cl.vertexOffset];
+      for (uint32_t v = 0; v < cl.vertexCount; ++v) {
+        if (v + 8 < cl.vertexCount) __builtin_prefetch(&dag_.vertexPosition[verts[v + 8]]);
+        vertexPos[v] = dag_.vertexPosition[verts[v]];
+        __builtin_prefetch(&localOf[vertexPos[v]]);
+        vertexLocal[v] = kNone;
+      }
+      const uint8_t* idx = &dag_.clusterIndices[size_t(cl.triangleOffset) * 3];
+      for (uint32_t i = 0; i < uint32_t(cl.triangleCount) * 3; ++i) {
+        uint32_t k = idx[i];
+        if (vertexLocal[k] == kNone) {
+          uint32_t& l = localOf[vertexPos[k]];
+          if (l == kNone) l = uint32_t(unique.size()), unique.push_back(vertexPos[k]), own.push_back(0);
+          vertexLocal[k] = l;
+        }
+        outAttr[i] = verts[k], outCorner[i] = vertexLocal[k];
+      }
+      outAttr += size_t(cl.triangleCount) * 3, outCorner += size_t(cl.triangleCount) * 3;
+      // A vertex no triangle names (the splitter makes none) counts if another cluster's corner
+      // has its position: decided when all are numbered.
       for (uint32_t v = 0; v < cl.vertexCount; ++v)
-        if (uint32_t l = localOf[dag_.vertexPosition[dag_.clusterVertices[cl.vertexOffset + v]]]; l != kNone) ++own[l];
+        if (vertexLocal[v] != kNone)
+          ++own[vertexLocal[v]];
+        else
+          gs.unnamed.push_back(vertexPos[v]);
+      // Nested spheres: the group's sphere encloses every child's LOD sphere.
+      w.bounds = c == w.children[0] ? cl.self : mergeSpheres(w.bounds, cl.self);
     }
+    for (uint32_t p : gs.unnamed)
+      if (localOf[p] != kNone) ++own[localOf[p]];
     sm.positions.resize(unique.size());
     sm.locked.resize(unique.size());
     for (size_t i = 0; i < unique.size(); ++i) {
@@ -637,6 +664,7 @@ private:
     SimplifyScratch simplify;
     SimplifyMesh mesh;                // the group's triangles: reused, so groups allocate almost nothing
     std::vector<uint32_t> ownTouches; // per local position: vertex entries of the group's clusters
+    std::vector<uint32_t> unnamed;    // positions of cluster vertices that no corner names
   };
   mutable tbb::enumerable_thread_specific<GroupScratch> groupScratch_;
   std::vector<std::pair<uint64_t, uint32_t>> ages_; // sorted by edge key: levels locked so far

@@ -36,10 +36,10 @@ struct SplitScratch {
     uint32_t parts;   // corners outside the cluster, corners with one live triangle left, repeated vertex (split.cpp)
   };
   std::vector<TriState> tri;
-  std::vector<uint16_t> edgeUses;   // 256 x 256 cluster-local position pairs (build.cpp); all 0 between calls
-  std::vector<glm::vec3> centroids; // 3x the centroid: only compared
-  std::vector<glm::vec3> vertPos;   // per local vertex, its position
-  std::vector<glm::vec3> points;    // the current cluster's vertex positions (its sphere)
+  std::vector<uint16_t> edgeUses; // 256 x 256 cluster-local position pairs (build.cpp); all 0 between calls
+  std::vector<float> centroids;   // 3x the centroid (only compared): x, y, z arrays (split.cpp)
+  std::vector<glm::vec3> vertPos; // per local vertex, its position
+  std::vector<glm::vec3> points;  // the current cluster's vertex positions (its sphere)
 };
 
 // Splits a triangle list (attribute-vertex ids) into clusters of at most maxVertices/maxTriangles

@@ -6,6 +6,9 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h> // AVX in functions compiled for it, picked when the CPU has it
+#endif
 
 namespace mirage::lod::detail {
 
@@ -47,6 +50,18 @@ void add(NormalQuadric& q, const NormalQuadric& o) {
 double deviation(const NormalQuadric& q, glm::dvec3 m) {
   return q.a * glm::dot(m, m) - 2.0 * (m.x * q.bx + m.y * q.by + m.z * q.bz) + q.c;
 }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx"), always_inline)) inline __m256d avxAdd(__m256d x, __m256d y) {
+  return _mm256_add_pd(x, y);
+}
+__attribute__((target("avx"), always_inline)) inline __m256d avxMul(__m256d x, __m256d y) {
+  return _mm256_mul_pd(x, y);
+}
+__attribute__((target("avx"), always_inline)) inline __m256d avxSelect(__m256d mask, __m256d yes, __m256d no) {
+  return _mm256_or_pd(_mm256_and_pd(mask, yes), _mm256_andnot_pd(mask, no));
+}
+#endif
 
 class Simplifier {
 public:
@@ -180,79 +195,110 @@ private:
     return true;
   }
 
+  // Plane quadrics scattered from the triangles; normal quadrics and rings in one pass over the
+  // vertices: each vertex sums its corners' normal terms in registers while it gathers its ring,
+  // walking its corner list, which is in triangle order, so the sums are the ones a scatter over
+  // the triangles gives, bit for bit, without its read-modify-writes of 9 values per corner.
+  // (Gathering the plane quadrics the same way, from one stored per triangle, ran fewer
+  // instructions but streamed 88 more bytes per triangle through the cache: more misses.)
   void initQuadrics() {
-    size_t nt = s_.alive.size();
-    const std::vector<uint32_t>& corners = m_.corners;
-    if (normalWeight2_ > 0.0) {
-      s_.nq.assign(s_.p.size(), NormalQuadric{});
-      s_.normal.assign(s_.p.size(), glm::vec3(0.0f));
-    }
+    size_t nt = s_.alive.size(), nv = s_.p.size();
+    const uint32_t* corners = m_.corners.data();
+    const bool normals = normalWeight2_ > 0.0;
+    s_.triLen.resize(nt);
     for (uint32_t t = 0; t < nt; ++t) {
       const uint32_t* v = &corners[t * 3];
-      // Attribute ids are the input's (scattered over the whole normal array): fetch ahead.
-      if (normalWeight2_ > 0.0 && t + 8 < nt)
+      // Attribute ids are the input's (scattered over the whole normal array): fetch ahead, so the
+      // vertex pass finds them in cache.
+      if (normals && t + 8 < nt)
         for (int k = 0; k < 3; ++k) __builtin_prefetch(&m_.normals[m_.attributes[(t + 8) * 3 + k]]);
       glm::dvec3 a = s_.p[v[0]], b = s_.p[v[1]], c = s_.p[v[2]];
       glm::dvec3 n = glm::cross(b - a, c - a);
       double len = glm::length(n);
+      s_.triLen[t] = len; // <= 0: degenerate, no plane and no normal term
       if (len <= 0.0) continue;
       n /= len;
       Quadric q = planeQuadric(n, -glm::dot(n, a), len * 0.5);
       for (int k = 0; k < 3; ++k) add(s_.q[v[k]], q);
-      if (normalWeight2_ > 0.0) {
-        double area = len * (0.5 / 3.0);
-        for (int k = 0; k < 3; ++k) {
-          glm::dvec3 vn = glm::dvec3(m_.normals[m_.attributes[t * 3 + k]]);
-          add(s_.nq[v[k]], {area, area * vn.x, area * vn.y, area * vn.z, area * glm::dot(vn, vn)});
-          s_.normal[v[k]] += glm::vec3(vn * area);
-        }
-      }
     }
-    if (normalWeight2_ > 0.0)
-      for (size_t v = 0; v < s_.normal.size(); ++v) {
-        glm::vec3& n = s_.normal[v];
-        float len = glm::length(n);
-        n = len > 0.0f ? n / len : glm::vec3(0.0f);
-        s_.nq[v].spread = std::max(deviation(s_.nq[v], glm::dvec3(n)), 0.0);
-      }
-    // Open edges (used by one triangle) get a plane through the edge, perpendicular to the face.
-    // Found on each vertex's ring (edge use count 1), once per edge from its lower end.
-    // The rings are kept (flat) for the first evaluation of every vertex in run().
-    Ring r = ringW();
-    s_.ringStart.resize(s_.p.size() + 1);
+    if (normals) {
+      s_.nq.resize(nv);
+      s_.normal.resize(nv + 1); // one spare: orderCostsAvx loads each normal as four floats
+    }
+    // The rings are kept (flat) for the first evaluation of every vertex in run(); open edges (used
+    // by one triangle) are found on them, once per edge from its lower end, and get their planes
+    // after every vertex has its triangles' (the order of a scatter over triangles, then edges).
+    s_.ringStart.resize(nv + 1);
     s_.ringNbr.resize(nt * 6); // a ring has at most two entries per corner
     s_.ringCnt.resize(nt * 6);
+    s_.openEdges.clear();
+    const double* triLen = s_.triLen.data();
+    const uint32_t* attributes = m_.attributes.data();
+    const glm::vec3* inputNormals = m_.normals;
+    uint32_t* ends = s_.endsW.data();
+    uint64_t* mark = s_.markW.data();
     uint32_t saved = 0;
-    for (uint32_t a = 0; a < s_.p.size(); ++a) {
-      gatherRing(a, r);
-      s_.ringStart[a] = saved;
-      for (uint32_t b : r) {
-        s_.ringNbr[saved] = b, s_.ringCnt[saved++] = r.count(b);
-        if (b < a || r.count(b) != 1) continue;
-        uint32_t o = kNil;
-        forTriangles(a, [&](uint32_t t, uint32_t k) {
-          uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
-          if (x == b || y == b) o = x == b ? y : x;
-        });
-        glm::dvec3 e = s_.p[b] - s_.p[a];
-        glm::dvec3 fn = glm::cross(e, s_.p[o] - s_.p[a]);
-        glm::dvec3 n = glm::cross(e, fn);
-        double len = glm::length(n);
-        if (len > 0.0) {
-          n /= len;
-          Quadric q = planeQuadric(n, -glm::dot(n, s_.p[a]), glm::dot(e, e) * kBorderWeight);
-          add(s_.q[a], q);
-          add(s_.q[b], q);
+    for (uint32_t a = 0; a < nv; ++a) {
+      const uint32_t* cl = cornersOf(a);
+      uint32_t size = s_.listSize[a], n = 0;
+      NormalQuadric nq;
+      glm::vec3 normal(0.0f);
+      for (uint32_t i = 0; i < size; ++i) {
+        uint32_t c = cl[i], t = c / 3, base = t * 3, k = c - base;
+        ends[n] = corners[base + kNextCorner[k]];
+        ends[n + 1] = corners[base + kPrevCorner[k]];
+        n += 2;
+      }
+      if (normals) {
+        for (uint32_t i = 0; i < size; ++i) {
+          uint32_t c = cl[i];
+          double len = triLen[c / 3];
+          if (len <= 0.0) continue;
+          double area = len * (0.5 / 3.0);
+          glm::dvec3 vn = glm::dvec3(inputNormals[attributes[c]]);
+          add(nq, {area, area * vn.x, area * vn.y, area * vn.z, area * glm::dot(vn, vn)});
+          normal += glm::vec3(vn * area);
         }
+        float nlen = glm::length(normal);
+        normal = nlen > 0.0f ? normal / nlen : glm::vec3(0.0f);
+        nq.spread = std::max(deviation(nq, glm::dvec3(normal)), 0.0);
+        s_.nq[a] = nq, s_.normal[a] = normal;
+      }
+      // Distinct neighbours in first-seen order with their edge use counts (as gatherRing).
+      s_.ringStart[a] = saved;
+      uint32_t* nbr = s_.ringNbr.data();
+      saved += distinctEnds(ends, n, mark, uint64_t(++genW_) << 32, nbr + saved);
+      for (uint32_t j = s_.ringStart[a]; j < saved; ++j) {
+        uint32_t b = nbr[j], count = uint32_t(mark[b]);
+        s_.ringCnt[j] = count;
+        if (b > a && count == 1) s_.openEdges.push_back({a, b});
       }
     }
-    s_.ringStart[s_.p.size()] = saved;
-    s_.onto.resize(s_.p.size());
-    for (uint32_t v = 0; v < s_.p.size(); ++v) {
+    s_.ringStart[nv] = saved;
+    sizeW_ = 0; // ringW holds no vertex's ring now
+    for (auto [a, b] : s_.openEdges) {
+      uint32_t o = kNil;
+      forTriangles(a, [&](uint32_t t, uint32_t k) {
+        uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
+        if (x == b || y == b) o = x == b ? y : x;
+      });
+      glm::dvec3 e = s_.p[b] - s_.p[a];
+      glm::dvec3 fn = glm::cross(e, s_.p[o] - s_.p[a]);
+      glm::dvec3 n = glm::cross(e, fn);
+      double len = glm::length(n);
+      if (len > 0.0) {
+        n /= len;
+        Quadric q = planeQuadric(n, -glm::dot(n, s_.p[a]), glm::dot(e, e) * kBorderWeight);
+        add(s_.q[a], q);
+        add(s_.q[b], q);
+      }
+    }
+    s_.onto.resize(nv);
+    for (uint32_t v = 0; v < nv; ++v) {
       SimplifyScratch::Target& t = s_.onto[v];
       t.p = s_.p[v], t.selfCost = eval(s_.q[v], s_.p[v]), t.weight = s_.q[v].w;
       // selfDev starts at 0: v's own normal quadric at its own normal less its spread.
-      t.area = normalWeight2_ > 0.0 ? s_.nq[v].a : 0.0, t.selfDev = 0.0;
+      t.area = normals ? s_.nq[v].a : 0.0, t.selfDev = 0.0;
     }
   }
 
@@ -274,22 +320,29 @@ private:
       live += keep, n += keep * 2;
     }
     s_.listSize[v] = live;
-    // Distinct neighbours in first-seen order with their use counts, without a "seen before?"
-    // branch per end (a coin flip): stamp and zero every end first, then count.
-    uint64_t* mark = r.mark.data();
-    uint32_t* list = r.list.data();
+    // Distinct neighbours in first-seen order with their use counts.
+    r.size = distinctEnds(ends, n, r.mark.data(), uint64_t(r.gen) << 32, r.list.data());
+    r.endCount = n;
+  }
+
+  // The distinct ends among ends[0..n) (n even: two per triangle) into list, in first-seen order,
+  // with mark[x] = stamped | uses of x; returns how many. Without a "seen before?" branch per end
+  // (a coin flip): stamp and zero every end first, then count. Two ends a step.
+  static uint32_t distinctEnds(const uint32_t* ends, uint32_t n, uint64_t* mark, uint64_t stamped, uint32_t* list) {
+    for (uint32_t i = 0; i < n; i += 2) mark[ends[i]] = stamped, mark[ends[i + 1]] = stamped;
     uint32_t size = 0;
-    uint64_t stamped = uint64_t(r.gen) << 32;
-    for (uint32_t i = 0; i < n; ++i) mark[ends[i]] = stamped;
-    for (uint32_t i = 0; i < n; ++i) {
-      uint32_t x = ends[i];
+    for (uint32_t i = 0; i < n; i += 2) {
+      uint32_t x = ends[i], y = ends[i + 1];
       uint64_t m = mark[x];
       mark[x] = m + 1;
       list[size] = x;
       size += uint32_t(m) == 0;
+      m = mark[y];
+      mark[y] = m + 1;
+      list[size] = y;
+      size += uint32_t(m) == 0;
     }
-    r.size = size;
-    r.endCount = n;
+    return size;
   }
 
   // ringU = v's ring. Skipped when ringU already holds it and nothing collapsed since: a dirty
@@ -393,10 +446,14 @@ private:
     dev = std::clamp(dev, 0.0, kMaxNormalDeviation2 * area);
     return {geometric * area + orderWeight2_ * dev * weight, weight * area};
   }
-  // orderCost(u, w) of n candidates into out, two at a time with SSE2: each lane does orderCost's
-  // operations in the same order (no fused multiply-add), so the costs are bit-identical, and the
-  // branches become masks. Most of the simplifier's cost evaluations are these.
+  // orderCost(u, w) of n candidates into out, two at a time with SSE2 (four with AVX where the CPU
+  // has it): each lane does orderCost's operations in the same order (no fused multiply-add), so
+  // the costs are bit-identical, and the branches become masks. Most of the simplifier's cost
+  // evaluations are these.
   void orderCosts(uint32_t u, const uint32_t* cands, uint32_t n, Fraction* out) const {
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (n >= 4 && hasAvx()) return orderCostsAvx(u, cands, n, out);
+#endif
     uint32_t i = 0;
 #if defined(__SSE2__)
     const Quadric& q = s_.q[u];
@@ -450,6 +507,84 @@ private:
 #endif
     for (; i < n; ++i) out[i] = orderCost(u, cands[i]);
   }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+  static bool hasAvx() {
+    static const bool avx = [] {
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx");
+    }();
+    return avx;
+  }
+
+  // orderCosts four at a time (n >= 4; the last block ends at n, recomputing a few costs): the
+  // SSE2 loop's operations, lane by lane, so the same bits. The candidates' records are loaded
+  // whole and transposed.
+  __attribute__((target("avx"))) void orderCostsAvx(uint32_t u, const uint32_t* cands, uint32_t n,
+                                                    Fraction* out) const {
+    const Quadric& q = s_.q[u];
+    const SimplifyScratch::Target* onto = s_.onto.data();
+    const __m256d a00 = _mm256_set1_pd(q.a00), a01 = _mm256_set1_pd(q.a01), a02 = _mm256_set1_pd(q.a02);
+    const __m256d a11 = _mm256_set1_pd(q.a11), a12 = _mm256_set1_pd(q.a12), a22 = _mm256_set1_pd(q.a22);
+    const __m256d b0 = _mm256_set1_pd(q.b0), b1 = _mm256_set1_pd(q.b1), b2 = _mm256_set1_pd(q.b2);
+    const __m256d c = _mm256_set1_pd(q.c), qw = _mm256_set1_pd(q.w), zero = _mm256_setzero_pd();
+    const __m256d one = _mm256_set1_pd(1.0);
+    const bool normals = orderWeight2_ > 0.0;
+    const NormalQuadric nq = normals ? s_.nq[u] : NormalQuadric{};
+    const glm::vec3* normal = normals ? s_.normal.data() : nullptr;
+    const __m256d na = _mm256_set1_pd(nq.a), nbx = _mm256_set1_pd(nq.bx), nby = _mm256_set1_pd(nq.by);
+    const __m256d nbz = _mm256_set1_pd(nq.bz), nc = _mm256_set1_pd(nq.c), spread = _mm256_set1_pd(nq.spread);
+    const __m256d maxDev = _mm256_set1_pd(kMaxNormalDeviation2), orderWeight2 = _mm256_set1_pd(orderWeight2_);
+    for (uint32_t i = 0; i < n; i += 4) {
+      uint32_t at = std::min(i, n - 4), w[4] = {cands[at], cands[at + 1], cands[at + 2], cands[at + 3]};
+      const SimplifyScratch::Target *t0 = &onto[w[0]], *t1 = &onto[w[1]], *t2 = &onto[w[2]], *t3 = &onto[w[3]];
+      // Records (p.x, p.y, p.z, selfCost | weight, area, selfDev, -) transposed into lanes.
+      __m256d l0 = _mm256_load_pd(&t0->p.x), l1 = _mm256_load_pd(&t1->p.x);
+      __m256d l2 = _mm256_load_pd(&t2->p.x), l3 = _mm256_load_pd(&t3->p.x);
+      __m256d lo01 = _mm256_unpacklo_pd(l0, l1), hi01 = _mm256_unpackhi_pd(l0, l1);
+      __m256d lo23 = _mm256_unpacklo_pd(l2, l3), hi23 = _mm256_unpackhi_pd(l2, l3);
+      __m256d px = _mm256_permute2f128_pd(lo01, lo23, 0x20), pz = _mm256_permute2f128_pd(lo01, lo23, 0x31);
+      __m256d py = _mm256_permute2f128_pd(hi01, hi23, 0x20), selfCost = _mm256_permute2f128_pd(hi01, hi23, 0x31);
+      __m256d u0 = _mm256_load_pd(&t0->weight), u1 = _mm256_load_pd(&t1->weight);
+      __m256d u2 = _mm256_load_pd(&t2->weight), u3 = _mm256_load_pd(&t3->weight);
+      __m256d ulo01 = _mm256_unpacklo_pd(u0, u1), uhi01 = _mm256_unpackhi_pd(u0, u1);
+      __m256d ulo23 = _mm256_unpacklo_pd(u2, u3), uhi23 = _mm256_unpackhi_pd(u2, u3);
+      __m256d tw = _mm256_permute2f128_pd(ulo01, ulo23, 0x20), selfDev = _mm256_permute2f128_pd(ulo01, ulo23, 0x31);
+      __m256d tarea = _mm256_permute2f128_pd(uhi01, uhi23, 0x20);
+      // geometric = weight > 0 ? max(Q_u(p_w) + Q_w(p_w), 0) : 0, then weight = 1 if not > 0.
+      __m256d rx = avxAdd(avxAdd(avxAdd(avxMul(a00, px), avxMul(a01, py)), avxMul(a02, pz)), b0);
+      __m256d ry = avxAdd(avxAdd(avxAdd(avxMul(a01, px), avxMul(a11, py)), avxMul(a12, pz)), b1);
+      __m256d rz = avxAdd(avxAdd(avxAdd(avxMul(a02, px), avxMul(a12, py)), avxMul(a22, pz)), b2);
+      __m256d e = avxAdd(avxAdd(avxAdd(avxMul(rx, px), avxMul(ry, py)), avxMul(rz, pz)), c);
+      __m256d geometric = _mm256_max_pd(zero, avxAdd(e, selfCost));
+      __m256d weight = avxAdd(qw, tw);
+      __m256d positive = _mm256_cmp_pd(weight, zero, _CMP_GT_OQ);
+      geometric = _mm256_and_pd(positive, geometric);
+      weight = avxSelect(positive, weight, one);
+      __m256d num = geometric, den = weight;
+      if (normals) {
+        // Each normal loaded as four floats (the array has one spare entry), transposed.
+        __m128 m0 = _mm_loadu_ps(&normal[w[0]].x), m1 = _mm_loadu_ps(&normal[w[1]].x);
+        __m128 m2 = _mm_loadu_ps(&normal[w[2]].x), m3 = _mm_loadu_ps(&normal[w[3]].x);
+        _MM_TRANSPOSE4_PS(m0, m1, m2, m3);
+        __m256d mx = _mm256_cvtps_pd(m0), my = _mm256_cvtps_pd(m1), mz = _mm256_cvtps_pd(m2);
+        __m256d mm = avxAdd(avxAdd(avxMul(mx, mx), avxMul(my, my)), avxMul(mz, mz));
+        __m256d mb = avxAdd(avxAdd(avxMul(mx, nbx), avxMul(my, nby)), avxMul(mz, nbz));
+        __m256d dev = avxAdd(_mm256_sub_pd(avxMul(na, mm), avxAdd(mb, mb)), nc);
+        dev = _mm256_sub_pd(avxAdd(selfDev, dev), spread);
+        __m256d area = avxAdd(na, tarea);
+        dev = _mm256_min_pd(avxMul(maxDev, area), _mm256_max_pd(zero, dev)); // clamp(dev, 0, max · area)
+        __m256d none = _mm256_cmp_pd(area, zero, _CMP_LE_OQ);
+        num = avxSelect(none, geometric, avxAdd(avxMul(geometric, area), avxMul(avxMul(orderWeight2, dev), weight)));
+        den = avxSelect(none, weight, avxMul(weight, area));
+      }
+      // (num, den) pairs in candidate order.
+      __m256d lo = _mm256_unpacklo_pd(num, den), hi = _mm256_unpackhi_pd(num, den);
+      _mm256_storeu_pd(&out[at].num, _mm256_permute2f128_pd(lo, hi, 0x20));
+      _mm256_storeu_pd(&out[at + 2].num, _mm256_permute2f128_pd(lo, hi, 0x31));
+    }
+  }
+#endif
 
   // The cheapest of the offered candidates (ties to the lower vertex id).
   struct Cheapest {
@@ -539,11 +674,13 @@ private:
     if (savedRings_) return evaluateSaved(v);
     gatherRingU(v);
     Ring r = ringU();
-    uint32_t n = candidates(v, r.begin(), r.size, [&](uint32_t i) { return r.count(r.list[i]); });
-    if (optimistic) return queueCheapest(v, n);
+    uint32_t n = 0;
+    const uint32_t* cands = candidates(
+        v, r.begin(), r.size, [&](uint32_t i) { return r.count(r.list[i]); }, n);
+    if (optimistic) return queueCheapest(v, cands, n);
     s_.scored.clear();
     for (uint32_t i = 0; i < n; ++i)
-      if (uint32_t w = s_.cands[i]; w != knownIllegal_) s_.scored.push_back({cost(v, w, orderWeight2_), w});
+      if (uint32_t w = cands[i]; w != knownIllegal_) s_.scored.push_back({cost(v, w, orderWeight2_), w});
     std::sort(s_.scored.begin(), s_.scored.end());
     for (auto [c, w] : s_.scored)
       if (legal(v, w)) {
@@ -557,16 +694,20 @@ private:
   // candidates in the same order as evaluate(), without copying them into a stamped ring).
   float evaluateSaved(uint32_t v) {
     const uint32_t *nbr = &s_.ringNbr[s_.ringStart[v]], *count = &s_.ringCnt[s_.ringStart[v]];
-    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v];
-    return queueCheapest(v, candidates(v, nbr, size, [&](uint32_t i) { return count[i]; }));
+    uint32_t size = s_.ringStart[v + 1] - s_.ringStart[v], n = 0;
+    const uint32_t* cands = candidates(
+        v, nbr, size, [&](uint32_t i) { return count[i]; }, n);
+    return queueCheapest(v, cands, n);
   }
 
-  // v's collapse candidates (into s_.cands, ring order; returns how many) among its distinct
-  // neighbours nbr[0..size), whose edges to v have count(i) triangles: none when v must stay (a
-  // non-manifold edge, or several open borders meet at v), only the neighbours across a border
-  // edge when v is on an open border (it slides along it, so the border keeps its shape), else
-  // all; locked ones that cannot pass legal() go (chordFree).
-  template <class Count> uint32_t candidates(uint32_t v, const uint32_t* nbr, uint32_t size, Count&& count) {
+  // v's collapse candidates in ring order (n of them: nbr itself when every neighbour is one, the
+  // common case, else copied into s_.cands) among its distinct neighbours nbr[0..size), whose
+  // edges to v have count(i) triangles: none when v must stay (a non-manifold edge, or several
+  // open borders meet at v), only the neighbours across a border edge when v is on an open border
+  // (it slides along it, so the border keeps its shape), else all; locked ones that cannot pass
+  // legal() go (chordFree).
+  template <class Count>
+  const uint32_t* candidates(uint32_t v, const uint32_t* nbr, uint32_t size, Count&& count, uint32_t& n) {
     uint32_t borderEdges = 0, lockedAround = 0, nonManifold = 0;
     for (uint32_t i = 0; i < size; ++i) {
       uint32_t c = count(i);
@@ -574,21 +715,25 @@ private:
       borderEdges += c == 1;
       lockedAround += m_.locked[nbr[i]];
     }
-    if (nonManifold || (borderEdges != 0 && borderEdges != 2)) return 0;
-    uint32_t n = 0;
+    n = 0;
+    if (nonManifold || (borderEdges != 0 && borderEdges != 2)) return nbr;
+    if (borderEdges == 0 && lockedAround == 0) {
+      n = size;
+      return nbr;
+    }
     for (uint32_t i = 0; i < size; ++i)
       if ((borderEdges == 0 || count(i) == 1) && chordFree(v, nbr[i], lockedAround)) s_.cands[n++] = nbr[i];
-    return n;
+    return s_.cands.data();
   }
 
-  // Queues v's cheapest of the n candidates in s_.cands, untested (optimistic); -1 when n is 0.
+  // Queues v's cheapest of the n candidates, untested (optimistic); -1 when n is 0.
   // All costs first, then the choice: the cost evaluations are independent of each other and
   // overlap, where choosing while evaluating chained each one to the previous comparison.
-  float queueCheapest(uint32_t v, uint32_t n) {
+  float queueCheapest(uint32_t v, const uint32_t* cands, uint32_t n) {
     Fraction* costs = s_.candCost.data();
-    orderCosts(v, s_.cands.data(), n, costs);
+    orderCosts(v, cands, n, costs);
     Cheapest best;
-    for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], s_.cands[i]);
+    for (uint32_t i = 0; i < n; ++i) best.offer(costs[i], cands[i]);
     if (best.w == kNil) return -1.0f;
     s_.target[v] = best.w, s_.time[v] = kUnchecked;
     return best.cost();

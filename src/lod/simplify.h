@@ -79,7 +79,9 @@ struct SimplifyScratch {
     double selfDev = 0;  // Σ a·|m_v − n|² − spread of v's own normal quadric
   };
   std::vector<Target> onto;
-  std::vector<uint32_t> ringStart, ringNbr, ringCnt; // rings at setup, reused by the first evaluation
+  std::vector<uint32_t> ringStart, ringNbr, ringCnt;    // rings at setup, reused by the first evaluation
+  std::vector<double> triLen;                           // per triangle at setup: twice its area (<= 0: degenerate)
+  std::vector<std::pair<uint32_t, uint32_t>> openEdges; // open edges (a < b) at setup, in ring order
   // Each vertex's corners (3 t + k), contiguous: lists[listStart[v] ..+ listSize[v]], room for
   // listCap[v]; a list that outgrows its room moves to the end of `lists`.
   std::vector<uint32_t> lists, listStart, listSize, listCap;

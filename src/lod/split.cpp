@@ -21,6 +21,47 @@ constexpr uint32_t kRepeated = 16;
 // Score rank by parts & 15: no vertex added 0, dangling (some corner's last live triangle) 1,
 // else vertices added + 1.
 constexpr uint32_t kRank[16] = {0, 2, 3, 4, 0, 1, 1, 1, 0, 1, 1, 1, 0, 1, 1, 1};
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// The first triangle (in index order) whose centroid (x, y, z: blocks of four, +inf x for the
+// triangles to skip) is nearest to c among blocks [firstBlock, blockCount), or kNil when none is
+// nearer than FLT_MAX. The squared distance is glm::dot's, (dx² + dy²) + dz², lane by lane.
+uint32_t nearestCentroid(const float* x, const float* y, const float* z, size_t firstBlock, size_t blockCount,
+                         glm::vec3 c) {
+  float bestD = std::numeric_limits<float>::max();
+  uint32_t best = kNil;
+#if defined(__SSE2__)
+  const __m128 cx = _mm_set1_ps(c.x), cy = _mm_set1_ps(c.y), cz = _mm_set1_ps(c.z);
+  // Per lane, its first smallest distance and that triangle's block (its first triangle).
+  __m128 laneD = _mm_set1_ps(kInf);
+  __m128i laneBlock = _mm_setzero_si128(), block = _mm_set1_epi32(int32_t(firstBlock * 4)), step = _mm_set1_epi32(4);
+  for (size_t b = firstBlock; b < blockCount; ++b) {
+    __m128 dx = _mm_sub_ps(_mm_loadu_ps(x + b * 4), cx);
+    __m128 dy = _mm_sub_ps(_mm_loadu_ps(y + b * 4), cy);
+    __m128 dz = _mm_sub_ps(_mm_loadu_ps(z + b * 4), cz);
+    __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    __m128i nearer = _mm_castps_si128(_mm_cmplt_ps(d2, laneD));
+    laneD = _mm_min_ps(d2, laneD);
+    laneBlock = _mm_or_si128(_mm_and_si128(nearer, block), _mm_andnot_si128(nearer, laneBlock));
+    block = _mm_add_epi32(block, step);
+  }
+  alignas(16) float d[4];
+  alignas(16) uint32_t first[4];
+  _mm_store_ps(d, laneD);
+  _mm_store_si128(reinterpret_cast<__m128i*>(first), laneBlock);
+  // Across lanes: the smallest distance, ties to the lower triangle (none at or past FLT_MAX).
+  for (uint32_t lane = 0; lane < 4; ++lane)
+    if (d[lane] < bestD || (d[lane] == bestD && best != kNil && first[lane] + lane < best))
+      bestD = d[lane], best = first[lane] + lane;
+#else
+  for (size_t t = firstBlock * 4; t < blockCount * 4; ++t) {
+    glm::vec3 v = glm::vec3(x[t], y[t], z[t]) - c;
+    float d2 = glm::dot(v, v);
+    if (d2 < bestD) bestD = d2, best = uint32_t(t);
+  }
+#endif
+  return best;
+}
 
 // The first slot holding the lowest of score[0..count) (count > 0). Scores are below 0x7fff, and
 // score has 8 spare entries past count (overwritten here). The scan runs once per added triangle
@@ -85,9 +126,18 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   s.fill.assign(s.offsets.begin(), s.offsets.end() - 1);
   for (size_t c = 0; c < s.corners.size(); ++c) s.adjacency[s.fill[s.corners[c]]++] = uint32_t(c / 3);
 
-  s.centroids.resize(nt);
-  for (size_t t = 0; t < nt; ++t)
-    s.centroids[t] = s.vertPos[s.corners[t * 3]] + s.vertPos[s.corners[t * 3 + 1]] + s.vertPos[s.corners[t * 3 + 2]];
+  // Centroids (3x: only compared) as three float arrays padded to whole blocks of four, for the
+  // nearest-triangle scan; an emitted triangle's x becomes +inf, which takes it out of the scan.
+  size_t blockCount = (nt + 3) / 4;
+  s.centroids.resize(blockCount * 12);
+  float* centroidX = s.centroids.data();
+  float* centroidY = centroidX + blockCount * 4;
+  float* centroidZ = centroidY + blockCount * 4;
+  for (size_t t = 0; t < nt; ++t) {
+    glm::vec3 c = s.vertPos[s.corners[t * 3]] + s.vertPos[s.corners[t * 3 + 1]] + s.vertPos[s.corners[t * 3 + 2]];
+    centroidX[t] = c.x, centroidY[t] = c.y, centroidZ[t] = c.z;
+  }
+  for (size_t t = nt; t < blockCount * 4; ++t) centroidX[t] = centroidY[t] = centroidZ[t] = kInf;
   s.emitted.assign(nt, 0);
   s.vertStamp.assign(nv, kNil);
   s.live.resize(nv);
@@ -95,12 +145,17 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // separate arrays cost a cache line each.
   s.tri.resize(nt);
   SplitScratch::TriState* tri = s.tri.data();
+  uint32_t anyRepeated = 0, maxLive = 0;
   for (size_t t = 0; t < nt; ++t) {
     const uint32_t* v = &s.corners[t * 3];
     tri[t].stamp = kNil;
     tri[t].parts = v[0] == v[1] || v[1] == v[2] || v[0] == v[2] ? kRepeated : 0;
+    anyRepeated |= tri[t].parts;
   }
-  for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v];
+  for (size_t v = 0; v < nv; ++v) s.live[v] = s.offsets[v + 1] - s.offsets[v], maxLive = std::max(maxLive, s.live[v]);
+  // No triangle to rescore from scratch and live sums that stay below the score's 12 bits: a
+  // live sum dropping by one lowers the score by one.
+  const bool plainScores = anyRepeated == 0 && maxLive * 3 <= 0xfff;
   s.vertLocal.resize(nv);
   uint32_t cluster = 0, vertexCount = 0, triangleCount = 0;
   // Output through raw pointers, sized for the worst case first (every corner a new cluster
@@ -184,9 +239,10 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
   // original order: an emitted triangle is removed by shifting the rest down), so the loops below
   // never test emitted triangles; the scans were a third of the splitter's time, mostly
   // mispredicted "already emitted" branches.
-  auto addTriangle = [&](uint32_t t) {
+  auto addTriangle = [&](uint32_t t) __attribute__((always_inline)) {
     if (tri[t].stamp == cluster) removeCandidate(t); // not yet emitted: it is a candidate
     emitted[t] = 1;
+    centroidX[t] = kInf;
     if (emittedOut) emittedOut->push_back(t);
     const uint32_t* tv = &corners[size_t(t) * 3];
     // One pass per corner: t leaves the corner's live triangles, and the triangles around it are
@@ -224,8 +280,18 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
           }
           candScore[ts.candPos] = partsScore(ts);
         }
+      } else if (delta == 0 && plainScores) {
+        // The corner was in the cluster already, so every triangle around it is a candidate, and
+        // only their live sums drop by one: so do their scores (the sums' low bits).
+        for (uint32_t i = 0; i <= left; ++i) {
+          uint32_t n = list[i];
+          if (n == t) continue;
+          list[kept++] = n;
+          SplitScratch::TriState& ts = tri[n];
+          --ts.liveSum;
+          --candScore[ts.candPos];
+        }
       } else {
-        // The corner was in the cluster already: every triangle around it is a candidate.
         for (uint32_t i = 0; i <= left; ++i) {
           uint32_t n = list[i];
           if (n == t) continue;
@@ -257,10 +323,14 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
     ClusterPiece piece{uint32_t(vertexTotal), 0, uint32_t(indexCount), 0};
     vertexCount = triangleCount = 0;
     candCount = 0;
-    glm::vec3 seedCenter = s.centroids[seed];
-    addTriangle(seed);
-    while (triangleCount < maxTriangles) {
-      uint32_t pick = kNil, best = kNil;
+    glm::vec3 seedCenter(centroidX[seed], centroidY[seed], centroidZ[seed]);
+    // One call of addTriangle (the seed's, then each pick's): called once, it is inlined, and the
+    // locals it updates stay in registers instead of being reached through the closure.
+    for (uint32_t pick = seed;;) {
+      addTriangle(pick);
+      if (triangleCount >= maxTriangles) break;
+      uint32_t best = kNil;
+      pick = kNil;
       if (vertexCount + 3 <= maxVertices) {
         // Every candidate fits: the first candidate with the lowest score.
         if (candCount) pick = cand[firstLowest(candScore, candCount)];
@@ -272,18 +342,22 @@ ClusterSet splitClusters(const std::vector<uint32_t>& triangles, const std::vect
       if (pick == kNil) {
         // Nothing adjacent fits: continue with the nearest unused triangle that fits, as
         // meshoptimizer does; otherwise the pockets between clusters become clusters of a few
-        // triangles (fill fell to 65 %). Linear scan: rare, and sets are small.
-        float bestD = std::numeric_limits<float>::max();
-        for (size_t t = firstUnemitted(); t < nt; ++t) {
-          if (emitted[t]) continue;
-          glm::vec3 d = s.centroids[t] - seedCenter;
-          float d2 = glm::dot(d, d);
-          if (d2 >= bestD) continue;
-          if (vertexCount + verticesAdded(uint32_t(t)) <= maxVertices) bestD = d2, pick = uint32_t(t);
+        // triangles (fill fell to 65 %). Linear scan (the first of the nearest, in input order).
+        if (vertexCount + 3 <= maxVertices) {
+          // Any triangle fits (it adds at most three vertices): the nearest, four at a time.
+          pick = nearestCentroid(centroidX, centroidY, centroidZ, firstUnemitted() / 4, blockCount, seedCenter);
+        } else {
+          float bestD = std::numeric_limits<float>::max();
+          for (size_t t = firstUnemitted(); t < nt; ++t) {
+            if (emitted[t]) continue;
+            glm::vec3 d = glm::vec3(centroidX[t], centroidY[t], centroidZ[t]) - seedCenter;
+            float d2 = glm::dot(d, d);
+            if (d2 >= bestD) continue;
+            if (vertexCount + verticesAdded(uint32_t(t)) <= maxVertices) bestD = d2, pick = uint32_t(t);
+          }
         }
         if (pick == kNil) break;
       }
-      addTriangle(pick);
     }
     piece.vertexCount = vertexCount;
     piece.triangleCount = triangleCount;
