@@ -276,7 +276,8 @@ private:
     }
     s_.ringStart[nv] = saved;
     sizeW_ = 0; // ringW holds no vertex's ring now
-    for (auto [a, b] : s_.openEdges) {
+    for (const std::pair<uint32_t, uint32_t>& edge : s_.openEdges) {
+      uint32_t a = edge.first, b = edge.second; // plain locals: clang 14 cannot capture bindings
       uint32_t o = kNil;
       forTriangles(a, [&](uint32_t t, uint32_t k) {
         uint32_t x = corners[t * 3 + (k + 1) % 3], y = corners[t * 3 + (k + 2) % 3];
