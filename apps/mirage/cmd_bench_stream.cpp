@@ -21,6 +21,7 @@ struct BenchStreamOptions {
   std::string size = "1920x1080";
   std::string codec = "h264";
   double bitrateMbit = 20.0;
+  std::string bitrateScope = "link";
   bool noQuality = false;
   std::string device;
   bool json = false;
@@ -34,6 +35,7 @@ void runBenchStream(BenchStreamOptions& o) {
                                 : stream::AtlasCodec::H264;
   if (!(o.bitrateMbit > 0.0 && o.bitrateMbit <= 1000.0)) return fail("--bitrate must be in (0, 1000] Mbit/s");
   c.bitrateKbps = uint32_t(o.bitrateMbit * 1000.0);
+  c.linkBudget = o.bitrateScope == "link";
   c.quality = !o.noQuality;
   auto ctx = openDevice(o.device);
   if (!ctx) return fail(ctx.error());
@@ -43,6 +45,7 @@ void runBenchStream(BenchStreamOptions& o) {
   double gpuVis = 0, gpuShade = 0, gpuConvert = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0,
          levelBias = 0, rawKB = 0;
   double visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0;
+  double videoTargetMbit = 0;
   double entries = 0, blockOnly = 0, removed = 0, colours = 0;
   double particles = 0, looks = 0, lookColourOnly = 0, particleTexels = 0, particleKB = 0, particleRawKB = 0;
   for (const auto& f : r.frames) {
@@ -56,6 +59,7 @@ void runBenchStream(BenchStreamOptions& o) {
         geometryKB += f.geometryBytes / 1024.0;
     rawKB += f.geometryRawBytes / 1024.0, entries += f.geometryEntries, blockOnly += f.blockOnlyEntries;
     removed += f.removed, colours += f.colours;
+    videoTargetMbit += f.videoTargetKbps / 1000.0;
   }
   double n = double(std::max<size_t>(1, r.frames.size()));
   std::map<std::string, double> passes; // mean GPU time of each pass per client frame
@@ -103,6 +107,8 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"removed", removed / n},
                         {"colours", colours / n},
                         {"mbit_s", r.megabitsPerSecond},
+                        {"bitrate_scope", o.bitrateScope},
+                        {"video_target_mbit", videoTargetMbit / n},
                         {"server_seconds", r.serverSeconds},
                         {"frames_per_second", r.framesPerSecond},
                         {"clients_at_30hz", r.clientsAt30Hz}};
@@ -163,6 +169,9 @@ void addBenchStreamCommand(CLI::App& bench) {
       ->check(CLI::IsMember({"h264", "zstd", "jpeg"}))
       ->capture_default_str();
   b->add_option("--bitrate", o->bitrateMbit, "H.264 target, Mbit/s")->capture_default_str();
+  b->add_option("--bitrate-scope", o->bitrateScope, kBitrateScopeHelp)
+      ->check(CLI::IsMember({"link", "video"}))
+      ->capture_default_str();
   b->add_option("--fps", c.fps, "Frames per second the path is played at")->capture_default_str();
   b->add_option("--clients", c.clients, "Clients served at once (throughput: with --no-quality)")
       ->capture_default_str();

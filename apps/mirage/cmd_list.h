@@ -62,6 +62,10 @@ void bindParticles(CLI::App& cmd, std::string& effect, stream::ParticlePatches& 
 inline constexpr const char* kAtlasFillHelp =
     "Share of the atlas the visible patches' blocks may want; past it every patch's level bias is lowered "
     "alike (0: no fitting)";
+// --bitrate-scope's help (serve, bench stream).
+inline constexpr const char* kBitrateScopeHelp =
+    "What --bitrate covers: link (every section of a frame; the video gets what the patch and particle sections "
+    "leave) or video (the atlas video alone)";
 // mirage pvs / pvs-eval: GVS++ potentially visible sets per view cell (cmd_pvs.cpp).
 void addPvsCommands(CLI::App& app);
 

@@ -34,6 +34,7 @@ struct ServeCliOptions {
   std::string tokenFile;
   std::string codec = "h264";
   double bitrateMbit = 20.0;
+  std::string bitrateScope = "link";
   std::string web;
   std::string device;
   bool quiet = false;
@@ -52,6 +53,7 @@ void runServe(ServeCliOptions& o) {
     return fail(fmt::format("--codec {}: expected h264 or zstd", o.codec));
   if (!(o.bitrateMbit > 0.0 && o.bitrateMbit <= 1000.0)) return fail("--bitrate must be in (0, 1000] Mbit/s");
   o.serve.stream.bitrateKbps = uint32_t(o.bitrateMbit * 1000.0);
+  o.serve.stream.linkBudget = o.bitrateScope == "link";
   if (o.serve.transport.certFile.empty() != o.serve.transport.keyFile.empty())
     return fail("--tls-cert and --tls-key go together");
   o.serve.transport.staticDir = o.web;
@@ -246,6 +248,9 @@ void addStreamCommands(CLI::App& app) {
   s->add_option("--codec", so->codec, "Atlas codec for clients that decode it: h264 or zstd (lossless)")
       ->capture_default_str();
   s->add_option("--bitrate", so->bitrateMbit, "H.264 target, Mbit/s per client")->capture_default_str();
+  s->add_option("--bitrate-scope", so->bitrateScope, kBitrateScopeHelp)
+      ->check(CLI::IsMember({"link", "video"}))
+      ->capture_default_str();
   s->add_option("--level-bias", so->serve.stream.levelBias,
                 "Atlas texels per pixel: block side x 2^bias (> 0 sharper, more bytes)")
       ->capture_default_str();

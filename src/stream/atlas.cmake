@@ -7,7 +7,8 @@ add_library(mirage_stream_atlas STATIC
   ${CMAKE_CURRENT_LIST_DIR}/atlas.cpp
   ${CMAKE_CURRENT_LIST_DIR}/particle_looks.cpp
   ${CMAKE_CURRENT_LIST_DIR}/tile_codec.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/video.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/video.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/link_budget.cpp)
 add_library(mirage::stream_atlas ALIAS mirage_stream_atlas)
 target_include_directories(mirage_stream_atlas PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
                            $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}> PRIVATE ${CMAKE_CURRENT_LIST_DIR})

@@ -54,6 +54,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
   cc.atlasFill = c.atlasFill;
   cc.encoderThreads = c.encoderThreads;
   cc.particlePatches = c.particlePatches;
+  cc.linkBudget = c.linkBudget;
   std::vector<std::unique_ptr<ClientStream>> clients;
   for (uint32_t k = 0; k < c.clients; ++k) {
     auto client = ClientStream::create(served, cc);
@@ -126,6 +127,7 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
       f.geometryBytes = st.geometryBytes;
       f.geometryRawBytes = st.geometryRawBytes;
       f.atlasBytes = st.atlasBytes;
+      f.videoTargetKbps = st.videoTargetKbps;
       f.levelBias = st.levelBias;
       f.geometryEntries = st.addedOrMoved - st.blockOnly;
       f.blockOnlyEntries = st.blockOnly;

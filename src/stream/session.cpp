@@ -144,6 +144,7 @@ Result<std::unique_ptr<ClientStream>> ClientStream::create(const StreamScene& sc
     auto video = VideoEncoder::create(vc);
     if (!video) return video.error();
     c->video_.emplace(std::move(*video));
+    if (config.linkBudget) c->link_.emplace(LinkBudgetConfig{config.bitrateKbps, config.fps});
     c->yuv_ = scene.shading->createYuvImage(scene.translucent);
   } else if (config.codec == AtlasCodec::JpegTiles) {
     c->stackedAlpha_ = scene.translucent;
@@ -292,6 +293,7 @@ Result<Frame> ClientStream::finishFrame(const StreamScene& scene, StreamFrameSta
   frame.atlas.width = scene.atlasSize;
   frame.atlas.height = stackedAlpha_ ? 2 * scene.atlasSize : scene.atlasSize;
   if (video_) {
+    if (link_) video_->setBitrate(link_->videoKbps());
     auto packet = video_->encodeI420(yuv_.i420(), keyframe_);
     if (!packet) return packet.error();
     frame.atlas.bytes = std::move(packet->data);
@@ -335,6 +337,8 @@ Result<Frame> ClientStream::finishFrame(const StreamScene& scene, StreamFrameSta
   frame.serverTimeUs = microsecondsNow();
   st.patchesMs = msSince(tPatches);
   st.totalMs += msSince(tEncode);
+  st.videoTargetKbps = video_ ? video_->config().bitrateKbps : 0;
+  if (link_) link_->account(st.atlasBytes, st.geometryBytes + st.particleBytes);
   if (stats) *stats = st;
   return frame;
 }

@@ -1,6 +1,7 @@
 // H.264 atlas codec through libavcodec and libswscale (docs/stream.md, "Codecs").
 #include "mirage/stream/video.h"
 
+#include <algorithm>
 #include <cstring>
 
 extern "C" {
@@ -75,6 +76,14 @@ std::string sizeText(uint32_t width, uint32_t height) { return std::to_string(wi
 // I420: the three planes back to back, rows without padding.
 size_t i420Bytes(uint32_t width, uint32_t height) { return size_t(width) * height * 3 / 2; }
 
+// ABR at `kbps`, capped by a VBV of config.vbvFrames frames of it: a frame's size stays near kbps / fps.
+void setRates(AVCodecContext* c, const VideoConfig& config, uint32_t kbps) {
+  int64_t bitrate = int64_t(kbps) * 1000;
+  c->bit_rate = bitrate;
+  c->rc_max_rate = bitrate;
+  c->rc_buffer_size = int(bitrate * config.vbvFrames / config.fps);
+}
+
 } // namespace
 
 Result<std::vector<uint8_t>> rgbaToI420(std::span<const uint8_t> rgba, uint32_t width, uint32_t height) {
@@ -110,6 +119,14 @@ VideoEncoder& VideoEncoder::operator=(VideoEncoder&&) noexcept = default;
 VideoEncoder::~VideoEncoder() = default;
 const VideoConfig& VideoEncoder::config() const { return state_->config; }
 
+void VideoEncoder::setBitrate(uint32_t kbps) {
+  State& s = *state_;
+  kbps = std::max(kbps, 1u);
+  if (kbps == s.config.bitrateKbps) return;
+  s.config.bitrateKbps = kbps;
+  setRates(s.context.get(), s.config, kbps);
+}
+
 Result<VideoEncoder> VideoEncoder::create(const VideoConfig& config) {
   if (config.width == 0 || config.height == 0 || config.width % 2 || config.height % 2 ||
       config.width > kMaxVideoSide || config.height > kMaxVideoSide) {
@@ -131,7 +148,6 @@ Result<VideoEncoder> VideoEncoder::create(const VideoConfig& config) {
   if (!state->context || !state->frame || !state->packet) return encoderError("out of memory");
 
   AVCodecContext* c = state->context.get();
-  int64_t bitrate = int64_t(config.bitrateKbps) * 1000;
   c->width = int(config.width);
   c->height = int(config.height);
   c->time_base = AVRational{1, int(config.fps)};
@@ -141,9 +157,7 @@ Result<VideoEncoder> VideoEncoder::create(const VideoConfig& config) {
   c->colorspace = AVCOL_SPC_BT709;
   c->color_primaries = AVCOL_PRI_BT709;
   c->color_trc = AVCOL_TRC_BT709;
-  c->bit_rate = bitrate;
-  c->rc_max_rate = bitrate;
-  c->rc_buffer_size = int(bitrate * config.vbvFrames / config.fps);
+  setRates(c, config, config.bitrateKbps);
   c->max_b_frames = 0;
   c->gop_size = int(config.keyframeInterval ? config.keyframeInterval : config.fps * 4);
   // zerolatency makes them slice threads (libavcodec's libx264 leaves x264's thread type alone

@@ -195,6 +195,41 @@ TEST(VideoCodec, SyntheticAtlasRoundTripAboveThirtyFiveDb) {
   EXPECT_LT(mean, target * 10.0);
 }
 
+// setBitrate takes effect from the next frame without a keyframe: noise, which any rate fills,
+// drops to about the new target's frame size.
+TEST(VideoCodec, SetBitrateTakesEffectWithoutAKeyframe) {
+  constexpr uint32_t kSize = 256;
+  VideoConfig config{.width = kSize, .height = kSize, .fps = 30, .bitrateKbps = 8000};
+  auto encoder = VideoEncoder::create(config);
+  ASSERT_TRUE(encoder.ok()) << encoder.error().message;
+  auto decoder = VideoDecoder::create();
+  ASSERT_TRUE(decoder.ok()) << decoder.error().message;
+  std::mt19937 rng(5);
+  auto meanBytes = [&](uint32_t frames, bool expectKeyframe) {
+    double bytes = 0;
+    for (uint32_t i = 0; i < frames; ++i) {
+      auto packet = encoder->encode(randomImage(kSize, kSize, rng));
+      EXPECT_TRUE(packet.ok()) << packet.error().message;
+      if (!packet) return 0.0;
+      if (!expectKeyframe || i > 0) {
+        EXPECT_FALSE(packet->keyframe) << "frame " << i;
+      }
+      auto got = decoder->decode(packet->data);
+      EXPECT_TRUE(got.ok() && *got) << "frame " << i;
+      if (i >= frames / 2) bytes += double(packet->data.size()) / (frames - frames / 2);
+    }
+    return bytes;
+  };
+  const double high = meanBytes(12, true);
+  encoder->setBitrate(1000);
+  EXPECT_EQ(encoder->config().bitrateKbps, 1000u);
+  const double low = meanBytes(12, false);
+  std::printf("noise at 8000 kbit/s: %.0f bytes a frame, at 1000: %.0f (targets %.0f, %.0f)\n", high, low,
+              8000 * 1000 / 8.0 / 30, 1000 * 1000 / 8.0 / 30);
+  EXPECT_LT(low, high / 4.0);
+  EXPECT_LT(low, 1000 * 1000 / 8.0 / 30 * 1.5);
+}
+
 TEST(VideoCodec, ForcedKeyframeStartsAJoiningDecoder) {
   auto encoder = VideoEncoder::create({.width = 64, .height = 64, .fps = 30, .bitrateKbps = 1000});
   ASSERT_TRUE(encoder.ok()) << encoder.error().message;

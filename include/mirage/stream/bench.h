@@ -31,6 +31,7 @@ struct StreamBenchConfig {
   TessellationConfig tessellation;
   AtlasCodec codec = AtlasCodec::H264;
   uint32_t bitrateKbps = 20000;
+  bool linkBudget = true;      // ClientStreamConfig::linkBudget: the bitrate covers every section
   uint32_t fps = 60;           // frames per second the path is played at (bitrates, rate control)
   uint32_t clients = 1;        // clients served at once, each along the path from its own offset
   uint32_t encodeWorkers = 0;  // threads encoding while the GPU prepares the next client (0: frameWorkerCount's)
@@ -65,6 +66,7 @@ struct StreamBenchFrame {
   // The patch section (removed ids, entries, colours) as sent and before zstd; the atlas payload.
   uint64_t geometryBytes = 0, geometryRawBytes = 0, atlasBytes = 0;
   uint64_t particleBytes = 0, particleRawBytes = 0; // the particle section as sent, and before zstd
+  uint32_t videoTargetKbps = 0;                     // StreamFrameStats::videoTargetKbps
   // Entries with positions, block-only entries, removed ids, colours sent.
   uint32_t geometryEntries = 0, blockOnlyEntries = 0, removed = 0, colours = 0;
   double clientApplyMs = 0, clientRenderMs = 0; // decode + upload; drawing (wall, incl. readback)

@@ -24,6 +24,7 @@
 #include "mirage/stream/atlas.h"
 #include "mirage/stream/jpeg_tiles.h"
 #include "mirage/stream/kept_patches.h"
+#include "mirage/stream/link_budget.h"
 #include "mirage/stream/particle_session.h"
 #include "mirage/stream/patches.h"
 #include "mirage/stream/protocol.h"
@@ -86,9 +87,11 @@ Camera toProtocolCamera(const render::Camera& camera);
 
 struct ClientStreamConfig {
   AtlasCodec codec = AtlasCodec::ZstdTiles; // ZstdTiles (lossless), H264 or JpegTiles (browsers)
-  uint32_t bitrateKbps = 20000;             // H264: the rate control's target
-  uint32_t fps = 60;                        // H264: the frame rate the rate control assumes
-  float levelBias = 0.0f;                   // patchBlockLog2's bias: > 0 more texels per pixel
+  // H264: the rate control's target, for the whole frame (the link's bitrate: the video gets what
+  // the patch and particle sections leave, LinkBudget) or, with linkBudget off, the video alone.
+  uint32_t bitrateKbps = 20000;
+  uint32_t fps = 60;      // H264: the frame rate the rate control assumes
+  float levelBias = 0.0f; // patchBlockLog2's bias: > 0 more texels per pixel
   // Frames a patch stays with the client (and keeps its block, shaded every frame) after it was
   // last visible. Small patches flicker in and out of the visibility buffer from frame to frame;
   // without this each flicker costs a removal and a re-send of the patch (docs/stream.md, "Server").
@@ -105,6 +108,7 @@ struct ClientStreamConfig {
   uint32_t encoderThreads = 0; // H264: x264's slice threads (VideoConfig::threads; 0: x264 picks)
   // Atlas blocks of streamed particles: one per look (texture merging) or one per visible particle.
   ParticlePatches particlePatches = ParticlePatches::Merged;
+  bool linkBudget = true; // H264: bitrateKbps covers every section (stream/link_budget.h)
 };
 
 // H.264 carries colour at half resolution (4:2:0; the encoder averages each 2x2 texel square so no
@@ -130,6 +134,7 @@ struct StreamFrameStats {
   uint64_t geometryBytes = 0, geometryRawBytes = 0;
   uint64_t particleBytes = 0, particleRawBytes = 0; // the particle section as sent, and before zstd
   uint64_t atlasBytes = 0;
+  uint32_t videoTargetKbps = 0; // H264: the video's target for this frame (the link's share, LinkBudget)
   // Wall clock on the server: visibility; level selection, allocation and shading (blocks and
   // colour-only patches); the atlas read back (H.264: its conversion to YUV and the planes read back;
   // tile codecs: the RGBA8 image); the atlas codec (tile codecs: with stacking the alpha); the patch
@@ -189,6 +194,7 @@ private:
   AtlasAllocator atlas_;
   std::optional<TileDeltaEncoder> tiles_;
   std::optional<VideoEncoder> video_;
+  std::optional<LinkBudget> link_; // H264 with linkBudget: the video's share of the link
   std::optional<JpegTileEncoder> jpeg_;
   bool stackedAlpha_ = false;    // images twice the atlas height: alpha below the colour
   render::AtlasYuvImage yuv_;    // H.264: the atlas as the encoder takes it (stacked alpha included)

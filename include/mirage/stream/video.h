@@ -53,6 +53,10 @@ public:
   // (width/2 x height/2) back to back, width * height * 3 / 2 bytes (copied: the caller may reuse
   // them once this returns).
   Result<VideoPacket> encodeI420(std::span<const uint8_t> i420, bool forceKeyframe = false);
+  // A new average bitrate target (and VBV cap) from the next frame on: libavcodec's libx264
+  // reconfigures x264 when it sees the context's rates change, keeping the stream going (no IDR).
+  // The stream server lowers it by what a frame's other sections take (stream/link_budget.h).
+  void setBitrate(uint32_t kbps);
   const VideoConfig& config() const;
 
   struct State;
