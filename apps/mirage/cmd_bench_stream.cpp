@@ -45,6 +45,7 @@ void runBenchStream(BenchStreamOptions& o) {
   double gpuVis = 0, gpuShade = 0, gpuConvert = 0, texels = 0, visible = 0, colourOnly = 0, atlasKB = 0, geometryKB = 0,
          levelBias = 0, rawKB = 0;
   double visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0;
+  double levelsMs = 0, allocateMs = 0, blocksMs = 0;
   double videoTargetMbit = 0;
   double entries = 0, blockOnly = 0, removed = 0, colours = 0;
   double particles = 0, looks = 0, lookColourOnly = 0, particleTexels = 0, particleKB = 0, particleRawKB = 0;
@@ -53,6 +54,7 @@ void runBenchStream(BenchStreamOptions& o) {
     particleTexels += double(f.particles.texels), particleKB += f.particleBytes / 1024.0;
     particleRawKB += f.particleRawBytes / 1024.0;
     gpuVis += f.gpuVisibilityMs, gpuShade += f.gpuShadingMs, gpuConvert += f.gpuConvertMs;
+    levelsMs += f.levelsMs, allocateMs += f.allocateMs, blocksMs += f.blocksMs;
     visibilityMs += f.visibilityMs, shadingMs += f.shadingMs, readbackMs += f.readbackMs, encodeMs += f.encodeMs,
         patchesMs += f.patchesMs, texels += double(f.shadedTexels);
     visible += f.visiblePatches, colourOnly += f.colourOnly, levelBias += f.levelBias, atlasKB += f.atlasBytes / 1024.0,
@@ -92,6 +94,9 @@ void runBenchStream(BenchStreamOptions& o) {
                         {"gpu_convert_ms", gpuConvert / n},
                         {"visibility_ms", visibilityMs / n},
                         {"shading_ms", shadingMs / n},
+                        {"levels_ms", levelsMs / n},
+                        {"allocate_ms", allocateMs / n},
+                        {"blocks_ms", blocksMs / n},
                         {"readback_ms", readbackMs / n},
                         {"encode_ms", encodeMs / n},
                         {"patches_ms", patchesMs / n},

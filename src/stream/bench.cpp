@@ -113,6 +113,9 @@ Result<StreamBenchReport> runStreamBench(gpu::Context& context, const StreamBenc
     f.serverMs += st.totalMs * share;
     f.visibilityMs += st.visibilityMs * share;
     f.shadingMs += st.shadingMs * share;
+    f.levelsMs += st.levelsMs * share;
+    f.allocateMs += st.allocateMs * share;
+    f.blocksMs += st.blocksMs * share;
     f.readbackMs += st.readbackMs * share;
     f.encodeMs += st.encodeMs * share;
     f.patchesMs += st.patchesMs * share;

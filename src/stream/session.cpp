@@ -213,6 +213,8 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
   if (config_.atlasFill > 0.0f)
     bias = fitLevelBias(extents, bias, uint64_t(double(config_.atlasFill) * scene.atlasSize * scene.atlasSize));
   st.levelBias = bias;
+  st.levelsMs = msSince(tShade);
+  auto tAllocate = Clock::now();
   std::vector<AtlasRequest> requests;
   requests.reserve(extents.size());
   for (size_t k = 0; k < visible->size(); ++k)
@@ -220,6 +222,8 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
                         blockLog2ForLength(extents[k].length, extents[k].triangleCount, bias)});
   if (particles_) particles_->appendRequests(firstLook, bias, requests);
   atlas_.update(requests);
+  st.allocateMs = msSince(tAllocate);
+  auto tBlocks = Clock::now();
 
   // Shading: every block the client holds (visible, or kept a few frames after it was last seen),
   // every frame: view-dependent terms follow the eye, and a kept patch may be seen again client-side.
@@ -246,6 +250,7 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
       p.keptColourOnly.push_back(id);
   st.placedPatches = uint32_t(blocks.size());
   st.colourOnly = uint32_t(p.colourOnly.size());
+  st.blocksMs = msSince(tBlocks);
   scene.shading->clearAtlas();
   for (size_t first = 0; first < blocks.size(); first += kMaxPatchesPerShade) {
     size_t count = std::min<size_t>(kMaxPatchesPerShade, blocks.size() - first);

@@ -56,6 +56,7 @@ struct StreamBenchFrame {
   // Server, per client frame (averaged over the clients served that frame): wall time of the
   // frame's work (StreamFrameStats::totalMs) and of its stages, GPU time.
   double serverMs = 0, visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0;
+  double levelsMs = 0, allocateMs = 0, blocksMs = 0; // StreamFrameStats' parts of shadingMs
   double gpuVisibilityMs = 0, gpuShadingMs = 0, gpuConvertMs = 0;
   std::map<std::string, double> gpuPasses; // StreamFrameStats::gpuPasses by name, summed within a frame
   uint64_t shadedTexels = 0;

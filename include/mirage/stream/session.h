@@ -140,6 +140,9 @@ struct StreamFrameStats {
   // tile codecs: the RGBA8 image); the atlas codec (tile codecs: with stacking the alpha); the patch
   // section. totalMs: prepareFrame's and finishFrame's wall time (not the wait between them).
   double visibilityMs = 0, shadingMs = 0, readbackMs = 0, encodeMs = 0, patchesMs = 0, totalMs = 0;
+  // Parts of shadingMs on the CPU: level selection (with fitting), atlas allocation, the block and
+  // colour-only lists.
+  double levelsMs = 0, allocateMs = 0, blocksMs = 0;
   // GPU time (timestamp queries): the visibility passes; clearing, shading the blocks and the
   // colour-only patches; the YUV conversion (H.264).
   double gpuVisibilityMs = 0, gpuShadingMs = 0, gpuConvertMs = 0;
