@@ -108,26 +108,23 @@ AtlasUpdate AtlasAllocator::update(std::span<const AtlasRequest> visible) {
                              [](const AtlasRequest& x, const AtlasRequest& y) { return x.patch == y.patch; }),
                  requests.end());
 
-  for (const AtlasRequest& request : requests) {
-    auto it = held_.find(request.patch);
-    if (it != held_.end()) it->second.lastVisibleFrame = frame_;
-  }
-  for (auto it = held_.begin(); it != held_.end();) {
-    if (it->second.lastVisibleFrame + config_.keepInvisibleFrames < frame_) {
-      release(it->second);
-      out.removed.push_back(it->first);
-      it = held_.erase(it);
-    } else {
-      ++it;
+  for (const AtlasRequest& request : requests)
+    if (Held* held = held_.find(request.patch)) held->lastVisibleFrame = frame_;
+  auto& entries = held_.entries();
+  for (size_t i = entries.size(); i-- > 0;) { // backwards: an erase moves a visited entry here
+    if (entries[i].second.lastVisibleFrame + config_.keepInvisibleFrames < frame_) {
+      release(entries[i].second);
+      out.removed.push_back(entries[i].first);
+      held_.eraseAt(i);
     }
   }
 
   std::vector<AtlasRequest> needy;
   for (const AtlasRequest& request : requests) {
-    auto it = held_.find(request.patch);
+    const Held* held = held_.find(request.patch);
     bool wide = request.triangleCount == 3;
-    if (it != held_.end() && it->second.block.wide == wide) {
-      uint32_t level = it->second.block.log2;
+    if (held && held->block.wide == wide) {
+      uint32_t level = held->block.log2;
       uint32_t distance = request.wantedLog2 > level ? request.wantedLog2 - level : level - request.wantedLog2;
       if (distance <= config_.hysteresis) continue;
     }
@@ -138,16 +135,16 @@ AtlasUpdate AtlasAllocator::update(std::span<const AtlasRequest> visible) {
 
   for (const AtlasRequest& request : needy) {
     bool wide = request.triangleCount == 3;
-    auto it = held_.find(request.patch);
-    if (it != held_.end() && it->second.block.wide == wide) {
+    Held* held = held_.find(request.patch);
+    if (held && held->block.wide == wide) {
       // Move only into a block closer to the wanted level than the current one.
-      int current = int(it->second.block.log2), wanted = int(request.wantedLog2);
+      int current = int(held->block.log2), wanted = int(request.wantedLog2);
       int step = wanted > current ? -1 : 1;
       for (int level = wanted; level != current; level += step) {
         if (auto block = allocate(uint32_t(level), wide)) {
-          release(it->second);
+          release(*held);
           block->lastVisibleFrame = frame_;
-          it->second = *block;
+          *held = *block;
           out.placed.push_back({request.patch, block->block});
           stats_.moves++;
           break;
@@ -159,8 +156,8 @@ AtlasUpdate AtlasAllocator::update(std::span<const AtlasRequest> visible) {
     for (int level = int(request.wantedLog2); level >= MIRAGE_ATLAS_MIN_BLOCK_LOG2 && !block; --level) {
       block = allocate(uint32_t(level), wide);
     }
-    if (it != held_.end() && block) { // a block of the wrong shape: replaced
-      release(it->second);
+    if (held && block) { // a block of the wrong shape: replaced
+      release(*held);
       stats_.moves++;
     }
     if (block) {
@@ -168,9 +165,9 @@ AtlasUpdate AtlasAllocator::update(std::span<const AtlasRequest> visible) {
       held_[request.patch] = *block;
       out.placed.push_back({request.patch, block->block});
     } else {
-      if (it != held_.end()) { // the wrong shape and no room: it loses its block
-        release(it->second);
-        held_.erase(it);
+      if (held) { // the wrong shape and no room: it loses its block
+        release(*held);
+        held_.erase(request.patch);
         out.removed.push_back(request.patch);
       }
       out.colourOnly.push_back(request.patch);
@@ -188,9 +185,9 @@ AtlasUpdate AtlasAllocator::update(std::span<const AtlasRequest> visible) {
 }
 
 std::optional<AtlasPlacement> AtlasAllocator::placement(uint32_t patch) const {
-  auto it = held_.find(patch);
-  if (it == held_.end()) return std::nullopt;
-  return it->second.block;
+  const Held* held = held_.find(patch);
+  if (!held) return std::nullopt;
+  return held->block;
 }
 
 std::vector<std::pair<uint32_t, AtlasPlacement>> AtlasAllocator::placements() const {

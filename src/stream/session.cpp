@@ -6,6 +6,8 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "mirage/particles/effect.h"
 #include "mirage/runtime/scene_argument.h"
@@ -199,16 +201,20 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
   float bias = config_.levelBias + (config_.codec == AtlasCodec::H264 ? kH264LevelBias : 0.0f);
   glm::mat4 viewProj[2];
   for (int i = 0; i < 2; ++i) viewProj[i] = cameras[i].projection(aspect) * cameras[i].view();
-  std::vector<PatchExtent> extents;
-  extents.reserve(visible->size());
-  glm::vec3 world[MIRAGE_ATLAS_MAX_PATCH_VERTICES];
-  for (uint32_t id : *visible) {
-    PatchExtent e{0.0f, scene.patches.patch(scene.patches.patchRef(id)).triangleCount};
-    patchWorldPositions(scene.scene, scene.patches, id, world);
-    for (int i = 0; i < 2; ++i)
-      e.length = std::max(e.length, patchProjectedLength(world, e.triangleCount, viewProj[i], {w, h}));
-    extents.push_back(e);
-  }
+  // In parallel: tens of thousands of patches, each transformed and projected twice, on the
+  // thread that feeds the GPU (the frame workers encode meanwhile).
+  std::vector<PatchExtent> extents(visible->size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, visible->size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+    glm::vec3 world[MIRAGE_ATLAS_MAX_PATCH_VERTICES];
+    for (size_t k = r.begin(); k != r.end(); ++k) {
+      const uint32_t id = (*visible)[k];
+      PatchExtent e{0.0f, scene.patches.patch(scene.patches.patchRef(id)).triangleCount};
+      patchWorldPositions(scene.scene, scene.patches, id, world);
+      for (int i = 0; i < 2; ++i)
+        e.length = std::max(e.length, patchProjectedLength(world, e.triangleCount, viewProj[i], {w, h}));
+      extents[k] = e;
+    }
+  });
   if (particles_) particles_->appendExtents(bias, extents);
   if (config_.atlasFill > 0.0f)
     bias = fitLevelBias(extents, bias, uint64_t(double(config_.atlasFill) * scene.atlasSize * scene.atlasSize));
@@ -244,10 +250,11 @@ Status ClientStream::prepareFrame(StreamScene& scene, const Pose& pose) {
     if (!atlas_.placement(id)) p.colourOnly.push_back(id);
   // Colour-only patches stay with the client keepInvisibleFrames frames after they were last
   // visible, as placed ones keep their blocks; they keep the colour last sent.
-  for (const auto& [id, held] : held_)
-    if (!held.block && !atlas_.placement(id) && lastVisible_[id] != frameNumber &&
-        frameNumber - lastVisible_[id] <= config_.keepInvisibleFrames)
-      p.keptColourOnly.push_back(id);
+  for (const auto& [id, held] : held_) {
+    if (held.block || atlas_.placement(id)) continue;
+    const uint32_t seen = lastVisible_[id];
+    if (seen != frameNumber && frameNumber - seen <= config_.keepInvisibleFrames) p.keptColourOnly.push_back(id);
+  }
   st.placedPatches = uint32_t(blocks.size());
   st.colourOnly = uint32_t(p.colourOnly.size());
   st.blocksMs = msSince(tBlocks);
@@ -353,23 +360,24 @@ void ClientStream::diffPatches(const StreamScene& scene, const std::vector<std::
                                const std::vector<glm::u8vec4>& colours, Frame& frame, StreamFrameStats& st) {
   kept_.beginFrame(sequence_ + 1); // the frame this one will be (produceFrame numbers it last)
   // What the client holds next: the patches with a block, and the visible ones without (colour-only).
-  std::unordered_map<uint32_t, Held> next;
+  DenseIdMap<Held>& next = next_;
+  next.clear();
   next.reserve(placed.size() + colourOnly.size() + keptColourOnly.size());
   for (const auto& [id, block] : placed) next[id] = Held{block, {}};
   for (uint32_t id : colourOnly) next[id] = Held{};
   for (uint32_t id : keptColourOnly) next[id] = Held{};
   for (const auto& [id, held] : held_)
-    if (!next.count(id)) frame.removed.push_back(id);
+    if (!next.contains(id)) frame.removed.push_back(id);
   std::sort(frame.removed.begin(), frame.removed.end());
   std::vector<uint32_t> nextIds;
   nextIds.reserve(next.size());
   for (const auto& [id, held] : next) nextIds.push_back(id);
   std::sort(nextIds.begin(), nextIds.end());
   for (uint32_t id : nextIds) {
-    Held& now = next[id];
-    auto before = held_.find(id);
-    if (before != held_.end() && before->second.block == now.block) {
-      now.colour = before->second.colour; // unchanged: the client keeps its colour
+    Held& now = *next.find(id);
+    const Held* before = held_.find(id);
+    if (before && before->block == now.block) {
+      now.colour = before->colour; // unchanged: the client keeps its colour
       continue;
     }
     PatchUpdate u;
@@ -377,7 +385,7 @@ void ClientStream::diffPatches(const StreamScene& scene, const std::vector<std::
     const Patch& patch = scene.patches.patch(scene.patches.patchRef(id));
     u.triangleCount = uint8_t(patch.triangleCount);
     // The client has the geometry when it holds the patch, or was told to remove it lately.
-    u.geometry = before == held_.end() && !kept_.take(id);
+    u.geometry = !before && !kept_.take(id);
     if (u.geometry) {
       u.alpha = patchAlphaMode(scene, id);
       glm::vec3 world[MIRAGE_ATLAS_MAX_PATCH_VERTICES];
@@ -408,7 +416,7 @@ void ClientStream::diffPatches(const StreamScene& scene, const std::vector<std::
     kept_.keep(id, Nothing{});
     lastVisible_.erase(id);
   }
-  held_ = std::move(next);
+  std::swap(held_, next_);
 
   frame.patchCodec = PatchCodec::Raw;
   st.geometryRawBytes = st.geometryBytes = patchSectionBytes(frame);

@@ -10,9 +10,9 @@
 #include <optional>
 #include <set>
 #include <span>
-#include <unordered_map>
 #include <vector>
 
+#include "mirage/core/dense_id_map.h"
 #include "mirage/core/result.h"
 #include "mirage/shaderio/atlas.h"
 #include "mirage/stream/patches.h"
@@ -114,7 +114,7 @@ private:
   std::vector<Superblock> superblocks_;
   std::set<uint32_t> emptySuperblocks_;     // the pool, lowest index first
   std::vector<std::set<uint32_t>> partial_; // per size class: superblocks with a free slot
-  std::unordered_map<uint32_t, Held> held_; // patch -> its block
+  DenseIdMap<Held> held_;                   // patch -> its block
   uint64_t frame_ = 0;
   AtlasStats stats_;
 };

@@ -14,9 +14,9 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
+#include "mirage/core/dense_id_map.h"
 #include "mirage/core/result.h"
 #include "mirage/core/scene.h"
 #include "mirage/gpu/context.h"
@@ -205,9 +205,10 @@ private:
   std::optional<Prepared> prepared_;
   bool keyframe_ = true;
   std::unique_ptr<ClientParticles> particles_; // with an effect
-  std::unordered_map<uint32_t, Held> held_;
-  KeptPatches<Nothing> kept_;                          // the client's kept geometry, mirrored
-  std::unordered_map<uint32_t, uint32_t> lastVisible_; // held patch -> the frame it was last visible in
+  DenseIdMap<Held> held_;
+  DenseIdMap<Held> next_;            // diffPatches' next held_, kept for its index
+  KeptPatches<Nothing> kept_;        // the client's kept geometry, mirrored
+  DenseIdMap<uint32_t> lastVisible_; // held patch -> the frame it was last visible in
   uint32_t sequence_ = 0;
 };
 
