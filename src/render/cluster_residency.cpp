@@ -636,7 +636,8 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   st.residentBytes = r.manager.residentBytes();
   st.geometryBytes = r.geometryBytes;
   st.recordBytes = r.recordBytes;
-  st.clusterTableBytes = r.clusterSlots.size() + scene.leafClusters.size() + (scene.clusters ? scene.clusters.size() : 0);
+  st.clusterTableBytes =
+      r.clusterSlots.size() + scene.leafClusters.size() + (scene.clusters ? scene.clusters.size() : 0);
   st.treeNodeBytes = scene.lodNodes.size();
   st.clusters = scene.clusterCount;
   st.bytesRead = r.stream->storedBytes();

@@ -121,7 +121,7 @@ struct ClusterResidency {
   std::vector<std::vector<uint32_t>> recordSlots; // per uploaded page: its clusters' record slots, page order
   std::vector<uint64_t> geometry;                 // per page: its geometry bytes once uploaded
   uint64_t geometryBytes = 0;
-  uint64_t recordBytes = 0; // the uploaded pages' records in the pool
+  uint64_t recordBytes = 0;    // the uploaded pages' records in the pool
   std::deque<uint32_t> toRead; // reserved pages whose read waits for room in the stream
   // Per cluster its record's slot while its page is drawn (ClusterFrame::clusterSlotAddress); per
   // page its first unit while drawn; per page the feedback.

@@ -243,7 +243,7 @@ struct ResidencyStats {
   // budget), and the trees' nodes (per group, not per cluster).
   uint64_t clusterTableBytes = 0;
   uint64_t treeNodeBytes = 0;
-  uint64_t clusters = 0; // clusters of every mesh
+  uint64_t clusters = 0;      // clusters of every mesh
   uint64_t bytesRead = 0;     // page bytes read from the file or URL so far (as stored)
   uint64_t bytesReceived = 0; // bytes the file or URL delivered since it was opened (index and root pages too)
   uint32_t pages = 0;         // pages of every mesh
