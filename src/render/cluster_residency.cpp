@@ -679,6 +679,7 @@ void ClusterRenderer::Impl::cmdResidencyUpload(VkCommandBuffer cmd) {
   // The lists' entry 0, which lanes of background pixels load (cluster_resolve.comp), names a
   // record of this frame whatever the selection appends: the first record of page 0, a root page
   // (never evicted, its records never move).
+  assert(!r.recordSlots[0].empty()); // root pages are staged and drawn in the first frame
   sio::VisibleCluster valid{0, r.recordSlots[0].front()};
   vkCmdUpdateBuffer(cmd, visible.handle(), 0, sizeof(valid), &valid);
   if (blendVisible) vkCmdUpdateBuffer(cmd, blendVisible.handle(), 0, sizeof(valid), &valid);
