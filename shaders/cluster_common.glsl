@@ -9,6 +9,8 @@
 #include "mirage/shaderio/cluster.h"
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer FrameRef { ClusterFrame frame; };
+// Cluster records by record index (VisibleCluster::cluster): with residency push.clusterAddress names
+// the page pool, whose units hold the records of their pages (GpuCluster).
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ClusterRef { GpuCluster clusters[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer VertexRef { GpuClusterVertex vertices[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer MeshRef { GpuClusterMesh meshes[]; };
@@ -22,7 +24,6 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CounterRef {
 layout(buffer_reference, scalar, buffer_reference_align = 8) buffer VisBufferRef { uint64_t pixels[]; };
 // The global queue of large triangles (the blend rasters', and the atlas server's depth raster's).
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer BlendQueueRef { BlendQueueTriangle triangles[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ConeRef { GpuClusterCone cones[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer FloatRef { float data[]; };
 
 layout(push_constant, scalar) uniform Push { ClusterPush push; };

@@ -64,7 +64,7 @@ void main() {
   GpuClusterInstance inst = InstanceRef(push.instanceAddress).instances[vc.instance];
   float area = projectedArea(f, c, inst, t);
   if (!background && (f.flags & MIRAGE_FRAME_OCCLUSION) != 0) { // as cluster_resolve.comp: next frame's pass 1
-    uint local = vc.cluster - MeshRef(push.meshAddress).meshes[inst.mesh].clusterOffset;
+    uint local = c.cluster - MeshRef(push.meshAddress).meshes[inst.mesh].clusterOffset;
     if (setHistoryBitAt(inst.historyOffset + local)) {
       atomicAdd(CounterRef(push.counterAddress).counters.historyKept, 1);
       setHistoryBitAt(f.instanceHistoryBase + vc.instance);
@@ -81,7 +81,7 @@ void main() {
   }
   vec3 rgb;
   if (f.debugView == MIRAGE_DEBUG_VIEW_CLUSTERS)
-    rgb = debugClusterColor(vc.instance, vc.cluster);
+    rgb = debugClusterColor(vc.instance, c.cluster);
   else if (f.debugView == MIRAGE_DEBUG_VIEW_LOD)
     rgb = debugStepColor(c.level);
   else

@@ -84,7 +84,7 @@ void resolvePixel(ivec2 target) {
   GpuMaterial m = MaterialRef(push.materialAddress).materials[mesh.material];
   // Occlusion history for the next frame: exactly the clusters that own a pixel. A visible cluster
   // that owns none is only deferred to the next frame's pass 2, which tests it against the HZB.
-  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBitAt(inst.historyOffset + vc.cluster - mesh.clusterOffset)) {
+  if ((f.flags & MIRAGE_FRAME_OCCLUSION) != 0 && setHistoryBitAt(inst.historyOffset + c.cluster - mesh.clusterOffset)) {
     atomicAdd(CounterRef(push.counterAddress).counters.historyKept, 1);
     setHistoryBitAt(f.instanceHistoryBase + vc.instance);
   }

@@ -7,8 +7,6 @@
 #include "mirage/shaderio/lod_error.h"
 #include "mirage/shaderio/lod_paging.h"
 
-layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ClusterPageRef { uvec2 pages[]; };
-
 // A cluster's (or node's) object-space sphere and error projected to pixels for instance `inst`
 // (projectedSphereError, shared with the CPU).
 float projectedError(vec4 sphere, float error, GpuClusterInstance inst, ClusterFrame f) {
@@ -37,8 +35,7 @@ bool coneBackfacingFrom(GpuClusterInstance inst, GpuClusterCone cone, vec3 e) {
 }
 
 // Back-facing from the camera, in stereo from both eyes (ClusterFrame::stereoHalf).
-bool coneBackfacing(GpuClusterInstance inst, uint cluster, ClusterFrame f) {
-  GpuClusterCone cone = ConeRef(f.coneAddress).cones[cluster];
+bool coneBackfacing(GpuClusterInstance inst, GpuClusterCone cone, ClusterFrame f) {
   if (cone.axisCutoff.w >= 1.0) return false;
   vec3 h = f.stereoHalf.xyz;
   if (h == vec3(0.0)) return coneBackfacingFrom(inst, cone, f.camera.eye.xyz);
@@ -50,20 +47,26 @@ bool coneBackfacing(GpuClusterInstance inst, uint cluster, ClusterFrame f) {
 void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh mesh, uint meshLocal, uint phase) {
   CounterRef counters = CounterRef(push.counterAddress);
   atomicAdd(counters.counters.clustersTested, 1);
-  uint ci = mesh.clusterOffset + meshLocal;
-  GpuCluster c = ClusterRef(push.clusterAddress).clusters[ci];
   ClusterFrame f = FrameRef(push.frameAddress).frame;
+  // The record: by cluster id, or with residency at its slot in the pool, which also says whether
+  // its page is drawn (clusters of pages not drawn are skipped: their records may be anywhere).
+  uint record = mesh.clusterOffset + meshLocal;
+  if ((f.flags & MIRAGE_FRAME_RESIDENCY) != 0) {
+    record = UintRef(f.clusterSlotAddress).data[record];
+    if (record == MIRAGE_PAGE_NONE) return;
+  }
+  GpuCluster c = ClusterRef(push.clusterAddress).clusters[record];
   float selfTau = tauAt(c.selfSphere, inst, f), parentTau = tauAt(c.parentSphere, inst, f);
   float selfError = projectedError(c.selfSphere, c.selfError, inst, f);
   float parentError = projectedError(c.parentSphere, c.parentError, inst, f);
   bool onCut = selfError <= selfTau && parentError > parentTau;
   if ((f.flags & MIRAGE_FRAME_RESIDENCY) != 0) {
-    // Residency (docs/render.md, "Residency"): only resident clusters, by the residency-aware cut;
-    // feedback for the pages of this view's frustum: the cluster's own page when its member group
-    // is above the threshold (the cut uses it), its child page when it asks for it.
-    uvec2 pages = ClusterPageRef(f.clusterPageAddress).pages[ci];
+    // Residency (docs/render.md, "Residency"): only clusters of drawn pages (above), by the
+    // residency-aware cut; feedback for the pages of this view's frustum: the cluster's own page
+    // when its member group is above the threshold (the cut uses it), its child page when it asks
+    // for it.
+    uvec2 pages = uvec2(c.page, c.childPage);
     UintRef slots = UintRef(f.pageSlotAddress);
-    if (slots.data[pages.x] == MIRAGE_PAGE_NONE) return;
     bool childrenResident = pages.y != MIRAGE_PAGE_NONE && slots.data[pages.y] != MIRAGE_PAGE_NONE;
     bool selfWithin = selfError <= selfTau, parentAbove = parentError > parentTau;
     bool frustum = (f.flags & MIRAGE_FRAME_FRUSTUM_CULL) == 0;
@@ -90,11 +93,11 @@ void selectCluster(uint instanceIndex, GpuClusterInstance inst, GpuClusterMesh m
   // kept; the crack-test mode keeps back faces).
   bool singleSided = (inst.flags & (MIRAGE_INSTANCE_DOUBLE_SIDED | MIRAGE_INSTANCE_MIRRORED)) == 0 &&
                      (f.flags & MIRAGE_FRAME_FLAG_BACKFACES) == 0;
-  if ((f.flags & MIRAGE_FRAME_CONE_CULL) != 0 && singleSided && coneBackfacing(inst, ci, f)) {
+  if ((f.flags & MIRAGE_FRAME_CONE_CULL) != 0 && singleSided && coneBackfacing(inst, c.cone, f)) {
     atomicAdd(counters.counters.clustersBackfaceCulled, 1);
     return;
   }
-  VisibleCluster vc = VisibleCluster(instanceIndex, ci);
+  VisibleCluster vc = VisibleCluster(instanceIndex, record);
   // Blended clusters never write the opaque visibility: their own list, drawn after the resolve.
   // They own no pixels, so with occlusion their instances are always late (phase 2, HZB-tested).
   if ((inst.flags & MIRAGE_INSTANCE_ALPHA_BLEND) != 0) {

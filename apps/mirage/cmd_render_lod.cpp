@@ -232,6 +232,9 @@ void addResidencyJson(nlohmann::json& j, const runtime::Frame& f) {
   j["pool_bytes"] = r.poolBytes;
   j["unit_bytes"] = r.unitBytes;
   j["geometry_bytes"] = r.geometryBytes;
+  j["record_bytes"] = r.recordBytes;
+  j["cluster_table_bytes"] = r.clusterTableBytes;
+  j["tree_node_bytes"] = r.treeNodeBytes;
   j["bytes_received"] = r.bytesReceived;
   j["bytes_read"] = r.bytesRead;
   j["pages_requested"] = r.requested;

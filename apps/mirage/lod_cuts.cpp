@@ -9,7 +9,6 @@
 
 #include "commands.h"
 #include "lod_render.h"
-#include "mirage/shaderio/cluster.h"
 #include "render_common.h"
 
 namespace mirage::cli {
@@ -58,6 +57,7 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
 
   std::vector<CutRow> rows;
   uint64_t readBefore = 0;
+  uint64_t tableBytes = 0; // the GPU tables outside the budget: per cluster and the trees' nodes (ResidencyStats)
   for (size_t c = 0; c < path.size(); ++c) {
     CutRow row;
     row.camera = c;
@@ -87,6 +87,7 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
     row.bytesRead = last.bytesRead - readBefore;
     readBefore = last.bytesRead;
     row.residentBytes = last.residentBytes;
+    tableBytes = last.clusterTableBytes + last.treeNodeBytes;
     row.pagesMissing = last.requested;
     // The converged residency, timed on the GPU without readbacks.
     std::vector<double> ms;
@@ -116,9 +117,6 @@ void runCutBench(gpu::Context& ctx, runtime::Scene& scene, runtime::View view, c
   double worstGpuConverging = worst([](const CutRow& x) { return x.gpuMsMaxConverging; });
   size_t unconverged = std::count_if(rows.begin(), rows.end(), [](const CutRow& x) { return !x.converged; });
   size_t overBudget = std::count_if(rows.begin(), rows.end(), [](const CutRow& x) { return x.pagesMissing > 0; });
-  // What stays on the GPU whatever the budget: per cluster its record, cone and page number.
-  uint64_t tableBytes =
-      info.clusters * (sizeof(shaderio::GpuCluster) + sizeof(shaderio::GpuClusterCone) + sizeof(uint32_t));
   render::ResidencyTimes total;
   double totalMs = 0;
   for (const CutRow& x : rows) total += x.times, totalMs += x.secondsToFullQuality * 1e3;

@@ -70,6 +70,8 @@ void AtlasShading::Impl::uploadClusters(const Scene& scene, const std::vector<ui
       c.vertexOffset = uint32_t(clusterVertexIds.size());
       c.triangleOffset = uint32_t(localIndices.size() / 3);
       c.mesh = uint32_t(k);
+      c.cluster = uint32_t(clusterData.size());
+      c.cone.axisCutoff.w = 1.0f; // never culled
       c.parentError = std::numeric_limits<float>::infinity();
       c.maxEdge = std::numeric_limits<float>::infinity(); // the lean raster is not used
       clusterFirstTriangle.push_back(t);
@@ -154,10 +156,9 @@ void AtlasShading::Impl::uploadClusters(const Scene& scene, const std::vector<ui
   counters.lists[1][MIRAGE_LIST_UP].first = 0;
   counters.lists[1][MIRAGE_LIST_UP].count = cv.opaqueEntries + cv.blendEntries;
   const sio::ClusterCounters perCamera[2] = {counters, counters};
-  cv.counters = createBufferWithData<sio::ClusterCounters>(ctx, perCamera,
-                                                           kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                                               VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
-                                                           "atlas raster counters");
+  cv.counters = createBufferWithData<sio::ClusterCounters>(
+      ctx, perCamera, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+      "atlas raster counters");
   cv.depthQueue = createBuffer(ctx, 2 * VkDeviceSize(kAtlasDepthQueueCapacity) * sizeof(sio::BlendQueueTriangle),
                                kStorage, MemoryUsage::GpuOnly, "atlas depth queue");
   uint32_t words = (patchCount + 31) / 32;

@@ -214,7 +214,6 @@ Status ClusterRenderer::Impl::packFrame(const ClusterRenderSettings& cs, const C
   f.background = s.background;
   f.hybridThreshold = cs.hybridThreshold;
   f.hzbLevels = hzbLevels;
-  f.coneAddress = scene.cones.address();
   f.historyAddress = history.address();
   f.candidateAddress = candidates.address();
   f.hzbAddress = hzb.address();

@@ -30,7 +30,7 @@ namespace mirage::render {
 // Everything uploaded once per asset (docs/render.md, "Data layout").
 
 struct ClusterSceneData {
-  gpu::Buffer clusters;                        // GpuCluster[], all meshes' DAGs concatenated
+  gpu::Buffer clusters;                        // GpuCluster[], all meshes' DAGs concatenated (none with residency)
   gpu::Buffer vertices;                        // GpuClusterVertex[], all attribute vertices
   gpu::Buffer clusterVertices;                 // uint[], attribute-vertex ids rebased to `vertices`
   gpu::Buffer indices;                         // uint[], local 8-bit indices packed 4 per word
@@ -39,7 +39,6 @@ struct ClusterSceneData {
   gpu::Buffer instances;                       // GpuClusterInstance[]
   gpu::Buffer materials;                       // GpuMaterial[] (the forward renderer's layout)
   gpu::Buffer mapTransforms;                   // the materials' map transforms (uploadMaterials)
-  gpu::Buffer cones;                           // GpuClusterCone[], parallel to `clusters`
   gpu::Buffer lodNodes;                        // GpuLodNode[], per mesh (GpuClusterMesh::nodeOffset)
   gpu::Buffer leafClusters;                    // uint[]: mesh-local cluster ids of the LOD BVH's leaves
   gpu::Buffer lights;                          // GpuPointLight[lightCount] (one unused entry without lights)

@@ -19,7 +19,8 @@ namespace sio = mirage::shaderio;
 namespace {
 
 constexpr uint32_t kUnit = kPoolUnitBytes;
-static_assert(kUnit % sizeof(sio::GpuClusterVertex) == 0 && kUnit % 3 == 0 && kUnit % 4 == 0);
+static_assert(kUnit % sizeof(sio::GpuClusterVertex) == 0 && kUnit % 3 == 0 && kUnit % 4 == 0 &&
+              kUnit % sizeof(sio::GpuCluster) == 0);
 // The largest cluster's vertex ids and indices with their alignment: what a unit's tail may lose.
 constexpr uint32_t kMaxClusterItem = 4 * MIRAGE_CLUSTER_MAX_VERTICES + 3 * MIRAGE_CLUSTER_MAX_TRIANGLES + 6;
 
@@ -55,9 +56,11 @@ std::vector<uint32_t> pagedGroupOwners(const lod::PageTable& t) {
 } // namespace
 
 uint32_t poolUnitsBound(uint32_t vertices, uint32_t vertexIds, uint32_t triangles, uint32_t clusters) {
-  // Every unit but the last is filled to within one cluster item (vertices fill theirs whole).
+  // Every unit but the last is filled to within one cluster item (vertices and records fill theirs
+  // whole); the records start on a record boundary.
   uint64_t content = uint64_t(vertices) * sizeof(sio::GpuClusterVertex) + uint64_t(vertexIds) * 4 +
-                     uint64_t(triangles) * 3 + uint64_t(clusters) * 6;
+                     uint64_t(triangles) * 3 + uint64_t(clusters) * 6 +
+                     uint64_t(clusters + 1) * sizeof(sio::GpuCluster);
   return uint32_t(content / (kUnit - kMaxClusterItem) + 1);
 }
 
@@ -74,6 +77,7 @@ uint32_t layoutPage(const lod::PageData& page, const uint32_t* units, PagePackin
     out->unitFill.clear();
     out->vertexOffset.clear();
     out->triangleOffset.clear();
+    out->recordOffset.clear();
     vertexId.resize(page.positions.size());
     out->geometryBytes = page.positions.size() * sizeof(sio::GpuClusterVertex) + page.clusterVertices.size() * 4 +
                          page.clusterIndices.size();
@@ -110,6 +114,15 @@ uint32_t layoutPage(const lod::PageData& page, const uint32_t* units, PagePackin
     out->vertexOffset.push_back(uint32_t((base + ids) / 4));
     out->triangleOffset.push_back(uint32_t((base + tris) / 3));
     fill(k, off);
+  }
+  // Then the records, on record boundaries (a unit holds whole records), in the tail and units of
+  // their own; their bytes are staged apart (they hold pool offsets), so units' fills leave them out.
+  constexpr uint32_t kRecord = sizeof(sio::GpuCluster);
+  for (size_t i = 0; i < page.clusters.size(); ++i) {
+    off = alignUp(off, kRecord);
+    if (off + kRecord > kUnit) ++k, off = 0;
+    if (out) out->recordOffset.push_back(uint32_t(k) * kUnit + off);
+    off += kRecord;
   }
   return k + 1;
 }
@@ -243,10 +256,7 @@ Result<PagedClusterScene> uploadPagedClusterScene(Context& ctx, const lod::Paged
     return st.error();
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   constexpr VkBufferUsageFlags kCopied = kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  std::vector<sio::GpuClusterCone> cones(tables->clusters.size());
-  for (sio::GpuClusterCone& c : cones) c.axisCutoff.w = 1.0f; // never culled until the page loads
-  d.clusters = createBufferWithData<sio::GpuCluster>(ctx, tables->clusters, kCopied, "cluster table");
-  d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kCopied, "cluster cones");
+  // No cluster records here: they arrive with their pages into the pool (createClusterResidency).
   d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, tables->levels, kStorage, "cluster levels");
   uploadLodTrees(ctx, tables->trees, kCopied, d); // grown as pages arrive
   d.clusterCount = uint32_t(tables->clusters.size());

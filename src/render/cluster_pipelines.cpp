@@ -101,14 +101,17 @@ void ClusterRenderer::Impl::createPipelines() {
   lateInstances = createBuffer(ctx, scene.instanceCount * uint64_t(sizeof(sio::VisibleInstance)), kStorage,
                                MemoryUsage::GpuOnly, "late instances");
   // Zeroed once: entry 0 is then always a valid (instance, cluster) pair, which the resolve reads
-  // for background pixels too (see cluster_resolve.comp).
+  // for background pixels too (see cluster_resolve.comp). With residency a record slot is valid
+  // only while its page is drawn: each frame sets entry 0 again (cmdResidencyUpload, DST).
   std::vector<sio::VisibleCluster> zeros(visibleCapacity, sio::VisibleCluster{0, 0});
-  visible = createBufferWithData<sio::VisibleCluster>(ctx, zeros, kStorage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                                      "visible clusters"); // SRC: readVisibility
+  visible = createBufferWithData<sio::VisibleCluster>(
+      ctx, zeros, kStorage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+      "visible clusters");                // SRC: readVisibility
   if (scene.blendInstancedClusters > 0) { // zeroed: entry 0 is valid for every lane (as `visible`)
     blendCapacity = uint32_t(std::min<uint64_t>(scene.blendInstancedClusters, kMaxVisibleClusters));
     std::vector<sio::VisibleCluster> blendZeros(blendCapacity, sio::VisibleCluster{0, 0});
-    blendVisible = createBufferWithData<sio::VisibleCluster>(ctx, blendZeros, kStorage, "blend clusters");
+    blendVisible = createBufferWithData<sio::VisibleCluster>(
+        ctx, blendZeros, kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, "blend clusters");
     if (blendQueuePipeline) {
       blendQueueCapacity = uint32_t(std::clamp<uint64_t>(uint64_t(blendCapacity) * MIRAGE_CLUSTER_MAX_TRIANGLES * 4, 64,
                                                          kMaxBlendQueueTriangles));
@@ -296,10 +299,10 @@ void ClusterRenderer::Impl::ensureMultiview(const ClusterFramePlan& plan) {
 sio::ClusterPush ClusterRenderer::Impl::push() const {
   sio::ClusterPush p{};
   p.frameAddress = frames[currentSlot].address();
-  p.clusterAddress = scene.clusters.address();
-  // With residency one page pool holds the vertices, vertex ids and index words alike
-  // (cluster_residency.cpp): the three addresses name it.
+  // With residency one page pool holds the vertices, vertex ids, index words and cluster records
+  // alike (cluster_residency.cpp): the four addresses name it.
   p.vertexAddress = scene.vertices.address();
+  p.clusterAddress = scene.clusters ? scene.clusters.address() : p.vertexAddress;
   p.clusterVertexAddress = scene.clusterVertices ? scene.clusterVertices.address() : p.vertexAddress;
   p.indexAddress = scene.indices ? scene.indices.address() : p.vertexAddress;
   p.meshAddress = scene.meshes.address();

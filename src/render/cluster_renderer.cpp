@@ -329,6 +329,9 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
     std::vector<uint8_t> listBytes = readbackBuffer(d.ctx, d.visible, size_t(d.visibleCapacity) * 8);
     std::vector<sio::VisibleCluster> list(d.visibleCapacity);
     std::memcpy(list.data(), listBytes.data(), listBytes.size());
+    // With residency the list names record slots: their clusters from the drawn pages' records.
+    std::unordered_map<uint32_t, uint32_t> slotClusters;
+    if (d.residency) slotClusters = drawnSlotClusters(*d.residency);
     out.visibility.resize(size_t(d.colorWidth) * d.height);
     for (size_t i = 0; i < out.visibility.size(); ++i) {
       uint64_t value;
@@ -339,6 +342,10 @@ Result<ClusterRenderOutput> ClusterRenderer::render(const ClusterRenderSettings&
       if (entry == 0 || entry > list.size() || (id & MIRAGE_SURFEL_ID_TAG) != 0) continue;
       v.instance = list[entry - 1].instance;
       v.cluster = list[entry - 1].cluster;
+      if (d.residency) {
+        auto it = slotClusters.find(v.cluster);
+        v.cluster = it == slotClusters.end() ? UINT32_MAX : it->second;
+      }
       v.triangle = id & ((1u << MIRAGE_CLUSTER_TRIANGLE_BITS) - 1u);
     }
   }

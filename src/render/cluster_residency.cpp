@@ -63,7 +63,8 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
                                    info.clusterCount)) *
            kPoolUnitBytes;
   };
-  uint32_t units = uint32_t(std::min<uint64_t>(settings.budgetBytes / kPoolUnitBytes, UINT32_MAX / 2));
+  // Every record slot (kUnitRecords per unit) numbered below MIRAGE_PAGE_NONE: pools under 512 GiB.
+  uint32_t units = uint32_t(std::min<uint64_t>(settings.budgetBytes / kPoolUnitBytes, (UINT32_MAX - 1) / kUnitRecords));
   lod::ResidencyGraph graph = lod::residencyGraph(std::span<const lod::PageTable* const>(tables), pageBytes);
   lod::ResidencyConfig config{uint64_t(units) * kPoolUnitBytes, std::max(settings.maxUploadsPerFrame, 1u)};
   auto manager = lod::ResidencyManager::create(std::move(graph), config);
@@ -96,6 +97,7 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
   r->state.assign(pages, PageState::Absent);
   r->reading.assign(pages, 0);
   r->drawn.assign(pages, MIRAGE_PAGE_NONE);
+  r->recordSlots.resize(pages);
   r->geometry.assign(pages, 0);
   r->transit.assign(pages, 0);
   r->ctx = &ctx;
@@ -104,25 +106,21 @@ Result<std::unique_ptr<ClusterResidency>> createClusterResidency(Context& ctx, c
   // took no GPU time off the converging frames and each page a frame longer to full quality.
   r->transferUploads = settings.uploads == Uploads::Transfer;
 
-  // Per cluster: (page, child page), numbered over every mesh; the child page is written when the
-  // cluster's page loads (only a page knows its clusters' generating groups).
-  std::vector<uint32_t> clusterPages;
-  clusterPages.reserve(size_t(clusterBase) * 2);
-  for (uint32_t m = 0; m < asset.meshes.size(); ++m) {
-    uint32_t base = r->manager.graph().pageOffset[m];
-    for (uint32_t page : asset.meshes[m].table.clusterPage)
-      clusterPages.push_back(base + page), clusterPages.push_back(MIRAGE_PAGE_NONE);
-  }
+  // Per cluster, numbered over every mesh, its record's slot: none until its page is drawn. The
+  // only per-cluster table beside the trees: the record (page, child page, bounds, cone) comes
+  // with the page.
   constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   constexpr VkBufferUsageFlags kCopied = kStorage | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-  r->clusterPages = createBufferWithData<uint32_t>(ctx, clusterPages, kCopied, "residency cluster pages");
+  r->clusterSlots = createBufferWithData<uint32_t>(ctx, std::vector<uint32_t>(clusterBase, MIRAGE_PAGE_NONE), kCopied,
+                                                   "residency cluster slots");
   r->pageSlots = createBufferWithData<uint32_t>(ctx, r->drawn, kCopied, "residency drawn pages");
   r->feedback = createBuffer(ctx, pages * 4ull, kCopied, MemoryUsage::GpuOnly, "residency feedback");
   for (ClusterResidency::Slot& s : r->frame)
     s.readback = createBuffer(ctx, pages * 4ull, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUsage::Readback,
                               "residency feedback readback");
-  // The pool takes the place of the scene's geometry (vertices, vertex ids and index words alike),
-  // with one full cluster of index padding past its end, as uploadClusterScene pads the index array.
+  // The pool takes the place of the scene's geometry and cluster records (vertices, vertex ids,
+  // index words and records alike), with one full cluster of index padding past its end, as
+  // uploadClusterScene pads the index array.
   scene.vertices = createBuffer(ctx, uint64_t(std::max(units, 1u)) * kPoolUnitBytes + MIRAGE_CLUSTER_MAX_TRIANGLES * 3,
                                 kCopied, MemoryUsage::GpuOnly, "residency page pool");
   lod::PageStreamConfig streamConfig;
@@ -151,7 +149,7 @@ PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table,
   layoutPage(data, local.data(), &out.packed);
   out.clusterVertices = data.clusterVertices.size();
   size_t n = data.clusterIds.size();
-  out.ids.reserve(n), out.records.reserve(n), out.cones.reserve(n), out.childPages.reserve(2 * n);
+  out.ids.reserve(n), out.records.reserve(n);
   std::vector<glm::vec3> positions;
   for (size_t i = 0; i < n; ++i) {
     const lod::Cluster& c = data.clusters[i];
@@ -164,12 +162,13 @@ PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table,
     rec.vertexOffset = out.packed.vertexOffset[i];
     rec.triangleOffset = out.packed.triangleOffset[i];
     rec.maxEdge = clusterMaxEdge(positions, indices);
-    out.ids.push_back(clusterBase + data.clusterIds[i]);
-    out.records.push_back(rec);
-    out.cones.push_back(clusterCone(positions, indices));
+    rec.cone = clusterCone(positions, indices);
+    rec.cluster = clusterBase + data.clusterIds[i];
+    rec.page = pageBase + page;
     uint32_t child = table.childPage(c.generatingGroup);
-    out.childPages.push_back(pageBase + page);
-    out.childPages.push_back(child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child);
+    rec.childPage = child == lod::kNone ? MIRAGE_PAGE_NONE : pageBase + child;
+    out.ids.push_back(rec.cluster);
+    out.records.push_back(rec);
   }
   return out;
 }
@@ -253,30 +252,45 @@ void stagePoolBytes(const PreparedPage& prep, const std::vector<uint32_t>& units
                     std::vector<VkBufferCopy>& copies) {
   const PagePacking& packed = prep.packed;
   for (uint32_t k = 0; k < packed.unitFill.size(); ++k)
-    copies.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
-                      VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
+    if (packed.unitFill[k] > 0)
+      copies.push_back({staging.append(packed.bytes.data() + size_t(k) * kPoolUnitBytes, packed.unitFill[k]),
+                        VkDeviceSize(units[k]) * kPoolUnitBytes, packed.unitFill[k]});
 }
 
-// A placed page's records (offsets moved to its units), cones and child pages staged; the page is
-// uploaded once the frame's copies run.
+// Appends a copy of `size` bytes, joined to the last one where both sides continue it.
+void appendCopy(std::vector<VkBufferCopy>& copies, VkDeviceSize src, VkDeviceSize dst, VkDeviceSize size) {
+  if (!copies.empty()) {
+    VkBufferCopy& last = copies.back();
+    if (last.srcOffset + last.size == src && last.dstOffset + last.size == dst) {
+      last.size += size;
+      return;
+    }
+  }
+  copies.push_back({src, dst, size});
+}
+
+// A placed page's records (offsets moved to its units) staged into their slots in its units (one
+// copy per run of them); the page is uploaded once the frame's copies run, and its clusters find
+// their records once it is drawn (stageClusterSlots).
 void stagePageTables(ClusterResidency& r, uint32_t page, const PreparedPage& prep, StagingBytes& staging,
                      ClusterResidency::Slot& slot) {
   const std::vector<uint32_t>& units = r.pageUnits[page];
   auto pooled = [&](uint64_t localByte) { // a local byte offset in the pool
     return uint64_t(units[localByte / kPoolUnitBytes]) * kPoolUnitBytes + localByte % kPoolUnitBytes;
   };
+  std::vector<uint32_t>& slots = r.recordSlots[page];
+  slots.clear();
   for (size_t i = 0; i < prep.ids.size(); ++i) {
     sio::GpuCluster rec = prep.records[i];
     uint64_t idsByte = uint64_t(rec.vertexOffset) * 4;
     rec.vertexOffset = uint32_t(pooled(idsByte) / 4);
     rec.triangleOffset = uint32_t(pooled(uint64_t(rec.triangleOffset) * 3) / 3);
-    uint32_t g = prep.ids[i];
-    slot.records.push_back({staging.append(&rec, sizeof(rec)), VkDeviceSize(g) * sizeof(rec), sizeof(rec)});
-    slot.cones.push_back({staging.append(&prep.cones[i], sizeof(prep.cones[i])),
-                          VkDeviceSize(g) * sizeof(prep.cones[i]), sizeof(prep.cones[i])});
-    slot.clusterPages.push_back({staging.append(&prep.childPages[2 * i], 8), VkDeviceSize(g) * 8, 8});
+    uint64_t at = pooled(prep.packed.recordOffset[i]);
+    slots.push_back(uint32_t(at / sizeof(rec)));
+    appendCopy(slot.records, staging.append(&rec, sizeof(rec)), at, sizeof(rec));
   }
   r.state[page] = PageState::Uploaded;
+  r.recordBytes += slots.size() * sizeof(sio::GpuCluster);
   r.geometry[page] = prep.packed.geometryBytes;
   r.geometryBytes += prep.packed.geometryBytes;
 }
@@ -288,9 +302,33 @@ size_t poolBytes(const PreparedPage& prep) {
   return bytes;
 }
 
-// The staging bytes of a page's tables (stagePageTables).
-size_t tableBytes(const PreparedPage& prep) {
-  return prep.ids.size() * (sizeof(sio::GpuCluster) + sizeof(sio::GpuClusterCone) + 8);
+// The staging bytes of a page's records (stagePageTables).
+size_t tableBytes(const PreparedPage& prep) { return prep.ids.size() * sizeof(sio::GpuCluster); }
+
+// The cluster-slot writes of pages drawn (their records' slots) or no longer drawn (none) this
+// frame, into the slot's own staging (sized here, after the manager's step), one copy per run of
+// consecutive cluster ids.
+void stageClusterSlots(ClusterResidency& r, const std::vector<uint32_t>& drawnNow, const std::vector<uint32_t>& undrawn,
+                       ClusterResidency::Slot& slot) {
+  std::vector<std::pair<uint32_t, uint32_t>> writes; // (cluster, slot)
+  auto add = [&](uint32_t p, bool draw) {
+    const std::vector<uint32_t>& slots = r.recordSlots[p];
+    std::span<const uint32_t> ids = r.asset->meshes[r.pageMesh[p]].table.clustersOf(r.pageLocal[p]);
+    assert(slots.size() == ids.size());
+    uint32_t base = r.meshClusterOffset[r.pageMesh[p]];
+    for (size_t i = 0; i < ids.size(); ++i) writes.push_back({base + ids[i], draw ? slots[i] : MIRAGE_PAGE_NONE});
+  };
+  for (uint32_t p : undrawn) add(p, false);
+  for (uint32_t p : drawnNow) add(p, true);
+  if (writes.empty()) return;
+  std::sort(writes.begin(), writes.end());
+  size_t bytes = writes.size() * 4;
+  if (!slot.slotStaging || slot.slotStaging.size() < bytes) // this slot's last frame completed
+    slot.slotStaging = createBuffer(*r.ctx, std::max<size_t>(bytes, slot.slotStaging ? slot.slotStaging.size() * 2 : 0),
+                                    VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUsage::Upload, "residency slot staging");
+  StagingBytes staging{slot.slotStaging.mapped(), 0, slot.slotStaging.size()};
+  for (auto [cluster, value] : writes)
+    appendCopy(slot.clusterSlots, staging.append(&value, 4), VkDeviceSize(cluster) * 4, 4);
 }
 
 using TransferBatch = ClusterResidency::TransferBatch;
@@ -441,7 +479,7 @@ void computePrefetch(ClusterResidency& r, const sio::ViewFrame& v, float tau) {
 Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) {
   ClusterResidency& r = *residency;
   ClusterResidency::Slot& slot = r.frame[currentSlot];
-  for (auto* v : {&slot.pool, &slot.records, &slot.cones, &slot.clusterPages, &slot.table, &slot.nodes}) v->clear();
+  for (auto* v : {&slot.pool, &slot.records, &slot.table, &slot.nodes, &slot.clusterSlots}) v->clear();
   slot.fromDevice.clear();
   slot.stats = {};
   ResidencyStats& st = slot.stats;
@@ -533,12 +571,18 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     }
     lod::mergeFeedback(r.feedbackHost, r.prefetchHost);
   }
+  std::vector<uint32_t> undrawn, drawnNow; // pages whose clusters' slots change this frame
+  std::vector<uint32_t> evicted;
   if (r.haveFeedback) {
     lod::ResidencyStep step = r.manager.step(r.feedbackHost);
     r.haveFeedback = false;
     st.stepped = true;
     for (uint32_t p : step.evicted) {
-      if (r.state[p] == PageState::Uploaded) r.geometryBytes -= r.geometry[p];
+      if (r.state[p] == PageState::Uploaded) {
+        r.geometryBytes -= r.geometry[p];
+        r.recordBytes -= r.recordSlots[p].size() * sizeof(sio::GpuCluster);
+      }
+      if (r.drawn[p] != MIRAGE_PAGE_NONE) undrawn.push_back(p);
       r.state[p] = PageState::Absent;
       r.drawn[p] = MIRAGE_PAGE_NONE;
       releaseUnits(r, p);
@@ -549,8 +593,9 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
       r.state[p] = PageState::Reserved;
       r.toRead.push_back(p);
     }
+    evicted = std::move(step.evicted);
     st.loaded = uint32_t(step.loaded.size());
-    st.evicted = uint32_t(step.evicted.size());
+    st.evicted = uint32_t(evicted.size());
     st.unfit = step.unfit;
   }
   times.stepMs += clock.lap();
@@ -573,9 +618,12 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
     for (uint32_t d : r.manager.graph().dependenciesOf(p)) ready = ready && r.drawn[d] != MIRAGE_PAGE_NONE;
     if (!ready) continue;
     r.drawn[p] = r.pageUnits[p].front();
+    drawnNow.push_back(p);
     tableChanged = true;
   }
   if (tableChanged) slot.table.push_back({staging.append(r.drawn.data(), r.drawn.size() * 4), 0, r.drawn.size() * 4});
+  stageClusterSlots(r, drawnNow, undrawn, slot);
+  for (uint32_t p : evicted) r.recordSlots[p] = {};
   slot.resident.resize(r.drawn.size());
   for (size_t p = 0; p < r.drawn.size(); ++p) slot.resident[p] = r.drawn[p] != MIRAGE_PAGE_NONE;
   st.enabled = true;
@@ -587,6 +635,11 @@ Status ClusterRenderer::Impl::prepareResidency(const ClusterRenderSettings& cs) 
   st.residentPages = r.manager.residentPages();
   st.residentBytes = r.manager.residentBytes();
   st.geometryBytes = r.geometryBytes;
+  st.recordBytes = r.recordBytes;
+  st.clusterTableBytes =
+      r.clusterSlots.size() + scene.leafClusters.size() + (scene.clusters ? scene.clusters.size() : 0);
+  st.treeNodeBytes = scene.lodNodes.size();
+  st.clusters = scene.clusterCount;
   st.bytesRead = r.stream->storedBytes();
   st.bytesReceived = r.stream->receivedBytes();
   for (uint32_t p = 0; p < r.pageMesh.size(); ++p) {
@@ -616,12 +669,20 @@ void ClusterRenderer::Impl::cmdResidencyUpload(VkCommandBuffer cmd) {
   copy(slot.pool, scene.vertices);
   for (const auto& [from, regions] : slot.fromDevice) // transfer uploads that arrived (fence seen)
     vkCmdCopyBuffer(cmd, from->handle(), scene.vertices.handle(), uint32_t(regions.size()), regions.data());
-  copy(slot.records, scene.clusters);
-  copy(slot.cones, scene.cones);
-  copy(slot.clusterPages, r.clusterPages);
+  copy(slot.records, scene.vertices); // beside the geometry, in the pages' units
   copy(slot.table, r.pageSlots);
   copy(slot.nodes, scene.lodNodes);
+  if (!slot.clusterSlots.empty())
+    vkCmdCopyBuffer(cmd, slot.slotStaging.handle(), r.clusterSlots.handle(), uint32_t(slot.clusterSlots.size()),
+                    slot.clusterSlots.data());
   vkCmdFillBuffer(cmd, r.feedback.handle(), 0, VK_WHOLE_SIZE, 0);
+  // The lists' entry 0, which lanes of background pixels load (cluster_resolve.comp), names a
+  // record of this frame whatever the selection appends: the first record of page 0, a root page
+  // (never evicted, its records never move).
+  assert(!r.recordSlots[0].empty()); // root pages are staged and drawn in the first frame
+  sio::VisibleCluster valid{0, r.recordSlots[0].front()};
+  vkCmdUpdateBuffer(cmd, visible.handle(), 0, sizeof(valid), &valid);
+  if (blendVisible) vkCmdUpdateBuffer(cmd, blendVisible.handle(), 0, sizeof(valid), &valid);
 }
 
 // In finishFrame, before its host barrier: the feedback into this slot's readback.
@@ -633,7 +694,7 @@ void ClusterRenderer::Impl::cmdResidencyFeedback(VkCommandBuffer cmd) {
 
 void ClusterRenderer::Impl::packResidency(sio::ClusterFrame& f) const {
   f.flags |= MIRAGE_FRAME_RESIDENCY;
-  f.clusterPageAddress = residency->clusterPages.address();
+  f.clusterSlotAddress = residency->clusterSlots.address();
   f.pageSlotAddress = residency->pageSlots.address();
   f.pageFeedbackAddress = residency->feedback.address();
 }
@@ -652,6 +713,16 @@ ResidencyStats ClusterRenderer::Impl::collectResidency(uint32_t frameSlot) {
   for (uint32_t p = 0; p < pages; ++p) st.requested += r.feedbackHost[p] > 0.0f && !slot.resident[p];
   st.times.collectMs += clock.lap();
   return st;
+}
+
+std::unordered_map<uint32_t, uint32_t> drawnSlotClusters(const ClusterResidency& r) {
+  std::unordered_map<uint32_t, uint32_t> out;
+  for (uint32_t p = 0; p < r.drawn.size(); ++p) {
+    if (r.drawn[p] == MIRAGE_PAGE_NONE) continue;
+    std::span<const uint32_t> ids = r.asset->meshes[r.pageMesh[p]].table.clustersOf(r.pageLocal[p]);
+    for (size_t i = 0; i < ids.size(); ++i) out[r.recordSlots[p][i]] = r.meshClusterOffset[r.pageMesh[p]] + ids[i];
+  }
+  return out;
 }
 
 bool ClusterRenderer::hasResidency() const { return impl_->residency != nullptr; }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <deque>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "cluster_impl.h"
@@ -35,12 +36,19 @@ struct PhaseClock {
 // few percent lost to tails, while slots sized for the largest page lost 40 %.
 inline constexpr uint32_t kPoolUnitBytes = 24 * 1024;
 
-// One page laid out in pool units: unit k's contents at k * kPoolUnitBytes of `bytes`, its used
-// length in unitFill[k]; per cluster (in page order) the record's offsets into the pool.
+// A pool unit holds whole cluster records (GpuCluster), so the pool reads as GpuCluster[] too:
+// the record at byte b of the pool has slot (record index) b / sizeof(GpuCluster).
+static_assert(kPoolUnitBytes % sizeof(shaderio::GpuCluster) == 0, "pool units hold whole cluster records");
+inline constexpr uint32_t kUnitRecords = kPoolUnitBytes / sizeof(shaderio::GpuCluster);
+
+// One page laid out in pool units: unit k's geometry at k * kPoolUnitBytes of `bytes`, its used
+// length in unitFill[k] (units holding records only have none); per cluster (in page order) the
+// record's offsets into the pool, and the record's own byte in the page's units (after the
+// geometry: k * kPoolUnitBytes + byte in unit k; its bytes are staged apart, not in `bytes`).
 struct PagePacking {
   std::vector<uint8_t> bytes;
   std::vector<uint32_t> unitFill;
-  std::vector<uint32_t> vertexOffset, triangleOffset;
+  std::vector<uint32_t> vertexOffset, triangleOffset, recordOffset;
   uint64_t geometryBytes = 0; // vertices, vertex ids and indices
 };
 // Lays `page` out in pool units. Without `units`, only counts; with them (the pool units to use, at
@@ -57,9 +65,7 @@ struct PreparedPage {
   uint32_t units = 0;                        // units it takes
   size_t clusterVertices = 0;                // vertex ids (the index's count, checked at upload)
   std::vector<uint32_t> ids;                 // per cluster: its number over every mesh
-  std::vector<shaderio::GpuCluster> records; // offsets local
-  std::vector<shaderio::GpuClusterCone> cones;
-  std::vector<uint32_t> childPages; // per cluster: (global page, global child page or MIRAGE_PAGE_NONE)
+  std::vector<shaderio::GpuCluster> records; // offsets local; cone, id, page and child page (global)
 };
 // `page` of mesh `mesh` (its first page `pageBase`, its first cluster `clusterBase` over every mesh).
 PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table, uint32_t mesh, uint32_t page,
@@ -71,9 +77,10 @@ PreparedPage preparePage(const lod::PageData& data, const lod::PageTable& table,
 void growTrees(LodTrees& trees, const PreparedPage& prep, std::vector<uint32_t>& grown);
 
 // The cluster renderer's tables of a paged asset from its page tables alone: the cluster records
-// as far as the tables know them (member group bounds, level, mesh; the root pages' spheres; the
-// rest when the page loads), the level table, mesh spheres and bounds from the index, and the
-// hierarchical selections' trees (their leaves without the spheres of pages not loaded).
+// as far as the tables know them (member group bounds, level, mesh; the root pages' spheres), on
+// the host only, to build the trees from (the GPU's records arrive with their pages), the level
+// table, mesh spheres and bounds from the index, and the hierarchical selections' trees (their
+// leaves without the spheres of pages not loaded).
 struct PagedSceneTables {
   std::vector<shaderio::GpuCluster> clusters;
   std::vector<shaderio::GpuClusterMesh> meshes;
@@ -84,9 +91,9 @@ struct PagedSceneTables {
 };
 Result<PagedSceneTables> pagedSceneTables(const lod::PagedLodAsset& asset);
 
-// The cluster renderer's scene from those tables, uploaded, with cones that never cull until their
-// page loads; the residency keeps the trees' host copy to grow them as pages arrive. No geometry:
-// the page pool takes its place (createClusterResidency).
+// The cluster renderer's scene from those tables, uploaded; the residency keeps the trees' host
+// copy to grow them as pages arrive. No geometry and no cluster records: the page pool holds both
+// (createClusterResidency).
 struct PagedClusterScene {
   ClusterSceneData scene;
   LodTrees trees;
@@ -109,23 +116,28 @@ struct ClusterResidency {
   std::vector<uint32_t> freeUnits;              // a stack
   std::vector<std::vector<uint32_t>> pageUnits; // per page: the units it holds
   std::vector<PageState> state;
-  std::vector<uint8_t> reading;   // per page: a read asked for and not yet arrived
-  std::vector<uint32_t> drawn;    // per page: its first unit while drawn (the GPU table), else MIRAGE_PAGE_NONE
-  std::vector<uint64_t> geometry; // per page: its geometry bytes once uploaded
+  std::vector<uint8_t> reading; // per page: a read asked for and not yet arrived
+  std::vector<uint32_t> drawn;  // per page: its first unit while drawn (the GPU table), else MIRAGE_PAGE_NONE
+  std::vector<std::vector<uint32_t>> recordSlots; // per uploaded page: its clusters' record slots, page order
+  std::vector<uint64_t> geometry;                 // per page: its geometry bytes once uploaded
   uint64_t geometryBytes = 0;
+  uint64_t recordBytes = 0;    // the uploaded pages' records in the pool
   std::deque<uint32_t> toRead; // reserved pages whose read waits for room in the stream
-  gpu::Buffer clusterPages, pageSlots, feedback;
+  // Per cluster its record's slot while its page is drawn (ClusterFrame::clusterSlotAddress); per
+  // page its first unit while drawn; per page the feedback.
+  gpu::Buffer clusterSlots, pageSlots, feedback;
   // The LOD BVH and DAG tree as uploaded (ClusterSceneData::lodNodes): an arriving page's self and
   // culling spheres grow its clusters' leaves and the nodes above, which the frame uploads too.
   LodTrees trees;
   bool rootsStaged = false; // the first recorded frame uploads the root pages
-  bool poolUnzeroed = true; // the first frame zeroes the pool (records of missing pages point at unit 0)
+  bool poolUnzeroed = true; // the first frame zeroes the pool (no stale bytes a lane past a cluster's end may read)
 
-  // Per frame slot: the staging of its uploads and their copies (recorded by cmdUpload), its
-  // feedback readback, the drawn pages when it was recorded, and its figures.
+  // Per frame slot: the staging of its uploads and their copies (recorded by cmdUpload), the
+  // staging of its cluster-slot writes (pages drawn or evicted, sized after the manager's step),
+  // its feedback readback, the drawn pages when it was recorded, and its figures.
   struct Slot {
-    gpu::Buffer staging, readback;
-    std::vector<VkBufferCopy> pool, records, cones, clusterPages, table, nodes;
+    gpu::Buffer staging, slotStaging, readback;
+    std::vector<VkBufferCopy> pool, records, table, nodes, clusterSlots;
     // Transfer uploads: per consumed batch, its copies from its device buffer into the pool.
     std::vector<std::pair<const gpu::Buffer*, std::vector<VkBufferCopy>>> fromDevice;
     std::vector<uint8_t> resident;
@@ -140,7 +152,7 @@ struct ClusterResidency {
       uint32_t page = 0;
       std::vector<uint32_t> units;    // the page's units when staged (vertex ids point there)
       std::vector<VkBufferCopy> pool; // from `device` into the pool
-      PreparedPage prep;              // records, cones, child pages (bytes dropped)
+      PreparedPage prep;              // records (bytes dropped)
     };
     gpu::Buffer host, device;
     gpu::Unique<VkFence> done;
@@ -169,6 +181,10 @@ struct ClusterResidency {
   ~ClusterResidency();           // waits for batches still on the transfer queue
   void waitForTransfers() const; // every batch on the transfer queue done (renderConverged's idle wait)
 };
+
+// The global cluster id of every record slot of the drawn pages (VisibleCluster::cluster names a
+// slot with residency): what the last prepared frame draws from.
+std::unordered_map<uint32_t, uint32_t> drawnSlotClusters(const ClusterResidency& r);
 
 // Builds the residency of `asset` into `paged.scene` (whose vertices become the pool; the trees
 // move to the residency): page costs from the tables (the root pages' exact), the manager with the

@@ -13,6 +13,7 @@
 #include "render_util.h"
 #include "mirage/gpu/commands.h"
 #include "mirage/gpu/context.h"
+#include "mirage/shaderio/lod_paging.h"
 
 namespace mirage::render {
 
@@ -90,6 +91,8 @@ sio::GpuCluster clusterRecord(const lod::Cluster& c, uint32_t mesh) {
   g.mesh = mesh;
   g.level = c.level;
   g.maxEdge = std::numeric_limits<float>::infinity(); // the callers measure it from the vertices
+  g.cone.axisCutoff.w = 1.0f;                         // never culled: the callers make the cone
+  g.page = g.childPage = MIRAGE_PAGE_NONE;
   return g;
 }
 
@@ -99,7 +102,6 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
     return Error{fmt::format("{}: {} DAGs for {} meshes", scene.source, asset.dags.size(), scene.meshes.size())};
   ClusterSceneData d;
   std::vector<sio::GpuCluster> clusters;
-  std::vector<sio::GpuClusterCone> cones;
   std::vector<sio::GpuClusterVertex> vertices;
   std::vector<uint32_t> clusterVertices;
   std::vector<uint8_t> indexBytes;
@@ -145,8 +147,9 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
       g.vertexOffset += clusterVertexBase;
       g.triangleOffset += triangleBase;
       g.maxEdge = clusterMaxEdge(positions, local);
+      g.cone = clusterCone(positions, local);
+      g.cluster = uint32_t(clusters.size());
       clusters.push_back(g);
-      cones.push_back(clusterCone(positions, local));
     }
     // Level table and reach (see GpuClusterMesh): clusters come ordered by level from the builder.
     gm.levelOffset = uint32_t(levels.size());
@@ -189,7 +192,6 @@ Result<ClusterSceneData> uploadClusterScene(Context& ctx, const lod::LodAsset& a
   d.indices = createBufferWithData<uint32_t>(ctx, packed, kStorage, "cluster local indices");
   d.clusters = createBufferWithData<sio::GpuCluster>(ctx, clusters, kStorage, "cluster table");
   d.levels = createBufferWithData<sio::GpuClusterLevel>(ctx, levels, kStorage, "cluster levels");
-  d.cones = createBufferWithData<sio::GpuClusterCone>(ctx, cones, kStorage, "cluster cones");
   uploadLodTrees(ctx, trees, kStorage, d);
   d.clusterCount = uint32_t(clusters.size());
   return d;

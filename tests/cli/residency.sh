@@ -18,6 +18,9 @@ import json
 j = json.load(open('$tmp/stdout'))
 assert j['gpu_budget'] == 2 * 1024 * 1024, j
 assert 0 < j['resident_bytes'] <= j['gpu_budget'] and j['pool_bytes'] <= j['gpu_budget'] + 384, j
+assert 0 < j['geometry_bytes'] and 0 < j['record_bytes'] and j['record_bytes'] % 128 == 0, j
+assert j['geometry_bytes'] + j['record_bytes'] <= j['resident_bytes'], j
+assert 0 < j['cluster_table_bytes'] and 0 < j['tree_node_bytes'], j
 assert j['residency_converged'] and j['frames_to_converge'] >= 1, j
 frames = j['residency_frames']
 assert len(frames) == j['frames_to_converge'] + 2, j

@@ -236,6 +236,14 @@ struct ResidencyStats {
   uint64_t poolBytes = 0;     // the pool as allocated: units * unitBytes (<= budget) + index padding
   uint64_t residentBytes = 0; // the units resident pages hold (<= budget), after this frame's step
   uint64_t geometryBytes = 0; // the bytes those pages' vertices, vertex ids and indices take in them
+  uint64_t recordBytes = 0;   // the bytes their cluster records (GpuCluster) take in them
+  // GPU bytes kept outside the budget that grow with the scene, from the buffers as allocated: the
+  // per-cluster tables (the cluster-slot table, 4 B a cluster, and the hierarchical selections'
+  // leaf lists, 8 B; the cluster records live in the pool's units with their pages, within the
+  // budget), and the trees' nodes (per group, not per cluster).
+  uint64_t clusterTableBytes = 0;
+  uint64_t treeNodeBytes = 0;
+  uint64_t clusters = 0;      // clusters of every mesh
   uint64_t bytesRead = 0;     // page bytes read from the file or URL so far (as stored)
   uint64_t bytesReceived = 0; // bytes the file or URL delivered since it was opened (index and root pages too)
   uint32_t pages = 0;         // pages of every mesh

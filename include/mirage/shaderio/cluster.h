@@ -109,7 +109,20 @@ namespace mirage::shaderio {
 // Hierarchical depth levels kept (level 0 is full resolution): enough for 16384 pixels.
 #define MIRAGE_HZB_MAX_LEVELS 15
 
-// One cluster of some mesh's DAG (LOCALCUT needs self and parent bounds; culling needs `bounds`).
+// Normal cone of a cluster's triangles (meshopt_computeClusterBounds), for back-face culling: the
+// whole cluster faces away from an eye e when dot(normalize(apex - e), axis) >= cutoff.
+struct GpuClusterCone {
+  vec4 axisCutoff; // xyz axis, w cutoff (1 or more: never culled)
+  vec4 apex;       // xyz apex, w unused
+};
+
+// One cluster of some mesh's DAG (LOCALCUT needs self and parent bounds; culling needs `bounds`
+// and the cone), everything the selection and the rasters read of it in one 128-byte record.
+// Without residency the records are an array indexed by global cluster id. With residency
+// (docs/render.md, "Residency") a record arrives with its page and lives in the page pool's units
+// beside the page's geometry: the pool read as GpuCluster[] (a unit holds 192 whole records), the
+// record of cluster i at the slot ClusterFrame::clusterSlotAddress names while its page is drawn.
+// Either way VisibleCluster::cluster is the record's index, and `cluster` the global id.
 struct GpuCluster {
   vec4 selfSphere;     // xyz centre, w radius of the generating group (object space)
   vec4 parentSphere;   // member group's sphere
@@ -123,8 +136,12 @@ struct GpuCluster {
   uint mesh;
   uint level;
   // Longest triangle edge in object space (the lean raster's bound on a triangle's screen extent);
-  // +inf where unknown (a page not loaded yet), which keeps the cluster on the general raster.
+  // +inf where unknown, which keeps the cluster on the general raster.
   float maxEdge;
+  GpuClusterCone cone;
+  uint cluster;   // global cluster id (history bits, debug colours: the record index is a slot with residency)
+  uint page;      // residency: its page, numbered over every mesh (MIRAGE_PAGE_NONE without)
+  uint childPage; // residency: the page of its generating group's members (MIRAGE_PAGE_NONE at level 0 or without)
 };
 
 // One attribute vertex (every DAG level reuses the input's vertices).
@@ -210,17 +227,10 @@ struct GpuClusterInstance {
   uint historyOffset; // first bit of this instance's clusters in the visibility-history bitmask
 };
 
-// Normal cone of a cluster's triangles (meshopt_computeClusterBounds), for back-face culling: the
-// whole cluster faces away from an eye e when dot(normalize(apex - e), axis) >= cutoff.
-struct GpuClusterCone {
-  vec4 axisCutoff; // xyz axis, w cutoff (1 or more: never culled)
-  vec4 apex;       // xyz apex, w unused
-};
-
 // Appended by the selection pass, read by every rasterizer and by the resolve.
 struct VisibleCluster {
   uint instance;
-  uint cluster; // global cluster id
+  uint cluster; // its record's index (GpuCluster): the global cluster id without residency, a pool slot with
 };
 
 // Per frame: camera, LOD threshold, culling planes, lighting (the forward renderer's FrameData
@@ -239,7 +249,6 @@ struct ClusterFrame {
   // sqrt(triangles)) is below this many pixels go to the compute rasterizer.
   float hybridThreshold;
   uint hzbLevels;                        // levels in the HZB (level 0: viewport size)
-  uint64_t coneAddress;                  // GpuClusterCone[] per cluster
   uint64_t historyAddress;               // uint[] bitmask: (instance, cluster) owned a pixel last frame
   uint64_t candidateAddress;             // VisibleCluster[]: selected clusters left for the occlusion pass
   uint64_t hzbAddress;                   // float[]: every HZB level, farthest (smallest) reverse-Z depth per texel
@@ -305,10 +314,11 @@ struct ClusterFrame {
   // that loads for an untaken branch (lavapipe) stays inside a buffer.
   uint64_t oitColorAddress;
   // GPU residency of paged DAGs (MIRAGE_FRAME_RESIDENCY; docs/render.md, "Residency"), 0 without:
-  // per global cluster uvec2(its page, its child page or MIRAGE_PAGE_NONE), pages numbered over
-  // every mesh; per page its pool slot (MIRAGE_PAGE_NONE: not resident); per page the feedback the
+  // per global cluster the pool slot of its record while its page is drawn, else MIRAGE_PAGE_NONE
+  // (the only per-cluster table: page and child page are in the record); per page (numbered over
+  // every mesh) its first pool unit while drawn, else MIRAGE_PAGE_NONE; per page the feedback the
   // selection writes, atomicMax of pageRequestPriority's float bits (shaderio/lod_paging.h).
-  uint64_t clusterPageAddress;
+  uint64_t clusterSlotAddress;
   uint64_t pageSlotAddress;
   uint64_t pageFeedbackAddress;
 };
@@ -398,7 +408,7 @@ struct ClusterPush {
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(GpuCluster) == 84, "GpuCluster layout");
+static_assert(sizeof(GpuCluster) == 128, "GpuCluster layout: 192 records fill a 24 KiB pool unit");
 static_assert(sizeof(GpuClusterVertex) == 32, "GpuClusterVertex layout");
 static_assert(sizeof(GpuClusterMesh) == 48, "GpuClusterMesh layout");
 static_assert(sizeof(GpuClusterLevel) == 16, "GpuClusterLevel layout");
@@ -406,7 +416,7 @@ static_assert(sizeof(VisibleInstance) == 16, "VisibleInstance layout");
 static_assert(sizeof(GpuClusterInstance) == 160, "GpuClusterInstance layout");
 static_assert(sizeof(VisibleCluster) == 8, "VisibleCluster layout");
 static_assert(sizeof(GpuClusterCone) == 32, "GpuClusterCone layout");
-static_assert(sizeof(ClusterFrame) == 800, "ClusterFrame layout");
+static_assert(sizeof(ClusterFrame) == 792, "ClusterFrame layout");
 static_assert(sizeof(ClusterFrame) <= MIRAGE_CLUSTER_FRAME_STRIDE && MIRAGE_CLUSTER_FRAME_STRIDE % 256 == 0,
               "ClusterFrame stride");
 static_assert(offsetof(ClusterFrame, pvsInstanceAddress) % 8 == 0, "ClusterFrame PVS address alignment");
@@ -416,7 +426,7 @@ static_assert(offsetof(ClusterFrame, overdrawAddress) % 8 == 0, "ClusterFrame ad
 static_assert(offsetof(ClusterFrame, oitCounterAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, blendQueueAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(offsetof(ClusterFrame, oitColorAddress) % 8 == 0, "ClusterFrame address alignment");
-static_assert(offsetof(ClusterFrame, clusterPageAddress) % 8 == 0, "ClusterFrame address alignment");
+static_assert(offsetof(ClusterFrame, clusterSlotAddress) % 8 == 0, "ClusterFrame address alignment");
 static_assert(sizeof(BlendQueueTriangle) == 48, "BlendQueueTriangle layout");
 static_assert(sizeof(GpuLodNode) == 32, "GpuLodNode layout");
 static_assert(sizeof(ClusterTraversal) == 2 * MIRAGE_LOD_MAX_DEPTH * 16 + 16, "ClusterTraversal layout");
